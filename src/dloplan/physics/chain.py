@@ -1,0 +1,184 @@
+"""The whole mass-spring chain: total energy, forces split by spring type, sparse Hessian.
+
+:class:`SpringChain` holds the constants of one discretized cable under one gravity field; the
+functions below evaluate U = U^s + U^b + U^g (eqs. 3.6-3.8, 3.20, 3.28), its gradient and its
+Hessian for a shape ``(n + 1, 3)`` [m] (energy and gradient also for a batch ``(..., n + 1, 3)``).
+
+The Hessian couples a point with its two neighbours on each side (bending joints span three
+points), so in the 3(n + 1) coordinates it is a symmetric band of half-width 8. It is assembled
+once per call into that band by a ``bincount`` on index arrays fixed for the chain's size, and
+is returned either banded (for the Cholesky solves of the static solver) or as a
+``scipy.sparse`` matrix.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..cable import GRAVITY, Cable
+from .axial import axial_energy, axial_gradient, axial_hessian_blocks, axial_link_forces
+from .bending import bending_energy, bending_gradient, bending_hessian_blocks
+from .gravity import gravity_energy, gravity_force
+
+HALF_BANDWIDTH = 8
+"""Half bandwidth of the Hessian in scalar coordinates (points i and i+2 are coupled)."""
+
+
+@dataclass(frozen=True)
+class Forces:
+    """Per-point forces of a shape [N], each (..., n + 1, 3): the negative energy gradients.
+
+    ``axial`` is F^s (eq. 3.17), ``bending`` is F^b (eq. 3.18), ``gravity`` is m_i g (eq. 3.20).
+    """
+
+    axial: np.ndarray
+    bending: np.ndarray
+    gravity: np.ndarray
+
+    @property
+    def total(self) -> np.ndarray:
+        """Sum of the three parts [N]."""
+        return self.axial + self.bending + self.gravity
+
+
+@dataclass(frozen=True, eq=False)
+class SpringChain:
+    """Constants of the energy of one discretized cable.
+
+    Parameters
+    ----------
+    k_axial : float
+        k_s [N/m].
+    rest_lengths : numpy.ndarray
+        Rest link lengths l_i^0 [m], (n,).
+    k_bending : float
+        k_b [N m].
+    rest_angles : numpy.ndarray
+        Rest bending angles beta0 [rad], (n - 1,).
+    point_masses : numpy.ndarray
+        m_i [kg], (n + 1,).
+    gravity : numpy.ndarray
+        Gravity acceleration [m/s^2], (3,).
+    """
+
+    k_axial: float
+    rest_lengths: np.ndarray
+    k_bending: float
+    rest_angles: np.ndarray
+    point_masses: np.ndarray
+    gravity: np.ndarray
+
+    @classmethod
+    def from_cable(cls, cable: Cable, gravity=GRAVITY) -> SpringChain:
+        """The chain of ``cable`` under ``gravity`` [m/s^2] (pass zeros for a weightless cable)."""
+        g = np.asarray(gravity, dtype=float)
+        if g.shape != (3,) or not np.all(np.isfinite(g)):
+            raise ValueError(f"gravity: got {gravity!r}, expected 3 finite numbers [m/s^2]")
+        return cls(
+            k_axial=cable.k_axial,
+            rest_lengths=np.full(cable.n_links, cable.rest_link_length),
+            k_bending=cable.k_bending,
+            rest_angles=cable.rest_angles,
+            point_masses=cable.point_masses,
+            gravity=g,
+        )
+
+    @property
+    def n_points(self) -> int:
+        return len(self.point_masses)
+
+    @cached_property
+    def _band_index(self) -> tuple[np.ndarray, np.ndarray]:
+        """Flat indices into the lower band (HALF_BANDWIDTH + 1, 3(n+1)) of every block entry."""
+        n_dof = 3 * self.n_points
+
+        def block_targets(n_blocks: int, size: int) -> tuple[np.ndarray, np.ndarray]:
+            start = 3 * np.arange(n_blocks)[:, None, None]
+            rows = start + np.arange(size)[None, :, None]
+            cols = start + np.arange(size)[None, None, :]
+            rows, cols = np.broadcast_arrays(rows, cols)
+            lower = rows >= cols
+            flat = (rows - cols) * n_dof + cols
+            return np.where(lower, flat, -1).ravel(), lower.ravel()
+
+        n_links = self.n_points - 1
+        return block_targets(n_links, 6), block_targets(n_links - 1, 9)
+
+
+def energy(chain: SpringChain, x: np.ndarray) -> np.ndarray:
+    """Total potential energy U [J] of shape(s) ``x`` (..., n + 1, 3)."""
+    return (
+        axial_energy(x, chain.k_axial, chain.rest_lengths)
+        + bending_energy(x, chain.k_bending, chain.rest_angles)
+        + gravity_energy(x, chain.point_masses, chain.gravity)
+    )
+
+
+def energy_terms(chain: SpringChain, x: np.ndarray) -> dict[str, np.ndarray]:
+    """The axial, bending and gravity parts of U [J], each of shape (...)."""
+    return {
+        "axial": axial_energy(x, chain.k_axial, chain.rest_lengths),
+        "bending": bending_energy(x, chain.k_bending, chain.rest_angles),
+        "gravity": gravity_energy(x, chain.point_masses, chain.gravity),
+    }
+
+
+def gradient(chain: SpringChain, x: np.ndarray) -> np.ndarray:
+    """dU/dx [N], shape (..., n + 1, 3)."""
+    return (
+        axial_gradient(x, chain.k_axial, chain.rest_lengths)
+        + bending_gradient(x, chain.k_bending, chain.rest_angles)
+        - gravity_force(chain.point_masses, chain.gravity)
+    )
+
+
+def forces(chain: SpringChain, x: np.ndarray) -> Forces:
+    """Per-point axial, bending and gravity forces [N] of shape(s) x (eqs. 3.17, 3.18, 3.20)."""
+    weight = np.broadcast_to(gravity_force(chain.point_masses, chain.gravity), x.shape)
+    return Forces(
+        axial=-axial_gradient(x, chain.k_axial, chain.rest_lengths),
+        bending=-bending_gradient(x, chain.k_bending, chain.rest_angles),
+        gravity=weight.copy(),
+    )
+
+
+def link_tensions(chain: SpringChain, x: np.ndarray) -> np.ndarray:
+    """Axial force carried by each link [N], (..., n); positive in tension."""
+    return axial_link_forces(x, chain.k_axial, chain.rest_lengths)
+
+
+def hessian_band(chain: SpringChain, x: np.ndarray) -> np.ndarray:
+    """Lower band of the Hessian, shape (HALF_BANDWIDTH + 1, 3(n + 1)).
+
+    ``band[k, j] = H[j + k, j]``: the layout of ``scipy.linalg.cholesky_banded(lower=True)``.
+    """
+    n_dof = 3 * chain.n_points
+    (ax_index, ax_keep), (be_index, be_keep) = chain._band_index
+    ax = axial_hessian_blocks(x, chain.k_axial, chain.rest_lengths).ravel()
+    be = bending_hessian_blocks(x, chain.k_bending, chain.rest_angles).ravel()
+    index = np.concatenate([ax_index[ax_keep], be_index[be_keep]])
+    values = np.concatenate([ax[ax_keep], be[be_keep]])
+    band = np.bincount(index, weights=values, minlength=(HALF_BANDWIDTH + 1) * n_dof)
+    return band.reshape(HALF_BANDWIDTH + 1, n_dof)
+
+
+def band_to_sparse(band: np.ndarray) -> sp.csr_matrix:
+    """The symmetric sparse matrix whose lower band is ``band`` (see :func:`hessian_band`)."""
+    n_dof = band.shape[1]
+    diagonals = [band[k, : n_dof - k] for k in range(band.shape[0])]
+    offsets = list(range(band.shape[0]))
+    lower = sp.diags(diagonals, [-k for k in offsets], shape=(n_dof, n_dof))
+    upper = sp.diags(diagonals[1:], offsets[1:], shape=(n_dof, n_dof))
+    return (lower + upper).tocsr()
+
+
+def hessian(chain: SpringChain, x: np.ndarray) -> sp.csr_matrix:
+    """Sparse Hessian d^2U/dx^2 [N/m], (3(n + 1), 3(n + 1)), coordinates ordered point-major.
+
+    This is the tangent stiffness matrix of the shape (gravity is linear and does not enter).
+    """
+    return band_to_sparse(hessian_band(chain, x))

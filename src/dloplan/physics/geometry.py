@@ -1,0 +1,110 @@
+"""Geometry of a discretized cable: links, tangents, bending angles, arc length.
+
+A shape is an array ``(n + 1, 3)`` of mass-point positions [m]; every function here also takes a
+batch ``(..., n + 1, 3)`` and returns the matching leading axes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def as_shape(points, n_points: int | None = None, name: str = "shape") -> np.ndarray:
+    """Validate and convert points to a float64 array of shape (n_points, 3).
+
+    Parameters
+    ----------
+    points : array_like
+        Positions [m], (k, 3), or (k, 2) for a planar shape in the x-z plane (y = 0).
+    n_points : int, optional
+        The number of points expected.
+    name : str
+        The argument's name, used in error messages.
+
+    Raises
+    ------
+    ValueError
+        Naming ``name`` when the array has the wrong shape, the wrong number of points, or
+        non-finite coordinates.
+    """
+    try:
+        arr = np.asarray(points, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: expected an array of points, got {type(points).__name__}") from exc
+    if arr.ndim == 2 and arr.shape[1] == 2:
+        arr = np.stack([arr[:, 0], np.zeros(len(arr)), arr[:, 1]], axis=1)
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ValueError(f"{name}: expected points of shape (k, 3), got shape {arr.shape}")
+    if n_points is not None and arr.shape[0] != n_points:
+        raise ValueError(f"{name}: {arr.shape[0]} points given, expected {n_points} (n_links + 1)")
+    if arr.shape[0] < 2:
+        raise ValueError(f"{name}: {arr.shape[0]} points given, need at least 2")
+    if not np.all(np.isfinite(arr)):
+        bad = int(np.argwhere(~np.isfinite(arr))[0, 0])
+        raise ValueError(f"{name}: point {bad} has a non-finite coordinate (NaN or inf)")
+    return arr
+
+
+def link_vectors(x: np.ndarray) -> np.ndarray:
+    """Link vectors e_i = x_i - x_{i-1} [m], shape (..., n, 3)."""
+    return np.diff(x, axis=-2)
+
+
+def link_lengths(x: np.ndarray) -> np.ndarray:
+    """Link lengths l_i = |x_i - x_{i-1}| [m], shape (..., n)."""
+    return np.linalg.norm(link_vectors(x), axis=-1)
+
+
+def shape_length(x: np.ndarray) -> np.ndarray:
+    """Total polyline length [m], shape (...)."""
+    return link_lengths(x).sum(axis=-1)
+
+
+def tangents(x: np.ndarray) -> np.ndarray:
+    """Unit link directions u_i, shape (..., n, 3)."""
+    e = link_vectors(x)
+    return e / np.linalg.norm(e, axis=-1, keepdims=True)
+
+
+def bending_angles(x: np.ndarray) -> np.ndarray:
+    """Bending angles beta_i in [0, pi] between consecutive links [rad], shape (..., n - 1).
+
+    Computed as atan2(|e_i x e_{i+1}|, e_i . e_{i+1}), accurate at 0 and at pi.
+    """
+    e = link_vectors(x)
+    a, b = e[..., :-1, :], e[..., 1:, :]
+    return np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1), np.einsum("...k,...k", a, b))
+
+
+def arc_length(x: np.ndarray) -> np.ndarray:
+    """Cumulative arc length at each point [m], shape (..., n + 1), starting at 0."""
+    lengths = link_lengths(x)
+    zero = np.zeros(lengths.shape[:-1] + (1,))
+    return np.concatenate([zero, np.cumsum(lengths, axis=-1)], axis=-1)
+
+
+def resample_by_arc_length(points, n_points: int) -> np.ndarray:
+    """Resample a polyline to ``n_points`` points equally spaced in arc length (thesis Fig. 6.4).
+
+    Parameters
+    ----------
+    points : array_like
+        Polyline (k, 3) [m], k >= 2, no zero-length total.
+    n_points : int
+        Number of output points, >= 2.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n_points, 3) points on the polyline, first and last points kept.
+    """
+    x = as_shape(points, name="points")
+    if n_points < 2:
+        raise ValueError(f"n_points: got {n_points}, expected >= 2")
+    s = arc_length(x)
+    if s[-1] <= 0.0:
+        raise ValueError("points: the polyline has zero length")
+    keep = np.concatenate([[True], np.diff(s) > 0.0])
+    s, x = s[keep], x[keep]
+    target = np.linspace(0.0, s[-1], n_points)
+    return np.stack([np.interp(target, s, x[:, k]) for k in range(3)], axis=1)
