@@ -151,17 +151,28 @@ def link_tensions(chain: SpringChain, x: np.ndarray) -> np.ndarray:
     return axial_link_forces(x, chain.k_axial, chain.rest_lengths)
 
 
-def hessian_band(chain: SpringChain, x: np.ndarray) -> np.ndarray:
+def hessian_band(
+    chain: SpringChain, x: np.ndarray, terms: tuple[str, ...] = ("axial", "bending")
+) -> np.ndarray:
     """Lower band of the Hessian, shape (HALF_BANDWIDTH + 1, 3(n + 1)).
 
     ``band[k, j] = H[j + k, j]``: the layout of ``scipy.linalg.cholesky_banded(lower=True)``.
+    ``terms`` selects the springs whose Hessian is summed (gravity is linear: no Hessian), e.g.
+    ``("bending",)`` for d F^b / dx = -H^b.
     """
     n_dof = 3 * chain.n_points
     (ax_index, ax_keep), (be_index, be_keep) = chain._band_index
-    ax = axial_hessian_blocks(x, chain.k_axial, chain.rest_lengths).ravel()
-    be = bending_hessian_blocks(x, chain.k_bending, chain.rest_angles).ravel()
-    index = np.concatenate([ax_index[ax_keep], be_index[be_keep]])
-    values = np.concatenate([ax[ax_keep], be[be_keep]])
+    index, values = [], []
+    if "axial" in terms:
+        ax = axial_hessian_blocks(x, chain.k_axial, chain.rest_lengths).ravel()
+        index.append(ax_index[ax_keep])
+        values.append(ax[ax_keep])
+    if "bending" in terms:
+        be = bending_hessian_blocks(x, chain.k_bending, chain.rest_angles).ravel()
+        index.append(be_index[be_keep])
+        values.append(be[be_keep])
+    index = np.concatenate(index)
+    values = np.concatenate(values)
     band = np.bincount(index, weights=values, minlength=(HALF_BANDWIDTH + 1) * n_dof)
     return band.reshape(HALF_BANDWIDTH + 1, n_dof)
 
@@ -176,9 +187,12 @@ def band_to_sparse(band: np.ndarray) -> sp.csr_matrix:
     return (lower + upper).tocsr()
 
 
-def hessian(chain: SpringChain, x: np.ndarray) -> sp.csr_matrix:
+def hessian(
+    chain: SpringChain, x: np.ndarray, terms: tuple[str, ...] = ("axial", "bending")
+) -> sp.csr_matrix:
     """Sparse Hessian d^2U/dx^2 [N/m], (3(n + 1), 3(n + 1)), coordinates ordered point-major.
 
-    This is the tangent stiffness matrix of the shape (gravity is linear and does not enter).
+    This is the tangent stiffness matrix of the shape (gravity is linear and does not enter);
+    ``terms`` as in :func:`hessian_band`.
     """
-    return band_to_sparse(hessian_band(chain, x))
+    return band_to_sparse(hessian_band(chain, x, terms))
