@@ -230,7 +230,7 @@ class Cable:
 
     @property
     def k_damping(self) -> float:
-        """Fictitious damping k_d = 2 xi sqrt(m_i k_s) [N s/m] (eq. 3.23), m_i the mean point mass."""
+        """Fictitious damping k_d = 2 xi sqrt(m_i k_s) [N s/m] (eq. 3.23), m_i the mean mass."""
         m_i = self.mass / self.n_points
         return 2.0 * self.damping_ratio * math.sqrt(m_i * self.k_axial)
 

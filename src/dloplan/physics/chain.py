@@ -21,7 +21,7 @@ import scipy.sparse as sp
 
 from ..cable import GRAVITY, Cable
 from .axial import axial_energy, axial_gradient, axial_hessian_blocks, axial_link_forces
-from .bending import bending_energy, bending_gradient, bending_hessian_blocks
+from .bending import bending_derivatives, bending_energy, bending_gradient
 from .gravity import gravity_energy, gravity_force
 
 HALF_BANDWIDTH = 8
@@ -154,27 +154,39 @@ def link_tensions(chain: SpringChain, x: np.ndarray) -> np.ndarray:
 def hessian_band(
     chain: SpringChain, x: np.ndarray, terms: tuple[str, ...] = ("axial", "bending")
 ) -> np.ndarray:
-    """Lower band of the Hessian, shape (HALF_BANDWIDTH + 1, 3(n + 1)).
+    """Lower band of the Hessian; see :func:`gradient_and_hessian_band`."""
+    return gradient_and_hessian_band(chain, x, terms)[1]
 
-    ``band[k, j] = H[j + k, j]``: the layout of ``scipy.linalg.cholesky_banded(lower=True)``.
+
+def gradient_and_hessian_band(
+    chain: SpringChain, x: np.ndarray, terms: tuple[str, ...] = ("axial", "bending")
+) -> tuple[np.ndarray, np.ndarray]:
+    """Gradient of the selected terms [N] and the lower band of their Hessian [N/m].
+
+    The band has shape (HALF_BANDWIDTH + 1, 3(n + 1)) and ``band[k, j] = H[j + k, j]``, the
+    layout of ``scipy.linalg.cholesky_banded(lower=True)``.
     ``terms`` selects the springs whose Hessian is summed (gravity is linear: no Hessian), e.g.
     ``("bending",)`` for d F^b / dx = -H^b.
     """
     n_dof = 3 * chain.n_points
     (ax_index, ax_keep), (be_index, be_keep) = chain._band_index
     index, values = [], []
+    grad = np.zeros(x.shape)
     if "axial" in terms:
         ax = axial_hessian_blocks(x, chain.k_axial, chain.rest_lengths).ravel()
+        grad += axial_gradient(x, chain.k_axial, chain.rest_lengths)
         index.append(ax_index[ax_keep])
         values.append(ax[ax_keep])
     if "bending" in terms:
-        be = bending_hessian_blocks(x, chain.k_bending, chain.rest_angles).ravel()
+        be_grad, be = bending_derivatives(x, chain.k_bending, chain.rest_angles)
+        grad += be_grad
+        be = be.ravel()
         index.append(be_index[be_keep])
         values.append(be[be_keep])
     index = np.concatenate(index)
     values = np.concatenate(values)
     band = np.bincount(index, weights=values, minlength=(HALF_BANDWIDTH + 1) * n_dof)
-    return band.reshape(HALF_BANDWIDTH + 1, n_dof)
+    return grad, band.reshape(HALF_BANDWIDTH + 1, n_dof)
 
 
 def band_to_sparse(band: np.ndarray) -> sp.csr_matrix:
