@@ -216,7 +216,10 @@ def simulate(
                 times.append(step * dt)
                 shapes.append(x.copy())
                 speeds.append(speed)
-                if rest_speed is not None and step * dt >= clips_stop and speed < rest_speed:
+                # at rest: slow, and not about to speed up within one record interval
+                pull = float(np.max(np.linalg.norm(a[2:-2], axis=1))) * record_every * dt
+                if (rest_speed is not None and step * dt >= clips_stop
+                        and max(speed, pull) < rest_speed):
                     settled = True
                     break
             if not np.all(np.isfinite(x[2])):
@@ -260,7 +263,7 @@ def settle(
     final = run.shapes[-1]
     g = gradient(chain, final)
     residual = float(np.max(np.linalg.norm(g[2:-2], axis=1)))
-    stable = _factor(_free_band(hessian_band(chain, final)), 0.0) is not None
+    stable = _factor(_free_band(hessian_band(chain, final), slice(2, -2)), 0.0) is not None
     history = np.array([float(energy(chain, final))])
     return _result(cable, chain, final, g, clips, run.steps, run.settled, residual, math.nan,
                    stable, history, run.message)

@@ -128,10 +128,10 @@ def check_clip_reach(cable: Cable, clips: ClipPoses) -> None:
         )
 
 
-def _clip_wrenches(x: np.ndarray, grad: np.ndarray, clips: ClipPoses) -> np.ndarray:
+def _clip_wrenches(x: np.ndarray, grad: np.ndarray, clips: ClipPoses, held: str) -> np.ndarray:
     """Force and moment the cable puts on each clip: minus the reactions on the held points."""
     wrenches = np.zeros((2, 6))
-    for k, idx in enumerate(([0, 1], [-2, -1])):
+    for k, idx in enumerate(([0, 1], [-2, -1])[: 2 if held == "both" else 1]):
         on_clip = -grad[idx]  # the clip balances the net force on its points: reaction = grad
         wrenches[k, :3] = on_clip.sum(axis=0)
         wrenches[k, 3:] = np.cross(x[idx] - clips.positions[k], on_clip).sum(axis=0)
@@ -201,9 +201,9 @@ def _bow_direction(chord: np.ndarray, gravity) -> np.ndarray:
     return np.array([1.0, 0, 0])
 
 
-def _free_band(band: np.ndarray) -> np.ndarray:
-    # free points are 2 .. n-2, i.e. coordinates 6 .. 3(n+1)-6, contiguous: slice the columns.
-    return band[:, 6:-6]
+def _free_band(band: np.ndarray, free: slice) -> np.ndarray:
+    # the free points are contiguous, so their coordinates are a column range of the band
+    return band[:, 3 * free.start : 3 * free.stop]
 
 
 def _factor(band: np.ndarray, shift: float) -> np.ndarray | None:
@@ -224,6 +224,7 @@ def equilibrium(
     rtol: float = 1e-10,
     max_iterations: int = 500,
     chain: SpringChain | None = None,
+    held: str = "both",
 ) -> Equilibrium:
     """The nearest stable static equilibrium of a cable held by two clips.
 
@@ -248,7 +249,11 @@ def equilibrium(
     max_iterations : int
         Iteration limit; reaching it gives ``converged=False``.
     chain : SpringChain, optional
-        Precomputed chain of ``cable`` under ``gravity`` (saves its construction in loops).
+        Precomputed chain of ``cable`` under ``gravity`` (saves its construction in loops), or
+        a chain with other loads (its ``point_masses`` times ``gravity`` are the point loads).
+    held : {"both", "first"}
+        ``"first"``: only the first clip holds the cable (points 0, 1), the rest hangs free
+        (a cantilever); ``clips.positions[1]`` is then ignored.
 
     Returns
     -------
@@ -262,35 +267,76 @@ def equilibrium(
         coincide or are out of the cable's reach.
     """
     x = as_shape(guess, cable.n_points, "guess")
+    if held not in ("both", "first"):
+        raise ValueError(f"held: got {held!r}, expected 'both' or 'first'")
     if clips is None:
         clips = clip_poses_from_shape(x)
-    check_clip_reach(cable, clips)
     if chain is None:
         chain = SpringChain.from_cable(cable, gravity)
-    x = conform_guess(cable, x, clips, gravity)
     tolerance = rtol * force_scale(cable, gravity)
-    return _minimize(cable, chain, x, clips, tolerance, max_iterations)
+    if held == "both":
+        check_clip_reach(cable, clips)
+        x = conform_guess(cable, x, clips, gravity)
+        free = slice(2, cable.n_points - 2)
+    else:
+        x = x.copy()
+        x[:2] = clips.held_points(cable.rest_link_length)[:2]
+        free = slice(2, cable.n_points)
+    x, g, iterations, residual, stable, history, message = minimize_energy(
+        chain, x, free, cable.length, tolerance, max_iterations
+    )
+    return _result(cable, chain, x, g, clips, iterations, residual <= tolerance, residual,
+                   tolerance, stable, history, message, held)
 
 
-def _minimize(cable, chain, x, clips, tolerance, max_iterations) -> Equilibrium:
-    n_points = cable.n_points
-    free = slice(2, n_points - 2)
-    radius = 0.25 * cable.length  # trust radius: the largest point displacement of one step
+def minimize_energy(
+    chain: SpringChain,
+    x: np.ndarray,
+    free: slice,
+    length_scale: float,
+    tolerance: float,
+    max_iterations: int = 500,
+):
+    """Trust-region Newton minimization of the chain's energy over a range of free points.
+
+    The engine of :func:`equilibrium` (see the module docstring), for callers that hold other
+    points than the two clips.
+
+    Parameters
+    ----------
+    chain : SpringChain
+        Energy constants and loads.
+    x : numpy.ndarray
+        (n + 1, 3) start [m]; points outside ``free`` stay where they are.
+    free : slice
+        Contiguous range of free points (step 1, explicit start and stop).
+    length_scale : float
+        Largest step of a point [m] at the start (a quarter of it) and ever (all of it).
+    tolerance : float
+        Force residual for convergence [N].
+    max_iterations : int
+        Iteration limit.
+
+    Returns
+    -------
+    tuple
+        ``(x, gradient, iterations, residual, stable, energy_history, message)``.
+    """
+    x = np.array(x, dtype=float)
+    radius = 0.25 * length_scale  # trust radius: the largest point displacement of one step
     shift = 0.0
     f = float(energy(chain, x))
     history = [f]
     iterations = 0
     message = ""
     stable = False
-    if n_points <= 4:  # every point is held
-        g = gradient(chain, x)
-        return _result(cable, chain, x, g, clips, 0, True, 0.0, tolerance, True, history,
-                       "no free point: the clips fix the whole cable")
+    if free.stop <= free.start:  # every point is held
+        return x, gradient(chain, x), 0, 0.0, True, np.asarray(history), "no free point"
     band = None
     while True:
         g, band = gradient_and_hessian_band(chain, x)
         g -= gravity_force(chain.point_masses, chain.gravity)
-        band = _free_band(band)
+        band = _free_band(band, free)
         residual = float(np.max(np.linalg.norm(g[free], axis=1)))
         scale = float(np.mean(band[0]))
         stable = residual <= tolerance and _factor(band, 0.0) is not None
@@ -325,20 +371,18 @@ def _minimize(cable, chain, x, clips, tolerance, max_iterations) -> Equilibrium:
                 accepted = True
                 if ratio > 0.75:
                     shift = 0.0 if shift < 1e-6 * scale else shift / 8.0
-                    radius = min(2.0 * radius, cable.length)
+                    radius = min(2.0 * radius, length_scale)
                 elif ratio < 0.25:
                     shift = max(4.0 * shift, 1e-8 * scale)
                 break
             shift = max(4.0 * shift, 1e-8 * scale)
-            radius = max(0.5 * min(radius, longest), 1e-9 * cable.length)
+            radius = max(0.5 * min(radius, longest), 1e-9 * length_scale)
         iterations += 1
         if not accepted:
             message = f"stalled after {iterations} iterations (residual {residual:.3g} N)"
             break
         history.append(f)
-    converged = residual <= tolerance
-    return _result(cable, chain, x, g, clips, iterations, converged, residual, tolerance,
-                   stable, history, message)
+    return x, g, iterations, residual, stable, np.asarray(history), message
 
 
 def _band_matvec(band: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -355,14 +399,14 @@ def _band_matvec(band: np.ndarray, p: np.ndarray) -> np.ndarray:
 
 
 def _result(cable, chain, x, g, clips, iterations, converged, residual, tolerance, stable,
-            history, message) -> Equilibrium:
+            history, message, held="both") -> Equilibrium:
     if not stable and converged:
         message += "; the equilibrium is not stable (Hessian not positive definite)"
     return Equilibrium(
         shape=x,
         forces=forces(chain, x),
         energy=float(history[-1]),
-        clip_wrenches=_clip_wrenches(x, g, clips),
+        clip_wrenches=_clip_wrenches(x, g, clips, held),
         iterations=iterations,
         converged=bool(converged),
         residual=float(residual),
@@ -381,7 +425,7 @@ def free_hessian(cable: Cable, shape, gravity=GRAVITY) -> sp.csr_matrix:
     """
     x = as_shape(shape, cable.n_points, "shape")
     chain = SpringChain.from_cable(cable, gravity)
-    return band_to_sparse(_free_band(hessian_band(chain, x)))
+    return band_to_sparse(_free_band(hessian_band(chain, x), slice(2, cable.n_points - 2)))
 
 
 def stabilize(
