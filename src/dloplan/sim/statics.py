@@ -36,7 +36,6 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from ..cable import GRAVITY, Cable
 from ..physics.chain import (
-    HALF_BANDWIDTH,
     Forces,
     SpringChain,
     band_to_sparse,
@@ -354,12 +353,13 @@ def minimize_energy(
                 shift = max(4.0 * shift, 1e-8 * scale)
                 continue
             p = -sla.cho_solve_banded((factor, True), gf, check_finite=False)
+            longest = float(np.max(np.linalg.norm(p.reshape(-1, 3), axis=1)))
+            alpha = min(1.0, radius / longest)  # truncate to the trust radius
+            # model decrease g.p + p.H.p/2 with (H + shift I) p_full = -g, p = alpha p_full
+            g_p = float(gf @ p)
+            predicted = alpha * g_p + 0.5 * alpha**2 * (-g_p - shift * float(p @ p))
+            p *= alpha
             step = p.reshape(-1, 3)
-            longest = float(np.max(np.linalg.norm(step, axis=1)))
-            if longest > radius:
-                p *= radius / longest
-                step = p.reshape(-1, 3)
-            predicted = float(gf @ p + 0.5 * p @ _band_matvec(band, p))
             trial = x.copy()
             trial[free] += step
             f_trial = float(energy(chain, trial))
@@ -383,19 +383,6 @@ def minimize_energy(
             break
         history.append(f)
     return x, g, iterations, residual, stable, np.asarray(history), message
-
-
-def _band_matvec(band: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """H p for a symmetric matrix stored as its lower band."""
-    out = band[0] * p
-    n = len(p)
-    for k in range(1, HALF_BANDWIDTH + 1):
-        if k >= n:
-            break
-        d = band[k, : n - k]
-        out[k:] += d * p[: n - k]
-        out[: n - k] += d * p[k:]
-    return out
 
 
 def _result(cable, chain, x, g, clips, iterations, converged, residual, tolerance, stable,
