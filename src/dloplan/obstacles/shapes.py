@@ -90,8 +90,8 @@ class Box:
             raise ValueError(f"{self.name}.size: got {tuple(size)}, expected 3 lengths > 0 [m]")
         if not math.isfinite(self.yaw):
             raise ValueError(f"{self.name}.yaw: got {self.yaw!r}, expected a finite angle [rad]")
-        object.__setattr__(self, "center", tuple(center))
-        object.__setattr__(self, "size", tuple(size))
+        object.__setattr__(self, "center", tuple(float(v) for v in center))
+        object.__setattr__(self, "size", tuple(float(v) for v in size))
 
     @classmethod
     def from_corners(cls, lower, upper, yaw: float = 0.0, name: str = "box") -> Box:
@@ -162,7 +162,7 @@ class Cylinder:
             value = float(getattr(self, field))
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{self.name}.{field}: got {value!r}, expected a length > 0 [m]")
-        object.__setattr__(self, "base", tuple(base))
+        object.__setattr__(self, "base", tuple(float(v) for v in base))
 
     @property
     def top(self) -> float:

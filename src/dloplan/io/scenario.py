@@ -1,0 +1,454 @@
+"""Scenario files: one job described in YAML or JSON, validated by a pydantic schema.
+
+A scenario names the cable (a catalogue name or explicit properties), the discretization, the
+start and target shapes (point lists or parametric: straight, arc, sine, each with a placement),
+obstacles, gripper, trajectory and planner settings, and the outputs wanted. Lengths in the file
+are in ``units`` (``m`` by default, or ``mm``), converted to SI on loading. Every error names
+the field, the value and what was expected, on one line (:class:`ScenarioError`).
+
+The JSON Schema of the format (for editor completion) is ``scenario_json_schema()``, shipped as
+``dloplan/data/scenario.schema.json`` and printed by ``dloplan schema``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from scipy.spatial.transform import Rotation
+
+from ..cable import CATALOGUE_NAMES, Cable, catalogue_cable
+from ..obstacles.shapes import Box, Cylinder, Table
+from ..shapes import arc_shape, place, sine_shape, straight_shape
+
+SCHEMA_VERSION = 1
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be used; the message is one line naming the field."""
+
+
+def _finite(values, name="value"):
+    arr = np.asarray(values, dtype=float)
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite numbers, got {values!r}")
+    return values
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+Vector3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+PositiveLength = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+
+
+class RotationSpec(_Model):
+    """A rotation: Euler angles (``seq``, ``angles``, ``degrees``) or a quaternion x-y-z-w."""
+
+    euler: list[float] | None = Field(None, description="Euler angles, see seq and degrees")
+    seq: str = Field("xyz", description="scipy Euler sequence, e.g. 'xyz' (extrinsic)")
+    degrees: bool = True
+    quaternion: Annotated[list[float], Field(min_length=4, max_length=4)] | None = Field(
+        None, description="quaternion in scipy order x, y, z, w"
+    )
+
+    @model_validator(mode="after")
+    def _one_form(self):
+        if (self.euler is None) == (self.quaternion is None):
+            raise ValueError("give exactly one of euler or quaternion")
+        if self.euler is not None:
+            _finite(self.euler, "euler")
+            if len(self.euler) != len(self.seq):
+                raise ValueError(f"euler has {len(self.euler)} angles for seq {self.seq!r}")
+        if self.quaternion is not None:
+            _finite(self.quaternion, "quaternion")
+            if np.linalg.norm(self.quaternion) < 1e-9:
+                raise ValueError("quaternion has zero norm")
+        return self
+
+    def to_rotation(self) -> Rotation:
+        if self.euler is not None:
+            return Rotation.from_euler(self.seq, self.euler, degrees=self.degrees)
+        return Rotation.from_quat(self.quaternion)
+
+
+class Placement(_Model):
+    """Where a parametric shape goes: its first point at ``position``, then ``rotation``."""
+
+    position: Vector3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
+    rotation: RotationSpec | None = None
+
+    @field_validator("position")
+    @classmethod
+    def _pos(cls, v):
+        return _finite(v, "position")
+
+
+class PointsShape(_Model):
+    """An explicit polyline, (k, 3) or (k, 2) = (x, z) points; resampled to n + 1 points."""
+
+    kind: Literal["points"] = "points"
+    points: list[list[float]]
+
+    @field_validator("points")
+    @classmethod
+    def _points(cls, v):
+        if len(v) < 3:
+            raise ValueError(f"{len(v)} points given, need at least 3")
+        widths = {len(p) for p in v}
+        if widths - {2, 3} or len(widths) != 1:
+            raise ValueError(f"every point needs 3 (x, y, z) or 2 (x, z) coordinates, got {widths}")
+        return _finite(v, "points")
+
+
+class StraightShape(_Model):
+    """A straight cable along the placement's x-axis."""
+
+    kind: Literal["straight"] = "straight"
+    placement: Placement = Field(default_factory=Placement)
+
+
+class ArcShape(_Model):
+    """A circular arc turning by ``angle`` [deg] in the placement's x-y plane."""
+
+    kind: Literal["arc"] = "arc"
+    angle: float = Field(..., allow_inf_nan=False, description="total turning angle [deg]")
+    placement: Placement = Field(default_factory=Placement)
+
+
+class SineShape(_Model):
+    """A sine wave of ``amplitude`` (file units) and ``periods`` in the placement's x-y plane."""
+
+    kind: Literal["sine"] = "sine"
+    amplitude: float = Field(..., allow_inf_nan=False)
+    periods: float = Field(1.0, gt=0, allow_inf_nan=False)
+    placement: Placement = Field(default_factory=Placement)
+
+
+ShapeSpec = Annotated[
+    PointsShape | StraightShape | ArcShape | SineShape, Field(discriminator="kind")
+]
+
+
+class CableSpec(_Model):
+    """The cable: a catalogue ``name`` and/or explicit properties (explicit ones win)."""
+
+    name: str | None = Field(None, description=f"one of {', '.join(CATALOGUE_NAMES)}")
+    length: PositiveLength | None = None
+    diameter: PositiveLength | None = None
+    mass: PositiveLength | None = Field(None, description="[kg]")
+    youngs_modulus: PositiveLength | Literal["identify"] | None = Field(
+        None, description="[Pa], or 'identify' with an identify section"
+    )
+    poisson_ratio: float | None = Field(None, gt=-1, le=0.5)
+    n_links: int = Field(10, ge=3, le=2000)
+    bending: Literal["rod", "thesis"] = "rod"
+    masses: Literal["consistent", "equal"] = "consistent"
+    rest_shape: ShapeSpec | None = None
+
+    @model_validator(mode="after")
+    def _known(self):
+        if self.name is None:
+            missing = [f for f in ("length", "diameter", "mass", "youngs_modulus")
+                       if getattr(self, f) is None]
+            if missing:
+                raise ValueError(f"without a catalogue name, give {', '.join(missing)}")
+        elif self.name.lower() not in CATALOGUE_NAMES:
+            raise ValueError(
+                f"unknown cable name {self.name!r}, expected one of {', '.join(CATALOGUE_NAMES)}"
+            )
+        return self
+
+
+class BoxSpec(_Model):
+    """A box on the table: ``center`` + ``size`` or ``min`` + ``max``, optional ``yaw`` [deg]."""
+
+    type: Literal["box"] = "box"
+    name: str = "box"
+    center: Vector3 | None = None
+    size: Vector3 | None = None
+    min: Vector3 | None = None
+    max: Vector3 | None = None
+    yaw: float = Field(0.0, allow_inf_nan=False, description="[deg] about z")
+
+    @model_validator(mode="after")
+    def _form(self):
+        by_center = self.center is not None and self.size is not None
+        by_corners = self.min is not None and self.max is not None
+        if by_center == by_corners:
+            raise ValueError("give either center and size, or min and max")
+        for key in ("center", "size", "min", "max"):
+            if getattr(self, key) is not None:
+                _finite(getattr(self, key), key)
+        return self
+
+
+class CylinderSpec(_Model):
+    """A vertical cylinder (peg) standing at ``base``."""
+
+    type: Literal["cylinder"] = "cylinder"
+    name: str = "cylinder"
+    base: Vector3
+    radius: PositiveLength
+    height: PositiveLength
+
+
+ObstacleSpec = Annotated[BoxSpec | CylinderSpec, Field(discriminator="type")]
+
+
+class PlannerSpec(_Model):
+    """Planner settings (thesis chapter 4, Tables 6.1/6.2)."""
+
+    n_shapes: int = Field(5, ge=1, le=500, description="S, intermediate shapes")
+    physical_mode: Literal["thesis", "equilibrium"] | None = None
+    family: Literal["auto", "soft", "medium", "stiff"] = "auto"
+    weights: dict[str, float] = Field(default_factory=dict)
+
+    @field_validator("weights")
+    @classmethod
+    def _weights(cls, v):
+        for key, value in v.items():
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"weight {key} = {value!r}, expected a finite number >= 0")
+        return v
+
+
+class FrameSpec(_Model):
+    """Initial clip frames for the minimal-rotation and rigid-rotation methods."""
+
+    first: RotationSpec | None = None
+    last: RotationSpec | None = None
+
+
+class GripperSpec(_Model):
+    """Gripper orientation method (thesis 4.6, Table 4.3)."""
+
+    method: Literal["auto", "auxiliary", "minimal", "rigid"] = "auto"
+    auxiliary_vector: Vector3 = Field(default_factory=lambda: [0.0, 0.0, 1.0])
+    initial_frames: FrameSpec = Field(default_factory=FrameSpec)
+
+
+class TrajectorySpec(_Model):
+    """Timed dual-arm motion (thesis 7.3: 100 mm/s)."""
+
+    tcp_speed: PositiveLength = Field(0.1, description="[m/s] (not scaled by units)")
+    angular_speed: PositiveLength = Field(1.0, description="[rad/s]")
+    rate: PositiveLength = Field(50.0, description="sampling rate [Hz]")
+
+
+class CheckSpec(_Model):
+    """Target stability check (thesis 5.3) and obstacle avoidance (5.4) settings."""
+
+    threshold: PositiveLength = Field(0.01, description="T_cf [file units]")
+    z_safety: float = Field(0.02, ge=0, allow_inf_nan=False, description="[file units]")
+    max_rounds: int = Field(5, ge=0, le=50)
+
+
+class TableSpec(_Model):
+    """The table plane the obstacles rest on."""
+
+    height: float = Field(0.0, allow_inf_nan=False)
+
+
+class Scenario(_Model):
+    """A dloplan job (schema version 1)."""
+
+    version: Literal[1] = 1
+    units: Literal["m", "mm"] = "m"
+    cable: CableSpec
+    start: ShapeSpec
+    target: ShapeSpec
+    planner: PlannerSpec = Field(default_factory=PlannerSpec)
+    obstacles: list[ObstacleSpec] = Field(default_factory=list)
+    table: TableSpec | None = None
+    grippers: GripperSpec = Field(default_factory=GripperSpec)
+    trajectory: TrajectorySpec = Field(default_factory=TrajectorySpec)
+    check: CheckSpec = Field(default_factory=CheckSpec)
+    identify: dict[str, Any] | None = Field(
+        None, description="an identification experiment (see docs/identification.md)"
+    )
+    outputs: list[Literal["json", "csv", "rapid", "ros", "figures", "report"]] = Field(
+        default_factory=lambda: ["json", "csv", "rapid", "figures", "report"]
+    )
+
+    @model_validator(mode="after")
+    def _identify(self):
+        if self.cable.youngs_modulus == "identify" and self.identify is None:
+            raise ValueError("cable.youngs_modulus is 'identify' but there is no identify section")
+        return self
+
+
+@dataclass(frozen=True, eq=False)
+class Job:
+    """A scenario resolved into library objects, in SI units."""
+
+    scenario: Scenario
+    cable: Cable
+    start: np.ndarray
+    target: np.ndarray
+    obstacles: list = field(default_factory=list)
+    source: str = ""
+
+    @property
+    def scale(self) -> float:
+        """Metres per file unit."""
+        return 1e-3 if self.scenario.units == "mm" else 1.0
+
+
+_TAGS = {"points", "straight", "arc", "sine", "box", "cylinder"}
+
+
+def _format_error(error: ValidationError) -> str:
+    first = error.errors()[0]
+    parts = [str(p) for p in first["loc"] if not str(p).startswith("function-")]
+    # drop the union tags pydantic inserts (start.arc.angle -> start.angle)
+    parts = [p for k, p in enumerate(parts) if not (p in _TAGS and k + 1 < len(parts))]
+    loc = ".".join(parts)
+    message = first["msg"].removeprefix("Value error, ")
+    value = first.get("input")
+    shown = "" if isinstance(value, dict | list) and len(str(value)) > 60 else f" (got {value!r})"
+    extra = "" if len(error.errors()) == 1 else f" [and {len(error.errors()) - 1} more]"
+    return f"{loc or 'scenario'}: {message}{shown}{extra}"
+
+
+def parse_scenario(data: Any, source: str = "scenario") -> Scenario:
+    """Validate a mapping as a :class:`Scenario`; raises :class:`ScenarioError` (one line)."""
+    if not isinstance(data, dict):
+        raise ScenarioError(f"{source}: expected a mapping at the top level, got "
+                            f"{type(data).__name__}")
+    try:
+        return Scenario.model_validate(data)
+    except ValidationError as exc:
+        raise ScenarioError(f"{source}: {_format_error(exc)}") from None
+
+
+def read_mapping(path: str | Path) -> dict:
+    """Read a YAML or JSON file into a mapping; one-line errors for unreadable files."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+    try:
+        data = json.loads(text) if path.suffix.lower() == ".json" else yaml.safe_load(text)
+    except (json.JSONDecodeError, yaml.YAMLError) as exc:
+        detail = str(exc).splitlines()[0]
+        kind = "JSON" if path.suffix.lower() == ".json" else "YAML"
+        raise ScenarioError(f"{path}: not valid {kind}: {detail}") from None
+    if not isinstance(data, dict):
+        raise ScenarioError(f"{path}: expected a mapping at the top level, got "
+                            f"{type(data).__name__}")
+    return data
+
+
+def load_scenario(path: str | Path) -> Job:
+    """Read, validate and resolve a scenario file into a :class:`Job`."""
+    data = read_mapping(path)
+    return resolve(parse_scenario(data, str(path)), str(path))
+
+
+def _build_cable(spec: CableSpec, scale: float, youngs_modulus: float | None) -> Cable:
+    params: dict[str, Any] = {"n_links": spec.n_links, "bending": spec.bending,
+                              "masses": spec.masses}
+    for key in ("length", "diameter"):
+        if getattr(spec, key) is not None:
+            params[key] = getattr(spec, key) * scale
+    for key in ("mass", "poisson_ratio"):
+        if getattr(spec, key) is not None:
+            params[key] = getattr(spec, key)
+    if youngs_modulus is not None:
+        params["youngs_modulus"] = youngs_modulus
+    elif spec.youngs_modulus not in (None, "identify"):
+        params["youngs_modulus"] = spec.youngs_modulus
+    if spec.name is not None:
+        return catalogue_cable(spec.name, **params)
+    return Cable(**params)
+
+
+def build_shape(spec, cable: Cable, scale: float, name: str) -> np.ndarray:
+    """The points [m] of a shape specification for ``cable``."""
+    if isinstance(spec, PointsShape):
+        pts = np.asarray(spec.points, dtype=float) * scale
+        if pts.shape[1] == 2:
+            pts = np.stack([pts[:, 0], np.zeros(len(pts)), pts[:, 1]], axis=1)
+        return pts
+    n, length = cable.n_links, cable.length
+    try:
+        if isinstance(spec, StraightShape):
+            local = straight_shape(length, n)
+        elif isinstance(spec, ArcShape):
+            local = arc_shape(length, n, math.radians(spec.angle))
+        else:
+            local = sine_shape(length, n, spec.amplitude * scale, spec.periods)
+    except ValueError as exc:
+        raise ScenarioError(f"{name}: {exc}") from None
+    rotation = spec.placement.rotation.to_rotation() if spec.placement.rotation else None
+    return place(local, np.asarray(spec.placement.position) * scale, rotation)
+
+
+def build_obstacles(specs, table: TableSpec | None, scale: float) -> list:
+    """Obstacle objects [m] from their specifications."""
+    out: list = []
+    for k, spec in enumerate(specs):
+        try:
+            if isinstance(spec, BoxSpec):
+                if spec.center is not None:
+                    out.append(Box(tuple(np.multiply(spec.center, scale)),
+                                   tuple(np.multiply(spec.size, scale)),
+                                   math.radians(spec.yaw), spec.name))
+                else:
+                    out.append(Box.from_corners(np.multiply(spec.min, scale),
+                                                np.multiply(spec.max, scale),
+                                                math.radians(spec.yaw), spec.name))
+            else:
+                out.append(Cylinder(tuple(np.multiply(spec.base, scale)), spec.radius * scale,
+                                    spec.height * scale, spec.name))
+        except ValueError as exc:
+            raise ScenarioError(f"obstacles.{k}: {exc}") from None
+    if table is not None:
+        out.append(Table(table.height * scale))
+    return out
+
+
+def resolve(scenario: Scenario, source: str = "scenario",
+            youngs_modulus: float | None = None) -> Job:
+    """Turn a validated scenario into a :class:`Job` (SI units, library objects).
+
+    ``youngs_modulus`` overrides the file's (used after identification).
+    """
+    scale = 1e-3 if scenario.units == "mm" else 1.0
+    if scenario.cable.youngs_modulus == "identify" and youngs_modulus is None:
+        raise ScenarioError(
+            f"{source}: cable.youngs_modulus is 'identify': run the identification first "
+            "(dloplan plan does) or give a modulus [Pa]"
+        )
+    try:
+        cable = _build_cable(scenario.cable, scale, youngs_modulus)
+        if scenario.cable.rest_shape is not None:
+            rest = build_shape(scenario.cable.rest_shape, cable, scale, "cable.rest_shape")
+            from ..physics.geometry import resample_by_arc_length
+
+            if len(rest) != cable.n_points:
+                rest = resample_by_arc_length(rest, cable.n_points)
+            cable = replace(cable, rest_shape=rest)
+    except ValueError as exc:
+        raise ScenarioError(f"{source}: cable.{exc}") from None
+    start = build_shape(scenario.start, cable, scale, "start")
+    target = build_shape(scenario.target, cable, scale, "target")
+    obstacles = build_obstacles(scenario.obstacles, scenario.table, scale)
+    return Job(scenario, cable, start, target, obstacles, source)
+
+
+def scenario_json_schema() -> dict:
+    """The JSON Schema of the scenario format."""
+    schema = Scenario.model_json_schema()
+    schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
+    schema["title"] = "dloplan scenario"
+    return schema

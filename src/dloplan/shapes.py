@@ -1,0 +1,124 @@
+"""Parametric cable shapes: straight segment, circular arc, sine wave, placed in the world.
+
+Each builder returns ``n_links + 1`` points [m] of a curve of the given arc length, drawn in its
+local x-y plane starting at the origin along +x, then moved by :func:`place`. Straight and arc
+shapes have links of exactly ``length / n_links`` (the arc is the discrete arc: equal chords
+turning by a constant angle), so they can serve as rest shapes; the sine wave is resampled by arc
+length by choosing its extent so that n links of exactly L/n walked along it end at its end.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import brentq
+from scipy.spatial.transform import Rotation
+
+
+def _check(length: float, n_links: int) -> None:
+    if not (math.isfinite(length) and length > 0):
+        raise ValueError(f"length: got {length!r}, expected a length > 0 [m]")
+    if int(n_links) != n_links or n_links < 1:
+        raise ValueError(f"n_links: got {n_links!r}, expected an integer >= 1")
+
+
+def straight_shape(length: float, n_links: int) -> np.ndarray:
+    """A straight cable along +x from the origin, (n + 1, 3) [m]."""
+    _check(length, n_links)
+    x = np.linspace(0.0, length, n_links + 1)
+    return np.stack([x, np.zeros_like(x), np.zeros_like(x)], axis=1)
+
+
+def arc_shape(length: float, n_links: int, angle: float) -> np.ndarray:
+    """A discrete circular arc turning by ``angle`` [rad] (positive toward +y), (n + 1, 3) [m].
+
+    The n links of length L/n turn by angle/(n - 1) at every interior point, so the tangent
+    turns by ``angle`` from the first link to the last.
+    """
+    _check(length, n_links)
+    if not math.isfinite(angle):
+        raise ValueError(f"angle: got {angle!r}, expected a finite angle [rad]")
+    turn = angle / max(n_links - 1, 1)
+    headings = turn * (np.arange(n_links) - (n_links - 1) / 2)  # symmetric about +x
+    steps = np.stack([np.cos(headings), np.sin(headings), np.zeros(n_links)], 1)
+    return np.vstack([np.zeros(3), np.cumsum(steps * (length / n_links), axis=0)])
+
+
+def sine_shape(length: float, n_links: int, amplitude: float, periods: float = 1.0) -> np.ndarray:
+    """A sine wave y = A sin(2 pi periods x / X) drawn with n links of exactly L/n, (n + 1, 3) [m].
+
+    The extent X is chosen so that n equal chords walked along the wave end at its end.
+    """
+    _check(length, n_links)
+    if not (math.isfinite(amplitude) and math.isfinite(periods) and periods > 0):
+        raise ValueError(
+            f"amplitude, periods: got {amplitude!r}, {periods!r}, expected finite values, "
+            "periods > 0"
+        )
+    link = length / n_links
+    fine = np.linspace(0.0, 1.0, 4001)
+
+    def chords(extent: float) -> tuple[np.ndarray, float]:
+        curve = np.stack([fine * extent, amplitude * np.sin(2 * np.pi * periods * fine),
+                          np.zeros_like(fine)], axis=1)
+        return _walk_chords(curve, link, n_links)
+
+    if chords(length)[1] > 0:  # even a flat extent L is too short for the chords
+        extent = length
+    else:
+        low = 1e-6 * length
+        if chords(low)[1] < 0:
+            raise ValueError(
+                f"amplitude: {amplitude} m with {periods} periods needs more than {length} m "
+                "of cable"
+            )
+        extent = brentq(lambda e: chords(e)[1], low, length, xtol=1e-12)
+    points, miss = chords(extent)
+    if abs(miss) > 1e-6 * length:
+        raise ValueError(
+            f"amplitude: a {amplitude} m sine with {periods} periods is too wavy for {n_links} "
+            f"links of {link:.4g} m (use more links or a smaller amplitude)"
+        )
+    return points
+
+
+def _walk_chords(curve: np.ndarray, link: float, n_links: int) -> tuple[np.ndarray, float]:
+    """Points at chord distance ``link`` along a fine polyline, and the signed miss at its end.
+
+    The miss is > 0 when the chords run past the curve's end (the last point is extrapolated
+    along the last segment), < 0 when they stop short of it.
+    """
+    points = [curve[0]]
+    start = 0
+    for _ in range(n_links):
+        distance = np.linalg.norm(curve[start:] - points[-1], axis=1)
+        beyond = np.flatnonzero(distance >= link)
+        if len(beyond) == 0:  # ran off the end: continue straight along the last segment
+            direction = curve[-1] - curve[-2]
+            direction /= np.linalg.norm(direction)
+            points.append(points[-1] + link * direction)
+            start = len(curve) - 1
+            continue
+        k = start + int(beyond[0])
+        a, b = curve[k - 1], curve[k]
+        # the point on segment a-b at distance link from the last point
+        d = b - a
+        f = a - points[-1]
+        qa, qb, qc = d @ d, 2 * f @ d, f @ f - link**2
+        t = (-qb + math.sqrt(max(qb * qb - 4 * qa * qc, 0.0))) / (2 * qa)
+        points.append(a + t * d)
+        start = k - 1
+    out = np.array(points)
+    end = curve[-1]
+    past = float(np.dot(out[-1] - end, curve[-1] - curve[-2]))
+    miss = np.linalg.norm(out[-1] - end) * (1.0 if past > 0 else -1.0)
+    return out, float(miss)
+
+
+def place(shape, position=(0.0, 0.0, 0.0), rotation: Rotation | None = None) -> np.ndarray:
+    """Move a shape rigidly: x -> rotation x + position [m]."""
+    x = np.asarray(shape, dtype=float)
+    if rotation is not None:
+        x = rotation.apply(x)
+    return x + np.asarray(position, dtype=float)

@@ -1,0 +1,139 @@
+"""Scenario files: parsing, unit conversion, parametric shapes and one-line errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from dloplan.io.scenario import (
+    ScenarioError,
+    load_scenario,
+    parse_scenario,
+    resolve,
+    scenario_json_schema,
+)
+from dloplan.physics import link_lengths, shape_length
+
+BASE = {
+    "cable": {"name": "ethernet", "n_links": 10},
+    "start": {"kind": "straight", "placement": {"position": [0.1, 0.0, 0.1]}},
+    "target": {"kind": "arc", "angle": 90, "placement": {"position": [0.15, 0.1, 0.1]}},
+}
+
+
+def with_(path: str, value):
+    """BASE with the dotted ``path`` set to ``value`` (None deletes it)."""
+    data = json.loads(json.dumps(BASE))
+    keys = path.split(".")
+    node = data
+    for key in keys[:-1]:
+        node = node.setdefault(key, {})
+    if value is None:
+        node.pop(keys[-1], None)
+    else:
+        node[keys[-1]] = value
+    return data
+
+
+def test_a_parametric_scenario_resolves_in_si_units():
+    job = resolve(parse_scenario(BASE))
+    assert job.cable.name == "ethernet" and job.cable.n_links == 10
+    assert job.start.shape == (11, 3) and job.target.shape == (11, 3)
+    assert np.allclose(link_lengths(job.target), 0.05)
+    assert np.allclose(job.start[0], [0.1, 0, 0.1])
+
+
+def test_millimetres_are_converted():
+    data = with_("units", "mm")
+    data["cable"] = {"name": "ethernet", "length": 500, "diameter": 5}
+    data["start"] = {"kind": "points", "points": [[0, 0, 100], [250, 0, 100], [500, 0, 100]]}
+    data["obstacles"] = [{"type": "box", "center": [300, 0, 30], "size": [100, 100, 60]}]
+    job = resolve(parse_scenario(data))
+    assert job.cable.length == pytest.approx(0.5) and job.cable.diameter == pytest.approx(0.005)
+    assert shape_length(job.start) == pytest.approx(0.5)
+    assert job.obstacles[0].top == pytest.approx(0.06)
+
+
+def test_sine_shape_has_the_cable_length():
+    data = with_("target", {"kind": "sine", "amplitude": 0.05, "periods": 1.5})
+    job = resolve(parse_scenario(data))
+    assert shape_length(job.target) == pytest.approx(job.cable.length, rel=5e-3)
+
+
+def test_yaml_and_json_files(tmp_path):
+    (tmp_path / "job.json").write_text(json.dumps(BASE))
+    (tmp_path / "job.yaml").write_text(
+        "cable: {name: usb}\nstart: {kind: straight}\ntarget: {kind: arc, angle: 60}\n"
+    )
+    assert load_scenario(tmp_path / "job.json").cable.name == "ethernet"
+    assert load_scenario(tmp_path / "job.yaml").cable.name == "usb"
+
+
+def test_json_schema_describes_the_format():
+    schema = scenario_json_schema()
+    assert schema["title"] == "dloplan scenario"
+    assert {"cable", "start", "target"} <= set(schema["required"])
+
+
+BAD = [
+    (with_("cable.name", "copper"), "unknown cable name 'copper'"),
+    (with_("cable", {"length": 0.5}), "give diameter, mass, youngs_modulus"),
+    (with_("cable.length", -0.5), "cable.length: Input should be greater than 0"),
+    (with_("cable.diameter", "thin"), "cable.diameter"),
+    (with_("cable.n_links", 2), "cable.n_links"),
+    (with_("cable.n_links", 4.5), "cable.n_links"),
+    (with_("cable.poisson_ratio", 0.7), "cable.poisson_ratio"),
+    (with_("cable.youngs_modulus", "nan"), "cable.youngs_modulus"),
+    (with_("cable.youngs_modulus", "identify"), "no identify section"),
+    (with_("start", None), "start: Field required"),
+    (with_("target.kind", "spiral"), "target"),
+    (with_("target", {"kind": "points", "points": [[0, 0, 0], [1, 0, 0]]}),
+     "target.points: 2 points given, need at least 3"),
+    (with_("target", {"kind": "points", "points": [[0, 0, 0], [1, 0], [2, 0, 0]]}),
+     "3 (x, y, z) or 2 (x, z) coordinates"),
+    (with_("target", {"kind": "points", "points": [[0, 0, 0], [1, 0, float("nan")],
+                                                   [2, 0, 0]]}), "finite"),
+    (with_("target.angle", None), "target.angle: Field required"),
+    (with_("start.placement.position", [0, 0]), "start.placement.position"),
+    (with_("start.placement.rotation", {"euler": [0, 0]}), "euler has 2 angles"),
+    (with_("start.placement.rotation", {"quaternion": [0, 0, 0, 0]}), "zero norm"),
+    (with_("obstacles", [{"type": "box", "center": [0, 0, 0]}]),
+     "center and size, or min and max"),
+    (with_("obstacles", [{"type": "box", "center": [0, 0, 0], "size": [0.1, -0.1, 0.1]}]),
+     "size"),
+    (with_("obstacles", [{"type": "sphere"}]), "obstacles.0"),
+    (with_("planner.n_shapes", 0), "planner.n_shapes"),
+    (with_("planner.weights", {"w_b": -1}), "weight w_b"),
+    (with_("trajectory.tcp_speed", 0), "trajectory.tcp_speed"),
+    (with_("units", "inch"), "units"),
+    (with_("colour", "red"), "colour: Extra inputs are not permitted"),
+    (with_("target", {"kind": "sine", "amplitude": 0.5, "periods": 3}), "target: amplitude"),
+]
+
+
+@pytest.mark.parametrize("data, fragment", BAD)
+def test_bad_scenarios_give_one_line_errors(data, fragment):
+    with pytest.raises(ScenarioError) as info:
+        resolve(parse_scenario(data))
+    message = str(info.value)
+    assert fragment in message
+    assert "\n" not in message
+
+
+@pytest.mark.parametrize(
+    "text, suffix, fragment",
+    [
+        ("- just\n- a list\n", ".yaml", "expected a mapping"),
+        ("cable: [unclosed\n", ".yaml", "not valid YAML"),
+        ("{bad json", ".json", "not valid JSON"),
+    ],
+)
+def test_unreadable_files(tmp_path, text, suffix, fragment):
+    path = tmp_path / f"job{suffix}"
+    path.write_text(text)
+    with pytest.raises(ScenarioError, match=fragment):
+        load_scenario(path)
+    with pytest.raises(ScenarioError, match="cannot read"):
+        load_scenario(tmp_path / "missing.yaml")
