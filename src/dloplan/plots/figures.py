@@ -1,0 +1,223 @@
+"""Matplotlib figures of a plan (thesis Figs. 4.21/4.25, 5.13/5.17, 6.8, 7.10, Table 4.2).
+
+Each function takes plain arrays and returns a ``matplotlib.figure.Figure``; :func:`save_figure`
+writes it as PNG and SVG. matplotlib is imported here only (with the non-interactive Agg
+backend), so ``import dloplan`` stays light.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ..obstacles.shapes import Box, Cylinder, Table
+
+AXIS_COLOURS = ("#d32f2f", "#388e3c", "#1976d2")  # u, v, w
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save_figure(figure, folder: str | Path, name: str) -> list[Path]:
+    """Write ``name.png`` and ``name.svg`` into ``folder``; returns both paths."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for suffix in ("png", "svg"):
+        path = folder / f"{name}.{suffix}"
+        tmp = path.with_name(f".{path.name}.tmp")
+        figure.savefig(tmp, format=suffix, dpi=110, bbox_inches="tight")
+        tmp.replace(path)
+        paths.append(path)
+    _pyplot().close(figure)
+    return paths
+
+
+def _box_edges(box: Box) -> list[np.ndarray]:
+    c, s = np.cos(box.yaw), np.sin(box.yaw)
+    h = np.asarray(box.size) / 2
+    corners = {}
+    for i in (-1, 1):
+        for j in (-1, 1):
+            for k in (-1, 1):
+                lx, ly = i * h[0], j * h[1]
+                corners[i, j, k] = np.asarray(box.center) + [c * lx - s * ly, s * lx + c * ly,
+                                                              k * h[2]]
+    edges = []
+    for k in (-1, 1):
+        ring = [corners[-1, -1, k], corners[1, -1, k], corners[1, 1, k], corners[-1, 1, k],
+                corners[-1, -1, k]]
+        edges.append(np.array(ring))
+    for i, j in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+        edges.append(np.array([corners[i, j, -1], corners[i, j, 1]]))
+    return edges
+
+
+def _cylinder_edges(cyl: Cylinder) -> list[np.ndarray]:
+    a = np.linspace(0, 2 * np.pi, 33)
+    base = np.asarray(cyl.base)
+    ring = np.stack([base[0] + cyl.radius * np.cos(a), base[1] + cyl.radius * np.sin(a),
+                     np.full_like(a, base[2])], 1)
+    top = ring + [0, 0, cyl.height]
+    return [ring, top] + [np.array([ring[k], top[k]]) for k in (0, 8, 16, 24)]
+
+
+def _obstacle_edges(obstacles) -> list[np.ndarray]:
+    edges: list[np.ndarray] = []
+    for obstacle in obstacles:
+        if isinstance(obstacle, Box):
+            edges += _box_edges(obstacle)
+        elif isinstance(obstacle, Cylinder):
+            edges += _cylinder_edges(obstacle)
+    return edges
+
+
+def path_figure(
+    shapes: np.ndarray,
+    clip_positions: np.ndarray | None = None,
+    clip_rotations: np.ndarray | None = None,
+    obstacles: Sequence = (),
+    title: str = "Planned shapes and gripper frames",
+):
+    """Planned shapes with both gripper frames as u/v/w triads, 3D and side (x-z) views."""
+    plt = _pyplot()
+    shapes = np.asarray(shapes)
+    fig = plt.figure(figsize=(12, 5))
+    ax3 = fig.add_subplot(1, 2, 1, projection="3d")
+    ax2 = fig.add_subplot(1, 2, 2)
+    colours = plt.cm.viridis(np.linspace(0, 1, len(shapes)))
+    span = float(np.ptp(shapes.reshape(-1, 3), axis=0).max()) or 1.0
+    triad = 0.08 * span
+    for k, (shape, colour) in enumerate(zip(shapes, colours, strict=True)):
+        label = "start" if k == 0 else "target" if k == len(shapes) - 1 else None
+        width = 2.5 if label else 1.2
+        ax3.plot(*shape.T, color=colour, lw=width, marker=".", ms=3, label=label)
+        ax2.plot(shape[:, 0], shape[:, 2], color=colour, lw=width, marker=".", ms=3, label=label)
+        if clip_positions is not None and clip_rotations is not None:
+            for c in range(2):
+                p, r = clip_positions[k, c], clip_rotations[k, c]
+                for axis in range(3):
+                    tip = p + triad * r[:, axis]
+                    ax3.plot(*np.stack([p, tip]).T, color=AXIS_COLOURS[axis], lw=1.5)
+    for edge in _obstacle_edges(obstacles):
+        ax3.plot(*edge.T, color="#8d6e63", lw=1)
+        ax2.plot(edge[:, 0], edge[:, 2], color="#8d6e63", lw=1)
+    for ax in (ax3,):
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+        ax.set_zlabel("z [m]")
+    ax3.set_box_aspect(np.maximum(np.ptp(shapes.reshape(-1, 3), axis=0), 0.05 * span))
+    ax2.set_xlabel("x [m]")
+    ax2.set_ylabel("z [m]")
+    ax2.set_aspect("equal", adjustable="datalim")
+    ax2.grid(alpha=0.3)
+    ax2.legend(loc="best")
+    ax3.set_title("3D view (u red, v green, w blue)")
+    ax2.set_title("side view")
+    fig.suptitle(title)
+    return fig
+
+
+def stabilized_figure(shapes, stabilized, obstacles: Sequence = (), colliding=(),
+                      title: str = "Planned and stabilized shapes"):
+    """Planned (solid) and gravity-stabilized (dashed) shapes with the obstacles, side view."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8, 5))
+    colours = plt.cm.viridis(np.linspace(0, 1, len(shapes)))
+    for k, (shape, settled) in enumerate(zip(shapes, stabilized, strict=True)):
+        ax.plot(shape[:, 0], shape[:, 2], color=colours[k], lw=1.2)
+        style = dict(color="#b71c1c", lw=2) if k in set(colliding) else dict(color=colours[k])
+        ax.plot(settled[:, 0], settled[:, 2], ls="--", **style)
+    for edge in _obstacle_edges(obstacles):
+        ax.plot(edge[:, 0], edge[:, 2], color="#8d6e63", lw=1)
+    for obstacle in obstacles:
+        if isinstance(obstacle, Table):
+            ax.axhline(obstacle.height, color="#8d6e63", lw=1)
+    ax.plot([], [], color="grey", label="planned")
+    ax.plot([], [], color="grey", ls="--", label="stabilized")
+    if colliding:
+        ax.plot([], [], color="#b71c1c", ls="--", lw=2, label="colliding (stabilized)")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("z [m]")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    ax.set_title(title)
+    return fig
+
+
+def forces_figure(axial_mean, axial_variance, bending_mean, bending_variance,
+                  title: str = "Forces per mass point across the path"):
+    """Mean and variance of the axial and bending force magnitudes per point (Figs. 4.21, 7.29)."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(2, 2, figsize=(10, 6), sharex=True)
+    points = np.arange(len(axial_mean))
+    panels = ((axial_mean, "axial mean [N]"), (bending_mean, "bending mean [N]"),
+              (axial_variance, "axial variance [N$^2$]"),
+              (bending_variance, "bending variance [N$^2$]"))
+    for ax, (values, label) in zip(axes.ravel(), panels, strict=True):
+        ax.bar(points, values, color="#1565c0")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    for ax in axes[1]:
+        ax.set_xlabel("mass point")
+    fig.suptitle(title)
+    return fig
+
+
+def lengths_figure(lengths: Mapping[str, np.ndarray], cable_length: float,
+                   title: str = "Shape lengths per stage (thesis Table 4.2)"):
+    """Length of every shape of the path after each planner stage, against L."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for stage, values in lengths.items():
+        ax.plot(np.arange(len(values)), values, marker="o", label=stage)
+    ax.axhline(cable_length, color="black", lw=1, ls=":", label="cable length L")
+    ax.set_xlabel("shape index")
+    ax.set_ylabel("length [m]")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    ax.set_title(title)
+    return fig
+
+
+def identification_figure(moduli, costs, identified: float | None = None,
+                          title: str = "Identification cost against E (thesis Fig. 6.8)"):
+    """The identification cost |xi_data - xi_sim|^2 against the Young's modulus (log scale)."""
+    plt = _pyplot()
+    order = np.argsort(moduli)
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.loglog(np.asarray(moduli)[order], np.asarray(costs)[order], marker="o")
+    if identified is not None:
+        ax.axvline(identified, color="#b71c1c", ls="--", label=f"identified {identified:.3g} Pa")
+        ax.legend()
+    ax.set_xlabel("Young's modulus E [Pa]")
+    ax.set_ylabel("cost [m$^2$]")
+    ax.grid(alpha=0.3, which="both")
+    ax.set_title(title)
+    return fig
+
+
+def errors_figure(errors: np.ndarray, title: str = "Mean error per shape (thesis Fig. 7.10)"):
+    """Per-shape mean errors: columns x, y, z and total [m], (S + 2, 4)."""
+    plt = _pyplot()
+    errors = np.asarray(errors)
+    fig, ax = plt.subplots(figsize=(8, 4))
+    index = np.arange(len(errors))
+    for k, (label, colour) in enumerate(zip(("x", "y", "z", "total"), (*AXIS_COLOURS, "black"),
+                                            strict=True)):
+        ax.bar(index + (k - 1.5) * 0.2, 1e3 * errors[:, k], width=0.2, label=label, color=colour)
+    ax.set_xlabel("shape index")
+    ax.set_ylabel("mean error [mm]")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    ax.set_title(title)
+    return fig

@@ -1,0 +1,117 @@
+"""The interactive 3D report: one self-contained HTML file, no network needed.
+
+The page animates the planned cable shape by shape with both gripper frames (u, v, w triads),
+the stabilized shapes, obstacles and the table; a slider scrubs the shapes, the mouse rotates
+and zooms. Summary lines, tables (verification, errors) and the PNG figures are embedded too
+(images as base64), so the file can be mailed or archived alone.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+from collections.abc import Sequence
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from ..io.files import atomic_write_text
+from ..obstacles.shapes import Box, Cylinder, Table
+
+
+def _obstacle_dict(obstacle) -> dict | None:
+    if isinstance(obstacle, Box):
+        return {"type": "box", "center": list(obstacle.center), "size": list(obstacle.size),
+                "yaw": obstacle.yaw, "name": obstacle.name}
+    if isinstance(obstacle, Cylinder):
+        return {"type": "cylinder", "base": list(obstacle.base), "radius": obstacle.radius,
+                "height": obstacle.height, "name": obstacle.name}
+    return None
+
+
+def _table_html(title: str, header: Sequence[str], rows: Sequence[Sequence]) -> str:
+    head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
+    body = "".join(
+        "<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>" for row in rows
+    )
+    return f"<h2>{html.escape(title)}</h2><table><tr>{head}</tr>{body}</table>"
+
+
+def report_html(
+    *,
+    title: str,
+    shapes: np.ndarray,
+    stabilized: np.ndarray | None = None,
+    clip_positions: np.ndarray | None = None,
+    clip_rotations: np.ndarray | None = None,
+    obstacles: Sequence = (),
+    summary: Sequence[str] = (),
+    warnings: Sequence[str] = (),
+    tables: Sequence[tuple[str, Sequence[str], Sequence[Sequence]]] = (),
+    images: Sequence[str | Path] = (),
+    labels: Sequence[str] | None = None,
+) -> str:
+    """The report page as a string.
+
+    Parameters
+    ----------
+    title : str
+        Page title.
+    shapes : numpy.ndarray
+        (S + 2, n + 1, 3) planned shapes [m].
+    stabilized : numpy.ndarray, optional
+        Same shape: the shapes settled under gravity [m].
+    clip_positions : numpy.ndarray, optional
+        (S + 2, 2, 3) clip points [m].
+    clip_rotations : numpy.ndarray, optional
+        (S + 2, 2, 3, 3) clip frames (columns u, v, w).
+    obstacles : sequence
+        Boxes, cylinders and tables of :mod:`dloplan.obstacles`.
+    summary, warnings : sequence of str
+        Lines shown at the top (warnings in red).
+    tables : sequence
+        ``(title, header, rows)`` tables.
+    images : sequence of path
+        PNG figures to embed.
+    labels : sequence of str, optional
+        One label per shape for the slider (default "shape k").
+    """
+    shapes = np.asarray(shapes, dtype=float)
+    if shapes.ndim != 3 or shapes.shape[-1] != 3 or len(shapes) == 0:
+        raise ValueError(f"shapes: expected (S + 2, n + 1, 3) points, got {shapes.shape}")
+    table_height = next((o.height for o in obstacles if isinstance(o, Table)), None)
+    data = {
+        "shapes": shapes.round(6).tolist(),
+        "stabilized": None if stabilized is None else np.asarray(stabilized).round(6).tolist(),
+        "clip_positions": None if clip_positions is None
+        else np.asarray(clip_positions).round(6).tolist(),
+        "clip_rotations": None if clip_rotations is None
+        else np.asarray(clip_rotations).round(6).tolist(),
+        "obstacles": [d for d in map(_obstacle_dict, obstacles) if d is not None],
+        "table_height": table_height,
+        "labels": list(labels) if labels is not None
+        else [f"shape {k} of {len(shapes) - 1}" for k in range(len(shapes))],
+    }
+    summary_html = "".join(f"<p>{html.escape(line)}</p>" for line in summary)
+    summary_html += "".join(f"<p class='warn'>&#9888; {html.escape(w)}</p>" for w in warnings)
+    tables_html = "".join(_table_html(*t) for t in tables)
+    figures = []
+    for image in images:
+        encoded = base64.b64encode(Path(image).read_bytes()).decode("ascii")
+        name = html.escape(Path(image).stem.replace("_", " "))
+        figures.append(f"<figure><img alt='{name}' src='data:image/png;base64,{encoded}'>"
+                       f"<figcaption>{name}</figcaption></figure>")
+    template = resources.files("dloplan.plots").joinpath("report_template.html").read_text()
+    payload = json.dumps(data).replace("</", "<\\/")  # never close the script element early
+    return (template.replace("__TITLE__", html.escape(title))
+            .replace("__SUMMARY__", summary_html)
+            .replace("__TABLES__", tables_html)
+            .replace("__FIGURES__", "".join(figures))
+            .replace("__DATA__", payload))
+
+
+def write_report(path: str | Path, **kwargs) -> Path:
+    """Write :func:`report_html` to ``path`` atomically; returns the path."""
+    return atomic_write_text(path, report_html(**kwargs))
