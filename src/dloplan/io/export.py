@@ -188,7 +188,10 @@ def plan_document(
         raise ValueError(
             f"trajectory: {trajectory.n_knots} knots, expected {len(x)} (one per shape)"
         )
-    if isinstance(warnings, str) or not all(isinstance(w, str) for w in warnings):
+    if isinstance(warnings, str):
+        raise ValueError("warnings: expected a sequence of strings, got one string")
+    warnings = list(warnings or ())
+    if not all(isinstance(w, str) for w in warnings):
         raise ValueError("warnings: expected a sequence of strings")
     extra = {} if extra is None else extra
     if not isinstance(extra, dict):
