@@ -139,7 +139,6 @@ class Cable:
                 f"rest_shape: link lengths differ from L/n = {self.rest_link_length:.6g} m by up "
                 f"to {100 * worst:.3g} %, expected within {100 * REST_LENGTH_TOLERANCE:.2g} %"
             )
-        shape.setflags(write=False)
         return shape
 
     # -- discretization ------------------------------------------------------------------
@@ -230,7 +229,7 @@ class Cable:
 
     @property
     def k_damping(self) -> float:
-        """Fictitious damping k_d = 2 xi sqrt(m_i k_s) [N s/m] (eq. 3.23), m_i the mean point mass."""
+        """Fictitious damping k_d = 2 xi sqrt(m_i k_s) [N s/m] (eq. 3.23), m_i the mean mass."""
         m_i = self.mass / self.n_points
         return 2.0 * self.damping_ratio * math.sqrt(m_i * self.k_axial)
 
@@ -256,9 +255,12 @@ class Cable:
         """The same cable with another discretization (a curved rest shape is resampled)."""
         rest = self.rest_shape
         if rest is not None and n_links != self.n_links:
-            from .physics.geometry import resample_by_arc_length
+            from .physics.geometry import resample_by_arc_length, tangents
 
-            rest = resample_by_arc_length(rest, n_links + 1)
+            # resample, then rebuild with links of exactly L/n along the resampled directions
+            directions = tangents(resample_by_arc_length(rest, n_links + 1))
+            steps = directions * (self.length / n_links)
+            rest = np.vstack([rest[:1], rest[0] + np.cumsum(steps, axis=0)])
         return replace(self, n_links=n_links, rest_shape=rest)
 
     def with_modulus(self, youngs_modulus: float) -> Cable:

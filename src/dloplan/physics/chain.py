@@ -14,14 +14,14 @@ is returned either banded (for the Cholesky solves of the static solver) or as a
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
+from functools import lru_cache
 
 import numpy as np
 import scipy.sparse as sp
 
 from ..cable import GRAVITY, Cable
 from .axial import axial_energy, axial_gradient, axial_hessian_blocks, axial_link_forces
-from .bending import bending_energy, bending_gradient, bending_hessian_blocks
+from .bending import bending_derivatives, bending_energy, bending_gradient
 from .gravity import gravity_energy, gravity_force
 
 HALF_BANDWIDTH = 8
@@ -91,22 +91,27 @@ class SpringChain:
     def n_points(self) -> int:
         return len(self.point_masses)
 
-    @cached_property
-    def _band_index(self) -> tuple[np.ndarray, np.ndarray]:
-        """Flat indices into the lower band (HALF_BANDWIDTH + 1, 3(n+1)) of every block entry."""
-        n_dof = 3 * self.n_points
 
-        def block_targets(n_blocks: int, size: int) -> tuple[np.ndarray, np.ndarray]:
-            start = 3 * np.arange(n_blocks)[:, None, None]
-            rows = start + np.arange(size)[None, :, None]
-            cols = start + np.arange(size)[None, None, :]
-            rows, cols = np.broadcast_arrays(rows, cols)
-            lower = rows >= cols
-            flat = (rows - cols) * n_dof + cols
-            return np.where(lower, flat, -1).ravel(), lower.ravel()
 
-        n_links = self.n_points - 1
-        return block_targets(n_links, 6), block_targets(n_links - 1, 9)
+@lru_cache(maxsize=64)
+def _band_index(n_points: int) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+    """Flat indices into the lower band (HALF_BANDWIDTH + 1, 3 n_points) of every block entry.
+
+    One (index, keep) pair for the axial 6x6 blocks and one for the bending 9x9 blocks, in the
+    order the kernels return them; ``keep`` marks the entries on or below the diagonal.
+    """
+    n_dof = 3 * n_points
+
+    def block_targets(n_blocks: int, size: int) -> tuple[np.ndarray, np.ndarray]:
+        start = 3 * np.arange(n_blocks)[:, None, None]
+        rows = start + np.arange(size)[None, :, None]
+        cols = start + np.arange(size)[None, None, :]
+        rows, cols = np.broadcast_arrays(rows, cols)
+        lower = (rows >= cols).ravel()
+        flat = ((rows - cols) * n_dof + cols).ravel()
+        return flat[lower], lower
+
+    return block_targets(n_points - 1, 6), block_targets(n_points - 2, 9)
 
 
 def energy(chain: SpringChain, x: np.ndarray) -> np.ndarray:
@@ -154,27 +159,39 @@ def link_tensions(chain: SpringChain, x: np.ndarray) -> np.ndarray:
 def hessian_band(
     chain: SpringChain, x: np.ndarray, terms: tuple[str, ...] = ("axial", "bending")
 ) -> np.ndarray:
-    """Lower band of the Hessian, shape (HALF_BANDWIDTH + 1, 3(n + 1)).
+    """Lower band of the Hessian; see :func:`gradient_and_hessian_band`."""
+    return gradient_and_hessian_band(chain, x, terms)[1]
 
-    ``band[k, j] = H[j + k, j]``: the layout of ``scipy.linalg.cholesky_banded(lower=True)``.
+
+def gradient_and_hessian_band(
+    chain: SpringChain, x: np.ndarray, terms: tuple[str, ...] = ("axial", "bending")
+) -> tuple[np.ndarray, np.ndarray]:
+    """Gradient of the selected terms [N] and the lower band of their Hessian [N/m].
+
+    The band has shape (HALF_BANDWIDTH + 1, 3(n + 1)) and ``band[k, j] = H[j + k, j]``, the
+    layout of ``scipy.linalg.cholesky_banded(lower=True)``.
     ``terms`` selects the springs whose Hessian is summed (gravity is linear: no Hessian), e.g.
     ``("bending",)`` for d F^b / dx = -H^b.
     """
     n_dof = 3 * chain.n_points
-    (ax_index, ax_keep), (be_index, be_keep) = chain._band_index
+    (ax_index, ax_keep), (be_index, be_keep) = _band_index(chain.n_points)
     index, values = [], []
+    grad = np.zeros(x.shape)
     if "axial" in terms:
         ax = axial_hessian_blocks(x, chain.k_axial, chain.rest_lengths).ravel()
-        index.append(ax_index[ax_keep])
+        grad += axial_gradient(x, chain.k_axial, chain.rest_lengths)
+        index.append(ax_index)
         values.append(ax[ax_keep])
     if "bending" in terms:
-        be = bending_hessian_blocks(x, chain.k_bending, chain.rest_angles).ravel()
-        index.append(be_index[be_keep])
+        be_grad, be = bending_derivatives(x, chain.k_bending, chain.rest_angles)
+        grad += be_grad
+        be = be.ravel()
+        index.append(be_index)
         values.append(be[be_keep])
     index = np.concatenate(index)
     values = np.concatenate(values)
     band = np.bincount(index, weights=values, minlength=(HALF_BANDWIDTH + 1) * n_dof)
-    return band.reshape(HALF_BANDWIDTH + 1, n_dof)
+    return grad, band.reshape(HALF_BANDWIDTH + 1, n_dof)
 
 
 def band_to_sparse(band: np.ndarray) -> sp.csr_matrix:

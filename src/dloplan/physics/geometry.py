@@ -30,7 +30,8 @@ def as_shape(points, n_points: int | None = None, name: str = "shape") -> np.nda
     try:
         arr = np.asarray(points, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: expected an array of points, got {type(points).__name__}") from exc
+        kind = type(points).__name__
+        raise ValueError(f"{name}: expected an array of points, got {kind}") from exc
     if arr.ndim == 2 and arr.shape[1] == 2:
         arr = np.stack([arr[:, 0], np.zeros(len(arr)), arr[:, 1]], axis=1)
     if arr.ndim != 2 or arr.shape[1] != 3:

@@ -1,0 +1,113 @@
+"""Static equilibrium against the thesis' time stepping, and the static core's targets (issue 3).
+
+Part 1 (issue 3): for USB, Ethernet and PA12 at n = 10 and 50, clips 0.4 m apart with horizontal
+end links, the static solver and the thesis' method (eq. 3.24 with the dt of 3.8.2, stepped until
+every point is slower than 0.1 mm/s) from the same start; prints both times, their ratio and the
+largest point distance between the two rest shapes.
+
+Part 2 (../shared/PERFORMANCE.md): the Ethernet case at n = 50 (and 100) from a buckled start
+(a straight cable, too long for the clips), its distance to the elastica, the time across
+E = 1e5..1e11 Pa and across n up to 1000.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy.interpolate import CubicHermiteSpline
+from scipy.spatial.transform import Rotation
+
+from dloplan import catalogue_cable
+from dloplan.sim import ClipPoses, equilibrium, settle
+from dloplan.sim.statics import conform_guess
+
+REFERENCE = Path(__file__).resolve().parents[1] / "tests" / "reference"
+CLIPS = ClipPoses(np.array([[0.0, 0, 0], [0.4, 0, 0]]),
+                  Rotation.from_euler("z", [[0.0], [180.0]], degrees=True))
+
+
+def straight_start(cable):
+    """The straight cable laid between the clips: compressed, the solver buckles it."""
+    n = cable.n_links
+    l = cable.rest_link_length
+    return np.stack([np.linspace(-l / 2, 0.4 + l / 2, n + 1), np.zeros(n + 1), np.zeros(n + 1)], 1)
+
+
+def best_time(fn, repeat=7):
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return min(times), out
+
+
+def part1() -> None:
+    print("Part 1: static solver vs the thesis' explicit time stepping (rest at 0.1 mm/s)")
+    print(f"{'cable':>9} {'n':>3} {'static [ms]':>12} {'iters':>6} {'stepping [s]':>13} "
+          f"{'steps':>9} {'ratio':>8} {'diff [mm]':>10}")
+    for name in ("usb", "ethernet", "pa12"):
+        for n in (10, 50):
+            cable = catalogue_cable(name, n_links=n)
+            start = conform_guess(cable, straight_start(cable), CLIPS)
+            t_static, eq = best_time(lambda: equilibrium(cable, start, CLIPS))  # noqa: B023
+            t0 = time.perf_counter()
+            budget = min(30.0, 4e6 * cable.time_step())  # at most 4 million steps
+            dyn = settle(cable, start, CLIPS, rest_speed=1e-4, max_duration=budget)
+            t_dyn = time.perf_counter() - t0
+            diff = 1e3 * np.abs(dyn.shape - eq.shape).max()
+            note = "" if dyn.converged else "  (not at rest in 4e6 steps: ratio is a lower bound)"
+            print(f"{name:>9} {n:>3} {1e3 * t_static:>12.2f} {eq.iterations:>6} {t_dyn:>13.2f} "
+                  f"{dyn.iterations:>9} {t_dyn / t_static:>8.0f} {diff:>10.3f}{note}")
+
+
+def part2() -> None:
+    print("\nPart 2: ../shared/PERFORMANCE.md case (Ethernet, grips 0.4 m, buckled start)")
+    limit = json.loads((REFERENCE / "clamped_ethernet_D0.4_limit.json").read_text())
+    for n in (50, 100):
+        # the limit reference is clamped at the cable's ends: give the chain half a link more
+        # at each end, so its elastic part between the clip points is exactly L = 0.5 m
+        stretch = n / (n - 1)  # same weight per length and section, longer cable
+        cable = catalogue_cable("ethernet", n_links=n, bending="rod", length=0.5 * stretch,
+                                mass=0.010 * stretch)
+        t, eq = best_time(lambda: equilibrium(cable, straight_start(cable), CLIPS))  # noqa: B023
+        s_chain = (np.arange(1, n) - 0.5) * cable.rest_link_length  # points 1..n-1 from the clip
+        # the reference has 41 samples: interpolate with its tangents (x' = cos, z' = sin)
+        theta = np.asarray(limit["theta"])
+        ref_x = CubicHermiteSpline(limit["s"], limit["x"], np.cos(theta))(s_chain)
+        ref_z = CubicHermiteSpline(limit["s"], limit["z"], np.sin(theta))(s_chain)
+        dist = np.hypot(eq.shape[1:-1, 0] - ref_x, eq.shape[1:-1, 2] - ref_z).max()
+        print(f"  n = {n:>3}: {1e3 * t:6.2f} ms, {eq.iterations} iterations, "
+              f"max distance to the elastica (n -> infinity) {1e3 * dist:.3f} mm")
+    for n, name in ((40, "n40"), (80, "n80")):
+        ref = json.loads((REFERENCE / f"clamped_ethernet_D0.4_{name}.json").read_text())
+        cable = catalogue_cable("ethernet", n_links=n, bending="rod")
+        eq = equilibrium(cable, straight_start(cable), CLIPS)
+        dist = np.hypot(eq.shape[:, 0] - ref["x"], eq.shape[:, 2] - ref["z"]).max()
+        print(f"  n = {n:>3}: max distance to the {name} elastica reference {1e3 * dist:.3f} mm")
+    print("  E sweep at n = 50:")
+    base = None
+    for modulus in (1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11):
+        cable = catalogue_cable("ethernet", n_links=50, youngs_modulus=modulus)
+        t, eq = best_time(lambda: equilibrium(cable, straight_start(cable), CLIPS), 3)  # noqa: B023
+        base = base or t
+        print(f"    E = {modulus:7.0e} Pa: {1e3 * t:6.2f} ms ({t / base:4.1f}x), "
+              f"{eq.iterations:3d} iterations, converged {eq.success}")
+    print("  n sweep (E = 7.5 MPa):")
+    rows = []
+    for n in (10, 50, 100, 200, 500, 1000):
+        cable = catalogue_cable("ethernet", n_links=n)
+        t, eq = best_time(lambda: equilibrium(cable, straight_start(cable), CLIPS), 3)  # noqa: B023
+        rows.append((n, t))
+        print(f"    n = {n:>4}: {1e3 * t:7.2f} ms, {eq.iterations:3d} iterations, "
+              f"{1e6 * t / max(eq.iterations, 1) / n:5.2f} us per iteration and link")
+    slope = np.polyfit(np.log([r[0] for r in rows[2:]]), np.log([r[1] for r in rows[2:]]), 1)[0]
+    print(f"    time ~ n^{slope:.2f} for n >= 100")
+
+
+if __name__ == "__main__":
+    part2()
+    part1()

@@ -1,0 +1,207 @@
+"""Obstacle volumes: boxes on the table (thesis 5.4.1, Fig. 5.11), vertical cylinders (pegs), the
+table plane.
+
+Every obstacle answers two questions about the links of a cable seen as capsules (segments
+inflated by the cable's radius), vectorized over all links of a shape or a batch of shapes:
+
+* ``penetration(a, b, radius)``: how deep each capsule enters the volume [m] (> 0 colliding);
+* ``lift_depth(a, b, radius)``: how far the capsule must be raised along +z to clear the volume
+  [m] (the thesis' z_depth, Fig. 5.14, measured on segments rather than on mass points).
+
+A new convex shape is a new class with these two methods (and ``name``); nothing else changes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+_SEARCH_STEPS = 60  # golden-section steps: the bracket shrinks by 0.618^60 ~ 3e-13
+
+
+def _check_vector(name: str, value, size: int = 3) -> np.ndarray:
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != (size,) or not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: got {value!r}, expected {size} finite numbers [m]")
+    return arr
+
+
+def _min_along_segment(a: np.ndarray, b: np.ndarray, distance) -> np.ndarray:
+    """Minimum over t in [0, 1] of ``distance(a + t (b - a))`` for a convex distance, (...,)."""
+    lo = np.zeros(a.shape[:-1])
+    hi = np.ones(a.shape[:-1])
+    d = b - a
+    for _ in range(_SEARCH_STEPS):
+        t1 = hi - _GOLDEN * (hi - lo)
+        t2 = lo + _GOLDEN * (hi - lo)
+        left = distance(a + t1[..., None] * d) < distance(a + t2[..., None] * d)
+        hi = np.where(left, t2, hi)
+        lo = np.where(left, lo, t1)
+    t = 0.5 * (lo + hi)
+    return np.minimum(distance(a + t[..., None] * d), np.minimum(distance(a), distance(b)))
+
+
+def _footprint_interval(a2: np.ndarray, b2: np.ndarray, half: np.ndarray):
+    """Parameter interval [t0, t1] of segments (2D, local frame) inside |p| <= half (slabs)."""
+    d = b2 - a2
+    t0 = np.zeros(a2.shape[:-1])
+    t1 = np.ones(a2.shape[:-1])
+    for k in range(2):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lo = (-half[k] - a2[..., k]) / d[..., k]
+            hi = (half[k] - a2[..., k]) / d[..., k]
+        parallel = d[..., k] == 0.0
+        inside = np.abs(a2[..., k]) <= half[k]
+        enter = np.where(parallel, np.where(inside, -np.inf, np.inf), np.minimum(lo, hi))
+        leave = np.where(parallel, np.where(inside, np.inf, -np.inf), np.maximum(lo, hi))
+        t0 = np.maximum(t0, enter)
+        t1 = np.minimum(t1, leave)
+    return t0, t1
+
+
+@dataclass(frozen=True)
+class Box:
+    """A box resting on the table: a prohibitive volume (thesis Fig. 5.11).
+
+    Parameters
+    ----------
+    center : array_like
+        Centre of the box [m], (3,).
+    size : array_like
+        Edge lengths along its own x, y, z axes [m], (3,), all > 0.
+    yaw : float
+        Rotation about the world z-axis [rad].
+    name : str
+        Label used in reports.
+    """
+
+    center: tuple[float, float, float]
+    size: tuple[float, float, float]
+    yaw: float = 0.0
+    name: str = "box"
+
+    def __post_init__(self) -> None:
+        center = _check_vector(f"{self.name}.center", self.center)
+        size = _check_vector(f"{self.name}.size", self.size)
+        if np.any(size <= 0):
+            raise ValueError(f"{self.name}.size: got {tuple(size)}, expected 3 lengths > 0 [m]")
+        if not math.isfinite(self.yaw):
+            raise ValueError(f"{self.name}.yaw: got {self.yaw!r}, expected a finite angle [rad]")
+        object.__setattr__(self, "center", tuple(center))
+        object.__setattr__(self, "size", tuple(size))
+
+    @classmethod
+    def from_corners(cls, lower, upper, yaw: float = 0.0, name: str = "box") -> Box:
+        """A box from its lower and upper corners [m] (in its own frame when ``yaw`` != 0)."""
+        lo = _check_vector(f"{name}.min", lower)
+        hi = _check_vector(f"{name}.max", upper)
+        if np.any(hi <= lo):
+            raise ValueError(f"{name}: max corner {tuple(hi)} must exceed min corner {tuple(lo)}")
+        return cls(tuple((lo + hi) / 2), tuple(hi - lo), yaw, name)
+
+    @property
+    def top(self) -> float:
+        """Height of the top face [m]."""
+        return self.center[2] + self.size[2] / 2
+
+    def _local(self, p: np.ndarray) -> np.ndarray:
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        q = p - np.asarray(self.center)
+        return np.stack([c * q[..., 0] + s * q[..., 1], -s * q[..., 0] + c * q[..., 1],
+                         q[..., 2]], axis=-1)
+
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """Distance from points to the box [m], 0 inside, (...,)."""
+        excess = np.abs(self._local(points)) - np.asarray(self.size) / 2
+        return np.linalg.norm(np.maximum(excess, 0.0), axis=-1)
+
+    def penetration(self, a: np.ndarray, b: np.ndarray, radius: float) -> np.ndarray:
+        """How deep capsules (a, b, radius) enter the box [m]; <= 0 means clear, (...,)."""
+        return radius - _min_along_segment(a, b, self.distance)
+
+    def lift_depth(self, a: np.ndarray, b: np.ndarray, radius: float) -> np.ndarray:
+        """Upward translation clearing the capsules over the box (thesis z_depth) [m], (...,)."""
+        la, lb = self._local(a), self._local(b)
+        half = np.asarray(self.size[:2]) / 2 + radius
+        t0, t1 = _footprint_interval(la[..., :2], lb[..., :2], half)
+        over = t0 <= t1
+        z_low = np.minimum(la[..., 2] + np.clip(t0, 0, 1) * (lb[..., 2] - la[..., 2]),
+                           la[..., 2] + np.clip(t1, 0, 1) * (lb[..., 2] - la[..., 2]))
+        depth = self.size[2] / 2 + radius - z_low
+        colliding = self.penetration(a, b, radius) > 0
+        return np.where(over & colliding, np.maximum(depth, 0.0), 0.0)
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    """A vertical cylinder standing on the table (a peg).
+
+    Parameters
+    ----------
+    base : array_like
+        Centre of the bottom face [m], (3,).
+    radius : float
+        Radius [m] > 0.
+    height : float
+        Height [m] > 0.
+    name : str
+        Label used in reports.
+    """
+
+    base: tuple[float, float, float]
+    radius: float
+    height: float
+    name: str = "cylinder"
+
+    def __post_init__(self) -> None:
+        base = _check_vector(f"{self.name}.base", self.base)
+        for field in ("radius", "height"):
+            value = float(getattr(self, field))
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{self.name}.{field}: got {value!r}, expected a length > 0 [m]")
+        object.__setattr__(self, "base", tuple(base))
+
+    @property
+    def top(self) -> float:
+        """Height of the top face [m]."""
+        return self.base[2] + self.height
+
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """Distance from points to the solid cylinder [m], 0 inside, (...,)."""
+        q = points - np.asarray(self.base)
+        radial = np.maximum(np.hypot(q[..., 0], q[..., 1]) - self.radius, 0.0)
+        vertical = np.maximum(np.maximum(-q[..., 2], q[..., 2] - self.height), 0.0)
+        return np.hypot(radial, vertical)
+
+    def penetration(self, a: np.ndarray, b: np.ndarray, radius: float) -> np.ndarray:
+        """How deep capsules (a, b, radius) enter the cylinder [m]; <= 0 means clear."""
+        return radius - _min_along_segment(a, b, self.distance)
+
+    def lift_depth(self, a: np.ndarray, b: np.ndarray, radius: float) -> np.ndarray:
+        """Upward translation clearing the capsules over the cylinder's top [m]."""
+        colliding = self.penetration(a, b, radius) > 0
+        z_low = np.minimum(a[..., 2], b[..., 2])
+        return np.where(colliding, np.maximum(self.top + radius - z_low, 0.0), 0.0)
+
+
+@dataclass(frozen=True)
+class Table:
+    """The table plane z = height: the cable must stay above it."""
+
+    height: float = 0.0
+    name: str = "table"
+
+    def __post_init__(self) -> None:
+        if not math.isfinite(self.height):
+            raise ValueError(f"{self.name}.height: got {self.height!r}, expected a finite z [m]")
+
+    def penetration(self, a: np.ndarray, b: np.ndarray, radius: float) -> np.ndarray:
+        """Depth of the capsules below the plane [m]; <= 0 means clear."""
+        return self.height + radius - np.minimum(a[..., 2], b[..., 2])
+
+    def lift_depth(self, a: np.ndarray, b: np.ndarray, radius: float) -> np.ndarray:
+        """Upward translation that puts the capsules back above the plane [m]."""
+        return np.maximum(self.penetration(a, b, radius), 0.0)

@@ -1,0 +1,269 @@
+"""The thesis' dynamic simulator: explicit time stepping of the mass-spring chain (3.3, 3.8).
+
+Each step solves Newton's second law with the fictitious damping k_d by the semi-implicit
+Euler scheme of eq. 3.24::
+
+    a = (F(x) - k_d v) / m,    v <- v + a dt,    x <- x + v dt
+
+with the time step dt = sqrt(m_i l / k_s) of 3.8.2 (optionally computed from a capped,
+fictitious Young's modulus as in chapter 6, Fig. 6.5). The four held points follow the clip
+poses, interpolated in time (linear in position, slerp in rotation). An optional ground plane
+z = 0 is a one-sided contact: points are projected back onto it and lose their downward speed.
+
+Running this to rest takes 10^4 to 10^6 steps; :mod:`dloplan.sim.statics` finds the same rest
+shape directly. The simulator is kept for what only it can do: replaying a timed plan at its
+real speed (inertia, overshoot) and reproducing the thesis' own stabilization.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
+
+from ..cable import GRAVITY, Cable
+from ..physics.chain import SpringChain, energy, gradient, hessian_band
+from ..physics.geometry import as_shape
+from .clips import HELD_INDICES, ClipPoses, clip_poses_from_shape
+from .statics import Equilibrium, _factor, _free_band, _result
+
+_CHUNK = 4096  # steps whose clip poses are interpolated at once
+
+
+@dataclass(frozen=True, eq=False)
+class ClipTrajectory:
+    """Clip poses over time, interpolated linearly in position and by slerp in rotation.
+
+    Parameters
+    ----------
+    times : numpy.ndarray
+        (K,) strictly increasing times [s].
+    poses : sequence of ClipPoses
+        K clip poses; before the first time and after the last the poses are held.
+    """
+
+    times: np.ndarray
+    poses: Sequence[ClipPoses]
+
+    def __post_init__(self) -> None:
+        t = np.asarray(self.times, dtype=float)
+        if t.ndim != 1 or len(t) != len(self.poses) or len(t) == 0:
+            raise ValueError(
+                f"times: expected one time per clip pose, got {t.shape} for {len(self.poses)} poses"
+            )
+        if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+            raise ValueError("times: expected finite, strictly increasing times [s]")
+        object.__setattr__(self, "times", t)
+
+    @classmethod
+    def hold(cls, clips: ClipPoses) -> ClipTrajectory:
+        """Clips held still."""
+        return cls(np.array([0.0]), [clips])
+
+    def held_points(self, t: np.ndarray, link_length: float) -> np.ndarray:
+        """Positions of the four held points at times ``t`` [s], (len(t), 4, 3) [m]."""
+        t = np.clip(np.asarray(t, dtype=float), self.times[0], self.times[-1])
+        positions = np.stack([p.positions for p in self.poses])  # (K, 2, 3)
+        if len(self.times) == 1:
+            pos = np.broadcast_to(positions[0], (len(t), 2, 3))
+            u = np.broadcast_to(self.poses[0].u_axes, (len(t), 2, 3))
+        else:
+            pos = np.stack(
+                [
+                    np.stack([np.interp(t, self.times, positions[:, k, j]) for j in range(3)], -1)
+                    for k in range(2)
+                ],
+                axis=1,
+            )
+            u = np.stack(
+                [
+                    Slerp(self.times, Rotation.concatenate([p.rotations[k] for p in self.poses]))(
+                        t
+                    ).apply([1.0, 0.0, 0.0])
+                    for k in range(2)
+                ],
+                axis=1,
+            )
+        half = 0.5 * link_length * u
+        return np.stack(
+            [pos[:, 0] - half[:, 0], pos[:, 0] + half[:, 0], pos[:, 1] + half[:, 1],
+             pos[:, 1] - half[:, 1]],
+            axis=1,
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class Simulation:
+    """Recorded output of :func:`simulate`.
+
+    Attributes
+    ----------
+    times : numpy.ndarray
+        (K,) recording times [s].
+    shapes : numpy.ndarray
+        (K, n + 1, 3) shapes [m].
+    max_speeds : numpy.ndarray
+        (K,) largest point speed at each recorded time [m/s].
+    dt : float
+        Time step [s].
+    steps : int
+        Steps taken.
+    settled : bool
+        True when the run stopped because every point was slower than the rest speed.
+    message : str
+        What happened.
+    """
+
+    times: np.ndarray
+    shapes: np.ndarray
+    max_speeds: np.ndarray
+    dt: float
+    steps: int
+    settled: bool
+    message: str
+
+
+def simulate(
+    cable: Cable,
+    initial_shape,
+    clips: ClipTrajectory | ClipPoses | None = None,
+    *,
+    duration: float,
+    dt: float | None = None,
+    youngs_modulus_cap: float | None = None,
+    gravity=GRAVITY,
+    ground: bool = False,
+    record_interval: float | None = None,
+    rest_speed: float | None = None,
+    max_steps: int = 10_000_000,
+) -> Simulation:
+    """Integrate eq. 3.24 from ``initial_shape`` (at rest) with the clips driving the ends.
+
+    Parameters
+    ----------
+    cable : Cable
+        The cable.
+    initial_shape : array_like
+        (n + 1, 3) shape at t = 0 [m], at rest.
+    clips : ClipTrajectory or ClipPoses, optional
+        Clip motion (a ``ClipPoses`` is held still); default: the initial shape's own clips.
+    duration : float
+        Simulated time [s] (the run may stop earlier, see ``rest_speed``).
+    dt : float, optional
+        Time step [s]; default the thesis' ``cable.time_step(youngs_modulus_cap)``.
+    youngs_modulus_cap : float, optional
+        Fictitious modulus for the default time step (thesis Fig. 6.5).
+    gravity : array_like
+        Gravity [m/s^2].
+    ground : bool
+        One-sided contact with the plane z = 0.
+    record_interval : float, optional
+        Time between recorded shapes [s]; default: about 200 records over ``duration``.
+    rest_speed : float, optional
+        Stop when the clips have stopped and every point is slower than this [m/s].
+    max_steps : int
+        Hard limit on steps, so no call can hang.
+    """
+    x = as_shape(initial_shape, cable.n_points, "initial_shape").copy()
+    if not (math.isfinite(duration) and duration > 0):
+        raise ValueError(f"duration: got {duration!r}, expected a time > 0 [s]")
+    if clips is None:
+        clips = clip_poses_from_shape(x)
+    trajectory = clips if isinstance(clips, ClipTrajectory) else ClipTrajectory.hold(clips)
+    if dt is None:
+        dt = cable.time_step(youngs_modulus_cap)
+    if not (math.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt: got {dt!r}, expected a time step > 0 [s]")
+    n_steps = int(math.ceil(duration / dt))
+    if n_steps > max_steps:
+        raise ValueError(
+            f"duration: {duration} s needs {n_steps} steps of {dt:.3g} s, more than max_steps "
+            f"= {max_steps}"
+        )
+    record_interval = record_interval or duration / 200.0
+    record_every = max(1, int(round(record_interval / dt)))
+    chain = SpringChain.from_cable(cable, gravity)
+    mass = cable.point_masses[:, None]
+    k_d = cable.k_damping
+    held = list(HELD_INDICES)
+    clips_stop = trajectory.times[-1]
+    v = np.zeros_like(x)
+    times, shapes, speeds = [0.0], [x.copy()], [0.0]
+    previous_held = trajectory.held_points(np.array([0.0]), cable.rest_link_length)[0]
+    x[held] = previous_held
+    settled = False
+    step = 0
+    while step < n_steps and not settled:
+        chunk_steps = np.arange(step + 1, min(step + _CHUNK, n_steps) + 1)
+        targets = trajectory.held_points(chunk_steps * dt, cable.rest_link_length)
+        for k, target in enumerate(targets):
+            a = (-gradient(chain, x) - k_d * v) / mass
+            v += a * dt
+            x += v * dt
+            v[held] = (target - previous_held) / dt
+            x[held] = target
+            previous_held = target
+            if ground:
+                below = x[:, 2] < 0.0
+                x[below, 2] = 0.0
+                v[below, 2] = np.maximum(v[below, 2], 0.0)
+            step = int(chunk_steps[k])
+            if step % record_every == 0 or step == n_steps:
+                speed = float(np.max(np.linalg.norm(v, axis=1)))
+                times.append(step * dt)
+                shapes.append(x.copy())
+                speeds.append(speed)
+                # at rest: slow, and not about to speed up within one record interval
+                pull = float(np.max(np.linalg.norm(a[2:-2], axis=1))) * record_every * dt
+                if (rest_speed is not None and step * dt >= clips_stop
+                        and max(speed, pull) < rest_speed):
+                    settled = True
+                    break
+            if not np.all(np.isfinite(x[2])):
+                raise FloatingPointError(
+                    f"simulation diverged at t = {step * dt:.4g} s (dt = {dt:.3g} s too large)"
+                )
+    if settled:
+        message = f"at rest after {step} steps ({step * dt:.4g} s)"
+    else:
+        message = f"ran {step} steps ({step * dt:.4g} s)"
+    return Simulation(
+        np.asarray(times), np.stack(shapes), np.asarray(speeds), float(dt), step, settled, message
+    )
+
+
+def settle(
+    cable: Cable,
+    shape,
+    clips: ClipPoses | None = None,
+    *,
+    gravity=GRAVITY,
+    rest_speed: float = 1e-5,
+    max_duration: float = 60.0,
+    dt: float | None = None,
+    youngs_modulus_cap: float | None = None,
+) -> Equilibrium:
+    """The thesis' stabilization: hold the clips and time-step until the cable is at rest.
+
+    Returns an :class:`~dloplan.sim.statics.Equilibrium` like the static solver, so the two can
+    be swapped; ``iterations`` counts time steps, ``converged`` means the rest speed [m/s] was
+    reached within ``max_duration`` [s] (``tolerance`` is NaN: no force tolerance applies).
+    """
+    x = as_shape(shape, cable.n_points, "shape")
+    if clips is None:
+        clips = clip_poses_from_shape(x)
+    run = simulate(
+        cable, x, clips, duration=max_duration, dt=dt, youngs_modulus_cap=youngs_modulus_cap,
+        gravity=gravity, rest_speed=rest_speed, record_interval=0.01,
+    )
+    chain = SpringChain.from_cable(cable, gravity)
+    final = run.shapes[-1]
+    g = gradient(chain, final)
+    residual = float(np.max(np.linalg.norm(g[2:-2], axis=1)))
+    stable = _factor(_free_band(hessian_band(chain, final), slice(2, -2)), 0.0) is not None
+    history = np.array([float(energy(chain, final))])
+    return _result(cable, chain, final, g, clips, run.steps, run.settled, residual, math.nan,
+                   stable, history, run.message)

@@ -1,0 +1,79 @@
+"""The thesis' dynamic simulator (eq. 3.24) against the static solver."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import level_clips, sagging_guess
+
+from dloplan import catalogue_cable
+from dloplan.sim import ClipTrajectory, equilibrium, settle, simulate, stabilize
+
+
+def test_time_stepping_to_rest_agrees_with_the_static_solver():
+    cable = catalogue_cable("ethernet", n_links=10)
+    clips = level_clips(0.4)
+    guess = sagging_guess(cable, 0.4, -0.08)
+    static = equilibrium(cable, guess, clips)
+    start = static.shape.copy()
+    start[2:-2, 2] += 0.01  # lift the free points: the cable falls back
+    dynamic = settle(cable, start, clips, rest_speed=1e-4)
+    assert dynamic.converged, dynamic.message
+    assert dynamic.iterations > 1000
+    assert np.abs(dynamic.shape - static.shape).max() < 0.5e-3  # [m], the issue's bound
+    via_stabilize = stabilize(start, cable, method="dynamic", rest_speed=1e-4)
+    assert np.abs(via_stabilize.shape - dynamic.shape).max() < 1e-12
+
+
+def test_moving_clips_drag_the_cable_and_it_settles_where_statics_says():
+    cable = catalogue_cable("usb", n_links=8)
+    start = equilibrium(cable, sagging_guess(cable, 0.42), level_clips(0.42))
+    end_clips = level_clips(0.3, z=0.05).moved(translation=(0.05, 0.0, 0.0))
+    trajectory = ClipTrajectory(np.array([0.0, 0.5]), [start.clips, end_clips])
+    run = simulate(cable, start.shape, trajectory, duration=3.0, youngs_modulus_cap=1e6,
+                   rest_speed=1e-4)
+    assert run.settled, run.message
+    final = run.shapes[-1]
+    assert np.allclose(final[[0, 1, -2, -1]], end_clips.held_points(cable.rest_link_length))
+    static = equilibrium(cable, final, end_clips)
+    assert np.abs(final - static.shape).max() < 1e-3
+
+
+def test_ground_plane_is_one_sided():
+    cable = catalogue_cable("usb", n_links=8)
+    clips = level_clips(0.25, z=0.1)
+    hanging = equilibrium(cable, sagging_guess(cable, 0.25), clips, gravity=(0, 0, 0)).shape
+    assert hanging[:, 2].min() < -0.05  # without the table it would hang through it
+    start = np.maximum(hanging, [-np.inf, -np.inf, 0.0])
+    run = simulate(cable, start, clips, duration=0.5, ground=True, youngs_modulus_cap=1e6)
+    assert run.shapes[:, :, 2].min() >= 0.0
+    assert np.isclose(run.shapes[-1, :, 2].min(), 0.0, atol=1e-9)  # it lies on the table
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_too_large_a_time_step_is_reported():
+    cable = catalogue_cable("pa12", n_links=8)
+    with pytest.raises(FloatingPointError, match="diverged"):
+        simulate(cable, sagging_guess(cable, 0.4), level_clips(0.4), duration=0.1,
+                 dt=100 * cable.time_step())
+
+
+@pytest.mark.parametrize(
+    "kwargs, fragment",
+    [
+        (dict(duration=0.0), "duration"),
+        (dict(duration=1.0, dt=-1.0), "dt"),
+        (dict(duration=1e9), "max_steps"),
+    ],
+)
+def test_bad_simulation_settings(kwargs, fragment):
+    cable = catalogue_cable("usb", n_links=8)
+    with pytest.raises(ValueError, match=fragment):
+        simulate(cable, sagging_guess(cable, 0.4), level_clips(0.4), **kwargs)
+
+
+def test_clip_trajectory_validates_times():
+    with pytest.raises(ValueError, match="strictly increasing"):
+        ClipTrajectory(np.array([0.0, 0.0]), [level_clips(0.4), level_clips(0.3)])
+    with pytest.raises(ValueError, match="one time per clip pose"):
+        ClipTrajectory(np.array([0.0]), [level_clips(0.4), level_clips(0.3)])
