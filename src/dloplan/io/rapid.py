@@ -32,7 +32,6 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
 from ..grippers.axes import CLIP_NAMES
 from ..trajectory import ARMS, Trajectory
 from .files import atomic_write_texts
@@ -149,6 +148,8 @@ def rapid_modules(trajectory: Trajectory, settings: RapidSettings | None = None)
     dict
         Task name -> module text, left arm first.
     """
+    from .. import __version__  # at call time: dloplan/__init__ may import this module
+
     if not isinstance(trajectory, Trajectory):
         raise ValueError(f"trajectory: expected a Trajectory, got {type(trajectory).__name__}")
     s = settings or RapidSettings()
