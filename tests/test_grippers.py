@@ -190,6 +190,8 @@ def test_relative_twist_measures_a_roll_of_one_clip_about_its_axis():
     rolls = np.linspace(0.0, 3.0 * np.pi, 7)  # beyond pi: the twist is unwrapped
     last = Rotation.from_rotvec(rolls[:, None] * u_last) * start
     assert np.allclose(relative_twist(first, last), rolls, atol=1e-12)
+    with pytest.raises(ValueError, match="equal length"):
+        relative_twist(first, last[:3])
 
 
 def test_relative_twist_ignores_bending():

@@ -141,6 +141,12 @@ def relative_twist(first: Rotation, last: Rotation) -> np.ndarray:
     numpy.ndarray
         (K,) signed twist, unwrapped, zero at the first shape.
     """
+    if not all(isinstance(r, Rotation) and not r.single for r in (first, last)) or len(
+        first
+    ) != len(last):
+        raise ValueError(
+            "first, last: expected two scipy Rotations of equal length (one per shape)"
+        )
     q = first.inv() * last
     x = q.apply([1.0, 0.0, 0.0])
     swing = minimal_rotation(np.broadcast_to(x[0], x.shape), x)
