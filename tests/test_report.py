@@ -29,8 +29,9 @@ def small_plan():
 
 def test_report_is_self_contained(tmp_path):
     shapes, positions, rotations = small_plan()
+    box = Box((0.3, 0, 0.02), (0.05, 0.05, 0.04))
     page = report_html(title="test", shapes=shapes, clip_positions=positions,
-                       clip_rotations=rotations, obstacles=[Box((0.3, 0, 0.02), (0.05, 0.05, 0.04))],
+                       clip_rotations=rotations, obstacles=[box],
                        summary=["3 shapes"], warnings=["careful </script>"],
                        tables=[("t", ["a"], [[1]])])
     assert "http://" not in page and "https://" not in page  # no CDN, works offline
