@@ -22,14 +22,18 @@ ratio
     Shape change of one sub-step (largest point displacement [m]) over its clip motion [m]. Along
     a smooth branch it is bounded and independent of the step size; at a fold or a bifurcation
     it is unbounded (a finite jump over a vanishing clip motion, or a square-root branch).
-jump
-    A sub-step whose ratio exceeds ``jump_ratio`` (default 5) is a candidate. It is localized by
-    bisection of its fraction interval (``refinements`` halvings, each solved from the last shape
-    still on the old branch; a solution is still on the old branch when it moved less than half
-    the distance across the bracket). It is confirmed as a jump when the ratio over the final
-    bracket is at least :data:`GROWTH` times the candidate's ratio: a smooth but steep change
-    scales with the step and keeps its ratio; a snap does not. Steep but smooth sub-steps are
-    reported (``max_ratio``) but not flagged.
+snap (critical point)
+    Along a branch, the rate of shape change is about (clip forcing) / lambda_1: it is unbounded
+    exactly where the smallest eigenvalue lambda_1 of the followed equilibrium reaches zero, at a
+    fold (the branch ends: a finite jump) or at a bifurcation (the branch loses stability and the
+    cable leaves it along a square-root branch, in a direction decided by imperfections). A run
+    of sub-steps is a *candidate window* when a ratio exceeds ``jump_ratio`` (default 5) or when
+    the sampled lambda_1 has a local minimum below :data:`DIP` times its larger neighbour. In
+    the window (widened by one sub-step on each side) lambda_1 is minimized over the fraction t
+    by Brent's bounded method (``scipy.optimize.minimize_scalar``), each equilibrium solved from
+    the last shape before the window, to 2^-``refinements`` of the window's width. The window
+    is a snap when that minimum is below :data:`CRITICAL` times lambda_1 at the window's ends: a
+    steep but smooth change keeps lambda_1 away from zero and is only reported (``max_ratio``).
 unstable
     A sub-step whose equilibrium is not a stable minimum (solver not converged, or smallest
     eigenvalue not above the threshold of :func:`dloplan.verify.stability.elastic_stability`):
@@ -51,6 +55,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 from ..cable import GRAVITY, Cable
 from ..physics.chain import SpringChain
@@ -59,9 +64,13 @@ from ..sim.statics import equilibrium, interpolate_clips
 from ._inputs import as_clip_sequence, as_path, max_distance
 from .stability import STABILITY_RTOL, elastic_stability
 
-GROWTH = 4.0
-"""Factor by which a candidate's ratio must grow under bisection to be confirmed as a jump (a
-jump grows as 2^refinements, a square-root branch as 2^(refinements/2), a smooth change as 1)."""
+CRITICAL = 0.1
+"""A candidate is a critical point when the smallest eigenvalue found in its window is below this
+fraction of the values at the window's ends."""
+
+DIP = 0.5
+"""A sampled local minimum of the smallest eigenvalue below this fraction of its larger neighbour
+makes its sub-steps candidates (a critical point may fall between samples)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,18 +82,19 @@ class SnapEvent:
     segment : int
         Segment index s (motion from shape s to shape s + 1).
     substep : int
-        Sub-step (1-based) of the segment in which it happens (0 for a ``"branch"`` event).
+        Sub-step (1-based) of the segment in which it happens: the one with the largest shape
+        change of a snap's window (0 for a ``"branch"`` event).
     fraction : float
-        Where in the segment, as a fraction of the clip interpolation in [0, 1] (localized by
-        bisection for a jump).
+        Where in the segment, as a fraction of the clip interpolation in [0, 1] (localized to
+        the smallest eigenvalue for a snap).
     kind : str
-        ``"jump"``, ``"unstable"`` or ``"branch"`` (see the module docstring).
+        ``"snap"``, ``"unstable"`` or ``"branch"`` (see the module docstring).
     distance : float
-        Largest point displacement across the event [m].
+        Largest point displacement of one sub-step at the event [m].
     ratio : float
-        Shape change over clip motion across the event (localized bracket for a jump).
+        That displacement over the sub-step's clip motion.
     eigenvalue : float
-        Smallest eigenvalue of the last shape on the old branch [N/m].
+        Smallest eigenvalue at the event [N/m] (the minimum found for a snap).
     message : str
         The event in words.
     """
@@ -137,11 +147,6 @@ class SegmentContinuation:
         """Largest sub-step ratio."""
         return float(np.max(self.ratios)) if len(self.ratios) else 0.0
 
-    @property
-    def snapped(self) -> bool:
-        """True when a jump or an instability was flagged."""
-        return any(e.kind in ("jump", "unstable") for e in self.events)
-
 
 @dataclass(frozen=True, eq=False)
 class SnapCheck:
@@ -178,7 +183,7 @@ def clip_motion(a: ClipPoses, b: ClipPoses, reach: float) -> float:
 
 
 class _Segment:
-    """The solver state shared by the sub-steps and the bisection of one segment."""
+    """The solver state shared by the sub-steps and the localization of one segment."""
 
     def __init__(self, cable, chain, start: ClipPoses, end: ClipPoses, gravity, rtol):
         self.cable, self.chain, self.gravity, self.rtol = cable, chain, gravity, rtol
@@ -205,17 +210,9 @@ class _Segment:
         motion = clip_motion(self.clips(t0), self.clips(t1), self.cable.length)
         return max_distance(x0, x1) / motion if motion > 0 else math.inf
 
-    def localize(self, x_lo, t_lo, x_hi, t_hi, refinements):
-        """Bisect [t_lo, t_hi] keeping x_lo on the old branch; returns the final bracket."""
-        lam_lo = math.nan
-        for _ in range(refinements):
-            t_mid = 0.5 * (t_lo + t_hi)
-            eq, stab = self.solve(x_lo, t_mid)
-            if max_distance(eq.shape, x_lo) <= 0.5 * max_distance(x_hi, x_lo):
-                x_lo, t_lo, lam_lo = eq.shape, t_mid, stab.smallest
-            else:
-                x_hi, t_hi = eq.shape, t_mid
-        return x_lo, t_lo, x_hi, t_hi, lam_lo
+    def smallest_at(self, guess: np.ndarray, t: float) -> float:
+        """Smallest eigenvalue of the equilibrium at fraction t reached from ``guess``."""
+        return self.solve(guess, t)[1].smallest
 
 
 def check_snap_through(
@@ -248,10 +245,10 @@ def check_snap_through(
     substeps : int, optional
         A fixed number of sub-steps per segment instead of ``max_clip_step``.
     jump_ratio : float
-        Shape change over clip motion above which a sub-step is a jump candidate.
+        Shape change over clip motion above which a sub-step is a snap candidate.
     refinements : int
-        Bisection halvings localizing a candidate (0: no localization, every candidate is
-        flagged).
+        Localization accuracy, 2^-refinements of a candidate window (0: no localization, the
+        sampled eigenvalues decide).
     branch_tolerance : float
         Largest distance [m] accepted between the continuation's end and the planned shape.
     rtol : float
@@ -300,53 +297,87 @@ def _continue_segment(seg: _Segment, s, start, end, m, jump_ratio, refinements, 
     ratios, events = [], []
     x = start
     for j in range(1, m + 1):
-        t0, t1 = fractions[j - 1], fractions[j]
-        eq, stab = seg.solve(x, t1)
-        ratio = seg.ratio(x, t0, eq.shape, t1)
+        eq, stab = seg.solve(x, fractions[j])
+        ratios.append(seg.ratio(x, fractions[j - 1], eq.shape, fractions[j]))
         if not (eq.converged and stab.stable):
             events.append(SnapEvent(
-                s, j, float(t1), "unstable", max_distance(eq.shape, x), ratio, stab.smallest,
-                f"segment {s}, sub-step {j} (t = {t1:.4f}): no stable equilibrium "
-                f"({eq.message}; {stab.message})",
+                s, j, float(fractions[j]), "unstable", max_distance(eq.shape, x), ratios[-1],
+                stab.smallest, f"segment {s}, sub-step {j} (t = {fractions[j]:.4f}): no stable "
+                f"equilibrium ({eq.message}; {stab.message})",
             ))
-        elif ratio > jump_ratio:
-            event = _confirm_jump(seg, s, j, x, t0, eq.shape, t1, ratio, eigenvalues[-1],
-                                  refinements)
-            if event is not None:
-                events.append(event)
-        ratios.append(ratio)
         x = eq.shape
         shapes.append(x)
         eigenvalues.append(stab.smallest)
-    shapes = np.stack(shapes)
+    shapes, eigenvalues, ratios = np.stack(shapes), np.asarray(eigenvalues), np.asarray(ratios)
+    for first, last in _candidate_windows(ratios, eigenvalues, jump_ratio):
+        event = _localize(seg, s, fractions, shapes, eigenvalues, ratios, first, last,
+                          refinements)
+        if event is not None:
+            events.append(event)
+    events.sort(key=lambda e: e.fraction)
     straight = (1.0 - fractions)[:, None, None] * start + fractions[:, None, None] * end
     straying = float(np.max(np.linalg.norm(shapes - straight, axis=-1)))
     mismatch = max_distance(shapes[-1], end)
     if mismatch > tolerance:
         events.append(SnapEvent(
-            s, 0, 1.0, "branch", mismatch, math.nan, eigenvalues[-1],
+            s, 0, 1.0, "branch", mismatch, math.nan, float(eigenvalues[-1]),
             f"segment {s}: the quasi-static motion ends {1e3 * mismatch:.1f} mm from planned "
-            f"shape {s + 1} (tolerance {1e3 * tolerance:.1f} mm): another equilibrium branch",
+            f"shape {s + 1} (tolerance {1e3 * tolerance:.1f} mm): the planned shape is not the "
+            f"equilibrium the motion reaches (another branch, or not stabilized)",
         ))
-    return SegmentContinuation(s, fractions, shapes, np.asarray(eigenvalues), np.asarray(ratios),
-                               straying, mismatch, tuple(events))
+    return SegmentContinuation(s, fractions, shapes, eigenvalues, ratios, straying, mismatch,
+                               tuple(events))
 
 
-def _confirm_jump(seg, s, j, x0, t0, x1, t1, ratio, eigenvalue, refinements):
-    x_lo, t_lo, x_hi, t_hi, lam = x0, t0, x1, t1, eigenvalue
+def _candidate_windows(ratios, eigenvalues, jump_ratio):
+    """Runs of sub-steps (first, last), 1-based, that may hide a critical point.
+
+    A sub-step is a candidate when its ratio exceeds ``jump_ratio`` or when it ends at a sampled
+    dip of the smallest eigenvalue (a local minimum below :data:`DIP` times its larger
+    neighbour).
+    """
+    m = len(ratios)
+    flagged = ratios > jump_ratio
+    lam = eigenvalues
+    for j in range(1, m):
+        low, high = sorted((lam[j - 1], lam[j + 1]))
+        if lam[j] <= low and lam[j] < DIP * high:
+            flagged[j - 1] = flagged[j] = True
+    windows, j = [], 0
+    while j < m:
+        if flagged[j]:
+            k = j
+            while k + 1 < m and flagged[k + 1]:
+                k += 1
+            windows.append((j + 1, k + 1))
+            j = k + 1
+        else:
+            j += 1
+    return windows
+
+
+def _localize(seg, s, fractions, shapes, eigenvalues, ratios, first, last, refinements):
+    """Find the smallest eigenvalue over a candidate window; an event if it is near zero."""
+    a, b = first - 1, min(last + 1, len(fractions) - 1)
+    guess = shapes[a]
+    t_star, lam_star = fractions[last], float(eigenvalues[last])
     if refinements:
-        x_lo, t_lo, x_hi, t_hi, lam_lo = seg.localize(x0, t0, x1, t1, refinements)
-        lam = eigenvalue if math.isnan(lam_lo) else lam_lo
-        final = seg.ratio(x_lo, t_lo, x_hi, t_hi)
-        if final < GROWTH * ratio:
-            return None  # steep but smooth: the change scales with the step
-    else:
-        final = ratio
-    where = 0.5 * (t_lo + t_hi)
-    distance = max_distance(x_hi, x_lo)
+        width = fractions[b] - fractions[a]
+        found = minimize_scalar(lambda t: seg.smallest_at(guess, t), bounds=(fractions[a],
+                                fractions[b]), method="bounded",
+                                options={"xatol": width * 2.0**-refinements})
+        t_star, lam_star = float(found.x), float(found.fun)
+    ends = min(eigenvalues[a], eigenvalues[b])
+    if not lam_star < CRITICAL * ends:
+        return None  # steep but smooth: the eigenvalue stays away from zero
+    window = slice(first - 1, last)
+    j = first + int(np.argmax(ratios[window]))
+    distance = max_distance(shapes[j], shapes[j - 1])
     return SnapEvent(
-        s, j, float(where), "jump", distance, final, float(lam),
-        f"segment {s}, sub-step {j}: snap-through at t = {where:.4f}, the shape jumps "
-        f"{1e3 * distance:.1f} mm (ratio {final:.3g} to the clip motion; smallest eigenvalue "
-        f"before {lam:.3g} N/m)",
+        s, j, t_star, "snap", distance, float(np.max(ratios[window])), lam_star,
+        f"segment {s}, sub-step {j}: snap-through (critical point) at t = {t_star:.4f}, the "
+        f"smallest eigenvalue "
+        f"falls to {lam_star:.3g} N/m (from {ends:.3g}) and the shape moves "
+        f"{1e3 * distance:.1f} mm in one sub-step ({float(np.max(ratios[window])):.3g} times "
+        f"the clip motion)",
     )
