@@ -289,8 +289,11 @@ def equilibrium(
         x = x.copy()
         x[:2] = clips.held_points(cable.rest_link_length)[:2]
         free = slice(2, cable.n_points)
+    # with contacts, no point may jump farther than the cable's diameter in one step, or it
+    # could tunnel through a thin obstacle into a region where the penalty no longer sees it
+    max_step = max(cable.diameter, 1e-3) if chain.contacts else cable.length
     x, g, iterations, residual, stable, history, message = minimize_energy(
-        chain, x, free, cable.length, tolerance, max_iterations
+        chain, x, free, max_step, tolerance, max_iterations
     )
     return _result(cable, chain, x, g, clips, iterations, residual <= tolerance, residual,
                    tolerance, stable, history, message, held)
