@@ -1,0 +1,291 @@
+"""One sample of a study: the planned path on a perturbed cable, clips and obstacles.
+
+For each sample the cable is rebuilt with the sampled E, mass per length and length, the clips
+of every shape are moved by the sampled errors, and every shape is stabilized under gravity
+(:func:`dloplan.sim.statics.equilibrium`, the same solver the planner and the verification use)
+warm-started from the nominal stabilized shape, so that each sample stays on the nominal
+equilibrium branch unless the perturbation really removes it. Then, per shape:
+
+* convergence and elastic stability of the equilibrium (positive-definite Hessian);
+* ``deviation``: the largest point distance from the nominal stabilized shape [m];
+* ``displacement``: the largest point distance from the planned shape [m] (for the target, the
+  thesis' stability check against T_cf, 5.3);
+* ``sag``: how far the cable hangs below its lower clip point [m];
+* collisions of the links as capsules with the perturbed obstacles
+  (:func:`dloplan.obstacles.check_shape`) and the deepest penetration [m];
+* the peak link tension [N], the largest clip force [N] and clip moment [N m]
+  (:attr:`Equilibrium.clip_wrenches`).
+
+The inputs are plain arrays (planned shapes, clip poses per shape, the nominal cable,
+obstacles), so a study runs on any path: a :class:`~dloplan.planning.Plan`'s, a recorded one, or
+just a start and a target.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..cable import GRAVITY, Cable
+from ..obstacles.collisions import check_shape
+from ..obstacles.shapes import Box, Cylinder, Table
+from ..physics.chain import SpringChain, link_tensions
+from ..sim.clips import ClipPoses, clip_poses_from_shape
+from ..sim.statics import equilibrium
+from .sampling import AXES
+
+OUTCOME_COLUMNS: dict[str, str] = {
+    "converged": "",
+    "stable": "",
+    "iterations": "",
+    "residual": "N",
+    "deviation": "m",
+    "displacement": "m",
+    "sag": "m",
+    "collision": "",
+    "penetration": "m",
+    "max_tension": "N",
+    "clip_force": "N",
+    "clip_moment": "N m",
+    "message": "",
+}
+"""The measured columns of a study table (one row per sample and shape) with their units."""
+
+COLUMN_TYPES = {"sample": "int64", "shape": "int64", "converged": "bool", "stable": "bool",
+                "iterations": "int64", "collision": "bool", "message": "string"}
+"""Stored type of the columns that are not float64."""
+
+
+@dataclass(frozen=True, eq=False)
+class StudyProblem:
+    """The nominal plan a study perturbs.
+
+    Attributes
+    ----------
+    cable : Cable
+        The nominal cable.
+    planned : numpy.ndarray
+        (S + 2, n + 1, 3) planned shapes [m], start and target included.
+    clips : tuple of ClipPoses
+        The nominal clip poses of every shape.
+    nominal : numpy.ndarray
+        (S + 2, n + 1, 3) the planned shapes stabilized on the nominal cable [m].
+    obstacles : tuple
+        Nominal obstacles (:class:`~dloplan.obstacles.Box`, ``Cylinder``, ``Table``).
+    gravity : numpy.ndarray
+        (3,) gravity [m/s^2].
+    """
+
+    cable: Cable
+    planned: np.ndarray
+    clips: tuple
+    nominal: np.ndarray
+    obstacles: tuple
+    gravity: np.ndarray
+
+    @property
+    def n_shapes(self) -> int:
+        """Number of shapes S + 2 (start and target included)."""
+        return len(self.planned)
+
+
+def study_problem(
+    cable: Cable,
+    shapes,
+    clips: Sequence[ClipPoses] | None = None,
+    obstacles: Sequence = (),
+    *,
+    gravity=GRAVITY,
+) -> StudyProblem:
+    """Prepare a study: check the inputs and stabilize every planned shape on the nominal cable.
+
+    Parameters
+    ----------
+    cable : Cable
+        The nominal cable.
+    shapes : array_like
+        (S + 2, n + 1, 3) planned shapes [m] (a plan's ``path``), or any k >= 1 shapes.
+    clips : sequence of ClipPoses, optional
+        Nominal clip poses per shape (e.g. from the gripper frames); default: read off each
+        shape's end links (:func:`~dloplan.sim.clips.clip_poses_from_shape`).
+    obstacles : sequence
+        Obstacles checked for collisions.
+    gravity : array_like
+        (3,) gravity [m/s^2].
+
+    Raises
+    ------
+    ValueError
+        Wrong shapes, a clip count that does not match, or a shape whose nominal equilibrium
+        does not converge to a stable state (the study would have no reference).
+    """
+    path = np.asarray(shapes, dtype=float)
+    if path.ndim != 3 or path.shape[1:] != (cable.n_points, 3) or len(path) == 0:
+        raise ValueError(f"shapes: got an array of shape {path.shape}, expected "
+                         f"(k, {cable.n_points}, 3) for a cable of {cable.n_links} links")
+    if not np.all(np.isfinite(path)):
+        raise ValueError("shapes: non-finite coordinate (NaN or inf)")
+    if clips is None:
+        clips = [clip_poses_from_shape(shape) for shape in path]
+    clips = tuple(clips)
+    if len(clips) != len(path) or not all(isinstance(c, ClipPoses) for c in clips):
+        raise ValueError(f"clips: expected {len(path)} ClipPoses (one per shape), got "
+                         f"{len(clips)} items")
+    gravity = np.asarray(gravity, dtype=float)
+    if gravity.shape != (3,) or not np.all(np.isfinite(gravity)):
+        raise ValueError(f"gravity: got {gravity!r}, expected 3 finite numbers [m/s^2]")
+    chain = SpringChain.from_cable(cable, gravity)
+    nominal = []
+    for k, (shape, clip) in enumerate(zip(path, clips, strict=True)):
+        eq = equilibrium(cable, shape, clip, gravity=gravity, chain=chain)
+        if not eq.success:
+            raise ValueError(f"shapes[{k}]: the nominal equilibrium failed ({eq.message})")
+        nominal.append(eq.shape)
+    return StudyProblem(cable, path, clips, np.stack(nominal), tuple(obstacles), gravity)
+
+
+def perturbed_cable(cable: Cable, youngs_modulus: float, mass_per_length: float,
+                    length: float) -> Cable:
+    """The cable with another E [Pa], weight per length [kg/m] and length [m].
+
+    A curved rest shape is scaled with the length (its bending angles are kept).
+    """
+    rest = cable.rest_shape
+    if rest is not None:
+        rest = rest * (length / cable.length)
+    return replace(cable, youngs_modulus=youngs_modulus, length=length,
+                   mass=mass_per_length * length, rest_shape=rest)
+
+
+def perturbed_clips(clips: ClipPoses, offsets: np.ndarray, rotvecs: np.ndarray) -> ClipPoses:
+    """Clips moved by world-frame ``offsets`` (2, 3) [m] and turned by ``rotvecs`` (2, 3) [rad].
+
+    The rotation error acts in the clip frame (``clip_to_world * error``): a gripper that holds
+    the cable slightly askew, whatever the clip's orientation.
+    """
+    return ClipPoses(clips.positions + offsets, clips.rotations * Rotation.from_rotvec(rotvecs))
+
+
+def perturbed_obstacle(obstacle, offset: np.ndarray):
+    """An obstacle translated by ``offset`` (3,) [m]; a table only moves along z."""
+    if isinstance(obstacle, Box):
+        return replace(obstacle, center=tuple(np.add(obstacle.center, offset)))
+    if isinstance(obstacle, Cylinder):
+        return replace(obstacle, base=tuple(np.add(obstacle.base, offset)))
+    if isinstance(obstacle, Table):
+        return replace(obstacle, height=obstacle.height + float(offset[2]))
+    raise ValueError(f"obstacles: cannot move {type(obstacle).__name__}, expected a Box, "
+                     "Cylinder or Table")
+
+
+def _vectors(row: dict, prefix: str, kind: str, count: int) -> np.ndarray:
+    return np.array([[row[f"{prefix}{k}_{kind}{a}"] for a in AXES] for k in range(count)],
+                    dtype=float).reshape(count, 3)
+
+
+def evaluate_sample(problem: StudyProblem, row: dict) -> dict:
+    """Evaluate one sample: the outcome columns of each of its S + 2 shapes.
+
+    Parameters
+    ----------
+    problem : StudyProblem
+        The nominal plan.
+    row : dict
+        One sample's parameter values (a row of :class:`~dloplan.study.sampling.Samples`).
+
+    Returns
+    -------
+    dict
+        :data:`OUTCOME_COLUMNS` -> list of S + 2 values. A sample whose cable cannot be built or
+        whose clips are out of its reach is recorded as not converged, with the reason in
+        ``message``; it never stops the study.
+    """
+    out: dict[str, list] = {name: [] for name in OUTCOME_COLUMNS}
+    try:
+        cable = perturbed_cable(problem.cable, row["youngs_modulus"], row["mass_per_length"],
+                                row["length"])
+        chain = SpringChain.from_cable(cable, problem.gravity)
+        obstacles = [perturbed_obstacle(o, d) for o, d in zip(
+            problem.obstacles, _vectors(row, "obstacle", "d", len(problem.obstacles)),
+            strict=True)]
+    except ValueError as exc:
+        for _ in range(problem.n_shapes):
+            _failed(out, f"sample: {exc}")
+        return out
+    offsets, rotvecs = _vectors(row, "clip", "d", 2), _vectors(row, "clip", "r", 2)
+    for k in range(problem.n_shapes):
+        clips = perturbed_clips(problem.clips[k], offsets, rotvecs)
+        try:
+            eq = equilibrium(cable, problem.nominal[k], clips, gravity=problem.gravity,
+                             chain=chain)
+        except ValueError as exc:
+            _failed(out, str(exc))
+            continue
+        x = eq.shape
+        hit = check_shape(x, obstacles, cable.diameter / 2.0, k)
+        values = {
+            "converged": eq.converged,
+            "stable": eq.stable,
+            "iterations": eq.iterations,
+            "residual": eq.residual,
+            "deviation": float(np.linalg.norm(x - problem.nominal[k], axis=1).max()),
+            "displacement": float(np.linalg.norm(x - problem.planned[k], axis=1).max()),
+            "sag": float(clips.positions[:, 2].min() - x[:, 2].min()),
+            "collision": hit.colliding,
+            "penetration": hit.penetration if np.isfinite(hit.penetration) else np.nan,
+            "max_tension": float(link_tensions(chain, x).max()),
+            "clip_force": float(np.linalg.norm(eq.clip_wrenches[:, :3], axis=1).max()),
+            "clip_moment": float(np.linalg.norm(eq.clip_wrenches[:, 3:], axis=1).max()),
+            "message": "" if eq.success else eq.message,
+        }
+        for name, value in values.items():
+            out[name].append(value)
+    return out
+
+
+def _failed(out: dict, message: str) -> None:
+    """Record a shape that could not be evaluated: not converged, measurements NaN."""
+    for name in OUTCOME_COLUMNS:
+        out[name].append(
+            {"converged": False, "stable": False, "iterations": 0, "collision": False,
+             "message": message}.get(name, np.nan))
+
+
+def evaluate_chunk(problem: StudyProblem, chunk: dict) -> dict:
+    """Evaluate a chunk of samples; the tidy rows (sample x shape) of the study table.
+
+    Parameters
+    ----------
+    problem : StudyProblem
+        The nominal plan.
+    chunk : dict
+        ``"sample"``: (m,) sample indices, plus every parameter column (m,).
+
+    Returns
+    -------
+    dict
+        Column -> (m (S + 2),) array: ``sample``, ``shape``, the parameters (repeated on the
+        rows of their sample) and :data:`OUTCOME_COLUMNS`, sample-major.
+    """
+    s = problem.n_shapes
+    samples = np.asarray(chunk["sample"], dtype=np.int64)
+    params = [name for name in chunk if name != "sample"]
+    rows: dict[str, list] = {name: [] for name in OUTCOME_COLUMNS}
+    for j in range(len(samples)):
+        result = evaluate_sample(problem, {name: float(chunk[name][j]) for name in params})
+        for name in OUTCOME_COLUMNS:
+            rows[name].extend(result[name])
+    table = {"sample": np.repeat(samples, s), "shape": np.tile(np.arange(s, dtype=np.int64),
+                                                                len(samples))}
+    table.update({name: np.repeat(np.asarray(chunk[name], dtype=float), s) for name in params})
+    for name in OUTCOME_COLUMNS:
+        table[name] = _column(name, rows[name])
+    return table
+
+
+def _column(name: str, values: list) -> np.ndarray:
+    dtype = {"bool": bool, "int64": np.int64, "string": object}.get(COLUMN_TYPES.get(name), float)
+    return np.asarray(values, dtype=dtype)
