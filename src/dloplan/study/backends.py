@@ -12,7 +12,8 @@ worker), so every backend produces the same results; only their completion order
 
 * :class:`SerialBackend`: in this process (debugging, small studies, benchmarks' baseline).
 * :class:`ProcessBackend`: ``concurrent.futures.ProcessPoolExecutor`` with ``workers``
-  processes (a ``forkserver`` context on POSIX: no fork of a threaded parent).
+  processes (a ``forkserver`` context on POSIX, which never forks a threaded parent; its
+  server preloads the solver so that workers start in milliseconds).
 * :class:`DaskBackend`: a ``dask.distributed.Client`` given by the caller, or one connected to
   a scheduler address (``tcp://HOST:PORT``) and closed at the end. Dask is imported only here,
   and only when this backend is made.
@@ -112,9 +113,12 @@ class ProcessBackend(Backend):
             raise ValueError(f"workers: got {workers!r}, expected an integer >= 1")
         self.workers = int(workers)
         self.max_in_flight = _limit(max_in_flight, self.workers)
-        method = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() \
-            else "spawn"
-        self._context = multiprocessing.get_context(method)
+        if "forkserver" in multiprocessing.get_all_start_methods():
+            self._context = multiprocessing.get_context("forkserver")
+            # the server imports numpy, scipy and the solver once; workers fork from it ready
+            self._context.set_forkserver_preload(["dloplan.study.evaluate"])
+        else:  # pragma: no cover - Windows
+            self._context = multiprocessing.get_context("spawn")
 
     def map(self, function, items, shared=None):
         pool = ProcessPoolExecutor(self.workers, mp_context=self._context,

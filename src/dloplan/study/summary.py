@@ -156,8 +156,9 @@ def sample_outcomes(table: dict, criteria: CriteriaSpec) -> dict:
     Returns
     -------
     dict
-        ``sample`` (N,) indices in ascending order; ``success`` (N,) bool; one (N,) bool array
-        per active criterion (True = passed); ``deviation`` (N,) largest deviation [m]; and each
+        ``sample`` (N,) indices in ascending order; ``success`` (N,) bool; ``passed``: a dict
+        of one (N,) bool array per active criterion (True = passed); ``deviation`` (N,)
+        largest deviation [m] (inf for a sample that could not be evaluated); and each
         per-sample parameter column (N,).
     """
     samples, first = np.unique(table["sample"], return_index=True)
@@ -178,12 +179,12 @@ def sample_outcomes(table: dict, criteria: CriteriaSpec) -> dict:
         checks["tension"] = table["max_tension"] <= criteria.max_tension
     if criteria.max_clip_force is not None:
         checks["clip_force"] = table["clip_force"] <= criteria.max_clip_force
-    out = {"sample": samples}
+    out = {"sample": samples, "passed": {}}
     success = np.ones(len(samples), dtype=bool)
     for name, passed in checks.items():
         per_sample = np.ones(len(samples), dtype=bool)
         np.logical_and.at(per_sample, position, passed)
-        out[name] = per_sample
+        out["passed"][name] = per_sample
         success &= per_sample
     out["success"] = success
     deviation = np.full(len(samples), -np.inf)
@@ -244,7 +245,6 @@ def summarize(table: dict, criteria: CriteriaSpec | None = None, *, confidence: 
     stats = {"median": float(np.median(finite)) if len(finite) else math.nan,
              "p95": float(np.percentile(finite, 95)) if len(finite) else math.nan,
              "max": float(finite.max()) if len(finite) else math.nan}
-    failures = {name: int((~per[name]).sum()) for name in per
-                if name not in ("sample", "success", "deviation", *SENSITIVITY_PARAMETERS)}
+    failures = {name: int((~passed).sum()) for name, passed in per["passed"].items()}
     return StudySummary(n, k, k / n, success_interval(k, n, confidence, method), confidence,
                         method, failures, tuple(sens), ranked_by, stats)

@@ -1,0 +1,74 @@
+"""Backends: local processes and a real Dask cluster give the serial table, bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from study_cases import hanging_problem
+from test_study_run import tables_equal
+
+from dloplan.study import (
+    DaskBackend,
+    ProcessBackend,
+    SerialBackend,
+    make_backend,
+    map_jobs,
+    run_study,
+)
+
+PROBLEM = hanging_problem(obstacles=True)
+STUDY = {"samples": 24, "chunk_size": 4, "seed": 5,
+         "parameters": {"youngs_modulus": {"spread": 30}, "length": {"spread": 1},
+                        "clip_position": {"spread": 1}, "clip_orientation": {"spread": 2},
+                        "obstacle_position": {"spread": 5}}}
+
+
+@pytest.fixture(scope="module")
+def serial_table():
+    return run_study(PROBLEM, STUDY).table
+
+
+def _scaled(shared, item):
+    return shared * item
+
+
+def test_map_jobs_yields_every_position_once():
+    with ProcessBackend(2, max_in_flight=3) as backend:
+        got = dict(map_jobs(_scaled, range(10), backend, shared=3))
+    assert got == {k: 3 * k for k in range(10)}
+    assert dict(map_jobs(_scaled, [], SerialBackend(), shared=3)) == {}
+
+
+def test_local_processes_give_the_serial_table(serial_table, tmp_path):
+    with ProcessBackend(2) as backend:
+        result = run_study(PROBLEM, STUDY, backend=backend, out=tmp_path)
+    assert result.backend == "2 local processes"
+    assert tables_equal(result.table, serial_table)
+
+
+def test_dask_local_cluster_gives_the_serial_table(serial_table):
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        backend = DaskBackend(client=client, max_in_flight=3)
+        result = run_study(PROBLEM, STUDY, backend=backend)
+        assert tables_equal(result.table, serial_table)
+        # by address, as ``--scheduler tcp://HOST:PORT`` does; the backend closes its client
+        with make_backend(scheduler=cluster.scheduler_address) as by_address:
+            assert by_address.workers == 2
+            got = dict(map_jobs(_scaled, range(5), by_address, shared=np.float64(2.0)))
+        assert got == {k: 2.0 * k for k in range(5)}
+
+
+def test_backend_arguments_are_checked():
+    assert isinstance(make_backend(workers=1), SerialBackend)
+    assert isinstance(make_backend(workers=2), ProcessBackend)
+    with pytest.raises(ValueError, match="workers: got 0"):
+        ProcessBackend(0)
+    with pytest.raises(ValueError, match="workers: not used with a Dask scheduler"):
+        make_backend(workers=2, scheduler="tcp://127.0.0.1:1")
+    with pytest.raises(ValueError, match="scheduler: got 'localhost'"):
+        DaskBackend(scheduler="localhost")
+    with pytest.raises(ValueError, match="exactly one of client or scheduler"):
+        DaskBackend()

@@ -1,0 +1,157 @@
+"""Running studies: nominal reproduction, a monotone physical case, resume, file formats."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from scipy.stats import spearmanr
+from study_cases import ALL_PARAMETERS, hanging_problem
+
+from dloplan.study import read_table, run_study
+
+PROBLEM = hanging_problem(obstacles=True)
+
+
+def tables_equal(a: dict, b: dict) -> bool:
+    """Same columns, same values bit for bit (NaN equal to NaN)."""
+    if list(a) != list(b):
+        return False
+    for name in a:
+        x, y = a[name], b[name]
+        if x.dtype.kind == "f":
+            if not np.array_equal(x, y, equal_nan=True):
+                return False
+        elif not np.array_equal(x, y):
+            return False
+    return True
+
+
+def test_zero_spread_reproduces_the_nominal_result_in_every_sample():
+    zero = {name: {"spread": 0.0} for name in ALL_PARAMETERS}
+    result = run_study(PROBLEM, {"samples": 6, "chunk_size": 4, "parameters": zero})
+    t = result.table
+    s = PROBLEM.n_shapes
+    assert len(t["sample"]) == 6 * s
+    assert np.array_equal(t["shape"], np.tile(np.arange(s), 6))
+    assert t["converged"].all() and t["stable"].all() and not t["collision"].any()
+    # the warm start is the nominal equilibrium itself: Newton re-converges to it within its
+    # force tolerance (1e-10 of the force scale), i.e. far below a micrometre
+    assert t["deviation"].max() < 1e-9
+    nominal_sag = 0.2 - PROBLEM.nominal[:, :, 2].min(axis=1)
+    planned = np.linalg.norm(PROBLEM.nominal - PROBLEM.planned, axis=2).max(axis=1)
+    np.testing.assert_allclose(t["sag"], np.tile(nominal_sag, 6), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(t["displacement"], np.tile(planned, 6), rtol=0, atol=1e-9)
+    assert result.summary.n_success == 6 and result.summary.probability == 1.0
+    assert result.summary.sensitivities == ()
+
+
+def test_sag_falls_as_e_rises_and_e_drives_the_sag_criterion():
+    problem = hanging_problem()
+    # E alone: the sag of every shape is a strictly decreasing function of E
+    only_e = run_study(problem, {"samples": 12, "chunk_size": 6,
+                                 "parameters": {"youngs_modulus": {"spread": 50}}})
+    t = only_e.table
+    for k in range(problem.n_shapes):
+        rows = t["shape"] == k
+        order = np.argsort(t["youngs_modulus"][rows])
+        assert np.all(np.diff(t["sag"][rows][order]) < 0)
+    # E among other errors, with a "sag below the nominal sag of the first shape" criterion
+    limit_mm = 1e3 * (0.2 - problem.nominal[0, :, 2].min())
+    study = {"samples": 40, "chunk_size": 10, "seed": 3,
+             "parameters": {"youngs_modulus": {"spread": 50},
+                            "mass_per_length": {"spread": 3},
+                            "clip_position": {"spread": 0.2}},
+             "criteria": {"max_sag": limit_mm, "max_deviation": 100, "target_threshold": 100}}
+    result = run_study(problem, study)
+    per_sample = result.table["shape"] == 0
+    e = result.table["youngs_modulus"][per_sample]
+    ok = result.table["sag"].reshape(-1, problem.n_shapes).max(axis=1) <= limit_mm * 1e-3
+    high = e > np.median(e)
+    assert ok[high].mean() > ok[~high].mean() + 0.5
+    summary = result.summary
+    assert 0 < summary.n_success < 40 and summary.ranked_by == "failure"
+    assert summary.failures == {"stable": 0, "deviation": 0, "collision": 0, "target": 0,
+                                "sag": 40 - summary.n_success}
+    first = summary.sensitivities[0]
+    assert first.parameter == "youngs_modulus"
+    # stiffer cables fail less; a failure decided by E alone at a median split would give
+    # rho = -sqrt(3)/2 = -0.87, the other errors blur it a little
+    assert first.rho_failure < -0.6
+    assert spearmanr(e, ok).statistic == pytest.approx(-first.rho_failure)
+
+
+class Stop(Exception):
+    pass
+
+
+@pytest.mark.parametrize("file_format", ["parquet", "csv"])
+def test_interrupted_study_resumes_to_the_same_table(tmp_path, file_format):
+    study = {"samples": 20, "chunk_size": 4, "seed": 11,
+             "parameters": {"youngs_modulus": {"spread": 30}, "clip_position": {"spread": 1},
+                            "obstacle_position": {"spread": 3}}}
+    whole = run_study(PROBLEM, study)
+
+    seen = []
+
+    def stop_after_two(progress):
+        seen.append(progress.chunk)
+        if len(seen) == 2:
+            raise Stop
+
+    folder = tmp_path / "study"
+    with pytest.raises(Stop):
+        run_study(PROBLEM, study, out=folder, progress=stop_after_two,
+                  file_format=file_format)
+    assert sorted(p.name for p in (folder / "chunks").iterdir()) == [
+        f"chunk-0000{k}.{file_format}" for k in (0, 1)]
+    assert not (folder / f"results.{file_format}").exists()
+    lines = []
+    resumed = run_study(PROBLEM, study, out=folder, file_format=file_format,
+                        progress=lambda p: lines.append(p.line()))
+    assert resumed.chunks_resumed == 2 and resumed.chunks_run == 3
+    assert lines[0].startswith("chunk 3/5, 12/20 samples")
+    assert tables_equal(resumed.table, whole.table)
+    manifest = json.loads((folder / "manifest.json").read_text())
+    dtypes = {k: v["dtype"] for k, v in manifest["columns"].items()}
+    assert tables_equal(read_table(folder / f"results.{file_format}", dtypes), whole.table)
+    summary = json.loads((folder / "summary.json").read_text())
+    assert summary["n_success"] == whole.summary.n_success
+    # a finished study resumed again evaluates nothing
+    again = run_study(PROBLEM, study, out=folder, file_format=file_format)
+    assert again.chunks_run == 0 and tables_equal(again.table, whole.table)
+
+
+def test_parquet_carries_units(tmp_path):
+    import pyarrow.parquet as pq
+
+    run_study(PROBLEM, {"samples": 3, "parameters": {"youngs_modulus": {"spread": 10}}},
+              out=tmp_path)
+    schema = pq.read_schema(tmp_path / "results.parquet")
+    assert schema.field("youngs_modulus").metadata[b"unit"] == b"Pa"
+    assert schema.field("clip_force").metadata[b"unit"] == b"N"
+    assert len(schema.metadata[b"fingerprint"]) == 64
+
+
+def test_another_study_in_the_same_folder_is_refused(tmp_path):
+    study = {"samples": 4, "parameters": {"youngs_modulus": {"spread": 10}}}
+    run_study(PROBLEM, study, out=tmp_path)
+    with pytest.raises(ValueError, match="holds a different study"):
+        run_study(PROBLEM, {**study, "seed": 1}, out=tmp_path)
+    fresh = run_study(PROBLEM, {**study, "seed": 1}, out=tmp_path, resume=False)
+    assert fresh.chunks_run == 1
+
+
+def test_a_sample_out_of_reach_is_recorded_not_raised():
+    # clips 37 cm apart: the free part (6 of 8 links) must span 30.75 cm, which a cable
+    # shorter than 41 cm (nominal 50 cm) cannot: those samples are out of reach
+    problem = hanging_problem(distances=(0.30, 0.37))
+    result = run_study(problem, {"samples": 10, "parameters": {"length": {"spread": 10}}})
+    t = result.table
+    short = (t["length"] < 0.40) & (t["shape"] == 1)
+    assert short.any()
+    assert not t["converged"][short].any()
+    assert all("out of reach" in m for m in t["message"][short])
+    assert np.isnan(t["deviation"][short]).all()
+    assert result.summary.failures["stable"] >= short.sum()

@@ -1,0 +1,71 @@
+"""Summary statistics: binomial intervals against closed forms, criteria applied afterwards."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from dloplan.study import CriteriaSpec, success_interval, summarize
+
+
+def test_clopper_pearson_closed_forms():
+    # k = 0: upper bound 1 - (alpha/2)^(1/n); k = n: lower bound (alpha/2)^(1/n)
+    lo, hi = success_interval(0, 10, 0.95, "clopper-pearson")
+    assert lo == 0.0 and hi == pytest.approx(1 - 0.025 ** (1 / 10), rel=1e-9)
+    lo, hi = success_interval(20, 20, 0.95, "clopper-pearson")
+    assert hi == 1.0 and lo == pytest.approx(0.025 ** (1 / 20), rel=1e-9)
+
+
+@pytest.mark.parametrize(("k", "n"), [(0, 10), (7, 20), (95, 100)])
+def test_wilson_score_interval(k, n):
+    z = 1.959963984540054
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    lo, hi = success_interval(k, n)
+    assert lo == pytest.approx(max(centre - half, 0.0), abs=1e-12)
+    assert hi == pytest.approx(min(centre + half, 1.0), abs=1e-12)
+
+
+def test_interval_arguments_are_checked():
+    with pytest.raises(ValueError, match="method: got 'bayes'"):
+        success_interval(1, 2, method="bayes")
+    with pytest.raises(ValueError, match="successes, trials: got 3, 2"):
+        success_interval(3, 2)
+
+
+def _table():
+    # 4 samples x 2 shapes; sample 1 deviates 30 mm on shape 0, sample 2 collides, sample 3's
+    # target moved 12 mm from the planned one
+    n, s = 4, 2
+    t = {"sample": np.repeat(np.arange(n), s), "shape": np.tile(np.arange(s), n)}
+    t["converged"] = np.ones(n * s, bool)
+    t["stable"] = np.ones(n * s, bool)
+    t["deviation"] = np.array([1, 2, 30, 1, 1, 1, 2, 2], float) * 1e-3
+    t["collision"] = np.array([0, 0, 0, 0, 1, 0, 0, 0], bool)
+    t["displacement"] = np.array([1, 1, 1, 1, 1, 1, 1, 12], float) * 1e-3
+    t["sag"] = np.array([50, 40, 60, 45, 50, 40, 50, 40], float) * 1e-3
+    t["max_tension"] = np.ones(n * s)
+    t["clip_force"] = np.ones(n * s)
+    e = np.repeat([1.0, 2.0, 3.0, 4.0], s)
+    for name in ("youngs_modulus", "mass_per_length", "length", "clip_position_error",
+                 "clip_orientation_error", "obstacle_position_error"):
+        t[name] = e if name == "youngs_modulus" else np.zeros(n * s)
+    return t
+
+
+def test_criteria_are_applied_per_sample_and_can_change_afterwards():
+    t = _table()
+    summary = summarize(t, CriteriaSpec())
+    assert summary.n_success == 1
+    assert summary.failures == {"stable": 0, "deviation": 1, "collision": 1, "target": 1}
+    assert summary.deviation["max"] == pytest.approx(0.030)
+    relaxed = summarize(t, CriteriaSpec(max_deviation=40, collision_free=False,
+                                        target_threshold=15, max_sag=55))
+    assert relaxed.failures == {"stable": 0, "deviation": 0, "target": 0, "sag": 1}
+    assert relaxed.n_success == 3
+    assert [s.parameter for s in relaxed.sensitivities] == ["youngs_modulus"]
+    assert relaxed.ranked_by == "failure"
+    assert "success 3/4 = 75.0 %" in relaxed.lines()[0]
