@@ -52,3 +52,28 @@ def test_bad_specs_name_the_field(data, field, words):
 def test_not_a_mapping():
     with pytest.raises(StudyError, match="study: expected a mapping, got list"):
         parse_study([1, 2])
+
+
+SCENARIO = """units: mm
+cable: {name: ethernet, n_links: 8}
+start: {kind: arc, angle: 150, placement: {position: [0, 0, 200], rotation: {euler: [90, 0, 0]}}}
+target: {kind: arc, angle: 170, placement: {position: [0, 0, 200], rotation: {euler: [90, 0, 0]}}}
+study:
+  samples: 8
+  parameters:
+    youngs_modulus: {spread: SPREAD}
+"""
+
+
+def test_scenario_file_with_a_study_section(tmp_path):
+    from dloplan.study import job_problem, load_study
+
+    path = tmp_path / "job.yaml"
+    path.write_text(SCENARIO.replace("SPREAD", "20"))
+    job, spec = load_study(path)
+    assert spec.samples == 8 and spec.spread_si("youngs_modulus") == pytest.approx(0.2)
+    problem = job_problem(job)
+    assert problem.planned.shape == (2, 9, 3)
+    path.write_text(SCENARIO.replace("SPREAD", "-1"))
+    with pytest.raises(StudyError, match=r"job.yaml: study.parameters.youngs_modulus.spread: "):
+        load_study(path)
