@@ -37,3 +37,17 @@ def hanging_problem(name: str = "ethernet", n_links: int = 8, distances=(0.08, 0
     if obstacles:
         extra = [Box((0.07, 0.0, 0.02), (0.05, 0.05, 0.04), 0.0, "block"), Table(0.0)]
     return study_problem(cable, np.stack(shapes), clips, extra)
+
+
+def tables_equal(a: dict, b: dict) -> bool:
+    """Same columns, same values bit for bit (NaN equal to NaN)."""
+    if list(a) != list(b):
+        return False
+    for name in a:
+        x, y = a[name], b[name]
+        if x.dtype.kind == "f":
+            if not np.array_equal(x, y, equal_nan=True):
+                return False
+        elif not np.array_equal(x, y):
+            return False
+    return True

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from study_cases import hanging_problem
-from test_study_run import tables_equal
+from study_cases import hanging_problem, tables_equal
 
 from dloplan.study import (
     DaskBackend,

@@ -7,25 +7,11 @@ import json
 import numpy as np
 import pytest
 from scipy.stats import spearmanr
-from study_cases import ALL_PARAMETERS, hanging_problem
+from study_cases import ALL_PARAMETERS, hanging_problem, tables_equal
 
 from dloplan.study import read_table, run_study
 
 PROBLEM = hanging_problem(obstacles=True)
-
-
-def tables_equal(a: dict, b: dict) -> bool:
-    """Same columns, same values bit for bit (NaN equal to NaN)."""
-    if list(a) != list(b):
-        return False
-    for name in a:
-        x, y = a[name], b[name]
-        if x.dtype.kind == "f":
-            if not np.array_equal(x, y, equal_nan=True):
-                return False
-        elif not np.array_equal(x, y):
-            return False
-    return True
 
 
 def test_zero_spread_reproduces_the_nominal_result_in_every_sample():
