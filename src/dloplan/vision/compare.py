@@ -1,7 +1,10 @@
 """Planned versus registered shapes: the error table of thesis 7.2.2 (Table 7.2, Fig. 7.10).
 
 For each planned shape xi_j (n + 1 mass points) and its registered counterpart (any number of
-points, resampled by arc length to n + 1, Fig. 6.4), the errors are taken point by point:
+points), the registered polyline is resampled to n + 1 points at the same fractions of its
+length as the planned mass points (Fig. 6.4: equally spaced for a plan with equal links; a
+slightly stretched plan is matched exactly, so a plan against itself gives zero). The errors
+are taken point by point:
 
     e_{j,i} = x^reg_{j,i} - x^plan_{j,i}
 
@@ -24,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..physics.geometry import as_shape, resample_by_arc_length, shape_length
+from ..physics.geometry import arc_length, as_shape, shape_length
 from .shapes_io import RegisteredShape
 
 END_ORDERS = ("detect", "keep")
@@ -104,6 +107,14 @@ class ShapeComparison:
         return "\n".join(lines)
 
 
+def _resample_at(points: np.ndarray, fractions: np.ndarray) -> np.ndarray:
+    """Points at the given fractions [0, 1] of the polyline's arc length, (len(fractions), 3)."""
+    s = arc_length(points)
+    keep = np.concatenate([[True], np.diff(s) > 0.0])
+    s, points = s[keep] / s[-1], points[keep]
+    return np.stack([np.interp(fractions, s, points[:, k]) for k in range(3)], axis=1)
+
+
 def _as_points(shape, where: str) -> np.ndarray:
     if isinstance(shape, RegisteredShape):
         return shape.points
@@ -166,6 +177,9 @@ def compare_trials(planned, trials: Sequence[Sequence], *, labels: Sequence[str]
         raise ValueError("trials: expected a non-empty list of trials (lists of shapes)")
     n_shapes, n_points = plan.shape[:2]
     planned_lengths = shape_length(plan)
+    if np.any(planned_lengths <= 0):
+        raise ValueError(f"planned: shape {int(np.argmin(planned_lengths))} has zero length")
+    fractions = arc_length(plan) / planned_lengths[:, None]
     registered = np.empty((len(trials), n_shapes, n_points, 3))
     flipped = []
     for t, trial in enumerate(trials):
@@ -188,12 +202,12 @@ def compare_trials(planned, trials: Sequence[Sequence], *, labels: Sequence[str]
                     f"{length_tolerance:.0%}): are its points shuffled (not in order along the "
                     "cable), not in metres, or is part of the cable missing?"
                 )
-            resampled = resample_by_arc_length(points, n_points)
+            resampled = _resample_at(points, fractions[j])
             if end_order == "detect":
+                backward = _resample_at(points[::-1], fractions[j])
                 direct = np.linalg.norm(resampled - plan[j], axis=-1).mean()
-                reverse = np.linalg.norm(resampled[::-1] - plan[j], axis=-1).mean()
-                if reverse < direct:
-                    resampled = resampled[::-1]
+                if np.linalg.norm(backward - plan[j], axis=-1).mean() < direct:
+                    resampled = backward
                     flipped.append((t, j))
             registered[t, j] = resampled
     errors = registered - plan
