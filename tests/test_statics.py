@@ -195,3 +195,40 @@ def test_nan_clip_poses_and_guesses_are_rejected():
         equilibrium(cable, bad, level_clips(0.4))
     with pytest.raises(ValueError, match="guess: 10 points given, expected 11"):
         equilibrium(cable, bad[:10], level_clips(0.4))
+
+
+def test_a_cable_rests_on_the_table_without_entering_it():
+    from dloplan.obstacles import Table
+
+    cable = catalogue_cable("usb", n_links=30)
+    clips = level_clips(0.4, z=0.05)
+    eq = equilibrium(cable, sagging_guess(cable, 0.4, -0.05) + [0, 0, 0.05], clips,
+                     contacts=[Table(0.0)])
+    assert eq.success, eq.message
+    assert eq.penetration < 1e-4  # [m]: under 0.1 mm
+    assert eq.shape[:, 2].min() >= cable.diameter / 2 - 1e-4
+    # the table carries the weight of the points lying on it
+    lying = eq.shape[:, 2] < cable.diameter / 2 + 1e-6
+    assert lying.sum() >= 3
+    weight_on_table = cable.point_masses[lying].sum() * 9.81
+    assert eq.forces.contact[:, 2].sum() == pytest.approx(weight_on_table, rel=0.35)
+    assert np.all(eq.forces.contact[:, :2] == 0)
+
+
+def test_a_plate_holds_the_cable_up():
+    from dloplan.obstacles import Box
+
+    cable = catalogue_cable("ethernet", n_links=30)
+    # a plate wider than the part of the cable that comes to rest on it: point contacts do not
+    # see a link crossing a plate's edge, and without torsion a cable held by level clips can
+    # swing about the chord at no cost, so a narrow plate would let it roll off sideways
+    plate = Box.from_corners((0.08, -0.2, 0.0), (0.32, 0.2, 0.02), name="plate")
+    free = equilibrium(cable, sagging_guess(cable, 0.4), level_clips(0.4, z=0.1))
+    # lower the cable onto the plate: hanging clear above it, then the clips come down
+    above = equilibrium(cable, sagging_guess(cable, 0.4), level_clips(0.4, z=0.3)).shape
+    lowering = [level_clips(0.4, z=z) for z in np.linspace(0.3, 0.1, 5)]
+    held = continuation(cable, above, lowering, substeps=10, contacts=[plate])[-1]
+    assert held.success and held.penetration < 1e-4
+    mid = held.shape[cable.n_links // 2]
+    assert mid[2] == pytest.approx(0.02 + cable.diameter / 2, abs=2e-4)
+    assert free.shape[:, 2].min() < 0.0

@@ -62,6 +62,23 @@ def _footprint_interval(a2: np.ndarray, b2: np.ndarray, half: np.ndarray):
     return t0, t1
 
 
+def _box_normal(q: np.ndarray, excess: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Normal (in the frame of ``q``, signs from q) and signed distance of a box-like set.
+
+    ``excess`` (..., k) is |q| - half-size per axis: outside, the distance is the norm of its
+    positive part; inside, the largest (least negative) component, through that face.
+    """
+    outside = np.maximum(excess, 0.0)
+    dist = np.linalg.norm(outside, axis=-1)
+    inside = dist == 0.0
+    face = np.argmax(excess, axis=-1)
+    face_normal = (np.arange(excess.shape[-1]) == face[..., None]).astype(float)
+    safe = np.where(inside, 1.0, dist)[..., None]
+    direction = np.where(inside[..., None], face_normal, outside / safe)
+    phi = np.where(inside, np.max(excess, axis=-1), dist)
+    return np.sign(np.where(q == 0, 1.0, q)) * direction, phi
+
+
 @dataclass(frozen=True)
 class Box:
     """A box resting on the table: a prohibitive volume (thesis Fig. 5.11).
@@ -117,6 +134,20 @@ class Box:
         """Distance from points to the box [m], 0 inside, (...,)."""
         excess = np.abs(self._local(points)) - np.asarray(self.size) / 2
         return np.linalg.norm(np.maximum(excess, 0.0), axis=-1)
+
+    def signed_distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Signed distance [m] (negative inside) and outward unit normal of the nearest surface.
+
+        Shapes (...,) and (..., 3), for contact forces (:mod:`dloplan.physics.contact`).
+        """
+        q = self._local(points)
+        excess = np.abs(q) - np.asarray(self.size) / 2
+        local_normal, phi = _box_normal(q, excess)
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        normal = np.stack([c * local_normal[..., 0] - s * local_normal[..., 1],
+                           s * local_normal[..., 0] + c * local_normal[..., 1],
+                           local_normal[..., 2]], axis=-1)
+        return phi, normal
 
     def penetration(self, a: np.ndarray, b: np.ndarray, radius: float) -> np.ndarray:
         """How deep capsules (a, b, radius) enter the box [m]; <= 0 means clear, (...,)."""
@@ -176,6 +207,21 @@ class Cylinder:
         vertical = np.maximum(np.maximum(-q[..., 2], q[..., 2] - self.height), 0.0)
         return np.hypot(radial, vertical)
 
+    def signed_distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Signed distance [m] (negative inside) and outward unit normal, (...,), (..., 3)."""
+        q = points - np.asarray(self.base)
+        rho = np.hypot(q[..., 0], q[..., 1])
+        safe = np.where(rho > 0, rho, 1.0)
+        radial = np.stack([np.where(rho > 0, q[..., 0] / safe, 1.0),
+                           np.where(rho > 0, q[..., 1] / safe, 0.0), np.zeros_like(rho)], -1)
+        above = q[..., 2] > 0.5 * self.height
+        vertical = np.zeros_like(radial)
+        vertical[..., 2] = np.where(above, 1.0, -1.0)
+        excess = np.stack([rho - self.radius,
+                           np.where(above, q[..., 2] - self.height, -q[..., 2])], axis=-1)
+        weights, phi = _box_normal(np.ones_like(excess), excess)
+        return phi, weights[..., :1] * radial + weights[..., 1:] * vertical
+
     def penetration(self, a: np.ndarray, b: np.ndarray, radius: float) -> np.ndarray:
         """How deep capsules (a, b, radius) enter the cylinder [m]; <= 0 means clear."""
         return radius - _min_along_segment(a, b, self.distance)
@@ -197,6 +243,12 @@ class Table:
     def __post_init__(self) -> None:
         if not math.isfinite(self.height):
             raise ValueError(f"{self.name}.height: got {self.height!r}, expected a finite z [m]")
+
+    def signed_distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Height above the plane [m] and its normal (+z), (...,), (..., 3)."""
+        normal = np.zeros(points.shape)
+        normal[..., 2] = 1.0
+        return points[..., 2] - self.height, normal
 
     def penetration(self, a: np.ndarray, b: np.ndarray, radius: float) -> np.ndarray:
         """Depth of the capsules below the plane [m]; <= 0 means clear."""

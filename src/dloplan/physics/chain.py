@@ -22,6 +22,7 @@ import scipy.sparse as sp
 from ..cable import GRAVITY, Cable
 from .axial import axial_energy, axial_gradient, axial_hessian_blocks, axial_link_forces
 from .bending import bending_derivatives, bending_energy, bending_gradient
+from .contact import contact_energy, contact_gradient, contact_hessian_diagonal
 from .gravity import gravity_energy, gravity_force
 
 HALF_BANDWIDTH = 8
@@ -32,17 +33,20 @@ HALF_BANDWIDTH = 8
 class Forces:
     """Per-point forces of a shape [N], each (..., n + 1, 3): the negative energy gradients.
 
-    ``axial`` is F^s (eq. 3.17), ``bending`` is F^b (eq. 3.18), ``gravity`` is m_i g (eq. 3.20).
+    ``axial`` is F^s (eq. 3.17), ``bending`` is F^b (eq. 3.18), ``gravity`` is m_i g (eq. 3.20),
+    ``contact`` the push of obstacles in contact (None without contacts).
     """
 
     axial: np.ndarray
     bending: np.ndarray
     gravity: np.ndarray
+    contact: np.ndarray | None = None
 
     @property
     def total(self) -> np.ndarray:
-        """Sum of the three parts [N]."""
-        return self.axial + self.bending + self.gravity
+        """Sum of the parts [N]."""
+        total = self.axial + self.bending + self.gravity
+        return total if self.contact is None else total + self.contact
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,6 +67,12 @@ class SpringChain:
         m_i [kg], (n + 1,).
     gravity : numpy.ndarray
         Gravity acceleration [m/s^2], (3,).
+    contacts : tuple
+        Obstacles the points cannot enter (one-sided penalty, :mod:`dloplan.physics.contact`).
+    contact_radius : float
+        Radius of the cable for contacts [m].
+    contact_stiffness : float
+        Penalty stiffness k_c [N/m].
     """
 
     k_axial: float
@@ -71,14 +81,26 @@ class SpringChain:
     rest_angles: np.ndarray
     point_masses: np.ndarray
     gravity: np.ndarray
+    contacts: tuple = ()
+    contact_radius: float = 0.0
+    contact_stiffness: float = 0.0
 
     @classmethod
-    def from_cable(cls, cable: Cable, gravity=GRAVITY) -> SpringChain:
-        """The chain of ``cable`` under ``gravity`` [m/s^2] (pass zeros for a weightless cable)."""
+    def from_cable(cls, cable: Cable, gravity=GRAVITY, contacts=(),
+                   contact_stiffness: float | None = None) -> SpringChain:
+        """The chain of ``cable`` under ``gravity`` [m/s^2] (pass zeros for a weightless cable).
+
+        ``contacts``: obstacles the cable rests on or wraps around (pegs, plates, the table),
+        with the penalty stiffness ``contact_stiffness`` [N/m] (default 100 k_s).
+        """
         g = np.asarray(gravity, dtype=float)
         if g.shape != (3,) or not np.all(np.isfinite(g)):
             raise ValueError(f"gravity: got {gravity!r}, expected 3 finite numbers [m/s^2]")
         return cls(
+            contacts=tuple(contacts),
+            contact_radius=cable.diameter / 2,
+            contact_stiffness=100.0 * cable.k_axial if contact_stiffness is None
+            else float(contact_stiffness),
             k_axial=cable.k_axial,
             rest_lengths=np.full(cable.n_links, cable.rest_link_length),
             k_bending=cable.k_bending,
@@ -116,29 +138,46 @@ def _band_index(n_points: int) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
 
 def energy(chain: SpringChain, x: np.ndarray) -> np.ndarray:
     """Total potential energy U [J] of shape(s) ``x`` (..., n + 1, 3)."""
-    return (
+    total = (
         axial_energy(x, chain.k_axial, chain.rest_lengths)
         + bending_energy(x, chain.k_bending, chain.rest_angles)
         + gravity_energy(x, chain.point_masses, chain.gravity)
     )
+    if chain.contacts:
+        total = total + _contact_energy(chain, x)
+    return total
+
+
+def _contact_energy(chain: SpringChain, x: np.ndarray):
+    return contact_energy(x, chain.contacts, chain.contact_radius, chain.contact_stiffness)
+
+
+def _contact_gradient(chain: SpringChain, x: np.ndarray) -> np.ndarray:
+    return contact_gradient(x, chain.contacts, chain.contact_radius, chain.contact_stiffness)
 
 
 def energy_terms(chain: SpringChain, x: np.ndarray) -> dict[str, np.ndarray]:
-    """The axial, bending and gravity parts of U [J], each of shape (...)."""
-    return {
+    """The axial, bending, gravity (and contact) parts of U [J], each of shape (...)."""
+    terms = {
         "axial": axial_energy(x, chain.k_axial, chain.rest_lengths),
         "bending": bending_energy(x, chain.k_bending, chain.rest_angles),
         "gravity": gravity_energy(x, chain.point_masses, chain.gravity),
     }
+    if chain.contacts:
+        terms["contact"] = _contact_energy(chain, x)
+    return terms
 
 
 def gradient(chain: SpringChain, x: np.ndarray) -> np.ndarray:
     """dU/dx [N], shape (..., n + 1, 3)."""
-    return (
+    grad = (
         axial_gradient(x, chain.k_axial, chain.rest_lengths)
         + bending_gradient(x, chain.k_bending, chain.rest_angles)
         - gravity_force(chain.point_masses, chain.gravity)
     )
+    if chain.contacts:
+        grad += _contact_gradient(chain, x)
+    return grad
 
 
 def forces(chain: SpringChain, x: np.ndarray) -> Forces:
@@ -148,6 +187,7 @@ def forces(chain: SpringChain, x: np.ndarray) -> Forces:
         axial=-axial_gradient(x, chain.k_axial, chain.rest_lengths),
         bending=-bending_gradient(x, chain.k_bending, chain.rest_angles),
         gravity=weight.copy(),
+        contact=-_contact_gradient(chain, x) if chain.contacts else None,
     )
 
 
@@ -171,7 +211,8 @@ def gradient_and_hessian_band(
     The band has shape (HALF_BANDWIDTH + 1, 3(n + 1)) and ``band[k, j] = H[j + k, j]``, the
     layout of ``scipy.linalg.cholesky_banded(lower=True)``.
     ``terms`` selects the springs whose Hessian is summed (gravity is linear: no Hessian), e.g.
-    ``("bending",)`` for d F^b / dx = -H^b.
+    ``("bending",)`` for d F^b / dx = -H^b. Contacts (if the chain has any) are included with
+    the axial term.
     """
     n_dof = 3 * chain.n_points
     (ax_index, ax_keep), (be_index, be_keep) = _band_index(chain.n_points)
@@ -188,6 +229,15 @@ def gradient_and_hessian_band(
         be = be.ravel()
         index.append(be_index)
         values.append(be[be_keep])
+    if "axial" in terms and chain.contacts:
+        grad += _contact_gradient(chain, x)
+        diag = contact_hessian_diagonal(x, chain.contacts, chain.contact_radius,
+                                        chain.contact_stiffness)
+        rows = 3 * np.arange(chain.n_points)[:, None, None] + np.arange(3)[None, :, None]
+        cols = 3 * np.arange(chain.n_points)[:, None, None] + np.arange(3)[None, None, :]
+        lower = (rows >= cols)
+        index.append(((rows - cols) * n_dof + cols)[np.broadcast_to(lower, diag.shape)])
+        values.append(diag[np.broadcast_to(lower, diag.shape)])
     index = np.concatenate(index)
     values = np.concatenate(values)
     band = np.bincount(index, weights=values, minlength=(HALF_BANDWIDTH + 1) * n_dof)

@@ -45,6 +45,7 @@ from ..physics.chain import (
     gradient_and_hessian_band,
     hessian_band,
 )
+from ..physics.contact import penetrations
 from ..physics.geometry import arc_length, as_shape, resample_by_arc_length, shape_length
 from ..physics.gravity import gravity_force
 from .clips import ClipPoses, clip_poses_from_shape, place_held_points
@@ -84,6 +85,8 @@ class Equilibrium:
         What happened, in words.
     energy_history : numpy.ndarray
         Energy after each accepted iteration [J] (monotonically decreasing).
+    penetration : float
+        Deepest penetration of a point into a contact obstacle [m] (0 without contacts).
     """
 
     shape: np.ndarray
@@ -98,6 +101,7 @@ class Equilibrium:
     clips: ClipPoses
     message: str
     energy_history: np.ndarray
+    penetration: float = 0.0
 
     @property
     def success(self) -> bool:
@@ -224,6 +228,7 @@ def equilibrium(
     max_iterations: int = 500,
     chain: SpringChain | None = None,
     held: str = "both",
+    contacts=(),
 ) -> Equilibrium:
     """The nearest stable static equilibrium of a cable held by two clips.
 
@@ -253,6 +258,9 @@ def equilibrium(
     held : {"both", "first"}
         ``"first"``: only the first clip holds the cable (points 0, 1), the rest hangs free
         (a cantilever); ``clips.positions[1]`` is then ignored.
+    contacts : sequence
+        Obstacles the cable cannot enter (pegs, plates, the table): one-sided contact by a
+        stiff penalty (:mod:`dloplan.physics.contact`); the deepest penetration is reported.
 
     Returns
     -------
@@ -271,7 +279,7 @@ def equilibrium(
     if clips is None:
         clips = clip_poses_from_shape(x)
     if chain is None:
-        chain = SpringChain.from_cable(cable, gravity)
+        chain = SpringChain.from_cable(cable, gravity, contacts)
     tolerance = rtol * force_scale(cable, gravity)
     if held == "both":
         check_clip_reach(cable, clips)
@@ -281,8 +289,11 @@ def equilibrium(
         x = x.copy()
         x[:2] = clips.held_points(cable.rest_link_length)[:2]
         free = slice(2, cable.n_points)
+    # with contacts, no point may jump farther than the cable's diameter in one step, or it
+    # could tunnel through a thin obstacle into a region where the penalty no longer sees it
+    max_step = max(cable.diameter, 1e-3) if chain.contacts else cable.length
     x, g, iterations, residual, stable, history, message = minimize_energy(
-        chain, x, free, cable.length, tolerance, max_iterations
+        chain, x, free, max_step, tolerance, max_iterations
     )
     return _result(cable, chain, x, g, clips, iterations, residual <= tolerance, residual,
                    tolerance, stable, history, message, held)
@@ -389,6 +400,10 @@ def _result(cable, chain, x, g, clips, iterations, converged, residual, toleranc
             history, message, held="both") -> Equilibrium:
     if not stable and converged:
         message += "; the equilibrium is not stable (Hessian not positive definite)"
+    depth = 0.0
+    if chain.contacts:
+        depth = max(0.0, *(float(d.max()) for d, _ in
+                           penetrations(x, chain.contacts, chain.contact_radius)))
     return Equilibrium(
         shape=x,
         forces=forces(chain, x),
@@ -402,6 +417,7 @@ def _result(cable, chain, x, g, clips, iterations, converged, residual, toleranc
         clips=clips,
         message=message,
         energy_history=np.asarray(history),
+        penetration=depth,
     )
 
 
@@ -529,6 +545,7 @@ def continuation(
     *,
     substeps: int = 1,
     gravity=GRAVITY,
+    contacts=(),
     **options,
 ) -> list[Equilibrium]:
     """Quasi-static continuation: equilibria along a sequence of clip poses, warm-started.
@@ -549,6 +566,8 @@ def continuation(
         slerp); only the equilibria at the given poses are returned.
     gravity : array_like
         Gravity [m/s^2].
+    contacts : sequence
+        Obstacles the cable cannot enter (see :func:`equilibrium`).
     **options
         Passed to :func:`equilibrium`.
 
@@ -561,7 +580,7 @@ def continuation(
         raise ValueError(f"substeps: got {substeps}, expected an integer >= 1")
     if len(clip_sequence) == 0:
         raise ValueError("clip_sequence: empty, expected at least one ClipPoses")
-    chain = SpringChain.from_cable(cable, gravity)
+    chain = SpringChain.from_cable(cable, gravity, contacts)
     x = as_shape(start_shape, cable.n_points, "start_shape")
     results = []
     previous = None

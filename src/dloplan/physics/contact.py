@@ -1,0 +1,54 @@
+"""One-sided contact of the mass points with rigid obstacles: a stiff quadratic penalty.
+
+A point of a cable of radius r penetrates an obstacle by d = r - phi, with phi the signed
+distance from the point to the obstacle's surface (negative inside). The penalty energy
+U^c = sum_i 1/2 k_c max(0, d_i)^2 pushes it out along the surface normal n_i with the force
+k_c d_i n_i. Its Hessian is taken as k_c n n^T for the penetrating points (exact for flat faces;
+the curvature term of round faces, of order k_c d / R, is left out: Newton's method then
+converges linearly rather than quadratically at a contact on a peg, which the trust region
+absorbs). With k_c a hundred times the axial spring constant, a contact carrying a force F
+penetrates F / k_c: a hundredth of the stretch the same force gives one link.
+
+Obstacles provide ``signed_distance(points) -> (phi, normal)`` (:mod:`dloplan.obstacles`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+
+def penetrations(x: np.ndarray, obstacles: Sequence, radius: float):
+    """Per obstacle, penetration depths (..., n + 1) [m] (> 0 in contact) and normals."""
+    out = []
+    for obstacle in obstacles:
+        phi, normal = obstacle.signed_distance(x)
+        out.append((radius - phi, normal))
+    return out
+
+
+def contact_energy(x: np.ndarray, obstacles: Sequence, radius: float, stiffness: float):
+    """Penalty energy [J], shape (...)."""
+    total = 0.0
+    for depth, _ in penetrations(x, obstacles, radius):
+        total = total + 0.5 * stiffness * np.sum(np.maximum(depth, 0.0) ** 2, axis=-1)
+    return total
+
+
+def contact_gradient(x: np.ndarray, obstacles: Sequence, radius: float, stiffness: float):
+    """Gradient of the penalty [N], (..., n + 1, 3); the contact force is its negative."""
+    grad = np.zeros(x.shape)
+    for depth, normal in penetrations(x, obstacles, radius):
+        grad -= stiffness * np.maximum(depth, 0.0)[..., None] * normal
+    return grad
+
+
+def contact_hessian_diagonal(x: np.ndarray, obstacles: Sequence, radius: float,
+                             stiffness: float) -> np.ndarray:
+    """Per-point 3x3 Hessian blocks k_c n n^T of the penetrating points, (n + 1, 3, 3)."""
+    blocks = np.zeros(x.shape + (3,))
+    for depth, normal in penetrations(x, obstacles, radius):
+        active = (depth > 0)[..., None, None]
+        blocks += np.where(active, stiffness * normal[..., :, None] * normal[..., None, :], 0.0)
+    return blocks

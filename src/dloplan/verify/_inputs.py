@@ -1,0 +1,63 @@
+"""Validation of the inputs shared by the verification checks (paths, clip poses, times)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..sim.clips import ClipPoses, clip_poses_from_shape
+
+
+def as_path(shapes, n_points: int, name: str = "shapes") -> np.ndarray:
+    """A path as a float array (n_shapes, n + 1, 3) of finite positions [m]."""
+    try:
+        arr = np.asarray(shapes, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(
+            f"{name}: expected an array of shapes, got {type(shapes).__name__}"
+        ) from exc
+    if arr.ndim != 3 or arr.shape[1:] != (n_points, 3) or arr.shape[0] < 1:
+        raise ValueError(
+            f"{name}: got shape {arr.shape}, expected (n_shapes, {n_points}, 3) "
+            f"(n_links + 1 = {n_points} points per shape)"
+        )
+    if not np.all(np.isfinite(arr)):
+        bad = int(np.argwhere(~np.isfinite(arr))[0, 0])
+        raise ValueError(f"{name}: shape {bad} has a non-finite coordinate (NaN or inf)")
+    return arr
+
+
+def as_clip_sequence(
+    clip_poses: Sequence[ClipPoses] | None, path: np.ndarray, name: str = "clip_poses"
+) -> list[ClipPoses]:
+    """One ClipPoses per shape of ``path``; ``None`` reads them off the shapes' end links."""
+    if clip_poses is None:
+        return [clip_poses_from_shape(x) for x in path]
+    poses = list(clip_poses)
+    if len(poses) != len(path):
+        raise ValueError(
+            f"{name}: {len(poses)} clip poses given, expected {len(path)} (one per shape)"
+        )
+    for k, pose in enumerate(poses):
+        if not isinstance(pose, ClipPoses):
+            raise ValueError(f"{name}[{k}]: got {type(pose).__name__}, expected ClipPoses")
+    return poses
+
+
+def as_times(times, count: int, name: str = "times") -> np.ndarray:
+    """``count`` finite, strictly increasing times [s]."""
+    try:
+        t = np.asarray(times, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: expected {count} times [s], got {type(times).__name__}") from exc
+    if t.shape != (count,):
+        raise ValueError(f"{name}: got shape {t.shape}, expected ({count},) (one time per shape)")
+    if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise ValueError(f"{name}: expected finite, strictly increasing times [s], got {t}")
+    return t
+
+
+def max_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """Largest point-to-point distance between two shapes (n + 1, 3) [m]."""
+    return float(np.max(np.linalg.norm(a - b, axis=-1)))

@@ -1,0 +1,232 @@
+"""Dynamic replay of a timed plan at its real speed (thesis eq. 3.24).
+
+The plan's shapes are static equilibria: they say where the cable rests once the clips stop.
+Moved at a finite speed the cable lags, swings and overshoots. The replay drives the thesis'
+explicit simulator (:func:`dloplan.sim.dynamics.simulate`) with the timed clip trajectory, starting
+at rest in the first planned shape, and reports
+
+* the deviation at each knot: the largest point distance [m] between the simulated shape at the
+  knot's time and the planned stabilized shape of that knot;
+* the deviation after settling: the clips are held at the last pose and the simulation continues
+  until every point is slower than ``rest_speed`` (or ``settle_duration`` has passed); as the
+  speed goes to zero every knot deviation tends to the static error of the plan, which this
+  final deviation measures;
+* the peak axial link force [N] over the run (tension positive), checked against an optional
+  tensile limit [N].
+
+The simulated shapes are recorded often enough (at least 20 records per knot interval, every step
+while the run has fewer than :data:`MAX_RECORDS` steps) that the shape at a knot time is
+interpolated linearly between two records and the force peak is sampled at that resolution.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..cable import GRAVITY, Cable
+from ..physics.chain import SpringChain, link_tensions
+from ..sim.clips import ClipPoses
+from ..sim.dynamics import ClipTrajectory, Simulation, simulate
+from ._inputs import as_path, as_times
+
+MAX_RECORDS = 100_000
+"""Upper bound on the number of recorded shapes of one replay."""
+
+
+@dataclass(frozen=True, eq=False)
+class Replay:
+    """Result of :func:`replay`.
+
+    Attributes
+    ----------
+    knot_times : numpy.ndarray
+        (S + 2,) times of the planned shapes [s], from the trajectory's start.
+    deviations : numpy.ndarray
+        (S + 2,) largest point distance between the simulated and the planned shape at each
+        knot time [m].
+    final_deviation : float
+        Largest point distance between the settled simulated shape and the last planned
+        shape [m].
+    settled : bool
+        The run came to rest (every point slower than ``rest_speed``) before its time limit.
+    peak_tension : float
+        Largest axial link force over the run [N] (positive in tension).
+    peak_time : float
+        When it occurred [s].
+    peak_link : int
+        Which link (0-based) carried it.
+    tensile_limit : float or None
+        The limit it was checked against [N].
+    tolerance : float
+        The largest deviation accepted [m].
+    ok : bool
+        Every deviation within ``tolerance``, settled, and the peak tension within the limit.
+    message : str
+        Summary.
+    simulation : Simulation
+        The full recorded run.
+    """
+
+    knot_times: np.ndarray
+    deviations: np.ndarray
+    final_deviation: float
+    settled: bool
+    peak_tension: float
+    peak_time: float
+    peak_link: int
+    tensile_limit: float | None
+    tolerance: float
+    ok: bool
+    message: str
+    simulation: Simulation
+
+    @property
+    def max_deviation(self) -> float:
+        """Largest knot deviation [m]."""
+        return float(np.max(self.deviations))
+
+    @property
+    def success(self) -> bool:
+        """Same as ``ok``."""
+        return self.ok
+
+
+def as_clip_trajectory(trajectory) -> ClipTrajectory:
+    """A :class:`ClipTrajectory` from one, from ``(times, poses)``, or from any object with
+    ``times`` (K,) [s] and ``poses`` (K ClipPoses) attributes (the timed dual-arm trajectory)."""
+    if isinstance(trajectory, ClipTrajectory):
+        return trajectory
+    if isinstance(trajectory, tuple) and len(trajectory) == 2:
+        times, poses = trajectory
+    elif hasattr(trajectory, "times") and hasattr(trajectory, "poses"):
+        times, poses = trajectory.times, trajectory.poses
+    else:
+        raise ValueError(
+            f"trajectory: got {type(trajectory).__name__}, expected a ClipTrajectory, a pair "
+            f"(times, list of ClipPoses) or an object with .times and .poses"
+        )
+    poses = list(poses)
+    for k, pose in enumerate(poses):
+        if not isinstance(pose, ClipPoses):
+            raise ValueError(f"trajectory: pose {k} is {type(pose).__name__}, expected ClipPoses")
+    return ClipTrajectory(as_times(times, len(poses), "trajectory times"), poses)
+
+
+def replay(
+    cable: Cable,
+    stabilized_shapes,
+    trajectory,
+    *,
+    knot_times=None,
+    gravity=GRAVITY,
+    tensile_limit: float | None = None,
+    tolerance: float = 0.01,
+    rest_speed: float = 1e-4,
+    settle_duration: float = 5.0,
+    dt: float | None = None,
+    youngs_modulus_cap: float | None = None,
+    max_steps: int = 10_000_000,
+) -> Replay:
+    """Simulate the timed plan at its real speed and compare with the planned shapes.
+
+    Parameters
+    ----------
+    cable : Cable
+        The cable.
+    stabilized_shapes : array_like
+        (S + 2, n + 1, 3) planned stabilized shapes [m]; the run starts at rest in the first.
+    trajectory : ClipTrajectory or (times, poses) or object with ``times`` and ``poses``
+        Timed clip poses driving the held points [s], [ClipPoses].
+    knot_times : array_like, optional
+        (S + 2,) times of the planned shapes on the trajectory's clock [s]; default the
+        trajectory's own times, when it has one pose per shape.
+    gravity : array_like
+        Gravity [m/s^2].
+    tensile_limit : float, optional
+        Largest axial force the cable may carry [N].
+    tolerance : float
+        Largest deviation accepted [m] (default 1 cm, the thesis' T_cf of 5.3).
+    rest_speed : float
+        Speed below which the settling cable is at rest [m/s].
+    settle_duration : float
+        Longest simulated time after the last knot [s].
+    dt, youngs_modulus_cap, max_steps
+        Passed to :func:`dloplan.sim.dynamics.simulate`.
+
+    Returns
+    -------
+    Replay
+        Deviations [m], settling, peak axial force [N], verdict and the recorded run.
+    """
+    path = as_path(stabilized_shapes, cable.n_points, "stabilized_shapes")
+    clips = as_clip_trajectory(trajectory)
+    if knot_times is None:
+        if len(clips.times) != len(path):
+            raise ValueError(
+                f"knot_times: required, the trajectory has {len(clips.times)} poses for "
+                f"{len(path)} shapes"
+            )
+        knot_times = clips.times
+    knots = as_times(knot_times, len(path), "knot_times")
+    start = clips.times[0]
+    if knots[0] < start or knots[-1] > clips.times[-1]:
+        raise ValueError(
+            f"knot_times: [{knots[0]}, {knots[-1]}] s lie outside the trajectory's "
+            f"[{start}, {clips.times[-1]}] s"
+        )
+    for name, value in (("tolerance", tolerance), ("rest_speed", rest_speed),
+                        ("settle_duration", settle_duration)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name}: got {value!r}, expected a number > 0")
+    if tensile_limit is not None and not (math.isfinite(tensile_limit) and tensile_limit > 0):
+        raise ValueError(f"tensile_limit: got {tensile_limit!r}, expected a force > 0 [N] or None")
+    shifted = ClipTrajectory(clips.times - start, clips.poses)
+    knots = knots - start
+    motion = float(shifted.times[-1])
+    step = dt if dt is not None else cable.time_step(youngs_modulus_cap)
+    duration = motion + settle_duration
+    spacing = np.diff(knots)
+    finest = float(np.min(spacing)) / 20.0 if len(spacing) else duration
+    record = min(max(step, duration / MAX_RECORDS), finest)
+    run = simulate(
+        cable, path[0], shifted, duration=duration, dt=dt, youngs_modulus_cap=youngs_modulus_cap,
+        gravity=gravity, record_interval=record, rest_speed=rest_speed, max_steps=max_steps,
+    )
+    deviations = np.array([_deviation_at(run, t, x) for t, x in zip(knots, path, strict=True)])
+    final = float(np.max(np.linalg.norm(run.shapes[-1] - path[-1], axis=1)))
+    tensions = link_tensions(SpringChain.from_cable(cable, gravity), run.shapes)
+    when, link = np.unravel_index(int(np.argmax(tensions)), tensions.shape)
+    peak = float(tensions[when, link])
+    within = tensile_limit is None or peak <= tensile_limit
+    problems = []
+    worst = int(np.argmax(deviations))
+    if deviations[worst] > tolerance:
+        problems.append(f"shape {worst} deviates {1e3 * deviations[worst]:.1f} mm at "
+                        f"t = {knots[worst]:.3g} s (tolerance {1e3 * tolerance:.1f} mm)")
+    if final > tolerance:
+        problems.append(f"the settled cable ends {1e3 * final:.1f} mm from the last shape")
+    if not run.settled:
+        problems.append(f"not at rest {settle_duration:.3g} s after the motion ({run.message})")
+    if not within:
+        problems.append(f"peak tension {peak:.3g} N exceeds the limit {tensile_limit:.3g} N "
+                        f"(link {link}, t = {run.times[when]:.3g} s)")
+    summary = (f"max deviation {1e3 * float(np.max(deviations)):.2f} mm, settled "
+               f"{1e3 * final:.2f} mm, peak tension {peak:.3g} N")
+    message = "; ".join(problems) + f" ({summary})" if problems else f"replay ok: {summary}"
+    return Replay(knots, deviations, final, bool(run.settled), peak, float(run.times[when]),
+                  int(link), tensile_limit, float(tolerance), not problems, message, run)
+
+
+def _deviation_at(run: Simulation, t: float, planned: np.ndarray) -> float:
+    """Largest point distance between the recorded run, interpolated at time t, and a shape."""
+    k = int(np.clip(np.searchsorted(run.times, t), 1, len(run.times) - 1))
+    t0, t1 = run.times[k - 1], run.times[k]
+    w = 0.0 if t1 <= t0 else float(np.clip((t - t0) / (t1 - t0), 0.0, 1.0))
+    shape = (1.0 - w) * run.shapes[k - 1] + w * run.shapes[k]
+    return float(np.max(np.linalg.norm(shape - planned, axis=1)))
+
+
+__all__ = ["Replay", "as_clip_trajectory", "replay"]

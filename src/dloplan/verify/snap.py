@@ -1,0 +1,383 @@
+"""Snap-through along a planned path: quasi-static continuation between consecutive clip poses.
+
+The planner gives stabilized shapes at the planned clip poses only. Between two of them the
+robot moves the clips continuously (linear in position, slerp in rotation,
+:func:`dloplan.sim.statics.interpolate_clips`), and a slowly moved cable follows its equilibrium
+branch, warm start after warm start (:func:`dloplan.sim.statics.equilibrium`). That branch may
+end at a fold, or lose stability at a bifurcation: the cable then *snaps*, jumping to another
+equilibrium far from the one it left, with a velocity no robot controls. This module follows the
+branch in small sub-steps and flags such events.
+
+Definitions
+-----------
+clip motion
+    Between two clip poses, the largest over the two clips of |dp| + L dtheta [m]: the
+    translation of the clip point plus the rotation angle of its u-axis times the cable length L
+    (how far a rigid cable of length L swung by the clip would move). Roll about u is not
+    counted: it does not move a torsion-free cable.
+sub-steps
+    A segment is split into sub-steps whose clip motion is at most ``max_clip_step`` times L
+    (default 0.5 %), so that smooth motions change the shape by small amounts.
+ratio
+    Shape change of one sub-step (largest point displacement [m]) over its clip motion [m]. Along
+    a smooth branch it is bounded and independent of the step size; at a fold or a bifurcation
+    it is unbounded (a finite jump over a vanishing clip motion, or a square-root branch).
+snap (critical point)
+    Along a branch, the rate of shape change is about (clip forcing) / lambda_1: it is unbounded
+    exactly where the smallest eigenvalue lambda_1 of the followed equilibrium reaches zero, at a
+    fold (the branch ends: a finite jump) or at a bifurcation (the branch loses stability and the
+    cable leaves it along a square-root branch, in a direction decided by imperfections). A run
+    of sub-steps is a *candidate window* when a ratio exceeds ``jump_ratio`` (default 5) or when
+    the sampled lambda_1 has a local minimum below :data:`DIP` times its larger neighbour. In
+    the window (widened by one sub-step on each side) lambda_1 is minimized over the fraction t
+    by Brent's bounded method (``scipy.optimize.minimize_scalar``), each equilibrium solved from
+    the last shape before the window, to 2^-``refinements`` of the window's width. The window
+    is a snap when that minimum is below :data:`CRITICAL` times lambda_1 at the window's ends: a
+    steep but smooth change keeps lambda_1 away from zero and is only reported (``max_ratio``).
+unstable
+    A sub-step whose equilibrium is not a stable minimum (solver not converged, or smallest
+    eigenvalue not above the threshold of :func:`dloplan.verify.stability.elastic_stability`):
+    the smallest eigenvalue has crossed zero.
+branch
+    The continuation ends farther than ``branch_tolerance`` (default 1 mm) from the planned
+    stabilized shape of the segment's end: the plan's shape is not the one the motion produces.
+
+Each segment starts from the planned stabilized shape at its start, so one event does not hide
+the next. Per segment the *straying* is the largest distance of a quasi-static shape from the
+straight interpolation (1 - t) A + t B of the two planned stabilized shapes A, B [m]: how far the
+cable departs from what a viewer of the plan would assume between two frames.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from ..cable import GRAVITY, Cable
+from ..physics.chain import SpringChain
+from ..sim.clips import ClipPoses
+from ..sim.statics import equilibrium, interpolate_clips
+from ._inputs import as_clip_sequence, as_path, max_distance
+from .stability import STABILITY_RTOL, elastic_stability
+
+CRITICAL = 0.1
+"""A candidate is a critical point when the smallest eigenvalue found in its window is below this
+fraction of the values at the window's ends."""
+
+DIP = 0.5
+"""A sampled local minimum of the smallest eigenvalue below this fraction of its larger neighbour
+makes its sub-steps candidates (a critical point may fall between samples)."""
+
+
+@dataclass(frozen=True, eq=False)
+class SnapEvent:
+    """A flagged event of the continuation.
+
+    Attributes
+    ----------
+    segment : int
+        Segment index s (motion from shape s to shape s + 1).
+    substep : int
+        Sub-step (1-based) of the segment in which it happens: the one with the largest shape
+        change of a snap's window (0 for a ``"branch"`` event).
+    fraction : float
+        Where in the segment, as a fraction of the clip interpolation in [0, 1] (localized to
+        the smallest eigenvalue for a snap).
+    kind : str
+        ``"snap"``, ``"unstable"`` or ``"branch"`` (see the module docstring).
+    distance : float
+        Largest point displacement of one sub-step at the event [m].
+    ratio : float
+        That displacement over the sub-step's clip motion.
+    eigenvalue : float
+        Smallest eigenvalue at the event [N/m] (the minimum found for a snap).
+    message : str
+        The event in words.
+    """
+
+    segment: int
+    substep: int
+    fraction: float
+    kind: str
+    distance: float
+    ratio: float
+    eigenvalue: float
+    message: str
+
+
+@dataclass(frozen=True, eq=False)
+class SegmentContinuation:
+    """Quasi-static continuation of one segment.
+
+    Attributes
+    ----------
+    segment : int
+        Segment index s.
+    fractions : numpy.ndarray
+        (m + 1,) fractions of the clip interpolation, 0 to 1.
+    shapes : numpy.ndarray
+        (m + 1, n + 1, 3) quasi-static shapes [m] (the first is the planned shape s).
+    eigenvalues : numpy.ndarray
+        (m + 1,) smallest eigenvalue of each [N/m].
+    ratios : numpy.ndarray
+        (m,) shape change over clip motion of each sub-step.
+    straying : float
+        Largest distance of a shape from the straight interpolation of the planned shapes [m].
+    end_mismatch : float
+        Largest distance between the last shape and the planned shape s + 1 [m].
+    events : tuple of SnapEvent
+        Events flagged in this segment.
+    """
+
+    segment: int
+    fractions: np.ndarray
+    shapes: np.ndarray
+    eigenvalues: np.ndarray
+    ratios: np.ndarray
+    straying: float
+    end_mismatch: float
+    events: tuple[SnapEvent, ...]
+
+    @property
+    def max_ratio(self) -> float:
+        """Largest sub-step ratio."""
+        return float(np.max(self.ratios)) if len(self.ratios) else 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class SnapCheck:
+    """Result of :func:`check_snap_through`.
+
+    Attributes
+    ----------
+    segments : tuple of SegmentContinuation
+        One per segment (n_shapes - 1).
+    events : tuple of SnapEvent
+        All events, in path order.
+    ok : bool
+        No event.
+    message : str
+        Summary.
+    """
+
+    segments: tuple[SegmentContinuation, ...]
+    events: tuple[SnapEvent, ...]
+    ok: bool
+    message: str
+
+    @property
+    def success(self) -> bool:
+        """Same as ``ok``."""
+        return self.ok
+
+
+def clip_motion(a: ClipPoses, b: ClipPoses, reach: float) -> float:
+    """Largest over the two clips of |dp| + reach * (angle between the u-axes) [m]."""
+    shift = np.linalg.norm(b.positions - a.positions, axis=1)
+    cos = np.clip(np.einsum("ij,ij->i", a.u_axes, b.u_axes), -1.0, 1.0)
+    return float(np.max(shift + reach * np.arccos(cos)))
+
+
+class _Segment:
+    """The solver state shared by the sub-steps and the localization of one segment."""
+
+    def __init__(self, cable, chain, start: ClipPoses, end: ClipPoses, gravity, rtol):
+        self.cable, self.chain, self.gravity, self.rtol = cable, chain, gravity, rtol
+        self.start, self.end = start, end
+        self._clips: dict[float, ClipPoses] = {}
+
+    def prepare(self, fractions: np.ndarray) -> None:
+        """Interpolate the clips at all sub-step fractions at once (Rotation calls are slow)."""
+        self._clips.update(zip(fractions.tolist(), interpolate_clips(self.start, self.end,
+                                                                     fractions), strict=True))
+
+    def clips(self, t: float) -> ClipPoses:
+        t = float(t)
+        if t not in self._clips:
+            self._clips[t] = interpolate_clips(self.start, self.end, [t])[0]
+        return self._clips[t]
+
+    def solve(self, guess: np.ndarray, t: float):
+        eq = equilibrium(self.cable, guess, self.clips(t), gravity=self.gravity, chain=self.chain)
+        stab = elastic_stability(self.cable, eq.shape, gravity=self.gravity, k=1, rtol=self.rtol)
+        return eq, stab
+
+    def ratio(self, x0, t0, x1, t1) -> float:
+        motion = clip_motion(self.clips(t0), self.clips(t1), self.cable.length)
+        return max_distance(x0, x1) / motion if motion > 0 else math.inf
+
+    def smallest_at(self, guess: np.ndarray, t: float) -> float:
+        """Smallest eigenvalue of the equilibrium at fraction t reached from ``guess``."""
+        return self.solve(guess, t)[1].smallest
+
+
+def check_snap_through(
+    cable: Cable,
+    stabilized_shapes,
+    clip_poses: Sequence[ClipPoses] | None = None,
+    *,
+    gravity=GRAVITY,
+    max_clip_step: float = 0.005,
+    substeps: int | None = None,
+    jump_ratio: float = 5.0,
+    refinements: int = 10,
+    branch_tolerance: float = 1e-3,
+    rtol: float = STABILITY_RTOL,
+) -> SnapCheck:
+    """Follow the equilibrium branch between consecutive planned clip poses; flag snaps.
+
+    Parameters
+    ----------
+    cable : Cable
+        The cable.
+    stabilized_shapes : array_like
+        (S + 2, n + 1, 3) planned, stabilized shapes [m].
+    clip_poses : sequence of ClipPoses, optional
+        The planned clip poses of each shape; default: read off the shapes' end links.
+    gravity : array_like
+        Gravity [m/s^2].
+    max_clip_step : float
+        Largest clip motion of one sub-step, as a fraction of the cable length.
+    substeps : int, optional
+        A fixed number of sub-steps per segment instead of ``max_clip_step``.
+    jump_ratio : float
+        Shape change over clip motion above which a sub-step is a snap candidate.
+    refinements : int
+        Localization accuracy, 2^-refinements of a candidate window (0: no localization, the
+        sampled eigenvalues decide).
+    branch_tolerance : float
+        Largest distance [m] accepted between the continuation's end and the planned shape.
+    rtol : float
+        Relative eigenvalue tolerance of the stability test.
+
+    Returns
+    -------
+    SnapCheck
+        Per-segment continuation, events, verdict.
+    """
+    path = as_path(stabilized_shapes, cable.n_points, "stabilized_shapes")
+    poses = as_clip_sequence(clip_poses, path)
+    for name, value in (("max_clip_step", max_clip_step), ("jump_ratio", jump_ratio),
+                        ("branch_tolerance", branch_tolerance)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name}: got {value!r}, expected a number > 0")
+    if substeps is not None and (int(substeps) != substeps or substeps < 1):
+        raise ValueError(f"substeps: got {substeps!r}, expected an integer >= 1 or None")
+    if int(refinements) != refinements or refinements < 0:
+        raise ValueError(f"refinements: got {refinements!r}, expected an integer >= 0")
+    chain = SpringChain.from_cable(cable, gravity)
+    segments = []
+    for s in range(len(path) - 1):
+        seg = _Segment(cable, chain, poses[s], poses[s + 1], gravity, rtol)
+        if substeps is None:
+            total = clip_motion(poses[s], poses[s + 1], cable.length)
+            m = max(1, math.ceil(total / (max_clip_step * cable.length)))
+        else:
+            m = int(substeps)
+        segments.append(_continue_segment(seg, s, path[s], path[s + 1], m, jump_ratio,
+                                          int(refinements), branch_tolerance))
+    events = tuple(e for seg in segments for e in seg.events)
+    if events:
+        message = f"{len(events)} event(s): " + "; ".join(e.message for e in events)
+    else:
+        message = f"no snap-through in {len(segments)} segment(s)"
+    return SnapCheck(tuple(segments), events, not events, message)
+
+
+def _continue_segment(seg: _Segment, s, start, end, m, jump_ratio, refinements, tolerance):
+    fractions = np.linspace(0.0, 1.0, m + 1)
+    seg.prepare(fractions)
+    shapes = [start]
+    eigenvalues = [elastic_stability(seg.cable, start, gravity=seg.gravity, k=1,
+                                     rtol=seg.rtol).smallest]
+    ratios, events = [], []
+    x = start
+    for j in range(1, m + 1):
+        eq, stab = seg.solve(x, fractions[j])
+        ratios.append(seg.ratio(x, fractions[j - 1], eq.shape, fractions[j]))
+        if not (eq.converged and stab.stable):
+            events.append(SnapEvent(
+                s, j, float(fractions[j]), "unstable", max_distance(eq.shape, x), ratios[-1],
+                stab.smallest, f"segment {s}, sub-step {j} (t = {fractions[j]:.4f}): no stable "
+                f"equilibrium ({eq.message}; {stab.message})",
+            ))
+        x = eq.shape
+        shapes.append(x)
+        eigenvalues.append(stab.smallest)
+    shapes, eigenvalues, ratios = np.stack(shapes), np.asarray(eigenvalues), np.asarray(ratios)
+    for first, last in _candidate_windows(ratios, eigenvalues, jump_ratio):
+        event = _localize(seg, s, fractions, shapes, eigenvalues, ratios, first, last,
+                          refinements)
+        if event is not None:
+            events.append(event)
+    events.sort(key=lambda e: e.fraction)
+    straight = (1.0 - fractions)[:, None, None] * start + fractions[:, None, None] * end
+    straying = float(np.max(np.linalg.norm(shapes - straight, axis=-1)))
+    mismatch = max_distance(shapes[-1], end)
+    if mismatch > tolerance:
+        events.append(SnapEvent(
+            s, 0, 1.0, "branch", mismatch, math.nan, float(eigenvalues[-1]),
+            f"segment {s}: the quasi-static motion ends {1e3 * mismatch:.1f} mm from planned "
+            f"shape {s + 1} (tolerance {1e3 * tolerance:.1f} mm): the planned shape is not the "
+            f"equilibrium the motion reaches (another branch, or not stabilized)",
+        ))
+    return SegmentContinuation(s, fractions, shapes, eigenvalues, ratios, straying, mismatch,
+                               tuple(events))
+
+
+def _candidate_windows(ratios, eigenvalues, jump_ratio):
+    """Runs of sub-steps (first, last), 1-based, that may hide a critical point.
+
+    A sub-step is a candidate when its ratio exceeds ``jump_ratio`` or when it ends at a sampled
+    dip of the smallest eigenvalue (a local minimum below :data:`DIP` times its larger
+    neighbour).
+    """
+    m = len(ratios)
+    flagged = ratios > jump_ratio
+    lam = eigenvalues
+    for j in range(1, m):
+        low, high = sorted((lam[j - 1], lam[j + 1]))
+        if lam[j] <= low and lam[j] < DIP * high:
+            flagged[j - 1] = flagged[j] = True
+    windows, j = [], 0
+    while j < m:
+        if flagged[j]:
+            k = j
+            while k + 1 < m and flagged[k + 1]:
+                k += 1
+            windows.append((j + 1, k + 1))
+            j = k + 1
+        else:
+            j += 1
+    return windows
+
+
+def _localize(seg, s, fractions, shapes, eigenvalues, ratios, first, last, refinements):
+    """Find the smallest eigenvalue over a candidate window; an event if it is near zero."""
+    a, b = first - 1, min(last + 1, len(fractions) - 1)
+    guess = shapes[a]
+    t_star, lam_star = fractions[last], float(eigenvalues[last])
+    if refinements:
+        width = fractions[b] - fractions[a]
+        found = minimize_scalar(lambda t: seg.smallest_at(guess, t), bounds=(fractions[a],
+                                fractions[b]), method="bounded",
+                                options={"xatol": width * 2.0**-refinements})
+        t_star, lam_star = float(found.x), float(found.fun)
+    ends = min(eigenvalues[a], eigenvalues[b])
+    if not lam_star < CRITICAL * ends:
+        return None  # steep but smooth: the eigenvalue stays away from zero
+    window = slice(first - 1, last)
+    j = first + int(np.argmax(ratios[window]))
+    distance = max_distance(shapes[j], shapes[j - 1])
+    return SnapEvent(
+        s, j, t_star, "snap", distance, float(np.max(ratios[window])), lam_star,
+        f"segment {s}, sub-step {j}: snap-through (critical point) at t = {t_star:.4f}, the "
+        f"smallest eigenvalue "
+        f"falls to {lam_star:.3g} N/m (from {ends:.3g}) and the shape moves "
+        f"{1e3 * distance:.1f} mm in one sub-step ({float(np.max(ratios[window])):.3g} times "
+        f"the clip motion)",
+    )

@@ -1,0 +1,311 @@
+"""Elastic stability of a held cable: the smallest eigenvalues of its tangent stiffness.
+
+A static equilibrium x* of the potential energy U (eqs. 3.8, 3.20, 3.28) with both clips held
+is *stable* when every small motion of the free points 2 .. n-2 raises the energy, i.e. when the
+Hessian H = d^2U/dx^2 restricted to the free coordinates (:func:`dloplan.sim.statics.free_hessian`)
+is positive definite. Its smallest eigenvalue lambda_1 [N/m] measures how far the shape is from
+losing stability, and the matching eigenvector (the *mode*) shows how it would go: a shape near a
+fold or a buckling load has lambda_1 close to zero and snaps along its mode.
+
+Scale and tolerance
+-------------------
+Eigenvalues are compared with :func:`stiffness_scale`, the lowest eigenvalue of the same cable
+straight, unloaded and weightless between simple supports,
+
+    lambda_ref = (k_b / l^2) (pi l / L)^4 = B l pi^4 / L^4,    B = k_b l (the bending stiffness),
+
+which is the smallest stiffness an intact cable owes to bending alone (the Hessian's largest
+eigenvalues, about 4 k_s, are axial and irrelevant here). A shape is stable when
+
+    lambda_1 > max(rtol * lambda_ref, 100 eps ||H||_inf)
+
+with ``rtol = 1e-6`` by default: the second term is the round-off floor of an eigenvalue of H
+(entries of size k_s computed in double precision), which only matters for very fine chains of
+axially stiff cables (n = 1000: about 1e-4 lambda_ref). A smaller lambda_1 is zero to the
+accuracy of the model: the shape is neutral (a rigid rotation the torsion-free model does not
+resist, e.g. a weightless cable whose clips both point along the chord) or unstable.
+
+The stability verdict is only meaningful at an equilibrium, so the net force on the free points
+is checked as well: a shape whose largest free-point force exceeds ``equilibrium_rtol`` times
+:func:`dloplan.sim.statics.force_scale` is reported as not an equilibrium (and not stable).
+
+The eigen-solve is linear in n: H - sigma I is factorized by a banded Cholesky decomposition at a
+shift sigma below the spectrum (whose success *proves* that every eigenvalue exceeds sigma, by
+Sylvester's law of inertia) and ARPACK's shift-invert Lanczos (``scipy.sparse.linalg.eigsh``) runs
+on the banded solves; small problems (fewer than :data:`DENSE_BELOW` free coordinates) use a
+dense ``scipy.linalg.eigh``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ..cable import GRAVITY, Cable
+from ..physics.chain import HALF_BANDWIDTH, SpringChain, gradient
+from ..physics.geometry import as_shape
+from ..sim.statics import force_scale, free_hessian
+from ._inputs import as_path
+
+STABILITY_RTOL = 1e-6
+"""Default relative tolerance on the smallest eigenvalue, against :func:`stiffness_scale`."""
+
+EQUILIBRIUM_RTOL = 1e-3
+"""Default tolerance on the free-point force residual, against ``force_scale``: loose enough for
+shapes settled by the thesis' time stepping (rest speed 1e-5 m/s), tight enough to reject a shape
+that is not an equilibrium at all."""
+
+ROUNDOFF_FACTOR = 100.0
+"""The round-off floor of an eigenvalue is ``ROUNDOFF_FACTOR * eps * ||H||_inf``."""
+
+DENSE_BELOW = 60
+"""Free-coordinate count below which a dense eigen-solve is used (ARPACK overhead dominates)."""
+
+
+@dataclass(frozen=True, eq=False)
+class Stability:
+    """Result of :func:`elastic_stability` for one shape.
+
+    Attributes
+    ----------
+    eigenvalues : numpy.ndarray
+        (k,) smallest eigenvalues of the free-DOF Hessian, ascending [N/m].
+    modes : numpy.ndarray
+        (k, n + 1, 3) matching unit eigenvectors as point displacements (zero at the held
+        points); the sign makes the largest component positive.
+    scale : float
+        lambda_ref of :func:`stiffness_scale` [N/m].
+    threshold : float
+        The eigenvalue a stable shape must exceed [N/m].
+    residual : float
+        Largest net force on a free point [N].
+    is_equilibrium : bool
+        ``residual`` within the equilibrium tolerance.
+    stable : bool
+        An equilibrium whose smallest eigenvalue exceeds ``threshold``.
+    message : str
+        The verdict in words.
+    """
+
+    eigenvalues: np.ndarray
+    modes: np.ndarray
+    scale: float
+    threshold: float
+    residual: float
+    is_equilibrium: bool
+    stable: bool
+    message: str
+
+    @property
+    def smallest(self) -> float:
+        """The smallest eigenvalue lambda_1 [N/m] (+inf when no point is free)."""
+        return float(self.eigenvalues[0]) if len(self.eigenvalues) else math.inf
+
+    @property
+    def relative(self) -> float:
+        """lambda_1 / lambda_ref (dimensionless)."""
+        return self.smallest / self.scale
+
+    @property
+    def success(self) -> bool:
+        """Same as ``stable``."""
+        return self.stable
+
+
+def stiffness_scale(cable: Cable) -> float:
+    """Lowest eigenvalue of the straight, unloaded, simply supported chain [N/m].
+
+    lambda_ref = (k_b / l^2) (pi l / L)^4: the stiffness of the softest bending mode of the
+    cable by bending alone, used to judge whether a smallest eigenvalue is zero.
+    """
+    l = cable.rest_link_length
+    return cable.k_bending / l**2 * (math.pi * l / cable.length) ** 4
+
+
+def _band_of(matrix: sp.spmatrix) -> np.ndarray:
+    """Lower band (HALF_BANDWIDTH + 1, N) of a symmetric banded sparse matrix."""
+    n_dof = matrix.shape[0]
+    band = np.zeros((HALF_BANDWIDTH + 1, n_dof))
+    for k in range(min(HALF_BANDWIDTH + 1, n_dof)):
+        band[k, : n_dof - k] = matrix.diagonal(-k)
+    return band
+
+
+def _cholesky_at(band: np.ndarray, shift: float) -> np.ndarray | None:
+    shifted = band.copy()
+    shifted[0] -= shift
+    try:
+        return sla.cholesky_banded(shifted, lower=True, check_finite=False)
+    except np.linalg.LinAlgError:
+        return None
+
+
+def _shift_below_spectrum(band: np.ndarray, matrix: sp.spmatrix, start: float):
+    """A shift sigma < lambda_1 and the Cholesky factor of H - sigma I.
+
+    Tries sigma = -start, -4 start, -16 start, ... and finally the Gershgorin lower bound
+    (certainly below the spectrum).
+    """
+    row_sums = np.asarray(abs(matrix).sum(axis=1)).ravel()
+    diagonal = band[0]
+    gershgorin = float(np.min(2.0 * diagonal - row_sums))  # min_i (H_ii - sum_{j!=i} |H_ij|)
+    sigma = -start
+    while sigma > gershgorin:
+        factor = _cholesky_at(band, sigma)
+        if factor is not None:
+            return sigma, factor
+        sigma *= 4.0
+    sigma = gershgorin - start
+    factor = _cholesky_at(band, sigma)
+    if factor is None:  # pragma: no cover - Gershgorin guarantees definiteness
+        raise FloatingPointError("stability: no shift below the spectrum found")
+    return sigma, factor
+
+
+def smallest_eigenpairs(matrix, k: int = 3, *, scale: float = 1.0, method: str = "auto"):
+    """The k smallest eigenvalues and eigenvectors of a symmetric banded sparse matrix.
+
+    Parameters
+    ----------
+    matrix : scipy.sparse matrix
+        (N, N) symmetric, with half bandwidth at most ``HALF_BANDWIDTH`` (a free Hessian).
+    k : int
+        Number of eigenpairs (fewer when N < k).
+    scale : float
+        Magnitude of the eigenvalues of interest; sets the first shift tried.
+    method : {"auto", "sparse", "dense"}
+        ``"sparse"``: shift-invert Lanczos on banded Cholesky solves (linear in N);
+        ``"dense"``: ``scipy.linalg.eigh``; ``"auto"``: dense below :data:`DENSE_BELOW`.
+
+    Returns
+    -------
+    eigenvalues : numpy.ndarray
+        (k,) ascending.
+    vectors : numpy.ndarray
+        (N, k) orthonormal columns.
+    """
+    n_dof = matrix.shape[0]
+    k = min(k, n_dof)
+    if method not in ("auto", "sparse", "dense"):
+        raise ValueError(f"method: got {method!r}, expected 'auto', 'sparse' or 'dense'")
+    if method == "dense" or (method == "auto" and n_dof < DENSE_BELOW) or k >= n_dof - 1:
+        values, vectors = sla.eigh(matrix.toarray(), subset_by_index=[0, k - 1])
+        return values, vectors
+    band = _band_of(matrix)
+    sigma, factor = _shift_below_spectrum(band, matrix, scale)
+    inverse = spla.LinearOperator(
+        (n_dof, n_dof),
+        matvec=lambda b: sla.cho_solve_banded((factor, True), b, check_finite=False),
+        dtype=float,
+    )
+    # the eigenvalues of (H - sigma I)^-1 are 1 / (lambda - sigma) > 0; the largest belong to the
+    # smallest lambda because sigma lies below all of them.
+    values, vectors = spla.eigsh(matrix, k=k, sigma=sigma, which="LM", OPinv=inverse, tol=0.0)
+    order = np.argsort(values)
+    return values[order], vectors[:, order]
+
+
+def elastic_stability(
+    cable: Cable,
+    shape,
+    *,
+    gravity=GRAVITY,
+    k: int = 3,
+    rtol: float = STABILITY_RTOL,
+    equilibrium_rtol: float = EQUILIBRIUM_RTOL,
+    method: str = "auto",
+) -> Stability:
+    """Smallest eigenvalues and modes of the held cable's stiffness, and the stability verdict.
+
+    Parameters
+    ----------
+    cable : Cable
+        The cable.
+    shape : array_like
+        (n + 1, 3) equilibrium shape [m]; points 0, 1, n-1, n are held by the clips.
+    gravity : array_like
+        Gravity [m/s^2] (enters the equilibrium check only: gravity has no Hessian).
+    k : int
+        Number of eigenpairs returned (>= 1).
+    rtol : float
+        Relative tolerance: stable when lambda_1 > max(rtol lambda_ref, round-off floor).
+    equilibrium_rtol : float
+        The largest free-point force accepted, relative to ``force_scale(cable, gravity)``.
+    method : {"auto", "sparse", "dense"}
+        Eigen-solver, see :func:`smallest_eigenpairs`.
+
+    Returns
+    -------
+    Stability
+        Eigenvalues [N/m], modes, threshold, equilibrium residual and verdict.
+    """
+    x = as_shape(shape, cable.n_points, "shape")
+    if isinstance(k, bool) or int(k) != k or k < 1:
+        raise ValueError(f"k: got {k!r}, expected an integer >= 1")
+    for name, value in (("rtol", rtol), ("equilibrium_rtol", equilibrium_rtol)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name}: got {value!r}, expected a number > 0")
+    chain = SpringChain.from_cable(cable, gravity)
+    residual = 0.0
+    if cable.n_points > 4:
+        residual = float(np.max(np.linalg.norm(gradient(chain, x)[2:-2], axis=1)))
+    is_equilibrium = residual <= equilibrium_rtol * force_scale(cable, gravity)
+    scale = stiffness_scale(cable)
+    matrix = free_hessian(cable, x, gravity)
+    n_dof = matrix.shape[0]
+    if n_dof == 0:
+        return Stability(np.zeros(0), np.zeros((0, cable.n_points, 3)), scale, 0.0, residual,
+                         True, True, "no free point: the clips fix the whole cable")
+    values, vectors = smallest_eigenpairs(matrix, int(k), scale=scale, method=method)
+    norm = float(abs(matrix).sum(axis=1).max())
+    threshold = max(rtol * scale, ROUNDOFF_FACTOR * np.finfo(float).eps * norm)
+    modes = np.zeros((len(values), cable.n_points, 3))
+    for j in range(len(values)):
+        v = vectors[:, j]
+        modes[j, 2:-2] = (v if v[np.argmax(np.abs(v))] > 0 else -v).reshape(-1, 3)
+    positive = bool(values[0] > threshold)
+    stable = positive and is_equilibrium
+    summary = f"lambda_1 = {values[0]:.4g} N/m ({values[0] / scale:.4g} lambda_ref)"
+    if not is_equilibrium:
+        message = (f"not an equilibrium: a free point carries a net force of {residual:.3g} N "
+                   f"(tolerance {equilibrium_rtol * force_scale(cable, gravity):.3g} N); {summary}")
+    elif positive:
+        message = f"stable: {summary}"
+    else:
+        message = f"not stable: {summary} is not above {threshold:.3g} N/m"
+    return Stability(values, modes, scale, float(threshold), residual, bool(is_equilibrium),
+                     stable, message)
+
+
+def path_stability(
+    cable: Cable, shapes, *, gravity=GRAVITY, **options
+) -> tuple[Stability, ...]:
+    """:func:`elastic_stability` of every shape of a path.
+
+    Parameters
+    ----------
+    cable : Cable
+        The cable.
+    shapes : array_like
+        (S + 2, n + 1, 3) stabilized shapes [m].
+    gravity : array_like
+        Gravity [m/s^2].
+    **options
+        Passed to :func:`elastic_stability`.
+    """
+    path = as_path(shapes, cable.n_points, "shapes")
+    return tuple(elastic_stability(cable, x, gravity=gravity, **options) for x in path)
+
+
+__all__ = [
+    "Stability",
+    "elastic_stability",
+    "path_stability",
+    "smallest_eigenpairs",
+    "stiffness_scale",
+]

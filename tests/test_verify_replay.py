@@ -1,0 +1,91 @@
+"""Dynamic replay: slow replays converge to the static error, fast ones deviate more."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from dloplan.cable import catalogue_cable
+from dloplan.sim.clips import ClipPoses
+from dloplan.sim.dynamics import ClipTrajectory
+from dloplan.sim.statics import continuation
+from dloplan.verify.replay import as_clip_trajectory, replay
+
+# A soft USB cable (E / 10, the thesis' fictitious-modulus idea): its explicit time step is about
+# 3x longer, so a replay of a few seconds takes a few thousand steps.
+CABLE = catalogue_cable("usb", 8).with_modulus(2.5e5)
+FACING = Rotation.from_rotvec([[0, 0, 0], [0, 0, math.pi]])
+POSES = [
+    ClipPoses(np.array([[0, 0, 0.3], [0.4 - dx, 0.5 * dx, 0.3]]), FACING)
+    for dx in (0.0, 0.05, 0.1)
+]
+
+
+@pytest.fixture(scope="module")
+def shapes():
+    guess = np.zeros((9, 3))
+    guess[:, 0] = np.linspace(-0.05, 0.45, 9)
+    return np.stack([e.shape for e in continuation(CABLE, guess, POSES, substeps=5)])
+
+
+def test_slow_replay_tends_to_the_stabilization_error(shapes):
+    # Plant a known static error: the planned middle shape is 2 mm off its equilibrium.
+    planned = shapes.copy()
+    planned[1, 4, 2] += 0.002
+    runs = {T: replay(CABLE, planned, (np.linspace(0, T, 3), POSES)) for T in (1.0, 4.0)}
+    for run in runs.values():
+        assert run.settled and run.final_deviation < 1e-4  # the last shape is an equilibrium
+        assert run.deviations[0] == 0.0  # the run starts at rest in the first shape
+    # the lag is proportional to the speed, so the deviation beyond the static error shrinks
+    # about 4x from T = 1 s to T = 4 s (within 30 %: the start-up transient is not linear)
+    lag = {T: r.deviations[2] - r.final_deviation for T, r in runs.items()}
+    assert 4 / 1.3 < lag[1.0] / lag[4.0] < 4 * 1.3
+    # at the planted shape the deviation approaches the 2 mm static error
+    slow = runs[4.0].deviations[1]
+    assert abs(slow - 0.002) < abs(runs[1.0].deviations[1] - 0.002)
+    assert abs(slow - 0.002) < 0.5 * lag[1.0]
+
+
+def test_fast_replay_deviates_more_and_pulls_harder(shapes):
+    fast = replay(CABLE, shapes, (np.array([0.0, 0.1, 0.2]), POSES), tolerance=0.005)
+    slow = replay(CABLE, shapes, (np.array([0.0, 1.5, 3.0]), POSES), tolerance=0.005)
+    assert fast.max_deviation > 3 * slow.max_deviation
+    assert slow.ok and not fast.ok
+    assert "deviates" in fast.message
+    assert fast.peak_tension >= slow.peak_tension > 0
+    # a tensile limit below the peak fails the replay and names it
+    limited = replay(CABLE, shapes, (np.array([0.0, 1.5, 3.0]), POSES),
+                     tensile_limit=0.5 * slow.peak_tension)
+    assert not limited.ok and "exceeds the limit" in limited.message
+
+
+def test_trajectory_forms_and_knot_times(shapes):
+    times = np.array([2.0, 3.0, 4.0])  # a clock that does not start at zero
+    as_pair = replay(CABLE, shapes, (times, POSES))
+    as_object = replay(CABLE, shapes, ClipTrajectory(times, POSES))
+    np.testing.assert_allclose(as_pair.deviations, as_object.deviations)
+    np.testing.assert_allclose(as_pair.knot_times, [0.0, 1.0, 2.0])
+
+    class Timed:  # the duck type of a timed dual-arm trajectory
+        def __init__(self):
+            self.times, self.poses = times, POSES
+
+    assert isinstance(as_clip_trajectory(Timed()), ClipTrajectory)
+    # a denser trajectory needs the knot times of the shapes
+    dense = (np.linspace(2.0, 4.0, 5), [POSES[0], POSES[0], POSES[1], POSES[2], POSES[2]])
+    with pytest.raises(ValueError, match="knot_times: required"):
+        replay(CABLE, shapes, dense)
+    run = replay(CABLE, shapes, dense, knot_times=[2.0, 3.0, 4.0])
+    assert len(run.deviations) == 3
+
+
+def test_bad_inputs(shapes):
+    with pytest.raises(ValueError, match="trajectory"):
+        replay(CABLE, shapes, "fast")
+    with pytest.raises(ValueError, match="tensile_limit"):
+        replay(CABLE, shapes, ([0, 1, 2], POSES), tensile_limit=-1.0)
+    with pytest.raises(ValueError, match="knot_times"):
+        replay(CABLE, shapes, ([0, 1, 2], POSES), knot_times=[0, 2, 1])
+    with pytest.raises(ValueError, match="outside"):
+        replay(CABLE, shapes, ([0, 1, 2], POSES), knot_times=[0, 1, 3])

@@ -1,0 +1,145 @@
+"""Snap-through: an arch snaps at the angle a fine continuation finds; smooth motions do not."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from dloplan.cable import catalogue_cable
+from dloplan.sim.clips import ClipPoses
+from dloplan.sim.statics import continuation, equilibrium
+from dloplan.verify.snap import check_snap_through, clip_motion
+
+WEIGHTLESS = (0.0, 0.0, 0.0)
+TILT = math.radians(20.0)
+ROTATION = math.radians(-60.0)
+
+# The arch is weightless and its clips point 20 degrees above the chord. Why: the model has no
+# twist stiffness, so a shape may turn rigidly about the line through the two clip points as
+# long as the held links lie on that line. With level clips, gravity would make an arch swing
+# down around the chord (an inverted pendulum, not a snap); weightless with level clips, that
+# rotation costs nothing (a zero eigenvalue: neutral). Tilted clips forbid the rotation, so the
+# arch is a strict minimum and the only way to lose it is by bending.
+
+
+def arch_clips(phi: float) -> ClipPoses:
+    """Clips 0.4 m apart, both u-axes tilted up by TILT; the last one turned by phi about y."""
+    first = Rotation.from_rotvec([0, -TILT, 0])
+    last = Rotation.from_rotvec([0, TILT + phi, 0]) * Rotation.from_rotvec([0, 0, math.pi])
+    return ClipPoses(np.array([[0, 0, 0], [0.4, 0, 0.0]]), Rotation.concatenate([first, last]))
+
+
+@pytest.fixture(scope="module")
+def arch():
+    cable = catalogue_cable("pu", 16)
+    guess = np.zeros((17, 3))
+    guess[:, 0] = np.linspace(-0.05, 0.45, 17)
+    guess[:, 2] = 0.1 * np.sin(np.pi * np.linspace(0, 1, 17))
+    start = equilibrium(cable, guess, arch_clips(0.0), gravity=WEIGHTLESS).shape
+    poses = [arch_clips(0.0), arch_clips(ROTATION)]
+    end = continuation(cable, start, poses, substeps=200, gravity=WEIGHTLESS)[-1].shape
+    return cable, np.stack([start, end]), poses
+
+
+def test_arch_snap_is_flagged_where_a_fine_continuation_finds_it(arch):
+    # Turning the last clip down, the planar arch loses stability where lambda_1 reaches zero:
+    # without twist stiffness it escapes out of its plane (a symmetric bifurcation, the side
+    # chosen by round-off), rolls under and rejoins the plane as the inverted arch at a second
+    # critical point. Both are flagged, at the same angles with default and fine sub-steps.
+    cable, path, poses = arch
+    default = check_snap_through(cable, path, poses, gravity=WEIGHTLESS)  # 0.29 deg sub-steps
+    fine = check_snap_through(cable, path, poses, gravity=WEIGHTLESS, substeps=400)  # 0.15 deg
+    angles = []
+    for check in (default, fine):
+        assert not check.ok
+        assert [e.kind for e in check.events] == ["snap", "snap"]
+        assert all(e.segment == 0 for e in check.events)
+        angles.append([math.degrees(ROTATION) * e.fraction for e in check.events])
+    # localized to 2^-10 of a window: both agree far within the fine sub-step
+    np.testing.assert_allclose(angles[0], angles[1], atol=0.01)
+    assert -40 < angles[0][0] < -20 and angles[0][0] > angles[0][1] > -60
+    # the reported sub-step is at (or next to) the localized fraction
+    seg = default.segments[0]
+    event = default.events[0]
+    step = seg.fractions[1]
+    assert seg.fractions[event.substep - 1] - step <= event.fraction
+    assert event.fraction <= seg.fractions[event.substep] + step
+    # independent check: before the first event, the fine continuation's smallest eigenvalue
+    # falls linearly (a symmetric bifurcation); its extrapolation reaches zero at the flag
+    fseg = fine.segments[0]
+    before = np.flatnonzero(fseg.fractions < fine.events[0].fraction)[-6:-1]
+    phi = math.degrees(ROTATION) * fseg.fractions[before]
+    slope, offset = np.polyfit(phi, fseg.eigenvalues[before], 1)
+    assert abs(-offset / slope - angles[1][0]) < 0.05
+    # at the flagged point the eigenvalue is zero compared with the arch's at the start
+    assert abs(event.eigenvalue) < 1e-3 * seg.eigenvalues[0]
+    assert "snap-through" in default.message
+
+
+def test_rigid_translation_follows_the_straight_interpolation():
+    cable = catalogue_cable("usb", 10)
+    clips = ClipPoses(np.array([[0, 0, 0.3], [0.35, 0, 0.3]]),
+                      Rotation.from_rotvec([[0, 0, 0], [0, 0, math.pi]]))
+    guess = np.zeros((11, 3))
+    guess[:, 0] = np.linspace(-0.05, 0.45, 11)
+    a = equilibrium(cable, guess, clips).shape
+    shift = np.array([0.05, -0.03, 0.04])
+    path = np.stack([a, a + shift])
+    check = check_snap_through(cable, path, [clips, clips.moved(shift)])
+    assert check.ok and not check.events
+    seg = check.segments[0]
+    assert seg.straying < 1e-8  # a translated equilibrium is the same equilibrium, translated
+    assert seg.end_mismatch < 1e-8
+    assert len(seg.fractions) - 1 == math.ceil(np.linalg.norm(shift) / (0.005 * cable.length))
+
+
+def test_sagging_cable_moved_smoothly_has_no_event_and_strays():
+    cable = catalogue_cable("usb", 10)
+    clips = ClipPoses(np.array([[0, 0, 0.3], [0.35, 0, 0.3]]),
+                      Rotation.from_rotvec([[0, 0, 0], [0, 0, math.pi]]))
+    turned = ClipPoses(np.array([[0, 0, 0.3], [0.2, 0.2, 0.35]]),
+                       Rotation.from_rotvec([[0, 0, 0], [0, 0, 0.75 * math.pi]]))
+    guess = np.zeros((11, 3))
+    guess[:, 0] = np.linspace(-0.05, 0.45, 11)
+    shapes = [e.shape for e in continuation(cable, guess, [clips, turned], substeps=20)]
+    check = check_snap_through(cable, np.stack(shapes), [clips, turned])
+    assert check.ok, check.message
+    seg = check.segments[0]
+    assert 1e-4 < seg.straying < 0.1  # the sag swings: not a straight blend of the two shapes
+    assert np.all(seg.eigenvalues > 0)
+
+
+def test_planned_shape_that_the_motion_does_not_reach_is_flagged():
+    cable = catalogue_cable("usb", 10)
+    clips = ClipPoses(np.array([[0, 0, 0.3], [0.35, 0, 0.3]]),
+                      Rotation.from_rotvec([[0, 0, 0], [0, 0, math.pi]]))
+    moved = clips.moved((0.0, 0.02, 0.0))
+    guess = np.zeros((11, 3))
+    guess[:, 0] = np.linspace(-0.05, 0.45, 11)
+    a, b = (e.shape for e in continuation(cable, guess, [clips, moved], substeps=4))
+    wrong = b.copy()
+    wrong[2:-2, 2] += 0.005  # a "stabilized" shape 5 mm off its equilibrium
+    good = check_snap_through(cable, np.stack([a, b]), [clips, moved])
+    bad = check_snap_through(cable, np.stack([a, wrong]), [clips, moved])
+    assert good.ok and good.segments[0].end_mismatch < 1e-6
+    assert [e.kind for e in bad.events] == ["branch"] and not bad.ok
+    assert bad.segments[0].end_mismatch == pytest.approx(0.005, rel=1e-6)
+
+
+def test_clip_motion_and_bad_inputs():
+    a = arch_clips(0.0)
+    b = arch_clips(math.radians(10.0))
+    assert clip_motion(a, b, 0.5) == pytest.approx(0.5 * math.radians(10.0), rel=1e-9)
+    assert clip_motion(a, a.moved((0.01, 0, 0)), 0.5) == pytest.approx(0.01)
+    cable = catalogue_cable("pu", 12)
+    path = np.zeros((2, 13, 3))
+    path[:, :, 0] = np.linspace(0, 0.5, 13)
+    with pytest.raises(ValueError, match="jump_ratio"):
+        check_snap_through(cable, path, jump_ratio=0)
+    with pytest.raises(ValueError, match="substeps"):
+        check_snap_through(cable, path, substeps=0)
+    with pytest.raises(ValueError, match="clip_poses"):
+        check_snap_through(cable, path, [a])
+    with pytest.raises(ValueError, match="stabilized_shapes"):
+        check_snap_through(cable, path[:, :5])
