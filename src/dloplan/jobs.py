@@ -108,3 +108,33 @@ def check_job(job: Job) -> CheckReport:
             findings.append(Finding("ok", f"{name} obstacles",
                                     f"clear by {1e3 * -collision.penetration:.1f} mm"))
     return CheckReport(findings)
+
+
+def plan_clip_poses(doc) -> list:
+    """Clip poses of every shape of a plan document: its gripper frames, or read off the shapes."""
+    if doc.grippers is not None:
+        return [doc.grippers.clip_poses(k) for k in range(len(doc.shapes))]
+    return [clip_poses_from_shape(shape) for shape in doc.shapes]
+
+
+def stabilized_shapes(doc) -> np.ndarray:
+    """The plan's stabilized shapes: as stored by ``dloplan plan``, or computed now."""
+    stored = doc.extra.get("stabilized")
+    if stored is not None:
+        return np.asarray(stored, dtype=float)
+    from .obstacles.collisions import stabilized_path
+
+    return stabilized_path(doc.cable, doc.shapes)[0]
+
+
+def verify_document(doc, *, snap: bool = True, replay: bool = True, tensile_limit=None,
+                    tolerance: float = 0.01):
+    """Run :func:`dloplan.verify.verify_path` on a plan document (stability, snap, replay)."""
+    from .verify import verify_path
+
+    # the replay drives the clips linearly (slerp in rotation) between the planned poses at the
+    # trajectory's knot times: the same motion as the timed dual-arm trajectory
+    times = doc.trajectory.times if replay and doc.trajectory is not None else None
+    replay_options = {"tolerance": tolerance, "tensile_limit": tensile_limit}
+    return verify_path(doc.cable, stabilized_shapes(doc), plan_clip_poses(doc), times=times,
+                       snap=snap, replay_options=replay_options)
