@@ -244,6 +244,9 @@ def identify_youngs_modulus(
     lo, hi = _check_bounds(bounds)
     if simulator not in SIMULATORS:
         raise ValueError(f"simulator: got {simulator!r}, expected 'static' or 'dynamic'")
+    if simulator == "dynamic" and experiment.manipulation.held != "both":
+        raise ValueError("simulator: 'dynamic' needs held='both' (the thesis' two-clip setup); "
+                         "use 'static' for a cantilever experiment")
     for name, value in (("xtol", xtol), ("max_log_sd", max_log_sd)):
         if not (math.isfinite(value) and value > 0):
             raise ValueError(f"{name}: got {value!r}, expected a number > 0")
@@ -353,9 +356,10 @@ def _result(search: _Search, prepared, lo, hi, xtol, max_log_sd, iterations) -> 
         success, e_out, interval = False, math.nan, (math.nan, math.nan)
         cable = search.cable
     else:
-        head = f"identified E = {e_best:.4g} Pa (95 % interval x/ {math.exp(Z95 * log_sd):.3g})"
         success, e_out = True, e_best
         interval = (e_best * math.exp(-Z95 * log_sd), e_best * math.exp(Z95 * log_sd))
+        head = (f"identified E = {e_best:.4g} Pa (95 % interval {interval[0]:.4g} to "
+                f"{interval[1]:.4g} Pa) in {len(search.samples)} simulations")
         cable = search.cable.with_modulus(e_best)
     return Identification(
         success=success, message="; ".join([head, *notes]), youngs_modulus=e_out,
