@@ -39,7 +39,14 @@ from scipy.spatial.transform import Rotation
 
 from ..cable import Cable
 from ..frames import frame_from_axis
-from ..io.scenario import CableSpec, RotationSpec, ScenarioError, read_mapping
+from ..io.scenario import (
+    CableSpec,
+    RotationSpec,
+    ScenarioError,
+    build_cable,
+    format_validation_error,
+    read_mapping,
+)
 from ..sim.clips import ClipPoses
 from ..sim.statics import interpolate_clips
 from .experiment import Experiment, Manipulation
@@ -169,14 +176,6 @@ def experiment_from_spec(spec: IdentifySpec, scale: float = 1.0, name: str = "")
                       measurement_noise=spec.measurement_noise * scale, name=name)
 
 
-def _error(exc: ValidationError, source: str) -> ScenarioError:
-    first = exc.errors()[0]
-    loc = ".".join(str(p) for p in first["loc"] if not str(p).startswith("function-"))
-    message = first["msg"].removeprefix("Value error, ")
-    more = "" if len(exc.errors()) == 1 else f" [and {len(exc.errors()) - 1} more]"
-    return ScenarioError(f"{source}: {loc or 'file'}: {message}{more}")
-
-
 def parse_identification(data: Any, source: str = "identification") -> IdentificationJob:
     """Validate and resolve an identification mapping (see the module docstring).
 
@@ -195,12 +194,10 @@ def parse_identification(data: Any, source: str = "identification") -> Identific
     try:
         spec = IdentificationFile.model_validate(wanted)
     except ValidationError as exc:
-        raise _error(exc, source) from None
-    from ..io.scenario import _build_cable
-
+        raise ScenarioError(f"{source}: {format_validation_error(exc)}") from None
     scale = 1e-3 if spec.units == "mm" else 1.0
     try:
-        cable = _build_cable(spec.cable, scale, youngs_modulus=1e7)  # placeholder modulus
+        cable = build_cable(spec.cable, scale, youngs_modulus=1e7)  # placeholder modulus
         experiment = experiment_from_spec(spec.identify, scale, name=Path(source).stem)
     except ValueError as exc:
         raise ScenarioError(f"{source}: {exc}") from None
