@@ -432,7 +432,8 @@ def trust_region_newton(
             message = f"converged in {iterations} iterations"
             break
         if iterations >= max_iterations:
-            message = f"no convergence in {max_iterations} iterations (residual {residual:.3g} {unit})"
+            message = (f"no convergence in {max_iterations} iterations "
+                       f"(residual {residual:.3g} {unit})")
             break
         accepted = False
         for _ in range(60):  # adapt the shift until a step is accepted
