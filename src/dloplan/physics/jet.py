@@ -108,17 +108,38 @@ def dot(a, b) -> Jet:
     return (a * b).sum()
 
 
-def cross(a, b):
-    """Cross product over the last axis of length 3 (jets or arrays)."""
-    def comp(x, k):
-        return x[k] if isinstance(x, Jet) else x[..., k]
+def cross_last(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product over the last axis (broadcast), without np.cross's overhead."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
-    parts = [
-        comp(a, 1) * comp(b, 2) - comp(a, 2) * comp(b, 1),
-        comp(a, 2) * comp(b, 0) - comp(a, 0) * comp(b, 2),
-        comp(a, 0) * comp(b, 1) - comp(a, 1) * comp(b, 0),
-    ]
-    return stack(parts)
+
+def cross(a, b):
+    """Cross product over the last value axis of length 3 (jets or arrays).
+
+    d(a x b) = da x b + a x db and d2(a x b) = d2a x b + a x d2b + da_p x db_q + da_q x db_p,
+    evaluated with the vector components moved to the last axis.
+    """
+    if not isinstance(a, Jet):
+        return -cross(b, a)
+    a_g = np.moveaxis(a.grad, -2, -1)  # (..., K, 3)
+    a_h = np.moveaxis(a.hess, -3, -1)  # (..., K, K, 3)
+    if not isinstance(b, Jet):
+        b = np.asarray(b, dtype=float)
+        b_g_vec = b[..., None, :]
+        grad = cross_last(a_g, b_g_vec)
+        hess = cross_last(a_h, b[..., None, None, :])
+    else:
+        b_g = np.moveaxis(b.grad, -2, -1)
+        b_h = np.moveaxis(b.hess, -3, -1)
+        grad = cross_last(a_g, b.val[..., None, :]) + cross_last(a.val[..., None, :], b_g)
+        mixed = cross_last(a_g[..., :, None, :], b_g[..., None, :, :])
+        hess = (cross_last(a_h, b.val[..., None, None, :])
+                + cross_last(a.val[..., None, None, :], b_h)
+                + mixed + np.swapaxes(mixed, -2, -3))
+        b = b.val
+    return Jet(cross_last(a.val, b), np.moveaxis(grad, -1, -2), np.moveaxis(hess, -1, -3))
 
 
 def stack(parts: list[Jet]) -> Jet:

@@ -26,6 +26,7 @@ import numpy as np
 from numpy.polynomial import polynomial as P
 
 from .geometry import tangents
+from .jet import cross_last
 
 _SERIES_BELOW = 1e-2  # 1 - c below which f(c) = beta / sin(beta) uses its series
 _SERIES = np.array([1.0, 1 / 3, 2 / 15, 2 / 35, 8 / 315, 8 / 693, 16 / 3003, 16 / 6435])
@@ -33,7 +34,8 @@ _SERIES = np.array([1.0, 1 / 3, 2 / 15, 2 / 35, 8 / 315, 8 / 693, 16 / 3003, 16 
 
 
 def _cross(a, b):
-    return np.cross(a, b)
+    a, b = np.broadcast_arrays(a, b)
+    return cross_last(a, b)
 
 
 def _dot(a, b):
