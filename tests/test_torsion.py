@@ -272,3 +272,28 @@ def test_bad_inputs_are_named():
         twist_along_path(cable, np.stack([straight(cable)] * 2), [clips])
     with pytest.raises(ValueError, match="max_twist"):
         twist_along_path(cable, np.stack([straight(cable)] * 2), [clips] * 2, max_twist=-1.0)
+
+
+def test_joint_band_interleaves_the_position_hessian_and_the_twist_blocks():
+    """The banded Newton matrix over (x, y, z, l theta) per point equals the dense assembly."""
+    from dloplan.physics.chain import SpringChain, band_to_sparse, hessian
+    from dloplan.sim.torsion import _joint_derivatives
+
+    cable = curved_hose(7)
+    tc = TwistChain.from_cable(cable, 0.4)
+    chain = SpringChain.from_cable(cable)
+    rng = np.random.default_rng(2)
+    x = cable.rest_shape + rng.normal(size=(8, 3)) * 0.004
+    d1 = transported_directors(x, np.cross(tangents(x)[0], [0, 0, 1.0]) / np.linalg.norm(
+        np.cross(tangents(x)[0], [0, 0, 1.0])))
+    link = cable.rest_link_length
+    g, band, _, td = _joint_derivatives(chain, tc, x, d1, link)
+    n = cable.n_links
+    points = 4 * np.arange(n + 1)[:, None] + np.arange(3)
+    dense = np.zeros((4 * n + 3, 4 * n + 3))
+    dense[np.ix_(points.ravel(), points.ravel())] = hessian(chain, x).toarray()
+    scale = np.ones(11)
+    scale[[3, 7]] = 1 / link
+    for s in range(n - 1):
+        dense[4 * s: 4 * s + 11, 4 * s: 4 * s + 11] += td.blocks[s] * np.outer(scale, scale)
+    assert band_to_sparse(band).toarray() == pytest.approx(dense, abs=1e-9 * np.abs(dense).max())
