@@ -190,6 +190,40 @@ def _cmd_register(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _cmd_identify(args: argparse.Namespace) -> int:
+    from .identify import identify_youngs_modulus
+    from .identify.files import load_identification
+
+    console = Console(args.quiet)
+    job = load_identification(args.experiment)
+    console.stage(f"identifying E of the {job.cable.name or 'cable'} in "
+                  f"[{job.bounds[0]:.3g}, {job.bounds[1]:.3g}] Pa ({job.simulator} simulation)")
+    result = identify_youngs_modulus(job.cable, job.experiment, bounds=job.bounds,
+                                     simulator=job.simulator)
+    console.stage(f"{result.simulations} simulations")
+    if args.output:
+        from .plots.figures import identification_figure, save_figure
+
+        figure = identification_figure(result.curve[:, 0], result.curve[:, 1],
+                                       result.youngs_modulus if result.success else None)
+        written = save_figure(figure, args.output, "identification_cost")
+        console.stage(f"figure: {', '.join(str(p) for p in written)}")
+    if args.json:
+        print(json.dumps({"success": result.success, "youngs_modulus": result.youngs_modulus,
+                          "confidence_interval": list(result.confidence_interval),
+                          "simulations": result.simulations, "iterations": result.iterations,
+                          "cost": result.cost, "rms_error": result.rms_error,
+                          "at_bound": result.at_bound, "informative": result.informative,
+                          "message": result.message}, indent=2))
+    else:
+        print(result.message)
+        for key, value in result.table().items():
+            print(f"  {key:<30} {value:.4g}")
+    if not result.success:
+        return EXIT_FAILURE
+    return EXIT_OK if result.informative else EXIT_WARNINGS
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="dloplan",
@@ -212,6 +246,12 @@ def build_parser() -> argparse.ArgumentParser:
     check = command("check", _cmd_check, "check a scenario without planning (target stability, "
                     "clip reach, obstacles at start and target)")
     check.add_argument("scenario", help="scenario file (.yaml or .json)")
+
+    identify = command("identify", _cmd_identify, "identify the Young's modulus from a "
+                       "measured manipulation (thesis 6.1)")
+    identify.add_argument("experiment", help="identification file (.yaml/.json) or a scenario "
+                          "with an identify section")
+    identify.add_argument("-o", "--output", help="folder for the cost-vs-E figure")
 
     export = command("export", _cmd_export, "export a plan as JSON, CSV, ROS 2 trajectory or "
                      "ABB RAPID")
