@@ -10,6 +10,7 @@ import argparse
 import json
 import sys
 import time
+from pathlib import Path
 
 from . import __version__
 from .cable import CATALOGUE_NAMES, catalogue_cable
@@ -74,6 +75,155 @@ def _cmd_check(args: argparse.Namespace) -> int:
     return EXIT_WARNINGS if report.warnings else EXIT_OK
 
 
+def _cmd_export(args: argparse.Namespace) -> int:
+    from .io.export import (
+        read_plan_json,
+        write_plan_json,
+        write_ros_trajectory,
+        write_trajectory_csv,
+    )
+    from .io.rapid import RapidSettings, write_rapid
+    from .trajectory import trajectory_from_grippers
+
+    console = Console(args.quiet)
+    doc = read_plan_json(args.plan)
+    trajectory = doc.trajectory
+    if doc.grippers is not None and (args.speed or args.angular_speed or trajectory is None):
+        trajectory = trajectory_from_grippers(
+            doc.grippers, max_speed=args.speed or 0.1, max_angular_speed=args.angular_speed or 1.0
+        )
+    if trajectory is None and args.format != "json":
+        raise ValueError(f"{args.plan}: the plan has no gripper poses to build a trajectory from")
+    out = Path(args.output)
+    if args.format == "json":
+        written = [write_plan_json(out, doc.cable, doc.shapes, doc.grippers, trajectory,
+                                   doc.warnings, doc.extra)]
+    elif args.format == "csv":
+        written = [write_trajectory_csv(out, trajectory, rate=args.rate or 100.0)]
+    elif args.format == "ros":
+        written = [write_ros_trajectory(out, trajectory, rate=args.rate)]
+    else:
+        settings = RapidSettings(tools=(args.tool_left, args.tool_right), wobj=args.wobj)
+        written = list(write_rapid(out, trajectory, settings).values())
+    console.stage(f"wrote {', '.join(str(p) for p in written)}")
+    if args.json:
+        print(json.dumps({"written": [str(p) for p in written]}))
+    twisted = doc.grippers is not None and not doc.grippers.success
+    return EXIT_WARNINGS if twisted else EXIT_OK
+
+
+def _cmd_verify(args: argparse.Namespace) -> int:
+    from .io.export import read_plan_json
+    from .jobs import verify_document
+
+    console = Console(args.quiet)
+    doc = read_plan_json(args.plan)
+    console.stage(f"verifying {len(doc.shapes)} shapes of {args.plan}")
+    result = verify_document(doc, snap=not args.no_snap, replay=not args.no_replay,
+                             tensile_limit=args.tensile_limit, tolerance=args.tolerance)
+    console.stage("done: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
+    print(json.dumps(result.to_dict(), indent=2) if args.json else result.table())
+    return EXIT_OK if result.ok else EXIT_FAILURE
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from .io.export import read_plan_json
+    from .jobs import stabilized_shapes
+    from .vision import compare_trials, read_shapes
+
+    console = Console(args.quiet)
+    doc = read_plan_json(args.plan)
+    planned = stabilized_shapes(doc) if args.stabilized else doc.shapes
+    trials = [read_shapes(path) for path in args.shapes]
+    result = compare_trials(planned, trials, frame_id=doc.frame_id, end_order=args.end_order)
+    if args.output:
+        from .plots.compare import write_comparison_figures
+
+        folder = Path(args.output)
+        folder.mkdir(parents=True, exist_ok=True)
+        written = write_comparison_figures(result, folder, args.plane)
+        console.stage(f"figures: {', '.join(p.name for p in written)}")
+    print(json.dumps({"rows": result.rows(), "message": result.message}, indent=2, default=float)
+          if args.json else result.table())
+    return EXIT_WARNINGS if result.reversed_shapes else EXIT_OK
+
+
+def _cmd_calibrate(args: argparse.Namespace) -> int:
+    from .io.scenario import read_mapping
+    from .vision import (
+        CameraIntrinsics,
+        calibrate_extrinsics,
+        read_marker_layout,
+        write_calibration,
+    )
+    from .vision._deps import cv2
+
+    image = cv2().imread(args.image)
+    if image is None:
+        raise ValueError(f"{args.image}: cannot read the image")
+    intrinsics = CameraIntrinsics.from_dict(read_mapping(args.intrinsics))
+    result = calibrate_extrinsics(image, intrinsics, read_marker_layout(args.markers))
+    write_calibration(args.output, result)
+    print(result.message)
+    return EXIT_OK if result.success else EXIT_WARNINGS
+
+
+def _cmd_register(args: argparse.Namespace) -> int:
+    from .vision import HsvRange, RegisteredShape, read_calibration, register_on_plane, write_shapes
+    from .vision._deps import cv2
+
+    calibration = read_calibration(args.calibration)
+    try:
+        low, high = ([float(v) for v in part.split(",")] for part in args.hsv.split(":"))
+    except ValueError:
+        raise ValueError(f"--hsv: got {args.hsv!r}, expected H,S,V:H,S,V") from None
+    colour = HsvRange(tuple(low), tuple(high))
+    shapes = []
+    for k, path in enumerate(args.images):
+        image = cv2().imread(path)
+        if image is None:
+            raise ValueError(f"{path}: cannot read the image")
+        points = register_on_plane(image, calibration, colour, args.links + 1, args.height)
+        shapes.append(RegisteredShape(points, frame_id="world", label=f"xi_{k}"))
+    write_shapes(args.output, shapes)
+    print(f"registered {len(shapes)} shape(s) into {args.output}")
+    return EXIT_OK
+
+
+def _cmd_identify(args: argparse.Namespace) -> int:
+    from .identify import identify_youngs_modulus
+    from .identify.files import load_identification
+
+    console = Console(args.quiet)
+    job = load_identification(args.experiment)
+    console.stage(f"identifying E of the {job.cable.name or 'cable'} in "
+                  f"[{job.bounds[0]:.3g}, {job.bounds[1]:.3g}] Pa ({job.simulator} simulation)")
+    result = identify_youngs_modulus(job.cable, job.experiment, bounds=job.bounds,
+                                     simulator=job.simulator)
+    console.stage(f"{result.simulations} simulations")
+    if args.output:
+        from .plots.figures import identification_figure, save_figure
+
+        figure = identification_figure(result.curve[:, 0], result.curve[:, 1],
+                                       result.youngs_modulus if result.success else None)
+        written = save_figure(figure, args.output, "identification_cost")
+        console.stage(f"figure: {', '.join(str(p) for p in written)}")
+    if args.json:
+        print(json.dumps({"success": result.success, "youngs_modulus": result.youngs_modulus,
+                          "confidence_interval": list(result.confidence_interval),
+                          "simulations": result.simulations, "iterations": result.iterations,
+                          "cost": result.cost, "rms_error": result.rms_error,
+                          "at_bound": result.at_bound, "informative": result.informative,
+                          "message": result.message}, indent=2))
+    else:
+        print(result.message)
+        for key, value in result.table().items():
+            print(f"  {key:<30} {value:.4g}")
+    if not result.success:
+        return EXIT_FAILURE
+    return EXIT_OK if result.informative else EXIT_WARNINGS
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="dloplan",
@@ -96,6 +246,60 @@ def build_parser() -> argparse.ArgumentParser:
     check = command("check", _cmd_check, "check a scenario without planning (target stability, "
                     "clip reach, obstacles at start and target)")
     check.add_argument("scenario", help="scenario file (.yaml or .json)")
+
+    identify = command("identify", _cmd_identify, "identify the Young's modulus from a "
+                       "measured manipulation (thesis 6.1)")
+    identify.add_argument("experiment", help="identification file (.yaml/.json) or a scenario "
+                          "with an identify section")
+    identify.add_argument("-o", "--output", help="folder for the cost-vs-E figure")
+
+    export = command("export", _cmd_export, "export a plan as JSON, CSV, ROS 2 trajectory or "
+                     "ABB RAPID")
+    export.add_argument("plan", help="plan file written by dloplan plan (plan.json)")
+    export.add_argument("--format", choices=["json", "csv", "ros", "rapid"], required=True)
+    export.add_argument("-o", "--output", required=True,
+                        help="output file (a folder for rapid: one module per arm)")
+    export.add_argument("--rate", type=float, help="sampling rate [Hz] for csv/ros")
+    export.add_argument("--speed", type=float, help="re-time with this TCP speed [m/s]")
+    export.add_argument("--angular-speed", type=float, help="re-time: angular limit [rad/s]")
+    export.add_argument("--tool-left", default="tool_clip_l", help="RAPID tooldata, left arm")
+    export.add_argument("--tool-right", default="tool_clip_r", help="RAPID tooldata, right arm")
+    export.add_argument("--wobj", default="wobj0", help="RAPID work object")
+
+    verify = command("verify", _cmd_verify, "verify a plan: elastic stability, snap-through, "
+                     "dynamic replay (exit 2 when a check fails)")
+    verify.add_argument("plan", help="plan.json")
+    verify.add_argument("--no-snap", action="store_true", help="skip the snap-through check")
+    verify.add_argument("--no-replay", action="store_true", help="skip the dynamic replay")
+    verify.add_argument("--tensile-limit", type=float, help="largest axial force [N]")
+    verify.add_argument("--tolerance", type=float, default=0.01,
+                        help="largest replay deviation accepted [m]")
+
+    compare = command("compare", _cmd_compare, "compare a plan with registered shapes "
+                      "(thesis Table 7.2)")
+    compare.add_argument("plan", help="plan.json")
+    compare.add_argument("shapes", nargs="+", help="registered shape files, one per trial")
+    compare.add_argument("--stabilized", action="store_true",
+                         help="compare with the stabilized shapes (what the thesis does)")
+    compare.add_argument("--end-order", choices=["detect", "keep"], default="detect")
+    compare.add_argument("--plane", choices=["xy", "xz", "yz"], default="xy")
+    compare.add_argument("-o", "--output", help="folder for the figures")
+
+    calibrate = command("calibrate", _cmd_calibrate, "extrinsic camera calibration from ArUco "
+                        "markers (eq. 7.2)")
+    calibrate.add_argument("image")
+    calibrate.add_argument("--intrinsics", required=True, help="camera intrinsics (JSON/YAML)")
+    calibrate.add_argument("--markers", required=True, help="marker layout (JSON)")
+    calibrate.add_argument("-o", "--output", required=True, help="calibration.json to write")
+
+    register = command("register", _cmd_register, "register cable shapes from top-view "
+                       "images onto the table plane")
+    register.add_argument("images", nargs="+")
+    register.add_argument("--calibration", required=True)
+    register.add_argument("--hsv", required=True, help="colour range H,S,V:H,S,V (OpenCV HSV)")
+    register.add_argument("--links", type=int, default=10, help="n: shapes get n + 1 points")
+    register.add_argument("--height", type=float, default=0.0, help="plane height z [m]")
+    register.add_argument("-o", "--output", required=True, help="shapes .csv or .json")
     return parser
 
 

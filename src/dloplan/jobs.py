@@ -108,3 +108,303 @@ def check_job(job: Job) -> CheckReport:
             findings.append(Finding("ok", f"{name} obstacles",
                                     f"clear by {1e3 * -collision.penetration:.1f} mm"))
     return CheckReport(findings)
+
+
+def plan_clip_poses(doc) -> list:
+    """Clip poses of every shape of a plan document: its gripper frames, or read off the shapes."""
+    if doc.grippers is not None:
+        return [doc.grippers.clip_poses(k) for k in range(len(doc.shapes))]
+    return [clip_poses_from_shape(shape) for shape in doc.shapes]
+
+
+def stabilized_shapes(doc) -> np.ndarray:
+    """The plan's stabilized shapes: as stored by ``dloplan plan``, or computed now."""
+    stored = doc.extra.get("stabilized")
+    if stored is not None:
+        return np.asarray(stored, dtype=float)
+    from .obstacles.collisions import stabilized_path
+
+    return stabilized_path(doc.cable, doc.shapes)[0]
+
+
+def verify_document(doc, *, snap: bool = True, replay: bool = True, tensile_limit=None,
+                    tolerance: float = 0.01):
+    """Run :func:`dloplan.verify.verify_path` on a plan document (stability, snap, replay)."""
+    from .verify import verify_path
+
+    # the replay drives the clips linearly (slerp in rotation) between the planned poses at the
+    # trajectory's knot times: the same motion as the timed dual-arm trajectory
+    times = doc.trajectory.times if replay and doc.trajectory is not None else None
+    replay_options = {"tolerance": tolerance, "tensile_limit": tensile_limit}
+    return verify_path(doc.cable, stabilized_shapes(doc), plan_clip_poses(doc), times=times,
+                       snap=snap, replay_options=replay_options)
+
+
+@dataclass(frozen=True, eq=False)
+class PlanOutcome:
+    """Everything ``dloplan plan`` computes for one scenario.
+
+    Attributes
+    ----------
+    job : Job
+        The resolved scenario.
+    plan : Plan
+        The three-stage planner's result (with stabilized path and collision reports).
+    grippers : GripperPath
+        Both clip frames for every shape.
+    trajectory : Trajectory
+        The timed dual-arm motion.
+    target_check : TargetCheck
+        The stability check of the target (thesis 5.3).
+    verification : Verification or None
+        The plan verification, when asked for.
+    warnings : list of str
+        Everything the user should look at, from every stage.
+    timings : dict
+        Wall time per step [s].
+    """
+
+    job: Job
+    plan: object
+    grippers: object
+    trajectory: object
+    target_check: object
+    verification: object = None
+    warnings: list[str] = field(default_factory=list)
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        """Planned, collision-free, stable: no failure (warnings allowed)."""
+        failed_avoidance = self.plan.avoidance is not None and not self.plan.avoidance.success
+        failed_verify = self.verification is not None and not self.verification.ok
+        return self.plan.success and not failed_avoidance and not failed_verify
+
+
+def _initial_frames(spec):
+    frames = spec.grippers.initial_frames
+    if frames.first is None and frames.last is None:
+        return None
+    if frames.first is None or frames.last is None:
+        raise ValueError("grippers.initial_frames: give both first and last, or neither")
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.concatenate([frames.first.to_rotation(), frames.last.to_rotation()])
+
+
+def plan_job(job: Job, *, verify: bool = False, progress=lambda text: None) -> PlanOutcome:
+    """Plan a scenario end to end: planner, stabilization and obstacles, grippers, timing.
+
+    Parameters
+    ----------
+    job : Job
+        A resolved scenario (:func:`dloplan.io.scenario.load_scenario`).
+    verify : bool
+        Also run the plan verification (stability, snap-through, dynamic replay).
+    progress : callable
+        Called with a line of text after each step.
+    """
+    import time
+
+    from .grippers import gripper_path
+    from .planning import plan
+    from .trajectory import trajectory_from_grippers
+
+    spec = job.scenario
+    cable = job.cable
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    start = discretize(job.start, cable, "start")
+    target = discretize(job.target, cable, "target")
+    threshold = spec.check.threshold * job.scale
+    target_check = check_target(target, cable, threshold=threshold)
+    timings["target check"] = time.perf_counter() - t0
+    progress(target_check.message)
+
+    t0 = time.perf_counter()
+    options = {"weights": spec.planner.weights or None}
+    if spec.planner.physical_mode is not None:
+        options["physical_mode"] = spec.planner.physical_mode
+    result = plan(cable, start, target, spec.planner.n_shapes, obstacles=job.obstacles,
+                  z_safety=spec.check.z_safety * job.scale, max_rounds=spec.check.max_rounds,
+                  **options)
+    timings["plan"] = time.perf_counter() - t0
+    stage_times = ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items() if k != "total")
+    progress(f"planned {result.n_shapes} shapes ({result.family} cable): {stage_times}")
+    if result.avoidance is not None:
+        progress(f"obstacles: {result.avoidance.message}")
+
+    t0 = time.perf_counter()
+    grippers = gripper_path(result.path, method=spec.grippers.method, cable=cable,
+                            initial=_initial_frames(spec), aux=spec.grippers.auxiliary_vector)
+    trajectory = trajectory_from_grippers(grippers, max_speed=spec.trajectory.tcp_speed,
+                                          max_angular_speed=spec.trajectory.angular_speed)
+    timings["grippers"] = time.perf_counter() - t0
+    progress(f"gripper frames ({grippers.method}), trajectory {trajectory.duration:.2f} s at "
+             f"{1e3 * spec.trajectory.tcp_speed:.0f} mm/s")
+
+    warnings = list(result.warnings)
+    if not target_check.stable:
+        warnings.append(target_check.message)
+    if result.avoidance is not None and not result.avoidance.success:
+        warnings.append(f"obstacles: {result.avoidance.message}")
+    warnings += list(grippers.warnings)
+    if not grippers.success:
+        warnings.append(f"grippers: {grippers.message}")
+
+    verification = None
+    if verify:
+        t0 = time.perf_counter()
+        from .verify import verify_path
+
+        poses = [grippers.clip_poses(k) for k in range(len(result.path))]
+        verification = verify_path(cable, result.stabilized, poses, times=trajectory.times)
+        timings["verify"] = time.perf_counter() - t0
+        progress(f"verification: {'passed' if verification.ok else 'FAILED'}")
+        warnings += [m for m in verification.messages if not verification.ok]
+    return PlanOutcome(job, result, grippers, trajectory, target_check, verification, warnings,
+                       timings)
+
+
+def _collision_rows(reports) -> list[dict]:
+    return [{"shape": r.shape_index, "colliding": r.colliding, "obstacles": list(r.obstacles),
+             "links": r.links.tolist(), "z_depth": r.z_depth, "penetration": r.penetration}
+            for r in reports]
+
+
+def plan_extra(outcome: PlanOutcome) -> dict:
+    """The planner's sections of the plan document (stages, stabilized path, forces, checks)."""
+    result = outcome.plan
+    stats = result.force_statistics()
+    extra = {
+        "scenario": outcome.job.source,
+        "family": result.family,
+        "physical_mode": result.physical_mode,
+        "stages": {name: result.stage(name).tolist() for name in ("basic", "advanced")},
+        "stabilized": np.asarray(result.stabilized).tolist(),
+        "lengths": {"basic": result.lengths[0].tolist(), "advanced": result.lengths[1].tolist(),
+                    "physical": result.lengths[2].tolist()},
+        "forces": {"axial_mean": stats.axial_mean.tolist(),
+                   "axial_variance": stats.axial_variance.tolist(),
+                   "bending_mean": stats.bending_mean.tolist(),
+                   "bending_variance": stats.bending_variance.tolist()},
+        "target_check": {"stable": outcome.target_check.stable,
+                         "max_displacement": outcome.target_check.max_displacement,
+                         "threshold": outcome.target_check.threshold,
+                         "message": outcome.target_check.message},
+        "timings": {**outcome.timings, **{f"plan.{k}": v for k, v in result.timings.items()}},
+        "twist": outcome.grippers.twist.tolist(),
+    }
+    if result.avoidance is not None:
+        extra["obstacles"] = {
+            "status": result.avoidance.status, "rounds": result.avoidance.rounds,
+            "message": result.avoidance.message,
+            "before": _collision_rows(result.avoidance.reports_before),
+            "after": _collision_rows(result.avoidance.reports_after),
+        }
+    if outcome.verification is not None:
+        extra["verification"] = outcome.verification.to_dict()
+    return extra
+
+
+def write_outputs(outcome: PlanOutcome, folder, formats=None, progress=lambda text: None):
+    """Write the plan's files into ``folder``: plan.json and the formats asked for.
+
+    ``formats`` is a subset of ("json", "csv", "rapid", "ros", "figures", "report"); default:
+    the scenario's ``outputs``. Every file is written atomically. Returns the written paths.
+    """
+    from pathlib import Path
+
+    from .io.export import write_plan_json, write_ros_trajectory, write_trajectory_csv
+    from .io.rapid import write_rapid
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    formats = list(formats if formats is not None else outcome.job.scenario.outputs)
+    result = outcome.plan
+    written = [write_plan_json(folder / "plan.json", result.cable, result.path, outcome.grippers,
+                               outcome.trajectory, outcome.warnings, plan_extra(outcome))]
+    rate = outcome.job.scenario.trajectory.rate
+    if "csv" in formats:
+        written.append(write_trajectory_csv(folder / "trajectory.csv", outcome.trajectory,
+                                            rate=rate))
+    if "ros" in formats:
+        written.append(write_ros_trajectory(folder / "trajectory.yaml", outcome.trajectory,
+                                            rate=rate))
+    if "rapid" in formats:
+        written += list(write_rapid(folder / "rapid", outcome.trajectory).values())
+    figures: list = []
+    if "figures" in formats or "report" in formats:
+        figures = write_figures(outcome, folder / "figures")
+        written += figures
+        progress(f"{len(figures)} figures in {folder / 'figures'}")
+    if "report" in formats:
+        written.append(write_plan_report(outcome, folder / "report.html",
+                                         [p for p in figures if p.suffix == ".png"]))
+    return written
+
+
+def write_figures(outcome: PlanOutcome, folder) -> list:
+    """The plan's figures as PNG and SVG (planned path with frames, stabilized, forces, lengths)."""
+    from .plots.figures import (
+        forces_figure,
+        lengths_figure,
+        path_figure,
+        save_figure,
+        stabilized_figure,
+    )
+
+    result = outcome.plan
+    grippers = outcome.grippers
+    stats = result.force_statistics()
+    colliding = []
+    if result.avoidance is not None:
+        colliding = [r.shape_index for r in result.avoidance.reports_after if r.colliding]
+    figures = [
+        (path_figure(result.path, grippers.positions, grippers.matrices,
+                     outcome.job.obstacles), "planned_path"),
+        (stabilized_figure(result.path, result.stabilized, outcome.job.obstacles, colliding),
+         "stabilized_path"),
+        (forces_figure(stats.axial_mean, stats.axial_variance, stats.bending_mean,
+                       stats.bending_variance), "forces"),
+        (lengths_figure(dict(zip(("basic", "advanced", "physical"), result.lengths,
+                                 strict=True)), result.cable.length), "lengths"),
+    ]
+    written = []
+    for figure, name in figures:
+        written += save_figure(figure, folder, name)
+    return written
+
+
+def write_plan_report(outcome: PlanOutcome, path, images=()):
+    """The self-contained HTML report of a plan."""
+    from .plots.report import write_report
+
+    result = outcome.plan
+    cable = result.cable
+    summary = [
+        f"{cable.name or 'cable'}: L {cable.length} m, d {1e3 * cable.diameter:.1f} mm, "
+        f"E {cable.youngs_modulus:.3g} Pa ({result.family}), n = {cable.n_links}, "
+        f"S = {result.n_shapes}",
+        f"trajectory {outcome.trajectory.duration:.2f} s; gripper method "
+        f"{outcome.grippers.method}; largest relative twist "
+        f"{np.degrees(np.abs(outcome.grippers.twist).max()):.1f} deg",
+        outcome.target_check.message,
+    ]
+    if result.avoidance is not None:
+        summary.append(f"obstacles: {result.avoidance.message}")
+    tables = [("Shapes", ["shape", "length [m]", "max |F_axial| [N]", "max |F_bending| [N]",
+                          "stabilization moves [mm]"],
+               [[k, f"{result.lengths[2][k]:.4f}",
+                 f"{np.linalg.norm(result.axial_forces[2][k], axis=1).max():.3g}",
+                 f"{np.linalg.norm(result.bending_forces[2][k], axis=1).max():.3g}",
+                 f"{1e3 * np.linalg.norm(result.stabilized[k] - result.path[k], axis=1).max():.1f}"]
+                for k in range(len(result.path))])]
+    if outcome.verification is not None:
+        rows = outcome.verification.to_dict()["rows"]
+        header = list(rows[0]) if rows else []
+        tables.append(("Verification", header, [[row[h] for h in header] for row in rows]))
+    return write_report(path, title=f"dloplan plan: {outcome.job.source}", shapes=result.path,
+                        stabilized=result.stabilized, clip_positions=outcome.grippers.positions,
+                        clip_rotations=outcome.grippers.matrices, obstacles=outcome.job.obstacles,
+                        summary=summary, warnings=outcome.warnings, tables=tables, images=images)

@@ -305,7 +305,8 @@ class Job:
 _TAGS = {"points", "straight", "arc", "sine", "box", "cylinder"}
 
 
-def _format_error(error: ValidationError) -> str:
+def format_validation_error(error: ValidationError) -> str:
+    """The first error of a pydantic validation as one line: field path, message, value."""
     first = error.errors()[0]
     parts = [str(p) for p in first["loc"] if not str(p).startswith("function-")]
     # drop the union tags pydantic inserts (start.arc.angle -> start.angle)
@@ -326,7 +327,7 @@ def parse_scenario(data: Any, source: str = "scenario") -> Scenario:
     try:
         return Scenario.model_validate(data)
     except ValidationError as exc:
-        raise ScenarioError(f"{source}: {_format_error(exc)}") from None
+        raise ScenarioError(f"{source}: {format_validation_error(exc)}") from None
 
 
 def read_mapping(path: str | Path) -> dict:
@@ -354,7 +355,8 @@ def load_scenario(path: str | Path) -> Job:
     return resolve(parse_scenario(data, str(path)), str(path))
 
 
-def _build_cable(spec: CableSpec, scale: float, youngs_modulus: float | None) -> Cable:
+def build_cable(spec: CableSpec, scale: float, youngs_modulus: float | None) -> Cable:
+    """The :class:`Cable` of a cable specification (lengths in file units times ``scale``)."""
     params: dict[str, Any] = {"n_links": spec.n_links, "bending": spec.bending,
                               "masses": spec.masses}
     for key in ("length", "diameter"):
@@ -430,7 +432,7 @@ def resolve(scenario: Scenario, source: str = "scenario",
             "(dloplan plan does) or give a modulus [Pa]"
         )
     try:
-        cable = _build_cable(scenario.cable, scale, youngs_modulus)
+        cable = build_cable(scenario.cable, scale, youngs_modulus)
         if scenario.cable.rest_shape is not None:
             rest = build_shape(scenario.cable.rest_shape, cable, scale, "cable.rest_shape")
             from ..physics.geometry import resample_by_arc_length

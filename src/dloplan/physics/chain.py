@@ -34,19 +34,24 @@ class Forces:
     """Per-point forces of a shape [N], each (..., n + 1, 3): the negative energy gradients.
 
     ``axial`` is F^s (eq. 3.17), ``bending`` is F^b (eq. 3.18), ``gravity`` is m_i g (eq. 3.20),
-    ``contact`` the push of obstacles in contact (None without contacts).
+    ``contact`` the push of obstacles in contact (None without contacts), ``twist`` the
+    twisting force F^t (eq. 3.19) of a cable with material frames (None without torsion).
     """
 
     axial: np.ndarray
     bending: np.ndarray
     gravity: np.ndarray
     contact: np.ndarray | None = None
+    twist: np.ndarray | None = None
 
     @property
     def total(self) -> np.ndarray:
         """Sum of the parts [N]."""
         total = self.axial + self.bending + self.gravity
-        return total if self.contact is None else total + self.contact
+        for part in (self.contact, self.twist):
+            if part is not None:
+                total = total + part
+        return total
 
 
 @dataclass(frozen=True, eq=False)

@@ -333,30 +333,111 @@ def minimize_energy(
         ``(x, gradient, iterations, residual, stable, energy_history, message)``.
     """
     x = np.array(x, dtype=float)
+    if free.stop <= free.start:  # every point is held
+        return x, gradient(chain, x), 0, 0.0, True, np.array([float(energy(chain, x))]), \
+            "no free point"
+
+    def derivatives(x):
+        g, band = gradient_and_hessian_band(chain, x)
+        g -= gravity_force(chain.point_masses, chain.gravity)
+        residual = float(np.max(np.linalg.norm(g[free], axis=1)))
+        return g[free].ravel(), _free_band(band, free), residual, g
+
+    def moved(x, p):
+        trial = x.copy()
+        trial[free] += p.reshape(-1, 3)
+        return trial
+
+    run = trust_region_newton(
+        x, lambda x: float(energy(chain, x)), derivatives, moved,
+        lambda p: float(np.max(np.linalg.norm(p.reshape(-1, 3), axis=1))),
+        length_scale, tolerance, max_iterations,
+    )
+    return run.state, run.extra, run.iterations, run.residual, run.stable, run.history, \
+        run.message
+
+
+@dataclass(frozen=True, eq=False)
+class NewtonRun:
+    """Outcome of :func:`trust_region_newton`.
+
+    Attributes
+    ----------
+    state : object
+        The final state (whatever the caller's ``moved`` builds).
+    extra : object
+        The fourth item of the last ``derivatives(state)`` call (e.g. the full gradient).
+    iterations : int
+        Newton iterations.
+    residual : float
+        The residual of the last evaluation (the caller's unit, e.g. [N]).
+    stable : bool
+        Residual below the tolerance and the free Hessian positive definite.
+    history : numpy.ndarray
+        Energy after each accepted iteration [J].
+    message : str
+        What happened.
+    """
+
+    state: object
+    extra: object
+    iterations: int
+    residual: float
+    stable: bool
+    history: np.ndarray
+    message: str
+
+
+def trust_region_newton(
+    state, energy_of, derivatives, moved, displacement, length_scale: float, tolerance: float,
+    max_iterations: int = 500, unit: str = "N",
+) -> NewtonRun:
+    """The trust-region (Levenberg-Marquardt) Newton loop of the static solvers.
+
+    Generic over the state so that positions only (:func:`minimize_energy`) and positions with
+    twist angles (:mod:`dloplan.sim.torsion`) share it; see the module docstring for the method.
+
+    Parameters
+    ----------
+    state : object
+        The start.
+    energy_of : callable
+        ``energy_of(state) -> float`` [J].
+    derivatives : callable
+        ``derivatives(state) -> (g, band, residual, extra)``: the gradient over the free
+        coordinates (1-D), the lower band of their Hessian (``cholesky_banded(lower=True)``
+        layout), the residual compared with ``tolerance``, and anything to hand back.
+    moved : callable
+        ``moved(state, p) -> state``: the state after the step ``p`` of the free coordinates.
+    displacement : callable
+        ``displacement(p) -> float``: the size of a step [m], compared with the trust radius.
+    length_scale : float
+        Largest step [m] at the start (a quarter of it) and ever (all of it).
+    tolerance : float
+        Residual for convergence.
+    max_iterations : int
+        Iteration limit.
+    unit : str
+        Unit of the residual, for the messages.
+    """
     radius = 0.25 * length_scale  # trust radius: the largest point displacement of one step
     shift = 0.0
-    f = float(energy(chain, x))
+    f = energy_of(state)
     history = [f]
     iterations = 0
     message = ""
     stable = False
-    if free.stop <= free.start:  # every point is held
-        return x, gradient(chain, x), 0, 0.0, True, np.asarray(history), "no free point"
-    band = None
     while True:
-        g, band = gradient_and_hessian_band(chain, x)
-        g -= gravity_force(chain.point_masses, chain.gravity)
-        band = _free_band(band, free)
-        residual = float(np.max(np.linalg.norm(g[free], axis=1)))
+        gf, band, residual, extra = derivatives(state)
         scale = float(np.mean(band[0]))
         stable = residual <= tolerance and _factor(band, 0.0) is not None
         if stable:
             message = f"converged in {iterations} iterations"
             break
         if iterations >= max_iterations:
-            message = f"no convergence in {max_iterations} iterations (residual {residual:.3g} N)"
+            message = (f"no convergence in {max_iterations} iterations "
+                       f"(residual {residual:.3g} {unit})")
             break
-        gf = g[free].ravel()
         accepted = False
         for _ in range(60):  # adapt the shift until a step is accepted
             factor = _factor(band, shift)
@@ -364,21 +445,19 @@ def minimize_energy(
                 shift = max(4.0 * shift, 1e-8 * scale)
                 continue
             p = -sla.cho_solve_banded((factor, True), gf, check_finite=False)
-            longest = float(np.max(np.linalg.norm(p.reshape(-1, 3), axis=1)))
-            alpha = min(1.0, radius / longest)  # truncate to the trust radius
+            longest = displacement(p)
+            alpha = min(1.0, radius / longest) if longest > 0 else 1.0  # truncate to the radius
             # model decrease g.p + p.H.p/2 with (H + shift I) p_full = -g, p = alpha p_full
             g_p = float(gf @ p)
             predicted = alpha * g_p + 0.5 * alpha**2 * (-g_p - shift * float(p @ p))
             p *= alpha
-            step = p.reshape(-1, 3)
-            trial = x.copy()
-            trial[free] += step
-            f_trial = float(energy(chain, trial))
+            trial = moved(state, p)
+            f_trial = energy_of(trial)
             actual = f_trial - f
             noise = 1e-13 * (abs(f) + abs(predicted)) + 1e-300
             if predicted < 0 and (actual < 0 or abs(actual) < noise):
                 ratio = actual / predicted if abs(predicted) > noise else 1.0
-                x, f = trial, f_trial
+                state, f = trial, f_trial
                 accepted = True
                 if ratio > 0.75:
                     shift = 0.0 if shift < 1e-6 * scale else shift / 8.0
@@ -390,10 +469,10 @@ def minimize_energy(
             radius = max(0.5 * min(radius, longest), 1e-9 * length_scale)
         iterations += 1
         if not accepted:
-            message = f"stalled after {iterations} iterations (residual {residual:.3g} N)"
+            message = f"stalled after {iterations} iterations (residual {residual:.3g} {unit})"
             break
         history.append(f)
-    return x, g, iterations, residual, stable, np.asarray(history), message
+    return NewtonRun(state, extra, iterations, residual, stable, np.asarray(history), message)
 
 
 def _result(cable, chain, x, g, clips, iterations, converged, residual, tolerance, stable,

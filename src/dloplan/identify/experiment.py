@@ -1,0 +1,180 @@
+"""The identification experiment as data (thesis 6.1, Figs. 6.3-6.4).
+
+An experiment (:class:`Experiment`) is one manipulation (:class:`Manipulation`) of the real
+cable and its outcome:
+
+* the **initial shape**, a polyline [m] of any number of points (the cable as it lies in the
+  clips before the manipulation; it is only the starting guess of the first equilibrium, so
+  its accuracy matters little),
+* the **clip trajectory**, the sequence of :class:`~dloplan.sim.clips.ClipPoses` the robot
+  visits (the first one holds the initial shape), slow enough for the cable to stay in
+  equilibrium (quasi-static),
+* the **measured final shape**, a polyline [m] of any number of points, in the robot's world
+  frame (e.g. from :mod:`dloplan.vision`, or read off graph paper as the thesis did),
+* how the cable is held: ``"both"`` clips, or ``"first"`` only (a cantilever: the last clip
+  has let go; ``clips[k].positions[1]`` is then ignored),
+* the measurement accuracy [m] (one standard deviation per coordinate), used to judge
+  whether the experiment tells moduli apart.
+
+The experiment is cable-independent data: :func:`prepare_shapes` resamples both polylines by
+arc length to the n + 1 points of a given discretization (thesis Fig. 6.4) and checks them
+against the cable (length, units, which end is first, the frame).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..cable import GRAVITY, Cable
+from ..physics.geometry import as_shape
+from ..sim.clips import ClipPoses
+
+HELD_MODES = ("both", "first")
+
+END_TOLERANCE = 0.05
+"""Largest distance between a measured end and its clip, as a fraction of the cable length."""
+
+
+@dataclass(frozen=True, eq=False)
+class Manipulation:
+    """What the robot does in an identification experiment.
+
+    Parameters
+    ----------
+    initial_shape : array_like
+        (k, 3) polyline [m] of the cable at the start, k >= 2 (or (k, 2) = (x, z) points).
+    clips : sequence of ClipPoses
+        The clip poses visited, in order, the first holding the initial shape.
+    held : {"both", "first"}
+        Both clips hold the cable, or only the first (a cantilever).
+    gravity : array_like
+        Gravity acceleration in the world frame [m/s^2].
+    """
+
+    initial_shape: np.ndarray
+    clips: tuple[ClipPoses, ...]
+    held: str = "both"
+    gravity: np.ndarray = field(default_factory=GRAVITY.copy)
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        set_(self, "initial_shape", as_shape(self.initial_shape, name="initial_shape"))
+        clips = tuple(self.clips) if isinstance(self.clips, Sequence) else None
+        if not clips or not all(isinstance(c, ClipPoses) for c in clips):
+            raise ValueError(
+                f"clips: got {type(self.clips).__name__}, expected a non-empty sequence of "
+                "ClipPoses (the clip trajectory)"
+            )
+        set_(self, "clips", clips)
+        if self.held not in HELD_MODES:
+            raise ValueError(f"held: got {self.held!r}, expected 'both' or 'first'")
+        g = np.asarray(self.gravity, dtype=float)
+        if g.shape != (3,) or not np.all(np.isfinite(g)):
+            raise ValueError(f"gravity: got {self.gravity!r}, expected 3 finite numbers [m/s^2]")
+        set_(self, "gravity", g)
+
+    @property
+    def final_clips(self) -> ClipPoses:
+        """The clip poses at the end of the manipulation."""
+        return self.clips[-1]
+
+
+@dataclass(frozen=True, eq=False)
+class Experiment:
+    """One identification manipulation and its measured outcome.
+
+    Parameters
+    ----------
+    manipulation : Manipulation
+        Initial shape, clip trajectory, held mode, gravity.
+    measured_shape : array_like
+        (k, 3) polyline [m] of the final shape, any k >= 2, in the world frame.
+    measurement_noise : float
+        Standard deviation of a measured coordinate [m] (default 1 mm).
+    name : str
+        A label.
+    """
+
+    manipulation: Manipulation
+    measured_shape: np.ndarray
+    measurement_noise: float = 1e-3
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.manipulation, Manipulation):
+            raise ValueError(
+                f"manipulation: got {type(self.manipulation).__name__}, expected a Manipulation"
+            )
+        object.__setattr__(self, "measured_shape",
+                           as_shape(self.measured_shape, name="measured_shape"))
+        noise = float(self.measurement_noise)
+        if not (math.isfinite(noise) and noise > 0):
+            raise ValueError(
+                f"measurement_noise: got {self.measurement_noise!r}, expected a distance > 0 [m]"
+            )
+        object.__setattr__(self, "measurement_noise", noise)
+
+
+@dataclass(frozen=True, eq=False)
+class PreparedShapes:
+    """The experiment's shapes on a cable's discretization (see :func:`prepare_shapes`).
+
+    Attributes
+    ----------
+    initial : numpy.ndarray
+        (n + 1, 3) initial shape [m].
+    measured : numpy.ndarray
+        (n + 1, 3) measured final shape [m], equally spaced in arc length.
+    reversed : bool
+        True when the measured points were given from the last clip's end and were reversed.
+    """
+
+    initial: np.ndarray
+    measured: np.ndarray
+    reversed: bool
+
+
+def prepare_shapes(cable: Cable, experiment: Experiment) -> PreparedShapes:
+    """Resample the experiment's shapes to the cable's n + 1 points and check them (Fig. 6.4).
+
+    Checks, each a ``ValueError`` naming the shape: its length against the cable's (within
+    5 %; a length about 1000 times the cable's is reported as millimetres given for metres),
+    and the measured ends against the final clips (within 5 % of the cable length; a measured
+    polyline running from the last clip to the first is reversed, and said so).
+
+    Parameters
+    ----------
+    cable : Cable
+        The cable whose discretization is used.
+    experiment : Experiment
+        The experiment.
+    """
+    from ..jobs import discretize  # lazily: jobs imports the scenario layer
+
+    manipulation = experiment.manipulation
+    initial = discretize(manipulation.initial_shape, cable, "initial_shape")
+    measured = discretize(experiment.measured_shape, cable, "measured_shape")
+    ends = manipulation.final_clips.held_points(cable.rest_link_length)[[0, 3]]
+    checked = 1 if manipulation.held == "first" else 2
+
+    def misfit(shape: np.ndarray) -> float:
+        return float(np.max(np.linalg.norm(shape[[0, -1]][:checked] - ends[:checked], axis=1)))
+
+    flipped = measured[::-1].copy()
+    reverse = misfit(flipped) < misfit(measured)
+    if reverse:
+        measured = flipped
+    worst = misfit(measured)
+    limit = END_TOLERANCE * cable.length
+    if worst > limit:
+        raise ValueError(
+            f"measured_shape: its end is {1e3 * worst:.1f} mm from the final clip's held end "
+            f"(expected within {1e3 * limit:.0f} mm): is the shape in the robot's world frame, "
+            "and are the clip poses the ones of the measured manipulation?"
+        )
+    return PreparedShapes(initial, measured, bool(reverse))
+
