@@ -77,3 +77,16 @@ def test_scenario_file_with_a_study_section(tmp_path):
     path.write_text(SCENARIO.replace("SPREAD", "-1"))
     with pytest.raises(StudyError, match=r"job.yaml: study.parameters.youngs_modulus.spread: "):
         load_study(path)
+
+
+def test_a_planned_path_is_studied(tmp_path):
+    from dloplan.planning import plan
+    from dloplan.study import job_problem, load_study, run_study
+
+    path = tmp_path / "job.yaml"
+    path.write_text(SCENARIO.replace("SPREAD", "0"))
+    job, spec = load_study(path)
+    planned = plan(job.cable, job.start, job.target, 3)
+    result = run_study(job_problem(job, path=planned.path), spec)
+    assert result.table["shape"].max() == 4  # S + 2 = 5 shapes
+    assert result.summary.n_success == 8  # zero spread: the nominal plan, which passes
