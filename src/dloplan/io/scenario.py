@@ -26,6 +26,7 @@ from scipy.spatial.transform import Rotation
 from ..cable import CATALOGUE_NAMES, Cable, catalogue_cable
 from ..obstacles.shapes import Box, Cylinder, Table
 from ..shapes import arc_shape, place, sine_shape, straight_shape
+from ..study.spec import StudySpec
 
 SCHEMA_VERSION = 1
 
@@ -273,6 +274,9 @@ class Scenario(_Model):
     check: CheckSpec = Field(default_factory=CheckSpec)
     identify: dict[str, Any] | None = Field(
         None, description="an identification experiment (see docs/identification.md)"
+    )
+    study: StudySpec | None = Field(
+        None, description="a robustness study of the plan (see docs/study.md)"
     )
     outputs: list[Literal["json", "csv", "rapid", "ros", "figures", "report"]] = Field(
         default_factory=lambda: ["json", "csv", "rapid", "figures", "report"]
