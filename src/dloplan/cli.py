@@ -224,6 +224,133 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     return EXIT_OK if result.informative else EXIT_WARNINGS
 
 
+def _print_outcome(outcome, written, args) -> None:
+    result = outcome.plan
+    if args.json:
+        print(json.dumps({
+            "scenario": outcome.job.source, "ok": outcome.ok, "warnings": outcome.warnings,
+            "n_shapes": result.n_shapes, "family": result.family,
+            "duration_s": outcome.trajectory.duration,
+            "obstacles": None if result.avoidance is None else result.avoidance.status,
+            "verified": None if outcome.verification is None else outcome.verification.ok,
+            "written": [str(p) for p in written],
+        }, indent=2))
+        return
+    print(f"{outcome.job.source}: {result.n_shapes} intermediate shapes, "
+          f"trajectory {outcome.trajectory.duration:.2f} s, "
+          f"{'OK' if outcome.ok else 'FAILED'}")
+    for warning in outcome.warnings:
+        print(f"  warning: {warning}")
+    if outcome.verification is not None:
+        print(outcome.verification.table())
+    print(f"  wrote {len(written)} files into {Path(written[0]).parent}")
+
+
+def _plan_one(job, output: Path, args, console: Console) -> int:
+    from .jobs import plan_job, write_outputs
+
+    outcome = plan_job(job, verify=args.verify, progress=console.stage)
+    written = write_outputs(outcome, output, progress=console.stage)
+    report = output / "report.html"
+    if report.exists():
+        console.stage(f"report: {report}")
+    _print_outcome(outcome, written, args)
+    if not outcome.ok:
+        return EXIT_FAILURE
+    return EXIT_WARNINGS if outcome.warnings else EXIT_OK
+
+
+def _cmd_plan(args: argparse.Namespace) -> int:
+    from .io.scenario import load_scenario
+
+    console = Console(args.quiet)
+    if len(args.scenarios) > 1 or args.workers > 1 or args.scheduler:
+        return _plan_batch(args, console)
+    job = load_scenario(args.scenarios[0])
+    console.stage(f"loaded {job.source}: {job.cable.name or 'cable'}, E "
+                  f"{job.cable.youngs_modulus:.3g} Pa, n = {job.cable.n_links}")
+    return _plan_one(job, Path(args.output), args, console)
+
+
+def _plan_batch(args: argparse.Namespace, console: Console) -> int:
+    from .study.backends import make_backend, map_jobs
+
+    output = Path(args.output)
+    options = {"output": str(output), "verify": args.verify}
+    codes = {}
+    with make_backend(None if args.scheduler else args.workers, args.scheduler) as backend:
+        for _, (path, code, line) in map_jobs(plan_file, args.scenarios, backend,
+                                              shared=options):
+            codes[path] = code
+            console.stage(line)
+    worst = max(codes.values())
+    print(f"planned {len(codes)} scenarios: "
+          f"{sum(c == EXIT_OK for c in codes.values())} ok, "
+          f"{sum(c == EXIT_WARNINGS for c in codes.values())} with warnings, "
+          f"{sum(c == EXIT_FAILURE for c in codes.values())} failed")
+    return worst
+
+
+def plan_file(options: dict, path: str) -> tuple[str, int, str]:
+    """Plan one scenario file into ``<output>/<stem>/`` (the batch mode's task)."""
+    from .io.scenario import load_scenario
+    from .jobs import plan_job, write_outputs
+
+    folder = Path(options["output"]) / Path(path).stem
+    try:
+        outcome = plan_job(load_scenario(path), verify=options["verify"])
+        write_outputs(outcome, folder)
+    except ValueError as exc:
+        return path, EXIT_FAILURE, f"{path}: error: {exc}"
+    code = EXIT_OK if outcome.ok and not outcome.warnings else (
+        EXIT_WARNINGS if outcome.ok else EXIT_FAILURE)
+    status = {EXIT_OK: "ok", EXIT_WARNINGS: "warnings", EXIT_FAILURE: "FAILED"}[code]
+    return path, code, f"{path}: {status} -> {folder}"
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from importlib import resources
+
+    from .io.scenario import parse_scenario, read_mapping, resolve
+
+    console = Console(args.quiet)
+    source = resources.files("dloplan.data").joinpath("demo.yaml")
+    with resources.as_file(source) as path:
+        job = resolve(parse_scenario(read_mapping(path), "demo"), "demo (embedded)")
+    console.stage("the embedded demo: an Ethernet cable moved over an obstacle on the table")
+    output = Path(args.output)
+    code = _plan_one(job, output, args, console)
+    print(f"open {output / 'report.html'} in a browser; figures are in {output / 'figures'}")
+    return code
+
+
+def _cmd_study(args: argparse.Namespace) -> int:
+    from .planning import plan
+    from .plots.study import study_figures
+    from .study.backends import make_backend
+    from .study.run import job_problem, load_study, run_study
+
+    console = Console(args.quiet)
+    job, spec = load_study(args.scenario)
+    update = {k: v for k, v in (("samples", args.samples), ("seed", args.seed)) if v is not None}
+    spec = spec.model_copy(update=update) if update else spec
+    from .jobs import discretize
+
+    planned = plan(job.cable, discretize(job.start, job.cable, "start"),
+                   discretize(job.target, job.cable, "target"), job.scenario.planner.n_shapes)
+    console.stage(f"planned {planned.n_shapes} shapes; running {spec.samples} samples")
+    problem = job_problem(job, path=planned.path)
+    with make_backend(None if args.scheduler else args.workers, args.scheduler) as backend:
+        result = run_study(problem, spec, out=args.output, backend=backend,
+                           progress=lambda p: console.stage(p.line()),
+                           resume=not args.overwrite, file_format="csv" if args.csv else "parquet")
+    written = study_figures(result.table, result.summary, spec.criteria, args.output)
+    console.stage(f"{len(written)} figures in {args.output}")
+    for line in result.summary.lines():
+        print(line)
+    return EXIT_OK
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="dloplan",
@@ -239,6 +366,30 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--json", action="store_true", help="machine-readable summary on stdout")
         p.set_defaults(func=func)
         return p
+
+    plan = command("plan", _cmd_plan, "plan one scenario (or many, in batch) and write the "
+                   "plan, robot programs, figures and report")
+    plan.add_argument("scenarios", nargs="+", help="scenario file(s) (.yaml or .json)")
+    plan.add_argument("-o", "--output", default="out/plan", help="output folder")
+    plan.add_argument("--verify", action="store_true", help="also verify the plan")
+    plan.add_argument("--workers", type=int, default=1,
+                      help="batch: local worker processes")
+    plan.add_argument("--scheduler", help="batch: Dask scheduler address tcp://HOST:PORT")
+
+    demo = command("demo", _cmd_demo, "run the embedded default job (needs no input)")
+    demo.add_argument("-o", "--output", default="out/demo", help="output folder")
+    demo.set_defaults(verify=True)
+
+    study = command("study", _cmd_study, "robustness study of a scenario's plan over cable and "
+                    "pose tolerances (its study section)")
+    study.add_argument("scenario")
+    study.add_argument("--samples", type=int, help="override the number of samples")
+    study.add_argument("--seed", type=int, help="override the seed")
+    study.add_argument("--workers", type=int, default=1, help="local worker processes")
+    study.add_argument("--scheduler", help="Dask scheduler address tcp://HOST:PORT")
+    study.add_argument("--csv", action="store_true", help="CSV instead of Parquet")
+    study.add_argument("--overwrite", action="store_true", help="start over, do not resume")
+    study.add_argument("-o", "--output", default="out/study", help="study folder")
 
     cables = command("cables", _cmd_cables, "print the model constants of the thesis' cables")
     cables.add_argument("--links", type=int, default=10, help="number of links n")

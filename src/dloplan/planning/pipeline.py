@@ -75,6 +75,10 @@ def plan(
     gravity=GRAVITY,
     map: Callable = map,
     max_iterations: int = 3000,
+    obstacles=None,
+    z_safety: float = 0.02,
+    max_rounds: int = 5,
+    stabilize: bool = True,
 ) -> Plan:
     """Plan S intermediate cable shapes from ``start`` to ``target`` (thesis chapter 4).
 
@@ -109,6 +113,17 @@ def plan(
         ``map(function, iterable)`` for the decoupled physical stage (builtin: serial).
     max_iterations : int
         Iteration limit of the advanced stage.
+    obstacles : sequence, optional
+        Obstacle volumes (:mod:`dloplan.obstacles`): the stabilized path is checked against
+        them and the colliding shapes lifted and the path re-planned around them (thesis 5.4,
+        :func:`dloplan.obstacles.avoid_obstacles`), keeping S.
+    z_safety : float
+        Safety offset of the lift [m].
+    max_rounds : int
+        Re-planning rounds at most.
+    stabilize : bool
+        Settle every planned shape under gravity with its clips held (thesis 5.2): the plan's
+        ``stabilized`` path. Always done when there are obstacles.
 
     Returns
     -------
@@ -175,6 +190,29 @@ def plan(
         if not s.success:
             warnings.append(f"physical stage, shape {i}: {s.message}")
 
+    avoidance = None
+    stabilized = None
+    if obstacles or stabilize:
+        from ..obstacles.avoidance import avoid_obstacles
+
+        def replan(a: np.ndarray, b: np.ndarray, count: int) -> np.ndarray:
+            return plan(cable, a, b, count, weights=weights, physical_mode=physical_mode,
+                        preprocess=False, length_tolerance=length_tolerance,
+                        family_boundaries=family_boundaries, gravity=gravity, map=map,
+                        max_iterations=max_iterations, stabilize=False).path
+
+        t = time.perf_counter()
+        checked = avoid_obstacles(cable, physical, list(obstacles or ()), replan,
+                                  z_safety=z_safety, max_rounds=max_rounds, gravity=gravity)
+        timings["stabilize"] = time.perf_counter() - t
+        physical, stabilized = checked.path, checked.stabilized
+        if obstacles:
+            avoidance = checked
+            if not checked.success:
+                warnings.append(f"obstacles: {checked.message}")
+        elif checked.status == "not_converged":
+            warnings.append(f"stabilization: {checked.message}")
+
     paths = np.stack([basic, advanced, physical])
     lengths = shape_length(paths)
     worst = float(np.max(np.abs(lengths[2] / cable.length - 1.0)))
@@ -198,6 +236,8 @@ def plan(
         weights=weights,
         family=family,
         physical_mode=physical_mode,
+        stabilized=stabilized,
+        avoidance=avoidance,
     )
 
 

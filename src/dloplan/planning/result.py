@@ -60,6 +60,13 @@ class Plan:
         The stiffness family of the cable.
     physical_mode : str
         "equilibrium" or "thesis".
+    stabilized : numpy.ndarray or None
+        (S + 2, n + 1, 3) the planned shapes settled under gravity with their clips held
+        (thesis 5.2) [m]; None when not asked for.
+    avoidance : Avoidance or None
+        The obstacle check and re-planning (collision reports before and after, rounds,
+        status); None without obstacles. When it re-planned, ``physical`` (the plan) is the
+        re-planned path while ``basic`` and ``advanced`` stay those of the first planning.
     """
 
     cable: Cable
@@ -76,6 +83,8 @@ class Plan:
     weights: PlannerWeights
     family: str
     physical_mode: str
+    stabilized: np.ndarray | None = None
+    avoidance: object = None
 
     @property
     def path(self) -> np.ndarray:

@@ -139,6 +139,7 @@ def simulate(
     record_interval: float | None = None,
     rest_speed: float | None = None,
     max_steps: int = 10_000_000,
+    damping: str = "absolute",
 ) -> Simulation:
     """Integrate eq. 3.24 from ``initial_shape`` (at rest) with the clips driving the ends.
 
@@ -166,6 +167,11 @@ def simulate(
         Stop when the clips have stopped and every point is slower than this [m/s].
     max_steps : int
         Hard limit on steps, so no call can hang.
+    damping : {"absolute", "relative"}
+        ``"absolute"``: the thesis' -k_d v on every point (eq. 3.3), a drag that also resists
+        rigid motion: at 0.1 m/s it exceeds the weight of a light cable, so a replay at real
+        speed lags behind. ``"relative"``: -k_d (2 v_i - v_(i-1) - v_(i+1)), dashpots between
+        neighbouring points that damp vibration but not motion as a whole.
     """
     x = as_shape(initial_shape, cable.n_points, "initial_shape").copy()
     if not (math.isfinite(duration) and duration > 0):
@@ -186,8 +192,11 @@ def simulate(
     record_interval = record_interval or duration / 200.0
     record_every = max(1, int(round(record_interval / dt)))
     chain = SpringChain.from_cable(cable, gravity)
+    if damping not in ("absolute", "relative"):
+        raise ValueError(f"damping: got {damping!r}, expected 'absolute' or 'relative'")
     mass = cable.point_masses[:, None]
     k_d = cable.k_damping
+    relative = damping == "relative"
     held = list(HELD_INDICES)
     clips_stop = trajectory.times[-1]
     v = np.zeros_like(x)
@@ -200,7 +209,8 @@ def simulate(
         chunk_steps = np.arange(step + 1, min(step + _CHUNK, n_steps) + 1)
         targets = trajectory.held_points(chunk_steps * dt, cable.rest_link_length)
         for k, target in enumerate(targets):
-            a = (-gradient(chain, x) - k_d * v) / mass
+            drag = _relative_velocities(v) if relative else v
+            a = (-gradient(chain, x) - k_d * drag) / mass
             v += a * dt
             x += v * dt
             v[held] = (target - previous_held) / dt
@@ -233,6 +243,15 @@ def simulate(
     return Simulation(
         np.asarray(times), np.stack(shapes), np.asarray(speeds), float(dt), step, settled, message
     )
+
+
+def _relative_velocities(v: np.ndarray) -> np.ndarray:
+    """Sum over each point's neighbours of its velocity relative to them (a graph Laplacian)."""
+    out = np.zeros_like(v)
+    dv = v[1:] - v[:-1]
+    out[1:] += dv
+    out[:-1] -= dv
+    return out
 
 
 def settle(

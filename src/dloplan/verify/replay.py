@@ -129,6 +129,7 @@ def replay(
     dt: float | None = None,
     youngs_modulus_cap: float | None = None,
     max_steps: int = 10_000_000,
+    damping: str = "relative",
 ) -> Replay:
     """Simulate the timed plan at its real speed and compare with the planned shapes.
 
@@ -155,6 +156,12 @@ def replay(
         Longest simulated time after the last knot [s].
     dt, youngs_modulus_cap, max_steps
         Passed to :func:`dloplan.sim.dynamics.simulate`.
+
+    damping : {"relative", "absolute"}
+        Damping of the simulator (:func:`dloplan.sim.dynamics.simulate`). The default damps
+        only relative motion of neighbouring points: the thesis' absolute damping is a drag
+        larger than a light cable's weight at 0.1 m/s, which would make the cable lag behind
+        the grippers by centimetres for no physical reason.
 
     Returns
     -------
@@ -194,6 +201,7 @@ def replay(
     run = simulate(
         cable, path[0], shifted, duration=duration, dt=dt, youngs_modulus_cap=youngs_modulus_cap,
         gravity=gravity, record_interval=record, rest_speed=rest_speed, max_steps=max_steps,
+        damping=damping,
     )
     deviations = np.array([_deviation_at(run, t, x) for t, x in zip(knots, path, strict=True)])
     final = float(np.max(np.linalg.norm(run.shapes[-1] - path[-1], axis=1)))

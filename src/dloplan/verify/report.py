@@ -151,7 +151,7 @@ class Verification:
         for r in self.rows:
             lines.append(
                 f"{r.index:>5} {_flag(r.stable):>6} {r.smallest_eigenvalue:>14.4g} "
-                f"{r.relative_eigenvalue:>12.4g} {_flag(r.snap):>5} {_mm(r.straying):>10} "
+                f"{r.relative_eigenvalue:>12.4g} {_event(r.snap):>5} {_mm(r.straying):>10} "
                 f"{_flag(r.reachable_left):>5} {_flag(r.reachable_right):>5} "
                 f"{_num(r.joint_margin, '.3f'):>12} {_mm(r.replay_deviation):>11}"
             )
@@ -167,6 +167,11 @@ class Verification:
             "timings_s": dict(self.timings),
             "rows": [{k: _json_number(v) for k, v in asdict(r).items()} for r in self.rows],
         }
+
+
+def _event(value: bool | None) -> str:
+    """A flag where True is the bad outcome (a snap): shown as SNAP, its absence as no."""
+    return "-" if value is None else ("SNAP" if value else "no")
 
 
 def _flag(value: bool | None) -> str:
