@@ -1,0 +1,383 @@
+"""Forward kinematics, Jacobian and damped-least-squares inverse kinematics of one arm.
+
+Plain numpy on the URDF chain of :class:`~dloplan.robot.yumi.Arm`: the pose of link i is
+``T_i = T_{i-1} Origin_i Rot(axis_i, q_i)`` (4x4 homogeneous transforms kept as a rotation
+matrix and a translation), with link 0 the robot body placed in the world. All poses are in the
+WORLD frame. Rotations go through :class:`scipy.spatial.transform.Rotation`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from .yumi import Arm
+
+LENGTH_SCALE = 0.1
+"""Length [m] that weighs an orientation error against a position error in the IK: 1 rad of
+orientation error counts like 0.1 m of position error."""
+
+NULL_FADE = 0.01
+"""Weighted task error [m] below which the null-space motion fades out linearly."""
+
+
+@dataclass(frozen=True, eq=False)
+class Frames:
+    """Link frames of an arm for a batch of joint vectors.
+
+    Attributes
+    ----------
+    rotations : numpy.ndarray
+        (..., 8, 3, 3) ``link_to_world`` rotation matrices of links 1..7 and of the TCP.
+    positions : numpy.ndarray
+        (..., 8, 3) origins [m] of links 1..7 (on the joint axes) and the TCP point.
+    """
+
+    rotations: np.ndarray
+    positions: np.ndarray
+
+
+def link_frames(arm: Arm, q) -> Frames:
+    """World frames of every link and of the TCP.
+
+    Parameters
+    ----------
+    arm : Arm
+    q : array_like
+        (..., 7) joint values [rad] (not checked against the limits).
+    """
+    q = np.asarray(q, dtype=float)
+    batch = q.shape[:-1]
+    turn = Rotation.from_rotvec((arm.axes * q[..., None]).reshape(-1, 3)).as_matrix()
+    turn = turn.reshape(batch + (7, 3, 3))
+    rot = np.empty(batch + (8, 3, 3))
+    pos = np.empty(batch + (8, 3))
+    r = np.eye(3)
+    p = np.zeros(3)
+    for i in range(7):
+        p = p + r @ arm._origin_xyz[i]
+        r = r @ arm._origin_rot[i] @ turn[..., i, :, :]
+        rot[..., i, :, :] = r
+        pos[..., i, :] = p
+    rot[..., 7, :, :] = r @ arm._tcp_rot
+    pos[..., 7, :] = p + r @ arm.gripper.tcp_offset
+    return Frames(rot, pos)
+
+
+def forward(arm: Arm, q) -> tuple[np.ndarray, Rotation]:
+    """TCP pose in the world frame.
+
+    Parameters
+    ----------
+    arm : Arm
+    q : array_like
+        (..., 7) joint values [rad].
+
+    Returns
+    -------
+    position : numpy.ndarray
+        (..., 3) TCP position [m].
+    rotation : scipy.spatial.transform.Rotation
+        ``tcp_to_world``, of the batch shape of ``q``.
+    """
+    q = _as_joints(q, "q")
+    frames = link_frames(arm, q)
+    return frames.positions[..., 7, :], Rotation.from_matrix(frames.rotations[..., 7, :, :])
+
+
+def jacobian(arm: Arm, q) -> np.ndarray:
+    """Geometric Jacobian of the TCP, world frame.
+
+    Column i is ``(z_i x (p_tcp - p_i), z_i)`` for the revolute joint i with world axis z_i
+    through the point p_i.
+
+    Parameters
+    ----------
+    arm : Arm
+    q : array_like
+        (..., 7) joint values [rad].
+
+    Returns
+    -------
+    numpy.ndarray
+        (..., 6, 7): rows 0-2 TCP linear velocity [m/rad], rows 3-5 angular velocity [1].
+    """
+    frames = link_frames(arm, np.asarray(q, dtype=float))
+    return _jacobian(arm, frames)
+
+
+def _jacobian(arm: Arm, frames: Frames) -> np.ndarray:
+    z = np.einsum("...kij,kj->...ki", frames.rotations[..., :7, :, :], arm.axes)
+    lever = frames.positions[..., 7:8, :] - frames.positions[..., :7, :]
+    return np.concatenate([np.cross(z, lever), z], axis=-1).swapaxes(-1, -2)
+
+
+def manipulability(arm: Arm, q) -> np.ndarray:
+    """Yoshikawa's manipulability sqrt(det(J J^T)) of the full 6x7 Jacobian.
+
+    Zero at a singularity. Mixed units (three rows in metres, three dimensionless) make it
+    [m^3]; compare values of the same arm, not across robots.
+
+    Parameters
+    ----------
+    q : array_like
+        (..., 7) joint values [rad].
+    """
+    j = jacobian(arm, q)
+    det = np.linalg.det(j @ j.swapaxes(-1, -2))
+    return np.sqrt(np.maximum(det, 0.0))
+
+
+def joint_margin(arm: Arm, q) -> np.ndarray:
+    """Distance of the nearest joint to its nearest limit [rad], (...,); negative outside."""
+    q = np.asarray(q, dtype=float)
+    return np.min(np.minimum(q - arm.lower, arm.upper - q), axis=-1)
+
+
+@dataclass(frozen=True, eq=False)
+class IKOptions:
+    """Settings of :func:`inverse`.
+
+    Parameters
+    ----------
+    position_tolerance : float
+        Converged when the TCP is this close to the target [m].
+    angle_tolerance : float
+        ... and its orientation this close [rad].
+    max_iterations : int
+        Iterations per seed.
+    damping : float
+        Floor of the Levenberg-Marquardt damping [m^2] (Sugihara's W_N = E + damping).
+    max_step : float
+        Largest joint change per iteration [rad].
+    null_gain : float
+        Gain [rad^2] of the null-space motion that pulls the joints toward the middle of their
+        ranges (moves only the redundant self-motion, i.e. the elbow).
+    restarts : int
+        Random seeds tried after the given seed, the home pose and their wrist flips.
+    min_margin : float
+        A converged solution closer than this to a joint limit [rad] is first polished (up to
+        ``polish`` null-space steps, each re-converged), then sends the search on to the next
+        seed; the converged solution with the largest margin is returned.
+    polish : int
+        Null-space steps allowed per solve to move a converged solution off a limit.
+    """
+
+    position_tolerance: float = 1e-5
+    angle_tolerance: float = 1e-5
+    max_iterations: int = 100
+    damping: float = 1e-6
+    max_step: float = 0.4
+    null_gain: float = 0.05
+    restarts: int = 4
+    min_margin: float = 0.0
+    polish: int = 20
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.min_margin) and self.min_margin >= 0):
+            raise ValueError(f"IKOptions.min_margin: expected >= 0, got {self.min_margin!r}")
+        for key in ("position_tolerance", "angle_tolerance", "damping", "max_step"):
+            value = getattr(self, key)
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"IKOptions.{key}: expected a positive number, got {value!r}")
+        if not (np.isfinite(self.null_gain) and self.null_gain >= 0):
+            raise ValueError(f"IKOptions.null_gain: expected >= 0, got {self.null_gain!r}")
+        if int(self.max_iterations) < 1 or int(self.restarts) < 0 or int(self.polish) < 0:
+            raise ValueError(
+                f"IKOptions: max_iterations >= 1, restarts >= 0, polish >= 0 expected, got "
+                f"{self.max_iterations!r}, {self.restarts!r}, {self.polish!r}"
+            )
+
+
+@dataclass(frozen=True, eq=False)
+class IKResult:
+    """Outcome of :func:`inverse`.
+
+    Attributes
+    ----------
+    q : numpy.ndarray
+        (7,) joint values [rad], always within the limits (the best found if not converged).
+    success : bool
+        Converged within the tolerances.
+    position_error : float
+        Remaining TCP position error [m].
+    angle_error : float
+        Remaining TCP orientation error [rad].
+    iterations : int
+        Iterations over all seeds tried.
+    seeds_tried : int
+        1 when the given seed converged.
+    message : str
+    """
+
+    q: np.ndarray
+    success: bool
+    position_error: float
+    angle_error: float
+    iterations: int
+    seeds_tried: int
+    message: str
+
+
+def inverse(arm: Arm, position, rotation: Rotation, seed=None,
+            options: IKOptions | None = None, rng: np.random.Generator | None = None) -> IKResult:
+    """Joint values placing the TCP at a world pose: damped least squares from a seed.
+
+    Each iteration solves the Levenberg-Marquardt step of Sugihara (2011)
+    ``(J^T J + (E + damping) I) dq = J^T e`` with ``e = (p* - p, L * rotvec(R* R^T))``,
+    ``E = |e|^2 / 2`` and J the Jacobian with its angular rows scaled by L (:data:`LENGTH_SCALE`),
+    adds the null-space motion ``-null_gain (I - J^+ J) grad H`` of
+    ``H = 1/2 sum ((q - mid) / half_range)^2`` (keeps the redundant elbow away from its
+    limits), limits the step to ``max_step`` and clips q into the joint limits. The damping grows
+    with the error, so far from the target the step is a short gradient step and close to it a
+    Gauss-Newton step (quadratic convergence). When the seed does not converge (or converges
+    closer than ``min_margin`` to a limit), its wrist flip, the home pose, its wrist flip and then
+    ``restarts`` random joint vectors are tried; an unreachable pose returns the result with the
+    smallest error and ``success=False``, never an exception.
+
+    Parameters
+    ----------
+    arm : Arm
+    position : array_like
+        (3,) target TCP position in the world [m].
+    rotation : scipy.spatial.transform.Rotation
+        Target ``tcp_to_world`` (single).
+    seed : array_like, optional
+        (7,) start [rad] (clipped into the limits); default the arm's home pose.
+    options : IKOptions, optional
+    rng : numpy.random.Generator, optional
+        For the random restarts; default a generator seeded with 0 (deterministic).
+    """
+    position = np.asarray(position, dtype=float)
+    if position.shape != (3,) or not np.all(np.isfinite(position)):
+        raise ValueError(f"position: expected 3 finite numbers [m], got {position!r}")
+    if not isinstance(rotation, Rotation) or not rotation.single:
+        raise ValueError(f"rotation: expected a single scipy Rotation, got {rotation!r}")
+    seed = arm.home if seed is None else _as_joints(seed, "seed")
+    if seed.shape != (7,):
+        raise ValueError(f"seed: expected 7 joint values [rad], got shape {seed.shape}")
+    opts = options if options is not None else IKOptions()
+    return _inverse(arm, position, rotation.as_matrix(), seed, opts, rng)
+
+
+def _inverse(arm: Arm, position: np.ndarray, target_rot: np.ndarray, seed: np.ndarray,
+             opts: IKOptions, rng: np.random.Generator | None) -> IKResult:
+    """:func:`inverse` without input checks (target rotation as a matrix)."""
+    flange = position - target_rot @ arm._tcp_rot.T @ arm.gripper.tcp_offset
+    distance = float(np.linalg.norm(flange - arm._origin_xyz[0]))
+    if distance > reach(arm):
+        q = np.clip(seed, arm.lower, arm.upper)
+        frames = link_frames(arm, q)
+        perr = float(np.linalg.norm(position - frames.positions[7]))
+        aerr = float(Rotation.from_matrix(target_rot @ frames.rotations[7].T).magnitude())
+        return IKResult(q, False, perr, aerr, 0, 0,
+                        f"out of reach: flange point {distance:.3f} m from the shoulder, the arm "
+                        f"reaches at most {reach(arm):.3f} m")
+    seeds = [seed, wrist_flip(arm, seed), arm.home, wrist_flip(arm, arm.home)]
+    best = converged = None
+    total = tried = 0
+    while tried < len(seeds) + opts.restarts:
+        if tried < len(seeds):
+            start = seeds[tried]
+        else:
+            rng = rng if rng is not None else np.random.default_rng(0)
+            start = rng.uniform(arm.lower, arm.upper)
+        tried += 1
+        q, perr, aerr, its, ok = _solve(arm, position, target_rot, start, opts)
+        total += its
+        if ok:
+            margin = float(joint_margin(arm, q))
+            if converged is None or margin > converged[0]:
+                converged = (margin, q, perr, aerr)
+            if margin >= opts.min_margin:
+                break
+        elif converged is None:
+            score = perr + LENGTH_SCALE * aerr
+            if best is None or score < best[0]:
+                best = (score, q, perr, aerr)
+    if converged is not None:
+        margin, q, perr, aerr = converged
+        message = "converged" if margin >= opts.min_margin else (
+            f"converged, but {np.degrees(margin):.1f} deg from a joint limit "
+            f"(wanted {np.degrees(opts.min_margin):.1f})")
+        return IKResult(q, True, perr, aerr, total, tried, message)
+    _, q, perr, aerr = best
+    message = (f"not converged from {tried} seeds: position error {perr * 1e3:.2f} mm, "
+               f"orientation error {np.degrees(aerr):.2f} deg")
+    return IKResult(q, False, perr, aerr, total, tried, message)
+
+
+def reach(arm: Arm) -> float:
+    """Upper bound of the distance from joint 1's origin (the shoulder) to the flange [m]: the
+    sum of the chain's link offsets. A flange target beyond it is out of reach without IK."""
+    return float(np.linalg.norm(arm.origin_xyz[1:], axis=1).sum())
+
+
+def wrist_flip(arm: Arm, q) -> np.ndarray:
+    """The other wrist configuration as a seed: ABB axis 4 and 6 turned by pi, axis 5 negated.
+
+    Exact for a spherical wrist; the YuMi's wrist has small offsets, so it is a seed for the IK,
+    not a solution. Turns go the way that stays within the limits; the result is clipped.
+    """
+    flipped = np.array(q, dtype=float)
+    for i in (4, 6):
+        flipped[i] += np.pi if flipped[i] + np.pi <= arm.upper[i] else -np.pi
+    flipped[5] = -flipped[5]
+    return np.clip(flipped, arm.lower, arm.upper)
+
+
+def _solve(arm: Arm, position, target_rot, seed, opts: IKOptions):
+    """Damped least squares from one seed: (q, position error, angle error, iterations, ok).
+
+    Once converged closer than ``min_margin`` to a limit, up to ``polish`` null-space steps
+    (each followed by re-convergence) move the redundant elbow away; the last converged q is
+    returned.
+    """
+    q = np.clip(seed, arm.lower, arm.upper)
+    half = 0.5 * (arm.upper - arm.lower)
+    eye = np.eye(7)
+    scale = np.array([1.0, 1.0, 1.0, LENGTH_SCALE, LENGTH_SCALE, LENGTH_SCALE])
+    polish = opts.polish if opts.min_margin > 0 else 0
+    done = None
+    for it in range(opts.max_iterations + 1):
+        frames = link_frames(arm, q)
+        dp = position - frames.positions[7]
+        dtheta = Rotation.from_matrix(target_rot @ frames.rotations[7].T).as_rotvec()
+        perr, aerr = float(np.linalg.norm(dp)), float(np.linalg.norm(dtheta))
+        converged = perr <= opts.position_tolerance and aerr <= opts.angle_tolerance
+        if converged:
+            done = (q, perr, aerr, it)
+            if polish == 0 or joint_margin(arm, q) >= opts.min_margin:
+                break
+        if it == opts.max_iterations:
+            break
+        jac = _jacobian(arm, frames) * scale[:, None]
+        err = np.concatenate([dp, LENGTH_SCALE * dtheta])
+        energy = 0.5 * float(err @ err)
+        grad = (q - arm.mid) / half**2
+        null = eye - np.linalg.pinv(jac, rcond=1e-8) @ jac
+        if converged:  # polish: a pure self-motion step away from the limits
+            polish -= 1
+            dq = -opts.null_gain * (null @ grad)
+        else:
+            dq = np.linalg.solve(jac.T @ jac + (energy + opts.damping) * eye, jac.T @ err)
+            # Faded out as the task error vanishes: its second-order effect on the TCP must
+            # not keep the task from converging to the tolerance.
+            fade = min(1.0, np.sqrt(2.0 * energy) / NULL_FADE)
+            dq -= opts.null_gain * fade * (null @ grad)
+        largest = np.max(np.abs(dq))
+        if largest > opts.max_step:
+            dq *= opts.max_step / largest
+        q = np.clip(q + dq, arm.lower, arm.upper)
+    if done is not None:
+        return done[0], done[1], done[2], it, True
+    return q, perr, aerr, it, False
+
+
+def _as_joints(q, name: str) -> np.ndarray:
+    arr = np.asarray(q, dtype=float)
+    if arr.ndim < 1 or arr.shape[-1] != 7 or not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: expected finite joint values of shape (..., 7), got {q!r}")
+    return arr

@@ -1,0 +1,526 @@
+"""Can a dual-arm robot execute a plan? Reachability of every TCP pose along a path, and the
+placement of the job on the table that makes it so.
+
+A path gives, per planned pose k and arm, a TCP pose in the WORLD frame. Both arms move from
+pose k-1 to pose k together along straight lines with spherical-linear orientation (the motion
+of :mod:`dloplan.trajectory`); this module follows that motion in small sub-steps with the
+IK seeded from the previous sub-step, so the joint motion it reports is the continuous one a
+controller would execute, not a fresh solution per pose.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
+
+from .collision import arm_clearance
+from .kinematics import IKOptions, _inverse, _solve, joint_margin, manipulability
+from .yumi import ABB_AXIS_NUMBERS, ARMS, Arm, Robot, yumi
+
+_TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
+"""The TCP turned by pi about its own z-axis (the other grip of a symmetric gripper)."""
+
+
+@dataclass(frozen=True, eq=False)
+class ReachOptions:
+    """Settings of the path check.
+
+    Parameters
+    ----------
+    ik : IKOptions
+        Settings of each IK solve (tolerances: a pose counts as reached within them).
+    step_length : float
+        Largest TCP translation [m] of one tracking sub-step between planned poses.
+    step_angle : float
+        Largest TCP rotation [rad] of one sub-step.
+    max_joint_step : float
+        A joint moving more than this over one sub-step [rad] is a configuration jump: the
+        motion between the two poses is flagged as not continuous.
+    min_margin : float
+        Wanted distance from every joint limit [rad]: the first pose is solved for it (seeds are
+        tried until one gives it), and a reachable pose closer than this is reported in the
+        messages (a warning, not a failure).
+    min_clearance : float
+        Smallest allowed distance between the two arms' capsules [m]; less is a collision.
+    symmetric_grip : bool
+        The gripper's two fingers are alike, so holding a clip with the TCP turned by pi about
+        its approach (z) axis grips the cable the same way. When True, :func:`check_reachability`
+        tracks both grips for each arm (one grip for the whole path, so the wrist does not spin
+        between poses) and keeps the better one (more poses reachable, then continuous, then
+        the larger joint margin).
+    """
+
+    ik: IKOptions = field(default_factory=IKOptions)
+    step_length: float = 0.02
+    step_angle: float = 0.1
+    max_joint_step: float = 0.5
+    min_margin: float = np.radians(5.0)
+    min_clearance: float = 0.005
+    symmetric_grip: bool = True
+
+    def __post_init__(self) -> None:
+        for key in ("step_length", "step_angle", "max_joint_step"):
+            value = getattr(self, key)
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"ReachOptions.{key}: expected a positive number, got {value!r}")
+        for key in ("min_margin", "min_clearance"):
+            value = getattr(self, key)
+            if not np.isfinite(value) or (key == "min_margin" and value < 0):
+                raise ValueError(f"ReachOptions.{key}: expected a finite number >= 0, got "
+                                 f"{value!r}")
+        if not isinstance(self.ik, IKOptions):
+            raise ValueError(f"ReachOptions.ik: expected IKOptions, got {self.ik!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class Reachability:
+    """Per planned pose and arm: can the robot get there, and how comfortably.
+
+    Arrays are indexed ``[pose, arm]`` with the arms in the order of :data:`ARMS`
+    (``("left", "right")``).
+
+    Attributes
+    ----------
+    reachable : numpy.ndarray
+        (K, 2) bool: the IK reached the TCP pose within the tolerances and the joint limits.
+    q : numpy.ndarray
+        (K, 2, 7) joint values [rad] in physical joint order (ABB axes 1, 2, 7, 3, 4, 5, 6),
+        always within the limits (the closest found where not reachable).
+    joint_margin : numpy.ndarray
+        (K, 2) distance of the nearest joint to its nearest limit [rad].
+    manipulability : numpy.ndarray
+        (K, 2) Yoshikawa manipulability of the 6x7 Jacobian [m^3] (0 at a singularity).
+    position_error, angle_error : numpy.ndarray
+        (K, 2) remaining TCP error [m] and [rad].
+    continuous : numpy.ndarray
+        (K, 2) bool: from the reachable pose k-1 the arm followed the straight TCP motion to
+        pose k without losing it or jumping configuration (True at k = 0 and after an
+        unreachable pose, which ``reachable`` already reports).
+    clearance : numpy.ndarray
+        (K,) smallest capsule distance between the arms [m] at each pose, and over the
+        sub-steps leading to it (negative: overlap); a collision is only reported where both
+        arms reach the pose.
+    clip_of_arm : tuple of int
+        Which clip (0 first, 1 last) each arm holds, or ``(0, 1)`` when the poses were given
+        per arm.
+    grip_turned : tuple of bool
+        Per arm: the TCP holds its clip turned by pi about the TCP z-axis (see
+        ``ReachOptions.symmetric_grip``).
+    success : bool
+        Every pose reachable, every motion continuous, clearance never below the minimum.
+    message : str
+        One-line summary.
+    messages : tuple of str
+        One line per problem, naming the arm and the pose index.
+    """
+
+    reachable: np.ndarray
+    q: np.ndarray
+    joint_margin: np.ndarray
+    manipulability: np.ndarray
+    position_error: np.ndarray
+    angle_error: np.ndarray
+    continuous: np.ndarray
+    clearance: np.ndarray
+    clip_of_arm: tuple[int, int]
+    grip_turned: tuple[bool, bool]
+    success: bool
+    message: str
+    messages: tuple[str, ...]
+
+    @property
+    def n_poses(self) -> int:
+        """Number of planned poses K."""
+        return int(self.reachable.shape[0])
+
+    @property
+    def min_joint_margin(self) -> float:
+        """Smallest joint margin over the reachable poses [rad] (-inf if none is)."""
+        m = self.joint_margin[self.reachable]
+        return float(m.min()) if m.size else -np.inf
+
+    @property
+    def min_clearance(self) -> float:
+        """Smallest arm-arm clearance over the path [m]."""
+        return float(self.clearance.min())
+
+
+def tcp_poses_from_clips(robot: Robot, clip_positions, clip_rotations: Rotation):
+    """TCP targets that hold clips at the given poses: the TCP sits on the clip point and its
+    orientation is ``clip_to_world * gripper.tcp_in_clip`` (per arm's gripper).
+
+    Parameters
+    ----------
+    robot : Robot
+    clip_positions : array_like
+        (K, 2, 3) clip points [m], already ordered by arm (left, right).
+    clip_rotations : scipy.spatial.transform.Rotation
+        (K, 2) ``clip_to_world``, ordered by arm.
+
+    Returns
+    -------
+    positions : numpy.ndarray
+        (K, 2, 3) TCP positions [m].
+    rotations : scipy.spatial.transform.Rotation
+        (K, 2) ``tcp_to_world``.
+    """
+    mats = clip_rotations.as_matrix()
+    tcp = np.stack([mats[:, a] @ arm.gripper.tcp_in_clip.as_matrix()
+                    for a, arm in enumerate(robot.arms)], axis=1)
+    return np.array(clip_positions, dtype=float), Rotation.from_matrix(tcp)
+
+
+def check_path(robot: Robot, positions, rotations: Rotation, *, seeds=None,
+               options: ReachOptions | None = None) -> Reachability:
+    """Reachability of a dual-arm TCP path, tracked continuously from pose to pose.
+
+    Pose 0 is solved from ``seeds`` (default the home poses), trying seeds until a solution at
+    least ``min_margin`` from the limits is found. Between poses k-1 and k both arms move in
+    the same number of sub-steps (at most ``step_length`` and ``step_angle`` each); every
+    sub-step's IK is seeded from the previous one (continuous joint motion, the null-space term
+    of :func:`~dloplan.robot.kinematics.inverse` keeping the elbow from its limits). A pose
+    that the tracking loses is solved afresh from all seeds; the motion to it is then marked
+    not continuous. Never raises for an unreachable pose: it is reported.
+
+    Parameters
+    ----------
+    robot : Robot
+    positions : array_like
+        (K, 2, 3) TCP positions [m] in the world frame, arms in the order of :data:`ARMS`.
+    rotations : scipy.spatial.transform.Rotation
+        (K, 2) ``tcp_to_world`` rotations.
+    seeds : array_like, optional
+        (2, 7) joint values [rad] to start pose 0 from.
+    options : ReachOptions, optional
+
+    Returns
+    -------
+    Reachability
+    """
+    pos, mats = _validate_path(positions, rotations)
+    opts = options if options is not None else ReachOptions()
+    if seeds is None:
+        seeds = np.stack([arm.home for arm in robot.arms])
+    seeds = np.asarray(seeds, dtype=float)
+    if seeds.shape != (2, 7) or not np.all(np.isfinite(seeds)):
+        raise ValueError(f"seeds: expected (2, 7) finite joint values [rad], got {seeds.shape}")
+    return _check(robot, pos, [mats], seeds, opts, clip_of_arm=(0, 1))
+
+
+def check_reachability(gripper_positions, gripper_rotations: Rotation, robot: Robot | None = None,
+                       *, offset=(0.0, 0.0, 0.0), assignment: str = "auto",
+                       options: ReachOptions | None = None) -> Reachability:
+    """Reachability of a plan's clip poses by a dual-arm robot (default: a YuMi at the world
+    origin, see :func:`~dloplan.robot.yumi.yumi`).
+
+    Parameters
+    ----------
+    gripper_positions : array_like
+        (S+2, 2, 3) clip points [m] per planned shape: clip 0 holds the cable's first link,
+        clip 1 its last (:class:`~dloplan.sim.clips.ClipPoses`).
+    gripper_rotations : scipy.spatial.transform.Rotation
+        (S+2, 2) ``clip_to_world`` rotations (x-axis = u, the held link direction).
+    robot : Robot, optional
+    offset : array_like
+        (3,) translation [m] applied to the whole job (e.g. from :func:`search_placement`).
+    assignment : str
+        Which arm holds which clip: ``"auto"`` (the clip further to +y, the robot's left, on
+        average goes to the left arm), ``"first-left"`` or ``"first-right"``.
+    options : ReachOptions, optional
+    """
+    robot = robot if robot is not None else yumi()
+    pos, mats = _validate_path(gripper_positions, gripper_rotations, "gripper_positions",
+                               "gripper_rotations")
+    offset = _as_offset(offset)
+    order = _assign(pos, assignment)
+    clip_pos = pos[:, order] + offset
+    clip_rot = Rotation.from_matrix(mats[:, order])
+    tcp_pos, tcp_rot = tcp_poses_from_clips(robot, clip_pos, clip_rot)
+    opts = options if options is not None else ReachOptions()
+    seeds = np.stack([arm.home for arm in robot.arms])
+    grips = [tcp_rot.as_matrix()]
+    if opts.symmetric_grip:
+        grips.append(grips[0] @ _TURN_Z)
+    return _check(robot, tcp_pos, grips, seeds, opts, clip_of_arm=tuple(order))
+
+
+@dataclass(frozen=True, eq=False)
+class Placement:
+    """Outcome of :func:`search_placement`.
+
+    Attributes
+    ----------
+    offset : numpy.ndarray
+        (3,) translation of the job [m] (the best found when none works).
+    reachability : Reachability
+        The check at that offset.
+    candidates : int
+        Offsets fully checked.
+    success : bool
+        Every pose reachable, continuous and collision-free at ``offset``.
+    message : str
+    """
+
+    offset: np.ndarray
+    reachability: Reachability
+    candidates: int
+    success: bool
+    message: str
+
+
+def search_placement(gripper_positions, gripper_rotations: Rotation, robot: Robot | None = None,
+                     *, extent=(0.2, 0.2, 0.0), step: float = 0.05, objective: str = "nearest",
+                     assignment: str = "auto", options: ReachOptions | None = None) -> Placement:
+    """Search a translation of the whole job on the table that makes every pose reachable.
+
+    The candidate offsets form a grid of spacing ``step`` within ``+-extent`` per axis (z
+    extent 0 keeps the job at its height). With ``objective="nearest"`` they are checked in
+    order of distance from the original placement and the first that succeeds is returned;
+    with ``"margin"`` every candidate is checked and the successful one with the largest
+    smallest joint margin wins. A quick pre-check (the planned poses only, no sub-steps, first
+    failure stops it) discards hopeless offsets before the full :func:`check_reachability`.
+
+    Parameters
+    ----------
+    gripper_positions, gripper_rotations, robot, assignment, options
+        As for :func:`check_reachability`.
+    extent : array_like
+        (3,) half-widths [m] of the searched box.
+    step : float
+        Grid spacing [m].
+    objective : str
+        ``"nearest"`` or ``"margin"``.
+    """
+    robot = robot if robot is not None else yumi()
+    extent = np.asarray(extent, dtype=float)
+    if extent.shape != (3,) or not np.all(np.isfinite(extent)) or np.any(extent < 0):
+        raise ValueError(f"extent: expected 3 half-widths >= 0 [m], got {extent!r}")
+    if not (np.isfinite(step) and step > 0):
+        raise ValueError(f"step: expected a positive grid spacing [m], got {step!r}")
+    if objective not in ("nearest", "margin"):
+        raise ValueError(f"objective: expected 'nearest' or 'margin', got {objective!r}")
+    pos, mats = _validate_path(gripper_positions, gripper_rotations, "gripper_positions",
+                               "gripper_rotations")
+    rot = Rotation.from_matrix(mats)
+    opts = options if options is not None else ReachOptions()
+    axes = [np.arange(-np.floor(e / step), np.floor(e / step) + 1) * step for e in extent]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    grid = grid[np.argsort(np.linalg.norm(grid, axis=1), kind="stable")]
+    order = _assign(pos, assignment)
+    best = None
+    checked = 0
+    for offset in grid:
+        if not _quick_check(robot, pos[:, order] + offset, Rotation.from_matrix(mats[:, order]),
+                            opts):
+            continue
+        result = check_reachability(pos, rot, robot, offset=offset, assignment=assignment,
+                                    options=opts)
+        checked += 1
+        key = (result.success, result.min_joint_margin if objective == "margin" else 0.0)
+        if best is None or key > best[0]:
+            best = (key, offset, result)
+        if result.success and objective == "nearest":
+            break
+    if best is None:
+        result = check_reachability(pos, rot, robot, assignment=assignment, options=opts)
+        return Placement(np.zeros(3), result, 1, False,
+                         f"no offset within +-{extent} m (step {step} m) passed the pre-check")
+    (ok, _), offset, result = best
+    text = np.array2string(offset, precision=3)
+    if ok:
+        return Placement(offset, result, checked, True,
+                         f"offset {text} m: every pose reachable (min joint margin "
+                         f"{np.degrees(result.min_joint_margin):.1f} deg)")
+    return Placement(offset, result, checked, False,
+                     f"no offset within +-{extent} m works; best {text} m: {result.message}")
+
+
+# --------------------------------------------------------------------------------------------
+
+
+def _check(robot: Robot, pos: np.ndarray, grips: list[np.ndarray], seeds: np.ndarray,
+           opts: ReachOptions, clip_of_arm: tuple[int, int]) -> Reachability:
+    """Track both arms through the sub-steps (each arm with the best of the ``grips``, each a
+    (K, 2, 3, 3) set of TCP rotations), then margins, manipulability and clearance."""
+    n_sub = _substeps(pos, grips[0], opts)
+    times = np.concatenate([[0.0]] + [k - 1 + np.arange(1, n + 1) / n
+                                      for k, n in enumerate(n_sub, start=1)])
+    planned = np.concatenate([[0], np.cumsum(n_sub)]).astype(int)
+    tracks = []
+    turned = []
+    for a, arm in enumerate(robot.arms):
+        options = [_track(arm, a, pos[:, a], g[:, a], times, planned, seeds[a], opts)
+                   for g in grips]
+        scores = [(t[1].sum(), t[4].sum(), joint_margin(arm, t[0][planned]).min())
+                  for t in options]
+        best = max(range(len(options)), key=lambda i: scores[i])
+        tracks.append(options[best])
+        turned.append(best == 1)
+    q_all = np.stack([t[0] for t in tracks], axis=1)  # (M, 2, 7)
+    q = q_all[planned]
+    reachable = np.stack([t[1] for t in tracks], axis=1)
+    perr = np.stack([t[2] for t in tracks], axis=1)
+    aerr = np.stack([t[3] for t in tracks], axis=1)
+    continuous = np.stack([t[4] for t in tracks], axis=1)
+    messages = [m for t in tracks for m in t[5]]
+    margin = np.stack([joint_margin(arm, q[:, a]) for a, arm in enumerate(robot.arms)], axis=1)
+    manip = np.stack([manipulability(arm, q[:, a]) for a, arm in enumerate(robot.arms)], axis=1)
+    gaps, pairs = arm_clearance(robot.left, q_all[:, 0], robot.right, q_all[:, 1])
+    # clearance at pose k: min over the sub-steps leading to it and the pose itself
+    clearance = np.minimum.reduceat(gaps, np.concatenate([[0], planned[:-1] + 1]))
+    for k in range(len(q)):
+        if reachable[k].all() and opts.min_margin > 0:
+            for a, name in enumerate(ARMS):
+                if margin[k, a] < opts.min_margin:
+                    j = int(np.argmin(np.minimum(q[k, a] - robot.arms[a].lower,
+                                                 robot.arms[a].upper - q[k, a])))
+                    messages.append(f"warning: {name} arm, pose {k}: ABB axis "
+                                    f"{ABB_AXIS_NUMBERS[j]} {np.degrees(margin[k, a]):.1f} deg "
+                                    f"from its limit")
+        if reachable[k].all() and clearance[k] < opts.min_clearance:
+            lo = 0 if k == 0 else planned[k - 1] + 1
+            i = lo + int(np.argmin(gaps[lo:planned[k] + 1]))
+            where = f"pose {k}" if i == planned[k] else f"between pose {k - 1} and {k}"
+            messages.append(f"arms collide, {where}: clearance {clearance[k] * 1e3:.1f} mm "
+                            f"(left link {_link_name(pairs[i, 0])}, right link "
+                            f"{_link_name(pairs[i, 1])})")
+    collide = reachable.all(axis=1) & (clearance < opts.min_clearance)
+    success = bool(reachable.all() and continuous.all() and not collide.any())
+    if success:
+        message = (f"all {len(q)} poses reachable by both arms; min joint margin "
+                   f"{np.degrees(margin.min()):.1f} deg, min clearance "
+                   f"{clearance.min() * 1e3:.1f} mm")
+    else:
+        message = (f"{int((~reachable).sum())} unreachable pose(s), "
+                   f"{int((~continuous).sum())} discontinuous motion(s), "
+                   f"{int(collide.sum())} arm collision(s) over {len(q)} poses")
+    return Reachability(reachable, q, margin, manip, perr, aerr, continuous, clearance,
+                        clip_of_arm, tuple(turned), success, message, tuple(messages))
+
+
+def _track(arm: Arm, index: int, pos, mats, times, planned, seed, opts: ReachOptions):
+    """Follow one arm's path through the sub-steps; returns per sub-step q and per pose flags."""
+    name = ARMS[index]
+    n_poses = len(pos)
+    if n_poses > 1:
+        slerp = Slerp(np.arange(n_poses), Rotation.from_matrix(mats))
+        sub_rot = slerp(times).as_matrix()
+    else:
+        sub_rot = mats.copy()
+    base = np.minimum(np.floor(times).astype(int), n_poses - 1)
+    frac = times - base
+    nxt = np.minimum(base + 1, n_poses - 1)
+    sub_pos = (1.0 - frac)[:, None] * pos[base] + frac[:, None] * pos[nxt]
+    first_opts = replace(opts.ik, min_margin=opts.min_margin)
+    track_opts = replace(opts.ik, min_margin=opts.min_margin, restarts=0)
+    q_all = np.empty((len(times), 7))
+    reachable = np.zeros(n_poses, dtype=bool)
+    continuous = np.ones(n_poses, dtype=bool)
+    perr = np.empty(n_poses)
+    aerr = np.empty(n_poses)
+    messages = []
+    res = _inverse(arm, sub_pos[0], sub_rot[0], seed, first_opts, None)
+    q_all[0] = res.q
+    reachable[0], perr[0], aerr[0] = res.success, res.position_error, res.angle_error
+    if not res.success:
+        messages.append(f"{name} arm, pose 0: not reachable ({res.message})")
+    k = 1
+    lost = False
+    for i in range(1, len(times)):
+        if (lost or not reachable[k - 1]) and i != planned[k]:
+            q_all[i] = q_all[i - 1]  # motion already reported broken: only the pose matters
+            continue
+        q, pe, ae, _, ok = _solve(arm, sub_pos[i], sub_rot[i], q_all[i - 1], track_opts)
+        jump = np.max(np.abs(q - q_all[i - 1]))
+        if ok and jump > opts.max_joint_step and not lost and reachable[k - 1]:
+            j = int(np.argmax(np.abs(q - q_all[i - 1])))
+            messages.append(f"{name} arm, between pose {k - 1} and {k}: configuration jump, "
+                            f"ABB axis {ABB_AXIS_NUMBERS[j]} moves {np.degrees(jump):.0f} deg "
+                            f"in one sub-step")
+            lost = True
+        if not ok and not lost and reachable[k - 1]:
+            messages.append(f"{name} arm, between pose {k - 1} and {k}: lost the straight TCP "
+                            f"motion at {times[i] - (k - 1):.2f} of the way (error "
+                            f"{pe * 1e3:.2f} mm, {np.degrees(ae):.2f} deg)")
+            lost = True
+        if i == planned[k]:
+            if not ok:  # solve the planned pose afresh
+                res = _inverse(arm, sub_pos[i], sub_rot[i], q, first_opts, None)
+                q, pe, ae, ok = res.q, res.position_error, res.angle_error, res.success
+                if not ok:
+                    messages.append(f"{name} arm, pose {k}: not reachable ({res.message})")
+            reachable[k], perr[k], aerr[k] = ok, pe, ae
+            continuous[k] = not lost
+            lost = False
+            k += 1
+        q_all[i] = q
+    return q_all, reachable, perr, aerr, continuous, messages
+
+
+def _substeps(pos, mats, opts: ReachOptions) -> np.ndarray:
+    """Number of sub-steps per segment, (K-1,), the same for both arms."""
+    if len(pos) < 2:
+        return np.zeros(0, dtype=int)
+    dist = np.linalg.norm(np.diff(pos, axis=0), axis=-1)  # (K-1, 2)
+    rel = Rotation.from_matrix(np.einsum("kaji,kajl->kail", mats[:-1], mats[1:]))
+    angle = rel.magnitude()
+    n = np.maximum(np.ceil(dist / opts.step_length), np.ceil(angle / opts.step_angle))
+    return np.maximum(n.max(axis=1), 1).astype(int)
+
+
+def _quick_check(robot: Robot, clip_pos, clip_rot: Rotation, opts: ReachOptions) -> bool:
+    """Every planned pose solvable (seeded from the previous one), no sub-steps."""
+    tcp_pos, tcp_rot = tcp_poses_from_clips(robot, clip_pos, clip_rot)
+    mats = tcp_rot.as_matrix()
+    quick = replace(opts.ik, restarts=0)
+    for a, arm in enumerate(robot.arms):
+        q = arm.home
+        for k in range(len(tcp_pos)):
+            res = _inverse(arm, tcp_pos[k, a], mats[k, a], q, quick, None)
+            if not res.success:
+                return False
+            q = res.q
+    return True
+
+
+def _assign(pos: np.ndarray, assignment: str) -> list[int]:
+    """Clip index held by (left, right)."""
+    if assignment == "first-left":
+        return [0, 1]
+    if assignment == "first-right":
+        return [1, 0]
+    if assignment == "auto":
+        mean_y = pos[:, :, 1].mean(axis=0)
+        return [0, 1] if mean_y[0] >= mean_y[1] else [1, 0]
+    raise ValueError(
+        f"assignment: expected 'auto', 'first-left' or 'first-right', got {assignment!r}")
+
+
+def _link_name(i: int) -> str:
+    return "gripper" if i == 7 else str(i + 1)
+
+
+def _as_offset(offset) -> np.ndarray:
+    arr = np.asarray(offset, dtype=float)
+    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+        raise ValueError(f"offset: expected 3 finite numbers [m], got {offset!r}")
+    return arr
+
+
+def _validate_path(positions, rotations, pos_name: str = "positions",
+                   rot_name: str = "rotations") -> tuple[np.ndarray, np.ndarray]:
+    pos = np.asarray(positions, dtype=float)
+    if pos.ndim != 3 or pos.shape[1:] != (2, 3) or pos.shape[0] < 1:
+        raise ValueError(f"{pos_name}: expected shape (K, 2, 3) [m], got {pos.shape}")
+    if not np.all(np.isfinite(pos)):
+        raise ValueError(f"{pos_name}: non-finite coordinate (NaN or inf)")
+    if not isinstance(rotations, Rotation) or rotations.shape != (pos.shape[0], 2):
+        shape = getattr(rotations, "shape", None) if isinstance(rotations, Rotation) else None
+        raise ValueError(f"{rot_name}: expected a scipy Rotation of shape ({pos.shape[0]}, 2), "
+                         f"got {type(rotations).__name__} of shape {shape}")
+    mats = rotations.as_matrix()
+    if not np.all(np.isfinite(mats)):
+        raise ValueError(f"{rot_name}: non-finite rotation")
+    return pos, mats

@@ -1,0 +1,127 @@
+"""Path reachability of a cable job by both YuMi arms, and the placement search."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from dloplan.frames import frame_from_axis
+from dloplan.robot import (
+    ReachOptions,
+    check_path,
+    check_reachability,
+    forward,
+    search_placement,
+    tcp_poses_from_clips,
+    yumi,
+)
+
+ROBOT = yumi()
+
+
+def _cable_job(n_shapes=8):
+    """Clip poses of a 0.5 m cable lying across the table 0.38 m in front of the robot,
+    lifted by 0.1 m and bent while the clips close in (clip 0 on the robot's right)."""
+    pos = np.zeros((n_shapes, 2, 3))
+    u = np.zeros((n_shapes, 2, 3))
+    for k, t in enumerate(np.linspace(0.0, 1.0, n_shapes)):
+        half = 0.2 - 0.05 * t
+        pos[k, 0] = [0.38 + 0.05 * t, -half, 0.05 + 0.1 * t]
+        pos[k, 1] = [0.38 + 0.05 * t, half, 0.05 + 0.1 * t]
+        angle = 0.6 * t
+        u[k, 0] = [np.sin(angle), np.cos(angle), 0.0]  # inward, toward +y
+        u[k, 1] = [np.sin(angle), -np.cos(angle), 0.0]
+    rot = frame_from_axis(u.reshape(-1, 3))
+    return pos, Rotation.from_quat(rot.as_quat().reshape(n_shapes, 2, 4))
+
+
+def _assert_within_limits(result):
+    for a, arm in enumerate(ROBOT.arms):
+        assert np.all(result.q[:, a] >= arm.lower) and np.all(result.q[:, a] <= arm.upper)
+
+
+def test_cable_job_in_front_of_robot_is_reachable():
+    pos, rot = _cable_job()
+    result = check_reachability(pos, rot)
+    assert result.success, result.messages
+    assert result.reachable.all() and result.continuous.all()
+    assert result.clip_of_arm == (1, 0)  # clip 1 is on the robot's left (+y)
+    assert result.min_clearance > 0.0
+    _assert_within_limits(result)
+    # the joint values reproduce the TCP targets (tolerance of the IK: 1e-5 m, 1e-5 rad)
+    tcp_pos, tcp_rot = tcp_poses_from_clips(
+        ROBOT, pos[:, [1, 0]], Rotation.from_matrix(rot.as_matrix()[:, [1, 0]]))
+    turn = Rotation.from_rotvec([0, 0, np.pi])
+    for a, arm in enumerate(ROBOT.arms):
+        p, r = forward(arm, result.q[:, a])
+        target = Rotation.from_matrix(tcp_rot.as_matrix()[:, a])
+        target = target * turn if result.grip_turned[a] else target
+        np.testing.assert_allclose(p, tcp_pos[:, a], atol=2e-5)
+        assert np.all((r * target.inv()).magnitude() < 2e-5)
+    # continuous joint motion: between neighbouring shapes (2.5 cm, 5 deg apart) no joint
+    # moves by more than 0.5 rad
+    assert np.abs(np.diff(result.q, axis=0)).max() < 0.5
+
+
+def test_out_of_reach_pose_names_arm_and_pose():
+    pos, rot = _cable_job()
+    pos = pos.copy()
+    pos[5, 0] += [0.5, 0.0, 0.0]  # clip 0 (right arm) of shape 5 pulled 0.5 m away
+    result = check_reachability(pos, rot)
+    assert not result.success
+    assert not result.reachable[5, 1] and result.reachable[:, 0].all()
+    assert np.delete(result.reachable[:, 1], 5).all()
+    assert any(m.startswith("right arm, pose 5: not reachable") for m in result.messages)
+    _assert_within_limits(result)
+
+
+def test_check_path_follows_tcp_targets_and_flags_a_lost_motion():
+    # TCP targets straight from FK of a joint path: reachable and continuous.
+    q_path = np.linspace(ROBOT.left.home, ROBOT.left.home + [0.3, 0.2, 0.2, 0.2, 0.3, 0.3, 0.3],
+                         5)
+    q_right = np.linspace(ROBOT.right.home, ROBOT.right.home - 0.2, 5)
+    p_l, r_l = forward(ROBOT.left, q_path)
+    p_r, r_r = forward(ROBOT.right, q_right)
+    pos = np.stack([p_l, p_r], axis=1)
+    rot = Rotation.from_matrix(np.stack([r_l.as_matrix(), r_r.as_matrix()], axis=1))
+    result = check_path(ROBOT, pos, rot, seeds=np.stack([q_path[0], q_right[0]]))
+    assert result.success, result.messages
+    # redundancy: the elbow may settle elsewhere, but the TCP is where the targets put it
+    np.testing.assert_allclose(forward(ROBOT.left, result.q[:, 0])[0], p_l, atol=2e-5)
+    # a target 1 m away in the middle: that pose is unreachable, the rest not affected
+    pos = pos.copy()
+    pos[2, 0] += [1.0, 0.0, 0.0]
+    result = check_path(ROBOT, pos, rot, seeds=np.stack([q_path[0], q_right[0]]))
+    assert not result.reachable[2, 0] and result.reachable[[0, 1, 3, 4], 0].all()
+    assert any(m.startswith("left arm, pose 2: not reachable") for m in result.messages)
+
+
+def test_placement_search_repairs_a_misplaced_job():
+    pos, rot = _cable_job(n_shapes=5)
+    misplaced = pos + [0.3, 0.15, 0.0]
+    assert not check_reachability(misplaced, rot).success
+    placement = search_placement(misplaced, rot, extent=(0.35, 0.35, 0.0), step=0.05)
+    assert placement.success, placement.message
+    assert placement.reachability.success
+    # applying the offset makes the job reachable
+    again = check_reachability(misplaced, rot, offset=placement.offset)
+    assert again.success
+    assert placement.offset[2] == 0.0
+    assert np.linalg.norm(placement.offset) <= np.linalg.norm([0.35, 0.35])
+
+
+def test_bad_inputs_raise_value_error():
+    pos, rot = _cable_job(3)
+    with pytest.raises(ValueError, match="gripper_positions"):
+        check_reachability(pos[:, 0], rot)
+    with pytest.raises(ValueError, match="gripper_rotations"):
+        check_reachability(pos, rot[:2])
+    with pytest.raises(ValueError, match="assignment"):
+        check_reachability(pos, rot, assignment="both")
+    with pytest.raises(ValueError, match="offset"):
+        check_reachability(pos, rot, offset=(0.1, 0.2))
+    with pytest.raises(ValueError, match="step"):
+        search_placement(pos, rot, step=0.0)
+    with pytest.raises(ValueError, match="step_length"):
+        ReachOptions(step_length=-1.0)
