@@ -120,7 +120,8 @@ def _cmd_verify(args: argparse.Namespace) -> int:
     doc = read_plan_json(args.plan)
     console.stage(f"verifying {len(doc.shapes)} shapes of {args.plan}")
     result = verify_document(doc, snap=not args.no_snap, replay=not args.no_replay,
-                             tensile_limit=args.tensile_limit, tolerance=args.tolerance)
+                             tensile_limit=args.tensile_limit, tolerance=args.tolerance,
+                             robot=not args.no_robot)
     console.stage("done: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
     print(json.dumps(result.to_dict(), indent=2) if args.json else result.table())
     return EXIT_OK if result.ok else EXIT_FAILURE
@@ -422,6 +423,7 @@ def build_parser() -> argparse.ArgumentParser:
     verify.add_argument("plan", help="plan.json")
     verify.add_argument("--no-snap", action="store_true", help="skip the snap-through check")
     verify.add_argument("--no-replay", action="store_true", help="skip the dynamic replay")
+    verify.add_argument("--no-robot", action="store_true", help="skip the YuMi reachability")
     verify.add_argument("--tensile-limit", type=float, help="largest axial force [N]")
     verify.add_argument("--tolerance", type=float, default=0.01,
                         help="largest replay deviation accepted [m]")

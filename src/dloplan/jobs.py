@@ -127,17 +127,33 @@ def stabilized_shapes(doc) -> np.ndarray:
     return stabilized_path(doc.cable, doc.shapes)[0]
 
 
+def robot_rows(grippers) -> tuple[list[dict], object]:
+    """YuMi reachability of every planned gripper pose, as verification rows and the result."""
+    from scipy.spatial.transform import Rotation
+
+    from .robot import check_reachability
+
+    reach = check_reachability(grippers.positions, Rotation.from_matrix(grippers.matrices))
+    rows = [{"reachable_left": bool(reach.reachable[k, 0]),
+             "reachable_right": bool(reach.reachable[k, 1]),
+             "joint_margin": float(np.min(reach.joint_margin[k]))}
+            for k in range(len(grippers.positions))]
+    return rows, reach
+
+
 def verify_document(doc, *, snap: bool = True, replay: bool = True, tensile_limit=None,
-                    tolerance: float = 0.01):
-    """Run :func:`dloplan.verify.verify_path` on a plan document (stability, snap, replay)."""
+                    tolerance: float = 0.01, robot: bool = True):
+    """Run :func:`dloplan.verify.verify_path` on a plan document: stability, snap-through,
+    YuMi reachability (when the plan has gripper poses) and dynamic replay."""
     from .verify import verify_path
 
     # the replay drives the clips linearly (slerp in rotation) between the planned poses at the
     # trajectory's knot times: the same motion as the timed dual-arm trajectory
     times = doc.trajectory.times if replay and doc.trajectory is not None else None
     replay_options = {"tolerance": tolerance, "tensile_limit": tensile_limit}
+    reach = robot_rows(doc.grippers)[0] if robot and doc.grippers is not None else None
     return verify_path(doc.cable, stabilized_shapes(doc), plan_clip_poses(doc), times=times,
-                       snap=snap, replay_options=replay_options)
+                       snap=snap, replay_options=replay_options, reachability=reach)
 
 
 @dataclass(frozen=True, eq=False)
@@ -246,8 +262,6 @@ def plan_job(job: Job, *, verify: bool = False, progress=lambda text: None) -> P
     warnings = list(result.warnings)
     if not target_check.stable:
         warnings.append(target_check.message)
-    if result.avoidance is not None and not result.avoidance.success:
-        warnings.append(f"obstacles: {result.avoidance.message}")
     warnings += list(grippers.warnings)
     if not grippers.success:
         warnings.append(f"grippers: {grippers.message}")
@@ -258,7 +272,8 @@ def plan_job(job: Job, *, verify: bool = False, progress=lambda text: None) -> P
         from .verify import verify_path
 
         poses = [grippers.clip_poses(k) for k in range(len(result.path))]
-        verification = verify_path(cable, result.stabilized, poses, times=trajectory.times)
+        verification = verify_path(cable, result.stabilized, poses, times=trajectory.times,
+                                   reachability=robot_rows(grippers)[0])
         timings["verify"] = time.perf_counter() - t0
         progress(f"verification: {'passed' if verification.ok else 'FAILED'}")
         warnings += [m for m in verification.messages if not verification.ok]

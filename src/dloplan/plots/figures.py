@@ -80,6 +80,20 @@ def _obstacle_edges(obstacles) -> list[np.ndarray]:
     return edges
 
 
+def _equal_3d(ax, points: np.ndarray) -> None:
+    """Equal scales on the three axes of a 3D plot, around ``points``."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    centre, half = (lo + hi) / 2, max(float(np.max(hi - lo)) / 2, 1e-3)
+    for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre, strict=True):
+        setter(c - half, c + half)
+    ax.set_box_aspect((1, 1, 1))
+
+
+def _side_axis(points: np.ndarray) -> int:
+    """The horizontal axis (0 = x, 1 = y) along which the shapes spread most."""
+    return int(np.ptp(points[:, 1]) > np.ptp(points[:, 0]))
+
+
 def path_figure(
     shapes: np.ndarray,
     clip_positions: np.ndarray | None = None,
@@ -87,41 +101,52 @@ def path_figure(
     obstacles: Sequence = (),
     title: str = "Planned shapes and gripper frames",
 ):
-    """Planned shapes with both gripper frames as u/v/w triads, 3D and side (x-z) views."""
+    """Planned shapes with both gripper frames as u/v/w triads: 3D, top and side views."""
     plt = _pyplot()
     shapes = np.asarray(shapes)
-    fig = plt.figure(figsize=(12, 5))
-    ax3 = fig.add_subplot(1, 2, 1, projection="3d")
-    ax2 = fig.add_subplot(1, 2, 2)
+    points = shapes.reshape(-1, 3)
+    fig = plt.figure(figsize=(15, 5))
+    ax3 = fig.add_subplot(1, 3, 1, projection="3d")
+    top = fig.add_subplot(1, 3, 2)
+    side = fig.add_subplot(1, 3, 3)
+    horizontal = _side_axis(points)
     colours = plt.cm.viridis(np.linspace(0, 1, len(shapes)))
-    span = float(np.ptp(shapes.reshape(-1, 3), axis=0).max()) or 1.0
+    span = float(np.ptp(points, axis=0).max()) or 1.0
     triad = 0.08 * span
     for k, (shape, colour) in enumerate(zip(shapes, colours, strict=True)):
         label = "start" if k == 0 else "target" if k == len(shapes) - 1 else None
         width = 2.5 if label else 1.2
-        ax3.plot(*shape.T, color=colour, lw=width, marker=".", ms=3, label=label)
-        ax2.plot(shape[:, 0], shape[:, 2], color=colour, lw=width, marker=".", ms=3, label=label)
+        ax3.plot(*shape.T, color=colour, lw=width, label=label)
+        top.plot(shape[:, 0], shape[:, 1], color=colour, lw=width, marker=".", ms=3,
+                 label=label)
+        side.plot(shape[:, horizontal], shape[:, 2], color=colour, lw=width, marker=".", ms=3,
+                  label=label)
         if clip_positions is not None and clip_rotations is not None:
             for c in range(2):
                 p, r = clip_positions[k, c], clip_rotations[k, c]
                 for axis in range(3):
                     tip = p + triad * r[:, axis]
-                    ax3.plot(*np.stack([p, tip]).T, color=AXIS_COLOURS[axis], lw=1.5)
+                    ax3.plot(*np.stack([p, tip]).T, color=AXIS_COLOURS[axis], lw=1.2)
+                    top.plot([p[0], tip[0]], [p[1], tip[1]], color=AXIS_COLOURS[axis], lw=1)
     for edge in _obstacle_edges(obstacles):
         ax3.plot(*edge.T, color="#8d6e63", lw=1)
-        ax2.plot(edge[:, 0], edge[:, 2], color="#8d6e63", lw=1)
-    for ax in (ax3,):
-        ax.set_xlabel("x [m]")
-        ax.set_ylabel("y [m]")
-        ax.set_zlabel("z [m]")
-    ax3.set_box_aspect(np.maximum(np.ptp(shapes.reshape(-1, 3), axis=0), 0.05 * span))
-    ax2.set_xlabel("x [m]")
-    ax2.set_ylabel("z [m]")
-    ax2.set_aspect("equal", adjustable="datalim")
-    ax2.grid(alpha=0.3)
-    ax2.legend(loc="best")
+        top.plot(edge[:, 0], edge[:, 1], color="#8d6e63", lw=1)
+        side.plot(edge[:, horizontal], edge[:, 2], color="#8d6e63", lw=1)
+    ax3.set_xlabel("x [m]")
+    ax3.set_ylabel("y [m]")
+    ax3.set_zlabel("z [m]")
+    _equal_3d(ax3, points)
     ax3.set_title("3D view (u red, v green, w blue)")
-    ax2.set_title("side view")
+    top.set_xlabel("x [m]")
+    top.set_ylabel("y [m]")
+    top.set_title("top view")
+    side.set_xlabel(f"{'xy'[horizontal]} [m]")
+    side.set_ylabel("z [m]")
+    side.set_title("side view")
+    for ax in (top, side):
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.grid(alpha=0.3)
+    side.legend(loc="best")
     fig.suptitle(title)
     return fig
 
@@ -132,12 +157,14 @@ def stabilized_figure(shapes, stabilized, obstacles: Sequence = (), colliding=()
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8, 5))
     colours = plt.cm.viridis(np.linspace(0, 1, len(shapes)))
+    # look along the cable: the side view across the direction the shapes spread least
+    h = 1 - _side_axis(np.asarray(shapes).reshape(-1, 3)[:, [1, 0, 2]])
     for k, (shape, settled) in enumerate(zip(shapes, stabilized, strict=True)):
-        ax.plot(shape[:, 0], shape[:, 2], color=colours[k], lw=1.2)
+        ax.plot(shape[:, h], shape[:, 2], color=colours[k], lw=1.2)
         style = dict(color="#b71c1c", lw=2) if k in set(colliding) else dict(color=colours[k])
-        ax.plot(settled[:, 0], settled[:, 2], ls="--", **style)
+        ax.plot(settled[:, h], settled[:, 2], ls="--", **style)
     for edge in _obstacle_edges(obstacles):
-        ax.plot(edge[:, 0], edge[:, 2], color="#8d6e63", lw=1)
+        ax.plot(edge[:, h], edge[:, 2], color="#8d6e63", lw=1)
     for obstacle in obstacles:
         if isinstance(obstacle, Table):
             ax.axhline(obstacle.height, color="#8d6e63", lw=1)
@@ -145,7 +172,7 @@ def stabilized_figure(shapes, stabilized, obstacles: Sequence = (), colliding=()
     ax.plot([], [], color="grey", ls="--", label="stabilized")
     if colliding:
         ax.plot([], [], color="#b71c1c", ls="--", lw=2, label="colliding (stabilized)")
-    ax.set_xlabel("x [m]")
+    ax.set_xlabel(f"{'xy'[h]} [m]")
     ax.set_ylabel("z [m]")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(alpha=0.3)
