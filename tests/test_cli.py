@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -66,3 +68,67 @@ def test_schema_and_cables(capsys):
     assert json.loads(capsys.readouterr().out)["title"] == "dloplan scenario"
     assert main(["cables"]) == EXIT_OK
     assert "k_b [N m]" in capsys.readouterr().out
+
+
+EXAMPLES = sorted(p for p in (Path(__file__).parents[1] / "examples").glob("*.yaml")
+                  if not p.name.startswith(("identify", "harness_")) or
+                  p.name == "harness_phase1_obstacle.yaml")
+
+
+@pytest.mark.parametrize("example", EXAMPLES, ids=lambda p: p.stem)
+def test_every_example_plans_end_to_end(tmp_path, capsys, example):
+    out = tmp_path / "out"
+    code = main(["plan", str(example), "-o", str(out), "-q", "--json"])
+    summary = json.loads(capsys.readouterr().out)
+    assert code in (EXIT_OK, EXIT_WARNINGS), summary
+    assert summary["ok"] is True
+    written = {Path(p).name for p in summary["written"]}
+    assert {"plan.json", "trajectory.csv", "report.html", "planned_path.png"} <= written
+    assert (out / "rapid" / "DloPlanL.mod").exists()
+    from dloplan.io.export import read_plan_json
+
+    doc = read_plan_json(out / "plan.json")
+    n_shapes = yaml.safe_load(example.read_text())["planner"]["n_shapes"] + 2
+    assert doc.shapes.shape[0] == n_shapes
+    lengths = np.linalg.norm(np.diff(doc.shapes, axis=1), axis=2).sum(axis=1)
+    assert np.allclose(lengths, doc.cable.length, rtol=0.03)  # sane: every shape near L
+    assert doc.trajectory.duration > 0
+
+
+BAD_FILES = [
+    ("cable: {name: usb}\nstart: {kind: straight}\n", "target: Field required"),
+    ("cable: {name: usb}\nstart: {kind: straight}\ntarget: {kind: points, points: [[0, 0, 0], "
+     "[2, 0, 0], [3, 0, 0]]}\n", "target: the shape is 3 m long but the cable is 0.5 m"),
+    ("cable: {name: usb}\nstart: {kind: straight}\ntarget: {kind: points, points: [[0, 0, 0], "
+     "[250, 0, 0], [500, 0, 0]]}\n", "millimetres"),
+    ("cable: {name: usb}\nstart: {kind: straight}\ntarget: {kind: straight}\nobstacles:\n"
+     "  - {type: box, center: [0.25, 0, 0], size: [0.6, 0.2, 0.2]}\n", "collides"),
+    ("cable: {name: usb, length: -1}\nstart: {kind: straight}\ntarget: {kind: straight}\n",
+     "cable.length"),
+    ("not: [a, scenario", "not valid YAML"),
+]
+
+
+@pytest.mark.parametrize("content, fragment", BAD_FILES)
+def test_bad_plans_exit_2_and_write_nothing(tmp_path, capsys, content, fragment):
+    path = tmp_path / "bad.yaml"
+    path.write_text(content)
+    out = tmp_path / "out"
+    code = main(["plan", str(path), "-o", str(out)])
+    captured = capsys.readouterr()
+    assert code == EXIT_FAILURE
+    assert fragment in captured.err + captured.out
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_export_formats_from_a_plan(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["plan", str(write(tmp_path, {**STIFF, "outputs": ["json"]})), "-o", str(out),
+                 "-q"]) in (EXIT_OK, EXIT_WARNINGS)
+    plan_json = out / "plan.json"
+    for fmt, target in (("csv", "t.csv"), ("ros", "t.yaml"), ("rapid", "rapid"),
+                        ("json", "copy.json")):
+        assert main(["export", str(plan_json), "--format", fmt, "-o", str(tmp_path / target),
+                     "-q"]) == EXIT_OK
+    assert (tmp_path / "rapid" / "DloPlanR.mod").exists()
+    assert "positions in m" in (tmp_path / "t.csv").read_text().splitlines()[0]
