@@ -9,6 +9,7 @@ from planning_cases import arc, folding_case
 from dloplan.physics.geometry import bending_angles, link_lengths, shape_length
 from dloplan.planning.geometric import (
     advanced_cost,
+    advanced_hessian,
     advanced_path,
     advanced_problem,
     advanced_terms,
@@ -130,3 +131,25 @@ def test_a_3d_turn_is_planned_through_the_same_code():
     advanced, status = advanced_path(basic_path(start, target, 5), cable.length)
     assert status.success
     assert np.min(shape_length(advanced) / cable.length) > 0.95
+
+
+def test_advanced_hessian_matches_finite_differences_of_the_gradient():
+    problem, inner, rng = _perturbed_problem(3)
+    hess = advanced_hessian(problem, inner)
+    assert abs(hess - hess.T).max() < 1e-9 * abs(hess).max()
+    d = rng.standard_normal(inner.shape)
+    h = 1e-6
+    fd = (advanced_cost(problem, inner + h * d)[1] - advanced_cost(problem, inner - h * d)[1])
+    fd = fd.ravel() / (2 * h)
+    # central differences of an exact gradient: relative error ~1e-7 of the largest entry
+    np.testing.assert_allclose(hess @ d.ravel(), fd, atol=1e-6 * np.abs(fd).max())
+
+
+def test_lbfgs_option_reaches_a_no_better_point_than_newton():
+    cable, start, target = folding_case()
+    basic = basic_path(start, target, 5)
+    _, newton = advanced_path(basic, cable.length)
+    _, lbfgs = advanced_path(basic, cable.length, method="L-BFGS-B", max_iterations=3000)
+    assert newton.success and newton.cost <= lbfgs.cost + 1e-9
+    with pytest.raises(ValueError, match="method"):
+        advanced_path(basic, cable.length, method="BFGS")

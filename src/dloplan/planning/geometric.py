@@ -229,13 +229,11 @@ def _block_entries(blocks: np.ndarray, first_points: np.ndarray, n_points: int):
     """COO rows, cols, values of (S, m, 3k, 3k) blocks over k consecutive points from
     ``first_points`` (m,) in each shape (shape-major, point-major coordinates)."""
     n_shapes, m, size, _ = blocks.shape
-    k = size // 3
     local = (3 * first_points[:, None] + np.arange(size)[None, :])  # (m, 3k)
     offset = (3 * n_points * np.arange(n_shapes))[:, None, None]
     coords = offset + local[None]  # (S, m, 3k)
     rows = np.broadcast_to(coords[..., :, None], blocks.shape)
     cols = np.broadcast_to(coords[..., None, :], blocks.shape)
-    del k
     return rows.ravel(), cols.ravel(), blocks.ravel()
 
 
