@@ -74,7 +74,7 @@ def plan(
     family_boundaries: FamilyBoundaries | None = None,
     gravity=GRAVITY,
     map: Callable = map,
-    max_iterations: int = 3000,
+    max_iterations: int = 200,
     obstacles=None,
     z_safety: float = 0.02,
     max_rounds: int = 5,
