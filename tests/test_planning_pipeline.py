@@ -35,7 +35,8 @@ def test_plan_reproduces_the_thesis_length_behaviour(folding_plan):
     assert rel[0, 3] < 0.7  # Table 4.2 basic: mid-path 0.66 L
     assert rel[1].min() > 0.95  # Table 4.2 advanced: the thesis reached 0.90 L
     np.testing.assert_allclose(rel[2], 1.0, atol=0.03)  # after the physical stage: 3 %
-    assert set(p.timings) == {"target", "basic", "advanced", "physical", "total"}
+    assert set(p.timings) == {"target", "basic", "advanced", "physical", "stabilize", "total"}
+    assert p.stabilized.shape == p.physical.shape and p.avoidance is None
     assert p.statuses["advanced"].n_variables == 5 * 11 * 3
 
 

@@ -16,7 +16,7 @@ from .io.scenario import Job
 from .obstacles.collisions import check_shape
 from .physics.geometry import as_shape, resample_by_arc_length, shape_length
 from .sim.clips import clip_poses_from_shape
-from .sim.statics import check_clip_reach, check_target
+from .sim.statics import check_clip_reach, check_target, stabilize
 
 LENGTH_TOLERANCE = 0.05
 """Relative difference between a given shape's length and the cable's accepted at the input."""
@@ -234,6 +234,13 @@ def plan_job(job: Job, *, verify: bool = False, progress=lambda text: None) -> P
     target = discretize(job.target, cable, "target")
     threshold = spec.check.threshold * job.scale
     target_check = check_target(target, cable, threshold=threshold)
+    if job.obstacles:  # an end that collides cannot be planned around (thesis 5.4.3)
+        ends = {"start": stabilize(start, cable).shape, "target": target_check.stabilized.shape}
+        for name, shape in ends.items():
+            collision = check_shape(shape, job.obstacles, cable.diameter / 2)
+            if collision.colliding:
+                raise ValueError(f"{name}: the stabilized {name} collides: "
+                                 f"{collision.describe()}")
     timings["target check"] = time.perf_counter() - t0
     progress(target_check.message)
 

@@ -427,10 +427,12 @@ def trust_region_newton(
     iterations = 0
     message = ""
     stable = False
+    escapes = 0
     while True:
         gf, band, residual, extra = derivatives(state)
         scale = float(np.mean(band[0]))
-        stable = residual <= tolerance and _factor(band, 0.0) is not None
+        # stable: positive definite up to a relative 1e-9 (a zero-stiffness mode is neutral)
+        stable = residual <= tolerance and _factor(band, _NEUTRAL * scale) is not None
         if stable:
             message = f"converged in {iterations} iterations"
             break
@@ -438,6 +440,19 @@ def trust_region_newton(
             message = (f"no convergence in {max_iterations} iterations "
                        f"(residual {residual:.3g} {unit})")
             break
+        if residual <= tolerance and escapes < _MAX_ESCAPES:
+            # a saddle (an unstable equilibrium): leave it downhill along the direction of
+            # most negative curvature, then carry on with Newton toward a stable one
+            escaped = _escape_saddle(state, f, band, energy_of, moved, displacement, radius)
+            iterations += 1
+            escapes += 1
+            if escaped is None:
+                message = f"stuck at an unstable equilibrium after {iterations} iterations"
+                break
+            state, f = escaped
+            history.append(f)
+            shift = 0.0
+            continue
         accepted = False
         for _ in range(60):  # adapt the shift until a step is accepted
             factor = _factor(band, shift)
@@ -473,6 +488,30 @@ def trust_region_newton(
             break
         history.append(f)
     return NewtonRun(state, extra, iterations, residual, stable, np.asarray(history), message)
+
+
+_NEUTRAL = 1e-9  # relative shift under which a Hessian counts as positive (semi-)definite
+_MAX_ESCAPES = 20
+
+
+def _escape_saddle(state, f, band, energy_of, moved, displacement, radius):
+    """A step from a saddle along the eigenvector of the most negative Hessian eigenvalue.
+
+    Tries both signs with a backtracking length, starting at the trust radius; returns
+    ``(state, energy)`` of the first step that lowers the energy, or None.
+    """
+    _, vectors = sla.eig_banded(band, lower=True, select="i", select_range=(0, 0),
+                                check_finite=False)
+    direction = vectors[:, 0] / displacement(vectors[:, 0])
+    length = radius
+    for _ in range(40):
+        for sign in (1.0, -1.0):
+            trial = moved(state, sign * length * direction)
+            f_trial = energy_of(trial)
+            if f_trial < f:
+                return trial, f_trial
+        length *= 0.5
+    return None
 
 
 def _result(cable, chain, x, g, clips, iterations, converged, residual, tolerance, stable,
