@@ -15,9 +15,9 @@ would be filed as "medium" instead of the thesis' "soft".
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 from ..cable import Cable
+from ..planning.tuning import PlannerWeights, planner_weights, stiffness_family
 from .fit import Identification
 
 
@@ -30,20 +30,21 @@ class TunedSetup:
     cable : Cable
         The cable with the identified Young's modulus.
     thesis_modulus : float
-        The thesis-equivalent modulus k_b l / (3 I) [Pa] that chooses the family.
-    family : str or None
-        ``"soft"``, ``"medium"`` or ``"stiff"`` (thesis Fig. 6.9); None when the planner
-        (:mod:`dloplan.planning.tuning`) is not installed.
-    weights : dloplan.planning.tuning.PlannerWeights or None
-        The planner's weights for the family (thesis Tables 6.1, 6.2); None likewise.
+        The thesis-equivalent modulus k_b l / (3 I) [Pa]: the E the thesis' own bending model
+        would need for the same bending stiffness (for comparison with the thesis' values).
+    family : str
+        ``"soft"``, ``"medium"`` or ``"stiff"`` (thesis Fig. 6.9), of the identified modulus by
+        the planner's rule (:func:`dloplan.planning.tuning.stiffness_family`).
+    weights : dloplan.planning.tuning.PlannerWeights
+        The planner's weights for the family (thesis Tables 6.1, 6.2).
     identification : Identification
         The identification it came from.
     """
 
     cable: Cable
     thesis_modulus: float
-    family: str | None
-    weights: Any
+    family: str
+    weights: PlannerWeights
     identification: Identification
 
 
@@ -79,10 +80,7 @@ def tune_for_identified(identification: Identification, *, boundaries=None,
                          f"({identification.message})")
     cable = identification.cable
     modulus = thesis_equivalent_modulus(cable)
-    try:
-        from ..planning.tuning import planner_weights, stiffness_family
-    except ImportError:  # the planner is not part of this build: the cable alone
-        return TunedSetup(cable, modulus, None, None, identification)
-    family = stiffness_family(modulus, boundaries)
+    # the same rule as the planner's: the family of the modulus as identified (docs/planner.md)
+    family = stiffness_family(cable.youngs_modulus, boundaries)
     weights = planner_weights(family=family, boundaries=boundaries, overrides=overrides)
     return TunedSetup(cable, modulus, family, weights, identification)
