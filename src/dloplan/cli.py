@@ -352,6 +352,29 @@ def _cmd_study(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    from .jobs import load_plan_or_scenario, simulate_document
+
+    console = Console(args.quiet)
+    doc = load_plan_or_scenario(args.file, progress=console.stage)
+    console.stage(f"simulating {doc.trajectory.duration:.2f} s of motion at real speed")
+    run, comparison = simulate_document(doc, damping=args.damping)
+    console.stage(run.message)
+    if args.output:
+        from .plots.compare import write_comparison_figures
+
+        Path(args.output).mkdir(parents=True, exist_ok=True)
+        written = write_comparison_figures(comparison, args.output, "xz")
+        console.stage(f"figures: {', '.join(p.name for p in written)}")
+    if args.json:
+        print(json.dumps({"ok": run.ok, "message": run.message, "rows": comparison.rows()},
+                         indent=2, default=float))
+    else:
+        print(run.message)
+        print(comparison.table())
+    return EXIT_OK if run.ok else EXIT_WARNINGS
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="dloplan",
@@ -391,6 +414,14 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--csv", action="store_true", help="CSV instead of Parquet")
     study.add_argument("--overwrite", action="store_true", help="start over, do not resume")
     study.add_argument("-o", "--output", default="out/study", help="study folder")
+
+    simulate = command("simulate", _cmd_simulate, "run a plan's timed trajectory through the "
+                       "dynamic simulator and tabulate the shape errors (thesis Table 7.2)")
+    simulate.add_argument("file", help="plan.json, or a scenario file (planned first)")
+    simulate.add_argument("--damping", choices=["relative", "absolute"], default="relative",
+                          help="relative: dashpots between neighbours; absolute: the thesis' "
+                          "drag -k_d v (eq. 3.3)")
+    simulate.add_argument("-o", "--output", help="folder for the figures")
 
     cables = command("cables", _cmd_cables, "print the model constants of the thesis' cables")
     cables.add_argument("--links", type=int, default=10, help="number of links n")

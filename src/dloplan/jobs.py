@@ -174,6 +174,9 @@ class PlanOutcome:
         The stability check of the target (thesis 5.3).
     verification : Verification or None
         The plan verification, when asked for.
+    twist : TwistReport or None
+        Every shape stabilized with torsion holding the planned gripper frames: the twist
+        the grippers put into the cable and its energy (:func:`dloplan.sim.twist_along_path`).
     warnings : list of str
         Everything the user should look at, from every stage.
     timings : dict
@@ -186,6 +189,7 @@ class PlanOutcome:
     trajectory: object
     target_check: object
     verification: object = None
+    twist: object = None
     warnings: list[str] = field(default_factory=list)
     timings: dict = field(default_factory=dict)
 
@@ -224,6 +228,7 @@ def plan_job(job: Job, *, verify: bool = False, progress=lambda text: None) -> P
 
     from .grippers import gripper_path
     from .planning import plan
+    from .sim.torsion import twist_along_path
     from .trajectory import trajectory_from_grippers
 
     spec = job.scenario
@@ -273,19 +278,27 @@ def plan_job(job: Job, *, verify: bool = False, progress=lambda text: None) -> P
     if not grippers.success:
         warnings.append(f"grippers: {grippers.message}")
 
+    t0 = time.perf_counter()
+    poses = [grippers.clip_poses(k) for k in range(len(result.path))]
+    twist = twist_along_path(cable, result.path, poses)
+    timings["twist"] = time.perf_counter() - t0
+    progress(f"twist along the path: largest {np.degrees(np.abs(twist.twist).max()):.1f} deg, "
+             f"energy up to {twist.twist_energy.max():.3g} J")
+    if not twist.success:
+        warnings.append(f"twist: {twist.message}")
+
     verification = None
     if verify:
         t0 = time.perf_counter()
         from .verify import verify_path
 
-        poses = [grippers.clip_poses(k) for k in range(len(result.path))]
         verification = verify_path(cable, result.stabilized, poses, times=trajectory.times,
                                    reachability=robot_rows(grippers)[0])
         timings["verify"] = time.perf_counter() - t0
         progress(f"verification: {'passed' if verification.ok else 'FAILED'}")
         warnings += [m for m in verification.messages if not verification.ok]
-    return PlanOutcome(job, result, grippers, trajectory, target_check, verification, warnings,
-                       timings)
+    return PlanOutcome(job, result, grippers, trajectory, target_check, verification, twist,
+                       warnings, timings)
 
 
 def _collision_rows(reports) -> list[dict]:
@@ -315,7 +328,11 @@ def plan_extra(outcome: PlanOutcome) -> dict:
                          "threshold": outcome.target_check.threshold,
                          "message": outcome.target_check.message},
         "timings": {**outcome.timings, **{f"plan.{k}": v for k, v in result.timings.items()}},
-        "twist": outcome.grippers.twist.tolist(),
+        "gripper_relative_twist": outcome.grippers.twist.tolist(),
+        "twist": {"twist": outcome.twist.twist.tolist(),
+                  "relative_twist": outcome.twist.relative_twist.tolist(),
+                  "twist_energy": outcome.twist.twist_energy.tolist(),
+                  "message": outcome.twist.message},
     }
     if result.avoidance is not None:
         extra["obstacles"] = {
@@ -430,3 +447,38 @@ def write_plan_report(outcome: PlanOutcome, path, images=()):
                         stabilized=result.stabilized, clip_positions=outcome.grippers.positions,
                         clip_rotations=outcome.grippers.matrices, obstacles=outcome.job.obstacles,
                         summary=summary, warnings=outcome.warnings, tables=tables, images=images)
+
+
+def load_plan_or_scenario(path, progress=lambda text: None):
+    """A plan document: read from a plan file, or planned now from a scenario file."""
+    from pathlib import Path
+
+    from .io.export import PlanDocument, read_plan_json
+    from .io.scenario import load_scenario, read_mapping
+
+    if Path(path).suffix.lower() == ".json" and read_mapping(path).get("format") == "dloplan-plan":
+        return read_plan_json(path)
+    outcome = plan_job(load_scenario(path), progress=progress)
+    return PlanDocument(outcome.plan.cable, outcome.plan.path, outcome.grippers,
+                        outcome.trajectory, tuple(outcome.warnings), plan_extra(outcome))
+
+
+def simulate_document(doc, *, damping: str = "relative"):
+    """Run a plan's timed trajectory through the dynamic simulator (thesis 5.1, Table 7.2).
+
+    The clips follow the trajectory at its real speed from the stabilized start; the simulated
+    shape at each knot time is compared with the planned stabilized shape. Returns the replay
+    (:func:`dloplan.verify.replay.replay`) and the Table 7.2 comparison
+    (:func:`dloplan.vision.compare_shapes`): per shape and axis mean errors and the totals.
+    """
+    from .verify.replay import replay
+    from .vision.compare import compare_shapes
+
+    if doc.trajectory is None:
+        raise ValueError("plan: no timed trajectory to simulate (plan it with gripper poses)")
+    stabilized = stabilized_shapes(doc)
+    run = replay(doc.cable, stabilized, (doc.trajectory.times, plan_clip_poses(doc)),
+                 damping=damping)
+    simulated = run.simulation.at(run.knot_times)
+    comparison = compare_shapes(stabilized, list(simulated), end_order="keep")
+    return run, comparison

@@ -125,6 +125,14 @@ class Simulation:
     settled: bool
     message: str
 
+    def at(self, times) -> np.ndarray:
+        """Recorded shapes linearly interpolated at ``times`` [s] (clamped), (K, n + 1, 3)."""
+        t = np.clip(np.atleast_1d(np.asarray(times, dtype=float)), self.times[0], self.times[-1])
+        k = np.clip(np.searchsorted(self.times, t), 1, len(self.times) - 1)
+        t0, t1 = self.times[k - 1], self.times[k]
+        w = np.where(t1 > t0, (t - t0) / np.where(t1 > t0, t1 - t0, 1.0), 0.0)[:, None, None]
+        return (1.0 - w) * self.shapes[k - 1] + w * self.shapes[k]
+
 
 def simulate(
     cable: Cable,

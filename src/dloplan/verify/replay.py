@@ -230,11 +230,7 @@ def replay(
 
 def _deviation_at(run: Simulation, t: float, planned: np.ndarray) -> float:
     """Largest point distance between the recorded run, interpolated at time t, and a shape."""
-    k = int(np.clip(np.searchsorted(run.times, t), 1, len(run.times) - 1))
-    t0, t1 = run.times[k - 1], run.times[k]
-    w = 0.0 if t1 <= t0 else float(np.clip((t - t0) / (t1 - t0), 0.0, 1.0))
-    shape = (1.0 - w) * run.shapes[k - 1] + w * run.shapes[k]
-    return float(np.max(np.linalg.norm(shape - planned, axis=1)))
+    return float(np.max(np.linalg.norm(run.at(t)[0] - planned, axis=1)))
 
 
 __all__ = ["Replay", "as_clip_trajectory", "replay"]
