@@ -1,0 +1,303 @@
+"""The two geometric planning stages (thesis 4.3 and 4.4).
+
+A path is an array (S + 2, n + 1, 3): the start shape xi_o, S intermediate shapes (the decision
+variables, eq. 4.11) and the target xi_f.
+
+**Basic stage** (eqs. 4.12-4.15): the cost sum_k w_k |gamma_k|^2 over the S + 1 steps
+gamma_k = xi_k - xi_{k-1} (the last one is gamma_f, weight w_f) is a quadratic whose Hessian is
+block-tridiagonal in the shape index and the same for every coordinate. Its stationarity
+condition (w_i + w_{i+1}) xi_i - w_i xi_{i-1} - w_{i+1} xi_{i+1} = 0 is one S x S tridiagonal
+system with 3(n + 1) right-hand sides, solved exactly by :func:`scipy.linalg.solve_banded`. With
+equal weights every point moves in S + 1 equal steps on the straight line to its target.
+
+**Advanced stage** (eq. 4.17): five terms (transversal steps, the final step, the link-length
+change delta against the start's links, 1/Delta_clip between the clip points, the bending angles
+against those of the basic path), minimized by L-BFGS-B from the basic path with the exact
+gradient, vectorized over all shapes and points.
+
+**Dimensionless scaling.** The thesis writes eq. 4.17 in metres, which makes its weights depend
+on the unit: the quadratic terms scale with the unit squared, 1/Delta_clip with its inverse and
+the angles not at all, so the same weights give other paths in millimetres. Here every quantity
+is measured in the unit it naturally has -- positions over the cable length L, link-length
+changes over the rest link length l (strains), the clip distance as L / Delta_clip, angles in
+radians -- and each term is normalized so that it does not depend on n and S either
+(Y = x / L, l = L / n):
+
+====================  ==============================================  =====================
+term                  dimensionless measure (-> continuum limit)      factor c
+====================  ==============================================  =====================
+transversal steps     T = (S+1)/(n+1) sum_k w_k |Delta Y_k|^2          c_T = (n0+1)/(S0+1)
+                      (-> mean over points of int |dY/dtau|^2)
+link-length change    D = 1/(n S) sum_i sum_j (delta_ij / l)^2         c_D = n0 S0
+                      (mean squared strain)
+clip distance         C = 1/S sum_i L / Delta_clip,i                  c_C = S0
+bending angles        B = n/S sum_i sum_j (beta_ij - beta_o,ij)^2      c_B = S0 / n0
+                      (-> mean over shapes of L int (kappa - kappa_o)^2 ds)
+====================  ==============================================  =====================
+
+and J = c_T T + w_delta c_D D + w_clip c_C C + w_beta c_B B. The factors c make J equal, term by
+term, to the thesis' sums of eq. 4.17 on the problem it tuned its weights on (n0 = 10 links,
+S0 = 5 shapes) with the quantities in the units above. So the Table 6.1 weights keep their
+meaning, for any unit, cable length, n and S, and they reproduce the thesis' behaviour (Table
+4.2: shapes kept near L on a folding path). Measured in metres instead (the thesis' literal
+form) the angle term outweighs the length terms about 400 to 1 for a 0.5 m cable and the
+advanced stage keeps folding paths at about 0.7 L; in millimetres the angle and clip terms
+vanish: neither is what the thesis' tuning describes.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import solve_banded
+from scipy.optimize import minimize
+
+from ..physics.axial import axial_energy, axial_gradient
+from ..physics.bending import bending_energy, bending_gradient
+from ..physics.geometry import bending_angles, link_lengths
+from .tuning import AdvancedWeights, BasicWeights
+
+REFERENCE_LINKS = 10
+"""n0: the number of links of the thesis' tuning problem (Figs. 4.8, 4.14)."""
+REFERENCE_SHAPES = 5
+"""S0: the number of intermediate shapes of the thesis' tuning problem."""
+
+C_TRANSVERSAL = (REFERENCE_LINKS + 1) / (REFERENCE_SHAPES + 1)
+C_DELTA = REFERENCE_LINKS * REFERENCE_SHAPES
+C_CLIP = REFERENCE_SHAPES
+C_BETA = REFERENCE_SHAPES / REFERENCE_LINKS
+
+
+def step_weights(weights: BasicWeights | AdvancedWeights, n_shapes: int) -> np.ndarray:
+    """The S + 1 step weights (w_1 .. w_S, w_f) of the transversal terms."""
+    steps = np.atleast_1d(np.asarray(weights.steps, dtype=float))
+    if steps.size == 1:
+        steps = np.full(n_shapes, steps[0])
+    if steps.size != n_shapes:
+        raise ValueError(
+            f"weights.steps: {steps.size} values given, expected 1 or n_shapes = {n_shapes}"
+        )
+    return np.append(steps, weights.final)
+
+
+def transversal_cost(path: np.ndarray, weights: np.ndarray) -> tuple[float, np.ndarray]:
+    """sum_k w_k |xi_k - xi_{k-1}|^2 (eq. 4.15) and its gradient over the intermediate shapes.
+
+    Parameters
+    ----------
+    path : numpy.ndarray
+        (S + 2, n + 1, 3) shapes, start and target included.
+    weights : numpy.ndarray
+        (S + 1,) step weights w_1 .. w_S, w_f.
+
+    Returns
+    -------
+    tuple
+        The cost [length^2] and its gradient (S, n + 1, 3) [length].
+    """
+    steps = np.diff(path, axis=0)
+    weighted = weights[:, None, None] * steps
+    value = float(np.sum(weighted * steps))
+    return value, 2.0 * (weighted[:-1] - weighted[1:])
+
+
+def basic_path(start: np.ndarray, target: np.ndarray, n_shapes: int,
+               weights: BasicWeights | None = None) -> np.ndarray:
+    """The basic geometric path: the exact minimizer of eq. 4.15 (thesis 4.3).
+
+    Parameters
+    ----------
+    start, target : numpy.ndarray
+        (n + 1, 3) shapes xi_o and xi_f [m].
+    n_shapes : int
+        S >= 1 intermediate shapes.
+    weights : BasicWeights, optional
+        w_i (one or S values) and w_f; default all 1 (Table 6.1).
+
+    Returns
+    -------
+    numpy.ndarray
+        (S + 2, n + 1, 3) path [m].
+    """
+    w = step_weights(weights or BasicWeights(), n_shapes)
+    # rows i = 1..S: -w_i xi_{i-1} + (w_i + w_{i+1}) xi_i - w_{i+1} xi_{i+1} = 0
+    banded = np.zeros((3, n_shapes))
+    banded[0, 1:] = -w[1:-1]  # super-diagonal: -w_{i+1}
+    banded[1] = w[:-1] + w[1:]
+    banded[2, :-1] = -w[1:-1]  # sub-diagonal: -w_i
+    rhs = np.zeros((n_shapes, start.size))
+    rhs[0] += w[0] * start.ravel()
+    rhs[-1] += w[-1] * target.ravel()
+    inner = solve_banded((1, 1), banded, rhs, check_finite=False)
+    return np.concatenate([start[None], inner.reshape(n_shapes, *start.shape), target[None]])
+
+
+@dataclass(frozen=True, eq=False)
+class AdvancedProblem:
+    """The data of the advanced cost (eq. 4.17), in dimensionless positions Y = x / L.
+
+    Parameters
+    ----------
+    start, target : numpy.ndarray
+        (n + 1, 3) fixed end shapes / L.
+    start_links : numpy.ndarray
+        (n,) link lengths of the start shape / L (the "length_o" of the thesis).
+    basic_angles : numpy.ndarray
+        (S, n - 1) bending angles beta_o of the basic path's intermediate shapes [rad].
+    step_weights : numpy.ndarray
+        (S + 1,) w_i,a .. w_f,a.
+    weights : AdvancedWeights
+        The other weights.
+    """
+
+    start: np.ndarray
+    target: np.ndarray
+    start_links: np.ndarray
+    basic_angles: np.ndarray
+    step_weights: np.ndarray
+    weights: AdvancedWeights
+
+    @property
+    def n_links(self) -> int:
+        return self.start.shape[0] - 1
+
+    @property
+    def n_shapes(self) -> int:
+        return self.basic_angles.shape[0]
+
+
+def advanced_terms(problem: AdvancedProblem, inner: np.ndarray) -> dict[str, tuple[float, np.ndarray]]:
+    """The four weighted, dimensionless terms of eq. 4.17 and their gradients.
+
+    Parameters
+    ----------
+    problem : AdvancedProblem
+        The fixed data.
+    inner : numpy.ndarray
+        (S, n + 1, 3) intermediate shapes / L.
+
+    Returns
+    -------
+    dict
+        ``{"transversal", "delta", "clip", "beta"}`` -> (value, gradient (S, n + 1, 3)); the
+        transversal term holds both the step and the final-step terms.
+    """
+    n, s = problem.n_links, problem.n_shapes
+    w = problem.weights
+    path = np.concatenate([problem.start[None], inner, problem.target[None]])
+    t_value, t_grad = transversal_cost(path, problem.step_weights)
+    c_t = C_TRANSVERSAL * (s + 1) / (n + 1)
+
+    c_d = w.delta * C_DELTA * n / s  # (delta / l)^2 = n^2 (delta / L)^2, averaged over n S
+    d_value = axial_energy(inner, 2.0, problem.start_links)  # sum (l - l_o)^2
+    d_grad = axial_gradient(inner, 2.0, problem.start_links)
+
+    c_c = w.clip * C_CLIP / s
+    chord = 0.5 * (inner[:, -1] + inner[:, -2] - inner[:, 0] - inner[:, 1])
+    distance = np.linalg.norm(chord, axis=-1)
+    pull = chord / distance[:, None] ** 3  # d(1/Delta)/d(first clip point)
+    c_grad = np.zeros_like(inner)
+    c_grad[:, :2] += 0.5 * pull[:, None]
+    c_grad[:, -2:] -= 0.5 * pull[:, None]
+
+    c_b = w.beta * C_BETA * n / s
+    b_value = 2.0 * bending_energy(inner, 1.0, problem.basic_angles)  # sum (beta - beta_o)^2
+    b_grad = 2.0 * bending_gradient(inner, 1.0, problem.basic_angles)
+    return {
+        "transversal": (c_t * t_value, c_t * t_grad),
+        "delta": (c_d * float(np.sum(d_value)), c_d * d_grad),
+        "clip": (c_c * float(np.sum(1.0 / distance)), c_c * c_grad),
+        "beta": (c_b * float(np.sum(b_value)), c_b * b_grad),
+    }
+
+
+def advanced_cost(problem: AdvancedProblem, inner: np.ndarray) -> tuple[float, np.ndarray]:
+    """The dimensionless advanced cost J (eq. 4.17, scaled) and its gradient (S, n + 1, 3)."""
+    terms = advanced_terms(problem, inner)
+    return (sum(v for v, _ in terms.values()),
+            sum(g for _, g in terms.values()))
+
+
+@dataclass(frozen=True)
+class StageStatus:
+    """How one optimization stage ended.
+
+    Attributes
+    ----------
+    success : bool
+        The solver met its tolerance.
+    message : str
+        The solver's message.
+    iterations : int
+        Iterations (0 for the exact basic solve).
+    n_variables : int
+        Number of decision variables.
+    cost : float
+        Final (dimensionless) cost; NaN when the stage has none.
+    seconds : float
+        Wall time [s].
+    """
+
+    success: bool
+    message: str
+    iterations: int
+    n_variables: int
+    cost: float
+    seconds: float
+
+
+def advanced_problem(basic: np.ndarray, length: float,
+                     weights: AdvancedWeights | None = None) -> AdvancedProblem:
+    """The advanced problem of a basic path (S + 2, n + 1, 3) [m] for a cable of length L [m]."""
+    weights = weights or AdvancedWeights()
+    y = basic / length
+    return AdvancedProblem(
+        start=y[0],
+        target=y[-1],
+        start_links=link_lengths(y[0]),
+        basic_angles=bending_angles(y[1:-1]),
+        step_weights=step_weights(weights, basic.shape[0] - 2),
+        weights=weights,
+    )
+
+
+def advanced_path(basic: np.ndarray, length: float, weights: AdvancedWeights | None = None, *,
+                  max_iterations: int = 2000, gtol: float = 1e-7) -> tuple[np.ndarray, StageStatus]:
+    """The advanced geometric path (thesis 4.4): eq. 4.17 minimized from the basic path.
+
+    Parameters
+    ----------
+    basic : numpy.ndarray
+        (S + 2, n + 1, 3) basic path [m] (its start and target are kept).
+    length : float
+        Cable length L [m], the unit of the dimensionless positions.
+    weights : AdvancedWeights, optional
+        Default: Table 6.1.
+    max_iterations : int
+        L-BFGS-B iteration limit.
+    gtol : float
+        Tolerance on the largest component of the dimensionless gradient.
+
+    Returns
+    -------
+    tuple
+        The path (S + 2, n + 1, 3) [m] and its :class:`StageStatus`.
+    """
+    t0 = time.perf_counter()
+    problem = advanced_problem(basic, length, weights)
+    shape = basic[1:-1].shape
+
+    def fun(flat):
+        value, grad = advanced_cost(problem, flat.reshape(shape))
+        return value, grad.ravel()
+
+    res = minimize(fun, (basic[1:-1] / length).ravel(), jac=True, method="L-BFGS-B",
+                   options={"maxiter": max_iterations, "gtol": gtol, "ftol": 1e-14,
+                            "maxcor": 20})
+    inner = res.x.reshape(shape) * length
+    path = np.concatenate([basic[:1], inner, basic[-1:]])
+    status = StageStatus(bool(res.success), str(res.message), int(res.nit), res.x.size,
+                         float(res.fun), time.perf_counter() - t0)
+    return path, status
