@@ -128,7 +128,14 @@ class TensionState:
         return np.linalg.norm(self.equilibrium.clip_wrenches[:, :3], axis=1)
 
 
-def _state(cable, n_links, offset, guess, clips, board, gravity) -> TensionState:
+def tension_state(cable: Cable, n_links: int, offset: float, guess, board: Board,
+                  gravity=GRAVITY) -> TensionState:
+    """The section between the fixtures in equilibrium at a pull-apart ``offset`` [m].
+
+    Held at the fixtures' slots, with gravity and the board's contacts, started from ``guess``
+    (any (k, 3) polyline between the slots, resampled; it selects the branch).
+    """
+    clips = fixture_clips(board, inserted=True)
     section = section_cable(cable, n_links, offset)
     eq = equilibrium(section, resample_by_arc_length(guess, section.n_points), clips,
                      gravity=gravity, contacts=board.contacts())
@@ -256,7 +263,7 @@ def insert_and_tension(
     down = slots.positions - approach.positions
 
     def state(offset: float, guess: np.ndarray) -> TensionState:
-        return _state(cable, n_links, offset, guess, slots, board, gravity)
+        return tension_state(cable, n_links, offset, guess, board, gravity)
 
     evaluations = 0
     low = state(0.0, inserted.shape)
