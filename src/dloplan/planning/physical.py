@@ -174,7 +174,8 @@ def _minimize_thesis(cost: ThesisCost, x: np.ndarray, free: slice, *, gtol: floa
         grad = jac.T @ r
         normal = (jac.T @ jac).tocsr()
         scale = normal.diagonal()
-        if float(np.max(np.abs(grad))) <= gtol * max(1.0, f):
+        # gradient with respect to x / l: the test does not depend on the length unit
+        if float(np.max(np.abs(grad))) * cost.link_length <= gtol * max(1.0, f):
             return x, True, f"converged in {iteration - 1} iterations", iteration - 1
         band = _to_band(normal, 17)
         while True:

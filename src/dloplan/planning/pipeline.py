@@ -74,7 +74,7 @@ def plan(
     family_boundaries: FamilyBoundaries | None = None,
     gravity=GRAVITY,
     map: Callable = map,
-    max_iterations: int = 3000,
+    max_iterations: int = 200,
 ) -> Plan:
     """Plan S intermediate cable shapes from ``start`` to ``target`` (thesis chapter 4).
 
