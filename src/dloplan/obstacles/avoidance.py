@@ -127,7 +127,10 @@ def avoid_obstacles(
         head = replan(lifted[0], lifted[first], first - 1) if first > 1 else lifted[: first + 1]
         tail_count = n_shapes - 1 - last - 1
         tail = replan(lifted[last], lifted[-1], tail_count) if tail_count > 0 else lifted[last:]
-        current = np.concatenate([head, lifted[first + 1 : last], tail])
+        # head ends with the first lifted shape and tail starts with the last: one shape when
+        # a single shape was lifted, which must not appear twice
+        current = np.concatenate([head, lifted[first + 1 : last], tail[1:] if first == last
+                                  else tail])
         current[0], current[-1] = path[0], path[-1]
         stabilized, equilibria = stabilized_path(cable, current, gravity=gravity)
         solves += n_shapes

@@ -1,0 +1,185 @@
+"""Harness boards: validation before planning, the harness: section and its loader."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from harness_boards import DIAGONAL, demo_board, demo_start
+
+from dloplan.cable import catalogue_cable
+from dloplan.harness import (
+    Board,
+    Fixture,
+    HarnessSettings,
+    Peg,
+    check_board,
+    is_harness,
+    load_harness,
+    route_length,
+    run_harness,
+)
+from dloplan.io.scenario import ScenarioError
+
+EXAMPLES = Path(__file__).parent.parent / "examples"
+
+
+@pytest.fixture
+def no_planning(monkeypatch):
+    """Fail the test if the planner is called: errors must come before planning."""
+    import dloplan.harness.phases as phases
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("the planner was called")
+
+    monkeypatch.setattr(phases, "plan", forbidden)
+
+
+def test_a_fixture_out_of_reach_is_an_error_before_planning(no_planning):
+    cable = catalogue_cable("usb", n_links=10)
+    # clip points 0.46 m apart; the cable spans L - l = 0.45 m between its clip points
+    board = demo_board(cable, fixture_y=0.23)
+    with pytest.raises(ValueError, match=r"fixtures: .* 0\.46 m apart, out of reach of the "
+                                         r"0\.5 m cable .* 0\.45 m"):
+        run_harness(cable, demo_start(cable), board, HarnessSettings(n_shapes=(3, 3)))
+
+
+def test_a_route_around_the_pegs_longer_than_the_cable_is_an_error(no_planning):
+    cable = catalogue_cable("usb", n_links=10)
+    board = demo_board(cable, peg_x=0.22)  # the loop would have to reach 28 cm toward the robot
+    assert route_length(board, cable) > cable.length - cable.rest_link_length
+    with pytest.raises(ValueError, match="pegs: the route from fixture_right around peg"):
+        run_harness(cable, demo_start(cable), board)
+
+
+def test_route_length_is_the_polyline_around_the_pegs():
+    cable = catalogue_cable("usb", n_links=10)
+    board = demo_board(cable)
+    via_x = 0.38 - 0.012 - cable.diameter / 2
+    expected = 2 * np.hypot(0.50 - via_x, 0.15)
+    assert route_length(board, cable) == pytest.approx(expected, rel=1e-12)
+
+
+def test_a_peg_overlapping_a_fixture_is_an_error(no_planning):
+    cable = catalogue_cable("usb", n_links=10)
+    board = demo_board(cable)
+    peg = Peg((0.505, -0.16, 0.0), 0.012, 0.06, name="peg_in_slot")
+    crowded = Board(board.fixtures, (peg,), board.obstacles, board.table)
+    with pytest.raises(ValueError, match="peg_in_slot: overlaps fixture_right"):
+        run_harness(cable, demo_start(cable), crowded)
+
+
+def test_a_slot_narrower_than_the_cable_is_an_error():
+    cable = catalogue_cable("pu", n_links=10)  # 6 mm
+    board = demo_board(cable)
+    narrow = Fixture(board.fixtures[0].position, board.fixtures[0].axis, slot_width=0.005,
+                     name="narrow")
+    with pytest.raises(ValueError, match=r"narrow.slot_width: 5.00 mm is narrower than the "
+                                         r"cable \(6.00 mm"):
+        check_board(Board((narrow, board.fixtures[1]), board.pegs), cable)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"plate_height": 0.07}, "plate_height: got 0.07 m, expected below the peg's top"),
+        ({"radius": -0.01}, "peg.radius: got -0.01, expected a length > 0"),
+        ({"side": (0.0, 0.0, 1.0)}, r"peg.side \(horizontal part\)"),
+        ({"plate_height": 0.03, "plate_size": (0.02, 0.1)}, "does not extend beyond the peg"),
+    ],
+)
+def test_bad_peg_dimensions_are_named(kwargs, match):
+    args = {"base": (0.4, 0.0, 0.0), "radius": 0.012, "height": 0.06} | kwargs
+    with pytest.raises(ValueError, match=match):
+        Peg(**args)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"axis": (0, 0, 0)}, "fixture.axis: got .* expected a non-zero direction"),
+        ({"opening": (1.0, 0.0, 0.3)}, "fixture.opening: .* expected perpendicular"),
+        ({"depth": -0.01}, "fixture.depth: got -0.01, expected a length >= 0"),
+        ({"position": (0.5, np.nan, 0.0)}, "fixture.position"),
+    ],
+)
+def test_bad_fixtures_are_named(kwargs, match):
+    args = {"position": (0.5, 0.0, 0.03), "axis": (1.0, 0.0, 0.0)} | kwargs
+    with pytest.raises(ValueError, match=match):
+        Fixture(**args)
+
+
+def test_fixture_frame_is_normalized_and_the_approach_is_out_of_the_slot():
+    f = Fixture((0.5, 0.1, 0.03), (-2.0, 2.0, 0.0), opening=(0.01, 0.0, 2.0), depth=0.012)
+    assert np.linalg.norm(f.axis) == pytest.approx(1.0, abs=1e-15)
+    assert np.dot(f.axis, f.opening) == pytest.approx(0.0, abs=1e-15)
+    assert np.allclose(f.axis, [-DIAGONAL, DIAGONAL, 0.0])
+    assert np.linalg.norm(f.approach - np.asarray(f.position)) == pytest.approx(0.012)
+
+
+def test_the_examples_are_harness_files_and_load():
+    for name in ("usb", "ethernet", "pu"):
+        path = EXAMPLES / f"harness_{name}.yaml"
+        assert is_harness(yaml.safe_load(path.read_text()))
+        job = load_harness(path)
+        assert job.cable.name == name
+        assert len(job.board.pegs) == 1 and len(job.board.obstacles) == 1
+        assert job.settings.n_shapes == (4, 4)
+    moduli = [load_harness(EXAMPLES / f"harness_{c}.yaml").cable.youngs_modulus
+              for c in ("usb", "ethernet", "pu")]
+    assert moduli == [2.5e6, 7.5e6, 1e8]  # thesis Table 7.3
+    assert not is_harness(yaml.safe_load((EXAMPLES / "harness_phase1_obstacle.yaml").read_text()))
+
+
+def _example(tmp_path, edit) -> Path:
+    data = yaml.safe_load((EXAMPLES / "harness_usb.yaml").read_text())
+    edit(data)
+    path = tmp_path / "job.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_harness_file_errors_are_one_line_and_name_the_field(tmp_path):
+    def far(data):
+        data["harness"]["fixtures"][1]["position"] = [0.5, 0.40, 0.03]
+
+    with pytest.raises(ScenarioError, match=r"harness: fixtures: .* out of reach") as info:
+        load_harness(_example(tmp_path, far))
+    assert "\n" not in str(info.value)
+
+    def one_fixture(data):
+        data["harness"]["fixtures"] = data["harness"]["fixtures"][:1]
+
+    with pytest.raises(ScenarioError, match="harness.fixtures: List should have at least 2"):
+        load_harness(_example(tmp_path, one_fixture))
+
+    def typo(data):
+        data["harness"]["pegs"][0]["radious"] = 0.01
+
+    with pytest.raises(ScenarioError, match="harness.pegs.0.radious: Extra inputs"):
+        load_harness(_example(tmp_path, typo))
+
+
+def test_millimetre_files_are_converted(tmp_path):
+    def to_mm(data):
+        data["units"] = "mm"
+        h = data["harness"]
+        for f in h["fixtures"]:
+            f["position"] = [1e3 * v for v in f["position"]]
+            f["slot_width"], f["depth"] = 8.0, 10.0
+        peg = h["pegs"][0]
+        peg.update(base=[1e3 * v for v in peg["base"]], radius=12.0, height=60.0,
+                   plate_height=30.0, plate_size=[80.0, 120.0])
+        h["approach_height"], h["clearance"] = 80.0, 5.0
+        h["tension"]["max_offset"] = 50.0
+        data["start"]["placement"]["position"] = [220.0, -250.0, 50.0]
+        data["obstacles"][0].update(center=[300.0, 0.0, 30.0], size=[30.0, 160.0, 60.0])
+
+    mm = load_harness(_example(tmp_path, to_mm))
+    m = load_harness(EXAMPLES / "harness_usb.yaml")
+    assert mm.board.fixtures[1].position == pytest.approx(m.board.fixtures[1].position)
+    assert mm.board.pegs[0].plate().top == pytest.approx(m.board.pegs[0].plate().top)
+    assert mm.settings.max_offset == pytest.approx(m.settings.max_offset)
+    assert np.allclose(mm.start, m.start)
