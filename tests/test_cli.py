@@ -132,3 +132,25 @@ def test_export_formats_from_a_plan(tmp_path, capsys):
                      "-q"]) == EXIT_OK
     assert (tmp_path / "rapid" / "DloPlanR.mod").exists()
     assert "positions in m" in (tmp_path / "t.csv").read_text().splitlines()[0]
+
+
+def test_a_harness_scenario_runs_the_whole_job(tmp_path, capsys):
+    example = Path(__file__).parents[1] / "examples" / "harness_usb.yaml"
+    out = tmp_path / "out"
+    code = main(["plan", str(example), "-o", str(out), "-q", "--json"])
+    summary = json.loads(capsys.readouterr().out)
+    assert code in (EXIT_OK, EXIT_WARNINGS) and summary["ok"]
+    assert set(summary["phases"]) == {"phase1", "phase2", "insertion", "tensioning"}
+    assert (out / "plan.json").exists() and (out / "rapid" / "DloPlanL.mod").exists()
+
+
+def test_batch_mode_plans_several_files_on_two_workers(tmp_path, capsys):
+    examples = Path(__file__).parents[1] / "examples"
+    files = [str(examples / "m2_uniform_curvature_pa12.yaml"), str(tmp_path / "bad.yaml")]
+    (tmp_path / "bad.yaml").write_text("cable: {name: copper}\n")
+    code = main(["plan", *files, "-o", str(tmp_path / "out"), "--workers", "2", "-q"])
+    out = capsys.readouterr().out
+    assert code == EXIT_FAILURE  # the worst of the batch
+    assert "planned 2 scenarios: 1 ok" in out or "1 with warnings" in out
+    assert (tmp_path / "out" / "m2_uniform_curvature_pa12" / "plan.json").exists()
+    assert not (tmp_path / "out" / "bad").exists()

@@ -261,12 +261,36 @@ def _plan_one(job, output: Path, args, console: Console) -> int:
     return EXIT_WARNINGS if outcome.warnings else EXIT_OK
 
 
+def _plan_harness(data: dict, source: str, args, console: Console) -> int:
+    from .jobs import plan_harness_file
+
+    result, written = plan_harness_file(data, source, Path(args.output), console.stage)
+    if args.json:
+        print(json.dumps({"scenario": source, "ok": result.success, "warnings": result.warnings,
+                          "cycle_time_s": result.cycle_time, "phases": result.phase_times(),
+                          "written": [str(p) for p in written]}, indent=2))
+    else:
+        print(f"{source}: {result.message}")
+        for name, (t0, t1) in result.phase_times().items():
+            print(f"  {name}: {t0:.2f} s to {t1:.2f} s")
+        for warning in result.warnings:
+            print(f"  warning: {warning}")
+        print(f"  wrote {len(written)} files into {args.output}")
+    if not result.success:
+        return EXIT_FAILURE
+    return EXIT_WARNINGS if result.warnings else EXIT_OK
+
+
 def _cmd_plan(args: argparse.Namespace) -> int:
-    from .io.scenario import load_scenario
+    from .harness.files import is_harness
+    from .io.scenario import load_scenario, read_mapping
 
     console = Console(args.quiet)
     if len(args.scenarios) > 1 or args.workers > 1 or args.scheduler:
         return _plan_batch(args, console)
+    data = read_mapping(args.scenarios[0])
+    if is_harness(data):
+        return _plan_harness(data, args.scenarios[0], args, console)
     job = load_scenario(args.scenarios[0])
     console.stage(f"loaded {job.source}: {job.cable.name or 'cable'}, E "
                   f"{job.cable.youngs_modulus:.3g} Pa, n = {job.cable.n_links}")
@@ -294,17 +318,23 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
 
 def plan_file(options: dict, path: str) -> tuple[str, int, str]:
     """Plan one scenario file into ``<output>/<stem>/`` (the batch mode's task)."""
-    from .io.scenario import load_scenario
-    from .jobs import plan_job, write_outputs
+    from .harness.files import is_harness
+    from .io.scenario import load_scenario, read_mapping
+    from .jobs import plan_harness_file, plan_job, write_outputs
 
     folder = Path(options["output"]) / Path(path).stem
     try:
-        outcome = plan_job(load_scenario(path), verify=options["verify"])
-        write_outputs(outcome, folder)
+        data = read_mapping(path)
+        if is_harness(data):
+            result = plan_harness_file(data, path, folder)[0]
+            ok, warnings = result.success, result.warnings
+        else:
+            outcome = plan_job(load_scenario(path), verify=options["verify"])
+            write_outputs(outcome, folder)
+            ok, warnings = outcome.ok, outcome.warnings
     except ValueError as exc:
         return path, EXIT_FAILURE, f"{path}: error: {exc}"
-    code = EXIT_OK if outcome.ok and not outcome.warnings else (
-        EXIT_WARNINGS if outcome.ok else EXIT_FAILURE)
+    code = EXIT_OK if ok and not warnings else (EXIT_WARNINGS if ok else EXIT_FAILURE)
     status = {EXIT_OK: "ok", EXIT_WARNINGS: "warnings", EXIT_FAILURE: "FAILED"}[code]
     return path, code, f"{path}: {status} -> {folder}"
 

@@ -482,3 +482,30 @@ def simulate_document(doc, *, damping: str = "relative"):
     simulated = run.simulation.at(run.knot_times)
     comparison = compare_shapes(stabilized, list(simulated), end_order="keep")
     return run, comparison
+
+
+def plan_harness_file(data: dict, source: str, folder, progress=lambda text: None):
+    """The wire-harness job of a scenario with a ``harness:`` section (thesis 7.3).
+
+    Runs both planning phases, insertion and tensioning, and writes ``plan.json`` (one knot per
+    shape of the whole job, the harness summary in ``extra``), the trajectory CSV and the RAPID
+    modules into ``folder``. Returns ``(result, written paths)``.
+    """
+    from pathlib import Path
+
+    from .harness import harness_summary, write_harness_rapid
+    from .harness.files import parse_harness, resolve_harness, run_harness_job
+    from .io.export import write_plan_json, write_trajectory_csv
+
+    job = resolve_harness(parse_harness(data, source), source)
+    progress(f"harness job: {job.cable.name or 'cable'}, board checked")
+    result = run_harness_job(job)
+    progress(result.message)
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    written = [write_plan_json(folder / "plan.json", job.cable, result.shapes, result.grippers,
+                               result.trajectory, result.warnings,
+                               {"harness": harness_summary(result)}),
+               write_trajectory_csv(folder / "trajectory.csv", result.trajectory)]
+    written += list(write_harness_rapid(folder / "rapid", result).values())
+    return result, written
