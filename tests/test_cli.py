@@ -11,10 +11,13 @@ import yaml
 
 from dloplan.cli import EXIT_FAILURE, EXIT_OK, EXIT_WARNINGS, main
 
+ALONG_Y = {"euler": [0, 0, 90]}  # cables across the YuMi's front, within both arms' reach
 STIFF = {
     "cable": {"name": "pa12", "n_links": 10},
-    "start": {"kind": "straight", "placement": {"position": [0.3, -0.25, 0.2]}},
-    "target": {"kind": "arc", "angle": 60, "placement": {"position": [0.3, -0.2, 0.25]}},
+    "start": {"kind": "straight",
+              "placement": {"position": [0.4, -0.25, 0.2], "rotation": ALONG_Y}},
+    "target": {"kind": "arc", "angle": 60,
+               "placement": {"position": [0.35, -0.22, 0.25], "rotation": ALONG_Y}},
 }
 
 
@@ -40,8 +43,8 @@ def test_check_warns_on_an_unstable_target_and_reports_json(tmp_path, capsys):
 
 
 def test_check_fails_when_the_target_sits_in_an_obstacle(tmp_path, capsys):
-    data = {**STIFF, "obstacles": [{"type": "box", "center": [0.45, -0.15, 0.2],
-                                    "size": [0.4, 0.4, 0.4]}]}
+    data = {**STIFF, "obstacles": [{"type": "box", "center": [0.3, 0.0, 0.2],
+                                    "size": [0.4, 0.6, 0.4]}]}
     code = main(["check", str(write(tmp_path, data)), "-q"])
     out = capsys.readouterr().out
     assert code == EXIT_FAILURE
@@ -154,3 +157,41 @@ def test_batch_mode_plans_several_files_on_two_workers(tmp_path, capsys):
     assert "planned 2 scenarios: 1 ok" in out or "1 with warnings" in out
     assert (tmp_path / "out" / "m2_uniform_curvature_pa12" / "plan.json").exists()
     assert not (tmp_path / "out" / "bad").exists()
+
+
+def test_study_command_writes_the_table_figures_and_report(tmp_path, capsys):
+    example = Path(__file__).parents[1] / "examples" / "study_m2_ethernet.yaml"
+    out = tmp_path / "study"
+    assert main(["study", str(example), "--samples", "8", "-o", str(out), "-q"]) == EXIT_OK
+    assert "success" in capsys.readouterr().out
+    assert (out / "results.parquet").exists() and (out / "report.html").exists()
+    assert (out / "study_tornado.png").exists()
+
+
+def test_compare_a_plan_with_shifted_registered_shapes(tmp_path, capsys):
+    from dloplan.io.export import read_plan_json
+    from dloplan.vision import RegisteredShape, write_shapes
+
+    out = tmp_path / "out"
+    main(["plan", str(write(tmp_path, {**STIFF, "outputs": ["json"]})), "-o", str(out), "-q"])
+    capsys.readouterr()
+    doc = read_plan_json(out / "plan.json")
+    shifted = [RegisteredShape(s + [0.005, 0, 0], "world", f"xi_{k}")
+               for k, s in enumerate(doc.shapes)]
+    write_shapes(tmp_path / "trial.csv", shifted)
+    code = main(["compare", str(out / "plan.json"), str(tmp_path / "trial.csv"),
+                 "-o", str(tmp_path / "cmp"), "--json", "-q"])
+    rows = json.loads(capsys.readouterr().out)["rows"]
+    assert code == EXIT_OK
+    assert rows[-1][0] == "all" and rows[-1][5] == pytest.approx(0.005, abs=1e-6)
+    assert (tmp_path / "cmp" / "report.html").exists()
+
+
+def test_simulate_and_verify_a_plan(tmp_path, capsys):
+    out = tmp_path / "out"
+    main(["plan", str(write(tmp_path, STIFF)), "-o", str(out), "-q"])
+    capsys.readouterr()
+    assert main(["simulate", str(out / "plan.json"), "-q", "--json"]) == EXIT_OK
+    assert json.loads(capsys.readouterr().out)["ok"]
+    assert main(["verify", str(out / "plan.json"), "-q", "--json", "--no-replay"]) == EXIT_OK
+    assert json.loads(capsys.readouterr().out)["ok"]

@@ -140,10 +140,21 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     if args.output:
         from .plots.compare import write_comparison_figures
 
+        from .plots.report import write_report
+
         folder = Path(args.output)
         folder.mkdir(parents=True, exist_ok=True)
         written = write_comparison_figures(result, folder, args.plane)
-        console.stage(f"figures: {', '.join(p.name for p in written)}")
+        header = ["shape", "error_x [m]", "error_y [m]", "error_z [m]", "error_tot [m]",
+                  "error_euclid [m]"]
+        rows = [[r[0], *(f"{v:.4f}" for v in r[1:])] for r in result.rows()]
+        report = write_report(folder / "report.html", title=f"dloplan compare: {args.plan}",
+                              shapes=planned, stabilized=result.registered[0],
+                              overlay_label="registered (trial 1)", summary=[result.message],
+                              tables=[("Planned vs registered (thesis Table 7.2)", header,
+                                       rows)],
+                              images=[p for p in written if p.suffix == ".png"])
+        console.stage(f"figures: {', '.join(p.name for p in written)}; report: {report}")
     print(json.dumps({"rows": result.rows(), "message": result.message}, indent=2, default=float)
           if args.json else result.table())
     return EXIT_WARNINGS if result.reversed_shapes else EXIT_OK
@@ -376,7 +387,13 @@ def _cmd_study(args: argparse.Namespace) -> int:
                            progress=lambda p: console.stage(p.line()),
                            resume=not args.overwrite, file_format="csv" if args.csv else "parquet")
     written = study_figures(result.table, result.summary, spec.criteria, args.output)
-    console.stage(f"{len(written)} figures in {args.output}")
+    from .plots.report import write_report
+
+    report = write_report(Path(args.output) / "report.html", title=f"dloplan study: "
+                          f"{args.scenario}", shapes=planned.path, stabilized=problem.nominal,
+                          summary=result.summary.lines(),
+                          images=[p for p in written if p.suffix == ".png"])
+    console.stage(f"{len(written)} figures and the report {report} in {args.output}")
     for line in result.summary.lines():
         print(line)
     return EXIT_OK

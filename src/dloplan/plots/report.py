@@ -52,6 +52,7 @@ def report_html(
     tables: Sequence[tuple[str, Sequence[str], Sequence[Sequence]]] = (),
     images: Sequence[str | Path] = (),
     labels: Sequence[str] | None = None,
+    overlay_label: str = "stabilized",
 ) -> str:
     """The report page as a string.
 
@@ -77,6 +78,9 @@ def report_html(
         PNG figures to embed.
     labels : sequence of str, optional
         One label per shape for the slider (default "shape k").
+    overlay_label : str
+        What the dashed second set of shapes is (default "stabilized"; "registered" when
+        comparing with measured shapes).
     """
     shapes = np.asarray(shapes, dtype=float)
     if shapes.ndim != 3 or shapes.shape[-1] != 3 or len(shapes) == 0:
@@ -109,6 +113,7 @@ def report_html(
             .replace("__SUMMARY__", summary_html)
             .replace("__TABLES__", tables_html)
             .replace("__FIGURES__", "".join(figures))
+            .replace("__OVERLAY__", html.escape(overlay_label))
             .replace("__DATA__", payload))
 
 
