@@ -13,8 +13,9 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[dev,vision,robot,study]'
 	touch $(STAMP)
 
+# exit code 1 means "planned, with warnings" (shown above it): the demo still succeeded
 demo: $(STAMP)
-	$(BIN)/dloplan demo -o out/demo
+	$(BIN)/dloplan demo -o out/demo || [ $$? -eq 1 ]
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks examples

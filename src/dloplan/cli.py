@@ -139,7 +139,6 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     result = compare_trials(planned, trials, frame_id=doc.frame_id, end_order=args.end_order)
     if args.output:
         from .plots.compare import write_comparison_figures
-
         from .plots.report import write_report
 
         folder = Path(args.output)
