@@ -442,7 +442,11 @@ def write_plan_report(outcome: PlanOutcome, path, images=()):
     if outcome.verification is not None:
         rows = outcome.verification.to_dict()["rows"]
         header = list(rows[0]) if rows else []
-        tables.append(("Verification", header, [[row[h] for h in header] for row in rows]))
+
+        def cell(value):
+            return "-" if value is None else f"{value:.4g}" if isinstance(value, float) else value
+
+        tables.append(("Verification", header, [[cell(row[h]) for h in header] for row in rows]))
     return write_report(path, title=f"dloplan plan: {outcome.job.source}", shapes=result.path,
                         stabilized=result.stabilized, clip_positions=outcome.grippers.positions,
                         clip_rotations=outcome.grippers.matrices, obstacles=outcome.job.obstacles,
