@@ -12,23 +12,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from pydantic import Field, ValidationError
 
 from ..cable import Cable
 from ..io.scenario import (
-    CableSpec,
-    CheckSpec,
-    GripperSpec,
-    ObstacleSpec,
-    PlannerSpec,
+    JobSpec,
+    OutputName,
     ScenarioError,
-    ShapeSpec,
     TableSpec,
-    TrajectorySpec,
-    _Model,
     build_cable,
     build_obstacles,
     build_shape,
@@ -40,23 +34,12 @@ from .board import Board, HarnessSpec, check_board
 from .job import HarnessResult, HarnessSettings, run_harness
 
 
-class HarnessScenario(_Model):
-    """A harness job file (schema version 1)."""
+class HarnessScenario(JobSpec):
+    """A harness job file (schema version 1): the job's common sections and a board."""
 
-    version: Literal[1] = 1
-    units: Literal["m", "mm"] = "m"
-    cable: CableSpec
-    start: ShapeSpec
     harness: HarnessSpec
-    planner: PlannerSpec = Field(default_factory=PlannerSpec)
-    obstacles: list[ObstacleSpec] = Field(default_factory=list)
     table: TableSpec = Field(default_factory=TableSpec)
-    grippers: GripperSpec = Field(default_factory=GripperSpec)
-    trajectory: TrajectorySpec = Field(default_factory=TrajectorySpec)
-    check: CheckSpec = Field(default_factory=CheckSpec)
-    outputs: list[Literal["json", "csv", "rapid", "ros", "figures", "report"]] = Field(
-        default_factory=lambda: ["json", "rapid"]
-    )
+    outputs: list[OutputName] = Field(default_factory=lambda: ["json", "rapid"])
 
 
 @dataclass(frozen=True, eq=False)

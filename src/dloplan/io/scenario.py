@@ -258,27 +258,35 @@ class TableSpec(_Model):
     height: float = Field(0.0, allow_inf_nan=False)
 
 
-class Scenario(_Model):
-    """A dloplan job (schema version 1)."""
+OutputName = Literal["json", "csv", "rapid", "ros", "figures", "report"]
+
+
+class JobSpec(_Model):
+    """What every job file has: units, the cable, its start, planner, obstacles, robot motion."""
 
     version: Literal[1] = 1
     units: Literal["m", "mm"] = "m"
     cable: CableSpec
     start: ShapeSpec
-    target: ShapeSpec
     planner: PlannerSpec = Field(default_factory=PlannerSpec)
     obstacles: list[ObstacleSpec] = Field(default_factory=list)
     table: TableSpec | None = None
     grippers: GripperSpec = Field(default_factory=GripperSpec)
     trajectory: TrajectorySpec = Field(default_factory=TrajectorySpec)
     check: CheckSpec = Field(default_factory=CheckSpec)
+
+
+class Scenario(JobSpec):
+    """A dloplan job (schema version 1): from ``start`` to ``target``."""
+
+    target: ShapeSpec
     identify: dict[str, Any] | None = Field(
         None, description="an identification experiment (see docs/identification.md)"
     )
     study: StudySpec | None = Field(
         None, description="a robustness study of the plan (see docs/study.md)"
     )
-    outputs: list[Literal["json", "csv", "rapid", "ros", "figures", "report"]] = Field(
+    outputs: list[OutputName] = Field(
         default_factory=lambda: ["json", "csv", "rapid", "figures", "report"]
     )
 
