@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from test_scenario import BAD
 
 from dloplan.cli import EXIT_FAILURE, EXIT_OK, EXIT_WARNINGS, main
 
@@ -195,3 +196,22 @@ def test_simulate_and_verify_a_plan(tmp_path, capsys):
     assert json.loads(capsys.readouterr().out)["ok"]
     assert main(["verify", str(out / "plan.json"), "-q", "--json", "--no-replay"]) == EXIT_OK
     assert json.loads(capsys.readouterr().out)["ok"]
+
+
+@pytest.mark.parametrize("data, fragment", BAD, ids=[f"bad{k}" for k in range(len(BAD))])
+def test_every_malformed_scenario_exits_2_with_one_line_and_writes_nothing(
+    tmp_path, capsys, data, fragment
+):
+    path = tmp_path / "job.yaml"
+    path.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    assert main(["plan", str(path), "-o", str(out)]) == EXIT_FAILURE
+    err = capsys.readouterr().err.strip()
+    assert fragment in err and len(err.splitlines()) == 1
+    assert not out.exists()
+
+
+def test_an_unreadable_scenario_file(tmp_path, capsys):
+    assert main(["plan", str(tmp_path / "missing.yaml"), "-o", str(tmp_path / "out")]) == 2
+    assert "cannot read" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
