@@ -297,3 +297,26 @@ def test_joint_band_interleaves_the_position_hessian_and_the_twist_blocks():
     for s in range(n - 1):
         dense[4 * s: 4 * s + 11, 4 * s: 4 * s + 11] += td.blocks[s] * np.outer(scale, scale)
     assert band_to_sparse(band).toarray() == pytest.approx(dense, abs=1e-9 * np.abs(dense).max())
+
+
+def test_dynamic_simulation_with_torsion_settles_on_the_static_twisted_equilibrium():
+    # the simulator carries massless twist angles along (one Newton step per time step): run to
+    # rest it must land where the static solver with torsion does, not where the untwisted does
+    from conftest import level_clips, sagging_guess
+
+    from dloplan.sim import simulate
+
+    cable = catalogue_cable("usb", n_links=8)
+    clips = level_clips(0.35)
+    roll = Rotation.from_rotvec([0.75 * np.pi, 0.0, 0.0])  # the last clip turned about its u
+    twisted = ClipPoses(clips.positions, Rotation.concatenate([clips.rotations[0],
+                                                              clips.rotations[1] * roll]))
+    untwisted = equilibrium(cable, sagging_guess(cable, 0.35), clips).shape
+    static = equilibrium_with_twist(cable, untwisted, twisted)
+    assert static.success and abs(np.degrees(static.total_twist)) > 100
+    run = simulate(cable, untwisted, twisted, duration=3.0, youngs_modulus_cap=3e5,
+                   rest_speed=1e-4, torsion=True)
+    assert run.settled
+    effect = np.abs(untwisted - static.shape).max()
+    assert effect > 3e-4  # the twist moves the cable
+    assert np.abs(run.shapes[-1] - static.shape).max() < 0.1 * effect

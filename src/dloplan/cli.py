@@ -404,7 +404,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     console = Console(args.quiet)
     doc = load_plan_or_scenario(args.file, progress=console.stage)
     console.stage(f"simulating {doc.trajectory.duration:.2f} s of motion at real speed")
-    run, comparison = simulate_document(doc, damping=args.damping)
+    run, comparison = simulate_document(doc, damping=args.damping, torsion=args.torsion,
+                                        youngs_modulus_cap=args.modulus_cap)
     console.stage(run.message)
     if args.output:
         from .plots.compare import write_comparison_figures
@@ -467,6 +468,11 @@ def build_parser() -> argparse.ArgumentParser:
     simulate.add_argument("--damping", choices=["relative", "absolute"], default="relative",
                           help="relative: dashpots between neighbours; absolute: the thesis' "
                           "drag -k_d v (eq. 3.3)")
+    simulate.add_argument("--torsion", action="store_true",
+                          help="simulate with twist (the gripper frames set the material frames)")
+    simulate.add_argument("--modulus-cap", type=float,
+                          help="fictitious modulus [Pa] for the time step (thesis Fig. 6.5): "
+                          "larger steps for stiff cables")
     simulate.add_argument("-o", "--output", help="folder for the figures")
 
     cables = command("cables", _cmd_cables, "print the model constants of the thesis' cables")
@@ -538,7 +544,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return args.func(args)
-    except (ValueError, FileNotFoundError, OSError) as exc:
+    except (ValueError, ArithmeticError, OSError) as exc:
         print(f"dloplan: error: {exc}", file=sys.stderr)
         return EXIT_FAILURE
 

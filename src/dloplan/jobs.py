@@ -467,7 +467,8 @@ def load_plan_or_scenario(path, progress=lambda text: None):
                         outcome.trajectory, tuple(outcome.warnings), plan_extra(outcome))
 
 
-def simulate_document(doc, *, damping: str = "relative"):
+def simulate_document(doc, *, damping: str = "relative", torsion: bool = False,
+                      youngs_modulus_cap: float | None = None):
     """Run a plan's timed trajectory through the dynamic simulator (thesis 5.1, Table 7.2).
 
     The clips follow the trajectory at its real speed from the stabilized start; the simulated
@@ -482,7 +483,7 @@ def simulate_document(doc, *, damping: str = "relative"):
         raise ValueError("plan: no timed trajectory to simulate (plan it with gripper poses)")
     stabilized = stabilized_shapes(doc)
     run = replay(doc.cable, stabilized, (doc.trajectory.times, plan_clip_poses(doc)),
-                 damping=damping)
+                 damping=damping, torsion=torsion, youngs_modulus_cap=youngs_modulus_cap)
     simulated = run.simulation.at(run.knot_times)
     comparison = compare_shapes(stabilized, list(simulated), end_order="keep")
     return run, comparison

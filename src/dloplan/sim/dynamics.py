@@ -63,31 +63,30 @@ class ClipTrajectory:
         """Clips held still."""
         return cls(np.array([0.0]), [clips])
 
+    def frames(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Clip positions (len(t), 2, 3) [m] and ``clip_to_world`` matrices (len(t), 2, 3, 3)."""
+        t = np.clip(np.asarray(t, dtype=float), self.times[0], self.times[-1])
+        if len(self.times) == 1:
+            pos = np.broadcast_to(self.poses[0].positions, (len(t), 2, 3))
+            mats = np.broadcast_to(self.poses[0].rotations.as_matrix(), (len(t), 2, 3, 3))
+            return pos, mats
+        positions = np.stack([p.positions for p in self.poses])  # (K, 2, 3)
+        pos = np.stack(
+            [np.stack([np.interp(t, self.times, positions[:, k, j]) for j in range(3)], -1)
+             for k in range(2)],
+            axis=1,
+        )
+        mats = np.stack(
+            [Slerp(self.times, Rotation.concatenate([p.rotations[k] for p in self.poses]))(
+                t).as_matrix() for k in range(2)],
+            axis=1,
+        )
+        return pos, mats
+
     def held_points(self, t: np.ndarray, link_length: float) -> np.ndarray:
         """Positions of the four held points at times ``t`` [s], (len(t), 4, 3) [m]."""
-        t = np.clip(np.asarray(t, dtype=float), self.times[0], self.times[-1])
-        positions = np.stack([p.positions for p in self.poses])  # (K, 2, 3)
-        if len(self.times) == 1:
-            pos = np.broadcast_to(positions[0], (len(t), 2, 3))
-            u = np.broadcast_to(self.poses[0].u_axes, (len(t), 2, 3))
-        else:
-            pos = np.stack(
-                [
-                    np.stack([np.interp(t, self.times, positions[:, k, j]) for j in range(3)], -1)
-                    for k in range(2)
-                ],
-                axis=1,
-            )
-            u = np.stack(
-                [
-                    Slerp(self.times, Rotation.concatenate([p.rotations[k] for p in self.poses]))(
-                        t
-                    ).apply([1.0, 0.0, 0.0])
-                    for k in range(2)
-                ],
-                axis=1,
-            )
-        half = 0.5 * link_length * u
+        pos, mats = self.frames(t)
+        half = 0.5 * link_length * mats[..., :, 0]  # u-axes
         return np.stack(
             [pos[:, 0] - half[:, 0], pos[:, 0] + half[:, 0], pos[:, 1] + half[:, 1],
              pos[:, 1] - half[:, 1]],
@@ -148,6 +147,8 @@ def simulate(
     rest_speed: float | None = None,
     max_steps: int = 10_000_000,
     damping: str = "absolute",
+    torsion: bool = False,
+    natural_twist: float = 0.0,
 ) -> Simulation:
     """Integrate eq. 3.24 from ``initial_shape`` (at rest) with the clips driving the ends.
 
@@ -180,6 +181,13 @@ def simulate(
         rigid motion: at 0.1 m/s it exceeds the weight of a light cable, so a replay at real
         speed lags behind. ``"relative"``: -k_d (2 v_i - v_(i-1) - v_(i+1)), dashpots between
         neighbouring points that damp vibration but not motion as a whole.
+    torsion : bool
+        Include twist (docs/torsion.md): the twist angles are quasi-static (massless), relaxed
+        by one Newton step on the angles at every time step, and their energy adds the
+        twisting force (eq. 3.19) to the points. The clips' v-axes set the held links' material
+        frames. About 2 ms per step: use it with a capped modulus and small n.
+    natural_twist : float
+        Natural twist of the cable [rad] (with ``torsion``).
     """
     x = as_shape(initial_shape, cable.n_points, "initial_shape").copy()
     if not (math.isfinite(duration) and duration > 0):
@@ -211,39 +219,55 @@ def simulate(
     times, shapes, speeds = [0.0], [x.copy()], [0.0]
     previous_held = trajectory.held_points(np.array([0.0]), cable.rest_link_length)[0]
     x[held] = previous_held
+    twist = None
+    if torsion:
+        from .torsion import QuasiStaticTwist
+
+        twist = QuasiStaticTwist(cable, x, trajectory.frames(np.array([0.0]))[1][0],
+                                 natural_twist)
+        chain = twist.chain_for(chain)
     settled = False
     step = 0
-    while step < n_steps and not settled:
-        chunk_steps = np.arange(step + 1, min(step + _CHUNK, n_steps) + 1)
-        targets = trajectory.held_points(chunk_steps * dt, cable.rest_link_length)
-        for k, target in enumerate(targets):
-            drag = _relative_velocities(v) if relative else v
-            a = (-gradient(chain, x) - k_d * drag) / mass
-            v += a * dt
-            x += v * dt
-            v[held] = (target - previous_held) / dt
-            x[held] = target
-            previous_held = target
-            if ground:
-                below = x[:, 2] < 0.0
-                x[below, 2] = 0.0
-                v[below, 2] = np.maximum(v[below, 2], 0.0)
-            step = int(chunk_steps[k])
-            if step % record_every == 0 or step == n_steps:
-                speed = float(np.max(np.linalg.norm(v, axis=1)))
-                times.append(step * dt)
-                shapes.append(x.copy())
-                speeds.append(speed)
-                # at rest: slow, and not about to speed up within one record interval
-                pull = float(np.max(np.linalg.norm(a[2:-2], axis=1))) * record_every * dt
-                if (rest_speed is not None and step * dt >= clips_stop
-                        and max(speed, pull) < rest_speed):
-                    settled = True
-                    break
-            if not np.all(np.isfinite(x[2])):
-                raise FloatingPointError(
-                    f"simulation diverged at t = {step * dt:.4g} s (dt = {dt:.3g} s too large)"
-                )
+    # a diverging run is detected in the loop and reported with its time: no float warnings
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        while step < n_steps and not settled:
+            chunk_steps = np.arange(step + 1, min(step + _CHUNK, n_steps) + 1)
+            targets = trajectory.held_points(chunk_steps * dt, cable.rest_link_length)
+            clip_frames = trajectory.frames(chunk_steps * dt)[1] if twist is not None else None
+            for k, target in enumerate(targets):
+                drag = _relative_velocities(v) if relative else v
+                grad = gradient(chain, x)
+                if twist is not None:
+                    grad = grad + twist.relax(x)
+                a = (-grad - k_d * drag) / mass
+                v += a * dt
+                x_old = x.copy() if twist is not None else None
+                x += v * dt
+                v[held] = (target - previous_held) / dt
+                x[held] = target
+                previous_held = target
+                if twist is not None:
+                    twist.follow(x_old, x, clip_frames[k])
+                if ground:
+                    below = x[:, 2] < 0.0
+                    x[below, 2] = 0.0
+                    v[below, 2] = np.maximum(v[below, 2], 0.0)
+                step = int(chunk_steps[k])
+                if step % record_every == 0 or step == n_steps:
+                    speed = float(np.max(np.linalg.norm(v, axis=1)))
+                    times.append(step * dt)
+                    shapes.append(x.copy())
+                    speeds.append(speed)
+                    # at rest: slow, and not about to speed up within one record interval
+                    pull = float(np.max(np.linalg.norm(a[2:-2], axis=1))) * record_every * dt
+                    if (rest_speed is not None and step * dt >= clips_stop
+                            and max(speed, pull) < rest_speed):
+                        settled = True
+                        break
+                if not np.all(np.isfinite(x[2])):
+                    raise FloatingPointError(
+                        f"simulation diverged at t = {step * dt:.4g} s (dt = {dt:.3g} s too large)"
+                    )
     if settled:
         message = f"at rest after {step} steps ({step * dt:.4g} s)"
     else:

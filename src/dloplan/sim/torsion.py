@@ -27,6 +27,7 @@ from dataclasses import dataclass, field, fields, replace
 from functools import lru_cache
 
 import numpy as np
+import scipy.linalg as sla
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
@@ -99,8 +100,7 @@ class TwistEquilibrium(Equilibrium):
 
 def clip_directors(clips: ClipPoses) -> np.ndarray:
     """The material directors m1 the clips set on the held links, (2, 3) (module docstring)."""
-    v = clips.rotations.apply([0.0, 1.0, 0.0])
-    return np.stack([v[0], -v[1]])
+    return _held_directors(clips.rotations.as_matrix())
 
 
 def rest_clip_poses(cable: Cable, natural_twist: float = 0.0) -> ClipPoses:
@@ -333,6 +333,77 @@ def equilibrium_with_twist(
         twist_energy=td.twist_energy,
         k_twist=tc.k_twist,
     )
+
+
+class QuasiStaticTwist:
+    """Twist in the dynamic simulator: massless twist angles carried along the moving cable.
+
+    The material directors are transported with the links from step to step (parallel
+    transport in time) and, at every step, the free links' angles take one Newton step toward
+    the minimum of U^t + U^d for the current points (the angles have no inertia); the position
+    gradient of that energy is the twisting force of eq. 3.19 on the points.
+
+    Parameters
+    ----------
+    cable : Cable
+        The cable.
+    x : numpy.ndarray
+        (n + 1, 3) initial shape [m].
+    clip_matrices : numpy.ndarray
+        (2, 3, 3) initial ``clip_to_world`` matrices (their v-axes set the held directors).
+    natural_twist : float
+        Natural twist [rad].
+    """
+
+    def __init__(self, cable: Cable, x: np.ndarray, clip_matrices: np.ndarray,
+                 natural_twist: float = 0.0) -> None:
+        self.twist_chain = TwistChain.from_cable(cable, natural_twist)
+        self.directors = initial_directors(x, _held_directors(clip_matrices),
+                                           self.twist_chain.rest_twist)
+
+    def chain_for(self, chain: SpringChain) -> SpringChain:
+        """The spring chain to use with it (the directional term replaces rest angles)."""
+        if self.twist_chain.directional:
+            return replace(chain, rest_angles=np.zeros_like(chain.rest_angles))
+        return chain
+
+    def relax(self, x: np.ndarray) -> np.ndarray:
+        """Relax the free angles for points ``x``; returns d(U^t + U^d)/dx (n + 1, 3) [N]."""
+        d1 = self.directors
+        n = len(d1)
+        t = tangents(x)
+        td = twist_derivatives(self.twist_chain, x, t, d1, np.zeros(n))
+        diagonal = np.zeros(n)
+        diagonal[:-1] += td.blocks[:, 3, 3]
+        diagonal[1:] += td.blocks[:, 7, 7]
+        off = td.blocks[:, 7, 3]
+        band = np.zeros((2, n - 2))
+        band[0] = diagonal[1:-1]
+        band[1, :-1] = off[1:-1]
+        band[0] += 1e-12 * max(float(np.max(np.abs(band[0]))), 1e-300)
+        try:
+            step = sla.solveh_banded(band, -td.angle_gradient[1:-1], lower=True,
+                                     check_finite=False)
+        except np.linalg.LinAlgError:  # not convex in the angles here: a gradient step
+            step = -td.angle_gradient[1:-1] / np.maximum(band[0], 1e-300)
+        angles = np.zeros(n)
+        angles[1:-1] = step
+        self.directors = _orthonormal(chart_directors(x, t, d1, angles), t)
+        self.directors[[0, -1]] = d1[[0, -1]]
+        return td.twist_gradient + td.direction_gradient
+
+    def follow(self, x_old: np.ndarray, x_new: np.ndarray, clip_matrices: np.ndarray) -> None:
+        """Carry the directors from the links of ``x_old`` to those of ``x_new``."""
+        t_new = tangents(x_new)
+        moved = parallel_transport(self.directors, tangents(x_old), t_new)
+        self.directors = _orthonormal(moved, t_new)
+        self.directors[[0, -1]] = _held_directors(clip_matrices)
+
+
+def _held_directors(clip_matrices: np.ndarray) -> np.ndarray:
+    """The held links' directors from two clip frames: v of the first, -v of the last."""
+    v = np.asarray(clip_matrices)[:, :, 1]
+    return np.stack([v[0], -v[1]])
 
 
 @dataclass(frozen=True, eq=False)

@@ -130,6 +130,7 @@ def replay(
     youngs_modulus_cap: float | None = None,
     max_steps: int = 10_000_000,
     damping: str = "relative",
+    torsion: bool = False,
 ) -> Replay:
     """Simulate the timed plan at its real speed and compare with the planned shapes.
 
@@ -162,6 +163,10 @@ def replay(
         only relative motion of neighbouring points: the thesis' absolute damping is a drag
         larger than a light cable's weight at 0.1 m/s, which would make the cable lag behind
         the grippers by centimetres for no physical reason.
+
+    torsion : bool
+        Simulate with twist (quasi-static angles, :func:`dloplan.sim.dynamics.simulate`): the
+        gripper frames then matter, not only the held links' directions. Slower (~2 ms/step).
 
     Returns
     -------
@@ -201,7 +206,7 @@ def replay(
     run = simulate(
         cable, path[0], shifted, duration=duration, dt=dt, youngs_modulus_cap=youngs_modulus_cap,
         gravity=gravity, record_interval=record, rest_speed=rest_speed, max_steps=max_steps,
-        damping=damping,
+        damping=damping, torsion=torsion,
     )
     deviations = np.array([_deviation_at(run, t, x) for t, x in zip(knots, path, strict=True)])
     final = float(np.max(np.linalg.norm(run.shapes[-1] - path[-1], axis=1)))
