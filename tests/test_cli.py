@@ -215,3 +215,14 @@ def test_an_unreadable_scenario_file(tmp_path, capsys):
     assert main(["plan", str(tmp_path / "missing.yaml"), "-o", str(tmp_path / "out")]) == 2
     assert "cannot read" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+def test_planner_family_and_weight_overrides(tmp_path, capsys):
+    data = {**STIFF, "planner": {"n_shapes": 2, "family": "soft",
+                                 "weights": {"advanced": {"clip": 0.02}}}, "outputs": ["json"]}
+    assert main(["plan", str(write(tmp_path, data)), "-o", str(tmp_path / "a"), "-q"]) in (
+        EXIT_OK, EXIT_WARNINGS)
+    bad = {**data, "planner": {"weights": {"advanced": {"stretchiness": 1.0}}}}
+    assert main(["plan", str(write(tmp_path, bad, "bad.yaml")), "-o", str(tmp_path / "b"),
+                 "-q"]) == EXIT_FAILURE
+    assert "stretchiness" in capsys.readouterr().err

@@ -250,7 +250,11 @@ def plan_job(job: Job, *, verify: bool = False, progress=lambda text: None) -> P
     progress(target_check.message)
 
     t0 = time.perf_counter()
-    options = {"weights": spec.planner.weights or None}
+    from .planning.tuning import planner_weights
+
+    family = None if spec.planner.family == "auto" else spec.planner.family
+    options = {"weights": planner_weights(cable, family=family,
+                                          overrides=spec.planner.weights or None)}
     if spec.planner.physical_mode is not None:
         options["physical_mode"] = spec.planner.physical_mode
     result = plan(cable, start, target, spec.planner.n_shapes, obstacles=job.obstacles,

@@ -209,15 +209,24 @@ class PlannerSpec(_Model):
 
     n_shapes: int = Field(5, ge=1, le=500, description="S, intermediate shapes")
     physical_mode: Literal["thesis", "equilibrium"] | None = None
-    family: Literal["auto", "soft", "medium", "stiff"] = "auto"
-    weights: dict[str, float] = Field(default_factory=dict)
+    family: Literal["auto", "soft", "medium", "stiff"] = Field(
+        "auto", description="stiffness family of the physical weights (auto: from E)"
+    )
+    weights: dict[Literal["basic", "advanced", "physical"], dict[str, float]] = Field(
+        default_factory=dict,
+        description="weight overrides per stage, e.g. {advanced: {clip: 0.02}, physical: "
+                    "{bending: 1000}} (docs/planner.md)",
+    )
 
     @field_validator("weights")
     @classmethod
     def _weights(cls, v):
-        for key, value in v.items():
-            if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"weight {key} = {value!r}, expected a finite number >= 0")
+        for stage, values in v.items():
+            for key, value in values.items():
+                if not (math.isfinite(value) and value >= 0):
+                    raise ValueError(
+                        f"weight {stage}.{key} = {value!r}, expected a finite number >= 0"
+                    )
         return v
 
 
