@@ -148,6 +148,7 @@ def path_figure(
         ax.grid(alpha=0.3)
     side.legend(loc="best")
     fig.suptitle(title)
+    fig.subplots_adjust(wspace=0.35)
     return fig
 
 
