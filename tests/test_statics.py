@@ -232,3 +232,14 @@ def test_a_plate_holds_the_cable_up():
     mid = held.shape[cable.n_links // 2]
     assert mid[2] == pytest.approx(0.02 + cable.diameter / 2, abs=2e-4)
     assert free.shape[:, 2].min() < 0.0
+
+
+def test_clip_wrenches_of_a_stabilized_shape_match_the_equilibrium():
+    from dloplan.sim import clip_wrenches
+
+    cable = catalogue_cable("ethernet", n_links=20)
+    eq = equilibrium(cable, sagging_guess(cable, 0.4), level_clips(0.4))
+    wrenches = clip_wrenches(cable, eq.shape)
+    assert np.allclose(wrenches, eq.clip_wrenches, atol=1e-9)
+    # the clips carry the whole weight between them
+    assert wrenches[:, 2].sum() == pytest.approx(-cable.mass * 9.81, rel=1e-6)

@@ -16,7 +16,7 @@ from .io.scenario import Job
 from .obstacles.collisions import check_shape
 from .physics.geometry import as_shape, resample_by_arc_length, shape_length
 from .sim.clips import clip_poses_from_shape
-from .sim.statics import check_clip_reach, check_target, stabilize
+from .sim.statics import check_clip_reach, check_target, clip_wrenches, stabilize
 
 LENGTH_TOLERANCE = 0.05
 """Relative difference between a given shape's length and the cable's accepted at the input."""
@@ -332,6 +332,8 @@ def plan_extra(outcome: PlanOutcome) -> dict:
                          "threshold": outcome.target_check.threshold,
                          "message": outcome.target_check.message},
         "timings": {**outcome.timings, **{f"plan.{k}": v for k, v in result.timings.items()}},
+        "clip_wrenches": [clip_wrenches(result.cable, shape).tolist()
+                          for shape in result.stabilized],
         "gripper_relative_twist": outcome.grippers.twist.tolist(),
         "twist": {"twist": outcome.twist.twist.tolist(),
                   "relative_twist": outcome.twist.relative_twist.tolist(),
@@ -436,12 +438,16 @@ def write_plan_report(outcome: PlanOutcome, path, images=()):
     ]
     if result.avoidance is not None:
         summary.append(f"obstacles: {result.avoidance.message}")
+    wrenches = [clip_wrenches(cable, shape) for shape in result.stabilized]
     tables = [("Shapes", ["shape", "length [m]", "max |F_axial| [N]", "max |F_bending| [N]",
-                          "stabilization moves [mm]"],
+                          "stabilization moves [mm]", "force on clips [N]",
+                          "moment on clips [N m]"],
                [[k, f"{result.lengths[2][k]:.4f}",
                  f"{np.linalg.norm(result.axial_forces[2][k], axis=1).max():.3g}",
                  f"{np.linalg.norm(result.bending_forces[2][k], axis=1).max():.3g}",
-                 f"{1e3 * np.linalg.norm(result.stabilized[k] - result.path[k], axis=1).max():.1f}"]
+                 f"{1e3 * np.linalg.norm(result.stabilized[k] - result.path[k], axis=1).max():.1f}",
+                 " / ".join(f"{np.linalg.norm(w[:3]):.3g}" for w in wrenches[k]),
+                 " / ".join(f"{np.linalg.norm(w[3:]):.3g}" for w in wrenches[k])]
                 for k in range(len(result.path))])]
     if outcome.verification is not None:
         rows = outcome.verification.to_dict()["rows"]

@@ -539,6 +539,17 @@ def _result(cable, chain, x, g, clips, iterations, converged, residual, toleranc
     )
 
 
+def clip_wrenches(cable: Cable, shape, gravity=GRAVITY) -> np.ndarray:
+    """Force [N] and moment [N m] a held shape puts on each clip, (2, 6), world frame.
+
+    The reactions of the held points, as in :attr:`Equilibrium.clip_wrenches`, for a shape
+    that is an equilibrium (e.g. a stabilized one); the moment is about each clip point.
+    """
+    x = as_shape(shape, cable.n_points, "shape")
+    chain = SpringChain.from_cable(cable, gravity)
+    return _clip_wrenches(x, gradient(chain, x), clip_poses_from_shape(x), "both")
+
+
 def free_hessian(cable: Cable, shape, gravity=GRAVITY) -> sp.csr_matrix:
     """Sparse Hessian of the energy over the free coordinates (points 2 .. n-2) [N/m].
 
