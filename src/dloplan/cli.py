@@ -335,6 +335,9 @@ def plan_file(options: dict, path: str) -> tuple[str, int, str]:
     folder = Path(options["output"]) / Path(path).stem
     try:
         data = read_mapping(path)
+        if "start" not in data and "identify" in data:
+            return path, EXIT_WARNINGS, f"{path}: skipped (an identification file: use " \
+                "dloplan identify)"
         if is_harness(data):
             result = plan_harness_file(data, path, folder)[0]
             ok, warnings = result.success, result.warnings
