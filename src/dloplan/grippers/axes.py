@@ -10,45 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..physics.geometry import as_path
+
 CLIP_NAMES = ("first", "last")
 """Names of the two clips, in the order of every (..., 2, ...) clip axis."""
 
 ZERO_LINK_TOLERANCE = 1e-9
 """An end link shorter than this fraction of the shape's mean link length counts as zero."""
-
-
-def as_path(path, name: str = "path") -> np.ndarray:
-    """Validate and convert a path of shapes to float64 (S + 2, n + 1, 3) [m].
-
-    Parameters
-    ----------
-    path : array_like
-        (n_shapes, n_points, 3) positions [m]; a single shape (n_points, 3) is a path of one.
-    name : str
-        The argument's name, used in error messages.
-
-    Raises
-    ------
-    ValueError
-        Naming ``name`` for a wrong array shape, fewer than 2 points per shape or non-finite
-        coordinates.
-    """
-    try:
-        arr = np.asarray(path, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: expected an array of shapes, got {type(path).__name__}") from exc
-    if arr.ndim == 2:
-        arr = arr[None]
-    if arr.ndim != 3 or arr.shape[2] != 3 or arr.shape[0] < 1:
-        raise ValueError(f"{name}: expected shape (n_shapes, n_points, 3), got {arr.shape}")
-    if arr.shape[1] < 2:
-        raise ValueError(f"{name}: {arr.shape[1]} points per shape, need at least 2")
-    if not np.all(np.isfinite(arr)):
-        shape_index, point = np.argwhere(~np.isfinite(arr))[0, :2]
-        raise ValueError(
-            f"{name}: shape {shape_index}, point {point} has a non-finite coordinate (NaN or inf)"
-        )
-    return arr
 
 
 def clip_axes(path) -> tuple[np.ndarray, np.ndarray]:

@@ -22,7 +22,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..frames import UP, frame_from_axis, minimal_rotation
-from .axes import CLIP_NAMES, as_path, clip_axes
+from ..physics.geometry import as_path
+from .axes import CLIP_NAMES, clip_axes
 
 ROTATION_TOLERANCE = 1e-6
 """Largest |R^T R - I| and |det R - 1| accepted for a user-given frame matrix."""

@@ -26,8 +26,9 @@ import yaml
 from scipy.spatial.transform import Rotation
 
 from ..cable import Cable
-from ..grippers.axes import CLIP_NAMES, as_path
+from ..grippers.axes import CLIP_NAMES
 from ..grippers.path import GripperPath
+from ..physics.geometry import as_path
 from ..trajectory import ARMS, Trajectory
 from .files import atomic_write_text
 from .poses import (
@@ -177,7 +178,7 @@ def plan_document(
     if not isinstance(cable, Cable):
         raise ValueError(f"cable: expected a Cable, got {type(cable).__name__}")
     frame_id = _check_frame_id(frame_id)
-    x = as_path(shapes, "shapes")
+    x = as_path(shapes, name="shapes")
     if x.shape[1] != cable.n_points:
         raise ValueError(
             f"shapes: {x.shape[1]} points per shape, expected cable.n_points = {cable.n_points}"
@@ -331,7 +332,7 @@ def plan_from_document(doc: dict) -> PlanDocument:
         cable = Cable(**cable_fields)
     except TypeError as exc:
         raise ValueError(f"plan.cable: {exc}") from exc
-    shapes = as_path(_get(doc, "shapes", "plan", list), "plan.shapes")
+    shapes = as_path(_get(doc, "shapes", "plan", list), name="plan.shapes")
     grippers = doc.get("grippers")
     trajectory = doc.get("trajectory")
     warnings = _get(doc, "warnings", "plan", list)

@@ -46,6 +46,45 @@ def as_shape(points, n_points: int | None = None, name: str = "shape") -> np.nda
     return arr
 
 
+def as_path(path, n_points: int | None = None, name: str = "path") -> np.ndarray:
+    """Validate and convert a path of shapes to float64 (n_shapes, n_points, 3) [m].
+
+    Parameters
+    ----------
+    path : array_like
+        (n_shapes, n_points, 3) positions [m]; a single shape (n_points, 3) is a path of one.
+    n_points : int, optional
+        The number of points every shape must have (n_links + 1).
+    name : str
+        The argument's name, used in error messages.
+
+    Raises
+    ------
+    ValueError
+        Naming ``name`` for a wrong array shape, a wrong or too small number of points per
+        shape, or non-finite coordinates (with the shape and point).
+    """
+    try:
+        arr = np.asarray(path, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: expected an array of shapes, got {type(path).__name__}") from exc
+    if arr.ndim == 2:
+        arr = arr[None]
+    if arr.ndim != 3 or arr.shape[2] != 3 or arr.shape[0] < 1:
+        raise ValueError(f"{name}: expected shape (n_shapes, n_points, 3), got {arr.shape}")
+    if n_points is not None and arr.shape[1] != n_points:
+        raise ValueError(f"{name}: {arr.shape[1]} points per shape, expected {n_points} "
+                         f"(n_links + 1)")
+    if arr.shape[1] < 2:
+        raise ValueError(f"{name}: {arr.shape[1]} points per shape, need at least 2")
+    if not np.all(np.isfinite(arr)):
+        shape_index, point = np.argwhere(~np.isfinite(arr))[0, :2]
+        raise ValueError(
+            f"{name}: shape {shape_index}, point {point} has a non-finite coordinate (NaN or inf)"
+        )
+    return arr
+
+
 def link_vectors(x: np.ndarray) -> np.ndarray:
     """Link vectors e_i = x_i - x_{i-1} [m], shape (..., n, 3)."""
     return np.diff(x, axis=-2)

@@ -9,25 +9,6 @@ import numpy as np
 from ..sim.clips import ClipPoses, clip_poses_from_shape
 
 
-def as_path(shapes, n_points: int, name: str = "shapes") -> np.ndarray:
-    """A path as a float array (n_shapes, n + 1, 3) of finite positions [m]."""
-    try:
-        arr = np.asarray(shapes, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(
-            f"{name}: expected an array of shapes, got {type(shapes).__name__}"
-        ) from exc
-    if arr.ndim != 3 or arr.shape[1:] != (n_points, 3) or arr.shape[0] < 1:
-        raise ValueError(
-            f"{name}: got shape {arr.shape}, expected (n_shapes, {n_points}, 3) "
-            f"(n_links + 1 = {n_points} points per shape)"
-        )
-    if not np.all(np.isfinite(arr)):
-        bad = int(np.argwhere(~np.isfinite(arr))[0, 0])
-        raise ValueError(f"{name}: shape {bad} has a non-finite coordinate (NaN or inf)")
-    return arr
-
-
 def as_clip_sequence(
     clip_poses: Sequence[ClipPoses] | None, path: np.ndarray, name: str = "clip_poses"
 ) -> list[ClipPoses]:

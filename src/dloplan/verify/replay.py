@@ -28,9 +28,10 @@ import numpy as np
 
 from ..cable import GRAVITY, Cable
 from ..physics.chain import SpringChain, link_tensions
+from ..physics.geometry import as_path
 from ..sim.clips import ClipPoses
 from ..sim.dynamics import ClipTrajectory, Simulation, simulate
-from ._inputs import as_path, as_times
+from ._inputs import as_times
 
 MAX_RECORDS = 100_000
 """Upper bound on the number of recorded shapes of one replay."""

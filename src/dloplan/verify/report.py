@@ -22,8 +22,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 
 from ..cable import GRAVITY, Cable
+from ..physics.geometry import as_path
 from ..sim.clips import ClipPoses
-from ._inputs import as_clip_sequence, as_path
+from ._inputs import as_clip_sequence
 from .replay import Replay, replay
 from .snap import SnapCheck, check_snap_through
 from .stability import Stability, path_stability

@@ -59,9 +59,10 @@ from scipy.optimize import minimize_scalar
 
 from ..cable import GRAVITY, Cable
 from ..physics.chain import SpringChain
+from ..physics.geometry import as_path
 from ..sim.clips import ClipPoses
 from ..sim.statics import equilibrium, interpolate_clips
-from ._inputs import as_clip_sequence, as_path, max_distance
+from ._inputs import as_clip_sequence, max_distance
 from .stability import STABILITY_RTOL, elastic_stability
 
 CRITICAL = 0.1

@@ -48,9 +48,8 @@ import scipy.sparse.linalg as spla
 
 from ..cable import GRAVITY, Cable
 from ..physics.chain import HALF_BANDWIDTH, SpringChain, gradient
-from ..physics.geometry import as_shape
+from ..physics.geometry import as_path, as_shape
 from ..sim.statics import force_scale, free_hessian
-from ._inputs import as_path
 
 STABILITY_RTOL = 1e-6
 """Default relative tolerance on the smallest eigenvalue, against :func:`stiffness_scale`."""
