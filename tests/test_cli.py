@@ -196,6 +196,9 @@ def test_simulate_and_verify_a_plan(tmp_path, capsys):
     assert json.loads(capsys.readouterr().out)["ok"]
     assert main(["verify", str(out / "plan.json"), "-q", "--json", "--no-replay"]) == EXIT_OK
     assert json.loads(capsys.readouterr().out)["ok"]
+    assert main(["verify", str(out / "plan.json"), "-q", "--no-replay", "--no-snap",
+                 "--place"]) == EXIT_OK
+    assert "placement: offset" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("data, fragment", BAD, ids=[f"bad{k}" for k in range(len(BAD))])

@@ -124,6 +124,14 @@ def _cmd_verify(args: argparse.Namespace) -> int:
                              robot=not args.no_robot)
     console.stage("done: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
     print(json.dumps(result.to_dict(), indent=2) if args.json else result.table())
+    if args.place and doc.grippers is not None:
+        from scipy.spatial.transform import Rotation
+
+        from .robot import search_placement
+
+        placement = search_placement(doc.grippers.positions,
+                                     Rotation.from_matrix(doc.grippers.matrices))
+        print(f"placement: {placement.message}")
     return EXIT_OK if result.ok else EXIT_FAILURE
 
 
@@ -510,6 +518,9 @@ def build_parser() -> argparse.ArgumentParser:
     verify.add_argument("--no-snap", action="store_true", help="skip the snap-through check")
     verify.add_argument("--no-replay", action="store_true", help="skip the dynamic replay")
     verify.add_argument("--no-robot", action="store_true", help="skip the YuMi reachability")
+    verify.add_argument("--place", action="store_true",
+                        help="search an offset of the whole job on the table where every pose "
+                        "is reachable")
     verify.add_argument("--tensile-limit", type=float, help="largest axial force [N]")
     verify.add_argument("--tolerance", type=float, default=0.01,
                         help="largest replay deviation accepted [m]")
