@@ -229,3 +229,14 @@ def test_planner_family_and_weight_overrides(tmp_path, capsys):
     assert main(["plan", str(write(tmp_path, bad, "bad.yaml")), "-o", str(tmp_path / "b"),
                  "-q"]) == EXIT_FAILURE
     assert "stretchiness" in capsys.readouterr().err
+
+
+def test_check_a_harness_board(tmp_path, capsys):
+    example = Path(__file__).parents[1] / "examples" / "harness_usb.yaml"
+    assert main(["check", str(example)]) == EXIT_OK
+    assert "board" in capsys.readouterr().out
+    far = tmp_path / "far.yaml"
+    far.write_text(example.read_text().replace("position: [0.50, 0.15, 0.0315]",
+                                               "position: [0.50, 0.45, 0.0315]"))
+    assert main(["check", str(far)]) == EXIT_FAILURE
+    assert "out of reach" in capsys.readouterr().err
