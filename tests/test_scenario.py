@@ -138,3 +138,14 @@ def test_unreadable_files(tmp_path, text, suffix, fragment):
         load_scenario(path)
     with pytest.raises(ScenarioError, match="cannot read"):
         load_scenario(tmp_path / "missing.yaml")
+
+
+def test_check_defaults_are_the_thesis_lengths_whatever_the_units():
+    metres = resolve(parse_scenario(BASE))
+    millimetres = resolve(parse_scenario(with_("units", "mm") | {
+        "cable": {"name": "ethernet", "length": 500, "diameter": 5}}))
+    for job in (metres, millimetres):
+        assert job.scenario.check.lengths(job.scale) == pytest.approx((0.01, 0.02))
+    given = resolve(parse_scenario(with_("units", "mm") | {
+        "cable": {"name": "ethernet", "length": 500}, "check": {"threshold": 5}}))
+    assert given.scenario.check.lengths(given.scale) == pytest.approx((0.005, 0.02))

@@ -91,7 +91,7 @@ def check_job(job: Job) -> CheckReport:
         except ValueError as exc:
             findings.append(Finding("error", name, str(exc)))
             shapes.pop(name)
-    threshold = job.scenario.check.threshold * job.scale
+    threshold = job.scenario.check.lengths(job.scale)[0]
     settled = {}
     for name, shape in shapes.items():
         report = check_target(shape, cable, threshold=threshold)
@@ -237,7 +237,7 @@ def plan_job(job: Job, *, verify: bool = False, progress=lambda text: None) -> P
     t0 = time.perf_counter()
     start = discretize(job.start, cable, "start")
     target = discretize(job.target, cable, "target")
-    threshold = spec.check.threshold * job.scale
+    threshold, z_safety = spec.check.lengths(job.scale)
     target_check = check_target(target, cable, threshold=threshold)
     if job.obstacles:  # an end that collides cannot be planned around (thesis 5.4.3)
         ends = {"start": stabilize(start, cable).shape, "target": target_check.stabilized.shape}
@@ -258,7 +258,7 @@ def plan_job(job: Job, *, verify: bool = False, progress=lambda text: None) -> P
     if spec.planner.physical_mode is not None:
         options["physical_mode"] = spec.planner.physical_mode
     result = plan(cable, start, target, spec.planner.n_shapes, obstacles=job.obstacles,
-                  z_safety=spec.check.z_safety * job.scale, max_rounds=spec.check.max_rounds,
+                  z_safety=z_safety, max_rounds=spec.check.max_rounds,
                   **options)
     timings["plan"] = time.perf_counter() - t0
     stage_times = ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items() if k != "total")

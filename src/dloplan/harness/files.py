@@ -109,7 +109,7 @@ def resolve_harness(scenario: HarnessScenario, source: str = "harness scenario")
         max_angular_speed=scenario.trajectory.angular_speed,
         gripper_method=scenario.grippers.method,
         physical_mode=scenario.planner.physical_mode or "equilibrium",
-        z_safety=scenario.check.z_safety * scale, max_rounds=scenario.check.max_rounds,
+        z_safety=scenario.check.lengths(scale)[1], max_rounds=scenario.check.max_rounds,
     )
     return HarnessJob(scenario, cable, start, board, settings, source)
 

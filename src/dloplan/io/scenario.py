@@ -256,9 +256,22 @@ class TrajectorySpec(_Model):
 class CheckSpec(_Model):
     """Target stability check (thesis 5.3) and obstacle avoidance (5.4) settings."""
 
-    threshold: PositiveLength = Field(0.01, description="T_cf [file units]")
-    z_safety: float = Field(0.02, ge=0, allow_inf_nan=False, description="[file units]")
+    threshold: PositiveLength | None = Field(None, description="T_cf [file units]; 1 cm")
+    z_safety: float | None = Field(None, ge=0, allow_inf_nan=False,
+                                   description="lift safety [file units]; 2 cm")
     max_rounds: int = Field(5, ge=0, le=50)
+
+    def lengths(self, scale: float) -> tuple[float, float]:
+        """(T_cf, z_safety) [m]: the file's values times ``scale``, or the thesis' defaults."""
+        threshold = DEFAULT_THRESHOLD if self.threshold is None else self.threshold * scale
+        z_safety = DEFAULT_Z_SAFETY if self.z_safety is None else self.z_safety * scale
+        return threshold, z_safety
+
+
+DEFAULT_THRESHOLD = 0.01
+"""Default T_cf [m] of the target stability check (thesis 5.3)."""
+DEFAULT_Z_SAFETY = 0.02
+"""Default safety offset [m] of the obstacle lift (thesis 5.4.3)."""
 
 
 class TableSpec(_Model):
