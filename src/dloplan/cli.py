@@ -393,7 +393,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
     job, spec = load_study(args.scenario)
     update = {k: v for k, v in (("samples", args.samples), ("seed", args.seed)) if v is not None}
     spec = spec.model_copy(update=update) if update else spec
-    from .jobs import discretize
+    from .shapes import discretize
 
     planned = plan(job.cable, discretize(job.start, job.cable, "start"),
                    discretize(job.target, job.cable, "target"), job.scenario.planner.n_shapes)

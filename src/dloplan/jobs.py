@@ -11,15 +11,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .cable import Cable
 from .io.scenario import Job
 from .obstacles.collisions import check_shape
-from .physics.geometry import as_shape, resample_by_arc_length, shape_length
+from .shapes import discretize
 from .sim.clips import clip_poses_from_shape
 from .sim.statics import check_clip_reach, check_target, clip_wrenches, stabilize
-
-LENGTH_TOLERANCE = 0.05
-"""Relative difference between a given shape's length and the cable's accepted at the input."""
 
 
 @dataclass(frozen=True)
@@ -48,25 +44,6 @@ class CheckReport:
     @property
     def warnings(self) -> list[Finding]:
         return [f for f in self.findings if f.level == "warning"]
-
-
-def discretize(points, cable: Cable, name: str) -> np.ndarray:
-    """A given shape as n + 1 points of the cable: resampled by arc length, length checked.
-
-    Raises ValueError when its length differs from the cable's by more than
-    :data:`LENGTH_TOLERANCE`.
-    """
-    x = as_shape(points, name=name)
-    length = float(shape_length(x))
-    if abs(length / cable.length - 1.0) > LENGTH_TOLERANCE:
-        hint = " (given in millimetres?)" if 500 < length / cable.length < 2000 else ""
-        raise ValueError(
-            f"{name}: the shape is {length:.4g} m long but the cable is {cable.length:.4g} m"
-            f"{hint}; expected within {100 * LENGTH_TOLERANCE:.0f} %"
-        )
-    if len(x) != cable.n_points:
-        x = resample_by_arc_length(x, cable.n_points)
-    return x
 
 
 def check_job(job: Job) -> CheckReport:

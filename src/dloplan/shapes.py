@@ -15,6 +15,8 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation
 
+from .physics.geometry import as_shape, resample_by_arc_length, shape_length
+
 
 def _check(length: float, n_links: int) -> None:
     if not (math.isfinite(length) and length > 0):
@@ -114,6 +116,53 @@ def _walk_chords(curve: np.ndarray, link: float, n_links: int) -> tuple[np.ndarr
     past = float(np.dot(out[-1] - end, curve[-1] - curve[-2]))
     miss = np.linalg.norm(out[-1] - end) * (1.0 if past > 0 else -1.0)
     return out, float(miss)
+
+
+LENGTH_TOLERANCE = 0.05
+"""Relative difference between a given shape's length and the cable's accepted at the input."""
+
+
+def discretize(points, cable, name: str = "shape",
+               length_tolerance: float = LENGTH_TOLERANCE) -> np.ndarray:
+    """A user's shape as the cable's n + 1 points [m].
+
+    (k, 2) x-z shapes are lifted to 3D, other point counts resampled by arc length, and the
+    length checked against the cable's.
+
+    Parameters
+    ----------
+    points : array_like
+        (k, 3) or (k, 2) points [m], k >= 2.
+    cable : Cable
+        The cable (its n_links and length).
+    name : str
+        The argument's name, used in error messages.
+    length_tolerance : float
+        Accepted relative difference between the shape's length and the cable's.
+
+    Raises
+    ------
+    ValueError
+        Naming ``name`` for a malformed array, coincident consecutive points, or a length off
+        by more than ``length_tolerance`` (with a hint when it is about 1000 times off: a shape
+        given in millimetres).
+    """
+    x = as_shape(points, name=name)
+    if x.shape[0] != cable.n_points:
+        if shape_length(x) <= 0.0:
+            raise ValueError(f"{name}: the polyline has zero length")
+        x = resample_by_arc_length(x, cable.n_points)
+    if np.any(np.linalg.norm(np.diff(x, axis=0), axis=1) <= 1e-9 * cable.length):
+        raise ValueError(f"{name}: two consecutive points coincide (a zero-length link)")
+    length = float(shape_length(x))
+    ratio = length / cable.length
+    if abs(ratio - 1.0) > length_tolerance:
+        hint = " (given in millimetres?)" if 500 < ratio < 2000 else ""
+        raise ValueError(
+            f"{name}: the shape is {length:.4g} m long but the cable is {cable.length:.4g} m"
+            f"{hint}; expected within {100 * length_tolerance:g} % (length_tolerance)"
+        )
+    return x
 
 
 def place(shape, position=(0.0, 0.0, 0.0), rotation: Rotation | None = None) -> np.ndarray:

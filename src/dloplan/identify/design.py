@@ -166,7 +166,7 @@ def assess_manipulation(
     """
     if not (math.isfinite(noise) and noise > 0):
         raise ValueError(f"noise: got {noise!r}, expected a distance > 0 [m]")
-    from ..jobs import discretize
+    from ..shapes import discretize
 
     initial = discretize(manipulation.initial_shape, cable, "initial_shape")
     run = run_manipulation(cable, manipulation, initial)
@@ -220,7 +220,7 @@ def synthetic_experiment(
     """
     if not (math.isfinite(noise) and noise >= 0):
         raise ValueError(f"noise: got {noise!r}, expected a distance >= 0 [m]")
-    from ..jobs import discretize
+    from ..shapes import discretize
 
     initial = discretize(manipulation.initial_shape, cable, "initial_shape")
     run = run_manipulation(cable, manipulation, initial)

@@ -153,7 +153,7 @@ def prepare_shapes(cable: Cable, experiment: Experiment) -> PreparedShapes:
     experiment : Experiment
         The experiment.
     """
-    from ..jobs import discretize  # lazily: jobs imports the scenario layer
+    from ..shapes import discretize
 
     manipulation = experiment.manipulation
     initial = discretize(manipulation.initial_shape, cable, "initial_shape")

@@ -6,7 +6,7 @@ stage; ``tuning`` holds the stiffness families and the weights of thesis Tables 
 
 from .geometric import StageStatus, advanced_path, basic_path
 from .physical import PHYSICAL_MODES, ShapeResult, minimize_shape, physical_stage, preprocess_target
-from .pipeline import plan, prepare_shape
+from .pipeline import plan
 from .result import STAGES, ForceStatistics, Plan
 from .tuning import (
     FAMILIES,
@@ -40,7 +40,6 @@ __all__ = [
     "physical_stage",
     "plan",
     "planner_weights",
-    "prepare_shape",
     "preprocess_target",
     "stiffness_family",
 ]

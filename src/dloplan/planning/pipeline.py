@@ -13,38 +13,12 @@ from collections.abc import Callable
 import numpy as np
 
 from ..cable import GRAVITY, Cable
-from ..physics.geometry import as_shape, resample_by_arc_length, shape_length
+from ..physics.geometry import shape_length
+from ..shapes import discretize
 from .geometric import StageStatus, advanced_path, basic_path
 from .physical import PHYSICAL_MODES, physical_stage, preprocess_target, reference_force
 from .result import STAGES, Plan, stage_forces
 from .tuning import FamilyBoundaries, PlannerWeights, planner_weights, stiffness_family
-
-
-def prepare_shape(points, cable: Cable, name: str, length_tolerance: float) -> np.ndarray:
-    """A user's shape as (n + 1, 3) points [m]: 2D (k, 2) x-z shapes lifted to 3D, other point
-    counts resampled by arc length, and its length checked against the cable's.
-
-    Raises
-    ------
-    ValueError
-        Naming ``name`` for a malformed array or a length off by more than
-        ``length_tolerance`` (relative).
-    """
-    x = as_shape(points, name=name)
-    if x.shape[0] != cable.n_points:
-        if shape_length(x) <= 0.0:
-            raise ValueError(f"{name}: the polyline has zero length")
-        x = resample_by_arc_length(x, cable.n_points)
-    if np.any(np.linalg.norm(np.diff(x, axis=0), axis=1) <= 1e-9 * cable.length):
-        raise ValueError(f"{name}: two consecutive points coincide (a zero-length link)")
-    length = float(shape_length(x))
-    if abs(length / cable.length - 1.0) > length_tolerance:
-        raise ValueError(
-            f"{name}: its length {length:.6g} m differs from the cable's {cable.length:.6g} m by "
-            f"{100 * abs(length / cable.length - 1):.2f} %, expected within "
-            f"{100 * length_tolerance:g} % (length_tolerance)"
-        )
-    return x
 
 
 def _resolve_weights(weights, cable: Cable, boundaries) -> PlannerWeights:
@@ -152,8 +126,8 @@ def plan(
     family = stiffness_family(cable.youngs_modulus, family_boundaries)
     weights = _resolve_weights(weights, cable, family_boundaries)
     force = reference_force(cable, gravity)
-    x_start = prepare_shape(start, cable, "start", length_tolerance)
-    proposed = prepare_shape(target, cable, "target", length_tolerance)
+    x_start = discretize(start, cable, "start", length_tolerance)
+    proposed = discretize(target, cable, "target", length_tolerance)
     warnings: list[str] = []
     timings: dict[str, float] = {}
 
@@ -241,4 +215,4 @@ def plan(
     )
 
 
-__all__ = ["STAGES", "plan", "prepare_shape"]
+__all__ = ["STAGES", "plan"]

@@ -251,7 +251,7 @@ def job_problem(job, path=None, clips=None) -> StudyProblem:
     clips : sequence of ClipPoses, optional
         Clip poses per shape (e.g. from the gripper frames); default: from the shapes.
     """
-    from ..jobs import discretize
+    from ..shapes import discretize
     from .evaluate import study_problem
 
     if path is None:
