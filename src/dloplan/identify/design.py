@@ -27,6 +27,7 @@ from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
 from ..physics.geometry import resample_by_arc_length
+from ..shapes import discretize
 from ..sim.clips import ClipPoses, clip_poses_from_shape
 from .experiment import Experiment, Manipulation
 from .fit import MAX_LOG_SD
@@ -144,6 +145,16 @@ class DesignCheck:
     message: str
 
 
+def _simulate_design(cable: Cable, manipulation: Manipulation):
+    """The manipulation simulated at the cable's modulus; a failing design is a ValueError."""
+    initial = discretize(manipulation.initial_shape, cable, "initial_shape")
+    run = run_manipulation(cable, manipulation, initial)
+    if not run.success:
+        raise ValueError(f"manipulation: the simulation fails at E = {cable.youngs_modulus:.3g} "
+                         f"Pa ({run.message})")
+    return run
+
+
 def assess_manipulation(
     cable: Cable, manipulation: Manipulation, *, noise: float = 1e-3,
     max_log_sd: float = MAX_LOG_SD,
@@ -166,13 +177,7 @@ def assess_manipulation(
     """
     if not (math.isfinite(noise) and noise > 0):
         raise ValueError(f"noise: got {noise!r}, expected a distance > 0 [m]")
-    from ..shapes import discretize
-
-    initial = discretize(manipulation.initial_shape, cable, "initial_shape")
-    run = run_manipulation(cable, manipulation, initial)
-    if not run.success:
-        raise ValueError(f"manipulation: the simulation fails at E = {cable.youngs_modulus:.3g} "
-                         f"Pa ({run.message})")
+    run = _simulate_design(cable, manipulation)
     size = float(np.linalg.norm(run.sensitivity))
     log_sd = noise / size if size > 0 else math.inf
     ok = log_sd <= max_log_sd
@@ -220,13 +225,7 @@ def synthetic_experiment(
     """
     if not (math.isfinite(noise) and noise >= 0):
         raise ValueError(f"noise: got {noise!r}, expected a distance >= 0 [m]")
-    from ..shapes import discretize
-
-    initial = discretize(manipulation.initial_shape, cable, "initial_shape")
-    run = run_manipulation(cable, manipulation, initial)
-    if not run.success:
-        raise ValueError(f"manipulation: the simulation fails at E = {cable.youngs_modulus:.3g} "
-                         f"Pa ({run.message})")
+    run = _simulate_design(cable, manipulation)
     rng = np.random.default_rng(seed)
     noisy = run.final + rng.normal(0.0, noise, run.final.shape)
     measured = resample_by_arc_length(noisy, n_measured or 3 * cable.n_links + 1)

@@ -31,6 +31,7 @@ import numpy as np
 
 from ..cable import GRAVITY, Cable
 from ..physics.geometry import as_shape
+from ..shapes import discretize
 from ..sim.clips import ClipPoses
 
 HELD_MODES = ("both", "first")
@@ -153,8 +154,6 @@ def prepare_shapes(cable: Cable, experiment: Experiment) -> PreparedShapes:
     experiment : Experiment
         The experiment.
     """
-    from ..shapes import discretize
-
     manipulation = experiment.manipulation
     initial = discretize(manipulation.initial_shape, cable, "initial_shape")
     measured = discretize(experiment.measured_shape, cable, "measured_shape")

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io.files import atomic_write_text
+from ..shapes import discretize
 from .backends import Backend, SerialBackend, map_jobs
 from .evaluate import COLUMN_TYPES, OUTCOME_COLUMNS, StudyProblem, evaluate_chunk
 from .results import (
@@ -251,7 +252,6 @@ def job_problem(job, path=None, clips=None) -> StudyProblem:
     clips : sequence of ClipPoses, optional
         Clip poses per shape (e.g. from the gripper frames); default: from the shapes.
     """
-    from ..shapes import discretize
     from .evaluate import study_problem
 
     if path is None:
