@@ -30,8 +30,9 @@ browser:
 test: lint browser
 	$(BIN)/python -m pytest -q -n 2
 
+# some benchmarks reuse the tests' scene builders (tests/ on the path)
 bench: $(STAMP)
-	for f in benchmarks/bench_*.py; do echo "== $$f"; $(BIN)/python $$f || exit 1; done
+	for f in benchmarks/bench_*.py; do echo "== $$f"; PYTHONPATH=tests $(BIN)/python $$f || exit 1; done
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .ruff_cache
