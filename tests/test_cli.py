@@ -146,6 +146,7 @@ def test_a_harness_scenario_runs_the_whole_job(tmp_path, capsys):
     assert code in (EXIT_OK, EXIT_WARNINGS) and summary["ok"]
     assert set(summary["phases"]) == {"phase1", "phase2", "insertion", "tensioning"}
     assert (out / "plan.json").exists() and (out / "rapid" / "DloPlanL.mod").exists()
+    assert (out / "report.html").exists() and (out / "figures" / "forces_phase2.png").exists()
 
 
 def test_batch_mode_plans_several_files_on_two_workers(tmp_path, capsys):

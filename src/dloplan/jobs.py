@@ -500,4 +500,39 @@ def plan_harness_file(data: dict, source: str, folder, progress=lambda text: Non
                                {"harness": harness_summary(result)}),
                write_trajectory_csv(folder / "trajectory.csv", result.trajectory)]
     written += list(write_harness_rapid(folder / "rapid", result).values())
+    written += write_harness_figures(result, folder, source)
     return result, written
+
+
+def write_harness_figures(result, folder, source: str) -> list:
+    """The harness job's figures (whole path with frames, forces per phase) and its report."""
+    from pathlib import Path
+
+    from .plots.figures import forces_figure, path_figure, save_figure
+    from .plots.report import write_report
+
+    folder = Path(folder)
+    volumes = result.board.contacts()
+    figures = save_figure(path_figure(result.shapes, result.grippers.positions,
+                                      result.grippers.matrices, volumes,
+                                      "Wire-harness job: shapes and gripper frames"),
+                          folder / "figures", "harness_path")
+    for phase, stats in result.forces.items():
+        figure = forces_figure(stats.axial_mean, stats.axial_variance, stats.bending_mean,
+                               stats.bending_variance, f"Forces per mass point, {phase} "
+                               "(thesis Figs. 7.29/7.31)")
+        figures += save_figure(figure, folder / "figures", f"forces_{phase}")
+    times = result.phase_times()
+    labels = [f"shape {k}" for k in range(len(result.shapes))]
+    for name, (t0, t1) in times.items():
+        for k, t in enumerate(result.trajectory.times):
+            if t0 <= t <= t1 and labels[k] == f"shape {k}":
+                labels[k] = f"shape {k} ({name})"
+    report = write_report(
+        folder / "report.html", title=f"dloplan harness job: {source}", shapes=result.shapes,
+        clip_positions=result.grippers.positions, clip_rotations=result.grippers.matrices,
+        obstacles=volumes, summary=[result.message] + [
+            f"{name}: {t0:.2f} s to {t1:.2f} s" for name, (t0, t1) in times.items()],
+        warnings=list(result.warnings), labels=labels,
+        images=[p for p in figures if p.suffix == ".png"])
+    return [*figures, report]
