@@ -95,3 +95,38 @@ def test_avoidance_reports_a_colliding_start_or_target():
 def test_bad_obstacles_are_named(make, fragment):
     with pytest.raises(ValueError, match=fragment):
         make()
+
+
+def test_a_path_through_a_wall_is_replanned_collision_free():
+    from importlib import resources
+
+    from dloplan.io.scenario import parse_scenario, read_mapping, resolve
+    from dloplan.physics import SpringChain, gradient
+    from dloplan.planning import plan
+    from dloplan.shapes import discretize
+    from dloplan.sim.statics import force_scale
+
+    with resources.as_file(resources.files("dloplan.data").joinpath("demo.yaml")) as path:
+        job = resolve(parse_scenario(read_mapping(path)))  # an Ethernet cable over a wall
+    cable = job.cable.with_links(10)
+    start = discretize(job.start, cable, "start")
+    target = discretize(job.target, cable, "target")
+    free = plan(cable, start, target, 5)
+    before = check_path(free.stabilized, job.obstacles, cable.diameter / 2)
+    assert any(r.colliding for r in before)  # the direct path sags into the wall
+    result = plan(cable, start, target, 5, obstacles=job.obstacles)
+    avoidance = result.avoidance
+    assert avoidance.success and avoidance.status == "replanned" and avoidance.rounds >= 1
+    assert result.path.shape == (7, 11, 3)  # the asked-for S + 2 shapes
+    assert not any(r.colliding for r in check_path(result.stabilized, job.obstacles,
+                                                   cable.diameter / 2))
+    # every shape is still a minimal-energy (weightless equilibrium) shape: the physical stage
+    # ran on the re-planned parts
+    weightless = SpringChain.from_cable(cable, gravity=(0, 0, 0))
+    scale = force_scale(cable, (0, 0, 0))
+    for shape in result.path[1:-1]:
+        assert np.abs(gradient(weightless, shape)[2:-2]).max() < 1e-6 * scale
+    # the clips move continuously: no jump between consecutive shapes
+    clips = (result.path[:, :2].mean(axis=1), result.path[:, -2:].mean(axis=1))
+    for points in clips:
+        assert np.linalg.norm(np.diff(points, axis=0), axis=1).max() < 0.4 * cable.length
