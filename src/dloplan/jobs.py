@@ -398,6 +398,14 @@ def write_figures(outcome: PlanOutcome, folder) -> list:
     return written
 
 
+_VERIFY_TITLES = {
+    "index": "shape", "smallest_eigenvalue": "lambda_1 [N/m]",
+    "relative_eigenvalue": "lambda_1 / ref", "snap": "snap", "straying": "stray [m]",
+    "reachable_left": "left arm reaches", "reachable_right": "right arm reaches",
+    "joint_margin": "joint margin [rad]", "replay_deviation": "replay deviation [m]",
+}
+
+
 def write_plan_report(outcome: PlanOutcome, path, images=()):
     """The self-contained HTML report of a plan."""
     from .plots.report import write_report
@@ -433,7 +441,8 @@ def write_plan_report(outcome: PlanOutcome, path, images=()):
         def cell(value):
             return "-" if value is None else f"{value:.4g}" if isinstance(value, float) else value
 
-        tables.append(("Verification", header, [[cell(row[h]) for h in header] for row in rows]))
+        titles = [_VERIFY_TITLES.get(h, h) for h in header]
+        tables.append(("Verification", titles, [[cell(row[h]) for h in header] for row in rows]))
     return write_report(path, title=f"dloplan plan: {outcome.job.source}", shapes=result.path,
                         stabilized=result.stabilized, clip_positions=outcome.grippers.positions,
                         clip_rotations=outcome.grippers.matrices, obstacles=outcome.job.obstacles,
