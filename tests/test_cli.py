@@ -241,3 +241,28 @@ def test_check_a_harness_board(tmp_path, capsys):
                                                "position: [0.50, 0.45, 0.0315]"))
     assert main(["check", str(far)]) == EXIT_FAILURE
     assert "out of reach" in capsys.readouterr().err
+
+
+def test_a_cable_to_identify_is_identified_then_planned(tmp_path, capsys):
+    # thesis Fig. 6.11 in one command: measured shape -> E -> family, weights -> plan
+    example = Path(__file__).parents[1] / "examples" / "identify_ethernet.yaml"
+    data = yaml.safe_load(example.read_text())  # lengths in mm, E: identify
+    data["start"] = {"kind": "straight", "placement": {"position": [400, -250, 150],
+                                                       "rotation": {"euler": [0, 0, 90]}}}
+    data["target"] = {"kind": "arc", "angle": 90, "placement": {
+        "position": [350, -220, 180], "rotation": {"euler": [0, 0, 90]}}}
+    data["planner"] = {"n_shapes": 3}
+    data["outputs"] = ["json"]
+    out = tmp_path / "out"
+    assert main(["plan", str(write(tmp_path, data)), "-o", str(out), "-q"]) in (EXIT_OK,
+                                                                                EXIT_WARNINGS)
+    from dloplan.io.export import read_plan_json
+
+    doc = read_plan_json(out / "plan.json")
+    identified = doc.extra["identification"]["youngs_modulus"]
+    assert identified == pytest.approx(7.5e6, rel=0.05)  # the synthetic truth
+    assert doc.cable.youngs_modulus == identified
+    without = {k: v for k, v in data.items() if k != "identify"}
+    assert main(["plan", str(write(tmp_path, without, "no_identify.yaml")), "-o",
+                 str(tmp_path / "x")]) == EXIT_FAILURE
+    assert "no identify section" in capsys.readouterr().err

@@ -56,8 +56,8 @@ def _cmd_schema(args: argparse.Namespace) -> int:
 
 def _cmd_check(args: argparse.Namespace) -> int:
     from .harness.files import is_harness, parse_harness, resolve_harness
-    from .io.scenario import load_scenario, read_mapping
-    from .jobs import check_job
+    from .io.scenario import read_mapping
+    from .jobs import check_job, load_job
 
     console = Console(args.quiet)
     data = read_mapping(args.scenario)
@@ -66,7 +66,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
         print(f"ok      board: fixtures within reach of the {job.cable.length:.3g} m cable, "
               "pegs clear of the fixtures, slots wide enough")
         return EXIT_OK
-    job = load_scenario(args.scenario)
+    job, _ = load_job(args.scenario, console.stage)
     console.stage(f"loaded {args.scenario}: {job.cable.name or 'cable'}, n = {job.cable.n_links}")
     report = check_job(job)
     console.stage("checked start, target, target stability and obstacles")
@@ -272,10 +272,11 @@ def _print_outcome(outcome, written, args) -> None:
     print(f"  wrote {len(written)} files into {Path(written[0]).parent}")
 
 
-def _plan_one(job, output: Path, args, console: Console) -> int:
+def _plan_one(job, output: Path, args, console: Console, identification=None) -> int:
     from .jobs import plan_job, write_outputs
 
-    outcome = plan_job(job, verify=args.verify, progress=console.stage)
+    outcome = plan_job(job, verify=args.verify, progress=console.stage,
+                       identification=identification)
     written = write_outputs(outcome, output, progress=console.stage)
     report = output / "report.html"
     if report.exists():
@@ -308,7 +309,8 @@ def _plan_harness(data: dict, source: str, args, console: Console) -> int:
 
 def _cmd_plan(args: argparse.Namespace) -> int:
     from .harness.files import is_harness
-    from .io.scenario import load_scenario, read_mapping
+    from .io.scenario import read_mapping
+    from .jobs import load_job
 
     console = Console(args.quiet)
     if len(args.scenarios) > 1 or args.workers > 1 or args.scheduler:
@@ -316,10 +318,10 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     data = read_mapping(args.scenarios[0])
     if is_harness(data):
         return _plan_harness(data, args.scenarios[0], args, console)
-    job = load_scenario(args.scenarios[0])
+    job, identification = load_job(args.scenarios[0], console.stage)
     console.stage(f"loaded {job.source}: {job.cable.name or 'cable'}, E "
                   f"{job.cable.youngs_modulus:.3g} Pa, n = {job.cable.n_links}")
-    return _plan_one(job, Path(args.output), args, console)
+    return _plan_one(job, Path(args.output), args, console, identification)
 
 
 def _plan_batch(args: argparse.Namespace, console: Console) -> int:
@@ -344,8 +346,8 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
 def plan_file(options: dict, path: str) -> tuple[str, int, str]:
     """Plan one scenario file into ``<output>/<stem>/`` (the batch mode's task)."""
     from .harness.files import is_harness
-    from .io.scenario import load_scenario, read_mapping
-    from .jobs import plan_harness_file, plan_job, write_outputs
+    from .io.scenario import read_mapping
+    from .jobs import load_job, plan_harness_file, plan_job, write_outputs
 
     folder = Path(options["output"]) / Path(path).stem
     try:
@@ -357,7 +359,8 @@ def plan_file(options: dict, path: str) -> tuple[str, int, str]:
             result = plan_harness_file(data, path, folder)[0]
             ok, warnings = result.success, result.warnings
         else:
-            outcome = plan_job(load_scenario(path), verify=options["verify"])
+            job, identification = load_job(path)
+            outcome = plan_job(job, verify=options["verify"], identification=identification)
             write_outputs(outcome, folder)
             ok, warnings = outcome.ok, outcome.warnings
     except ValueError as exc:

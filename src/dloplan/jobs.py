@@ -46,6 +46,42 @@ class CheckReport:
         return [f for f in self.findings if f.level == "warning"]
 
 
+def load_job(path, progress=lambda text: None):
+    """Read and resolve a scenario; a cable with ``youngs_modulus: identify`` is identified first.
+
+    Thesis Fig. 6.11, in one call: the scenario's ``identify:`` experiment gives E
+    (:func:`dloplan.identify.identify_youngs_modulus`), which then sets the simulation's
+    modulus and, through the planner, the stiffness family and its weights.
+
+    Returns
+    -------
+    tuple
+        ``(job, identification)``, the latter None when E was given.
+
+    Raises
+    ------
+    ValueError
+        For a bad scenario, or an identification that did not succeed (its message).
+    """
+    from .io.scenario import parse_scenario, read_mapping, resolve
+
+    data = read_mapping(path)
+    scenario = parse_scenario(data, str(path))
+    if scenario.cable.youngs_modulus != "identify":
+        return resolve(scenario, str(path)), None
+    from .identify import identify_youngs_modulus
+    from .identify.files import parse_identification
+
+    setup = parse_identification(data, str(path))
+    progress(f"identifying E of the {setup.cable.name or 'cable'} from the identify section")
+    result = identify_youngs_modulus(setup.cable, setup.experiment, bounds=setup.bounds,
+                                     simulator=setup.simulator)
+    if not result.success:
+        raise ValueError(f"{path}: identify: {result.message}")
+    progress(result.message)
+    return resolve(scenario, str(path), youngs_modulus=result.youngs_modulus), result
+
+
 def check_job(job: Job) -> CheckReport:
     """Check a job without planning: shapes, clip reach, target stability, obstacles.
 
@@ -151,6 +187,8 @@ class PlanOutcome:
         The stability check of the target (thesis 5.3).
     verification : Verification or None
         The plan verification, when asked for.
+    identification : Identification or None
+        How the cable's E was identified, when the scenario asked for it.
     twist : TwistReport or None
         Every shape stabilized with torsion holding the planned gripper frames: the twist
         the grippers put into the cable and its energy (:func:`dloplan.sim.twist_along_path`).
@@ -169,6 +207,7 @@ class PlanOutcome:
     twist: object = None
     warnings: list[str] = field(default_factory=list)
     timings: dict = field(default_factory=dict)
+    identification: object = None
 
     @property
     def ok(self) -> bool:
@@ -189,17 +228,20 @@ def _initial_frames(spec):
     return Rotation.concatenate([frames.first.to_rotation(), frames.last.to_rotation()])
 
 
-def plan_job(job: Job, *, verify: bool = False, progress=lambda text: None) -> PlanOutcome:
+def plan_job(job: Job, *, verify: bool = False, progress=lambda text: None,
+             identification=None) -> PlanOutcome:
     """Plan a scenario end to end: planner, stabilization and obstacles, grippers, timing.
 
     Parameters
     ----------
     job : Job
-        A resolved scenario (:func:`dloplan.io.scenario.load_scenario`).
+        A resolved scenario (:func:`load_job`).
     verify : bool
         Also run the plan verification (stability, snap-through, dynamic replay).
     progress : callable
         Called with a line of text after each step.
+    identification : Identification, optional
+        The identification the cable's E came from (:func:`load_job`), kept in the outcome.
     """
     import time
 
@@ -279,7 +321,7 @@ def plan_job(job: Job, *, verify: bool = False, progress=lambda text: None) -> P
         progress(f"verification: {'passed' if verification.ok else 'FAILED'}")
         warnings += [m for m in verification.messages if not verification.ok]
     return PlanOutcome(job, result, grippers, trajectory, target_check, verification, twist,
-                       warnings, timings)
+                       warnings, timings, identification)
 
 
 def _collision_rows(reports) -> list[dict]:
@@ -326,6 +368,14 @@ def plan_extra(outcome: PlanOutcome) -> dict:
         }
     if outcome.verification is not None:
         extra["verification"] = outcome.verification.to_dict()
+    if outcome.identification is not None:
+        ident = outcome.identification
+        extra["identification"] = {
+            "youngs_modulus": ident.youngs_modulus,
+            "confidence_interval": list(ident.confidence_interval),
+            "simulations": ident.simulations, "rms_error": ident.rms_error,
+            "informative": ident.informative, "message": ident.message,
+        }
     return extra
 
 
@@ -454,11 +504,12 @@ def load_plan_or_scenario(path, progress=lambda text: None):
     from pathlib import Path
 
     from .io.export import PlanDocument, read_plan_json
-    from .io.scenario import load_scenario, read_mapping
+    from .io.scenario import read_mapping
 
     if Path(path).suffix.lower() == ".json" and read_mapping(path).get("format") == "dloplan-plan":
         return read_plan_json(path)
-    outcome = plan_job(load_scenario(path), progress=progress)
+    job, identification = load_job(path, progress)
+    outcome = plan_job(job, progress=progress, identification=identification)
     return PlanDocument(outcome.plan.cable, outcome.plan.path, outcome.grippers,
                         outcome.trajectory, tuple(outcome.warnings), plan_extra(outcome))
 

@@ -462,8 +462,8 @@ def resolve(scenario: Scenario, source: str = "scenario",
     scale = 1e-3 if scenario.units == "mm" else 1.0
     if scenario.cable.youngs_modulus == "identify" and youngs_modulus is None:
         raise ScenarioError(
-            f"{source}: cable.youngs_modulus is 'identify': run the identification first "
-            "(dloplan plan does) or give a modulus [Pa]"
+            f"{source}: cable.youngs_modulus is 'identify': identify it first "
+            "(dloplan plan and dloplan check do, from the identify section) or give E [Pa]"
         )
     try:
         cable = build_cable(scenario.cable, scale, youngs_modulus)
