@@ -224,8 +224,9 @@ def test_an_unreadable_scenario_file(tmp_path, capsys):
 def test_planner_family_and_weight_overrides(tmp_path, capsys):
     data = {**STIFF, "planner": {"n_shapes": 2, "family": "soft",
                                  "weights": {"advanced": {"clip": 0.02}}}, "outputs": ["json"]}
-    assert main(["plan", str(write(tmp_path, data)), "-o", str(tmp_path / "a"), "-q"]) in (
-        EXIT_OK, EXIT_WARNINGS)
+    assert main(["plan", str(write(tmp_path, data)), "-o", str(tmp_path / "a"), "-q",
+                 "--json"]) in (EXIT_OK, EXIT_WARNINGS)
+    assert json.loads(capsys.readouterr().out)["family"] == "soft"  # PA12 alone would be stiff
     bad = {**data, "planner": {"weights": {"advanced": {"stretchiness": 1.0}}}}
     assert main(["plan", str(write(tmp_path, bad, "bad.yaml")), "-o", str(tmp_path / "b"),
                  "-q"]) == EXIT_FAILURE

@@ -255,7 +255,7 @@ def _print_outcome(outcome, written, args) -> None:
     if args.json:
         print(json.dumps({
             "scenario": outcome.job.source, "ok": outcome.ok, "warnings": outcome.warnings,
-            "n_shapes": result.n_shapes, "family": result.family,
+            "n_shapes": result.n_shapes, "family": outcome.family,
             "duration_s": outcome.trajectory.duration,
             "obstacles": None if result.avoidance is None else result.avoidance.status,
             "verified": None if outcome.verification is None else outcome.verification.ok,

@@ -210,6 +210,12 @@ class PlanOutcome:
     identification: object = None
 
     @property
+    def family(self) -> str:
+        """The stiffness family whose weights were used: the scenario's, or the one of E."""
+        chosen = self.job.scenario.planner.family
+        return self.plan.family if chosen == "auto" else chosen
+
+    @property
     def ok(self) -> bool:
         """Planned, collision-free, stable: no failure (warnings allowed)."""
         failed_avoidance = self.plan.avoidance is not None and not self.plan.avoidance.success
@@ -281,7 +287,8 @@ def plan_job(job: Job, *, verify: bool = False, progress=lambda text: None,
                   **options)
     timings["plan"] = time.perf_counter() - t0
     stage_times = ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items() if k != "total")
-    progress(f"planned {result.n_shapes} shapes ({result.family} cable): {stage_times}")
+    progress(f"planned {result.n_shapes} shapes ({family or result.family} cable weights): "
+             f"{stage_times}")
     if result.avoidance is not None:
         progress(f"obstacles: {result.avoidance.message}")
 
@@ -336,7 +343,7 @@ def plan_extra(outcome: PlanOutcome) -> dict:
     stats = result.force_statistics()
     extra = {
         "scenario": outcome.job.source,
-        "family": result.family,
+        "family": outcome.family,
         "physical_mode": result.physical_mode,
         "stages": {name: result.stage(name).tolist() for name in ("basic", "advanced")},
         "stabilized": np.asarray(result.stabilized).tolist(),
@@ -464,7 +471,7 @@ def write_plan_report(outcome: PlanOutcome, path, images=()):
     cable = result.cable
     summary = [
         f"{cable.name or 'cable'}: L {cable.length} m, d {1e3 * cable.diameter:.1f} mm, "
-        f"E {cable.youngs_modulus:.3g} Pa ({result.family}), n = {cable.n_links}, "
+        f"E {cable.youngs_modulus:.3g} Pa ({outcome.family}), n = {cable.n_links}, "
         f"S = {result.n_shapes}",
         f"trajectory {outcome.trajectory.duration:.2f} s; gripper method "
         f"{outcome.grippers.method}; largest relative twist "
