@@ -9,24 +9,24 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import link_vectors
+from .geometry import link_vectors, norms
 
 
 def axial_energy(x: np.ndarray, k_s: float, rest_lengths: np.ndarray) -> np.ndarray:
     """Axial energy [J], shape (...) (eq. 3.8 summed over links)."""
-    stretch = np.linalg.norm(link_vectors(x), axis=-1) - rest_lengths
+    stretch = norms(link_vectors(x)) - rest_lengths
     return 0.5 * k_s * np.sum(stretch**2, axis=-1)
 
 
 def axial_link_forces(x: np.ndarray, k_s: float, rest_lengths: np.ndarray) -> np.ndarray:
     """Tension of each link k_s (l_i - l_i^0) [N], shape (..., n); positive when stretched."""
-    return k_s * (np.linalg.norm(link_vectors(x), axis=-1) - rest_lengths)
+    return k_s * (norms(link_vectors(x)) - rest_lengths)
 
 
 def axial_gradient(x: np.ndarray, k_s: float, rest_lengths: np.ndarray) -> np.ndarray:
     """Gradient dU^s/dx [N], shape (..., n + 1, 3); the axial force of eq. 3.17 is its negative."""
     e = link_vectors(x)
-    length = np.linalg.norm(e, axis=-1, keepdims=True)
+    length = norms(e)[..., None]
     g_link = k_s * (length - rest_lengths[..., None]) * e / length
     grad = np.zeros(x.shape)
     grad[..., 1:, :] += g_link
@@ -41,7 +41,7 @@ def axial_hessian_blocks(x: np.ndarray, k_s: float, rest_lengths: np.ndarray) ->
     end points with the signs (-1, +1).
     """
     e = link_vectors(x)
-    length = np.linalg.norm(e, axis=-1)
+    length = norms(e)
     t = e / length[..., None]
     tt = t[..., :, None] * t[..., None, :]
     ratio = (length - rest_lengths) / length

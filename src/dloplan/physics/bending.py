@@ -21,12 +21,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from .geometry import norms
+
 _SERIES_BELOW = 1e-3  # [rad] below this angle the beta0 = 0 ratios use their Taylor series
 _SIN_FLOOR = 1e-12  # clamp of sin(beta) in the cone terms (beta0 != 0) and at beta = pi
-
-def _norm(a: np.ndarray) -> np.ndarray:
-    return np.sqrt(np.einsum("...k,...k->...", a, a))
-
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     # np.cross carries ~15 us of overhead on small arrays; this is the same product.
@@ -39,11 +37,11 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _joint_geometry(x: np.ndarray):
     e = x[..., 1:, :] - x[..., :-1, :]
-    length = _norm(e)
+    length = norms(e)
     t = e / length[..., None]
     u, v = t[..., :-1, :], t[..., 1:, :]
     la, lb = length[..., :-1], length[..., 1:]
-    s = _norm(_cross(u, v))
+    s = norms(_cross(u, v))
     c = np.einsum("...k,...k->...", u, v)
     beta = np.arctan2(s, c)
     return u, v, la, lb, c, s, beta

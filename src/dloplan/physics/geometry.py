@@ -85,14 +85,20 @@ def as_path(path, n_points: int | None = None, name: str = "path") -> np.ndarray
     return arr
 
 
+def norms(v: np.ndarray) -> np.ndarray:
+    """Euclidean norms over the last axis, (...,): ``np.linalg.norm(v, axis=-1)`` without its
+    per-call overhead, which counts in the solvers' inner loops."""
+    return np.sqrt(np.einsum("...k,...k->...", v, v))
+
+
 def link_vectors(x: np.ndarray) -> np.ndarray:
     """Link vectors e_i = x_i - x_{i-1} [m], shape (..., n, 3)."""
-    return np.diff(x, axis=-2)
+    return x[..., 1:, :] - x[..., :-1, :]
 
 
 def link_lengths(x: np.ndarray) -> np.ndarray:
     """Link lengths l_i = |x_i - x_{i-1}| [m], shape (..., n)."""
-    return np.linalg.norm(link_vectors(x), axis=-1)
+    return norms(link_vectors(x))
 
 
 def shape_length(x: np.ndarray) -> np.ndarray:
@@ -103,7 +109,7 @@ def shape_length(x: np.ndarray) -> np.ndarray:
 def tangents(x: np.ndarray) -> np.ndarray:
     """Unit link directions u_i, shape (..., n, 3)."""
     e = link_vectors(x)
-    return e / np.linalg.norm(e, axis=-1, keepdims=True)
+    return e / norms(e)[..., None]
 
 
 def bending_angles(x: np.ndarray) -> np.ndarray:

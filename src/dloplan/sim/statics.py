@@ -46,7 +46,13 @@ from ..physics.chain import (
     hessian_band,
 )
 from ..physics.contact import penetrations
-from ..physics.geometry import arc_length, as_shape, resample_by_arc_length, shape_length
+from ..physics.geometry import (
+    arc_length,
+    as_shape,
+    norms,
+    resample_by_arc_length,
+    shape_length,
+)
 from ..physics.gravity import gravity_force
 from .clips import ClipPoses, clip_poses_from_shape, place_held_points
 
@@ -340,7 +346,7 @@ def minimize_energy(
     def derivatives(x):
         g, band = gradient_and_hessian_band(chain, x)
         g -= gravity_force(chain.point_masses, chain.gravity)
-        residual = float(np.max(np.linalg.norm(g[free], axis=1)))
+        residual = float(np.max(norms(g[free])))
         return g[free].ravel(), _free_band(band, free), residual, g
 
     def moved(x, p):
@@ -350,7 +356,7 @@ def minimize_energy(
 
     run = trust_region_newton(
         x, lambda x: float(energy(chain, x)), derivatives, moved,
-        lambda p: float(np.max(np.linalg.norm(p.reshape(-1, 3), axis=1))),
+        lambda p: float(np.max(norms(p.reshape(-1, 3)))),
         length_scale, tolerance, max_iterations,
     )
     return run.state, run.extra, run.iterations, run.residual, run.stable, run.history, \
