@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
+from scipy.linalg import lapack
 from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation, Slerp
 
@@ -216,12 +217,18 @@ def _free_band(band: np.ndarray, free: slice) -> np.ndarray:
 
 
 def _factor(band: np.ndarray, shift: float) -> np.ndarray | None:
+    """Banded Cholesky factor of band + shift I (LAPACK dpbtrf), or None if not positive."""
     shifted = band.copy()
     shifted[0] += shift
-    try:
-        return sla.cholesky_banded(shifted, lower=True, check_finite=False)
-    except np.linalg.LinAlgError:
-        return None
+    # LAPACK directly: scipy.linalg.cholesky_banded's checks and dispatch cost more than the
+    # factorization itself at these sizes, and this runs in every Newton iteration
+    factor, info = lapack.dpbtrf(shifted, lower=1)
+    return factor if info == 0 else None
+
+
+def _solve(factor: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Solve with a factor of :func:`_factor` (LAPACK dpbtrs)."""
+    return lapack.dpbtrs(factor, rhs, lower=1)[0]
 
 
 def equilibrium(
@@ -465,7 +472,7 @@ def trust_region_newton(
             if factor is None:
                 shift = max(4.0 * shift, 1e-8 * scale)
                 continue
-            p = -sla.cho_solve_banded((factor, True), gf, check_finite=False)
+            p = -_solve(factor, gf)
             longest = displacement(p)
             alpha = min(1.0, radius / longest) if longest > 0 else 1.0  # truncate to the radius
             # model decrease g.p + p.H.p/2 with (H + shift I) p_full = -g, p = alpha p_full
