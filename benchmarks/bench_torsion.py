@@ -12,9 +12,9 @@ A second table twists the straight PU cable by one radian at one clip.
 from __future__ import annotations
 
 import dataclasses
-import time
 
 import numpy as np
+from bench_statics import best_time  # the same best-of-N timer (this folder)
 from scipy.spatial.transform import Rotation
 
 from dloplan import catalogue_cable
@@ -35,13 +35,6 @@ def arc(n_links: int, length: float, angle: float) -> np.ndarray:
                     1)
 
 
-def best_time(fn, repeat=5):
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return min(times), out
 
 
 def straight(cable, start=0.0):
@@ -64,9 +57,9 @@ def main() -> None:
             else:
                 clips = CLIPS
                 start = conform_guess(cable, straight(cable, -cable.rest_link_length / 2), clips)
-            t_plain, plain = best_time(lambda: equilibrium(cable, start, clips))  # noqa: B023
+            t_plain, plain = best_time(lambda: equilibrium(cable, start, clips), 5)  # noqa: B023
             t_twist, twisted = best_time(
-                lambda: equilibrium_with_twist(cable, start, clips))  # noqa: B023
+                lambda: equilibrium_with_twist(cable, start, clips), 5)  # noqa: B023
             diff = 1e3 * float(np.abs(plain.shape - twisted.shape).max())
             print(f"{name:>12} {n:>4} {1e3 * t_plain:11.2f} {plain.iterations:3d} "
                   f"{1e3 * t_twist:13.2f} {twisted.iterations:3d} {t_twist / t_plain:6.1f} "
@@ -85,7 +78,7 @@ def main() -> None:
         directors = transported_directors(straight(cable), clips.rotations[0].apply([0, 1.0, 0]))
         t, eq = best_time(lambda: equilibrium_with_twist(  # noqa: B023
             cable, straight(cable), twisted_clips, directors=directors,  # noqa: B023
-            gravity=(0, 0, 0)))
+            gravity=(0, 0, 0)), 5)
         torque = float(np.abs(eq.torques).mean())
         closed = cable.shear_modulus * cable.polar_moment / cable.length
         print(f"{n:4d} {1e3 * t:10.2f} {eq.iterations:3d} {torque:13.6g} {closed:10.6g} "

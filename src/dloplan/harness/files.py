@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pydantic import Field, ValidationError
+from pydantic import Field
 
 from ..cable import Cable
 from ..io.scenario import (
@@ -26,7 +26,7 @@ from ..io.scenario import (
     build_cable,
     build_obstacles,
     build_shape,
-    format_validation_error,
+    parse_model,
     read_mapping,
 )
 from ..obstacles.shapes import Table
@@ -61,13 +61,7 @@ def is_harness(data: Any) -> bool:
 
 def parse_harness(data: Any, source: str = "harness scenario") -> HarnessScenario:
     """Validate a mapping as a :class:`HarnessScenario`; :class:`ScenarioError` (one line)."""
-    if not isinstance(data, dict):
-        raise ScenarioError(f"{source}: expected a mapping at the top level, got "
-                            f"{type(data).__name__}")
-    try:
-        return HarnessScenario.model_validate(data)
-    except ValidationError as exc:
-        raise ScenarioError(f"{source}: {format_validation_error(exc)}") from None
+    return parse_model(HarnessScenario, data, source)
 
 
 def resolve_harness(scenario: HarnessScenario, source: str = "harness scenario") -> HarnessJob:

@@ -34,7 +34,7 @@ from typing import Annotated, Any, Literal
 
 import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 from scipy.spatial.transform import Rotation
 
 from ..cable import Cable
@@ -44,7 +44,7 @@ from ..io.scenario import (
     RotationSpec,
     ScenarioError,
     build_cable,
-    format_validation_error,
+    parse_model,
     read_mapping,
 )
 from ..sim.clips import ClipPoses
@@ -191,10 +191,7 @@ def parse_identification(data: Any, source: str = "identification") -> Identific
     if "identify" not in data or data["identify"] is None:
         raise ScenarioError(f"{source}: no identify section (the experiment to identify E from)")
     wanted = {k: data[k] for k in ("version", "units", "cable", "identify") if k in data}
-    try:
-        spec = IdentificationFile.model_validate(wanted)
-    except ValidationError as exc:
-        raise ScenarioError(f"{source}: {format_validation_error(exc)}") from None
+    spec = parse_model(IdentificationFile, wanted, source)
     scale = 1e-3 if spec.units == "mm" else 1.0
     try:
         cable = build_cable(spec.cable, scale, youngs_modulus=1e7)  # placeholder modulus

@@ -353,15 +353,20 @@ def format_validation_error(error: ValidationError) -> str:
     return f"{loc or 'scenario'}: {message}{shown}{extra}"
 
 
-def parse_scenario(data: Any, source: str = "scenario") -> Scenario:
-    """Validate a mapping as a :class:`Scenario`; raises :class:`ScenarioError` (one line)."""
+def parse_model(model: type[BaseModel], data: Any, source: str):
+    """Validate a mapping as ``model``; raises :class:`ScenarioError` (one line)."""
     if not isinstance(data, dict):
         raise ScenarioError(f"{source}: expected a mapping at the top level, got "
                             f"{type(data).__name__}")
     try:
-        return Scenario.model_validate(data)
+        return model.model_validate(data)
     except ValidationError as exc:
         raise ScenarioError(f"{source}: {format_validation_error(exc)}") from None
+
+
+def parse_scenario(data: Any, source: str = "scenario") -> Scenario:
+    """Validate a mapping as a :class:`Scenario`; raises :class:`ScenarioError` (one line)."""
+    return parse_model(Scenario, data, source)
 
 
 def read_mapping(path: str | Path) -> dict:
