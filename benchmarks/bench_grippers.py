@@ -12,9 +12,10 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from dloplan.app import PlanDocument, write_plan
 from dloplan.cable import catalogue_cable
 from dloplan.grippers import gripper_path
-from dloplan.io.export import write_plan_json, write_ros_trajectory, write_trajectory_csv
+from dloplan.io.export import write_ros_trajectory, write_trajectory_csv
 from dloplan.io.rapid import write_rapid
 from dloplan.trajectory import trajectory_from_grippers
 
@@ -49,7 +50,7 @@ def _bench(cable, path: np.ndarray) -> None:
     _time("sample at 250 Hz", lambda: traj.sample(250.0))
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
-        _time("write_plan_json", lambda: write_plan_json(out / "p.json", cable, path, g, traj))
+        _time("write_plan", lambda: write_plan(out / "p.json", PlanDocument(cable, path, g, traj)))
         _time("write_ros_trajectory (knots)", lambda: write_ros_trajectory(out / "t.yaml", traj))
         _time("write_trajectory_csv (100 Hz)", lambda: write_trajectory_csv(out / "t.csv", traj))
         _time("write_rapid", lambda: write_rapid(out / "rapid", traj))

@@ -11,14 +11,14 @@ from __future__ import annotations
 import time
 from importlib import resources
 
-from dloplan.io.scenario import parse_scenario, read_mapping, resolve
-from dloplan.jobs import discretize
+from dloplan.app import load_scenario
 from dloplan.planning import plan
+from dloplan.shapes import discretize
 
 
 def main() -> None:
     with resources.as_file(resources.files("dloplan.data").joinpath("demo.yaml")) as path:
-        job = resolve(parse_scenario(read_mapping(path)))
+        job = load_scenario(path)
     print(f"{'n':>4} {'S':>4} {'plan [s]':>9} {'stabilize+avoid [s]':>20} {'rounds':>7} "
           f"{'stabilizations':>15} {'status':>10}")
     for n, s in ((10, 5), (20, 20)):

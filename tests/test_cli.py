@@ -89,9 +89,9 @@ def test_every_example_plans_end_to_end(tmp_path, capsys, example):
     written = {Path(p).name for p in summary["written"]}
     assert {"plan.json", "trajectory.csv", "report.html", "planned_path.png"} <= written
     assert (out / "rapid" / "DloPlanL.mod").exists()
-    from dloplan.io.export import read_plan_json
+    from dloplan.app import read_plan
 
-    doc = read_plan_json(out / "plan.json")
+    doc = read_plan(out / "plan.json")
     n_shapes = yaml.safe_load(example.read_text())["planner"]["n_shapes"] + 2
     assert doc.shapes.shape[0] == n_shapes
     lengths = np.linalg.norm(np.diff(doc.shapes, axis=1), axis=2).sum(axis=1)
@@ -144,7 +144,8 @@ def test_a_harness_scenario_runs_the_whole_job(tmp_path, capsys):
     code = main(["plan", str(example), "-o", str(out), "-q", "--json"])
     summary = json.loads(capsys.readouterr().out)
     assert code in (EXIT_OK, EXIT_WARNINGS) and summary["ok"]
-    assert set(summary["phases"]) == {"phase1", "phase2", "insertion", "tensioning"}
+    assert set(summary["harness"]["phase_times"]) == {"phase1", "phase2", "insertion",
+                                                      "tensioning"}
     assert (out / "plan.json").exists() and (out / "rapid" / "DloPlanL.mod").exists()
     assert (out / "report.html").exists() and (out / "figures" / "forces_phase2.png").exists()
 
@@ -171,13 +172,13 @@ def test_study_command_writes_the_table_figures_and_report(tmp_path, capsys):
 
 
 def test_compare_a_plan_with_shifted_registered_shapes(tmp_path, capsys):
-    from dloplan.io.export import read_plan_json
+    from dloplan.app import read_plan
     from dloplan.vision import RegisteredShape, write_shapes
 
     out = tmp_path / "out"
     main(["plan", str(write(tmp_path, {**STIFF, "outputs": ["json"]})), "-o", str(out), "-q"])
     capsys.readouterr()
-    doc = read_plan_json(out / "plan.json")
+    doc = read_plan(out / "plan.json")
     shifted = [RegisteredShape(s + [0.005, 0, 0], "world", f"xi_{k}")
                for k, s in enumerate(doc.shapes)]
     write_shapes(tmp_path / "trial.csv", shifted)
@@ -257,10 +258,10 @@ def test_a_cable_to_identify_is_identified_then_planned(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["plan", str(write(tmp_path, data)), "-o", str(out), "-q"]) in (EXIT_OK,
                                                                                 EXIT_WARNINGS)
-    from dloplan.io.export import read_plan_json
+    from dloplan.app import read_plan
 
-    doc = read_plan_json(out / "plan.json")
-    identified = doc.extra["identification"]["youngs_modulus"]
+    doc = read_plan(out / "plan.json")
+    identified = doc.identification.youngs_modulus
     assert identified == pytest.approx(7.5e6, rel=0.05)  # the synthetic truth
     assert doc.cable.youngs_modulus == identified
     without = {k: v for k, v in data.items() if k != "identify"}

@@ -37,8 +37,8 @@ from dloplan.identify.files import (
 )
 from dloplan.identify.tuning_loop import thesis_equivalent_modulus, tune_for_identified
 from dloplan.io.scenario import ScenarioError
-from dloplan.jobs import discretize
 from dloplan.planning.tuning import stiffness_family
+from dloplan.shapes import discretize
 
 N = 16
 

@@ -100,14 +100,14 @@ def test_bad_obstacles_are_named(make, fragment):
 def test_a_path_through_a_wall_is_replanned_collision_free():
     from importlib import resources
 
-    from dloplan.io.scenario import parse_scenario, read_mapping, resolve
+    from dloplan.app import load_scenario
     from dloplan.physics import SpringChain, gradient
     from dloplan.planning import plan
     from dloplan.shapes import discretize
     from dloplan.sim.statics import force_scale
 
     with resources.as_file(resources.files("dloplan.data").joinpath("demo.yaml")) as path:
-        job = resolve(parse_scenario(read_mapping(path)))  # an Ethernet cable over a wall
+        job = load_scenario(path)  # an Ethernet cable over a wall
     cable = job.cable.with_links(10)
     start = discretize(job.start, cable, "start")
     target = discretize(job.target, cable, "target")

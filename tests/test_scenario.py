@@ -7,13 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from dloplan.io.scenario import (
-    ScenarioError,
-    load_scenario,
-    parse_scenario,
-    resolve,
-    scenario_json_schema,
-)
+from dloplan.app import load_scenario
+from dloplan.app.job import resolve_scenario
+from dloplan.io.scenario import ScenarioError, parse_scenario, scenario_json_schema
 from dloplan.physics import link_lengths, shape_length
 
 BASE = {
@@ -38,7 +34,7 @@ def with_(path: str, value):
 
 
 def test_a_parametric_scenario_resolves_in_si_units():
-    job = resolve(parse_scenario(BASE))
+    job = resolve_scenario(parse_scenario(BASE))
     assert job.cable.name == "ethernet" and job.cable.n_links == 10
     assert job.start.shape == (11, 3) and job.target.shape == (11, 3)
     assert np.allclose(link_lengths(job.target), 0.05)
@@ -50,7 +46,7 @@ def test_millimetres_are_converted():
     data["cable"] = {"name": "ethernet", "length": 500, "diameter": 5}
     data["start"] = {"kind": "points", "points": [[0, 0, 100], [250, 0, 100], [500, 0, 100]]}
     data["obstacles"] = [{"type": "box", "center": [300, 0, 30], "size": [100, 100, 60]}]
-    job = resolve(parse_scenario(data))
+    job = resolve_scenario(parse_scenario(data))
     assert job.cable.length == pytest.approx(0.5) and job.cable.diameter == pytest.approx(0.005)
     assert shape_length(job.start) == pytest.approx(0.5)
     assert job.obstacles[0].top == pytest.approx(0.06)
@@ -58,7 +54,7 @@ def test_millimetres_are_converted():
 
 def test_sine_shape_has_the_cable_length():
     data = with_("target", {"kind": "sine", "amplitude": 0.05, "periods": 1.5})
-    job = resolve(parse_scenario(data))
+    job = resolve_scenario(parse_scenario(data))
     assert shape_length(job.target) == pytest.approx(job.cable.length, rel=5e-3)
 
 
@@ -117,7 +113,7 @@ BAD = [
 @pytest.mark.parametrize("data, fragment", BAD)
 def test_bad_scenarios_give_one_line_errors(data, fragment):
     with pytest.raises(ScenarioError) as info:
-        resolve(parse_scenario(data))
+        resolve_scenario(parse_scenario(data))
     message = str(info.value)
     assert fragment in message
     assert "\n" not in message
@@ -141,11 +137,70 @@ def test_unreadable_files(tmp_path, text, suffix, fragment):
 
 
 def test_check_defaults_are_the_thesis_lengths_whatever_the_units():
-    metres = resolve(parse_scenario(BASE))
-    millimetres = resolve(parse_scenario(with_("units", "mm") | {
+    metres = resolve_scenario(parse_scenario(BASE))
+    millimetres = resolve_scenario(parse_scenario(with_("units", "mm") | {
         "cable": {"name": "ethernet", "length": 500, "diameter": 5}}))
     for job in (metres, millimetres):
-        assert job.scenario.check.lengths(job.scale) == pytest.approx((0.01, 0.02))
-    given = resolve(parse_scenario(with_("units", "mm") | {
+        assert (job.target_threshold, job.planner.z_safety) == pytest.approx((0.01, 0.02))
+        assert job.motion.tcp_speed == pytest.approx(0.1)  # 100 mm/s whatever the units
+    given = resolve_scenario(parse_scenario(with_("units", "mm") | {
         "cable": {"name": "ethernet", "length": 500}, "check": {"threshold": 5}}))
-    assert given.scenario.check.lengths(given.scale) == pytest.approx((0.005, 0.02))
+    assert (given.target_threshold, given.planner.z_safety) == pytest.approx((0.005, 0.02))
+
+
+FULL_METRES = {
+    "cable": {"name": "pu", "n_links": 12, "length": 0.6, "diameter": 0.008,
+              "rest_shape": {"kind": "arc", "angle": 40}},
+    "start": {"kind": "sine", "amplitude": 0.03, "periods": 1.5,
+              "placement": {"position": [0.35, -0.2, 0.15], "rotation": {"euler": [0, 0, 80]}}},
+    "target": {"kind": "points", "points": [[0.3, 0.0, 0.2], [0.45, 0.1, 0.25],
+                                            [0.6, 0.25, 0.22], [0.7, 0.4, 0.2]]},
+    "obstacles": [{"type": "box", "center": [0.4, 0.1, 0.05], "size": [0.03, 0.3, 0.1],
+                   "yaw": 10},
+                  {"type": "box", "min": [0.5, -0.3, 0.0], "max": [0.55, -0.25, 0.04]},
+                  {"type": "cylinder", "base": [0.6, 0.0, 0.0], "radius": 0.01, "height": 0.08}],
+    "table": {"height": 0.01},
+    "check": {"threshold": 0.015, "z_safety": 0.025},
+    "trajectory": {"tcp_speed": 0.08},
+    "planner": {"n_shapes": 4},
+}
+
+
+def _in_millimetres(data):
+    """FULL_METRES with every length in mm (angles, counts and moduli unchanged)."""
+    lengths = {"length", "diameter", "amplitude", "position", "points", "center", "size", "min",
+               "max", "base", "radius", "height", "threshold", "z_safety", "tcp_speed"}
+
+    def convert(key, value):
+        if isinstance(value, dict):
+            return {k: convert(k, v) for k, v in value.items()}
+        if isinstance(value, list) and value and isinstance(value[0], dict):
+            return [convert(key, v) for v in value]
+        if key in lengths:
+            return np.multiply(value, 1e3).tolist()
+        return value
+
+    return {"units": "mm", **{k: convert(k, v) for k, v in data.items()}}
+
+
+def test_a_scenario_in_metres_and_millimetres_resolves_to_the_same_job():
+    metres = resolve_scenario(parse_scenario(FULL_METRES))
+    millimetres = resolve_scenario(parse_scenario(_in_millimetres(FULL_METRES)))
+    close = {"rtol": 1e-12, "atol": 1e-15}
+    assert metres.cable.constants() == pytest.approx(millimetres.cable.constants(), rel=1e-12)
+    assert np.allclose(metres.cable.rest_shape, millimetres.cable.rest_shape, **close)
+    for name in ("start", "target"):
+        assert np.allclose(getattr(metres, name), getattr(millimetres, name), **close)
+    assert len(metres.obstacles) == len(millimetres.obstacles) == 4
+    for a, b in zip(metres.obstacles, millimetres.obstacles, strict=True):
+        assert type(a) is type(b)
+        for key, value in vars(a).items():
+            if isinstance(value, str):
+                assert value == getattr(b, key)
+            else:
+                assert np.allclose(value, getattr(b, key), **close), key
+    assert metres.target_threshold == pytest.approx(millimetres.target_threshold, rel=1e-12)
+    assert metres.planner == millimetres.planner
+    for key, value in vars(metres.motion).items():
+        assert value == pytest.approx(getattr(millimetres.motion, key), rel=1e-12), key
+    assert metres.motion.tcp_speed == pytest.approx(0.08, rel=1e-12)

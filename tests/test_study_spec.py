@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from dloplan.study import StudyError, StudySpec, parse_study
@@ -66,27 +67,40 @@ study:
 
 
 def test_scenario_file_with_a_study_section(tmp_path):
-    from dloplan.study import job_problem, load_study
+    from dloplan.app import load_scenario
+    from dloplan.app.study import study_spec
+    from dloplan.io.scenario import ScenarioError
 
     path = tmp_path / "job.yaml"
     path.write_text(SCENARIO.replace("SPREAD", "20"))
-    job, spec = load_study(path)
+    job = load_scenario(path)
+    spec = study_spec(job)
     assert spec.samples == 8 and spec.spread_si("youngs_modulus") == pytest.approx(0.2)
-    problem = job_problem(job)
-    assert problem.planned.shape == (2, 9, 3)
+    assert study_spec(job, samples=3, seed=4).samples == 3
+    for samples in (0, -5):  # overrides pass the same schema
+        with pytest.raises(StudyError, match=r"job.yaml: study.samples: "):
+            study_spec(job, samples=samples)
     path.write_text(SCENARIO.replace("SPREAD", "-1"))
-    with pytest.raises(StudyError, match=r"job.yaml: study.parameters.youngs_modulus.spread: "):
-        load_study(path)
+    with pytest.raises(ScenarioError, match=r"job.yaml: study.parameters.youngs_modulus.spread: "):
+        load_scenario(path)
+    path.write_text(SCENARIO.split("study:")[0])
+    with pytest.raises(StudyError, match="no study section: nothing to vary"):
+        study_spec(load_scenario(path))
 
 
-def test_a_planned_path_is_studied(tmp_path):
-    from dloplan.planning import plan
-    from dloplan.study import job_problem, load_study, run_study
+def test_a_zero_spread_study_reproduces_the_plan_of_dloplan_plan(tmp_path):
+    from dloplan.app import load_scenario, run_job
+    from dloplan.app.study import study_problem_of, study_spec
+    from dloplan.study import run_study
 
     path = tmp_path / "job.yaml"
     path.write_text(SCENARIO.replace("SPREAD", "0"))
-    job, spec = load_study(path)
-    planned = plan(job.cable, job.start, job.target, 3)
-    result = run_study(job_problem(job, path=planned.path), spec)
-    assert result.table["shape"].max() == 4  # S + 2 = 5 shapes
+    job = load_scenario(path)
+    doc = run_job(job)  # what dloplan plan computes and writes
+    problem = study_problem_of(doc)
+    assert np.array_equal(problem.nominal, doc.stabilized)
+    assert np.array_equal(problem.planned, doc.shapes)
+    result = run_study(problem, study_spec(job))
+    assert result.table["shape"].max() == doc.n_shapes + 1
     assert result.summary.n_success == 8  # zero spread: the nominal plan, which passes
+    assert np.max(result.table["deviation"]) < 1e-9  # every sample settles on the plan's shapes

@@ -10,6 +10,8 @@ Heavy optional dependencies (OpenCV, Dask, pyarrow) and matplotlib are imported 
 functions that need them.
 """
 
+from importlib.metadata import PackageNotFoundError, version
+
 from .cable import CATALOGUE_NAMES, GRAVITY, Cable, catalogue_cable
 from .grippers import GripperPath, gripper_path
 from .identify import Identification, identify_youngs_modulus
@@ -59,4 +61,7 @@ __all__ = [
     "twist_along_path",
     "verify_path",
 ]
-__version__ = "0.1.0"
+try:
+    __version__ = version("dloplan")
+except PackageNotFoundError:  # pragma: no cover - running from a source tree without install
+    __version__ = "unknown"

@@ -13,9 +13,8 @@ import time
 from pathlib import Path
 
 from . import __version__
+from .app.files import EXIT_FAILURE, EXIT_OK, EXIT_WARNINGS, exit_code
 from .cable import CATALOGUE_NAMES, catalogue_cable
-
-EXIT_OK, EXIT_WARNINGS, EXIT_FAILURE = 0, 1, 2
 
 
 class Console:
@@ -55,18 +54,14 @@ def _cmd_schema(args: argparse.Namespace) -> int:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    from .harness.files import is_harness, parse_harness, resolve_harness
-    from .io.scenario import read_mapping
-    from .jobs import check_job, load_job
+    from .app import Job, check_job, load_job
 
     console = Console(args.quiet)
-    data = read_mapping(args.scenario)
-    if is_harness(data):  # the board's checks run when it is resolved (docs/harness.md)
-        job = resolve_harness(parse_harness(data, args.scenario), args.scenario)
+    job = load_job(args.scenario, console.stage)
+    if not isinstance(job, Job):  # a harness board is checked when it is resolved
         print(f"ok      board: fixtures within reach of the {job.cable.length:.3g} m cable, "
               "pegs clear of the fixtures, slots wide enough")
         return EXIT_OK
-    job, _ = load_job(args.scenario, console.stage)
     console.stage(f"loaded {args.scenario}: {job.cable.name or 'cable'}, n = {job.cable.n_links}")
     report = check_job(job)
     console.stage("checked start, target, target stability and obstacles")
@@ -83,35 +78,15 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from .io.export import (
-        read_plan_json,
-        write_plan_json,
-        write_ros_trajectory,
-        write_trajectory_csv,
-    )
-    from .io.rapid import RapidSettings, write_rapid
-    from .trajectory import trajectory_from_grippers
+    from .app import WRITERS, read_plan
+    from .app.pipeline import retimed
+    from .app.writers import WriteOptions
 
     console = Console(args.quiet)
-    doc = read_plan_json(args.plan)
-    trajectory = doc.trajectory
-    if doc.grippers is not None and (args.speed or args.angular_speed or trajectory is None):
-        trajectory = trajectory_from_grippers(
-            doc.grippers, max_speed=args.speed or 0.1, max_angular_speed=args.angular_speed or 1.0
-        )
-    if trajectory is None and args.format != "json":
-        raise ValueError(f"{args.plan}: the plan has no gripper poses to build a trajectory from")
-    out = Path(args.output)
-    if args.format == "json":
-        written = [write_plan_json(out, doc.cable, doc.shapes, doc.grippers, trajectory,
-                                   doc.warnings, doc.extra)]
-    elif args.format == "csv":
-        written = [write_trajectory_csv(out, trajectory, rate=args.rate or 100.0)]
-    elif args.format == "ros":
-        written = [write_ros_trajectory(out, trajectory, rate=args.rate)]
-    else:
-        settings = RapidSettings(tools=(args.tool_left, args.tool_right), wobj=args.wobj)
-        written = list(write_rapid(out, trajectory, settings).values())
+    doc = read_plan(args.plan)
+    if args.speed or args.angular_speed:
+        doc = retimed(doc, args.speed, args.angular_speed)
+    written = WRITERS[args.format].write(doc, Path(args.output), WriteOptions(rate=args.rate))
     console.stage(f"wrote {', '.join(str(p) for p in written)}")
     if args.json:
         print(json.dumps({"written": [str(p) for p in written]}))
@@ -120,15 +95,14 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_verify(args: argparse.Namespace) -> int:
-    from .io.export import read_plan_json
-    from .jobs import verify_document
+    from .app import read_plan, verify_plan
 
     console = Console(args.quiet)
-    doc = read_plan_json(args.plan)
+    doc = read_plan(args.plan)
     console.stage(f"verifying {len(doc.shapes)} shapes of {args.plan}")
-    result = verify_document(doc, snap=not args.no_snap, replay=not args.no_replay,
-                             tensile_limit=args.tensile_limit, tolerance=args.tolerance,
-                             robot=not args.no_robot)
+    result = verify_plan(doc, snap=not args.no_snap, replay=not args.no_replay,
+                         tensile_limit=args.tensile_limit, tolerance=args.tolerance,
+                         robot=not args.no_robot)
     console.stage("done: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
     print(json.dumps(result.to_dict(), indent=2) if args.json else result.table())
     if args.place and doc.grippers is not None:
@@ -143,13 +117,13 @@ def _cmd_verify(args: argparse.Namespace) -> int:
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
-    from .io.export import read_plan_json
-    from .jobs import stabilized_shapes
+    from .app import read_plan
+    from .app.pipeline import settled_shapes
     from .vision import compare_trials, read_shapes
 
     console = Console(args.quiet)
-    doc = read_plan_json(args.plan)
-    planned = stabilized_shapes(doc) if args.stabilized else doc.shapes
+    doc = read_plan(args.plan)
+    planned = settled_shapes(doc) if args.stabilized else doc.shapes
     trials = [read_shapes(path) for path in args.shapes]
     result = compare_trials(planned, trials, frame_id=doc.frame_id, end_order=args.end_order)
     if args.output:
@@ -250,135 +224,80 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     return EXIT_OK if result.informative else EXIT_WARNINGS
 
 
-def _print_outcome(outcome, written, args) -> None:
-    result = outcome.plan
+def _print_plan(doc, written, args) -> None:
     if args.json:
         print(json.dumps({
-            "scenario": outcome.job.source, "ok": outcome.ok, "warnings": outcome.warnings,
-            "n_shapes": result.n_shapes, "family": outcome.family,
-            "duration_s": outcome.trajectory.duration,
-            "obstacles": None if result.avoidance is None else result.avoidance.status,
-            "verified": None if outcome.verification is None else outcome.verification.ok,
+            "scenario": doc.source, "ok": doc.ok, "warnings": list(doc.warnings),
+            "n_shapes": doc.n_shapes,
+            "family": None if doc.stages is None else doc.stages.family,
+            "duration_s": None if doc.trajectory is None else doc.trajectory.duration,
+            "obstacles": None if doc.avoidance is None else doc.avoidance.status,
+            "verified": None if doc.verification is None else doc.verification.ok,
+            "harness": doc.harness,
             "written": [str(p) for p in written],
-        }, indent=2))
+        }, indent=2, default=float))
         return
-    print(f"{outcome.job.source}: {result.n_shapes} intermediate shapes, "
-          f"trajectory {outcome.trajectory.duration:.2f} s, "
-          f"{'OK' if outcome.ok else 'FAILED'}")
-    for warning in outcome.warnings:
+    from .app.report import summary_lines
+
+    lines = summary_lines(doc)
+    print(f"{doc.source}: {doc.n_shapes} intermediate shapes, {lines[0]}")
+    for line in lines[2:]:
+        print(f"  {line}")
+    for warning in doc.warnings:
         print(f"  warning: {warning}")
-    if outcome.verification is not None:
-        print(outcome.verification.table())
+    if doc.verification is not None:
+        print(doc.verification.table())
     print(f"  wrote {len(written)} files into {Path(written[0]).parent}")
 
 
-def _plan_one(job, output: Path, args, console: Console, identification=None) -> int:
-    from .jobs import plan_job, write_outputs
+def _plan_one(job, output: Path, args, console: Console) -> int:
+    from .app.files import plan_into
 
-    outcome = plan_job(job, verify=args.verify, progress=console.stage,
-                       identification=identification)
-    written = write_outputs(outcome, output, progress=console.stage)
-    report = output / "report.html"
-    if report.exists():
-        console.stage(f"report: {report}")
-    _print_outcome(outcome, written, args)
-    if not outcome.ok:
-        return EXIT_FAILURE
-    return EXIT_WARNINGS if outcome.warnings else EXIT_OK
-
-
-def _plan_harness(data: dict, source: str, args, console: Console) -> int:
-    from .jobs import plan_harness_file
-
-    result, written = plan_harness_file(data, source, Path(args.output), console.stage)
-    if args.json:
-        print(json.dumps({"scenario": source, "ok": result.success, "warnings": result.warnings,
-                          "cycle_time_s": result.cycle_time, "phases": result.phase_times(),
-                          "written": [str(p) for p in written]}, indent=2))
-    else:
-        print(f"{source}: {result.message}")
-        for name, (t0, t1) in result.phase_times().items():
-            print(f"  {name}: {t0:.2f} s to {t1:.2f} s")
-        for warning in result.warnings:
-            print(f"  warning: {warning}")
-        print(f"  wrote {len(written)} files into {args.output}")
-    if not result.success:
-        return EXIT_FAILURE
-    return EXIT_WARNINGS if result.warnings else EXIT_OK
+    doc, written = plan_into(job, output, verify=args.verify, progress=console.stage)
+    _print_plan(doc, written, args)
+    return exit_code(doc)
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
-    from .harness.files import is_harness
-    from .io.scenario import read_mapping
-    from .jobs import load_job
+    from .app import load_job
 
     console = Console(args.quiet)
     if len(args.scenarios) > 1 or args.workers > 1 or args.scheduler:
         return _plan_batch(args, console)
-    data = read_mapping(args.scenarios[0])
-    if is_harness(data):
-        return _plan_harness(data, args.scenarios[0], args, console)
-    job, identification = load_job(args.scenarios[0], console.stage)
+    job = load_job(args.scenarios[0], console.stage)
     console.stage(f"loaded {job.source}: {job.cable.name or 'cable'}, E "
                   f"{job.cable.youngs_modulus:.3g} Pa, n = {job.cable.n_links}")
-    return _plan_one(job, Path(args.output), args, console, identification)
+    return _plan_one(job, Path(args.output), args, console)
 
 
 def _plan_batch(args: argparse.Namespace, console: Console) -> int:
+    from .app.files import plan_file
     from .study.backends import make_backend, map_jobs
 
-    output = Path(args.output)
-    options = {"output": str(output), "verify": args.verify}
+    options = {"output": str(Path(args.output)), "verify": args.verify}
     codes = {}
     with make_backend(None if args.scheduler else args.workers, args.scheduler) as backend:
         for _, (path, code, line) in map_jobs(plan_file, args.scenarios, backend,
                                               shared=options):
             codes[path] = code
             console.stage(line)
-    worst = max(codes.values())
     print(f"planned {len(codes)} scenarios: "
           f"{sum(c == EXIT_OK for c in codes.values())} ok, "
           f"{sum(c == EXIT_WARNINGS for c in codes.values())} with warnings, "
           f"{sum(c == EXIT_FAILURE for c in codes.values())} failed")
-    return worst
-
-
-def plan_file(options: dict, path: str) -> tuple[str, int, str]:
-    """Plan one scenario file into ``<output>/<stem>/`` (the batch mode's task)."""
-    from .harness.files import is_harness
-    from .io.scenario import read_mapping
-    from .jobs import load_job, plan_harness_file, plan_job, write_outputs
-
-    folder = Path(options["output"]) / Path(path).stem
-    try:
-        data = read_mapping(path)
-        if "start" not in data and "identify" in data:
-            return path, EXIT_WARNINGS, f"{path}: skipped (an identification file: use " \
-                "dloplan identify)"
-        if is_harness(data):
-            result = plan_harness_file(data, path, folder)[0]
-            ok, warnings = result.success, result.warnings
-        else:
-            job, identification = load_job(path)
-            outcome = plan_job(job, verify=options["verify"], identification=identification)
-            write_outputs(outcome, folder)
-            ok, warnings = outcome.ok, outcome.warnings
-    except ValueError as exc:
-        return path, EXIT_FAILURE, f"{path}: error: {exc}"
-    code = EXIT_OK if ok and not warnings else (EXIT_WARNINGS if ok else EXIT_FAILURE)
-    status = {EXIT_OK: "ok", EXIT_WARNINGS: "warnings", EXIT_FAILURE: "FAILED"}[code]
-    return path, code, f"{path}: {status} -> {folder}"
+    return max(codes.values())
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
     from importlib import resources
 
-    from .io.scenario import parse_scenario, read_mapping, resolve
+    from .app.load import resolve_mapping
+    from .io.scenario import read_mapping
 
     console = Console(args.quiet)
     source = resources.files("dloplan.data").joinpath("demo.yaml")
     with resources.as_file(source) as path:
-        job = resolve(parse_scenario(read_mapping(path), "demo"), "demo (embedded)")
+        job = resolve_mapping(read_mapping(path), "demo (embedded)")
     console.stage("the embedded demo: an Ethernet cable moved over an obstacle on the table")
     output = Path(args.output)
     code = _plan_one(job, output, args, console)
@@ -387,31 +306,28 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
-    from .planning import plan
+    from .app import load_scenario, run_job
+    from .app.study import study_problem_of, study_spec
+    from .plots.report import write_report
     from .plots.study import study_figures
     from .study.backends import make_backend
-    from .study.run import job_problem, load_study, run_study
+    from .study.run import run_study
 
     console = Console(args.quiet)
-    job, spec = load_study(args.scenario)
-    update = {k: v for k, v in (("samples", args.samples), ("seed", args.seed)) if v is not None}
-    spec = spec.model_copy(update=update) if update else spec
-    from .shapes import discretize
-
-    planned = plan(job.cable, discretize(job.start, job.cable, "start"),
-                   discretize(job.target, job.cable, "target"), job.scenario.planner.n_shapes)
-    console.stage(f"planned {planned.n_shapes} shapes; running {spec.samples} samples")
-    problem = job_problem(job, path=planned.path)
+    job = load_scenario(args.scenario, console.stage)
+    spec = study_spec(job, args.samples, args.seed)
+    doc = run_job(job, progress=console.stage)
+    problem = study_problem_of(doc)
+    console.stage(f"the plan of dloplan plan: {doc.n_shapes} shapes; running {spec.samples} "
+                  "samples")
     with make_backend(None if args.scheduler else args.workers, args.scheduler) as backend:
         result = run_study(problem, spec, out=args.output, backend=backend,
                            progress=lambda p: console.stage(p.line()),
                            resume=not args.overwrite, file_format="csv" if args.csv else "parquet")
     written = study_figures(result.table, result.summary, spec.criteria, args.output)
-    from .plots.report import write_report
-
     report = write_report(Path(args.output) / "report.html", title=f"dloplan study: "
-                          f"{args.scenario}", shapes=planned.path, stabilized=problem.nominal,
-                          summary=result.summary.lines(),
+                          f"{args.scenario}", shapes=doc.shapes, stabilized=problem.nominal,
+                          obstacles=doc.obstacles, summary=result.summary.lines(),
                           images=[p for p in written if p.suffix == ".png"])
     console.stage(f"{len(written)} figures and the report {report} in {args.output}")
     for line in result.summary.lines():
@@ -420,13 +336,16 @@ def _cmd_study(args: argparse.Namespace) -> int:
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    from .jobs import load_plan_or_scenario, simulate_document
+    from .app.files import document_of
+    from .app.pipeline import simulate_plan
 
     console = Console(args.quiet)
-    doc = load_plan_or_scenario(args.file, progress=console.stage)
+    doc = document_of(args.file, progress=console.stage)
+    if doc.trajectory is None:
+        raise ValueError(f"{args.file}: the plan has no timed trajectory to simulate")
     console.stage(f"simulating {doc.trajectory.duration:.2f} s of motion at real speed")
-    run, comparison = simulate_document(doc, damping=args.damping, torsion=args.torsion,
-                                        youngs_modulus_cap=args.modulus_cap)
+    run, comparison = simulate_plan(doc, damping=args.damping, torsion=args.torsion,
+                                    youngs_modulus_cap=args.modulus_cap)
     console.stage(run.message)
     if args.output:
         from .plots.compare import write_comparison_figures
@@ -439,6 +358,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
                          indent=2, default=float))
     else:
         print(run.message)
+        print("replay deviations from the planned stabilized shapes (model against model; "
+              "measured shapes: dloplan compare)")
         print(comparison.table())
     return EXIT_OK if run.ok else EXIT_WARNINGS
 
@@ -484,7 +405,7 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("-o", "--output", default="out/study", help="study folder")
 
     simulate = command("simulate", _cmd_simulate, "run a plan's timed trajectory through the "
-                       "dynamic simulator and tabulate the shape errors (thesis Table 7.2)")
+                       "dynamic simulator and tabulate its deviations from the planned shapes")
     simulate.add_argument("file", help="plan.json, or a scenario file (planned first)")
     simulate.add_argument("--damping", choices=["relative", "absolute"], default="relative",
                           help="relative: dashpots between neighbours; absolute: the thesis' "
@@ -512,15 +433,13 @@ def build_parser() -> argparse.ArgumentParser:
     export = command("export", _cmd_export, "export a plan as JSON, CSV, ROS 2 trajectory or "
                      "ABB RAPID")
     export.add_argument("plan", help="plan file written by dloplan plan (plan.json)")
-    export.add_argument("--format", choices=["json", "csv", "ros", "rapid"], required=True)
+    export.add_argument("--format", choices=["json", "csv", "ros", "rapid", "report"],
+                        required=True)
     export.add_argument("-o", "--output", required=True,
                         help="output file (a folder for rapid: one module per arm)")
     export.add_argument("--rate", type=float, help="sampling rate [Hz] for csv/ros")
     export.add_argument("--speed", type=float, help="re-time with this TCP speed [m/s]")
     export.add_argument("--angular-speed", type=float, help="re-time: angular limit [rad/s]")
-    export.add_argument("--tool-left", default="tool_clip_l", help="RAPID tooldata, left arm")
-    export.add_argument("--tool-right", default="tool_clip_r", help="RAPID tooldata, right arm")
-    export.add_argument("--wobj", default="wobj0", help="RAPID work object")
 
     verify = command("verify", _cmd_verify, "verify a plan: elastic stability, snap-through, "
                      "dynamic replay (exit 2 when a check fails)")

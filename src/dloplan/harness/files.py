@@ -99,7 +99,7 @@ def resolve_harness(scenario: HarnessScenario, source: str = "harness scenario")
         clearance=h.clearance * scale, contact_force=t.contact_force,
         max_axial_force=t.max_axial_force, max_offset=t.max_offset * scale,
         section_links=t.n_links, substeps=t.substeps,
-        max_speed=scenario.trajectory.tcp_speed,
+        max_speed=scenario.trajectory.speed(scale),
         max_angular_speed=scenario.trajectory.angular_speed,
         gripper_method=scenario.grippers.method,
         physical_mode=scenario.planner.physical_mode or "equilibrium",

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -248,9 +247,18 @@ class GripperSpec(_Model):
 class TrajectorySpec(_Model):
     """Timed dual-arm motion (thesis 7.3: 100 mm/s)."""
 
-    tcp_speed: PositiveLength = Field(0.1, description="[m/s] (not scaled by units)")
+    tcp_speed: PositiveLength | None = Field(
+        None, description="[file units/s]; default 100 mm/s (thesis 7.3)")
     angular_speed: PositiveLength = Field(1.0, description="[rad/s]")
     rate: PositiveLength = Field(50.0, description="sampling rate [Hz]")
+
+    def speed(self, scale: float) -> float:
+        """The TCP speed [m/s]: the file's value times ``scale``, or the default 0.1 m/s."""
+        return DEFAULT_TCP_SPEED if self.tcp_speed is None else self.tcp_speed * scale
+
+
+DEFAULT_TCP_SPEED = 0.1
+"""Default TCP speed [m/s] (thesis 7.3: 100 mm/s)."""
 
 
 class CheckSpec(_Model):
@@ -319,23 +327,6 @@ class Scenario(JobSpec):
         return self
 
 
-@dataclass(frozen=True, eq=False)
-class Job:
-    """A scenario resolved into library objects, in SI units."""
-
-    scenario: Scenario
-    cable: Cable
-    start: np.ndarray
-    target: np.ndarray
-    obstacles: list = field(default_factory=list)
-    source: str = ""
-
-    @property
-    def scale(self) -> float:
-        """Metres per file unit."""
-        return 1e-3 if self.scenario.units == "mm" else 1.0
-
-
 _TAGS = {"points", "straight", "arc", "sine", "box", "cylinder"}
 
 
@@ -386,12 +377,6 @@ def read_mapping(path: str | Path) -> dict:
         raise ScenarioError(f"{path}: expected a mapping at the top level, got "
                             f"{type(data).__name__}")
     return data
-
-
-def load_scenario(path: str | Path) -> Job:
-    """Read, validate and resolve a scenario file into a :class:`Job`."""
-    data = read_mapping(path)
-    return resolve(parse_scenario(data, str(path)), str(path))
 
 
 def build_cable(spec: CableSpec, scale: float, youngs_modulus: float | None) -> Cable:
@@ -456,35 +441,6 @@ def build_obstacles(specs, table: TableSpec | None, scale: float) -> list:
     if table is not None:
         out.append(Table(table.height * scale))
     return out
-
-
-def resolve(scenario: Scenario, source: str = "scenario",
-            youngs_modulus: float | None = None) -> Job:
-    """Turn a validated scenario into a :class:`Job` (SI units, library objects).
-
-    ``youngs_modulus`` overrides the file's (used after identification).
-    """
-    scale = 1e-3 if scenario.units == "mm" else 1.0
-    if scenario.cable.youngs_modulus == "identify" and youngs_modulus is None:
-        raise ScenarioError(
-            f"{source}: cable.youngs_modulus is 'identify': identify it first "
-            "(dloplan plan and dloplan check do, from the identify section) or give E [Pa]"
-        )
-    try:
-        cable = build_cable(scenario.cable, scale, youngs_modulus)
-        if scenario.cable.rest_shape is not None:
-            rest = build_shape(scenario.cable.rest_shape, cable, scale, "cable.rest_shape")
-            from ..physics.geometry import resample_by_arc_length
-
-            if len(rest) != cable.n_points:
-                rest = resample_by_arc_length(rest, cable.n_points)
-            cable = replace(cable, rest_shape=rest)
-    except ValueError as exc:
-        raise ScenarioError(f"{source}: cable.{exc}") from None
-    start = build_shape(scenario.start, cable, scale, "start")
-    target = build_shape(scenario.target, cable, scale, "target")
-    obstacles = build_obstacles(scenario.obstacles, scenario.table, scale)
-    return Job(scenario, cable, start, target, obstacles, source)
 
 
 def scenario_json_schema() -> dict:

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .figures import _pyplot, errors_figure, save_figure
+from .figures import errors_figure, pyplot, save_figure
 
 PLANES = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
 
@@ -30,7 +30,7 @@ def registered_shapes_figure(comparison, plane: str = "xy",
     if plane not in PLANES:
         raise ValueError(f"plane: got {plane!r}, expected one of {sorted(PLANES)}")
     a, b = PLANES[plane]
-    plt = _pyplot()
+    plt = pyplot()
     n_shapes = len(comparison.labels)
     cols = min(4, n_shapes)
     rows = math.ceil(n_shapes / cols)

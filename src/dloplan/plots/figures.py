@@ -17,7 +17,8 @@ from ..obstacles.shapes import Box, Cylinder, Table
 AXIS_COLOURS = ("#d32f2f", "#388e3c", "#1976d2")  # u, v, w
 
 
-def _pyplot():
+def pyplot():
+    """matplotlib.pyplot on the non-interactive Agg backend (imported on first use)."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -37,7 +38,7 @@ def save_figure(figure, folder: str | Path, name: str) -> list[Path]:
         figure.savefig(tmp, format=suffix, dpi=110, bbox_inches="tight")
         tmp.replace(path)
         paths.append(path)
-    _pyplot().close(figure)
+    pyplot().close(figure)
     return paths
 
 
@@ -102,7 +103,7 @@ def path_figure(
     title: str = "Planned shapes and gripper frames",
 ):
     """Planned shapes with both gripper frames as u/v/w triads: 3D, top and side views."""
-    plt = _pyplot()
+    plt = pyplot()
     shapes = np.asarray(shapes)
     points = shapes.reshape(-1, 3)
     fig = plt.figure(figsize=(15, 5))
@@ -155,7 +156,7 @@ def path_figure(
 def stabilized_figure(shapes, stabilized, obstacles: Sequence = (), colliding=(),
                       title: str = "Planned and stabilized shapes"):
     """Planned (solid) and gravity-stabilized (dashed) shapes with the obstacles, side view."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 5))
     colours = plt.cm.viridis(np.linspace(0, 1, len(shapes)))
     # look along the cable: the side view across the direction the shapes spread least
@@ -185,7 +186,7 @@ def stabilized_figure(shapes, stabilized, obstacles: Sequence = (), colliding=()
 def forces_figure(axial_mean, axial_variance, bending_mean, bending_variance,
                   title: str = "Forces per mass point across the path"):
     """Mean and variance of the axial and bending force magnitudes per point (Figs. 4.21, 7.29)."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(10, 6), sharex=True)
     points = np.arange(len(axial_mean))
     panels = ((axial_mean, "axial mean [N]"), (bending_mean, "bending mean [N]"),
@@ -204,7 +205,7 @@ def forces_figure(axial_mean, axial_variance, bending_mean, bending_variance,
 def lengths_figure(lengths: Mapping[str, np.ndarray], cable_length: float,
                    title: str = "Shape lengths per stage (thesis Table 4.2)"):
     """Length of every shape of the path after each planner stage, against L."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7, 4))
     for stage, values in lengths.items():
         ax.plot(np.arange(len(values)), values, marker="o", label=stage)
@@ -220,7 +221,7 @@ def lengths_figure(lengths: Mapping[str, np.ndarray], cable_length: float,
 def identification_figure(moduli, costs, identified: float | None = None,
                           title: str = "Identification cost against E (thesis Fig. 6.8)"):
     """The identification cost |xi_data - xi_sim|^2 against the Young's modulus (log scale)."""
-    plt = _pyplot()
+    plt = pyplot()
     order = np.argsort(moduli)
     fig, ax = plt.subplots(figsize=(7, 4))
     ax.loglog(np.asarray(moduli)[order], np.asarray(costs)[order], marker="o")
@@ -236,7 +237,7 @@ def identification_figure(moduli, costs, identified: float | None = None,
 
 def errors_figure(errors: np.ndarray, title: str = "Mean error per shape (thesis Fig. 7.10)"):
     """Per-shape mean errors: columns x, y, z and total [m], (S + 2, 4)."""
-    plt = _pyplot()
+    plt = pyplot()
     errors = np.asarray(errors)
     fig, ax = plt.subplots(figsize=(8, 4))
     index = np.arange(len(errors))

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..study.summary import sample_outcomes, success_interval
-from .figures import _pyplot, save_figure
+from .figures import pyplot, save_figure
 
 SCALES = {"Pa": (1e-6, "MPa"), "m": (1e3, "mm"), "rad": (57.29577951308232, "deg"),
           "kg/m": (1e3, "g/m")}
@@ -36,7 +36,7 @@ def success_by_parameter_figure(values, success, name: str = "youngs_modulus",
     confidence : float
         Level of the error bars.
     """
-    plt = _pyplot()
+    plt = pyplot()
     x = np.asarray(values, dtype=float)
     ok = np.asarray(success, dtype=bool)
     factor, label = SCALES.get(unit, (1.0, unit))
@@ -73,7 +73,7 @@ def deviation_figure(deviations, threshold: float | None = None):
     threshold : float, optional
         The ``max_deviation`` criterion [m], drawn as a line.
     """
-    plt = _pyplot()
+    plt = pyplot()
     d = 1e3 * np.asarray(deviations, dtype=float)
     fig, (left, right) = plt.subplots(1, 2, figsize=(9.0, 3.8))
     worst = np.nanmax(np.where(np.isnan(d), -np.inf, d), axis=1)
@@ -101,7 +101,7 @@ def tornado_figure(sensitivities: Sequence):
     ``sensitivities``: :class:`~dloplan.study.summary.Sensitivity` items, most influential
     first (drawn at the top).
     """
-    plt = _pyplot()
+    plt = pyplot()
     items = list(sensitivities)
     fig, ax = plt.subplots(figsize=(6.5, 1.2 + 0.5 * max(len(items), 1)))
     y = np.arange(len(items))[::-1]

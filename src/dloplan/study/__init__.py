@@ -20,7 +20,7 @@ from .backends import (
 )
 from .evaluate import StudyProblem, evaluate_chunk, evaluate_sample, study_problem
 from .results import read_chunks, read_manifest, read_table, write_table
-from .run import Progress, StudyResult, job_problem, load_study, run_study
+from .run import Progress, StudyResult, run_study
 from .sampling import Samples, draw_samples
 from .spec import CriteriaSpec, StudyError, StudySpec, Variation, parse_study
 from .summary import Sensitivity, StudySummary, success_interval, summarize
@@ -45,8 +45,6 @@ __all__ = [
     "evaluate_sample",
     "make_backend",
     "map_jobs",
-    "job_problem",
-    "load_study",
     "parse_study",
     "read_chunks",
     "read_manifest",

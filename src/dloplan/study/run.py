@@ -20,7 +20,6 @@ from pathlib import Path
 import numpy as np
 
 from ..io.files import atomic_write_text
-from ..shapes import discretize
 from .backends import Backend, SerialBackend, map_jobs
 from .evaluate import COLUMN_TYPES, OUTCOME_COLUMNS, StudyProblem, evaluate_chunk
 from .results import (
@@ -221,43 +220,6 @@ def run_study(
         atomic_write_text(folder / "summary.json", json.dumps(summary.to_dict(), indent=2))
     return StudyResult(table, summary, samples, spec, folder, len(todo), len(done),
                        time.perf_counter() - started, backend.describe())
-
-
-def load_study(path) -> tuple:
-    """Read a scenario file with a ``study:`` section: ``(job, spec)``.
-
-    Works whether or not the scenario schema knows the ``study`` key yet: the section is
-    taken out and validated by :func:`~dloplan.study.spec.parse_study`, the rest by the
-    scenario schema.
-    """
-    from ..io.scenario import parse_scenario, read_mapping, resolve
-
-    data = read_mapping(path)
-    section = data.pop("study", None)
-    spec = parse_study(section, f"{path}: study")
-    job = resolve(parse_scenario(data, str(path)), str(path))
-    return job, spec
-
-
-def job_problem(job, path=None, clips=None) -> StudyProblem:
-    """The study problem of a scenario job.
-
-    Parameters
-    ----------
-    job : dloplan.io.scenario.Job
-        Cable, start, target, obstacles.
-    path : array_like, optional
-        (S + 2, n + 1, 3) planned shapes [m] (a ``Plan.path``); default: the job's start and
-        target only (discretized to the cable's n + 1 points), for a study before planning.
-    clips : sequence of ClipPoses, optional
-        Clip poses per shape (e.g. from the gripper frames); default: from the shapes.
-    """
-    from .evaluate import study_problem
-
-    if path is None:
-        path = np.stack([discretize(job.start, job.cable, "start"),
-                         discretize(job.target, job.cable, "target")])
-    return study_problem(job.cable, path, clips, job.obstacles)
 
 
 def _chunk_length(chunk: int, spec: StudySpec) -> int:

@@ -1,0 +1,75 @@
+"""Files in, folders out: the routines behind ``dloplan plan`` (one file or many) and the
+commands that take either a plan or a scenario.
+
+:func:`plan_into` runs the pipeline on a resolved job (a scenario or a wire-harness job) and
+writes its outputs; :func:`plan_file` is the batch mode's task (one file, one sub-folder, a
+status line), run on local processes or Dask by :func:`dloplan.study.map_jobs`;
+:func:`document_of` reads a plan document, or plans a scenario file into one.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .document import PlanDocument, read_plan
+from .job import Job
+from .load import file_kind, load_job
+from .pipeline import quiet, run_harness_job, run_job
+from .writers import WriteOptions, write_outputs
+
+EXIT_OK, EXIT_WARNINGS, EXIT_FAILURE = 0, 1, 2
+"""Exit codes: success, success with warnings, failure or bad input (nothing written)."""
+
+HARNESS_OUTPUTS = ("json", "csv", "rapid", "figures", "report")
+"""What a wire-harness job writes."""
+
+
+def exit_code(doc: PlanDocument) -> int:
+    """0 when the plan is ok without warnings, 1 with warnings, 2 when a check failed."""
+    if not doc.ok:
+        return EXIT_FAILURE
+    return EXIT_WARNINGS if doc.warnings else EXIT_OK
+
+
+def plan_into(job, folder, *, verify: bool = False, progress=quiet):
+    """Plan a resolved job and write its outputs into ``folder``: ``(document, written paths)``."""
+    if isinstance(job, Job):
+        doc = run_job(job, verify=verify, progress=progress)
+        formats, options = job.outputs, WriteOptions(rate=job.motion.rate)
+    else:
+        doc = run_harness_job(job, progress)
+        formats, options = HARNESS_OUTPUTS, WriteOptions()
+    return doc, write_outputs(doc, folder, formats, options=options, progress=progress)
+
+
+def plan_file(options: dict, path: str) -> tuple[str, int, str]:
+    """Plan one job file into ``<output>/<stem>/`` (the batch mode's task).
+
+    Returns ``(path, exit code, status line)``; an identification file is skipped with a
+    pointer to ``dloplan identify``, a bad file gives its one-line error.
+    """
+    from ..io.scenario import read_mapping
+
+    folder = Path(options["output"]) / Path(path).stem
+    try:
+        if file_kind(read_mapping(path)) == "identification":
+            return path, EXIT_WARNINGS, f"{path}: skipped (an identification file: use " \
+                "dloplan identify)"
+        doc, _ = plan_into(load_job(path), folder, verify=options["verify"])
+    except ValueError as exc:
+        return path, EXIT_FAILURE, f"{path}: error: {exc}"
+    code = exit_code(doc)
+    status = {EXIT_OK: "ok", EXIT_WARNINGS: "warnings", EXIT_FAILURE: "FAILED"}[code]
+    return path, code, f"{path}: {status} -> {folder}"
+
+
+def document_of(path, progress=quiet) -> PlanDocument:
+    """A plan document: read from a plan file, or planned now from a scenario file."""
+    from ..io.scenario import read_mapping
+
+    if Path(path).suffix.lower() == ".json" and read_mapping(path).get("format") == "dloplan-plan":
+        return read_plan(path)
+    job = load_job(path, progress)
+    if not isinstance(job, Job):
+        return run_harness_job(job, progress)
+    return run_job(job, progress=progress)

@@ -1,0 +1,248 @@
+"""The resolved job: one immutable object in SI units and domain types, made once at load.
+
+Everything below the loader (:mod:`dloplan.app.load`) works on a :class:`Job`: the cable, the
+start and target discretized to the cable's n + 1 points, obstacles, and the settings of every
+stage with their defaults applied and their units converted (lengths [m], speeds [m/s], angles
+[rad]). The planner's weights and stiffness family are chosen here, so the planner, the study and
+the report all see the same ones. No pydantic model and no file unit passes this point.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..cable import Cable
+from ..io.scenario import (
+    Scenario,
+    ScenarioError,
+    build_cable,
+    build_obstacles,
+    build_shape,
+)
+from ..physics.geometry import resample_by_arc_length
+from ..planning.tuning import PlannerWeights, planner_weights, stiffness_family
+from ..shapes import discretize
+
+
+@dataclass(frozen=True)
+class PlannerSettings:
+    """How the three-stage planner runs (thesis chapter 4, 5.4).
+
+    Attributes
+    ----------
+    n_shapes : int
+        S, the number of intermediate shapes.
+    weights : PlannerWeights
+        The weights of every stage (Table 6.1, the Table 6.2 row of ``family``, overrides).
+    family : str
+        The stiffness family whose physical weights are in ``weights``.
+    family_forced : bool
+        True when the scenario named the family; False when it follows from E.
+    physical_mode : str
+        "equilibrium" or "thesis" (the physical stage, :mod:`dloplan.planning.physical`).
+    z_safety : float
+        Lift safety offset of the obstacle re-planning [m] (thesis 5.4.3).
+    max_rounds : int
+        Largest number of re-planning rounds.
+    """
+
+    n_shapes: int
+    weights: PlannerWeights
+    family: str
+    family_forced: bool
+    physical_mode: str
+    z_safety: float
+    max_rounds: int
+
+    @property
+    def weights_used(self) -> bool:
+        """True when the family's physical weights shape the plan ("thesis" physical mode).
+
+        In the default "equilibrium" mode every intermediate shape is an equilibrium of the
+        cable, whatever the weights; the family then only labels the cable.
+        """
+        return self.physical_mode == "thesis"
+
+
+@dataclass(frozen=True, eq=False)
+class GripperSettings:
+    """Gripper orientation (thesis 4.6, Table 4.3).
+
+    Attributes
+    ----------
+    method : str
+        "auto", "auxiliary", "minimal" or "rigid".
+    auxiliary_vector : numpy.ndarray
+        (3,) the auxiliary vector of the auxiliary-vector method.
+    initial : Rotation or None
+        Two clip-to-world rotations (first, last) the minimal and rigid methods start from.
+    """
+
+    method: str
+    auxiliary_vector: np.ndarray
+    initial: Rotation | None = None
+
+
+@dataclass(frozen=True)
+class MotionSettings:
+    """Limits of the timed dual-arm motion.
+
+    Attributes
+    ----------
+    tcp_speed : float
+        Largest TCP speed [m/s].
+    angular_speed : float
+        Largest TCP angular speed [rad/s].
+    rate : float
+        Sampling rate of the trajectory exports [Hz].
+    """
+
+    tcp_speed: float
+    angular_speed: float
+    rate: float
+
+
+@dataclass(frozen=True, eq=False)
+class Job:
+    """A scenario resolved into library objects, in SI units (see the module docstring).
+
+    Attributes
+    ----------
+    source : str
+        Where the job came from (a file name), for messages and reports.
+    cable : Cable
+    start, target : numpy.ndarray
+        (n + 1, 3) start and target shapes [m], discretized to the cable's points.
+    obstacles : tuple
+        Obstacles (:class:`~dloplan.obstacles.Box`, ``Cylinder``, ``Table``) [m].
+    planner : PlannerSettings
+    grippers : GripperSettings
+    motion : MotionSettings
+    target_threshold : float
+        T_cf [m] of the target stability check (thesis 5.3).
+    outputs : tuple of str
+        The files ``dloplan plan`` writes ("json", "csv", "rapid", "ros", "figures", "report").
+    identification : Identification or None
+        How the cable's E was identified, when the scenario asked for it.
+    study : StudySpec or None
+        The scenario's robustness study section.
+    """
+
+    source: str
+    cable: Cable
+    start: np.ndarray
+    target: np.ndarray
+    obstacles: tuple
+    planner: PlannerSettings
+    grippers: GripperSettings
+    motion: MotionSettings
+    target_threshold: float
+    outputs: tuple[str, ...]
+    identification: object = None
+    study: object = None
+
+
+def _scale(units: str) -> float:
+    return 1e-3 if units == "mm" else 1.0
+
+
+def _initial_frames(spec) -> Rotation | None:
+    frames = spec.grippers.initial_frames
+    if frames.first is None and frames.last is None:
+        return None
+    if frames.first is None or frames.last is None:
+        raise ScenarioError("grippers.initial_frames: give both first and last, or neither")
+    return Rotation.concatenate([frames.first.to_rotation(), frames.last.to_rotation()])
+
+
+def resolve_cable(scenario, source: str, youngs_modulus: float | None = None) -> Cable:
+    """The scenario's :class:`Cable` in SI units, with its rest shape resampled to n + 1 points.
+
+    ``youngs_modulus`` [Pa] replaces the file's (after an identification).
+    """
+    scale = _scale(scenario.units)
+    if scenario.cable.youngs_modulus == "identify" and youngs_modulus is None:
+        raise ScenarioError(
+            f"{source}: cable.youngs_modulus is 'identify': identify it first "
+            "(dloplan plan and dloplan check do, from the identify section) or give E [Pa]"
+        )
+    try:
+        cable = build_cable(scenario.cable, scale, youngs_modulus)
+        if scenario.cable.rest_shape is not None:
+            rest = build_shape(scenario.cable.rest_shape, cable, scale, "cable.rest_shape")
+            if len(rest) != cable.n_points:
+                rest = resample_by_arc_length(rest, cable.n_points)
+            cable = replace(cable, rest_shape=rest)
+    except ValueError as exc:
+        raise ScenarioError(f"{source}: cable.{exc}") from None
+    return cable
+
+
+def planner_settings(scenario, cable: Cable, scale: float) -> PlannerSettings:
+    """The planner's settings of a scenario (or harness file) for ``cable``: weights chosen."""
+    spec = scenario.planner
+    forced = spec.family != "auto"
+    family = spec.family if forced else stiffness_family(cable.youngs_modulus)
+    try:
+        weights = planner_weights(family=family, overrides=spec.weights or None)
+    except ValueError as exc:
+        raise ScenarioError(f"planner.weights: {exc}") from None
+    z_safety = scenario.check.lengths(scale)[1]
+    return PlannerSettings(spec.n_shapes, weights, family, forced,
+                           spec.physical_mode or "equilibrium", z_safety,
+                           scenario.check.max_rounds)
+
+
+def motion_settings(scenario, scale: float) -> MotionSettings:
+    """TCP speed [m/s] (the file's length units per second), angular speed [rad/s], rate."""
+    spec = scenario.trajectory
+    return MotionSettings(spec.speed(scale), spec.angular_speed, spec.rate)
+
+
+def gripper_settings(scenario) -> GripperSettings:
+    """The gripper orientation method and its vectors."""
+    spec = scenario.grippers
+    return GripperSettings(spec.method, np.asarray(spec.auxiliary_vector, dtype=float),
+                           _initial_frames(scenario))
+
+
+def resolve_scenario(scenario: Scenario, source: str = "scenario",
+                     youngs_modulus: float | None = None, identification=None) -> Job:
+    """Turn a validated scenario into a :class:`Job` (SI units, library objects, defaults).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The validated file.
+    source : str
+        Its name, for messages.
+    youngs_modulus : float, optional
+        Replaces the file's E [Pa] (after an identification).
+    identification : Identification, optional
+        Kept in the job, for the plan document.
+
+    Raises
+    ------
+    ScenarioError
+        One line naming the field: a shape the cable cannot take, bad weights, ...
+    """
+    scale = _scale(scenario.units)
+    cable = resolve_cable(scenario, source, youngs_modulus)
+    shapes = {}
+    for name in ("start", "target"):
+        points = build_shape(getattr(scenario, name), cable, scale, name)
+        try:
+            shapes[name] = discretize(points, cable, name)
+        except ValueError as exc:
+            raise ScenarioError(f"{source}: {exc}") from None
+    threshold = scenario.check.lengths(scale)[0]
+    return Job(
+        source=source, cable=cable, start=shapes["start"], target=shapes["target"],
+        obstacles=tuple(build_obstacles(scenario.obstacles, scenario.table, scale)),
+        planner=planner_settings(scenario, cable, scale), grippers=gripper_settings(scenario),
+        motion=motion_settings(scenario, scale), target_threshold=threshold,
+        outputs=tuple(scenario.outputs), identification=identification, study=scenario.study,
+    )

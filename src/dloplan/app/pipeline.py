@@ -1,0 +1,358 @@
+"""The pipeline: a resolved job to a plan document, in stages every command shares.
+
+::
+
+    check_job       start/target reach, target stability (5.3), obstacles at the ends (5.4)
+    plan_path       three-stage planner, stabilization, obstacle re-planning (ch. 4, 5)
+    plan_motion     gripper frames (4.6) and the timed dual-arm trajectory
+    plan_twist      every shape with torsion under the planned gripper frames
+    verify_plan     stability, snap-through, robot reachability, dynamic replay
+
+:func:`run_job` runs them all and returns the :class:`~dloplan.app.document.PlanDocument` that
+every output is written from; ``dloplan plan``, ``plan --verify``, ``simulate`` of a scenario,
+``study`` (its nominal plan) and the batch mode call it, ``verify``, ``simulate`` and ``export``
+work on the document it wrote. A wire-harness job has its own stages
+(:func:`dloplan.harness.run_harness`) and ends in the same kind of document
+(:func:`run_harness_job`).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..obstacles.collisions import check_shape
+from ..sim.clips import clip_poses_from_shape
+from ..sim.statics import check_clip_reach, check_target, clip_wrenches, stabilize
+from .document import (
+    AvoidanceSection,
+    IdentificationSection,
+    PlanDocument,
+    Stages,
+    TargetCheckSection,
+    TwistSection,
+    VerificationSection,
+)
+from .job import Job
+
+
+def quiet(text: str) -> None:
+    """A progress callback that prints nothing."""
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One result line of a check: ``level`` is "ok", "warning" or "error"."""
+
+    level: str
+    subject: str
+    message: str
+
+    def line(self) -> str:
+        mark = {"ok": "ok     ", "warning": "WARNING", "error": "ERROR  "}[self.level]
+        return f"{mark} {self.subject}: {self.message}"
+
+
+@dataclass(frozen=True)
+class CheckReport:
+    """Result of :func:`check_job`."""
+
+    findings: list[Finding] = field(default_factory=list)
+
+    @property
+    def errors(self) -> list[Finding]:
+        return [f for f in self.findings if f.level == "error"]
+
+    @property
+    def warnings(self) -> list[Finding]:
+        return [f for f in self.findings if f.level == "warning"]
+
+
+def check_job(job: Job) -> CheckReport:
+    """Check a job without planning: clip span, target stability, obstacles at the ends.
+
+    Thesis 5.3 (target stability) and 5.4 (collisions of the stabilized start and target).
+    """
+    cable = job.cable
+    findings: list[Finding] = []
+    shapes = {}
+    for name, shape in (("start", job.start), ("target", job.target)):
+        clips = clip_poses_from_shape(shape)
+        try:
+            check_clip_reach(cable, clips)
+            shapes[name] = shape
+            findings.append(Finding("ok", f"{name} cable span",
+                                    f"clips {1e3 * clips.distance:.1f} mm apart, within the "
+                                    f"{cable.length:.3g} m cable"))
+        except ValueError as exc:
+            findings.append(Finding("error", f"{name} cable span", str(exc)))
+    settled = {}
+    for name, shape in shapes.items():
+        report = check_target(shape, cable, threshold=job.target_threshold)
+        settled[name] = report.stabilized.shape
+        if name == "target":
+            level = "ok" if report.stable else "warning"
+            findings.append(Finding(level, "target stability", report.message))
+    for name, shape in settled.items():
+        collision = check_shape(shape, job.obstacles, cable.diameter / 2)
+        if collision.colliding:
+            findings.append(Finding("error", f"{name} obstacles",
+                                    f"the stabilized {name} collides: {collision.describe()}"))
+        elif job.obstacles:
+            findings.append(Finding("ok", f"{name} obstacles",
+                                    f"clear by {1e3 * -collision.penetration:.1f} mm"))
+    return CheckReport(findings)
+
+
+@dataclass(frozen=True, eq=False)
+class PathStage:
+    """What :func:`plan_path` computed: the planner's result and the target check."""
+
+    plan: object
+    target_check: object
+    timings: dict
+
+
+def plan_path(job: Job, progress=quiet) -> PathStage:
+    """The three-stage planner with stabilization and obstacle re-planning (ch. 4, 5).
+
+    Raises
+    ------
+    ValueError
+        When the stabilized start or target collides with an obstacle (thesis 5.4.3: an end that
+        collides cannot be planned around).
+    """
+    from ..planning import plan
+
+    cable, settings = job.cable, job.planner
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    target_check = check_target(job.target, cable, threshold=job.target_threshold)
+    if job.obstacles:
+        ends = {"start": stabilize(job.start, cable).shape,
+                "target": target_check.stabilized.shape}
+        for name, shape in ends.items():
+            collision = check_shape(shape, job.obstacles, cable.diameter / 2)
+            if collision.colliding:
+                raise ValueError(f"{name}: the stabilized {name} collides: "
+                                 f"{collision.describe()}")
+    timings["target check"] = time.perf_counter() - t0
+    progress(target_check.message)
+
+    t0 = time.perf_counter()
+    result = plan(cable, job.start, job.target, settings.n_shapes, weights=settings.weights,
+                  physical_mode=settings.physical_mode, obstacles=list(job.obstacles),
+                  z_safety=settings.z_safety, max_rounds=settings.max_rounds)
+    timings["plan"] = time.perf_counter() - t0
+    stage_times = ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items() if k != "total")
+    weights = (f"{settings.family} cable weights" if settings.weights_used else
+               f"{settings.family} cable, every shape an equilibrium")
+    progress(f"planned {result.n_shapes} shapes ({weights}): {stage_times}")
+    if result.avoidance is not None:
+        progress(f"obstacles: {result.avoidance.message}")
+    return PathStage(result, target_check, timings)
+
+
+def plan_motion(job: Job, path: np.ndarray, progress=quiet):
+    """Gripper frames for every shape (thesis 4.6) and the timed dual-arm trajectory."""
+    from ..grippers import gripper_path
+    from ..trajectory import trajectory_from_grippers
+
+    settings = job.grippers
+    grippers = gripper_path(path, method=settings.method, cable=job.cable,
+                            initial=settings.initial, aux=settings.auxiliary_vector)
+    trajectory = trajectory_from_grippers(grippers, max_speed=job.motion.tcp_speed,
+                                          max_angular_speed=job.motion.angular_speed)
+    progress(f"gripper frames ({grippers.method}), trajectory {trajectory.duration:.2f} s at "
+             f"{1e3 * job.motion.tcp_speed:.0f} mm/s")
+    return grippers, trajectory
+
+
+def retimed(doc: PlanDocument, speed: float | None = None,
+            angular_speed: float | None = None) -> PlanDocument:
+    """The document with its trajectory re-timed under new TCP limits [m/s], [rad/s]."""
+    from ..trajectory import trajectory_from_grippers
+
+    if doc.grippers is None:
+        raise ValueError("plan: no gripper poses to time a trajectory from")
+    old = doc.trajectory
+    trajectory = trajectory_from_grippers(
+        doc.grippers, max_speed=speed or (old.max_speed if old else 0.1),
+        max_angular_speed=angular_speed or (old.max_angular_speed if old else 1.0))
+    return replace(doc, trajectory=trajectory)
+
+
+def plan_twist(cable, path: np.ndarray, grippers, progress=quiet):
+    """Every shape stabilized with torsion under the planned gripper frames."""
+    from ..sim.torsion import twist_along_path
+
+    poses = [grippers.clip_poses(k) for k in range(len(path))]
+    twist = twist_along_path(cable, path, poses)
+    progress(f"twist along the path: largest {np.degrees(np.abs(twist.twist).max()):.1f} deg, "
+             f"energy up to {twist.twist_energy.max():.3g} J")
+    return twist
+
+
+def robot_rows(grippers) -> list[dict]:
+    """YuMi reachability of every planned gripper pose, as verification rows."""
+    from scipy.spatial.transform import Rotation
+
+    from ..robot import check_reachability
+
+    reach = check_reachability(grippers.positions, Rotation.from_matrix(grippers.matrices))
+    return [{"reachable_left": bool(reach.reachable[k, 0]),
+             "reachable_right": bool(reach.reachable[k, 1]),
+             "joint_margin": float(np.min(reach.joint_margin[k]))}
+            for k in range(len(grippers.positions))]
+
+
+def settled_shapes(doc: PlanDocument) -> np.ndarray:
+    """The plan's stabilized shapes: as stored in the document, or computed now (thesis 5.2)."""
+    if doc.stabilized is not None:
+        return doc.stabilized
+    from ..obstacles.collisions import stabilized_path
+
+    return stabilized_path(doc.cable, doc.shapes)[0]
+
+
+def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
+                robot: bool = True, tensile_limit=None, tolerance: float = 0.01):
+    """Verify a plan document: stability, snap-through, robot reachability, dynamic replay.
+
+    The replay drives the clips between the planned poses at the trajectory's knot times: the
+    same motion as the timed dual-arm trajectory. Returns the
+    :class:`~dloplan.verify.Verification`.
+    """
+    from ..verify import verify_path
+
+    times = doc.trajectory.times if replay and doc.trajectory is not None else None
+    reach = robot_rows(doc.grippers) if robot and doc.grippers is not None else None
+    return verify_path(doc.cable, settled_shapes(doc), doc.clip_poses(), times=times, snap=snap,
+                       replay_options={"tolerance": tolerance, "tensile_limit": tensile_limit},
+                       reachability=reach)
+
+
+def with_verification(doc: PlanDocument, verification) -> PlanDocument:
+    """The document with its verification section (and the failures among its warnings)."""
+    data = verification.to_dict()
+    section = VerificationSection(bool(data["ok"]), tuple(data["messages"]), tuple(data["rows"]),
+                                  dict(data["timings_s"]))
+    failures = tuple(verification.messages) if not verification.ok else ()
+    return replace(doc, verification=section, warnings=doc.warnings + failures)
+
+
+def _collision_rows(reports) -> tuple:
+    return tuple({"shape": r.shape_index, "colliding": r.colliding,
+                  "obstacles": list(r.obstacles), "links": r.links.tolist(),
+                  "z_depth": r.z_depth, "penetration": r.penetration} for r in reports)
+
+
+def _identification_section(ident) -> IdentificationSection | None:
+    if ident is None:
+        return None
+    return IdentificationSection(ident.youngs_modulus, tuple(ident.confidence_interval),
+                                 ident.simulations, ident.rms_error, ident.informative,
+                                 ident.message)
+
+
+def run_job(job: Job, *, verify: bool = False, progress=quiet) -> PlanDocument:
+    """Plan a job end to end and return its plan document.
+
+    Parameters
+    ----------
+    job : Job
+        A resolved scenario (:func:`dloplan.app.load_job`).
+    verify : bool
+        Also verify the plan (:func:`verify_plan`).
+    progress : callable
+        Called with a line of text after each step.
+    """
+    staged = plan_path(job, progress)
+    result, target_check = staged.plan, staged.target_check
+    timings = dict(staged.timings)
+    t0 = time.perf_counter()
+    grippers, trajectory = plan_motion(job, result.path, progress)
+    timings["grippers"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    twist = plan_twist(job.cable, result.path, grippers, progress)
+    timings["twist"] = time.perf_counter() - t0
+
+    warnings = list(result.warnings)
+    if not target_check.stable:
+        warnings.append(target_check.message)
+    warnings += list(grippers.warnings)
+    if not grippers.success:
+        warnings.append(f"grippers: {grippers.message}")
+    if not twist.success:
+        warnings.append(f"twist: {twist.message}")
+    avoidance = result.avoidance
+    doc = PlanDocument(
+        cable=job.cable, shapes=result.path, grippers=grippers, trajectory=trajectory,
+        warnings=tuple(warnings), source=job.source, obstacles=job.obstacles,
+        stabilized=result.stabilized,
+        clip_wrenches=np.stack([clip_wrenches(job.cable, s) for s in result.stabilized]),
+        stages=Stages(result.stage("basic"), result.stage("advanced"), np.asarray(result.lengths),
+                      job.planner.family, job.planner.weights_used, result.physical_mode,
+                      dict(result.timings)),
+        forces={"physical": result.force_statistics()},
+        target_check=TargetCheckSection(target_check.stable, target_check.max_displacement,
+                                        target_check.threshold, target_check.message),
+        twist=TwistSection(twist.twist, twist.relative_twist, twist.twist_energy,
+                           grippers.twist, twist.message),
+        avoidance=None if avoidance is None else AvoidanceSection(
+            avoidance.status, avoidance.rounds, avoidance.message,
+            _collision_rows(avoidance.reports_before), _collision_rows(avoidance.reports_after)),
+        identification=_identification_section(job.identification),
+        timings=timings,
+    )
+    if verify:
+        t0 = time.perf_counter()
+        verification = verify_plan(doc)
+        doc = with_verification(doc, verification)
+        doc = replace(doc, timings={**doc.timings, "verify": time.perf_counter() - t0})
+        progress(f"verification: {'passed' if verification.ok else 'FAILED'}")
+    return doc
+
+
+def run_harness_job(job, progress=quiet) -> PlanDocument:
+    """The wire-harness job (thesis 7.3) as a plan document: both phases, insertion, tensioning.
+
+    One knot per shape of the whole job; the harness numbers in the ``harness`` section, the
+    forces of each phase in ``forces``, the board's pegs and fixtures as obstacles.
+    """
+    from ..harness import harness_summary
+    from ..harness.files import run_harness_job as run
+
+    progress(f"harness job: {job.cable.name or 'cable'}, board checked")
+    result = run(job)
+    progress(result.message)
+    return PlanDocument(
+        cable=job.cable, shapes=result.shapes, grippers=result.grippers,
+        trajectory=result.trajectory, warnings=tuple(result.warnings), source=job.source,
+        obstacles=tuple(result.board.contacts()), forces=dict(result.forces),
+        harness=harness_summary(result), timings=dict(result.timings))
+
+
+def simulate_plan(doc: PlanDocument, *, damping: str = "relative", torsion: bool = False,
+                  youngs_modulus_cap: float | None = None):
+    """Run a plan's timed trajectory through the dynamic simulator (thesis 5.1).
+
+    The clips follow the trajectory at its real speed from the stabilized start; the simulated
+    shape at each knot time is compared with the planned stabilized shape. Returns the replay
+    (:func:`dloplan.verify.replay.replay`) and the per-shape deviations
+    (:func:`dloplan.vision.compare_shapes`, model against model).
+    """
+    from ..verify.replay import replay
+    from ..vision.compare import compare_shapes
+
+    if doc.trajectory is None:
+        raise ValueError("plan: no timed trajectory to simulate (plan it with gripper poses)")
+    settled = settled_shapes(doc)
+    run = replay(doc.cable, settled, (doc.trajectory.times, doc.clip_poses()),
+                 damping=damping, torsion=torsion, youngs_modulus_cap=youngs_modulus_cap)
+    simulated = run.simulation.at(run.knot_times)
+    comparison = compare_shapes(settled, list(simulated), end_order="keep")
+    return run, comparison
+

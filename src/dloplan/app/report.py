@@ -1,0 +1,163 @@
+"""The plan's figures and its HTML report, made from the plan document alone.
+
+Everything shown is read from the :class:`~dloplan.app.document.PlanDocument`, so the report of
+a plan written by ``dloplan plan`` and of the same plan read back from ``plan.json`` are the
+same page.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .document import PlanDocument
+
+VERIFY_TITLES = {
+    "index": "shape", "smallest_eigenvalue": "lambda_1 [N/m]",
+    "relative_eigenvalue": "lambda_1 / ref", "snap": "snap", "straying": "stray [m]",
+    "reachable_left": "left arm reaches", "reachable_right": "right arm reaches",
+    "joint_margin": "joint margin [rad]", "replay_deviation": "replay deviation [m]",
+}
+"""Column titles (with units) of the verification table."""
+
+
+def figure_names(doc: PlanDocument) -> list[str]:
+    """Stems of the figures :func:`write_figures` writes for this document."""
+    names = ["planned_path"]
+    if doc.stabilized is not None:
+        names.append("stabilized_path")
+    names += ["forces" if list(doc.forces) == ["physical"] else f"forces_{phase}"
+              for phase in doc.forces]
+    if doc.stages is not None:
+        names.append("lengths")
+    return names
+
+
+def write_figures(doc: PlanDocument, folder) -> list[Path]:
+    """The plan's figures as PNG and SVG: path with frames, stabilized, forces, lengths."""
+    from ..plots.figures import (
+        forces_figure,
+        lengths_figure,
+        path_figure,
+        save_figure,
+        stabilized_figure,
+    )
+
+    positions = None if doc.grippers is None else doc.grippers.positions
+    matrices = None if doc.grippers is None else doc.grippers.matrices
+    figures = [path_figure(doc.shapes, positions, matrices, doc.obstacles)]
+    if doc.stabilized is not None:
+        colliding = [] if doc.avoidance is None else doc.avoidance.colliding_after
+        figures.append(stabilized_figure(doc.shapes, doc.stabilized, doc.obstacles, colliding))
+    for phase, stats in doc.forces.items():
+        title = "Forces per mass point" + ("" if phase == "physical" else f", {phase}")
+        figures.append(forces_figure(stats.axial_mean, stats.axial_variance, stats.bending_mean,
+                                     stats.bending_variance, title))
+    if doc.stages is not None:
+        lengths = dict(zip(("basic", "advanced", "physical"), doc.stages.lengths, strict=True))
+        figures.append(lengths_figure(lengths, doc.cable.length))
+    written: list[Path] = []
+    for figure, name in zip(figures, figure_names(doc), strict=True):
+        written += save_figure(figure, folder, name)
+    return written
+
+
+def summary_lines(doc: PlanDocument) -> list[str]:
+    """The report's opening lines: verdict, cable, plan, motion, checks."""
+    cable = doc.cable
+    verdict = "verdict: " + ("FAILED" if not doc.ok else "ok, with warnings" if doc.warnings
+                             else "ok")
+    lines = [verdict,
+             f"{cable.name or 'cable'}: L {cable.length:.4g} m, d {1e3 * cable.diameter:.1f} mm, "
+             f"E {cable.youngs_modulus:.3g} Pa"
+             + ("" if doc.stages is None else f" ({doc.stages.family})")
+             + f", n = {cable.n_links}, S = {doc.n_shapes}"]
+    if doc.trajectory is not None and doc.grippers is not None:
+        twist = np.degrees(np.abs(doc.grippers.twist).max())
+        lines.append(f"trajectory {doc.trajectory.duration:.2f} s; gripper method "
+                     f"{doc.grippers.method}; largest relative twist {twist:.1f} deg")
+    if doc.target_check is not None:
+        lines.append(doc.target_check.message)
+    if doc.avoidance is not None:
+        lines.append(f"obstacles: {doc.avoidance.message}")
+    if doc.harness is not None:
+        lines.append(doc.harness.get("message", ""))
+        lines += [f"{name}: {t0:.2f} s to {t1:.2f} s"
+                  for name, (t0, t1) in doc.harness.get("phase_times", {}).items()]
+    if doc.verification is not None:
+        lines.append(f"verification: {doc.verification.messages[-1]}"
+                     if doc.verification.ok else "verification: FAILED")
+    return lines
+
+
+def shape_table(doc: PlanDocument):
+    """Per-shape rows: length, largest forces, stabilization moves, clip force and moment."""
+    from ..physics.chain import SpringChain, forces
+    from ..physics.geometry import shape_length
+
+    chain = SpringChain.from_cable(doc.cable)
+    header = ["shape", "length [m]", "max |F_axial| [N]", "max |F_bending| [N]"]
+    if doc.stabilized is not None:
+        header.append("stabilization moves [mm]")
+    if doc.clip_wrenches is not None:
+        header += ["force on clips [N]", "moment on clips [N m]"]
+    rows = []
+    for k, shape in enumerate(doc.shapes):
+        f = forces(chain, shape)
+        row = [k, f"{shape_length(shape):.4f}",
+               f"{np.linalg.norm(f.axial, axis=-1).max():.3g}",
+               f"{np.linalg.norm(f.bending, axis=-1).max():.3g}"]
+        if doc.stabilized is not None:
+            moved = np.linalg.norm(doc.stabilized[k] - shape, axis=1).max()
+            row.append(f"{1e3 * moved:.1f}")
+        if doc.clip_wrenches is not None:
+            wrench = doc.clip_wrenches[k]
+            row += [" / ".join(f"{np.linalg.norm(w[:3]):.3g}" for w in wrench),
+                    " / ".join(f"{np.linalg.norm(w[3:]):.3g}" for w in wrench)]
+        rows.append(row)
+    return "Shapes", header, rows
+
+
+def verification_table(doc: PlanDocument):
+    """The verification rows with titled columns, or None."""
+    rows = doc.verification.rows if doc.verification is not None else ()
+    if not rows:
+        return None
+    header = list(rows[0])
+
+    def cell(value):
+        return "-" if value is None else f"{value:.4g}" if isinstance(value, float) else value
+
+    return ("Verification", [VERIFY_TITLES.get(h, h) for h in header],
+            [[cell(row[h]) for h in header] for row in rows])
+
+
+def shape_labels(doc: PlanDocument) -> list[str]:
+    """One slider label per shape, naming the harness phase it belongs to."""
+    count = len(doc.shapes)
+    labels = [f"shape {k} of {count - 1}" for k in range(count)]
+    knots = (doc.harness or {}).get("knots", {})
+    for name, (first, last) in knots.items():
+        for k in range(first, min(last, count - 1) + 1):
+            if labels[k].endswith(f"of {count - 1}"):
+                labels[k] += f" ({name})"
+    return labels
+
+
+def write_plan_report(doc: PlanDocument, path, images=()) -> Path:
+    """The self-contained HTML report of a plan document."""
+    from ..plots.report import write_report
+
+    tables = [shape_table(doc)]
+    verification = verification_table(doc)
+    if verification is not None:
+        tables.append(verification)
+    kind = "harness job" if doc.harness is not None else "plan"
+    return write_report(
+        path, title=f"dloplan {kind}: {doc.source}", shapes=doc.shapes,
+        stabilized=doc.stabilized,
+        clip_positions=None if doc.grippers is None else doc.grippers.positions,
+        clip_rotations=None if doc.grippers is None else doc.grippers.matrices,
+        obstacles=doc.obstacles, summary=summary_lines(doc), warnings=list(doc.warnings),
+        tables=tables, images=images, labels=shape_labels(doc))

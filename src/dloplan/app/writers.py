@@ -1,0 +1,121 @@
+"""Every output of a plan, written from its plan document by a writer found in one registry.
+
+A writer takes the document, its target (a file, or a folder for rapid and figures) and the
+:class:`WriteOptions`, and returns the paths it wrote. A new format is one function and one line
+in :data:`WRITERS`.
+
+=========  ==================================================================================
+name       what it writes
+=========  ==================================================================================
+json       ``plan.json``, the plan document itself (:mod:`dloplan.app.document`)
+csv        ``trajectory.csv``, the dual-arm TCP trajectory sampled at the rate
+ros        ``trajectory.yaml``, a ROS 2 ``trajectory_msgs/MultiDOFJointTrajectory``
+rapid      ``rapid/``, one ABB RAPID module per YuMi arm
+figures    ``figures/``, PNG and SVG figures
+report     ``report.html``, the self-contained interactive report (with the figures)
+=========  ==================================================================================
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..io.export import DEFAULT_CSV_RATE, write_ros_trajectory, write_trajectory_csv
+from .document import PlanDocument, write_plan
+from .report import write_figures, write_plan_report
+
+
+@dataclass(frozen=True)
+class WriteOptions:
+    """Settings of the writers: sampling rate [Hz] of csv and ros (None: ros writes the knots)."""
+
+    rate: float | None = DEFAULT_CSV_RATE
+
+
+def _needs_trajectory(doc: PlanDocument, name: str) -> None:
+    if doc.trajectory is None:
+        raise ValueError(f"{name}: the plan has no timed trajectory (no gripper poses)")
+
+
+def write_json(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
+    """The plan document."""
+    return [write_plan(target, doc)]
+
+
+def write_csv(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
+    """The trajectory sampled at ``options.rate``."""
+    _needs_trajectory(doc, "csv")
+    return [write_trajectory_csv(target, doc.trajectory, rate=options.rate or DEFAULT_CSV_RATE,
+                                 frame_id=doc.frame_id)]
+
+
+def write_ros(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
+    """The ROS 2 MultiDOFJointTrajectory (YAML, or JSON for a ``.json`` target)."""
+    _needs_trajectory(doc, "ros")
+    return [write_ros_trajectory(target, doc.trajectory, rate=options.rate,
+                                 frame_id=doc.frame_id)]
+
+
+def write_rapid_program(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
+    """The RAPID modules of both YuMi arms, in the folder ``target``."""
+    from ..io.rapid import write_rapid
+
+    _needs_trajectory(doc, "rapid")
+    return list(write_rapid(target, doc.trajectory).values())
+
+
+def write_figure_files(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
+    """PNG and SVG of every figure, in the folder ``target``."""
+    return write_figures(doc, target)
+
+
+def write_report_file(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
+    """The HTML report, with the PNG figures of the ``figures/`` folder beside it embedded."""
+    images = sorted((target.parent / WRITERS["figures"].target).glob("*.png"))
+    return [write_plan_report(doc, target, images)]
+
+
+@dataclass(frozen=True)
+class Writer:
+    """One output: its default file (or folder) name in an output folder, and its function."""
+
+    target: str
+    write: Callable[[PlanDocument, Path, WriteOptions], list[Path]]
+
+
+WRITERS: dict[str, Writer] = {
+    "json": Writer("plan.json", write_json),
+    "csv": Writer("trajectory.csv", write_csv),
+    "ros": Writer("trajectory.yaml", write_ros),
+    "rapid": Writer("rapid", write_rapid_program),
+    "figures": Writer("figures", write_figure_files),
+    "report": Writer("report.html", write_report_file),
+}
+"""Output name -> writer, in the order they run (the report embeds the figures)."""
+
+
+def write_outputs(doc: PlanDocument, folder, formats=("json",), *,
+                  options: WriteOptions | None = None, progress=lambda text: None) -> list[Path]:
+    """Write the plan document into ``folder`` in the formats asked for (``json`` always).
+
+    ``report`` brings ``figures`` along (it embeds them). Every file is written atomically.
+    Returns the written paths.
+    """
+    unknown = set(formats) - set(WRITERS)
+    if unknown:
+        raise ValueError(f"formats: unknown {sorted(unknown)}, expected some of "
+                         f"{', '.join(WRITERS)}")
+    wanted = {"json", *formats} | ({"figures"} if "report" in formats else set())
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    options = options or WriteOptions()
+    written: list[Path] = []
+    for name, writer in WRITERS.items():
+        if name in wanted:
+            paths = writer.write(doc, folder / writer.target, options)
+            written += paths
+            progress(f"{name}: {paths[0]}" + (f" and {len(paths) - 1} more files"
+                                              if len(paths) > 1 else ""))
+    return written

@@ -1,0 +1,243 @@
+"""The plan document: typed sections, one writer and one reader, version 1 files still load,
+and every output made from the document says what the document says.
+
+Tolerances: JSON floats are written with Python's round-tripping repr, so positions, times and
+every section's numbers come back bit-identical; rotations come back as the same rotation to
+1e-12 rad (quaternion normalization).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import re
+from dataclasses import fields, replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from gripper_paths import curved_hose, turnover_path
+from scipy.spatial.transform import Rotation
+
+from dloplan.app import WRITERS, load_scenario, read_plan, run_job, write_outputs, write_plan
+from dloplan.app.document import PLAN_VERSION, PlanDocument, document_from_dict, document_to_dict
+from dloplan.cable import Cable, catalogue_cable
+from dloplan.grippers import gripper_path
+from dloplan.trajectory import trajectory_from_grippers
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+DATA = Path(__file__).resolve().parent / "data"
+
+
+@pytest.fixture(scope="module")
+def pieces():
+    cable = curved_hose()
+    shapes, _ = turnover_path(cable.rest_shape)
+    grippers = gripper_path(shapes, method="minimal", cable=cable)  # twisted: has warnings
+    trajectory = trajectory_from_grippers(grippers)
+    return cable, shapes, grippers, trajectory
+
+
+@pytest.fixture(scope="module")
+def planned():
+    """A real plan with every section, verified (the 3D Ethernet example, coarsened)."""
+    job = load_scenario(EXAMPLES / "fig4_8_straight_to_bent.yaml")
+    from dloplan.app.pipeline import verify_plan, with_verification
+
+    doc = run_job(job)
+    return with_verification(doc, verify_plan(doc, snap=False))
+
+
+def _same_rotations(a: Rotation, b: Rotation, tol: float = 1e-12) -> bool:
+    return len(a) == len(b) and float(np.max((a.inv() * b).magnitude())) < tol
+
+
+def _assert_same(a, b, where="doc"):
+    """Equal structure and values; floats equal to 1e-12 (re-normalized quaternions)."""
+    if isinstance(a, dict):
+        assert isinstance(b, dict) and list(a) == list(b), where
+        for key in a:
+            _assert_same(a[key], b[key], f"{where}.{key}")
+    elif isinstance(a, list):
+        assert isinstance(b, list) and len(a) == len(b), where
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            _assert_same(x, y, f"{where}[{i}]")
+    elif isinstance(a, float):
+        assert b == pytest.approx(a, rel=1e-12, abs=1e-15), where
+    else:
+        assert a == b, where
+
+
+def test_the_pieces_round_trip(pieces, tmp_path):
+    cable, shapes, grippers, trajectory = pieces
+    doc = PlanDocument(cable, shapes, grippers, trajectory, ("a warning",), source="x.yaml")
+    back = read_plan(write_plan(tmp_path / "plan.json", doc))
+    assert back.version == PLAN_VERSION and back.frame_id == "world" and back.source == "x.yaml"
+    for f in fields(cable):
+        if f.name != "rest_shape":
+            assert getattr(back.cable, f.name) == getattr(cable, f.name), f.name
+    assert np.array_equal(back.cable.rest_shape, cable.rest_shape) and back.cable.is_curved
+    assert np.array_equal(back.shapes, shapes)
+    g = back.grippers
+    assert (g.method, g.success, g.message, g.warnings, g.max_twist) == (
+        grippers.method, grippers.success, grippers.message, grippers.warnings,
+        grippers.max_twist)
+    assert np.array_equal(g.positions, grippers.positions) and np.array_equal(g.twist,
+                                                                             grippers.twist)
+    for clip in (0, 1):
+        assert _same_rotations(g.rotations[clip], grippers.rotations[clip])
+    t = back.trajectory
+    assert np.array_equal(t.times, trajectory.times)
+    assert np.array_equal(t.positions, trajectory.positions)
+    assert t.arm_clips == trajectory.arm_clips
+    for arm in (0, 1):
+        assert _same_rotations(t.rotations[arm], trajectory.rotations[arm])
+    assert back.warnings == ("a warning",)
+    _assert_same(document_to_dict(back), json.loads((tmp_path / "plan.json").read_text()))
+
+
+def test_a_planned_document_round_trips_every_section(planned, tmp_path):
+    back = read_plan(write_plan(tmp_path / "plan.json", planned))
+    _assert_same(document_to_dict(planned), document_to_dict(back))
+    assert np.array_equal(back.stabilized, planned.stabilized)
+    assert np.array_equal(back.stages.basic, planned.stages.basic)
+    assert back.forces["physical"].axial_mean.shape == (planned.cable.n_points,)
+    assert back.clip_wrenches.shape == (len(planned.shapes), 2, 6)
+    assert back.verification.ok == planned.verification.ok
+    assert back.verification.table() == planned.verification.table()
+    assert [type(o) for o in back.obstacles] == [type(o) for o in planned.obstacles]
+    assert back.ok == planned.ok
+
+
+def test_poses_are_ros_shaped_with_canonical_quaternions(pieces):
+    data = document_to_dict(PlanDocument(*pieces))
+    pose = data["grippers"]["clips"]["first"][0]
+    assert pose["header"] == {"frame_id": "world"}
+    assert list(pose["pose"]["orientation"]) == ["x", "y", "z", "w"]
+    point = data["trajectory"]["points"][3]
+    assert set(point["time_from_start"]) == {"sec", "nanosec"}
+    ws = [p["pose"]["orientation"]["w"] for clip in ("first", "last")
+          for p in data["grippers"]["clips"][clip]]
+    assert min(ws) >= 0.0
+    assert data["quaternion_order"] == "xyzw" and data["units"]["length"] == "m"
+
+
+def test_a_plan_without_grippers_and_trajectory_round_trips(pieces):
+    cable, shapes, _, _ = pieces
+    back = document_from_dict(json.loads(json.dumps(document_to_dict(PlanDocument(cable,
+                                                                                  shapes)))))
+    assert back.grippers is None and back.trajectory is None
+    assert np.array_equal(back.shapes, shapes)
+    straight = Cable(length=0.5, diameter=0.003, mass=0.01, youngs_modulus=1e6, n_links=10)
+    assert document_from_dict(document_to_dict(PlanDocument(straight, shapes))).cable \
+        .rest_shape is None
+
+
+def test_a_version_1_file_still_loads():
+    """Written by dloplan 0.1 (jobs.plan_extra): every section comes back typed."""
+    doc = read_plan(DATA / "plan_v1_fig4_8.json")
+    assert doc.version == 1 and doc.source.endswith("fig4_8_straight_to_bent.yaml")
+    assert doc.stabilized.shape == doc.shapes.shape
+    assert doc.stages.basic.shape == doc.shapes.shape and doc.stages.family == "medium"
+    assert doc.forces["physical"].bending_mean.shape == (doc.cable.n_points,)
+    assert doc.clip_wrenches.shape == (len(doc.shapes), 2, 6)
+    assert doc.target_check.stable and doc.twist.twist.shape == (len(doc.shapes),)
+    # and the current pipeline plans the same file to the same shapes
+    again = run_job(load_scenario(EXAMPLES / "fig4_8_straight_to_bent.yaml"))
+    assert np.allclose(again.shapes, doc.shapes, rtol=0, atol=1e-9)
+    assert np.allclose(again.stabilized, doc.stabilized, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    "edit, match",
+    [
+        (lambda d: d.update(format="other"), "not a 'dloplan-plan' document"),
+        (lambda d: d.update(version=PLAN_VERSION + 1), "plan.version"),
+        (lambda d: d.pop("shapes"), "plan: missing 'shapes'"),
+        (lambda d: d["cable"].update(color="red"), "plan.cable"),
+        (lambda d: d["grippers"]["clips"].pop("last"), "grippers.clips: missing 'last'"),
+        (lambda d: d["grippers"]["clips"]["first"][2]["pose"]["position"].pop("y"),
+         r"grippers.clips.first\[2\].pose.position: missing 'y'"),
+        (lambda d: d["trajectory"]["points"][1]["poses"][0]["header"].update(frame_id="base"),
+         "frame_id: got 'base'"),
+        (lambda d: d["trajectory"]["points"][1].update(time=-1.0), "times"),
+        (lambda d: d.update(stages={"basic": []}), "plan.stages: missing 'advanced'"),
+        (lambda d: d.update(obstacles=[{"type": "sphere"}]), r"plan.obstacles\[0\].type"),
+    ],
+)
+def test_malformed_documents_are_rejected_by_name(pieces, edit, match):
+    data = json.loads(json.dumps(document_to_dict(PlanDocument(*pieces))))
+    edit(data)
+    with pytest.raises(ValueError, match=match):
+        document_from_dict(data)
+
+
+def test_pieces_that_do_not_fit_are_rejected(pieces, tmp_path):
+    cable, shapes, grippers, _ = pieces
+    with pytest.raises(ValueError, match="shapes: 11 points per shape"):
+        PlanDocument(catalogue_cable("usb", n_links=12), shapes)
+    with pytest.raises(ValueError, match="grippers: 12 shapes, expected 5"):
+        PlanDocument(cable, shapes[:5], grippers)
+    with pytest.raises(ValueError, match="frame_id"):
+        PlanDocument(cable, shapes, frame_id="")
+    bad = tmp_path / "bad.json"
+    bad.write_text("{")
+    with pytest.raises(ValueError, match="not valid JSON"):
+        read_plan(bad)
+    with pytest.raises(ValueError, match="cannot read"):
+        read_plan(tmp_path / "missing.json")
+
+
+# -- every writer writes what the document says ------------------------------------------------
+def test_every_writer_writes_the_document(planned, tmp_path):
+    written = write_outputs(planned, tmp_path, tuple(WRITERS))
+    names = {p.relative_to(tmp_path).parts[0] for p in written}
+    assert names == {w.target for w in WRITERS.values()}
+    doc = read_plan(tmp_path / "plan.json")  # json: the document itself
+    _assert_same(document_to_dict(planned), document_to_dict(doc))
+    trajectory = doc.trajectory
+
+    rows = list(csv.reader((tmp_path / "trajectory.csv").read_text().splitlines()[1:]))
+    table = np.array(rows[1:], dtype=float)  # csv: samples of the document's trajectory
+    samples = trajectory.sample(100.0)
+    assert np.allclose(table[:, 0], samples.times, atol=1e-12)
+    assert np.allclose(table[:, 1:4], samples.positions[:, 0], atol=1e-12)
+    assert np.allclose(table[:, 8:11], samples.positions[:, 1], atol=1e-12)
+
+    msg = yaml.safe_load((tmp_path / "trajectory.yaml").read_text())  # ros
+    ros_times = [p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"]
+                 for p in msg["points"]]
+    assert np.allclose(ros_times, samples.times, atol=1e-9)
+    first = msg["points"][-1]["transforms"][1]["translation"]
+    assert np.allclose([first[k] for k in "xyz"], trajectory.positions[-1, 1], atol=1e-12)
+
+    modules = sorted((tmp_path / "rapid").glob("*.mod"))  # rapid: one module per arm
+    assert len(modules) == 2
+    mm = 1e3 * trajectory.positions[:, 0]
+    text = modules[0].read_text()
+    numbers = [[float(v) for v in m] for m in
+               re.findall(r"\[\[([-\d.e]+),([-\d.e]+),([-\d.e]+)\]", text)]
+    assert np.allclose(numbers[:len(mm)], mm, atol=1e-3)
+
+    from dloplan.app.report import figure_names
+
+    pngs = {p.stem for p in (tmp_path / "figures").glob("*.png")}  # figures
+    assert pngs == set(figure_names(doc))
+    page = (tmp_path / "report.html").read_text()  # report: the document's shapes and verdict
+    payload = page.split('id="plan-data" type="application/json">')[1].split("</script>")[0]
+    assert np.allclose(json.loads(payload.replace("<\\/", "</"))["shapes"], doc.shapes,
+                       atol=1e-6)
+    assert "verdict: " in page and doc.source in page
+
+
+def test_the_report_of_a_plan_read_back_is_the_same_page(planned, tmp_path):
+    first = write_outputs(planned, tmp_path / "a", ("report",))
+    again = write_outputs(read_plan(tmp_path / "a" / "plan.json"), tmp_path / "b", ("report",))
+    page = [p for p in first if p.name == "report.html"][0].read_text()
+    assert page == [p for p in again if p.name == "report.html"][0].read_text()
+
+
+def test_an_unknown_format_is_named(planned, tmp_path):
+    with pytest.raises(ValueError, match=r"formats: unknown \['pdf'\]"):
+        write_outputs(replace(planned), tmp_path, ("pdf",))
