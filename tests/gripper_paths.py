@@ -52,3 +52,15 @@ def bending_path(n_links: int = 10, n_inner: int = 8, seed: int = 3) -> np.ndarr
         turn = Rotation.from_rotvec(1.2 * f * axis)
         shapes.append(turn.apply(base) + f * np.array([0.2, -0.1, 0.15]))
     return np.stack(shapes)
+
+
+def turned_hose_plan():
+    """A curved hose turned over (minimal-rotation frames, so twisted): cable, shapes, gripper
+    path and trajectory, the pieces of a plan document."""
+    from dloplan.grippers import gripper_path
+    from dloplan.trajectory import trajectory_from_grippers
+
+    cable = curved_hose()
+    shapes, _ = turnover_path(cable.rest_shape)
+    grippers = gripper_path(shapes, method="minimal", cable=cable)
+    return cable, shapes, grippers, trajectory_from_grippers(grippers)

@@ -16,10 +16,9 @@ import re
 import numpy as np
 import pytest
 import yaml
-from gripper_paths import curved_hose, turnover_path
+from gripper_paths import turned_hose_plan
 from scipy.spatial.transform import Rotation
 
-from dloplan.grippers import gripper_path
 from dloplan.io import files
 from dloplan.io.export import (
     multi_dof_trajectory_msg,
@@ -27,16 +26,11 @@ from dloplan.io.export import (
     write_trajectory_csv,
 )
 from dloplan.io.rapid import RapidSettings, rapid_modules, write_rapid
-from dloplan.trajectory import trajectory_from_grippers
 
 
 @pytest.fixture(scope="module")
 def plan():
-    cable = curved_hose()
-    shapes, _ = turnover_path(cable.rest_shape)
-    grippers = gripper_path(shapes, method="minimal", cable=cable)  # twisted: has warnings
-    trajectory = trajectory_from_grippers(grippers)
-    return cable, shapes, grippers, trajectory
+    return turned_hose_plan()  # twisted: has warnings
 
 
 def _same_rotations(a: Rotation, b: Rotation, tol: float = 1e-12) -> bool:

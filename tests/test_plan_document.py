@@ -17,14 +17,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from gripper_paths import curved_hose, turnover_path
+from gripper_paths import turned_hose_plan
 from scipy.spatial.transform import Rotation
 
 from dloplan.app import WRITERS, load_scenario, read_plan, run_job, write_outputs, write_plan
 from dloplan.app.document import PLAN_VERSION, PlanDocument, document_from_dict, document_to_dict
 from dloplan.cable import Cable, catalogue_cable
-from dloplan.grippers import gripper_path
-from dloplan.trajectory import trajectory_from_grippers
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 DATA = Path(__file__).resolve().parent / "data"
@@ -32,11 +30,7 @@ DATA = Path(__file__).resolve().parent / "data"
 
 @pytest.fixture(scope="module")
 def pieces():
-    cable = curved_hose()
-    shapes, _ = turnover_path(cable.rest_shape)
-    grippers = gripper_path(shapes, method="minimal", cable=cable)  # twisted: has warnings
-    trajectory = trajectory_from_grippers(grippers)
-    return cable, shapes, grippers, trajectory
+    return turned_hose_plan()  # twisted: has warnings
 
 
 @pytest.fixture(scope="module")
