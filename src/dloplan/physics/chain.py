@@ -259,6 +259,15 @@ def band_to_sparse(band: np.ndarray) -> sp.csr_matrix:
     return (lower + upper).tocsr()
 
 
+def sparse_to_band(matrix: sp.spmatrix, width: int = HALF_BANDWIDTH) -> np.ndarray:
+    """Lower band (width + 1, N) of a symmetric sparse matrix: the inverse of
+    :func:`band_to_sparse` (entries farther than ``width`` from the diagonal must be zero)."""
+    coo = sp.tril(matrix).tocoo()
+    band = np.zeros((width + 1, matrix.shape[0]))
+    band[coo.row - coo.col, coo.col] = coo.data
+    return band
+
+
 def hessian(
     chain: SpringChain, x: np.ndarray, terms: tuple[str, ...] = ("axial", "bending")
 ) -> sp.csr_matrix:

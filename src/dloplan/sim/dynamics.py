@@ -28,7 +28,8 @@ from ..cable import GRAVITY, Cable
 from ..physics.chain import SpringChain, energy, gradient, hessian_band
 from ..physics.geometry import as_shape
 from .clips import HELD_INDICES, ClipPoses, clip_poses_from_shape
-from .statics import Equilibrium, _factor, _free_band, _result
+from .newton import factor_band, free_band
+from .result import Equilibrium, equilibrium_result
 
 _CHUNK = 4096  # steps whose clip poses are interpolated at once
 
@@ -314,7 +315,7 @@ def settle(
     final = run.shapes[-1]
     g = gradient(chain, final)
     residual = float(np.max(np.linalg.norm(g[2:-2], axis=1)))
-    stable = _factor(_free_band(hessian_band(chain, final), slice(2, -2)), 0.0) is not None
+    stable = factor_band(free_band(hessian_band(chain, final), slice(2, -2))) is not None
     history = np.array([float(energy(chain, final))])
-    return _result(cable, chain, final, g, clips, run.steps, run.settled, residual, math.nan,
-                   stable, history, run.message)
+    return equilibrium_result(cable, chain, final, g, clips, run.steps, run.settled, residual,
+                              math.nan, stable, history, run.message)

@@ -3,7 +3,7 @@
 :func:`equilibrium_with_twist` minimizes U = U^s + U^b + U^g (+ contacts) + U^t + U^d
 (:mod:`dloplan.physics.twist`) jointly over the free points 2 .. n-2 and the twist angles of the
 free links 1 .. n-2, with the same trust-region Newton loop as :func:`dloplan.sim.statics.
-equilibrium` (:func:`~dloplan.sim.statics.trust_region_newton`). The clips hold the four end
+equilibrium` (:func:`~dloplan.sim.newton.trust_region_newton`). The clips hold the four end
 points and set the material frame of the two held links:
 
 * first clip: m1 of link 0 is the clip's v-axis (its y-axis);
@@ -44,16 +44,9 @@ from ..physics.rod_frames import (
     transported_directors,
 )
 from ..physics.twist import TwistChain, chart_directors, twist_derivatives, twist_energy
-from .clips import ClipPoses, clip_poses_from_shape
-from .statics import (
-    Equilibrium,
-    _clip_wrenches,
-    _result,
-    check_clip_reach,
-    conform_guess,
-    force_scale,
-    trust_region_newton,
-)
+from .clips import ClipPoses, check_clip_reach, clip_poses_from_shape, conform_guess
+from .newton import trust_region_newton
+from .result import Equilibrium, clip_reactions, equilibrium_result, force_scale
 
 TWIST_HALF_BANDWIDTH = 10
 """Half bandwidth of the joint Hessian over interleaved (x, y, z, theta) coordinates."""
@@ -312,10 +305,10 @@ def equilibrium_with_twist(
     x, d1 = run.state
     g_pos, td = run.extra
     converged = run.residual <= tolerance
-    base = _result(cable, chain, x, g_pos, clips, run.iterations, converged, run.residual,
-                   tolerance, run.stable, run.history, run.message)
+    base = equilibrium_result(cable, chain, x, g_pos, clips, run.iterations, converged,
+                              run.residual, tolerance, run.stable, run.history, run.message)
     plain = forces(chain, x)
-    wrenches = _clip_wrenches(x, g_pos, clips, "both")
+    wrenches = clip_reactions(x, g_pos, clips, "both")
     t = tangents(x)
     wrenches[0, 3:] -= td.angle_gradient[0] * t[0]
     wrenches[1, 3:] -= td.angle_gradient[-1] * t[-1]
