@@ -1,7 +1,9 @@
 """The ``dloplan`` command: parse, load, call one library function, write.
 
-``main(argv=None) -> int`` returns the exit code: 0 success, 1 success with warnings, 2 failure
-or bad input (a one-line error naming the problem, never a traceback, no output written).
+``main(argv=None) -> int`` returns the exit code: 0 success, 1 success with warnings, 2 bad
+input or a job that cannot be planned (a one-line error naming the problem, never a traceback,
+no output written), 3 planned but a check failed (the plan and its report are written, no robot
+program), 130 interrupted by Ctrl-C (nothing written).
 """
 
 from __future__ import annotations
@@ -13,7 +15,14 @@ import time
 from pathlib import Path
 
 from . import __version__
-from .app.files import EXIT_FAILURE, EXIT_OK, EXIT_WARNINGS, exit_code
+from .app.files import (
+    EXIT_CHECK_FAILED,
+    EXIT_FAILURE,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_WARNINGS,
+    exit_code,
+)
 from .cable import CATALOGUE_NAMES, catalogue_cable
 
 
@@ -113,7 +122,7 @@ def _cmd_verify(args: argparse.Namespace) -> int:
         placement = search_placement(doc.grippers.positions,
                                      Rotation.from_matrix(doc.grippers.matrices))
         print(f"placement: {placement.message}")
-    return EXIT_OK if result.ok else EXIT_FAILURE
+    return EXIT_OK if result.ok else EXIT_CHECK_FAILED
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
@@ -247,7 +256,8 @@ def _print_plan(doc, written, args) -> None:
         print(f"  warning: {warning}")
     if doc.verification is not None:
         print(doc.verification.table())
-    print(f"  wrote {len(written)} files into {Path(written[0]).parent}")
+    print(f"  wrote {len(written)} files into {Path(written[0]).parent}"
+          + ("" if doc.ok else " (a check failed: no robot program)"))
 
 
 def _plan_one(job, output: Path, args, console: Console) -> int:
@@ -284,7 +294,8 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
     print(f"planned {len(codes)} scenarios: "
           f"{sum(c == EXIT_OK for c in codes.values())} ok, "
           f"{sum(c == EXIT_WARNINGS for c in codes.values())} with warnings, "
-          f"{sum(c == EXIT_FAILURE for c in codes.values())} failed")
+          f"{sum(c == EXIT_CHECK_FAILED for c in codes.values())} failed a check, "
+          f"{sum(c == EXIT_FAILURE for c in codes.values())} could not be planned")
     return max(codes.values())
 
 
@@ -487,7 +498,14 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return args.func(args)
-    except (ValueError, ArithmeticError, OSError) as exc:
+    except KeyboardInterrupt:
+        print("dloplan: interrupted (nothing written)", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except OSError as exc:
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"dloplan: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return EXIT_FAILURE
+    except (ValueError, ArithmeticError) as exc:
         print(f"dloplan: error: {exc}", file=sys.stderr)
         return EXIT_FAILURE
 

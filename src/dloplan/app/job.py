@@ -17,6 +17,7 @@ from scipy.spatial.transform import Rotation
 from ..cable import Cable
 from ..io.scenario import (
     Scenario,
+    WORKSPACE,
     ScenarioError,
     build_cable,
     build_obstacles,
@@ -47,6 +48,8 @@ class PlannerSettings:
         Lift safety offset of the obstacle re-planning [m] (thesis 5.4.3).
     max_rounds : int
         Largest number of re-planning rounds.
+    keep_target : bool
+        Plan to the target as given instead of its minimal-energy shape (thesis 4.5.1).
     """
 
     n_shapes: int
@@ -56,6 +59,7 @@ class PlannerSettings:
     physical_mode: str
     z_safety: float
     max_rounds: int
+    keep_target: bool = False
 
     @property
     def weights_used(self) -> bool:
@@ -193,7 +197,7 @@ def planner_settings(scenario, cable: Cable, scale: float) -> PlannerSettings:
     z_safety = scenario.check.lengths(scale)[1]
     return PlannerSettings(spec.n_shapes, weights, family, forced,
                            spec.physical_mode or "equilibrium", z_safety,
-                           scenario.check.max_rounds)
+                           scenario.check.max_rounds, spec.keep_target)
 
 
 def motion_settings(scenario, scale: float) -> MotionSettings:
@@ -207,6 +211,14 @@ def gripper_settings(scenario) -> GripperSettings:
     spec = scenario.grippers
     return GripperSettings(spec.method, np.asarray(spec.auxiliary_vector, dtype=float),
                            _initial_frames(scenario))
+
+
+def check_workspace(points, name: str, source: str) -> None:
+    """Raise a one-line ScenarioError when a point lies beyond :data:`WORKSPACE` [m]."""
+    reach = float(np.max(np.linalg.norm(np.reshape(points, (-1, 3)), axis=1)))
+    if reach > WORKSPACE:
+        raise ScenarioError(f"{source}: {name}: a point {reach:.4g} m from the origin, expected "
+                            f"within {WORKSPACE:g} m of the robot (a length in wrong units?)")
 
 
 def resolve_scenario(scenario: Scenario, source: str = "scenario",
@@ -239,9 +251,15 @@ def resolve_scenario(scenario: Scenario, source: str = "scenario",
         except ValueError as exc:
             raise ScenarioError(f"{source}: {exc}") from None
     threshold = scenario.check.lengths(scale)[0]
+    obstacles = tuple(build_obstacles(scenario.obstacles, scenario.table, scale))
+    for name, shape in shapes.items():
+        check_workspace(shape, name, source)
+    for k, obstacle in enumerate(obstacles):
+        corner = np.array(getattr(obstacle, "center", getattr(obstacle, "base", (0, 0, 0))))
+        check_workspace(corner, f"obstacles.{k}", source)
     return Job(
         source=source, cable=cable, start=shapes["start"], target=shapes["target"],
-        obstacles=tuple(build_obstacles(scenario.obstacles, scenario.table, scale)),
+        obstacles=obstacles,
         planner=planner_settings(scenario, cable, scale), grippers=gripper_settings(scenario),
         motion=motion_settings(scenario, scale), target_threshold=threshold,
         outputs=tuple(scenario.outputs), identification=identification, study=scenario.study,

@@ -38,6 +38,11 @@ from .document import (
 from .job import Job
 
 
+TESTED_MODULI = (1e5, 1e11)
+"""Young's moduli [Pa] the solvers are tested on (tests/test_statics.py): a plan outside them
+gets a warning."""
+
+
 def quiet(text: str) -> None:
     """A progress callback that prints nothing."""
 
@@ -144,7 +149,8 @@ def plan_path(job: Job, progress=quiet) -> PathStage:
     t0 = time.perf_counter()
     result = plan(cable, job.start, job.target, settings.n_shapes, weights=settings.weights,
                   physical_mode=settings.physical_mode, obstacles=list(job.obstacles),
-                  z_safety=settings.z_safety, max_rounds=settings.max_rounds)
+                  z_safety=settings.z_safety, max_rounds=settings.max_rounds,
+                  preprocess=not settings.keep_target)
     timings["plan"] = time.perf_counter() - t0
     stage_times = ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items() if k != "total")
     weights = (f"{settings.family} cable weights" if settings.weights_used else
@@ -279,7 +285,12 @@ def run_job(job: Job, *, verify: bool = False, progress=quiet) -> PlanDocument:
     twist = plan_twist(job.cable, result.path, grippers, progress)
     timings["twist"] = time.perf_counter() - t0
 
-    warnings = list(result.warnings)
+    warnings = [w + " (planner.keep_target: true plans the requested one)"
+                if w.endswith("planned instead") else w for w in result.warnings]
+    e = job.cable.youngs_modulus
+    if not TESTED_MODULI[0] <= e <= TESTED_MODULI[1]:
+        warnings.append(f"cable: E = {e:.3g} Pa is outside {TESTED_MODULI[0]:.0e}.."
+                        f"{TESTED_MODULI[1]:.0e} Pa, the range the solvers are tested on")
     if not target_check.stable:
         warnings.append(target_check.message)
     warnings += list(grippers.warnings)

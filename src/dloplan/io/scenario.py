@@ -137,6 +137,14 @@ ShapeSpec = Annotated[
 ]
 
 
+MAX_LINKS = 1000
+"""Largest n a scenario may ask for (docs/scenario.md: plan time grows about as n S)."""
+
+WORKSPACE = 10.0
+"""Largest distance [m] of any point of a job from the world origin: a dual-arm cell spans about
+a metre, so a coordinate beyond 10 m is a typo (often metres written into a mm file)."""
+
+
 class CableSpec(_Model):
     """The cable: a catalogue ``name`` and/or explicit properties (explicit ones win)."""
 
@@ -148,7 +156,9 @@ class CableSpec(_Model):
         None, description="[Pa], or 'identify' with an identify section"
     )
     poisson_ratio: float | None = Field(None, gt=-1, le=0.5)
-    n_links: int = Field(10, ge=3, le=2000)
+    n_links: int = Field(10, ge=4, le=MAX_LINKS, description=(
+        "n >= 4: each clip holds two points, so n = 4 is the least that leaves the cable a "
+        f"free point; n <= {MAX_LINKS}: plans in minutes at most"))
     bending: Literal["rod", "thesis"] = "rod"
     masses: Literal["consistent", "equal"] = "consistent"
     rest_shape: ShapeSpec | None = None
@@ -208,6 +218,10 @@ class PlannerSpec(_Model):
 
     n_shapes: int = Field(5, ge=1, le=500, description="S, intermediate shapes")
     physical_mode: Literal["thesis", "equilibrium"] | None = None
+    keep_target: bool = Field(
+        False, description="plan to the target as given, not to its minimal-energy shape "
+                           "(thesis 4.5.1 pre-processing; default: minimized, with the distance "
+                           "reported when it moves more than 2 % of L)")
     family: Literal["auto", "soft", "medium", "stiff"] = Field(
         "auto", description="stiffness family of the physical weights (auto: from E)"
     )
@@ -360,13 +374,26 @@ def parse_scenario(data: Any, source: str = "scenario") -> Scenario:
     return parse_model(Scenario, data, source)
 
 
+MAX_FILE_BYTES = 10_000_000
+"""Largest job file read [bytes]: 10 MB is some 100 000 points, far more than any cable needs
+(a shape is resampled to n + 1 <= 1001 points), and loads in seconds."""
+
+
 def read_mapping(path: str | Path) -> dict:
     """Read a YAML or JSON file into a mapping; one-line errors for unreadable files."""
     path = Path(path)
     try:
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise ScenarioError(f"{path}: the file is {size / 1e6:.1f} MB, more than the "
+                                f"{MAX_FILE_BYTES / 1e6:.0f} MB a job file may have (thin out "
+                                "its points: shapes are resampled to n + 1 points anyway)")
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise ScenarioError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+    except UnicodeDecodeError:
+        raise ScenarioError(f"{path}: not a text file (not UTF-8): expected YAML or JSON") \
+            from None
     try:
         data = json.loads(text) if path.suffix.lower() == ".json" else yaml.safe_load(text)
     except (json.JSONDecodeError, yaml.YAMLError) as exc:
