@@ -16,8 +16,8 @@ from scipy.spatial.transform import Rotation
 
 from ..cable import Cable
 from ..io.scenario import (
-    Scenario,
     WORKSPACE,
+    Scenario,
     ScenarioError,
     build_cable,
     build_obstacles,

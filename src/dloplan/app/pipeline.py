@@ -37,7 +37,6 @@ from .document import (
 )
 from .job import Job
 
-
 TESTED_MODULI = (1e5, 1e11)
 """Young's moduli [Pa] the solvers are tested on (tests/test_statics.py): a plan outside them
 gets a warning."""
@@ -76,7 +75,7 @@ class CheckReport:
 
 
 def check_job(job: Job) -> CheckReport:
-    """Check a job without planning: clip span, target stability, obstacles at the ends.
+    """Check a job without planning: clip span, robot reach, target stability, obstacles.
 
     Thesis 5.3 (target stability) and 5.4 (collisions of the stabilized start and target).
     """
@@ -93,6 +92,8 @@ def check_job(job: Job) -> CheckReport:
                                     f"{cable.length:.3g} m cable"))
         except ValueError as exc:
             findings.append(Finding("error", f"{name} cable span", str(exc)))
+    if len(shapes) == 2:
+        findings += _reach_findings(job)
     settled = {}
     for name, shape in shapes.items():
         report = check_target(shape, cable, threshold=job.target_threshold)
@@ -109,6 +110,27 @@ def check_job(job: Job) -> CheckReport:
             findings.append(Finding("ok", f"{name} obstacles",
                                     f"clear by {1e3 * -collision.penetration:.1f} mm"))
     return CheckReport(findings)
+
+
+def _reach_findings(job: Job) -> list[Finding]:
+    """Can the robot's arms hold the start and the target (gripper frames by the job's method)?"""
+    from ..grippers import gripper_path
+
+    grippers = gripper_path(np.stack([job.start, job.target]), method=job.grippers.method,
+                            cable=job.cable, initial=job.grippers.initial,
+                            aux=job.grippers.auxiliary_vector)
+    findings = []
+    for name, row in zip(("start", "target"), robot_rows(grippers), strict=True):
+        arms = [arm for arm in ("left", "right") if not row[f"reachable_{arm}"]]
+        if arms:
+            what = ("arm cannot reach its clip" if len(arms) == 1 else
+                    "arms cannot reach their clips")
+            findings.append(Finding("error", f"{name} robot reach",
+                                    f"the {' and '.join(arms)} {what}"))
+        else:
+            findings.append(Finding("ok", f"{name} robot reach", "both arms reach their clips "
+                                    f"(joint margin {row['joint_margin']:.2f} rad)"))
+    return findings
 
 
 @dataclass(frozen=True, eq=False)

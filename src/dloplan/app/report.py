@@ -75,8 +75,10 @@ def summary_lines(doc: PlanDocument) -> list[str]:
              + f", n = {cable.n_links}, S = {doc.n_shapes}"]
     if doc.trajectory is not None and doc.grippers is not None:
         twist = np.degrees(np.abs(doc.grippers.twist).max())
+        roll = np.degrees(np.abs(doc.grippers.roll).max(axis=0))
         lines.append(f"trajectory {doc.trajectory.duration:.2f} s; gripper method "
-                     f"{doc.grippers.method}; largest relative twist {twist:.1f} deg")
+                     f"{doc.grippers.method}; largest relative twist {twist:.1f} deg; clips roll "
+                     f"up to {roll[0]:.1f} / {roll[1]:.1f} deg about the cable")
     if doc.target_check is not None:
         lines.append(doc.target_check.message)
     if doc.avoidance is not None:
