@@ -14,14 +14,20 @@ keeps its rest length l: the end point is at ``position - l/2 u`` and the inner 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
-from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
 from ..frames import frame_from_axis, minimal_rotation
-from ..physics.geometry import arc_length, as_shape, resample_by_arc_length, shape_length
+from ..physics.compiled import stretch_to_length
+from ..physics.geometry import (
+    arc_length,
+    as_shape,
+    resample_by_arc_length,
+    shape_length,
+)
 
 HELD_INDICES = (0, 1, -2, -1)
 """Indices of the four points fixed by the two clips, in the order first-end, first-inner,
@@ -63,6 +69,10 @@ class ClipPoses:
     @property
     def u_axes(self) -> np.ndarray:
         """The two u-axes (held link directions, inward), (2, 3)."""
+        return self._u_axes.copy()
+
+    @cached_property
+    def _u_axes(self) -> np.ndarray:  # Rotation.apply costs more than every use of its result
         return self.rotations.apply([1.0, 0.0, 0.0])
 
     @property
@@ -159,7 +169,8 @@ def conform_guess(cable: Cable, guess: np.ndarray, clips: ClipPoses, gravity=GRA
     """
     l = cable.rest_link_length
     held = clips.held_points(l)
-    x = place_held_points(guess, clips, l)
+    x = np.array(guess, dtype=float)
+    x[list(HELD_INDICES)] = held
     inner = np.array(guess[1:-1], dtype=float)
     need = (cable.n_links - 2) * l
     s = arc_length(inner)
@@ -178,14 +189,8 @@ def conform_guess(cable: Cable, guess: np.ndarray, clips: ClipPoses, gravity=GRA
             held[2] - held[1], gravity
         ) * cable.length
 
-    def excess(a: float) -> float:
-        return float(shape_length(chord + a * deviation)) - need
-
-    high = 1.0
-    while excess(high) < 0.0:
-        high *= 2.0
-    amplitude = brentq(excess, 0.0, high, xtol=1e-12)
-    x[1:-1] = resample_by_arc_length(chord + amplitude * deviation, len(inner))
+    x[1:-1] = resample_by_arc_length(chord + stretch_to_length(chord, deviation, need) * deviation,
+                                     len(inner))
     return x
 
 

@@ -13,17 +13,19 @@ positions with twist angles (:mod:`dloplan.sim.torsion`) share it.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
-from scipy.linalg import lapack
+from numba import njit
 
 NEUTRAL = 1e-9
 """Relative shift under which a Hessian still counts as positive (semi-)definite: a mode of zero
 stiffness is neutral, not unstable."""
 
-_MAX_ESCAPES = 20  # saddle escapes per solve
+MAX_ESCAPES = 20
+"""Saddle escapes per solve before a saddle counts as a point to step on from."""
 
 
 def free_band(band: np.ndarray, free: slice) -> np.ndarray:
@@ -41,7 +43,10 @@ def free_band(band: np.ndarray, free: slice) -> np.ndarray:
 
 
 def factor_band(band: np.ndarray, shift: float = 0.0) -> np.ndarray | None:
-    """Banded Cholesky factor of ``band + shift I`` (LAPACK dpbtrf), or None if not positive.
+    """Banded Cholesky factor of ``band + shift I``, or None if not positive definite.
+
+    The factor L is in the same lower layout (``factor[k, j] = L[j + k, j]``, as LAPACK dpbtrf
+    and ``scipy.linalg.cholesky_banded(lower=True)`` return it).
 
     Parameters
     ----------
@@ -50,17 +55,59 @@ def factor_band(band: np.ndarray, shift: float = 0.0) -> np.ndarray | None:
     shift : float
         Added to the diagonal (negative to test definiteness above a bound).
     """
-    shifted = band.copy()
-    shifted[0] += shift
-    # LAPACK directly: scipy.linalg.cholesky_banded's checks and dispatch cost more than the
-    # factorization itself at these sizes, and this runs in every Newton iteration
-    factor, info = lapack.dpbtrf(shifted, lower=1)
-    return factor if info == 0 else None
+    factor = np.empty_like(band, dtype=float)
+    return factor if cholesky_band(band, shift, factor) else None
 
 
 def solve_band(factor: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """Solve ``A y = rhs`` with a factor of :func:`factor_band` (LAPACK dpbtrs)."""
-    return lapack.dpbtrs(factor, rhs, lower=1)[0]
+    """Solve ``A y = rhs`` (rhs (N,)) with a factor of :func:`factor_band`."""
+    out = np.array(rhs, dtype=float)
+    cholesky_solve(factor, out)
+    return out
+
+
+@njit(cache=True)
+def cholesky_band(band, shift, factor):
+    """Compiled banded Cholesky (the algorithm of LAPACK dpbtf2): ``factor`` <- L of
+    ``band + shift I``; returns False (``factor`` then undefined) if a pivot is not positive.
+    O(N w^2) for N unknowns and half bandwidth w."""
+    w = band.shape[0] - 1
+    n = band.shape[1]
+    for j in range(n):
+        for i in range(w + 1):
+            factor[i, j] = band[i, j]
+        factor[0, j] += shift
+    for j in range(n):
+        pivot = factor[0, j]
+        for k in range(1, min(w, j) + 1):
+            pivot -= factor[k, j - k] * factor[k, j - k]
+        if not pivot > 0.0:  # also catches NaN
+            return False
+        pivot = math.sqrt(pivot)
+        factor[0, j] = pivot
+        for i in range(1, min(w, n - 1 - j) + 1):  # L[j + i, j]
+            value = factor[i, j]
+            for k in range(1, min(w - i, j) + 1):
+                value -= factor[i + k, j - k] * factor[k, j - k]
+            factor[i, j] = value / pivot
+    return True
+
+
+@njit(cache=True)
+def cholesky_solve(factor, rhs):
+    """Solve L L^T y = rhs in place with a factor of :func:`cholesky_band`."""
+    w = factor.shape[0] - 1
+    n = factor.shape[1]
+    for j in range(n):  # L z = rhs
+        value = rhs[j]
+        for k in range(1, min(w, j) + 1):
+            value -= factor[k, j - k] * rhs[j - k]
+        rhs[j] = value / factor[0, j]
+    for j in range(n - 1, -1, -1):  # L^T y = z
+        value = rhs[j]
+        for k in range(1, min(w, n - 1 - j) + 1):
+            value -= factor[k, j] * rhs[j + k]
+        rhs[j] = value / factor[0, j]
 
 
 def lowest_mode(band: np.ndarray) -> np.ndarray:
@@ -150,21 +197,18 @@ def trust_region_newton(
         scale = float(np.mean(band[0]))
         # stable: positive definite up to a relative 1e-9 (a zero-stiffness mode is neutral)
         stable = residual <= tolerance and factor_band(band, NEUTRAL * scale) is not None
-        if stable:
-            message = f"converged in {iterations} iterations"
+        if stable or iterations >= max_iterations:
+            message = newton_message("converged" if stable else "max_iterations", iterations,
+                                     residual, unit)
             break
-        if iterations >= max_iterations:
-            message = (f"no convergence in {max_iterations} iterations "
-                       f"(residual {residual:.3g} {unit})")
-            break
-        if residual <= tolerance and escapes < _MAX_ESCAPES:
+        if residual <= tolerance and escapes < MAX_ESCAPES:
             # a saddle (an unstable equilibrium): leave it downhill along the direction of
             # most negative curvature, then carry on with Newton toward a stable one
-            escaped = _escape_saddle(state, f, band, energy_of, moved, displacement, radius)
+            escaped = escape_saddle(state, f, band, energy_of, moved, displacement, radius)
             iterations += 1
             escapes += 1
             if escaped is None:
-                message = f"stuck at an unstable equilibrium after {iterations} iterations"
+                message = newton_message("stuck", iterations, residual, unit)
                 break
             state, f = escaped
             history.append(f)
@@ -201,13 +245,28 @@ def trust_region_newton(
             radius = max(0.5 * min(radius, longest), 1e-9 * length_scale)
         iterations += 1
         if not accepted:
-            message = f"stalled after {iterations} iterations (residual {residual:.3g} {unit})"
+            message = newton_message("stalled", iterations, residual, unit)
             break
         history.append(f)
     return NewtonRun(state, extra, iterations, residual, stable, np.asarray(history), message)
 
 
-def _escape_saddle(state, f, band, energy_of, moved, displacement, radius):
+def newton_message(outcome: str, iterations: int, residual: float, unit: str = "N") -> str:
+    """What a Newton run ended with, in words.
+
+    ``outcome``: "converged", "max_iterations", "stuck" (at a saddle no step leaves) or
+    "stalled" (no step lowers the energy).
+    """
+    if outcome == "converged":
+        return f"converged in {iterations} iterations"
+    if outcome == "max_iterations":
+        return f"no convergence in {iterations} iterations (residual {residual:.3g} {unit})"
+    if outcome == "stuck":
+        return f"stuck at an unstable equilibrium after {iterations} iterations"
+    return f"stalled after {iterations} iterations (residual {residual:.3g} {unit})"
+
+
+def escape_saddle(state, f, band, energy_of, moved, displacement, radius):
     """A step from a saddle along the eigenvector of the most negative Hessian eigenvalue.
 
     Tries both signs with a backtracking length, starting at the trust radius; returns

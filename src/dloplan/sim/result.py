@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..cable import GRAVITY, Cable
-from ..physics.chain import Forces, forces
+from ..physics.chain import Forces, shape_forces
 from ..physics.contact import penetrations
 from .clips import ClipPoses
 
@@ -116,7 +116,7 @@ def equilibrium_result(cable, chain, x, g, clips, iterations, converged, residua
                            penetrations(x, chain.contacts, chain.contact_radius)))
     return Equilibrium(
         shape=x,
-        forces=forces(chain, x),
+        forces=shape_forces(chain, x),
         energy=float(history[-1]),
         clip_wrenches=clip_reactions(x, g, clips, held),
         iterations=iterations,

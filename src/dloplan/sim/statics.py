@@ -34,18 +34,27 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from ..cable import GRAVITY, Cable
 from ..physics.chain import (
+    HALF_BANDWIDTH,
     SpringChain,
     band_to_sparse,
     energy,
     gradient,
-    gradient_and_hessian_band,
     hessian_band,
+    shape_derivatives,
+    shape_energy,
 )
 from ..physics.geometry import as_shape, norms
-from ..physics.gravity import gravity_force
 from .clips import ClipPoses, check_clip_reach, clip_poses_from_shape, conform_guess
+from .compiled import CONVERGED, MAX_ITERATIONS, SADDLE, STALLED, newton_positions
 from .dynamics import settle
-from .newton import free_band, trust_region_newton
+from .newton import (
+    MAX_ESCAPES,
+    NewtonRun,
+    escape_saddle,
+    free_band,
+    newton_message,
+    trust_region_newton,
+)
 from .result import Equilibrium, clip_reactions, equilibrium_result, force_scale
 
 __all__ = [  # the static solvers, and the shared names callers have always imported from here
@@ -174,9 +183,11 @@ def minimize_energy(
         return x, gradient(chain, x), 0, 0.0, True, np.array([float(energy(chain, x))]), \
             "no free point"
 
+    def energy_of(x):
+        return shape_energy(chain, x)
+
     def derivatives(x):
-        g, band = gradient_and_hessian_band(chain, x)
-        g -= gravity_force(chain.point_masses, chain.gravity)
+        _, g, band = shape_derivatives(chain, x)
         residual = float(np.max(norms(g[free])))
         return g[free].ravel(), free_band(band, free), residual, g
 
@@ -185,13 +196,48 @@ def minimize_energy(
         trial[free] += p.reshape(-1, 3)
         return trial
 
-    run = trust_region_newton(
-        x, lambda x: float(energy(chain, x)), derivatives, moved,
-        lambda p: float(np.max(norms(p.reshape(-1, 3)))),
-        length_scale, tolerance, max_iterations,
-    )
+    def displacement(p):
+        return float(np.max(norms(p.reshape(-1, 3))))
+
+    if chain.contacts:  # obstacles are Python objects: the generic loop
+        run = trust_region_newton(x, energy_of, derivatives, moved, displacement, length_scale,
+                                  tolerance, max_iterations)
+    else:
+        run = _compiled_newton(chain, x, free, length_scale, tolerance, max_iterations,
+                               energy_of, moved, displacement)
     return run.state, run.extra, run.iterations, run.residual, run.stable, run.history, \
         run.message
+
+
+def _compiled_newton(chain, x, free, length_scale, tolerance, max_iterations, energy_of, moved,
+                     displacement) -> NewtonRun:
+    """:func:`trust_region_newton` for the plain chain, in :func:`newton_positions`.
+
+    The compiled loop returns at a saddle; the escape along the lowest mode is done here, as
+    in the generic loop, and the compiled loop resumes.
+    """
+    history = np.empty(max_iterations + 1)
+    history[0] = energy_of(x)
+    n_history, iterations, radius, escapes = 1, 0, 0.25 * length_scale, 0
+    grad, band = np.empty(x.shape), np.empty((HALF_BANDWIDTH + 1, x.size))
+    while True:
+        status, iterations, residual, radius, n_history = newton_positions(
+            x, free.start, free.stop, *chain.constants, length_scale, tolerance, max_iterations,
+            iterations, radius, history, n_history, grad, band, escapes < MAX_ESCAPES)
+        if status != SADDLE:
+            break
+        escaped = escape_saddle(x, history[n_history - 1], free_band(band, free), energy_of,
+                                moved, displacement, radius)
+        iterations += 1
+        escapes += 1
+        if escaped is None:
+            break
+        x, history[n_history] = escaped
+        n_history += 1
+    outcome = {CONVERGED: "converged", MAX_ITERATIONS: "max_iterations", STALLED: "stalled",
+               SADDLE: "stuck"}[status]
+    return NewtonRun(x, grad, iterations, residual, status == CONVERGED,
+                     history[:n_history].copy(), newton_message(outcome, iterations, residual))
 
 
 def clip_wrenches(cable: Cable, shape, gravity=GRAVITY) -> np.ndarray:
