@@ -149,6 +149,8 @@ class CableSpec(_Model):
         None, description="[Pa], or 'identify' with an identify section"
     )
     poisson_ratio: float | None = Field(None, gt=-1, le=0.5)
+    axial_modulus: PositiveLength | None = Field(
+        None, description="[Pa] modulus of the axial springs (default: youngs_modulus)")
     n_links: int = Field(10, ge=3, le=2000)
     bending: Literal["rod", "thesis"] = "rod"
     masses: Literal["consistent", "equal"] = "consistent"
@@ -401,7 +403,7 @@ def build_cable(spec: CableSpec, scale: float, youngs_modulus: float | None) -> 
     for key in ("length", "diameter"):
         if getattr(spec, key) is not None:
             params[key] = getattr(spec, key) * scale
-    for key in ("mass", "poisson_ratio"):
+    for key in ("mass", "poisson_ratio", "axial_modulus"):
         if getattr(spec, key) is not None:
             params[key] = getattr(spec, key)
     if youngs_modulus is not None:
