@@ -164,6 +164,14 @@ def seat_in_first_clip(shape: np.ndarray, clips: ClipPoses, link_length: float) 
     return rotation.apply(shape - middle) + 0.5 * (held[0] + held[1])
 
 
+def initial_on(cable: Cable, manipulation: Manipulation) -> np.ndarray:
+    """The manipulation's initial shape on the cable's n + 1 points, in the first clips [m]."""
+    initial = discretize(manipulation.initial_shape, cable, "initial_shape")
+    if manipulation.held == "first":
+        initial = seat_in_first_clip(initial, manipulation.clips[0], cable.rest_link_length)
+    return initial
+
+
 def prepare_shapes(cable: Cable, experiment: Experiment,
                    curve: MeasuredCurve | None = None) -> PreparedShapes:
     """Check the experiment's shapes against a cable and put them on its n + 1 points.
@@ -184,7 +192,7 @@ def prepare_shapes(cable: Cable, experiment: Experiment,
         The smoothed measurement, when already computed.
     """
     manipulation = experiment.manipulation
-    initial = discretize(manipulation.initial_shape, cable, "initial_shape")
+    initial = initial_on(cable, manipulation)
     if curve is None:
         curve = measured_curve(experiment.measured_shape, experiment.measurement_noise)
     ratio = curve.length / cable.length
@@ -212,7 +220,5 @@ def prepare_shapes(cable: Cable, experiment: Experiment,
         )
     guess = curve.resampled(cable.n_points)
     if manipulation.held == "first":
-        link = cable.rest_link_length
-        initial = seat_in_first_clip(initial, manipulation.clips[0], link)
-        guess = seat_in_first_clip(guess, manipulation.final_clips, link)
+        guess = seat_in_first_clip(guess, manipulation.final_clips, cable.rest_link_length)
     return PreparedShapes(initial, curve.points, guess, curve, bool(reverse))

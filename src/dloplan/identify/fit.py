@@ -10,11 +10,11 @@ points):
 Steps of :func:`identify_youngs_modulus`:
 
 1. **Discretization check.** The measured shape is smoothed (:mod:`dloplan.identify.measured`)
-   and its smallest bend radius R_min found; a model link longer than ``LINK_FRACTION`` R_min
-   cannot follow the bend (a USB cable with a 37 mm bend near the clip came out 92 % low with
-   31 mm links). The curvature is read at the scale of a link
-   (:meth:`~dloplan.identify.measured.MeasuredCurve.turning`). By default the fit then uses n = ceil(L / (LINK_FRACTION R_min)) links (at most
-   ``MAX_LINKS``), says so, and the result carries that n: plan with it
+   and its bend radius R read at the scale of a link
+   (:meth:`~dloplan.identify.measured.MeasuredCurve.turning`); a model link longer than
+   ``LINK_FRACTION`` R cannot follow the bend (a USB cable with a 37 mm bend near the clip came
+   out 92 % low with 31 mm links). By default the fit then uses the fewest links that satisfy
+   it (at most ``MAX_LINKS``), says so, and the result carries that n: plan with it
    (:func:`dloplan.identify.report.plan_warnings`).
 2. **Global scan and refinement** (:mod:`dloplan.identify.search`), each simulation the final
    equilibrium started from the measured shape (the ``"branch"`` simulator,
@@ -46,8 +46,9 @@ Verdicts: ``success`` is False, with ``reason`` one line, when
 * the experiment is uninformative: sd(ln E) > ``max_log_sd`` (0.1),
 * every simulation failed.
 
-Warnings (``success`` True, ``warnings`` non-empty): n raised for the curvature, a
-discretization error above ``MAX_DISCRETIZATION`` (10 %), a manipulation that does not reach the
+Warnings (``success`` True, ``warnings`` non-empty): residuals above ``WARN_NOISE_RATIO``
+(1.5) times the noise, n raised for the curvature, a discretization error above
+``MAX_DISCRETIZATION`` (10 %), a manipulation that does not reach the
 measured branch, failed simulations skipped.
 """
 
@@ -73,6 +74,9 @@ MAX_LOG_SD = 0.1
 
 MAX_NOISE_RATIO = 3.0
 """Largest residual sigma_hat / stated noise of a successful fit."""
+
+WARN_NOISE_RATIO = 1.5
+"""A residual sigma_hat / stated noise above this is warned about (a model or clip misfit)."""
 
 AMBIGUITY = 9.0
 """Two basins are ambiguous when their costs differ by less than this many sigma^2."""
@@ -462,6 +466,10 @@ def _conclude(cable, experiment, prepared, search, minima: list[Minimum], settin
             f"poor fit: the residuals are {ratio:.1f} times the stated noise of "
             f"{1e3 * noise:g} mm (RMS distance {1e3 * float(np.sqrt(np.mean(distances**2))):.1f}"
             " mm): the model, the clip poses or the data are inconsistent")
+    elif ratio > WARN_NOISE_RATIO:
+        warnings.append(f"the residuals are {ratio:.1f} times the stated noise: the model (its "
+                        "discretization, bending model), the clip poses or the noise figure "
+                        "do not quite match the data")
     for other in minima[1:]:
         apart = abs(math.log(other.youngs_modulus) - sample.s)
         if (other.estimated_cost - sample.cost < AMBIGUITY * sigma**2

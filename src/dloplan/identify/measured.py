@@ -7,7 +7,9 @@ segment of spacing h gains about 2 sigma^2 / h^2 of its length: 15 % at h = 2.5 
 sigma = 1 mm), so neither the length check nor a resampling by arc length may use it directly.
 
 :func:`measured_curve` fits a parametric cubic smoothing spline (``scipy.interpolate.splprep``)
-whose residual sum of squares is the noise's expected k * 3 sigma^2, and reads off it:
+whose residual sum of squares is the noise's expected k * 3 sigma^2 (or keeps the polyline
+itself when the spline comes out longer: it then overshoots sharp corners of clean data), and
+reads off it:
 
 * the **length** (for the check against the cable's),
 * its **turning** over a given arc length w, the largest angle between its tangents at two
@@ -117,7 +119,8 @@ def measured_curve(points, noise: float, name: str = "measured_shape") -> Measur
     if len(x_unique) < 2:
         raise ValueError(f"{name}: the polyline has zero length")
     u = arc_length(x_unique)
-    u = u / u[-1]
+    u_length = u[-1]
+    u = u / u_length
     degree = min(3, len(x_unique) - 1)
     smoothing = len(x_unique) * 3.0 * noise**2
     tck, _ = splprep(x_unique.T, u=u, k=degree, s=smoothing)
@@ -125,6 +128,14 @@ def measured_curve(points, noise: float, name: str = "measured_shape") -> Measur
     # sample the spline evenly in its own arc length, so windows are lengths
     dense = np.array(splev(t, tck)).T
     s_dense = arc_length(dense)
+    if s_dense[-1] >= u_length:
+        # a spline longer than the raw polyline overshoots its corners (a clean polyline with
+        # sharp turns, e.g. a coarse model's shape): the polyline itself is the better curve
+        smooth = resample_by_arc_length(x_unique, SAMPLES)
+        steps = np.diff(smooth, axis=0)
+        tangents = steps / np.linalg.norm(steps, axis=1)[:, None]
+        tangents = np.vstack([tangents, tangents[-1:]])
+        return MeasuredCurve(x, smooth, float(u_length), tangents, float(noise))
     t = np.interp(np.linspace(0.0, s_dense[-1], SAMPLES), s_dense, t)
     smooth = np.array(splev(t, tck)).T
     d1 = np.array(splev(t, tck, der=1)).T

@@ -42,7 +42,7 @@ import scipy.sparse.linalg as spla
 
 from ..cable import GRAVITY, Cable
 from ..physics.chain import SpringChain, forces, hessian
-from ..sim.statics import continuation, equilibrium
+from ..sim.statics import continuation, equilibrium, force_scale
 from .experiment import Manipulation
 
 SIMULATORS = ("branch", "static", "dynamic")
@@ -117,6 +117,22 @@ class ManipulationRun:
         return self.shapes[-1]
 
 
+RTOL = 1e-10
+"""Relative force tolerance of the equilibria (as :func:`dloplan.sim.statics.equilibrium`)."""
+
+
+def relative_tolerance(cable: Cable, gravity=GRAVITY) -> float:
+    """``rtol`` of the equilibria: RTOL, or the round-off floor of stiff axial springs.
+
+    An axial modulus far above the bending one (a composite cable's copper, 1e3 times its
+    bending modulus) leaves a force residual of about eps k_s L from round-off alone, which can
+    exceed RTOL times the statics' force scale (a point's weight plus k_b / l); the tolerance
+    is raised to 10 eps k_s L, still a tiny fraction of the weights.
+    """
+    floor = 10.0 * np.finfo(float).eps * cable.k_axial * cable.length
+    return max(RTOL, floor / force_scale(cable, gravity))
+
+
 def free_slice(cable: Cable, held: str) -> slice:
     """The points not held by the clips: 2 .. n-2 (both clips) or 2 .. n (first clip only)."""
     return slice(2, cable.n_points - 2 if held == "both" else cable.n_points)
@@ -172,7 +188,8 @@ def final_equilibrium(cable: Cable, manipulation: Manipulation, guess: np.ndarra
         (n + 1, 3) starting shape [m].
     """
     result = equilibrium(cable, guess, manipulation.final_clips, gravity=manipulation.gravity,
-                         held=manipulation.held)
+                         held=manipulation.held,
+                         rtol=relative_tolerance(cable, manipulation.gravity))
     return _finish(cable, manipulation, result.shape[None], result.success,
                    "" if result.success else f"final equilibrium failed: {result.message}",
                    result.iterations)
@@ -208,13 +225,14 @@ def run_manipulation(
     if simulator == "dynamic":
         return _run_dynamic(cable, manipulation, initial, dynamic or DynamicSettings())
     gravity = manipulation.gravity
+    rtol = relative_tolerance(cable, gravity)
     if warm_start is None:
         results = continuation(cable, initial, manipulation.clips, gravity=gravity,
-                               held=manipulation.held)
+                               held=manipulation.held, rtol=rtol)
     else:
         chain = SpringChain.from_cable(cable, gravity)
         results = [equilibrium(cable, guess, clips, gravity=gravity, chain=chain,
-                               held=manipulation.held)
+                               held=manipulation.held, rtol=rtol)
                    for guess, clips in zip(warm_start, manipulation.clips, strict=True)]
     shapes = np.stack([r.shape for r in results])
     failed = [(k, r) for k, r in enumerate(results) if not r.success]
