@@ -334,8 +334,10 @@ COMPOSITE_AXIAL_MODULI: dict[str, float] = {"usb": 2e9, "ethernet": 2e9}
 Order-of-magnitude estimates from their copper: E_cu ~ 117 GPa on about 0.3 mm^2 (USB, four
 AWG 28 conductors and the shield) or 1.6 mm^2 (Ethernet, eight AWG 24), derated about three
 times for the twist of the pairs and spread over the whole section A: E_a ~ 2 GPa, a thousand
-times their bending moduli. Any value above about 1e8 Pa gives the same shapes (the cable is
-then practically inextensible), so the estimate need not be precise. The catalogue leaves
+times their bending moduli. Any value above about 1e8 Pa gives nearly the same shapes (the
+cable is then practically inextensible: the USB between level clips sags within 0.01 mm of the
+2 GPa shape at 0.4 m apart, 0.25 mm nearly taut at 0.48 m), so the estimate need not be
+precise. The catalogue leaves
 ``axial_modulus`` unset to reproduce the thesis; pass
 ``catalogue_cable("usb", axial_modulus=COMPOSITE_AXIAL_MODULI["usb"])`` for a real cable.
 """
