@@ -13,9 +13,10 @@ Two more checks per design:
 * **links needed**: the discretization the final shape's curvature requires
   (:func:`~dloplan.identify.fit.links_for_curvature`); the design is simulated with it, so
   a soft cable's tight bend near a clip is resolved and costs what it costs;
-* **robust**: the manipulation, simulated quasi-statically at E / 2 and 2 E, ends on the branch
-  continued from the shape at E (within 1 % of L); a design whose outcome snaps to another
-  branch nearby makes the cost jump (thesis Fig. 6.8's irregular curves).
+* **robust** (checked for informative designs): the manipulation, simulated quasi-statically at
+  E / 2 and 2 E, ends on the branch continued from the shape at E (within 1 % of L); a design
+  whose outcome snaps to another branch nearby makes the cost jump (thesis Fig. 6.8's irregular
+  curves).
 
 The recommendation is the robust, informative design (sd <= 0.1) of smallest sd.
 """
@@ -135,12 +136,12 @@ def score_design(cable: Cable, name: str, manipulation: Manipulation, *, noise: 
     size = math.sqrt(0.5 * fit.curvature)
     log_sd = noise / size if size > 0 else math.inf
     gaps = []
-    for factor in (0.5, 2.0):
+    for factor in (0.5, 2.0) if log_sd <= MAX_LOG_SD else ():  # a flat design fails anyway
         other = cable.with_modulus(cable.youngs_modulus * factor)
         path = run_manipulation(other, manipulation, initial_on(cable, manipulation)).final
         branch = final_equilibrium(other, manipulation, run.final).final
         gaps.append(float(np.max(np.linalg.norm(path - branch, axis=1))))
-    robust = max(gaps) <= 0.01 * cable.length
+    robust = max(gaps, default=0.0) <= 0.01 * cable.length
     words = ["informative" if log_sd <= MAX_LOG_SD else "not informative"]
     if not robust:
         words.append(f"snaps to another branch within a factor 2 of E ({1e3 * max(gaps):.0f} mm)")
