@@ -319,7 +319,7 @@ def test_a_modulus_beyond_the_upper_bound_is_flagged_not_reported():
     assert result.at_bound and not result.success
     assert math.isnan(result.youngs_modulus)
     assert result.best_in_bounds == pytest.approx(1e10)
-    assert "E_max" in result.reason and "widen the bounds" in result.reason
+    assert "E_max" in result.message and "widen the bounds" in result.message
     with pytest.raises(ValueError, match="not successful"):
         tune_for_identified(result)
 

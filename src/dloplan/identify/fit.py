@@ -18,8 +18,10 @@ Steps of :func:`identify_youngs_modulus`:
    (:func:`dloplan.identify.report.plan_warnings`).
 2. **Global scan and refinement** (:mod:`dloplan.identify.search`), each simulation the final
    equilibrium started from the measured shape (the ``"branch"`` simulator,
-   :mod:`dloplan.identify.simulate`), so every simulated shape stays on the measured branch.
-   Every local minimum found is reported with its cost.
+   :mod:`dloplan.identify.simulate`), so every simulated shape stays on the measured branch
+   (when Newton's method does not converge from that start, a noisy measurement of a very
+   soft cable's tight bends, the simulated manipulation stands in). Every local minimum found
+   is reported with its cost.
 3. **Discretization error.** The best E is fitted again with 2n links (Gauss-Newton from the
    first E). With an error of E(n) of first order in 1/n (the clip holds half a link of cable
    outside its point), E(n) - E(inf) ~ 2 (E(n) - E(2n)): the 95 % interval of ln E is widened by
@@ -55,7 +57,7 @@ measured branch, failed simulations skipped.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -260,6 +262,10 @@ def _simulator(cable: Cable, experiment: Experiment, prepared: PreparedShapes, s
         if simulator == "branch":
             guess = near.run.final if near is not None else prepared.guess
             run = final_equilibrium(trial, manipulation, guess)
+            if not run.success:  # a guess too rough for a flat landscape: the manipulation
+                path = run_manipulation(trial, manipulation, prepared.initial)
+                run = replace(path, solver_iterations=path.solver_iterations
+                              + run.solver_iterations)
         else:
             warm = near.run.shapes if near is not None and simulator == "static" else None
             run = run_manipulation(trial, manipulation, prepared.initial, simulator=simulator,
@@ -455,6 +461,10 @@ def _conclude(cable, experiment, prepared, search, minima: list[Minimum], settin
     distances = np.linalg.norm(sample.fit.residuals, axis=1)
     reasons: list[str] = []
     warnings: list[str] = list(notes)
+    if not informative:  # a flat cost: the root cause of any other verdict
+        reasons.append(
+            f"the experiment is not informative: sd(ln E) = {log_sd:.3g} > {max_log_sd:g} "
+            "(a flat cost: bend the cable more under gravity, see dloplan identify --design)")
     if best.at_bound:
         reasons.append(
             f"no modulus in [{lo:.3g}, {hi:.3g}] Pa explains the data: the cost still "
@@ -479,10 +489,6 @@ def _conclude(cable, experiment, prepared, search, minima: list[Minimum], settin
                 f"(cost {sample.cost:.3g} m^2) and E = {other.youngs_modulus:.3g} Pa (cost "
                 f"{other.estimated_cost:.3g} m^2); use a more informative experiment")
             break
-    if not informative:
-        reasons.append(
-            f"the experiment is not informative: sd(ln E) = {log_sd:.3g} > {max_log_sd:g} "
-            "(a flat cost: bend the cable more under gravity, see dloplan identify --design)")
     disc = math.nan
     if check_discretization and not reasons:
         s_fine, fine_search = _second_fit(cable, experiment, best, settings, (math.log(lo),

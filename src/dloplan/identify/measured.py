@@ -131,10 +131,16 @@ def measured_curve(points, noise: float, name: str = "measured_shape") -> Measur
     if s_dense[-1] >= u_length:
         # a spline longer than the raw polyline overshoots its corners (a clean polyline with
         # sharp turns, e.g. a coarse model's shape): the polyline itself is the better curve
+        # (its tangent turns linearly between the middles of its segments: a corner of angle
+        # beta between segments of length h reads as a bend of radius h / beta)
         smooth = resample_by_arc_length(x_unique, SAMPLES)
-        steps = np.diff(smooth, axis=0)
-        tangents = steps / np.linalg.norm(steps, axis=1)[:, None]
-        tangents = np.vstack([tangents, tangents[-1:]])
+        directions = np.diff(x_unique, axis=0)
+        directions /= np.linalg.norm(directions, axis=1)[:, None]
+        middles = 0.5 * (u[:-1] + u[1:]) * u_length
+        where = np.linspace(0.0, u_length, SAMPLES)
+        tangents = np.stack([np.interp(where, middles, directions[:, k]) for k in range(3)],
+                            axis=1)
+        tangents /= np.linalg.norm(tangents, axis=1)[:, None]
         return MeasuredCurve(x, smooth, float(u_length), tangents, float(noise))
     t = np.interp(np.linspace(0.0, s_dense[-1], SAMPLES), s_dense, t)
     smooth = np.array(splev(t, tck)).T

@@ -10,7 +10,9 @@ f'(s) and the Gauss-Newton curvature f'' ~ 2 |dr/ds|^2 (:mod:`dloplan.identify.d
 2. **Refine** every bracket, the most promising first (its minimum estimated by the cubic
    Hermite interpolant of the two samples' costs and slopes, no simulation): Gauss-Newton
    steps s <- s - f'/f'' from the bracket's best sample, replaced by the Hermite minimizer when
-   they leave the bracket; each new sample replaces the bracket end of the same slope sign.
+   they leave the bracket, and by a bisection after two steps in a row that did not halve it
+   (a kink or a jump of the cost); each new sample replaces the bracket end of the same slope
+   sign.
    It stops when the step is below ``tol`` (a fraction of the statistical precision: further
    digits would be noise). Other brackets are refined only while their estimated minimum could
    compete with the best one (see :class:`Search`); the rest are reported with their estimate.
@@ -191,16 +193,20 @@ class Search:
         best = min(inside, key=lambda p: p.cost)
         lo = left.s if left is not None else self.s_bounds[0]
         hi = right.s if right is not None else self.s_bounds[1]
+        slow = 0  # steps in a row that did not halve the bracket (a kink or a jump of the cost)
         while not self.exhausted and hi - lo > tol:
             step = -best.slope / best.curvature if best.curvature > 0 else math.nan
             if math.isfinite(step) and abs(step) < tol:
                 break  # converged
             trial = best.s + step
-            if not (math.isfinite(trial) and lo < trial < hi):
+            if slow >= 2:
+                trial, slow = 0.5 * (lo + hi), 0
+            elif not (math.isfinite(trial) and lo < trial < hi):
                 if left is not None and right is not None:
                     trial = hermite_minimizer(left, right)[0]
                 else:
                     trial = 0.5 * (best.s + (hi if best.slope < 0 else lo))
+            width = hi - lo
             new = self.evaluate(trial)
             if not new.ok:  # shrink toward the best sample
                 if trial > best.s:
@@ -212,6 +218,7 @@ class Search:
                 hi, right = new.s, new
             else:
                 lo, left = new.s, new
+            slow = slow + 1 if hi - lo > 0.5 * width else 0
             moved = abs(new.s - best.s)
             if new.cost < best.cost:
                 best = new
