@@ -283,6 +283,34 @@ def test_clips_that_do_not_match_the_data_give_a_poor_fit_verdict():
         assert "\n" not in result.reason
 
 
+def test_two_basins_that_fit_equally_well_are_refused(small_case, monkeypatch):
+    # a made-up model whose shape moves sideways by a(s) = (s - s1)(s - s2) mm: it matches
+    # the data at two moduli 2.4 decades apart (the scan samples both basins' slopes),
+    # equally well; the identification must say so
+    from dloplan.identify import ManipulationRun
+    from dloplan.identify import fit as fit_module
+
+    cable, manipulation, experiment = small_case
+    base = run_of(cable, manipulation).final
+    side = np.array([0.0, 1.0, 0.0])
+    s1, s2 = math.log(2e6), math.log(5e8)
+
+    def fake_simulator(cable, experiment, prepared, simulator, dynamic):
+        def simulate(s, near):
+            shape = base + 1e-3 * (s - s1) * (s - s2) * side
+            sensitivity = np.tile(1e-3 * (2 * s - s1 - s2) * side, (len(base), 1))
+            run = ManipulationRun(math.exp(s), shape[None], sensitivity, True, "ok", 1)
+            return run, curve_residuals(prepared.measured, shape, sensitivity)
+        return simulate
+
+    monkeypatch.setattr(fit_module, "_simulator", fake_simulator)
+    result = identify_youngs_modulus(cable, experiment, refine_links=False)
+    found = sorted(m.youngs_modulus for m in result.minima if m.refined)
+    assert found == pytest.approx([2e6, 5e8], rel=0.02)
+    assert not result.success and result.reason.startswith("ambiguous")
+    assert exit_code(result) == FAILURE
+
+
 # -- the issue's regression cases --------------------------------------------------------------
 def test_thesis_design_usb_data_is_not_silently_misidentified():
     # issue 19: the thesis-model USB on the thesis' dual-arm bend, n = 16, noise-free, used

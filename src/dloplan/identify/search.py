@@ -6,7 +6,8 @@ f'(s) and the Gauss-Newton curvature f'' ~ 2 |dr/ds|^2 (:mod:`dloplan.identify.d
 1. **Scan**: one simulation per decade of the bounds (at least 3), both bounds included. The
    slopes find the basins a sampled cost alone would miss: every pair of neighbouring samples
    with f' < 0 on the left and f' > 0 on the right brackets a local minimum; a bound whose
-   slope points outward is a minimum at the bound.
+   slope points outward is a minimum at the bound. (A basin and a hump both narrower than a
+   decade, between two samples whose slopes agree, escape the scan.)
 2. **Refine** every bracket, the most promising first (its minimum estimated by the cubic
    Hermite interpolant of the two samples' costs and slopes, no simulation): Gauss-Newton
    steps s <- s - f'/f'' from the bracket's best sample, replaced by the Hermite minimizer when
