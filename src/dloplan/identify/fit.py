@@ -541,12 +541,13 @@ def _conclude(cable, experiment, prepared, search, minima: list[Minimum], settin
     else:
         head = reasons[0]
         interval, e_out, out_cable = (math.nan, math.nan), math.nan, cable
-    if len(minima) > 1:
-        warnings.append("local minima: " + ", ".join(
+    found = []
+    if len(minima) > 1:  # information (result.minima), not a warning: the verdicts judged them
+        found.append("local minima: " + ", ".join(
             f"E = {m.youngs_modulus:.3g} Pa (cost {m.estimated_cost:.3g} m^2"
             f"{'' if m.refined else ', estimated'})" for m in minima))
     return Identification(
-        success=success, message="; ".join([head, *reasons[1:], *warnings]),
+        success=success, message="; ".join([head, *reasons[1:], *warnings, *found]),
         reason=reasons[0] if reasons else "", warnings=tuple(warnings) if success else (),
         youngs_modulus=e_out, best_in_bounds=e_best, confidence_interval=interval,
         log_sd=float(log_sd), cost=sample.cost,
