@@ -173,9 +173,15 @@ def draw(reports, path: str) -> None:
     fig, ax = plt.subplots(figsize=(9, 4.5))
     width = 0.2
     for k, (cable, report) in enumerate(reports.items()):
-        by_name = {s.name: s.log_sd for s in report.scores}
-        values = [min(by_name[n], 100.0) for n in names]
-        ax.bar(np.arange(len(names)) + (k - 1.5) * width, values, width, label=cable)
+        by_name = {s.name: s for s in report.scores}
+        values = [min(by_name[n].log_sd, 100.0) for n in names]
+        bars = ax.bar(np.arange(len(names)) + (k - 1.5) * width, values, width, label=cable)
+        for bar, n in zip(bars, names, strict=True):
+            if not by_name[n].robust:
+                bar.set_hatch("xx")
+                bar.set_edgecolor("black")
+    ax.bar([0], [0], color="white", edgecolor="black", hatch="xx",
+           label="snaps to another branch within E/2..2E")
     ax.axhline(0.1, color="black", ls="--", lw=1, label="informative: sd(ln E) = 0.1")
     ax.set_yscale("log")
     ax.set_xticks(np.arange(len(names)), names, rotation=30, ha="right")

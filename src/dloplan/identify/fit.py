@@ -149,7 +149,8 @@ class Identification:
     optimality : float
         |df / d ln E| at the solution [m^2].
     iterations : int
-        Gauss-Newton steps after the scan (all basins and the 2n fit).
+        Simulations after the scan but the path check: the Gauss-Newton steps of every basin
+        and the 2n fit.
     simulations : int
         Simulations (the scan, the steps, the 2n fit and the path check).
     solver_iterations : int
