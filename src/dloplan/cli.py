@@ -202,8 +202,21 @@ def _cmd_register(args: argparse.Namespace) -> int:
 def _cmd_identify(args: argparse.Namespace) -> int:
     from .identify import identify_youngs_modulus
     from .identify.files import load_identification
+    from .identify.report import exit_code, report_lines, to_dict
 
     console = Console(args.quiet)
+    if args.design:
+        from .identify.recommend import design_cable, recommend_design
+
+        cable = design_cable(args.cable, args.experiment, modulus=args.modulus,
+                             n_links=args.links)
+        console.stage(f"scoring experiments for the {cable.name or 'cable'} at E = "
+                      f"{cable.youngs_modulus:.3g} Pa, {args.noise:g} mm noise")
+        report = recommend_design(cable, noise=1e-3 * args.noise, n_measured=args.points)
+        print("\n".join(report.lines()))
+        return EXIT_OK if report.recommended is not None else EXIT_FAILURE
+    if args.experiment is None:
+        raise ValueError("experiment: give an identification file (or --design --cable NAME)")
     job = load_identification(args.experiment)
     console.stage(f"identifying E of the {job.cable.name or 'cable'} in "
                   f"[{job.bounds[0]:.3g}, {job.bounds[1]:.3g}] Pa ({job.simulator} simulation)")
@@ -217,20 +230,8 @@ def _cmd_identify(args: argparse.Namespace) -> int:
                                        result.youngs_modulus if result.success else None)
         written = save_figure(figure, args.output, "identification_cost")
         console.stage(f"figure: {', '.join(str(p) for p in written)}")
-    if args.json:
-        print(json.dumps({"success": result.success, "youngs_modulus": result.youngs_modulus,
-                          "confidence_interval": list(result.confidence_interval),
-                          "simulations": result.simulations, "iterations": result.iterations,
-                          "cost": result.cost, "rms_error": result.rms_error,
-                          "at_bound": result.at_bound, "informative": result.informative,
-                          "message": result.message}, indent=2))
-    else:
-        print(result.message)
-        for key, value in result.table().items():
-            print(f"  {key:<30} {value:.4g}")
-    if not result.success:
-        return EXIT_FAILURE
-    return EXIT_OK if result.informative else EXIT_WARNINGS
+    print(json.dumps(to_dict(result), indent=2) if args.json else "\n".join(report_lines(result)))
+    return exit_code(result)
 
 
 def _print_plan(doc, written, args) -> None:
@@ -437,9 +438,18 @@ def build_parser() -> argparse.ArgumentParser:
 
     identify = command("identify", _cmd_identify, "identify the Young's modulus from a "
                        "measured manipulation (thesis 6.1)")
-    identify.add_argument("experiment", help="identification file (.yaml/.json) or a scenario "
-                          "with an identify section")
+    identify.add_argument("experiment", nargs="?", help="identification file (.yaml/.json) "
+                          "or a scenario with an identify section")
     identify.add_argument("-o", "--output", help="folder for the cost-vs-E figure")
+    identify.add_argument("--design", action="store_true", help="score candidate experiments "
+                          "by the predicted sd of E and recommend one")
+    identify.add_argument("--cable", help="--design: catalogue cable name")
+    identify.add_argument("--modulus", type=float, help="--design: expected E [Pa]")
+    identify.add_argument("--noise", type=float, default=1.0,
+                          help="--design: measurement noise [mm] (default 1)")
+    identify.add_argument("--points", type=int, default=100,
+                          help="--design: measured points along the cable (default 100)")
+    identify.add_argument("--links", type=int, help="--design: starting n")
 
     export = command("export", _cmd_export, "export a plan as JSON, CSV, ROS 2 trajectory or "
                      "ABB RAPID")

@@ -268,7 +268,7 @@ class VerificationSection:
 
 @dataclass(frozen=True)
 class IdentificationSection:
-    """How the cable's E was identified (thesis 6.1) before planning."""
+    """How the cable's E was identified (thesis 6.1) before planning, with the n it used."""
 
     youngs_modulus: float
     confidence_interval: tuple[float, float]
@@ -276,6 +276,7 @@ class IdentificationSection:
     rms_error: float
     informative: bool
     message: str
+    n_links: int = 0
 
 
 @dataclass(frozen=True, eq=False)

@@ -282,7 +282,7 @@ def _identification_section(ident) -> IdentificationSection | None:
         return None
     return IdentificationSection(ident.youngs_modulus, tuple(ident.confidence_interval),
                                  ident.simulations, ident.rms_error, ident.informative,
-                                 ident.message)
+                                 ident.message, ident.n_links)
 
 
 def run_job(job: Job, *, verify: bool = False, progress=quiet) -> PlanDocument:
@@ -313,6 +313,10 @@ def run_job(job: Job, *, verify: bool = False, progress=quiet) -> PlanDocument:
     if not TESTED_MODULI[0] <= e <= TESTED_MODULI[1]:
         warnings.append(f"cable: E = {e:.3g} Pa is outside {TESTED_MODULI[0]:.0e}.."
                         f"{TESTED_MODULI[1]:.0e} Pa, the range the solvers are tested on")
+    if job.identification is not None:
+        from ..identify.report import plan_warnings
+
+        warnings += [f"identification: {w}" for w in plan_warnings(job.identification, job.cable)]
     if not target_check.stable:
         warnings.append(target_check.message)
     warnings += list(grippers.warnings)

@@ -156,6 +156,8 @@ class CableSpec(_Model):
         None, description="[Pa], or 'identify' with an identify section"
     )
     poisson_ratio: float | None = Field(None, gt=-1, le=0.5)
+    axial_modulus: PositiveLength | None = Field(
+        None, description="[Pa] modulus of the axial springs (default: youngs_modulus)")
     n_links: int = Field(10, ge=4, le=MAX_LINKS, description=(
         "n >= 4: each clip holds two points, so n = 4 is the least that leaves the cable a "
         f"free point; n <= {MAX_LINKS}: plans in minutes at most"))
@@ -413,7 +415,7 @@ def build_cable(spec: CableSpec, scale: float, youngs_modulus: float | None) -> 
     for key in ("length", "diameter"):
         if getattr(spec, key) is not None:
             params[key] = getattr(spec, key) * scale
-    for key in ("mass", "poisson_ratio"):
+    for key in ("mass", "poisson_ratio", "axial_modulus"):
         if getattr(spec, key) is not None:
             params[key] = getattr(spec, key)
     if youngs_modulus is not None:
