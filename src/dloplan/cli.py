@@ -111,7 +111,7 @@ def _cmd_verify(args: argparse.Namespace) -> int:
     console.stage(f"verifying {len(doc.shapes)} shapes of {args.plan}")
     result = verify_plan(doc, snap=not args.no_snap, replay=not args.no_replay,
                          tensile_limit=args.tensile_limit, tolerance=args.tolerance,
-                         robot=not args.no_robot)
+                         robot=not args.no_robot, progress=console.stage)
     console.stage("done: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
     print(json.dumps(result.to_dict(), indent=2) if args.json else result.table())
     if args.place and doc.grippers is not None:

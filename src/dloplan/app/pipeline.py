@@ -246,7 +246,8 @@ def settled_shapes(doc: PlanDocument) -> np.ndarray:
 
 
 def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
-                robot: bool = True, tensile_limit=None, tolerance: float = 0.01):
+                robot: bool = True, tensile_limit=None, tolerance: float = 0.01,
+                progress=quiet):
     """Verify a plan document: stability, snap-through, robot reachability, dynamic replay.
 
     The replay drives the clips between the planned poses at the trajectory's knot times: the
@@ -259,7 +260,7 @@ def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
     reach = robot_rows(doc.grippers) if robot and doc.grippers is not None else None
     return verify_path(doc.cable, settled_shapes(doc), doc.clip_poses(), times=times, snap=snap,
                        replay_options={"tolerance": tolerance, "tensile_limit": tensile_limit},
-                       reachability=reach)
+                       reachability=reach, progress=progress)
 
 
 def with_verification(doc: PlanDocument, verification) -> PlanDocument:
@@ -346,7 +347,7 @@ def run_job(job: Job, *, verify: bool = False, progress=quiet) -> PlanDocument:
     )
     if verify:
         t0 = time.perf_counter()
-        verification = verify_plan(doc)
+        verification = verify_plan(doc, progress=progress)
         doc = with_verification(doc, verification)
         doc = replace(doc, timings={**doc.timings, "verify": time.perf_counter() - t0})
         progress(f"verification: {'passed' if verification.ok else 'FAILED'}")

@@ -15,11 +15,13 @@ from .document import PlanDocument
 
 VERIFY_TITLES = {
     "index": "shape", "smallest_eigenvalue": "lambda_1 [N/m]",
-    "relative_eigenvalue": "lambda_1 / ref", "snap": "snap", "straying": "stray [m]",
+    "relative_eigenvalue": "lambda_1 / ref", "snap": "snap", "straying": "stray [mm]",
     "reachable_left": "left arm reaches", "reachable_right": "right arm reaches",
-    "joint_margin": "joint margin [rad]", "replay_deviation": "replay deviation [m]",
+    "joint_margin": "joint margin [rad]", "replay_deviation": "replay deviation [mm]",
 }
-"""Column titles (with units) of the verification table."""
+"""Column titles (with units) of the verification table: lengths in mm, as on the console."""
+
+MILLIMETRE_COLUMNS = {"straying", "replay_deviation"}
 
 
 def figure_names(doc: PlanDocument) -> list[str]:
@@ -99,7 +101,7 @@ def shape_table(doc: PlanDocument):
     from ..physics.geometry import shape_length
 
     chain = SpringChain.from_cable(doc.cable)
-    header = ["shape", "length [m]", "max |F_axial| [N]", "max |F_bending| [N]"]
+    header = ["shape", "length [mm]", "max |F_axial| [N]", "max |F_bending| [N]"]
     if doc.stabilized is not None:
         header.append("stabilization moves [mm]")
     if doc.clip_wrenches is not None:
@@ -107,7 +109,7 @@ def shape_table(doc: PlanDocument):
     rows = []
     for k, shape in enumerate(doc.shapes):
         f = forces(chain, shape)
-        row = [k, f"{shape_length(shape):.4f}",
+        row = [k, f"{1e3 * shape_length(shape):.1f}",
                f"{np.linalg.norm(f.axial, axis=-1).max():.3g}",
                f"{np.linalg.norm(f.bending, axis=-1).max():.3g}"]
         if doc.stabilized is not None:
@@ -128,23 +130,25 @@ def verification_table(doc: PlanDocument):
         return None
     header = list(rows[0])
 
-    def cell(value):
-        return "-" if value is None else f"{value:.4g}" if isinstance(value, float) else value
+    def cell(key, value):
+        if value is None:
+            return "-"
+        if isinstance(value, float):
+            return f"{1e3 * value:.2f}" if key in MILLIMETRE_COLUMNS else f"{value:.4g}"
+        return value
 
     return ("Verification", [VERIFY_TITLES.get(h, h) for h in header],
-            [[cell(row[h]) for h in header] for row in rows])
+            [[cell(h, row[h]) for h in header] for row in rows])
 
 
 def shape_labels(doc: PlanDocument) -> list[str]:
-    """One slider label per shape, naming the harness phase it belongs to."""
+    """One slider label per shape, numbered as in the tables: start, target, harness phase."""
     count = len(doc.shapes)
-    labels = [f"shape {k} of {count - 1}" for k in range(count)]
-    knots = (doc.harness or {}).get("knots", {})
-    for name, (first, last) in knots.items():
+    names = {0: "start", count - 1: "target"}
+    for phase, (first, last) in (doc.harness or {}).get("knots", {}).items():
         for k in range(first, min(last, count - 1) + 1):
-            if labels[k].endswith(f"of {count - 1}"):
-                labels[k] += f" ({name})"
-    return labels
+            names.setdefault(k, phase)
+    return [f"shape {k}" + (f" ({names[k]})" if k in names else "") for k in range(count)]
 
 
 def write_plan_report(doc: PlanDocument, path, images=()) -> Path:
