@@ -15,7 +15,8 @@ plt = pyplot()
 figure, axes = plt.subplots(1, 2, figsize=(9, 4))
 for ax, (title, rotation) in zip(axes, (("placement without rotation: the x-y plane", None),
                                          ("rotation {euler: [0, 0, 90]}: turned about z",
-                                          Rotation.from_euler("z", 90, degrees=True)))):
+                                          Rotation.from_euler("z", 90, degrees=True))),
+                               strict=True):
     for angle, colour in ((90, "#1976d2"), (-90, "#d32f2f"), (0, "0.5")):
         shape = place(arc_shape(0.5, 12, np.radians(angle)), np.zeros(3), rotation)
         ax.plot(shape[:, 0], shape[:, 1], "-o", ms=3, color=colour, label=f"angle: {angle}")
