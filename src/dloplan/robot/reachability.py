@@ -173,7 +173,8 @@ def tcp_poses_from_clips(robot: Robot, clip_positions, clip_rotations: Rotation)
 
 
 def check_path(robot: Robot, positions, rotations: Rotation, *, seeds=None,
-               options: ReachOptions | None = None) -> Reachability:
+               options: ReachOptions | None = None,
+               alternatives: Rotation | None = None) -> Reachability:
     """Reachability of a dual-arm TCP path, tracked continuously from pose to pose.
 
     Pose 0 is solved from ``seeds`` (default the home poses), trying seeds until a solution at
@@ -194,19 +195,27 @@ def check_path(robot: Robot, positions, rotations: Rotation, *, seeds=None,
     seeds : array_like, optional
         (2, 7) joint values [rad] to start pose 0 from.
     options : ReachOptions, optional
+    alternatives : scipy.spatial.transform.Rotation, optional
+        (K, 2) other TCP rotations an arm may use instead, for the whole path (e.g. the grip
+        turned by pi of a symmetric gripper); each arm keeps the better of the two (more poses
+        reachable, then continuous, then the larger joint margin) and
+        ``Reachability.grip_turned`` says which arm uses its alternative.
 
     Returns
     -------
     Reachability
     """
     pos, mats = _validate_path(positions, rotations)
+    grips = [mats]
+    if alternatives is not None:
+        grips.append(_validate_path(positions, alternatives, "positions", "alternatives")[1])
     opts = options if options is not None else ReachOptions()
     if seeds is None:
         seeds = np.stack([arm.home for arm in robot.arms])
     seeds = np.asarray(seeds, dtype=float)
     if seeds.shape != (2, 7) or not np.all(np.isfinite(seeds)):
         raise ValueError(f"seeds: expected (2, 7) finite joint values [rad], got {seeds.shape}")
-    return _check(robot, pos, [mats], seeds, opts, clip_of_arm=(0, 1))
+    return _check(robot, pos, grips, seeds, opts, clip_of_arm=(0, 1))
 
 
 def check_reachability(gripper_positions, gripper_rotations: Rotation, robot: Robot | None = None,

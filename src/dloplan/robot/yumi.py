@@ -229,6 +229,11 @@ class Arm:
         object.__setattr__(self, "_origin_rot", rot)
         object.__setattr__(self, "_origin_xyz", xyz)
         object.__setattr__(self, "_tcp_rot", self.gripper.tcp_rotation.as_matrix())
+        skew = np.zeros((7, 3, 3))
+        skew[:, [2, 0, 1], [1, 2, 0]] = self.axes
+        skew[:, [1, 2, 0], [2, 0, 1]] = -self.axes
+        object.__setattr__(self, "_axis_skew", skew)
+        object.__setattr__(self, "_axis_skew2", skew @ skew)
 
     @property
     def n_joints(self) -> int:
