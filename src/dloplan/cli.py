@@ -89,7 +89,8 @@ def _cmd_export(args: argparse.Namespace) -> int:
         write_ros_trajectory,
         write_trajectory_csv,
     )
-    from .io.rapid import RapidSettings, write_rapid
+    from .io.rapid import write_rapid
+    from .robot import RobotCell, robot_program
     from .trajectory import trajectory_from_grippers
 
     console = Console(args.quiet)
@@ -110,8 +111,8 @@ def _cmd_export(args: argparse.Namespace) -> int:
     elif args.format == "ros":
         written = [write_ros_trajectory(out, trajectory, rate=args.rate)]
     else:
-        settings = RapidSettings(tools=(args.tool_left, args.tool_right), wobj=args.wobj)
-        written = list(write_rapid(out, trajectory, settings).values())
+        cell = RobotCell().with_names(tools=(args.tool_left, args.tool_right), wobj=args.wobj)
+        written = list(write_rapid(out, robot_program(doc.grippers, trajectory, cell)).values())
     console.stage(f"wrote {', '.join(str(p) for p in written)}")
     if args.json:
         print(json.dumps({"written": [str(p) for p in written]}))
@@ -518,9 +519,9 @@ def build_parser() -> argparse.ArgumentParser:
     export.add_argument("--rate", type=float, help="sampling rate [Hz] for csv/ros")
     export.add_argument("--speed", type=float, help="re-time with this TCP speed [m/s]")
     export.add_argument("--angular-speed", type=float, help="re-time: angular limit [rad/s]")
-    export.add_argument("--tool-left", default="tool_clip_l", help="RAPID tooldata, left arm")
-    export.add_argument("--tool-right", default="tool_clip_r", help="RAPID tooldata, right arm")
-    export.add_argument("--wobj", default="wobj0", help="RAPID work object")
+    export.add_argument("--tool-left", default="dlo_tool_l", help="RAPID tooldata, left arm")
+    export.add_argument("--tool-right", default="dlo_tool_r", help="RAPID tooldata, right arm")
+    export.add_argument("--wobj", default="dlo_wobj", help="RAPID work object")
 
     verify = command("verify", _cmd_verify, "verify a plan: elastic stability, snap-through, "
                      "dynamic replay (exit 2 when a check fails)")

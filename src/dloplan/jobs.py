@@ -396,6 +396,7 @@ def write_outputs(outcome: PlanOutcome, folder, formats=None, progress=lambda te
 
     from .io.export import write_plan_json, write_ros_trajectory, write_trajectory_csv
     from .io.rapid import write_rapid
+    from .robot import robot_program
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -411,7 +412,10 @@ def write_outputs(outcome: PlanOutcome, folder, formats=None, progress=lambda te
         written.append(write_ros_trajectory(folder / "trajectory.yaml", outcome.trajectory,
                                             rate=rate))
     if "rapid" in formats:
-        written += list(write_rapid(folder / "rapid", outcome.trajectory).values())
+        program = robot_program(outcome.grippers, outcome.trajectory)
+        if not program.ok:
+            progress(f"warning: {program.message}")
+        written += list(write_rapid(folder / "rapid", program, force=True).values())
     figures: list = []
     if "figures" in formats or "report" in formats:
         figures = write_figures(outcome, folder / "figures")

@@ -364,8 +364,7 @@ def solve_many(arm: Arm, positions, rotation_matrices, seeds, options: IKOptions
     for it in range(options.max_iterations + 1):
         frames = link_frames(arm, q[active])
         dp = positions[active] - frames.positions[:, 7]
-        dtheta = Rotation.from_matrix(
-            rots[active] @ frames.rotations[:, 7].swapaxes(-1, -2)).as_rotvec()
+        dtheta = rotation_log(rots[active] @ frames.rotations[:, 7].swapaxes(-1, -2))
         perr[active] = np.linalg.norm(dp, axis=-1)
         aerr[active] = np.linalg.norm(dtheta, axis=-1)
         done = (perr[active] <= options.position_tolerance) & (
@@ -515,27 +514,36 @@ def _solve(arm: Arm, position, target_rot, seed, opts: IKOptions,
     return q, perr, aerr, it, False
 
 
-def rotation_log(m: np.ndarray) -> np.ndarray:
-    """The rotation vector [rad] of one rotation matrix (the logarithm map), (3,).
+def rotation_log(m) -> np.ndarray:
+    """Rotation vectors [rad] of rotation matrices (the logarithm map), (..., 3, 3) -> (..., 3).
 
     Closed form, robust at 0 and pi: ``theta = arccos((tr m - 1) / 2)``; the axis from the
     skew part of m, or near pi (where the skew part vanishes) from the largest column of
-    ``(m + I) / 2 = a a^T``. The same result as scipy's ``as_rotvec`` without its per-call
-    overhead (the IK calls it every iteration).
+    ``(m + I) / 2 = a a^T``, signed by the skew part. The result of scipy's ``as_rotvec``
+    without its per-call overhead (the IK calls it every iteration).
     """
-    skew = np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]])
-    cos = min(1.0, max(-1.0, 0.5 * (m[0, 0] + m[1, 1] + m[2, 2] - 1.0)))
+    m = np.asarray(m, dtype=float)
+    if m.ndim == 2:  # the single-solve case: plain floats, no array overhead
+        skew = np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]])
+        angle = float(np.arccos(min(1.0, max(-1.0, 0.5 * (m[0, 0] + m[1, 1] + m[2, 2] - 1.0)))))
+        if angle < 1e-6:
+            return 0.5 * skew
+        if angle <= np.pi - 1e-3:
+            return angle / (2.0 * np.sin(angle)) * skew
+    skew = np.stack([m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0],
+                     m[..., 1, 0] - m[..., 0, 1]], axis=-1)
+    cos = np.clip(0.5 * (m[..., 0, 0] + m[..., 1, 1] + m[..., 2, 2] - 1.0), -1.0, 1.0)
     angle = np.arccos(cos)
-    if angle < 1e-6:
-        return 0.5 * skew
-    if angle < np.pi - 1e-3:
-        return angle / (2.0 * np.sin(angle)) * skew
-    outer = 0.5 * (m + np.eye(3))
-    k = int(np.argmax(np.diag(outer)))
-    axis = outer[:, k] / np.sqrt(outer[k, k])
-    if axis @ skew < 0:
-        axis = -axis
-    return angle * axis / np.linalg.norm(axis)
+    small = angle < 1e-6
+    near_pi = angle > np.pi - 1e-3
+    sin = np.where(small | near_pi, 1.0, np.sin(angle))
+    out = np.where(small, 0.5, angle / (2.0 * sin))[..., None] * skew
+    for index in map(tuple, np.argwhere(near_pi)):
+        outer = 0.5 * (m[index] + np.eye(3))
+        k = int(np.argmax(np.diag(outer)))
+        axis = outer[:, k] / np.linalg.norm(outer[:, k])
+        out[index] = angle[index] * (axis if axis @ skew[index] >= 0 else -axis)
+    return out
 
 
 def _as_joints(q, name: str) -> np.ndarray:

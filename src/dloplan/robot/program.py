@@ -63,9 +63,9 @@ CHECKS = ("assignment", "reach", "joint limits", "clearance", "continuity", "joi
 ARM_ANGLE_STEP = float(np.radians(30.0))
 """[rad] Spacing of the constant arm angles (ABB axis 7) tried for each arm."""
 
-ARM_ANGLES = 12
-"""Most arm angles tried each way from the first target's free solution (the axis' range,
-+-168.5 deg, holds at most 12 steps)."""
+ARM_ANGLES = 11
+"""Most arm angle steps tried each way from the first target's free solution (the axis'
+range, +-168.5 deg, holds at most 11 steps)."""
 
 REFINE = 8
 """Finer steps a sub-step with a large joint step is replayed in (:func:`_replay`)."""
@@ -74,7 +74,7 @@ CANDIDATE_ITERATIONS = 30
 """IK iterations allowed per target when ranking candidate solutions (a converging solve
 from the previous target's solution needs a handful)."""
 
-MAX_TRIES = 3
+MAX_TRIES = 2
 """Joint solutions (best ranked first) replayed before the program settles for the first."""
 
 COMFORT_CLEARANCE = 0.05
@@ -210,6 +210,13 @@ class RobotProgram:
         left out)."""
         return self.joints[self.grasp:self.release + 1]
 
+    @property
+    def path_duration(self) -> float:
+        """Planned time [s] from the grasp to the release target, grip wait excluded (the
+        trajectory's duration)."""
+        wait = self.cell.grip_time if self.release > self.grasp else 0.0
+        return float(self.times[self.release] - self.times[self.grasp] - wait)
+
     def summary(self) -> list[dict]:
         """Per check: passed, the worst value and where, and how many rows fail."""
         lines = []
@@ -306,7 +313,8 @@ def robot_program(grippers, trajectory, cell: RobotCell | None = None) -> RobotP
     program = _build(grippers, trajectory, cell, assignment)
     if program.ok or not assignment.ok:
         return program
-    if any(r.check in ("clearance", "continuity") for r in program.failures):
+    failed = {r.check for r in program.failures}
+    if failed & {"clearance", "continuity"} and "reach" not in failed:
         other = _build(grippers, trajectory, cell, assignment.swapped())
         if other.ok:
             return other
@@ -366,8 +374,9 @@ def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment) -> 
                           release, pos, quats, rots, (left, right))
         if best is None:
             best = program
-        if not any(r.check in ("clearance", "continuity") for r in program.failures):
-            return program
+        failed = {r.check for r in program.failures}
+        if not failed & {"clearance", "continuity"} or "reach" in failed:
+            return program  # passed, or a target no solution reaches: no other pair helps
     return best
 
 
@@ -405,19 +414,22 @@ def _finish(grippers, trajectory, cell, assignment, labels, shapes, grasp, relea
 @dataclass(frozen=True, eq=False)
 class _Candidate:
     """One arm's joint solution at every target: grip (0 as mapped, 1 turned by pi about TCP z),
-    (M, 7) joints [rad], (M,) solved flags."""
+    (M, 7) joints [rad], (M,) solved flags, and whether its tracking converged at every
+    sub-step without a joint step above ``max_joint_step``."""
 
     grip: int
     joints: np.ndarray
     solved: np.ndarray
+    smooth: bool = True
 
 
-def _arm_candidates(arm, pos, rots, opts) -> list[_Candidate]:
+def _arm_candidates(arm, pos, rots, n_sub, opts) -> list[_Candidate]:
     """Per grip: target 0 solved freely from the home pose (its arm angle theta*), then the arm
-    angles theta* + k * :data:`ARM_ANGLE_STEP` within the limits, each seeded with its
-    neighbour's solution (a continuation in the arm angle); for each, every later target
-    solved with that arm angle held, seeded from the previous target (all candidates at once).
-    """
+    angles theta* + k * :data:`ARM_ANGLE_STEP` within the limits, seeded with that solution
+    and, where that fails, with a solved neighbour's (a continuation in the arm angle); each
+    candidate then tracks the
+    path with its arm angle held, in ``n_sub[m]`` sub-steps per move, each seeded from the
+    previous one (all candidates at once)."""
     first = replace(opts.ik, min_margin=opts.min_margin, restarts=0)
     track = replace(opts.ik, max_iterations=CANDIDATE_ITERATIONS)
     lo, hi = arm.lower[ARM_ANGLE_JOINT], arm.upper[ARM_ANGLE_JOINT]
@@ -426,31 +438,47 @@ def _arm_candidates(arm, pos, rots, opts) -> list[_Candidate]:
         start = inverse(arm, pos[0], Rotation.from_matrix(rot[0]), None, first)
         if not start.success:
             continue
-        theta0 = start.q[ARM_ANGLE_JOINT]
-        for direction in (1.0, -1.0):
-            q0 = start.q
-            for k in range(0 if direction > 0 else 1, ARM_ANGLES):
-                theta = theta0 + direction * k * ARM_ANGLE_STEP
-                if not lo <= theta <= hi:
-                    break
-                res = solve_from(arm, pos[0], rot[0], q0, track, theta)
-                if not res.success:
-                    break
-                q0 = res.q
-                starts.append((grip, theta, res.q))
+        theta = start.q[ARM_ANGLE_JOINT] + ARM_ANGLE_STEP * np.arange(-ARM_ANGLES, ARM_ANGLES + 1)
+        theta = theta[(theta >= lo) & (theta <= hi)]
+        q = np.tile(start.q, (len(theta), 1))
+        done = np.zeros(len(theta), dtype=bool)
+        for _ in range(3):  # continuation: the unsolved start again from a solved neighbour
+            todo = np.flatnonzero(~done)
+            q[todo], done[todo], _, _ = solve_many(
+                arm, np.broadcast_to(pos[0], (len(todo), 3)),
+                np.broadcast_to(rot[0], (len(todo), 3, 3)), q[todo], track, theta[todo])
+            if done.all() or not done.any():
+                break
+            solved = np.flatnonzero(done)
+            nearest = solved[np.abs(todo[:, None] - solved[None]).argmin(axis=1)]
+            q[todo] = q[nearest]
+        starts += [(grip, t, qs) for t, qs, ok in zip(theta, q, done, strict=True) if ok]
     if not starts:
         return []
     grips = np.array([g for g, _, _ in starts])
     thetas = np.array([t for _, t, _ in starts])
+    rot = np.stack(rots)[grips]  # (N, M, 3, 3)
+    rel = Rotation.from_matrix(np.einsum("nmji,nmjk->nmik", rot[:, :-1], rot[:, 1:])).as_rotvec()
+    q = np.stack([q for _, _, q in starts])
     joints = np.empty((len(starts), len(pos), 7))
     solved = np.zeros((len(starts), len(pos)), dtype=bool)
-    joints[:, 0], solved[:, 0] = np.stack([q for _, _, q in starts]), True
-    stacked = np.stack(rots)  # (grips, M, 3, 3)
+    joints[:, 0], solved[:, 0] = q, True
+    converged = np.ones(len(starts), dtype=bool)
+    largest = np.zeros(len(starts))
     for m in range(1, len(pos)):
-        joints[:, m], solved[:, m], _, _ = solve_many(
-            arm, np.broadcast_to(pos[m], (len(starts), 3)), stacked[grips, m],
-            joints[:, m - 1], track, thetas)
-    return [_Candidate(int(g), q, ok) for g, q, ok in zip(grips, joints, solved, strict=True)]
+        for i in range(1, n_sub[m - 1] + 1):
+            f = i / n_sub[m - 1]
+            p = np.broadcast_to(pos[m - 1] + f * (pos[m] - pos[m - 1]), (len(starts), 3))
+            r = rot[:, m - 1] @ Rotation.from_rotvec(f * rel[:, m - 1]).as_matrix()
+            live = np.flatnonzero(converged)  # a lost candidate stays where it was lost
+            new, ok, _, _ = solve_many(arm, p[live], r[live], q[live], track, thetas[live])
+            largest[live] = np.maximum(largest[live], np.abs(new - q[live]).max(axis=-1))
+            q[live] = new
+            converged[live] = ok
+        joints[:, m], solved[:, m] = q, converged
+    smooth = converged & (largest <= opts.max_joint_step)
+    return [_Candidate(int(g), qs, ok, bool(c))
+            for g, qs, ok, c in zip(grips, joints, solved, smooth, strict=True)]
 
 
 def _tracked_candidates(robot, pos, rots, opts) -> list[_Candidate]:
@@ -458,22 +486,26 @@ def _tracked_candidates(robot, pos, rots, opts) -> list[_Candidate]:
     angle follows the null-space motion), one candidate per arm."""
     tracked = check_path(robot, pos, Rotation.from_matrix(rots[0]), options=opts,
                          alternatives=Rotation.from_matrix(rots[-1]))
-    return [_Candidate(int(tracked.grip_turned[a]), tracked.q[:, a], tracked.reachable[:, a])
-            for a in range(2)]
+    return [_Candidate(int(tracked.grip_turned[a]), tracked.q[:, a], tracked.reachable[:, a],
+                       bool(tracked.continuous[:, a].all())) for a in range(2)]
 
 
 def _ranked_pairs(robot, pos, rots, opts) -> list[tuple[_Candidate, _Candidate]]:
-    """(left, right) joint solutions, best first: every target solved, clearance at least the
-    minimum, margin at least the wanted one, then clearance (up to :data:`COMFORT_CLEARANCE`)
-    and margin (up to :data:`COMFORT_MARGIN`). The free-elbow tracking is added when no
-    constant arm angle solves every target of an arm."""
-    cands = [_arm_candidates(arm, pos[:, a], [r[:, a] for r in rots], opts)
+    """(left, right) joint solutions, best first: every target solved, tracked smoothly,
+    clearance at the targets at least the minimum, margin at least the wanted one, then
+    clearance (up to :data:`COMFORT_CLEARANCE`) and margin (up to :data:`COMFORT_MARGIN`).
+    The free-elbow tracking is added when no constant arm angle tracks an arm's whole path."""
+    dist = np.linalg.norm(np.diff(pos, axis=0), axis=-1).max(axis=1)
+    angle = np.max([Rotation.from_matrix(np.einsum("mji,mjk->mik", rots[0][:-1, a],
+                                                   rots[0][1:, a])).magnitude()
+                    for a in range(2)], axis=0)
+    n_sub = np.maximum(1, np.maximum(np.ceil(dist / opts.step_length),
+                                     np.ceil(angle / opts.step_angle))).astype(int)
+    cands = [_arm_candidates(arm, pos[:, a], [r[:, a] for r in rots], n_sub, opts)
              for a, arm in enumerate(robot.arms)]
-    if not all(any(c.solved.all() for c in arm_cands) for arm_cands in cands):
+    if not all(any(c.solved.all() and c.smooth for c in arm_cands) for arm_cands in cands):
         for a, c in enumerate(_tracked_candidates(robot, pos, rots, opts)):
             cands[a].append(c)
-    if not all(cands):  # nothing converged at target 0: report the tracking's best effort
-        return [tuple(_tracked_candidates(robot, pos, rots, opts))]
     q_left = np.stack([c.joints for c in cands[0]])  # (L, M, 7)
     q_right = np.stack([c.joints for c in cands[1]])  # (R, M, 7)
     gap, _ = arm_clearance(robot.left, q_left[:, None], robot.right, q_right[None])
@@ -486,6 +518,7 @@ def _ranked_pairs(robot, pos, rots, opts) -> list[tuple[_Candidate, _Candidate]]
     for i in range(len(cands[0])):
         for j in range(len(cands[1])):
             keys.append(((bool(solved[0][i] and solved[1][j]),
+                          cands[0][i].smooth and cands[1][j].smooth,
                           bool(clearance[i, j] >= opts.min_clearance),
                           bool(both_margin[i, j] >= opts.min_margin),
                           min(float(clearance[i, j]), COMFORT_CLEARANCE),
@@ -528,7 +561,7 @@ def _replay(robot, pos, rot, eax, joints, durations, opts) -> dict:
     [rad] and its joint, distance of the end from the target's solution [rad], and the largest
     joint speed as a fraction of the limit at the move's planned duration.
     """
-    track = replace(opts.ik, min_margin=0.0, restarts=0, polish=0)
+    track = replace(opts.ik, max_iterations=CANDIDATE_ITERATIONS)
     n_moves = len(pos) - 1
     dist = np.linalg.norm(np.diff(pos, axis=0), axis=-1)  # (M-1, 2)
     angle = np.stack([Rotation.from_matrix(np.einsum("mji,mjk->mik", rot[:-1, a], rot[1:, a]))
@@ -541,12 +574,13 @@ def _replay(robot, pos, rot, eax, joints, durations, opts) -> dict:
     converged = np.ones((n_moves, 2), dtype=bool)
     for a, arm in enumerate(robot.arms):
         rel = Rotation.from_matrix(np.einsum("mji,mjk->mik", rot[:-1, a], rot[1:, a])).as_rotvec()
-        q = joints[:-1, a]
+        q = joints[:-1, a].copy()
         for i in range(n_max):
             s = np.minimum((i + 1) / n_sub, 1.0)
+            live = np.flatnonzero(converged[:, a])  # a lost move stays where it was lost
             p, r, theta = _along(pos[:, a], rot[:, a], rel, eax[:, a], s)
-            q, ok, _, _ = solve_many(arm, p, r, q, track, theta)
-            converged[:, a] &= ok
+            q[live], ok, _, _ = solve_many(arm, p[live], r[live], q[live], track, theta[live])
+            converged[live, a] = ok
             sub[i, :, a] = q
     limit = np.stack([arm.max_velocity for arm in robot.arms])
     out = {"joints": [], "converged": converged, "largest": np.zeros((n_moves, 2)),
