@@ -39,10 +39,6 @@ def program(request):
     return make_program(grippers, trajectory, CELL)
 
 
-def _read(folder) -> dict:
-    return {path.stem: read_module(path.read_text()) for path in sorted(folder.glob("*.mod"))}
-
-
 def test_read_back_robtargets_give_the_verified_joints(program, tmp_path):
     assert program.ok, program.message
     written = write_rapid(tmp_path, program)
@@ -75,12 +71,11 @@ def test_read_back_robtargets_give_the_verified_joints(program, tmp_path):
             assert np.linalg.norm(fk - p) < 1e-4
 
 
-def test_modules_declare_everything_they_use(program, tmp_path):
-    modules = _read(tmp_path) if False else {
-        t: read_module(x) for t, x in rapid_modules(program).items()}
+def test_modules_declare_everything_they_use(program):
+    modules = {t: read_module(x) for t, x in rapid_modules(program).items()}
     assert list(modules) == ["T_ROB_L", "T_ROB_R"]
     bodies = []
-    for a, (task, module) in enumerate(modules.items()):
+    for a, module in enumerate(modules.values()):
         decl, procs = module["declarations"], module["procs"]
         assert procs["main"] == ["dloplan_move;"]
         body = procs["dloplan_move"]
@@ -125,7 +120,7 @@ def test_literals_agree_with_abb_motion_program_exec(program):
 
     modules = {t: read_module(x) for t, x in rapid_modules(program).items()}
     cell = program.cell
-    for a, (task, module) in enumerate(modules.items()):
+    for a, module in enumerate(modules.values()):
         decl = module["declarations"]
         tool = cell.tools[a]
         theirs = abb.tooldata(True, abb.pose(tool.tcp_offset * 1e3, [1, 0, 0, 0]),
@@ -157,8 +152,6 @@ def _flat(value) -> list[float]:
 
 
 def test_a_failing_program_is_refused_unless_forced(tmp_path):
-    from robot_plans import mirrored  # noqa: F401  (kept beside the other helpers)
-
     _, grippers, trajectory, _ = example_plan("qualitative1_curved_pa12.yaml")
     failing = make_program(grippers, trajectory)
     assert not failing.ok

@@ -21,9 +21,9 @@ from scipy.spatial.transform import Rotation
 from ..cable import GRAVITY, Cable
 from ..grippers import GripperPath, gripper_path, relative_twist
 from ..io.rapid import RapidSettings, write_rapid
-from ..robot.program import robot_program
 from ..physics.geometry import resample_by_arc_length
 from ..planning.result import ForceStatistics, stage_forces
+from ..robot.program import robot_program
 from ..trajectory import (
     DEFAULT_MAX_ANGULAR_SPEED,
     DEFAULT_MAX_SPEED,

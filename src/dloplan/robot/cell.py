@@ -29,7 +29,7 @@ SMARTGRIPPER_SOURCE = (
 """Where the default tool data comes from (quoted in lsurobotics/duplo, js/toolConstants.js)."""
 
 SMARTGRIPPER_TCP = (0.0, 0.0, 0.1142)
-"""Flange-to-TCP translation [m] of the SmartGripper (servo module only), :data:`SMARTGRIPPER_SOURCE`."""
+"""Flange-to-TCP translation [m] of the SmartGripper (servo only), :data:`SMARTGRIPPER_SOURCE`."""
 
 RAPID_NAME = r"^[A-Za-z][A-Za-z0-9_]{0,31}$"
 """A RAPID identifier: a letter, then up to 31 letters, digits or underscores."""
@@ -173,7 +173,8 @@ class RobotCell:
         set_(self, "base_rotation", _rotation(self.base_rotation, "RobotCell.base_rotation"))
         tools = tuple(self.tools)
         if len(tools) != 2 or not all(isinstance(t, Tool) for t in tools):
-            raise ValueError(f"RobotCell.tools: expected two Tool (left, right), got {self.tools!r}")
+            raise ValueError(f"RobotCell.tools: expected two Tool (left, right), got "
+                             f"{self.tools!r}")
         set_(self, "tools", tools)
         check_rapid_name("RobotCell.wobj", self.wobj)
         height = float(self.table_height)

@@ -248,11 +248,10 @@ class RobotProgram:
         for line in summary.values():
             if not line["ok"]:
                 first = next(r for r in self.failures if r.check == line["check"])
-                parts.append(f"{line['check']} at {first.label} ({first.arm} arm: "
-                             f"{first.value:.4g} {first.unit}{'; ' + first.note if first.note else ''})"
-                             if first.arm != "both" else
-                             f"{line['check']} at {first.label} ({first.value:.4g} {first.unit}"
-                             f"{'; ' + first.note if first.note else ''})")
+                who = "" if first.arm == "both" else f"{first.arm} arm: "
+                note = f"; {first.note}" if first.note else ""
+                parts.append(f"{line['check']} at {first.label} ({who}{first.value:.4g} "
+                             f"{first.unit}{note})")
         return "robot program FAILS: " + "; ".join(parts)
 
     def to_dict(self) -> dict:
