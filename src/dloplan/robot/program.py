@@ -217,6 +217,13 @@ class RobotProgram:
         wait = self.cell.grip_time if self.release > self.grasp else 0.0
         return float(self.times[self.release] - self.times[self.grasp] - wait)
 
+    def report_arms(self) -> dict:
+        """Keyword arguments of :func:`dloplan.plots.report.write_report` that draw both arms
+        at every shape and along the replayed motion."""
+        return {"arm_joints": self.shape_joints, "robot": self.cell.robot,
+                "arm_motion": (self.motion_times, self.motion_joints,
+                               self.times[self.grasp:self.release + 1])}
+
     def summary(self) -> list[dict]:
         """Per check: passed, the worst value and where, and how many rows fail."""
         lines = []
