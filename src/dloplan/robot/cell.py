@@ -19,7 +19,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .reachability import ReachOptions
-from .yumi import DEFAULT_TCP_IN_CLIP, Gripper, Robot, yumi
+from .yumi import DEFAULT_TCP_IN_CLIP, DEFAULT_TCP_OFFSET, Gripper, Robot, yumi
 
 SMARTGRIPPER_SOURCE = (
     "ABB, Product manual - Grippers for IRB 14000 (SmartGripper), tool data of the gripper "
@@ -27,9 +27,6 @@ SMARTGRIPPER_SOURCE = (
     "[8.7, 12.3, 49.2] mm, inertia 0.00021, 0.00024, 0.00009 kg m^2"
 )
 """Where the default tool data comes from (quoted in lsurobotics/duplo, js/toolConstants.js)."""
-
-SMARTGRIPPER_TCP = (0.0, 0.0, 0.1142)
-"""Flange-to-TCP translation [m] of the SmartGripper (servo only), :data:`SMARTGRIPPER_SOURCE`."""
 
 RAPID_NAME = r"^[A-Za-z][A-Za-z0-9_]{0,31}$"
 """A RAPID identifier: a letter, then up to 31 letters, digits or underscores."""
@@ -98,7 +95,7 @@ class Tool:
     """
 
     name: str = "dlo_tool"
-    tcp_offset: np.ndarray = field(default_factory=lambda: np.array(SMARTGRIPPER_TCP))
+    tcp_offset: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_TCP_OFFSET))
     tcp_rotation: Rotation = field(default_factory=Rotation.identity)
     mass: float = 0.215
     cog: np.ndarray = field(default_factory=lambda: np.array([0.0087, 0.0123, 0.0492]))

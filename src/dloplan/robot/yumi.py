@@ -92,9 +92,11 @@ _CAPSULES = (
     ((-0.0011, -0.0038, 0.0279), (-0.0009, -0.0043, 0.1002), 0.044),
 )
 
-DEFAULT_TCP_OFFSET = (0.0, 0.0, 0.136)
-"""Flange-to-TCP translation [m] of ABB's YuMi SmartGripper tool data (TCP 136 mm along the
-flange z-axis, orientation unchanged); the fingertips of the URDF gripper end 143 mm out."""
+DEFAULT_TCP_OFFSET = (0.0, 0.0, 0.1142)
+"""Flange-to-TCP translation [m] of ABB's SmartGripper tool data (servo module only; ABB,
+Product manual - Grippers for IRB 14000): TCP 114.2 mm along the flange z-axis, orientation
+unchanged. The fingertips of the URDF gripper end 143 mm out. The full tool data (mass, centre
+of gravity, inertia) is :class:`dloplan.robot.cell.Tool`'s default."""
 
 DEFAULT_TCP_IN_CLIP = Rotation.from_matrix([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 """The TCP axes expressed in the clip frame (u, v, w): TCP x = v, TCP y = u, TCP z = -w.
