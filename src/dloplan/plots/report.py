@@ -4,8 +4,9 @@ The page animates the planned cable shape by shape with both gripper frames (u, 
 the stabilized shapes, obstacles and the table, and, when given their joint values, both robot
 arms (each link the capsule of the collision check, drawn exactly: an orthographic view of a
 capsule is a stroke of its width with round caps, depth-sorted); a slider scrubs the shapes, a
-second one the arms' motion along the trajectory, the mouse rotates and zooms. Summary lines, tables (verification, errors) and the PNG figures are embedded too
-(images as base64), so the file can be mailed or archived alone.
+second one the arms' motion along the trajectory, the mouse rotates and zooms. Summary lines,
+tables (verification, errors) and the PNG figures are embedded too (images as base64), so the
+file can be mailed or archived alone.
 """
 
 from __future__ import annotations
