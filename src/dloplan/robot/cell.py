@@ -19,7 +19,15 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .reachability import ReachOptions
-from .yumi import DEFAULT_TCP_IN_CLIP, DEFAULT_TCP_OFFSET, Gripper, Robot, yumi
+from .yumi import (
+    DEFAULT_TCP_IN_CLIP,
+    DEFAULT_TCP_OFFSET,
+    Gripper,
+    Robot,
+    as_rotation,
+    as_vector,
+    yumi,
+)
 
 SMARTGRIPPER_SOURCE = (
     "ABB, Product manual - Grippers for IRB 14000 (SmartGripper), tool data of the gripper "
@@ -30,21 +38,6 @@ SMARTGRIPPER_SOURCE = (
 
 RAPID_NAME = r"^[A-Za-z][A-Za-z0-9_]{0,31}$"
 """A RAPID identifier: a letter, then up to 31 letters, digits or underscores."""
-
-
-def _vector(value, name: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: expected 3 finite numbers, got {value!r}")
-    return arr
-
-
-def _rotation(value, name: str) -> Rotation:
-    if value is None:
-        return Rotation.identity()
-    if not isinstance(value, Rotation) or not value.single:
-        raise ValueError(f"{name}: expected a single scipy Rotation, got {value!r}")
-    return value
 
 
 def check_rapid_name(name: str, value) -> str:
@@ -106,12 +99,12 @@ class Tool:
     def __post_init__(self) -> None:
         set_ = object.__setattr__
         check_rapid_name("Tool.name", self.name)
-        set_(self, "tcp_offset", _vector(self.tcp_offset, "Tool.tcp_offset"))
-        set_(self, "tcp_rotation", _rotation(self.tcp_rotation, "Tool.tcp_rotation"))
-        set_(self, "tcp_in_clip", _rotation(self.tcp_in_clip, "Tool.tcp_in_clip"))
+        set_(self, "tcp_offset", as_vector(self.tcp_offset, "Tool.tcp_offset"))
+        set_(self, "tcp_rotation", as_rotation(self.tcp_rotation, "Tool.tcp_rotation"))
+        set_(self, "tcp_in_clip", as_rotation(self.tcp_in_clip, "Tool.tcp_in_clip"))
         set_(self, "mass", _positive("Tool.mass", self.mass))
-        set_(self, "cog", _vector(self.cog, "Tool.cog"))
-        inertia = _vector(self.inertia, "Tool.inertia")
+        set_(self, "cog", as_vector(self.cog, "Tool.cog"))
+        inertia = as_vector(self.inertia, "Tool.inertia")
         if np.any(inertia < 0):
             raise ValueError(f"Tool.inertia: expected moments >= 0 [kg m^2], got {self.inertia!r}")
         set_(self, "inertia", inertia)
@@ -166,8 +159,8 @@ class RobotCell:
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
-        set_(self, "base_position", _vector(self.base_position, "RobotCell.base_position"))
-        set_(self, "base_rotation", _rotation(self.base_rotation, "RobotCell.base_rotation"))
+        set_(self, "base_position", as_vector(self.base_position, "RobotCell.base_position"))
+        set_(self, "base_rotation", as_rotation(self.base_rotation, "RobotCell.base_rotation"))
         tools = tuple(self.tools)
         if len(tools) != 2 or not all(isinstance(t, Tool) for t in tools):
             raise ValueError(f"RobotCell.tools: expected two Tool (left, right), got "

@@ -70,7 +70,7 @@ range, +-168.5 deg, holds at most 11 steps)."""
 REFINE = 8
 """Finer steps a sub-step with a large joint step is replayed in (:func:`_replay`)."""
 
-CANDIDATE_ITERATIONS = 30
+CANDIDATE_ITERATIONS = 12
 """IK iterations allowed per target when ranking candidate solutions (a converging solve
 from the previous target's solution needs a handful)."""
 

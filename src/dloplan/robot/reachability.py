@@ -16,7 +16,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from .collision import arm_clearance
-from .kinematics import IKOptions, _inverse, _solve, joint_margin, manipulability
+from .kinematics import IKOptions, inverse, joint_margin, manipulability, solve_from
 from .yumi import ABB_AXIS_NUMBERS, ARMS, Arm, Robot, yumi
 
 _TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
@@ -430,7 +430,7 @@ def _track(arm: Arm, index: int, pos, mats, times, planned, seed, opts: ReachOpt
     perr = np.empty(n_poses)
     aerr = np.empty(n_poses)
     messages = []
-    res = _inverse(arm, sub_pos[0], sub_rot[0], seed, first_opts, None)
+    res = inverse(arm, sub_pos[0], Rotation.from_matrix(sub_rot[0]), seed, first_opts)
     q_all[0] = res.q
     reachable[0], perr[0], aerr[0] = res.success, res.position_error, res.angle_error
     if not res.success:
@@ -441,7 +441,8 @@ def _track(arm: Arm, index: int, pos, mats, times, planned, seed, opts: ReachOpt
         if (lost or not reachable[k - 1]) and i != planned[k]:
             q_all[i] = q_all[i - 1]  # motion already reported broken: only the pose matters
             continue
-        q, pe, ae, _, ok = _solve(arm, sub_pos[i], sub_rot[i], q_all[i - 1], track_opts)
+        step = solve_from(arm, sub_pos[i], sub_rot[i], q_all[i - 1], track_opts)
+        q, pe, ae, ok = step.q, step.position_error, step.angle_error, step.success
         jump = np.max(np.abs(q - q_all[i - 1]))
         if ok and jump > opts.max_joint_step and not lost and reachable[k - 1]:
             j = int(np.argmax(np.abs(q - q_all[i - 1])))
@@ -456,7 +457,7 @@ def _track(arm: Arm, index: int, pos, mats, times, planned, seed, opts: ReachOpt
             lost = True
         if i == planned[k]:
             if not ok:  # solve the planned pose afresh
-                res = _inverse(arm, sub_pos[i], sub_rot[i], q, first_opts, None)
+                res = inverse(arm, sub_pos[i], Rotation.from_matrix(sub_rot[i]), q, first_opts)
                 q, pe, ae, ok = res.q, res.position_error, res.angle_error, res.success
                 if not ok:
                     messages.append(f"{name} arm, pose {k}: not reachable ({res.message})")
@@ -487,7 +488,7 @@ def _quick_check(robot: Robot, clip_pos, clip_rot: Rotation, opts: ReachOptions)
     for a, arm in enumerate(robot.arms):
         q = arm.home
         for k in range(len(tcp_pos)):
-            res = _inverse(arm, tcp_pos[k, a], mats[k, a], q, quick, None)
+            res = inverse(arm, tcp_pos[k, a], Rotation.from_matrix(mats[k, a]), q, quick)
             if not res.success:
                 return False
             q = res.q
