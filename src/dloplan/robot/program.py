@@ -11,9 +11,13 @@ its timing (:class:`~dloplan.trajectory.Trajectory`) into a :class:`RobotProgram
    TCP pose at every shape (``clip_to_work * tool.tcp_in_clip``, at the clip point, possibly
    turned by pi about TCP z for a symmetric gripper) and a retreat pose, in the work frame,
    rounded to what RAPID is given (1e-6 mm, quaternions [w, x, y, z] to 1e-9).
-3. **Joint solutions**: tracked along the path from the home pose (each IK seeded from the
-   previous sub-step, :func:`~dloplan.robot.reachability.check_path`), then re-solved at every
-   target with the arm angle held at the value written as ``eax_a``; confdata from the solution.
+3. **Joint solutions**: per arm, candidate solutions with a constant arm angle (ABB axis 7)
+   around the first target's free solution, each tracked along the path in sub-steps (each IK
+   seeded from the previous one); the (left, right) pair ranked best on reach, smoothness,
+   clearance and joint margin is kept (the free-elbow tracking of
+   :func:`~dloplan.robot.reachability.check_path` joins when no constant arm angle works).
+   Every target is re-solved with the arm angle held at the value written as ``eax_a``;
+   confdata from that solution.
 4. **Checks on exactly those targets**, each as :class:`CheckRow` s:
 
    - ``assignment``: per shape, the y-separation of the two arms' clips (negative: crossed);
@@ -24,7 +28,9 @@ its timing (:class:`~dloplan.trajectory.Trajectory`) into a :class:`RobotProgram
    - ``continuity``: the controller's MoveL into the target, replayed: TCP linear, orientation
      slerp, arm angle linear between the written values, each sub-step's IK seeded from the
      previous one. Ok when every sub-step converges, no joint moves more than
-     ``reach.max_joint_step`` in one sub-step, and the move ends on the target's own solution
+     ``reach.max_joint_step`` in one sub-step (one that does is replayed in :data:`REFINE`
+     finer steps: fast motion near a singularity passes, a jump does not), and the move ends
+     on the target's own solution
      (so the controller with ``ConfL \\On`` reaches the programmed configuration);
    - ``joint speed``: the largest joint speed of that replay at the planned move duration,
      as a fraction of the joint's speed limit.
@@ -376,8 +382,8 @@ def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment) -> 
         q.shape[:2] + (3, 3)) for q in quats]
     best = None
     for left, right in _ranked_pairs(robot, pos, rots, opts)[:MAX_TRIES]:
-        program = _finish(grippers, trajectory, cell, assignment, labels, shapes, grasp,
-                          release, pos, quats, rots, (left, right))
+        program = _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos,
+                          quats, rots, (left, right))
         if best is None:
             best = program
         failed = {r.check for r in program.failures}
@@ -386,8 +392,8 @@ def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment) -> 
     return best
 
 
-def _finish(grippers, trajectory, cell, assignment, labels, shapes, grasp, release, pos, quats,
-            rots, chosen) -> RobotProgram:
+def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, quats, rots,
+            chosen) -> RobotProgram:
     """The program of one joint solution per arm: written arm angles, re-solved joints,
     timing, the controller replay and the verdict rows."""
     robot, opts = cell.robot, cell.reach
