@@ -231,7 +231,7 @@ class RobotProgram:
                                self.times[self.grasp:self.release + 1])}
 
     def summary(self) -> list[dict]:
-        """Per check: passed, the worst value and where, and how many rows fail."""
+        """Per check: passed, the worst value and where, how many rows fail and the first."""
         lines = []
         for name in CHECKS:
             rows = [r for r in self.checks if r.check == name]
@@ -240,11 +240,11 @@ class RobotProgram:
             pick = min if name in _LOWER_IS_WORSE else max
             worst = pick(rows, key=lambda r: r.value)
             failed = [r for r in rows if not r.ok]
-            where = failed[0] if failed else worst
             lines.append({"check": name, "ok": not failed, "failures": len(failed),
                           "worst": float(worst.value), "unit": worst.unit,
-                          "where": f"{where.label}, {where.arm}" + (
-                              f" ({where.note})" if where.note else "")})
+                          "where": f"{worst.label}, {worst.arm}" + (
+                              f" ({worst.note})" if worst.note else ""),
+                          "first_failure": failed[0].label if failed else None})
         return lines
 
     @property
