@@ -113,7 +113,19 @@ def _cmd_verify(args: argparse.Namespace) -> int:
                          tensile_limit=args.tensile_limit, tolerance=args.tolerance,
                          robot=not args.no_robot, progress=console.stage)
     console.stage("done: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
-    print(json.dumps(result.to_dict(), indent=2) if args.json else result.table())
+    program = None
+    if not args.no_robot and doc.trajectory is not None:
+        from .app.pipeline import program_of
+
+        program = program_of(doc)
+    if args.json:
+        print(json.dumps({**result.to_dict(), "robot": None if program is None
+                          else program.to_dict()}, indent=2))
+    else:
+        print(result.table())
+        if program is not None:
+            print(program_table(program.summary()))
+            print(program.message)
     if args.place and doc.grippers is not None:
         from scipy.spatial.transform import Rotation
 
@@ -122,7 +134,7 @@ def _cmd_verify(args: argparse.Namespace) -> int:
         placement = search_placement(doc.grippers.positions,
                                      Rotation.from_matrix(doc.grippers.matrices))
         print(f"placement: {placement.message}")
-    return EXIT_OK if result.ok else EXIT_CHECK_FAILED
+    return EXIT_OK if result.ok and (program is None or program.ok) else EXIT_CHECK_FAILED
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
@@ -257,14 +269,26 @@ def _print_plan(doc, written, args) -> None:
         print(f"  warning: {warning}")
     if doc.verification is not None:
         print(doc.verification.table())
+    if doc.robot is not None:
+        print(program_table(doc.robot.program["summary"]))
     print(f"  wrote {len(written)} files into {Path(written[0]).parent}"
           + ("" if doc.ok else " (a check failed: no robot program)"))
+
+
+def program_table(summary: list[dict]) -> str:
+    """The robot program's checks as fixed-width text, one line per check."""
+    lines = [f"{'robot check':<13} {'verdict':<7} {'worst':>12}  where"]
+    for line in summary:
+        lines.append(f"{line['check']:<13} {'ok' if line['ok'] else 'FAILED':<7} "
+                     f"{line['worst']:>8.4g} {line['unit']:<3}  {line['where']}")
+    return "\n".join(lines)
 
 
 def _plan_one(job, output: Path, args, console: Console) -> int:
     from .app.files import plan_into
 
-    doc, written = plan_into(job, output, verify=args.verify, progress=console.stage)
+    doc, written = plan_into(job, output, verify=args.verify, check_robot=not args.no_verify,
+                             progress=console.stage)
     _print_plan(doc, written, args)
     return exit_code(doc)
 
@@ -285,7 +309,8 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
     from .app.files import plan_file
     from .study.backends import make_backend, map_jobs
 
-    options = {"output": str(Path(args.output)), "verify": args.verify}
+    options = {"output": str(Path(args.output)), "verify": args.verify,
+               "check_robot": not args.no_verify}
     codes = {}
     with make_backend(None if args.scheduler else args.workers, args.scheduler) as backend:
         for _, (path, code, line) in map_jobs(plan_file, args.scenarios, backend,
@@ -396,14 +421,20 @@ def build_parser() -> argparse.ArgumentParser:
                    "plan, robot programs, figures and report")
     plan.add_argument("scenarios", nargs="+", help="scenario file(s) (.yaml or .json)")
     plan.add_argument("-o", "--output", default="out/plan", help="output folder")
-    plan.add_argument("--verify", action="store_true", help="also verify the plan")
+    checks = plan.add_mutually_exclusive_group()
+    checks.add_argument("--verify", action="store_true",
+                        help="also verify the physics: stability, snap-through, dynamic replay "
+                        "(the robot program's checks always run)")
+    checks.add_argument("--no-verify", action="store_true",
+                        help="skip the robot program's checks too (the program is written "
+                        "with the checks' verdict in its header)")
     plan.add_argument("--workers", type=int, default=1,
                       help="batch: local worker processes")
     plan.add_argument("--scheduler", help="batch: Dask scheduler address tcp://HOST:PORT")
 
     demo = command("demo", _cmd_demo, "run the embedded default job (needs no input)")
     demo.add_argument("-o", "--output", default="out/demo", help="output folder")
-    demo.set_defaults(verify=True)
+    demo.set_defaults(verify=True, no_verify=False)
 
     study = command("study", _cmd_study, "robustness study of a scenario's plan over cable and "
                     "pose tolerances (its study section)")

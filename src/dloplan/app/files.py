@@ -39,7 +39,7 @@ def exit_code(doc: PlanDocument) -> int:
     return EXIT_WARNINGS if doc.warnings else EXIT_OK
 
 
-def plan_into(job, folder, *, verify: bool = False, progress=quiet):
+def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True, progress=quiet):
     """Plan a resolved job and write its outputs into ``folder``: ``(document, written paths)``.
 
     The folder is written whole or not at all (:func:`dloplan.io.files.staged_folder`): a run
@@ -50,10 +50,10 @@ def plan_into(job, folder, *, verify: bool = False, progress=quiet):
     folder = Path(folder)
     with staged_folder(folder) as staging:
         if isinstance(job, Job):
-            doc = run_job(job, verify=verify, progress=progress)
+            doc = run_job(job, verify=verify, check_robot=check_robot, progress=progress)
             formats, options = job.outputs, WriteOptions(rate=job.motion.rate)
         else:
-            doc = run_harness_job(job, progress)
+            doc = run_harness_job(job, check_robot=check_robot, progress=progress)
             formats, options = HARNESS_OUTPUTS, WriteOptions()
         if not doc.ok:
             formats = tuple(f for f in formats if f not in ROBOT_OUTPUTS)
@@ -77,7 +77,8 @@ def plan_file(options: dict, path: str) -> tuple[str, int, str]:
         if file_kind(read_mapping(path)) == "identification":
             return path, EXIT_WARNINGS, f"{path}: skipped (an identification file: use " \
                 "dloplan identify)"
-        doc, _ = plan_into(load_job(path), folder, verify=options["verify"])
+        doc, _ = plan_into(load_job(path), folder, verify=options["verify"],
+                           check_robot=options.get("check_robot", True))
     except ValueError as exc:
         return path, EXIT_FAILURE, f"{path}: error: {exc}"
     code = exit_code(doc)
@@ -93,5 +94,5 @@ def document_of(path, progress=quiet) -> PlanDocument:
         return read_plan(path)
     job = load_job(path, progress)
     if not isinstance(job, Job):
-        return run_harness_job(job, progress)
+        return run_harness_job(job, progress=progress)
     return run_job(job, progress=progress)

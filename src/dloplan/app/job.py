@@ -9,7 +9,7 @@ the report all see the same ones. No pydantic model and no file unit passes this
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -25,6 +25,7 @@ from ..io.scenario import (
 )
 from ..physics.geometry import resample_by_arc_length
 from ..planning.tuning import PlannerWeights, planner_weights, stiffness_family
+from ..robot.cell import RobotCell
 from ..shapes import discretize
 
 
@@ -129,6 +130,8 @@ class Job:
         T_cf [m] of the target stability check (thesis 5.3).
     outputs : tuple of str
         The files ``dloplan plan`` writes ("json", "csv", "rapid", "ros", "figures", "report").
+    robot : RobotCell
+        The robot cell the plan is executed in (YuMi placement, tools, work object).
     identification : Identification or None
         How the cable's E was identified, when the scenario asked for it.
     study : StudySpec or None
@@ -145,6 +148,7 @@ class Job:
     motion: MotionSettings
     target_threshold: float
     outputs: tuple[str, ...]
+    robot: RobotCell = field(default_factory=RobotCell)
     identification: object = None
     study: object = None
 
@@ -221,6 +225,33 @@ def check_workspace(points, name: str, source: str) -> None:
                             f"within {WORKSPACE:g} m of the robot (a length in wrong units?)")
 
 
+def robot_cell(scenario, scale: float) -> RobotCell:
+    """The robot cell of a scenario's ``robot:`` section (lengths in file units times ``scale``)."""
+    spec = scenario.robot
+    defaults = RobotCell()
+    tools = []
+    for k, (tool_spec, tool) in enumerate(zip(spec.tools, defaults.tools, strict=True)):
+        changes = {key: value for key, value in (
+            ("name", tool_spec.name), ("mass", tool_spec.mass),
+            ("tcp_offset", None if tool_spec.tcp_offset is None
+             else np.multiply(tool_spec.tcp_offset, scale))) if value is not None}
+        try:
+            tools.append(replace(tool, **changes))
+        except ValueError as exc:
+            raise ScenarioError(f"robot.tools.{k}: {exc}") from None
+    table = scenario.table.height * scale if scenario.table is not None else 0.0
+    try:
+        return RobotCell(
+            base_position=np.multiply(spec.base_position, scale),
+            base_rotation=spec.base_rotation.to_rotation() if spec.base_rotation else
+            Rotation.identity(),
+            tools=tuple(tools), wobj=spec.wobj, table_height=table,
+            approach=defaults.approach if spec.approach is None else spec.approach * scale,
+            grip_time=spec.grip_time, hold_force=spec.hold_force)
+    except ValueError as exc:
+        raise ScenarioError(f"robot: {exc}") from None
+
+
 def resolve_scenario(scenario: Scenario, source: str = "scenario",
                      youngs_modulus: float | None = None, identification=None) -> Job:
     """Turn a validated scenario into a :class:`Job` (SI units, library objects, defaults).
@@ -262,5 +293,6 @@ def resolve_scenario(scenario: Scenario, source: str = "scenario",
         obstacles=obstacles,
         planner=planner_settings(scenario, cable, scale), grippers=gripper_settings(scenario),
         motion=motion_settings(scenario, scale), target_threshold=threshold,
-        outputs=tuple(scenario.outputs), identification=identification, study=scenario.study,
+        outputs=tuple(scenario.outputs), robot=robot_cell(scenario, scale),
+        identification=identification, study=scenario.study,
     )

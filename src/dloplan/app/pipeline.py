@@ -30,10 +30,13 @@ from .document import (
     AvoidanceSection,
     IdentificationSection,
     PlanDocument,
+    RobotSection,
     Stages,
     TargetCheckSection,
     TwistSection,
     VerificationSection,
+    cell_from_dict,
+    cell_to_dict,
 )
 from .job import Job
 
@@ -224,7 +227,7 @@ def plan_twist(cable, path: np.ndarray, grippers, progress=quiet):
 
 
 def robot_rows(grippers) -> list[dict]:
-    """YuMi reachability of every planned gripper pose, as verification rows."""
+    """Reachability of a gripper path's poses by either YuMi arm (before an arm is assigned)."""
     from scipy.spatial.transform import Rotation
 
     from ..robot import check_reachability
@@ -234,6 +237,67 @@ def robot_rows(grippers) -> list[dict]:
              "reachable_right": bool(reach.reachable[k, 1]),
              "joint_margin": float(np.min(reach.joint_margin[k]))}
             for k in range(len(grippers.positions))]
+
+
+def plan_program(cell, grippers, trajectory, progress=quiet):
+    """The robot program of a plan, verified (:func:`dloplan.robot.robot_program`): arm
+    assignment, IK of every exported target, joint limits, arm-arm clearance, continuity and
+    joint speeds."""
+    from ..robot import robot_program
+
+    program = robot_program(grippers, trajectory, cell)
+    progress(program.message)
+    return program
+
+
+def with_program(doc: PlanDocument, program) -> PlanDocument:
+    """The document with its robot program section (and its failure among the warnings)."""
+    section = RobotSection(program.ok, program.message, cell_to_dict(program.cell),
+                           program.to_dict())
+    failures = () if program.ok else (program.message,)
+    return replace(doc, robot=section, program=program, warnings=doc.warnings + failures)
+
+
+def program_of(doc: PlanDocument):
+    """The document's robot program: the one kept from planning, or rebuilt from its cell,
+    gripper path and trajectory and checked to be the verified one the document records.
+
+    Raises
+    ------
+    ValueError
+        A plan without gripper poses or trajectory, or a rebuilt program whose targets differ
+        from the document's (a document edited by hand, or another dloplan's kinematics).
+    """
+    if doc.program is not None:
+        return doc.program
+    if doc.grippers is None or doc.trajectory is None:
+        raise ValueError("plan: no gripper poses and trajectory to make a robot program from")
+    from ..robot import RobotCell, robot_program
+
+    cell = RobotCell() if doc.robot is None else cell_from_dict(doc.robot.cell)
+    program = robot_program(doc.grippers, doc.trajectory, cell)
+    if doc.robot is not None:
+        recorded = np.array([[arm["joints_deg"] for arm in target["arms"].values()]
+                             for target in doc.robot.program["targets"]])
+        rebuilt = np.degrees(program.joints)
+        if recorded.shape != rebuilt.shape or np.abs(recorded - rebuilt).max() > 1e-6:
+            raise ValueError("plan.robot: the robot program rebuilt from the plan differs from "
+                             "the verified one it records; plan again")
+    return program
+
+
+def program_reachability(program, n_shapes: int) -> list[dict]:
+    """Per-shape reach and joint margin [rad] of a robot program, as verification rows."""
+    rows = []
+    for k in range(n_shapes):
+        label = f"shape {k}"
+        mine = [r for r in program.checks if r.label == label]
+        reach = {arm: all(r.ok for r in mine if r.check == "reach" and r.arm == arm)
+                 for arm in ("left", "right")}
+        margins = [r.value for r in mine if r.check == "joint limits"]
+        rows.append({"reachable_left": reach["left"], "reachable_right": reach["right"],
+                     "joint_margin": float(np.radians(min(margins))) if margins else None})
+    return rows
 
 
 def settled_shapes(doc: PlanDocument) -> np.ndarray:
@@ -250,14 +314,18 @@ def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
                 progress=quiet):
     """Verify a plan document: stability, snap-through, robot reachability, dynamic replay.
 
-    The replay drives the clips between the planned poses at the trajectory's knot times: the
+    The reachability columns are those of the robot program (:func:`program_of`): the exported
+    targets, with the arm assignment and tools the program is written with. The replay drives
+    the clips between the planned poses at the trajectory's knot times: the
     same motion as the timed dual-arm trajectory. Returns the
     :class:`~dloplan.verify.Verification`.
     """
     from ..verify import verify_path
 
     times = doc.trajectory.times if replay and doc.trajectory is not None else None
-    reach = robot_rows(doc.grippers) if robot and doc.grippers is not None else None
+    reach = None
+    if robot and doc.trajectory is not None:
+        reach = program_reachability(program_of(doc), len(doc.shapes))
     return verify_path(doc.cable, settled_shapes(doc), doc.clip_poses(), times=times, snap=snap,
                        replay_options={"tolerance": tolerance, "tensile_limit": tensile_limit},
                        reachability=reach, progress=progress)
@@ -286,7 +354,8 @@ def _identification_section(ident) -> IdentificationSection | None:
                                  ident.message, ident.n_links)
 
 
-def run_job(job: Job, *, verify: bool = False, progress=quiet) -> PlanDocument:
+def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
+            progress=quiet) -> PlanDocument:
     """Plan a job end to end and return its plan document.
 
     Parameters
@@ -294,7 +363,9 @@ def run_job(job: Job, *, verify: bool = False, progress=quiet) -> PlanDocument:
     job : Job
         A resolved scenario (:func:`dloplan.app.load_job`).
     verify : bool
-        Also verify the plan (:func:`verify_plan`).
+        Also verify the plan's physics (:func:`verify_plan`: stability, snap-through, replay).
+    check_robot : bool
+        Make and check the robot program (:func:`plan_program`; fast, on by default).
     progress : callable
         Called with a line of text after each step.
     """
@@ -345,6 +416,10 @@ def run_job(job: Job, *, verify: bool = False, progress=quiet) -> PlanDocument:
         identification=_identification_section(job.identification),
         timings=timings,
     )
+    if check_robot:
+        t0 = time.perf_counter()
+        doc = with_program(doc, plan_program(job.robot, grippers, trajectory, progress))
+        doc = replace(doc, timings={**doc.timings, "robot": time.perf_counter() - t0})
     if verify:
         t0 = time.perf_counter()
         verification = verify_plan(doc, progress=progress)
@@ -354,7 +429,7 @@ def run_job(job: Job, *, verify: bool = False, progress=quiet) -> PlanDocument:
     return doc
 
 
-def run_harness_job(job, progress=quiet) -> PlanDocument:
+def run_harness_job(job, *, check_robot: bool = True, progress=quiet) -> PlanDocument:
     """The wire-harness job (thesis 7.3) as a plan document: both phases, insertion, tensioning.
 
     One knot per shape of the whole job; the harness numbers in the ``harness`` section, the
@@ -362,15 +437,20 @@ def run_harness_job(job, progress=quiet) -> PlanDocument:
     """
     from ..harness import harness_summary
     from ..harness.files import run_harness_job as run
+    from .job import robot_cell
 
     progress(f"harness job: {job.cable.name or 'cable'}, board checked")
     result = run(job)
     progress(result.message)
-    return PlanDocument(
+    doc = PlanDocument(
         cable=job.cable, shapes=result.shapes, grippers=result.grippers,
         trajectory=result.trajectory, warnings=tuple(result.warnings), source=job.source,
         obstacles=tuple(result.board.contacts()), forces=dict(result.forces),
         harness=harness_summary(result), timings=dict(result.timings))
+    if not check_robot:
+        return doc
+    cell = robot_cell(job.scenario, 1e-3 if job.scenario.units == "mm" else 1.0)
+    return with_program(doc, plan_program(cell, result.grippers, result.trajectory, progress))
 
 
 def simulate_plan(doc: PlanDocument, *, damping: str = "relative", torsion: bool = False,

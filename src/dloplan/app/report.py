@@ -89,6 +89,8 @@ def summary_lines(doc: PlanDocument) -> list[str]:
         lines.append(doc.harness.get("message", ""))
         lines += [f"{name}: {t0:.2f} s to {t1:.2f} s"
                   for name, (t0, t1) in doc.harness.get("phase_times", {}).items()]
+    if doc.robot is not None:
+        lines.append(doc.robot.message)
     if doc.verification is not None:
         lines.append(f"verification: {doc.verification.messages[-1]}"
                      if doc.verification.ok else "verification: FAILED")
@@ -151,14 +153,26 @@ def shape_labels(doc: PlanDocument) -> list[str]:
     return [f"shape {k}" + (f" ({names[k]})" if k in names else "") for k in range(count)]
 
 
-def write_plan_report(doc: PlanDocument, path, images=()) -> Path:
-    """The self-contained HTML report of a plan document."""
+def robot_table(doc: PlanDocument):
+    """The robot program's checks, one row per check (worst value and where), or None."""
+    if doc.robot is None:
+        return None
+    rows = [[line["check"], "ok" if line["ok"] else "FAILED", f"{line['worst']:.4g} {line['unit']}",
+             line["where"], line["failures"], line["first_failure"] or "-"]
+            for line in doc.robot.program["summary"]]
+    return ("Robot program (YuMi, exactly the exported targets)",
+            ["check", "verdict", "worst", "where", "failing rows", "first failure"], rows)
+
+
+def write_plan_report(doc: PlanDocument, path, images=(), arms=None) -> Path:
+    """The self-contained HTML report of a plan document (``arms``: the robot program's
+    :meth:`~dloplan.robot.RobotProgram.report_arms`, to draw both arms)."""
     from ..plots.report import write_report
 
     tables = [shape_table(doc)]
-    verification = verification_table(doc)
-    if verification is not None:
-        tables.append(verification)
+    for table in (verification_table(doc), robot_table(doc)):
+        if table is not None:
+            tables.append(table)
     kind = "harness job" if doc.harness is not None else "plan"
     return write_report(
         path, title=f"dloplan {kind}: {doc.source}", shapes=doc.shapes,
@@ -166,4 +180,4 @@ def write_plan_report(doc: PlanDocument, path, images=()) -> Path:
         clip_positions=None if doc.grippers is None else doc.grippers.positions,
         clip_rotations=None if doc.grippers is None else doc.grippers.matrices,
         obstacles=doc.obstacles, summary=summary_lines(doc), warnings=list(doc.warnings),
-        tables=tables, images=images, labels=shape_labels(doc))
+        tables=tables, images=images, labels=shape_labels(doc), **(arms or {}))

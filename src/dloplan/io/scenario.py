@@ -307,6 +307,34 @@ class TableSpec(_Model):
 OutputName = Literal["json", "csv", "rapid", "ros", "figures", "report"]
 
 
+class ToolSpec(_Model):
+    """One arm's tool as RAPID ``tooldata`` (default: ABB's SmartGripper data, docs/robot.md)."""
+
+    name: str | None = Field(None, description="tooldata name (default dlo_tool_l / _r)")
+    tcp_offset: Vector3 | None = Field(None, description="TCP in the flange frame [units]")
+    mass: PositiveLength | None = Field(None, description="[kg]")
+
+
+class RobotSpec(_Model):
+    """The robot cell: where the YuMi stands in the plan's frame, its tools and work object."""
+
+    base_position: Vector3 = Field(default_factory=lambda: [0.0, 0.0, 0.0],
+                                   description="robot base origin in the plan's frame [units]")
+    base_rotation: RotationSpec | None = None
+    wobj: str = Field("dlo_wobj", description="wobjdata name of the plan's frame")
+    tools: list[ToolSpec] = Field(default_factory=lambda: [ToolSpec(), ToolSpec()],
+                                  min_length=2, max_length=2, description="left, right")
+    approach: float | None = Field(None, ge=0, allow_inf_nan=False,
+                                   description="approach/retreat distance [units]; 5 cm")
+    grip_time: float = Field(0.5, ge=0, allow_inf_nan=False, description="[s]")
+    hold_force: float | None = Field(None, gt=0, le=20, description="SmartGripper [N]")
+
+    @field_validator("base_position")
+    @classmethod
+    def _pos(cls, v):
+        return _finite(v, "base_position")
+
+
 class JobSpec(_Model):
     """What every job file has: units, the cable, its start, planner, obstacles, robot motion."""
 
@@ -320,6 +348,7 @@ class JobSpec(_Model):
     grippers: GripperSpec = Field(default_factory=GripperSpec)
     trajectory: TrajectorySpec = Field(default_factory=TrajectorySpec)
     check: CheckSpec = Field(default_factory=CheckSpec)
+    robot: RobotSpec = Field(default_factory=RobotSpec)
 
 
 class Scenario(JobSpec):
