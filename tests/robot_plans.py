@@ -1,5 +1,5 @@
-"""Plans of the example scenarios for the robot-program tests, made with the library directly
-(scenario -> planner -> gripper frames -> trajectory), cached per test session."""
+"""Plans of the example scenarios for the robot-program tests, made by the pipeline without its
+robot checks (scenario -> planner -> gripper frames -> trajectory), cached per test session."""
 
 from __future__ import annotations
 
@@ -10,11 +10,8 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from dloplan.grippers import GripperPath, gripper_path
-from dloplan.io.scenario import load_scenario, read_mapping
-from dloplan.planning import plan
-from dloplan.shapes import discretize
-from dloplan.trajectory import trajectory_from_grippers
+from dloplan.app import load_job, load_scenario, run_job
+from dloplan.grippers import GripperPath
 
 EXAMPLES = Path(__file__).parents[1] / "examples"
 PLAN_EXAMPLES = sorted(p.name for p in EXAMPLES.glob("*.yaml")
@@ -25,24 +22,16 @@ PLAN_EXAMPLES = sorted(p.name for p in EXAMPLES.glob("*.yaml")
 def example_plan(name: str):
     """``(shapes, grippers, trajectory, job)`` of an example scenario."""
     job = load_scenario(EXAMPLES / name)
-    cable, spec = job.cable, job.scenario
-    start = discretize(job.start, cable, "start")
-    target = discretize(job.target, cable, "target")
-    result = plan(cable, start, target, spec.planner.n_shapes, obstacles=job.obstacles)
-    grippers = gripper_path(result.path, method=spec.grippers.method, cable=cable,
-                            aux=spec.grippers.auxiliary_vector)
-    trajectory = trajectory_from_grippers(grippers, max_speed=spec.trajectory.tcp_speed,
-                                          max_angular_speed=spec.trajectory.angular_speed)
-    return result.path, grippers, trajectory, job
+    doc = run_job(job, check_robot=False)
+    return doc.shapes, doc.grippers, doc.trajectory, job
 
 
 @functools.cache
 def harness_plan(name: str = "harness_usb.yaml"):
     """The harness job of an example (:func:`dloplan.harness.files.run_harness_job`)."""
-    from dloplan.harness.files import parse_harness, resolve_harness, run_harness_job
+    from dloplan.harness.files import run_harness_job
 
-    path = str(EXAMPLES / name)
-    return run_harness_job(resolve_harness(parse_harness(read_mapping(path), path), path))
+    return run_harness_job(load_job(EXAMPLES / name))
 
 
 def mirrored(grippers: GripperPath) -> GripperPath:

@@ -70,6 +70,11 @@ def _table_html(title: str, header: Sequence[str], rows: Sequence[Sequence]) -> 
     return f"<h2>{html.escape(title)}</h2><table><tr>{head}</tr>{body}</table>"
 
 
+def _rounded(values) -> list:
+    """Values to 1 micrometre (or 1e-6), without negative zeros: the same plan, the same page."""
+    return (np.asarray(values, dtype=float).round(6) + 0.0).tolist()
+
+
 def report_html(
     *,
     title: str,
@@ -132,12 +137,12 @@ def report_html(
         raise ValueError(f"shapes: expected (S + 2, n + 1, 3) points, got {shapes.shape}")
     table_height = next((o.height for o in obstacles if isinstance(o, Table)), None)
     data = {
-        "shapes": shapes.round(6).tolist(),
-        "stabilized": None if stabilized is None else np.asarray(stabilized).round(6).tolist(),
+        "shapes": _rounded(shapes),
+        "stabilized": None if stabilized is None else _rounded(stabilized),
         "clip_positions": None if clip_positions is None
-        else np.asarray(clip_positions).round(6).tolist(),
+        else _rounded(clip_positions),
         "clip_rotations": None if clip_rotations is None
-        else np.asarray(clip_rotations).round(6).tolist(),
+        else _rounded(clip_rotations),
         "obstacles": [d for d in map(_obstacle_dict, obstacles) if d is not None],
         "table_height": table_height,
         "labels": list(labels) if labels is not None
