@@ -6,11 +6,12 @@ noise. The model compares shapes point by point, so the measurement is resampled
 n + 1 points equally spaced in arc length -- but not on the raw polyline: noise of standard
 deviation sigma on points a spacing h apart lengthens each segment by about sigma^2 / h, so a
 dense noisy polyline is much longer than the cable (1 mm noise on points 2 mm apart: +25 %).
-Each coordinate is therefore first fitted by a least-squares cubic spline over the chord-length
-parameter (:func:`scipy.interpolate.make_lsq_spline`) with as many uniform knot spans as the
-model has links, but at most one per :data:`POINTS_PER_SPAN` points (the fit averages the noise
-over them), and the smooth curve is resampled. A measurement with fewer points than that is used
-as a polyline.
+Each coordinate is therefore first fitted by a least-squares cubic spline
+(:func:`scipy.interpolate.make_lsq_spline`) over the points' positions along the predicted shape
+(their projections: the chord length of noisy points is no good parameter either), with as many
+uniform knot spans as the model has links but at most one per :data:`POINTS_PER_SPAN` points
+(the fit averages the noise over them), and the smooth curve is resampled. A measurement of
+fewer than 4 points is used as a polyline.
 
 A measurement that disagrees wildly with the model is refused (:class:`CorrectionRefused`), with
 the reason, rather than used:
@@ -66,21 +67,27 @@ def positions_along(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:
     return s[segment] + t[rows, segment] * np.linalg.norm(ab[segment], axis=1)
 
 
-def smooth_polyline(points: np.ndarray, n_spans: int, n_dense: int) -> np.ndarray:
-    """The points' least-squares cubic spline (chord-length parameter), (n_dense, 3) [m].
+def smooth_polyline(points: np.ndarray, along: np.ndarray, n_spans: int,
+                    n_dense: int) -> np.ndarray:
+    """The points' least-squares cubic spline over the parameter ``along``, (n_dense, 3) [m].
 
-    At most ``n_spans`` uniform knot spans, and at least :data:`POINTS_PER_SPAN` points per
-    span; with too few points for one cubic span, the polyline itself.
+    ``along`` (k,) is the points' position along a nearby curve [m] (their chord length would
+    be inflated by noise, non-uniformly). At most ``n_spans`` uniform knot spans, and at least
+    :data:`POINTS_PER_SPAN` points per span; with too few points for one cubic span, the
+    polyline itself.
     """
     steps = np.linalg.norm(np.diff(points, axis=0), axis=1)
-    x = points[np.r_[True, steps > 0.0]]
-    u = np.r_[0.0, np.cumsum(steps[steps > 0.0])]
-    grid = np.linspace(0.0, u[-1], n_dense)
-    spans = min(n_spans, len(x) // POINTS_PER_SPAN)
-    if spans < 1 or len(x) < 4:
+    keep = np.r_[True, steps > 0.0]
+    spans = min(n_spans, int(keep.sum()) // POINTS_PER_SPAN)
+    if spans < 1 or keep.sum() < 4:
+        x = points[keep]
+        u = np.r_[0.0, np.cumsum(steps[steps > 0.0])]
+        grid = np.linspace(0.0, u[-1], n_dense)
         return np.stack([np.interp(grid, u, x[:, k]) for k in range(3)], axis=1)
+    order = np.argsort(along, kind="stable")
+    u, x = along[order], points[order]
     knots = np.r_[[u[0]] * 3, np.linspace(u[0], u[-1], spans + 1), [u[-1]] * 3]
-    return make_lsq_spline(u, x, knots, k=3)(grid)
+    return make_lsq_spline(u, x, knots, k=3)(np.linspace(u[0], u[-1], n_dense))
 
 
 def resample_measured(points, predicted: np.ndarray, cable_length: float, *,
@@ -112,8 +119,8 @@ def resample_measured(points, predicted: np.ndarray, cable_length: float, *,
     """
     x = as_shape(points, name="measured")
     n_points = len(predicted)
+    s = positions_along(x, predicted)
     if len(x) >= 3:
-        s = positions_along(x, predicted)
         order = float(np.corrcoef(np.arange(len(x)), s)[0, 1]) if np.ptp(s) > 0 else 0.0
         if not order >= MIN_ORDER:
             how = ("run from the last clip to the first (reverse them)" if order <= -MIN_ORDER
@@ -122,7 +129,7 @@ def resample_measured(points, predicted: np.ndarray, cable_length: float, *,
                 f"measured: the {len(x)} points {how}: the correlation of their index with their "
                 f"position along the predicted shape is {order:.2f}, expected >= {MIN_ORDER}"
             )
-    smooth = smooth_polyline(x, n_points - 1, DENSE * n_points)
+    smooth = smooth_polyline(x, s, n_points - 1, DENSE * n_points)
     length = float(arc_length(smooth)[-1])
     if not abs(length / cable_length - 1.0) <= MAX_LENGTH_ERROR:
         raise CorrectionRefused(
