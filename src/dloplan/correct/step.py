@@ -8,7 +8,7 @@ reaches shape K the cable is measured; the correction
    Gauss-Newton steps on ||y - x_K(log E)||^2 with the sensitivity d x / d log E
    (:mod:`dloplan.sim.sensitivity`): delta = (J . r) / (J . J). In statics E and the mass enter
    only as their ratio, so this absorbs a wrong mass as well; what is left is reported as the
-   unexplained residual. The steps stop when a step changes E by less than 0.1 %;
+   unexplained residual. The steps stop when a step changes E by less than 1 %;
 2. **corrects the clips** so that the predicted stabilized shapes match the reference (the plan's
    stabilized shapes: what the verified plan promised; or its planned shapes): a
    Levenberg-Marquardt fit of the 12 clip coordinates p (:func:`~dloplan.sim.sensitivity.
@@ -49,6 +49,12 @@ from ..trajectory import Trajectory, trajectory_from_grippers
 from .measurement import MAX_DISAGREEMENT, CorrectionRefused, resample_measured
 
 REFERENCES = ("stabilized", "planned")
+
+MODULUS_STEP_TOLERANCE = 0.01
+"""The log E steps stop once a step changes E by less than this fraction."""
+
+COST_TOLERANCE = 1e-3
+"""The clip fit stops once an iteration lowers the squared error by less than this fraction."""
 MODES = ("target", "all")
 
 
@@ -235,7 +241,7 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         The clip poses it was measured at.
     steps : int
         Most Gauss-Newton steps (0: only the residual is computed); they stop early once a step
-        changes E by less than 0.1 %.
+        changes E by less than 1 % (:data:`MODULUS_STEP_TOLERANCE`).
     max_factor : float
         Refuse an update that changes E by more than this factor.
     gravity : array_like
@@ -262,9 +268,9 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
                 "max_modulus_factor)"
             )
         model = cable.with_modulus(math.exp(log_e))
-        eq = _solve(model, eq.shape, clips, gravity)
+        eq = _solve(model, sens.predict(delta_log_modulus=step), clips, gravity)
         taken += 1
-        if abs(step) < 1e-3:
+        if abs(step) < MODULUS_STEP_TOLERANCE:
             break
     residual = float(np.mean(np.linalg.norm(eq.shape - measured, axis=1)))
     return ModelUpdate(cable.youngs_modulus, model.youngs_modulus, residual0, residual,
@@ -319,24 +325,24 @@ def fit_clips(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess: np.n
     mu = 1e-3
     iterations = 0
     for iterations in range(1, limits.iterations + 1):  # noqa: B007 (the count is returned)
-        jac = equilibrium_sensitivity(cable, eq.shape, eq.clips, chain=chain).clips
-        jz = jac.reshape(-1, 12) / scale
+        sens = equilibrium_sensitivity(cable, eq.shape, eq.clips, chain=chain)
+        jz = sens.clips.reshape(-1, 12) / scale
         a = jz.T @ jz
         b = jz.T @ r
         improved = False
         for _ in range(10):
             damped = a + mu * np.diag(np.diag(a)) + 1e-12 * np.trace(a) * np.eye(12)
             trial_p = p - np.linalg.solve(damped, b) / scale
-            try:
-                trial = equilibrium(cable, eq.shape, perturbed_clips(clips, trial_p),
-                                    gravity=gravity, chain=chain)
+            try:  # warm start from the linear prediction: Newton then needs few iterations
+                trial = equilibrium(cable, sens.predict(trial_p - p),
+                                    perturbed_clips(clips, trial_p), gravity=gravity, chain=chain)
             except ValueError:  # out of reach
                 trial = None
             if trial is not None and trial.success:
                 r_trial = (trial.shape - reference).ravel()
                 cost_trial = float(r_trial @ r_trial)
                 if cost_trial < cost:
-                    improved = cost - cost_trial > 1e-6 * cost
+                    improved = cost - cost_trial > COST_TOLERANCE * cost
                     p, eq, r, cost = trial_p, trial, r_trial, cost_trial
                     mu = max(mu / 4.0, 1e-9)
                     break
