@@ -155,3 +155,14 @@ def test_an_unstable_shape_or_bad_delta_is_refused():
         perturbed_clips(clips, np.zeros(11))
     with pytest.raises(ValueError, match="shape"):
         equilibrium_sensitivity(cable, shape[:-1], clips)
+
+
+def test_modulus_column_matches_the_identification_sensitivity():
+    """An independent implementation: identify.simulate.modulus_sensitivity (sparse LU)."""
+    from dloplan.identify.simulate import modulus_sensitivity
+
+    cable, shape = _case("usb-sine-thesis-model")
+    clips = clip_poses_from_shape(shape)
+    eq = equilibrium(cable, shape, clips, rtol=RTOL)
+    ours = equilibrium_sensitivity(cable, eq.shape, clips).log_modulus
+    assert _relative(ours, modulus_sensitivity(cable, eq.shape)) < 1e-9

@@ -6,8 +6,8 @@ index of the shape reached and the measured points, and returns the :class:`~.st
 
 * ``plan.json``: the corrected plan document -- the updated model cable (E), the planned shapes,
   the corrected gripper path and its whole re-timed trajectory; ``extra.stabilized`` holds the
-  plan's stabilized shapes up to K and the corrected predictions after it, ``extra.correction``
-  the report below, so ``dloplan verify`` checks what will be run;
+  shapes up to K re-stabilized with the updated E and the corrected predictions after it,
+  ``extra.correction`` the report below, so ``dloplan verify`` checks what will be run;
 * ``trajectory.csv`` and ``rapid/``: the remaining motion, from shape K (where the robot stands)
   to the target, starting at time 0 -- the program to run now;
 * ``correction.json`` and ``correction.txt``: open-loop against corrected predictions, shape by
@@ -25,6 +25,7 @@ import numpy as np
 from ..io.export import PlanDocument, write_plan_json, write_trajectory_csv
 from ..io.files import atomic_write_text
 from ..io.rapid import RapidSettings, write_rapid
+from ..sim import equilibrium
 from .step import Correction, correct_plan
 
 
@@ -97,8 +98,10 @@ def write_correction(doc: PlanDocument, correction: Correction, folder, *,
     out.mkdir(parents=True, exist_ok=True)
     at = correction.at
     stored = doc.extra.get("stabilized")
-    before = np.asarray(stored, dtype=float)[: at + 1] if stored is not None else \
-        np.asarray(doc.shapes)[: at + 1]
+    guesses = np.asarray(stored if stored is not None else doc.shapes, dtype=float)[:at]
+    # the shapes already run, re-stabilized with the updated E: one model for the whole document
+    before = [equilibrium(correction.cable, x, doc.grippers.clip_poses(j)).shape
+              for j, x in enumerate(guesses)] + [correction.model.state]
     extra = dict(doc.extra)
     extra["stabilized"] = np.concatenate([before, correction.corrected]).tolist()
     extra["correction"] = {**correction.report(), "measured": correction.measured.tolist()}
