@@ -20,6 +20,8 @@ from dloplan.correct import (
     CorrectionLimits,
     CorrectionRefused,
     Plant,
+    closed_loop_sample,
+    closed_loop_success,
     correct_plan,
     resample_measured,
     run_closed_loop,
@@ -229,3 +231,30 @@ def test_dloplan_correct_refuses_an_absurd_measurement_and_writes_nothing(plans,
     assert code == 2
     assert "reverse them" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_closed_loop_success_probability_over_sampled_cables(plans):
+    """Four cables with E scattered by a factor up to 2.5 (plant n = 40): more of them end within
+    2.5 mm of the target with one correction than without (final errors [mm], open -> closed:
+    x0.45 10.0 -> 4.5, x0.7 3.0 -> 2.0, x1.6 12.6 -> 2.1; x2.5 refused: 21 degrees of clip
+    rotation, beyond the limit)."""
+    doc, _ = plans["demo"]
+    cable = doc.cable
+    last = len(doc.shapes) - 1
+    factors = [0.45, 0.7, 1.6, 2.5]
+    rows = [closed_loop_sample(cable, doc.shapes, doc.grippers,
+                               cable.with_links(40).with_modulus(f * cable.youngs_modulus),
+                               [last // 2], seed=k, stabilized=_stabilized(doc))
+            for k, f in enumerate(factors)]
+    for row in rows[:3]:
+        assert row["corrections"] == 1
+        assert row["closed_loop_error"] < 0.7 * row["open_loop_error"]
+    assert rows[3]["corrections"] == 0 and "beyond the limits" in rows[3]["refusal"]
+    assert rows[3]["closed_loop_error"] == rows[3]["open_loop_error"]
+    success = closed_loop_success(rows, 2.5e-3)
+    assert (success.trials, success.refused) == (4, 1)
+    assert success.open_loop[0] == 0.0 and success.closed_loop[0] == 0.5
+    assert success.closed_loop[1] <= success.closed_loop[0] <= success.closed_loop[2]
+    assert "closed loop" in success.message
+    with pytest.raises(ValueError, match="tolerance"):
+        closed_loop_success(rows, 0.0)
