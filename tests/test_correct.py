@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from scipy.spatial.transform import Rotation
 
 import dloplan.data
 from dloplan.cli import main
@@ -27,6 +28,7 @@ from dloplan.correct import (
     run_closed_loop,
 )
 from dloplan.correct.document import correct_document
+from dloplan.grippers import GripperPath
 from dloplan.io.export import read_plan_json
 from dloplan.physics.geometry import resample_by_arc_length, shape_length
 from dloplan.sim import equilibrium
@@ -258,3 +260,29 @@ def test_closed_loop_success_probability_over_sampled_cables(plans):
     assert "closed loop" in success.message
     with pytest.raises(ValueError, match="tolerance"):
         closed_loop_success(rows, 0.0)
+
+
+def test_the_mirrored_job_gets_the_mirrored_correction(plans):
+    """Reflect everything through the vertical plane y = 0 (gravity is in it): the corrected clip
+    positions reflect (M p), the rotation vectors are axial (-M phi), the errors are equal."""
+    doc, _ = plans["ethernet-3d"]
+    m = np.diag([1.0, -1.0, 1.0])
+    stable = _stabilized(doc)
+    at = 3
+    truth = equilibrium(doc.cable.with_modulus(2 * doc.cable.youngs_modulus), stable[at],
+                        doc.grippers.clip_poses(at)).shape
+    measured = _measure(truth, n_points=150)
+    g = doc.grippers
+    mirrored = GripperPath(
+        positions=g.positions @ m, method=g.method, twist=-g.twist,
+        rotations=tuple(Rotation.from_matrix(m @ r.as_matrix() @ m) for r in g.rotations))
+    results = [correct_plan(doc.cable, shapes, grippers, at, points, stabilized=s)
+               for shapes, grippers, points, s in ((doc.shapes, g, measured, stable),
+                                                    (doc.shapes @ m, mirrored, measured @ m,
+                                                     stable @ m))]
+    assert results[0].model.youngs_modulus == pytest.approx(results[1].model.youngs_modulus,
+                                                           rel=1e-6)
+    p, q = (r.clip_corrections.reshape(-1, 2, 2, 3) for r in results)
+    assert np.allclose(q[:, :, 0], p[:, :, 0] @ m, atol=1e-7)
+    assert np.allclose(q[:, :, 1], -(p[:, :, 1] @ m), atol=1e-6)
+    assert np.allclose(results[0].corrected_error, results[1].corrected_error, atol=1e-8)
