@@ -228,7 +228,7 @@ def _mean_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, steps: int = 1,
-                   max_factor: float = 10.0, gravity=GRAVITY) -> ModelUpdate:
+                   max_factor: float = 10.0, gravity=GRAVITY, guess=None) -> ModelUpdate:
     """Gauss-Newton steps in log E fitting the model's equilibrium at ``clips`` to ``measured``.
 
     Parameters
@@ -246,11 +246,14 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         Refuse an update that changes E by more than this factor.
     gravity : array_like
         Gravity [m/s^2].
+    guess : numpy.ndarray, optional
+        (n + 1, 3) start of the first equilibrium (default ``measured``; the plan's stabilized
+        shape, already an equilibrium of ``cable`` on the same branch, saves the iterations).
     """
     log_e0 = math.log(cable.youngs_modulus)
     log_e = log_e0
     model = cable
-    eq = _solve(model, measured, clips, gravity)
+    eq = _solve(model, measured if guess is None else guess, clips, gravity)
     residual0 = float(np.mean(np.linalg.norm(eq.shape - measured, axis=1)))
     taken = 0
     for _ in range(steps):
@@ -449,13 +452,20 @@ def correct_plan(
     y = resample_measured(measured, stable[at], cable.length,
                           max_disagreement=limits.max_disagreement)
     update = update_modulus(cable, y, clips[at], steps=modulus_steps,
-                            max_factor=limits.max_modulus_factor, gravity=gravity)
+                            max_factor=limits.max_modulus_factor, gravity=gravity,
+                            guess=stable[at])
     model = cable.with_modulus(update.youngs_modulus)
     model_chain = SpringChain.from_cable(model, gravity)
+    # the plan's stabilized target carried to the updated E to first order: the fit's start
+    try:
+        target_guess = equilibrium_sensitivity(cable, stable[-1], clips[-1], chain=chain).predict(
+            delta_log_modulus=math.log(update.youngs_modulus / cable.youngs_modulus))
+    except ValueError:  # not a stable equilibrium of the model: start from it as it is
+        target_guess = stable[-1]
     remaining = clips[at + 1 :]
     iterations = 0
     if mode == "target":  # fit the target from the plan's stabilized target, ramp it in
-        p_target, _, iterations = fit_clips(model, remaining[-1], wanted[-1], stable[-1],
+        p_target, _, iterations = fit_clips(model, remaining[-1], wanted[-1], target_guess,
                                             limits=limits, gravity=gravity, chain=model_chain)
         ramp = np.arange(1, len(remaining) + 1) / len(remaining)
         corrections = ramp[:, None] * p_target[None, :]
