@@ -27,7 +27,7 @@ from dloplan.correct import (
     resample_measured,
     run_closed_loop,
 )
-from dloplan.correct.document import correct_document
+from dloplan.correct.document import check_robot_reach, correct_document
 from dloplan.grippers import GripperPath
 from dloplan.io.export import read_plan_json
 from dloplan.physics.geometry import resample_by_arc_length, shape_length
@@ -286,3 +286,14 @@ def test_the_mirrored_job_gets_the_mirrored_correction(plans):
     assert np.allclose(q[:, :, 0], p[:, :, 0] @ m, atol=1e-7)
     assert np.allclose(q[:, :, 1], -(p[:, :, 1] @ m), atol=1e-6)
     assert np.allclose(results[0].corrected_error, results[1].corrected_error, atol=1e-8)
+
+
+def test_corrected_poses_out_of_the_robots_reach_are_refused(plans):
+    doc, _ = plans["demo"]
+    g = doc.grippers
+    far = g.positions.copy()
+    far[5:] += [1.5, 0.0, 0.0]  # 1.5 m further away from the robot
+    moved = GripperPath(positions=far, rotations=g.rotations, method=g.method, twist=g.twist)
+    check_robot_reach(g, g, 3)  # the plan itself passes
+    with pytest.raises(CorrectionRefused, match=r"shapes \[5, 6, 7\] are out of the YuMi's"):
+        check_robot_reach(g, moved, 3)

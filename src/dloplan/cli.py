@@ -126,8 +126,8 @@ def _cmd_correct(args: argparse.Namespace) -> int:
     console = Console(args.quiet)
     doc = read_plan_json(args.plan)
     result = correct_document(doc, args.at, measured_points(args.measured, args.at),
-                              mode=args.mode, reference=args.reference,
-                              modulus_steps=args.modulus_steps)
+                              robot=not args.no_robot, mode=args.mode,
+                              reference=args.reference, modulus_steps=args.modulus_steps)
     console.stage(result.message)
     written = write_correction(doc, result, args.output)
     console.stage(f"wrote {len(written)} files into {args.output}")
@@ -571,6 +571,8 @@ def build_parser() -> argparse.ArgumentParser:
     correct.add_argument("--reference", choices=["stabilized", "planned"], default="stabilized")
     correct.add_argument("--modulus-steps", type=int, default=3,
                          help="Gauss-Newton steps of the E update (0: keep E)")
+    correct.add_argument("--no-robot", action="store_true",
+                         help="skip the YuMi reachability of the corrected poses")
 
     calibrate = command("calibrate", _cmd_calibrate, "extrinsic camera calibration from ArUco "
                         "markers (eq. 7.2)")

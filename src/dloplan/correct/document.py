@@ -21,11 +21,14 @@ import math
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
+from ..grippers import GripperPath
 from ..io.export import PlanDocument, write_plan_json, write_trajectory_csv
 from ..io.files import atomic_write_text
 from ..io.rapid import RapidSettings, write_rapid
 from ..sim import equilibrium
+from .measurement import CorrectionRefused
 from .step import Correction, correct_plan
 
 
@@ -48,16 +51,47 @@ def measured_points(path, at: int) -> np.ndarray:
                      "keep one shape, or label the measured one by the shape reached")
 
 
-def correct_document(doc: PlanDocument, at: int, measured, **options) -> Correction:
+def correct_document(doc: PlanDocument, at: int, measured, *, robot: bool = False,
+                     **options) -> Correction:
     """:func:`~.step.correct_plan` on a plan document (its cable, shapes, grippers, trajectory
-    and stored stabilized shapes); ``options`` as there."""
+    and stored stabilized shapes); ``options`` as there.
+
+    With ``robot``, a correction that moves a remaining clip pose out of the YuMi's reach (at
+    the world origin) while the planned one was reachable is refused
+    (:func:`check_robot_reach`).
+    """
     if doc.grippers is None:
         raise ValueError("plan: the document has no gripper poses ('grippers' is null): "
                          "there are no clips to correct")
     stored = doc.extra.get("stabilized")
     stabilized = None if stored is None else np.asarray(stored, dtype=float)
-    return correct_plan(doc.cable, doc.shapes, doc.grippers, at, measured,
-                        stabilized=stabilized, trajectory=doc.trajectory, **options)
+    result = correct_plan(doc.cable, doc.shapes, doc.grippers, at, measured,
+                          stabilized=stabilized, trajectory=doc.trajectory, **options)
+    if robot:
+        check_robot_reach(doc.grippers, result.grippers, at)
+    return result
+
+
+def check_robot_reach(planned: GripperPath, corrected: GripperPath, at: int) -> None:
+    """Refuse corrected clip poses after shape ``at`` that a YuMi cannot reach where it could
+    reach the planned ones (:func:`dloplan.robot.check_reachability`).
+
+    Raises
+    ------
+    CorrectionRefused
+        Naming the shapes.
+    """
+    from ..robot import check_reachability
+
+    def reachable(grippers: GripperPath) -> np.ndarray:
+        reach = check_reachability(grippers.positions, Rotation.from_matrix(grippers.matrices))
+        return reach.reachable.all(axis=1)
+
+    lost = np.flatnonzero(reachable(planned) & ~reachable(corrected))
+    lost = [int(k) for k in lost if k > at]
+    if lost:
+        raise CorrectionRefused(f"robot: the corrected clip poses of shapes {lost} are out of the "
+                                "YuMi's reach (the planned ones are reachable)")
 
 
 def correction_table(correction: Correction) -> str:
