@@ -8,7 +8,8 @@ reaches shape K the cable is measured; the correction
    Gauss-Newton steps on ||y - x_K(log E)||^2 with the sensitivity d x / d log E
    (:mod:`dloplan.sim.sensitivity`): delta = (J . r) / (J . J). In statics E and the mass enter
    only as their ratio, so this absorbs a wrong mass as well; what is left is reported as the
-   unexplained residual. The steps stop when a step changes E by less than 1 %;
+   unexplained residual. Each step changes E by at most a factor 2; they stop when one changes
+   E by less than 1 %;
 2. **corrects the clips** so that the predicted stabilized shapes match the reference (the plan's
    stabilized shapes: what the verified plan promised; or its planned shapes): a
    Levenberg-Marquardt fit of the 12 clip coordinates p (:func:`~dloplan.sim.sensitivity.
@@ -52,6 +53,9 @@ REFERENCES = ("stabilized", "planned")
 
 MODULUS_STEP_TOLERANCE = 0.01
 """The log E steps stop once a step changes E by less than this fraction."""
+
+MAX_LOG_STEP = math.log(2.0)
+"""Largest change of log E in one Gauss-Newton step (a factor 2 in E)."""
 
 COST_TOLERANCE = 1e-3
 """The clip fit stops once an iteration lowers the squared error by less than this fraction."""
@@ -227,7 +231,7 @@ def _mean_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.mean(np.linalg.norm(a - b, axis=-1), axis=-1)
 
 
-def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, steps: int = 1,
+def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, steps: int = 3,
                    max_factor: float = 10.0, gravity=GRAVITY, guess=None) -> ModelUpdate:
     """Gauss-Newton steps in log E fitting the model's equilibrium at ``clips`` to ``measured``.
 
@@ -236,7 +240,7 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     cable : Cable
         The model cable (its E is the start).
     measured : numpy.ndarray
-        (n + 1, 3) measured shape on the model's points [m] (also the first guess: its branch).
+        (n + 1, 3) measured shape on the model's points [m].
     clips : ClipPoses
         The clip poses it was measured at.
     steps : int
@@ -263,6 +267,7 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         if jj <= 1e-24 * cable.length**2:  # the shape does not depend on E here (no sag)
             break
         step = float(j @ (measured - eq.shape).ravel()) / jj
+        step = max(-MAX_LOG_STEP, min(MAX_LOG_STEP, step))  # a trust region: E x2 per step
         log_e += step
         if abs(log_e - log_e0) > math.log(max_factor):
             raise CorrectionRefused(
@@ -283,7 +288,8 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
 def _solve(cable: Cable, guess, clips: ClipPoses, gravity, chain=None):
     eq = equilibrium(cable, guess, clips, gravity=gravity, chain=chain)
     if not eq.success:
-        raise CorrectionRefused(f"model: no stable equilibrium at the measured clips "
+        raise CorrectionRefused(f"model: no stable equilibrium of the cable (E = "
+                                f"{cable.youngs_modulus:.3g} Pa) at these clip poses "
                                 f"({eq.message})")
     return eq
 
