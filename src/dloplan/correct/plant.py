@@ -84,7 +84,8 @@ class Plant:
         Returns
         -------
         tuple
-            ``(shape (n + 1, 3), converged, message)``.
+            ``(shape (n + 1, 3), success, message)``: success is a converged, stable
+            equilibrium.
         """
         cable = self.cable
         k = self.clamp_links
@@ -94,7 +95,7 @@ class Plant:
         x[: k + 1] = clips.positions[0] + offsets[:, None] * u[0]
         x[::-1][: k + 1] = clips.positions[1] + offsets[:, None] * u[1]
         chain = SpringChain.from_cable(cable, gravity)
-        x, _, _, residual, stable, _, message = minimize_energy(
+        x, _, _, _, stable, _, message = minimize_energy(
             chain, x, slice(k + 1, cable.n_points - k - 1), cable.length,
             rtol * force_scale(cable, gravity))
         return x, stable, message
