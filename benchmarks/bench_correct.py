@@ -11,12 +11,13 @@ of the 3D Ethernet example open loop and corrected once at mid-path (the tests' 
 corrected twice (mid-path and before the target). Mean error of the final shape against the
 plan's stabilized target, in mm.
 
-Numbers of 2026-11-30 (2 shared cores, pure-numpy kernels):
+Numbers of 2026-11-30 (2 cores shared with other jobs, pure-numpy kernels; best of two runs):
 
-    n = 20:  correction 160 ms (+ 160 ms predictions)
-    n = 100: correction 200 ms
+    correction [ms]: n = 20: 149, n = 50: 139, n = 100: 152 (+ 180-250 ms of predictions);
+                     4 Levenberg-Marquardt iterations, 2 modulus steps (target: well under 50 ms)
     demo x0.5: 6.06 -> 4.06 mm; demo x2: 18.20 -> 2.87 mm;
     3D x0.5: 1.73 -> 1.12 mm;   3D x2: 4.84 -> 1.15 mm
+    (corrected twice, at 3 and 6: 4.09, 2.89, 1.13, 1.15 mm: no better)
 """
 
 from __future__ import annotations
