@@ -103,6 +103,22 @@ def _cmd_export(args: argparse.Namespace) -> int:
     return EXIT_WARNINGS if twisted else EXIT_OK
 
 
+def _cmd_correct(args: argparse.Namespace) -> int:
+    from .correct.document import correct_document, measured_points, write_correction
+    from .io.export import read_plan_json
+
+    console = Console(args.quiet)
+    doc = read_plan_json(args.plan)
+    result = correct_document(doc, args.at, measured_points(args.measured, args.at),
+                              robot=not args.no_robot, mode=args.mode,
+                              reference=args.reference, modulus_steps=args.modulus_steps)
+    console.stage(result.message)
+    written = write_correction(doc, result, args.output)
+    console.stage(f"wrote {len(written)} files into {args.output}")
+    print(json.dumps(result.report()) if args.json else result.message)
+    return EXIT_WARNINGS if result.warnings else EXIT_OK
+
+
 def _cmd_verify(args: argparse.Namespace) -> int:
     from .app import read_plan, verify_plan
 
@@ -515,6 +531,19 @@ def build_parser() -> argparse.ArgumentParser:
     compare.add_argument("--end-order", choices=["detect", "keep"], default="detect")
     compare.add_argument("--plane", choices=["xy", "xz", "yz"], default="xy")
     compare.add_argument("-o", "--output", help="folder for the figures")
+
+    correct = command("correct", _cmd_correct, "correct the rest of a plan from the shape "
+                      "measured at shape K (closed loop, docs/correction.md)")
+    correct.add_argument("plan", help="plan.json")
+    correct.add_argument("--at", type=int, required=True, help="K, the shape just reached")
+    correct.add_argument("--measured", required=True, help="measured shape (.csv or .json)")
+    correct.add_argument("-o", "--output", default="out/correct", help="output folder")
+    correct.add_argument("--mode", choices=["target", "all"], default="target")
+    correct.add_argument("--reference", choices=["stabilized", "planned"], default="stabilized")
+    correct.add_argument("--modulus-steps", type=int, default=3,
+                         help="Gauss-Newton steps of the E update (0: keep E)")
+    correct.add_argument("--no-robot", action="store_true",
+                         help="skip the YuMi reachability of the corrected poses")
 
     calibrate = command("calibrate", _cmd_calibrate, "extrinsic camera calibration from ArUco "
                         "markers (eq. 7.2)")
