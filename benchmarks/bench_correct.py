@@ -32,10 +32,10 @@ import numpy as np
 import yaml
 
 import dloplan.data
+from dloplan.app import read_plan
 from dloplan.cli import main as dloplan_main
 from dloplan.correct import Plant, correct_plan, run_closed_loop
 from dloplan.grippers import gripper_path
-from dloplan.io.export import read_plan_json
 from dloplan.physics.geometry import as_path, resample_by_arc_length
 from dloplan.sim import equilibrium
 
@@ -53,7 +53,7 @@ def plan_with_links(source: Path, n_links: int, folder: Path):
     out = folder / scenario.stem
     with contextlib.redirect_stdout(io.StringIO()):
         dloplan_main(["plan", str(scenario), "-o", str(out), "-q"])
-    return read_plan_json(out / "plan.json")
+    return read_plan(out / "plan.json")
 
 
 def refined(doc, n_links: int):
@@ -90,7 +90,7 @@ def part2(docs) -> None:
     for name, doc in docs.items():
         cable = doc.cable
         last = len(doc.shapes) - 1
-        stable = np.asarray(doc.extra["stabilized"])
+        stable = doc.stabilized
         cases = [
             ("E x0.5", cable.with_links(100).with_modulus(0.5 * cable.youngs_modulus),
              [last // 2]),

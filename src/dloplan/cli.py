@@ -104,11 +104,11 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_correct(args: argparse.Namespace) -> int:
+    from .app import read_plan
     from .correct.document import correct_document, measured_points, write_correction
-    from .io.export import read_plan_json
 
     console = Console(args.quiet)
-    doc = read_plan_json(args.plan)
+    doc = read_plan(args.plan)
     result = correct_document(doc, args.at, measured_points(args.measured, args.at),
                               robot=not args.no_robot, mode=args.mode,
                               reference=args.reference, modulus_steps=args.modulus_steps)

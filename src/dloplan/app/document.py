@@ -375,6 +375,9 @@ class PlanDocument:
         The wire-harness job's numbers (:func:`dloplan.harness.harness_summary`).
     robot : RobotSection or None
         The verified robot program (None when the plan was made without robot checks).
+    correction : dict or None
+        A closed-loop correction's report (:meth:`dloplan.correct.Correction.report`) when the
+        document is a corrected plan (``dloplan correct``).
     program : RobotProgram or None
         The program object itself, kept in memory after planning so the writers do not solve
         it again (not written; a document read from a file rebuilds it from ``robot.cell``,
@@ -405,6 +408,7 @@ class PlanDocument:
     identification: IdentificationSection | None = None
     harness: dict | None = None
     robot: RobotSection | None = None
+    correction: dict | None = None
     timings: dict = field(default_factory=dict)
     frame_id: str = DEFAULT_FRAME_ID
     version: int = PLAN_VERSION
@@ -550,6 +554,7 @@ def document_to_dict(doc: PlanDocument) -> dict:
         "identification": section_to_dict(doc.identification),
         "harness": _plain(doc.harness),
         "robot": section_to_dict(doc.robot),
+        "correction": _plain(doc.correction),
         "timings": _plain(doc.timings),
     }
 
@@ -644,6 +649,7 @@ def document_from_dict(data: dict) -> PlanDocument:
                                          sections.get("identification"), "plan.identification"),
         harness=sections.get("harness"),
         robot=section_from_dict(RobotSection, sections.get("robot"), "plan.robot"),
+        correction=sections.get("correction"),
         timings=dict(sections.get("timings") or {}),
         frame_id=frame_id,
         version=version,

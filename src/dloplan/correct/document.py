@@ -1,15 +1,16 @@
 """The correction of a plan document and its outputs (what ``dloplan correct`` does).
 
-:func:`correct_document` takes a plan document (:func:`dloplan.io.export.read_plan_json`), the
-index of the shape reached and the measured points, and returns the :class:`~.step.Correction`;
+:func:`correct_document` takes a plan document (:func:`dloplan.app.read_plan`), the index of
+the shape reached and the measured points, and returns the :class:`~.step.Correction`;
 :func:`write_correction` writes
 
 * ``plan.json``: the corrected plan document -- the updated model cable (E), the planned shapes,
-  the corrected gripper path and its whole re-timed trajectory; ``extra.stabilized`` holds the
-  shapes up to K re-stabilized with the updated E and the corrected predictions after it,
-  ``extra.correction`` the report below, so ``dloplan verify`` checks what will be run;
+  the corrected gripper path and its whole re-timed trajectory; its stabilized shapes are the
+  shapes up to K re-stabilized with the updated E and the corrected predictions after it, its
+  ``correction`` section the report below, so ``dloplan verify`` checks what will be run;
 * ``trajectory.csv`` and ``rapid/``: the remaining motion, from shape K (where the robot stands)
-  to the target, starting at time 0 -- the program to run now;
+  to the target, starting at time 0 -- the program to run now, written from a robot program
+  that passes its checks (:func:`dloplan.robot.robot_program`, the plan's robot cell);
 * ``correction.json`` and ``correction.txt``: open-loop against corrected predictions, shape by
   shape, with the modulus update and the clip corrections.
 """
@@ -18,18 +19,20 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..app.document import PlanDocument, cell_from_dict, write_plan
 from ..grippers import GripperPath
-from ..io.export import PlanDocument, write_plan_json, write_trajectory_csv
+from ..io.export import write_trajectory_csv
 from ..io.files import atomic_write_text
-from ..io.rapid import RapidSettings, write_rapid
+from ..io.rapid import write_rapid
 from ..sim import equilibrium
 from .measurement import CorrectionRefused
-from .step import Correction, correct_plan
+from .step import Correction, correct_plan, sliced_grippers
 
 
 def measured_points(path, at: int) -> np.ndarray:
@@ -63,10 +66,8 @@ def correct_document(doc: PlanDocument, at: int, measured, *, robot: bool = Fals
     if doc.grippers is None:
         raise ValueError("plan: the document has no gripper poses ('grippers' is null): "
                          "there are no clips to correct")
-    stored = doc.extra.get("stabilized")
-    stabilized = None if stored is None else np.asarray(stored, dtype=float)
     result = correct_plan(doc.cable, doc.shapes, doc.grippers, at, measured,
-                          stabilized=stabilized, trajectory=doc.trajectory, **options)
+                          stabilized=doc.stabilized, trajectory=doc.trajectory, **options)
     if robot:
         check_robot_reach(doc.grippers, result.grippers, at)
     return result
@@ -120,34 +121,45 @@ def correction_table(correction: Correction) -> str:
 
 
 def write_correction(doc: PlanDocument, correction: Correction, folder, *,
-                     rapid: RapidSettings | None = None, rate: float = 100.0) -> list[Path]:
+                     rate: float = 100.0) -> list[Path]:
     """Write the corrected plan, the remaining trajectory and program, and the report.
 
     Returns
     -------
     list of Path
         The files written.
+
+    Raises
+    ------
+    CorrectionRefused
+        When the remaining motion's robot program fails its checks (nothing is written).
     """
+    from ..robot import RobotCell, robot_program
+
     out = Path(folder)
-    out.mkdir(parents=True, exist_ok=True)
     at = correction.at
-    stored = doc.extra.get("stabilized")
-    guesses = np.asarray(stored if stored is not None else doc.shapes, dtype=float)[:at]
+    cell = RobotCell() if doc.robot is None else cell_from_dict(doc.robot.cell)
+    program = robot_program(sliced_grippers(correction.grippers, at), correction.remaining, cell)
+    if not program.ok:
+        raise CorrectionRefused(f"robot: the corrected remaining motion fails its checks: "
+                                f"{program.message}")
+    guesses = (doc.shapes if doc.stabilized is None else doc.stabilized)[:at]
     # the shapes already run, re-stabilized with the updated E: one model for the whole document
     before = [equilibrium(correction.cable, x, doc.grippers.clip_poses(j)).shape
               for j, x in enumerate(guesses)] + [correction.model.state]
-    extra = dict(doc.extra)
-    extra["stabilized"] = np.concatenate([before, correction.corrected]).tolist()
-    extra["correction"] = {**correction.report(), "measured": correction.measured.tolist()}
-    written = [
-        write_plan_json(out / "plan.json", correction.cable, doc.shapes, correction.grippers,
-                        correction.trajectory, [*doc.warnings, *correction.warnings], extra,
-                        frame_id=doc.frame_id),
+    corrected = replace(
+        doc, cable=correction.cable, grippers=correction.grippers,
+        trajectory=correction.trajectory, warnings=(*doc.warnings, *correction.warnings),
+        stabilized=np.concatenate([before, correction.corrected]), clip_wrenches=None,
+        verification=None, robot=None, program=None,
+        correction={**correction.report(), "measured": correction.measured.tolist()})
+    out.mkdir(parents=True, exist_ok=True)
+    return [
+        write_plan(out / "plan.json", corrected),
         write_trajectory_csv(out / "trajectory.csv", correction.remaining, rate=rate,
                              frame_id=doc.frame_id),
-        *write_rapid(out / "rapid", correction.remaining, rapid).values(),
+        *write_rapid(out / "rapid", program).values(),
         atomic_write_text(out / "correction.json",
                           json.dumps(correction.report(), indent=1) + "\n"),
         atomic_write_text(out / "correction.txt", correction_table(correction)),
     ]
-    return written

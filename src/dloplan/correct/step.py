@@ -540,7 +540,8 @@ def _corrected_grippers(grippers: GripperPath, at: int, remaining, corrections) 
     )
 
 
-def _sliced(grippers: GripperPath, start: int) -> GripperPath:
+def sliced_grippers(grippers: GripperPath, start: int) -> GripperPath:
+    """The gripper path from shape ``start`` on (its twist counted from there)."""
     return GripperPath(
         positions=grippers.positions[start:],
         rotations=tuple(r[start:] for r in grippers.rotations),
@@ -561,4 +562,4 @@ def _retimed(grippers: GripperPath, at: int, planned: Trajectory | None,
                    "max_angular_speed": planned.max_angular_speed,
                    "left_clip": left, "tcp_in_clip": offset}
     return (trajectory_from_grippers(grippers, **options),
-            trajectory_from_grippers(_sliced(grippers, at), **options))
+            trajectory_from_grippers(sliced_grippers(grippers, at), **options))
