@@ -187,14 +187,20 @@ def plan_path(job: Job, progress=quiet) -> PathStage:
 
 
 def plan_motion(job: Job, path: np.ndarray, progress=quiet):
-    """Gripper frames for every shape (thesis 4.6) and the timed dual-arm trajectory."""
+    """Gripper frames for every shape (thesis 4.6) and the timed dual-arm trajectory, its arms
+    assigned by the robot cell's side rule."""
     from ..grippers import gripper_path
+    from ..robot import assign_arms
     from ..trajectory import trajectory_from_grippers
 
     settings = job.grippers
     grippers = gripper_path(path, method=settings.method, cable=job.cable,
                             initial=settings.initial, aux=settings.auxiliary_vector)
-    trajectory = trajectory_from_grippers(grippers, max_speed=job.motion.tcp_speed,
+    # the arm on the robot's left holds the clip on its left (docs/robot.md): the trajectory's
+    # arm order is the robot program's, so its CSV and ROS columns name the right arms
+    left_clip = assign_arms(grippers.positions, job.robot).left_clip
+    trajectory = trajectory_from_grippers(grippers, left_clip=left_clip,
+                                          max_speed=job.motion.tcp_speed,
                                           max_angular_speed=job.motion.angular_speed)
     progress(f"gripper frames ({grippers.method}), trajectory {trajectory.duration:.2f} s at "
              f"{1e3 * job.motion.tcp_speed:.0f} mm/s")
