@@ -2,10 +2,11 @@
 
 The file reuses the scenario format (:mod:`dloplan.io.scenario`): ``cable``, ``start``,
 ``obstacles``, ``table``, ``planner`` (``physical_mode``), ``grippers`` (``method``),
-``trajectory`` (``tcp_speed``, ``angular_speed``), ``check`` (``z_safety``, ``max_rounds``)
-and ``units``; the target is computed from the board, so there is none. The ``harness:``
-section (:class:`~dloplan.harness.board.HarnessSpec`) holds the fixtures, the pegs and the
-job's settings. Lengths are in ``units``; forces in N; speeds as in the scenario format.
+``trajectory`` (speeds, accelerations, jerks, ``zone``, gripper action times), ``check``
+(``z_safety``, ``max_rounds``) and ``units``; the target is computed from the board, so
+there is none. The ``harness:`` section (:class:`~dloplan.harness.board.HarnessSpec`) holds
+the fixtures, the pegs and the job's settings. Lengths are in ``units``; forces in N; speeds
+as in the scenario format.
 """
 
 from __future__ import annotations
@@ -101,6 +102,9 @@ def resolve_harness(scenario: HarnessScenario, source: str = "harness scenario")
         section_links=t.n_links, substeps=t.substeps,
         max_speed=scenario.trajectory.tcp_speed,
         max_angular_speed=scenario.trajectory.angular_speed,
+        limits=scenario.trajectory.limits(), zone=scenario.trajectory.zone,
+        grasp_time=scenario.trajectory.grasp_time, release_time=scenario.trajectory.release_time,
+        min_tension=t.min_tension,
         gripper_method=scenario.grippers.method,
         physical_mode=scenario.planner.physical_mode or "equilibrium",
         z_safety=scenario.check.lengths(scale)[1], max_rounds=scenario.check.max_rounds,

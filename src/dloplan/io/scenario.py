@@ -246,11 +246,27 @@ class GripperSpec(_Model):
 
 
 class TrajectorySpec(_Model):
-    """Timed dual-arm motion (thesis 7.3: 100 mm/s)."""
+    """Timed dual-arm motion (thesis 7.3: 100 mm/s; limits: dloplan.trajectory.limits)."""
 
     tcp_speed: PositiveLength = Field(0.1, description="[m/s] (not scaled by units)")
     angular_speed: PositiveLength = Field(1.0, description="[rad/s]")
     rate: PositiveLength = Field(50.0, description="sampling rate [Hz]")
+    acceleration: PositiveLength = Field(1.0, description="TCP acceleration limit [m/s^2]")
+    jerk: PositiveLength = Field(10.0, description="TCP jerk limit [m/s^3]")
+    angular_acceleration: PositiveLength = Field(10.0, description="[rad/s^2]")
+    angular_jerk: PositiveLength = Field(100.0, description="[rad/s^3]")
+    zone: float = Field(0.0, ge=0, allow_inf_nan=False,
+                        description="fly-by zone radius [m] (not scaled by units); 0: stop at "
+                        "every shape")
+    grasp_time: PositiveLength = Field(0.5, description="gripper grasp duration [s]")
+    release_time: PositiveLength = Field(0.4, description="gripper release duration [s]")
+
+    def limits(self):
+        """The :class:`dloplan.trajectory.MotionLimits` of these settings."""
+        from ..trajectory import MotionLimits
+
+        return MotionLimits(self.tcp_speed, self.acceleration, self.jerk, self.angular_speed,
+                            self.angular_acceleration, self.angular_jerk)
 
 
 class CheckSpec(_Model):
