@@ -99,11 +99,9 @@ def interpolate_poses(law: TimeLaw, positions, rotations, times):
         N each.
     """
     pos = np.asarray(positions, dtype=float)
-    steps, rotvecs = segment_motion(pos, rotations)
-    pad = np.zeros((2, 2, 3))
-    steps, rotvecs = np.concatenate([steps, pad]), np.concatenate([rotvecs, pad])
+    rotvecs = np.concatenate([segment_motion(pos, rotations)[1], np.zeros((2, 2, 3))])
     b, u = law.parameters(times, 0)
-    out = pos[b] + u[0, :, 0, None, None] * steps[b] + u[0, :, 1, None, None] * steps[b + 1]
+    out = law.blend(pos, times)[0]
     rots = tuple(
         rotations[a][b]
         * Rotation.from_rotvec(u[0, :, 0, None] * rotvecs[b, a])
@@ -279,13 +277,10 @@ class Trajectory:
     def kinematics(self, times) -> Kinematics:
         """Speed, acceleration, jerk and angular speed of both TCPs at ``times`` [s]."""
         t = self._clipped(times)
-        steps, rotvecs = segment_motion(self.positions, self.rotations)
-        pad = np.zeros((2, 2, 3))
-        steps, rotvecs = np.concatenate([steps, pad]), np.concatenate([rotvecs, pad])
-        b, u = self.law.parameters(t, 3)
-        norms = [np.linalg.norm(u[n, :, 0, None, None] * steps[b]
-                                + u[n, :, 1, None, None] * steps[b + 1], axis=-1)
-                 for n in (1, 2, 3)]
+        rotvecs = np.concatenate([segment_motion(self.positions, self.rotations)[1],
+                                  np.zeros((2, 2, 3))])
+        b, u = self.law.parameters(t, 1)
+        norms = np.linalg.norm(self.law.blend(self.positions, t, 3)[1:], axis=-1)
         # body angular velocity of R_b exp(u_b r_b) exp(u_b+1 r_b+1)
         omega = np.stack([np.linalg.norm(
             Rotation.from_rotvec(u[0, :, 1, None] * rotvecs[b + 1, a]).inv().apply(

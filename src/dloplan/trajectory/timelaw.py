@@ -237,6 +237,35 @@ class TimeLaw:
         return np.minimum(b, segments), u
 
 
+    def blend(self, values, t, order: int = 0) -> np.ndarray:
+        """Knot values moved linearly by the running segments, and their time derivatives.
+
+        ``values[b] + u_b (values[b+1] - values[b]) + u_b+1 (values[b+2] - values[b+1])``:
+        positions of a TCP, or whole cable shapes, between their knot values.
+
+        Parameters
+        ----------
+        values : array_like
+            (K, ...) one value per knot.
+        t : array_like
+            (N,) times [s].
+        order : int
+            Highest time derivative (<= 3).
+
+        Returns
+        -------
+        numpy.ndarray
+            (order + 1, N, ...): the value and its derivatives [unit/s^n].
+        """
+        values = np.asarray(values, dtype=float)
+        steps = np.concatenate([np.diff(values, axis=0), np.zeros((2, *values.shape[1:]))])
+        b, u = self.parameters(t, order)
+        extra = (None,) * (values.ndim - 1)
+        out = (u[:, :, 0][(..., *extra)] * steps[b] + u[:, :, 1][(..., *extra)] * steps[b + 1])
+        out[0] += values[b]
+        return out
+
+
 def _rates(distances: np.ndarray, angles: np.ndarray, linear: float, angular: float):
     """(K - 1,) limit on a derivative of u: min over arms of limit / distance and / angle."""
     with np.errstate(divide="ignore"):

@@ -316,9 +316,7 @@ def _segment_deviations(run: Simulation, path: np.ndarray, law: TimeLaw, knots: 
         return np.zeros(0)
     inside = (run.times >= knots[0] - 1e-12) & (run.times <= knots[-1] + 1e-12)
     t = run.times[inside]
-    b, u = law.parameters(t)
-    steps = np.concatenate([np.diff(path, axis=0), np.zeros((2, *path.shape[1:]))])
-    planned = path[b] + u[0, :, 0, None, None] * steps[b] + u[0, :, 1, None, None] * steps[b + 1]
+    planned = law.blend(path, t)[0]
     distance = np.linalg.norm(run.shapes[inside] - planned, axis=-1).max(axis=1)
     segment = np.clip(np.searchsorted(knots, t, side="right") - 1, 0, len(path) - 2)
     out = np.maximum(at_knots[:-1], at_knots[1:])
