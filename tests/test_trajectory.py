@@ -358,3 +358,16 @@ def test_bad_rate_poses_and_actions(bending_trajectory):
     with pytest.raises(ValueError, match="motion_phases"):
         plan_cycle(bending_trajectory, motion_phases={"a": (0, 3), "b": (4, 9)})
 
+
+
+def test_the_scenario_trajectory_section_gives_the_limits():
+    from pydantic import ValidationError
+
+    from dloplan.io.scenario import TrajectorySpec
+
+    spec = TrajectorySpec(tcp_speed=0.05, acceleration=0.5, jerk=4.0, zone=0.01)
+    assert spec.limits() == MotionLimits(speed=0.05, acceleration=0.5, jerk=4.0)
+    assert (spec.zone, spec.grasp_time, spec.release_time) == (0.01, 0.5, 0.4)
+    for bad in ({"jerk": 0.0}, {"acceleration": -1.0}, {"zone": -0.01}):
+        with pytest.raises(ValidationError, match=next(iter(bad))):
+            TrajectorySpec(**bad)
