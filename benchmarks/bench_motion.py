@@ -1,6 +1,7 @@
 """Real motion: cycle times and replay deviations, velocity-only against jerk-limited timing.
 
-Run: PYTHONPATH=src python benchmarks/bench_motion.py
+Run: PYTHONPATH=src python benchmarks/bench_motion.py [JOB ...]   (demo usb ethernet pu; default
+all; a stiff hose's replay takes minutes: its explicit time step is short)
 
 For the embedded demo (src/dloplan/data/demo.yaml) and the three harness jobs
 (examples/harness_*.yaml), prints the motion time, the gripper action time and the cycle time,
@@ -25,6 +26,7 @@ Numbers of the first run (2 shared cores; the best of two runs):
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
@@ -69,16 +71,17 @@ def _row(job: str, label: str, timed, actions, cable, shapes, poses, wall: float
           f"{run.motion_peak_tension:7.3f}N {1e3 * wall:8.1f}ms")
 
 
-def main() -> None:
+def main(jobs=("demo", "usb", "ethernet", "pu")) -> None:
     print(f"{'job':10s} {'timing':8s} {'motion':>8s} {'actions':>8s} {'cycle':>8s} "
           f"{'knot dev':>10s} {'segment dev':>11s} {'peak T':>8s} {'time law':>10s}")
-    outcome = plan_job(load_job(DEMO)[0])
-    traj = outcome.trajectory
-    poses = [outcome.grippers.clip_poses(k) for k in range(traj.n_knots)]
-    for label, timed, wall in _timings(traj, ()):
-        _row("demo", label, timed, None, outcome.job.cable, outcome.plan.stabilized, poses,
-             wall)
-    for name in ("usb", "ethernet", "pu"):
+    if "demo" in jobs:
+        outcome = plan_job(load_job(DEMO)[0])
+        traj = outcome.trajectory
+        poses = [outcome.grippers.clip_poses(k) for k in range(traj.n_knots)]
+        for label, timed, wall in _timings(traj, ()):
+            _row("demo", label, timed, None, outcome.job.cable, outcome.plan.stabilized, poses,
+                 wall)
+    for name in [j for j in jobs if j != "demo"]:
         result = run_harness_job(load_harness(EXAMPLES / f"harness_{name}.yaml"))
         k1, k2 = result.knots["phase1"][1], result.knots["insertion"][0]
         shapes = np.concatenate([result.phases.avoidance.stabilized,
@@ -91,4 +94,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    main(tuple(sys.argv[1:]) or ("demo", "usb", "ethernet", "pu"))

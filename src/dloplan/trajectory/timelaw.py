@@ -289,8 +289,9 @@ def _profiles(distances, angles, limits: MotionLimits, scale, halved) -> list[Pr
     return out
 
 
-def _bisect(ok, high: float, iterations: int = 40) -> float:
-    """The largest x in [0, high] with ok(x), assuming ok holds below some threshold."""
+def _bisect(ok, high: float, iterations: int = 20) -> float:
+    """The largest x in [0, high] with ok(x) (to high / 2^iterations), assuming ok holds below
+    some threshold."""
     if ok(high):
         return high
     low = 0.0

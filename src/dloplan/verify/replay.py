@@ -14,7 +14,10 @@ at rest in the first planned shape, and reports
 * the deviation per segment: the largest point distance, over the records between two knots,
   between the simulated cable and the planned cable at that instant (the two planned shapes
   interpolated with the same segment parameter that moves the clips, :mod:`dloplan.trajectory`),
-  and at least the deviations at the segment's two knots;
+  and at least the deviations at the segment's two knots. It includes the plan's own
+  interpolation: between two planned shapes the real quasi-static cable is not their linear
+  blend (for a stiff hose, several millimetres whatever the speed), so it is reported, compared
+  between timings, and not checked against the tolerance;
 * the peak axial link force [N] over the run and during the motion alone (tension positive),
   the first checked against an optional tensile limit [N].
 
