@@ -26,7 +26,6 @@ For a robot program the trajectory exposes, per segment, the TCP speed to progra
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -307,8 +306,7 @@ def sample_times(duration: float, rate: float) -> np.ndarray:
 def _speed_scale(speed_scale, positions, rotations, segments: int):
     if speed_scale is None:
         return None
-    values = speed_scale(positions, rotations) if isinstance(speed_scale, Callable) \
-        else speed_scale
+    values = speed_scale(positions, rotations) if callable(speed_scale) else speed_scale
     scale = np.asarray(values, dtype=float)
     if scale.shape != (segments,) or not np.all((scale > 0) & (scale <= 1)):
         raise ValueError(f"speed_scale: got {values!r}, expected {segments} factors in (0, 1] "
