@@ -18,10 +18,28 @@ A harness job's replay covers phases 1 and 2 (free motion in the air: the simula
 pegs or plates, so insertion and tensioning are not replayed). Also the wall time of the time
 parameterization (ruckig) per trajectory.
 
-Numbers of the first run (2 shared cores; the best of two runs):
+Numbers of the first run (2 cores shared with other jobs; the time law's wall time is noisy,
+the first call includes imports):
 
-    job        timing      motion  actions   cycle   knot dev  segment dev  peak T    time law
-    demo       before       ...
+    job        timing     motion  actions    cycle   knot dev segment dev   peak T   time law
+    demo       before      2.02s    0.00s    2.02s     1.71mm      1.85mm   0.319N     41.4ms
+    demo       after       3.42s    0.90s    4.32s     3.12mm      3.19mm   0.304N      1.5ms
+    demo       fly-by      2.66s    0.90s    3.56s     2.35mm      2.61mm   0.304N    285.4ms
+    usb        before      4.68s    0.00s    4.68s     0.52mm      2.82mm   0.185N      0.9ms
+    usb        after       7.10s    1.80s    8.90s     3.95mm      4.65mm   0.170N      1.7ms
+    usb        fly-by      6.11s    1.80s    7.91s     2.63mm      3.19mm   0.168N    353.5ms
+    ethernet   before      4.55s    0.00s    4.55s     1.23mm      1.72mm   0.324N      1.2ms
+    ethernet   after       6.97s    1.80s    8.77s     2.06mm      2.23mm   0.298N      7.6ms
+    ethernet   fly-by      5.98s    1.80s    7.78s     1.88mm      1.91mm   0.297N    157.7ms
+    pu         before      4.44s    0.00s    4.44s     0.37mm      5.41mm   0.331N      8.4ms
+    pu         after       6.87s    1.80s    8.67s     0.20mm      5.39mm   0.316N      2.6ms
+
+The real time law adds 0.2 s per stop (v / a + a / j) and the gripper actions 0.9 s (plan) or
+1.8 s (harness, with the regrasp). Stopping at every shape makes the soft cables swing: the
+replay deviates more at the knots than with the velocity-only timing (demo 1.7 -> 3.1 mm, USB
+0.5 -> 4.0 mm), and 1 cm fly-by zones recover part of it and of the time. The stiff PU hose
+hardly swings; its segment deviation (5.4 mm either way) is the plan's own interpolation
+between shapes (verify/replay.py). A PU replay takes minutes (its explicit time step is short).
 """
 
 from __future__ import annotations
