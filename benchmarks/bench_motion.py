@@ -33,6 +33,7 @@ the first call includes imports):
     ethernet   fly-by      5.98s    1.80s    7.78s     1.88mm      1.91mm   0.297N    157.7ms
     pu         before      4.44s    0.00s    4.44s     0.37mm      5.41mm   0.331N      8.4ms
     pu         after       6.87s    1.80s    8.67s     0.20mm      5.39mm   0.316N      2.6ms
+    pu         fly-by      5.88s    1.80s    7.68s     0.65mm      5.36mm   0.316N    372.7ms
 
 The real time law adds 0.2 s per stop (v / a + a / j) and the gripper actions 0.9 s (plan) or
 1.8 s (harness, with the regrasp). Stopping at every shape makes the soft cables swing: the
