@@ -7,6 +7,14 @@ number of equilibria of the search, the offset, what produces the peg force (ten
 bending) with the peg force, and the cycle time (jerk-limited motion at the YuMi defaults plus
 grasp, regrasp and release), broken down per phase. Not compared with the thesis' 9 s, whose
 ingredients are not given (docs/harness.md).
+
+One run (2 shared cores; PU: taut only at 15.66 mm, 3.06 N on the peg; it was 8.66 mm and
+0.2 N by bending with every link compressed before the tension criterion):
+
+    cable        phase1   phase2   insert    total solves    offset mechanism     peg   cycle
+    usb           1.163    0.450    3.833    5.471     15   25.09mm   tension   0.20N   8.90s
+    ethernet      0.842    0.389    1.644    2.913     16   19.50mm   tension   0.20N   8.77s
+    pu            0.438    0.228    3.315    4.010     13   15.66mm   tension   3.06N   8.67s
 """
 
 from __future__ import annotations
