@@ -154,6 +154,9 @@ class RobotProgram:
     motion_joints : numpy.ndarray
         (N, 2, 7) joint values [rad] of that replay.
     checks : tuple of CheckRow
+    zones : numpy.ndarray or None
+        (M,) fly-by zone radius [m] at each target (the trajectory's zones at the shapes; 0,
+        a fine point, at the approach, the grasp, the release and the retreat).
     """
 
     cell: RobotCell
@@ -174,6 +177,7 @@ class RobotProgram:
     motion_times: np.ndarray
     motion_joints: np.ndarray
     checks: tuple[CheckRow, ...]
+    zones: np.ndarray | None = None
 
     @property
     def n_targets(self) -> int:
@@ -398,9 +402,13 @@ def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, q
         times[m] - durations[m - 1] * (1.0 - np.arange(1, len(q) + 1) / len(q))
         for m, q in enumerate(replay["joints"], start=1)])
     motion = np.concatenate([joints[:1]] + replay["joints"])
+    zones = np.zeros(len(pos))
+    knots = slice(1, -1) if cell.approach > 0 else slice(None)
+    zones[knots] = trajectory.zones
+    zones[[0, grasp, release, -1]] = 0.0
     return RobotProgram(cell, assignment, turned, labels, shapes, grasp, release, pos, quat,
                         joints, confdata(joints), eax, times, durations, speeds,
-                        motion_times, motion, tuple(rows))
+                        motion_times, motion, tuple(rows), zones)
 
 
 def _timing(trajectory, cell: RobotCell, assignment: ArmAssignment, approach: bool):
