@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from dloplan.jobs import load_job, plan_job
 
+from dloplan.app import load_scenario, run_job
 from dloplan.harness import load_harness, run_harness_job
 
 EXAMPLES = Path(__file__).parent.parent / "examples"
@@ -62,11 +62,9 @@ def test_each_harness_example_does_what_its_comment_says(runs, name, avoidance):
 def test_the_phase1_obstacle_example_needs_re_planning():
     path = EXAMPLES / "harness_phase1_obstacle.yaml"
     assert "re-planned around it" in path.read_text()
-    outcome = plan_job(load_job(path)[0])
-    avoidance = outcome.plan.avoidance
-    assert avoidance.status == "replanned" and avoidance.success
-    assert avoidance.rounds >= 1
+    avoidance = run_job(load_scenario(path), check_robot=False).avoidance
+    assert avoidance.status == "replanned" and avoidance.rounds >= 1
     # the stabilized path hit the obstacle before, at shapes 2 to 4 as the comment says
-    hit = [r.shape_index for r in avoidance.reports_before if r.colliding]
+    hit = [row["shape"] for row in avoidance.before if row["colliding"]]
     assert hit == [2, 3, 4]
-    assert not any(r.colliding for r in avoidance.reports_after)
+    assert not any(row["colliding"] for row in avoidance.after)

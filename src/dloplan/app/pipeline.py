@@ -319,6 +319,21 @@ def settled_shapes(doc: PlanDocument) -> np.ndarray:
     return stabilized_path(doc.cable, doc.shapes)[0]
 
 
+REPLAY_MODULUS_CAP = 1e9
+"""Largest E [Pa] the dynamic replay steps with: a stiffer cable is replayed with this
+fictitious modulus for the explicit time step (thesis Fig. 6.5), so its replay takes at most a
+few hundred thousand steps instead of tens of millions."""
+
+
+def replay_modulus_cap(cable, progress=quiet) -> float | None:
+    """The fictitious modulus of a stiff cable's replay (None: the cable's own E)."""
+    if cable.youngs_modulus <= REPLAY_MODULUS_CAP:
+        return None
+    progress(f"replay: E = {cable.youngs_modulus:.3g} Pa is stepped with the fictitious "
+             f"modulus {REPLAY_MODULUS_CAP:.0e} Pa (thesis Fig. 6.5)")
+    return REPLAY_MODULUS_CAP
+
+
 def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
                 robot: bool = True, tensile_limit=None, tolerance: float = 0.01,
                 progress=quiet):
@@ -339,7 +354,9 @@ def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
     return verify_path(doc.cable, settled_shapes(doc), doc.clip_poses(), times=times, snap=snap,
                        replay_options={"tolerance": tolerance, "tensile_limit": tensile_limit,
                                        "law": None if doc.trajectory is None
-                                       else doc.trajectory.law},
+                                       else doc.trajectory.law,
+                                       "youngs_modulus_cap": replay_modulus_cap(doc.cable,
+                                                                                progress)},
                        reachability=reach, progress=progress)
 
 

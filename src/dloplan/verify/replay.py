@@ -37,7 +37,7 @@ interpolated linearly between two records and the force peak is sampled at that 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -173,6 +173,19 @@ def clip_motion(law: TimeLaw, poses, rate: float = CLIP_RATE) -> ClipTrajectory:
                                   for p, q in zip(pos, quats, strict=True)])
 
 
+def fictitious_cable(cable: Cable, youngs_modulus_cap: float | None) -> Cable:
+    """The cable the replay simulates: with a cap, its moduli (bending and axial) are lowered to
+    the cap -- the thesis' fictitious modulus (Fig. 6.5), which makes a stiff cable's explicit
+    time step hundreds of times larger and keeps the scheme stable (a cap on the step alone
+    diverges, since the forces would still be the stiff cable's)."""
+    if youngs_modulus_cap is None or cable.axial_youngs_modulus <= youngs_modulus_cap and \
+            cable.youngs_modulus <= youngs_modulus_cap:
+        return cable
+    axial = None if cable.axial_modulus is None else min(cable.axial_modulus, youngs_modulus_cap)
+    return replace(cable, youngs_modulus=min(cable.youngs_modulus, youngs_modulus_cap),
+                   axial_modulus=axial)
+
+
 def replay(
     cable: Cable,
     stabilized_shapes,
@@ -268,13 +281,14 @@ def replay(
     shifted = ClipTrajectory(clips.times - start, clips.poses)
     knots = knots - start
     motion = float(shifted.times[-1])
-    step = dt if dt is not None else cable.time_step(youngs_modulus_cap)
+    model = fictitious_cable(cable, youngs_modulus_cap)
+    step = dt if dt is not None else model.time_step()
     duration = motion + settle_duration
     spacing = np.diff(knots)
     finest = float(np.min(spacing)) / 20.0 if len(spacing) else duration
     record = min(max(step, duration / MAX_RECORDS), finest)
     run = simulate(
-        cable, path[0], shifted, duration=duration, dt=dt, youngs_modulus_cap=youngs_modulus_cap,
+        model, path[0], shifted, duration=duration, dt=dt,
         gravity=gravity, record_interval=record, rest_speed=rest_speed, max_steps=max_steps,
         damping=damping, torsion=torsion,
     )
