@@ -63,10 +63,13 @@ class Progress:
     samples_run: int = 0
 
     def line(self) -> str:
-        """``chunk 3/10, 48/160 samples, 2.1 s, 23 samples/s`` (the rate of this run alone)."""
+        """``chunk 3/10, 48/160 samples, 2.1 s, 23 samples/s, about 4.9 s left`` (the rate of
+        this run alone, so a resumed study does not count the samples found on disk)."""
         rate = self.samples_run / self.elapsed if self.elapsed > 0 else 0.0
+        left = (self.samples_total - self.samples_done) / rate if rate > 0 else float("nan")
+        eta = f", about {left:.0f} s left" if rate > 0 and left > 0 else ""
         return (f"chunk {self.chunks_done}/{self.chunks_total}, {self.samples_done}/"
-                f"{self.samples_total} samples, {self.elapsed:.1f} s, {rate:.1f} samples/s")
+                f"{self.samples_total} samples, {self.elapsed:.1f} s, {rate:.1f} samples/s{eta}")
 
 
 @dataclass(frozen=True, eq=False)
