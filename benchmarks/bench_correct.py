@@ -34,8 +34,8 @@ import yaml
 from dloplan.app import read_plan
 from dloplan.cli import main as dloplan_main
 from dloplan.correct import Plant, correct_plan, run_closed_loop
+from dloplan.geometry import as_path, resample_by_arc_length
 from dloplan.grippers import gripper_path
-from dloplan.physics.geometry import as_path, resample_by_arc_length
 from dloplan.sim import equilibrium
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -10,7 +10,7 @@ import time
 import numpy as np
 from _vision_scene import CABLE_BGR, INTRINSICS, MARKER_LENGTH, MARKER_POSES, render, sine_cable
 
-from dloplan.physics.geometry import resample_by_arc_length
+from dloplan.geometry import resample_by_arc_length
 from dloplan.vision import (
     HsvRange,
     MarkerLayout,

@@ -131,7 +131,7 @@ def render(cables=(), markers=None, *, intrinsics=INTRINSICS, camera_to_robot=CA
 
 def sine_cable(length=0.4, amplitude=0.05, n=200, centre=(0.35, 0.0), yaw=0.3):
     """A flat sine-shaped centreline of the given arc length (points on the table, z = 0)."""
-    from dloplan.physics.geometry import resample_by_arc_length, shape_length
+    from dloplan.geometry import resample_by_arc_length, shape_length
 
     t = np.linspace(0.0, 1.0, 4001)
     extent = length

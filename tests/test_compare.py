@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dloplan.physics.geometry import resample_by_arc_length
+from dloplan.geometry import resample_by_arc_length
 from dloplan.plots.compare import write_comparison_figures
 from dloplan.vision import RegisteredShape, compare_shapes, compare_trials
 

@@ -18,6 +18,7 @@ from scipy.linalg import lapack
 from scipy.optimize import brentq
 
 from dloplan import catalogue_cable
+from dloplan.geometry import shape_length
 from dloplan.obstacles.shapes import Cylinder, Table
 from dloplan.physics.chain import (
     SpringChain,
@@ -30,7 +31,6 @@ from dloplan.physics.chain import (
     shape_forces,
 )
 from dloplan.physics.compiled import stretch_to_length
-from dloplan.physics.geometry import shape_length
 from dloplan.sim.clips import conform_guess, place_held_points
 from dloplan.sim.newton import factor_band, solve_band, trust_region_newton
 from dloplan.sim.statics import equilibrium, force_scale, minimize_energy

@@ -28,8 +28,8 @@ from dloplan.correct import (
     run_closed_loop,
 )
 from dloplan.correct.document import check_robot_reach, correct_document
+from dloplan.geometry import resample_by_arc_length, shape_length
 from dloplan.grippers import GripperPath
-from dloplan.physics.geometry import resample_by_arc_length, shape_length
 from dloplan.sim import equilibrium
 from dloplan.vision.shapes_io import RegisteredShape, write_shapes
 

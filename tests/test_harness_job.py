@@ -10,6 +10,7 @@ import pytest
 from harness_boards import demo_board, demo_start
 
 from dloplan.cable import catalogue_cable
+from dloplan.geometry import link_lengths, shape_length
 from dloplan.harness import (
     HarnessSettings,
     approach_shape,
@@ -23,7 +24,6 @@ from dloplan.harness import (
     write_harness_rapid,
 )
 from dloplan.physics.chain import SpringChain, link_tensions
-from dloplan.physics.geometry import link_lengths, shape_length
 from dloplan.sim.clips import clip_poses_from_shape
 from dloplan.trajectory import trajectory_from_grippers
 

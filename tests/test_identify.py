@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from dloplan.cable import catalogue_cable
+from dloplan.geometry import arc_length, resample_by_arc_length
 from dloplan.identify import (
     DynamicSettings,
     Experiment,
@@ -44,7 +45,6 @@ from dloplan.identify.report import FAILURE, OK, WARNINGS, exit_code, plan_warni
 from dloplan.identify.search import Sample, Search
 from dloplan.identify.tuning_loop import thesis_equivalent_modulus, tune_for_identified
 from dloplan.io.scenario import ScenarioError
-from dloplan.physics.geometry import arc_length, resample_by_arc_length
 from dloplan.planning.tuning import stiffness_family
 
 DESIGNS = {

@@ -9,6 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from dloplan import catalogue_cable
+from dloplan.geometry import as_shape
 from dloplan.physics import (
     SpringChain,
     bending_angles,
@@ -19,7 +20,6 @@ from dloplan.physics import (
     hessian,
     link_tensions,
 )
-from dloplan.physics.geometry import as_shape
 
 
 def arc_rest_shape(cable, total_angle=1.5):

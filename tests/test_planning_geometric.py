@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from planning_cases import arc, folding_case
 
-from dloplan.physics.geometry import bending_angles, link_lengths, shape_length
+from dloplan.geometry import bending_angles, link_lengths, shape_length
 from dloplan.planning.geometric import (
     advanced_cost,
     advanced_hessian,

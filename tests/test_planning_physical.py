@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from planning_cases import arc, folding_case
 
+from dloplan.geometry import link_lengths, shape_length
 from dloplan.physics.chain import SpringChain
-from dloplan.physics.geometry import link_lengths, shape_length
 from dloplan.planning.geometric import advanced_path, basic_path
 from dloplan.planning.physical import (
     WEIGHTLESS,

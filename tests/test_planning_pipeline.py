@@ -7,7 +7,7 @@ import pytest
 from planning_cases import arc, folding_case
 
 import dloplan
-from dloplan.physics.geometry import resample_by_arc_length
+from dloplan.geometry import resample_by_arc_length
 from dloplan.planning import (
     STAGES,
     AdvancedWeights,

@@ -9,7 +9,7 @@ from scipy.spatial.transform import Rotation
 
 from dloplan.cable import catalogue_cable
 from dloplan.frames import minimal_rotation
-from dloplan.physics.geometry import tangents
+from dloplan.geometry import tangents
 from dloplan.physics.rod_frames import (
     discrete_twist,
     material_curvatures,

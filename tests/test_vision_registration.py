@@ -23,7 +23,7 @@ from _vision_scene import (
     sine_cable,
 )
 
-from dloplan.physics.geometry import resample_by_arc_length
+from dloplan.geometry import resample_by_arc_length
 from dloplan.vision import (
     CentrelineError,
     HsvRange,

@@ -141,7 +141,7 @@ class Cable:
             set_(self, "rest_shape", self._checked_rest_shape(self.rest_shape))
 
     def _checked_rest_shape(self, rest_shape) -> np.ndarray:
-        from .physics.geometry import as_shape, link_lengths
+        from .geometry import as_shape, link_lengths
 
         shape = as_shape(rest_shape, self.n_links + 1, "rest_shape").copy()
         lengths = link_lengths(shape)
@@ -179,7 +179,7 @@ class Cable:
         """Rest bending angles beta_0 [rad], shape (n - 1,) (zeros for a straight cable)."""
         if self.rest_shape is None:
             return np.zeros(self.n_links - 1)
-        from .physics.geometry import bending_angles
+        from .geometry import bending_angles
 
         return bending_angles(self.rest_shape)
 
@@ -277,7 +277,7 @@ class Cable:
         """The same cable with another discretization (a curved rest shape is resampled)."""
         rest = self.rest_shape
         if rest is not None and n_links != self.n_links:
-            from .physics.geometry import resample_by_arc_length, tangents
+            from .geometry import resample_by_arc_length, tangents
 
             # resample, then rebuild with links of exactly L/n along the resampled directions
             directions = tangents(resample_by_arc_length(rest, n_links + 1))

@@ -15,7 +15,7 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation
 
-from .physics.geometry import as_shape, resample_by_arc_length, shape_length
+from .geometry import as_shape, resample_by_arc_length, shape_length
 
 
 def _check(length: float, n_links: int) -> None:

@@ -23,6 +23,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..cable import Cable
+from ..geometry import as_path
 from ..grippers.axes import CLIP_NAMES
 from ..grippers.path import GripperPath
 from ..io.export import DEFAULT_FRAME_ID, check_frame_id
@@ -34,7 +35,6 @@ from ..io.poses import (
     pose_stamped_from_dict,
 )
 from ..obstacles.shapes import Box, Cylinder, Table
-from ..physics.geometry import as_path
 from ..planning.result import ForceStatistics
 from ..trajectory import ARMS, MotionLimits, Profile, TimeLaw, Trajectory
 

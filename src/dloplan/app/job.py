@@ -15,6 +15,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..cable import Cable
+from ..geometry import resample_by_arc_length
 from ..io.scenario import (
     WORKSPACE,
     Scenario,
@@ -23,7 +24,6 @@ from ..io.scenario import (
     build_obstacles,
     build_shape,
 )
-from ..physics.geometry import resample_by_arc_length
 from ..planning.tuning import PlannerWeights, planner_weights, stiffness_family
 from ..robot.cell import RobotCell
 from ..shapes import discretize

@@ -120,8 +120,8 @@ def summary_lines(doc: PlanDocument) -> list[str]:
 
 def shape_table(doc: PlanDocument):
     """Per-shape rows: length, largest forces, stabilization moves, clip force and moment."""
+    from ..geometry import shape_length
     from ..physics.chain import SpringChain, forces
-    from ..physics.geometry import shape_length
 
     chain = SpringChain.from_cable(doc.cable)
     header = ["shape", "length [mm]", "max |F_axial| [N]", "max |F_bending| [N]"]

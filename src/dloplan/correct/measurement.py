@@ -31,7 +31,7 @@ import math
 import numpy as np
 from scipy.interpolate import make_lsq_spline
 
-from ..physics.geometry import arc_length, as_shape, resample_by_arc_length
+from ..geometry import arc_length, as_shape, resample_by_arc_length
 
 MAX_LENGTH_ERROR = 0.10
 """Largest relative difference between the measured (smoothed) and the cable's length."""

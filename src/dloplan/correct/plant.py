@@ -23,9 +23,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..cable import GRAVITY, Cable
+from ..geometry import as_path, resample_by_arc_length
 from ..grippers import GripperPath
 from ..physics.chain import SpringChain
-from ..physics.geometry import as_path, resample_by_arc_length
 from ..sim import ClipPoses, continuation, interpolate_clips
 from ..sim.statics import force_scale, minimize_energy
 from .measurement import CorrectionRefused

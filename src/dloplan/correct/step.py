@@ -41,9 +41,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
+from ..geometry import as_path
 from ..grippers import GripperPath, relative_twist
 from ..physics.chain import SpringChain
-from ..physics.geometry import as_path
 from ..sim import ClipPoses, continuation, equilibrium
 from ..sim.sensitivity import equilibrium_sensitivity, perturbed_clips
 from ..trajectory import Trajectory, trajectory_from_grippers

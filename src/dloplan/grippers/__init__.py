@@ -5,7 +5,7 @@ and ``clip_to_world`` rotations at every shape, the method used, the relative tw
 clips along the path, and warnings.
 """
 
-from ..physics.geometry import as_path
+from ..geometry import as_path
 from .axes import CLIP_NAMES, clip_axes
 from .methods import (
     as_initial_frames,

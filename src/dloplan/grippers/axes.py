@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..physics.geometry import as_path
+from ..geometry import as_path
 
 CLIP_NAMES = ("first", "last")
 """Names of the two clips, in the order of every (..., 2, ...) clip axis."""

@@ -22,7 +22,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..frames import UP, frame_from_axis, minimal_rotation
-from ..physics.geometry import as_path
+from ..geometry import as_path
 from .axes import CLIP_NAMES, clip_axes
 
 ROTATION_TOLERANCE = 1e-6

@@ -23,7 +23,7 @@ from scipy.spatial.transform import Rotation
 
 from ..cable import Cable
 from ..frames import UP, minimal_rotation
-from ..physics.geometry import as_path
+from ..geometry import as_path
 from ..sim.clips import ClipPoses
 from .axes import CLIP_NAMES, clip_axes
 from .methods import (

@@ -42,10 +42,10 @@ import numpy as np
 from scipy.optimize import brentq
 
 from ..cable import GRAVITY, Cable
+from ..geometry import as_shape, resample_by_arc_length
 from ..obstacles import check_shape
 from ..physics.chain import SpringChain, link_tensions
 from ..physics.contact import contact_gradient
-from ..physics.geometry import as_shape, resample_by_arc_length
 from ..sim.clips import clip_poses_from_shape
 from ..sim.statics import Equilibrium, continuation, equilibrium
 from .board import Board, check_board

@@ -26,9 +26,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
+from ..geometry import resample_by_arc_length
 from ..grippers import GripperPath, gripper_path, relative_twist
 from ..io.rapid import RapidSettings, write_rapid
-from ..physics.geometry import resample_by_arc_length
 from ..planning.result import ForceStatistics, stage_forces
 from ..robot.program import robot_program
 from ..trajectory import (

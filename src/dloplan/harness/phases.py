@@ -35,8 +35,8 @@ from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
 from ..frames import frame_from_axis
+from ..geometry import arc_length, as_shape, resample_by_arc_length
 from ..obstacles import Avoidance, Cylinder, avoid_obstacles, check_path
-from ..physics.geometry import arc_length, as_shape, resample_by_arc_length
 from ..planning import Plan, plan
 from ..shapes import arc_shape
 from ..sim.clips import ClipPoses

@@ -26,7 +26,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
-from ..physics.geometry import resample_by_arc_length
+from ..geometry import resample_by_arc_length
 from ..sim.clips import ClipPoses, clip_poses_from_shape
 from .experiment import Experiment, Manipulation, initial_on
 from .fit import MAX_LOG_SD

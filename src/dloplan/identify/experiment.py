@@ -33,7 +33,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
-from ..physics.geometry import as_shape
+from ..geometry import as_shape
 from ..shapes import LENGTH_TOLERANCE, discretize
 from ..sim.clips import ClipPoses
 from .measured import MeasuredCurve, measured_curve

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import splev, splprep
 
-from ..physics.geometry import arc_length, as_shape, resample_by_arc_length
+from ..geometry import arc_length, as_shape, resample_by_arc_length
 
 SAMPLES = 2001
 """Points at which the smoothing spline is evaluated (the smooth curve's polyline)."""

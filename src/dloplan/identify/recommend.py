@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..cable import Cable
-from ..physics.geometry import resample_by_arc_length
+from ..geometry import resample_by_arc_length
 from .design import (
     bending_manipulation,
     cantilever_manipulation,

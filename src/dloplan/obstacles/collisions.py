@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..cable import GRAVITY, Cable
-from ..physics.geometry import as_shape
+from ..geometry import as_shape
 from ..sim.statics import Equilibrium, stabilize
 
 

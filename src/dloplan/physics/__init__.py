@@ -1,5 +1,15 @@
 """Pure, vectorized energy, force and Hessian kernels of the mass-spring cable model."""
 
+from ..geometry import (
+    arc_length,
+    as_shape,
+    bending_angles,
+    link_lengths,
+    link_vectors,
+    resample_by_arc_length,
+    shape_length,
+    tangents,
+)
 from .chain import (
     Forces,
     SpringChain,
@@ -11,16 +21,6 @@ from .chain import (
     hessian,
     hessian_band,
     link_tensions,
-)
-from .geometry import (
-    arc_length,
-    as_shape,
-    bending_angles,
-    link_lengths,
-    link_vectors,
-    resample_by_arc_length,
-    shape_length,
-    tangents,
 )
 
 __all__ = [

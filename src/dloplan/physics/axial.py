@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import link_vectors, norms
+from ..geometry import link_vectors, norms
 
 
 def axial_energy(x: np.ndarray, k_s: float, rest_lengths: np.ndarray) -> np.ndarray:

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import norms
+from ..geometry import norms
 
 _SERIES_BELOW = 1e-3  # [rad] below this angle the beta0 = 0 ratios use their Taylor series
 _SIN_FLOOR = 1e-12  # clamp of sin(beta) in the cone terms (beta0 != 0) and at beta = pi

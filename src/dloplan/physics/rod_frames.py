@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.polynomial import polynomial as P
 
-from .geometry import tangents
+from ..geometry import tangents
 from .jet import cross_last
 
 _SERIES_BELOW = 1e-2  # 1 - c below which f(c) = beta / sin(beta) uses its series

@@ -33,8 +33,8 @@ import numpy as np
 
 from ..cable import Cable
 from ..frames import frame_from_axis
+from ..geometry import tangents
 from . import jet
-from .geometry import tangents
 from .rod_frames import (
     angle_ratio,
     discrete_twist,

@@ -57,9 +57,9 @@ from scipy.linalg import solve_banded
 from scipy.optimize import minimize
 from scipy.sparse.linalg import splu
 
+from ..geometry import bending_angles, link_lengths
 from ..physics.axial import axial_energy, axial_gradient, axial_hessian_blocks
 from ..physics.bending import bending_derivatives, bending_energy, bending_gradient
-from ..physics.geometry import bending_angles, link_lengths
 from .tuning import AdvancedWeights, BasicWeights
 
 REFERENCE_LINKS = 10

@@ -13,7 +13,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..cable import GRAVITY, Cable
-from ..physics.geometry import shape_length
+from ..geometry import shape_length
 from ..shapes import discretize
 from .geometric import StageStatus, advanced_path, basic_path
 from .physical import PHYSICAL_MODES, physical_stage, preprocess_target, reference_force

@@ -21,13 +21,13 @@ from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
 from ..frames import frame_from_axis, minimal_rotation
-from ..physics.compiled import stretch_to_length
-from ..physics.geometry import (
+from ..geometry import (
     arc_length,
     as_shape,
     resample_by_arc_length,
     shape_length,
 )
+from ..physics.compiled import stretch_to_length
 
 HELD_INDICES = (0, 1, -2, -1)
 """Indices of the four points fixed by the two clips, in the order first-end, first-inner,

@@ -25,8 +25,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from ..cable import GRAVITY, Cable
+from ..geometry import as_shape
 from ..physics.chain import SpringChain, energy, gradient, hessian_band
-from ..physics.geometry import as_shape
 from .clips import HELD_INDICES, ClipPoses, clip_poses_from_shape
 from .newton import factor_band, free_band
 from .result import Equilibrium, equilibrium_result

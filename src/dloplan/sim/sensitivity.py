@@ -44,8 +44,8 @@ from scipy.linalg import lapack
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
+from ..geometry import as_shape, tangents
 from ..physics.chain import SpringChain, gradient_and_hessian_band, hessian
-from ..physics.geometry import as_shape, tangents
 from ..physics.twist import TwistChain, twist_derivatives
 from .clips import HELD_INDICES, ClipPoses
 

@@ -33,6 +33,7 @@ import scipy.sparse as sp
 from scipy.spatial.transform import Rotation, Slerp
 
 from ..cable import GRAVITY, Cable
+from ..geometry import as_shape, norms
 from ..physics.chain import (
     HALF_BANDWIDTH,
     SpringChain,
@@ -43,7 +44,6 @@ from ..physics.chain import (
     shape_derivatives,
     shape_energy,
 )
-from ..physics.geometry import as_shape, norms
 from .clips import ClipPoses, check_clip_reach, clip_poses_from_shape, conform_guess
 from .compiled import CONVERGED, MAX_ITERATIONS, SADDLE, STALLED, newton_positions
 from .dynamics import settle

@@ -31,6 +31,7 @@ from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
 from ..frames import frame_from_axis
+from ..geometry import as_shape, tangents
 from ..physics.chain import (
     HALF_BANDWIDTH,
     Forces,
@@ -39,7 +40,6 @@ from ..physics.chain import (
     shape_energy,
     shape_forces,
 )
-from ..physics.geometry import as_shape, tangents
 from ..physics.rod_frames import (
     discrete_twist,
     parallel_transport,

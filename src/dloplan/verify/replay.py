@@ -43,8 +43,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
+from ..geometry import as_path
 from ..physics.chain import SpringChain, link_tensions
-from ..physics.geometry import as_path
 from ..sim.clips import ClipPoses
 from ..sim.dynamics import ClipTrajectory, Simulation, simulate
 from ..trajectory import TimeLaw, interpolate_poses, sample_times

@@ -22,7 +22,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 
 from ..cable import GRAVITY, Cable
-from ..physics.geometry import as_path
+from ..geometry import as_path
 from ..sim.clips import ClipPoses
 from ._inputs import as_clip_sequence
 from .replay import Replay, replay

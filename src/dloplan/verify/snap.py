@@ -58,8 +58,8 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from ..cable import GRAVITY, Cable
+from ..geometry import as_path
 from ..physics.chain import SpringChain
-from ..physics.geometry import as_path
 from ..sim.clips import ClipPoses
 from ..sim.statics import equilibrium, interpolate_clips
 from ._inputs import as_clip_sequence, max_distance

@@ -47,8 +47,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..cable import GRAVITY, Cable
+from ..geometry import as_path, as_shape
 from ..physics.chain import HALF_BANDWIDTH, SpringChain, gradient, sparse_to_band
-from ..physics.geometry import as_path, as_shape
 from ..sim.newton import factor_band, solve_band
 from ..sim.statics import force_scale, free_hessian
 

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..physics.geometry import arc_length, as_shape, shape_length
+from ..geometry import arc_length, as_shape, shape_length
 from .shapes_io import RegisteredShape
 
 END_ORDERS = ("detect", "keep")

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ..physics.geometry import resample_by_arc_length
+from ..geometry import resample_by_arc_length
 from .calibration import ExtrinsicCalibration
 from .camera import project_normalized
 from .centreline import HsvRange, extract_centreline

@@ -31,8 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..geometry import as_shape
 from ..io.files import atomic_write_text
-from ..physics.geometry import as_shape
 
 SHAPES_FORMAT = "dloplan-shapes"
 CSV_COLUMNS = ("label", "frame_id", "x", "y", "z")
