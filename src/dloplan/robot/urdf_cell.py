@@ -1,0 +1,456 @@
+"""A dual-arm cell built from robot descriptions, and its verification along a plan.
+
+A :class:`DescribedCell` is two :class:`~dloplan.robot.chain.CellArm` s (any serial arms read
+from URDF, each with its base pose, tool and joint limits) and the table they stand on.
+:func:`check_cell_path` verifies a dual-arm TCP path on it as :mod:`dloplan.robot.reachability`
+does for the YuMi: IK at every planned pose, tracked continuously through sub-steps between
+poses (each solve seeded from the previous one), joint margins, arm-arm and arm-table capsule
+clearance at every sub-step, and one verdict row per check, target and arm
+(:class:`VerdictRow`, the fields of the robot program's check rows).
+:func:`search_cell_placement` shifts the job on the table to where the cell executes it best.
+
+Presets (:data:`PRESETS`): ``ur5e_pair`` (two UR5e side by side), ``panda_pair`` (two Franka
+arms with the Franka Hand), ``yumi`` (the ABB YuMi from one description with two chains).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
+
+from .chain import CellArm, capsules, inverse, joint_margin
+from .collision import segment_distance
+from .description import load_arm, vendored
+from .reachability import ReachOptions
+from .yumi import ARMS, DEFAULT_TCP_OFFSET, HOME_DEG
+
+START_RESTARTS = 16
+"""Random restarts of the IK at the first pose (at least; more if ``options.ik`` asks): the one
+solve without a previous solution to follow, where a margin from the limits is wanted."""
+
+CHECKS = ("reach", "joint limits", "continuity", "clearance", "table clearance")
+"""The checks of a cell verdict, in the order of its rows."""
+
+
+@dataclass(frozen=True, eq=False)
+class DescribedCell:
+    """Two arms from descriptions on a table.
+
+    Parameters
+    ----------
+    name : str
+    left, right : CellArm
+        The arms (``name`` ``"left"`` and ``"right"``): the world frame is the plan's frame.
+    table_height : float
+        z of the table top in the world [m]; every moving capsule must stay above it.
+    shared_base : bool
+        Both arms hang on one body (one description with two chains, e.g. the YuMi): the base
+        link's capsules are not checked against each other.
+    """
+
+    name: str
+    left: CellArm
+    right: CellArm
+    table_height: float = 0.0
+    shared_base: bool = False
+
+    def __post_init__(self) -> None:
+        if (self.left.name, self.right.name) != ARMS:
+            raise ValueError(f"arms: expected names {ARMS}, got ({self.left.name!r}, "
+                             f"{self.right.name!r})")
+        if not np.isfinite(self.table_height):
+            raise ValueError(f"table_height: expected a finite number [m], got "
+                             f"{self.table_height!r}")
+
+    @property
+    def arms(self) -> tuple[CellArm, CellArm]:
+        """``(left, right)``."""
+        return (self.left, self.right)
+
+
+@dataclass(frozen=True)
+class VerdictRow:
+    """One line of the verdict table (fields of the robot program's check rows).
+
+    ``check`` is one of :data:`CHECKS`; ``target`` the pose index; ``arm`` ``"left"``,
+    ``"right"`` or ``"both"``; ``value`` in ``unit`` (mm or deg).
+    """
+
+    check: str
+    target: int
+    label: str
+    shape: int
+    arm: str
+    value: float
+    unit: str
+    ok: bool
+    note: str = ""
+
+    def to_dict(self) -> dict:
+        """JSON-ready."""
+        return {"check": self.check, "target": self.target, "label": self.label,
+                "shape": self.shape, "arm": self.arm, "value": float(self.value),
+                "unit": self.unit, "ok": bool(self.ok), "note": self.note}
+
+
+@dataclass(frozen=True, eq=False)
+class CellVerdict:
+    """Verification of a dual-arm TCP path on a :class:`DescribedCell`.
+
+    Attributes
+    ----------
+    joints : tuple of numpy.ndarray
+        Per arm (K, n_arm) the tracked joint solutions [rad] at the K poses (the closest found
+        where not reachable), within the limits.
+    reachable, continuous : numpy.ndarray
+        (K, 2) bool. ``continuous[k]``: the arm followed the straight TCP motion from pose k-1
+        through every sub-step without losing the IK or a joint step above ``max_joint_step``.
+    position_error, angle_error, joint_margin, joint_step, table_clearance : numpy.ndarray
+        (K, 2) [m], [rad], [rad], largest joint step of a sub-step into pose k [rad], lowest
+        capsule surface above the table over the motion into pose k [m].
+    clearance : numpy.ndarray
+        (K,) smallest arm-arm capsule distance [m] over the motion into pose k.
+    motion_times : numpy.ndarray
+        (N,) sub-step parameter (k + fraction) of the tracked motion.
+    motion_joints : tuple of numpy.ndarray
+        Per arm (N, n_arm) the joints [rad] of every sub-step (for a joint trajectory).
+    rows : tuple of VerdictRow
+    """
+
+    joints: tuple[np.ndarray, np.ndarray]
+    reachable: np.ndarray
+    continuous: np.ndarray
+    position_error: np.ndarray
+    angle_error: np.ndarray
+    joint_margin: np.ndarray
+    joint_step: np.ndarray
+    table_clearance: np.ndarray
+    clearance: np.ndarray
+    motion_times: np.ndarray
+    motion_joints: tuple[np.ndarray, np.ndarray]
+    rows: tuple[VerdictRow, ...]
+
+    @property
+    def ok(self) -> bool:
+        """Every row passes."""
+        return all(row.ok for row in self.rows)
+
+    @property
+    def message(self) -> str:
+        """One line: ok with the key numbers, or the first failure of each failing check."""
+        if self.ok:
+            return (f"cell ok: {len(self.clearance)} poses; min clearance "
+                    f"{1e3 * self.clearance.min():.1f} mm, min table clearance "
+                    f"{1e3 * self.table_clearance.min():.1f} mm, min joint margin "
+                    f"{np.degrees(self.joint_margin.min()):.1f} deg")
+        parts = []
+        for name in CHECKS:
+            bad = [row for row in self.rows if row.check == name and not row.ok]
+            if bad:
+                parts.append(f"{name} at {bad[0].label} ({bad[0].arm}: {bad[0].value:.4g} "
+                             f"{bad[0].unit}{'; ' + bad[0].note if bad[0].note else ''})")
+        return "cell FAILS: " + "; ".join(parts)
+
+
+def _pair_clearance(cell: DescribedCell, q_left, q_right) -> np.ndarray:
+    """(...,) smallest arm-arm capsule clearance [m]."""
+    seg_l, rad_l, link_l = capsules(cell.left, q_left)
+    seg_r, rad_r, link_r = capsules(cell.right, q_right)
+    dist = segment_distance(seg_l[..., :, None, 0, :], seg_l[..., :, None, 1, :],
+                            seg_r[..., None, :, 0, :], seg_r[..., None, :, 1, :])
+    gap = dist - rad_l[:, None] - rad_r[None, :]
+    if cell.shared_base:
+        gap = np.where((link_l[:, None] < 0) & (link_r[None, :] < 0), np.inf, gap)
+    return gap.min(axis=(-1, -2))
+
+
+def _table_clearance(cell: DescribedCell, arm: CellArm, q) -> np.ndarray:
+    """(...,) lowest surface of the arm's moving capsules above the table [m]."""
+    seg, rad, link = capsules(arm, q)
+    low = seg[..., 2].min(axis=-1) - rad - cell.table_height
+    return np.where(link >= 0, low, np.inf).min(axis=-1)
+
+
+def _substeps(positions, matrices, k: int, options: ReachOptions) -> int:
+    """Sub-steps of the motion from pose k-1 to k (the larger of both arms' needs)."""
+    dist = np.linalg.norm(positions[k] - positions[k - 1], axis=-1).max()
+    turn = np.einsum("aij,akj->aik", matrices[k], matrices[k - 1])
+    angle = Rotation.from_matrix(turn).magnitude().max()
+    return max(1, int(np.ceil(dist / options.step_length)),
+               int(np.ceil(angle / options.step_angle)))
+
+
+def check_cell_path(cell: DescribedCell, positions, rotations: Rotation, *, seeds=None,
+                    options: ReachOptions | None = None) -> CellVerdict:
+    """Verify a dual-arm TCP path on a cell (module docstring).
+
+    Pose 0 is solved from ``seeds`` (default the arms' home poses) with the random restarts of
+    ``options.ik`` and the wanted ``min_margin``. Between poses both arms move in the same
+    number of sub-steps (at most ``step_length`` [m] and ``step_angle`` [rad] each), the TCP on
+    a straight line with slerped orientation, each IK seeded from the previous sub-step without
+    restarts; a pose the tracking loses is solved afresh (restarts) and marked not continuous.
+
+    Parameters
+    ----------
+    cell : DescribedCell
+    positions : array_like
+        (K, 2, 3) TCP positions [m] in the world, arms in the order (left, right).
+    rotations : scipy.spatial.transform.Rotation
+        (K, 2) ``tcp_to_world``.
+    seeds : sequence of array_like, optional
+        Per arm the (n_arm,) joints [rad] to start pose 0 from.
+    options : ReachOptions, optional
+        ``ik``, ``step_length``, ``step_angle``, ``max_joint_step``, ``min_margin``,
+        ``min_clearance`` are used.
+    """
+    opts = options if options is not None else ReachOptions()
+    pos = np.asarray(positions, dtype=float)
+    if pos.ndim != 3 or pos.shape[1:] != (2, 3) or not np.all(np.isfinite(pos)):
+        raise ValueError(f"positions: expected finite (K, 2, 3) TCP positions [m], got shape "
+                         f"{pos.shape}")
+    if not isinstance(rotations, Rotation) or rotations.single or len(rotations) != pos.size // 3:
+        raise ValueError("rotations: expected a scipy Rotation of shape (K, 2) matching "
+                         "positions")
+    n_poses = len(pos)
+    mats = rotations.as_matrix().reshape(n_poses, 2, 3, 3)
+    seeds = [arm.home for arm in cell.arms] if seeds is None else list(seeds)
+    start_opts = replace(opts.ik, min_margin=opts.min_margin,
+                         restarts=max(opts.ik.restarts, START_RESTARTS))
+    track_opts = replace(opts.ik, restarts=0, min_margin=0.0)
+    shape = (n_poses, 2)
+    reach_ok, cont = np.zeros(shape, bool), np.ones(shape, bool)
+    perr, aerr, step = np.zeros(shape), np.zeros(shape), np.zeros(shape)
+    joints = [np.zeros((n_poses, arm.n_joints)) for arm in cell.arms]
+    motion = [[] for _ in cell.arms]
+    times = []
+    clearance, table = np.full(n_poses, np.inf), np.full(shape, np.inf)
+    for a, arm in enumerate(cell.arms):
+        first = inverse(arm, pos[0, a], Rotation.from_matrix(mats[0, a]), seed=seeds[a],
+                        options=start_opts)
+        joints[a][0] = first.q
+        reach_ok[0, a], perr[0, a], aerr[0, a] = (first.success, first.position_error,
+                                                  first.angle_error)
+        motion[a].append(first.q)
+    times.append(0.0)
+    for k in range(1, n_poses):
+        n_sub = _substeps(pos, mats, k, opts)
+        frac = np.arange(1, n_sub + 1) / n_sub
+        for a, arm in enumerate(cell.arms):
+            sub_rot = Slerp([0.0, 1.0], Rotation.from_matrix(mats[k - 1:k + 1, a]))(frac)
+            q = joints[a][k - 1]
+            lost = not reach_ok[k - 1, a]
+            for s, f in enumerate(frac):
+                target = (1.0 - f) * pos[k - 1, a] + f * pos[k, a]
+                result = inverse(arm, target, sub_rot[s], seed=q, options=track_opts)
+                step[k, a] = max(step[k, a], float(np.max(np.abs(result.q - q))))
+                lost = lost or not result.success
+                q = result.q
+                motion[a].append(q)
+            result_k = result
+            if lost:
+                result_k = inverse(arm, pos[k, a], Rotation.from_matrix(mats[k, a]), seed=q,
+                                   options=start_opts)
+                cont[k, a] = not reach_ok[k - 1, a]  # after an unreachable pose: not a jump
+                motion[a][-1] = result_k.q
+            cont[k, a] &= step[k, a] <= opts.max_joint_step
+            joints[a][k] = result_k.q
+            reach_ok[k, a], perr[k, a], aerr[k, a] = (result_k.success, result_k.position_error,
+                                                      result_k.angle_error)
+        times.extend(k - 1 + frac)
+    motion_q = [np.array(m) for m in motion]
+    times = np.array(times)
+    owner = np.concatenate([[0], np.ceil(times[1:] - 1e-9).astype(int)])
+    sub_clear = _pair_clearance(cell, motion_q[0], motion_q[1])
+    np.minimum.at(clearance, owner, sub_clear)
+    for a, arm in enumerate(cell.arms):
+        np.minimum.at(table[:, a], owner, _table_clearance(cell, arm, motion_q[a]))
+    margin = np.stack([joint_margin(arm, joints[a]) for a, arm in enumerate(cell.arms)], 1)
+    rows = _rows(cell, reach_ok, cont, perr, margin, step, table, clearance, opts)
+    return CellVerdict(tuple(joints), reach_ok, cont, perr, aerr, margin, step, table, clearance,
+                       times, tuple(motion_q), tuple(rows))
+
+
+def _rows(cell, reach_ok, cont, perr, margin, step, table, clearance, opts) -> list[VerdictRow]:
+    rows = []
+    for k in range(len(clearance)):
+        label = f"pose {k}"
+        for a, arm in enumerate(cell.arms):
+            note = "" if reach_ok[k, a] else "IK did not converge"
+            rows.append(VerdictRow("reach", k, label, k, arm.name, 1e3 * perr[k, a], "mm",
+                                   bool(reach_ok[k, a]), note))
+            low = margin[k, a] < opts.min_margin
+            rows.append(VerdictRow("joint limits", k, label, k, arm.name,
+                                   float(np.degrees(margin[k, a])), "deg",
+                                   bool(reach_ok[k, a] and margin[k, a] > 0),
+                                   f"below the wanted {np.degrees(opts.min_margin):.0f} deg"
+                                   if low else ""))
+            rows.append(VerdictRow("continuity", k, label, k, arm.name,
+                                   float(np.degrees(step[k, a])), "deg", bool(cont[k, a]),
+                                   "" if cont[k, a] else "configuration change or IK lost"))
+            rows.append(VerdictRow("table clearance", k, label, k, arm.name,
+                                   1e3 * table[k, a], "mm",
+                                   bool(table[k, a] >= opts.min_clearance)))
+        both = bool(reach_ok[k].all())
+        rows.append(VerdictRow("clearance", k, label, k, "both", 1e3 * clearance[k], "mm",
+                               bool(clearance[k] >= opts.min_clearance or not both)))
+    return rows
+
+
+def search_cell_placement(cell: DescribedCell, positions, rotations: Rotation, *,
+                          offsets=None, options: ReachOptions | None = None):
+    """Shift the job on the table to where the cell executes it best.
+
+    Each candidate offset (a translation of every TCP pose) is scored by IK at the planned
+    poses only (each seeded from the previous pose, no sub-steps): first the number of poses
+    both arms reach, then the smallest arm-arm clearance (capped at 5 cm), then the smallest
+    joint margin. The best candidate is then verified in full with :func:`check_cell_path`.
+
+    Parameters
+    ----------
+    cell : DescribedCell
+    positions, rotations
+        As for :func:`check_cell_path`.
+    offsets : array_like, optional
+        (C, 3) candidate translations [m]; default a grid of +-0.2 m in x and +-0.1 m in y in
+        0.1 m steps (15 candidates).
+
+    Returns
+    -------
+    offset : numpy.ndarray
+        (3,) the best translation [m].
+    verdict : CellVerdict
+        Of the shifted path.
+    """
+    opts = options if options is not None else ReachOptions()
+    pos = np.asarray(positions, dtype=float)
+    if offsets is None:
+        gx, gy = np.meshgrid(np.arange(-0.2, 0.201, 0.1), np.arange(-0.1, 0.101, 0.1))
+        offsets = np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], 1)
+    offsets = np.asarray(offsets, dtype=float).reshape(-1, 3)
+    mats = rotations.as_matrix().reshape(len(pos), 2, 3, 3)
+    quick = replace(opts.ik, restarts=1, min_margin=0.0)
+    best, best_score = None, None
+    for offset in offsets:
+        qs = [[], []]
+        reached = np.ones(len(pos), bool)
+        for a, arm in enumerate(cell.arms):
+            q = arm.home
+            for k in range(len(pos)):
+                result = inverse(arm, pos[k, a] + offset, Rotation.from_matrix(mats[k, a]),
+                                 seed=q, options=quick)
+                reached[k] &= result.success
+                q = result.q
+                qs[a].append(q)
+        q_l, q_r = np.array(qs[0]), np.array(qs[1])
+        clear = float(_pair_clearance(cell, q_l, q_r)[reached].min()) if reached.any() else -1.0
+        margin = min(float(joint_margin(cell.left, q_l).min()),
+                     float(joint_margin(cell.right, q_r).min()))
+        score = (int(reached.sum()), min(clear, 0.05), margin)
+        if best_score is None or score > best_score:
+            best, best_score = offset, score
+    return best, check_cell_path(cell, pos + best, rotations, options=opts)
+
+
+def ur5e_pair(*, separation: float = 0.8, tcp_offset: float = 0.15, tool_radius: float = 0.045,
+              table_height: float = 0.0) -> DescribedCell:
+    """Two UR5e side by side on a table, facing +x.
+
+    The bases stand at ``(0, +-separation/2, table_height)``, each turned by pi about z so its
+    zero pose points along +x; the tool is a gripper ``tcp_offset`` [m] along the flange z
+    (e.g. a Robotiq 2F-85 with coupling, 0.15 m) drawn as a capsule of ``tool_radius``. Home:
+    ``[0, -90, 90, -90, -90, 0]`` deg (elbow up, tool pointing down).
+    """
+    description = load_arm(vendored("ur5e.urdf"), "tool0")
+    home = np.radians([0.0, -90.0, 90.0, -90.0, -90.0, 0.0])
+    turn = Rotation.from_rotvec([0.0, 0.0, np.pi])
+    arms = [CellArm(side, replace(description, name=f"ur5e_{side}"),
+                    base_position=(0.0, sign * separation / 2, table_height), base_rotation=turn,
+                    tcp_offset=(0.0, 0.0, tcp_offset), tool_radius=tool_radius, home=home)
+            for side, sign in zip(ARMS, (1.0, -1.0), strict=True)]
+    return DescribedCell("ur5e_pair", *arms, table_height=table_height)
+
+
+def panda_pair(*, separation: float = 0.8, table_height: float = 0.0) -> DescribedCell:
+    """Two Franka Emika Panda arms with the Franka Hand side by side, facing +x.
+
+    Bases at ``(0, +-separation/2, table_height)``; the TCP is the Franka Hand's (0.1034 m
+    along the hand's z, between the fingertips), the fingers drawn as a 3 cm capsule from the
+    hand to the TCP. Home: Franka's ready pose ``[0, -45, 0, -135, 0, 90, 45]`` deg.
+    """
+    description = load_arm(vendored("panda.urdf"), "panda_hand", base_link="panda_link0")
+    home = np.radians([0.0, -45.0, 0.0, -135.0, 0.0, 90.0, 45.0])
+    arms = [CellArm(side, replace(description, name=f"panda_{side}"),
+                    base_position=(0.0, sign * separation / 2, table_height),
+                    tcp_offset=(0.0, 0.0, 0.1034), tool_radius=0.03, home=home)
+            for side, sign in zip(ARMS, (1.0, -1.0), strict=True)]
+    return DescribedCell("panda_pair", *arms, table_height=table_height)
+
+
+def yumi_cell(*, table_height: float = 0.0) -> DescribedCell:
+    """The ABB YuMi as a description-built cell: both arms from the one ``yumi.urdf`` (body
+    ``yumi_body`` at the world origin), SmartGripper TCP (:data:`~dloplan.robot.yumi.
+    DEFAULT_TCP_OFFSET`; the gripper's capsule is part of the description), ABB's home pose.
+    Gives the FK of :func:`dloplan.robot.yumi.yumi` (tested to 1e-9)."""
+    path = vendored("yumi.urdf")
+    arms = [CellArm(side, load_arm(path, f"yumi_link_7_{side[0]}", base_link="yumi_body",
+                                   name=f"yumi_{side}"),
+                    tcp_offset=DEFAULT_TCP_OFFSET, home=np.radians(HOME_DEG[side]))
+            for side in ARMS]
+    return DescribedCell("yumi", *arms, table_height=table_height, shared_base=True)
+
+
+PRESETS = {"ur5e_pair": ur5e_pair, "panda_pair": panda_pair, "yumi": yumi_cell}
+"""Cell presets by name: a function of keyword settings returning a :class:`DescribedCell`."""
+
+
+@dataclass(frozen=True)
+class ArmSpec:
+    """One arm of a cell given by paths (the scenario's ``robot.cell.arms`` entries).
+
+    Parameters
+    ----------
+    urdf : str
+        Path of the URDF.
+    tip_link : str
+    base_link : str, optional
+    base_position : tuple
+        (3,) [m].
+    base_rpy : tuple
+        (3,) URDF roll-pitch-yaw [rad] of ``base_to_world``.
+    tcp_offset : tuple
+        (3,) [m] in the tip frame.
+    tool_radius : float
+        [m].
+    home : tuple, optional
+        (n,) [rad].
+    """
+
+    urdf: str
+    tip_link: str
+    base_link: str | None = None
+    base_position: tuple = (0.0, 0.0, 0.0)
+    base_rpy: tuple = (0.0, 0.0, 0.0)
+    tcp_offset: tuple = (0.0, 0.0, 0.0)
+    tool_radius: float = 0.0
+    home: tuple | None = None
+    package_dirs: dict = field(default_factory=dict)
+
+
+def cell_from_specs(name: str, left: ArmSpec, right: ArmSpec, *,
+                    table_height: float = 0.0) -> DescribedCell:
+    """A cell from one URDF per arm (or the same URDF with two tip links)."""
+    arms = []
+    for side, spec in zip(ARMS, (left, right), strict=True):
+        description = load_arm(spec.urdf, spec.tip_link, base_link=spec.base_link,
+                               name=f"{name}_{side}", package_dirs=spec.package_dirs)
+        arms.append(CellArm(side, description, base_position=spec.base_position,
+                            base_rotation=Rotation.from_euler("xyz", spec.base_rpy),
+                            tcp_offset=spec.tcp_offset, tool_radius=spec.tool_radius,
+                            home=spec.home))
+    shared = (left.urdf == right.urdf and left.base_link == right.base_link
+              and tuple(left.base_position) == tuple(right.base_position)
+              and tuple(left.base_rpy) == tuple(right.base_rpy))
+    return DescribedCell(name, *arms, table_height=table_height, shared_base=shared)
+
