@@ -137,6 +137,30 @@ class CellArm:
                      + np.linalg.norm(self._tcp_xyz))
 
 
+def in_base_frame(arm: CellArm, positions, rotations: Rotation) -> tuple[np.ndarray, np.ndarray]:
+    """World TCP poses expressed in the arm's base frame (what a controller is given).
+
+    Parameters
+    ----------
+    positions : array_like
+        (..., 3) [m] in the world.
+    rotations : scipy.spatial.transform.Rotation
+        ``tcp_to_world``, of the batch shape of ``positions``.
+
+    Returns
+    -------
+    positions : numpy.ndarray
+        (..., 3) [m] in the base frame.
+    rotvecs : numpy.ndarray
+        (..., 3) ``tcp_to_base`` as rotation vectors [rad] (axis-angle, as URScript's poses).
+    """
+    inv = arm.base_rotation.inv()
+    pos = inv.apply(np.asarray(positions, dtype=float).reshape(-1, 3) - arm.base_position)
+    rot = (inv * Rotation.from_matrix(rotations.as_matrix().reshape(-1, 3, 3))).as_rotvec()
+    shape = np.shape(positions)
+    return pos.reshape(shape), rot.reshape(shape)
+
+
 def link_frames(arm: CellArm, q) -> tuple[np.ndarray, np.ndarray]:
     """World frames of the n links and the TCP.
 
