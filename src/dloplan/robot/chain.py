@@ -18,6 +18,7 @@ from scipy.spatial.transform import Rotation
 
 from .description import ArmDescription
 from .kinematics import LENGTH_SCALE, NULL_FADE, IKOptions, IKResult
+from .yumi import DEFAULT_TCP_IN_CLIP
 
 
 def _vector(value, name: str, size: int) -> np.ndarray:
@@ -49,6 +50,10 @@ class CellArm:
         checks; 0: the description's own geometry covers the tool.
     home : array_like, optional
         (n,) fallback IK seed [rad]; default the middle of the joint ranges.
+    tcp_in_clip : scipy.spatial.transform.Rotation
+        The TCP axes in the clip frame (u, v, w): how the tool holds a clip
+        (default :data:`~dloplan.robot.yumi.DEFAULT_TCP_IN_CLIP`: approach from above, the cable
+        along TCP y, for fingers closing along TCP x).
     """
 
     name: str
@@ -59,6 +64,7 @@ class CellArm:
     tcp_rotation: Rotation = field(default_factory=Rotation.identity)
     tool_radius: float = 0.0
     home: np.ndarray | None = None
+    tcp_in_clip: Rotation = DEFAULT_TCP_IN_CLIP
 
     def __post_init__(self) -> None:
         d = self.description
@@ -67,7 +73,7 @@ class CellArm:
                            _vector(self.base_position, f"{self.name}.base_position", 3))
         object.__setattr__(self, "tcp_offset",
                            _vector(self.tcp_offset, f"{self.name}.tcp_offset", 3))
-        for key in ("base_rotation", "tcp_rotation"):
+        for key in ("base_rotation", "tcp_rotation", "tcp_in_clip"):
             value = getattr(self, key)
             if not isinstance(value, Rotation) or not value.single:
                 raise ValueError(f"{self.name}.{key}: expected a single scipy Rotation, got "

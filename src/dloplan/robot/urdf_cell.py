@@ -16,19 +16,29 @@ arms with the Franka Hand), ``yumi`` (the ABB YuMi from one description with two
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
-from .chain import CellArm, capsules, inverse, joint_margin
+from .chain import CellArm, capsules, in_base_frame, inverse, joint_margin
 from .collision import segment_distance
 from .description import load_arm, vendored
 from .reachability import ReachOptions
-from .yumi import ARMS, DEFAULT_TCP_OFFSET, HOME_DEG
+from .yumi import ARMS, DEFAULT_TCP_IN_CLIP, DEFAULT_TCP_OFFSET, HOME_DEG
 
 START_RESTARTS = 16
 """Random restarts of the IK at the first pose (at least; more if ``options.ik`` asks): the one
 solve without a previous solution to follow, where a margin from the limits is wanted."""
+
+COMFORT_CLEARANCE = 0.05
+"""[m] Arm-arm clearance beyond which the placement search no longer prefers more."""
+
+COMFORT_MARGIN = float(np.radians(30.0))
+"""[rad] Joint margin beyond which the placement search prefers a smaller shift of the job."""
+
+PLACEMENT_TRIES = 3
+"""Best-ranked placements verified in full by :func:`search_cell_placement`."""
 
 CHECKS = ("reach", "joint limits", "continuity", "clearance", "table clearance")
 """The checks of a cell verdict, in the order of its rows."""
@@ -304,8 +314,11 @@ def search_cell_placement(cell: DescribedCell, positions, rotations: Rotation, *
 
     Each candidate offset (a translation of every TCP pose) is scored by IK at the planned
     poses only (each seeded from the previous pose, no sub-steps): first the number of poses
-    both arms reach, then the smallest arm-arm clearance (capped at 5 cm), then the smallest
-    joint margin. The best candidate is then verified in full with :func:`check_cell_path`.
+    both arms reach, then the smallest arm-arm clearance (up to :data:`COMFORT_CLEARANCE`),
+    then the smallest joint margin (up to :data:`COMFORT_MARGIN`), then the smallest shift.
+    The :data:`PLACEMENT_TRIES` best candidates are then verified in full with
+    :func:`check_cell_path` (whose IK may choose other solutions, e.g. another elbow of a
+    7-joint arm) in that order: the first that passes is returned, else the best ranked.
 
     Parameters
     ----------
@@ -331,7 +344,7 @@ def search_cell_placement(cell: DescribedCell, positions, rotations: Rotation, *
     offsets = np.asarray(offsets, dtype=float).reshape(-1, 3)
     mats = rotations.as_matrix().reshape(len(pos), 2, 3, 3)
     quick = replace(opts.ik, restarts=1, min_margin=0.0)
-    best, best_score = None, None
+    scores = []
     for offset in offsets:
         qs = [[], []]
         reached = np.ones(len(pos), bool)
@@ -347,10 +360,16 @@ def search_cell_placement(cell: DescribedCell, positions, rotations: Rotation, *
         clear = float(_pair_clearance(cell, q_l, q_r)[reached].min()) if reached.any() else -1.0
         margin = min(float(joint_margin(cell.left, q_l).min()),
                      float(joint_margin(cell.right, q_r).min()))
-        score = (int(reached.sum()), min(clear, 0.05), margin)
-        if best_score is None or score > best_score:
-            best, best_score = offset, score
-    return best, check_cell_path(cell, pos + best, rotations, options=opts)
+        scores.append((int(reached.sum()), min(clear, COMFORT_CLEARANCE),
+                       min(margin, COMFORT_MARGIN), -float(np.linalg.norm(offset))))
+    ranked = sorted(range(len(offsets)), key=lambda i: scores[i], reverse=True)
+    first = None
+    for i in ranked[:PLACEMENT_TRIES]:
+        verdict = check_cell_path(cell, pos + offsets[i], rotations, options=opts)
+        if verdict.ok:
+            return offsets[i], verdict
+        first = first or (offsets[i], verdict)
+    return first
 
 
 def ur5e_pair(*, separation: float = 0.8, tcp_offset: float = 0.15, tool_radius: float = 0.045,
@@ -372,18 +391,30 @@ def ur5e_pair(*, separation: float = 0.8, tcp_offset: float = 0.15, tool_radius:
     return DescribedCell("ur5e_pair", *arms, table_height=table_height)
 
 
+PANDA_TCP_IN_CLIP = Rotation.from_matrix(np.diag([1.0, -1.0, -1.0]))
+"""TCP axes in the clip frame for the Franka Hand: TCP x = u (the cable), y = -v, z = -w."""
+
+CABLE_ALONG = {"y": DEFAULT_TCP_IN_CLIP, "x": PANDA_TCP_IN_CLIP}
+"""A scenario's ``cable_along`` (the TCP axis the held cable runs along; the gripper approaches
+from above) -> ``tcp_in_clip``: ``y`` for fingers closing along TCP x (YuMi, default), ``x``
+for fingers closing along TCP y (Franka Hand)."""
+
+
 def panda_pair(*, separation: float = 0.8, table_height: float = 0.0) -> DescribedCell:
     """Two Franka Emika Panda arms with the Franka Hand side by side, facing +x.
 
     Bases at ``(0, +-separation/2, table_height)``; the TCP is the Franka Hand's (0.1034 m
     along the hand's z, between the fingertips), the fingers drawn as a 3 cm capsule from the
-    hand to the TCP. Home: Franka's ready pose ``[0, -45, 0, -135, 0, 90, 45]`` deg.
+    hand to the TCP. Home: Franka's ready pose ``[0, -45, 0, -135, 0, 90, 45]`` deg. The
+    hand's fingers close along its y-axis, so it holds a clip with the cable along TCP x and
+    approaches from above (:data:`PANDA_TCP_IN_CLIP`).
     """
     description = load_arm(vendored("panda.urdf"), "panda_hand", base_link="panda_link0")
     home = np.radians([0.0, -45.0, 0.0, -135.0, 0.0, 90.0, 45.0])
     arms = [CellArm(side, replace(description, name=f"panda_{side}"),
                     base_position=(0.0, sign * separation / 2, table_height),
-                    tcp_offset=(0.0, 0.0, 0.1034), tool_radius=0.03, home=home)
+                    tcp_offset=(0.0, 0.0, 0.1034), tool_radius=0.03, home=home,
+                    tcp_in_clip=PANDA_TCP_IN_CLIP)
             for side, sign in zip(ARMS, (1.0, -1.0), strict=True)]
     return DescribedCell("panda_pair", *arms, table_height=table_height)
 
@@ -399,6 +430,80 @@ def yumi_cell(*, table_height: float = 0.0) -> DescribedCell:
                     tcp_offset=DEFAULT_TCP_OFFSET, home=np.radians(HOME_DEG[side]))
             for side in ARMS]
     return DescribedCell("yumi", *arms, table_height=table_height, shared_base=True)
+
+
+@dataclass(frozen=True, eq=False)
+class CellPlan:
+    """A plan's trajectory verified on a cell: what the vendor writers are given.
+
+    Attributes
+    ----------
+    cell : DescribedCell
+    offset : numpy.ndarray
+        (3,) translation [m] of the job found by the placement search (zeros without it).
+    swapped : bool
+        The trajectory's left clip went to the right arm (it lies on the robot's right).
+    times : numpy.ndarray
+        (K,) knot times [s], strictly increasing (knots where no arm moves dropped).
+    positions : numpy.ndarray
+        (K, 2, 3) TCP positions [m] in the world, offset applied.
+    rotations : scipy.spatial.transform.Rotation
+        (K * 2,) ``tcp_to_world``, pose-major (k, arm).
+    verdict : CellVerdict
+    """
+
+    cell: DescribedCell
+    offset: np.ndarray
+    swapped: bool
+    times: np.ndarray
+    positions: np.ndarray
+    rotations: Rotation
+    verdict: CellVerdict
+
+    def base_poses(self) -> tuple[np.ndarray, np.ndarray]:
+        """(K, 2, 3) TCP positions [m] and (K, 2, 3) rotation vectors [rad] in each arm's base
+        frame (URScript's ``p[...]`` poses)."""
+        mats = self.rotations.as_matrix().reshape(-1, 2, 3, 3)
+        pairs = [in_base_frame(arm, self.positions[:, a], Rotation.from_matrix(mats[:, a]))
+                 for a, arm in enumerate(self.cell.arms)]
+        return (np.stack([p for p, _ in pairs], 1), np.stack([r for _, r in pairs], 1))
+
+
+def verify_on_cell(cell: DescribedCell, trajectory, *, tcp_in_clip: Rotation | None = None,
+                   place: bool = True, options: ReachOptions | None = None) -> CellPlan:
+    """Verify a plan's timed clip trajectory on a cell.
+
+    The TCP holds each clip at the clip point with ``clip_to_world * tcp_in_clip`` (default
+    each arm's :attr:`~dloplan.robot.chain.CellArm.tcp_in_clip`); the clip on the robot's
+    left (larger mean y) goes to the left arm; knots where no arm moves are dropped; with
+    ``place`` the job is shifted by :func:`search_cell_placement`, else verified where it is.
+
+    Parameters
+    ----------
+    cell : DescribedCell
+    trajectory : dloplan.trajectory.Trajectory
+        Knot times [s], clip positions (K, 2, 3) [m] and rotations per arm.
+    tcp_in_clip : scipy.spatial.transform.Rotation, optional
+        The same mapping for both arms instead of the arms' own.
+    place : bool
+    options : ReachOptions, optional
+    """
+    times = np.asarray(trajectory.times, dtype=float)
+    keep = np.concatenate([[True], np.diff(times) > 0])
+    pos = np.asarray(trajectory.positions, dtype=float)[keep]
+    mats = np.stack([r.as_matrix() for r in trajectory.rotations], 1)[keep]
+    swapped = bool(pos[:, 0, 1].mean() < pos[:, 1, 1].mean())
+    if swapped:
+        pos, mats = pos[:, ::-1], mats[:, ::-1]
+    mats = np.stack([mats[:, a] @ (tcp_in_clip or arm.tcp_in_clip).as_matrix()
+                     for a, arm in enumerate(cell.arms)], 1)
+    rot = Rotation.from_matrix(mats.reshape(-1, 3, 3))
+    if place:
+        offset, verdict = search_cell_placement(cell, pos, rot, options=options)
+    else:
+        offset, verdict = np.zeros(3), check_cell_path(cell, pos, rot, options=options)
+    return CellPlan(cell, np.asarray(offset, float), swapped, times[keep], pos + offset, rot,
+                    verdict)
 
 
 PRESETS = {"ur5e_pair": ur5e_pair, "panda_pair": panda_pair, "yumi": yumi_cell}
@@ -425,6 +530,10 @@ class ArmSpec:
         [m].
     home : tuple, optional
         (n,) [rad].
+    cable_along : str
+        Key of :data:`CABLE_ALONG`.
+    package_dirs : dict
+        For :func:`~dloplan.robot.description.load_arm`.
     """
 
     urdf: str
@@ -435,7 +544,15 @@ class ArmSpec:
     tcp_offset: tuple = (0.0, 0.0, 0.0)
     tool_radius: float = 0.0
     home: tuple | None = None
+    cable_along: str = "y"
     package_dirs: dict = field(default_factory=dict)
+
+
+def _cable_along(value, side: str) -> Rotation:
+    if value not in CABLE_ALONG:
+        raise ValueError(f"robot.cell.arms.{side}.cable_along: got {value!r}, expected one of "
+                         f"{sorted(CABLE_ALONG)}")
+    return CABLE_ALONG[value]
 
 
 def cell_from_specs(name: str, left: ArmSpec, right: ArmSpec, *,
@@ -448,9 +565,65 @@ def cell_from_specs(name: str, left: ArmSpec, right: ArmSpec, *,
         arms.append(CellArm(side, description, base_position=spec.base_position,
                             base_rotation=Rotation.from_euler("xyz", spec.base_rpy),
                             tcp_offset=spec.tcp_offset, tool_radius=spec.tool_radius,
-                            home=spec.home))
+                            home=spec.home, tcp_in_clip=_cable_along(spec.cable_along, side)))
     shared = (left.urdf == right.urdf and left.base_link == right.base_link
               and tuple(left.base_position) == tuple(right.base_position)
               and tuple(left.base_rpy) == tuple(right.base_rpy))
     return DescribedCell(name, *arms, table_height=table_height, shared_base=shared)
 
+
+
+ARM_KEYS = {"urdf", "tip_link", "base_link", "base_position", "base_rpy", "tcp_offset",
+            "tool_radius", "home_deg", "cable_along"}
+"""Keys of one arm in a scenario's ``robot.cell.arms`` (angles in degrees, lengths in m)."""
+
+
+def cell_from_mapping(data: dict, folder=".") -> DescribedCell:
+    """The cell of a scenario's ``robot.cell`` section (proposed syntax, ``docs/cells.md``).
+
+    Either ``{preset: name, <keyword settings of the preset>}`` or ``{arms: {left: {...},
+    right: {...}}, table_height: h}`` with per arm the keys of :data:`ARM_KEYS` (``urdf``
+    relative to ``folder``; ``base_rpy`` and ``home_deg`` in degrees).
+
+    Raises
+    ------
+    ValueError
+        Naming the field, the value and what was expected.
+    """
+    if not isinstance(data, dict):
+        raise ValueError(f"robot.cell: expected a mapping, got {data!r}")
+    if "preset" in data:
+        settings = {k: v for k, v in data.items() if k != "preset"}
+        if data["preset"] not in PRESETS:
+            raise ValueError(f"robot.cell.preset: got {data['preset']!r}, expected one of "
+                             f"{sorted(PRESETS)}")
+        try:
+            return PRESETS[data["preset"]](**settings)
+        except TypeError as exc:
+            raise ValueError(f"robot.cell: settings {sorted(settings)} of preset "
+                             f"{data['preset']!r}: {exc}") from exc
+    arms = data.get("arms")
+    if not isinstance(arms, dict) or set(arms) != set(ARMS):
+        raise ValueError(f"robot.cell: expected `preset` or `arms` with keys {ARMS}, got "
+                         f"{sorted(data)}")
+    unknown = set(data) - {"arms", "table_height", "name"}
+    if unknown:
+        raise ValueError(f"robot.cell: unknown keys {sorted(unknown)}")
+    specs = []
+    for side in ARMS:
+        arm = arms[side]
+        extra = set(arm) - ARM_KEYS
+        if extra or not {"urdf", "tip_link"} <= set(arm):
+            raise ValueError(f"robot.cell.arms.{side}: got keys {sorted(arm)}, expected "
+                             f"urdf, tip_link and some of {sorted(ARM_KEYS)}")
+        urdf = Path(folder) / arm["urdf"]
+        home = arm.get("home_deg")
+        specs.append(ArmSpec(str(urdf), arm["tip_link"], arm.get("base_link"),
+                             tuple(arm.get("base_position", (0.0, 0.0, 0.0))),
+                             tuple(np.radians(arm.get("base_rpy", (0.0, 0.0, 0.0)))),
+                             tuple(arm.get("tcp_offset", (0.0, 0.0, 0.0))),
+                             float(arm.get("tool_radius", 0.0)),
+                             None if home is None else tuple(np.radians(home)),
+                             arm.get("cable_along", "y")))
+    return cell_from_specs(str(data.get("name", "cell")), *specs,
+                           table_height=float(data.get("table_height", 0.0)))
