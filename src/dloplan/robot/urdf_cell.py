@@ -15,6 +15,7 @@ arms with the Franka Hand), ``yumi`` (the ABB YuMi from one description with two
 
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -597,11 +598,12 @@ def cell_from_mapping(data: dict, folder=".") -> DescribedCell:
         if data["preset"] not in PRESETS:
             raise ValueError(f"robot.cell.preset: got {data['preset']!r}, expected one of "
                              f"{sorted(PRESETS)}")
-        try:
-            return PRESETS[data["preset"]](**settings)
-        except TypeError as exc:
-            raise ValueError(f"robot.cell: settings {sorted(settings)} of preset "
-                             f"{data['preset']!r}: {exc}") from exc
+        make = PRESETS[data["preset"]]
+        allowed = set(inspect.signature(make).parameters)
+        if set(settings) - allowed:
+            raise ValueError(f"robot.cell: got {sorted(set(settings) - allowed)} for preset "
+                             f"{data['preset']!r}, expected some of {sorted(allowed)}")
+        return make(**settings)
     arms = data.get("arms")
     if not isinstance(arms, dict) or set(arms) != set(ARMS):
         raise ValueError(f"robot.cell: expected `preset` or `arms` with keys {ARMS}, got "
