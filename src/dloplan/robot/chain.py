@@ -20,6 +20,14 @@ from .description import ArmDescription
 from .kinematics import LENGTH_SCALE, NULL_FADE, IKOptions, IKResult
 from .yumi import DEFAULT_TCP_IN_CLIP
 
+STALL_WINDOW = 10
+"""Iterations over which a solve must make progress ..."""
+
+STALL_RATIO = 0.99
+"""... shrinking the weighted error (position + 0.1 m/rad x angle) below this fraction of its
+value STALL_WINDOW iterations before; else the seed is given up (stuck at a limit or in a
+local minimum: the next seed is tried rather than spending the remaining iterations)."""
+
 
 def _vector(value, name: str, size: int) -> np.ndarray:
     arr = np.asarray(value, dtype=float)
@@ -350,7 +358,8 @@ def rotation_vector(matrix: np.ndarray) -> np.ndarray:
 
 
 def _solve(arm: CellArm, position, target, seed, opts: IKOptions):
-    """Damped least squares from one seed: (q, position error, angle error, iterations, ok)."""
+    """Damped least squares from one seed: (q, position error, angle error, iterations, ok);
+    stops when the error stalls (:data:`STALL_WINDOW`, :data:`STALL_RATIO`)."""
     n = arm.n_joints
     q = np.clip(seed, arm.lower, arm.upper)
     eye = np.eye(n)
@@ -358,6 +367,7 @@ def _solve(arm: CellArm, position, target, seed, opts: IKOptions):
     mid = 0.5 * (arm.lower + arm.upper)
     half = np.minimum(0.5 * (arm.upper - arm.lower), np.pi)
     redundant = n > 6 and opts.null_gain > 0
+    history = []
     for it in range(opts.max_iterations + 1):
         rot, pos = link_frames(arm, q)
         dp = position - pos[-1]
@@ -365,7 +375,9 @@ def _solve(arm: CellArm, position, target, seed, opts: IKOptions):
         perr, aerr = float(np.linalg.norm(dp)), float(np.linalg.norm(dtheta))
         if perr <= opts.position_tolerance and aerr <= opts.angle_tolerance:
             return q, perr, aerr, it, True
-        if it == opts.max_iterations:
+        history.append(perr + LENGTH_SCALE * aerr)
+        if it == opts.max_iterations or (
+                it >= STALL_WINDOW and history[-1] > STALL_RATIO * history[-1 - STALL_WINDOW]):
             break
         jac = _jacobian(arm, rot, pos) * weight[:, None]
         err = np.concatenate([dp, LENGTH_SCALE * dtheta])
