@@ -8,10 +8,14 @@ search with full checks (search_cell_placement).
 
 Run: PYTHONPATH=src python benchmarks/bench_cells.py
 
-Today's numbers (2 shared cores under heavy load, best of 2 runs; ms per pose, s per plan):
-  ur5e_pair   IK seeded ~4-8 ms/pose, from home ~100-200 ms; path 0.2-0.4 s; placement 3-10 s
-  panda_pair  IK seeded ~5-10 ms/pose, from home ~100-250 ms; path 0.3-0.6 s; placement 5-15 s
-  yumi        IK seeded ~5-15 ms/pose, from home ~200-400 ms; path 1-3 s (fails honestly)
+Today's numbers (2 cores shared by ~6 agents, load average ~15; best of 2 runs):
+  ur5e_pair   IK seeded  6.0 ms/pose (3.6 it.), from home 54 ms (98 %); 8-pose path 0.11 s;
+              placement 1.1 s
+  panda_pair  IK seeded 17.0 ms/pose (12.5 it.), from home 99 ms (95 %); 8-pose path 0.13 s;
+              placement 1.4 s
+  yumi        IK seeded  4.4 ms/pose (3.3 it.), from home 67 ms (100 %); 8-pose path 0.80 s
+              (fails: the right arm meets a joint limit at pose 3); placement 2.2 s (passes)
+Before the stall stop of the IK (same session): from home 222 / 262 / 283 ms per pose.
 No cell other than the YuMi existed before (bench_robot.py times the YuMi-specific solver).
 """
 
