@@ -26,6 +26,7 @@ from dloplan.robot.urdf_cell import (
     ArmSpec,
     cell_from_specs,
     check_cell_path,
+    pair_clearance,
     search_cell_placement,
     ur5e_pair,
     yumi_cell,
@@ -129,7 +130,7 @@ def test_yumi_from_its_description_equals_robot_yumi():
         np.testing.assert_allclose(p1, p0, atol=1e-9)
         np.testing.assert_allclose(r1.as_matrix(), r0.as_matrix(), atol=1e-9)
     expected, _ = arm_clearance(robot.left, q["left"], robot.right, q["right"])
-    got = check_cell_path.__globals__["_pair_clearance"](described, q["left"], q["right"])
+    got = pair_clearance(described, q["left"], q["right"])
     np.testing.assert_allclose(got, expected, atol=1e-9)
 
 

@@ -305,31 +305,26 @@ def inverse(arm: CellArm, position, rotation: Rotation, seed=None,
                         f"out of reach: TCP target {shoulder:.3f} m from the shoulder, the arm "
                         f"reaches at most {arm.reach:.3f} m")
     rng = rng if rng is not None else np.random.default_rng(0)
-    starts = [seed, arm.home]
-    converged = None
-    closest = None
-    total = 0
-    for tried in range(1, 3 + opts.restarts):
-        start = starts[tried - 1] if tried <= 2 else rng.uniform(arm.lower, arm.upper)
-        q, perr, aerr, its, ok = _solve(arm, position, target, start, opts)
-        total += its
+    solves = []  # (q, position error, angle error, iterations, converged, margin)
+    for tried in range(2 + opts.restarts):
+        start = (seed, arm.home)[tried] if tried < 2 else rng.uniform(arm.lower, arm.upper)
+        solves.append((*_solve(arm, position, target, start, opts), 0.0))
+        q, ok = solves[-1][0], solves[-1][4]
         if ok:
-            margin = float(joint_margin(arm, q))
-            if converged is None or margin > converged[0]:
-                converged = (margin, q, perr, aerr)
-            if margin >= opts.min_margin:
+            solves[-1] = solves[-1][:5] + (float(joint_margin(arm, q)),)
+            if solves[-1][5] >= opts.min_margin:
                 break
-        elif closest is None or perr + LENGTH_SCALE * aerr < closest[0]:
-            closest = (perr + LENGTH_SCALE * aerr, q, perr, aerr)
-    if converged is not None:
-        margin, q, perr, aerr = converged
+    total = sum(s[3] for s in solves)
+    good = [s for s in solves if s[4]]
+    if good:
+        q, perr, aerr, _, _, margin = max(good, key=lambda s: s[5])
         note = "converged" if margin >= opts.min_margin else (
             f"converged, {np.degrees(margin):.1f} deg from a joint limit")
-        return IKResult(q, True, perr, aerr, total, tried, note)
-    _, q, perr, aerr = closest
-    return IKResult(q, False, perr, aerr, total, tried,
-                    f"not converged from {tried} seeds: position error {perr * 1e3:.2f} mm, "
-                    f"orientation error {np.degrees(aerr):.2f} deg")
+        return IKResult(q, True, perr, aerr, total, len(solves), note)
+    q, perr, aerr, *_ = min(solves, key=lambda s: s[1] + LENGTH_SCALE * s[2])
+    return IKResult(q, False, perr, aerr, total, len(solves),
+                    f"not converged from {len(solves)} seeds: position error "
+                    f"{perr * 1e3:.2f} mm, orientation error {np.degrees(aerr):.2f} deg")
 
 
 def rotation_vector(matrix: np.ndarray) -> np.ndarray:

@@ -165,8 +165,14 @@ class CellVerdict:
         return "cell FAILS: " + "; ".join(parts)
 
 
-def _pair_clearance(cell: DescribedCell, q_left, q_right) -> np.ndarray:
-    """(...,) smallest arm-arm capsule clearance [m]."""
+def pair_clearance(cell: DescribedCell, q_left, q_right) -> np.ndarray:
+    """Smallest arm-arm capsule clearance [m], (...,), negative when they overlap.
+
+    Parameters
+    ----------
+    q_left, q_right : array_like
+        (..., n_arm) joint values [rad] of each arm, same batch shape.
+    """
     seg_l, rad_l, link_l = capsules(cell.left, q_left)
     seg_r, rad_r, link_r = capsules(cell.right, q_right)
     dist = segment_distance(seg_l[..., :, None, 0, :], seg_l[..., :, None, 1, :],
@@ -273,7 +279,7 @@ def check_cell_path(cell: DescribedCell, positions, rotations: Rotation, *, seed
     motion_q = [np.array(m) for m in motion]
     times = np.array(times)
     owner = np.concatenate([[0], np.ceil(times[1:] - 1e-9).astype(int)])
-    sub_clear = _pair_clearance(cell, motion_q[0], motion_q[1])
+    sub_clear = pair_clearance(cell, motion_q[0], motion_q[1])
     np.minimum.at(clearance, owner, sub_clear)
     for a, arm in enumerate(cell.arms):
         np.minimum.at(table[:, a], owner, _table_clearance(cell, arm, motion_q[a]))
@@ -358,7 +364,7 @@ def search_cell_placement(cell: DescribedCell, positions, rotations: Rotation, *
                 q = result.q
                 qs[a].append(q)
         q_l, q_r = np.array(qs[0]), np.array(qs[1])
-        clear = float(_pair_clearance(cell, q_l, q_r)[reached].min()) if reached.any() else -1.0
+        clear = float(pair_clearance(cell, q_l, q_r)[reached].min()) if reached.any() else -1.0
         margin = min(float(joint_margin(cell.left, q_l).min()),
                      float(joint_margin(cell.right, q_r).min()))
         scores.append((int(reached.sum()), min(clear, COMFORT_CLEARANCE),
