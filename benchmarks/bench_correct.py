@@ -1,0 +1,122 @@
+"""Closed-loop shape correction (issue 22): its time, and what one correction buys.
+
+Part 1: the time of one correction (`correct_plan`, target mode, until the corrected trajectory is
+ready; the predictions that follow are timed apart) for a model of n = 20, 50, 100 links, on the
+demo plan (8 shapes) measured at mid-path (shape 3) with a cable of twice the modulus, 1 mm noise,
+200 points. Best of 3. The count of equilibrium solves is machine-independent: each costs a few
+Newton iterations of the statics kernels.
+
+Part 2: the plant (n = 100; E x0.5 and x2, 1 mm noise) running the n = 20 plans of the demo and
+of the 3D Ethernet example open loop and corrected once at mid-path (the tests' scenarios), plus
+corrected twice (mid-path and before the target). Mean error of the final shape against the
+plan's stabilized target, in mm.
+
+Numbers of 2026-11-30 (2 cores shared with other jobs, pure-numpy kernels; best of two runs):
+
+    correction [ms]: n = 20: 149, n = 50: 139, n = 100: 152 (+ 180-250 ms of predictions);
+                     4 Levenberg-Marquardt iterations, 2 modulus steps (target: well under 50 ms)
+    demo x0.5: 6.06 -> 4.06 mm; demo x2: 18.20 -> 2.87 mm;
+    3D x0.5: 1.73 -> 1.12 mm;   3D x2: 4.84 -> 1.15 mm
+    (corrected twice, at 3 and 6: 4.09, 2.89, 1.13, 1.15 mm: no better)
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+import dloplan.data
+from dloplan.app import read_plan
+from dloplan.cli import main as dloplan_main
+from dloplan.correct import Plant, correct_plan, run_closed_loop
+from dloplan.grippers import gripper_path
+from dloplan.physics.geometry import as_path, resample_by_arc_length
+from dloplan.sim import equilibrium
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIOS = {"demo": Path(dloplan.data.__file__).parent / "demo.yaml",
+             "3D ethernet": ROOT / "examples" / "qualitative2_ethernet_3d.yaml"}
+
+
+def plan_with_links(source: Path, n_links: int, folder: Path):
+    data = yaml.safe_load(source.read_text(encoding="utf-8"))
+    data["cable"]["n_links"] = n_links
+    data["outputs"] = ["json"]
+    scenario = folder / f"{source.stem}_{n_links}.yaml"
+    scenario.write_text(yaml.safe_dump(data), encoding="utf-8")
+    out = folder / scenario.stem
+    with contextlib.redirect_stdout(io.StringIO()):
+        dloplan_main(["plan", str(scenario), "-o", str(out), "-q"])
+    return read_plan(out / "plan.json")
+
+
+def refined(doc, n_links: int):
+    """The plan's shapes on n links, their clip poses and stabilized shapes."""
+    cable = doc.cable.with_links(n_links)
+    shapes = as_path(np.stack([resample_by_arc_length(s, n_links + 1) for s in doc.shapes]))
+    grippers = gripper_path(shapes, method=doc.grippers.method, cable=cable)
+    stable = np.stack([equilibrium(cable, s, grippers.clip_poses(j)).shape
+                       for j, s in enumerate(shapes)])
+    return cable, shapes, grippers, stable
+
+
+def part1(doc) -> None:
+    print("Part 1: time of one correction (target mode; demo at shape 3, E x2, 1 mm noise)")
+    print(f"{'n':>4} {'correction [ms]':>16} {'predictions [ms]':>17} {'LM its':>7} "
+          f"{'E steps':>8}")
+    rng = np.random.default_rng(0)
+    for n in (20, 50, 100):
+        cable, shapes, grippers, stable = refined(doc, n)
+        truth = equilibrium(cable.with_modulus(2 * cable.youngs_modulus), stable[3],
+                            grippers.clip_poses(3)).shape
+        measured = resample_by_arc_length(truth, 200) + rng.normal(scale=1e-3, size=(200, 3))
+        result = min((correct_plan(cable, shapes, grippers, 3, measured, stabilized=stable)
+                      for _ in range(3)), key=lambda r: r.seconds)
+        print(f"{n:>4} {1e3 * result.seconds:>16.0f} {1e3 * result.prediction_seconds:>17.0f} "
+              f"{result.iterations:>7} {result.model.steps:>8}")
+
+
+def part2(docs) -> None:
+    print("\nPart 2: the plant (n = 100, 1 mm noise, 200 points) on the n = 20 plans; final mean "
+          "error [mm]")
+    print(f"{'plan':>12} {'plant':>22} {'checkpoints':>12} {'open loop':>10} {'closed':>8} "
+          f"{'ratio':>6} {'E model -> updated [Pa]':>25}")
+    for name, doc in docs.items():
+        cable = doc.cable
+        last = len(doc.shapes) - 1
+        stable = doc.stabilized
+        cases = [
+            ("E x0.5", cable.with_links(100).with_modulus(0.5 * cable.youngs_modulus),
+             [last // 2]),
+            ("E x2", cable.with_links(100).with_modulus(2 * cable.youngs_modulus), [last // 2]),
+            ("E x0.5", cable.with_links(100).with_modulus(0.5 * cable.youngs_modulus),
+             [last // 2, last - 1]),
+            ("E x2", cable.with_links(100).with_modulus(2 * cable.youngs_modulus),
+             [last // 2, last - 1]),
+        ]
+        for label, plant_cable, checks in cases:
+            plant = Plant(plant_cable, noise=1e-3, n_measured=200, seed=1)
+            run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, checks,
+                                  stabilized=stable, trajectory=doc.trajectory)
+            e = (f"{cable.youngs_modulus:.3g} -> {run.corrections[-1].model.youngs_modulus:.3g}"
+                 if run.corrections else "refused: " + "; ".join(run.refusals)[:60])
+            print(f"{name:>12} {label:>22} {','.join(map(str, checks)):>12} "
+                  f"{1e3 * run.open_loop_error:>10.2f} {1e3 * run.closed_loop_error:>8.2f} "
+                  f"{run.improvement:>6.1f} {e:>25}")
+
+
+def main() -> None:
+    with tempfile.TemporaryDirectory() as folder:
+        docs = {name: plan_with_links(path, 20, Path(folder)) for name, path in SCENARIOS.items()}
+    part1(docs["demo"])
+    part2(docs)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,148 @@
+"""A measured cable shape, checked and resampled onto the model's points.
+
+A measurement is any number of points ordered along the cable from the first clip's end to the
+last clip's (a registered shape, :mod:`dloplan.vision.shapes_io`), in the plan's frame, with
+noise. The model compares shapes point by point, so the measurement is resampled to the model's
+n + 1 points equally spaced in arc length -- but not on the raw polyline: noise of standard
+deviation sigma on points a spacing h apart lengthens each segment by about sigma^2 / h, so a
+dense noisy polyline is much longer than the cable (1 mm noise on points 2 mm apart: +25 %).
+Each coordinate is therefore first fitted by a least-squares cubic spline
+(:func:`scipy.interpolate.make_lsq_spline`) over the points' positions along the predicted shape
+(their projections: the chord length of noisy points is no good parameter either), with as many
+uniform knot spans as the model has links but at most one per :data:`POINTS_PER_SPAN` points
+(the fit averages the noise over them), and the smooth curve is resampled. A measurement of
+fewer than 4 points is used as a polyline.
+
+A measurement that disagrees wildly with the model is refused (:class:`CorrectionRefused`), with
+the reason, rather than used:
+
+* its points run the wrong way or are not ordered along the cable: their positions projected
+  onto the predicted shape must grow with their index (correlation >= :data:`MIN_ORDER`);
+* another cable: the smoothed length differs from the cable's by more than
+  :data:`MAX_LENGTH_ERROR`;
+* another shape altogether: the mean distance to the predicted shape exceeds
+  ``max_disagreement`` (default :data:`MAX_DISAGREEMENT` cable lengths).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.interpolate import make_lsq_spline
+
+from ..physics.geometry import arc_length, as_shape, resample_by_arc_length
+
+MAX_LENGTH_ERROR = 0.10
+"""Largest relative difference between the measured (smoothed) and the cable's length."""
+
+MIN_ORDER = 0.9
+"""Smallest correlation between the points' index and their position along the prediction."""
+
+MAX_DISAGREEMENT = 0.25
+"""Largest mean distance between measured and predicted shape, in cable lengths."""
+
+DENSE = 20
+"""The smooth curve is evaluated at DENSE points per model link before resampling."""
+
+POINTS_PER_SPAN = 4
+"""Fewest measured points per knot span of the smoothing spline."""
+
+
+class CorrectionRefused(ValueError):
+    """A measurement or a correction outside the documented limits; the message says why."""
+
+
+def positions_along(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:
+    """Arc length [m] of the point of ``polyline`` nearest to each of ``points``, (k,)."""
+    a, b = polyline[:-1], polyline[1:]
+    ab = b - a
+    t = np.einsum("kij,ij->ki", points[:, None, :] - a[None], ab) / np.einsum("ij,ij->i", ab, ab)
+    t = np.clip(t, 0.0, 1.0)
+    nearest = a[None] + t[..., None] * ab[None]
+    d = np.linalg.norm(points[:, None, :] - nearest, axis=-1)
+    segment = np.argmin(d, axis=1)
+    s = arc_length(polyline)
+    rows = np.arange(len(points))
+    return s[segment] + t[rows, segment] * np.linalg.norm(ab[segment], axis=1)
+
+
+def smooth_polyline(points: np.ndarray, along: np.ndarray, n_spans: int,
+                    n_dense: int) -> np.ndarray:
+    """The points' least-squares cubic spline over the parameter ``along``, (n_dense, 3) [m].
+
+    ``along`` (k,) is the points' position along a nearby curve [m] (their chord length would
+    be inflated by noise, non-uniformly). At most ``n_spans`` uniform knot spans, and at least
+    :data:`POINTS_PER_SPAN` points per span; with too few points for one cubic span, the
+    polyline itself.
+    """
+    steps = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    keep = np.r_[True, steps > 0.0]
+    spans = min(n_spans, int(keep.sum()) // POINTS_PER_SPAN)
+    if spans < 1 or keep.sum() < 4:
+        x = points[keep]
+        u = np.r_[0.0, np.cumsum(steps[steps > 0.0])]
+        grid = np.linspace(0.0, u[-1], n_dense)
+        return np.stack([np.interp(grid, u, x[:, k]) for k in range(3)], axis=1)
+    order = np.argsort(along, kind="stable")
+    u, x = along[order], points[order]
+    knots = np.r_[[u[0]] * 3, np.linspace(u[0], u[-1], spans + 1), [u[-1]] * 3]
+    return make_lsq_spline(u, x, knots, k=3)(np.linspace(u[0], u[-1], n_dense))
+
+
+def resample_measured(points, predicted: np.ndarray, cable_length: float, *,
+                      max_disagreement: float = MAX_DISAGREEMENT) -> np.ndarray:
+    """Check a measured shape against the model's prediction and resample it onto its points.
+
+    Parameters
+    ----------
+    points : array_like
+        (k, 3) measured points [m], k >= 2, ordered from the first clip's end to the last's.
+    predicted : numpy.ndarray
+        (n + 1, 3) the model's shape at the same clip poses [m].
+    cable_length : float
+        L [m].
+    max_disagreement : float
+        Largest mean point distance to the prediction, in cable lengths.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n + 1, 3) the measured shape at the model's points, equally spaced in arc length.
+
+    Raises
+    ------
+    CorrectionRefused
+        For a measurement in the wrong order, of another length or far from the prediction.
+    ValueError
+        For malformed points (fewer than 2, not 3D, non-finite).
+    """
+    x = as_shape(points, name="measured")
+    n_points = len(predicted)
+    s = positions_along(x, predicted)
+    if len(x) >= 3:
+        order = float(np.corrcoef(np.arange(len(x)), s)[0, 1]) if np.ptp(s) > 0 else 0.0
+        if not order >= MIN_ORDER:
+            how = ("run from the last clip to the first (reverse them)" if order <= -MIN_ORDER
+                   else "are not ordered along the cable")
+            raise CorrectionRefused(
+                f"measured: the {len(x)} points {how}: the correlation of their index with their "
+                f"position along the predicted shape is {order:.2f}, expected >= {MIN_ORDER}"
+            )
+    smooth = smooth_polyline(x, s, n_points - 1, DENSE * n_points)
+    length = float(arc_length(smooth)[-1])
+    if not abs(length / cable_length - 1.0) <= MAX_LENGTH_ERROR:
+        raise CorrectionRefused(
+            f"measured: the shape is {1e3 * length:.0f} mm long (smoothed) but the cable is "
+            f"{1e3 * cable_length:.0f} mm: another cable, or a partial measurement (limit "
+            f"{100 * MAX_LENGTH_ERROR:.0f} %)"
+        )
+    shape = resample_by_arc_length(smooth, n_points)
+    mean = float(np.mean(np.linalg.norm(shape - predicted, axis=1)))
+    if not (math.isfinite(mean) and mean <= max_disagreement * cable_length):
+        raise CorrectionRefused(
+            f"measured: the shape is on average {1e3 * mean:.0f} mm from the model's prediction "
+            f"(limit {1e3 * max_disagreement * cable_length:.0f} mm = {max_disagreement:g} cable "
+            "lengths): the cable is not where the plan has it"
+        )
+    return shape

@@ -1,0 +1,129 @@
+"""Closed-loop success probability: many mismatched cables, open loop against corrected.
+
+A robustness study (:mod:`dloplan.study`) samples cables around the nominal one; for each sampled
+cable :func:`closed_loop_sample` runs the plan on it as a plant (:func:`~.plant.run_closed_loop`)
+and returns one row, and :func:`closed_loop_success` turns the rows into the probability that
+the final shape ends within a tolerance of the target, open loop and with the corrections, with
+binomial confidence intervals (:func:`dloplan.study.summary.success_interval`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from ..cable import GRAVITY, Cable
+from ..grippers import GripperPath
+from ..study.summary import success_interval
+from .plant import Plant, run_closed_loop
+
+SAMPLE_COLUMNS = {
+    "open_loop_error": "m",
+    "closed_loop_error": "m",
+    "corrections": "",
+    "youngs_modulus_estimate": "Pa",
+    "refusal": "",
+}
+"""The columns of a :func:`closed_loop_sample` row and their units."""
+
+
+def closed_loop_sample(
+    cable: Cable,
+    shapes,
+    grippers: GripperPath,
+    plant_cable: Cable,
+    checkpoints: Sequence[int],
+    *,
+    noise: float = 1e-3,
+    n_measured: int = 200,
+    seed: int = 0,
+    stabilized=None,
+    trajectory=None,
+    gravity=GRAVITY,
+    **options,
+) -> dict:
+    """One sampled cable run open loop and corrected at ``checkpoints``: one row.
+
+    Parameters
+    ----------
+    cable : Cable
+        The plan's model cable.
+    shapes, grippers, stabilized, trajectory
+        The plan (see :func:`~.step.correct_plan`).
+    plant_cable : Cable
+        The sampled real cable.
+    checkpoints : sequence of int
+        Shapes after which it is measured and the plan corrected.
+    noise, n_measured, seed
+        The measurement (see :class:`~.plant.Plant`).
+    **options
+        Passed to :func:`~.step.correct_plan`.
+
+    Returns
+    -------
+    dict
+        :data:`SAMPLE_COLUMNS`: the final mean errors [m], the number of corrections applied,
+        the last updated E [Pa] (NaN without correction) and the refusals' reasons.
+    """
+    run = run_closed_loop(Plant(plant_cable, noise=noise, n_measured=n_measured, seed=seed),
+                          cable, shapes, grippers, checkpoints, stabilized=stabilized,
+                          trajectory=trajectory, gravity=gravity, **options)
+    return {
+        "open_loop_error": run.open_loop_error,
+        "closed_loop_error": run.closed_loop_error,
+        "corrections": len(run.corrections),
+        "youngs_modulus_estimate": run.corrections[-1].model.youngs_modulus
+        if run.corrections else math.nan,
+        "refusal": "; ".join(run.refusals),
+    }
+
+
+@dataclass(frozen=True)
+class ClosedLoopSuccess:
+    """Success probabilities of :func:`closed_loop_success`.
+
+    Attributes
+    ----------
+    tolerance : float
+        Largest final mean error counted as a success [m].
+    trials : int
+        Samples.
+    open_loop, closed_loop : tuple of float
+        (probability, low, high) with the confidence interval.
+    refused : int
+        Samples whose corrections were all refused (they ran open loop).
+    """
+
+    tolerance: float
+    trials: int
+    open_loop: tuple[float, float, float]
+    closed_loop: tuple[float, float, float]
+    refused: int
+
+    @property
+    def message(self) -> str:
+        """One line."""
+        o, c = self.open_loop, self.closed_loop
+        return (f"final error <= {1e3 * self.tolerance:.1f} mm: open loop {100 * o[0]:.0f} % "
+                f"[{100 * o[1]:.0f}, {100 * o[2]:.0f}], closed loop {100 * c[0]:.0f} % "
+                f"[{100 * c[1]:.0f}, {100 * c[2]:.0f}] of {self.trials} samples"
+                + (f" ({self.refused} corrections refused)" if self.refused else ""))
+
+
+def closed_loop_success(rows: Sequence[dict], tolerance: float, *,
+                        confidence: float = 0.95) -> ClosedLoopSuccess:
+    """Probability that the final shape is within ``tolerance`` [m], open and closed loop."""
+    if not (math.isfinite(tolerance) and tolerance > 0):
+        raise ValueError(f"tolerance: got {tolerance!r}, expected a distance > 0 [m]")
+    if len(rows) == 0:
+        raise ValueError("rows: empty, expected closed_loop_sample rows")
+
+    def estimate(column: str) -> tuple[float, float, float]:
+        hits = sum(1 for row in rows if row[column] <= tolerance)
+        low, high = success_interval(hits, len(rows), confidence)
+        return hits / len(rows), low, high
+
+    refused = sum(1 for row in rows if row["corrections"] == 0 and row["refusal"])
+    return ClosedLoopSuccess(float(tolerance), len(rows), estimate("open_loop_error"),
+                             estimate("closed_loop_error"), refused)

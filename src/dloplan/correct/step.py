@@ -1,0 +1,565 @@
+"""One correction of a running plan from a measured shape (thesis 8.1, done here).
+
+The plan says which shapes x_j the cable takes at clip poses C_j, j = 0 .. T. After the robot
+reaches shape K the cable is measured; the correction
+
+1. **estimates the model error**: the measurement y (resampled onto the model's points,
+   :mod:`.measurement`) is compared with the model's equilibrium x_K at C_K, and log E takes
+   Gauss-Newton steps on ||y - x_K(log E)||^2 with the sensitivity d x / d log E
+   (:mod:`dloplan.sim.sensitivity`): delta = (J . r) / (J . J). In statics E and the mass enter
+   only as their ratio, so this absorbs a wrong mass as well; what is left is reported as the
+   unexplained residual. Each step changes E by at most a factor 2; they stop when one changes
+   E by less than 1 %;
+2. **corrects the clips** so that the predicted stabilized shapes match the reference (the plan's
+   stabilized shapes: what the verified plan promised; or its planned shapes): a
+   Levenberg-Marquardt fit of the 12 clip coordinates p (:func:`~dloplan.sim.sensitivity.
+   perturbed_clips`) minimizing sum_i |x_i*(C_j + p) - x_i^ref|^2, with the Jacobian of the
+   equilibrium (implicit differentiation) and the damping mu diag(J^T J); rotation coordinates
+   are scaled by L / 2 so that metres and radians weigh alike. Mode ``"target"`` fits the target
+   only and ramps the correction in linearly over the remaining shapes (p_j = p_T (j - K) /
+   (T - K): no jump at the current shape); mode ``"all"`` fits every remaining shape in turn,
+   each starting from the previous one's solution;
+3. **re-times** the corrected gripper path (:func:`dloplan.trajectory.trajectory_from_grippers`,
+   same speed limits, arms and tool frames as the plan): the robot can go on;
+4. **predicts the rest** with the updated model, from its equilibrium at the measurement, open
+   loop and corrected: quasi-static continuations along the planned and the corrected clip
+   poses (:func:`dloplan.sim.continuation`), reported side by side.
+
+The correction is damped and bounded: a measured shape that disagrees wildly (:mod:`.measurement`),
+a modulus update beyond ``limits.max_modulus_factor`` or a clip correction beyond
+``limits.max_translation`` / ``limits.max_rotation`` raises :class:`~.measurement.
+CorrectionRefused` with the reason, and nothing is applied.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..cable import GRAVITY, Cable
+from ..grippers import GripperPath, relative_twist
+from ..physics.chain import SpringChain
+from ..physics.geometry import as_path
+from ..sim import ClipPoses, continuation, equilibrium
+from ..sim.sensitivity import equilibrium_sensitivity, perturbed_clips
+from ..trajectory import Trajectory, trajectory_from_grippers
+from .measurement import MAX_DISAGREEMENT, CorrectionRefused, resample_measured
+
+REFERENCES = ("stabilized", "planned")
+
+MODULUS_STEP_TOLERANCE = 0.01
+"""The log E steps stop once a step changes E by less than this fraction."""
+
+MAX_LOG_STEP = math.log(2.0)
+"""Largest change of log E in one Gauss-Newton step (a factor 2 in E)."""
+
+COST_TOLERANCE = 1e-3
+"""The clip fit stops once an iteration lowers the squared error by less than this fraction."""
+MODES = ("target", "all")
+
+
+@dataclass(frozen=True)
+class CorrectionLimits:
+    """Bounds of a correction; beyond them it is refused.
+
+    Parameters
+    ----------
+    max_translation : float
+        Largest correction of a clip point [m] (default 30 mm).
+    max_rotation : float
+        Largest correction of a clip orientation [rad] (default 20 degrees).
+    max_modulus_factor : float
+        Largest factor the modulus update may change E by (default 10).
+    max_disagreement : float
+        Largest mean distance between the measured and the predicted shape, in cable lengths.
+    iterations : int
+        Levenberg-Marquardt iterations per fitted shape.
+    """
+
+    max_translation: float = 0.03
+    max_rotation: float = math.radians(20.0)
+    max_modulus_factor: float = 10.0
+    max_disagreement: float = MAX_DISAGREEMENT
+    iterations: int = 12
+
+    def __post_init__(self) -> None:
+        for name in ("max_translation", "max_rotation", "max_disagreement"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"limits.{name}: got {value!r}, expected a number > 0")
+        if not (math.isfinite(self.max_modulus_factor) and self.max_modulus_factor >= 1):
+            raise ValueError(f"limits.max_modulus_factor: got {self.max_modulus_factor!r}, "
+                             "expected a number >= 1")
+        if isinstance(self.iterations, bool) or int(self.iterations) != self.iterations \
+                or self.iterations < 1:
+            raise ValueError(f"limits.iterations: got {self.iterations!r}, expected an integer "
+                             ">= 1")
+
+
+@dataclass(frozen=True, eq=False)
+class ModelUpdate:
+    """The model error seen in the measurement and the modulus update.
+
+    Attributes
+    ----------
+    youngs_modulus_before, youngs_modulus : float
+        E of the plan and the updated E [Pa].
+    residual_before, residual_after : float
+        Mean distance [m] between the measured shape and the model's at shape K, with the old
+        and the updated E (what is left is the error E cannot explain).
+    steps : int
+        Gauss-Newton steps taken.
+    state : numpy.ndarray
+        (n + 1, 3) the updated model's equilibrium at shape K: the start of the predictions.
+    """
+
+    youngs_modulus_before: float
+    youngs_modulus: float
+    residual_before: float
+    residual_after: float
+    steps: int
+    state: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class Correction:
+    """Result of :func:`correct_plan`.
+
+    Attributes
+    ----------
+    at : int
+        The index K of the shape just reached and measured.
+    measured : numpy.ndarray
+        (n + 1, 3) the measurement resampled onto the model's points [m].
+    model : ModelUpdate
+        The model error and the modulus update.
+    cable : Cable
+        The updated model cable (E).
+    reference : numpy.ndarray
+        (T - K, n + 1, 3) the shapes the remaining motion should produce [m].
+    open_loop, corrected : numpy.ndarray
+        (T - K, n + 1, 3) the updated model's predictions of the remaining shapes with the
+        planned and with the corrected clips [m].
+    clip_corrections : numpy.ndarray
+        (T - K, 12) the corrections of the remaining shapes' clip coordinates
+        (:data:`dloplan.sim.sensitivity.CLIP_COORDINATES`).
+    grippers : GripperPath
+        The whole gripper path with the remaining shapes corrected.
+    trajectory : Trajectory
+        Its timed dual-arm trajectory (shapes 0 .. K unchanged).
+    remaining : Trajectory
+        The trajectory from shape K to the target, starting at time 0: the program to run now.
+    mode, reference_kind : str
+        How it was computed.
+    iterations : int
+        Levenberg-Marquardt iterations (all fitted shapes).
+    seconds : float
+        Wall time until the corrected trajectory is ready [s] (what the robot waits for).
+    prediction_seconds : float
+        Wall time of the open-loop and corrected predictions afterwards [s].
+    warnings : tuple of str
+    """
+
+    at: int
+    measured: np.ndarray
+    model: ModelUpdate
+    cable: Cable
+    reference: np.ndarray
+    open_loop: np.ndarray
+    corrected: np.ndarray
+    clip_corrections: np.ndarray
+    grippers: GripperPath
+    trajectory: Trajectory
+    remaining: Trajectory
+    mode: str
+    reference_kind: str
+    iterations: int
+    seconds: float
+    prediction_seconds: float
+    warnings: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def open_loop_error(self) -> np.ndarray:
+        """(T - K,) mean point distance of the open-loop prediction to the reference [m]."""
+        return _mean_distance(self.open_loop, self.reference)
+
+    @property
+    def corrected_error(self) -> np.ndarray:
+        """(T - K,) mean point distance of the corrected prediction to the reference [m]."""
+        return _mean_distance(self.corrected, self.reference)
+
+    @property
+    def message(self) -> str:
+        """One line: the modulus update and the predicted final errors."""
+        m = self.model
+        return (f"corrected at shape {self.at}: E {m.youngs_modulus_before:.3g} -> "
+                f"{m.youngs_modulus:.3g} Pa (measured vs model {1e3 * m.residual_before:.1f} -> "
+                f"{1e3 * m.residual_after:.1f} mm); predicted final error "
+                f"{1e3 * self.open_loop_error[-1]:.1f} mm open loop, "
+                f"{1e3 * self.corrected_error[-1]:.1f} mm corrected")
+
+    def report(self) -> dict:
+        """The correction as JSON-ready values (SI units)."""
+        m = self.model
+        return {
+            "at": self.at,
+            "mode": self.mode,
+            "reference": self.reference_kind,
+            "youngs_modulus_before": m.youngs_modulus_before,
+            "youngs_modulus": m.youngs_modulus,
+            "measured_vs_model_before": m.residual_before,
+            "measured_vs_model_after": m.residual_after,
+            "modulus_steps": m.steps,
+            "shapes": list(range(self.at + 1, self.at + 1 + len(self.reference))),
+            "open_loop_error": self.open_loop_error.tolist(),
+            "corrected_error": self.corrected_error.tolist(),
+            "clip_corrections": self.clip_corrections.tolist(),
+            "iterations": self.iterations,
+            "seconds": self.seconds,
+            "prediction_seconds": self.prediction_seconds,
+            "duration_remaining": self.remaining.duration,
+            "warnings": list(self.warnings),
+            "message": self.message,
+        }
+
+
+def _mean_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.mean(np.linalg.norm(a - b, axis=-1), axis=-1)
+
+
+def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, steps: int = 3,
+                   max_factor: float = 10.0, gravity=GRAVITY, guess=None) -> ModelUpdate:
+    """Gauss-Newton steps in log E fitting the model's equilibrium at ``clips`` to ``measured``.
+
+    Parameters
+    ----------
+    cable : Cable
+        The model cable (its E is the start).
+    measured : numpy.ndarray
+        (n + 1, 3) measured shape on the model's points [m].
+    clips : ClipPoses
+        The clip poses it was measured at.
+    steps : int
+        Most Gauss-Newton steps (0: only the residual is computed); they stop early once a step
+        changes E by less than 1 % (:data:`MODULUS_STEP_TOLERANCE`).
+    max_factor : float
+        Refuse an update that changes E by more than this factor.
+    gravity : array_like
+        Gravity [m/s^2].
+    guess : numpy.ndarray, optional
+        (n + 1, 3) start of the first equilibrium (default ``measured``; the plan's stabilized
+        shape, already an equilibrium of ``cable`` on the same branch, saves the iterations).
+    """
+    log_e0 = math.log(cable.youngs_modulus)
+    log_e = log_e0
+    model = cable
+    eq = _solve(model, measured if guess is None else guess, clips, gravity)
+    residual0 = float(np.mean(np.linalg.norm(eq.shape - measured, axis=1)))
+    taken = 0
+    for _ in range(steps):
+        sens = equilibrium_sensitivity(model, eq.shape, clips, gravity=gravity)
+        j = sens.log_modulus.ravel()
+        jj = float(j @ j)
+        if jj <= 1e-24 * cable.length**2:  # the shape does not depend on E here (no sag)
+            break
+        step = float(j @ (measured - eq.shape).ravel()) / jj
+        step = max(-MAX_LOG_STEP, min(MAX_LOG_STEP, step))  # a trust region: E x2 per step
+        log_e += step
+        if abs(log_e - log_e0) > math.log(max_factor):
+            raise CorrectionRefused(
+                f"modulus: the measurement asks for E = {math.exp(log_e):.3g} Pa, more than "
+                f"{max_factor:g} times off the plan's {cable.youngs_modulus:.3g} Pa (limit "
+                "max_modulus_factor)"
+            )
+        model = cable.with_modulus(math.exp(log_e))
+        eq = _solve(model, sens.predict(delta_log_modulus=step), clips, gravity)
+        taken += 1
+        if abs(step) < MODULUS_STEP_TOLERANCE:
+            break
+    residual = float(np.mean(np.linalg.norm(eq.shape - measured, axis=1)))
+    return ModelUpdate(cable.youngs_modulus, model.youngs_modulus, residual0, residual,
+                       taken, eq.shape)
+
+
+def _solve(cable: Cable, guess, clips: ClipPoses, gravity, chain=None):
+    eq = equilibrium(cable, guess, clips, gravity=gravity, chain=chain)
+    if not eq.success:
+        raise CorrectionRefused(f"model: no stable equilibrium of the cable (E = "
+                                f"{cable.youngs_modulus:.3g} Pa) at these clip poses "
+                                f"({eq.message})")
+    return eq
+
+
+def fit_clips(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess: np.ndarray, *,
+              start=None, limits: CorrectionLimits = CorrectionLimits(), gravity=GRAVITY,
+              chain: SpringChain | None = None):
+    """Levenberg-Marquardt on the 12 clip coordinates: the equilibrium closest to ``reference``.
+
+    Parameters
+    ----------
+    cable : Cable
+        The (updated) model cable.
+    clips : ClipPoses
+        The planned clip poses of this shape.
+    reference : numpy.ndarray
+        (n + 1, 3) the shape wanted [m].
+    guess : numpy.ndarray
+        (n + 1, 3) a starting shape on the right branch [m].
+    start : array_like, optional
+        (12,) initial correction (default zero).
+    limits : CorrectionLimits
+        Iterations and bounds.
+
+    Returns
+    -------
+    tuple
+        ``(correction (12,), equilibrium, iterations)``.
+
+    Raises
+    ------
+    CorrectionRefused
+        When the best correction lies beyond the limits.
+    """
+    if chain is None:
+        chain = SpringChain.from_cable(cable, gravity)
+    scale = np.tile(np.r_[np.ones(3), np.full(3, 0.5 * cable.length)], 2)  # z = scale * p
+    p = np.zeros(12) if start is None else np.asarray(start, dtype=float).copy()
+    eq = _solve(cable, guess, perturbed_clips(clips, p), gravity, chain)
+    r = (eq.shape - reference).ravel()
+    cost = float(r @ r)
+    mu = 1e-3
+    iterations = 0
+    for iterations in range(1, limits.iterations + 1):  # noqa: B007 (the count is returned)
+        sens = equilibrium_sensitivity(cable, eq.shape, eq.clips, chain=chain)
+        jz = sens.clips.reshape(-1, 12) / scale
+        a = jz.T @ jz
+        b = jz.T @ r
+        improved = False
+        for _ in range(10):
+            damped = a + mu * np.diag(np.diag(a)) + 1e-12 * np.trace(a) * np.eye(12)
+            trial_p = p - np.linalg.solve(damped, b) / scale
+            try:  # warm start from the linear prediction: Newton then needs few iterations
+                trial = equilibrium(cable, sens.predict(trial_p - p),
+                                    perturbed_clips(clips, trial_p), gravity=gravity, chain=chain)
+            except ValueError:  # out of reach
+                trial = None
+            if trial is not None and trial.success:
+                r_trial = (trial.shape - reference).ravel()
+                cost_trial = float(r_trial @ r_trial)
+                if cost_trial < cost:
+                    improved = cost - cost_trial > COST_TOLERANCE * cost
+                    p, eq, r, cost = trial_p, trial, r_trial, cost_trial
+                    mu = max(mu / 4.0, 1e-9)
+                    break
+            mu *= 8.0
+        if not improved:
+            break
+    _check_bounds(p, limits)
+    return p, eq, iterations
+
+
+def _check_bounds(p: np.ndarray, limits: CorrectionLimits) -> None:
+    for clip, name in enumerate(("first", "last")):
+        move = float(np.linalg.norm(p[6 * clip : 6 * clip + 3]))
+        turn = float(np.linalg.norm(p[6 * clip + 3 : 6 * clip + 6]))
+        if move > limits.max_translation or turn > limits.max_rotation:
+            raise CorrectionRefused(
+                f"correction: the {name} clip would have to move {1e3 * move:.1f} mm and turn "
+                f"{math.degrees(turn):.1f} degrees, beyond the limits "
+                f"{1e3 * limits.max_translation:.0f} mm / {math.degrees(limits.max_rotation):.0f} "
+                "degrees (limits.max_translation / max_rotation)"
+            )
+
+
+def correct_plan(
+    cable: Cable,
+    shapes,
+    grippers: GripperPath,
+    at: int,
+    measured,
+    *,
+    stabilized=None,
+    trajectory: Trajectory | None = None,
+    reference: str = "stabilized",
+    mode: str = "target",
+    modulus_steps: int = 3,
+    limits: CorrectionLimits = CorrectionLimits(),
+    gravity=GRAVITY,
+) -> Correction:
+    """Correct the rest of a plan from the shape measured at shape ``at`` (module docstring).
+
+    Parameters
+    ----------
+    cable : Cable
+        The plan's model cable.
+    shapes : array_like
+        (T + 1, n + 1, 3) planned shapes [m].
+    grippers : GripperPath
+        The plan's clip poses, one per shape.
+    at : int
+        K, the index of the shape just reached (0 <= K < T).
+    measured : array_like
+        (k, 3) measured points along the cable, first clip's end first, in the plan's frame [m].
+    stabilized : array_like, optional
+        (T + 1, n + 1, 3) the plan's stabilized shapes [m]; computed when not given (each
+        planned shape settled under its clips).
+    trajectory : Trajectory, optional
+        The plan's trajectory: its speed limits, arm assignment and tool frame are kept.
+    reference : {"stabilized", "planned"}
+        What the remaining shapes should look like: the plan's stabilized shapes (default, what
+        the verified plan promised) or its planned shapes.
+    mode : {"target", "all"}
+        Fit the target's clips and ramp the correction in (default), or fit every remaining
+        shape.
+    modulus_steps : int
+        Gauss-Newton steps of the log E update (0: keep E).
+    limits : CorrectionLimits
+        Bounds beyond which the correction is refused.
+    gravity : array_like
+        Gravity [m/s^2].
+
+    Raises
+    ------
+    CorrectionRefused
+        For a measurement that disagrees wildly or a correction beyond the limits (the reason).
+    ValueError
+        For inconsistent inputs (named).
+    """
+    t0 = time.perf_counter()
+    path = as_path(shapes, cable.n_points, "shapes")
+    last = len(path) - 1
+    if not isinstance(grippers, GripperPath) or grippers.n_shapes != len(path):
+        raise ValueError(f"grippers: expected a GripperPath of {len(path)} shapes (one per shape)")
+    if isinstance(at, bool) or int(at) != at or not 0 <= at < last:
+        raise ValueError(f"at: got {at!r}, expected the index of a shape 0 .. {last - 1} "
+                         "(not the target: nothing is left to correct there)")
+    at = int(at)
+    if reference not in REFERENCES:
+        raise ValueError(f"reference: got {reference!r}, expected one of {REFERENCES}")
+    if mode not in MODES:
+        raise ValueError(f"mode: got {mode!r}, expected one of {MODES}")
+    if isinstance(modulus_steps, bool) or int(modulus_steps) != modulus_steps or modulus_steps < 0:
+        raise ValueError(f"modulus_steps: got {modulus_steps!r}, expected an integer >= 0")
+    clips = [grippers.clip_poses(j) for j in range(len(path))]
+    chain = SpringChain.from_cable(cable, gravity)
+    if stabilized is None:
+        settled = {j: _solve(cable, path[j], clips[j], gravity, chain).shape
+                   for j in range(at, len(path))}
+        stable = np.stack([settled.get(j, path[j]) for j in range(len(path))])
+    else:
+        stable = as_path(stabilized, cable.n_points, "stabilized")
+        if len(stable) != len(path):
+            raise ValueError(f"stabilized: {len(stable)} shapes, expected {len(path)}")
+    wanted = (stable if reference == "stabilized" else path)[at + 1 :]
+    y = resample_measured(measured, stable[at], cable.length,
+                          max_disagreement=limits.max_disagreement)
+    update = update_modulus(cable, y, clips[at], steps=modulus_steps,
+                            max_factor=limits.max_modulus_factor, gravity=gravity,
+                            guess=stable[at])
+    model = cable.with_modulus(update.youngs_modulus)
+    model_chain = SpringChain.from_cable(model, gravity)
+    # the plan's stabilized target carried to the updated E to first order: the fit's start
+    try:
+        target_guess = equilibrium_sensitivity(cable, stable[-1], clips[-1], chain=chain).predict(
+            delta_log_modulus=math.log(update.youngs_modulus / cable.youngs_modulus))
+    except ValueError:  # not a stable equilibrium of the model: start from it as it is
+        target_guess = stable[-1]
+    remaining = clips[at + 1 :]
+    iterations = 0
+    if mode == "target":  # fit the target from the plan's stabilized target, ramp it in
+        p_target, _, iterations = fit_clips(model, remaining[-1], wanted[-1], target_guess,
+                                            limits=limits, gravity=gravity, chain=model_chain)
+        ramp = np.arange(1, len(remaining) + 1) / len(remaining)
+        corrections = ramp[:, None] * p_target[None, :]
+    else:  # fit every remaining shape, each from the previous one
+        corrections, fitted = [], []
+        x, p = update.state, np.zeros(12)
+        for c, ref in zip(remaining, wanted, strict=True):
+            p, eq, its = fit_clips(model, c, ref, x, start=p, limits=limits, gravity=gravity,
+                                   chain=model_chain)
+            iterations += its
+            x = eq.shape
+            corrections.append(p)
+            fitted.append(x)
+        corrections = np.array(corrections)
+    new_grippers = _corrected_grippers(grippers, at, remaining, corrections)
+    new_trajectory, now = _retimed(new_grippers, at, trajectory, grippers)
+    seconds = time.perf_counter() - t0
+    # the predictions of the updated model from the measured state: planned vs corrected clips
+    open_loop = _predict(model, update.state, remaining, gravity)
+    corrected = np.stack(fitted) if mode == "all" else _predict(
+        model, update.state, [perturbed_clips(c, p) for c, p in zip(remaining, corrections,
+                                                                   strict=True)], gravity)
+    warnings = []
+    if update.residual_after > 0.5 * update.residual_before and update.residual_before > 0:
+        warnings.append(
+            f"model: E explains little of the measured error ({1e3 * update.residual_before:.1f}"
+            f" -> {1e3 * update.residual_after:.1f} mm): another cause (rest shape, grip, "
+            "discretization) dominates"
+        )
+    return Correction(
+        at=at, measured=y, model=update, cable=model, reference=np.asarray(wanted),
+        open_loop=open_loop, corrected=corrected, clip_corrections=np.asarray(corrections),
+        grippers=new_grippers, trajectory=new_trajectory, remaining=now, mode=mode,
+        reference_kind=reference, iterations=iterations, seconds=seconds,
+        prediction_seconds=time.perf_counter() - t0 - seconds, warnings=tuple(warnings),
+    )
+
+
+def _predict(cable: Cable, state: np.ndarray, clips, gravity) -> np.ndarray:
+    """Quasi-static continuation from ``state`` along ``clips``, (len(clips), n + 1, 3)."""
+    runs = continuation(cable, state, clips, gravity=gravity)
+    failed = [k for k, eq in enumerate(runs) if not eq.converged]
+    if failed:
+        raise CorrectionRefused(f"prediction: the model finds no equilibrium at the remaining "
+                                f"shape {failed[0]} ({runs[failed[0]].message})")
+    return np.stack([eq.shape for eq in runs])
+
+
+def _corrected_grippers(grippers: GripperPath, at: int, remaining, corrections) -> GripperPath:
+    positions = grippers.positions.copy()
+    rotations = [r.as_quat() for r in grippers.rotations]
+    for j, (c, p) in enumerate(zip(remaining, corrections, strict=True), start=at + 1):
+        moved = perturbed_clips(c, p)
+        positions[j] = moved.positions
+        for k in range(2):
+            rotations[k][j] = moved.rotations[k].as_quat()
+    first, last = (Rotation.from_quat(q) for q in rotations)
+    twist = relative_twist(first, last)
+    worst = float(np.max(np.abs(twist)))
+    return GripperPath(
+        positions=positions, rotations=(first, last), method=grippers.method, twist=twist,
+        warnings=grippers.warnings, success=worst <= grippers.max_twist,
+        message=f"{grippers.method}, corrected after shape {at}; largest relative twist "
+                f"{math.degrees(worst):.1f} degrees",
+        max_twist=grippers.max_twist,
+    )
+
+
+def sliced_grippers(grippers: GripperPath, start: int) -> GripperPath:
+    """The gripper path from shape ``start`` on (its twist counted from there)."""
+    return GripperPath(
+        positions=grippers.positions[start:],
+        rotations=tuple(r[start:] for r in grippers.rotations),
+        method=grippers.method, twist=grippers.twist[start:] - grippers.twist[start],
+        warnings=grippers.warnings, success=grippers.success, message=grippers.message,
+        max_twist=grippers.max_twist,
+    )
+
+
+def _retimed(grippers: GripperPath, at: int, planned: Trajectory | None,
+             planned_grippers: GripperPath) -> tuple[Trajectory, Trajectory]:
+    """The whole corrected trajectory and its part from shape ``at``, as the plan timed it."""
+    options = {}
+    if planned is not None:
+        left = planned.arm_clips[0]
+        offset = planned_grippers.rotations[left][0].inv() * planned.rotations[0][0]
+        options = {"max_speed": planned.max_speed,
+                   "max_angular_speed": planned.max_angular_speed,
+                   "left_clip": left, "tcp_in_clip": offset}
+    return (trajectory_from_grippers(grippers, **options),
+            trajectory_from_grippers(sliced_grippers(grippers, at), **options))

@@ -1,0 +1,275 @@
+"""Shape sensitivity: how a stabilized equilibrium moves with the clips and with E.
+
+A stable equilibrium x*(p) of a cable held by two clips satisfies g_f(x*, p) = 0, the net force on
+every free point (:func:`dloplan.sim.statics.equilibrium`). Differentiating that identity
+(implicit function theorem) gives the first-order change of the whole shape:
+
+    dx*_f / dp = -H_ff^-1 H_fh dh/dp,          dx*_h / dp = dh/dp,
+
+where f are the free coordinates (points 2 .. n-2), h the twelve coordinates of the four held
+points, H the Hessian of the energy (the tangent stiffness, :mod:`dloplan.physics.chain`) and
+h(p) the held points as placed by the clips (:meth:`dloplan.sim.ClipPoses.held_points`).
+
+The 12 clip coordinates p (:data:`CLIP_COORDINATES`) are the displacement of the first clip
+point [m], a small rotation vector of the first clip [rad] (world frame, applied on the left:
+R -> exp([phi]) R), then the same for the last clip; :func:`perturbed_clips` applies them. The
+held points follow as h = c -/+ (l / 2) u with u = R e_x, so dh/dphi = -(+/- l/2)[u]_x.
+
+Young's modulus scales the axial, bending and twisting stiffnesses alike (k = E x geometry), so
+d g / d log E is the elastic part of the gradient; at equilibrium it balances the weight, and
+
+    dx*_f / d log E = -H_ff^-1 g^el_f = -H_ff^-1 (m g)_f :
+
+a stiffer cable sags less, exactly as if gravity were weaker. (In statics E and the mass enter
+only through the ratio E / m: one sensitivity serves both.)
+
+With torsion (:func:`dloplan.sim.torsion.equilibrium_with_twist`) the state also holds one twist
+angle per link; the clips hold the two end links' angles too, and a small clip rotation phi turns
+its held link's material frame about the link tangent t by phi . t (first order), besides moving
+the held points. The same formula applies to the joint Hessian of points and angles, assembled
+here from the public kernels (:func:`dloplan.physics.chain.hessian`,
+:func:`dloplan.physics.twist.twist_derivatives`).
+
+One factorization of H_ff (banded Cholesky, O(n)) serves all 13 right-hand sides.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+from scipy.linalg import lapack
+from scipy.spatial.transform import Rotation
+
+from ..cable import GRAVITY, Cable
+from ..physics.chain import SpringChain, gradient_and_hessian_band, hessian
+from ..physics.geometry import as_shape, tangents
+from ..physics.twist import TwistChain, twist_derivatives
+from .clips import HELD_INDICES, ClipPoses
+
+CLIP_COORDINATES = (
+    "first.x", "first.y", "first.z", "first.rx", "first.ry", "first.rz",
+    "last.x", "last.y", "last.z", "last.rx", "last.ry", "last.rz",
+)
+"""Names of the 12 clip coordinates, in order: position [m] and rotation vector [rad] of each
+clip (world frame)."""
+
+
+@dataclass(frozen=True, eq=False)
+class ShapeSensitivity:
+    """First-order sensitivity of a stabilized shape (module docstring).
+
+    Attributes
+    ----------
+    shape : numpy.ndarray
+        (n + 1, 3) the equilibrium [m].
+    clips : numpy.ndarray
+        (n + 1, 3, 12) d x / d p: metres per metre (clip positions) and metres per radian (clip
+        rotation vectors), in the order of :data:`CLIP_COORDINATES`.
+    log_modulus : numpy.ndarray
+        (n + 1, 3) d x / d log E [m] (zero at the held points).
+    torsion : bool
+        Whether the derivative includes the twist of the material frames.
+    """
+
+    shape: np.ndarray
+    clips: np.ndarray
+    log_modulus: np.ndarray
+    torsion: bool = False
+
+    def predict(self, delta_clips=None, delta_log_modulus: float = 0.0) -> np.ndarray:
+        """The linearized shape after small changes of the clips (12,) and of log E, (n + 1, 3)."""
+        x = self.shape.copy()
+        if delta_clips is not None:
+            x += self.clips @ np.asarray(delta_clips, dtype=float)
+        return x + delta_log_modulus * self.log_modulus
+
+
+def perturbed_clips(clips: ClipPoses, delta) -> ClipPoses:
+    """Clip poses moved by the 12 clip coordinates ``delta`` (:data:`CLIP_COORDINATES`).
+
+    Positions move by ``delta[0:3]``, ``delta[6:9]`` [m]; rotations turn by the world-frame
+    rotation vectors ``delta[3:6]``, ``delta[9:12]`` [rad] (``exp([phi]) R``).
+    """
+    d = np.asarray(delta, dtype=float)
+    if d.shape != (12,) or not np.all(np.isfinite(d)):
+        raise ValueError(f"delta: expected 12 finite clip coordinates, got shape {d.shape}")
+    turn = Rotation.from_rotvec(d.reshape(2, 2, 3)[:, 1])
+    return ClipPoses(clips.positions + d.reshape(2, 2, 3)[:, 0], turn * clips.rotations)
+
+
+def held_point_jacobian(clips: ClipPoses, link_length: float) -> np.ndarray:
+    """d h / d p: the four held points (:data:`HELD_INDICES`) w.r.t. the clip coordinates.
+
+    Returns
+    -------
+    numpy.ndarray
+        (4, 3, 12) [m/m, m/rad].
+    """
+    u = clips.u_axes
+    jac = np.zeros((4, 3, 12))
+    # held point = clip point + c u, c = -l/2 (end) or +l/2 (inner); d(c u)/dphi = -c [u]_x
+    for point, (clip, c) in enumerate(((0, -0.5), (0, 0.5), (1, 0.5), (1, -0.5))):
+        jac[point, :, 6 * clip : 6 * clip + 3] = np.eye(3)
+        jac[point, :, 6 * clip + 3 : 6 * clip + 6] = -c * link_length * _cross_matrix(u[clip])
+    return jac
+
+
+def _cross_matrix(v: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def _band_block(band: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """Dense block H[rows][:, cols] of the symmetric matrix whose lower band is ``band``."""
+    r, c = np.meshgrid(rows, cols, indexing="ij")
+    offset = np.abs(r - c)
+    inside = offset < band.shape[0]
+    block = np.zeros(r.shape)
+    block[inside] = band[offset[inside], np.minimum(r, c)[inside]]
+    return block
+
+
+def equilibrium_sensitivity(
+    cable: Cable, shape, clips: ClipPoses, *, gravity=GRAVITY, chain: SpringChain | None = None
+) -> ShapeSensitivity:
+    """Sensitivity of a stable equilibrium without torsion to the clips and to log E.
+
+    Parameters
+    ----------
+    cable : Cable
+        The cable.
+    shape : array_like
+        (n + 1, 3) a converged, stable equilibrium held by ``clips`` [m] (e.g.
+        ``equilibrium(...).shape``); the derivative is that of the equilibrium branch through it.
+    clips : ClipPoses
+        The clip poses holding it.
+    gravity : array_like
+        Gravity [m/s^2].
+    chain : SpringChain, optional
+        The chain of ``cable`` under ``gravity`` (saves its construction in loops).
+
+    Returns
+    -------
+    ShapeSensitivity
+
+    Raises
+    ------
+    ValueError
+        For a shape with the wrong number of points, or one whose free Hessian is not positive
+        definite (not a stable equilibrium: the derivative does not exist).
+    """
+    x = as_shape(shape, cable.n_points, "shape")
+    if chain is None:
+        chain = SpringChain.from_cable(cable, gravity)
+    n_dof = 3 * cable.n_points
+    g_elastic, band = gradient_and_hessian_band(chain, x)
+    free = np.arange(6, n_dof - 6)
+    held = np.r_[0:6, n_dof - 6 : n_dof]
+    factor, info = lapack.dpbtrf(band[:, 6 : n_dof - 6], lower=1)
+    if info != 0:
+        raise ValueError("shape: the free Hessian is not positive definite (not a stable "
+                         "equilibrium), its sensitivity is undefined")
+    dh = held_point_jacobian(clips, cable.rest_link_length).reshape(12, 12)
+    rhs = np.concatenate([-_band_block(band, free, held) @ dh, -g_elastic.ravel()[free, None]],
+                         axis=1)
+    solved = lapack.dpbtrs(factor, rhs, lower=1)[0]
+    return _assemble(x, dh, solved[:, :12], solved[:, 12], torsion=False)
+
+
+def _assemble(x, dh, free_clips, free_log_modulus, torsion: bool) -> ShapeSensitivity:
+    n_points = len(x)
+    jac = np.zeros((n_points, 3, 12))
+    jac[list(HELD_INDICES)] = dh.reshape(4, 3, 12)
+    jac[2:-2] = free_clips.reshape(n_points - 4, 3, 12)
+    dlog = np.zeros((n_points, 3))
+    dlog[2:-2] = free_log_modulus.reshape(n_points - 4, 3)
+    return ShapeSensitivity(x, jac, dlog, torsion)
+
+
+def twist_equilibrium_sensitivity(
+    cable: Cable,
+    equilibrium,
+    *,
+    natural_twist: float = 0.0,
+    gravity=GRAVITY,
+) -> ShapeSensitivity:
+    """Sensitivity of a stable equilibrium with torsion to the clips and to log E.
+
+    Parameters
+    ----------
+    cable : Cable
+        The cable.
+    equilibrium : TwistEquilibrium
+        A converged, stable result of :func:`dloplan.sim.torsion.equilibrium_with_twist`
+        (its shape, directors and clips are used).
+    natural_twist : float
+        The natural twist it was solved with [rad].
+    gravity : array_like
+        Gravity [m/s^2].
+
+    Returns
+    -------
+    ShapeSensitivity
+        The shape's derivatives (the twist angles' are solved for and dropped).
+    """
+    x = as_shape(equilibrium.shape, cable.n_points, "equilibrium.shape")
+    d1 = np.asarray(equilibrium.directors, dtype=float)
+    if d1.shape != (cable.n_links, 3):
+        raise ValueError(f"equilibrium.directors: expected shape ({cable.n_links}, 3), "
+                         f"got {d1.shape}")
+    clips = equilibrium.clips
+    tc = TwistChain.from_cable(cable, natural_twist)
+    chain = SpringChain.from_cable(cable, gravity)
+    if tc.directional:  # as in equilibrium_with_twist: the directional term replaces rest angles
+        chain = replace(chain, rest_angles=np.zeros_like(chain.rest_angles))
+    n_links = cable.n_links
+    n_points = cable.n_points
+    # interleaved coordinates (x_i, y_i, z_i, theta_i), theta in radians, last point without one
+    point_dofs = (4 * np.arange(n_points)[:, None] + np.arange(3)).ravel()
+    angle_dofs = 4 * np.arange(n_links) + 3
+    n_dof = 4 * n_links + 3
+    pos = hessian(chain, x).tocoo()
+    t = tangents(x)
+    td = twist_derivatives(tc, x, t, d1, np.zeros(n_links))
+    stencil = 4 * np.arange(n_links - 1)[:, None] + np.arange(11)  # point s, angle s, ..., s + 2
+    rows = np.broadcast_to(stencil[:, :, None], td.blocks.shape)
+    cols = np.broadcast_to(stencil[:, None, :], td.blocks.shape)
+    joint = sp.coo_matrix(
+        (np.concatenate([pos.data, td.blocks.ravel()]),
+         (np.concatenate([point_dofs[pos.row], rows.ravel()]),
+          np.concatenate([point_dofs[pos.col], cols.ravel()]))),
+        shape=(n_dof, n_dof),
+    ).tocsr()
+    g_elastic = np.zeros(n_dof)
+    g_elastic[point_dofs] = (gradient_and_hessian_band(chain, x)[0] + td.twist_gradient
+                             + td.direction_gradient).ravel()
+    g_elastic[angle_dofs] = td.angle_gradient
+    held_points = np.r_[point_dofs[:6], point_dofs[-6:]]
+    held = np.r_[held_points, angle_dofs[[0, -1]]]
+    free = np.setdiff1d(np.arange(n_dof), held)
+    dh = held_point_jacobian(clips, cable.rest_link_length).reshape(12, 12)
+    # a clip rotation phi turns its held link's frame about the link tangent by phi . t
+    d_angles = np.zeros((2, 12))
+    d_angles[0, 3:6] = t[0]
+    d_angles[1, 9:12] = t[-1]
+    d_held = np.concatenate([dh, d_angles])
+    h_ff = joint[free][:, free].tocsc()
+    rhs = np.concatenate([-(joint[free][:, held] @ d_held), -g_elastic[free, None]], axis=1)
+    try:
+        solved = spla.splu(h_ff).solve(rhs)
+    except RuntimeError as exc:
+        raise ValueError(f"equilibrium: the free Hessian is singular ({exc})") from exc
+    free_points = np.searchsorted(free, point_dofs[6:-6])
+    return _assemble(x, dh, solved[free_points, :12], solved[free_points, 12], torsion=True)
+
+
+__all__ = [
+    "CLIP_COORDINATES",
+    "ShapeSensitivity",
+    "equilibrium_sensitivity",
+    "held_point_jacobian",
+    "perturbed_clips",
+    "twist_equilibrium_sensitivity",
+]

@@ -1,0 +1,320 @@
+"""Closed-loop shape correction (dloplan.correct): measurements, the correction, the closed loop.
+
+The plans are made by ``dloplan plan`` itself from the demo and the 3D Ethernet example with a
+model of n = 20 links; the plant is the same cable with n = 100 links and another E, measured with
+1 mm noise (per coordinate) at 200 points, as a camera centreline would give.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from scipy.spatial.transform import Rotation
+
+import dloplan.data
+from dloplan.app import read_plan
+from dloplan.cli import main
+from dloplan.correct import (
+    CorrectionLimits,
+    CorrectionRefused,
+    Plant,
+    closed_loop_sample,
+    closed_loop_success,
+    correct_plan,
+    resample_measured,
+    run_closed_loop,
+)
+from dloplan.correct.document import check_robot_reach, correct_document
+from dloplan.grippers import GripperPath
+from dloplan.physics.geometry import resample_by_arc_length, shape_length
+from dloplan.sim import equilibrium
+from dloplan.vision.shapes_io import RegisteredShape, write_shapes
+
+SCENARIOS = {
+    "demo": Path(dloplan.data.__file__).parent / "demo.yaml",
+    "ethernet-3d": Path(__file__).resolve().parents[1] / "examples/qualitative2_ethernet_3d.yaml",
+}
+MODEL_LINKS = 20
+NOISE = 1e-3
+
+
+@pytest.fixture(scope="module")
+def plans(tmp_path_factory):
+    """name -> (plan document, path of plan.json), planned by the CLI with n = 20."""
+    out = {}
+    for name, path in SCENARIOS.items():
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+        data["cable"]["n_links"] = MODEL_LINKS
+        data["outputs"] = ["json"]
+        folder = tmp_path_factory.mktemp(name)
+        scenario = folder / "scenario.yaml"
+        scenario.write_text(yaml.safe_dump(data), encoding="utf-8")
+        planned = folder / "plan"
+        assert main(["plan", str(scenario), "-o", str(planned), "-q"]) in (0, 1, 3)
+        out[name] = (read_plan(planned / "plan.json"), planned / "plan.json")
+    return out
+
+
+def _stabilized(doc):
+    return doc.stabilized
+
+
+def _measure(shape, n_points=200, noise=NOISE, seed=0):
+    rng = np.random.default_rng(seed)
+    points = resample_by_arc_length(shape, n_points)
+    return points + rng.normal(scale=noise, size=points.shape)
+
+
+# -- the closed loop -----------------------------------------------------------------------------
+# Open-loop and closed-loop mean errors [mm] of the final shape against the plan's stabilized
+# target, seed 1 (benchmarks/bench_correct.py prints them):
+#   demo x0.5: 6.06 -> 4.06; demo x2: 18.20 -> 2.87; 3D x0.5: 1.73 -> 1.13; 3D x2: 4.84 -> 1.15.
+# The issue asked for 1/5; reached only for demo x2. The floor is physical (docs/correction.md):
+# a cable of another stiffness cannot take the same shape under gravity by moving only its two
+# clips (with E exactly known, the best clips leave 4.0 mm on the demo target at E / 2), and the
+# n = 20 model's remaining mismatch with the n = 100 plant is not a matter of E.
+@pytest.mark.parametrize("name", list(SCENARIOS))
+@pytest.mark.parametrize("factor", [0.5, 2.0])
+def test_one_correction_at_mid_path_reduces_the_final_error(plans, name, factor):
+    doc, _ = plans[name]
+    cable = doc.cable
+    last = len(doc.shapes) - 1
+    plant = Plant(cable.with_links(100).with_modulus(factor * cable.youngs_modulus),
+                  noise=NOISE, n_measured=200, seed=1)
+    run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [last // 2],
+                          stabilized=_stabilized(doc), trajectory=doc.trajectory)
+    assert not run.refusals
+    (correction,) = run.corrections
+    # the modulus moves the right way (the effective E of the n = 20 model for the n = 100
+    # plant is about 1.5 times the plant's, hence not exactly factor x E)
+    ratio = correction.model.youngs_modulus / cable.youngs_modulus
+    assert (ratio < 0.95) if factor < 1 else (ratio > 1.5)
+    assert correction.model.residual_after < correction.model.residual_before
+    # the correction predicts an improvement and the plant shows one
+    assert correction.corrected_error[-1] < 0.5 * correction.open_loop_error[-1]
+    assert run.closed_loop_error < 0.75 * run.open_loop_error
+    if factor > 1:  # the large errors (stiffer plant: 5 and 18 mm) drop by 4 to 6 times
+        assert run.closed_loop_error < 0.3 * run.open_loop_error
+
+
+def test_a_measurement_of_the_model_itself_changes_nothing(plans):
+    doc, _ = plans["demo"]
+    stable = _stabilized(doc)
+    at = 3
+    result = correct_plan(doc.cable, doc.shapes, doc.grippers, at,
+                          resample_by_arc_length(stable[at], 300), stabilized=stable,
+                          trajectory=doc.trajectory)
+    assert abs(np.log(result.model.youngs_modulus / doc.cable.youngs_modulus)) < 0.02
+    assert np.max(np.abs(result.clip_corrections[:, [0, 1, 2, 6, 7, 8]])) < 1e-3  # < 1 mm
+    assert np.max(result.corrected_error) < 1e-3
+    # shapes 0 .. K and their timing are untouched; the rest is re-timed from K
+    assert np.allclose(result.grippers.positions[: at + 1], doc.grippers.positions[: at + 1])
+    assert np.allclose(result.trajectory.times[: at + 1], doc.trajectory.times[: at + 1])
+    assert result.remaining.n_knots == len(doc.shapes) - at
+    assert result.remaining.times[0] == 0.0
+    assert np.allclose(result.remaining.positions[0], doc.trajectory.positions[at])
+    assert result.remaining.max_speed == doc.trajectory.max_speed
+
+
+def test_the_all_mode_fits_every_remaining_shape(plans):
+    doc, _ = plans["ethernet-3d"]
+    stable = _stabilized(doc)
+    plant_like = doc.cable.with_modulus(2.0 * doc.cable.youngs_modulus)
+    at = 2
+    truth = equilibrium(plant_like, stable[at], doc.grippers.clip_poses(at)).shape
+    both = {mode: correct_plan(doc.cable, doc.shapes, doc.grippers, at, _measure(truth),
+                               stabilized=stable, mode=mode) for mode in ("target", "all")}
+    for result in both.values():
+        assert result.corrected_error[-1] < 0.5 * result.open_loop_error[-1]
+    # fitting every shape beats ramping the target's correction in on the way
+    assert np.mean(both["all"].corrected_error[:-1]) < np.mean(both["target"].corrected_error[:-1])
+
+
+# -- measurements ------------------------------------------------------------------------------
+def test_noisy_dense_measurements_are_resampled_by_smoothed_arc_length(plans):
+    doc, _ = plans["ethernet-3d"]
+    shape = _stabilized(doc)[3]
+    points = _measure(shape, n_points=1000, noise=NOISE)
+    assert shape_length(points) > 1.5 * doc.cable.length  # noise inflates the raw polyline
+    resampled = resample_measured(points, shape, doc.cable.length)
+    assert np.mean(np.linalg.norm(resampled - shape, axis=1)) < 0.6e-3
+    assert abs(shape_length(resampled) / doc.cable.length - 1) < 0.01
+    # three points, too few to smooth: the polyline is used as it is
+    few = resample_measured(shape[::10], shape, doc.cable.length)
+    assert np.allclose(few[[0, -1]], shape[[0, -1]])
+
+
+@pytest.mark.parametrize(
+    ("make", "reason"),
+    [
+        (lambda s: s[::-1], "reverse them"),
+        (lambda s: np.random.default_rng(3).permutation(s), "not ordered along the cable"),
+        (lambda s: s[0] + 0.6 * (s - s[0]), "another cable"),
+        (lambda s: s + [0.3, 0.0, 0.0], "not where the plan has it"),
+    ],
+    ids=["reversed", "shuffled", "shorter-cable", "elsewhere"],
+)
+def test_an_absurd_measurement_is_refused_with_the_reason(plans, make, reason):
+    doc, _ = plans["demo"]
+    stable = _stabilized(doc)
+    measured = make(_measure(stable[3], n_points=100))
+    with pytest.raises(CorrectionRefused, match=reason):
+        correct_plan(doc.cable, doc.shapes, doc.grippers, 3, measured, stabilized=stable)
+
+
+def test_a_correction_beyond_the_limits_is_refused(plans):
+    doc, _ = plans["demo"]
+    stable = _stabilized(doc)
+    softer = doc.cable.with_modulus(0.2 * doc.cable.youngs_modulus)
+    truth = equilibrium(softer, stable[3], doc.grippers.clip_poses(3)).shape
+    with pytest.raises(CorrectionRefused, match="beyond the limits"):
+        correct_plan(doc.cable, doc.shapes, doc.grippers, 3, truth, stabilized=stable,
+                     limits=CorrectionLimits(max_translation=1e-3, max_rotation=0.01))
+    with pytest.raises(CorrectionRefused, match="times off"):
+        correct_plan(doc.cable, doc.shapes, doc.grippers, 3, truth, stabilized=stable,
+                     limits=CorrectionLimits(max_modulus_factor=2.0))
+
+
+def test_bad_arguments_are_named(plans):
+    doc, _ = plans["demo"]
+    last = len(doc.shapes) - 1
+    measured = _stabilized(doc)[3]
+    for at in (last, -1, 2.5):
+        with pytest.raises(ValueError, match="at:"):
+            correct_plan(doc.cable, doc.shapes, doc.grippers, at, measured)
+    with pytest.raises(ValueError, match="mode"):
+        correct_plan(doc.cable, doc.shapes, doc.grippers, 3, measured, mode="fast")
+    with pytest.raises(ValueError, match="reference"):
+        correct_plan(doc.cable, doc.shapes, doc.grippers, 3, measured, reference="wish")
+    with pytest.raises(ValueError, match="max_translation"):
+        CorrectionLimits(max_translation=0.0)
+    with pytest.raises(ValueError, match="noise"):
+        Plant(doc.cable, noise=-1.0)
+
+
+# -- documents and the command ------------------------------------------------------------------
+def test_dloplan_correct_writes_the_corrected_plan_program_and_report(plans, tmp_path):
+    doc, plan_path = plans["demo"]
+    at = 3
+    truth = Plant(doc.cable.with_links(100).with_modulus(2 * doc.cable.youngs_modulus))
+    run = run_closed_loop(truth, doc.cable, doc.shapes, doc.grippers, [],
+                          stabilized=_stabilized(doc))
+    shapes_file = tmp_path / "measured.csv"
+    write_shapes(shapes_file, [RegisteredShape(_measure(run.open_loop[at]), label=f"xi_{at}")])
+    out = tmp_path / "out"
+    code = main(["correct", str(plan_path), "--at", str(at), "--measured", str(shapes_file),
+                 "-o", str(out), "-q", "--json"])
+    assert code in (0, 1)
+    corrected = read_plan(out / "plan.json")
+    report = json.loads((out / "correction.json").read_text())
+    direct = correct_document(doc, at, _measure(run.open_loop[at]))
+    assert corrected.cable.youngs_modulus == pytest.approx(direct.cable.youngs_modulus)
+    assert corrected.cable.youngs_modulus > 1.5 * doc.cable.youngs_modulus
+    assert corrected.trajectory.n_knots == len(doc.shapes)
+    assert len(corrected.stabilized) == len(doc.shapes)
+    assert report["corrected_error"][-1] < report["open_loop_error"][-1]
+    assert (out / "rapid").is_dir() and len(list((out / "rapid").glob("*.mod"))) == 2
+    rows = (out / "trajectory.csv").read_text().splitlines()
+    assert len(rows) > 3
+    assert "open-loop" in (out / "correction.txt").read_text()
+
+
+def test_dloplan_correct_refuses_an_absurd_measurement_and_writes_nothing(plans, tmp_path,
+                                                                         capsys):
+    doc, plan_path = plans["demo"]
+    shapes_file = tmp_path / "measured.json"
+    write_shapes(shapes_file, [RegisteredShape(_measure(_stabilized(doc)[3])[::-1])])
+    out = tmp_path / "out"
+    code = main(["correct", str(plan_path), "--at", "3", "--measured", str(shapes_file),
+                 "-o", str(out), "-q"])
+    assert code == 2
+    assert "reverse them" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_closed_loop_success_probability_over_sampled_cables(plans):
+    """Four cables with E scattered by a factor up to 2.5 (plant n = 40): more of them end within
+    2.5 mm of the target with one correction than without (final errors [mm], open -> closed:
+    x0.45 10.0 -> 4.5, x0.7 3.0 -> 2.0, x1.6 12.6 -> 2.1; x2.5 refused: 21 degrees of clip
+    rotation, beyond the limit)."""
+    doc, _ = plans["demo"]
+    cable = doc.cable
+    last = len(doc.shapes) - 1
+    factors = [0.45, 0.7, 1.6, 2.5]
+    rows = [closed_loop_sample(cable, doc.shapes, doc.grippers,
+                               cable.with_links(40).with_modulus(f * cable.youngs_modulus),
+                               [last // 2], seed=k, stabilized=_stabilized(doc))
+            for k, f in enumerate(factors)]
+    for row in rows[:3]:
+        assert row["corrections"] == 1
+        assert row["closed_loop_error"] < 0.7 * row["open_loop_error"]
+    assert rows[3]["corrections"] == 0 and "beyond the limits" in rows[3]["refusal"]
+    assert rows[3]["closed_loop_error"] == rows[3]["open_loop_error"]
+    success = closed_loop_success(rows, 2.5e-3)
+    assert (success.trials, success.refused) == (4, 1)
+    assert success.open_loop[0] == 0.0 and success.closed_loop[0] == 0.5
+    assert success.closed_loop[1] <= success.closed_loop[0] <= success.closed_loop[2]
+    assert "closed loop" in success.message
+    with pytest.raises(ValueError, match="tolerance"):
+        closed_loop_success(rows, 0.0)
+
+
+def test_the_mirrored_job_gets_the_mirrored_correction(plans):
+    """Reflect everything through the vertical plane y = 0 (gravity is in it): the corrected clip
+    positions reflect (M p), the rotation vectors are axial (-M phi), the errors are equal."""
+    doc, _ = plans["ethernet-3d"]
+    m = np.diag([1.0, -1.0, 1.0])
+    stable = _stabilized(doc)
+    at = 3
+    truth = equilibrium(doc.cable.with_modulus(2 * doc.cable.youngs_modulus), stable[at],
+                        doc.grippers.clip_poses(at)).shape
+    measured = _measure(truth, n_points=150)
+    g = doc.grippers
+    mirrored = GripperPath(
+        positions=g.positions @ m, method=g.method, twist=-g.twist,
+        rotations=tuple(Rotation.from_matrix(m @ r.as_matrix() @ m) for r in g.rotations))
+    results = [correct_plan(doc.cable, shapes, grippers, at, points, stabilized=s)
+               for shapes, grippers, points, s in ((doc.shapes, g, measured, stable),
+                                                    (doc.shapes @ m, mirrored, measured @ m,
+                                                     stable @ m))]
+    assert results[0].model.youngs_modulus == pytest.approx(results[1].model.youngs_modulus,
+                                                           rel=1e-6)
+    p, q = (r.clip_corrections.reshape(-1, 2, 2, 3) for r in results)
+    assert np.allclose(q[:, :, 0], p[:, :, 0] @ m, atol=1e-7)
+    assert np.allclose(q[:, :, 1], -(p[:, :, 1] @ m), atol=1e-6)
+    assert np.allclose(results[0].corrected_error, results[1].corrected_error, atol=1e-8)
+
+
+def test_corrected_poses_out_of_the_robots_reach_are_refused(plans):
+    doc, _ = plans["demo"]
+    g = doc.grippers
+    far = g.positions.copy()
+    far[5:] += [1.5, 0.0, 0.0]  # 1.5 m further away from the robot
+    moved = GripperPath(positions=far, rotations=g.rotations, method=g.method, twist=g.twist)
+    check_robot_reach(g, g, 3)  # the plan itself passes
+    with pytest.raises(CorrectionRefused, match=r"shapes \[5, 6, 7\] are out of the YuMi's"):
+        check_robot_reach(g, moved, 3)
+
+
+def test_the_planned_reference_also_corrects_the_plans_own_drift_within_the_limits(plans):
+    """With the cable exactly as modelled, aiming at the planned shapes instead of the stabilized
+    ones corrects the plan's stabilization drift: the 3D Ethernet target (21 mm off when
+    stabilized) comes 3x closer; the demo target (76 mm off) would need 52 degrees of clip
+    rotation and is refused."""
+    doc, _ = plans["ethernet-3d"]
+    stable = _stabilized(doc)
+    exact = resample_by_arc_length(stable[3], 300)
+    result = correct_plan(doc.cable, doc.shapes, doc.grippers, 3, exact, stabilized=stable,
+                          reference="planned")
+    assert np.allclose(result.reference, doc.shapes[4:])
+    assert result.corrected_error[-1] < result.open_loop_error[-1] / 3
+    doc, _ = plans["demo"]
+    stable = _stabilized(doc)
+    with pytest.raises(CorrectionRefused, match="beyond the limits"):
+        correct_plan(doc.cable, doc.shapes, doc.grippers, 3,
+                     resample_by_arc_length(stable[3], 300), stabilized=stable,
+                     reference="planned")

@@ -1,0 +1,168 @@
+"""Shape sensitivity (dloplan.sim.sensitivity) against finite differences of the equilibrium.
+
+Tolerance: 1e-6 of the largest entry. The finite differences are central with a step h = 1e-6
+(m or rad or log E): their truncation error is O(h^2), below 2e-7 relative even for the stiff
+curved hose (whose held free length makes the equilibrium strongly nonlinear in the clip
+distance: 1.7e-5 at h = 1e-5, 1.7e-7 at h = 1e-6), and the equilibria are solved to a force
+residual near machine precision (rtol 1e-12), whose effect on the quotient is below 1e-8
+relative; so a 1e-6 disagreement can only come from a wrong derivative.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from gripper_paths import curved_hose
+from scipy.spatial.transform import Rotation
+
+from dloplan.cable import catalogue_cable
+from dloplan.shapes import arc_shape, place, sine_shape
+from dloplan.sim import clip_poses_from_shape, equilibrium
+from dloplan.sim.sensitivity import (
+    equilibrium_sensitivity,
+    held_point_jacobian,
+    perturbed_clips,
+    twist_equilibrium_sensitivity,
+)
+from dloplan.sim.torsion import equilibrium_with_twist
+
+RTOL = 1e-12
+STEP = 1e-6
+
+
+def _case(name: str):
+    if name == "ethernet-3d-arc":
+        cable = catalogue_cable("ethernet", n_links=16)
+        turn = Rotation.from_euler("xyz", [70, 0, 60], degrees=True)
+        shape = place(arc_shape(cable.length, 16, np.radians(120)), (0.3, 0.0, 0.2), turn)
+    elif name == "usb-sine-thesis-model":
+        cable = catalogue_cable("usb", n_links=12).thesis_model()
+        shape = place(sine_shape(cable.length, 12, 0.05), (0.2, -0.1, 0.1),
+                      Rotation.from_euler("z", 30, degrees=True))
+    else:  # a stiff hose with a curved rest shape (directional bending with torsion)
+        cable = curved_hose(10)
+        shape = place(cable.rest_shape, (0.1, 0.2, 0.3), Rotation.from_euler("x", 80, degrees=True))
+    return cable, shape
+
+
+def _fd_clips(solve, clips):
+    columns = []
+    for k in range(12):
+        d = np.zeros(12)
+        d[k] = STEP
+        columns.append((solve(perturbed_clips(clips, d)) - solve(perturbed_clips(clips, -d)))
+                       / (2 * STEP))
+    return np.stack(columns, axis=-1)
+
+
+def _relative(a, b):
+    return float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
+
+
+@pytest.mark.parametrize("name", ["ethernet-3d-arc", "usb-sine-thesis-model", "curved-hose"])
+def test_clip_and_modulus_jacobians_match_finite_differences(name):
+    cable, shape = _case(name)
+    clips = clip_poses_from_shape(shape)
+    eq = equilibrium(cable, shape, clips, rtol=RTOL)
+    assert eq.success
+    sens = equilibrium_sensitivity(cable, eq.shape, clips)
+    fd = _fd_clips(lambda c: equilibrium(cable, eq.shape, c, rtol=RTOL).shape, clips)
+    assert _relative(sens.clips, fd) < 1e-6
+
+    def at(log_e):
+        return equilibrium(cable.with_modulus(cable.youngs_modulus * np.exp(log_e)), eq.shape,
+                           clips, rtol=RTOL).shape
+
+    fd_e = (at(STEP) - at(-STEP)) / (2 * STEP)
+    assert _relative(sens.log_modulus, fd_e) < 1e-6
+    # a stiffer cable sags less: d z / d log E > 0 at the lowest free point
+    lowest = 2 + int(np.argmin(eq.shape[2:-2, 2]))
+    assert sens.log_modulus[lowest, 2] > 0
+
+
+@pytest.mark.parametrize("name", ["ethernet-3d-arc", "curved-hose"])
+def test_twist_jacobians_match_finite_differences_and_differ_from_the_plain_ones(name):
+    cable, shape = _case(name)
+    clips = clip_poses_from_shape(shape)
+    # roll the first clip about its axis by 0.3 rad: the cable carries twist
+    roll = np.zeros(12)
+    roll[3:6] = 0.3 * clips.u_axes[0]
+    clips = perturbed_clips(clips, roll)
+    eq = equilibrium_with_twist(cable, shape, clips, rtol=RTOL)
+    assert eq.stable
+    sens = twist_equilibrium_sensitivity(cable, eq)
+    assert sens.torsion
+
+    def solve(c, c_cable=cable):
+        return equilibrium_with_twist(c_cable, eq.shape, c, directors=eq.directors,
+                                      rtol=RTOL).shape
+
+    fd = _fd_clips(solve, clips)
+    assert _relative(sens.clips, fd) < 1e-6
+    fd_e = (solve(clips, cable.with_modulus(cable.youngs_modulus * np.exp(STEP)))
+            - solve(clips, cable.with_modulus(cable.youngs_modulus * np.exp(-STEP)))) / (2 * STEP)
+    assert _relative(sens.log_modulus, fd_e) < 1e-6
+    # the torsion-free derivative misses the twist's coupling: measurably different
+    plain = equilibrium_sensitivity(cable, eq.shape, clips)
+    assert _relative(plain.clips, fd) > 1e-5
+
+
+def test_rigid_motion_of_both_clips_moves_the_shape_rigidly():
+    """Invariance: moving both clips by the same translation translates the equilibrium; turning
+    both about a point turns it (up to gravity, so only the translation is exact)."""
+    cable, shape = _case("ethernet-3d-arc")
+    clips = clip_poses_from_shape(shape)
+    sens = equilibrium_sensitivity(cable, equilibrium(cable, shape, clips, rtol=RTOL).shape, clips)
+    for axis in range(3):
+        d = np.zeros(12)
+        d[axis] = d[6 + axis] = 1.0
+        assert np.allclose(sens.clips @ d, np.eye(3)[axis], atol=1e-9)
+
+
+def test_linear_prediction_is_second_order_accurate():
+    cable, shape = _case("ethernet-3d-arc")
+    clips = clip_poses_from_shape(shape)
+    eq = equilibrium(cable, shape, clips, rtol=RTOL)
+    sens = equilibrium_sensitivity(cable, eq.shape, clips)
+    scale_per_clip = np.r_[[1e-2] * 3, [5e-2] * 3]  # 1 cm, 0.05 rad
+    direction = np.random.default_rng(1).normal(size=12) * np.tile(scale_per_clip, 2)
+    errors = []
+    for scale in (1.0, 0.5):
+        exact = equilibrium(cable, eq.shape, perturbed_clips(clips, scale * direction),
+                            rtol=RTOL).shape
+        errors.append(np.max(np.abs(sens.predict(scale * direction) - exact)))
+    assert 3.0 < errors[0] / errors[1] < 5.0  # the linearization error is O(delta^2)
+
+
+def test_held_point_jacobian_matches_the_clip_geometry():
+    cable, shape = _case("usb-sine-thesis-model")
+    clips = clip_poses_from_shape(shape)
+    jac = held_point_jacobian(clips, cable.rest_link_length)
+    d = np.random.default_rng(2).normal(size=12) * 1e-6
+    moved = perturbed_clips(clips, d).held_points(cable.rest_link_length)
+    base = clips.held_points(cable.rest_link_length)
+    assert np.allclose(moved - base, jac @ d, atol=1e-15)
+
+
+def test_an_unstable_shape_or_bad_delta_is_refused():
+    cable, shape = _case("ethernet-3d-arc")
+    clips = clip_poses_from_shape(shape)
+    # a shape far from equilibrium with its links compressed to half: H_ff indefinite
+    squeezed = shape[0] + 0.5 * (shape - shape[0])
+    with pytest.raises(ValueError, match="not positive definite"):
+        equilibrium_sensitivity(cable, squeezed, clip_poses_from_shape(squeezed))
+    with pytest.raises(ValueError, match="delta"):
+        perturbed_clips(clips, np.zeros(11))
+    with pytest.raises(ValueError, match="shape"):
+        equilibrium_sensitivity(cable, shape[:-1], clips)
+
+
+def test_modulus_column_matches_the_identification_sensitivity():
+    """An independent implementation: identify.simulate.modulus_sensitivity (sparse LU)."""
+    from dloplan.identify.simulate import modulus_sensitivity
+
+    cable, shape = _case("usb-sine-thesis-model")
+    clips = clip_poses_from_shape(shape)
+    eq = equilibrium(cable, shape, clips, rtol=RTOL)
+    ours = equilibrium_sensitivity(cable, eq.shape, clips).log_modulus
+    assert _relative(ours, modulus_sensitivity(cable, eq.shape)) < 1e-9
