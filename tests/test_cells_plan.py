@@ -116,3 +116,25 @@ def test_ur5e_example_runs_end_to_end_and_programs_read_back(tmp_path):
         ros = np.array([p["positions"] for p in message["points"]])
         np.testing.assert_allclose(np.array([m[1] for m in moves]), ros, atol=1e-9)
     assert (tmp_path / "plan.json").is_file()
+
+
+def test_ros_joints_writer_of_a_plan_document_is_the_verified_yumi_program(tmp_path):
+    """The registry's ros_joints writer: per YuMi arm the verified joints at the target times."""
+    from robot_plans import EXAMPLES as PLANS
+
+    from dloplan.app import WRITERS, load_scenario, run_job
+
+    doc = run_job(load_scenario(PLANS / "m2_uniform_curvature_usb.yaml"))
+    program = doc.program
+    assert program is not None and program.ok, program.message
+    files = WRITERS["ros_joints"].write(doc, tmp_path / "ros_joints", None)
+    assert [f.name for f in files] == ["dloplan_left_joint_trajectory.yaml",
+                                       "dloplan_right_joint_trajectory.yaml"]
+    for a, path in enumerate(files):
+        message = yaml.safe_load(path.read_text())
+        assert message["joint_names"] == list(program.cell.robot.arms[a].joint_names)
+        np.testing.assert_array_equal([p["positions"] for p in message["points"]],
+                                      program.joints[:, a])
+        stamps = [p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"]
+                  for p in message["points"]]
+        np.testing.assert_allclose(stamps, program.times, atol=1e-9)
