@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 
 from .description import ArmDescription
 from .kinematics import LENGTH_SCALE, NULL_FADE, IKOptions, IKResult
-from .yumi import DEFAULT_TCP_IN_CLIP
+from .yumi import DEFAULT_TCP_IN_CLIP, as_vector
 
 STALL_WINDOW = 10
 """Iterations over which a solve must make progress ..."""
@@ -27,13 +27,6 @@ STALL_RATIO = 0.99
 """... shrinking the weighted error (position + 0.1 m/rad x angle) below this fraction of its
 value STALL_WINDOW iterations before; else the seed is given up (stuck at a limit or in a
 local minimum: the next seed is tried rather than spending the remaining iterations)."""
-
-
-def _vector(value, name: str, size: int) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != (size,) or not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: expected {size} finite numbers, got {value!r}")
-    return arr
 
 
 @dataclass(frozen=True, eq=False)
@@ -78,9 +71,9 @@ class CellArm:
         d = self.description
         n = d.n_joints
         object.__setattr__(self, "base_position",
-                           _vector(self.base_position, f"{self.name}.base_position", 3))
+                           as_vector(self.base_position, f"{self.name}.base_position", 3))
         object.__setattr__(self, "tcp_offset",
-                           _vector(self.tcp_offset, f"{self.name}.tcp_offset", 3))
+                           as_vector(self.tcp_offset, f"{self.name}.tcp_offset", 3))
         for key in ("base_rotation", "tcp_rotation", "tcp_in_clip"):
             value = getattr(self, key)
             if not isinstance(value, Rotation) or not value.single:
@@ -89,7 +82,7 @@ class CellArm:
         if not (np.isfinite(self.tool_radius) and self.tool_radius >= 0):
             raise ValueError(f"{self.name}.tool_radius: expected a number >= 0 [m], got "
                              f"{self.tool_radius!r}")
-        home = 0.5 * (d.lower + d.upper) if self.home is None else _vector(
+        home = 0.5 * (d.lower + d.upper) if self.home is None else as_vector(
             self.home, f"{self.name}.home", n)
         if np.any((home < d.lower) | (home > d.upper)):
             raise ValueError(f"{self.name}.home: {home} is outside the joint limits")
@@ -290,10 +283,10 @@ def inverse(arm: CellArm, position, rotation: Rotation, seed=None,
     rng : numpy.random.Generator, optional
         For the restarts; default seeded with 0.
     """
-    position = _vector(position, "position", 3)
+    position = as_vector(position, "position", 3)
     if not isinstance(rotation, Rotation) or not rotation.single:
         raise ValueError(f"rotation: expected a single scipy Rotation, got {rotation!r}")
-    seed = arm.home if seed is None else _vector(seed, "seed", arm.n_joints)
+    seed = arm.home if seed is None else as_vector(seed, "seed", arm.n_joints)
     opts = options if options is not None else IKOptions()
     target = rotation.as_matrix()
     shoulder = float(np.linalg.norm(position - arm.shoulder))
