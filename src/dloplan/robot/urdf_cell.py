@@ -5,8 +5,8 @@ from URDF, each with its base pose, tool and joint limits) and the table they st
 :func:`check_cell_path` verifies a dual-arm TCP path on it as :mod:`dloplan.robot.reachability`
 does for the YuMi: IK at every planned pose, tracked continuously through sub-steps between
 poses (each solve seeded from the previous one), joint margins, arm-arm and arm-table capsule
-clearance at every sub-step, and one verdict row per check, target and arm
-(:class:`VerdictRow`, the fields of the robot program's check rows).
+clearance at every sub-step, and one verdict row per check, target and arm (the robot
+program's :class:`~dloplan.robot.program.CheckRow`).
 :func:`search_cell_placement` shifts the job on the table to where the cell executes it best.
 
 Presets (:data:`PRESETS`): ``ur5e_pair`` (two UR5e side by side), ``panda_pair`` (two Franka
@@ -25,6 +25,7 @@ from scipy.spatial.transform import Rotation, Slerp
 from .chain import CellArm, capsules, in_base_frame, inverse, joint_margin
 from .collision import segment_distance
 from .description import load_arm, vendored
+from .program import CheckRow
 from .reachability import ReachOptions
 from .yumi import ARMS, DEFAULT_TCP_IN_CLIP, DEFAULT_TCP_OFFSET, HOME_DEG
 
@@ -81,31 +82,6 @@ class DescribedCell:
         return (self.left, self.right)
 
 
-@dataclass(frozen=True)
-class VerdictRow:
-    """One line of the verdict table (fields of the robot program's check rows).
-
-    ``check`` is one of :data:`CHECKS`; ``target`` the pose index; ``arm`` ``"left"``,
-    ``"right"`` or ``"both"``; ``value`` in ``unit`` (mm or deg).
-    """
-
-    check: str
-    target: int
-    label: str
-    shape: int
-    arm: str
-    value: float
-    unit: str
-    ok: bool
-    note: str = ""
-
-    def to_dict(self) -> dict:
-        """JSON-ready."""
-        return {"check": self.check, "target": self.target, "label": self.label,
-                "shape": self.shape, "arm": self.arm, "value": float(self.value),
-                "unit": self.unit, "ok": bool(self.ok), "note": self.note}
-
-
 @dataclass(frozen=True, eq=False)
 class CellVerdict:
     """Verification of a dual-arm TCP path on a :class:`DescribedCell`.
@@ -127,7 +103,7 @@ class CellVerdict:
         (N,) sub-step parameter (k + fraction) of the tracked motion.
     motion_joints : tuple of numpy.ndarray
         Per arm (N, n_arm) the joints [rad] of every sub-step (for a joint trajectory).
-    rows : tuple of VerdictRow
+    rows : tuple of CheckRow
     """
 
     joints: tuple[np.ndarray, np.ndarray]
@@ -141,7 +117,7 @@ class CellVerdict:
     clearance: np.ndarray
     motion_times: np.ndarray
     motion_joints: tuple[np.ndarray, np.ndarray]
-    rows: tuple[VerdictRow, ...]
+    rows: tuple[CheckRow, ...]
 
     @property
     def ok(self) -> bool:
@@ -289,28 +265,28 @@ def check_cell_path(cell: DescribedCell, positions, rotations: Rotation, *, seed
                        times, tuple(motion_q), tuple(rows))
 
 
-def _rows(cell, reach_ok, cont, perr, margin, step, table, clearance, opts) -> list[VerdictRow]:
+def _rows(cell, reach_ok, cont, perr, margin, step, table, clearance, opts) -> list[CheckRow]:
     rows = []
     for k in range(len(clearance)):
         label = f"pose {k}"
         for a, arm in enumerate(cell.arms):
             note = "" if reach_ok[k, a] else "IK did not converge"
-            rows.append(VerdictRow("reach", k, label, k, arm.name, 1e3 * perr[k, a], "mm",
+            rows.append(CheckRow("reach", k, label, k, arm.name, 1e3 * perr[k, a], "mm",
                                    bool(reach_ok[k, a]), note))
             low = margin[k, a] < opts.min_margin
-            rows.append(VerdictRow("joint limits", k, label, k, arm.name,
+            rows.append(CheckRow("joint limits", k, label, k, arm.name,
                                    float(np.degrees(margin[k, a])), "deg",
                                    bool(reach_ok[k, a] and margin[k, a] > 0),
                                    f"below the wanted {np.degrees(opts.min_margin):.0f} deg"
                                    if low else ""))
-            rows.append(VerdictRow("continuity", k, label, k, arm.name,
+            rows.append(CheckRow("continuity", k, label, k, arm.name,
                                    float(np.degrees(step[k, a])), "deg", bool(cont[k, a]),
                                    "" if cont[k, a] else "configuration change or IK lost"))
-            rows.append(VerdictRow("table clearance", k, label, k, arm.name,
+            rows.append(CheckRow("table clearance", k, label, k, arm.name,
                                    1e3 * table[k, a], "mm",
                                    bool(table[k, a] >= opts.min_clearance)))
         both = bool(reach_ok[k].all())
-        rows.append(VerdictRow("clearance", k, label, k, "both", 1e3 * clearance[k], "mm",
+        rows.append(CheckRow("clearance", k, label, k, "both", 1e3 * clearance[k], "mm",
                                bool(clearance[k] >= opts.min_clearance or not both)))
     return rows
 
