@@ -31,7 +31,6 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-import dloplan.data
 from dloplan.app import read_plan
 from dloplan.cli import main as dloplan_main
 from dloplan.correct import Plant, correct_plan, run_closed_loop
@@ -40,7 +39,7 @@ from dloplan.physics.geometry import as_path, resample_by_arc_length
 from dloplan.sim import equilibrium
 
 ROOT = Path(__file__).resolve().parents[1]
-SCENARIOS = {"demo": Path(dloplan.data.__file__).parent / "demo.yaml",
+SCENARIOS = {"demo": ROOT / "tests" / "data" / "sagging_demo.yaml",
              "3D ethernet": ROOT / "examples" / "qualitative2_ethernet_3d.yaml"}
 
 

@@ -4,11 +4,14 @@ placement search, and the verified robot program (`robot_program`) of a 7- and a
 Run: PYTHONPATH=src python benchmarks/bench_robot.py
 
 Times are wall clock and CPU (process time, the better figure on the shared 2-core machine).
-Numbers of 2026-11-30 (load average ~10, best of 3 CPU): IK seeded 0.1 rad away ~1 ms per
-pose, from home ~15-25 ms; robot program of the 7-shape job (9 targets per arm, 2 grips x
-~12 arm angles per arm tracked in sub-steps, replay, clearance) 0.2-0.3 s CPU, the 50-shape
-job ~1 s CPU. Before (main at 9be97c7, same load): IK per pose ~1.5x slower (scipy's
-Rotation per iteration and np.linalg.pinv); no robot program existed.
+Numbers of 2026-11-30, load average ~10, OMP/OPENBLAS_NUM_THREADS=1 (best of 3 CPU):
+IK seeded 0.1 rad away 1.8-2.5 ms CPU per pose (12-18 ms wall), from home 30-36 ms CPU;
+50-pose reachability 4.6 s wall; robot program of the 7-shape job (9 targets per arm: 2 grips x
+~12 arm angles per arm tracked in sub-steps, replay, clearance) 0.44 s CPU (3.3 s wall), of the
+50-shape job 1.03 s CPU (12.7 s wall); the M2 USB example's program 0.22 s CPU. Before (main at
+9be97c7, the same load, wall only): IK seeded 23-51 ms wall per pose, 50-pose reachability
+8.1 s wall (the IK's per-iteration scipy Rotation and pinv, now a closed-form log map, Rodrigues
+joint rotations and a 6x6 solve); no robot program existed.
 """
 
 from __future__ import annotations

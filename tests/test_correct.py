@@ -15,7 +15,6 @@ import pytest
 import yaml
 from scipy.spatial.transform import Rotation
 
-import dloplan.data
 from dloplan.app import read_plan
 from dloplan.cli import main
 from dloplan.correct import (
@@ -35,7 +34,7 @@ from dloplan.sim import equilibrium
 from dloplan.vision.shapes_io import RegisteredShape, write_shapes
 
 SCENARIOS = {
-    "demo": Path(dloplan.data.__file__).parent / "demo.yaml",
+    "demo": Path(__file__).resolve().parent / "data" / "sagging_demo.yaml",
     "ethernet-3d": Path(__file__).resolve().parents[1] / "examples/qualitative2_ethernet_3d.yaml",
 }
 MODEL_LINKS = 20

@@ -161,7 +161,7 @@ FULL_METRES = {
                   {"type": "cylinder", "base": [0.6, 0.0, 0.0], "radius": 0.01, "height": 0.08}],
     "table": {"height": 0.01},
     "check": {"threshold": 0.015, "z_safety": 0.025},
-    "trajectory": {"tcp_speed": 0.08},
+    "trajectory": {"tcp_speed": 0.08, "acceleration": 0.8, "jerk": 6.0, "zone": 0.005},
     "planner": {"n_shapes": 4},
 }
 
@@ -169,7 +169,8 @@ FULL_METRES = {
 def _in_millimetres(data):
     """FULL_METRES with every length in mm (angles, counts and moduli unchanged)."""
     lengths = {"length", "diameter", "amplitude", "position", "points", "center", "size", "min",
-               "max", "base", "radius", "height", "threshold", "z_safety", "tcp_speed"}
+               "max", "base", "radius", "height", "threshold", "z_safety", "tcp_speed",
+               "acceleration", "jerk", "zone", "approach"}
 
     def convert(key, value):
         if isinstance(value, dict):
@@ -201,6 +202,9 @@ def test_a_scenario_in_metres_and_millimetres_resolves_to_the_same_job():
                 assert np.allclose(value, getattr(b, key), **close), key
     assert metres.target_threshold == pytest.approx(millimetres.target_threshold, rel=1e-12)
     assert metres.planner == millimetres.planner
-    for key, value in vars(metres.motion).items():
-        assert value == pytest.approx(getattr(millimetres.motion, key), rel=1e-12), key
+    assert vars(metres.motion.limits) == pytest.approx(vars(millimetres.motion.limits),
+                                                       rel=1e-12)
+    for key in ("zone", "grasp_time", "release_time", "rate"):
+        assert getattr(metres.motion, key) == pytest.approx(getattr(millimetres.motion, key),
+                                                            rel=1e-12), key
     assert metres.motion.tcp_speed == pytest.approx(0.08, rel=1e-12)

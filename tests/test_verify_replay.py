@@ -10,7 +10,8 @@ from dloplan.cable import catalogue_cable
 from dloplan.sim.clips import ClipPoses
 from dloplan.sim.dynamics import ClipTrajectory
 from dloplan.sim.statics import continuation
-from dloplan.verify.replay import as_clip_trajectory, replay
+from dloplan.trajectory import MotionLimits, dual_arm_trajectory
+from dloplan.verify.replay import as_clip_trajectory, clip_motion, replay
 
 # A soft USB cable (E / 10, the thesis' fictitious-modulus idea): its explicit time step is about
 # 3x longer, so a replay of a few seconds takes a few thousand steps.
@@ -101,3 +102,59 @@ def test_relative_damping_does_not_drag_the_cable_behind(shapes):
     drag = replay(CABLE, shapes, times, damping="absolute")
     dashpots = replay(CABLE, shapes, times)
     assert dashpots.deviations.max() < drag.deviations.max()
+
+
+def _timed(limits=None, **options):
+    """The jerk-limited dual-arm trajectory of POSES (TCP = clip frame, left arm = clip 0)."""
+    positions = np.stack([p.positions for p in POSES])
+    rotations = tuple(Rotation.concatenate([p.rotations[c] for p in POSES]) for c in (0, 1))
+    return dual_arm_trajectory(positions, rotations, limits=limits, **options)
+
+
+def test_the_clips_follow_the_real_time_law(shapes):
+    traj = _timed()
+    motion = clip_motion(traj.law, POSES)
+    assert np.all(np.isin(traj.times, motion.times))
+    # the sampled clip motion is the trajectory's (not linear at constant speed)
+    t = np.linspace(0.0, traj.duration, 777)
+    clips = motion.frames(t)[0]
+    np.testing.assert_allclose(clips, traj.at(t).positions, atol=2e-7)  # a h^2 / 8 at 1 ms
+    run = replay(CABLE, shapes, (traj.times, POSES), law=traj.law)
+    assert run.law is traj.law
+    np.testing.assert_allclose(run.knot_times, traj.times)
+    # the held points of the simulation accelerate within the limit (second differences of
+    # the clip midpoint over the records), while the velocity-only drive jumps at the knots
+    sim = run.simulation
+    inside = sim.times <= traj.duration
+    held = 0.5 * (sim.shapes[inside, -1] + sim.shapes[inside, -2])  # the moving clip
+    dt = np.diff(sim.times[inside])
+    v = np.diff(held, axis=0) / dt[:, None]
+    a = np.linalg.norm(np.diff(v, axis=0), axis=-1) / dt[1:]
+    # the default 1 m/s^2; 10 %: the clips run on 1 ms chords, the records are not aligned
+    assert 0.5 < a.max() <= 1.0 * 1.1
+    old = replay(CABLE, shapes, (traj.times, POSES))
+    held_old = 0.5 * (old.simulation.shapes[:, -1] + old.simulation.shapes[:, -2])
+    dt_old = np.diff(old.simulation.times)
+    v_old = np.diff(held_old, axis=0) / dt_old[:, None]
+    a_old = np.linalg.norm(np.diff(v_old, axis=0), axis=-1) / dt_old[1:]
+    assert a_old.max() > 10.0  # a velocity step at the start: ~0.1 m/s within one record
+
+
+def test_segment_deviations_and_motion_peak(shapes):
+    fast = replay(CABLE, shapes, POSES, law=_timed(MotionLimits(
+        speed=0.5, acceleration=20.0, jerk=1000.0)).law, tolerance=0.005)
+    slow = replay(CABLE, shapes, POSES, law=_timed().law, tolerance=0.005)
+    for run in (fast, slow):
+        assert run.segment_deviations.shape == (2,)
+        # a segment's deviation is at least its two knots'
+        assert np.all(run.segment_deviations >= np.maximum(run.deviations[:-1],
+                                                           run.deviations[1:]))
+        assert 0 < run.motion_peak_tension <= run.peak_tension
+        assert "along the segments" in run.message
+    assert fast.segment_deviations.max() > 2 * slow.segment_deviations.max()
+    # between the knots a fast motion lags more than at them
+    assert fast.segment_deviations.max() > fast.max_deviation
+    with pytest.raises(ValueError, match="poses: expected 3 ClipPoses"):
+        clip_motion(slow.law, POSES[:2])
+    with pytest.raises(ValueError, match="law: got tuple"):
+        clip_motion((0, 1), POSES)

@@ -36,7 +36,7 @@ from ..io.poses import (
 from ..obstacles.shapes import Box, Cylinder, Table
 from ..physics.geometry import as_path
 from ..planning.result import ForceStatistics
-from ..trajectory import ARMS, Trajectory
+from ..trajectory import ARMS, MotionLimits, Profile, TimeLaw, Trajectory
 
 PLAN_FORMAT = "dloplan-plan"
 PLAN_VERSION = 2
@@ -83,6 +83,7 @@ def _trajectory_section(trajectory: Trajectory, frame_id: str) -> dict:
         "max_speed": trajectory.max_speed,
         "max_angular_speed": trajectory.max_angular_speed,
         "duration": trajectory.duration,
+        "law": None if trajectory.law is None else law_to_dict(trajectory.law),
         "points": [
             {"time": float(t), "time_from_start": duration_dict(t), "poses": [left, right]}
             for t, left, right in zip(trajectory.times, *poses, strict=True)
@@ -168,7 +169,35 @@ def _read_trajectory(section: dict, frame_id: str) -> Trajectory:
         max_speed=_get(section, "max_speed", where, int | float),
         max_angular_speed=_get(section, "max_angular_speed", where, int | float),
         arm_clips=tuple(CLIP_NAMES.index(c) for c in clip_names),
+        law=None if section.get("law") is None else law_from_dict(section["law"], where),
     )
+
+
+def law_to_dict(law: TimeLaw) -> dict:
+    """A trajectory's time law as JSON-ready data: every segment's jerk-limited profile, the
+    knot instants, zones and limits, so a plan read back moves exactly as it was planned."""
+    return {"kind": law.kind, "starts": law.starts.tolist(),
+            "knot_times": law.knot_times.tolist(), "zones": law.zones.tolist(),
+            "limits": None if law.limits is None else section_to_dict(law.limits),
+            "speed_scale": None if law.speed_scale is None else law.speed_scale.tolist(),
+            "profiles": [section_to_dict(p) for p in law.profiles]}
+
+
+def law_from_dict(data: dict, where: str) -> TimeLaw:
+    """The :class:`~dloplan.trajectory.TimeLaw` of :func:`law_to_dict`'s data."""
+    where = f"{where}.law"
+    try:
+        return TimeLaw(
+            starts=np.asarray(data["starts"], float),
+            profiles=tuple(section_from_dict(Profile, p, f"{where}.profiles[{k}]")
+                           for k, p in enumerate(data["profiles"])),
+            knot_times=np.asarray(data["knot_times"], float),
+            zones=np.asarray(data["zones"], float), kind=data["kind"],
+            limits=None if data["limits"] is None else MotionLimits(**data["limits"]),
+            speed_scale=None if data["speed_scale"] is None else
+            np.asarray(data["speed_scale"], float))
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"{where}: {exc}") from None
 
 # -- the typed sections --------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
@@ -375,6 +404,10 @@ class PlanDocument:
         The wire-harness job's numbers (:func:`dloplan.harness.harness_summary`).
     robot : RobotSection or None
         The verified robot program (None when the plan was made without robot checks).
+    cycle : dict or None
+        The timeline with gripper actions (:class:`dloplan.trajectory.Cycle`): ``phases``
+        (name, kind, start, duration, knots), ``motion_time``, ``action_time``,
+        ``cycle_time`` [s].
     correction : dict or None
         A closed-loop correction's report (:meth:`dloplan.correct.Correction.report`) when the
         document is a corrected plan (``dloplan correct``).
@@ -408,6 +441,7 @@ class PlanDocument:
     identification: IdentificationSection | None = None
     harness: dict | None = None
     robot: RobotSection | None = None
+    cycle: dict | None = None
     correction: dict | None = None
     timings: dict = field(default_factory=dict)
     frame_id: str = DEFAULT_FRAME_ID
@@ -554,6 +588,7 @@ def document_to_dict(doc: PlanDocument) -> dict:
         "identification": section_to_dict(doc.identification),
         "harness": _plain(doc.harness),
         "robot": section_to_dict(doc.robot),
+        "cycle": _plain(doc.cycle),
         "correction": _plain(doc.correction),
         "timings": _plain(doc.timings),
     }
@@ -649,6 +684,7 @@ def document_from_dict(data: dict) -> PlanDocument:
                                          sections.get("identification"), "plan.identification"),
         harness=sections.get("harness"),
         robot=section_from_dict(RobotSection, sections.get("robot"), "plan.robot"),
+        cycle=sections.get("cycle"),
         correction=sections.get("correction"),
         timings=dict(sections.get("timings") or {}),
         frame_id=frame_id,
@@ -686,3 +722,10 @@ def read_plan(path: str | os.PathLike) -> PlanDocument:
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise ValueError(f"{path}: not a plan document (not valid JSON: {exc})") from None
     return document_from_dict(data)
+
+
+def cycle_to_dict(cycle) -> dict:
+    """A :class:`~dloplan.trajectory.Cycle` as the document's ``cycle`` section."""
+    return {"phases": [section_to_dict(p) for p in cycle.phases],
+            "motion_time": cycle.motion_time, "action_time": cycle.action_time,
+            "cycle_time": cycle.cycle_time, "breakdown": cycle.breakdown()}

@@ -27,6 +27,7 @@ from ..physics.geometry import resample_by_arc_length
 from ..planning.tuning import PlannerWeights, planner_weights, stiffness_family
 from ..robot.cell import RobotCell
 from ..shapes import discretize
+from ..trajectory import MotionLimits
 
 
 @dataclass(frozen=True)
@@ -93,21 +94,31 @@ class GripperSettings:
 
 @dataclass(frozen=True)
 class MotionSettings:
-    """Limits of the timed dual-arm motion.
+    """The timed dual-arm motion (:mod:`dloplan.trajectory`).
 
     Attributes
     ----------
-    tcp_speed : float
-        Largest TCP speed [m/s].
-    angular_speed : float
-        Largest TCP angular speed [rad/s].
+    limits : MotionLimits
+        Per-arm TCP speed [m/s], acceleration [m/s^2], jerk [m/s^3] and their angular
+        counterparts [rad/s, rad/s^2, rad/s^3].
+    zone : float
+        Fly-by zone radius at the interior shapes [m]; 0 stops at every shape.
+    grasp_time, release_time : float
+        Gripper action durations [s].
     rate : float
         Sampling rate of the trajectory exports [Hz].
     """
 
-    tcp_speed: float
-    angular_speed: float
+    limits: MotionLimits
+    zone: float
+    grasp_time: float
+    release_time: float
     rate: float
+
+    @property
+    def tcp_speed(self) -> float:
+        """Largest TCP speed [m/s]."""
+        return self.limits.speed
 
 
 @dataclass(frozen=True, eq=False)
@@ -205,9 +216,14 @@ def planner_settings(scenario, cable: Cable, scale: float) -> PlannerSettings:
 
 
 def motion_settings(scenario, scale: float) -> MotionSettings:
-    """TCP speed [m/s] (the file's length units per second), angular speed [rad/s], rate."""
+    """Motion limits and zone in SI (the file's length units per second...), actions, rate."""
     spec = scenario.trajectory
-    return MotionSettings(spec.speed(scale), spec.angular_speed, spec.rate)
+    try:
+        limits = spec.limits(scale)
+    except ValueError as exc:
+        raise ScenarioError(f"trajectory: {exc}") from None
+    return MotionSettings(limits, spec.zone * scale, spec.grasp_time, spec.release_time,
+                          spec.rate)
 
 
 def gripper_settings(scenario) -> GripperSettings:

@@ -26,6 +26,7 @@ import numpy as np
 from ..obstacles.collisions import check_shape
 from ..sim.clips import clip_poses_from_shape
 from ..sim.statics import check_clip_reach, check_target, clip_wrenches, stabilize
+from ..trajectory import GripperAction, plan_cycle
 from .document import (
     AvoidanceSection,
     IdentificationSection,
@@ -37,6 +38,7 @@ from .document import (
     VerificationSection,
     cell_from_dict,
     cell_to_dict,
+    cycle_to_dict,
 )
 from .job import Job
 
@@ -187,17 +189,25 @@ def plan_path(job: Job, progress=quiet) -> PathStage:
 
 
 def plan_motion(job: Job, path: np.ndarray, progress=quiet):
-    """Gripper frames for every shape (thesis 4.6) and the timed dual-arm trajectory."""
+    """Gripper frames for every shape (thesis 4.6) and the timed dual-arm trajectory, its arms
+    assigned by the robot cell's side rule."""
     from ..grippers import gripper_path
+    from ..robot import assign_arms
     from ..trajectory import trajectory_from_grippers
 
     settings = job.grippers
     grippers = gripper_path(path, method=settings.method, cable=job.cable,
                             initial=settings.initial, aux=settings.auxiliary_vector)
-    trajectory = trajectory_from_grippers(grippers, max_speed=job.motion.tcp_speed,
-                                          max_angular_speed=job.motion.angular_speed)
-    progress(f"gripper frames ({grippers.method}), trajectory {trajectory.duration:.2f} s at "
-             f"{1e3 * job.motion.tcp_speed:.0f} mm/s")
+    # the arm on the robot's left holds the clip on its left (docs/robot.md): the trajectory's
+    # arm order is the robot program's, so its CSV and ROS columns name the right arms
+    left_clip = assign_arms(grippers.positions, job.robot).left_clip
+    motion = job.motion
+    trajectory = trajectory_from_grippers(grippers, left_clip=left_clip, limits=motion.limits,
+                                          zone=motion.zone)
+    zones = "stops at every shape" if motion.zone == 0 else \
+        f"fly-by zones of {1e3 * motion.zone:.0f} mm"
+    progress(f"gripper frames ({grippers.method}), jerk-limited trajectory "
+             f"{trajectory.duration:.2f} s at up to {1e3 * motion.tcp_speed:.0f} mm/s, {zones}")
     return grippers, trajectory
 
 
@@ -309,6 +319,21 @@ def settled_shapes(doc: PlanDocument) -> np.ndarray:
     return stabilized_path(doc.cable, doc.shapes)[0]
 
 
+REPLAY_MODULUS_CAP = 1e9
+"""Largest E [Pa] the dynamic replay steps with: a stiffer cable is replayed with this
+fictitious modulus for the explicit time step (thesis Fig. 6.5), so its replay takes at most a
+few hundred thousand steps instead of tens of millions."""
+
+
+def replay_modulus_cap(cable, progress=quiet) -> float | None:
+    """The fictitious modulus of a stiff cable's replay (None: the cable's own E)."""
+    if cable.youngs_modulus <= REPLAY_MODULUS_CAP:
+        return None
+    progress(f"replay: E = {cable.youngs_modulus:.3g} Pa is stepped with the fictitious "
+             f"modulus {REPLAY_MODULUS_CAP:.0e} Pa (thesis Fig. 6.5)")
+    return REPLAY_MODULUS_CAP
+
+
 def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
                 robot: bool = True, tensile_limit=None, tolerance: float = 0.01,
                 progress=quiet):
@@ -327,7 +352,11 @@ def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
     if robot and doc.trajectory is not None:
         reach = program_reachability(program_of(doc), len(doc.shapes))
     return verify_path(doc.cable, settled_shapes(doc), doc.clip_poses(), times=times, snap=snap,
-                       replay_options={"tolerance": tolerance, "tensile_limit": tensile_limit},
+                       replay_options={"tolerance": tolerance, "tensile_limit": tensile_limit,
+                                       "law": None if doc.trajectory is None
+                                       else doc.trajectory.law,
+                                       "youngs_modulus_cap": replay_modulus_cap(doc.cable,
+                                                                                progress)},
                        reachability=reach, progress=progress)
 
 
@@ -397,6 +426,10 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
     if not twist.success:
         warnings.append(f"twist: {twist.message}")
     avoidance = result.avoidance
+    cycle = plan_cycle(trajectory, [GripperAction("grasp", 0, job.motion.grasp_time),
+                                    GripperAction("release", trajectory.n_knots - 1,
+                                                  job.motion.release_time)])
+    progress(cycle.describe())
     doc = PlanDocument(
         cable=job.cable, shapes=result.path, grippers=grippers, trajectory=trajectory,
         warnings=tuple(warnings), source=job.source, obstacles=job.obstacles,
@@ -414,7 +447,7 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
             avoidance.status, avoidance.rounds, avoidance.message,
             _collision_rows(avoidance.reports_before), _collision_rows(avoidance.reports_after)),
         identification=_identification_section(job.identification),
-        timings=timings,
+        cycle=cycle_to_dict(cycle), timings=timings,
     )
     if check_robot:
         t0 = time.perf_counter()
@@ -446,7 +479,8 @@ def run_harness_job(job, *, check_robot: bool = True, progress=quiet) -> PlanDoc
         cable=job.cable, shapes=result.shapes, grippers=result.grippers,
         trajectory=result.trajectory, warnings=tuple(result.warnings), source=job.source,
         obstacles=tuple(result.board.contacts()), forces=dict(result.forces),
-        harness=harness_summary(result), timings=dict(result.timings))
+        harness=harness_summary(result), cycle=cycle_to_dict(result.cycle),
+        timings=dict(result.timings))
     if not check_robot:
         return doc
     cell = robot_cell(job.scenario, 1e-3 if job.scenario.units == "mm" else 1.0)
@@ -469,7 +503,8 @@ def simulate_plan(doc: PlanDocument, *, damping: str = "relative", torsion: bool
         raise ValueError("plan: no timed trajectory to simulate (plan it with gripper poses)")
     settled = settled_shapes(doc)
     run = replay(doc.cable, settled, (doc.trajectory.times, doc.clip_poses()),
-                 damping=damping, torsion=torsion, youngs_modulus_cap=youngs_modulus_cap)
+                 law=doc.trajectory.law, damping=damping, torsion=torsion,
+                 youngs_modulus_cap=youngs_modulus_cap)
     simulated = run.simulation.at(run.knot_times)
     comparison = compare_shapes(settled, list(simulated), end_order="keep")
     return run, comparison

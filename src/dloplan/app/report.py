@@ -33,6 +33,8 @@ def figure_names(doc: PlanDocument) -> list[str]:
               for phase in doc.forces]
     if doc.stages is not None:
         names.append("lengths")
+    if doc.trajectory is not None:
+        names.append("motion_profile")
     return names
 
 
@@ -59,10 +61,24 @@ def write_figures(doc: PlanDocument, folder) -> list[Path]:
     if doc.stages is not None:
         lengths = dict(zip(("basic", "advanced", "physical"), doc.stages.lengths, strict=True))
         figures.append(lengths_figure(lengths, doc.cable.length))
+    if doc.trajectory is not None:
+        figures.append(motion_figure(doc.trajectory))
     written: list[Path] = []
     for figure, name in zip(figures, figure_names(doc), strict=True):
         written += save_figure(figure, folder, name)
     return written
+
+
+def motion_figure(trajectory):
+    """TCP speed and acceleration of both arms against time, with the limits (1 ms samples)."""
+    from ..plots.figures import motion_profile_figure
+
+    times = np.linspace(0.0, trajectory.duration, max(2, int(trajectory.duration * 1000) + 1))
+    k = trajectory.kinematics(times)
+    limits = trajectory.law.limits if trajectory.law is not None else None
+    return motion_profile_figure(times, k.speed, k.acceleration, trajectory.times,
+                                 limits.speed if limits else trajectory.max_speed,
+                                 limits.acceleration if limits else None)
 
 
 def summary_lines(doc: PlanDocument) -> list[str]:
@@ -75,6 +91,11 @@ def summary_lines(doc: PlanDocument) -> list[str]:
              f"E {cable.youngs_modulus:.3g} Pa"
              + ("" if doc.stages is None else f" ({doc.stages.family})")
              + f", n = {cable.n_links}, S = {doc.n_shapes}"]
+    if doc.cycle is not None:
+        parts = ", ".join(f"{name} {t:.2f} s" for name, t in doc.cycle["breakdown"].items())
+        lines.append(f"cycle {doc.cycle['cycle_time']:.2f} s = motion "
+                     f"{doc.cycle['motion_time']:.2f} s + gripper actions "
+                     f"{doc.cycle['action_time']:.2f} s ({parts})")
     if doc.trajectory is not None and doc.grippers is not None:
         twist = np.degrees(np.abs(doc.grippers.twist).max())
         roll = np.degrees(np.abs(doc.grippers.roll).max(axis=0))

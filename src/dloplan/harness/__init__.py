@@ -16,7 +16,6 @@ from .insertion import (
 )
 from .job import (
     PHASES,
-    THESIS_CYCLE_TIME,
     HarnessResult,
     HarnessSettings,
     force_statistics,
@@ -28,7 +27,6 @@ from .phases import Phases, approach_shape, fixture_clips, insertion_pose, plan_
 
 __all__ = [
     "PHASES",
-    "THESIS_CYCLE_TIME",
     "Board",
     "Fixture",
     "HarnessJob",

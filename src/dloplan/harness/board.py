@@ -426,6 +426,8 @@ class TensionSpec(_Model):
 
     contact_force: float = Field(0.2, gt=0, allow_inf_nan=False,
                                  description="wanted force of the cable on the peg(s) [N]")
+    min_tension: float = Field(0.01, gt=0, allow_inf_nan=False,
+                               description="tension every inner link of the section reaches [N]")
     max_axial_force: float = Field(5.0, gt=0, allow_inf_nan=False,
                                    description="largest link tension allowed [N]")
     max_offset: float = Field(0.05, gt=0, allow_inf_nan=False,

@@ -2,10 +2,11 @@
 
 The file reuses the scenario format (:mod:`dloplan.io.scenario`): ``cable``, ``start``,
 ``obstacles``, ``table``, ``planner`` (``physical_mode``), ``grippers`` (``method``),
-``trajectory`` (``tcp_speed``, ``angular_speed``), ``check`` (``z_safety``, ``max_rounds``)
-and ``units``; the target is computed from the board, so there is none. The ``harness:``
-section (:class:`~dloplan.harness.board.HarnessSpec`) holds the fixtures, the pegs and the
-job's settings. Lengths are in ``units``; forces in N; speeds as in the scenario format.
+``trajectory`` (speeds, accelerations, jerks, ``zone``, gripper action times), ``check``
+(``z_safety``, ``max_rounds``) and ``units``; the target is computed from the board, so
+there is none. The ``harness:`` section (:class:`~dloplan.harness.board.HarnessSpec`) holds
+the fixtures, the pegs and the job's settings. Lengths are in ``units``; forces in N; speeds
+as in the scenario format.
 """
 
 from __future__ import annotations
@@ -99,8 +100,11 @@ def resolve_harness(scenario: HarnessScenario, source: str = "harness scenario")
         clearance=h.clearance * scale, contact_force=t.contact_force,
         max_axial_force=t.max_axial_force, max_offset=t.max_offset * scale,
         section_links=t.n_links, substeps=t.substeps,
-        max_speed=scenario.trajectory.speed(scale),
+        max_speed=scenario.trajectory.limits(scale).speed,
         max_angular_speed=scenario.trajectory.angular_speed,
+        limits=scenario.trajectory.limits(scale), zone=scenario.trajectory.zone * scale,
+        grasp_time=scenario.trajectory.grasp_time, release_time=scenario.trajectory.release_time,
+        min_tension=t.min_tension,
         gripper_method=scenario.grippers.method,
         physical_mode=scenario.planner.physical_mode or "equilibrium",
         z_safety=scenario.check.lengths(scale)[1], max_rounds=scenario.check.max_rounds,

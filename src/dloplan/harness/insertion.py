@@ -18,11 +18,19 @@ the slots in ``substeps`` equilibria: the cable comes to rest on the plates.
 
 **Tensioning**: the smallest offset ``d`` at which the pegs push on the cable with the force
 ``contact_force`` (the norm of the net contact force of each peg's cylinder, summed over the
-pegs), found by simulation: ``d`` grows in steps from 0, each equilibrium warm-started from the
-previous one, until the force is reached (a bracket), then Brent's method on
-``F(d) - contact_force`` within the bracket, each evaluation started from the bracket's lower
-shape. It fails, with a message, when the largest link tension exceeds ``max_axial_force``
-first, or the offset would exceed ``max_offset``.
+pegs) **and** every inner link of the section (all but the two held end links) carries at
+least ``min_tension`` > 0, found by simulation: ``d`` grows in steps from 0, each equilibrium
+warm-started from the previous one, until both hold (a bracket), then Brent's method on the
+smaller of the two relative excesses within the bracket, each evaluation started from the
+bracket's lower shape. It fails, with a message giving the forces, when the largest link
+tension exceeds ``max_axial_force`` first, or the offset would exceed ``max_offset``.
+
+**Mechanism.** A peg can push on the cable for two reasons: the cable is pulled taut around it
+(tension), or a stiff cable, bent between the fixtures, presses on it while its section is
+in compression (bending). The second is what a stiff hose gives at small offsets (the PU hose
+of the examples: 0.2 N on the peg while every link is compressed by 0.35-0.75 N); it is not a
+tensioned harness, so the search asks for tension along the whole section too, and the result
+names the mechanism (:attr:`TensionState.mechanism`).
 """
 
 from __future__ import annotations
@@ -105,6 +113,9 @@ class TensionState:
         (n_pegs,) force of each peg on the cable [N].
     max_tension : float
         Largest link tension [N] (compression negative).
+    min_tension : float
+        Smallest tension of the inner links [N] (all but the two held end links, whose both
+        points the clips place): > 0 when the whole section is taut.
     pull_forces : numpy.ndarray
         (2,) force the cable exerts on each fixture-held end along the fixture's axis, inward
         [N]: what the grippers hold against while tensioning.
@@ -116,6 +127,22 @@ class TensionState:
     peg_forces: np.ndarray
     max_tension: float
     pull_forces: np.ndarray
+    min_tension: float
+
+    @property
+    def mechanism(self) -> str:
+        """What produces the peg force: ``"tension"`` (every inner link taut) or ``"bending"``."""
+        return "tension" if self.min_tension > 0 else "bending"
+
+    def describe(self) -> str:
+        """One line with the forces and the mechanism."""
+        how = ("the section is taut, smallest inner link tension "
+               f"{self.min_tension:.3g} N" if self.mechanism == "tension" else
+               "by bending, the section is in compression (largest link tension "
+               f"{self.max_tension:.3g} N)")
+        pulls = "/".join(f"{f:.3g}" for f in self.pull_forces)
+        return (f"pegs push with {self.contact_force:.3g} N at offset {1e3 * self.offset:.2f} mm "
+                f"per arm, {how}; fixture pulls {pulls} N")
 
     @property
     def contact_force(self) -> float:
@@ -141,8 +168,9 @@ def tension_state(cable: Cable, n_links: int, offset: float, guess, board: Board
                      gravity=gravity, contacts=board.contacts())
     chain = SpringChain.from_cable(section, gravity)
     pull = np.einsum("kj,kj->k", eq.clip_wrenches[:, :3], clips.u_axes)
+    tensions = link_tensions(chain, eq.shape)
     return TensionState(float(offset), section, eq, peg_forces(section, eq.shape, board, gravity),
-                        float(link_tensions(chain, eq.shape).max()), pull)
+                        float(tensions.max()), pull, float(tensions[1:-1].min()))
 
 
 @dataclass(frozen=True, eq=False)
@@ -197,6 +225,7 @@ def insert_and_tension(
     board: Board,
     *,
     contact_force: float = 0.2,
+    min_tension: float = 0.01,
     max_axial_force: float = 5.0,
     max_offset: float = 0.05,
     n_links: int = 40,
@@ -217,6 +246,8 @@ def insert_and_tension(
         The board; its pegs, plates, obstacles and table are the contacts.
     contact_force : float
         Force the pegs should exert on the tensioned cable [N] (> 0).
+    min_tension : float
+        Tension every inner link of the section should carry [N] (> 0).
     max_axial_force : float
         Largest link tension allowed [N].
     max_offset : float
@@ -238,7 +269,8 @@ def insert_and_tension(
     """
     check_board(board, cable)
     x = as_shape(shape, cable.n_points, "shape")
-    for name, value in (("contact_force", contact_force), ("max_axial_force", max_axial_force),
+    for name, value in (("contact_force", contact_force), ("min_tension", min_tension),
+                        ("max_axial_force", max_axial_force),
                         ("max_offset", max_offset), ("xtol", xtol)):
         if not (math.isfinite(value) and value > 0):
             raise ValueError(f"{name}: got {value!r}, expected a finite number > 0")
@@ -265,22 +297,26 @@ def insert_and_tension(
     def state(offset: float, guess: np.ndarray) -> TensionState:
         return tension_state(cable, n_links, offset, guess, board, gravity)
 
+    def excess(st: TensionState) -> float:
+        """< 0 until the pegs push hard enough and the section is taut."""
+        return min(st.contact_force / contact_force, st.min_tension / min_tension) - 1.0
+
     evaluations = 0
     low = state(0.0, inserted.shape)
     evaluations += 1
     high = low
     step = max_offset / GROW_STEPS
     problem = ""
-    while high.contact_force < contact_force:
+    while excess(high) < 0:
         if high.max_tension > max_axial_force:
             problem = (f"the link tension reaches {high.max_tension:.3g} N (limit "
-                       f"{max_axial_force:g} N) at offset {1e3 * high.offset:.2f} mm before the "
-                       f"pegs push with {contact_force:g} N (they push with "
-                       f"{high.contact_force:.3g} N)")
+                       f"{max_axial_force:g} N) before the pegs push with {contact_force:g} N "
+                       f"on a taut section: {high.describe()}")
             break
         if high.offset >= max_offset:
-            problem = (f"the pegs push with only {high.contact_force:.3g} N at the largest "
-                       f"offset {1e3 * max_offset:.1f} mm (wanted {contact_force:g} N)")
+            problem = (f"at the largest offset {1e3 * max_offset:.1f} mm the {high.describe()}; "
+                       f"wanted {contact_force:g} N on the pegs and every link taut to "
+                       f"{min_tension:g} N")
             break
         low = high
         high = state(min(low.offset + step, max_offset), low.equilibrium.shape)
@@ -289,19 +325,20 @@ def insert_and_tension(
     if not problem and high.offset > 0 and low is not high:
         cache: dict[float, TensionState] = {}
 
-        def excess(d: float) -> float:
+        def excess_at(d: float) -> float:
             cache[d] = state(d, low.equilibrium.shape)
-            return cache[d].contact_force - contact_force
+            return excess(cache[d])
 
-        root = brentq(excess, low.offset, high.offset, xtol=xtol)
+        root = brentq(excess_at, low.offset, high.offset, xtol=xtol)
         evaluations += len(cache)
         found = cache.get(root) or state(root, low.equilibrium.shape)
-        if found.contact_force < contact_force:  # brentq's root sits within xtol below
+        if excess(found) < 0:  # brentq's root sits within xtol below
             found = state(min(root + xtol, high.offset), low.equilibrium.shape)
             evaluations += 1
         if found.max_tension > max_axial_force:
             problem = (f"the link tension reaches {found.max_tension:.3g} N (limit "
-                       f"{max_axial_force:g} N) where the pegs push with {contact_force:g} N")
+                       f"{max_axial_force:g} N) where the pegs push with {contact_force:g} N "
+                       "on a taut section")
     solves = [*lowering, found.equilibrium]
     unconverged = [eq.message for eq in solves if not eq.converged]
     if unconverged and not problem:
@@ -313,9 +350,7 @@ def insert_and_tension(
         found.equilibrium.shape)[0])) for peg in board.pegs])
     moves = np.stack([down, -found.offset * axes])
     success = not problem
-    message = (f"pegs push with {found.contact_force:.3g} N at offset "
-               f"{1e3 * found.offset:.2f} mm per arm; largest tension "
-               f"{found.max_tension:.3g} N" if success else problem)
+    message = found.describe() if success else problem
     return Insertion(inserted, lowering, found, found.offset if success else math.nan, moves,
                      float(found.equilibrium.penetration), per_peg, float(max(link_depth, 0.0)),
                      evaluations, success, message)

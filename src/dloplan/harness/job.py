@@ -4,9 +4,16 @@
 insertion and finds the tensioning offset (:mod:`.insertion`), computes the clip (TCP) frames of
 both phases with the gripper methods of thesis 4.6 (phase 2 starting from phase 1's last
 frames), appends the insertion and tensioning motions (pure translations), and times the whole
-motion as **one** synchronized dual-arm trajectory (:func:`dloplan.trajectory.dual_arm_trajectory`
-through every knot), whose duration is the cycle time (thesis Table 7.3: 9 s at 100 mm/s).
-:func:`write_harness_rapid` writes it as one RAPID module per arm.
+motion as **one** synchronized, jerk-limited dual-arm trajectory
+(:func:`dloplan.trajectory.dual_arm_trajectory` through every knot; the arms stop at the end of
+phase 1, at the fixtures' approach poses and in the slots, fly-by elsewhere when a zone is
+given). The **cycle** (:func:`dloplan.trajectory.plan_cycle`) adds the gripper actions: a grasp
+before phase 1, a regrasp in the slots (the fingers let go of the cable lying in the slots and
+close on it again outside the fixtures before pulling) and a release after tensioning; the
+cycle time is motion plus actions, broken down per phase. It is not compared with the thesis'
+9 s (Table 7.3), a time measured on the robot whose ingredients (the robot's ramps, the
+gripper actions, how the cable was picked up) are not given.
+:func:`write_harness_rapid` writes the motion as one RAPID module per arm.
 """
 
 from __future__ import annotations
@@ -25,17 +32,20 @@ from ..physics.geometry import resample_by_arc_length
 from ..planning.result import ForceStatistics, stage_forces
 from ..robot.program import robot_program
 from ..trajectory import (
+    DEFAULT_GRASP_TIME,
     DEFAULT_MAX_ANGULAR_SPEED,
     DEFAULT_MAX_SPEED,
+    DEFAULT_RELEASE_TIME,
+    Cycle,
+    GripperAction,
+    MotionLimits,
     Trajectory,
+    plan_cycle,
     trajectory_from_grippers,
 )
 from .board import Board, check_board
 from .insertion import Insertion, insert_and_tension
 from .phases import Phases, fixture_clips, plan_phases
-
-THESIS_CYCLE_TIME = 9.0
-"""Cycle time of the thesis' harness jobs at 100 mm/s [s] (Table 7.3)."""
 
 PHASES: tuple[str, ...] = ("phase1", "phase2", "insertion", "tensioning")
 
@@ -54,6 +64,8 @@ class HarnessSettings:
         Gap between the planned insertion pose and the pegs [m].
     contact_force : float
         Force of the pegs on the tensioned cable [N].
+    min_tension : float
+        Tension every inner link of the tensioned section carries at least [N] (> 0).
     max_axial_force : float
         Largest link tension allowed while tensioning [N].
     max_offset : float
@@ -66,6 +78,13 @@ class HarnessSettings:
         Equilibria solved while lowering into the slots.
     max_speed, max_angular_speed : float
         TCP limits of the trajectory [m/s], [rad/s].
+    limits : MotionLimits or None
+        Acceleration and jerk limits (None: the YuMi defaults); its speeds are replaced by
+        ``max_speed`` and ``max_angular_speed``.
+    zone : float
+        Fly-by zone radius [m] at the knots where the cable need not settle; 0: stop at all.
+    grasp_time, release_time : float
+        Durations of a grasp and a release [s]; the regrasp in the slots takes both.
     gripper_method : str
         Method of :func:`dloplan.grippers.gripper_path`.
     physical_mode : str
@@ -82,12 +101,17 @@ class HarnessSettings:
     approach_height: float = 0.08
     clearance: float = 0.005
     contact_force: float = 0.2
+    min_tension: float = 0.01
     max_axial_force: float = 5.0
     max_offset: float = 0.05
     section_links: int | None = None
     substeps: int = 8
     max_speed: float = DEFAULT_MAX_SPEED
     max_angular_speed: float = DEFAULT_MAX_ANGULAR_SPEED
+    limits: MotionLimits | None = None
+    zone: float = 0.0
+    grasp_time: float = DEFAULT_GRASP_TIME
+    release_time: float = DEFAULT_RELEASE_TIME
     gripper_method: str = "auto"
     physical_mode: str = "equilibrium"
     z_safety: float = 0.02
@@ -127,6 +151,8 @@ class HarnessResult:
         consecutive phases share their boundary knot.
     trajectory : Trajectory
         The single timed dual-arm trajectory through the K knots.
+    cycle : Cycle
+        The motion with the gripper actions (grasp, regrasp in the slots, release).
     fixture_alignment : numpy.ndarray
         (2,) angle between each clip's u-axis and its fixture's axis at insertion [rad].
     forces : dict
@@ -138,7 +164,7 @@ class HarnessResult:
     success : bool
         Phases planned, insertion and tensioning succeeded, gripper path without excess twist.
     message : str
-        One line with the cycle time.
+        One line with the cycle time and the tensioning's forces and mechanism.
     """
 
     cable: Cable
@@ -149,6 +175,7 @@ class HarnessResult:
     grippers: GripperPath
     knots: dict
     trajectory: Trajectory
+    cycle: Cycle
     fixture_alignment: np.ndarray
     forces: dict
     timings: dict
@@ -158,7 +185,12 @@ class HarnessResult:
 
     @property
     def cycle_time(self) -> float:
-        """Duration of the whole program [s]."""
+        """Duration of the whole job [s]: motion and gripper actions."""
+        return self.cycle.cycle_time
+
+    @property
+    def motion_time(self) -> float:
+        """Time the arms move [s]."""
         return self.trajectory.duration
 
     @property
@@ -167,7 +199,7 @@ class HarnessResult:
         return self.insertion.offset
 
     def phase_times(self) -> dict:
-        """Phase name -> (start, end) time on the trajectory [s]."""
+        """Phase name -> (start, end) time on the trajectory's (motion) clock [s]."""
         t = self.trajectory.times
         return {name: (float(t[a]), float(t[b])) for name, (a, b) in self.knots.items()}
 
@@ -255,8 +287,8 @@ def run_harness(
     links = s.section_links if s.section_links is not None else section_links(cable, board)
     insertion = insert_and_tension(
         cable, phases.path2[-1], board, contact_force=s.contact_force,
-        max_axial_force=s.max_axial_force, max_offset=s.max_offset, n_links=links,
-        substeps=s.substeps, gravity=gravity)
+        min_tension=s.min_tension, max_axial_force=s.max_axial_force, max_offset=s.max_offset,
+        n_links=links, substeps=s.substeps, gravity=gravity)
     t2 = time.perf_counter()
     grippers, gripper_warnings = _joined_grippers(cable, phases, insertion, s.gripper_method)
     axes = fixture_clips(board, inserted=True).u_axes
@@ -270,9 +302,16 @@ def run_harness(
     knots = {"phase1": (0, k1), "phase2": (k1, k2), "insertion": (k2, k2 + 1),
              "tensioning": (k2 + 1, k2 + 2)}
     left_clip = 0 if grippers.positions[0, 0, 1] >= grippers.positions[0, 1, 1] else 1
+    last = len(shapes) - 1
+    settle = [k for k in (k1, k2, k2 + 1) if 0 < k < last]
     trajectory = trajectory_from_grippers(grippers, max_speed=s.max_speed,
                                           max_angular_speed=s.max_angular_speed,
+                                          limits=s.limits, zone=s.zone, stops=settle,
                                           left_clip=left_clip)
+    actions = [GripperAction("grasp", 0, s.grasp_time),
+               GripperAction.regrasp_at(k2 + 1, s.release_time, s.grasp_time),
+               GripperAction("release", last, s.release_time)]
+    cycle = plan_cycle(trajectory, actions, knots)
     u_at_insertion = grippers.u_axes[k2]
     alignment = np.arccos(np.clip(np.einsum("kj,kj->k", u_at_insertion, axes), -1.0, 1.0))
     forces = {"phase1": force_statistics(cable, phases.path1),
@@ -281,15 +320,13 @@ def run_harness(
     if not insertion.success:
         warnings.append(f"tensioning: {insertion.message}")
     success = phases.success and insertion.success and grippers.success
-    cycle = trajectory.duration
-    message = (f"cycle time {cycle:.2f} s at {1e3 * s.max_speed:g} mm/s (thesis "
-               f"{THESIS_CYCLE_TIME:g} s); {insertion.message}")
+    message = f"{cycle.describe()} at {1e3 * s.max_speed:g} mm/s; {insertion.message}"
     if not success:
         message = f"{warnings[0] if warnings else 'a step failed'}; {message}"
     timings = {"phase1": phases.timings["phase1"], "phase2": phases.timings["phase2"],
                "insertion": t2 - t1, "total": time.perf_counter() - t0}
     return HarnessResult(cable, board, phases, insertion, shapes, grippers, knots, trajectory,
-                         alignment, forces, timings, tuple(warnings), success, message)
+                         cycle, alignment, forces, timings, tuple(warnings), success, message)
 
 
 def write_harness_rapid(directory, result: HarnessResult,
@@ -315,12 +352,16 @@ def harness_summary(result: HarnessResult) -> dict:
         "success": result.success,
         "message": result.message,
         "cycle_time": result.cycle_time,
-        "thesis_cycle_time": THESIS_CYCLE_TIME,
+        "motion_time": result.motion_time,
+        "action_time": result.cycle.action_time,
+        "cycle": result.cycle.breakdown(),
         "phase_times": result.phase_times(),
         "knots": result.knots,
         "offset": None if math.isnan(ins.offset) else ins.offset,
         "peg_forces": ins.tensioned.peg_forces.tolist(),
         "max_tension": ins.tensioned.max_tension,
+        "min_tension": ins.tensioned.min_tension,
+        "peg_force_mechanism": ins.tensioned.mechanism,
         "pull_forces": ins.tensioned.pull_forces.tolist(),
         "penetration": ins.penetration,
         "link_penetration": ins.link_penetration,

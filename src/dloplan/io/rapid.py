@@ -13,7 +13,8 @@ program verified. Its ``PROC main()`` runs::
     g_GripOut;                               (SmartGripper open)
     MoveAbsJ dlo_start, v100, fine, tool;    (the verified joints of the first target)
     SyncMoveOn dlo_sync_on, dlo_tasks;
-    MoveL dlo_p01 \\ID:=10, dlo_v01, fine, tool \\WObj:=wobj;   (approach -> grasp)
+    MoveL dlo_p01 \\ID:=10, dlo_v01 \\T:=0.5, fine, tool \\WObj:=wobj;   (approach -> grasp;
+        \\T: the planned, jerk-limited duration; fly-by shapes get a declared zonedata)
     g_GripIn; WaitTime t_grip;
     MoveL dlo_p02 \\ID:=20, dlo_v02, ...      (one MoveL per shape, same IDs in both tasks)
     ...
@@ -63,7 +64,7 @@ class RapidSettings:
         ``speeddata`` of the first ``MoveAbsJ`` (from wherever the arm is to the start joints;
         a predefined one of the controller).
     zone : str
-        ``zonedata`` of every MoveL (``fine``: stop exactly at every planned shape).
+        ``zonedata`` of the MoveLs that stop (``fine``); fly-by shapes get their own.
     """
 
     tasks: tuple[str, str] = ("T_ROB_L", "T_ROB_R")
@@ -203,7 +204,10 @@ def rapid_modules(program: RobotProgram, settings: RapidSettings | None = None) 
             target = robtarget_text(program.positions[m, a], program.quaternions[m, a],
                                     program.confdata[m, a], program.arm_angles[m, a])
             lines.append(f"    CONST robtarget {name} := {target};  ! {program.labels[m]}")
-        move = f", {s.zone}, {tool.name} \\WObj:={cell.wobj};"
+        zones = _zone_names(program, s.zone)
+        for radius, name in sorted(set(zones.values()) - {(0.0, s.zone)}):
+            lines.append(f"    CONST zonedata {name} := {zonedata_text(radius)};")
+        tail = f", {tool.name} \\WObj:={cell.wobj};"
         lines += [
             "    PROC main()",
             f"        {s.procedure};",
@@ -217,7 +221,8 @@ def rapid_modules(program: RobotProgram, settings: RapidSettings | None = None) 
         if program.grasp == 0:
             lines += [f"        g_GripIn{hold};", f"        WaitTime {_num(cell.grip_time, 3)};"]
         for m in range(1, n):
-            lines.append(f"        MoveL {names[m]} \\ID:={10 * m}, {speeds[m - 1]}{move}")
+            lines.append(f"        MoveL {names[m]} \\ID:={10 * m}, {speeds[m - 1]} "
+                         f"\\T:={_num(program.durations[m - 1], 4)}, {zones[m][1]}{tail}")
             if m == program.grasp:
                 lines += [f"        g_GripIn{hold};",
                           f"        WaitTime {_num(cell.grip_time, 3)};"]
@@ -230,6 +235,21 @@ def rapid_modules(program: RobotProgram, settings: RapidSettings | None = None) 
         ]
         modules[s.tasks[a]] = "\n".join(lines) + "\n"
     return modules
+
+
+def zonedata_text(radius: float) -> str:
+    """A fly-by ``zonedata`` of TCP zone ``radius`` [m], proportioned like ABB's z-values."""
+    mm = 1e3 * radius
+    return f"[FALSE,{_num(mm, 2)},{_num(1.5 * mm, 2)},{_num(1.5 * mm, 2)},{_num(0.15 * mm, 3)}," \
+        f"{_num(1.5 * mm, 2)},{_num(0.15 * mm, 3)}]"
+
+
+def _zone_names(program: RobotProgram, fine: str) -> dict:
+    """Target index -> (zone radius [m], zonedata name): ``fine`` at stops, one declared
+    ``dlo_zNNN`` per fly-by radius (in tenths of a millimetre)."""
+    zones = program.zones if program.zones is not None else np.zeros(program.n_targets)
+    return {m: (0.0, fine) if r <= 0 else (float(r), f"dlo_z{round(1e4 * r):03d}")
+            for m, r in enumerate(zones)}
 
 
 def write_rapid(directory: str | os.PathLike, program: RobotProgram,

@@ -261,20 +261,35 @@ class GripperSpec(_Model):
 
 
 class TrajectorySpec(_Model):
-    """Timed dual-arm motion (thesis 7.3: 100 mm/s)."""
+    """Timed dual-arm motion (thesis 7.3: 100 mm/s; limits: dloplan.trajectory.limits)."""
 
     tcp_speed: PositiveLength | None = Field(
         None, description="[file units/s]; default 100 mm/s (thesis 7.3)")
     angular_speed: PositiveLength = Field(1.0, description="[rad/s]")
     rate: PositiveLength = Field(50.0, description="sampling rate [Hz]")
+    acceleration: PositiveLength | None = Field(
+        None, description="TCP acceleration limit [units/s^2]; default 1 m/s^2 (YuMi)")
+    jerk: PositiveLength | None = Field(
+        None, description="TCP jerk limit [units/s^3]; default 10 m/s^3")
+    angular_acceleration: PositiveLength = Field(10.0, description="[rad/s^2]")
+    angular_jerk: PositiveLength = Field(100.0, description="[rad/s^3]")
+    zone: float = Field(0.0, ge=0, allow_inf_nan=False,
+                        description="fly-by zone radius [units]; 0: stop at every shape")
+    grasp_time: PositiveLength = Field(0.5, description="gripper grasp duration [s]")
+    release_time: PositiveLength = Field(0.4, description="gripper release duration [s]")
 
-    def speed(self, scale: float) -> float:
-        """The TCP speed [m/s]: the file's value times ``scale``, or the default 0.1 m/s."""
-        return DEFAULT_TCP_SPEED if self.tcp_speed is None else self.tcp_speed * scale
+    def limits(self, scale: float):
+        """The :class:`dloplan.trajectory.MotionLimits` in SI (lengths times ``scale``; the
+        YuMi defaults of :mod:`dloplan.trajectory.limits` where the file gives none)."""
+        from ..trajectory import MotionLimits
 
-
-DEFAULT_TCP_SPEED = 0.1
-"""Default TCP speed [m/s] (thesis 7.3: 100 mm/s)."""
+        defaults = MotionLimits()
+        given = {"speed": self.tcp_speed, "acceleration": self.acceleration,
+                 "jerk": self.jerk}
+        lengths = {k: getattr(defaults, k) if v is None else v * scale for k, v in given.items()}
+        return MotionLimits(**lengths, angular_speed=self.angular_speed,
+                            angular_acceleration=self.angular_acceleration,
+                            angular_jerk=self.angular_jerk)
 
 
 class CheckSpec(_Model):

@@ -250,3 +250,35 @@ def errors_figure(errors: np.ndarray, title: str = "Mean error per shape (thesis
     ax.legend()
     ax.set_title(title)
     return fig
+
+
+def motion_profile_figure(times, speed, acceleration, knot_times=(), speed_limit=None,
+                          acceleration_limit=None,
+                          title: str = "TCP speed and acceleration of both arms"):
+    """TCP speed [m/s] and acceleration [m/s^2] against time [s] for both arms.
+
+    ``speed`` and ``acceleration`` are (N, 2) (left, right arm) at ``times`` (N,)
+    (``Trajectory.kinematics``); ``knot_times`` mark the planned shapes; the limits, when
+    given, are drawn as dashed lines.
+    """
+    plt = pyplot()
+    times = np.asarray(times)
+    fig, axes = plt.subplots(2, 1, figsize=(8, 5), sharex=True)
+    for ax, values, limit, label in ((axes[0], speed, speed_limit, "speed [mm/s]"),
+                                     (axes[1], acceleration, acceleration_limit,
+                                      "acceleration [m/s$^2$]")):
+        scale = 1e3 if ax is axes[0] else 1.0
+        values = np.asarray(values)
+        for arm, colour in zip(("left", "right"), ("#1976d2", "#d32f2f"), strict=True):
+            ax.plot(times, scale * values[:, 0 if arm == "left" else 1], color=colour,
+                    label=f"{arm} arm", lw=1.2)
+        if limit is not None:
+            ax.axhline(scale * limit, color="black", ls="--", lw=0.8, label="limit")
+        for t in knot_times:
+            ax.axvline(t, color="#9e9e9e", lw=0.5, alpha=0.6)
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[1].set_xlabel("time [s] (grey: planned shapes)")
+    axes[0].set_title(title)
+    return fig

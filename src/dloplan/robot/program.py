@@ -12,10 +12,9 @@ its timing (:class:`~dloplan.trajectory.Trajectory`) into a :class:`RobotProgram
    turned by pi about TCP z for a symmetric gripper) and a retreat pose, in the work frame,
    rounded to what RAPID is given (1e-6 mm, quaternions [w, x, y, z] to 1e-9).
 3. **Joint solutions**: per arm, candidate solutions with a constant arm angle (ABB axis 7)
-   around the first target's free solution, each tracked along the path in sub-steps (each IK
-   seeded from the previous one); the (left, right) pair ranked best on reach, smoothness,
-   clearance and joint margin is kept (the free-elbow tracking of
-   :func:`~dloplan.robot.reachability.check_path` joins when no constant arm angle works).
+   around the first target's free solution, each tracked along the path in sub-steps; the
+   (left, right) pair ranked best on reach, smoothness, clearance and joint margin is kept
+   (:mod:`dloplan.robot.solutions`).
    Every target is re-solved with the arm angle held at the value written as ``eax_a``;
    confdata from that solution.
 4. **Checks on exactly those targets**, each as :class:`CheckRow` s:
@@ -27,11 +26,11 @@ its timing (:class:`~dloplan.trajectory.Trajectory`) into a :class:`RobotProgram
    - ``clearance``: smallest arm-arm capsule distance at the target and along the move into it;
    - ``continuity``: the controller's MoveL into the target, replayed: TCP linear, orientation
      slerp, arm angle linear between the written values, each sub-step's IK seeded from the
-     previous one. Ok when every sub-step converges, no joint moves more than
-     ``reach.max_joint_step`` in one sub-step (one that does is replayed in :data:`REFINE`
+     previous one (:mod:`dloplan.robot.replay`). Ok when every sub-step converges, no joint
+     moves more than ``reach.max_joint_step`` in one sub-step (one that does is replayed in
      finer steps: fast motion near a singularity passes, a jump does not), and the move ends
-     on the target's own solution
-     (so the controller with ``ConfL \\On`` reaches the programmed configuration);
+     on the target's own solution (so the controller with ``ConfL \\On`` reaches the
+     programmed configuration);
    - ``joint speed``: the largest joint speed of that replay at the planned move duration,
      as a fraction of the joint's speed limit.
 
@@ -41,7 +40,7 @@ The program is ``ok`` when every row is. Everything computed is kept (:attr:`Rob
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -50,8 +49,9 @@ from .assignment import ArmAssignment, assign_arms
 from .cell import RobotCell
 from .collision import arm_clearance
 from .confdata import arm_angle, confdata
-from .kinematics import ARM_ANGLE_JOINT, forward, inverse, joint_margin, solve_from, solve_many
-from .reachability import check_path
+from .kinematics import forward, joint_margin, solve_from
+from .replay import replay_moves
+from .solutions import ranked_solutions
 from .yumi import ABB_AXIS_NUMBERS, ARMS
 
 MIN_SPEED = 1e-4
@@ -66,28 +66,8 @@ END_TOLERANCE = 1e-3
 CHECKS = ("assignment", "reach", "joint limits", "clearance", "continuity", "joint speed")
 """The checks of a program, in the order of its rows."""
 
-ARM_ANGLE_STEP = float(np.radians(30.0))
-"""[rad] Spacing of the constant arm angles (ABB axis 7) tried for each arm."""
-
-ARM_ANGLES = 11
-"""Most arm angle steps tried each way from the first target's free solution (the axis'
-range, +-168.5 deg, holds at most 11 steps)."""
-
-REFINE = 8
-"""Finer steps a sub-step with a large joint step is replayed in (:func:`_replay`)."""
-
-CANDIDATE_ITERATIONS = 12
-"""IK iterations allowed per target when ranking candidate solutions (a converging solve
-from the previous target's solution needs a handful)."""
-
 MAX_TRIES = 2
 """Joint solutions (best ranked first) replayed before the program settles for the first."""
-
-COMFORT_CLEARANCE = 0.05
-"""[m] Arm-arm clearance beyond which the ranking prefers joint margin to more clearance."""
-
-COMFORT_MARGIN = float(np.radians(30.0))
-"""[rad] Joint margin beyond which more margin no longer ranks a solution higher."""
 
 _LOWER_IS_WORSE = {"assignment", "joint limits", "clearance"}
 _TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
@@ -174,6 +154,9 @@ class RobotProgram:
     motion_joints : numpy.ndarray
         (N, 2, 7) joint values [rad] of that replay.
     checks : tuple of CheckRow
+    zones : numpy.ndarray or None
+        (M,) fly-by zone radius [m] at each target (the trajectory's zones at the shapes; 0,
+        a fine point, at the approach, the grasp, the release and the retreat).
     """
 
     cell: RobotCell
@@ -194,6 +177,7 @@ class RobotProgram:
     motion_times: np.ndarray
     motion_joints: np.ndarray
     checks: tuple[CheckRow, ...]
+    zones: np.ndarray | None = None
 
     @property
     def n_targets(self) -> int:
@@ -381,7 +365,7 @@ def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment) -> 
     rots = [Rotation.from_quat(q.reshape(-1, 4), scalar_first=True).as_matrix().reshape(
         q.shape[:2] + (3, 3)) for q in quats]
     best = None
-    for left, right in _ranked_pairs(robot, pos, rots, opts)[:MAX_TRIES]:
+    for left, right in ranked_solutions(robot, pos, rots, opts)[:MAX_TRIES]:
         program = _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos,
                           quats, rots, (left, right))
         if best is None:
@@ -412,131 +396,19 @@ def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, q
     waits = np.zeros(len(pos))
     waits[grasp] = cell.grip_time
     times = np.cumsum(np.r_[0.0, durations]) + np.concatenate([[0.0], np.cumsum(waits[:-1])])
-    replay = _replay(robot, pos, rot, eax, joints, durations, opts)
+    replay = replay_moves(robot, pos, rot, eax, joints, durations, opts)
     rows = _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay)
     motion_times = np.concatenate([times[:1]] + [
         times[m] - durations[m - 1] * (1.0 - np.arange(1, len(q) + 1) / len(q))
         for m, q in enumerate(replay["joints"], start=1)])
     motion = np.concatenate([joints[:1]] + replay["joints"])
+    zones = np.zeros(len(pos))
+    knots = slice(1, -1) if cell.approach > 0 else slice(None)
+    zones[knots] = trajectory.zones
+    zones[[0, grasp, release, -1]] = 0.0
     return RobotProgram(cell, assignment, turned, labels, shapes, grasp, release, pos, quat,
                         joints, confdata(joints), eax, times, durations, speeds,
-                        motion_times, motion, tuple(rows))
-
-
-@dataclass(frozen=True, eq=False)
-class _Candidate:
-    """One arm's joint solution at every target: grip (0 as mapped, 1 turned by pi about TCP z),
-    (M, 7) joints [rad], (M,) solved flags, and whether its tracking converged at every
-    sub-step without a joint step above ``max_joint_step``."""
-
-    grip: int
-    joints: np.ndarray
-    solved: np.ndarray
-    smooth: bool = True
-
-
-def _arm_candidates(arm, pos, rots, n_sub, opts) -> list[_Candidate]:
-    """Per grip: target 0 solved freely from the home pose (its arm angle theta*), then the arm
-    angles theta* + k * :data:`ARM_ANGLE_STEP` within the limits, seeded with that solution
-    and, where that fails, with a solved neighbour's (a continuation in the arm angle); each
-    candidate then tracks the
-    path with its arm angle held, in ``n_sub[m]`` sub-steps per move, each seeded from the
-    previous one (all candidates at once)."""
-    first = replace(opts.ik, min_margin=opts.min_margin, restarts=0)
-    track = replace(opts.ik, max_iterations=CANDIDATE_ITERATIONS)
-    lo, hi = arm.lower[ARM_ANGLE_JOINT], arm.upper[ARM_ANGLE_JOINT]
-    starts = []  # (grip, theta, joints at target 0)
-    for grip, rot in enumerate(rots):
-        start = inverse(arm, pos[0], Rotation.from_matrix(rot[0]), None, first)
-        if not start.success:
-            continue
-        theta = start.q[ARM_ANGLE_JOINT] + ARM_ANGLE_STEP * np.arange(-ARM_ANGLES, ARM_ANGLES + 1)
-        theta = theta[(theta >= lo) & (theta <= hi)]
-        q = np.tile(start.q, (len(theta), 1))
-        done = np.zeros(len(theta), dtype=bool)
-        for _ in range(3):  # continuation: the unsolved start again from a solved neighbour
-            todo = np.flatnonzero(~done)
-            q[todo], done[todo], _, _ = solve_many(
-                arm, np.broadcast_to(pos[0], (len(todo), 3)),
-                np.broadcast_to(rot[0], (len(todo), 3, 3)), q[todo], track, theta[todo])
-            if done.all() or not done.any():
-                break
-            solved = np.flatnonzero(done)
-            nearest = solved[np.abs(todo[:, None] - solved[None]).argmin(axis=1)]
-            q[todo] = q[nearest]
-        starts += [(grip, t, qs) for t, qs, ok in zip(theta, q, done, strict=True) if ok]
-    if not starts:
-        return []
-    grips = np.array([g for g, _, _ in starts])
-    thetas = np.array([t for _, t, _ in starts])
-    rot = np.stack(rots)[grips]  # (N, M, 3, 3)
-    rel = Rotation.from_matrix(np.einsum("nmji,nmjk->nmik", rot[:, :-1], rot[:, 1:])).as_rotvec()
-    q = np.stack([q for _, _, q in starts])
-    joints = np.empty((len(starts), len(pos), 7))
-    solved = np.zeros((len(starts), len(pos)), dtype=bool)
-    joints[:, 0], solved[:, 0] = q, True
-    converged = np.ones(len(starts), dtype=bool)
-    largest = np.zeros(len(starts))
-    for m in range(1, len(pos)):
-        for i in range(1, n_sub[m - 1] + 1):
-            f = i / n_sub[m - 1]
-            p = np.broadcast_to(pos[m - 1] + f * (pos[m] - pos[m - 1]), (len(starts), 3))
-            r = rot[:, m - 1] @ Rotation.from_rotvec(f * rel[:, m - 1]).as_matrix()
-            live = np.flatnonzero(converged)  # a lost candidate stays where it was lost
-            new, ok, _, _ = solve_many(arm, p[live], r[live], q[live], track, thetas[live])
-            largest[live] = np.maximum(largest[live], np.abs(new - q[live]).max(axis=-1))
-            q[live] = new
-            converged[live] = ok
-        joints[:, m], solved[:, m] = q, converged
-    smooth = converged & (largest <= opts.max_joint_step)
-    return [_Candidate(int(g), qs, ok, bool(c))
-            for g, qs, ok, c in zip(grips, joints, solved, smooth, strict=True)]
-
-
-def _tracked_candidates(robot, pos, rots, opts) -> list[_Candidate]:
-    """The free-elbow tracking of :func:`~dloplan.robot.reachability.check_path` (the arm
-    angle follows the null-space motion), one candidate per arm."""
-    tracked = check_path(robot, pos, Rotation.from_matrix(rots[0]), options=opts,
-                         alternatives=Rotation.from_matrix(rots[-1]))
-    return [_Candidate(int(tracked.grip_turned[a]), tracked.q[:, a], tracked.reachable[:, a],
-                       bool(tracked.continuous[:, a].all())) for a in range(2)]
-
-
-def _ranked_pairs(robot, pos, rots, opts) -> list[tuple[_Candidate, _Candidate]]:
-    """(left, right) joint solutions, best first: every target solved, tracked smoothly,
-    clearance at the targets at least the minimum, margin at least the wanted one, then
-    clearance (up to :data:`COMFORT_CLEARANCE`) and margin (up to :data:`COMFORT_MARGIN`).
-    The free-elbow tracking is added when no constant arm angle tracks an arm's whole path."""
-    dist = np.linalg.norm(np.diff(pos, axis=0), axis=-1).max(axis=1)
-    angle = np.max([Rotation.from_matrix(np.einsum("mji,mjk->mik", rots[0][:-1, a],
-                                                   rots[0][1:, a])).magnitude()
-                    for a in range(2)], axis=0)
-    n_sub = np.maximum(1, np.maximum(np.ceil(dist / opts.step_length),
-                                     np.ceil(angle / opts.step_angle))).astype(int)
-    cands = [_arm_candidates(arm, pos[:, a], [r[:, a] for r in rots], n_sub, opts)
-             for a, arm in enumerate(robot.arms)]
-    if not all(any(c.solved.all() and c.smooth for c in arm_cands) for arm_cands in cands):
-        for a, c in enumerate(_tracked_candidates(robot, pos, rots, opts)):
-            cands[a].append(c)
-    q_left = np.stack([c.joints for c in cands[0]])  # (L, M, 7)
-    q_right = np.stack([c.joints for c in cands[1]])  # (R, M, 7)
-    gap, _ = arm_clearance(robot.left, q_left[:, None], robot.right, q_right[None])
-    clearance = gap.min(axis=-1)  # (L, R)
-    margin = [np.array([joint_margin(arm, c.joints).min() for c in arm_cands])
-              for arm, arm_cands in zip(robot.arms, cands, strict=True)]
-    solved = [np.array([c.solved.all() for c in arm_cands]) for arm_cands in cands]
-    both_margin = np.minimum(margin[0][:, None], margin[1][None])
-    keys = []
-    for i in range(len(cands[0])):
-        for j in range(len(cands[1])):
-            keys.append(((bool(solved[0][i] and solved[1][j]),
-                          cands[0][i].smooth and cands[1][j].smooth,
-                          bool(clearance[i, j] >= opts.min_clearance),
-                          bool(both_margin[i, j] >= opts.min_margin),
-                          min(float(clearance[i, j]), COMFORT_CLEARANCE),
-                          min(float(both_margin[i, j]), COMFORT_MARGIN)), i, j))
-    keys.sort(key=lambda k: k[0], reverse=True)
-    return [(cands[0][i], cands[1][j]) for _, i, j in keys]
+                        motion_times, motion, tuple(rows), zones)
 
 
 def _timing(trajectory, cell: RobotCell, assignment: ArmAssignment, approach: bool):
@@ -553,96 +425,6 @@ def _timing(trajectory, cell: RobotCell, assignment: ArmAssignment, approach: bo
         durations = np.concatenate([[t_move], durations, [t_move]])
         speeds = np.concatenate([move, speeds, move])
     return durations, np.maximum(speeds, [MIN_SPEED, MIN_ANGULAR_SPEED])
-
-
-def _slerp_matrices(r0: np.ndarray, r1: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Rotations r0 * exp(s log(r0^T r1)) for fractions s, (n, 3, 3)."""
-    rel = Rotation.from_matrix(r0.T @ r1).as_rotvec()
-    return r0 @ Rotation.from_rotvec(s[:, None] * rel).as_matrix()
-
-
-def _replay(robot, pos, rot, eax, joints, durations, opts) -> dict:
-    """The controller's MoveL into every target (module docstring, ``continuity``).
-
-    Both arms advance through the same sub-steps of a move; all moves of an arm advance
-    together (each starts from its start target's solution). A sub-step whose largest joint
-    step exceeds ``max_joint_step`` is replayed again in :data:`REFINE` finer steps: a
-    continuous motion that is merely fast (near a singularity) then moves each joint by about
-    a REFINE-th, a jump to another branch still jumps. Returns per move m = 1..M-1 the
-    sub-step joints (n_m, 2, 7) and per move and arm: converged, largest refined joint step
-    [rad] and its joint, distance of the end from the target's solution [rad], and the largest
-    joint speed as a fraction of the limit at the move's planned duration.
-    """
-    track = replace(opts.ik, max_iterations=CANDIDATE_ITERATIONS)
-    n_moves = len(pos) - 1
-    dist = np.linalg.norm(np.diff(pos, axis=0), axis=-1)  # (M-1, 2)
-    angle = np.stack([Rotation.from_matrix(np.einsum("mji,mjk->mik", rot[:-1, a], rot[1:, a]))
-                      .magnitude() for a in range(2)], axis=1)
-    turn = np.radians(np.abs(np.diff(eax, axis=0)))
-    n_sub = np.maximum(1, np.maximum(np.ceil(dist.max(axis=1) / opts.step_length), np.ceil(
-        np.maximum(angle, turn).max(axis=1) / opts.step_angle))).astype(int)
-    n_max = int(n_sub.max())
-    sub = np.empty((n_max, n_moves, 2, 7))
-    converged = np.ones((n_moves, 2), dtype=bool)
-    for a, arm in enumerate(robot.arms):
-        rel = Rotation.from_matrix(np.einsum("mji,mjk->mik", rot[:-1, a], rot[1:, a])).as_rotvec()
-        q = joints[:-1, a].copy()
-        for i in range(n_max):
-            s = np.minimum((i + 1) / n_sub, 1.0)
-            live = np.flatnonzero(converged[:, a])  # a lost move stays where it was lost
-            p, r, theta = _along(pos[:, a], rot[:, a], rel, eax[:, a], s)
-            q[live], ok, _, _ = solve_many(arm, p[live], r[live], q[live], track, theta[live])
-            converged[live, a] = ok
-            sub[i, :, a] = q
-    limit = np.stack([arm.max_velocity for arm in robot.arms])
-    out = {"joints": [], "converged": converged, "largest": np.zeros((n_moves, 2)),
-           "worst_joint": np.zeros((n_moves, 2), dtype=int), "end_error": np.zeros((n_moves, 2)),
-           "speed_ratio": np.zeros((n_moves, 2))}
-    for m in range(n_moves):
-        q_move = sub[:n_sub[m], m]
-        steps = np.abs(np.diff(np.concatenate([joints[m][None], q_move]), axis=0))  # (n, 2, 7)
-        for a in range(2):
-            i = int(steps[:, a].max(axis=-1).argmax())
-            largest, joint = float(steps[i, a].max()), int(steps[i, a].argmax())
-            if largest > opts.max_joint_step:
-                start = joints[m, a] if i == 0 else q_move[i - 1, a]
-                largest, joint = _refined_step(robot.arms[a], pos[m:m + 2, a], rot[m:m + 2, a],
-                                               eax[m:m + 2, a], (i / n_sub[m], (i + 1) / n_sub[m]),
-                                               start, track)
-            out["largest"][m, a], out["worst_joint"][m, a] = largest, joint
-        out["end_error"][m] = np.abs(q_move[-1] - joints[m + 1]).max(axis=-1)
-        dt = durations[m] / n_sub[m]
-        moved = steps.max(axis=(0, 2))
-        out["speed_ratio"][m] = ((steps / limit).max(axis=(0, 2)) / dt if dt > 0
-                                 else np.where(moved > 1e-9, np.inf, 0.0))
-        out["joints"].append(q_move)
-    return out
-
-
-def _along(pos, rot, rel, eax, s):
-    """Poses of every move m (from target m to m + 1) at fractions s (M-1,): TCP position
-    linear, orientation slerp (``rel`` the (M-1, 3) rotation vectors of the moves), arm angle
-    linear [rad]."""
-    p = pos[:-1] + s[:, None] * (pos[1:] - pos[:-1])
-    r = rot[:-1] @ Rotation.from_rotvec(s[:, None] * rel).as_matrix()
-    theta = np.radians(eax[:-1] + s * (eax[1:] - eax[:-1]))
-    return p, r, theta
-
-
-def _refined_step(arm, pos, rot, eax, span, start, track) -> tuple[float, int]:
-    """Largest joint step [rad] (and its joint) replaying the sub-step ``span`` (fractions of
-    the move from ``pos[0]`` to ``pos[1]``) in :data:`REFINE` steps from ``start``."""
-    rel = Rotation.from_matrix(rot[0].T @ rot[1]).as_rotvec()[None]
-    fractions = np.linspace(span[0], span[1], REFINE + 1)[1:]
-    q, largest, joint = start, 0.0, 0
-    for s in fractions:
-        p, r, theta = _along(pos, rot, rel, eax, np.array([s]))
-        new = solve_many(arm, p, r, q[None], track, theta)[0][0]
-        step = np.abs(new - q)
-        if step.max() > largest:
-            largest, joint = float(step.max()), int(step.argmax())
-        q = new
-    return largest, joint
 
 
 def _link(i: int) -> str:

@@ -11,8 +11,23 @@ at rest in the first planned shape, and reports
   until every point is slower than ``rest_speed`` (or ``settle_duration`` has passed); as the
   speed goes to zero every knot deviation tends to the static error of the plan, which this
   final deviation measures;
-* the peak axial link force [N] over the run (tension positive), checked against an optional
-  tensile limit [N].
+* the deviation per segment: the largest point distance, over the records between two knots,
+  between the simulated cable and the planned cable at that instant (the two planned shapes
+  interpolated with the same segment parameter that moves the clips, :mod:`dloplan.trajectory`),
+  and at least the deviations at the segment's two knots. It includes the plan's own
+  interpolation: between two planned shapes the real quasi-static cable is not their linear
+  blend (for a stiff hose, several millimetres whatever the speed), so it is reported, compared
+  between timings, and not checked against the tolerance;
+* the peak axial link force [N] over the run and during the motion alone (tension positive),
+  the first checked against an optional tensile limit [N].
+
+**Time law.** Given the trajectory's time law (``law``, :class:`dloplan.trajectory.TimeLaw`),
+the clips follow it: :func:`clip_motion` samples the clip poses at :data:`CLIP_RATE` (and at
+every knot time), and the simulator interpolates linearly between the samples, so the held
+points accelerate as the robot will (between 1 ms samples a jerk-limited motion departs from
+its chord by a_max h^2 / 8, 0.1 um at 1 m/s^2). Without it the clips move at constant speed
+between the knots (the velocity-only timing: a velocity jump, an infinite acceleration, at
+every knot).
 
 The simulated shapes are recorded often enough (at least 20 records per knot interval, every step
 while the run has fewer than :data:`MAX_RECORDS` steps) that the shape at a knot time is
@@ -22,19 +37,24 @@ interpolated linearly between two records and the force peak is sampled at that 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
 from ..physics.chain import SpringChain, link_tensions
 from ..physics.geometry import as_path
 from ..sim.clips import ClipPoses
 from ..sim.dynamics import ClipTrajectory, Simulation, simulate
+from ..trajectory import TimeLaw, interpolate_poses, sample_times
 from ._inputs import as_times
 
 MAX_RECORDS = 100_000
 """Upper bound on the number of recorded shapes of one replay."""
+
+CLIP_RATE = 1000.0
+"""Rate [Hz] at which :func:`clip_motion` samples the clip poses along a time law."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,6 +89,12 @@ class Replay:
         Summary.
     simulation : Simulation
         The full recorded run.
+    segment_deviations : numpy.ndarray
+        (S + 1,) largest deviation over each segment [m] (module docstring).
+    motion_peak_tension : float
+        Largest axial link force while the clips move [N] (the settling excluded).
+    law : TimeLaw
+        The time law the clips followed (constant speed between the knots when none given).
     """
 
     knot_times: np.ndarray
@@ -83,6 +109,9 @@ class Replay:
     ok: bool
     message: str
     simulation: Simulation
+    segment_deviations: np.ndarray
+    motion_peak_tension: float
+    law: TimeLaw
 
     @property
     def max_deviation(self) -> float:
@@ -116,12 +145,54 @@ def as_clip_trajectory(trajectory) -> ClipTrajectory:
     return ClipTrajectory(as_times(times, len(poses), "trajectory times"), poses)
 
 
+def clip_motion(law: TimeLaw, poses, rate: float = CLIP_RATE) -> ClipTrajectory:
+    """The clips moving through their knot poses under a time law, sampled for the simulator.
+
+    Parameters
+    ----------
+    law : TimeLaw
+        The trajectory's time law (``Trajectory.law``), K knots.
+    poses : sequence of ClipPoses
+        The K clip poses at the knots (the planned gripper poses).
+    rate : float
+        Samples per second [Hz]; the knot times are always samples.
+    """
+    poses = list(poses)
+    if not isinstance(law, TimeLaw):
+        raise ValueError(f"law: got {type(law).__name__}, expected a TimeLaw")
+    if len(poses) != len(law.knot_times) or not all(isinstance(p, ClipPoses) for p in poses):
+        raise ValueError(f"poses: expected {len(law.knot_times)} ClipPoses, one per knot of "
+                         "the time law")
+    times = np.union1d(sample_times(law.duration, rate), law.knot_times)
+    times = times[np.r_[True, np.diff(times) > 1e-9]]
+    positions = np.stack([p.positions for p in poses])
+    rotations = tuple(Rotation.concatenate([p.rotations[c] for p in poses]) for c in (0, 1))
+    pos, rots = interpolate_poses(law, positions, rotations, times)
+    quats = np.stack([r.as_quat() for r in rots], axis=1)  # (N, 2, 4)
+    return ClipTrajectory(times, [ClipPoses(p, Rotation.from_quat(q))
+                                  for p, q in zip(pos, quats, strict=True)])
+
+
+def fictitious_cable(cable: Cable, youngs_modulus_cap: float | None) -> Cable:
+    """The cable the replay simulates: with a cap, its moduli (bending and axial) are lowered to
+    the cap -- the thesis' fictitious modulus (Fig. 6.5), which makes a stiff cable's explicit
+    time step hundreds of times larger and keeps the scheme stable (a cap on the step alone
+    diverges, since the forces would still be the stiff cable's)."""
+    if youngs_modulus_cap is None or cable.axial_youngs_modulus <= youngs_modulus_cap and \
+            cable.youngs_modulus <= youngs_modulus_cap:
+        return cable
+    axial = None if cable.axial_modulus is None else min(cable.axial_modulus, youngs_modulus_cap)
+    return replace(cable, youngs_modulus=min(cable.youngs_modulus, youngs_modulus_cap),
+                   axial_modulus=axial)
+
+
 def replay(
     cable: Cable,
     stabilized_shapes,
     trajectory,
     *,
     knot_times=None,
+    law: TimeLaw | None = None,
     gravity=GRAVITY,
     tensile_limit: float | None = None,
     tolerance: float = 0.01,
@@ -142,10 +213,15 @@ def replay(
     stabilized_shapes : array_like
         (S + 2, n + 1, 3) planned stabilized shapes [m]; the run starts at rest in the first.
     trajectory : ClipTrajectory or (times, poses) or object with ``times`` and ``poses``
-        Timed clip poses driving the held points [s], [ClipPoses].
+        Timed clip poses driving the held points [s], [ClipPoses]. With ``law``: the S + 2
+        clip poses at the knots (a list, or the poses of any of these forms), moved by the
+        law (:func:`clip_motion`).
     knot_times : array_like, optional
         (S + 2,) times of the planned shapes on the trajectory's clock [s]; default the
-        trajectory's own times, when it has one pose per shape.
+        law's, or the trajectory's own times when it has one pose per shape.
+    law : TimeLaw, optional
+        The time law of the timed dual-arm trajectory (``Trajectory.law``): the clips follow
+        it (module docstring). Default: constant speed between the knot times.
     gravity : array_like
         Gravity [m/s^2].
     tensile_limit : float, optional
@@ -175,7 +251,13 @@ def replay(
         Deviations [m], settling, peak axial force [N], verdict and the recorded run.
     """
     path = as_path(stabilized_shapes, cable.n_points, "stabilized_shapes")
-    clips = as_clip_trajectory(trajectory)
+    if law is not None:
+        poses = trajectory if isinstance(trajectory, list) else as_clip_trajectory(
+            trajectory).poses
+        clips = clip_motion(law, poses)
+        knot_times = law.knot_times if knot_times is None else knot_times
+    else:
+        clips = as_clip_trajectory(trajectory)
     if knot_times is None:
         if len(clips.times) != len(path):
             raise ValueError(
@@ -199,21 +281,26 @@ def replay(
     shifted = ClipTrajectory(clips.times - start, clips.poses)
     knots = knots - start
     motion = float(shifted.times[-1])
-    step = dt if dt is not None else cable.time_step(youngs_modulus_cap)
+    model = fictitious_cable(cable, youngs_modulus_cap)
+    step = dt if dt is not None else model.time_step()
     duration = motion + settle_duration
     spacing = np.diff(knots)
     finest = float(np.min(spacing)) / 20.0 if len(spacing) else duration
     record = min(max(step, duration / MAX_RECORDS), finest)
     run = simulate(
-        cable, path[0], shifted, duration=duration, dt=dt, youngs_modulus_cap=youngs_modulus_cap,
+        model, path[0], shifted, duration=duration, dt=dt,
         gravity=gravity, record_interval=record, rest_speed=rest_speed, max_steps=max_steps,
         damping=damping, torsion=torsion,
     )
     deviations = np.array([_deviation_at(run, t, x) for t, x in zip(knots, path, strict=True)])
     final = float(np.max(np.linalg.norm(run.shapes[-1] - path[-1], axis=1)))
+    timing = law if law is not None else TimeLaw.constant_speed(knots)
+    segments = _segment_deviations(run, path, timing, knots, deviations)
     tensions = link_tensions(SpringChain.from_cable(cable, gravity), run.shapes)
     when, link = np.unravel_index(int(np.argmax(tensions)), tensions.shape)
     peak = float(tensions[when, link])
+    moving = run.times <= motion + 1e-12
+    motion_peak = float(tensions[moving].max())
     within = tensile_limit is None or peak <= tensile_limit
     problems = []
     worst = int(np.argmax(deviations))
@@ -227,11 +314,31 @@ def replay(
     if not within:
         problems.append(f"peak tension {peak:.3g} N exceeds the limit {tensile_limit:.3g} N "
                         f"(link {link}, t = {run.times[when]:.3g} s)")
-    summary = (f"max deviation {1e3 * float(np.max(deviations)):.2f} mm, settled "
-               f"{1e3 * final:.2f} mm, peak tension {peak:.3g} N")
+    summary = (f"max deviation {1e3 * float(np.max(deviations)):.2f} mm at the shapes, "
+               f"{1e3 * float(np.max(segments, initial=0.0)):.2f} mm along the segments, "
+               f"settled {1e3 * final:.2f} mm, peak tension {motion_peak:.3g} N in motion, "
+               f"{peak:.3g} N overall")
     message = "; ".join(problems) + f" ({summary})" if problems else f"replay ok: {summary}"
     return Replay(knots, deviations, final, bool(run.settled), peak, float(run.times[when]),
-                  int(link), tensile_limit, float(tolerance), not problems, message, run)
+                  int(link), tensile_limit, float(tolerance), not problems, message, run,
+                  segments, motion_peak, timing)
+
+
+def _segment_deviations(run: Simulation, path: np.ndarray, law: TimeLaw, knots: np.ndarray,
+                        at_knots: np.ndarray) -> np.ndarray:
+    """(K - 1,) largest deviation over each segment from the planned cable at that instant.
+
+    ``law`` runs on the simulation's clock (its knot times are ``knots``)."""
+    if len(path) < 2:
+        return np.zeros(0)
+    inside = (run.times >= knots[0] - 1e-12) & (run.times <= knots[-1] + 1e-12)
+    t = run.times[inside]
+    planned = law.blend(path, t)[0]
+    distance = np.linalg.norm(run.shapes[inside] - planned, axis=-1).max(axis=1)
+    segment = np.clip(np.searchsorted(knots, t, side="right") - 1, 0, len(path) - 2)
+    out = np.maximum(at_knots[:-1], at_knots[1:])
+    np.maximum.at(out, segment, distance)
+    return out
 
 
 def _deviation_at(run: Simulation, t: float, planned: np.ndarray) -> float:
@@ -239,4 +346,4 @@ def _deviation_at(run: Simulation, t: float, planned: np.ndarray) -> float:
     return float(np.max(np.linalg.norm(run.at(t)[0] - planned, axis=1)))
 
 
-__all__ = ["Replay", "as_clip_trajectory", "replay"]
+__all__ = ["CLIP_RATE", "Replay", "as_clip_trajectory", "clip_motion", "replay"]
