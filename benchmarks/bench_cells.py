@@ -8,14 +8,16 @@ search with full checks (search_cell_placement).
 
 Run: PYTHONPATH=src python benchmarks/bench_cells.py
 
-Today's numbers (2 cores shared by ~6 agents, load average ~15; best of 2 runs):
-  ur5e_pair   IK seeded  6.0 ms/pose (3.6 it.), from home 54 ms (98 %); 8-pose path 0.11 s;
-              placement 1.1 s
-  panda_pair  IK seeded 17.0 ms/pose (12.5 it.), from home 99 ms (95 %); 8-pose path 0.13 s;
-              placement 1.4 s
-  yumi        IK seeded  4.4 ms/pose (3.3 it.), from home 67 ms (100 %); 8-pose path 0.80 s
-              (fails: the right arm meets a joint limit at pose 3); placement 2.2 s (passes)
-Before the stall stop of the IK (same session): from home 222 / 262 / 283 ms per pose.
+Today's numbers (2 shared cores, after merging main; the first run under load average ~15 in
+parentheses):
+  ur5e_pair   IK seeded 2.2 ms/pose (6.0), from home 25 ms (54), 98 %; 8-pose path 0.05 s;
+              placement 0.50 s
+  panda_pair  IK seeded 6.7 ms/pose (17.0; 12.5 iterations), from home 42 ms (99), 95 %;
+              8-pose path 0.03 s; placement 0.76 s
+  yumi        IK seeded 1.8 ms/pose (4.4), from home 28 ms (67), 100 %; 8-pose path 0.33 s
+              (fails honestly: continuity at pose 7 with main's 114.2 mm SmartGripper TCP);
+              placement 1.1 s (passes)
+Before the stall stop of the IK (same session, loaded): from home 222 / 262 / 283 ms per pose.
 No cell other than the YuMi existed before (bench_robot.py times the YuMi-specific solver).
 """
 
