@@ -11,6 +11,7 @@ json       ``plan.json``, the plan document itself (:mod:`dloplan.app.document`)
 csv        ``trajectory.csv``, the dual-arm TCP trajectory sampled at the rate
 ros        ``trajectory.yaml``, a ROS 2 ``trajectory_msgs/MultiDOFJointTrajectory``
 rapid      ``rapid/``, one ABB RAPID module per YuMi arm
+ros_joints ``ros_joints/``, a ROS 2 ``trajectory_msgs/JointTrajectory`` per arm (verified joints)
 figures    ``figures/``, PNG and SVG figures
 report     ``report.html``, the self-contained interactive report (with the figures)
 =========  ==================================================================================
@@ -70,6 +71,24 @@ def write_rapid_program(doc: PlanDocument, target: Path, options: WriteOptions) 
     return list(write_rapid(target, program_of(doc), force=doc.robot is None).values())
 
 
+def write_joint_trajectory_files(doc: PlanDocument, target: Path,
+                                 options: WriteOptions) -> list[Path]:
+    """One ROS 2 JointTrajectory per YuMi arm in the folder ``target``: the verified joints of
+    the document's robot program at its target times (:mod:`dloplan.io.ros_joints`); a program
+    that failed its checks is refused, as for RAPID."""
+    from ..io.ros_joints import write_joint_trajectories
+    from .pipeline import program_of
+
+    _needs_trajectory(doc, "ros_joints")
+    program = program_of(doc)
+    if doc.robot is not None and not program.ok:
+        raise ValueError(f"ros_joints: {program.message}")
+    arms = program.cell.robot.arms
+    return write_joint_trajectories(target, program.times,
+                                    [program.joints[:, a] for a in range(len(arms))],
+                                    [arm.joint_names for arm in arms])
+
+
 def write_figure_files(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
     """PNG and SVG of every figure, in the folder ``target``."""
     return write_figures(doc, target)
@@ -100,6 +119,7 @@ WRITERS: dict[str, Writer] = {
     "csv": Writer("trajectory.csv", write_csv),
     "ros": Writer("trajectory.yaml", write_ros),
     "rapid": Writer("rapid", write_rapid_program),
+    "ros_joints": Writer("ros_joints", write_joint_trajectory_files),
     "figures": Writer("figures", write_figure_files),
     "report": Writer("report.html", write_report_file),
 }

@@ -319,7 +319,7 @@ class TableSpec(_Model):
     height: float = Field(0.0, allow_inf_nan=False)
 
 
-OutputName = Literal["json", "csv", "rapid", "ros", "figures", "report"]
+OutputName = Literal["json", "csv", "rapid", "ros", "ros_joints", "figures", "report"]
 
 
 class ToolSpec(_Model):

@@ -1,0 +1,86 @@
+"""Timing of cells from robot descriptions: IK per pose and verification per plan, per cell.
+
+For each preset (two UR5e, two Franka Panda, the YuMi from its description): the IK of one
+arm at random reachable poses, seeded 0.1 rad away (what tracking along a path does) and from
+the home pose with restarts (a first pose); then the verification of an 8-pose cable path
+(check_cell_path: IK tracked through sub-steps, clearance, table, rows) and the placement
+search with full checks (search_cell_placement).
+
+Run: PYTHONPATH=src python benchmarks/bench_cells.py
+
+Today's numbers (2 shared cores, after merging main; the first run under load average ~15 in
+parentheses):
+  ur5e_pair   IK seeded 2.2 ms/pose (6.0), from home 25 ms (54), 98 %; 8-pose path 0.05 s;
+              placement 0.50 s
+  panda_pair  IK seeded 6.7 ms/pose (17.0; 12.5 iterations), from home 42 ms (99), 95 %;
+              8-pose path 0.03 s; placement 0.76 s
+  yumi        IK seeded 1.8 ms/pose (4.4), from home 28 ms (67), 100 %; 8-pose path 0.33 s
+              (fails honestly: continuity at pose 7 with main's 114.2 mm SmartGripper TCP);
+              placement 1.1 s (passes)
+Before the stall stop of the IK (same session, loaded): from home 222 / 262 / 283 ms per pose.
+No cell other than the YuMi existed before (bench_robot.py times the YuMi-specific solver).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from dloplan.robot.chain import forward, inverse
+from dloplan.robot.kinematics import IKOptions
+from dloplan.robot.urdf_cell import PRESETS, check_cell_path, search_cell_placement
+
+
+def _ik(arm, n=40):
+    rng = np.random.default_rng(0)
+    q = rng.uniform(arm.lower, arm.upper, (n, arm.n_joints))
+    pos, rot = forward(arm, q)
+    for label, seeds, opts in (("seeded 0.1 rad away", q + rng.normal(0, 0.1, q.shape),
+                                IKOptions()),
+                               ("from home, 8 restarts", [None] * n, IKOptions(restarts=8))):
+        t0 = time.perf_counter()
+        results = [inverse(arm, pos[i], rot[i], seed=seeds[i], options=opts) for i in range(n)]
+        dt = (time.perf_counter() - t0) / n
+        rate = np.mean([r.success for r in results])
+        its = np.mean([r.iterations for r in results])
+        print(f"  {arm.name:5s} IK {label:22s} {dt * 1e3:7.2f} ms/pose  success {rate:4.0%}  "
+              f"{its:5.1f} iterations")
+
+
+def _path(x0, z0, n=8):
+    pos = np.zeros((n, 2, 3))
+    rots = []
+    down = Rotation.from_rotvec([np.pi, 0, 0])
+    for k, t in enumerate(np.linspace(0.0, 1.0, n)):
+        half = 0.2 - 0.05 * t
+        pos[k, 0] = [x0 + 0.05 * t, half, z0 + 0.1 * t]
+        pos[k, 1] = [x0 + 0.05 * t, -half, z0 + 0.1 * t]
+        rots += [Rotation.from_rotvec([0, 0, 0.3 * t]) * down,
+                 Rotation.from_rotvec([0, 0, -0.3 * t]) * down]
+    return pos, Rotation.from_quat([r.as_quat() for r in rots])
+
+
+def main() -> None:
+    where = {"ur5e_pair": (0.45, 0.1), "panda_pair": (0.45, 0.1), "yumi": (0.38, 0.05)}
+    for name, make in PRESETS.items():
+        t0 = time.perf_counter()
+        cell = make()
+        print(f"{name}: built in {time.perf_counter() - t0:.2f} s "
+              f"({cell.left.n_joints} joints per arm)")
+        _ik(cell.left)
+        pos, rot = _path(*where[name])
+        t0 = time.perf_counter()
+        verdict = check_cell_path(cell, pos, rot)
+        t1 = time.perf_counter()
+        offset, placed = search_cell_placement(cell, pos, rot)
+        t2 = time.perf_counter()
+        print(f"  verification of an 8-pose path  {t1 - t0:6.2f} s  "
+              f"({len(verdict.motion_times)} sub-steps): {verdict.message[:90]}")
+        print(f"  placement search (15 candidates) {t2 - t1:6.2f} s  offset "
+              f"{np.round(offset, 2).tolist()}: {placed.message[:70]}")
+
+
+if __name__ == "__main__":
+    main()

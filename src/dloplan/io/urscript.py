@@ -1,0 +1,166 @@
+"""URScript programs for a pair of Universal Robots arms: one script per arm, synchronized start.
+
+Each arm gets ``<stem>_<arm>.script``, one ``def ... end`` program that
+
+1. sets the tool (``set_tcp``) from the cell's TCP offset, when given;
+2. moves with ``movej`` to the verified start joints (so the controller is on the verified
+   configuration branch before any Cartesian move);
+3. raises its *ready* standard digital output and waits until its *start* standard digital
+   input is high: wire both inputs to one start signal (a PLC output, a push button, or one
+   robot's ready output to the other's input) so both arms leave together;
+4. runs the motion, one line per waypoint, either
+
+   - ``mode="movej"`` (default): ``movej(q, t=dt, r=blend)`` to every verified joint vector
+     with the planned segment duration ``dt`` [s]: with ``t`` given the controller times each
+     move to exactly ``dt``, so both arms stay synchronized segment by segment; or
+   - ``mode="movel"``: ``movel(p[x, y, z, rx, ry, rz], a, v, r=blend)`` to every TCP pose in the
+     arm's base frame [m, axis-angle rad] at the planned TCP speed ``v`` [m/s]; the controller
+     solves its own IK, continuing from the verified start configuration (the arms stay
+     synchronized only as far as both reach the planned speeds);
+
+5. lowers the ready output.
+
+The user sets up in the cell: the robot's base frame as installed (the scripts' poses are in
+each arm's base frame, i.e. the controller's ``base``), the tool's mass and centre of gravity
+(``set_payload``, not written), the wiring of the start signal, the gripper actions (none are
+written), and a speed slider of 100 % for the timing to hold. Numbers are written with 9
+decimals (rad, m, s): well below the 0.1 mm / 0.05 deg verification tolerance.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+MODES = ("movej", "movel")
+"""Motion commands a script can be written with."""
+
+MIN_SPEED = 1e-4
+"""[m/s] Smallest ``movel`` speed written."""
+
+DIGITS = 9
+"""Decimals of every number written."""
+
+
+def _number(value: float) -> str:
+    text = f"{float(value):.{DIGITS}f}"
+    return "0.000000000" if text.startswith("-") and float(text) == 0.0 else text
+
+
+def _list(values) -> str:
+    return "[" + ", ".join(_number(v) for v in values) + "]"
+
+
+def _check(name: str, value, shape: tuple) -> np.ndarray:
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != shape or not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: expected finite values of shape {shape}, got {arr.shape}")
+    return arr
+
+
+def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=None,
+                   speeds=None, tcp_offsets=None, mode: str = "movej", blend: float = 0.0,
+                   acceleration: float = 1.2, start_speed: float = 0.5,
+                   arms=("left", "right"), start_input: int = 0, ready_output: int = 0,
+                   stem: str = "dloplan") -> list[Path]:
+    """Write one URScript program per arm (module docstring).
+
+    Parameters
+    ----------
+    folder : str or pathlib.Path
+        Output folder (created).
+    times : array_like
+        (M,) time [s] each waypoint is reached, increasing.
+    joints : sequence of array_like
+        Per arm (M, 6) the verified joint values [rad] (controller order, base to wrist 3).
+    tcp_positions : array_like, optional
+        (M, A, 3) TCP positions [m] in each arm's base frame; required for ``movel``.
+    tcp_rotvecs : array_like, optional
+        (M, A, 3) TCP orientations as rotation vectors [rad] in each arm's base frame.
+    speeds : array_like, optional
+        (M - 1, A) planned TCP speed [m/s] of each move; default the straight distance over
+        the segment time (``movel`` only).
+    tcp_offsets : array_like, optional
+        (A, 6) ``set_tcp`` pose of each arm's tool [m, rad] in the flange frame.
+    mode : str
+        ``"movej"`` or ``"movel"``.
+    blend : float
+        Blend radius [m] of every intermediate waypoint (0: stop exactly at each).
+    acceleration : float
+        ``movel`` tool acceleration [m/s^2].
+    start_speed : float
+        Joint speed [rad/s] of the first ``movej`` to the start joints.
+    arms : sequence of str
+        Arm names (file names and program names).
+    start_input, ready_output : int
+        Standard digital input waited for, output raised while ready (0..7).
+    stem : str
+        File name stem.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The scripts, in the order of ``arms``.
+    """
+    if mode not in MODES:
+        raise ValueError(f"mode: expected one of {MODES}, got {mode!r}")
+    t = np.asarray(times, dtype=float)
+    if t.ndim != 1 or len(t) < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise ValueError(f"times: expected at least 2 increasing finite times [s], got {times!r}")
+    n_arms, n_points = len(arms), len(t)
+    if len(joints) != n_arms:
+        raise ValueError(f"joints: expected one (M, 6) array per arm of {tuple(arms)}, got "
+                         f"{len(joints)}")
+    q = [_check(f"joints[{a}]", joints[a], (n_points, 6)) for a in range(n_arms)]
+    for name, value in (("blend", blend), ("acceleration", acceleration),
+                        ("start_speed", start_speed)):
+        if not (np.isfinite(value) and value >= 0) or (name != "blend" and value == 0):
+            raise ValueError(f"{name}: expected a positive number, got {value!r}")
+    for name, value in (("start_input", start_input), ("ready_output", ready_output)):
+        if value not in range(8):
+            raise ValueError(f"{name}: expected a standard digital I/O index 0..7, got {value!r}")
+    if mode == "movel":
+        if tcp_positions is None or tcp_rotvecs is None:
+            raise ValueError("tcp_positions, tcp_rotvecs: required for mode 'movel'")
+        pos = _check("tcp_positions", tcp_positions, (n_points, n_arms, 3))
+        rvec = _check("tcp_rotvecs", tcp_rotvecs, (n_points, n_arms, 3))
+        if speeds is None:
+            dist = np.linalg.norm(np.diff(pos, axis=0), axis=-1)
+            speeds = dist / np.diff(t)[:, None]
+        # An arm that stands still in a segment gets a crawl: movel needs v > 0.
+        vel = np.maximum(_check("speeds", speeds, (n_points - 1, n_arms)), MIN_SPEED)
+    offsets = None if tcp_offsets is None else _check("tcp_offsets", tcp_offsets, (n_arms, 6))
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    written = []
+    for a, arm in enumerate(arms):
+        name = f"{stem}_{arm}"
+        lines = [f"# {name}.script: dloplan plan for the {arm} arm ({n_points} waypoints, "
+                 f"{t[-1] - t[0]:.3f} s, {mode}).",
+                 "# Poses in this arm's base frame [m, rad]; joints [rad]. Setup: docs/cells.md.",
+                 f"def {name}():"]
+        if offsets is not None:
+            lines.append(f"  set_tcp(p{_list(offsets[a])})")
+        lines += [f"  movej({_list(q[a][0])}, a=1.0, v={_number(start_speed)})",
+                  f"  set_standard_digital_out({ready_output}, True)",
+                  f"  textmsg(\"{name}: ready, waiting for digital input {start_input}\")",
+                  f"  while not get_standard_digital_in({start_input}):",
+                  "    sync()",
+                  "  end"]
+        for k in range(1, n_points):
+            r = blend if k < n_points - 1 else 0.0
+            if mode == "movej":
+                lines.append(f"  movej({_list(q[a][k])}, t={_number(t[k] - t[k - 1])}, "
+                             f"r={_number(r)})")
+            else:
+                pose = np.concatenate([pos[k, a], rvec[k, a]])
+                lines.append(f"  movel(p{_list(pose)}, a={_number(acceleration)}, "
+                             f"v={_number(vel[k - 1, a])}, r={_number(r)})")
+        lines += [f"  set_standard_digital_out({ready_output}, False)",
+                  "end",
+                  f"{name}()"]
+        path = folder / f"{name}.script"
+        path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+        written.append(path)
+    return written

@@ -1,0 +1,613 @@
+"""A dual-arm cell built from robot descriptions, and its verification along a plan.
+
+A :class:`DescribedCell` is two :class:`~dloplan.robot.chain.CellArm` s (any serial arms read
+from URDF, each with its base pose, tool and joint limits) and the table they stand on.
+:func:`check_cell_path` verifies a dual-arm TCP path on it as :mod:`dloplan.robot.reachability`
+does for the YuMi: IK at every planned pose, tracked continuously through sub-steps between
+poses (each solve seeded from the previous one), joint margins, arm-arm and arm-table capsule
+clearance at every sub-step, and one verdict row per check, target and arm (the robot
+program's :class:`~dloplan.robot.program.CheckRow`).
+:func:`search_cell_placement` shifts the job on the table to where the cell executes it best.
+
+Presets (:data:`PRESETS`): ``ur5e_pair`` (two UR5e side by side), ``panda_pair`` (two Franka
+arms with the Franka Hand), ``yumi`` (the ABB YuMi from one description with two chains).
+"""
+
+from __future__ import annotations
+
+import inspect
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
+
+from .chain import CellArm, capsules, in_base_frame, inverse, joint_margin
+from .collision import segment_distance
+from .description import load_arm, vendored
+from .program import CheckRow
+from .reachability import ReachOptions
+from .yumi import ARMS, DEFAULT_TCP_IN_CLIP, DEFAULT_TCP_OFFSET, HOME_DEG
+
+START_RESTARTS = 16
+"""Random restarts of the IK at the first pose (at least; more if ``options.ik`` asks): the one
+solve without a previous solution to follow, where a margin from the limits is wanted."""
+
+COMFORT_CLEARANCE = 0.05
+"""[m] Arm-arm clearance beyond which the placement search no longer prefers more."""
+
+COMFORT_MARGIN = float(np.radians(30.0))
+"""[rad] Joint margin beyond which the placement search prefers a smaller shift of the job."""
+
+PLACEMENT_TRIES = 3
+"""Best-ranked placements verified in full by :func:`search_cell_placement`."""
+
+CHECKS = ("reach", "joint limits", "continuity", "clearance", "table clearance")
+"""The checks of a cell verdict, in the order of its rows."""
+
+
+@dataclass(frozen=True, eq=False)
+class DescribedCell:
+    """Two arms from descriptions on a table.
+
+    Parameters
+    ----------
+    name : str
+    left, right : CellArm
+        The arms (``name`` ``"left"`` and ``"right"``): the world frame is the plan's frame.
+    table_height : float
+        z of the table top in the world [m]; every moving capsule must stay above it.
+    shared_base : bool
+        Both arms hang on one body (one description with two chains, e.g. the YuMi): the base
+        link's capsules are not checked against each other.
+    """
+
+    name: str
+    left: CellArm
+    right: CellArm
+    table_height: float = 0.0
+    shared_base: bool = False
+
+    def __post_init__(self) -> None:
+        if (self.left.name, self.right.name) != ARMS:
+            raise ValueError(f"arms: expected names {ARMS}, got ({self.left.name!r}, "
+                             f"{self.right.name!r})")
+        if not np.isfinite(self.table_height):
+            raise ValueError(f"table_height: expected a finite number [m], got "
+                             f"{self.table_height!r}")
+
+    @property
+    def arms(self) -> tuple[CellArm, CellArm]:
+        """``(left, right)``."""
+        return (self.left, self.right)
+
+
+@dataclass(frozen=True, eq=False)
+class CellVerdict:
+    """Verification of a dual-arm TCP path on a :class:`DescribedCell`.
+
+    Attributes
+    ----------
+    joints : tuple of numpy.ndarray
+        Per arm (K, n_arm) the tracked joint solutions [rad] at the K poses (the closest found
+        where not reachable), within the limits.
+    reachable, continuous : numpy.ndarray
+        (K, 2) bool. ``continuous[k]``: the arm followed the straight TCP motion from pose k-1
+        through every sub-step without losing the IK or a joint step above ``max_joint_step``.
+    position_error, angle_error, joint_margin, joint_step, table_clearance : numpy.ndarray
+        (K, 2) [m], [rad], [rad], largest joint step of a sub-step into pose k [rad], lowest
+        capsule surface above the table over the motion into pose k [m].
+    clearance : numpy.ndarray
+        (K,) smallest arm-arm capsule distance [m] over the motion into pose k.
+    motion_times : numpy.ndarray
+        (N,) sub-step parameter (k + fraction) of the tracked motion.
+    motion_joints : tuple of numpy.ndarray
+        Per arm (N, n_arm) the joints [rad] of every sub-step (for a joint trajectory).
+    rows : tuple of CheckRow
+    """
+
+    joints: tuple[np.ndarray, np.ndarray]
+    reachable: np.ndarray
+    continuous: np.ndarray
+    position_error: np.ndarray
+    angle_error: np.ndarray
+    joint_margin: np.ndarray
+    joint_step: np.ndarray
+    table_clearance: np.ndarray
+    clearance: np.ndarray
+    motion_times: np.ndarray
+    motion_joints: tuple[np.ndarray, np.ndarray]
+    rows: tuple[CheckRow, ...]
+
+    @property
+    def ok(self) -> bool:
+        """Every row passes."""
+        return all(row.ok for row in self.rows)
+
+    @property
+    def message(self) -> str:
+        """One line: ok with the key numbers, or the first failure of each failing check."""
+        if self.ok:
+            return (f"cell ok: {len(self.clearance)} poses; min clearance "
+                    f"{1e3 * self.clearance.min():.1f} mm, min table clearance "
+                    f"{1e3 * self.table_clearance.min():.1f} mm, min joint margin "
+                    f"{np.degrees(self.joint_margin.min()):.1f} deg")
+        parts = []
+        for name in CHECKS:
+            bad = [row for row in self.rows if row.check == name and not row.ok]
+            if bad:
+                parts.append(f"{name} at {bad[0].label} ({bad[0].arm}: {bad[0].value:.4g} "
+                             f"{bad[0].unit}{'; ' + bad[0].note if bad[0].note else ''})")
+        return "cell FAILS: " + "; ".join(parts)
+
+
+def pair_clearance(cell: DescribedCell, q_left, q_right) -> np.ndarray:
+    """Smallest arm-arm capsule clearance [m], (...,), negative when they overlap.
+
+    Parameters
+    ----------
+    q_left, q_right : array_like
+        (..., n_arm) joint values [rad] of each arm, same batch shape.
+    """
+    seg_l, rad_l, link_l = capsules(cell.left, q_left)
+    seg_r, rad_r, link_r = capsules(cell.right, q_right)
+    dist = segment_distance(seg_l[..., :, None, 0, :], seg_l[..., :, None, 1, :],
+                            seg_r[..., None, :, 0, :], seg_r[..., None, :, 1, :])
+    gap = dist - rad_l[:, None] - rad_r[None, :]
+    if cell.shared_base:
+        gap = np.where((link_l[:, None] < 0) & (link_r[None, :] < 0), np.inf, gap)
+    return gap.min(axis=(-1, -2))
+
+
+def _table_clearance(cell: DescribedCell, arm: CellArm, q) -> np.ndarray:
+    """(...,) lowest surface of the arm's moving capsules above the table [m]."""
+    seg, rad, link = capsules(arm, q)
+    low = seg[..., 2].min(axis=-1) - rad - cell.table_height
+    return np.where(link >= 0, low, np.inf).min(axis=-1)
+
+
+def _substeps(positions, matrices, k: int, options: ReachOptions) -> int:
+    """Sub-steps of the motion from pose k-1 to k (the larger of both arms' needs)."""
+    dist = np.linalg.norm(positions[k] - positions[k - 1], axis=-1).max()
+    turn = np.einsum("aij,akj->aik", matrices[k], matrices[k - 1])
+    angle = Rotation.from_matrix(turn).magnitude().max()
+    return max(1, int(np.ceil(dist / options.step_length)),
+               int(np.ceil(angle / options.step_angle)))
+
+
+def check_cell_path(cell: DescribedCell, positions, rotations: Rotation, *, seeds=None,
+                    options: ReachOptions | None = None) -> CellVerdict:
+    """Verify a dual-arm TCP path on a cell (module docstring).
+
+    Pose 0 is solved from ``seeds`` (default the arms' home poses) with the random restarts of
+    ``options.ik`` and the wanted ``min_margin``. Between poses both arms move in the same
+    number of sub-steps (at most ``step_length`` [m] and ``step_angle`` [rad] each), the TCP on
+    a straight line with slerped orientation, each IK seeded from the previous sub-step without
+    restarts; a pose the tracking loses is solved afresh (restarts) and marked not continuous.
+
+    Parameters
+    ----------
+    cell : DescribedCell
+    positions : array_like
+        (K, 2, 3) TCP positions [m] in the world, arms in the order (left, right).
+    rotations : scipy.spatial.transform.Rotation
+        (K, 2) ``tcp_to_world``.
+    seeds : sequence of array_like, optional
+        Per arm the (n_arm,) joints [rad] to start pose 0 from.
+    options : ReachOptions, optional
+        ``ik``, ``step_length``, ``step_angle``, ``max_joint_step``, ``min_margin``,
+        ``min_clearance`` are used.
+    """
+    opts = options if options is not None else ReachOptions()
+    pos = np.asarray(positions, dtype=float)
+    if pos.ndim != 3 or pos.shape[1:] != (2, 3) or not np.all(np.isfinite(pos)):
+        raise ValueError(f"positions: expected finite (K, 2, 3) TCP positions [m], got shape "
+                         f"{pos.shape}")
+    if not isinstance(rotations, Rotation) or rotations.single or len(rotations) != pos.size // 3:
+        raise ValueError("rotations: expected a scipy Rotation of shape (K, 2) matching "
+                         "positions")
+    n_poses = len(pos)
+    mats = rotations.as_matrix().reshape(n_poses, 2, 3, 3)
+    seeds = [arm.home for arm in cell.arms] if seeds is None else list(seeds)
+    start_opts = replace(opts.ik, min_margin=opts.min_margin,
+                         restarts=max(opts.ik.restarts, START_RESTARTS))
+    track_opts = replace(opts.ik, restarts=0, min_margin=0.0)
+    shape = (n_poses, 2)
+    reach_ok, cont = np.zeros(shape, bool), np.ones(shape, bool)
+    perr, aerr, step = np.zeros(shape), np.zeros(shape), np.zeros(shape)
+    joints = [np.zeros((n_poses, arm.n_joints)) for arm in cell.arms]
+    motion = [[] for _ in cell.arms]
+    times = []
+    clearance, table = np.full(n_poses, np.inf), np.full(shape, np.inf)
+    for a, arm in enumerate(cell.arms):
+        first = inverse(arm, pos[0, a], Rotation.from_matrix(mats[0, a]), seed=seeds[a],
+                        options=start_opts)
+        joints[a][0] = first.q
+        reach_ok[0, a], perr[0, a], aerr[0, a] = (first.success, first.position_error,
+                                                  first.angle_error)
+        motion[a].append(first.q)
+    times.append(0.0)
+    for k in range(1, n_poses):
+        n_sub = _substeps(pos, mats, k, opts)
+        frac = np.arange(1, n_sub + 1) / n_sub
+        for a, arm in enumerate(cell.arms):
+            sub_rot = Slerp([0.0, 1.0], Rotation.from_matrix(mats[k - 1:k + 1, a]))(frac)
+            q = joints[a][k - 1]
+            lost = not reach_ok[k - 1, a]
+            for s, f in enumerate(frac):
+                target = (1.0 - f) * pos[k - 1, a] + f * pos[k, a]
+                result = inverse(arm, target, sub_rot[s], seed=q, options=track_opts)
+                step[k, a] = max(step[k, a], float(np.max(np.abs(result.q - q))))
+                lost = lost or not result.success
+                q = result.q
+                motion[a].append(q)
+            result_k = result
+            if lost:
+                result_k = inverse(arm, pos[k, a], Rotation.from_matrix(mats[k, a]), seed=q,
+                                   options=start_opts)
+                cont[k, a] = not reach_ok[k - 1, a]  # after an unreachable pose: not a jump
+                motion[a][-1] = result_k.q
+            cont[k, a] &= step[k, a] <= opts.max_joint_step
+            joints[a][k] = result_k.q
+            reach_ok[k, a], perr[k, a], aerr[k, a] = (result_k.success, result_k.position_error,
+                                                      result_k.angle_error)
+        times.extend(k - 1 + frac)
+    motion_q = [np.array(m) for m in motion]
+    times = np.array(times)
+    owner = np.concatenate([[0], np.ceil(times[1:] - 1e-9).astype(int)])
+    sub_clear = pair_clearance(cell, motion_q[0], motion_q[1])
+    np.minimum.at(clearance, owner, sub_clear)
+    for a, arm in enumerate(cell.arms):
+        np.minimum.at(table[:, a], owner, _table_clearance(cell, arm, motion_q[a]))
+    margin = np.stack([joint_margin(arm, joints[a]) for a, arm in enumerate(cell.arms)], 1)
+    rows = _rows(cell, reach_ok, cont, perr, margin, step, table, clearance, opts)
+    return CellVerdict(tuple(joints), reach_ok, cont, perr, aerr, margin, step, table, clearance,
+                       times, tuple(motion_q), tuple(rows))
+
+
+def _rows(cell, reach_ok, cont, perr, margin, step, table, clearance, opts) -> list[CheckRow]:
+    rows = []
+    for k in range(len(clearance)):
+        label = f"pose {k}"
+        for a, arm in enumerate(cell.arms):
+            note = "" if reach_ok[k, a] else "IK did not converge"
+            rows.append(CheckRow("reach", k, label, k, arm.name, 1e3 * perr[k, a], "mm",
+                                   bool(reach_ok[k, a]), note))
+            low = margin[k, a] < opts.min_margin
+            rows.append(CheckRow("joint limits", k, label, k, arm.name,
+                                   float(np.degrees(margin[k, a])), "deg",
+                                   bool(reach_ok[k, a] and margin[k, a] > 0),
+                                   f"below the wanted {np.degrees(opts.min_margin):.0f} deg"
+                                   if low else ""))
+            rows.append(CheckRow("continuity", k, label, k, arm.name,
+                                   float(np.degrees(step[k, a])), "deg", bool(cont[k, a]),
+                                   "" if cont[k, a] else "configuration change or IK lost"))
+            rows.append(CheckRow("table clearance", k, label, k, arm.name,
+                                   1e3 * table[k, a], "mm",
+                                   bool(table[k, a] >= opts.min_clearance)))
+        both = bool(reach_ok[k].all())
+        rows.append(CheckRow("clearance", k, label, k, "both", 1e3 * clearance[k], "mm",
+                               bool(clearance[k] >= opts.min_clearance or not both)))
+    return rows
+
+
+def search_cell_placement(cell: DescribedCell, positions, rotations: Rotation, *,
+                          offsets=None, options: ReachOptions | None = None):
+    """Shift the job on the table to where the cell executes it best.
+
+    Each candidate offset (a translation of every TCP pose) is scored by IK at the planned
+    poses only (each seeded from the previous pose, no sub-steps): first the number of poses
+    both arms reach, then the smallest arm-arm clearance (up to :data:`COMFORT_CLEARANCE`),
+    then the smallest joint margin (up to :data:`COMFORT_MARGIN`), then the smallest shift.
+    The :data:`PLACEMENT_TRIES` best candidates are then verified in full with
+    :func:`check_cell_path` (whose IK may choose other solutions, e.g. another elbow of a
+    7-joint arm) in that order: the first that passes is returned, else the best ranked.
+
+    Parameters
+    ----------
+    cell : DescribedCell
+    positions, rotations
+        As for :func:`check_cell_path`.
+    offsets : array_like, optional
+        (C, 3) candidate translations [m]; default a grid of +-0.2 m in x and +-0.1 m in y in
+        0.1 m steps (15 candidates).
+
+    Returns
+    -------
+    offset : numpy.ndarray
+        (3,) the best translation [m].
+    verdict : CellVerdict
+        Of the shifted path.
+    """
+    opts = options if options is not None else ReachOptions()
+    pos = np.asarray(positions, dtype=float)
+    if offsets is None:
+        gx, gy = np.meshgrid(np.arange(-0.2, 0.201, 0.1), np.arange(-0.1, 0.101, 0.1))
+        offsets = np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], 1)
+    offsets = np.asarray(offsets, dtype=float).reshape(-1, 3)
+    mats = rotations.as_matrix().reshape(len(pos), 2, 3, 3)
+    quick = replace(opts.ik, restarts=1, min_margin=0.0)
+    scores = []
+    for offset in offsets:
+        qs = [[], []]
+        reached = np.ones(len(pos), bool)
+        for a, arm in enumerate(cell.arms):
+            q = arm.home
+            for k in range(len(pos)):
+                result = inverse(arm, pos[k, a] + offset, Rotation.from_matrix(mats[k, a]),
+                                 seed=q, options=quick)
+                reached[k] &= result.success
+                q = result.q
+                qs[a].append(q)
+        q_l, q_r = np.array(qs[0]), np.array(qs[1])
+        clear = float(pair_clearance(cell, q_l, q_r)[reached].min()) if reached.any() else -1.0
+        margin = min(float(joint_margin(cell.left, q_l).min()),
+                     float(joint_margin(cell.right, q_r).min()))
+        scores.append((int(reached.sum()), min(clear, COMFORT_CLEARANCE),
+                       min(margin, COMFORT_MARGIN), -float(np.linalg.norm(offset))))
+    ranked = sorted(range(len(offsets)), key=lambda i: scores[i], reverse=True)
+    first = None
+    for i in ranked[:PLACEMENT_TRIES]:
+        verdict = check_cell_path(cell, pos + offsets[i], rotations, options=opts)
+        if verdict.ok:
+            return offsets[i], verdict
+        first = first or (offsets[i], verdict)
+    return first
+
+
+def ur5e_pair(*, separation: float = 0.8, tcp_offset: float = 0.15, tool_radius: float = 0.045,
+              table_height: float = 0.0) -> DescribedCell:
+    """Two UR5e side by side on a table, facing +x.
+
+    The bases stand at ``(0, +-separation/2, table_height)``, each turned by pi about z so its
+    zero pose points along +x; the tool is a gripper ``tcp_offset`` [m] along the flange z
+    (e.g. a Robotiq 2F-85 with coupling, 0.15 m) drawn as a capsule of ``tool_radius``. Home:
+    ``[0, -90, 90, -90, -90, 0]`` deg (elbow up, tool pointing down).
+    """
+    description = load_arm(vendored("ur5e.urdf"), "tool0")
+    home = np.radians([0.0, -90.0, 90.0, -90.0, -90.0, 0.0])
+    turn = Rotation.from_rotvec([0.0, 0.0, np.pi])
+    arms = [CellArm(side, replace(description, name=f"ur5e_{side}"),
+                    base_position=(0.0, sign * separation / 2, table_height), base_rotation=turn,
+                    tcp_offset=(0.0, 0.0, tcp_offset), tool_radius=tool_radius, home=home)
+            for side, sign in zip(ARMS, (1.0, -1.0), strict=True)]
+    return DescribedCell("ur5e_pair", *arms, table_height=table_height)
+
+
+PANDA_TCP_IN_CLIP = Rotation.from_matrix(np.diag([1.0, -1.0, -1.0]))
+"""TCP axes in the clip frame for the Franka Hand: TCP x = u (the cable), y = -v, z = -w."""
+
+CABLE_ALONG = {"y": DEFAULT_TCP_IN_CLIP, "x": PANDA_TCP_IN_CLIP}
+"""A scenario's ``cable_along`` (the TCP axis the held cable runs along; the gripper approaches
+from above) -> ``tcp_in_clip``: ``y`` for fingers closing along TCP x (YuMi, default), ``x``
+for fingers closing along TCP y (Franka Hand)."""
+
+
+def panda_pair(*, separation: float = 0.8, table_height: float = 0.0) -> DescribedCell:
+    """Two Franka Emika Panda arms with the Franka Hand side by side, facing +x.
+
+    Bases at ``(0, +-separation/2, table_height)``; the TCP is the Franka Hand's (0.1034 m
+    along the hand's z, between the fingertips), the fingers drawn as a 3 cm capsule from the
+    hand to the TCP. Home: Franka's ready pose ``[0, -45, 0, -135, 0, 90, 45]`` deg. The
+    hand's fingers close along its y-axis, so it holds a clip with the cable along TCP x and
+    approaches from above (:data:`PANDA_TCP_IN_CLIP`).
+    """
+    description = load_arm(vendored("panda.urdf"), "panda_hand", base_link="panda_link0")
+    home = np.radians([0.0, -45.0, 0.0, -135.0, 0.0, 90.0, 45.0])
+    arms = [CellArm(side, replace(description, name=f"panda_{side}"),
+                    base_position=(0.0, sign * separation / 2, table_height),
+                    tcp_offset=(0.0, 0.0, 0.1034), tool_radius=0.03, home=home,
+                    tcp_in_clip=PANDA_TCP_IN_CLIP)
+            for side, sign in zip(ARMS, (1.0, -1.0), strict=True)]
+    return DescribedCell("panda_pair", *arms, table_height=table_height)
+
+
+def yumi_cell(*, table_height: float = 0.0) -> DescribedCell:
+    """The ABB YuMi as a description-built cell: both arms from the one ``yumi.urdf`` (body
+    ``yumi_body`` at the world origin), SmartGripper TCP (:data:`~dloplan.robot.yumi.
+    DEFAULT_TCP_OFFSET`; the gripper's capsule is part of the description), ABB's home pose.
+    Gives the FK of :func:`dloplan.robot.yumi.yumi` (tested to 1e-9)."""
+    path = vendored("yumi.urdf")
+    arms = [CellArm(side, load_arm(path, f"yumi_link_7_{side[0]}", base_link="yumi_body",
+                                   name=f"yumi_{side}"),
+                    tcp_offset=DEFAULT_TCP_OFFSET, home=np.radians(HOME_DEG[side]))
+            for side in ARMS]
+    return DescribedCell("yumi", *arms, table_height=table_height, shared_base=True)
+
+
+@dataclass(frozen=True, eq=False)
+class CellPlan:
+    """A plan's trajectory verified on a cell: what the vendor writers are given.
+
+    Attributes
+    ----------
+    cell : DescribedCell
+    offset : numpy.ndarray
+        (3,) translation [m] of the job found by the placement search (zeros without it).
+    swapped : bool
+        The trajectory's left clip went to the right arm (it lies on the robot's right).
+    times : numpy.ndarray
+        (K,) knot times [s], strictly increasing (knots where no arm moves dropped).
+    positions : numpy.ndarray
+        (K, 2, 3) TCP positions [m] in the world, offset applied.
+    rotations : scipy.spatial.transform.Rotation
+        (K * 2,) ``tcp_to_world``, pose-major (k, arm).
+    verdict : CellVerdict
+    """
+
+    cell: DescribedCell
+    offset: np.ndarray
+    swapped: bool
+    times: np.ndarray
+    positions: np.ndarray
+    rotations: Rotation
+    verdict: CellVerdict
+
+    def base_poses(self) -> tuple[np.ndarray, np.ndarray]:
+        """(K, 2, 3) TCP positions [m] and (K, 2, 3) rotation vectors [rad] in each arm's base
+        frame (URScript's ``p[...]`` poses)."""
+        mats = self.rotations.as_matrix().reshape(-1, 2, 3, 3)
+        pairs = [in_base_frame(arm, self.positions[:, a], Rotation.from_matrix(mats[:, a]))
+                 for a, arm in enumerate(self.cell.arms)]
+        return (np.stack([p for p, _ in pairs], 1), np.stack([r for _, r in pairs], 1))
+
+
+def verify_on_cell(cell: DescribedCell, trajectory, *, tcp_in_clip: Rotation | None = None,
+                   place: bool = True, options: ReachOptions | None = None) -> CellPlan:
+    """Verify a plan's timed clip trajectory on a cell.
+
+    The TCP holds each clip at the clip point with ``clip_to_world * tcp_in_clip`` (default
+    each arm's :attr:`~dloplan.robot.chain.CellArm.tcp_in_clip`); the clip on the robot's
+    left (larger mean y) goes to the left arm; knots where no arm moves are dropped; with
+    ``place`` the job is shifted by :func:`search_cell_placement`, else verified where it is.
+
+    Parameters
+    ----------
+    cell : DescribedCell
+    trajectory : dloplan.trajectory.Trajectory
+        Knot times [s], clip positions (K, 2, 3) [m] and rotations per arm.
+    tcp_in_clip : scipy.spatial.transform.Rotation, optional
+        The same mapping for both arms instead of the arms' own.
+    place : bool
+    options : ReachOptions, optional
+    """
+    times = np.asarray(trajectory.times, dtype=float)
+    keep = np.concatenate([[True], np.diff(times) > 0])
+    pos = np.asarray(trajectory.positions, dtype=float)[keep]
+    mats = np.stack([r.as_matrix() for r in trajectory.rotations], 1)[keep]
+    swapped = bool(pos[:, 0, 1].mean() < pos[:, 1, 1].mean())
+    if swapped:
+        pos, mats = pos[:, ::-1], mats[:, ::-1]
+    mats = np.stack([mats[:, a] @ (tcp_in_clip or arm.tcp_in_clip).as_matrix()
+                     for a, arm in enumerate(cell.arms)], 1)
+    rot = Rotation.from_matrix(mats.reshape(-1, 3, 3))
+    if place:
+        offset, verdict = search_cell_placement(cell, pos, rot, options=options)
+    else:
+        offset, verdict = np.zeros(3), check_cell_path(cell, pos, rot, options=options)
+    return CellPlan(cell, np.asarray(offset, float), swapped, times[keep], pos + offset, rot,
+                    verdict)
+
+
+PRESETS = {"ur5e_pair": ur5e_pair, "panda_pair": panda_pair, "yumi": yumi_cell}
+"""Cell presets by name: a function of keyword settings returning a :class:`DescribedCell`."""
+
+
+@dataclass(frozen=True)
+class ArmSpec:
+    """One arm of a cell given by paths (the scenario's ``robot.cell.arms`` entries).
+
+    Parameters
+    ----------
+    urdf : str
+        Path of the URDF.
+    tip_link : str
+    base_link : str, optional
+    base_position : tuple
+        (3,) [m].
+    base_rpy : tuple
+        (3,) URDF roll-pitch-yaw [rad] of ``base_to_world``.
+    tcp_offset : tuple
+        (3,) [m] in the tip frame.
+    tool_radius : float
+        [m].
+    home : tuple, optional
+        (n,) [rad].
+    cable_along : str
+        Key of :data:`CABLE_ALONG`.
+    package_dirs : dict
+        For :func:`~dloplan.robot.description.load_arm`.
+    """
+
+    urdf: str
+    tip_link: str
+    base_link: str | None = None
+    base_position: tuple = (0.0, 0.0, 0.0)
+    base_rpy: tuple = (0.0, 0.0, 0.0)
+    tcp_offset: tuple = (0.0, 0.0, 0.0)
+    tool_radius: float = 0.0
+    home: tuple | None = None
+    cable_along: str = "y"
+    package_dirs: dict = field(default_factory=dict)
+
+
+def _cable_along(value, side: str) -> Rotation:
+    if value not in CABLE_ALONG:
+        raise ValueError(f"robot.cell.arms.{side}.cable_along: got {value!r}, expected one of "
+                         f"{sorted(CABLE_ALONG)}")
+    return CABLE_ALONG[value]
+
+
+def cell_from_specs(name: str, left: ArmSpec, right: ArmSpec, *,
+                    table_height: float = 0.0) -> DescribedCell:
+    """A cell from one URDF per arm (or the same URDF with two tip links)."""
+    arms = []
+    for side, spec in zip(ARMS, (left, right), strict=True):
+        description = load_arm(spec.urdf, spec.tip_link, base_link=spec.base_link,
+                               name=f"{name}_{side}", package_dirs=spec.package_dirs)
+        arms.append(CellArm(side, description, base_position=spec.base_position,
+                            base_rotation=Rotation.from_euler("xyz", spec.base_rpy),
+                            tcp_offset=spec.tcp_offset, tool_radius=spec.tool_radius,
+                            home=spec.home, tcp_in_clip=_cable_along(spec.cable_along, side)))
+    shared = (left.urdf == right.urdf and left.base_link == right.base_link
+              and tuple(left.base_position) == tuple(right.base_position)
+              and tuple(left.base_rpy) == tuple(right.base_rpy))
+    return DescribedCell(name, *arms, table_height=table_height, shared_base=shared)
+
+
+
+ARM_KEYS = {"urdf", "tip_link", "base_link", "base_position", "base_rpy", "tcp_offset",
+            "tool_radius", "home_deg", "cable_along"}
+"""Keys of one arm in a scenario's ``robot.cell.arms`` (angles in degrees, lengths in m)."""
+
+
+def cell_from_mapping(data: dict, folder=".") -> DescribedCell:
+    """The cell of a scenario's ``robot.cell`` section (proposed syntax, ``docs/cells.md``).
+
+    Either ``{preset: name, <keyword settings of the preset>}`` or ``{arms: {left: {...},
+    right: {...}}, table_height: h}`` with per arm the keys of :data:`ARM_KEYS` (``urdf``
+    relative to ``folder``; ``base_rpy`` and ``home_deg`` in degrees).
+
+    Raises
+    ------
+    ValueError
+        Naming the field, the value and what was expected.
+    """
+    if not isinstance(data, dict):
+        raise ValueError(f"robot.cell: expected a mapping, got {data!r}")
+    if "preset" in data:
+        settings = {k: v for k, v in data.items() if k != "preset"}
+        if data["preset"] not in PRESETS:
+            raise ValueError(f"robot.cell.preset: got {data['preset']!r}, expected one of "
+                             f"{sorted(PRESETS)}")
+        make = PRESETS[data["preset"]]
+        allowed = set(inspect.signature(make).parameters)
+        if set(settings) - allowed:
+            raise ValueError(f"robot.cell: got {sorted(set(settings) - allowed)} for preset "
+                             f"{data['preset']!r}, expected some of {sorted(allowed)}")
+        return make(**settings)
+    arms = data.get("arms")
+    if not isinstance(arms, dict) or set(arms) != set(ARMS):
+        raise ValueError(f"robot.cell: expected `preset` or `arms` with keys {ARMS}, got "
+                         f"{sorted(data)}")
+    unknown = set(data) - {"arms", "table_height", "name"}
+    if unknown:
+        raise ValueError(f"robot.cell: unknown keys {sorted(unknown)}")
+    specs = []
+    for side in ARMS:
+        arm = arms[side]
+        extra = set(arm) - ARM_KEYS
+        if extra or not {"urdf", "tip_link"} <= set(arm):
+            raise ValueError(f"robot.cell.arms.{side}: got keys {sorted(arm)}, expected "
+                             f"urdf, tip_link and some of {sorted(ARM_KEYS)}")
+        urdf = Path(folder) / arm["urdf"]
+        home = arm.get("home_deg")
+        specs.append(ArmSpec(str(urdf), arm["tip_link"], arm.get("base_link"),
+                             tuple(arm.get("base_position", (0.0, 0.0, 0.0))),
+                             tuple(np.radians(arm.get("base_rpy", (0.0, 0.0, 0.0)))),
+                             tuple(arm.get("tcp_offset", (0.0, 0.0, 0.0))),
+                             float(arm.get("tool_radius", 0.0)),
+                             None if home is None else tuple(np.radians(home)),
+                             arm.get("cable_along", "y")))
+    return cell_from_specs(str(data.get("name", "cell")), *specs,
+                           table_height=float(data.get("table_height", 0.0)))
