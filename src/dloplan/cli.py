@@ -253,7 +253,8 @@ def _print_plan(doc, written, args) -> None:
 def _plan_one(job, output: Path, args, console: Console) -> int:
     from .app.files import plan_into
 
-    doc, written = plan_into(job, output, verify=args.verify, progress=console.stage)
+    doc, written = plan_into(job, output, verify=args.verify, repair=not args.no_repair,
+                             progress=console.stage)
     _print_plan(doc, written, args)
     return exit_code(doc)
 
@@ -274,7 +275,8 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
     from .app.files import plan_file
     from .study.backends import make_backend, map_jobs
 
-    options = {"output": str(Path(args.output)), "verify": args.verify}
+    options = {"output": str(Path(args.output)), "verify": args.verify,
+               "repair": not args.no_repair}
     codes = {}
     with make_backend(None if args.scheduler else args.workers, args.scheduler) as backend:
         for _, (path, code, line) in map_jobs(plan_file, args.scenarios, backend,
@@ -385,13 +387,15 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("scenarios", nargs="+", help="scenario file(s) (.yaml or .json)")
     plan.add_argument("-o", "--output", default="out/plan", help="output folder")
     plan.add_argument("--verify", action="store_true", help="also verify the plan")
+    plan.add_argument("--no-repair", action="store_true", help="with --verify: report failed "
+                      "checks without repairing the plan (docs/repair.md)")
     plan.add_argument("--workers", type=int, default=1,
                       help="batch: local worker processes")
     plan.add_argument("--scheduler", help="batch: Dask scheduler address tcp://HOST:PORT")
 
     demo = command("demo", _cmd_demo, "run the embedded default job (needs no input)")
     demo.add_argument("-o", "--output", default="out/demo", help="output folder")
-    demo.set_defaults(verify=True)
+    demo.set_defaults(verify=True, no_repair=False)
 
     study = command("study", _cmd_study, "robustness study of a scenario's plan over cable and "
                     "pose tolerances (its study section)")

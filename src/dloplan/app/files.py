@@ -31,8 +31,19 @@ def exit_code(doc: PlanDocument) -> int:
     return EXIT_WARNINGS if doc.warnings else EXIT_OK
 
 
-def plan_into(job, folder, *, verify: bool = False, progress=quiet):
-    """Plan a resolved job and write its outputs into ``folder``: ``(document, written paths)``."""
+def plan_into(job, folder, *, verify: bool = False, repair: bool = True, progress=quiet):
+    """Plan a resolved job and write its outputs into ``folder``: ``(document, written paths)``.
+
+    With ``verify`` and ``repair`` a plan that fails a check is repaired
+    (:func:`dloplan.repair.plan_and_repair`); a refused one gets no robot program.
+    """
+    if isinstance(job, Job) and verify and repair:
+        from ..repair import plan_and_repair
+
+        doc, _ = plan_and_repair(job, progress)
+        formats = [f for f in job.outputs if doc.ok or f not in ("rapid", "ros")]
+        return doc, write_outputs(doc, folder, formats,
+                                  options=WriteOptions(rate=job.motion.rate), progress=progress)
     if isinstance(job, Job):
         doc = run_job(job, verify=verify, progress=progress)
         formats, options = job.outputs, WriteOptions(rate=job.motion.rate)
@@ -55,7 +66,8 @@ def plan_file(options: dict, path: str) -> tuple[str, int, str]:
         if file_kind(read_mapping(path)) == "identification":
             return path, EXIT_WARNINGS, f"{path}: skipped (an identification file: use " \
                 "dloplan identify)"
-        doc, _ = plan_into(load_job(path), folder, verify=options["verify"])
+        doc, _ = plan_into(load_job(path), folder, verify=options["verify"],
+                           repair=options.get("repair", True))
     except ValueError as exc:
         return path, EXIT_FAILURE, f"{path}: error: {exc}"
     code = exit_code(doc)

@@ -14,10 +14,14 @@ failed (on the part of the plan it changed), and the first that passes is kept:
     3. plan again with twice the intermediate shapes.
     None passes: refused. When s is the last segment: "the target is reached only through a
     snap-through", with the segment.
-``twist`` (relative twist above 15 deg, or a frame turning more than 45 deg between shapes)
+``twist`` (the torsion model's twist above 15 deg, or a frame turning more than 45 deg
+between shapes)
     1. the other gripper methods: rigid rotation, minimal rotation, auxiliary vector (thesis
        Table 4.3), on the same shapes;
-    2. intermediate rotations: the equilibria at clip poses interpolated on the flipping
+    2. the last clip rolled about its u-axis against the twist
+       (:func:`~dloplan.repair.frames.untwisted`), on the frames of the plan's method, then of
+       the rigid rotation;
+    3. intermediate rotations: the equilibria at clip poses interpolated on the flipping
        segment inserted as shapes.
 ``replay`` (the replay at real speed strays from the planned shapes)
     the trajectory timed again at half, then a quarter, then an eighth of the TCP speed (one
@@ -47,8 +51,9 @@ from ..app.pipeline import quiet, run_job, verify_plan, with_verification
 from ..sim.statics import interpolate_clips
 from ..verify import check_snap_through
 from .failures import KINDS, diagnose, frame_steps, score, summary, twist_failures
+from .frames import untwisted
 from .placement import place, translated_document, translated_job
-from .rebuild import timed, with_motion, with_path
+from .rebuild import timed, with_grippers, with_motion, with_path
 from .routes import MAX_TURN, equilibria_along, follow_branch, route_segment, routes
 
 GRIPPER_METHODS = ("rigid", "minimal", "auxiliary")
@@ -313,6 +318,21 @@ class _Session:
                           f"(was {doc.grippers.method})", new.grippers.message,
                           _State(other, new, self.state.offset), since)
                 return
+        for method in dict.fromkeys((doc.grippers.method, "rigid")):
+            if not self.attempt():
+                break
+            other = replace(job, grippers=replace(job.grippers, method=method))
+            base = with_motion(other, doc).grippers
+            grippers, twist = untwisted(job.cable, doc.shapes, base)
+            new = with_grippers(other, doc, grippers)
+            left = twist_failures(new)
+            tried.append(f"{method}, last clip rolled: {summary(left)}")
+            if not left:
+                self.keep("twist", failures, f"gripper frames by the {method} method, the "
+                          "last clip rolled about its u-axis against the twist (largest "
+                          f"{np.degrees(np.abs(twist).max()):.1f} deg)", new.twist.message,
+                          _State(other, new, self.state.offset), since)
+                return
         if self.attempt():
             new = self.intermediate_rotations(job, doc)
             left = twist_failures(new)
@@ -350,9 +370,11 @@ class _Session:
             run = self.checks.verify(new, snap=False, robot=False).replay
             tried.append(f"{1e3 * factor * speed:.0f} mm/s: {run.message}")
             if run.ok:
+                slower = replace(self.state.job, motion=replace(
+                    self.state.job.motion, tcp_speed=factor * speed))
                 self.keep("replay", failures, f"TCP speed {1e3 * speed:.0f} -> "
                           f"{1e3 * factor * speed:.0f} mm/s", run.message,
-                          replace(self.state, doc=new), since)
+                          replace(self.state, job=slower, doc=new), since)
                 return
         raise Refused(f"{failures[0].message}; tried: " + " | ".join(tried))
 

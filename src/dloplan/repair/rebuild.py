@@ -27,13 +27,18 @@ def left_clip(grippers) -> int:
     return 0 if mean_y[0] >= mean_y[1] else 1
 
 
+def trajectory_of(grippers, speed: float, angular_speed: float):
+    """The timed dual-arm trajectory of ``grippers`` at the TCP limits [m/s], [rad/s], the
+    left arm holding the clip on its side (:func:`left_clip`)."""
+    return trajectory_from_grippers(grippers, max_speed=speed, max_angular_speed=angular_speed,
+                                    left_clip=left_clip(grippers))
+
+
 def timed(doc, speed: float | None = None):
     """``doc`` with its trajectory timed again at the TCP speed ``speed`` [m/s] (default the
-    trajectory's own), the left arm holding the clip on its side (:func:`left_clip`)."""
+    trajectory's own), by :func:`trajectory_of`."""
     old = doc.trajectory
-    trajectory = trajectory_from_grippers(
-        doc.grippers, max_speed=speed or old.max_speed, max_angular_speed=old.max_angular_speed,
-        left_clip=left_clip(doc.grippers))
+    trajectory = trajectory_of(doc.grippers, speed or old.max_speed, old.max_angular_speed)
     return replace(doc, trajectory=trajectory, verification=None)
 
 
@@ -53,8 +58,15 @@ def with_motion(job, doc, shapes=None, stabilized=None, progress=quiet):
     """``doc`` with new gripper frames, trajectory and twist for ``shapes`` (default its own),
     by ``job``'s gripper and motion settings; the left arm holds the clip on its side."""
     shapes = doc.shapes if shapes is None else np.asarray(shapes, dtype=float)
+    grippers, _ = plan_motion(job, shapes, progress)
+    return with_grippers(job, doc, grippers, shapes, stabilized, progress)
+
+
+def with_grippers(job, doc, grippers, shapes=None, stabilized=None, progress=quiet):
+    """``doc`` with the gripper frames ``grippers`` of ``shapes`` (default its own), its
+    trajectory timed again, the twist computed again, the motion's warnings replaced."""
+    shapes = doc.shapes if shapes is None else np.asarray(shapes, dtype=float)
     stabilized = doc.stabilized if stabilized is None else np.asarray(stabilized, dtype=float)
-    grippers, trajectory = plan_motion(job, shapes, progress)
     twist = plan_twist(job.cable, shapes, grippers, progress)
     warnings = [w for w in doc.warnings if w not in motion_warnings(doc)]
     warnings += list(grippers.warnings)
@@ -62,11 +74,12 @@ def with_motion(job, doc, shapes=None, stabilized=None, progress=quiet):
         warnings.append(f"grippers: {grippers.message}")
     if not twist.success:
         warnings.append(f"twist: {twist.message}")
-    return timed(replace(doc, shapes=shapes, stabilized=stabilized, grippers=grippers,
-                  trajectory=trajectory, warnings=tuple(warnings), verification=None,
-                  clip_wrenches=np.stack([clip_wrenches(job.cable, s) for s in stabilized]),
-                  twist=TwistSection(twist.twist, twist.relative_twist, twist.twist_energy,
-                                     grippers.twist, twist.message)))
+    trajectory = trajectory_of(grippers, job.motion.tcp_speed, job.motion.angular_speed)
+    return replace(doc, shapes=shapes, stabilized=stabilized, grippers=grippers,
+                   trajectory=trajectory, warnings=tuple(warnings), verification=None,
+                   clip_wrenches=np.stack([clip_wrenches(job.cable, s) for s in stabilized]),
+                   twist=TwistSection(twist.twist, twist.relative_twist, twist.twist_energy,
+                                      grippers.twist, twist.message))
 
 
 def with_path(job, doc, shapes: np.ndarray, progress=quiet):
