@@ -20,7 +20,8 @@ checked with the verification's own snap-through continuation
 * *rotate first*: the cable is carried rigidly into B's orientation (the best rigid motion of
   A's clip frames onto B's, turned about A's centre in steps of at most :data:`MAX_TURN`), then
   translated and bent into B: a curved hose turned while it keeps its shape does not buckle;
-* *translate first*: the clips are carried rigidly to B's centre, then turned and bent;
+* *translate first*: the clips are carried rigidly to B's centre, turned there in steps, then
+  bent;
 * *rotate last*: the cable is bent into B's shape where A lies (B's clip frames moved rigidly
   back onto A's centre and orientation), then turned and carried into B.
 
@@ -147,7 +148,8 @@ def routes(a: ClipPoses, b: ClipPoses, reach: float) -> list[tuple[str, list[Cli
     back = moved(b, rotation.inv(), cb, ca)
     return [
         ("rotate first", [moved(a, r, ca, ca) for r in _turns(rotation)]),
-        ("translate first", [moved(a, Rotation.identity(), ca, cb)]),
+        ("translate first", [moved(a, r, ca, cb) for r in [Rotation.identity(),
+                                                             *_turns(rotation)]]),
         ("rotate last", [back] + [moved(back, r, ca, ca) for r in _turns(rotation)]),
     ]
 

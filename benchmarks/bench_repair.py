@@ -1,0 +1,69 @@
+"""The repair loop on every example: failed checks before, repairs kept, repair time, verdict.
+
+Run: PYTHONPATH=src python benchmarks/bench_repair.py [--no-replay] [NAME ...]
+
+Each scenario of examples/ is planned (:func:`dloplan.app.run_job`), verified as
+``dloplan plan --verify`` does (stability, snap-through, robot reach, dynamic replay; the replay
+left out with ``--no-replay``: it costs minutes for the stiff PA12 hose), and repaired
+(:func:`dloplan.repair.repair_plan`). Identification files have no job to plan; harness jobs are
+planned by their own stages and are not verified by ``--verify``: both are listed as skipped.
+
+Numbers of 2026-11-30 (shared 2-core machine under a load of ~10, snap + robot, no replay):
+
+    qualitative1_curved_pa12: before 2 snap, 2 reach; repairs: snap (stable branch), reach
+        (offset [-0.2 -0.05 0] m); repair ~55-100 s; after: ok
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from dloplan.app import Job, load_job
+from dloplan.app.load import file_kind
+from dloplan.app.pipeline import run_job, verify_plan
+from dloplan.io.scenario import read_mapping
+from dloplan.repair import diagnose, repair_plan
+from dloplan.repair.failures import summary
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def bench(path: Path, replay: bool) -> str:
+    if file_kind(read_mapping(path)) == "identification":
+        return f"{path.stem}: skipped (identification file)"
+    job = load_job(path)
+    if not isinstance(job, Job):
+        return f"{path.stem}: skipped (harness job: its own stages, not verified by --verify)"
+    t0 = time.perf_counter()
+    doc = run_job(job)
+    verification = verify_plan(doc, replay=replay)
+    checked = time.perf_counter() - t0
+    before = summary(diagnose(doc, verification))
+    if verification.ok:
+        return f"{path.stem}: plan + verify {checked:.1f} s; before: passes; no repair needed"
+    result = repair_plan(job, doc, verification)
+    repairs = "; ".join(f"{r.kind}: {r.change}" for r in result.repairs) or "none"
+    verdict = "ok" if result.ok else f"REFUSED ({result.refusal})"
+    return (f"{path.stem}: plan + verify {checked:.1f} s; before: {before}; repairs: "
+            f"{repairs}; repairing {result.seconds:.1f} s ({result.attempts} attempts); "
+            f"after: {verdict}")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("names", nargs="*", help="example stems (default: all)")
+    parser.add_argument("--no-replay", action="store_true", help="skip the dynamic replay")
+    args = parser.parse_args(argv)
+    paths = sorted(EXAMPLES.glob("*.yaml"))
+    if args.names:
+        paths = [p for p in paths if p.stem in args.names]
+    for path in paths:
+        print(bench(path, not args.no_replay), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
