@@ -286,9 +286,7 @@ class _Session:
             events = check_snap_through(new.cable, new.stabilized, new.clip_poses()).events
             tried.append(f"{n} intermediate shapes: "
                          + (events[0].message if events else "no snap-through"))
-            if not events:
-                if np.any(self.state.offset):
-                    new = translated_document(new, self.state.offset)
+            if not events:  # the state's job is already placed: nothing to move
                 self.keep("snap", failures, f"planned again with {n} intermediate shapes",
                           "no snap-through", _State(finer, new, self.state.offset), since)
                 return
