@@ -22,7 +22,7 @@ from dloplan.cli import EXIT_FAILURE, main
 from dloplan.repair import Budget, diagnose, repair_plan, translated_job
 from dloplan.repair.frames import untwisted
 from dloplan.repair.placement import translated_document
-from dloplan.repair.routes import moved, rigid_motion, routes
+from dloplan.repair.routes import follow_branch, moved, rigid_motion, routes
 from dloplan.sim.clips import ClipPoses
 from dloplan.verify.stability import elastic_stability
 
@@ -109,6 +109,18 @@ def test_qualitative1_passes_after_repair(qualitative1):
     assert "stable branch" in result.repairs[0].change
     assert np.any(result.offset) and result.refusal is None
     assert_ends_kept(job, doc, result)
+
+
+def test_a_branch_that_misses_the_target_is_not_taken(qualitative1):
+    """The stable branch from shape 4 reaches the planned target; asked to end 5 cm away (more
+    than T_cf) it is refused: a repair never moves the target beyond its tolerance."""
+    job, doc, _, _ = qualitative1
+    shapes, poses = doc.stabilized, doc.clip_poses()
+    reached = follow_branch(job.cable, shapes[4], poses[4:], shapes[-1], job.target_threshold)
+    assert reached.success and reached.end_error < 1e-3
+    away = follow_branch(job.cable, shapes[4], poses[4:], shapes[-1] + [0.05, 0.0, 0.0],
+                         job.target_threshold)
+    assert not away.success and "from the planned end" in away.message
 
 
 def test_straight_to_u_passes_after_repair(straight_to_u):

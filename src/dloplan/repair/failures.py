@@ -18,6 +18,9 @@ loop handles them:
 ``reach``
     A planned pose that an arm of the robot cannot reach.
 
+A failed verification none of these explains (a check this module does not know) is one failure
+of kind ``other``, which no repair addresses.
+
 The shapes come first (a new path needs new gripper frames), then the frames (they do not change
 the physics of a torsion-free cable), the speed (it times the final path) and the placement last
 (the robot's reach depends on the frames; nothing physical depends on where the job lies).
@@ -141,8 +144,11 @@ def diagnose(doc, verification) -> list[Failure]:
         :func:`dloplan.app.pipeline.verify_plan` of ``doc``.
     """
     twist = twist_failures(doc) if doc.grippers is not None else []
-    return (snap_failures(verification) + twist + replay_failures(verification)
-            + reach_failures(verification))
+    found = (snap_failures(verification) + twist + replay_failures(verification)
+             + reach_failures(verification))
+    if not verification.ok and not any(f.kind != "twist" for f in found):
+        found.append(Failure("other", None, (), "; ".join(verification.messages)))
+    return found
 
 
 def score(failures) -> tuple[int, ...]:
@@ -150,10 +156,10 @@ def score(failures) -> tuple[int, ...]:
     a repair is kept when it lowers this, fixing a kind without adding failures of an earlier
     one)."""
     counts = Counter(f.kind for f in failures)
-    return tuple(counts[kind] for kind in KINDS)
+    return tuple(counts[kind] for kind in (*KINDS, "other"))
 
 
 def summary(failures) -> str:
     """One line: the number of failures per kind, or "passes"."""
     counts = Counter(f.kind for f in failures)
-    return ", ".join(f"{counts[k]} {k}" for k in KINDS if counts[k]) or "passes"
+    return ", ".join(f"{counts[k]} {k}" for k in (*KINDS, "other") if counts[k]) or "passes"

@@ -468,6 +468,9 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
         if not failures:
             break
         try:
+            unknown = [f for f in failures if f.kind not in FIXES]
+            if unknown:
+                raise Refused(f"no repair for: {unknown[0].message}")
             for kind in KINDS:
                 mine = _own(failures, kind)
                 if mine:
