@@ -117,7 +117,7 @@ class Repair:
 
     def line(self) -> str:
         """One line for the console and the report."""
-        return f"repair ({self.kind}): {self.failed} -> {self.change} ({self.after})"
+        return f"repair ({self.kind}): {self.before} -> {self.change}; now {self.after}"
 
     def to_dict(self) -> dict:
         """JSON-ready fields."""
