@@ -1,11 +1,12 @@
 """A plan document rebuilt after a repair, by the pipeline's own stages.
 
-A repair changes the shapes (:func:`with_path`), the gripper method (:func:`with_motion`) or the
-speed (:func:`timed`); the gripper frames, the trajectory, the twist and the clip wrenches are
-then made again by :func:`dloplan.app.pipeline.plan_motion` and
-:func:`~dloplan.app.pipeline.plan_twist`, and the warnings of the old motion and of the old
-verification are replaced by the new ones. The planner's own sections (stages, forces, target
-check, obstacle re-planning) stay those of the plan that was repaired.
+A repair changes the shapes (:func:`with_path`), the gripper method (:func:`with_motion`), the
+frames themselves (:func:`with_grippers`) or the speed (:func:`timed`); the gripper frames, the
+trajectory, the twist and the clip wrenches are then made again by
+:func:`dloplan.app.pipeline.plan_motion` and :func:`~dloplan.app.pipeline.plan_twist`, and the
+warnings of the old motion and of the old verification are replaced by the new ones. The
+planner's own sections (stages, forces, target check, obstacle re-planning) stay those of the
+plan that was repaired.
 """
 
 from __future__ import annotations
