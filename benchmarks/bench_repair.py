@@ -57,8 +57,9 @@ def bench(path: Path, replay: bool) -> str:
     doc = run_job(job)
     verification = verify_plan(doc, replay=replay)
     checked = time.perf_counter() - t0
-    before = summary(diagnose(doc, verification))
-    if verification.ok:
+    failures = diagnose(doc, verification)
+    before = summary(failures)
+    if not failures:
         return f"{path.stem}: plan + verify {checked:.1f} s; before: passes; no repair needed"
     result = repair_plan(job, doc, verification)
     repairs = "; ".join(f"{r.kind}: {r.change}" for r in result.repairs) or "none"

@@ -1,6 +1,14 @@
-"""Timing of the YuMi IK: per pose (seeded near, from home) and for a 50-pose cable path.
+"""Timing of the YuMi IK (per pose, seeded near and from home), a 50-pose cable path, the
+placement search, and the verified robot program (`robot_program`) of a 7- and a 50-shape job.
 
 Run: PYTHONPATH=src python benchmarks/bench_robot.py
+
+Times are wall clock and CPU (process time, the better figure on the shared 2-core machine).
+Numbers of 2026-11-30 (load average ~10, best of 3 CPU): IK seeded 0.1 rad away ~1 ms per
+pose, from home ~15-25 ms; robot program of the 7-shape job (9 targets per arm, 2 grips x
+~12 arm angles per arm tracked in sub-steps, replay, clearance) 0.2-0.3 s CPU, the 50-shape
+job ~1 s CPU. Before (main at 9be97c7, same load): IK per pose ~1.5x slower (scipy's
+Rotation per iteration and np.linalg.pinv); no robot program existed.
 """
 
 from __future__ import annotations
@@ -11,7 +19,17 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from dloplan.frames import frame_from_axis
-from dloplan.robot import IKOptions, check_reachability, forward, inverse, search_placement, yumi
+from dloplan.grippers import GripperPath
+from dloplan.robot import (
+    IKOptions,
+    check_reachability,
+    forward,
+    inverse,
+    robot_program,
+    search_placement,
+    yumi,
+)
+from dloplan.trajectory import trajectory_from_grippers
 
 
 def _per_pose(arm, n=100):
@@ -22,13 +40,14 @@ def _per_pose(arm, n=100):
         ("seeded 0.1 rad away", q + rng.normal(0, 0.1, q.shape), IKOptions()),
         ("from home (no restarts)", [None] * n, IKOptions(restarts=0)),
     ):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         results = [inverse(arm, pos[i], rot[i], seed=seeds[i], options=opts) for i in range(n)]
         dt = (time.perf_counter() - t0) / n
+        cpu = (time.process_time() - c0) / n
         rate = np.mean([r.success for r in results])
         its = np.mean([r.iterations for r in results])
-        print(f"  {arm.name:5s} {label:24s} {dt * 1e3:7.2f} ms/pose  success {rate:4.0%}  "
-              f"{its:5.1f} iterations")
+        print(f"  {arm.name:5s} {label:24s} {dt * 1e3:7.2f} ms/pose (cpu {cpu * 1e3:6.2f})  "
+              f"success {rate:4.0%}  {its:5.1f} iterations")
 
 
 def _cable_path(n_shapes):
@@ -61,6 +80,24 @@ def main() -> None:
     placement = search_placement(pos + [0.3, 0.15, 0.0], rot, extent=(0.35, 0.35, 0.0))
     print(f"  {time.perf_counter() - t0:.3f} s, {placement.candidates} full check(s); "
           f"{placement.message}")
+    print("verified robot program (robot_program), cable path in front of the robot:")
+    for n_shapes in (7, 50):
+        _program(n_shapes)
+
+
+def _program(n_shapes: int) -> None:
+    pos, rot = _cable_path(n_shapes)
+    mats = rot.as_matrix()
+    grippers = GripperPath(pos, (Rotation.from_matrix(mats[:, 0]), Rotation.from_matrix(
+        mats[:, 1])), "minimal", np.zeros(n_shapes))
+    trajectory = trajectory_from_grippers(grippers)
+    best = (np.inf, np.inf)
+    for _ in range(3):
+        t0, c0 = time.perf_counter(), time.process_time()
+        program = robot_program(grippers, trajectory)
+        best = min(best, (time.process_time() - c0, time.perf_counter() - t0))
+    print(f"  {n_shapes:3d} shapes: {best[1]:.3f} s wall, {best[0]:.3f} s cpu (best of 3); "
+          f"{program.message}")
 
 
 if __name__ == "__main__":

@@ -77,3 +77,44 @@ def test_clip_trajectory_validates_times():
         ClipTrajectory(np.array([0.0, 0.0]), [level_clips(0.4), level_clips(0.3)])
     with pytest.raises(ValueError, match="one time per clip pose"):
         ClipTrajectory(np.array([0.0]), [level_clips(0.4), level_clips(0.3)])
+
+
+@pytest.mark.parametrize("damping", ["absolute", "relative"])
+def test_compiled_stepping_matches_a_plain_numpy_euler_loop(damping):
+    # eq. 3.24 written out with the numpy reference gradient; the same steps to round-off
+    from dloplan.physics.chain import SpringChain, gradient
+
+    cable = catalogue_cable("usb", n_links=8)
+    start = equilibrium(cable, sagging_guess(cable, 0.3), level_clips(0.3)).shape
+    start[2:-2, 2] -= 0.05  # sagging below the ground plane z = 0, which pushes it back up
+    end = level_clips(0.25, z=0.02)
+    trajectory = ClipTrajectory(np.array([0.0, 0.01]), [level_clips(0.3), end])
+    dt = 2e-5
+    run = simulate(cable, start, trajectory, duration=300 * dt, dt=dt, damping=damping,
+                   ground=True, record_interval=100 * dt)
+    chain = SpringChain.from_cable(cable)
+    x, v = start.copy(), np.zeros_like(start)
+    held = [0, 1, -2, -1]
+    previous = trajectory.held_points(np.array([0.0]), cable.rest_link_length)[0]
+    x[held] = previous
+    mass = cable.point_masses[:, None]
+    for step in range(1, 301):
+        if damping == "relative":
+            drag = np.zeros_like(v)
+            drag[1:] += v[1:] - v[:-1]
+            drag[:-1] += v[:-1] - v[1:]
+        else:
+            drag = v
+        v = v + (-gradient(chain, x) - cable.k_damping * drag) / mass * dt
+        x = x + v * dt
+        target = trajectory.held_points(np.array([step * dt]), cable.rest_link_length)[0]
+        v[held] = (target - previous) / dt
+        x[held] = previous = target
+        v[:, 2] = np.where(x[:, 2] < 0, np.maximum(v[:, 2], 0.0), v[:, 2])
+        x[:, 2] = np.maximum(x[:, 2], 0.0)
+        if step % 100 == 0:
+            k = step // 100
+            assert np.isclose(run.times[k], step * dt)
+            assert np.max(np.abs(run.shapes[k] - x)) < 1e-12
+    assert run.steps == 300 and len(run.times) == 4
+    assert np.max(np.abs(run.shapes[0] - start)) == 0.0  # the shape as given

@@ -321,3 +321,34 @@ def test_fig_4_28_holds_for_shapes_settled_under_gravity():
     auto = gripper_path(settled, method="auto", cable=cable)
     assert abs(np.degrees(minimal.twist[-1])) == pytest.approx(180.0, abs=10.0)
     assert auto.method == "rigid" and np.max(np.abs(auto.twist)) < 1e-9
+
+
+def test_each_clip_roll_shows_a_turn_over_the_relative_twist_misses():
+    """A shape turned over about its last link: zero relative twist, but the last clip rolls
+    180 deg about the cable (the first clip's u-axis sweeps a cone, so its roll against
+    parallel transport is the cone's geometric phase, less than 180 deg)."""
+    from gripper_paths import arc, turnover_path
+
+    shape = arc(10, 0.5, np.radians(120))
+    shapes, _ = turnover_path(shape)
+    rigid = gripper_path(shapes, method="rigid")
+    assert np.abs(rigid.twist).max() < np.radians(1.0)
+    assert np.degrees(abs(rigid.roll[-1, 1])) == pytest.approx(180.0, abs=1.0)
+    assert 10.0 < np.degrees(abs(rigid.roll[-1, 0])) < 170.0
+    assert "each clip rolls up to 18" in rigid.message
+
+
+def test_auto_takes_rigid_rotation_when_minimal_rotation_would_twist():
+    """A bent shape turned over on a cable whose rest shape is straight: minimal rotation twists
+    the cable by ~180 deg (Fig. 4.28), so auto takes the method its warning recommends."""
+    from gripper_paths import arc, turnover_path
+
+    from dloplan.cable import catalogue_cable
+
+    shapes, _ = turnover_path(arc(10, 0.5, np.radians(120)))
+    cable = catalogue_cable("pa12", n_links=10)
+    minimal = gripper_path(shapes, method="minimal", cable=cable)
+    assert not minimal.success and "try method 'rigid'" in " ".join(minimal.warnings)
+    auto = gripper_path(shapes, method="auto", cable=cable)
+    assert auto.method == "rigid" and auto.success
+    assert "minimal rotation would twist the cable" in auto.message

@@ -167,7 +167,7 @@ def test_one_rapid_module_per_arm_holds_the_whole_job(usb, tmp_path):
     assert len(files) == 2
     for path in files.values():
         text = path.read_text()
-        assert text.count("MoveL ") == usb.trajectory.n_knots
+        assert text.count("MoveL ") == usb.trajectory.n_knots + 1  # + approach, retreat - 1st
         assert f"planned duration {usb.cycle_time:.3f} s" in text
 
 

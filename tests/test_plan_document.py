@@ -35,8 +35,8 @@ def pieces():
 
 @pytest.fixture(scope="module")
 def planned():
-    """A real plan with every section, verified (the 3D Ethernet example, coarsened)."""
-    job = load_scenario(EXAMPLES / "fig4_8_straight_to_bent.yaml")
+    """A real plan with every section, its robot program passing, verified (M2, USB cable)."""
+    job = load_scenario(EXAMPLES / "m2_uniform_curvature_usb.yaml")
     from dloplan.app.pipeline import verify_plan, with_verification
 
     doc = run_job(job)
@@ -206,13 +206,15 @@ def test_every_writer_writes_the_document(planned, tmp_path):
     first = msg["points"][-1]["transforms"][1]["translation"]
     assert np.allclose([first[k] for k in "xyz"], trajectory.positions[-1, 1], atol=1e-12)
 
-    modules = sorted((tmp_path / "rapid").glob("*.mod"))  # rapid: one module per arm
+    modules = sorted((tmp_path / "rapid").glob("*.mod"))  # rapid: the document's program
     assert len(modules) == 2
-    mm = 1e3 * trajectory.positions[:, 0]
-    text = modules[0].read_text()
-    numbers = [[float(v) for v in m] for m in
-               re.findall(r"\[\[([-\d.e]+),([-\d.e]+),([-\d.e]+)\]", text)]
-    assert np.allclose(numbers[:len(mm)], mm, atol=1e-3)
+    targets = doc.robot.program["targets"]
+    for module, arm in zip(modules, ("left", "right"), strict=True):
+        written = [[float(v) for v in m] for m in re.findall(
+            r"CONST robtarget \w+ := \[\[([-\d.eE+]+),([-\d.eE+]+),([-\d.eE+]+)\]",
+            module.read_text())]
+        recorded = [1e3 * np.array(t["arms"][arm]["position"]) for t in targets]
+        assert np.allclose(written, recorded, atol=1e-5)
 
     from dloplan.app.report import figure_names
 
@@ -235,3 +237,20 @@ def test_the_report_of_a_plan_read_back_is_the_same_page(planned, tmp_path):
 def test_an_unknown_format_is_named(planned, tmp_path):
     with pytest.raises(ValueError, match=r"formats: unknown \['pdf'\]"):
         write_outputs(replace(planned), tmp_path, ("pdf",))
+
+
+def test_the_exported_program_is_the_verified_one(planned, tmp_path):
+    """A plan read back rebuilds exactly the robot program it records (verified = exported);
+    a document whose recorded program was altered is refused."""
+    from dloplan.app.pipeline import program_of
+
+    assert planned.robot.ok and planned.program is not None
+    back = read_plan(write_plan(tmp_path / "plan.json", planned))
+    assert back.program is None
+    rebuilt = program_of(back)
+    assert np.array_equal(rebuilt.joints, planned.program.joints)
+    assert np.array_equal(rebuilt.positions, planned.program.positions)
+    data = json.loads((tmp_path / "plan.json").read_text())
+    data["robot"]["program"]["targets"][2]["arms"]["left"]["joints_deg"][0] += 1.0
+    with pytest.raises(ValueError, match="differs from the verified one"):
+        program_of(document_from_dict(data))

@@ -18,7 +18,6 @@ from dloplan.planning import (
     planner_weights,
     stiffness_family,
 )
-from dloplan.planning.tuning import PHYSICAL_WEIGHTS
 
 
 @pytest.fixture(scope="module")
@@ -91,12 +90,22 @@ def test_stiffness_families_and_weights():
                 for name in dloplan.CATALOGUE_NAMES}
     assert families == {"usb": "soft", "ethernet": "medium", "pu": "medium", "pa12": "stiff"}
     assert stiffness_family(1e8, FamilyBoundaries(soft_below=1e6, stiff_from=5e7)) == "stiff"
-    w = planner_weights(dloplan.catalogue_cable("pa12"))
-    assert w.physical == PHYSICAL_WEIGHTS["stiff"]
-    assert w.advanced == AdvancedWeights(steps=20, final=20, delta=10, clip=0.008, beta=40)
-    assert w.basic == BasicWeights(1.0, 1.0)
+    assert planner_weights(dloplan.catalogue_cable("pa12")) == planner_weights(family="stiff")
     custom = planner_weights(family="soft", overrides={"advanced": {"clip": 0.02}})
-    assert custom.advanced.clip == 0.02 and custom.physical.bending == 1000.0
+    assert custom.advanced.clip == 0.02
+    assert custom.physical == planner_weights(family="soft").physical
+
+
+def test_family_weights_shape_the_plan_only_in_the_thesis_physical_mode():
+    """The family's Table 6.2 row weighs the thesis' physical cost; in the equilibrium mode
+    every intermediate shape is an equilibrium whatever the weights (so the family only labels
+    the cable, as the CLI says)."""
+    cable, start, target = folding_case()
+    paths = {(mode, family): plan(cable, start, target, 4, physical_mode=mode,
+                                  weights=planner_weights(family=family)).path
+             for mode in ("thesis", "equilibrium") for family in ("soft", "stiff")}
+    assert np.abs(paths["thesis", "soft"] - paths["thesis", "stiff"]).max() > 1e-4
+    assert np.abs(paths["equilibrium", "soft"] - paths["equilibrium", "stiff"]).max() < 1e-9
 
 
 def test_user_weights_are_used():

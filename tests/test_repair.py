@@ -15,15 +15,16 @@ import yaml
 from scipy.spatial.transform import Rotation
 
 from dloplan.app import load_job
-from dloplan.app.files import plan_into
+from dloplan.app.document import read_plan
+from dloplan.app.files import EXIT_CHECK_FAILED, plan_into
 from dloplan.app.load import resolve_mapping
 from dloplan.app.pipeline import run_job, verify_plan
-from dloplan.cli import EXIT_FAILURE, main
+from dloplan.cli import main
 from dloplan.repair import Budget, diagnose, repair_plan, translated_job
 from dloplan.repair.frames import untwisted
 from dloplan.repair.placement import translated_document
 from dloplan.repair.routes import follow_branch, moved, rigid_motion, routes
-from dloplan.sim.clips import ClipPoses
+from dloplan.sim.clips import ClipPoses, clip_poses_from_shape
 from dloplan.verify.stability import elastic_stability
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -60,8 +61,12 @@ def repaired(job):
 
 @pytest.fixture(scope="module")
 def qualitative1():
+    """Qualitative test 1 with its physics checks (stability, snap-through, replay); its robot
+    program is left out here (see the module docstring of bench_repair.py for the placement)."""
     job = load_job(EXAMPLES / "qualitative1_curved_pa12.yaml")
-    return (job, *repaired(job))
+    doc = run_job(job, check_robot=False)
+    verification = verify_plan(doc, robot=False)
+    return job, doc, verification, repair_plan(job, doc, verification)
 
 
 @pytest.fixture(scope="module")
@@ -94,20 +99,23 @@ def assert_ends_kept(job, doc, result):
         <= job.target_threshold
 
 
-def test_qualitative1_snaps_and_is_out_of_reach_before_repair(qualitative1):
-    _, _, verification, _ = qualitative1
-    failures = diagnose(qualitative1[1], verification)
-    assert {f.kind for f in failures} == {"snap", "reach"}
+def test_qualitative1_snaps_before_repair(qualitative1):
+    _, doc, verification, _ = qualitative1
+    failures = diagnose(doc, verification)
+    assert {f.kind for f in failures} == {"snap", "replay"}
     assert min(f.segment for f in failures if f.kind == "snap") == 4
-    assert sorted(s for f in failures if f.kind == "reach" for s in f.shapes) == [0, 1]
 
 
-def test_qualitative1_passes_after_repair(qualitative1):
+def test_qualitative1_passes_its_physics_checks_after_repair(qualitative1):
     job, doc, _, result = qualitative1
-    assert_no_snap_and_reachable(result)
-    assert [r.kind for r in result.repairs] == ["snap", "reach"]
+    assert result.ok and result.refusal is None, result.refusal
+    assert [r.kind for r in result.repairs] == ["snap"]
     assert "stable branch" in result.repairs[0].change
-    assert np.any(result.offset) and result.refusal is None
+    ver = result.verification
+    assert ver.snap.ok and ver.replay.ok  # the replay's deviation went with the snap
+    for seg in ver.snap.segments:
+        threshold = elastic_stability(result.document.cable, seg.shapes[-1], k=1).threshold
+        assert np.min(seg.eigenvalues) > threshold
     assert_ends_kept(job, doc, result)
 
 
@@ -163,9 +171,9 @@ def test_replay_deviation_is_repaired_by_a_lower_speed():
     assert [f.kind for f in diagnose(doc, verification)][:1] == ["replay"]
     result = repair_plan(job, doc, verification, Budget(attempts=4))
     assert result.ok and result.verification.replay.ok
-    assert [r.kind for r in result.repairs] == ["replay"]
+    assert result.repairs[0].kind == "replay"  # then, at most, a placement for the program
     assert result.document.trajectory.max_speed < 0.5
-    assert np.array_equal(result.document.shapes, doc.shapes)
+    assert np.allclose(result.document.shapes, doc.shapes + result.offset, atol=1e-12)
 
 
 def test_no_repair_keeps_todays_behaviour(tmp_path, capsys):
@@ -173,9 +181,12 @@ def test_no_repair_keeps_todays_behaviour(tmp_path, capsys):
     path.write_text(yaml.safe_dump(soft_job(position=(0.95, -0.15, 0.20))))
     code = main(["plan", str(path), "--verify", "--no-repair", "-o", str(tmp_path / "out")])
     captured = capsys.readouterr()
-    assert code == EXIT_FAILURE and "repair (" not in captured.err
-    assert "repair refused" not in captured.err
-    assert (tmp_path / "out" / "rapid").exists()  # today: the program is written anyway
+    assert code == EXIT_CHECK_FAILED
+    assert "repair (" not in captured.err and "repair refused" not in captured.err
+    plan = read_plan(tmp_path / "out" / "plan.json")
+    start = resolve_mapping(soft_job(position=(0.95, -0.15, 0.20)), "far").start
+    assert np.allclose(plan.grippers.positions[0], clip_poses_from_shape(start).positions,
+                       atol=1e-9)  # the job was not moved
 
 
 def test_translated_job_plans_the_translated_plan():
@@ -183,10 +194,12 @@ def test_translated_job_plans_the_translated_plan():
     under a horizontal translation."""
     job = resolve_mapping(soft_job(), "soft")
     offset = np.array([0.05, -0.1, 0.0])
-    moved_plan = run_job(translated_job(job, offset))
-    shifted = translated_document(run_job(job), offset)
+    moved_job = translated_job(job, offset)
+    moved_plan = run_job(moved_job)
+    shifted = translated_document(moved_job, run_job(job), offset)
     assert np.max(np.abs(moved_plan.stabilized - shifted.stabilized)) < 1e-6
     assert np.max(np.abs(moved_plan.grippers.positions - shifted.grippers.positions)) < 1e-6
+    assert np.allclose(moved_plan.program.joints, shifted.program.joints, atol=1e-4)
 
 
 def test_rigid_motion_is_recovered_and_routes_end_where_they_should():

@@ -64,3 +64,40 @@ def test_report_renders_in_headless_chromium(tmp_path):
     assert len(colours) > 20  # not blank: lines in several colours and antialiasing
     blue = np.all(np.abs(pixels * 255 - [21, 101, 192]) < 40, axis=-1)
     assert blue.sum() > 50  # the planned cable is drawn
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="Chromium is not installed (apt-get install chromium)")
+def test_report_draws_both_arms_in_headless_chromium(tmp_path):
+    from robot_plans import example_plan
+
+    from dloplan.robot import robot_program
+
+    shapes, grippers, trajectory, job = example_plan("m2_uniform_curvature_usb.yaml")
+    program = robot_program(grippers, trajectory)
+    common = dict(title="arms", shapes=shapes, clip_positions=grippers.positions,
+                  clip_rotations=grippers.matrices, obstacles=list(job.obstacles) + [Table(0.0)])
+    path = write_report(tmp_path / "report.html", **common, **program.report_arms())
+    bare = write_report(tmp_path / "bare.html", **common)
+    profile = tmp_path / "profile"
+    shots = {}
+    for name, page in (("arms", path), ("bare", bare)):
+        shot = tmp_path / f"{name}.png"
+        run = subprocess.run([CHROMIUM, *FLAGS, f"--user-data-dir={profile}",
+                              "--enable-logging=stderr", "--v=0", "--window-size=900,800",
+                              f"--screenshot={shot}", page.as_uri()], capture_output=True,
+                             text=True, timeout=120)
+        assert shot.exists() and "Uncaught" not in run.stderr, run.stderr[-2000:]
+        shots[name] = (mpimg.imread(shot)[60:560, 20:780, :3] * 255).astype(int)
+    dom = subprocess.run([CHROMIUM, *FLAGS, f"--user-data-dir={profile}", "--dump-dom",
+                          path.as_uri()], capture_output=True, text=True, timeout=120).stdout
+    assert 'data-rendered="true"' in dom and 'id="motion-controls"' in dom
+    assert 'id="motion-controls" hidden' not in dom  # the time slider is shown
+
+    def count(pixels, colour):
+        return int(np.all(np.abs(pixels - colour) < 30, axis=-1).sum())
+
+    for colour in ([142, 36, 170], [0, 137, 123]):  # left arm purple, right arm teal
+        assert count(shots["arms"], colour) > 500  # each arm covers a visible area
+        assert count(shots["bare"], colour) == 0  # ... which is not there without arms
+    with pytest.raises(ValueError, match="arm_joints"):
+        report_html(title="x", shapes=shapes, arm_joints=np.zeros((2, 2, 7)))

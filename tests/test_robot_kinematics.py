@@ -52,7 +52,7 @@ def _hand_fk(q):
     t = np.eye(4)
     for (xyz, rpy), qi in zip(URDF_RIGHT, q, strict=True):
         t = t @ _homogeneous(xyz, rpy) @ _homogeneous((0, 0, 0), (0, 0, qi))
-    return t @ _homogeneous((0, 0, 0.136), (0, 0, 0))
+    return t @ _homogeneous((0, 0, 0.1142), (0, 0, 0))
 
 
 @pytest.mark.parametrize("q", [np.zeros(7), np.array([0.3, -0.5, 1.0, -0.8, 2.0, 0.7, -1.5])])
@@ -69,10 +69,11 @@ def test_fk_zero_configuration_known_values():
     # the TCP at the value of the hand composition above (0.6422, 0.0858, 0.3452) m +- 0.1 mm.
     frames = link_frames(ROBOT.right, np.zeros(7))
     np.testing.assert_allclose(frames.positions[0], [0.05355, -0.0725, 0.41492], atol=1e-12)
-    np.testing.assert_allclose(frames.positions[7], [0.6422, 0.0858, 0.3452], atol=1e-4)
-    # The TCP lies 0.136 m from the flange along the flange z-axis.
+    np.testing.assert_allclose(frames.positions[7], [0.6297, 0.0723, 0.3569], atol=1e-4)
+    # The TCP lies 0.1142 m from the flange along the flange z-axis (SmartGripper tool data;
+    # the zero-pose TCP above is 0.136 - 0.1142 m closer than with the former 136 mm).
     flange_z = frames.rotations[6][:, 2]
-    np.testing.assert_allclose(frames.positions[7] - frames.positions[6], 0.136 * flange_z,
+    np.testing.assert_allclose(frames.positions[7] - frames.positions[6], 0.1142 * flange_z,
                                atol=1e-12)
 
 
@@ -175,7 +176,7 @@ def test_tcp_offset_is_configurable():
     short = yumi_arm("right", gripper=Gripper(tcp_offset=(0.0, 0.0, 0.0)))
     p_flange, r_flange = forward(short, q)
     p_tcp, _ = forward(ROBOT.right, q)
-    np.testing.assert_allclose(p_tcp - p_flange, r_flange.apply([0, 0, 0.136]), atol=1e-12)
+    np.testing.assert_allclose(p_tcp - p_flange, r_flange.apply([0, 0, 0.1142]), atol=1e-12)
 
 
 def test_bad_inputs_raise_value_error():

@@ -10,7 +10,7 @@ quantity                  formula                                     thesis equ
 ========================  ==========================================  ===============
 rest link length l        L / n                                       3.2
 point masses m_i          m / (n+1) (``"equal"``) or consistent        3.1
-axial constant k_s        E A / l,  A = pi d^2 / 4                    3.10
+axial constant k_s        E_a A / l,  A = pi d^2 / 4                  3.10
 bending constant k_b      3 E I / l (``"thesis"``) or E I / l         3.13
 twist constant k_t        G I_p / l,  G = E / (2 (1 + nu))             3.16
 damping k_d               2 xi sqrt(m_i k_s),  xi = 0.05               3.23
@@ -33,6 +33,11 @@ approximation of the rod it discretizes:
 
 The defaults (``"rod"``, ``"consistent"``) are the consistent model; ``Cable.thesis_model``
 switches both to the thesis' choices to reproduce its numbers.
+
+The axial modulus E_a is ``axial_modulus`` when given, else E (the thesis: one modulus for
+bending and stretching). Composite cables need their own: their bending modulus is an
+equivalent one, tiny against their copper cores' axial stiffness, and with E_a = E a USB cable
+stretches by about 1 % under its own weight (see ``docs/model.md``, "Axial stiffness").
 """
 
 from __future__ import annotations
@@ -91,6 +96,10 @@ class Cable:
         Damping ratio xi of eq. 3.21 (default 0.05, the thesis' rubber upper bound).
     name : str
         Optional label, e.g. ``"usb"``.
+    axial_modulus : float, optional
+        Modulus of the axial springs E_a [Pa] (k_s = E_a A / l), separate from the bending
+        modulus; ``None`` (default) uses ``youngs_modulus`` (the thesis' model). See
+        :data:`COMPOSITE_AXIAL_MODULI` for the composite catalogue cables.
     """
 
     length: float
@@ -104,6 +113,7 @@ class Cable:
     masses: MassModel = "consistent"
     damping_ratio: float = 0.05
     name: str = ""
+    axial_modulus: float | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -112,6 +122,8 @@ class Cable:
         set_(self, "mass", _positive("mass", self.mass))
         set_(self, "youngs_modulus", _positive("youngs_modulus", self.youngs_modulus))
         set_(self, "damping_ratio", _positive("damping_ratio", self.damping_ratio))
+        if self.axial_modulus is not None:
+            set_(self, "axial_modulus", _positive("axial_modulus", self.axial_modulus))
         nu = float(self.poisson_ratio)
         if not (math.isfinite(nu) and -1.0 < nu <= 0.5):
             raise ValueError(f"poisson_ratio: got {self.poisson_ratio!r}, expected -1 < nu <= 0.5")
@@ -198,6 +210,16 @@ class Cable:
         return self.youngs_modulus / (2.0 * (1.0 + self.poisson_ratio))
 
     @property
+    def axial_youngs_modulus(self) -> float:
+        """Modulus of the axial springs E_a [Pa]: ``axial_modulus``, else ``youngs_modulus``."""
+        return self.youngs_modulus if self.axial_modulus is None else self.axial_modulus
+
+    @property
+    def axial_stiffness(self) -> float:
+        """Axial stiffness E_a A [N] (the force that would double a link's length)."""
+        return self.axial_youngs_modulus * self.area
+
+    @property
     def bending_stiffness(self) -> float:
         """Effective continuum bending stiffness k_b l [N m^2] the chain converges to.
 
@@ -213,8 +235,8 @@ class Cable:
     # -- spring constants (eqs. 3.10, 3.13, 3.16, 3.23) ----------------------------------
     @property
     def k_axial(self) -> float:
-        """Axial spring constant k_s = E A / l [N/m] (eq. 3.10)."""
-        return self.youngs_modulus * self.area / self.rest_link_length
+        """Axial spring constant k_s = E_a A / l [N/m] (eq. 3.10, E_a = E unless given)."""
+        return self.axial_stiffness / self.rest_link_length
 
     @property
     def k_bending(self) -> float:
@@ -240,10 +262,10 @@ class Cable:
         ----------
         youngs_modulus_cap : float, optional
             The fictitious modulus of thesis chapter 6 (Fig. 6.5): k_s is computed from
-            min(E, cap), which enlarges the step of stiff cables (at the price of an explicit
+            min(E_a, cap), which enlarges the step of stiff cables (at the price of an explicit
             scheme that may then need more damping to stay stable).
         """
-        modulus = self.youngs_modulus
+        modulus = self.axial_youngs_modulus
         if youngs_modulus_cap is not None:
             modulus = min(modulus, _positive("youngs_modulus_cap", youngs_modulus_cap))
         k_s = modulus * self.area / self.rest_link_length
@@ -264,7 +286,7 @@ class Cable:
         return replace(self, n_links=n_links, rest_shape=rest)
 
     def with_modulus(self, youngs_modulus: float) -> Cable:
-        """The same cable with another Young's modulus [Pa]."""
+        """The same cable with another Young's modulus [Pa] (the axial modulus, if given, kept)."""
         return replace(self, youngs_modulus=youngs_modulus)
 
     def thesis_model(self) -> Cable:
@@ -278,6 +300,7 @@ class Cable:
             "d [m]": self.diameter,
             "m [kg]": self.mass,
             "E [Pa]": self.youngs_modulus,
+            "E_a [Pa]": self.axial_youngs_modulus,
             "n": self.n_links,
             "l [m]": self.rest_link_length,
             "m_i [kg]": float(self.point_masses[1]),
@@ -304,6 +327,20 @@ _CATALOGUE: dict[str, dict[str, float]] = {
     "pa12": dict(length=0.5, diameter=0.006, mass=0.009, youngs_modulus=1e9, poisson_ratio=0.4),
 }
 CATALOGUE_NAMES: tuple[str, ...] = tuple(_CATALOGUE)
+
+COMPOSITE_AXIAL_MODULI: dict[str, float] = {"usb": 2e9, "ethernet": 2e9}
+"""Axial moduli E_a [Pa] to use for the composite catalogue cables with the rod model.
+
+Order-of-magnitude estimates from their copper: E_cu ~ 117 GPa on about 0.3 mm^2 (USB, four
+AWG 28 conductors and the shield) or 1.6 mm^2 (Ethernet, eight AWG 24), derated about three
+times for the twist of the pairs and spread over the whole section A: E_a ~ 2 GPa, a thousand
+times their bending moduli. Any value above about 1e8 Pa gives nearly the same shapes (the
+cable is then practically inextensible: the USB between level clips sags within 0.01 mm of the
+2 GPa shape at 0.4 m apart, 0.25 mm nearly taut at 0.48 m), so the estimate need not be
+precise. The catalogue leaves
+``axial_modulus`` unset to reproduce the thesis; pass
+``catalogue_cable("usb", axial_modulus=COMPOSITE_AXIAL_MODULI["usb"])`` for a real cable.
+"""
 
 
 def catalogue_cable(name: str, n_links: int = 10, **overrides) -> Cable:

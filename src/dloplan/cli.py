@@ -1,7 +1,9 @@
 """The ``dloplan`` command: parse, load, call one library function, write.
 
-``main(argv=None) -> int`` returns the exit code: 0 success, 1 success with warnings, 2 failure
-or bad input (a one-line error naming the problem, never a traceback, no output written).
+``main(argv=None) -> int`` returns the exit code: 0 success, 1 success with warnings, 2 bad
+input or a job that cannot be planned (a one-line error naming the problem, never a traceback,
+no output written), 3 planned but a check failed (the plan and its report are written, no robot
+program), 130 interrupted by Ctrl-C (nothing written).
 """
 
 from __future__ import annotations
@@ -13,7 +15,14 @@ import time
 from pathlib import Path
 
 from . import __version__
-from .app.files import EXIT_FAILURE, EXIT_OK, EXIT_WARNINGS, exit_code
+from .app.files import (
+    EXIT_CHECK_FAILED,
+    EXIT_FAILURE,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_WARNINGS,
+    exit_code,
+)
 from .cable import CATALOGUE_NAMES, catalogue_cable
 
 
@@ -102,9 +111,21 @@ def _cmd_verify(args: argparse.Namespace) -> int:
     console.stage(f"verifying {len(doc.shapes)} shapes of {args.plan}")
     result = verify_plan(doc, snap=not args.no_snap, replay=not args.no_replay,
                          tensile_limit=args.tensile_limit, tolerance=args.tolerance,
-                         robot=not args.no_robot)
+                         robot=not args.no_robot, progress=console.stage)
     console.stage("done: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
-    print(json.dumps(result.to_dict(), indent=2) if args.json else result.table())
+    program = None
+    if not args.no_robot and doc.trajectory is not None:
+        from .app.pipeline import program_of
+
+        program = program_of(doc)
+    if args.json:
+        print(json.dumps({**result.to_dict(), "robot": None if program is None
+                          else program.to_dict()}, indent=2))
+    else:
+        print(result.table())
+        if program is not None:
+            print(program_table(program.summary()))
+            print(program.message)
     if args.place and doc.grippers is not None:
         from scipy.spatial.transform import Rotation
 
@@ -113,7 +134,7 @@ def _cmd_verify(args: argparse.Namespace) -> int:
         placement = search_placement(doc.grippers.positions,
                                      Rotation.from_matrix(doc.grippers.matrices))
         print(f"placement: {placement.message}")
-    return EXIT_OK if result.ok else EXIT_FAILURE
+    return EXIT_OK if result.ok and (program is None or program.ok) else EXIT_CHECK_FAILED
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
@@ -193,8 +214,21 @@ def _cmd_register(args: argparse.Namespace) -> int:
 def _cmd_identify(args: argparse.Namespace) -> int:
     from .identify import identify_youngs_modulus
     from .identify.files import load_identification
+    from .identify.report import exit_code, report_lines, to_dict
 
     console = Console(args.quiet)
+    if args.design:
+        from .identify.recommend import design_cable, recommend_design
+
+        cable = design_cable(args.cable, args.experiment, modulus=args.modulus,
+                             n_links=args.links)
+        console.stage(f"scoring experiments for the {cable.name or 'cable'} at E = "
+                      f"{cable.youngs_modulus:.3g} Pa, {args.noise:g} mm noise")
+        report = recommend_design(cable, noise=1e-3 * args.noise, n_measured=args.points)
+        print("\n".join(report.lines()))
+        return EXIT_OK if report.recommended is not None else EXIT_FAILURE
+    if args.experiment is None:
+        raise ValueError("experiment: give an identification file (or --design --cable NAME)")
     job = load_identification(args.experiment)
     console.stage(f"identifying E of the {job.cable.name or 'cable'} in "
                   f"[{job.bounds[0]:.3g}, {job.bounds[1]:.3g}] Pa ({job.simulator} simulation)")
@@ -208,20 +242,8 @@ def _cmd_identify(args: argparse.Namespace) -> int:
                                        result.youngs_modulus if result.success else None)
         written = save_figure(figure, args.output, "identification_cost")
         console.stage(f"figure: {', '.join(str(p) for p in written)}")
-    if args.json:
-        print(json.dumps({"success": result.success, "youngs_modulus": result.youngs_modulus,
-                          "confidence_interval": list(result.confidence_interval),
-                          "simulations": result.simulations, "iterations": result.iterations,
-                          "cost": result.cost, "rms_error": result.rms_error,
-                          "at_bound": result.at_bound, "informative": result.informative,
-                          "message": result.message}, indent=2))
-    else:
-        print(result.message)
-        for key, value in result.table().items():
-            print(f"  {key:<30} {value:.4g}")
-    if not result.success:
-        return EXIT_FAILURE
-    return EXIT_OK if result.informative else EXIT_WARNINGS
+    print(json.dumps(to_dict(result), indent=2) if args.json else "\n".join(report_lines(result)))
+    return exit_code(result)
 
 
 def _print_plan(doc, written, args) -> None:
@@ -247,14 +269,26 @@ def _print_plan(doc, written, args) -> None:
         print(f"  warning: {warning}")
     if doc.verification is not None:
         print(doc.verification.table())
-    print(f"  wrote {len(written)} files into {Path(written[0]).parent}")
+    if doc.robot is not None:
+        print(program_table(doc.robot.program["summary"]))
+    print(f"  wrote {len(written)} files into {Path(written[0]).parent}"
+          + ("" if doc.ok else " (a check failed: no robot program)"))
+
+
+def program_table(summary: list[dict]) -> str:
+    """The robot program's checks as fixed-width text, one line per check."""
+    lines = [f"{'robot check':<13} {'verdict':<7} {'worst':>12}  where"]
+    for line in summary:
+        lines.append(f"{line['check']:<13} {'ok' if line['ok'] else 'FAILED':<7} "
+                     f"{line['worst']:>8.4g} {line['unit']:<3}  {line['where']}")
+    return "\n".join(lines)
 
 
 def _plan_one(job, output: Path, args, console: Console) -> int:
     from .app.files import plan_into
 
-    doc, written = plan_into(job, output, verify=args.verify, repair=not args.no_repair,
-                             progress=console.stage)
+    doc, written = plan_into(job, output, verify=args.verify, check_robot=not args.no_verify,
+                             repair=not args.no_repair, progress=console.stage)
     _print_plan(doc, written, args)
     return exit_code(doc)
 
@@ -276,7 +310,7 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
     from .study.backends import make_backend, map_jobs
 
     options = {"output": str(Path(args.output)), "verify": args.verify,
-               "repair": not args.no_repair}
+               "check_robot": not args.no_verify, "repair": not args.no_repair}
     codes = {}
     with make_backend(None if args.scheduler else args.workers, args.scheduler) as backend:
         for _, (path, code, line) in map_jobs(plan_file, args.scenarios, backend,
@@ -286,7 +320,8 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
     print(f"planned {len(codes)} scenarios: "
           f"{sum(c == EXIT_OK for c in codes.values())} ok, "
           f"{sum(c == EXIT_WARNINGS for c in codes.values())} with warnings, "
-          f"{sum(c == EXIT_FAILURE for c in codes.values())} failed")
+          f"{sum(c == EXIT_CHECK_FAILED for c in codes.values())} failed a check, "
+          f"{sum(c == EXIT_FAILURE for c in codes.values())} could not be planned")
     return max(codes.values())
 
 
@@ -386,7 +421,13 @@ def build_parser() -> argparse.ArgumentParser:
                    "plan, robot programs, figures and report")
     plan.add_argument("scenarios", nargs="+", help="scenario file(s) (.yaml or .json)")
     plan.add_argument("-o", "--output", default="out/plan", help="output folder")
-    plan.add_argument("--verify", action="store_true", help="also verify the plan")
+    checks = plan.add_mutually_exclusive_group()
+    checks.add_argument("--verify", action="store_true",
+                        help="also verify the physics: stability, snap-through, dynamic replay "
+                        "(the robot program's checks always run)")
+    checks.add_argument("--no-verify", action="store_true",
+                        help="skip the robot program's checks too (the program is written "
+                        "with the checks' verdict in its header)")
     plan.add_argument("--no-repair", action="store_true", help="with --verify: report failed "
                       "checks without repairing the plan (docs/repair.md)")
     plan.add_argument("--workers", type=int, default=1,
@@ -395,7 +436,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     demo = command("demo", _cmd_demo, "run the embedded default job (needs no input)")
     demo.add_argument("-o", "--output", default="out/demo", help="output folder")
-    demo.set_defaults(verify=True, no_repair=False)
+    demo.set_defaults(verify=True, no_verify=False, no_repair=False)
 
     study = command("study", _cmd_study, "robustness study of a scenario's plan over cable and "
                     "pose tolerances (its study section)")
@@ -430,9 +471,18 @@ def build_parser() -> argparse.ArgumentParser:
 
     identify = command("identify", _cmd_identify, "identify the Young's modulus from a "
                        "measured manipulation (thesis 6.1)")
-    identify.add_argument("experiment", help="identification file (.yaml/.json) or a scenario "
-                          "with an identify section")
+    identify.add_argument("experiment", nargs="?", help="identification file (.yaml/.json) "
+                          "or a scenario with an identify section")
     identify.add_argument("-o", "--output", help="folder for the cost-vs-E figure")
+    identify.add_argument("--design", action="store_true", help="score candidate experiments "
+                          "by the predicted sd of E and recommend one")
+    identify.add_argument("--cable", help="--design: catalogue cable name")
+    identify.add_argument("--modulus", type=float, help="--design: expected E [Pa]")
+    identify.add_argument("--noise", type=float, default=1.0,
+                          help="--design: measurement noise [mm] (default 1)")
+    identify.add_argument("--points", type=int, default=100,
+                          help="--design: measured points along the cable (default 100)")
+    identify.add_argument("--links", type=int, help="--design: starting n")
 
     export = command("export", _cmd_export, "export a plan as JSON, CSV, ROS 2 trajectory or "
                      "ABB RAPID")
@@ -491,7 +541,14 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return args.func(args)
-    except (ValueError, ArithmeticError, OSError) as exc:
+    except KeyboardInterrupt:
+        print("dloplan: interrupted (nothing written)", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except OSError as exc:
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"dloplan: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return EXIT_FAILURE
+    except (ValueError, ArithmeticError) as exc:
         print(f"dloplan: error: {exc}", file=sys.stderr)
         return EXIT_FAILURE
 

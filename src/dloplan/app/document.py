@@ -268,7 +268,7 @@ class VerificationSection:
 
 @dataclass(frozen=True)
 class IdentificationSection:
-    """How the cable's E was identified (thesis 6.1) before planning."""
+    """How the cable's E was identified (thesis 6.1) before planning, with the n it used."""
 
     youngs_modulus: float
     confidence_interval: tuple[float, float]
@@ -276,6 +276,71 @@ class IdentificationSection:
     rms_error: float
     informative: bool
     message: str
+    n_links: int = 0
+
+
+@dataclass(frozen=True)
+class RobotSection:
+    """The robot program of the plan and its checks (:func:`dloplan.robot.robot_program`).
+
+    Attributes
+    ----------
+    ok : bool
+        Every check of the program passed (reach, joint limits, clearance, continuity, ...).
+    message : str
+        One line: passed with its key numbers, or the first failure of each failing check.
+    cell : dict
+        The robot cell the program was made for (:func:`cell_to_dict`).
+    program : dict
+        The program as written: arm assignment, targets with their verified joints,
+        confdata and arm angles, the checks' summary and rows
+        (:meth:`dloplan.robot.RobotProgram.to_dict`).
+    """
+
+    ok: bool
+    message: str
+    cell: dict
+    program: dict
+
+
+def _rotation_to_list(rotation: Rotation) -> list:
+    return canonical_quaternions(rotation)[0].tolist()
+
+
+def cell_to_dict(cell) -> dict:
+    """A :class:`~dloplan.robot.RobotCell` as JSON-ready data (quaternions x-y-z-w)."""
+    return {
+        "base_position": cell.base_position.tolist(),
+        "base_rotation": _rotation_to_list(cell.base_rotation),
+        "wobj": cell.wobj, "table_height": cell.table_height, "approach": cell.approach,
+        "approach_speed": cell.approach_speed, "grip_time": cell.grip_time,
+        "hold_force": cell.hold_force,
+        "tools": [{"name": t.name, "tcp_offset": t.tcp_offset.tolist(),
+                   "tcp_rotation": _rotation_to_list(t.tcp_rotation), "mass": t.mass,
+                   "cog": t.cog.tolist(), "inertia": t.inertia.tolist(),
+                   "tcp_in_clip": _rotation_to_list(t.tcp_in_clip), "source": t.source}
+                  for t in cell.tools],
+    }
+
+
+def cell_from_dict(data: dict, where: str = "plan.robot.cell"):
+    """The :class:`~dloplan.robot.RobotCell` of :func:`cell_to_dict`'s data."""
+    from ..robot.cell import RobotCell, Tool
+
+    try:
+        tools = tuple(Tool(name=t["name"], tcp_offset=np.asarray(t["tcp_offset"], float),
+                           tcp_rotation=Rotation.from_quat(t["tcp_rotation"]), mass=t["mass"],
+                           cog=np.asarray(t["cog"], float),
+                           inertia=np.asarray(t["inertia"], float),
+                           tcp_in_clip=Rotation.from_quat(t["tcp_in_clip"]), source=t["source"])
+                      for t in data["tools"])
+        return RobotCell(base_position=np.asarray(data["base_position"], float),
+                         base_rotation=Rotation.from_quat(data["base_rotation"]), tools=tools,
+                         wobj=data["wobj"], table_height=data["table_height"],
+                         approach=data["approach"], approach_speed=data["approach_speed"],
+                         grip_time=data["grip_time"], hold_force=data["hold_force"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"{where}: {exc}") from None
 
 
 @dataclass(frozen=True, eq=False)
@@ -308,6 +373,12 @@ class PlanDocument:
     target_check, twist, avoidance, verification, identification : sections or None
     harness : dict or None
         The wire-harness job's numbers (:func:`dloplan.harness.harness_summary`).
+    robot : RobotSection or None
+        The verified robot program (None when the plan was made without robot checks).
+    program : RobotProgram or None
+        The program object itself, kept in memory after planning so the writers do not solve
+        it again (not written; a document read from a file rebuilds it from ``robot.cell``,
+        the gripper path and the trajectory, and checks it against ``robot.program``).
     timings : dict
         Wall time per pipeline step [s].
     frame_id : str
@@ -333,9 +404,11 @@ class PlanDocument:
     verification: VerificationSection | None = None
     identification: IdentificationSection | None = None
     harness: dict | None = None
+    robot: RobotSection | None = None
     timings: dict = field(default_factory=dict)
     frame_id: str = DEFAULT_FRAME_ID
     version: int = PLAN_VERSION
+    program: object = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.cable, Cable):
@@ -373,6 +446,8 @@ class PlanDocument:
         if self.harness is not None and not self.harness.get("success", True):
             return False
         if self.avoidance is not None and self.avoidance.status not in ("clear", "replanned"):
+            return False
+        if self.robot is not None and not self.robot.ok:
             return False
         return self.verification is None or self.verification.ok
 
@@ -474,6 +549,7 @@ def document_to_dict(doc: PlanDocument) -> dict:
         "verification": section_to_dict(doc.verification),
         "identification": section_to_dict(doc.identification),
         "harness": _plain(doc.harness),
+        "robot": section_to_dict(doc.robot),
         "timings": _plain(doc.timings),
     }
 
@@ -567,6 +643,7 @@ def document_from_dict(data: dict) -> PlanDocument:
         identification=section_from_dict(IdentificationSection,
                                          sections.get("identification"), "plan.identification"),
         harness=sections.get("harness"),
+        robot=section_from_dict(RobotSection, sections.get("robot"), "plan.robot"),
         timings=dict(sections.get("timings") or {}),
         frame_id=frame_id,
         version=version,

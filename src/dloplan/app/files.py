@@ -11,46 +11,64 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..io.files import staged_folder
 from .document import PlanDocument, read_plan
 from .job import Job
 from .load import file_kind, load_job
 from .pipeline import quiet, run_harness_job, run_job
 from .writers import WriteOptions, write_outputs
 
-EXIT_OK, EXIT_WARNINGS, EXIT_FAILURE = 0, 1, 2
-"""Exit codes: success, success with warnings, failure or bad input (nothing written)."""
+EXIT_OK, EXIT_WARNINGS, EXIT_FAILURE, EXIT_CHECK_FAILED = 0, 1, 2, 3
+"""Exit codes: success; success with warnings; bad input or a job that cannot be planned
+(nothing written); planned, but a check failed (the plan document and the report are written
+for inspection, no robot program or trajectory)."""
+EXIT_INTERRUPTED = 130
+"""Ctrl-C: nothing written."""
+
+ROBOT_OUTPUTS = ("csv", "ros", "rapid")
+"""The outputs a robot could run: not written for a plan that failed a check."""
 
 HARNESS_OUTPUTS = ("json", "csv", "rapid", "figures", "report")
 """What a wire-harness job writes."""
 
 
 def exit_code(doc: PlanDocument) -> int:
-    """0 when the plan is ok without warnings, 1 with warnings, 2 when a check failed."""
+    """0 when the plan is ok without warnings, 1 with warnings, 3 when a check failed."""
     if not doc.ok:
-        return EXIT_FAILURE
+        return EXIT_CHECK_FAILED
     return EXIT_WARNINGS if doc.warnings else EXIT_OK
 
 
-def plan_into(job, folder, *, verify: bool = False, repair: bool = True, progress=quiet):
+def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
+              repair: bool = True, progress=quiet):
     """Plan a resolved job and write its outputs into ``folder``: ``(document, written paths)``.
 
-    With ``verify`` and ``repair`` a plan that fails a check is repaired
-    (:func:`dloplan.repair.plan_and_repair`); a refused one gets no robot program.
+    The folder is written whole or not at all (:func:`dloplan.io.files.staged_folder`): a run
+    that fails or is interrupted leaves it as it was, and a second run on the same folder is
+    refused while this one holds it. A plan that failed a check gets its plan document, figures
+    and report, but no robot program or trajectory file. With ``verify`` and ``repair`` a plan
+    that fails a check is repaired first (:func:`dloplan.repair.plan_and_repair`).
     """
-    if isinstance(job, Job) and verify and repair:
-        from ..repair import plan_and_repair
+    folder = Path(folder)
+    with staged_folder(folder) as staging:
+        if isinstance(job, Job) and verify and check_robot and repair:
+            from ..repair import plan_and_repair
 
-        doc, _ = plan_and_repair(job, progress)
-        formats = [f for f in job.outputs if doc.ok or f not in ("rapid", "ros")]
-        return doc, write_outputs(doc, folder, formats,
-                                  options=WriteOptions(rate=job.motion.rate), progress=progress)
-    if isinstance(job, Job):
-        doc = run_job(job, verify=verify, progress=progress)
-        formats, options = job.outputs, WriteOptions(rate=job.motion.rate)
-    else:
-        doc = run_harness_job(job, progress)
-        formats, options = HARNESS_OUTPUTS, WriteOptions()
-    return doc, write_outputs(doc, folder, formats, options=options, progress=progress)
+            doc, _ = plan_and_repair(job, progress)
+            formats, options = job.outputs, WriteOptions(rate=job.motion.rate)
+        elif isinstance(job, Job):
+            doc = run_job(job, verify=verify, check_robot=check_robot, progress=progress)
+            formats, options = job.outputs, WriteOptions(rate=job.motion.rate)
+        else:
+            doc = run_harness_job(job, check_robot=check_robot, progress=progress)
+            formats, options = HARNESS_OUTPUTS, WriteOptions()
+        if not doc.ok:
+            formats = tuple(f for f in formats if f not in ROBOT_OUTPUTS)
+            progress("a check failed: writing the plan and its report, no robot program")
+        written = write_outputs(doc, staging, formats, options=options)
+    paths = [folder / path.relative_to(staging) for path in written]
+    progress(f"wrote {len(paths)} files into {folder}")
+    return doc, paths
 
 
 def plan_file(options: dict, path: str) -> tuple[str, int, str]:
@@ -67,11 +85,12 @@ def plan_file(options: dict, path: str) -> tuple[str, int, str]:
             return path, EXIT_WARNINGS, f"{path}: skipped (an identification file: use " \
                 "dloplan identify)"
         doc, _ = plan_into(load_job(path), folder, verify=options["verify"],
+                           check_robot=options.get("check_robot", True),
                            repair=options.get("repair", True))
     except ValueError as exc:
         return path, EXIT_FAILURE, f"{path}: error: {exc}"
     code = exit_code(doc)
-    status = {EXIT_OK: "ok", EXIT_WARNINGS: "warnings", EXIT_FAILURE: "FAILED"}[code]
+    status = {EXIT_OK: "ok", EXIT_WARNINGS: "warnings", EXIT_CHECK_FAILED: "check FAILED"}[code]
     return path, code, f"{path}: {status} -> {folder}"
 
 
@@ -83,5 +102,5 @@ def document_of(path, progress=quiet) -> PlanDocument:
         return read_plan(path)
     job = load_job(path, progress)
     if not isinstance(job, Job):
-        return run_harness_job(job, progress)
+        return run_harness_job(job, progress=progress)
     return run_job(job, progress=progress)

@@ -9,13 +9,14 @@ the report all see the same ones. No pydantic model and no file unit passes this
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..cable import Cable
 from ..io.scenario import (
+    WORKSPACE,
     Scenario,
     ScenarioError,
     build_cable,
@@ -24,6 +25,7 @@ from ..io.scenario import (
 )
 from ..physics.geometry import resample_by_arc_length
 from ..planning.tuning import PlannerWeights, planner_weights, stiffness_family
+from ..robot.cell import RobotCell
 from ..shapes import discretize
 
 
@@ -47,6 +49,8 @@ class PlannerSettings:
         Lift safety offset of the obstacle re-planning [m] (thesis 5.4.3).
     max_rounds : int
         Largest number of re-planning rounds.
+    keep_target : bool
+        Plan to the target as given instead of its minimal-energy shape (thesis 4.5.1).
     """
 
     n_shapes: int
@@ -56,6 +60,7 @@ class PlannerSettings:
     physical_mode: str
     z_safety: float
     max_rounds: int
+    keep_target: bool = False
 
     @property
     def weights_used(self) -> bool:
@@ -125,6 +130,8 @@ class Job:
         T_cf [m] of the target stability check (thesis 5.3).
     outputs : tuple of str
         The files ``dloplan plan`` writes ("json", "csv", "rapid", "ros", "figures", "report").
+    robot : RobotCell
+        The robot cell the plan is executed in (YuMi placement, tools, work object).
     identification : Identification or None
         How the cable's E was identified, when the scenario asked for it.
     study : StudySpec or None
@@ -141,6 +148,7 @@ class Job:
     motion: MotionSettings
     target_threshold: float
     outputs: tuple[str, ...]
+    robot: RobotCell = field(default_factory=RobotCell)
     identification: object = None
     study: object = None
 
@@ -193,7 +201,7 @@ def planner_settings(scenario, cable: Cable, scale: float) -> PlannerSettings:
     z_safety = scenario.check.lengths(scale)[1]
     return PlannerSettings(spec.n_shapes, weights, family, forced,
                            spec.physical_mode or "equilibrium", z_safety,
-                           scenario.check.max_rounds)
+                           scenario.check.max_rounds, spec.keep_target)
 
 
 def motion_settings(scenario, scale: float) -> MotionSettings:
@@ -207,6 +215,41 @@ def gripper_settings(scenario) -> GripperSettings:
     spec = scenario.grippers
     return GripperSettings(spec.method, np.asarray(spec.auxiliary_vector, dtype=float),
                            _initial_frames(scenario))
+
+
+def check_workspace(points, name: str, source: str) -> None:
+    """Raise a one-line ScenarioError when a point lies beyond :data:`WORKSPACE` [m]."""
+    reach = float(np.max(np.linalg.norm(np.reshape(points, (-1, 3)), axis=1)))
+    if reach > WORKSPACE:
+        raise ScenarioError(f"{source}: {name}: a point {reach:.4g} m from the origin, expected "
+                            f"within {WORKSPACE:g} m of the robot (a length in wrong units?)")
+
+
+def robot_cell(scenario, scale: float) -> RobotCell:
+    """The robot cell of a scenario's ``robot:`` section (lengths in file units times ``scale``)."""
+    spec = scenario.robot
+    defaults = RobotCell()
+    tools = []
+    for k, (tool_spec, tool) in enumerate(zip(spec.tools, defaults.tools, strict=True)):
+        changes = {key: value for key, value in (
+            ("name", tool_spec.name), ("mass", tool_spec.mass),
+            ("tcp_offset", None if tool_spec.tcp_offset is None
+             else np.multiply(tool_spec.tcp_offset, scale))) if value is not None}
+        try:
+            tools.append(replace(tool, **changes))
+        except ValueError as exc:
+            raise ScenarioError(f"robot.tools.{k}: {exc}") from None
+    table = scenario.table.height * scale if scenario.table is not None else 0.0
+    try:
+        return RobotCell(
+            base_position=np.multiply(spec.base_position, scale),
+            base_rotation=spec.base_rotation.to_rotation() if spec.base_rotation else
+            Rotation.identity(),
+            tools=tuple(tools), wobj=spec.wobj, table_height=table,
+            approach=defaults.approach if spec.approach is None else spec.approach * scale,
+            grip_time=spec.grip_time, hold_force=spec.hold_force)
+    except ValueError as exc:
+        raise ScenarioError(f"robot: {exc}") from None
 
 
 def resolve_scenario(scenario: Scenario, source: str = "scenario",
@@ -239,10 +282,17 @@ def resolve_scenario(scenario: Scenario, source: str = "scenario",
         except ValueError as exc:
             raise ScenarioError(f"{source}: {exc}") from None
     threshold = scenario.check.lengths(scale)[0]
+    obstacles = tuple(build_obstacles(scenario.obstacles, scenario.table, scale))
+    for name, shape in shapes.items():
+        check_workspace(shape, name, source)
+    for k, obstacle in enumerate(obstacles):
+        corner = np.array(getattr(obstacle, "center", getattr(obstacle, "base", (0, 0, 0))))
+        check_workspace(corner, f"obstacles.{k}", source)
     return Job(
         source=source, cable=cable, start=shapes["start"], target=shapes["target"],
-        obstacles=tuple(build_obstacles(scenario.obstacles, scenario.table, scale)),
+        obstacles=obstacles,
         planner=planner_settings(scenario, cable, scale), grippers=gripper_settings(scenario),
         motion=motion_settings(scenario, scale), target_threshold=threshold,
-        outputs=tuple(scenario.outputs), identification=identification, study=scenario.study,
+        outputs=tuple(scenario.outputs), robot=robot_cell(scenario, scale),
+        identification=identification, study=scenario.study,
     )

@@ -30,12 +30,19 @@ from .document import (
     AvoidanceSection,
     IdentificationSection,
     PlanDocument,
+    RobotSection,
     Stages,
     TargetCheckSection,
     TwistSection,
     VerificationSection,
+    cell_from_dict,
+    cell_to_dict,
 )
 from .job import Job
+
+TESTED_MODULI = (1e5, 1e11)
+"""Young's moduli [Pa] the solvers are tested on (tests/test_statics.py): a plan outside them
+gets a warning."""
 
 
 def quiet(text: str) -> None:
@@ -71,7 +78,7 @@ class CheckReport:
 
 
 def check_job(job: Job) -> CheckReport:
-    """Check a job without planning: clip span, target stability, obstacles at the ends.
+    """Check a job without planning: clip span, robot reach, target stability, obstacles.
 
     Thesis 5.3 (target stability) and 5.4 (collisions of the stabilized start and target).
     """
@@ -88,6 +95,8 @@ def check_job(job: Job) -> CheckReport:
                                     f"{cable.length:.3g} m cable"))
         except ValueError as exc:
             findings.append(Finding("error", f"{name} cable span", str(exc)))
+    if len(shapes) == 2:
+        findings += _reach_findings(job)
     settled = {}
     for name, shape in shapes.items():
         report = check_target(shape, cable, threshold=job.target_threshold)
@@ -104,6 +113,27 @@ def check_job(job: Job) -> CheckReport:
             findings.append(Finding("ok", f"{name} obstacles",
                                     f"clear by {1e3 * -collision.penetration:.1f} mm"))
     return CheckReport(findings)
+
+
+def _reach_findings(job: Job) -> list[Finding]:
+    """Can the robot's arms hold the start and the target (gripper frames by the job's method)?"""
+    from ..grippers import gripper_path
+
+    grippers = gripper_path(np.stack([job.start, job.target]), method=job.grippers.method,
+                            cable=job.cable, initial=job.grippers.initial,
+                            aux=job.grippers.auxiliary_vector)
+    findings = []
+    for name, row in zip(("start", "target"), robot_rows(grippers), strict=True):
+        arms = [arm for arm in ("left", "right") if not row[f"reachable_{arm}"]]
+        if arms:
+            what = ("arm cannot reach its clip" if len(arms) == 1 else
+                    "arms cannot reach their clips")
+            findings.append(Finding("error", f"{name} robot reach",
+                                    f"the {' and '.join(arms)} {what}"))
+        else:
+            findings.append(Finding("ok", f"{name} robot reach", "both arms reach their clips "
+                                    f"(joint margin {row['joint_margin']:.2f} rad)"))
+    return findings
 
 
 @dataclass(frozen=True, eq=False)
@@ -144,7 +174,8 @@ def plan_path(job: Job, progress=quiet) -> PathStage:
     t0 = time.perf_counter()
     result = plan(cable, job.start, job.target, settings.n_shapes, weights=settings.weights,
                   physical_mode=settings.physical_mode, obstacles=list(job.obstacles),
-                  z_safety=settings.z_safety, max_rounds=settings.max_rounds)
+                  z_safety=settings.z_safety, max_rounds=settings.max_rounds,
+                  preprocess=not settings.keep_target)
     timings["plan"] = time.perf_counter() - t0
     stage_times = ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items() if k != "total")
     weights = (f"{settings.family} cable weights" if settings.weights_used else
@@ -196,7 +227,7 @@ def plan_twist(cable, path: np.ndarray, grippers, progress=quiet):
 
 
 def robot_rows(grippers) -> list[dict]:
-    """YuMi reachability of every planned gripper pose, as verification rows."""
+    """Reachability of a gripper path's poses by either YuMi arm (before an arm is assigned)."""
     from scipy.spatial.transform import Rotation
 
     from ..robot import check_reachability
@@ -206,6 +237,67 @@ def robot_rows(grippers) -> list[dict]:
              "reachable_right": bool(reach.reachable[k, 1]),
              "joint_margin": float(np.min(reach.joint_margin[k]))}
             for k in range(len(grippers.positions))]
+
+
+def plan_program(cell, grippers, trajectory, progress=quiet):
+    """The robot program of a plan, verified (:func:`dloplan.robot.robot_program`): arm
+    assignment, IK of every exported target, joint limits, arm-arm clearance, continuity and
+    joint speeds."""
+    from ..robot import robot_program
+
+    program = robot_program(grippers, trajectory, cell)
+    progress(program.message)
+    return program
+
+
+def with_program(doc: PlanDocument, program) -> PlanDocument:
+    """The document with its robot program section (and its failure among the warnings)."""
+    section = RobotSection(program.ok, program.message, cell_to_dict(program.cell),
+                           program.to_dict())
+    failures = () if program.ok else (program.message,)
+    return replace(doc, robot=section, program=program, warnings=doc.warnings + failures)
+
+
+def program_of(doc: PlanDocument):
+    """The document's robot program: the one kept from planning, or rebuilt from its cell,
+    gripper path and trajectory and checked to be the verified one the document records.
+
+    Raises
+    ------
+    ValueError
+        A plan without gripper poses or trajectory, or a rebuilt program whose targets differ
+        from the document's (a document edited by hand, or another dloplan's kinematics).
+    """
+    if doc.program is not None:
+        return doc.program
+    if doc.grippers is None or doc.trajectory is None:
+        raise ValueError("plan: no gripper poses and trajectory to make a robot program from")
+    from ..robot import RobotCell, robot_program
+
+    cell = RobotCell() if doc.robot is None else cell_from_dict(doc.robot.cell)
+    program = robot_program(doc.grippers, doc.trajectory, cell)
+    if doc.robot is not None:
+        recorded = np.array([[arm["joints_deg"] for arm in target["arms"].values()]
+                             for target in doc.robot.program["targets"]])
+        rebuilt = np.degrees(program.joints)
+        if recorded.shape != rebuilt.shape or np.abs(recorded - rebuilt).max() > 1e-6:
+            raise ValueError("plan.robot: the robot program rebuilt from the plan differs from "
+                             "the verified one it records; plan again")
+    return program
+
+
+def program_reachability(program, n_shapes: int) -> list[dict]:
+    """Per-shape reach and joint margin [rad] of a robot program, as verification rows."""
+    rows = []
+    for k in range(n_shapes):
+        label = f"shape {k}"
+        mine = [r for r in program.checks if r.label == label]
+        reach = {arm: all(r.ok for r in mine if r.check == "reach" and r.arm == arm)
+                 for arm in ("left", "right")}
+        margins = [r.value for r in mine if r.check == "joint limits"]
+        rows.append({"reachable_left": reach["left"], "reachable_right": reach["right"],
+                     "joint_margin": float(np.radians(min(margins))) if margins else None})
+    return rows
 
 
 def settled_shapes(doc: PlanDocument) -> np.ndarray:
@@ -218,20 +310,25 @@ def settled_shapes(doc: PlanDocument) -> np.ndarray:
 
 
 def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
-                robot: bool = True, tensile_limit=None, tolerance: float = 0.01):
+                robot: bool = True, tensile_limit=None, tolerance: float = 0.01,
+                progress=quiet):
     """Verify a plan document: stability, snap-through, robot reachability, dynamic replay.
 
-    The replay drives the clips between the planned poses at the trajectory's knot times: the
+    The reachability columns are those of the robot program (:func:`program_of`): the exported
+    targets, with the arm assignment and tools the program is written with. The replay drives
+    the clips between the planned poses at the trajectory's knot times: the
     same motion as the timed dual-arm trajectory. Returns the
     :class:`~dloplan.verify.Verification`.
     """
     from ..verify import verify_path
 
     times = doc.trajectory.times if replay and doc.trajectory is not None else None
-    reach = robot_rows(doc.grippers) if robot and doc.grippers is not None else None
+    reach = None
+    if robot and doc.trajectory is not None:
+        reach = program_reachability(program_of(doc), len(doc.shapes))
     return verify_path(doc.cable, settled_shapes(doc), doc.clip_poses(), times=times, snap=snap,
                        replay_options={"tolerance": tolerance, "tensile_limit": tensile_limit},
-                       reachability=reach)
+                       reachability=reach, progress=progress)
 
 
 def with_verification(doc: PlanDocument, verification) -> PlanDocument:
@@ -254,10 +351,11 @@ def _identification_section(ident) -> IdentificationSection | None:
         return None
     return IdentificationSection(ident.youngs_modulus, tuple(ident.confidence_interval),
                                  ident.simulations, ident.rms_error, ident.informative,
-                                 ident.message)
+                                 ident.message, ident.n_links)
 
 
-def run_job(job: Job, *, verify: bool = False, progress=quiet) -> PlanDocument:
+def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
+            progress=quiet) -> PlanDocument:
     """Plan a job end to end and return its plan document.
 
     Parameters
@@ -265,7 +363,9 @@ def run_job(job: Job, *, verify: bool = False, progress=quiet) -> PlanDocument:
     job : Job
         A resolved scenario (:func:`dloplan.app.load_job`).
     verify : bool
-        Also verify the plan (:func:`verify_plan`).
+        Also verify the plan's physics (:func:`verify_plan`: stability, snap-through, replay).
+    check_robot : bool
+        Make and check the robot program (:func:`plan_program`; fast, on by default).
     progress : callable
         Called with a line of text after each step.
     """
@@ -279,7 +379,16 @@ def run_job(job: Job, *, verify: bool = False, progress=quiet) -> PlanDocument:
     twist = plan_twist(job.cable, result.path, grippers, progress)
     timings["twist"] = time.perf_counter() - t0
 
-    warnings = list(result.warnings)
+    warnings = [w + " (planner.keep_target: true plans the requested one)"
+                if w.endswith("planned instead") else w for w in result.warnings]
+    e = job.cable.youngs_modulus
+    if not TESTED_MODULI[0] <= e <= TESTED_MODULI[1]:
+        warnings.append(f"cable: E = {e:.3g} Pa is outside {TESTED_MODULI[0]:.0e}.."
+                        f"{TESTED_MODULI[1]:.0e} Pa, the range the solvers are tested on")
+    if job.identification is not None:
+        from ..identify.report import plan_warnings
+
+        warnings += [f"identification: {w}" for w in plan_warnings(job.identification, job.cable)]
     if not target_check.stable:
         warnings.append(target_check.message)
     warnings += list(grippers.warnings)
@@ -307,16 +416,20 @@ def run_job(job: Job, *, verify: bool = False, progress=quiet) -> PlanDocument:
         identification=_identification_section(job.identification),
         timings=timings,
     )
+    if check_robot:
+        t0 = time.perf_counter()
+        doc = with_program(doc, plan_program(job.robot, grippers, trajectory, progress))
+        doc = replace(doc, timings={**doc.timings, "robot": time.perf_counter() - t0})
     if verify:
         t0 = time.perf_counter()
-        verification = verify_plan(doc)
+        verification = verify_plan(doc, progress=progress)
         doc = with_verification(doc, verification)
         doc = replace(doc, timings={**doc.timings, "verify": time.perf_counter() - t0})
         progress(f"verification: {'passed' if verification.ok else 'FAILED'}")
     return doc
 
 
-def run_harness_job(job, progress=quiet) -> PlanDocument:
+def run_harness_job(job, *, check_robot: bool = True, progress=quiet) -> PlanDocument:
     """The wire-harness job (thesis 7.3) as a plan document: both phases, insertion, tensioning.
 
     One knot per shape of the whole job; the harness numbers in the ``harness`` section, the
@@ -324,15 +437,20 @@ def run_harness_job(job, progress=quiet) -> PlanDocument:
     """
     from ..harness import harness_summary
     from ..harness.files import run_harness_job as run
+    from .job import robot_cell
 
     progress(f"harness job: {job.cable.name or 'cable'}, board checked")
     result = run(job)
     progress(result.message)
-    return PlanDocument(
+    doc = PlanDocument(
         cable=job.cable, shapes=result.shapes, grippers=result.grippers,
         trajectory=result.trajectory, warnings=tuple(result.warnings), source=job.source,
         obstacles=tuple(result.board.contacts()), forces=dict(result.forces),
         harness=harness_summary(result), timings=dict(result.timings))
+    if not check_robot:
+        return doc
+    cell = robot_cell(job.scenario, 1e-3 if job.scenario.units == "mm" else 1.0)
+    return with_program(doc, plan_program(cell, result.grippers, result.trajectory, progress))
 
 
 def simulate_plan(doc: PlanDocument, *, damping: str = "relative", torsion: bool = False,

@@ -15,11 +15,13 @@ from .document import PlanDocument
 
 VERIFY_TITLES = {
     "index": "shape", "smallest_eigenvalue": "lambda_1 [N/m]",
-    "relative_eigenvalue": "lambda_1 / ref", "snap": "snap", "straying": "stray [m]",
+    "relative_eigenvalue": "lambda_1 / ref", "snap": "snap", "straying": "stray [mm]",
     "reachable_left": "left arm reaches", "reachable_right": "right arm reaches",
-    "joint_margin": "joint margin [rad]", "replay_deviation": "replay deviation [m]",
+    "joint_margin": "joint margin [rad]", "replay_deviation": "replay deviation [mm]",
 }
-"""Column titles (with units) of the verification table."""
+"""Column titles (with units) of the verification table: lengths in mm, as on the console."""
+
+MILLIMETRE_COLUMNS = {"straying", "replay_deviation"}
 
 
 def figure_names(doc: PlanDocument) -> list[str]:
@@ -75,8 +77,10 @@ def summary_lines(doc: PlanDocument) -> list[str]:
              + f", n = {cable.n_links}, S = {doc.n_shapes}"]
     if doc.trajectory is not None and doc.grippers is not None:
         twist = np.degrees(np.abs(doc.grippers.twist).max())
+        roll = np.degrees(np.abs(doc.grippers.roll).max(axis=0))
         lines.append(f"trajectory {doc.trajectory.duration:.2f} s; gripper method "
-                     f"{doc.grippers.method}; largest relative twist {twist:.1f} deg")
+                     f"{doc.grippers.method}; largest relative twist {twist:.1f} deg; clips roll "
+                     f"up to {roll[0]:.1f} / {roll[1]:.1f} deg about the cable")
     if doc.target_check is not None:
         lines.append(doc.target_check.message)
     if doc.avoidance is not None:
@@ -85,6 +89,8 @@ def summary_lines(doc: PlanDocument) -> list[str]:
         lines.append(doc.harness.get("message", ""))
         lines += [f"{name}: {t0:.2f} s to {t1:.2f} s"
                   for name, (t0, t1) in doc.harness.get("phase_times", {}).items()]
+    if doc.robot is not None:
+        lines.append(doc.robot.message)
     if doc.verification is not None:
         lines.append(f"verification: {doc.verification.messages[-1]}"
                      if doc.verification.ok else "verification: FAILED")
@@ -97,7 +103,7 @@ def shape_table(doc: PlanDocument):
     from ..physics.geometry import shape_length
 
     chain = SpringChain.from_cable(doc.cable)
-    header = ["shape", "length [m]", "max |F_axial| [N]", "max |F_bending| [N]"]
+    header = ["shape", "length [mm]", "max |F_axial| [N]", "max |F_bending| [N]"]
     if doc.stabilized is not None:
         header.append("stabilization moves [mm]")
     if doc.clip_wrenches is not None:
@@ -105,7 +111,7 @@ def shape_table(doc: PlanDocument):
     rows = []
     for k, shape in enumerate(doc.shapes):
         f = forces(chain, shape)
-        row = [k, f"{shape_length(shape):.4f}",
+        row = [k, f"{1e3 * shape_length(shape):.1f}",
                f"{np.linalg.norm(f.axial, axis=-1).max():.3g}",
                f"{np.linalg.norm(f.bending, axis=-1).max():.3g}"]
         if doc.stabilized is not None:
@@ -126,33 +132,47 @@ def verification_table(doc: PlanDocument):
         return None
     header = list(rows[0])
 
-    def cell(value):
-        return "-" if value is None else f"{value:.4g}" if isinstance(value, float) else value
+    def cell(key, value):
+        if value is None:
+            return "-"
+        if isinstance(value, float):
+            return f"{1e3 * value:.2f}" if key in MILLIMETRE_COLUMNS else f"{value:.4g}"
+        return value
 
     return ("Verification", [VERIFY_TITLES.get(h, h) for h in header],
-            [[cell(row[h]) for h in header] for row in rows])
+            [[cell(h, row[h]) for h in header] for row in rows])
 
 
 def shape_labels(doc: PlanDocument) -> list[str]:
-    """One slider label per shape, naming the harness phase it belongs to."""
+    """One slider label per shape, numbered as in the tables: start, target, harness phase."""
     count = len(doc.shapes)
-    labels = [f"shape {k} of {count - 1}" for k in range(count)]
-    knots = (doc.harness or {}).get("knots", {})
-    for name, (first, last) in knots.items():
+    names = {0: "start", count - 1: "target"}
+    for phase, (first, last) in (doc.harness or {}).get("knots", {}).items():
         for k in range(first, min(last, count - 1) + 1):
-            if labels[k].endswith(f"of {count - 1}"):
-                labels[k] += f" ({name})"
-    return labels
+            names.setdefault(k, phase)
+    return [f"shape {k}" + (f" ({names[k]})" if k in names else "") for k in range(count)]
 
 
-def write_plan_report(doc: PlanDocument, path, images=()) -> Path:
-    """The self-contained HTML report of a plan document."""
+def robot_table(doc: PlanDocument):
+    """The robot program's checks, one row per check (worst value and where), or None."""
+    if doc.robot is None:
+        return None
+    rows = [[line["check"], "ok" if line["ok"] else "FAILED", f"{line['worst']:.4g} {line['unit']}",
+             line["where"], line["failures"], line["first_failure"] or "-"]
+            for line in doc.robot.program["summary"]]
+    return ("Robot program (YuMi, exactly the exported targets)",
+            ["check", "verdict", "worst", "where", "failing rows", "first failure"], rows)
+
+
+def write_plan_report(doc: PlanDocument, path, images=(), arms=None) -> Path:
+    """The self-contained HTML report of a plan document (``arms``: the robot program's
+    :meth:`~dloplan.robot.RobotProgram.report_arms`, to draw both arms)."""
     from ..plots.report import write_report
 
     tables = [shape_table(doc)]
-    verification = verification_table(doc)
-    if verification is not None:
-        tables.append(verification)
+    for table in (verification_table(doc), robot_table(doc)):
+        if table is not None:
+            tables.append(table)
     kind = "harness job" if doc.harness is not None else "plan"
     return write_report(
         path, title=f"dloplan {kind}: {doc.source}", shapes=doc.shapes,
@@ -160,4 +180,4 @@ def write_plan_report(doc: PlanDocument, path, images=()) -> Path:
         clip_positions=None if doc.grippers is None else doc.grippers.positions,
         clip_rotations=None if doc.grippers is None else doc.grippers.matrices,
         obstacles=doc.obstacles, summary=summary_lines(doc), warnings=list(doc.warnings),
-        tables=tables, images=images, labels=shape_labels(doc))
+        tables=tables, images=images, labels=shape_labels(doc), **(arms or {}))

@@ -59,11 +59,15 @@ def write_ros(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Pa
 
 
 def write_rapid_program(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
-    """The RAPID modules of both YuMi arms, in the folder ``target``."""
+    """The RAPID modules of both YuMi arms, in the folder ``target``: exactly the verified
+    robot program of the document (:func:`dloplan.app.pipeline.program_of`). A plan made
+    without robot checks (``--no-verify``) gets its program written with the checks' verdict
+    in the module header; a program that failed its checks is refused."""
     from ..io.rapid import write_rapid
+    from .pipeline import program_of
 
     _needs_trajectory(doc, "rapid")
-    return list(write_rapid(target, doc.trajectory).values())
+    return list(write_rapid(target, program_of(doc), force=doc.robot is None).values())
 
 
 def write_figure_files(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
@@ -72,9 +76,15 @@ def write_figure_files(doc: PlanDocument, target: Path, options: WriteOptions) -
 
 
 def write_report_file(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
-    """The HTML report, with the PNG figures of the ``figures/`` folder beside it embedded."""
+    """The HTML report, with the PNG figures of the ``figures/`` folder beside it embedded and
+    both robot arms drawn when the plan has a robot program."""
     images = sorted((target.parent / WRITERS["figures"].target).glob("*.png"))
-    return [write_plan_report(doc, target, images)]
+    arms = {}
+    if doc.robot is not None and doc.trajectory is not None:
+        from .pipeline import program_of
+
+        arms = program_of(doc).report_arms()
+    return [write_plan_report(doc, target, images, arms)]
 
 
 @dataclass(frozen=True)

@@ -123,6 +123,16 @@ class GripperPath:
         """(S + 2, 2, 3, 3) ``clip_to_world`` matrices (columns u, v, w)."""
         return np.stack([r.as_matrix() for r in self.rotations], axis=1)
 
+    @property
+    def roll(self) -> np.ndarray:
+        """(S + 2, 2) each clip's own rotation about the cable from the start [rad].
+
+        The relative twist compares one clip with the other, so a path that turns both clips
+        over together reads zero twist; the roll tells how far each gripper turned the cable
+        about its axis (:func:`clip_roll`).
+        """
+        return np.stack([clip_roll(r) for r in self.rotations], axis=1)
+
     def clip_poses(self, index: int) -> ClipPoses:
         """The two clip poses at shape ``index``."""
         rot = Rotation.concatenate([r[index : index + 1] for r in self.rotations])
@@ -154,6 +164,31 @@ def relative_twist(first: Rotation, last: Rotation) -> np.ndarray:
     twist = q * (swing * q[0:1]).inv()
     angles = np.einsum("ij,ij->i", twist.as_rotvec(), x)
     return np.unwrap(angles)
+
+
+def clip_roll(rotations: Rotation) -> np.ndarray:
+    """One clip's rotation about its own u-axis along a path [rad], zero at the first shape.
+
+    Each step R_i^-1 R_(i+1) is split into the minimal rotation of the u-axis (the cable's end
+    changing direction) and a rotation about the new u-axis (the roll); the rolls add up.
+
+    Parameters
+    ----------
+    rotations : scipy.spatial.transform.Rotation
+        K ``clip_to_world`` rotations of one clip, x-axes the u-axes.
+
+    Returns
+    -------
+    numpy.ndarray
+        (K,) accumulated signed roll, right-handed about the u-axis.
+    """
+    if len(rotations) < 2:
+        return np.zeros(len(rotations))
+    step = rotations[:-1].inv() * rotations[1:]
+    x = step.apply([1.0, 0.0, 0.0])
+    swing = minimal_rotation(np.broadcast_to([1.0, 0.0, 0.0], x.shape), x)
+    roll = step * swing.inv()
+    return np.r_[0.0, np.cumsum(np.einsum("ij,ij->i", roll.as_rotvec(), x))]
 
 
 def _step_warnings(rotations: ClipRotations, max_step: float) -> list[str]:
@@ -243,6 +278,19 @@ def gripper_path(
         if not np.isfinite(value) or value <= 0:
             raise ValueError(f"{name}: got {value!r}, expected a finite angle > 0 [rad]")
     resolved, why = resolve_method(method, cable)
+    result = _frames_for(x, resolved, why, initial, aux, min_angle, max_twist, max_step)
+    if method == "auto" and resolved == "minimal" and not result.success:
+        worst = np.degrees(np.abs(result.twist)).max()
+        rigid = _frames_for(x, "rigid", "auto: equivalent rigid rotation (minimal rotation "
+                            f"would twist the cable by {worst:.0f} deg)",
+                            initial, aux, min_angle, max_twist, max_step)
+        if rigid.success:
+            return rigid
+    return result
+
+
+def _frames_for(x, resolved, why, initial, aux, min_angle, max_twist, max_step) -> GripperPath:
+    """The gripper path of one resolved method (see :func:`gripper_path`)."""
     positions, u = clip_axes(x)
     if resolved == "auxiliary":
         if initial is not None:
@@ -260,8 +308,10 @@ def gripper_path(
     twist = relative_twist(*rotations)
     worst = int(np.argmax(np.abs(twist)))
     success = bool(abs(twist[worst]) <= max_twist)
+    roll = np.degrees(np.abs([clip_roll(r) for r in rotations]).max())
     message = (
-        f"{why}; largest relative twist {np.degrees(twist[worst]):.1f} degrees at shape {worst}"
+        f"{why}; largest relative twist {np.degrees(twist[worst]):.1f} degrees at shape {worst}; "
+        f"each clip rolls up to {roll:.1f} degrees about the cable"
     )
     if not success:
         hint = " (try method 'rigid')" if resolved != "rigid" else ""

@@ -23,6 +23,7 @@ from ..grippers import GripperPath, gripper_path, relative_twist
 from ..io.rapid import RapidSettings, write_rapid
 from ..physics.geometry import resample_by_arc_length
 from ..planning.result import ForceStatistics, stage_forces
+from ..robot.program import robot_program
 from ..trajectory import (
     DEFAULT_MAX_ANGULAR_SPEED,
     DEFAULT_MAX_SPEED,
@@ -293,10 +294,13 @@ def run_harness(
 
 def write_harness_rapid(directory, result: HarnessResult,
                         settings: RapidSettings | None = None) -> dict:
-    """Write the job's single program as one RAPID module per arm (:func:`write_rapid`)."""
+    """Write the job's single program as one RAPID module per arm (:func:`write_rapid` of
+    :func:`~dloplan.robot.robot_program`; a program failing its checks is written for
+    inspection, its header says why)."""
     if not isinstance(result, HarnessResult):
         raise ValueError(f"result: got {type(result).__name__}, expected a HarnessResult")
-    return write_rapid(directory, result.trajectory, settings)
+    return write_rapid(directory, robot_program(result.grippers, result.trajectory), settings,
+                       force=True)
 
 
 def harness_summary(result: HarnessResult) -> dict:

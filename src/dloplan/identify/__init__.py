@@ -8,8 +8,14 @@ from .design import (
     synthetic_experiment,
 )
 from .experiment import Experiment, Manipulation, PreparedShapes, prepare_shapes
-from .fit import DEFAULT_BOUNDS, Identification, identify_youngs_modulus
-from .simulate import DynamicSettings, ManipulationRun, modulus_sensitivity, run_manipulation
+from .fit import DEFAULT_BOUNDS, Identification, LocalMinimum, identify_youngs_modulus
+from .simulate import (
+    DynamicSettings,
+    ManipulationRun,
+    final_equilibrium,
+    modulus_sensitivity,
+    run_manipulation,
+)
 
 __all__ = [
     "DEFAULT_BOUNDS",
@@ -17,12 +23,14 @@ __all__ = [
     "DynamicSettings",
     "Experiment",
     "Identification",
+    "LocalMinimum",
     "Manipulation",
     "ManipulationRun",
     "PreparedShapes",
     "assess_manipulation",
     "bending_manipulation",
     "cantilever_manipulation",
+    "final_equilibrium",
     "identify_youngs_modulus",
     "modulus_sensitivity",
     "prepare_shapes",

@@ -27,9 +27,8 @@ from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
 from ..physics.geometry import resample_by_arc_length
-from ..shapes import discretize
 from ..sim.clips import ClipPoses, clip_poses_from_shape
-from .experiment import Experiment, Manipulation
+from .experiment import Experiment, Manipulation, initial_on
 from .fit import MAX_LOG_SD
 from .simulate import run_manipulation
 
@@ -123,6 +122,29 @@ def cantilever_manipulation(
     return Manipulation(start, poses, held="first", gravity=GRAVITY)
 
 
+def hanging_loop_manipulation(cable: Cable, *, clip_distance: float | None = None,
+                              height: float = 0.3, steps: int = 4) -> Manipulation:
+    """Both clips brought side by side, pointing down: the cable hangs as a loop below them.
+
+    The loop's height and width depend on q L^3 / (E I) all along the cable, not only near the
+    clips, which suits soft cables. :func:`bending_manipulation` with ``angle=-90``.
+
+    Parameters
+    ----------
+    cable : Cable
+        The cable.
+    clip_distance : float, optional
+        Final distance between the clips [m] (default a tenth of the cable length).
+    height : float
+        Clip height [m].
+    steps : int
+        Clip poses after the initial one.
+    """
+    distance = 0.1 * cable.length if clip_distance is None else clip_distance
+    return bending_manipulation(cable, clip_distance=distance, angle=-90.0, height=height,
+                                steps=steps)
+
+
 @dataclass(frozen=True)
 class DesignCheck:
     """How well a manipulation would identify a cable's E (see :func:`assess_manipulation`).
@@ -145,10 +167,9 @@ class DesignCheck:
     message: str
 
 
-def _simulate_design(cable: Cable, manipulation: Manipulation):
+def simulate_design(cable: Cable, manipulation: Manipulation):
     """The manipulation simulated at the cable's modulus; a failing design is a ValueError."""
-    initial = discretize(manipulation.initial_shape, cable, "initial_shape")
-    run = run_manipulation(cable, manipulation, initial)
+    run = run_manipulation(cable, manipulation, initial_on(cable, manipulation))
     if not run.success:
         raise ValueError(f"manipulation: the simulation fails at E = {cable.youngs_modulus:.3g} "
                          f"Pa ({run.message})")
@@ -177,7 +198,7 @@ def assess_manipulation(
     """
     if not (math.isfinite(noise) and noise > 0):
         raise ValueError(f"noise: got {noise!r}, expected a distance > 0 [m]")
-    run = _simulate_design(cable, manipulation)
+    run = simulate_design(cable, manipulation)
     size = float(np.linalg.norm(run.sensitivity))
     log_sd = noise / size if size > 0 else math.inf
     ok = log_sd <= max_log_sd
@@ -196,17 +217,14 @@ def synthetic_experiment(
     seed: int = 0,
     name: str = "synthetic",
 ) -> Experiment:
-    """The experiment a model cable at a known E would give: simulated, noisy, resampled.
+    """The experiment a model cable at a known E would give: simulated, resampled, noisy.
 
-    The final shape of the quasi-static simulation at ``cable.youngs_modulus`` gets
-    independent Gaussian noise of standard deviation ``noise`` on every coordinate of its
-    n + 1 points and is then resampled by arc length to ``n_measured`` points (a measurement of
-    another resolution). The default 3 n + 1 keeps the model's points among the resampled ones
-    (the links have equal lengths), so resampling back to n + 1 points gives them back; other
-    counts cut the polyline's corners, a bias of the order of the link length times the
-    turning angle per link (a real, smooth cable has no corners: there the discretization of
-    the model is what matters, see ``benchmarks/bench_identify.py``). The experiment states
-    ``noise`` as its measurement noise (at least 0.1 mm).
+    The final shape of the quasi-static simulation at ``cable.youngs_modulus`` is resampled by
+    arc length to ``n_measured`` points (a measurement of another resolution; the default
+    3 n + 1 keeps the model's points among them) and every coordinate gets independent Gaussian
+    noise of standard deviation ``noise`` (as a registration's points would: noise added to
+    the model's points before resampling would be averaged, hence weaker and correlated,
+    between them). The experiment states ``noise`` as its measurement noise (at least 0.1 mm).
 
     Parameters
     ----------
@@ -225,8 +243,8 @@ def synthetic_experiment(
     """
     if not (math.isfinite(noise) and noise >= 0):
         raise ValueError(f"noise: got {noise!r}, expected a distance >= 0 [m]")
-    run = _simulate_design(cable, manipulation)
+    run = simulate_design(cable, manipulation)
     rng = np.random.default_rng(seed)
-    noisy = run.final + rng.normal(0.0, noise, run.final.shape)
-    measured = resample_by_arc_length(noisy, n_measured or 3 * cable.n_links + 1)
+    points = resample_by_arc_length(run.final, n_measured or 3 * cable.n_links + 1)
+    measured = points + rng.normal(0.0, noise, points.shape)
     return Experiment(manipulation, measured, measurement_noise=max(noise, 1e-4), name=name)

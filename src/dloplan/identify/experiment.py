@@ -16,9 +16,11 @@ cable and its outcome:
 * the measurement accuracy [m] (one standard deviation per coordinate), used to judge
   whether the experiment tells moduli apart.
 
-The experiment is cable-independent data: :func:`prepare_shapes` resamples both polylines by
-arc length to the n + 1 points of a given discretization (thesis Fig. 6.4) and checks them
-against the cable (length, units, which end is first, the frame).
+The experiment is cable-independent data (the clip poses are where the clips are, whatever the
+discretization: a model of n links holds the middle of its end links there, thesis Fig. 4.5):
+:func:`prepare_shapes` checks the measurement against a cable (length, units, which end is
+first, the frame), orients it, and gives the initial shape and a guess of the final one on the
+cable's n + 1 points (the measured shape smoothed and resampled by arc length, Fig. 6.4).
 """
 
 from __future__ import annotations
@@ -28,11 +30,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
 from ..physics.geometry import as_shape
-from ..shapes import discretize
+from ..shapes import LENGTH_TOLERANCE, discretize
 from ..sim.clips import ClipPoses
+from .measured import MeasuredCurve, measured_curve
 
 HELD_MODES = ("both", "first")
 
@@ -122,27 +126,58 @@ class Experiment:
 
 @dataclass(frozen=True, eq=False)
 class PreparedShapes:
-    """The experiment's shapes on a cable's discretization (see :func:`prepare_shapes`).
+    """The experiment's shapes for one cable (see :func:`prepare_shapes`).
 
     Attributes
     ----------
     initial : numpy.ndarray
         (n + 1, 3) initial shape [m].
     measured : numpy.ndarray
-        (n + 1, 3) measured final shape [m], equally spaced in arc length.
+        (k, 3) measured points [m], from the first clip's end to the other.
+    guess : numpy.ndarray
+        (n + 1, 3) the measured shape smoothed and resampled by arc length [m]: the start of
+        the final equilibrium on the measured branch.
+    curve : MeasuredCurve
+        The smoothed measurement (length, smallest bend radius).
     reversed : bool
         True when the measured points were given from the last clip's end and were reversed.
     """
 
     initial: np.ndarray
     measured: np.ndarray
+    guess: np.ndarray
+    curve: MeasuredCurve
     reversed: bool
 
 
-def prepare_shapes(cable: Cable, experiment: Experiment) -> PreparedShapes:
-    """Resample the experiment's shapes to the cable's n + 1 points and check them (Fig. 6.4).
+def seat_in_first_clip(shape: np.ndarray, clips: ClipPoses, link_length: float) -> np.ndarray:
+    """Move a shape rigidly so its first link lies in the first clip (position and u-axis).
 
-    Checks, each a ``ValueError`` naming the shape: its length against the cable's (within
+    A shape written for one discretization, held at the middle of its first link, starts half a
+    link of another n away from the clip's held points; a cantilever's solver holds points 0 and
+    1 where the clip says, so the shape is moved there first (a two-clip solver conforms its
+    guess itself).
+    """
+    held = clips.held_points(link_length)[:2]
+    rotation, _ = Rotation.align_vectors([held[1] - held[0]], [shape[1] - shape[0]])
+    middle = 0.5 * (shape[0] + shape[1])
+    return rotation.apply(shape - middle) + 0.5 * (held[0] + held[1])
+
+
+def initial_on(cable: Cable, manipulation: Manipulation) -> np.ndarray:
+    """The manipulation's initial shape on the cable's n + 1 points, in the first clips [m]."""
+    initial = discretize(manipulation.initial_shape, cable, "initial_shape")
+    if manipulation.held == "first":
+        initial = seat_in_first_clip(initial, manipulation.clips[0], cable.rest_link_length)
+    return initial
+
+
+def prepare_shapes(cable: Cable, experiment: Experiment,
+                   curve: MeasuredCurve | None = None) -> PreparedShapes:
+    """Check the experiment's shapes against a cable and put them on its n + 1 points.
+
+    Checks, each a ``ValueError`` naming the shape: its length (of the smoothed measurement,
+    :mod:`dloplan.identify.measured`, which noise does not inflate) against the cable's (within
     5 %; a length about 1000 times the cable's is reported as millimetres given for metres),
     and the measured ends against the final clips (within 5 % of the cable length; a measured
     polyline running from the last clip to the first is reversed, and said so).
@@ -153,21 +188,29 @@ def prepare_shapes(cable: Cable, experiment: Experiment) -> PreparedShapes:
         The cable whose discretization is used.
     experiment : Experiment
         The experiment.
+    curve : MeasuredCurve, optional
+        The smoothed measurement, when already computed.
     """
     manipulation = experiment.manipulation
-    initial = discretize(manipulation.initial_shape, cable, "initial_shape")
-    measured = discretize(experiment.measured_shape, cable, "measured_shape")
+    initial = initial_on(cable, manipulation)
+    if curve is None:
+        curve = measured_curve(experiment.measured_shape, experiment.measurement_noise)
+    ratio = curve.length / cable.length
+    if abs(ratio - 1.0) > LENGTH_TOLERANCE:
+        hint = " (given in millimetres?)" if 500 < ratio < 2000 else ""
+        raise ValueError(
+            f"measured_shape: the shape is {curve.length:.4g} m long but the cable is "
+            f"{cable.length:.4g} m{hint}; expected within {100 * LENGTH_TOLERANCE:g} %")
     ends = manipulation.final_clips.held_points(cable.rest_link_length)[[0, 3]]
     checked = 1 if manipulation.held == "first" else 2
 
-    def misfit(shape: np.ndarray) -> float:
-        return float(np.max(np.linalg.norm(shape[[0, -1]][:checked] - ends[:checked], axis=1)))
+    def misfit(points: np.ndarray) -> float:
+        return float(np.max(np.linalg.norm(points[[0, -1]][:checked] - ends[:checked], axis=1)))
 
-    flipped = measured[::-1].copy()
-    reverse = misfit(flipped) < misfit(measured)
+    reverse = misfit(curve.points[::-1]) < misfit(curve.points)
     if reverse:
-        measured = flipped
-    worst = misfit(measured)
+        curve = curve.reversed()
+    worst = misfit(curve.points)
     limit = END_TOLERANCE * cable.length
     if worst > limit:
         raise ValueError(
@@ -175,5 +218,7 @@ def prepare_shapes(cable: Cable, experiment: Experiment) -> PreparedShapes:
             f"(expected within {1e3 * limit:.0f} mm): is the shape in the robot's world frame, "
             "and are the clip poses the ones of the measured manipulation?"
         )
-    return PreparedShapes(initial, measured, bool(reverse))
-
+    guess = curve.resampled(cable.n_points)
+    if manipulation.held == "first":
+        guess = seat_in_first_clip(guess, manipulation.final_clips, cable.rest_link_length)
+    return PreparedShapes(initial, curve.points, guess, curve, bool(reverse))

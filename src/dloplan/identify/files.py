@@ -11,7 +11,8 @@ section of a full scenario has the same format::
       held: both                 # both | first (a cantilever)
       measurement_noise: 0.001   # [file units], one standard deviation per coordinate
       bounds: [1.0e+5, 1.0e+10]  # [Pa]
-      simulator: static          # static | dynamic
+      simulator: branch          # branch | static | dynamic
+      # measured_file: {path: shapes.csv, label: xi_0}   # instead of measured_shape
       substeps: 1                # equilibria per listed clip pose (interpolated)
       initial_shape: [[0, 0, 0.3], [0.5, 0, 0.3]]       # any number of points
       trajectory:                # clip poses, the first holding the initial shape
@@ -92,6 +93,13 @@ class ClipPairSpec(_Model):
     last: ClipSpec
 
 
+class MeasuredFileSpec(_Model):
+    """A registered-shape file of the vision tools (:mod:`dloplan.vision.shapes_io`)."""
+
+    path: str = Field(description=".csv or .json, relative to the identification file")
+    label: str | None = Field(None, description="the shape to use (default: the only one)")
+
+
 class IdentifySpec(_Model):
     """The ``identify`` section: the experiment and the search settings."""
 
@@ -101,19 +109,24 @@ class IdentifySpec(_Model):
     bounds: Annotated[list[Annotated[float, Field(gt=0, allow_inf_nan=False)]],
                       Field(min_length=2, max_length=2)] = Field(
         default_factory=lambda: list(DEFAULT_BOUNDS), description="[Pa]")
-    simulator: Literal["static", "dynamic"] = "static"
+    simulator: Literal["branch", "static", "dynamic"] = "branch"
     substeps: Annotated[int, Field(ge=1, le=100)] = 1
     initial_shape: Points
     trajectory: Annotated[list[ClipPairSpec], Field(min_length=1)]
-    measured_shape: Points
+    measured_shape: Points | None = None
+    measured_file: MeasuredFileSpec | None = None
 
     @model_validator(mode="after")
     def _ordered(self):
         if not self.bounds[0] < self.bounds[1]:
             raise ValueError(f"bounds must be [E_min, E_max] with E_min < E_max [Pa], got "
                              f"{self.bounds}")
+        if (self.measured_shape is None) == (self.measured_file is None):
+            raise ValueError("give exactly one of measured_shape (points) or measured_file (a "
+                             "registered-shape file)")
         for name in ("initial_shape", "measured_shape"):
-            if not np.all(np.isfinite(np.asarray(getattr(self, name), dtype=float))):
+            if getattr(self, name) is not None and not np.all(
+                    np.isfinite(np.asarray(getattr(self, name), dtype=float))):
                 raise ValueError(f"{name} must be finite numbers")
         return self
 
@@ -159,8 +172,37 @@ def _points(rows, scale: float) -> np.ndarray:
     return np.asarray(rows, dtype=float) * scale
 
 
-def experiment_from_spec(spec: IdentifySpec, scale: float = 1.0, name: str = "") -> Experiment:
-    """Build the :class:`Experiment` of a validated ``identify`` section (``scale`` [m/unit])."""
+def registered_points(path: str | Path, label: str | None = None) -> np.ndarray:
+    """The points [m] of one shape of a registered-shape file (CSV or JSON of the vision tools).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (:func:`dloplan.vision.shapes_io.read_shapes`).
+    label : str, optional
+        The shape's label; required when the file holds several.
+    """
+    from ..vision.shapes_io import read_shapes
+
+    shapes = read_shapes(path)
+    if label is None:
+        if len(shapes) != 1:
+            raise ValueError(f"measured_file.label: {path} holds {len(shapes)} shapes "
+                             f"({', '.join(s.label for s in shapes)}), expected the label of one")
+        return shapes[0].points
+    chosen = [s for s in shapes if s.label == label]
+    if not chosen:
+        raise ValueError(f"measured_file.label: no shape {label!r} in {path} (it holds "
+                         f"{', '.join(s.label for s in shapes)})")
+    return chosen[0].points
+
+
+def experiment_from_spec(spec: IdentifySpec, scale: float = 1.0, name: str = "",
+                         folder: str | Path = ".") -> Experiment:
+    """Build the :class:`Experiment` of a validated ``identify`` section (``scale`` [m/unit]).
+
+    A ``measured_file`` is read relative to ``folder``, in its own units (metres).
+    """
     poses = [
         ClipPoses(np.array([pair.first.position, pair.last.position]) * scale,
                   Rotation.concatenate([pair.first.rotation_to_world(),
@@ -172,8 +214,13 @@ def experiment_from_spec(spec: IdentifySpec, scale: float = 1.0, name: str = "")
         poses = [poses[0]] + [p for a, b in zip(poses, poses[1:], strict=False)
                               for p in interpolate_clips(a, b, fractions)]
     manipulation = Manipulation(_points(spec.initial_shape, scale), poses, held=spec.held)
-    return Experiment(manipulation, _points(spec.measured_shape, scale),
-                      measurement_noise=spec.measurement_noise * scale, name=name)
+    if spec.measured_file is not None:
+        measured = registered_points(Path(folder) / spec.measured_file.path,
+                                     spec.measured_file.label)
+    else:
+        measured = _points(spec.measured_shape, scale)
+    return Experiment(manipulation, measured, measurement_noise=spec.measurement_noise * scale,
+                      name=name)
 
 
 def parse_identification(data: Any, source: str = "identification") -> IdentificationJob:
@@ -195,7 +242,8 @@ def parse_identification(data: Any, source: str = "identification") -> Identific
     scale = 1e-3 if spec.units == "mm" else 1.0
     try:
         cable = build_cable(spec.cable, scale, youngs_modulus=1e7)  # placeholder modulus
-        experiment = experiment_from_spec(spec.identify, scale, name=Path(source).stem)
+        experiment = experiment_from_spec(spec.identify, scale, name=Path(source).stem,
+                                          folder=Path(source).parent)
     except ValueError as exc:
         raise ScenarioError(f"{source}: {exc}") from None
     lo, hi = spec.identify.bounds
@@ -247,7 +295,7 @@ def experiment_to_dict(experiment: Experiment, cable: dict, *, bounds=DEFAULT_BO
             "held": manipulation.held,
             "measurement_noise": float(experiment.measurement_noise * per_metre),
             "bounds": [float(b) for b in bounds],
-            "simulator": "static",
+            "simulator": "branch",
             "substeps": 1,
             "initial_shape": rows(manipulation.initial_shape),
             "trajectory": trajectory,

@@ -1,27 +1,35 @@
-"""Simulating the identification manipulation at one Young's modulus (thesis 6.1, Fig. 6.2).
+"""Simulating the identification experiment at one Young's modulus (thesis 6.1, Fig. 6.2).
 
-Two simulators give the final shape xi_sim,f of eq. 6.4:
+Three simulators give the final shape xi_sim,f that is compared with the measurement:
 
-* ``"static"`` (default): the quasi-static continuation of :mod:`dloplan.sim.statics` along the
-  clip poses, each equilibrium warm-started from the previous one (the cable follows the
-  robot's slow motion, so a path-dependent outcome follows the path). Optionally each step is
-  warm-started instead from the same step of a previous run at a nearby modulus, which saves
-  Newton iterations inside a search over E.
+* ``"branch"`` (default): only the final equilibrium, held by the final clip poses and
+  started from a guess close to the measured shape (:func:`final_equilibrium`). A
+  clamped-clamped cable has several equilibria (sagging, arching, S-shaped); the guess keeps
+  the simulated shape on the measured shape's branch at every E, so the cost is a smooth
+  function of E. (Simulating the whole manipulation instead makes the outcome jump between
+  branches as E changes: several basins, and a search that can settle in the wrong one.)
+* ``"static"``: the quasi-static continuation of :mod:`dloplan.sim.statics` along the clip
+  poses (:func:`run_manipulation`), each equilibrium warm-started from the previous one (the
+  cable follows the robot's slow motion, so a path-dependent outcome follows the path).
+  Optionally each step is warm-started instead from the same step of a previous run at a
+  nearby modulus, which saves Newton iterations inside a search over E. It checks that the
+  manipulation really ends on the measured branch.
 * ``"dynamic"``: the thesis' explicit time stepping (:func:`dloplan.sim.dynamics.simulate`),
   the clips driven along the poses at a fixed pace and the cable then left to settle; its time
   step may come from a capped, fictitious modulus (thesis Fig. 6.5). Much slower; see
   ``docs/identification.md``.
 
-Both also return the sensitivity d xi_sim,f / d ln E of the final shape, from the implicit
-function theorem at the final equilibrium: every elastic energy term is proportional to E and
-gravity does not depend on it, so with U = E Phi(x) + U_g(x) and grad U = 0 at the free points,
+All return the sensitivity d xi_sim,f / d ln E of the final shape, from the implicit function
+theorem at the final equilibrium: with U = E Phi_b(x) + U_a(x) + U_g(x) (the bending energy
+proportional to E; the axial energy U_a too when the cable has no axial modulus of its own;
+gravity independent of E) and grad U = 0 at the free points,
 
-    H  dx/d(ln E) = -E grad Phi = -(m g)_free      ->   dx/d(ln E) = -H^-1 (m g)_free,
+    H  dx/d(ln E) = -E grad Phi_b = F_b   (+ F_a when E_a = E),
 
-one sparse solve with the Hessian H of the free points: the Jacobian of the fit costs no extra
-simulation. (The derivative of the quasi-static path's end point equals that of the final
-equilibrium, since the final clip poses do not depend on E and the branch does not change
-under a small change of E.)
+one sparse solve with the Hessian H of the free points and the bending (and axial) forces F:
+the Jacobian of the fit costs no extra simulation. (The derivative of the quasi-static path's
+end point equals that of the final equilibrium, since the final clip poses do not depend on E
+and the branch does not change under a small change of E.)
 """
 
 from __future__ import annotations
@@ -33,12 +41,11 @@ import numpy as np
 import scipy.sparse.linalg as spla
 
 from ..cable import GRAVITY, Cable
-from ..physics.chain import SpringChain, hessian
-from ..physics.gravity import gravity_force
-from ..sim.statics import continuation, equilibrium
+from ..physics.chain import SpringChain, forces, hessian
+from ..sim.statics import continuation, equilibrium, force_scale
 from .experiment import Manipulation
 
-SIMULATORS = ("static", "dynamic")
+SIMULATORS = ("branch", "static", "dynamic")
 
 
 @dataclass(frozen=True)
@@ -110,6 +117,22 @@ class ManipulationRun:
         return self.shapes[-1]
 
 
+RTOL = 1e-10
+"""Relative force tolerance of the equilibria (as :func:`dloplan.sim.statics.equilibrium`)."""
+
+
+def relative_tolerance(cable: Cable, gravity=GRAVITY) -> float:
+    """``rtol`` of the equilibria: RTOL, or the round-off floor of stiff axial springs.
+
+    An axial modulus far above the bending one (a composite cable's copper, 1e3 times its
+    bending modulus) leaves a force residual of about eps k_s L from round-off alone, which can
+    exceed RTOL times the statics' force scale (a point's weight plus k_b / l); the tolerance
+    is raised to 10 eps k_s L, still a tiny fraction of the weights.
+    """
+    floor = 10.0 * np.finfo(float).eps * cable.k_axial * cable.length
+    return max(RTOL, floor / force_scale(cable, gravity))
+
+
 def free_slice(cable: Cable, held: str) -> slice:
     """The points not held by the clips: 2 .. n-2 (both clips) or 2 .. n (first clip only)."""
     return slice(2, cable.n_points - 2 if held == "both" else cable.n_points)
@@ -117,12 +140,13 @@ def free_slice(cable: Cable, held: str) -> slice:
 
 def modulus_sensitivity(cable: Cable, shape: np.ndarray, held: str = "both",
                         gravity=GRAVITY) -> np.ndarray:
-    """d x / d ln E of an equilibrium, -H^-1 (m g) on the free points (module docstring) [m].
+    """d x / d ln E of an equilibrium, H^-1 F_b (+ F_a) on the free points (module docstring).
 
     Parameters
     ----------
     cable : Cable
-        The cable at the modulus of the equilibrium.
+        The cable at the modulus of the equilibrium; with an ``axial_modulus`` of its own only
+        the bending springs scale with E.
     shape : numpy.ndarray
         (n + 1, 3) equilibrium [m].
     held : {"both", "first"}
@@ -139,11 +163,36 @@ def modulus_sensitivity(cable: Cable, shape: np.ndarray, held: str = "both",
     free = free_slice(cable, held)
     coords = np.arange(3 * free.start, 3 * free.stop)
     h = hessian(chain, shape).tocsc()[coords][:, coords]
-    load = gravity_force(chain.point_masses, chain.gravity)[free].ravel()
+    parts = forces(chain, shape)
+    scaled = parts.bending if cable.axial_modulus is not None else parts.bending + parts.axial
     out = np.zeros_like(shape)
     with np.errstate(all="ignore"):
-        out[free] = -np.asarray(spla.spsolve(h, load)).reshape(-1, 3)
+        out[free] = np.asarray(spla.spsolve(h, scaled[free].ravel())).reshape(-1, 3)
     return out
+
+
+def final_equilibrium(cable: Cable, manipulation: Manipulation, guess: np.ndarray
+                      ) -> ManipulationRun:
+    """The equilibrium held by the final clip poses nearest downhill from ``guess``.
+
+    The ``"branch"`` simulator (module docstring): with a guess on the measured shape's branch
+    (the measurement itself, or the equilibrium at a nearby E) the result stays on it.
+
+    Parameters
+    ----------
+    cable : Cable
+        The cable, with the modulus to simulate.
+    manipulation : Manipulation
+        Its final clip poses, held mode and gravity are used.
+    guess : numpy.ndarray
+        (n + 1, 3) starting shape [m].
+    """
+    result = equilibrium(cable, guess, manipulation.final_clips, gravity=manipulation.gravity,
+                         held=manipulation.held,
+                         rtol=relative_tolerance(cable, manipulation.gravity))
+    return _finish(cable, manipulation, result.shape[None], result.success,
+                   "" if result.success else f"final equilibrium failed: {result.message}",
+                   result.iterations)
 
 
 def run_manipulation(
@@ -176,13 +225,14 @@ def run_manipulation(
     if simulator == "dynamic":
         return _run_dynamic(cable, manipulation, initial, dynamic or DynamicSettings())
     gravity = manipulation.gravity
+    rtol = relative_tolerance(cable, gravity)
     if warm_start is None:
         results = continuation(cable, initial, manipulation.clips, gravity=gravity,
-                               held=manipulation.held)
+                               held=manipulation.held, rtol=rtol)
     else:
         chain = SpringChain.from_cable(cable, gravity)
         results = [equilibrium(cable, guess, clips, gravity=gravity, chain=chain,
-                               held=manipulation.held)
+                               held=manipulation.held, rtol=rtol)
                    for guess, clips in zip(warm_start, manipulation.clips, strict=True)]
     shapes = np.stack([r.shape for r in results])
     failed = [(k, r) for k, r in enumerate(results) if not r.success]

@@ -1,59 +1,55 @@
-"""ABB RAPID program for a YuMi (IRB 14000) executing a dual-arm trajectory.
+"""ABB RAPID program for a YuMi (IRB 14000): the modules of a verified
+:class:`~dloplan.robot.program.RobotProgram`.
 
-One module per motion task, ``T_ROB_L`` (left arm) and ``T_ROB_R`` (right arm), each in its
-own ``.mod`` file, to be loaded into its task. Each module declares the shared ``tasks`` list
-and two ``syncident`` s, a ``speeddata`` made from the trajectory's limits, one ``robtarget``
-per planned shape, and a procedure (default ``dloplan_move``, called from the task's own
-``main``) that runs
+One module per motion task, ``T_ROB_L`` (left arm) and ``T_ROB_R`` (right arm), each in its own
+``.mod`` file. Each module declares everything it uses: the task list and ``syncident`` s, the
+arm's ``tooldata`` (from :class:`~dloplan.robot.cell.Tool`, ABB's SmartGripper data by
+default) and the ``wobjdata`` (the plan's frame seen from the robot's base), the start
+``jointtarget``, one ``speeddata`` per move (the planned speeds), and one ``robtarget`` per
+program target whose position, orientation, confdata and arm angle (``eax_a``) are those the
+program verified. Its ``PROC main()`` runs::
 
-    ConfL \\Off;
+    ConfL \\On;                              (stop rather than take another configuration)
+    g_GripOut;                               (SmartGripper open)
+    MoveAbsJ dlo_start, v100, fine, tool;    (the verified joints of the first target)
     SyncMoveOn dlo_sync_on, dlo_tasks;
-    MoveL dlo_p00 \\ID:=10, dlo_speed, fine, tool0 \\WObj:=wobj0;
-    ...                                   (one MoveL per shape, the same IDs in both tasks)
+    MoveL dlo_p01 \\ID:=10, dlo_v01, fine, tool \\WObj:=wobj;   (approach -> grasp)
+    g_GripIn; WaitTime t_grip;
+    MoveL dlo_p02 \\ID:=20, dlo_v02, ...      (one MoveL per shape, same IDs in both tasks)
+    ...
+    g_GripOut; WaitTime t_grip;
+    MoveL ... (retreat)
     SyncMoveOff dlo_sync_off;
-    ConfL \\On;
 
-In synchronized mode the controller makes both arms start and finish each ``MoveL`` with the
-same ``\\ID`` together, the slower one setting the time: the timing rule of
-:mod:`dloplan.trajectory`. Robtargets are in millimetres in the work object, orientations as
-RAPID quaternions [q1, q2, q3, q4] = [w, x, y, z] with q1 >= 0; the robot configuration
-(confdata) and the YuMi arm angle (first external axis value, degrees) are settings, since
-the plan does not choose them; ``ConfL \\Off`` lets the controller keep the closest
-configuration during the linear moves.
+In synchronized mode the controller starts and ends each pair of ``MoveL`` with the same
+``\\ID`` together; each arm's ``speeddata`` is its planned speed in that segment (TCP mm/s and
+orientation deg/s), so both arrive at the planned time. Robtargets are in millimetres in the
+work object, orientations as RAPID quaternions [q1, q2, q3, q4] = [w, x, y, z] with q1 >= 0.
+Loading and teaching: ``docs/robot.md``.
 """
 
 from __future__ import annotations
 
 import math
 import os
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..grippers.axes import CLIP_NAMES
-from ..trajectory import ARMS, Trajectory
+from ..robot.cell import check_rapid_name
+from ..robot.program import RobotProgram
+from ..trajectory import ARMS
 from .files import atomic_write_texts
-from .poses import canonical_quaternions
 
-RAPID_FORMAT_VERSION = 1
-_IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,31}$")
+RAPID_FORMAT_VERSION = 2
 _NOT_USED = "9E+09"
-
-
-def _identifier(name: str, value) -> str:
-    if not isinstance(value, str) or not _IDENTIFIER.match(value):
-        raise ValueError(
-            f"{name}: got {value!r}, expected a RAPID identifier (a letter, then up to 31 "
-            "letters, digits or underscores)"
-        )
-    return value
 
 
 @dataclass(frozen=True)
 class RapidSettings:
-    """How the RAPID modules are named and what they refer to.
+    """How the RAPID modules are named (what they contain comes from the program and its cell).
 
     Parameters
     ----------
@@ -61,56 +57,35 @@ class RapidSettings:
         Motion task names of the left and the right arm.
     modules : tuple of str
         Module names (also the file stems) for the left and the right arm.
-    tools : tuple of str
-        ``tooldata`` names of the left and the right arm (declared on the controller; their TCP
-        must be the clip point with the clip frame, see ``tcp_in_clip`` in
-        :func:`dloplan.trajectory.trajectory_from_grippers`).
-    wobj : str
-        ``wobjdata`` the robtargets are expressed in (its object frame is the plan's frame).
+    procedure : str
+        Name of the generated motion procedure (``main`` calls it).
+    start_speed : str
+        ``speeddata`` of the first ``MoveAbsJ`` (from wherever the arm is to the start joints;
+        a predefined one of the controller).
     zone : str
         ``zonedata`` of every MoveL (``fine``: stop exactly at every planned shape).
-    procedure : str
-        Name of the generated procedure.
-    robconf : tuple of tuple of int
-        ``confdata`` [cf1, cf4, cf6, cfx] of the left and the right arm's robtargets.
-    arm_angles : tuple of float
-        YuMi arm angle [deg] (the robtarget's first external axis) of the left and right arm.
     """
 
     tasks: tuple[str, str] = ("T_ROB_L", "T_ROB_R")
     modules: tuple[str, str] = ("DloPlanL", "DloPlanR")
-    tools: tuple[str, str] = ("tool0", "tool0")
-    wobj: str = "wobj0"
-    zone: str = "fine"
     procedure: str = "dloplan_move"
-    robconf: tuple[tuple[int, int, int, int], tuple[int, int, int, int]] = (
-        (0, 0, 0, 4),
-        (0, 0, 0, 4),
-    )
-    arm_angles: tuple[float, float] = (135.0, -135.0)
+    start_speed: str = "v100"
+    zone: str = "fine"
 
     def __post_init__(self) -> None:
-        for name in ("tasks", "modules", "tools", "robconf", "arm_angles"):
+        for name in ("tasks", "modules"):
             value = getattr(self, name)
             if not isinstance(value, tuple | list) or len(value) != 2:
                 raise ValueError(f"{name}: got {value!r}, expected a pair (left arm, right arm)")
-        for name in ("tasks", "modules", "tools"):
-            for arm, value in zip(ARMS, getattr(self, name), strict=True):
-                _identifier(f"{name} ({arm})", value)
+            for arm, item in zip(ARMS, value, strict=True):
+                check_rapid_name(f"{name} ({arm})", item)
         if self.tasks[0] == self.tasks[1] or self.modules[0] == self.modules[1]:
             raise ValueError("tasks/modules: the two arms need different task and module names")
-        for name in ("wobj", "zone", "procedure"):
-            _identifier(name, getattr(self, name))
-        for arm, conf in zip(ARMS, self.robconf, strict=True):
-            if len(conf) != 4 or not all(isinstance(c, int | np.integer) for c in conf):
-                raise ValueError(
-                    f"robconf ({arm}): got {conf!r}, expected 4 integers [cf1, cf4, cf6, cfx]"
-                )
-        for arm, angle in zip(ARMS, self.arm_angles, strict=True):
-            if not isinstance(angle, int | float) or not math.isfinite(angle):
-                raise ValueError(
-                    f"arm_angles ({arm}): got {angle!r}, expected a finite angle [deg]"
-                )
+        for name in ("procedure", "start_speed", "zone"):
+            check_rapid_name(name, getattr(self, name))
+        if self.procedure == "main":
+            raise ValueError("procedure: 'main' is the module's entry point; name the motion "
+                             "procedure otherwise")
 
 
 def _num(value: float, decimals: int) -> str:
@@ -124,23 +99,57 @@ def _array(values, decimals: int) -> str:
     return "[" + ",".join(_num(float(v), decimals) for v in values) + "]"
 
 
+def _extax(arm_angle_deg: float) -> str:
+    return "[" + ",".join([_num(arm_angle_deg, 6)] + [_NOT_USED] * 5) + "]"
+
+
 def robtarget_text(position_m, quat_wxyz, robconf, arm_angle: float) -> str:
-    """A RAPID robtarget literal: [[x,y,z] mm, [q1..q4] w-first, confdata, extax]."""
+    """A RAPID robtarget literal: [[x,y,z] mm, [q1..q4] w-first, confdata, extax (eax_a deg)]."""
     trans = _array(np.asarray(position_m, dtype=float) * 1000.0, 6)
     rot = _array(quat_wxyz, 9)
     conf = "[" + ",".join(str(int(c)) for c in robconf) + "]"
-    extax = "[" + ",".join([_num(arm_angle, 6)] + [_NOT_USED] * 5) + "]"
-    return f"[{trans},{rot},{conf},{extax}]"
+    return f"[{trans},{rot},{conf},{_extax(arm_angle)}]"
 
 
-def rapid_modules(trajectory: Trajectory, settings: RapidSettings | None = None) -> dict[str, str]:
+def jointtarget_text(q) -> str:
+    """A RAPID jointtarget literal of a YuMi joint vector (7,) [rad] in physical order:
+    robax = ABB axes 1..6 [deg], extax = [axis 7, 9E+09 x 5]."""
+    deg = np.degrees(np.asarray(q, dtype=float))
+    return f"[{_array(deg[[0, 1, 3, 4, 5, 6]], 6)},{_extax(deg[2])}]"
+
+
+def _pose_text(position_m, rotation) -> str:
+    quat = rotation.as_quat(canonical=True, scalar_first=True)
+    return f"[{_array(np.asarray(position_m) * 1000.0, 6)},{_array(quat, 9)}]"
+
+
+def tooldata_text(tool) -> str:
+    """The RAPID tooldata literal of a :class:`~dloplan.robot.cell.Tool` (robot-held; mm, kg,
+    kg m^2)."""
+    load = (f"[{_num(tool.mass, 6)},{_array(tool.cog * 1000.0, 6)},[1,0,0,0],"
+            f"{','.join(_num(v, 9) for v in tool.inertia)}]")
+    return f"[TRUE,{_pose_text(tool.tcp_offset, tool.tcp_rotation)},{load}]"
+
+
+def wobjdata_text(cell) -> str:
+    """The RAPID wobjdata literal of a cell: fixed (not robot-held), programmed user frame =
+    the work frame seen from the robot's base, object frame identity."""
+    position, rotation = cell.wobj_frame
+    return f'[FALSE,TRUE,"",{_pose_text(position, rotation)},[[0,0,0],[1,0,0,0]]]'
+
+
+def speeddata_text(v_tcp: float, v_ori: float) -> str:
+    """A RAPID speeddata literal from TCP speed [m/s] and angular speed [rad/s]."""
+    return _array([v_tcp * 1000.0, math.degrees(v_ori), 5000, 1000], 6)
+
+
+def rapid_modules(program: RobotProgram, settings: RapidSettings | None = None) -> dict[str, str]:
     """The RAPID module text of each task (module docstring).
 
     Parameters
     ----------
-    trajectory : Trajectory
-        Its knots become the robtargets; its ``max_speed`` [m/s] and ``max_angular_speed``
-        [rad/s] the ``speeddata`` (v_tcp [mm/s], v_ori [deg/s]).
+    program : RobotProgram
+        The verified program (:func:`dloplan.robot.robot_program`).
     settings : RapidSettings, optional
 
     Returns
@@ -150,51 +159,72 @@ def rapid_modules(trajectory: Trajectory, settings: RapidSettings | None = None)
     """
     from .. import __version__  # at call time: dloplan/__init__ may import this module
 
-    if not isinstance(trajectory, Trajectory):
-        raise ValueError(f"trajectory: expected a Trajectory, got {type(trajectory).__name__}")
+    if not isinstance(program, RobotProgram):
+        raise ValueError(f"program: expected a RobotProgram, got {type(program).__name__}")
     s = settings or RapidSettings()
-    n = trajectory.n_knots
+    cell = program.cell
+    n = program.n_targets
     width = max(2, len(str(n - 1)))
     names = [f"dlo_p{i:0{width}d}" for i in range(n)]
-    v_ori = math.degrees(trajectory.max_angular_speed)
-    speed = _array([trajectory.max_speed * 1000.0, v_ori, 5000, 1000], 6)
+    speeds = [f"dlo_v{i:0{width}d}" for i in range(1, n)]
     tasks_list = "[" + ",".join(f'["{t}"]' for t in s.tasks) + "]"
+    hold = "" if cell.hold_force is None else f" \\holdForce:={_num(cell.hold_force, 3)}"
     modules = {}
     for a, arm in enumerate(ARMS):
-        quats = canonical_quaternions(trajectory.rotations[a], scalar_first=True)
-        clip = CLIP_NAMES[trajectory.arm_clips[a]]
-        other = s.tasks[1 - a]
+        tool = cell.tools[a]
+        clip = CLIP_NAMES[program.assignment.clips[a]]
         lines = [
             f"MODULE {s.modules[a]}",
             f"    ! Generated by dloplan {__version__} (dloplan RAPID format "
             f"{RAPID_FORMAT_VERSION}): synchronized dual-arm cable manipulation.",
-            f"    ! Task {s.tasks[a]}: {arm} arm, {clip} clip. Task {other} runs module "
-            f"{s.modules[1 - a]} with the same move IDs.",
-            f"    ! Robtargets in mm in work object {s.wobj}; "
-            "quaternions [q1,q2,q3,q4] = [w,x,y,z].",
-            f"    ! {n} targets; planned duration {trajectory.duration:.3f} s at "
-            f"{trajectory.max_speed * 1000:g} mm/s and {v_ori:.4g} deg/s.",
+            f"    ! Task {s.tasks[a]}: {arm} arm, {clip} clip"
+            f"{', grip turned by 180 deg about the TCP z-axis' if program.grip_turned[a] else ''}"
+            f". Task {s.tasks[1 - a]} runs module {s.modules[1 - a]} with the same move IDs.",
+            f"    ! Verified by dloplan on exactly these targets: {program.message}.",
+            f"    ! Tool {tool.name}: {tool.source}.",
+            f"    ! Work object {cell.wobj}: the plan's frame in the robot's base frame; teach "
+            "it in the cell (docs/robot.md).",
+            f"    ! Robtargets in mm in {cell.wobj}; quaternions [q1,q2,q3,q4] = [w,x,y,z]; "
+            "confdata and eax_a (the arm angle) from the verified joint solution.",
+            f"    ! {n} targets ({program.labels[0]} to {program.labels[-1]}); planned duration "
+            f"{program.path_duration:.3f} s from grasp to release ({program.times[-1]:.3f} s "
+            "with approach, retreat and grip waits).",
             f"    PERS tasks dlo_tasks{{2}} := {tasks_list};",
             "    VAR syncident dlo_sync_on;",
             "    VAR syncident dlo_sync_off;",
-            f"    CONST speeddata dlo_speed := {speed};",
+            f"    PERS tooldata {tool.name} := {tooldata_text(tool)};",
+            f"    PERS wobjdata {cell.wobj} := {wobjdata_text(cell)};",
+            f"    CONST jointtarget dlo_start := {jointtarget_text(program.joints[0, a])};",
         ]
-        for name, pos, quat in zip(names, trajectory.positions[:, a], quats, strict=True):
-            target = robtarget_text(pos, quat, s.robconf[a], s.arm_angles[a])
-            lines.append(f"    CONST robtarget {name} := {target};")
+        for m, name in enumerate(speeds):
+            lines.append(f"    CONST speeddata {name} := "
+                         f"{speeddata_text(*program.speeds[m, a])};")
+        for m, name in enumerate(names):
+            target = robtarget_text(program.positions[m, a], program.quaternions[m, a],
+                                    program.confdata[m, a], program.arm_angles[m, a])
+            lines.append(f"    CONST robtarget {name} := {target};  ! {program.labels[m]}")
+        move = f", {s.zone}, {tool.name} \\WObj:={cell.wobj};"
         lines += [
+            "    PROC main()",
+            f"        {s.procedure};",
+            "    ENDPROC",
             f"    PROC {s.procedure}()",
-            "        ConfL \\Off;",
+            "        ConfL \\On;",
+            "        g_GripOut;",
+            f"        MoveAbsJ dlo_start, {s.start_speed}, fine, {tool.name} \\WObj:={cell.wobj};",
             "        SyncMoveOn dlo_sync_on, dlo_tasks;",
         ]
-        for i, name in enumerate(names):
-            lines.append(
-                f"        MoveL {name} \\ID:={10 * (i + 1)}, dlo_speed, {s.zone}, "
-                f"{s.tools[a]} \\WObj:={s.wobj};"
-            )
+        if program.grasp == 0:
+            lines += [f"        g_GripIn{hold};", f"        WaitTime {_num(cell.grip_time, 3)};"]
+        for m in range(1, n):
+            lines.append(f"        MoveL {names[m]} \\ID:={10 * m}, {speeds[m - 1]}{move}")
+            if m == program.grasp:
+                lines += [f"        g_GripIn{hold};",
+                          f"        WaitTime {_num(cell.grip_time, 3)};"]
+            if m == program.release:
+                lines += ["        g_GripOut;", f"        WaitTime {_num(cell.grip_time, 3)};"]
         lines += [
             "        SyncMoveOff dlo_sync_off;",
-            "        ConfL \\On;",
             "    ENDPROC",
             "ENDMODULE",
         ]
@@ -202,18 +232,37 @@ def rapid_modules(trajectory: Trajectory, settings: RapidSettings | None = None)
     return modules
 
 
-def write_rapid(
-    directory: str | os.PathLike, trajectory: Trajectory, settings: RapidSettings | None = None
-) -> dict[str, Path]:
+def write_rapid(directory: str | os.PathLike, program: RobotProgram,
+                settings: RapidSettings | None = None, *, force: bool = False) -> dict[str, Path]:
     """Write one ``<module>.mod`` file per task into ``directory``, atomically (both or none).
+
+    The one writer of robot programs: ``dloplan plan`` and ``dloplan export --format rapid``
+    both call it with :func:`dloplan.robot.robot_program` of the plan's gripper path and
+    trajectory.
+
+    Parameters
+    ----------
+    directory : path
+    program : RobotProgram
+    settings : RapidSettings, optional
+    force : bool
+        Write a program that fails a check too (for inspection in RobotStudio, never to run);
+        by default such a program is refused.
 
     Returns
     -------
     dict
         Task name -> written file.
+
+    Raises
+    ------
+    ValueError
+        A program that fails a check (without ``force``), naming the failures.
     """
     s = settings or RapidSettings()
-    texts = rapid_modules(trajectory, s)
+    if isinstance(program, RobotProgram) and not program.ok and not force:
+        raise ValueError(f"program: not written, it fails its checks: {program.message}")
+    texts = rapid_modules(program, s)
     folder = Path(directory)
     if folder.exists() and not folder.is_dir():
         raise ValueError(f"directory: {str(folder)!r} exists and is not a folder")

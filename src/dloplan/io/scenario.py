@@ -137,6 +137,14 @@ ShapeSpec = Annotated[
 ]
 
 
+MAX_LINKS = 1000
+"""Largest n a scenario may ask for (docs/scenario.md: plan time grows about as n S)."""
+
+WORKSPACE = 10.0
+"""Largest distance [m] of any point of a job from the world origin: a dual-arm cell spans about
+a metre, so a coordinate beyond 10 m is a typo (often metres written into a mm file)."""
+
+
 class CableSpec(_Model):
     """The cable: a catalogue ``name`` and/or explicit properties (explicit ones win)."""
 
@@ -148,7 +156,11 @@ class CableSpec(_Model):
         None, description="[Pa], or 'identify' with an identify section"
     )
     poisson_ratio: float | None = Field(None, gt=-1, le=0.5)
-    n_links: int = Field(10, ge=3, le=2000)
+    axial_modulus: PositiveLength | None = Field(
+        None, description="[Pa] modulus of the axial springs (default: youngs_modulus)")
+    n_links: int = Field(10, ge=4, le=MAX_LINKS, description=(
+        "n >= 4: each clip holds two points, so n = 4 is the least that leaves the cable a "
+        f"free point; n <= {MAX_LINKS}: plans in minutes at most"))
     bending: Literal["rod", "thesis"] = "rod"
     masses: Literal["consistent", "equal"] = "consistent"
     rest_shape: ShapeSpec | None = None
@@ -208,6 +220,10 @@ class PlannerSpec(_Model):
 
     n_shapes: int = Field(5, ge=1, le=500, description="S, intermediate shapes")
     physical_mode: Literal["thesis", "equilibrium"] | None = None
+    keep_target: bool = Field(
+        False, description="plan to the target as given, not to its minimal-energy shape "
+                           "(thesis 4.5.1 pre-processing; default: minimized, with the distance "
+                           "reported when it moves more than 2 % of L)")
     family: Literal["auto", "soft", "medium", "stiff"] = Field(
         "auto", description="stiffness family of the physical weights (auto: from E)"
     )
@@ -291,6 +307,34 @@ class TableSpec(_Model):
 OutputName = Literal["json", "csv", "rapid", "ros", "figures", "report"]
 
 
+class ToolSpec(_Model):
+    """One arm's tool as RAPID ``tooldata`` (default: ABB's SmartGripper data, docs/robot.md)."""
+
+    name: str | None = Field(None, description="tooldata name (default dlo_tool_l / _r)")
+    tcp_offset: Vector3 | None = Field(None, description="TCP in the flange frame [units]")
+    mass: PositiveLength | None = Field(None, description="[kg]")
+
+
+class RobotSpec(_Model):
+    """The robot cell: where the YuMi stands in the plan's frame, its tools and work object."""
+
+    base_position: Vector3 = Field(default_factory=lambda: [0.0, 0.0, 0.0],
+                                   description="robot base origin in the plan's frame [units]")
+    base_rotation: RotationSpec | None = None
+    wobj: str = Field("dlo_wobj", description="wobjdata name of the plan's frame")
+    tools: list[ToolSpec] = Field(default_factory=lambda: [ToolSpec(), ToolSpec()],
+                                  min_length=2, max_length=2, description="left, right")
+    approach: float | None = Field(None, ge=0, allow_inf_nan=False,
+                                   description="approach/retreat distance [units]; 5 cm")
+    grip_time: float = Field(0.5, ge=0, allow_inf_nan=False, description="[s]")
+    hold_force: float | None = Field(None, gt=0, le=20, description="SmartGripper [N]")
+
+    @field_validator("base_position")
+    @classmethod
+    def _pos(cls, v):
+        return _finite(v, "base_position")
+
+
 class JobSpec(_Model):
     """What every job file has: units, the cable, its start, planner, obstacles, robot motion."""
 
@@ -304,6 +348,7 @@ class JobSpec(_Model):
     grippers: GripperSpec = Field(default_factory=GripperSpec)
     trajectory: TrajectorySpec = Field(default_factory=TrajectorySpec)
     check: CheckSpec = Field(default_factory=CheckSpec)
+    robot: RobotSpec = Field(default_factory=RobotSpec)
 
 
 class Scenario(JobSpec):
@@ -360,13 +405,26 @@ def parse_scenario(data: Any, source: str = "scenario") -> Scenario:
     return parse_model(Scenario, data, source)
 
 
+MAX_FILE_BYTES = 10_000_000
+"""Largest job file read [bytes]: 10 MB is some 100 000 points, far more than any cable needs
+(a shape is resampled to n + 1 <= 1001 points), and loads in seconds."""
+
+
 def read_mapping(path: str | Path) -> dict:
     """Read a YAML or JSON file into a mapping; one-line errors for unreadable files."""
     path = Path(path)
     try:
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise ScenarioError(f"{path}: the file is {size / 1e6:.1f} MB, more than the "
+                                f"{MAX_FILE_BYTES / 1e6:.0f} MB a job file may have (thin out "
+                                "its points: shapes are resampled to n + 1 points anyway)")
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise ScenarioError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+    except UnicodeDecodeError:
+        raise ScenarioError(f"{path}: not a text file (not UTF-8): expected YAML or JSON") \
+            from None
     try:
         data = json.loads(text) if path.suffix.lower() == ".json" else yaml.safe_load(text)
     except (json.JSONDecodeError, yaml.YAMLError) as exc:
@@ -386,7 +444,7 @@ def build_cable(spec: CableSpec, scale: float, youngs_modulus: float | None) -> 
     for key in ("length", "diameter"):
         if getattr(spec, key) is not None:
             params[key] = getattr(spec, key) * scale
-    for key in ("mass", "poisson_ratio"):
+    for key in ("mass", "poisson_ratio", "axial_modulus"):
         if getattr(spec, key) is not None:
             params[key] = getattr(spec, key)
     if youngs_modulus is not None:

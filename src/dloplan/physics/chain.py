@@ -14,7 +14,7 @@ is returned either banded (for the Cholesky solves of the static solver) or as a
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 import scipy.sparse as sp
@@ -22,6 +22,7 @@ import scipy.sparse as sp
 from ..cable import GRAVITY, Cable
 from .axial import axial_energy, axial_gradient, axial_hessian_blocks, axial_link_forces
 from .bending import bending_derivatives, bending_energy, bending_gradient
+from .compiled import add_point_blocks, chain_derivatives, chain_energy, chain_term_gradients
 from .contact import contact_energy, contact_gradient, contact_hessian_diagonal
 from .gravity import gravity_energy, gravity_force
 
@@ -117,6 +118,14 @@ class SpringChain:
     @property
     def n_points(self) -> int:
         return len(self.point_masses)
+
+    @cached_property
+    def constants(self) -> tuple:
+        """The arguments of the compiled kernels (:mod:`dloplan.physics.compiled`)."""
+        return (float(self.k_axial), np.ascontiguousarray(self.rest_lengths, dtype=float),
+                float(self.k_bending), np.ascontiguousarray(self.rest_angles, dtype=float),
+                np.ascontiguousarray(self.point_masses, dtype=float),
+                np.ascontiguousarray(self.gravity, dtype=float))
 
 
 
@@ -249,6 +258,49 @@ def gradient_and_hessian_band(
     return grad, band.reshape(HALF_BANDWIDTH + 1, n_dof)
 
 
+def shape_energy(chain: SpringChain, x: np.ndarray) -> float:
+    """U [J] of one shape (n + 1, 3): :func:`energy` by the compiled kernel (contacts added)."""
+    total = chain_energy(x, *chain.constants)
+    if chain.contacts:
+        total += float(_contact_energy(chain, x))
+    return total
+
+
+def shape_derivatives(chain: SpringChain, x: np.ndarray, grad: np.ndarray | None = None,
+                      band: np.ndarray | None = None) -> tuple[float, np.ndarray, np.ndarray]:
+    """Energy [J], gradient [N] and lower Hessian band [N/m] of one shape in one compiled pass.
+
+    The same as :func:`energy`, :func:`gradient` (gravity included) and
+    :func:`gradient_and_hessian_band`'s band (axial, bending and contacts), computed by
+    :func:`dloplan.physics.compiled.chain_derivatives`. ``grad`` (n + 1, 3) and ``band``
+    (HALF_BANDWIDTH + 1, 3(n + 1)) are filled in place when given.
+    """
+    if grad is None:
+        grad = np.empty(x.shape)
+    if band is None:
+        band = np.empty((HALF_BANDWIDTH + 1, x.size))
+    total = chain_derivatives(x, *chain.constants, grad, band)
+    if chain.contacts:
+        total += float(_contact_energy(chain, x))
+        grad += _contact_gradient(chain, x)
+        add_point_blocks(band, contact_hessian_diagonal(x, chain.contacts, chain.contact_radius,
+                                                        chain.contact_stiffness))
+    return total, grad, band
+
+
+def shape_forces(chain: SpringChain, x: np.ndarray) -> Forces:
+    """:func:`forces` of one shape (n + 1, 3) by the compiled kernel."""
+    axial, bending = np.empty(x.shape), np.empty(x.shape)
+    k_s, rest_lengths, k_b, rest_angles, *_ = chain.constants
+    chain_term_gradients(x, k_s, rest_lengths, k_b, rest_angles, axial, bending)
+    return Forces(
+        axial=-axial,
+        bending=-bending,
+        gravity=gravity_force(chain.point_masses, chain.gravity),
+        contact=-_contact_gradient(chain, x) if chain.contacts else None,
+    )
+
+
 def band_to_sparse(band: np.ndarray) -> sp.csr_matrix:
     """The symmetric sparse matrix whose lower band is ``band`` (see :func:`hessian_band`)."""
     n_dof = band.shape[1]
@@ -257,6 +309,15 @@ def band_to_sparse(band: np.ndarray) -> sp.csr_matrix:
     lower = sp.diags(diagonals, [-k for k in offsets], shape=(n_dof, n_dof))
     upper = sp.diags(diagonals[1:], offsets[1:], shape=(n_dof, n_dof))
     return (lower + upper).tocsr()
+
+
+def sparse_to_band(matrix: sp.spmatrix, width: int = HALF_BANDWIDTH) -> np.ndarray:
+    """Lower band (width + 1, N) of a symmetric sparse matrix: the inverse of
+    :func:`band_to_sparse` (entries farther than ``width`` from the diagonal must be zero)."""
+    coo = sp.tril(matrix).tocoo()
+    band = np.zeros((width + 1, matrix.shape[0]))
+    band[coo.row - coo.col, coo.col] = coo.data
+    return band
 
 
 def hessian(

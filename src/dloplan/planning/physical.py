@@ -50,13 +50,13 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 
 from ..cable import GRAVITY, Cable
-from ..physics.chain import SpringChain, hessian
+from ..physics.chain import SpringChain, hessian, sparse_to_band
 from ..physics.chain import forces as chain_forces
 from ..sim.clips import clip_poses_from_shape, place_held_points
+from ..sim.newton import factor_band, solve_band
 from .geometric import REFERENCE_LINKS
 from .tuning import PhysicalWeights
 
@@ -154,14 +154,6 @@ class ThesisCost:
         return (2.0 * (self.jacobian(x).T @ self.residuals(x).ravel())).reshape(x.shape)
 
 
-def _to_band(matrix: sp.spmatrix, width: int) -> np.ndarray:
-    """Lower band (width + 1, N) of a symmetric sparse matrix (scipy's cholesky_banded layout)."""
-    coo = sp.tril(matrix).tocoo()
-    band = np.zeros((width + 1, matrix.shape[0]))
-    band[coo.row - coo.col, coo.col] = coo.data
-    return band
-
-
 def _minimize_thesis(cost: ThesisCost, x: np.ndarray, free: slice, *, gtol: float = 1e-9,
                      max_iterations: int = 200) -> tuple[np.ndarray, bool, str, int]:
     """Levenberg-Marquardt on the banded normal equations over the free points."""
@@ -177,20 +169,21 @@ def _minimize_thesis(cost: ThesisCost, x: np.ndarray, free: slice, *, gtol: floa
         # gradient with respect to x / l: the test does not depend on the length unit
         if float(np.max(np.abs(grad))) * cost.link_length <= gtol * max(1.0, f):
             return x, True, f"converged in {iteration - 1} iterations", iteration - 1
-        band = _to_band(normal, 17)
+        band = sparse_to_band(normal, 17)
         while True:
             shifted = band.copy()
             shifted[0] += damping * scale
-            step = sla.solveh_banded(shifted, -grad, lower=True, check_finite=False)
-            trial = x.copy()
-            trial[free] += step.reshape(-1, 3)
-            r_trial = cost.residuals(trial).ravel()
-            f_trial = float(r_trial @ r_trial)
-            if f_trial <= f:
-                relative = (f - f_trial) / max(f, 1e-300)
-                x, r, f = trial, r_trial, f_trial
-                damping = max(damping / 5.0, 1e-12)
-                break
+            factor = factor_band(shifted)  # None: not positive definite, damp more
+            if factor is not None:
+                trial = x.copy()
+                trial[free] += solve_band(factor, -grad).reshape(-1, 3)
+                r_trial = cost.residuals(trial).ravel()
+                f_trial = float(r_trial @ r_trial)
+                if f_trial <= f:
+                    relative = (f - f_trial) / max(f, 1e-300)
+                    x, r, f = trial, r_trial, f_trial
+                    damping = max(damping / 5.0, 1e-12)
+                    break
             damping *= 8.0
             if damping > 1e12:
                 return x, False, f"stalled after {iteration} iterations (cost {f:.3g})", iteration

@@ -16,7 +16,8 @@ loop handles them:
     The dynamic replay at real speed deviates from the planned shapes (at a knot: the segment
     that leads to it) or does not settle.
 ``reach``
-    A planned pose that an arm of the robot cannot reach.
+    A planned pose that an arm of the robot cannot reach, or another failing check of the
+    plan's robot program (joint limits, arm-arm clearance, continuity).
 
 A failed verification none of these explains (a check this module does not know) is one failure
 of kind ``other``, which no repair addresses.
@@ -121,9 +122,17 @@ def replay_failures(verification) -> list[Failure]:
     return failures or [Failure("replay", None, (), f"replay: {run.message}")]
 
 
-def reach_failures(verification) -> list[Failure]:
-    """Planned poses an arm cannot reach."""
+def reach_failures(verification, doc=None) -> list[Failure]:
+    """Planned poses an arm cannot reach, and every other failing check of the plan's robot
+    program (joint limits, arm-arm clearance, continuity, ...)."""
     failures = []
+    program = getattr(doc, "program", None)
+    if program is not None:
+        for row in program.failures:
+            if row.check != "reach":
+                failures.append(Failure("reach", None, (row.shape,), f"robot program, "
+                                        f"{row.label}, {row.arm} arm: {row.check} "
+                                        f"{row.value:.4g} {row.unit} {row.note}".rstrip()))
     for row in verification.rows:
         arms = [a for a, ok in (("left", row.reachable_left), ("right", row.reachable_right))
                 if ok is False]
@@ -145,7 +154,7 @@ def diagnose(doc, verification) -> list[Failure]:
     """
     twist = twist_failures(doc) if doc.grippers is not None else []
     found = (snap_failures(verification) + twist + replay_failures(verification)
-             + reach_failures(verification))
+             + reach_failures(verification, doc))
     if not verification.ok and not any(f.kind != "twist" for f in found):
         found.append(Failure("other", None, (), "; ".join(verification.messages)))
     return found

@@ -27,9 +27,11 @@ between shapes)
     the trajectory timed again at half, then a quarter, then an eighth of the TCP speed (one
     speed for the whole program, as the RAPID module has one speeddata). A deviation on a
     segment that also has a snap failure waits for the snap repair.
-``reach`` (a pose out of an arm's reach)
-    1. a placement of the job on the table (+-20 cm, 5 cm grid), the arm assignment by the
-       geometry (:func:`~dloplan.repair.placement.place`);
+``reach`` (a pose out of an arm's reach, or another failing check of the robot program)
+    1. a placement of the job on the table (+-20 cm, then +-30 cm nearest first, then +-30 cm
+       with the largest joint margin, 5 cm grid; the side rule's
+       arm assignment, then the swapped one: :func:`~dloplan.repair.placement.placements`),
+       the robot program made again there and checked;
     2. the same for the other gripper methods that keep the twist within bounds.
     None works: refused with the search's reason.
 
@@ -52,8 +54,8 @@ from ..sim.statics import interpolate_clips
 from ..verify import check_snap_through
 from .failures import KINDS, diagnose, frame_steps, score, summary, twist_failures
 from .frames import untwisted
-from .placement import place, translated_document, translated_job
-from .rebuild import timed, with_grippers, with_motion, with_path
+from .placement import placements, translated_document, translated_job
+from .rebuild import timed_with_robot, with_grippers, with_motion, with_path
 from .routes import MAX_TURN, equilibria_along, follow_branch, route_segment, routes
 
 GRIPPER_METHODS = ("rigid", "minimal", "auxiliary")
@@ -282,7 +284,7 @@ class _Session:
         if self.attempt():
             n = 2 * doc.n_shapes
             finer = replace(job, planner=replace(job.planner, n_shapes=n))
-            new = timed(run_job(finer))  # the arm assignment by the geometry, as checked
+            new = run_job(finer)
             events = self.snap_check(new, 0)
             tried.append(f"{n} intermediate shapes: "
                          + (events[0].message if events else "no snap-through"))
@@ -364,7 +366,7 @@ class _Session:
         for factor in SPEED_FACTORS:
             if not self.attempt():
                 break
-            new = timed(doc, factor * speed)
+            new = timed_with_robot(self.state.job, doc, factor * speed)
             run = self.checks.verify(new, snap=False, robot=False).replay
             tried.append(f"{1e3 * factor * speed:.0f} mm/s: {run.message}")
             if run.ok:
@@ -399,24 +401,25 @@ class _Session:
                 if twist_failures(new):
                     tried.append(f"{method}: {summary(twist_failures(new))}")
                     continue
-            found = place(new.grippers)
-            tried.append(f"{new.grippers.method} frames: {found.message}")
-            if not found.success:
-                continue
-            offset = self.state.offset + found.offset
-            placed = translated_document(new, found.offset)
-            rows = self.checks.verify(placed, snap=False, replay=False)
-            if any(f.kind == "reach" for f in diagnose(placed, rows)):
-                tried[-1] += f"; then {rows.messages[-1]}"
-                continue
-            moved = np.array2string(found.offset + 0.0, precision=3)
-            change = (f"job placed at offset {moved} m" +
-                      ("" if new is doc else f", gripper frames by the {new.grippers.method} "
-                       "method") + f", left arm holds the {('first', 'last')[found.left_clip]}"
-                      " clip")
-            self.keep("reach", failures, change, found.message,
-                      _State(translated_job(other, found.offset), placed, offset), since)
-            return
+            for found in placements(new.grippers):
+                tried.append(f"{new.grippers.method} frames: {found.message}")
+                if not found.success:
+                    continue
+                offset = self.state.offset + found.offset
+                placed_job = translated_job(other, found.offset)
+                placed = translated_document(placed_job, new, found.offset)
+                rows = self.checks.verify(placed, snap=False, replay=False)
+                left = [f for f in diagnose(placed, rows) if f.kind == "reach"]
+                if left:
+                    tried[-1] += f"; then {left[0].message}"
+                    continue
+                moved = np.array2string(found.offset + 0.0, precision=3)
+                change = (f"job placed at offset {moved} m"
+                          + ("" if new is doc else f", gripper frames by the "
+                             f"{new.grippers.method} method"))
+                self.keep("reach", failures, change, found.message,
+                          _State(placed_job, placed, offset), since)
+                return
         raise Refused("no placement of the job on the table makes every pose reachable; "
                       "tried: " + " | ".join(tried))
 
@@ -512,7 +515,7 @@ def plan_and_repair(job, progress=quiet, budget: Budget | None = None):
     t0 = time.perf_counter()
     verification = verify_plan(doc)
     progress(f"verification: {'passed' if verification.ok else 'FAILED'}")
-    if verification.ok:
+    if not diagnose(doc, verification):
         doc = with_verification(doc, verification)
         return replace(doc, timings={**doc.timings, "verify": time.perf_counter() - t0}), ()
     result = repair_plan(job, doc, verification, budget, progress)

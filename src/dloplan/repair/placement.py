@@ -5,9 +5,10 @@ puts the cable and its fixtures there) that brings every planned gripper pose wi
 reach (:func:`dloplan.robot.search_placement`). The cable model is invariant under translation
 (uniform gravity, the table a horizontal plane, obstacles moved with the job), so the plan of the
 translated job is the plan translated: :func:`translated_document` moves the document instead of
-planning again. The arm assignment follows the geometry (the clip further to the robot's left
-is held by the left arm, the rule the reachability check applies), and the trajectory is timed with
-it, so the program holds the clips the way the check assumed.
+planning again, and its robot program is made again in the job's robot cell (the arm
+assignment, IK, limits, clearance and continuity of the moved targets,
+:func:`dloplan.robot.robot_program`). The search itself uses the reachability check of the YuMi
+at the work frame's origin with the side rule's assignment; the program confirms it.
 """
 
 from __future__ import annotations
@@ -19,13 +20,12 @@ from scipy.spatial.transform import Rotation
 
 from ..grippers.path import GripperPath
 from ..obstacles.shapes import Box, Cylinder
-from .rebuild import left_clip, timed
+from .rebuild import left_clip, timed_with_robot
 
-SEARCH_EXTENT = (0.2, 0.2, 0.0)
-"""Half-widths [m] of the searched placements: +-20 cm on the table, at the job's height."""
-
-SEARCH_STEP = 0.05
-"""Grid spacing [m] of the placement search."""
+SEARCHES = ((0.2, 0.05, "nearest"), (0.3, 0.05, "nearest"), (0.3, 0.05, "margin"))
+"""The placement searches tried in turn: half-width [m] of the square searched on the table
+(at the job's height), grid spacing [m], and which working offset wins (the nearest to the job's
+own placement, or the one with the largest joint margin)."""
 
 
 def translated_obstacle(obstacle, offset: np.ndarray):
@@ -51,20 +51,21 @@ def translated_grippers(grippers: GripperPath, offset: np.ndarray) -> GripperPat
     return replace(grippers, positions=grippers.positions + offset)
 
 
-def translated_document(doc, offset):
-    """The plan document moved by ``offset`` (3,) [m]: shapes, frames, trajectory, obstacles."""
+def translated_document(job, doc, offset):
+    """The plan document moved by ``offset`` (3,) [m]: shapes, frames, trajectory, obstacles,
+    and its robot program made again in the cell of ``job`` (the job already moved)."""
     d = np.asarray(offset, dtype=float)
     moved = replace(
         doc, shapes=doc.shapes + d,
         stabilized=None if doc.stabilized is None else doc.stabilized + d,
         grippers=None if doc.grippers is None else translated_grippers(doc.grippers, d),
         obstacles=tuple(translated_obstacle(o, d) for o in doc.obstacles))
-    return moved if doc.trajectory is None else timed(moved)
+    return moved if doc.trajectory is None else timed_with_robot(job, moved)
 
 
 @dataclass(frozen=True, eq=False)
 class PlacementRepair:
-    """Outcome of :func:`place`.
+    """One placement search of :func:`placements`.
 
     Attributes
     ----------
@@ -84,16 +85,22 @@ class PlacementRepair:
     message: str
 
 
-def place(grippers: GripperPath, *, extent=SEARCH_EXTENT, step: float = SEARCH_STEP,
-          robot=None) -> PlacementRepair:
-    """Search a placement of the job where the robot reaches every planned pose.
+def placements(grippers: GripperPath, *, searches=SEARCHES, robot=None):
+    """Placements of the job where the robot reaches every planned pose, best first.
 
-    The nearest working offset to the job's own placement wins (grid of ``step`` within
-    ``+-extent``); the arm assignment is the geometric one (:func:`left_clip`).
+    For each (half-width, step, objective) of ``searches`` and each arm assignment (the side
+    rule's, then the swapped one, which the robot program also falls back to), the working
+    offset the objective picks (:func:`dloplan.robot.search_placement`). Yields a
+    :class:`PlacementRepair` per search, successful or not (``success`` says which).
     """
     from ..robot import search_placement
 
-    found = search_placement(grippers.positions, Rotation.from_matrix(grippers.matrices), robot,
-                             extent=extent, step=step, assignment="auto")
-    offset = found.offset if found.success else np.zeros(3)
-    return PlacementRepair(offset, left_clip(grippers), found.success, found.message)
+    side = left_clip(grippers)
+    for half, step, objective in searches:
+        for clip in (side, 1 - side):
+            found = search_placement(grippers.positions, Rotation.from_matrix(grippers.matrices),
+                                     robot, extent=(half, half, 0.0), step=step,
+                                     objective=objective,
+                                     assignment=("first-left", "first-right")[clip])
+            yield PlacementRepair(found.offset if found.success else np.zeros(3), clip,
+                                  found.success, found.message)

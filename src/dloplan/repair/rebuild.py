@@ -16,7 +16,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..app.document import TwistSection
-from ..app.pipeline import plan_motion, plan_twist, quiet
+from ..app.pipeline import plan_motion, plan_program, plan_twist, quiet, with_program
 from ..sim.statics import clip_wrenches
 from ..trajectory import trajectory_from_grippers
 
@@ -43,6 +43,11 @@ def timed(doc, speed: float | None = None):
     return replace(doc, trajectory=trajectory, verification=None)
 
 
+def timed_with_robot(job, doc, speed: float | None = None, progress=quiet):
+    """:func:`timed`, then the robot program made again (:func:`with_robot`)."""
+    return with_robot(job, timed(doc, speed), progress)
+
+
 def motion_warnings(doc) -> set[str]:
     """The warnings a document owes to its gripper frames, twist and verification."""
     own: set[str] = set()
@@ -52,7 +57,19 @@ def motion_warnings(doc) -> set[str]:
         own.add(f"twist: {doc.twist.message}")
     if doc.verification is not None:
         own |= set(doc.verification.messages)
+    if doc.robot is not None:
+        own.add(doc.robot.message)
     return own
+
+
+def with_robot(job, doc, progress=quiet):
+    """``doc`` with its robot program made again for its frames and trajectory (when it had
+    one): the arm assignment, IK, limits, clearance and continuity of the new targets."""
+    if doc.robot is None and doc.program is None:
+        return doc
+    warnings = tuple(w for w in doc.warnings if doc.robot is None or w != doc.robot.message)
+    bare = replace(doc, robot=None, program=None, warnings=warnings)
+    return with_program(bare, plan_program(job.robot, doc.grippers, doc.trajectory, progress))
 
 
 def with_motion(job, doc, shapes=None, stabilized=None, progress=quiet):
@@ -76,11 +93,14 @@ def with_grippers(job, doc, grippers, shapes=None, stabilized=None, progress=qui
     if not twist.success:
         warnings.append(f"twist: {twist.message}")
     trajectory = trajectory_of(grippers, job.motion.tcp_speed, job.motion.angular_speed)
-    return replace(doc, shapes=shapes, stabilized=stabilized, grippers=grippers,
-                   trajectory=trajectory, warnings=tuple(warnings), verification=None,
-                   clip_wrenches=np.stack([clip_wrenches(job.cable, s) for s in stabilized]),
-                   twist=TwistSection(twist.twist, twist.relative_twist, twist.twist_energy,
-                                      grippers.twist, twist.message))
+    new = replace(doc, shapes=shapes, stabilized=stabilized, grippers=grippers,
+                  trajectory=trajectory, warnings=tuple(warnings), verification=None,
+                  robot=None, program=None,
+                  clip_wrenches=np.stack([clip_wrenches(job.cable, s) for s in stabilized]),
+                  twist=TwistSection(twist.twist, twist.relative_twist, twist.twist_energy,
+                                     grippers.twist, twist.message))
+    return new if doc.robot is None and doc.program is None else with_program(
+        new, plan_program(job.robot, grippers, trajectory, progress))
 
 
 def with_path(job, doc, shapes: np.ndarray, progress=quiet):

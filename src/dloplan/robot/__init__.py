@@ -1,11 +1,16 @@
-"""Robot feasibility of a plan for an ABB YuMi (IRB 14000): forward and inverse kinematics of
-both 7-DoF arms (plain numpy on the URDF chain), joint limits, the gripper's TCP, arm-arm
-clearance as capsules, per-pose reachability along a path and a search for the job's placement.
+"""Robot side of a plan for an ABB YuMi (IRB 14000): forward and inverse kinematics of both
+7-DoF arms (plain numpy on the URDF chain), joint limits, the gripper's TCP, arm-arm clearance
+as capsules, per-pose reachability along a path and a search for the job's placement; the
+robot cell (placement, SmartGripper tools, work object), the arm assignment, and the verified
+robot program that the RAPID writer writes (:func:`robot_program`).
 
-See ``docs/robot.md`` for the frames, the TCP mapping and what "reachable" means.
+See ``docs/robot.md`` for the frames, the TCP mapping, the checks and how to run a program.
 """
 
+from .assignment import ArmAssignment, assign_arms
+from .cell import SMARTGRIPPER_SOURCE, RobotCell, Tool
 from .collision import arm_capsules, arm_clearance, segment_distance
+from .confdata import arm_angle, confdata
 from .kinematics import (
     IKOptions,
     IKResult,
@@ -16,8 +21,11 @@ from .kinematics import (
     link_frames,
     manipulability,
     reach,
+    solve_from,
+    solve_many,
     wrist_flip,
 )
+from .program import CHECKS, CheckRow, RobotProgram, robot_program
 from .reachability import (
     Placement,
     Reachability,
@@ -32,6 +40,9 @@ from .yumi import ARMS, Arm, Gripper, Robot, yumi, yumi_arm
 __all__ = [
     "ARMS",
     "Arm",
+    "ArmAssignment",
+    "CHECKS",
+    "CheckRow",
     "Gripper",
     "IKOptions",
     "IKResult",
@@ -39,10 +50,17 @@ __all__ = [
     "ReachOptions",
     "Reachability",
     "Robot",
+    "RobotCell",
+    "RobotProgram",
+    "SMARTGRIPPER_SOURCE",
+    "Tool",
+    "arm_angle",
     "arm_capsules",
     "arm_clearance",
+    "assign_arms",
     "check_path",
     "check_reachability",
+    "confdata",
     "forward",
     "inverse",
     "jacobian",
@@ -50,8 +68,11 @@ __all__ = [
     "link_frames",
     "manipulability",
     "reach",
+    "robot_program",
     "search_placement",
     "segment_distance",
+    "solve_from",
+    "solve_many",
     "tcp_poses_from_clips",
     "wrist_flip",
     "yumi",

@@ -50,8 +50,21 @@ def link_frames(arm: Arm, q) -> Frames:
     """
     q = np.asarray(q, dtype=float)
     batch = q.shape[:-1]
-    turn = Rotation.from_rotvec((arm.axes * q[..., None]).reshape(-1, 3)).as_matrix()
-    turn = turn.reshape(batch + (7, 3, 3))
+    # Rodrigues: R = I + sin(q) K + (1 - cos(q)) K^2 with K the axis' cross-product matrix
+    c, s = np.cos(q)[..., None, None], np.sin(q)[..., None, None]
+    turn = np.eye(3) + s * arm._axis_skew + (1.0 - c) * arm._axis_skew2
+    if not batch:  # the IK's case: one joint vector, a plain loop over 3x3 products
+        joint = arm._origin_rot @ turn
+        rots, points = [], []
+        r, p = np.eye(3), np.zeros(3)
+        for i in range(7):
+            p = p + r @ arm._origin_xyz[i]
+            r = r @ joint[i]
+            rots.append(r)
+            points.append(p)
+        rots.append(r @ arm._tcp_rot)
+        points.append(p + r @ arm.gripper.tcp_offset)
+        return Frames(np.array(rots), np.array(points))
     rot = np.empty(batch + (8, 3, 3))
     pos = np.empty(batch + (8, 3))
     r = np.eye(3)
@@ -109,9 +122,10 @@ def jacobian(arm: Arm, q) -> np.ndarray:
 
 
 def _jacobian(arm: Arm, frames: Frames) -> np.ndarray:
-    z = np.einsum("...kij,kj->...ki", frames.rotations[..., :7, :, :], arm.axes)
+    z = (frames.rotations[..., :7, :, :] @ arm.axes[:, :, None])[..., 0]
     lever = frames.positions[..., 7:8, :] - frames.positions[..., :7, :]
-    return np.concatenate([np.cross(z, lever), z], axis=-1).swapaxes(-1, -2)
+    cross = z[..., [1, 2, 0]] * lever[..., [2, 0, 1]] - z[..., [2, 0, 1]] * lever[..., [1, 2, 0]]
+    return np.concatenate([cross, z], axis=-1).swapaxes(-1, -2)
 
 
 def manipulability(arm: Arm, q) -> np.ndarray:
@@ -221,8 +235,13 @@ class IKResult:
     message: str
 
 
+ARM_ANGLE_JOINT = 2
+"""Index of the YuMi's redundant "arm angle" joint (ABB axis 7) in the physical joint order."""
+
+
 def inverse(arm: Arm, position, rotation: Rotation, seed=None,
-            options: IKOptions | None = None, rng: np.random.Generator | None = None) -> IKResult:
+            options: IKOptions | None = None, rng: np.random.Generator | None = None,
+            arm_angle: float | None = None) -> IKResult:
     """Joint values placing the TCP at a world pose: damped least squares from a seed.
 
     Each iteration solves the Levenberg-Marquardt step of Sugihara (2011)
@@ -249,6 +268,11 @@ def inverse(arm: Arm, position, rotation: Rotation, seed=None,
     options : IKOptions, optional
     rng : numpy.random.Generator, optional
         For the random restarts; default a generator seeded with 0 (deterministic).
+    arm_angle : float, optional
+        Hold the arm angle (ABB axis 7, :data:`ARM_ANGLE_JOINT`) at this value [rad], as the
+        controller does with a robtarget's ``eax_a``: the remaining six joints solve the 6-D
+        task, which has finitely many solutions, so from a seed on the right branch the IK
+        returns that branch's solution (no null-space motion).
     """
     position = np.asarray(position, dtype=float)
     if position.shape != (3,) or not np.all(np.isfinite(position)):
@@ -259,11 +283,113 @@ def inverse(arm: Arm, position, rotation: Rotation, seed=None,
     if seed.shape != (7,):
         raise ValueError(f"seed: expected 7 joint values [rad], got shape {seed.shape}")
     opts = options if options is not None else IKOptions()
-    return _inverse(arm, position, rotation.as_matrix(), seed, opts, rng)
+    if arm_angle is not None:
+        j = ARM_ANGLE_JOINT
+        if not (np.isfinite(arm_angle) and arm.lower[j] <= arm_angle <= arm.upper[j]):
+            raise ValueError(f"arm_angle: expected a value within the joint limits "
+                             f"[{arm.lower[j]:.4f}, {arm.upper[j]:.4f}] rad, got {arm_angle!r}")
+    return _inverse(arm, position, rotation.as_matrix(), seed, opts, rng, arm_angle)
+
+
+def solve_from(arm: Arm, position, rotation_matrix, seed, options: IKOptions,
+               arm_angle: float | None = None) -> IKResult:
+    """One damped-least-squares solve from one seed, no fallback seeds and no input checks:
+    the step of a tracking loop (each sub-step seeded with the previous solution).
+
+    Parameters
+    ----------
+    arm : Arm
+    position : numpy.ndarray
+        (3,) target TCP position [m].
+    rotation_matrix : numpy.ndarray
+        (3, 3) target ``tcp_to_world``.
+    seed : numpy.ndarray
+        (7,) start [rad].
+    options : IKOptions
+    arm_angle : float, optional
+        Hold ABB axis 7 at this value [rad] (see :func:`inverse`).
+    """
+    q, perr, aerr, its, ok = _solve(arm, position, rotation_matrix, seed, options, arm_angle)
+    return IKResult(q, ok, perr, aerr, its, 1, "converged" if ok else
+                    f"not converged: position error {perr * 1e3:.2f} mm, orientation error "
+                    f"{np.degrees(aerr):.2f} deg")
+
+
+def solve_many(arm: Arm, positions, rotation_matrices, seeds, options: IKOptions,
+               arm_angles=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Many independent damped-least-squares solves at once, each from its own seed.
+
+    The step of :func:`inverse` (Levenberg-Marquardt with Sugihara's damping, steps limited to
+    ``max_step``, joints clipped into the limits), vectorized over N problems that stop one by
+    one as they converge; no null-space motion and no fallback seeds. Meant for tracking with
+    the arm angle held (then the task has no redundancy left), e.g. many candidate arm angles
+    or many moves advanced by one sub-step together.
+
+    Parameters
+    ----------
+    arm : Arm
+    positions : numpy.ndarray
+        (N, 3) target TCP positions [m].
+    rotation_matrices : numpy.ndarray
+        (N, 3, 3) target ``tcp_to_world``.
+    seeds : numpy.ndarray
+        (N, 7) starts [rad].
+    options : IKOptions
+    arm_angles : numpy.ndarray, optional
+        (N,) hold ABB axis 7 at these values [rad] (see :func:`inverse`).
+
+    Returns
+    -------
+    q : numpy.ndarray
+        (N, 7) joint values [rad].
+    success : numpy.ndarray
+        (N,) bool, converged within the tolerances.
+    position_error, angle_error : numpy.ndarray
+        (N,) remaining TCP errors [m], [rad].
+    """
+    positions = np.asarray(positions, dtype=float)
+    rots = np.asarray(rotation_matrices, dtype=float)
+    q = np.clip(np.array(seeds, dtype=float), arm.lower, arm.upper)
+    n = len(q)
+    free = np.ones(7)
+    if arm_angles is not None:
+        q[:, ARM_ANGLE_JOINT] = arm_angles
+        free[ARM_ANGLE_JOINT] = 0.0
+    scale = np.array([1.0, 1.0, 1.0, LENGTH_SCALE, LENGTH_SCALE, LENGTH_SCALE])
+    success = np.zeros(n, dtype=bool)
+    perr = np.full(n, np.inf)
+    aerr = np.full(n, np.inf)
+    active = np.arange(n)
+    eye = np.eye(7)
+    for it in range(options.max_iterations + 1):
+        frames = link_frames(arm, q[active])
+        dp = positions[active] - frames.positions[:, 7]
+        dtheta = rotation_log(rots[active] @ frames.rotations[:, 7].swapaxes(-1, -2))
+        perr[active] = np.linalg.norm(dp, axis=-1)
+        aerr[active] = np.linalg.norm(dtheta, axis=-1)
+        done = (perr[active] <= options.position_tolerance) & (
+            aerr[active] <= options.angle_tolerance)
+        success[active[done]] = True
+        if it == options.max_iterations or done.all():
+            break
+        keep = ~done
+        sub = Frames(frames.rotations[keep], frames.positions[keep])
+        active = active[keep]
+        jac = _jacobian(arm, sub) * scale[:, None] * free
+        err = np.concatenate([dp[keep], LENGTH_SCALE * dtheta[keep]], axis=-1)
+        energy = 0.5 * np.einsum("ni,ni->n", err, err)
+        jt = jac.swapaxes(-1, -2)
+        lhs = jt @ jac + (energy + options.damping)[:, None, None] * eye
+        dq = np.linalg.solve(lhs, (jt @ err[..., None]))[..., 0] * free
+        largest = np.abs(dq).max(axis=-1)
+        dq *= np.minimum(1.0, options.max_step / np.maximum(largest, 1e-300))[:, None]
+        q[active] = np.clip(q[active] + dq, arm.lower, arm.upper)
+    return q, success, perr, aerr
 
 
 def _inverse(arm: Arm, position: np.ndarray, target_rot: np.ndarray, seed: np.ndarray,
-             opts: IKOptions, rng: np.random.Generator | None) -> IKResult:
+             opts: IKOptions, rng: np.random.Generator | None,
+             arm_angle: float | None = None) -> IKResult:
     """:func:`inverse` without input checks (target rotation as a matrix)."""
     flange = position - target_rot @ arm._tcp_rot.T @ arm.gripper.tcp_offset
     distance = float(np.linalg.norm(flange - arm._origin_xyz[0]))
@@ -285,7 +411,7 @@ def _inverse(arm: Arm, position: np.ndarray, target_rot: np.ndarray, seed: np.nd
             rng = rng if rng is not None else np.random.default_rng(0)
             start = rng.uniform(arm.lower, arm.upper)
         tried += 1
-        q, perr, aerr, its, ok = _solve(arm, position, target_rot, start, opts)
+        q, perr, aerr, its, ok = _solve(arm, position, target_rot, start, opts, arm_angle)
         total += its
         if ok:
             margin = float(joint_margin(arm, q))
@@ -328,23 +454,29 @@ def wrist_flip(arm: Arm, q) -> np.ndarray:
     return np.clip(flipped, arm.lower, arm.upper)
 
 
-def _solve(arm: Arm, position, target_rot, seed, opts: IKOptions):
+def _solve(arm: Arm, position, target_rot, seed, opts: IKOptions,
+           arm_angle: float | None = None):
     """Damped least squares from one seed: (q, position error, angle error, iterations, ok).
 
     Once converged closer than ``min_margin`` to a limit, up to ``polish`` null-space steps
     (each followed by re-convergence) move the redundant elbow away; the last converged q is
-    returned.
+    returned. With ``arm_angle`` the arm-angle joint is held there (its Jacobian column and
+    step are zero; no null space is left to polish in).
     """
     q = np.clip(seed, arm.lower, arm.upper)
+    free = np.ones(7)
+    if arm_angle is not None:
+        q[ARM_ANGLE_JOINT] = arm_angle
+        free[ARM_ANGLE_JOINT] = 0.0
     half = 0.5 * (arm.upper - arm.lower)
     eye = np.eye(7)
     scale = np.array([1.0, 1.0, 1.0, LENGTH_SCALE, LENGTH_SCALE, LENGTH_SCALE])
-    polish = opts.polish if opts.min_margin > 0 else 0
+    polish = opts.polish if opts.min_margin > 0 and arm_angle is None else 0
     done = None
     for it in range(opts.max_iterations + 1):
         frames = link_frames(arm, q)
         dp = position - frames.positions[7]
-        dtheta = Rotation.from_matrix(target_rot @ frames.rotations[7].T).as_rotvec()
+        dtheta = rotation_log(target_rot @ frames.rotations[7].T)
         perr, aerr = float(np.linalg.norm(dp)), float(np.linalg.norm(dtheta))
         converged = perr <= opts.position_tolerance and aerr <= opts.angle_tolerance
         if converged:
@@ -353,11 +485,16 @@ def _solve(arm: Arm, position, target_rot, seed, opts: IKOptions):
                 break
         if it == opts.max_iterations:
             break
-        jac = _jacobian(arm, frames) * scale[:, None]
+        jac = _jacobian(arm, frames) * scale[:, None] * free
         err = np.concatenate([dp, LENGTH_SCALE * dtheta])
         energy = 0.5 * float(err @ err)
         grad = (q - arm.mid) / half**2
-        null = eye - np.linalg.pinv(jac, rcond=1e-8) @ jac
+        # null-space projector I - J^+ J, J^+ = J^T (J J^T)^-1 (J has full row rank away
+        # from singularities; pinv's truncation where it has not)
+        try:
+            null = eye - jac.T @ np.linalg.solve(jac @ jac.T, jac)
+        except np.linalg.LinAlgError:
+            null = eye - np.linalg.pinv(jac, rcond=1e-8) @ jac
         if converged:  # polish: a pure self-motion step away from the limits
             polish -= 1
             dq = -opts.null_gain * (null @ grad)
@@ -367,6 +504,7 @@ def _solve(arm: Arm, position, target_rot, seed, opts: IKOptions):
             # not keep the task from converging to the tolerance.
             fade = min(1.0, np.sqrt(2.0 * energy) / NULL_FADE)
             dq -= opts.null_gain * fade * (null @ grad)
+        dq *= free
         largest = np.max(np.abs(dq))
         if largest > opts.max_step:
             dq *= opts.max_step / largest
@@ -374,6 +512,38 @@ def _solve(arm: Arm, position, target_rot, seed, opts: IKOptions):
     if done is not None:
         return done[0], done[1], done[2], it, True
     return q, perr, aerr, it, False
+
+
+def rotation_log(m) -> np.ndarray:
+    """Rotation vectors [rad] of rotation matrices (the logarithm map), (..., 3, 3) -> (..., 3).
+
+    Closed form, robust at 0 and pi: ``theta = arccos((tr m - 1) / 2)``; the axis from the
+    skew part of m, or near pi (where the skew part vanishes) from the largest column of
+    ``(m + I) / 2 = a a^T``, signed by the skew part. The result of scipy's ``as_rotvec``
+    without its per-call overhead (the IK calls it every iteration).
+    """
+    m = np.asarray(m, dtype=float)
+    if m.ndim == 2:  # the single-solve case: plain floats, no array overhead
+        skew = np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]])
+        angle = float(np.arccos(min(1.0, max(-1.0, 0.5 * (m[0, 0] + m[1, 1] + m[2, 2] - 1.0)))))
+        if angle < 1e-6:
+            return 0.5 * skew
+        if angle <= np.pi - 1e-3:
+            return angle / (2.0 * np.sin(angle)) * skew
+    skew = np.stack([m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0],
+                     m[..., 1, 0] - m[..., 0, 1]], axis=-1)
+    cos = np.clip(0.5 * (m[..., 0, 0] + m[..., 1, 1] + m[..., 2, 2] - 1.0), -1.0, 1.0)
+    angle = np.arccos(cos)
+    small = angle < 1e-6
+    near_pi = angle > np.pi - 1e-3
+    sin = np.where(small | near_pi, 1.0, np.sin(angle))
+    out = np.where(small, 0.5, angle / (2.0 * sin))[..., None] * skew
+    for index in map(tuple, np.argwhere(near_pi)):
+        outer = 0.5 * (m[index] + np.eye(3))
+        k = int(np.argmax(np.diag(outer)))
+        axis = outer[:, k] / np.linalg.norm(outer[:, k])
+        out[index] = angle[index] * (axis if axis @ skew[index] >= 0 else -axis)
+    return out
 
 
 def _as_joints(q, name: str) -> np.ndarray:

@@ -16,7 +16,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from .collision import arm_clearance
-from .kinematics import IKOptions, _inverse, _solve, joint_margin, manipulability
+from .kinematics import IKOptions, inverse, joint_margin, manipulability, solve_from
 from .yumi import ABB_AXIS_NUMBERS, ARMS, Arm, Robot, yumi
 
 _TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
@@ -173,7 +173,8 @@ def tcp_poses_from_clips(robot: Robot, clip_positions, clip_rotations: Rotation)
 
 
 def check_path(robot: Robot, positions, rotations: Rotation, *, seeds=None,
-               options: ReachOptions | None = None) -> Reachability:
+               options: ReachOptions | None = None,
+               alternatives: Rotation | None = None) -> Reachability:
     """Reachability of a dual-arm TCP path, tracked continuously from pose to pose.
 
     Pose 0 is solved from ``seeds`` (default the home poses), trying seeds until a solution at
@@ -194,19 +195,27 @@ def check_path(robot: Robot, positions, rotations: Rotation, *, seeds=None,
     seeds : array_like, optional
         (2, 7) joint values [rad] to start pose 0 from.
     options : ReachOptions, optional
+    alternatives : scipy.spatial.transform.Rotation, optional
+        (K, 2) other TCP rotations an arm may use instead, for the whole path (e.g. the grip
+        turned by pi of a symmetric gripper); each arm keeps the better of the two (more poses
+        reachable, then continuous, then the larger joint margin) and
+        ``Reachability.grip_turned`` says which arm uses its alternative.
 
     Returns
     -------
     Reachability
     """
     pos, mats = _validate_path(positions, rotations)
+    grips = [mats]
+    if alternatives is not None:
+        grips.append(_validate_path(positions, alternatives, "positions", "alternatives")[1])
     opts = options if options is not None else ReachOptions()
     if seeds is None:
         seeds = np.stack([arm.home for arm in robot.arms])
     seeds = np.asarray(seeds, dtype=float)
     if seeds.shape != (2, 7) or not np.all(np.isfinite(seeds)):
         raise ValueError(f"seeds: expected (2, 7) finite joint values [rad], got {seeds.shape}")
-    return _check(robot, pos, [mats], seeds, opts, clip_of_arm=(0, 1))
+    return _check(robot, pos, grips, seeds, opts, clip_of_arm=(0, 1))
 
 
 def check_reachability(gripper_positions, gripper_rotations: Rotation, robot: Robot | None = None,
@@ -421,7 +430,7 @@ def _track(arm: Arm, index: int, pos, mats, times, planned, seed, opts: ReachOpt
     perr = np.empty(n_poses)
     aerr = np.empty(n_poses)
     messages = []
-    res = _inverse(arm, sub_pos[0], sub_rot[0], seed, first_opts, None)
+    res = inverse(arm, sub_pos[0], Rotation.from_matrix(sub_rot[0]), seed, first_opts)
     q_all[0] = res.q
     reachable[0], perr[0], aerr[0] = res.success, res.position_error, res.angle_error
     if not res.success:
@@ -432,7 +441,8 @@ def _track(arm: Arm, index: int, pos, mats, times, planned, seed, opts: ReachOpt
         if (lost or not reachable[k - 1]) and i != planned[k]:
             q_all[i] = q_all[i - 1]  # motion already reported broken: only the pose matters
             continue
-        q, pe, ae, _, ok = _solve(arm, sub_pos[i], sub_rot[i], q_all[i - 1], track_opts)
+        step = solve_from(arm, sub_pos[i], sub_rot[i], q_all[i - 1], track_opts)
+        q, pe, ae, ok = step.q, step.position_error, step.angle_error, step.success
         jump = np.max(np.abs(q - q_all[i - 1]))
         if ok and jump > opts.max_joint_step and not lost and reachable[k - 1]:
             j = int(np.argmax(np.abs(q - q_all[i - 1])))
@@ -447,7 +457,7 @@ def _track(arm: Arm, index: int, pos, mats, times, planned, seed, opts: ReachOpt
             lost = True
         if i == planned[k]:
             if not ok:  # solve the planned pose afresh
-                res = _inverse(arm, sub_pos[i], sub_rot[i], q, first_opts, None)
+                res = inverse(arm, sub_pos[i], Rotation.from_matrix(sub_rot[i]), q, first_opts)
                 q, pe, ae, ok = res.q, res.position_error, res.angle_error, res.success
                 if not ok:
                     messages.append(f"{name} arm, pose {k}: not reachable ({res.message})")
@@ -478,7 +488,7 @@ def _quick_check(robot: Robot, clip_pos, clip_rot: Rotation, opts: ReachOptions)
     for a, arm in enumerate(robot.arms):
         q = arm.home
         for k in range(len(tcp_pos)):
-            res = _inverse(arm, tcp_pos[k, a], mats[k, a], q, quick, None)
+            res = inverse(arm, tcp_pos[k, a], Rotation.from_matrix(mats[k, a]), q, quick)
             if not res.success:
                 return False
             q = res.q

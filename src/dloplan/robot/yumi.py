@@ -92,9 +92,11 @@ _CAPSULES = (
     ((-0.0011, -0.0038, 0.0279), (-0.0009, -0.0043, 0.1002), 0.044),
 )
 
-DEFAULT_TCP_OFFSET = (0.0, 0.0, 0.136)
-"""Flange-to-TCP translation [m] of ABB's YuMi SmartGripper tool data (TCP 136 mm along the
-flange z-axis, orientation unchanged); the fingertips of the URDF gripper end 143 mm out."""
+DEFAULT_TCP_OFFSET = (0.0, 0.0, 0.1142)
+"""Flange-to-TCP translation [m] of ABB's SmartGripper tool data (servo module only; ABB,
+Product manual - Grippers for IRB 14000): TCP 114.2 mm along the flange z-axis, orientation
+unchanged. The fingertips of the URDF gripper end 143 mm out. The full tool data (mass, centre
+of gravity, inertia) is :class:`dloplan.robot.cell.Tool`'s default."""
 
 DEFAULT_TCP_IN_CLIP = Rotation.from_matrix([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 """The TCP axes expressed in the clip frame (u, v, w): TCP x = v, TCP y = u, TCP z = -w.
@@ -111,14 +113,16 @@ HOME_DEG = {
 0, -130, -+135, 30, 0, 40, 0): arms folded in front of the body. The IK's fallback seed."""
 
 
-def _as_vector(value, name: str, size: int = 3) -> np.ndarray:
+def as_vector(value, name: str, size: int = 3) -> np.ndarray:
+    """``value`` as a (size,) float array, else ValueError naming ``name``."""
     arr = np.asarray(value, dtype=float)
     if arr.shape != (size,) or not np.all(np.isfinite(arr)):
         raise ValueError(f"{name}: expected {size} finite numbers, got {value!r}")
     return arr
 
 
-def _as_rotation(value, name: str) -> Rotation:
+def as_rotation(value, name: str) -> Rotation:
+    """``value`` as a single scipy Rotation (None: identity), else ValueError naming ``name``."""
     if value is None:
         return Rotation.identity()
     if not isinstance(value, Rotation) or not value.single:
@@ -147,9 +151,9 @@ class Gripper:
     tcp_in_clip: Rotation = DEFAULT_TCP_IN_CLIP
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "tcp_offset", _as_vector(self.tcp_offset, "tcp_offset"))
-        object.__setattr__(self, "tcp_rotation", _as_rotation(self.tcp_rotation, "tcp_rotation"))
-        object.__setattr__(self, "tcp_in_clip", _as_rotation(self.tcp_in_clip, "tcp_in_clip"))
+        object.__setattr__(self, "tcp_offset", as_vector(self.tcp_offset, "tcp_offset"))
+        object.__setattr__(self, "tcp_rotation", as_rotation(self.tcp_rotation, "tcp_rotation"))
+        object.__setattr__(self, "tcp_in_clip", as_rotation(self.tcp_in_clip, "tcp_in_clip"))
 
 
 @dataclass(frozen=True, eq=False)
@@ -218,8 +222,8 @@ class Arm:
         if np.any((self.home < self.lower) | (self.home > self.upper)):
             raise ValueError(f"home: {self.home} is outside the joint limits")
         object.__setattr__(self, "axes", self.axes / np.linalg.norm(self.axes, axis=1)[:, None])
-        object.__setattr__(self, "base_position", _as_vector(self.base_position, "base_position"))
-        object.__setattr__(self, "base_rotation", _as_rotation(self.base_rotation, "base_rotation"))
+        object.__setattr__(self, "base_position", as_vector(self.base_position, "base_position"))
+        object.__setattr__(self, "base_rotation", as_rotation(self.base_rotation, "base_rotation"))
         # Fixed parts of the chain, precomputed: joint 1's origin carries the world placement.
         rot = Rotation.from_euler("xyz", self.origin_rpy).as_matrix()
         xyz = self.origin_xyz.copy()
@@ -229,6 +233,11 @@ class Arm:
         object.__setattr__(self, "_origin_rot", rot)
         object.__setattr__(self, "_origin_xyz", xyz)
         object.__setattr__(self, "_tcp_rot", self.gripper.tcp_rotation.as_matrix())
+        skew = np.zeros((7, 3, 3))
+        skew[:, [2, 0, 1], [1, 2, 0]] = self.axes
+        skew[:, [1, 2, 0], [2, 0, 1]] = -self.axes
+        object.__setattr__(self, "_axis_skew", skew)
+        object.__setattr__(self, "_axis_skew2", skew @ skew)
 
     @property
     def n_joints(self) -> int:

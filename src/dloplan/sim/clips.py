@@ -14,16 +14,27 @@ keeps its rest length l: the end point is at ``position - l/2 u`` and the inner 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..cable import GRAVITY, Cable
 from ..frames import frame_from_axis, minimal_rotation
-from ..physics.geometry import as_shape
+from ..physics.compiled import stretch_to_length
+from ..physics.geometry import (
+    arc_length,
+    as_shape,
+    resample_by_arc_length,
+    shape_length,
+)
 
 HELD_INDICES = (0, 1, -2, -1)
 """Indices of the four points fixed by the two clips, in the order first-end, first-inner,
 last-inner, last-end."""
+
+MAX_STRAIN = 0.02
+"""Largest mean strain of the free part accepted before clips are declared out of reach."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -58,6 +69,10 @@ class ClipPoses:
     @property
     def u_axes(self) -> np.ndarray:
         """The two u-axes (held link directions, inward), (2, 3)."""
+        return self._u_axes.copy()
+
+    @cached_property
+    def _u_axes(self) -> np.ndarray:  # Rotation.apply costs more than every use of its result
         return self.rotations.apply([1.0, 0.0, 0.0])
 
     @property
@@ -113,3 +128,77 @@ def place_held_points(shape: np.ndarray, clips: ClipPoses, link_length: float) -
     x = np.array(shape, dtype=float)
     x[list(HELD_INDICES)] = clips.held_points(link_length)
     return x
+
+
+def check_clip_reach(cable: Cable, clips: ClipPoses) -> None:
+    """Raise ValueError when the clips are coincident or farther apart than the cable reaches."""
+    distance = clips.distance
+    if distance < 1e-6 * cable.length:
+        raise ValueError(f"clips: the two clip points coincide (distance {distance:.3g} m)")
+    held = clips.held_points(cable.rest_link_length)
+    gap = float(np.linalg.norm(held[2] - held[1]))
+    reach = (cable.n_links - 2) * cable.rest_link_length
+    if gap > reach * (1.0 + MAX_STRAIN):
+        raise ValueError(
+            f"clips: the inner held points are {gap:.4g} m apart but the free part of the cable "
+            f"is {reach:.4g} m long (clip distance {distance:.4g} m for a {cable.length:.4g} m "
+            f"cable): out of reach"
+        )
+
+
+def conform_guess(cable: Cable, guess: np.ndarray, clips: ClipPoses, gravity=GRAVITY) -> np.ndarray:
+    """A starting shape with the held points placed and the free part at its rest length.
+
+    A guess whose free part is shorter or longer than the cable (a geometric path's shape,
+    or a warm start whose clips moved) starts Newton's method with large axial forces: the
+    Hessian is then strongly indefinite and steps crawl. This keeps the guess's shape and
+    branch but scales its deviation from the chord between the inner held points until the
+    length is right, and spaces the points evenly along it. A straight guess that is too long
+    for the clips is bowed along gravity (or any perpendicular) first.
+
+    Parameters
+    ----------
+    cable : Cable
+        The cable.
+    guess : numpy.ndarray
+        (n + 1, 3) shape [m].
+    clips : ClipPoses
+        The clips holding points 0, 1 and n-1, n.
+    gravity : array_like
+        Gravity [m/s^2], the direction a straight compressed guess is bowed toward.
+    """
+    l = cable.rest_link_length
+    held = clips.held_points(l)
+    x = np.array(guess, dtype=float)
+    x[list(HELD_INDICES)] = held
+    inner = np.array(guess[1:-1], dtype=float)
+    need = (cable.n_links - 2) * l
+    s = arc_length(inner)
+    s = s / s[-1] if s[-1] > 0 else np.linspace(0.0, 1.0, len(inner))
+    inner += (1 - s)[:, None] * (held[1] - inner[0]) + s[:, None] * (held[2] - inner[-1])
+    chord = held[1] + s[:, None] * (held[2] - held[1])
+    deviation = inner - chord
+    if abs(shape_length(inner) / need - 1.0) < 1e-6:
+        x[1:-1] = inner
+        return x
+    if float(np.linalg.norm(held[2] - held[1])) >= need:
+        x[1:-1] = resample_by_arc_length(chord, len(inner))
+        return x
+    if float(np.max(np.linalg.norm(deviation, axis=1))) < 1e-9 * cable.length:
+        deviation = 0.5 * (1.0 - np.cos(2.0 * np.pi * s))[:, None] * _bow_direction(
+            held[2] - held[1], gravity
+        ) * cable.length
+
+    x[1:-1] = resample_by_arc_length(chord + stretch_to_length(chord, deviation, need) * deviation,
+                                     len(inner))
+    return x
+
+
+def _bow_direction(chord: np.ndarray, gravity) -> np.ndarray:
+    axis = chord / np.linalg.norm(chord)
+    for candidate in (np.asarray(gravity, dtype=float), np.array([0, 0, -1.0]),
+                      np.array([0, 1.0, 0])):
+        perp = candidate - np.dot(candidate, axis) * axis
+        if np.linalg.norm(perp) > 1e-6 * max(np.linalg.norm(candidate), 1e-300):
+            return perp / np.linalg.norm(perp)
+    return np.array([1.0, 0, 0])

@@ -28,7 +28,9 @@ from ..cable import GRAVITY, Cable
 from ..physics.chain import SpringChain, energy, gradient, hessian_band
 from ..physics.geometry import as_shape
 from .clips import HELD_INDICES, ClipPoses, clip_poses_from_shape
-from .statics import Equilibrium, _factor, _free_band, _result
+from .newton import factor_band, free_band
+from .result import Equilibrium, equilibrium_result
+from .stepping import DIVERGED, RUNNING, SETTLED, explicit_steps
 
 _CHUNK = 4096  # steps whose clip poses are interpolated at once
 
@@ -210,15 +212,13 @@ def simulate(
     chain = SpringChain.from_cable(cable, gravity)
     if damping not in ("absolute", "relative"):
         raise ValueError(f"damping: got {damping!r}, expected 'absolute' or 'relative'")
-    mass = cable.point_masses[:, None]
-    k_d = cable.k_damping
-    relative = damping == "relative"
-    held = list(HELD_INDICES)
-    clips_stop = trajectory.times[-1]
+    n_records = n_steps // record_every + 2
+    times, speeds = np.zeros(n_records), np.zeros(n_records)
+    shapes = np.empty((n_records,) + x.shape)
+    shapes[0] = x  # as given: the clips take hold at the first step
     v = np.zeros_like(x)
-    times, shapes, speeds = [0.0], [x.copy()], [0.0]
     previous_held = trajectory.held_points(np.array([0.0]), cable.rest_link_length)[0]
-    x[held] = previous_held
+    x[list(HELD_INDICES)] = previous_held
     twist = None
     if torsion:
         from .torsion import QuasiStaticTwist
@@ -226,64 +226,38 @@ def simulate(
         twist = QuasiStaticTwist(cable, x, trajectory.frames(np.array([0.0]))[1][0],
                                  natural_twist)
         chain = twist.chain_for(chain)
-    settled = False
-    step = 0
+    settings = (n_steps, dt, cable.k_damping, damping == "relative", bool(ground), record_every,
+                -1.0 if rest_speed is None else float(rest_speed), float(trajectory.times[-1]),
+                *chain.constants, times, shapes, speeds)
+    no_load = np.zeros_like(x)
+    status, step, recorded = RUNNING, 0, 1
     # a diverging run is detected in the loop and reported with its time: no float warnings
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        while step < n_steps and not settled:
+        while step < n_steps and status == RUNNING:
             chunk_steps = np.arange(step + 1, min(step + _CHUNK, n_steps) + 1)
             targets = trajectory.held_points(chunk_steps * dt, cable.rest_link_length)
-            clip_frames = trajectory.frames(chunk_steps * dt)[1] if twist is not None else None
-            for k, target in enumerate(targets):
-                drag = _relative_velocities(v) if relative else v
-                grad = gradient(chain, x)
-                if twist is not None:
-                    grad = grad + twist.relax(x)
-                a = (-grad - k_d * drag) / mass
-                v += a * dt
-                x_old = x.copy() if twist is not None else None
-                x += v * dt
-                v[held] = (target - previous_held) / dt
-                x[held] = target
-                previous_held = target
-                if twist is not None:
-                    twist.follow(x_old, x, clip_frames[k])
-                if ground:
-                    below = x[:, 2] < 0.0
-                    x[below, 2] = 0.0
-                    v[below, 2] = np.maximum(v[below, 2], 0.0)
-                step = int(chunk_steps[k])
-                if step % record_every == 0 or step == n_steps:
-                    speed = float(np.max(np.linalg.norm(v, axis=1)))
-                    times.append(step * dt)
-                    shapes.append(x.copy())
-                    speeds.append(speed)
-                    # at rest: slow, and not about to speed up within one record interval
-                    pull = float(np.max(np.linalg.norm(a[2:-2], axis=1))) * record_every * dt
-                    if (rest_speed is not None and step * dt >= clips_stop
-                            and max(speed, pull) < rest_speed):
-                        settled = True
-                        break
-                if not np.all(np.isfinite(x[2])):
-                    raise FloatingPointError(
-                        f"simulation diverged at t = {step * dt:.4g} s (dt = {dt:.3g} s too large)"
-                    )
+            if twist is None:
+                step, recorded, status = explicit_steps(x, v, previous_held, targets, no_load, step,
+                                                        *settings, recorded)
+                continue
+            clip_frames = trajectory.frames(chunk_steps * dt)[1]
+            for k in range(len(targets)):  # the twist relaxes between steps (Python)
+                x_old = x.copy()
+                step, recorded, status = explicit_steps(x, v, previous_held, targets[k : k + 1],
+                                                        twist.relax(x), step, *settings, recorded)
+                twist.follow(x_old, x, clip_frames[k])
+                if status != RUNNING:
+                    break
+    if status == DIVERGED:
+        raise FloatingPointError(
+            f"simulation diverged at t = {step * dt:.4g} s (dt = {dt:.3g} s too large)")
+    settled = status == SETTLED
     if settled:
         message = f"at rest after {step} steps ({step * dt:.4g} s)"
     else:
         message = f"ran {step} steps ({step * dt:.4g} s)"
-    return Simulation(
-        np.asarray(times), np.stack(shapes), np.asarray(speeds), float(dt), step, settled, message
-    )
-
-
-def _relative_velocities(v: np.ndarray) -> np.ndarray:
-    """Sum over each point's neighbours of its velocity relative to them (a graph Laplacian)."""
-    out = np.zeros_like(v)
-    dv = v[1:] - v[:-1]
-    out[1:] += dv
-    out[:-1] -= dv
-    return out
+    return Simulation(times[:recorded].copy(), shapes[:recorded].copy(),
+                      speeds[:recorded].copy(), float(dt), step, settled, message)
 
 
 def settle(
@@ -314,7 +288,7 @@ def settle(
     final = run.shapes[-1]
     g = gradient(chain, final)
     residual = float(np.max(np.linalg.norm(g[2:-2], axis=1)))
-    stable = _factor(_free_band(hessian_band(chain, final), slice(2, -2)), 0.0) is not None
+    stable = factor_band(free_band(hessian_band(chain, final), slice(2, -2))) is not None
     history = np.array([float(energy(chain, final))])
-    return _result(cable, chain, final, g, clips, run.steps, run.settled, residual, math.nan,
-                   stable, history, run.message)
+    return equilibrium_result(cable, chain, final, g, clips, run.steps, run.settled, residual,
+                              math.nan, stable, history, run.message)

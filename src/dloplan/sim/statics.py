@@ -29,206 +29,39 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
-from scipy.linalg import lapack
-from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation, Slerp
 
 from ..cable import GRAVITY, Cable
 from ..physics.chain import (
-    Forces,
+    HALF_BANDWIDTH,
     SpringChain,
     band_to_sparse,
     energy,
-    forces,
     gradient,
-    gradient_and_hessian_band,
     hessian_band,
+    shape_derivatives,
+    shape_energy,
 )
-from ..physics.contact import penetrations
-from ..physics.geometry import (
-    arc_length,
-    as_shape,
-    norms,
-    resample_by_arc_length,
-    shape_length,
+from ..physics.geometry import as_shape, norms
+from .clips import ClipPoses, check_clip_reach, clip_poses_from_shape, conform_guess
+from .compiled import CONVERGED, MAX_ITERATIONS, SADDLE, STALLED, newton_positions
+from .dynamics import settle
+from .newton import (
+    MAX_ESCAPES,
+    NewtonRun,
+    escape_saddle,
+    free_band,
+    newton_message,
+    trust_region_newton,
 )
-from ..physics.gravity import gravity_force
-from .clips import ClipPoses, clip_poses_from_shape, place_held_points
+from .result import Equilibrium, clip_reactions, equilibrium_result, force_scale
 
-MAX_STRAIN = 0.02
-"""Largest mean strain of the free part accepted before clips are declared out of reach."""
-
-
-@dataclass(frozen=True, eq=False)
-class Equilibrium:
-    """A static equilibrium found by :func:`equilibrium`.
-
-    Attributes
-    ----------
-    shape : numpy.ndarray
-        (n + 1, 3) point positions [m].
-    forces : Forces
-        Per-point axial, bending and gravity forces [N] at the equilibrium.
-    energy : float
-        Potential energy U [J].
-    clip_wrenches : numpy.ndarray
-        (2, 6): force [N] and moment [N m] the cable exerts on each clip, in the world frame,
-        the moment taken about the clip point (first clip, last clip).
-    iterations : int
-        Newton iterations.
-    converged : bool
-        True when the force residual is below the tolerance.
-    residual : float
-        Largest norm of the net force on a free point [N].
-    tolerance : float
-        The residual tolerance used [N].
-    stable : bool
-        True when the Hessian over the free points is positive definite at the solution.
-    clips : ClipPoses
-        The clip poses held.
-    message : str
-        What happened, in words.
-    energy_history : numpy.ndarray
-        Energy after each accepted iteration [J] (monotonically decreasing).
-    penetration : float
-        Deepest penetration of a point into a contact obstacle [m] (0 without contacts).
-    """
-
-    shape: np.ndarray
-    forces: Forces
-    energy: float
-    clip_wrenches: np.ndarray
-    iterations: int
-    converged: bool
-    residual: float
-    tolerance: float
-    stable: bool
-    clips: ClipPoses
-    message: str
-    energy_history: np.ndarray
-    penetration: float = 0.0
-
-    @property
-    def success(self) -> bool:
-        """Converged to a stable equilibrium."""
-        return self.converged and self.stable
-
-
-def force_scale(cable: Cable, gravity=GRAVITY) -> float:
-    """Characteristic force of a cable's statics [N]: a point's weight plus k_b / l."""
-    weight = float(np.max(cable.point_masses)) * float(np.linalg.norm(gravity))
-    return weight + cable.k_bending / cable.rest_link_length
-
-
-def check_clip_reach(cable: Cable, clips: ClipPoses) -> None:
-    """Raise ValueError when the clips are coincident or farther apart than the cable reaches."""
-    distance = clips.distance
-    if distance < 1e-6 * cable.length:
-        raise ValueError(f"clips: the two clip points coincide (distance {distance:.3g} m)")
-    held = clips.held_points(cable.rest_link_length)
-    gap = float(np.linalg.norm(held[2] - held[1]))
-    reach = (cable.n_links - 2) * cable.rest_link_length
-    if gap > reach * (1.0 + MAX_STRAIN):
-        raise ValueError(
-            f"clips: the inner held points are {gap:.4g} m apart but the free part of the cable "
-            f"is {reach:.4g} m long (clip distance {distance:.4g} m for a {cable.length:.4g} m "
-            f"cable): out of reach"
-        )
-
-
-def _clip_wrenches(x: np.ndarray, grad: np.ndarray, clips: ClipPoses, held: str) -> np.ndarray:
-    """Force and moment the cable puts on each clip: minus the reactions on the held points."""
-    wrenches = np.zeros((2, 6))
-    for k, idx in enumerate(([0, 1], [-2, -1])[: 2 if held == "both" else 1]):
-        on_clip = -grad[idx]  # the clip balances the net force on its points: reaction = grad
-        wrenches[k, :3] = on_clip.sum(axis=0)
-        wrenches[k, 3:] = np.cross(x[idx] - clips.positions[k], on_clip).sum(axis=0)
-    return wrenches
-
-
-def conform_guess(cable: Cable, guess: np.ndarray, clips: ClipPoses, gravity=GRAVITY) -> np.ndarray:
-    """A starting shape with the held points placed and the free part at its rest length.
-
-    A guess whose free part is shorter or longer than the cable (a geometric path's shape,
-    or a warm start whose clips moved) starts Newton's method with large axial forces: the
-    Hessian is then strongly indefinite and steps crawl. This keeps the guess's shape and
-    branch but scales its deviation from the chord between the inner held points until the
-    length is right, and spaces the points evenly along it. A straight guess that is too long
-    for the clips is bowed along gravity (or any perpendicular) first.
-
-    Parameters
-    ----------
-    cable : Cable
-        The cable.
-    guess : numpy.ndarray
-        (n + 1, 3) shape [m].
-    clips : ClipPoses
-        The clips holding points 0, 1 and n-1, n.
-    gravity : array_like
-        Gravity [m/s^2], the direction a straight compressed guess is bowed toward.
-    """
-    l = cable.rest_link_length
-    held = clips.held_points(l)
-    x = place_held_points(guess, clips, l)
-    inner = np.array(guess[1:-1], dtype=float)
-    need = (cable.n_links - 2) * l
-    s = arc_length(inner)
-    s = s / s[-1] if s[-1] > 0 else np.linspace(0.0, 1.0, len(inner))
-    inner += (1 - s)[:, None] * (held[1] - inner[0]) + s[:, None] * (held[2] - inner[-1])
-    chord = held[1] + s[:, None] * (held[2] - held[1])
-    deviation = inner - chord
-    if abs(shape_length(inner) / need - 1.0) < 1e-6:
-        x[1:-1] = inner
-        return x
-    if float(np.linalg.norm(held[2] - held[1])) >= need:
-        x[1:-1] = resample_by_arc_length(chord, len(inner))
-        return x
-    if float(np.max(np.linalg.norm(deviation, axis=1))) < 1e-9 * cable.length:
-        deviation = 0.5 * (1.0 - np.cos(2.0 * np.pi * s))[:, None] * _bow_direction(
-            held[2] - held[1], gravity
-        ) * cable.length
-
-    def excess(a: float) -> float:
-        return float(shape_length(chord + a * deviation)) - need
-
-    high = 1.0
-    while excess(high) < 0.0:
-        high *= 2.0
-    amplitude = brentq(excess, 0.0, high, xtol=1e-12)
-    x[1:-1] = resample_by_arc_length(chord + amplitude * deviation, len(inner))
-    return x
-
-
-def _bow_direction(chord: np.ndarray, gravity) -> np.ndarray:
-    axis = chord / np.linalg.norm(chord)
-    for candidate in (np.asarray(gravity, dtype=float), np.array([0, 0, -1.0]),
-                      np.array([0, 1.0, 0])):
-        perp = candidate - np.dot(candidate, axis) * axis
-        if np.linalg.norm(perp) > 1e-6 * max(np.linalg.norm(candidate), 1e-300):
-            return perp / np.linalg.norm(perp)
-    return np.array([1.0, 0, 0])
-
-
-def _free_band(band: np.ndarray, free: slice) -> np.ndarray:
-    # the free points are contiguous, so their coordinates are a column range of the band
-    return band[:, 3 * free.start : 3 * free.stop]
-
-
-def _factor(band: np.ndarray, shift: float) -> np.ndarray | None:
-    """Banded Cholesky factor of band + shift I (LAPACK dpbtrf), or None if not positive."""
-    shifted = band.copy()
-    shifted[0] += shift
-    # LAPACK directly: scipy.linalg.cholesky_banded's checks and dispatch cost more than the
-    # factorization itself at these sizes, and this runs in every Newton iteration
-    factor, info = lapack.dpbtrf(shifted, lower=1)
-    return factor if info == 0 else None
-
-
-def _solve(factor: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """Solve with a factor of :func:`_factor` (LAPACK dpbtrs)."""
-    return lapack.dpbtrs(factor, rhs, lower=1)[0]
+__all__ = [  # the static solvers, and the shared names callers have always imported from here
+    "Equilibrium", "TargetCheck", "check_clip_reach", "check_target", "clip_wrenches",
+    "conform_guess", "continuation", "equilibrium", "force_scale", "free_hessian",
+    "interpolate_clips", "minimize_energy", "stabilize",
+]
 
 
 def equilibrium(
@@ -308,8 +141,8 @@ def equilibrium(
     x, g, iterations, residual, stable, history, message = minimize_energy(
         chain, x, free, max_step, tolerance, max_iterations
     )
-    return _result(cable, chain, x, g, clips, iterations, residual <= tolerance, residual,
-                   tolerance, stable, history, message, held)
+    return equilibrium_result(cable, chain, x, g, clips, iterations, residual <= tolerance,
+                              residual, tolerance, stable, history, message, held)
 
 
 def minimize_energy(
@@ -350,206 +183,61 @@ def minimize_energy(
         return x, gradient(chain, x), 0, 0.0, True, np.array([float(energy(chain, x))]), \
             "no free point"
 
+    def energy_of(x):
+        return shape_energy(chain, x)
+
     def derivatives(x):
-        g, band = gradient_and_hessian_band(chain, x)
-        g -= gravity_force(chain.point_masses, chain.gravity)
+        _, g, band = shape_derivatives(chain, x)
         residual = float(np.max(norms(g[free])))
-        return g[free].ravel(), _free_band(band, free), residual, g
+        return g[free].ravel(), free_band(band, free), residual, g
 
     def moved(x, p):
         trial = x.copy()
         trial[free] += p.reshape(-1, 3)
         return trial
 
-    run = trust_region_newton(
-        x, lambda x: float(energy(chain, x)), derivatives, moved,
-        lambda p: float(np.max(norms(p.reshape(-1, 3)))),
-        length_scale, tolerance, max_iterations,
-    )
+    def displacement(p):
+        return float(np.max(norms(p.reshape(-1, 3))))
+
+    if chain.contacts:  # obstacles are Python objects: the generic loop
+        run = trust_region_newton(x, energy_of, derivatives, moved, displacement, length_scale,
+                                  tolerance, max_iterations)
+    else:
+        run = _compiled_newton(chain, x, free, length_scale, tolerance, max_iterations,
+                               energy_of, moved, displacement)
     return run.state, run.extra, run.iterations, run.residual, run.stable, run.history, \
         run.message
 
 
-@dataclass(frozen=True, eq=False)
-class NewtonRun:
-    """Outcome of :func:`trust_region_newton`.
+def _compiled_newton(chain, x, free, length_scale, tolerance, max_iterations, energy_of, moved,
+                     displacement) -> NewtonRun:
+    """:func:`trust_region_newton` for the plain chain, in :func:`newton_positions`.
 
-    Attributes
-    ----------
-    state : object
-        The final state (whatever the caller's ``moved`` builds).
-    extra : object
-        The fourth item of the last ``derivatives(state)`` call (e.g. the full gradient).
-    iterations : int
-        Newton iterations.
-    residual : float
-        The residual of the last evaluation (the caller's unit, e.g. [N]).
-    stable : bool
-        Residual below the tolerance and the free Hessian positive definite.
-    history : numpy.ndarray
-        Energy after each accepted iteration [J].
-    message : str
-        What happened.
+    The compiled loop returns at a saddle; the escape along the lowest mode is done here, as
+    in the generic loop, and the compiled loop resumes.
     """
-
-    state: object
-    extra: object
-    iterations: int
-    residual: float
-    stable: bool
-    history: np.ndarray
-    message: str
-
-
-def trust_region_newton(
-    state, energy_of, derivatives, moved, displacement, length_scale: float, tolerance: float,
-    max_iterations: int = 500, unit: str = "N",
-) -> NewtonRun:
-    """The trust-region (Levenberg-Marquardt) Newton loop of the static solvers.
-
-    Generic over the state so that positions only (:func:`minimize_energy`) and positions with
-    twist angles (:mod:`dloplan.sim.torsion`) share it; see the module docstring for the method.
-
-    Parameters
-    ----------
-    state : object
-        The start.
-    energy_of : callable
-        ``energy_of(state) -> float`` [J].
-    derivatives : callable
-        ``derivatives(state) -> (g, band, residual, extra)``: the gradient over the free
-        coordinates (1-D), the lower band of their Hessian (``cholesky_banded(lower=True)``
-        layout), the residual compared with ``tolerance``, and anything to hand back.
-    moved : callable
-        ``moved(state, p) -> state``: the state after the step ``p`` of the free coordinates.
-    displacement : callable
-        ``displacement(p) -> float``: the size of a step [m], compared with the trust radius.
-    length_scale : float
-        Largest step [m] at the start (a quarter of it) and ever (all of it).
-    tolerance : float
-        Residual for convergence.
-    max_iterations : int
-        Iteration limit.
-    unit : str
-        Unit of the residual, for the messages.
-    """
-    radius = 0.25 * length_scale  # trust radius: the largest point displacement of one step
-    shift = 0.0
-    f = energy_of(state)
-    history = [f]
-    iterations = 0
-    message = ""
-    stable = False
-    escapes = 0
+    history = np.empty(max_iterations + 1)
+    history[0] = energy_of(x)
+    n_history, iterations, radius, escapes = 1, 0, 0.25 * length_scale, 0
+    grad, band = np.empty(x.shape), np.empty((HALF_BANDWIDTH + 1, x.size))
     while True:
-        gf, band, residual, extra = derivatives(state)
-        scale = float(np.mean(band[0]))
-        # stable: positive definite up to a relative 1e-9 (a zero-stiffness mode is neutral)
-        stable = residual <= tolerance and _factor(band, _NEUTRAL * scale) is not None
-        if stable:
-            message = f"converged in {iterations} iterations"
+        status, iterations, residual, radius, n_history = newton_positions(
+            x, free.start, free.stop, *chain.constants, length_scale, tolerance, max_iterations,
+            iterations, radius, history, n_history, grad, band, escapes < MAX_ESCAPES)
+        if status != SADDLE:
             break
-        if iterations >= max_iterations:
-            message = (f"no convergence in {max_iterations} iterations "
-                       f"(residual {residual:.3g} {unit})")
-            break
-        if residual <= tolerance and escapes < _MAX_ESCAPES:
-            # a saddle (an unstable equilibrium): leave it downhill along the direction of
-            # most negative curvature, then carry on with Newton toward a stable one
-            escaped = _escape_saddle(state, f, band, energy_of, moved, displacement, radius)
-            iterations += 1
-            escapes += 1
-            if escaped is None:
-                message = f"stuck at an unstable equilibrium after {iterations} iterations"
-                break
-            state, f = escaped
-            history.append(f)
-            shift = 0.0
-            continue
-        accepted = False
-        for _ in range(60):  # adapt the shift until a step is accepted
-            factor = _factor(band, shift)
-            if factor is None:
-                shift = max(4.0 * shift, 1e-8 * scale)
-                continue
-            p = -_solve(factor, gf)
-            longest = displacement(p)
-            alpha = min(1.0, radius / longest) if longest > 0 else 1.0  # truncate to the radius
-            # model decrease g.p + p.H.p/2 with (H + shift I) p_full = -g, p = alpha p_full
-            g_p = float(gf @ p)
-            predicted = alpha * g_p + 0.5 * alpha**2 * (-g_p - shift * float(p @ p))
-            p *= alpha
-            trial = moved(state, p)
-            f_trial = energy_of(trial)
-            actual = f_trial - f
-            noise = 1e-13 * (abs(f) + abs(predicted)) + 1e-300
-            if predicted < 0 and (actual < 0 or abs(actual) < noise):
-                ratio = actual / predicted if abs(predicted) > noise else 1.0
-                state, f = trial, f_trial
-                accepted = True
-                if ratio > 0.75:
-                    shift = 0.0 if shift < 1e-6 * scale else shift / 8.0
-                    radius = min(2.0 * radius, length_scale)
-                elif ratio < 0.25:
-                    shift = max(4.0 * shift, 1e-8 * scale)
-                break
-            shift = max(4.0 * shift, 1e-8 * scale)
-            radius = max(0.5 * min(radius, longest), 1e-9 * length_scale)
+        escaped = escape_saddle(x, history[n_history - 1], free_band(band, free), energy_of,
+                                moved, displacement, radius)
         iterations += 1
-        if not accepted:
-            message = f"stalled after {iterations} iterations (residual {residual:.3g} {unit})"
+        escapes += 1
+        if escaped is None:
             break
-        history.append(f)
-    return NewtonRun(state, extra, iterations, residual, stable, np.asarray(history), message)
-
-
-_NEUTRAL = 1e-9  # relative shift under which a Hessian counts as positive (semi-)definite
-_MAX_ESCAPES = 20
-
-
-def _escape_saddle(state, f, band, energy_of, moved, displacement, radius):
-    """A step from a saddle along the eigenvector of the most negative Hessian eigenvalue.
-
-    Tries both signs with a backtracking length, starting at the trust radius; returns
-    ``(state, energy)`` of the first step that lowers the energy, or None.
-    """
-    _, vectors = sla.eig_banded(band, lower=True, select="i", select_range=(0, 0),
-                                check_finite=False)
-    direction = vectors[:, 0] / displacement(vectors[:, 0])
-    length = radius
-    for _ in range(40):
-        for sign in (1.0, -1.0):
-            trial = moved(state, sign * length * direction)
-            f_trial = energy_of(trial)
-            if f_trial < f:
-                return trial, f_trial
-        length *= 0.5
-    return None
-
-
-def _result(cable, chain, x, g, clips, iterations, converged, residual, tolerance, stable,
-            history, message, held="both") -> Equilibrium:
-    if not stable and converged:
-        message += "; the equilibrium is not stable (Hessian not positive definite)"
-    depth = 0.0
-    if chain.contacts:
-        depth = max(0.0, *(float(d.max()) for d, _ in
-                           penetrations(x, chain.contacts, chain.contact_radius)))
-    return Equilibrium(
-        shape=x,
-        forces=forces(chain, x),
-        energy=float(history[-1]),
-        clip_wrenches=_clip_wrenches(x, g, clips, held),
-        iterations=iterations,
-        converged=bool(converged),
-        residual=float(residual),
-        tolerance=float(tolerance),
-        stable=bool(stable),
-        clips=clips,
-        message=message,
-        energy_history=np.asarray(history),
-        penetration=depth,
-    )
+        x, history[n_history] = escaped
+        n_history += 1
+    outcome = {CONVERGED: "converged", MAX_ITERATIONS: "max_iterations", STALLED: "stalled",
+               SADDLE: "stuck"}[status]
+    return NewtonRun(x, grad, iterations, residual, status == CONVERGED,
+                     history[:n_history].copy(), newton_message(outcome, iterations, residual))
 
 
 def clip_wrenches(cable: Cable, shape, gravity=GRAVITY) -> np.ndarray:
@@ -560,7 +248,7 @@ def clip_wrenches(cable: Cable, shape, gravity=GRAVITY) -> np.ndarray:
     """
     x = as_shape(shape, cable.n_points, "shape")
     chain = SpringChain.from_cable(cable, gravity)
-    return _clip_wrenches(x, gradient(chain, x), clip_poses_from_shape(x), "both")
+    return clip_reactions(x, gradient(chain, x), clip_poses_from_shape(x), "both")
 
 
 def free_hessian(cable: Cable, shape, gravity=GRAVITY) -> sp.csr_matrix:
@@ -570,7 +258,7 @@ def free_hessian(cable: Cable, shape, gravity=GRAVITY) -> sp.csr_matrix:
     """
     x = as_shape(shape, cable.n_points, "shape")
     chain = SpringChain.from_cable(cable, gravity)
-    return band_to_sparse(_free_band(hessian_band(chain, x), slice(2, cable.n_points - 2)))
+    return band_to_sparse(free_band(hessian_band(chain, x), slice(2, cable.n_points - 2)))
 
 
 def stabilize(
@@ -596,8 +284,6 @@ def stabilize(
     if method == "static":
         return equilibrium(cable, x, gravity=gravity, **options)
     if method == "dynamic":
-        from .dynamics import settle
-
         return settle(cable, x, gravity=gravity, **options)
     raise ValueError(f"method: got {method!r}, expected 'static' or 'dynamic'")
 

@@ -3,7 +3,7 @@
 :func:`equilibrium_with_twist` minimizes U = U^s + U^b + U^g (+ contacts) + U^t + U^d
 (:mod:`dloplan.physics.twist`) jointly over the free points 2 .. n-2 and the twist angles of the
 free links 1 .. n-2, with the same trust-region Newton loop as :func:`dloplan.sim.statics.
-equilibrium` (:func:`~dloplan.sim.statics.trust_region_newton`). The clips hold the four end
+equilibrium` (:func:`~dloplan.sim.newton.trust_region_newton`). The clips hold the four end
 points and set the material frame of the two held links:
 
 * first clip: m1 of link 0 is the clip's v-axis (its y-axis);
@@ -27,15 +27,19 @@ from dataclasses import dataclass, field, fields, replace
 from functools import lru_cache
 
 import numpy as np
-import scipy.linalg as sla
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
 from ..frames import frame_from_axis
-from ..physics.chain import HALF_BANDWIDTH, Forces, SpringChain, energy, forces
-from ..physics.chain import gradient_and_hessian_band as position_derivatives
+from ..physics.chain import (
+    HALF_BANDWIDTH,
+    Forces,
+    SpringChain,
+    shape_derivatives,
+    shape_energy,
+    shape_forces,
+)
 from ..physics.geometry import as_shape, tangents
-from ..physics.gravity import gravity_force
 from ..physics.rod_frames import (
     discrete_twist,
     parallel_transport,
@@ -44,16 +48,9 @@ from ..physics.rod_frames import (
     transported_directors,
 )
 from ..physics.twist import TwistChain, chart_directors, twist_derivatives, twist_energy
-from .clips import ClipPoses, clip_poses_from_shape
-from .statics import (
-    Equilibrium,
-    _clip_wrenches,
-    _result,
-    check_clip_reach,
-    conform_guess,
-    force_scale,
-    trust_region_newton,
-)
+from .clips import ClipPoses, check_clip_reach, clip_poses_from_shape, conform_guess
+from .newton import factor_band, solve_band, trust_region_newton
+from .result import Equilibrium, clip_reactions, equilibrium_result, force_scale
 
 TWIST_HALF_BANDWIDTH = 10
 """Half bandwidth of the joint Hessian over interleaved (x, y, z, theta) coordinates."""
@@ -164,8 +161,7 @@ def _joint_derivatives(chain: SpringChain, tc: TwistChain, x: np.ndarray, d1: np
     n = len(d1)
     (n_dof, point_dofs, angle_dofs, valid, position_targets, lower, block_targets,
      *_) = _layout(n)
-    g_pos, band_pos = position_derivatives(chain, x)
-    g_pos -= gravity_force(chain.point_masses, chain.gravity)
+    _, g_pos, band_pos = shape_derivatives(chain, x)
     td = twist_derivatives(tc, x, tangents(x), d1, np.zeros(n))
     g_pos = g_pos + td.twist_gradient + td.direction_gradient
     scale = np.ones(11)
@@ -282,7 +278,7 @@ def equilibrium_with_twist(
 
     def energy_of(state):
         x, d1 = state
-        return float(energy(chain, x)) + twist_energy(tc, x, d1)
+        return shape_energy(chain, x) + twist_energy(tc, x, d1)
 
     def derivatives(state):
         x, d1 = state
@@ -312,10 +308,10 @@ def equilibrium_with_twist(
     x, d1 = run.state
     g_pos, td = run.extra
     converged = run.residual <= tolerance
-    base = _result(cable, chain, x, g_pos, clips, run.iterations, converged, run.residual,
-                   tolerance, run.stable, run.history, run.message)
-    plain = forces(chain, x)
-    wrenches = _clip_wrenches(x, g_pos, clips, "both")
+    base = equilibrium_result(cable, chain, x, g_pos, clips, run.iterations, converged,
+                              run.residual, tolerance, run.stable, run.history, run.message)
+    plain = shape_forces(chain, x)
+    wrenches = clip_reactions(x, g_pos, clips, "both")
     t = tangents(x)
     wrenches[0, 3:] -= td.angle_gradient[0] * t[0]
     wrenches[1, 3:] -= td.angle_gradient[-1] * t[-1]
@@ -380,11 +376,10 @@ class QuasiStaticTwist:
         band = np.zeros((2, n - 2))
         band[0] = diagonal[1:-1]
         band[1, :-1] = off[1:-1]
-        band[0] += 1e-12 * max(float(np.max(np.abs(band[0]))), 1e-300)
-        try:
-            step = sla.solveh_banded(band, -td.angle_gradient[1:-1], lower=True,
-                                     check_finite=False)
-        except np.linalg.LinAlgError:  # not convex in the angles here: a gradient step
+        factor = factor_band(band, 1e-12 * max(float(np.max(np.abs(band[0]))), 1e-300))
+        if factor is not None:
+            step = solve_band(factor, -td.angle_gradient[1:-1])
+        else:  # not convex in the angles here: a gradient step
             step = -td.angle_gradient[1:-1] / np.maximum(band[0], 1e-300)
         angles = np.zeros(n)
         angles[1:-1] = step

@@ -50,6 +50,8 @@ class Progress:
         Wall time since the start of this run [s].
     chunk : int
         The chunk just completed.
+    samples_run : int
+        Samples evaluated by this run (not those resumed from disk).
     """
 
     chunks_done: int
@@ -58,10 +60,11 @@ class Progress:
     samples_total: int
     elapsed: float
     chunk: int
+    samples_run: int = 0
 
     def line(self) -> str:
-        """``chunk 3/10, 48/160 samples, 2.1 s, 23 samples/s``."""
-        rate = self.samples_done / self.elapsed if self.elapsed > 0 else 0.0
+        """``chunk 3/10, 48/160 samples, 2.1 s, 23 samples/s`` (the rate of this run alone)."""
+        rate = self.samples_run / self.elapsed if self.elapsed > 0 else 0.0
         return (f"chunk {self.chunks_done}/{self.chunks_total}, {self.samples_done}/"
                 f"{self.samples_total} samples, {self.elapsed:.1f} s, {rate:.1f} samples/s")
 
@@ -197,6 +200,7 @@ def run_study(
     todo = [k for k in range(n_chunks) if k not in set(done)]
     tables: dict[int, dict] = {}
     samples_done = sum(_chunk_length(k, spec) for k in done)
+    samples_run = 0
     items = chunk_items(samples, spec.chunk_size, todo)
     metadata = {"fingerprint": manifest["fingerprint"]} if folder else None
     for count, (position, table) in enumerate(
@@ -207,9 +211,10 @@ def run_study(
         else:
             tables[chunk] = table
         samples_done += _chunk_length(chunk, spec)
+        samples_run += _chunk_length(chunk, spec)
         if progress is not None:
             progress(Progress(len(done) + count, n_chunks, samples_done, spec.samples,
-                              time.perf_counter() - started, chunk))
+                              time.perf_counter() - started, chunk, samples_run))
     if folder is not None:
         table = read_chunks(folder)
         write_table(result_path(folder, file_format), table, units, metadata)

@@ -113,11 +113,14 @@ class StudySummary:
         failed = ", ".join(f"{k} {v}" for k, v in self.failures.items() if v)
         out.append(f"failures by criterion: {failed or 'none'}")
         d = self.deviation
-        out.append(f"largest deviation per sample: median {1e3 * d['median']:.2f} mm, 95 % "
-                   f"{1e3 * d['p95']:.2f} mm, max {1e3 * d['max']:.2f} mm")
+        if math.isfinite(d["max"]):
+            out.append(f"largest deviation per sample: median {1e3 * d['median']:.2f} mm, 95 % "
+                       f"{1e3 * d['p95']:.2f} mm, max {1e3 * d['max']:.2f} mm")
+        else:
+            out.append("largest deviation per sample: none (no sample converged)")
         for s in self.sensitivities:
-            out.append(f"  {s.parameter:<24} rho(deviation) {s.rho_deviation:+.2f}   "
-                       f"rho(failure) {s.rho_failure:+.2f}")
+            out.append(f"  {s.parameter:<24} rho(deviation) {_rho(s.rho_deviation)}   "
+                       f"rho(failure) {_rho(s.rho_failure)}")
         return out
 
     def to_dict(self) -> dict:
@@ -248,3 +251,8 @@ def summarize(table: dict, criteria: CriteriaSpec | None = None, *, confidence: 
     failures = {name: int((~passed).sum()) for name, passed in per["passed"].items()}
     return StudySummary(n, k, k / n, success_interval(k, n, confidence, method), confidence,
                         method, failures, tuple(sens), ranked_by, stats)
+
+
+def _rho(value: float) -> str:
+    """A rank correlation for the console; "n/a" where it is undefined (a constant column)."""
+    return f"{value:+.2f}" if math.isfinite(value) else "  n/a"

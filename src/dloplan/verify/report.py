@@ -206,6 +206,7 @@ def verify_path(
     stability_options: Mapping | None = None,
     snap_options: Mapping | None = None,
     replay_options: Mapping | None = None,
+    progress=lambda text: None,
 ) -> Verification:
     """Verify a planned path: stability, snap-through, reachability (given), dynamic replay.
 
@@ -231,6 +232,8 @@ def verify_path(
     stability_options, snap_options, replay_options : mapping, optional
         Keyword options of :func:`~dloplan.verify.stability.elastic_stability`,
         :func:`~dloplan.verify.snap.check_snap_through`, :func:`~dloplan.verify.replay.replay`.
+    progress : callable
+        Called with a line of text before each check (the long ones say how long they take).
 
     Returns
     -------
@@ -251,6 +254,7 @@ def verify_path(
     timings: dict[str, float] = {}
     messages: list[str] = []
 
+    progress(f"verification: elastic stability of {len(path)} shapes")
     start = time.perf_counter()
     stability = path_stability(cable, path, gravity=gravity, **dict(stability_options or {}))
     timings["stability"] = time.perf_counter() - start
@@ -258,6 +262,7 @@ def verify_path(
 
     snap_check = None
     if snap and len(path) > 1:
+        progress(f"verification: snap-through along {len(path) - 1} segments (continuation)")
         start = time.perf_counter()
         snap_check = check_snap_through(cable, path, poses, gravity=gravity,
                                         **dict(snap_options or {}))
@@ -266,6 +271,8 @@ def verify_path(
 
     run = None
     if times is not None:
+        progress(f"verification: dynamic replay of {float(times[-1] - times[0]):.2f} s of motion "
+                 "at real speed")
         start = time.perf_counter()
         drive = trajectory if trajectory is not None else (times, poses)
         run = replay(cable, path, drive, knot_times=times, gravity=gravity,

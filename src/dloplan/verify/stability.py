@@ -47,8 +47,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..cable import GRAVITY, Cable
-from ..physics.chain import HALF_BANDWIDTH, SpringChain, gradient
+from ..physics.chain import HALF_BANDWIDTH, SpringChain, gradient, sparse_to_band
 from ..physics.geometry import as_path, as_shape
+from ..sim.newton import factor_band, solve_band
 from ..sim.statics import force_scale, free_hessian
 
 STABILITY_RTOL = 1e-6
@@ -126,24 +127,6 @@ def stiffness_scale(cable: Cable) -> float:
     return cable.k_bending / l**2 * (math.pi * l / cable.length) ** 4
 
 
-def _band_of(matrix: sp.spmatrix) -> np.ndarray:
-    """Lower band (HALF_BANDWIDTH + 1, N) of a symmetric banded sparse matrix."""
-    n_dof = matrix.shape[0]
-    band = np.zeros((HALF_BANDWIDTH + 1, n_dof))
-    for k in range(min(HALF_BANDWIDTH + 1, n_dof)):
-        band[k, : n_dof - k] = matrix.diagonal(-k)
-    return band
-
-
-def _cholesky_at(band: np.ndarray, shift: float) -> np.ndarray | None:
-    shifted = band.copy()
-    shifted[0] -= shift
-    try:
-        return sla.cholesky_banded(shifted, lower=True, check_finite=False)
-    except np.linalg.LinAlgError:
-        return None
-
-
 def _shift_below_spectrum(band: np.ndarray, matrix: sp.spmatrix, start: float):
     """A shift sigma < lambda_1 and the Cholesky factor of H - sigma I.
 
@@ -155,12 +138,12 @@ def _shift_below_spectrum(band: np.ndarray, matrix: sp.spmatrix, start: float):
     gershgorin = float(np.min(2.0 * diagonal - row_sums))  # min_i (H_ii - sum_{j!=i} |H_ij|)
     sigma = -start
     while sigma > gershgorin:
-        factor = _cholesky_at(band, sigma)
+        factor = factor_band(band, -sigma)
         if factor is not None:
             return sigma, factor
         sigma *= 4.0
     sigma = gershgorin - start
-    factor = _cholesky_at(band, sigma)
+    factor = factor_band(band, -sigma)
     if factor is None:  # pragma: no cover - Gershgorin guarantees definiteness
         raise FloatingPointError("stability: no shift below the spectrum found")
     return sigma, factor
@@ -195,11 +178,11 @@ def smallest_eigenpairs(matrix, k: int = 3, *, scale: float = 1.0, method: str =
     if method == "dense" or (method == "auto" and n_dof < DENSE_BELOW) or k >= n_dof - 1:
         values, vectors = sla.eigh(matrix.toarray(), subset_by_index=[0, k - 1])
         return values, vectors
-    band = _band_of(matrix)
+    band = sparse_to_band(matrix, HALF_BANDWIDTH)
     sigma, factor = _shift_below_spectrum(band, matrix, scale)
     inverse = spla.LinearOperator(
         (n_dof, n_dof),
-        matvec=lambda b: sla.cho_solve_banded((factor, True), b, check_finite=False),
+        matvec=lambda b: solve_band(factor, b),
         dtype=float,
     )
     # the eigenvalues of (H - sigma I)^-1 are 1 / (lambda - sigma) > 0; the largest belong to the

@@ -1,0 +1,71 @@
+"""Cost of one explicit time step of the thesis' simulator (eq. 3.24) and steps per second.
+
+Ethernet cable between level clips 0.4 m apart, moving clips (the run stays busy), both damping
+forms, n = 10, 50, 200; and the same with torsion (quasi-static twist relaxed in Python every
+step) at n = 50.
+
+Before the compiled stepper, measured side by side with this version on the shared machine under
+heavy load (load average 13, so both about 6 times slower than quiet): n = 50, relative damping,
+1382 microseconds per step before against 35 now; absolute damping 1296 against 42; with torsion
+84 ms against 33 ms per step (issue 20 quotes about 2 ms per step with torsion, quiet). Target
+(quiet): <= 20 microseconds per step at n = 50, with or without torsion. The ratios printed use
+the side-by-side figures; run it twice and quote the best.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from dloplan import catalogue_cable
+from dloplan.sim import ClipPoses, ClipTrajectory, equilibrium, simulate
+
+BEFORE_US = {"no torsion": 1382.0, "torsion": 84385.0}  # n = 50, side by side under load
+TARGET_US = 20.0
+
+
+def clips(distance: float, z: float = 0.0) -> ClipPoses:
+    return ClipPoses(np.array([[0.0, 0, z], [distance, 0, z]]),
+                     Rotation.from_euler("z", [[0.0], [180.0]], degrees=True))
+
+
+def per_step(n: int, damping: str, torsion: bool, steps: int) -> tuple[float, int]:
+    cable = catalogue_cable("ethernet", n_links=n)
+    start = equilibrium(cable, np.stack([np.linspace(0, 0.4, n + 1), np.zeros(n + 1),
+                                         -0.1 * np.sin(np.linspace(0, np.pi, n + 1))], 1),
+                        clips(0.4)).shape
+    dt = cable.time_step(1e6)
+    motion = ClipTrajectory(np.array([0.0, steps * dt]), [clips(0.4), clips(0.35, 0.02)])
+    best = np.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        run = simulate(cable, start, motion, duration=steps * dt, dt=dt, damping=damping,
+                       torsion=torsion)
+        best = min(best, time.perf_counter() - t0)
+    return best / run.steps, run.steps
+
+
+def main() -> None:
+    print(f"{'n':>5} {'damping':>9} {'torsion':>8} {'steps':>7} {'us/step':>9} "
+          f"{'steps/s':>10}  vs before (n = 50)")
+    for n in (10, 50, 200):
+        for damping in ("absolute", "relative"):
+            cost, steps = per_step(n, damping, False, 20000)
+            note = ""
+            if n == 50:
+                before = BEFORE_US["no torsion"]
+                note = (f"  before {before:.0f} us: {before / (1e6 * cost):.0f}x, target "
+                        f"{TARGET_US:.0f} us")
+            print(f"{n:>5} {damping:>9} {'no':>8} {steps:>7} {1e6 * cost:>9.2f} "
+                  f"{1 / cost:>10.0f}{note}")
+    cost, steps = per_step(50, "relative", True, 300)
+    before = BEFORE_US["torsion"]
+    print(f"{50:>5} {'relative':>9} {'yes':>8} {steps:>7} {1e6 * cost:>9.2f} {1 / cost:>10.0f}"
+          f"  before {before:.0f} us: {before / (1e6 * cost):.1f}x, target {TARGET_US:.0f} us "
+          f"(twist still relaxed in Python every step)")
+
+
+if __name__ == "__main__":
+    main()

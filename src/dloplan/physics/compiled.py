@@ -1,0 +1,272 @@
+"""Compiled kernels of the chain's energy: one pass for energy, gradient and Hessian band.
+
+The numpy kernels of :mod:`dloplan.physics.axial`, :mod:`dloplan.physics.bending` and
+:mod:`dloplan.physics.gravity` are the readable reference (vectorized over a batch of shapes);
+these are the same formulas written point by point and compiled by numba (``cache=True``: the
+first call of a fresh install compiles them, about a second, later runs load them from disk).
+They exist for speed alone: a Newton iteration at n = 50 is about 10 microseconds of arithmetic,
+and the numpy kernels spend most of their time in per-call overhead on small arrays.
+
+Formulas (thesis eqs. 3.8, 3.20, 3.28; see the reference modules for the derivations):
+
+* axial, per link e = x_{i+1} - x_i, t = e / |e|: U = 1/2 k_s (|e| - l0)^2,
+  dU/de = k_s (|e| - l0) t, d^2U/de^2 = k_s (t t^T + (|e| - l0)/|e| (I - t t^T));
+* bending, per joint with link directions u, v and c = u . v: U = 1/2 k_b (beta - beta0)^2 with
+  beta = atan2(|u x v|, c); H = G'(c) d^2c + G''(c) dc dc^T (``bending_derivatives``);
+* gravity: U = -sum_i m_i g . x_i (linear, no Hessian).
+
+Bands use the lower layout of :func:`dloplan.physics.chain.gradient_and_hessian_band`:
+``band[k, j] = H[j + k, j]`` over the 3(n + 1) coordinates, half bandwidth 8. Contacts are not
+here: obstacles are Python objects; their penalty is added by :mod:`dloplan.physics.chain`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+_SERIES_BELOW = 1e-3  # as in dloplan.physics.bending
+_SIN_FLOOR = 1e-12
+
+
+@njit(cache=True)
+def _cos_derivatives(k_b, beta0, c, s, beta):
+    """dG/dc and d^2G/dc^2 of G = 1/2 k_b (arccos c - beta0)^2 (as ``bending._cos_derivatives``)."""
+    s_safe = max(s, _SIN_FLOOR)
+    b2 = beta * beta
+    if beta < _SERIES_BELOW:
+        beta_over_s = 1.0 + b2 / 6.0
+        curvature = 1.0 / 3.0 + 2.0 * b2 / 15.0
+    else:
+        beta_over_s = beta / s_safe
+        curvature = (s - beta * c) / s_safe**3
+    d1 = -k_b * (beta_over_s - beta0 / s_safe)
+    d2 = k_b * (curvature + beta0 * c / s_safe**3)
+    return d1, d2
+
+
+@njit(cache=True)
+def _joint(x, i, u, v):
+    """Link directions u, v (filled in), lengths, c = u.v, sin and angle beta of joint i."""
+    la = 0.0
+    lb = 0.0
+    for a in range(3):
+        u[a] = x[i + 1, a] - x[i, a]
+        v[a] = x[i + 2, a] - x[i + 1, a]
+        la += u[a] * u[a]
+        lb += v[a] * v[a]
+    la = math.sqrt(la)
+    lb = math.sqrt(lb)
+    for a in range(3):
+        u[a] /= la
+        v[a] /= lb
+    cx = u[1] * v[2] - u[2] * v[1]
+    cy = u[2] * v[0] - u[0] * v[2]
+    cz = u[0] * v[1] - u[1] * v[0]
+    s = math.sqrt(cx * cx + cy * cy + cz * cz)
+    c = u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+    return la, lb, c, s, math.atan2(s, c)
+
+
+@njit(cache=True)
+def chain_energy(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity):
+    """Energy U^s + U^b + U^g [J] of one shape x (n + 1, 3) (contacts excluded)."""
+    n_points = x.shape[0]
+    total = 0.0
+    for i in range(n_points - 1):
+        dx = x[i + 1, 0] - x[i, 0]
+        dy = x[i + 1, 1] - x[i, 1]
+        dz = x[i + 1, 2] - x[i, 2]
+        stretch = math.sqrt(dx * dx + dy * dy + dz * dz) - rest_lengths[i]
+        total += 0.5 * k_s * stretch * stretch
+    u = np.empty(3)
+    v = np.empty(3)
+    for i in range(n_points - 2):
+        beta = _joint(x, i, u, v)[4]
+        total += 0.5 * k_b * (beta - rest_angles[i]) ** 2
+    for i in range(n_points):
+        total -= masses[i] * (gravity[0] * x[i, 0] + gravity[1] * x[i, 1] + gravity[2] * x[i, 2])
+    return total
+
+
+@njit(cache=True)
+def add_point_blocks(band, blocks):
+    """Add one symmetric 3x3 block per point (n + 1, 3, 3) to the band's diagonal blocks."""
+    for i in range(blocks.shape[0]):
+        for a in range(3):
+            for b in range(a + 1):
+                band[a - b, 3 * i + b] += blocks[i, a, b]
+
+
+@njit(cache=True)
+def _axial_terms(x, k_s, rest_lengths, grad, band, with_band):
+    """Add U^s's gradient (and Hessian, ``with_band``) into grad, band; return U^s [J]."""
+    total = 0.0
+    t = np.empty(3)
+    h = np.empty((3, 3))
+    for i in range(x.shape[0] - 1):
+        length = 0.0
+        for a in range(3):
+            t[a] = x[i + 1, a] - x[i, a]
+            length += t[a] * t[a]
+        length = math.sqrt(length)
+        stretch = length - rest_lengths[i]
+        total += 0.5 * k_s * stretch * stretch
+        for a in range(3):
+            t[a] /= length
+            g = k_s * stretch * t[a]
+            grad[i + 1, a] += g
+            grad[i, a] -= g
+        if not with_band:
+            continue
+        ratio = stretch / length
+        for a in range(3):
+            for b in range(3):
+                tt = t[a] * t[b]
+                h[a, b] = k_s * (tt + ratio * ((1.0 if a == b else 0.0) - tt))
+        for a in range(3):  # blocks (i, i) and (i+1, i+1): h; (i+1, i): -h
+            for b in range(3):
+                if a >= b:
+                    band[a - b, 3 * i + b] += h[a, b]
+                    band[a - b, 3 * i + 3 + b] += h[a, b]
+                band[3 + a - b, 3 * i + b] -= h[a, b]
+    return total
+
+
+@njit(cache=True)
+def _bending_terms(x, k_b, rest_angles, grad, band, with_band):
+    """Add U^b's gradient (and Hessian, ``with_band``) into grad, band; return U^b [J]."""
+    total = 0.0
+    hl = np.empty((2, 2, 3, 3))  # link blocks aa, ab, bb (ba = ab^T)
+    u = np.empty(3)
+    v = np.empty(3)
+    dca = np.empty(3)
+    dcb = np.empty(3)
+    for i in range(x.shape[0] - 2):
+        la, lb, c, s, beta = _joint(x, i, u, v)
+        total += 0.5 * k_b * (beta - rest_angles[i]) ** 2
+        d1, d2 = _cos_derivatives(k_b, rest_angles[i], c, s, beta)
+        for a in range(3):
+            dca[a] = (v[a] - c * u[a]) / la  # dc/da = w / |a|
+            dcb[a] = (u[a] - c * v[a]) / lb  # dc/db = z / |b|
+            grad[i, a] -= d1 * dca[a]
+            grad[i + 1, a] += d1 * (dca[a] - dcb[a])
+            grad[i + 2, a] += d1 * dcb[a]
+        if not with_band:
+            continue
+        for a in range(3):
+            for b in range(3):
+                eye = 1.0 if a == b else 0.0
+                pu = eye - u[a] * u[b]
+                pv = eye - v[a] * v[b]
+                # d^2c: -(u w^T + w u^T + c P_u)/|a|^2, (P_v - u z^T)/(|a||b|), and for b
+                caa = -(u[a] * dca[b] + dca[a] * u[b]) / la - c * pu / (la * la)
+                cab = pv / (la * lb) - u[a] * dcb[b] / la
+                cbb = -(v[a] * dcb[b] + dcb[a] * v[b]) / lb - c * pv / (lb * lb)
+                hl[0, 0, a, b] = d1 * caa + d2 * dca[a] * dca[b]
+                hl[0, 1, a, b] = d1 * cab + d2 * dca[a] * dcb[b]
+                hl[1, 1, a, b] = d1 * cbb + d2 * dcb[a] * dcb[b]
+        # point blocks of the joint's points (i, i+1, i+2) from the link blocks: a = x1 - x0,
+        # b = x2 - x1; on and below the diagonal: haa; hba - haa; haa - hab - hba + hbb;
+        # -hba; hba - hbb; hbb
+        r0 = 3 * i
+        for a in range(3):
+            for b in range(3):
+                haa = hl[0, 0, a, b]
+                hab = hl[0, 1, a, b]
+                hba = hl[0, 1, b, a]
+                hbb = hl[1, 1, a, b]
+                band[3 + a - b, r0 + b] += hba - haa  # (i+1, i)
+                band[6 + a - b, r0 + b] -= hba  # (i+2, i)
+                band[3 + a - b, r0 + 3 + b] += hba - hbb  # (i+2, i+1)
+                if a >= b:
+                    band[a - b, r0 + b] += haa
+                    band[a - b, r0 + 3 + b] += haa - hab - hba + hbb
+                    band[a - b, r0 + 6 + b] += hbb
+    return total
+
+
+@njit(cache=True)
+def _gravity_terms(x, masses, gravity, grad):
+    """Add U^g's gradient -m_i g into grad; return U^g [J]."""
+    total = 0.0
+    for i in range(x.shape[0]):
+        for a in range(3):
+            w_a = masses[i] * gravity[a]
+            total -= w_a * x[i, a]
+            grad[i, a] -= w_a
+    return total
+
+
+@njit(cache=True)
+def chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, grad, band):
+    """Energy [J], and in place its gradient (n + 1, 3) [N] and lower Hessian band [N/m].
+
+    ``grad`` and ``band`` (9, 3(n + 1)) are overwritten; the gradient includes gravity (as
+    :func:`dloplan.physics.chain.gradient`), the band the axial and bending terms.
+    """
+    grad[:] = 0.0
+    band[:] = 0.0
+    return (_axial_terms(x, k_s, rest_lengths, grad, band, True)
+            + _bending_terms(x, k_b, rest_angles, grad, band, True)
+            + _gravity_terms(x, masses, gravity, grad))
+
+
+@njit(cache=True)
+def chain_gradient(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, grad):
+    """Energy [J], and in place its gradient (n + 1, 3) [N] (gravity included)."""
+    grad[:] = 0.0
+    band = np.empty((0, 0))
+    return (_axial_terms(x, k_s, rest_lengths, grad, band, False)
+            + _bending_terms(x, k_b, rest_angles, grad, band, False)
+            + _gravity_terms(x, masses, gravity, grad))
+
+
+@njit(cache=True)
+def chain_term_gradients(x, k_s, rest_lengths, k_b, rest_angles, axial, bending):
+    """The axial and the bending gradient [N], each (n + 1, 3), written in place."""
+    axial[:] = 0.0
+    bending[:] = 0.0
+    band = np.empty((0, 0))
+    _axial_terms(x, k_s, rest_lengths, axial, band, False)
+    _bending_terms(x, k_b, rest_angles, bending, band, False)
+
+
+@njit(cache=True)
+def stretch_to_length(chord, deviation, need):
+    """The amplitude a >= 0 at which the polyline ``chord + a deviation`` is ``need`` long.
+
+    Both (k, 3) [m]; the chord's length must be below ``need`` and the deviation non-zero. The
+    length is convex in a, so Newton's method started where it is too long decreases
+    monotonically to the root.
+    """
+    k = chord.shape[0] - 1
+
+    def length_and_slope(a):
+        total = 0.0
+        slope = 0.0
+        for i in range(k):
+            e0 = chord[i + 1, 0] - chord[i, 0] + a * (deviation[i + 1, 0] - deviation[i, 0])
+            e1 = chord[i + 1, 1] - chord[i, 1] + a * (deviation[i + 1, 1] - deviation[i, 1])
+            e2 = chord[i + 1, 2] - chord[i, 2] + a * (deviation[i + 1, 2] - deviation[i, 2])
+            length = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+            total += length
+            if length > 0.0:
+                slope += (e0 * (deviation[i + 1, 0] - deviation[i, 0])
+                          + e1 * (deviation[i + 1, 1] - deviation[i, 1])
+                          + e2 * (deviation[i + 1, 2] - deviation[i, 2])) / length
+        return total, slope
+
+    high = 1.0
+    while length_and_slope(high)[0] < need:
+        high *= 2.0
+    a = high
+    for _ in range(100):
+        total, slope = length_and_slope(a)
+        step = (total - need) / slope
+        a -= step
+        if abs(step) <= 1e-12 * high:
+            break
+    return a

@@ -1,0 +1,706 @@
+"""The robot program of a plan: the exact TCP targets written to RAPID, their verified joint
+solutions, and the checks run on exactly those targets.
+
+:func:`robot_program` turns a plan's clip poses (:class:`~dloplan.grippers.GripperPath`) and
+its timing (:class:`~dloplan.trajectory.Trajectory`) into a :class:`RobotProgram` for a
+:class:`~dloplan.robot.cell.RobotCell`:
+
+1. **Arm assignment** once per plan from the geometry (:func:`~dloplan.robot.assignment.
+   assign_arms`): the clip on the robot's left goes to the left arm.
+2. **Targets**: per arm, an approach pose (``cell.approach`` back along the TCP z-axis), the
+   TCP pose at every shape (``clip_to_work * tool.tcp_in_clip``, at the clip point, possibly
+   turned by pi about TCP z for a symmetric gripper) and a retreat pose, in the work frame,
+   rounded to what RAPID is given (1e-6 mm, quaternions [w, x, y, z] to 1e-9).
+3. **Joint solutions**: per arm, candidate solutions with a constant arm angle (ABB axis 7)
+   around the first target's free solution, each tracked along the path in sub-steps (each IK
+   seeded from the previous one); the (left, right) pair ranked best on reach, smoothness,
+   clearance and joint margin is kept (the free-elbow tracking of
+   :func:`~dloplan.robot.reachability.check_path` joins when no constant arm angle works).
+   Every target is re-solved with the arm angle held at the value written as ``eax_a``;
+   confdata from that solution.
+4. **Checks on exactly those targets**, each as :class:`CheckRow` s:
+
+   - ``assignment``: per shape, the y-separation of the two arms' clips (negative: crossed);
+   - ``reach``: the IK reaches the written target (error of FK of the written solution);
+   - ``joint limits``: distance of the nearest joint to its limit (> 0 required; below
+     ``reach.min_margin`` is noted);
+   - ``clearance``: smallest arm-arm capsule distance at the target and along the move into it;
+   - ``continuity``: the controller's MoveL into the target, replayed: TCP linear, orientation
+     slerp, arm angle linear between the written values, each sub-step's IK seeded from the
+     previous one. Ok when every sub-step converges, no joint moves more than
+     ``reach.max_joint_step`` in one sub-step (one that does is replayed in :data:`REFINE`
+     finer steps: fast motion near a singularity passes, a jump does not), and the move ends
+     on the target's own solution
+     (so the controller with ``ConfL \\On`` reaches the programmed configuration);
+   - ``joint speed``: the largest joint speed of that replay at the planned move duration,
+     as a fraction of the joint's speed limit.
+
+The program is ``ok`` when every row is. Everything computed is kept (:attr:`RobotProgram.checks`,
+:meth:`RobotProgram.summary`, :meth:`RobotProgram.to_dict`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from .assignment import ArmAssignment, assign_arms
+from .cell import RobotCell
+from .collision import arm_clearance
+from .confdata import arm_angle, confdata
+from .kinematics import ARM_ANGLE_JOINT, forward, inverse, joint_margin, solve_from, solve_many
+from .reachability import check_path
+from .yumi import ABB_AXIS_NUMBERS, ARMS
+
+MIN_SPEED = 1e-4
+"""[m/s] Smallest TCP speed written (an arm that does not move in a synchronized segment)."""
+
+MIN_ANGULAR_SPEED = float(np.radians(0.1))
+"""[rad/s] Smallest TCP angular speed written."""
+
+END_TOLERANCE = 1e-3
+"""[rad] A replayed MoveL ends on the target's solution when every joint is this close."""
+
+CHECKS = ("assignment", "reach", "joint limits", "clearance", "continuity", "joint speed")
+"""The checks of a program, in the order of its rows."""
+
+ARM_ANGLE_STEP = float(np.radians(30.0))
+"""[rad] Spacing of the constant arm angles (ABB axis 7) tried for each arm."""
+
+ARM_ANGLES = 11
+"""Most arm angle steps tried each way from the first target's free solution (the axis'
+range, +-168.5 deg, holds at most 11 steps)."""
+
+REFINE = 8
+"""Finer steps a sub-step with a large joint step is replayed in (:func:`_replay`)."""
+
+CANDIDATE_ITERATIONS = 12
+"""IK iterations allowed per target when ranking candidate solutions (a converging solve
+from the previous target's solution needs a handful)."""
+
+MAX_TRIES = 2
+"""Joint solutions (best ranked first) replayed before the program settles for the first."""
+
+COMFORT_CLEARANCE = 0.05
+"""[m] Arm-arm clearance beyond which the ranking prefers joint margin to more clearance."""
+
+COMFORT_MARGIN = float(np.radians(30.0))
+"""[rad] Joint margin beyond which more margin no longer ranks a solution higher."""
+
+_LOWER_IS_WORSE = {"assignment", "joint limits", "clearance"}
+_TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
+
+
+@dataclass(frozen=True)
+class CheckRow:
+    """One line of the verdict table.
+
+    Attributes
+    ----------
+    check : str
+        One of :data:`CHECKS`.
+    target : int or None
+        Index of the program target (None for a per-shape assignment row).
+    label : str
+        ``"approach"``, ``"shape k"`` or ``"retreat"``.
+    shape : int
+        The plan's shape index the target belongs to (approach: 0, retreat: the last).
+    arm : str
+        ``"left"``, ``"right"`` or ``"both"``.
+    value : float
+        The checked quantity, in ``unit``.
+    unit : str
+    ok : bool
+    note : str
+        What it means when not obvious (closest links, joint that limits, ...).
+    """
+
+    check: str
+    target: int | None
+    label: str
+    shape: int
+    arm: str
+    value: float
+    unit: str
+    ok: bool
+    note: str = ""
+
+    def to_dict(self) -> dict:
+        """JSON-ready."""
+        return {"check": self.check, "target": self.target, "label": self.label,
+                "shape": self.shape, "arm": self.arm, "value": float(self.value),
+                "unit": self.unit, "ok": bool(self.ok), "note": self.note}
+
+
+@dataclass(frozen=True, eq=False)
+class RobotProgram:
+    """A verified dual-arm program: what the RAPID writer writes, and its checks.
+
+    Arrays are indexed ``[target, arm]`` with the arms in the order ``("left", "right")``; the
+    M targets are the approach (when ``cell.approach > 0``), one per shape, and the retreat.
+
+    Attributes
+    ----------
+    cell : RobotCell
+    assignment : ArmAssignment
+    grip_turned : tuple of bool
+        Per arm: the TCP holds its clip turned by pi about TCP z.
+    labels : tuple of str
+        (M,) ``"approach"``, ``"shape k"``, ``"retreat"``.
+    shapes : numpy.ndarray
+        (M,) int: the shape each target belongs to.
+    grasp, release : int
+        Target indices where the grippers close (``g_GripIn``) and open (``g_GripOut``).
+    positions : numpy.ndarray
+        (M, 2, 3) TCP positions [m] in the work frame, exactly as written.
+    quaternions : numpy.ndarray
+        (M, 2, 4) TCP orientations [w, x, y, z] in the work frame, exactly as written.
+    joints : numpy.ndarray
+        (M, 2, 7) the verified joint solutions [rad], physical order (ABB 1, 2, 7, 3, 4, 5, 6).
+    confdata : numpy.ndarray
+        (M, 2, 4) int ``[cf1, cf4, cf6, cfx]`` of ``joints``.
+    arm_angles : numpy.ndarray
+        (M, 2) ``eax_a`` [deg] as written (ABB axis 7 of ``joints``).
+    times : numpy.ndarray
+        (M,) time [s] each target is reached, from the approach target (grip waits included).
+    durations : numpy.ndarray
+        (M - 1,) planned duration [s] of each move.
+    speeds : numpy.ndarray
+        (M - 1, 2, 2) per move and arm: TCP speed [m/s] and angular speed [rad/s] written.
+    motion_times : numpy.ndarray
+        (N,) times [s] of the replayed controller motion (every sub-step).
+    motion_joints : numpy.ndarray
+        (N, 2, 7) joint values [rad] of that replay.
+    checks : tuple of CheckRow
+    """
+
+    cell: RobotCell
+    assignment: ArmAssignment
+    grip_turned: tuple[bool, bool]
+    labels: tuple[str, ...]
+    shapes: np.ndarray
+    grasp: int
+    release: int
+    positions: np.ndarray
+    quaternions: np.ndarray
+    joints: np.ndarray
+    confdata: np.ndarray
+    arm_angles: np.ndarray
+    times: np.ndarray
+    durations: np.ndarray
+    speeds: np.ndarray
+    motion_times: np.ndarray
+    motion_joints: np.ndarray
+    checks: tuple[CheckRow, ...]
+
+    @property
+    def n_targets(self) -> int:
+        """Number of targets M."""
+        return len(self.labels)
+
+    @property
+    def ok(self) -> bool:
+        """Every check passes: the program may be written and run."""
+        return all(row.ok for row in self.checks)
+
+    @property
+    def failures(self) -> tuple[CheckRow, ...]:
+        """The rows that fail."""
+        return tuple(row for row in self.checks if not row.ok)
+
+    @property
+    def shape_joints(self) -> np.ndarray:
+        """(S + 2, 2, 7) the verified joints [rad] at the plan's shapes (approach and retreat
+        left out)."""
+        return self.joints[self.grasp:self.release + 1]
+
+    @property
+    def path_duration(self) -> float:
+        """Planned time [s] from the grasp to the release target, grip wait excluded (the
+        trajectory's duration)."""
+        wait = self.cell.grip_time if self.release > self.grasp else 0.0
+        return float(self.times[self.release] - self.times[self.grasp] - wait)
+
+    def report_arms(self) -> dict:
+        """Keyword arguments of :func:`dloplan.plots.report.write_report` that draw both arms
+        at every shape and along the replayed motion."""
+        return {"arm_joints": self.shape_joints, "robot": self.cell.robot,
+                "arm_motion": (self.motion_times, self.motion_joints,
+                               self.times[self.grasp:self.release + 1])}
+
+    def summary(self) -> list[dict]:
+        """Per check: passed, the worst value and where, how many rows fail and the first."""
+        lines = []
+        for name in CHECKS:
+            rows = [r for r in self.checks if r.check == name]
+            if not rows:
+                continue
+            pick = min if name in _LOWER_IS_WORSE else max
+            worst = pick(rows, key=lambda r: r.value)
+            failed = [r for r in rows if not r.ok]
+            lines.append({"check": name, "ok": not failed, "failures": len(failed),
+                          "worst": float(worst.value), "unit": worst.unit,
+                          "where": f"{worst.label}, {worst.arm}" + (
+                              f" ({worst.note})" if worst.note else ""),
+                          "first_failure": failed[0].label if failed else None})
+        return lines
+
+    @property
+    def message(self) -> str:
+        """One line: passed with the key numbers, or the first failure of every failing check."""
+        summary = {line["check"]: line for line in self.summary()}
+        if self.ok:
+            return (f"robot program ok: {self.n_targets} targets per arm; min clearance "
+                    f"{summary['clearance']['worst']:.1f} mm, min joint margin "
+                    f"{summary['joint limits']['worst']:.1f} deg, largest joint step "
+                    f"{summary['continuity']['worst']:.1f} deg, joint speed up to "
+                    f"{100 * summary['joint speed']['worst']:.0f} % of the limit")
+        parts = []
+        for line in summary.values():
+            if not line["ok"]:
+                first = next(r for r in self.failures if r.check == line["check"])
+                who = "" if first.arm == "both" else f"{first.arm} arm: "
+                note = f"; {first.note}" if first.note else ""
+                parts.append(f"{line['check']} at {first.label} ({who}{first.value:.4g} "
+                             f"{first.unit}{note})")
+        return "robot program FAILS: " + "; ".join(parts)
+
+    def to_dict(self) -> dict:
+        """JSON-ready: the assignment, the targets as written, the joints and every check."""
+        return {
+            "ok": self.ok,
+            "message": self.message,
+            "assignment": {"left_clip": self.assignment.left_clip, "rule": self.assignment.rule,
+                           "crossings": list(self.assignment.crossings),
+                           "message": self.assignment.message},
+            "grip_turned": list(self.grip_turned),
+            "tools": [tool.name for tool in self.cell.tools],
+            "wobj": self.cell.wobj,
+            "targets": [{"label": label, "shape": int(self.shapes[m]),
+                         "time": float(self.times[m]),
+                         "arms": {arm: {"position": self.positions[m, a].tolist(),
+                                        "quaternion_wxyz": self.quaternions[m, a].tolist(),
+                                        "joints_deg": np.degrees(self.joints[m, a]).tolist(),
+                                        "confdata": self.confdata[m, a].tolist(),
+                                        "arm_angle_deg": float(self.arm_angles[m, a])}
+                                  for a, arm in enumerate(ARMS)}}
+                        for m, label in enumerate(self.labels)],
+            "summary": self.summary(),
+            "checks": [row.to_dict() for row in self.checks],
+        }
+
+
+def robot_program(grippers, trajectory, cell: RobotCell | None = None) -> RobotProgram:
+    """The verified robot program of a plan (module docstring).
+
+    Parameters
+    ----------
+    grippers : GripperPath
+        Clip poses at every shape (S + 2), work frame.
+    trajectory : Trajectory
+        The timing of the same path: knot times and per-segment speeds are taken from it; its
+        knots must be the clip points of ``grippers`` (in any arm order).
+    cell : RobotCell, optional
+        Default :class:`RobotCell` (YuMi at the work frame's origin, SmartGripper tools).
+
+    Returns
+    -------
+    RobotProgram
+        Never raises for an infeasible plan: its checks say what fails and where. When the side
+        rule's program fails on arm-arm clearance or continuity, the swapped assignment is tried
+        and taken if it passes every check.
+
+    Raises
+    ------
+    ValueError
+        Inputs that do not belong together (shape counts, knots that are not the clip points).
+    """
+    cell = cell if cell is not None else RobotCell()
+    if not isinstance(cell, RobotCell):
+        raise ValueError(f"cell: expected a RobotCell, got {type(cell).__name__}")
+    _check_inputs(grippers, trajectory)
+    assignment = assign_arms(grippers.positions, cell)
+    program = _build(grippers, trajectory, cell, assignment)
+    if program.ok or not assignment.ok:
+        return program
+    failed = {r.check for r in program.failures}
+    if failed & {"clearance", "continuity"} and "reach" not in failed:
+        other = _build(grippers, trajectory, cell, assignment.swapped())
+        if other.ok:
+            return other
+    return program
+
+
+def _check_inputs(grippers, trajectory) -> None:
+    from ..trajectory import Trajectory
+
+    positions = getattr(grippers, "positions", None)
+    rotations = getattr(grippers, "rotations", None)
+    if positions is None or rotations is None:
+        raise ValueError(f"grippers: expected a GripperPath, got {type(grippers).__name__}")
+    if not isinstance(trajectory, Trajectory):
+        raise ValueError(f"trajectory: expected a Trajectory, got {type(trajectory).__name__}")
+    if trajectory.n_knots != len(positions):
+        raise ValueError(f"trajectory: {trajectory.n_knots} knots, expected one per shape of the "
+                         f"gripper path ({len(positions)})")
+    knots = positions[:, list(trajectory.arm_clips)]
+    gap = float(np.max(np.abs(knots - trajectory.positions)))
+    if gap > 1e-6:
+        raise ValueError(f"trajectory: its knots are up to {gap * 1e3:.3f} mm from the gripper "
+                         "path's clip points; expected the trajectory of the same plan")
+
+
+def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment) -> RobotProgram:
+    robot, opts = cell.robot, cell.reach
+    clips = list(assignment.clips)
+    n_shapes = len(grippers.positions)
+    clip_pos = grippers.positions[:, clips]
+    clip_rot = np.stack([grippers.rotations[c].as_matrix() for c in clips], axis=1)
+    tcp_in = np.stack([tool.tcp_in_clip.as_matrix() for tool in cell.tools])
+    grips = [clip_rot @ tcp_in]
+    if opts.symmetric_grip:
+        grips.append(grips[0] @ _TURN_Z)
+    # targets: approach, shapes, retreat (TCP z is the same for both grips)
+    approach = cell.approach > 0
+    pos = clip_pos
+    if approach:
+        pos = np.concatenate([clip_pos[:1] - cell.approach * grips[0][:1, :, :, 2], clip_pos,
+                              clip_pos[-1:] - cell.approach * grips[0][-1:, :, :, 2]])
+        grips = [np.concatenate([g[:1], g, g[-1:]]) for g in grips]
+    labels = tuple((["approach"] if approach else []) + [f"shape {k}" for k in range(n_shapes)]
+                   + (["retreat"] if approach else []))
+    shapes = np.array(([0] if approach else []) + list(range(n_shapes))
+                      + ([n_shapes - 1] if approach else []))
+    grasp, release = (1, n_shapes) if approach else (0, n_shapes - 1)
+    # exactly what RAPID is given
+    pos = np.round(pos * 1e3, 6) / 1e3
+    quats = [np.round(Rotation.from_matrix(g.reshape(-1, 3, 3)).as_quat(
+        canonical=True, scalar_first=True), 9).reshape(g.shape[:2] + (4,)) for g in grips]
+    rots = [Rotation.from_quat(q.reshape(-1, 4), scalar_first=True).as_matrix().reshape(
+        q.shape[:2] + (3, 3)) for q in quats]
+    best = None
+    for left, right in _ranked_pairs(robot, pos, rots, opts)[:MAX_TRIES]:
+        program = _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos,
+                          quats, rots, (left, right))
+        if best is None:
+            best = program
+        failed = {r.check for r in program.failures}
+        if not failed & {"clearance", "continuity"} or "reach" in failed:
+            return program  # passed, or a target no solution reaches: no other pair helps
+    return best
+
+
+def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, quats, rots,
+            chosen) -> RobotProgram:
+    """The program of one joint solution per arm: written arm angles, re-solved joints,
+    timing, the controller replay and the verdict rows."""
+    robot, opts = cell.robot, cell.reach
+    turned = tuple(bool(c.grip) for c in chosen)
+    quat = np.stack([quats[c.grip][:, a] for a, c in enumerate(chosen)], axis=1)
+    rot = np.stack([rots[c.grip][:, a] for a, c in enumerate(chosen)], axis=1)
+    q0 = np.stack([c.joints for c in chosen], axis=1)
+    eax = np.round(arm_angle(q0), 6)
+    joints = np.empty_like(q0)
+    solved = np.zeros(eax.shape, dtype=bool)
+    for m in range(len(pos)):
+        for a, arm in enumerate(robot.arms):
+            res = solve_from(arm, pos[m, a], rot[m, a], q0[m, a], opts.ik, np.radians(eax[m, a]))
+            joints[m, a], solved[m, a] = res.q, res.success and chosen[a].solved[m]
+    durations, speeds = _timing(trajectory, cell, assignment, cell.approach > 0)
+    waits = np.zeros(len(pos))
+    waits[grasp] = cell.grip_time
+    times = np.cumsum(np.r_[0.0, durations]) + np.concatenate([[0.0], np.cumsum(waits[:-1])])
+    replay = _replay(robot, pos, rot, eax, joints, durations, opts)
+    rows = _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay)
+    motion_times = np.concatenate([times[:1]] + [
+        times[m] - durations[m - 1] * (1.0 - np.arange(1, len(q) + 1) / len(q))
+        for m, q in enumerate(replay["joints"], start=1)])
+    motion = np.concatenate([joints[:1]] + replay["joints"])
+    return RobotProgram(cell, assignment, turned, labels, shapes, grasp, release, pos, quat,
+                        joints, confdata(joints), eax, times, durations, speeds,
+                        motion_times, motion, tuple(rows))
+
+
+@dataclass(frozen=True, eq=False)
+class _Candidate:
+    """One arm's joint solution at every target: grip (0 as mapped, 1 turned by pi about TCP z),
+    (M, 7) joints [rad], (M,) solved flags, and whether its tracking converged at every
+    sub-step without a joint step above ``max_joint_step``."""
+
+    grip: int
+    joints: np.ndarray
+    solved: np.ndarray
+    smooth: bool = True
+
+
+def _arm_candidates(arm, pos, rots, n_sub, opts) -> list[_Candidate]:
+    """Per grip: target 0 solved freely from the home pose (its arm angle theta*), then the arm
+    angles theta* + k * :data:`ARM_ANGLE_STEP` within the limits, seeded with that solution
+    and, where that fails, with a solved neighbour's (a continuation in the arm angle); each
+    candidate then tracks the
+    path with its arm angle held, in ``n_sub[m]`` sub-steps per move, each seeded from the
+    previous one (all candidates at once)."""
+    first = replace(opts.ik, min_margin=opts.min_margin, restarts=0)
+    track = replace(opts.ik, max_iterations=CANDIDATE_ITERATIONS)
+    lo, hi = arm.lower[ARM_ANGLE_JOINT], arm.upper[ARM_ANGLE_JOINT]
+    starts = []  # (grip, theta, joints at target 0)
+    for grip, rot in enumerate(rots):
+        start = inverse(arm, pos[0], Rotation.from_matrix(rot[0]), None, first)
+        if not start.success:
+            continue
+        theta = start.q[ARM_ANGLE_JOINT] + ARM_ANGLE_STEP * np.arange(-ARM_ANGLES, ARM_ANGLES + 1)
+        theta = theta[(theta >= lo) & (theta <= hi)]
+        q = np.tile(start.q, (len(theta), 1))
+        done = np.zeros(len(theta), dtype=bool)
+        for _ in range(3):  # continuation: the unsolved start again from a solved neighbour
+            todo = np.flatnonzero(~done)
+            q[todo], done[todo], _, _ = solve_many(
+                arm, np.broadcast_to(pos[0], (len(todo), 3)),
+                np.broadcast_to(rot[0], (len(todo), 3, 3)), q[todo], track, theta[todo])
+            if done.all() or not done.any():
+                break
+            solved = np.flatnonzero(done)
+            nearest = solved[np.abs(todo[:, None] - solved[None]).argmin(axis=1)]
+            q[todo] = q[nearest]
+        starts += [(grip, t, qs) for t, qs, ok in zip(theta, q, done, strict=True) if ok]
+    if not starts:
+        return []
+    grips = np.array([g for g, _, _ in starts])
+    thetas = np.array([t for _, t, _ in starts])
+    rot = np.stack(rots)[grips]  # (N, M, 3, 3)
+    rel = Rotation.from_matrix(np.einsum("nmji,nmjk->nmik", rot[:, :-1], rot[:, 1:])).as_rotvec()
+    q = np.stack([q for _, _, q in starts])
+    joints = np.empty((len(starts), len(pos), 7))
+    solved = np.zeros((len(starts), len(pos)), dtype=bool)
+    joints[:, 0], solved[:, 0] = q, True
+    converged = np.ones(len(starts), dtype=bool)
+    largest = np.zeros(len(starts))
+    for m in range(1, len(pos)):
+        for i in range(1, n_sub[m - 1] + 1):
+            f = i / n_sub[m - 1]
+            p = np.broadcast_to(pos[m - 1] + f * (pos[m] - pos[m - 1]), (len(starts), 3))
+            r = rot[:, m - 1] @ Rotation.from_rotvec(f * rel[:, m - 1]).as_matrix()
+            live = np.flatnonzero(converged)  # a lost candidate stays where it was lost
+            new, ok, _, _ = solve_many(arm, p[live], r[live], q[live], track, thetas[live])
+            largest[live] = np.maximum(largest[live], np.abs(new - q[live]).max(axis=-1))
+            q[live] = new
+            converged[live] = ok
+        joints[:, m], solved[:, m] = q, converged
+    smooth = converged & (largest <= opts.max_joint_step)
+    return [_Candidate(int(g), qs, ok, bool(c))
+            for g, qs, ok, c in zip(grips, joints, solved, smooth, strict=True)]
+
+
+def _tracked_candidates(robot, pos, rots, opts) -> list[_Candidate]:
+    """The free-elbow tracking of :func:`~dloplan.robot.reachability.check_path` (the arm
+    angle follows the null-space motion), one candidate per arm."""
+    tracked = check_path(robot, pos, Rotation.from_matrix(rots[0]), options=opts,
+                         alternatives=Rotation.from_matrix(rots[-1]))
+    return [_Candidate(int(tracked.grip_turned[a]), tracked.q[:, a], tracked.reachable[:, a],
+                       bool(tracked.continuous[:, a].all())) for a in range(2)]
+
+
+def _ranked_pairs(robot, pos, rots, opts) -> list[tuple[_Candidate, _Candidate]]:
+    """(left, right) joint solutions, best first: every target solved, tracked smoothly,
+    clearance at the targets at least the minimum, margin at least the wanted one, then
+    clearance (up to :data:`COMFORT_CLEARANCE`) and margin (up to :data:`COMFORT_MARGIN`).
+    The free-elbow tracking is added when no constant arm angle tracks an arm's whole path."""
+    dist = np.linalg.norm(np.diff(pos, axis=0), axis=-1).max(axis=1)
+    angle = np.max([Rotation.from_matrix(np.einsum("mji,mjk->mik", rots[0][:-1, a],
+                                                   rots[0][1:, a])).magnitude()
+                    for a in range(2)], axis=0)
+    n_sub = np.maximum(1, np.maximum(np.ceil(dist / opts.step_length),
+                                     np.ceil(angle / opts.step_angle))).astype(int)
+    cands = [_arm_candidates(arm, pos[:, a], [r[:, a] for r in rots], n_sub, opts)
+             for a, arm in enumerate(robot.arms)]
+    if not all(any(c.solved.all() and c.smooth for c in arm_cands) for arm_cands in cands):
+        for a, c in enumerate(_tracked_candidates(robot, pos, rots, opts)):
+            cands[a].append(c)
+    q_left = np.stack([c.joints for c in cands[0]])  # (L, M, 7)
+    q_right = np.stack([c.joints for c in cands[1]])  # (R, M, 7)
+    gap, _ = arm_clearance(robot.left, q_left[:, None], robot.right, q_right[None])
+    clearance = gap.min(axis=-1)  # (L, R)
+    margin = [np.array([joint_margin(arm, c.joints).min() for c in arm_cands])
+              for arm, arm_cands in zip(robot.arms, cands, strict=True)]
+    solved = [np.array([c.solved.all() for c in arm_cands]) for arm_cands in cands]
+    both_margin = np.minimum(margin[0][:, None], margin[1][None])
+    keys = []
+    for i in range(len(cands[0])):
+        for j in range(len(cands[1])):
+            keys.append(((bool(solved[0][i] and solved[1][j]),
+                          cands[0][i].smooth and cands[1][j].smooth,
+                          bool(clearance[i, j] >= opts.min_clearance),
+                          bool(both_margin[i, j] >= opts.min_margin),
+                          min(float(clearance[i, j]), COMFORT_CLEARANCE),
+                          min(float(both_margin[i, j]), COMFORT_MARGIN)), i, j))
+    keys.sort(key=lambda k: k[0], reverse=True)
+    return [(cands[0][i], cands[1][j]) for _, i, j in keys]
+
+
+def _timing(trajectory, cell: RobotCell, assignment: ArmAssignment, approach: bool):
+    """Move durations [s], (M - 1,), and written speeds, (M - 1, 2, 2) [m/s, rad/s]: the
+    trajectory's segments between the shapes, ``cell.approach_speed`` for approach and
+    retreat."""
+    columns = [list(trajectory.arm_clips).index(c) for c in assignment.clips]
+    lin, ang = trajectory.segment_speeds()
+    durations = trajectory.segment_durations
+    speeds = np.stack([lin[:, columns], ang[:, columns]], axis=-1)
+    if approach:
+        t_move = cell.approach / cell.approach_speed
+        move = np.array([[[cell.approach_speed, 0.0]] * 2])
+        durations = np.concatenate([[t_move], durations, [t_move]])
+        speeds = np.concatenate([move, speeds, move])
+    return durations, np.maximum(speeds, [MIN_SPEED, MIN_ANGULAR_SPEED])
+
+
+def _slerp_matrices(r0: np.ndarray, r1: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Rotations r0 * exp(s log(r0^T r1)) for fractions s, (n, 3, 3)."""
+    rel = Rotation.from_matrix(r0.T @ r1).as_rotvec()
+    return r0 @ Rotation.from_rotvec(s[:, None] * rel).as_matrix()
+
+
+def _replay(robot, pos, rot, eax, joints, durations, opts) -> dict:
+    """The controller's MoveL into every target (module docstring, ``continuity``).
+
+    Both arms advance through the same sub-steps of a move; all moves of an arm advance
+    together (each starts from its start target's solution). A sub-step whose largest joint
+    step exceeds ``max_joint_step`` is replayed again in :data:`REFINE` finer steps: a
+    continuous motion that is merely fast (near a singularity) then moves each joint by about
+    a REFINE-th, a jump to another branch still jumps. Returns per move m = 1..M-1 the
+    sub-step joints (n_m, 2, 7) and per move and arm: converged, largest refined joint step
+    [rad] and its joint, distance of the end from the target's solution [rad], and the largest
+    joint speed as a fraction of the limit at the move's planned duration.
+    """
+    track = replace(opts.ik, max_iterations=CANDIDATE_ITERATIONS)
+    n_moves = len(pos) - 1
+    dist = np.linalg.norm(np.diff(pos, axis=0), axis=-1)  # (M-1, 2)
+    angle = np.stack([Rotation.from_matrix(np.einsum("mji,mjk->mik", rot[:-1, a], rot[1:, a]))
+                      .magnitude() for a in range(2)], axis=1)
+    turn = np.radians(np.abs(np.diff(eax, axis=0)))
+    n_sub = np.maximum(1, np.maximum(np.ceil(dist.max(axis=1) / opts.step_length), np.ceil(
+        np.maximum(angle, turn).max(axis=1) / opts.step_angle))).astype(int)
+    n_max = int(n_sub.max())
+    sub = np.empty((n_max, n_moves, 2, 7))
+    converged = np.ones((n_moves, 2), dtype=bool)
+    for a, arm in enumerate(robot.arms):
+        rel = Rotation.from_matrix(np.einsum("mji,mjk->mik", rot[:-1, a], rot[1:, a])).as_rotvec()
+        q = joints[:-1, a].copy()
+        for i in range(n_max):
+            s = np.minimum((i + 1) / n_sub, 1.0)
+            live = np.flatnonzero(converged[:, a])  # a lost move stays where it was lost
+            p, r, theta = _along(pos[:, a], rot[:, a], rel, eax[:, a], s)
+            q[live], ok, _, _ = solve_many(arm, p[live], r[live], q[live], track, theta[live])
+            converged[live, a] = ok
+            sub[i, :, a] = q
+    limit = np.stack([arm.max_velocity for arm in robot.arms])
+    out = {"joints": [], "converged": converged, "largest": np.zeros((n_moves, 2)),
+           "worst_joint": np.zeros((n_moves, 2), dtype=int), "end_error": np.zeros((n_moves, 2)),
+           "speed_ratio": np.zeros((n_moves, 2))}
+    for m in range(n_moves):
+        q_move = sub[:n_sub[m], m]
+        steps = np.abs(np.diff(np.concatenate([joints[m][None], q_move]), axis=0))  # (n, 2, 7)
+        for a in range(2):
+            i = int(steps[:, a].max(axis=-1).argmax())
+            largest, joint = float(steps[i, a].max()), int(steps[i, a].argmax())
+            if largest > opts.max_joint_step:
+                start = joints[m, a] if i == 0 else q_move[i - 1, a]
+                largest, joint = _refined_step(robot.arms[a], pos[m:m + 2, a], rot[m:m + 2, a],
+                                               eax[m:m + 2, a], (i / n_sub[m], (i + 1) / n_sub[m]),
+                                               start, track)
+            out["largest"][m, a], out["worst_joint"][m, a] = largest, joint
+        out["end_error"][m] = np.abs(q_move[-1] - joints[m + 1]).max(axis=-1)
+        dt = durations[m] / n_sub[m]
+        moved = steps.max(axis=(0, 2))
+        out["speed_ratio"][m] = ((steps / limit).max(axis=(0, 2)) / dt if dt > 0
+                                 else np.where(moved > 1e-9, np.inf, 0.0))
+        out["joints"].append(q_move)
+    return out
+
+
+def _along(pos, rot, rel, eax, s):
+    """Poses of every move m (from target m to m + 1) at fractions s (M-1,): TCP position
+    linear, orientation slerp (``rel`` the (M-1, 3) rotation vectors of the moves), arm angle
+    linear [rad]."""
+    p = pos[:-1] + s[:, None] * (pos[1:] - pos[:-1])
+    r = rot[:-1] @ Rotation.from_rotvec(s[:, None] * rel).as_matrix()
+    theta = np.radians(eax[:-1] + s * (eax[1:] - eax[:-1]))
+    return p, r, theta
+
+
+def _refined_step(arm, pos, rot, eax, span, start, track) -> tuple[float, int]:
+    """Largest joint step [rad] (and its joint) replaying the sub-step ``span`` (fractions of
+    the move from ``pos[0]`` to ``pos[1]``) in :data:`REFINE` steps from ``start``."""
+    rel = Rotation.from_matrix(rot[0].T @ rot[1]).as_rotvec()[None]
+    fractions = np.linspace(span[0], span[1], REFINE + 1)[1:]
+    q, largest, joint = start, 0.0, 0
+    for s in fractions:
+        p, r, theta = _along(pos, rot, rel, eax, np.array([s]))
+        new = solve_many(arm, p, r, q[None], track, theta)[0][0]
+        step = np.abs(new - q)
+        if step.max() > largest:
+            largest, joint = float(step.max()), int(step.argmax())
+        q = new
+    return largest, joint
+
+
+def _link(i: int) -> str:
+    return "gripper" if i == 7 else f"link {i + 1}"
+
+
+def _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay) -> list:
+    """The verdict table (module docstring)."""
+    opts = cell.reach
+    rows = []
+    for k, sep in enumerate(assignment.separation):
+        rows.append(CheckRow("assignment", None, f"shape {k}", k, "both", 1e3 * sep, "mm",
+                             k not in assignment.crossings,
+                             "" if k not in assignment.crossings else
+                             "the left arm's clip is right of the right arm's clip"))
+    for m, label in enumerate(labels):
+        for a, arm in enumerate(robot.arms):
+            p, r = forward(arm, joints[m, a])
+            perr = float(np.linalg.norm(p - pos[m, a]))
+            aerr = float(Rotation.from_matrix(rot[m, a] @ r.as_matrix().T).magnitude())
+            rows.append(CheckRow("reach", m, label, int(shapes[m]), ARMS[a], 1e3 * perr, "mm",
+                                 bool(solved[m, a]),
+                                 f"orientation error {np.degrees(aerr):.2g} deg" if
+                                 not solved[m, a] else ""))
+        for a, arm in enumerate(robot.arms):
+            gaps = np.minimum(joints[m, a] - arm.lower, arm.upper - joints[m, a])
+            j = int(np.argmin(gaps))
+            margin = float(np.degrees(gaps[j]))
+            note = f"ABB axis {ABB_AXIS_NUMBERS[j]}"
+            if margin < np.degrees(opts.min_margin):
+                note += f", less than the wanted {np.degrees(opts.min_margin):.0f} deg"
+            rows.append(CheckRow("joint limits", m, label, int(shapes[m]), ARMS[a], margin,
+                                 "deg", bool(joint_margin(arm, joints[m, a]) > 0), note))
+    # clearance at each target and along the move into it
+    steps = [joints[:1]] + replay["joints"]
+    for m, label in enumerate(labels):
+        q = steps[m]
+        gap, pair = arm_clearance(robot.left, q[:, 0], robot.right, q[:, 1])
+        i = int(np.argmin(gap))
+        rows.append(CheckRow("clearance", m, label, int(shapes[m]), "both", 1e3 * float(gap[i]),
+                             "mm", bool(gap[i] >= opts.min_clearance),
+                             f"left {_link(pair[i, 0])}, right {_link(pair[i, 1])}"))
+    for m in range(1, len(labels)):
+        for a in range(2):
+            largest = float(replay["largest"][m - 1][a])
+            end = float(replay["end_error"][m - 1][a])
+            ok = (replay["converged"][m - 1][a] and largest <= opts.max_joint_step
+                  and end <= END_TOLERANCE)
+            axis = ABB_AXIS_NUMBERS[int(replay["worst_joint"][m - 1][a])]
+            note = f"from {labels[m - 1]}; ABB axis {axis}"
+            if not replay["converged"][m - 1][a]:
+                note += "; the straight TCP motion is lost on the way"
+            if end > END_TOLERANCE:
+                note += f"; ends {np.degrees(end):.1f} deg from the target's solution"
+            rows.append(CheckRow("continuity", m, labels[m], int(shapes[m]), ARMS[a],
+                                 float(np.degrees(largest)), "deg", bool(ok), note))
+        for a in range(2):
+            ratio = float(replay["speed_ratio"][m - 1][a])
+            rows.append(CheckRow("joint speed", m, labels[m], int(shapes[m]), ARMS[a], ratio,
+                                 "of the limit", bool(ratio <= 1.0), f"from {labels[m - 1]}"))
+    return rows

@@ -1,0 +1,285 @@
+"""Banded linear algebra and the trust-region Newton loop shared by every static solver.
+
+The Hessians of a cable's energy are symmetric bands (a point couples with its neighbours only),
+so each Newton iteration costs O(n): a banded Cholesky factorization (LAPACK ``dpbtrf``) and two
+triangular solves (``dpbtrs``). Bands use the lower layout of
+``scipy.linalg.cholesky_banded(lower=True)``: ``band[k, j] = H[j + k, j]``.
+
+:func:`trust_region_newton` is the minimizer (see :mod:`dloplan.sim.statics` for the method): it
+knows nothing of cables, only an energy, its gradient and Hessian band, how a step moves the
+state and how long a step is. Positions only (:func:`dloplan.sim.statics.minimize_energy`) and
+positions with twist angles (:mod:`dloplan.sim.torsion`) share it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+from numba import njit
+
+NEUTRAL = 1e-9
+"""Relative shift under which a Hessian still counts as positive (semi-)definite: a mode of zero
+stiffness is neutral, not unstable."""
+
+MAX_ESCAPES = 20
+"""Saddle escapes per solve before a saddle counts as a point to step on from."""
+
+
+def free_band(band: np.ndarray, free: slice) -> np.ndarray:
+    """The band of the coordinates of a contiguous range of points, 3 per point.
+
+    Parameters
+    ----------
+    band : numpy.ndarray
+        (w + 1, 3(n + 1)) lower band over all points' coordinates.
+    free : slice
+        Contiguous point range (step 1, explicit start and stop, or a negative stop).
+    """
+    start, stop, _ = free.indices(band.shape[1] // 3)
+    return band[:, 3 * start : 3 * stop]
+
+
+def factor_band(band: np.ndarray, shift: float = 0.0) -> np.ndarray | None:
+    """Banded Cholesky factor of ``band + shift I``, or None if not positive definite.
+
+    The factor L is in the same lower layout (``factor[k, j] = L[j + k, j]``, as LAPACK dpbtrf
+    and ``scipy.linalg.cholesky_banded(lower=True)`` return it).
+
+    Parameters
+    ----------
+    band : numpy.ndarray
+        (w + 1, N) lower band of a symmetric matrix; not modified.
+    shift : float
+        Added to the diagonal (negative to test definiteness above a bound).
+    """
+    factor = np.empty_like(band, dtype=float)
+    return factor if cholesky_band(band, shift, factor) else None
+
+
+def solve_band(factor: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Solve ``A y = rhs`` (rhs (N,)) with a factor of :func:`factor_band`."""
+    out = np.array(rhs, dtype=float)
+    cholesky_solve(factor, out)
+    return out
+
+
+@njit(cache=True)
+def cholesky_band(band, shift, factor):
+    """Compiled banded Cholesky (the algorithm of LAPACK dpbtf2): ``factor`` <- L of
+    ``band + shift I``; returns False (``factor`` then undefined) if a pivot is not positive.
+    O(N w^2) for N unknowns and half bandwidth w."""
+    w = band.shape[0] - 1
+    n = band.shape[1]
+    for j in range(n):
+        for i in range(w + 1):
+            factor[i, j] = band[i, j]
+        factor[0, j] += shift
+    for j in range(n):
+        pivot = factor[0, j]
+        for k in range(1, min(w, j) + 1):
+            pivot -= factor[k, j - k] * factor[k, j - k]
+        if not pivot > 0.0:  # also catches NaN
+            return False
+        pivot = math.sqrt(pivot)
+        factor[0, j] = pivot
+        for i in range(1, min(w, n - 1 - j) + 1):  # L[j + i, j]
+            value = factor[i, j]
+            for k in range(1, min(w - i, j) + 1):
+                value -= factor[i + k, j - k] * factor[k, j - k]
+            factor[i, j] = value / pivot
+    return True
+
+
+@njit(cache=True)
+def cholesky_solve(factor, rhs):
+    """Solve L L^T y = rhs in place with a factor of :func:`cholesky_band`."""
+    w = factor.shape[0] - 1
+    n = factor.shape[1]
+    for j in range(n):  # L z = rhs
+        value = rhs[j]
+        for k in range(1, min(w, j) + 1):
+            value -= factor[k, j - k] * rhs[j - k]
+        rhs[j] = value / factor[0, j]
+    for j in range(n - 1, -1, -1):  # L^T y = z
+        value = rhs[j]
+        for k in range(1, min(w, n - 1 - j) + 1):
+            value -= factor[k, j] * rhs[j + k]
+        rhs[j] = value / factor[0, j]
+
+
+def lowest_mode(band: np.ndarray) -> np.ndarray:
+    """The eigenvector of the smallest eigenvalue of a banded symmetric matrix, (N,)."""
+    _, vectors = sla.eig_banded(band, lower=True, select="i", select_range=(0, 0),
+                                check_finite=False)
+    return vectors[:, 0]
+
+
+@dataclass(frozen=True, eq=False)
+class NewtonRun:
+    """Outcome of :func:`trust_region_newton`.
+
+    Attributes
+    ----------
+    state : object
+        The final state (whatever the caller's ``moved`` builds).
+    extra : object
+        The fourth item of the last ``derivatives(state)`` call (e.g. the full gradient).
+    iterations : int
+        Newton iterations.
+    residual : float
+        The residual of the last evaluation (the caller's unit, e.g. [N]).
+    stable : bool
+        Residual below the tolerance and the free Hessian positive definite.
+    history : numpy.ndarray
+        Energy after each accepted iteration [J].
+    message : str
+        What happened.
+    """
+
+    state: object
+    extra: object
+    iterations: int
+    residual: float
+    stable: bool
+    history: np.ndarray
+    message: str
+
+
+def trust_region_newton(
+    state, energy_of, derivatives, moved, displacement, length_scale: float, tolerance: float,
+    max_iterations: int = 500, unit: str = "N",
+) -> NewtonRun:
+    """The trust-region (Levenberg-Marquardt) Newton loop of the static solvers.
+
+    Each iteration solves (H + lambda I) p = -g by :func:`factor_band`; lambda = 0 whenever H is
+    positive definite and the quadratic model is trusted, otherwise it grows until the
+    factorization succeeds and shrinks again as steps succeed. A step is accepted only if the
+    energy decreases and no coordinate moves farther than the trust radius; the ratio of actual to
+    predicted decrease adapts lambda and the radius. At a saddle (residual converged, Hessian
+    indefinite) the loop steps downhill along :func:`lowest_mode` and carries on.
+
+    Parameters
+    ----------
+    state : object
+        The start.
+    energy_of : callable
+        ``energy_of(state) -> float`` [J].
+    derivatives : callable
+        ``derivatives(state) -> (g, band, residual, extra)``: the gradient over the free
+        coordinates (1-D), the lower band of their Hessian, the residual compared with
+        ``tolerance``, and anything to hand back.
+    moved : callable
+        ``moved(state, p) -> state``: the state after the step ``p`` of the free coordinates.
+    displacement : callable
+        ``displacement(p) -> float``: the size of a step [m], compared with the trust radius.
+    length_scale : float
+        Largest step [m] at the start (a quarter of it) and ever (all of it).
+    tolerance : float
+        Residual for convergence.
+    max_iterations : int
+        Iteration limit.
+    unit : str
+        Unit of the residual, for the messages.
+    """
+    radius = 0.25 * length_scale  # trust radius: the largest point displacement of one step
+    shift = 0.0
+    f = energy_of(state)
+    history = [f]
+    iterations = 0
+    message = ""
+    stable = False
+    escapes = 0
+    while True:
+        gf, band, residual, extra = derivatives(state)
+        scale = float(np.mean(band[0]))
+        # stable: positive definite up to a relative 1e-9 (a zero-stiffness mode is neutral)
+        stable = residual <= tolerance and factor_band(band, NEUTRAL * scale) is not None
+        if stable or iterations >= max_iterations:
+            message = newton_message("converged" if stable else "max_iterations", iterations,
+                                     residual, unit)
+            break
+        if residual <= tolerance and escapes < MAX_ESCAPES:
+            # a saddle (an unstable equilibrium): leave it downhill along the direction of
+            # most negative curvature, then carry on with Newton toward a stable one
+            escaped = escape_saddle(state, f, band, energy_of, moved, displacement, radius)
+            iterations += 1
+            escapes += 1
+            if escaped is None:
+                message = newton_message("stuck", iterations, residual, unit)
+                break
+            state, f = escaped
+            history.append(f)
+            shift = 0.0
+            continue
+        accepted = False
+        for _ in range(60):  # adapt the shift until a step is accepted
+            factor = factor_band(band, shift)
+            if factor is None:
+                shift = max(4.0 * shift, 1e-8 * scale)
+                continue
+            p = -solve_band(factor, gf)
+            longest = displacement(p)
+            alpha = min(1.0, radius / longest) if longest > 0 else 1.0  # truncate to the radius
+            # model decrease g.p + p.H.p/2 with (H + shift I) p_full = -g, p = alpha p_full
+            g_p = float(gf @ p)
+            predicted = alpha * g_p + 0.5 * alpha**2 * (-g_p - shift * float(p @ p))
+            p *= alpha
+            trial = moved(state, p)
+            f_trial = energy_of(trial)
+            actual = f_trial - f
+            noise = 1e-13 * (abs(f) + abs(predicted)) + 1e-300
+            if predicted < 0 and (actual < 0 or abs(actual) < noise):
+                ratio = actual / predicted if abs(predicted) > noise else 1.0
+                state, f = trial, f_trial
+                accepted = True
+                if ratio > 0.75:
+                    shift = 0.0 if shift < 1e-6 * scale else shift / 8.0
+                    radius = min(2.0 * radius, length_scale)
+                elif ratio < 0.25:
+                    shift = max(4.0 * shift, 1e-8 * scale)
+                break
+            shift = max(4.0 * shift, 1e-8 * scale)
+            radius = max(0.5 * min(radius, longest), 1e-9 * length_scale)
+        iterations += 1
+        if not accepted:
+            message = newton_message("stalled", iterations, residual, unit)
+            break
+        history.append(f)
+    return NewtonRun(state, extra, iterations, residual, stable, np.asarray(history), message)
+
+
+def newton_message(outcome: str, iterations: int, residual: float, unit: str = "N") -> str:
+    """What a Newton run ended with, in words.
+
+    ``outcome``: "converged", "max_iterations", "stuck" (at a saddle no step leaves) or
+    "stalled" (no step lowers the energy).
+    """
+    if outcome == "converged":
+        return f"converged in {iterations} iterations"
+    if outcome == "max_iterations":
+        return f"no convergence in {iterations} iterations (residual {residual:.3g} {unit})"
+    if outcome == "stuck":
+        return f"stuck at an unstable equilibrium after {iterations} iterations"
+    return f"stalled after {iterations} iterations (residual {residual:.3g} {unit})"
+
+
+def escape_saddle(state, f, band, energy_of, moved, displacement, radius):
+    """A step from a saddle along the eigenvector of the most negative Hessian eigenvalue.
+
+    Tries both signs with a backtracking length, starting at the trust radius; returns
+    ``(state, energy)`` of the first step that lowers the energy, or None.
+    """
+    mode = lowest_mode(band)
+    direction = mode / displacement(mode)
+    length = radius
+    for _ in range(40):
+        for sign in (1.0, -1.0):
+            trial = moved(state, sign * length * direction)
+            f_trial = energy_of(trial)
+            if f_trial < f:
+                return trial, f_trial
+        length *= 0.5
+    return None

@@ -1,0 +1,131 @@
+"""What a static solve of a held cable returns: the equilibrium, its forces and clip reactions.
+
+Shared by the solvers of :mod:`dloplan.sim.statics` (positions), :mod:`dloplan.sim.torsion`
+(positions and material frames) and :func:`dloplan.sim.dynamics.settle` (the thesis' time
+stepping run to rest), so that their results can be swapped.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..cable import GRAVITY, Cable
+from ..physics.chain import Forces, shape_forces
+from ..physics.contact import penetrations
+from .clips import ClipPoses
+
+
+@dataclass(frozen=True, eq=False)
+class Equilibrium:
+    """A static equilibrium found by :func:`dloplan.sim.statics.equilibrium` (or a sibling solver).
+
+    Attributes
+    ----------
+    shape : numpy.ndarray
+        (n + 1, 3) point positions [m].
+    forces : Forces
+        Per-point axial, bending and gravity forces [N] at the equilibrium.
+    energy : float
+        Potential energy U [J].
+    clip_wrenches : numpy.ndarray
+        (2, 6): force [N] and moment [N m] the cable exerts on each clip, in the world frame,
+        the moment taken about the clip point (first clip, last clip).
+    iterations : int
+        Newton iterations.
+    converged : bool
+        True when the force residual is below the tolerance.
+    residual : float
+        Largest norm of the net force on a free point [N].
+    tolerance : float
+        The residual tolerance used [N].
+    stable : bool
+        True when the Hessian over the free points is positive definite at the solution.
+    clips : ClipPoses
+        The clip poses held.
+    message : str
+        What happened, in words.
+    energy_history : numpy.ndarray
+        Energy after each accepted iteration [J] (monotonically decreasing).
+    penetration : float
+        Deepest penetration of a point into a contact obstacle [m] (0 without contacts).
+    """
+
+    shape: np.ndarray
+    forces: Forces
+    energy: float
+    clip_wrenches: np.ndarray
+    iterations: int
+    converged: bool
+    residual: float
+    tolerance: float
+    stable: bool
+    clips: ClipPoses
+    message: str
+    energy_history: np.ndarray
+    penetration: float = 0.0
+
+    @property
+    def success(self) -> bool:
+        """Converged to a stable equilibrium."""
+        return self.converged and self.stable
+
+
+def force_scale(cable: Cable, gravity=GRAVITY) -> float:
+    """Characteristic force of a cable's statics [N]: a point's weight plus k_b / l."""
+    weight = float(np.max(cable.point_masses)) * float(np.linalg.norm(gravity))
+    return weight + cable.k_bending / cable.rest_link_length
+
+
+def clip_reactions(x: np.ndarray, grad: np.ndarray, clips: ClipPoses, held: str = "both"
+                   ) -> np.ndarray:
+    """Force [N] and moment [N m] the cable puts on each clip, (2, 6): minus the held reactions.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        (n + 1, 3) equilibrium shape [m].
+    grad : numpy.ndarray
+        (n + 1, 3) energy gradient at ``x`` [N] (the clips balance it on their points).
+    clips : ClipPoses
+        The clips; moments are taken about their points.
+    held : {"both", "first"}
+        Which clips hold the cable (the second row stays zero for ``"first"``).
+    """
+    wrenches = np.zeros((2, 6))
+    for k, idx in enumerate(([0, 1], [-2, -1])[: 2 if held == "both" else 1]):
+        on_clip = -grad[idx]  # the clip balances the net force on its points: reaction = grad
+        wrenches[k, :3] = on_clip.sum(axis=0)
+        wrenches[k, 3:] = np.cross(x[idx] - clips.positions[k], on_clip).sum(axis=0)
+    return wrenches
+
+
+def equilibrium_result(cable, chain, x, g, clips, iterations, converged, residual, tolerance,
+                       stable, history, message, held="both") -> Equilibrium:
+    """The :class:`Equilibrium` of a solved shape ``x`` with energy gradient ``g`` [N].
+
+    Adds the forces, clip reactions and the deepest contact penetration to what the solver
+    found; ``converged`` without ``stable`` appends a warning to ``message``.
+    """
+    if not stable and converged:
+        message += "; the equilibrium is not stable (Hessian not positive definite)"
+    depth = 0.0
+    if chain.contacts:
+        depth = max(0.0, *(float(d.max()) for d, _ in
+                           penetrations(x, chain.contacts, chain.contact_radius)))
+    return Equilibrium(
+        shape=x,
+        forces=shape_forces(chain, x),
+        energy=float(history[-1]),
+        clip_wrenches=clip_reactions(x, g, clips, held),
+        iterations=iterations,
+        converged=bool(converged),
+        residual=float(residual),
+        tolerance=float(tolerance),
+        stable=bool(stable),
+        clips=clips,
+        message=message,
+        energy_history=np.asarray(history),
+        penetration=depth,
+    )

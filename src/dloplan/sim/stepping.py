@@ -1,0 +1,123 @@
+"""The explicit time stepping of eq. 3.24, compiled: a chunk of steps in one call.
+
+One step of the semi-implicit Euler scheme (thesis 3.8) with the fictitious damping k_d::
+
+    a = (F(x) - k_d D(v)) / m,    v <- v + a dt,    x <- x + v dt
+
+with D(v) = v (the thesis' absolute damping) or the graph Laplacian of v (relative damping:
+dashpots between neighbouring points); then the four held points are put where the clips hold
+them (their velocity is the clips'), and an optional ground plane z = 0 is one-sided. The force
+F = -dU/dx comes from :func:`dloplan.physics.compiled.chain_gradient`, plus an optional external
+gradient held fixed over the call (the twisting force of :class:`dloplan.sim.torsion.
+QuasiStaticTwist`, recomputed by its caller every step).
+
+:func:`explicit_steps` runs the steps of one chunk of clip targets, records shapes at the
+recording interval, and stops early at rest or when the state diverges: no Python per step.
+:func:`dloplan.sim.dynamics.simulate` drives it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..physics.compiled import chain_gradient
+
+RUNNING, SETTLED, DIVERGED = 0, 1, 2
+
+
+@njit(cache=True)
+def explicit_steps(x, v, previous_held, targets, extra, first_step, n_steps, dt, k_d, relative,
+                   ground, record_every, rest_speed, clips_stop, k_s, rest_lengths, k_b,
+                   rest_angles, masses, gravity, times, shapes, speeds, n_records):
+    """Advance x, v (n + 1, 3) in place through the clip targets of one chunk.
+
+    Parameters
+    ----------
+    x, v : numpy.ndarray
+        (n + 1, 3) positions [m] and velocities [m/s], updated in place.
+    previous_held : numpy.ndarray
+        (4, 3) held points of the step before [m] (updated).
+    targets : numpy.ndarray
+        (K, 4, 3) held points at steps ``first_step + 1 .. first_step + K`` [m].
+    extra : numpy.ndarray
+        (n + 1, 3) gradient added to dU/dx at every step [N] (zeros for none).
+    first_step, n_steps : int
+        Steps done before this chunk, and the run's total.
+    dt, k_d : float
+        Time step [s] and damping constant [N s/m].
+    relative, ground : bool
+        Relative damping; the one-sided plane z = 0.
+    record_every : int
+        Record every this many steps (and the last one).
+    rest_speed : float
+        Stop once ``step * dt >= clips_stop`` and every point is slower than this, and not about
+        to speed up within a record interval [m/s]; negative: never.
+    clips_stop : float
+        Time at which the clips stop moving [s].
+    k_s, rest_lengths, k_b, rest_angles, masses, gravity
+        The chain's constants.
+    times, shapes, speeds : numpy.ndarray
+        Record buffers (R,), (R, n + 1, 3), (R,); ``n_records`` entries are in use.
+
+    Returns
+    -------
+    tuple
+        ``(step, n_records, status)`` with status :data:`RUNNING` (chunk done), :data:`SETTLED`
+        or :data:`DIVERGED`.
+    """
+    n_points = x.shape[0]
+    grad = np.empty_like(x)
+    drag = np.empty_like(x)
+    accel = np.empty_like(x)
+    held = (0, 1, n_points - 2, n_points - 1)
+    step = first_step
+    for k in range(targets.shape[0]):
+        step = first_step + k + 1
+        for i in range(n_points):
+            for a in range(3):
+                if relative:  # sum over the neighbours of the velocity relative to them
+                    d = 0.0
+                    if i > 0:
+                        d += v[i, a] - v[i - 1, a]
+                    if i < n_points - 1:
+                        d += v[i, a] - v[i + 1, a]
+                    drag[i, a] = d
+                else:
+                    drag[i, a] = v[i, a]
+        chain_gradient(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, grad)
+        for i in range(n_points):
+            for a in range(3):
+                accel[i, a] = (-(grad[i, a] + extra[i, a]) - k_d * drag[i, a]) / masses[i]
+                v[i, a] += accel[i, a] * dt
+                x[i, a] += v[i, a] * dt
+        for h in range(4):
+            for a in range(3):
+                v[held[h], a] = (targets[k, h, a] - previous_held[h, a]) / dt
+                x[held[h], a] = targets[k, h, a]
+                previous_held[h, a] = targets[k, h, a]
+        if ground:
+            for i in range(n_points):
+                if x[i, 2] < 0.0:
+                    x[i, 2] = 0.0
+                    v[i, 2] = max(v[i, 2], 0.0)
+        if step % record_every == 0 or step == n_steps:
+            speed = 0.0
+            for i in range(n_points):
+                speed = max(speed, math.sqrt(v[i, 0] ** 2 + v[i, 1] ** 2 + v[i, 2] ** 2))
+            times[n_records] = step * dt
+            shapes[n_records] = x
+            speeds[n_records] = speed
+            n_records += 1
+            pull = 0.0
+            for i in range(2, n_points - 2):
+                pull = max(pull, math.sqrt(accel[i, 0] ** 2 + accel[i, 1] ** 2
+                                           + accel[i, 2] ** 2))
+            pull *= record_every * dt
+            if rest_speed >= 0.0 and step * dt >= clips_stop and max(speed, pull) < rest_speed:
+                return step, n_records, SETTLED
+        if not (math.isfinite(x[2, 0]) and math.isfinite(x[2, 1]) and math.isfinite(x[2, 2])):
+            return step, n_records, DIVERGED
+    return step, n_records, RUNNING

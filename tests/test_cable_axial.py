@@ -1,0 +1,105 @@
+"""The cable's axial modulus of its own (issue 19): k_s = E_a A / l, E_a = E unless given."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from conftest import level_clips, sagging_guess
+
+from dloplan.cable import COMPOSITE_AXIAL_MODULI, Cable, catalogue_cable
+from dloplan.identify import bending_manipulation, identify_youngs_modulus, synthetic_experiment
+from dloplan.identify.simulate import relative_tolerance
+from dloplan.io.export import cable_to_dict
+from dloplan.io.scenario import CableSpec, build_cable
+from dloplan.physics.geometry import link_lengths
+from dloplan.sim.statics import equilibrium
+
+
+def test_without_an_axial_modulus_the_thesis_model_is_unchanged():
+    cable = catalogue_cable("usb", n_links=10)
+    assert cable.axial_modulus is None
+    assert cable.axial_youngs_modulus == cable.youngs_modulus
+    assert cable.k_axial == pytest.approx(cable.youngs_modulus * cable.area
+                                          / cable.rest_link_length)  # eq. 3.10
+
+
+def test_an_axial_modulus_sets_only_the_axial_springs():
+    plain = catalogue_cable("usb", n_links=10)
+    cable = catalogue_cable("usb", n_links=10, axial_modulus=2e9)
+    assert cable.k_axial == pytest.approx(2e9 * cable.area / cable.rest_link_length)
+    assert cable.axial_stiffness == pytest.approx(2e9 * cable.area)
+    assert cable.k_bending == plain.k_bending and cable.k_twist == plain.k_twist
+    # the explicit time step follows the stiffest spring: sqrt(E / E_a) times shorter
+    assert cable.time_step() == pytest.approx(plain.time_step() * math.sqrt(2.5e6 / 2e9))
+    assert cable.constants()["E_a [Pa]"] == 2e9
+    # variants keep it: identification changes E only, a new n keeps the material
+    assert cable.with_modulus(5e6).axial_modulus == 2e9
+    assert cable.with_links(20).axial_modulus == 2e9
+    assert cable.thesis_model().axial_modulus == 2e9
+
+
+@pytest.mark.parametrize("value", [0.0, -1e9, math.nan, math.inf])
+def test_a_bad_axial_modulus_is_refused(value):
+    with pytest.raises(ValueError, match="axial_modulus"):
+        catalogue_cable("usb", axial_modulus=value)
+
+
+def test_the_axial_modulus_round_trips_through_exports_and_scenarios():
+    cable = catalogue_cable("ethernet", n_links=12, axial_modulus=1.5e9)
+    fields = cable_to_dict(cable)
+    assert fields["axial_modulus"] == 1.5e9
+    assert Cable(**fields).k_axial == cable.k_axial
+    assert Cable(**cable_to_dict(catalogue_cable("pu"))).axial_modulus is None
+    built = build_cable(CableSpec(name="usb", axial_modulus=2e9), 1.0, None)
+    assert built.axial_modulus == 2e9
+    assert build_cable(CableSpec(name="usb"), 1.0, None).axial_modulus is None
+
+
+def _sag(cable, distance):
+    result = equilibrium(cable, sagging_guess(cable, distance, -0.05), level_clips(distance),
+                         rtol=relative_tolerance(cable))
+    assert result.success, result.message
+    return result.shape
+
+
+@pytest.mark.parametrize("distance", [0.4, 0.48])
+def test_usb_stretch_and_sag_with_and_without_a_copper_axial_modulus(distance):
+    # the catalogue USB (rod model, E = 2.5 MPa) between level clips: with E_a = E the axial
+    # springs carry the same tension (to first order) as with E_a = 2 GPa, so the strain is
+    # E_a / E = 800 times larger; the stiffer cable sags less, and above ~1e8 Pa it is
+    # practically inextensible (the sag no longer changes)
+    tied = catalogue_cable("usb", n_links=40)
+    copper = catalogue_cable("usb", n_links=40, axial_modulus=COMPOSITE_AXIAL_MODULI["usb"])
+    stiff = catalogue_cable("usb", n_links=40, axial_modulus=1e8)
+    shapes = {k: _sag(c, distance) for k, c in (("tied", tied), ("copper", copper),
+                                                 ("stiff", stiff))}
+    strain = {k: link_lengths(x) / tied.rest_link_length - 1 for k, x in shapes.items()}
+    ratio = strain["tied"].max() / strain["copper"].max()
+    if distance == 0.4:
+        assert ratio == pytest.approx(800, rel=0.05)
+    else:  # nearly taut: the stretch itself changes the tension (2.7 mm longer: 10 % less sag)
+        assert 400 < ratio < 800
+    assert 1e-3 < strain["tied"].max() < 1e-2  # 0.3 to 0.6 %: the USB's own weight
+    sag = {k: -x[:, 2].min() for k, x in shapes.items()}
+    assert sag["tied"] > sag["copper"] + 0.5e-3
+    # E_a = 1e8 vs 2e9 Pa: 0.01 mm apart at 0.4 m, 0.25 mm nearly taut (0.48 m)
+    assert sag["stiff"] == pytest.approx(sag["copper"], abs=0.05e-3 if distance == 0.4 else 0.5e-3)
+
+
+def test_identification_fits_the_bending_modulus_with_the_axial_one_held():
+    # a USB with copper axial stiffness sagging between level clips 0.44 m apart (n = 80, the
+    # n its curvature needs): identified with its axial modulus held, the interval covers E;
+    # the thesis' tied model lets the cable stretch and makes up for the extra sag with a
+    # stiffer bending modulus, over 10 % too high
+    cable = catalogue_cable("usb", n_links=80, axial_modulus=COMPOSITE_AXIAL_MODULI["usb"])
+    manipulation = bending_manipulation(cable, clip_distance=0.44, angle=0.0)
+    experiment = synthetic_experiment(cable, manipulation, noise=1e-3, n_measured=300, seed=3)
+    held = identify_youngs_modulus(cable.with_modulus(1e7), experiment)
+    assert held.success, held.message
+    assert held.n_links == 80 and held.cable.axial_modulus == cable.axial_modulus
+    lo, hi = held.confidence_interval
+    assert lo <= cable.youngs_modulus <= hi
+    tied = identify_youngs_modulus(catalogue_cable("usb", n_links=80), experiment)
+    assert tied.success
+    assert tied.youngs_modulus > 1.1 * held.youngs_modulus

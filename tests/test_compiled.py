@@ -1,0 +1,167 @@
+"""The compiled kernels against the readable numpy reference, and the compiled Newton loop.
+
+Tolerances: the compiled kernels evaluate the same formulas in another order, so they agree to
+round-off (1e-12 relative to the largest entry; observed ~1e-15). The compiled and the generic
+Newton loops take the same decisions on the same numbers up to round-off, so their iterates agree
+to about 1e-12 m and their iteration counts exactly on these cases (energies along the way to
+1e-9: a saddle escape of a strongly compressed cable amplifies round-off for a while).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from conftest import level_clips, sagging_guess
+from scipy.linalg import lapack
+from scipy.optimize import brentq
+
+from dloplan import catalogue_cable
+from dloplan.obstacles.shapes import Cylinder, Table
+from dloplan.physics.chain import (
+    SpringChain,
+    energy,
+    forces,
+    gradient,
+    gradient_and_hessian_band,
+    shape_derivatives,
+    shape_energy,
+    shape_forces,
+)
+from dloplan.physics.compiled import stretch_to_length
+from dloplan.physics.geometry import shape_length
+from dloplan.sim.clips import conform_guess, place_held_points
+from dloplan.sim.newton import factor_band, solve_band, trust_region_newton
+from dloplan.sim.statics import equilibrium, force_scale, minimize_energy
+
+
+def arc(cable, total_angle):
+    n = cable.n_links
+    headings = total_angle / (n - 1) * np.arange(n)
+    steps = np.stack([np.cos(headings), np.zeros(n), np.sin(headings)], 1)
+    return np.vstack([np.zeros(3), np.cumsum(steps, 0)]) * cable.rest_link_length
+
+
+def chain_cases():
+    straight = catalogue_cable("ethernet", n_links=12)
+    curved = replace(straight, rest_shape=arc(straight, 2.0))
+    thesis = catalogue_cable("pa12", n_links=7, bending="thesis")
+    contacts = (Cylinder(base=(0.05, 0.0, -0.2), radius=0.02, height=0.4), Table(-0.01))
+    return {
+        "straight": (straight, SpringChain.from_cable(straight)),
+        "curved": (curved, SpringChain.from_cable(curved)),
+        "thesis": (thesis, SpringChain.from_cable(thesis, (0.0, 3.0, -9.81))),
+        "contacts": (straight, SpringChain.from_cable(straight, contacts=contacts)),
+    }
+
+
+def relative(a, b):
+    return float(np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-300))
+
+
+@pytest.mark.parametrize("kind", ["straight", "curved", "thesis", "contacts"])
+def test_compiled_kernels_match_the_numpy_reference(kind, rng):
+    cable, chain = chain_cases()[kind]
+    base = cable.rest_shape if cable.rest_shape is not None else arc(cable, 0.0)
+    for scale in (1e-4, 0.01, 0.05):  # near rest (small angles, series branch) to tangled
+        x = base + scale * rng.standard_normal(base.shape)
+        f, g, band = shape_derivatives(chain, x)
+        g_ref, band_ref = gradient_and_hessian_band(chain, x)
+        assert abs(f - float(energy(chain, x))) <= 1e-12 * abs(float(energy(chain, x)))
+        assert abs(shape_energy(chain, x) - f) <= 1e-12 * abs(f)
+        assert relative(g, gradient(chain, x)) < 1e-12
+        assert relative(g, g_ref - forces(chain, x).gravity) < 1e-12
+        assert relative(band, band_ref) < 1e-12
+        fast, slow = shape_forces(chain, x), forces(chain, x)
+        for part in ("axial", "bending", "gravity", "contact"):
+            if getattr(slow, part) is not None:
+                assert relative(getattr(fast, part), getattr(slow, part)) < 1e-12
+
+
+def test_contact_terms_are_active_in_the_contact_case(rng):
+    cable, chain = chain_cases()["contacts"]
+    x = arc(cable, 0.0) + np.array([0.0, 0.0, -0.012])  # below the table top
+    f, _, band = shape_derivatives(chain, x)
+    plain = SpringChain.from_cable(cable)
+    assert f > shape_energy(plain, x)
+    assert np.max(band[0]) > 50 * cable.k_axial
+
+
+def test_banded_cholesky_matches_lapack(rng):
+    for n_dof, width in ((1, 0), (5, 8), (40, 3), (141, 8), (300, 10)):
+        a = rng.standard_normal((n_dof, n_dof))
+        dense = a @ a.T + n_dof * np.eye(n_dof)
+        dense[np.abs(np.subtract.outer(np.arange(n_dof), np.arange(n_dof))) > width] = 0.0
+        dense += (width + 2) * n_dof * np.eye(n_dof)  # diagonally dominant: positive definite
+        band = np.zeros((width + 1, n_dof))
+        for k in range(min(width + 1, n_dof)):
+            band[k, : n_dof - k] = np.diag(dense, -k)
+        factor = factor_band(band)
+        reference, info = lapack.dpbtrf(band, lower=1)
+        assert info == 0
+        assert relative(factor, reference) < 1e-12
+        rhs = rng.standard_normal(n_dof)
+        assert relative(solve_band(factor, rhs), np.linalg.solve(dense, rhs)) < 1e-10
+        assert factor_band(band, -2.0 * np.max(band[0])) is None  # indefinite after the shift
+
+
+def test_stretch_to_length_matches_a_bracketing_root(rng):
+    chord = np.stack([np.linspace(0, 0.3, 20), np.zeros(20), np.zeros(20)], 1)
+    deviation = rng.standard_normal((20, 3)) * 0.01
+    need = 0.45
+    a = stretch_to_length(chord, deviation, need)
+    b = brentq(lambda s: float(shape_length(chord + s * deviation)) - need, 0.0, 1e3, xtol=1e-14)
+    assert abs(a - b) <= 1e-10 * b
+    assert abs(float(shape_length(chord + a * deviation)) - need) < 1e-12
+
+
+@pytest.mark.parametrize("case", ["buckled", "sagging", "curved", "stiff", "saddle"])
+def test_compiled_newton_loop_follows_the_generic_loop(case):
+    cable = catalogue_cable("ethernet", n_links=30)
+    clips = level_clips(0.4)
+    if case == "curved":
+        cable = replace(cable, rest_shape=arc(cable, 1.0))
+    if case == "stiff":
+        cable = cable.with_modulus(1e10)
+    n = cable.n_links
+    l = cable.rest_link_length
+    straight = np.stack([np.linspace(-l / 2, 0.4 + l / 2, n + 1), np.zeros(n + 1),
+                         np.zeros(n + 1)], 1)
+    # a curved rest shape from a straight start stalls (no bending direction is preferred)
+    guess = sagging_guess(cable, 0.4) if case in ("sagging", "curved") else straight
+    chain = SpringChain.from_cable(cable)
+    start = conform_guess(cable, guess, clips)
+    if case == "saddle":  # weightless and straight: Newton finds the straight, compressed
+        chain = SpringChain.from_cable(cable, (0.0, 0.0, 0.0))  # saddle and must leave it
+        start = place_held_points(straight, clips, l)
+    free = slice(2, n - 1)
+    tolerance = 1e-10 * force_scale(cable)
+    x, g, iterations, residual, stable, history, message = minimize_energy(
+        chain, start, free, cable.length, tolerance)
+
+    def derivatives(y):
+        _, grad, band = shape_derivatives(chain, y)
+        return grad[free].ravel(), band[:, 3 * free.start: 3 * free.stop], \
+            float(np.max(np.linalg.norm(grad[free], axis=1))), grad
+
+    def moved(y, p):
+        out = y.copy()
+        out[free] += p.reshape(-1, 3)
+        return out
+
+    generic = trust_region_newton(
+        start, lambda y: shape_energy(chain, y), derivatives, moved,
+        lambda p: float(np.max(np.linalg.norm(p.reshape(-1, 3), axis=1))),
+        cable.length, tolerance)
+    assert stable and generic.stable
+    assert iterations == generic.iterations
+    assert message == generic.message
+    assert np.max(np.abs(x - generic.state)) < 1e-12
+    assert np.allclose(history, generic.history, rtol=1e-9, atol=0)
+    assert np.all(np.diff(history) <= 1e-13 * np.abs(history[:-1]))
+    if case == "saddle":
+        assert np.max(np.hypot(x[:, 1], x[:, 2])) > 0.05  # buckled out of the line
+        return
+    eq = equilibrium(cable, guess, clips)
+    assert eq.success and np.max(np.abs(eq.shape - x)) < 1e-12

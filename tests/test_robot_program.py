@@ -1,0 +1,220 @@
+"""The robot program: arm assignment from the geometry, verified targets, and checks that fail
+when they should (crossed clips, colliding wrists, a wrist asked to turn too far)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from robot_plans import PLAN_EXAMPLES, example_plan, harness_plan, mirrored
+from scipy.spatial.transform import Rotation
+
+from dloplan.frames import frame_from_axis
+from dloplan.grippers import GripperPath
+from dloplan.robot import (
+    CHECKS,
+    IKOptions,
+    RobotCell,
+    Tool,
+    assign_arms,
+    confdata,
+    forward,
+    inverse,
+    robot_program,
+    solve_many,
+    yumi,
+)
+from dloplan.trajectory import trajectory_from_grippers
+
+RUNNABLE = ("m1_sine_pu_hose.yaml", "m2_uniform_curvature_pa12.yaml",
+            "m2_uniform_curvature_usb.yaml")
+"""Examples whose program passes every check (the others are named in test_examples...)."""
+
+
+def _program(name, cell=None):
+    _, grippers, trajectory, _ = example_plan(name)
+    return robot_program(grippers, trajectory, cell)
+
+
+@pytest.mark.parametrize("name", PLAN_EXAMPLES)
+def test_every_example_puts_the_left_arm_on_the_left(name):
+    program = _program(name)
+    y = program.cell.to_base(program.positions)[..., 1].mean(axis=0)
+    assert y[0] >= y[1]  # the left arm's targets on the robot's +y side
+    assert set(CHECKS) == {row.check for row in program.checks}
+    json.dumps(program.to_dict())  # the plan document can carry it
+    if name in RUNNABLE:
+        assert program.ok, program.message
+        assert min(r.value for r in program.checks if r.check == "clearance") > 0
+        assert y[0] - y[1] > 0.3
+    else:  # a plan the robot cannot run says where (the target's label) and why
+        assert not program.ok
+        assert program.message.startswith("robot program FAILS: ")
+        assert any(r.label in program.message for r in program.failures)
+
+
+def test_a_mirrored_job_swaps_the_arms():
+    _, grippers, trajectory, _ = example_plan("m2_uniform_curvature_usb.yaml")
+    program = robot_program(grippers, trajectory)
+    flipped = mirrored(grippers)
+    other = robot_program(flipped, trajectory_from_grippers(
+        flipped, max_speed=trajectory.max_speed, max_angular_speed=trajectory.max_angular_speed))
+    assert other.assignment.left_clip == 1 - program.assignment.left_clip
+    assert other.ok, other.message
+    assert np.all(other.positions[:, 0, 1] > other.positions[:, 1, 1])
+    # the same job mirrored: the same timing, targets mirrored arm for arm
+    assert np.allclose(other.times, program.times)
+    assert np.allclose(other.positions[:, ::-1] * [1, -1, 1], program.positions, atol=1e-8)
+
+
+def _still_path(positions, rotations):
+    k = len(positions)
+    return GripperPath(positions, rotations, "minimal", np.zeros(k))
+
+
+def _flat_frames(k, clip0_turns=None):
+    frames = frame_from_axis(np.array([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]]))
+    first = Rotation.from_quat(np.tile(frames[0].as_quat(), (k, 1)))
+    if clip0_turns is not None:
+        first = Rotation.from_rotvec(np.outer(clip0_turns, [0.0, 0.0, 1.0])) * first
+    return first, Rotation.from_quat(np.tile(frames[1].as_quat(), (k, 1)))
+
+
+def test_clips_that_cross_are_refused_with_the_shapes_named():
+    k = 6
+    angle = np.linspace(0.0, np.pi, k)  # a 0.4 m cable turned end for end about the vertical
+    half = 0.2 * np.stack([np.sin(angle), -np.cos(angle), 0 * angle], axis=1)
+    pos = np.stack([[0.4, 0.0, 0.15] + half, [0.4, 0.0, 0.15] - half], axis=1)
+    u = (pos[:, 1] - pos[:, 0]) / 0.4
+    quats = frame_from_axis(np.concatenate([u, -u])).as_quat().reshape(2, k, 4)
+    grippers = _still_path(pos, (Rotation.from_quat(quats[0]), Rotation.from_quat(quats[1])))
+    assignment = assign_arms(grippers.positions)
+    assert assignment.crossings == (3, 4, 5) and not assignment.ok
+    program = robot_program(grippers, trajectory_from_grippers(grippers))
+    assert not program.ok
+    assert "assignment at shape 3" in program.message
+    failed = [r.shape for r in program.failures if r.check == "assignment"]
+    assert failed == [3, 4, 5]
+
+
+def test_clips_too_close_for_two_wrists_fail_the_clearance():
+    k = 4
+    pos = np.zeros((k, 2, 3))
+    pos[:, 0], pos[:, 1] = [0.4, -0.03, 0.15], [0.4, 0.03, 0.15]
+    grippers = _still_path(pos, _flat_frames(k))
+    program = robot_program(grippers, trajectory_from_grippers(grippers))
+    rows = [r for r in program.checks if r.check == "clearance"]
+    assert not any(r.ok for r in rows) and max(r.value for r in rows) < 0
+    assert "clearance at approach" in program.message
+
+
+def test_a_wrist_turned_too_far_fails_the_continuity():
+    k = 6  # the right arm's clip turned 150 deg about the vertical per shape: 750 deg in all
+    pos = np.zeros((k, 2, 3))
+    pos[:, 0], pos[:, 1] = [0.4, -0.2, 0.15], [0.4, 0.2, 0.15]
+    grippers = _still_path(pos, _flat_frames(k, np.radians(150.0) * np.arange(k)))
+    program = robot_program(grippers, trajectory_from_grippers(grippers))
+    assert not program.ok
+    bad = [r for r in program.failures if r.check in ("continuity", "reach")]
+    assert bad and all(r.arm == "right" for r in bad)
+
+
+def test_the_program_holds_exactly_its_verified_targets():
+    program = _program("m2_uniform_curvature_usb.yaml")
+    robot = program.cell.robot
+    for a, arm in enumerate(robot.arms):
+        p, r = forward(arm, program.joints[:, a])
+        assert np.abs(p - program.positions[:, a]).max() < 2e-5  # IK tolerance 1e-5 m
+        written = Rotation.from_quat(program.quaternions[:, a], scalar_first=True)
+        assert (written.inv() * r).magnitude().max() < 2e-5
+        assert np.allclose(np.degrees(program.joints[:, a, 2]), program.arm_angles[:, a],
+                           atol=1e-9)
+        assert np.array_equal(confdata(program.joints[:, a]), program.confdata[:, a])
+    # the shapes' targets are the clip points (TCP on the clip), times the trajectory's
+    _, grippers, trajectory, _ = example_plan("m2_uniform_curvature_usb.yaml")
+    clips = grippers.positions[:, list(program.assignment.clips)]
+    assert np.abs(program.positions[program.grasp:program.release + 1] - clips).max() < 1e-9
+    assert program.path_duration == pytest.approx(trajectory.duration, rel=1e-12)
+    # approach and retreat: cell.approach back along the TCP z-axis
+    z = Rotation.from_quat(program.quaternions[0], scalar_first=True).apply([0, 0, 1])
+    assert np.allclose(program.positions[0] + 0.05 * z, program.positions[1], atol=1e-8)
+    # the replayed motion starts and ends on the verified joints
+    assert np.allclose(program.motion_joints[0], program.joints[0])
+    assert np.allclose(program.motion_joints[-1], program.joints[-1], atol=1e-3)
+    assert np.all(np.diff(program.motion_times) >= 0)
+
+
+def test_a_placed_robot_gives_the_same_joints():
+    """Moving the work frame and the robot together changes nothing the robot does."""
+    program = _program("m2_uniform_curvature_usb.yaml")
+    shift, turn = np.array([0.3, -0.1, 0.05]), Rotation.from_euler("z", 30, degrees=True)
+    _, grippers, trajectory, _ = example_plan("m2_uniform_curvature_usb.yaml")
+    moved = GripperPath(turn.apply(grippers.positions.reshape(-1, 3)).reshape(-1, 2, 3) + shift,
+                        tuple(turn * r for r in grippers.rotations), grippers.method,
+                        grippers.twist)
+    cell = RobotCell(base_position=shift, base_rotation=turn)
+    other = robot_program(moved, trajectory_from_grippers(moved), cell)
+    assert other.ok and other.assignment.left_clip == program.assignment.left_clip
+    assert np.abs(other.joints - program.joints).max() < 1e-6
+
+
+def test_harness_job_program_passes():
+    result = harness_plan()
+    program = robot_program(result.grippers, result.trajectory)
+    assert program.ok, program.message
+    assert program.n_targets == result.trajectory.n_knots + 2
+
+
+def test_held_arm_angle_ik():
+    arm = yumi().left
+    q = arm.home + np.array([0.3, 0.2, -0.4, 0.1, 0.5, -0.3, 0.4])
+    p, r = forward(arm, q)
+    res = inverse(arm, p, r, seed=q + 0.05, arm_angle=q[2], options=IKOptions(restarts=0))
+    assert res.success and res.q[2] == q[2]
+    assert np.abs(res.q - q).max() < 1e-4  # isolated solution: the same joints back
+    many, ok, perr, _ = solve_many(arm, np.stack([p, p]), np.stack([r.as_matrix()] * 2),
+                                   np.stack([q + 0.05, q - 0.05]), IKOptions(), [q[2], q[2]])
+    assert ok.all() and perr.max() < 1e-5 and np.abs(many - q).max() < 1e-4
+    with pytest.raises(ValueError, match="arm_angle"):
+        inverse(arm, p, r, arm_angle=4.0)
+
+
+def test_confdata_quadrants():
+    q = np.radians([100.0, -20.0, 30.0, 10.0, -10.0, -5.0, 200.0])  # ABB 1, 2, 7, 3, 4, 5, 6
+    # cf1: axis 1 in 90..180 -> 1; cf4: axis 4 in -90..0 -> -1; cf6: 200 deg -> 2;
+    # cfx: axis 2 < 0 (4) + axis 3 > 0 (0) + axis 5 < 0 (1) = 5
+    assert confdata(q).tolist() == [1, -1, 2, 5]
+    assert confdata(yumi().left.home).tolist() == [0, 0, 0, 4]  # the usual YuMi posture
+
+
+def test_cell_validation_and_defaults():
+    cell = RobotCell()
+    assert cell.tools[0].mass == 0.215 and "Grippers for IRB 14000" in cell.tools[0].source
+    assert np.allclose(cell.robot.left.gripper.tcp_offset, [0, 0, 0.1142])
+    placed = RobotCell(base_position=(0.1, 0.2, 0.0),
+                       base_rotation=Rotation.from_euler("z", 90, degrees=True))
+    pos, rot = placed.wobj_frame
+    assert np.allclose(rot.apply([0.1, 0.2, 0.0]) + pos, 0.0)  # the base origin
+    assert np.allclose(placed.to_base([[0.1, 0.2, 0.0]]), 0.0)
+    with pytest.raises(ValueError, match="Tool.name"):
+        Tool(name="tool 1")
+    with pytest.raises(ValueError, match="Tool.mass"):
+        Tool(mass=-1)
+    with pytest.raises(ValueError, match="RobotCell.hold_force"):
+        RobotCell(hold_force=30)
+    with pytest.raises(ValueError, match="RobotCell.approach"):
+        RobotCell(approach=-0.01)
+    renamed = cell.with_names(tools=("GripperL", "GripperR"), wobj="wobjTable")
+    assert [t.name for t in renamed.tools] == ["GripperL", "GripperR"]
+
+
+def test_inputs_that_do_not_belong_together_are_refused():
+    _, grippers, trajectory, _ = example_plan("m2_uniform_curvature_usb.yaml")
+    _, other, other_trajectory, _ = example_plan("m1_sine_pu_hose.yaml")
+    with pytest.raises(ValueError, match="trajectory: its knots"):
+        robot_program(grippers, other_trajectory)
+    with pytest.raises(ValueError, match="trajectory: expected a Trajectory"):
+        robot_program(grippers, None)
+    with pytest.raises(ValueError, match="cell: expected a RobotCell"):
+        robot_program(grippers, trajectory, cell="yumi")
