@@ -26,8 +26,24 @@ machine's; before this change every example below ended as planned, q1 with "ver
     (harness_ethernet, harness_pu, harness_usb, identify_ethernet: skipped)
 
     with the replay: fig4_8 83.3 s, harness_phase1_obstacle 86.3 s, m1_sine_pu_hose 107.6 s,
-    m2_uniform_curvature_usb 48.7 s, qualitative2_ethernet_3d 131.2 s, study_m2_ethernet 69.9 s:
-    all pass before repair.
+    m2_uniform_curvature_usb 48.7 s, qualitative2_ethernet_3d 131.2 s, study_m2_ethernet 69.9 s,
+    m2_uniform_curvature_pa12 274.0 s: all pass before repair.
+
+After merging main (the verified robot program of issue 18 runs by default and its failures
+count; numba-compiled physics): the physics checks of every example take 3-20 s, and
+``dloplan plan examples/qualitative1_curved_pa12.yaml --verify``:
+
+    [  31.55 s] verification: FAILED
+    [  38.21 s] repair (snap): 2 snap -> shapes 5..7 follow the stable branch from shape 4
+                (target within 0.0 mm); now no snap-through from shape 4 on
+    [ 210.94 s] repair refused: no placement of the job on the table makes every pose
+                reachable; ... offset [-0.25 -0.05 0] m: every pose reachable (min joint margin
+                5.0 deg); then robot program, shape 5, left arm: joint limits 0 deg ABB axis 3 ...
+    exit 3
+
+fig4_8_straight_to_bent's robot program fails on main before any repair (clearance at the
+approach target, continuity at shape 2): the reach repair's placement searches then take
+minutes per example.
 """
 
 from __future__ import annotations

@@ -28,8 +28,8 @@ between shapes)
     speed for the whole program, as the RAPID module has one speeddata). A deviation on a
     segment that also has a snap failure waits for the snap repair.
 ``reach`` (a pose out of an arm's reach, or another failing check of the robot program)
-    1. a placement of the job on the table (+-20 cm, then +-30 cm nearest first, then +-30 cm
-       with the largest joint margin, 5 cm grid; the side rule's
+    1. a placement of the job on the table (+-20 cm, then +-30 cm, nearest first, 5 cm grid;
+       the side rule's
        arm assignment, then the swapped one: :func:`~dloplan.repair.placement.placements`),
        the robot program made again there and checked;
     2. the same for the other gripper methods that keep the twist within bounds.

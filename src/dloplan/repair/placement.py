@@ -22,7 +22,7 @@ from ..grippers.path import GripperPath
 from ..obstacles.shapes import Box, Cylinder
 from .rebuild import left_clip, timed_with_robot
 
-SEARCHES = ((0.2, 0.05, "nearest"), (0.3, 0.05, "nearest"), (0.3, 0.05, "margin"))
+SEARCHES = ((0.2, 0.05, "nearest"), (0.3, 0.05, "nearest"))
 """The placement searches tried in turn: half-width [m] of the square searched on the table
 (at the job's height), grid spacing [m], and which working offset wins (the nearest to the job's
 own placement, or the one with the largest joint margin)."""
