@@ -304,7 +304,7 @@ def _plan_one(job, output: Path, args, console: Console) -> int:
     from .app.files import plan_into
 
     doc, written = plan_into(job, output, verify=args.verify, check_robot=not args.no_verify,
-                             progress=console.stage)
+                             repair=not args.no_repair, progress=console.stage)
     _print_plan(doc, written, args)
     return exit_code(doc)
 
@@ -326,7 +326,7 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
     from .study.backends import make_backend, map_jobs
 
     options = {"output": str(Path(args.output)), "verify": args.verify,
-               "check_robot": not args.no_verify}
+               "check_robot": not args.no_verify, "repair": not args.no_repair}
     codes = {}
     with make_backend(None if args.scheduler else args.workers, args.scheduler) as backend:
         for _, (path, code, line) in map_jobs(plan_file, args.scenarios, backend,
@@ -444,13 +444,15 @@ def build_parser() -> argparse.ArgumentParser:
     checks.add_argument("--no-verify", action="store_true",
                         help="skip the robot program's checks too (the program is written "
                         "with the checks' verdict in its header)")
+    plan.add_argument("--no-repair", action="store_true", help="with --verify: report failed "
+                      "checks without repairing the plan (docs/repair.md)")
     plan.add_argument("--workers", type=int, default=1,
                       help="batch: local worker processes")
     plan.add_argument("--scheduler", help="batch: Dask scheduler address tcp://HOST:PORT")
 
     demo = command("demo", _cmd_demo, "run the embedded default job (needs no input)")
     demo.add_argument("-o", "--output", default="out/demo", help="output folder")
-    demo.set_defaults(verify=True, no_verify=False)
+    demo.set_defaults(verify=True, no_verify=False, no_repair=False)
 
     study = command("study", _cmd_study, "robustness study of a scenario's plan over cable and "
                     "pose tolerances (its study section)")

@@ -404,6 +404,9 @@ class PlanDocument:
         The wire-harness job's numbers (:func:`dloplan.harness.harness_summary`).
     robot : RobotSection or None
         The verified robot program (None when the plan was made without robot checks).
+    repairs : tuple of dict
+        The repairs the plan went through after a failed check (:mod:`dloplan.repair`): what
+        failed, what was changed, the check before and after.
     cycle : dict or None
         The timeline with gripper actions (:class:`dloplan.trajectory.Cycle`): ``phases``
         (name, kind, start, duration, knots), ``motion_time``, ``action_time``,
@@ -441,6 +444,7 @@ class PlanDocument:
     identification: IdentificationSection | None = None
     harness: dict | None = None
     robot: RobotSection | None = None
+    repairs: tuple = ()
     cycle: dict | None = None
     correction: dict | None = None
     timings: dict = field(default_factory=dict)
@@ -588,6 +592,7 @@ def document_to_dict(doc: PlanDocument) -> dict:
         "identification": section_to_dict(doc.identification),
         "harness": _plain(doc.harness),
         "robot": section_to_dict(doc.robot),
+        "repairs": _plain(doc.repairs),
         "cycle": _plain(doc.cycle),
         "correction": _plain(doc.correction),
         "timings": _plain(doc.timings),
@@ -684,6 +689,7 @@ def document_from_dict(data: dict) -> PlanDocument:
                                          sections.get("identification"), "plan.identification"),
         harness=sections.get("harness"),
         robot=section_from_dict(RobotSection, sections.get("robot"), "plan.robot"),
+        repairs=tuple(sections.get("repairs") or ()),
         cycle=sections.get("cycle"),
         correction=sections.get("correction"),
         timings=dict(sections.get("timings") or {}),

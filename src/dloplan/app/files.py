@@ -9,6 +9,7 @@ status line), run on local processes or Dask by :func:`dloplan.study.map_jobs`;
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from ..io.files import staged_folder
@@ -39,17 +40,25 @@ def exit_code(doc: PlanDocument) -> int:
     return EXIT_WARNINGS if doc.warnings else EXIT_OK
 
 
-def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True, progress=quiet):
+def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
+              repair: bool = True, progress=quiet):
     """Plan a resolved job and write its outputs into ``folder``: ``(document, written paths)``.
 
     The folder is written whole or not at all (:func:`dloplan.io.files.staged_folder`): a run
     that fails or is interrupted leaves it as it was, and a second run on the same folder is
     refused while this one holds it. A plan that failed a check gets its plan document, figures
-    and report, but no robot program or trajectory file.
+    and report, but no robot program or trajectory file. With ``verify`` and ``repair`` a plan
+    that fails a check is repaired first (:func:`dloplan.repair.plan_and_repair`).
     """
     folder = Path(folder)
     with staged_folder(folder) as staging:
-        if isinstance(job, Job):
+        if isinstance(job, Job) and verify and check_robot and repair:
+            from ..repair import plan_and_repair
+
+            doc, repairs = plan_and_repair(job, progress)
+            doc = replace(doc, repairs=tuple(r.to_dict() for r in repairs))
+            formats, options = job.outputs, WriteOptions(rate=job.motion.rate)
+        elif isinstance(job, Job):
             doc = run_job(job, verify=verify, check_robot=check_robot, progress=progress)
             formats, options = job.outputs, WriteOptions(rate=job.motion.rate)
         else:
@@ -78,7 +87,8 @@ def plan_file(options: dict, path: str) -> tuple[str, int, str]:
             return path, EXIT_WARNINGS, f"{path}: skipped (an identification file: use " \
                 "dloplan identify)"
         doc, _ = plan_into(load_job(path), folder, verify=options["verify"],
-                           check_robot=options.get("check_robot", True))
+                           check_robot=options.get("check_robot", True),
+                           repair=options.get("repair", True))
     except ValueError as exc:
         return path, EXIT_FAILURE, f"{path}: error: {exc}"
     code = exit_code(doc)

@@ -110,6 +110,7 @@ def summary_lines(doc: PlanDocument) -> list[str]:
         lines.append(doc.harness.get("message", ""))
         lines += [f"{name}: {t0:.2f} s to {t1:.2f} s"
                   for name, (t0, t1) in doc.harness.get("phase_times", {}).items()]
+    lines += [f"repair: {r.get('kind', '')}: {r.get('change', '')}" for r in doc.repairs]
     if doc.robot is not None:
         lines.append(doc.robot.message)
     if doc.verification is not None:

@@ -1,0 +1,528 @@
+"""The repair loop: a plan that fails its checks is changed until it passes, or refused.
+
+:func:`repair_plan` sorts the failures of a verified plan (:func:`~dloplan.repair.diagnose`) and
+handles their kinds in the order of :data:`~dloplan.repair.failures.KINDS`. For each kind the
+repairs below are tried in this order; each candidate is checked at once by the check that
+failed (on the part of the plan it changed), and the first that passes is kept:
+
+``snap`` (the first failing segment s, shape s -> s + 1)
+    1. follow the stable branch from shape s along the planned clip poses and take its
+       equilibria as the remaining shapes (:func:`~dloplan.repair.routes.follow_branch`; the last
+       within T_cf of the target);
+    2. re-route the clips of segment s: rotate first, translate first, rotate last
+       (:func:`~dloplan.repair.routes.routes`), the waypoints' equilibria inserted as shapes;
+    3. plan again with twice the intermediate shapes.
+    None passes: refused. When s is the last segment: "the target is reached only through a
+    snap-through", with the segment.
+``twist`` (the torsion model's twist above 15 deg, or a frame turning more than 45 deg
+between shapes)
+    1. the other gripper methods: rigid rotation, minimal rotation, auxiliary vector (thesis
+       Table 4.3), on the same shapes;
+    2. the last clip rolled about its u-axis against the twist
+       (:func:`~dloplan.repair.frames.untwisted`), on the frames of the plan's method, then of
+       the rigid rotation;
+    3. intermediate rotations: the equilibria at clip poses interpolated on the flipping
+       segment inserted as shapes.
+``replay`` (the replay at real speed strays from the planned shapes)
+    the trajectory timed again at half, then a quarter, then an eighth of the TCP speed (one
+    speed for the whole program, as the RAPID module has one speeddata). A deviation on a
+    segment that also has a snap failure waits for the snap repair.
+``reach`` (a pose out of an arm's reach, or another failing check of the robot program)
+    1. a placement of the job on the table (+-20 cm, then +-30 cm, nearest first, 5 cm grid;
+       the side rule's
+       arm assignment, then the swapped one: :func:`~dloplan.repair.placement.placements`),
+       the robot program made again there and checked;
+    2. the same for the other gripper methods that keep the twist within bounds.
+    None works: refused with the search's reason.
+
+After each round every check the plan was verified with runs again on the whole plan; the loop
+ends when that passes, on a refusal, or when the :class:`Budget` is spent. Repairs never move the
+start (the first shape is the planned one) and never the target beyond T_cf (thesis 5.3); a
+placement moves the whole job, recorded as its offset.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass, field, replace
+
+import numpy as np
+
+from ..app.pipeline import quiet, run_job, verify_plan, with_verification
+from ..sim.statics import interpolate_clips
+from ..verify import check_snap_through
+from .failures import KINDS, diagnose, frame_steps, score, summary, twist_failures
+from .frames import untwisted
+from .placement import placements, translated_document, translated_job
+from .rebuild import timed_with_robot, with_grippers, with_motion, with_path
+from .routes import MAX_TURN, equilibria_along, follow_branch, route_segment, routes
+
+GRIPPER_METHODS = ("rigid", "minimal", "auxiliary")
+"""Gripper methods tried by the twist and reach repairs, in this order."""
+
+SPEED_FACTORS = (0.5, 0.25, 0.125)
+"""Fractions of the TCP speed tried by the replay repair."""
+
+
+@dataclass(frozen=True)
+class Budget:
+    """How much the repair loop may spend.
+
+    Attributes
+    ----------
+    attempts : int
+        Candidate plans checked, over all kinds.
+    seconds : float
+        Wall time [s] after which no new candidate is started.
+    rounds : int
+        Full re-verifications of the repaired plan.
+    """
+
+    attempts: int = 16
+    seconds: float = 1800.0
+    rounds: int = 3
+
+    def __post_init__(self) -> None:
+        for name in ("attempts", "rounds"):
+            value = getattr(self, name)
+            if int(value) != value or value < 1:
+                raise ValueError(f"budget.{name}: got {value!r}, expected an integer >= 1")
+        if not (math.isfinite(self.seconds) and self.seconds > 0):
+            raise ValueError(f"budget.seconds: got {self.seconds!r}, expected a time > 0 [s]")
+
+
+@dataclass(frozen=True)
+class Repair:
+    """One repair that was kept.
+
+    Attributes
+    ----------
+    kind : str
+        The failure kind it addresses (:data:`~dloplan.repair.failures.KINDS`).
+    failed : str
+        What failed.
+    change : str
+        What was changed.
+    before, after : str
+        The check that failed, before and after the change.
+    seconds : float
+        Wall time spent on this kind, the rejected candidates included [s].
+    """
+
+    kind: str
+    failed: str
+    change: str
+    before: str
+    after: str
+    seconds: float
+
+    def line(self) -> str:
+        """One line for the console and the report."""
+        return f"repair ({self.kind}): {self.before} -> {self.change}; now {self.after}"
+
+    def to_dict(self) -> dict:
+        """JSON-ready fields."""
+        return asdict(self)
+
+
+@dataclass(frozen=True, eq=False)
+class RepairResult:
+    """Outcome of :func:`repair_plan`.
+
+    Attributes
+    ----------
+    job : Job
+        The job of the final plan (moved by ``offset`` when a placement was found).
+    document : PlanDocument
+        The repaired plan with its verification section when ``ok``; otherwise the last plan
+        that was fully verified (for inspection: no robot program should be written from it).
+    verification : Verification
+        The full verification of ``document``.
+    repairs : tuple of Repair
+        The repairs kept, in order.
+    ok : bool
+        The document passes every check it was verified with.
+    refusal : str or None
+        Why the plan is refused (no repair works, or the budget is spent).
+    offset : numpy.ndarray
+        (3,) placement of the job on the table [m] (zero when not moved).
+    failures_before : tuple of Failure
+        What failed before the repair.
+    attempts : int
+        Candidates checked.
+    seconds : float
+        Wall time of the repair [s].
+    """
+
+    job: object
+    document: object
+    verification: object
+    repairs: tuple[Repair, ...]
+    ok: bool
+    refusal: str | None
+    offset: np.ndarray
+    failures_before: tuple
+    attempts: int
+    seconds: float
+
+
+@dataclass(frozen=True)
+class Checks:
+    """Which checks a verification ran, so that the repaired plan gets the same ones."""
+
+    snap: bool
+    replay: bool
+    robot: bool
+    tolerance: float = 0.01
+    tensile_limit: float | None = None
+
+    @classmethod
+    def of(cls, verification) -> Checks:
+        run = verification.replay
+        return cls(verification.snap is not None, run is not None,
+                   any(r.reachable_left is not None for r in verification.rows),
+                   0.01 if run is None else run.tolerance,
+                   None if run is None else run.tensile_limit)
+
+    def verify(self, doc, **only):
+        """:func:`dloplan.app.pipeline.verify_plan` with these checks (``only`` turns some off)."""
+        flags = {"snap": self.snap, "replay": self.replay, "robot": self.robot}
+        flags.update({k: v and flags[k] for k, v in only.items()})
+        return verify_plan(doc, tolerance=self.tolerance, tensile_limit=self.tensile_limit,
+                           **flags)
+
+
+class Refused(Exception):
+    """A failure no repair of its kind can fix (its message says why)."""
+
+
+@dataclass
+class _State:
+    job: object
+    doc: object
+    offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+
+class _Session:
+    """The running repair: the current plan, the checks, the budget and the records."""
+
+    def __init__(self, job, doc, checks: Checks, budget: Budget, progress):
+        self.state = _State(job, doc)
+        self.checks, self.budget, self.progress = checks, budget, progress
+        self.start = time.perf_counter()
+        self.attempts = 0
+        self.repairs: list[Repair] = []
+
+    # -- budget and records -----------------------------------------------------------------
+    def spent(self) -> bool:
+        return (self.attempts >= self.budget.attempts
+                or time.perf_counter() - self.start >= self.budget.seconds)
+
+    def attempt(self) -> bool:
+        """Count a candidate; False when the budget does not allow it."""
+        if self.spent():
+            return False
+        self.attempts += 1
+        return True
+
+    def keep(self, kind, failures, change, after, state, since) -> None:
+        repair = Repair(kind, "; ".join(f.message for f in failures), change,
+                        summary(failures), after, time.perf_counter() - since)
+        self.state = state
+        self.repairs.append(repair)
+        self.progress(repair.line())
+
+    # -- snap ------------------------------------------------------------------------------
+    def snap_check(self, doc, first: int):
+        """Snap-through along the plan from shape ``first`` on: the events."""
+        path = doc.stabilized[first:]
+        return check_snap_through(doc.cable, path, doc.clip_poses()[first:]).events
+
+    def fix_snap(self, failures) -> None:
+        job, doc = self.state.job, self.state.doc
+        since = time.perf_counter()
+        segments = [f.segment for f in failures if f.segment is not None]
+        if not segments:
+            raise Refused(f"{failures[0].message}: the start is given, it cannot be repaired")
+        s = min(segments)
+        shapes, poses = doc.stabilized, doc.clip_poses()
+        last = len(shapes) - 1
+        tried = []
+        if self.attempt():
+            branch = follow_branch(job.cable, shapes[s], poses[s:], shapes[-1],
+                                   job.target_threshold)
+            tried.append(f"stable branch: {branch.message}")
+            if branch.success:
+                new = with_path(job, doc, np.concatenate([shapes[:s + 1], branch.shapes]))
+                events = self.snap_check(new, s)
+                if not events:
+                    self.keep("snap", failures, f"shapes {s + 1}..{last} follow the stable "
+                              f"branch from shape {s} (target within "
+                              f"{1e3 * branch.end_error:.1f} mm)", "no snap-through from "
+                              f"shape {s} on", _State(job, new, self.state.offset), since)
+                    return
+                tried[-1] += f"; then {events[0].message}"
+        end_tolerance = job.target_threshold if s + 1 == last else math.inf
+        for name, waypoints in routes(poses[s], poses[s + 1], job.cable.length / 4):
+            if not self.attempt():
+                break
+            route = route_segment(job.cable, shapes[s], poses[s], waypoints, poses[s + 1],
+                                  shapes[s + 1], end_tolerance, name)
+            tried.append(route.message)
+            if not route.success:
+                continue
+            path = np.concatenate([shapes[:s + 1], route.shapes, shapes[s + 2:]])
+            new = with_path(job, doc, path)
+            events = self.snap_check(new, s)
+            if not events:
+                self.keep("snap", failures, f"segment {s} re-routed ({name}): "
+                          f"{len(waypoints)} shape(s) inserted", "no snap-through from shape "
+                          f"{s} on", _State(job, new, self.state.offset), since)
+                return
+            tried[-1] += f"; then {events[0].message}"
+        if self.attempt():
+            n = 2 * doc.n_shapes
+            finer = replace(job, planner=replace(job.planner, n_shapes=n))
+            new = run_job(finer)
+            events = self.snap_check(new, 0)
+            tried.append(f"{n} intermediate shapes: "
+                         + (events[0].message if events else "no snap-through"))
+            if not events:  # the state's job is already placed: nothing to move
+                self.keep("snap", failures, f"planned again with {n} intermediate shapes",
+                          "no snap-through", _State(finer, new, self.state.offset), since)
+                return
+        where = ("the target is reached only through a snap-through" if s + 1 == last else
+                 "no stable route found")
+        raise Refused(f"segment {s} (shape {s} -> {s + 1}): {where}; tried: "
+                      + " | ".join(tried))
+
+    # -- twist -----------------------------------------------------------------------------
+    def fix_twist(self, failures) -> None:
+        job, doc = self.state.job, self.state.doc
+        since = time.perf_counter()
+        tried = []
+        for method in GRIPPER_METHODS:
+            if method == doc.grippers.method or not self.attempt():
+                continue
+            other = replace(job, grippers=replace(job.grippers, method=method))
+            try:
+                new = with_motion(other, doc)
+            except ValueError as exc:  # e.g. the auxiliary vector along a u-axis
+                tried.append(f"{method}: {exc}")
+                continue
+            left = twist_failures(new)
+            tried.append(f"{method}: {summary(left)}")
+            if not left:
+                self.keep("twist", failures, f"gripper frames by the {method} method "
+                          f"(was {doc.grippers.method})", new.grippers.message,
+                          _State(other, new, self.state.offset), since)
+                return
+        for method in dict.fromkeys((doc.grippers.method, "rigid")):
+            if not self.attempt():
+                break
+            other = replace(job, grippers=replace(job.grippers, method=method))
+            base = with_motion(other, doc).grippers
+            grippers, twist = untwisted(job.cable, doc.shapes, base)
+            new = with_grippers(other, doc, grippers)
+            left = twist_failures(new)
+            tried.append(f"{method}, last clip rolled: {summary(left)}")
+            if not left:
+                self.keep("twist", failures, f"gripper frames by the {method} method, the "
+                          "last clip rolled about its u-axis against the twist (largest "
+                          f"{np.degrees(np.abs(twist).max()):.1f} deg)", new.twist.message,
+                          _State(other, new, self.state.offset), since)
+                return
+        if self.attempt():
+            new = self.intermediate_rotations(job, doc)
+            left = twist_failures(new)
+            tried.append(f"intermediate rotations: {summary(left)}")
+            if not left:
+                self.keep("twist", failures, f"{new.n_shapes - doc.n_shapes} intermediate "
+                          "rotation(s) inserted", new.grippers.message,
+                          _State(job, new, self.state.offset), since)
+                return
+        raise Refused(f"{failures[0].message}; tried: " + " | ".join(tried))
+
+    def intermediate_rotations(self, job, doc):
+        """Equilibria at clip poses interpolated on each segment whose frames turn more than
+        :data:`~dloplan.repair.routes.MAX_TURN`, inserted as shapes."""
+        steps, poses, shapes = frame_steps(doc.grippers), doc.clip_poses(), doc.stabilized
+        path = [shapes[0]]
+        for s, step in enumerate(steps):
+            parts = math.ceil(step / MAX_TURN)
+            if parts > 1:
+                between = interpolate_clips(poses[s], poses[s + 1], np.arange(1, parts) / parts)
+                path += list(equilibria_along(job.cable, shapes[s], [poses[s], *between])[0])
+            path.append(shapes[s + 1])
+        return with_path(job, doc, np.stack(path))
+
+    # -- replay ----------------------------------------------------------------------------
+    def fix_replay(self, failures) -> None:
+        doc = self.state.doc
+        since = time.perf_counter()
+        speed = doc.trajectory.max_speed
+        tried = []
+        for factor in SPEED_FACTORS:
+            if not self.attempt():
+                break
+            new = timed_with_robot(self.state.job, doc, factor * speed)
+            run = self.checks.verify(new, snap=False, robot=False).replay
+            tried.append(f"{1e3 * factor * speed:.0f} mm/s: {run.message}")
+            if run.ok:
+                slower = replace(self.state.job, motion=replace(
+                    self.state.job.motion, tcp_speed=factor * speed))
+                self.keep("replay", failures, f"TCP speed {1e3 * speed:.0f} -> "
+                          f"{1e3 * factor * speed:.0f} mm/s", run.message,
+                          replace(self.state, job=slower, doc=new), since)
+                return
+        raise Refused(f"{failures[0].message}; tried: " + " | ".join(tried))
+
+    # -- reach -----------------------------------------------------------------------------
+    def fix_reach(self, failures) -> None:
+        job, doc = self.state.job, self.state.doc
+        since = time.perf_counter()
+        tried = []
+        candidates = [(job, doc)]
+        for method in GRIPPER_METHODS:
+            if method != doc.grippers.method:
+                other = replace(job, grippers=replace(job.grippers, method=method))
+                candidates.append((other, None))
+        for other, new in candidates:
+            if not self.attempt():
+                break
+            method = other.grippers.method
+            if new is None:
+                try:
+                    new = with_motion(other, doc)
+                except ValueError as exc:
+                    tried.append(f"{method}: {exc}")
+                    continue
+                if twist_failures(new):
+                    tried.append(f"{method}: {summary(twist_failures(new))}")
+                    continue
+            for found in placements(new.grippers):
+                tried.append(f"{new.grippers.method} frames: {found.message}")
+                if not found.success:
+                    continue
+                offset = self.state.offset + found.offset
+                placed_job = translated_job(other, found.offset)
+                placed = translated_document(placed_job, new, found.offset)
+                rows = self.checks.verify(placed, snap=False, replay=False)
+                left = [f for f in diagnose(placed, rows) if f.kind == "reach"]
+                if left:
+                    tried[-1] += f"; then {left[0].message}"
+                    continue
+                moved = np.array2string(found.offset + 0.0, precision=3)
+                change = (f"job placed at offset {moved} m"
+                          + ("" if new is doc else f", gripper frames by the "
+                             f"{new.grippers.method} method"))
+                self.keep("reach", failures, change, found.message,
+                          _State(placed_job, placed, offset), since)
+                return
+        raise Refused("no placement of the job on the table makes every pose reachable; "
+                      "tried: " + " | ".join(tried))
+
+
+FIXES = {"snap": _Session.fix_snap, "twist": _Session.fix_twist,
+         "replay": _Session.fix_replay, "reach": _Session.fix_reach}
+
+
+def _own(failures, kind):
+    """The failures of ``kind``; a replay deviation on a segment that snaps waits for the snap
+    repair (the replay follows the branch the snap leaves)."""
+    mine = [f for f in failures if f.kind == kind]
+    if kind == "replay":
+        snapping = {f.segment for f in failures if f.kind == "snap"}
+        mine = [f for f in mine if f.segment is None or f.segment not in snapping]
+    return mine
+
+
+def repair_plan(job, doc, verification, budget: Budget | None = None,
+                progress=quiet) -> RepairResult:
+    """Repair a plan that failed its checks (module docstring): keep the first plan that passes.
+
+    Parameters
+    ----------
+    job : Job
+        The job ``doc`` was planned from.
+    doc : PlanDocument
+        Its plan.
+    verification : Verification
+        :func:`dloplan.app.pipeline.verify_plan` of ``doc``; the repaired plan is verified with
+        the same checks (snap-through, replay, robot: those that were run).
+    budget : Budget, optional
+        Default :class:`Budget()`.
+    progress : callable
+        Called with a line of text per repair kept.
+
+    Returns
+    -------
+    RepairResult
+    """
+    budget = budget if budget is not None else Budget()
+    checks = Checks.of(verification)
+    session = _Session(job, doc, checks, budget, progress)
+    failures = diagnose(doc, verification)
+    before = tuple(failures)
+    verified = (job, doc, verification, np.zeros(3))
+    refusal = None
+    for _ in range(budget.rounds):
+        if not failures:
+            break
+        try:
+            unknown = [f for f in failures if f.kind not in FIXES]
+            if unknown:
+                raise Refused(f"no repair for: {unknown[0].message}")
+            for kind in KINDS:
+                mine = _own(failures, kind)
+                if mine:
+                    FIXES[kind](session, mine)
+        except Refused as exc:
+            refusal = str(exc)
+            break
+        state = session.state
+        verification = checks.verify(state.doc)
+        new_failures = diagnose(state.doc, verification)
+        progress(f"repaired plan verified: {summary(new_failures)}")
+        if score(new_failures) >= score(failures) and new_failures:
+            refusal = f"the repairs did not remove the failures ({summary(new_failures)})"
+            verified = (state.job, state.doc, verification, state.offset)
+            failures = new_failures
+            break
+        verified = (state.job, state.doc, verification, state.offset)
+        failures = new_failures
+        if session.spent():
+            break
+    if failures and refusal is None:
+        refusal = (f"repair budget spent ({session.attempts} attempts, "
+                   f"{time.perf_counter() - session.start:.0f} s): {summary(failures)}")
+    final_job, final_doc, final_ver, offset = verified
+    return RepairResult(final_job, with_verification(final_doc, final_ver),
+                        final_ver, tuple(session.repairs), not failures, refusal, offset,
+                        before, session.attempts, time.perf_counter() - session.start)
+
+
+def plan_and_repair(job, progress=quiet, budget: Budget | None = None):
+    """``dloplan plan --verify`` with repair: plan, verify, repair what fails.
+
+    Calls the pipeline's stages (:func:`dloplan.app.pipeline.run_job`,
+    :func:`~dloplan.app.pipeline.verify_plan`) and :func:`repair_plan`; returns the plan
+    document (with its verification section) and the repairs kept. A refused plan's document
+    keeps its failing verification and carries the refusal among its warnings.
+    """
+    doc = run_job(job, progress=progress)
+    t0 = time.perf_counter()
+    verification = verify_plan(doc)
+    progress(f"verification: {'passed' if verification.ok else 'FAILED'}")
+    if not diagnose(doc, verification):
+        doc = with_verification(doc, verification)
+        return replace(doc, timings={**doc.timings, "verify": time.perf_counter() - t0}), ()
+    result = repair_plan(job, doc, verification, budget, progress)
+    out = result.document
+    if result.refusal is not None:
+        progress(f"repair refused: {result.refusal}")
+        out = replace(out, warnings=out.warnings + (f"repair refused: {result.refusal}",))
+    timings = {**out.timings, "verify": time.perf_counter() - t0 - result.seconds,
+               "repair": result.seconds}
+    return replace(out, timings=timings), result.repairs

@@ -1,0 +1,111 @@
+"""A plan document rebuilt after a repair, by the pipeline's own stages.
+
+A repair changes the shapes (:func:`with_path`), the gripper method (:func:`with_motion`), the
+frames themselves (:func:`with_grippers`) or the speed (:func:`timed`); the gripper frames, the
+trajectory, the twist and the clip wrenches are then made again by
+:func:`dloplan.app.pipeline.plan_motion` and :func:`~dloplan.app.pipeline.plan_twist`, and the
+warnings of the old motion and of the old verification are replaced by the new ones. The
+planner's own sections (stages, forces, target check, obstacle re-planning) stay those of the
+plan that was repaired.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ..app.document import TwistSection
+from ..app.pipeline import plan_motion, plan_program, plan_twist, quiet, with_program
+from ..sim.statics import clip_wrenches
+from ..trajectory import trajectory_from_grippers
+
+
+def left_clip(grippers) -> int:
+    """The clip the left arm holds: the one further to the robot's left (+y) on average (the
+    assignment the reachability check makes)."""
+    mean_y = grippers.positions[:, :, 1].mean(axis=0)
+    return 0 if mean_y[0] >= mean_y[1] else 1
+
+
+def trajectory_of(grippers, speed: float, angular_speed: float):
+    """The timed dual-arm trajectory of ``grippers`` at the TCP limits [m/s], [rad/s], the
+    left arm holding the clip on its side (:func:`left_clip`)."""
+    return trajectory_from_grippers(grippers, max_speed=speed, max_angular_speed=angular_speed,
+                                    left_clip=left_clip(grippers))
+
+
+def timed(doc, speed: float | None = None):
+    """``doc`` with its trajectory timed again at the TCP speed ``speed`` [m/s] (default the
+    trajectory's own), by :func:`trajectory_of`."""
+    old = doc.trajectory
+    trajectory = trajectory_of(doc.grippers, speed or old.max_speed, old.max_angular_speed)
+    return replace(doc, trajectory=trajectory, verification=None)
+
+
+def timed_with_robot(job, doc, speed: float | None = None, progress=quiet):
+    """:func:`timed`, then the robot program made again (:func:`with_robot`)."""
+    return with_robot(job, timed(doc, speed), progress)
+
+
+def motion_warnings(doc) -> set[str]:
+    """The warnings a document owes to its gripper frames, twist and verification."""
+    own: set[str] = set()
+    if doc.grippers is not None:
+        own |= set(doc.grippers.warnings) | {f"grippers: {doc.grippers.message}"}
+    if doc.twist is not None:
+        own.add(f"twist: {doc.twist.message}")
+    if doc.verification is not None:
+        own |= set(doc.verification.messages)
+    if doc.robot is not None:
+        own.add(doc.robot.message)
+    return own
+
+
+def with_robot(job, doc, progress=quiet):
+    """``doc`` with its robot program made again for its frames and trajectory (when it had
+    one): the arm assignment, IK, limits, clearance and continuity of the new targets."""
+    if doc.robot is None and doc.program is None:
+        return doc
+    warnings = tuple(w for w in doc.warnings if doc.robot is None or w != doc.robot.message)
+    bare = replace(doc, robot=None, program=None, warnings=warnings)
+    return with_program(bare, plan_program(job.robot, doc.grippers, doc.trajectory, progress))
+
+
+def with_motion(job, doc, shapes=None, stabilized=None, progress=quiet):
+    """``doc`` with new gripper frames, trajectory and twist for ``shapes`` (default its own),
+    by ``job``'s gripper and motion settings; the left arm holds the clip on its side."""
+    shapes = doc.shapes if shapes is None else np.asarray(shapes, dtype=float)
+    grippers, _ = plan_motion(job, shapes, progress)
+    return with_grippers(job, doc, grippers, shapes, stabilized, progress)
+
+
+def with_grippers(job, doc, grippers, shapes=None, stabilized=None, progress=quiet):
+    """``doc`` with the gripper frames ``grippers`` of ``shapes`` (default its own), its
+    trajectory timed again, the twist computed again, the motion's warnings replaced."""
+    shapes = doc.shapes if shapes is None else np.asarray(shapes, dtype=float)
+    stabilized = doc.stabilized if stabilized is None else np.asarray(stabilized, dtype=float)
+    twist = plan_twist(job.cable, shapes, grippers, progress)
+    warnings = [w for w in doc.warnings if w not in motion_warnings(doc)]
+    warnings += list(grippers.warnings)
+    if not grippers.success:
+        warnings.append(f"grippers: {grippers.message}")
+    if not twist.success:
+        warnings.append(f"twist: {twist.message}")
+    trajectory = trajectory_of(grippers, job.motion.tcp_speed, job.motion.angular_speed)
+    new = replace(doc, shapes=shapes, stabilized=stabilized, grippers=grippers,
+                  trajectory=trajectory, warnings=tuple(warnings), verification=None,
+                  robot=None, program=None,
+                  clip_wrenches=np.stack([clip_wrenches(job.cable, s) for s in stabilized]),
+                  twist=TwistSection(twist.twist, twist.relative_twist, twist.twist_energy,
+                                     grippers.twist, twist.message))
+    return new if doc.robot is None and doc.program is None else with_program(
+        new, plan_program(job.robot, grippers, trajectory, progress))
+
+
+def with_path(job, doc, shapes: np.ndarray, progress=quiet):
+    """``doc`` whose shapes are ``shapes`` (S' + 2, n + 1, 3) [m], each a stabilized
+    equilibrium (planned = stabilized), with motion and twist made again."""
+    return with_motion(job, doc, shapes, shapes, progress)
+
+
