@@ -188,22 +188,27 @@ def plan_path(job: Job, progress=quiet) -> PathStage:
     return PathStage(result, target_check, timings)
 
 
-def plan_motion(job: Job, path: np.ndarray, progress=quiet):
-    """Gripper frames for every shape (thesis 4.6) and the timed dual-arm trajectory, its arms
-    assigned by the robot cell's side rule."""
-    from ..grippers import gripper_path
+def timed_trajectory(grippers, motion, cell):
+    """The jerk-limited dual-arm trajectory of a gripper path under the job's motion settings,
+    the arm on the robot's left holding the clip on its left (docs/robot.md): the trajectory's
+    arm order is the robot program's, so its CSV and ROS columns name the right arms."""
     from ..robot import assign_arms
     from ..trajectory import trajectory_from_grippers
+
+    left_clip = assign_arms(grippers.positions, cell).left_clip
+    return trajectory_from_grippers(grippers, left_clip=left_clip, limits=motion.limits,
+                                    zone=motion.zone)
+
+
+def plan_motion(job: Job, path: np.ndarray, progress=quiet):
+    """Gripper frames for every shape (thesis 4.6) and the timed dual-arm trajectory."""
+    from ..grippers import gripper_path
 
     settings = job.grippers
     grippers = gripper_path(path, method=settings.method, cable=job.cable,
                             initial=settings.initial, aux=settings.auxiliary_vector)
-    # the arm on the robot's left holds the clip on its left (docs/robot.md): the trajectory's
-    # arm order is the robot program's, so its CSV and ROS columns name the right arms
-    left_clip = assign_arms(grippers.positions, job.robot).left_clip
     motion = job.motion
-    trajectory = trajectory_from_grippers(grippers, left_clip=left_clip, limits=motion.limits,
-                                          zone=motion.zone)
+    trajectory = timed_trajectory(grippers, motion, job.robot)
     zones = "stops at every shape" if motion.zone == 0 else \
         f"fly-by zones of {1e3 * motion.zone:.0f} mm"
     progress(f"gripper frames ({grippers.method}), jerk-limited trajectory "

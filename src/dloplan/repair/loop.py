@@ -361,7 +361,7 @@ class _Session:
     def fix_replay(self, failures) -> None:
         doc = self.state.doc
         since = time.perf_counter()
-        speed = doc.trajectory.max_speed
+        speed = self.state.job.motion.tcp_speed
         tried = []
         for factor in SPEED_FACTORS:
             if not self.attempt():
@@ -370,8 +370,9 @@ class _Session:
             run = self.checks.verify(new, snap=False, robot=False).replay
             tried.append(f"{1e3 * factor * speed:.0f} mm/s: {run.message}")
             if run.ok:
+                motion = self.state.job.motion
                 slower = replace(self.state.job, motion=replace(
-                    self.state.job.motion, tcp_speed=factor * speed))
+                    motion, limits=replace(motion.limits, speed=factor * speed)))
                 self.keep("replay", failures, f"TCP speed {1e3 * speed:.0f} -> "
                           f"{1e3 * factor * speed:.0f} mm/s", run.message,
                           replace(self.state, job=slower, doc=new), since)

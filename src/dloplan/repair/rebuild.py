@@ -16,9 +16,15 @@ from dataclasses import replace
 import numpy as np
 
 from ..app.document import TwistSection
-from ..app.pipeline import plan_motion, plan_program, plan_twist, quiet, with_program
+from ..app.pipeline import (
+    plan_motion,
+    plan_program,
+    plan_twist,
+    quiet,
+    timed_trajectory,
+    with_program,
+)
 from ..sim.statics import clip_wrenches
-from ..trajectory import trajectory_from_grippers
 
 
 def left_clip(grippers) -> int:
@@ -28,24 +34,18 @@ def left_clip(grippers) -> int:
     return 0 if mean_y[0] >= mean_y[1] else 1
 
 
-def trajectory_of(grippers, speed: float, angular_speed: float):
-    """The timed dual-arm trajectory of ``grippers`` at the TCP limits [m/s], [rad/s], the
-    left arm holding the clip on its side (:func:`left_clip`)."""
-    return trajectory_from_grippers(grippers, max_speed=speed, max_angular_speed=angular_speed,
-                                    left_clip=left_clip(grippers))
-
-
-def timed(doc, speed: float | None = None):
-    """``doc`` with its trajectory timed again at the TCP speed ``speed`` [m/s] (default the
-    trajectory's own), by :func:`trajectory_of`."""
-    old = doc.trajectory
-    trajectory = trajectory_of(doc.grippers, speed or old.max_speed, old.max_angular_speed)
+def timed(job, doc, speed: float | None = None):
+    """``doc`` with its trajectory timed again under ``job``'s motion settings, the TCP speed
+    limit replaced by ``speed`` [m/s] when given (:func:`dloplan.app.pipeline.timed_trajectory`)."""
+    motion = job.motion if speed is None else \
+        replace(job.motion, limits=replace(job.motion.limits, speed=speed))
+    trajectory = timed_trajectory(doc.grippers, motion, job.robot)
     return replace(doc, trajectory=trajectory, verification=None)
 
 
 def timed_with_robot(job, doc, speed: float | None = None, progress=quiet):
     """:func:`timed`, then the robot program made again (:func:`with_robot`)."""
-    return with_robot(job, timed(doc, speed), progress)
+    return with_robot(job, timed(job, doc, speed), progress)
 
 
 def motion_warnings(doc) -> set[str]:
@@ -92,7 +92,7 @@ def with_grippers(job, doc, grippers, shapes=None, stabilized=None, progress=qui
         warnings.append(f"grippers: {grippers.message}")
     if not twist.success:
         warnings.append(f"twist: {twist.message}")
-    trajectory = trajectory_of(grippers, job.motion.tcp_speed, job.motion.angular_speed)
+    trajectory = timed_trajectory(grippers, job.motion, job.robot)
     new = replace(doc, shapes=shapes, stabilized=stabilized, grippers=grippers,
                   trajectory=trajectory, warnings=tuple(warnings), verification=None,
                   robot=None, program=None,
