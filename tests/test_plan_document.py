@@ -254,3 +254,18 @@ def test_the_exported_program_is_the_verified_one(planned, tmp_path):
     data["robot"]["program"]["targets"][2]["arms"]["left"]["joints_deg"][0] += 1.0
     with pytest.raises(ValueError, match="differs from the verified one"):
         program_of(document_from_dict(data))
+
+
+def test_a_re_timed_plan_keeps_its_arms_and_limits_and_checks_its_program_again(planned):
+    """``export --speed``: the same arms, acceleration, jerk and zones; the cycle and the robot
+    program made again for the new timing."""
+    from dloplan.app.pipeline import retimed
+
+    slower = retimed(planned, speed=0.05)
+    old, new = planned.trajectory, slower.trajectory
+    assert new.arm_clips == old.arm_clips and np.array_equal(new.positions, old.positions)
+    assert new.law.limits.speed == 0.05
+    assert new.law.limits.acceleration == old.law.limits.acceleration
+    assert new.duration > old.duration
+    assert slower.cycle["motion_time"] == pytest.approx(new.duration)
+    assert slower.robot.ok and slower.program.durations.sum() > planned.program.durations.sum()

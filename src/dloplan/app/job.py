@@ -164,10 +164,6 @@ class Job:
     study: object = None
 
 
-def _scale(units: str) -> float:
-    return 1e-3 if units == "mm" else 1.0
-
-
 def _initial_frames(spec) -> Rotation | None:
     frames = spec.grippers.initial_frames
     if frames.first is None and frames.last is None:
@@ -182,7 +178,7 @@ def resolve_cable(scenario, source: str, youngs_modulus: float | None = None) ->
 
     ``youngs_modulus`` [Pa] replaces the file's (after an identification).
     """
-    scale = _scale(scenario.units)
+    scale = scenario.scale
     if scenario.cable.youngs_modulus == "identify" and youngs_modulus is None:
         raise ScenarioError(
             f"{source}: cable.youngs_modulus is 'identify': identify it first "
@@ -288,7 +284,7 @@ def resolve_scenario(scenario: Scenario, source: str = "scenario",
     ScenarioError
         One line naming the field: a shape the cable cannot take, bad weights, ...
     """
-    scale = _scale(scenario.units)
+    scale = scenario.scale
     cable = resolve_cable(scenario, source, youngs_modulus)
     shapes = {}
     for name in ("start", "target"):

@@ -119,11 +119,7 @@ def check_job(job: Job) -> CheckReport:
 
 def _reach_findings(job: Job) -> list[Finding]:
     """Can the robot's arms hold the start and the target (gripper frames by the job's method)?"""
-    from ..grippers import gripper_path
-
-    grippers = gripper_path(np.stack([job.start, job.target]), method=job.grippers.method,
-                            cable=job.cable, initial=job.grippers.initial,
-                            aux=job.grippers.auxiliary_vector)
+    grippers = gripper_frames(job, np.stack([job.start, job.target]))
     findings = []
     for name, row in zip(("start", "target"), robot_rows(grippers), strict=True):
         arms = [arm for arm in ("left", "right") if not row[f"reachable_{arm}"]]
@@ -200,13 +196,18 @@ def timed_trajectory(grippers, motion, cell):
                                     zone=motion.zone)
 
 
-def plan_motion(job: Job, path: np.ndarray, progress=quiet):
-    """Gripper frames for every shape (thesis 4.6) and the timed dual-arm trajectory."""
+def gripper_frames(job: Job, path: np.ndarray):
+    """Both clip frames for every shape of ``path`` by the job's method (thesis 4.6)."""
     from ..grippers import gripper_path
 
     settings = job.grippers
-    grippers = gripper_path(path, method=settings.method, cable=job.cable,
-                            initial=settings.initial, aux=settings.auxiliary_vector)
+    return gripper_path(path, method=settings.method, cable=job.cable,
+                        initial=settings.initial, aux=settings.auxiliary_vector)
+
+
+def plan_motion(job: Job, path: np.ndarray, progress=quiet):
+    """Gripper frames for every shape (thesis 4.6) and the timed dual-arm trajectory."""
+    grippers = gripper_frames(job, path)
     motion = job.motion
     trajectory = timed_trajectory(grippers, motion, job.robot)
     zones = "stops at every shape" if motion.zone == 0 else \
@@ -218,16 +219,40 @@ def plan_motion(job: Job, path: np.ndarray, progress=quiet):
 
 def retimed(doc: PlanDocument, speed: float | None = None,
             angular_speed: float | None = None) -> PlanDocument:
-    """The document with its trajectory re-timed under new TCP limits [m/s], [rad/s]."""
-    from ..trajectory import trajectory_from_grippers
+    """The document with its trajectory re-timed with a new TCP speed [m/s] and angular speed
+    [rad/s] limit: the arms, the other limits and the zones stay the plan's; the cycle and the
+    robot program (when the plan has one) are made again for the new timing."""
+    from ..trajectory import MotionLimits, trajectory_from_grippers
 
-    if doc.grippers is None:
-        raise ValueError("plan: no gripper poses to time a trajectory from")
+    if doc.grippers is None or doc.trajectory is None:
+        raise ValueError("plan: no gripper poses and trajectory to time again")
     old = doc.trajectory
-    trajectory = trajectory_from_grippers(
-        doc.grippers, max_speed=speed or (old.max_speed if old else 0.1),
-        max_angular_speed=angular_speed or (old.max_angular_speed if old else 1.0))
-    return replace(doc, trajectory=trajectory)
+    limits = old.law.limits if old.law is not None and old.law.limits is not None else \
+        MotionLimits()
+    limits = replace(limits, speed=speed or limits.speed,
+                     angular_speed=angular_speed or limits.angular_speed)
+    zone = float(np.max(old.zones)) if old.law is not None else 0.0
+    trajectory = trajectory_from_grippers(doc.grippers, left_clip=old.arm_clips[0],
+                                          limits=limits, zone=zone)
+    new = replace(doc, trajectory=trajectory, verification=None, robot=None, program=None,
+                  warnings=tuple(w for w in doc.warnings
+                                 if doc.robot is None or w != doc.robot.message))
+    if doc.cycle is not None:
+        actions = {p["name"]: p["duration"] for p in doc.cycle["phases"]
+                   if p["kind"] == "action"}
+        new = replace(new, cycle=cycle_to_dict(default_cycle(trajectory, actions)))
+    if doc.robot is None:
+        return new
+    return with_program(new, plan_program(cell_from_dict(doc.robot.cell), doc.grippers,
+                                          trajectory))
+
+
+def default_cycle(trajectory, durations: dict):
+    """The cycle of a plan: grasp before the motion, release after it (``durations`` [s] by
+    action name)."""
+    return plan_cycle(trajectory, [GripperAction("grasp", 0, durations["grasp"]),
+                                   GripperAction("release", trajectory.n_knots - 1,
+                                                 durations["release"])])
 
 
 def plan_twist(cable, path: np.ndarray, grippers, progress=quiet):
@@ -431,9 +456,8 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
     if not twist.success:
         warnings.append(f"twist: {twist.message}")
     avoidance = result.avoidance
-    cycle = plan_cycle(trajectory, [GripperAction("grasp", 0, job.motion.grasp_time),
-                                    GripperAction("release", trajectory.n_knots - 1,
-                                                  job.motion.release_time)])
+    cycle = default_cycle(trajectory, {"grasp": job.motion.grasp_time,
+                                       "release": job.motion.release_time})
     progress(cycle.describe())
     doc = PlanDocument(
         cable=job.cable, shapes=result.path, grippers=grippers, trajectory=trajectory,
@@ -488,7 +512,7 @@ def run_harness_job(job, *, check_robot: bool = True, progress=quiet) -> PlanDoc
         timings=dict(result.timings))
     if not check_robot:
         return doc
-    cell = robot_cell(job.scenario, 1e-3 if job.scenario.units == "mm" else 1.0)
+    cell = robot_cell(job.scenario, job.scenario.scale)
     return with_program(doc, plan_program(cell, result.grippers, result.trajectory, progress))
 
 

@@ -75,7 +75,7 @@ def resolve_harness(scenario: HarnessScenario, source: str = "harness scenario")
         modulus), planner weights (not supported by harness jobs), an invalid fixture or peg,
         or a board the cable cannot be used on (:func:`check_board`).
     """
-    scale = 1e-3 if scenario.units == "mm" else 1.0
+    scale = scenario.scale
     if scenario.cable.youngs_modulus == "identify":
         raise ScenarioError(f"{source}: cable.youngs_modulus: 'identify' is not supported in a "
                             "harness job, give the modulus [Pa]")

@@ -365,6 +365,11 @@ class JobSpec(_Model):
     check: CheckSpec = Field(default_factory=CheckSpec)
     robot: RobotSpec = Field(default_factory=RobotSpec)
 
+    @property
+    def scale(self) -> float:
+        """Metres per file unit."""
+        return 1e-3 if self.units == "mm" else 1.0
+
 
 class Scenario(JobSpec):
     """A dloplan job (schema version 1): from ``start`` to ``target``."""
