@@ -103,9 +103,17 @@ def test_files_follow_the_umask(tmp_path):
         assert (path.stat().st_mode & 0o777) == expected, path
 
 
+def _interruptible() -> None:
+    """Give the child the default SIGINT disposition: a test runner started in the background of
+    a non-interactive shell ignores SIGINT, its children inherit that, and Python then installs no
+    KeyboardInterrupt handler (the Ctrl-C test would wait forever)."""
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 def _dloplan(*args, **kwargs) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", "dloplan.cli", *args],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kwargs)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_interruptible, **kwargs)
 
 
 def test_ctrl_c_exits_130_and_leaves_the_folder_as_it_was(tmp_path):
