@@ -162,7 +162,9 @@ def test_a_plan_that_fails_a_check_writes_no_robot_program(tmp_path, capsys):
     far["target"]["placement"]["position"] = [0.9, -0.22, 0.25]  # beyond the YuMi's reach
     far["outputs"] = ["json", "csv", "rapid", "report"]
     out = tmp_path / "out"
-    code = main(["plan", str(write(tmp_path, far)), "-o", str(out), "--verify", "-q"])
+    # the robot program's checks fail (they run without --verify); --no-repair: this is about
+    # what is written, the repair's refusal of such a job is tested in test_repair.py
+    code = main(["plan", str(write(tmp_path, far)), "-o", str(out), "--no-repair", "-q"])
     assert code == 3, capsys.readouterr()
     assert (out / "plan.json").exists() and (out / "report.html").exists()
     assert not (out / "rapid").exists() and not (out / "trajectory.csv").exists()
