@@ -48,6 +48,7 @@ from ..sim import ClipPoses, continuation, equilibrium
 from ..sim.sensitivity import equilibrium_sensitivity, perturbed_clips
 from ..trajectory import Trajectory, trajectory_from_grippers
 from .measurement import MAX_DISAGREEMENT, CorrectionRefused, resample_measured
+from .model_error import discretization_error, fit_model_error
 
 REFERENCES = ("stabilized", "planned")
 
@@ -60,6 +61,7 @@ MAX_LOG_STEP = math.log(2.0)
 COST_TOLERANCE = 1e-3
 """The clip fit stops once an iteration lowers the squared error by less than this fraction."""
 MODES = ("target", "all")
+MODEL_ERRORS = ("discretization", "modulus")
 
 
 @dataclass(frozen=True)
@@ -115,6 +117,9 @@ class ModelUpdate:
         Gauss-Newton steps taken.
     state : numpy.ndarray
         (n + 1, 3) the updated model's equilibrium at shape K: the start of the predictions.
+    discretization : float
+        alpha, the measured amplitude of the discretization error carried as a bias
+        (:mod:`.model_error`; 0 when not estimated).
     """
 
     youngs_modulus_before: float
@@ -123,6 +128,7 @@ class ModelUpdate:
     residual_after: float
     steps: int
     state: np.ndarray
+    discretization: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -232,8 +238,12 @@ def _mean_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, steps: int = 3,
-                   max_factor: float = 10.0, gravity=GRAVITY, guess=None) -> ModelUpdate:
+                   max_factor: float = 10.0, gravity=GRAVITY, guess=None,
+                   discretization: bool = False) -> ModelUpdate:
     """Gauss-Newton steps in log E fitting the model's equilibrium at ``clips`` to ``measured``.
+
+    With ``discretization``, each step fits log E and the amplitude alpha of the discretization
+    error together (:func:`.model_error.fit_model_error`): measured ~ x(E) + alpha d.
 
     Parameters
     ----------
@@ -253,20 +263,22 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     guess : numpy.ndarray, optional
         (n + 1, 3) start of the first equilibrium (default ``measured``; the plan's stabilized
         shape, already an equilibrium of ``cable`` on the same branch, saves the iterations).
+    discretization : bool
+        Also estimate the discretization error's amplitude (:mod:`.model_error`).
     """
     log_e0 = math.log(cable.youngs_modulus)
     log_e = log_e0
     model = cable
     eq = _solve(model, measured if guess is None else guess, clips, gravity)
     residual0 = float(np.mean(np.linalg.norm(eq.shape - measured, axis=1)))
-    taken = 0
+    taken, alpha, direction = 0, 0.0, None
     for _ in range(steps):
         sens = equilibrium_sensitivity(model, eq.shape, clips, gravity=gravity)
-        j = sens.log_modulus.ravel()
-        jj = float(j @ j)
-        if jj <= 1e-24 * cable.length**2:  # the shape does not depend on E here (no sag)
-            break
-        step = float(j @ (measured - eq.shape).ravel()) / jj
+        if discretization:
+            direction = discretization_error(model, eq.shape, clips, gravity=gravity)
+        step, alpha = fit_model_error(sens.log_modulus, direction, measured - eq.shape)
+        if float(np.sum(sens.log_modulus**2)) <= 1e-24 * cable.length**2:
+            break  # the shape does not depend on E here (no sag)
         step = max(-MAX_LOG_STEP, min(MAX_LOG_STEP, step))  # a trust region: E x2 per step
         log_e += step
         if abs(log_e - log_e0) > math.log(max_factor):
@@ -280,9 +292,14 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         taken += 1
         if abs(step) < MODULUS_STEP_TOLERANCE:
             break
-    residual = float(np.mean(np.linalg.norm(eq.shape - measured, axis=1)))
+    if direction is not None:  # alpha at the final E (the direction barely moved with it)
+        alpha = fit_model_error(np.zeros_like(direction), direction, measured - eq.shape)[1]
+        bias = alpha * direction
+    else:
+        bias = 0.0
+    residual = float(np.mean(np.linalg.norm(eq.shape + bias - measured, axis=1)))
     return ModelUpdate(cable.youngs_modulus, model.youngs_modulus, residual0, residual,
-                       taken, eq.shape)
+                       taken, eq.shape, alpha)
 
 
 def _solve(cable: Cable, guess, clips: ClipPoses, gravity, chain=None):
@@ -387,6 +404,7 @@ def correct_plan(
     reference: str = "stabilized",
     mode: str = "target",
     modulus_steps: int = 3,
+    model_error: str = "discretization",
     limits: CorrectionLimits = CorrectionLimits(),
     gravity=GRAVITY,
 ) -> Correction:
@@ -417,6 +435,9 @@ def correct_plan(
         shape.
     modulus_steps : int
         Gauss-Newton steps of the log E update (0: keep E).
+    model_error : {"discretization", "modulus"}
+        What the measurement identifies: E and the amplitude of the discretization error,
+        carried as a bias onto the remaining shapes (default, :mod:`.model_error`), or E only.
     limits : CorrectionLimits
         Bounds beyond which the correction is refused.
     gravity : array_like
@@ -442,6 +463,8 @@ def correct_plan(
         raise ValueError(f"reference: got {reference!r}, expected one of {REFERENCES}")
     if mode not in MODES:
         raise ValueError(f"mode: got {mode!r}, expected one of {MODES}")
+    if model_error not in MODEL_ERRORS:
+        raise ValueError(f"model_error: got {model_error!r}, expected one of {MODEL_ERRORS}")
     if isinstance(modulus_steps, bool) or int(modulus_steps) != modulus_steps or modulus_steps < 0:
         raise ValueError(f"modulus_steps: got {modulus_steps!r}, expected an integer >= 0")
     clips = [grippers.clip_poses(j) for j in range(len(path))]
@@ -459,7 +482,7 @@ def correct_plan(
                           max_disagreement=limits.max_disagreement)
     update = update_modulus(cable, y, clips[at], steps=modulus_steps,
                             max_factor=limits.max_modulus_factor, gravity=gravity,
-                            guess=stable[at])
+                            guess=stable[at], discretization=model_error == "discretization")
     model = cable.with_modulus(update.youngs_modulus)
     model_chain = SpringChain.from_cable(model, gravity)
     # the plan's stabilized target carried to the updated E to first order: the fit's start
@@ -471,16 +494,17 @@ def correct_plan(
     remaining = clips[at + 1 :]
     iterations = 0
     if mode == "target":  # fit the target from the plan's stabilized target, ramp it in
-        p_target, _, iterations = fit_clips(model, remaining[-1], wanted[-1], target_guess,
-                                            limits=limits, gravity=gravity, chain=model_chain)
+        p_target, _, iterations = _fit_with_bias(model, remaining[-1], wanted[-1], target_guess,
+                                                 update.discretization, limits=limits,
+                                                 gravity=gravity, chain=model_chain)
         ramp = np.arange(1, len(remaining) + 1) / len(remaining)
         corrections = ramp[:, None] * p_target[None, :]
     else:  # fit every remaining shape, each from the previous one
         corrections, fitted = [], []
         x, p = update.state, np.zeros(12)
         for c, ref in zip(remaining, wanted, strict=True):
-            p, eq, its = fit_clips(model, c, ref, x, start=p, limits=limits, gravity=gravity,
-                                   chain=model_chain)
+            p, eq, its = _fit_with_bias(model, c, ref, x, update.discretization, start=p,
+                                        limits=limits, gravity=gravity, chain=model_chain)
             iterations += its
             x = eq.shape
             corrections.append(p)
@@ -490,10 +514,13 @@ def correct_plan(
     new_trajectory, now = _retimed(new_grippers, at, trajectory, grippers)
     seconds = time.perf_counter() - t0
     # the predictions of the updated model from the measured state: planned vs corrected clips
-    open_loop = _predict(model, update.state, remaining, gravity)
-    corrected = np.stack(fitted) if mode == "all" else _predict(
-        model, update.state, [perturbed_clips(c, p) for c, p in zip(remaining, corrections,
-                                                                   strict=True)], gravity)
+    alpha = update.discretization
+    open_loop = _predict(model, update.state, remaining, gravity, alpha)
+    corrected_clips = [perturbed_clips(c, p) for c, p in zip(remaining, corrections, strict=True)]
+    corrected = (np.stack([_with_bias(model, x, c, alpha, gravity)
+                           for x, c in zip(fitted, corrected_clips, strict=True)])
+                 if mode == "all" else _predict(model, update.state, corrected_clips, gravity,
+                                                alpha))
     warnings = []
     if update.residual_after > 0.5 * update.residual_before and update.residual_before > 0:
         warnings.append(
@@ -510,14 +537,48 @@ def correct_plan(
     )
 
 
-def _predict(cable: Cable, state: np.ndarray, clips, gravity) -> np.ndarray:
-    """Quasi-static continuation from ``state`` along ``clips``, (len(clips), n + 1, 3)."""
+def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess: np.ndarray,
+                   alpha: float, *, start=None, limits: CorrectionLimits, gravity,
+                   chain: SpringChain):
+    """:func:`fit_clips` of x_n + alpha d (:mod:`.model_error`) to ``reference``.
+
+    d is evaluated at the planned clips (plus ``start``), the clips fitted to reference - alpha
+    d, then d re-evaluated at the corrected clips and the fit repeated from there (d moves with
+    the clips: 1 mm on the demo's target for a 20 degree correction).
+    """
+    if alpha == 0.0:
+        return fit_clips(cable, clips, reference, guess, start=start, limits=limits,
+                         gravity=gravity, chain=chain)
+    p0 = np.zeros(12) if start is None else np.asarray(start, dtype=float)
+    first = perturbed_clips(clips, p0)
+    eq = _solve(cable, guess, first, gravity, chain)
+    bias = alpha * discretization_error(cable, eq.shape, first, gravity=gravity)
+    p, eq, iterations = fit_clips(cable, clips, reference - bias, eq.shape, start=p0,
+                                  limits=limits, gravity=gravity, chain=chain)
+    bias = alpha * discretization_error(cable, eq.shape, eq.clips, gravity=gravity)
+    p, eq, more = fit_clips(cable, clips, reference - bias, eq.shape, start=p, limits=limits,
+                            gravity=gravity, chain=chain)
+    return p, eq, iterations + more
+
+
+def _with_bias(cable: Cable, shape: np.ndarray, clips: ClipPoses, alpha: float,
+               gravity) -> np.ndarray:
+    """The model's shape plus the carried discretization bias alpha d, (n + 1, 3)."""
+    if alpha == 0.0:
+        return shape
+    return shape + alpha * discretization_error(cable, shape, clips, gravity=gravity)
+
+
+def _predict(cable: Cable, state: np.ndarray, clips, gravity, alpha: float = 0.0) -> np.ndarray:
+    """Quasi-static continuation from ``state`` along ``clips`` plus the bias, (len(clips), n + 1,
+    3)."""
     runs = continuation(cable, state, clips, gravity=gravity)
     failed = [k for k, eq in enumerate(runs) if not eq.converged]
     if failed:
         raise CorrectionRefused(f"prediction: the model finds no equilibrium at the remaining "
                                 f"shape {failed[0]} ({runs[failed[0]].message})")
-    return np.stack([eq.shape for eq in runs])
+    return np.stack([_with_bias(cable, eq.shape, c, alpha, gravity)
+                     for eq, c in zip(runs, clips, strict=True)])
 
 
 def _corrected_grippers(grippers: GripperPath, at: int, remaining, corrections) -> GripperPath:
