@@ -360,7 +360,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 def _cmd_study(args: argparse.Namespace) -> int:
     from .app import load_scenario, run_job
-    from .app.study import study_problem_of, study_spec
+    from .app.study import study_problem_of, study_spec, with_closed_loop
     from .plots.report import write_report
     from .plots.study import study_figures
     from .study.backends import make_backend
@@ -377,6 +377,9 @@ def _cmd_study(args: argparse.Namespace) -> int:
         result = run_study(problem, spec, out=args.output, backend=backend,
                            progress=lambda p: console.stage(p.line()),
                            resume=not args.overwrite, file_format="csv" if args.csv else "parquet")
+    if spec.correction is not None:
+        console.stage(f"closed loop: one correction after shape {spec.correction.at}")
+    result = with_closed_loop(doc, result)
     written = study_figures(result.table, result.summary, spec.criteria, args.output)
     report = write_report(Path(args.output) / "report.html", title=f"dloplan study: "
                           f"{args.scenario}", shapes=doc.shapes, stabilized=problem.nominal,

@@ -15,7 +15,12 @@ The method, its limits and the command are in ``docs/correction.md``.
 
 from .measurement import CorrectionRefused, resample_measured
 from .plant import ClosedLoopRun, Plant, reachable_error, run_closed_loop, shape_error
-from .probability import ClosedLoopSuccess, closed_loop_sample, closed_loop_success
+from .probability import (
+    ClosedLoopSuccess,
+    closed_loop_sample,
+    closed_loop_study,
+    closed_loop_success,
+)
 from .step import Correction, CorrectionLimits, ModelUpdate, correct_plan, fit_clips, update_modulus
 
 __all__ = [
@@ -27,6 +32,7 @@ __all__ = [
     "ModelUpdate",
     "Plant",
     "closed_loop_sample",
+    "closed_loop_study",
     "closed_loop_success",
     "correct_plan",
     "fit_clips",
