@@ -48,7 +48,7 @@ from ..sim import ClipPoses, continuation, equilibrium
 from ..sim.sensitivity import equilibrium_sensitivity, perturbed_clips
 from ..trajectory import Trajectory, trajectory_from_grippers
 from .measurement import MAX_DISAGREEMENT, CorrectionRefused, resample_measured
-from .model_error import discretization_error, fit_model_error
+from .model_error import clamped_equilibrium, discretization_error, fit_model_error
 
 REFERENCES = ("stabilized", "planned")
 
@@ -269,11 +269,12 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     log_e0 = math.log(cable.youngs_modulus)
     log_e = log_e0
     model = cable
-    eq = _solve(model, measured if guess is None else guess, clips, gravity)
+    chain = SpringChain.from_cable(model, gravity)
+    eq = _solve(model, measured if guess is None else guess, clips, gravity, chain)
     residual0 = float(np.mean(np.linalg.norm(eq.shape - measured, axis=1)))
     taken, alpha, direction = 0, 0.0, None
     for _ in range(steps):
-        sens = equilibrium_sensitivity(model, eq.shape, clips, gravity=gravity)
+        sens = equilibrium_sensitivity(model, eq.shape, clips, chain=chain)
         if discretization:
             direction = discretization_error(model, eq.shape, clips, gravity=gravity)
         step, alpha = fit_model_error(sens.log_modulus, direction, measured - eq.shape)
@@ -288,7 +289,10 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
                 "max_modulus_factor)"
             )
         model = cable.with_modulus(math.exp(log_e))
-        eq = _solve(model, sens.predict(delta_log_modulus=step), clips, gravity)
+        chain = SpringChain.from_cable(model, gravity)
+        guess = sens.predict(delta_log_modulus=step)
+        eq = _resolve(model, guess, clips, gravity, chain) or _solve(model, guess, clips, gravity,
+                                                                     chain)
         taken += 1
         if abs(step) < MODULUS_STEP_TOLERANCE:
             break
@@ -300,6 +304,30 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     residual = float(np.mean(np.linalg.norm(eq.shape + bias - measured, axis=1)))
     return ModelUpdate(cable.youngs_modulus, model.youngs_modulus, residual0, residual,
                        taken, eq.shape, alpha)
+
+
+@dataclass(frozen=True, eq=False)
+class Held:
+    """A stable equilibrium of the model: its shape (n + 1, 3) [m] and the clip poses."""
+
+    shape: np.ndarray
+    clips: ClipPoses
+
+
+def _resolve(cable: Cable, guess: np.ndarray, clips: ClipPoses, gravity,
+             chain: SpringChain) -> Held | None:
+    """The equilibrium from a warm start already fitting ``clips`` (a linear prediction).
+
+    The Newton solve alone (:func:`.model_error.clamped_equilibrium`), without the guess
+    conforming and the clip reactions of :func:`dloplan.sim.equilibrium`; None when it does
+    not converge or the clips are out of the cable's reach.
+    """
+    x, converged, _ = clamped_equilibrium(cable, guess, clips, 1, gravity=gravity, rtol=1e-10,
+                                          chain=chain)
+    reach = (cable.n_links - 2) * cable.rest_link_length
+    if not converged or np.linalg.norm(x[-2] - x[1]) > reach:
+        return None
+    return Held(x, clips)
 
 
 def _solve(cable: Cable, guess, clips: ClipPoses, gravity, chain=None):
@@ -359,12 +387,10 @@ def fit_clips(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess: np.n
         for _ in range(10):
             damped = a + mu * np.diag(np.diag(a)) + 1e-12 * np.trace(a) * np.eye(12)
             trial_p = p - np.linalg.solve(damped, b) / scale
-            try:  # warm start from the linear prediction: Newton then needs few iterations
-                trial = equilibrium(cable, sens.predict(trial_p - p),
-                                    perturbed_clips(clips, trial_p), gravity=gravity, chain=chain)
-            except ValueError:  # out of reach
-                trial = None
-            if trial is not None and trial.success:
+            # warm start from the linear prediction: Newton then needs few iterations
+            trial = _resolve(cable, sens.predict(trial_p - p), perturbed_clips(clips, trial_p),
+                             gravity, chain)
+            if trial is not None:
                 r_trial = (trial.shape - reference).ravel()
                 cost_trial = float(r_trial @ r_trial)
                 if cost_trial < cost:
