@@ -20,7 +20,8 @@ reaches shape K the cable is measured; the correction
    (T - K): no jump at the current shape); mode ``"all"`` fits every remaining shape in turn,
    each starting from the previous one's solution;
 3. **re-times** the corrected gripper path (:func:`dloplan.trajectory.trajectory_from_grippers`,
-   same speed limits, arms and tool frames as the plan): the robot can go on;
+   the plan's motion limits -- speed, acceleration, jerk -- zones, arms and tool frame): the
+   remaining motion first (the robot can go on), then the whole path for the record;
 4. **predicts the rest** with the updated model, from its equilibrium at the measurement, open
    loop and corrected: quasi-static continuations along the planned and the corrected clip
    poses (:func:`dloplan.sim.continuation`), reported side by side.
@@ -164,9 +165,10 @@ class Correction:
     iterations : int
         Levenberg-Marquardt iterations (all fitted shapes).
     seconds : float
-        Wall time until the corrected trajectory is ready [s] (what the robot waits for).
+        Wall time until the remaining trajectory is ready [s] (what the robot waits for).
     prediction_seconds : float
-        Wall time of the open-loop and corrected predictions afterwards [s].
+        Wall time of the whole corrected trajectory and the open-loop and corrected
+        predictions afterwards [s].
     warnings : tuple of str
     """
 
@@ -371,9 +373,15 @@ def fit_clips(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess: np.n
     """
     if chain is None:
         chain = SpringChain.from_cable(cable, gravity)
-    scale = np.tile(np.r_[np.ones(3), np.full(3, 0.5 * cable.length)], 2)  # z = scale * p
     p = np.zeros(12) if start is None else np.asarray(start, dtype=float).copy()
     eq = _solve(cable, guess, perturbed_clips(clips, p), gravity, chain)
+    return _levenberg_marquardt(cable, clips, reference, eq, p, limits, gravity, chain)
+
+
+def _levenberg_marquardt(cable: Cable, clips: ClipPoses, reference: np.ndarray, eq, p: np.ndarray,
+                         limits: CorrectionLimits, gravity, chain: SpringChain):
+    """:func:`fit_clips` from ``eq``, the equilibrium already solved at ``clips`` + ``p``."""
+    scale = np.tile(np.r_[np.ones(3), np.full(3, 0.5 * cable.length)], 2)  # z = scale * p
     r = (eq.shape - reference).ravel()
     cost = float(r @ r)
     mu = 1e-3
@@ -537,8 +545,10 @@ def correct_plan(
             fitted.append(x)
         corrections = np.array(corrections)
     new_grippers = _corrected_grippers(grippers, at, remaining, corrections)
-    new_trajectory, now = _retimed(new_grippers, at, trajectory, grippers)
-    seconds = time.perf_counter() - t0
+    timing = _timing(trajectory, grippers)
+    now = trajectory_from_grippers(sliced_grippers(new_grippers, at), **timing)
+    seconds = time.perf_counter() - t0  # the robot can go on: the rest is for the record
+    new_trajectory = trajectory_from_grippers(new_grippers, **timing)
     # the predictions of the updated model from the measured state: planned vs corrected clips
     alpha = update.discretization
     open_loop = _predict(model, update.state, remaining, gravity, alpha)
@@ -575,16 +585,15 @@ def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess:
     if alpha == 0.0:
         return fit_clips(cable, clips, reference, guess, start=start, limits=limits,
                          gravity=gravity, chain=chain)
-    p0 = np.zeros(12) if start is None else np.asarray(start, dtype=float)
-    first = perturbed_clips(clips, p0)
-    eq = _solve(cable, guess, first, gravity, chain)
-    bias = alpha * discretization_error(cable, eq.shape, first, gravity=gravity)
-    p, eq, iterations = fit_clips(cable, clips, reference - bias, eq.shape, start=p0,
-                                  limits=limits, gravity=gravity, chain=chain)
-    bias = alpha * discretization_error(cable, eq.shape, eq.clips, gravity=gravity)
-    p, eq, more = fit_clips(cable, clips, reference - bias, eq.shape, start=p, limits=limits,
-                            gravity=gravity, chain=chain)
-    return p, eq, iterations + more
+    p = np.zeros(12) if start is None else np.asarray(start, dtype=float).copy()
+    eq = _solve(cable, guess, perturbed_clips(clips, p), gravity, chain)
+    iterations = 0
+    for _ in range(2):
+        bias = alpha * discretization_error(cable, eq.shape, eq.clips, gravity=gravity)
+        p, eq, more = _levenberg_marquardt(cable, clips, reference - bias, eq, p, limits, gravity,
+                                           chain)
+        iterations += more
+    return p, eq, iterations
 
 
 def _with_bias(cable: Cable, shape: np.ndarray, clips: ClipPoses, alpha: float,
@@ -638,15 +647,15 @@ def sliced_grippers(grippers: GripperPath, start: int) -> GripperPath:
     )
 
 
-def _retimed(grippers: GripperPath, at: int, planned: Trajectory | None,
-             planned_grippers: GripperPath) -> tuple[Trajectory, Trajectory]:
-    """The whole corrected trajectory and its part from shape ``at``, as the plan timed it."""
-    options = {}
-    if planned is not None:
-        left = planned.arm_clips[0]
-        offset = planned_grippers.rotations[left][0].inv() * planned.rotations[0][0]
-        options = {"max_speed": planned.max_speed,
-                   "max_angular_speed": planned.max_angular_speed,
-                   "left_clip": left, "tcp_in_clip": offset}
-    return (trajectory_from_grippers(grippers, **options),
-            trajectory_from_grippers(sliced_grippers(grippers, at), **options))
+def _timing(planned: Trajectory | None, planned_grippers: GripperPath) -> dict:
+    """The options of :func:`trajectory_from_grippers` that time a path as the plan was timed:
+    its arms, tool frame, motion limits (speed, acceleration, jerk) and zones."""
+    if planned is None:
+        return {}
+    left = planned.arm_clips[0]
+    options = {"left_clip": left,
+               "tcp_in_clip": planned_grippers.rotations[left][0].inv() * planned.rotations[0][0]}
+    if planned.law is not None and planned.law.limits is not None:
+        return {**options, "limits": planned.law.limits, "zone": float(np.max(planned.zones))}
+    return {**options, "max_speed": planned.max_speed,
+            "max_angular_speed": planned.max_angular_speed}
