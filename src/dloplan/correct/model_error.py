@@ -79,7 +79,8 @@ def clamped_equilibrium(cable: Cable, guess, clips: ClipPoses, clamp_links: int 
 
 
 def discretization_error(cable: Cable, shape: np.ndarray, clips: ClipPoses, *,
-                         gravity=GRAVITY, fine_chain: SpringChain | None = None) -> np.ndarray:
+                         gravity=GRAVITY, fine_chain: SpringChain | None = None,
+                         fine_guess: np.ndarray | None = None) -> np.ndarray:
     """d = R_n[x_2n] - x_n: the Richardson direction of the model's discretization error.
 
     Parameters
@@ -94,6 +95,9 @@ def discretization_error(cable: Cable, shape: np.ndarray, clips: ClipPoses, *,
         Gravity [m/s^2].
     fine_chain : SpringChain, optional
         The chain of ``cable.with_links(2 n)`` (saves its construction in loops).
+    fine_guess : numpy.ndarray, optional
+        (2 n + 1, 3) start of the refined solve [m] (default ``shape`` resampled; the refined
+        shape of a nearby modulus saves iterations). Overwritten with the refined equilibrium.
 
     Returns
     -------
@@ -103,12 +107,14 @@ def discretization_error(cable: Cable, shape: np.ndarray, clips: ClipPoses, *,
     fine = cable.with_links(2 * cable.n_links)
     if fine_chain is None:
         fine_chain = SpringChain.from_cable(fine, gravity)
-    x, stable, message = clamped_equilibrium(
-        fine, resample_by_arc_length(shape, fine.n_points), clips, 2, gravity=gravity,
-        chain=fine_chain)
+    guess = resample_by_arc_length(shape, fine.n_points) if fine_guess is None else fine_guess
+    x, stable, message = clamped_equilibrium(fine, guess, clips, 2, gravity=gravity,
+                                             chain=fine_chain)
     if not stable:
         raise CorrectionRefused(f"model: the refined model (n = {fine.n_links}) finds no stable "
                                 f"equilibrium at these clip poses ({message})")
+    if fine_guess is not None:
+        fine_guess[:] = x
     return resample_by_arc_length(x, cable.n_points) - shape
 
 

@@ -42,7 +42,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
-from ..geometry import as_path
+from ..geometry import as_path, resample_by_arc_length
 from ..grippers import GripperPath, relative_twist
 from ..physics.chain import SpringChain
 from ..sim import ClipPoses, continuation, equilibrium
@@ -275,10 +275,12 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     eq = _solve(model, measured if guess is None else guess, clips, gravity, chain)
     residual0 = float(np.mean(np.linalg.norm(eq.shape - measured, axis=1)))
     taken, alpha, direction = 0, 0.0, None
+    fine = resample_by_arc_length(eq.shape, 2 * cable.n_links + 1)  # refined, warm from E to E
     for _ in range(steps):
         sens = equilibrium_sensitivity(model, eq.shape, clips, chain=chain)
         if discretization:
-            direction = discretization_error(model, eq.shape, clips, gravity=gravity)
+            direction = discretization_error(model, eq.shape, clips, gravity=gravity,
+                                             fine_guess=fine)
         step, alpha = fit_model_error(sens.log_modulus, direction, measured - eq.shape)
         if float(np.sum(sens.log_modulus**2)) <= 1e-24 * cable.length**2:
             break  # the shape does not depend on E here (no sag)

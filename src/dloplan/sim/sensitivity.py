@@ -123,12 +123,19 @@ def _cross_matrix(v: np.ndarray) -> np.ndarray:
 
 
 def _band_block(band: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-    """Dense block H[rows][:, cols] of the symmetric matrix whose lower band is ``band``."""
-    r, c = np.meshgrid(rows, cols, indexing="ij")
+    """Dense block H[rows][:, cols] of the symmetric matrix whose lower band is ``band``.
+
+    Only the rows within the bandwidth of a column can be non-zero; the others stay zero.
+    """
+    width = band.shape[0]
+    near = np.flatnonzero(np.min(np.abs(rows[:, None] - cols[None, :]), axis=1) < width)
+    block = np.zeros((len(rows), len(cols)))
+    r, c = np.meshgrid(rows[near], cols, indexing="ij")
     offset = np.abs(r - c)
-    inside = offset < band.shape[0]
-    block = np.zeros(r.shape)
-    block[inside] = band[offset[inside], np.minimum(r, c)[inside]]
+    inside = offset < width
+    part = np.zeros(r.shape)
+    part[inside] = band[offset[inside], np.minimum(r, c)[inside]]
+    block[near] = part
     return block
 
 
