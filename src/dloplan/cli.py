@@ -111,7 +111,8 @@ def _cmd_correct(args: argparse.Namespace) -> int:
     doc = read_plan(args.plan)
     result = correct_document(doc, args.at, measured_points(args.measured, args.at),
                               robot=not args.no_robot, mode=args.mode,
-                              reference=args.reference, modulus_steps=args.modulus_steps)
+                              reference=args.reference, modulus_steps=args.modulus_steps,
+                              model_error=args.model_error)
     console.stage(result.message)
     written = write_correction(doc, result, args.output)
     console.stage(f"wrote {len(written)} files into {args.output}")
@@ -547,6 +548,9 @@ def build_parser() -> argparse.ArgumentParser:
     correct.add_argument("--reference", choices=["stabilized", "planned"], default="stabilized")
     correct.add_argument("--modulus-steps", type=int, default=3,
                          help="Gauss-Newton steps of the E update (0: keep E)")
+    correct.add_argument("--model-error", choices=["discretization", "modulus"],
+                         default="discretization",
+                         help="identify E and the discretization bias (default), or E alone")
     correct.add_argument("--no-robot", action="store_true",
                          help="skip the YuMi reachability of the corrected poses")
 

@@ -160,7 +160,7 @@ class Correction:
         Its timed dual-arm trajectory (shapes 0 .. K unchanged).
     remaining : Trajectory
         The trajectory from shape K to the target, starting at time 0: the program to run now.
-    mode, reference_kind : str
+    mode, reference_kind, model_error : str
         How it was computed.
     iterations : int
         Levenberg-Marquardt iterations (all fitted shapes).
@@ -185,6 +185,7 @@ class Correction:
     remaining: Trajectory
     mode: str
     reference_kind: str
+    model_error: str
     iterations: int
     seconds: float
     prediction_seconds: float
@@ -204,10 +205,12 @@ class Correction:
     def message(self) -> str:
         """One line: the modulus update and the predicted final errors."""
         m = self.model
+        bias = (f", discretization bias x{m.discretization:.2f}" if self.model_error ==
+                "discretization" else "")
         return (f"corrected at shape {self.at}: E {m.youngs_modulus_before:.3g} -> "
-                f"{m.youngs_modulus:.3g} Pa (measured vs model {1e3 * m.residual_before:.1f} -> "
-                f"{1e3 * m.residual_after:.1f} mm); predicted final error "
-                f"{1e3 * self.open_loop_error[-1]:.1f} mm open loop, "
+                f"{m.youngs_modulus:.3g} Pa{bias} (measured vs model "
+                f"{1e3 * m.residual_before:.1f} -> {1e3 * m.residual_after:.1f} mm); "
+                f"predicted final error {1e3 * self.open_loop_error[-1]:.1f} mm open loop, "
                 f"{1e3 * self.corrected_error[-1]:.1f} mm corrected")
 
     def report(self) -> dict:
@@ -222,6 +225,8 @@ class Correction:
             "measured_vs_model_before": m.residual_before,
             "measured_vs_model_after": m.residual_after,
             "modulus_steps": m.steps,
+            "model_error": self.model_error,
+            "discretization_alpha": m.discretization,
             "shapes": list(range(self.at + 1, self.at + 1 + len(self.reference))),
             "open_loop_error": self.open_loop_error.tolist(),
             "corrected_error": self.corrected_error.tolist(),
@@ -561,16 +566,19 @@ def correct_plan(
                                                 alpha))
     warnings = []
     if update.residual_after > 0.5 * update.residual_before and update.residual_before > 0:
+        what, other = (("E and the discretization bias", "rest shape, grip, measurement noise")
+                       if model_error == "discretization" else
+                       ("E", "rest shape, grip, discretization, measurement noise"))
         warnings.append(
-            f"model: E explains little of the measured error ({1e3 * update.residual_before:.1f}"
-            f" -> {1e3 * update.residual_after:.1f} mm): another cause (rest shape, grip, "
-            "discretization) dominates"
+            f"model: {what} explain little of the measured error "
+            f"({1e3 * update.residual_before:.1f} -> {1e3 * update.residual_after:.1f} mm): "
+            f"another cause ({other}) dominates"
         )
     return Correction(
         at=at, measured=y, model=update, cable=model, reference=np.asarray(wanted),
         open_loop=open_loop, corrected=corrected, clip_corrections=np.asarray(corrections),
         grippers=new_grippers, trajectory=new_trajectory, remaining=now, mode=mode,
-        reference_kind=reference, iterations=iterations, seconds=seconds,
+        reference_kind=reference, model_error=model_error, iterations=iterations, seconds=seconds,
         prediction_seconds=time.perf_counter() - t0 - seconds, warnings=tuple(warnings),
     )
 
