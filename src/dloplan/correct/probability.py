@@ -148,10 +148,8 @@ def closed_loop_study(cable: Cable, shapes, grippers: GripperPath, samples: Samp
 
     Parameters
     ----------
-    cable : Cable
-        The plan's model cable.
-    shapes, grippers, stabilized, trajectory
-        The plan (see :func:`~.step.correct_plan`).
+    cable, shapes, grippers, stabilized, trajectory
+        The plan's model cable and the plan, as for :func:`closed_loop_sample`.
     samples : Samples
         The study's samples (:func:`dloplan.study.draw_samples`): each sample's E, mass per
         length and length make its plant cable (on ``spec.plant_links`` links).
