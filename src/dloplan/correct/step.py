@@ -4,21 +4,22 @@ The plan says which shapes x_j the cable takes at clip poses C_j, j = 0 .. T. Af
 reaches shape K the cable is measured; the correction
 
 1. **estimates the model error**: the measurement y (resampled onto the model's points,
-   :mod:`.measurement`) is compared with the model's equilibrium x_K at C_K, and log E takes
-   Gauss-Newton steps on ||y - x_K(log E)||^2 with the sensitivity d x / d log E
-   (:mod:`dloplan.sim.sensitivity`): delta = (J . r) / (J . J). In statics E and the mass enter
-   only as their ratio, so this absorbs a wrong mass as well; what is left is reported as the
-   unexplained residual. Each step changes E by at most a factor 2; they stop when one changes
-   E by less than 1 %;
-2. **corrects the clips** so that the predicted stabilized shapes match the reference (the plan's
-   stabilized shapes: what the verified plan promised; or its planned shapes): a
-   Levenberg-Marquardt fit of the 12 clip coordinates p (:func:`~dloplan.sim.sensitivity.
-   perturbed_clips`) minimizing sum_i |x_i*(C_j + p) - x_i^ref|^2, with the Jacobian of the
-   equilibrium (implicit differentiation) and the damping mu diag(J^T J); rotation coordinates
-   are scaled by L / 2 so that metres and radians weigh alike. Mode ``"target"`` fits the target
-   only and ramps the correction in linearly over the remaining shapes (p_j = p_T (j - K) /
-   (T - K): no jump at the current shape); mode ``"all"`` fits every remaining shape in turn,
-   each starting from the previous one's solution;
+   :mod:`.measurement`) is compared with the model's equilibrium x_K at C_K, and log E and the
+   amplitude alpha of the discretization error d (:mod:`.model_error`) take Gauss-Newton steps
+   on ||y - x_K(log E) - alpha d_K||^2 with the sensitivity J = d x / d log E
+   (:mod:`dloplan.sim.sensitivity`) (``model_error="modulus"``: log E alone, delta = (J . r) /
+   (J . J)). In statics E and the mass enter only as their ratio, so this absorbs a wrong mass
+   as well; what is left is reported as the unexplained residual. Each step changes E by at
+   most a factor 2; they stop when one changes E by less than 1 %;
+2. **corrects the clips** so that the predicted stabilized shapes, bias included, match the
+   reference (the plan's stabilized shapes: what the verified plan promised; or its planned
+   shapes): a Levenberg-Marquardt fit of the 12 clip coordinates p (:func:`~dloplan.sim.
+   sensitivity.perturbed_clips`) minimizing sum_i |x_i*(C_j + p) + alpha d_i - x_i^ref|^2, with
+   the Jacobian of the equilibrium (implicit differentiation) and the damping mu diag(J^T J);
+   rotation coordinates are scaled by L / 2 so that metres and radians weigh alike. Mode
+   ``"target"`` fits the target only and ramps the correction in linearly over the remaining
+   shapes (p_j = p_T (j - K) / (T - K): no jump at the current shape); mode ``"all"`` fits
+   every remaining shape in turn, each starting from the previous one's solution;
 3. **re-times** the corrected gripper path (:func:`dloplan.trajectory.trajectory_from_grippers`,
    the plan's motion limits -- speed, acceleration, jerk -- zones, arms and tool frame): the
    remaining motion first (the robot can go on), then the whole path for the record;
@@ -112,8 +113,9 @@ class ModelUpdate:
     youngs_modulus_before, youngs_modulus : float
         E of the plan and the updated E [Pa].
     residual_before, residual_after : float
-        Mean distance [m] between the measured shape and the model's at shape K, with the old
-        and the updated E (what is left is the error E cannot explain).
+        Mean distance [m] between the measured shape and the model's at shape K: the plan's
+        model, and the updated one (E and the bias alpha d: what is left is the error the
+        model cannot explain, measurement noise included).
     steps : int
         Gauss-Newton steps taken.
     state : numpy.ndarray
