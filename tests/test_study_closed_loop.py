@@ -66,3 +66,17 @@ def test_a_checkpoint_at_the_target_is_refused(tmp_path, capsys):
     scenario = _scenario(tmp_path, {"at": 7}, samples=1)
     assert main(["study", str(scenario), "-o", str(tmp_path / "s"), "-q", "--csv"]) == 2
     assert "study.correction.at: got 7, expected a shape 0 .. 6" in capsys.readouterr().err
+
+
+def test_the_correction_section_does_not_change_the_study_identity():
+    """The closed loop runs after the table: changing it keeps the completed chunks."""
+    from study_cases import hanging_problem
+
+    from dloplan.study.run import problem_fingerprint
+
+    problem = hanging_problem()
+    base = {"samples": 4, "parameters": {"youngs_modulus": {"spread": 30}}}
+    plain = problem_fingerprint(problem, parse_study(base))
+    corrected = problem_fingerprint(problem, parse_study({**base, "correction": {"at": 1}}))
+    other = problem_fingerprint(problem, parse_study({**base, "samples": 5}))
+    assert plain == corrected != other
