@@ -319,7 +319,7 @@ def test_dloplan_correct_refuses_an_absurd_measurement_and_writes_nothing(plans,
 def test_closed_loop_success_probability_over_sampled_cables(plans):
     """Four cables with E scattered by a factor up to 2.5 (plant n = 40): more of them end within
     2.5 mm of the target with one correction than without (final errors [mm], open -> closed:
-    x0.45 10.0 -> 4.5, x0.7 3.0 -> 2.0, x1.6 12.6 -> 2.1; x2.5 refused: 21 degrees of clip
+    x0.45 10.0 -> 4.1, x0.7 3.0 -> 1.7, x1.6 12.6 -> 2.2; x2.5 refused: 21 degrees of clip
     rotation, beyond the limit)."""
     doc, _ = plans["demo"]
     cable = doc.cable
