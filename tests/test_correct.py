@@ -16,6 +16,7 @@ import yaml
 from scipy.spatial.transform import Rotation
 
 from dloplan.app import read_plan
+from dloplan.cable import catalogue_cable
 from dloplan.cli import main
 from dloplan.correct import (
     CorrectionLimits,
@@ -24,6 +25,7 @@ from dloplan.correct import (
     closed_loop_sample,
     closed_loop_success,
     correct_plan,
+    reachable_error,
     resample_measured,
     run_closed_loop,
 )
@@ -69,35 +71,114 @@ def _measure(shape, n_points=200, noise=NOISE, seed=0):
 
 
 # -- the closed loop -----------------------------------------------------------------------------
-# Open-loop and closed-loop mean errors [mm] of the final shape against the plan's stabilized
-# target, seed 1 (benchmarks/bench_correct.py prints them):
-#   demo x0.5: 6.06 -> 4.06; demo x2: 18.20 -> 2.87; 3D x0.5: 1.73 -> 1.13; 3D x2: 4.84 -> 1.15.
-# The issue asked for 1/5; reached only for demo x2. The floor is physical (docs/correction.md):
-# a cable of another stiffness cannot take the same shape under gravity by moving only its two
-# clips (with E exactly known, the best clips leave 4.0 mm on the demo target at E / 2), and the
-# n = 20 model's remaining mismatch with the n = 100 plant is not a matter of E.
+# Final mean error [mm] against the plan's stabilized target (curves at equal arc length), seed 1,
+# open loop -> corrected once at mid-path (floor: the best any target clip pose gives the plant,
+# reachable_error); benchmarks/bench_correct.py prints them:
+#   demo x0.5: 6.06 -> 3.31 (floor 3.26); demo x2: 18.20 -> 2.95 (2.98)
+#   3D x0.5:   1.73 -> 0.87 (0.86);        3D x2:   4.84 -> 0.89 (0.85)
+# The issue's one fifth is reached at 2E. At E / 2 the floor itself is above one fifth (a softer
+# cable sags more and two clips cannot give it the stiffer cable's shape): the test asserts that
+# the correction reaches the floor instead, and that the floor is physical (> 0.4 x open loop).
 @pytest.mark.parametrize("name", list(SCENARIOS))
 @pytest.mark.parametrize("factor", [0.5, 2.0])
-def test_one_correction_at_mid_path_reduces_the_final_error(plans, name, factor):
+def test_one_correction_at_mid_path_reaches_one_fifth_or_the_physical_floor(plans, name, factor):
     doc, _ = plans[name]
     cable = doc.cable
     last = len(doc.shapes) - 1
     plant = Plant(cable.with_links(100).with_modulus(factor * cable.youngs_modulus),
-                  noise=NOISE, n_measured=200, seed=1)
+                  noise=NOISE, n_measured=200, seed=1, clamp=cable.rest_link_length)
     run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [last // 2],
                           stabilized=_stabilized(doc), trajectory=doc.trajectory)
     assert not run.refusals
     (correction,) = run.corrections
-    # the modulus moves the right way (the effective E of the n = 20 model for the n = 100
-    # plant is about 1.5 times the plant's, hence not exactly factor x E)
-    ratio = correction.model.youngs_modulus / cable.youngs_modulus
-    assert (ratio < 0.95) if factor < 1 else (ratio > 1.5)
-    assert correction.model.residual_after < correction.model.residual_before
-    # the correction predicts an improvement and the plant shows one
-    assert correction.corrected_error[-1] < 0.5 * correction.open_loop_error[-1]
-    assert run.closed_loop_error < 0.75 * run.open_loop_error
-    if factor > 1:  # the large errors (stiffer plant: 5 and 18 mm) drop by 4 to 6 times
-        assert run.closed_loop_error < 0.3 * run.open_loop_error
+    # E and the discretization bias together identify the plant's E within 25 % (E alone
+    # absorbed the discretization: 1.4 times the plant's), and explain the measurement to the
+    # noise (1 mm per coordinate, smoothed over 200 points: 0.6-0.75 mm mean)
+    assert abs(np.log(correction.model.youngs_modulus / (factor * cable.youngs_modulus))) < 0.25
+    assert 0.5 < correction.model.discretization < 3.0
+    assert correction.model.residual_after < 0.8e-3
+    # the prediction of the corrected final shape is honest: within 1 mm of what the plant does
+    assert abs(correction.corrected_error[-1] - run.closed_loop_error) < 1e-3
+    floor = reachable_error(plant, doc.grippers.clip_poses(last), run.reference,
+                            run.open_loop[-1])
+    if factor > 1:
+        assert run.closed_loop_error <= 0.2 * run.open_loop_error
+    else:
+        assert floor > 0.4 * run.open_loop_error
+    assert run.closed_loop_error <= 1.15 * floor
+
+
+def test_estimating_e_alone_leaves_the_discretization_error(plans):
+    """The old correction (E only) on the 3D example at 2E stays above one fifth."""
+    doc, _ = plans["ethernet-3d"]
+    cable = doc.cable
+    last = len(doc.shapes) - 1
+    plant = Plant(cable.with_links(100).with_modulus(2 * cable.youngs_modulus), noise=NOISE,
+                  n_measured=200, seed=1)
+    runs = {kind: run_closed_loop(plant, cable, doc.shapes, doc.grippers, [last // 2],
+                                  stabilized=_stabilized(doc), model_error=kind)
+            for kind in ("modulus", "discretization")}
+    only_e = runs["modulus"].corrections[0].model
+    assert only_e.discretization == 0.0
+    assert only_e.youngs_modulus > 2.4 * cable.youngs_modulus  # absorbs the coarse chain
+    assert runs["modulus"].closed_loop_error > 0.2 * runs["modulus"].open_loop_error
+    assert runs["discretization"].closed_loop_error < 0.85 * runs["modulus"].closed_loop_error
+
+
+@pytest.mark.parametrize("factor", [0.5, 2.0])
+def test_the_thesis_bending_model_reaches_the_floor_too(plans, factor):
+    """Not the case the method was built on: k_b = 3EI/l and equal masses, another noise seed.
+
+    3D example (seed 3): open 1.98 -> 0.73 mm (floor 0.72) at E / 2, 2.91 -> 0.52 mm (0.50) at 2E.
+    """
+    doc, _ = plans["ethernet-3d"]
+    cable = doc.cable.thesis_model()
+    last = len(doc.shapes) - 1
+    plant = Plant(cable.with_links(100).with_modulus(factor * cable.youngs_modulus),
+                  noise=NOISE, n_measured=200, seed=3, clamp=cable.rest_link_length)
+    run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [last // 2])
+    (correction,) = run.corrections
+    assert abs(np.log(correction.model.youngs_modulus / (factor * cable.youngs_modulus))) < 0.2
+    assert abs(correction.corrected_error[-1] - run.closed_loop_error) < 0.3e-3
+    floor = reachable_error(plant, doc.grippers.clip_poses(last), run.reference,
+                            run.open_loop[-1])
+    assert run.closed_loop_error <= 1.1 * floor
+    if factor > 1:
+        assert run.closed_loop_error <= 0.2 * run.open_loop_error
+
+
+def test_the_discretization_direction_is_the_richardson_one():
+    """d = R_n[x_2n] - x_n of a sagging cable: first order, so x_n + 2 d is nearer the rod."""
+    from dloplan.correct.model_error import clamped_equilibrium, discretization_error
+    from dloplan.sim import ClipPoses
+
+    base = catalogue_cable("ethernet", 10)
+    span = 0.7 * base.length
+    clips = ClipPoses(np.array([[0.0, 0.0, 0.3], [span, 0.0, 0.3]]),
+                      Rotation.from_euler("z", [[0.0], [180.0]], degrees=True))
+    t = np.linspace(0.0, 1.0, 400)
+    sag = np.stack([span * t, 0 * t, 0.3 - 0.3 * base.length * np.sin(np.pi * t)], axis=1)
+
+    def settled(n, clamp_links=1):
+        cable = base.with_links(n)
+        x, stable, _ = clamped_equilibrium(cable, resample_by_arc_length(sag, n + 1), clips,
+                                           clamp_links)
+        assert stable
+        return cable, x
+
+    errors = {}
+    for n in (20, 40):
+        cable, x = settled(n)
+        d = discretization_error(cable, x, clips)
+        _, rod = settled(320, clamp_links=320 // n)  # the same clamp length L / n
+        on = resample_by_arc_length(rod, n + 1)
+        errors[n] = (np.mean(np.linalg.norm(x - on, axis=1)),
+                     np.mean(np.linalg.norm(x + 2 * d - on, axis=1)),
+                     np.mean(np.linalg.norm(d, axis=1)))
+    assert errors[20][0] > 1e-3  # a real discretization error to remove (mm)
+    assert 1.6 < errors[20][2] / errors[40][2] < 2.4  # d halves with n: first order
+    for n in (20, 40):
+        assert errors[n][1] < errors[n][0] / 3  # extrapolation removes most of it
 
 
 def test_a_measurement_of_the_model_itself_changes_nothing(plans):
@@ -238,7 +319,7 @@ def test_dloplan_correct_refuses_an_absurd_measurement_and_writes_nothing(plans,
 def test_closed_loop_success_probability_over_sampled_cables(plans):
     """Four cables with E scattered by a factor up to 2.5 (plant n = 40): more of them end within
     2.5 mm of the target with one correction than without (final errors [mm], open -> closed:
-    x0.45 10.0 -> 4.5, x0.7 3.0 -> 2.0, x1.6 12.6 -> 2.1; x2.5 refused: 21 degrees of clip
+    x0.45 10.0 -> 4.1, x0.7 3.0 -> 1.7, x1.6 12.6 -> 2.2; x2.5 refused: 21 degrees of clip
     rotation, beyond the limit)."""
     doc, _ = plans["demo"]
     cable = doc.cable

@@ -111,7 +111,8 @@ def _cmd_correct(args: argparse.Namespace) -> int:
     doc = read_plan(args.plan)
     result = correct_document(doc, args.at, measured_points(args.measured, args.at),
                               robot=not args.no_robot, mode=args.mode,
-                              reference=args.reference, modulus_steps=args.modulus_steps)
+                              reference=args.reference, modulus_steps=args.modulus_steps,
+                              model_error=args.model_error)
     console.stage(result.message)
     written = write_correction(doc, result, args.output)
     console.stage(f"wrote {len(written)} files into {args.output}")
@@ -360,7 +361,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 def _cmd_study(args: argparse.Namespace) -> int:
     from .app import load_scenario, run_job
-    from .app.study import study_problem_of, study_spec
+    from .app.study import study_problem_of, study_spec, with_closed_loop
     from .plots.report import write_report
     from .plots.study import study_figures
     from .study.backends import make_backend
@@ -377,6 +378,9 @@ def _cmd_study(args: argparse.Namespace) -> int:
         result = run_study(problem, spec, out=args.output, backend=backend,
                            progress=lambda p: console.stage(p.line()),
                            resume=not args.overwrite, file_format="csv" if args.csv else "parquet")
+    if spec.correction is not None:
+        console.stage(f"closed loop: one correction after shape {spec.correction.at}")
+    result = with_closed_loop(doc, result)
     written = study_figures(result.table, result.summary, spec.criteria, args.output)
     report = write_report(Path(args.output) / "report.html", title=f"dloplan study: "
                           f"{args.scenario}", shapes=doc.shapes, stabilized=problem.nominal,
@@ -544,6 +548,9 @@ def build_parser() -> argparse.ArgumentParser:
     correct.add_argument("--reference", choices=["stabilized", "planned"], default="stabilized")
     correct.add_argument("--modulus-steps", type=int, default=3,
                          help="Gauss-Newton steps of the E update (0: keep E)")
+    correct.add_argument("--model-error", choices=["discretization", "modulus"],
+                         default="discretization",
+                         help="identify E and the discretization bias (default), or E alone")
     correct.add_argument("--no-robot", action="store_true",
                          help="skip the YuMi reachability of the corrected poses")
 

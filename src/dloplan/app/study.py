@@ -8,8 +8,14 @@ them. The study itself runs in :mod:`dloplan.study`.
 
 from __future__ import annotations
 
+import json
+from dataclasses import replace
+from pathlib import Path
+
 from ..cable import GRAVITY
+from ..io.files import atomic_write_text
 from ..study.evaluate import StudyProblem
+from ..study.run import StudyResult
 from ..study.spec import StudyError, StudySpec, parse_study
 from .document import PlanDocument
 from .job import Job
@@ -40,3 +46,30 @@ def study_spec(job: Job, samples: int | None = None, seed: int | None = None) ->
     if not spec.parameters:
         raise StudyError(f"{job.source}: study.parameters: none given: nothing varies")
     return spec
+
+
+def with_closed_loop(doc: PlanDocument, result: StudyResult) -> StudyResult:
+    """The study result with its closed-loop success (the spec's ``correction:`` section).
+
+    Runs :func:`dloplan.correct.closed_loop_study` on the study's samples and the plan; the
+    summary gains ``closed_loop`` (its lines, ``summary.json`` and the figures show it); with a
+    study folder, ``closed_loop.json`` holds every sample's row and ``summary.json`` is
+    rewritten. Without a ``correction:`` section the result is returned as it is.
+    """
+    from ..correct import closed_loop_study
+    from .pipeline import settled_shapes
+
+    spec = result.spec.correction
+    if spec is None:
+        return result
+    rows, success = closed_loop_study(doc.cable, doc.shapes, doc.grippers, result.samples, spec,
+                                      stabilized=settled_shapes(doc), trajectory=doc.trajectory,
+                                      confidence=result.spec.confidence, gravity=GRAVITY)
+    summary = replace(result.summary, closed_loop=success)
+    if result.folder is not None:
+        folder = Path(result.folder)
+        atomic_write_text(folder / "closed_loop.json", json.dumps(
+            {"correction": spec.model_dump(mode="json"), "success": success.to_dict(),
+             "rows": rows}, indent=2, allow_nan=True))
+        atomic_write_text(folder / "summary.json", json.dumps(summary.to_dict(), indent=2))
+    return replace(result, summary=summary)

@@ -1,8 +1,10 @@
 """Closed-loop shape correction: a measured shape mid-task corrects the rest of the plan.
 
 * :mod:`.measurement` -- a measured shape checked (order, length, disagreement) and resampled;
+* :mod:`.model_error` -- the discretization error carried as a measured bias;
 * :mod:`.step` -- :func:`correct_plan`: modulus update, clip correction, re-timing;
 * :mod:`.plant` -- :func:`run_closed_loop`: the plan run on a mismatched simulated cable;
+  :func:`reachable_error`: the floor a perfect correction would reach;
 * :mod:`.document` -- :func:`correct_document` / :func:`write_correction`: the same on a plan
   document, and its outputs (``dloplan correct``);
 * :mod:`.probability` -- :func:`closed_loop_sample` / :func:`closed_loop_success`: closed-loop
@@ -12,8 +14,13 @@ The method, its limits and the command are in ``docs/correction.md``.
 """
 
 from .measurement import CorrectionRefused, resample_measured
-from .plant import ClosedLoopRun, Plant, run_closed_loop
-from .probability import ClosedLoopSuccess, closed_loop_sample, closed_loop_success
+from .plant import ClosedLoopRun, Plant, reachable_error, run_closed_loop, shape_error
+from .probability import (
+    ClosedLoopSuccess,
+    closed_loop_sample,
+    closed_loop_study,
+    closed_loop_success,
+)
 from .step import Correction, CorrectionLimits, ModelUpdate, correct_plan, fit_clips, update_modulus
 
 __all__ = [
@@ -25,10 +32,13 @@ __all__ = [
     "ModelUpdate",
     "Plant",
     "closed_loop_sample",
+    "closed_loop_study",
     "closed_loop_success",
     "correct_plan",
     "fit_clips",
     "resample_measured",
+    "reachable_error",
     "run_closed_loop",
+    "shape_error",
     "update_modulus",
 ]

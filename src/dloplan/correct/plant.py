@@ -12,8 +12,7 @@ A gripper clamps a length of cable: the model represents it by its held end link
 grips the middle of the end link, thesis Fig. 4.5), so a model with n links clamps L / n at each
 end. The plant clamps ``clamp`` [m] at each end -- by default the model's link, the same
 physical grip -- as the nearest whole number of its own links, held straight along the clip's
-u-axis and centred on the clip point; its free points are solved by the same trust-region Newton
-method as every equilibrium (:func:`dloplan.sim.statics.minimize_energy`).
+u-axis and centred on the clip point (:func:`~.model_error.clamped_equilibrium`).
 """
 
 from __future__ import annotations
@@ -21,15 +20,16 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from ..cable import GRAVITY, Cable
 from ..geometry import as_path, resample_by_arc_length
 from ..grippers import GripperPath
-from ..physics.chain import SpringChain
 from ..sim import ClipPoses, continuation, interpolate_clips
-from ..sim.statics import force_scale, minimize_energy
+from ..sim.sensitivity import perturbed_clips
 from .measurement import CorrectionRefused
-from .step import Correction, correct_plan
+from .model_error import clamped_equilibrium
+from .step import Correction, CorrectionLimits, correct_plan
 
 
 @dataclass(frozen=True)
@@ -87,18 +87,8 @@ class Plant:
             ``(shape (n + 1, 3), success, message)``: success is a converged, stable
             equilibrium.
         """
-        cable = self.cable
-        k = self.clamp_links
-        offsets = (np.arange(k + 1) - 0.5 * k) * cable.rest_link_length
-        u = clips.u_axes
-        x = np.array(shape, dtype=float)
-        x[: k + 1] = clips.positions[0] + offsets[:, None] * u[0]
-        x[::-1][: k + 1] = clips.positions[1] + offsets[:, None] * u[1]
-        chain = SpringChain.from_cable(cable, gravity)
-        x, _, _, _, stable, _, message = minimize_energy(
-            chain, x, slice(k + 1, cable.n_points - k - 1), cable.length,
-            rtol * force_scale(cable, gravity))
-        return x, stable, message
+        return clamped_equilibrium(self.cable, shape, clips, self.clamp_links, gravity=gravity,
+                                   rtol=rtol)
 
     def measure(self, shape: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """The noisy measurement of a plant shape, (n_measured, 3) [m]."""
@@ -118,8 +108,8 @@ class ClosedLoopRun:
     reference : numpy.ndarray
         (n + 1, 3) the shape the plan promised at the target [m].
     open_loop_error, closed_loop_error : float
-        Mean point distance [m] of the plant's final shape (resampled onto the model's points)
-        to the reference.
+        Mean distance [m] of the plant's final shape to the reference, compared as curves at
+        equal arc length (:func:`shape_error`).
     corrections : tuple of Correction
         The corrections applied, in order.
     refusals : tuple of str
@@ -233,14 +223,63 @@ def run_closed_loop(
         reference = as_path(stabilized, cable.n_points, "stabilized")[-1]
     else:
         reference = stabilized_target(cable, path, grippers, gravity)
-
-    def error(shape):
-        on_model = resample_by_arc_length(shape, cable.n_points)
-        return float(np.mean(np.linalg.norm(on_model - reference, axis=1)))
-
     closed_loop = np.stack(closed)
-    return ClosedLoopRun(open_loop, closed_loop, reference, error(open_loop[-1]),
-                         error(closed_loop[-1]), tuple(corrections), tuple(refusals))
+    return ClosedLoopRun(open_loop, closed_loop, reference,
+                         shape_error(open_loop[-1], reference),
+                         shape_error(closed_loop[-1], reference), tuple(corrections),
+                         tuple(refusals))
+
+
+def shape_error(shape: np.ndarray, reference: np.ndarray) -> float:
+    """Mean distance [m] between two curves compared at equal arc length.
+
+    Both polylines (any numbers of points) are resampled at ``len(reference)`` points equally
+    spaced in arc length and the distances of corresponding points averaged: a plant of n = 100
+    is compared with a model target of n = 20 as curves, not as point sets.
+    """
+    n_points = len(reference)
+    a = resample_by_arc_length(shape, n_points)
+    b = resample_by_arc_length(reference, n_points)
+    return float(np.mean(np.linalg.norm(a - b, axis=1)))
+
+
+def reachable_error(plant: Plant, clips: ClipPoses, reference: np.ndarray, guess: np.ndarray, *,
+                    limits: CorrectionLimits | None = None, gravity=GRAVITY) -> float:
+    """The floor: the least final error [m] any correction of ``clips`` within ``limits`` leaves.
+
+    A bounded least-squares fit (:func:`scipy.optimize.least_squares`, finite differences on the
+    plant itself, no noise, no model) of the 12 clip coordinates minimizing the plant's
+    :func:`shape_error` to ``reference``: what a perfect correction could reach. A cable of
+    another stiffness sags differently; two clips cannot always give it the planned shape.
+
+    Parameters
+    ----------
+    plant : Plant
+        The real cable (its clamp set).
+    clips : ClipPoses
+        The planned clip poses of the shape.
+    reference : numpy.ndarray
+        (m, 3) the shape wanted [m].
+    guess : numpy.ndarray
+        (n_plant + 1, 3) the plant's shape at ``clips`` (selects the branch) [m].
+    limits : CorrectionLimits, optional
+        The bounds of the correction (default :class:`~.step.CorrectionLimits`).
+    """
+    limits = CorrectionLimits() if limits is None else limits
+    scale = np.tile(np.r_[np.ones(3), np.full(3, 0.5 * plant.cable.length)], 2)
+    bound = np.tile(np.r_[np.full(3, limits.max_translation), np.full(3, limits.max_rotation)],
+                    2) * scale / np.sqrt(3.0)
+
+    def residual(z):
+        x, _, _ = plant.hold(guess, perturbed_clips(clips, z / scale), gravity)
+        n_points = len(reference)
+        return (resample_by_arc_length(x, n_points)
+                - resample_by_arc_length(reference, n_points)).ravel()
+
+    fit = least_squares(residual, np.zeros(12), bounds=(-bound, bound), x_scale=bound,
+                        diff_step=1e-3, max_nfev=200)
+    x, _, _ = plant.hold(guess, perturbed_clips(clips, fit.x / scale), gravity)
+    return shape_error(x, reference)
 
 
 def stabilized_target(cable: Cable, path: np.ndarray, grippers: GripperPath, gravity) -> np.ndarray:

@@ -5,6 +5,8 @@ cable :func:`closed_loop_sample` runs the plan on it as a plant (:func:`~.plant.
 and returns one row, and :func:`closed_loop_success` turns the rows into the probability that
 the final shape ends within a tolerance of the target, open loop and with the corrections, with
 binomial confidence intervals (:func:`dloplan.study.summary.success_interval`).
+:func:`closed_loop_study` does both for the samples of a study with a ``correction:`` section
+(:class:`dloplan.study.spec.CorrectionSpec`).
 """
 
 from __future__ import annotations
@@ -15,6 +17,9 @@ from dataclasses import dataclass
 
 from ..cable import GRAVITY, Cable
 from ..grippers import GripperPath
+from ..study.evaluate import perturbed_cable
+from ..study.sampling import Samples
+from ..study.spec import CorrectionSpec, StudyError
 from ..study.summary import success_interval
 from .plant import Plant, run_closed_loop
 
@@ -101,6 +106,12 @@ class ClosedLoopSuccess:
     closed_loop: tuple[float, float, float]
     refused: int
 
+    def to_dict(self) -> dict:
+        """JSON-ready values (SI units)."""
+        return {"tolerance": self.tolerance, "trials": self.trials,
+                "open_loop": list(self.open_loop), "closed_loop": list(self.closed_loop),
+                "refused": self.refused, "message": self.message}
+
     @property
     def message(self) -> str:
         """One line."""
@@ -127,3 +138,55 @@ def closed_loop_success(rows: Sequence[dict], tolerance: float, *,
     refused = sum(1 for row in rows if row["corrections"] == 0 and row["refusal"])
     return ClosedLoopSuccess(float(tolerance), len(rows), estimate("open_loop_error"),
                              estimate("closed_loop_error"), refused)
+
+
+def closed_loop_study(cable: Cable, shapes, grippers: GripperPath, samples: Samples,
+                      spec: CorrectionSpec, *, stabilized=None, trajectory=None,
+                      confidence: float = 0.95, gravity=GRAVITY,
+                      ) -> tuple[list[dict], ClosedLoopSuccess]:
+    """Closed-loop success of a study's sampled cables (the ``correction:`` section).
+
+    Parameters
+    ----------
+    cable, shapes, grippers, stabilized, trajectory
+        The plan's model cable and the plan, as for :func:`closed_loop_sample`.
+    samples : Samples
+        The study's samples (:func:`dloplan.study.draw_samples`): each sample's E, mass per
+        length and length make its plant cable (on ``spec.plant_links`` links).
+    spec : CorrectionSpec
+        Checkpoint, noise [mm], measured points, tolerance [mm], plant links, sample count.
+    confidence : float
+        Level of the success intervals.
+
+    Returns
+    -------
+    tuple
+        ``(rows, success)``: one :func:`closed_loop_sample` row per sample (with its
+        ``sample`` index) and :func:`closed_loop_success` of them at ``spec.tolerance``.
+
+    Raises
+    ------
+    StudyError
+        ``study.correction.at`` not a shape before the target.
+    """
+    last = len(shapes) - 1
+    if spec.at >= last:
+        raise StudyError(f"study.correction.at: got {spec.at}, expected a shape 0 .. {last - 1} "
+                         f"(the plan has {last + 1} shapes; the target cannot be corrected)")
+    count = len(samples) if spec.samples is None else min(spec.samples, len(samples))
+    columns = samples.take(range(count))
+    links = spec.plant_links or cable.n_links
+    rows = []
+    for i in range(count):
+        plant = perturbed_cable(cable, columns["youngs_modulus"][i],
+                                columns["mass_per_length"][i], columns["length"][i])
+        try:
+            row = closed_loop_sample(cable, shapes, grippers, plant.with_links(links), [spec.at],
+                                     noise=1e-3 * spec.noise, n_measured=spec.n_measured,
+                                     seed=i, stabilized=stabilized, trajectory=trajectory,
+                                     gravity=gravity)
+        except RuntimeError as exc:  # the plant itself lost its equilibrium: a failure
+            row = {"open_loop_error": math.nan, "closed_loop_error": math.nan,
+                   "corrections": 0, "youngs_modulus_estimate": math.nan, "refusal": str(exc)}
+        rows.append({"sample": i, **row})
+    return rows, closed_loop_success(rows, 1e-3 * spec.tolerance, confidence=confidence)

@@ -1,7 +1,8 @@
 """Figures of a robustness study: success against a parameter, deviations, sensitivities.
 
 Each function takes plain arrays (or the study's summary) and returns a matplotlib figure;
-:func:`study_figures` writes the three of a finished study as PNG and SVG.
+:func:`study_figures` writes the three of a finished study as PNG and SVG (four with a
+closed-loop study).
 """
 
 from __future__ import annotations
@@ -121,6 +122,30 @@ def tornado_figure(sensitivities: Sequence):
     return fig
 
 
+def closed_loop_figure(closed_loop):
+    """Open-loop and closed-loop success probability with their intervals (a bar each).
+
+    ``closed_loop``: a :class:`~dloplan.correct.ClosedLoopSuccess` (tolerance [m], trials,
+    ``open_loop`` and ``closed_loop`` as (probability, low, high)).
+    """
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(4.5, 3.5))
+    for x, ((p, low, high), color) in enumerate(((closed_loop.open_loop, "#9e9e9e"),
+                                                 (closed_loop.closed_loop, "#388e3c"))):
+        ax.bar(x, 100 * p, color=color, width=0.6)
+        ax.errorbar(x, 100 * p, yerr=[[100 * (p - low)], [100 * (high - p)]], color="black",
+                    capsize=6)
+        ax.text(x, 100 * high + 2, f"{100 * p:.0f} %", ha="center", fontsize=9)
+    ax.set_xticks([0, 1], ["open loop", "one correction"])
+    ax.set_ylim(0, 110)
+    ax.set_ylabel("P(final mean error <= tolerance) [%]")
+    ax.set_title(f"Final shape within {1e3 * closed_loop.tolerance:.1f} mm "
+                 f"({closed_loop.trials} samples)")
+    ax.grid(axis="y", alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
 def study_figures(table: dict, summary, criteria, folder: str | Path,
                   parameter: str = "youngs_modulus") -> list[Path]:
     """Write the three figures of a study into ``folder`` (PNG and SVG each).
@@ -130,7 +155,7 @@ def study_figures(table: dict, summary, criteria, folder: str | Path,
     table : dict
         The study table.
     summary : StudySummary
-        Its summary (for the sensitivities).
+        Its summary (for the sensitivities, and the closed-loop figure when it has one).
     criteria : CriteriaSpec
         The success criteria.
     folder : str or os.PathLike
@@ -151,4 +176,7 @@ def study_figures(table: dict, summary, criteria, folder: str | Path,
     threshold = None if criteria.max_deviation is None else criteria.max_deviation * 1e-3
     paths += save_figure(deviation_figure(deviations, threshold), folder, "study_deviation")
     paths += save_figure(tornado_figure(summary.sensitivities), folder, "study_tornado")
+    if summary.closed_loop is not None:
+        paths += save_figure(closed_loop_figure(summary.closed_loop), folder,
+                             "study_closed_loop")
     return paths

@@ -45,7 +45,8 @@ from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
 from ..geometry import as_shape, tangents
-from ..physics.chain import SpringChain, gradient_and_hessian_band, hessian
+from ..physics.chain import HALF_BANDWIDTH, SpringChain, gradient_and_hessian_band, hessian
+from ..physics.compiled import chain_derivatives
 from ..physics.twist import TwistChain, twist_derivatives
 from .clips import HELD_INDICES, ClipPoses
 
@@ -122,12 +123,19 @@ def _cross_matrix(v: np.ndarray) -> np.ndarray:
 
 
 def _band_block(band: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-    """Dense block H[rows][:, cols] of the symmetric matrix whose lower band is ``band``."""
-    r, c = np.meshgrid(rows, cols, indexing="ij")
+    """Dense block H[rows][:, cols] of the symmetric matrix whose lower band is ``band``.
+
+    Only the rows within the bandwidth of a column can be non-zero; the others stay zero.
+    """
+    width = band.shape[0]
+    near = np.flatnonzero(np.min(np.abs(rows[:, None] - cols[None, :]), axis=1) < width)
+    block = np.zeros((len(rows), len(cols)))
+    r, c = np.meshgrid(rows[near], cols, indexing="ij")
     offset = np.abs(r - c)
-    inside = offset < band.shape[0]
-    block = np.zeros(r.shape)
-    block[inside] = band[offset[inside], np.minimum(r, c)[inside]]
+    inside = offset < width
+    part = np.zeros(r.shape)
+    part[inside] = band[offset[inside], np.minimum(r, c)[inside]]
+    block[near] = part
     return block
 
 
@@ -164,7 +172,7 @@ def equilibrium_sensitivity(
     if chain is None:
         chain = SpringChain.from_cable(cable, gravity)
     n_dof = 3 * cable.n_points
-    g_elastic, band = gradient_and_hessian_band(chain, x)
+    g_elastic, band = _elastic_derivatives(chain, x)
     free = np.arange(6, n_dof - 6)
     held = np.r_[0:6, n_dof - 6 : n_dof]
     factor, info = lapack.dpbtrf(band[:, 6 : n_dof - 6], lower=1)
@@ -176,6 +184,23 @@ def equilibrium_sensitivity(
                          axis=1)
     solved = lapack.dpbtrs(factor, rhs, lower=1)[0]
     return _assemble(x, dh, solved[:, :12], solved[:, 12], torsion=False)
+
+
+def _elastic_derivatives(chain: SpringChain, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Elastic gradient (n + 1, 3) [N] and lower Hessian band [N/m], in the compiled kernel.
+
+    :func:`dloplan.physics.compiled.chain_derivatives` with zero gravity (the weight is linear:
+    no Hessian, and it is not part of d g / d log E); a chain with contacts takes the general
+    :func:`dloplan.physics.chain.gradient_and_hessian_band`.
+    """
+    if chain.contacts:
+        return gradient_and_hessian_band(chain, x)
+    k_s, rest_lengths, k_b, rest_angles, masses, _ = chain.constants
+    grad = np.empty(x.shape)
+    band = np.empty((HALF_BANDWIDTH + 1, x.size))
+    chain_derivatives(np.ascontiguousarray(x), k_s, rest_lengths, k_b, rest_angles, masses,
+                      np.zeros(3), grad, band)
+    return grad, band
 
 
 def _assemble(x, dh, free_clips, free_log_modulus, torsion: bool) -> ShapeSensitivity:

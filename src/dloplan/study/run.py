@@ -124,14 +124,19 @@ def column_schema(n_obstacles: int) -> dict:
 
 
 def problem_fingerprint(problem: StudyProblem, spec: StudySpec) -> str:
-    """Identity of a study: spec, cable, planned shapes, clips, obstacles and gravity."""
+    """Identity of a study: spec, cable, planned shapes, clips, obstacles and gravity.
+
+    The ``correction:`` section is left out: the closed loop runs after the table, every time,
+    so changing it keeps the completed chunks (and folders from before it existed stay valid).
+    """
     cable = problem.cable
     constants = {k: v for k, v in asdict(cable).items() if k != "rest_shape"}
     rest = cable.rest_shape if cable.rest_shape is not None else np.zeros(0)
     clips = np.concatenate([np.concatenate([c.positions.ravel(), c.rotations.as_quat().ravel()])
                             for c in problem.clips])
-    return fingerprint(spec.model_dump(mode="json"), constants, rest, problem.planned, clips,
-                       [repr(o) for o in problem.obstacles], problem.gravity)
+    return fingerprint(spec.model_dump(mode="json", exclude={"correction"}), constants, rest,
+                       problem.planned, clips, [repr(o) for o in problem.obstacles],
+                       problem.gravity)
 
 
 def chunk_items(samples: Samples, chunk_size: int, chunks) -> list[dict]:

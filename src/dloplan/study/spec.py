@@ -17,7 +17,9 @@ parameter              spread unit                 what is perturbed
 =====================  ==========================  ============================================
 
 Success criteria (:class:`CriteriaSpec`) are thresholds in mm and N; absent ones are not
-checked. Errors are :class:`StudyError` (a ``ValueError``) with one line naming the field.
+checked. An optional ``correction:`` (:class:`CorrectionSpec`) adds the closed-loop success
+probability: every sampled cable run as a plant and corrected once (``docs/correction.md``).
+Errors are :class:`StudyError` (a ``ValueError``) with one line naming the field.
 """
 
 from __future__ import annotations
@@ -91,6 +93,27 @@ class CriteriaSpec(_Model):
         None, gt=0, allow_inf_nan=False, description="largest force on a clip [N]")
 
 
+class CorrectionSpec(_Model):
+    """Closed-loop success beside open loop: each sampled cable corrected once (``correction:``).
+
+    Each sample's cable (its E, mass per length and length; the clip and obstacle errors are not
+    part of the plant) runs the plan as a plant (:func:`dloplan.correct.run_closed_loop`),
+    measured with noise after shape ``at`` and corrected; a sample succeeds when its final
+    shape's mean error against the plan's stabilized target is at most ``tolerance``.
+    """
+
+    at: int = Field(..., ge=0, description="the shape after which the cable is measured")
+    noise: float = Field(1.0, ge=0, allow_inf_nan=False,
+                         description="measurement noise per coordinate [mm]")
+    n_measured: int = Field(200, ge=2, le=100_000, description="measured points")
+    tolerance: float = Field(5.0, gt=0, allow_inf_nan=False,
+                             description="largest final mean error counted a success [mm]")
+    plant_links: int | None = Field(None, ge=2, le=2000,
+                                    description="links of the plant (default: the model's)")
+    samples: int | None = Field(None, ge=1,
+                                description="closed-loop runs: the first N samples (default all)")
+
+
 class StudySpec(_Model):
     """A robustness study (the ``study:`` section of a scenario file)."""
 
@@ -103,6 +126,8 @@ class StudySpec(_Model):
     parameters: dict[str, Variation] = Field(
         default_factory=dict, description=f"any of {', '.join(PARAMETERS)}")
     criteria: CriteriaSpec = Field(default_factory=CriteriaSpec)
+    correction: CorrectionSpec | None = Field(
+        None, description="also the closed-loop success probability (one correction)")
 
     @field_validator("parameters")
     @classmethod

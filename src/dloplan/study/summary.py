@@ -91,6 +91,9 @@ class StudySummary:
         ``"failure"`` or ``"deviation"``: which correlation ranks the sensitivities.
     deviation : dict
         Median, 95th percentile and largest of the samples' largest deviations [m].
+    closed_loop : ClosedLoopSuccess or None
+        With a ``correction:`` section: the open- and closed-loop success probabilities of
+        :func:`dloplan.correct.closed_loop_study` (its ``message`` and ``to_dict()``).
     """
 
     n_samples: int
@@ -103,6 +106,7 @@ class StudySummary:
     sensitivities: tuple
     ranked_by: str
     deviation: dict
+    closed_loop: object = None
 
     def lines(self) -> list[str]:
         """A few lines for the console."""
@@ -121,6 +125,8 @@ class StudySummary:
         for s in self.sensitivities:
             out.append(f"  {s.parameter:<24} rho(deviation) {_rho(s.rho_deviation)}   "
                        f"rho(failure) {_rho(s.rho_failure)}")
+        if self.closed_loop is not None:
+            out.append(f"one correction: {self.closed_loop.message}")
         return out
 
     def to_dict(self) -> dict:
@@ -135,6 +141,7 @@ class StudySummary:
             "ranked_by": self.ranked_by, "deviation_m": self.deviation,
             "sensitivities": [{k: clean(v) for k, v in s.__dict__.items()}
                               for s in self.sensitivities],
+            "closed_loop": None if self.closed_loop is None else self.closed_loop.to_dict(),
         }
 
 
