@@ -33,7 +33,6 @@ from ..cable import GRAVITY, Cable
 from ..frames import frame_from_axis
 from ..geometry import as_shape, tangents
 from ..physics.chain import (
-    HALF_BANDWIDTH,
     Forces,
     SpringChain,
     shape_derivatives,
@@ -47,7 +46,8 @@ from ..physics.rod_frames import (
     signed_angle,
     transported_directors,
 )
-from ..physics.twist import TwistChain, chart_directors, twist_derivatives, twist_energy
+from ..physics.twist import TwistChain, centred_twist_derivatives, chart_directors
+from ..physics.twist_compiled import interleaved_band, moved_directors, twist_energies
 from .clips import ClipPoses, check_clip_reach, clip_poses_from_shape, conform_guess
 from .newton import factor_band, solve_band, trust_region_newton
 from .result import Equilibrium, clip_reactions, equilibrium_result, force_scale
@@ -134,45 +134,21 @@ def _layout(n_links: int):
     n_dof = 4 * n_links + 3
     point_dofs = 4 * np.arange(n_points)[:, None] + np.arange(3)[None, :]
     angle_dofs = 4 * np.arange(n_links) + 3
-    # the position band (3 coordinates per point) moved into the interleaved band
-    n_pos = 3 * n_points
-    k, j = np.meshgrid(np.arange(HALF_BANDWIDTH + 1), np.arange(n_pos), indexing="ij")
-    row = j + k
-    q_row = 4 * (row // 3) + row % 3
-    q_col = 4 * (j // 3) + j % 3
-    # entries of points 3 apart are structural zeros of the band: dropped
-    valid = (row < n_pos) & (q_row - q_col <= TWIST_HALF_BANDWIDTH)
-    position_targets = ((q_row - q_col) * n_dof + q_col)[valid]
-    # the twist stencil blocks: stencil s covers coordinates 4 s .. 4 s + 10
-    a, b = np.meshgrid(np.arange(11), np.arange(11), indexing="ij")
-    lower = (a >= b).ravel()
-    starts = 4 * np.arange(n_links - 1)[:, None]
-    block_targets = (((a - b).ravel() * n_dof)[None, :] + starts + b.ravel()[None, :])[:, lower]
     free = slice(7, 4 * n_links - 4)
     free_points = point_dofs[2 : n_points - 2] - free.start
     free_angles = angle_dofs[1 : n_links - 1] - free.start
-    return (n_dof, point_dofs, angle_dofs, valid, position_targets, lower, block_targets.ravel(),
-            free, free_points, free_angles)
+    return n_dof, point_dofs, angle_dofs, free, free_points, free_angles
 
 
 def _joint_derivatives(chain: SpringChain, tc: TwistChain, x: np.ndarray, d1: np.ndarray,
                        link: float):
     """Gradient and lower band over the interleaved coordinates (angles as l theta [m])."""
-    n = len(d1)
-    (n_dof, point_dofs, angle_dofs, valid, position_targets, lower, block_targets,
-     *_) = _layout(n)
+    n_dof, point_dofs, angle_dofs, *_ = _layout(len(d1))
     _, g_pos, band_pos = shape_derivatives(chain, x)
-    td = twist_derivatives(tc, x, tangents(x), d1, np.zeros(n))
+    td = centred_twist_derivatives(tc, x, d1)
     g_pos = g_pos + td.twist_gradient + td.direction_gradient
-    scale = np.ones(11)
-    scale[[3, 7]] = 1.0 / link
-    blocks = td.blocks * scale[:, None] * scale[None, :]
-    band = np.bincount(
-        np.concatenate([position_targets, block_targets]),
-        weights=np.concatenate([band_pos.ravel()[valid.ravel()],
-                                blocks.reshape(n - 1, -1)[:, lower].ravel()]),
-        minlength=(TWIST_HALF_BANDWIDTH + 1) * n_dof,
-    ).reshape(TWIST_HALF_BANDWIDTH + 1, n_dof)
+    band = np.empty((TWIST_HALF_BANDWIDTH + 1, n_dof))
+    interleaved_band(band_pos, td.blocks, link, band)
     g = np.empty(n_dof)
     g[point_dofs] = g_pos
     g[angle_dofs] = td.angle_gradient / link
@@ -278,7 +254,7 @@ def equilibrium_with_twist(
 
     def energy_of(state):
         x, d1 = state
-        return shape_energy(chain, x) + twist_energy(tc, x, d1)
+        return shape_energy(chain, x) + sum(twist_energies(x, d1, *tc.constants))
 
     def derivatives(state):
         x, d1 = state
@@ -295,7 +271,8 @@ def equilibrium_with_twist(
         trial[2:-2] += p[free_points]
         angles = np.zeros(n)
         angles[1:-1] = p[free_angles] / link
-        moved_d1 = _orthonormal(chart_directors(trial, tangents(x), d1, angles), tangents(trial))
+        moved_d1 = np.empty_like(d1)
+        moved_directors(x, trial, d1, angles, moved_d1)
         moved_d1[[0, -1]] = d1[[0, -1]]
         return trial, moved_d1
 
@@ -368,7 +345,7 @@ class QuasiStaticTwist:
         d1 = self.directors
         n = len(d1)
         t = tangents(x)
-        td = twist_derivatives(self.twist_chain, x, t, d1, np.zeros(n))
+        td = centred_twist_derivatives(self.twist_chain, x, d1)
         diagonal = np.zeros(n)
         diagonal[:-1] += td.blocks[:, 3, 3]
         diagonal[1:] += td.blocks[:, 7, 7]
