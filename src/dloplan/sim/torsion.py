@@ -33,11 +33,11 @@ from ..cable import GRAVITY, Cable
 from ..frames import frame_from_axis
 from ..geometry import as_shape, tangents
 from ..physics.chain import (
+    HALF_BANDWIDTH,
     Forces,
     SpringChain,
     shape_derivatives,
     shape_energy,
-    shape_forces,
 )
 from ..physics.rod_frames import (
     discrete_twist,
@@ -46,11 +46,33 @@ from ..physics.rod_frames import (
     signed_angle,
     transported_directors,
 )
-from ..physics.twist import TwistChain, centred_twist_derivatives, chart_directors
-from ..physics.twist_compiled import interleaved_band, moved_directors, twist_energies
+from ..physics.twist import (
+    TwistChain,
+    TwistDerivatives,
+    centred_twist_derivatives,
+    chart_directors,
+)
+from ..physics.twist_compiled import interleaved_band, scratch, twist_energies
 from .clips import ClipPoses, check_clip_reach, clip_poses_from_shape, conform_guess
-from .newton import factor_band, solve_band, trust_region_newton
-from .result import Equilibrium, clip_reactions, equilibrium_result, force_scale
+from .compiled import (
+    CONVERGED,
+    MAX_ITERATIONS,
+    SADDLE,
+    STALLED,
+    newton_twist,
+    twist_step_length,
+    twist_trial,
+)
+from .newton import (
+    MAX_ESCAPES,
+    NewtonRun,
+    escape_saddle,
+    factor_band,
+    newton_message,
+    solve_band,
+    trust_region_newton,
+)
+from .result import Equilibrium, equilibrium_result, force_scale
 
 TWIST_HALF_BANDWIDTH = 10
 """Half bandwidth of the joint Hessian over interleaved (x, y, z, theta) coordinates."""
@@ -134,10 +156,8 @@ def _layout(n_links: int):
     n_dof = 4 * n_links + 3
     point_dofs = 4 * np.arange(n_points)[:, None] + np.arange(3)[None, :]
     angle_dofs = 4 * np.arange(n_links) + 3
-    free = slice(7, 4 * n_links - 4)
-    free_points = point_dofs[2 : n_points - 2] - free.start
-    free_angles = angle_dofs[1 : n_links - 1] - free.start
-    return n_dof, point_dofs, angle_dofs, free, free_points, free_angles
+    free = slice(7, 4 * n_links - 4)  # theta_1, x_2, theta_2, ..., x_{n-2}, theta_{n-2}
+    return n_dof, point_dofs, angle_dofs, free
 
 
 def _joint_derivatives(chain: SpringChain, tc: TwistChain, x: np.ndarray, d1: np.ndarray,
@@ -153,6 +173,46 @@ def _joint_derivatives(chain: SpringChain, tc: TwistChain, x: np.ndarray, d1: np
     g[point_dofs] = g_pos
     g[angle_dofs] = td.angle_gradient / link
     return g, band, g_pos, td
+
+
+def _compiled_twist_newton(chain: SpringChain, tc: TwistChain, state, link: float,
+                           length_scale: float, tolerance: float, max_iterations: int,
+                           energy_of, moved) -> NewtonRun:
+    """:func:`trust_region_newton` for points and angles without contacts, in
+    :func:`~dloplan.sim.compiled.newton_twist`; saddles are escaped here as in the generic loop.
+    ``extra`` of the run is ``(points' gradient [N], TwistDerivatives)`` at the last state."""
+    x, d1 = (np.array(part, dtype=float) for part in state)
+    n = len(d1)
+    history = np.empty(max_iterations + 1)
+    history[0] = energy_of((x, d1))
+    n_history, iterations, radius, escapes = 1, 0, 0.25 * length_scale, 0
+    arrays = dict(grad=np.empty_like(x), tgrad=np.empty_like(x), dgrad=np.empty_like(x),
+                  agrad=np.empty(n), blocks=np.empty((n - 1, 11, 11)),
+                  band_pos=np.empty((HALF_BANDWIDTH + 1, x.size)),
+                  band=np.empty((TWIST_HALF_BANDWIDTH + 1, 4 * n + 3)))
+    free = _layout(n)[3]
+    while True:
+        status, iterations, residual, radius, n_history = newton_twist(
+            x, d1, chain.constants, tc.constants, link, length_scale, tolerance,
+            max_iterations, iterations, radius, history, n_history, scratch(), *arrays.values(),
+            escapes < MAX_ESCAPES)
+        if status != SADDLE:
+            break
+        escaped = escape_saddle((x, d1), history[n_history - 1], arrays["band"][:, free],
+                                energy_of, moved, twist_step_length, radius)
+        iterations += 1
+        escapes += 1
+        if escaped is None:
+            break
+        (x, d1), history[n_history] = escaped
+        n_history += 1
+    outcome = {CONVERGED: "converged", MAX_ITERATIONS: "max_iterations", STALLED: "stalled",
+               SADDLE: "stuck"}[status]
+    u_t, u_d = twist_energies(x, d1, *tc.constants)
+    td = TwistDerivatives(u_t, u_d, arrays["tgrad"], arrays["dgrad"], arrays["agrad"],
+                          arrays["blocks"])
+    return NewtonRun((x, d1), (arrays["grad"], td), iterations, residual, status == CONVERGED,
+                     history[:n_history].copy(), newton_message(outcome, iterations, residual))
 
 
 def _orthonormal(d1: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -249,7 +309,7 @@ def equilibrium_with_twist(
         d1[[0, -1]] = held
     link = cable.rest_link_length
     n = cable.n_links
-    *_, free, free_points, free_angles = _layout(n)
+    free = _layout(n)[3]
     tolerance = rtol * force_scale(cable, gravity)
 
     def energy_of(state):
@@ -267,28 +327,23 @@ def equilibrium_with_twist(
 
     def moved(state, p):
         x, d1 = state
-        trial = x.copy()
-        trial[2:-2] += p[free_points]
-        angles = np.zeros(n)
-        angles[1:-1] = p[free_angles] / link
-        moved_d1 = np.empty_like(d1)
-        moved_directors(x, trial, d1, angles, moved_d1)
-        moved_d1[[0, -1]] = d1[[0, -1]]
-        return trial, moved_d1
+        trial, trial_d1 = np.empty_like(x), np.empty_like(d1)
+        twist_trial(x, d1, p, link, trial, trial_d1, np.empty(n))
+        return trial, trial_d1
 
-    def displacement(p):
-        points = np.max(np.linalg.norm(p[free_points], axis=1), initial=0.0)
-        return float(max(points, np.max(np.abs(p[free_angles]), initial=0.0)))
-
-    run = trust_region_newton((start, d1), energy_of, derivatives, moved, displacement,
-                              cable.length, tolerance, max_iterations)
+    if chain.contacts:  # obstacles are Python objects: the generic loop
+        run = trust_region_newton((start, d1), energy_of, derivatives, moved,
+                                  twist_step_length, cable.length, tolerance, max_iterations)
+    else:
+        run = _compiled_twist_newton(chain, tc, (start, d1), link, cable.length, tolerance,
+                                     max_iterations, energy_of, moved)
     x, d1 = run.state
     g_pos, td = run.extra
     converged = run.residual <= tolerance
     base = equilibrium_result(cable, chain, x, g_pos, clips, run.iterations, converged,
                               run.residual, tolerance, run.stable, run.history, run.message)
-    plain = shape_forces(chain, x)
-    wrenches = clip_reactions(x, g_pos, clips, "both")
+    plain = base.forces
+    wrenches = base.clip_wrenches.copy()
     t = tangents(x)
     wrenches[0, 3:] -= td.angle_gradient[0] * t[0]
     wrenches[1, 3:] -= td.angle_gradient[-1] * t[-1]
