@@ -113,9 +113,9 @@ def _dot2(a, Ja, Ha, b, Jb, Hb, g, h):
 
 
 @njit(cache=True)
-def _twist_local(ta, tb, la, lb, s, k_t, g, h, kb, tt, d):
+def _twist_local(ta, tb, la, lb, s, k_t, g, h, kb, tt, d, full):
     """Add U^t's local gradient g (8,) and Hessian h (8, 8) at twist strain s (closed form);
-    kb, tt (3,) and d (8,) are scratch."""
+    kb, tt (3,) and d (8,) are scratch; without ``full`` only the angles' Hessian."""
     chi = 1.0 + ta[0] * tb[0] + ta[1] * tb[1] + ta[2] * tb[2]
     for k in range(3):
         k1 = (k + 1) % 3
@@ -129,6 +129,12 @@ def _twist_local(ta, tb, la, lb, s, k_t, g, h, kb, tt, d):
     d[7] = 1.0
     for i in range(8):
         g[i] += k_t * s * d[i]
+    if not full:
+        for i in range(6, 8):
+            for j in range(6, 8):
+                h[i, j] += k_t * d[i] * d[j]
+        return
+    for i in range(8):
         for j in range(8):
             h[i, j] += k_t * d[i] * d[j]
     ks = k_t * s
@@ -251,13 +257,23 @@ _K2 = np.array([-1, -1, -1, -1, 3, 4, 5, -1, -1, -1, -1])  # -1: none
 
 
 @njit(cache=True)
-def _stencil_map(g8, h8, g11, h11, hm):
+def _stencil_map(g8, h8, g11, h11, hm, full):
     """Local variables (e_a, e_b, theta_a, theta_b) to stencil coordinates (x_{i-1},
     theta_{i-1}, x_i, theta_i, x_{i+1}): e_a = x_i - x_{i-1}, e_b = x_{i+1} - x_i.
-    ``h11`` gets M^T h8 M added; ``hm`` (8, 11) is scratch."""
+    ``h11`` gets M^T h8 M added (without ``full`` only its angle entries); ``hm`` (8, 11) is
+    scratch."""
     k1 = _K1
     s1 = _S1
     k2 = _K2
+    if not full:
+        for a in range(11):
+            g11[a] = s1[a] * g8[k1[a]]
+            if k2[a] >= 0:
+                g11[a] -= g8[k2[a]]
+        for a in (3, 7):
+            for b in (3, 7):
+                h11[a, b] += h8[k1[a], k1[b]]
+        return
     for a in range(11):
         g11[a] = s1[a] * g8[k1[a]]
         if k2[a] >= 0:
@@ -276,7 +292,7 @@ def _stencil_map(g8, h8, g11, h11, hm):
 
 @njit(cache=True)
 def twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, work,
-                   twist_grad, direction_grad, angle_grad, blocks):
+                   twist_grad, direction_grad, angle_grad, blocks, full=True):
     """U^t and U^d [J] at the chart's centre; their derivatives written in place.
 
     Parameters
@@ -298,6 +314,9 @@ def twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, wo
         (n,) d(U^t + U^d)/dtheta [N m], overwritten.
     blocks : numpy.ndarray
         (n - 1, 11, 11) Hessian of U^t + U^d over each stencil's coordinates, overwritten.
+    full : bool
+        False: only the angles' entries of ``blocks`` (3 and 7; the rest zero), for the
+        dynamic simulator's angle relaxation.
 
     Returns
     -------
@@ -334,8 +353,8 @@ def twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, wo
         u_twist += 0.5 * k_t * strain * strain
         g8[:] = 0.0
         h8[:] = 0.0
-        _twist_local(ta, tb, la, lb, strain, k_t, g8, h8, kb, tt, d8)
-        _stencil_map(g8, h8, g11, blocks[s], hm)
+        _twist_local(ta, tb, la, lb, strain, k_t, g8, h8, kb, tt, d8, full)
+        _stencil_map(g8, h8, g11, blocks[s], hm, full)
         for k in range(3):
             twist_grad[s, k] += g11[k]
             twist_grad[s + 1, k] += g11[4 + k]
@@ -348,7 +367,7 @@ def twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, wo
         h8[:] = 0.0
         u_direction += _direction_local(ea, eb, d1[s], d1[s + 1], rest_curvatures[s], k_b,
                                         g8, h8, work)
-        _stencil_map(g8, h8, g11, blocks[s], hm)
+        _stencil_map(g8, h8, g11, blocks[s], hm, full)
         for k in range(3):
             direction_grad[s, k] += g11[k]
             direction_grad[s + 1, k] += g11[4 + k]

@@ -27,10 +27,11 @@ from scipy.spatial.transform import Rotation, Slerp
 from ..cable import GRAVITY, Cable
 from ..geometry import as_shape
 from ..physics.chain import SpringChain, energy, gradient, hessian_band
+from ..physics.twist_compiled import scratch
 from .clips import HELD_INDICES, ClipPoses, clip_poses_from_shape
 from .newton import factor_band, free_band
 from .result import Equilibrium, equilibrium_result
-from .stepping import DIVERGED, RUNNING, SETTLED, explicit_steps
+from .stepping import DIVERGED, RUNNING, SETTLED, explicit_steps, twist_steps
 
 _CHUNK = 4096  # steps whose clip poses are interpolated at once
 
@@ -221,7 +222,7 @@ def simulate(
     x[list(HELD_INDICES)] = previous_held
     twist = None
     if torsion:
-        from .torsion import QuasiStaticTwist
+        from .torsion import QuasiStaticTwist, held_directors
 
         twist = QuasiStaticTwist(cable, x, trajectory.frames(np.array([0.0]))[1][0],
                                  natural_twist)
@@ -240,14 +241,10 @@ def simulate(
                 step, recorded, status = explicit_steps(x, v, previous_held, targets, no_load, step,
                                                         *settings, recorded)
                 continue
-            clip_frames = trajectory.frames(chunk_steps * dt)[1]
-            for k in range(len(targets)):  # the twist relaxes between steps (Python)
-                x_old = x.copy()
-                step, recorded, status = explicit_steps(x, v, previous_held, targets[k : k + 1],
-                                                        twist.relax(x), step, *settings, recorded)
-                twist.follow(x_old, x, clip_frames[k])
-                if status != RUNNING:
-                    break
+            held = held_directors(trajectory.frames(chunk_steps * dt)[1])
+            step, recorded, status = twist_steps(
+                x, v, previous_held, targets, np.ascontiguousarray(held), twist.directors,
+                twist.twist_chain.constants, scratch(), step, *settings, recorded)
     if status == DIVERGED:
         raise FloatingPointError(
             f"simulation diverged at t = {step * dt:.4g} s (dt = {dt:.3g} s too large)")

@@ -50,7 +50,6 @@ from ..physics.twist import (
     TwistChain,
     TwistDerivatives,
     centred_twist_derivatives,
-    chart_directors,
 )
 from ..physics.twist_compiled import interleaved_band, scratch, twist_energies
 from .clips import ClipPoses, check_clip_reach, clip_poses_from_shape, conform_guess
@@ -67,9 +66,7 @@ from .newton import (
     MAX_ESCAPES,
     NewtonRun,
     escape_saddle,
-    factor_band,
     newton_message,
-    solve_band,
     trust_region_newton,
 )
 from .result import Equilibrium, equilibrium_result, force_scale
@@ -119,7 +116,7 @@ class TwistEquilibrium(Equilibrium):
 
 def clip_directors(clips: ClipPoses) -> np.ndarray:
     """The material directors m1 the clips set on the held links, (2, 3) (module docstring)."""
-    return _held_directors(clips.rotations.as_matrix())
+    return held_directors(clips.rotations.as_matrix())
 
 
 def rest_clip_poses(cable: Cable, natural_twist: float = 0.0) -> ClipPoses:
@@ -369,7 +366,8 @@ class QuasiStaticTwist:
     The material directors are transported with the links from step to step (parallel
     transport in time) and, at every step, the free links' angles take one Newton step toward
     the minimum of U^t + U^d for the current points (the angles have no inertia); the position
-    gradient of that energy is the twisting force of eq. 3.19 on the points.
+    gradient of that energy is the twisting force of eq. 3.19 on the points. The steps run
+    compiled in :func:`dloplan.sim.stepping.twist_steps`; this holds the state between chunks.
 
     Parameters
     ----------
@@ -386,7 +384,7 @@ class QuasiStaticTwist:
     def __init__(self, cable: Cable, x: np.ndarray, clip_matrices: np.ndarray,
                  natural_twist: float = 0.0) -> None:
         self.twist_chain = TwistChain.from_cable(cable, natural_twist)
-        self.directors = initial_directors(x, _held_directors(clip_matrices),
+        self.directors = initial_directors(x, held_directors(clip_matrices),
                                            self.twist_chain.rest_twist)
 
     def chain_for(self, chain: SpringChain) -> SpringChain:
@@ -395,42 +393,12 @@ class QuasiStaticTwist:
             return replace(chain, rest_angles=np.zeros_like(chain.rest_angles))
         return chain
 
-    def relax(self, x: np.ndarray) -> np.ndarray:
-        """Relax the free angles for points ``x``; returns d(U^t + U^d)/dx (n + 1, 3) [N]."""
-        d1 = self.directors
-        n = len(d1)
-        t = tangents(x)
-        td = centred_twist_derivatives(self.twist_chain, x, d1)
-        diagonal = np.zeros(n)
-        diagonal[:-1] += td.blocks[:, 3, 3]
-        diagonal[1:] += td.blocks[:, 7, 7]
-        off = td.blocks[:, 7, 3]
-        band = np.zeros((2, n - 2))
-        band[0] = diagonal[1:-1]
-        band[1, :-1] = off[1:-1]
-        factor = factor_band(band, 1e-12 * max(float(np.max(np.abs(band[0]))), 1e-300))
-        if factor is not None:
-            step = solve_band(factor, -td.angle_gradient[1:-1])
-        else:  # not convex in the angles here: a gradient step
-            step = -td.angle_gradient[1:-1] / np.maximum(band[0], 1e-300)
-        angles = np.zeros(n)
-        angles[1:-1] = step
-        self.directors = _orthonormal(chart_directors(x, t, d1, angles), t)
-        self.directors[[0, -1]] = d1[[0, -1]]
-        return td.twist_gradient + td.direction_gradient
 
-    def follow(self, x_old: np.ndarray, x_new: np.ndarray, clip_matrices: np.ndarray) -> None:
-        """Carry the directors from the links of ``x_old`` to those of ``x_new``."""
-        t_new = tangents(x_new)
-        moved = parallel_transport(self.directors, tangents(x_old), t_new)
-        self.directors = _orthonormal(moved, t_new)
-        self.directors[[0, -1]] = _held_directors(clip_matrices)
-
-
-def _held_directors(clip_matrices: np.ndarray) -> np.ndarray:
-    """The held links' directors from two clip frames: v of the first, -v of the last."""
-    v = np.asarray(clip_matrices)[:, :, 1]
-    return np.stack([v[0], -v[1]])
+def held_directors(clip_matrices: np.ndarray) -> np.ndarray:
+    """The held links' directors from clip frames (..., 2, 3, 3): v of the first, -v of the
+    last, (..., 2, 3)."""
+    v = np.asarray(clip_matrices)[..., 1]
+    return np.stack([v[..., 0, :], -v[..., 1, :]], axis=-2)
 
 
 @dataclass(frozen=True, eq=False)
