@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
@@ -73,18 +74,21 @@ class ClipTrajectory:
             pos = np.broadcast_to(self.poses[0].positions, (len(t), 2, 3))
             mats = np.broadcast_to(self.poses[0].rotations.as_matrix(), (len(t), 2, 3, 3))
             return pos, mats
-        positions = np.stack([p.positions for p in self.poses])  # (K, 2, 3)
+        positions, slerps = self._interpolants
         pos = np.stack(
             [np.stack([np.interp(t, self.times, positions[:, k, j]) for j in range(3)], -1)
              for k in range(2)],
             axis=1,
         )
-        mats = np.stack(
-            [Slerp(self.times, Rotation.concatenate([p.rotations[k] for p in self.poses]))(
-                t).as_matrix() for k in range(2)],
-            axis=1,
-        )
+        mats = np.stack([slerp(t).as_matrix() for slerp in slerps], axis=1)
         return pos, mats
+
+    @cached_property
+    def _interpolants(self):
+        """The poses' positions (K, 2, 3) [m] and one slerp per clip, built once."""
+        positions = np.stack([p.positions for p in self.poses])
+        quats = np.stack([p.rotations.as_quat() for p in self.poses])  # (K, 2, 4)
+        return positions, [Slerp(self.times, Rotation.from_quat(quats[:, k])) for k in range(2)]
 
     def held_points(self, t: np.ndarray, link_length: float) -> np.ndarray:
         """Positions of the four held points at times ``t`` [s], (len(t), 4, 3) [m]."""
