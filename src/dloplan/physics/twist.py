@@ -258,16 +258,8 @@ def centred_twist_derivatives(tc: TwistChain, x: np.ndarray, d1: np.ndarray) -> 
     """:func:`twist_derivatives` at the centre of the chart of the state (x, d1), in closed form.
 
     The same values as ``twist_derivatives(tc, x, tangents(x), d1, zeros(n))`` to round-off,
-    from the compiled kernel :func:`dloplan.physics.twist_compiled.twist_stencils`.
-
-    Parameters
-    ----------
-    tc : TwistChain
-        Constants.
-    x : numpy.ndarray
-        (n + 1, 3) points [m].
-    d1 : numpy.ndarray
-        (n, 3) material directors m1 (unit, perpendicular to their links).
+    from the compiled kernel :func:`dloplan.physics.twist_compiled.twist_stencils`; arguments
+    as in :func:`twist_energy_terms`.
     """
     x = np.ascontiguousarray(x, dtype=float)
     d1 = np.ascontiguousarray(d1, dtype=float)

@@ -42,6 +42,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .compiled import joint_directions
 from .rod_frames import angle_ratio_scalar
 
 
@@ -291,6 +292,18 @@ def _stencil_map(g8, h8, g11, h11, hm, full):
 
 
 @njit(cache=True)
+def _scatter(g11, s, point_grad, angle_grad):
+    """Add stencil s's gradient (x_s, theta_s, x_{s+1}, theta_{s+1}, x_{s+2}) into the points'
+    (n + 1, 3) and the angles' (n,) gradients."""
+    for k in range(3):
+        point_grad[s, k] += g11[k]
+        point_grad[s + 1, k] += g11[4 + k]
+        point_grad[s + 2, k] += g11[8 + k]
+    angle_grad[s] += g11[3]
+    angle_grad[s + 1] += g11[7]
+
+
+@njit(cache=True)
 def twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, work,
                    twist_grad, direction_grad, angle_grad, blocks, full=True):
     """U^t and U^d [J] at the chart's centre; their derivatives written in place.
@@ -355,12 +368,7 @@ def twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, wo
         h8[:] = 0.0
         _twist_local(ta, tb, la, lb, strain, k_t, g8, h8, kb, tt, d8, full)
         _stencil_map(g8, h8, g11, blocks[s], hm, full)
-        for k in range(3):
-            twist_grad[s, k] += g11[k]
-            twist_grad[s + 1, k] += g11[4 + k]
-            twist_grad[s + 2, k] += g11[8 + k]
-        angle_grad[s] += g11[3]
-        angle_grad[s + 1] += g11[7]
+        _scatter(g11, s, twist_grad, angle_grad)
         if not directional:
             continue
         g8[:] = 0.0
@@ -368,12 +376,7 @@ def twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, wo
         u_direction += _direction_local(ea, eb, d1[s], d1[s + 1], rest_curvatures[s], k_b,
                                         g8, h8, work)
         _stencil_map(g8, h8, g11, blocks[s], hm, full)
-        for k in range(3):
-            direction_grad[s, k] += g11[k]
-            direction_grad[s + 1, k] += g11[4 + k]
-            direction_grad[s + 2, k] += g11[8 + k]
-        angle_grad[s] += g11[3]
-        angle_grad[s + 1] += g11[7]
+        _scatter(g11, s, direction_grad, angle_grad)
     return u_twist, u_direction
 
 
@@ -388,23 +391,11 @@ def twist_energies(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional):
     u_twist = 0.0
     pairing = 0.0
     for s in range(x.shape[0] - 2):
-        la = 0.0
-        lb = 0.0
-        for k in range(3):
-            ta[k] = x[s + 1, k] - x[s, k]
-            tb[k] = x[s + 2, k] - x[s + 1, k]
-            la += ta[k] * ta[k]
-            lb += tb[k] * tb[k]
-        la = math.sqrt(la)
-        lb = math.sqrt(lb)
-        for k in range(3):
-            ta[k] /= la
-            tb[k] /= lb
+        c = joint_directions(x, s, ta, tb)[2]
         strain = _twist_angle(ta, tb, d1[s], d1[s + 1]) - rest_twist[s]
         u_twist += 0.5 * k_t * strain * strain
         if not directional:
             continue
-        c = ta[0] * tb[0] + ta[1] * tb[1] + ta[2] * tb[2]
         f = angle_ratio_scalar(c)[0]
         bar = rest_curvatures[s]
         pairing -= bar[0, 0] ** 2 + bar[0, 1] ** 2

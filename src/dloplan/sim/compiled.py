@@ -29,9 +29,10 @@ from ..physics.twist_compiled import (
     twist_energies,
     twist_stencils,
 )
-from .newton import NEUTRAL, cholesky_band, cholesky_solve
+from .newton import NEUTRAL, cholesky_band, cholesky_solve, step_verdict
 
 CONVERGED, MAX_ITERATIONS, STALLED, SADDLE = 0, 1, 2, 3
+RUNNING = -1  # internal: none of them yet
 
 
 @njit(cache=True)
@@ -42,6 +43,56 @@ def _longest(p):
         d = math.sqrt(p[3 * i] ** 2 + p[3 * i + 1] ** 2 + p[3 * i + 2] ** 2)
         longest = max(longest, d)
     return longest
+
+
+@njit(cache=True)
+def newton_direction(h, g, shift, factor, p):
+    """The full Newton step p = -(H + shift I)^-1 g by banded Cholesky (``factor`` scratch).
+
+    Returns ``(solved, g . p, p . p)``; ``solved`` is False where H + shift I is not positive
+    definite (p is then undefined).
+    """
+    if not cholesky_band(h, shift, factor):
+        return False, 0.0, 0.0
+    n_free = p.shape[0]
+    for j in range(n_free):
+        p[j] = g[j]
+    cholesky_solve(factor, p)
+    g_p = 0.0
+    p_p = 0.0
+    for j in range(n_free):
+        p[j] = -p[j]
+        g_p += g[j] * p[j]
+        p_p += p[j] * p[j]
+    return True, g_p, p_p
+
+
+@njit(cache=True)
+def _stop_status(residual, tolerance, h, scale, factor, iterations, max_iterations,
+                 stop_at_saddle):
+    """Why the loop stops here (converged and stable, out of iterations, at a saddle), or
+    :data:`RUNNING`."""
+    if residual <= tolerance and cholesky_band(h, NEUTRAL * scale, factor):
+        return CONVERGED
+    if iterations >= max_iterations:
+        return MAX_ITERATIONS
+    if residual <= tolerance and stop_at_saddle:
+        return SADDLE
+    return RUNNING
+
+
+@njit(cache=True)
+def _model_step(h, g, shift, scale, radius, factor, p, twist):
+    """The Newton step p for the shift, its size (:func:`twist_step_length` with ``twist``,
+    else the largest point displacement), the factor alpha truncating it to the trust radius
+    and the model's predicted change; ``(solved, shift, longest, alpha, predicted)``, the shift
+    raised when H + shift I is not positive definite."""
+    solved, g_p, p_p = newton_direction(h, g, shift, factor, p)
+    if not solved:
+        return False, max(4.0 * shift, 1e-8 * scale), 0.0, 0.0, 0.0
+    longest = twist_step_length(p) if twist else _longest(p)
+    alpha = min(1.0, radius / longest) if longest > 0 else 1.0
+    return True, shift, longest, alpha, alpha * g_p + 0.5 * alpha**2 * (-g_p - shift * p_p)
 
 
 @njit(cache=True)
@@ -95,48 +146,26 @@ def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses
         g = grad.ravel()[free]
         h = band[:, free]
         scale = np.mean(h[0])
-        if residual <= tolerance and cholesky_band(h, NEUTRAL * scale, factor):
-            return CONVERGED, iterations, residual, radius, n_history
-        if iterations >= max_iterations:
-            return MAX_ITERATIONS, iterations, residual, radius, n_history
-        if residual <= tolerance and stop_at_saddle:
-            return SADDLE, iterations, residual, radius, n_history
+        status = _stop_status(residual, tolerance, h, scale, factor, iterations, max_iterations,
+                              stop_at_saddle)
+        if status != RUNNING:
+            return status, iterations, residual, radius, n_history
         accepted = False
         for _ in range(60):  # adapt the shift until a step is accepted
-            if not cholesky_band(h, shift, factor):
-                shift = max(4.0 * shift, 1e-8 * scale)
+            solved, shift, longest, alpha, predicted = _model_step(h, g, shift, scale, radius,
+                                                                   factor, p, False)
+            if not solved:
                 continue
-            for j in range(n_free):
-                p[j] = g[j]
-            cholesky_solve(factor, p)
-            g_p = 0.0
-            p_p = 0.0
-            for j in range(n_free):
-                p[j] = -p[j]
-                g_p += g[j] * p[j]
-                p_p += p[j] * p[j]
-            longest = _longest(p)
-            alpha = min(1.0, radius / longest) if longest > 0 else 1.0
-            predicted = alpha * g_p + 0.5 * alpha**2 * (-g_p - shift * p_p)
             trial[:] = x
             for j in range(n_free):
                 trial[first + j // 3, j % 3] += alpha * p[j]
             f_trial = chain_energy(trial, k_s, rest_lengths, k_b, rest_angles, masses, gravity)
-            actual = f_trial - f
-            noise = 1e-13 * (abs(f) + abs(predicted)) + 1e-300
-            if predicted < 0 and (actual < 0 or abs(actual) < noise):
-                ratio = actual / predicted if abs(predicted) > noise else 1.0
+            accepted, shift, radius = step_verdict(f, f_trial, predicted, shift, scale, radius,
+                                                   longest, length_scale)
+            if accepted:
                 x[:] = trial
                 f = f_trial
-                accepted = True
-                if ratio > 0.75:
-                    shift = 0.0 if shift < 1e-6 * scale else shift / 8.0
-                    radius = min(2.0 * radius, length_scale)
-                elif ratio < 0.25:
-                    shift = max(4.0 * shift, 1e-8 * scale)
                 break
-            shift = max(4.0 * shift, 1e-8 * scale)
-            radius = max(0.5 * min(radius, longest), 1e-9 * length_scale)
         iterations += 1
         if not accepted:
             return STALLED, iterations, residual, radius, n_history
@@ -246,49 +275,27 @@ def newton_twist(x, d1, chain, twist, link, length_scale, tolerance, max_iterati
         g = g_all[first:stop]
         h = band[:, first:stop]
         scale = np.mean(h[0])
-        if residual <= tolerance and cholesky_band(h, NEUTRAL * scale, factor):
-            return CONVERGED, iterations, residual, radius, n_history
-        if iterations >= max_iterations:
-            return MAX_ITERATIONS, iterations, residual, radius, n_history
-        if residual <= tolerance and stop_at_saddle:
-            return SADDLE, iterations, residual, radius, n_history
+        status = _stop_status(residual, tolerance, h, scale, factor, iterations, max_iterations,
+                              stop_at_saddle)
+        if status != RUNNING:
+            return status, iterations, residual, radius, n_history
         accepted = False
         for _ in range(60):  # adapt the shift until a step is accepted
-            if not cholesky_band(h, shift, factor):
-                shift = max(4.0 * shift, 1e-8 * scale)
+            solved, shift, longest, alpha, predicted = _model_step(h, g, shift, scale, radius,
+                                                                   factor, p, True)
+            if not solved:
                 continue
-            for j in range(n_free):
-                p[j] = g[j]
-            cholesky_solve(factor, p)
-            g_p = 0.0
-            p_p = 0.0
-            for j in range(n_free):
-                p[j] = -p[j]
-                g_p += g[j] * p[j]
-                p_p += p[j] * p[j]
-            longest = twist_step_length(p)
-            alpha = min(1.0, radius / longest) if longest > 0 else 1.0
-            predicted = alpha * g_p + 0.5 * alpha**2 * (-g_p - shift * p_p)
             for j in range(n_free):
                 p[j] *= alpha
             twist_trial(x, d1, p, link, trial, trial_d1, angles)
             f_trial = twist_energy_of(trial, trial_d1, chain, twist)
-            actual = f_trial - f
-            noise = 1e-13 * (abs(f) + abs(predicted)) + 1e-300
-            if predicted < 0 and (actual < 0 or abs(actual) < noise):
-                ratio = actual / predicted if abs(predicted) > noise else 1.0
+            accepted, shift, radius = step_verdict(f, f_trial, predicted, shift, scale, radius,
+                                                   longest, length_scale)
+            if accepted:
                 x[:] = trial
                 d1[:] = trial_d1
                 f = f_trial
-                accepted = True
-                if ratio > 0.75:
-                    shift = 0.0 if shift < 1e-6 * scale else shift / 8.0
-                    radius = min(2.0 * radius, length_scale)
-                elif ratio < 0.25:
-                    shift = max(4.0 * shift, 1e-8 * scale)
                 break
-            shift = max(4.0 * shift, 1e-8 * scale)
-            radius = max(0.5 * min(radius, longest), 1e-9 * length_scale)
         iterations += 1
         if not accepted:
             return STALLED, iterations, residual, radius, n_history
