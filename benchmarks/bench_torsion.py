@@ -9,11 +9,12 @@ its cone-shaped energy at the rest angles can keep it from converging).
 A second table twists the straight PU cable by one radian at one clip.
 
 Before the compiled kernels (issue 20, quiet machine): Ethernet n = 50 with torsion 43 ms
-(147 ms at n = 200), 14 times the torsion-free solve; target 1.5 ms. The points' part of the
-torsion solve now uses the compiled chain kernels, but the twist terms still come from the
-second-order forward differentiation of physics/jet.py (the closed-form twist Hessian of issue
-20 is not done), so the target is not met; the ratio against 43 ms is printed for the Ethernet
-n = 50 row.
+(147 ms at n = 200), 14 times the torsion-free solve; target 1.5 ms. Now the twist derivatives
+are closed forms compiled with numba (physics/twist_compiled.py) and the Newton loop is compiled
+(sim/compiled.newton_twist). Measured under load 5-8 on the 2-core machine (torsion-free n = 50
+1.35 ms there, 0.93 ms quiet): Ethernet n = 10 / 50 / 200 with torsion 1.9 / 3.2 / 15 ms, 1.8-4.9
+times the torsion-free solve; less loaded, n = 50 1.75 ms (torsion-free 0.77 ms). The ratio
+against 43 ms is printed for the Ethernet n = 50 row.
 """
 
 from __future__ import annotations

@@ -10,25 +10,44 @@ Heavy optional dependencies (OpenCV, Dask, pyarrow) and matplotlib are imported 
 functions that need them.
 """
 
+from importlib import import_module
 from importlib.metadata import PackageNotFoundError, version
 
-from .cable import CATALOGUE_NAMES, GRAVITY, Cable, catalogue_cable
-from .grippers import GripperPath, gripper_path
-from .identify import Identification, identify_youngs_modulus
-from .obstacles import Box, Cylinder, Table, avoid_obstacles, check_path
-from .planning import Plan, plan
-from .sim import (
-    ClipPoses,
-    Equilibrium,
-    check_target,
-    continuation,
-    equilibrium,
-    simulate,
-    stabilize,
-)
-from .sim.torsion import equilibrium_with_twist, twist_along_path
-from .trajectory import Trajectory, dual_arm_trajectory, trajectory_from_grippers
-from .verify import Verification, verify_path
+_EXPORTS = {
+    "cable": ("CATALOGUE_NAMES", "GRAVITY", "Cable", "catalogue_cable"),
+    "grippers": ("GripperPath", "gripper_path"),
+    "identify": ("Identification", "identify_youngs_modulus"),
+    "obstacles": ("Box", "Cylinder", "Table", "avoid_obstacles", "check_path"),
+    "planning": ("Plan", "plan"),
+    "sim": ("ClipPoses", "Equilibrium", "check_target", "continuation", "equilibrium",
+            "simulate", "stabilize"),
+    "sim.torsion": ("equilibrium_with_twist", "twist_along_path"),
+    "trajectory": ("Trajectory", "dual_arm_trajectory", "trajectory_from_grippers"),
+    "verify": ("Verification", "verify_path"),
+}
+_HOME = {name: module for module, names in _EXPORTS.items() for name in names}
+
+
+def __getattr__(name: str):
+    """The public names and subpackages, imported on first use (PEP 562): ``import dloplan``
+    and the command line's start stay fast, as numba, scipy and the planner load only when
+    needed."""
+    if name in _HOME:
+        value = getattr(import_module(f".{_HOME[name]}", __name__), name)
+    else:
+        try:
+            value = import_module(f".{name}", __name__)
+        except ModuleNotFoundError as exc:
+            if exc.name != f"{__name__}.{name}":
+                raise
+            raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
 
 __all__ = [
     "CATALOGUE_NAMES",

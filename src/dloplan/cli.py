@@ -15,15 +15,8 @@ import time
 from pathlib import Path
 
 from . import __version__
-from .app.files import (
-    EXIT_CHECK_FAILED,
-    EXIT_FAILURE,
-    EXIT_INTERRUPTED,
-    EXIT_OK,
-    EXIT_WARNINGS,
-    exit_code,
-)
 from .cable import CATALOGUE_NAMES, catalogue_cable
+from .exit_codes import EXIT_CHECK_FAILED, EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, EXIT_WARNINGS
 
 
 class Console:
@@ -302,7 +295,7 @@ def program_table(summary: list[dict]) -> str:
 
 
 def _plan_one(job, output: Path, args, console: Console) -> int:
-    from .app.files import plan_into
+    from .app.files import exit_code, plan_into
 
     doc, written = plan_into(job, output, verify=args.verify, check_robot=not args.no_verify,
                              repair=not args.no_repair, progress=console.stage)

@@ -12,19 +12,19 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
+from ..exit_codes import (  # noqa: F401 - re-exported: the codes of the command
+    EXIT_CHECK_FAILED,
+    EXIT_FAILURE,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_WARNINGS,
+)
 from ..io.files import staged_folder
 from .document import PlanDocument, read_plan
 from .job import Job
 from .load import file_kind, load_job
 from .pipeline import quiet, run_harness_job, run_job
 from .writers import WriteOptions, write_outputs
-
-EXIT_OK, EXIT_WARNINGS, EXIT_FAILURE, EXIT_CHECK_FAILED = 0, 1, 2, 3
-"""Exit codes: success; success with warnings; bad input or a job that cannot be planned
-(nothing written); planned, but a check failed (the plan document and the report are written
-for inspection, no robot program or trajectory)."""
-EXIT_INTERRUPTED = 130
-"""Ctrl-C: nothing written."""
 
 ROBOT_OUTPUTS = ("csv", "ros", "rapid")
 """The outputs a robot could run: not written for a plan that failed a check."""

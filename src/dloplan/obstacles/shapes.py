@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .compiled import box_segment_distances
+
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 _SEARCH_STEPS = 60  # golden-section steps: the bracket shrinks by 0.618^60 ~ 3e-13
 
@@ -150,8 +152,16 @@ class Box:
         return phi, normal
 
     def penetration(self, a: np.ndarray, b: np.ndarray, radius: float) -> np.ndarray:
-        """How deep capsules (a, b, radius) enter the box [m]; <= 0 means clear, (...,)."""
-        return radius - _min_along_segment(a, b, self.distance)
+        """How deep capsules (a, b, radius) enter the box [m]; <= 0 means clear, (...,).
+
+        The golden-section search of ``_min_along_segment`` over ``distance``, compiled
+        (:func:`dloplan.obstacles.compiled.box_segment_distances`)."""
+        a, b = np.broadcast_arrays(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
+        out = np.empty(a.shape[:-1])
+        box_segment_distances(np.ascontiguousarray(a.reshape(-1, 3)),
+                              np.ascontiguousarray(b.reshape(-1, 3)), np.asarray(self.center),
+                              np.asarray(self.size) / 2, self.yaw, out.reshape(-1))
+        return radius - out
 
     def lift_depth(self, a: np.ndarray, b: np.ndarray, radius: float) -> np.ndarray:
         """Upward translation clearing the capsules over the box (thesis z_depth) [m], (...,)."""

@@ -48,7 +48,7 @@ def _cos_derivatives(k_b, beta0, c, s, beta):
 
 
 @njit(cache=True)
-def _joint(x, i, u, v):
+def joint_directions(x, i, u, v):
     """Link directions u, v (filled in), lengths, c = u.v, sin and angle beta of joint i."""
     la = 0.0
     lb = 0.0
@@ -84,7 +84,7 @@ def chain_energy(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity):
     u = np.empty(3)
     v = np.empty(3)
     for i in range(n_points - 2):
-        beta = _joint(x, i, u, v)[4]
+        beta = joint_directions(x, i, u, v)[4]
         total += 0.5 * k_b * (beta - rest_angles[i]) ** 2
     for i in range(n_points):
         total -= masses[i] * (gravity[0] * x[i, 0] + gravity[1] * x[i, 1] + gravity[2] * x[i, 2])
@@ -145,7 +145,7 @@ def _bending_terms(x, k_b, rest_angles, grad, band, with_band):
     dca = np.empty(3)
     dcb = np.empty(3)
     for i in range(x.shape[0] - 2):
-        la, lb, c, s, beta = _joint(x, i, u, v)
+        la, lb, c, s, beta = joint_directions(x, i, u, v)
         total += 0.5 * k_b * (beta - rest_angles[i]) ** 2
         d1, d2 = _cos_derivatives(k_b, rest_angles[i], c, s, beta)
         for a in range(3):

@@ -22,7 +22,10 @@ first director m1 alone, (..., n, 3), since t comes from the points.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
 from numpy.polynomial import polynomial as P
 
 from ..geometry import tangents
@@ -70,13 +73,29 @@ def transported_directors(shape, first_director) -> np.ndarray:
     first_director : array_like
         (3,) unit vector perpendicular to link 0.
     """
-    t = tangents(shape)
+    t = np.ascontiguousarray(tangents(shape))
     d = np.empty_like(t)
-    d[0] = first_director
-    for j in range(1, len(t)):
-        d[j] = parallel_transport(d[j - 1], t[j - 1], t[j])
-        d[j] /= np.linalg.norm(d[j])
+    _transport_along(t, np.asarray(first_director, dtype=float), d)
     return d
+
+
+@njit(cache=True)
+def _transport_along(t, first, d):
+    """d[j] = P(t[j-1] -> t[j]) d[j-1], normalized, from d[0] = first (compiled loop)."""
+    d[0] = first
+    for j in range(1, t.shape[0]):
+        c = 0.0
+        a = 0.0
+        for k in range(3):
+            c += t[j - 1, k] * t[j, k]
+            a += d[j - 1, k] * t[j, k]
+        norm = 0.0
+        for k in range(3):  # P v = v - (v . t_b)(t_a + t_b) / (1 + c) for v perpendicular to t_a
+            d[j, k] = d[j - 1, k] - a * (t[j - 1, k] + t[j, k]) / (1.0 + c)
+            norm += d[j, k] * d[j, k]
+        norm = math.sqrt(norm)
+        for k in range(3):
+            d[j, k] /= norm
 
 
 def discrete_twist(t, d1) -> np.ndarray:
@@ -110,6 +129,25 @@ def angle_ratio(c):
     f2 = (f + 3.0 * c * f1) / s2
     small = u < _SERIES_BELOW
     return tuple(np.where(small, s, e) for s, e in zip(series, (f, f1, f2), strict=True))
+
+
+@njit(cache=True)
+def angle_ratio_scalar(c):
+    """:func:`angle_ratio` of one cosine c, compiled: (f, f', f'') at c."""
+    u = 1.0 - c
+    if u < _SERIES_BELOW:
+        f0 = 0.0
+        f1 = 0.0
+        f2 = 0.0
+        for k in range(len(_SERIES) - 1, -1, -1):  # Horner, with the two derivatives in u
+            f2 = f2 * u + 2.0 * f1
+            f1 = f1 * u + f0
+            f0 = f0 * u + _SERIES[k]
+        return f0, -f1, f2
+    s2 = max(1.0 - c * c, 1e-12)
+    f0 = math.acos(min(max(c, -1.0), 1.0)) / math.sqrt(s2)
+    f1 = (c * f0 - 1.0) / s2
+    return f0, f1, (f0 + 3.0 * c * f1) / s2
 
 
 def curvature_binormals(t) -> np.ndarray:

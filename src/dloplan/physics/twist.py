@@ -28,6 +28,7 @@ against the parallel-transported reference, as in Bergou et al. (2010).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -43,6 +44,7 @@ from .rod_frames import (
     rotate_about,
     transported_directors,
 )
+from .twist_compiled import scratch, twist_stencils
 
 N_LOCAL = 8  # stencil variables: e_a (3), e_b (3), theta_a, theta_b
 
@@ -105,6 +107,15 @@ class TwistChain:
     def directional(self) -> bool:
         """True when the bending energy depends on the material frames (curved rest shape)."""
         return self.rest_curvatures is not None
+
+    @cached_property
+    def constants(self) -> tuple:
+        """The arguments of the compiled kernels (:mod:`dloplan.physics.twist_compiled`):
+        k_t, psibar, k_b, omegabar (zeros for a straight rest shape), directional."""
+        bar = (self.rest_curvatures if self.directional
+               else np.zeros((len(self.rest_twist), 2, 2)))
+        return (float(self.k_twist), np.ascontiguousarray(self.rest_twist, dtype=float),
+                float(self.k_bending), np.ascontiguousarray(bar, dtype=float), self.directional)
 
 
 def rest_frame_directors(rest_shape: np.ndarray, rest_twist: np.ndarray) -> np.ndarray:
@@ -241,6 +252,26 @@ def twist_derivatives(tc: TwistChain, x: np.ndarray, t0: np.ndarray, d0: np.ndar
         angle_gradient=angle_gradient,
         blocks=blocks,
     )
+
+
+def centred_twist_derivatives(tc: TwistChain, x: np.ndarray, d1: np.ndarray) -> TwistDerivatives:
+    """:func:`twist_derivatives` at the centre of the chart of the state (x, d1), in closed form.
+
+    The same values as ``twist_derivatives(tc, x, tangents(x), d1, zeros(n))`` to round-off,
+    from the compiled kernel :func:`dloplan.physics.twist_compiled.twist_stencils`; arguments
+    as in :func:`twist_energy_terms`.
+    """
+    x = np.ascontiguousarray(x, dtype=float)
+    d1 = np.ascontiguousarray(d1, dtype=float)
+    n = len(d1)
+    twist_gradient = np.empty_like(x)
+    direction_gradient = np.empty_like(x)
+    angle_gradient = np.empty(n)
+    blocks = np.empty((n - 1, 11, 11))
+    u_twist, u_direction = twist_stencils(x, d1, *tc.constants, scratch(), twist_gradient,
+                                          direction_gradient, angle_gradient, blocks)
+    return TwistDerivatives(u_twist, u_direction, twist_gradient, direction_gradient,
+                            angle_gradient, blocks)
 
 
 def _scatter_points(g: np.ndarray, n_points: int) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""The static solver's Newton loop for positions, compiled: no Python per iteration.
+"""The static solvers' Newton loops, compiled: no Python per iteration.
 
 :func:`dloplan.sim.newton.trust_region_newton` is the readable, generic loop (any state, any
 energy: positions with contacts, twist angles). For the plain chain (positions only, no contact
@@ -7,6 +7,9 @@ function: the compiled energy, gradient and Hessian band of :mod:`dloplan.physic
 the compiled banded Cholesky of :mod:`dloplan.sim.newton`. It takes the same decisions in the same
 order as the generic loop (tests compare both, iterate by iterate), and hands back to Python at
 a saddle, where :func:`dloplan.sim.newton.escape_saddle` (an eigenvector of the band) takes over.
+:func:`newton_twist` is the same loop for points and twist angles together (the torsion solver,
+:mod:`dloplan.sim.torsion`), with the closed-form twist kernels of
+:mod:`dloplan.physics.twist_compiled`.
 
 Status codes of :func:`newton_positions`: :data:`CONVERGED`, :data:`MAX_ITERATIONS`,
 :data:`STALLED`, :data:`SADDLE`.
@@ -20,9 +23,16 @@ import numpy as np
 from numba import njit
 
 from ..physics.compiled import chain_derivatives, chain_energy
-from .newton import NEUTRAL, cholesky_band, cholesky_solve
+from ..physics.twist_compiled import (
+    interleaved_band,
+    moved_directors,
+    twist_energies,
+    twist_stencils,
+)
+from .newton import NEUTRAL, cholesky_band, cholesky_solve, step_verdict
 
 CONVERGED, MAX_ITERATIONS, STALLED, SADDLE = 0, 1, 2, 3
+RUNNING = -1  # internal: none of them yet
 
 
 @njit(cache=True)
@@ -33,6 +43,56 @@ def _longest(p):
         d = math.sqrt(p[3 * i] ** 2 + p[3 * i + 1] ** 2 + p[3 * i + 2] ** 2)
         longest = max(longest, d)
     return longest
+
+
+@njit(cache=True)
+def newton_direction(h, g, shift, factor, p):
+    """The full Newton step p = -(H + shift I)^-1 g by banded Cholesky (``factor`` scratch).
+
+    Returns ``(solved, g . p, p . p)``; ``solved`` is False where H + shift I is not positive
+    definite (p is then undefined).
+    """
+    if not cholesky_band(h, shift, factor):
+        return False, 0.0, 0.0
+    n_free = p.shape[0]
+    for j in range(n_free):
+        p[j] = g[j]
+    cholesky_solve(factor, p)
+    g_p = 0.0
+    p_p = 0.0
+    for j in range(n_free):
+        p[j] = -p[j]
+        g_p += g[j] * p[j]
+        p_p += p[j] * p[j]
+    return True, g_p, p_p
+
+
+@njit(cache=True)
+def _stop_status(residual, tolerance, h, scale, factor, iterations, max_iterations,
+                 stop_at_saddle):
+    """Why the loop stops here (converged and stable, out of iterations, at a saddle), or
+    :data:`RUNNING`."""
+    if residual <= tolerance and cholesky_band(h, NEUTRAL * scale, factor):
+        return CONVERGED
+    if iterations >= max_iterations:
+        return MAX_ITERATIONS
+    if residual <= tolerance and stop_at_saddle:
+        return SADDLE
+    return RUNNING
+
+
+@njit(cache=True)
+def _model_step(h, g, shift, scale, radius, factor, p, twist):
+    """The Newton step p for the shift, its size (:func:`twist_step_length` with ``twist``,
+    else the largest point displacement), the factor alpha truncating it to the trust radius
+    and the model's predicted change; ``(solved, shift, longest, alpha, predicted)``, the shift
+    raised when H + shift I is not positive definite."""
+    solved, g_p, p_p = newton_direction(h, g, shift, factor, p)
+    if not solved:
+        return False, max(4.0 * shift, 1e-8 * scale), 0.0, 0.0, 0.0
+    longest = twist_step_length(p) if twist else _longest(p)
+    alpha = min(1.0, radius / longest) if longest > 0 else 1.0
+    return True, shift, longest, alpha, alpha * g_p + 0.5 * alpha**2 * (-g_p - shift * p_p)
 
 
 @njit(cache=True)
@@ -86,48 +146,156 @@ def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses
         g = grad.ravel()[free]
         h = band[:, free]
         scale = np.mean(h[0])
-        if residual <= tolerance and cholesky_band(h, NEUTRAL * scale, factor):
-            return CONVERGED, iterations, residual, radius, n_history
-        if iterations >= max_iterations:
-            return MAX_ITERATIONS, iterations, residual, radius, n_history
-        if residual <= tolerance and stop_at_saddle:
-            return SADDLE, iterations, residual, radius, n_history
+        status = _stop_status(residual, tolerance, h, scale, factor, iterations, max_iterations,
+                              stop_at_saddle)
+        if status != RUNNING:
+            return status, iterations, residual, radius, n_history
         accepted = False
         for _ in range(60):  # adapt the shift until a step is accepted
-            if not cholesky_band(h, shift, factor):
-                shift = max(4.0 * shift, 1e-8 * scale)
+            solved, shift, longest, alpha, predicted = _model_step(h, g, shift, scale, radius,
+                                                                   factor, p, False)
+            if not solved:
                 continue
-            for j in range(n_free):
-                p[j] = g[j]
-            cholesky_solve(factor, p)
-            g_p = 0.0
-            p_p = 0.0
-            for j in range(n_free):
-                p[j] = -p[j]
-                g_p += g[j] * p[j]
-                p_p += p[j] * p[j]
-            longest = _longest(p)
-            alpha = min(1.0, radius / longest) if longest > 0 else 1.0
-            predicted = alpha * g_p + 0.5 * alpha**2 * (-g_p - shift * p_p)
             trial[:] = x
             for j in range(n_free):
                 trial[first + j // 3, j % 3] += alpha * p[j]
             f_trial = chain_energy(trial, k_s, rest_lengths, k_b, rest_angles, masses, gravity)
-            actual = f_trial - f
-            noise = 1e-13 * (abs(f) + abs(predicted)) + 1e-300
-            if predicted < 0 and (actual < 0 or abs(actual) < noise):
-                ratio = actual / predicted if abs(predicted) > noise else 1.0
+            accepted, shift, radius = step_verdict(f, f_trial, predicted, shift, scale, radius,
+                                                   longest, length_scale)
+            if accepted:
                 x[:] = trial
                 f = f_trial
-                accepted = True
-                if ratio > 0.75:
-                    shift = 0.0 if shift < 1e-6 * scale else shift / 8.0
-                    radius = min(2.0 * radius, length_scale)
-                elif ratio < 0.25:
-                    shift = max(4.0 * shift, 1e-8 * scale)
                 break
-            shift = max(4.0 * shift, 1e-8 * scale)
-            radius = max(0.5 * min(radius, longest), 1e-9 * length_scale)
+        iterations += 1
+        if not accepted:
+            return STALLED, iterations, residual, radius, n_history
+        history[n_history] = f
+        n_history += 1
+
+
+@njit(cache=True)
+def _twist_derivatives(x, d1, chain, twist, link, work, grad, tgrad, dgrad, agrad, blocks,
+                       band_pos, band, g):
+    """Joint gradient g and band over interleaved (x, y, z, l theta) coordinates, in place;
+    returns the residual over the free points 2 .. n-2 [N] and free angles 1 .. n-2 [N]."""
+    k_s, rest_lengths, k_b, rest_angles, masses, gravity = chain
+    k_t, rest_twist, k_bd, rest_curvatures, directional = twist
+    chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, grad, band_pos)
+    twist_stencils(x, d1, k_t, rest_twist, k_bd, rest_curvatures, directional, work, tgrad,
+                   dgrad, agrad, blocks)
+    interleaved_band(band_pos, blocks, link, band)
+    n_points = x.shape[0]
+    residual = 0.0
+    for i in range(n_points):
+        norm = 0.0
+        for c in range(3):
+            grad[i, c] += tgrad[i, c] + dgrad[i, c]
+            g[4 * i + c] = grad[i, c]
+            norm += grad[i, c] ** 2
+        if 2 <= i < n_points - 2:
+            residual = max(residual, math.sqrt(norm))
+    for j in range(d1.shape[0]):
+        g[4 * j + 3] = agrad[j] / link
+        if 1 <= j < d1.shape[0] - 1:
+            residual = max(residual, abs(agrad[j]) / link)
+    return residual
+
+
+@njit(cache=True)
+def twist_energy_of(x, d1, chain, twist):
+    """U^s + U^b + U^g + U^t + U^d [J] of a state (contacts excluded)."""
+    k_s, rest_lengths, k_b, rest_angles, masses, gravity = chain
+    k_t, rest_twist, k_bd, rest_curvatures, directional = twist
+    u_t, u_d = twist_energies(x, d1, k_t, rest_twist, k_bd, rest_curvatures, directional)
+    return chain_energy(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity) + u_t + u_d
+
+
+@njit(cache=True)
+def twist_trial(x, d1, p, link, trial, trial_d1, angles):
+    """The state after the step p over the free interleaved coordinates (angles as l theta)."""
+    n = d1.shape[0]
+    trial[:] = x
+    angles[:] = 0.0
+    for j in range(p.shape[0]):  # p[0] is theta_1, then point 2, theta_2, ...
+        q = j + 7
+        if q % 4 == 3:
+            angles[q // 4] = p[j] / link
+        else:
+            trial[q // 4, q % 4] += p[j]
+    moved_directors(x, trial, d1, angles, trial_d1)
+    for c in range(3):
+        trial_d1[0, c] = d1[0, c]
+        trial_d1[n - 1, c] = d1[n - 1, c]
+
+
+@njit(cache=True)
+def twist_step_length(p):
+    """Largest point displacement [m] or l theta [m] of a step over the free coordinates."""
+    longest = 0.0
+    j = 0
+    while j < p.shape[0]:
+        if (j + 7) % 4 == 3:
+            longest = max(longest, abs(p[j]))
+            j += 1
+        else:
+            longest = max(longest, math.sqrt(p[j] ** 2 + p[j + 1] ** 2 + p[j + 2] ** 2))
+            j += 3
+    return longest
+
+
+@njit(cache=True)
+def newton_twist(x, d1, chain, twist, link, length_scale, tolerance, max_iterations, iterations,
+                 radius, history, n_history, work, grad, tgrad, dgrad, agrad, blocks, band_pos,
+                 band, stop_at_saddle):
+    """The trust-region Newton loop of :func:`dloplan.sim.torsion.equilibrium_with_twist`.
+
+    The same decisions in the same order as :func:`dloplan.sim.newton.trust_region_newton` with
+    the torsion solver's callbacks, over the free points 2 .. n-2 and the free links' angles
+    1 .. n-2 (interleaved, angles as l theta [m]); x (n + 1, 3) and d1 (n, 3) are updated in
+    place. ``chain`` and ``twist`` are the constants of :class:`dloplan.physics.chain.
+    SpringChain` and :class:`dloplan.physics.twist.TwistChain`; the work arrays hold the last
+    derivatives on return (``grad`` the points' total gradient [N], ``band`` the joint band).
+    Other arguments and the returned tuple as in :func:`newton_positions`.
+    """
+    n = d1.shape[0]
+    first = 7
+    stop = 4 * n - 4
+    n_free = stop - first
+    g_all = np.empty(4 * n + 3)
+    factor = np.empty((band.shape[0], n_free))
+    p = np.empty(n_free)
+    trial = np.empty_like(x)
+    trial_d1 = np.empty_like(d1)
+    angles = np.empty(n)
+    shift = 0.0
+    f = history[n_history - 1]
+    while True:
+        residual = _twist_derivatives(x, d1, chain, twist, link, work, grad, tgrad, dgrad,
+                                      agrad, blocks, band_pos, band, g_all)
+        g = g_all[first:stop]
+        h = band[:, first:stop]
+        scale = np.mean(h[0])
+        status = _stop_status(residual, tolerance, h, scale, factor, iterations, max_iterations,
+                              stop_at_saddle)
+        if status != RUNNING:
+            return status, iterations, residual, radius, n_history
+        accepted = False
+        for _ in range(60):  # adapt the shift until a step is accepted
+            solved, shift, longest, alpha, predicted = _model_step(h, g, shift, scale, radius,
+                                                                   factor, p, True)
+            if not solved:
+                continue
+            for j in range(n_free):
+                p[j] *= alpha
+            twist_trial(x, d1, p, link, trial, trial_d1, angles)
+            f_trial = twist_energy_of(trial, trial_d1, chain, twist)
+            accepted, shift, radius = step_verdict(f, f_trial, predicted, shift, scale, radius,
+                                                   longest, length_scale)
+            if accepted:
+                x[:] = trial
+                d1[:] = trial_d1
+                f = f_trial
+                break
         iterations += 1
         if not accepted:
             return STALLED, iterations, residual, radius, n_history

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
@@ -27,10 +28,11 @@ from scipy.spatial.transform import Rotation, Slerp
 from ..cable import GRAVITY, Cable
 from ..geometry import as_shape
 from ..physics.chain import SpringChain, energy, gradient, hessian_band
+from ..physics.twist_compiled import scratch
 from .clips import HELD_INDICES, ClipPoses, clip_poses_from_shape
 from .newton import factor_band, free_band
 from .result import Equilibrium, equilibrium_result
-from .stepping import DIVERGED, RUNNING, SETTLED, explicit_steps
+from .stepping import DIVERGED, RUNNING, SETTLED, explicit_steps, twist_steps
 
 _CHUNK = 4096  # steps whose clip poses are interpolated at once
 
@@ -72,18 +74,21 @@ class ClipTrajectory:
             pos = np.broadcast_to(self.poses[0].positions, (len(t), 2, 3))
             mats = np.broadcast_to(self.poses[0].rotations.as_matrix(), (len(t), 2, 3, 3))
             return pos, mats
-        positions = np.stack([p.positions for p in self.poses])  # (K, 2, 3)
+        positions, slerps = self._interpolants
         pos = np.stack(
             [np.stack([np.interp(t, self.times, positions[:, k, j]) for j in range(3)], -1)
              for k in range(2)],
             axis=1,
         )
-        mats = np.stack(
-            [Slerp(self.times, Rotation.concatenate([p.rotations[k] for p in self.poses]))(
-                t).as_matrix() for k in range(2)],
-            axis=1,
-        )
+        mats = np.stack([slerp(t).as_matrix() for slerp in slerps], axis=1)
         return pos, mats
+
+    @cached_property
+    def _interpolants(self):
+        """The poses' positions (K, 2, 3) [m] and one slerp per clip, built once."""
+        positions = np.stack([p.positions for p in self.poses])
+        quats = np.stack([p.rotations.as_quat() for p in self.poses])  # (K, 2, 4)
+        return positions, [Slerp(self.times, Rotation.from_quat(quats[:, k])) for k in range(2)]
 
     def held_points(self, t: np.ndarray, link_length: float) -> np.ndarray:
         """Positions of the four held points at times ``t`` [s], (len(t), 4, 3) [m]."""
@@ -221,7 +226,7 @@ def simulate(
     x[list(HELD_INDICES)] = previous_held
     twist = None
     if torsion:
-        from .torsion import QuasiStaticTwist
+        from .torsion import QuasiStaticTwist, held_directors
 
         twist = QuasiStaticTwist(cable, x, trajectory.frames(np.array([0.0]))[1][0],
                                  natural_twist)
@@ -240,14 +245,10 @@ def simulate(
                 step, recorded, status = explicit_steps(x, v, previous_held, targets, no_load, step,
                                                         *settings, recorded)
                 continue
-            clip_frames = trajectory.frames(chunk_steps * dt)[1]
-            for k in range(len(targets)):  # the twist relaxes between steps (Python)
-                x_old = x.copy()
-                step, recorded, status = explicit_steps(x, v, previous_held, targets[k : k + 1],
-                                                        twist.relax(x), step, *settings, recorded)
-                twist.follow(x_old, x, clip_frames[k])
-                if status != RUNNING:
-                    break
+            held = held_directors(trajectory.frames(chunk_steps * dt)[1])
+            step, recorded, status = twist_steps(
+                x, v, previous_held, targets, np.ascontiguousarray(held), twist.directors,
+                twist.twist_chain.constants, scratch(), step, *settings, recorded)
     if status == DIVERGED:
         raise FloatingPointError(
             f"simulation diverged at t = {step * dt:.4g} s (dt = {dt:.3g} s too large)")

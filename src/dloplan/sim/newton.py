@@ -229,26 +229,56 @@ def trust_region_newton(
             p *= alpha
             trial = moved(state, p)
             f_trial = energy_of(trial)
-            actual = f_trial - f
-            noise = 1e-13 * (abs(f) + abs(predicted)) + 1e-300
-            if predicted < 0 and (actual < 0 or abs(actual) < noise):
-                ratio = actual / predicted if abs(predicted) > noise else 1.0
+            accepted, shift, radius = step_verdict(f, f_trial, predicted, shift, scale, radius,
+                                                   longest, length_scale)
+            if accepted:
                 state, f = trial, f_trial
-                accepted = True
-                if ratio > 0.75:
-                    shift = 0.0 if shift < 1e-6 * scale else shift / 8.0
-                    radius = min(2.0 * radius, length_scale)
-                elif ratio < 0.25:
-                    shift = max(4.0 * shift, 1e-8 * scale)
                 break
-            shift = max(4.0 * shift, 1e-8 * scale)
-            radius = max(0.5 * min(radius, longest), 1e-9 * length_scale)
         iterations += 1
         if not accepted:
             message = newton_message("stalled", iterations, residual, unit)
             break
         history.append(f)
     return NewtonRun(state, extra, iterations, residual, stable, np.asarray(history), message)
+
+
+@njit(cache=True)
+def step_verdict(f, f_trial, predicted, shift, scale, radius, longest, length_scale):
+    """Accept a trust-region step or not, and the next shift and radius (all the Newton loops).
+
+    A step is accepted if the model predicts a decrease and the energy does not rise beyond
+    round-off; the ratio of actual to predicted decrease then relaxes (> 0.75) or tightens
+    (< 0.25) the shift, and a rejection tightens the shift and halves the radius.
+
+    Parameters
+    ----------
+    f, f_trial : float
+        Energies before and after the step [J].
+    predicted : float
+        The quadratic model's change [J].
+    shift, scale : float
+        Levenberg-Marquardt shift and the Hessian's mean diagonal (its scale).
+    radius, longest, length_scale : float
+        Trust radius, the step's size and the largest radius [m].
+
+    Returns
+    -------
+    tuple
+        ``(accepted, shift, radius)``.
+    """
+    actual = f_trial - f
+    noise = 1e-13 * (abs(f) + abs(predicted)) + 1e-300
+    if predicted < 0 and (actual < 0 or abs(actual) < noise):
+        ratio = actual / predicted if abs(predicted) > noise else 1.0
+        if ratio > 0.75:
+            shift = 0.0 if shift < 1e-6 * scale else shift / 8.0
+            radius = min(2.0 * radius, length_scale)
+        elif ratio < 0.25:
+            shift = max(4.0 * shift, 1e-8 * scale)
+        return True, shift, radius
+    shift = max(4.0 * shift, 1e-8 * scale)
+    radius = max(0.5 * min(radius, longest), 1e-9 * length_scale)
+    return False, shift, radius
 
 
 def newton_message(outcome: str, iterations: int, residual: float, unit: str = "N") -> str:

@@ -8,8 +8,9 @@ with D(v) = v (the thesis' absolute damping) or the graph Laplacian of v (relati
 dashpots between neighbouring points); then the four held points are put where the clips hold
 them (their velocity is the clips'), and an optional ground plane z = 0 is one-sided. The force
 F = -dU/dx comes from :func:`dloplan.physics.compiled.chain_gradient`, plus an optional external
-gradient held fixed over the call (the twisting force of :class:`dloplan.sim.torsion.
-QuasiStaticTwist`, recomputed by its caller every step).
+gradient held fixed over the call. With torsion, :func:`twist_steps` relaxes the quasi-static
+twist angles before every step (:class:`dloplan.sim.torsion.QuasiStaticTwist`) and adds their
+twisting force, also without Python per step.
 
 :func:`explicit_steps` runs the steps of one chunk of clip targets, records shapes at the
 recording interval, and stops early at rest or when the state diverges: no Python per step.
@@ -24,6 +25,8 @@ import numpy as np
 from numba import njit
 
 from ..physics.compiled import chain_gradient
+from ..physics.twist_compiled import moved_directors, twist_stencils
+from .newton import cholesky_band, cholesky_solve
 
 RUNNING, SETTLED, DIVERGED = 0, 1, 2
 
@@ -121,3 +124,81 @@ def explicit_steps(x, v, previous_held, targets, extra, first_step, n_steps, dt,
         if not (math.isfinite(x[2, 0]) and math.isfinite(x[2, 1]) and math.isfinite(x[2, 2])):
             return step, n_records, DIVERGED
     return step, n_records, RUNNING
+
+
+@njit(cache=True)
+def relax_twist(x, d1, twist, work, tgrad, dgrad, agrad, blocks, band, factor, rhs, angles,
+                turned, extra):
+    """One Newton step of the free links' angles toward the minimum of U^t + U^d at points x.
+
+    The angles are massless (:class:`dloplan.sim.torsion.QuasiStaticTwist`): the tridiagonal
+    angle Hessian of :func:`dloplan.physics.twist_compiled.twist_stencils` is factored (a
+    gradient step where it is not positive definite) and d1 (n, 3) turned in place; ``extra``
+    gets d(U^t + U^d)/dx (n + 1, 3) [N] (the twisting force of eq. 3.19 is minus it). ``band``,
+    ``factor`` (2, n - 2), ``rhs`` (n - 2,), ``angles`` (n,), ``turned`` (n, 3) are scratch.
+    """
+    k_t, rest_twist, k_b, rest_curvatures, directional = twist
+    twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, work, tgrad,
+                   dgrad, agrad, blocks, False)
+    n = d1.shape[0]
+    largest = 0.0
+    for i in range(n - 2):  # free angle i is theta_{i+1}: stencils i (as b) and i + 1 (as a)
+        band[0, i] = blocks[i, 7, 7] + blocks[i + 1, 3, 3]
+        band[1, i] = blocks[i + 1, 7, 3] if i < n - 3 else 0.0
+        largest = max(largest, abs(band[0, i]))
+    if cholesky_band(band, 1e-12 * max(largest, 1e-300), factor):
+        for i in range(n - 2):
+            rhs[i] = -agrad[i + 1]
+        cholesky_solve(factor, rhs)
+    else:  # not convex in the angles here: a gradient step
+        for i in range(n - 2):
+            rhs[i] = -agrad[i + 1] / max(band[0, i], 1e-300)
+    angles[:] = 0.0
+    angles[1 : n - 1] = rhs
+    moved_directors(x, x, d1, angles, turned)
+    d1[1 : n - 1] = turned[1 : n - 1]
+    for i in range(x.shape[0]):
+        for a in range(3):
+            extra[i, a] = tgrad[i, a] + dgrad[i, a]
+
+
+@njit(cache=True)
+def twist_steps(x, v, previous_held, targets, held_directors, d1, twist, work, first_step,
+                n_steps, dt, k_d, relative, ground, record_every, rest_speed, clips_stop, k_s,
+                rest_lengths, k_b, rest_angles, masses, gravity, times, shapes, speeds,
+                n_records):
+    """:func:`explicit_steps` with quasi-static twist: before each step the angles relax
+    (:func:`relax_twist`, whose twisting force loads the step), after it the directors d1 (n, 3)
+    are carried to the new links by parallel transport and the held links take the clips'
+    directors ``held_directors`` (K, 2, 3) of that step. Other arguments and the returned tuple
+    as in :func:`explicit_steps`."""
+    n = d1.shape[0]
+    tgrad = np.empty_like(x)
+    dgrad = np.empty_like(x)
+    agrad = np.empty(n)
+    blocks = np.empty((n - 1, 11, 11))
+    band = np.empty((2, n - 2))
+    factor = np.empty((2, n - 2))
+    rhs = np.empty(n - 2)
+    angles = np.zeros(n)
+    turned = np.empty_like(d1)
+    extra = np.empty_like(x)
+    x_old = np.empty_like(x)
+    no_turn = np.zeros(n)
+    step = first_step
+    status = RUNNING
+    for k in range(targets.shape[0]):
+        relax_twist(x, d1, twist, work, tgrad, dgrad, agrad, blocks, band, factor, rhs, angles,
+                    turned, extra)
+        x_old[:] = x
+        step, n_records, status = explicit_steps(
+            x, v, previous_held, targets[k : k + 1], extra, step, n_steps, dt, k_d, relative,
+            ground, record_every, rest_speed, clips_stop, k_s, rest_lengths, k_b, rest_angles,
+            masses, gravity, times, shapes, speeds, n_records)
+        moved_directors(x_old, x, d1, no_turn, turned)
+        d1[:] = turned
+        d1[0] = held_directors[k, 0]
+        d1[n - 1] = held_directors[k, 1]
+        if status != RUNNING:
+            break
+    return step, n_records, status

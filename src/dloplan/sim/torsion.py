@@ -38,7 +38,6 @@ from ..physics.chain import (
     SpringChain,
     shape_derivatives,
     shape_energy,
-    shape_forces,
 )
 from ..physics.rod_frames import (
     discrete_twist,
@@ -47,10 +46,30 @@ from ..physics.rod_frames import (
     signed_angle,
     transported_directors,
 )
-from ..physics.twist import TwistChain, chart_directors, twist_derivatives, twist_energy
+from ..physics.twist import (
+    TwistChain,
+    TwistDerivatives,
+    centred_twist_derivatives,
+)
+from ..physics.twist_compiled import interleaved_band, scratch, twist_energies
 from .clips import ClipPoses, check_clip_reach, clip_poses_from_shape, conform_guess
-from .newton import factor_band, solve_band, trust_region_newton
-from .result import Equilibrium, clip_reactions, equilibrium_result, force_scale
+from .compiled import (
+    CONVERGED,
+    MAX_ITERATIONS,
+    SADDLE,
+    STALLED,
+    newton_twist,
+    twist_step_length,
+    twist_trial,
+)
+from .newton import (
+    MAX_ESCAPES,
+    NewtonRun,
+    escape_saddle,
+    newton_message,
+    trust_region_newton,
+)
+from .result import Equilibrium, equilibrium_result, force_scale
 
 TWIST_HALF_BANDWIDTH = 10
 """Half bandwidth of the joint Hessian over interleaved (x, y, z, theta) coordinates."""
@@ -97,7 +116,7 @@ class TwistEquilibrium(Equilibrium):
 
 def clip_directors(clips: ClipPoses) -> np.ndarray:
     """The material directors m1 the clips set on the held links, (2, 3) (module docstring)."""
-    return _held_directors(clips.rotations.as_matrix())
+    return held_directors(clips.rotations.as_matrix())
 
 
 def rest_clip_poses(cable: Cable, natural_twist: float = 0.0) -> ClipPoses:
@@ -134,49 +153,63 @@ def _layout(n_links: int):
     n_dof = 4 * n_links + 3
     point_dofs = 4 * np.arange(n_points)[:, None] + np.arange(3)[None, :]
     angle_dofs = 4 * np.arange(n_links) + 3
-    # the position band (3 coordinates per point) moved into the interleaved band
-    n_pos = 3 * n_points
-    k, j = np.meshgrid(np.arange(HALF_BANDWIDTH + 1), np.arange(n_pos), indexing="ij")
-    row = j + k
-    q_row = 4 * (row // 3) + row % 3
-    q_col = 4 * (j // 3) + j % 3
-    # entries of points 3 apart are structural zeros of the band: dropped
-    valid = (row < n_pos) & (q_row - q_col <= TWIST_HALF_BANDWIDTH)
-    position_targets = ((q_row - q_col) * n_dof + q_col)[valid]
-    # the twist stencil blocks: stencil s covers coordinates 4 s .. 4 s + 10
-    a, b = np.meshgrid(np.arange(11), np.arange(11), indexing="ij")
-    lower = (a >= b).ravel()
-    starts = 4 * np.arange(n_links - 1)[:, None]
-    block_targets = (((a - b).ravel() * n_dof)[None, :] + starts + b.ravel()[None, :])[:, lower]
-    free = slice(7, 4 * n_links - 4)
-    free_points = point_dofs[2 : n_points - 2] - free.start
-    free_angles = angle_dofs[1 : n_links - 1] - free.start
-    return (n_dof, point_dofs, angle_dofs, valid, position_targets, lower, block_targets.ravel(),
-            free, free_points, free_angles)
+    free = slice(7, 4 * n_links - 4)  # theta_1, x_2, theta_2, ..., x_{n-2}, theta_{n-2}
+    return n_dof, point_dofs, angle_dofs, free
 
 
 def _joint_derivatives(chain: SpringChain, tc: TwistChain, x: np.ndarray, d1: np.ndarray,
                        link: float):
     """Gradient and lower band over the interleaved coordinates (angles as l theta [m])."""
-    n = len(d1)
-    (n_dof, point_dofs, angle_dofs, valid, position_targets, lower, block_targets,
-     *_) = _layout(n)
+    n_dof, point_dofs, angle_dofs, *_ = _layout(len(d1))
     _, g_pos, band_pos = shape_derivatives(chain, x)
-    td = twist_derivatives(tc, x, tangents(x), d1, np.zeros(n))
+    td = centred_twist_derivatives(tc, x, d1)
     g_pos = g_pos + td.twist_gradient + td.direction_gradient
-    scale = np.ones(11)
-    scale[[3, 7]] = 1.0 / link
-    blocks = td.blocks * scale[:, None] * scale[None, :]
-    band = np.bincount(
-        np.concatenate([position_targets, block_targets]),
-        weights=np.concatenate([band_pos.ravel()[valid.ravel()],
-                                blocks.reshape(n - 1, -1)[:, lower].ravel()]),
-        minlength=(TWIST_HALF_BANDWIDTH + 1) * n_dof,
-    ).reshape(TWIST_HALF_BANDWIDTH + 1, n_dof)
+    band = np.empty((TWIST_HALF_BANDWIDTH + 1, n_dof))
+    interleaved_band(band_pos, td.blocks, link, band)
     g = np.empty(n_dof)
     g[point_dofs] = g_pos
     g[angle_dofs] = td.angle_gradient / link
     return g, band, g_pos, td
+
+
+def _compiled_twist_newton(chain: SpringChain, tc: TwistChain, state, link: float,
+                           length_scale: float, tolerance: float, max_iterations: int,
+                           energy_of, moved) -> NewtonRun:
+    """:func:`trust_region_newton` for points and angles without contacts, in
+    :func:`~dloplan.sim.compiled.newton_twist`; saddles are escaped here as in the generic loop.
+    ``extra`` of the run is ``(points' gradient [N], TwistDerivatives)`` at the last state."""
+    x, d1 = (np.array(part, dtype=float) for part in state)
+    n = len(d1)
+    history = np.empty(max_iterations + 1)
+    history[0] = energy_of((x, d1))
+    n_history, iterations, radius, escapes = 1, 0, 0.25 * length_scale, 0
+    arrays = dict(grad=np.empty_like(x), tgrad=np.empty_like(x), dgrad=np.empty_like(x),
+                  agrad=np.empty(n), blocks=np.empty((n - 1, 11, 11)),
+                  band_pos=np.empty((HALF_BANDWIDTH + 1, x.size)),
+                  band=np.empty((TWIST_HALF_BANDWIDTH + 1, 4 * n + 3)))
+    free = _layout(n)[3]
+    while True:
+        status, iterations, residual, radius, n_history = newton_twist(
+            x, d1, chain.constants, tc.constants, link, length_scale, tolerance,
+            max_iterations, iterations, radius, history, n_history, scratch(), *arrays.values(),
+            escapes < MAX_ESCAPES)
+        if status != SADDLE:
+            break
+        escaped = escape_saddle((x, d1), history[n_history - 1], arrays["band"][:, free],
+                                energy_of, moved, twist_step_length, radius)
+        iterations += 1
+        escapes += 1
+        if escaped is None:
+            break
+        (x, d1), history[n_history] = escaped
+        n_history += 1
+    outcome = {CONVERGED: "converged", MAX_ITERATIONS: "max_iterations", STALLED: "stalled",
+               SADDLE: "stuck"}[status]
+    u_t, u_d = twist_energies(x, d1, *tc.constants)
+    td = TwistDerivatives(u_t, u_d, arrays["tgrad"], arrays["dgrad"], arrays["agrad"],
+                          arrays["blocks"])
+    return NewtonRun((x, d1), (arrays["grad"], td), iterations, residual, status == CONVERGED,
+                     history[:n_history].copy(), newton_message(outcome, iterations, residual))
 
 
 def _orthonormal(d1: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -273,12 +306,12 @@ def equilibrium_with_twist(
         d1[[0, -1]] = held
     link = cable.rest_link_length
     n = cable.n_links
-    *_, free, free_points, free_angles = _layout(n)
+    free = _layout(n)[3]
     tolerance = rtol * force_scale(cable, gravity)
 
     def energy_of(state):
         x, d1 = state
-        return shape_energy(chain, x) + twist_energy(tc, x, d1)
+        return shape_energy(chain, x) + sum(twist_energies(x, d1, *tc.constants))
 
     def derivatives(state):
         x, d1 = state
@@ -291,27 +324,23 @@ def equilibrium_with_twist(
 
     def moved(state, p):
         x, d1 = state
-        trial = x.copy()
-        trial[2:-2] += p[free_points]
-        angles = np.zeros(n)
-        angles[1:-1] = p[free_angles] / link
-        moved_d1 = _orthonormal(chart_directors(trial, tangents(x), d1, angles), tangents(trial))
-        moved_d1[[0, -1]] = d1[[0, -1]]
-        return trial, moved_d1
+        trial, trial_d1 = np.empty_like(x), np.empty_like(d1)
+        twist_trial(x, d1, p, link, trial, trial_d1, np.empty(n))
+        return trial, trial_d1
 
-    def displacement(p):
-        points = np.max(np.linalg.norm(p[free_points], axis=1), initial=0.0)
-        return float(max(points, np.max(np.abs(p[free_angles]), initial=0.0)))
-
-    run = trust_region_newton((start, d1), energy_of, derivatives, moved, displacement,
-                              cable.length, tolerance, max_iterations)
+    if chain.contacts:  # obstacles are Python objects: the generic loop
+        run = trust_region_newton((start, d1), energy_of, derivatives, moved,
+                                  twist_step_length, cable.length, tolerance, max_iterations)
+    else:
+        run = _compiled_twist_newton(chain, tc, (start, d1), link, cable.length, tolerance,
+                                     max_iterations, energy_of, moved)
     x, d1 = run.state
     g_pos, td = run.extra
     converged = run.residual <= tolerance
     base = equilibrium_result(cable, chain, x, g_pos, clips, run.iterations, converged,
                               run.residual, tolerance, run.stable, run.history, run.message)
-    plain = shape_forces(chain, x)
-    wrenches = clip_reactions(x, g_pos, clips, "both")
+    plain = base.forces
+    wrenches = base.clip_wrenches.copy()
     t = tangents(x)
     wrenches[0, 3:] -= td.angle_gradient[0] * t[0]
     wrenches[1, 3:] -= td.angle_gradient[-1] * t[-1]
@@ -337,7 +366,8 @@ class QuasiStaticTwist:
     The material directors are transported with the links from step to step (parallel
     transport in time) and, at every step, the free links' angles take one Newton step toward
     the minimum of U^t + U^d for the current points (the angles have no inertia); the position
-    gradient of that energy is the twisting force of eq. 3.19 on the points.
+    gradient of that energy is the twisting force of eq. 3.19 on the points. The steps run
+    compiled in :func:`dloplan.sim.stepping.twist_steps`; this holds the state between chunks.
 
     Parameters
     ----------
@@ -354,7 +384,7 @@ class QuasiStaticTwist:
     def __init__(self, cable: Cable, x: np.ndarray, clip_matrices: np.ndarray,
                  natural_twist: float = 0.0) -> None:
         self.twist_chain = TwistChain.from_cable(cable, natural_twist)
-        self.directors = initial_directors(x, _held_directors(clip_matrices),
+        self.directors = initial_directors(x, held_directors(clip_matrices),
                                            self.twist_chain.rest_twist)
 
     def chain_for(self, chain: SpringChain) -> SpringChain:
@@ -363,42 +393,12 @@ class QuasiStaticTwist:
             return replace(chain, rest_angles=np.zeros_like(chain.rest_angles))
         return chain
 
-    def relax(self, x: np.ndarray) -> np.ndarray:
-        """Relax the free angles for points ``x``; returns d(U^t + U^d)/dx (n + 1, 3) [N]."""
-        d1 = self.directors
-        n = len(d1)
-        t = tangents(x)
-        td = twist_derivatives(self.twist_chain, x, t, d1, np.zeros(n))
-        diagonal = np.zeros(n)
-        diagonal[:-1] += td.blocks[:, 3, 3]
-        diagonal[1:] += td.blocks[:, 7, 7]
-        off = td.blocks[:, 7, 3]
-        band = np.zeros((2, n - 2))
-        band[0] = diagonal[1:-1]
-        band[1, :-1] = off[1:-1]
-        factor = factor_band(band, 1e-12 * max(float(np.max(np.abs(band[0]))), 1e-300))
-        if factor is not None:
-            step = solve_band(factor, -td.angle_gradient[1:-1])
-        else:  # not convex in the angles here: a gradient step
-            step = -td.angle_gradient[1:-1] / np.maximum(band[0], 1e-300)
-        angles = np.zeros(n)
-        angles[1:-1] = step
-        self.directors = _orthonormal(chart_directors(x, t, d1, angles), t)
-        self.directors[[0, -1]] = d1[[0, -1]]
-        return td.twist_gradient + td.direction_gradient
 
-    def follow(self, x_old: np.ndarray, x_new: np.ndarray, clip_matrices: np.ndarray) -> None:
-        """Carry the directors from the links of ``x_old`` to those of ``x_new``."""
-        t_new = tangents(x_new)
-        moved = parallel_transport(self.directors, tangents(x_old), t_new)
-        self.directors = _orthonormal(moved, t_new)
-        self.directors[[0, -1]] = _held_directors(clip_matrices)
-
-
-def _held_directors(clip_matrices: np.ndarray) -> np.ndarray:
-    """The held links' directors from two clip frames: v of the first, -v of the last."""
-    v = np.asarray(clip_matrices)[:, :, 1]
-    return np.stack([v[0], -v[1]])
+def held_directors(clip_matrices: np.ndarray) -> np.ndarray:
+    """The held links' directors from clip frames (..., 2, 3, 3): v of the first, -v of the
+    last, (..., 2, 3)."""
+    v = np.asarray(clip_matrices)[..., 1]
+    return np.stack([v[..., 0, :], -v[..., 1, :]], axis=-2)
 
 
 @dataclass(frozen=True, eq=False)
