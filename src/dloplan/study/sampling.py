@@ -28,7 +28,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.special import ndtri
-from scipy.stats import qmc
 
 from ..cable import Cable
 from ..obstacles.shapes import Table
@@ -84,6 +83,8 @@ def design(spec: StudySpec, dimension: int) -> np.ndarray:
     if dimension == 0:
         return np.empty((n, 0))
     if spec.sampler == "lhs":
+        from scipy.stats import qmc  # scipy.stats costs ~1 s to import: only when sampling
+
         u = qmc.LatinHypercube(dimension, seed=np.random.default_rng(spec.seed)).random(n)
     else:
         u = np.stack([

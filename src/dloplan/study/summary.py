@@ -30,7 +30,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import binomtest, spearmanr
 
 from .sampling import RELATIVE, UNITS
 from .spec import CriteriaSpec
@@ -155,6 +154,8 @@ def success_interval(successes: int, trials: int, confidence: float = 0.95,
     if trials < 1 or not 0 <= successes <= trials:
         raise ValueError(f"successes, trials: got {successes}, {trials}, expected "
                          "0 <= successes <= trials, trials >= 1")
+    from scipy.stats import binomtest  # ~1 s to import: only when summarizing
+
     ci = binomtest(int(successes), int(trials)).proportion_ci(confidence,
                                                                INTERVAL_METHODS[method])
     return float(ci.low), float(ci.high)
@@ -211,6 +212,8 @@ def _spearman(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     x, y = x[keep], y[keep]
     if len(x) < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
         return math.nan, math.nan
+    from scipy.stats import spearmanr
+
     result = spearmanr(x, y)
     return float(result.statistic), float(result.pvalue)
 
