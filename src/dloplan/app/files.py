@@ -26,7 +26,7 @@ for inspection, no robot program or trajectory)."""
 EXIT_INTERRUPTED = 130
 """Ctrl-C: nothing written."""
 
-ROBOT_OUTPUTS = ("csv", "ros", "rapid")
+ROBOT_OUTPUTS = ("csv", "ros", "rapid", "ros_joints", "urscript")
 """The outputs a robot could run: not written for a plan that failed a check."""
 
 HARNESS_OUTPUTS = ("json", "csv", "rapid", "figures", "report")

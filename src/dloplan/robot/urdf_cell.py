@@ -698,3 +698,12 @@ def cell_from_mapping(data: dict, folder=".", scale: float = 1.0) -> DescribedCe
     cell = cell_from_specs(str(data.get("name", "cell")), *specs,
                            table_height=float(source.get("table_height", 0.0)))
     return replace(cell, source=source)
+
+
+def cell_from_record(data: dict) -> DescribedCell:
+    """The cell of :meth:`DescribedCell.to_dict`'s data (a plan document's ``robot.cell``)."""
+    if not isinstance(data, dict) or data.get("kind") != "described":
+        raise ValueError(f"robot.cell: expected a described cell record, got {data!r}")
+    mapping = {k: v for k, v in data.items() if k not in ("kind", "place", "writers")}
+    return replace(cell_from_mapping(mapping), place=bool(data.get("place", True)),
+                   writers=dict(data.get("writers") or {}))
