@@ -80,6 +80,35 @@ def main() -> None:
               f"({len(verdict.motion_times)} sub-steps): {verdict.message[:90]}")
         print(f"  placement search (15 candidates) {t2 - t1:6.2f} s  offset "
               f"{np.round(offset, 2).tolist()}: {placed.message[:70]}")
+    _program_stage()
+
+
+def _program_stage() -> None:
+    """The pipeline's program stage on each example of ``examples/cells``: the plan made once,
+    then the program (placement search, verification) and reading it back from plan.json
+    (the cell rebuilt from its record, verified again and compared)."""
+    import tempfile
+    from pathlib import Path
+
+    from dloplan.app import load_scenario, read_plan, run_job, write_outputs
+    from dloplan.app.pipeline import plan_program, program_of
+
+    for example in sorted((Path(__file__).parents[1] / "examples" / "cells").glob("*.yaml")):
+        job = load_scenario(example)
+        doc = run_job(job, check_robot=False)
+        t0 = time.perf_counter()
+        program = plan_program(job.robot, doc.grippers, doc.trajectory)
+        t1 = time.perf_counter()
+        with tempfile.TemporaryDirectory() as folder:
+            from dloplan.app.pipeline import with_program
+
+            write_outputs(with_program(doc, program), folder, ("json",))
+            back = read_plan(Path(folder) / "plan.json")
+            t2 = time.perf_counter()
+            program_of(back)
+            t3 = time.perf_counter()
+        print(f"{example.stem}: program stage {t1 - t0:5.2f} s ({len(program.times)} targets, "
+              f"ok {program.ok}); read back and re-verified {t3 - t2:5.2f} s")
 
 
 if __name__ == "__main__":

@@ -23,7 +23,7 @@ import numpy as np
 
 from .cell import RobotCell
 from .chain import capsules
-from .program import CheckRow, check_summary, robot_program
+from .program import CheckedProgram, CheckRow, check_summary, robot_program
 from .urdf_cell import CHECKS, CellPlan, DescribedCell, verify_on_cell
 
 LOWER_IS_WORSE = {"joint limits", "clearance", "table clearance"}
@@ -106,7 +106,7 @@ def make_program(cell, grippers, trajectory) -> Program:
 
 
 @dataclass(frozen=True, eq=False)
-class CellProgram:
+class CellProgram(CheckedProgram):
     """A plan verified on a described cell: what the URScript and ROS 2 writers write.
 
     Attributes
@@ -136,16 +136,6 @@ class CellProgram:
     def joints(self) -> tuple[np.ndarray, np.ndarray]:
         """Per arm (K, n_arm) the verified joints [rad] at the targets."""
         return self.plan.verdict.joints
-
-    @property
-    def ok(self) -> bool:
-        """Every check passes."""
-        return all(row.ok for row in self.checks)
-
-    @property
-    def failures(self) -> tuple[CheckRow, ...]:
-        """The rows that fail."""
-        return tuple(row for row in self.checks if not row.ok)
 
     @property
     def formats(self) -> tuple[str, ...]:

@@ -114,8 +114,24 @@ class CheckRow:
                 "unit": self.unit, "ok": bool(self.ok), "note": self.note}
 
 
+class CheckedProgram:
+    """The verdict of a program from its ``checks`` (a tuple of :class:`CheckRow`)."""
+
+    checks: tuple[CheckRow, ...]
+
+    @property
+    def ok(self) -> bool:
+        """Every check passes: the program may be written and run."""
+        return all(row.ok for row in self.checks)
+
+    @property
+    def failures(self) -> tuple[CheckRow, ...]:
+        """The rows that fail."""
+        return tuple(row for row in self.checks if not row.ok)
+
+
 @dataclass(frozen=True, eq=False)
-class RobotProgram:
+class RobotProgram(CheckedProgram):
     """A verified dual-arm program: what the RAPID writer writes, and its checks.
 
     Arrays are indexed ``[target, arm]`` with the arms in the order ``("left", "right")``; the
@@ -183,16 +199,6 @@ class RobotProgram:
     def n_targets(self) -> int:
         """Number of targets M."""
         return len(self.labels)
-
-    @property
-    def ok(self) -> bool:
-        """Every check passes: the program may be written and run."""
-        return all(row.ok for row in self.checks)
-
-    @property
-    def failures(self) -> tuple[CheckRow, ...]:
-        """The rows that fail."""
-        return tuple(row for row in self.checks if not row.ok)
 
     @property
     def shape_joints(self) -> np.ndarray:
