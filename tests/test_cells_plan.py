@@ -259,3 +259,24 @@ def test_ros_joints_writer_of_a_plan_document_is_the_verified_yumi_program(tmp_p
         stamps = [p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"]
                   for p in message["points"]]
         np.testing.assert_allclose(stamps, program.times, atol=1e-9)
+
+
+@pytest.mark.slow
+def test_check_and_unchecked_plan_on_a_described_cell(tmp_path, capsys):
+    """`dloplan check` finds the reach on the cell itself (a job moved beyond the UR5e's reach
+    is an error); `plan --no-verify` writes no program for a described cell (nothing was
+    verified) rather than one for the YuMi."""
+    from dloplan.cli import main
+
+    assert main(["check", str(EXAMPLES / "ur5e_pair_usb.yaml")]) == 0
+    assert "target robot reach: both arms reach their clips" in capsys.readouterr().out
+    far = tmp_path / "far.yaml"
+    far.write_text((EXAMPLES / "ur5e_pair_usb.yaml").read_text().replace(
+        "position: [0.45, 0.05, 0.25]", "position: [1.45, 0.05, 0.25]"))
+    assert main(["check", str(far)]) == 2
+    assert "ERROR   target robot reach" in capsys.readouterr().out
+    out = tmp_path / "out"
+    assert main(["plan", str(EXAMPLES / "ur5e_pair_usb.yaml"), "--no-verify", "-o", str(out),
+                 "-q"]) == 0
+    assert (out / "plan.json").is_file()
+    assert not (out / "urscript").exists() and not (out / "ros_joints").exists()

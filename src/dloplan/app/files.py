@@ -13,6 +13,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from ..io.files import staged_folder
+from ..io.scenario import PROGRAM_NAMES
+from ..robot.cell_program import program_formats
 from .document import PlanDocument, read_plan
 from .job import Job
 from .load import file_kind, load_job
@@ -67,6 +69,10 @@ def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
         if not doc.ok:
             formats = tuple(f for f in formats if f not in ROBOT_OUTPUTS)
             progress("a check failed: writing the plan and its report, no robot program")
+        elif doc.robot is None and isinstance(job, Job) and "rapid" not in \
+                program_formats(job.robot):
+            formats = tuple(f for f in formats if f not in PROGRAM_NAMES)
+            progress("no robot checks: no program for a described cell (nothing verified)")
         written = write_outputs(doc, staging, formats, options=options)
     paths = [folder / path.relative_to(staging) for path in written]
     progress(f"wrote {len(paths)} files into {folder}")
