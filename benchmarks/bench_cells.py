@@ -4,7 +4,7 @@ For each preset (two UR5e, two Franka Panda, the YuMi from its description): the
 arm at random reachable poses, seeded 0.1 rad away (what tracking along a path does) and from
 the home pose with restarts (a first pose); then the verification of an 8-pose cable path
 (check_cell_path: IK tracked through sub-steps, clearance, table, rows) and the placement
-search with full checks (search_cell_placement).
+search with full checks (search_cell_placement); last, the program stage of the cell examples.
 
 Run: PYTHONPATH=src python benchmarks/bench_cells.py
 
@@ -18,6 +18,13 @@ parentheses):
               (fails honestly: continuity at pose 7 with main's 114.2 mm SmartGripper TCP);
               placement 1.1 s (passes)
 Before the stall stop of the IK (same session, loaded): from home 222 / 262 / 283 ms per pose.
+
+The pipeline's program stage on the examples of ``examples/cells`` (plan_program: placement
+search and verification; then plan.json read back, the cell rebuilt from its record and the
+program verified again and compared), first measured 2026-11-30 while the full test suite ran
+on the same 2 cores (IK numbers above were ~3x today's docstring in that run):
+  ur5e_pair_usb        program stage 2.1 s (7 targets), read back and re-verified 2.0 s
+  panda_pair_ethernet  program stage 5.5 s (8 targets), read back and re-verified 6.5 s
 No cell other than the YuMi existed before (bench_robot.py times the YuMi-specific solver).
 """
 

@@ -310,10 +310,10 @@ def job_outputs(scenario, cell) -> tuple[str, ...]:
             wanted = [f for f in PROGRAM_NAMES if f in scenario.outputs]
         else:
             wanted = list(formats)
-    field = "robot.programs" if scenario.robot.programs is not None else "outputs"
+    where = "robot.programs" if scenario.robot.programs is not None else "outputs"
     for name in wanted:
         if name not in formats:
-            raise ScenarioError(f"{field}: got {name!r}, the cell {cell_name(cell)!r} takes "
+            raise ScenarioError(f"{where}: got {name!r}, the cell {cell_name(cell)!r} takes "
                                 f"{', '.join(formats)} (docs/cells.md)")
     others = [f for f in scenario.outputs if f not in PROGRAM_NAMES]
     return tuple(others + [f for f in PROGRAM_NAMES if f in wanted])
