@@ -21,8 +21,8 @@ Before the stall stop of the IK (same session, loaded): from home 222 / 262 / 28
 
 The pipeline's program stage on the examples of ``examples/cells`` (plan_program: placement
 search and verification; then plan.json read back, the cell rebuilt from its record and the
-program verified again and compared), first measured 2026-11-30 while the full test suite ran
-on the same 2 cores (IK numbers above were ~3x today's docstring in that run):
+program verified again and compared), first measured 2026-11-30 on the 2 cores shared with
+the other agents (the IK numbers of that run were ~3x those above: a loaded machine):
   ur5e_pair_usb        program stage 2.1 s (7 targets), read back and re-verified 2.0 s
   panda_pair_ethernet  program stage 5.5 s (8 targets), read back and re-verified 6.5 s
 No cell other than the YuMi existed before (bench_robot.py times the YuMi-specific solver).
