@@ -4,7 +4,7 @@ For each preset (two UR5e, two Franka Panda, the YuMi from its description): the
 arm at random reachable poses, seeded 0.1 rad away (what tracking along a path does) and from
 the home pose with restarts (a first pose); then the verification of an 8-pose cable path
 (check_cell_path: IK tracked through sub-steps, clearance, table, rows) and the placement
-search with full checks (search_cell_placement).
+search with full checks (search_cell_placement); last, the program stage of the cell examples.
 
 Run: PYTHONPATH=src python benchmarks/bench_cells.py
 
@@ -18,6 +18,13 @@ parentheses):
               (fails honestly: continuity at pose 7 with main's 114.2 mm SmartGripper TCP);
               placement 1.1 s (passes)
 Before the stall stop of the IK (same session, loaded): from home 222 / 262 / 283 ms per pose.
+
+The pipeline's program stage on the examples of ``examples/cells`` (plan_program: placement
+search and verification; then plan.json read back, the cell rebuilt from its record and the
+program verified again and compared), first measured 2026-11-30 on the 2 cores shared with
+the other agents (the IK numbers of that run were ~3x those above: a loaded machine):
+  ur5e_pair_usb        program stage 2.1 s (7 targets), read back and re-verified 2.0 s
+  panda_pair_ethernet  program stage 5.5 s (8 targets), read back and re-verified 6.5 s
 No cell other than the YuMi existed before (bench_robot.py times the YuMi-specific solver).
 """
 
@@ -80,6 +87,35 @@ def main() -> None:
               f"({len(verdict.motion_times)} sub-steps): {verdict.message[:90]}")
         print(f"  placement search (15 candidates) {t2 - t1:6.2f} s  offset "
               f"{np.round(offset, 2).tolist()}: {placed.message[:70]}")
+    _program_stage()
+
+
+def _program_stage() -> None:
+    """The pipeline's program stage on each example of ``examples/cells``: the plan made once,
+    then the program (placement search, verification) and reading it back from plan.json
+    (the cell rebuilt from its record, verified again and compared)."""
+    import tempfile
+    from pathlib import Path
+
+    from dloplan.app import load_scenario, read_plan, run_job, write_outputs
+    from dloplan.app.pipeline import plan_program, program_of
+
+    for example in sorted((Path(__file__).parents[1] / "examples" / "cells").glob("*.yaml")):
+        job = load_scenario(example)
+        doc = run_job(job, check_robot=False)
+        t0 = time.perf_counter()
+        program = plan_program(job.robot, doc.grippers, doc.trajectory)
+        t1 = time.perf_counter()
+        with tempfile.TemporaryDirectory() as folder:
+            from dloplan.app.pipeline import with_program
+
+            write_outputs(with_program(doc, program), folder, ("json",))
+            back = read_plan(Path(folder) / "plan.json")
+            t2 = time.perf_counter()
+            program_of(back)
+            t3 = time.perf_counter()
+        print(f"{example.stem}: program stage {t1 - t0:5.2f} s ({len(program.times)} targets, "
+              f"ok {program.ok}); read back and re-verified {t3 - t2:5.2f} s")
 
 
 if __name__ == "__main__":

@@ -4,7 +4,6 @@ timed trajectory, and the example runner end to end (programs read back = verifi
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -97,25 +96,147 @@ def test_cell_from_mapping_presets_paths_and_errors():
         cell_from_mapping({"arms": {"left": {}}})
 
 
+def _scenario(tmp_path, robot, name="cell.yaml", folder=EXAMPLES, units="m"):
+    """The UR5e example with another ``robot:`` section, written beside ``folder``'s files."""
+    data = yaml.safe_load((EXAMPLES / "ur5e_pair_usb.yaml").read_text())
+    data["robot"] = robot
+    if units == "mm":
+        data["units"] = "mm"
+        for shape in ("start", "target"):
+            placement = data[shape]["placement"]
+            placement["position"] = [1e3 * v for v in placement["position"]]
+    path = folder / name if folder is not EXAMPLES else tmp_path / name
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_scenario_cell_resolves_in_any_units_and_by_paths(tmp_path):
+    """A preset in m and in mm (lengths scaled, like every length of the file), and the same
+    cell given by its URDF paths relative to the scenario file."""
+    from dloplan.app import load_scenario
+
+    robot_m = {"cell": {"preset": "ur5e_pair", "separation": 0.8, "tcp_offset": 0.15,
+                        "tool_radius": 0.045}, "urscript": {"blend": 0.002}}
+    robot_mm = {"cell": {"preset": "ur5e_pair", "separation": 800, "tcp_offset": 150,
+                         "tool_radius": 45}, "urscript": {"blend": 2}}
+    job_m = load_scenario(_scenario(tmp_path, robot_m, "m.yaml"))
+    job_mm = load_scenario(_scenario(tmp_path, robot_mm, "mm.yaml", units="mm"))
+    np.testing.assert_allclose(job_mm.start, job_m.start, atol=1e-12)
+    for a_m, a_mm in zip(job_m.robot.arms, job_mm.robot.arms, strict=True):
+        np.testing.assert_allclose(a_mm.base_position, a_m.base_position, atol=1e-12)
+        np.testing.assert_allclose(a_mm.tcp_offset, a_m.tcp_offset, atol=1e-12)
+        assert a_mm.tool_radius == pytest.approx(a_m.tool_radius)
+    assert job_mm.robot.writers["urscript"]["blend"] == pytest.approx(0.002)
+    assert set(job_m.outputs[-2:]) == {"ros_joints", "urscript"}  # every program it takes
+    assert "rapid" not in job_m.outputs
+    urdf = str(Path("..") / "src" / "dloplan" / "robot" / "data" / "ur5e.urdf")
+    arms = {side: {"urdf": urdf, "tip_link": "tool0", "base_position": [0, y, 0],
+                   "base_rpy": [0, 0, 180], "tcp_offset": [0, 0, 0.15], "tool_radius": 0.045}
+            for side, y in (("left", 0.4), ("right", -0.4))}
+    by_path = load_scenario(_scenario(tmp_path, {"cell": {"arms": arms}}, "tmp_paths.yaml",
+                                      folder=ROOT / "examples"))
+    (ROOT / "examples" / "tmp_paths.yaml").unlink()
+    q = np.radians([10.0, -80.0, 70.0, -60.0, -90.0, 20.0])
+    for arm, preset in zip(by_path.robot.arms, job_m.robot.arms, strict=True):
+        (p_got, r_got), (p_want, r_want) = forward(arm, q), forward(preset, q)
+        np.testing.assert_allclose(p_got, p_want, atol=1e-12)
+        np.testing.assert_allclose(r_got.as_matrix(), r_want.as_matrix(), atol=1e-12)
+
+
+BAD_CELLS = [
+    ({"cell": {"preset": "ur10_pair"}}, "robot.cell.preset: got 'ur10_pair'"),
+    ({"cell": {"preset": "ur5e_pair", "separation": -0.8}}, "robot.cell.separation: got -0.8"),
+    ({"cell": {"arms": {side: {"urdf": "missing.urdf", "tip_link": "tool0"}
+                        for side in ("left", "right")}}}, "robot.cell.arms.left.urdf"),
+    ({"cell": {"preset": "ur5e_pair"}, "programs": ["rapid"]}, "robot.programs: got 'rapid'"),
+    ({"cell": {"preset": "panda_pair"}, "programs": ["urscript"]},
+     "robot.programs: got 'urscript'"),
+    ({"cell": {"preset": "ur5e_pair"}, "wobj": "w"}, "robot.wobj"),
+]
+
+
+@pytest.mark.parametrize("robot, fragment", BAD_CELLS, ids=lambda v: str(v)[:30])
+def test_a_bad_cell_exits_2_with_one_line_and_writes_nothing(tmp_path, capsys, robot,
+                                                            fragment):
+    from dloplan.cli import main
+
+    out = tmp_path / "out"
+    code = main(["plan", str(_scenario(tmp_path, robot)), "-o", str(out)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert fragment in err and len(err.splitlines()) == 1, err
+    assert not out.exists() or not any(out.iterdir())
+
+
 @pytest.mark.slow
-def test_ur5e_example_runs_end_to_end_and_programs_read_back(tmp_path):
-    sys.path.insert(0, str(EXAMPLES))
-    try:
-        import run_cell
-    finally:
-        sys.path.remove(str(EXAMPLES))
+def test_cell_plan_document_reads_back_and_programs_are_the_verified_joints(tmp_path):
+    """scenario -> job -> plan.json -> read back -> URScript and ROS 2 joints written from the
+    read-back document == the verified joints recorded in the plan; a tampered document is
+    refused; the report draws both arms of the cell at the verified joints."""
     from test_urscript import parse_urscript
 
-    assert run_cell.main([str(EXAMPLES / "ur5e_pair_usb.yaml"), "-o", str(tmp_path)]) == 0
-    verdict = json.loads((tmp_path / "cell_verdict.json").read_text())
-    assert verdict["ok"] and {row["check"] for row in verdict["rows"]} >= {"clearance",
-                                                                           "continuity"}
-    for arm in ("left", "right"):
-        moves = parse_urscript((tmp_path / f"dloplan_{arm}.script").read_text())["moves"]
-        message = yaml.safe_load((tmp_path / f"dloplan_{arm}_joint_trajectory.yaml").read_text())
-        ros = np.array([p["positions"] for p in message["points"]])
-        np.testing.assert_allclose(np.array([m[1] for m in moves]), ros, atol=1e-9)
-    assert (tmp_path / "plan.json").is_file()
+    from dloplan.app import WRITERS, load_scenario, read_plan, run_job, write_outputs
+    from dloplan.robot.chain import capsules
+
+    job = load_scenario(EXAMPLES / "ur5e_pair_usb.yaml")
+    doc = run_job(job)
+    assert doc.robot.ok, doc.robot.message
+    write_outputs(doc, tmp_path, ("json",))
+    back = read_plan(tmp_path / "plan.json")
+    assert back.robot.cell["kind"] == "described" and back.program is None
+    recorded = [np.radians([t["arms"][arm]["joints_deg"] for t in doc.robot.program["targets"]])
+                for arm in ("left", "right")]
+    times = [t["time"] for t in doc.robot.program["targets"]]
+    scripts = WRITERS["urscript"].write(back, tmp_path / "urscript", None)
+    ros = WRITERS["ros_joints"].write(back, tmp_path / "ros_joints", None)
+    for a, arm in enumerate(job.robot.arms):
+        moves = parse_urscript(scripts[a].read_text())["moves"]
+        np.testing.assert_allclose([m[1] for m in moves], recorded[a], atol=1e-9)
+        message = yaml.safe_load(ros[a].read_text())
+        np.testing.assert_allclose([p["positions"] for p in message["points"]], recorded[a],
+                                   atol=1e-12)
+        assert message["joint_names"] == list(arm.joint_names)
+        stamps = [p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"]
+                  for p in message["points"]]
+        np.testing.assert_allclose(stamps, times, atol=1e-9)
+        # the recorded joints hold the TCP at the recorded target (the verified pose)
+        target = np.array([t["arms"][arm.name]["position"] for t in
+                           doc.robot.program["targets"]])
+        np.testing.assert_allclose(forward(arm, recorded[a])[0], target, atol=1e-4)
+    drawn = doc.program.report_arms()["arm_capsules"]
+    offset = np.array(doc.robot.program["offset"])
+    np.testing.assert_allclose(drawn["shapes"][-1][1],
+                               capsules(job.robot.right, recorded[1][-1])[0] - offset,
+                               atol=1e-5)
+    assert len(drawn["shapes"]) == len(doc.shapes)
+    WRITERS["report"].write(back, tmp_path / "report.html", None)
+    assert '"arms": {"shapes"' in (tmp_path / "report.html").read_text()
+    with pytest.raises(ValueError, match="rapid: the cell 'ur5e_pair' takes urscript"):
+        WRITERS["rapid"].write(back, tmp_path / "rapid", None)
+    data = json.loads((tmp_path / "plan.json").read_text())
+    data["robot"]["program"]["targets"][2]["arms"]["left"]["joints_deg"][0] += 1.0
+    (tmp_path / "tampered.json").write_text(json.dumps(data))
+    with pytest.raises(ValueError, match="differs from the verified one"):
+        WRITERS["urscript"].write(read_plan(tmp_path / "tampered.json"), tmp_path / "t", None)
+
+
+@pytest.mark.slow
+def test_a_mirrored_job_on_a_ur_pair_swaps_the_arms():
+    """The job mirrored across the cell's xz-plane (a mirrored equilibrium is one): the other
+    clip lies on the left, so the other arm holds it; both pass."""
+    from dataclasses import replace
+
+    from dloplan.app import load_scenario, run_job
+
+    job = load_scenario(EXAMPLES / "ur5e_pair_usb.yaml")
+    job = replace(job, outputs=("json",))
+    mirror = np.array([1.0, -1.0, 1.0])
+    mirrored = replace(job, start=job.start * mirror, target=job.target * mirror)
+    programs = [run_job(j).program for j in (job, mirrored)]
+    assert all(p.ok for p in programs), [p.message for p in programs]
+    assert programs[0].left_clip == 1 - programs[1].left_clip
+    for program in programs:  # the left arm's TCP stays left of the right arm's
+        assert np.all(program.plan.positions[:, 0, 1] > program.plan.positions[:, 1, 1])
 
 
 def test_ros_joints_writer_of_a_plan_document_is_the_verified_yumi_program(tmp_path):
@@ -138,3 +259,24 @@ def test_ros_joints_writer_of_a_plan_document_is_the_verified_yumi_program(tmp_p
         stamps = [p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"]
                   for p in message["points"]]
         np.testing.assert_allclose(stamps, program.times, atol=1e-9)
+
+
+@pytest.mark.slow
+def test_check_and_unchecked_plan_on_a_described_cell(tmp_path, capsys):
+    """`dloplan check` finds the reach on the cell itself (a job moved beyond the UR5e's reach
+    is an error); `plan --no-verify` writes no program for a described cell (nothing was
+    verified) rather than one for the YuMi."""
+    from dloplan.cli import main
+
+    assert main(["check", str(EXAMPLES / "ur5e_pair_usb.yaml")]) == 0
+    assert "target robot reach: both arms reach their clips" in capsys.readouterr().out
+    far = tmp_path / "far.yaml"
+    far.write_text((EXAMPLES / "ur5e_pair_usb.yaml").read_text().replace(
+        "position: [0.45, 0.05, 0.25]", "position: [1.45, 0.05, 0.25]"))
+    assert main(["check", str(far)]) == 2
+    assert "ERROR   target robot reach" in capsys.readouterr().out
+    out = tmp_path / "out"
+    assert main(["plan", str(EXAMPLES / "ur5e_pair_usb.yaml"), "--no-verify", "-o", str(out),
+                 "-q"]) == 0
+    assert (out / "plan.json").is_file()
+    assert not (out / "urscript").exists() and not (out / "ros_joints").exists()

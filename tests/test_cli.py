@@ -76,7 +76,12 @@ def test_schema_and_cables(capsys):
 
 EXAMPLES = sorted(p for p in (Path(__file__).parents[1] / "examples").glob("*.yaml")
                   if not p.name.startswith(("identify", "harness_")) or
-                  p.name == "harness_phase1_obstacle.yaml")
+                  p.name == "harness_phase1_obstacle.yaml") + sorted(
+    (Path(__file__).parents[1] / "examples" / "cells").glob("*.yaml"))
+
+PROGRAM_FILES = {"rapid": "DloPlanL.mod", "urscript": "dloplan_left.script",
+                 "ros_joints": "dloplan_left_joint_trajectory.yaml"}
+"""A file each robot program format writes into its folder."""
 
 
 @pytest.mark.parametrize("example", EXAMPLES, ids=lambda p: p.stem)
@@ -86,12 +91,15 @@ def test_every_example_plans_end_to_end(tmp_path, capsys, example):
     summary = json.loads(capsys.readouterr().out)
     written = {Path(p).name for p in summary["written"]}
     assert {"plan.json", "report.html", "planned_path.png"} <= written
+    programs = (yaml.safe_load(example.read_text()).get("robot") or {}).get("programs",
+                                                                             ["rapid"])
     if code == EXIT_CHECK_FAILED:  # planned, but its robot program fails a check: no program
-        assert summary["ok"] is False and not (out / "rapid").exists()
-        assert any("robot program FAILS" in w for w in summary["warnings"])
+        assert summary["ok"] is False and not any((out / p).exists() for p in programs)
+        assert any("FAILS" in w for w in summary["warnings"])
     else:
         assert code in (EXIT_OK, EXIT_WARNINGS), summary
-        assert summary["ok"] is True and (out / "rapid" / "DloPlanL.mod").exists()
+        assert summary["ok"] is True
+        assert all((out / p / PROGRAM_FILES[p]).exists() for p in programs), programs
         assert "trajectory.csv" in written
     from dloplan.app import read_plan
 

@@ -500,7 +500,8 @@ def build_parser() -> argparse.ArgumentParser:
     export = command("export", _cmd_export, "export a plan as JSON, CSV, ROS 2 trajectory or "
                      "ABB RAPID")
     export.add_argument("plan", help="plan file written by dloplan plan (plan.json)")
-    export.add_argument("--format", choices=["json", "csv", "ros", "ros_joints", "rapid", "report"],
+    export.add_argument("--format", choices=["json", "csv", "ros", "ros_joints", "urscript",
+                                             "rapid", "report"],
                         required=True)
     export.add_argument("-o", "--output", required=True,
                         help="output file (a folder for rapid: one module per arm)")

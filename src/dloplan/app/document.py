@@ -323,7 +323,9 @@ class RobotSection:
     program : dict
         The program as written: arm assignment, targets with their verified joints,
         confdata and arm angles, the checks' summary and rows
-        (:meth:`dloplan.robot.RobotProgram.to_dict`).
+        (:meth:`dloplan.robot.RobotProgram.to_dict`); on a described cell the placement
+        offset, the assignment, the targets' TCP poses and verified joints, the checks
+        (:meth:`dloplan.robot.cell_program.CellProgram.to_dict`).
     """
 
     ok: bool
@@ -337,7 +339,12 @@ def _rotation_to_list(rotation: Rotation) -> list:
 
 
 def cell_to_dict(cell) -> dict:
-    """A :class:`~dloplan.robot.RobotCell` as JSON-ready data (quaternions x-y-z-w)."""
+    """A :class:`~dloplan.robot.RobotCell` as JSON-ready data (quaternions x-y-z-w); a
+    :class:`~dloplan.robot.urdf_cell.DescribedCell` as its record (``kind: described``)."""
+    from ..robot.cell import RobotCell
+
+    if not isinstance(cell, RobotCell):
+        return cell.to_dict()
     return {
         "base_position": cell.base_position.tolist(),
         "base_rotation": _rotation_to_list(cell.base_rotation),
@@ -353,9 +360,17 @@ def cell_to_dict(cell) -> dict:
 
 
 def cell_from_dict(data: dict, where: str = "plan.robot.cell"):
-    """The :class:`~dloplan.robot.RobotCell` of :func:`cell_to_dict`'s data."""
+    """The cell of :func:`cell_to_dict`'s data: a described cell for ``kind: described`` (its
+    URDF files must still be where the plan was made), else the YuMi's RobotCell."""
     from ..robot.cell import RobotCell, Tool
 
+    if isinstance(data, dict) and data.get("kind") == "described":
+        from ..robot.urdf_cell import cell_from_record
+
+        try:
+            return cell_from_record(data)
+        except ValueError as exc:
+            raise ValueError(f"{where}: {exc}") from None
     try:
         tools = tuple(Tool(name=t["name"], tcp_offset=np.asarray(t["tcp_offset"], float),
                            tcp_rotation=Rotation.from_quat(t["tcp_rotation"]), mass=t["mass"],

@@ -20,13 +20,15 @@ from ..exit_codes import (  # noqa: F401 - re-exported: the codes of the command
     EXIT_WARNINGS,
 )
 from ..io.files import staged_folder
+from ..io.scenario import PROGRAM_NAMES
+from ..robot.cell_program import program_formats
 from .document import PlanDocument, read_plan
 from .job import Job
 from .load import file_kind, load_job
 from .pipeline import quiet, run_harness_job, run_job
 from .writers import WriteOptions, write_outputs
 
-ROBOT_OUTPUTS = ("csv", "ros", "rapid")
+ROBOT_OUTPUTS = ("csv", "ros", "rapid", "ros_joints", "urscript")
 """The outputs a robot could run: not written for a plan that failed a check."""
 
 HARNESS_OUTPUTS = ("json", "csv", "rapid", "figures", "report")
@@ -67,6 +69,10 @@ def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
         if not doc.ok:
             formats = tuple(f for f in formats if f not in ROBOT_OUTPUTS)
             progress("a check failed: writing the plan and its report, no robot program")
+        elif doc.robot is None and isinstance(job, Job) and "rapid" not in \
+                program_formats(job.robot):
+            formats = tuple(f for f in formats if f not in PROGRAM_NAMES)
+            progress("no robot checks: no program for a described cell (nothing verified)")
         written = write_outputs(doc, staging, formats, options=options)
     paths = [folder / path.relative_to(staging) for path in written]
     progress(f"wrote {len(paths)} files into {folder}")

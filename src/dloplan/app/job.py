@@ -10,6 +10,7 @@ the report all see the same ones. No pydantic model and no file unit passes this
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -17,6 +18,7 @@ from scipy.spatial.transform import Rotation
 from ..cable import Cable
 from ..geometry import resample_by_arc_length
 from ..io.scenario import (
+    PROGRAM_NAMES,
     WORKSPACE,
     Scenario,
     ScenarioError,
@@ -26,6 +28,8 @@ from ..io.scenario import (
 )
 from ..planning.tuning import PlannerWeights, planner_weights, stiffness_family
 from ..robot.cell import RobotCell
+from ..robot.cell_program import cell_name, program_formats
+from ..robot.urdf_cell import DescribedCell, cell_from_mapping
 from ..shapes import discretize
 from ..trajectory import MotionLimits
 
@@ -141,8 +145,9 @@ class Job:
         T_cf [m] of the target stability check (thesis 5.3).
     outputs : tuple of str
         The files ``dloplan plan`` writes ("json", "csv", "rapid", "ros", "figures", "report").
-    robot : RobotCell
-        The robot cell the plan is executed in (YuMi placement, tools, work object).
+    robot : RobotCell or DescribedCell
+        The robot cell the plan is executed in: the YuMi (placement, tools, work object), or
+        two arms from descriptions (``robot.cell``, docs/cells.md).
     identification : Identification or None
         How the cable's E was identified, when the scenario asked for it.
     study : StudySpec or None
@@ -159,7 +164,7 @@ class Job:
     motion: MotionSettings
     target_threshold: float
     outputs: tuple[str, ...]
-    robot: RobotCell = field(default_factory=RobotCell)
+    robot: RobotCell | DescribedCell = field(default_factory=RobotCell)
     identification: object = None
     study: object = None
 
@@ -237,9 +242,35 @@ def check_workspace(points, name: str, source: str) -> None:
                             f"within {WORKSPACE:g} m of the robot (a length in wrong units?)")
 
 
-def robot_cell(scenario, scale: float) -> RobotCell:
-    """The robot cell of a scenario's ``robot:`` section (lengths in file units times ``scale``)."""
+YUMI_ONLY = ("base_position", "base_rotation", "wobj", "tools", "approach", "grip_time",
+             "hold_force")
+"""Settings of the ``robot:`` section that describe the YuMi's cell (not a described one)."""
+
+
+def robot_cell(scenario, scale: float, folder=".") -> RobotCell | DescribedCell:
+    """The robot cell of a scenario's ``robot:`` section (lengths in file units times
+    ``scale``): the YuMi's :class:`RobotCell`, or with ``robot.cell`` a
+    :class:`~dloplan.robot.urdf_cell.DescribedCell` (URDF paths relative to ``folder``; table
+    height by default the scenario's table)."""
     spec = scenario.robot
+    table = scenario.table.height * scale if scenario.table is not None else 0.0
+    if spec.cell is not None:
+        mixed = sorted(set(YUMI_ONLY) & spec.model_fields_set)
+        if mixed:
+            raise ScenarioError(f"robot.{mixed[0]}: set for the YuMi's cell, expected nothing "
+                                "with robot.cell (its arms are placed in robot.cell)")
+        data = dict(spec.cell)
+        data.setdefault("table_height", scenario.table.height if scenario.table else 0.0)
+        writers = {"urscript": spec.urscript.settings(scale),
+                   "ros_joints": {k: v for k, v in spec.ros_joints.model_dump().items()
+                                  if v is not None}}
+        try:
+            cell = cell_from_mapping(data, folder, scale)
+        except ValueError as exc:
+            message = str(exc)
+            raise ScenarioError(message if message.startswith("robot.") else
+                                f"robot.cell: {message}") from None
+        return replace(cell, place=spec.place, writers=writers)
     defaults = RobotCell()
     tools = []
     for k, (tool_spec, tool) in enumerate(zip(spec.tools, defaults.tools, strict=True)):
@@ -251,7 +282,6 @@ def robot_cell(scenario, scale: float) -> RobotCell:
             tools.append(replace(tool, **changes))
         except ValueError as exc:
             raise ScenarioError(f"robot.tools.{k}: {exc}") from None
-    table = scenario.table.height * scale if scenario.table is not None else 0.0
     try:
         return RobotCell(
             base_position=np.multiply(spec.base_position, scale),
@@ -262,6 +292,31 @@ def robot_cell(scenario, scale: float) -> RobotCell:
             grip_time=spec.grip_time, hold_force=spec.hold_force)
     except ValueError as exc:
         raise ScenarioError(f"robot: {exc}") from None
+
+
+def job_outputs(scenario, cell) -> tuple[str, ...]:
+    """What ``dloplan plan`` writes: the scenario's ``outputs`` with the robot programs the
+    cell takes (``robot.programs``; by default all of them, replacing ``rapid``).
+
+    Raises
+    ------
+    ScenarioError
+        A program (in ``robot.programs`` or a given ``outputs``) the cell cannot run.
+    """
+    formats = program_formats(cell)
+    wanted = scenario.robot.programs
+    if wanted is None:
+        if "outputs" in scenario.model_fields_set or isinstance(cell, RobotCell):
+            wanted = [f for f in PROGRAM_NAMES if f in scenario.outputs]
+        else:
+            wanted = list(formats)
+    where = "robot.programs" if scenario.robot.programs is not None else "outputs"
+    for name in wanted:
+        if name not in formats:
+            raise ScenarioError(f"{where}: got {name!r}, the cell {cell_name(cell)!r} takes "
+                                f"{', '.join(formats)} (docs/cells.md)")
+    others = [f for f in scenario.outputs if f not in PROGRAM_NAMES]
+    return tuple(others + [f for f in PROGRAM_NAMES if f in wanted])
 
 
 def resolve_scenario(scenario: Scenario, source: str = "scenario",
@@ -297,6 +352,7 @@ def resolve_scenario(scenario: Scenario, source: str = "scenario",
     obstacles = tuple(build_obstacles(scenario.obstacles, scenario.table, scale))
     for name, shape in shapes.items():
         check_workspace(shape, name, source)
+    cell = robot_cell(scenario, scale, Path(source).parent)
     for k, obstacle in enumerate(obstacles):
         corner = np.array(getattr(obstacle, "center", getattr(obstacle, "base", (0, 0, 0))))
         check_workspace(corner, f"obstacles.{k}", source)
@@ -305,6 +361,6 @@ def resolve_scenario(scenario: Scenario, source: str = "scenario",
         obstacles=obstacles,
         planner=planner_settings(scenario, cable, scale), grippers=gripper_settings(scenario),
         motion=motion_settings(scenario, scale), target_threshold=threshold,
-        outputs=tuple(scenario.outputs), robot=robot_cell(scenario, scale),
+        outputs=job_outputs(scenario, cell), robot=cell,
         identification=identification, study=scenario.study,
     )

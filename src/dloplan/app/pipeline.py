@@ -121,7 +121,7 @@ def _reach_findings(job: Job) -> list[Finding]:
     """Can the robot's arms hold the start and the target (gripper frames by the job's method)?"""
     grippers = gripper_frames(job, np.stack([job.start, job.target]))
     findings = []
-    for name, row in zip(("start", "target"), robot_rows(grippers), strict=True):
+    for name, row in zip(("start", "target"), robot_rows(grippers, job.robot), strict=True):
         arms = [arm for arm in ("left", "right") if not row[f"reachable_{arm}"]]
         if arms:
             what = ("arm cannot reach its clip" if len(arms) == 1 else
@@ -266,26 +266,23 @@ def plan_twist(cable, path: np.ndarray, grippers, progress=quiet):
     return twist
 
 
-def robot_rows(grippers) -> list[dict]:
-    """Reachability of a gripper path's poses by either YuMi arm (before an arm is assigned)."""
-    from scipy.spatial.transform import Rotation
+def robot_rows(grippers, cell=None) -> list[dict]:
+    """Reachability of a gripper path's poses by the cell's arms (default the YuMi, either arm
+    before an arm is assigned; :func:`dloplan.robot.cell_program.reach_rows`)."""
+    from ..robot.cell import RobotCell
+    from ..robot.cell_program import reach_rows
 
-    from ..robot import check_reachability
-
-    reach = check_reachability(grippers.positions, Rotation.from_matrix(grippers.matrices))
-    return [{"reachable_left": bool(reach.reachable[k, 0]),
-             "reachable_right": bool(reach.reachable[k, 1]),
-             "joint_margin": float(np.min(reach.joint_margin[k]))}
-            for k in range(len(grippers.positions))]
+    return reach_rows(RobotCell() if cell is None else cell, grippers)
 
 
 def plan_program(cell, grippers, trajectory, progress=quiet):
-    """The robot program of a plan, verified (:func:`dloplan.robot.robot_program`): arm
-    assignment, IK of every exported target, joint limits, arm-arm clearance, continuity and
-    joint speeds."""
-    from ..robot import robot_program
+    """The robot program of a plan on its cell, verified
+    (:func:`dloplan.robot.cell_program.make_program`): on the YuMi arm assignment, IK of every
+    exported target, joint limits, arm-arm clearance, continuity and joint speeds; on a
+    described cell the same checks along the tracked motion, table clearance and placement."""
+    from ..robot.cell_program import make_program
 
-    program = robot_program(grippers, trajectory, cell)
+    program = make_program(cell, grippers, trajectory)
     progress(program.message)
     return program
 
@@ -312,18 +309,27 @@ def program_of(doc: PlanDocument):
         return doc.program
     if doc.grippers is None or doc.trajectory is None:
         raise ValueError("plan: no gripper poses and trajectory to make a robot program from")
-    from ..robot import RobotCell, robot_program
+    from ..robot import RobotCell
+    from ..robot.cell_program import make_program
 
     cell = RobotCell() if doc.robot is None else cell_from_dict(doc.robot.cell)
-    program = robot_program(doc.grippers, doc.trajectory, cell)
+    program = make_program(cell, doc.grippers, doc.trajectory)
     if doc.robot is not None:
-        recorded = np.array([[arm["joints_deg"] for arm in target["arms"].values()]
-                             for target in doc.robot.program["targets"]])
-        rebuilt = np.degrees(program.joints)
+        recorded = _target_joints(doc.robot.program)
+        rebuilt = _target_joints(program.to_dict())
         if recorded.shape != rebuilt.shape or np.abs(recorded - rebuilt).max() > 1e-6:
             raise ValueError("plan.robot: the robot program rebuilt from the plan differs from "
                              "the verified one it records; plan again")
     return program
+
+
+def _target_joints(program: dict) -> np.ndarray:
+    """(M, joints of both arms) the joints [deg] a program dict records per target."""
+    try:
+        return np.array([np.concatenate([arm["joints_deg"] for arm in target["arms"].values()])
+                         for target in program["targets"]], dtype=float)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"plan.robot.program.targets: malformed ({exc})") from None
 
 
 def program_reachability(program, n_shapes: int) -> list[dict]:

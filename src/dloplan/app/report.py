@@ -182,13 +182,16 @@ def robot_table(doc: PlanDocument):
     rows = [[line["check"], "ok" if line["ok"] else "FAILED", f"{line['worst']:.4g} {line['unit']}",
              line["where"], line["failures"], line["first_failure"] or "-"]
             for line in doc.robot.program["summary"]]
-    return ("Robot program (YuMi, exactly the exported targets)",
+    cell = doc.robot.program.get("cell", "YuMi")
+    return (f"Robot program ({cell}, exactly the exported targets)",
             ["check", "verdict", "worst", "where", "failing rows", "first failure"], rows)
 
 
 def write_plan_report(doc: PlanDocument, path, images=(), arms=None) -> Path:
     """The self-contained HTML report of a plan document (``arms``: the robot program's
-    :meth:`~dloplan.robot.RobotProgram.report_arms`, to draw both arms)."""
+    ``report_arms()``, to draw both arms of its cell: the YuMi's
+    :meth:`~dloplan.robot.RobotProgram.report_arms` or a described cell's
+    :meth:`~dloplan.robot.cell_program.CellProgram.report_arms`)."""
     from ..plots.report import write_report
 
     tables = [shape_table(doc)]

@@ -10,8 +10,9 @@ name       what it writes
 json       ``plan.json``, the plan document itself (:mod:`dloplan.app.document`)
 csv        ``trajectory.csv``, the dual-arm TCP trajectory sampled at the rate
 ros        ``trajectory.yaml``, a ROS 2 ``trajectory_msgs/MultiDOFJointTrajectory``
-rapid      ``rapid/``, one ABB RAPID module per YuMi arm
+rapid      ``rapid/``, one ABB RAPID module per YuMi arm (ABB cells only)
 ros_joints ``ros_joints/``, a ROS 2 ``trajectory_msgs/JointTrajectory`` per arm (verified joints)
+urscript   ``urscript/``, one URScript program per arm (cells of two 6-joint arms)
 figures    ``figures/``, PNG and SVG figures
 report     ``report.html``, the self-contained interactive report (with the figures)
 =========  ==================================================================================
@@ -59,34 +60,61 @@ def write_ros(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Pa
                                  frame_id=doc.frame_id)]
 
 
+def verified_program(doc: PlanDocument, name: str):
+    """The document's verified robot program (:func:`dloplan.app.pipeline.program_of`) for
+    the program format ``name``.
+
+    Raises
+    ------
+    ValueError
+        A plan without trajectory, or a cell that does not take the format.
+    """
+    from ..robot.cell_program import cell_name
+    from .pipeline import program_of
+
+    _needs_trajectory(doc, name)
+    program = program_of(doc)
+    if name not in program.formats:
+        raise ValueError(f"{name}: the cell {cell_name(program.cell)!r} takes "
+                         f"{', '.join(program.formats)}, not {name} (docs/cells.md)")
+    return program
+
+
 def write_rapid_program(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
     """The RAPID modules of both YuMi arms, in the folder ``target``: exactly the verified
-    robot program of the document (:func:`dloplan.app.pipeline.program_of`). A plan made
+    robot program of the document (:func:`verified_program`; ABB cells only). A plan made
     without robot checks (``--no-verify``) gets its program written with the checks' verdict
     in the module header; a program that failed its checks is refused."""
     from ..io.rapid import write_rapid
-    from .pipeline import program_of
 
-    _needs_trajectory(doc, "rapid")
-    return list(write_rapid(target, program_of(doc), force=doc.robot is None).values())
+    program = verified_program(doc, "rapid")
+    return list(write_rapid(target, program, force=doc.robot is None).values())
+
+
+def _passed(doc: PlanDocument, name: str):
+    program = verified_program(doc, name)
+    if doc.robot is not None and not program.ok:
+        raise ValueError(f"{name}: {program.message}")
+    return program
 
 
 def write_joint_trajectory_files(doc: PlanDocument, target: Path,
                                  options: WriteOptions) -> list[Path]:
-    """One ROS 2 JointTrajectory per YuMi arm in the folder ``target``: the verified joints of
-    the document's robot program at its target times (:mod:`dloplan.io.ros_joints`); a program
+    """One ROS 2 JointTrajectory per arm in the folder ``target``: the verified joints of the
+    document's robot program at its target times (:mod:`dloplan.io.ros_joints`); a program
     that failed its checks is refused, as for RAPID."""
     from ..io.ros_joints import write_joint_trajectories
-    from .pipeline import program_of
 
-    _needs_trajectory(doc, "ros_joints")
-    program = program_of(doc)
-    if doc.robot is not None and not program.ok:
-        raise ValueError(f"ros_joints: {program.message}")
-    arms = program.cell.robot.arms
-    return write_joint_trajectories(target, program.times,
-                                    [program.joints[:, a] for a in range(len(arms))],
-                                    [arm.joint_names for arm in arms])
+    return write_joint_trajectories(target, **_passed(doc, "ros_joints").ros_joints_arguments())
+
+
+def write_urscript_files(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
+    """One URScript program per arm in the folder ``target`` (:mod:`dloplan.io.urscript`): the
+    verified joints of a described cell of 6-joint arms; a program that failed its checks is
+    refused."""
+    from ..io.urscript import write_urscript
+
+    return write_urscript(target, **_passed(doc, "urscript").urscript_arguments())
 
 
 def write_figure_files(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
@@ -120,6 +148,7 @@ WRITERS: dict[str, Writer] = {
     "ros": Writer("trajectory.yaml", write_ros),
     "rapid": Writer("rapid", write_rapid_program),
     "ros_joints": Writer("ros_joints", write_joint_trajectory_files),
+    "urscript": Writer("urscript", write_urscript_files),
     "figures": Writer("figures", write_figure_files),
     "report": Writer("report.html", write_report_file),
 }

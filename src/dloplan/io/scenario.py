@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, get_args
 
 import numpy as np
 import yaml
@@ -319,7 +319,11 @@ class TableSpec(_Model):
     height: float = Field(0.0, allow_inf_nan=False)
 
 
-OutputName = Literal["json", "csv", "rapid", "ros", "ros_joints", "figures", "report"]
+OutputName = Literal["json", "csv", "rapid", "ros", "ros_joints", "urscript", "figures",
+                     "report"]
+ProgramName = Literal["rapid", "urscript", "ros_joints"]
+PROGRAM_NAMES = get_args(ProgramName)
+"""The robot program formats a cell may take (``robot.programs``)."""
 
 
 class ToolSpec(_Model):
@@ -330,8 +334,43 @@ class ToolSpec(_Model):
     mass: PositiveLength | None = Field(None, description="[kg]")
 
 
+class UrscriptSpec(_Model):
+    """How the URScript programs are written (:func:`dloplan.io.urscript.write_urscript`)."""
+
+    mode: Literal["movej", "movel"] = "movej"
+    blend: float = Field(0.0, ge=0, allow_inf_nan=False, description="blend radius [units]")
+    acceleration: PositiveLength = Field(1.2, description="movel acceleration [units/s^2]")
+    start_speed: PositiveLength = Field(0.5, description="joint speed to the start [rad/s]")
+    start_input: int = Field(0, ge=0, le=7, description="standard digital input to wait for")
+    ready_output: int = Field(0, ge=0, le=7, description="standard digital output raised")
+
+    def settings(self, scale: float) -> dict:
+        """The writer's keyword settings in SI (lengths times ``scale``)."""
+        return {**self.model_dump(), "blend": self.blend * scale,
+                "acceleration": self.acceleration * scale}
+
+
+class RosJointsSpec(_Model):
+    """How the ROS 2 joint trajectories are written (:mod:`dloplan.io.ros_joints`)."""
+
+    joint_prefix: list[str] | None = Field(None, min_length=2, max_length=2,
+                                           description="per arm before every joint name")
+    velocities: bool = True
+
+
 class RobotSpec(_Model):
-    """The robot cell: where the YuMi stands in the plan's frame, its tools and work object."""
+    """The robot cell: where the YuMi stands in the plan's frame, its tools and work object;
+    or, with ``cell``, any two arms from robot descriptions (docs/cells.md), where the YuMi's
+    settings do not apply."""
+
+    cell: dict[str, Any] | None = Field(
+        None, description="a cell from descriptions: {preset: ur5e_pair | panda_pair | yumi, "
+        "...} or {arms: {left: {urdf, tip_link, ...}, right: ...}} (docs/cells.md)")
+    place: bool = Field(True, description="search the job's placement on the table (cell)")
+    programs: list[ProgramName] | None = Field(
+        None, description="robot programs `dloplan plan` writes (default all the cell takes)")
+    urscript: UrscriptSpec = Field(default_factory=UrscriptSpec)
+    ros_joints: RosJointsSpec = Field(default_factory=RosJointsSpec)
 
     base_position: Vector3 = Field(default_factory=lambda: [0.0, 0.0, 0.0],
                                    description="robot base origin in the plan's frame [units]")

@@ -92,6 +92,7 @@ def report_html(
     arm_joints: np.ndarray | None = None,
     robot=None,
     arm_motion: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    arm_capsules: dict | None = None,
 ) -> str:
     """The report page as a string.
 
@@ -131,6 +132,11 @@ def report_html(
         along the trajectory (``RobotProgram.motion_times``, ``.motion_joints`` and the shapes'
         times ``.times[grasp:release + 1]``), shown on a time slider with the cable of the
         last shape reached.
+    arm_capsules : dict, optional
+        Instead of ``arm_joints``, both arms of any cell as capsules already placed:
+        ``shapes`` (per shape, per arm a list of (2, 3) end points [m]), ``radii`` (per arm
+        [m]) and ``motion`` (None or ``times``, ``capsules`` per sample, ``shape_times``)
+        (:meth:`dloplan.robot.cell_program.CellProgram.report_arms`).
     """
     shapes = np.asarray(shapes, dtype=float)
     if shapes.ndim != 3 or shapes.shape[-1] != 3 or len(shapes) == 0:
@@ -150,6 +156,8 @@ def report_html(
     }
     if arm_joints is not None:
         data["arms"] = _arm_data(arm_joints, robot, arm_motion, len(shapes))
+    elif arm_capsules is not None:
+        data["arms"] = arm_capsules
     summary_html = "".join(f"<p>{html.escape(line)}</p>" for line in summary)
     summary_html += "".join(f"<p class='warn'>&#9888; {html.escape(w)}</p>" for w in warnings)
     tables_html = "".join(_table_html(*t) for t in tables)

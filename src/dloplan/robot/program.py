@@ -114,8 +114,24 @@ class CheckRow:
                 "unit": self.unit, "ok": bool(self.ok), "note": self.note}
 
 
+class CheckedProgram:
+    """The verdict of a program from its ``checks`` (a tuple of :class:`CheckRow`)."""
+
+    checks: tuple[CheckRow, ...]
+
+    @property
+    def ok(self) -> bool:
+        """Every check passes: the program may be written and run."""
+        return all(row.ok for row in self.checks)
+
+    @property
+    def failures(self) -> tuple[CheckRow, ...]:
+        """The rows that fail."""
+        return tuple(row for row in self.checks if not row.ok)
+
+
 @dataclass(frozen=True, eq=False)
-class RobotProgram:
+class RobotProgram(CheckedProgram):
     """A verified dual-arm program: what the RAPID writer writes, and its checks.
 
     Arrays are indexed ``[target, arm]`` with the arms in the order ``("left", "right")``; the
@@ -185,16 +201,6 @@ class RobotProgram:
         return len(self.labels)
 
     @property
-    def ok(self) -> bool:
-        """Every check passes: the program may be written and run."""
-        return all(row.ok for row in self.checks)
-
-    @property
-    def failures(self) -> tuple[CheckRow, ...]:
-        """The rows that fail."""
-        return tuple(row for row in self.checks if not row.ok)
-
-    @property
     def shape_joints(self) -> np.ndarray:
         """(S + 2, 2, 7) the verified joints [rad] at the plan's shapes (approach and retreat
         left out)."""
@@ -207,6 +213,20 @@ class RobotProgram:
         wait = self.cell.grip_time if self.release > self.grasp else 0.0
         return float(self.times[self.release] - self.times[self.grasp] - wait)
 
+    @property
+    def formats(self) -> tuple[str, ...]:
+        """The program formats written from it (:mod:`dloplan.app.writers`): RAPID for the
+        YuMi's controller and the ROS 2 joint trajectories."""
+        return ("rapid", "ros_joints")
+
+    def ros_joints_arguments(self) -> dict:
+        """Keyword arguments of :func:`dloplan.io.ros_joints.write_joint_trajectories` after
+        the folder: the target times (M,) [s], per arm the verified (M, 7) joints [rad] in
+        physical order and the joint names."""
+        arms = self.cell.robot.arms
+        return {"times": self.times, "joints": [self.joints[:, a] for a in range(len(arms))],
+                "joint_names": [arm.joint_names for arm in arms]}
+
     def report_arms(self) -> dict:
         """Keyword arguments of :func:`dloplan.plots.report.write_report` that draw both arms
         at every shape and along the replayed motion."""
@@ -216,20 +236,7 @@ class RobotProgram:
 
     def summary(self) -> list[dict]:
         """Per check: passed, the worst value and where, how many rows fail and the first."""
-        lines = []
-        for name in CHECKS:
-            rows = [r for r in self.checks if r.check == name]
-            if not rows:
-                continue
-            pick = min if name in _LOWER_IS_WORSE else max
-            worst = pick(rows, key=lambda r: r.value)
-            failed = [r for r in rows if not r.ok]
-            lines.append({"check": name, "ok": not failed, "failures": len(failed),
-                          "worst": float(worst.value), "unit": worst.unit,
-                          "where": f"{worst.label}, {worst.arm}" + (
-                              f" ({worst.note})" if worst.note else ""),
-                          "first_failure": failed[0].label if failed else None})
-        return lines
+        return check_summary(self.checks, CHECKS, _LOWER_IS_WORSE)
 
     @property
     def message(self) -> str:
@@ -274,6 +281,26 @@ class RobotProgram:
             "summary": self.summary(),
             "checks": [row.to_dict() for row in self.checks],
         }
+
+
+def check_summary(rows, checks, lower_is_worse) -> list[dict]:
+    """Per check of ``checks`` (in that order) with rows: ``check``, ``ok``, ``failures``,
+    ``worst`` (the lowest value for a check in ``lower_is_worse``, else the highest) with its
+    ``unit`` and ``where``, and the label of the ``first_failure`` (or None)."""
+    lines = []
+    for name in checks:
+        mine = [r for r in rows if r.check == name]
+        if not mine:
+            continue
+        pick = min if name in lower_is_worse else max
+        worst = pick(mine, key=lambda r: r.value)
+        failed = [r for r in mine if not r.ok]
+        lines.append({"check": name, "ok": not failed, "failures": len(failed),
+                      "worst": float(worst.value), "unit": worst.unit,
+                      "where": f"{worst.label}, {worst.arm}" + (
+                          f" ({worst.note})" if worst.note else ""),
+                      "first_failure": failed[0].label if failed else None})
+    return lines
 
 
 def robot_program(grippers, trajectory, cell: RobotCell | None = None) -> RobotProgram:

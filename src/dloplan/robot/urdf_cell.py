@@ -60,6 +60,16 @@ class DescribedCell:
     shared_base : bool
         Both arms hang on one body (one description with two chains, e.g. the YuMi): the base
         link's capsules are not checked against each other.
+    place : bool
+        A plan is verified where the placement search puts it (:func:`search_cell_placement`);
+        False: where it was planned.
+    writers : dict
+        Per program format (``urscript``, ``ros_joints``) the writer's keyword settings (the
+        scenario's ``robot.urscript`` / ``robot.ros_joints``: the cell's wiring and controller
+        names).
+    source : dict, optional
+        The mapping that builds the cell again (:func:`cell_from_mapping`, lengths in m, URDF
+        paths absolute); the presets record theirs.
     """
 
     name: str
@@ -67,6 +77,9 @@ class DescribedCell:
     right: CellArm
     table_height: float = 0.0
     shared_base: bool = False
+    place: bool = True
+    writers: dict = field(default_factory=dict)
+    source: dict | None = None
 
     def __post_init__(self) -> None:
         if (self.left.name, self.right.name) != ARMS:
@@ -80,6 +93,28 @@ class DescribedCell:
     def arms(self) -> tuple[CellArm, CellArm]:
         """``(left, right)``."""
         return (self.left, self.right)
+
+    def to_base(self, positions) -> np.ndarray:
+        """World points [m], (..., 3), in the cell's frame: origin between the two bases, y
+        from the right base to the left one (horizontal), z up; the world frame when both arms
+        share a base. The clip with the larger y goes to the left arm."""
+        pos = np.asarray(positions, dtype=float)
+        across = self.left.base_position - self.right.base_position
+        across[2] = 0.0
+        if np.linalg.norm(across) < 1e-9:
+            return pos
+        y = across / np.linalg.norm(across)
+        axes = np.stack([np.cross(y, [0.0, 0.0, 1.0]), y, [0.0, 0.0, 1.0]], 1)
+        middle = 0.5 * (self.left.base_position + self.right.base_position)
+        return (pos - middle) @ axes
+
+    def to_dict(self) -> dict:
+        """JSON-ready data that builds the cell again (:func:`cell_from_dict`)."""
+        if self.source is None:
+            raise ValueError(f"cell {self.name!r}: built without a mapping, cannot be recorded "
+                             "(build it with cell_from_mapping or a preset)")
+        return {"kind": "described", **self.source, "place": self.place,
+                "writers": self.writers}
 
 
 @dataclass(frozen=True, eq=False)
@@ -355,6 +390,12 @@ def search_cell_placement(cell: DescribedCell, positions, rotations: Rotation, *
     return first
 
 
+def _check_separation(separation) -> None:
+    if not (np.isfinite(separation) and separation > 0):
+        raise ValueError(f"robot.cell.separation: got {separation!r}, expected a distance > 0 "
+                         "[m] between the two bases")
+
+
 def ur5e_pair(*, separation: float = 0.8, tcp_offset: float = 0.15, tool_radius: float = 0.045,
               table_height: float = 0.0) -> DescribedCell:
     """Two UR5e side by side on a table, facing +x.
@@ -364,6 +405,7 @@ def ur5e_pair(*, separation: float = 0.8, tcp_offset: float = 0.15, tool_radius:
     (e.g. a Robotiq 2F-85 with coupling, 0.15 m) drawn as a capsule of ``tool_radius``. Home:
     ``[0, -90, 90, -90, -90, 0]`` deg (elbow up, tool pointing down).
     """
+    _check_separation(separation)
     description = load_arm(vendored("ur5e.urdf"), "tool0")
     home = np.radians([0.0, -90.0, 90.0, -90.0, -90.0, 0.0])
     turn = Rotation.from_rotvec([0.0, 0.0, np.pi])
@@ -371,7 +413,9 @@ def ur5e_pair(*, separation: float = 0.8, tcp_offset: float = 0.15, tool_radius:
                     base_position=(0.0, sign * separation / 2, table_height), base_rotation=turn,
                     tcp_offset=(0.0, 0.0, tcp_offset), tool_radius=tool_radius, home=home)
             for side, sign in zip(ARMS, (1.0, -1.0), strict=True)]
-    return DescribedCell("ur5e_pair", *arms, table_height=table_height)
+    return DescribedCell("ur5e_pair", *arms, table_height=table_height, source={
+        "preset": "ur5e_pair", "separation": separation, "tcp_offset": tcp_offset,
+        "tool_radius": tool_radius, "table_height": table_height})
 
 
 PANDA_TCP_IN_CLIP = Rotation.from_matrix(np.diag([1.0, -1.0, -1.0]))
@@ -392,6 +436,7 @@ def panda_pair(*, separation: float = 0.8, table_height: float = 0.0) -> Describ
     hand's fingers close along its y-axis, so it holds a clip with the cable along TCP x and
     approaches from above (:data:`PANDA_TCP_IN_CLIP`).
     """
+    _check_separation(separation)
     description = load_arm(vendored("panda.urdf"), "panda_hand", base_link="panda_link0")
     home = np.radians([0.0, -45.0, 0.0, -135.0, 0.0, 90.0, 45.0])
     arms = [CellArm(side, replace(description, name=f"panda_{side}"),
@@ -399,7 +444,8 @@ def panda_pair(*, separation: float = 0.8, table_height: float = 0.0) -> Describ
                     tcp_offset=(0.0, 0.0, 0.1034), tool_radius=0.03, home=home,
                     tcp_in_clip=PANDA_TCP_IN_CLIP)
             for side, sign in zip(ARMS, (1.0, -1.0), strict=True)]
-    return DescribedCell("panda_pair", *arms, table_height=table_height)
+    return DescribedCell("panda_pair", *arms, table_height=table_height, source={
+        "preset": "panda_pair", "separation": separation, "table_height": table_height})
 
 
 def yumi_cell(*, table_height: float = 0.0) -> DescribedCell:
@@ -412,7 +458,8 @@ def yumi_cell(*, table_height: float = 0.0) -> DescribedCell:
                                    name=f"yumi_{side}"),
                     tcp_offset=DEFAULT_TCP_OFFSET, home=np.radians(HOME_DEG[side]))
             for side in ARMS]
-    return DescribedCell("yumi", *arms, table_height=table_height, shared_base=True)
+    return DescribedCell("yumi", *arms, table_height=table_height, shared_base=True,
+                         source={"preset": "yumi", "table_height": table_height})
 
 
 @dataclass(frozen=True, eq=False)
@@ -433,6 +480,9 @@ class CellPlan:
     rotations : scipy.spatial.transform.Rotation
         (K * 2,) ``tcp_to_world``, pose-major (k, arm).
     verdict : CellVerdict
+        Its rows labelled by the plan's shapes.
+    shapes : numpy.ndarray
+        (K,) int, the plan's shape (trajectory knot) of each kept knot.
     """
 
     cell: DescribedCell
@@ -442,6 +492,7 @@ class CellPlan:
     positions: np.ndarray
     rotations: Rotation
     verdict: CellVerdict
+    shapes: np.ndarray
 
     def base_poses(self) -> tuple[np.ndarray, np.ndarray]:
         """(K, 2, 3) TCP positions [m] and (K, 2, 3) rotation vectors [rad] in each arm's base
@@ -453,13 +504,15 @@ class CellPlan:
 
 
 def verify_on_cell(cell: DescribedCell, trajectory, *, tcp_in_clip: Rotation | None = None,
-                   place: bool = True, options: ReachOptions | None = None) -> CellPlan:
+                   place: bool | None = None, options: ReachOptions | None = None) -> CellPlan:
     """Verify a plan's timed clip trajectory on a cell.
 
     The TCP holds each clip at the clip point with ``clip_to_world * tcp_in_clip`` (default
     each arm's :attr:`~dloplan.robot.chain.CellArm.tcp_in_clip`); the clip on the robot's
-    left (larger mean y) goes to the left arm; knots where no arm moves are dropped; with
-    ``place`` the job is shifted by :func:`search_cell_placement`, else verified where it is.
+    left (larger y in :meth:`DescribedCell.to_base`) goes to the left arm; knots where no arm
+    moves are dropped; with ``place`` (default ``cell.place``) the job is shifted by
+    :func:`search_cell_placement`, else verified where it is. The verdict's rows are labelled
+    by the plan's shapes (``"shape k"``, one knot per shape).
 
     Parameters
     ----------
@@ -468,25 +521,29 @@ def verify_on_cell(cell: DescribedCell, trajectory, *, tcp_in_clip: Rotation | N
         Knot times [s], clip positions (K, 2, 3) [m] and rotations per arm.
     tcp_in_clip : scipy.spatial.transform.Rotation, optional
         The same mapping for both arms instead of the arms' own.
-    place : bool
+    place : bool, optional
     options : ReachOptions, optional
     """
     times = np.asarray(trajectory.times, dtype=float)
     keep = np.concatenate([[True], np.diff(times) > 0])
     pos = np.asarray(trajectory.positions, dtype=float)[keep]
     mats = np.stack([r.as_matrix() for r in trajectory.rotations], 1)[keep]
-    swapped = bool(pos[:, 0, 1].mean() < pos[:, 1, 1].mean())
+    y = cell.to_base(pos)[..., 1]
+    swapped = bool(y[:, 0].mean() < y[:, 1].mean())
     if swapped:
         pos, mats = pos[:, ::-1], mats[:, ::-1]
     mats = np.stack([mats[:, a] @ (tcp_in_clip or arm.tcp_in_clip).as_matrix()
                      for a, arm in enumerate(cell.arms)], 1)
     rot = Rotation.from_matrix(mats.reshape(-1, 3, 3))
-    if place:
+    if cell.place if place is None else place:
         offset, verdict = search_cell_placement(cell, pos, rot, options=options)
     else:
         offset, verdict = np.zeros(3), check_cell_path(cell, pos, rot, options=options)
+    shapes = np.flatnonzero(keep)
+    rows = tuple(replace(row, label=f"shape {shapes[row.shape]}", shape=int(shapes[row.shape]))
+                 for row in verdict.rows)
     return CellPlan(cell, np.asarray(offset, float), swapped, times[keep], pos + offset, rot,
-                    verdict)
+                    replace(verdict, rows=rows), shapes)
 
 
 PRESETS = {"ur5e_pair": ur5e_pair, "panda_pair": panda_pair, "yumi": yumi_cell}
@@ -560,13 +617,32 @@ ARM_KEYS = {"urdf", "tip_link", "base_link", "base_position", "base_rpy", "tcp_o
             "tool_radius", "home_deg", "cable_along"}
 """Keys of one arm in a scenario's ``robot.cell.arms`` (angles in degrees, lengths in m)."""
 
+LENGTH_KEYS = {"separation", "tcp_offset", "tool_radius", "table_height", "base_position"}
+"""Keys of a cell mapping (a preset's settings, the cell's, an arm's) that are lengths: given in
+the scenario's units, multiplied by its scale."""
 
-def cell_from_mapping(data: dict, folder=".") -> DescribedCell:
-    """The cell of a scenario's ``robot.cell`` section (proposed syntax, ``docs/cells.md``).
+
+def _scaled(mapping: dict, scale: float) -> dict:
+    """The mapping with its lengths (:data:`LENGTH_KEYS`) in m."""
+    def scale_value(key, value):
+        if key not in LENGTH_KEYS or isinstance(value, bool):
+            return value
+        try:
+            return (np.asarray(value, dtype=float) * scale).tolist()
+        except (TypeError, ValueError):
+            raise ValueError(f"robot.cell.{key}: got {value!r}, expected a length (a number or "
+                             "a list of numbers)") from None
+    return {key: scale_value(key, value) for key, value in mapping.items()}
+
+
+def cell_from_mapping(data: dict, folder=".", scale: float = 1.0) -> DescribedCell:
+    """The cell of a scenario's ``robot.cell`` section (``docs/cells.md``).
 
     Either ``{preset: name, <keyword settings of the preset>}`` or ``{arms: {left: {...},
-    right: {...}}, table_height: h}`` with per arm the keys of :data:`ARM_KEYS` (``urdf``
-    relative to ``folder``; ``base_rpy`` and ``home_deg`` in degrees).
+    right: {...}}, table_height: h, name: n}`` with per arm the keys of :data:`ARM_KEYS`
+    (``urdf`` relative to ``folder``; ``base_rpy`` and ``home_deg`` in degrees). Lengths
+    (:data:`LENGTH_KEYS`) are in file units, ``scale`` [m per unit]. The cell records its
+    ``source``: this mapping with lengths in m and URDF paths absolute.
 
     Raises
     ------
@@ -576,7 +652,7 @@ def cell_from_mapping(data: dict, folder=".") -> DescribedCell:
     if not isinstance(data, dict):
         raise ValueError(f"robot.cell: expected a mapping, got {data!r}")
     if "preset" in data:
-        settings = {k: v for k, v in data.items() if k != "preset"}
+        settings = _scaled({k: v for k, v in data.items() if k != "preset"}, scale)
         if data["preset"] not in PRESETS:
             raise ValueError(f"robot.cell.preset: got {data['preset']!r}, expected one of "
                              f"{sorted(PRESETS)}")
@@ -585,7 +661,10 @@ def cell_from_mapping(data: dict, folder=".") -> DescribedCell:
         if set(settings) - allowed:
             raise ValueError(f"robot.cell: got {sorted(set(settings) - allowed)} for preset "
                              f"{data['preset']!r}, expected some of {sorted(allowed)}")
-        return make(**settings)
+        try:
+            return make(**settings)
+        except TypeError as exc:
+            raise ValueError(f"robot.cell: preset {data['preset']!r}: {exc}") from None
     arms = data.get("arms")
     if not isinstance(arms, dict) or set(arms) != set(ARMS):
         raise ValueError(f"robot.cell: expected `preset` or `arms` with keys {ARMS}, got "
@@ -593,14 +672,21 @@ def cell_from_mapping(data: dict, folder=".") -> DescribedCell:
     unknown = set(data) - {"arms", "table_height", "name"}
     if unknown:
         raise ValueError(f"robot.cell: unknown keys {sorted(unknown)}")
-    specs = []
+    specs, source = [], {"arms": {}, **_scaled({k: v for k, v in data.items() if k != "arms"},
+                                               scale)}
     for side in ARMS:
         arm = arms[side]
+        if not isinstance(arm, dict):
+            raise ValueError(f"robot.cell.arms.{side}: expected a mapping, got {arm!r}")
         extra = set(arm) - ARM_KEYS
         if extra or not {"urdf", "tip_link"} <= set(arm):
             raise ValueError(f"robot.cell.arms.{side}: got keys {sorted(arm)}, expected "
                              f"urdf, tip_link and some of {sorted(ARM_KEYS)}")
-        urdf = Path(folder) / arm["urdf"]
+        urdf = (Path(folder) / str(arm["urdf"])).resolve()
+        if not urdf.is_file():
+            raise ValueError(f"robot.cell.arms.{side}.urdf: got {arm['urdf']!r}, expected a "
+                             f"URDF file (no file {urdf})")
+        arm = source["arms"][side] = {**_scaled(arm, scale), "urdf": str(urdf)}
         home = arm.get("home_deg")
         specs.append(ArmSpec(str(urdf), arm["tip_link"], arm.get("base_link"),
                              tuple(arm.get("base_position", (0.0, 0.0, 0.0))),
@@ -609,5 +695,15 @@ def cell_from_mapping(data: dict, folder=".") -> DescribedCell:
                              float(arm.get("tool_radius", 0.0)),
                              None if home is None else tuple(np.radians(home)),
                              arm.get("cable_along", "y")))
-    return cell_from_specs(str(data.get("name", "cell")), *specs,
-                           table_height=float(data.get("table_height", 0.0)))
+    cell = cell_from_specs(str(data.get("name", "cell")), *specs,
+                           table_height=float(source.get("table_height", 0.0)))
+    return replace(cell, source=source)
+
+
+def cell_from_record(data: dict) -> DescribedCell:
+    """The cell of :meth:`DescribedCell.to_dict`'s data (a plan document's ``robot.cell``)."""
+    if not isinstance(data, dict) or data.get("kind") != "described":
+        raise ValueError(f"robot.cell: expected a described cell record, got {data!r}")
+    mapping = {k: v for k, v in data.items() if k not in ("kind", "place", "writers")}
+    return replace(cell_from_mapping(mapping), place=bool(data.get("place", True)),
+                   writers=dict(data.get("writers") or {}))

@@ -1,0 +1,258 @@
+"""The robot program of a plan on any cell, behind one interface.
+
+Two kinds of cell run a plan: the YuMi's :class:`~dloplan.robot.cell.RobotCell` (its own
+kinematics, arm angles, RAPID) and a :class:`~dloplan.robot.urdf_cell.DescribedCell` (any two
+arms from URDF). Both satisfy :class:`Cell`; :func:`make_program` makes the verified program
+of either, and both programs satisfy :class:`Program`: the pipeline, the plan document, the
+writers and the report use only that interface. This module is the one place that tells the
+two kinds apart.
+
+A :class:`CellProgram` is the verification of the plan's trajectory on a described cell
+(:func:`~dloplan.robot.urdf_cell.verify_on_cell`: arm assignment by side, placement search,
+IK tracked through sub-steps, joint limits, continuity, arm-arm and arm-table clearance), one
+target per kept trajectory knot (a knot per shape), with the verified joints the URScript and
+ROS 2 writers write.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from .cell import RobotCell
+from .chain import capsules
+from .program import CheckedProgram, CheckRow, check_summary, robot_program
+from .urdf_cell import CHECKS, CellPlan, DescribedCell, verify_on_cell
+
+LOWER_IS_WORSE = {"joint limits", "clearance", "table clearance"}
+"""Checks of a described cell whose worst row is the lowest value."""
+
+URSCRIPT_JOINTS = 6
+"""Joints per arm of the arms a Universal Robots controller runs (URScript's ``movej``)."""
+
+
+class Cell(Protocol):
+    """What the pipeline needs of a cell: a name for messages, the table, and the frame in which
+    the clip on the robot's left (larger y) goes to the left arm."""
+
+    table_height: float
+
+    def to_base(self, positions) -> np.ndarray: ...
+
+
+class Program(Protocol):
+    """What the pipeline, the plan document, the writers and the report need of a verified
+    program (:class:`~dloplan.robot.program.RobotProgram`, :class:`CellProgram`). A program
+    whose ``formats`` has ``urscript`` also has ``urscript_arguments()``."""
+
+    cell: Cell
+    checks: tuple[CheckRow, ...]
+
+    @property
+    def ok(self) -> bool: ...
+
+    @property
+    def message(self) -> str: ...
+
+    @property
+    def failures(self) -> tuple[CheckRow, ...]: ...
+
+    @property
+    def formats(self) -> tuple[str, ...]: ...
+
+    def summary(self) -> list[dict]: ...
+
+    def to_dict(self) -> dict: ...
+
+    def ros_joints_arguments(self) -> dict: ...
+
+    def report_arms(self) -> dict: ...
+
+
+def program_formats(cell) -> tuple[str, ...]:
+    """The program formats a cell takes: ``rapid`` and ``ros_joints`` for the YuMi;
+    ``ros_joints`` for any described cell, and ``urscript`` when both arms have
+    :data:`URSCRIPT_JOINTS` joints (a Universal Robots controller runs no other arm)."""
+    if isinstance(cell, RobotCell):
+        return ("rapid", "ros_joints")
+    six = all(arm.n_joints == URSCRIPT_JOINTS for arm in cell.arms)
+    return ("urscript", "ros_joints") if six else ("ros_joints",)
+
+
+def cell_name(cell) -> str:
+    """A cell's name for messages (``yumi`` for the YuMi's RobotCell)."""
+    return "yumi" if isinstance(cell, RobotCell) else cell.name
+
+
+def make_program(cell, grippers, trajectory) -> Program:
+    """The verified robot program of a plan on ``cell`` (either kind).
+
+    Parameters
+    ----------
+    cell : RobotCell or DescribedCell
+    grippers : GripperPath
+        Clip poses at every shape (S + 2) [m].
+    trajectory : Trajectory
+        The timed motion of the same path (one knot per shape).
+    """
+    if isinstance(cell, RobotCell):
+        return robot_program(grippers, trajectory, cell)
+    if not isinstance(cell, DescribedCell):
+        raise ValueError(f"cell: expected a RobotCell or a DescribedCell, got "
+                         f"{type(cell).__name__}")
+    return cell_program(cell, trajectory)
+
+
+@dataclass(frozen=True, eq=False)
+class CellProgram(CheckedProgram):
+    """A plan verified on a described cell: what the URScript and ROS 2 writers write.
+
+    Attributes
+    ----------
+    plan : CellPlan
+        Placement offset, arm assignment, knot times, TCP poses and the verdict.
+    left_clip : int
+        The clip the left arm holds (0: the cable's first end).
+    checks : tuple of CheckRow
+        The verdict's rows, labelled ``"shape k"``.
+    """
+
+    plan: CellPlan
+    left_clip: int
+    checks: tuple[CheckRow, ...]
+
+    @property
+    def cell(self) -> DescribedCell:
+        return self.plan.cell
+
+    @property
+    def times(self) -> np.ndarray:
+        """(K,) time [s] of each target (a trajectory knot)."""
+        return self.plan.times
+
+    @property
+    def joints(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per arm (K, n_arm) the verified joints [rad] at the targets."""
+        return self.plan.verdict.joints
+
+    @property
+    def formats(self) -> tuple[str, ...]:
+        """:func:`program_formats` of the cell."""
+        return program_formats(self.cell)
+
+    @property
+    def assignment_message(self) -> str:
+        clips = ("first", "last")
+        return (f"left arm holds the {clips[self.left_clip]} clip, right arm the "
+                f"{clips[1 - self.left_clip]} (side rule in the cell's frame)")
+
+    @property
+    def message(self) -> str:
+        """One line: the cell, the placement, and the verdict (its key numbers or failures)."""
+        shift = np.round(1e3 * self.plan.offset, 1).tolist()
+        return (f"{self.cell.name}: job shifted by {shift} mm; "
+                f"{self.plan.verdict.message}")
+
+    def summary(self) -> list[dict]:
+        """Per check: passed, the worst value and where, how many rows fail and the first."""
+        return check_summary(self.checks, CHECKS, LOWER_IS_WORSE)
+
+    def to_dict(self) -> dict:
+        """JSON-ready: placement, assignment, targets with their verified joints, checks."""
+        plan = self.plan
+        rotvecs = plan.rotations.as_rotvec().reshape(-1, 2, 3)
+        return {
+            "ok": self.ok,
+            "message": self.message,
+            "cell": self.cell.name,
+            "offset": plan.offset.tolist(),
+            "assignment": {"left_clip": self.left_clip, "swapped": plan.swapped,
+                           "message": self.assignment_message},
+            "formats": list(self.formats),
+            "targets": [{"label": f"shape {s}", "shape": int(s), "time": float(plan.times[k]),
+                         "arms": {arm.name: {"position": plan.positions[k, a].tolist(),
+                                             "rotvec": rotvecs[k, a].tolist(),
+                                             "joints_deg": np.degrees(
+                                                 self.joints[a][k]).tolist()}
+                                  for a, arm in enumerate(self.cell.arms)}}
+                        for k, s in enumerate(plan.shapes)],
+            "summary": self.summary(),
+            "checks": [row.to_dict() for row in self.checks],
+        }
+
+    def ros_joints_arguments(self) -> dict:
+        """Keyword arguments of :func:`dloplan.io.ros_joints.write_joint_trajectories` after
+        the folder: the target times (K,) [s], per arm the verified (K, n_arm) joints [rad],
+        the URDF joint names and the cell's ``ros_joints`` settings."""
+        return {"times": self.times, "joints": list(self.joints),
+                "joint_names": [arm.joint_names for arm in self.cell.arms],
+                **self.cell.writers.get("ros_joints", {})}
+
+    def urscript_arguments(self) -> dict:
+        """Keyword arguments of :func:`dloplan.io.urscript.write_urscript` after the folder:
+        the verified joints and times, the TCP poses in each arm's base frame, each arm's
+        ``set_tcp`` and the cell's ``urscript`` settings."""
+        positions, rotvecs = self.plan.base_poses()
+        tcp = [np.concatenate([arm.tcp_offset, arm.tcp_rotation.as_rotvec()])
+               for arm in self.cell.arms]
+        return {"times": self.times, "joints": list(self.joints), "tcp_positions": positions,
+                "tcp_rotvecs": rotvecs, "tcp_offsets": tcp,
+                **self.cell.writers.get("urscript", {})}
+
+    def report_arms(self) -> dict:
+        """Keyword arguments of :func:`dloplan.plots.report.write_report` that draw both arms
+        (their capsules at the verified joints) at every shape and along the tracked motion,
+        in the plan's frame (moved back by the placement offset)."""
+        plan, verdict = self.plan, self.plan.verdict
+        n_shapes = int(plan.shapes[-1]) + 1
+        knot = np.searchsorted(plan.shapes, np.arange(n_shapes), side="right") - 1
+        motion_times = np.interp(verdict.motion_times, np.arange(len(plan.times)), plan.times)
+        return {"arm_capsules": {
+            "shapes": self._capsules([q[knot] for q in self.joints]),
+            "radii": [capsules(arm, arm.home)[1].round(4).tolist() for arm in self.cell.arms],
+            "motion": {"times": motion_times.round(4).tolist(),
+                       "capsules": self._capsules(verdict.motion_joints),
+                       "shape_times": plan.times[knot].round(4).tolist()}}}
+
+    def _capsules(self, joints) -> list:
+        """Per sample the list (left, right) of capsule end points [m] in the plan's frame."""
+        ends = [(capsules(arm, q)[0] - self.plan.offset).round(5).tolist()
+                for arm, q in zip(self.cell.arms, joints, strict=True)]
+        return [list(pair) for pair in zip(*ends, strict=True)]
+
+
+def cell_program(cell: DescribedCell, trajectory) -> CellProgram:
+    """Verify a plan's timed trajectory on a described cell (:func:`verify_on_cell` with the
+    cell's placement setting) as a :class:`CellProgram`."""
+    plan = verify_on_cell(cell, trajectory)
+    arm_clips = tuple(trajectory.arm_clips)
+    left_clip = arm_clips[1] if plan.swapped else arm_clips[0]
+    return CellProgram(plan, int(left_clip), plan.verdict.rows)
+
+
+def reach_rows(cell, grippers) -> list[dict]:
+    """Can the cell's arms hold the clips of a gripper path (before planning the motion)?
+    Per pose ``reachable_left``, ``reachable_right`` and ``joint_margin`` [rad]: for the YuMi
+    either arm at each pose (:func:`dloplan.robot.check_reachability`), for a described cell
+    the arm assigned by side, tracked from pose to pose where the placement search puts
+    the path."""
+    from scipy.spatial.transform import Rotation
+
+    from ..trajectory import dual_arm_trajectory
+    from .reachability import check_reachability
+
+    if isinstance(cell, RobotCell):
+        reach = check_reachability(grippers.positions, Rotation.from_matrix(grippers.matrices))
+        return [{"reachable_left": bool(reach.reachable[k, 0]),
+                 "reachable_right": bool(reach.reachable[k, 1]),
+                 "joint_margin": float(np.min(reach.joint_margin[k]))}
+                for k in range(len(grippers.positions))]
+    plan = verify_on_cell(cell, dual_arm_trajectory(grippers.positions,
+                                                    tuple(grippers.rotations)))
+    verdict = plan.verdict
+    knots = np.searchsorted(plan.shapes, np.arange(len(grippers.positions)), side="right") - 1
+    return [{"reachable_left": bool(verdict.reachable[k, 0]),
+             "reachable_right": bool(verdict.reachable[k, 1]),
+             "joint_margin": float(np.min(verdict.joint_margin[k]))} for k in knots]
