@@ -280,3 +280,32 @@ def test_check_and_unchecked_plan_on_a_described_cell(tmp_path, capsys):
                  "-q"]) == 0
     assert (out / "plan.json").is_file()
     assert not (out / "urscript").exists() and not (out / "ros_joints").exists()
+
+
+def test_a_correction_on_a_described_cell_writes_that_cells_programs(tmp_path):
+    """`dloplan correct` of a plan made on two UR5e: the remaining motion is verified on the same
+    cell and written as its programs (URScript, ROS 2 joints), not as RAPID; the URScript read
+    back starts where the robot stands (the corrected clips at shape K)."""
+    from test_urscript import parse_urscript
+
+    from dloplan.app import load_scenario, run_job, write_outputs
+    from dloplan.cli import main
+    from dloplan.geometry import resample_by_arc_length
+    from dloplan.vision import RegisteredShape, write_shapes
+
+    doc = run_job(load_scenario(EXAMPLES / "ur5e_pair_usb.yaml"))
+    assert doc.robot.ok, doc.robot.message
+    write_outputs(doc, tmp_path / "plan", ("json",))
+    at = 3
+    measured = resample_by_arc_length(doc.stabilized[at], 200)
+    measured += np.random.default_rng(0).normal(scale=0.5e-3, size=measured.shape)
+    write_shapes(tmp_path / "measured.csv", [RegisteredShape(measured, label=f"xi_{at}")])
+    out = tmp_path / "corrected"
+    code = main(["correct", str(tmp_path / "plan" / "plan.json"), "--at", str(at),
+                 "--measured", str(tmp_path / "measured.csv"), "-o", str(out), "-q"])
+    assert code in (0, 1)
+    assert not (out / "rapid").exists()
+    scripts = sorted((out / "urscript").glob("*.script"))
+    assert len(scripts) == 2 and len(list((out / "ros_joints").iterdir())) == 2
+    moves = parse_urscript(scripts[0].read_text())["moves"]
+    assert len(moves) == len(doc.shapes) - at

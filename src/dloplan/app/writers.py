@@ -85,10 +85,27 @@ def write_rapid_program(doc: PlanDocument, target: Path, options: WriteOptions) 
     robot program of the document (:func:`verified_program`; ABB cells only). A plan made
     without robot checks (``--no-verify``) gets its program written with the checks' verdict
     in the module header; a program that failed its checks is refused."""
-    from ..io.rapid import write_rapid
+    return program_files(verified_program(doc, "rapid"), target, "rapid",
+                         force=doc.robot is None)
 
-    program = verified_program(doc, "rapid")
-    return list(write_rapid(target, program, force=doc.robot is None).values())
+
+def program_files(program, folder: Path, name: str, *, force: bool = False) -> list[Path]:
+    """Write a verified program (:class:`dloplan.robot.cell_program.Program`) in the format
+    ``name`` (one of its ``formats``: rapid, urscript, ros_joints) into ``folder``; ``force``
+    writes a RAPID program made without checks (its verdict in the module header)."""
+    if name == "rapid":
+        from ..io.rapid import write_rapid
+
+        return list(write_rapid(folder, program, force=force).values())
+    if name == "urscript":
+        from ..io.urscript import write_urscript
+
+        return write_urscript(folder, **program.urscript_arguments())
+    if name == "ros_joints":
+        from ..io.ros_joints import write_joint_trajectories
+
+        return write_joint_trajectories(folder, **program.ros_joints_arguments())
+    raise ValueError(f"{name}: not a robot program format (rapid, urscript, ros_joints)")
 
 
 def _passed(doc: PlanDocument, name: str):
@@ -103,18 +120,14 @@ def write_joint_trajectory_files(doc: PlanDocument, target: Path,
     """One ROS 2 JointTrajectory per arm in the folder ``target``: the verified joints of the
     document's robot program at its target times (:mod:`dloplan.io.ros_joints`); a program
     that failed its checks is refused, as for RAPID."""
-    from ..io.ros_joints import write_joint_trajectories
-
-    return write_joint_trajectories(target, **_passed(doc, "ros_joints").ros_joints_arguments())
+    return program_files(_passed(doc, "ros_joints"), target, "ros_joints")
 
 
 def write_urscript_files(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
     """One URScript program per arm in the folder ``target`` (:mod:`dloplan.io.urscript`): the
     verified joints of a described cell of 6-joint arms; a program that failed its checks is
     refused."""
-    from ..io.urscript import write_urscript
-
-    return write_urscript(target, **_passed(doc, "urscript").urscript_arguments())
+    return program_files(_passed(doc, "urscript"), target, "urscript")
 
 
 def write_figure_files(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:

@@ -8,9 +8,11 @@ the shape reached and the measured points, and returns the :class:`~.step.Correc
   the corrected gripper path and its whole re-timed trajectory; its stabilized shapes are the
   shapes up to K re-stabilized with the updated E and the corrected predictions after it, its
   ``correction`` section the report below, so ``dloplan verify`` checks what will be run;
-* ``trajectory.csv`` and ``rapid/``: the remaining motion, from shape K (where the robot stands)
-  to the target, starting at time 0 -- the program to run now, written from a robot program
-  that passes its checks (:func:`dloplan.robot.robot_program`, the plan's robot cell);
+* ``trajectory.csv`` and the robot programs of the plan's cell (``rapid/`` for the YuMi,
+  ``urscript/`` and ``ros_joints/`` for a described cell, docs/cells.md): the remaining motion,
+  from shape K (where the robot stands) to the target, starting at time 0 -- the program to run
+  now, written from a program that passes its checks
+  (:func:`dloplan.robot.cell_program.make_program`);
 * ``correction.json`` and ``correction.txt``: open-loop against corrected predictions, shape by
   shape, with the modulus update and the clip corrections.
 """
@@ -26,10 +28,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..app.document import PlanDocument, cell_from_dict, write_plan
+from ..app.writers import WRITERS, program_files
 from ..grippers import GripperPath
 from ..io.export import write_trajectory_csv
 from ..io.files import atomic_write_text
-from ..io.rapid import write_rapid
 from ..sim import equilibrium
 from .measurement import CorrectionRefused
 from .step import Correction, correct_plan, sliced_grippers
@@ -134,12 +136,13 @@ def write_correction(doc: PlanDocument, correction: Correction, folder, *,
     CorrectionRefused
         When the remaining motion's robot program fails its checks (nothing is written).
     """
-    from ..robot import RobotCell, robot_program
+    from ..robot import RobotCell
+    from ..robot.cell_program import make_program
 
     out = Path(folder)
     at = correction.at
     cell = RobotCell() if doc.robot is None else cell_from_dict(doc.robot.cell)
-    program = robot_program(sliced_grippers(correction.grippers, at), correction.remaining, cell)
+    program = make_program(cell, sliced_grippers(correction.grippers, at), correction.remaining)
     if not program.ok:
         raise CorrectionRefused(f"robot: the corrected remaining motion fails its checks: "
                                 f"{program.message}")
@@ -158,7 +161,8 @@ def write_correction(doc: PlanDocument, correction: Correction, folder, *,
         write_plan(out / "plan.json", corrected),
         write_trajectory_csv(out / "trajectory.csv", correction.remaining, rate=rate,
                              frame_id=doc.frame_id),
-        *write_rapid(out / "rapid", program).values(),
+        *(path for name in program.formats
+          for path in program_files(program, out / WRITERS[name].target, name)),
         atomic_write_text(out / "correction.json",
                           json.dumps(correction.report(), indent=1) + "\n"),
         atomic_write_text(out / "correction.txt", correction_table(correction)),
