@@ -287,9 +287,10 @@ def _print_plan(doc, written, args) -> None:
 
 def program_table(summary: list[dict]) -> str:
     """The robot program's checks as fixed-width text, one line per check."""
-    lines = [f"{'robot check':<13} {'verdict':<7} {'worst':>12}  where"]
+    width = max([13] + [len(line["check"]) for line in summary])
+    lines = [f"{'robot check':<{width}} {'verdict':<7} {'worst':>12}  where"]
     for line in summary:
-        lines.append(f"{line['check']:<13} {'ok' if line['ok'] else 'FAILED':<7} "
+        lines.append(f"{line['check']:<{width}} {'ok' if line['ok'] else 'FAILED':<7} "
                      f"{line['worst']:>8.4g} {line['unit']:<3}  {line['where']}")
     return "\n".join(lines)
 
