@@ -282,10 +282,10 @@ def test_check_and_unchecked_plan_on_a_described_cell(tmp_path, capsys):
     assert not (out / "urscript").exists() and not (out / "ros_joints").exists()
 
 
-def test_a_correction_on_a_described_cell_writes_that_cells_programs(tmp_path):
-    """`dloplan correct` of a plan made on two UR5e: the remaining motion is verified on the same
-    cell and written as its programs (URScript, ROS 2 joints), not as RAPID; the URScript read
-    back starts where the robot stands (the corrected clips at shape K)."""
+def test_verify_place_and_correct_on_a_described_cell(tmp_path, capsys):
+    """`dloplan verify --place` of a plan made on two UR5e searches that cell's placement (not
+    the YuMi's); `dloplan correct` verifies the remaining motion on the same cell and writes it
+    as its programs (URScript, ROS 2 joints), not as RAPID, one move per remaining shape."""
     from test_urscript import parse_urscript
 
     from dloplan.app import load_scenario, run_job, write_outputs
@@ -296,6 +296,9 @@ def test_a_correction_on_a_described_cell_writes_that_cells_programs(tmp_path):
     doc = run_job(load_scenario(EXAMPLES / "ur5e_pair_usb.yaml"))
     assert doc.robot.ok, doc.robot.message
     write_outputs(doc, tmp_path / "plan", ("json",))
+    assert main(["verify", str(tmp_path / "plan" / "plan.json"), "--place", "--no-replay",
+                 "--no-snap", "-q"]) == 0
+    assert "placement: ur5e_pair: job shifted by" in capsys.readouterr().out
     at = 3
     measured = resample_by_arc_length(doc.stabilized[at], 200)
     measured += np.random.default_rng(0).normal(scale=0.5e-3, size=measured.shape)

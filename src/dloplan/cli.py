@@ -136,14 +136,11 @@ def _cmd_verify(args: argparse.Namespace) -> int:
         if program is not None:
             print(program_table(program.summary()))
             print(program.message)
-    if args.place and doc.grippers is not None:
-        from scipy.spatial.transform import Rotation
+    if args.place and doc.grippers is not None and doc.trajectory is not None:
+        from .app.document import document_cell
+        from .robot.cell_program import placement_message
 
-        from .robot import search_placement
-
-        placement = search_placement(doc.grippers.positions,
-                                     Rotation.from_matrix(doc.grippers.matrices))
-        print(f"placement: {placement.message}")
+        print(f"placement: {placement_message(document_cell(doc), doc.grippers, doc.trajectory)}")
     return EXIT_OK if result.ok and (program is None or program.ok) else EXIT_CHECK_FAILED
 
 

@@ -359,6 +359,14 @@ def cell_to_dict(cell) -> dict:
     }
 
 
+def document_cell(doc: PlanDocument):
+    """The robot cell a plan document was made for: its recorded cell, else the default YuMi
+    (a plan made without robot checks)."""
+    from ..robot.cell import RobotCell
+
+    return RobotCell() if doc.robot is None else cell_from_dict(doc.robot.cell)
+
+
 def cell_from_dict(data: dict, where: str = "plan.robot.cell"):
     """The cell of :func:`cell_to_dict`'s data: a described cell for ``kind: described`` (its
     URDF files must still be where the plan was made), else the YuMi's RobotCell."""

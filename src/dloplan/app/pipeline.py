@@ -39,6 +39,7 @@ from .document import (
     cell_from_dict,
     cell_to_dict,
     cycle_to_dict,
+    document_cell,
 )
 from .job import Job
 
@@ -309,11 +310,9 @@ def program_of(doc: PlanDocument):
         return doc.program
     if doc.grippers is None or doc.trajectory is None:
         raise ValueError("plan: no gripper poses and trajectory to make a robot program from")
-    from ..robot import RobotCell
     from ..robot.cell_program import make_program
 
-    cell = RobotCell() if doc.robot is None else cell_from_dict(doc.robot.cell)
-    program = make_program(cell, doc.grippers, doc.trajectory)
+    program = make_program(document_cell(doc), doc.grippers, doc.trajectory)
     if doc.robot is not None:
         recorded = _target_joints(doc.robot.program)
         rebuilt = _target_joints(program.to_dict())

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..app.document import PlanDocument, cell_from_dict, write_plan
+from ..app.document import PlanDocument, document_cell, write_plan
 from ..app.writers import WRITERS, program_files
 from ..grippers import GripperPath
 from ..io.export import write_trajectory_csv
@@ -136,13 +136,12 @@ def write_correction(doc: PlanDocument, correction: Correction, folder, *,
     CorrectionRefused
         When the remaining motion's robot program fails its checks (nothing is written).
     """
-    from ..robot import RobotCell
     from ..robot.cell_program import make_program
 
     out = Path(folder)
     at = correction.at
-    cell = RobotCell() if doc.robot is None else cell_from_dict(doc.robot.cell)
-    program = make_program(cell, sliced_grippers(correction.grippers, at), correction.remaining)
+    program = make_program(document_cell(doc), sliced_grippers(correction.grippers, at),
+                           correction.remaining)
     if not program.ok:
         raise CorrectionRefused(f"robot: the corrected remaining motion fails its checks: "
                                 f"{program.message}")

@@ -232,6 +232,23 @@ def cell_program(cell: DescribedCell, trajectory) -> CellProgram:
     return CellProgram(plan, int(left_clip), plan.verdict.rows)
 
 
+def placement_message(cell, grippers, trajectory) -> str:
+    """Where on the table the cell runs a plan best (``dloplan verify --place``): the YuMi's
+    grid search over shifts of the whole job (:func:`dloplan.robot.search_placement`), or the
+    described cell's (:func:`~dloplan.robot.urdf_cell.search_cell_placement`, verified along
+    the timed trajectory); one line."""
+    from scipy.spatial.transform import Rotation
+
+    from .reachability import search_placement
+
+    if isinstance(cell, RobotCell):
+        return search_placement(grippers.positions,
+                                Rotation.from_matrix(grippers.matrices)).message
+    plan = verify_on_cell(cell, trajectory, place=True)
+    shift = np.round(1e3 * plan.offset, 1).tolist()
+    return f"{cell.name}: job shifted by {shift} mm; {plan.verdict.message}"
+
+
 def reach_rows(cell, grippers) -> list[dict]:
     """Can the cell's arms hold the clips of a gripper path (before planning the motion)?
     Per pose ``reachable_left``, ``reachable_right`` and ``joint_margin`` [rad]: for the YuMi
