@@ -43,9 +43,9 @@ def timed(job, doc, speed: float | None = None):
     return replace(doc, trajectory=trajectory, verification=None)
 
 
-def timed_with_robot(job, doc, speed: float | None = None, progress=quiet):
+def timed_with_robot(job, doc, speed: float | None = None, progress=quiet, always=False):
     """:func:`timed`, then the robot program made again (:func:`with_robot`)."""
-    return with_robot(job, timed(job, doc, speed), progress)
+    return with_robot(job, timed(job, doc, speed), progress, always)
 
 
 def motion_warnings(doc) -> set[str]:
@@ -62,27 +62,30 @@ def motion_warnings(doc) -> set[str]:
     return own
 
 
-def with_robot(job, doc, progress=quiet):
+def with_robot(job, doc, progress=quiet, always=False):
     """``doc`` with its robot program made again for its frames and trajectory (when it had
-    one): the arm assignment, IK, limits, clearance and continuity of the new targets."""
-    if doc.robot is None and doc.program is None:
+    one, or ``always``): the arm assignment, IK, limits, clearance and continuity of the new
+    targets."""
+    if doc.robot is None and doc.program is None and not always:
         return doc
     warnings = tuple(w for w in doc.warnings if doc.robot is None or w != doc.robot.message)
     bare = replace(doc, robot=None, program=None, warnings=warnings)
     return with_program(bare, plan_program(job.robot, doc.grippers, doc.trajectory, progress))
 
 
-def with_motion(job, doc, shapes=None, stabilized=None, progress=quiet):
+def with_motion(job, doc, shapes=None, stabilized=None, progress=quiet, program=None):
     """``doc`` with new gripper frames, trajectory and twist for ``shapes`` (default its own),
     by ``job``'s gripper and motion settings; the left arm holds the clip on its side."""
     shapes = doc.shapes if shapes is None else np.asarray(shapes, dtype=float)
     grippers, _ = plan_motion(job, shapes, progress)
-    return with_grippers(job, doc, grippers, shapes, stabilized, progress)
+    return with_grippers(job, doc, grippers, shapes, stabilized, progress, program)
 
 
-def with_grippers(job, doc, grippers, shapes=None, stabilized=None, progress=quiet):
+def with_grippers(job, doc, grippers, shapes=None, stabilized=None, progress=quiet,
+                  program=None):
     """``doc`` with the gripper frames ``grippers`` of ``shapes`` (default its own), its
-    trajectory timed again, the twist computed again, the motion's warnings replaced."""
+    trajectory timed again, the twist computed again, the motion's warnings replaced; its robot
+    program made again when ``program`` (default: when ``doc`` had one)."""
     shapes = doc.shapes if shapes is None else np.asarray(shapes, dtype=float)
     stabilized = doc.stabilized if stabilized is None else np.asarray(stabilized, dtype=float)
     twist = plan_twist(job.cable, shapes, grippers, progress)
@@ -99,8 +102,10 @@ def with_grippers(job, doc, grippers, shapes=None, stabilized=None, progress=qui
                   clip_wrenches=np.stack([clip_wrenches(job.cable, s) for s in stabilized]),
                   twist=TwistSection(twist.twist, twist.relative_twist, twist.twist_energy,
                                      grippers.twist, twist.message))
-    return new if doc.robot is None and doc.program is None else with_program(
-        new, plan_program(job.robot, grippers, trajectory, progress))
+    if program is None:
+        program = doc.robot is not None or doc.program is not None
+    return with_program(new, plan_program(job.robot, grippers, trajectory, progress)) \
+        if program else new
 
 
 def with_path(job, doc, shapes: np.ndarray, progress=quiet):
