@@ -24,9 +24,12 @@ between shapes)
     3. intermediate rotations: the equilibria at clip poses interpolated on the flipping
        segment inserted as shapes.
 ``replay`` (the replay at real speed strays from the planned shapes)
-    the trajectory timed again at half, then a quarter, then an eighth of the TCP speed (one
-    speed for the whole program, as the RAPID module has one speeddata). A deviation on a
-    segment that also has a snap failure waits for the snap repair.
+    the motion slowed down in time by 1/2, then 1/4, then 1/8 (speeds times the factor,
+    accelerations times its square, jerks times its cube: the same path, a time dilation;
+    :func:`~dloplan.repair.rebuild.slowed`), the whole program (the RAPID module has one
+    speeddata per move, but the replay judges the settled knots, where a slower approach of
+    every knot is what helps). A deviation on a segment that also has a snap failure waits for
+    the snap repair.
 ``reach`` (a pose out of an arm's reach, or another failing check of the robot program)
     the job placed on the table: for each turn about the vertical of
     :data:`~dloplan.repair.placement.YAWS` (smallest first) and each set of gripper frames --
@@ -58,14 +61,14 @@ from ..verify import check_snap_through
 from .failures import KINDS, diagnose, frame_steps, score, summary, twist_failures
 from .frames import grasp_rolled, untwisted
 from .placement import YAWS, PlacementRepair, TableMove, moved_document, moved_job, placements
-from .rebuild import left_clip, timed_with_robot, with_grippers, with_motion, with_path
+from .rebuild import left_clip, slowed, timed_with_robot, with_grippers, with_motion, with_path
 from .routes import MAX_TURN, equilibria_along, follow_branch, route_segment, routes
 
 GRIPPER_METHODS = ("rigid", "minimal", "auxiliary")
 """Gripper methods tried by the twist and reach repairs, in this order."""
 
 SPEED_FACTORS = (0.5, 0.25, 0.125)
-"""Fractions of the TCP speed tried by the replay repair."""
+"""Time dilations of the motion tried by the replay repair (speeds times the factor)."""
 
 
 @dataclass(frozen=True)
@@ -369,16 +372,15 @@ class _Session:
         for factor in SPEED_FACTORS:
             if not self.attempt():
                 break
-            new = timed_with_robot(self.state.job, doc, factor * speed)
+            slower = slowed(self.state.job, factor)
+            new = timed_with_robot(slower, doc)
             run = self.checks.verify(new, snap=False, robot=False).replay
-            tried.append(f"{1e3 * factor * speed:.0f} mm/s: {run.message}")
+            tried.append(f"x{factor:g} ({1e3 * factor * speed:.0f} mm/s): {run.message}")
             if run.ok:
-                motion = self.state.job.motion
-                slower = replace(self.state.job, motion=replace(
-                    motion, limits=replace(motion.limits, speed=factor * speed)))
-                self.keep("replay", failures, f"TCP speed {1e3 * speed:.0f} -> "
-                          f"{1e3 * factor * speed:.0f} mm/s", run.message,
-                          replace(self.state, job=slower, doc=new), since)
+                self.keep("replay", failures, f"motion slowed by {factor:g} (TCP speed "
+                          f"{1e3 * speed:.0f} -> {1e3 * factor * speed:.0f} mm/s, "
+                          f"accelerations x{factor ** 2:g}, jerks x{factor ** 3:g})",
+                          run.message, replace(self.state, job=slower, doc=new), since)
                 return
         raise Refused(f"{failures[0].message}; tried: " + " | ".join(tried))
 

@@ -1,8 +1,8 @@
 """A plan document rebuilt after a repair, by the pipeline's own stages.
 
 A repair changes the shapes (:func:`with_path`), the gripper method (:func:`with_motion`), the
-frames themselves (:func:`with_grippers`) or the speed (:func:`timed`); the gripper frames, the
-trajectory, the twist and the clip wrenches are then made again by
+frames themselves (:func:`with_grippers`) or the speed (:func:`slowed`, :func:`timed`); the
+gripper frames, the trajectory, the twist and the clip wrenches are then made again by
 :func:`dloplan.app.pipeline.plan_motion` and :func:`~dloplan.app.pipeline.plan_twist`, and the
 warnings of the old motion and of the old verification are replaced by the new ones. The
 planner's own sections (stages, forces, target check, obstacle re-planning) stay those of the
@@ -34,18 +34,30 @@ def left_clip(grippers) -> int:
     return 0 if mean_y[0] >= mean_y[1] else 1
 
 
-def timed(job, doc, speed: float | None = None):
-    """``doc`` with its trajectory timed again under ``job``'s motion settings, the TCP speed
-    limit replaced by ``speed`` [m/s] when given (:func:`dloplan.app.pipeline.timed_trajectory`)."""
-    motion = job.motion if speed is None else \
-        replace(job.motion, limits=replace(job.motion.limits, speed=speed))
-    trajectory = timed_trajectory(doc.grippers, motion, job.robot)
+def slowed(job, factor: float):
+    """``job`` whose motion is the same path slowed down in time by ``factor`` (0 < factor <= 1):
+    every speed limit times ``factor``, accelerations times ``factor**2``, jerks times
+    ``factor**3``, linear and angular (a time dilation t -> t / factor of the motion law)."""
+    if not 0.0 < factor <= 1.0:
+        raise ValueError(f"factor: got {factor!r}, expected a slow-down in (0, 1]")
+    limits = job.motion.limits
+    scaled = {name: getattr(limits, name) * factor ** power
+              for power, names in ((1, ("speed", "angular_speed")),
+                                   (2, ("acceleration", "angular_acceleration")),
+                                   (3, ("jerk", "angular_jerk"))) for name in names}
+    return replace(job, motion=replace(job.motion, limits=replace(limits, **scaled)))
+
+
+def timed(job, doc):
+    """``doc`` with its trajectory timed again under ``job``'s motion settings
+    (:func:`dloplan.app.pipeline.timed_trajectory`)."""
+    trajectory = timed_trajectory(doc.grippers, job.motion, job.robot)
     return replace(doc, trajectory=trajectory, verification=None)
 
 
-def timed_with_robot(job, doc, speed: float | None = None, progress=quiet, always=False):
+def timed_with_robot(job, doc, progress=quiet, always=False):
     """:func:`timed`, then the robot program made again (:func:`with_robot`)."""
-    return with_robot(job, timed(job, doc, speed), progress, always)
+    return with_robot(job, timed(job, doc), progress, always)
 
 
 def motion_warnings(doc) -> set[str]:
