@@ -233,24 +233,24 @@ def test_qualitative2_arms_clear_each_other_after_a_grasp_roll():
 
 
 def test_grasp_roll_lifts_the_wrists_and_mirrors():
-    """On the turned-down frames of a U the grasp roll lifts the wrists (the score is the
-    lowest wrist direction's height plus half its horizontal part away from the other clip);
-    the mirrored path (y -> -y) gets the opposite rolls."""
+    """The grasp roll never lowers the lowest wrist of a path below the plan's grasp (height
+    comes first in the score: the wrist direction's height plus half its horizontal parts away
+    from the other clip and towards the robot); the path mirrored in the robot's x-z plane
+    (y -> -y, the robot is symmetric) gets rolls of the same size."""
     job = resolve_mapping(STRAIGHT_TO_U, "straight to U")
     from dloplan.grippers import gripper_path
 
-    tcp_in_clip = job.robot.tools[0].tcp_in_clip
-    wrist = -tcp_in_clip.apply([0.0, 0.0, 1.0])
+    wrist = -job.robot.tools[0].tcp_in_clip.apply([0.0, 0.0, 1.0])
     shapes = resolve_mapping(STRAIGHT_TO_U, "U").target[None].repeat(2, axis=0)
     shapes[0] = job.start
     path = gripper_path(shapes, method="rigid", cable=job.cable)
-    rolled, rolls = grasp_rolled(path, tcp_in_clip)
+    rolled, rolls = grasp_rolled(path, job.robot)
     lowest = [min(r.apply(wrist)[:, 2]) for r in rolled.rotations]
     before = [min(r.apply(wrist)[:, 2]) for r in path.rotations]
     assert all(a >= b - 1e-12 for a, b in zip(lowest, before, strict=True))
     mirror = np.diag([1.0, -1.0, 1.0])
     flipped = gripper_path(shapes @ mirror, method="rigid", cable=job.cable)
-    _, mirrored = grasp_rolled(flipped, tcp_in_clip)
+    _, mirrored = grasp_rolled(flipped, job.robot)
     assert np.allclose(np.abs(mirrored), np.abs(rolls), atol=1e-12)
 
 

@@ -11,12 +11,12 @@ equilibria do not change.
 
 :func:`grasp_rolled` chooses how each gripper grasps its clip instead: one roll per clip about
 its u-axis, the same at every shape (the gripper takes the cable turned about the cable's own
-axis, so the grasp itself twists nothing), such that the wrist stays above its clip and away
-from the other clip over the whole path. A gripper holds its clip with the TCP z-axis as the
-approach axis (``tool.tcp_in_clip``): the wrist lies at the clip point minus the TCP offset
-along that axis, and the approach and the retreat move along it
-(:mod:`dloplan.robot.program`). Frames from the gripper methods only fix the u-axis; their roll
-may put both wrists between the clips (arm-arm collisions at a U or an arc whose ends come
+axis, so the grasp itself twists nothing), such that the wrist stays above its clip, away
+from the other clip and on the robot's side over the whole path. A gripper holds its clip with
+the TCP z-axis as the approach axis (``tool.tcp_in_clip``): the wrist lies at the clip point
+minus the TCP offset along that axis, and the approach and the retreat move along it
+(:mod:`dloplan.robot.program`). Frames from the gripper methods only fix the u-axis; their
+roll may put both wrists between the clips (arm-arm collisions at a U or an arc whose ends come
 close, thesis qualitative test 2) or under the clip (the wrist at the table).
 """
 
@@ -38,8 +38,9 @@ GRASP_ROLLS = np.radians(np.arange(-90.0, 90.5, 5.0))
 put the wrist under the clip)."""
 
 AWAY_WEIGHT = 0.5
-"""Weight of the wrist's horizontal distance from the other clip against its height in
-:func:`grasp_rolled` (the table and the robot's own body are below: height comes first)."""
+"""Weight of the wrist direction's horizontal components, away from the other clip and towards
+the robot, against its height in :func:`grasp_score` (the table is below: height comes
+first)."""
 
 
 def untwisted(cable, shapes: np.ndarray, grippers: GripperPath,
@@ -79,10 +80,11 @@ def _twist(cable, shapes, grippers) -> np.ndarray:
 
 
 def grasp_score(rotations: Rotation, positions: np.ndarray, other: np.ndarray,
-                wrist_in_clip: np.ndarray) -> float:
+                wrist_in_clip: np.ndarray, base: np.ndarray) -> float:
     """How well a clip's gripper is placed along a path: the smallest, over the shapes, of the
-    wrist direction's height plus :data:`AWAY_WEIGHT` times its horizontal component away from
-    the other clip.
+    wrist direction's height plus :data:`AWAY_WEIGHT` times its horizontal components away from
+    the other clip and towards the robot (the arm comes from its base: a wrist on the far side
+    of the clip makes the arm reach around it).
 
     Parameters
     ----------
@@ -93,15 +95,19 @@ def grasp_score(rotations: Rotation, positions: np.ndarray, other: np.ndarray,
     wrist_in_clip : numpy.ndarray
         (3,) unit direction from the clip point to the wrist, in the clip frame (minus the
         TCP z-axis).
+    base : numpy.ndarray
+        (3,) the robot's base position [m].
     """
     wrist = rotations.apply(wrist_in_clip)
-    away = positions - other
-    away[:, 2] = 0.0
-    away /= np.maximum(np.linalg.norm(away, axis=1, keepdims=True), 1e-12)
-    return float(np.min(wrist[:, 2] + AWAY_WEIGHT * np.sum(wrist * away, axis=1)))
+    score = wrist[:, 2]
+    for towards in (positions - other, base - positions):
+        towards = towards * [1.0, 1.0, 0.0]
+        towards /= np.maximum(np.linalg.norm(towards, axis=1, keepdims=True), 1e-12)
+        score = score + AWAY_WEIGHT * np.sum(wrist * towards, axis=1)
+    return float(np.min(score))
 
 
-def grasp_rolled(grippers: GripperPath, tcp_in_clip: Rotation) -> tuple[GripperPath, np.ndarray]:
+def grasp_rolled(grippers: GripperPath, cell) -> tuple[GripperPath, np.ndarray]:
     """The gripper frames with each clip rolled about its u-axis by the grasp roll of
     :data:`GRASP_ROLLS` that maximizes :func:`grasp_score` (module docstring).
 
@@ -109,8 +115,8 @@ def grasp_rolled(grippers: GripperPath, tcp_in_clip: Rotation) -> tuple[GripperP
     ----------
     grippers : GripperPath
         The plan's frames (any method).
-    tcp_in_clip : scipy.spatial.transform.Rotation
-        The TCP frame in the clip frame (``RobotCell.tools[i].tcp_in_clip``).
+    cell : RobotCell
+        The robot cell: its base position and its tools' ``tcp_in_clip``.
 
     Returns
     -------
@@ -120,21 +126,24 @@ def grasp_rolled(grippers: GripperPath, tcp_in_clip: Rotation) -> tuple[GripperP
     rolls : numpy.ndarray
         (2,) the grasp roll of each clip [rad] (0 when the plan's own grasp scores best).
     """
-    wrist_in_clip = -tcp_in_clip.apply([0.0, 0.0, 1.0])
+    wrist_in_clip = -cell.tools[0].tcp_in_clip.apply([0.0, 0.0, 1.0])
+    base = np.asarray(cell.base_position, dtype=float)
     pos = grippers.positions
     rolls = np.zeros(2)
     for c in range(2):
-        scores = [grasp_score(grippers.rotations[c] * Rotation.from_rotvec([a, 0.0, 0.0]),
-                              pos[:, c], pos[:, 1 - c], wrist_in_clip) for a in GRASP_ROLLS]
+        def score(rotations, c=c):
+            return grasp_score(rotations, pos[:, c], pos[:, 1 - c], wrist_in_clip, base)
+
+        scores = [score(grippers.rotations[c] * Rotation.from_rotvec([a, 0.0, 0.0]))
+                  for a in GRASP_ROLLS]
         best = int(np.argmax(scores))
-        if scores[best] > grasp_score(grippers.rotations[c], pos[:, c], pos[:, 1 - c],
-                                      wrist_in_clip):
+        if scores[best] > score(grippers.rotations[c]):
             rolls[c] = GRASP_ROLLS[best]
     first, last = (r * Rotation.from_rotvec([a, 0.0, 0.0])
                    for r, a in zip(grippers.rotations, rolls, strict=True))
     rolled = with_rotations(grippers, first, last, f"grasps rolled by "
                             f"{np.degrees(rolls[0]):.0f} and {np.degrees(rolls[1]):.0f} deg "
-                            "about the clips' u-axes (wrists above and apart)")
+                            "about the clips' u-axes (wrists above, apart, towards the robot)")
     return rolled, rolls
 
 

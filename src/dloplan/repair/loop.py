@@ -31,15 +31,16 @@ between shapes)
     every knot is what helps). A deviation on a segment that also has a snap failure waits for
     the snap repair.
 ``reach`` (a pose out of an arm's reach, or another failing check of the robot program)
-    the job placed on the table: for each turn about the vertical of
-    :data:`~dloplan.repair.placement.YAWS` (smallest first) and each set of gripper frames --
-    the plan's, the plan's with the grasps rolled so that the wrists stay above and apart
-    (:func:`~dloplan.repair.frames.grasp_rolled`), then the other gripper methods' (and theirs
-    rolled), those that do not twist the cable -- the nearest translation within +-30 cm
-    (5 cm grid) where the reachability check passes with either arm assignment
-    (:func:`~dloplan.repair.placement.placements`); the robot program is made again there and
-    checked, the first that passes is kept.
-    None works: refused with the search's reason.
+    the job placed on the table (:class:`~dloplan.repair.placement.TableMove`): for each turn
+    about the vertical of :data:`~dloplan.repair.placement.YAWS` (smallest first) and each set
+    of gripper frames -- the plan's, the plan's with the grasps rolled for that place so that
+    the wrists stay above, apart and towards the robot
+    (:func:`~dloplan.repair.frames.grasp_rolled`), then the other gripper methods' (and
+    theirs rolled), those that do not twist the cable -- the robot program is made and
+    checked, first with the job turned only, then shifted to the nearest place within +-20 cm
+    where the reachability check (approach and retreat included) passes
+    (:func:`~dloplan.repair.placement.placements`); the first that passes is kept.
+    None works: refused with everything tried.
 
 After each round every check the plan was verified with runs again on the whole plan; the loop
 ends when that passes, on a refusal, or when the :class:`Budget` is spent. Repairs never move the
@@ -61,7 +62,7 @@ from ..verify import check_snap_through
 from .failures import KINDS, diagnose, frame_steps, score, summary, twist_failures
 from .frames import grasp_rolled, untwisted
 from .placement import YAWS, PlacementRepair, TableMove, moved_document, moved_job, placements
-from .rebuild import left_clip, slowed, timed_with_robot, with_grippers, with_motion, with_path
+from .rebuild import slowed, timed_with_robot, with_grippers, with_motion, with_path
 from .routes import MAX_TURN, equilibria_along, follow_branch, route_segment, routes
 
 GRIPPER_METHODS = ("rigid", "minimal", "auxiliary")
@@ -389,63 +390,83 @@ class _Session:
         job, doc = self.state.job, self.state.doc
         since = time.perf_counter()
         tried = []
-        frames = _Made(self.reach_frames(job, doc, tried))
-        seen = set()
-        for yaw in (None, *YAWS):  # first every frame set at the job's own place
-            for other, new in frames:
-                found_all = [PlacementRepair(TableMove(), left_clip(new.grippers), True,
-                                             "at the job's own place")] if yaw is None else \
-                    placements(new.grippers, yaws=(yaw,))
+        pivot = doc.grippers.positions.reshape(-1, 3).mean(axis=0) * [1.0, 1.0, 0.0]
+        turned = _Made(self.turned_frames(job, doc, pivot, tried))
+        for search in (False, True):  # first every turn as it is, then shifted too
+            for turn, other, new in turned:
+                if search:
+                    found_all = placements(new.grippers, yaws=(0.0,), cell=other.robot)
+                else:
+                    found_all = [PlacementRepair(TableMove(), 0, True, "as it is")]
                 for found in found_all:
-                    key = (id(new), found.move.yaw, *np.round(found.move.offset, 6))
-                    tried.append(f"{new.grippers.method} frames: {found.message}")
-                    if not found.success or key in seen or (new is doc and
-                                                            found.move.is_identity):
+                    if not found.success or (new is doc and found.move.is_identity):
+                        tried.append(f"{new.grippers.method} frames: {found.message}")
                         continue  # (the plan as it is failed already)
-                    seen.add(key)
                     if not self.attempt():
-                        raise Refused("repair budget spent searching a placement; tried: "
+                        raise Refused("repair budget spent placing the job; tried: "
                                       + " | ".join(tried))
+                    move = turn.then(found.move)
                     placed_job = moved_job(other, found.move)
                     placed = moved_document(placed_job, new, found.move, program=True)
                     rows = self.checks.verify(placed, snap=False, replay=False)
                     left = [f for f in diagnose(placed, rows) if f.kind == "reach"]
+                    tried.append(f"{new.grippers.method} frames, job {move.describe()}: "
+                                 + (left[0].message if left else "passes"))
                     if left:
-                        tried[-1] += f"; then {left[0].message}"
+                        self.progress(f"placement rejected: {tried[-1]}")
                         continue
-                    change = f"job {found.move.describe()}" + (
+                    change = f"job {move.describe()}" + (
                         "" if new is doc else f", gripper frames: {new.grippers.message}")
-                    self.keep("reach", failures, change, found.message,
-                              _State(placed_job, placed, self.state.move.then(found.move)),
-                              since)
+                    self.keep("reach", failures, change, placed.program.message,
+                              _State(placed_job, placed, self.state.move.then(move)), since)
                     return
         raise Refused("no placement of the job on the table makes every pose reachable; "
                       "tried: " + " | ".join(tried))
 
-    def reach_frames(self, job, doc, tried):
-        """The (job, document) pairs whose frames the placement search tries, made on demand:
-        the plan's, its grasps rolled (:func:`~dloplan.repair.frames.grasp_rolled`), then the
-        other gripper methods' (and theirs rolled) -- those that do not twist the cable."""
-        tcp_in_clip = job.robot.tools[0].tcp_in_clip
+    def turned_frames(self, job, doc, pivot, tried):
+        """(turn, job, document) for every turn of :data:`YAWS` about the vertical through
+        ``pivot`` and every set of gripper frames, made on demand: the plan's, its grasps rolled
+        for the turned place (:func:`~dloplan.repair.frames.grasp_rolled`), then the other
+        gripper methods' (and theirs rolled) -- those that do not twist the cable and differ
+        from the earlier ones."""
         others = [m for m in GRIPPER_METHODS if m != doc.grippers.method]
-        for method in (None, *others):
-            other, new = job, doc
-            if method is not None:
-                other = replace(job, grippers=replace(job.grippers, method=method))
-                try:
-                    new = with_motion(other, doc, program=False)
-                except ValueError as exc:  # e.g. the auxiliary vector along a u-axis
-                    tried.append(f"{method}: {exc}")
-                    continue
-            rolled, rolls = grasp_rolled(new.grippers, tcp_in_clip)
-            candidates = [new] + ([with_grippers(other, new, rolled, program=False)]
-                                  if rolls.any() else [])
-            for candidate in candidates:
-                left = twist_failures(candidate)
-                if left and candidate is not doc:
-                    tried.append(f"{candidate.grippers.message}: {summary(left)}")
-                else:
-                    yield other, candidate
+        bases = _Made(self.method_frames(job, doc, others, tried))
+        for yaw in YAWS:
+            turn = TableMove(yaw=yaw, pivot=pivot)
+            kept = []
+            for other, new in bases:
+                if yaw:
+                    other = moved_job(other, turn)
+                    new = moved_document(other, new, turn)
+                rolled, rolls = grasp_rolled(new.grippers, other.robot)
+                candidates = [new] + ([with_grippers(other, new, rolled, program=False)]
+                                      if rolls.any() else [])
+                for candidate in candidates:
+                    if any(_same_frames(candidate, made) for made in kept):
+                        continue  # e.g. rigid = minimal rotation for a planar bend
+                    kept.append(candidate)
+                    left = twist_failures(candidate)
+                    if left and candidate is not doc:
+                        tried.append(f"{candidate.grippers.message}: {summary(left)}")
+                    else:
+                        yield turn, other, candidate
+
+    @staticmethod
+    def method_frames(job, doc, methods, tried):
+        """The plan, then the plan with the frames of each of ``methods`` (no program)."""
+        yield job, doc
+        for method in methods:
+            other = replace(job, grippers=replace(job.grippers, method=method))
+            try:
+                yield other, with_motion(other, doc, program=False)
+            except ValueError as exc:  # e.g. the auxiliary vector along a u-axis
+                tried.append(f"{method}: {exc}")
+
+
+def _same_frames(a, b, tolerance: float = 1e-6) -> bool:
+    """Two documents whose clip frames agree to ``tolerance`` [rad]."""
+    return all(np.max((p * q.inv()).magnitude()) < tolerance
+               for p, q in zip(a.grippers.rotations, b.grippers.rotations, strict=True))
 
 
 class _Made:

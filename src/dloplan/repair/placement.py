@@ -28,7 +28,7 @@ from scipy.spatial.transform import Rotation
 
 from ..grippers.path import GripperPath
 from ..obstacles.shapes import Box, Cylinder
-from .rebuild import left_clip, timed_with_robot
+from .rebuild import left_clip, timed, timed_with_robot, without_robot
 
 SEARCHES = ((0.2, 0.05, "nearest"),)
 """The placement searches tried in turn: half-width [m] of the square searched on the table
@@ -90,7 +90,9 @@ class TableMove:
         return self.yaw == 0.0 and not np.any(self.offset)
 
     def then(self, other: TableMove) -> TableMove:
-        """This move followed by ``other``, as one move (about the origin)."""
+        """This move followed by ``other``, as one move (about the origin when both move)."""
+        if other.is_identity or self.is_identity:
+            return self if other.is_identity else other
         turn = other.rotation
         offset = turn.apply(self.offset + self.pivot - self.rotation.apply(self.pivot)
                             - other.pivot) + other.pivot + other.offset
@@ -143,11 +145,11 @@ def moved_grippers(grippers: GripperPath, move: TableMove) -> GripperPath:
                    rotations=tuple(turn * r for r in grippers.rotations))
 
 
-def moved_document(job, doc, move: TableMove, program: bool = False):
+def moved_document(job, doc, move: TableMove, program: bool | None = None):
     """The plan document moved by ``move``: shapes, frames, clip wrenches, obstacles, trajectory,
-    and its robot program made again in the cell of ``job`` (the job already moved) when it had
-    one or ``program``. The planner's own sections (stages, target check, obstacle re-planning)
-    stay in the job's original place."""
+    and its robot program made again in the cell of ``job`` (the job already moved) when
+    ``program`` (default: when it had one; False drops it). The planner's own sections (stages,
+    target check, obstacle re-planning) stay in the job's original place."""
     moved = replace(
         doc, shapes=move.points(doc.shapes),
         stabilized=None if doc.stabilized is None else move.points(doc.stabilized),
@@ -155,7 +157,13 @@ def moved_document(job, doc, move: TableMove, program: bool = False):
         clip_wrenches=None if doc.clip_wrenches is None else move.vectors(
             doc.clip_wrenches.reshape(-1, 3)).reshape(doc.clip_wrenches.shape),
         obstacles=tuple(moved_obstacle(o, move) for o in doc.obstacles))
-    return moved if doc.trajectory is None else timed_with_robot(job, moved, always=program)
+    if program is None:
+        program = doc.robot is not None or doc.program is not None
+    if doc.trajectory is None:
+        return moved
+    if not program:
+        return without_robot(timed(job, moved))
+    return timed_with_robot(job, moved, always=True)
 
 
 def translated_document(job, doc, offset):
@@ -185,14 +193,28 @@ class PlacementRepair:
     message: str
 
 
-def placements(grippers: GripperPath, *, searches=SEARCHES, yaws=YAWS, robot=None):
+def with_approach(positions: np.ndarray, matrices: np.ndarray, cell) -> tuple:
+    """The clip poses (K, 2, 3) [m] and frames (K, 2, 3, 3) with the robot program's approach
+    and retreat poses added (``cell.approach`` back along the TCP z-axis of the first and the
+    last pose, :mod:`dloplan.robot.program`), so that the search checks what the program
+    executes."""
+    if cell is None or cell.approach <= 0:
+        return positions, matrices
+    back = cell.approach * (matrices @ cell.tools[0].tcp_in_clip.as_matrix()[:, 2])
+    return (np.concatenate([positions[:1] - back[:1], positions, positions[-1:] - back[-1:]]),
+            np.concatenate([matrices[:1], matrices, matrices[-1:]]))
+
+
+def placements(grippers: GripperPath, *, searches=SEARCHES, yaws=YAWS, cell=None):
     """Placements of the job where the robot reaches every planned pose, smallest turn first.
 
     For each turn of ``yaws`` about the vertical through the clips' centre, each (half-width,
     step, objective) of ``searches`` and each arm assignment (the side rule's, then the swapped
     one, which the robot program also falls back to), the working offset the objective picks
-    (:func:`dloplan.robot.search_placement`). Yields a :class:`PlacementRepair` per successful
-    search, and one per turn that no search of it passed (``success`` False).
+    (:func:`dloplan.robot.search_placement`, on the poses with the approach and the retreat of
+    ``cell``, a :class:`~dloplan.robot.RobotCell`, :func:`with_approach`). Yields a
+    :class:`PlacementRepair` per successful search, and one per turn that no search of it
+    passed (``success`` False).
     """
     from ..robot import search_placement
 
@@ -201,11 +223,13 @@ def placements(grippers: GripperPath, *, searches=SEARCHES, yaws=YAWS, robot=Non
     for yaw in yaws:
         turned = moved_grippers(grippers, TableMove(yaw=yaw, pivot=pivot))
         side = left_clip(turned)
+        positions, matrices = with_approach(turned.positions, turned.matrices, cell)
         messages = []
         for half, step, objective in searches:
             for clip in (side, 1 - side):
-                found = search_placement(turned.positions,
-                                         Rotation.from_matrix(turned.matrices), robot,
+                found = search_placement(positions, Rotation.from_matrix(matrices),
+                                         None if cell is None else cell.robot,
+                                         options=None if cell is None else cell.reach,
                                          extent=(half, half, 0.0), step=step,
                                          objective=objective,
                                          assignment=("first-left", "first-right")[clip])

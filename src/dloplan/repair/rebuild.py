@@ -80,9 +80,14 @@ def with_robot(job, doc, progress=quiet, always=False):
     targets."""
     if doc.robot is None and doc.program is None and not always:
         return doc
+    return with_program(without_robot(doc),
+                        plan_program(job.robot, doc.grippers, doc.trajectory, progress))
+
+
+def without_robot(doc):
+    """``doc`` without its robot program (and the program's line among its warnings)."""
     warnings = tuple(w for w in doc.warnings if doc.robot is None or w != doc.robot.message)
-    bare = replace(doc, robot=None, program=None, warnings=warnings)
-    return with_program(bare, plan_program(job.robot, doc.grippers, doc.trajectory, progress))
+    return replace(doc, robot=None, program=None, warnings=warnings)
 
 
 def with_motion(job, doc, shapes=None, stabilized=None, progress=quiet, program=None):
