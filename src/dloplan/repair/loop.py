@@ -86,7 +86,7 @@ class Budget:
         Full re-verifications of the repaired plan.
     """
 
-    attempts: int = 16
+    attempts: int = 40
     seconds: float = 1800.0
     rounds: int = 3
 
@@ -400,7 +400,7 @@ class _Session:
                     found_all = [PlacementRepair(TableMove(), 0, True, "as it is")]
                 for found in found_all:
                     if not found.success or (new is doc and found.move.is_identity):
-                        tried.append(f"{new.grippers.method} frames: {found.message}")
+                        tried.append(f"{_frames_name(new)}: {found.message}")
                         continue  # (the plan as it is failed already)
                     if not self.attempt():
                         raise Refused("repair budget spent placing the job; tried: "
@@ -410,7 +410,7 @@ class _Session:
                     placed = moved_document(placed_job, new, found.move, program=True)
                     rows = self.checks.verify(placed, snap=False, replay=False)
                     left = [f for f in diagnose(placed, rows) if f.kind == "reach"]
-                    tried.append(f"{new.grippers.method} frames, job {move.describe()}: "
+                    tried.append(f"{_frames_name(new)}, job {move.describe()}: "
                                  + (left[0].message if left else "passes"))
                     if left:
                         self.progress(f"placement rejected: {tried[-1]}")
@@ -461,6 +461,12 @@ class _Session:
                 yield other, with_motion(other, doc, program=False)
             except ValueError as exc:  # e.g. the auxiliary vector along a u-axis
                 tried.append(f"{method}: {exc}")
+
+
+def _frames_name(doc) -> str:
+    """"<method> frames", "rolled" when their grasps were rolled."""
+    rolled = ", grasps rolled" if "grasps rolled" in doc.grippers.message else ""
+    return f"{doc.grippers.method} frames{rolled}"
 
 
 def _same_frames(a, b, tolerance: float = 1e-6) -> bool:

@@ -102,11 +102,13 @@ class TableMove:
         """One line: the offset and, when turned, the yaw."""
         if self.is_identity:
             return "at its own place"
-        text = f"offset {np.array2string(self.offset + 0.0, precision=3)} m"
+        parts = []
         if self.yaw:
-            text = (f"turned {math.degrees(self.yaw):.0f} deg about the vertical through "
-                    f"{np.array2string(self.pivot + 0.0, precision=3)} m, " + text)
-        return text
+            parts.append(f"turned {math.degrees(self.yaw):.0f} deg about the vertical through "
+                         f"{np.array2string(self.pivot + 0.0, precision=3)} m")
+        if np.any(self.offset):
+            parts.append(f"offset {np.array2string(self.offset + 0.0, precision=3)} m")
+        return ", ".join(parts)
 
 
 def moved_obstacle(obstacle, move: TableMove):
