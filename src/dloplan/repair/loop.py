@@ -37,8 +37,9 @@ between shapes)
     the wrists stay above, apart and towards the robot
     (:func:`~dloplan.repair.frames.grasp_rolled`), then the other gripper methods' (and
     theirs rolled), those that do not twist the cable -- the robot program is made and
-    checked, first with the job turned only, then shifted to the nearest place within +-20 cm
-    where the reachability check (approach and retreat included) passes
+    checked where the reachability check (approach and retreat included) passes: first with
+    the job turned only, then (the plan's frames, rolled or not) shifted to the nearest such
+    place within +-20 cm
     (:func:`~dloplan.repair.placement.placements`); the first that passes is kept.
     None works: refused with everything tried.
 
@@ -61,7 +62,14 @@ from ..sim.statics import interpolate_clips
 from ..verify import check_snap_through
 from .failures import KINDS, diagnose, frame_steps, score, summary, twist_failures
 from .frames import grasp_rolled, untwisted
-from .placement import YAWS, PlacementRepair, TableMove, moved_document, moved_job, placements
+from .placement import (
+    SEARCHES,
+    YAWS,
+    TableMove,
+    moved_document,
+    moved_job,
+    placements,
+)
 from .rebuild import slowed, timed_with_robot, with_grippers, with_motion, with_path
 from .routes import MAX_TURN, equilibria_along, follow_branch, route_segment, routes
 
@@ -70,6 +78,10 @@ GRIPPER_METHODS = ("rigid", "minimal", "auxiliary")
 
 SPEED_FACTORS = (0.5, 0.25, 0.125)
 """Time dilations of the motion tried by the replay repair (speeds times the factor)."""
+
+HERE = ((0.0, 0.05, "nearest"),)
+"""The placement "search" of the job as it is (turned only): the reachability pre-check and
+check at its place, before its robot program is made."""
 
 
 @dataclass(frozen=True)
@@ -392,16 +404,20 @@ class _Session:
         tried = []
         pivot = doc.grippers.positions.reshape(-1, 3).mean(axis=0) * [1.0, 1.0, 0.0]
         turned = _Made(self.turned_frames(job, doc, pivot, tried))
-        for search in (False, True):  # first every turn as it is, then shifted too
+        seen = set()
+        for searches in (HERE, SEARCHES):  # first every turn as it is, then shifted too
             for turn, other, new in turned:
-                if search:
-                    found_all = placements(new.grippers, yaws=(0.0,), cell=other.robot)
-                else:
-                    found_all = [PlacementRepair(TableMove(), 0, True, "as it is")]
-                for found in found_all:
-                    if not found.success or (new is doc and found.move.is_identity):
-                        tried.append(f"{_frames_name(new)}: {found.message}")
+                if searches is SEARCHES and other.grippers.method != job.grippers.method:
+                    continue  # the searches shift the plan's own frames (rolled or not) only
+                for found in placements(new.grippers, yaws=(0.0,), cell=other.robot,
+                                        searches=searches):
+                    key = (id(new), *np.round(found.move.offset, 6))
+                    if not found.success or key in seen or (new is doc and
+                                                            found.move.is_identity):
+                        if not found.success:
+                            tried.append(f"{_frames_name(new)}: {found.message}")
                         continue  # (the plan as it is failed already)
+                    seen.add(key)
                     if not self.attempt():
                         raise Refused("repair budget spent placing the job; tried: "
                                       + " | ".join(tried))

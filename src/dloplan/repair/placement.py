@@ -105,9 +105,10 @@ class TableMove:
         parts = []
         if self.yaw:
             parts.append(f"turned {math.degrees(self.yaw):.0f} deg about the vertical through "
-                         f"{np.array2string(self.pivot + 0.0, precision=3)} m")
+                         f"{np.array2string(np.round(self.pivot, 4) + 0.0, precision=3)} m")
         if np.any(self.offset):
-            parts.append(f"offset {np.array2string(self.offset + 0.0, precision=3)} m")
+            parts.append(f"offset {np.array2string(np.round(self.offset, 4) + 0.0, precision=3)}"
+                         " m")
         return ", ".join(parts)
 
 
@@ -232,7 +233,7 @@ def placements(grippers: GripperPath, *, searches=SEARCHES, yaws=YAWS, cell=None
                 found = search_placement(positions, Rotation.from_matrix(matrices),
                                          None if cell is None else cell.robot,
                                          options=None if cell is None else cell.reach,
-                                         extent=(half, half, 0.0), step=step,
+                                         extent=(half, half, 0.0), step=step, explain=False,
                                          objective=objective,
                                          assignment=("first-left", "first-right")[clip])
                 move = TableMove(found.offset if found.success else np.zeros(3), yaw, pivot)
