@@ -407,6 +407,9 @@ class _Session:
         seen = set()
         for searches in (HERE, SEARCHES):  # first every turn as it is, then shifted too
             for turn, other, new in turned:
+                if self.spent():
+                    raise Refused("repair budget spent placing the job; tried: "
+                                  + " | ".join(tried))
                 if searches is SEARCHES and other.grippers.method != job.grippers.method:
                     continue  # the searches shift the plan's own frames (rolled or not) only
                 for found in placements(new.grippers, yaws=(0.0,), cell=other.robot,
