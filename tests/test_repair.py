@@ -1,9 +1,10 @@
 """Verification-guided repair (issue 25): plans that fail their checks are repaired or refused.
 
 The expensive checks are used selectively: the qualitative-1 and the straight-to-U jobs are
-verified for their physics (snap-through; replay for qualitative 1), once per module; their
-robot programs stay refused after repair (docs/repair.md, known limits); the refusal, the replay
-repair and the CLI use a soft, coarse cable.
+verified for their physics (snap-through; replay for qualitative 1), once per module; the
+robot-program repairs (grasp roll, turned placement) on qualitative test 2 with the program's
+checks only (fig4_8 and qualitative 1 are repaired for their programs by tests/test_cli.py's
+example test); the refusal, the replay repair and the CLI use a soft, coarse cable.
 """
 
 from __future__ import annotations
