@@ -41,9 +41,25 @@ count; numba-compiled physics): the physics checks of every example take 3-20 s,
                 5.0 deg); then robot program, shape 5, left arm: joint limits 0 deg ABB axis 3 ...
     exit 3
 
-fig4_8_straight_to_bent's robot program fails on main before any repair (clearance at the
-approach target, continuity at shape 2): the reach repair's placement searches then take
-minutes per example.
+Issue 25, second session (2026-11-30, load average 9-10 on the 2 shared cores: times 4-5x an
+idle machine's). The reach repair now turns the job about the vertical as well as shifting it,
+rolls the grasps, and checks the approach and retreat in its placement search:
+
+    --no-replay fig4_8_straight_to_bent qualitative2_ethernet_3d:
+    fig4_8_straight_to_bent: plan + verify 36.5 s; before: 4 reach; repairs: reach: job turned
+        30 deg about the vertical through [0.431 0. 0.] m, gripper frames: method 'auxiliary'
+        as asked; grasps rolled by 90 and -90 deg about the clips' u-axes (wrists above, apart,
+        towards the robot); repairing 80.8 s (1 attempts); after: ok
+    qualitative2_ethernet_3d: did not finish within the session (16 min wall, 2.7 min of CPU:
+        the machine ran three test suites at once). Its reach repair alone (robot program
+        checks, tests/test_repair.py): 3 reach (arm-arm clearance -25 mm at shape 6, -103 mm at
+        the retreat) -> grasps rolled by 65 and -70 deg at the job's own place, 1 program, 2 s.
+
+    qualitative1_curved_pa12, reach repair alone (robot program checks, repair_plan; the
+    script of the session, not this benchmark): job turned 30 deg and shifted
+    [-0.123 -0.191 0] m (about the origin), rigid-rotation frames with the grasps rolled by 10
+    and -15 deg; 12 programs checked, 650 s. The full benchmark (every example, with the replay)
+    was not run in this session: the machine's load made it an hour.
 """
 
 from __future__ import annotations

@@ -1,9 +1,10 @@
 """Verification-guided repair (issue 25): plans that fail their checks are repaired or refused.
 
 The expensive checks are used selectively: the qualitative-1 and the straight-to-U jobs are
-verified for their physics (snap-through; replay for qualitative 1), once per module; their
-robot programs stay refused after repair (docs/repair.md, known limits); the refusal, the replay
-repair and the CLI use a soft, coarse cable.
+verified for their physics (snap-through; replay for qualitative 1), once per module; the
+robot-program repairs (grasp roll, turned placement) on qualitative test 2 with the program's
+checks only (fig4_8 and qualitative 1 are repaired for their programs by tests/test_cli.py's
+example test); the refusal, the replay repair and the CLI use a soft, coarse cable.
 """
 
 from __future__ import annotations
@@ -22,8 +23,9 @@ from dloplan.app.load import resolve_mapping
 from dloplan.app.pipeline import run_job, verify_plan
 from dloplan.cli import main
 from dloplan.repair import Budget, diagnose, repair_plan, translated_job
-from dloplan.repair.frames import untwisted
-from dloplan.repair.placement import translated_document
+from dloplan.repair.frames import grasp_rolled, untwisted
+from dloplan.repair.placement import TableMove, moved_document, moved_job, translated_document
+from dloplan.repair.rebuild import slowed, timed
 from dloplan.repair.routes import follow_branch, moved, rigid_motion, routes
 from dloplan.sim.clips import ClipPoses, clip_poses_from_shape
 from dloplan.verify.stability import elastic_stability
@@ -79,12 +81,12 @@ def straight_to_u():
 
 def assert_ends_kept(job, doc, result):
     """The start is the planned one and the target within T_cf, both moved with the job."""
-    d = result.offset
-    assert np.allclose(result.job.start, job.start + d, atol=1e-12)
-    assert np.allclose(result.job.target, job.target + d, atol=1e-12)
+    move = result.move.points
+    assert np.allclose(result.job.start, move(job.start), atol=1e-12)
+    assert np.allclose(result.job.target, move(job.target), atol=1e-12)
     final = result.document.stabilized
-    assert np.max(np.abs(final[0] - (doc.stabilized[0] + d))) < 1e-9
-    assert np.max(np.linalg.norm(final[-1] - (doc.stabilized[-1] + d), axis=1)) \
+    assert np.max(np.abs(final[0] - move(doc.stabilized[0]))) < 1e-9
+    assert np.max(np.linalg.norm(final[-1] - move(doc.stabilized[-1]), axis=1)) \
         <= job.target_threshold
 
 
@@ -145,11 +147,15 @@ def test_untwisted_frames_mirror(straight_to_u):
 
 
 def test_a_target_out_of_every_placement_is_refused_without_a_program(tmp_path):
+    """0.95 m in front of the robot: no turn and no shift within 20 cm brings it in reach. The
+    full search costs minutes on a loaded machine: a 60 s budget refuses it sooner, with the
+    same consequence (the reason, no program)."""
     job = resolve_mapping(soft_job(position=(0.95, -0.15, 0.20)), "far away")
-    doc, written = plan_into(job, tmp_path, verify=True)
+    doc, written = plan_into(job, tmp_path, verify=True, budget=Budget(seconds=60.0))
     assert not doc.ok
     refusal = [w for w in doc.warnings if w.startswith("repair refused")]
-    assert refusal and "no placement" in refusal[0]
+    assert refusal and ("no placement" in refusal[0] or "budget spent placing" in refusal[0])
+    assert "unreachable" in refusal[0] or "pre-check" in refusal[0]
     assert not (tmp_path / "rapid").exists() and (tmp_path / "plan.json").exists()
 
 
@@ -177,6 +183,112 @@ def test_translated_job_plans_the_translated_plan():
     assert np.max(np.abs(moved_plan.stabilized - shifted.stabilized)) < 1e-6
     assert np.max(np.abs(moved_plan.grippers.positions - shifted.grippers.positions)) < 1e-6
     assert np.allclose(moved_plan.program.joints, shifted.program.joints, atol=1e-4)
+
+
+def test_turned_job_plans_the_turned_plan():
+    """A placement may turn the job about the vertical: gravity and the table are invariant
+    under it, so planning the turned job gives the turned plan (shapes and clip frames)."""
+    job = resolve_mapping(soft_job(), "soft")
+    move = TableMove([0.02, 0.03, 0.0], np.radians(60.0), [0.4, -0.1, 0.0])
+    turned_job = moved_job(job, move)
+    planned = run_job(turned_job, check_robot=False)
+    moved_plan = moved_document(turned_job, run_job(job, check_robot=False), move)
+    assert np.max(np.abs(planned.stabilized - moved_plan.stabilized)) < 1e-6
+    assert np.max(np.abs(planned.grippers.positions - moved_plan.grippers.positions)) < 1e-6
+    for a, b in zip(planned.grippers.rotations, moved_plan.grippers.rotations, strict=True):
+        assert np.max((a * b.inv()).magnitude()) < 1e-6
+    # clip wrenches turn with the job (a force is a vector): their magnitudes are the same
+    assert np.allclose(planned.clip_wrenches, moved_plan.clip_wrenches, atol=1e-6)
+
+
+def test_table_moves_compose_and_check_their_input():
+    rng = np.random.default_rng(3)
+    a = TableMove(rng.normal(size=3) * [0.1, 0.1, 0.0], 0.7, rng.normal(size=3))
+    b = TableMove(rng.normal(size=3) * [0.1, 0.1, 0.0], -1.9, rng.normal(size=3))
+    x = rng.normal(size=(5, 3))
+    assert np.allclose(a.then(b).points(x), b.points(a.points(x)), atol=1e-12)
+    assert np.allclose(a.points(x)[:, 2], x[:, 2])  # horizontal: heights kept
+    assert TableMove().is_identity and not a.is_identity
+    with pytest.raises(ValueError, match="TableMove.offset"):
+        TableMove([0.0, 0.0])
+    with pytest.raises(ValueError, match="TableMove.yaw"):
+        TableMove(yaw=float("nan"))
+
+
+def test_qualitative2_arms_clear_each_other_after_a_grasp_roll():
+    """Qualitative test 2 (thesis 7.2.3): the rigid-rotation frames put both wrists between the
+    ends of the 140 deg arc, the arms collide (-25 mm at shape 6, -103 mm at the retreat along
+    the approach axes). Rolling each grasp about its clip's u-axis (wrists above and apart)
+    fixes it at the job's own place; the shapes, clip points and u-axes stay."""
+    job = load_job(EXAMPLES / "qualitative2_ethernet_3d.yaml")
+    doc = run_job(job)
+    verification = verify_plan(doc, snap=False, replay=False)
+    failures = diagnose(doc, verification)
+    assert {f.kind for f in failures} == {"reach"}
+    assert all("clearance" in f.message for f in failures)
+    result = repair_plan(job, doc, verification)
+    assert result.ok and [r.kind for r in result.repairs] == ["reach"], result.refusal
+    assert "grasps rolled" in result.repairs[0].change and result.move.is_identity
+    new = result.document
+    assert new.program.ok
+    assert np.allclose(new.grippers.positions, doc.grippers.positions, atol=1e-12)
+    assert np.allclose(new.grippers.u_axes, doc.grippers.u_axes, atol=1e-9)
+    assert np.max(np.abs(new.twist.twist)) <= new.grippers.max_twist
+    assert_ends_kept(job, doc, result)
+
+
+def test_grasp_roll_lifts_the_wrists_and_mirrors():
+    """The grasp roll never lowers the lowest wrist of a path below the plan's grasp (height
+    comes first in the score: the wrist direction's height plus half its horizontal parts away
+    from the other clip and towards the robot); the path mirrored in the robot's x-z plane
+    (y -> -y, the robot is symmetric) gets rolls of the same size."""
+    job = resolve_mapping(STRAIGHT_TO_U, "straight to U")
+    from dloplan.grippers import gripper_path
+
+    wrist = -job.robot.tools[0].tcp_in_clip.apply([0.0, 0.0, 1.0])
+    shapes = resolve_mapping(STRAIGHT_TO_U, "U").target[None].repeat(2, axis=0)
+    shapes[0] = job.start
+    path = gripper_path(shapes, method="rigid", cable=job.cable)
+    rolled, rolls = grasp_rolled(path, job.robot)
+    lowest = [min(r.apply(wrist)[:, 2]) for r in rolled.rotations]
+    before = [min(r.apply(wrist)[:, 2]) for r in path.rotations]
+    assert all(a >= b - 1e-12 for a, b in zip(lowest, before, strict=True))
+    mirror = np.diag([1.0, -1.0, 1.0])
+    flipped = gripper_path(shapes @ mirror, method="rigid", cable=job.cable)
+    _, mirrored = grasp_rolled(flipped, job.robot)
+    assert np.allclose(np.abs(mirrored), np.abs(rolls), atol=1e-12)
+
+
+def test_a_replay_that_strays_at_speed_is_repaired_by_slowing_down():
+    """A soft cable moved fast (0.5 m/s, 5 rad/s) rings after each stop: the replay's deviation
+    at the knots falls as the motion is slowed (measured: 3.8 -> 1.4 mm at half speed). With a
+    2 mm tolerance the plan fails the replay and the repair slows it by half; the path is the
+    same, only the time law changed."""
+    job = resolve_mapping(soft_job(speed=0.5, angular=5.0, acceleration=1.0), "fast")
+    doc = run_job(job, check_robot=False)
+    deviation = [verify_plan(timed(slowed(job, f), doc), snap=False, robot=False)
+                 .replay.deviations.max() for f in (1.0, 0.5, 0.25)]
+    assert deviation[0] > deviation[1] > deviation[2]  # grows with speed
+    tolerance = 0.5 * (deviation[0] + deviation[1])
+    verification = verify_plan(doc, snap=False, robot=False, tolerance=tolerance)
+    assert [f.kind for f in diagnose(doc, verification)][:1] == ["replay"]
+    result = repair_plan(job, doc, verification, Budget(attempts=4))
+    assert result.ok and [r.kind for r in result.repairs] == ["replay"], result.refusal
+    assert result.verification.replay.deviations.max() <= tolerance
+    assert result.job.motion.tcp_speed == pytest.approx(0.25)
+    assert result.document.trajectory.duration > doc.trajectory.duration
+    assert np.array_equal(result.document.shapes, doc.shapes)
+
+
+def test_slowed_is_a_time_dilation():
+    job = resolve_mapping(soft_job(speed=0.5, angular=5.0, acceleration=1.0), "fast")
+    half = slowed(job, 0.5).motion.limits
+    full = job.motion.limits
+    assert half.speed == pytest.approx(0.5 * full.speed)
+    assert half.angular_acceleration == pytest.approx(0.25 * full.angular_acceleration)
+    assert half.jerk == pytest.approx(0.125 * full.jerk)
+    with pytest.raises(ValueError, match="factor"):
+        slowed(job, 1.5)
 
 
 def test_rigid_motion_is_recovered_and_routes_end_where_they_should():

@@ -439,7 +439,7 @@ def build_parser() -> argparse.ArgumentParser:
     checks.add_argument("--no-verify", action="store_true",
                         help="skip the robot program's checks too (the program is written "
                         "with the checks' verdict in its header)")
-    plan.add_argument("--no-repair", action="store_true", help="with --verify: report failed "
+    plan.add_argument("--no-repair", action="store_true", help="report failed "
                       "checks without repairing the plan (docs/repair.md)")
     plan.add_argument("--workers", type=int, default=1,
                       help="batch: local worker processes")

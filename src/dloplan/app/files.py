@@ -43,21 +43,22 @@ def exit_code(doc: PlanDocument) -> int:
 
 
 def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
-              repair: bool = True, progress=quiet):
+              repair: bool = True, progress=quiet, budget=None):
     """Plan a resolved job and write its outputs into ``folder``: ``(document, written paths)``.
 
     The folder is written whole or not at all (:func:`dloplan.io.files.staged_folder`): a run
     that fails or is interrupted leaves it as it was, and a second run on the same folder is
     refused while this one holds it. A plan that failed a check gets its plan document, figures
-    and report, but no robot program or trajectory file. With ``verify`` and ``repair`` a plan
-    that fails a check is repaired first (:func:`dloplan.repair.plan_and_repair`).
+    and report, but no robot program or trajectory file. With ``repair`` a plan that fails a
+    check is repaired first (:func:`dloplan.repair.plan_and_repair`: every check with
+    ``verify``, else the robot program's; ``budget`` a :class:`dloplan.repair.Budget`).
     """
     folder = Path(folder)
     with staged_folder(folder) as staging:
-        if isinstance(job, Job) and verify and check_robot and repair:
+        if isinstance(job, Job) and check_robot and repair:
             from ..repair import plan_and_repair
 
-            doc, repairs = plan_and_repair(job, progress)
+            doc, repairs = plan_and_repair(job, progress, budget, physics=verify)
             doc = replace(doc, repairs=tuple(r.to_dict() for r in repairs))
             formats, options = job.outputs, WriteOptions(rate=job.motion.rate)
         elif isinstance(job, Job):

@@ -8,6 +8,16 @@ clip's frame at shape k by tau_k about its own u-axis and computes the twist aga
 fixed-point steps bring every tau_k to round-off (the twist is, to first order, the difference of
 the clips' rolls). The u-axes and the clip points stay those of the shapes: the plan's
 equilibria do not change.
+
+:func:`grasp_rolled` chooses how each gripper grasps its clip instead: one roll per clip about
+its u-axis, the same at every shape (the gripper takes the cable turned about the cable's own
+axis, so the grasp itself twists nothing), such that the wrist stays above its clip, away
+from the other clip and on the robot's side over the whole path. A gripper holds its clip with
+the TCP z-axis as the approach axis (``tool.tcp_in_clip``): the wrist lies at the clip point
+minus the TCP offset along that axis, and the approach and the retreat move along it
+(:mod:`dloplan.robot.program`). Frames from the gripper methods only fix the u-axis; their
+roll may put both wrists between the clips (arm-arm collisions at a U or an arc whose ends come
+close, thesis qualitative test 2) or under the clip (the wrist at the table).
 """
 
 from __future__ import annotations
@@ -22,6 +32,15 @@ from ..sim.torsion import twist_along_path
 
 ROLL_STEPS = 4
 """Fixed-point steps of :func:`untwisted`."""
+
+GRASP_ROLLS = np.radians(np.arange(-90.0, 90.5, 5.0))
+"""Grasp rolls [rad] tried by :func:`grasp_rolled` (within a quarter turn: a half turn would
+put the wrist under the clip)."""
+
+AWAY_WEIGHT = 0.5
+"""Weight of the wrist direction's horizontal components, away from the other clip and towards
+the robot, against its height in :func:`grasp_score` (the table is below: height comes
+first)."""
 
 
 def untwisted(cable, shapes: np.ndarray, grippers: GripperPath,
@@ -48,14 +67,9 @@ def untwisted(cable, shapes: np.ndarray, grippers: GripperPath,
     twist = _twist(cable, shapes, grippers)
     for _ in range(steps):
         roll = Rotation.from_rotvec(twist[:, None] * np.array([1.0, 0.0, 0.0]))
-        first, last = grippers.rotations[0], grippers.rotations[1] * roll
-        frames = relative_twist(first, last)
-        grippers = replace(
-            grippers, rotations=(first, last), twist=frames,
-            success=bool(np.max(np.abs(frames)) <= grippers.max_twist),
-            warnings=tuple(w for w in grippers.warnings if not w.startswith("relative twist")),
-            message=f"{grippers.message.split(';')[0]}; last clip rolled about its u-axis "
-            "against the torsion model's twist")
+        grippers = with_rotations(grippers, grippers.rotations[0], grippers.rotations[1] * roll,
+                                  "last clip rolled about its u-axis against the torsion "
+                                  "model's twist")
         twist = _twist(cable, shapes, grippers)
     return grippers, twist
 
@@ -63,3 +77,83 @@ def untwisted(cable, shapes: np.ndarray, grippers: GripperPath,
 def _twist(cable, shapes, grippers) -> np.ndarray:
     poses = [grippers.clip_poses(k) for k in range(len(shapes))]
     return twist_along_path(cable, shapes, poses).twist
+
+
+def grasp_score(rotations: Rotation, positions: np.ndarray, other: np.ndarray,
+                wrist_in_clip: np.ndarray, base: np.ndarray) -> float:
+    """How well a clip's gripper is placed along a path: the smallest, over the shapes, of the
+    wrist direction's height plus :data:`AWAY_WEIGHT` times its horizontal components away from
+    the other clip and towards the robot (the arm comes from its base: a wrist on the far side
+    of the clip makes the arm reach around it).
+
+    Parameters
+    ----------
+    rotations : scipy.spatial.transform.Rotation
+        (K,) the clip's frames (clip to world).
+    positions, other : numpy.ndarray
+        (K, 3) this clip's and the other clip's points [m].
+    wrist_in_clip : numpy.ndarray
+        (3,) unit direction from the clip point to the wrist, in the clip frame (minus the
+        TCP z-axis).
+    base : numpy.ndarray
+        (3,) the robot's base position [m].
+    """
+    wrist = rotations.apply(wrist_in_clip)
+    score = wrist[:, 2]
+    for towards in (positions - other, base - positions):
+        towards = towards * [1.0, 1.0, 0.0]
+        towards /= np.maximum(np.linalg.norm(towards, axis=1, keepdims=True), 1e-12)
+        score = score + AWAY_WEIGHT * np.sum(wrist * towards, axis=1)
+    return float(np.min(score))
+
+
+def grasp_rolled(grippers: GripperPath, cell) -> tuple[GripperPath, np.ndarray]:
+    """The gripper frames with each clip rolled about its u-axis by the grasp roll of
+    :data:`GRASP_ROLLS` that maximizes :func:`grasp_score` (module docstring).
+
+    Parameters
+    ----------
+    grippers : GripperPath
+        The plan's frames (any method).
+    cell : RobotCell
+        The robot cell: its base position and its tools' ``tcp_in_clip``.
+
+    Returns
+    -------
+    grippers : GripperPath
+        Same positions and u-axes, each clip's frames rolled by its grasp roll (the frames'
+        relative twist computed again).
+    rolls : numpy.ndarray
+        (2,) the grasp roll of each clip [rad] (0 when the plan's own grasp scores best).
+    """
+    wrist_in_clip = -cell.tools[0].tcp_in_clip.apply([0.0, 0.0, 1.0])
+    base = np.asarray(cell.base_position, dtype=float)
+    pos = grippers.positions
+    rolls = np.zeros(2)
+    for c in range(2):
+        def score(rotations, c=c):
+            return grasp_score(rotations, pos[:, c], pos[:, 1 - c], wrist_in_clip, base)
+
+        scores = [score(grippers.rotations[c] * Rotation.from_rotvec([a, 0.0, 0.0]))
+                  for a in GRASP_ROLLS]
+        best = int(np.argmax(scores))
+        if scores[best] > score(grippers.rotations[c]):
+            rolls[c] = GRASP_ROLLS[best]
+    first, last = (r * Rotation.from_rotvec([a, 0.0, 0.0])
+                   for r, a in zip(grippers.rotations, rolls, strict=True))
+    rolled = with_rotations(grippers, first, last, f"grasps rolled by "
+                            f"{np.degrees(rolls[0]):.0f} and {np.degrees(rolls[1]):.0f} deg "
+                            "about the clips' u-axes (wrists above, apart, towards the robot)")
+    return rolled, rolls
+
+
+def with_rotations(grippers: GripperPath, first: Rotation, last: Rotation,
+                   note: str) -> GripperPath:
+    """``grippers`` with new clip frames of the same u-axes: their relative twist computed
+    again, ``note`` appended to the method's message."""
+    frames = relative_twist(first, last)
+    return replace(
+        grippers, rotations=(first, last), twist=frames,
+        success=bool(np.max(np.abs(frames)) <= grippers.max_twist),
+        warnings=tuple(w for w in grippers.warnings if not w.startswith("relative twist")),
+        message=f"{grippers.message.split(';')[0]}; {note}")

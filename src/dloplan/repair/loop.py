@@ -24,21 +24,29 @@ between shapes)
     3. intermediate rotations: the equilibria at clip poses interpolated on the flipping
        segment inserted as shapes.
 ``replay`` (the replay at real speed strays from the planned shapes)
-    the trajectory timed again at half, then a quarter, then an eighth of the TCP speed (one
-    speed for the whole program, as the RAPID module has one speeddata). A deviation on a
-    segment that also has a snap failure waits for the snap repair.
+    the motion slowed down in time by 1/2, then 1/4, then 1/8 (speeds times the factor,
+    accelerations times its square, jerks times its cube: the same path, a time dilation;
+    :func:`~dloplan.repair.rebuild.slowed`), the whole program (the RAPID module has one
+    speeddata per move, but the replay judges the settled knots, where a slower approach of
+    every knot is what helps). A deviation on a segment that also has a snap failure waits for
+    the snap repair.
 ``reach`` (a pose out of an arm's reach, or another failing check of the robot program)
-    1. a placement of the job on the table (+-20 cm, then +-30 cm, nearest first, 5 cm grid;
-       the side rule's
-       arm assignment, then the swapped one: :func:`~dloplan.repair.placement.placements`),
-       the robot program made again there and checked;
-    2. the same for the other gripper methods that keep the twist within bounds.
-    None works: refused with the search's reason.
+    the job placed on the table (:class:`~dloplan.repair.placement.TableMove`): for each turn
+    about the vertical of :data:`~dloplan.repair.placement.YAWS` (smallest first) and each set
+    of gripper frames -- the plan's, the plan's with the grasps rolled for that place so that
+    the wrists stay above, apart and towards the robot
+    (:func:`~dloplan.repair.frames.grasp_rolled`), then the other gripper methods' (and
+    theirs rolled), those that do not twist the cable -- the robot program is made and
+    checked where the reachability check (approach and retreat included) passes: first with
+    the job turned only, then (the plan's frames, rolled or not) shifted to the nearest such
+    place within +-20 cm
+    (:func:`~dloplan.repair.placement.placements`); the first that passes is kept.
+    None works: refused with everything tried.
 
 After each round every check the plan was verified with runs again on the whole plan; the loop
 ends when that passes, on a refusal, or when the :class:`Budget` is spent. Repairs never move the
 start (the first shape is the planned one) and never the target beyond T_cf (thesis 5.3); a
-placement moves the whole job, recorded as its offset.
+placement moves the whole job, recorded as its :class:`~dloplan.repair.placement.TableMove`.
 """
 
 from __future__ import annotations
@@ -53,16 +61,27 @@ from ..app.pipeline import quiet, run_job, verify_plan, with_verification
 from ..sim.statics import interpolate_clips
 from ..verify import check_snap_through
 from .failures import KINDS, diagnose, frame_steps, score, summary, twist_failures
-from .frames import untwisted
-from .placement import placements, translated_document, translated_job
-from .rebuild import timed_with_robot, with_grippers, with_motion, with_path
+from .frames import grasp_rolled, untwisted
+from .placement import (
+    SEARCHES,
+    YAWS,
+    TableMove,
+    moved_document,
+    moved_job,
+    placements,
+)
+from .rebuild import slowed, timed_with_robot, with_grippers, with_motion, with_path
 from .routes import MAX_TURN, equilibria_along, follow_branch, route_segment, routes
 
 GRIPPER_METHODS = ("rigid", "minimal", "auxiliary")
 """Gripper methods tried by the twist and reach repairs, in this order."""
 
 SPEED_FACTORS = (0.5, 0.25, 0.125)
-"""Fractions of the TCP speed tried by the replay repair."""
+"""Time dilations of the motion tried by the replay repair (speeds times the factor)."""
+
+HERE = ((0.0, 0.05, "nearest"),)
+"""The placement "search" of the job as it is (turned only): the reachability pre-check and
+check at its place, before its robot program is made."""
 
 
 @dataclass(frozen=True)
@@ -79,7 +98,7 @@ class Budget:
         Full re-verifications of the repaired plan.
     """
 
-    attempts: int = 16
+    attempts: int = 40
     seconds: float = 1800.0
     rounds: int = 3
 
@@ -133,7 +152,7 @@ class RepairResult:
     Attributes
     ----------
     job : Job
-        The job of the final plan (moved by ``offset`` when a placement was found).
+        The job of the final plan (moved by ``move`` when a placement was found).
     document : PlanDocument
         The repaired plan with its verification section when ``ok``; otherwise the last plan
         that was fully verified (for inspection: no robot program should be written from it).
@@ -145,8 +164,8 @@ class RepairResult:
         The document passes every check it was verified with.
     refusal : str or None
         Why the plan is refused (no repair works, or the budget is spent).
-    offset : numpy.ndarray
-        (3,) placement of the job on the table [m] (zero when not moved).
+    move : TableMove
+        Placement of the job on the table (turn and translation; none when not moved).
     failures_before : tuple of Failure
         What failed before the repair.
     attempts : int
@@ -161,7 +180,7 @@ class RepairResult:
     repairs: tuple[Repair, ...]
     ok: bool
     refusal: str | None
-    offset: np.ndarray
+    move: TableMove
     failures_before: tuple
     attempts: int
     seconds: float
@@ -201,7 +220,7 @@ class Refused(Exception):
 class _State:
     job: object
     doc: object
-    offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    move: TableMove = field(default_factory=TableMove)
 
 
 class _Session:
@@ -260,7 +279,7 @@ class _Session:
                     self.keep("snap", failures, f"shapes {s + 1}..{last} follow the stable "
                               f"branch from shape {s} (target within "
                               f"{1e3 * branch.end_error:.1f} mm)", "no snap-through from "
-                              f"shape {s} on", _State(job, new, self.state.offset), since)
+                              f"shape {s} on", _State(job, new, self.state.move), since)
                     return
                 tried[-1] += f"; then {events[0].message}"
         end_tolerance = job.target_threshold if s + 1 == last else math.inf
@@ -278,7 +297,7 @@ class _Session:
             if not events:
                 self.keep("snap", failures, f"segment {s} re-routed ({name}): "
                           f"{len(waypoints)} shape(s) inserted", "no snap-through from shape "
-                          f"{s} on", _State(job, new, self.state.offset), since)
+                          f"{s} on", _State(job, new, self.state.move), since)
                 return
             tried[-1] += f"; then {events[0].message}"
         if self.attempt():
@@ -290,7 +309,7 @@ class _Session:
                          + (events[0].message if events else "no snap-through"))
             if not events:  # the state's job is already placed: nothing to move
                 self.keep("snap", failures, f"planned again with {n} intermediate shapes",
-                          "no snap-through", _State(finer, new, self.state.offset), since)
+                          "no snap-through", _State(finer, new, self.state.move), since)
                 return
         where = ("the target is reached only through a snap-through" if s + 1 == last else
                  "no stable route found")
@@ -316,7 +335,7 @@ class _Session:
             if not left:
                 self.keep("twist", failures, f"gripper frames by the {method} method "
                           f"(was {doc.grippers.method})", new.grippers.message,
-                          _State(other, new, self.state.offset), since)
+                          _State(other, new, self.state.move), since)
                 return
         for method in dict.fromkeys((doc.grippers.method, "rigid")):
             if not self.attempt():
@@ -331,7 +350,7 @@ class _Session:
                 self.keep("twist", failures, f"gripper frames by the {method} method, the "
                           "last clip rolled about its u-axis against the twist (largest "
                           f"{np.degrees(np.abs(twist).max()):.1f} deg)", new.twist.message,
-                          _State(other, new, self.state.offset), since)
+                          _State(other, new, self.state.move), since)
                 return
         if self.attempt():
             new = self.intermediate_rotations(job, doc)
@@ -340,7 +359,7 @@ class _Session:
             if not left:
                 self.keep("twist", failures, f"{new.n_shapes - doc.n_shapes} intermediate "
                           "rotation(s) inserted", new.grippers.message,
-                          _State(job, new, self.state.offset), since)
+                          _State(job, new, self.state.move), since)
                 return
         raise Refused(f"{failures[0].message}; tried: " + " | ".join(tried))
 
@@ -366,16 +385,15 @@ class _Session:
         for factor in SPEED_FACTORS:
             if not self.attempt():
                 break
-            new = timed_with_robot(self.state.job, doc, factor * speed)
+            slower = slowed(self.state.job, factor)
+            new = timed_with_robot(slower, doc)
             run = self.checks.verify(new, snap=False, robot=False).replay
-            tried.append(f"{1e3 * factor * speed:.0f} mm/s: {run.message}")
+            tried.append(f"x{factor:g} ({1e3 * factor * speed:.0f} mm/s): {run.message}")
             if run.ok:
-                motion = self.state.job.motion
-                slower = replace(self.state.job, motion=replace(
-                    motion, limits=replace(motion.limits, speed=factor * speed)))
-                self.keep("replay", failures, f"TCP speed {1e3 * speed:.0f} -> "
-                          f"{1e3 * factor * speed:.0f} mm/s", run.message,
-                          replace(self.state, job=slower, doc=new), since)
+                self.keep("replay", failures, f"motion slowed by {factor:g} (TCP speed "
+                          f"{1e3 * speed:.0f} -> {1e3 * factor * speed:.0f} mm/s, "
+                          f"accelerations x{factor ** 2:g}, jerks x{factor ** 3:g})",
+                          run.message, replace(self.state, job=slower, doc=new), since)
                 return
         raise Refused(f"{failures[0].message}; tried: " + " | ".join(tried))
 
@@ -384,45 +402,110 @@ class _Session:
         job, doc = self.state.job, self.state.doc
         since = time.perf_counter()
         tried = []
-        candidates = [(job, doc)]
-        for method in GRIPPER_METHODS:
-            if method != doc.grippers.method:
-                other = replace(job, grippers=replace(job.grippers, method=method))
-                candidates.append((other, None))
-        for other, new in candidates:
-            if not self.attempt():
-                break
-            method = other.grippers.method
-            if new is None:
-                try:
-                    new = with_motion(other, doc)
-                except ValueError as exc:
-                    tried.append(f"{method}: {exc}")
-                    continue
-                if twist_failures(new):
-                    tried.append(f"{method}: {summary(twist_failures(new))}")
-                    continue
-            for found in placements(new.grippers):
-                tried.append(f"{new.grippers.method} frames: {found.message}")
-                if not found.success:
-                    continue
-                offset = self.state.offset + found.offset
-                placed_job = translated_job(other, found.offset)
-                placed = translated_document(placed_job, new, found.offset)
-                rows = self.checks.verify(placed, snap=False, replay=False)
-                left = [f for f in diagnose(placed, rows) if f.kind == "reach"]
-                if left:
-                    tried[-1] += f"; then {left[0].message}"
-                    continue
-                moved = np.array2string(found.offset + 0.0, precision=3)
-                change = (f"job placed at offset {moved} m"
-                          + ("" if new is doc else f", gripper frames by the "
-                             f"{new.grippers.method} method"))
-                self.keep("reach", failures, change, found.message,
-                          _State(placed_job, placed, offset), since)
-                return
+        pivot = doc.grippers.positions.reshape(-1, 3).mean(axis=0) * [1.0, 1.0, 0.0]
+        turned = _Made(self.turned_frames(job, doc, pivot, tried))
+        seen = set()
+        for searches in (HERE, SEARCHES):  # first every turn as it is, then shifted too
+            for turn, other, new in turned:
+                if self.spent():
+                    raise Refused("repair budget spent placing the job; tried: "
+                                  + " | ".join(tried))
+                if searches is SEARCHES and other.grippers.method != job.grippers.method:
+                    continue  # the searches shift the plan's own frames (rolled or not) only
+                for found in placements(new.grippers, yaws=(0.0,), cell=other.robot,
+                                        searches=searches):
+                    key = (id(new), *np.round(found.move.offset, 6))
+                    if not found.success or key in seen or (new is doc and
+                                                            found.move.is_identity):
+                        if not found.success:
+                            tried.append(f"{_frames_name(new)}: {found.message}")
+                        continue  # (the plan as it is failed already)
+                    seen.add(key)
+                    if not self.attempt():
+                        raise Refused("repair budget spent placing the job; tried: "
+                                      + " | ".join(tried))
+                    move = turn.then(found.move)
+                    placed_job = moved_job(other, found.move)
+                    placed = moved_document(placed_job, new, found.move, program=True)
+                    rows = self.checks.verify(placed, snap=False, replay=False)
+                    left = [f for f in diagnose(placed, rows) if f.kind == "reach"]
+                    tried.append(f"{_frames_name(new)}, job {move.describe()}: "
+                                 + (left[0].message if left else "passes"))
+                    if left:
+                        self.progress(f"placement rejected: {tried[-1]}")
+                        continue
+                    change = f"job {move.describe()}" + (
+                        "" if new is doc else f", gripper frames: {new.grippers.message}")
+                    self.keep("reach", failures, change, placed.program.message,
+                              _State(placed_job, placed, self.state.move.then(move)), since)
+                    return
         raise Refused("no placement of the job on the table makes every pose reachable; "
                       "tried: " + " | ".join(tried))
+
+    def turned_frames(self, job, doc, pivot, tried):
+        """(turn, job, document) for every turn of :data:`YAWS` about the vertical through
+        ``pivot`` and every set of gripper frames, made on demand: the plan's, its grasps rolled
+        for the turned place (:func:`~dloplan.repair.frames.grasp_rolled`), then the other
+        gripper methods' (and theirs rolled) -- those that do not twist the cable and differ
+        from the earlier ones."""
+        others = [m for m in GRIPPER_METHODS if m != doc.grippers.method]
+        bases = _Made(self.method_frames(job, doc, others, tried))
+        for yaw in YAWS:
+            turn = TableMove(yaw=yaw, pivot=pivot)
+            kept = []
+            for other, new in bases:
+                if yaw:
+                    other = moved_job(other, turn)
+                    new = moved_document(other, new, turn)
+                rolled, rolls = grasp_rolled(new.grippers, other.robot)
+                candidates = [new] + ([with_grippers(other, new, rolled, program=False)]
+                                      if rolls.any() else [])
+                for candidate in candidates:
+                    if any(_same_frames(candidate, made) for made in kept):
+                        continue  # e.g. rigid = minimal rotation for a planar bend
+                    kept.append(candidate)
+                    left = twist_failures(candidate)
+                    if left and candidate is not doc:
+                        tried.append(f"{candidate.grippers.message}: {summary(left)}")
+                    else:
+                        yield turn, other, candidate
+
+    @staticmethod
+    def method_frames(job, doc, methods, tried):
+        """The plan, then the plan with the frames of each of ``methods`` (no program)."""
+        yield job, doc
+        for method in methods:
+            other = replace(job, grippers=replace(job.grippers, method=method))
+            try:
+                yield other, with_motion(other, doc, program=False)
+            except ValueError as exc:  # e.g. the auxiliary vector along a u-axis
+                tried.append(f"{method}: {exc}")
+
+
+def _frames_name(doc) -> str:
+    """"<method> frames", "rolled" when their grasps were rolled."""
+    rolled = ", grasps rolled" if "grasps rolled" in doc.grippers.message else ""
+    return f"{doc.grippers.method} frames{rolled}"
+
+
+def _same_frames(a, b, tolerance: float = 1e-6) -> bool:
+    """Two documents whose clip frames agree to ``tolerance`` [rad]."""
+    return all(np.max((p * q.inv()).magnitude()) < tolerance
+               for p, q in zip(a.grippers.rotations, b.grippers.rotations, strict=True))
+
+
+class _Made:
+    """An iterable made once from a generator and replayed (the frame sets of the reach repair
+    are made on demand at the first turn and tried again at every later one)."""
+
+    def __init__(self, items):
+        self.items, self.made = items, []
+
+    def __iter__(self):
+        yield from list(self.made)
+        for item in self.items:
+            self.made.append(item)
+            yield item
 
 
 FIXES = {"snap": _Session.fix_snap, "twist": _Session.fix_twist,
@@ -466,7 +549,7 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
     session = _Session(job, doc, checks, budget, progress)
     failures = diagnose(doc, verification)
     before = tuple(failures)
-    verified = (job, doc, verification, np.zeros(3))
+    verified = (job, doc, verification, TableMove())
     refusal = None
     for _ in range(budget.rounds):
         if not failures:
@@ -488,33 +571,40 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
         progress(f"repaired plan verified: {summary(new_failures)}")
         if score(new_failures) >= score(failures) and new_failures:
             refusal = f"the repairs did not remove the failures ({summary(new_failures)})"
-            verified = (state.job, state.doc, verification, state.offset)
+            verified = (state.job, state.doc, verification, state.move)
             failures = new_failures
             break
-        verified = (state.job, state.doc, verification, state.offset)
+        verified = (state.job, state.doc, verification, state.move)
         failures = new_failures
         if session.spent():
             break
     if failures and refusal is None:
         refusal = (f"repair budget spent ({session.attempts} attempts, "
                    f"{time.perf_counter() - session.start:.0f} s): {summary(failures)}")
-    final_job, final_doc, final_ver, offset = verified
+    final_job, final_doc, final_ver, move = verified
     return RepairResult(final_job, with_verification(final_doc, final_ver),
-                        final_ver, tuple(session.repairs), not failures, refusal, offset,
+                        final_ver, tuple(session.repairs), not failures, refusal, move,
                         before, session.attempts, time.perf_counter() - session.start)
 
 
-def plan_and_repair(job, progress=quiet, budget: Budget | None = None):
-    """``dloplan plan --verify`` with repair: plan, verify, repair what fails.
+def plan_and_repair(job, progress=quiet, budget: Budget | None = None, physics: bool = True):
+    """``dloplan plan`` with repair: plan, verify, repair what fails.
 
     Calls the pipeline's stages (:func:`dloplan.app.pipeline.run_job`,
     :func:`~dloplan.app.pipeline.verify_plan`) and :func:`repair_plan`; returns the plan
     document (with its verification section) and the repairs kept. A refused plan's document
     keeps its failing verification and carries the refusal among its warnings.
+
+    With ``physics`` (``--verify``) every check runs: stability, snap-through, replay and the
+    robot program. Without, only the robot program's checks (they always run): a plan whose
+    program passes is returned as planned, without a verification section; one whose program
+    fails is repaired for its reach (placement, grasp) and verified for it.
     """
     doc = run_job(job, progress=progress)
     t0 = time.perf_counter()
-    verification = verify_plan(doc)
+    if not physics and (doc.program is None or doc.program.ok):
+        return doc, ()
+    verification = verify_plan(doc, snap=physics, replay=physics)
     progress(f"verification: {'passed' if verification.ok else 'FAILED'}")
     if not diagnose(doc, verification):
         doc = with_verification(doc, verification)

@@ -1,66 +1,177 @@
 """Where the job lies on the table: the placement search of ``dloplan verify --place`` as a repair.
 
-A placement is a horizontal translation d of the whole job (start, target, obstacles: the operator
-puts the cable and its fixtures there) that brings every planned gripper pose within the robot's
-reach (:func:`dloplan.robot.search_placement`). The cable model is invariant under translation
-(uniform gravity, the table a horizontal plane, obstacles moved with the job), so the plan of the
-translated job is the plan translated: :func:`translated_document` moves the document instead of
-planning again, and its robot program is made again in the job's robot cell (the arm
-assignment, IK, limits, clearance and continuity of the moved targets,
-:func:`dloplan.robot.robot_program`). The search itself uses the reachability check of the YuMi
-at the work frame's origin with the side rule's assignment; the program confirms it.
+A placement is a horizontal rigid motion of the whole job (start, target, obstacles: the operator
+puts the cable and its fixtures there): a turn by ``yaw`` about the vertical axis through the
+job's centre, then a translation ``offset``, :class:`TableMove`. The cable model is invariant
+under both (uniform gravity along -z, the table a horizontal plane, obstacles moved along,
+thesis eq. 3.1-3.8 involve only differences of points and the height), so the plan of the moved
+job is the moved plan: :func:`moved_document` moves the document instead of planning again (the
+shapes, the gripper frames, the clip wrenches, the obstacles) and makes its robot program again
+in the job's robot cell (the arm assignment, IK, limits, clearance and continuity of the moved
+targets, :func:`dloplan.robot.robot_program`). :func:`placements` turns the job by each of
+:data:`YAWS` and, at each turn, searches a translation with the reachability check of the YuMi
+at the work frame's origin (:func:`dloplan.robot.search_placement`, both arm assignments); the
+program confirms it.
+
+Turning helps where shifting cannot: a job laid along the robot's x-axis (both clips on the
+centre line, thesis Fig. 4.8) puts one arm's clip in front of the other's, and a target turned
+about the vertical (thesis qualitative test 1) can leave a wrist at its limit at every shift.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+import math
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..grippers.path import GripperPath
 from ..obstacles.shapes import Box, Cylinder
-from .rebuild import left_clip, timed_with_robot
+from .rebuild import left_clip, timed, timed_with_robot, without_robot
 
-SEARCHES = ((0.2, 0.05, "nearest"), (0.3, 0.05, "nearest"))
+SEARCHES = ((0.2, 0.05, "nearest"),)
 """The placement searches tried in turn: half-width [m] of the square searched on the table
 (at the job's height), grid spacing [m], and which working offset wins (the nearest to the job's
-own placement, or the one with the largest joint margin)."""
+own placement, or the one with the largest joint margin). A search that repeats an earlier
+search's placement yields nothing."""
+
+YAWS = tuple(math.radians(a) for a in (0.0, 30.0, -30.0, 60.0, -60.0, 90.0, -90.0))
+"""Turns of the job about the vertical [rad] tried by :func:`placements`, smallest first."""
 
 
-def translated_obstacle(obstacle, offset: np.ndarray):
-    """An obstacle moved by ``offset`` [m] (the table plane is horizontal: it moves by dz)."""
+@dataclass(frozen=True, eq=False)
+class TableMove:
+    """A horizontal rigid motion of the job: x -> R_z(yaw) (x - pivot) + pivot + offset.
+
+    Attributes
+    ----------
+    offset : numpy.ndarray
+        (3,) translation [m] (its z is kept 0 by the searches: the job stays at its height).
+    yaw : float
+        Turn about the vertical through ``pivot`` [rad].
+    pivot : numpy.ndarray
+        (3,) a point of the vertical axis [m] (the centre of the clip points).
+    """
+
+    offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    yaw: float = 0.0
+    pivot: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self) -> None:
+        for name in ("offset", "pivot"):
+            value = np.asarray(getattr(self, name), dtype=float)
+            if value.shape != (3,) or not np.all(np.isfinite(value)):
+                raise ValueError(f"TableMove.{name}: expected 3 finite coordinates [m], got "
+                                 f"{getattr(self, name)!r}")
+            object.__setattr__(self, name, value)
+        if not math.isfinite(self.yaw):
+            raise ValueError(f"TableMove.yaw: expected a finite angle [rad], got {self.yaw!r}")
+
+    @property
+    def rotation(self) -> Rotation:
+        """R_z(yaw)."""
+        return Rotation.from_rotvec([0.0, 0.0, self.yaw])
+
+    def points(self, x) -> np.ndarray:
+        """Points (..., 3) [m] moved."""
+        x = np.asarray(x, dtype=float)
+        flat = self.rotation.apply(x.reshape(-1, 3) - self.pivot) + self.pivot + self.offset
+        return flat.reshape(x.shape)
+
+    def vectors(self, v) -> np.ndarray:
+        """Free vectors (..., 3) turned (forces, moments, directions)."""
+        v = np.asarray(v, dtype=float)
+        return self.rotation.apply(v.reshape(-1, 3)).reshape(v.shape)
+
+    @property
+    def is_identity(self) -> bool:
+        """No turn and no translation."""
+        return self.yaw == 0.0 and not np.any(self.offset)
+
+    def then(self, other: TableMove) -> TableMove:
+        """This move followed by ``other``, as one move (about the origin when both move)."""
+        if other.is_identity or self.is_identity:
+            return self if other.is_identity else other
+        turn = other.rotation
+        offset = turn.apply(self.offset + self.pivot - self.rotation.apply(self.pivot)
+                            - other.pivot) + other.pivot + other.offset
+        return TableMove(offset, self.yaw + other.yaw)
+
+    def describe(self) -> str:
+        """One line: the offset and, when turned, the yaw."""
+        if self.is_identity:
+            return "at its own place"
+        parts = []
+        if self.yaw:
+            parts.append(f"turned {math.degrees(self.yaw):.0f} deg about the vertical through "
+                         f"{np.array2string(np.round(self.pivot, 4) + 0.0, precision=3)} m")
+        if np.any(self.offset):
+            parts.append(f"offset {np.array2string(np.round(self.offset, 4) + 0.0, precision=3)}"
+                         " m")
+        return ", ".join(parts)
+
+
+def moved_obstacle(obstacle, move: TableMove):
+    """An obstacle moved by ``move`` (the table plane is horizontal: it moves by dz only)."""
     if isinstance(obstacle, Box):
-        return replace(obstacle, center=tuple(np.add(obstacle.center, offset)))
-    if isinstance(obstacle, Cylinder):
-        return replace(obstacle, base=tuple(np.add(obstacle.base, offset)))
-    if offset[2] != 0.0:
-        return replace(obstacle, height=obstacle.height + float(offset[2]))
+        return replace(obstacle, center=tuple(move.points(obstacle.center)),
+                       yaw=obstacle.yaw + move.yaw)
+    if isinstance(obstacle, Cylinder):  # vertical: its base point moves
+        return replace(obstacle, base=tuple(move.points(obstacle.base)))
+    if move.offset[2] != 0.0:
+        return replace(obstacle, height=obstacle.height + float(move.offset[2]))
     return obstacle
 
 
+def moved_job(job, move: TableMove):
+    """The job moved by ``move``: start, target, obstacles and the gripper settings' world
+    directions (auxiliary vector, initial frames)."""
+    turn = move.rotation
+    grippers = replace(job.grippers, auxiliary_vector=move.vectors(job.grippers.auxiliary_vector),
+                       initial=None if job.grippers.initial is None
+                       else turn * job.grippers.initial)
+    return replace(job, start=move.points(job.start), target=move.points(job.target),
+                   obstacles=tuple(moved_obstacle(o, move) for o in job.obstacles),
+                   grippers=grippers)
+
+
 def translated_job(job, offset):
-    """The job moved by ``offset`` (3,) [m]: start, target and obstacles."""
-    d = np.asarray(offset, dtype=float)
-    return replace(job, start=job.start + d, target=job.target + d,
-                   obstacles=tuple(translated_obstacle(o, d) for o in job.obstacles))
+    """The job translated by ``offset`` (3,) [m] (:func:`moved_job` without a turn)."""
+    return moved_job(job, TableMove(offset))
 
 
-def translated_grippers(grippers: GripperPath, offset: np.ndarray) -> GripperPath:
-    """Gripper frames moved by ``offset`` [m] (rotations unchanged)."""
-    return replace(grippers, positions=grippers.positions + offset)
+def moved_grippers(grippers: GripperPath, move: TableMove) -> GripperPath:
+    """Gripper frames moved by ``move`` (a turn about the vertical keeps their relative twist)."""
+    turn = move.rotation
+    return replace(grippers, positions=move.points(grippers.positions),
+                   rotations=tuple(turn * r for r in grippers.rotations))
+
+
+def moved_document(job, doc, move: TableMove, program: bool | None = None):
+    """The plan document moved by ``move``: shapes, frames, clip wrenches, obstacles, trajectory,
+    and its robot program made again in the cell of ``job`` (the job already moved) when
+    ``program`` (default: when it had one; False drops it). The planner's own sections (stages,
+    target check, obstacle re-planning) stay in the job's original place."""
+    moved = replace(
+        doc, shapes=move.points(doc.shapes),
+        stabilized=None if doc.stabilized is None else move.points(doc.stabilized),
+        grippers=None if doc.grippers is None else moved_grippers(doc.grippers, move),
+        clip_wrenches=None if doc.clip_wrenches is None else move.vectors(
+            doc.clip_wrenches.reshape(-1, 3)).reshape(doc.clip_wrenches.shape),
+        obstacles=tuple(moved_obstacle(o, move) for o in doc.obstacles))
+    if program is None:
+        program = doc.robot is not None or doc.program is not None
+    if doc.trajectory is None:
+        return moved
+    if not program:
+        return without_robot(timed(job, moved))
+    return timed_with_robot(job, moved, always=True)
 
 
 def translated_document(job, doc, offset):
-    """The plan document moved by ``offset`` (3,) [m]: shapes, frames, trajectory, obstacles,
-    and its robot program made again in the cell of ``job`` (the job already moved)."""
-    d = np.asarray(offset, dtype=float)
-    moved = replace(
-        doc, shapes=doc.shapes + d,
-        stabilized=None if doc.stabilized is None else doc.stabilized + d,
-        grippers=None if doc.grippers is None else translated_grippers(doc.grippers, d),
-        obstacles=tuple(translated_obstacle(o, d) for o in doc.obstacles))
-    return moved if doc.trajectory is None else timed_with_robot(job, moved)
+    """The plan document translated by ``offset`` (3,) [m] (:func:`moved_document`)."""
+    return moved_document(job, doc, TableMove(offset))
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,38 +180,69 @@ class PlacementRepair:
 
     Attributes
     ----------
-    offset : numpy.ndarray
-        (3,) translation of the job [m] (zero when none works).
+    move : TableMove
+        The turn and translation of the job (the turn alone when the search failed).
     left_clip : int
         The clip the left arm holds.
     success : bool
-        Every pose reachable, continuous and collision-free at ``offset``.
+        Every pose reachable, continuous and collision-free after ``move``.
     message : str
         The search's one line (the best offset's problems when none works).
     """
 
-    offset: np.ndarray
+    move: TableMove
     left_clip: int
     success: bool
     message: str
 
 
-def placements(grippers: GripperPath, *, searches=SEARCHES, robot=None):
-    """Placements of the job where the robot reaches every planned pose, best first.
+def with_approach(positions: np.ndarray, matrices: np.ndarray, cell) -> tuple:
+    """The clip poses (K, 2, 3) [m] and frames (K, 2, 3, 3) with the robot program's approach
+    and retreat poses added (``cell.approach`` back along the TCP z-axis of the first and the
+    last pose, :mod:`dloplan.robot.program`), so that the search checks what the program
+    executes."""
+    if cell is None or cell.approach <= 0:
+        return positions, matrices
+    back = cell.approach * (matrices @ cell.tools[0].tcp_in_clip.as_matrix()[:, 2])
+    return (np.concatenate([positions[:1] - back[:1], positions, positions[-1:] - back[-1:]]),
+            np.concatenate([matrices[:1], matrices, matrices[-1:]]))
 
-    For each (half-width, step, objective) of ``searches`` and each arm assignment (the side
-    rule's, then the swapped one, which the robot program also falls back to), the working
-    offset the objective picks (:func:`dloplan.robot.search_placement`). Yields a
-    :class:`PlacementRepair` per search, successful or not (``success`` says which).
+
+def placements(grippers: GripperPath, *, searches=SEARCHES, yaws=YAWS, cell=None):
+    """Placements of the job where the robot reaches every planned pose, smallest turn first.
+
+    For each turn of ``yaws`` about the vertical through the clips' centre, each (half-width,
+    step, objective) of ``searches`` and each arm assignment (the side rule's, then the swapped
+    one, which the robot program also falls back to), the working offset the objective picks
+    (:func:`dloplan.robot.search_placement`, on the poses with the approach and the retreat of
+    ``cell``, a :class:`~dloplan.robot.RobotCell`, :func:`with_approach`). Yields a
+    :class:`PlacementRepair` per successful search, and one per turn that no search of it
+    passed (``success`` False).
     """
     from ..robot import search_placement
 
-    side = left_clip(grippers)
-    for half, step, objective in searches:
-        for clip in (side, 1 - side):
-            found = search_placement(grippers.positions, Rotation.from_matrix(grippers.matrices),
-                                     robot, extent=(half, half, 0.0), step=step,
-                                     objective=objective,
-                                     assignment=("first-left", "first-right")[clip])
-            yield PlacementRepair(found.offset if found.success else np.zeros(3), clip,
-                                  found.success, found.message)
+    pivot = grippers.positions.reshape(-1, 3).mean(axis=0) * [1.0, 1.0, 0.0]
+    seen = set()
+    for yaw in yaws:
+        turned = moved_grippers(grippers, TableMove(yaw=yaw, pivot=pivot))
+        side = left_clip(turned)
+        positions, matrices = with_approach(turned.positions, turned.matrices, cell)
+        messages = []
+        for half, step, objective in searches:
+            for clip in (side, 1 - side):
+                found = search_placement(positions, Rotation.from_matrix(matrices),
+                                         None if cell is None else cell.robot,
+                                         options=None if cell is None else cell.reach,
+                                         extent=(half, half, 0.0), step=step, explain=False,
+                                         objective=objective,
+                                         assignment=("first-left", "first-right")[clip])
+                move = TableMove(found.offset if found.success else np.zeros(3), yaw, pivot)
+                key = (clip, *np.round(found.offset, 6))
+                if found.success and key not in seen:
+                    seen.add(key)
+                    yield PlacementRepair(move, clip, True, found.message)
+                else:
+                    messages.append(found.message)
+        if messages:
+            yield PlacementRepair(TableMove(yaw=yaw, pivot=pivot), side, False,
+                                  f"turned {math.degrees(yaw):.0f} deg: {messages[-1]}")

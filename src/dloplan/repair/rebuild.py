@@ -1,8 +1,8 @@
 """A plan document rebuilt after a repair, by the pipeline's own stages.
 
 A repair changes the shapes (:func:`with_path`), the gripper method (:func:`with_motion`), the
-frames themselves (:func:`with_grippers`) or the speed (:func:`timed`); the gripper frames, the
-trajectory, the twist and the clip wrenches are then made again by
+frames themselves (:func:`with_grippers`) or the speed (:func:`slowed`, :func:`timed`); the
+gripper frames, the trajectory, the twist and the clip wrenches are then made again by
 :func:`dloplan.app.pipeline.plan_motion` and :func:`~dloplan.app.pipeline.plan_twist`, and the
 warnings of the old motion and of the old verification are replaced by the new ones. The
 planner's own sections (stages, forces, target check, obstacle re-planning) stay those of the
@@ -34,18 +34,30 @@ def left_clip(grippers) -> int:
     return 0 if mean_y[0] >= mean_y[1] else 1
 
 
-def timed(job, doc, speed: float | None = None):
-    """``doc`` with its trajectory timed again under ``job``'s motion settings, the TCP speed
-    limit replaced by ``speed`` [m/s] when given (:func:`dloplan.app.pipeline.timed_trajectory`)."""
-    motion = job.motion if speed is None else \
-        replace(job.motion, limits=replace(job.motion.limits, speed=speed))
-    trajectory = timed_trajectory(doc.grippers, motion, job.robot)
+def slowed(job, factor: float):
+    """``job`` whose motion is the same path slowed down in time by ``factor`` (0 < factor <= 1):
+    every speed limit times ``factor``, accelerations times ``factor**2``, jerks times
+    ``factor**3``, linear and angular (a time dilation t -> t / factor of the motion law)."""
+    if not 0.0 < factor <= 1.0:
+        raise ValueError(f"factor: got {factor!r}, expected a slow-down in (0, 1]")
+    limits = job.motion.limits
+    scaled = {name: getattr(limits, name) * factor ** power
+              for power, names in ((1, ("speed", "angular_speed")),
+                                   (2, ("acceleration", "angular_acceleration")),
+                                   (3, ("jerk", "angular_jerk"))) for name in names}
+    return replace(job, motion=replace(job.motion, limits=replace(limits, **scaled)))
+
+
+def timed(job, doc):
+    """``doc`` with its trajectory timed again under ``job``'s motion settings
+    (:func:`dloplan.app.pipeline.timed_trajectory`)."""
+    trajectory = timed_trajectory(doc.grippers, job.motion, job.robot)
     return replace(doc, trajectory=trajectory, verification=None)
 
 
-def timed_with_robot(job, doc, speed: float | None = None, progress=quiet):
+def timed_with_robot(job, doc, progress=quiet, always=False):
     """:func:`timed`, then the robot program made again (:func:`with_robot`)."""
-    return with_robot(job, timed(job, doc, speed), progress)
+    return with_robot(job, timed(job, doc), progress, always)
 
 
 def motion_warnings(doc) -> set[str]:
@@ -62,27 +74,35 @@ def motion_warnings(doc) -> set[str]:
     return own
 
 
-def with_robot(job, doc, progress=quiet):
+def with_robot(job, doc, progress=quiet, always=False):
     """``doc`` with its robot program made again for its frames and trajectory (when it had
-    one): the arm assignment, IK, limits, clearance and continuity of the new targets."""
-    if doc.robot is None and doc.program is None:
+    one, or ``always``): the arm assignment, IK, limits, clearance and continuity of the new
+    targets."""
+    if doc.robot is None and doc.program is None and not always:
         return doc
+    return with_program(without_robot(doc),
+                        plan_program(job.robot, doc.grippers, doc.trajectory, progress))
+
+
+def without_robot(doc):
+    """``doc`` without its robot program (and the program's line among its warnings)."""
     warnings = tuple(w for w in doc.warnings if doc.robot is None or w != doc.robot.message)
-    bare = replace(doc, robot=None, program=None, warnings=warnings)
-    return with_program(bare, plan_program(job.robot, doc.grippers, doc.trajectory, progress))
+    return replace(doc, robot=None, program=None, warnings=warnings)
 
 
-def with_motion(job, doc, shapes=None, stabilized=None, progress=quiet):
+def with_motion(job, doc, shapes=None, stabilized=None, progress=quiet, program=None):
     """``doc`` with new gripper frames, trajectory and twist for ``shapes`` (default its own),
     by ``job``'s gripper and motion settings; the left arm holds the clip on its side."""
     shapes = doc.shapes if shapes is None else np.asarray(shapes, dtype=float)
     grippers, _ = plan_motion(job, shapes, progress)
-    return with_grippers(job, doc, grippers, shapes, stabilized, progress)
+    return with_grippers(job, doc, grippers, shapes, stabilized, progress, program)
 
 
-def with_grippers(job, doc, grippers, shapes=None, stabilized=None, progress=quiet):
+def with_grippers(job, doc, grippers, shapes=None, stabilized=None, progress=quiet,
+                  program=None):
     """``doc`` with the gripper frames ``grippers`` of ``shapes`` (default its own), its
-    trajectory timed again, the twist computed again, the motion's warnings replaced."""
+    trajectory timed again, the twist computed again, the motion's warnings replaced; its robot
+    program made again when ``program`` (default: when ``doc`` had one)."""
     shapes = doc.shapes if shapes is None else np.asarray(shapes, dtype=float)
     stabilized = doc.stabilized if stabilized is None else np.asarray(stabilized, dtype=float)
     twist = plan_twist(job.cable, shapes, grippers, progress)
@@ -99,8 +119,10 @@ def with_grippers(job, doc, grippers, shapes=None, stabilized=None, progress=qui
                   clip_wrenches=np.stack([clip_wrenches(job.cable, s) for s in stabilized]),
                   twist=TwistSection(twist.twist, twist.relative_twist, twist.twist_energy,
                                      grippers.twist, twist.message))
-    return new if doc.robot is None and doc.program is None else with_program(
-        new, plan_program(job.robot, grippers, trajectory, progress))
+    if program is None:
+        program = doc.robot is not None or doc.program is not None
+    return with_program(new, plan_program(job.robot, grippers, trajectory, progress)) \
+        if program else new
 
 
 def with_path(job, doc, shapes: np.ndarray, progress=quiet):

@@ -263,7 +263,7 @@ class Placement:
     ----------
     offset : numpy.ndarray
         (3,) translation of the job [m] (the best found when none works).
-    reachability : Reachability
+    reachability : Reachability or None
         The check at that offset.
     candidates : int
         Offsets fully checked.
@@ -281,7 +281,8 @@ class Placement:
 
 def search_placement(gripper_positions, gripper_rotations: Rotation, robot: Robot | None = None,
                      *, extent=(0.2, 0.2, 0.0), step: float = 0.05, objective: str = "nearest",
-                     assignment: str = "auto", options: ReachOptions | None = None) -> Placement:
+                     assignment: str = "auto", options: ReachOptions | None = None,
+                     explain: bool = True) -> Placement:
     """Search a translation of the whole job on the table that makes every pose reachable.
 
     The candidate offsets form a grid of spacing ``step`` within ``+-extent`` per axis (z
@@ -301,6 +302,10 @@ def search_placement(gripper_positions, gripper_rotations: Rotation, robot: Robo
         Grid spacing [m].
     objective : str
         ``"nearest"`` or ``"margin"``.
+    explain : bool
+        When no offset passes the pre-check, check the original placement in full to say why
+        (its ``reachability``); False skips that (``reachability`` None: a caller that tries
+        many searches, like the repair loop, only needs to know that none passed).
     """
     robot = robot if robot is not None else yumi()
     extent = np.asarray(extent, dtype=float)
@@ -333,8 +338,9 @@ def search_placement(gripper_positions, gripper_rotations: Rotation, robot: Robo
         if result.success and objective == "nearest":
             break
     if best is None:
-        result = check_reachability(pos, rot, robot, assignment=assignment, options=opts)
-        return Placement(np.zeros(3), result, 1, False,
+        result = check_reachability(pos, rot, robot, assignment=assignment, options=opts) \
+            if explain else None
+        return Placement(np.zeros(3), result, int(explain), False,
                          f"no offset within +-{extent} m (step {step} m) passed the pre-check")
     (ok, _), offset, result = best
     text = np.array2string(offset, precision=3)
