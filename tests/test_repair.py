@@ -219,7 +219,9 @@ def test_qualitative2_arms_clear_each_other_after_a_grasp_roll():
     """Qualitative test 2 (thesis 7.2.3): the rigid-rotation frames put both wrists between the
     ends of the 140 deg arc, the arms collide (-25 mm at shape 6, -103 mm at the retreat along
     the approach axes). Rolling each grasp about its clip's u-axis (wrists above and apart)
-    fixes it at the job's own place; the shapes, clip points and u-axes stay."""
+    fixes it (65 and -70 deg under the score without the "towards the robot" term, with the job
+    shifted 5 cm towards the robot); the shapes, clip points relative to each other and
+    u-axes stay."""
     job = load_job(EXAMPLES / "qualitative2_ethernet_3d.yaml")
     doc = run_job(job)
     verification = verify_plan(doc, snap=False, replay=False)
@@ -228,20 +230,22 @@ def test_qualitative2_arms_clear_each_other_after_a_grasp_roll():
     assert all("clearance" in f.message for f in failures)
     result = repair_plan(job, doc, verification)
     assert result.ok and [r.kind for r in result.repairs] == ["reach"], result.refusal
-    assert "grasps rolled" in result.repairs[0].change and result.move.is_identity
+    assert "grasps rolled" in result.repairs[0].change
+    assert result.move.yaw == 0.0 and np.linalg.norm(result.move.offset) <= 0.05 + 1e-12
     new = result.document
     assert new.program.ok
-    assert np.allclose(new.grippers.positions, doc.grippers.positions, atol=1e-12)
+    assert np.allclose(new.grippers.positions, result.move.points(doc.grippers.positions),
+                       atol=1e-12)
     assert np.allclose(new.grippers.u_axes, doc.grippers.u_axes, atol=1e-9)
     assert np.max(np.abs(new.twist.twist)) <= new.grippers.max_twist
     assert_ends_kept(job, doc, result)
 
 
 def test_grasp_roll_lifts_the_wrists_and_mirrors():
-    """The grasp roll never lowers the lowest wrist of a path below the plan's grasp (height
-    comes first in the score: the wrist direction's height plus half its horizontal parts away
-    from the other clip and towards the robot); the path mirrored in the robot's x-z plane
-    (y -> -y, the robot is symmetric) gets rolls of the same size."""
+    """Scored above and apart only, the grasp roll never lowers the lowest wrist of a path
+    below the plan's grasp (height comes first: the wrist direction's height plus half its
+    horizontal part away from the other clip); with either score the path mirrored in the
+    robot's x-z plane (y -> -y, the robot is symmetric) gets rolls of the same size."""
     job = resolve_mapping(STRAIGHT_TO_U, "straight to U")
     from dloplan.grippers import gripper_path
 
@@ -249,14 +253,16 @@ def test_grasp_roll_lifts_the_wrists_and_mirrors():
     shapes = resolve_mapping(STRAIGHT_TO_U, "U").target[None].repeat(2, axis=0)
     shapes[0] = job.start
     path = gripper_path(shapes, method="rigid", cable=job.cable)
-    rolled, rolls = grasp_rolled(path, job.robot)
+    rolled, rolls = grasp_rolled(path, job.robot, towards_robot=False)
     lowest = [min(r.apply(wrist)[:, 2]) for r in rolled.rotations]
     before = [min(r.apply(wrist)[:, 2]) for r in path.rotations]
     assert all(a >= b - 1e-12 for a, b in zip(lowest, before, strict=True))
     mirror = np.diag([1.0, -1.0, 1.0])
     flipped = gripper_path(shapes @ mirror, method="rigid", cable=job.cable)
-    _, mirrored = grasp_rolled(flipped, job.robot)
-    assert np.allclose(np.abs(mirrored), np.abs(rolls), atol=1e-12)
+    for towards_robot in (False, True):
+        _, plain = grasp_rolled(path, job.robot, towards_robot=towards_robot)
+        _, mirrored = grasp_rolled(flipped, job.robot, towards_robot=towards_robot)
+        assert np.allclose(np.abs(mirrored), np.abs(plain), atol=1e-12)
 
 
 def test_a_replay_that_strays_at_speed_is_repaired_by_slowing_down():

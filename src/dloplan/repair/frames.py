@@ -80,7 +80,7 @@ def _twist(cable, shapes, grippers) -> np.ndarray:
 
 
 def grasp_score(rotations: Rotation, positions: np.ndarray, other: np.ndarray,
-                wrist_in_clip: np.ndarray, base: np.ndarray) -> float:
+                wrist_in_clip: np.ndarray, base: np.ndarray | None) -> float:
     """How well a clip's gripper is placed along a path: the smallest, over the shapes, of the
     wrist direction's height plus :data:`AWAY_WEIGHT` times its horizontal components away from
     the other clip and towards the robot (the arm comes from its base: a wrist on the far side
@@ -95,19 +95,20 @@ def grasp_score(rotations: Rotation, positions: np.ndarray, other: np.ndarray,
     wrist_in_clip : numpy.ndarray
         (3,) unit direction from the clip point to the wrist, in the clip frame (minus the
         TCP z-axis).
-    base : numpy.ndarray
-        (3,) the robot's base position [m].
+    base : numpy.ndarray or None
+        (3,) the robot's base position [m]; None leaves the "towards the robot" term out.
     """
     wrist = rotations.apply(wrist_in_clip)
     score = wrist[:, 2]
-    for towards in (positions - other, base - positions):
+    for towards in (positions - other, *(() if base is None else (base - positions,))):
         towards = towards * [1.0, 1.0, 0.0]
         towards /= np.maximum(np.linalg.norm(towards, axis=1, keepdims=True), 1e-12)
         score = score + AWAY_WEIGHT * np.sum(wrist * towards, axis=1)
     return float(np.min(score))
 
 
-def grasp_rolled(grippers: GripperPath, cell) -> tuple[GripperPath, np.ndarray]:
+def grasp_rolled(grippers: GripperPath, cell, *, towards_robot: bool = True
+                 ) -> tuple[GripperPath, np.ndarray]:
     """The gripper frames with each clip rolled about its u-axis by the grasp roll of
     :data:`GRASP_ROLLS` that maximizes :func:`grasp_score` (module docstring).
 
@@ -117,6 +118,10 @@ def grasp_rolled(grippers: GripperPath, cell) -> tuple[GripperPath, np.ndarray]:
         The plan's frames (any method).
     cell : RobotCell
         The robot cell: its base position and its tools' ``tcp_in_clip``.
+    towards_robot : bool
+        Score the wrist towards the robot's base too (the arm reaching around its clip: the
+        jobs beside the robot's centre line need it), or only above and apart (an arc whose
+        ends come close in front of the robot, qualitative test 2, needs this one).
 
     Returns
     -------
@@ -127,7 +132,7 @@ def grasp_rolled(grippers: GripperPath, cell) -> tuple[GripperPath, np.ndarray]:
         (2,) the grasp roll of each clip [rad] (0 when the plan's own grasp scores best).
     """
     wrist_in_clip = -cell.tools[0].tcp_in_clip.apply([0.0, 0.0, 1.0])
-    base = np.asarray(cell.base_position, dtype=float)
+    base = np.asarray(cell.base_position, dtype=float) if towards_robot else None
     pos = grippers.positions
     rolls = np.zeros(2)
     for c in range(2):
@@ -143,7 +148,8 @@ def grasp_rolled(grippers: GripperPath, cell) -> tuple[GripperPath, np.ndarray]:
                    for r, a in zip(grippers.rotations, rolls, strict=True))
     rolled = with_rotations(grippers, first, last, f"grasps rolled by "
                             f"{np.degrees(rolls[0]):.0f} and {np.degrees(rolls[1]):.0f} deg "
-                            "about the clips' u-axes (wrists above, apart, towards the robot)")
+                            "about the clips' u-axes (wrists above, apart"
+                            + (", towards the robot)" if towards_robot else ")"))
     return rolled, rolls
 
 

@@ -457,9 +457,12 @@ class _Session:
                 if yaw:
                     other = moved_job(other, turn)
                     new = moved_document(other, new, turn)
-                rolled, rolls = grasp_rolled(new.grippers, other.robot)
-                candidates = [new] + ([with_grippers(other, new, rolled, program=False)]
-                                      if rolls.any() else [])
+                candidates = [new]
+                for towards_robot in (True, False):
+                    rolled, rolls = grasp_rolled(new.grippers, other.robot,
+                                                 towards_robot=towards_robot)
+                    if rolls.any():
+                        candidates.append(with_grippers(other, new, rolled, program=False))
                 for candidate in candidates:
                     if any(_same_frames(candidate, made) for made in kept):
                         continue  # e.g. rigid = minimal rotation for a planar bend
