@@ -140,7 +140,8 @@ def _cmd_verify(args: argparse.Namespace) -> int:
         from .app.document import document_cell
         from .robot.cell_program import placement_message
 
-        print(f"placement: {placement_message(document_cell(doc), doc.grippers, doc.trajectory)}")
+        cell = program.cell if program is not None else document_cell(doc)  # built once
+        print(f"placement: {placement_message(cell, doc.grippers, doc.trajectory)}")
     return EXIT_OK if result.ok and (program is None or program.ok) else EXIT_CHECK_FAILED
 
 

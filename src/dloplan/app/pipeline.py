@@ -36,7 +36,6 @@ from .document import (
     TargetCheckSection,
     TwistSection,
     VerificationSection,
-    cell_from_dict,
     cell_to_dict,
     cycle_to_dict,
     document_cell,
@@ -244,7 +243,7 @@ def retimed(doc: PlanDocument, speed: float | None = None,
         new = replace(new, cycle=cycle_to_dict(default_cycle(trajectory, actions)))
     if doc.robot is None:
         return new
-    return with_program(new, plan_program(cell_from_dict(doc.robot.cell), doc.grippers,
+    return with_program(new, plan_program(document_cell(doc), doc.grippers,
                                           trajectory))
 
 
