@@ -60,6 +60,7 @@ from scipy.sparse.linalg import splu
 from ..geometry import bending_angles, link_lengths
 from ..physics.axial import axial_energy, axial_gradient, axial_hessian_blocks
 from ..physics.bending import bending_derivatives, bending_energy, bending_gradient
+from .grid_newton import GridNewton, block_entries, grid_layout, plane_of
 from .tuning import AdvancedWeights, BasicWeights
 
 REFERENCE_LINKS = 10
@@ -225,54 +226,53 @@ def advanced_cost(problem: AdvancedProblem, inner: np.ndarray) -> tuple[float, n
             sum(g for _, g in terms.values()))
 
 
-def _block_entries(blocks: np.ndarray, first_points: np.ndarray, n_points: int):
-    """COO rows, cols, values of (S, m, 3k, 3k) blocks over k consecutive points from
-    ``first_points`` (m,) in each shape (shape-major, point-major coordinates)."""
-    n_shapes, m, size, _ = blocks.shape
-    local = (3 * first_points[:, None] + np.arange(size)[None, :])  # (m, 3k)
-    offset = (3 * n_points * np.arange(n_shapes))[:, None, None]
-    coords = offset + local[None]  # (S, m, 3k)
-    rows = np.broadcast_to(coords[..., :, None], blocks.shape)
-    cols = np.broadcast_to(coords[..., None, :], blocks.shape)
-    return rows.ravel(), cols.ravel(), blocks.ravel()
+def hessian_values(problem: AdvancedProblem, inner: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The entries of the exact Hessian of :func:`advanced_cost`, by term.
 
-
-def advanced_hessian(problem: AdvancedProblem, inner: np.ndarray) -> sp.csr_matrix:
-    """The exact sparse Hessian of :func:`advanced_cost` over the flattened (S, n + 1, 3)."""
+    Returns
+    -------
+    tuple
+        The within-shape block entries, concatenated in the order of
+        :func:`dloplan.planning.grid_newton.block_entries` (axial (S, n, 6, 6), bending
+        (S, n - 1, 9, 9), clip (S, 12, 12)), and the (S + 1,) factors a_k of the transversal
+        term, whose Hessian is A (x) I with A tridiagonal: A_ii = a_i + a_{i+1},
+        A_i,i+1 = -a_{i+1}.
+    """
     n, s = problem.n_links, problem.n_shapes
-    n_points = n + 1
     w = problem.weights
-    size = s * 3 * n_points
-    parts = []
-    # transversal: block-tridiagonal in the shape index, the same for every coordinate
     a = 2.0 * C_TRANSVERSAL * (s + 1) / (n + 1) * problem.step_weights
-    diag = np.repeat(a[:-1] + a[1:], 3 * n_points)
-    off = np.repeat(-a[1:-1], 3 * n_points)
-    block = 3 * n_points
-    parts.append(sp.diags([diag, off, off], [0, block, -block], shape=(size, size)))
     c_d = w.delta * C_DELTA * n / s
     d_blocks = c_d * axial_hessian_blocks(inner, 2.0, problem.start_links)
-    rows, cols, vals = _block_entries(d_blocks, np.arange(n), n_points)
     c_b = 2.0 * w.beta * C_BETA * n / s
     b_blocks = c_b * bending_derivatives(inner, 1.0, problem.basic_angles)[1]
-    r2, c2, v2 = _block_entries(b_blocks, np.arange(n - 1), n_points)
     # clip: 1/|d|, d = (Y_{n-1} + Y_n - Y_0 - Y_1) / 2: d2/dd2 = 3 d d^T/|d|^5 - I/|d|^3
     chord = 0.5 * (inner[:, -1] + inner[:, -2] - inner[:, 0] - inner[:, 1])
     dist = np.linalg.norm(chord, axis=-1)[:, None, None]
     h_d = (3.0 * chord[:, :, None] * chord[:, None, :] / dist**5 - np.eye(3) / dist**3)
     h_d *= w.clip * C_CLIP / s
     signs = np.array([-0.5, -0.5, 0.5, 0.5])
-    h_clip = np.einsum("p,q,sij->spiqj", signs, signs, h_d).reshape(s, 12, 12)
-    pts = np.array([0, 1, n - 1, n])
-    local = (3 * pts[:, None] + np.arange(3)[None, :]).ravel()
-    coords = (3 * n_points * np.arange(s))[:, None] + local[None]
-    r3 = np.broadcast_to(coords[:, :, None], h_clip.shape).ravel()
-    c3 = np.broadcast_to(coords[:, None, :], h_clip.shape).ravel()
-    rows = np.concatenate([rows, r2, r3])
-    cols = np.concatenate([cols, c2, c3])
-    vals = np.concatenate([vals, v2, h_clip.ravel()])
-    parts.append(sp.csr_matrix((vals, (rows, cols)), shape=(size, size)))
-    return (parts[0] + parts[1]).tocsr()
+    h_clip = np.einsum("p,q,sij->spiqj", signs, signs, h_d)
+    return np.concatenate([d_blocks.ravel(), b_blocks.ravel(), h_clip.ravel()]), a
+
+
+def _sparse_hessian(entries: tuple[np.ndarray, np.ndarray], values: np.ndarray,
+                    transversal: np.ndarray, shape: tuple[int, ...]) -> sp.csr_matrix:
+    """The Hessian over the flattened ``shape`` (S, n + 1, 3) from :func:`hessian_values` and
+    the entries' rows and columns."""
+    rows, cols = entries
+    size = int(np.prod(shape))
+    block = size // shape[0]
+    diag = np.repeat(transversal[:-1] + transversal[1:], block)
+    off = np.repeat(-transversal[1:-1], block)
+    within = sp.csr_matrix((values, (rows, cols)), shape=(size, size))
+    return (sp.diags([diag, off, off], [0, block, -block], shape=(size, size)) + within).tocsr()
+
+
+def advanced_hessian(problem: AdvancedProblem, inner: np.ndarray) -> sp.csr_matrix:
+    """The exact sparse Hessian of :func:`advanced_cost` over the flattened (S, n + 1, 3)."""
+    values, transversal = hessian_values(problem, inner)
+    return _sparse_hessian(block_entries(problem.n_links, problem.n_shapes), values,
+                           transversal, inner.shape)
 
 
 @dataclass(frozen=True)
@@ -318,10 +318,27 @@ def advanced_problem(basic: np.ndarray, length: float,
     )
 
 
-def _damped_newton(problem: AdvancedProblem, y: np.ndarray, gtol: float,
-                   max_iterations: int) -> tuple[np.ndarray, float, bool, str, int]:
-    """Levenberg-Marquardt-damped Newton steps on the exact sparse Hessian (sparse LU)."""
+LINEAR_SOLVERS: tuple[str, ...] = ("gmres", "lu")
+"""Newton-system solvers of the advanced stage: two-level GMRES on the grid (default, with
+sparse LU where it cannot vouch for a step) or sparse LU alone (the reference)."""
+
+
+def _damped_newton(problem: AdvancedProblem, y: np.ndarray, gtol: float, max_iterations: int,
+                   linear_solver: str = "gmres", coords: tuple[int, ...] = (0, 1, 2)
+                   ) -> tuple[np.ndarray, float, bool, str, int]:
+    """Levenberg-Marquardt-damped Newton steps on the exact Hessian.
+
+    Every trial solves (H + shift * scale I) p = -g, scale = mean |diag H|, the shift growing
+    tenfold while p is not a descent direction or does not lower the cost. ``coords``: the
+    coordinates that move (see :func:`dloplan.planning.grid_newton.plane_of`); the others keep
+    their values (their gradient is zero).
+    """
     shape = y.shape
+    n, s = problem.n_links, problem.n_shapes
+    entries = block_entries(n, s)
+    on_diagonal = entries[0] == entries[1]
+    layout = grid_layout(n, s, coords) if linear_solver == "gmres" else None
+    identity = sp.identity(y.size, format="csc")
     f, g = advanced_cost(problem, y)
     shift = 0.0
     for iteration in range(max_iterations + 1):
@@ -330,15 +347,27 @@ def _damped_newton(problem: AdvancedProblem, y: np.ndarray, gtol: float,
             return y, f, True, f"converged in {iteration} iterations", iteration
         if iteration == max_iterations:
             break
-        hess = advanced_hessian(problem, y).tocsc()
-        scale = float(np.mean(np.abs(hess.diagonal())))
-        identity = sp.identity(hess.shape[0], format="csc")
+        values, a = hessian_values(problem, y)
+        diagonal = np.bincount(entries[0][on_diagonal], weights=values[on_diagonal],
+                               minlength=y.size) + np.repeat(a[:-1] + a[1:], y.size // s)
+        scale = float(np.mean(np.abs(diagonal)))
+        system = None
+        if layout is not None:
+            system = GridNewton(layout, layout.band(values, a[:-1] + a[1:]), -a[1:-1])
+        matrix = None
         for _ in range(40):
-            try:
-                lu = splu(hess + (shift * scale) * identity, permc_spec="COLAMD")
-                step = lu.solve(-g.ravel())
-            except RuntimeError:  # exactly singular: damp more
-                step = None
+            step = None
+            if system is not None:
+                solved = system.solve(layout.gather(-g), shift * scale)
+                step = None if solved is None else layout.scatter(solved).ravel()
+            if step is None:  # sparse LU: the reference, and where GMRES cannot vouch
+                if matrix is None:
+                    matrix = _sparse_hessian(entries, values, a, shape).tocsc()
+                try:
+                    step = splu(matrix + (shift * scale) * identity,
+                                permc_spec="COLAMD").solve(-g.ravel())
+                except RuntimeError:  # exactly singular: damp more
+                    step = None
             if step is None or not np.all(np.isfinite(step)) or float(g.ravel() @ step) >= 0.0:
                 shift = max(10.0 * shift, 1e-8)
                 continue
@@ -364,7 +393,8 @@ def _damped_newton(problem: AdvancedProblem, y: np.ndarray, gtol: float,
 
 def advanced_path(basic: np.ndarray, length: float, weights: AdvancedWeights | None = None, *,
                   method: str = "newton", max_iterations: int = 200,
-                  gtol: float = 1e-8) -> tuple[np.ndarray, StageStatus]:
+                  gtol: float = 1e-8, linear_solver: str = "gmres"
+                  ) -> tuple[np.ndarray, StageStatus]:
     """The advanced geometric path (thesis 4.4): eq. 4.17 minimized from the basic path.
 
     Parameters
@@ -376,9 +406,8 @@ def advanced_path(basic: np.ndarray, length: float, weights: AdvancedWeights | N
     weights : AdvancedWeights, optional
         Default: Table 6.1.
     method : {"newton", "L-BFGS-B"}
-        ``"newton"`` (default): Newton steps on the exact sparse Hessian
-        (:func:`advanced_hessian`), damped toward gradient steps where the Hessian is
-        indefinite, solved by sparse LU; typically 10-30 iterations at any size.
+        ``"newton"`` (default): Newton steps on the exact Hessian, damped toward gradient steps
+        where the Hessian is indefinite; typically 10-30 iterations at any size.
         ``"L-BFGS-B"``: scipy's quasi-Newton method with the exact gradient; it needs
         hundreds to thousands of iterations on this ill-conditioned cost (curvature terms grow
         like n^2) and stalls short of the optimum beyond n S ~ 400.
@@ -386,6 +415,10 @@ def advanced_path(basic: np.ndarray, length: float, weights: AdvancedWeights | N
         Iteration limit.
     gtol : float
         Tolerance on the largest component of the dimensionless gradient.
+    linear_solver : {"gmres", "lu"}
+        How a Newton step is solved (:data:`LINEAR_SOLVERS`): ``"gmres"`` (default) on the
+        grid (:mod:`dloplan.planning.grid_newton`), in the plane of a planar problem; ``"lu"``
+        sparse LU of the full 3-D system (the reference; the same steps to round-off).
 
     Returns
     -------
@@ -393,10 +426,21 @@ def advanced_path(basic: np.ndarray, length: float, weights: AdvancedWeights | N
         The path (S + 2, n + 1, 3) [m] and its :class:`StageStatus`.
     """
     t0 = time.perf_counter()
-    problem = advanced_problem(basic, length, weights)
-    y0 = basic[1:-1] / length
+    if linear_solver not in LINEAR_SOLVERS:
+        raise ValueError(f"linear_solver: got {linear_solver!r}, expected one of "
+                         f"{', '.join(LINEAR_SOLVERS)}")
+    rotation, coords = None, (0, 1, 2)
+    if method == "newton" and linear_solver == "gmres":
+        rotation, coords = plane_of(np.concatenate([basic[0], basic[-1]]))
+    frame = basic
+    if rotation is not None:  # a plane that is no axis plane: make its normal the third axis
+        frame = basic @ rotation.T
+        frame[..., 2] = np.mean(frame[..., 2])
+    problem = advanced_problem(frame, length, weights)
+    y0 = frame[1:-1] / length
     if method == "newton":
-        y, cost, ok, message, iterations = _damped_newton(problem, y0, gtol, max_iterations)
+        y, cost, ok, message, iterations = _damped_newton(problem, y0, gtol, max_iterations,
+                                                          linear_solver, coords)
     elif method == "L-BFGS-B":
         def fun(flat):
             value, grad = advanced_cost(problem, flat.reshape(y0.shape))
@@ -409,6 +453,7 @@ def advanced_path(basic: np.ndarray, length: float, weights: AdvancedWeights | N
         message, iterations = str(res.message), int(res.nit)
     else:
         raise ValueError(f"method: got {method!r}, expected 'newton' or 'L-BFGS-B'")
-    path = np.concatenate([basic[:1], y * length, basic[-1:]])
+    inner = y * length if rotation is None else (y * length) @ rotation
+    path = np.concatenate([basic[:1], inner, basic[-1:]])
     status = StageStatus(ok, message, iterations, y0.size, cost, time.perf_counter() - t0)
     return path, status

@@ -1,0 +1,439 @@
+"""The advanced stage's Newton system on the (shape x point) grid, solved in O(n S) per iteration.
+
+The unknowns of the advanced stage (thesis eq. 4.17) are S shapes of n + 1 points with d
+coordinates each (d = 3, or d = 2 for a planar problem, see :func:`plane_of`). Their Hessian is
+
+    H = A (x) I + blockdiag(H_1, ..., H_S),
+
+with A the S x S tridiagonal matrix of the transversal term (the same for every point and
+coordinate, constant) and H_i the within-shape part: axial (points j, j+1) and bending (j .. j+2)
+blocks and the clip term (points 0, 1, n-1, n). A direct factorization of this 2-D grid fills in
+(sparse LU: about O((n S)^1.5) work); here instead:
+
+* **the within-shape blocks are banded**: with the points ordered 0, n, 1, n-1, 2, ... (so that
+  the clip's four points are neighbours) every H_i is a band of half-width 5d - 1, factorized
+  exactly (LU with partial pivoting, :func:`band_lu`, O(n) per shape);
+* **the soft modes of a shape are few**: a shape resists the rigid motions and smooth bends of
+  its points only through the transversal term; they are spanned per shape and coordinate by K
+  Chebyshev polynomials in the point index (:data:`COARSE_DEGREE`). The Galerkin operator
+  Z^T H Z on that coarse space is block-tridiagonal in the shape index, a band of half-width
+  2dK - 1, solved exactly;
+* **GMRES** (right-preconditioned, :func:`gmres`) on H with the two-level preconditioner
+  "coarse solve, then the shapes' bands on its residual" converges in 5-60 iterations, each
+  O(n S d^2 K) (a symmetric variant with a second coarse solve saved only 5 % of them).
+
+Solved to a relative residual of 1e-12, a step equals the sparse LU's to about 1e-11 (relative),
+so the damped Newton iteration (:func:`dloplan.planning.geometric.advanced_path`) takes the same
+steps and stops at the same optimum. When GMRES does not reach its tolerance or a shape's band
+is singular, :meth:`GridNewton.solve` returns None and the caller falls back to sparse LU.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+COARSE_DEGREE = 8
+"""K: Chebyshev polynomials (degrees 0 .. K-1) per coordinate and shape in the coarse space."""
+KRYLOV_TOLERANCE = 1e-12
+"""Relative residual |H p - r| / |r| at which GMRES stops."""
+ACCEPTED_RESIDUAL = 1e-9
+"""Relative residual still accepted when GMRES stagnates at round-off above its tolerance."""
+MAX_KRYLOV = 150
+"""GMRES iterations at most (no restart)."""
+
+
+@njit(cache=True)
+def band_lu(ab, kl):
+    """LU factorization with partial pivoting of a band matrix, in place (LAPACK ``gbtf2``).
+
+    Parameters
+    ----------
+    ab : numpy.ndarray
+        (N, 3 kl + 1) band by columns, ``ab[j, 2 kl + i - j] = A[i, j]`` for |i - j| <= kl
+        (each column contiguous); entries 0 .. kl-1 of every column are zero on entry (room for
+        the fill of U). Overwritten by L and U.
+    kl : int
+        Half-bandwidth (the same below and above the diagonal).
+
+    Returns
+    -------
+    tuple
+        Pivot rows (N,) and False when a column has no non-zero pivot (singular).
+    """
+    n = ab.shape[0]
+    kv = 2 * kl
+    piv = np.empty(n, np.int64)
+    for j in range(n):
+        km = min(kl, n - 1 - j)
+        p = 0
+        big = abs(ab[j, kv])
+        for r in range(1, km + 1):
+            v = abs(ab[j, kv + r])
+            if v > big:
+                big = v
+                p = r
+        piv[j] = j + p
+        if big == 0.0:
+            return piv, False
+        last = min(j + kv, n - 1)
+        if p != 0:
+            for c in range(j, last + 1):
+                t = ab[c, kv + j - c]
+                ab[c, kv + j - c] = ab[c, kv + j + p - c]
+                ab[c, kv + j + p - c] = t
+        inv = 1.0 / ab[j, kv]
+        for r in range(1, km + 1):
+            ab[j, kv + r] *= inv
+        for c in range(j + 1, last + 1):
+            u = ab[c, kv + j - c]
+            if u != 0.0:
+                base = kv + j - c
+                for r in range(1, km + 1):
+                    ab[c, base + r] -= ab[j, kv + r] * u
+    return piv, True
+
+
+@njit(cache=True)
+def band_lu_solve(ab, kl, piv, b):
+    """Solve A x = b with the factors of :func:`band_lu`; ``b`` (N,) is not modified."""
+    n = ab.shape[0]
+    kv = 2 * kl
+    x = b.copy()
+    for j in range(n):
+        p = piv[j]
+        if p != j:
+            t = x[j]
+            x[j] = x[p]
+            x[p] = t
+        xj = x[j]
+        for r in range(1, min(kl, n - 1 - j) + 1):
+            x[j + r] -= ab[j, kv + r] * xj
+    for j in range(n - 1, -1, -1):
+        x[j] /= ab[j, kv]
+        xj = x[j]
+        for i in range(max(0, j - kv), j):
+            x[i] -= ab[j, kv + i - j] * xj
+    return x
+
+
+@njit(cache=True)
+def band_matvec(ab, kl, x):
+    """A @ x for an unfactored band in the layout of :func:`band_lu` and x (N,)."""
+    n = x.shape[0]
+    kv = 2 * kl
+    y = np.zeros(n)
+    for j in range(n):
+        xj = x[j]
+        for i in range(max(0, j - kl), min(n, j + kl + 1)):
+            y[i] += ab[j, kv + i - j] * xj
+    return y
+
+
+@njit(cache=True)
+def band_matmat(ab, kl, x):
+    """A @ x for an unfactored band in the layout of :func:`band_lu` and x (N, k)."""
+    n, k = x.shape
+    kv = 2 * kl
+    y = np.zeros((n, k))
+    for j in range(n):
+        for i in range(max(0, j - kl), min(n, j + kl + 1)):
+            a = ab[j, kv + i - j]
+            for c in range(k):
+                y[i, c] += a * x[j, c]
+    return y
+
+
+@njit(cache=True)
+def _givens(h, cs, sn, k):
+    """Apply the k previous Givens rotations (cs, sn) to the Hessenberg column h (k + 2,), then
+    the new k-th one that zeroes h[k + 1] (stored in cs[k], sn[k])."""
+    for i in range(k):
+        t = cs[i] * h[i] + sn[i] * h[i + 1]
+        h[i + 1] = -sn[i] * h[i] + cs[i] * h[i + 1]
+        h[i] = t
+    r = np.hypot(h[k], h[k + 1])
+    cs[k] = h[k] / r
+    sn[k] = h[k + 1] / r
+    h[k] = r
+    h[k + 1] = 0.0
+
+
+def gmres(matvec, precondition, rhs: np.ndarray, tolerance: float,
+          max_iterations: int) -> tuple[np.ndarray, float, int]:
+    """Right-preconditioned GMRES (no restart) for A x = rhs.
+
+    Parameters
+    ----------
+    matvec, precondition : callable
+        v -> A v and v -> M^-1 v on (N,) vectors.
+    rhs : numpy.ndarray
+        (N,) right-hand side.
+    tolerance : float
+        Stop when |rhs - A x| <= tolerance |rhs|.
+    max_iterations : int
+        Krylov dimension at most.
+
+    Returns
+    -------
+    tuple
+        x (N,), its relative residual |rhs - A x| / |rhs| (computed, not estimated) and the
+        iterations.
+    """
+    beta = float(np.linalg.norm(rhs))
+    if beta == 0.0:
+        return np.zeros_like(rhs), 0.0, 0
+    basis = np.empty((max_iterations + 1, rhs.size))
+    directions = np.empty((max_iterations, rhs.size))
+    hess = np.zeros((max_iterations + 1, max_iterations))
+    cs = np.zeros(max_iterations)
+    sn = np.zeros(max_iterations)
+    g = np.zeros(max_iterations + 1)
+    g[0] = beta
+    basis[0] = rhs / beta
+    residual, k = 1.0, 0
+    while k < max_iterations and residual > tolerance:
+        directions[k] = precondition(basis[k])
+        w = matvec(directions[k])
+        h = basis[: k + 1] @ w  # classical Gram-Schmidt, twice
+        w -= h @ basis[: k + 1]
+        h2 = basis[: k + 1] @ w
+        w -= h2 @ basis[: k + 1]
+        column = np.zeros(k + 2)
+        column[: k + 1] = h + h2
+        column[k + 1] = np.linalg.norm(w)
+        if column[k + 1] > 0.0:
+            basis[k + 1] = w / column[k + 1]
+        _givens(column, cs, sn, k)
+        hess[: k + 2, k] = column
+        g[k + 1] = -sn[k] * g[k]
+        g[k] = cs[k] * g[k]
+        residual = abs(g[k + 1]) / beta
+        k += 1
+    x = np.linalg.solve(np.triu(hess[:k, :k]), g[:k]) @ directions[:k]
+    return x, float(np.linalg.norm(rhs - matvec(x))) / beta, k
+
+
+def plane_of(points: np.ndarray, tolerance: float = 1e-12) -> tuple[np.ndarray | None, tuple]:
+    """The plane holding all ``points`` (k, 3), if any: (rotation, coordinates solved for).
+
+    A problem whose start and target lie in one plane keeps every shape in it: the cost is
+    symmetric about the plane, so its gradient has no normal component and the Hessian does not
+    couple normal and in-plane coordinates; the Newton steps have no normal component. Returns
+
+    * ``(None, (a, b))`` when a coordinate is exactly constant (an axis plane): solve for the
+      other two, no rotation;
+    * ``(R, (0, 1))`` when the points lie in another plane (smallest singular value of the
+      centred points <= ``tolerance`` times the largest): ``R`` (3, 3) rotates them, ``x @ R.T``,
+      so that the plane's normal is the third coordinate;
+    * ``(None, (0, 1, 2))`` otherwise.
+    """
+    for c in range(3):
+        if np.ptp(points[:, c]) == 0.0:
+            return None, tuple(k for k in range(3) if k != c)
+    sv, vt = np.linalg.svd(points - points.mean(axis=0), full_matrices=False)[1:]
+    if sv[2] <= tolerance * sv[0]:
+        return vt, (0, 1)
+    return None, (0, 1, 2)
+
+
+def folded_order(n_points: int) -> np.ndarray:
+    """Points in the order 0, n, 1, n-1, 2, ... (position -> point index), (n + 1,)."""
+    order = np.empty(n_points, dtype=np.int64)
+    order[0::2] = np.arange((n_points + 1) // 2)
+    order[1::2] = n_points - 1 - np.arange(n_points // 2)
+    return order
+
+
+@dataclass(frozen=True, eq=False)
+class GridLayout:
+    """Where every Hessian entry of the advanced stage goes, fixed for (n, S, coordinates).
+
+    Attributes
+    ----------
+    n_shapes, n_points : int
+        S and n + 1.
+    coords : tuple of int
+        The coordinates solved for (all three, or the two of a problem's plane).
+    index : numpy.ndarray
+        (S, n + 1, 3) position of each (shape, point, coordinate) in the solver's vectors, -1
+        for a coordinate not solved for.
+    half_band : int
+        kl of the within-shape bands.
+    slots : numpy.ndarray
+        Flat band position of each within-shape block entry kept (see :meth:`band`).
+    kept : numpy.ndarray
+        Boolean mask over the concatenated block entries (axial, bending, clip) of the kept ones.
+    basis : numpy.ndarray
+        (d (n + 1), q) orthonormal coarse basis of one shape, in the folded point order.
+    """
+
+    n_shapes: int
+    n_points: int
+    coords: tuple[int, ...]
+    index: np.ndarray
+    half_band: int
+    slots: np.ndarray
+    kept: np.ndarray
+    basis: np.ndarray
+
+    @property
+    def size(self) -> int:
+        return self.n_shapes * self.n_points * len(self.coords)
+
+    def gather(self, full: np.ndarray) -> np.ndarray:
+        """The solver's (N,) vector of a full (S, n + 1, 3) array (the coordinates solved for)."""
+        flat = self.index.ravel()
+        out = np.empty(self.size)
+        out[flat[flat >= 0]] = full.ravel()[flat >= 0]
+        return out
+
+    def scatter(self, reduced: np.ndarray) -> np.ndarray:
+        """The full (S, n + 1, 3) array of a solver's (N,) vector, zero where not solved for."""
+        flat = self.index.ravel()
+        out = np.zeros(flat.size)
+        out[flat >= 0] = reduced[flat[flat >= 0]]
+        return out.reshape(self.index.shape)
+
+    def band(self, values: np.ndarray, diagonal: np.ndarray) -> np.ndarray:
+        """The (N, 3 kl + 1) band of the within-shape Hessian (layout of :func:`band_lu`).
+
+        ``values`` are the concatenated 3-D block entries (see :func:`block_entries`),
+        ``diagonal`` (S,) the transversal term's diagonal of each shape.
+        """
+        kl, size = self.half_band, self.size
+        band = np.bincount(self.slots, weights=values[self.kept],
+                           minlength=(3 * kl + 1) * size).reshape(size, 3 * kl + 1)
+        band[:, 2 * kl] += np.repeat(diagonal, size // self.n_shapes)
+        return band
+
+
+def block_entries(n_links: int, n_shapes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Full 3-D (shape, point, coordinate) rows and columns of the within-shape block entries.
+
+    In the order of ``np.concatenate([axial.ravel(), bending.ravel(), clip.ravel()])`` for the
+    blocks (S, n, 6, 6) of the links (points j, j+1), (S, n-1, 9, 9) of the joints (j-1, j,
+    j+1) and (S, 12, 12) of the clip term (points 0, 1, n-1, n); indices into (S, n + 1, 3).
+    """
+    n_points = n_links + 1
+
+    def entries(first_points: np.ndarray, span: int) -> tuple[np.ndarray, np.ndarray]:
+        size = 3 * span
+        local = 3 * first_points[:, None] + np.arange(size)[None, :]  # (m, 3k)
+        coords = (3 * n_points * np.arange(n_shapes))[:, None, None] + local[None]
+        shape = coords.shape + (size,)
+        return (np.broadcast_to(coords[..., :, None], shape).ravel(),
+                np.broadcast_to(coords[..., None, :], shape).ravel())
+
+    ra, ca = entries(np.arange(n_links), 2)
+    rb, cb = entries(np.arange(n_links - 1), 3)
+    clip = (3 * np.array([0, 1, n_points - 2, n_points - 1])[:, None] + np.arange(3)).ravel()
+    coords = (3 * n_points * np.arange(n_shapes))[:, None] + clip[None]  # (S, 12)
+    rc = np.broadcast_to(coords[:, :, None], (n_shapes, 12, 12)).ravel()
+    cc = np.broadcast_to(coords[:, None, :], (n_shapes, 12, 12)).ravel()
+    return np.concatenate([ra, rb, rc]), np.concatenate([ca, cb, cc])
+
+
+def grid_layout(n_links: int, n_shapes: int, coords: tuple[int, ...] = (0, 1, 2)) -> GridLayout:
+    """The :class:`GridLayout` of S shapes of n links, solving for ``coords``."""
+    n_points = n_links + 1
+    d = len(coords)
+    order = folded_order(n_points)
+    position = np.empty(n_points, dtype=np.int64)
+    position[order] = np.arange(n_points)
+    m = d * n_points
+    index = -np.ones((n_shapes, n_points, 3), dtype=np.int64)
+    for c_new, c in enumerate(coords):
+        index[:, :, c] = (np.arange(n_shapes)[:, None] * m + position[None, :] * d + c_new)
+    rows, cols = block_entries(n_links, n_shapes)
+    r, c = index.ravel()[rows], index.ravel()[cols]
+    kept = (r >= 0) & (c >= 0)
+    r, c = r[kept], c[kept]
+    kl = int(np.max(np.abs(r - c)))
+    slots = c * (3 * kl + 1) + 2 * kl + r - c
+    degree = min(COARSE_DEGREE, n_points)
+    t = np.linspace(-1.0, 1.0, n_points)[order]
+    cheb = np.polynomial.chebyshev.chebvander(t, degree - 1)  # (n + 1, K), folded rows
+    basis = np.einsum("pk,cd->pckd", cheb, np.eye(d)).reshape(m, degree * d)
+    basis = np.linalg.qr(basis)[0]
+    return GridLayout(n_shapes, n_points, tuple(coords), index, kl, slots, kept, basis)
+
+
+@dataclass(eq=False)
+class GridNewton:
+    """The Newton system H p = r at one iterate, solved by preconditioned GMRES.
+
+    Parameters
+    ----------
+    layout : GridLayout
+        The problem's layout.
+    band : numpy.ndarray
+        (N, 3 kl + 1) within-shape band with the transversal diagonal (:meth:`GridLayout.band`).
+    coupling : numpy.ndarray
+        (S - 1,) the transversal term's off-diagonal between shapes i and i + 1 (the entry of
+        A, times the identity of the points' coordinates).
+    """
+
+    layout: GridLayout
+    band: np.ndarray
+    coupling: np.ndarray
+    krylov_iterations: int = 0
+
+    def matvec(self, x: np.ndarray, shift: float = 0.0) -> np.ndarray:
+        """(H + shift I) x for x (N,)."""
+        lay = self.layout
+        y = band_matvec(self.band, lay.half_band, x)
+        if shift:
+            y += shift * x
+        xs, ys = x.reshape(lay.n_shapes, -1), y.reshape(lay.n_shapes, -1)
+        ys[:-1] += self.coupling[:, None] * xs[1:]
+        ys[1:] += self.coupling[:, None] * xs[:-1]
+        return y
+
+    def _coarse_band(self, shift: float) -> np.ndarray:
+        """The Galerkin operator Z^T (H + shift I) Z as a band (half-width 2q - 1)."""
+        lay = self.layout
+        s, q = lay.n_shapes, lay.basis.shape[1]
+        tiled = np.tile(lay.basis, (s, 1))
+        hz = band_matmat(self.band, lay.half_band, tiled).reshape(s, -1, q)
+        blocks = lay.basis.T[None] @ hz + shift * np.eye(q)  # (S, q, q), Z^T Z = I
+        kc = 2 * q - 1
+        band = np.zeros((s * q, 3 * kc + 1))
+        r, c = np.meshgrid(np.arange(q), np.arange(q), indexing="ij")
+        rows = (np.arange(s)[:, None, None] * q + r).ravel()
+        cols = (np.arange(s)[:, None, None] * q + c).ravel()
+        band[cols, 2 * kc + rows - cols] = blocks.ravel()
+        diag = np.arange((s - 1) * q)
+        band[diag + q, 2 * kc - q] = self.coupling.repeat(q)  # (i, i + 1): coupling * I
+        band[diag, 2 * kc + q] = self.coupling.repeat(q)
+        return band
+
+    def solve(self, rhs: np.ndarray, shift: float = 0.0) -> np.ndarray | None:
+        """p with (H + shift I) p = rhs, (N,); None when the solver cannot vouch for it."""
+        lay = self.layout
+        s, q = lay.n_shapes, lay.basis.shape[1]
+        fine = self.band.copy()
+        fine[:, 2 * lay.half_band] += shift
+        fine_piv, ok = band_lu(fine, lay.half_band)
+        coarse = self._coarse_band(shift)
+        kc = 2 * q - 1
+        coarse_piv, ok_coarse = band_lu(coarse, kc)
+        if not (ok and ok_coarse):
+            return None
+
+        def coarse_solve(r):
+            rc = (r.reshape(s, -1) @ lay.basis).ravel()
+            return (band_lu_solve(coarse, kc, coarse_piv, rc).reshape(s, q) @ lay.basis.T).ravel()
+
+        def precondition(r):  # coarse, then the shapes' bands on the residual
+            x = coarse_solve(r)
+            return x + band_lu_solve(fine, lay.half_band, fine_piv, r - self.matvec(x, shift))
+
+        step, residual, iterations = gmres(lambda v: self.matvec(v, shift), precondition, rhs,
+                                           KRYLOV_TOLERANCE, MAX_KRYLOV)
+        self.krylov_iterations += iterations
+        if not (residual <= ACCEPTED_RESIDUAL and np.all(np.isfinite(step))):
+            return None
+        return step
