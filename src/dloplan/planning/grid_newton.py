@@ -35,12 +35,14 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-COARSE_DEGREE = 8
+COARSE_DEGREE = 12
 """K: Chebyshev polynomials (degrees 0 .. K-1) per coordinate and shape in the coarse space."""
 KRYLOV_TOLERANCE = 1e-12
 """Relative residual |H p - r| / |r| at which GMRES stops."""
-ACCEPTED_RESIDUAL = 1e-9
-"""Relative residual still accepted when GMRES stagnates at round-off above its tolerance."""
+ACCEPTED_RESIDUAL = 1e-8
+"""Relative residual still accepted when GMRES stagnates above its tolerance: on the first,
+most ill-conditioned systems (diagonal entries from 1 to 1e8) sparse LU's own residual is
+about 1e-8 too."""
 MAX_KRYLOV = 150
 """GMRES iterations at most (no restart)."""
 
@@ -84,15 +86,14 @@ def band_lu(ab, kl):
                 t = ab[c, kv + j - c]
                 ab[c, kv + j - c] = ab[c, kv + j + p - c]
                 ab[c, kv + j + p - c] = t
-        inv = 1.0 / ab[j, kv]
-        for r in range(1, km + 1):
-            ab[j, kv + r] *= inv
+        multipliers = ab[j, kv + 1: kv + 1 + km]  # slices: contiguous loops numba vectorizes
+        multipliers /= ab[j, kv]
         for c in range(j + 1, last + 1):
             u = ab[c, kv + j - c]
             if u != 0.0:
-                base = kv + j - c
-                for r in range(1, km + 1):
-                    ab[c, base + r] -= ab[j, kv + r] * u
+                target = ab[c, kv + j - c + 1: kv + j - c + 1 + km]
+                for r in range(km):
+                    target[r] -= multipliers[r] * u
     return piv, True
 
 
@@ -109,26 +110,31 @@ def band_lu_solve(ab, kl, piv, b):
             x[j] = x[p]
             x[p] = t
         xj = x[j]
-        for r in range(1, min(kl, n - 1 - j) + 1):
-            x[j + r] -= ab[j, kv + r] * xj
+        km = min(kl, n - 1 - j)
+        below, lower = x[j + 1: j + 1 + km], ab[j, kv + 1: kv + 1 + km]
+        for r in range(km):
+            below[r] -= lower[r] * xj
     for j in range(n - 1, -1, -1):
         x[j] /= ab[j, kv]
         xj = x[j]
-        for i in range(max(0, j - kv), j):
-            x[i] -= ab[j, kv + i - j] * xj
+        first = max(0, j - kv)
+        above, upper = x[first:j], ab[j, kv + first - j: kv]
+        for i in range(j - first):
+            above[i] -= upper[i] * xj
     return x
 
 
 @njit(cache=True)
 def band_matvec(ab, kl, x):
-    """A @ x for an unfactored band in the layout of :func:`band_lu` and x (N,)."""
+    """A @ x for a compact band ``ab[j, kl + i - j] = A[i, j]`` (N, 2 kl + 1) and x (N,)."""
     n = x.shape[0]
-    kv = 2 * kl
     y = np.zeros(n)
     for j in range(n):
         xj = x[j]
-        for i in range(max(0, j - kl), min(n, j + kl + 1)):
-            y[i] += ab[j, kv + i - j] * xj
+        first, stop = max(0, j - kl), min(n, j + kl + 1)
+        rows, column = y[first:stop], ab[j, kl + first - j: kl + stop - j]
+        for i in range(stop - first):
+            rows[i] += column[i] * xj
     return y
 
 
@@ -146,6 +152,34 @@ def band_matmat(ab, kl, x):
     return y
 
 
+@njit(cache=True, fastmath=True)
+def _arnoldi(basis, k, w, column):
+    """Orthogonalize w against basis[0 .. k] (classical Gram-Schmidt, twice) into basis[k + 1].
+
+    ``column[0 .. k]`` receives the coefficients and ``column[k + 1]`` the norm left (the new
+    column of the Hessenberg matrix). Plain loops, not BLAS: a threaded BLAS on a loaded
+    machine costs more than these memory-bound sweeps.
+    """
+    n = w.size
+    for _ in range(2):
+        for i in range(k + 1):
+            v = basis[i]
+            dot = 0.0
+            for t in range(n):
+                dot += v[t] * w[t]
+            column[i] += dot
+            for t in range(n):
+                w[t] -= dot * v[t]
+    norm = 0.0
+    for t in range(n):
+        norm += w[t] * w[t]
+    norm = np.sqrt(norm)
+    column[k + 1] = norm
+    if norm > 0.0:
+        for t in range(n):
+            basis[k + 1, t] = w[t] / norm
+
+
 @njit(cache=True)
 def _givens(h, cs, sn, k):
     """Apply the k previous Givens rotations (cs, sn) to the Hessenberg column h (k + 2,), then
@@ -161,9 +195,27 @@ def _givens(h, cs, sn, k):
     h[k + 1] = 0.0
 
 
-def gmres(matvec, precondition, rhs: np.ndarray, tolerance: float,
-          max_iterations: int) -> tuple[np.ndarray, float, int]:
-    """Right-preconditioned GMRES (no restart) for A x = rhs.
+@njit(cache=True, fastmath=True)
+def _combine(coefficients, vectors):
+    """sum_i coefficients[i] vectors[i] over the first len(coefficients) rows."""
+    out = np.zeros(vectors.shape[1])
+    for i in range(coefficients.size):
+        c = coefficients[i]
+        v = vectors[i]
+        for t in range(out.size):
+            out[t] += c * v[t]
+    return out
+
+
+def gmres(matvec, precondition, rhs: np.ndarray, tolerance: float, max_iterations: int,
+          max_cycles: int = 4) -> tuple[np.ndarray, float, int]:
+    """Right-preconditioned (flexible) GMRES for A x = rhs, restarted on the true residual.
+
+    Each cycle builds a Krylov space of at most ``max_iterations`` on the current residual until
+    the Givens estimate of the residual reaches ``tolerance``; on an ill-conditioned A the true
+    residual can stay well above that estimate (loss of orthogonality), so the cycle ends with
+    the true residual and, while it is above ``tolerance`` and still halving, another cycle
+    starts from it.
 
     Parameters
     ----------
@@ -172,19 +224,38 @@ def gmres(matvec, precondition, rhs: np.ndarray, tolerance: float,
     rhs : numpy.ndarray
         (N,) right-hand side.
     tolerance : float
-        Stop when |rhs - A x| <= tolerance |rhs|.
+        Relative residual |rhs - A x| / |rhs| sought.
     max_iterations : int
-        Krylov dimension at most.
+        Krylov dimension of a cycle at most.
+    max_cycles : int
+        Cycles at most.
 
     Returns
     -------
     tuple
         x (N,), its relative residual |rhs - A x| / |rhs| (computed, not estimated) and the
-        iterations.
+        iterations of all cycles.
     """
-    beta = float(np.linalg.norm(rhs))
+    beta = float(np.sqrt(np.einsum("i,i->", rhs, rhs)))  # einsum: no threaded BLAS
+    x = np.zeros_like(rhs)
     if beta == 0.0:
-        return np.zeros_like(rhs), 0.0, 0
+        return x, 0.0, 0
+    left, residual, total = rhs, 1.0, 0
+    for _ in range(max_cycles):
+        x_cycle, k = _gmres_cycle(matvec, precondition, left, tolerance / residual,
+                                  max_iterations)
+        x += x_cycle
+        total += k
+        left = rhs - matvec(x)
+        previous, residual = residual, float(np.sqrt(np.einsum("i,i->", left, left))) / beta
+        if residual <= tolerance or residual > 0.5 * previous:
+            break
+    return x, residual, total
+
+
+def _gmres_cycle(matvec, precondition, rhs, tolerance, max_iterations):
+    """One GMRES cycle from x = 0: (x, iterations), stopping on the Givens residual estimate."""
+    beta = float(np.sqrt(np.einsum("i,i->", rhs, rhs)))
     basis = np.empty((max_iterations + 1, rhs.size))
     directions = np.empty((max_iterations, rhs.size))
     hess = np.zeros((max_iterations + 1, max_iterations))
@@ -193,27 +264,45 @@ def gmres(matvec, precondition, rhs: np.ndarray, tolerance: float,
     g = np.zeros(max_iterations + 1)
     g[0] = beta
     basis[0] = rhs / beta
-    residual, k = 1.0, 0
-    while k < max_iterations and residual > tolerance:
+    estimate, k = 1.0, 0
+    while k < max_iterations and estimate > tolerance:
         directions[k] = precondition(basis[k])
-        w = matvec(directions[k])
-        h = basis[: k + 1] @ w  # classical Gram-Schmidt, twice
-        w -= h @ basis[: k + 1]
-        h2 = basis[: k + 1] @ w
-        w -= h2 @ basis[: k + 1]
         column = np.zeros(k + 2)
-        column[: k + 1] = h + h2
-        column[k + 1] = np.linalg.norm(w)
-        if column[k + 1] > 0.0:
-            basis[k + 1] = w / column[k + 1]
+        _arnoldi(basis, k, matvec(directions[k]), column)
         _givens(column, cs, sn, k)
         hess[: k + 2, k] = column
         g[k + 1] = -sn[k] * g[k]
         g[k] = cs[k] * g[k]
-        residual = abs(g[k + 1]) / beta
+        estimate = abs(g[k + 1]) / beta
         k += 1
-    x = np.linalg.solve(np.triu(hess[:k, :k]), g[:k]) @ directions[:k]
-    return x, float(np.linalg.norm(rhs - matvec(x))) / beta, k
+    return _combine(np.linalg.solve(np.triu(hess[:k, :k]), g[:k]), directions), k
+
+
+@njit(cache=True)
+def restrict(r, basis, n_shapes):
+    """Z^T r: the (S q,) coarse coefficients of a fine (N,) vector, shape by shape."""
+    m, q = basis.shape
+    out = np.zeros(n_shapes * q)
+    for i in range(n_shapes):
+        for p in range(m):
+            rp = r[i * m + p]
+            for c in range(q):
+                out[i * q + c] += basis[p, c] * rp
+    return out
+
+
+@njit(cache=True)
+def prolong(e, basis, n_shapes):
+    """Z e: the fine (N,) vector of (S q,) coarse coefficients."""
+    m, q = basis.shape
+    out = np.zeros(n_shapes * m)
+    for i in range(n_shapes):
+        for p in range(m):
+            acc = 0.0
+            for c in range(q):
+                acc += basis[p, c] * e[i * q + c]
+            out[i * m + p] = acc
+    return out
 
 
 def plane_of(points: np.ndarray, tolerance: float = 1e-12) -> tuple[np.ndarray | None, tuple]:
@@ -381,10 +470,14 @@ class GridNewton:
     coupling: np.ndarray
     krylov_iterations: int = 0
 
+    def __post_init__(self):
+        kl = self.layout.half_band
+        self._compact = np.ascontiguousarray(self.band[:, kl:])  # without the room for fill
+
     def matvec(self, x: np.ndarray, shift: float = 0.0) -> np.ndarray:
         """(H + shift I) x for x (N,)."""
         lay = self.layout
-        y = band_matvec(self.band, lay.half_band, x)
+        y = band_matvec(self._compact, lay.half_band, x)
         if shift:
             y += shift * x
         xs, ys = x.reshape(lay.n_shapes, -1), y.reshape(lay.n_shapes, -1)
@@ -397,8 +490,9 @@ class GridNewton:
         lay = self.layout
         s, q = lay.n_shapes, lay.basis.shape[1]
         tiled = np.tile(lay.basis, (s, 1))
-        hz = band_matmat(self.band, lay.half_band, tiled).reshape(s, -1, q)
-        blocks = lay.basis.T[None] @ hz + shift * np.eye(q)  # (S, q, q), Z^T Z = I
+        hz = band_matmat(self.band, lay.half_band, tiled).T.copy()  # (q, N): H_ii Z per shape
+        blocks = np.stack([restrict(column, lay.basis, s).reshape(s, q) for column in hz],
+                          axis=-1) + shift * np.eye(q)  # (S, q, q); Z^T Z = I
         kc = 2 * q - 1
         band = np.zeros((s * q, 3 * kc + 1))
         r, c = np.meshgrid(np.arange(q), np.arange(q), indexing="ij")
@@ -423,12 +517,9 @@ class GridNewton:
         if not (ok and ok_coarse):
             return None
 
-        def coarse_solve(r):
-            rc = (r.reshape(s, -1) @ lay.basis).ravel()
-            return (band_lu_solve(coarse, kc, coarse_piv, rc).reshape(s, q) @ lay.basis.T).ravel()
-
         def precondition(r):  # coarse, then the shapes' bands on the residual
-            x = coarse_solve(r)
+            x = prolong(band_lu_solve(coarse, kc, coarse_piv, restrict(r, lay.basis, s)),
+                        lay.basis, s)
             return x + band_lu_solve(fine, lay.half_band, fine_piv, r - self.matvec(x, shift))
 
         step, residual, iterations = gmres(lambda v: self.matvec(v, shift), precondition, rhs,
