@@ -504,8 +504,11 @@ class GridNewton:
         band[diag, 2 * kc + q] = self.coupling.repeat(q)
         return band
 
-    def solve(self, rhs: np.ndarray, shift: float = 0.0) -> np.ndarray | None:
-        """p with (H + shift I) p = rhs, (N,); None when the solver cannot vouch for it."""
+    def solve(self, rhs: np.ndarray, shift: float = 0.0,
+              tolerance: float = KRYLOV_TOLERANCE) -> np.ndarray | None:
+        """p with (H + shift I) p = rhs to a relative residual ``tolerance``, (N,); None when
+        the solver cannot vouch for it (a singular band, or a residual above both
+        ``tolerance`` and :data:`ACCEPTED_RESIDUAL`)."""
         lay = self.layout
         s, q = lay.n_shapes, lay.basis.shape[1]
         fine = self.band.copy()
@@ -523,8 +526,8 @@ class GridNewton:
             return x + band_lu_solve(fine, lay.half_band, fine_piv, r - self.matvec(x, shift))
 
         step, residual, iterations = gmres(lambda v: self.matvec(v, shift), precondition, rhs,
-                                           KRYLOV_TOLERANCE, MAX_KRYLOV)
+                                           tolerance, MAX_KRYLOV)
         self.krylov_iterations += iterations
-        if not (residual <= ACCEPTED_RESIDUAL and np.all(np.isfinite(step))):
+        if not (residual <= max(tolerance, ACCEPTED_RESIDUAL) and np.all(np.isfinite(step))):
             return None
         return step
