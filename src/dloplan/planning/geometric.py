@@ -13,8 +13,9 @@ equal weights every point moves in S + 1 equal steps on the straight line to its
 **Advanced stage** (eq. 4.17): five terms (transversal steps, the final step, the link-length
 change delta against the start's links, 1/Delta_clip between the clip points, the bending angles
 against those of the basic path), minimized from the basic path with the exact gradient and
-sparse Hessian (damped Newton; scipy's L-BFGS-B on request), vectorized over all shapes and
-points.
+Hessian (damped Newton, its systems solved on the shape x point grid by
+:mod:`dloplan.planning.grid_newton`; scipy's L-BFGS-B on request), vectorized over all shapes
+and points.
 
 **Dimensionless scaling.** The thesis writes eq. 4.17 in metres, which makes its weights depend
 on the unit: the quadratic terms scale with the unit squared, 1/Delta_clip with its inverse and
