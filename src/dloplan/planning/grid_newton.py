@@ -281,29 +281,19 @@ def _gmres_cycle(matvec, precondition, rhs, tolerance, max_iterations):
 
 
 @njit(cache=True)
-def restrict(r, basis, n_shapes):
-    """Z^T r: the (S q,) coarse coefficients of a fine (N,) vector, shape by shape."""
-    m, q = basis.shape
-    out = np.zeros(n_shapes * q)
-    for i in range(n_shapes):
-        for p in range(m):
-            rp = r[i * m + p]
-            for c in range(q):
-                out[i * q + c] += basis[p, c] * rp
-    return out
+def shapewise(x, matrix, n_shapes):
+    """Every shape's slice of x (S rows,) times ``matrix`` (rows, cols): (S cols,).
 
-
-@njit(cache=True)
-def prolong(e, basis, n_shapes):
-    """Z e: the fine (N,) vector of (S q,) coarse coefficients."""
-    m, q = basis.shape
-    out = np.zeros(n_shapes * m)
+    With the coarse basis Z (m, q) of one shape, Z^T r = ``shapewise(r, Z, S)`` (restriction)
+    and Z e = ``shapewise(e, Z.T, S)`` (prolongation).
+    """
+    rows, cols = matrix.shape
+    out = np.zeros(n_shapes * cols)
     for i in range(n_shapes):
-        for p in range(m):
-            acc = 0.0
-            for c in range(q):
-                acc += basis[p, c] * e[i * q + c]
-            out[i * m + p] = acc
+        for p in range(rows):
+            xp = x[i * rows + p]
+            for c in range(cols):
+                out[i * cols + c] += matrix[p, c] * xp
     return out
 
 
@@ -492,7 +482,7 @@ class GridNewton:
         s, q = lay.n_shapes, lay.basis.shape[1]
         tiled = np.tile(lay.basis, (s, 1))
         hz = band_matmat(self.band, lay.half_band, tiled).T.copy()  # (q, N): H_ii Z per shape
-        blocks = np.stack([restrict(column, lay.basis, s).reshape(s, q) for column in hz],
+        blocks = np.stack([shapewise(column, lay.basis, s).reshape(s, q) for column in hz],
                           axis=-1) + shift * np.eye(q)  # (S, q, q); Z^T Z = I
         kc = 2 * q - 1
         band = np.zeros((s * q, 3 * kc + 1))
@@ -521,9 +511,11 @@ class GridNewton:
         if not (ok and ok_coarse):
             return None
 
+        prolongation = np.ascontiguousarray(lay.basis.T)
+
         def precondition(r):  # coarse, then the shapes' bands on the residual
-            x = prolong(band_lu_solve(coarse, kc, coarse_piv, restrict(r, lay.basis, s)),
-                        lay.basis, s)
+            e = band_lu_solve(coarse, kc, coarse_piv, shapewise(r, lay.basis, s))
+            x = shapewise(e, prolongation, s)
             return x + band_lu_solve(fine, lay.half_band, fine_piv, r - self.matvec(x, shift))
 
         step, residual, _ = gmres(lambda v: self.matvec(v, shift), precondition, rhs,
