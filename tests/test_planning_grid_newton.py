@@ -186,3 +186,34 @@ def test_a_usb_cable_in_millimetres_plans_the_same_with_both_solvers():
     target = arc(1000 * cable.length, 2.0, 12, origin=(150.0, 0.0, 40.0), heading=0.5)
     p_gmres, p_lu = _both(basic_path(start, target, 8), 1000 * cable.length)
     np.testing.assert_allclose(p_gmres, p_lu, rtol=0, atol=1e-9 * 1000)
+
+
+def test_the_hessian_from_the_compiled_bands_equals_the_numpy_reference_blocks():
+    # advanced_hessian takes the link and angle terms from the static core's compiled kernel;
+    # the numpy kernels of dloplan.physics are the reference (same formulas, other code)
+    from dloplan.physics.axial import axial_hessian_blocks
+    from dloplan.physics.bending import bending_derivatives
+    from dloplan.planning.geometric import C_BETA, C_DELTA
+
+    problem, inner, _ = _problem_at(seed=4)
+    n, s = problem.n_links, problem.n_shapes
+    w = problem.weights
+    values, a = hessian_values(problem, inner)
+    reference = np.zeros((s, n + 1, 3, s, n + 1, 3))
+    axial = w.delta * C_DELTA * n / s * axial_hessian_blocks(inner, 2.0, problem.start_links)
+    bend = 2 * w.beta * C_BETA * n / s * bending_derivatives(inner, 1.0, problem.basic_angles)[1]
+    clip = values[s * 9 * 3 * (n + 1):].reshape(s, 4, 3, 4, 3)
+    points = [0, 1, n - 1, n]
+    for i in range(s):
+        for j in range(n):
+            reference[i, j:j + 2, :, i, j:j + 2, :] += axial[i, j].reshape(2, 3, 2, 3)
+        for j in range(n - 1):
+            reference[i, j:j + 3, :, i, j:j + 3, :] += bend[i, j].reshape(3, 3, 3, 3)
+        for p, jp in enumerate(points):
+            for q, jq in enumerate(points):
+                reference[i, jp, :, i, jq, :] += clip[i, p, :, q, :]
+    size = s * (n + 1) * 3
+    transversal = np.diag(a[:-1] + a[1:]) - np.diag(a[1:-1], 1) - np.diag(a[1:-1], -1)
+    reference = reference.reshape(size, size) + np.kron(transversal, np.eye(3 * (n + 1)))
+    hess = advanced_hessian(problem, inner).toarray()
+    np.testing.assert_allclose(hess, reference, rtol=0, atol=1e-12 * np.abs(reference).max())

@@ -59,9 +59,9 @@ from scipy.optimize import minimize
 from scipy.sparse.linalg import splu
 
 from ..geometry import bending_angles, link_lengths
-from ..physics.axial import axial_energy, axial_gradient, axial_hessian_blocks
-from ..physics.bending import bending_derivatives, bending_energy, bending_gradient
-from .grid_newton import GridNewton, block_entries, grid_layout, plane_of
+from ..physics.axial import axial_energy, axial_gradient
+from ..physics.bending import bending_energy, bending_gradient
+from .grid_newton import GridNewton, grid_layout, hessian_entries, plane_of, shape_bands
 from .tuning import AdvancedWeights, BasicWeights
 
 REFERENCE_LINKS = 10
@@ -233,19 +233,20 @@ def hessian_values(problem: AdvancedProblem, inner: np.ndarray) -> tuple[np.ndar
     Returns
     -------
     tuple
-        The within-shape block entries, concatenated in the order of
-        :func:`dloplan.planning.grid_newton.block_entries` (axial (S, n, 6, 6), bending
-        (S, n - 1, 9, 9), clip (S, 12, 12)), and the (S + 1,) factors a_k of the transversal
-        term, whose Hessian is A (x) I with A tridiagonal: A_ii = a_i + a_{i+1},
-        A_i,i+1 = -a_{i+1}.
+        The within-shape entries, ``np.concatenate([bands.ravel(), clip.ravel()])`` (see
+        :func:`dloplan.planning.grid_newton.hessian_entries`): each shape's lower band of the
+        link-length and angle terms (S, 9, 3(n + 1)), by the static core's compiled kernel
+        (the same formulas as the numpy reference of :mod:`dloplan.physics`), and the clip
+        term's blocks (S, 12, 12); then the (S + 1,) factors a_k of the transversal term,
+        whose Hessian is A (x) I with A tridiagonal: A_ii = a_i + a_{i+1}, A_i,i+1 = -a_{i+1}.
     """
     n, s = problem.n_links, problem.n_shapes
     w = problem.weights
     a = 2.0 * C_TRANSVERSAL * (s + 1) / (n + 1) * problem.step_weights
-    c_d = w.delta * C_DELTA * n / s
-    d_blocks = c_d * axial_hessian_blocks(inner, 2.0, problem.start_links)
-    c_b = 2.0 * w.beta * C_BETA * n / s
-    b_blocks = c_b * bending_derivatives(inner, 1.0, problem.basic_angles)[1]
+    c_d = w.delta * C_DELTA * n / s  # times sum (l - l_o)^2: k_s = 2 c_d
+    c_b = 2.0 * w.beta * C_BETA * n / s  # times 1/2 sum (beta - beta_o)^2: k_b = c_b
+    bands = shape_bands(np.ascontiguousarray(inner), 2.0 * c_d, problem.start_links, c_b,
+                        problem.basic_angles)
     # clip: 1/|d|, d = (Y_{n-1} + Y_n - Y_0 - Y_1) / 2: d2/dd2 = 3 d d^T/|d|^5 - I/|d|^3
     chord = 0.5 * (inner[:, -1] + inner[:, -2] - inner[:, 0] - inner[:, 1])
     dist = np.linalg.norm(chord, axis=-1)[:, None, None]
@@ -253,26 +254,26 @@ def hessian_values(problem: AdvancedProblem, inner: np.ndarray) -> tuple[np.ndar
     h_d *= w.clip * C_CLIP / s
     signs = np.array([-0.5, -0.5, 0.5, 0.5])
     h_clip = np.einsum("p,q,sij->spiqj", signs, signs, h_d)
-    return np.concatenate([d_blocks.ravel(), b_blocks.ravel(), h_clip.ravel()]), a
+    return np.concatenate([bands.ravel(), h_clip.ravel()]), a
 
 
-def _sparse_hessian(entries: tuple[np.ndarray, np.ndarray], values: np.ndarray,
+def _sparse_hessian(entries: tuple[np.ndarray, np.ndarray, np.ndarray], values: np.ndarray,
                     transversal: np.ndarray, shape: tuple[int, ...]) -> sp.csr_matrix:
     """The Hessian over the flattened ``shape`` (S, n + 1, 3) from :func:`hessian_values` and
-    the entries' rows and columns."""
-    rows, cols = entries
+    :func:`dloplan.planning.grid_newton.hessian_entries`."""
+    rows, cols, pick = entries
     size = int(np.prod(shape))
     block = size // shape[0]
     diag = np.repeat(transversal[:-1] + transversal[1:], block)
     off = np.repeat(-transversal[1:-1], block)
-    within = sp.csr_matrix((values, (rows, cols)), shape=(size, size))
+    within = sp.csr_matrix((values[pick], (rows, cols)), shape=(size, size))
     return (sp.diags([diag, off, off], [0, block, -block], shape=(size, size)) + within).tocsr()
 
 
 def advanced_hessian(problem: AdvancedProblem, inner: np.ndarray) -> sp.csr_matrix:
     """The exact sparse Hessian of :func:`advanced_cost` over the flattened (S, n + 1, 3)."""
     values, transversal = hessian_values(problem, inner)
-    return _sparse_hessian(block_entries(problem.n_links, problem.n_shapes), values,
+    return _sparse_hessian(hessian_entries(problem.n_links, problem.n_shapes), values,
                            transversal, inner.shape)
 
 
@@ -344,8 +345,9 @@ def _damped_newton(problem: AdvancedProblem, y: np.ndarray, gtol: float, max_ite
     """
     shape = y.shape
     n, s = problem.n_links, problem.n_shapes
-    entries = block_entries(n, s)
-    on_diagonal = entries[0] == entries[1]
+    entries = hessian_entries(n, s)
+    diagonal_rows = entries[0][entries[0] == entries[1]]
+    diagonal_pick = entries[2][entries[0] == entries[1]]
     layout = grid_layout(n, s, coords) if linear_solver == "gmres" else None
     identity = sp.identity(y.size, format="csc")
     f, g = advanced_cost(problem, y)
@@ -357,7 +359,7 @@ def _damped_newton(problem: AdvancedProblem, y: np.ndarray, gtol: float, max_ite
         if iteration == max_iterations:
             break
         values, a = hessian_values(problem, y)
-        diagonal = np.bincount(entries[0][on_diagonal], weights=values[on_diagonal],
+        diagonal = np.bincount(diagonal_rows, weights=values[diagonal_pick],
                                minlength=y.size) + np.repeat(a[:-1] + a[1:], y.size // s)
         scale = float(np.mean(np.abs(diagonal)))
         system = None

@@ -37,6 +37,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from ..physics.compiled import chain_derivatives
+
 COARSE_DEGREE = 12
 """K: Chebyshev polynomials (degrees 0 .. K-1) per coordinate and shape in the coarse space."""
 KRYLOV_TOLERANCE = 1e-12
@@ -344,9 +346,9 @@ class GridLayout:
     half_band : int
         kl of the within-shape bands.
     slots : numpy.ndarray
-        Flat band position of each within-shape block entry kept (see :meth:`band`).
-    kept : numpy.ndarray
-        Boolean mask over the concatenated block entries (axial, bending, clip) of the kept ones.
+        Flat band position of each within-shape Hessian entry kept (see :meth:`band`).
+    pick : numpy.ndarray
+        For each, the index of its value (see :func:`hessian_entries`).
     basis : numpy.ndarray
         (d (n + 1), q) orthonormal coarse basis of one shape, in the folded point order.
     """
@@ -357,7 +359,7 @@ class GridLayout:
     index: np.ndarray
     half_band: int
     slots: np.ndarray
-    kept: np.ndarray
+    pick: np.ndarray
     basis: np.ndarray
 
     @property
@@ -381,40 +383,63 @@ class GridLayout:
     def band(self, values: np.ndarray, diagonal: np.ndarray) -> np.ndarray:
         """The (N, 3 kl + 1) band of the within-shape Hessian (layout of :func:`band_lu`).
 
-        ``values`` are the concatenated 3-D block entries (see :func:`block_entries`),
+        ``values``: the concatenated shape bands and clip blocks (see :func:`hessian_entries`),
         ``diagonal`` (S,) the transversal term's diagonal of each shape.
         """
         kl, size = self.half_band, self.size
-        band = np.bincount(self.slots, weights=values[self.kept],
+        band = np.bincount(self.slots, weights=values[self.pick],
                            minlength=(3 * kl + 1) * size).reshape(size, 3 * kl + 1)
         band[:, 2 * kl] += np.repeat(diagonal, size // self.n_shapes)
         return band
 
 
-def block_entries(n_links: int, n_shapes: int) -> tuple[np.ndarray, np.ndarray]:
-    """Full 3-D (shape, point, coordinate) rows and columns of the within-shape block entries.
+@njit(cache=True)
+def shape_bands(inner, k_s, rest_lengths, k_b, rest_angles):
+    """The lower Hessian bands (S, 9, 3(n + 1)) of every shape's axial and bending energy.
 
-    In the order of ``np.concatenate([axial.ravel(), bending.ravel(), clip.ravel()])`` for the
-    blocks (S, n, 6, 6) of the links (points j, j+1), (S, n-1, 9, 9) of the joints (j-1, j,
-    j+1) and (S, 12, 12) of the clip term (points 0, 1, n-1, n); indices into (S, n + 1, 3).
+    The compiled kernel of the static core (:func:`dloplan.physics.compiled.chain_derivatives`,
+    ``band[k, j] = H[j + k, j]``), shape by shape, weightless: ``k_s``, ``rest_lengths`` (n,),
+    ``k_b`` and ``rest_angles`` (S, n - 1) as for a spring chain.
     """
-    n_points = n_links + 1
+    n_shapes, n_points, _ = inner.shape
+    bands = np.empty((n_shapes, 9, 3 * n_points))
+    grad = np.empty((n_points, 3))
+    no_mass = np.zeros(n_points)
+    no_gravity = np.zeros(3)
+    for i in range(n_shapes):
+        chain_derivatives(inner[i], k_s, rest_lengths, k_b, rest_angles[i], no_mass,
+                          no_gravity, grad, bands[i])
+    return bands
 
-    def entries(first_points: np.ndarray, span: int) -> tuple[np.ndarray, np.ndarray]:
-        size = 3 * span
-        local = 3 * first_points[:, None] + np.arange(size)[None, :]  # (m, 3k)
-        coords = (3 * n_points * np.arange(n_shapes))[:, None, None] + local[None]
-        shape = coords.shape + (size,)
-        return (np.broadcast_to(coords[..., :, None], shape).ravel(),
-                np.broadcast_to(coords[..., None, :], shape).ravel())
 
-    ra, ca = entries(np.arange(n_links), 2)
-    rb, cb = entries(np.arange(n_links - 1), 3)
-    clip = (3 * np.array([0, 1, n_points - 2, n_points - 1])[:, None] + np.arange(3)).ravel()
-    coords = (3 * n_points * np.arange(n_shapes))[:, None] + clip[None]  # (S, 12)
-    rc = np.broadcast_to(coords[:, :, None], (n_shapes, 12, 12)).ravel()
-    cc = np.broadcast_to(coords[:, None, :], (n_shapes, 12, 12)).ravel()
-    return np.concatenate([ra, rb, rc]), np.concatenate([ca, cb, cc])
+def hessian_entries(n_links: int, n_shapes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where the within-shape Hessian entries are, over the flattened (S, n + 1, 3).
+
+    The values come from ``np.concatenate([bands.ravel(), clip.ravel()])`` with the shapes'
+    lower bands (S, 9, 3(n + 1)) of :func:`shape_bands` and the clip term's blocks (S, 12, 12)
+    over the points (0, 1, n-1, n).
+
+    Returns
+    -------
+    tuple
+        rows, cols and, for each, the index of its value in that concatenation (a band entry
+        below the diagonal appears twice, as (i, j) and (j, i)).
+    """
+    m = 3 * (n_links + 1)
+    i, k, j = np.meshgrid(np.arange(n_shapes), np.arange(9), np.arange(m), indexing="ij")
+    pick = np.arange(i.size).reshape(i.shape)
+    inside = j + k < m
+    low_r, low_c, low_p = (i * m + j + k)[inside], (i * m + j)[inside], pick[inside]
+    below = (k > 0)[inside]
+    clip_points = np.array([0, 1, n_links - 1, n_links])
+    local = (3 * clip_points[:, None] + np.arange(3)).ravel()
+    coords = (m * np.arange(n_shapes))[:, None] + local[None]  # (S, 12)
+    clip_r = np.broadcast_to(coords[:, :, None], (n_shapes, 12, 12)).ravel()
+    clip_c = np.broadcast_to(coords[:, None, :], (n_shapes, 12, 12)).ravel()
+    clip_p = i.size + np.arange(clip_r.size)
+    return (np.concatenate([low_r, low_c[below], clip_r]),
+            np.concatenate([low_c, low_r[below], clip_c]),
+            np.concatenate([low_p, low_p[below], clip_p]))
 
 
 def grid_layout(n_links: int, n_shapes: int, coords: tuple[int, ...] = (0, 1, 2)) -> GridLayout:
@@ -428,10 +453,10 @@ def grid_layout(n_links: int, n_shapes: int, coords: tuple[int, ...] = (0, 1, 2)
     index = -np.ones((n_shapes, n_points, 3), dtype=np.int64)
     for c_new, c in enumerate(coords):
         index[:, :, c] = (np.arange(n_shapes)[:, None] * m + position[None, :] * d + c_new)
-    rows, cols = block_entries(n_links, n_shapes)
+    rows, cols, pick = hessian_entries(n_links, n_shapes)
     r, c = index.ravel()[rows], index.ravel()[cols]
     kept = (r >= 0) & (c >= 0)
-    r, c = r[kept], c[kept]
+    r, c, pick = r[kept], c[kept], pick[kept]
     kl = int(np.max(np.abs(r - c)))
     slots = c * (3 * kl + 1) + 2 * kl + r - c
     degree = min(COARSE_DEGREE, n_points)
@@ -439,7 +464,7 @@ def grid_layout(n_links: int, n_shapes: int, coords: tuple[int, ...] = (0, 1, 2)
     cheb = np.polynomial.chebyshev.chebvander(t, degree - 1)  # (n + 1, K), folded rows
     basis = np.einsum("pk,cd->pckd", cheb, np.eye(d)).reshape(m, degree * d)
     basis = np.linalg.qr(basis)[0]
-    return GridLayout(n_shapes, n_points, tuple(coords), index, kl, slots, kept, basis)
+    return GridLayout(n_shapes, n_points, tuple(coords), index, kl, slots, pick, basis)
 
 
 @dataclass(eq=False)
