@@ -10,8 +10,9 @@ Today's numbers before the grid Newton solver (sparse LU of the advanced stage's
 system, COLAMD, on this 2-core machine): (50, 50) 4.4 s, (100, 100) 46 s for the whole plan,
 the advanced stage 4.0 s of the 4.4 s (13 Newton iterations, 25 sparse LU factorizations).
 Quiet-machine numbers from the issue (before the compiled static core): 1.7 s and 21 s.
-With the grid Newton solver (two-level GMRES, planning/grid_newton.py), load 4.4: (50, 50)
-0.60 s (advanced 0.43 s), 7.3x; (100, 100) 5.7 s (advanced 5.2 s), 8.1x; exponent 0.92.
+With the grid Newton solver (two-level GMRES, planning/grid_newton.py), load 2.5-4.4: (50, 50)
+0.60-0.80 s (advanced 0.43-0.57 s), 5.5-7.3x; (100, 100) 5.7-6.4 s (advanced 5.2-5.8 s),
+7.2-8.1x; exponent 0.92-0.93.
 """
 
 from __future__ import annotations
