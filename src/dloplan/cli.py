@@ -592,12 +592,16 @@ def run() -> None:  # pragma: no cover - the console script, exercised by subpro
 
     Tearing down numba, scipy and matplotlib (module by module, object by object) takes about a
     second after the work is done; every file is written and closed by then, so the output is
-    flushed and the process ends at once, after the ``atexit`` handlers.
+    flushed and the process ends at once, after the ``atexit`` handlers. Under a profiler or a
+    tracer (``python -m cProfile``, coverage) the interpreter ends as usual, so that they write
+    their results.
     """
     import atexit
     import os
 
     code = main()
+    if sys.getprofile() is not None or sys.gettrace() is not None:
+        sys.exit(code)
     atexit._run_exitfuncs()
     for stream in (sys.stdout, sys.stderr):
         try:
