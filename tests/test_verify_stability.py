@@ -90,12 +90,18 @@ def test_hanging_cable_between_level_clips_is_stable():
     assert "stable" in stab.message
 
 
-def test_sparse_and_dense_eigen_solves_agree():
+def skewed_ethernet() -> tuple[Cable, np.ndarray]:
+    """An Ethernet cable (n = 30) held with its clips facing, one lifted and moved sideways: its
+    equilibrium, a cable and shape with no symmetry."""
     cable = catalogue_cable("ethernet", 30)
     clips = ClipPoses(np.array([[0, 0, 0], [0.3, 0.05, 0.02]]), FACING)
     guess = np.zeros((31, 3))
     guess[:, 0] = np.linspace(-0.05, 0.45, 31)
-    x = equilibrium(cable, guess, clips).shape
+    return cable, equilibrium(cable, guess, clips).shape
+
+
+def test_sparse_and_dense_eigen_solves_agree():
+    cable, x = skewed_ethernet()
     sparse = elastic_stability(cable, x, k=4, method="sparse")
     dense = elastic_stability(cable, x, k=4, method="dense")
     np.testing.assert_allclose(sparse.eigenvalues, dense.eigenvalues, rtol=1e-8)
@@ -108,11 +114,7 @@ def test_the_band_solver_agrees_with_the_dense_one():
     # the continuation's solver (LAPACK's banded eigen-solver on the Hessian band): the same
     # eigenvalues to round-off (100 eps ||H||_inf, the floor of the stability threshold: H's
     # entries are axial stiffnesses, lambda_1 a bending one), modes, threshold and verdict
-    cable = catalogue_cable("ethernet", 30)
-    clips = ClipPoses(np.array([[0, 0, 0], [0.3, 0.05, 0.02]]), FACING)
-    guess = np.zeros((31, 3))
-    guess[:, 0] = np.linspace(-0.05, 0.45, 31)
-    x = equilibrium(cable, guess, clips).shape
+    cable, x = skewed_ethernet()
     band = elastic_stability(cable, x, k=3, method="band")
     dense = elastic_stability(cable, x, k=3, method="dense")
     floor = 100 * np.finfo(float).eps * abs(free_hessian(cable, x)).sum(axis=1).max()
