@@ -10,8 +10,14 @@ from scipy.spatial.transform import Rotation
 from dloplan.cable import Cable, catalogue_cable
 from dloplan.physics.chain import SpringChain, gradient, link_tensions
 from dloplan.sim.clips import ClipPoses
-from dloplan.sim.statics import equilibrium
-from dloplan.verify.stability import elastic_stability, path_stability, stiffness_scale
+from dloplan.sim.statics import equilibrium, free_hessian
+from dloplan.verify.stability import (
+    band_eigenpairs,
+    elastic_stability,
+    path_stability,
+    quickest_method,
+    stiffness_scale,
+)
 
 WEIGHTLESS = (0.0, 0.0, 0.0)
 FACING = Rotation.from_rotvec([[0, 0, 0], [0, 0, math.pi]])  # u-axes +x and -x: clamped, facing
@@ -84,18 +90,64 @@ def test_hanging_cable_between_level_clips_is_stable():
     assert "stable" in stab.message
 
 
-def test_sparse_and_dense_eigen_solves_agree():
+def skewed_ethernet() -> tuple[Cable, np.ndarray]:
+    """An Ethernet cable (n = 30) held with its clips facing, one lifted and moved sideways: its
+    equilibrium, a cable and shape with no symmetry."""
     cable = catalogue_cable("ethernet", 30)
     clips = ClipPoses(np.array([[0, 0, 0], [0.3, 0.05, 0.02]]), FACING)
     guess = np.zeros((31, 3))
     guess[:, 0] = np.linspace(-0.05, 0.45, 31)
-    x = equilibrium(cable, guess, clips).shape
+    return cable, equilibrium(cable, guess, clips).shape
+
+
+def test_sparse_and_dense_eigen_solves_agree():
+    cable, x = skewed_ethernet()
     sparse = elastic_stability(cable, x, k=4, method="sparse")
     dense = elastic_stability(cable, x, k=4, method="dense")
     np.testing.assert_allclose(sparse.eigenvalues, dense.eigenvalues, rtol=1e-8)
     for a, b in zip(sparse.modes, dense.modes, strict=True):
         assert abs(abs(np.sum(a * b)) - 1) < 1e-6  # the same unit modes up to sign
     assert np.all(sparse.modes[:, [0, 1, -2, -1]] == 0)  # held points do not move
+
+
+def test_the_band_solver_agrees_with_the_dense_one():
+    # the continuation's solver (LAPACK's banded eigen-solver on the Hessian band): the same
+    # eigenvalues to round-off (100 eps ||H||_inf, the floor of the stability threshold: H's
+    # entries are axial stiffnesses, lambda_1 a bending one), modes, threshold and verdict
+    cable, x = skewed_ethernet()
+    band = elastic_stability(cable, x, k=3, method="band")
+    dense = elastic_stability(cable, x, k=3, method="dense")
+    floor = 100 * np.finfo(float).eps * abs(free_hessian(cable, x)).sum(axis=1).max()
+    np.testing.assert_allclose(band.eigenvalues, dense.eigenvalues, rtol=0, atol=floor)
+    for a, b in zip(band.modes, dense.modes, strict=True):
+        assert abs(abs(np.sum(a * b)) - 1) < 1e-8
+    assert band.threshold == pytest.approx(dense.threshold, rel=1e-12)
+    assert (band.stable, band.residual) == (dense.stable, dense.residual)
+    # and a saddle (negative lambda_1) is one for both
+    column = Cable(length=0.5, diameter=0.003, mass=0.01, youngs_modulus=2.5e6, n_links=12)
+    x = straight_between(column, 0.9 * 11 * column.rest_link_length)
+    saddle = [elastic_stability(column, x, gravity=WEIGHTLESS, method=m) for m in ("band", "dense")]
+    assert not saddle[0].stable and not saddle[1].stable
+    floor = 100 * np.finfo(float).eps * abs(free_hessian(column, x)).sum(axis=1).max()
+    np.testing.assert_allclose(saddle[0].eigenvalues, saddle[1].eigenvalues, rtol=0, atol=floor)
+
+
+def test_band_eigenpairs_of_random_banded_matrices(rng):
+    # against numpy's dense eigh of the full symmetric matrix; the band's unused corner entries
+    # (j + i >= N) hold garbage that must be ignored by both the solver and the norm
+    for n_dof, width in ((7, 3), (30, 8), (45, 8)):
+        band = rng.normal(size=(width + 1, n_dof))
+        full = np.zeros((n_dof, n_dof))
+        for i in range(width + 1):
+            full += np.diag(band[i, : n_dof - i], -i) + (np.diag(band[i, : n_dof - i], i)
+                                                         if i else 0)
+        values, vectors, norm = band_eigenpairs(band, k=3)
+        expected = np.linalg.eigh(full)
+        np.testing.assert_allclose(values, expected[0][:3], rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(np.abs(vectors.T @ expected[1][:, :3]), np.eye(3),
+                                   atol=1e-8)
+        assert norm == pytest.approx(np.abs(full).sum(axis=1).max(), rel=1e-13)
+    assert quickest_method(12) == "band" and quickest_method(200) == "auto"
 
 
 def test_a_saddle_is_not_stable_and_a_non_equilibrium_is_named():

@@ -18,6 +18,9 @@ from . import __version__
 from .cable import CATALOGUE_NAMES, catalogue_cable
 from .exit_codes import EXIT_CHECK_FAILED, EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, EXIT_WARNINGS
 
+FIGURE_WORKERS = 1
+"""Processes drawing a plan's figures while it is verified (:mod:`dloplan.app.figure_workers`)."""
+
 
 class Console:
     """Human-readable progress on stderr (silenced by -q); results on stdout."""
@@ -297,7 +300,8 @@ def _plan_one(job, output: Path, args, console: Console) -> int:
     from .app.files import exit_code, plan_into
 
     doc, written = plan_into(job, output, verify=args.verify, check_robot=not args.no_verify,
-                             repair=not args.no_repair, progress=console.stage)
+                             repair=not args.no_repair, progress=console.stage,
+                             figure_workers=FIGURE_WORKERS)
     _print_plan(doc, written, args)
     return exit_code(doc)
 
@@ -582,5 +586,30 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_FAILURE
 
 
+def run() -> None:  # pragma: no cover - the console script, exercised by subprocess tests
+    """The ``dloplan`` console script: :func:`main`, then exit without the interpreter's
+    teardown.
+
+    Tearing down numba, scipy and matplotlib (module by module, object by object) takes about a
+    second after the work is done; every file is written and closed by then, so the output is
+    flushed and the process ends at once, after the ``atexit`` handlers. Under a profiler or a
+    tracer (``python -m cProfile``, coverage) the interpreter ends as usual, so that they write
+    their results.
+    """
+    import atexit
+    import os
+
+    code = main()
+    if sys.getprofile() is not None or sys.gettrace() is not None:
+        sys.exit(code)
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe (dloplan ... | head): nothing to flush to
+            pass
+    os._exit(code)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    run()

@@ -23,6 +23,7 @@ from ..io.files import staged_folder
 from ..io.scenario import PROGRAM_NAMES
 from ..robot.cell_program import program_formats
 from .document import PlanDocument, read_plan
+from .figure_workers import figure_workers as workers_for
 from .job import Job
 from .load import file_kind, load_job
 from .pipeline import quiet, run_harness_job, run_job
@@ -43,7 +44,7 @@ def exit_code(doc: PlanDocument) -> int:
 
 
 def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
-              repair: bool = True, progress=quiet, budget=None):
+              repair: bool = True, progress=quiet, budget=None, figure_workers: int = 0):
     """Plan a resolved job and write its outputs into ``folder``: ``(document, written paths)``.
 
     The folder is written whole or not at all (:func:`dloplan.io.files.staged_folder`): a run
@@ -52,21 +53,28 @@ def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
     and report, but no robot program or trajectory file. With ``repair`` a plan that fails a
     check is repaired first (:func:`dloplan.repair.plan_and_repair`: every check with
     ``verify``, else the robot program's; ``budget`` a :class:`dloplan.repair.Budget`).
+    With ``figure_workers`` > 0 the figures are drawn on that many worker processes
+    (:mod:`dloplan.app.figure_workers`), from the moment the plan is made, while it is
+    verified; the files written are the same.
     """
     folder = Path(folder)
-    with staged_folder(folder) as staging:
+    formats = job.outputs if isinstance(job, Job) else HARNESS_OUTPUTS
+    drawn = "figures" in formats or "report" in formats
+    with staged_folder(folder) as staging, \
+            workers_for(staging, figure_workers if drawn else 0) as drawer:
         if isinstance(job, Job) and check_robot and repair:
             from ..repair import plan_and_repair
 
-            doc, repairs = plan_and_repair(job, progress, budget, physics=verify)
+            doc, repairs = plan_and_repair(job, progress, budget, physics=verify,
+                                           planned=None if drawer is None else drawer.draft)
             doc = replace(doc, repairs=tuple(r.to_dict() for r in repairs))
-            formats, options = job.outputs, WriteOptions(rate=job.motion.rate)
+            options = WriteOptions(rate=job.motion.rate, figure_workers=drawer)
         elif isinstance(job, Job):
             doc = run_job(job, verify=verify, check_robot=check_robot, progress=progress)
-            formats, options = job.outputs, WriteOptions(rate=job.motion.rate)
+            options = WriteOptions(rate=job.motion.rate, figure_workers=drawer)
         else:
             doc = run_harness_job(job, check_robot=check_robot, progress=progress)
-            formats, options = HARNESS_OUTPUTS, WriteOptions()
+            options = WriteOptions(figure_workers=drawer)
         if not doc.ok:
             formats = tuple(f for f in formats if f not in ROBOT_OUTPUTS)
             progress("a check failed: writing the plan and its report, no robot program")

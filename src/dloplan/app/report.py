@@ -38,47 +38,53 @@ def figure_names(doc: PlanDocument) -> list[str]:
     return names
 
 
-def write_figures(doc: PlanDocument, folder) -> list[Path]:
-    """The plan's figures as PNG and SVG: path with frames, stabilized, forces, lengths."""
+def figure_drawings(doc: PlanDocument) -> list:
+    """The plan's figures still to draw (:class:`dloplan.plots.figures.Drawing`, named by
+    :func:`figure_names`): path with frames, stabilized, forces, lengths, motion profile."""
     from ..plots.figures import (
+        Drawing,
         forces_figure,
         lengths_figure,
+        motion_profile_figure,
         path_figure,
-        save_figure,
         stabilized_figure,
     )
 
     positions = None if doc.grippers is None else doc.grippers.positions
     matrices = None if doc.grippers is None else doc.grippers.matrices
-    figures = [path_figure(doc.shapes, positions, matrices, doc.obstacles)]
+    figures = [(path_figure, (doc.shapes, positions, matrices, doc.obstacles), {})]
     if doc.stabilized is not None:
         colliding = [] if doc.avoidance is None else doc.avoidance.colliding_after
-        figures.append(stabilized_figure(doc.shapes, doc.stabilized, doc.obstacles, colliding))
+        figures.append((stabilized_figure, (doc.shapes, doc.stabilized, doc.obstacles,
+                                            colliding), {}))
     for phase, stats in doc.forces.items():
         title = "Forces per mass point" + ("" if phase == "physical" else f", {phase}")
-        figures.append(forces_figure(stats.axial_mean, stats.axial_variance, stats.bending_mean,
-                                     stats.bending_variance, title))
+        figures.append((forces_figure, (stats.axial_mean, stats.axial_variance,
+                                        stats.bending_mean, stats.bending_variance, title), {}))
     if doc.stages is not None:
         lengths = dict(zip(("basic", "advanced", "physical"), doc.stages.lengths, strict=True))
-        figures.append(lengths_figure(lengths, doc.cable.length))
+        figures.append((lengths_figure, (lengths, doc.cable.length), {}))
     if doc.trajectory is not None:
-        figures.append(motion_figure(doc.trajectory))
-    written: list[Path] = []
-    for figure, name in zip(figures, figure_names(doc), strict=True):
-        written += save_figure(figure, folder, name)
-    return written
+        figures.append((motion_profile_figure, motion_arguments(doc.trajectory), {}))
+    return [Drawing(name, draw, arguments, options) for name, (draw, arguments, options)
+            in zip(figure_names(doc), figures, strict=True)]
 
 
-def motion_figure(trajectory):
-    """TCP speed and acceleration of both arms against time, with the limits (1 ms samples)."""
-    from ..plots.figures import motion_profile_figure
+def write_figures(doc: PlanDocument, folder) -> list[Path]:
+    """The plan's figures as PNG and SVG, drawn here: path with frames, stabilized, forces,
+    lengths, motion profile."""
+    return [path for drawing in figure_drawings(doc) for path in drawing.save(folder)]
 
+
+def motion_arguments(trajectory) -> tuple:
+    """The arguments of :func:`dloplan.plots.figures.motion_profile_figure`: TCP speed and
+    acceleration of both arms against time, with the limits (1 ms samples)."""
     times = np.linspace(0.0, trajectory.duration, max(2, int(trajectory.duration * 1000) + 1))
     k = trajectory.kinematics(times)
     limits = trajectory.law.limits if trajectory.law is not None else None
-    return motion_profile_figure(times, k.speed, k.acceleration, trajectory.times,
-                                 limits.speed if limits else trajectory.max_speed,
-                                 limits.acceleration if limits else None)
+    return (times, k.speed, k.acceleration, trajectory.times,
+            limits.speed if limits else trajectory.max_speed,
+            limits.acceleration if limits else None)
 
 
 def summary_lines(doc: PlanDocument) -> list[str]:

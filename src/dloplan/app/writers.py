@@ -31,9 +31,12 @@ from .report import write_figures, write_plan_report
 
 @dataclass(frozen=True)
 class WriteOptions:
-    """Settings of the writers: sampling rate [Hz] of csv and ros (None: ros writes the knots)."""
+    """Settings of the writers: sampling rate [Hz] of csv and ros (None: ros writes the knots);
+    ``figure_workers`` the :class:`dloplan.app.figure_workers.FigureWorkers` that draw the
+    figures (None: drawn by the writer itself)."""
 
     rate: float | None = DEFAULT_CSV_RATE
+    figure_workers: object | None = None
 
 
 def _needs_trajectory(doc: PlanDocument, name: str) -> None:
@@ -131,7 +134,10 @@ def write_urscript_files(doc: PlanDocument, target: Path, options: WriteOptions)
 
 
 def write_figure_files(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
-    """PNG and SVG of every figure, in the folder ``target``."""
+    """PNG and SVG of every figure, in the folder ``target`` (drawn on the options' figure
+    workers when given)."""
+    if options.figure_workers is not None:
+        return options.figure_workers.render(doc, target)
     return write_figures(doc, target)
 
 

@@ -1,13 +1,17 @@
 """Matplotlib figures of a plan (thesis Figs. 4.21/4.25, 5.13/5.17, 6.8, 7.10, Table 4.2).
 
 Each function takes plain arrays and returns a ``matplotlib.figure.Figure``; :func:`save_figure`
-writes it as PNG and SVG. matplotlib is imported here only (with the non-interactive Agg
-backend), so ``import dloplan`` stays light.
+writes it as PNG and SVG, a :class:`Drawing` is one such figure still to draw (what
+:mod:`dloplan.app.figure_workers` sends to its worker processes). Many lines of one style are
+one collection, not one artist each (drawing time grows with the number of artists).
+matplotlib is imported here only (with the non-interactive Agg backend), so ``import dloplan``
+stays light.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -44,6 +48,22 @@ def save_figure(figure, folder: str | Path, name: str) -> list[Path]:
         paths.append(path)
     pyplot().close(figure)
     return paths
+
+
+@dataclass(frozen=True)
+class Drawing:
+    """One figure to draw and save: its file stem, a figure function of this module and its
+    arguments (plain arrays and obstacles: picklable, so it can be drawn on another process).
+    """
+
+    name: str
+    draw: Callable
+    arguments: tuple = ()
+    options: dict = field(default_factory=dict)
+
+    def save(self, folder: str | Path) -> list[Path]:
+        """Draw the figure and write ``name.png`` and ``name.svg`` into ``folder``."""
+        return save_figure(self.draw(*self.arguments, **self.options), folder, self.name)
 
 
 def _box_edges(box: Box) -> list[np.ndarray]:
@@ -99,6 +119,19 @@ def _side_axis(points: np.ndarray) -> int:
     return int(np.ptp(points[:, 1]) > np.ptp(points[:, 0]))
 
 
+def _lines(ax, segments, colours, width: float) -> None:
+    """Polylines (each (m, 2) or (m, 3) [m]) as one collection on a 2D or 3D axes."""
+    if ax.name == "3d":
+        from mpl_toolkits.mplot3d.art3d import Line3DCollection
+
+        ax.add_collection3d(Line3DCollection(list(segments), colors=colours, linewidths=width))
+    else:
+        from matplotlib.collections import LineCollection
+
+        ax.add_collection(LineCollection(list(segments), colors=colours, linewidths=width))
+        ax.autoscale_view()
+
+
 def path_figure(
     shapes: np.ndarray,
     clip_positions: np.ndarray | None = None,
@@ -116,27 +149,33 @@ def path_figure(
     side = fig.add_subplot(1, 3, 3)
     horizontal = _side_axis(points)
     colours = plt.cm.viridis(np.linspace(0, 1, len(shapes)))
-    span = float(np.ptp(points, axis=0).max()) or 1.0
-    triad = 0.08 * span
-    for k, (shape, colour) in enumerate(zip(shapes, colours, strict=True)):
-        label = "start" if k == 0 else "target" if k == len(shapes) - 1 else None
-        width = 2.5 if label else 1.2
-        ax3.plot(*shape.T, color=colour, lw=width, label=label)
-        top.plot(shape[:, 0], shape[:, 1], color=colour, lw=width, marker=".", ms=3,
-                 label=label)
-        side.plot(shape[:, horizontal], shape[:, 2], color=colour, lw=width, marker=".", ms=3,
-                  label=label)
-        if clip_positions is not None and clip_rotations is not None:
-            for c in range(2):
-                p, r = clip_positions[k, c], clip_rotations[k, c]
-                for axis in range(3):
-                    tip = p + triad * r[:, axis]
-                    ax3.plot(*np.stack([p, tip]).T, color=AXIS_COLOURS[axis], lw=1.2)
-                    top.plot([p[0], tip[0]], [p[1], tip[1]], color=AXIS_COLOURS[axis], lw=1)
-    for edge in _obstacle_edges(obstacles):
-        ax3.plot(*edge.T, color="#8d6e63", lw=1)
-        top.plot(edge[:, 0], edge[:, 1], color="#8d6e63", lw=1)
-        side.plot(edge[:, horizontal], edge[:, 2], color="#8d6e63", lw=1)
+    views = ((ax3, [0, 1, 2]), (top, [0, 1]), (side, [horizontal, 2]))
+    # one collection per colour group instead of one artist per line: the same drawing, drawn
+    # (and laid out) in a fraction of the time
+    ends = {0: "start", len(shapes) - 1: "target"}
+    middle = [k for k in range(len(shapes)) if k not in ends]
+    for ax, columns in views:
+        marker = {} if ax is ax3 else {"marker": ".", "ms": 3}
+        for k, label in ends.items():
+            ax.plot(*shapes[k][:, columns].T, color=colours[k], lw=2.5, label=label, **marker)
+        if middle:
+            _lines(ax, [shapes[k][:, columns] for k in middle], colours[middle], 1.2)
+            if marker:
+                dots = shapes[middle][:, :, columns].reshape(-1, 2)
+                ax.scatter(*dots.T, s=9, marker=".", linewidths=1.0,
+                           c=np.repeat(colours[middle], shapes.shape[1], axis=0))
+    if clip_positions is not None and clip_rotations is not None:
+        span = float(np.ptp(points, axis=0).max()) or 1.0
+        bases = np.asarray(clip_positions).reshape(-1, 3)
+        for axis, colour in enumerate(AXIS_COLOURS):
+            tips = bases + 0.08 * span * np.asarray(clip_rotations)[..., axis].reshape(-1, 3)
+            segments = np.stack([bases, tips], axis=1)
+            _lines(ax3, segments, colour, 1.2)
+            _lines(top, segments[:, :, :2], colour, 1.0)
+    edges = _obstacle_edges(obstacles)
+    if edges:
+        for ax, columns in views:
+            _lines(ax, [edge[:, columns] for edge in edges], "#8d6e63", 1.0)
     ax3.set_xlabel("x [m]")
     ax3.set_ylabel("y [m]")
     ax3.set_zlabel("z [m]")
@@ -187,6 +226,20 @@ def stabilized_figure(shapes, stabilized, obstacles: Sequence = (), colliding=()
     return fig
 
 
+def _bars(ax, positions, values, colour: str, width: float = 0.8) -> None:
+    """A bar chart as one collection of rectangles (``ax.bar`` makes one patch per bar)."""
+    from matplotlib.collections import PolyCollection
+
+    x, h = np.asarray(positions, dtype=float), np.asarray(values, dtype=float)
+    left, right, base = x - width / 2, x + width / 2, np.zeros_like(h)
+    corners = np.stack([np.stack([left, base], 1), np.stack([left, h], 1),
+                        np.stack([right, h], 1), np.stack([right, base], 1)], axis=1)
+    bars = PolyCollection(corners, facecolors=colour, edgecolors="none")
+    bars.sticky_edges.y.append(0.0)  # as ax.bar: no margin below the bars' base
+    ax.add_collection(bars)
+    ax.autoscale_view()
+
+
 def forces_figure(axial_mean, axial_variance, bending_mean, bending_variance,
                   title: str = "Forces per mass point across the path"):
     """Mean and variance of the axial and bending force magnitudes per point (Figs. 4.21, 7.29)."""
@@ -197,7 +250,7 @@ def forces_figure(axial_mean, axial_variance, bending_mean, bending_variance,
               (axial_variance, "axial variance [N$^2$]"),
               (bending_variance, "bending variance [N$^2$]"))
     for ax, (values, label) in zip(axes.ravel(), panels, strict=True):
-        ax.bar(points, values, color="#1565c0")
+        _bars(ax, points, values, "#1565c0")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     for ax in axes[1]:

@@ -590,7 +590,8 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
                         before, session.attempts, time.perf_counter() - session.start)
 
 
-def plan_and_repair(job, progress=quiet, budget: Budget | None = None, physics: bool = True):
+def plan_and_repair(job, progress=quiet, budget: Budget | None = None, physics: bool = True,
+                    planned=None):
     """``dloplan plan`` with repair: plan, verify, repair what fails.
 
     Calls the pipeline's stages (:func:`dloplan.app.pipeline.run_job`,
@@ -601,9 +602,13 @@ def plan_and_repair(job, progress=quiet, budget: Budget | None = None, physics: 
     With ``physics`` (``--verify``) every check runs: stability, snap-through, replay and the
     robot program. Without, only the robot program's checks (they always run): a plan whose
     program passes is returned as planned, without a verification section; one whose program
-    fails is repaired for its reach (placement, grasp) and verified for it.
+    fails is repaired for its reach (placement, grasp) and verified for it. ``planned``, when
+    given, is called with the planned document before it is verified (the command line starts
+    drawing its figures then).
     """
     doc = run_job(job, progress=progress)
+    if planned is not None:
+        planned(doc)
     t0 = time.perf_counter()
     if not physics and (doc.program is None or doc.program.ok):
         return doc, ()

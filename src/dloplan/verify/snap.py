@@ -63,7 +63,7 @@ from ..physics.chain import SpringChain
 from ..sim.clips import ClipPoses
 from ..sim.statics import equilibrium, interpolate_clips
 from ._inputs import as_clip_sequence, max_distance
-from .stability import STABILITY_RTOL, elastic_stability
+from .stability import STABILITY_RTOL, elastic_stability, quickest_method
 
 CRITICAL = 0.1
 """A candidate is a critical point when the smallest eigenvalue found in its window is below this
@@ -204,7 +204,8 @@ class _Segment:
 
     def solve(self, guess: np.ndarray, t: float):
         eq = equilibrium(self.cable, guess, self.clips(t), gravity=self.gravity, chain=self.chain)
-        stab = elastic_stability(self.cable, eq.shape, gravity=self.gravity, k=1, rtol=self.rtol)
+        stab = elastic_stability(self.cable, eq.shape, gravity=self.gravity, k=1, rtol=self.rtol,
+                                 method=quickest_method(self.cable.n_points))
         return eq, stab
 
     def ratio(self, x0, t0, x1, t1) -> float:
@@ -294,7 +295,8 @@ def _continue_segment(seg: _Segment, s, start, end, m, jump_ratio, refinements, 
     seg.prepare(fractions)
     shapes = [start]
     eigenvalues = [elastic_stability(seg.cable, start, gravity=seg.gravity, k=1,
-                                     rtol=seg.rtol).smallest]
+                                     rtol=seg.rtol,
+                                     method=quickest_method(seg.cable.n_points)).smallest]
     ratios, events = [], []
     x = start
     for j in range(1, m + 1):

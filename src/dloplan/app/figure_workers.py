@@ -1,0 +1,142 @@
+"""A plan's figures drawn on worker processes while the run goes on.
+
+matplotlib is the slowest part of writing a plan (five figures, PNG and SVG, about 3 s of CPU;
+its import alone about 0.7 s). :class:`FigureWorkers` takes that off the run's critical path:
+
+- the workers start with the run (forked where the platform can fork) and import matplotlib and
+  lay out a first figure while the plan is being made;
+- :meth:`FigureWorkers.draft` draws a plan's figures as soon as it is planned, while it is
+  verified (``plan_and_repair``'s ``planned`` hook);
+- :meth:`FigureWorkers.render` is the ``figures`` writer: the final document's figures are the
+  drafts whose inputs (every array, compared exactly) it still has; the others (a repaired plan)
+  are drawn then. The files are the same as :func:`dloplan.app.report.write_figures` writes.
+
+Everything is drawn into the run's staging folder (:func:`dloplan.io.files.staged_folder`), so
+an error or Ctrl-C leaves nothing half-written: the workers ignore SIGINT, and closing the
+workers cancels what has not started and waits for what has, before the staging folder goes.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import multiprocessing
+import pickle
+import shutil
+import signal
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
+from pathlib import Path
+
+from .document import PlanDocument
+from .report import figure_drawings
+
+DRAFTS = ".figures"
+"""The folder (inside the staging folder) the workers draw into; removed when done."""
+
+
+def _start_worker() -> None:
+    """A worker's start: Ctrl-C is the parent's to handle; matplotlib (with its 3D axes) is
+    imported now, while the plan is still being made."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    from ..plots.figures import pyplot
+
+    pyplot()
+    import mpl_toolkits.mplot3d  # noqa: F401 - the path figure's 3D axes
+
+
+def _draw(drawing, folder: Path) -> list[Path]:
+    return drawing.save(folder)
+
+
+def _key(drawing) -> str:
+    """The identity of a figure: its name, function and every input, byte for byte."""
+    return hashlib.blake2b(pickle.dumps(drawing), digest_size=16).hexdigest()
+
+
+class FigureWorkers:
+    """Worker processes drawing the figures of the plans of one run into ``staging``.
+
+    Parameters
+    ----------
+    staging : pathlib.Path
+        The run's staging folder; drafts are drawn into ``staging/.figures/`` and moved into the
+        ``figures/`` folder by :meth:`render`.
+    workers : int
+        Number of processes (2: the five figures of a plan take about as long as its
+        verification on one core).
+    """
+
+    def __init__(self, staging: Path, workers: int = 2) -> None:
+        if workers < 1:
+            raise ValueError(f"workers: expected at least 1 process, got {workers}")
+        methods = multiprocessing.get_all_start_methods()
+        context = multiprocessing.get_context("fork" if "fork" in methods else None)
+        self._pool = ProcessPoolExecutor(workers, mp_context=context,
+                                         initializer=_start_worker)
+        self._scratch = Path(staging) / DRAFTS
+        self._drafts: dict[str, Future] = {}
+        for _ in range(workers):  # start them now: they warm up while the plan is made
+            self._pool.submit(int)
+
+    def _submit(self, drawing) -> Future:
+        key = _key(drawing)
+        if key not in self._drafts:
+            self._drafts[key] = self._pool.submit(_draw, drawing, self._scratch / key)
+        return self._drafts[key]
+
+    def draft(self, doc: PlanDocument) -> None:
+        """Start drawing the figures of ``doc`` (a planned, not yet verified document)."""
+        for drawing in figure_drawings(doc):
+            self._submit(drawing)
+
+    def render(self, doc: PlanDocument, folder: Path) -> list[Path]:
+        """The ``figures`` writer: PNG and SVG of every figure of ``doc`` in ``folder``, drafts
+        reused where their inputs are unchanged; the paths in the order of
+        :func:`dloplan.app.report.write_figures`."""
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        drawings = figure_drawings(doc)
+        try:
+            drawn = [(drawing, self._submit(drawing).result()) for drawing in drawings]
+        except BrokenProcessPool:  # a worker died (killed, out of memory): draw them here
+            drawn = [(drawing, drawing.save(self._scratch / _key(drawing)))
+                     for drawing in drawings]
+        written = []
+        for _, paths in drawn:
+            for path in paths:
+                written.append(path.replace(folder / path.name))
+        self._finish()
+        return written
+
+    def _finish(self) -> None:
+        """Cancel the drafts nobody wants, wait for those already drawing, drop the drafts."""
+        for future in self._drafts.values():
+            future.cancel()
+        for future in self._drafts.values():
+            if not future.cancelled():
+                future.exception()  # waits; a stale draft's error is of no interest
+        self._drafts.clear()
+        shutil.rmtree(self._scratch, ignore_errors=True)
+
+    def close(self) -> None:
+        """Stop the workers: what has not started is cancelled, what has is waited for."""
+        try:
+            self._finish()
+        finally:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+
+
+@contextmanager
+def figure_workers(staging: Path, workers: int):
+    """:class:`FigureWorkers` for one run, closed at its end; ``None`` (figures drawn by the
+    writer itself) for ``workers == 0`` or inside a daemonic process (a batch run's worker,
+    which may not start processes of its own)."""
+    if workers == 0 or multiprocessing.current_process().daemon:
+        yield None
+        return
+    pool = FigureWorkers(staging, workers)
+    try:
+        yield pool
+    finally:
+        pool.close()
