@@ -61,16 +61,18 @@ from ..app.pipeline import quiet, run_job, verify_plan, with_verification
 from ..sim.statics import interpolate_clips
 from ..verify import check_snap_through
 from .failures import KINDS, diagnose, frame_steps, score, summary, twist_failures
-from .frames import grasp_rolled, untwisted
+from .frames import SHARES, grasp_rolled, untwisted
 from .placement import (
     SEARCHES,
     YAWS,
     TableMove,
     moved_document,
     moved_job,
+    obstacle_collisions,
     placements,
+    targets_reached,
 )
-from .rebuild import slowed, timed_with_robot, with_grippers, with_motion, with_path
+from .rebuild import slowed, timed_with_robot, with_grippers, with_motion, with_path, with_robot
 from .routes import MAX_TURN, equilibria_along, follow_branch, route_segment, routes
 
 GRIPPER_METHODS = ("rigid", "minimal", "auxiliary")
@@ -232,6 +234,7 @@ class _Session:
         self.start = time.perf_counter()
         self.attempts = 0
         self.repairs: list[Repair] = []
+        self.untwisted: list = []  # (job, document) of every frame set the twist repair passed
 
     # -- budget and records -----------------------------------------------------------------
     def spent(self) -> bool:
@@ -321,47 +324,60 @@ class _Session:
         job, doc = self.state.job, self.state.doc
         since = time.perf_counter()
         tried = []
+        passing = []  # (job, document, change) of every frame set that does not twist
         for method in GRIPPER_METHODS:
             if method == doc.grippers.method or not self.attempt():
                 continue
             other = replace(job, grippers=replace(job.grippers, method=method))
             try:
-                new = with_motion(other, doc)
+                new = with_motion(other, doc, program=False)
             except ValueError as exc:  # e.g. the auxiliary vector along a u-axis
                 tried.append(f"{method}: {exc}")
                 continue
             left = twist_failures(new)
             tried.append(f"{method}: {summary(left)}")
             if not left:
-                self.keep("twist", failures, f"gripper frames by the {method} method "
-                          f"(was {doc.grippers.method})", new.grippers.message,
-                          _State(other, new, self.state.move), since)
-                return
+                passing.append((other, new, f"gripper frames by the {method} method "
+                                f"(was {doc.grippers.method})"))
         for method in dict.fromkeys((doc.grippers.method, "rigid")):
-            if not self.attempt():
-                break
             other = replace(job, grippers=replace(job.grippers, method=method))
-            base = with_motion(other, doc).grippers
-            grippers, twist = untwisted(job.cable, doc.shapes, base)
-            new = with_grippers(other, doc, grippers)
-            left = twist_failures(new)
-            tried.append(f"{method}, last clip rolled: {summary(left)}")
-            if not left:
-                self.keep("twist", failures, f"gripper frames by the {method} method, the "
-                          "last clip rolled about its u-axis against the twist (largest "
-                          f"{np.degrees(np.abs(twist).max()):.1f} deg)", new.twist.message,
-                          _State(other, new, self.state.move), since)
-                return
-        if self.attempt():
+            base = with_motion(other, doc, program=False).grippers
+            for share in SHARES:
+                if not self.attempt():
+                    break
+                grippers, twist = untwisted(job.cable, doc.shapes, base, share=share)
+                new = with_grippers(other, doc, grippers, program=False)
+                left = twist_failures(new)
+                which = grippers.message.split("; ")[-1].split(" rolled")[0]
+                tried.append(f"{method}, {which} rolled: {summary(left)}")
+                if not left:
+                    passing.append((other, new, f"gripper frames by the {method} method, the "
+                                    f"{which} rolled about the u-axis against the twist "
+                                    f"(largest {np.degrees(np.abs(twist).max()):.1f} deg)"))
+        if not passing and self.attempt():
             new = self.intermediate_rotations(job, doc)
             left = twist_failures(new)
             tried.append(f"intermediate rotations: {summary(left)}")
             if not left:
-                self.keep("twist", failures, f"{new.n_shapes - doc.n_shapes} intermediate "
-                          "rotation(s) inserted", new.grippers.message,
-                          _State(job, new, self.state.move), since)
-                return
-        raise Refused(f"{failures[0].message}; tried: " + " | ".join(tried))
+                passing.append((job, new, f"{new.n_shapes - doc.n_shapes} intermediate "
+                                "rotation(s) inserted"))
+        if not passing:
+            raise Refused(f"{failures[0].message}; tried: " + " | ".join(tried))
+        other, new, change = self.reachable_first(passing)
+        self.untwisted = [(j, d) for j, d, _ in passing]
+        if doc.robot is not None or doc.program is not None:
+            new = with_robot(other, new, always=True)
+        self.keep("twist", failures, change, new.twist.message,
+                  _State(other, new, self.state.move), since)
+
+    def reachable_first(self, passing):
+        """The frame set of ``passing`` whose robot program targets the arms reach most often
+        by IK at the targets alone (:func:`~dloplan.repair.placement.targets_reached`; the
+        first of the best), or the first when the plan has no robot program."""
+        if len(passing) == 1 or not self.checks.robot and self.state.doc.program is None:
+            return passing[0]
+        counts = [targets_reached(doc.grippers, job.robot) for job, doc, _ in passing]
+        return passing[int(np.argmax(counts))]
 
     def intermediate_rotations(self, job, doc):
         """Equilibria at clip poses interpolated on each segment whose frames turn more than
@@ -426,11 +442,16 @@ class _Session:
                                       + " | ".join(tried))
                     move = turn.then(found.move)
                     placed_job = moved_job(other, found.move)
-                    placed = moved_document(placed_job, new, found.move, program=True)
-                    rows = self.checks.verify(placed, snap=False, replay=False)
-                    left = [f for f in diagnose(placed, rows) if f.kind == "reach"]
+                    placed = moved_document(placed_job, new, found.move, program=False)
+                    collides = obstacle_collisions(placed)
+                    if collides is None:
+                        placed = with_robot(placed_job, placed, always=True)
+                        rows = self.checks.verify(placed, snap=False, replay=False)
+                        left = [f.message for f in diagnose(placed, rows) if f.kind == "reach"]
+                    else:
+                        left = [collides]
                     tried.append(f"{_frames_name(new)}, job {move.describe()}: "
-                                 + (left[0].message if left else "passes"))
+                                 + (left[0] if left else "passes"))
                     if left:
                         self.progress(f"placement rejected: {tried[-1]}")
                         continue
@@ -448,8 +469,12 @@ class _Session:
         for the turned place (:func:`~dloplan.repair.frames.grasp_rolled`), then the other
         gripper methods' (and theirs rolled) -- those that do not twist the cable and differ
         from the earlier ones."""
-        others = [m for m in GRIPPER_METHODS if m != doc.grippers.method]
-        bases = _Made(self.method_frames(job, doc, others, tried))
+        untwisted = [(j, d) for j, d in self.untwisted if np.array_equal(d.shapes, doc.shapes)]
+        if untwisted:  # the twist repair's other frame sets (the other methods twist)
+            bases = _Made([(job, doc), *untwisted])
+        else:
+            others = [m for m in GRIPPER_METHODS if m != doc.grippers.method]
+            bases = _Made(self.method_frames(job, doc, others, tried))
         for yaw in YAWS:
             turn = TableMove(yaw=yaw, pivot=pivot)
             kept = []
@@ -458,11 +483,12 @@ class _Session:
                     other = moved_job(other, turn)
                     new = moved_document(other, new, turn)
                 candidates = [new]
-                for towards_robot in (True, False):
-                    rolled, rolls = grasp_rolled(new.grippers, other.robot,
-                                                 towards_robot=towards_robot)
-                    if rolls.any():
-                        candidates.append(with_grippers(other, new, rolled, program=False))
+                for paired in (False, True):
+                    for towards_robot in (True, False):
+                        rolled, rolls = grasp_rolled(new.grippers, other.robot,
+                                                     towards_robot=towards_robot, paired=paired)
+                        if rolls.any():
+                            candidates.append(with_grippers(other, new, rolled, program=False))
                 for candidate in candidates:
                     if any(_same_frames(candidate, made) for made in kept):
                         continue  # e.g. rigid = minimal rotation for a planar bend
