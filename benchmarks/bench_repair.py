@@ -2,7 +2,7 @@
 
 Run: PYTHONPATH=src python benchmarks/bench_repair.py [--no-replay] [NAME ...]
 
-Each scenario of examples/ is planned (:func:`dloplan.app.run_job`), verified as
+Each scenario of examples/ and examples/cells/ is planned (:func:`dloplan.app.run_job`), verified as
 ``dloplan plan --verify`` does (stability, snap-through, robot reach, dynamic replay; the replay
 left out with ``--no-replay``: it costs minutes for the stiff PA12 hose), and repaired
 (:func:`dloplan.repair.repair_plan`). Identification files have no job to plan; harness jobs are
@@ -106,7 +106,7 @@ def main(argv=None) -> int:
     parser.add_argument("names", nargs="*", help="example stems (default: all)")
     parser.add_argument("--no-replay", action="store_true", help="skip the dynamic replay")
     args = parser.parse_args(argv)
-    paths = sorted(EXAMPLES.glob("*.yaml"))
+    paths = sorted(EXAMPLES.glob("*.yaml")) + sorted(EXAMPLES.glob("cells/*.yaml"))
     if args.names:
         paths = [p for p in paths if p.stem in args.names]
     for path in paths:

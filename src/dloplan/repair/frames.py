@@ -78,8 +78,8 @@ def untwisted(cable, shapes: np.ndarray, grippers: GripperPath,
     """
     if not 0.0 <= share <= 1.0:
         raise ValueError(f"share: got {share!r}, expected a part of the roll in [0, 1]")
-    which = {0.0: "last clip", 1.0: "first clip"}.get(share, f"both clips ({share:.0%} on the "
-                                                            "first)")
+    which = {0.0: "the last clip", 1.0: "the first clip"}.get(
+        share, f"both clips ({share:.0%} of the roll on the first)")
     twist = _twist(cable, shapes, grippers)
     for _ in range(steps):
         first, last = (Rotation.from_rotvec(part * twist[:, None] * np.array([1.0, 0.0, 0.0]))

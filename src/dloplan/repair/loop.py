@@ -58,6 +58,8 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from ..app.pipeline import quiet, run_job, verify_plan, with_verification
+from ..robot.cell import RobotCell
+from ..robot.urdf_cell import verify_on_cell
 from ..sim.statics import interpolate_clips
 from ..verify import check_snap_through
 from .failures import KINDS, diagnose, frame_steps, score, summary, twist_failures
@@ -351,7 +353,7 @@ class _Session:
                 which = grippers.message.split("; ")[-1].split(" rolled")[0]
                 tried.append(f"{method}, {which} rolled: {summary(left)}")
                 if not left:
-                    passing.append((other, new, f"gripper frames by the {method} method, the "
+                    passing.append((other, new, f"gripper frames by the {method} method, "
                                     f"{which} rolled about the u-axis against the twist "
                                     f"(largest {np.degrees(np.abs(twist).max()):.1f} deg)"))
         if not passing and self.attempt():
@@ -417,6 +419,9 @@ class _Session:
     def fix_reach(self, failures) -> None:
         job, doc = self.state.job, self.state.doc
         since = time.perf_counter()
+        if not isinstance(job.robot, RobotCell):
+            self.fix_cell_reach(failures)
+            return
         tried = []
         pivot = doc.grippers.positions.reshape(-1, 3).mean(axis=0) * [1.0, 1.0, 0.0]
         turned = _Made(self.turned_frames(job, doc, pivot, tried))
@@ -462,6 +467,34 @@ class _Session:
                     return
         raise Refused("no placement of the job on the table makes every pose reachable; "
                       "tried: " + " | ".join(tried))
+
+    def fix_cell_reach(self, failures) -> None:
+        """A described cell: the job shifted to where the cell's own placement search
+        (:func:`dloplan.robot.urdf_cell.search_cell_placement`, along the timed trajectory)
+        puts it, then its program checked there."""
+        job, doc = self.state.job, self.state.doc
+        since = time.perf_counter()
+        if not self.attempt():
+            raise Refused("repair budget spent before placing the job on the cell")
+        found = verify_on_cell(job.robot, doc.trajectory, place=True)
+        move = TableMove(found.offset)
+        where = f"{job.robot.name}'s placement search, job {move.describe()}"
+        if not found.verdict.ok or move.is_identity:
+            raise Refused(f"no placement of the job on the table makes every pose reachable; "
+                          f"{where}: {found.verdict.message}")
+        placed_job = moved_job(job, move)
+        placed = moved_document(placed_job, doc, move, program=False)
+        collides = obstacle_collisions(placed)
+        if collides is not None:
+            raise Refused(f"{where}: {collides}")
+        placed = with_robot(placed_job, placed, always=True)
+        rows = self.checks.verify(placed, snap=False, replay=False)
+        left = [f.message for f in diagnose(placed, rows) if f.kind == "reach"]
+        if left:
+            raise Refused(f"{where}: {left[0]}")
+        self.keep("reach", failures, f"job {move.describe()} (the {job.robot.name} cell's "
+                  "placement search)", placed.program.message,
+                  _State(placed_job, placed, self.state.move.then(move)), since)
 
     def turned_frames(self, job, doc, pivot, tried):
         """(turn, job, document) for every turn of :data:`YAWS` about the vertical through
