@@ -514,7 +514,7 @@ class _Session:
             for other, new in bases:
                 if yaw:
                     other = moved_job(other, turn)
-                    new = moved_document(other, new, turn)
+                    new = moved_document(other, new, turn, program=False)
                 candidates = [new]
                 for paired in (False, True):
                     for towards_robot in (True, False):
