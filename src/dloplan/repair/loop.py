@@ -18,11 +18,14 @@ failed (on the part of the plan it changed), and the first that passes is kept:
 between shapes)
     1. the other gripper methods: rigid rotation, minimal rotation, auxiliary vector (thesis
        Table 4.3), on the same shapes;
-    2. the last clip rolled about its u-axis against the twist
-       (:func:`~dloplan.repair.frames.untwisted`), on the frames of the plan's method, then of
-       the rigid rotation;
-    3. intermediate rotations: the equilibria at clip poses interpolated on the flipping
-       segment inserted as shapes.
+    2. the clips rolled about their u-axes against the twist
+       (:func:`~dloplan.repair.frames.untwisted`; the roll on the last clip, shared, on the
+       first), on the frames of the plan's method, then of the rigid rotation;
+    3. (none passing) intermediate rotations: the equilibria at clip poses interpolated on the
+       flipping segment inserted as shapes.
+    Of the frame sets that pass, the one whose program targets the arms reach most often by
+    IK at the targets (:func:`~dloplan.repair.placement.targets_reached`) is kept; the others
+    are the reach repair's frame sets.
 ``replay`` (the replay at real speed strays from the planned shapes)
     the motion slowed down in time by 1/2, then 1/4, then 1/8 (speeds times the factor,
     accelerations times its square, jerks times its cube: the same path, a time dilation;
@@ -34,14 +37,17 @@ between shapes)
     the job placed on the table (:class:`~dloplan.repair.placement.TableMove`): for each turn
     about the vertical of :data:`~dloplan.repair.placement.YAWS` (smallest first) and each set
     of gripper frames -- the plan's, the plan's with the grasps rolled for that place so that
-    the wrists stay above, apart and towards the robot
-    (:func:`~dloplan.repair.frames.grasp_rolled`), then the other gripper methods' (and
-    theirs rolled), those that do not twist the cable -- the robot program is made and
+    the wrists stay above, apart and towards the robot, per clip or as a twist-free pair
+    (:func:`~dloplan.repair.frames.grasp_rolled`), then the other gripper methods' (after a
+    twist repair: its other passing frame sets) and theirs rolled, those that do not twist the
+    cable -- the robot program is made and
     checked where the reachability check (approach and retreat included) passes: first with
     the job turned only, then (the plan's frames, rolled or not) shifted to the nearest such
     place within +-20 cm
     (:func:`~dloplan.repair.placement.placements`); the first that passes is kept.
-    None works: refused with everything tried.
+    None works: refused with everything tried. A placement whose shapes collide with the
+    obstacles (fixed in the world) is not kept. On a described cell the cell's own placement
+    search moves the job instead (:meth:`_Session.fix_cell_reach`).
 
 After each round every check the plan was verified with runs again on the whole plan; the loop
 ends when that passes, on a refusal, or when the :class:`Budget` is spent. Repairs never move the
