@@ -125,8 +125,8 @@ def _reach_findings(job: Job) -> list[Finding]:
                                         strict=True)):
         arms = [arm for arm in ("left", "right") if not row[f"reachable_{arm}"]]
         if arms:
-            misses = "; ".join(f"the {arm} arm cannot reach its clip at pose {k} (the {name}): "
-                               f"its best pose stays {1e3 * row[f'error_{arm}']:.0f} mm from it"
+            misses = "; ".join(f"the {arm} arm cannot reach its clip at pose {k} (the {name}; "
+                               f"IK position error {1e3 * row[f'error_{arm}']:.0f} mm)"
                                for arm in arms)
             findings.append(Finding("error", f"{name} robot reach", misses))
         else:
