@@ -2,7 +2,7 @@
 
 Run: PYTHONPATH=src python benchmarks/bench_repair.py [--no-replay] [NAME ...]
 
-Each scenario of examples/ is planned (:func:`dloplan.app.run_job`), verified as
+Each scenario of examples/ and examples/cells/ is planned (:func:`dloplan.app.run_job`), verified as
 ``dloplan plan --verify`` does (stability, snap-through, robot reach, dynamic replay; the replay
 left out with ``--no-replay``: it costs minutes for the stiff PA12 hose), and repaired
 (:func:`dloplan.repair.repair_plan`). Identification files have no job to plan; harness jobs are
@@ -60,6 +60,29 @@ rolls the grasps, and checks the approach and retreat in its placement search:
     [-0.123 -0.191 0] m (about the origin), rigid-rotation frames with the grasps rolled by 10
     and -15 deg; 12 programs checked, 650 s. The full benchmark (every example, with the replay)
     was not run in this session: the machine's load made it an hour.
+
+Issue 25, third session (2026-11-30, load average 5-7 on the 2 shared cores; ``--no-replay``;
+the twist repair chooses its frames by a reach score, the paired twist-free grasp roll, the
+pre-check with the symmetric grip, described cells placed by their own search):
+
+    fig4_8_straight_to_bent: plan + verify 22.4 s; before: 4 reach; repairs: reach: job turned
+        30 deg about the vertical through [0.431, 0.000, 0.000] m, gripper frames: method
+        'auxiliary' as asked; grasps rolled by 90 and -90 deg about the clips' u-axes (wrists
+        above, apart, towards the robot); repairing 63.3 s (2 attempts); after: ok
+    qualitative2_ethernet_3d: plan + verify 13.2 s; before: 3 reach; repairs: reach: job at its
+        own place, gripper frames: auto: equivalent rigid rotation (minimal rotation would
+        twist the cable by 39 deg); grasps rolled by -90 and 90 deg about the clips' u-axes
+        (wrists above, apart, towards the robot; the cable turned about its axis); repairing
+        39.3 s (1 attempts); after: ok      (second session: 65/-70 deg, 5 cm shift, ~150 s)
+    panda_pair_ethernet: plan + verify 15.7 s; before: passes; no repair needed
+    ur5e_pair_usb: plan + verify 8.0 s; before: passes; no repair needed
+
+    Not run this session (time): qualitative1_curved_pa12 (650 s of reach repair in the second
+    session), the other examples (they passed before repair in every earlier run), and the
+    replay. The PA12 straight-to-U job (tests/test_repair.py, not an example): before 1 twist;
+    twist repair (minimal frames, the roll halved between the clips), then reach repair (turned
+    -30 deg, rigid frames, grasp pair -10/+10 deg); 282 s of repair, 10 programs; after: ok
+    (second session: refused after 753 s).
 """
 
 from __future__ import annotations
@@ -106,7 +129,7 @@ def main(argv=None) -> int:
     parser.add_argument("names", nargs="*", help="example stems (default: all)")
     parser.add_argument("--no-replay", action="store_true", help="skip the dynamic replay")
     args = parser.parse_args(argv)
-    paths = sorted(EXAMPLES.glob("*.yaml"))
+    paths = sorted(EXAMPLES.glob("*.yaml")) + sorted(EXAMPLES.glob("cells/*.yaml"))
     if args.names:
         paths = [p for p in paths if p.stem in args.names]
     for path in paths:

@@ -121,13 +121,14 @@ def _reach_findings(job: Job) -> list[Finding]:
     """Can the robot's arms hold the start and the target (gripper frames by the job's method)?"""
     grippers = gripper_frames(job, np.stack([job.start, job.target]))
     findings = []
-    for name, row in zip(("start", "target"), robot_rows(grippers, job.robot), strict=True):
+    for k, (name, row) in enumerate(zip(("start", "target"), robot_rows(grippers, job.robot),
+                                        strict=True)):
         arms = [arm for arm in ("left", "right") if not row[f"reachable_{arm}"]]
         if arms:
-            what = ("arm cannot reach its clip" if len(arms) == 1 else
-                    "arms cannot reach their clips")
-            findings.append(Finding("error", f"{name} robot reach",
-                                    f"the {' and '.join(arms)} {what}"))
+            misses = "; ".join(f"the {arm} arm cannot reach its clip at pose {k} (the {name}; "
+                               f"IK position error {1e3 * row[f'error_{arm}']:.0f} mm)"
+                               for arm in arms)
+            findings.append(Finding("error", f"{name} robot reach", misses))
         else:
             findings.append(Finding("ok", f"{name} robot reach", "both arms reach their clips "
                                     f"(joint margin {row['joint_margin']:.2f} rad)"))
@@ -403,7 +404,8 @@ def with_verification(doc: PlanDocument, verification) -> PlanDocument:
     return replace(doc, verification=section, warnings=doc.warnings + failures)
 
 
-def _collision_rows(reports) -> tuple:
+def collision_rows(reports) -> tuple:
+    """The plan document's rows of :class:`~dloplan.obstacles.collisions.CollisionReport` s."""
     return tuple({"shape": r.shape_index, "colliding": r.colliding,
                   "obstacles": list(r.obstacles), "links": r.links.tolist(),
                   "z_depth": r.z_depth, "penetration": r.penetration} for r in reports)
@@ -478,7 +480,7 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
                            grippers.twist, twist.message),
         avoidance=None if avoidance is None else AvoidanceSection(
             avoidance.status, avoidance.rounds, avoidance.message,
-            _collision_rows(avoidance.reports_before), _collision_rows(avoidance.reports_after)),
+            collision_rows(avoidance.reports_before), collision_rows(avoidance.reports_after)),
         identification=_identification_section(job.identification),
         cycle=cycle_to_dict(cycle), timings=timings,
     )

@@ -43,9 +43,14 @@ the robot, against its height in :func:`grasp_score` (the table is below: height
 first)."""
 
 
+SHARES = (0.0, 0.5, 1.0)
+"""Shares of the untwisting roll given to the first clip by the twist repair (the rest goes to
+the last clip): the last clip alone, both halves, the first clip alone."""
+
+
 def untwisted(cable, shapes: np.ndarray, grippers: GripperPath,
-              steps: int = ROLL_STEPS) -> tuple[GripperPath, np.ndarray]:
-    """The gripper frames with the last clip rolled so that the torsion model's twist vanishes.
+              steps: int = ROLL_STEPS, share: float = 0.0) -> tuple[GripperPath, np.ndarray]:
+    """The gripper frames with the clips rolled so that the torsion model's twist vanishes.
 
     Parameters
     ----------
@@ -56,19 +61,32 @@ def untwisted(cable, shapes: np.ndarray, grippers: GripperPath,
         Their frames (any method).
     steps : int
         Fixed-point steps.
+    share : float
+        The part (0..1) of the roll the first clip takes; the last clip takes the rest. Both
+        u-axes point from their clip into the cable, so a roll of either clip by an angle about
+        its own u-axis changes the twist by minus that angle: the first clip rolled by
+        ``share * tau`` and the last by ``(1 - share) * tau`` remove tau whatever the share,
+        and a share of 1/2 turns each wrist half as far (the robot may reach one and not the
+        other).
 
     Returns
     -------
     grippers : GripperPath
-        Same method label, positions and u-axes; the last clip's frames rolled.
+        Same method label, positions and u-axes; the clips' frames rolled.
     twist : numpy.ndarray
         (S + 2,) the torsion model's twist under the new frames [rad].
     """
+    if not 0.0 <= share <= 1.0:
+        raise ValueError(f"share: got {share!r}, expected a part of the roll in [0, 1]")
+    which = {0.0: "the last clip", 1.0: "the first clip"}.get(
+        share, f"both clips ({share:.0%} of the roll on the first)")
     twist = _twist(cable, shapes, grippers)
     for _ in range(steps):
-        roll = Rotation.from_rotvec(twist[:, None] * np.array([1.0, 0.0, 0.0]))
-        grippers = with_rotations(grippers, grippers.rotations[0], grippers.rotations[1] * roll,
-                                  "last clip rolled about its u-axis against the torsion "
+        first, last = (Rotation.from_rotvec(part * twist[:, None] * np.array([1.0, 0.0, 0.0]))
+                       for part in (share, 1.0 - share))
+        grippers = with_rotations(grippers, grippers.rotations[0] * first,
+                                  grippers.rotations[1] * last,
+                                  f"{which} rolled about the u-axis against the torsion "
                                   "model's twist")
         twist = _twist(cable, shapes, grippers)
     return grippers, twist
@@ -107,8 +125,8 @@ def grasp_score(rotations: Rotation, positions: np.ndarray, other: np.ndarray,
     return float(np.min(score))
 
 
-def grasp_rolled(grippers: GripperPath, cell, *, towards_robot: bool = True
-                 ) -> tuple[GripperPath, np.ndarray]:
+def grasp_rolled(grippers: GripperPath, cell, *, towards_robot: bool = True,
+                 paired: bool = False) -> tuple[GripperPath, np.ndarray]:
     """The gripper frames with each clip rolled about its u-axis by the grasp roll of
     :data:`GRASP_ROLLS` that maximizes :func:`grasp_score` (module docstring).
 
@@ -122,6 +140,11 @@ def grasp_rolled(grippers: GripperPath, cell, *, towards_robot: bool = True
         Score the wrist towards the robot's base too (the arm reaching around its clip: the
         jobs beside the robot's centre line need it), or only above and apart (an arc whose
         ends come close in front of the robot, qualitative test 2, needs this one).
+    paired : bool
+        One roll r for the first clip and -r for the last, the r that maximizes the smaller of
+        the two clips' scores: the cable turned about its own axis at both ends alike, which
+        leaves the torsion model's twist as it is (both u-axes point into the cable; rolls of
+        the same sign would twist it by their sum). Frames already untwisted stay untwisted.
 
     Returns
     -------
@@ -134,22 +157,28 @@ def grasp_rolled(grippers: GripperPath, cell, *, towards_robot: bool = True
     wrist_in_clip = -cell.tools[0].tcp_in_clip.apply([0.0, 0.0, 1.0])
     base = np.asarray(cell.base_position, dtype=float) if towards_robot else None
     pos = grippers.positions
+    scores = np.array([[grasp_score(grippers.rotations[c] * Rotation.from_rotvec([a, 0.0, 0.0]),
+                                    pos[:, c], pos[:, 1 - c], wrist_in_clip, base)
+                        for a in GRASP_ROLLS] for c in range(2)])  # (2, rolls)
+    plain = int(np.argmin(np.abs(GRASP_ROLLS)))  # the roll 0: the plan's own grasp
     rolls = np.zeros(2)
-    for c in range(2):
-        def score(rotations, c=c):
-            return grasp_score(rotations, pos[:, c], pos[:, 1 - c], wrist_in_clip, base)
-
-        scores = [score(grippers.rotations[c] * Rotation.from_rotvec([a, 0.0, 0.0]))
-                  for a in GRASP_ROLLS]
-        best = int(np.argmax(scores))
-        if scores[best] > score(grippers.rotations[c]):
-            rolls[c] = GRASP_ROLLS[best]
+    if paired:  # the last clip's scores at -r: GRASP_ROLLS is symmetric about 0
+        both = np.minimum(scores[0], scores[1, ::-1])
+        best = int(np.argmax(both))
+        if both[best] > both[plain]:
+            rolls[:] = GRASP_ROLLS[best], -GRASP_ROLLS[best]
+    else:
+        for c in range(2):
+            best = int(np.argmax(scores[c]))
+            if scores[c, best] > scores[c, plain]:
+                rolls[c] = GRASP_ROLLS[best]
     first, last = (r * Rotation.from_rotvec([a, 0.0, 0.0])
                    for r, a in zip(grippers.rotations, rolls, strict=True))
     rolled = with_rotations(grippers, first, last, f"grasps rolled by "
                             f"{np.degrees(rolls[0]):.0f} and {np.degrees(rolls[1]):.0f} deg "
                             "about the clips' u-axes (wrists above, apart"
-                            + (", towards the robot)" if towards_robot else ")"))
+                            + (", towards the robot" if towards_robot else "")
+                            + ("; the cable turned about its axis)" if paired else ")"))
     return rolled, rolls
 
 

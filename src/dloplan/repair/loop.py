@@ -18,11 +18,14 @@ failed (on the part of the plan it changed), and the first that passes is kept:
 between shapes)
     1. the other gripper methods: rigid rotation, minimal rotation, auxiliary vector (thesis
        Table 4.3), on the same shapes;
-    2. the last clip rolled about its u-axis against the twist
-       (:func:`~dloplan.repair.frames.untwisted`), on the frames of the plan's method, then of
-       the rigid rotation;
-    3. intermediate rotations: the equilibria at clip poses interpolated on the flipping
-       segment inserted as shapes.
+    2. the clips rolled about their u-axes against the twist
+       (:func:`~dloplan.repair.frames.untwisted`; the roll on the last clip, shared, on the
+       first), on the frames of the plan's method, then of the rigid rotation;
+    3. (none passing) intermediate rotations: the equilibria at clip poses interpolated on the
+       flipping segment inserted as shapes.
+    Of the frame sets that pass, the one whose program targets the arms reach most often by
+    IK at the targets (:func:`~dloplan.repair.placement.targets_reached`) is kept; the others
+    are the reach repair's frame sets.
 ``replay`` (the replay at real speed strays from the planned shapes)
     the motion slowed down in time by 1/2, then 1/4, then 1/8 (speeds times the factor,
     accelerations times its square, jerks times its cube: the same path, a time dilation;
@@ -34,14 +37,17 @@ between shapes)
     the job placed on the table (:class:`~dloplan.repair.placement.TableMove`): for each turn
     about the vertical of :data:`~dloplan.repair.placement.YAWS` (smallest first) and each set
     of gripper frames -- the plan's, the plan's with the grasps rolled for that place so that
-    the wrists stay above, apart and towards the robot
-    (:func:`~dloplan.repair.frames.grasp_rolled`), then the other gripper methods' (and
-    theirs rolled), those that do not twist the cable -- the robot program is made and
+    the wrists stay above, apart and towards the robot, per clip or as a twist-free pair
+    (:func:`~dloplan.repair.frames.grasp_rolled`), then the other gripper methods' (after a
+    twist repair: its other passing frame sets) and theirs rolled, those that do not twist the
+    cable -- the robot program is made and
     checked where the reachability check (approach and retreat included) passes: first with
     the job turned only, then (the plan's frames, rolled or not) shifted to the nearest such
     place within +-20 cm
     (:func:`~dloplan.repair.placement.placements`); the first that passes is kept.
-    None works: refused with everything tried.
+    None works: refused with everything tried. A placement whose shapes collide with the
+    obstacles (fixed in the world) is not kept. On a described cell the cell's own placement
+    search moves the job instead (:meth:`_Session.fix_cell_reach`).
 
 After each round every check the plan was verified with runs again on the whole plan; the loop
 ends when that passes, on a refusal, or when the :class:`Budget` is spent. Repairs never move the
@@ -58,19 +64,23 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from ..app.pipeline import quiet, run_job, verify_plan, with_verification
+from ..robot.cell import RobotCell
+from ..robot.urdf_cell import verify_on_cell
 from ..sim.statics import interpolate_clips
 from ..verify import check_snap_through
 from .failures import KINDS, diagnose, frame_steps, score, summary, twist_failures
-from .frames import grasp_rolled, untwisted
+from .frames import SHARES, grasp_rolled, untwisted
 from .placement import (
     SEARCHES,
     YAWS,
     TableMove,
     moved_document,
     moved_job,
+    obstacle_collisions,
     placements,
+    targets_reached,
 )
-from .rebuild import slowed, timed_with_robot, with_grippers, with_motion, with_path
+from .rebuild import slowed, timed_with_robot, with_grippers, with_motion, with_path, with_robot
 from .routes import MAX_TURN, equilibria_along, follow_branch, route_segment, routes
 
 GRIPPER_METHODS = ("rigid", "minimal", "auxiliary")
@@ -232,6 +242,7 @@ class _Session:
         self.start = time.perf_counter()
         self.attempts = 0
         self.repairs: list[Repair] = []
+        self.untwisted: list = []  # (job, document) of every frame set the twist repair passed
 
     # -- budget and records -----------------------------------------------------------------
     def spent(self) -> bool:
@@ -321,47 +332,60 @@ class _Session:
         job, doc = self.state.job, self.state.doc
         since = time.perf_counter()
         tried = []
+        passing = []  # (job, document, change) of every frame set that does not twist
         for method in GRIPPER_METHODS:
             if method == doc.grippers.method or not self.attempt():
                 continue
             other = replace(job, grippers=replace(job.grippers, method=method))
             try:
-                new = with_motion(other, doc)
+                new = with_motion(other, doc, program=False)
             except ValueError as exc:  # e.g. the auxiliary vector along a u-axis
                 tried.append(f"{method}: {exc}")
                 continue
             left = twist_failures(new)
             tried.append(f"{method}: {summary(left)}")
             if not left:
-                self.keep("twist", failures, f"gripper frames by the {method} method "
-                          f"(was {doc.grippers.method})", new.grippers.message,
-                          _State(other, new, self.state.move), since)
-                return
+                passing.append((other, new, f"gripper frames by the {method} method "
+                                f"(was {doc.grippers.method})"))
         for method in dict.fromkeys((doc.grippers.method, "rigid")):
-            if not self.attempt():
-                break
             other = replace(job, grippers=replace(job.grippers, method=method))
-            base = with_motion(other, doc).grippers
-            grippers, twist = untwisted(job.cable, doc.shapes, base)
-            new = with_grippers(other, doc, grippers)
-            left = twist_failures(new)
-            tried.append(f"{method}, last clip rolled: {summary(left)}")
-            if not left:
-                self.keep("twist", failures, f"gripper frames by the {method} method, the "
-                          "last clip rolled about its u-axis against the twist (largest "
-                          f"{np.degrees(np.abs(twist).max()):.1f} deg)", new.twist.message,
-                          _State(other, new, self.state.move), since)
-                return
-        if self.attempt():
+            base = with_motion(other, doc, program=False).grippers
+            for share in SHARES:
+                if not self.attempt():
+                    break
+                grippers, twist = untwisted(job.cable, doc.shapes, base, share=share)
+                new = with_grippers(other, doc, grippers, program=False)
+                left = twist_failures(new)
+                which = grippers.message.split("; ")[-1].split(" rolled")[0]
+                tried.append(f"{method}, {which} rolled: {summary(left)}")
+                if not left:
+                    passing.append((other, new, f"gripper frames by the {method} method, "
+                                    f"{which} rolled about the u-axis against the twist "
+                                    f"(largest {np.degrees(np.abs(twist).max()):.1f} deg)"))
+        if not passing and self.attempt():
             new = self.intermediate_rotations(job, doc)
             left = twist_failures(new)
             tried.append(f"intermediate rotations: {summary(left)}")
             if not left:
-                self.keep("twist", failures, f"{new.n_shapes - doc.n_shapes} intermediate "
-                          "rotation(s) inserted", new.grippers.message,
-                          _State(job, new, self.state.move), since)
-                return
-        raise Refused(f"{failures[0].message}; tried: " + " | ".join(tried))
+                passing.append((job, new, f"{new.n_shapes - doc.n_shapes} intermediate "
+                                "rotation(s) inserted"))
+        if not passing:
+            raise Refused(f"{failures[0].message}; tried: " + " | ".join(tried))
+        other, new, change = self.reachable_first(passing)
+        self.untwisted = [(j, d) for j, d, _ in passing]
+        if doc.robot is not None or doc.program is not None:
+            new = with_robot(other, new, always=True)
+        self.keep("twist", failures, change, new.twist.message,
+                  _State(other, new, self.state.move), since)
+
+    def reachable_first(self, passing):
+        """The frame set of ``passing`` whose robot program targets the arms reach most often
+        by IK at the targets alone (:func:`~dloplan.repair.placement.targets_reached`; the
+        first of the best), or the first when the plan has no robot program."""
+        if len(passing) == 1 or not self.checks.robot and self.state.doc.program is None:
+            return passing[0]
+        counts = [targets_reached(doc.grippers, job.robot) for job, doc, _ in passing]
+        return passing[int(np.argmax(counts))]
 
     def intermediate_rotations(self, job, doc):
         """Equilibria at clip poses interpolated on each segment whose frames turn more than
@@ -401,6 +425,9 @@ class _Session:
     def fix_reach(self, failures) -> None:
         job, doc = self.state.job, self.state.doc
         since = time.perf_counter()
+        if not isinstance(job.robot, RobotCell):
+            self.fix_cell_reach(failures)
+            return
         tried = []
         pivot = doc.grippers.positions.reshape(-1, 3).mean(axis=0) * [1.0, 1.0, 0.0]
         turned = _Made(self.turned_frames(job, doc, pivot, tried))
@@ -426,11 +453,16 @@ class _Session:
                                       + " | ".join(tried))
                     move = turn.then(found.move)
                     placed_job = moved_job(other, found.move)
-                    placed = moved_document(placed_job, new, found.move, program=True)
-                    rows = self.checks.verify(placed, snap=False, replay=False)
-                    left = [f for f in diagnose(placed, rows) if f.kind == "reach"]
+                    placed = moved_document(placed_job, new, found.move, program=False)
+                    collides = obstacle_collisions(placed)
+                    if collides is None:
+                        placed = with_robot(placed_job, placed, always=True)
+                        rows = self.checks.verify(placed, snap=False, replay=False)
+                        left = [f.message for f in diagnose(placed, rows) if f.kind == "reach"]
+                    else:
+                        left = [collides]
                     tried.append(f"{_frames_name(new)}, job {move.describe()}: "
-                                 + (left[0].message if left else "passes"))
+                                 + (left[0] if left else "passes"))
                     if left:
                         self.progress(f"placement rejected: {tried[-1]}")
                         continue
@@ -442,27 +474,60 @@ class _Session:
         raise Refused("no placement of the job on the table makes every pose reachable; "
                       "tried: " + " | ".join(tried))
 
+    def fix_cell_reach(self, failures) -> None:
+        """A described cell: the job shifted to where the cell's own placement search
+        (:func:`dloplan.robot.urdf_cell.search_cell_placement`, along the timed trajectory)
+        puts it, then its program checked there."""
+        job, doc = self.state.job, self.state.doc
+        since = time.perf_counter()
+        if not self.attempt():
+            raise Refused("repair budget spent before placing the job on the cell")
+        found = verify_on_cell(job.robot, doc.trajectory, place=True)
+        move = TableMove(found.offset)
+        where = f"{job.robot.name}'s placement search, job {move.describe()}"
+        if not found.verdict.ok or move.is_identity:
+            raise Refused(f"no placement of the job on the table makes every pose reachable; "
+                          f"{where}: {found.verdict.message}")
+        placed_job = moved_job(job, move)
+        placed = moved_document(placed_job, doc, move, program=False)
+        collides = obstacle_collisions(placed)
+        if collides is not None:
+            raise Refused(f"{where}: {collides}")
+        placed = with_robot(placed_job, placed, always=True)
+        rows = self.checks.verify(placed, snap=False, replay=False)
+        left = [f.message for f in diagnose(placed, rows) if f.kind == "reach"]
+        if left:
+            raise Refused(f"{where}: {left[0]}")
+        self.keep("reach", failures, f"job {move.describe()} (the {job.robot.name} cell's "
+                  "placement search)", placed.program.message,
+                  _State(placed_job, placed, self.state.move.then(move)), since)
+
     def turned_frames(self, job, doc, pivot, tried):
         """(turn, job, document) for every turn of :data:`YAWS` about the vertical through
         ``pivot`` and every set of gripper frames, made on demand: the plan's, its grasps rolled
         for the turned place (:func:`~dloplan.repair.frames.grasp_rolled`), then the other
         gripper methods' (and theirs rolled) -- those that do not twist the cable and differ
         from the earlier ones."""
-        others = [m for m in GRIPPER_METHODS if m != doc.grippers.method]
-        bases = _Made(self.method_frames(job, doc, others, tried))
+        untwisted = [(j, d) for j, d in self.untwisted if np.array_equal(d.shapes, doc.shapes)]
+        if untwisted:  # the twist repair's other frame sets (the other methods twist)
+            bases = _Made([(job, doc), *untwisted])
+        else:
+            others = [m for m in GRIPPER_METHODS if m != doc.grippers.method]
+            bases = _Made(self.method_frames(job, doc, others, tried))
         for yaw in YAWS:
             turn = TableMove(yaw=yaw, pivot=pivot)
             kept = []
             for other, new in bases:
                 if yaw:
                     other = moved_job(other, turn)
-                    new = moved_document(other, new, turn)
+                    new = moved_document(other, new, turn, program=False)
                 candidates = [new]
-                for towards_robot in (True, False):
-                    rolled, rolls = grasp_rolled(new.grippers, other.robot,
-                                                 towards_robot=towards_robot)
-                    if rolls.any():
-                        candidates.append(with_grippers(other, new, rolled, program=False))
+                for paired in (False, True):
+                    for towards_robot in (True, False):
+                        rolled, rolls = grasp_rolled(new.grippers, other.robot,
+                                                     towards_robot=towards_robot, paired=paired)
+                        if rolls.any():
+                            candidates.append(with_grippers(other, new, rolled, program=False))
                 for candidate in candidates:
                     if any(_same_frames(candidate, made) for made in kept):
                         continue  # e.g. rigid = minimal rotation for a planar bend

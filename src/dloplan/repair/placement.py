@@ -1,14 +1,15 @@
 """Where the job lies on the table: the placement search of ``dloplan verify --place`` as a repair.
 
-A placement is a horizontal rigid motion of the whole job (start, target, obstacles: the operator
-puts the cable and its fixtures there): a turn by ``yaw`` about the vertical axis through the
-job's centre, then a translation ``offset``, :class:`TableMove`. The cable model is invariant
-under both (uniform gravity along -z, the table a horizontal plane, obstacles moved along,
+A placement is a horizontal rigid motion of the job (start and target: the operator puts the
+cable there; the obstacles stay where they are in the world, and a placement whose shapes
+collide with them is not kept, :func:`obstacle_collisions`): a turn by ``yaw`` about the
+vertical axis through the job's centre, then a translation ``offset``, :class:`TableMove`. The
+cable model is invariant under both (uniform gravity along -z, the table a horizontal plane,
 thesis eq. 3.1-3.8 involve only differences of points and the height), so the plan of the moved
 job is the moved plan: :func:`moved_document` moves the document instead of planning again (the
-shapes, the gripper frames, the clip wrenches, the obstacles) and makes its robot program again
-in the job's robot cell (the arm assignment, IK, limits, clearance and continuity of the moved
-targets, :func:`dloplan.robot.robot_program`). :func:`placements` turns the job by each of
+shapes, the planner's stages, the gripper frames, the clip wrenches) and makes its robot program
+again in the job's robot cell (the arm assignment, IK, limits, clearance and continuity of the
+moved targets, :func:`dloplan.robot.robot_program`). :func:`placements` turns the job by each of
 :data:`YAWS` and, at each turn, searches a translation with the reachability check of the YuMi
 at the work frame's origin (:func:`dloplan.robot.search_placement`, both arm assignments); the
 program confirms it.
@@ -26,8 +27,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..app.pipeline import collision_rows
 from ..grippers.path import GripperPath
-from ..obstacles.shapes import Box, Cylinder
+from ..obstacles.collisions import check_path
+from ..robot.reachability import format_offset
 from .rebuild import left_clip, timed, timed_with_robot, without_robot
 
 SEARCHES = ((0.2, 0.05, "nearest"),)
@@ -105,34 +108,21 @@ class TableMove:
         parts = []
         if self.yaw:
             parts.append(f"turned {math.degrees(self.yaw):.0f} deg about the vertical through "
-                         f"{np.array2string(np.round(self.pivot, 4) + 0.0, precision=3)} m")
+                         f"{format_offset(self.pivot)} m")
         if np.any(self.offset):
-            parts.append(f"offset {np.array2string(np.round(self.offset, 4) + 0.0, precision=3)}"
-                         " m")
+            parts.append(f"offset {format_offset(self.offset)} m")
         return ", ".join(parts)
 
 
-def moved_obstacle(obstacle, move: TableMove):
-    """An obstacle moved by ``move`` (the table plane is horizontal: it moves by dz only)."""
-    if isinstance(obstacle, Box):
-        return replace(obstacle, center=tuple(move.points(obstacle.center)),
-                       yaw=obstacle.yaw + move.yaw)
-    if isinstance(obstacle, Cylinder):  # vertical: its base point moves
-        return replace(obstacle, base=tuple(move.points(obstacle.base)))
-    if move.offset[2] != 0.0:
-        return replace(obstacle, height=obstacle.height + float(move.offset[2]))
-    return obstacle
-
-
 def moved_job(job, move: TableMove):
-    """The job moved by ``move``: start, target, obstacles and the gripper settings' world
-    directions (auxiliary vector, initial frames)."""
+    """The job moved by ``move``: start, target and the gripper settings' world directions
+    (auxiliary vector, initial frames). The obstacles stay where they are in the world: a
+    placement is checked against them (:func:`obstacle_collisions`)."""
     turn = move.rotation
     grippers = replace(job.grippers, auxiliary_vector=move.vectors(job.grippers.auxiliary_vector),
                        initial=None if job.grippers.initial is None
                        else turn * job.grippers.initial)
     return replace(job, start=move.points(job.start), target=move.points(job.target),
-                   obstacles=tuple(moved_obstacle(o, move) for o in job.obstacles),
                    grippers=grippers)
 
 
@@ -149,17 +139,26 @@ def moved_grippers(grippers: GripperPath, move: TableMove) -> GripperPath:
 
 
 def moved_document(job, doc, move: TableMove, program: bool | None = None):
-    """The plan document moved by ``move``: shapes, frames, clip wrenches, obstacles, trajectory,
-    and its robot program made again in the cell of ``job`` (the job already moved) when
-    ``program`` (default: when it had one; False drops it). The planner's own sections (stages,
-    target check, obstacle re-planning) stay in the job's original place."""
+    """The plan document moved by ``move``: shapes, the planner's stages, frames, clip
+    wrenches, trajectory, and its robot program made again in the cell of ``job`` (the job
+    already moved) when ``program`` (default: when it had one; False drops it). The obstacles
+    stay in the world: the obstacle section's collisions after re-planning are those of the
+    moved shapes (:func:`obstacle_collisions`). The target check (a displacement) and the
+    forces' magnitudes do not depend on the placement."""
+    stages = doc.stages if doc.stages is None else replace(
+        doc.stages, basic=move.points(doc.stages.basic),
+        advanced=move.points(doc.stages.advanced))
     moved = replace(
-        doc, shapes=move.points(doc.shapes),
+        doc, shapes=move.points(doc.shapes), stages=stages,
         stabilized=None if doc.stabilized is None else move.points(doc.stabilized),
         grippers=None if doc.grippers is None else moved_grippers(doc.grippers, move),
         clip_wrenches=None if doc.clip_wrenches is None else move.vectors(
-            doc.clip_wrenches.reshape(-1, 3)).reshape(doc.clip_wrenches.shape),
-        obstacles=tuple(moved_obstacle(o, move) for o in doc.obstacles))
+            doc.clip_wrenches.reshape(-1, 3)).reshape(doc.clip_wrenches.shape))
+    if doc.avoidance is not None and not move.is_identity:
+        after = collision_rows(_collisions(moved))
+        moved = replace(moved, avoidance=replace(
+            doc.avoidance, after=after, message=f"{doc.avoidance.message}; at the placement "
+            f"({move.describe()}): " + _collision_text(after)))
     if program is None:
         program = doc.robot is not None or doc.program is not None
     if doc.trajectory is None:
@@ -167,6 +166,29 @@ def moved_document(job, doc, move: TableMove, program: bool | None = None):
     if not program:
         return without_robot(timed(job, moved))
     return timed_with_robot(job, moved, always=True)
+
+
+def _collisions(doc):
+    """Collision reports of the document's stabilized shapes with its (world) obstacles."""
+    shapes = doc.shapes if doc.stabilized is None else doc.stabilized
+    return check_path(shapes, doc.obstacles, doc.cable.diameter / 2)
+
+
+def _collision_text(rows) -> str:
+    hits = [row["shape"] for row in rows if row["colliding"]]
+    return f"shapes {hits} collide" if hits else "no collision"
+
+
+def obstacle_collisions(doc) -> str | None:
+    """Why a placed plan cannot be kept: its stabilized shapes collide with the obstacles,
+    which stay where they are in the world when the job is moved (None when clear)."""
+    if not doc.obstacles:
+        return None
+    reports = [r for r in _collisions(doc) if r.colliding]
+    if not reports:
+        return None
+    return (f"shape {reports[0].shape_index} collides with {', '.join(reports[0].obstacles)} "
+            f"({len(reports)} shape(s) collide at this placement)")
 
 
 def translated_document(job, doc, offset):
@@ -206,6 +228,23 @@ def with_approach(positions: np.ndarray, matrices: np.ndarray, cell) -> tuple:
     back = cell.approach * (matrices @ cell.tools[0].tcp_in_clip.as_matrix()[:, 2])
     return (np.concatenate([positions[:1] - back[:1], positions, positions[-1:] - back[-1:]]),
             np.concatenate([matrices[:1], matrices, matrices[-1:]]))
+
+
+def targets_reached(grippers: GripperPath, cell) -> int:
+    """How many of the robot program's targets (the clip poses with the approach and the
+    retreat, :func:`with_approach`) the arms reach by IK at the targets alone, the left arm
+    holding the clip on its side (:func:`dloplan.robot.reachability.reach_at_targets`): a
+    cheap score that ranks gripper frames before their robot program is made (2-10 s each).
+    A described cell, which places the job itself, counts every target (no ranking)."""
+    from ..robot.cell import RobotCell
+    from ..robot.reachability import reach_at_targets
+
+    if not isinstance(cell, RobotCell):
+        return 2 * (grippers.n_shapes + 2)
+    positions, matrices = with_approach(grippers.positions, grippers.matrices, cell)
+    order = [0, 1] if left_clip(grippers) == 0 else [1, 0]
+    return int(reach_at_targets(cell.robot, positions[:, order],
+                                Rotation.from_matrix(matrices[:, order]), cell.reach).sum())
 
 
 def placements(grippers: GripperPath, *, searches=SEARCHES, yaws=YAWS, cell=None):

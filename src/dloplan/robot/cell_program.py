@@ -251,7 +251,9 @@ def placement_message(cell, grippers, trajectory) -> str:
 
 def reach_rows(cell, grippers) -> list[dict]:
     """Can the cell's arms hold the clips of a gripper path (before planning the motion)?
-    Per pose ``reachable_left``, ``reachable_right`` and ``joint_margin`` [rad]: for the YuMi
+    Per pose ``reachable_left``, ``reachable_right``, ``joint_margin`` [rad] and ``error_left``,
+    ``error_right`` (the IK's position error [m]: how far the arm's best try stays from the
+    clip; ~0 when reached): for the YuMi
     either arm at each pose (:func:`dloplan.robot.check_reachability`), for a described cell
     the arm assigned by side, tracked from pose to pose where the placement search puts
     the path."""
@@ -264,7 +266,9 @@ def reach_rows(cell, grippers) -> list[dict]:
         reach = check_reachability(grippers.positions, Rotation.from_matrix(grippers.matrices))
         return [{"reachable_left": bool(reach.reachable[k, 0]),
                  "reachable_right": bool(reach.reachable[k, 1]),
-                 "joint_margin": float(np.min(reach.joint_margin[k]))}
+                 "joint_margin": float(np.min(reach.joint_margin[k])),
+                 "error_left": float(reach.position_error[k, 0]),
+                 "error_right": float(reach.position_error[k, 1])}
                 for k in range(len(grippers.positions))]
     plan = verify_on_cell(cell, dual_arm_trajectory(grippers.positions,
                                                     tuple(grippers.rotations)))
@@ -272,4 +276,6 @@ def reach_rows(cell, grippers) -> list[dict]:
     knots = np.searchsorted(plan.shapes, np.arange(len(grippers.positions)), side="right") - 1
     return [{"reachable_left": bool(verdict.reachable[k, 0]),
              "reachable_right": bool(verdict.reachable[k, 1]),
-             "joint_margin": float(np.min(verdict.joint_margin[k]))} for k in knots]
+             "joint_margin": float(np.min(verdict.joint_margin[k])),
+             "error_left": float(verdict.position_error[k, 0]),
+             "error_right": float(verdict.position_error[k, 1])} for k in knots]

@@ -341,15 +341,22 @@ def search_placement(gripper_positions, gripper_rotations: Rotation, robot: Robo
         result = check_reachability(pos, rot, robot, assignment=assignment, options=opts) \
             if explain else None
         return Placement(np.zeros(3), result, int(explain), False,
-                         f"no offset within +-{extent} m (step {step} m) passed the pre-check")
+                         f"no offset within +-{format_offset(extent)} m (step {step} m) passed "
+                         "the pre-check")
     (ok, _), offset, result = best
-    text = np.array2string(offset, precision=3)
+    text = format_offset(offset)
     if ok:
         return Placement(offset, result, checked, True,
                          f"offset {text} m: every pose reachable (min joint margin "
                          f"{np.degrees(result.min_joint_margin):.1f} deg)")
     return Placement(offset, result, checked, False,
-                     f"no offset within +-{extent} m works; best {text} m: {result.message}")
+                     f"no offset within +-{format_offset(extent)} m works; best {text} m: "
+                     f"{result.message}")
+
+
+def format_offset(offset) -> str:
+    """An offset (3,) [m] as ``[x, y, z]`` with millimetre digits (no ``-0.``)."""
+    return "[" + ", ".join(f"{v:.3f}" for v in np.round(np.asarray(offset, float), 4) + 0.0) + "]"
 
 
 # --------------------------------------------------------------------------------------------
@@ -488,17 +495,61 @@ def _substeps(pos, mats, opts: ReachOptions) -> np.ndarray:
 
 def _quick_check(robot: Robot, clip_pos, clip_rot: Rotation, opts: ReachOptions) -> bool:
     """Every planned pose solvable (seeded from the previous one), no sub-steps."""
+    return bool(_at_targets(robot, clip_pos, clip_rot, opts, stop=True).all())
+
+
+def reach_at_targets(robot: Robot, clip_positions, clip_rotations: Rotation,
+                     options: ReachOptions | None = None) -> np.ndarray:
+    """Which planned poses each arm reaches, by IK at the targets only (no sub-steps, no
+    continuity, no clearance): the cheap pre-check of :func:`search_placement`, counted.
+
+    Parameters
+    ----------
+    robot : Robot
+    clip_positions : array_like
+        (K, 2, 3) clip points [m], ordered by arm (left, right).
+    clip_rotations : scipy.spatial.transform.Rotation
+        (K, 2) ``clip_to_world``, ordered by arm.
+    options : ReachOptions, optional
+
+    Returns
+    -------
+    numpy.ndarray
+        (K, 2) bool: pose k solved for the arm (each pose seeded from the arm's previous one).
+    """
+    pos, mats = _validate_path(clip_positions, clip_rotations, "clip_positions",
+                               "clip_rotations")
+    opts = options if options is not None else ReachOptions()
+    return _at_targets(robot, pos, Rotation.from_matrix(mats), opts, stop=False)
+
+
+def _at_targets(robot: Robot, clip_pos, clip_rot: Rotation, opts: ReachOptions,
+                stop: bool) -> np.ndarray:
+    """(K, 2) IK success at each target, seeded along the path, per arm with the better of its
+    grips (the TCP turned by pi about z too when ``opts.symmetric_grip``, as the full check
+    and the robot program do); ``stop`` at an arm's first miss with every grip."""
     tcp_pos, tcp_rot = tcp_poses_from_clips(robot, clip_pos, clip_rot)
-    mats = tcp_rot.as_matrix()
+    grips = [tcp_rot.as_matrix()]
+    if opts.symmetric_grip:
+        grips.append(grips[0] @ _TURN_Z)
     quick = replace(opts.ik, restarts=0)
+    reached = np.zeros(tcp_pos.shape[:2], dtype=bool)
     for a, arm in enumerate(robot.arms):
-        q = arm.home
-        for k in range(len(tcp_pos)):
-            res = inverse(arm, tcp_pos[k, a], Rotation.from_matrix(mats[k, a]), q, quick)
-            if not res.success:
-                return False
-            q = res.q
-    return True
+        for mats in grips:
+            q, hits = arm.home, np.zeros(len(tcp_pos), dtype=bool)
+            for k in range(len(tcp_pos)):
+                res = inverse(arm, tcp_pos[k, a], Rotation.from_matrix(mats[k, a]), q, quick)
+                hits[k] = res.success
+                if not res.success and stop:
+                    break
+                q = res.q if res.success else q
+            if hits.sum() > reached[:, a].sum():
+                reached[:, a] = hits
+            if hits.all():
+                break
+        if stop and not reached[:, a].all():
+            return reached
+    return reached
 
 
 def _assign(pos: np.ndarray, assignment: str) -> list[int]:
