@@ -177,3 +177,29 @@ def test_the_demo_prints_no_warning(tmp_path, capsys):
     assert "verdict: ok" in captured.out
     report = (tmp_path / "demo" / "report.html").read_text()
     assert report.split("<p>", 1)[1].startswith("verdict: ok")  # the report opens with it
+
+
+def test_a_dropped_ctrl_c_is_raised_again_before_anything_is_written(tmp_path, monkeypatch,
+                                                                      capsys):
+    """A KeyboardInterrupt raised inside a ctypes callback is dropped by ctypes (seen while numba
+    compiles under load); the CLI records the signal and raises it again at the next progress
+    line, so the run still ends with 130 and writes nothing."""
+    import dloplan.repair
+
+    planned = dloplan.repair.plan_and_repair
+
+    def dropping_the_interrupt(*args, **kwargs):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.5)
+        except KeyboardInterrupt:  # what ctypes does to it
+            pass
+        return planned(*args, **kwargs)
+
+    monkeypatch.setattr(dloplan.repair, "plan_and_repair", dropping_the_interrupt)
+    out = tmp_path / "out"
+    assert main(["plan", str(write(tmp_path, SMALL)), "-o", str(out)]) == EXIT_INTERRUPTED
+    assert capsys.readouterr().err.strip().splitlines()[-1] \
+        == "dloplan: interrupted (nothing written)"
+    assert not out.exists() and not list(tmp_path.glob(".out*"))
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

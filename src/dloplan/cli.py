@@ -17,6 +17,7 @@ from pathlib import Path
 from . import __version__
 from .cable import CATALOGUE_NAMES, catalogue_cable
 from .exit_codes import EXIT_CHECK_FAILED, EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, EXIT_WARNINGS
+from .interrupts import catching_interrupts, raise_if_interrupted
 
 FIGURE_WORKERS = 1
 """Processes drawing a plan's figures while it is verified (:mod:`dloplan.app.figure_workers`)."""
@@ -30,6 +31,7 @@ class Console:
         self.start = time.perf_counter()
 
     def stage(self, text: str) -> None:
+        raise_if_interrupted()
         if not self.quiet:
             elapsed = time.perf_counter() - self.start
             print(f"[{elapsed:7.2f} s] {text}", file=sys.stderr, flush=True)
@@ -573,7 +575,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return args.func(args)
+        with catching_interrupts():
+            return args.func(args)
     except KeyboardInterrupt:
         print("dloplan: interrupted (nothing written)", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -17,6 +17,8 @@ import tempfile
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
+from ..interrupts import raise_if_interrupted
+
 OUTPUT_MARK = "plan.json"
 """A folder holding this file is a dloplan output folder that a new run may replace."""
 
@@ -135,6 +137,7 @@ def staged_folder(target: str | os.PathLike) -> Iterator[Path]:
     try:
         _publish(staging, 0o777)
         yield staging
+        raise_if_interrupted()  # a Ctrl-C dropped on its way (dloplan.interrupts): publish nothing
         if target.exists():
             old = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.old-"))
             os.rename(target, old / "previous")
