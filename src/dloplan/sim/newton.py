@@ -66,30 +66,107 @@ def solve_band(factor: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     return out
 
 
+@njit(cache=True, inline="always")
+def _eliminate(factor, j, m):
+    """Column j of the right-looking banded Cholesky: its pivot, its m entries below the
+    diagonal, and their rank-1 update of the trailing m x m triangle; False for a pivot that is
+    not positive (also NaN). With a constant m (the bulk of a band of known width) numba unrolls
+    the loops, and the updates carry no dependency chain."""
+    pivot = factor[0, j]
+    if not pivot > 0.0:
+        return False
+    pivot = math.sqrt(pivot)
+    factor[0, j] = pivot
+    inverse = 1.0 / pivot
+    for i in range(1, m + 1):
+        factor[i, j] *= inverse
+    for i in range(1, m + 1):
+        l_ij = factor[i, j]
+        for k in range(i, m + 1):  # L[j + k, j + i] -= L[j + k, j] L[j + i, j]
+            factor[k - i, j + i] -= factor[k, j] * l_ij
+    return True
+
+
+@njit(cache=True, inline="always")
+def _substitute(factor, rhs, j, m):
+    """Forward step j of L z = rhs (column oriented: z_j, then its m updates below)."""
+    value = rhs[j] / factor[0, j]
+    rhs[j] = value
+    for k in range(1, m + 1):
+        rhs[j + k] -= factor[k, j] * value
+
+
+@njit(cache=True, inline="always")
+def _back_substitute(factor, rhs, j, m):
+    """Backward step j of L^T y = z (a dot product of m entries)."""
+    value = rhs[j]
+    for k in range(1, m + 1):
+        value -= factor[k, j] * rhs[j + k]
+    rhs[j] = value / factor[0, j]
+
+
+def _band_kernels(w):
+    """Cholesky columns and substitutions for the bulk of a band of half width ``w`` (the
+    columns whose w entries below the diagonal all exist), compiled with w a constant."""
+
+    @njit(cache=True)
+    def factor_bulk(factor, stop):
+        for j in range(stop):
+            if not _eliminate(factor, j, w):
+                return False
+        return True
+
+    @njit(cache=True)
+    def forward_bulk(factor, rhs, stop):
+        for j in range(stop):
+            _substitute(factor, rhs, j, w)
+
+    @njit(cache=True)
+    def backward_bulk(factor, rhs, stop):
+        for j in range(stop - 1, -1, -1):
+            _back_substitute(factor, rhs, j, w)
+
+    return factor_bulk, forward_bulk, backward_bulk
+
+
+# the chain's band (3 coordinates per point, 3 points per joint), and positions with twist
+# angles interleaved (dloplan.sim.torsion)
+_factor_8, _forward_8, _backward_8 = _band_kernels(8)
+_factor_10, _forward_10, _backward_10 = _band_kernels(10)
+
+
 @njit(cache=True)
 def cholesky_band(band, shift, factor):
-    """Compiled banded Cholesky (the algorithm of LAPACK dpbtf2): ``factor`` <- L of
-    ``band + shift I``; returns False (``factor`` then undefined) if a pivot is not positive.
-    O(N w^2) for N unknowns and half bandwidth w."""
+    """Compiled banded Cholesky: ``factor`` <- L of ``band + shift I``; returns False (``factor``
+    then undefined) if a pivot is not positive. O(N w^2) for N unknowns and half bandwidth w.
+
+    Right-looking (column j scaled, then the trailing triangle updated, as LAPACK's dpbtf2 does
+    with dsyr); for w = 8 and 10 the bulk of the columns runs with w a compile-time constant,
+    3 to 4 times faster than loops with variable bounds.
+    """
     w = band.shape[0] - 1
     n = band.shape[1]
     for j in range(n):
         for i in range(w + 1):
             factor[i, j] = band[i, j]
         factor[0, j] += shift
-    for j in range(n):
-        pivot = factor[0, j]
-        for k in range(1, min(w, j) + 1):
-            pivot -= factor[k, j - k] * factor[k, j - k]
-        if not pivot > 0.0:  # also catches NaN
+    bulk = max(n - w, 0)
+    if w == 8:
+        ok = _factor_8(factor, bulk)
+    elif w == 10:
+        ok = _factor_10(factor, bulk)
+    else:
+        ok = _factor_columns(factor, 0, bulk, w)
+    return ok and _factor_columns(factor, bulk, n, w)
+
+
+@njit(cache=True)
+def _factor_columns(factor, start, stop, w):
+    """Cholesky columns ``start .. stop - 1`` with as many entries below the diagonal as exist."""
+    n = factor.shape[1]
+    for j in range(start, stop):
+        if not _eliminate(factor, j, min(w, n - 1 - j)):
             return False
-        pivot = math.sqrt(pivot)
-        factor[0, j] = pivot
-        for i in range(1, min(w, n - 1 - j) + 1):  # L[j + i, j]
-            value = factor[i, j]
-            for k in range(1, min(w - i, j) + 1):
-                value -= factor[i + k, j - k] * factor[k, j - k]
-            factor[i, j] = value / pivot
     return True
 
 
@@ -98,16 +175,25 @@ def cholesky_solve(factor, rhs):
     """Solve L L^T y = rhs in place with a factor of :func:`cholesky_band`."""
     w = factor.shape[0] - 1
     n = factor.shape[1]
-    for j in range(n):  # L z = rhs
-        value = rhs[j]
-        for k in range(1, min(w, j) + 1):
-            value -= factor[k, j - k] * rhs[j - k]
-        rhs[j] = value / factor[0, j]
-    for j in range(n - 1, -1, -1):  # L^T y = z
-        value = rhs[j]
-        for k in range(1, min(w, n - 1 - j) + 1):
-            value -= factor[k, j] * rhs[j + k]
-        rhs[j] = value / factor[0, j]
+    bulk = max(n - w, 0)
+    if w == 8:
+        _forward_8(factor, rhs, bulk)
+    elif w == 10:
+        _forward_10(factor, rhs, bulk)
+    else:
+        for j in range(bulk):
+            _substitute(factor, rhs, j, w)
+    for j in range(bulk, n):  # L z = rhs
+        _substitute(factor, rhs, j, n - 1 - j)
+    for j in range(n - 1, bulk - 1, -1):  # L^T y = z
+        _back_substitute(factor, rhs, j, n - 1 - j)
+    if w == 8:
+        _backward_8(factor, rhs, bulk)
+    elif w == 10:
+        _backward_10(factor, rhs, bulk)
+    else:
+        for j in range(bulk - 1, -1, -1):
+            _back_substitute(factor, rhs, j, w)
 
 
 def lowest_mode(band: np.ndarray) -> np.ndarray:
