@@ -21,13 +21,8 @@ from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
 from ..frames import frame_from_axis, minimal_rotation
-from ..geometry import (
-    arc_length,
-    as_shape,
-    resample_by_arc_length,
-    shape_length,
-)
-from ..physics.compiled import stretch_to_length
+from ..geometry import as_shape
+from ..physics.compiled import conform_free_part
 
 HELD_INDICES = (0, 1, -2, -1)
 """Indices of the four points fixed by the two clips, in the order first-end, first-inner,
@@ -53,7 +48,7 @@ class ClipPoses:
     rotations: Rotation
 
     def __post_init__(self) -> None:
-        pos = np.asarray(self.positions, dtype=float)
+        pos = np.array(self.positions, dtype=float)  # its own copy: held points are cached
         if pos.shape != (2, 3):
             raise ValueError(f"clips.positions: expected shape (2, 3), got {pos.shape}")
         if not np.all(np.isfinite(pos)):
@@ -82,9 +77,16 @@ class ClipPoses:
 
     def held_points(self, link_length: float) -> np.ndarray:
         """Positions of the four held points (see :data:`HELD_INDICES`), (4, 3) [m]."""
-        half = 0.5 * link_length * self.u_axes
-        p = self.positions
-        return np.stack([p[0] - half[0], p[0] + half[0], p[1] + half[1], p[1] - half[1]])
+        if link_length not in self._held:  # solvers ask for them several times per solve
+            half = 0.5 * link_length * self._u_axes
+            p = self.positions
+            self._held[link_length] = np.stack([p[0] - half[0], p[0] + half[0],
+                                                p[1] + half[1], p[1] - half[1]])
+        return self._held[link_length].copy()
+
+    @cached_property
+    def _held(self) -> dict:
+        return {}
 
     def moved(self, translation=(0.0, 0.0, 0.0), rotation: Rotation | None = None) -> ClipPoses:
         """Both clips moved by the rigid motion x -> rotation x + translation."""
@@ -167,38 +169,8 @@ def conform_guess(cable: Cable, guess: np.ndarray, clips: ClipPoses, gravity=GRA
     gravity : array_like
         Gravity [m/s^2], the direction a straight compressed guess is bowed toward.
     """
-    l = cable.rest_link_length
-    held = clips.held_points(l)
     x = np.array(guess, dtype=float)
-    x[list(HELD_INDICES)] = held
-    inner = np.array(guess[1:-1], dtype=float)
-    need = (cable.n_links - 2) * l
-    s = arc_length(inner)
-    s = s / s[-1] if s[-1] > 0 else np.linspace(0.0, 1.0, len(inner))
-    inner += (1 - s)[:, None] * (held[1] - inner[0]) + s[:, None] * (held[2] - inner[-1])
-    chord = held[1] + s[:, None] * (held[2] - held[1])
-    deviation = inner - chord
-    if abs(shape_length(inner) / need - 1.0) < 1e-6:
-        x[1:-1] = inner
-        return x
-    if float(np.linalg.norm(held[2] - held[1])) >= need:
-        x[1:-1] = resample_by_arc_length(chord, len(inner))
-        return x
-    if float(np.max(np.linalg.norm(deviation, axis=1))) < 1e-9 * cable.length:
-        deviation = 0.5 * (1.0 - np.cos(2.0 * np.pi * s))[:, None] * _bow_direction(
-            held[2] - held[1], gravity
-        ) * cable.length
-
-    x[1:-1] = resample_by_arc_length(chord + stretch_to_length(chord, deviation, need) * deviation,
-                                     len(inner))
+    conform_free_part(x, clips.held_points(cable.rest_link_length),
+                      (cable.n_links - 2) * cable.rest_link_length, cable.length,
+                      np.asarray(gravity, dtype=float))
     return x
-
-
-def _bow_direction(chord: np.ndarray, gravity) -> np.ndarray:
-    axis = chord / np.linalg.norm(chord)
-    for candidate in (np.asarray(gravity, dtype=float), np.array([0, 0, -1.0]),
-                      np.array([0, 1.0, 0])):
-        perp = candidate - np.dot(candidate, axis) * axis
-        if np.linalg.norm(perp) > 1e-6 * max(np.linalg.norm(candidate), 1e-300):
-            return perp / np.linalg.norm(perp)
-    return np.array([1.0, 0, 0])
