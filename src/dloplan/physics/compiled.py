@@ -114,14 +114,15 @@ def _axial_terms(x, k_s, rest_lengths, grad, band, with_band):
         length = math.sqrt(length)
         stretch = length - rest_lengths[i]
         total += 0.5 * k_s * stretch * stretch
+        inverse = 1.0 / length
         for a in range(3):
-            t[a] /= length
+            t[a] *= inverse
             g = k_s * stretch * t[a]
             grad[i + 1, a] += g
             grad[i, a] -= g
         if not with_band:
             continue
-        ratio = stretch / length
+        ratio = stretch * inverse
         for a in range(3):
             for b in range(3):
                 tt = t[a] * t[b]
@@ -148,23 +149,29 @@ def _bending_terms(x, k_b, rest_angles, grad, band, with_band):
         la, lb, c, s, beta = joint_directions(x, i, u, v)
         total += 0.5 * k_b * (beta - rest_angles[i]) ** 2
         d1, d2 = _cos_derivatives(k_b, rest_angles[i], c, s, beta)
+        ia = 1.0 / la
+        ib = 1.0 / lb
         for a in range(3):
-            dca[a] = (v[a] - c * u[a]) / la  # dc/da = w / |a|
-            dcb[a] = (u[a] - c * v[a]) / lb  # dc/db = z / |b|
+            dca[a] = (v[a] - c * u[a]) * ia  # dc/da = w / |a|
+            dcb[a] = (u[a] - c * v[a]) * ib  # dc/db = z / |b|
             grad[i, a] -= d1 * dca[a]
             grad[i + 1, a] += d1 * (dca[a] - dcb[a])
             grad[i + 2, a] += d1 * dcb[a]
         if not with_band:
             continue
+        caa_eye = -c * ia * ia  # the identity's coefficients in d^2c/da^2, d^2c/dadb, d^2c/db^2
+        cab_eye = ia * ib
+        cbb_eye = -c * ib * ib
         for a in range(3):
             for b in range(3):
-                eye = 1.0 if a == b else 0.0
-                pu = eye - u[a] * u[b]
-                pv = eye - v[a] * v[b]
                 # d^2c: -(u w^T + w u^T + c P_u)/|a|^2, (P_v - u z^T)/(|a||b|), and for b
-                caa = -(u[a] * dca[b] + dca[a] * u[b]) / la - c * pu / (la * la)
-                cab = pv / (la * lb) - u[a] * dcb[b] / la
-                cbb = -(v[a] * dcb[b] + dcb[a] * v[b]) / lb - c * pv / (lb * lb)
+                caa = -(u[a] * dca[b] + dca[a] * u[b]) * ia + caa_eye * (-u[a] * u[b])
+                cab = cab_eye * (-v[a] * v[b]) - u[a] * dcb[b] * ia
+                cbb = -(v[a] * dcb[b] + dcb[a] * v[b]) * ib + cbb_eye * (-v[a] * v[b])
+                if a == b:
+                    caa += caa_eye
+                    cab += cab_eye
+                    cbb += cbb_eye
                 hl[0, 0, a, b] = d1 * caa + d2 * dca[a] * dca[b]
                 hl[0, 1, a, b] = d1 * cab + d2 * dca[a] * dcb[b]
                 hl[1, 1, a, b] = d1 * cbb + d2 * dcb[a] * dcb[b]
