@@ -224,21 +224,21 @@ def _direction_local(ea, eb, m1a, m1b, bar, k_b, g, h, work):
 @njit(cache=True)
 def _twist_angle(ta, tb, m1a, m1b):
     """Discrete twist psi between two links (:func:`dloplan.physics.rod_frames.discrete_twist`)."""
-    m2a = np.empty(3)
-    m2b = np.empty(3)
-    for k in range(3):
-        k1 = (k + 1) % 3
-        k2 = (k + 2) % 3
-        m2a[k] = ta[k1] * m1a[k2] - ta[k2] * m1a[k1]
-        m2b[k] = tb[k1] * m1b[k2] - tb[k2] * m1b[k1]
-    cos_part = 0.0
-    sin_part = 0.0
-    for k in range(3):
-        k1 = (k + 1) % 3
-        k2 = (k + 2) % 3
-        cos_part += m1a[k] * m1b[k] + m2a[k] * m2b[k]
-        axial = (m1a[k1] * m1b[k2] - m1a[k2] * m1b[k1] + m2a[k1] * m2b[k2] - m2a[k2] * m2b[k1])
-        sin_part += 0.5 * axial * (ta[k] + tb[k])
+    # m2 = t x m1 of both links, as scalars (no arrays: this runs per joint and energy)
+    a0 = ta[1] * m1a[2] - ta[2] * m1a[1]
+    a1 = ta[2] * m1a[0] - ta[0] * m1a[2]
+    a2 = ta[0] * m1a[1] - ta[1] * m1a[0]
+    b0 = tb[1] * m1b[2] - tb[2] * m1b[1]
+    b1 = tb[2] * m1b[0] - tb[0] * m1b[2]
+    b2 = tb[0] * m1b[1] - tb[1] * m1b[0]
+    cos_part = (m1a[0] * m1b[0] + m1a[1] * m1b[1] + m1a[2] * m1b[2]
+                + a0 * b0 + a1 * b1 + a2 * b2)
+    # axial_k = (m1a x m1b + m2a x m2b)_k, projected on (t_a + t_b) / 2
+    axial0 = m1a[1] * m1b[2] - m1a[2] * m1b[1] + a1 * b2 - a2 * b1
+    axial1 = m1a[2] * m1b[0] - m1a[0] * m1b[2] + a2 * b0 - a0 * b2
+    axial2 = m1a[0] * m1b[1] - m1a[1] * m1b[0] + a0 * b1 - a1 * b0
+    sin_part = 0.5 * (axial0 * (ta[0] + tb[0]) + axial1 * (ta[1] + tb[1])
+                      + axial2 * (ta[2] + tb[2]))
     return math.atan2(sin_part, cos_part)
 
 

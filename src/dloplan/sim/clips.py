@@ -13,10 +13,11 @@ keeps its rest length l: the end point is at ``position - l/2 u`` and the inner 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
+from numba import njit
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
@@ -57,36 +58,30 @@ class ClipPoses:
             self.rotations
         ) != 2:
             raise ValueError("clips.rotations: expected a scipy Rotation holding 2 rotations")
-        if not np.all(np.isfinite(self.rotations.as_quat())):
+        quaternions = self.rotations.as_quat()
+        if not np.all(np.isfinite(quaternions)):
             raise ValueError("clips.rotations: non-finite quaternion (NaN or inf)")
         object.__setattr__(self, "positions", pos)
+        # the u-axes from the quaternions (Rotation.apply costs more than every use of them)
+        object.__setattr__(self, "_u_axes", _x_axes(quaternions))
+        object.__setattr__(self, "_held", {})  # held points per link length
 
     @property
     def u_axes(self) -> np.ndarray:
         """The two u-axes (held link directions, inward), (2, 3)."""
         return self._u_axes.copy()
 
-    @cached_property
-    def _u_axes(self) -> np.ndarray:  # Rotation.apply costs more than every use of its result
-        return self.rotations.apply([1.0, 0.0, 0.0])
-
     @property
     def distance(self) -> float:
         """Distance between the two clip points Delta_clip [m] (thesis Fig. 4.5)."""
-        return float(np.linalg.norm(self.positions[1] - self.positions[0]))
+        return math.dist(self.positions[0], self.positions[1])
 
     def held_points(self, link_length: float) -> np.ndarray:
         """Positions of the four held points (see :data:`HELD_INDICES`), (4, 3) [m]."""
         if link_length not in self._held:  # solvers ask for them several times per solve
-            half = 0.5 * link_length * self._u_axes
-            p = self.positions
-            self._held[link_length] = np.stack([p[0] - half[0], p[0] + half[0],
-                                                p[1] + half[1], p[1] - half[1]])
+            self._held[link_length] = _held_points(self.positions, self._u_axes,
+                                                   float(link_length))
         return self._held[link_length].copy()
-
-    @cached_property
-    def _held(self) -> dict:
-        return {}
 
     def moved(self, translation=(0.0, 0.0, 0.0), rotation: Rotation | None = None) -> ClipPoses:
         """Both clips moved by the rigid motion x -> rotation x + translation."""
@@ -94,6 +89,33 @@ class ClipPoses:
         return ClipPoses(
             rot.apply(self.positions) + np.asarray(translation, dtype=float), rot * self.rotations
         )
+
+
+@njit(cache=True)
+def _x_axes(quaternions):
+    """First columns of the rotation matrices of unit quaternions (k, 4) (x, y, z, w), (k, 3);
+    the formula of scipy's ``Rotation.as_matrix``."""
+    out = np.empty((quaternions.shape[0], 3))
+    for k in range(quaternions.shape[0]):
+        x, y, z, w = quaternions[k]
+        out[k, 0] = x * x - y * y - z * z + w * w
+        out[k, 1] = 2.0 * (x * y + z * w)
+        out[k, 2] = 2.0 * (x * z - y * w)
+    return out
+
+
+@njit(cache=True)
+def _held_points(positions, u_axes, link_length):
+    """The held points (4, 3) [m] of clips at ``positions`` with ``u_axes`` (2, 3)."""
+    out = np.empty((4, 3))
+    for a in range(3):
+        half_0 = 0.5 * link_length * u_axes[0, a]
+        half_1 = 0.5 * link_length * u_axes[1, a]
+        out[0, a] = positions[0, a] - half_0
+        out[1, a] = positions[0, a] + half_0
+        out[2, a] = positions[1, a] + half_1
+        out[3, a] = positions[1, a] - half_1
+    return out
 
 
 def clip_poses_from_shape(shape, rotations: Rotation | None = None) -> ClipPoses:
