@@ -71,10 +71,21 @@ def explicit_steps(x, v, previous_held, targets, extra, first_step, n_steps, dt,
         ``(step, n_records, status)`` with status :data:`RUNNING` (chunk done), :data:`SETTLED`
         or :data:`DIVERGED`.
     """
+    return _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt, k_d,
+                           relative, ground, record_every, rest_speed, clips_stop, k_s,
+                           rest_lengths, k_b, rest_angles, masses, gravity, times, shapes,
+                           speeds, n_records, np.empty_like(x), np.empty_like(x),
+                           np.empty_like(x))
+
+
+@njit(cache=True)
+def _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt, k_d, relative,
+                    ground, record_every, rest_speed, clips_stop, k_s, rest_lengths, k_b,
+                    rest_angles, masses, gravity, times, shapes, speeds, n_records, grad, drag,
+                    accel):
+    """:func:`explicit_steps` with its work arrays (n + 1, 3) given (:func:`twist_steps` calls
+    it once per step)."""
     n_points = x.shape[0]
-    grad = np.empty_like(x)
-    drag = np.empty_like(x)
-    accel = np.empty_like(x)
     held = (0, 1, n_points - 2, n_points - 1)
     step = first_step
     for k in range(targets.shape[0]):
@@ -185,16 +196,17 @@ def twist_steps(x, v, previous_held, targets, held_directors, d1, twist, work, f
     extra = np.empty_like(x)
     x_old = np.empty_like(x)
     no_turn = np.zeros(n)
+    grad, drag, accel = np.empty_like(x), np.empty_like(x), np.empty_like(x)
     step = first_step
     status = RUNNING
     for k in range(targets.shape[0]):
         relax_twist(x, d1, twist, work, tgrad, dgrad, agrad, blocks, band, factor, rhs, angles,
                     turned, extra)
         x_old[:] = x
-        step, n_records, status = explicit_steps(
+        step, n_records, status = _explicit_chunk(
             x, v, previous_held, targets[k : k + 1], extra, step, n_steps, dt, k_d, relative,
             ground, record_every, rest_speed, clips_stop, k_s, rest_lengths, k_b, rest_angles,
-            masses, gravity, times, shapes, speeds, n_records)
+            masses, gravity, times, shapes, speeds, n_records, grad, drag, accel)
         moved_directors(x_old, x, d1, no_turn, turned)
         d1[:] = turned
         d1[0] = held_directors[k, 0]
