@@ -426,6 +426,17 @@ def twist_energies(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional):
 
 
 @njit(cache=True)
+def twist_angles(x, d1, out):
+    """Discrete twist psi_i [rad] at the interior points of x (n + 1, 3) with directors d1
+    (n, 3), into ``out`` (n - 1,): :func:`dloplan.physics.rod_frames.discrete_twist`, compiled."""
+    ta = np.empty(3)
+    tb = np.empty(3)
+    for s in range(x.shape[0] - 2):
+        joint_directions(x, s, ta, tb)
+        out[s] = _twist_angle(ta, tb, d1[s], d1[s + 1])
+
+
+@njit(cache=True)
 def moved_directors(x_old, x_new, d1, angles, out):
     """Directors after a step: d1 carried by parallel transport from the links of ``x_old`` to
     those of ``x_new``, turned by ``angles`` [rad] (n,) about the new links, and made exactly
