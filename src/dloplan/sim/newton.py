@@ -105,35 +105,57 @@ def _back_substitute(factor, rhs, j, m):
     rhs[j] = value / factor[0, j]
 
 
-def _band_kernels(w):
-    """Cholesky columns and substitutions for the bulk of a band of half width ``w`` (the
-    columns whose w entries below the diagonal all exist), compiled with w a constant."""
+FACTOR, FORWARD, BACKWARD = 0, 1, 2
+"""The three passes of a banded Cholesky solve (:func:`_bulk_pass`)."""
 
-    @njit(cache=True)
-    def factor_bulk(factor, stop):
+
+@njit(cache=True, inline="always")
+def _bulk_pass(step, factor, rhs, stop, w):
+    """One pass over the bulk columns ``0 .. stop - 1`` of a band of half width w (those whose
+    w entries below the diagonal all exist): the factorization (False at a pivot that is not
+    positive), the forward or the backward substitution of ``rhs``."""
+    if step == FACTOR:
         for j in range(stop):
             if not _eliminate(factor, j, w):
                 return False
-        return True
-
-    @njit(cache=True)
-    def forward_bulk(factor, rhs, stop):
+    elif step == FORWARD:
         for j in range(stop):
             _substitute(factor, rhs, j, w)
-
-    @njit(cache=True)
-    def backward_bulk(factor, rhs, stop):
+    else:
         for j in range(stop - 1, -1, -1):
             _back_substitute(factor, rhs, j, w)
+    return True
 
-    return factor_bulk, forward_bulk, backward_bulk
+
+def _constant_width(w):
+    """:func:`_bulk_pass` compiled with the half width w a constant (numba unrolls its loops)."""
+
+    @njit(cache=True)
+    def bulk_pass(step, factor, rhs, stop):
+        return _bulk_pass(step, factor, rhs, stop, w)
+
+    return bulk_pass
 
 
 # the chain's band (3 coordinates per point, 3 points per joint), positions with twist angles
 # interleaved (dloplan.sim.torsion), and the twist angles alone (dloplan.sim.stepping)
-_factor_8, _forward_8, _backward_8 = _band_kernels(8)
-_factor_10, _forward_10, _backward_10 = _band_kernels(10)
-_factor_1, _forward_1, _backward_1 = _band_kernels(1)
+_bulk_8 = _constant_width(8)
+_bulk_10 = _constant_width(10)
+_bulk_1 = _constant_width(1)
+
+
+@njit(cache=True)
+def _bulk(step, factor, rhs, stop):
+    """:func:`_bulk_pass` at the factor's half width, with a constant width where one is
+    compiled."""
+    w = factor.shape[0] - 1
+    if w == 8:
+        return _bulk_8(step, factor, rhs, stop)
+    if w == 10:
+        return _bulk_10(step, factor, rhs, stop)
+    if w == 1:
+        return _bulk_1(step, factor, rhs, stop)
+    return _bulk_pass(step, factor, rhs, stop, w)
 
 
 @njit(cache=True)
@@ -152,23 +174,10 @@ def cholesky_band(band, shift, factor):
             factor[i, j] = band[i, j]
         factor[0, j] += shift
     bulk = max(n - w, 0)
-    if w == 8:
-        ok = _factor_8(factor, bulk)
-    elif w == 10:
-        ok = _factor_10(factor, bulk)
-    elif w == 1:
-        ok = _factor_1(factor, bulk)
-    else:
-        ok = _factor_columns(factor, 0, bulk, w)
-    return ok and _factor_columns(factor, bulk, n, w)
-
-
-@njit(cache=True)
-def _factor_columns(factor, start, stop, w):
-    """Cholesky columns ``start .. stop - 1`` with as many entries below the diagonal as exist."""
-    n = factor.shape[1]
-    for j in range(start, stop):
-        if not _eliminate(factor, j, min(w, n - 1 - j)):
+    if not _bulk(FACTOR, factor, factor[0], bulk):
+        return False
+    for j in range(bulk, n):  # the last columns, with fewer entries below the diagonal
+        if not _eliminate(factor, j, n - 1 - j):
             return False
     return True
 
@@ -176,31 +185,14 @@ def _factor_columns(factor, start, stop, w):
 @njit(cache=True)
 def cholesky_solve(factor, rhs):
     """Solve L L^T y = rhs in place with a factor of :func:`cholesky_band`."""
-    w = factor.shape[0] - 1
     n = factor.shape[1]
-    bulk = max(n - w, 0)
-    if w == 8:
-        _forward_8(factor, rhs, bulk)
-    elif w == 10:
-        _forward_10(factor, rhs, bulk)
-    elif w == 1:
-        _forward_1(factor, rhs, bulk)
-    else:
-        for j in range(bulk):
-            _substitute(factor, rhs, j, w)
+    bulk = max(n - factor.shape[0] + 1, 0)
+    _bulk(FORWARD, factor, rhs, bulk)
     for j in range(bulk, n):  # L z = rhs
         _substitute(factor, rhs, j, n - 1 - j)
     for j in range(n - 1, bulk - 1, -1):  # L^T y = z
         _back_substitute(factor, rhs, j, n - 1 - j)
-    if w == 8:
-        _backward_8(factor, rhs, bulk)
-    elif w == 10:
-        _backward_10(factor, rhs, bulk)
-    elif w == 1:
-        _backward_1(factor, rhs, bulk)
-    else:
-        for j in range(bulk - 1, -1, -1):
-            _back_substitute(factor, rhs, j, w)
+    _bulk(BACKWARD, factor, rhs, bulk)
 
 
 def lowest_mode(band: np.ndarray) -> np.ndarray:
