@@ -12,9 +12,15 @@ E = 1e5..1e11 Pa and across n up to 1000.
 Part 0: the first call's cost in a fresh interpreter (numba loads the compiled kernels from its
 on-disk cache, or compiles them on the very first run of an install).
 
-Before the compiled kernels (issue 20; same machine, quiet): n = 50 buckled start 3.1 ms,
-n = 1000 23 ms (docs/model.md); n = 100 about 5.3 ms (not recorded quiet: 1.7 times n = 50 when
-both were run side by side under load, 14.6 ms against 8.6 ms). Targets: 0.5 ms, 1 ms, 5 ms.
+Issue 20. Before the compiled kernels (same machine, quiet): n = 50 buckled start 3.1 ms,
+n = 1000 23 ms (docs/model.md), n = 100 about 5.3 ms. At commit 2268328 (compiled Newton loop,
+quiet, load ~1): n = 50 1.24 ms, n = 100 1.60 ms, n = 1000 8.9 ms; the ratios printed are
+against these. Targets (quiet): 0.5 ms, 1 ms, 5 ms.
+Now (right-looking banded Cholesky with the half width a compile-time constant, the set-up
+compiled or cached: clip conforming, reactions, clip axes, the chain), best of 7-30 under load
+average 6.9 on the 2 shared cores: n = 50 0.362 ms (3.4x), n = 100 0.522 ms (3.1x), n = 1000
+5.44 ms (1.6x; 4.4 ms in another run under load 4.7); E = 1e5..1e11 Pa 0.31-0.38 ms. Under
+that load the targets for n = 50 and 100 are met; n = 1000 is at the target.
 The machine is shared: run this twice, quote the best, and read the ratios printed against the
 figures above with care when other jobs run (the ratio then underestimates the speed-up).
 """
@@ -75,7 +81,7 @@ def part1() -> None:
                   f"{dyn.iterations:>9} {t_dyn / t_static:>8.0f} {diff:>10.3f}{note}")
 
 
-BEFORE_MS = {50: 3.1, 100: 5.3, 1000: 23.0}  # before the compiled kernels (docstring)
+BEFORE_MS = {50: 1.24, 100: 1.60, 1000: 8.9}  # commit 2268328, quiet (docstring)
 TARGET_MS = {50: 0.5, 100: 1.0, 1000: 5.0}
 
 
@@ -109,7 +115,7 @@ def part2() -> None:
         ref_x = CubicHermiteSpline(limit["s"], limit["x"], np.cos(theta))(s_chain)
         ref_z = CubicHermiteSpline(limit["s"], limit["z"], np.sin(theta))(s_chain)
         dist = np.hypot(eq.shape[1:-1, 0] - ref_x, eq.shape[1:-1, 2] - ref_z).max()
-        print(f"  n = {n:>3}: {1e3 * t:6.3f} ms (before {BEFORE_MS[n]} ms: "
+        print(f"  n = {n:>3}: {1e3 * t:6.3f} ms (2268328: {BEFORE_MS[n]} ms, "
               f"{BEFORE_MS[n] / (1e3 * t):4.1f}x faster; target {TARGET_MS[n]} ms), "
               f"{eq.iterations} iterations, max distance to the elastica (n -> infinity) "
               f"{1e3 * dist:.3f} mm")
@@ -133,7 +139,7 @@ def part2() -> None:
         cable = catalogue_cable("ethernet", n_links=n)
         t, eq = best_time(lambda: equilibrium(cable, straight_start(cable), CLIPS), 7)  # noqa: B023
         rows.append((n, t))
-        before = (f" (before {BEFORE_MS[n]} ms: {BEFORE_MS[n] / (1e3 * t):4.1f}x, target "
+        before = (f" (2268328: {BEFORE_MS[n]} ms, {BEFORE_MS[n] / (1e3 * t):4.1f}x; target "
                   f"{TARGET_MS[n]} ms)" if n in BEFORE_MS else "")
         print(f"    n = {n:>4}: {1e3 * t:7.3f} ms{before}, {eq.iterations:3d} iterations, "
               f"{1e6 * t / max(eq.iterations, 1) / n:5.2f} us per iteration and link")

@@ -16,9 +16,10 @@ import pytest
 from conftest import level_clips, sagging_guess
 from scipy.linalg import lapack
 from scipy.optimize import brentq
+from scipy.spatial.transform import Rotation
 
 from dloplan import catalogue_cable
-from dloplan.geometry import shape_length
+from dloplan.geometry import arc_length, resample_by_arc_length, shape_length
 from dloplan.obstacles.shapes import Cylinder, Table
 from dloplan.physics.chain import (
     SpringChain,
@@ -30,9 +31,10 @@ from dloplan.physics.chain import (
     shape_energy,
     shape_forces,
 )
-from dloplan.physics.compiled import stretch_to_length
-from dloplan.sim.clips import conform_guess, place_held_points
+from dloplan.physics.compiled import resample_polyline, stretch_to_length
+from dloplan.sim.clips import ClipPoses, conform_guess, place_held_points
 from dloplan.sim.newton import factor_band, solve_band, trust_region_newton
+from dloplan.sim.result import clip_reactions
 from dloplan.sim.statics import equilibrium, force_scale, minimize_energy
 
 
@@ -89,7 +91,7 @@ def test_contact_terms_are_active_in_the_contact_case(rng):
 
 
 def test_banded_cholesky_matches_lapack(rng):
-    for n_dof, width in ((1, 0), (5, 8), (40, 3), (141, 8), (300, 10)):
+    for n_dof, width in ((1, 0), (5, 8), (40, 3), (141, 8), (300, 10), (60, 1)):
         a = rng.standard_normal((n_dof, n_dof))
         dense = a @ a.T + n_dof * np.eye(n_dof)
         dense[np.abs(np.subtract.outer(np.arange(n_dof), np.arange(n_dof))) > width] = 0.0
@@ -165,3 +167,104 @@ def test_compiled_newton_loop_follows_the_generic_loop(case):
         return
     eq = equilibrium(cable, guess, clips)
     assert eq.success and np.max(np.abs(eq.shape - x)) < 1e-12
+
+
+def numpy_conform(cable, guess, clips, gravity):
+    """The numpy construction conform_guess compiles (its docstring): blend the guess's ends
+    onto the inner held points, scale its deviation from the chord to the rest length, respace."""
+    l = cable.rest_link_length
+    held = clips.held_points(l)
+    x = np.array(guess, dtype=float)
+    x[[0, 1, -2, -1]] = held
+    inner = np.array(guess[1:-1], dtype=float)
+    need = (cable.n_links - 2) * l
+    s = arc_length(inner)
+    s = s / s[-1] if s[-1] > 0 else np.linspace(0.0, 1.0, len(inner))
+    inner += (1 - s)[:, None] * (held[1] - inner[0]) + s[:, None] * (held[2] - inner[-1])
+    chord = held[1] + s[:, None] * (held[2] - held[1])
+    deviation = inner - chord
+    if abs(shape_length(inner) / need - 1.0) < 1e-6:
+        x[1:-1] = inner
+        return x
+    if np.linalg.norm(held[2] - held[1]) >= need:
+        x[1:-1] = resample_by_arc_length(chord, len(inner))
+        return x
+    if np.max(np.linalg.norm(deviation, axis=1)) < 1e-9 * cable.length:
+        axis = (held[2] - held[1]) / np.linalg.norm(held[2] - held[1])
+        for candidate in (np.asarray(gravity, dtype=float), np.array([0, 0, -1.0]),
+                          np.array([0, 1.0, 0])):
+            perp = candidate - (candidate @ axis) * axis
+            if np.linalg.norm(perp) > 1e-6 * max(np.linalg.norm(candidate), 1e-300):
+                break
+        bow = perp / np.linalg.norm(perp)
+        deviation = 0.5 * (1.0 - np.cos(2.0 * np.pi * s))[:, None] * bow * cable.length
+    amplitude = brentq(lambda a: float(shape_length(chord + a * deviation)) - need, 0.0, 1e6,
+                       xtol=1e-15)
+    x[1:-1] = resample_by_arc_length(chord + amplitude * deviation, len(inner))
+    return x
+
+
+@pytest.mark.parametrize("n", [5, 12, 60])
+def test_compiled_conform_guess_matches_the_numpy_construction(n, rng):
+    cable = catalogue_cable("ethernet", n_links=n)
+    l = cable.rest_link_length
+    straight = np.stack([np.linspace(-l / 2, 0.4 + l / 2, n + 1), np.zeros(n + 1),
+                         np.zeros(n + 1)], 1)
+    askew = ClipPoses(np.array([[0.0, 0, 0], [0.1, 0.2, 0.05]]),
+                      Rotation.random(2, random_state=3))
+    upright = ClipPoses(np.array([[0.0, 0, 0], [0.0, 0, 0.3]]),
+                        Rotation.from_euler("y", [[-90.0], [90.0]], degrees=True))
+    guesses = {"straight": straight, "crooked": straight + rng.normal(0, 0.01, straight.shape),
+               "short": 0.5 * straight, "wavy": sagging_guess(cable, 0.4)}
+    for clips in (level_clips(0.4), askew, upright, level_clips(0.6)):
+        for gravity in ((0, 0, -9.81), (0, 0, 0), (3.0, 0, 0)):
+            for guess in guesses.values():
+                if np.linalg.norm(np.diff(clips.held_points(l)[1:3], axis=0)) > 1.02 * (n - 2) * l:
+                    continue  # out of reach: equilibrium refuses these clips first
+                fast = conform_guess(cable, guess, clips, gravity)
+                assert np.abs(fast - numpy_conform(cable, guess, clips, gravity)).max() < 1e-12
+                assert np.abs(fast[[0, 1, -2, -1]] - clips.held_points(l)).max() < 1e-15
+
+
+def test_compiled_resampling_matches_the_numpy_resampling(rng):
+    points = np.cumsum(rng.normal(size=(30, 3)), axis=0)
+    points = np.insert(points, 7, points[6], axis=0)  # a zero-length link is skipped
+    for m in (2, 3, 31, 200):
+        out = np.empty((m, 3))
+        resample_polyline(points, out)
+        assert np.abs(out - resample_by_arc_length(points, m)).max() < 1e-12
+
+
+def test_compiled_clip_reactions_are_force_and_moment_sums(rng):
+    x = rng.normal(size=(9, 3))
+    grad = rng.normal(size=(9, 3))
+    clips = ClipPoses(rng.normal(size=(2, 3)), Rotation.random(2, random_state=1))
+    wrenches = clip_reactions(x, grad, clips)
+    for k, idx in enumerate(([0, 1], [-2, -1])):
+        assert np.allclose(wrenches[k, :3], -grad[idx].sum(0), rtol=0, atol=1e-14)
+        moment = np.cross(x[idx] - clips.positions[k], -grad[idx]).sum(0)
+        assert np.allclose(wrenches[k, 3:], moment, rtol=0, atol=1e-14)
+    assert np.all(clip_reactions(x, grad, clips, "first")[1] == 0.0)
+
+
+def test_clip_axes_are_the_rotations_x_axes_and_the_positions_are_copied():
+    rotations = Rotation.random(2, random_state=7)
+    positions = np.array([[0.0, 0, 0], [0.3, 0, 0]])
+    clips = ClipPoses(positions, rotations)
+    assert np.abs(clips.u_axes - rotations.apply([1.0, 0, 0])).max() < 1e-15
+    before = clips.held_points(0.01)
+    positions[1, 0] = 5.0  # the caller's array: the clips keep their own copy
+    assert np.array_equal(clips.held_points(0.01), before)
+
+
+def test_contact_free_chains_are_built_once_per_cable_and_gravity():
+    cable = catalogue_cable("usb", n_links=6)
+    assert SpringChain.from_cable(cable) is SpringChain.from_cable(cable)
+    weightless = SpringChain.from_cable(cable, (0.0, 0.0, 0.0))
+    assert weightless is not SpringChain.from_cable(cable)
+    assert np.all(weightless.gravity == 0.0)
+    table = (Table(-0.01),)
+    assert SpringChain.from_cable(cable, contacts=table) is not \
+        SpringChain.from_cable(cable, contacts=table)
+    other = catalogue_cable("usb", n_links=6)  # an equal cable, another object: its own chain
+    assert SpringChain.from_cable(other) is not SpringChain.from_cable(cable)

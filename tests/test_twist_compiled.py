@@ -17,7 +17,7 @@ from gripper_paths import curved_hose
 
 from dloplan.cable import catalogue_cable
 from dloplan.geometry import tangents
-from dloplan.physics.rod_frames import rotate_about, transported_directors
+from dloplan.physics.rod_frames import discrete_twist, rotate_about, transported_directors
 from dloplan.physics.twist import (
     TwistChain,
     centred_twist_derivatives,
@@ -26,7 +26,12 @@ from dloplan.physics.twist import (
     twist_energy,
     twist_energy_terms,
 )
-from dloplan.physics.twist_compiled import interleaved_band, moved_directors, twist_energies
+from dloplan.physics.twist_compiled import (
+    interleaved_band,
+    moved_directors,
+    twist_angles,
+    twist_energies,
+)
 
 
 def random_state(cable, seed, bend=0.02):
@@ -175,3 +180,12 @@ def test_compiled_twist_loop_follows_the_generic_loop(curved):
     assert np.abs(fast.directors - generic.directors).max() < 1e-10
     assert fast.energy_history == pytest.approx(generic.energy_history, rel=1e-10)
     assert fast.twist_energy == pytest.approx(generic.twist_energy, rel=1e-9)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_compiled_twist_angles_match_the_reference(seed):
+    cable = curved_hose(9)
+    x, d1 = random_state(cable, seed, bend=0.05)
+    out = np.empty(cable.n_links - 1)
+    twist_angles(x, d1, out)
+    assert np.abs(out - discrete_twist(tangents(x), d1)).max() < 1e-12

@@ -13,6 +13,7 @@ is returned either banded (for the Cholesky solves of the static solver) or as a
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
 
@@ -96,13 +97,19 @@ class SpringChain:
                    contact_stiffness: float | None = None) -> SpringChain:
         """The chain of ``cable`` under ``gravity`` [m/s^2] (pass zeros for a weightless cable).
 
+        Without contacts, the chain of a cable and gravity is built once and then reused.
+
         ``contacts``: obstacles the cable rests on or wraps around (pegs, plates, the table),
         with the penalty stiffness ``contact_stiffness`` [N/m] (default 100 k_s).
         """
         g = np.asarray(gravity, dtype=float)
         if g.shape != (3,) or not np.all(np.isfinite(g)):
             raise ValueError(f"gravity: got {gravity!r}, expected 3 finite numbers [m/s^2]")
-        return cls(
+        plain = not contacts and contact_stiffness is None
+        key = tuple(g.tolist())
+        if plain and key in _CHAINS.get(cable, {}):  # a cable is frozen: so is its chain
+            return _CHAINS[cable][key]
+        chain = cls(
             contacts=tuple(contacts),
             contact_radius=cable.diameter / 2,
             contact_stiffness=100.0 * cable.k_axial if contact_stiffness is None
@@ -114,6 +121,9 @@ class SpringChain:
             point_masses=cable.point_masses,
             gravity=g,
         )
+        if plain:
+            _CHAINS.setdefault(cable, {})[key] = chain
+        return chain
 
     @property
     def n_points(self) -> int:
@@ -127,6 +137,11 @@ class SpringChain:
                 np.ascontiguousarray(self.point_masses, dtype=float),
                 np.ascontiguousarray(self.gravity, dtype=float))
 
+
+
+_CHAINS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+"""The contact-free chains built so far, per cable (while it lives) and gravity: solvers called
+in loops (studies, continuations) build each once."""
 
 
 @lru_cache(maxsize=64)

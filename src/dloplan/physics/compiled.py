@@ -114,14 +114,15 @@ def _axial_terms(x, k_s, rest_lengths, grad, band, with_band):
         length = math.sqrt(length)
         stretch = length - rest_lengths[i]
         total += 0.5 * k_s * stretch * stretch
+        inverse = 1.0 / length
         for a in range(3):
-            t[a] /= length
+            t[a] *= inverse
             g = k_s * stretch * t[a]
             grad[i + 1, a] += g
             grad[i, a] -= g
         if not with_band:
             continue
-        ratio = stretch / length
+        ratio = stretch * inverse
         for a in range(3):
             for b in range(3):
                 tt = t[a] * t[b]
@@ -148,23 +149,29 @@ def _bending_terms(x, k_b, rest_angles, grad, band, with_band):
         la, lb, c, s, beta = joint_directions(x, i, u, v)
         total += 0.5 * k_b * (beta - rest_angles[i]) ** 2
         d1, d2 = _cos_derivatives(k_b, rest_angles[i], c, s, beta)
+        ia = 1.0 / la
+        ib = 1.0 / lb
         for a in range(3):
-            dca[a] = (v[a] - c * u[a]) / la  # dc/da = w / |a|
-            dcb[a] = (u[a] - c * v[a]) / lb  # dc/db = z / |b|
+            dca[a] = (v[a] - c * u[a]) * ia  # dc/da = w / |a|
+            dcb[a] = (u[a] - c * v[a]) * ib  # dc/db = z / |b|
             grad[i, a] -= d1 * dca[a]
             grad[i + 1, a] += d1 * (dca[a] - dcb[a])
             grad[i + 2, a] += d1 * dcb[a]
         if not with_band:
             continue
+        caa_eye = -c * ia * ia  # the identity's coefficients in d^2c/da^2, d^2c/dadb, d^2c/db^2
+        cab_eye = ia * ib
+        cbb_eye = -c * ib * ib
         for a in range(3):
             for b in range(3):
-                eye = 1.0 if a == b else 0.0
-                pu = eye - u[a] * u[b]
-                pv = eye - v[a] * v[b]
                 # d^2c: -(u w^T + w u^T + c P_u)/|a|^2, (P_v - u z^T)/(|a||b|), and for b
-                caa = -(u[a] * dca[b] + dca[a] * u[b]) / la - c * pu / (la * la)
-                cab = pv / (la * lb) - u[a] * dcb[b] / la
-                cbb = -(v[a] * dcb[b] + dcb[a] * v[b]) / lb - c * pv / (lb * lb)
+                caa = -(u[a] * dca[b] + dca[a] * u[b]) * ia + caa_eye * (-u[a] * u[b])
+                cab = cab_eye * (-v[a] * v[b]) - u[a] * dcb[b] * ia
+                cbb = -(v[a] * dcb[b] + dcb[a] * v[b]) * ib + cbb_eye * (-v[a] * v[b])
+                if a == b:
+                    caa += caa_eye
+                    cab += cab_eye
+                    cbb += cbb_eye
                 hl[0, 0, a, b] = d1 * caa + d2 * dca[a] * dca[b]
                 hl[0, 1, a, b] = d1 * cab + d2 * dca[a] * dcb[b]
                 hl[1, 1, a, b] = d1 * cbb + d2 * dcb[a] * dcb[b]
@@ -270,3 +277,97 @@ def stretch_to_length(chord, deviation, need):
         if abs(step) <= 1e-12 * high:
             break
     return a
+
+
+@njit(cache=True)
+def resample_polyline(points, out):
+    """``out`` (m, 3) <- m points equally spaced in arc length on the polyline ``points``
+    (k, 3) [m], first and last kept; compiled :func:`dloplan.geometry.resample_by_arc_length`
+    (the same linear interpolation, zero-length links skipped). The polyline must have a
+    positive length."""
+    k = points.shape[0]
+    m = out.shape[0]
+    s = np.empty(k)
+    s[0] = 0.0
+    for i in range(k - 1):
+        s[i + 1] = s[i] + math.sqrt((points[i + 1, 0] - points[i, 0]) ** 2
+                                    + (points[i + 1, 1] - points[i, 1]) ** 2
+                                    + (points[i + 1, 2] - points[i, 2]) ** 2)
+    j = 0
+    for q in range(m):
+        target = s[k - 1] * q / (m - 1)
+        while j < k - 2 and s[j + 1] <= target:
+            j += 1
+        span = s[j + 1] - s[j]
+        fraction = min(max((target - s[j]) / span, 0.0), 1.0) if span > 0.0 else 1.0
+        for a in range(3):
+            out[q, a] = points[j, a] + fraction * (points[j + 1, a] - points[j, a])
+    for a in range(3):
+        out[0, a] = points[0, a]
+        out[m - 1, a] = points[k - 1, a]
+
+
+@njit(cache=True)
+def _bow_direction(chord, gravity):
+    """Unit vector perpendicular to ``chord``: gravity's part, else world down, else y."""
+    length = math.sqrt(chord[0] ** 2 + chord[1] ** 2 + chord[2] ** 2)
+    axis = chord / length
+    candidates = np.array([[gravity[0], gravity[1], gravity[2]], [0.0, 0.0, -1.0],
+                           [0.0, 1.0, 0.0]])
+    for c in range(3):
+        candidate = candidates[c]
+        perp = candidate - np.dot(candidate, axis) * axis
+        size = math.sqrt(np.dot(perp, perp))
+        if size > 1e-6 * max(math.sqrt(np.dot(candidate, candidate)), 1e-300):
+            return perp / size
+    return np.array([1.0, 0.0, 0.0])
+
+
+@njit(cache=True)
+def conform_free_part(x, held, need, length, gravity):
+    """Points 1 .. n-1 of ``x`` (n + 1, 3) [m] made a polyline of length ``need`` [m] from
+    ``held[1]`` to ``held[2]``, in place (the body of :func:`dloplan.sim.clips.conform_guess`).
+
+    The guess is moved so its ends meet the inner held points (the offsets blended linearly in
+    arc length s), its deviation from the chord is scaled by :func:`stretch_to_length` until the
+    length is ``need``, and the points are spaced evenly along it. A chord longer than ``need``
+    is taken straight; a straight guess is bowed by 1/2 (1 - cos 2 pi s) ``length`` toward
+    gravity (or any perpendicular) first. ``held`` (4, 3) are the clips' held points, in the
+    order of :data:`dloplan.sim.clips.HELD_INDICES`.
+    """
+    k = x.shape[0] - 2  # inner points 1 .. n-1
+    inner = x[1:-1].copy()
+    s = np.empty(k)
+    s[0] = 0.0
+    for i in range(k - 1):
+        s[i + 1] = s[i] + math.sqrt(np.sum((inner[i + 1] - inner[i]) ** 2))
+    total = s[k - 1]
+    for i in range(k):
+        s[i] = s[i] / total if total > 0.0 else i / (k - 1)
+    start = held[1] - inner[0]
+    end = held[2] - inner[k - 1]
+    chord = np.empty((k, 3))
+    deviation = np.empty((k, 3))
+    largest = 0.0
+    for i in range(k):
+        inner[i] += (1.0 - s[i]) * start + s[i] * end
+        chord[i] = held[1] + s[i] * (held[2] - held[1])
+        deviation[i] = inner[i] - chord[i]
+        largest = max(largest, math.sqrt(np.sum(deviation[i] ** 2)))
+    x[0] = held[0]
+    x[-1] = held[3]
+    current = 0.0
+    for i in range(k - 1):
+        current += math.sqrt(np.sum((inner[i + 1] - inner[i]) ** 2))
+    if abs(current / need - 1.0) < 1e-6:
+        x[1:-1] = inner
+        return
+    if math.sqrt(np.sum((held[2] - held[1]) ** 2)) >= need:
+        resample_polyline(chord, x[1:-1])
+        return
+    if largest < 1e-9 * length:
+        bow = _bow_direction(held[2] - held[1], gravity)
+        for i in range(k):
+            deviation[i] = 0.5 * (1.0 - math.cos(2.0 * math.pi * s[i])) * length * bow
+    amplitude = stretch_to_length(chord, deviation, need)
+    resample_polyline(chord + amplitude * deviation, x[1:-1])

@@ -118,14 +118,17 @@ def _twist_local(ta, tb, la, lb, s, k_t, g, h, kb, tt, d, full):
     """Add U^t's local gradient g (8,) and Hessian h (8, 8) at twist strain s (closed form);
     kb, tt (3,) and d (8,) are scratch; without ``full`` only the angles' Hessian."""
     chi = 1.0 + ta[0] * tb[0] + ta[1] * tb[1] + ta[2] * tb[2]
+    inverse_chi = 1.0 / chi
     for k in range(3):
         k1 = (k + 1) % 3
         k2 = (k + 2) % 3
-        kb[k] = 2.0 * (ta[k1] * tb[k2] - ta[k2] * tb[k1]) / chi
-        tt[k] = (ta[k] + tb[k]) / chi
+        kb[k] = 2.0 * (ta[k1] * tb[k2] - ta[k2] * tb[k1]) * inverse_chi
+        tt[k] = (ta[k] + tb[k]) * inverse_chi
+    half_a = 0.5 / la
+    half_b = 0.5 / lb
     for k in range(3):
-        d[k] = kb[k] / (2.0 * la)
-        d[3 + k] = kb[k] / (2.0 * lb)
+        d[k] = kb[k] * half_a
+        d[3 + k] = kb[k] * half_b
     d[6] = -1.0
     d[7] = 1.0
     for i in range(8):
@@ -224,21 +227,21 @@ def _direction_local(ea, eb, m1a, m1b, bar, k_b, g, h, work):
 @njit(cache=True)
 def _twist_angle(ta, tb, m1a, m1b):
     """Discrete twist psi between two links (:func:`dloplan.physics.rod_frames.discrete_twist`)."""
-    m2a = np.empty(3)
-    m2b = np.empty(3)
-    for k in range(3):
-        k1 = (k + 1) % 3
-        k2 = (k + 2) % 3
-        m2a[k] = ta[k1] * m1a[k2] - ta[k2] * m1a[k1]
-        m2b[k] = tb[k1] * m1b[k2] - tb[k2] * m1b[k1]
-    cos_part = 0.0
-    sin_part = 0.0
-    for k in range(3):
-        k1 = (k + 1) % 3
-        k2 = (k + 2) % 3
-        cos_part += m1a[k] * m1b[k] + m2a[k] * m2b[k]
-        axial = (m1a[k1] * m1b[k2] - m1a[k2] * m1b[k1] + m2a[k1] * m2b[k2] - m2a[k2] * m2b[k1])
-        sin_part += 0.5 * axial * (ta[k] + tb[k])
+    # m2 = t x m1 of both links, as scalars (no arrays: this runs per joint and energy)
+    a0 = ta[1] * m1a[2] - ta[2] * m1a[1]
+    a1 = ta[2] * m1a[0] - ta[0] * m1a[2]
+    a2 = ta[0] * m1a[1] - ta[1] * m1a[0]
+    b0 = tb[1] * m1b[2] - tb[2] * m1b[1]
+    b1 = tb[2] * m1b[0] - tb[0] * m1b[2]
+    b2 = tb[0] * m1b[1] - tb[1] * m1b[0]
+    cos_part = (m1a[0] * m1b[0] + m1a[1] * m1b[1] + m1a[2] * m1b[2]
+                + a0 * b0 + a1 * b1 + a2 * b2)
+    # axial_k = (m1a x m1b + m2a x m2b)_k, projected on (t_a + t_b) / 2
+    axial0 = m1a[1] * m1b[2] - m1a[2] * m1b[1] + a1 * b2 - a2 * b1
+    axial1 = m1a[2] * m1b[0] - m1a[0] * m1b[2] + a2 * b0 - a0 * b2
+    axial2 = m1a[0] * m1b[1] - m1a[1] * m1b[0] + a0 * b1 - a1 * b0
+    sin_part = 0.5 * (axial0 * (ta[0] + tb[0]) + axial1 * (ta[1] + tb[1])
+                      + axial2 * (ta[2] + tb[2]))
     return math.atan2(sin_part, cos_part)
 
 
@@ -328,8 +331,8 @@ def twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, wo
     blocks : numpy.ndarray
         (n - 1, 11, 11) Hessian of U^t + U^d over each stencil's coordinates, overwritten.
     full : bool
-        False: only the angles' entries of ``blocks`` (3 and 7; the rest zero), for the
-        dynamic simulator's angle relaxation.
+        False: only the angles' entries of ``blocks`` (3 and 7; the rest left as they were,
+        not even zeroed), for the dynamic simulator's angle relaxation.
 
     Returns
     -------
@@ -350,7 +353,13 @@ def twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, wo
     kb = np.empty(3)
     tt = np.empty(3)
     d8 = np.empty(8)
-    blocks[:] = 0.0
+    if full:
+        blocks[:] = 0.0
+    else:  # the angle entries alone: zeroing all 121 per stencil costs more than the rest
+        for s in range(blocks.shape[0]):
+            for a in (3, 7):
+                for b in (3, 7):
+                    blocks[s, a, b] = 0.0
     u_twist = 0.0
     u_direction = 0.0
     for s in range(x.shape[0] - 2):
@@ -359,9 +368,11 @@ def twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, wo
             eb[k] = x[s + 2, k] - x[s + 1, k]
         la = math.sqrt(ea[0] ** 2 + ea[1] ** 2 + ea[2] ** 2)
         lb = math.sqrt(eb[0] ** 2 + eb[1] ** 2 + eb[2] ** 2)
+        inverse_a = 1.0 / la
+        inverse_b = 1.0 / lb
         for k in range(3):
-            ta[k] = ea[k] / la
-            tb[k] = eb[k] / lb
+            ta[k] = ea[k] * inverse_a
+            tb[k] = eb[k] * inverse_b
         strain = _twist_angle(ta, tb, d1[s], d1[s + 1]) - rest_twist[s]
         u_twist += 0.5 * k_t * strain * strain
         g8[:] = 0.0
@@ -412,6 +423,17 @@ def twist_energies(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional):
                 q += kappa * (t[k1] * m1[k2] - t[k2] * m1[k1])
             pairing += q * bar[j, 0] - p * bar[j, 1]
     return u_twist, -0.5 * k_b * pairing
+
+
+@njit(cache=True)
+def twist_angles(x, d1, out):
+    """Discrete twist psi_i [rad] at the interior points of x (n + 1, 3) with directors d1
+    (n, 3), into ``out`` (n - 1,): :func:`dloplan.physics.rod_frames.discrete_twist`, compiled."""
+    ta = np.empty(3)
+    tb = np.empty(3)
+    for s in range(x.shape[0] - 2):
+        joint_directions(x, s, ta, tb)
+        out[s] = _twist_angle(ta, tb, d1[s], d1[s + 1])
 
 
 @njit(cache=True)

@@ -13,21 +13,17 @@ keeps its rest length l: the end point is at ``position - l/2 u`` and the inner 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
+from numba import njit
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
 from ..frames import frame_from_axis, minimal_rotation
-from ..geometry import (
-    arc_length,
-    as_shape,
-    resample_by_arc_length,
-    shape_length,
-)
-from ..physics.compiled import stretch_to_length
+from ..geometry import as_shape
+from ..physics.compiled import conform_free_part
 
 HELD_INDICES = (0, 1, -2, -1)
 """Indices of the four points fixed by the two clips, in the order first-end, first-inner,
@@ -53,7 +49,7 @@ class ClipPoses:
     rotations: Rotation
 
     def __post_init__(self) -> None:
-        pos = np.asarray(self.positions, dtype=float)
+        pos = np.array(self.positions, dtype=float)  # its own copy: held points are cached
         if pos.shape != (2, 3):
             raise ValueError(f"clips.positions: expected shape (2, 3), got {pos.shape}")
         if not np.all(np.isfinite(pos)):
@@ -62,29 +58,30 @@ class ClipPoses:
             self.rotations
         ) != 2:
             raise ValueError("clips.rotations: expected a scipy Rotation holding 2 rotations")
-        if not np.all(np.isfinite(self.rotations.as_quat())):
+        quaternions = self.rotations.as_quat()
+        if not np.all(np.isfinite(quaternions)):
             raise ValueError("clips.rotations: non-finite quaternion (NaN or inf)")
         object.__setattr__(self, "positions", pos)
+        # the u-axes from the quaternions (Rotation.apply costs more than every use of them)
+        object.__setattr__(self, "_u_axes", _x_axes(quaternions))
+        object.__setattr__(self, "_held", {})  # held points per link length
 
     @property
     def u_axes(self) -> np.ndarray:
         """The two u-axes (held link directions, inward), (2, 3)."""
         return self._u_axes.copy()
 
-    @cached_property
-    def _u_axes(self) -> np.ndarray:  # Rotation.apply costs more than every use of its result
-        return self.rotations.apply([1.0, 0.0, 0.0])
-
     @property
     def distance(self) -> float:
         """Distance between the two clip points Delta_clip [m] (thesis Fig. 4.5)."""
-        return float(np.linalg.norm(self.positions[1] - self.positions[0]))
+        return math.dist(self.positions[0], self.positions[1])
 
     def held_points(self, link_length: float) -> np.ndarray:
         """Positions of the four held points (see :data:`HELD_INDICES`), (4, 3) [m]."""
-        half = 0.5 * link_length * self.u_axes
-        p = self.positions
-        return np.stack([p[0] - half[0], p[0] + half[0], p[1] + half[1], p[1] - half[1]])
+        if link_length not in self._held:  # solvers ask for them several times per solve
+            self._held[link_length] = _held_points(self.positions, self._u_axes,
+                                                   float(link_length))
+        return self._held[link_length].copy()
 
     def moved(self, translation=(0.0, 0.0, 0.0), rotation: Rotation | None = None) -> ClipPoses:
         """Both clips moved by the rigid motion x -> rotation x + translation."""
@@ -92,6 +89,33 @@ class ClipPoses:
         return ClipPoses(
             rot.apply(self.positions) + np.asarray(translation, dtype=float), rot * self.rotations
         )
+
+
+@njit(cache=True)
+def _x_axes(quaternions):
+    """First columns of the rotation matrices of unit quaternions (k, 4) (x, y, z, w), (k, 3);
+    the formula of scipy's ``Rotation.as_matrix``."""
+    out = np.empty((quaternions.shape[0], 3))
+    for k in range(quaternions.shape[0]):
+        x, y, z, w = quaternions[k]
+        out[k, 0] = x * x - y * y - z * z + w * w
+        out[k, 1] = 2.0 * (x * y + z * w)
+        out[k, 2] = 2.0 * (x * z - y * w)
+    return out
+
+
+@njit(cache=True)
+def _held_points(positions, u_axes, link_length):
+    """The held points (4, 3) [m] of clips at ``positions`` with ``u_axes`` (2, 3)."""
+    out = np.empty((4, 3))
+    for a in range(3):
+        half_0 = 0.5 * link_length * u_axes[0, a]
+        half_1 = 0.5 * link_length * u_axes[1, a]
+        out[0, a] = positions[0, a] - half_0
+        out[1, a] = positions[0, a] + half_0
+        out[2, a] = positions[1, a] + half_1
+        out[3, a] = positions[1, a] - half_1
+    return out
 
 
 def clip_poses_from_shape(shape, rotations: Rotation | None = None) -> ClipPoses:
@@ -167,38 +191,8 @@ def conform_guess(cable: Cable, guess: np.ndarray, clips: ClipPoses, gravity=GRA
     gravity : array_like
         Gravity [m/s^2], the direction a straight compressed guess is bowed toward.
     """
-    l = cable.rest_link_length
-    held = clips.held_points(l)
     x = np.array(guess, dtype=float)
-    x[list(HELD_INDICES)] = held
-    inner = np.array(guess[1:-1], dtype=float)
-    need = (cable.n_links - 2) * l
-    s = arc_length(inner)
-    s = s / s[-1] if s[-1] > 0 else np.linspace(0.0, 1.0, len(inner))
-    inner += (1 - s)[:, None] * (held[1] - inner[0]) + s[:, None] * (held[2] - inner[-1])
-    chord = held[1] + s[:, None] * (held[2] - held[1])
-    deviation = inner - chord
-    if abs(shape_length(inner) / need - 1.0) < 1e-6:
-        x[1:-1] = inner
-        return x
-    if float(np.linalg.norm(held[2] - held[1])) >= need:
-        x[1:-1] = resample_by_arc_length(chord, len(inner))
-        return x
-    if float(np.max(np.linalg.norm(deviation, axis=1))) < 1e-9 * cable.length:
-        deviation = 0.5 * (1.0 - np.cos(2.0 * np.pi * s))[:, None] * _bow_direction(
-            held[2] - held[1], gravity
-        ) * cable.length
-
-    x[1:-1] = resample_by_arc_length(chord + stretch_to_length(chord, deviation, need) * deviation,
-                                     len(inner))
+    conform_free_part(x, clips.held_points(cable.rest_link_length),
+                      (cable.n_links - 2) * cable.rest_link_length, cable.length,
+                      np.asarray(gravity, dtype=float))
     return x
-
-
-def _bow_direction(chord: np.ndarray, gravity) -> np.ndarray:
-    axis = chord / np.linalg.norm(chord)
-    for candidate in (np.asarray(gravity, dtype=float), np.array([0, 0, -1.0]),
-                      np.array([0, 1.0, 0])):
-        perp = candidate - np.dot(candidate, axis) * axis
-        if np.linalg.norm(perp) > 1e-6 * max(np.linalg.norm(candidate), 1e-300):
-            return perp / np.linalg.norm(perp)
-    return np.array([1.0, 0, 0])

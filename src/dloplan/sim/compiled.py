@@ -13,6 +13,12 @@ a saddle, where :func:`dloplan.sim.newton.escape_saddle` (an eigenvector of the 
 
 Status codes of :func:`newton_positions`: :data:`CONVERGED`, :data:`MAX_ITERATIONS`,
 :data:`STALLED`, :data:`SADDLE`.
+
+numba's on-disk cache (``cache=True``) is keyed on the source file of each compiled function
+alone: these loops carry the kernels they call (``physics/compiled.py``,
+``physics/twist_compiled.py``, ``sim/newton.py``) compiled in, and keep the old ones after an edit
+of those files until this file changes too or its ``__pycache__/*.nbi`` / ``*.nbc`` entries are
+deleted. Measure kernel changes with a cleared cache.
 """
 
 from __future__ import annotations

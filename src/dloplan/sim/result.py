@@ -7,9 +7,11 @@ stepping run to rest), so that their results can be swapped.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from ..cable import GRAVITY, Cable
 from ..physics.chain import Forces, shape_forces
@@ -74,7 +76,7 @@ class Equilibrium:
 
 def force_scale(cable: Cable, gravity=GRAVITY) -> float:
     """Characteristic force of a cable's statics [N]: a point's weight plus k_b / l."""
-    weight = float(np.max(cable.point_masses)) * float(np.linalg.norm(gravity))
+    weight = float(np.max(cable.point_masses)) * math.hypot(*np.asarray(gravity, dtype=float))
     return weight + cable.k_bending / cable.rest_link_length
 
 
@@ -94,11 +96,24 @@ def clip_reactions(x: np.ndarray, grad: np.ndarray, clips: ClipPoses, held: str 
         Which clips hold the cable (the second row stays zero for ``"first"``).
     """
     wrenches = np.zeros((2, 6))
-    for k, idx in enumerate(([0, 1], [-2, -1])[: 2 if held == "both" else 1]):
-        on_clip = -grad[idx]  # the clip balances the net force on its points: reaction = grad
-        wrenches[k, :3] = on_clip.sum(axis=0)
-        wrenches[k, 3:] = np.cross(x[idx] - clips.positions[k], on_clip).sum(axis=0)
+    _add_reactions(x, grad, clips.positions, 2 if held == "both" else 1, wrenches)
     return wrenches
+
+
+@njit(cache=True)
+def _add_reactions(x, grad, positions, n_clips, wrenches):
+    """Sum -grad and (x - clip) x (-grad) over each clip's two points into ``wrenches``."""
+    n = x.shape[0]
+    for k in range(n_clips):
+        for point in ((0, 1) if k == 0 else (n - 2, n - 1)):
+            f = -grad[point]
+            r = x[point] - positions[k]
+            wrenches[k, 0] += f[0]
+            wrenches[k, 1] += f[1]
+            wrenches[k, 2] += f[2]
+            wrenches[k, 3] += r[1] * f[2] - r[2] * f[1]
+            wrenches[k, 4] += r[2] * f[0] - r[0] * f[2]
+            wrenches[k, 5] += r[0] * f[1] - r[1] * f[0]
 
 
 def equilibrium_result(cable, chain, x, g, clips, iterations, converged, residual, tolerance,

@@ -71,10 +71,21 @@ def explicit_steps(x, v, previous_held, targets, extra, first_step, n_steps, dt,
         ``(step, n_records, status)`` with status :data:`RUNNING` (chunk done), :data:`SETTLED`
         or :data:`DIVERGED`.
     """
+    return _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt, k_d,
+                           relative, ground, record_every, rest_speed, clips_stop, k_s,
+                           rest_lengths, k_b, rest_angles, masses, gravity, times, shapes,
+                           speeds, n_records, np.empty_like(x), np.empty_like(x),
+                           np.empty_like(x))
+
+
+@njit(cache=True)
+def _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt, k_d, relative,
+                    ground, record_every, rest_speed, clips_stop, k_s, rest_lengths, k_b,
+                    rest_angles, masses, gravity, times, shapes, speeds, n_records, grad, drag,
+                    accel):
+    """:func:`explicit_steps` with its work arrays (n + 1, 3) given (:func:`twist_steps` calls
+    it once per step)."""
     n_points = x.shape[0]
-    grad = np.empty_like(x)
-    drag = np.empty_like(x)
-    accel = np.empty_like(x)
     held = (0, 1, n_points - 2, n_points - 1)
     step = first_step
     for k in range(targets.shape[0]):
@@ -128,14 +139,15 @@ def explicit_steps(x, v, previous_held, targets, extra, first_step, n_steps, dt,
 
 @njit(cache=True)
 def relax_twist(x, d1, twist, work, tgrad, dgrad, agrad, blocks, band, factor, rhs, angles,
-                turned, extra):
+                extra):
     """One Newton step of the free links' angles toward the minimum of U^t + U^d at points x.
 
     The angles are massless (:class:`dloplan.sim.torsion.QuasiStaticTwist`): the tridiagonal
     angle Hessian of :func:`dloplan.physics.twist_compiled.twist_stencils` is factored (a
-    gradient step where it is not positive definite) and d1 (n, 3) turned in place; ``extra``
-    gets d(U^t + U^d)/dx (n + 1, 3) [N] (the twisting force of eq. 3.19 is minus it). ``band``,
-    ``factor`` (2, n - 2), ``rhs`` (n - 2,), ``angles`` (n,), ``turned`` (n, 3) are scratch.
+    gradient step where it is not positive definite); ``angles`` (n,) gets the step [rad] (zero
+    for the held links), by which the caller turns the directors d1 (n, 3);
+    ``extra`` gets d(U^t + U^d)/dx (n + 1, 3) [N] at d1 (the twisting force of eq. 3.19 is
+    minus it). ``band``, ``factor`` (2, n - 2), ``rhs`` (n - 2,) are scratch.
     """
     k_t, rest_twist, k_b, rest_curvatures, directional = twist
     twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, work, tgrad,
@@ -153,10 +165,9 @@ def relax_twist(x, d1, twist, work, tgrad, dgrad, agrad, blocks, band, factor, r
     else:  # not convex in the angles here: a gradient step
         for i in range(n - 2):
             rhs[i] = -agrad[i + 1] / max(band[0, i], 1e-300)
-    angles[:] = 0.0
+    angles[0] = 0.0
+    angles[n - 1] = 0.0
     angles[1 : n - 1] = rhs
-    moved_directors(x, x, d1, angles, turned)
-    d1[1 : n - 1] = turned[1 : n - 1]
     for i in range(x.shape[0]):
         for a in range(3):
             extra[i, a] = tgrad[i, a] + dgrad[i, a]
@@ -169,9 +180,10 @@ def twist_steps(x, v, previous_held, targets, held_directors, d1, twist, work, f
                 n_records):
     """:func:`explicit_steps` with quasi-static twist: before each step the angles relax
     (:func:`relax_twist`, whose twisting force loads the step), after it the directors d1 (n, 3)
-    are carried to the new links by parallel transport and the held links take the clips'
-    directors ``held_directors`` (K, 2, 3) of that step. Other arguments and the returned tuple
-    as in :func:`explicit_steps`."""
+    are turned by the relaxed angles and carried to the new links by parallel transport in one
+    pass (turning about a link commutes with transporting it), and the held links take the
+    clips' directors ``held_directors`` (K, 2, 3) of that step. Other arguments and the returned
+    tuple as in :func:`explicit_steps`."""
     n = d1.shape[0]
     tgrad = np.empty_like(x)
     dgrad = np.empty_like(x)
@@ -184,18 +196,18 @@ def twist_steps(x, v, previous_held, targets, held_directors, d1, twist, work, f
     turned = np.empty_like(d1)
     extra = np.empty_like(x)
     x_old = np.empty_like(x)
-    no_turn = np.zeros(n)
+    grad, drag, accel = np.empty_like(x), np.empty_like(x), np.empty_like(x)
     step = first_step
     status = RUNNING
     for k in range(targets.shape[0]):
         relax_twist(x, d1, twist, work, tgrad, dgrad, agrad, blocks, band, factor, rhs, angles,
-                    turned, extra)
+                    extra)
         x_old[:] = x
-        step, n_records, status = explicit_steps(
+        step, n_records, status = _explicit_chunk(
             x, v, previous_held, targets[k : k + 1], extra, step, n_steps, dt, k_d, relative,
             ground, record_every, rest_speed, clips_stop, k_s, rest_lengths, k_b, rest_angles,
-            masses, gravity, times, shapes, speeds, n_records)
-        moved_directors(x_old, x, d1, no_turn, turned)
+            masses, gravity, times, shapes, speeds, n_records, grad, drag, accel)
+        moved_directors(x_old, x, d1, angles, turned)
         d1[:] = turned
         d1[0] = held_directors[k, 0]
         d1[n - 1] = held_directors[k, 1]

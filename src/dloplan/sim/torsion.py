@@ -40,10 +40,8 @@ from ..physics.chain import (
     shape_energy,
 )
 from ..physics.rod_frames import (
-    discrete_twist,
     parallel_transport,
     rotate_about,
-    signed_angle,
     transported_directors,
 )
 from ..physics.twist import (
@@ -51,7 +49,13 @@ from ..physics.twist import (
     TwistDerivatives,
     centred_twist_derivatives,
 )
-from ..physics.twist_compiled import interleaved_band, scratch, twist_energies
+from ..physics.twist_compiled import (
+    interleaved_band,
+    moved_directors,
+    scratch,
+    twist_angles,
+    twist_energies,
+)
 from .clips import ClipPoses, check_clip_reach, clip_poses_from_shape, conform_guess
 from .compiled import (
     CONVERGED,
@@ -224,15 +228,24 @@ def initial_directors(shape: np.ndarray, held: np.ndarray, rest_twist: np.ndarra
     then misses the last clip's director by, taken within pi of the natural twist, is spread
     over the interior points on top of the natural twist.
     """
-    t = tangents(shape)
     carried = transported_directors(shape, held[0])
-    missing = signed_angle(carried[-1], held[1], t[-1])
+    t_last = shape[-1] - shape[-2]
+    t_last = t_last / math.sqrt(float(t_last @ t_last))
+    a, b = carried[-1], held[1]  # the angle turning a to b about t_last, in (-pi, pi]
+    missing = math.atan2(float(np.cross(a, b) @ t_last), float(a @ b))
     total = np.sum(rest_twist)
     total += (missing - total + np.pi) % (2.0 * np.pi) - np.pi
-    turned = total * np.arange(len(t)) / (len(t) - 1)
-    d1 = rotate_about(carried, t, turned)
+    turned = total * np.arange(len(carried)) / (len(carried) - 1)
+    d1 = np.empty_like(carried)
+    moved_directors(shape, shape, carried, turned, d1)  # turned about the links, kept unit
     d1[[0, -1]] = held
     return d1
+
+
+def _twist_angles(x: np.ndarray, d1: np.ndarray) -> np.ndarray:
+    out = np.empty(len(d1) - 1)
+    twist_angles(x, d1, out)
+    return out
 
 
 def equilibrium_with_twist(
@@ -353,7 +366,7 @@ def equilibrium_with_twist(
     return TwistEquilibrium(
         **values,
         directors=d1,
-        twist=discrete_twist(t, d1),
+        twist=_twist_angles(x, d1),
         rest_twist=tc.rest_twist,
         twist_energy=td.twist_energy,
         k_twist=tc.k_twist,

@@ -12,7 +12,7 @@ equilibrium branch unless the perturbation really removes it. Then, per shape:
   thesis' stability check against T_cf, 5.3);
 * ``sag``: how far the cable hangs below its lower clip point [m];
 * collisions of the links as capsules with the perturbed obstacles
-  (:func:`dloplan.obstacles.check_shape`) and the deepest penetration [m];
+  (as :func:`dloplan.obstacles.check_shape` does) and the deepest penetration [m];
 * the peak link tension [N], the largest clip force [N] and clip moment [N m]
   (:attr:`Equilibrium.clip_wrenches`).
 
@@ -23,6 +23,7 @@ just a start and a target.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
@@ -30,7 +31,6 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
-from ..obstacles.collisions import check_shape
 from ..obstacles.shapes import Box, Cylinder, Table
 from ..physics.chain import SpringChain, link_tensions
 from ..sim.clips import ClipPoses, clip_poses_from_shape
@@ -160,13 +160,16 @@ def perturbed_cable(cable: Cable, youngs_modulus: float, mass_per_length: float,
                    mass=mass_per_length * length, rest_shape=rest)
 
 
-def perturbed_clips(clips: ClipPoses, offsets: np.ndarray, rotvecs: np.ndarray) -> ClipPoses:
+def perturbed_clips(clips: ClipPoses, offsets: np.ndarray, rotvecs) -> ClipPoses:
     """Clips moved by world-frame ``offsets`` (2, 3) [m] and turned by ``rotvecs`` (2, 3) [rad].
 
     The rotation error acts in the clip frame (``clip_to_world * error``): a gripper that holds
-    the cable slightly askew, whatever the clip's orientation.
+    the cable slightly askew, whatever the clip's orientation. ``rotvecs`` may also be the two
+    error rotations themselves (a :class:`~scipy.spatial.transform.Rotation`), built once for
+    the shapes of a sample.
     """
-    return ClipPoses(clips.positions + offsets, clips.rotations * Rotation.from_rotvec(rotvecs))
+    errors = rotvecs if isinstance(rotvecs, Rotation) else Rotation.from_rotvec(rotvecs)
+    return ClipPoses(clips.positions + offsets, clips.rotations * errors)
 
 
 def perturbed_obstacle(obstacle, offset: np.ndarray):
@@ -215,9 +218,11 @@ def evaluate_sample(problem: StudyProblem, row: dict) -> dict:
         for _ in range(problem.n_shapes):
             _failed(out, f"sample: {exc}")
         return out
-    offsets, rotvecs = _vectors(row, "clip", "d", 2), _vectors(row, "clip", "r", 2)
+    offsets = _vectors(row, "clip", "d", 2)
+    errors = Rotation.from_rotvec(_vectors(row, "clip", "r", 2))
+    radius = cable.diameter / 2.0
     for k in range(problem.n_shapes):
-        clips = perturbed_clips(problem.clips[k], offsets, rotvecs)
+        clips = perturbed_clips(problem.clips[k], offsets, errors)
         try:
             eq = equilibrium(cable, problem.nominal[k], clips, gravity=problem.gravity,
                              chain=chain)
@@ -225,17 +230,17 @@ def evaluate_sample(problem: StudyProblem, row: dict) -> dict:
             _failed(out, str(exc))
             continue
         x = eq.shape
-        hit = check_shape(x, obstacles, cable.diameter / 2.0, k)
+        penetration = deepest_penetration(x, obstacles, radius)
         values = {
             "converged": eq.converged,
             "stable": eq.stable,
             "iterations": eq.iterations,
             "residual": eq.residual,
-            "deviation": float(np.linalg.norm(x - problem.nominal[k], axis=1).max()),
-            "displacement": float(np.linalg.norm(x - problem.planned[k], axis=1).max()),
+            "deviation": _largest_distance(x, problem.nominal[k]),
+            "displacement": _largest_distance(x, problem.planned[k]),
             "sag": float(clips.positions[:, 2].min() - x[:, 2].min()),
-            "collision": hit.colliding,
-            "penetration": hit.penetration if np.isfinite(hit.penetration) else np.nan,
+            "collision": penetration > 0.0,
+            "penetration": penetration,
             "max_tension": float(link_tensions(chain, x).max()),
             "clip_force": float(np.linalg.norm(eq.clip_wrenches[:, :3], axis=1).max()),
             "clip_moment": float(np.linalg.norm(eq.clip_wrenches[:, 3:], axis=1).max()),
@@ -244,6 +249,24 @@ def evaluate_sample(problem: StudyProblem, row: dict) -> dict:
         for name, value in values.items():
             out[name].append(value)
     return out
+
+
+def deepest_penetration(shape: np.ndarray, obstacles: Sequence, radius: float) -> float:
+    """How deep the links of ``shape`` (n + 1, 3), capsules of ``radius`` [m], enter the
+    obstacles [m]: > 0 a collision, <= 0 the clearance, NaN without obstacles.
+
+    The ``colliding`` and ``penetration`` of :func:`dloplan.obstacles.check_shape`, without its
+    report (the lift that would clear the shape, the links hit), which a study does not keep.
+    """
+    a, b = shape[:-1], shape[1:]
+    depths = [float(obstacle.penetration(a, b, radius).max()) for obstacle in obstacles]
+    return max(depths) if depths else np.nan
+
+
+def _largest_distance(x: np.ndarray, y: np.ndarray) -> float:
+    """Largest point distance between two shapes (n + 1, 3) [m]."""
+    d = x - y
+    return math.sqrt(float(np.max(np.einsum("ij,ij->i", d, d))))
 
 
 def _failed(out: dict, message: str) -> None:
