@@ -10,8 +10,8 @@ core. The ratio printed is against 2268328. Now the static solve's set-up is com
 (clip conforming, reach check, reactions, clip axes from quaternions, the chain of a cable), a
 sample builds its clip-error rotation once, and the collision columns come from the obstacles'
 penetration depths (no lift report): 223 samples/s serial (4.5 ms per sample, 3.1x) under load
-average 1.3, 97 samples/s under load 6.6 (best of 3 runs): the target is met on a quiet core. A shape's
-warm-started solve takes 13 Newton iterations on average at n = 20 (6 to 74).
+average 1.3, 97 samples/s under load 6.6 (best of 3 runs): the target is met on a quiet core.
+A shape's warm-started solve takes 13 Newton iterations on average at n = 20 (6 to 74).
 
 Run: PYTHONPATH=src python benchmarks/bench_study.py [--samples 96] [--links 20]
 """
