@@ -35,6 +35,7 @@ for that system. docs/planner.md has the measurements.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numba import njit
@@ -503,14 +504,22 @@ class GridNewton:
         ys[1:] += self.coupling[:, None] * xs[:-1]
         return y
 
-    def _coarse_band(self, shift: float) -> np.ndarray:
-        """The Galerkin operator Z^T (H + shift I) Z as a band (half-width 2q - 1)."""
+    @cached_property
+    def _coarse_blocks(self) -> np.ndarray:
+        """The diagonal blocks Z^T H_ii Z (S, q, q) of the Galerkin operator (computed once per
+        Hessian: a retry with another shift only adds shift I, as Z^T Z = I)."""
         lay = self.layout
         s, q = lay.n_shapes, lay.basis.shape[1]
         tiled = np.tile(lay.basis, (s, 1))
         hz = band_matmat(self.band, lay.half_band, tiled).T.copy()  # (q, N): H_ii Z per shape
-        blocks = np.stack([shapewise(column, lay.basis, s).reshape(s, q) for column in hz],
-                          axis=-1) + shift * np.eye(q)  # (S, q, q); Z^T Z = I
+        return np.stack([shapewise(column, lay.basis, s).reshape(s, q) for column in hz],
+                        axis=-1)
+
+    def _coarse_band(self, shift: float) -> np.ndarray:
+        """The Galerkin operator Z^T (H + shift I) Z as a band (half-width 2q - 1)."""
+        lay = self.layout
+        s, q = lay.n_shapes, lay.basis.shape[1]
+        blocks = self._coarse_blocks + shift * np.eye(q)
         kc = 2 * q - 1
         band = np.zeros((s * q, 3 * kc + 1))
         r, c = np.meshgrid(np.arange(q), np.arange(q), indexing="ij")
