@@ -20,7 +20,7 @@ from dloplan.planning.physical import (
 )
 from dloplan.planning.result import stage_forces
 from dloplan.planning.tuning import PHYSICAL_WEIGHTS
-from dloplan.sim.clips import HELD_INDICES
+from dloplan.sim.clips import HELD_INDICES, clip_poses_from_shape, place_held_points
 from dloplan.sim.statics import equilibrium
 
 
@@ -29,6 +29,25 @@ def geometric():
     cable, start, target = folding_case()
     path, _ = advanced_path(basic_path(start, target, 5), cable.length)
     return cable, path
+
+
+def test_held_conformed_places_the_held_points_like_the_clips(geometric):
+    # the direct formula against the clips' frames, on shapes it was not written for: random
+    # 3-D points of another scale, and the folding path's shapes; the held links get length l
+    # about the middle of the end links, pointing the same way
+    cable, path = geometric
+    rng = np.random.default_rng(7)
+    for shape in [*path, 3.0 * rng.standard_normal((cable.n_links + 1, 3))]:
+        reference = place_held_points(shape, clip_poses_from_shape(shape), cable.rest_link_length)
+        conformed = held_conformed(shape, cable)
+        np.testing.assert_allclose(conformed, reference, rtol=0, atol=1e-14 * np.ptp(shape))
+        held = link_lengths(conformed)[[0, -1]]
+        np.testing.assert_allclose(held, cable.rest_link_length, rtol=1e-13)
+        np.testing.assert_allclose(conformed[0] + conformed[1], shape[0] + shape[1], atol=1e-13)
+    collapsed = path[2].copy()
+    collapsed[-1] = collapsed[-2]
+    with pytest.raises(ValueError, match="shape: an end link has zero length"):
+        held_conformed(collapsed, cable)
 
 
 @pytest.mark.parametrize("family", ["soft", "medium", "stiff"])
