@@ -25,6 +25,7 @@ from dloplan.planning.grid_newton import (
     band_lu_solve,
     band_matvec,
     folded_order,
+    galerkin_blocks,
     gmres,
     grid_layout,
     plane_of,
@@ -91,6 +92,28 @@ def _problem_at(inner_noise=0.01, seed=0, n_links=10, n_shapes=5, planar=False):
     if planar:
         noise[..., 1] = 0.0
     return problem, basic[1:-1] / cable.length + noise, rng
+
+
+@pytest.mark.parametrize("planar", [False, True])
+def test_galerkin_blocks_are_the_coarse_projections_of_the_shapes_hessians(planar):
+    # against dense Z^T H_ii Z from the band unpacked entry by entry, on a Hessian away from
+    # the optimum (indefinite blocks); round-off of sums of ~100 terms of size up to max|H|
+    problem, inner, _ = _problem_at(planar=planar)
+    layout = grid_layout(problem.n_links, problem.n_shapes, (0, 2) if planar else (0, 1, 2))
+    values, a = hessian_values(problem, inner)
+    band = layout.band(values, a[:-1] + a[1:])
+    kl, m, z = layout.half_band, layout.size // layout.n_shapes, layout.basis
+    dense = np.zeros((layout.size, layout.size))
+    for j in range(layout.size):
+        for i in range(max(0, j - kl), min(layout.size, j + kl + 1)):
+            dense[i, j] = band[j, 2 * kl + i - j]
+    expected = np.stack([z.T @ dense[i * m:(i + 1) * m, i * m:(i + 1) * m] @ z
+                         for i in range(layout.n_shapes)])
+    blocks = galerkin_blocks(band, kl, z, layout.n_shapes)
+    np.testing.assert_allclose(blocks, expected, rtol=0, atol=1e-12 * np.abs(band).max())
+    # and the band holds no entry between two shapes, which the blocks could not see
+    for i in range(1, layout.n_shapes):
+        assert not np.any(dense[i * m:(i + 1) * m, :i * m])
 
 
 @pytest.mark.parametrize("planar", [False, True])

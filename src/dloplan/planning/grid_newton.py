@@ -146,17 +146,35 @@ def band_matvec(ab, kl, x):
 
 
 @njit(cache=True)
-def band_matmat(ab, kl, x):
-    """A @ x for an unfactored band in the layout of :func:`band_lu` and x (N, k)."""
-    n, k = x.shape
+def galerkin_blocks(ab, kl, basis, n_shapes):
+    """The diagonal blocks Z^T A_ii Z (S, q, q) of a shape-block-diagonal band A.
+
+    ``ab``: (S m, 3 kl + 1) unfactored band in the layout of :func:`band_lu`, no entry coupling
+    two shapes; ``basis`` Z (m, q) one shape's coarse basis. O(S m q (kl + q)).
+    """
+    m, q = basis.shape
     kv = 2 * kl
-    y = np.zeros((n, k))
-    for j in range(n):
-        for i in range(max(0, j - kl), min(n, j + kl + 1)):
-            a = ab[j, kv + i - j]
-            for c in range(k):
-                y[i, c] += a * x[j, c]
-    return y
+    out = np.zeros((n_shapes, q, q))
+    az = np.empty((m, q))
+    for i in range(n_shapes):
+        offset = i * m
+        az[:] = 0.0
+        for j in range(m):  # column j of A_ii times row j of Z
+            zj = basis[j]
+            for p in range(max(0, j - kl), min(m, j + kl + 1)):
+                a = ab[offset + j, kv + p - j]
+                if a != 0.0:
+                    row = az[p]
+                    for c in range(q):
+                        row[c] += a * zj[c]
+        block = out[i]
+        for p in range(m):
+            zp, row = basis[p], az[p]
+            for r in range(q):
+                z = zp[r]
+                for c in range(q):
+                    block[r, c] += z * row[c]
+    return out
 
 
 @njit(cache=True, fastmath=True)
@@ -509,11 +527,7 @@ class GridNewton:
         """The diagonal blocks Z^T H_ii Z (S, q, q) of the Galerkin operator (computed once per
         Hessian: a retry with another shift only adds shift I, as Z^T Z = I)."""
         lay = self.layout
-        s, q = lay.n_shapes, lay.basis.shape[1]
-        tiled = np.tile(lay.basis, (s, 1))
-        hz = band_matmat(self.band, lay.half_band, tiled).T.copy()  # (q, N): H_ii Z per shape
-        return np.stack([shapewise(column, lay.basis, s).reshape(s, q) for column in hz],
-                        axis=-1)
+        return galerkin_blocks(self.band, lay.half_band, lay.basis, lay.n_shapes)
 
     def _coarse_band(self, shift: float) -> np.ndarray:
         """The Galerkin operator Z^T (H + shift I) Z as a band (half-width 2q - 1)."""
