@@ -25,8 +25,9 @@ blocks and the clip term (points 0, 1, n-1, n). A direct factorization of this 2
 Solved to a relative residual of 1e-12, a step equals the sparse LU's to about 1e-11 (relative);
 the damped Newton iteration (:func:`dloplan.planning.geometric.advanced_path`) asks for
 1e-8 max|g| at most and so takes the same steps and stops at the same optimum as with sparse
-LU (to 1e-9 m on the tests' jobs; where the cost is not convex near the end of the path, as on
-the (100, 100) folding case, round-off can end it at another stationary point, 0.04 mm away).
+LU (to 1e-9 m on the tests' jobs, 3e-14 m on the (100, 100) folding case; a path that goes
+through many indefinite Hessians can end at another stationary point by round-off, as that case
+did, 0.04 mm away, with the first damping policy).
 When GMRES does not reach the residual asked for (nor :data:`ACCEPTED_RESIDUAL`) or a shape's
 band is singular, :meth:`GridNewton.solve` returns None and the caller falls back to sparse LU
 for that system. docs/planner.md has the measurements.
