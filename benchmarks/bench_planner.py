@@ -14,10 +14,10 @@ With the grid Newton solver (two-level GMRES, planning/grid_newton.py), load 2.5
 0.60-0.80 s (advanced 0.43-0.57 s), 5.5-7.3x; (100, 100) 5.7-6.4 s (advanced 5.2-5.8 s),
 7.2-8.1x; exponent 0.92-0.93.
 With Levenberg-Marquardt shifts from 1e-4 (not 1e-8), the coarse blocks compiled and the held
-points placed without scipy frames, side by side with main at the same load (6.4-7.2):
-(50, 50) 0.68-0.82 s against main's 0.99 s (advanced 0.52-0.58 s, 14 iterations, 18 systems
-instead of 13 and 25); (100, 100) 5.3-5.4 s against main's 12.8 s (advanced 4.7-4.9 s, 12
-iterations, 18 systems instead of 22 and 42); exponent 0.84-0.95.
+points placed without scipy frames, side by side with main at the same load 2.5: (50, 50)
+0.48 s against main's 0.59 s (advanced 0.38 s, 14 iterations, 18 systems; main 13 and 25);
+(100, 100) 3.6 s against main's 8.6 s (advanced 3.2 s, 12 iterations, 18 systems; main 22 and
+42); exponent 0.87. At load 6.4-7.2: 0.68-0.82 s and 5.3-5.4 s against main's 0.99 s and 12.8 s.
 """
 
 from __future__ import annotations
