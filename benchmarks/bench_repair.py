@@ -83,6 +83,25 @@ pre-check with the symmetric grip, described cells placed by their own search):
     twist repair (minimal frames, the roll halved between the clips), then reach repair (turned
     -30 deg, rigid frames, grasp pair -10/+10 deg); 282 s of repair, 10 programs; after: ok
     (second session: refused after 753 s).
+
+Issue 25, the repair's speed (2026-11-30 17:15-18:00, load average 2.4-7 on the 2 shared cores;
+the placement searches' reach check for the verdict only, ``ReachOptions.verdict_only``). The
+PA12 straight-to-U job (tests/test_repair.py's fixture: run_job, verify_plan without the replay,
+repair_plan; same repairs before and after: twist, then reach turned -30 deg, rigid frames,
+grasp pair -10/+10 deg, 10 attempts):
+
+    before, under cProfile, load 2.4-5:  repair 200.4 s wall, 84.9 s CPU; the 22 complete reach
+        checks after a passing pre-check 88.4 s, the pre-checks 29.2 s, 5 program builds 34.9 s
+        (numba compiling the torsion kernel in a fresh copy of the source: 23.8 s of it)
+    after, under cProfile, load 4.5-7:   repair 174.2 s wall; the 22 verdict-only checks 43.8 s
+        (4894 -> 3893 IK solves, 119 k -> 85 k forward kinematics), the rest as before (the
+        numba compile of the fresh copy 36.8 s of it under the heavier load)
+    AFTER_PLAIN
+
+``dloplan plan examples/qualitative1_curved_pa12.yaml -o /tmp/q1 --verify`` (the repair lines):
+
+    before (load 5-7): snap 3.7 s, reach 786.8 - 72.0 = 714.8 s, re-verified at 824.1 s
+    Q1_AFTER
 """
 
 from __future__ import annotations
