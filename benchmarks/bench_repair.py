@@ -83,6 +83,40 @@ pre-check with the symmetric grip, described cells placed by their own search):
     twist repair (minimal frames, the roll halved between the clips), then reach repair (turned
     -30 deg, rigid frames, grasp pair -10/+10 deg); 282 s of repair, 10 programs; after: ok
     (second session: refused after 753 s).
+
+Issue 25, the repair's speed (2026-11-30 17:15-18:00, load average 2.4-7 on the 2 shared cores;
+the placement searches' reach check for the verdict only, ``ReachOptions.verdict_only``). The
+PA12 straight-to-U job (tests/test_repair.py's fixture: run_job, verify_plan without the replay,
+repair_plan; same repairs before and after: twist, then reach turned -30 deg, rigid frames,
+grasp pair -10/+10 deg, 10 attempts):
+
+    before, under cProfile, load 2.4-5:  repair 200.4 s wall, 84.9 s CPU; the 22 complete reach
+        checks after a passing pre-check 88.4 s, the pre-checks 29.2 s, 5 program builds 34.9 s
+        (numba compiling the torsion kernel in a fresh copy of the source: 23.8 s of it)
+    after, under cProfile, load 4.5-7:   repair 174.2 s wall; the 22 verdict-only checks 43.8 s
+        (4894 -> 3893 IK solves, 119 k -> 85 k forward kinematics), the rest as before (the
+        numba compile of the fresh copy 36.8 s of it under the heavier load)
+    without the profiler, numba's cache warm, before and after run side by side (same load):
+        run 1 (load 4.4-5.1): before 168.9 s wall, 52.7 s CPU; after 133.2 s wall, 40.7 s CPU
+        run 2 (load 3.8-4.6): before 106.0 s wall, 48.0 s CPU; after  89.3 s wall, 36.7 s CPU
+        best: before 106.0 s / 48.0 s CPU, after 89.3 s / 36.7 s CPU (CPU 1.31x)
+
+``dloplan plan examples/qualitative1_curved_pa12.yaml -o /tmp/q1 --verify`` (the repair lines):
+
+    before (load 5-7, beside two profiled runs and a test run):
+        [  68.23 s] verification: FAILED
+        [  71.97 s] repair (snap): ...
+        [ 786.78 s] repair (reach): 8 reach -> job turned 30 deg ..., offset [-0.123, -0.191,
+                    0.000] m, ... grasps rolled by 10 and -15 deg ...
+        [ 824.08 s] repaired plan verified: passes          (repair 755.9 s, reach 714.8 s)
+    after (load 3.8-5, beside a test run and the straight-to-U runs above):
+        [  34.71 s] verification: FAILED
+        [  39.62 s] repair (snap): ...
+        [ 475.65 s] repair (reach): 8 reach -> the same placement, frames and rolls
+        [ 492.16 s] repaired plan verified: passes          (repair 457.5 s, reach 436.0 s)
+    One run each under different loads: the ratio (1.6x wall) is not a measurement of the
+    change alone; the placement searches dominate q1 (a grid of offsets per turn, most of
+    them rejected by the pre-check, which the verdict-only tracking does not change).
 """
 
 from __future__ import annotations

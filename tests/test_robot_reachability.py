@@ -111,6 +111,40 @@ def test_placement_search_repairs_a_misplaced_job():
     assert np.linalg.norm(placement.offset) <= np.linalg.norm([0.35, 0.35])
 
 
+def test_verdict_only_check_gives_the_complete_checks_verdict():
+    # offsets on a grid around the reachable job: some pass, some lose a pose or a motion (far
+    # out, behind, low), some collide (clips pushed together); the verdict-only check stops at
+    # the first failure but must agree with the complete check on every one, and on a pass it
+    # is the complete check (same rows, same grips, same clearance)
+    pos, rot = _cable_job(n_shapes=5)
+    quick = ReachOptions(verdict_only=True)
+    squeezed = pos.copy()
+    squeezed[:, 0, 1] += 0.15
+    squeezed[:, 1, 1] -= 0.15
+    verdicts = []
+    for job in (pos, squeezed):
+        for offset in ([0, 0, 0], [0.25, 0, 0], [0.45, 0.2, 0], [-0.3, 0, 0], [0, 0.3, -0.2],
+                       [0.1, -0.1, 0.1]):
+            full = check_reachability(job, rot, offset=offset)
+            fast = check_reachability(job, rot, offset=offset, options=quick)
+            assert fast.success == full.success, (offset, full.message, fast.message)
+            verdicts.append(full.success)
+            if full.success:
+                np.testing.assert_array_equal(fast.q, full.q)
+                np.testing.assert_array_equal(fast.clearance, full.clearance)
+                assert fast.grip_turned == full.grip_turned
+            else:  # the failure found first (its grip may differ from the complete check's)
+                assert fast.messages
+    assert any(verdicts) and not all(verdicts)  # both verdicts were exercised
+    # the search with verdict-only checks lands on the same offset
+    misplaced = pos + [0.3, 0.15, 0.0]
+    a = search_placement(misplaced, rot, extent=(0.35, 0.35, 0.0), step=0.05)
+    b = search_placement(misplaced, rot, extent=(0.35, 0.35, 0.0), step=0.05, options=quick)
+    assert a.success and b.success
+    np.testing.assert_array_equal(a.offset, b.offset)
+    assert a.candidates == b.candidates
+
+
 def test_bad_inputs_raise_value_error():
     pos, rot = _cable_job(3)
     with pytest.raises(ValueError, match="gripper_positions"):

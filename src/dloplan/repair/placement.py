@@ -30,7 +30,7 @@ from scipy.spatial.transform import Rotation
 from ..app.pipeline import collision_rows
 from ..grippers.path import GripperPath
 from ..obstacles.collisions import check_path
-from ..robot.reachability import format_offset
+from ..robot.reachability import ReachOptions, format_offset
 from .rebuild import left_clip, timed, timed_with_robot, without_robot
 
 SEARCHES = ((0.2, 0.05, "nearest"),)
@@ -254,13 +254,15 @@ def placements(grippers: GripperPath, *, searches=SEARCHES, yaws=YAWS, cell=None
     step, objective) of ``searches`` and each arm assignment (the side rule's, then the swapped
     one, which the robot program also falls back to), the working offset the objective picks
     (:func:`dloplan.robot.search_placement`, on the poses with the approach and the retreat of
-    ``cell``, a :class:`~dloplan.robot.RobotCell`, :func:`with_approach`). Yields a
+    ``cell``, a :class:`~dloplan.robot.RobotCell`, :func:`with_approach`; its checks for the
+    verdict only, ``ReachOptions.verdict_only``: the robot program confirms). Yields a
     :class:`PlacementRepair` per successful search, and one per turn that no search of it
     passed (``success`` False).
     """
     from ..robot import search_placement
 
     pivot = grippers.positions.reshape(-1, 3).mean(axis=0) * [1.0, 1.0, 0.0]
+    options = replace(ReachOptions() if cell is None else cell.reach, verdict_only=True)
     seen = set()
     for yaw in yaws:
         turned = moved_grippers(grippers, TableMove(yaw=yaw, pivot=pivot))
@@ -270,8 +272,7 @@ def placements(grippers: GripperPath, *, searches=SEARCHES, yaws=YAWS, cell=None
         for half, step, objective in searches:
             for clip in (side, 1 - side):
                 found = search_placement(positions, Rotation.from_matrix(matrices),
-                                         None if cell is None else cell.robot,
-                                         options=None if cell is None else cell.reach,
+                                         None if cell is None else cell.robot, options=options,
                                          extent=(half, half, 0.0), step=step, explain=False,
                                          objective=objective,
                                          assignment=("first-left", "first-right")[clip])

@@ -50,6 +50,15 @@ class ReachOptions:
         tracks both grips for each arm (one grip for the whole path, so the wrist does not spin
         between poses) and keeps the better one (more poses reachable, then continuous, then
         the larger joint margin).
+    verdict_only : bool
+        Only the verdict is wanted (a search that tries many placements): the tracking of an
+        arm's grip stops at its first pose it cannot reach or motion it loses, the other arm and
+        the clearance are skipped once an arm has no grip without a failure, and the rows after
+        the failure are not computed (they read unreachable, their errors and clearance NaN).
+        ``success`` is that of the complete check: a grip without a failure is tracked to the
+        end, and of two such grips the one with the larger joint margin is kept, as in the
+        complete check (so the clearance is judged for the same joint motion). The user-facing
+        checks keep the default False: every row.
     """
 
     ik: IKOptions = field(default_factory=IKOptions)
@@ -59,6 +68,7 @@ class ReachOptions:
     min_margin: float = np.radians(5.0)
     min_clearance: float = 0.005
     symmetric_grip: bool = True
+    verdict_only: bool = False
 
     def __post_init__(self) -> None:
         for key in ("step_length", "step_angle", "max_joint_step"):
@@ -290,7 +300,9 @@ def search_placement(gripper_positions, gripper_rotations: Rotation, robot: Robo
     order of distance from the original placement and the first that succeeds is returned;
     with ``"margin"`` every candidate is checked and the successful one with the largest
     smallest joint margin wins. A quick pre-check (the planned poses only, no sub-steps, first
-    failure stops it) discards hopeless offsets before the full :func:`check_reachability`.
+    failure stops it) discards hopeless offsets before the full :func:`check_reachability`
+    (with ``options.verdict_only`` the grid's checks stop at their first failure; ``explain``
+    checks in full).
 
     Parameters
     ----------
@@ -338,7 +350,8 @@ def search_placement(gripper_positions, gripper_rotations: Rotation, robot: Robo
         if result.success and objective == "nearest":
             break
     if best is None:
-        result = check_reachability(pos, rot, robot, assignment=assignment, options=opts) \
+        result = check_reachability(pos, rot, robot, assignment=assignment,
+                                    options=replace(opts, verdict_only=False)) \
             if explain else None
         return Placement(np.zeros(3), result, int(explain), False,
                          f"no offset within +-{format_offset(extent)} m (step {step} m) passed "
@@ -365,7 +378,9 @@ def format_offset(offset) -> str:
 def _check(robot: Robot, pos: np.ndarray, grips: list[np.ndarray], seeds: np.ndarray,
            opts: ReachOptions, clip_of_arm: tuple[int, int]) -> Reachability:
     """Track both arms through the sub-steps (each arm with the best of the ``grips``, each a
-    (K, 2, 3, 3) set of TCP rotations), then margins, manipulability and clearance."""
+    (K, 2, 3, 3) set of TCP rotations), then margins, manipulability and clearance; with
+    ``opts.verdict_only`` the first arm without a flawless grip ends the check
+    (:func:`_stopped`)."""
     n_sub = _substeps(pos, grips[0], opts)
     times = np.concatenate([[0.0]] + [k - 1 + np.arange(1, n + 1) / n
                                       for k, n in enumerate(n_sub, start=1)])
@@ -378,6 +393,8 @@ def _check(robot: Robot, pos: np.ndarray, grips: list[np.ndarray], seeds: np.nda
         scores = [(t[1].sum(), t[4].sum(), joint_margin(arm, t[0][planned]).min())
                   for t in options]
         best = max(range(len(options)), key=lambda i: scores[i])
+        if opts.verdict_only and not (options[best][1].all() and options[best][4].all()):
+            return _stopped(robot, options[best], a, len(times), planned, clip_of_arm)
         tracks.append(options[best])
         turned.append(best == 1)
     q_all = np.stack([t[0] for t in tracks], axis=1)  # (M, 2, 7)
@@ -422,8 +439,31 @@ def _check(robot: Robot, pos: np.ndarray, grips: list[np.ndarray], seeds: np.nda
                         clip_of_arm, tuple(turned), success, message, tuple(messages))
 
 
+def _stopped(robot: Robot, track, index: int, n_times: int, planned,
+             clip_of_arm: tuple[int, int]) -> Reachability:
+    """The failed verdict of a ``verdict_only`` check: arm ``index``'s best ``track`` up to its
+    first failure; the other arm and the clearance not computed (unreachable rows, NaN)."""
+    n_poses = len(planned)
+    other = robot.arms[1 - index]
+    unknown = (np.repeat(other.home[None], n_times, axis=0), np.zeros(n_poses, dtype=bool),
+               np.full(n_poses, np.nan), np.full(n_poses, np.nan), np.ones(n_poses, dtype=bool))
+    pair = [track[:5], unknown][::1 if index == 0 else -1]
+    q = np.stack([t[0][planned] for t in pair], axis=1)
+    reachable, perr, aerr, continuous = (np.stack([t[i] for t in pair], axis=1)
+                                         for i in range(1, 5))
+    margin = np.stack([joint_margin(arm, q[:, a]) for a, arm in enumerate(robot.arms)], axis=1)
+    manip = np.stack([manipulability(arm, q[:, a]) for a, arm in enumerate(robot.arms)], axis=1)
+    messages = tuple(track[5])
+    first = messages[0] if messages else f"{ARMS[index]} arm failed"
+    return Reachability(reachable, q, margin, manip, perr, aerr, continuous,
+                        np.full(n_poses, np.nan), clip_of_arm, (False, False), False,
+                        f"{first} (verdict only: the check stopped there)", messages)
+
+
 def _track(arm: Arm, index: int, pos, mats, times, planned, seed, opts: ReachOptions):
-    """Follow one arm's path through the sub-steps; returns per sub-step q and per pose flags."""
+    """Follow one arm's path through the sub-steps; returns per sub-step q and per pose flags
+    (with ``opts.verdict_only``, up to the first pose not reached or motion lost: the poses
+    after it read unreachable)."""
     name = ARMS[index]
     n_poses = len(pos)
     if n_poses > 1:
@@ -440,14 +480,17 @@ def _track(arm: Arm, index: int, pos, mats, times, planned, seed, opts: ReachOpt
     q_all = np.empty((len(times), 7))
     reachable = np.zeros(n_poses, dtype=bool)
     continuous = np.ones(n_poses, dtype=bool)
-    perr = np.empty(n_poses)
-    aerr = np.empty(n_poses)
+    perr = np.full(n_poses, np.nan)
+    aerr = np.full(n_poses, np.nan)
     messages = []
     res = inverse(arm, sub_pos[0], Rotation.from_matrix(sub_rot[0]), seed, first_opts)
     q_all[0] = res.q
     reachable[0], perr[0], aerr[0] = res.success, res.position_error, res.angle_error
     if not res.success:
         messages.append(f"{name} arm, pose 0: not reachable ({res.message})")
+        if opts.verdict_only:
+            q_all[1:] = res.q
+            return q_all, reachable, perr, aerr, continuous, messages
     k = 1
     lost = False
     for i in range(1, len(times)):
@@ -468,6 +511,10 @@ def _track(arm: Arm, index: int, pos, mats, times, planned, seed, opts: ReachOpt
                             f"motion at {times[i] - (k - 1):.2f} of the way (error "
                             f"{pe * 1e3:.2f} mm, {np.degrees(ae):.2f} deg)")
             lost = True
+        if lost and opts.verdict_only:
+            q_all[i:] = q_all[i - 1]
+            continuous[k] = False
+            return q_all, reachable, perr, aerr, continuous, messages
         if i == planned[k]:
             if not ok:  # solve the planned pose afresh
                 res = inverse(arm, sub_pos[i], Rotation.from_matrix(sub_rot[i]), q, first_opts)
@@ -475,6 +522,9 @@ def _track(arm: Arm, index: int, pos, mats, times, planned, seed, opts: ReachOpt
                 if not ok:
                     messages.append(f"{name} arm, pose {k}: not reachable ({res.message})")
             reachable[k], perr[k], aerr[k] = ok, pe, ae
+            if not ok and opts.verdict_only:
+                q_all[i:] = q
+                return q_all, reachable, perr, aerr, continuous, messages
             continuous[k] = not lost
             lost = False
             k += 1
