@@ -8,7 +8,25 @@ left out with ``--no-replay``: it costs minutes for the stiff PA12 hose), and re
 (:func:`dloplan.repair.repair_plan`). Identification files have no job to plan; harness jobs are
 planned by their own stages and are not verified by ``--verify``: both are listed as skipped.
 
-Numbers of 2026-11-30 (shared 2-core machine under a load of 10-15: times are 3-5x an idle
+Every example, replay included, quiet machine (load 0.8-1.4), main after issue 25's last round
+(18:01-18:05 UTC, 2026-11-30):
+
+    fig4_8_straight_to_bent: plan + verify 5.0 s; before: 3 reach; repairs: reach: job turned
+      30 deg about the vertical through [0.431, 0.000, 0.000] m, gripper frames 'auxiliary',
+      grasps rolled by 90 and -90 deg; repairing 12.9 s (2 attempts); after: ok
+    harness_*: skipped (harness job: its own stages, not verified by --verify)
+    harness_phase1_obstacle, m1_sine_pu_hose, m2_uniform_curvature_pa12/usb, study_m2_ethernet,
+      panda_pair_ethernet, ur5e_pair_usb: plan + verify 0.8-3.1 s; before: passes; no repair
+    identify_ethernet: skipped (identification file)
+    qualitative1_curved_pa12: plan + verify 8.1 s; before: 2 snap, 1 replay, 8 reach; repairs:
+      snap: shapes 5..7 follow the stable branch from shape 4 (target within 0.0 mm); reach: job
+      turned 30 deg, offset [-0.123, -0.191, 0.000] m, equivalent rigid rotation, grasps rolled by
+      10 and -15 deg; repairing 154.2 s (2 attempts); after: ok
+    qualitative2_ethernet_3d: plan + verify 2.9 s; before: 3 reach; repairs: reach: job at its own
+      place, equivalent rigid rotation, grasps rolled by -90 and 90 deg (the cable turned about
+      its axis); repairing 4.8 s (1 attempts); after: ok
+
+Earlier numbers of 2026-11-30 (shared 2-core machine under a load of 10-15: times are 3-5x an idle
 machine's; before this change every example below ended as planned, q1 with "verdict: FAILED"):
 
     --no-replay (stability, snap-through, robot reach):
