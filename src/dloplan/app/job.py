@@ -337,8 +337,20 @@ def resolve_scenario(scenario: Scenario, source: str = "scenario",
     Raises
     ------
     ScenarioError
-        One line naming the field: a shape the cable cannot take, bad weights, ...
+        One line starting with ``source`` and naming the field: a shape the cable cannot take,
+        bad weights, ...
     """
+    try:
+        return _resolved(scenario, source, youngs_modulus, identification)
+    except ScenarioError as exc:
+        if str(exc).startswith(f"{source}: "):
+            raise
+        raise ScenarioError(f"{source}: {exc}") from None
+
+
+def _resolved(scenario: Scenario, source: str, youngs_modulus: float | None,
+              identification) -> Job:
+    """:func:`resolve_scenario`'s work (its messages name the field, not always the file)."""
     scale = scenario.scale
     cable = resolve_cable(scenario, source, youngs_modulus)
     shapes = {}
