@@ -268,3 +268,28 @@ def test_contact_free_chains_are_built_once_per_cable_and_gravity():
         SpringChain.from_cable(cable, contacts=table)
     other = catalogue_cable("usb", n_links=6)  # an equal cable, another object: its own chain
     assert SpringChain.from_cable(other) is not SpringChain.from_cable(cable)
+
+
+def test_every_cached_kernel_has_a_name_of_its_own():
+    """numba tells compilations of one qualified name apart by a per-process counter in the
+    symbol name; code cached by two processes at once (the test workers, a study's processes)
+    can then hold two different kernels under one symbol, and the loader links the wrong one
+    (seen: the width-8 banded pass in width-10 solves, failing torsion tests after a cold
+    parallel run). So no cached kernel may be a closure or share its qualified name."""
+    import importlib
+    import pkgutil
+
+    from numba.core.registry import CPUDispatcher
+
+    import dloplan
+
+    names = {}
+    for info in pkgutil.walk_packages(dloplan.__path__, "dloplan."):
+        module = importlib.import_module(info.name)
+        for value in vars(module).values():
+            if isinstance(value, CPUDispatcher) and value.__module__ == info.name:
+                qualified = f"{info.name}.{value.py_func.__qualname__}"
+                names.setdefault(qualified, set()).add(id(value))
+    assert names, "no compiled kernels found"
+    assert [name for name in names if "<locals>" in name] == []
+    assert [name for name, kernels in names.items() if len(kernels) > 1] == []

@@ -127,21 +127,26 @@ def _bulk_pass(step, factor, rhs, stop, w):
     return True
 
 
-def _constant_width(w):
-    """:func:`_bulk_pass` compiled with the half width w a constant (numba unrolls its loops)."""
+# The bulk at the half widths of the chain's band (3 coordinates per point, 3 points per joint),
+# of positions with twist angles interleaved (dloplan.sim.torsion), and of the twist angles alone
+# (dloplan.sim.stepping), w a literal: numba inlines _bulk_pass and LLVM unrolls its loops. Three
+# functions with names of their own, not closures made by one factory: closures share one
+# qualified name, numba tells compilations apart by a per-process counter in the symbol name, and
+# cached code written by two processes (two test workers compiling at once) then holds two
+# different kernels under one symbol: the loader linked the width-8 pass into width-10 solves.
+@njit(cache=True)
+def _bulk_8(step, factor, rhs, stop):
+    return _bulk_pass(step, factor, rhs, stop, 8)
 
-    @njit(cache=True)
-    def bulk_pass(step, factor, rhs, stop):
-        return _bulk_pass(step, factor, rhs, stop, w)
 
-    return bulk_pass
+@njit(cache=True)
+def _bulk_10(step, factor, rhs, stop):
+    return _bulk_pass(step, factor, rhs, stop, 10)
 
 
-# the chain's band (3 coordinates per point, 3 points per joint), positions with twist angles
-# interleaved (dloplan.sim.torsion), and the twist angles alone (dloplan.sim.stepping)
-_bulk_8 = _constant_width(8)
-_bulk_10 = _constant_width(10)
-_bulk_1 = _constant_width(1)
+@njit(cache=True)
+def _bulk_1(step, factor, rhs, stop):
+    return _bulk_pass(step, factor, rhs, stop, 1)
 
 
 @njit(cache=True)
