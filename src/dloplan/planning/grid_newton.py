@@ -16,11 +16,15 @@ blocks and the clip term (points 0, 1, n-1, n). A direct factorization of this 2
 * **the soft modes of a shape are few**: a shape resists the rigid motions and smooth bends of
   its points only through the transversal term; they are spanned per shape and coordinate by K
   Chebyshev polynomials in the point index (:data:`COARSE_DEGREE`). The Galerkin operator
-  Z^T H Z on that coarse space is block-tridiagonal in the shape index, a band of half-width
-  2dK - 1, solved exactly;
+  Z^T H Z on that coarse space is block-tridiagonal in the shape index (dK x dK blocks, the
+  couplings between shapes a multiple of the identity), solved exactly by block LU
+  (:func:`block_tridiagonal_factor`, O(S (dK)^3), a quarter of a band LU's work);
 * **GMRES** (right-preconditioned, :func:`gmres`) on H with the two-level preconditioner
   "coarse solve, then the shapes' bands on its residual" converges in 5-60 iterations, each
-  O(n S d K) (a symmetric variant with a second coarse solve saved only 5 % of them).
+  O(n S d K) (a symmetric variant with a second coarse solve saved only 5 % of them). The
+  product H M^-1 v an iteration needs comes from the preconditioner itself: H = F + C with F
+  the shapes' bands and C the coupling between shapes, so H x = v + C z for x = M^-1 v with
+  fine correction z, one band product per iteration instead of two.
 
 Solved to a relative residual of 1e-12, a step equals the sparse LU's to about 1e-11 (relative);
 the damped Newton iteration (:func:`dloplan.planning.geometric.advanced_path`) asks for
@@ -157,25 +161,121 @@ def galerkin_blocks(ab, kl, basis, n_shapes):
     kv = 2 * kl
     out = np.zeros((n_shapes, q, q))
     az = np.empty((m, q))
+    # Z's non-zero columns by row (a coordinate's rows have only its own polynomials)
+    support = np.zeros(m, np.int64)
+    columns = np.empty((m, q), np.int64)
+    for j in range(m):
+        for c in range(q):
+            if basis[j, c] != 0.0:
+                columns[j, support[j]] = c
+                support[j] += 1
     for i in range(n_shapes):
         offset = i * m
         az[:] = 0.0
         for j in range(m):  # column j of A_ii times row j of Z
-            zj = basis[j]
+            zj, cols = basis[j], columns[j, :support[j]]
             for p in range(max(0, j - kl), min(m, j + kl + 1)):
                 a = ab[offset + j, kv + p - j]
                 if a != 0.0:
                     row = az[p]
-                    for c in range(q):
+                    for c in cols:
                         row[c] += a * zj[c]
         block = out[i]
         for p in range(m):
             zp, row = basis[p], az[p]
-            for r in range(q):
+            for r in columns[p, :support[p]]:
                 z = zp[r]
+                target = block[r]
                 for c in range(q):
-                    block[r, c] += z * row[c]
+                    target[c] += z * row[c]
     return out
+
+
+@njit(cache=True)
+def _invert(a, out):
+    """out = a^-1 (q, q) by Gauss-Jordan elimination with partial pivoting, ``a`` overwritten;
+    False when a column has no non-zero pivot."""
+    q = a.shape[0]
+    out[:] = 0.0
+    for i in range(q):
+        out[i, i] = 1.0
+    for col in range(q):
+        p, big = col, abs(a[col, col])
+        for r in range(col + 1, q):
+            if abs(a[r, col]) > big:
+                p, big = r, abs(a[r, col])
+        if big == 0.0:
+            return False
+        if p != col:
+            for c in range(q):
+                a[col, c], a[p, c] = a[p, c], a[col, c]
+                out[col, c], out[p, c] = out[p, c], out[col, c]
+        pivot = a[col, col]
+        for c in range(q):
+            a[col, c] /= pivot
+            out[col, c] /= pivot
+        for r in range(q):
+            f = a[r, col]
+            if r != col and f != 0.0:
+                for c in range(q):
+                    a[r, c] -= f * a[col, c]
+                    out[r, c] -= f * out[col, c]
+    return True
+
+
+@njit(cache=True)
+def block_tridiagonal_factor(blocks, coupling, shift):
+    """Block LU of the block-tridiagonal T with diagonal blocks ``blocks[i] + shift I`` (S, q,
+    q) and off-diagonal blocks ``coupling[i] I`` between i and i + 1 ((S - 1,)).
+
+    T = L U, U with the pivot blocks D_i on its diagonal (D_0 = T_00, D_i = T_ii -
+    coupling[i-1]^2 D_{i-1}^-1) and coupling[i] I above, L unit lower with coupling[i-1]
+    D_{i-1}^-1 below. Returns the inverses D_i^-1 (S, q, q) and False when a D_i is singular.
+    O(S q^3).
+    """
+    n_shapes, q, _ = blocks.shape
+    inverses = np.empty_like(blocks)
+    pivot = np.empty((q, q))
+    for i in range(n_shapes):
+        pivot[:] = blocks[i]
+        for r in range(q):
+            pivot[r, r] += shift
+        if i > 0:
+            c2 = coupling[i - 1] * coupling[i - 1]
+            previous = inverses[i - 1]
+            for r in range(q):
+                for c in range(q):
+                    pivot[r, c] -= c2 * previous[r, c]
+        if not _invert(pivot, inverses[i]):
+            return inverses, False
+    return inverses, True
+
+
+@njit(cache=True)
+def block_tridiagonal_solve(inverses, coupling, rhs):
+    """Solve T x = rhs (S q,) with the factors of :func:`block_tridiagonal_factor`."""
+    n_shapes, q, _ = inverses.shape
+    y = rhs.reshape(n_shapes, q).copy()
+    x = np.zeros((n_shapes, q))
+    for i in range(n_shapes):  # L y = rhs, and w_i = D_i^-1 y_i (kept in x)
+        if i > 0:
+            c, w = coupling[i - 1], x[i - 1]
+            for r in range(q):
+                y[i, r] -= c * w[r]
+        inv, w = inverses[i], x[i]
+        for r in range(q):
+            t = 0.0
+            for c in range(q):
+                t += inv[r, c] * y[i, c]
+            w[r] = t
+    for i in range(n_shapes - 2, -1, -1):  # U x = y: x_i = w_i - coupling[i] D_i^-1 x_{i+1}
+        inv, c, nxt = inverses[i], coupling[i], x[i + 1]
+        for r in range(q):
+            t = 0.0
+            for k in range(q):
+                t += inv[r, k] * nxt[k]
+            x[i, r] -= c * t
+    return x.ravel()
 
 
 @njit(cache=True, fastmath=True)
@@ -234,7 +334,7 @@ def _combine(coefficients, vectors):
 
 
 def gmres(matvec, precondition, rhs: np.ndarray, tolerance: float, max_iterations: int,
-          max_cycles: int = 4) -> tuple[np.ndarray, float, int]:
+          max_cycles: int = 4, product=None) -> tuple[np.ndarray, float, int]:
     """Right-preconditioned (flexible) GMRES for A x = rhs, restarted on the true residual.
 
     Each cycle builds a Krylov space of at most ``max_iterations`` on the current residual until
@@ -255,6 +355,9 @@ def gmres(matvec, precondition, rhs: np.ndarray, tolerance: float, max_iteration
         Krylov dimension of a cycle at most.
     max_cycles : int
         Cycles at most.
+    product : callable, optional
+        v -> A M^-1 v given v and M^-1 v, when the preconditioner yields it more cheaply than
+        ``matvec`` (the Krylov steps use it; the cycles' true residuals still use ``matvec``).
 
     Returns
     -------
@@ -268,8 +371,8 @@ def gmres(matvec, precondition, rhs: np.ndarray, tolerance: float, max_iteration
         return x, 0.0, 0
     left, residual, total = rhs, 1.0, 0
     for _ in range(max_cycles):
-        x_cycle, k = _gmres_cycle(matvec, precondition, left, tolerance / residual,
-                                  max_iterations)
+        x_cycle, k = _gmres_cycle(matvec if product is None else product, precondition, left,
+                                  tolerance / residual, max_iterations, product is not None)
         x += x_cycle
         total += k
         left = rhs - matvec(x)
@@ -279,8 +382,11 @@ def gmres(matvec, precondition, rhs: np.ndarray, tolerance: float, max_iteration
     return x, residual, total
 
 
-def _gmres_cycle(matvec, precondition, rhs, tolerance, max_iterations):
-    """One GMRES cycle from x = 0: (x, iterations), stopping on the Givens residual estimate."""
+def _gmres_cycle(matvec, precondition, rhs, tolerance, max_iterations, paired=False):
+    """One GMRES cycle from x = 0: (x, iterations), stopping on the Givens residual estimate.
+
+    ``paired``: ``matvec`` is called as ``matvec(v, M^-1 v)`` (see :func:`gmres`).
+    """
     beta = float(np.sqrt(np.einsum("i,i->", rhs, rhs)))
     basis = np.empty((max_iterations + 1, rhs.size))
     directions = np.empty((max_iterations, rhs.size))
@@ -294,7 +400,8 @@ def _gmres_cycle(matvec, precondition, rhs, tolerance, max_iterations):
     while k < max_iterations and estimate > tolerance:
         directions[k] = precondition(basis[k])
         column = np.zeros(k + 2)
-        _arnoldi(basis, k, matvec(directions[k]), column)
+        w = matvec(basis[k], directions[k]) if paired else matvec(directions[k])
+        _arnoldi(basis, k, w, column)
         _givens(column, cs, sn, k)
         hess[: k + 2, k] = column
         g[k + 1] = -sn[k] * g[k]
@@ -530,47 +637,40 @@ class GridNewton:
         lay = self.layout
         return galerkin_blocks(self.band, lay.half_band, lay.basis, lay.n_shapes)
 
-    def _coarse_band(self, shift: float) -> np.ndarray:
-        """The Galerkin operator Z^T (H + shift I) Z as a band (half-width 2q - 1)."""
-        lay = self.layout
-        s, q = lay.n_shapes, lay.basis.shape[1]
-        blocks = self._coarse_blocks + shift * np.eye(q)
-        kc = 2 * q - 1
-        band = np.zeros((s * q, 3 * kc + 1))
-        r, c = np.meshgrid(np.arange(q), np.arange(q), indexing="ij")
-        rows = (np.arange(s)[:, None, None] * q + r).ravel()
-        cols = (np.arange(s)[:, None, None] * q + c).ravel()
-        band[cols, 2 * kc + rows - cols] = blocks.ravel()
-        diag = np.arange((s - 1) * q)
-        band[diag + q, 2 * kc - q] = self.coupling.repeat(q)  # (i, i + 1): coupling * I
-        band[diag, 2 * kc + q] = self.coupling.repeat(q)
-        return band
-
     def solve(self, rhs: np.ndarray, shift: float = 0.0,
               tolerance: float = KRYLOV_TOLERANCE) -> np.ndarray | None:
         """p with (H + shift I) p = rhs to a relative residual ``tolerance``, (N,); None when
         the solver cannot vouch for it (a singular band, or a residual above both
         ``tolerance`` and :data:`ACCEPTED_RESIDUAL`)."""
         lay = self.layout
-        s, q = lay.n_shapes, lay.basis.shape[1]
+        s = lay.n_shapes
         fine = self.band.copy()
         fine[:, 2 * lay.half_band] += shift
         fine_piv, ok = band_lu(fine, lay.half_band)
-        coarse = self._coarse_band(shift)
-        kc = 2 * q - 1
-        coarse_piv, ok_coarse = band_lu(coarse, kc)
+        coarse, ok_coarse = block_tridiagonal_factor(self._coarse_blocks, self.coupling, shift)
         if not (ok and ok_coarse):
             return None
 
         prolongation = np.ascontiguousarray(lay.basis.T)
+        correction = []  # the last fine correction z of the preconditioner
 
         def precondition(r):  # coarse, then the shapes' bands on the residual
-            e = band_lu_solve(coarse, kc, coarse_piv, shapewise(r, lay.basis, s))
-            x = shapewise(e, prolongation, s)
-            return x + band_lu_solve(fine, lay.half_band, fine_piv, r - self.matvec(x, shift))
+            x = shapewise(block_tridiagonal_solve(coarse, self.coupling,
+                                                  shapewise(r, lay.basis, s)), prolongation, s)
+            correction[:] = [band_lu_solve(fine, lay.half_band, fine_piv,
+                                           r - self.matvec(x, shift))]
+            return x + correction[0]
+
+        def product(r, x):  # (H + shift I) x = r + C z for x = precondition(r): H + shift I
+            z = correction[0]  # is the fine band F plus the coupling C between shapes, and
+            y = r.copy()  # F x = F (x - z) + r - (H + shift I)(x - z) = r - C (x - z)
+            ys, zs = y.reshape(s, -1), z.reshape(s, -1)
+            ys[:-1] += self.coupling[:, None] * zs[1:]
+            ys[1:] += self.coupling[:, None] * zs[:-1]
+            return y
 
         step, residual, _ = gmres(lambda v: self.matvec(v, shift), precondition, rhs,
-                                           tolerance, MAX_KRYLOV)
+                                  tolerance, MAX_KRYLOV, product=product)
         if not (residual <= max(tolerance, ACCEPTED_RESIDUAL) and np.all(np.isfinite(step))):
             return None
         return step
