@@ -45,7 +45,7 @@ from functools import cached_property
 import numpy as np
 from numba import njit
 
-from ..physics.compiled import chain_derivatives
+from ..physics.compiled import chain_derivatives, chain_gradient
 
 COARSE_DEGREE = 12
 """K: Chebyshev polynomials (degrees 0 .. K-1) per coordinate and shape in the coarse space."""
@@ -539,6 +539,25 @@ def shape_bands(inner, k_s, rest_lengths, k_b, rest_angles):
         chain_derivatives(inner[i], k_s, rest_lengths, k_b, rest_angles[i], no_mass,
                           no_gravity, grad, bands[i])
     return bands
+
+
+@njit(cache=True)
+def shape_costs(inner, k_s, rest_lengths, k_b, rest_angles):
+    """The summed axial and bending energy of every shape and its gradient (S, n + 1, 3).
+
+    The static core's compiled energy and gradient
+    (:func:`dloplan.physics.compiled.chain_gradient`), shape by shape, weightless, with the
+    arguments of :func:`shape_bands`.
+    """
+    n_shapes, n_points, _ = inner.shape
+    grad = np.empty_like(inner)
+    no_mass = np.zeros(n_points)
+    no_gravity = np.zeros(3)
+    total = 0.0
+    for i in range(n_shapes):
+        total += chain_gradient(inner[i], k_s, rest_lengths, k_b, rest_angles[i], no_mass,
+                                no_gravity, grad[i])
+    return total, grad
 
 
 def hessian_entries(n_links: int, n_shapes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
