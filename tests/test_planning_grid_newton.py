@@ -31,6 +31,7 @@ from dloplan.planning.grid_newton import (
     gmres,
     grid_layout,
     plane_of,
+    scatter_add,
 )
 
 
@@ -91,6 +92,15 @@ def test_block_tridiagonal_solve_is_a_dense_solve_also_with_indefinite_blocks():
     blocks[3, 2, 2] = -shift
     coupling[2] = 0.0  # ... not mended by the coupling to shape 2
     assert not block_tridiagonal_factor(blocks, coupling, shift)[1]
+
+
+def test_scatter_add_is_bincount_in_the_same_order():
+    rng = np.random.default_rng(5)
+    slots, pick = rng.integers(0, 40, 500), rng.integers(0, 90, 500)
+    values = rng.standard_normal(90) * 10.0 ** rng.integers(-8, 8, 90)
+    # the same additions in the same order: equal bit for bit
+    assert np.array_equal(scatter_add(slots, values, pick, 45),
+                          np.bincount(slots, weights=values[pick], minlength=45))
 
 
 def test_gmres_reaches_its_tolerance_on_a_nonsymmetric_system():

@@ -151,6 +151,50 @@ def band_matvec(ab, kl, x):
 
 
 @njit(cache=True)
+def add_coupling(y, coupling, x):
+    """y += C x in place for x, y (N,) over S equal shape blocks, C the coupling between
+    neighbouring shapes (``coupling[i]`` times the identity between shapes i and i + 1)."""
+    n_shapes = coupling.size + 1
+    m = x.size // n_shapes
+    for i in range(n_shapes - 1):
+        c, above, below = coupling[i], y[i * m:(i + 1) * m], x[(i + 1) * m:(i + 2) * m]
+        for t in range(m):
+            above[t] += c * below[t]
+    for i in range(1, n_shapes):
+        c, below, above = coupling[i - 1], y[i * m:(i + 1) * m], x[(i - 1) * m:i * m]
+        for t in range(m):
+            below[t] += c * above[t]
+
+
+@njit(cache=True)
+def grid_matvec(compact, kl, coupling, shift, x):
+    """(H + shift I) x for x (N,): the shapes' compact band (N, 2 kl + 1) (layout of
+    :func:`band_matvec`) plus the coupling between shapes (:func:`add_coupling`)."""
+    y = band_matvec(compact, kl, x)
+    if shift != 0.0:
+        for t in range(y.size):
+            y[t] += shift * x[t]
+    add_coupling(y, coupling, x)
+    return y
+
+
+@njit(cache=True)
+def two_level(r, coarse, coupling, basis, prolongation, compact, fine, kl, piv, shift):
+    """The two-level preconditioner M^-1 r (N,): the coarse solve x = Z T^-1 Z^T r, then the
+    shapes' bands on its residual, z = F^-1 (r - (H + shift I) x). Returns x + z and z.
+
+    ``coarse``: :func:`block_tridiagonal_factor`'s inverses, ``basis`` Z (m, q) and
+    ``prolongation`` its transpose (contiguous), ``compact`` the unfactored band of
+    :func:`grid_matvec`, ``fine`` and ``piv`` its shifted band's :func:`band_lu`.
+    """
+    n_shapes = coupling.size + 1
+    x = shapewise(block_tridiagonal_solve(coarse, coupling, shapewise(r, basis, n_shapes)),
+                  prolongation, n_shapes)
+    z = band_lu_solve(fine, kl, piv, r - grid_matvec(compact, kl, coupling, shift, x))
+    return x + z, z
+
+
+@njit(cache=True)
 def galerkin_blocks(ab, kl, basis, n_shapes):
     """The diagonal blocks Z^T A_ii Z (S, q, q) of a shape-block-diagonal band A.
 
@@ -516,10 +560,20 @@ class GridLayout:
         ``diagonal`` (S,) the transversal term's diagonal of each shape.
         """
         kl, size = self.half_band, self.size
-        band = np.bincount(self.slots, weights=values[self.pick],
-                           minlength=(3 * kl + 1) * size).reshape(size, 3 * kl + 1)
+        band = scatter_add(self.slots, values, self.pick, (3 * kl + 1) * size)
+        band = band.reshape(size, 3 * kl + 1)
         band[:, 2 * kl] += np.repeat(diagonal, size // self.n_shapes)
         return band
+
+
+@njit(cache=True)
+def scatter_add(slots, values, pick, size):
+    """(size,) zeros plus ``values[pick[t]]`` at ``slots[t]`` for every t, added in that order
+    (``np.bincount(slots, weights=values[pick], minlength=size)`` without the copies)."""
+    out = np.zeros(size)
+    for t in range(slots.size):
+        out[slots[t]] += values[pick[t]]
+    return out
 
 
 @njit(cache=True)
@@ -640,14 +694,7 @@ class GridNewton:
 
     def matvec(self, x: np.ndarray, shift: float = 0.0) -> np.ndarray:
         """(H + shift I) x for x (N,)."""
-        lay = self.layout
-        y = band_matvec(self._compact, lay.half_band, x)
-        if shift:
-            y += shift * x
-        xs, ys = x.reshape(lay.n_shapes, -1), y.reshape(lay.n_shapes, -1)
-        ys[:-1] += self.coupling[:, None] * xs[1:]
-        ys[1:] += self.coupling[:, None] * xs[:-1]
-        return y
+        return grid_matvec(self._compact, self.layout.half_band, self.coupling, shift, x)
 
     @cached_property
     def _coarse_blocks(self) -> np.ndarray:
@@ -662,7 +709,6 @@ class GridNewton:
         the solver cannot vouch for it (a singular band, or a residual above both
         ``tolerance`` and :data:`ACCEPTED_RESIDUAL`)."""
         lay = self.layout
-        s = lay.n_shapes
         fine = self.band.copy()
         fine[:, 2 * lay.half_band] += shift
         fine_piv, ok = band_lu(fine, lay.half_band)
@@ -673,20 +719,16 @@ class GridNewton:
         prolongation = np.ascontiguousarray(lay.basis.T)
         correction = []  # the last fine correction z of the preconditioner
 
-        def precondition(r):  # coarse, then the shapes' bands on the residual
-            x = shapewise(block_tridiagonal_solve(coarse, self.coupling,
-                                                  shapewise(r, lay.basis, s)), prolongation, s)
-            correction[:] = [band_lu_solve(fine, lay.half_band, fine_piv,
-                                           r - self.matvec(x, shift))]
-            return x + correction[0]
+        def precondition(r):
+            x, z = two_level(r, coarse, self.coupling, lay.basis, prolongation, self._compact,
+                             fine, lay.half_band, fine_piv, shift)
+            correction[:] = [z]
+            return x
 
         def product(r, x):  # (H + shift I) x = r + C z for x = precondition(r): H + shift I
-            z = correction[0]  # is the fine band F plus the coupling C between shapes, and
-            y = r.copy()  # F x = F (x - z) + r - (H + shift I)(x - z) = r - C (x - z)
-            ys, zs = y.reshape(s, -1), z.reshape(s, -1)
-            ys[:-1] += self.coupling[:, None] * zs[1:]
-            ys[1:] += self.coupling[:, None] * zs[:-1]
-            return y
+            y = r.copy()  # is the fine band F plus the coupling C between shapes, and
+            add_coupling(y, self.coupling, correction[0])  # F x = F (x - z) + r - (H + shift
+            return y  # I)(x - z) = r - C (x - z)
 
         step, residual, _ = gmres(lambda v: self.matvec(v, shift), precondition, rhs,
                                   tolerance, MAX_KRYLOV, product=product)
