@@ -388,7 +388,7 @@ def _damped_newton(problem: AdvancedProblem, y: np.ndarray, gtol: float, max_ite
     entries = hessian_entries(n, s)
     diagonal_rows = entries[0][entries[0] == entries[1]]
     diagonal_pick = entries[2][entries[0] == entries[1]]
-    layout = grid_layout(n, s, coords) if linear_solver == "gmres" else None
+    layout = grid_layout(n, s, coords, entries) if linear_solver == "gmres" else None
     identity = sp.identity(y.size, format="csc")
     f, g = advanced_cost(problem, y)
     shift = 0.0

@@ -539,18 +539,25 @@ class GridLayout:
     def size(self) -> int:
         return self.n_shapes * self.n_points * len(self.coords)
 
+    @cached_property
+    def _solved(self) -> tuple[np.ndarray, np.ndarray]:
+        """The flat positions in (S, n + 1, 3) solved for, and their indices in (N,)."""
+        flat = self.index.ravel()
+        kept = np.flatnonzero(flat >= 0)
+        return kept, flat[kept]
+
     def gather(self, full: np.ndarray) -> np.ndarray:
         """The solver's (N,) vector of a full (S, n + 1, 3) array (the coordinates solved for)."""
-        flat = self.index.ravel()
+        kept, solver = self._solved
         out = np.empty(self.size)
-        out[flat[flat >= 0]] = full.ravel()[flat >= 0]
+        out[solver] = full.ravel()[kept]
         return out
 
     def scatter(self, reduced: np.ndarray) -> np.ndarray:
         """The full (S, n + 1, 3) array of a solver's (N,) vector, zero where not solved for."""
-        flat = self.index.ravel()
-        out = np.zeros(flat.size)
-        out[flat >= 0] = reduced[flat[flat >= 0]]
+        kept, solver = self._solved
+        out = np.zeros(self.index.size)
+        out[kept] = reduced[solver]
         return out.reshape(self.index.shape)
 
     def band(self, values: np.ndarray, diagonal: np.ndarray) -> np.ndarray:
@@ -644,8 +651,10 @@ def hessian_entries(n_links: int, n_shapes: int) -> tuple[np.ndarray, np.ndarray
             np.concatenate([low_p, low_p[below], clip_p]))
 
 
-def grid_layout(n_links: int, n_shapes: int, coords: tuple[int, ...] = (0, 1, 2)) -> GridLayout:
-    """The :class:`GridLayout` of S shapes of n links, solving for ``coords``."""
+def grid_layout(n_links: int, n_shapes: int, coords: tuple[int, ...] = (0, 1, 2),
+                entries: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> GridLayout:
+    """The :class:`GridLayout` of S shapes of n links, solving for ``coords``; ``entries``:
+    :func:`hessian_entries` of (n, S) when the caller has them already."""
     n_points = n_links + 1
     d = len(coords)
     order = folded_order(n_points)
@@ -655,9 +664,12 @@ def grid_layout(n_links: int, n_shapes: int, coords: tuple[int, ...] = (0, 1, 2)
     index = -np.ones((n_shapes, n_points, 3), dtype=np.int64)
     for c_new, c in enumerate(coords):
         index[:, :, c] = (np.arange(n_shapes)[:, None] * m + position[None, :] * d + c_new)
-    rows, cols, pick = hessian_entries(n_links, n_shapes)
+    rows, cols, pick = entries if entries is not None else hessian_entries(n_links, n_shapes)
     r, c = index.ravel()[rows], index.ravel()[cols]
-    kept = (r >= 0) & (c >= 0)
+    # the (9, 3(n + 1)) band of a shape holds entries of points 3 apart, zero by structure
+    # (bending couples points j .. j + 2): kept, they would widen the band from 5d - 1 to 7d - 1
+    coupled = (pick >= n_shapes * 9 * 3 * n_points) | (np.abs(rows // 3 - cols // 3) <= 2)
+    kept = (r >= 0) & (c >= 0) & coupled
     r, c, pick = r[kept], c[kept], pick[kept]
     kl = int(np.max(np.abs(r - c)))
     slots = c * (3 * kl + 1) + 2 * kl + r - c
