@@ -31,6 +31,8 @@ from dloplan.planning.grid_newton import (
     gmres,
     grid_layout,
     plane_of,
+    prolong,
+    restrict,
     scatter_add,
 )
 
@@ -92,6 +94,21 @@ def test_block_tridiagonal_solve_is_a_dense_solve_also_with_indefinite_blocks():
     blocks[3, 2, 2] = -shift
     coupling[2] = 0.0  # ... not mended by the coupling to shape 2
     assert not block_tridiagonal_factor(blocks, coupling, shift)[1]
+
+
+@pytest.mark.parametrize("coords", [(0, 2), (0, 1, 2)])
+def test_restriction_and_prolongation_are_the_coarse_basis_and_its_transpose(coords):
+    layout = grid_layout(7, 4, coords)
+    z, s = layout.basis, layout.n_shapes
+    m, q = z.shape
+    np.testing.assert_allclose(z.T @ z, np.eye(q), atol=1e-14)  # orthonormal
+    rng = np.random.default_rng(6)
+    x, e = rng.standard_normal(s * m), rng.standard_normal(s * q)
+    d = len(coords)
+    np.testing.assert_allclose(restrict(x, layout.polynomials, d, s),
+                               (x.reshape(s, m) @ z).ravel(), atol=1e-13)
+    np.testing.assert_allclose(prolong(e, layout.polynomials, d, s),
+                               (e.reshape(s, q) @ z.T).ravel(), atol=1e-13)
 
 
 def test_scatter_add_is_bincount_in_the_same_order():

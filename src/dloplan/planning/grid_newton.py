@@ -179,17 +179,17 @@ def grid_matvec(compact, kl, coupling, shift, x):
 
 
 @njit(cache=True)
-def two_level(r, coarse, coupling, basis, prolongation, compact, fine, kl, piv, shift):
+def two_level(r, coarse, coupling, polynomials, d, compact, fine, kl, piv, shift):
     """The two-level preconditioner M^-1 r (N,): the coarse solve x = Z T^-1 Z^T r, then the
     shapes' bands on its residual, z = F^-1 (r - (H + shift I) x). Returns x + z and z.
 
-    ``coarse``: :func:`block_tridiagonal_factor`'s inverses, ``basis`` Z (m, q) and
-    ``prolongation`` its transpose (contiguous), ``compact`` the unfactored band of
-    :func:`grid_matvec`, ``fine`` and ``piv`` its shifted band's :func:`band_lu`.
+    ``coarse``: :func:`block_tridiagonal_factor`'s inverses, ``polynomials`` and ``d`` Z's
+    factors (:func:`restrict`), ``compact`` the unfactored band of :func:`grid_matvec`,
+    ``fine`` and ``piv`` its shifted band's :func:`band_lu`.
     """
     n_shapes = coupling.size + 1
-    x = shapewise(block_tridiagonal_solve(coarse, coupling, shapewise(r, basis, n_shapes)),
-                  prolongation, n_shapes)
+    e = block_tridiagonal_solve(coarse, coupling, restrict(r, polynomials, d, n_shapes))
+    x = prolong(e, polynomials, d, n_shapes)
     z = band_lu_solve(fine, kl, piv, r - grid_matvec(compact, kl, coupling, shift, x))
     return x + z, z
 
@@ -456,19 +456,39 @@ def _gmres_cycle(matvec, precondition, rhs, tolerance, max_iterations, paired=Fa
 
 
 @njit(cache=True)
-def shapewise(x, matrix, n_shapes):
-    """Every shape's slice of x (S rows,) times ``matrix`` (rows, cols): (S cols,).
+def restrict(x, polynomials, d, n_shapes):
+    """Z^T x (S q,) for x (N,), Z = P (x) I_d every shape's coarse basis (:class:`GridLayout`).
 
-    With the coarse basis Z (m, q) of one shape, Z^T r = ``shapewise(r, Z, S)`` (restriction)
-    and Z e = ``shapewise(e, Z.T, S)`` (prolongation).
+    ``polynomials`` P (n + 1, K): one coordinate's orthonormal basis over the points (folded
+    order); Z's other entries are zero, so this costs N K, not N d K.
     """
-    rows, cols = matrix.shape
-    out = np.zeros(n_shapes * cols)
+    n_points, k = polynomials.shape
+    m, q = n_points * d, k * d
+    out = np.zeros(n_shapes * q)
     for i in range(n_shapes):
-        for p in range(rows):
-            xp = x[i * rows + p]
-            for c in range(cols):
-                out[i * cols + c] += matrix[p, c] * xp
+        for p in range(n_points):
+            row = polynomials[p]
+            for c in range(d):
+                xp = x[i * m + p * d + c]
+                for j in range(k):
+                    out[i * q + j * d + c] += row[j] * xp
+    return out
+
+
+@njit(cache=True)
+def prolong(e, polynomials, d, n_shapes):
+    """Z e (N,) for coarse e (S q,), with Z and ``polynomials`` as in :func:`restrict`."""
+    n_points, k = polynomials.shape
+    m, q = n_points * d, k * d
+    out = np.zeros(n_shapes * m)
+    for i in range(n_shapes):
+        for p in range(n_points):
+            row = polynomials[p]
+            for c in range(d):
+                t = 0.0
+                for j in range(k):
+                    t += row[j] * e[i * q + j * d + c]
+                out[i * m + p * d + c] = t
     return out
 
 
@@ -522,8 +542,11 @@ class GridLayout:
         Flat band position of each within-shape Hessian entry kept (see :meth:`band`).
     pick : numpy.ndarray
         For each, the index of its value (see :func:`hessian_entries`).
+    polynomials : numpy.ndarray
+        (n + 1, K) orthonormalized Chebyshev polynomials over one shape's points, folded order.
     basis : numpy.ndarray
-        (d (n + 1), q) orthonormal coarse basis of one shape, in the folded point order.
+        (d (n + 1), q = d K) the coarse basis of one shape, ``polynomials`` (x) I_d (each
+        coordinate its own polynomials; orthonormal).
     """
 
     n_shapes: int
@@ -533,6 +556,7 @@ class GridLayout:
     half_band: int
     slots: np.ndarray
     pick: np.ndarray
+    polynomials: np.ndarray
     basis: np.ndarray
 
     @property
@@ -676,9 +700,10 @@ def grid_layout(n_links: int, n_shapes: int, coords: tuple[int, ...] = (0, 1, 2)
     degree = min(COARSE_DEGREE, n_points)
     t = np.linspace(-1.0, 1.0, n_points)[order]
     cheb = np.polynomial.chebyshev.chebvander(t, degree - 1)  # (n + 1, K), folded rows
-    basis = np.einsum("pk,cd->pckd", cheb, np.eye(d)).reshape(m, degree * d)
-    basis = np.linalg.qr(basis)[0]
-    return GridLayout(n_shapes, n_points, tuple(coords), index, kl, slots, pick, basis)
+    polynomials = np.ascontiguousarray(np.linalg.qr(cheb)[0])
+    basis = np.kron(polynomials, np.eye(d))  # row p d + c, column k d + c
+    return GridLayout(n_shapes, n_points, tuple(coords), index, kl, slots, pick, polynomials,
+                      basis)
 
 
 @dataclass(eq=False)
@@ -728,12 +753,11 @@ class GridNewton:
         if not (ok and ok_coarse):
             return None
 
-        prolongation = np.ascontiguousarray(lay.basis.T)
         correction = []  # the last fine correction z of the preconditioner
 
         def precondition(r):
-            x, z = two_level(r, coarse, self.coupling, lay.basis, prolongation, self._compact,
-                             fine, lay.half_band, fine_piv, shift)
+            x, z = two_level(r, coarse, self.coupling, lay.polynomials, len(lay.coords),
+                             self._compact, fine, lay.half_band, fine_piv, shift)
             correction[:] = [z]
             return x
 
