@@ -465,29 +465,35 @@ def restrict(x, polynomials, d, n_shapes):
     n_points, k = polynomials.shape
     m, q = n_points * d, k * d
     out = np.zeros(n_shapes * q)
+    column = np.empty(k)
     for i in range(n_shapes):
-        for p in range(n_points):
-            row = polynomials[p]
-            for c in range(d):
-                xp = x[i * m + p * d + c]
+        shape = x[i * m:(i + 1) * m]
+        for c in range(d):
+            column[:] = 0.0
+            for p in range(n_points):
+                xp = shape[p * d + c]
+                row = polynomials[p]
                 for j in range(k):
-                    out[i * q + j * d + c] += row[j] * xp
+                    column[j] += row[j] * xp
+            out[i * q + c: (i + 1) * q: d] = column
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=True)
 def prolong(e, polynomials, d, n_shapes):
     """Z e (N,) for coarse e (S q,), with Z and ``polynomials`` as in :func:`restrict`."""
     n_points, k = polynomials.shape
     m, q = n_points * d, k * d
-    out = np.zeros(n_shapes * m)
+    out = np.empty(n_shapes * m)
+    column = np.empty(k)
     for i in range(n_shapes):
-        for p in range(n_points):
-            row = polynomials[p]
-            for c in range(d):
+        for c in range(d):
+            column[:] = e[i * q + c: (i + 1) * q: d]
+            for p in range(n_points):
+                row = polynomials[p]
                 t = 0.0
                 for j in range(k):
-                    t += row[j] * e[i * q + j * d + c]
+                    t += row[j] * column[j]
                 out[i * m + p * d + c] = t
     return out
 
