@@ -22,8 +22,10 @@ Third round (block-tridiagonal coarse solve, one band product per GMRES iteratio
 half-width 5d - 1 instead of 7d - 1, compiled cost, no threaded BLAS dot in the Newton loop),
 side by side with main at load 6.3-6.7: (50, 50) 0.66 s against main's 1.42 s (advanced 0.42
 against 0.98 s), (100, 100) 2.12 s against 5.36 s (advanced 1.79 against 4.79 s), exponent
-0.77; at load 7.8-8.6: 1.02-1.29 s against 1.30-1.76 s and 4.41-4.68 s against 6.71-8.06 s.
-Same iterations (14 and 12), systems (18) and optimum as main.
+0.77; at load 7.8-8.6: 1.02-1.29 s against 1.30-1.76 s and 4.41-4.68 s against 6.71-8.06 s;
+with the compiled restriction and prolongation, at load 11: 1.02-1.10 s against 1.20-1.77 s
+(advanced 0.60-0.61 against 0.88-1.24 s) and 3.72-4.08 s against 6.65-8.72 s (advanced
+2.8-3.2 against 5.9-7.7 s). Same iterations (14 and 12), systems (18) and optimum as main.
 """
 
 from __future__ import annotations
