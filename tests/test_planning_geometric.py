@@ -66,6 +66,23 @@ def test_advanced_term_gradients_match_finite_differences(term):
         assert fd == pytest.approx(float(np.sum(grad * d)), rel=1e-7, abs=1e-9)
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_compiled_advanced_cost_is_the_sum_of_the_reference_terms(seed):
+    # the compiled link-length and angle pass against the numpy terms, on perturbed 3-D shapes
+    # and with other weights and another n and S: equal to round-off of sums of ~n S terms
+    cable, start, target = folding_case()
+    weights = AdvancedWeights(steps=3.0, final=7.0, delta=50.0, clip=0.1, beta=2.0)
+    basic = basic_path(start, target, 5 + 2 * seed)
+    problem = advanced_problem(basic, cable.length, weights if seed else None)
+    rng = np.random.default_rng(seed)
+    inner = basic[1:-1] / cable.length + 0.01 * rng.standard_normal(basic[1:-1].shape)
+    value, grad = advanced_cost(problem, inner)
+    terms = advanced_terms(problem, inner).values()
+    assert value == pytest.approx(sum(v for v, _ in terms), rel=1e-12)
+    reference = sum(g for _, g in terms)
+    np.testing.assert_allclose(grad, reference, rtol=0, atol=1e-12 * np.abs(reference).max())
+
+
 def test_advanced_cost_equals_the_thesis_sums_on_the_reference_problem():
     # n0 = 10, S0 = 5: J is eq. 4.17 with positions over L, delta over l, L / Delta_clip, rad
     problem, inner, _ = _perturbed_problem(1)

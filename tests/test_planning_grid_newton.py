@@ -24,11 +24,16 @@ from dloplan.planning.grid_newton import (
     band_lu,
     band_lu_solve,
     band_matvec,
+    block_tridiagonal_factor,
+    block_tridiagonal_solve,
     folded_order,
     galerkin_blocks,
     gmres,
     grid_layout,
     plane_of,
+    prolong,
+    restrict,
+    scatter_add,
 )
 
 
@@ -63,6 +68,56 @@ def test_band_lu_reports_a_singular_band():
     _, ab = _random_band(10, 2, np.random.default_rng(2))
     ab[4] = 0.0  # an empty column
     assert not band_lu(ab, 2)[1]
+
+
+def test_block_tridiagonal_solve_is_a_dense_solve_also_with_indefinite_blocks():
+    # symmetric indefinite diagonal blocks (a zero leading entry needs pivoting inside a block),
+    # scalar couplings, a shift: against numpy's dense solve of the assembled matrix
+    rng = np.random.default_rng(4)
+    s, q, shift = 7, 5, 0.3
+    blocks = rng.standard_normal((s, q, q))
+    blocks = blocks + blocks.transpose(0, 2, 1) + 3.0 * np.eye(q)
+    blocks[:, 0, 0] = -shift
+    coupling = rng.standard_normal(s - 1)
+    dense = np.zeros((s * q, s * q))
+    for i in range(s):
+        dense[i * q:(i + 1) * q, i * q:(i + 1) * q] = blocks[i] + shift * np.eye(q)
+    for i in range(s - 1):
+        dense[i * q:(i + 1) * q, (i + 1) * q:(i + 2) * q] = coupling[i] * np.eye(q)
+        dense[(i + 1) * q:(i + 2) * q, i * q:(i + 1) * q] = coupling[i] * np.eye(q)
+    inverses, ok = block_tridiagonal_factor(blocks, coupling, shift)
+    assert ok
+    b = rng.standard_normal(s * q)
+    np.testing.assert_allclose(block_tridiagonal_solve(inverses, coupling, b),
+                               np.linalg.solve(dense, b), rtol=0, atol=1e-10)
+    blocks[3, :, 2] = 0.0  # a zero column in T_33 + shift I ...
+    blocks[3, 2, 2] = -shift
+    coupling[2] = 0.0  # ... not mended by the coupling to shape 2
+    assert not block_tridiagonal_factor(blocks, coupling, shift)[1]
+
+
+@pytest.mark.parametrize("coords", [(0, 2), (0, 1, 2)])
+def test_restriction_and_prolongation_are_the_coarse_basis_and_its_transpose(coords):
+    layout = grid_layout(7, 4, coords)
+    z, s = layout.basis, layout.n_shapes
+    m, q = z.shape
+    np.testing.assert_allclose(z.T @ z, np.eye(q), atol=1e-14)  # orthonormal
+    rng = np.random.default_rng(6)
+    x, e = rng.standard_normal(s * m), rng.standard_normal(s * q)
+    d = len(coords)
+    np.testing.assert_allclose(restrict(x, layout.polynomials, d, s),
+                               (x.reshape(s, m) @ z).ravel(), atol=1e-13)
+    np.testing.assert_allclose(prolong(e, layout.polynomials, d, s),
+                               (e.reshape(s, q) @ z.T).ravel(), atol=1e-13)
+
+
+def test_scatter_add_is_bincount_in_the_same_order():
+    rng = np.random.default_rng(5)
+    slots, pick = rng.integers(0, 40, 500), rng.integers(0, 90, 500)
+    values = rng.standard_normal(90) * 10.0 ** rng.integers(-8, 8, 90)
+    # the same additions in the same order: equal bit for bit
+    assert np.array_equal(scatter_add(slots, values, pick, 45),
+                          np.bincount(slots, weights=values[pick], minlength=45))
 
 
 def test_gmres_reaches_its_tolerance_on_a_nonsymmetric_system():

@@ -16,11 +16,15 @@ blocks and the clip term (points 0, 1, n-1, n). A direct factorization of this 2
 * **the soft modes of a shape are few**: a shape resists the rigid motions and smooth bends of
   its points only through the transversal term; they are spanned per shape and coordinate by K
   Chebyshev polynomials in the point index (:data:`COARSE_DEGREE`). The Galerkin operator
-  Z^T H Z on that coarse space is block-tridiagonal in the shape index, a band of half-width
-  2dK - 1, solved exactly;
+  Z^T H Z on that coarse space is block-tridiagonal in the shape index (dK x dK blocks, the
+  couplings between shapes a multiple of the identity), solved exactly by block LU
+  (:func:`block_tridiagonal_factor`, O(S (dK)^3), a quarter of a band LU's work);
 * **GMRES** (right-preconditioned, :func:`gmres`) on H with the two-level preconditioner
   "coarse solve, then the shapes' bands on its residual" converges in 5-60 iterations, each
-  O(n S d K) (a symmetric variant with a second coarse solve saved only 5 % of them).
+  O(n S d K) (a symmetric variant with a second coarse solve saved only 5 % of them). The
+  product H M^-1 v an iteration needs comes from the preconditioner itself: H = F + C with F
+  the shapes' bands and C the coupling between shapes, so H x = v + C z for x = M^-1 v with
+  fine correction z, one band product per iteration instead of two.
 
 Solved to a relative residual of 1e-12, a step equals the sparse LU's to about 1e-11 (relative);
 the damped Newton iteration (:func:`dloplan.planning.geometric.advanced_path`) asks for
@@ -41,7 +45,7 @@ from functools import cached_property
 import numpy as np
 from numba import njit
 
-from ..physics.compiled import chain_derivatives
+from ..physics.compiled import chain_derivatives, chain_gradient
 
 COARSE_DEGREE = 12
 """K: Chebyshev polynomials (degrees 0 .. K-1) per coordinate and shape in the coarse space."""
@@ -147,6 +151,50 @@ def band_matvec(ab, kl, x):
 
 
 @njit(cache=True)
+def add_coupling(y, coupling, x):
+    """y += C x in place for x, y (N,) over S equal shape blocks, C the coupling between
+    neighbouring shapes (``coupling[i]`` times the identity between shapes i and i + 1)."""
+    n_shapes = coupling.size + 1
+    m = x.size // n_shapes
+    for i in range(n_shapes - 1):
+        c, above, below = coupling[i], y[i * m:(i + 1) * m], x[(i + 1) * m:(i + 2) * m]
+        for t in range(m):
+            above[t] += c * below[t]
+    for i in range(1, n_shapes):
+        c, below, above = coupling[i - 1], y[i * m:(i + 1) * m], x[(i - 1) * m:i * m]
+        for t in range(m):
+            below[t] += c * above[t]
+
+
+@njit(cache=True)
+def grid_matvec(compact, kl, coupling, shift, x):
+    """(H + shift I) x for x (N,): the shapes' compact band (N, 2 kl + 1) (layout of
+    :func:`band_matvec`) plus the coupling between shapes (:func:`add_coupling`)."""
+    y = band_matvec(compact, kl, x)
+    if shift != 0.0:
+        for t in range(y.size):
+            y[t] += shift * x[t]
+    add_coupling(y, coupling, x)
+    return y
+
+
+@njit(cache=True)
+def two_level(r, coarse, coupling, polynomials, d, compact, fine, kl, piv, shift):
+    """The two-level preconditioner M^-1 r (N,): the coarse solve x = Z T^-1 Z^T r, then the
+    shapes' bands on its residual, z = F^-1 (r - (H + shift I) x). Returns x + z and z.
+
+    ``coarse``: :func:`block_tridiagonal_factor`'s inverses, ``polynomials`` and ``d`` Z's
+    factors (:func:`restrict`), ``compact`` the unfactored band of :func:`grid_matvec`,
+    ``fine`` and ``piv`` its shifted band's :func:`band_lu`.
+    """
+    n_shapes = coupling.size + 1
+    e = block_tridiagonal_solve(coarse, coupling, restrict(r, polynomials, d, n_shapes))
+    x = prolong(e, polynomials, d, n_shapes)
+    z = band_lu_solve(fine, kl, piv, r - grid_matvec(compact, kl, coupling, shift, x))
+    return x + z, z
+
+
+@njit(cache=True)
 def galerkin_blocks(ab, kl, basis, n_shapes):
     """The diagonal blocks Z^T A_ii Z (S, q, q) of a shape-block-diagonal band A.
 
@@ -157,25 +205,121 @@ def galerkin_blocks(ab, kl, basis, n_shapes):
     kv = 2 * kl
     out = np.zeros((n_shapes, q, q))
     az = np.empty((m, q))
+    # Z's non-zero columns by row (a coordinate's rows have only its own polynomials)
+    support = np.zeros(m, np.int64)
+    columns = np.empty((m, q), np.int64)
+    for j in range(m):
+        for c in range(q):
+            if basis[j, c] != 0.0:
+                columns[j, support[j]] = c
+                support[j] += 1
     for i in range(n_shapes):
         offset = i * m
         az[:] = 0.0
         for j in range(m):  # column j of A_ii times row j of Z
-            zj = basis[j]
+            zj, cols = basis[j], columns[j, :support[j]]
             for p in range(max(0, j - kl), min(m, j + kl + 1)):
                 a = ab[offset + j, kv + p - j]
                 if a != 0.0:
                     row = az[p]
-                    for c in range(q):
+                    for c in cols:
                         row[c] += a * zj[c]
         block = out[i]
         for p in range(m):
             zp, row = basis[p], az[p]
-            for r in range(q):
+            for r in columns[p, :support[p]]:
                 z = zp[r]
+                target = block[r]
                 for c in range(q):
-                    block[r, c] += z * row[c]
+                    target[c] += z * row[c]
     return out
+
+
+@njit(cache=True)
+def _invert(a, out):
+    """out = a^-1 (q, q) by Gauss-Jordan elimination with partial pivoting, ``a`` overwritten;
+    False when a column has no non-zero pivot."""
+    q = a.shape[0]
+    out[:] = 0.0
+    for i in range(q):
+        out[i, i] = 1.0
+    for col in range(q):
+        p, big = col, abs(a[col, col])
+        for r in range(col + 1, q):
+            if abs(a[r, col]) > big:
+                p, big = r, abs(a[r, col])
+        if big == 0.0:
+            return False
+        if p != col:
+            for c in range(q):
+                a[col, c], a[p, c] = a[p, c], a[col, c]
+                out[col, c], out[p, c] = out[p, c], out[col, c]
+        pivot = a[col, col]
+        for c in range(q):
+            a[col, c] /= pivot
+            out[col, c] /= pivot
+        for r in range(q):
+            f = a[r, col]
+            if r != col and f != 0.0:
+                for c in range(q):
+                    a[r, c] -= f * a[col, c]
+                    out[r, c] -= f * out[col, c]
+    return True
+
+
+@njit(cache=True)
+def block_tridiagonal_factor(blocks, coupling, shift):
+    """Block LU of the block-tridiagonal T with diagonal blocks ``blocks[i] + shift I`` (S, q,
+    q) and off-diagonal blocks ``coupling[i] I`` between i and i + 1 ((S - 1,)).
+
+    T = L U, U with the pivot blocks D_i on its diagonal (D_0 = T_00, D_i = T_ii -
+    coupling[i-1]^2 D_{i-1}^-1) and coupling[i] I above, L unit lower with coupling[i-1]
+    D_{i-1}^-1 below. Returns the inverses D_i^-1 (S, q, q) and False when a D_i is singular.
+    O(S q^3).
+    """
+    n_shapes, q, _ = blocks.shape
+    inverses = np.empty_like(blocks)
+    pivot = np.empty((q, q))
+    for i in range(n_shapes):
+        pivot[:] = blocks[i]
+        for r in range(q):
+            pivot[r, r] += shift
+        if i > 0:
+            c2 = coupling[i - 1] * coupling[i - 1]
+            previous = inverses[i - 1]
+            for r in range(q):
+                for c in range(q):
+                    pivot[r, c] -= c2 * previous[r, c]
+        if not _invert(pivot, inverses[i]):
+            return inverses, False
+    return inverses, True
+
+
+@njit(cache=True)
+def block_tridiagonal_solve(inverses, coupling, rhs):
+    """Solve T x = rhs (S q,) with the factors of :func:`block_tridiagonal_factor`."""
+    n_shapes, q, _ = inverses.shape
+    y = rhs.reshape(n_shapes, q).copy()
+    x = np.zeros((n_shapes, q))
+    for i in range(n_shapes):  # L y = rhs, and w_i = D_i^-1 y_i (kept in x)
+        if i > 0:
+            c, w = coupling[i - 1], x[i - 1]
+            for r in range(q):
+                y[i, r] -= c * w[r]
+        inv, w = inverses[i], x[i]
+        for r in range(q):
+            t = 0.0
+            for c in range(q):
+                t += inv[r, c] * y[i, c]
+            w[r] = t
+    for i in range(n_shapes - 2, -1, -1):  # U x = y: x_i = w_i - coupling[i] D_i^-1 x_{i+1}
+        inv, c, nxt = inverses[i], coupling[i], x[i + 1]
+        for r in range(q):
+            t = 0.0
+            for k in range(q):
+                t += inv[r, k] * nxt[k]
+            x[i, r] -= c * t
+    return x.ravel()
 
 
 @njit(cache=True, fastmath=True)
@@ -234,7 +378,7 @@ def _combine(coefficients, vectors):
 
 
 def gmres(matvec, precondition, rhs: np.ndarray, tolerance: float, max_iterations: int,
-          max_cycles: int = 4) -> tuple[np.ndarray, float, int]:
+          max_cycles: int = 4, product=None) -> tuple[np.ndarray, float, int]:
     """Right-preconditioned (flexible) GMRES for A x = rhs, restarted on the true residual.
 
     Each cycle builds a Krylov space of at most ``max_iterations`` on the current residual until
@@ -255,6 +399,9 @@ def gmres(matvec, precondition, rhs: np.ndarray, tolerance: float, max_iteration
         Krylov dimension of a cycle at most.
     max_cycles : int
         Cycles at most.
+    product : callable, optional
+        v -> A M^-1 v given v and M^-1 v, when the preconditioner yields it more cheaply than
+        ``matvec`` (the Krylov steps use it; the cycles' true residuals still use ``matvec``).
 
     Returns
     -------
@@ -268,8 +415,8 @@ def gmres(matvec, precondition, rhs: np.ndarray, tolerance: float, max_iteration
         return x, 0.0, 0
     left, residual, total = rhs, 1.0, 0
     for _ in range(max_cycles):
-        x_cycle, k = _gmres_cycle(matvec, precondition, left, tolerance / residual,
-                                  max_iterations)
+        x_cycle, k = _gmres_cycle(matvec if product is None else product, precondition, left,
+                                  tolerance / residual, max_iterations, product is not None)
         x += x_cycle
         total += k
         left = rhs - matvec(x)
@@ -279,8 +426,11 @@ def gmres(matvec, precondition, rhs: np.ndarray, tolerance: float, max_iteration
     return x, residual, total
 
 
-def _gmres_cycle(matvec, precondition, rhs, tolerance, max_iterations):
-    """One GMRES cycle from x = 0: (x, iterations), stopping on the Givens residual estimate."""
+def _gmres_cycle(matvec, precondition, rhs, tolerance, max_iterations, paired=False):
+    """One GMRES cycle from x = 0: (x, iterations), stopping on the Givens residual estimate.
+
+    ``paired``: ``matvec`` is called as ``matvec(v, M^-1 v)`` (see :func:`gmres`).
+    """
     beta = float(np.sqrt(np.einsum("i,i->", rhs, rhs)))
     basis = np.empty((max_iterations + 1, rhs.size))
     directions = np.empty((max_iterations, rhs.size))
@@ -294,7 +444,8 @@ def _gmres_cycle(matvec, precondition, rhs, tolerance, max_iterations):
     while k < max_iterations and estimate > tolerance:
         directions[k] = precondition(basis[k])
         column = np.zeros(k + 2)
-        _arnoldi(basis, k, matvec(directions[k]), column)
+        w = matvec(basis[k], directions[k]) if paired else matvec(directions[k])
+        _arnoldi(basis, k, w, column)
         _givens(column, cs, sn, k)
         hess[: k + 2, k] = column
         g[k + 1] = -sn[k] * g[k]
@@ -305,19 +456,45 @@ def _gmres_cycle(matvec, precondition, rhs, tolerance, max_iterations):
 
 
 @njit(cache=True)
-def shapewise(x, matrix, n_shapes):
-    """Every shape's slice of x (S rows,) times ``matrix`` (rows, cols): (S cols,).
+def restrict(x, polynomials, d, n_shapes):
+    """Z^T x (S q,) for x (N,), Z = P (x) I_d every shape's coarse basis (:class:`GridLayout`).
 
-    With the coarse basis Z (m, q) of one shape, Z^T r = ``shapewise(r, Z, S)`` (restriction)
-    and Z e = ``shapewise(e, Z.T, S)`` (prolongation).
+    ``polynomials`` P (n + 1, K): one coordinate's orthonormal basis over the points (folded
+    order); Z's other entries are zero, so this costs N K, not N d K.
     """
-    rows, cols = matrix.shape
-    out = np.zeros(n_shapes * cols)
+    n_points, k = polynomials.shape
+    m, q = n_points * d, k * d
+    out = np.zeros(n_shapes * q)
+    column = np.empty(k)
     for i in range(n_shapes):
-        for p in range(rows):
-            xp = x[i * rows + p]
-            for c in range(cols):
-                out[i * cols + c] += matrix[p, c] * xp
+        shape = x[i * m:(i + 1) * m]
+        for c in range(d):
+            column[:] = 0.0
+            for p in range(n_points):
+                xp = shape[p * d + c]
+                row = polynomials[p]
+                for j in range(k):
+                    column[j] += row[j] * xp
+            out[i * q + c: (i + 1) * q: d] = column
+    return out
+
+
+@njit(cache=True, fastmath=True)
+def prolong(e, polynomials, d, n_shapes):
+    """Z e (N,) for coarse e (S q,), with Z and ``polynomials`` as in :func:`restrict`."""
+    n_points, k = polynomials.shape
+    m, q = n_points * d, k * d
+    out = np.empty(n_shapes * m)
+    column = np.empty(k)
+    for i in range(n_shapes):
+        for c in range(d):
+            column[:] = e[i * q + c: (i + 1) * q: d]
+            for p in range(n_points):
+                row = polynomials[p]
+                t = 0.0
+                for j in range(k):
+                    t += row[j] * column[j]
+                out[i * m + p * d + c] = t
     return out
 
 
@@ -371,8 +548,11 @@ class GridLayout:
         Flat band position of each within-shape Hessian entry kept (see :meth:`band`).
     pick : numpy.ndarray
         For each, the index of its value (see :func:`hessian_entries`).
+    polynomials : numpy.ndarray
+        (n + 1, K) orthonormalized Chebyshev polynomials over one shape's points, folded order.
     basis : numpy.ndarray
-        (d (n + 1), q) orthonormal coarse basis of one shape, in the folded point order.
+        (d (n + 1), q = d K) the coarse basis of one shape, ``polynomials`` (x) I_d (each
+        coordinate its own polynomials; orthonormal).
     """
 
     n_shapes: int
@@ -382,24 +562,32 @@ class GridLayout:
     half_band: int
     slots: np.ndarray
     pick: np.ndarray
+    polynomials: np.ndarray
     basis: np.ndarray
 
     @property
     def size(self) -> int:
         return self.n_shapes * self.n_points * len(self.coords)
 
+    @cached_property
+    def _solved(self) -> tuple[np.ndarray, np.ndarray]:
+        """The flat positions in (S, n + 1, 3) solved for, and their indices in (N,)."""
+        flat = self.index.ravel()
+        kept = np.flatnonzero(flat >= 0)
+        return kept, flat[kept]
+
     def gather(self, full: np.ndarray) -> np.ndarray:
         """The solver's (N,) vector of a full (S, n + 1, 3) array (the coordinates solved for)."""
-        flat = self.index.ravel()
+        kept, solver = self._solved
         out = np.empty(self.size)
-        out[flat[flat >= 0]] = full.ravel()[flat >= 0]
+        out[solver] = full.ravel()[kept]
         return out
 
     def scatter(self, reduced: np.ndarray) -> np.ndarray:
         """The full (S, n + 1, 3) array of a solver's (N,) vector, zero where not solved for."""
-        flat = self.index.ravel()
-        out = np.zeros(flat.size)
-        out[flat >= 0] = reduced[flat[flat >= 0]]
+        kept, solver = self._solved
+        out = np.zeros(self.index.size)
+        out[kept] = reduced[solver]
         return out.reshape(self.index.shape)
 
     def band(self, values: np.ndarray, diagonal: np.ndarray) -> np.ndarray:
@@ -409,10 +597,20 @@ class GridLayout:
         ``diagonal`` (S,) the transversal term's diagonal of each shape.
         """
         kl, size = self.half_band, self.size
-        band = np.bincount(self.slots, weights=values[self.pick],
-                           minlength=(3 * kl + 1) * size).reshape(size, 3 * kl + 1)
+        band = scatter_add(self.slots, values, self.pick, (3 * kl + 1) * size)
+        band = band.reshape(size, 3 * kl + 1)
         band[:, 2 * kl] += np.repeat(diagonal, size // self.n_shapes)
         return band
+
+
+@njit(cache=True)
+def scatter_add(slots, values, pick, size):
+    """(size,) zeros plus ``values[pick[t]]`` at ``slots[t]`` for every t, added in that order
+    (``np.bincount(slots, weights=values[pick], minlength=size)`` without the copies)."""
+    out = np.zeros(size)
+    for t in range(slots.size):
+        out[slots[t]] += values[pick[t]]
+    return out
 
 
 @njit(cache=True)
@@ -432,6 +630,25 @@ def shape_bands(inner, k_s, rest_lengths, k_b, rest_angles):
         chain_derivatives(inner[i], k_s, rest_lengths, k_b, rest_angles[i], no_mass,
                           no_gravity, grad, bands[i])
     return bands
+
+
+@njit(cache=True)
+def shape_costs(inner, k_s, rest_lengths, k_b, rest_angles):
+    """The summed axial and bending energy of every shape and its gradient (S, n + 1, 3).
+
+    The static core's compiled energy and gradient
+    (:func:`dloplan.physics.compiled.chain_gradient`), shape by shape, weightless, with the
+    arguments of :func:`shape_bands`.
+    """
+    n_shapes, n_points, _ = inner.shape
+    grad = np.empty_like(inner)
+    no_mass = np.zeros(n_points)
+    no_gravity = np.zeros(3)
+    total = 0.0
+    for i in range(n_shapes):
+        total += chain_gradient(inner[i], k_s, rest_lengths, k_b, rest_angles[i], no_mass,
+                                no_gravity, grad[i])
+    return total, grad
 
 
 def hessian_entries(n_links: int, n_shapes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -464,8 +681,10 @@ def hessian_entries(n_links: int, n_shapes: int) -> tuple[np.ndarray, np.ndarray
             np.concatenate([low_p, low_p[below], clip_p]))
 
 
-def grid_layout(n_links: int, n_shapes: int, coords: tuple[int, ...] = (0, 1, 2)) -> GridLayout:
-    """The :class:`GridLayout` of S shapes of n links, solving for ``coords``."""
+def grid_layout(n_links: int, n_shapes: int, coords: tuple[int, ...] = (0, 1, 2),
+                entries: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> GridLayout:
+    """The :class:`GridLayout` of S shapes of n links, solving for ``coords``; ``entries``:
+    :func:`hessian_entries` of (n, S) when the caller has them already."""
     n_points = n_links + 1
     d = len(coords)
     order = folded_order(n_points)
@@ -475,18 +694,22 @@ def grid_layout(n_links: int, n_shapes: int, coords: tuple[int, ...] = (0, 1, 2)
     index = -np.ones((n_shapes, n_points, 3), dtype=np.int64)
     for c_new, c in enumerate(coords):
         index[:, :, c] = (np.arange(n_shapes)[:, None] * m + position[None, :] * d + c_new)
-    rows, cols, pick = hessian_entries(n_links, n_shapes)
+    rows, cols, pick = entries if entries is not None else hessian_entries(n_links, n_shapes)
     r, c = index.ravel()[rows], index.ravel()[cols]
-    kept = (r >= 0) & (c >= 0)
+    # the (9, 3(n + 1)) band of a shape holds entries of points 3 apart, zero by structure
+    # (bending couples points j .. j + 2): kept, they would widen the band from 5d - 1 to 7d - 1
+    coupled = (pick >= n_shapes * 9 * 3 * n_points) | (np.abs(rows // 3 - cols // 3) <= 2)
+    kept = (r >= 0) & (c >= 0) & coupled
     r, c, pick = r[kept], c[kept], pick[kept]
     kl = int(np.max(np.abs(r - c)))
     slots = c * (3 * kl + 1) + 2 * kl + r - c
     degree = min(COARSE_DEGREE, n_points)
     t = np.linspace(-1.0, 1.0, n_points)[order]
     cheb = np.polynomial.chebyshev.chebvander(t, degree - 1)  # (n + 1, K), folded rows
-    basis = np.einsum("pk,cd->pckd", cheb, np.eye(d)).reshape(m, degree * d)
-    basis = np.linalg.qr(basis)[0]
-    return GridLayout(n_shapes, n_points, tuple(coords), index, kl, slots, pick, basis)
+    polynomials = np.ascontiguousarray(np.linalg.qr(cheb)[0])
+    basis = np.kron(polynomials, np.eye(d))  # row p d + c, column k d + c
+    return GridLayout(n_shapes, n_points, tuple(coords), index, kl, slots, pick, polynomials,
+                      basis)
 
 
 @dataclass(eq=False)
@@ -514,14 +737,7 @@ class GridNewton:
 
     def matvec(self, x: np.ndarray, shift: float = 0.0) -> np.ndarray:
         """(H + shift I) x for x (N,)."""
-        lay = self.layout
-        y = band_matvec(self._compact, lay.half_band, x)
-        if shift:
-            y += shift * x
-        xs, ys = x.reshape(lay.n_shapes, -1), y.reshape(lay.n_shapes, -1)
-        ys[:-1] += self.coupling[:, None] * xs[1:]
-        ys[1:] += self.coupling[:, None] * xs[:-1]
-        return y
+        return grid_matvec(self._compact, self.layout.half_band, self.coupling, shift, x)
 
     @cached_property
     def _coarse_blocks(self) -> np.ndarray:
@@ -530,47 +746,34 @@ class GridNewton:
         lay = self.layout
         return galerkin_blocks(self.band, lay.half_band, lay.basis, lay.n_shapes)
 
-    def _coarse_band(self, shift: float) -> np.ndarray:
-        """The Galerkin operator Z^T (H + shift I) Z as a band (half-width 2q - 1)."""
-        lay = self.layout
-        s, q = lay.n_shapes, lay.basis.shape[1]
-        blocks = self._coarse_blocks + shift * np.eye(q)
-        kc = 2 * q - 1
-        band = np.zeros((s * q, 3 * kc + 1))
-        r, c = np.meshgrid(np.arange(q), np.arange(q), indexing="ij")
-        rows = (np.arange(s)[:, None, None] * q + r).ravel()
-        cols = (np.arange(s)[:, None, None] * q + c).ravel()
-        band[cols, 2 * kc + rows - cols] = blocks.ravel()
-        diag = np.arange((s - 1) * q)
-        band[diag + q, 2 * kc - q] = self.coupling.repeat(q)  # (i, i + 1): coupling * I
-        band[diag, 2 * kc + q] = self.coupling.repeat(q)
-        return band
-
     def solve(self, rhs: np.ndarray, shift: float = 0.0,
               tolerance: float = KRYLOV_TOLERANCE) -> np.ndarray | None:
         """p with (H + shift I) p = rhs to a relative residual ``tolerance``, (N,); None when
         the solver cannot vouch for it (a singular band, or a residual above both
         ``tolerance`` and :data:`ACCEPTED_RESIDUAL`)."""
         lay = self.layout
-        s, q = lay.n_shapes, lay.basis.shape[1]
         fine = self.band.copy()
         fine[:, 2 * lay.half_band] += shift
         fine_piv, ok = band_lu(fine, lay.half_band)
-        coarse = self._coarse_band(shift)
-        kc = 2 * q - 1
-        coarse_piv, ok_coarse = band_lu(coarse, kc)
+        coarse, ok_coarse = block_tridiagonal_factor(self._coarse_blocks, self.coupling, shift)
         if not (ok and ok_coarse):
             return None
 
-        prolongation = np.ascontiguousarray(lay.basis.T)
+        correction = []  # the last fine correction z of the preconditioner
 
-        def precondition(r):  # coarse, then the shapes' bands on the residual
-            e = band_lu_solve(coarse, kc, coarse_piv, shapewise(r, lay.basis, s))
-            x = shapewise(e, prolongation, s)
-            return x + band_lu_solve(fine, lay.half_band, fine_piv, r - self.matvec(x, shift))
+        def precondition(r):
+            x, z = two_level(r, coarse, self.coupling, lay.polynomials, len(lay.coords),
+                             self._compact, fine, lay.half_band, fine_piv, shift)
+            correction[:] = [z]
+            return x
+
+        def product(r, x):  # (H + shift I) x = r + C z for x = precondition(r): H + shift I
+            y = r.copy()  # is the fine band F plus the coupling C between shapes, and
+            add_coupling(y, self.coupling, correction[0])  # F x = F (x - z) + r - (H + shift
+            return y  # I)(x - z) = r - C (x - z)
 
         step, residual, _ = gmres(lambda v: self.matvec(v, shift), precondition, rhs,
-                                           tolerance, MAX_KRYLOV)
+                                  tolerance, MAX_KRYLOV, product=product)
         if not (residual <= max(tolerance, ACCEPTED_RESIDUAL) and np.all(np.isfinite(step))):
             return None
         return step
