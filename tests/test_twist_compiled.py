@@ -114,12 +114,15 @@ def test_closed_forms_match_finite_differences_of_the_energy(name, curved, n):
     assert np.abs(assembled - numeric_h).max() < 1e-5 * np.abs(numeric_h).max()
 
 
+def moved_state(seed):
+    """A random state, its points moved by about 4 mm and random turns of its links."""
+    x, d1 = random_state(curved_hose(8), seed)
+    rng = np.random.default_rng(seed + 2)
+    return x, x + rng.normal(size=x.shape) * 0.004, d1, rng.normal(size=len(d1)) * 0.5
+
+
 def test_moved_directors_are_the_chart_directors_made_orthonormal():
-    cable = curved_hose(8)
-    x, d1 = random_state(cable, 3)
-    rng = np.random.default_rng(5)
-    x_new = x + rng.normal(size=x.shape) * 0.004
-    angles = rng.normal(size=cable.n_links) * 0.5
+    x, x_new, d1, angles = moved_state(3)
     out = np.empty_like(d1)
     moved_directors(x, x_new, d1, angles, out)
     reference = chart_directors(x_new, tangents(x), d1, angles)
@@ -162,21 +165,21 @@ def test_twist_load_is_the_jet_reference_gradient(name, n, natural_twist):
 
 
 def test_carry_directors_is_moved_directors_in_place():
-    cable = curved_hose(8)
-    x, d1 = random_state(cable, 4)
-    rng = np.random.default_rng(6)
-    x_new = x + rng.normal(size=x.shape) * 0.004
-    angles = rng.normal(size=cable.n_links) * 0.5
+    x, x_new, d1, angles = moved_state(4)
+    n = len(d1)
     moved = np.empty_like(d1)
     moved_directors(x, x_new, d1, angles, moved)
-    t, lengths = np.empty_like(d1), np.empty(cable.n_links)
+    t, lengths = np.empty_like(d1), np.empty(n)
     link_tangents(x, t, lengths)
     carried = d1.copy()
-    carry_directors(t, lengths, x_new, carried, angles, 1, cable.n_links - 1)
+    assert carry_directors(t, lengths, x_new, carried, angles, 1, n - 1)
     assert np.abs(carried[1:-1] - moved[1:-1]).max() < 1e-14
     assert np.array_equal(carried[[0, -1]], d1[[0, -1]])  # outside first .. stop - 1: kept
     assert np.abs(t - tangents(x_new)).max() < 1e-15
     assert lengths == pytest.approx(np.linalg.norm(np.diff(x_new, axis=0), axis=1), rel=1e-15)
+    folded = x_new.copy()
+    folded[5] = folded[3]  # link 4 turned back onto link 3: no frame can be carried there
+    assert not carry_directors(t, lengths, folded, d1.copy(), angles, 1, n - 1)
 
 
 def test_interleaved_band_is_the_joint_hessian():

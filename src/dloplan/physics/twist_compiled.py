@@ -391,6 +391,11 @@ def twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, wo
     return u_twist, u_direction
 
 
+_FOLDED = 1e-12
+"""1 + t_a . t_b at or below which two unit link directions count as opposite (an angle within
+about 1.4e-6 rad of pi: round-off of exactly opposite links leaves about 1e-16)."""
+
+
 @njit(cache=True)
 def link_tangents(x, tangents, lengths):
     """Unit link directions t_j (n, 3) and lengths |e_j| (n,) [m] of x (n + 1, 3), in place."""
@@ -451,8 +456,8 @@ def carry_directors(tangents, lengths, x_new, d1, angles, first, stop):
     ``x_new`` (all links), ready for the next step's :func:`twist_load`.
 
     Returns False, and stops, where the new links cannot carry frames: a link of zero length (or
-    not finite), a carried link turned by half a turn or more, or two neighbouring links folded
-    back onto each other (1 + t_a . t_b <= 0, where the twist is undefined): a diverging run.
+    not finite), a carried link turned by half a turn, or two neighbouring links folded back onto
+    each other (1 + t_a . t_b <= 1e-12, where the twist is undefined): a diverging run.
     """
     t = np.empty(3)
     v = np.empty(3)
@@ -468,7 +473,7 @@ def carry_directors(tangents, lengths, x_new, d1, angles, first, stop):
         for k in range(3):
             t[k] *= inverse
         if j > 0 and not (1.0 + tangents[j - 1, 0] * t[0] + tangents[j - 1, 1] * t[1]
-                          + tangents[j - 1, 2] * t[2]) > 0.0:  # link j - 1 is new already
+                          + tangents[j - 1, 2] * t[2]) > _FOLDED:  # link j - 1 is new already
             return False
         if first <= j < stop:
             t0 = tangents[j]
@@ -477,27 +482,9 @@ def carry_directors(tangents, lengths, x_new, d1, angles, first, stop):
             for k in range(3):
                 c += t0[k] * t[k]
                 a += d1[j, k] * t[k]
-            if not 1.0 + c > 0.0:
+            if not 1.0 + c > _FOLDED:
                 return False
-            # P(t0 -> t) d = d - (d . t)(t0 + t) / (1 + t0 . t) for d perpendicular to t0
-            ratio = a / (1.0 + c)
-            for k in range(3):
-                v[k] = d1[j, k] - ratio * (t0[k] + t[k])
-            cos = math.cos(angles[j])
-            sin = math.sin(angles[j])
-            dot = 0.0
-            for k in range(3):
-                k1 = (k + 1) % 3
-                k2 = (k + 2) % 3
-                d1[j, k] = cos * v[k] + sin * (t[k1] * v[k2] - t[k2] * v[k1])
-                dot += d1[j, k] * t[k]
-            norm = 0.0
-            for k in range(3):
-                d1[j, k] -= dot * t[k]
-                norm += d1[j, k] * d1[j, k]
-            inverse = 1.0 / math.sqrt(norm)
-            for k in range(3):
-                d1[j, k] *= inverse
+            _turn_transported(d1[j], t0, t, a / (1.0 + c), angles[j], v, d1[j])
         for k in range(3):
             tangents[j, k] = t[k]
         lengths[j] = length
@@ -549,6 +536,31 @@ def twist_angles(x, d1, out):
         out[s] = _twist_angle(ta, tb, d1[s], d1[s + 1])
 
 
+@njit(cache=True, inline="always")
+def _turn_transported(d, t0, t, ratio, angle, v, out):
+    """``out`` (3,) <- the director d (3,), perpendicular to the unit t0, carried to the unit t
+    by parallel transport, P(t0 -> t) d = d - ratio (t0 + t) with ratio = (d . t) / (1 + t0 . t),
+    turned by ``angle`` [rad] about t and made exactly unit and perpendicular to t; ``v`` (3,)
+    is scratch, ``out`` may be d."""
+    for k in range(3):
+        v[k] = d[k] - ratio * (t0[k] + t[k])
+    cos = math.cos(angle)
+    sin = math.sin(angle)
+    dot = 0.0
+    for k in range(3):
+        k1 = (k + 1) % 3
+        k2 = (k + 2) % 3
+        out[k] = cos * v[k] + sin * (t[k1] * v[k2] - t[k2] * v[k1])
+        dot += out[k] * t[k]
+    norm = 0.0
+    for k in range(3):
+        out[k] -= dot * t[k]
+        norm += out[k] * out[k]
+    inverse = 1.0 / math.sqrt(norm)
+    for k in range(3):
+        out[k] *= inverse
+
+
 @njit(cache=True)
 def moved_directors(x_old, x_new, d1, angles, out):
     """Directors after a step: d1 carried by parallel transport from the links of ``x_old`` to
@@ -575,25 +587,7 @@ def moved_directors(x_old, x_new, d1, angles, out):
             t[k] /= l1
             c += t0[k] * t[k]
             a += d1[j, k] * t[k]
-        # P(t0 -> t) d = d - (d . t)(t0 + t) / (1 + t0 . t) for d perpendicular to t0
-        for k in range(3):
-            v[k] = d1[j, k] - a * (t0[k] + t[k]) / (1.0 + c)
-        cos = math.cos(angles[j])
-        sin = math.sin(angles[j])
-        dot = 0.0
-        for k in range(3):
-            k1 = (k + 1) % 3
-            k2 = (k + 2) % 3
-            out[j, k] = cos * v[k] + sin * (t[k1] * v[k2] - t[k2] * v[k1])
-        for k in range(3):
-            dot += out[j, k] * t[k]
-        norm = 0.0
-        for k in range(3):
-            out[j, k] -= dot * t[k]
-            norm += out[j, k] * out[j, k]
-        norm = math.sqrt(norm)
-        for k in range(3):
-            out[j, k] /= norm
+        _turn_transported(d1[j], t0, t, a / (1.0 + c), angles[j], v, out[j])
 
 
 @njit(cache=True)

@@ -160,8 +160,9 @@ def relax_twist(x, d1, twist, tangents, lengths, work, tgrad, dgrad, agrad, bloc
     ``extra`` gets d(U^t + U^d)/dx (n + 1, 3) [N] at d1 (the twisting force of eq. 3.19 is
     minus it). ``band``, ``rhs`` (n - 2,) are scratch. Without U^d (straight rest shape) the
     Hessian is constant: ``factor`` (2, n - 2) must hold :func:`twist_angle_factor`, and the
-    gradient is one pass of :func:`dloplan.physics.twist_compiled.twist_load` (the same numbers
-    as the stencils'); with U^d ``factor`` is scratch.
+    gradient is one pass of :func:`dloplan.physics.twist_compiled.twist_load` over the links'
+    unit ``tangents`` (n, 3) and ``lengths`` (n,) [m] at x (the same numbers as the stencils');
+    with U^d ``factor`` is scratch and the tangents are not read.
     """
     k_t, rest_twist, k_b, rest_curvatures, directional = twist
     n = d1.shape[0]
