@@ -320,3 +320,16 @@ def test_dynamic_simulation_with_torsion_settles_on_the_static_twisted_equilibri
     effect = np.abs(untwisted - static.shape).max()
     assert effect > 3e-4  # the twist moves the cable
     assert np.abs(run.shapes[-1] - static.shape).max() < 0.1 * effect
+
+
+def test_a_diverging_dynamic_run_with_torsion_is_reported_as_divergence():
+    # dt 10 times the hose's stable step: the links fold over within a few dozen steps, where
+    # the carried frames are undefined; reported like any divergence, naming the time step
+    from conftest import level_clips, sagging_guess
+
+    from dloplan.sim import simulate
+
+    cable = curved_hose(8)
+    start = equilibrium(cable, sagging_guess(cable, 0.3), level_clips(0.3)).shape
+    with pytest.raises(FloatingPointError, match="dt = 0.0001 s too large"):
+        simulate(cable, start, level_clips(0.28), duration=0.05, dt=1e-4, torsion=True)

@@ -27,11 +27,15 @@ from dloplan.physics.twist import (
     twist_energy_terms,
 )
 from dloplan.physics.twist_compiled import (
+    carry_directors,
     interleaved_band,
+    link_tangents,
     moved_directors,
     twist_angles,
     twist_energies,
+    twist_load,
 )
+from dloplan.sim.stepping import twist_angle_factor
 
 
 def random_state(cable, seed, bend=0.02):
@@ -110,17 +114,72 @@ def test_closed_forms_match_finite_differences_of_the_energy(name, curved, n):
     assert np.abs(assembled - numeric_h).max() < 1e-5 * np.abs(numeric_h).max()
 
 
+def moved_state(seed):
+    """A random state, its points moved by about 4 mm and random turns of its links."""
+    x, d1 = random_state(curved_hose(8), seed)
+    rng = np.random.default_rng(seed + 2)
+    return x, x + rng.normal(size=x.shape) * 0.004, d1, rng.normal(size=len(d1)) * 0.5
+
+
 def test_moved_directors_are_the_chart_directors_made_orthonormal():
-    cable = curved_hose(8)
-    x, d1 = random_state(cable, 3)
-    rng = np.random.default_rng(5)
-    x_new = x + rng.normal(size=x.shape) * 0.004
-    angles = rng.normal(size=cable.n_links) * 0.5
+    x, x_new, d1, angles = moved_state(3)
     out = np.empty_like(d1)
     moved_directors(x, x_new, d1, angles, out)
     reference = chart_directors(x_new, tangents(x), d1, angles)
     assert np.abs(out - reference).max() < 1e-12
     assert np.abs(np.einsum("ij,ij->i", out, tangents(x_new))).max() < 1e-14
+
+
+@pytest.mark.parametrize(("name", "n"), [("ethernet", 12), ("pa12", 7), ("usb", 3)])
+@pytest.mark.parametrize("natural_twist", [0.0, 1.3])
+def test_twist_load_is_the_jet_reference_gradient(name, n, natural_twist):
+    """The dynamic simulator's one-pass U^t gradient against the forward-mode reference, and
+    its constant angle Hessian k_t tridiag(-1, 2, -1) against the reference blocks."""
+    cable = catalogue_cable(name, n_links=n)
+    tc = TwistChain.from_cable(cable, natural_twist)
+    k_t, rest_twist = tc.constants[:2]
+    for seed in range(3):
+        x, d1 = random_state(cable, seed)
+        ref = twist_derivatives(tc, x, tangents(x), d1, np.zeros(n))
+        t, lengths = np.empty((n, 3)), np.empty(n)
+        link_tangents(x, t, lengths)
+        assert np.abs(t - tangents(x)).max() < 1e-15
+        assert lengths == pytest.approx(np.linalg.norm(np.diff(x, axis=0), axis=1), rel=1e-15)
+        point_grad, angle_grad = np.empty_like(x), np.empty(n)
+        u_t = twist_load(t, lengths, d1, k_t, rest_twist, point_grad, angle_grad)
+        assert u_t == pytest.approx(twist_energy_terms(tc, x, d1)["twist"], rel=1e-12)
+        scale = np.abs(ref.blocks).max() * 1e-3
+        assert np.abs(point_grad - ref.twist_gradient).max() <= 1e-12 * scale
+        assert np.abs(angle_grad - ref.angle_gradient).max() <= 1e-12 * scale
+        angle_hessian = np.zeros((n, n))
+        for s in range(n - 1):
+            angle_hessian[np.ix_([s, s + 1], [s, s + 1])] += ref.blocks[s][np.ix_([3, 7], [3, 7])]
+        free = angle_hessian[1:-1, 1:-1]
+        assert np.abs(free - k_t * (2 * np.eye(n - 2) - np.eye(n - 2, k=1)
+                                    - np.eye(n - 2, k=-1))).max() < 1e-12 * k_t
+    band, factor = np.empty((2, n - 2)), np.empty((2, n - 2))
+    assert twist_angle_factor(k_t, n, band, factor)
+    lower = np.diag(factor[0]) + np.diag(factor[1, :-1], -1)  # factor[1, j] = L[j + 1, j]
+    assert lower @ lower.T == pytest.approx(free + 2e-12 * k_t * np.eye(n - 2), rel=1e-12,
+                                            abs=1e-12 * k_t)  # Cholesky round-off
+
+
+def test_carry_directors_is_moved_directors_in_place():
+    x, x_new, d1, angles = moved_state(4)
+    n = len(d1)
+    moved = np.empty_like(d1)
+    moved_directors(x, x_new, d1, angles, moved)
+    t, lengths = np.empty_like(d1), np.empty(n)
+    link_tangents(x, t, lengths)
+    carried = d1.copy()
+    assert carry_directors(t, lengths, x_new, carried, angles, 1, n - 1)
+    assert np.abs(carried[1:-1] - moved[1:-1]).max() < 1e-14
+    assert np.array_equal(carried[[0, -1]], d1[[0, -1]])  # outside first .. stop - 1: kept
+    assert np.abs(t - tangents(x_new)).max() < 1e-15
+    assert lengths == pytest.approx(np.linalg.norm(np.diff(x_new, axis=0), axis=1), rel=1e-15)
+    folded = x_new.copy()
+    folded[5] = folded[3]  # link 4 turned back onto link 3: no frame can be carried there
+    assert not carry_directors(t, lengths, folded, d1.copy(), angles, 1, n - 1)
 
 
 def test_interleaved_band_is_the_joint_hessian():

@@ -6,7 +6,10 @@ clip's u, v, w axes (thesis Fig. 4.23).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
 from scipy.spatial.transform import Rotation
 
 UP = np.array([0.0, 0.0, 1.0])
@@ -29,15 +32,64 @@ def frame_from_axis(u, up=UP) -> Rotation:
         One ``frame_to_world`` rotation per axis.
     """
     u = np.atleast_2d(np.asarray(u, dtype=float))
-    u = u / np.linalg.norm(u, axis=-1, keepdims=True)
-    aux = np.broadcast_to(np.asarray(up, dtype=float), u.shape).copy()
-    for fallback in (np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])):
-        parallel = np.linalg.norm(np.cross(u, aux), axis=-1) < 1e-6
-        aux[parallel] = fallback
-    v = np.cross(aux, u)
-    v /= np.linalg.norm(v, axis=-1, keepdims=True)
-    w = np.cross(u, v)
-    return Rotation.from_matrix(np.stack([u, v, w], axis=-1))
+    aux = np.broadcast_to(np.asarray(up, dtype=float), u.shape).reshape(-1, 3)
+    quaternions = np.empty((len(aux), 4))
+    _frame_quaternions(np.ascontiguousarray(u.reshape(-1, 3)), np.ascontiguousarray(aux),
+                       quaternions)
+    return Rotation.from_quat(quaternions.reshape(u.shape[:-1] + (4,)))
+
+
+@njit(cache=True)
+def _frame_quaternions(u, up, out):
+    """Quaternions (k, 4) (x, y, z, w) of :func:`frame_from_axis`'s frames [u v w] for axes u and
+    up directions (k, 3); the matrix to quaternion step as scipy's ``Rotation.from_matrix``.
+    Compiled: built per shape by the solvers, the frames cost 1 ms in numpy and scipy."""
+    m = np.empty((3, 3))
+    for r in range(u.shape[0]):
+        norm = math.sqrt(u[r, 0] ** 2 + u[r, 1] ** 2 + u[r, 2] ** 2)
+        for a in range(3):
+            m[a, 0] = u[r, a] / norm
+        aux = up[r].copy()
+        for fallback in (0, 1):  # world x, then y, where u is (nearly) parallel to aux
+            cross = 0.0
+            for a in range(3):
+                b, c = (a + 1) % 3, (a + 2) % 3
+                cross += (m[b, 0] * aux[c] - m[c, 0] * aux[b]) ** 2
+            if math.sqrt(cross) < 1e-6:
+                aux[:] = 0.0
+                aux[fallback] = 1.0
+        norm = 0.0
+        for a in range(3):  # v = aux x u, normalized; w = u x v
+            b, c = (a + 1) % 3, (a + 2) % 3
+            m[a, 1] = aux[b] * m[c, 0] - aux[c] * m[b, 0]
+            norm += m[a, 1] ** 2
+        norm = math.sqrt(norm)
+        for a in range(3):
+            m[a, 1] /= norm
+        for a in range(3):
+            b, c = (a + 1) % 3, (a + 2) % 3
+            m[a, 2] = m[b, 0] * m[c, 1] - m[c, 0] * m[b, 1]
+        trace = m[0, 0] + m[1, 1] + m[2, 2]
+        choice = 3
+        largest = trace
+        for i in (2, 1, 0):  # the first largest of (m00, m11, m22, trace), as numpy's argmax
+            if m[i, i] >= largest:
+                choice, largest = i, m[i, i]
+        if choice == 3:
+            out[r, 0] = m[2, 1] - m[1, 2]
+            out[r, 1] = m[0, 2] - m[2, 0]
+            out[r, 2] = m[1, 0] - m[0, 1]
+            out[r, 3] = 1.0 + trace
+        else:
+            i = choice
+            j, k = (i + 1) % 3, (i + 2) % 3
+            out[r, i] = 1.0 - trace + 2.0 * m[i, i]
+            out[r, j] = m[j, i] + m[i, j]
+            out[r, k] = m[k, i] + m[i, k]
+            out[r, 3] = m[k, j] - m[j, k]
+        norm = math.sqrt(out[r, 0] ** 2 + out[r, 1] ** 2 + out[r, 2] ** 2 + out[r, 3] ** 2)
+        for a in range(4):
+            out[r, a] /= norm
 
 
 def minimal_rotation(a, b) -> Rotation:

@@ -391,6 +391,106 @@ def twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, wo
     return u_twist, u_direction
 
 
+_FOLDED = 1e-12
+"""1 + t_a . t_b at or below which two unit link directions count as opposite (an angle within
+about 1.4e-6 rad of pi: round-off of exactly opposite links leaves about 1e-16)."""
+
+
+@njit(cache=True)
+def link_tangents(x, tangents, lengths):
+    """Unit link directions t_j (n, 3) and lengths |e_j| (n,) [m] of x (n + 1, 3), in place."""
+    for j in range(x.shape[0] - 1):
+        length = 0.0
+        for k in range(3):
+            tangents[j, k] = x[j + 1, k] - x[j, k]
+            length += tangents[j, k] * tangents[j, k]
+        length = math.sqrt(length)
+        inverse = 1.0 / length
+        for k in range(3):
+            tangents[j, k] *= inverse
+        lengths[j] = length
+
+
+@njit(cache=True)
+def twist_load(tangents, lengths, d1, k_t, rest_twist, point_grad, angle_grad):
+    """U^t [J] at the chart's centre with its gradient, in one pass: no Hessian, no U^d.
+
+    The dynamic simulator's twisting force for a straight rest shape (eq. 3.19 is minus
+    ``point_grad``): the gradient of :func:`twist_stencils`' U^t, k_t s (kb / (2 |e_a|),
+    kb / (2 |e_b|), -1, 1) per joint, written straight into the points' (n + 1, 3) [N] and the
+    angles' (n,) [N m] gradients (both overwritten), from the links' unit tangents (n, 3) and
+    lengths (n,) [m] (:func:`link_tangents`). Its angle Hessian needs no pass: it is the
+    constant tridiagonal k_t (2, -1) (d psi / d theta_{a, b} = -1, 1).
+    """
+    point_grad[:] = 0.0
+    angle_grad[:] = 0.0
+    u_twist = 0.0
+    for s in range(d1.shape[0] - 1):
+        ta = tangents[s]
+        tb = tangents[s + 1]
+        strain = _twist_angle(ta, tb, d1[s], d1[s + 1]) - rest_twist[s]
+        u_twist += 0.5 * k_t * strain * strain
+        force = k_t * strain
+        inverse_chi = 1.0 / (1.0 + ta[0] * tb[0] + ta[1] * tb[1] + ta[2] * tb[2])
+        half_a = 0.5 / lengths[s]
+        half_b = 0.5 / lengths[s + 1]
+        for k in range(3):
+            k1 = (k + 1) % 3
+            k2 = (k + 2) % 3
+            kb = 2.0 * (ta[k1] * tb[k2] - ta[k2] * tb[k1]) * inverse_chi
+            ga = force * (kb * half_a)
+            gb = force * (kb * half_b)
+            point_grad[s, k] += -ga
+            point_grad[s + 1, k] += ga - gb
+            point_grad[s + 2, k] += gb
+        angle_grad[s] += -force
+        angle_grad[s + 1] += force
+    return u_twist
+
+
+@njit(cache=True)
+def carry_directors(tangents, lengths, x_new, d1, angles, first, stop):
+    """:func:`moved_directors` in place, from the old links' unit tangents: links
+    ``first .. stop - 1`` of d1 (n, 3) are carried to the links of ``x_new`` (n + 1, 3) [m] and
+    turned by ``angles`` (n,) [rad]; ``tangents`` (n, 3) and ``lengths`` (n,) [m] become those of
+    ``x_new`` (all links), ready for the next step's :func:`twist_load`.
+
+    Returns False, and stops, where the new links cannot carry frames: a link of zero length (or
+    not finite), a carried link turned by half a turn, or two neighbouring links folded back onto
+    each other (1 + t_a . t_b <= 1e-12, where the twist is undefined): a diverging run.
+    """
+    t = np.empty(3)
+    v = np.empty(3)
+    for j in range(d1.shape[0]):
+        length = 0.0
+        for k in range(3):
+            t[k] = x_new[j + 1, k] - x_new[j, k]
+            length += t[k] * t[k]
+        length = math.sqrt(length)
+        if not 0.0 < length < math.inf:
+            return False
+        inverse = 1.0 / length
+        for k in range(3):
+            t[k] *= inverse
+        if j > 0 and not (1.0 + tangents[j - 1, 0] * t[0] + tangents[j - 1, 1] * t[1]
+                          + tangents[j - 1, 2] * t[2]) > _FOLDED:  # link j - 1 is new already
+            return False
+        if first <= j < stop:
+            t0 = tangents[j]
+            c = 0.0
+            a = 0.0
+            for k in range(3):
+                c += t0[k] * t[k]
+                a += d1[j, k] * t[k]
+            if not 1.0 + c > _FOLDED:
+                return False
+            _turn_transported(d1[j], t0, t, a / (1.0 + c), angles[j], v, d1[j])
+        for k in range(3):
+            tangents[j, k] = t[k]
+        lengths[j] = length
+    return True
+
+
 @njit(cache=True)
 def twist_energies(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional):
     """U^t and U^d [J] of a state (:func:`dloplan.physics.twist.twist_energy_terms`), compiled.
@@ -436,6 +536,31 @@ def twist_angles(x, d1, out):
         out[s] = _twist_angle(ta, tb, d1[s], d1[s + 1])
 
 
+@njit(cache=True, inline="always")
+def _turn_transported(d, t0, t, ratio, angle, v, out):
+    """``out`` (3,) <- the director d (3,), perpendicular to the unit t0, carried to the unit t
+    by parallel transport, P(t0 -> t) d = d - ratio (t0 + t) with ratio = (d . t) / (1 + t0 . t),
+    turned by ``angle`` [rad] about t and made exactly unit and perpendicular to t; ``v`` (3,)
+    is scratch, ``out`` may be d."""
+    for k in range(3):
+        v[k] = d[k] - ratio * (t0[k] + t[k])
+    cos = math.cos(angle)
+    sin = math.sin(angle)
+    dot = 0.0
+    for k in range(3):
+        k1 = (k + 1) % 3
+        k2 = (k + 2) % 3
+        out[k] = cos * v[k] + sin * (t[k1] * v[k2] - t[k2] * v[k1])
+        dot += out[k] * t[k]
+    norm = 0.0
+    for k in range(3):
+        out[k] -= dot * t[k]
+        norm += out[k] * out[k]
+    inverse = 1.0 / math.sqrt(norm)
+    for k in range(3):
+        out[k] *= inverse
+
+
 @njit(cache=True)
 def moved_directors(x_old, x_new, d1, angles, out):
     """Directors after a step: d1 carried by parallel transport from the links of ``x_old`` to
@@ -462,25 +587,7 @@ def moved_directors(x_old, x_new, d1, angles, out):
             t[k] /= l1
             c += t0[k] * t[k]
             a += d1[j, k] * t[k]
-        # P(t0 -> t) d = d - (d . t)(t0 + t) / (1 + t0 . t) for d perpendicular to t0
-        for k in range(3):
-            v[k] = d1[j, k] - a * (t0[k] + t[k]) / (1.0 + c)
-        cos = math.cos(angles[j])
-        sin = math.sin(angles[j])
-        dot = 0.0
-        for k in range(3):
-            k1 = (k + 1) % 3
-            k2 = (k + 2) % 3
-            out[j, k] = cos * v[k] + sin * (t[k1] * v[k2] - t[k2] * v[k1])
-        for k in range(3):
-            dot += out[j, k] * t[k]
-        norm = 0.0
-        for k in range(3):
-            out[j, k] -= dot * t[k]
-            norm += out[j, k] * out[j, k]
-        norm = math.sqrt(norm)
-        for k in range(3):
-            out[j, k] /= norm
+        _turn_transported(d1[j], t0, t, a / (1.0 + c), angles[j], v, out[j])
 
 
 @njit(cache=True)

@@ -55,6 +55,7 @@ import scipy.sparse as sp
 from ..cable import GRAVITY, Cable
 from ..physics.chain import SpringChain, hessian, sparse_to_band
 from ..physics.chain import forces as chain_forces
+from ..sim.clips import held_links_conformed
 from ..sim.newton import factor_band, solve_band
 from .geometric import REFERENCE_LINKS
 from .tuning import PhysicalWeights
@@ -192,25 +193,9 @@ def _minimize_thesis(cost: ThesisCost, x: np.ndarray, free: slice, *, gtol: floa
 
 
 def held_conformed(shape: np.ndarray, cable: Cable) -> np.ndarray:
-    """The shape with each held link set to its rest length l about its clip point.
-
-    The clips of :func:`dloplan.sim.clips.clip_poses_from_shape` and the held points of
-    :func:`dloplan.sim.clips.place_held_points`, without building the clips' frames (the roll
-    does not move a held point; the frames cost about 1 ms a shape): with the clip point c, the
-    middle of an end link, and u the link's unit direction from its end point inward, the end
-    point becomes c - l/2 u and its neighbour c + l/2 u.
-    """
-    x = np.array(shape, dtype=float)
-    half = 0.5 * cable.rest_link_length
-    for end, inner in ((0, 1), (-1, -2)):
-        middle = 0.5 * (x[end] + x[inner])
-        u = x[inner] - x[end]
-        norm = float(np.linalg.norm(u))
-        if norm <= 0.0:
-            raise ValueError("shape: an end link has zero length, its clip axis is undefined")
-        x[end] = middle - (half / norm) * u
-        x[inner] = middle + (half / norm) * u
-    return x
+    """The shape with each held link set to its rest length l about its clip point
+    (:func:`dloplan.sim.clips.held_links_conformed`)."""
+    return held_links_conformed(shape, cable.rest_link_length)
 
 
 def minimize_shape(cable: Cable, shape: np.ndarray, *, mode: str = "equilibrium",

@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit
 
 from ..physics.compiled import chain_gradient
-from ..physics.twist_compiled import moved_directors, twist_stencils
+from ..physics.twist_compiled import carry_directors, link_tangents, twist_load, twist_stencils
 from .newton import cholesky_band, cholesky_solve
 
 RUNNING, SETTLED, DIVERGED = 0, 1, 2
@@ -138,8 +138,19 @@ def _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt
 
 
 @njit(cache=True)
-def relax_twist(x, d1, twist, work, tgrad, dgrad, agrad, blocks, band, factor, rhs, angles,
-                extra):
+def twist_angle_factor(k_t, n, band, factor):
+    """The Cholesky factor (2, n - 2) of the free angles' Hessian k_t tridiag(-1, 2, -1) of U^t
+    alone (straight rest shape: the same at every state), with :func:`relax_twist`'s shift;
+    ``band`` (2, n - 2) is scratch."""
+    for i in range(n - 2):
+        band[0, i] = 2.0 * k_t
+        band[1, i] = -k_t if i < n - 3 else 0.0
+    return cholesky_band(band, 1e-12 * max(2.0 * k_t, 1e-300), factor)
+
+
+@njit(cache=True)
+def relax_twist(x, d1, twist, tangents, lengths, work, tgrad, dgrad, agrad, blocks, band, factor,
+                rhs, angles, extra):
     """One Newton step of the free links' angles toward the minimum of U^t + U^d at points x.
 
     The angles are massless (:class:`dloplan.sim.torsion.QuasiStaticTwist`): the tridiagonal
@@ -147,18 +158,30 @@ def relax_twist(x, d1, twist, work, tgrad, dgrad, agrad, blocks, band, factor, r
     gradient step where it is not positive definite); ``angles`` (n,) gets the step [rad] (zero
     for the held links), by which the caller turns the directors d1 (n, 3);
     ``extra`` gets d(U^t + U^d)/dx (n + 1, 3) [N] at d1 (the twisting force of eq. 3.19 is
-    minus it). ``band``, ``factor`` (2, n - 2), ``rhs`` (n - 2,) are scratch.
+    minus it). ``band``, ``rhs`` (n - 2,) are scratch. Without U^d (straight rest shape) the
+    Hessian is constant: ``factor`` (2, n - 2) must hold :func:`twist_angle_factor`, and the
+    gradient is one pass of :func:`dloplan.physics.twist_compiled.twist_load` over the links'
+    unit ``tangents`` (n, 3) and ``lengths`` (n,) [m] at x (the same numbers as the stencils');
+    with U^d ``factor`` is scratch and the tangents are not read.
     """
     k_t, rest_twist, k_b, rest_curvatures, directional = twist
-    twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, work, tgrad,
-                   dgrad, agrad, blocks, False)
     n = d1.shape[0]
-    largest = 0.0
-    for i in range(n - 2):  # free angle i is theta_{i+1}: stencils i (as b) and i + 1 (as a)
-        band[0, i] = blocks[i, 7, 7] + blocks[i + 1, 3, 3]
-        band[1, i] = blocks[i + 1, 7, 3] if i < n - 3 else 0.0
-        largest = max(largest, abs(band[0, i]))
-    if cholesky_band(band, 1e-12 * max(largest, 1e-300), factor):
+    solved = True
+    if directional:
+        twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, work, tgrad,
+                       dgrad, agrad, blocks, False)
+        largest = 0.0
+        for i in range(n - 2):  # free angle i is theta_{i+1}: stencils i (as b), i + 1 (as a)
+            band[0, i] = blocks[i, 7, 7] + blocks[i + 1, 3, 3]
+            band[1, i] = blocks[i + 1, 7, 3] if i < n - 3 else 0.0
+            largest = max(largest, abs(band[0, i]))
+        solved = cholesky_band(band, 1e-12 * max(largest, 1e-300), factor)
+        for i in range(x.shape[0]):
+            for a in range(3):
+                extra[i, a] = tgrad[i, a] + dgrad[i, a]
+    else:
+        twist_load(tangents, lengths, d1, k_t, rest_twist, extra, agrad)
+    if solved:
         for i in range(n - 2):
             rhs[i] = -agrad[i + 1]
         cholesky_solve(factor, rhs)
@@ -168,9 +191,6 @@ def relax_twist(x, d1, twist, work, tgrad, dgrad, agrad, blocks, band, factor, r
     angles[0] = 0.0
     angles[n - 1] = 0.0
     angles[1 : n - 1] = rhs
-    for i in range(x.shape[0]):
-        for a in range(3):
-            extra[i, a] = tgrad[i, a] + dgrad[i, a]
 
 
 @njit(cache=True)
@@ -179,36 +199,39 @@ def twist_steps(x, v, previous_held, targets, held_directors, d1, twist, work, f
                 rest_lengths, k_b, rest_angles, masses, gravity, times, shapes, speeds,
                 n_records):
     """:func:`explicit_steps` with quasi-static twist: before each step the angles relax
-    (:func:`relax_twist`, whose twisting force loads the step), after it the directors d1 (n, 3)
-    are turned by the relaxed angles and carried to the new links by parallel transport in one
-    pass (turning about a link commutes with transporting it), and the held links take the
-    clips' directors ``held_directors`` (K, 2, 3) of that step. Other arguments and the returned
-    tuple as in :func:`explicit_steps`."""
+    (:func:`relax_twist`, whose twisting force loads the step), after it the free directors d1
+    (n, 3) are turned by the relaxed angles and carried to the new links by parallel transport
+    in one pass (turning about a link commutes with transporting it; the links' tangents are
+    computed once per step, kept for the next relaxation), and the held links take the clips'
+    directors ``held_directors`` (K, 2, 3) of that step. Other arguments and the returned tuple
+    as in :func:`explicit_steps`."""
     n = d1.shape[0]
     tgrad = np.empty_like(x)
     dgrad = np.empty_like(x)
     agrad = np.empty(n)
-    blocks = np.empty((n - 1, 11, 11))
+    blocks = np.empty((n - 1, 11, 11) if twist[4] else (0, 11, 11))
     band = np.empty((2, n - 2))
     factor = np.empty((2, n - 2))
     rhs = np.empty(n - 2)
     angles = np.zeros(n)
-    turned = np.empty_like(d1)
+    tangents = np.empty_like(d1)
+    lengths = np.empty(n)
     extra = np.empty_like(x)
-    x_old = np.empty_like(x)
     grad, drag, accel = np.empty_like(x), np.empty_like(x), np.empty_like(x)
+    if not twist[4]:
+        twist_angle_factor(twist[0], n, band, factor)
+    link_tangents(x, tangents, lengths)
     step = first_step
     status = RUNNING
     for k in range(targets.shape[0]):
-        relax_twist(x, d1, twist, work, tgrad, dgrad, agrad, blocks, band, factor, rhs, angles,
-                    extra)
-        x_old[:] = x
+        relax_twist(x, d1, twist, tangents, lengths, work, tgrad, dgrad, agrad, blocks, band,
+                    factor, rhs, angles, extra)
         step, n_records, status = _explicit_chunk(
             x, v, previous_held, targets[k : k + 1], extra, step, n_steps, dt, k_d, relative,
             ground, record_every, rest_speed, clips_stop, k_s, rest_lengths, k_b, rest_angles,
             masses, gravity, times, shapes, speeds, n_records, grad, drag, accel)
-        moved_directors(x_old, x, d1, angles, turned)
-        d1[:] = turned
+        if not carry_directors(tangents, lengths, x, d1, angles, 1, n - 1):
+            return step, n_records, DIVERGED  # a link reversed or folded back in one step
         d1[0] = held_directors[k, 0]
         d1[n - 1] = held_directors[k, 1]
         if status != RUNNING:
