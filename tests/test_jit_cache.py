@@ -2,13 +2,12 @@
 
 Two processes (pytest-xdist workers) that save different overloads of one kernel at the same
 moment must not lose an index entry or map a key to another overload's code. The interleaving
-is forced here: the index read is slowed so that two savers both read it before either writes.
+is forced here: each saver waits after reading the index until the others have read it too.
 """
 
 from __future__ import annotations
 
 import threading
-import time
 
 import pytest
 from numba.core import caching
@@ -19,14 +18,19 @@ fcntl = pytest.importorskip("fcntl")
 
 
 def _save_concurrently(folder, save, keys):
-    """Save ``keys`` (each as its own data) from one thread per key into one cache file whose
-    index read takes 0.3 s; return the index and each key's loaded data."""
+    """Save ``keys`` (each as its own data) from one thread per key into one cache file; after
+    reading the index each saver waits (up to 0.5 s) until every saver has read it. Returns the
+    index and each key's loaded data."""
     cache_file = caching.IndexDataCacheFile(str(folder), "kernel-1.py311", b"source stamp")
     read_index = cache_file._load_index
+    all_read = threading.Barrier(len(keys), timeout=0.5)
 
     def slow_read():
         overloads = read_index()
-        time.sleep(0.3)
+        try:
+            all_read.wait()
+        except threading.BrokenBarrierError:  # a lock keeps the other savers out
+            pass
         return overloads
 
     cache_file._load_index = slow_read
