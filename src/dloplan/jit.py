@@ -11,9 +11,11 @@ the same number: one index entry is lost, and when the data files are written in
 than the index, the surviving entry points at the other overload's machine code. A later process
 then loads, for example, the banded Cholesky unrolled for half width 10 where it asked for width
 8 (:func:`dloplan.sim.newton._constant_width` makes three closure variants of one function, nine
-overloads in one index), and a solver that converges fails to (measured: 8 processes compiling
+overloads in one index) and the solver runs the wrong factorization (measured: 8 processes compiling
 the 8 closure variants of one small kernel at once, 4 of 12 trials ended with an index entry
-whose code computes another variant's result; with this module, none in 12).
+whose code computes another variant's result and 2 more lost an entry; with this module, none
+in 12. The three variants of dloplan's own kernel, compiled by three processes at once, did not
+hit the race in 10 trials under load 7-9: the window is the few milliseconds of one save).
 
 :func:`njit` is ``numba.njit`` after :func:`install_cache_lock` has made every save of that
 cache hold an exclusive ``flock`` on a lock file in the cache folder, for the whole read of the
