@@ -9,8 +9,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from scipy.spatial.transform import Rotation
+
+from .jit import njit
 
 UP = np.array([0.0, 0.0, 1.0])
 

@@ -25,7 +25,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from ..jit import njit
 
 _SERIES_BELOW = 1e-3  # as in dloplan.physics.bending
 _SIN_FLOOR = 1e-12

@@ -25,10 +25,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from numpy.polynomial import polynomial as P
 
 from ..geometry import tangents
+from ..jit import njit
 from .jet import cross_last
 
 _SERIES_BELOW = 1e-2  # 1 - c below which f(c) = beta / sin(beta) uses its series

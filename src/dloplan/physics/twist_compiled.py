@@ -40,8 +40,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from ..jit import njit
 from .compiled import joint_directions
 from .rod_frames import angle_ratio_scalar
 

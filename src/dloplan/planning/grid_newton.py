@@ -43,8 +43,8 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from numba import njit
 
+from ..jit import njit
 from ..physics.compiled import chain_derivatives, chain_gradient
 
 COARSE_DEGREE = 12

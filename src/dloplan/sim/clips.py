@@ -17,12 +17,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
 from ..frames import frame_from_axis, minimal_rotation
 from ..geometry import as_shape
+from ..jit import njit
 from ..physics.compiled import conform_free_part
 
 HELD_INDICES = (0, 1, -2, -1)

@@ -26,8 +26,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from ..jit import njit
 from ..physics.compiled import chain_derivatives, chain_energy
 from ..physics.twist_compiled import (
     interleaved_band,

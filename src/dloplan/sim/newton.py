@@ -18,7 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
-from numba import njit
+
+from ..jit import njit
 
 NEUTRAL = 1e-9
 """Relative shift under which a Hessian still counts as positive (semi-)definite: a mode of zero

@@ -11,9 +11,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from ..cable import GRAVITY, Cable
+from ..jit import njit
 from ..physics.chain import Forces, shape_forces
 from ..physics.contact import penetrations
 from .clips import ClipPoses

@@ -22,8 +22,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from ..jit import njit
 from ..physics.compiled import chain_gradient
 from ..physics.twist_compiled import carry_directors, link_tangents, twist_load, twist_stencils
 from .newton import cholesky_band, cholesky_solve

@@ -1,0 +1,105 @@
+"""numba's ``njit`` with an on-disk cache that concurrent processes cannot corrupt.
+
+Every compiled kernel of dloplan is ``@njit(cache=True)``: numba writes each compiled overload
+to ``__pycache__/<function>-<line>.pyXY.<number>.nbc`` and maps the overload's key (argument
+types, CPU, the function's bytecode and closure values) to that file name in one index file per
+function, ``<function>-<line>.pyXY.nbi``. numba (0.68) saves an overload by reading the index,
+taking the lowest unused number, writing the index and then the data file, with no lock between
+processes (numba issue #10128). Two processes that save *different* overloads of one function at
+the same moment (two pytest-xdist workers on an empty cache, or two ``dloplan`` runs) both take
+the same number: one index entry is lost, and when the data files are written in the other order
+than the index, the surviving entry points at the other overload's machine code. A later process
+then loads, for example, the banded Cholesky unrolled for half width 10 where it asked for width
+8 (:func:`dloplan.sim.newton._constant_width` makes three closure variants of one function, nine
+overloads in one index) and the solver runs the wrong factorization (measured: 8 processes compiling
+the 8 closure variants of one small kernel at once, 4 of 12 trials ended with an index entry
+whose code computes another variant's result and 2 more lost an entry; with this module, none
+in 12. The three variants of dloplan's own kernel, compiled by three processes at once, did not
+hit the race in 10 trials under load 7-9: the window is the few milliseconds of one save).
+
+:func:`njit` is ``numba.njit`` after :func:`install_cache_lock` has made every save of that
+cache hold an exclusive ``flock`` on a lock file in the cache folder, for the whole read of the
+index, the choice of the number and both writes, and write the data file before the index entry
+that names it. Loading is unchanged: files are replaced atomically, an index entry appears only
+after its data file is complete, and a number is never reused for another key while the index is
+current, so a reader needs no lock. Compiled code, cache file names and formats are numba's own.
+Without ``fcntl`` (Windows), or with a numba whose cache class lacks what the locked save uses,
+the cache is numba's, unlocked.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import os
+
+import numba
+from numba.core import caching
+
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - Windows: numba's unlocked cache
+    fcntl = None
+
+NUMBA_SAVE = caching.IndexDataCacheFile.save
+"""numba's own, unlocked ``IndexDataCacheFile.save`` (kept to show the race it has)."""
+
+LOCK_NAME = "dloplan-numba-cache.lock"
+"""The lock file in each cache folder (``__pycache__`` beside the kernels' source files)."""
+
+
+@contextlib.contextmanager
+def cache_folder_lock(folder: str):
+    """Hold an exclusive lock on ``folder``'s cache lock file, shared by all processes."""
+    if fcntl is None:  # pragma: no cover
+        yield
+        return
+    with open(os.path.join(folder, LOCK_NAME), "a+b") as handle:
+        fcntl.flock(handle.fileno(), fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
+
+
+def locked_save(cache_file: caching.IndexDataCacheFile, key, data) -> None:
+    """``IndexDataCacheFile.save`` under :func:`cache_folder_lock`, the data file written first.
+
+    The same choice of file name as numba's (the key's own file, else the lowest unused number).
+    """
+    with cache_folder_lock(cache_file._cache_path):
+        overloads = cache_file._load_index()
+        name = overloads.get(key)
+        if name is None:
+            used = set(overloads.values())
+            name = next(n for n in map(cache_file._data_name, itertools.count(1))
+                        if n not in used)
+            overloads[key] = name
+        cache_file._save_data(name, data)
+        cache_file._save_index(overloads)
+
+
+NUMBA_METHODS = ("_load_index", "_data_name", "_save_data", "_save_index")
+"""The methods :func:`locked_save` calls on numba's ``IndexDataCacheFile`` (numba 0.68),
+besides its ``_cache_path`` attribute (set in ``__init__``)."""
+
+
+def install_cache_lock() -> bool:
+    """Make numba's on-disk cache save through :func:`locked_save` (idempotent, per process).
+
+    Returns False, leaving numba's own save, when this numba's ``IndexDataCacheFile`` lacks what
+    :func:`locked_save` uses (a numba that reorganized its cache): the lock is then off, never a
+    crash at the first compilation.
+    """
+    cache_file = caching.IndexDataCacheFile
+    if not all(callable(getattr(cache_file, name, None)) for name in NUMBA_METHODS) \
+            or "_cache_path" not in cache_file.__init__.__code__.co_names:
+        return False
+    cache_file.save = locked_save
+    return True
+
+
+def njit(*args, **options):
+    """``numba.njit(*args, **options)`` with the cache lock installed (see the module docstring)."""
+    install_cache_lock()
+    return numba.njit(*args, **options)

@@ -1,0 +1,82 @@
+"""numba's on-disk cache under concurrent saves (dloplan.jit).
+
+Two processes (pytest-xdist workers) that save different overloads of one kernel at the same
+moment must not lose an index entry or map a key to another overload's code. The interleaving
+is forced here: each saver waits after reading the index until the others have read it too.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import pytest
+from numba.core import caching
+
+from dloplan import jit
+
+fcntl = pytest.importorskip("fcntl")
+
+
+def _save_concurrently(folder, save, keys):
+    """Save ``keys`` (each as its own data) from one thread per key into one cache file; after
+    reading the index each saver waits (up to 0.5 s) until every saver has read it. Returns the
+    index and each key's loaded data."""
+    cache_file = caching.IndexDataCacheFile(str(folder), "kernel-1.py311", b"source stamp")
+    read_index = cache_file._load_index
+    all_read = threading.Barrier(len(keys), timeout=0.5)
+
+    def slow_read():
+        overloads = read_index()
+        try:
+            all_read.wait()
+        except threading.BrokenBarrierError:  # a lock keeps the other savers out
+            pass
+        return overloads
+
+    cache_file._load_index = slow_read
+    threads = [threading.Thread(target=save, args=(cache_file, key, f"code of {key}"))
+               for key in keys]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    cache_file._load_index = read_index
+    return read_index(), {key: cache_file.load(key) for key in keys}
+
+
+def test_numbas_own_save_loses_an_overload_under_this_interleaving(tmp_path):
+    # the race the lock removes: both savers take data file number 1
+    index, loaded = _save_concurrently(tmp_path, jit.NUMBA_SAVE, ["width 8", "width 10"])
+    assert len(index) == 1
+    assert sorted(map(str, loaded.values())) != ["code of width 10", "code of width 8"]
+
+
+def test_locked_save_keeps_every_overload_with_its_own_code(tmp_path):
+    keys = ["width 8", "width 10", "width 1"]
+    index, loaded = _save_concurrently(tmp_path, jit.locked_save, keys)
+    assert sorted(index) == sorted(keys)
+    assert len(set(index.values())) == 3  # three data files
+    assert loaded == {key: f"code of {key}" for key in keys}
+
+
+def test_locked_save_overwrites_a_key_in_its_own_file(tmp_path):
+    cache_file = caching.IndexDataCacheFile(str(tmp_path), "kernel-1.py311", b"stamp")
+    jit.locked_save(cache_file, "a", "first")
+    jit.locked_save(cache_file, "b", "other")
+    jit.locked_save(cache_file, "a", "second")
+    assert cache_file._load_index() == {"a": "kernel-1.py311.1.nbc", "b": "kernel-1.py311.2.nbc"}
+    assert cache_file.load("a") == "second" and cache_file.load("b") == "other"
+
+
+def test_the_kernels_compile_through_the_locked_cache():
+    from dloplan.sim import newton
+
+    assert caching.IndexDataCacheFile.save is jit.locked_save
+    assert newton.cholesky_band._cache._cache_file.save.__func__ is jit.locked_save
+
+
+def test_a_numba_without_the_cache_internals_keeps_its_own_save(monkeypatch):
+    monkeypatch.setattr(caching.IndexDataCacheFile, "save", jit.NUMBA_SAVE)
+    monkeypatch.delattr(caching.IndexDataCacheFile, "_save_index")
+    assert jit.install_cache_lock() is False
+    assert caching.IndexDataCacheFile.save is jit.NUMBA_SAVE
