@@ -4,6 +4,7 @@ whether a draft is reused or the plan changed after it; nothing of the drafts is
 from __future__ import annotations
 
 import json
+import pickle
 from dataclasses import replace
 from pathlib import Path
 
@@ -64,6 +65,19 @@ def test_a_plan_changed_after_its_draft_is_drawn_again(doc, tmp_path):
     first = write_figures(doc, tmp_path / "first")
     assert _pngs(first)["planned_path.png"] != _pngs(drawn)["planned_path.png"]
     assert sorted(p.name for p in staging.iterdir()) == ["figures"]
+
+
+def test_the_planned_hook_sees_the_final_figures_before_the_robot_program(job, doc):
+    """run_job hands the plan to the figure workers before its robot program is made: the
+    drafts drawn then are the final document's figures (same inputs, so they are reused)."""
+    from dloplan.app.report import figure_drawings
+
+    seen = []
+    final = run_job(job, planned=seen.append)
+    assert len(seen) == 1 and seen[0].program is None and final.program is not None
+    assert [pickle.dumps(d) for d in figure_drawings(seen[0])] == \
+        [pickle.dumps(d) for d in figure_drawings(final)]  # the workers' key: inputs byte for byte
+    assert len(figure_drawings(final)) == len(figure_drawings(doc)) >= 4
 
 
 def test_plan_into_writes_the_same_files_with_and_without_workers(job, tmp_path):

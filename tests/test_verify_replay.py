@@ -111,6 +111,26 @@ def _timed(limits=None, **options):
     return dual_arm_trajectory(positions, rotations, limits=limits, **options)
 
 
+def test_sampled_clip_motion_is_the_list_of_its_poses():
+    """clip_motion keeps its thousands of samples as arrays (ClipTrajectory.sampled); the
+    trajectory is the one built from the list of ClipPoses, frame for frame, bit for bit."""
+    traj = _timed()
+    motion = clip_motion(traj.law, POSES)
+    poses = motion.poses
+    listed = ClipTrajectory(motion.times, [poses[k] for k in range(len(poses))])
+    assert len(poses) == len(motion.times) > 1000 and isinstance(poses[-1], ClipPoses)
+    assert [p.positions.tolist() for p in poses[:3]] == poses.positions[:3].tolist()
+    t = np.linspace(-0.1, traj.duration + 0.1, 1001)
+    for a, b in zip(motion.frames(t), listed.frames(t), strict=True):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(motion.held_points(t, CABLE.rest_link_length),
+                                  listed.held_points(t, CABLE.rest_link_length))
+    with pytest.raises(ValueError, match=r"sampled poses: expected positions \(K, 2, 3\)"):
+        ClipTrajectory.sampled([0.0, 1.0], np.zeros((2, 2, 3)), np.zeros((2, 4)))
+    with pytest.raises(ValueError, match="sampled poses: non-finite"):
+        ClipTrajectory.sampled([0.0], np.full((1, 2, 3), np.nan), [[[0, 0, 0, 1.0]] * 2])
+
+
 def test_the_clips_follow_the_real_time_law(shapes):
     traj = _timed()
     motion = clip_motion(traj.law, POSES)

@@ -143,3 +143,28 @@ def test_clip_motion_and_bad_inputs():
         check_snap_through(cable, path, [a])
     with pytest.raises(ValueError, match="stabilized_shapes"):
         check_snap_through(cable, path[:, :5])
+
+
+def test_interpolated_clips_are_the_slerp_at_each_fraction():
+    """interpolate_clips evaluates both slerps at all fractions at once: the poses are those of
+    one slerp call per fraction (the former loop), bit for bit, and the end poses are a and b."""
+    from scipy.spatial.transform import Slerp
+
+    from dloplan.sim.statics import interpolate_clips
+
+    a = ClipPoses(np.array([[0.0, 0.0, 0.3], [0.4, 0.0, 0.3]]),
+                  Rotation.from_rotvec([[0.1, 0.2, 0.3], [0.0, 0.0, math.pi]]))
+    b = ClipPoses(np.array([[0.05, 0.1, 0.35], [0.3, 0.1, 0.25]]),
+                  Rotation.from_rotvec([[-0.4, 0.2, 1.3], [0.3, -0.2, 2.0]]))
+    fractions = np.r_[0.0, np.random.default_rng(3).random(40), 1.0]
+    poses = interpolate_clips(a, b, fractions)
+    slerps = [Slerp([0.0, 1.0], Rotation.concatenate([a.rotations[k], b.rotations[k]]))
+              for k in range(2)]
+    for t, pose in zip(fractions, poses, strict=True):
+        np.testing.assert_array_equal(pose.positions, (1.0 - t) * a.positions + t * b.positions)
+        expected = Rotation.concatenate([slerps[k](t) for k in range(2)]).as_quat()
+        np.testing.assert_array_equal(pose.rotations.as_quat(), expected)
+    for pose, end in ((poses[0], a), (poses[-1], b)):
+        np.testing.assert_allclose(pose.positions, end.positions, rtol=0, atol=1e-15)
+        assert np.all((pose.rotations * end.rotations.inv()).magnitude() < 1e-12)
+    assert interpolate_clips(a, b, []) == []

@@ -5,8 +5,8 @@ its import alone about 0.7 s). :class:`FigureWorkers` takes that off the run's c
 
 - the workers start with the run (forked where the platform can fork) and import matplotlib and
   lay out a first figure while the plan is being made;
-- :meth:`FigureWorkers.draft` draws a plan's figures as soon as it is planned, while it is
-  verified (``plan_and_repair``'s ``planned`` hook);
+- :meth:`FigureWorkers.draft` draws a plan's figures as soon as it is planned, while its robot
+  program is made and it is verified (``run_job``'s ``planned`` hook);
 - :meth:`FigureWorkers.render` is the ``figures`` writer: the final document's figures are the
   drafts whose inputs (every array, compared exactly) it still has; the others (a repaired plan)
   are drawn then. The files are the same as :func:`dloplan.app.report.write_figures` writes.
@@ -86,7 +86,8 @@ class FigureWorkers:
         return self._drafts[key]
 
     def draft(self, doc: PlanDocument) -> None:
-        """Start drawing the figures of ``doc`` (a planned, not yet verified document)."""
+        """Start drawing the figures of ``doc`` (a planned document, before its robot program
+        and its verification)."""
         for drawing in figure_drawings(doc):
             self._submit(drawing)
 

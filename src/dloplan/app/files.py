@@ -54,8 +54,8 @@ def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
     check is repaired first (:func:`dloplan.repair.plan_and_repair`: every check with
     ``verify``, else the robot program's; ``budget`` a :class:`dloplan.repair.Budget`).
     With ``figure_workers`` > 0 the figures are drawn on that many worker processes
-    (:mod:`dloplan.app.figure_workers`), from the moment the plan is made, while it is
-    verified; the files written are the same.
+    (:mod:`dloplan.app.figure_workers`), from the moment the plan is made, while its robot
+    program is made and it is verified; the files written are the same.
     """
     folder = Path(folder)
     formats = job.outputs if isinstance(job, Job) else HARNESS_OUTPUTS
@@ -70,7 +70,8 @@ def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
             doc = replace(doc, repairs=tuple(r.to_dict() for r in repairs))
             options = WriteOptions(rate=job.motion.rate, figure_workers=drawer)
         elif isinstance(job, Job):
-            doc = run_job(job, verify=verify, check_robot=check_robot, progress=progress)
+            doc = run_job(job, verify=verify, check_robot=check_robot, progress=progress,
+                          planned=None if drawer is None else drawer.draft)
             options = WriteOptions(rate=job.motion.rate, figure_workers=drawer)
         else:
             doc = run_harness_job(job, check_robot=check_robot, progress=progress)

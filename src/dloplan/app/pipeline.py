@@ -420,7 +420,7 @@ def _identification_section(ident) -> IdentificationSection | None:
 
 
 def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
-            progress=quiet) -> PlanDocument:
+            progress=quiet, planned=None) -> PlanDocument:
     """Plan a job end to end and return its plan document.
 
     Parameters
@@ -433,6 +433,9 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
         Make and check the robot program (:func:`plan_program`; fast, on by default).
     progress : callable
         Called with a line of text after each step.
+    planned : callable, optional
+        Called with the planned document (shapes, gripper poses, trajectory) before its robot
+        program is made and it is verified (the command line starts drawing its figures then).
     """
     staged = plan_path(job, progress)
     result, target_check = staged.plan, staged.target_check
@@ -484,6 +487,8 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
         identification=_identification_section(job.identification),
         cycle=cycle_to_dict(cycle), timings=timings,
     )
+    if planned is not None:
+        planned(doc)
     if check_robot:
         t0 = time.perf_counter()
         doc = with_program(doc, plan_program(job.robot, grippers, trajectory, progress))

@@ -668,12 +668,10 @@ def plan_and_repair(job, progress=quiet, budget: Budget | None = None, physics: 
     robot program. Without, only the robot program's checks (they always run): a plan whose
     program passes is returned as planned, without a verification section; one whose program
     fails is repaired for its reach (placement, grasp) and verified for it. ``planned``, when
-    given, is called with the planned document before it is verified (the command line starts
-    drawing its figures then).
+    given, is called with the planned document before its robot program is made and it is
+    verified (the command line starts drawing its figures then).
     """
-    doc = run_job(job, progress=progress)
-    if planned is not None:
-        planned(doc)
+    doc = run_job(job, progress=progress, planned=planned)
     t0 = time.perf_counter()
     if not physics and (doc.program is None or doc.program.ok):
         return doc, ()

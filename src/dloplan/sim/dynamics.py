@@ -37,6 +37,39 @@ from .stepping import DIVERGED, RUNNING, SETTLED, explicit_steps, twist_steps
 _CHUNK = 4096  # steps whose clip poses are interpolated at once
 
 
+class SampledPoses(Sequence):
+    """K clip poses kept as arrays, a :class:`ClipPoses` made per item when asked for.
+
+    Parameters
+    ----------
+    positions : array_like
+        (K, 2, 3) clip points [m].
+    quaternions : array_like
+        (K, 2, 4) ``clip_to_world`` quaternions (x, y, z, w), normalized here as
+        ``Rotation.from_quat`` does.
+    """
+
+    def __init__(self, positions, quaternions) -> None:
+        pos = np.array(positions, dtype=float)
+        quats = np.asarray(quaternions, dtype=float)
+        if pos.ndim != 3 or pos.shape[1:] != (2, 3) or quats.shape != (len(pos), 2, 4):
+            raise ValueError(f"sampled poses: expected positions (K, 2, 3) and quaternions "
+                             f"(K, 2, 4), got {pos.shape} and {quats.shape}")
+        if not (np.all(np.isfinite(pos)) and np.all(np.isfinite(quats))):
+            raise ValueError("sampled poses: non-finite position or quaternion (NaN or inf)")
+        self.positions = pos
+        self.quaternions = np.stack([Rotation.from_quat(quats[:, c]).as_quat()
+                                     for c in (0, 1)], axis=1)
+
+    def __len__(self) -> int:
+        return len(self.positions)
+
+    def __getitem__(self, k):
+        if isinstance(k, slice):
+            return [self[j] for j in range(*k.indices(len(self)))]
+        return ClipPoses(self.positions[k], Rotation.from_quat(self.quaternions[k]))
+
+
 @dataclass(frozen=True, eq=False)
 class ClipTrajectory:
     """Clip poses over time, interpolated linearly in position and by slerp in rotation.
@@ -67,6 +100,22 @@ class ClipTrajectory:
         """Clips held still."""
         return cls(np.array([0.0]), [clips])
 
+    @classmethod
+    def sampled(cls, times, positions, quaternions) -> ClipTrajectory:
+        """Clip poses given as arrays (a trajectory sampled at thousands of times): the
+        interpolation reads the arrays, and a :class:`ClipPoses` is made only when asked for.
+
+        Parameters
+        ----------
+        times : array_like
+            (K,) strictly increasing times [s].
+        positions : array_like
+            (K, 2, 3) clip points [m].
+        quaternions : array_like
+            (K, 2, 4) ``clip_to_world`` unit quaternions (x, y, z, w).
+        """
+        return cls(times, SampledPoses(positions, quaternions))
+
     def frames(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Clip positions (len(t), 2, 3) [m] and ``clip_to_world`` matrices (len(t), 2, 3, 3)."""
         t = np.clip(np.asarray(t, dtype=float), self.times[0], self.times[-1])
@@ -86,8 +135,11 @@ class ClipTrajectory:
     @cached_property
     def _interpolants(self):
         """The poses' positions (K, 2, 3) [m] and one slerp per clip, built once."""
-        positions = np.stack([p.positions for p in self.poses])
-        quats = np.stack([p.rotations.as_quat() for p in self.poses])  # (K, 2, 4)
+        if isinstance(self.poses, SampledPoses):
+            positions, quats = self.poses.positions, self.poses.quaternions
+        else:
+            positions = np.stack([p.positions for p in self.poses])
+            quats = np.stack([p.rotations.as_quat() for p in self.poses])  # (K, 2, 4)
         return positions, [Slerp(self.times, Rotation.from_quat(quats[:, k])) for k in range(2)]
 
     def held_points(self, t: np.ndarray, link_length: float) -> np.ndarray:

@@ -352,18 +352,20 @@ def check_target(
 
 
 def interpolate_clips(a: ClipPoses, b: ClipPoses, fractions) -> list[ClipPoses]:
-    """Clip poses between ``a`` and ``b``: linear in position, slerp in rotation."""
-    fractions = np.asarray(fractions, dtype=float)
-    out = []
-    slerps = [
-        Slerp([0.0, 1.0], Rotation.concatenate([a.rotations[k], b.rotations[k]]))
+    """Clip poses between ``a`` and ``b``: linear in position, slerp in rotation.
+
+    Each clip's slerp is evaluated at all fractions at once (a scipy call costs more than its
+    arithmetic); the slerped quaternions are taken as they are (``normalize=False``), as
+    concatenating the slerped rotations did.
+    """
+    w = np.asarray(fractions, dtype=float).reshape(-1)
+    positions = (1.0 - w)[:, None, None] * a.positions + w[:, None, None] * b.positions
+    quats = np.stack([
+        Slerp([0.0, 1.0], Rotation.concatenate([a.rotations[k], b.rotations[k]]))(w).as_quat()
         for k in range(2)
-    ]
-    for t in fractions:
-        pos = (1.0 - t) * a.positions + t * b.positions
-        rot = Rotation.concatenate([slerps[k](t) for k in range(2)])
-        out.append(ClipPoses(pos, rot))
-    return out
+    ], axis=1)  # (len(w), 2, 4)
+    return [ClipPoses(pos, Rotation(q, normalize=False))
+            for pos, q in zip(positions, quats, strict=True)]
 
 
 def continuation(

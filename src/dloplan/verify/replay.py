@@ -168,9 +168,7 @@ def clip_motion(law: TimeLaw, poses, rate: float = CLIP_RATE) -> ClipTrajectory:
     positions = np.stack([p.positions for p in poses])
     rotations = tuple(Rotation.concatenate([p.rotations[c] for p in poses]) for c in (0, 1))
     pos, rots = interpolate_poses(law, positions, rotations, times)
-    quats = np.stack([r.as_quat() for r in rots], axis=1)  # (N, 2, 4)
-    return ClipTrajectory(times, [ClipPoses(p, Rotation.from_quat(q))
-                                  for p, q in zip(pos, quats, strict=True)])
+    return ClipTrajectory.sampled(times, pos, np.stack([r.as_quat() for r in rots], axis=1))
 
 
 def fictitious_cable(cable: Cable, youngs_modulus_cap: float | None) -> Cable:

@@ -53,7 +53,14 @@ import scipy.sparse.linalg as spla
 
 from ..cable import GRAVITY, Cable
 from ..geometry import as_path, as_shape
-from ..physics.chain import HALF_BANDWIDTH, SpringChain, gradient, hessian_band, sparse_to_band
+from ..physics.chain import (
+    HALF_BANDWIDTH,
+    SpringChain,
+    gradient,
+    gradient_and_hessian_band,
+    sparse_to_band,
+)
+from ..physics.gravity import gravity_force
 from ..sim.newton import factor_band, free_band, solve_band
 from ..sim.statics import force_scale, free_hessian
 
@@ -282,9 +289,15 @@ def elastic_stability(
         if not (math.isfinite(value) and value > 0):
             raise ValueError(f"{name}: got {value!r}, expected a number > 0")
     chain = SpringChain.from_cable(cable, gravity)
+    band = None
+    if method == "band":  # one pass for the elastic gradient and the Hessian band
+        elastic, band = gradient_and_hessian_band(chain, x)
+        grad = elastic - gravity_force(chain.point_masses, chain.gravity)
+    else:
+        grad = gradient(chain, x)
     residual = 0.0
     if cable.n_points > 4:
-        residual = float(np.max(np.linalg.norm(gradient(chain, x)[2:-2], axis=1)))
+        residual = float(np.max(np.linalg.norm(grad[2:-2], axis=1)))
     is_equilibrium = residual <= equilibrium_rtol * force_scale(cable, gravity)
     scale = stiffness_scale(cable)
     n_dof = 3 * max(cable.n_points - 4, 0)
@@ -292,8 +305,8 @@ def elastic_stability(
         return Stability(np.zeros(0), np.zeros((0, cable.n_points, 3)), scale, 0.0, residual,
                          True, True, "no free point: the clips fix the whole cable")
     if method == "band":
-        band = free_band(hessian_band(chain, x), slice(2, cable.n_points - 2))
-        values, vectors, norm = band_eigenpairs(band, int(k))
+        values, vectors, norm = band_eigenpairs(free_band(band, slice(2, cable.n_points - 2)),
+                                                int(k))
     else:
         matrix = free_hessian(cable, x, gravity)
         values, vectors = smallest_eigenpairs(matrix, int(k), scale=scale, method=method)
