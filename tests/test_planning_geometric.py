@@ -170,3 +170,22 @@ def test_lbfgs_option_reaches_a_no_better_point_than_newton():
     assert newton.success and newton.cost <= lbfgs.cost + 1e-9
     with pytest.raises(ValueError, match="method"):
         advanced_path(basic, cable.length, method="BFGS")
+
+
+def test_next_shift_follows_the_ratio_of_actual_to_predicted_decrease():
+    from dloplan.planning.geometric import (
+        RATIO_GOOD,
+        RATIO_POOR,
+        SHIFT_DECREASE,
+        SHIFT_FLOOR,
+        SHIFT_START,
+        next_shift,
+    )
+
+    assert next_shift(0.0, -np.inf) == SHIFT_START  # rejected: damp from the start value
+    assert next_shift(1e-2, -np.inf) == pytest.approx(1e-1)
+    assert next_shift(1e-2, 0.5 * RATIO_POOR) == pytest.approx(1e-1)  # poor model: damp more
+    mid = 0.5 * (RATIO_POOR + RATIO_GOOD)
+    assert next_shift(1e-2, mid) == 1e-2  # fair model: keep
+    assert next_shift(1e-2, 1.0) == pytest.approx(1e-2 / SHIFT_DECREASE)  # good: relax
+    assert next_shift(SHIFT_FLOOR, 1.0) == 0.0  # ... to a pure Newton step

@@ -370,6 +370,27 @@ SHIFT_FLOOR = 1e-4
 first) once it is at most this."""
 SHIFT_DECREASE = 10.0
 """The factor by which the shift falls after an accepted step."""
+RATIO_GOOD = 0.9
+"""An accepted step whose actual decrease is at least this fraction of the decrease its
+quadratic model predicted lets the shift fall (:data:`SHIFT_DECREASE`)."""
+RATIO_POOR = 0.25
+"""Below this ratio an accepted step raises the shift tenfold for the next iteration; between
+the two it is kept."""
+
+
+def next_shift(shift: float, ratio: float) -> float:
+    """The Levenberg-Marquardt shift after a trial whose actual / predicted decrease is ``ratio``.
+
+    A rejected trial (``ratio`` = -inf: the cost did not fall) and a poor model (``ratio`` <
+    :data:`RATIO_POOR`) raise the shift tenfold, at least to :data:`SHIFT_START`; a good one
+    (``ratio`` >= :data:`RATIO_GOOD`) lowers it by :data:`SHIFT_DECREASE`, to 0 from
+    :data:`SHIFT_FLOOR`; in between it stays.
+    """
+    if ratio < RATIO_POOR:
+        return max(10.0 * shift, SHIFT_START)
+    if ratio < RATIO_GOOD:
+        return shift
+    return 0.0 if shift <= SHIFT_FLOOR else shift / SHIFT_DECREASE
 
 
 def _damped_newton(problem: AdvancedProblem, y: np.ndarray, gtol: float, max_iterations: int,
@@ -379,7 +400,9 @@ def _damped_newton(problem: AdvancedProblem, y: np.ndarray, gtol: float, max_ite
 
     Every trial solves (H + shift * scale I) p = -g, scale = mean |diag H|; while p is not a
     descent direction or does not lower the cost the shift grows tenfold from
-    :data:`SHIFT_START`, after an accepted step it falls (:data:`SHIFT_FLOOR`). ``coords``: the
+    :data:`SHIFT_START`; after an accepted step it follows the ratio of the actual to the
+    quadratic model's predicted decrease (:func:`next_shift`, a trust-region ratio test:
+    fewer systems where the model is poor far from the optimum). ``coords``: the
     coordinates that move (see :func:`dloplan.planning.grid_newton.plane_of`); the others keep
     their values (their gradient is zero).
     """
@@ -436,13 +459,17 @@ def _damped_newton(problem: AdvancedProblem, y: np.ndarray, gtol: float, max_ite
                                     f"{decrement:.2g} at round-off)"), iteration
             step = step.reshape(shape)
             longest = float(np.max(np.linalg.norm(step, axis=-1)))
-            step *= min(1.0, 0.25 / longest)  # no point moves more than L / 4 per step
+            t = min(1.0, 0.25 / longest)  # no point moves more than L / 4 per step
+            step *= t
+            # the quadratic model's decrease along t p, p^T H p = -g^T p - shift scale |p|^2
+            squared = float(np.einsum("i,i->", step.ravel(), step.ravel())) / (t * t)
+            predicted = t * decrement * (1.0 - 0.5 * t) + 0.5 * t * t * shift * scale * squared
             f_trial, g_trial = advanced_cost(problem, y + step)
-            if f_trial < f:
+            accepted = f_trial < f
+            shift = next_shift(shift, (f - f_trial) / predicted if accepted else -np.inf)
+            if accepted:
                 y, f, g = y + step, f_trial, g_trial
-                shift = 0.0 if shift <= SHIFT_FLOOR else shift / SHIFT_DECREASE
                 break
-            shift = max(10.0 * shift, SHIFT_START)
         else:
             return y, f, False, f"stalled after {iteration} iterations (gradient {largest:.3g})", \
                 iteration
