@@ -28,7 +28,8 @@ with the compiled restriction and prolongation, at load 11: 1.02-1.10 s against 
 2.8-3.2 against 5.9-7.7 s). Same iterations (14 and 12), systems (18) and optimum as main.
 Fourth round (trust-region ratio test for the shift), load 2.7: (10, 5) 0.019 s, (50, 50)
 0.325 s (advanced 0.227 s, 11 iterations, 15 systems instead of 14 and 18), (100, 100) 1.364 s
-(advanced 1.195 s, 12 iterations, 18 systems as before), exponent 0.78; the previous policy
+(advanced 1.195 s, 12 iterations, 18 systems as before), exponent 0.78; at load 2.0-2.1
+(50, 50) 0.196 and 0.295 s, (100, 100) 1.420 and 1.310 s; the previous policy
 in the same process at load 2.6-3.4: (50, 50) 0.319 s against 0.230-0.286 s, (100, 100)
 1.29-1.58 s against 1.53-1.83 s (same systems there: noise). Same optimum as before.
 """
