@@ -76,6 +76,28 @@ pydantic) and numba's first calls before the first stage. A second figure worker
 again and is slower on 2 cores (load 3.7: 10.40 s wall with two, 8.60 s with one: its
 matplotlib import competes with the verification). Next: fixed figure layouts instead of the
 tight bounding box (PNGs change: to be argued), fewer numba dispatchers on the demo path.
+
+Third round (branch ``demo``, 2026-11-30 22:09 UTC, best of 3, runs alternating with main
+6bd723a, ``--before``; load average 3.3, 3.3, 4.1: a loaded window, every number above it is
+slower):
+
+    dloplan demo (before): 7.84 s wall, 7.75 s CPU
+    dloplan demo (this):   7.15 s wall, 7.13 s CPU
+    this / before: 1.10x wall, 1.09x CPU
+    dloplan --help: 0.36 s wall; import dloplan.cli: 0.29 s wall
+    stages of the best run: stable target 1.22 s, planned 1.93 s, robot program 2.74 s,
+    verified 4.57 s, files written 5.73 s (1.2 s of it waiting for the figure worker)
+
+What changed: the plan's five figures have fixed margins per figure kind and are saved whole
+(no tight bounding box: one draw less per figure; the PNG/SVG margins change, decisions.md),
+and the worker draws a throw-away 3D/mathtext figure as PNG and SVG at its start (fonts,
+mathtext parser, both backends loaded before the plan's first figure). Measured and not kept:
+forking the worker at the very start of ``dloplan demo`` (before the planner's imports), runs
+alternating with the kept version (load 2.4-3.3): 9.24 s wall / 9.19 s CPU against 7.84 s /
+7.28 s; the early worker imports numba, scipy and ``dloplan.obstacles`` itself (a drawing's
+obstacles unpickle through it) instead of sharing the parent's pages, and on 2 shared cores that
+CPU lands on the critical path. It would pay only with drawings that carry no ``dloplan``
+objects (obstacle edges as plain arrays) -- next, with fewer numba dispatchers on the demo path.
 """
 
 from __future__ import annotations
