@@ -77,16 +77,20 @@ again and is slower on 2 cores (load 3.7: 10.40 s wall with two, 8.60 s with one
 matplotlib import competes with the verification). Next: fixed figure layouts instead of the
 tight bounding box (PNGs change: to be argued), fewer numba dispatchers on the demo path.
 
-Third round (branch ``demo``, 2026-11-30 22:09 UTC, best of 3, runs alternating with main
-6bd723a, ``--before``; load average 3.3, 3.3, 4.1: a loaded window, every number above it is
-slower):
+Third round (branch ``demo``, 2026-11-30 22:13 UTC, ``--before`` main 6bd723a, runs
+alternating; best of 5, load average 2.0 at the start, 1.9 at the end):
 
-    dloplan demo (before): 7.84 s wall, 7.75 s CPU
-    dloplan demo (this):   7.15 s wall, 7.13 s CPU
-    this / before: 1.10x wall, 1.09x CPU
-    dloplan --help: 0.36 s wall; import dloplan.cli: 0.29 s wall
-    stages of the best run: stable target 1.22 s, planned 1.93 s, robot program 2.74 s,
-    verified 4.57 s, files written 5.73 s (1.2 s of it waiting for the figure worker)
+    dloplan demo (before): 5.56 s wall, 7.60 s CPU
+    dloplan demo (this):   4.54 s wall, 6.77 s CPU
+    this / before: 1.23x wall, 1.12x CPU
+    dloplan --help: 0.23 s wall; import dloplan.cli: 0.26 s wall
+    stages of the best run: stable target 0.60 s, planned 0.88 s, robot program 1.40 s,
+    verified 2.14 s, files written 3.21 s (1.07 s of it waiting for the figure worker, was 1.9 s)
+
+    the same, best of 3, two earlier windows: load 3.3: before 7.84 s wall / 7.75 s CPU, this
+    7.15 s / 7.13 s (1.10x, 1.09x); load 2.2: before 5.28 s / 7.21 s, this 6.20 s / 7.17 s
+    (0.85x wall, 1.00x CPU; that run's "this" was disturbed before its first stage: stable
+    target at 1.32 s against 0.60 s). The CPU saving (0.6-0.8 s) is the steadier number.
 
 What changed: the plan's five figures have fixed margins per figure kind and are saved whole
 (no tight bounding box: one draw less per figure; the PNG/SVG margins change, decisions.md),
