@@ -76,6 +76,32 @@ pydantic) and numba's first calls before the first stage. A second figure worker
 again and is slower on 2 cores (load 3.7: 10.40 s wall with two, 8.60 s with one: its
 matplotlib import competes with the verification). Next: fixed figure layouts instead of the
 tight bounding box (PNGs change: to be argued), fewer numba dispatchers on the demo path.
+
+Third round (branch ``demo``, 2026-11-30 22:13 UTC, ``--before`` main 6bd723a, runs
+alternating; best of 5, load average 2.0 at the start, 1.9 at the end):
+
+    dloplan demo (before): 5.56 s wall, 7.60 s CPU
+    dloplan demo (this):   4.54 s wall, 6.77 s CPU
+    this / before: 1.23x wall, 1.12x CPU
+    dloplan --help: 0.23 s wall; import dloplan.cli: 0.26 s wall
+    stages of the best run: stable target 0.60 s, planned 0.88 s, robot program 1.40 s,
+    verified 2.14 s, files written 3.21 s (1.07 s of it waiting for the figure worker, was 1.9 s)
+
+    the same, best of 3, two earlier windows: load 3.3: before 7.84 s wall / 7.75 s CPU, this
+    7.15 s / 7.13 s (1.10x, 1.09x); load 2.2: before 5.28 s / 7.21 s, this 6.20 s / 7.17 s
+    (0.85x wall, 1.00x CPU; that run's "this" was disturbed before its first stage: stable
+    target at 1.32 s against 0.60 s). The CPU saving (0.6-0.8 s) is the steadier number.
+
+What changed: the plan's five figures have fixed margins per figure kind and are saved whole
+(no tight bounding box: one draw less per figure; the PNG/SVG margins change, decisions.md),
+and the worker draws a throw-away 3D/mathtext figure as PNG and SVG at its start (fonts,
+mathtext parser, both backends loaded before the plan's first figure). Measured and not kept:
+forking the worker at the very start of ``dloplan demo`` (before the planner's imports), runs
+alternating with the kept version (load 2.4-3.3): 9.24 s wall / 9.19 s CPU against 7.84 s /
+7.28 s; the early worker imports numba, scipy and ``dloplan.obstacles`` itself (a drawing's
+obstacles unpickle through it) instead of sharing the parent's pages, and on 2 shared cores that
+CPU lands on the critical path. It would pay only with drawings that carry no ``dloplan``
+objects (obstacle edges as plain arrays) -- next, with fewer numba dispatchers on the demo path.
 """
 
 from __future__ import annotations

@@ -37,12 +37,21 @@ DRAFTS = ".figures"
 
 def _start_worker() -> None:
     """A worker's start: Ctrl-C is the parent's to handle; matplotlib (with its 3D axes) is
-    imported now, while the plan is still being made."""
+    imported now, while the plan is still being made, and a tiny figure with a 3D axes and
+    mathtext is drawn as PNG and SVG (thrown away), so the fonts, the mathtext parser and both
+    backends are loaded before the first figure of the plan arrives."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    import io
+
     from ..plots.figures import pyplot
 
-    pyplot()
-    import mpl_toolkits.mplot3d  # noqa: F401 - the path figure's 3D axes
+    plt = pyplot()
+    figure = plt.figure(figsize=(1, 1))
+    axes = figure.add_subplot(projection="3d")
+    axes.set_title("[N$^2$]")
+    for suffix in ("png", "svg"):
+        figure.savefig(io.BytesIO(), format=suffix)
+    plt.close(figure)
 
 
 def _draw(drawing, folder: Path) -> list[Path]:
