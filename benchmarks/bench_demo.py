@@ -102,6 +102,11 @@ alternating with the kept version (load 2.4-3.3): 9.24 s wall / 9.19 s CPU again
 obstacles unpickle through it) instead of sharing the parent's pages, and on 2 shared cores that
 CPU lands on the critical path. It would pay only with drawings that carry no ``dloplan``
 objects (obstacle edges as plain arrays) -- next, with fewer numba dispatchers on the demo path.
+
+Quiet machine after the third round's merge (main 7f40e43, load 1.2, 2026-11-30 22:29 UTC): 5.30 s
+wall, 7.66 s CPU (best of 3; 1.92x against 10.15 s); verified at 2.23 s, files written at 3.59 s,
+about 1.7 s of interpreter start, imports (scipy.spatial, numba, pydantic models) and exit outside
+the timeline. The target (3 s) is not met.
 """
 
 from __future__ import annotations

@@ -28,6 +28,9 @@ relative 9.0 us CPU without torsion, 17.3 us with. Quiet-machine estimate from t
 about 13.5 us with torsion (21.3 / 1.57), under the 20 us target; a quiet run is still to do.
 The CPU-time column (time.process_time) is the one to compare under load: wall time on the
 shared 2-core machine includes the time other processes hold the core.
+
+Quiet machine after the merge (main 7f40e43, load 1.0, 2026-11-30 22:27 UTC): n = 50 relative
+10.67 us without torsion, 14.38 us with torsion (1.48x against 21.3 us; target 20 us: met).
 """
 
 from __future__ import annotations

@@ -14,6 +14,9 @@ average 1.3, 97 samples/s under load 6.6 (best of 3 runs): the target is met on 
 A shape's warm-started solve takes 13 Newton iterations on average at n = 20 (6 to 74).
 
 Run: PYTHONPATH=src python benchmarks/bench_study.py [--samples 96] [--links 20]
+
+Quiet machine after the third round's merge (main 7f40e43, load 1.2, 2026-11-30 22:28 UTC), four
+runs: 174-238 samples/s serial (noisy; target 150: met).
 """
 
 from __future__ import annotations
