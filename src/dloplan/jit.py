@@ -9,9 +9,9 @@ processes (numba issue #10128). Two processes that save *different* overloads of
 the same moment (two pytest-xdist workers on an empty cache, or two ``dloplan`` runs) both take
 the same number: one index entry is lost, and when the data files are written in the other order
 than the index, the surviving entry points at the other overload's machine code. A later process
-then loads, for example, the banded Cholesky unrolled for half width 10 where it asked for width
-8 (:func:`dloplan.sim.newton._constant_width` makes three closure variants of one function, nine
-overloads in one index) and the solver runs the wrong factorization (measured: 8 processes compiling
+then loads, for example, one literal step of the banded Cholesky's bulk pass where it asked for
+another (``dloplan.sim.newton._bulk`` has one overload per step: factor, forward, backward) and the
+solver runs the wrong code (measured: 8 processes compiling
 the 8 closure variants of one small kernel at once, 4 of 12 trials ended with an index entry
 whose code computes another variant's result and 2 more lost an entry; with this module, none
 in 12. The three variants of dloplan's own kernel, compiled by three processes at once, did not
