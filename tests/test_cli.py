@@ -74,6 +74,20 @@ def test_schema_and_cables(capsys):
     assert "k_b [N m]" in capsys.readouterr().out
 
 
+def test_version_is_the_installed_packages(capsys):
+    """``dloplan --version`` prints ``dloplan.__version__``, which the package metadata (read
+    by setuptools from that attribute) repeats: one version, written once."""
+    from importlib.metadata import version
+
+    import dloplan
+
+    with pytest.raises(SystemExit) as done:
+        main(["--version"])
+    assert done.value.code == 0
+    assert capsys.readouterr().out.strip() == f"dloplan {dloplan.__version__}"
+    assert version("dloplan") == dloplan.__version__
+
+
 EXAMPLES = sorted(p for p in (Path(__file__).parents[1] / "examples").glob("*.yaml")
                   if not p.name.startswith(("identify", "harness_")) or
                   p.name == "harness_phase1_obstacle.yaml") + sorted(

@@ -11,7 +11,10 @@ functions that need them.
 """
 
 from importlib import import_module
-from importlib.metadata import PackageNotFoundError, version
+
+__version__ = "0.1.0"
+"""The package's version: the one place it is written (pyproject.toml reads it), so the
+command line needs no package metadata lookup at its start."""
 
 _EXPORTS = {
     "cable": ("CATALOGUE_NAMES", "GRAVITY", "Cable", "catalogue_cable"),
@@ -80,7 +83,3 @@ __all__ = [
     "twist_along_path",
     "verify_path",
 ]
-try:
-    __version__ = version("dloplan")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree without install
-    __version__ = "unknown"

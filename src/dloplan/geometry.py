@@ -10,7 +10,7 @@ import numpy as np
 
 
 def as_shape(points, n_points: int | None = None, name: str = "shape") -> np.ndarray:
-    """Validate and convert points to a float64 array of shape (n_points, 3).
+    """Validate and convert points to a C-contiguous float64 array (n_points, 3).
 
     Parameters
     ----------
@@ -28,7 +28,7 @@ def as_shape(points, n_points: int | None = None, name: str = "shape") -> np.nda
         non-finite coordinates.
     """
     try:
-        arr = np.asarray(points, dtype=float)
+        arr = np.ascontiguousarray(points, dtype=float)
     except (TypeError, ValueError) as exc:
         kind = type(points).__name__
         raise ValueError(f"{name}: expected an array of points, got {kind}") from exc

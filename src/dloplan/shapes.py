@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation
 
 from .geometry import as_shape, resample_by_arc_length, shape_length
@@ -75,6 +74,8 @@ def sine_shape(length: float, n_links: int, amplitude: float, periods: float = 1
                 f"amplitude: {amplitude} m with {periods} periods needs more than {length} m "
                 "of cable"
             )
+        from scipy.optimize import brentq  # here: scipy.optimize costs the CLI 0.13 s to import
+
         extent = brentq(lambda e: chords(e)[1], low, length, xtol=1e-12)
     points, miss = chords(extent)
     if abs(miss) > 1e-6 * length:

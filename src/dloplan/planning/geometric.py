@@ -55,7 +55,6 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 from scipy.linalg import solve_banded
-from scipy.optimize import minimize
 from scipy.sparse.linalg import splu
 
 from ..geometry import bending_angles, link_lengths
@@ -528,6 +527,8 @@ def advanced_path(basic: np.ndarray, length: float, weights: AdvancedWeights | N
         y, cost, ok, message, iterations = _damped_newton(problem, y0, gtol, max_iterations,
                                                           linear_solver, coords)
     elif method == "L-BFGS-B":
+        from scipy.optimize import minimize  # here: scipy.optimize costs the CLI 0.13 s to import
+
         def fun(flat):
             value, grad = advanced_cost(problem, flat.reshape(y0.shape))
             return value, grad.ravel()
