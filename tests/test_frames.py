@@ -1,12 +1,13 @@
-"""frame_from_axis, compiled: the same frames as the numpy/scipy construction it replaced."""
+"""frame_from_axis, compiled: the same frames as the numpy/scipy construction it replaced;
+slerp_quaternions: the same rotations as scipy's Slerp."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
+from scipy.spatial.transform import Rotation, Slerp
 
-from dloplan.frames import UP, frame_from_axis
+from dloplan.frames import UP, frame_from_axis, slerp_quaternions
 
 
 def numpy_frames(u, up=UP) -> Rotation:
@@ -48,3 +49,21 @@ def test_frames_keep_the_shape_of_the_axes():
     mixed_up = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])  # one up per axis
     assert np.abs(frame_from_axis(AXES[:2], mixed_up).as_quat()
                   - numpy_frames(AXES[:2], mixed_up).as_quat()).max() < 1e-14
+
+
+def test_slerp_is_scipys_slerp():
+    """Random keys (large steps, signs of the quaternions flipped at random: q and -q are one
+    rotation), nearly equal and equal neighbouring keys, the key times themselves and both
+    ends: the rotations agree with scipy's Slerp to 1e-14 (round-off of unit quaternions)."""
+    rng = np.random.default_rng(11)
+    keys = Rotation.random(40, random_state=5).as_quat()
+    keys *= rng.choice([-1.0, 1.0], size=(40, 1))
+    keys[10] = keys[9]  # equal keys
+    keys[20] = (Rotation.from_quat(keys[19]) * Rotation.from_rotvec([1e-9, 0.0, 0.0])).as_quat()
+    times = np.cumsum(rng.uniform(0.01, 0.5, size=40))
+    t = np.concatenate([np.sort(rng.uniform(times[0], times[-1], size=2000)), times])
+    mine = Rotation.from_quat(slerp_quaternions(times, keys, t))
+    reference = Slerp(times, Rotation.from_quat(keys))(t)
+    assert (mine * reference.inv()).magnitude().max() < 1e-14
+    assert np.allclose(np.linalg.norm(slerp_quaternions(times, keys, t), axis=1), 1.0,
+                       atol=1e-15)

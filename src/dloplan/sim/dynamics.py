@@ -23,9 +23,10 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
+from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
+from ..frames import slerp_quaternions
 from ..geometry import as_shape
 from ..physics.chain import SpringChain, energy, gradient, hessian_band
 from ..physics.twist_compiled import scratch
@@ -123,24 +124,21 @@ class ClipTrajectory:
             pos = np.broadcast_to(self.poses[0].positions, (len(t), 2, 3))
             mats = np.broadcast_to(self.poses[0].rotations.as_matrix(), (len(t), 2, 3, 3))
             return pos, mats
-        positions, slerps = self._interpolants
-        pos = np.stack(
-            [np.stack([np.interp(t, self.times, positions[:, k, j]) for j in range(3)], -1)
-             for k in range(2)],
-            axis=1,
-        )
-        mats = np.stack([slerp(t).as_matrix() for slerp in slerps], axis=1)
+        positions, quats = self._keys
+        k = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.times) - 2)
+        f = ((t - self.times[k]) / (self.times[k + 1] - self.times[k]))[:, None, None]
+        pos = (1.0 - f) * positions[k] + f * positions[k + 1]
+        mats = np.stack([Rotation.from_quat(slerp_quaternions(self.times, quats[:, c], t))
+                         .as_matrix() for c in (0, 1)], axis=1)
         return pos, mats
 
     @cached_property
-    def _interpolants(self):
-        """The poses' positions (K, 2, 3) [m] and one slerp per clip, built once."""
+    def _keys(self):
+        """The poses' positions (K, 2, 3) [m] and unit quaternions (K, 2, 4), gathered once."""
         if isinstance(self.poses, SampledPoses):
-            positions, quats = self.poses.positions, self.poses.quaternions
-        else:
-            positions = np.stack([p.positions for p in self.poses])
-            quats = np.stack([p.rotations.as_quat() for p in self.poses])  # (K, 2, 4)
-        return positions, [Slerp(self.times, Rotation.from_quat(quats[:, k])) for k in range(2)]
+            return self.poses.positions, self.poses.quaternions
+        return (np.stack([p.positions for p in self.poses]),
+                np.stack([p.rotations.as_quat() for p in self.poses]))
 
     def held_points(self, t: np.ndarray, link_length: float) -> np.ndarray:
         """Positions of the four held points at times ``t`` [s], (len(t), 4, 3) [m]."""
