@@ -1,4 +1,10 @@
-"""Verification timings: the eigen-solve against n, and a small path split by check.
+"""Verification timings: the eigen-solve against n, a small path split by check, and the
+embedded demo's plan split by check (issue 20's target: the demo's replay <= 0.2 s).
+
+The demo's plan is made once (``run_job``, no verification), then verified five times in this
+process (numba's kernels loaded by the first); the best time per check is printed.
+Before (main 11d9c62, 2026-11-30, quiet): demo replay 0.25-0.26 s, of which 0.14 s composing
+scipy ``Rotation`` objects for the clips' slerp; with ``frames.slerp_quaternions`` 0.18 s.
 
 Run: PYTHONPATH=src python benchmarks/bench_verify.py
 """
@@ -63,6 +69,34 @@ def path_timing() -> None:
     print(result.table())
 
 
+DEMO_BEFORE_S = {"replay": 0.25}  # main 11d9c62, quiet (docstring)
+DEMO_TARGET_S = {"replay": 0.2}
+
+
+def demo_timing(repeats: int = 5) -> None:
+    from importlib import resources
+
+    from dloplan.app.load import resolve_mapping
+    from dloplan.app.pipeline import run_job, verify_plan
+    from dloplan.io.scenario import read_mapping
+
+    with resources.as_file(resources.files("dloplan.data").joinpath("demo.yaml")) as path:
+        job = resolve_mapping(read_mapping(path), "demo (embedded)")
+    doc = run_job(job, check_robot=False)
+    best: dict[str, float] = {}
+    for _ in range(repeats):
+        for check, seconds in verify_plan(doc, robot=False).timings.items():
+            best[check] = min(seconds, best.get(check, math.inf))
+    print(f"\nthe demo's plan ({len(doc.shapes)} shapes, n = {doc.cable.n_links}), best of "
+          f"{repeats} per check:")
+    for check, seconds in best.items():
+        versus = "" if check not in DEMO_BEFORE_S else \
+            f"  (before {DEMO_BEFORE_S[check]:.2f} s: {DEMO_BEFORE_S[check] / seconds:.2f}x; " \
+            f"target {DEMO_TARGET_S[check]:.1f} s)"
+        print(f"  {check:<10} {seconds:8.3f} s{versus}")
+
+
 if __name__ == "__main__":
     eigen_scaling()
     path_timing()
+    demo_timing()
