@@ -137,6 +137,39 @@ def test_ctrl_c_exits_130_and_leaves_the_folder_as_it_was(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".out")) == []
 
 
+@pytest.mark.parametrize("when", ["while the figure server warms up", "while figures are drawn"])
+def test_ctrl_c_in_a_terminal_stops_every_process_quietly(tmp_path, when):
+    """A terminal's Ctrl-C goes to the whole process group: the command, the figure workers'
+    server (busy importing matplotlib early on) and the workers (drawing later). The command
+    ends with 130 and writes nothing; no process prints a traceback or outlives it."""
+    out = tmp_path / "out"
+    process = _dloplan("demo", "-o", str(out), start_new_session=True)
+    if when == "while the figure server warms up":
+        time.sleep(0.4)
+        first = ""
+    else:
+        first = ""
+        while "cycle" not in first:  # the plan is made: its figures are being drawn
+            line = process.stderr.readline()
+            assert line, "the demo ended before its figures were drawn"
+            first += line
+    os.killpg(process.pid, signal.SIGINT)
+    _, stderr = process.communicate(timeout=120)
+    stderr = first + stderr  # everything the group wrote: the pipe closes when all have gone
+    assert process.returncode == EXIT_INTERRUPTED, stderr
+    assert "Traceback" not in stderr and "KeyboardInterrupt" not in stderr, stderr
+    assert not out.exists()
+    deadline = time.monotonic() + 10.0
+    while time.monotonic() < deadline:
+        try:
+            os.killpg(process.pid, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.1)
+    else:
+        pytest.fail("a process of the command outlived it")
+
+
 def test_two_runs_on_one_folder_leave_one_complete_output(tmp_path):
     out = tmp_path / "out"
     jobs = [write(tmp_path, SMALL, "a.yaml"),

@@ -19,7 +19,7 @@ from .cable import CATALOGUE_NAMES, catalogue_cable
 from .exit_codes import EXIT_CHECK_FAILED, EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, EXIT_WARNINGS
 from .interrupts import catching_interrupts, raise_if_interrupted
 
-FIGURE_WORKERS = 1
+FIGURE_WORKERS = 2
 """Processes drawing a plan's figures while it is verified (:mod:`dloplan.app.figure_workers`)."""
 
 
@@ -309,11 +309,14 @@ def _plan_one(job, output: Path, args, console: Console) -> int:
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
-    from .app import load_job
+    from .plots.worker import start_server
 
     console = Console(args.quiet)
     if len(args.scenarios) > 1 or args.workers > 1 or args.scheduler:
         return _plan_batch(args, console)
+    start_server()  # the figure workers' server warms up while the planner is imported
+    from .app import load_job
+
     job = load_job(args.scenarios[0], console.stage)
     console.stage(f"loaded {job.source}: {job.cable.name or 'cable'}, E "
                   f"{job.cable.youngs_modulus:.3g} Pa, n = {job.cable.n_links}")
@@ -343,6 +346,9 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
 def _cmd_demo(args: argparse.Namespace) -> int:
     from importlib import resources
 
+    from .plots.worker import start_server
+
+    start_server()  # the figure workers' server warms up while the planner is imported
     from .app.load import resolve_mapping
     from .io.scenario import read_mapping
 

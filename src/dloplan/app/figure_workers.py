@@ -3,8 +3,11 @@
 matplotlib is the slowest part of writing a plan (five figures, PNG and SVG, about 3 s of CPU;
 its import alone about 0.7 s). :class:`FigureWorkers` takes that off the run's critical path:
 
-- the workers start with the run (forked where the platform can fork) and import matplotlib and
-  lay out a first figure while the plan is being made;
+- on POSIX the workers are forked from a server process (multiprocessing's ``forkserver``),
+  started with the command (:func:`dloplan.plots.worker.start_server`), that imported
+  matplotlib and drew a first figure once while the plan was being made
+  (:mod:`dloplan.plots.warm`): each worker starts warm when the first figure is sent, two cost
+  one matplotlib import, and none imports dloplan's solvers (a drawing holds plain arrays);
 - :meth:`FigureWorkers.draft` draws a plan's figures as soon as it is planned, while its robot
   program is made and it is verified (``run_job``'s ``planned`` hook);
 - :meth:`FigureWorkers.render` is the ``figures`` writer: the final document's figures are the
@@ -22,40 +25,17 @@ import hashlib
 import multiprocessing
 import pickle
 import shutil
-import signal
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from pathlib import Path
 
+from ..plots import worker
 from .document import PlanDocument
 from .report import figure_drawings
 
 DRAFTS = ".figures"
 """The folder (inside the staging folder) the workers draw into; removed when done."""
-
-
-def _start_worker() -> None:
-    """A worker's start: Ctrl-C is the parent's to handle; matplotlib (with its 3D axes) is
-    imported now, while the plan is still being made, and a tiny figure with a 3D axes and
-    mathtext is drawn as PNG and SVG (thrown away), so the fonts, the mathtext parser and both
-    backends are loaded before the first figure of the plan arrives."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    import io
-
-    from ..plots.figures import pyplot
-
-    plt = pyplot()
-    figure = plt.figure(figsize=(1, 1))
-    axes = figure.add_subplot(projection="3d")
-    axes.set_title("[N$^2$]")
-    for suffix in ("png", "svg"):
-        figure.savefig(io.BytesIO(), format=suffix)
-    plt.close(figure)
-
-
-def _draw(drawing, folder: Path) -> list[Path]:
-    return drawing.save(folder)
 
 
 def _key(drawing) -> str:
@@ -72,33 +52,33 @@ class FigureWorkers:
         The run's staging folder; drafts are drawn into ``staging/.figures/`` and moved into the
         ``figures/`` folder by :meth:`render`.
     workers : int
-        Number of processes (2: the five figures of a plan take about as long as its
-        verification on one core).
+        Number of processes (the command line's 2: on 2 cores the five figures of a plan, about
+        2 s of CPU, are drawn beside its robot program and verification, about 1.2 s).
     """
 
     def __init__(self, staging: Path, workers: int = 2) -> None:
         if workers < 1:
             raise ValueError(f"workers: expected at least 1 process, got {workers}")
-        methods = multiprocessing.get_all_start_methods()
-        context = multiprocessing.get_context("fork" if "fork" in methods else None)
-        self._pool = ProcessPoolExecutor(workers, mp_context=context,
-                                         initializer=_start_worker)
+        worker.start_server()  # at once if the command has not started it yet
+        self._pool = ProcessPoolExecutor(workers, mp_context=worker.context(),
+                                         initializer=worker.start)
         self._scratch = Path(staging) / DRAFTS
         self._drafts: dict[str, Future] = {}
-        for _ in range(workers):  # start them now: they warm up while the plan is made
-            self._pool.submit(int)
 
     def _submit(self, drawing) -> Future:
         key = _key(drawing)
         if key not in self._drafts:
-            self._drafts[key] = self._pool.submit(_draw, drawing, self._scratch / key)
+            self._drafts[key] = self._pool.submit(worker.draw, drawing, self._scratch / key)
         return self._drafts[key]
 
     def draft(self, doc: PlanDocument) -> None:
         """Start drawing the figures of ``doc`` (a planned document, before its robot program
         and its verification)."""
-        for drawing in figure_drawings(doc):
-            self._submit(drawing)
+        try:
+            for drawing in figure_drawings(doc):
+                self._submit(drawing)
+        except BrokenProcessPool:  # a worker died: render() draws the figures here
+            pass
 
     def render(self, doc: PlanDocument, folder: Path) -> list[Path]:
         """The ``figures`` writer: PNG and SVG of every figure of ``doc`` in ``folder``, drafts

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..obstacles.shapes import Table
 from .document import PlanDocument
 
 VERIFY_TITLES = {
@@ -52,10 +53,12 @@ def figure_drawings(doc: PlanDocument) -> list:
 
     positions = None if doc.grippers is None else doc.grippers.positions
     matrices = None if doc.grippers is None else doc.grippers.matrices
-    figures = [(path_figure, (doc.shapes, positions, matrices, doc.obstacles), {})]
+    edges = [edge for obstacle in doc.obstacles for edge in obstacle.edges()]
+    figures = [(path_figure, (doc.shapes, positions, matrices, edges), {})]
     if doc.stabilized is not None:
         colliding = [] if doc.avoidance is None else doc.avoidance.colliding_after
-        figures.append((stabilized_figure, (doc.shapes, doc.stabilized, doc.obstacles,
+        tables = [o.height for o in doc.obstacles if isinstance(o, Table)]
+        figures.append((stabilized_figure, (doc.shapes, doc.stabilized, edges, tables,
                                             colliding), {}))
     for phase, stats in doc.forces.items():
         title = "Forces per mass point" + ("" if phase == "physical" else f", {phase}")

@@ -8,7 +8,8 @@ inflated by the cable's radius), vectorized over all links of a shape or a batch
 * ``lift_depth(a, b, radius)``: how far the capsule must be raised along +z to clear the volume
   [m] (the thesis' z_depth, Fig. 5.14, measured on segments rather than on mass points).
 
-A new convex shape is a new class with these two methods (and ``name``); nothing else changes.
+A new convex shape is a new class with these two methods (and ``name``), and ``edges()``, its
+outline as polylines for the figures; nothing else changes.
 """
 
 from __future__ import annotations
@@ -126,6 +127,27 @@ class Box:
         """Height of the top face [m]."""
         return self.center[2] + self.size[2] / 2
 
+    def edges(self) -> list[np.ndarray]:
+        """The box's outline for drawing: its top and bottom rings (5, 3) and four vertical
+        edges (2, 3) [m]."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        h = np.asarray(self.size) / 2
+        corners = {}
+        for i in (-1, 1):
+            for j in (-1, 1):
+                for k in (-1, 1):
+                    lx, ly = i * h[0], j * h[1]
+                    corners[i, j, k] = np.asarray(self.center) + [c * lx - s * ly,
+                                                                  s * lx + c * ly, k * h[2]]
+        edges = []
+        for k in (-1, 1):
+            ring = [corners[-1, -1, k], corners[1, -1, k], corners[1, 1, k], corners[-1, 1, k],
+                    corners[-1, -1, k]]
+            edges.append(np.array(ring))
+        for i, j in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+            edges.append(np.array([corners[i, j, -1], corners[i, j, 1]]))
+        return edges
+
     def _local(self, p: np.ndarray) -> np.ndarray:
         c, s = math.cos(self.yaw), math.sin(self.yaw)
         q = p - np.asarray(self.center)
@@ -210,6 +232,16 @@ class Cylinder:
         """Height of the top face [m]."""
         return self.base[2] + self.height
 
+    def edges(self) -> list[np.ndarray]:
+        """The cylinder's outline for drawing: bottom and top circles (33, 3) and four
+        vertical lines (2, 3) [m]."""
+        a = np.linspace(0, 2 * np.pi, 33)
+        base = np.asarray(self.base)
+        ring = np.stack([base[0] + self.radius * np.cos(a), base[1] + self.radius * np.sin(a),
+                         np.full_like(a, base[2])], 1)
+        top = ring + [0, 0, self.height]
+        return [ring, top] + [np.array([ring[k], top[k]]) for k in (0, 8, 16, 24)]
+
     def distance(self, points: np.ndarray) -> np.ndarray:
         """Distance from points to the solid cylinder [m], 0 inside, (...,)."""
         q = points - np.asarray(self.base)
@@ -253,6 +285,10 @@ class Table:
     def __post_init__(self) -> None:
         if not math.isfinite(self.height):
             raise ValueError(f"{self.name}.height: got {self.height!r}, expected a finite z [m]")
+
+    def edges(self) -> list[np.ndarray]:
+        """None to draw: an unbounded plane (the figures draw its height as a line)."""
+        return []
 
     def signed_distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Height above the plane [m] and its normal (+z), (...,), (..., 3)."""

@@ -16,8 +16,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..obstacles.shapes import Box, Cylinder, Table
-
 AXIS_COLOURS = ("#d32f2f", "#388e3c", "#1976d2")  # u, v, w
 
 
@@ -59,7 +57,7 @@ def save_figure(figure, folder: str | Path, name: str, tight: bool = True) -> li
 @dataclass(frozen=True)
 class Drawing:
     """One figure to draw and save: its file stem, a figure function of this module and its
-    arguments (plain arrays and obstacles: picklable, so it can be drawn on another process).
+    arguments (plain arrays: picklable, and drawn on another process without dloplan's solvers).
     The figure is saved whole: the figure functions of a plan lay themselves out with fixed
     margins (no tight bounding box to find).
     """
@@ -73,45 +71,6 @@ class Drawing:
         """Draw the figure and write ``name.png`` and ``name.svg`` into ``folder``."""
         return save_figure(self.draw(*self.arguments, **self.options), folder, self.name,
                            tight=False)
-
-
-def _box_edges(box: Box) -> list[np.ndarray]:
-    c, s = np.cos(box.yaw), np.sin(box.yaw)
-    h = np.asarray(box.size) / 2
-    corners = {}
-    for i in (-1, 1):
-        for j in (-1, 1):
-            for k in (-1, 1):
-                lx, ly = i * h[0], j * h[1]
-                corners[i, j, k] = np.asarray(box.center) + [c * lx - s * ly, s * lx + c * ly,
-                                                              k * h[2]]
-    edges = []
-    for k in (-1, 1):
-        ring = [corners[-1, -1, k], corners[1, -1, k], corners[1, 1, k], corners[-1, 1, k],
-                corners[-1, -1, k]]
-        edges.append(np.array(ring))
-    for i, j in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
-        edges.append(np.array([corners[i, j, -1], corners[i, j, 1]]))
-    return edges
-
-
-def _cylinder_edges(cyl: Cylinder) -> list[np.ndarray]:
-    a = np.linspace(0, 2 * np.pi, 33)
-    base = np.asarray(cyl.base)
-    ring = np.stack([base[0] + cyl.radius * np.cos(a), base[1] + cyl.radius * np.sin(a),
-                     np.full_like(a, base[2])], 1)
-    top = ring + [0, 0, cyl.height]
-    return [ring, top] + [np.array([ring[k], top[k]]) for k in (0, 8, 16, 24)]
-
-
-def _obstacle_edges(obstacles) -> list[np.ndarray]:
-    edges: list[np.ndarray] = []
-    for obstacle in obstacles:
-        if isinstance(obstacle, Box):
-            edges += _box_edges(obstacle)
-        elif isinstance(obstacle, Cylinder):
-            edges += _cylinder_edges(obstacle)
-    return edges
 
 
 def _equal_3d(ax, points: np.ndarray) -> None:
@@ -145,10 +104,14 @@ def path_figure(
     shapes: np.ndarray,
     clip_positions: np.ndarray | None = None,
     clip_rotations: np.ndarray | None = None,
-    obstacles: Sequence = (),
+    obstacle_edges: Sequence[np.ndarray] = (),
     title: str = "Planned shapes and gripper frames",
 ):
-    """Planned shapes with both gripper frames as u/v/w triads: 3D, top and side views."""
+    """Planned shapes with both gripper frames as u/v/w triads: 3D, top and side views.
+
+    ``obstacle_edges``: the obstacles' outlines, polylines (m, 3) [m] (``edges()`` of
+    :mod:`dloplan.obstacles.shapes`: plain arrays, so a figure worker needs no obstacle code).
+    """
     plt = pyplot()
     shapes = np.asarray(shapes)
     points = shapes.reshape(-1, 3)
@@ -181,10 +144,9 @@ def path_figure(
             segments = np.stack([bases, tips], axis=1)
             _lines(ax3, segments, colour, 1.2)
             _lines(top, segments[:, :, :2], colour, 1.0)
-    edges = _obstacle_edges(obstacles)
-    if edges:
+    if len(obstacle_edges):
         for ax, columns in views:
-            _lines(ax, [edge[:, columns] for edge in edges], "#8d6e63", 1.0)
+            _lines(ax, [edge[:, columns] for edge in obstacle_edges], "#8d6e63", 1.0)
     ax3.set_xlabel("x [m]")
     ax3.set_ylabel("y [m]")
     ax3.set_zlabel("z [m]")
@@ -205,9 +167,13 @@ def path_figure(
     return fig
 
 
-def stabilized_figure(shapes, stabilized, obstacles: Sequence = (), colliding=(),
+def stabilized_figure(shapes, stabilized, obstacle_edges: Sequence[np.ndarray] = (),
+                      table_heights: Sequence[float] = (), colliding=(),
                       title: str = "Planned and stabilized shapes"):
-    """Planned (solid) and gravity-stabilized (dashed) shapes with the obstacles, side view."""
+    """Planned (solid) and gravity-stabilized (dashed) shapes with the obstacles, side view.
+
+    ``obstacle_edges`` as in :func:`path_figure`; ``table_heights`` [m] drawn as lines.
+    """
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 5))
     colours = plt.cm.viridis(np.linspace(0, 1, len(shapes)))
@@ -217,11 +183,10 @@ def stabilized_figure(shapes, stabilized, obstacles: Sequence = (), colliding=()
         ax.plot(shape[:, h], shape[:, 2], color=colours[k], lw=1.2)
         style = dict(color="#b71c1c", lw=2) if k in set(colliding) else dict(color=colours[k])
         ax.plot(settled[:, h], settled[:, 2], ls="--", **style)
-    for edge in _obstacle_edges(obstacles):
+    for edge in obstacle_edges:
         ax.plot(edge[:, h], edge[:, 2], color="#8d6e63", lw=1)
-    for obstacle in obstacles:
-        if isinstance(obstacle, Table):
-            ax.axhline(obstacle.height, color="#8d6e63", lw=1)
+    for height in table_heights:
+        ax.axhline(height, color="#8d6e63", lw=1)
     ax.plot([], [], color="grey", label="planned")
     ax.plot([], [], color="grey", ls="--", label="stabilized")
     if colliding:
