@@ -102,3 +102,55 @@ def test_plan_into_writes_the_same_files_with_and_without_workers(job, tmp_path)
 def test_workers_are_counted(tmp_path):
     with pytest.raises(ValueError, match="workers: expected at least 1 process, got 0"):
         FigureWorkers(tmp_path, 0)
+
+
+DRAW_ELSEWHERE = """
+import pickle, sys
+from pathlib import Path
+from dloplan.plots import worker
+drawings, folder = pickle.load(sys.stdin.buffer)
+for drawing in drawings:
+    worker.draw(drawing, Path(folder))
+heavy = ("numba", "scipy", "dloplan.obstacles", "dloplan.sim")
+print(" ".join(m for m in heavy if m in sys.modules))
+"""
+
+
+def test_a_worker_draws_without_the_solvers(doc, tmp_path):
+    """A plan's drawings (here with a yawed box, a peg and the table) hold plain arrays: a fresh
+    interpreter that imports only the worker's module draws them without importing numba, scipy
+    or the obstacles, and draws the same PNGs as this process."""
+    import subprocess
+    import sys
+
+    from dloplan.app.report import figure_drawings
+    from dloplan.obstacles import Box, Cylinder, Table
+
+    obstacles = (Box((0.4, 0.05, 0.03), (0.05, 0.08, 0.06), yaw=0.4),
+                 Cylinder((0.3, -0.1, 0.0), 0.01, 0.08), Table(0.0))
+    with_obstacles = replace(doc, obstacles=obstacles)
+    here = _pngs(write_figures(with_obstacles, tmp_path / "here"))
+    done = subprocess.run([sys.executable, "-c", DRAW_ELSEWHERE], check=True, capture_output=True,
+                          input=pickle.dumps((figure_drawings(with_obstacles),
+                                              str(tmp_path / "there"))))
+    assert done.stdout.decode().strip() == ""
+    assert _pngs((tmp_path / "there").iterdir()) == here
+
+
+def test_obstacle_edges_lie_on_their_surfaces():
+    """The outlines drawn are the obstacles' own: every edge point of a (yawed) box and a peg is
+    on its surface (distance 0, and the box's 8 corners span its size), the table has none."""
+    from dloplan.obstacles import Box, Cylinder, Table
+
+    box = Box((0.4, 0.05, 0.03), (0.05, 0.08, 0.06), yaw=0.4)
+    peg = Cylinder((0.3, -0.1, 0.0), 0.01, 0.08)
+    for obstacle in (box, peg):
+        points = np.concatenate(obstacle.edges())
+        assert np.abs(obstacle.distance(points)).max() < 1e-12
+        assert np.abs(obstacle.signed_distance(points)[0]).max() < 1e-12
+    corners = np.unique(np.round(np.concatenate(box.edges()), 12), axis=0)
+    assert len(corners) == 8
+    local = (corners - box.center)[:, :2] @ np.array([[np.cos(0.4), -np.sin(0.4)],
+                                                      [np.sin(0.4), np.cos(0.4)]])
+    assert np.allclose(np.ptp(local, axis=0), box.size[:2])
+    assert Table(0.0).edges() == []
