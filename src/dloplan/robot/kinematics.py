@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from . import ik_compiled
 from .yumi import Arm
 
 LENGTH_SCALE = 0.1
@@ -457,6 +458,25 @@ def wrist_flip(arm: Arm, q) -> np.ndarray:
 def _solve(arm: Arm, position, target_rot, seed, opts: IKOptions,
            arm_angle: float | None = None):
     """Damped least squares from one seed: (q, position error, angle error, iterations, ok).
+
+    :func:`solve_reference`'s iteration compiled (:func:`dloplan.robot.ik_compiled.solve`).
+    """
+    polish = opts.polish if opts.min_margin > 0 and arm_angle is None else 0
+    q, perr, aerr, it, ok = ik_compiled.solve(
+        arm._origin_rot, arm._origin_xyz, arm._axis_skew, arm._axis_skew2, arm._tcp_rot,
+        np.asarray(arm.gripper.tcp_offset, dtype=float), arm.axes, arm.lower, arm.upper,
+        np.asarray(position, dtype=float), np.ascontiguousarray(target_rot, dtype=float),
+        np.asarray(seed, dtype=float), -1 if arm_angle is None else ARM_ANGLE_JOINT,
+        0.0 if arm_angle is None else float(arm_angle), opts.max_iterations,
+        opts.position_tolerance, opts.angle_tolerance, opts.damping, opts.max_step,
+        opts.null_gain, opts.min_margin, polish, LENGTH_SCALE, NULL_FADE)
+    return q, float(perr), float(aerr), int(it), bool(ok)
+
+
+def solve_reference(arm: Arm, position, target_rot, seed, opts: IKOptions,
+                    arm_angle: float | None = None):
+    """Damped least squares from one seed in numpy: (q, position error, angle error,
+    iterations, ok); the readable reference of the compiled solve the IK uses.
 
     Once converged closer than ``min_margin`` to a limit, up to ``polish`` null-space steps
     (each followed by re-convergence) move the redundant elbow away; the last converged q is
