@@ -13,13 +13,13 @@ IK seeded 0.1 rad away 1.8-2.5 ms CPU per pose (12-18 ms wall), from home 30-36 
 8.1 s wall (the IK's per-iteration scipy Rotation and pinv, now a closed-form log map, Rodrigues
 joint rotations and a 6x6 solve); no robot program existed.
 
-With the IK's solve compiled (robot/ik_compiled.py; 2026-11-30 late evening, load 2.4, one
-helper running), per pose after the first call: seeded 0.34 ms (was 1.8-2.5 ms CPU, about 6x),
-from home without restarts 2.2-3.1 ms (was 30-36 ms CPU, about 12x); the 50-pose path 0.078 s
-(was 4.6 s wall at load 10); the placement search 0.11 s; the robot programs 0.38 s and 0.85 s
-(their IK is the vectorized ``solve_many``, unchanged). The repair of the q1 example
-(qualitative1_curved_pa12.yaml, a placement search over 61 candidate placements) 167 s -> 21 s,
-with the same repair chosen.
+With the IK's solve compiled (robot/ik_compiled.py; 2026-12-01 00:20 UTC, load 2.4, one helper
+running), per pose after the first call: seeded 0.16 ms (was 1.8-2.5 ms CPU, about 13x), from
+home without restarts 0.6-0.7 ms (was 30-36 ms CPU, about 50x); the 50-pose path 0.032 s (was
+4.6 s wall at load 10); the placement search 0.045 s; the robot programs 0.39 s and 0.93 s
+(their IK is the vectorized ``solve_many``, unchanged). ``dloplan plan`` of the q1 example
+(qualitative1_curved_pa12.yaml: its repair searches 61 placements) 173 s -> 17.6 s (repair
+167 s -> 11.7 s), with the same repair chosen.
 """
 
 from __future__ import annotations

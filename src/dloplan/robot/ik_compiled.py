@@ -29,19 +29,31 @@ def chain_frames(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_off
     """
     r = np.eye(3)
     p = np.zeros(3)
-    turn = np.empty((3, 3))
-    for i in range(7):
+    joint = np.empty((3, 3))
+    nxt = np.empty((3, 3))
+    for i in range(7):  # 3x3 products as loops: a BLAS call per product costs more than it
         s, c = math.sin(q[i]), math.cos(q[i])
         for a in range(3):
             for b in range(3):
-                turn[a, b] = (1.0 if a == b else 0.0) + s * axis_skew[i, a, b] + \
-                    (1.0 - c) * axis_skew2[i, a, b]
-        p = p + r @ origin_xyz[i]
-        r = r @ (origin_rot[i] @ turn)
+                t = 0.0
+                for m in range(3):  # origin rotation times the joint's turn
+                    t += origin_rot[i, a, m] * ((1.0 if m == b else 0.0) + s * axis_skew[i, m, b]
+                                                + (1.0 - c) * axis_skew2[i, m, b])
+                joint[a, b] = t
+        for a in range(3):
+            p[a] += r[a, 0] * origin_xyz[i, 0] + r[a, 1] * origin_xyz[i, 1] + \
+                r[a, 2] * origin_xyz[i, 2]
+            for b in range(3):
+                nxt[a, b] = r[a, 0] * joint[0, b] + r[a, 1] * joint[1, b] + r[a, 2] * joint[2, b]
+        r[:] = nxt
         rots[i] = r
         points[i] = p
-    rots[7] = r @ tcp_rot
-    points[7] = p + r @ tcp_offset
+    for a in range(3):
+        points[7, a] = p[a] + r[a, 0] * tcp_offset[0] + r[a, 1] * tcp_offset[1] + \
+            r[a, 2] * tcp_offset[2]
+        for b in range(3):
+            rots[7, a, b] = r[a, 0] * tcp_rot[0, b] + r[a, 1] * tcp_rot[1, b] + \
+                r[a, 2] * tcp_rot[2, b]
 
 
 @njit(cache=True)
@@ -91,6 +103,7 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
     points = np.empty((8, 3))
     jac = np.empty((6, 7))
     err = np.empty(6)
+    relative = np.empty((3, 3))
     done_q = q.copy()
     done_perr = done_aerr = 0.0
     done_it = -1
@@ -100,7 +113,11 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
         chain_frames(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, q,
                      rots, points)
         dp = position - points[7]
-        dtheta = rotation_log(target_rot @ rots[7].T)
+        for a in range(3):  # target_rot @ rots[7].T
+            for b in range(3):
+                relative[a, b] = target_rot[a, 0] * rots[7, b, 0] + \
+                    target_rot[a, 1] * rots[7, b, 1] + target_rot[a, 2] * rots[7, b, 2]
+        dtheta = rotation_log(relative)
         perr = math.sqrt(dp[0] ** 2 + dp[1] ** 2 + dp[2] ** 2)
         aerr = math.sqrt(dtheta[0] ** 2 + dtheta[1] ** 2 + dtheta[2] ** 2)
         converged = perr <= position_tolerance and aerr <= angle_tolerance
@@ -112,10 +129,13 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
         if it == max_iterations:
             break
         for i in range(7):  # the geometric Jacobian, angular rows scaled, held joint zeroed
-            z = rots[i] @ axes[i]
-            lever = points[7] - points[i]
-            column = (z[1] * lever[2] - z[2] * lever[1], z[2] * lever[0] - z[0] * lever[2],
-                      z[0] * lever[1] - z[1] * lever[0], z[0], z[1], z[2])
+            a0, a1, a2 = axes[i, 0], axes[i, 1], axes[i, 2]
+            z0 = rots[i, 0, 0] * a0 + rots[i, 0, 1] * a1 + rots[i, 0, 2] * a2
+            z1 = rots[i, 1, 0] * a0 + rots[i, 1, 1] * a1 + rots[i, 1, 2] * a2
+            z2 = rots[i, 2, 0] * a0 + rots[i, 2, 1] * a1 + rots[i, 2, 2] * a2
+            l0, l1, l2 = points[7, 0] - points[i, 0], points[7, 1] - points[i, 1], \
+                points[7, 2] - points[i, 2]
+            column = (z1 * l2 - z2 * l1, z2 * l0 - z0 * l2, z0 * l1 - z1 * l0, z0, z1, z2)
             for row in range(6):
                 jac[row, i] = column[row] * scale[row] * free[i]
         for row in range(3):
