@@ -245,3 +245,29 @@ def test_compiled_rotation_log_near_pi_and_zero():
     for axis, angle in zip(axes, angles, strict=True):
         m = Rotation.from_rotvec(angle * axis / np.linalg.norm(axis)).as_matrix()
         assert np.allclose(compiled_log(m), rotation_log(m), atol=1e-12)
+
+
+def test_solve_many_is_one_reference_solve_per_problem():
+    """solve_many (tracking: no null-space motion, no polish) is the reference solve of each
+    problem with ``null_gain = 0``: free and with the arm angle held, converging and failing."""
+    from dloplan.robot.kinematics import IKOptions, solve_many, solve_reference
+
+    arm = yumi().right
+    rng = np.random.default_rng(5)
+    q_true = rng.uniform(arm.lower, arm.upper, (12, 7))
+    positions, rotations = forward(arm, q_true)
+    positions[::4] += [0.5, 0.0, 0.4]  # out of reach
+    targets = rotations.as_matrix()
+    seeds = np.clip(q_true + rng.normal(0.0, 0.3, q_true.shape), arm.lower, arm.upper)
+    options = IKOptions()
+    tracking = IKOptions(null_gain=0.0)
+    for held in (None, q_true[:, 2]):
+        q, ok, perr, aerr = solve_many(arm, positions, targets, seeds, options, held)
+        for k in range(len(q)):
+            ref = solve_reference(arm, positions[k], targets[k], seeds[k], tracking,
+                                  None if held is None else held[k])
+            assert ok[k] == ref[4]
+            assert np.abs(q[k] - ref[0]).max() < (1e-9 if ref[4] else 1e-3)
+            assert perr[k] == pytest.approx(ref[1], rel=1e-3, abs=1e-12)
+            assert aerr[k] == pytest.approx(ref[2], rel=1e-3, abs=1e-12)
+        assert 0 < ok.sum() < len(q)

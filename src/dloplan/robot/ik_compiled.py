@@ -80,6 +80,16 @@ def rotation_log(m):
 
 
 @njit(cache=True)
+def null_projector(jac, eye):
+    """I - J^+ J (7, 7) for J (6, 7), J^+ = J^T (J J^T)^-1 (J has full row rank away from
+    singularities; pinv's truncation where it has not)."""
+    try:
+        return eye - jac.T @ np.linalg.solve(jac @ jac.T, jac)
+    except Exception:  # singular J J^T
+        return eye - np.linalg.pinv(jac, rcond=1e-8) @ jac
+
+
+@njit(cache=True)
 def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
           upper, position, target_rot, seed, held_joint, held_value, max_iterations,
           position_tolerance, angle_tolerance, damping, max_step, null_gain, min_margin, polish,
@@ -143,17 +153,14 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
             err[row + 3] = length_scale * dtheta[row]
         energy = 0.5 * (err @ err)
         grad = (q - mid) / half**2
-        try:
-            null = eye - jac.T @ np.linalg.solve(jac @ jac.T, jac)
-        except Exception:  # singular J J^T: pinv's truncation
-            null = eye - np.linalg.pinv(jac, rcond=1e-8) @ jac
         if converged:  # polish: a pure self-motion step away from the limits
             polish -= 1
-            dq = -null_gain * (null @ grad)
+            dq = -null_gain * (null_projector(jac, eye) @ grad)
         else:
             dq = np.linalg.solve(jac.T @ jac + (energy + damping) * eye, jac.T @ err)
-            fade = min(1.0, math.sqrt(2.0 * energy) / null_fade)
-            dq -= null_gain * fade * (null @ grad)
+            if null_gain != 0.0:
+                fade = min(1.0, math.sqrt(2.0 * energy) / null_fade)
+                dq -= null_gain * fade * (null_projector(jac, eye) @ grad)
         dq *= free
         largest = np.max(np.abs(dq))
         if largest > max_step:
@@ -162,3 +169,23 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
     if done_it >= 0:
         return done_q, done_perr, done_aerr, it, True
     return q, perr, aerr, it, False
+
+
+@njit(cache=True)
+def solve_batch(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
+                upper, positions, target_rots, seeds, held_joint, held_values, max_iterations,
+                position_tolerance, angle_tolerance, damping, max_step, length_scale):
+    """N independent solves (:func:`solve` without null-space motion or polish): joints
+    (N, 7) [rad], converged (N,), position (N,) [m] and angle errors (N,) [rad]."""
+    n = positions.shape[0]
+    q = np.empty((n, 7))
+    success = np.empty(n, np.bool_)
+    perr = np.empty(n)
+    aerr = np.empty(n)
+    for k in range(n):
+        q[k], perr[k], aerr[k], _, success[k] = solve(
+            origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
+            upper, positions[k], target_rots[k], seeds[k], held_joint, held_values[k],
+            max_iterations, position_tolerance, angle_tolerance, damping, max_step, 0.0, 0.0, 0,
+            length_scale, 1.0)
+    return q, success, perr, aerr

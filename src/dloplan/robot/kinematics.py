@@ -323,10 +323,11 @@ def solve_many(arm: Arm, positions, rotation_matrices, seeds, options: IKOptions
     """Many independent damped-least-squares solves at once, each from its own seed.
 
     The step of :func:`inverse` (Levenberg-Marquardt with Sugihara's damping, steps limited to
-    ``max_step``, joints clipped into the limits), vectorized over N problems that stop one by
-    one as they converge; no null-space motion and no fallback seeds. Meant for tracking with
-    the arm angle held (then the task has no redundancy left), e.g. many candidate arm angles
-    or many moves advanced by one sub-step together.
+    ``max_step``, joints clipped into the limits) for N problems, each stopping when it
+    converges (compiled: :func:`dloplan.robot.ik_compiled.solve_batch`); no null-space motion
+    and no fallback seeds. Meant for tracking with the arm angle held (then the task has no
+    redundancy left), e.g. many candidate arm angles or many moves advanced by one sub-step
+    together.
 
     Parameters
     ----------
@@ -350,44 +351,17 @@ def solve_many(arm: Arm, positions, rotation_matrices, seeds, options: IKOptions
     position_error, angle_error : numpy.ndarray
         (N,) remaining TCP errors [m], [rad].
     """
-    positions = np.asarray(positions, dtype=float)
-    rots = np.asarray(rotation_matrices, dtype=float)
-    q = np.clip(np.array(seeds, dtype=float), arm.lower, arm.upper)
-    n = len(q)
-    free = np.ones(7)
-    if arm_angles is not None:
-        q[:, ARM_ANGLE_JOINT] = arm_angles
-        free[ARM_ANGLE_JOINT] = 0.0
-    scale = np.array([1.0, 1.0, 1.0, LENGTH_SCALE, LENGTH_SCALE, LENGTH_SCALE])
-    success = np.zeros(n, dtype=bool)
-    perr = np.full(n, np.inf)
-    aerr = np.full(n, np.inf)
-    active = np.arange(n)
-    eye = np.eye(7)
-    for it in range(options.max_iterations + 1):
-        frames = link_frames(arm, q[active])
-        dp = positions[active] - frames.positions[:, 7]
-        dtheta = rotation_log(rots[active] @ frames.rotations[:, 7].swapaxes(-1, -2))
-        perr[active] = np.linalg.norm(dp, axis=-1)
-        aerr[active] = np.linalg.norm(dtheta, axis=-1)
-        done = (perr[active] <= options.position_tolerance) & (
-            aerr[active] <= options.angle_tolerance)
-        success[active[done]] = True
-        if it == options.max_iterations or done.all():
-            break
-        keep = ~done
-        sub = Frames(frames.rotations[keep], frames.positions[keep])
-        active = active[keep]
-        jac = _jacobian(arm, sub) * scale[:, None] * free
-        err = np.concatenate([dp[keep], LENGTH_SCALE * dtheta[keep]], axis=-1)
-        energy = 0.5 * np.einsum("ni,ni->n", err, err)
-        jt = jac.swapaxes(-1, -2)
-        lhs = jt @ jac + (energy + options.damping)[:, None, None] * eye
-        dq = np.linalg.solve(lhs, (jt @ err[..., None]))[..., 0] * free
-        largest = np.abs(dq).max(axis=-1)
-        dq *= np.minimum(1.0, options.max_step / np.maximum(largest, 1e-300))[:, None]
-        q[active] = np.clip(q[active] + dq, arm.lower, arm.upper)
-    return q, success, perr, aerr
+    positions = np.ascontiguousarray(positions, dtype=float)
+    n = len(positions)
+    held = np.zeros(n) if arm_angles is None else np.broadcast_to(
+        np.asarray(arm_angles, dtype=float), (n,)).copy()
+    return ik_compiled.solve_batch(
+        arm._origin_rot, arm._origin_xyz, arm._axis_skew, arm._axis_skew2, arm._tcp_rot,
+        np.asarray(arm.gripper.tcp_offset, dtype=float), arm.axes, arm.lower, arm.upper,
+        positions, np.ascontiguousarray(rotation_matrices, dtype=float),
+        np.ascontiguousarray(seeds, dtype=float), -1 if arm_angles is None else ARM_ANGLE_JOINT,
+        held, options.max_iterations, options.position_tolerance, options.angle_tolerance,
+        options.damping, options.max_step, LENGTH_SCALE)
 
 
 def _inverse(arm: Arm, position: np.ndarray, target_rot: np.ndarray, seed: np.ndarray,
