@@ -26,6 +26,16 @@ the other agents (the IK numbers of that run were ~3x those above: a loaded mach
   ur5e_pair_usb        program stage 2.1 s (7 targets), read back and re-verified 2.0 s
   panda_pair_ethernet  program stage 5.5 s (8 targets), read back and re-verified 6.5 s
 No cell other than the YuMi existed before (bench_robot.py times the YuMi-specific solver).
+
+With the solve from one seed compiled (robot/ik_compiled.chain_solve; 2026-12-01 00:45 UTC,
+load about 2.5, one helper running), the same iterations and success rates:
+  ur5e_pair   IK from home with restarts 0.33 ms/pose (was 25 ms: 75x); placement 0.09 s (0.50)
+  panda_pair  IK seeded 0.34 ms/pose (6.7 ms: 20x), from home 1.12 ms (42 ms: 37x); placement
+              0.11 s (0.76)
+  yumi        IK seeded 0.21 ms/pose (1.8 ms), from home 1.05 ms (28 ms); 8-pose path 0.02 s
+              (fails as before: continuity at pose 7); placement 0.11 s (1.1)
+  panda_pair_ethernet  program stage 0.15 s (5.5 s), read back and re-verified 0.15 s (6.5 s)
+  ur5e_pair_usb        program stage 0.08 s (2.1 s), read back and re-verified 0.08 s (2.0 s)
 """
 
 from __future__ import annotations

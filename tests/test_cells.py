@@ -156,6 +156,36 @@ def test_ik_of_fk_round_trips_on_every_cell(name):
         assert from_home >= 22, f"{name} {arm.name}: {from_home}/25 from home"
 
 
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_compiled_chain_ik_is_the_numpy_reference(name):
+    """Every cell's compiled solve and its numpy reference iterate alike, from random seeds to
+    reachable poses and to poses out of reach (where the error stalls): the same iterations and
+    verdict; a converged solve's joints to 1e-9 rad, a failed one's errors to 0.1 %."""
+    from dloplan.robot.chain import solve_from, solve_reference
+    from dloplan.robot.ik_compiled import rotation_vector as compiled_vector
+
+    rng = np.random.default_rng(8)
+    options = IKOptions()
+    verdicts = []
+    for arm in cell(name).arms:
+        q = rng.uniform(arm.lower, arm.upper, (10, arm.n_joints))
+        pos, rot = chain_forward(arm, q)
+        pos[::3] += [0.6, 0.0, 0.5]
+        for i in range(len(q)):
+            seed = np.clip(q[i] + rng.normal(0.0, 0.6, arm.n_joints), arm.lower, arm.upper)
+            mine = solve_from(arm, pos[i], rot[i].as_matrix(), seed, options)
+            ref = solve_reference(arm, pos[i], rot[i].as_matrix(), seed, options)
+            assert mine[3:] == ref[3:]
+            tolerance = 1e-9 if ref[4] else 1e-3
+            assert np.abs(mine[0] - ref[0]).max() < tolerance
+            assert mine[1] == pytest.approx(ref[1], rel=1e-3, abs=1e-12)
+            assert mine[2] == pytest.approx(ref[2], rel=1e-3, abs=1e-12)
+            verdicts.append(ref[4])
+    assert any(verdicts) and not all(verdicts)
+    for m in Rotation.random(50, random_state=9).as_matrix():
+        np.testing.assert_allclose(compiled_vector(m), rotation_vector(m), atol=1e-12)
+
+
 def test_ik_out_of_reach_is_reported_not_raised():
     arm = cell("ur5e_pair").left
     result = inverse(arm, arm.shoulder + [2.0, 0.0, 0.0], Rotation.identity())

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from . import ik_compiled
 from .description import ArmDescription
 from .kinematics import LENGTH_SCALE, NULL_FADE, IKOptions, IKResult
 from .yumi import DEFAULT_TCP_IN_CLIP, as_vector
@@ -301,7 +302,7 @@ def inverse(arm: CellArm, position, rotation: Rotation, seed=None,
     solves = []  # (q, position error, angle error, iterations, converged, margin)
     for tried in range(2 + opts.restarts):
         start = (seed, arm.home)[tried] if tried < 2 else rng.uniform(arm.lower, arm.upper)
-        solves.append((*_solve(arm, position, target, start, opts), 0.0))
+        solves.append((*solve_from(arm, position, target, start, opts), 0.0))
         q, ok = solves[-1][0], solves[-1][4]
         if ok:
             solves[-1] = solves[-1][:5] + (float(joint_margin(arm, q)),)
@@ -345,9 +346,24 @@ def rotation_vector(matrix: np.ndarray) -> np.ndarray:
     return (2.0 * np.arctan2(norm, w) / norm) * v
 
 
-def _solve(arm: CellArm, position, target, seed, opts: IKOptions):
-    """Damped least squares from one seed: (q, position error, angle error, iterations, ok);
-    stops when the error stalls (:data:`STALL_WINDOW`, :data:`STALL_RATIO`)."""
+def solve_from(arm: CellArm, position, target, seed, opts: IKOptions):
+    """Damped least squares from one seed, no fallback seeds and no input checks: (q, position
+    error [m], angle error [rad], iterations, ok) for a target position (3,) and
+    ``tcp_to_world`` matrix (3, 3); :func:`solve_reference`'s iteration compiled
+    (:func:`dloplan.robot.ik_compiled.chain_solve`)."""
+    q, perr, aerr, it, ok = ik_compiled.chain_solve(
+        arm._rot, arm._xyz, arm._skew, arm._skew2, arm._tcp_rot, arm._tcp_xyz,
+        arm.description.axes, arm.lower, arm.upper, np.asarray(position, dtype=float),
+        np.ascontiguousarray(target, dtype=float), np.asarray(seed, dtype=float),
+        opts.max_iterations, opts.position_tolerance, opts.angle_tolerance, opts.damping,
+        opts.max_step, opts.null_gain, LENGTH_SCALE, NULL_FADE, STALL_WINDOW, STALL_RATIO)
+    return q, float(perr), float(aerr), int(it), bool(ok)
+
+
+def solve_reference(arm: CellArm, position, target, seed, opts: IKOptions):
+    """Damped least squares from one seed in numpy: (q, position error, angle error,
+    iterations, ok); stops when the error stalls (:data:`STALL_WINDOW`, :data:`STALL_RATIO`).
+    The readable reference of the compiled solve the IK uses."""
     n = arm.n_joints
     q = np.clip(seed, arm.lower, arm.upper)
     eye = np.eye(n)

@@ -1,11 +1,12 @@
-"""The damped-least-squares IK of one 7-joint arm from one seed, compiled (numba).
+"""The damped-least-squares IK solves from one seed, compiled (numba).
 
-The same iteration as :func:`dloplan.robot.kinematics.solve_reference` (Sugihara's
-Levenberg-Marquardt step, null-space motion away from the joint limits, steps limited and
-clipped, the polish of a solution near a limit), in plain loops over 3x3 and 7x7 arrays: the
-numpy version spends about 0.4 ms per iteration in array calls on 3x3 matrices, and the
-placement search of the repair loop runs some 500 000 iterations. The chain is passed as the
-arrays :class:`~dloplan.robot.yumi.Arm` precomputes.
+:func:`solve` is the YuMi's iteration of :func:`dloplan.robot.kinematics.solve_reference`
+(Sugihara's Levenberg-Marquardt step, null-space motion away from the joint limits, steps
+limited and clipped, the polish of a solution near a limit); :func:`chain_solve` that of a
+described cell's arm, :func:`dloplan.robot.chain.solve_reference` (stops when the error
+stalls). Plain loops over 3x3 and n x n arrays: the numpy versions spend about 0.4 ms per
+iteration in array calls on 3x3 matrices, and the placement search of a repair runs some
+500 000 iterations. The chains are passed as the arrays their arms precompute.
 """
 
 from __future__ import annotations
@@ -20,18 +21,20 @@ from ..jit import njit
 @njit(cache=True)
 def chain_frames(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, q, rots,
                  points):
-    """World frames of links 1..7 and the TCP into ``rots`` (8, 3, 3) and ``points`` (8, 3).
+    """World frames of the n links and the TCP into ``rots`` (n + 1, 3, 3) and ``points``
+    (n + 1, 3), for joint values ``q`` (n,) [rad].
 
     ``T_i = T_{i-1} Origin_i Rot(axis_i, q_i)``, Rodrigues' formula for the joint rotation
-    (``I + sin q K + (1 - cos q) K^2``): the origins' rotations (7, 3, 3) and points (7, 3)
-    (joint 1's carrying the world placement), the axes' cross-product matrices and their
-    squares (7, 3, 3), the TCP's rotation (3, 3) and offset (3,) in the flange.
+    (``I + sin q K + (1 - cos q) K^2``): the origins' rotations (n, 3, 3) and points (n, 3)
+    (the first joint's carrying the world placement), the axes' cross-product matrices and
+    their squares (n, 3, 3), the TCP's rotation (3, 3) and offset (3,) in the last link.
     """
     r = np.eye(3)
     p = np.zeros(3)
     joint = np.empty((3, 3))
     nxt = np.empty((3, 3))
-    for i in range(7):  # 3x3 products as loops: a BLAS call per product costs more than it
+    n = q.size
+    for i in range(n):  # 3x3 products as loops: a BLAS call per product costs more than it
         s, c = math.sin(q[i]), math.cos(q[i])
         for a in range(3):
             for b in range(3):
@@ -49,10 +52,10 @@ def chain_frames(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_off
         rots[i] = r
         points[i] = p
     for a in range(3):
-        points[7, a] = p[a] + r[a, 0] * tcp_offset[0] + r[a, 1] * tcp_offset[1] + \
+        points[n, a] = p[a] + r[a, 0] * tcp_offset[0] + r[a, 1] * tcp_offset[1] + \
             r[a, 2] * tcp_offset[2]
         for b in range(3):
-            rots[7, a, b] = r[a, 0] * tcp_rot[0, b] + r[a, 1] * tcp_rot[1, b] + \
+            rots[n, a, b] = r[a, 0] * tcp_rot[0, b] + r[a, 1] * tcp_rot[1, b] + \
                 r[a, 2] * tcp_rot[2, b]
 
 
@@ -189,3 +192,101 @@ def solve_batch(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offs
             max_iterations, position_tolerance, angle_tolerance, damping, max_step, 0.0, 0.0, 0,
             length_scale, 1.0)
     return q, success, perr, aerr
+
+
+@njit(cache=True)
+def rotation_vector(m):
+    """Rotation vector [rad] (3,) of a rotation matrix (3, 3) by Shepperd's quaternion:
+    :func:`dloplan.robot.chain.rotation_vector`."""
+    trace = m[0, 0] + m[1, 1] + m[2, 2]
+    k, big = 0, trace
+    for j in range(3):
+        if m[j, j] > big:
+            k, big = j + 1, m[j, j]
+    v = np.empty(3)
+    if k == 0:
+        w = 0.5 * math.sqrt(1.0 + trace)
+        v[0] = (m[2, 1] - m[1, 2]) / (4.0 * w)
+        v[1] = (m[0, 2] - m[2, 0]) / (4.0 * w)
+        v[2] = (m[1, 0] - m[0, 1]) / (4.0 * w)
+    else:
+        i = k - 1
+        j, l = (i + 1) % 3, (i + 2) % 3
+        v[i] = 0.5 * math.sqrt(max(1.0 + m[i, i] - m[j, j] - m[l, l], 0.0))
+        w = (m[l, j] - m[j, l]) / (4.0 * v[i])
+        v[j] = (m[j, i] + m[i, j]) / (4.0 * v[i])
+        v[l] = (m[l, i] + m[i, l]) / (4.0 * v[i])
+    if w < 0:
+        w = -w
+        v = -v
+    norm = math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2)
+    if norm < 1e-15:
+        return 2.0 * v
+    return (2.0 * math.atan2(norm, w) / norm) * v
+
+
+@njit(cache=True)
+def chain_solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
+                upper, position, target_rot, seed, max_iterations, position_tolerance,
+                angle_tolerance, damping, max_step, null_gain, length_scale, null_fade,
+                stall_window, stall_ratio):
+    """A described arm's damped least squares from one seed: (q (n,), position error [m],
+    angle error [rad], iterations, converged); null-space motion for n > 6; stops when the
+    weighted error has not dropped below ``stall_ratio`` of its value ``stall_window``
+    iterations before."""
+    n = seed.size
+    q = np.minimum(np.maximum(seed, lower), upper)
+    eye = np.eye(n)
+    weight = np.array([1.0, 1.0, 1.0, length_scale, length_scale, length_scale])
+    mid = 0.5 * (lower + upper)
+    half = np.minimum(0.5 * (upper - lower), math.pi)
+    redundant = n > 6 and null_gain > 0
+    history = np.empty(max_iterations + 1)
+    rots = np.empty((n + 1, 3, 3))
+    points = np.empty((n + 1, 3))
+    relative = np.empty((3, 3))
+    jac = np.empty((6, n))
+    err = np.empty(6)
+    perr = aerr = 0.0
+    it = 0
+    for it in range(max_iterations + 1):
+        chain_frames(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, q,
+                     rots, points)
+        dp = position - points[n]
+        for a in range(3):  # target_rot @ rots[n].T
+            for b in range(3):
+                relative[a, b] = target_rot[a, 0] * rots[n, b, 0] + \
+                    target_rot[a, 1] * rots[n, b, 1] + target_rot[a, 2] * rots[n, b, 2]
+        dtheta = rotation_vector(relative)
+        perr = math.sqrt(dp[0] ** 2 + dp[1] ** 2 + dp[2] ** 2)
+        aerr = math.sqrt(dtheta[0] ** 2 + dtheta[1] ** 2 + dtheta[2] ** 2)
+        if perr <= position_tolerance and aerr <= angle_tolerance:
+            return q, perr, aerr, it, True
+        history[it] = perr + length_scale * aerr
+        if it == max_iterations or (
+                it >= stall_window and history[it] > stall_ratio * history[it - stall_window]):
+            break
+        for i in range(n):  # the geometric Jacobian, angular rows weighted
+            a0, a1, a2 = axes[i, 0], axes[i, 1], axes[i, 2]
+            z0 = rots[i, 0, 0] * a0 + rots[i, 0, 1] * a1 + rots[i, 0, 2] * a2
+            z1 = rots[i, 1, 0] * a0 + rots[i, 1, 1] * a1 + rots[i, 1, 2] * a2
+            z2 = rots[i, 2, 0] * a0 + rots[i, 2, 1] * a1 + rots[i, 2, 2] * a2
+            l0, l1, l2 = points[n, 0] - points[i, 0], points[n, 1] - points[i, 1], \
+                points[n, 2] - points[i, 2]
+            column = (z1 * l2 - z2 * l1, z2 * l0 - z0 * l2, z0 * l1 - z1 * l0, z0, z1, z2)
+            for row in range(6):
+                jac[row, i] = column[row] * weight[row]
+        for row in range(3):
+            err[row] = dp[row]
+            err[row + 3] = length_scale * dtheta[row]
+        energy = 0.5 * (err @ err)
+        dq = np.linalg.solve(jac.T @ jac + (energy + damping) * eye, jac.T @ err)
+        if redundant:
+            null = eye - np.linalg.pinv(jac, rcond=1e-8) @ jac
+            fade = min(1.0, math.sqrt(2.0 * energy) / null_fade)
+            dq -= null_gain * fade * (null @ ((q - mid) / half**2))
+        largest = np.max(np.abs(dq))
+        if largest > max_step:
+            dq *= max_step / largest
+        q = np.minimum(np.maximum(q + dq, lower), upper)
+    return q, perr, aerr, it, False
