@@ -60,6 +60,33 @@ def chain_frames(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_off
 
 
 @njit(cache=True)
+def times_transposed(a, b, out):
+    """out = a @ b.T for 3x3 matrices (the orientation error ``R* R^T``); returns ``out``."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = a[i, 0] * b[j, 0] + a[i, 1] * b[j, 1] + a[i, 2] * b[j, 2]
+    return out
+
+
+@njit(cache=True)
+def weighted_jacobian(rots, points, axes, weight, free, jac):
+    """The TCP's geometric Jacobian into ``jac`` (6, n): column i ``(z_i x (p_tcp - p_i),
+    z_i)`` with z_i joint i's world axis (``rots[i] @ axes[i]``) through ``points[i]``, the
+    TCP being frame n; rows times ``weight`` (6,), columns times ``free`` (n,)."""
+    n = jac.shape[1]
+    for i in range(n):
+        a0, a1, a2 = axes[i, 0], axes[i, 1], axes[i, 2]
+        z0 = rots[i, 0, 0] * a0 + rots[i, 0, 1] * a1 + rots[i, 0, 2] * a2
+        z1 = rots[i, 1, 0] * a0 + rots[i, 1, 1] * a1 + rots[i, 1, 2] * a2
+        z2 = rots[i, 2, 0] * a0 + rots[i, 2, 1] * a1 + rots[i, 2, 2] * a2
+        l0, l1, l2 = points[n, 0] - points[i, 0], points[n, 1] - points[i, 1], \
+            points[n, 2] - points[i, 2]
+        column = (z1 * l2 - z2 * l1, z2 * l0 - z0 * l2, z0 * l1 - z1 * l0, z0, z1, z2)
+        for row in range(6):
+            jac[row, i] = column[row] * weight[row] * free[i]
+
+
+@njit(cache=True)
 def rotation_log(m):
     """Rotation vector [rad] (3,) of a rotation matrix (3, 3): :func:`kinematics.rotation_log`."""
     skew = np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]])
@@ -126,11 +153,7 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
         chain_frames(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, q,
                      rots, points)
         dp = position - points[7]
-        for a in range(3):  # target_rot @ rots[7].T
-            for b in range(3):
-                relative[a, b] = target_rot[a, 0] * rots[7, b, 0] + \
-                    target_rot[a, 1] * rots[7, b, 1] + target_rot[a, 2] * rots[7, b, 2]
-        dtheta = rotation_log(relative)
+        dtheta = rotation_log(times_transposed(target_rot, rots[7], relative))
         perr = math.sqrt(dp[0] ** 2 + dp[1] ** 2 + dp[2] ** 2)
         aerr = math.sqrt(dtheta[0] ** 2 + dtheta[1] ** 2 + dtheta[2] ** 2)
         converged = perr <= position_tolerance and aerr <= angle_tolerance
@@ -141,16 +164,7 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
                 break
         if it == max_iterations:
             break
-        for i in range(7):  # the geometric Jacobian, angular rows scaled, held joint zeroed
-            a0, a1, a2 = axes[i, 0], axes[i, 1], axes[i, 2]
-            z0 = rots[i, 0, 0] * a0 + rots[i, 0, 1] * a1 + rots[i, 0, 2] * a2
-            z1 = rots[i, 1, 0] * a0 + rots[i, 1, 1] * a1 + rots[i, 1, 2] * a2
-            z2 = rots[i, 2, 0] * a0 + rots[i, 2, 1] * a1 + rots[i, 2, 2] * a2
-            l0, l1, l2 = points[7, 0] - points[i, 0], points[7, 1] - points[i, 1], \
-                points[7, 2] - points[i, 2]
-            column = (z1 * l2 - z2 * l1, z2 * l0 - z0 * l2, z0 * l1 - z1 * l0, z0, z1, z2)
-            for row in range(6):
-                jac[row, i] = column[row] * scale[row] * free[i]
+        weighted_jacobian(rots, points, axes, scale, free, jac)  # held joint: zero column
         for row in range(3):
             err[row] = dp[row]
             err[row + 3] = length_scale * dtheta[row]
@@ -253,11 +267,7 @@ def chain_solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offs
         chain_frames(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, q,
                      rots, points)
         dp = position - points[n]
-        for a in range(3):  # target_rot @ rots[n].T
-            for b in range(3):
-                relative[a, b] = target_rot[a, 0] * rots[n, b, 0] + \
-                    target_rot[a, 1] * rots[n, b, 1] + target_rot[a, 2] * rots[n, b, 2]
-        dtheta = rotation_vector(relative)
+        dtheta = rotation_vector(times_transposed(target_rot, rots[n], relative))
         perr = math.sqrt(dp[0] ** 2 + dp[1] ** 2 + dp[2] ** 2)
         aerr = math.sqrt(dtheta[0] ** 2 + dtheta[1] ** 2 + dtheta[2] ** 2)
         if perr <= position_tolerance and aerr <= angle_tolerance:
@@ -266,16 +276,7 @@ def chain_solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offs
         if it == max_iterations or (
                 it >= stall_window and history[it] > stall_ratio * history[it - stall_window]):
             break
-        for i in range(n):  # the geometric Jacobian, angular rows weighted
-            a0, a1, a2 = axes[i, 0], axes[i, 1], axes[i, 2]
-            z0 = rots[i, 0, 0] * a0 + rots[i, 0, 1] * a1 + rots[i, 0, 2] * a2
-            z1 = rots[i, 1, 0] * a0 + rots[i, 1, 1] * a1 + rots[i, 1, 2] * a2
-            z2 = rots[i, 2, 0] * a0 + rots[i, 2, 1] * a1 + rots[i, 2, 2] * a2
-            l0, l1, l2 = points[n, 0] - points[i, 0], points[n, 1] - points[i, 1], \
-                points[n, 2] - points[i, 2]
-            column = (z1 * l2 - z2 * l1, z2 * l0 - z0 * l2, z0 * l1 - z1 * l0, z0, z1, z2)
-            for row in range(6):
-                jac[row, i] = column[row] * weight[row]
+        weighted_jacobian(rots, points, axes, weight, np.ones(n), jac)
         for row in range(3):
             err[row] = dp[row]
             err[row + 3] = length_scale * dtheta[row]
