@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
-from dloplan.frames import UP, frame_from_axis, slerp_quaternions
+from dloplan.frames import UP, frame_from_axis, quaternion_x_axes, slerp_quaternions
 
 
 def numpy_frames(u, up=UP) -> Rotation:
@@ -67,3 +67,9 @@ def test_slerp_is_scipys_slerp():
     assert (mine * reference.inv()).magnitude().max() < 1e-14
     assert np.allclose(np.linalg.norm(slerp_quaternions(times, keys, t), axis=1), 1.0,
                        atol=1e-15)
+
+
+def test_quaternion_x_axes_are_the_rotations_first_columns():
+    quaternions = Rotation.random(300, random_state=4).as_quat().reshape(100, 3, 4)
+    expected = Rotation.from_quat(quaternions.reshape(-1, 4)).as_matrix()[:, :, 0]
+    assert np.abs(quaternion_x_axes(quaternions).reshape(-1, 3) - expected).max() < 1e-15

@@ -26,7 +26,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
-from ..frames import slerp_quaternions
+from ..frames import quaternion_x_axes, slerp_quaternions
 from ..geometry import as_shape
 from ..physics.chain import SpringChain, energy, gradient, hessian_band
 from ..physics.twist_compiled import scratch
@@ -119,18 +119,23 @@ class ClipTrajectory:
 
     def frames(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Clip positions (len(t), 2, 3) [m] and ``clip_to_world`` matrices (len(t), 2, 3, 3)."""
+        pos, quats = self.poses_at(t)
+        mats = np.stack([Rotation.from_quat(quats[:, c]).as_matrix() for c in (0, 1)], axis=1)
+        return pos, mats
+
+    def poses_at(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Clip positions (len(t), 2, 3) [m] and ``clip_to_world`` unit quaternions (x, y, z,
+        w) (len(t), 2, 4) at times ``t`` [s] (held before the first and after the last)."""
         t = np.clip(np.asarray(t, dtype=float), self.times[0], self.times[-1])
-        if len(self.times) == 1:
-            pos = np.broadcast_to(self.poses[0].positions, (len(t), 2, 3))
-            mats = np.broadcast_to(self.poses[0].rotations.as_matrix(), (len(t), 2, 3, 3))
-            return pos, mats
         positions, quats = self._keys
+        if len(self.times) == 1:
+            return (np.broadcast_to(positions[0], (len(t), 2, 3)),
+                    np.broadcast_to(quats[0], (len(t), 2, 4)))
         k = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.times) - 2)
         f = ((t - self.times[k]) / (self.times[k + 1] - self.times[k]))[:, None, None]
         pos = (1.0 - f) * positions[k] + f * positions[k + 1]
-        mats = np.stack([Rotation.from_quat(slerp_quaternions(self.times, quats[:, c], t))
-                         .as_matrix() for c in (0, 1)], axis=1)
-        return pos, mats
+        return pos, np.stack([slerp_quaternions(self.times, quats[:, c], t) for c in (0, 1)],
+                             axis=1)
 
     @cached_property
     def _keys(self):
@@ -142,8 +147,8 @@ class ClipTrajectory:
 
     def held_points(self, t: np.ndarray, link_length: float) -> np.ndarray:
         """Positions of the four held points at times ``t`` [s], (len(t), 4, 3) [m]."""
-        pos, mats = self.frames(t)
-        half = 0.5 * link_length * mats[..., :, 0]  # u-axes
+        pos, quats = self.poses_at(t)
+        half = 0.5 * link_length * quaternion_x_axes(quats)  # u-axes
         return np.stack(
             [pos[:, 0] - half[:, 0], pos[:, 0] + half[:, 0], pos[:, 1] + half[:, 1],
              pos[:, 1] - half[:, 1]],
