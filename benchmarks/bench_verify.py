@@ -4,7 +4,8 @@ embedded demo's plan split by check (issue 20's target: the demo's replay <= 0.2
 The demo's plan is made once (``run_job``, no verification), then verified five times in this
 process (numba's kernels loaded by the first); the best time per check is printed.
 Before (main 11d9c62, 2026-11-30, quiet): demo replay 0.25-0.26 s, of which 0.14 s composing
-scipy ``Rotation`` objects for the clips' slerp; with ``frames.slerp_quaternions`` 0.18 s.
+scipy ``Rotation`` objects for the clips' slerp; with ``frames.slerp_quaternions`` 0.18 s,
+with the held points from the quaternions' x-axes (``frames.quaternion_x_axes``) 0.17 s (load 1.2).
 
 Run: PYTHONPATH=src python benchmarks/bench_verify.py
 """
