@@ -52,6 +52,19 @@ def test_check_fails_when_the_target_sits_in_an_obstacle(tmp_path, capsys):
     assert "ERROR" in out and "collides" in out
 
 
+@pytest.mark.parametrize("command", ["check", "plan"])
+def test_a_plan_document_given_as_a_job_points_to_verify(tmp_path, capsys, command):
+    plan = tmp_path / "plan.json"
+    plan.write_text(json.dumps({"format": "dloplan-plan", "version": 2, "units": "m",
+                                "cable": {}, "shapes": []}))
+    output = ["-o", str(tmp_path / "out")] if command == "plan" else []
+    code = main([command, str(plan), "-q", *output])
+    err = capsys.readouterr().err.strip()
+    assert code == EXIT_FAILURE
+    assert len(err.splitlines()) == 1 and "a plan document" in err and "dloplan verify" in err
+    assert "version" not in err and not (tmp_path / "out").exists()
+
+
 @pytest.mark.parametrize(
     "content, fragment",
     [

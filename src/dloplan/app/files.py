@@ -116,7 +116,7 @@ def document_of(path, progress=quiet) -> PlanDocument:
     """A plan document: read from a plan file, or planned now from a scenario file."""
     from ..io.scenario import read_mapping
 
-    if Path(path).suffix.lower() == ".json" and read_mapping(path).get("format") == "dloplan-plan":
+    if Path(path).suffix.lower() == ".json" and file_kind(read_mapping(path)) == "plan":
         return read_plan(path)
     job = load_job(path, progress)
     if not isinstance(job, Job):
