@@ -10,7 +10,7 @@ import pytest
 import yaml
 from test_scenario import BAD
 
-from dloplan.cli import EXIT_FAILURE, EXIT_OK, EXIT_WARNINGS, main
+from dloplan.cli import EXIT_CHECK_FAILED, EXIT_FAILURE, EXIT_OK, EXIT_WARNINGS, main
 
 ALONG_Y = {"euler": [0, 0, 90]}  # cables across the YuMi's front, within both arms' reach
 STIFF = {
@@ -304,3 +304,10 @@ def test_a_cable_to_identify_is_identified_then_planned(tmp_path, capsys):
     assert main(["plan", str(write(tmp_path, without, "no_identify.yaml")), "-o",
                  str(tmp_path / "x")]) == EXIT_FAILURE
     assert "no identify section" in capsys.readouterr().err
+
+
+def test_the_help_states_the_exit_code_verify_returns_on_a_failed_check(capsys):
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    text = " ".join(capsys.readouterr().out.split())  # argparse wraps the lines
+    assert f"dynamic replay (exit {EXIT_CHECK_FAILED} when a check fails)" in text

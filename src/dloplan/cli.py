@@ -521,11 +521,12 @@ def build_parser() -> argparse.ArgumentParser:
     export.add_argument("--angular-speed", type=float, help="re-time: angular limit [rad/s]")
 
     verify = command("verify", _cmd_verify, "verify a plan: elastic stability, snap-through, "
-                     "dynamic replay (exit 2 when a check fails)")
+                     "dynamic replay (exit 3 when a check fails)")
     verify.add_argument("plan", help="plan.json")
     verify.add_argument("--no-snap", action="store_true", help="skip the snap-through check")
     verify.add_argument("--no-replay", action="store_true", help="skip the dynamic replay")
-    verify.add_argument("--no-robot", action="store_true", help="skip the YuMi reachability")
+    verify.add_argument("--no-robot", action="store_true",
+                        help="skip the robot program's checks (reach, clearance, joint speeds)")
     verify.add_argument("--place", action="store_true",
                         help="search an offset of the whole job on the table where every pose "
                         "is reachable")
