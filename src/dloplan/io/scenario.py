@@ -443,7 +443,8 @@ def format_validation_error(error: ValidationError) -> str:
     loc = ".".join(parts)
     message = first["msg"].removeprefix("Value error, ")
     value = first.get("input")
-    shown = "" if isinstance(value, dict | list) and len(str(value)) > 60 else f" (got {value!r})"
+    long = isinstance(value, dict | list) and len(str(value)) > 60
+    shown = "" if long or "got " in message else f" (got {value!r})"  # the value once
     extra = "" if len(error.errors()) == 1 else f" [and {len(error.errors()) - 1} more]"
     return f"{loc or 'scenario'}: {message}{shown}{extra}"
 
