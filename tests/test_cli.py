@@ -311,3 +311,18 @@ def test_the_help_states_the_exit_code_verify_returns_on_a_failed_check(capsys):
         main(["--help"])
     text = " ".join(capsys.readouterr().out.split())  # argparse wraps the lines
     assert f"dynamic replay (exit {EXIT_CHECK_FAILED} when a check fails)" in text
+
+
+@pytest.mark.parametrize("command, option", [
+    ("export", "--speed"), ("export", "--angular-speed"), ("export", "--rate"),
+    ("verify", "--tolerance"), ("verify", "--tensile-limit")])
+@pytest.mark.parametrize("value", ["0", "-1", "nan"])
+def test_options_that_must_be_positive_refuse_zero_negative_and_nan(tmp_path, capsys, command,
+                                                                    option, value):
+    """--speed 0 used to keep the plan's speed silently, --tolerance -1 was ignored."""
+    output = ["--format", "csv", "-o", str(tmp_path / "t.csv")] if command == "export" else []
+    with pytest.raises(SystemExit) as info:
+        main([command, str(tmp_path / "plan.json"), *output, f"{option}={value}"])
+    assert info.value.code == EXIT_FAILURE
+    assert f"argument {option}: got '{value}', expected a finite number > 0" in \
+        capsys.readouterr().err

@@ -230,8 +230,9 @@ def retimed(doc: PlanDocument, speed: float | None = None,
     old = doc.trajectory
     limits = old.law.limits if old.law is not None and old.law.limits is not None else \
         MotionLimits()
-    limits = replace(limits, speed=speed or limits.speed,
-                     angular_speed=angular_speed or limits.angular_speed)
+    limits = replace(limits, speed=limits.speed if speed is None else speed,
+                     angular_speed=limits.angular_speed if angular_speed is None
+                     else angular_speed)
     zone = float(np.max(old.zones)) if old.law is not None else 0.0
     trajectory = trajectory_from_grippers(doc.grippers, left_clip=old.arm_clips[0],
                                           limits=limits, zone=zone)
