@@ -179,6 +179,10 @@ def test_pieces_that_do_not_fit_are_rejected(pieces, tmp_path):
     bad.write_text("{")
     with pytest.raises(ValueError, match="not valid JSON"):
         read_plan(bad)
+    job = tmp_path / "job.yaml"  # a job file where a plan is expected: say what to do
+    job.write_text("cable: {name: usb}\n")
+    with pytest.raises(ValueError, match=r"a YAML job file, not a plan document: plan it first"):
+        read_plan(job)
     with pytest.raises(ValueError, match="cannot read"):
         read_plan(tmp_path / "missing.json")
 

@@ -749,6 +749,9 @@ def read_plan(path: str | os.PathLike) -> PlanDocument:
     except OSError as exc:
         raise ValueError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        if Path(path).suffix.lower() in (".yaml", ".yml"):
+            raise ValueError(f"{path}: a YAML job file, not a plan document: plan it first "
+                             "(dloplan plan JOB -o OUT) and give OUT/plan.json") from None
         raise ValueError(f"{path}: not a plan document (not valid JSON: {exc})") from None
     return document_from_dict(data)
 
