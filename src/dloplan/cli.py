@@ -97,7 +97,8 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from .app import WRITERS, read_plan
+    from .app import read_plan
+    from .app.files import export_plan
     from .app.pipeline import retimed
     from .app.writers import WriteOptions
 
@@ -105,7 +106,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
     doc = read_plan(args.plan)
     if args.speed is not None or args.angular_speed is not None:
         doc = retimed(doc, args.speed, args.angular_speed)
-    written = WRITERS[args.format].write(doc, Path(args.output), WriteOptions(rate=args.rate))
+    written = export_plan(doc, args.format, Path(args.output), WriteOptions(rate=args.rate))
     console.stage(f"wrote {', '.join(str(p) for p in written)}")
     if args.json:
         print(json.dumps({"written": [str(p) for p in written]}))
