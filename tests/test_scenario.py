@@ -50,6 +50,13 @@ def test_millimetres_are_converted():
     assert job.cable.length == pytest.approx(0.5) and job.cable.diameter == pytest.approx(0.005)
     assert shape_length(job.start) == pytest.approx(0.5)
     assert job.obstacles[0].top == pytest.approx(0.06)
+    metres = {**data, "cable": {"name": "ethernet", "length": 0.5}}  # metres in a mm file
+    with pytest.raises(ScenarioError, match=r"cable.length: got 0.5 file units \(0.0005 m\), "
+                                            r"expected at least 0.02 m \(a length in metres"):
+        resolve_scenario(parse_scenario(metres))
+    metres["cable"] = {"name": "ethernet", "diameter": 0.005}
+    with pytest.raises(ScenarioError, match="cable.diameter: got 0.005 file units"):
+        resolve_scenario(parse_scenario(metres))
 
 
 def test_sine_shape_has_the_cable_length():
