@@ -52,6 +52,18 @@ def test_check_fails_when_the_target_sits_in_an_obstacle(tmp_path, capsys):
     assert "ERROR" in out and "collides" in out
 
 
+def test_check_says_that_plan_searches_a_placement_when_an_arm_cannot_reach(capsys):
+    """Qualitative test 1 as shipped: its start is out of the left arm's reach where it lies,
+    and dloplan plan places the job elsewhere on the table (exit 0); the check says so."""
+    example = Path(__file__).resolve().parents[1] / "examples" / "qualitative1_curved_pa12.yaml"
+    assert main(["check", str(example), "-q"]) == EXIT_FAILURE
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("ERROR"))
+    assert "start robot reach: the left arm cannot reach" in line
+    assert line.endswith("dloplan plan will search where on the table to turn and shift the "
+                         "job so that both arms reach (docs/repair.md; --no-repair plans it "
+                         "where it is)")
+
+
 @pytest.mark.parametrize("command", ["check", "plan"])
 def test_a_plan_document_given_as_a_job_points_to_verify(tmp_path, capsys, command):
     plan = tmp_path / "plan.json"

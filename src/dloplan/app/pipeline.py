@@ -117,6 +117,11 @@ def check_job(job: Job) -> CheckReport:
     return CheckReport(findings)
 
 
+PLACEMENT_HINT = ("; dloplan plan will search where on the table to turn and shift the job so "
+                  "that both arms reach (docs/repair.md; --no-repair plans it where it is)")
+"""What a reach error of :func:`check_job` adds: the plan may still succeed, moved."""
+
+
 def _reach_findings(job: Job) -> list[Finding]:
     """Can the robot's arms hold the start and the target (gripper frames by the job's method)?"""
     grippers = gripper_frames(job, np.stack([job.start, job.target]))
@@ -128,7 +133,7 @@ def _reach_findings(job: Job) -> list[Finding]:
             misses = "; ".join(f"the {arm} arm cannot reach its clip at pose {k} (the {name}; "
                                f"IK position error {1e3 * row[f'error_{arm}']:.0f} mm)"
                                for arm in arms)
-            findings.append(Finding("error", f"{name} robot reach", misses))
+            findings.append(Finding("error", f"{name} robot reach", misses + PLACEMENT_HINT))
         else:
             findings.append(Finding("ok", f"{name} robot reach", "both arms reach their clips "
                                     f"(joint margin {row['joint_margin']:.2f} rad)"))
