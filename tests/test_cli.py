@@ -10,7 +10,7 @@ import pytest
 import yaml
 from test_scenario import BAD
 
-from dloplan.cli import EXIT_FAILURE, EXIT_OK, EXIT_WARNINGS, main
+from dloplan.cli import EXIT_CHECK_FAILED, EXIT_FAILURE, EXIT_OK, EXIT_WARNINGS, main
 
 ALONG_Y = {"euler": [0, 0, 90]}  # cables across the YuMi's front, within both arms' reach
 STIFF = {
@@ -50,6 +50,31 @@ def test_check_fails_when_the_target_sits_in_an_obstacle(tmp_path, capsys):
     out = capsys.readouterr().out
     assert code == EXIT_FAILURE
     assert "ERROR" in out and "collides" in out
+
+
+def test_check_says_that_plan_searches_a_placement_when_an_arm_cannot_reach(capsys):
+    """Qualitative test 1 as shipped: its start is out of the left arm's reach where it lies,
+    and dloplan plan places the job elsewhere on the table (exit 0); the check says so."""
+    example = Path(__file__).resolve().parents[1] / "examples" / "qualitative1_curved_pa12.yaml"
+    assert main(["check", str(example), "-q"]) == EXIT_FAILURE
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("ERROR"))
+    assert "start robot reach: the left arm cannot reach" in line
+    assert line.endswith("dloplan plan will search where on the table to turn and shift the "
+                         "job so that both arms reach (docs/repair.md; --no-repair plans it "
+                         "where it is)")
+
+
+@pytest.mark.parametrize("command", ["check", "plan"])
+def test_a_plan_document_given_as_a_job_points_to_verify(tmp_path, capsys, command):
+    plan = tmp_path / "plan.json"
+    plan.write_text(json.dumps({"format": "dloplan-plan", "version": 2, "units": "m",
+                                "cable": {}, "shapes": []}))
+    output = ["-o", str(tmp_path / "out")] if command == "plan" else []
+    code = main([command, str(plan), "-q", *output])
+    err = capsys.readouterr().err.strip()
+    assert code == EXIT_FAILURE
+    assert len(err.splitlines()) == 1 and "a plan document" in err and "dloplan verify" in err
+    assert "version" not in err and not (tmp_path / "out").exists()
 
 
 @pytest.mark.parametrize(
@@ -291,3 +316,25 @@ def test_a_cable_to_identify_is_identified_then_planned(tmp_path, capsys):
     assert main(["plan", str(write(tmp_path, without, "no_identify.yaml")), "-o",
                  str(tmp_path / "x")]) == EXIT_FAILURE
     assert "no identify section" in capsys.readouterr().err
+
+
+def test_the_help_states_the_exit_code_verify_returns_on_a_failed_check(capsys):
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    text = " ".join(capsys.readouterr().out.split())  # argparse wraps the lines
+    assert f"dynamic replay (exit {EXIT_CHECK_FAILED} when a check fails)" in text
+
+
+@pytest.mark.parametrize("command, option", [
+    ("export", "--speed"), ("export", "--angular-speed"), ("export", "--rate"),
+    ("verify", "--tolerance"), ("verify", "--tensile-limit")])
+@pytest.mark.parametrize("value", ["0", "-1", "nan"])
+def test_options_that_must_be_positive_refuse_zero_negative_and_nan(tmp_path, capsys, command,
+                                                                    option, value):
+    """--speed 0 used to keep the plan's speed silently, --tolerance -1 was ignored."""
+    output = ["--format", "csv", "-o", str(tmp_path / "t.csv")] if command == "export" else []
+    with pytest.raises(SystemExit) as info:
+        main([command, str(tmp_path / "plan.json"), *output, f"{option}={value}"])
+    assert info.value.code == EXIT_FAILURE
+    assert f"argument {option}: got '{value}', expected a finite number > 0" in \
+        capsys.readouterr().err

@@ -190,6 +190,23 @@ def test_two_runs_on_one_folder_leave_one_complete_output(tmp_path):
     assert not list(tmp_path.glob(".out.*"))
 
 
+def test_a_run_killed_before_its_clean_up_leaves_nothing_behind_the_next_run(tmp_path):
+    """timeout's SIGTERM ends a run without its clean-up: its lock and its staging folder stay
+    beside the output folder; the next run takes the lock over and removes the folder."""
+    from dloplan.io.files import OUTPUT_MARK, staged_folder
+
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    out = tmp_path / "out"
+    (tmp_path / ".out.lock").write_text(str(dead.pid))
+    (tmp_path / ".out.tmp-killed").mkdir()
+    (tmp_path / ".out.tmp-killed" / OUTPUT_MARK).write_text("{}")
+    with staged_folder(out) as staging:
+        (staging / OUTPUT_MARK).write_text("{}")
+    assert (out / OUTPUT_MARK).exists()
+    assert not list(tmp_path.glob(".out.*"))
+
+
 def test_a_plan_that_fails_a_check_writes_no_robot_program(tmp_path, capsys):
     far = json.loads(json.dumps(SMALL))
     far["target"]["placement"]["position"] = [0.9, -0.22, 0.25]  # beyond the YuMi's reach

@@ -179,6 +179,10 @@ def test_pieces_that_do_not_fit_are_rejected(pieces, tmp_path):
     bad.write_text("{")
     with pytest.raises(ValueError, match="not valid JSON"):
         read_plan(bad)
+    job = tmp_path / "job.yaml"  # a job file where a plan is expected: say what to do
+    job.write_text("cable: {name: usb}\n")
+    with pytest.raises(ValueError, match=r"a YAML job file, not a plan document: plan it first"):
+        read_plan(job)
     with pytest.raises(ValueError, match="cannot read"):
         read_plan(tmp_path / "missing.json")
 
@@ -272,3 +276,21 @@ def test_a_re_timed_plan_keeps_its_arms_and_limits_and_checks_its_program_again(
     assert new.duration > old.duration
     assert slower.cycle["motion_time"] == pytest.approx(new.duration)
     assert slower.robot.ok and slower.program.durations.sum() > planned.program.durations.sum()
+
+
+def test_export_writes_no_trajectory_of_a_plan_that_failed_a_check(planned, tmp_path):
+    """dloplan plan withholds robot programs and trajectories of a failed plan; dloplan export
+    wrote trajectory.csv of it with exit 0 (a target 3 m out of reach)."""
+    from dloplan.app.files import export_plan
+    from dloplan.app.writers import WriteOptions
+
+    assert planned.failed_checks == [] and planned.ok
+    failed = replace(planned, harness={"success": False})
+    assert failed.failed_checks == ["harness"] and not failed.ok
+    for name in ("csv", "ros", "rapid"):
+        with pytest.raises(ValueError, match=rf"^{name}: not written, the plan failed a check "
+                                             r"\(harness; dloplan verify"):
+            export_plan(failed, name, tmp_path / name, WriteOptions())
+        assert not (tmp_path / name).exists()
+    assert export_plan(failed, "json", tmp_path / "plan.json", WriteOptions())
+    assert export_plan(planned, "csv", tmp_path / "ok.csv", WriteOptions())

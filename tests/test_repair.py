@@ -25,6 +25,7 @@ from dloplan.app.pipeline import program_of, run_job, verify_plan
 from dloplan.cli import main
 from dloplan.repair import Budget, diagnose, repair_plan, translated_job
 from dloplan.repair.frames import grasp_rolled, untwisted
+from dloplan.repair.loop import attempts
 from dloplan.repair.placement import TableMove, moved_document, moved_job, translated_document
 from dloplan.repair.rebuild import slowed, timed
 from dloplan.repair.routes import follow_branch, moved, rigid_motion, routes
@@ -386,3 +387,12 @@ def test_a_placed_plan_reads_back_as_one_placed_job(ur_placed):
                                                           1 - program.left_clip]]
     assert np.allclose(cell_plan.positions, knots + cell_plan.offset, atol=1e-9)
     assert plan.verification is not None and plan.verification.ok
+
+
+def test_a_refusal_names_each_attempt_once_with_its_count():
+    """A target 3 m away: the placement search repeated 'minimal frames: turned 0 deg: no
+    offset ... passed the pre-check' some 40 times in one warning line."""
+    tried = ["minimal frames: no offset", "auxiliary frames: no offset",
+             "minimal frames: no offset", "minimal frames: no offset"]
+    assert attempts(tried) == "minimal frames: no offset (x3) | auxiliary frames: no offset"
+    assert attempts([]) == ""

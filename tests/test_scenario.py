@@ -50,6 +50,13 @@ def test_millimetres_are_converted():
     assert job.cable.length == pytest.approx(0.5) and job.cable.diameter == pytest.approx(0.005)
     assert shape_length(job.start) == pytest.approx(0.5)
     assert job.obstacles[0].top == pytest.approx(0.06)
+    metres = {**data, "cable": {"name": "ethernet", "length": 0.5}}  # metres in a mm file
+    with pytest.raises(ScenarioError, match=r"cable.length: got 0.5 file units \(0.0005 m\), "
+                                            r"expected at least 0.02 m \(a length in metres"):
+        resolve_scenario(parse_scenario(metres))
+    metres["cable"] = {"name": "ethernet", "diameter": 0.005}
+    with pytest.raises(ScenarioError, match="cable.diameter: got 0.005 file units"):
+        resolve_scenario(parse_scenario(metres))
 
 
 def test_sine_shape_has_the_cable_length():
@@ -91,6 +98,8 @@ BAD = [
      "3 (x, y, z) or 2 (x, z) coordinates"),
     (with_("target", {"kind": "points", "points": [[0, 0, 0], [1, 0, float("nan")],
                                                    [2, 0, 0]]}), "finite"),
+    (with_("target.placement.position", [float("nan"), 0, 0]),
+     "target.placement.position: position must be finite numbers, got [nan, 0.0, 0.0]"),
     (with_("target.angle", None), "target.angle: Field required"),
     (with_("start.placement.position", [0, 0]), "start.placement.position"),
     (with_("start.placement.rotation", {"euler": [0, 0]}), "euler has 2 angles"),
@@ -116,7 +125,7 @@ def test_bad_scenarios_give_one_line_errors(data, fragment):
         resolve_scenario(parse_scenario(data))
     message = str(info.value)
     assert fragment in message
-    assert "\n" not in message
+    assert "\n" not in message and message.count("got ") <= 1  # the value shown once
 
 
 @pytest.mark.parametrize(

@@ -25,6 +25,7 @@ from dloplan.trajectory import (
     Trajectory,
     dual_arm_trajectory,
     plan_cycle,
+    sample_times,
     trajectory_from_grippers,
 )
 
@@ -372,3 +373,11 @@ def test_the_scenario_trajectory_section_gives_the_limits():
     for bad in ({"jerk": 0.0}, {"acceleration": -1.0}, {"zone": -0.01}):
         with pytest.raises(ValidationError, match=next(iter(bad))):
             TrajectorySpec(**bad)
+
+
+def test_sampling_refuses_more_samples_than_memory_holds():
+    """A plan re-timed at 1e-9 m/s lasts years: sampling it at 100 Hz is a one-line
+    ValueError naming the rate, not a 170 GB allocation."""
+    assert len(sample_times(3.0, 100.0)) == 301
+    with pytest.raises(ValueError, match=r"rate: 100 Hz .* samples, more than 1e\+07"):
+        sample_times(2.3e8, 100.0)

@@ -185,3 +185,22 @@ def test_path_stability_and_bad_inputs():
         elastic_stability(cable, x, method="lanczos")
     results = path_stability(cable, np.stack([x, x]), gravity=WEIGHTLESS)
     assert len(results) == 2 and all(r.stable for r in results)  # taut straight cable
+
+
+def test_the_shortest_cable_n4_has_its_hessian_and_eigenvalues():
+    """n = 4 (the schema's least) leaves one free point, 3 dof: fewer than the Hessian band's
+    rows. `dloplan plan --verify` failed on it with scipy's 'Offset -4 out of bounds'. The
+    banded eigenvalues and the row-sum norm equal those of the dense matrix (to 1e-9)."""
+    from dloplan.physics.chain import hessian_band
+    from dloplan.sim.statics import free_band
+
+    cable = catalogue_cable("pa12", n_links=4)
+    x = np.stack([np.linspace(0, cable.length, 5), np.zeros(5), np.full(5, 0.2)], axis=1)
+    x[2, 2] -= 0.01  # a slightly bent shape: bending and axial terms both enter
+    band = free_band(hessian_band(SpringChain.from_cable(cable), x), slice(2, 3))
+    dense = free_hessian(cable, x).toarray()
+    assert dense.shape == (3, 3) and np.allclose(dense, dense.T)
+    values, _, norm = band_eigenpairs(band, k=3)
+    np.testing.assert_allclose(values, np.linalg.eigvalsh(dense), rtol=1e-9)
+    assert norm == pytest.approx(np.abs(dense).sum(axis=1).max(), rel=1e-9)
+    assert elastic_stability(cable, x).eigenvalues.shape == (3,)

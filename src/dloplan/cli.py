@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -53,6 +54,17 @@ def _cmd_cables(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def positive_number(text: str) -> float:
+    """An option's value as a finite number > 0 (argparse names the option when it fails)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected a finite number > 0")
+    return value
+
+
 def _cmd_schema(args: argparse.Namespace) -> int:
     from .io.scenario import scenario_json_schema
 
@@ -85,15 +97,16 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from .app import WRITERS, read_plan
+    from .app import read_plan
+    from .app.files import export_plan
     from .app.pipeline import retimed
     from .app.writers import WriteOptions
 
     console = Console(args.quiet)
     doc = read_plan(args.plan)
-    if args.speed or args.angular_speed:
+    if args.speed is not None or args.angular_speed is not None:
         doc = retimed(doc, args.speed, args.angular_speed)
-    written = WRITERS[args.format].write(doc, Path(args.output), WriteOptions(rate=args.rate))
+    written = export_plan(doc, args.format, Path(args.output), WriteOptions(rate=args.rate))
     console.stage(f"wrote {', '.join(str(p) for p in written)}")
     if args.json:
         print(json.dumps({"written": [str(p) for p in written]}))
@@ -516,21 +529,24 @@ def build_parser() -> argparse.ArgumentParser:
                         required=True)
     export.add_argument("-o", "--output", required=True,
                         help="output file (a folder for rapid: one module per arm)")
-    export.add_argument("--rate", type=float, help="sampling rate [Hz] for csv/ros")
-    export.add_argument("--speed", type=float, help="re-time with this TCP speed [m/s]")
-    export.add_argument("--angular-speed", type=float, help="re-time: angular limit [rad/s]")
+    export.add_argument("--rate", type=positive_number, help="sampling rate [Hz] for csv/ros")
+    export.add_argument("--speed", type=positive_number,
+                        help="re-time with this TCP speed [m/s]")
+    export.add_argument("--angular-speed", type=positive_number,
+                        help="re-time: angular limit [rad/s]")
 
     verify = command("verify", _cmd_verify, "verify a plan: elastic stability, snap-through, "
-                     "dynamic replay (exit 2 when a check fails)")
+                     "dynamic replay (exit 3 when a check fails)")
     verify.add_argument("plan", help="plan.json")
     verify.add_argument("--no-snap", action="store_true", help="skip the snap-through check")
     verify.add_argument("--no-replay", action="store_true", help="skip the dynamic replay")
-    verify.add_argument("--no-robot", action="store_true", help="skip the YuMi reachability")
+    verify.add_argument("--no-robot", action="store_true",
+                        help="skip the robot program's checks (reach, clearance, joint speeds)")
     verify.add_argument("--place", action="store_true",
                         help="search an offset of the whole job on the table where every pose "
                         "is reachable")
-    verify.add_argument("--tensile-limit", type=float, help="largest axial force [N]")
-    verify.add_argument("--tolerance", type=float, default=0.01,
+    verify.add_argument("--tensile-limit", type=positive_number, help="largest axial force [N]")
+    verify.add_argument("--tolerance", type=positive_number, default=0.01,
                         help="largest replay deviation accepted [m]")
 
     compare = command("compare", _cmd_compare, "compare a plan with registered shapes "

@@ -508,13 +508,17 @@ class PlanDocument:
     @property
     def ok(self) -> bool:
         """No failure recorded: obstacles cleared, verification passed (warnings allowed)."""
-        if self.harness is not None and not self.harness.get("success", True):
-            return False
-        if self.avoidance is not None and self.avoidance.status not in ("clear", "replanned"):
-            return False
-        if self.robot is not None and not self.robot.ok:
-            return False
-        return self.verification is None or self.verification.ok
+        return not self.failed_checks
+
+    @property
+    def failed_checks(self) -> list[str]:
+        """The checks recorded as failed: harness, obstacles, robot program, verification."""
+        failed = {"harness": self.harness is not None and not self.harness.get("success", True),
+                  "obstacles": self.avoidance is not None
+                  and self.avoidance.status not in ("clear", "replanned"),
+                  "robot program": self.robot is not None and not self.robot.ok,
+                  "verification": self.verification is not None and not self.verification.ok}
+        return [name for name, failing in failed.items() if failing]
 
     def clip_poses(self) -> list:
         """Clip poses of every shape: the gripper frames, or read off the shapes."""
@@ -749,6 +753,9 @@ def read_plan(path: str | os.PathLike) -> PlanDocument:
     except OSError as exc:
         raise ValueError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        if Path(path).suffix.lower() in (".yaml", ".yml"):
+            raise ValueError(f"{path}: a YAML job file, not a plan document: plan it first "
+                             "(dloplan plan JOB -o OUT) and give OUT/plan.json") from None
         raise ValueError(f"{path}: not a plan document (not valid JSON: {exc})") from None
     return document_from_dict(data)
 

@@ -4,7 +4,8 @@ commands that take either a plan or a scenario.
 :func:`plan_into` runs the pipeline on a resolved job (a scenario or a wire-harness job) and
 writes its outputs; :func:`plan_file` is the batch mode's task (one file, one sub-folder, a
 status line), run on local processes or Dask by :func:`dloplan.study.map_jobs`;
-:func:`document_of` reads a plan document, or plans a scenario file into one.
+:func:`document_of` reads a plan document, or plans a scenario file into one;
+:func:`export_plan` writes one output of a plan document (``dloplan export``).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from .figure_workers import figure_workers as workers_for
 from .job import Job
 from .load import file_kind, load_job
 from .pipeline import quiet, run_harness_job, run_job
-from .writers import WriteOptions, write_outputs
+from .writers import WRITERS, WriteOptions, write_outputs
 
 ROBOT_OUTPUTS = ("csv", "ros", "rapid", "ros_joints", "urscript")
 """The outputs a robot could run: not written for a plan that failed a check."""
@@ -41,6 +42,17 @@ def exit_code(doc: PlanDocument) -> int:
     if not doc.ok:
         return EXIT_CHECK_FAILED
     return EXIT_WARNINGS if doc.warnings else EXIT_OK
+
+
+def export_plan(doc: PlanDocument, name: str, target: Path, options: WriteOptions) -> list[Path]:
+    """Write output ``name`` of a plan document to ``target`` under :func:`plan_into`'s rule: a
+    plan that failed a check gets no robot program or trajectory (ValueError naming them)."""
+    failed = doc.failed_checks
+    if name in ROBOT_OUTPUTS and failed:
+        raise ValueError(f"{name}: not written, the plan failed a check ({', '.join(failed)}; "
+                         "dloplan verify shows the table): a robot must not run it; json and "
+                         "report export it for inspection")
+    return WRITERS[name].write(doc, target, options)
 
 
 def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
@@ -116,7 +128,7 @@ def document_of(path, progress=quiet) -> PlanDocument:
     """A plan document: read from a plan file, or planned now from a scenario file."""
     from ..io.scenario import read_mapping
 
-    if Path(path).suffix.lower() == ".json" and read_mapping(path).get("format") == "dloplan-plan":
+    if Path(path).suffix.lower() == ".json" and file_kind(read_mapping(path)) == "plan":
         return read_plan(path)
     job = load_job(path, progress)
     if not isinstance(job, Job):

@@ -13,11 +13,18 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..io.scenario import ScenarioError, parse_scenario, read_mapping
+from .document import PLAN_FORMAT
 from .job import Job, resolve_scenario
 
 
 def file_kind(data: dict) -> str:
-    """"harness", "identification" or "scenario", by the sections of a job file's mapping."""
+    """"plan", "harness", "identification" or "scenario", by the sections of a file's mapping.
+
+    A plan document (``format: dloplan-plan``, written by ``dloplan plan``) is no job file: it
+    is read by ``dloplan verify``, ``export`` and ``simulate``.
+    """
+    if data.get("format") == PLAN_FORMAT:
+        return "plan"
     if "harness" in data:
         return "harness"
     if "identify" in data and "start" not in data:
@@ -49,6 +56,9 @@ def identify_first(data: dict, source: str, progress=lambda text: None):
 def resolve_mapping(data: dict, source: str, progress=lambda text: None):
     """A job file's mapping resolved: a :class:`~dloplan.app.job.Job` or a ``HarnessJob``."""
     kind = file_kind(data)
+    if kind == "plan":
+        raise ScenarioError(f"{source}: a plan document (written by dloplan plan), not a job "
+                            "file: use dloplan verify (or export, simulate) on it")
     if kind == "harness":
         from ..harness.files import parse_harness, resolve_harness
 

@@ -117,6 +117,11 @@ def check_job(job: Job) -> CheckReport:
     return CheckReport(findings)
 
 
+PLACEMENT_HINT = ("; dloplan plan will search where on the table to turn and shift the job so "
+                  "that both arms reach (docs/repair.md; --no-repair plans it where it is)")
+"""What a reach error of :func:`check_job` adds: the plan may still succeed, moved."""
+
+
 def _reach_findings(job: Job) -> list[Finding]:
     """Can the robot's arms hold the start and the target (gripper frames by the job's method)?"""
     grippers = gripper_frames(job, np.stack([job.start, job.target]))
@@ -128,7 +133,7 @@ def _reach_findings(job: Job) -> list[Finding]:
             misses = "; ".join(f"the {arm} arm cannot reach its clip at pose {k} (the {name}; "
                                f"IK position error {1e3 * row[f'error_{arm}']:.0f} mm)"
                                for arm in arms)
-            findings.append(Finding("error", f"{name} robot reach", misses))
+            findings.append(Finding("error", f"{name} robot reach", misses + PLACEMENT_HINT))
         else:
             findings.append(Finding("ok", f"{name} robot reach", "both arms reach their clips "
                                     f"(joint margin {row['joint_margin']:.2f} rad)"))
@@ -230,8 +235,9 @@ def retimed(doc: PlanDocument, speed: float | None = None,
     old = doc.trajectory
     limits = old.law.limits if old.law is not None and old.law.limits is not None else \
         MotionLimits()
-    limits = replace(limits, speed=speed or limits.speed,
-                     angular_speed=angular_speed or limits.angular_speed)
+    limits = replace(limits, speed=limits.speed if speed is None else speed,
+                     angular_speed=limits.angular_speed if angular_speed is None
+                     else angular_speed)
     zone = float(np.max(old.zones)) if old.law is not None else 0.0
     trajectory = trajectory_from_grippers(doc.grippers, left_clip=old.arm_clips[0],
                                           limits=limits, zone=zone)

@@ -95,8 +95,20 @@ def _take_lock(lock: Path, target: Path) -> None:
                              f"folder; wait for it, or choose another output folder") from None
         lock.unlink(missing_ok=True)  # left by a run that died: take it over
         fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        _remove_leftovers(target)
     with os.fdopen(fd, "w") as handle:
         handle.write(str(os.getpid()))
+
+
+def _remove_leftovers(target: Path) -> None:
+    """Remove the half-written folders of a run on ``target`` that died (killed, e.g. by
+    ``timeout``'s SIGTERM, before its clean-up): its staging folder, and its folder of the
+    previous output once ``target`` is back in place. Called holding the lock."""
+    for stale in target.parent.glob(f".{target.name}.tmp-*"):
+        shutil.rmtree(stale, ignore_errors=True)
+    if target.exists():
+        for stale in target.parent.glob(f".{target.name}.old-*"):
+            shutil.rmtree(stale, ignore_errors=True)
 
 
 def _alive(pid: int) -> bool:

@@ -443,7 +443,8 @@ def format_validation_error(error: ValidationError) -> str:
     loc = ".".join(parts)
     message = first["msg"].removeprefix("Value error, ")
     value = first.get("input")
-    shown = "" if isinstance(value, dict | list) and len(str(value)) > 60 else f" (got {value!r})"
+    long = isinstance(value, dict | list) and len(str(value)) > 60
+    shown = "" if long or "got " in message else f" (got {value!r})"  # the value once
     extra = "" if len(error.errors()) == 1 else f" [and {len(error.errors()) - 1} more]"
     return f"{loc or 'scenario'}: {message}{shown}{extra}"
 
@@ -496,13 +497,30 @@ def read_mapping(path: str | Path) -> dict:
     return data
 
 
+SMALLEST = {"length": 0.02, "diameter": 1e-4}
+"""Least cable length and diameter [m]: two grippers hold a cable's ends (about a centimetre
+each), and no cable or hose is thinner than a tenth of a millimetre; less is a length in the
+wrong units (metres written into a mm file)."""
+
+
 def build_cable(spec: CableSpec, scale: float, youngs_modulus: float | None) -> Cable:
-    """The :class:`Cable` of a cable specification (lengths in file units times ``scale``)."""
+    """The :class:`Cable` of a cable specification (lengths in file units times ``scale``).
+
+    Raises
+    ------
+    ValueError
+        Naming the field: a length or diameter below :data:`SMALLEST`, or a bad cable.
+    """
     params: dict[str, Any] = {"n_links": spec.n_links, "bending": spec.bending,
                               "masses": spec.masses}
     for key in ("length", "diameter"):
-        if getattr(spec, key) is not None:
-            params[key] = getattr(spec, key) * scale
+        value = getattr(spec, key)
+        if value is not None:
+            params[key] = value * scale
+            if params[key] < SMALLEST[key]:
+                raise ValueError(f"{key}: got {value:g} file units ({params[key]:.3g} m), "
+                                 f"expected at least {SMALLEST[key]:g} m (a length in metres "
+                                 "in a mm file?)")
     for key in ("mass", "poisson_ratio", "axial_modulus"):
         if getattr(spec, key) is not None:
             params[key] = getattr(spec, key)

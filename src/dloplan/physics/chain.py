@@ -318,9 +318,9 @@ def shape_forces(chain: SpringChain, x: np.ndarray) -> Forces:
 
 def band_to_sparse(band: np.ndarray) -> sp.csr_matrix:
     """The symmetric sparse matrix whose lower band is ``band`` (see :func:`hessian_band`)."""
-    n_dof = band.shape[1]
-    diagonals = [band[k, : n_dof - k] for k in range(band.shape[0])]
-    offsets = list(range(band.shape[0]))
+    n_dof = band.shape[1]  # fewer than the band's rows on a short chain (n = 4: 3 free dof)
+    diagonals = [band[k, : n_dof - k] for k in range(min(band.shape[0], n_dof))]
+    offsets = list(range(len(diagonals)))
     lower = sp.diags(diagonals, [-k for k in offsets], shape=(n_dof, n_dof))
     upper = sp.diags(diagonals[1:], offsets[1:], shape=(n_dof, n_dof))
     return (lower + upper).tocsr()

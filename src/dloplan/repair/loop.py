@@ -59,6 +59,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import Counter
 from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
@@ -226,6 +227,13 @@ class Refused(Exception):
     """A failure no repair of its kind can fix (its message says why)."""
 
 
+def attempts(tried: list[str]) -> str:
+    """The attempts a refusal names, in order, each once with how often it was made: the
+    placement search repeats the same miss for every frame set and turn."""
+    counts = Counter(tried)
+    return " | ".join(t if counts[t] == 1 else f"{t} (x{counts[t]})" for t in counts)
+
+
 @dataclass
 class _State:
     job: object
@@ -325,7 +333,7 @@ class _Session:
         where = ("the target is reached only through a snap-through" if s + 1 == last else
                  "no stable route found")
         raise Refused(f"segment {s} (shape {s} -> {s + 1}): {where}; tried: "
-                      + " | ".join(tried))
+                      + attempts(tried))
 
     # -- twist -----------------------------------------------------------------------------
     def fix_twist(self, failures) -> None:
@@ -370,7 +378,7 @@ class _Session:
                 passing.append((job, new, f"{new.n_shapes - doc.n_shapes} intermediate "
                                 "rotation(s) inserted"))
         if not passing:
-            raise Refused(f"{failures[0].message}; tried: " + " | ".join(tried))
+            raise Refused(f"{failures[0].message}; tried: " + attempts(tried))
         other, new, change = self.reachable_first(passing)
         self.untwisted = [(j, d) for j, d, _ in passing]
         if doc.robot is not None or doc.program is not None:
@@ -419,7 +427,7 @@ class _Session:
                           f"accelerations x{factor ** 2:g}, jerks x{factor ** 3:g})",
                           run.message, replace(self.state, job=slower, doc=new), since)
                 return
-        raise Refused(f"{failures[0].message}; tried: " + " | ".join(tried))
+        raise Refused(f"{failures[0].message}; tried: " + attempts(tried))
 
     # -- reach -----------------------------------------------------------------------------
     def fix_reach(self, failures) -> None:
@@ -436,7 +444,7 @@ class _Session:
             for turn, other, new in turned:
                 if self.spent():
                     raise Refused("repair budget spent placing the job; tried: "
-                                  + " | ".join(tried))
+                                  + attempts(tried))
                 if searches is SEARCHES and other.grippers.method != job.grippers.method:
                     continue  # the searches shift the plan's own frames (rolled or not) only
                 for found in placements(new.grippers, yaws=(0.0,), cell=other.robot,
@@ -450,7 +458,7 @@ class _Session:
                     seen.add(key)
                     if not self.attempt():
                         raise Refused("repair budget spent placing the job; tried: "
-                                      + " | ".join(tried))
+                                      + attempts(tried))
                     move = turn.then(found.move)
                     placed_job = moved_job(other, found.move)
                     placed = moved_document(placed_job, new, found.move, program=False)
@@ -472,7 +480,7 @@ class _Session:
                               _State(placed_job, placed, self.state.move.then(move)), since)
                     return
         raise Refused("no placement of the job on the table makes every pose reachable; "
-                      "tried: " + " | ".join(tried))
+                      "tried: " + attempts(tried))
 
     def fix_cell_reach(self, failures) -> None:
         """A described cell: the job shifted to where the cell's own placement search

@@ -292,10 +292,24 @@ class Trajectory:
         return self.at(sample_times(self.duration, rate))
 
 
+MAX_SAMPLES = 10_000_000
+"""Most samples of a trajectory (over a gigabyte of poses; 28 hours of motion at 100 Hz)."""
+
+
 def sample_times(duration: float, rate: float) -> np.ndarray:
-    """Times 0, 1/rate, ... up to ``duration`` [s], which is always included."""
+    """Times 0, 1/rate, ... up to ``duration`` [s], which is always included.
+
+    Raises
+    ------
+    ValueError
+        When ``rate`` is not a number > 0, or gives more than :data:`MAX_SAMPLES` samples.
+    """
     rate = positive("rate", rate)
     steps = int(np.floor(duration * rate + 1e-9))
+    if steps >= MAX_SAMPLES:
+        raise ValueError(f"rate: {rate:g} Hz over the trajectory's {duration:.4g} s gives "
+                         f"{steps + 1:.3g} samples, more than {MAX_SAMPLES:.0e}: lower the rate "
+                         "(or re-time the plan faster)")
     times = np.arange(steps + 1) / rate
     if duration - times[-1] > 1e-12:
         return np.r_[times, duration]

@@ -242,7 +242,7 @@ def band_eigenpairs(band: np.ndarray, k: int = 3) -> tuple[np.ndarray, np.ndarra
     used = np.abs(band)
     used[np.arange(band.shape[0])[:, None] + np.arange(n_dof) >= n_dof] = 0.0
     rows = used.sum(axis=0)  # row j: H[j, j] and H[j + i, j] = H[j, j + i] right of it
-    for i in range(1, band.shape[0]):
+    for i in range(1, min(band.shape[0], n_dof)):  # a short chain has fewer dof than rows
         rows[i:] += used[i, : n_dof - i]  # and H[j, j - i] left of the diagonal
     return values, vectors, float(rows.max())
 
