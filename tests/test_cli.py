@@ -282,6 +282,20 @@ def test_planner_family_and_weight_overrides(tmp_path, capsys):
     assert "stretchiness" in capsys.readouterr().err
 
 
+def test_a_harness_plan_is_not_verified_and_says_so(tmp_path, capsys):
+    """The verification models a free cable between two grippers: on a wire-harness plan
+    `plan --verify` warns that it did not verify (exit 1, not a silent 0) and `dloplan verify`
+    refuses in one line (exit 2), instead of a snap-through 'failure' where a fixture holds
+    the cable."""
+    example = Path(__file__).parents[1] / "examples" / "harness_usb.yaml"
+    out = tmp_path / "out"
+    assert main(["plan", str(example), "-o", str(out), "-q", "--verify"]) == EXIT_WARNINGS
+    assert "wire-harness plan is not verified" in capsys.readouterr().out
+    assert main(["verify", str(out / "plan.json"), "-q"]) == EXIT_FAILURE
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "wire-harness plan is not verified" in err[0], err
+
+
 def test_check_a_harness_board(tmp_path, capsys):
     example = Path(__file__).parents[1] / "examples" / "harness_usb.yaml"
     assert main(["check", str(example)]) == EXIT_OK

@@ -27,7 +27,7 @@ from .document import PlanDocument, read_plan
 from .figure_workers import figure_workers as workers_for
 from .job import Job
 from .load import file_kind, load_job
-from .pipeline import quiet, run_harness_job, run_job
+from .pipeline import HARNESS_NOT_VERIFIED, quiet, run_harness_job, run_job
 from .writers import WRITERS, WriteOptions, write_outputs
 
 ROBOT_OUTPUTS = ("csv", "ros", "rapid", "ros_joints", "urscript")
@@ -87,6 +87,9 @@ def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
             options = WriteOptions(rate=job.motion.rate, figure_workers=drawer)
         else:
             doc = run_harness_job(job, check_robot=check_robot, progress=progress)
+            if verify:  # asked for and not done: said, not skipped silently
+                progress(f"--verify: {HARNESS_NOT_VERIFIED}")
+                doc = replace(doc, warnings=doc.warnings + (HARNESS_NOT_VERIFIED,))
             options = WriteOptions(figure_workers=drawer)
         if not doc.ok:
             formats = tuple(f for f in formats if f not in ROBOT_OUTPUTS)

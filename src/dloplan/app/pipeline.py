@@ -375,6 +375,12 @@ def replay_modulus_cap(cable, progress=quiet) -> float | None:
     return REPLAY_MODULUS_CAP
 
 
+HARNESS_NOT_VERIFIED = ("a wire-harness plan is not verified: the checks model a free cable "
+                        "between the two grippers, not one pressed into the board's fixtures "
+                        "(its snap-through and replay would fail where the fixtures hold it)")
+"""Why :func:`verify_plan` refuses a wire-harness plan and ``plan --verify`` warns on one."""
+
+
 def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
                 robot: bool = True, tensile_limit=None, tolerance: float = 0.01,
                 progress=quiet):
@@ -385,9 +391,16 @@ def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
     the clips between the planned poses at the trajectory's knot times: the
     same motion as the timed dual-arm trajectory. Returns the
     :class:`~dloplan.verify.Verification`.
+
+    Raises
+    ------
+    ValueError
+        For a wire-harness plan (:data:`HARNESS_NOT_VERIFIED`).
     """
     from ..verify import verify_path
 
+    if doc.harness is not None:
+        raise ValueError(f"plan: {HARNESS_NOT_VERIFIED}")
     times = doc.trajectory.times if replay and doc.trajectory is not None else None
     reach = None
     if robot and doc.trajectory is not None:
