@@ -352,3 +352,12 @@ def test_options_that_must_be_positive_refuse_zero_negative_and_nan(tmp_path, ca
     assert info.value.code == EXIT_FAILURE
     assert f"argument {option}: got '{value}', expected a finite number > 0" in \
         capsys.readouterr().err
+
+
+def test_the_robot_table_prints_no_negative_zero():
+    """A worst value of -0.0 (a clearance rounded from below) prints as 0, not "-0"."""
+    from dloplan.cli import program_table
+
+    table = program_table([{"check": "assignment", "ok": True, "worst": -0.0, "unit": "mm",
+                            "where": "shape 0, both"}])
+    assert "-0" not in table and " 0 mm" in table

@@ -307,7 +307,7 @@ def program_table(summary: list[dict]) -> str:
     lines = [f"{'robot check':<{width}} {'verdict':<7} {'worst':>12}  where"]
     for line in summary:
         lines.append(f"{line['check']:<{width}} {'ok' if line['ok'] else 'FAILED':<7} "
-                     f"{line['worst']:>8.4g} {line['unit']:<3}  {line['where']}")
+                     f"{line['worst'] + 0.0:>8.4g} {line['unit']:<3}  {line['where']}")
     return "\n".join(lines)
 
 
