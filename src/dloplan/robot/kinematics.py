@@ -356,12 +356,18 @@ def solve_many(arm: Arm, positions, rotation_matrices, seeds, options: IKOptions
     held = np.zeros(n) if arm_angles is None else np.broadcast_to(
         np.asarray(arm_angles, dtype=float), (n,)).copy()
     return ik_compiled.solve_batch(
-        arm._origin_rot, arm._origin_xyz, arm._axis_skew, arm._axis_skew2, arm._tcp_rot,
-        np.asarray(arm.gripper.tcp_offset, dtype=float), arm.axes, arm.lower, arm.upper,
-        positions, np.ascontiguousarray(rotation_matrices, dtype=float),
+        *_compiled_chain(arm), positions, np.ascontiguousarray(rotation_matrices, dtype=float),
         np.ascontiguousarray(seeds, dtype=float), -1 if arm_angles is None else ARM_ANGLE_JOINT,
         held, options.max_iterations, options.position_tolerance, options.angle_tolerance,
         options.damping, options.max_step, LENGTH_SCALE)
+
+
+def _compiled_chain(arm: Arm) -> tuple:
+    """The arm's chain as :mod:`dloplan.robot.ik_compiled` takes it: origin rotations and
+    points, the axes' cross-product matrices and their squares, the TCP rotation and offset in
+    the flange, the unit axes and the joint limits."""
+    return (arm._origin_rot, arm._origin_xyz, arm._axis_skew, arm._axis_skew2, arm._tcp_rot,
+            np.asarray(arm.gripper.tcp_offset, dtype=float), arm.axes, arm.lower, arm.upper)
 
 
 def _inverse(arm: Arm, position: np.ndarray, target_rot: np.ndarray, seed: np.ndarray,
@@ -439,9 +445,8 @@ def _solve(arm: Arm, position, target_rot, seed, opts: IKOptions,
     """
     polish = opts.polish if opts.min_margin > 0 and arm_angle is None else 0
     q, perr, aerr, it, ok = ik_compiled.solve(
-        arm._origin_rot, arm._origin_xyz, arm._axis_skew, arm._axis_skew2, arm._tcp_rot,
-        np.asarray(arm.gripper.tcp_offset, dtype=float), arm.axes, arm.lower, arm.upper,
-        np.asarray(position, dtype=float), np.ascontiguousarray(target_rot, dtype=float),
+        *_compiled_chain(arm), np.asarray(position, dtype=float),
+        np.ascontiguousarray(target_rot, dtype=float),
         np.asarray(seed, dtype=float), -1 if arm_angle is None else ARM_ANGLE_JOINT,
         0.0 if arm_angle is None else float(arm_angle), opts.max_iterations,
         opts.position_tolerance, opts.angle_tolerance, opts.damping, opts.max_step,
