@@ -67,6 +67,9 @@ def test_slerp_is_scipys_slerp():
     assert (mine * reference.inv()).magnitude().max() < 1e-14
     assert np.allclose(np.linalg.norm(slerp_quaternions(times, keys, t), axis=1), 1.0,
                        atol=1e-15)
+    both = slerp_quaternions(times, np.stack([keys, keys[::-1]], axis=1), t)  # (K, 2, 4) keys
+    assert np.abs(both[:, 0] - slerp_quaternions(times, keys, t)).max() < 1e-15
+    assert np.abs(both[:, 1] - slerp_quaternions(times, keys[::-1], t)).max() < 1e-15
 
 
 def test_quaternion_x_axes_are_the_rotations_first_columns():

@@ -131,28 +131,28 @@ def slerp_quaternions(times, quaternions, t) -> np.ndarray:
     times : numpy.ndarray
         (K,) strictly increasing key times [s], K >= 2.
     quaternions : numpy.ndarray
-        (K, 4) unit quaternions (x, y, z, w) at the keys.
+        (K, ..., 4) unit quaternions (x, y, z, w) at the keys (e.g. (K, 2, 4): both clips).
     t : numpy.ndarray
         (M,) times [s] within ``[times[0], times[-1]]``.
 
     Returns
     -------
     numpy.ndarray
-        (M, 4) unit quaternions (x, y, z, w); at a key time, that key's rotation.
+        (M, ..., 4) unit quaternions (x, y, z, w); at a key time, that key's rotation.
     """
     k = np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 2)
-    f = ((t - times[k]) / (times[k + 1] - times[k]))[:, None]
+    f = ((t - times[k]) / (times[k + 1] - times[k])).reshape((-1,) + (1,) * (quaternions.ndim - 1))
     q0, q1 = quaternions[k], quaternions[k + 1]
-    cos = np.einsum("ij,ij->i", q0, q1)
-    q1 = np.where(cos[:, None] < 0.0, -q1, q1)  # q and -q are one rotation: the shorter arc
-    angle = np.arccos(np.minimum(np.abs(cos), 1.0))[:, None]
+    cos = np.sum(q0 * q1, axis=-1, keepdims=True)
+    q1 = np.where(cos < 0.0, -q1, q1)  # q and -q are one rotation: the shorter arc
+    angle = np.arccos(np.minimum(np.abs(cos), 1.0))
     sin = np.sin(angle)
     tiny = sin < 1e-12  # (nearly) equal keys: linear weights, exact to O(angle^2)
     safe = np.where(tiny, 1.0, sin)
     w0 = np.where(tiny, 1.0 - f, np.sin((1.0 - f) * angle) / safe)
     w1 = np.where(tiny, f, np.sin(f * angle) / safe)
     q = w0 * q0 + w1 * q1
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
 
 
 def quaternion_x_axes(quaternions) -> np.ndarray:

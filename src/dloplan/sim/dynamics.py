@@ -134,8 +134,7 @@ class ClipTrajectory:
         k = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.times) - 2)
         f = ((t - self.times[k]) / (self.times[k + 1] - self.times[k]))[:, None, None]
         pos = (1.0 - f) * positions[k] + f * positions[k + 1]
-        return pos, np.stack([slerp_quaternions(self.times, quats[:, c], t) for c in (0, 1)],
-                             axis=1)
+        return pos, slerp_quaternions(self.times, quats, t)
 
     @cached_property
     def _keys(self):
