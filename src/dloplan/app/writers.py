@@ -15,6 +15,7 @@ ros_joints ``ros_joints/``, a ROS 2 ``trajectory_msgs/JointTrajectory`` per arm 
 urscript   ``urscript/``, one URScript program per arm (cells of two 6-joint arms)
 figures    ``figures/``, PNG and SVG figures
 report     ``report.html``, the self-contained interactive report (with the figures)
+correction ``correction.json`` and ``correction.txt``: a corrected plan's correction report
 =========  ==================================================================================
 """
 
@@ -153,6 +154,22 @@ def write_report_file(doc: PlanDocument, target: Path, options: WriteOptions) ->
     return [write_plan_report(doc, target, images, arms)]
 
 
+def write_correction_report(doc: PlanDocument, target: Path,
+                            options: WriteOptions) -> list[Path]:
+    """A corrected plan's correction report (``dloplan correct``): ``correction.json`` (the
+    report's numbers, SI units) and ``correction.txt`` beside it (the same as a table)."""
+    import json
+
+    from ..correct.report import correction_table
+    from ..io.files import atomic_write_text
+
+    if doc.correction is None:
+        raise ValueError("correction: the plan is not a corrected plan (no correction section)")
+    report = {k: v for k, v in doc.correction.items() if k not in ("measured", "predicted")}
+    return [atomic_write_text(target, json.dumps(report, indent=1) + "\n"),
+            atomic_write_text(target.with_suffix(".txt"), correction_table(report))]
+
+
 @dataclass(frozen=True)
 class Writer:
     """One output: its default file (or folder) name in an output folder, and its function."""
@@ -170,6 +187,7 @@ WRITERS: dict[str, Writer] = {
     "urscript": Writer("urscript", write_urscript_files),
     "figures": Writer("figures", write_figure_files),
     "report": Writer("report.html", write_report_file),
+    "correction": Writer("correction.json", write_correction_report),
 }
 """Output name -> writer, in the order they run (the report embeds the figures)."""
 
