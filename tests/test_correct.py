@@ -29,7 +29,7 @@ from dloplan.correct import (
     resample_measured,
     run_closed_loop,
 )
-from dloplan.correct.document import check_robot_reach, correct_document
+from dloplan.app.correct import CorrectionService, correct_and_check, correct_document
 from dloplan.geometry import resample_by_arc_length, shape_length
 from dloplan.grippers import GripperPath
 from dloplan.sim import equilibrium
@@ -292,6 +292,11 @@ def test_dloplan_correct_writes_the_corrected_plan_program_and_report(plans, tmp
                  "-o", str(out), "-q", "--json"])
     assert code in (0, 1)
     corrected = read_plan(out / "plan.json")
+    # a corrected plan is a plan: its stored stabilized shapes are equilibria of the cable it
+    # states, dloplan verify passes it, and its cell is the plan's
+    assert main(["verify", str(out / "plan.json"), "-q"]) == 0
+    assert corrected.robot is not None and corrected.robot.cell == doc.robot.cell
+    assert len(corrected.correction["predicted"]) == len(doc.shapes) - at - 1
     report = json.loads((out / "correction.json").read_text())
     direct = correct_document(doc, at, _measure(run.open_loop[at]))
     assert corrected.cable.youngs_modulus == pytest.approx(direct.cable.youngs_modulus)
@@ -372,14 +377,24 @@ def test_the_mirrored_job_gets_the_mirrored_correction(plans):
 
 
 def test_corrected_poses_out_of_the_robots_reach_are_refused(plans):
+    """The whole corrected path's program is made on the plan's cell: clip poses moved 1.5 m
+    away are refused, naming the robot program (the plan itself passes)."""
+    from dataclasses import replace
+
+    from dloplan.app.correct import check_correction
+
     doc, _ = plans["demo"]
-    g = doc.grippers
+    stable = _stabilized(doc)
+    result = correct_document(doc, 3, resample_by_arc_length(stable[3], 300))
+    corrected, remaining = check_correction(doc, result, verify=False)
+    assert corrected.robot.ok and remaining.robot.ok
+    assert corrected.robot.cell == doc.robot.cell
+    g = result.grippers
     far = g.positions.copy()
     far[5:] += [1.5, 0.0, 0.0]  # 1.5 m further away from the robot
     moved = GripperPath(positions=far, rotations=g.rotations, method=g.method, twist=g.twist)
-    check_robot_reach(g, g, 3)  # the plan itself passes
-    with pytest.raises(CorrectionRefused, match=r"shapes \[5, 6, 7\] are out of the YuMi's"):
-        check_robot_reach(g, moved, 3)
+    with pytest.raises(CorrectionRefused, match="robot program"):
+        check_correction(doc, replace(result, grippers=moved), verify=False)
 
 
 def test_the_planned_reference_also_corrects_the_plans_own_drift_within_the_limits(plans):
@@ -400,3 +415,86 @@ def test_the_planned_reference_also_corrects_the_plans_own_drift_within_the_limi
         correct_plan(doc.cable, doc.shapes, doc.grippers, 3,
                      resample_by_arc_length(stable[3], 300), stabilized=stable,
                      reference="planned")
+
+
+# -- strict input (issue 35, 36) ----------------------------------------------------------------
+def test_a_measurement_in_another_frame_or_unit_or_too_sparse_is_refused(plans, tmp_path):
+    from dloplan.app.correct import measured_points
+
+    doc, _ = plans["demo"]
+    shape = _measure(_stabilized(doc)[3], n_points=100)
+    other = tmp_path / "camera.csv"
+    write_shapes(other, [RegisteredShape(shape, frame_id="camera_link")])
+    with pytest.raises(ValueError, match="'camera_link', the plan is in 'world'"):
+        measured_points(other, 3, doc.frame_id)
+    with pytest.raises(CorrectionRefused, match="millimetres"):
+        correct_document(doc, 3, 1e3 * shape)
+    with pytest.raises(CorrectionRefused, match="2 points"):
+        correct_document(doc, 3, shape[[0, -1]])
+
+
+def test_a_measurement_equal_to_the_plan_plus_noise_leaves_e_unchanged(plans):
+    """Plan plus 1 mm noise: no information on E beyond the noise; E is kept, with the reason
+    among the warnings (it moved E by -29 % / +11 % before)."""
+    for name in SCENARIOS:
+        doc, _ = plans[name]
+        for seed in range(3):
+            result = correct_document(doc, 3, _measure(_stabilized(doc)[3], seed=seed))
+            if result.model.youngs_modulus != doc.cable.youngs_modulus:
+                # informed: then the change is within 3 sd and small
+                assert abs(np.log(result.model.youngs_modulus / doc.cable.youngs_modulus)) \
+                    < 3 * result.model.log_sd + 0.05
+            else:
+                assert any("does not inform E" in w for w in result.warnings)
+
+
+def test_e_ten_times_off_is_refused(plans):
+    """The 'more than 10 times off' refusal is reachable: the trust region's factor-2 steps do
+    not count against the Gauss-Newton steps."""
+    doc, _ = plans["demo"]
+    stable = _stabilized(doc)
+    softer = doc.cable.with_modulus(doc.cable.youngs_modulus / 15.0)
+    truth = equilibrium(softer, stable[3], doc.grippers.clip_poses(3)).shape
+    with pytest.raises(CorrectionRefused, match="times off"):
+        correct_document(doc, 3, _measure(truth))
+
+
+def test_the_prediction_interval_holds_the_unexplained_residual(plans):
+    doc, _ = plans["ethernet-3d"]
+    cable = doc.cable
+    last = len(doc.shapes) - 1
+    plant = Plant(cable.with_links(100).with_modulus(2 * cable.youngs_modulus), noise=NOISE,
+                  n_measured=200, seed=1, clamp=0.8 * cable.rest_link_length)
+    run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [last // 2],
+                          stabilized=_stabilized(doc))
+    (correction,) = run.corrections
+    low, high = correction.prediction_interval
+    assert correction.predicted_error >= correction.model.residual_after
+    assert low <= run.closed_loop_error <= high
+
+
+def test_the_warm_service_answers_as_the_command_corrects(plans, monkeypatch, capsys):
+    import io
+
+    doc, plan_path = plans["demo"]
+    points = _measure(_stabilized(doc)[3] + [0.0, 0.0, -0.01])
+    service = CorrectionService(doc)
+    answers = [service.correct(3, points) for _ in range(2)]
+    direct = correct_document(doc, 3, points)
+    for answer in answers:
+        assert answer["ok"], answer.get("error")
+        assert answer["correction"]["youngs_modulus"] == pytest.approx(
+            direct.cable.youngs_modulus, rel=1e-9)
+        assert answer["program"]["ok"]
+    assert service.correct(3, points[:2])["error"].startswith("measured: 2 points")
+    lines = [json.dumps({"at": 3, "points": points.tolist()}),
+             json.dumps({"at": 3, "points": (1e3 * points).tolist(), "units": "mm"}),
+             json.dumps({"at": 3, "points": points.tolist(), "frame_id": "camera_link"}),
+             "not json"]
+    monkeypatch.setattr("sys.stdin", io.StringIO("\n".join(lines) + "\n"))
+    assert main(["correct", str(plan_path), "--serve", "-q"]) == 0
+    replies = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [r["ok"] for r in replies] == [True, True, False, False]
+    assert replies[0]["correction"]["youngs_modulus"] == pytest.approx(
+        replies[1]["correction"]["youngs_modulus"], rel=1e-6)
+    assert "camera_link" in replies[2]["error"]
