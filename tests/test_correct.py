@@ -225,9 +225,11 @@ def test_noisy_dense_measurements_are_resampled_by_smoothed_arc_length(plans):
     resampled = resample_measured(points, shape, doc.cable.length)
     assert np.mean(np.linalg.norm(resampled - shape, axis=1)) < 0.6e-3
     assert abs(shape_length(resampled) / doc.cable.length - 1) < 0.01
-    # three points, too few to smooth: the polyline is used as it is
-    few = resample_measured(shape[::10], shape, doc.cable.length)
+    # five points, too few to smooth: the polyline is used as it is; fewer are refused
+    few = resample_measured(shape[::5], shape, doc.cable.length)
     assert np.allclose(few[[0, -1]], shape[[0, -1]])
+    with pytest.raises(CorrectionRefused, match="3 points, expected at least 5"):
+        resample_measured(shape[::10], shape, doc.cable.length)
 
 
 @pytest.mark.parametrize(

@@ -119,7 +119,7 @@ def damped_minimize(
     state,
     cost: float,
     linearize: Callable[[object], Linearization | None],
-    evaluate: Callable[[object, object], tuple[object, float] | None],
+    evaluate: Callable[[object, object, Linearization], tuple[object, float] | None],
     damping: Damping,
     *,
     max_iterations: int,
@@ -138,8 +138,9 @@ def damped_minimize(
         ``linearize(state)`` -> the iteration's :class:`Linearization`, or None when the state
         is converged (the caller's test: a gradient norm, a Newton decrement).
     evaluate : callable
-        ``evaluate(state, step)`` -> ``(trial state, trial cost)``, or None when the trial fails
-        (an equilibrium that does not converge).
+        ``evaluate(state, step, system)`` -> ``(trial state, trial cost)``, or None when the
+        trial fails (an equilibrium that does not converge); ``system`` is the iteration's
+        linearization (a warm start for the trial).
     damping : Damping
         The policy.
     max_iterations : int
@@ -165,7 +166,7 @@ def damped_minimize(
         while True:
             trials += 1
             step = system.solve(shift)
-            trial = None if step is None else evaluate(state, step)
+            trial = None if step is None else evaluate(state, step, system)
             if trial is not None and trial[1] <= cost:
                 ratio = gain_ratio(cost, trial[1], system.predicted(step, shift))
                 gain = (cost - trial[1]) / max(cost, 1e-300)

@@ -45,6 +45,7 @@ from scipy.spatial.transform import Rotation
 from ..cable import GRAVITY, Cable
 from ..geometry import as_path, resample_by_arc_length
 from ..grippers import GripperPath, relative_twist
+from ..least_squares import Damping, damped_minimize
 from ..physics.chain import SpringChain
 from ..sim import ClipPoses, continuation, equilibrium
 from ..sim.sensitivity import equilibrium_sensitivity, perturbed_clips
@@ -473,39 +474,67 @@ def fit_clips(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess: np.n
     return _levenberg_marquardt(cable, clips, reference, eq, p, limits, gravity, chain)
 
 
+CLIP_DAMPING = Damping(initial=1e-3, start=1e-9, increase=8.0, decrease=4.0, minimum=1e-9,
+                       good=0.0, poor=0.0)
+"""The clip fit's damping (:class:`dloplan.least_squares.Damping`): mu diag(J^T J) from 1e-3,
+four times smaller after every accepted step (down to 1e-9), eight times larger after a
+rejected one."""
+
+MAX_TRIALS = 10
+"""Trials per Levenberg-Marquardt iteration of the clip fit before it stops."""
+
+
+@dataclass(frozen=True, eq=False)
+class _ClipSystem:
+    """One Levenberg-Marquardt iteration of the clip fit: J^T J, J^T r in the scaled
+    coordinates z = scale p, and the sensitivity for the trials' warm start."""
+
+    a: np.ndarray
+    b: np.ndarray
+    scale: np.ndarray
+    sens: object
+
+    def solve(self, shift: float) -> np.ndarray:
+        damped = self.a + shift * np.diag(np.diag(self.a)) + 1e-12 * np.trace(self.a) * np.eye(12)
+        return -np.linalg.solve(damped, self.b) / self.scale
+
+    def predicted(self, step, shift: float) -> None:
+        return None  # every trial is an exact equilibrium: accepted when the cost does not rise
+
+
 def _levenberg_marquardt(cable: Cable, clips: ClipPoses, reference: np.ndarray, eq, p: np.ndarray,
                          limits: CorrectionLimits, gravity, chain: SpringChain):
-    """:func:`fit_clips` from ``eq``, the equilibrium already solved at ``clips`` + ``p``."""
+    """:func:`fit_clips` from ``eq``, the equilibrium already solved at ``clips`` + ``p``, by
+    the shared damped least-squares loop (:func:`dloplan.least_squares.damped_minimize`): the
+    system is J^T J with the Jacobian of the equilibrium, each trial an exact equilibrium
+    warm-started from the linear prediction."""
     scale = np.tile(np.r_[np.ones(3), np.full(3, 0.5 * cable.length)], 2)  # z = scale * p
-    r = (eq.shape - reference).ravel()
-    cost = float(r @ r)
-    mu = 1e-3
-    iterations = 0
-    for iterations in range(1, limits.iterations + 1):  # noqa: B007 (the count is returned)
-        sens = equilibrium_sensitivity(cable, eq.shape, eq.clips, chain=chain)
+
+    def residual(held):
+        return (held.shape - reference).ravel()
+
+    def linearize(state):
+        held, _ = state
+        sens = equilibrium_sensitivity(cable, held.shape, held.clips, chain=chain)
         jz = sens.clips.reshape(-1, 12) / scale
-        a = jz.T @ jz
-        b = jz.T @ r
-        improved = False
-        for _ in range(10):
-            damped = a + mu * np.diag(np.diag(a)) + 1e-12 * np.trace(a) * np.eye(12)
-            trial_p = p - np.linalg.solve(damped, b) / scale
-            # warm start from the linear prediction: Newton then needs few iterations
-            trial = _resolve(cable, sens.predict(trial_p - p), perturbed_clips(clips, trial_p),
-                             gravity, chain)
-            if trial is not None:
-                r_trial = (trial.shape - reference).ravel()
-                cost_trial = float(r_trial @ r_trial)
-                if cost_trial < cost:
-                    improved = cost - cost_trial > COST_TOLERANCE * cost
-                    p, eq, r, cost = trial_p, trial, r_trial, cost_trial
-                    mu = max(mu / 4.0, 1e-9)
-                    break
-            mu *= 8.0
-        if not improved:
-            break
+        return _ClipSystem(jz.T @ jz, jz.T @ residual(held), scale, sens)
+
+    def evaluate(state, step, system):
+        held, p_now = state
+        trial = _resolve(cable, system.sens.predict(step), perturbed_clips(clips, p_now + step),
+                         gravity, chain)
+        if trial is None:
+            return None
+        r = residual(trial)
+        return (trial, p_now + step), float(r @ r)
+
+    r = residual(eq)
+    run = damped_minimize((eq, p), float(r @ r), linearize, evaluate, CLIP_DAMPING,
+                          max_iterations=limits.iterations, max_trials=MAX_TRIALS,
+                          stop_gain=COST_TOLERANCE)
+    eq, p = run.state
     _check_bounds(p, limits)
-    return p, eq, iterations
+    return p, eq, run.iterations
 
 
 def _check_bounds(p: np.ndarray, limits: CorrectionLimits) -> None:
