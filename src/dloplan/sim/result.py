@@ -80,7 +80,7 @@ def force_scale(cable: Cable, gravity=GRAVITY) -> float:
     return weight + cable.k_bending / cable.rest_link_length
 
 
-ROUNDOFF = 64.0
+ROUNDOFF = 16.0
 """The round-off floor of a force residual is ``ROUNDOFF * eps * X * k_max``
 (:func:`residual_tolerance`): a few terms per point, each a stiffness times a difference of
 coordinates of size X."""
