@@ -290,8 +290,9 @@ class Cable:
         return replace(self, youngs_modulus=youngs_modulus)
 
     def thesis_model(self) -> Cable:
-        """The same cable with the thesis' modelling choices (k_b = 3EI/l, equal masses)."""
-        return replace(self, bending="thesis", masses="equal")
+        """The same cable with the thesis' modelling choices (k_b = 3EI/l, equal masses, one
+        modulus for bending and stretching: E_a = E)."""
+        return replace(self, bending="thesis", masses="equal", axial_modulus=None)
 
     def constants(self) -> dict[str, float]:
         """The derived model constants, keyed by name with their unit in brackets."""
@@ -329,7 +330,7 @@ _CATALOGUE: dict[str, dict[str, float]] = {
 CATALOGUE_NAMES: tuple[str, ...] = tuple(_CATALOGUE)
 
 COMPOSITE_AXIAL_MODULI: dict[str, float] = {"usb": 2e9, "ethernet": 2e9}
-"""Axial moduli E_a [Pa] to use for the composite catalogue cables with the rod model.
+"""Axial moduli E_a [Pa] of the composite catalogue cables: :func:`catalogue_cable`'s default.
 
 Order-of-magnitude estimates from their copper: E_cu ~ 117 GPa on about 0.3 mm^2 (USB, four
 AWG 28 conductors and the shield) or 1.6 mm^2 (Ethernet, eight AWG 24), derated about three
@@ -337,9 +338,11 @@ times for the twist of the pairs and spread over the whole section A: E_a ~ 2 GP
 times their bending moduli. Any value above about 1e8 Pa gives nearly the same shapes (the
 cable is then practically inextensible: the USB between level clips sags within 0.01 mm of the
 2 GPa shape at 0.4 m apart, 0.25 mm nearly taut at 0.48 m), so the estimate need not be
-precise. The catalogue leaves
-``axial_modulus`` unset to reproduce the thesis; pass
-``catalogue_cable("usb", axial_modulus=COMPOSITE_AXIAL_MODULI["usb"])`` for a real cable.
+precise. With the thesis' single modulus (E_a = E) the USB stretches about 1 % under its own
+weight and a nearly taut shape differs by up to 3 mm from an inextensible cable's (MuJoCo's
+cable, issue 35); that model is kept as an option: ``catalogue_cable("usb",
+axial_modulus=None)``, :meth:`Cable.thesis_model`, or ``axial_modulus: youngs_modulus`` in a
+scenario (docs/decisions.md).
 """
 
 
@@ -349,7 +352,10 @@ def catalogue_cable(name: str, n_links: int = 10, **overrides) -> Cable:
     ``usb`` (d 3 mm, 10 g, E 2.5 MPa), ``ethernet`` (d 5 mm, 10 g, E 7.5 MPa), ``pu`` hose
     (d 6 mm, 11 g, E 100 MPa) and ``pa12`` hose (d 6 mm, 9 g, E 1 GPa), all 0.5 m long. The
     moduli of USB and Ethernet are those the thesis identified with its own bending model;
-    Poisson ratios are not given in the thesis and are typical values for the materials.
+    Poisson ratios are not given in the thesis and are typical values for the materials. The
+    composite cables (USB, Ethernet) stretch with their copper's axial modulus
+    (:data:`COMPOSITE_AXIAL_MODULI`) unless ``axial_modulus`` is given (None: the thesis' E_a =
+    E).
 
     Parameters
     ----------
@@ -365,5 +371,6 @@ def catalogue_cable(name: str, n_links: int = 10, **overrides) -> Cable:
         raise ValueError(
             f"cable: unknown catalogue name {name!r}, expected one of {', '.join(_CATALOGUE)}"
         )
-    params = {**_CATALOGUE[key], "n_links": n_links, "name": key, **overrides}
+    axial = {"axial_modulus": COMPOSITE_AXIAL_MODULI[key]} if key in COMPOSITE_AXIAL_MODULI else {}
+    params = {**_CATALOGUE[key], **axial, "n_links": n_links, "name": key, **overrides}
     return Cable(**params)
