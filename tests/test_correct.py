@@ -524,6 +524,11 @@ def test_the_warm_service_answers_as_the_command_corrects(plans, monkeypatch, ca
             direct.cable.youngs_modulus, rel=1e-9)
         assert answer["program"]["ok"]
     assert service.correct(3, points[:2])["error"].startswith("measured: 2 points")
+    # the fast answer: the same remaining motion, without predictions and program check
+    fast = service.correct(3, points, predict=False, check_program=False)
+    assert fast["ok"] and fast["program"] is None and "predicted_error" not in fast["correction"]
+    assert fast["correction"]["clip_corrections"] == answers[0]["correction"]["clip_corrections"]
+    assert fast["remaining"] == answers[0]["remaining"]
     lines = [json.dumps({"at": 3, "points": points.tolist()}),
              json.dumps({"at": 3, "points": (1e3 * points).tolist(), "units": "mm"}),
              json.dumps({"at": 3, "points": points.tolist(), "frame_id": "camera_link"}),

@@ -171,7 +171,10 @@ def _serve_corrections(doc, options: dict) -> int:
             if "at" not in request or "points" not in request:
                 raise ValueError("expected the keys 'at' and 'points'")
             scale = 1e-3 if units == "mm" else 1.0
-            answer = service.correct(request["at"], _points(request["points"]) * scale)
+            flags = {key: request[key] for key in ("predict", "check_program") if key in request}
+            if any(not isinstance(v, bool) for v in flags.values()):
+                raise ValueError(f"predict, check_program: got {flags!r}, expected true or false")
+            answer = service.correct(request["at"], _points(request["points"]) * scale, **flags)
         except (ValueError, TypeError) as exc:
             answer = {"ok": False, "error": f"request: {exc}"}
         print(json.dumps(answer), flush=True)

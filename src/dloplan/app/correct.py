@@ -240,55 +240,65 @@ def correct_into(corrected: PlanDocument, remaining: PlanDocument, folder, *,
 class CorrectionService:
     """A plan kept in memory for repeated corrections (a robot cell's closed loop).
 
-    The first correction compiles and loads the kernels; each one after costs a few
-    milliseconds (docs/correction.md, "Speed"). :meth:`correct` answers with the correction
-    and the remaining motion's robot program checked on the plan's cell; the physics of the
-    whole corrected plan is not verified here (``dloplan correct`` does it, at a cost of
-    seconds).
+    The first correction compiles and loads the kernels; each one after costs milliseconds
+    (docs/correction.md, "A correction service"). :meth:`correct` answers with the correction,
+    its predictions (``predict``) and the remaining motion's robot program checked on the
+    plan's cell (``check_program``); the physics of the whole corrected plan is not verified
+    here (``dloplan correct`` does it, at a cost of seconds).
 
     Parameters
     ----------
     doc : PlanDocument
         The plan being run.
+    predict : bool
+        Predict the remaining shapes open loop and corrected, with the interval (default).
     check_program : bool
-        Make and check the remaining motion's robot program on the plan's cell per correction.
+        Make and check the remaining motion's robot program on the plan's cell (default).
     **options
         Passed to :func:`dloplan.correct.correct_plan` (mode, reference, modulus_steps, ...).
     """
 
-    def __init__(self, doc: PlanDocument, *, check_program: bool = True, **options) -> None:
+    def __init__(self, doc: PlanDocument, *, predict: bool = True, check_program: bool = True,
+                 **options) -> None:
         if doc.grippers is None:
             raise ValueError("plan: the document has no gripper poses ('grippers' is null): "
                              "there are no clips to correct")
         self.doc = doc
         self.cell = document_cell(doc)
+        self.predict = predict
         self.check_program = check_program
         self.options = options
 
-    def correct(self, at: int, points) -> dict:
+    def correct(self, at: int, points, *, predict: bool | None = None,
+                check_program: bool | None = None) -> dict:
         """One correction from the points measured at shape ``at`` (in the plan's frame).
+
+        ``predict`` and ``check_program`` override the service's for this call.
 
         Returns
         -------
         dict
-            ``ok`` True with ``correction`` (:meth:`dloplan.correct.Correction.report`),
-            ``remaining`` (times [s], TCP positions [m] and quaternions x-y-z-w per arm),
-            ``program`` (the check's verdict) and ``seconds`` / ``cpu_seconds`` of this call;
-            or ``ok`` False with ``error`` (the reason of a refusal or a bad input).
+            ``ok`` True with ``correction`` (:meth:`dloplan.correct.Correction.report`: its
+            ``seconds`` / ``cpu_seconds`` until the remaining motion was ready), ``remaining``
+            (times [s], TCP positions [m] and quaternions x-y-z-w per arm), ``program`` (the
+            check's verdict, or None) and ``seconds`` / ``cpu_seconds`` of the whole call; or
+            ``ok`` False with ``error`` (the reason of a refusal or a bad input).
         """
         from ..robot.cell_program import make_program
 
+        predict = self.predict if predict is None else bool(predict)
+        check = self.check_program if check_program is None else bool(check_program)
         t0, cpu0 = time.perf_counter(), time.process_time()
         try:
-            result = correct_document(self.doc, at, points, **self.options)
+            result = correct_document(self.doc, at, points, predict=predict, **self.options)
             program = None
-            if self.check_program:
+            if check:
                 program = make_program(self.cell, sliced_grippers(result.grippers, result.at),
                                        result.remaining)
                 if not program.ok:
                     raise CorrectionRefused(f"robot program (the remaining motion from shape "
                                             f"{result.at}): {program.message}")
-        except ValueError as exc:
+        except (ValueError, ArithmeticError) as exc:
             return {"ok": False, "error": str(exc),
                     "seconds": time.perf_counter() - t0,
                     "cpu_seconds": time.process_time() - cpu0}

@@ -170,11 +170,11 @@ class Correction:
         The updated model cable (E).
     reference : numpy.ndarray
         (T - K, n + 1, 3) the shapes the remaining motion should produce [m].
-    open_loop, corrected : numpy.ndarray
+    open_loop, corrected : numpy.ndarray or None
         (T - K, n + 1, 3) the updated model's predictions of the remaining shapes with the
         planned and with the corrected clips [m], the discretization bias alpha d included:
         what the cable is expected to do.
-    equilibria : numpy.ndarray
+    equilibria : numpy.ndarray or None
         (T - K, n + 1, 3) the updated model's stable equilibria at the corrected clips [m], the
         bias not included: the stabilized shapes of the corrected plan, which ``dloplan
         verify`` checks as equilibria of the model the plan states.
@@ -183,14 +183,15 @@ class Correction:
         model leaves at shape K: the model errors it cannot represent, measurement offset and
         noise), ``grip`` (a clamp length L / (4 n) off the model's, :data:`GRIP_UNCERTAINTY`),
         ``modulus`` (2 sd of ln E); their sum bounds the final error's prediction interval
-        (:attr:`prediction_interval`).
+        (:attr:`prediction_interval`). The three are None (``uncertainty`` empty) for a
+        correction made with ``predict=False``.
     clip_corrections : numpy.ndarray
         (T - K, 12) the corrections of the remaining shapes' clip coordinates
         (:data:`dloplan.sim.sensitivity.CLIP_COORDINATES`).
     grippers : GripperPath
         The whole gripper path with the remaining shapes corrected.
-    trajectory : Trajectory
-        Its timed dual-arm trajectory (shapes 0 .. K unchanged).
+    trajectory : Trajectory or None
+        Its timed dual-arm trajectory (shapes 0 .. K unchanged; None with ``predict=False``).
     remaining : Trajectory
         The trajectory from shape K to the target, starting at time 0: the program to run now.
     mode, reference_kind, model_error : str
@@ -213,13 +214,13 @@ class Correction:
     model: ModelUpdate
     cable: Cable
     reference: np.ndarray
-    open_loop: np.ndarray
-    corrected: np.ndarray
-    equilibria: np.ndarray
+    open_loop: np.ndarray | None
+    corrected: np.ndarray | None
+    equilibria: np.ndarray | None
     uncertainty: dict
     clip_corrections: np.ndarray
     grippers: GripperPath
-    trajectory: Trajectory
+    trajectory: Trajectory | None
     remaining: Trajectory
     mode: str
     reference_kind: str
@@ -260,10 +261,12 @@ class Correction:
         m = self.model
         bias = (f", discretization bias x{m.discretization:.2f}" if self.model_error ==
                 "discretization" else "")
-        return (f"corrected at shape {self.at}: E {m.youngs_modulus_before:.3g} -> "
+        head = (f"corrected at shape {self.at}: E {m.youngs_modulus_before:.3g} -> "
                 f"{m.youngs_modulus:.3g} Pa{bias} (measured vs model "
-                f"{1e3 * m.residual_before:.1f} -> {1e3 * m.residual_after:.1f} mm); "
-                f"predicted final error {1e3 * self.open_loop_error[-1]:.1f} mm open loop, "
+                f"{1e3 * m.residual_before:.1f} -> {1e3 * m.residual_after:.1f} mm)")
+        if self.corrected is None:
+            return head + "; no predictions (predict=False)"
+        return (f"{head}; predicted final error {1e3 * self.open_loop_error[-1]:.1f} mm open loop, "
                 f"{1e3 * self.predicted_error:.1f} mm corrected (interval "
                 f"{1e3 * self.prediction_interval[0]:.1f} - "
                 f"{1e3 * self.prediction_interval[1]:.1f} mm)")
@@ -283,11 +286,12 @@ class Correction:
             "model_error": self.model_error,
             "discretization_alpha": m.discretization,
             "shapes": list(range(self.at + 1, self.at + 1 + len(self.reference))),
-            "open_loop_error": self.open_loop_error.tolist(),
-            "corrected_error": self.corrected_error.tolist(),
-            "predicted_error": self.predicted_error,
-            "prediction_interval": list(self.prediction_interval),
-            "uncertainty": dict(self.uncertainty),
+            **({} if self.corrected is None else {
+                "open_loop_error": self.open_loop_error.tolist(),
+                "corrected_error": self.corrected_error.tolist(),
+                "predicted_error": self.predicted_error,
+                "prediction_interval": list(self.prediction_interval),
+                "uncertainty": dict(self.uncertainty)}),
             "log_modulus_sd": m.log_sd if math.isfinite(m.log_sd) else None,
             "modulus_note": m.note,
             "clip_corrections": self.clip_corrections.tolist(),
@@ -565,6 +569,7 @@ def correct_plan(
     model_error: str = "discretization",
     limits: CorrectionLimits = CorrectionLimits(),
     gravity=GRAVITY,
+    predict: bool = True,
 ) -> Correction:
     """Correct the rest of a plan from the shape measured at shape ``at`` (module docstring).
 
@@ -600,6 +605,10 @@ def correct_plan(
         Bounds beyond which the correction is refused.
     gravity : array_like
         Gravity [m/s^2].
+    predict : bool
+        Also time the whole corrected path and predict the remaining shapes open loop and
+        corrected, with the interval (default); False stops when the remaining motion is ready
+        (a correction service's fast answer).
 
     Raises
     ------
@@ -673,6 +682,24 @@ def correct_plan(
     now = trajectory_from_grippers(sliced_grippers(new_grippers, at), **timing)
     seconds = time.perf_counter() - t0  # the robot can go on: the rest is for the record
     cpu_seconds = time.thread_time() - cpu0
+    warnings = [f"modulus: {update.note}"] if update.note else []
+    if update.residual_after > 0.5 * update.residual_before and update.residual_before > 0:
+        what, other = (("E and the discretization bias", "rest shape, grip, measurement noise")
+                       if model_error == "discretization" else
+                       ("E", "rest shape, grip, discretization, measurement noise"))
+        warnings.append(
+            f"model: {what} explain little of the measured error "
+            f"({1e3 * update.residual_before:.1f} -> {1e3 * update.residual_after:.1f} mm): "
+            f"another cause ({other}) dominates"
+        )
+    common = dict(at=at, measured=y, model=update, cable=model, reference=np.asarray(wanted),
+                  clip_corrections=np.asarray(corrections), grippers=new_grippers,
+                  remaining=now, mode=mode, reference_kind=reference, model_error=model_error,
+                  iterations=iterations, seconds=seconds, cpu_seconds=cpu_seconds,
+                  warnings=tuple(warnings))
+    if not predict:
+        return Correction(open_loop=None, corrected=None, equilibria=None, uncertainty={},
+                          trajectory=None, prediction_seconds=0.0, **common)
     new_trajectory = trajectory_from_grippers(new_grippers, **timing)
     # the predictions of the updated model from the measured state: planned vs corrected clips
     alpha = update.discretization
@@ -686,25 +713,9 @@ def correct_plan(
         equilibria, corrected = _predict(model, update.state, corrected_clips, gravity, alpha)
     uncertainty = _uncertainty(model, equilibria[-1], corrected_clips[-1], update, gravity,
                                model_chain)
-    warnings = [f"modulus: {update.note}"] if update.note else []
-    if update.residual_after > 0.5 * update.residual_before and update.residual_before > 0:
-        what, other = (("E and the discretization bias", "rest shape, grip, measurement noise")
-                       if model_error == "discretization" else
-                       ("E", "rest shape, grip, discretization, measurement noise"))
-        warnings.append(
-            f"model: {what} explain little of the measured error "
-            f"({1e3 * update.residual_before:.1f} -> {1e3 * update.residual_after:.1f} mm): "
-            f"another cause ({other}) dominates"
-        )
-    return Correction(
-        at=at, measured=y, model=update, cable=model, reference=np.asarray(wanted),
-        open_loop=open_loop, corrected=corrected, equilibria=equilibria,
-        uncertainty=uncertainty, clip_corrections=np.asarray(corrections),
-        grippers=new_grippers, trajectory=new_trajectory, remaining=now, mode=mode,
-        reference_kind=reference, model_error=model_error, iterations=iterations, seconds=seconds,
-        prediction_seconds=time.perf_counter() - t0 - seconds, cpu_seconds=cpu_seconds,
-        warnings=tuple(warnings),
-    )
+    return Correction(open_loop=open_loop, corrected=corrected, equilibria=equilibria,
+                      uncertainty=uncertainty, trajectory=new_trajectory,
+                      prediction_seconds=time.perf_counter() - t0 - seconds, **common)
 
 
 def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess: np.ndarray,
