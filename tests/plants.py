@@ -27,6 +27,14 @@ import numpy as np
 from dloplan.cable import GRAVITY, Cable
 from dloplan.geometry import resample_by_arc_length
 
+ARMATURE_STEPS = 4.0
+"""A segment's own bending mode is slowed to a period of about 2 pi ARMATURE_STEPS time steps
+(a fictitious inertia: a rest state does not depend on it)."""
+
+DAMPING = 3.0
+"""Joint damping relative to critical for a segment's mode (the whole cable's slower modes then
+settle in about 2 s of simulated time)."""
+
 
 def _quat_wxyz(matrix: np.ndarray) -> np.ndarray:
     from scipy.spatial.transform import Rotation
@@ -59,7 +67,8 @@ class MujocoPlant:
         Simulated time per rest state [s] at most; it ends earlier once every point moves less
         than ``rest_speed``.
     rest_speed : float
-        [m/s] the speed under which the cable counts as at rest.
+        [m/s] the speed under which the cable counts as at rest (its slowest modes, about 10
+        rad/s, are then within 0.01 mm of rest).
     """
 
     cable: Cable
@@ -70,7 +79,7 @@ class MujocoPlant:
     clamp: float | None = None
     timestep: float = 1e-3
     settle: float = 5.0
-    rest_speed: float = 1e-5
+    rest_speed: float = 5e-5
     _model: object = field(default=None, init=False, repr=False)
     _data: object = field(default=None, init=False, repr=False)
     _states: dict = field(default_factory=dict, init=False, repr=False)
@@ -135,11 +144,11 @@ class MujocoPlant:
     def _armature(self) -> float:
         """Joint armature [kg m^2]: a fictitious inertia that slows the segments' own modes to
         well inside the time step's stability (a rest state does not depend on inertia)."""
-        return self._stiffness() * (20.0 * self.timestep) ** 2
+        return self._stiffness() * (ARMATURE_STEPS * self.timestep) ** 2
 
     def _damping(self) -> float:
         """Joint damping [N m s/rad]: critical for a segment's mode with the armature."""
-        return 2.0 * math.sqrt(self._stiffness() * self._armature())
+        return DAMPING * 2.0 * math.sqrt(self._stiffness() * self._armature())
 
     def points(self) -> np.ndarray:
         """(n + 1, 3) the cable's points now [m]: the segments' origins and the last's end."""

@@ -290,9 +290,8 @@ class Cable:
         return replace(self, youngs_modulus=youngs_modulus)
 
     def thesis_model(self) -> Cable:
-        """The same cable with the thesis' modelling choices (k_b = 3EI/l, equal masses, one
-        modulus for bending and stretching: E_a = E)."""
-        return replace(self, bending="thesis", masses="equal", axial_modulus=None)
+        """The same cable with the thesis' modelling choices (k_b = 3EI/l, equal masses)."""
+        return replace(self, bending="thesis", masses="equal")
 
     def constants(self) -> dict[str, float]:
         """The derived model constants, keyed by name with their unit in brackets."""
@@ -330,7 +329,7 @@ _CATALOGUE: dict[str, dict[str, float]] = {
 CATALOGUE_NAMES: tuple[str, ...] = tuple(_CATALOGUE)
 
 COMPOSITE_AXIAL_MODULI: dict[str, float] = {"usb": 2e9, "ethernet": 2e9}
-"""Axial moduli E_a [Pa] of the composite catalogue cables: :func:`catalogue_cable`'s default.
+"""Axial moduli E_a [Pa] to use for the composite catalogue cables (USB, Ethernet).
 
 Order-of-magnitude estimates from their copper: E_cu ~ 117 GPa on about 0.3 mm^2 (USB, four
 AWG 28 conductors and the shield) or 1.6 mm^2 (Ethernet, eight AWG 24), derated about three
@@ -338,11 +337,14 @@ times for the twist of the pairs and spread over the whole section A: E_a ~ 2 GP
 times their bending moduli. Any value above about 1e8 Pa gives nearly the same shapes (the
 cable is then practically inextensible: the USB between level clips sags within 0.01 mm of the
 2 GPa shape at 0.4 m apart, 0.25 mm nearly taut at 0.48 m), so the estimate need not be
-precise. With the thesis' single modulus (E_a = E) the USB stretches about 1 % under its own
-weight and a nearly taut shape differs by up to 3 mm from an inextensible cable's (MuJoCo's
-cable, issue 35); that model is kept as an option: ``catalogue_cable("usb",
-axial_modulus=None)``, :meth:`Cable.thesis_model`, or ``axial_modulus: youngs_modulus`` in a
-scenario (docs/decisions.md).
+precise. With the thesis' single modulus (E_a = E), the catalogue's default, the USB stretches
+about 1 % under its own weight and a nearly taut shape differs by up to 3 mm from an
+inextensible cable's (MuJoCo's cable, issue 35). Pass
+``catalogue_cable("usb", axial_modulus=COMPOSITE_AXIAL_MODULI["usb"])`` (or ``axial_modulus:
+2e9`` in a scenario) for a real cable. It is not the default yet: the static solver's
+trust-region Newton needs many more iterations with axial springs a thousand times stiffer
+than the bending ones (8 -> 516 on the identification's bending manipulation of the Ethernet at
+n = 64, beyond its limit of 500), see docs/decisions.md.
 """
 
 
@@ -353,9 +355,8 @@ def catalogue_cable(name: str, n_links: int = 10, **overrides) -> Cable:
     (d 6 mm, 11 g, E 100 MPa) and ``pa12`` hose (d 6 mm, 9 g, E 1 GPa), all 0.5 m long. The
     moduli of USB and Ethernet are those the thesis identified with its own bending model;
     Poisson ratios are not given in the thesis and are typical values for the materials. The
-    composite cables (USB, Ethernet) stretch with their copper's axial modulus
-    (:data:`COMPOSITE_AXIAL_MODULI`) unless ``axial_modulus`` is given (None: the thesis' E_a =
-    E).
+    axial modulus is E (the thesis) unless ``axial_modulus`` is given: for a real composite
+    cable pass :data:`COMPOSITE_AXIAL_MODULI` (not yet the default: docs/decisions.md).
 
     Parameters
     ----------
@@ -371,6 +372,5 @@ def catalogue_cable(name: str, n_links: int = 10, **overrides) -> Cable:
         raise ValueError(
             f"cable: unknown catalogue name {name!r}, expected one of {', '.join(_CATALOGUE)}"
         )
-    axial = {"axial_modulus": COMPOSITE_AXIAL_MODULI[key]} if key in COMPOSITE_AXIAL_MODULI else {}
-    params = {**_CATALOGUE[key], **axial, "n_links": n_links, "name": key, **overrides}
+    params = {**_CATALOGUE[key], "n_links": n_links, "name": key, **overrides}
     return Cable(**params)

@@ -156,9 +156,8 @@ class CableSpec(_Model):
         None, description="[Pa], or 'identify' with an identify section"
     )
     poisson_ratio: float | None = Field(None, gt=-1, le=0.5)
-    axial_modulus: PositiveLength | Literal["youngs_modulus"] | None = Field(
-        None, description="[Pa] modulus of the axial springs (default: the catalogue's for usb "
-        "and ethernet, 2e9, else youngs_modulus); 'youngs_modulus': the thesis' single E")
+    axial_modulus: PositiveLength | None = Field(
+        None, description="[Pa] modulus of the axial springs (default: youngs_modulus)")
     n_links: int = Field(10, ge=4, le=MAX_LINKS, description=(
         "n >= 4: each clip holds two points, so n = 4 is the least that leaves the cable a "
         f"free point; n <= {MAX_LINKS}: plans in minutes at most"))
@@ -525,8 +524,6 @@ def build_cable(spec: CableSpec, scale: float, youngs_modulus: float | None) -> 
     for key in ("mass", "poisson_ratio", "axial_modulus"):
         if getattr(spec, key) is not None:
             params[key] = getattr(spec, key)
-    if spec.axial_modulus == "youngs_modulus":  # the thesis: one modulus for both
-        params["axial_modulus"] = None
     if youngs_modulus is not None:
         params["youngs_modulus"] = youngs_modulus
     elif spec.youngs_modulus not in (None, "identify"):
