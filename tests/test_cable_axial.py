@@ -128,5 +128,7 @@ def test_stiff_axial_springs_converge_wherever_the_shape_is(axial_modulus, n_lin
         assert eq.residual <= limit
         # a tiny force still: at most a millionth of a point's weight plus k_b / l
         assert 1e-10 * force_scale(cable) <= limit < 1e-6 * force_scale(cable)
+        # an explicit rtol is taken as asked
+        assert residual_tolerance(cable, rtol=1e-12) == pytest.approx(1e-12 * force_scale(cable))
     # the same shape, translated (to well below a micrometre)
     assert abs(results[0] - results[1]).max() < 1e-7

@@ -37,7 +37,8 @@ MAX_ALPHA = 4.0
 
 
 def clamped_equilibrium(cable: Cable, guess, clips: ClipPoses, clamp_links: int = 1, *,
-                        gravity=GRAVITY, rtol: float = 1e-9, chain: SpringChain | None = None):
+                        gravity=GRAVITY, rtol: float | None = None,
+                        chain: SpringChain | None = None):
     """Stable equilibrium of a cable whose grippers each clamp ``clamp_links`` links.
 
     The clamped links lie straight along the clip's u-axis, centred on the clip point (one
@@ -57,10 +58,10 @@ def clamped_equilibrium(cable: Cable, guess, clips: ClipPoses, clamp_links: int 
         Links held by each gripper (>= 1).
     gravity : array_like
         Gravity [m/s^2].
-    rtol : float
+    rtol : float, optional
         Convergence when the largest free force is below rtol times the cable's force scale
-        (or the round-off floor of its stiffest spring, :func:`dloplan.sim.result.
-        residual_tolerance`).
+        (default: 1e-10 or the round-off floor of its stiffest spring,
+        :func:`dloplan.sim.result.residual_tolerance`).
     chain : SpringChain, optional
         The chain of ``cable`` under ``gravity``.
 

@@ -78,7 +78,8 @@ class Plant:
             return 1
         return max(1, round(self.clamp / self.cable.rest_link_length))
 
-    def hold(self, shape: np.ndarray, clips: ClipPoses, gravity=GRAVITY, rtol: float = 1e-9):
+    def hold(self, shape: np.ndarray, clips: ClipPoses, gravity=GRAVITY,
+             rtol: float | None = None):
         """The plant's equilibrium held by ``clips`` from the guess ``shape``.
 
         Returns

@@ -424,7 +424,7 @@ def _resolve(cable: Cable, guess: np.ndarray, clips: ClipPoses, gravity,
     conforming and the clip reactions of :func:`dloplan.sim.equilibrium`; None when it does
     not converge or the clips are out of the cable's reach.
     """
-    x, converged, _ = clamped_equilibrium(cable, guess, clips, 1, gravity=gravity, rtol=1e-10,
+    x, converged, _ = clamped_equilibrium(cable, guess, clips, 1, gravity=gravity,
                                           chain=chain)
     reach = (cable.n_links - 2) * cable.rest_link_length
     if not converged or np.linalg.norm(x[-2] - x[1]) > reach:

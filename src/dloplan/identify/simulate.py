@@ -177,7 +177,7 @@ def final_equilibrium(cable: Cable, manipulation: Manipulation, guess: np.ndarra
     """
     result = equilibrium(cable, guess, manipulation.final_clips, gravity=manipulation.gravity,
                          held=manipulation.held,
-                         rtol=RTOL)
+                         rtol=None)
     return _finish(cable, manipulation, result.shape[None], result.success,
                    "" if result.success else f"final equilibrium failed: {result.message}",
                    result.iterations)
@@ -213,7 +213,7 @@ def run_manipulation(
     if simulator == "dynamic":
         return _run_dynamic(cable, manipulation, initial, dynamic or DynamicSettings())
     gravity = manipulation.gravity
-    rtol = RTOL
+    rtol = None  # the static solvers' default: RTOL, or the round-off floor
     if warm_start is None:
         results = continuation(cable, initial, manipulation.clips, gravity=gravity,
                                held=manipulation.held, rtol=rtol)

@@ -77,7 +77,7 @@ def equilibrium(
     clips: ClipPoses | None = None,
     *,
     gravity=GRAVITY,
-    rtol: float = 1e-10,
+    rtol: float | None = None,
     max_iterations: int = 500,
     chain: SpringChain | None = None,
     held: str = "both",
@@ -100,10 +100,10 @@ def equilibrium(
         Clip poses; default: those of the guess (its own end links).
     gravity : array_like
         Gravity acceleration [m/s^2]; ``(0, 0, 0)`` for a weightless cable.
-    rtol : float
+    rtol : float, optional
         Convergence when the largest free-point force is below ``rtol`` times
-        :func:`force_scale`, or the round-off floor of the stiffest spring
-        (:func:`dloplan.sim.result.residual_tolerance`).
+        :func:`force_scale`; by default 1e-10, or the round-off floor of the stiffest spring
+        when that is larger (:func:`dloplan.sim.result.residual_tolerance`).
     max_iterations : int
         Iteration limit; reaching it gives ``converged=False``.
     chain : SpringChain, optional

@@ -256,7 +256,7 @@ def equilibrium_with_twist(
     directors=None,
     natural_twist: float = 0.0,
     gravity=GRAVITY,
-    rtol: float = 1e-10,
+    rtol: float | None = None,
     max_iterations: int = 500,
     contacts=(),
     chain: SpringChain | None = None,
