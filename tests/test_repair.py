@@ -18,7 +18,7 @@ import yaml
 from scipy.spatial.transform import Rotation
 
 from dloplan.app import load_job
-from dloplan.app.document import read_plan
+from dloplan.app.document_file import read_plan
 from dloplan.app.files import EXIT_CHECK_FAILED, plan_into
 from dloplan.app.load import resolve_mapping
 from dloplan.cli import main

@@ -7,7 +7,7 @@
                  dloplan.pipeline: check_job | run_job (plan_path ─► plan_motion ─► plan_twist
                                               │                ─► verify_plan), repair
                                               ▼
-                 PlanDocument (dloplan.pipeline.document) ◄── read_plan (document.py)
+                 PlanDocument (dloplan.pipeline.document) ◄── read_plan (document_file.py)
                                               │
                  writers.py: json, csv, ros, rapid, figures, report (report.py)
 
@@ -20,7 +20,7 @@ way from a file to its outputs.
 from ..pipeline.document import PlanDocument
 from ..pipeline.job import Job
 from ..pipeline.stages import check_job, run_job, simulate_plan, verify_plan
-from .document import read_plan, write_plan
+from .document_file import read_plan, write_plan
 from .harness import run_harness_job
 from .load import load_job, load_scenario
 from .writers import WRITERS, write_outputs

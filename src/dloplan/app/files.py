@@ -26,7 +26,7 @@ from ..pipeline.document import PlanDocument
 from ..pipeline.job import Job
 from ..pipeline.stages import HARNESS_NOT_VERIFIED, quiet, run_job
 from ..robot.cell_program import program_formats
-from .document import read_plan
+from .document_file import read_plan
 from .figure_workers import figure_workers as workers_for
 from .harness import run_harness_job
 from .load import file_kind, load_job

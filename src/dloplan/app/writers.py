@@ -26,7 +26,7 @@ from pathlib import Path
 
 from ..io.export import DEFAULT_CSV_RATE, write_ros_trajectory, write_trajectory_csv
 from ..pipeline.document import PlanDocument
-from .document import write_plan
+from .document_file import write_plan
 from .report import write_figures, write_plan_report
 
 

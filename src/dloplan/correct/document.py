@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..app.document import write_plan
+from ..app.document_file import write_plan
 from ..app.writers import WRITERS, program_files
 from ..grippers import GripperPath
 from ..io.export import write_trajectory_csv
