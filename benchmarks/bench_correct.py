@@ -47,10 +47,10 @@ import yaml
 
 from dloplan.app import read_plan, verify_plan, write_plan
 from dloplan.app.correct import CorrectionService, check_correction
-from dloplan.app.pipeline import program_of
 from dloplan.cli import main as dloplan_main
 from dloplan.correct import CorrectionRefused, Plant, reachable_error, run_closed_loop
 from dloplan.geometry import resample_by_arc_length
+from dloplan.pipeline.stages import program_of
 from dloplan.vision.shapes_io import RegisteredShape, write_shapes
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -33,9 +33,9 @@ import numpy as np
 from ..correct import Correction, CorrectionRefused, correct_plan
 from ..correct.step import sliced_grippers
 from ..io.files import staged_folder
+from ..pipeline.document import PlanDocument, document_cell
+from ..pipeline.stages import quiet, verify_plan, with_program, with_verification
 from ..sim import equilibrium
-from .document import PlanDocument, document_cell
-from .pipeline import quiet, verify_plan, with_program, with_verification
 from .writers import WRITERS, WriteOptions, write_outputs
 
 MODES = ("target", "all")
@@ -152,7 +152,7 @@ def check_correction(doc: PlanDocument, correction: Correction, *, verify: bool 
         Its correction.
     verify : bool
         Also verify the physics of the whole corrected plan (stability, snap-through, replay:
-        :func:`dloplan.app.pipeline.verify_plan`); the robot programs are always checked.
+        :func:`dloplan.pipeline.stages.verify_plan`); the robot programs are always checked.
     progress : callable
         Called with a line of text after each step.
 
