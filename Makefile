@@ -10,7 +10,7 @@ STAMP  := $(VENV)/.installed-stamp
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev,vision,robot,study]'
+	$(BIN)/python -m pip install --quiet -e '.[dev,vision,robot,study,plants]'
 	touch $(STAMP)
 
 # exit code 1 means "planned, with warnings" (shown above it): the demo still succeeded

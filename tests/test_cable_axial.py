@@ -132,3 +132,21 @@ def test_stiff_axial_springs_converge_wherever_the_shape_is(axial_modulus, n_lin
         assert residual_tolerance(cable, rtol=1e-12) == pytest.approx(1e-12 * force_scale(cable))
     # the same shape, translated (to well below a micrometre)
     assert abs(results[0] - results[1]).max() < 1e-7
+
+
+def test_a_twisted_stiff_axial_cable_converges_too():
+    """The torsion solver takes its tolerance from the same place (issue 35: with E_a = 1000 E
+    the twist check reported success False although the shape was right)."""
+    from scipy.spatial.transform import Rotation
+
+    from dloplan.sim.clips import ClipPoses
+    from dloplan.sim.torsion import equilibrium_with_twist
+
+    cable = catalogue_cable("usb", n_links=20, axial_modulus=COMPOSITE_AXIAL_MODULI["usb"])
+    clips = level_clips(0.44)
+    twisted = ClipPoses(clips.positions + [0.3, 0.2, 0.1],
+                        Rotation.concatenate([clips.rotations[0] * Rotation.from_euler(
+                            "x", 60, degrees=True), clips.rotations[1]]))
+    eq = equilibrium_with_twist(cable, sagging_guess(cable, 0.44, -0.05) + [0.3, 0.2, 0.1],
+                                twisted)
+    assert eq.success, eq.message
