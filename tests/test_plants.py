@@ -28,8 +28,8 @@ from dloplan.correct.model_error import clamped_equilibrium  # noqa: E402
 def test_mujocos_cable_at_rest_is_the_models_inextensible_equilibrium():
     """An outside reference for the model: the Ethernet cable (rod model) with its copper axial
     modulus hangs between level clips 0.4 m apart where MuJoCo's inextensible cable hangs, to
-    0.1 mm at n = 30 (the MuJoCo cable is at rest within 5e-5 m/s; its welds are soft to
-    micrometres); with the thesis' E_a = E the model's cable stretches and sags lower."""
+    0.1 mm at n = 30 (MuJoCo's cable at rest within 5e-5 m/s, its welds soft to micrometres).
+    (The thinner USB does not come to rest in this plant at a 1 ms step: tests/plants.py.)"""
     clips = level_clips(0.40, 0.3)
     stiff = catalogue_cable("ethernet", n_links=30,
                             axial_modulus=COMPOSITE_AXIAL_MODULI["ethernet"])
@@ -40,8 +40,7 @@ def test_mujocos_cable_at_rest_is_the_models_inextensible_equilibrium():
     model, stable, _ = clamped_equilibrium(stiff, guess, clips, 1)
     assert stable
     assert np.mean(np.linalg.norm(rest - model, axis=1)) < 1e-4
-    tied, _, _ = clamped_equilibrium(catalogue_cable("ethernet", n_links=30), guess, clips, 1)
-    assert tied[:, 2].min() < model[:, 2].min() - 1e-4  # E_a = E: the cable stretches
+    assert np.max(np.linalg.norm(rest - model, axis=1)) < 2e-4
 
 
 @pytest.mark.slow
