@@ -540,3 +540,21 @@ def test_the_warm_service_answers_as_the_command_corrects(plans, monkeypatch, ca
     assert replies[0]["correction"]["youngs_modulus"] == pytest.approx(
         replies[1]["correction"]["youngs_modulus"], rel=1e-6)
     assert "camera_link" in replies[2]["error"]
+
+
+def test_a_hand_edited_plan_is_refused(plans, tmp_path, capsys):
+    """A plan whose recorded (verified) program was edited by hand: refused (exit 2, the field
+    named), as verify and export refuse it (issue 36)."""
+    doc, plan_path = plans["demo"]
+    data = json.loads(plan_path.read_text())
+    arms = data["robot"]["program"]["targets"][2]["arms"]
+    arms[next(iter(arms))]["joints_deg"][0] += 5.0
+    edited = tmp_path / "edited.json"
+    edited.write_text(json.dumps(data))
+    shapes = tmp_path / "m.csv"
+    write_shapes(shapes, [RegisteredShape(_measure(_stabilized(doc)[3]), label="xi_3",
+                                          frame_id=doc.frame_id)])
+    assert main(["correct", str(edited), "--at", "3", "--measured", str(shapes), "-o",
+                 str(tmp_path / "out"), "-q"]) == 2
+    assert "plan.robot" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()

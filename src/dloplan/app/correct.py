@@ -34,7 +34,13 @@ from ..correct import Correction, CorrectionRefused, correct_plan
 from ..correct.step import sliced_grippers
 from ..io.files import staged_folder
 from ..pipeline.document import PlanDocument, document_cell
-from ..pipeline.stages import quiet, verify_plan, with_program, with_verification
+from ..pipeline.stages import (
+    program_of,
+    quiet,
+    verify_plan,
+    with_program,
+    with_verification,
+)
 from ..sim import equilibrium
 from .writers import WRITERS, WriteOptions, write_outputs
 
@@ -184,6 +190,14 @@ def check_correction(doc: PlanDocument, correction: Correction, *, verify: bool 
     return corrected, remaining
 
 
+def check_recorded_program(doc: PlanDocument) -> None:
+    """Refuse a plan document whose recorded robot program is not the one its gripper path and
+    trajectory give (a hand-edited plan), as ``dloplan verify`` and ``export`` refuse it
+    (:func:`dloplan.pipeline.stages.program_of`)."""
+    if doc.robot is not None and doc.trajectory is not None and doc.grippers is not None:
+        program_of(doc)
+
+
 def correct_and_check(doc: PlanDocument, at: int, measured, *, verify: bool = True,
                       progress=quiet, **options) -> tuple[Correction, PlanDocument, PlanDocument]:
     """Correct a plan document and check the result (:func:`check_correction`).
@@ -201,6 +215,7 @@ def correct_and_check(doc: PlanDocument, at: int, measured, *, verify: bool = Tr
     CorrectionRefused
         The first mode's reason, and whether the other mode passes.
     """
+    check_recorded_program(doc)
     mode = options.pop("mode", "target")
     try:
         correction = correct_document(doc, at, measured, mode=mode, **options)
@@ -263,6 +278,7 @@ class CorrectionService:
         if doc.grippers is None:
             raise ValueError("plan: the document has no gripper poses ('grippers' is null): "
                              "there are no clips to correct")
+        check_recorded_program(doc)
         self.doc = doc
         self.cell = document_cell(doc)
         self.predict = predict
