@@ -54,14 +54,15 @@ def test_check_fails_when_the_target_sits_in_an_obstacle(tmp_path, capsys):
 
 def test_check_says_that_plan_searches_a_placement_when_an_arm_cannot_reach(capsys):
     """Qualitative test 1 as shipped: its start is out of the left arm's reach where it lies,
-    and dloplan plan places the job elsewhere on the table (exit 0); the check says so."""
+    and dloplan plan places the job elsewhere on the table (its file allows it: exit 0); the
+    check says so."""
     example = Path(__file__).resolve().parents[1] / "examples" / "qualitative1_curved_pa12.yaml"
     assert main(["check", str(example), "-q"]) == EXIT_FAILURE
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("ERROR"))
     assert "start robot reach: the left arm cannot reach" in line
     assert line.endswith("dloplan plan will search where on the table to turn and shift the "
-                         "job so that both arms reach (docs/repair.md; --no-repair plans it "
-                         "where it is)")
+                         "job so that both arms reach, and move it there if the job allows it "
+                         "(repair: {placement: true} or --allow-placement; docs/repair.md)")
 
 
 @pytest.mark.parametrize("command", ["check", "plan"])

@@ -10,6 +10,7 @@ stiffness family and weights -> plan).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from ..io.scenario import ScenarioError, parse_scenario, read_mapping
@@ -74,8 +75,18 @@ def resolve_mapping(data: dict, source: str, progress=lambda text: None):
     return resolve_scenario(scenario, source, identification.youngs_modulus, identification)
 
 
-def load_job(path: str | Path, progress=lambda text: None):
-    """Read and resolve a job file (see the module docstring).
+def allowing_placement(job):
+    """The job with the placement repair allowed, as ``repair: {placement: true}`` in its file
+    does (``--allow-placement``; docs/repair.md, "Consent"). A harness job is not repaired: it
+    is returned as it is."""
+    if not isinstance(job, Job):
+        return job
+    return replace(job, repair=replace(job.repair, placement=True))
+
+
+def load_job(path: str | Path, progress=lambda text: None, *, allow_placement: bool = False):
+    """Read and resolve a job file (see the module docstring); with ``allow_placement`` the
+    job may be moved on the table by the repair (:func:`allowing_placement`).
 
     Returns
     -------
@@ -87,12 +98,14 @@ def load_job(path: str | Path, progress=lambda text: None):
         One line naming the file and the field (:class:`~dloplan.io.scenario.ScenarioError`),
         or an identification that did not succeed.
     """
-    return resolve_mapping(read_mapping(path), str(path), progress)
+    job = resolve_mapping(read_mapping(path), str(path), progress)
+    return allowing_placement(job) if allow_placement else job
 
 
-def load_scenario(path: str | Path, progress=lambda text: None) -> Job:
+def load_scenario(path: str | Path, progress=lambda text: None, *,
+                  allow_placement: bool = False) -> Job:
     """Read and resolve a scenario file (not a harness or identification file) into a Job."""
-    job = load_job(path, progress)
+    job = load_job(path, progress, allow_placement=allow_placement)
     if not isinstance(job, Job):
         raise ScenarioError(f"{path}: a harness job, expected a scenario with a target")
     return job

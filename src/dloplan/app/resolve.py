@@ -25,7 +25,7 @@ from ..io.scenario import (
     build_obstacles,
     build_shape,
 )
-from ..pipeline.job import GripperSettings, Job, MotionSettings, PlannerSettings
+from ..pipeline.job import GripperSettings, Job, MotionSettings, PlannerSettings, RepairSettings
 from ..planning.tuning import planner_weights, stiffness_family
 from ..robot.cell import RobotCell
 from ..robot.cell_program import cell_name, program_formats
@@ -239,4 +239,5 @@ def _resolved(scenario: Scenario, source: str, youngs_modulus: float | None,
         motion=motion_settings(scenario, scale), target_threshold=threshold,
         outputs=job_outputs(scenario, cell), robot=cell,
         identification=identification, study=scenario.study,
+        repair=RepairSettings(placement=scenario.repair.placement),
     )

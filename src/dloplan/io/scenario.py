@@ -389,6 +389,14 @@ class RobotSpec(_Model):
         return _finite(v, "base_position")
 
 
+class RepairSpec(_Model):
+    """What a repair may change without asking (docs/repair.md, "Consent")."""
+
+    placement: bool = Field(
+        False, description="move or turn the job on the table where the robot reaches it (the "
+        "robot program then says where to place it); false: such a move is only proposed")
+
+
 class JobSpec(_Model):
     """What every job file has: units, the cable, its start, planner, obstacles, robot motion."""
 
@@ -423,6 +431,7 @@ class Scenario(JobSpec):
     outputs: list[OutputName] = Field(
         default_factory=lambda: ["json", "csv", "rapid", "figures", "report"]
     )
+    repair: RepairSpec = Field(default_factory=RepairSpec)
 
     @model_validator(mode="after")
     def _identify(self):

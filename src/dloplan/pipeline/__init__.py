@@ -7,13 +7,16 @@
                   run_job (the stages in order)
     document.py   PlanDocument: the plan as typed data, and its JSON-ready dict (to and from)
     repair/       a plan that fails its checks repaired (or refused with the reason)
+    plan.py       make_plan: plan, check, repair, check again -- the one way every command
+                  gets its plan
 
 Nothing here reads or writes files, knows a file unit or a pydantic model, or imports
 :mod:`dloplan.app`: the application reads job files into jobs and writes documents out.
 """
 
 from .document import PlanDocument, document_from_dict, document_to_dict
-from .job import GripperSettings, Job, MotionSettings, PlannerSettings
+from .job import GripperSettings, Job, MotionSettings, PlannerSettings, RepairSettings
+from .plan import make_plan
 from .stages import check_job, run_job, simulate_plan, verify_plan
 
 __all__ = [
@@ -22,9 +25,11 @@ __all__ = [
     "MotionSettings",
     "PlanDocument",
     "PlannerSettings",
+    "RepairSettings",
     "check_job",
     "document_from_dict",
     "document_to_dict",
+    "make_plan",
     "run_job",
     "simulate_plan",
     "verify_plan",

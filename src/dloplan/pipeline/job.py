@@ -113,6 +113,26 @@ class MotionSettings:
         return self.limits.speed
 
 
+@dataclass(frozen=True)
+class RepairSettings:
+    """What a repair may change without asking (docs/repair.md, "Consent").
+
+    Repairs that keep the job as asked (the stable branch, clip routes, the gripper frames and
+    the grasp roll, the arm assignment, a slower motion within the job's own limits) are always
+    made. A repair that changes the task itself is only proposed unless allowed here.
+
+    Attributes
+    ----------
+    placement : bool
+        Move or turn the job on the table (its start and target, where the operator puts the
+        cable) so that the robot reaches it; the robot program then says where the job must be
+        placed. False: such a placement is written into the plan as a proposal, and the plan
+        fails its robot check.
+    """
+
+    placement: bool = False
+
+
 @dataclass(frozen=True, eq=False)
 class Job:
     """A scenario resolved into library objects, in SI units (see the module docstring).
@@ -140,6 +160,8 @@ class Job:
         How the cable's E was identified, when the scenario asked for it.
     study : StudySpec or None
         The scenario's robustness study section.
+    repair : RepairSettings
+        What a repair may change without asking (the placement of the job on the table).
     """
 
     source: str
@@ -155,3 +177,4 @@ class Job:
     robot: RobotCell | DescribedCell = field(default_factory=RobotCell)
     identification: object = None
     study: object = None
+    repair: RepairSettings = field(default_factory=RepairSettings)

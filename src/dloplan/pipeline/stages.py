@@ -118,7 +118,8 @@ def check_job(job: Job) -> CheckReport:
 
 
 PLACEMENT_HINT = ("; dloplan plan will search where on the table to turn and shift the job so "
-                  "that both arms reach (docs/repair.md; --no-repair plans it where it is)")
+                  "that both arms reach, and move it there if the job allows it (repair: "
+                  "{placement: true} or --allow-placement; docs/repair.md)")
 """What a reach error of :func:`check_job` adds: the plan may still succeed, moved."""
 
 
