@@ -199,6 +199,19 @@ def test_a_harness_scenario_runs_the_whole_job(tmp_path, capsys):
     assert (out / "report.html").exists() and (out / "figures" / "forces_phase2.png").exists()
 
 
+def test_a_harness_job_writes_the_outputs_it_asks_for(tmp_path, capsys):
+    """``outputs: [json]`` in a harness file writes plan.json and nothing else (the harness
+    job used to write its figures, report and program whatever the file asked)."""
+    data = yaml.safe_load((Path(__file__).parents[1] / "examples" / "harness_usb.yaml")
+                          .read_text())
+    data["outputs"] = ["json"]
+    job = tmp_path / "harness.yaml"
+    job.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    assert main(["plan", str(job), "-o", str(out), "-q"]) in (EXIT_OK, EXIT_WARNINGS)
+    assert sorted(p.name for p in out.iterdir()) == ["plan.json"]
+
+
 def test_batch_mode_plans_several_files_on_two_workers(tmp_path, capsys):
     examples = Path(__file__).parents[1] / "examples"
     files = [str(examples / "m2_uniform_curvature_pa12.yaml"), str(tmp_path / "bad.yaml")]

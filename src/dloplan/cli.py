@@ -71,7 +71,7 @@ def positive_number(text: str) -> float:
 
 
 def _cmd_schema(args: argparse.Namespace) -> int:
-    from .io.scenario import scenario_json_schema
+    from .app.schema import scenario_json_schema
 
     print(json.dumps(scenario_json_schema(), indent=2))
     return EXIT_OK
@@ -206,14 +206,12 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     from .vision import (
         CameraIntrinsics,
         calibrate_extrinsics,
+        read_image,
         read_marker_layout,
         write_calibration,
     )
-    from .vision._deps import cv2
 
-    image = cv2().imread(args.image)
-    if image is None:
-        raise ValueError(f"{args.image}: cannot read the image")
+    image = read_image(args.image)
     intrinsics = CameraIntrinsics.from_dict(read_mapping(args.intrinsics))
     result = calibrate_extrinsics(image, intrinsics, read_marker_layout(args.markers))
     write_calibration(args.output, result)
@@ -222,8 +220,14 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def _cmd_register(args: argparse.Namespace) -> int:
-    from .vision import HsvRange, RegisteredShape, read_calibration, register_on_plane, write_shapes
-    from .vision._deps import cv2
+    from .vision import (
+        HsvRange,
+        RegisteredShape,
+        read_calibration,
+        read_image,
+        register_on_plane,
+        write_shapes,
+    )
 
     calibration = read_calibration(args.calibration)
     try:
@@ -233,9 +237,7 @@ def _cmd_register(args: argparse.Namespace) -> int:
     colour = HsvRange(tuple(low), tuple(high))
     shapes = []
     for k, path in enumerate(args.images):
-        image = cv2().imread(path)
-        if image is None:
-            raise ValueError(f"{path}: cannot read the image")
+        image = read_image(path)
         points = register_on_plane(image, calibration, colour, args.links + 1, args.height)
         shapes.append(RegisteredShape(points, frame_id="world", label=f"xi_{k}"))
     write_shapes(args.output, shapes)
@@ -244,13 +246,14 @@ def _cmd_register(args: argparse.Namespace) -> int:
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
+    from .app.identification import load_identification
     from .identify import identify_youngs_modulus
-    from .identify.files import load_identification
     from .identify.report import exit_code, report_lines, to_dict
 
     console = Console(args.quiet)
     if args.design:
-        from .identify.recommend import design_cable, recommend_design
+        from .app.identification import design_cable
+        from .identify.recommend import recommend_design
 
         cable = design_cable(args.cable, args.experiment, modulus=args.modulus,
                              n_links=args.links)
@@ -369,15 +372,14 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     from .plots.worker import start_server
 
     start_server()  # the figure workers' server warms up while the planner is imported
-    from .app.load import allowing_placement, resolve_mapping
+    from .app.load import resolve_mapping
     from .io.scenario import read_mapping
 
     console = Console(args.quiet)
     source = resources.files("dloplan.data").joinpath("demo.yaml")
     with resources.as_file(source) as path:
-        job = resolve_mapping(read_mapping(path), "demo (embedded)")
-    if args.allow_placement:
-        job = allowing_placement(job)
+        job = resolve_mapping(read_mapping(path), "demo (embedded)",
+                              allow_placement=args.allow_placement)
     console.stage("the embedded demo: an Ethernet cable moved over an obstacle on the table")
     output = Path(args.output)
     code = _plan_one(job, output, args, console)

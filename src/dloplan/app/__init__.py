@@ -20,9 +20,8 @@ whole way from a file to its outputs.
 from ..pipeline.document import PlanDocument
 from ..pipeline.job import Job
 from ..pipeline.plan import make_plan
-from ..pipeline.stages import check_job, run_job, simulate_plan, verify_plan
+from ..pipeline.stages import check_job, run_harness_job, run_job, simulate_plan, verify_plan
 from .document_file import read_plan, write_plan
-from .harness import run_harness_job
 from .load import load_job, load_scenario
 from .writers import WRITERS, write_outputs
 

@@ -10,7 +10,6 @@ status line), run on local processes or Dask by :func:`dloplan.study.map_jobs`;
 
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 
 from ..exit_codes import (  # noqa: F401 - re-exported: the codes of the command
@@ -25,19 +24,15 @@ from ..io.scenario import PROGRAM_NAMES
 from ..pipeline.document import PlanDocument
 from ..pipeline.job import Job
 from ..pipeline.plan import make_plan
-from ..pipeline.stages import HARNESS_NOT_VERIFIED, quiet
+from ..pipeline.stages import quiet
 from ..robot.cell_program import program_formats
 from .document_file import read_plan
 from .figure_workers import figure_workers as workers_for
-from .harness import run_harness_job
 from .load import file_kind, load_job
 from .writers import WRITERS, WriteOptions, write_outputs
 
 ROBOT_OUTPUTS = ("csv", "ros", "rapid", "ros_joints", "urscript")
 """The outputs a robot could run: not written for a plan that failed a check."""
-
-HARNESS_OUTPUTS = ("json", "csv", "rapid", "figures", "report")
-"""What a wire-harness job writes."""
 
 
 def exit_code(doc: PlanDocument) -> int:
@@ -73,21 +68,15 @@ def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
     program is made and it is verified; the files written are the same.
     """
     folder = Path(folder)
-    formats = job.outputs if isinstance(job, Job) else HARNESS_OUTPUTS
+    formats = job.outputs
     drawn = "figures" in formats or "report" in formats
     with staged_folder(folder) as staging, \
             workers_for(staging, figure_workers if drawn else 0) as drawer:
-        if isinstance(job, Job):
-            doc = make_plan(job, verify=verify, check_robot=check_robot, repair=repair,
-                            budget=budget, progress=progress,
-                            planned=None if drawer is None else drawer.draft)
-            options = WriteOptions(rate=job.motion.rate, figure_workers=drawer)
-        else:
-            doc = run_harness_job(job, check_robot=check_robot, progress=progress)
-            if verify:  # asked for and not done: said, not skipped silently
-                progress(f"--verify: {HARNESS_NOT_VERIFIED}")
-                doc = replace(doc, warnings=doc.warnings + (HARNESS_NOT_VERIFIED,))
-            options = WriteOptions(figure_workers=drawer)
+        doc = make_plan(job, verify=verify, check_robot=check_robot, repair=repair,
+                        budget=budget, progress=progress,
+                        planned=None if drawer is None else drawer.draft)
+        options = WriteOptions(rate=job.motion.rate, figure_workers=drawer) \
+            if isinstance(job, Job) else WriteOptions(figure_workers=drawer)
         if not doc.ok:
             formats = tuple(f for f in formats if f not in ROBOT_OUTPUTS)
             progress("a check failed: writing the plan and its report, no robot program")
@@ -132,7 +121,5 @@ def document_of(path, progress=quiet, *, allow_placement: bool = False) -> PlanD
 
     if Path(path).suffix.lower() == ".json" and file_kind(read_mapping(path)) == "plan":
         return read_plan(path)
-    job = load_job(path, progress, allow_placement=allow_placement)
-    if not isinstance(job, Job):
-        return run_harness_job(job, progress=progress)
-    return make_plan(job, progress=progress)
+    return make_plan(load_job(path, progress, allow_placement=allow_placement),
+                     progress=progress)

@@ -2,7 +2,8 @@
 
 ::
 
-    job.py        Job and its settings: SI units, domain types, frozen (made by dloplan.app)
+    job.py        Job (and HarnessJob) with its settings: SI units, domain types, frozen
+                  (made by dloplan.app from a job file)
     stages.py     check_job, plan_path, plan_motion, plan_twist, the robot program, verify_plan,
                   run_job (the stages in order)
     document.py   PlanDocument: the plan as typed data, and its JSON-ready dict (to and from)
@@ -15,12 +16,20 @@ Nothing here reads or writes files, knows a file unit or a pydantic model, or im
 """
 
 from .document import PlanDocument, document_from_dict, document_to_dict
-from .job import GripperSettings, Job, MotionSettings, PlannerSettings, RepairSettings
+from .job import (
+    GripperSettings,
+    HarnessJob,
+    Job,
+    MotionSettings,
+    PlannerSettings,
+    RepairSettings,
+)
 from .plan import make_plan
 from .stages import check_job, run_job, simulate_plan, verify_plan
 
 __all__ = [
     "GripperSettings",
+    "HarnessJob",
     "Job",
     "MotionSettings",
     "PlanDocument",

@@ -11,6 +11,7 @@ pydantic.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -20,6 +21,10 @@ from ..planning.tuning import PlannerWeights
 from ..robot.cell import RobotCell
 from ..robot.urdf_cell import DescribedCell
 from ..trajectory import MotionLimits
+
+if TYPE_CHECKING:
+    from ..harness.board import Board
+    from ..harness.job import HarnessSettings
 
 
 @dataclass(frozen=True)
@@ -178,3 +183,34 @@ class Job:
     identification: object = None
     study: object = None
     repair: RepairSettings = field(default_factory=RepairSettings)
+
+
+@dataclass(frozen=True, eq=False)
+class HarnessJob:
+    """A wire-harness job file resolved into library objects, in SI units (thesis 7.3).
+
+    Attributes
+    ----------
+    source : str
+        Where the job came from (a file name), for messages and reports.
+    cable : Cable
+    start : numpy.ndarray
+        (n + 1, 3) start shape [m]; the target follows from the board.
+    board : Board
+        Fixtures, pegs, obstacles and the table (:mod:`dloplan.harness.board`), checked against
+        the cable.
+    settings : HarnessSettings
+        Phases, insertion, tensioning and motion (:class:`dloplan.harness.job.HarnessSettings`).
+    robot : RobotCell or DescribedCell
+        The robot cell the program is made for (its placement search off: a board is fixed).
+    outputs : tuple of str
+        The files ``dloplan plan`` writes (the file's ``outputs``).
+    """
+
+    source: str
+    cable: Cable
+    start: np.ndarray
+    board: Board
+    settings: HarnessSettings
+    robot: RobotCell | DescribedCell = field(default_factory=RobotCell)
+    outputs: tuple[str, ...] = ("json", "rapid")
