@@ -62,7 +62,8 @@ def test_plan_study_and_simulate_of_a_job_file_use_one_plan(tmp_path, monkeypatc
         assert np.array_equal(doc.stabilized, planned.stabilized), name
         assert np.array_equal(doc.grippers.positions, planned.grippers.positions), name
         assert doc.ok == planned.ok and doc.failed_checks == planned.failed_checks, name
-        assert doc.repairs == planned.repairs, name
+        assert [(r["kind"], r["change"]) for r in doc.repairs] == \
+            [(r["kind"], r["change"]) for r in planned.repairs], name
 
 
 def _imports(path: Path, package: str) -> set[str]:

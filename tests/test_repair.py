@@ -435,6 +435,10 @@ def test_a_placement_without_consent_is_proposed_not_made(ur_placed, tmp_path, c
     assert made is not None and made.applied
     assert np.array_equal(section.offset, made.offset) and section.yaw == made.yaw
     assert not (out / "urscript").exists() and not (out / "ros_joints").exists()
+    # simulate of the job file works on that same plan, and says that it failed a check
+    assert main(["simulate", str(path), "-q", "--json"]) == EXIT_CHECK_FAILED
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "failed a check (robot program" in err[0], err
 
     consented = tmp_path / "consented"
     assert main(["plan", str(path), "-o", str(consented), "-q", "--allow-placement"]) in (0, 1)
@@ -443,5 +447,5 @@ def test_a_placement_without_consent_is_proposed_not_made(ur_placed, tmp_path, c
     assert np.array_equal(plan.placement.offset, made.offset)
     for folder in (consented, allowed_folder):
         scripts = sorted((folder / "urscript").glob("*.script"))
-        assert scripts and all("moved on the table by dloplan's repair" in f.read_text()
+        assert scripts and all("Place the cable where dloplan moved the job" in f.read_text()
                                and made.message in f.read_text() for f in scripts)

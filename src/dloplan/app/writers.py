@@ -98,8 +98,8 @@ def program_notes(doc: PlanDocument) -> tuple[str, ...]:
     job must be placed on the table when a repair moved it (its ``placement`` section)."""
     if doc.placement is None or not doc.placement.applied:
         return ()
-    return (f"The job was moved on the table by dloplan's repair: {doc.placement.message}; "
-            "this program runs only with the cable placed there (plan.json: placement).",)
+    return (f"Place the cable where dloplan moved the job: {doc.placement.message}; this "
+            "program runs only with it there (plan.json: placement).",)
 
 
 def program_files(program, folder: Path, name: str, *, force: bool = False,

@@ -5,7 +5,7 @@
     job.py        Job (and HarnessJob) with its settings: SI units, domain types, frozen
                   (made by dloplan.app from a job file)
     stages.py     check_job, plan_path, plan_motion, plan_twist, the robot program, verify_plan,
-                  run_job (the stages in order)
+                  run_job (the stages in order), run_harness_job (a wire-harness job)
     document.py   PlanDocument: the plan as typed data, and its JSON-ready dict (to and from)
     repair/       a plan that fails its checks repaired (or refused with the reason)
     plan.py       make_plan: plan, check, repair, check again -- the one way every command
@@ -25,7 +25,7 @@ from .job import (
     RepairSettings,
 )
 from .plan import make_plan
-from .stages import check_job, run_job, simulate_plan, verify_plan
+from .stages import check_job, run_harness_job, run_job, simulate_plan, verify_plan
 
 __all__ = [
     "GripperSettings",
@@ -39,6 +39,7 @@ __all__ = [
     "document_from_dict",
     "document_to_dict",
     "make_plan",
+    "run_harness_job",
     "run_job",
     "simulate_plan",
     "verify_plan",

@@ -345,7 +345,7 @@ class PlacementSection:
     offset : numpy.ndarray
         (3,) shift after the turn [m].
     message : str
-        One line saying where the job goes.
+        Where the job goes, in words ("the job file's start and target turned ...").
     """
 
     applied: bool

@@ -96,7 +96,7 @@ def make_plan(job: Job | HarnessJob, *, verify: bool = False, check_robot: bool 
         out = replace(out, warnings=out.warnings + (f"repair refused: {result.refusal}",))
     if not result.move.is_identity:
         placement = placement_section(result.move, applied=True)
-        progress(placement.message)
+        progress(f"placement: {placement.message}: place the cable there")
     timings = {**out.timings, "verify": time.perf_counter() - t0 - result.seconds,
                "repair": result.seconds}
     return replace(out, timings=timings, repairs=tuple(r.to_dict() for r in result.repairs),

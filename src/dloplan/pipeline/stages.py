@@ -311,8 +311,8 @@ def with_program(doc: PlanDocument, program) -> PlanDocument:
     placement = doc.placement
     if np.any(shift):
         placement = PlacementSection(True, 0.0, np.zeros(3), shift, (
-            f"place the job as planned: the job file's start and target offset "
-            f"{format_offset(shift)} m (the {cell_name(program.cell)} cell's placement search)"))
+            f"the job file's start and target offset {format_offset(shift)} m (the "
+            f"{cell_name(program.cell)} cell's placement search)"))
     return replace(doc, robot=section, program=program, warnings=doc.warnings + failures,
                    placement=placement)
 

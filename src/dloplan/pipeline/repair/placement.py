@@ -117,12 +117,10 @@ class TableMove:
 
 def placement_section(move: TableMove, applied: bool) -> PlacementSection:
     """The plan document's record of a placement: made (``applied``) or proposed."""
-    where = (f"the job file's start and target {move.describe()} (turn first, then the "
-             "offset)")
-    message = (f"place the job as planned: {where}" if applied else
-               f"proposed, not made: {where}")
+    where = (f"the job file's start and target {move.describe()}"
+             + (" (turn first, then the offset)" if move.yaw and np.any(move.offset) else ""))
     return PlacementSection(applied, float(move.yaw), move.pivot.copy(), move.offset.copy(),
-                            message)
+                            where)
 
 
 def moved_job(job, move: TableMove):
