@@ -54,6 +54,12 @@ def test_plan_study_and_simulate_of_a_job_file_use_one_plan(tmp_path, monkeypatc
     planned = read_plan(tmp_path / "plan" / "plan.json")
     assert [r["kind"] for r in planned.repairs] == ["reach"]  # the case: a repaired plan
     assert planned.placement is not None and planned.placement.applied
+    modules = sorted((tmp_path / "plan" / "rapid").glob("*.mod"))
+    assert len(modules) == 2
+    for module in modules:  # each says where the cable must lie
+        header = module.read_text().split("PERS tasks")[0]
+        assert "! Place the cable where dloplan moved the job: " \
+            f"{planned.placement.message};" in header, module
     assert main(["study", str(job), "-o", str(tmp_path / "study"), "-q", "--csv"]) == EXIT_OK
     assert main(["simulate", str(job), "-q"]) in (EXIT_OK, EXIT_WARNINGS)
     for name in ("study", "simulate"):
