@@ -72,6 +72,9 @@ class MujocoPlant:
     rest_speed : float
         [m/s] the speed under which the cable counts as at rest (its slowest modes, about 10
         rad/s, are then within 0.01 mm of rest).
+    ramp : float
+        [s] the grippers move from their last pose to the new one over this simulated time
+        (linear and slerp; a jump would yank the welds), then the cable settles.
     """
 
     cable: Cable
@@ -83,6 +86,7 @@ class MujocoPlant:
     timestep: float = 1e-3
     settle: float = 5.0
     rest_speed: float = 5e-5
+    ramp: float = 0.5
     _model: object = field(default=None, init=False, repr=False)
     _data: object = field(default=None, init=False, repr=False)
     _states: dict = field(default_factory=dict, init=False, repr=False)
@@ -208,13 +212,29 @@ class MujocoPlant:
         m, d = self._model, self._data
         key = np.asarray(shape, dtype=float).tobytes()
         if key in self._states:  # a rest state this plant returned: continue from it exactly
-            d.qpos[:] = self._states[key]
+            d.qpos[:], d.mocap_pos[:2], d.mocap_quat[:2] = self._states[key]
             d.qvel[:] = 0.0
         else:
             self._place(shape)
-        for g in range(2):
-            d.mocap_pos[g] = clips.positions[g]
-            d.mocap_quat[g] = _quat_wxyz(clips.rotations[g].as_matrix())
+        from scipy.spatial.transform import Rotation, Slerp
+
+        target_pos = np.asarray(clips.positions, dtype=float)
+        target_quat = [_quat_wxyz(clips.rotations[g].as_matrix()) for g in range(2)]
+        if key not in self._states:  # placed anew: the grippers are where the clips are
+            start_pos, start_quat = target_pos, target_quat
+        else:
+            start_pos = d.mocap_pos[:2].copy()
+            start_quat = [d.mocap_quat[g].copy() for g in range(2)]
+        slerps = [Slerp([0.0, 1.0], Rotation.from_quat(np.array([start_quat[g], target_quat[g]]),
+                                                      scalar_first=True)) for g in range(2)]
+        ramp_steps = max(1, int(self.ramp / self.timestep)) if key in self._states else 1
+        for step in range(1, ramp_steps + 1):
+            w = step / ramp_steps
+            for g in range(2):
+                d.mocap_pos[g] = (1.0 - w) * start_pos[g] + w * target_pos[g]
+                d.mocap_quat[g] = slerps[g](w).as_quat(scalar_first=True)
+            if step < ramp_steps:
+                mujoco.mj_step(m, d)
         steps = int(self.settle / self.timestep)
         check = max(1, int(0.01 / self.timestep))
         before = self.points()
@@ -226,7 +246,8 @@ class MujocoPlant:
                 speed = moved / (check * m.opt.timestep)
                 before = now
                 if speed < self.rest_speed:
-                    self._states[now.tobytes()] = d.qpos.copy()
+                    self._states[now.tobytes()] = (d.qpos.copy(), d.mocap_pos[:2].copy(),
+                                                   d.mocap_quat[:2].copy())
                     return now, True, f"at rest after {step * m.opt.timestep:.2f} s"
         return self.points(), False, f"not at rest after {self.settle} s (speed {speed:.3g} m/s)"
 
