@@ -1,6 +1,6 @@
 // The report's 3D viewer (three.js, vendored in plots/vendor/three.min.js as the global THREE).
 //
-// Reads the JSON of <script id="plan-data"> (written by dloplan.plots.report.report_html):
+// Reads the JSON of the script element "plan-data" (dloplan.plots.report.report_html):
 // the cable's planned and stabilized shapes, the clip frames, obstacles, the table, both arms
 // (kinematic chain from the URDF joint origins and axes, visual meshes or capsules, joint
 // values per time of the verified program) and the timeline. The arms are a scene graph
@@ -347,15 +347,16 @@
 
   // --- controls on the page
   root.querySelectorAll("[data-view]").forEach(b => b.addEventListener("click", () => view(b.dataset.view)));
-  root.querySelectorAll("[data-layer]").forEach(box => {
-    const layer = layers[box.dataset.layer];
-    if (!layer || (box.dataset.layer === "robot" && !data.robot) || (box.dataset.layer === "stabilized" && !data.stabilized)
-        || (box.dataset.layer === "frames" && !data.clip_positions) || (box.dataset.layer === "obstacles" && !data.obstacles.length)) {
-      box.closest("label").hidden = true;
+  const absent = {robot: !data.robot, stabilized: !data.stabilized, frames: !data.clip_positions,
+                  obstacles: !data.obstacles.length};
+  root.querySelectorAll("[data-layer]").forEach(input => {
+    const name = input.dataset.layer;
+    if (absent[name]) {
+      input.closest("label").hidden = true;
       return;
     }
-    layer.visible = box.checked;
-    box.addEventListener("change", () => { layer.visible = box.checked; render(); });
+    layers[name].visible = input.checked;
+    input.addEventListener("change", () => { layers[name].visible = input.checked; render(); });
   });
   const play = root.querySelector("#play"), speed = root.querySelector("#speed");
   let playing = false, last = 0;
@@ -392,10 +393,17 @@
   });
   renderer.domElement.tabIndex = 0;
 
-  // --- start: the view and time of the address (#t=1.5&view=top), else iso at the start
+  // --- start: the view, time and hidden layers of the address (#t=1.5&view=top&hide=shapes),
+  // else iso at the start with every layer shown
   const params = new URLSearchParams(location.hash.slice(1));
+  for (const name of (params.get("hide") || "").split(",")) {
+    const input = root.querySelector(`[data-layer="${name}"]`);
+    if (input && layers[name]) { input.checked = false; layers[name].visible = false; }
+  }
   resize();
   view(VIEWS[params.get("view")] ? params.get("view") : "iso");
   setTime(params.has("t") ? Number(params.get("t")) : tl.times[0]);
+  const rect = renderer.domElement.getBoundingClientRect();
+  document.body.dataset.canvas = JSON.stringify([rect.left, rect.top, rect.width, rect.height].map(Math.round));
   document.body.dataset.rendered = "true";
 })();
