@@ -172,8 +172,9 @@
 
   // --- table and obstacles
   const shapes = data.shapes, n = shapes.length;
-  const box = new T.Box3();
-  shapes.forEach(s => s.forEach(p => box.expandByPoint(new T.Vector3().fromArray(p))));
+  const cableBox = new T.Box3();  // every shape of the cable: the "job" view frames it
+  shapes.forEach(s => s.forEach(p => cableBox.expandByPoint(new T.Vector3().fromArray(p))));
+  const box = cableBox.clone();
   if (data.robot) data.robot.arms.forEach(arm => box.expandByPoint(new T.Vector3().fromArray(arm.base.xyz)));
   const OBSTACLE = [0.55, 0.43, 0.39];
   for (const o of data.obstacles) {
@@ -195,6 +196,14 @@
     layers.obstacles.add(m);
     box.expandByObject(m);
   }
+  const tl = data.timeline;
+  function setJoints(i, j, f) {  // the arms' joints f of the way from sample i to sample j
+    arms.forEach((arm, a) => {
+      const q0 = tl.joints[a][i], q1 = tl.joints[a][j];
+      arm.links.forEach((link, l) => link.quaternion.setFromAxisAngle(arm.axes[l], q0[l] + f * (q1[l] - q0[l])));
+    });
+  }
+  setJoints(0, 0, 0);  // the table and the view fit the arms as they start
   const tableZ = data.table_height !== null ? data.table_height : box.min.z;
   scene.updateMatrixWorld(true);
   const footprint = new T.Box3().setFromObject(layers.robot).union(box);
@@ -262,7 +271,6 @@
   })) : null;
 
   // --- the timeline: times [s] (or shape numbers), the shape reached, joints per arm
-  const tl = data.timeline;
   const slider = root.querySelector("#time");
   const label = root.querySelector("#time-label");
   const duration = tl.times[tl.times.length - 1] - tl.times[0];
@@ -291,10 +299,7 @@
         triad.quaternion.copy(clipQuaternions[k][c]).slerp(clipQuaternions[k1][c], g);
       });
     }
-    arms.forEach((arm, a) => {
-      const q0 = tl.joints[a][i], q1 = tl.joints[a][j];
-      arm.links.forEach((link, l) => link.quaternion.setFromAxisAngle(arm.axes[l], q0[l] + f * (q1[l] - q0[l])));
-    });
+    setJoints(i, j, f);
     slider.value = String(duration > 0 ? (now - tl.times[0]) / duration * 1000 : 0);
     const near = Math.round(s), where = Math.abs(s - near) < 1e-6 ? data.labels[near]
       : `shape ${k} \u2192 ${k1}`;
@@ -307,19 +312,22 @@
     render();
   }
 
-  // --- camera: fit, views, controls
-  const fitBox = footprint;
-  const centre = fitBox.getCenter(new T.Vector3());
-  const span = fitBox.getSize(new T.Vector3()).length() / 2;
+  // --- camera: views of the whole cell (fitted to the arms as they start, the cable, the
+  // obstacles) or of the job (the cable's shapes, from the iso direction)
+  const fits = {cell: footprint, job: cableBox.clone().expandByScalar(0.05)};
+  const centre = footprint.getCenter(new T.Vector3());
+  const span = footprint.getSize(new T.Vector3()).length() / 2;
   const VIEWS = {iso: [1.0, -0.75, 0.7], front: [1, 0, 0.02], side: [0, -1, 0.02], top: [-0.001, 0, 1]};
-  VIEWS.reset = VIEWS.iso;
+  VIEWS.reset = VIEWS.job = VIEWS.iso;
   function view(name) {
+    const fit = fits[name === "job" ? "job" : "cell"];
+    const middle = fit.getCenter(new T.Vector3()), radius = fit.getSize(new T.Vector3()).length() / 2;
     const dir = new T.Vector3().fromArray(VIEWS[name]).normalize();
-    const distance = 0.95 * span / Math.sin(T.MathUtils.degToRad(camera.fov / 2)) / Math.min(1, camera.aspect);
-    controls.target.copy(centre);
-    camera.position.copy(centre).addScaledVector(dir, distance);
+    const distance = 0.95 * radius / Math.sin(T.MathUtils.degToRad(camera.fov / 2)) / Math.min(1, camera.aspect);
+    controls.target.copy(middle);
+    camera.position.copy(middle).addScaledVector(dir, distance);
     camera.near = distance / 100;
-    camera.far = distance * 10;
+    camera.far = distance * 10 + 2 * span;
     camera.updateProjectionMatrix();
     controls.update();
     render();
