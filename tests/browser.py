@@ -39,9 +39,12 @@ def console(stderr: str, page: Path) -> list[str]:
             and "GL Driver Message" not in line]
 
 
-def dom(page: Path, profile: Path, fragment: str = "") -> tuple[str, list[str]]:
-    """The page's DOM after its scripts ran, and its console messages."""
-    run = _run(page, profile, fragment, "--dump-dom")
+def dom(page: Path, profile: Path, fragment: str = "",
+        seconds: float | None = None) -> tuple[str, list[str]]:
+    """The page's DOM after its scripts ran (and, given ``seconds``, after that much virtual
+    time: animation frames run), and its console messages."""
+    budget = () if seconds is None else (f"--virtual-time-budget={int(1000 * seconds)}",)
+    run = _run(page, profile, fragment, "--dump-dom", *budget)
     return run.stdout, console(run.stderr, page)
 
 

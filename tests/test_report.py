@@ -334,3 +334,5 @@ def test_a_page_without_robot_plays_the_shapes(tmp_path):
     assert "shape 2 \u2192 3" in html  # the cable half way between shapes 2 and 3
     assert re.search(r'<label hidden="">\s*<input type="checkbox" data-layer="robot"', html)
     assert "Play motion" not in html
+    html, messages = dom(page, tmp_path / "profile", "play", seconds=2.0)  # Play plays
+    assert messages == [] and float(body_data(html)["time"]) > 0 and "Pause" in html

@@ -401,8 +401,8 @@
   });
   renderer.domElement.tabIndex = 0;
 
-  // --- start: the view, time and hidden layers of the address (#t=1.5&view=top&hide=shapes),
-  // else iso at the start with every layer shown
+  // --- start: the view, time and hidden layers of the address (#t=1.5&view=top&hide=shapes,
+  // &play to start playing), else iso at the start with every layer shown, paused
   const params = new URLSearchParams(location.hash.slice(1));
   for (const name of (params.get("hide") || "").split(",")) {
     const input = root.querySelector(`[data-layer="${name}"]`);
@@ -411,6 +411,7 @@
   resize();
   view(VIEWS[params.get("view")] ? params.get("view") : "iso");
   setTime(params.has("t") ? Number(params.get("t")) : tl.times[0]);
+  if (params.has("play")) toggle();
   const rect = renderer.domElement.getBoundingClientRect();
   document.body.dataset.canvas = JSON.stringify([rect.left, rect.top, rect.width, rect.height].map(Math.round));
   document.body.dataset.rendered = "true";
