@@ -240,6 +240,25 @@ def test_report_robot_is_the_programs_verified_joints_at_its_times():
         report_html(title="x", shapes=np.zeros((2, 3, 3)), robot=robot)
 
 
+def test_report_robot_of_a_yumi_program_puts_the_tcp_where_dloplans_fk_does():
+    """The YuMi's own arms (not a described cell): approach and retreat targets included."""
+    from dloplan.grippers import GripperPath
+    from dloplan.robot import robot_program
+
+    trajectory, clip = _clip_trajectory(0.4)
+    grippers = GripperPath(np.asarray(trajectory.positions), (clip, clip), "minimal",
+                           np.zeros(len(trajectory.times)))
+    program = robot_program(grippers, trajectory)
+    robot = report_robot(program)
+    assert len(robot["times"]) == len(trajectory.times) + 2  # approach and retreat
+    assert robot["shapes"][0] == robot["shapes"][1] == 0 and robot["shapes"][-1] == 4
+    for a in range(2):
+        for q in robot["joints"][a]:
+            np.testing.assert_allclose(scene_frames(robot["arms"][a], q)[-1][:3, 3],
+                                       _tcp(program, a, q), atol=1e-9)
+    assert [match_model(arm["joints"]) for arm in robot["arms"]] == ["yumi", "yumi"]
+
+
 # -- in the browser ----------------------------------------------------------------------------
 
 def _canvas(html: str, pixels: np.ndarray) -> np.ndarray:
@@ -334,5 +353,5 @@ def test_a_page_without_robot_plays_the_shapes(tmp_path):
     assert "shape 2 \u2192 3" in html  # the cable half way between shapes 2 and 3
     assert re.search(r'<label hidden="">\s*<input type="checkbox" data-layer="robot"', html)
     assert "Play motion" not in html
-    html, messages = dom(page, tmp_path / "profile", "play", seconds=2.0)  # Play plays
+    html, messages = dom(page, tmp_path / "profile", "play", seconds=1.5)  # Play plays
     assert messages == [] and float(body_data(html)["time"]) > 0 and "Pause" in html

@@ -367,21 +367,20 @@
     input.addEventListener("change", () => { layers[name].visible = input.checked; render(); });
   });
   const play = root.querySelector("#play"), speed = root.querySelector("#speed");
-  let playing = false, last = 0;
-  function step(stamp) {
+  let playing = false, last = 0;  // performance.now() [ms] at the last frame played
+  function step() {
     if (!playing) return;
-    const dt = last ? (stamp - last) / 1000 : 0;
+    const stamp = performance.now(), dt = (stamp - last) / 1000;
     last = stamp;
     const rate = tl.unit === "s" ? Number(speed.value) : 2 * Number(speed.value);  // shapes per s
-    let t = now + dt * rate;
-    if (t > tl.times[tl.times.length - 1]) t = tl.times[0];
-    setTime(t);
+    const start = tl.times[0], t = now + dt * rate;  // at the end it starts again
+    setTime(duration > 0 && t > start + duration ? start + (t - start) % duration : t);
     requestAnimationFrame(step);
   }
   function toggle() {
     playing = !playing;
     play.textContent = playing ? "❚❚ Pause" : "▶ Play";
-    last = 0;
+    last = performance.now();  // the first frame moves on by the time since the press
     if (playing) requestAnimationFrame(step);
   }
   play.addEventListener("click", toggle);
