@@ -339,6 +339,27 @@ def test_the_pages_forward_kinematics_is_dloplans(tmp_path, preset):
 
 
 @needs_chromium
+def test_an_arm_of_another_description_is_drawn_as_its_capsules(tmp_path):
+    """An arm whose chain matches no model (here the UR5e's with the elbow 1 mm further out)
+    gets its collision capsules and a parallel gripper, moved by the same scene graph."""
+    from dloplan.robot.urdf_cell import ur5e_pair
+
+    program, arguments = _cell_plan(ur5e_pair())
+    robot = arguments["robot"]
+    for arm in robot["arms"]:
+        arm["joints"][2]["xyz"] = list(np.add(arm["joints"][2]["xyz"], [1e-3, 0.0, 0.0]))
+    page = write_report(tmp_path / "report.html", title="other", **arguments)
+    text = page.read_text()
+    assert '"model":null' in text and '"meshes":{}' in text and '"generic_gripper":true' in text
+    k = len(robot["times"]) - 1
+    html, messages = dom(page, tmp_path / "profile", f"t={robot['times'][k]}")
+    assert messages == [] and "errors" not in body_data(html)
+    expected = [scene_frames(robot["arms"][a], robot["joints"][a][k])[-1][:3, 3]
+                for a in range(2)]
+    np.testing.assert_allclose(json.loads(body_data(html)["tcp"]), expected, atol=2e-5)
+
+
+@needs_chromium
 def test_a_page_without_robot_plays_the_shapes(tmp_path):
     """The study and compare reports: no arms, the timeline steps through the shapes (no dead
     motion button); the view still renders."""

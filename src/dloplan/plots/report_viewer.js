@@ -40,7 +40,7 @@
   controls.screenSpacePanning = true;
   controls.zoomToCursor = true;
 
-  // --- lights: sky/ground fill, a key light with soft shadows on the table, a rim light
+  // --- lights: sky/ground fill, a key light casting shadows on the table, a rim light
   scene.add(new T.HemisphereLight(0xffffff, 0x8a8070, 1.6));
   const key = new T.DirectionalLight(0xffffff, 2.2);
   key.castShadow = true;
@@ -123,7 +123,7 @@
   }
 
   // --- the arms: base -> joint origins -> joint rotations; parts hang on links
-  const ARM_CAPSULE = [[0.93, 0.6, 0.2], [0.3, 0.62, 0.85]];
+  const ARM_CAPSULE = [[0.93, 0.6, 0.2], [0.45, 0.7, 0.45]];  // left, right: not the cable's blue
   const arms = (data.robot ? data.robot.arms : []).map((arm, a) => {
     const base = placed(new T.Group(), arm.base.xyz, arm.base.quaternion);
     layers.robot.add(base);
