@@ -18,7 +18,7 @@ demo: $(STAMP)
 	$(BIN)/dloplan demo -o out/demo || [ $$? -eq 1 ]
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks examples
+	$(BIN)/ruff check src tests benchmarks examples tools
 
 # The HTML report is tested in headless Chromium: install it where we can (root with apt),
 # otherwise that one test is skipped with its reason.

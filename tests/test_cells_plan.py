@@ -210,7 +210,8 @@ def test_cell_plan_document_reads_back_and_programs_are_the_verified_joints(tmp_
                                atol=1e-5)
     assert len(drawn["shapes"]) == len(doc.shapes)
     WRITERS["report"].write(back, tmp_path / "report.html", None)
-    assert '"arms": {"shapes"' in (tmp_path / "report.html").read_text()
+    page = (tmp_path / "report.html").read_text()
+    assert '"robot":{"arms"' in page and '"model":"ur5e"' in page  # both UR5e drawn
     with pytest.raises(ValueError, match="rapid: the cell 'ur5e_pair' takes urscript"):
         WRITERS["rapid"].write(back, tmp_path / "rapid", None)
     data = json.loads((tmp_path / "plan.json").read_text())

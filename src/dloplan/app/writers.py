@@ -160,12 +160,12 @@ def write_report_file(doc: PlanDocument, target: Path, options: WriteOptions) ->
     """The HTML report, with the PNG figures of the ``figures/`` folder beside it embedded and
     both robot arms drawn when the plan has a robot program."""
     images = sorted((target.parent / WRITERS["figures"].target).glob("*.png"))
-    arms = {}
+    program = None
     if doc.robot is not None and doc.trajectory is not None:
         from ..pipeline.stages import program_of
 
-        arms = program_of(doc).report_arms()
-    return [write_plan_report(doc, target, images, arms)]
+        program = program_of(doc)
+    return [write_plan_report(doc, target, images, program)]
 
 
 def write_correction_report(doc: PlanDocument, target: Path,
