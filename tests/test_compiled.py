@@ -33,6 +33,7 @@ from dloplan.physics.chain import (
 )
 from dloplan.physics.compiled import resample_polyline, stretch_to_length
 from dloplan.sim.clips import ClipPoses, conform_guess, place_held_points
+from dloplan.sim.compiled import restore_link_lengths
 from dloplan.sim.newton import factor_band, solve_band, trust_region_newton
 from dloplan.sim.result import clip_reactions
 from dloplan.sim.statics import equilibrium, force_scale, minimize_energy
@@ -152,10 +153,14 @@ def test_compiled_newton_loop_follows_the_generic_loop(case):
         out[free] += p.reshape(-1, 3)
         return out
 
+    def corrected(y, p):
+        out = moved(y, p)
+        return out if restore_link_lengths(y, out, free.start, free.stop) else None
+
     generic = trust_region_newton(
         start, lambda y: shape_energy(chain, y), derivatives, moved,
         lambda p: float(np.max(np.linalg.norm(p.reshape(-1, 3), axis=1))),
-        cable.length, tolerance)
+        cable.length, tolerance, corrected=corrected)
     assert stable and generic.stable
     assert iterations == generic.iterations
     assert message == generic.message

@@ -35,7 +35,7 @@ from ..physics.twist_compiled import (
     twist_energies,
     twist_stencils,
 )
-from .newton import NEUTRAL, cholesky_band, cholesky_solve, step_verdict
+from .newton import NEUTRAL, cholesky_band, cholesky_solve, step_verdict, wants_correction
 
 CONVERGED, MAX_ITERATIONS, STALLED, SADDLE = 0, 1, 2, 3
 RUNNING = -1  # internal: none of them yet
@@ -49,6 +49,113 @@ def _longest(p):
         d = math.sqrt(p[3 * i] ** 2 + p[3 * i + 1] ** 2 + p[3 * i + 2] ** 2)
         longest = max(longest, d)
     return longest
+
+
+LENGTH_REGULARIZATION = 1e-6
+"""Tikhonov term of the length projection's tridiagonal system (:func:`restore_link_lengths`),
+relative to its unit diagonal: a straight chain between its held points cannot change all its
+link lengths at once (the system is singular there), and the projection then stays bounded."""
+
+
+@njit(cache=True)
+def restore_link_lengths(x, trial, first, stop):
+    """Second-order correction of a Newton step on a chain of nearly inextensible links.
+
+    ``trial`` (n + 1, 3) is ``x`` moved by a step p over the free points ``first .. stop - 1``.
+    A link that turns by an angle theta changes its length by l (1 - cos theta) ~ l theta^2 / 2,
+    a term the quadratic model does not see; with axial springs a thousand times stiffer than the
+    bending ones that energy rejects any step longer than a fraction of the length scale the
+    bending sets (issue 35: 8 -> 516 iterations). As in the second-order correction of
+    constrained trust-region methods (Nocedal & Wright, Numerical Optimization, 2nd ed., 15.6;
+    Conn, Gould & Toint, Trust-Region Methods, 15.3.2), the free points of ``trial`` are moved,
+    in place, by the least-norm q with J q = -r: one Gauss-Newton step that gives every link
+    touching a free point the length the step's linearization promised,
+
+        r_j = |e_j(trial)| - (|e_j(x)| + t_j(x) . (p_{j+1} - p_j)),
+        (J J^T + mu I) lambda = r,   q = -J^T lambda,
+
+    J the Jacobian of the link lengths at ``trial`` over the free points (rows -t_j at point j,
+    +t_j at point j + 1): J J^T is tridiagonal (1 or 2 on the diagonal, -t_j . t_{j+1} beside
+    it), so the correction costs O(n). r is O(|p|^2 / l), so is q, and Newton's quadratic
+    convergence is kept; the ratio test then judges the corrected step against the model's
+    prediction for p. A correction longer than the step itself (the linearization is no guide
+    there) is not applied.
+
+    Parameters
+    ----------
+    x, trial : numpy.ndarray
+        (n + 1, 3) the state and the trial state [m]; ``trial`` is corrected in place.
+    first, stop : int
+        The free point range; points outside it do not move.
+
+    Returns
+    -------
+    bool
+        True if the correction was applied.
+    """
+    n_points = x.shape[0]
+    j0 = first - 1  # the links touching a free point: j0 .. j1 - 1 (link j joins j, j + 1)
+    j1 = min(stop, n_points - 1)
+    m = j1 - j0
+    tangents = np.empty((m, 3))
+    residual, diagonal, upper, multipliers = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
+    step = 0.0
+    for j in range(j0, j1):
+        k = j - j0
+        length_x = 0.0
+        t_dp = 0.0
+        length = 0.0
+        for a in range(3):
+            e_x = x[j + 1, a] - x[j, a]
+            e = trial[j + 1, a] - trial[j, a]
+            length_x += e_x * e_x
+            t_dp += e_x * (e - e_x)
+            length += e * e
+        length_x = math.sqrt(length_x)
+        length = math.sqrt(length)
+        for a in range(3):
+            tangents[k, a] = (trial[j + 1, a] - trial[j, a]) / length
+        residual[k] = length - (length_x + t_dp / length_x)
+    for i in range(first, stop):
+        step = max(step, math.sqrt((trial[i, 0] - x[i, 0]) ** 2 + (trial[i, 1] - x[i, 1]) ** 2
+                                   + (trial[i, 2] - x[i, 2]) ** 2))
+    # tridiagonal (J J^T + mu I), solved by Thomas' algorithm (symmetric positive definite)
+    for k in range(m):
+        j = j0 + k
+        diagonal[k] = (1.0 if first <= j else 0.0) + (1.0 if j + 1 < stop else 0.0) \
+            + LENGTH_REGULARIZATION
+        upper[k] = 0.0
+        if k + 1 < m:
+            upper[k] = -(tangents[k, 0] * tangents[k + 1, 0] + tangents[k, 1] * tangents[k + 1, 1]
+                         + tangents[k, 2] * tangents[k + 1, 2])
+    multipliers[0] = residual[0]
+    for k in range(1, m):
+        factor = upper[k - 1] / diagonal[k - 1]
+        diagonal[k] -= factor * upper[k - 1]
+        multipliers[k] = residual[k] - factor * multipliers[k - 1]
+    multipliers[m - 1] /= diagonal[m - 1]
+    for k in range(m - 2, -1, -1):
+        multipliers[k] = (multipliers[k] - upper[k] * multipliers[k + 1]) / diagonal[k]
+    longest = 0.0  # q_i = -(lambda_{i-1} t_{i-1} - lambda_i t_i), links i - 1 and i
+    for i in range(first, stop):
+        k = i - j0
+        q2 = 0.0
+        for a in range(3):
+            q = -multipliers[k - 1] * tangents[k - 1, a]
+            if k < m:
+                q += multipliers[k] * tangents[k, a]
+            q2 += q * q
+        longest = max(longest, math.sqrt(q2))
+    if not longest <= step:
+        return False
+    for i in range(first, stop):
+        k = i - j0
+        for a in range(3):
+            q = -multipliers[k - 1] * tangents[k - 1, a]
+            if k < m:
+                q += multipliers[k] * tangents[k, a]
+            trial[i, a] += q
+    return True
 
 
 @njit(cache=True)
@@ -141,6 +248,7 @@ def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses
     factor = np.empty((band.shape[0], n_free))
     p = np.empty(n_free)
     trial = np.empty_like(x)
+    corrected = np.empty_like(x)
     shift = 0.0
     f = history[n_history - 1]
     while True:
@@ -166,6 +274,14 @@ def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses
             for j in range(n_free):
                 trial[first + j // 3, j % 3] += alpha * p[j]
             f_trial = chain_energy(trial, k_s, rest_lengths, k_b, rest_angles, masses, gravity)
+            if wants_correction(f, f_trial, predicted):
+                corrected[:] = trial
+                if restore_link_lengths(x, corrected, first, stop):
+                    f_corrected = chain_energy(corrected, k_s, rest_lengths, k_b, rest_angles,
+                                               masses, gravity)
+                    if f_corrected < f_trial:
+                        trial[:] = corrected
+                        f_trial = f_corrected
             accepted, shift, radius = step_verdict(f, f_trial, predicted, shift, scale, radius,
                                                    longest, length_scale)
             if accepted:
@@ -217,8 +333,10 @@ def twist_energy_of(x, d1, chain, twist):
 
 
 @njit(cache=True)
-def twist_trial(x, d1, p, link, trial, trial_d1, angles):
-    """The state after the step p over the free interleaved coordinates (angles as l theta)."""
+def twist_trial(x, d1, p, link, trial, trial_d1, angles, correct):
+    """The state after the step p over the free interleaved coordinates (angles as l theta);
+    with ``correct``, the points' :func:`restore_link_lengths` before the directors are carried
+    along (returns False, and builds nothing more, when the correction is not applied)."""
     n = d1.shape[0]
     trial[:] = x
     angles[:] = 0.0
@@ -228,10 +346,13 @@ def twist_trial(x, d1, p, link, trial, trial_d1, angles):
             angles[q // 4] = p[j] / link
         else:
             trial[q // 4, q % 4] += p[j]
+    if correct and not restore_link_lengths(x, trial, 2, n - 1):
+        return False
     moved_directors(x, trial, d1, angles, trial_d1)
     for c in range(3):
         trial_d1[0, c] = d1[0, c]
         trial_d1[n - 1, c] = d1[n - 1, c]
+    return True
 
 
 @njit(cache=True)
@@ -272,6 +393,8 @@ def newton_twist(x, d1, chain, twist, link, length_scale, tolerance, max_iterati
     p = np.empty(n_free)
     trial = np.empty_like(x)
     trial_d1 = np.empty_like(d1)
+    corrected = np.empty_like(x)
+    corrected_d1 = np.empty_like(d1)
     angles = np.empty(n)
     shift = 0.0
     f = history[n_history - 1]
@@ -293,8 +416,15 @@ def newton_twist(x, d1, chain, twist, link, length_scale, tolerance, max_iterati
                 continue
             for j in range(n_free):
                 p[j] *= alpha
-            twist_trial(x, d1, p, link, trial, trial_d1, angles)
+            twist_trial(x, d1, p, link, trial, trial_d1, angles, False)
             f_trial = twist_energy_of(trial, trial_d1, chain, twist)
+            if wants_correction(f, f_trial, predicted) and twist_trial(
+                    x, d1, p, link, corrected, corrected_d1, angles, True):
+                f_corrected = twist_energy_of(corrected, corrected_d1, chain, twist)
+                if f_corrected < f_trial:
+                    trial[:] = corrected
+                    trial_d1[:] = corrected_d1
+                    f_trial = f_corrected
             accepted, shift, radius = step_verdict(f, f_trial, predicted, shift, scale, radius,
                                                    longest, length_scale)
             if accepted:

@@ -241,7 +241,7 @@ class NewtonRun:
 
 def trust_region_newton(
     state, energy_of, derivatives, moved, displacement, length_scale: float, tolerance: float,
-    max_iterations: int = 500, unit: str = "N",
+    max_iterations: int = 500, unit: str = "N", corrected=None,
 ) -> NewtonRun:
     """The trust-region (Levenberg-Marquardt) Newton loop of the static solvers.
 
@@ -274,6 +274,11 @@ def trust_region_newton(
         Iteration limit.
     unit : str
         Unit of the residual, for the messages.
+    corrected : callable, optional
+        ``corrected(state, p) -> state or None``: the state after the step ``p`` with a
+        second-order correction (a chain's :func:`dloplan.sim.compiled.restore_link_lengths`),
+        or None where none applies. Tried when the plain step is not a very successful one
+        (:func:`wants_correction`); the trial with the lower energy goes to the ratio test.
     """
     radius = 0.25 * length_scale  # trust radius: the largest point displacement of one step
     shift = 0.0
@@ -320,6 +325,11 @@ def trust_region_newton(
             p *= alpha
             trial = moved(state, p)
             f_trial = energy_of(trial)
+            if corrected is not None and wants_correction(f, f_trial, predicted):
+                better = corrected(state, p)
+                f_better = energy_of(better) if better is not None else math.inf
+                if f_better < f_trial:
+                    trial, f_trial = better, f_better
             accepted, shift, radius = step_verdict(f, f_trial, predicted, shift, scale, radius,
                                                    longest, length_scale)
             if accepted:
@@ -331,6 +341,14 @@ def trust_region_newton(
             break
         history.append(f)
     return NewtonRun(state, extra, iterations, residual, stable, np.asarray(history), message)
+
+
+@njit(cache=True)
+def wants_correction(f, f_trial, predicted):
+    """Whether to try a second-order correction of a trial step: unless the step already
+    gives more than 3/4 of the decrease the quadratic model predicted (``step_verdict``'s very
+    successful step, where the correction would only cost an energy evaluation)."""
+    return not (predicted < 0.0 and f_trial - f <= 0.75 * predicted)
 
 
 @njit(cache=True)
@@ -363,7 +381,8 @@ def step_verdict(f, f_trial, predicted, shift, scale, radius, longest, length_sc
         ratio = actual / predicted if abs(predicted) > noise else 1.0
         if ratio > 0.75:
             shift = 0.0 if shift < 1e-6 * scale else shift / 8.0
-            radius = min(2.0 * radius, length_scale)
+            if longest >= radius:  # the step was cut at the radius: widen it
+                radius = min(2.0 * radius, length_scale)
         elif ratio < 0.25:
             shift = max(4.0 * shift, 1e-8 * scale)
         return True, shift, radius

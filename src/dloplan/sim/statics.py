@@ -46,7 +46,14 @@ from ..physics.chain import (
     shape_energy,
 )
 from .clips import ClipPoses, check_clip_reach, clip_poses_from_shape, conform_guess
-from .compiled import CONVERGED, MAX_ITERATIONS, SADDLE, STALLED, newton_positions
+from .compiled import (
+    CONVERGED,
+    MAX_ITERATIONS,
+    SADDLE,
+    STALLED,
+    newton_positions,
+    restore_link_lengths,
+)
 from .dynamics import settle
 from .newton import (
     MAX_ESCAPES,
@@ -205,12 +212,16 @@ def minimize_energy(
         trial[free] += p.reshape(-1, 3)
         return trial
 
+    def corrected(x, p):  # the step, then the link lengths its linearization promised
+        trial = moved(x, p)
+        return trial if restore_link_lengths(x, trial, free.start, free.stop) else None
+
     def displacement(p):
         return float(np.max(norms(p.reshape(-1, 3))))
 
     if chain.contacts:  # obstacles are Python objects: the generic loop
         run = trust_region_newton(x, energy_of, derivatives, moved, displacement, length_scale,
-                                  tolerance, max_iterations)
+                                  tolerance, max_iterations, corrected=corrected)
     else:
         run = _compiled_newton(chain, x, free, length_scale, tolerance, max_iterations,
                                energy_of, moved, displacement)

@@ -335,15 +335,19 @@ def equilibrium_with_twist(
         )
         return g[free], band[:, free], residual, (g_pos, td)
 
-    def moved(state, p):
+    def moved(state, p, correct=False):
         x, d1 = state
         trial, trial_d1 = np.empty_like(x), np.empty_like(d1)
-        twist_trial(x, d1, p, link, trial, trial_d1, np.empty(n))
-        return trial, trial_d1
+        done = twist_trial(x, d1, p, link, trial, trial_d1, np.empty(n), correct)
+        return (trial, trial_d1) if done else None
+
+    def corrected(state, p):
+        return moved(state, p, True)
 
     if chain.contacts:  # obstacles are Python objects: the generic loop
         run = trust_region_newton((start, d1), energy_of, derivatives, moved,
-                                  twist_step_length, cable.length, tolerance, max_iterations)
+                                  twist_step_length, cable.length, tolerance, max_iterations,
+                                  corrected=corrected)
     else:
         run = _compiled_twist_newton(chain, tc, (start, d1), link, cable.length, tolerance,
                                      max_iterations, energy_of, moved)
