@@ -1,4 +1,5 @@
-"""The cable's axial modulus of its own (issue 19): k_s = E_a A / l, E_a = E unless given."""
+"""The cable's axial modulus of its own (issues 19, 35): k_s = E_a A / l; the composite catalogue
+cables (USB, Ethernet) have their copper's by default, the thesis' E_a = E is an option."""
 
 from __future__ import annotations
 
@@ -16,8 +17,26 @@ from dloplan.pipeline.document import cable_to_dict
 from dloplan.sim.statics import equilibrium
 
 
+def test_composite_catalogue_cables_stretch_with_their_copper_by_default():
+    assert catalogue_cable("usb").axial_modulus == COMPOSITE_AXIAL_MODULI["usb"]
+    assert catalogue_cable("ethernet").axial_modulus == COMPOSITE_AXIAL_MODULI["ethernet"]
+    assert catalogue_cable("pa12").axial_modulus is None  # a hose: one material, E_a = E
+    assert catalogue_cable("pu").axial_modulus is None
+    # the thesis' one modulus for bending and stretching stays an option, three ways
+    assert catalogue_cable("usb", axial_modulus=None).axial_modulus is None
+    assert catalogue_cable("usb").thesis_model().axial_modulus is None
+    assert build_cable(CableSpec(name="usb", axial_modulus="thesis"), 1.0, None
+                       ).axial_modulus is None
+    assert build_cable(CableSpec(name="usb"), 1.0, None).axial_modulus == 2e9
+    # a cable of its own (no catalogue name) is one material unless told otherwise
+    assert build_cable(CableSpec(length=0.5, diameter=0.004, mass=0.01, youngs_modulus=5e6),
+                       1.0, None).axial_modulus is None
+    with pytest.raises(ValueError, match="axial_modulus"):
+        CableSpec(name="usb", axial_modulus="copper")
+
+
 def test_without_an_axial_modulus_the_thesis_model_is_unchanged():
-    cable = catalogue_cable("usb", n_links=10)
+    cable = catalogue_cable("usb", n_links=10, axial_modulus=None)
     assert cable.axial_modulus is None
     assert cable.axial_youngs_modulus == cable.youngs_modulus
     assert cable.k_axial == pytest.approx(cable.youngs_modulus * cable.area
@@ -25,7 +44,7 @@ def test_without_an_axial_modulus_the_thesis_model_is_unchanged():
 
 
 def test_an_axial_modulus_sets_only_the_axial_springs():
-    plain = catalogue_cable("usb", n_links=10)
+    plain = catalogue_cable("usb", n_links=10, axial_modulus=None)
     cable = catalogue_cable("usb", n_links=10, axial_modulus=2e9)
     assert cable.k_axial == pytest.approx(2e9 * cable.area / cable.rest_link_length)
     assert cable.axial_stiffness == pytest.approx(2e9 * cable.area)
@@ -36,7 +55,7 @@ def test_an_axial_modulus_sets_only_the_axial_springs():
     # variants keep it: identification changes E only, a new n keeps the material
     assert cable.with_modulus(5e6).axial_modulus == 2e9
     assert cable.with_links(20).axial_modulus == 2e9
-    assert cable.thesis_model().axial_modulus == 2e9
+    assert cable.thesis_model().axial_modulus is None  # the thesis' one modulus
 
 
 @pytest.mark.parametrize("value", [0.0, -1e9, math.nan, math.inf])
@@ -53,7 +72,11 @@ def test_the_axial_modulus_round_trips_through_exports_and_scenarios():
     assert Cable(**cable_to_dict(catalogue_cable("pu"))).axial_modulus is None
     built = build_cable(CableSpec(name="usb", axial_modulus=2e9), 1.0, None)
     assert built.axial_modulus == 2e9
-    assert build_cable(CableSpec(name="usb"), 1.0, None).axial_modulus is None
+    assert build_cable(CableSpec(name="usb"), 1.0, None).axial_modulus == 2e9
+    assert build_cable(CableSpec(name="pu"), 1.0, None).axial_modulus is None
+    # a plan made with the thesis' one modulus reads back as such
+    assert Cable(**cable_to_dict(catalogue_cable("usb", axial_modulus=None))).axial_modulus \
+        is None
 
 
 def _sag(cable, distance):
@@ -68,7 +91,7 @@ def test_usb_stretch_and_sag_with_and_without_a_copper_axial_modulus(distance):
     # springs carry the same tension (to first order) as with E_a = 2 GPa, so the strain is
     # E_a / E = 800 times larger; the stiffer cable sags less, and above ~1e8 Pa it is
     # practically inextensible (the sag no longer changes)
-    tied = catalogue_cable("usb", n_links=40)
+    tied = catalogue_cable("usb", n_links=40, axial_modulus=None)
     copper = catalogue_cable("usb", n_links=40, axial_modulus=COMPOSITE_AXIAL_MODULI["usb"])
     stiff = catalogue_cable("usb", n_links=40, axial_modulus=1e8)
     shapes = {k: _sag(c, distance) for k, c in (("tied", tied), ("copper", copper),
@@ -99,7 +122,8 @@ def test_identification_fits_the_bending_modulus_with_the_axial_one_held():
     assert held.n_links == 80 and held.cable.axial_modulus == cable.axial_modulus
     lo, hi = held.confidence_interval
     assert lo <= cable.youngs_modulus <= hi
-    tied = identify_youngs_modulus(catalogue_cable("usb", n_links=80), experiment)
+    tied = identify_youngs_modulus(catalogue_cable("usb", n_links=80, axial_modulus=None),
+                                   experiment)
     assert tied.success
     assert tied.youngs_modulus > 1.1 * held.youngs_modulus
 

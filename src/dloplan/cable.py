@@ -32,12 +32,13 @@ approximation of the rod it discretizes:
   the weight where the cable is and converges faster to the continuum.
 
 The defaults (``"rod"``, ``"consistent"``) are the consistent model; ``Cable.thesis_model``
-switches both to the thesis' choices to reproduce its numbers.
+switches both, and the axial modulus, to the thesis' choices to reproduce its numbers.
 
 The axial modulus E_a is ``axial_modulus`` when given, else E (the thesis: one modulus for
 bending and stretching). Composite cables need their own: their bending modulus is an
 equivalent one, tiny against their copper cores' axial stiffness, and with E_a = E a USB cable
-stretches by about 1 % under its own weight (see ``docs/model.md``, "Axial stiffness").
+stretches by about 1 % under its own weight (see ``docs/model.md``, "Axial stiffness"). The
+catalogue's USB and Ethernet cables have theirs by default (:data:`COMPOSITE_AXIAL_MODULI`).
 """
 
 from __future__ import annotations
@@ -98,8 +99,9 @@ class Cable:
         Optional label, e.g. ``"usb"``.
     axial_modulus : float, optional
         Modulus of the axial springs E_a [Pa] (k_s = E_a A / l), separate from the bending
-        modulus; ``None`` (default) uses ``youngs_modulus`` (the thesis' model). See
-        :data:`COMPOSITE_AXIAL_MODULI` for the composite catalogue cables.
+        modulus; ``None`` (default) uses ``youngs_modulus`` (the thesis' model, right for a
+        hose of one material). :func:`catalogue_cable` gives the composite cables
+        :data:`COMPOSITE_AXIAL_MODULI`.
     """
 
     length: float
@@ -290,8 +292,9 @@ class Cable:
         return replace(self, youngs_modulus=youngs_modulus)
 
     def thesis_model(self) -> Cable:
-        """The same cable with the thesis' modelling choices (k_b = 3EI/l, equal masses)."""
-        return replace(self, bending="thesis", masses="equal")
+        """The same cable with the thesis' modelling choices (k_b = 3EI/l, equal masses, one
+        modulus for bending and stretching: E_a = E)."""
+        return replace(self, bending="thesis", masses="equal", axial_modulus=None)
 
     def constants(self) -> dict[str, float]:
         """The derived model constants, keyed by name with their unit in brackets."""
@@ -329,7 +332,8 @@ _CATALOGUE: dict[str, dict[str, float]] = {
 CATALOGUE_NAMES: tuple[str, ...] = tuple(_CATALOGUE)
 
 COMPOSITE_AXIAL_MODULI: dict[str, float] = {"usb": 2e9, "ethernet": 2e9}
-"""Axial moduli E_a [Pa] to use for the composite catalogue cables (USB, Ethernet).
+"""Axial moduli E_a [Pa] of the composite catalogue cables (USB, Ethernet):
+:func:`catalogue_cable`'s default for them.
 
 Order-of-magnitude estimates from their copper: E_cu ~ 117 GPa on about 0.3 mm^2 (USB, four
 AWG 28 conductors and the shield) or 1.6 mm^2 (Ethernet, eight AWG 24), derated about three
@@ -337,14 +341,12 @@ times for the twist of the pairs and spread over the whole section A: E_a ~ 2 GP
 times their bending moduli. Any value above about 1e8 Pa gives nearly the same shapes (the
 cable is then practically inextensible: the USB between level clips sags within 0.01 mm of the
 2 GPa shape at 0.4 m apart, 0.25 mm nearly taut at 0.48 m), so the estimate need not be
-precise. With the thesis' single modulus (E_a = E), the catalogue's default, the USB stretches
-about 1 % under its own weight and a nearly taut shape differs by up to 3 mm from an
-inextensible cable's (MuJoCo's cable, issue 35). Pass
-``catalogue_cable("usb", axial_modulus=COMPOSITE_AXIAL_MODULI["usb"])`` (or ``axial_modulus:
-2e9`` in a scenario) for a real cable. It is not the default yet: the static solver's
-trust-region Newton needs many more iterations with axial springs a thousand times stiffer
-than the bending ones (8 -> 516 on the identification's bending manipulation of the Ethernet at
-n = 64, beyond its limit of 500), see docs/decisions.md.
+precise. With the thesis' single modulus (E_a = E) the USB stretches about 1 % under its own
+weight and a nearly taut shape differs by up to 3 mm from an inextensible cable's (MuJoCo's
+cable, issue 35); that model stays an option: ``catalogue_cable("usb", axial_modulus=None)``,
+:meth:`Cable.thesis_model`, or ``axial_modulus: thesis`` in a scenario (docs/decisions.md).
+The static solver converges on such nearly inextensible links by a second-order correction
+of its Newton steps (:func:`dloplan.sim.compiled.restore_link_lengths`).
 """
 
 
@@ -355,8 +357,9 @@ def catalogue_cable(name: str, n_links: int = 10, **overrides) -> Cable:
     (d 6 mm, 11 g, E 100 MPa) and ``pa12`` hose (d 6 mm, 9 g, E 1 GPa), all 0.5 m long. The
     moduli of USB and Ethernet are those the thesis identified with its own bending model;
     Poisson ratios are not given in the thesis and are typical values for the materials. The
-    axial modulus is E (the thesis) unless ``axial_modulus`` is given: for a real composite
-    cable pass :data:`COMPOSITE_AXIAL_MODULI` (not yet the default: docs/decisions.md).
+    composite cables (USB, Ethernet) stretch with their copper's axial modulus
+    (:data:`COMPOSITE_AXIAL_MODULI`) unless ``axial_modulus`` is given (None: the thesis' one
+    modulus for bending and stretching, E_a = E); the hoses with their E.
 
     Parameters
     ----------
@@ -372,5 +375,6 @@ def catalogue_cable(name: str, n_links: int = 10, **overrides) -> Cable:
         raise ValueError(
             f"cable: unknown catalogue name {name!r}, expected one of {', '.join(_CATALOGUE)}"
         )
-    params = {**_CATALOGUE[key], "n_links": n_links, "name": key, **overrides}
+    axial = {"axial_modulus": COMPOSITE_AXIAL_MODULI[key]} if key in COMPOSITE_AXIAL_MODULI else {}
+    params = {**_CATALOGUE[key], **axial, "n_links": n_links, "name": key, **overrides}
     return Cable(**params)

@@ -129,6 +129,8 @@ def build_cable(spec: CableSpec, scale: float, youngs_modulus: float | None) -> 
     for key in ("mass", "poisson_ratio", "axial_modulus"):
         if getattr(spec, key) is not None:
             params[key] = getattr(spec, key)
+    if spec.axial_modulus == "thesis":  # the thesis: one modulus for bending and stretching
+        params["axial_modulus"] = None
     if youngs_modulus is not None:
         params["youngs_modulus"] = youngs_modulus
     elif spec.youngs_modulus not in (None, "identify"):

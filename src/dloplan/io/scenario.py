@@ -144,8 +144,10 @@ class CableSpec(_Model):
         None, description="[Pa], or 'identify' with an identify section"
     )
     poisson_ratio: float | None = Field(None, gt=-1, le=0.5)
-    axial_modulus: PositiveLength | None = Field(
-        None, description="[Pa] modulus of the axial springs (default: youngs_modulus)")
+    axial_modulus: PositiveLength | Literal["thesis"] | None = Field(
+        None, description="[Pa] modulus of the axial springs (default: the catalogue's for usb "
+        "and ethernet, their copper's 2e9; else youngs_modulus), or 'thesis': the thesis' one "
+        "modulus for bending and stretching (E_a = youngs_modulus)")
     n_links: int = Field(10, ge=4, le=MAX_LINKS, description=(
         "n >= 4: each clip holds two points, so n = 4 is the least that leaves the cable a "
         f"free point; n <= {MAX_LINKS}: plans in minutes at most"))

@@ -10,6 +10,11 @@ absorbs). With k_c a hundred times the axial spring constant, a contact carrying
 penetrates F / k_c: a hundredth of the stretch the same force gives one link.
 
 Obstacles provide ``signed_distance(points) -> (phi, normal)`` (:mod:`dloplan.obstacles`).
+
+The penalty's Hessian jumps where a point touches a surface: a Newton step computed while a point
+hangs free above an obstacle does not see the penalty it will meet. :func:`entry_fraction` tells
+a static solver how much of such a step to take so that the point lands just inside, where the
+next Hessian holds its contact (:func:`dloplan.sim.statics.minimize_energy`).
 """
 
 from __future__ import annotations
@@ -52,3 +57,34 @@ def contact_hessian_diagonal(x: np.ndarray, obstacles: Sequence, radius: float,
         active = (depth > 0)[..., None, None]
         blocks += np.where(active, stiffness * normal[..., :, None] * normal[..., None, :], 0.0)
     return blocks
+
+
+ENTRY_DEPTH = 1e-6
+"""Depth a step lands a point at when it enters an obstacle, relative to the cable's radius
+(:func:`entry_fraction`): just inside, so the next Hessian holds the contact."""
+
+
+def entry_fraction(x: np.ndarray, trial: np.ndarray, obstacles: Sequence, radius: float) -> float:
+    """How much of the straight move from ``x`` to ``trial`` to take so that no point that is out
+    of contact at ``x`` ends deeper than ``ENTRY_DEPTH * radius`` in an obstacle, in (0, 1].
+
+    Each entering point's depth is interpolated linearly along the move (exact for flat faces).
+
+    Parameters
+    ----------
+    x, trial : numpy.ndarray
+        (n + 1, 3) the state and the trial state [m].
+    obstacles : sequence
+        Obstacles with ``signed_distance``.
+    radius : float
+        The cable's radius [m].
+    """
+    landing = ENTRY_DEPTH * radius
+    fraction = 1.0
+    for (before, _), (after, _) in zip(penetrations(x, obstacles, radius),
+                                       penetrations(trial, obstacles, radius), strict=True):
+        entering = (before <= 0.0) & (after > landing)
+        if np.any(entering):
+            fraction = min(fraction, float(np.min(
+                (landing - before[entering]) / (after[entering] - before[entering]))))
+    return fraction

@@ -241,7 +241,7 @@ class NewtonRun:
 
 def trust_region_newton(
     state, energy_of, derivatives, moved, displacement, length_scale: float, tolerance: float,
-    max_iterations: int = 500, unit: str = "N", corrected=None,
+    max_iterations: int = 500, unit: str = "N", corrected=None, limit=None,
 ) -> NewtonRun:
     """The trust-region (Levenberg-Marquardt) Newton loop of the static solvers.
 
@@ -279,6 +279,10 @@ def trust_region_newton(
         second-order correction (a chain's :func:`dloplan.sim.compiled.restore_link_lengths`),
         or None where none applies. Tried when the plain step is not a very successful one
         (:func:`wants_correction`); the trial with the lower energy goes to the ratio test.
+    limit : callable, optional
+        ``limit(state, p) -> float`` in (0, 1]: the fraction of the (radius-truncated) step
+        ``p`` to take (contacts: where the first free point enters an obstacle,
+        :func:`dloplan.physics.contact.entry_fraction`).
     """
     radius = 0.25 * length_scale  # trust radius: the largest point displacement of one step
     shift = 0.0
@@ -319,6 +323,8 @@ def trust_region_newton(
             p = -solve_band(factor, gf)
             longest = displacement(p)
             alpha = min(1.0, radius / longest) if longest > 0 else 1.0  # truncate to the radius
+            if limit is not None:
+                alpha *= limit(state, alpha * p)
             # model decrease g.p + p.H.p/2 with (H + shift I) p_full = -g, p = alpha p_full
             g_p = float(gf @ p)
             predicted = alpha * g_p + 0.5 * alpha**2 * (-g_p - shift * float(p @ p))

@@ -21,7 +21,9 @@ d g / d log E is the elastic part of the gradient; at equilibrium it balances th
     dx*_f / d log E = -H_ff^-1 g^el_f = -H_ff^-1 (m g)_f :
 
 a stiffer cable sags less, exactly as if gravity were weaker. (In statics E and the mass enter
-only through the ratio E / m: one sensitivity serves both.)
+only through the ratio E / m: one sensitivity serves both.) A cable with an axial modulus of its
+own (``Cable.axial_modulus``: the composite catalogue cables) keeps its axial springs when E
+changes, so their part of the gradient (the links' tensions) is left out of g^el.
 
 With torsion (:func:`dloplan.sim.torsion.equilibrium_with_twist`) the state also holds one twist
 angle per link; the clips hold the two end links' angles too, and a small clip rotation phi turns
@@ -45,6 +47,7 @@ from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
 from ..geometry import as_shape, tangents
+from ..physics.axial import axial_gradient
 from ..physics.chain import HALF_BANDWIDTH, SpringChain, gradient_and_hessian_band, hessian
 from ..physics.compiled import chain_derivatives
 from ..physics.twist import TwistChain, twist_derivatives
@@ -180,7 +183,8 @@ def equilibrium_sensitivity(
         raise ValueError("shape: the free Hessian is not positive definite (not a stable "
                          "equilibrium), its sensitivity is undefined")
     dh = held_point_jacobian(clips, cable.rest_link_length).reshape(12, 12)
-    rhs = np.concatenate([-_band_block(band, free, held) @ dh, -g_elastic.ravel()[free, None]],
+    g_scaled = _modulus_gradient(cable, chain, x, g_elastic)
+    rhs = np.concatenate([-_band_block(band, free, held) @ dh, -g_scaled.ravel()[free, None]],
                          axis=1)
     solved = lapack.dpbtrs(factor, rhs, lower=1)[0]
     return _assemble(x, dh, solved[:, :12], solved[:, 12], torsion=False)
@@ -201,6 +205,15 @@ def _elastic_derivatives(chain: SpringChain, x: np.ndarray) -> tuple[np.ndarray,
     chain_derivatives(np.ascontiguousarray(x), k_s, rest_lengths, k_b, rest_angles, masses,
                       np.zeros(3), grad, band)
     return grad, band
+
+
+def _modulus_gradient(cable: Cable, chain: SpringChain, x: np.ndarray,
+                      g_elastic: np.ndarray) -> np.ndarray:
+    """d g / d log E (n + 1, 3) [N]: the elastic gradient, without the axial springs' part when
+    the cable has an axial modulus of its own (it does not change with E)."""
+    if cable.axial_modulus is None:
+        return g_elastic
+    return g_elastic - axial_gradient(x, chain.k_axial, chain.rest_lengths)
 
 
 def _assemble(x, dh, free_clips, free_log_modulus, torsion: bool) -> ShapeSensitivity:
@@ -268,8 +281,8 @@ def twist_equilibrium_sensitivity(
         shape=(n_dof, n_dof),
     ).tocsr()
     g_elastic = np.zeros(n_dof)
-    g_elastic[point_dofs] = (gradient_and_hessian_band(chain, x)[0] + td.twist_gradient
-                             + td.direction_gradient).ravel()
+    g_points = _modulus_gradient(cable, chain, x, gradient_and_hessian_band(chain, x)[0])
+    g_elastic[point_dofs] = (g_points + td.twist_gradient + td.direction_gradient).ravel()
     g_elastic[angle_dofs] = td.angle_gradient
     held_points = np.r_[point_dofs[:6], point_dofs[-6:]]
     held = np.r_[held_points, angle_dofs[[0, -1]]]

@@ -45,6 +45,7 @@ from ..physics.chain import (
     shape_derivatives,
     shape_energy,
 )
+from ..physics.contact import entry_fraction
 from .clips import ClipPoses, check_clip_reach, clip_poses_from_shape, conform_guess
 from .compiled import (
     CONVERGED,
@@ -220,8 +221,11 @@ def minimize_energy(
         return float(np.max(norms(p.reshape(-1, 3))))
 
     if chain.contacts:  # obstacles are Python objects: the generic loop
+        def limit(x, p):  # land a point entering an obstacle just inside it
+            return entry_fraction(x, moved(x, p), chain.contacts, chain.contact_radius)
+
         run = trust_region_newton(x, energy_of, derivatives, moved, displacement, length_scale,
-                                  tolerance, max_iterations, corrected=corrected)
+                                  tolerance, max_iterations, corrected=corrected, limit=limit)
     else:
         run = _compiled_newton(chain, x, free, length_scale, tolerance, max_iterations,
                                energy_of, moved, displacement)
