@@ -293,9 +293,15 @@ def robot_cell(scenario, scale: float, folder=".", *,
                                 "with robot.cell (its arms are placed in robot.cell)")
         data = dict(spec.cell)
         data.setdefault("table_height", scenario.table.height if scenario.table else 0.0)
-        writers = {"urscript": urscript_settings(spec.urscript, scale),
+        gripper = spec.gripper.model_dump()
+        writers = {"urscript": {**urscript_settings(spec.urscript, scale), "gripper": gripper},
+                   "ur_rtde": {**spec.ur_rtde.model_dump(), "hosts": tuple(spec.ur_rtde.hosts),
+                               "gripper": gripper},
                    "ros_joints": {k: v for k, v in spec.ros_joints.model_dump().items()
                                   if v is not None}}
+        if not gripper["tool"] and gripper["output"] == spec.urscript.ready_output:
+            raise ScenarioError(f"robot.gripper.output: got {gripper['output']}, the standard "
+                                "digital output robot.urscript.ready_output; expected another")
         try:
             cell = cell_from_mapping(data, folder, scale)
         except ValueError as exc:

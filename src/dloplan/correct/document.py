@@ -32,7 +32,7 @@ from ..app.writers import WRITERS, program_files
 from ..grippers import GripperPath
 from ..io.export import write_trajectory_csv
 from ..io.files import atomic_write_text
-from ..pipeline.document import PlanDocument, document_cell
+from ..pipeline.document import PlanDocument, cycle_actions, document_cell
 from ..sim import equilibrium
 from .measurement import CorrectionRefused
 from .step import Correction, correct_plan, sliced_grippers
@@ -123,6 +123,12 @@ def correction_table(correction: Correction) -> str:
     return "\n".join(lines) + "\n"
 
 
+def remaining_actions(doc: PlanDocument, at: int) -> tuple:
+    """The plan's gripper actions still to come after shape ``at`` (the arms hold the cable
+    there), on the knots of the remaining motion (which starts at shape ``at``)."""
+    return tuple(replace(a, knot=a.knot - at) for a in cycle_actions(doc.cycle) if a.knot > at)
+
+
 def write_correction(doc: PlanDocument, correction: Correction, folder, *,
                      rate: float = 100.0) -> list[Path]:
     """Write the corrected plan, the remaining trajectory and program, and the report.
@@ -162,7 +168,8 @@ def write_correction(doc: PlanDocument, correction: Correction, folder, *,
         write_trajectory_csv(out / "trajectory.csv", correction.remaining, rate=rate,
                              frame_id=doc.frame_id),
         *(path for name in program.formats
-          for path in program_files(program, out / WRITERS[name].target, name)),
+          for path in program_files(program, out / WRITERS[name].target, name,
+                                    correction.remaining, remaining_actions(doc, at))),
         atomic_write_text(out / "correction.json",
                           json.dumps(correction.report(), indent=1) + "\n"),
         atomic_write_text(out / "correction.txt", correction_table(correction)),

@@ -753,7 +753,34 @@ def document_from_dict(data: dict) -> PlanDocument:
 
 
 def cycle_to_dict(cycle) -> dict:
-    """A :class:`~dloplan.trajectory.Cycle` as the document's ``cycle`` section."""
+    """A :class:`~dloplan.trajectory.Cycle` as the document's ``cycle`` section: its phases,
+    times and gripper ``actions`` (name, knot, duration, opening [s])."""
     return {"phases": [section_to_dict(p) for p in cycle.phases],
+            "actions": [section_to_dict(a) for a in cycle.actions],
             "motion_time": cycle.motion_time, "action_time": cycle.action_time,
             "cycle_time": cycle.cycle_time, "breakdown": cycle.breakdown()}
+
+
+def cycle_actions(section: dict | None) -> tuple:
+    """The gripper actions (:class:`~dloplan.trajectory.GripperAction`) of a document's
+    ``cycle`` section, in the order they run; a document written before the section listed
+    them gives its grasp and release phases.
+
+    Raises
+    ------
+    ValueError
+        A malformed section, or a regrasp of an older document (its opening part was not
+        recorded: plan again).
+    """
+    from ..trajectory import GripperAction
+
+    if section is None:
+        return ()
+    try:
+        if "actions" in section:
+            return tuple(GripperAction(a["name"], a["knot"], a["duration"], a["opening"])
+                         for a in section["actions"])
+        return tuple(GripperAction(p["name"], p["knots"][0], p["duration"])
+                     for p in section["phases"] if p["kind"] == "action")
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"plan.cycle.actions: malformed ({exc}); plan again") from None
