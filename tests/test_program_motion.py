@@ -70,7 +70,7 @@ def test_the_motion_passes_every_verified_sub_step_and_rests_at_stops():
             q = motion.sample(motion.starts[m] + tau, 0)[a][0]
             assert np.abs(q - path).max() < 1e-9
     at_rest = motion.sample(motion.arrivals, 2)
-    for q, qd, qdd in at_rest:
+    for _, qd, qdd in at_rest:
         assert np.abs(qd).max() < 1e-12 and np.abs(qdd).max() < 1e-9
 
 
@@ -97,7 +97,7 @@ def test_gripper_actions_hold_the_arms_and_the_clock_runs_on():
     tau = clock.motion_time(t)
     assert np.all(np.diff(tau) >= -1e-15) and tau[-1] == pytest.approx(motion.duration)
     values = program_samples(motion, clock, t)
-    for q, qd, qdd in values:
+    for q, qd, _ in values:
         fd = _finite_differences(t, q)
         assert np.abs(fd - qd).max() < 2e-3 * np.abs(qd).max()
         for m, hold in enumerate(clock.hold):

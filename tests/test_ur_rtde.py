@@ -232,8 +232,7 @@ def test_an_arm_away_from_the_start_is_not_started(streamer):
 def test_the_program_runs_end_to_end_through_its_main(streamer, monkeypatch, capsys):
     module, _, (times, _, _) = streamer
     fakes = {}
-    for name, cls in (("rtde_control", "RTDEControlInterface"),
-                      ("rtde_receive", "RTDEReceiveInterface"), ("rtde_io", "RTDEIOInterface")):
+    for name in ("rtde_control", "rtde_receive", "rtde_io"):
         fakes[name] = types.ModuleType(name)
         monkeypatch.setitem(sys.modules, name, fakes[name])
     ROBOTS[:] = [FakeRobot(np.zeros(6), module.LAG) for _ in range(2)]

@@ -3,8 +3,8 @@
 
 This file is the program dloplan writes for a cell of two UR arms (``dloplan.io.ur_rtde``
 copies it, with the settings block below filled in, beside the joint samples it streams). It
-runs on a PC connected to both controllers and needs only Python 3 and the ``ur_rtde`` library
-(``pip install ur-rtde``); it imports nothing from dloplan.
+runs on a PC connected to both controllers and needs only Python 3.10 or later and the
+``ur_rtde`` library (``pip install ur-rtde``); it imports nothing from dloplan.
 
 Every control period (``RATE``) it sends both arms the joints of the same instant of the plan
 (``servoJ``), so the arms cannot drift apart: both follow one clock, the PC's. Before each
@@ -104,7 +104,7 @@ class Arm:
             raise Fault(f"{self.name} arm: speed scaling {100 * scaling:.0f} % (the plan's "
                         "timing needs 100 %)")
         if commanded is not None:
-            error = max(abs(a - b) for a, b in zip(r.getActualQ(), commanded))
+            error = max(abs(a - b) for a, b in zip(r.getActualQ(), commanded, strict=True))
             if error > TRACKING_TOLERANCE:
                 raise Fault(f"{self.name} arm: {error:.3f} rad from the commanded joints "
                             f"(tolerance {TRACKING_TOLERANCE} rad)")
@@ -134,7 +134,7 @@ def move_to_start(arms, samples) -> None:
     for a, arm in enumerate(arms):
         start = samples[0][1 + a]
         arm.control.moveJ(start, START_SPEED, 1.0, False)
-        error = max(abs(x - y) for x, y in zip(arm.receive.getActualQ(), start))
+        error = max(abs(x - y) for x, y in zip(arm.receive.getActualQ(), start, strict=True))
         if error > START_TOLERANCE:
             raise Fault(f"{arm.name} arm: {error:.4f} rad from the start joints after moveJ "
                         f"(tolerance {START_TOLERANCE} rad)")
@@ -156,7 +156,7 @@ def stream(arms, samples, actions=ACTIONS) -> None:
                 _, command, _, _ = pending.pop(0)
                 for arm in arms:
                     arm.grip(command)
-            for arm, q in zip(arms, joints):
+            for arm, q in zip(arms, joints, strict=True):
                 arm.control.servoJ(q, 0.0, 0.0, dt, LOOKAHEAD, GAIN)
                 arm.control.kickWatchdog()
             arms[0].control.waitPeriod(start)

@@ -232,5 +232,6 @@ def plan_cycle(trajectory, actions=None, motion_phases=None) -> Cycle:
     return Cycle(tuple(out), tuple(done))
 
 
-__all__ = ["ACTIONS", "COMMANDS", "DEFAULT_GRASP_TIME", "DEFAULT_RELEASE_TIME", "Cycle", "GripperAction",
+__all__ = ["ACTIONS", "COMMANDS", "DEFAULT_GRASP_TIME", "DEFAULT_RELEASE_TIME", "Cycle",
+           "GripperAction",
            "Phase", "plan_cycle"]
