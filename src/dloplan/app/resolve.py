@@ -271,8 +271,7 @@ def check_workspace(points, name: str, source: str) -> None:
                             f"within {WORKSPACE:g} m of the robot (a length in wrong units?)")
 
 
-YUMI_ONLY = ("base_position", "base_rotation", "wobj", "tools", "approach", "grip_time",
-             "hold_force")
+YUMI_ONLY = ("base_position", "base_rotation", "wobj", "tools", "approach", "hold_force")
 """Settings of the ``robot:`` section that describe the YuMi's cell (not a described one)."""
 
 
@@ -327,7 +326,7 @@ def robot_cell(scenario, scale: float, folder=".", *,
             Rotation.identity(),
             tools=tuple(tools), wobj=spec.wobj, table_height=table,
             approach=defaults.approach if spec.approach is None else spec.approach * scale,
-            grip_time=spec.grip_time, hold_force=spec.hold_force)
+            hold_force=spec.hold_force)
     except ValueError as exc:
         raise ScenarioError(f"robot: {exc}") from None
 

@@ -215,7 +215,7 @@ def rapid_modules(program: RobotProgram, settings: RapidSettings | None = None,
             "confdata and eax_a (the arm angle) from the verified joint solution.",
             f"    ! {n} targets ({program.labels[0]} to {program.labels[-1]}); planned duration "
             f"{program.path_duration:.3f} s from grasp to release ({program.times[-1]:.3f} s "
-            "with approach, retreat and grip waits).",
+            "with approach and retreat; the gripper actions' waits come on top).",
             f"    ! Gripper actions (plan.json cycle): {_action_summary(placed, program.labels)}.",
             f"    PERS tasks dlo_tasks{{2}} := {tasks_list};",
             *(f"    VAR syncident {name};" for name in syncs),

@@ -370,7 +370,6 @@ class RobotSpec(_Model):
                                   min_length=2, max_length=2, description="left, right")
     approach: float | None = Field(None, ge=0, allow_inf_nan=False,
                                    description="approach/retreat distance [units]; 5 cm")
-    grip_time: float = Field(0.5, ge=0, allow_inf_nan=False, description="[s]")
     hold_force: float | None = Field(None, gt=0, le=20, description="SmartGripper [N]")
 
     @field_validator("base_position")

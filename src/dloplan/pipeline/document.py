@@ -370,8 +370,7 @@ def cell_to_dict(cell) -> dict:
         "base_position": cell.base_position.tolist(),
         "base_rotation": _rotation_to_list(cell.base_rotation),
         "wobj": cell.wobj, "table_height": cell.table_height, "approach": cell.approach,
-        "approach_speed": cell.approach_speed, "grip_time": cell.grip_time,
-        "hold_force": cell.hold_force,
+        "approach_speed": cell.approach_speed, "hold_force": cell.hold_force,
         "tools": [{"name": t.name, "tcp_offset": t.tcp_offset.tolist(),
                    "tcp_rotation": _rotation_to_list(t.tcp_rotation), "mass": t.mass,
                    "cog": t.cog.tolist(), "inertia": t.inertia.tolist(),
@@ -411,7 +410,7 @@ def cell_from_dict(data: dict, where: str = "plan.robot.cell"):
                          base_rotation=Rotation.from_quat(data["base_rotation"]), tools=tools,
                          wobj=data["wobj"], table_height=data["table_height"],
                          approach=data["approach"], approach_speed=data["approach_speed"],
-                         grip_time=data["grip_time"], hold_force=data["hold_force"])
+                         hold_force=data["hold_force"])
     except (KeyError, TypeError, ValueError) as exc:
         raise ValueError(f"{where}: {exc}") from None
 

@@ -161,7 +161,8 @@ class RobotProgram(CheckedProgram):
     arm_angles : numpy.ndarray
         (M, 2) ``eax_a`` [deg] as written (ABB axis 7 of ``joints``).
     times : numpy.ndarray
-        (M,) time [s] each target is reached, from the approach target (grip waits included).
+        (M,) time [s] each target is reached, from the approach target, on the motion's clock
+        (the gripper actions' waits come on top: :mod:`dloplan.robot.actions`).
     durations : numpy.ndarray
         (M - 1,) planned duration [s] of each move.
     speeds : numpy.ndarray
@@ -247,10 +248,9 @@ class RobotProgram(CheckedProgram):
 
     @property
     def path_duration(self) -> float:
-        """Planned time [s] from the grasp to the release target, grip wait excluded (the
-        trajectory's duration)."""
-        wait = self.cell.grip_time if self.release > self.grasp else 0.0
-        return float(self.times[self.release] - self.times[self.grasp] - wait)
+        """Planned time [s] from the grasp to the release target (the trajectory's
+        duration)."""
+        return float(self.times[self.release] - self.times[self.grasp])
 
     @property
     def formats(self) -> tuple[str, ...]:
@@ -456,9 +456,7 @@ def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, q
             res = solve_from(arm, pos[m, a], rot[m, a], q0[m, a], opts.ik, np.radians(eax[m, a]))
             joints[m, a], solved[m, a] = res.q, res.success and chosen[a].solved[m]
     durations, speeds = _timing(trajectory, cell, assignment, cell.approach > 0)
-    waits = np.zeros(len(pos))
-    waits[grasp] = cell.grip_time
-    times = np.cumsum(np.r_[0.0, durations]) + np.concatenate([[0.0], np.cumsum(waits[:-1])])
+    times = np.cumsum(np.r_[0.0, durations])
     replay = replay_moves(robot, pos, rot, eax, joints, durations, opts)
     rows = _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay)
     motion_times = np.concatenate([times[:1]] + [
