@@ -152,17 +152,19 @@ class CellProgram(CheckedProgram):
         the move between two kept knots timed by ``trajectory``'s law (the plan's, which this
         program was verified on) of the segment that ends at the later one (the segments
         before it, between knots at the same instant, do not move); its path the tracked
-        sub-steps (uniform in the move's parameter)."""
+        sub-steps (uniform in the move's parameter) from one target's verified joints to the
+        next's."""
         law, plan = trajectory.law, self.plan
         verdict = plan.verdict
         segments = plan.shapes[1:] - 1
         paths = []
-        for q in verdict.motion_joints:
+        for q, targets in zip(verdict.motion_joints, self.joints, strict=True):
             arm = []
             for j in range(len(segments)):
                 first = np.searchsorted(verdict.motion_times, j, side="right") - 1
                 last = np.searchsorted(verdict.motion_times, j + 1, side="right")
-                arm.append(q[first:last])
+                arm.append(np.concatenate([targets[j][None], q[first + 1:last - 1],
+                                           targets[j + 1][None]]))
             paths.append(tuple(arm))
         return JointMotion(tuple(paths), tuple(law.profiles[k] for k in segments),
                            law.starts[segments], law.knot_times[plan.shapes])

@@ -217,7 +217,8 @@ class RobotProgram(CheckedProgram):
         between the shapes the moves of ``trajectory``'s law (the plan's, which this program
         was made from), the approach and the retreat by the jerk-limited rest-to-rest law at
         ``cell.approach_speed`` under the trajectory's limits; each move's path the replayed
-        sub-steps (uniform in the move's parameter)."""
+        sub-steps (uniform in the move's parameter), ending on the target's verified joints
+        (the replay's last sub-step reaches them within the IK's tolerance)."""
         from ..trajectory import MotionLimits
         from ..trajectory.timelaw import Profile
 
@@ -234,7 +235,8 @@ class RobotProgram(CheckedProgram):
             arrivals = np.r_[0.0, arrivals + d, law.duration + 2 * d]
         ends = 1 + np.cumsum(self.move_substeps)
         paths = tuple(tuple(np.concatenate([self.joints[m, a][None],
-                                            self.motion_joints[end - n:end, a]])
+                                            self.motion_joints[end - n:end - 1, a],
+                                            self.joints[m + 1, a][None]])
                             for m, (end, n) in enumerate(zip(ends, self.move_substeps,
                                                              strict=True)))
                       for a in range(2))
