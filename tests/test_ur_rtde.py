@@ -227,6 +227,13 @@ def test_an_arm_away_from_the_start_is_not_started(streamer):
     with pytest.raises(module.Fault, match="left arm: .* from the start joints"):
         module.move_to_start(arms, samples)
     assert not ROBOTS[0].servo and not ROBOTS[1].servo
+    # a program that does not pick the cable up (the arms hold it) moves nothing to the start
+    # and opens no gripper
+    module.OPEN_FIRST = False
+    arms = _arms(module, samples[0], module.LAG)
+    with pytest.raises(module.Fault, match="left arm: .* from the start joints"):
+        module.move_to_start(arms, samples)
+    assert not ROBOTS[0].outputs and ROBOTS[0].actual == [0.0] * 6
 
 
 def test_the_program_runs_end_to_end_through_its_main(streamer, monkeypatch, capsys):

@@ -10,7 +10,8 @@ program target whose position, orientation, confdata and arm angle (``eax_a``) a
 program verified. Its ``PROC main()`` runs::
 
     ConfL \\On;                              (stop rather than take another configuration)
-    g_GripOut;                               (SmartGripper open)
+    g_GripOut;                               (SmartGripper open, when the program picks the
+                                              cable up: its first action is a grasp)
     MoveAbsJ dlo_start, v100, fine, tool;    (the verified joints of the first target)
     SyncMoveOn dlo_sync_on, dlo_tasks;
     MoveL dlo_p01 \\ID:=10, dlo_v01 \\T:=0.5, fine, tool \\WObj:=wobj;   (approach -> grasp;
@@ -49,7 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from ..grippers.axes import CLIP_NAMES
-from ..robot.actions import default_actions, place_actions
+from ..robot.actions import default_actions, picks_up, place_actions
 from ..robot.cell import check_rapid_name
 from ..robot.program import RobotProgram
 from ..trajectory import ARMS
@@ -238,7 +239,7 @@ def rapid_modules(program: RobotProgram, settings: RapidSettings | None = None,
             "    ENDPROC",
             f"    PROC {s.procedure}()",
             "        ConfL \\On;",
-            "        g_GripOut;",
+            *(["        g_GripOut;"] if picks_up(placed) else []),
             f"        MoveAbsJ dlo_start, {s.start_speed}, fine, {tool.name} \\WObj:={cell.wobj};",
             *body,
             "    ENDPROC",

@@ -44,6 +44,7 @@ TRACKING_TOLERANCE = 0.05
 STOP_DECELERATION = 10.0
 WATCHDOG = 10.0
 GRIPPER = {"output": 1, "tool": False, "closed": True}
+OPEN_FIRST = True
 ACTIONS: list = []
 # --- end of settings ---
 
@@ -126,17 +127,20 @@ class Arm:
 
 
 def move_to_start(arms, samples) -> None:
-    """Open both grippers, then move each arm (one after the other, the cable not yet held)
-    to the first sample and check it got there and is ready."""
+    """When the program picks the cable up (``OPEN_FIRST``: its first action is a grasp), open
+    both grippers and move each arm (one after the other: nothing is held yet) to the first
+    sample; otherwise the arms hold the cable already and must stand there: nothing moves.
+    Then check each arm is at the start and ready."""
     for arm in arms:
         arm.check()
-        arm.grip("open")
     for a, arm in enumerate(arms):
         start = samples[0][1 + a]
-        arm.control.moveJ(start, START_SPEED, 1.0, False)
+        if OPEN_FIRST:
+            arm.grip("open")
+            arm.control.moveJ(start, START_SPEED, 1.0, False)
         error = max(abs(x - y) for x, y in zip(arm.receive.getActualQ(), start, strict=True))
         if error > START_TOLERANCE:
-            raise Fault(f"{arm.name} arm: {error:.4f} rad from the start joints after moveJ "
+            raise Fault(f"{arm.name} arm: {error:.4f} rad from the start joints "
                         f"(tolerance {START_TOLERANCE} rad)")
 
 

@@ -7,7 +7,8 @@ Each arm gets ``<stem>_<arm>.script``, one ``def ... end`` program that
    the gripper's digital output (the cell's ``gripper`` setting: the output, standard or tool,
    and the level that closes); replace their bodies for a gripper driven otherwise (a URCap's
    functions, say), the rest of the program calls only them;
-3. opens the gripper and moves with ``movej`` to the verified start joints (so the controller
+3. opens the gripper (when the program picks the cable up: its first action is a grasp) and
+   moves with ``movej`` to the verified start joints (so the controller
    is on the verified configuration branch before any Cartesian move);
 4. raises its *ready* standard digital output and waits until its *start* standard digital
    input is high: wire both inputs to one start signal (a PLC output, a push button, or one
@@ -43,6 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..robot.actions import picks_up
 from .ur_rtde import DEFAULT_GRIPPER, check_gripper
 
 MODES = ("movej", "movel")
@@ -203,7 +205,7 @@ def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=Non
         if offsets is not None:
             lines.append(f"  set_tcp(p{_list(offsets[a])})")
         lines += [*hooks,
-                  "  dloplan_grip_open()",
+                  *(["  dloplan_grip_open()"] if picks_up(actions) else []),
                   f"  movej({_list(q[a][0])}, a=1.0, v={_number(start_speed)})",
                   f"  set_standard_digital_out({ready_output}, True)",
                   f"  textmsg(\"{name}: ready, waiting for digital input {start_input}\")",

@@ -103,6 +103,11 @@ def place_actions(actions, knot_targets, zones=None) -> tuple[ProgramAction, ...
     return tuple(placed[i] for i in order)
 
 
+def picks_up(placed) -> bool:
+    """The first of the placed actions is a grasp (:attr:`ProgramTimeline.picks_up`)."""
+    return bool(placed) and placed[0].action.name == "grasp"
+
+
 def action_clock(arrivals, placed) -> ActionClock:
     """The program's clock (:class:`~dloplan.robot.motion.ActionClock`) of targets reached at
     ``arrivals`` (M,) [s] on the motion's clock, held for the ``placed`` actions."""
@@ -146,6 +151,13 @@ class ProgramTimeline:
     actions: tuple[ProgramAction, ...]
 
     @property
+    def picks_up(self) -> bool:
+        """The program's first action is a grasp: the grippers open before the arms go to the
+        start (else the arms already hold the cable there, e.g. a corrected remaining motion,
+        and nothing opens them)."""
+        return picks_up(self.actions)
+
+    @property
     def commands(self) -> tuple[GripperCommand, ...]:
         """Every gripper command at its instant on the program's clock."""
         return gripper_commands(self.actions, self.clock)
@@ -169,4 +181,4 @@ def program_timeline(program, trajectory, actions=None) -> ProgramTimeline:
 
 
 __all__ = ["GripperCommand", "ProgramAction", "ProgramTimeline", "action_clock",
-           "default_actions", "gripper_commands", "place_actions", "program_timeline"]
+           "default_actions", "gripper_commands", "picks_up", "place_actions", "program_timeline"]
