@@ -148,7 +148,7 @@ def streamer(tmp_path):
     return module, stream_settings(written[0]), read_samples(written[1])
 
 
-def _arms(module, start_joints, lag):
+def _arms(module, lag):
     ROBOTS[:] = [FakeRobot(np.zeros(6), lag) for _ in range(2)]
     return [module.Arm(name, FakeControl(r), FakeReceive(r), FakeIO(r))
             for name, r in zip(("left", "right"), ROBOTS, strict=True)]
@@ -158,7 +158,7 @@ def test_both_arms_get_every_sample_in_the_same_period(streamer):
     module, settings, (times, left, right) = streamer
     samples = module.load_samples(module.Path(module.__file__).with_name(module.SAMPLES))
     assert len(samples) == len(times) and settings["RATE"] == 125.0
-    arms = _arms(module, samples[0], module.LAG)
+    arms = _arms(module, module.LAG)
     module.move_to_start(arms, samples)
     module.stream(arms, samples)
     for robot, expected in zip(ROBOTS, (left, right), strict=True):
@@ -192,7 +192,7 @@ def test_samples_hold_the_arms_while_the_gripper_acts(streamer):
 def test_a_fault_of_one_arm_stops_both_in_the_same_period(streamer, fault):
     module, _, (times, _, _) = streamer
     samples = module.load_samples(module.Path(module.__file__).with_name(module.SAMPLES))
-    arms = _arms(module, samples[0], module.LAG)
+    arms = _arms(module, module.LAG)
     module.move_to_start(arms, samples)
     at = len(times) // 2
     original = FakeControl.waitPeriod
@@ -222,7 +222,7 @@ def test_a_fault_of_one_arm_stops_both_in_the_same_period(streamer, fault):
 def test_an_arm_away_from_the_start_is_not_started(streamer):
     module, _, _ = streamer
     samples = module.load_samples(module.Path(module.__file__).with_name(module.SAMPLES))
-    arms = _arms(module, samples[0], module.LAG)
+    arms = _arms(module, module.LAG)
     arms[0].control.moveJ = lambda q, v, a, asynchronous: True  # it does not get there
     with pytest.raises(module.Fault, match="left arm: .* from the start joints"):
         module.move_to_start(arms, samples)
@@ -230,7 +230,7 @@ def test_an_arm_away_from_the_start_is_not_started(streamer):
     # a program that does not pick the cable up (the arms hold it) moves nothing to the start
     # and opens no gripper
     module.OPEN_FIRST = False
-    arms = _arms(module, samples[0], module.LAG)
+    arms = _arms(module, module.LAG)
     with pytest.raises(module.Fault, match="left arm: .* from the start joints"):
         module.move_to_start(arms, samples)
     assert not ROBOTS[0].outputs and ROBOTS[0].actual == [0.0] * 6
