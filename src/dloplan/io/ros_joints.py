@@ -40,6 +40,7 @@ Numbers are written with full float precision (``repr``).
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -47,6 +48,34 @@ import yaml
 
 DEFAULT_RATE = 100.0
 """[Hz] Points per second of the written trajectories (besides the targets' instants)."""
+
+
+
+def _float(value: float) -> str:
+    """A YAML float with full precision (``repr``; an exponent without a dot gets one, as
+    PyYAML writes it, so YAML 1.1 readers take it for a float)."""
+    text = repr(float(value))
+    return text.replace("e", ".0e") if "e" in text and "." not in text else text
+
+
+def _floats(values) -> str:
+    return "[" + ", ".join(_float(v) for v in values) + "]"
+
+
+def _message(names, times, fields) -> str:
+    """The JointTrajectory message as YAML text (what ``yaml.safe_dump`` writes, in flow
+    style per list; written directly: PyYAML's representer took seconds for a few hundred
+    points)."""
+    lines = ["header:", "  frame_id: ''", "joint_names:",
+             *(f"- {json.dumps(name)}" for name in names), "points:"]
+    for k, t in enumerate(times):
+        stamp = _stamp(t)
+        first = True
+        for key, values in fields.items():
+            lines.append(f"{'- ' if first else '  '}{key}: {_floats(values[k])}")
+            first = False
+        lines.append(f"  time_from_start: {{sec: {stamp['sec']}, nanosec: {stamp['nanosec']}}}")
+    return "\n".join(lines) + "\n"
 
 
 def _stamp(seconds: float) -> dict:
@@ -107,20 +136,13 @@ def write_joint_trajectories(folder, timeline, joint_names, *, arms=("left", "ri
     for a, arm in enumerate(arms):
         names = [f"{prefixes[a]}{name}" for name in joint_names[a]]
         q, qd, qdd = values[a]
-        points = []
-        for k, t in enumerate(times):
-            point = {"positions": [float(v) for v in q[k]]}
-            if velocities:
-                point["velocities"] = [float(v) for v in qd[k]]
-                point["accelerations"] = [float(v) for v in qdd[k]]
-            point["time_from_start"] = _stamp(t)
-            points.append(point)
-        message = {"header": {"frame_id": ""}, "joint_names": names, "points": points}
+        fields = {"positions": q, "velocities": qd, "accelerations": qdd} if velocities \
+            else {"positions": q}
         path = folder / f"{stem}_{arm}_joint_trajectory.yaml"
         header = (f"# trajectory_msgs/msg/JointTrajectory of the {arm} arm: {len(times)} points "
                   f"at {rate:g} Hz along the planned time law [rad, rad/s, rad/s^2]; gripper "
                   f"actions in {stem}_gripper_actions.yaml. Setup: docs/cells.md.\n" + comments)
-        path.write_text(header + yaml.safe_dump(message, sort_keys=False), encoding="utf-8")
+        path.write_text(header + _message(names, times, fields), encoding="utf-8")
         written.append(path)
     rows = [{"time": float(c.time), "arm": arm, "action": c.action, "command": c.command,
              "duration": float(c.wait), "knot": int(c.knot)}
