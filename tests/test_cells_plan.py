@@ -333,3 +333,10 @@ def test_verify_place_and_correct_on_a_described_cell(tmp_path, capsys):
     assert (out / "ur_rtde" / "dloplan_ur_pair.py").exists()
     moves = parse_urscript(scripts[0].read_text())["moves"]
     assert len(moves) == len(doc.shapes) - at
+    # the remaining motion starts with the cable held: no gripper opens before it, and its
+    # programs carry the actions still to come (the release at the end)
+    hooks = parse_urscript(scripts[0].read_text())["hooks"]
+    assert hooks == [("dloplan_grip_open", len(moves) - 1)]
+    rows = yaml.safe_load((out / "ros_joints" / "dloplan_gripper_actions.yaml").read_text())
+    assert [(r["action"], r["knot"]) for r in rows["actions"]] == [
+        ("release", len(moves) - 1)] * 2
