@@ -19,7 +19,13 @@ from program_readers import read_trajectory
 from robot_plans import example_plan
 
 from dloplan.robot.actions import action_clock, place_actions
-from dloplan.robot.motion import ActionClock, JointMotion, program_samples
+from dloplan.robot.motion import (
+    SAMPLE_GAP,
+    ActionClock,
+    JointMotion,
+    program_samples,
+    sample_times,
+)
 from dloplan.trajectory import GripperAction
 from dloplan.trajectory.timelaw import Profile
 
@@ -105,6 +111,15 @@ def test_gripper_actions_hold_the_arms_and_the_clock_runs_on():
             if hold:
                 assert np.ptp(q[inside], axis=0).max() < 1e-12
                 assert np.abs(qd[inside]).max() < 1e-12
+
+
+def test_sample_instants_increase_strictly_and_hold_every_target_instant():
+    clock = ActionClock.of(np.array([0.0, 0.0100000004, 0.73, 1.25]),
+                           np.array([0.5, 0.0, 0.9, 0.4]))
+    times = sample_times(clock, 100.0)
+    assert np.all(np.diff(times) >= SAMPLE_GAP)
+    assert set(clock.arrive) <= set(times) and set(clock.leave) <= set(times)
+    assert times[0] == 0.0 and times[-1] == clock.end
 
 
 def test_the_ur5e_samples_follow_the_planned_tcp_path():

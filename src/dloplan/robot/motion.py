@@ -154,13 +154,21 @@ class ActionClock:
                       axis=1)
 
 
+SAMPLE_GAP = 1e-6
+"""[s] A grid instant closer than this to a target's instant is left out (time stamps written
+to the nanosecond must increase strictly)."""
+
+
 def sample_times(clock: ActionClock, rate: float) -> np.ndarray:
     """(N,) instants [s] on the program's clock: a grid at ``rate`` [Hz] from 0 to the end,
-    with every target's arrival and leave instants added."""
+    with every target's arrival and leave instants added (grid instants within
+    :data:`SAMPLE_GAP` of them left out)."""
     if not (np.isfinite(rate) and rate > 0):
         raise ValueError(f"rate: got {rate!r}, expected a sampling rate > 0 [Hz]")
+    events = np.unique(np.concatenate([clock.arrive, clock.leave, [clock.end]]))
     grid = np.arange(0.0, clock.end, 1.0 / rate)
-    return np.unique(np.concatenate([grid, clock.arrive, clock.leave, [clock.end]]))
+    near = np.abs(grid[:, None] - events[None]).min(axis=1) < SAMPLE_GAP
+    return np.union1d(grid[~near], events)
 
 
 def program_samples(motion: JointMotion, clock: ActionClock, times,
@@ -182,4 +190,4 @@ def program_samples(motion: JointMotion, clock: ActionClock, times,
     return values
 
 
-__all__ = ["ActionClock", "JointMotion", "program_samples", "sample_times"]
+__all__ = ["SAMPLE_GAP", "ActionClock", "JointMotion", "program_samples", "sample_times"]
