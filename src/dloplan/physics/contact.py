@@ -10,6 +10,13 @@ absorbs). With k_c a hundred times the axial spring constant, a contact carrying
 penetrates F / k_c: a hundredth of the stretch the same force gives one link.
 
 Obstacles provide ``signed_distance(points) -> (phi, normal)`` (:mod:`dloplan.obstacles`).
+
+The stability check needs the exact Hessian (:func:`contact_hessian_blocks`): with the curvature
+term, k_c (n n^T - d grad^2 phi), a cable pressed on a peg with a force lambda per point is softer
+by lambda / rho along the peg's surface than the static solver's Hessian says; for a cable
+wrapped tight around a peg this is of the order of the tension's own transverse stiffness
+(lambda / rho = T l / rho^2 against T / l), so leaving it out would call a sliding wrap stiffer
+than it is. Obstacles give the curvature as ``distance_hessian(points)``.
 """
 
 from __future__ import annotations
@@ -51,4 +58,24 @@ def contact_hessian_diagonal(x: np.ndarray, obstacles: Sequence, radius: float,
     for depth, normal in penetrations(x, obstacles, radius):
         active = (depth > 0)[..., None, None]
         blocks += np.where(active, stiffness * normal[..., :, None] * normal[..., None, :], 0.0)
+    return blocks
+
+
+def contact_hessian_blocks(x: np.ndarray, obstacles: Sequence, radius: float,
+                           stiffness: float) -> np.ndarray:
+    """Exact per-point 3x3 Hessian blocks of the penalty, (n + 1, 3, 3) [N/m].
+
+    k_c (n n^T - d grad^2 phi) for the penetrating points (d > 0): the derivative of
+    :func:`contact_gradient`, the surface's curvature included (module docstring); obstacles
+    provide ``distance_hessian(points)``.
+    """
+    blocks = np.zeros(x.shape + (3,))
+    for obstacle in obstacles:
+        phi, normal = obstacle.signed_distance(x)
+        depth = radius - phi
+        active = (depth > 0)[..., None, None]
+        curvature = obstacle.distance_hessian(x)
+        block = stiffness * (normal[..., :, None] * normal[..., None, :]
+                             - depth[..., None, None] * curvature)
+        blocks += np.where(active, block, 0.0)
     return blocks
