@@ -14,7 +14,8 @@ outline as polylines for the figures; nothing else changes. For the contact of m
 phi and its gradient, the outward normal n) and ``distance_hessian(points)``, the Hessian of phi
 (the derivative of n): zero on a flat face, (I - n n^T - a a^T) / rho beside a round face of
 curvature radius rho about the axis a, and the curvature of the distance to an edge or corner.
-The explicit simulator reads a volume as ``contact_row()`` (:mod:`dloplan.physics.contact_compiled`).
+The explicit simulator reads a volume as ``contact_row()``
+(:mod:`dloplan.physics.contact_compiled`).
 """
 
 from __future__ import annotations
@@ -200,7 +201,8 @@ class Box:
         return phi, normal
 
     def contact_row(self) -> np.ndarray:
-        """The box for the simulator's contacts (:mod:`dloplan.physics.contact_compiled`), (8,)."""
+        """The box for the simulator's contacts (:mod:`dloplan.physics.contact_compiled`),
+        (8,)."""
         return np.array([BOX, *self.center, *(np.asarray(self.size) / 2), self.yaw])
 
     def distance_hessian(self, points: np.ndarray) -> np.ndarray:
@@ -369,7 +371,8 @@ class Table:
         return points[..., 2] - self.height, normal
 
     def contact_row(self) -> np.ndarray:
-        """The plane for the simulator's contacts (:mod:`dloplan.physics.contact_compiled`), (8,)."""
+        """The plane for the simulator's contacts (:mod:`dloplan.physics.contact_compiled`),
+        (8,)."""
         return np.array([PLANE, self.height, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
 
     def distance_hessian(self, points: np.ndarray) -> np.ndarray:
