@@ -33,9 +33,18 @@ slots; the fixtures do not let it move otherwise).
 **Pegs are one-sided contacts.** Every configuration is an equilibrium with the board's
 contacts (pegs, plates, obstacles, the table) as the statics compute them
 (:func:`dloplan.sim.statics.equilibrium`); a peg may press on the cable, or the cable may lift
-off it. The phases' planned shapes are settled with the contacts at their planned clip poses
-(``settle_distance``: how far that moves them); the section's configurations are those of the
-insertion and tensioning simulation, solved again from the planned whole-cable shape.
+off it.
+
+**The configurations follow the job.** With contacts a held cable has several equilibria at
+the same clip poses (resting on a plate or beside it, on one side of a peg or the other), and
+which one the cable is in depends on how it got there. So the configurations are found as the
+cable goes: the start settled at the first knot's clip poses, then each knot's configuration
+reached from the one before by a quasi-static continuation
+(:func:`dloplan.sim.statics.continuation`, sub-steps of at most :data:`FOLLOW_STEP` times the
+section's length of clip motion), through phase 1, phase 2, the lowering into the slots and
+the tensioning (over the offset, :func:`tension_path`). ``settle_distance`` is how far they
+rest from the plan's shapes at the same knots (the planner's shapes are gravity-free or do not
+know the board's contacts: a soft cable sags onto the board).
 
 **The stubs.** While the grippers regrasp, the cable's ends beyond the fixtures are held by the
 slots alone: cantilevers of length l/2 - l_s/2 (from the end of the fixture's held link to the
@@ -57,14 +66,20 @@ from ..cable import GRAVITY, Cable
 from ..frames import frame_from_axis
 from ..geometry import as_path
 from ..sim.clips import ClipPoses
-from ..sim.statics import equilibrium
+from ..sim.statics import continuation, equilibrium
+from ..verify.snap import clip_motion
 from .board import Board
-from .insertion import lower_into_slots, section_cable, section_shape, tension_state
+from .insertion import section_cable, section_shape, tension_state
 from .phases import fixture_clips
 
 CHECKED_PHASES: tuple[str, ...] = ("phase1", "phase2", "insertion", "regrasp", "tensioning")
 """The phases the checks report on, in order: the job's motion phases with the regrasp (a
 gripper action in the slots) between insertion and tensioning."""
+
+FOLLOW_STEP = 0.005
+"""Largest clip motion (and change of the held length) of one sub-step when the configurations
+are followed, as a fraction of the section's length: the snap-through continuation's default
+(:func:`dloplan.verify.snap.check_snap_through`), so that it follows the same path."""
 
 HOLDERS = {"phase1": "grippers", "phase2": "grippers", "insertion": "grippers",
            "regrasp": "fixtures", "tensioning": "fixtures"}
@@ -94,10 +109,7 @@ class HeldPath:
         The job's knot of each configuration (the regrasp's is the knot in the slots).
     settle_distance : float
         Largest point distance between a planned shape (the section on it,
-        :func:`~dloplan.harness.insertion.section_shape`) and its configuration [m] (0 for the
-        configurations solved rather than planned).
-    converged : bool
-        Every configuration's equilibrium converged.
+        :func:`~dloplan.harness.insertion.section_shape`) and its configuration [m].
     """
 
     phase: str
@@ -108,7 +120,6 @@ class HeldPath:
     labels: tuple[str, ...]
     knots: tuple[int, ...]
     settle_distance: float = 0.0
-    converged: bool = True
 
     @property
     def cable(self) -> Cable:
@@ -175,29 +186,44 @@ class HeldModel:
         return self.board.contacts()
 
 
-def _settled(section: Cable, shapes, clips, contacts, gravity, cable: Cable):
-    """The planned whole-cable shapes as sections settled with the contacts at their clips."""
-    planned = np.stack([section_shape(x, cable, section) for x in shapes])
-    results = [equilibrium(section, x, c, gravity=gravity, contacts=contacts)
-               for x, c in zip(planned, clips, strict=True)]
-    settled = np.stack([eq.shape for eq in results])
-    moved = float(np.max(np.linalg.norm(settled - planned, axis=-1)))
-    return settled, moved, all(eq.converged for eq in results)
+def _followed(section: Cable, start, clips, contacts, gravity) -> np.ndarray:
+    """Configurations (m, n + 1, 3) at every clip pose, each reached from the one before
+    (module docstring; the sub-steps of :func:`dloplan.verify.snap.check_snap_through`)."""
+    x = np.asarray(start, dtype=float)
+    shapes = []
+    for k, pose in enumerate(clips):
+        if k == 0:
+            eqs = continuation(section, x, [pose], gravity=gravity, contacts=contacts)
+        else:
+            motion = clip_motion(clips[k - 1], pose, section.length)
+            steps = max(1, math.ceil(motion / (FOLLOW_STEP * section.length)))
+            eqs = continuation(section, x, [clips[k - 1], pose], substeps=steps,
+                               gravity=gravity, contacts=contacts)
+        x = eqs[-1].shape
+        shapes.append(x)
+    return np.stack(shapes)
+
+
+def _distance(shapes: np.ndarray, planned: np.ndarray, cable: Cable, section: Cable) -> float:
+    """Largest point distance between configurations and the section on the planned shapes."""
+    on_plan = np.stack([section_shape(x, cable, section) for x in planned])
+    return float(np.max(np.linalg.norm(shapes - on_plan, axis=-1)))
 
 
 def tension_path(cable: Cable, section_links: int, offset: float, inserted, board: Board,
-                 gravity=GRAVITY, step: float = 0.002):
-    """The section followed from the slots (offset 0) to ``offset`` [m] per arm, in offsets
-    at most ``step`` [m] apart, each equilibrium warm-started from the one before (the planning
-    brackets the offset the same way); returns the last :class:`TensionState`."""
-    count = max(1, math.ceil(offset / step))
+                 gravity=GRAVITY):
+    """The section followed from the slots (offset 0) to ``offset`` [m] per arm, each
+    equilibrium warm-started from the one before (the planning brackets the offset the same
+    way), in steps that shorten the section by at most :data:`FOLLOW_STEP` of its length;
+    returns the last :class:`TensionState`."""
+    start = section_cable(cable, section_links, 0.0)
+    count = max(1, math.ceil(2.0 * offset / (FOLLOW_STEP * start.length)))
     x = np.asarray(inserted, dtype=float)
-    state = None
+    state = tension_state(cable, section_links, 0.0, x, board, gravity) if offset == 0 else None
     for d in np.linspace(0.0, offset, count + 1)[1:]:
         state = tension_state(cable, section_links, float(d), x, board, gravity)
         x = state.equilibrium.shape
-    return state if state is not None else tension_state(cable, section_links, 0.0, x, board,
-                                                         gravity)
+    return state
 
 
 def stub_sag(cable: Cable, section: Cable, fixture, gravity=GRAVITY) -> StubSag:
@@ -247,7 +273,6 @@ def held_model(
     offset: float,
     section_links: int,
     *,
-    substeps: int = 8,
     gravity=GRAVITY,
 ) -> HeldModel:
     """The held cable of a planned harness job (module docstring).
@@ -269,8 +294,9 @@ def held_model(
         The planned tensioning offset per arm [m].
     section_links : int
         Links of the section (as planned).
-    substeps : int
-        Equilibria of the lowering into the slots (as planned).
+
+    The configurations are followed through the job (module docstring); ``offset`` and
+    ``section_links`` are the plan's.
     gravity : array_like
         Gravity [m/s^2].
 
@@ -294,33 +320,35 @@ def held_model(
     contacts = board.contacts()
     section = section_cable(cable, section_links, 0.0)
     paths = {}
+    x = section_shape(path[0], cable, section)
     for phase in ("phase1", "phase2"):
         first, last = knots[phase]
         index = tuple(range(first, last + 1))
-        settled, moved, converged = _settled(section, path[first:last + 1],
-                                             poses[first:last + 1], contacts, g, cable)
-        paths[phase] = HeldPath(phase, HOLDERS[phase], (section,) * len(index), settled,
+        followed = _followed(section, x, poses[first:last + 1], contacts, g)
+        paths[phase] = HeldPath(phase, HOLDERS[phase], (section,) * len(index), followed,
                                 tuple(poses[first:last + 1]),
-                                tuple(f"knot {k}" for k in index), index, moved, converged)
-    k2 = knots["insertion"][0]
-    lowering = lower_into_slots(cable, path[k2], board, section_links, substeps, g)
+                                tuple(f"knot {k}" for k in index), index,
+                                _distance(followed, path[first:last + 1], cable, section))
+        x = followed[-1]
+    k2, in_slots = knots["insertion"]
     approach, slots = fixture_clips(board), fixture_clips(board, inserted=True)
-    inserted = lowering[-1].shape
-    in_slots = knots["insertion"][1]
+    lowered = _followed(section, x, [approach, slots], contacts, g)
+    inserted = lowered[-1]
     paths["insertion"] = HeldPath(
-        "insertion", HOLDERS["insertion"], (section, section),
-        np.stack([lowering[0].shape, inserted]), (approach, slots),
+        "insertion", HOLDERS["insertion"], (section, section), lowered, (approach, slots),
         ("at the approach poses", "in the slots"), (k2, in_slots),
-        converged=all(eq.converged for eq in lowering))
+        _distance(lowered, path[[k2, in_slots]], cable, section))
     paths["regrasp"] = HeldPath("regrasp", HOLDERS["regrasp"], (section,), inserted[None],
                                 (slots,), ("in the slots, held by the fixtures",), (in_slots,),
-                                converged=lowering[-1].converged)
+                                _distance(inserted[None], path[[in_slots]], cable, section))
     tensioned = tension_path(cable, section_links, offset, inserted, board, g)
+    end = knots["tensioning"][1]
+    pulled = np.stack([inserted, tensioned.equilibrium.shape])
     paths["tensioning"] = HeldPath(
-        "tensioning", HOLDERS["tensioning"], (section, tensioned.section),
-        np.stack([inserted, tensioned.equilibrium.shape]), (slots, slots),
-        ("offset 0 mm", f"offset {1e3 * offset:.2f} mm"), knots["tensioning"],
-        converged=lowering[-1].converged and tensioned.equilibrium.converged)
+        "tensioning", HOLDERS["tensioning"], (section, tensioned.section), pulled,
+        (slots, slots), ("offset 0 mm", f"offset {1e3 * offset:.2f} mm"), knots["tensioning"],
+        max(_distance(pulled[:1], path[[in_slots]], cable, section),
+            _distance(pulled[1:], path[[end]], cable, tensioned.section)))
     stubs = tuple(stub_sag(cable, section, fixture, g) for fixture in board.fixtures)
     return HeldModel(cable, board, paths, stubs, float(offset), int(section_links), g)
 

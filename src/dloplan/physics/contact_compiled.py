@@ -5,10 +5,10 @@ An obstacle is given as a row of 8 numbers (its ``contact_row()``, :mod:`dloplan
 for a vertical cylinder (a peg), ``[BOX, center (3), half sizes (3), yaw]`` for a box turned
 about z [m, rad]. :func:`point_distance` is the obstacles' ``signed_distance`` for one point
 (tested equal); :func:`push_out` moves the points that come closer than the cable's radius back
-out along the normal and removes their velocity into the obstacle: an inelastic, frictionless
-contact, as the simulator's ground plane (:mod:`dloplan.sim.stepping`). The statics use a
-penalty instead (:mod:`dloplan.physics.contact`): its stiffness, a hundred times the axial
-springs', would need a ten times smaller explicit time step.
+out along the normal and removes their velocity into the obstacle: an inelastic contact, as the
+simulator's ground plane (:mod:`dloplan.sim.stepping`), with Coulomb friction on the impulse.
+The statics use a penalty instead (:mod:`dloplan.physics.contact`): its stiffness, a hundred
+times the axial springs', would need a ten times smaller explicit time step.
 """
 
 from __future__ import annotations
@@ -86,21 +86,46 @@ def signed_distances(points, rows, phi, normals):
 
 
 @njit(cache=True)
-def push_out(x, v, rows, radius, first, stop):
-    """Hard one-sided contact of points ``first .. stop - 1`` of x, v (n + 1, 3) [m], [m/s]:
-    a point closer than ``radius`` to an obstacle row is moved out along the normal to that
-    distance and loses its velocity into the obstacle (an inelastic, frictionless contact, as
-    the simulator's ground plane)."""
+def push_out(x, v, accel, rows, radius, friction, first, stop):
+    """Hard one-sided contact of points ``first .. stop - 1`` of x, v, accel (n + 1, 3) [m],
+    [m/s], [m/s^2], with Coulomb friction.
+
+    A point closer than ``radius`` to an obstacle row is moved out along the normal to that
+    distance and loses its velocity into the obstacle (an inelastic contact, as the simulator's
+    ground plane): a normal impulse per unit mass j = -v.n. Friction takes at most
+    ``friction`` j of its tangential velocity (Coulomb's law for impulses: a point pressed by
+    its weight sticks while the tangential pull is below ``friction`` times the pressing
+    force). The acceleration's part the obstacle carries (into it, and along it within the
+    friction cone) is removed too, so that a cable resting on an obstacle counts as at rest.
+    """
     for k in range(rows.shape[0]):
         for i in range(first, stop):
             phi, nx, ny, nz = point_distance(x[i, 0], x[i, 1], x[i, 2], rows[k])
-            if phi < radius:
-                depth = radius - phi
-                x[i, 0] += depth * nx
-                x[i, 1] += depth * ny
-                x[i, 2] += depth * nz
-                inward = v[i, 0] * nx + v[i, 1] * ny + v[i, 2] * nz
-                if inward < 0.0:
-                    v[i, 0] -= inward * nx
-                    v[i, 1] -= inward * ny
-                    v[i, 2] -= inward * nz
+            if phi >= radius:
+                continue
+            depth = radius - phi
+            x[i, 0] += depth * nx
+            x[i, 1] += depth * ny
+            x[i, 2] += depth * nz
+            inward = v[i, 0] * nx + v[i, 1] * ny + v[i, 2] * nz
+            if inward < 0.0:
+                v[i, 0] -= inward * nx
+                v[i, 1] -= inward * ny
+                v[i, 2] -= inward * nz
+                if friction > 0.0:
+                    slip = math.sqrt(v[i, 0] ** 2 + v[i, 1] ** 2 + v[i, 2] ** 2)
+                    if slip > 0.0:  # v is tangential now
+                        keep = max(0.0, 1.0 - friction * (-inward) / slip)
+                        v[i, 0] *= keep
+                        v[i, 1] *= keep
+                        v[i, 2] *= keep
+            pressed = accel[i, 0] * nx + accel[i, 1] * ny + accel[i, 2] * nz
+            if pressed < 0.0:
+                accel[i, 0] -= pressed * nx
+                accel[i, 1] -= pressed * ny
+                accel[i, 2] -= pressed * nz
+                along = math.sqrt(accel[i, 0] ** 2 + accel[i, 1] ** 2 + accel[i, 2] ** 2)
+                if along <= friction * (-pressed):
+                    accel[i, 0] = 0.0
+                    accel[i, 1] = 0.0
+                    accel[i, 2] = 0.0

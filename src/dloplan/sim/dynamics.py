@@ -218,6 +218,7 @@ def simulate(
     torsion: bool = False,
     natural_twist: float = 0.0,
     contacts=(),
+    friction: float = 0.0,
     cable_at=None,
 ) -> Simulation:
     """Integrate eq. 3.24 from ``initial_shape`` (at rest) with the clips driving the ends.
@@ -260,7 +261,9 @@ def simulate(
         Natural twist of the cable [rad] (with ``torsion``).
     contacts : sequence
         Obstacles the free points cannot enter (each with ``contact_row()``, :mod:`dloplan.
-        obstacles`): a hard, inelastic and frictionless contact.
+        obstacles`): a hard, inelastic contact.
+    friction : float
+        Coulomb friction coefficient of the ``contacts`` (0: frictionless).
     cable_at : callable, optional
         ``cable_at(t)`` -> the cable at time t [s], with ``cable``'s number of links: its
         constants (springs, rest lengths, masses, damping, held link length) are taken every
@@ -287,6 +290,8 @@ def simulate(
     chain = SpringChain.from_cable(cable, gravity)
     if damping not in ("absolute", "relative"):
         raise ValueError(f"damping: got {damping!r}, expected 'absolute' or 'relative'")
+    if not (math.isfinite(friction) and friction >= 0):
+        raise ValueError(f"friction: got {friction!r}, expected a coefficient >= 0")
     if cable_at is not None and torsion:
         raise ValueError("cable_at: a changing cable is not simulated with torsion")
     rows = np.zeros((0, 8))
@@ -313,7 +318,7 @@ def simulate(
 
     def settings(model: Cable, constants: tuple) -> tuple:
         return (n_steps, dt, model.k_damping, damping == "relative", bool(ground), rows,
-                cable.diameter / 2, record_every,
+                cable.diameter / 2, float(friction), record_every,
                 -1.0 if rest_speed is None else float(rest_speed), float(trajectory.times[-1]),
                 *constants, times, shapes, speeds)
 

@@ -35,7 +35,7 @@ RUNNING, SETTLED, DIVERGED = 0, 1, 2
 
 @njit(cache=True)
 def explicit_steps(x, v, previous_held, targets, extra, first_step, n_steps, dt, k_d, relative,
-                   ground, obstacles, radius, record_every, rest_speed, clips_stop, k_s,
+                   ground, obstacles, radius, friction, record_every, rest_speed, clips_stop, k_s,
                    rest_lengths, k_b, rest_angles, masses, gravity, times, shapes, speeds,
                    n_records):
     """Advance x, v (n + 1, 3) in place through the clip targets of one chunk.
@@ -61,6 +61,8 @@ def explicit_steps(x, v, previous_held, targets, extra, first_step, n_steps, dt,
         :mod:`dloplan.physics.contact_compiled`; K = 0: none).
     radius : float
         The cable's radius for the obstacles [m].
+    friction : float
+        Coulomb friction coefficient of the obstacles (0: frictionless).
     record_every : int
         Record every this many steps (and the last one).
     rest_speed : float
@@ -80,7 +82,7 @@ def explicit_steps(x, v, previous_held, targets, extra, first_step, n_steps, dt,
         or :data:`DIVERGED`.
     """
     return _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt, k_d,
-                           relative, ground, obstacles, radius, record_every, rest_speed,
+                           relative, ground, obstacles, radius, friction, record_every, rest_speed,
                            clips_stop, k_s, rest_lengths, k_b, rest_angles, masses, gravity,
                            times, shapes, speeds, n_records, np.empty_like(x),
                            np.empty_like(x), np.empty_like(x))
@@ -88,7 +90,7 @@ def explicit_steps(x, v, previous_held, targets, extra, first_step, n_steps, dt,
 
 @njit(cache=True)
 def _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt, k_d, relative,
-                    ground, obstacles, radius, record_every, rest_speed, clips_stop, k_s,
+                    ground, obstacles, radius, friction, record_every, rest_speed, clips_stop, k_s,
                     rest_lengths, k_b, rest_angles, masses, gravity, times, shapes, speeds,
                     n_records, grad, drag, accel):
     """:func:`explicit_steps` with its work arrays (n + 1, 3) given (:func:`twist_steps` calls
@@ -121,7 +123,7 @@ def _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt
                 x[held[h], a] = targets[k, h, a]
                 previous_held[h, a] = targets[k, h, a]
         if obstacles.shape[0] > 0:
-            push_out(x, v, obstacles, radius, 2, n_points - 2)
+            push_out(x, v, accel, obstacles, radius, friction, 2, n_points - 2)
         if ground:
             for i in range(n_points):
                 if x[i, 2] < 0.0:
@@ -205,9 +207,9 @@ def relax_twist(x, d1, twist, tangents, lengths, work, tgrad, dgrad, agrad, bloc
 
 @njit(cache=True)
 def twist_steps(x, v, previous_held, targets, held_directors, d1, twist, work, first_step,
-                n_steps, dt, k_d, relative, ground, obstacles, radius, record_every, rest_speed,
-                clips_stop, k_s, rest_lengths, k_b, rest_angles, masses, gravity, times, shapes,
-                speeds, n_records):
+                n_steps, dt, k_d, relative, ground, obstacles, radius, friction, record_every,
+                rest_speed, clips_stop, k_s, rest_lengths, k_b, rest_angles, masses, gravity,
+                times, shapes, speeds, n_records):
     """:func:`explicit_steps` with quasi-static twist: before each step the angles relax
     (:func:`relax_twist`, whose twisting force loads the step), after it the free directors d1
     (n, 3) are turned by the relaxed angles and carried to the new links by parallel transport
@@ -238,9 +240,9 @@ def twist_steps(x, v, previous_held, targets, held_directors, d1, twist, work, f
                     factor, rhs, angles, extra)
         step, n_records, status = _explicit_chunk(
             x, v, previous_held, targets[k : k + 1], extra, step, n_steps, dt, k_d, relative,
-            ground, obstacles, radius, record_every, rest_speed, clips_stop, k_s, rest_lengths,
-            k_b, rest_angles, masses, gravity, times, shapes, speeds, n_records, grad, drag,
-            accel)
+            ground, obstacles, radius, friction, record_every, rest_speed, clips_stop, k_s,
+            rest_lengths, k_b, rest_angles, masses, gravity, times, shapes, speeds, n_records,
+            grad, drag, accel)
         if not carry_directors(tangents, lengths, x, d1, angles, 1, n - 1):
             return step, n_records, DIVERGED  # a link reversed or folded back in one step
         d1[0] = held_directors[k, 0]

@@ -54,8 +54,9 @@ from scipy.spatial.transform import Rotation
 from ..cable import GRAVITY, Cable
 from ..geometry import as_path
 from ..physics.chain import SpringChain, link_tensions
+from ..physics.contact import penetrations
 from ..sim.clips import ClipPoses
-from ..sim.dynamics import ClipTrajectory, Simulation, simulate
+from ..sim.dynamics import SCHEDULE_INTERVAL, ClipTrajectory, Simulation, simulate
 from ..trajectory import TimeLaw, interpolate_poses, sample_times
 from ._inputs import as_times
 
@@ -258,7 +259,9 @@ def replay(
     damping: str = "relative",
     torsion: bool = False,
     contacts=(),
+    friction: float = 0.0,
     cable_at=None,
+    record_interval: float | None = None,
 ) -> Replay:
     """Simulate the timed plan at its real speed and compare with the planned shapes.
 
@@ -349,22 +352,20 @@ def replay(
     duration = motion + settle_duration
     spacing = np.diff(knots)
     finest = float(np.min(spacing)) / 20.0 if len(spacing) else duration
-    record = min(max(step, duration / MAX_RECORDS), finest)
+    longest = max(step, duration / MAX_RECORDS) if record_interval is None else max(
+        step, float(record_interval))
+    record = min(longest, finest)
     run = simulate(
         model, path[0], shifted, duration=duration, dt=step,
         gravity=gravity, record_interval=record, rest_speed=rest_speed, max_steps=max_steps,
-        damping=damping, torsion=torsion, contacts=contacts, cable_at=changing,
+        damping=damping, torsion=torsion, contacts=contacts, friction=friction,
+        cable_at=changing,
     )
     deviations = np.array([_deviation_at(run, t, x) for t, x in zip(knots, path, strict=True)])
     final = float(np.max(np.linalg.norm(run.shapes[-1] - path[-1], axis=1)))
     timing = law if law is not None else TimeLaw.constant_speed(knots)
     segments = _segment_deviations(run, path, timing, knots, deviations)
-    if cable_at is None:
-        tensions = link_tensions(SpringChain.from_cable(cable, gravity), run.shapes)
-    else:
-        tensions = np.stack([link_tensions(SpringChain.from_cable(cable_at(t + start), gravity),
-                                           x) for t, x in zip(run.times, run.shapes,
-                                                              strict=True)])
+    tensions = _tensions(run, cable, cable_at, start, gravity)
     when, link = np.unravel_index(int(np.argmax(tensions)), tensions.shape)
     peak = float(tensions[when, link])
     moving = run.times <= motion + 1e-12
@@ -388,14 +389,29 @@ def replay(
                f"{peak:.3g} N overall")
     message = "; ".join(problems) + f" ({summary})" if problems else f"replay ok: {summary}"
     gaps = np.zeros((len(run.times), 0))
-    if len(contacts):
-        gaps = np.stack([np.min(obstacle.signed_distance(run.shapes)[0], axis=1)
-                         for obstacle in contacts], axis=1) - cable.diameter / 2
+    if len(contacts):  # the gap is minus the deepest penetration
+        gaps = -np.stack([np.max(depth, axis=1) for depth, _ in
+                          penetrations(run.shapes, contacts, cable.diameter / 2)], axis=1)
     names = tuple(str(getattr(c, "name", type(c).__name__)) for c in contacts)
     return Replay(knots, deviations, final, bool(run.settled), peak, float(run.times[when]),
                   int(link), tensile_limit, float(tolerance), not problems, message, run,
                   segments, motion_peak, timing, tensions, names, gaps,
                   CONTACT_GAP * cable.diameter / 2)
+
+
+def _tensions(run: Simulation, cable: Cable, cable_at, start: float, gravity) -> np.ndarray:
+    """(R, n) link tensions of the recorded shapes [N]: of ``cable``, or of the cable at each
+    record's time, taken per interval of :data:`~dloplan.sim.dynamics.SCHEDULE_INTERVAL` as the
+    simulator takes it."""
+    if cable_at is None:
+        return link_tensions(SpringChain.from_cable(cable, gravity), run.shapes)
+    slots = np.floor(run.times / SCHEDULE_INTERVAL).astype(int)
+    out = np.empty((len(run.times), cable.n_links))
+    for slot in np.unique(slots):
+        mine = slots == slot
+        model = cable_at((slot + 0.5) * SCHEDULE_INTERVAL + start)
+        out[mine] = link_tensions(SpringChain.from_cable(model, gravity), run.shapes[mine])
+    return out
 
 
 def _segment_deviations(run: Simulation, path: np.ndarray, law: TimeLaw, knots: np.ndarray,

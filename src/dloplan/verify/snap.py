@@ -37,7 +37,10 @@ snap (critical point)
 unstable
     A sub-step whose equilibrium is not a stable minimum (solver not converged, or smallest
     eigenvalue not above the threshold of :func:`dloplan.verify.stability.elastic_stability`):
-    the smallest eigenvalue has crossed zero.
+    the smallest eigenvalue has crossed zero. With contacts the eigenvalue followed is the one
+    with the pressing points sticking (``Stability.sticking``): a slack cable that the
+    frictionless model lets slide along a plate is held there by friction, which the
+    continuation reports through its contact states rather than as a snap.
 branch
     The continuation ends farther than ``branch_tolerance`` (default 1 mm) from the planned
     stabilized shape of the segment's end: the plan's shape is not the one the motion produces.
@@ -333,8 +336,9 @@ class _Segment:
         return max_distance(x0, x1) / motion if motion > 0 else math.inf
 
     def smallest_at(self, guess: np.ndarray, t: float) -> float:
-        """Smallest eigenvalue of the equilibrium at fraction t reached from ``guess``."""
-        return self.solve(guess, t)[1].smallest
+        """Smallest eigenvalue of the equilibrium at fraction t reached from ``guess`` (with
+        contacts: the pressing points sticking)."""
+        return self.solve(guess, t)[1].sticking
 
 
 def check_snap_through(
@@ -423,7 +427,7 @@ def _continue_segment(seg: _Segment, s, start, end, m, jump_ratio, refinements, 
     seg.prepare(fractions)
     shapes = [start]
     first = seg.stability(start, 0.0)
-    eigenvalues, states = [first.smallest], [first.contacts]
+    eigenvalues, states = [first.sticking], [first.contacts]
     ratios, events, changes = [], [], []
     x = start
     for j in range(1, m + 1):
@@ -432,15 +436,17 @@ def _continue_segment(seg: _Segment, s, start, end, m, jump_ratio, refinements, 
         changed = contact_changes(states[-1], stab.contacts)
         changes += [ContactChange(s, j, float(fractions[j]), name, kind)
                     for name, kind in changed]
-        if not (eq.converged and stab.stable):
+        # with contacts the penalty's kinks may stall Newton short of its tolerance: the
+        # stability test's equilibrium tolerance decides then
+        if not ((eq.converged or seg.contacts) and stab.stable_with_friction):
             events.append(SnapEvent(
                 s, j, float(fractions[j]), "unstable", max_distance(eq.shape, x), ratios[-1],
-                stab.smallest, f"segment {s}, sub-step {j} (t = {fractions[j]:.4f}): no stable "
+                stab.sticking, f"segment {s}, sub-step {j} (t = {fractions[j]:.4f}): no stable "
                 f"equilibrium ({eq.message}; {stab.message})",
             ))
         x = eq.shape
         shapes.append(x)
-        eigenvalues.append(stab.smallest)
+        eigenvalues.append(stab.sticking)
         states.append(stab.contacts)
     shapes, eigenvalues, ratios = np.stack(shapes), np.asarray(eigenvalues), np.asarray(ratios)
     windows = _candidate_windows(ratios, eigenvalues, jump_ratio)

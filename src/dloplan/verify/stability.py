@@ -38,6 +38,15 @@ held points removed, the active contacts acting. Each obstacle's state (active w
 or clear by a gap) is reported (:mod:`dloplan.verify.contacts`), and an active contact along
 which the lowest mode slides is marked as sliding: frictionless, it does not resist that mode.
 
+The statics are frictionless, a real board is not: a slack cable resting on a plate or touching
+a peg may be neutral or unstable along the surface in the frictionless model (lambda_1 <= 0 with
+the mode sliding along the contact) and held there by friction. So with contacts a second
+eigenvalue is computed, ``sticking`` [N/m]: the smallest of the same Hessian with the pressing
+points held as well (sticking friction pins them, as long as they press: a perturbation asks an
+infinitesimal tangential force of them). ``stable_with_friction`` asks it to exceed the
+threshold; a configuration stable with friction but not without is *held by friction*, its
+sliding contacts named. By Cauchy's interlacing theorem ``sticking >= lambda_1``.
+
 The stability verdict is only meaningful at an equilibrium, so the net force on the free points
 is checked as well: a shape whose largest free-point force exceeds ``equilibrium_rtol`` times
 :func:`dloplan.sim.statics.force_scale` is reported as not an equilibrium (and not stable).
@@ -129,6 +138,9 @@ class Stability:
         The verdict in words.
     contacts : tuple of ContactState
         The state of each contact obstacle (empty without contacts).
+    sticking : float
+        Smallest eigenvalue with the pressing points held too [N/m] (module docstring; equal
+        to the smallest eigenvalue when no point presses).
     """
 
     eigenvalues: np.ndarray
@@ -140,6 +152,18 @@ class Stability:
     stable: bool
     message: str
     contacts: tuple[ContactState, ...] = ()
+    sticking: float = math.inf
+
+    @property
+    def stable_with_friction(self) -> bool:
+        """An equilibrium that is stable with its pressing contacts sticking (module
+        docstring); the same as ``stable`` without contacts."""
+        return self.is_equilibrium and self.sticking > self.threshold
+
+    @property
+    def held_by_friction(self) -> bool:
+        """Stable only with friction at the pressing contacts."""
+        return self.stable_with_friction and not self.stable
 
     @property
     def smallest(self) -> float:
@@ -358,7 +382,8 @@ def elastic_stability(
     n_dof = 3 * max(cable.n_points - 4, 0)
     if n_dof == 0:
         return Stability(np.zeros(0), np.zeros((0, cable.n_points, 3)), scale, 0.0, residual,
-                         True, True, "no free point: the clips fix the whole cable", states)
+                         True, True, "no free point: the clips fix the whole cable", states,
+                         math.inf)
     if method == "band":
         values, vectors, norm = band_eigenpairs(band, int(k))
     else:
@@ -370,8 +395,11 @@ def elastic_stability(
     for j in range(len(values)):
         v = vectors[:, j]
         modes[j, 2:-2] = (v if v[np.argmax(np.abs(v))] > 0 else -v).reshape(-1, 3)
+    sticking = float(values[0])
     if states:
         states = sliding_states(states, x, modes[0], contacts, cable.diameter / 2)
+        sticking = _sticking_eigenvalue(band, x, contacts, cable.diameter / 2, scale,
+                                        float(values[0]))
     positive = bool(values[0] > threshold)
     stable = positive and is_equilibrium
     summary = f"lambda_1 = {values[0]:.4g} N/m ({values[0] / scale:.4g} lambda_ref)"
@@ -380,12 +408,33 @@ def elastic_stability(
                    f"(tolerance {equilibrium_rtol * force_scale(cable, gravity):.3g} N); {summary}")
     elif positive:
         message = f"stable: {summary}"
+    elif sticking > threshold:
+        message = (f"held by friction: {summary} is not above {threshold:.3g} N/m without "
+                   f"friction, {sticking:.4g} N/m with the pressing points sticking")
     else:
         message = f"not stable: {summary} is not above {threshold:.3g} N/m"
     if states:
         message += "; contacts: " + ", ".join(state.describe() for state in states)
     return Stability(values, modes, scale, float(threshold), residual, bool(is_equilibrium),
-                     stable, message, states)
+                     stable, message, states, sticking)
+
+
+def _sticking_eigenvalue(band: np.ndarray, x: np.ndarray, contacts, radius: float,
+                         scale: float, smallest: float) -> float:
+    """Smallest eigenvalue of the free Hessian ``band`` with the pressing points' coordinates
+    removed too (module docstring); ``smallest`` when no free point presses."""
+    pressing = np.zeros(len(x), dtype=bool)
+    for obstacle in contacts:
+        pressing |= obstacle.signed_distance(x)[0] < radius
+    keep = ~pressing[2:-2]
+    if keep.all():
+        return smallest
+    if not keep.any():
+        return math.inf
+    coordinates = np.repeat(keep, 3)
+    matrix = band_to_sparse(band)[coordinates][:, coordinates]
+    values, _ = smallest_eigenpairs(matrix.tocsr(), 1, scale=scale)
+    return float(values[0])
 
 
 def path_stability(
