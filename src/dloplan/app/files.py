@@ -24,11 +24,11 @@ from ..io.files import staged_folder
 from ..io.scenario import PROGRAM_NAMES
 from ..pipeline.document import PlanDocument
 from ..pipeline.job import Job
-from ..pipeline.stages import HARNESS_NOT_VERIFIED, quiet, run_job
+from ..pipeline.stages import quiet, run_job
 from ..robot.cell_program import program_formats
 from .document_file import read_plan
 from .figure_workers import figure_workers as workers_for
-from .harness import run_harness_job
+from .harness import plan_harness, run_harness_job
 from .load import file_kind, load_job
 from .writers import WRITERS, WriteOptions, write_outputs
 
@@ -88,10 +88,8 @@ def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
                           planned=None if drawer is None else drawer.draft)
             options = WriteOptions(rate=job.motion.rate, figure_workers=drawer)
         else:
-            doc = run_harness_job(job, check_robot=check_robot, progress=progress)
-            if verify:  # asked for and not done: said, not skipped silently
-                progress(f"--verify: {HARNESS_NOT_VERIFIED}")
-                doc = replace(doc, warnings=doc.warnings + (HARNESS_NOT_VERIFIED,))
+            doc = plan_harness(job, verify=verify, check_robot=check_robot, repair=repair,
+                               progress=progress)
             options = WriteOptions(figure_workers=drawer)
         if not doc.ok:
             formats = tuple(f for f in formats if f not in ROBOT_OUTPUTS)

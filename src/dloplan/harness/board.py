@@ -24,7 +24,7 @@ peg's top. :class:`HarnessSpec` is the ``harness:`` section of a scenario file.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -283,6 +283,37 @@ class Board:
         return self.contacts()
 
 
+def board_to_dict(board: Board) -> dict:
+    """The board's fixtures and pegs as JSON-ready data (SI units), for the plan document; its
+    obstacles and table are the document's own ``obstacles``."""
+    def plain(part) -> dict:
+        return {f.name: (list(v) if isinstance(v := getattr(part, f.name), tuple) else v)
+                for f in fields(part)}
+
+    return {"fixtures": [plain(f) for f in board.fixtures], "pegs": [plain(p) for p in board.pegs]}
+
+
+def board_from_dict(data: dict, volumes=(), where: str = "harness.board") -> Board:
+    """The :class:`Board` of :func:`board_to_dict`'s data and the document's obstacle volumes
+    (the pegs' own volumes among them are left out: the pegs make them again; a
+    :class:`~dloplan.obstacles.Table` is the table).
+
+    Raises
+    ------
+    ValueError
+        Naming the part of ``data`` that is missing or invalid.
+    """
+    try:
+        fixtures = tuple(Fixture(**f) for f in data["fixtures"])
+        pegs = tuple(Peg(**p) for p in data["pegs"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"{where}: {exc}") from None
+    own = {name for peg in pegs for name in (peg.name, f"{peg.name} plate")}
+    tables = [v for v in volumes if isinstance(v, Table)]
+    others = tuple(v for v in volumes if not isinstance(v, Table) and v.name not in own)
+    return Board(fixtures, pegs, others, tables[0] if tables else None)
+
+
 def route_length(board: Board, cable: Cable) -> float:
     """Length of the shortest route [m]: fixture 0, around each peg on its side, fixture 1.
 
@@ -435,6 +466,9 @@ class TensionSpec(_Model):
     n_links: int | None = Field(None, ge=6, le=2000,
                                 description="links of the insertion simulation (default: auto)")
     substeps: int = Field(8, ge=1, le=200, description="equilibria while inserting")
+    rated_load: float | None = Field(None, gt=0, allow_inf_nan=False,
+                                     description="largest tension the cable may carry [N] "
+                                                 "(the checks fail above it)")
 
 
 class HarnessSpec(_Model):

@@ -104,7 +104,7 @@ def resolve_harness(scenario: HarnessScenario, source: str = "harness scenario")
         max_angular_speed=scenario.trajectory.angular_speed,
         limits=scenario.trajectory.limits(scale), zone=scenario.trajectory.zone * scale,
         grasp_time=scenario.trajectory.grasp_time, release_time=scenario.trajectory.release_time,
-        min_tension=t.min_tension,
+        min_tension=t.min_tension, rated_load=t.rated_load,
         gripper_method=scenario.grippers.method,
         physical_mode=scenario.planner.physical_mode or "equilibrium",
         z_safety=scenario.check.lengths(scale)[1], max_rounds=scenario.check.max_rounds,

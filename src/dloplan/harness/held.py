@@ -108,8 +108,9 @@ class HeldPath:
     knots : tuple of int
         The job's knot of each configuration (the regrasp's is the knot in the slots).
     settle_distance : float
-        Largest point distance between a planned shape (the section on it,
-        :func:`~dloplan.harness.insertion.section_shape`) and its configuration [m].
+        Largest point distance between a configuration and the plan's [m]: the section on the
+        planned shape (:func:`~dloplan.harness.insertion.section_shape`) in phases 1 and 2, the
+        plan's section simulation in the slots and tensioned.
     """
 
     phase: str
@@ -205,7 +206,8 @@ def _followed(section: Cable, start, clips, contacts, gravity) -> np.ndarray:
 
 
 def _distance(shapes: np.ndarray, planned: np.ndarray, cable: Cable, section: Cable) -> float:
-    """Largest point distance between configurations and the section on the planned shapes."""
+    """Largest point distance between configurations and the section on the planned whole
+    shapes held by the grippers."""
     on_plan = np.stack([section_shape(x, cable, section) for x in planned])
     return float(np.max(np.linalg.norm(shapes - on_plan, axis=-1)))
 
@@ -272,6 +274,7 @@ def held_model(
     knots: dict,
     offset: float,
     section_links: int,
+    sections,
     *,
     gravity=GRAVITY,
 ) -> HeldModel:
@@ -294,6 +297,10 @@ def held_model(
         The planned tensioning offset per arm [m].
     section_links : int
         Links of the section (as planned).
+    sections : array_like
+        (3, section_links + 1, 3) the plan's section at the approach poses, in the slots and
+        tensioned [m] (:class:`~dloplan.harness.insertion.Insertion`): what the insertion,
+        regrasp and tensioning configurations are compared with (``settle_distance``).
 
     The configurations are followed through the job (module docstring); ``offset`` and
     ``section_links`` are the plan's.
@@ -330,25 +337,31 @@ def held_model(
                                 tuple(f"knot {k}" for k in index), index,
                                 _distance(followed, path[first:last + 1], cable, section))
         x = followed[-1]
+    planned = as_path(sections, section_links + 1, "sections")
+    if len(planned) != 3:
+        raise ValueError(f"sections: got {len(planned)} shapes, expected 3 (approach, in the "
+                         "slots, tensioned)")
     k2, in_slots = knots["insertion"]
     approach, slots = fixture_clips(board), fixture_clips(board, inserted=True)
     lowered = _followed(section, x, [approach, slots], contacts, g)
     inserted = lowered[-1]
+
+    def distance(shapes, plan) -> float:
+        return float(np.max(np.linalg.norm(shapes - plan, axis=-1)))
+
     paths["insertion"] = HeldPath(
         "insertion", HOLDERS["insertion"], (section, section), lowered, (approach, slots),
         ("at the approach poses", "in the slots"), (k2, in_slots),
-        _distance(lowered, path[[k2, in_slots]], cable, section))
+        distance(lowered, planned[:2]))
     paths["regrasp"] = HeldPath("regrasp", HOLDERS["regrasp"], (section,), inserted[None],
                                 (slots,), ("in the slots, held by the fixtures",), (in_slots,),
-                                _distance(inserted[None], path[[in_slots]], cable, section))
+                                distance(inserted, planned[1]))
     tensioned = tension_path(cable, section_links, offset, inserted, board, g)
-    end = knots["tensioning"][1]
     pulled = np.stack([inserted, tensioned.equilibrium.shape])
     paths["tensioning"] = HeldPath(
         "tensioning", HOLDERS["tensioning"], (section, tensioned.section), pulled,
         (slots, slots), ("offset 0 mm", f"offset {1e3 * offset:.2f} mm"), knots["tensioning"],
-        max(_distance(pulled[:1], path[[in_slots]], cable, section),
-            _distance(pulled[1:], path[[end]], cable, tensioned.section)))
+        distance(pulled, planned[1:]))
     stubs = tuple(stub_sag(cable, section, fixture, g) for fixture in board.fixtures)
     return HeldModel(cable, board, paths, stubs, float(offset), int(section_links), g)
 

@@ -177,10 +177,17 @@ class HarnessVerification:
         """The table as fixed-width text (lengths in mm, forces in N)."""
         return phase_table(self.rows, self.ok, self.messages)
 
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """The notes of the phases that warn (the plan passes with them)."""
+        return tuple(f"{r.phase}: {note}" for r in self.rows if r.verdict == "warning"
+                     for note in r.notes)
+
     def to_dict(self) -> dict:
-        """JSON-ready: verdict, messages, timings and the rows (SI units, None = not run)."""
-        return {"ok": self.ok, "messages": list(self.messages), "timings_s": dict(self.timings),
-                "phases": [_json_row(row) for row in self.rows]}
+        """JSON-ready: verdict, messages, warnings, timings and the rows per phase (SI units,
+        None = not run)."""
+        return {"ok": self.ok, "messages": list(self.messages), "warnings": list(self.warnings),
+                "timings_s": dict(self.timings), "phases": [_json_row(row) for row in self.rows]}
 
 
 def _json_row(row: PhaseRow) -> dict:
