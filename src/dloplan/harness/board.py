@@ -201,8 +201,14 @@ class Peg:
             )
 
     def cylinder(self, inflate: float = 0.0) -> Cylinder:
-        """The peg's volume, its radius grown by ``inflate`` [m]."""
-        return Cylinder(self.base, self.radius + inflate, self.height, self.name)
+        """The peg's volume, its radius grown by ``inflate`` [m].
+
+        It reaches one radius below the peg's base: the peg stands in the board, and a point
+        pressed into its foot must be pushed out sideways, not through its bottom face into the
+        table (which pushes back: a penalty fight of hundreds of newtons in the statics)."""
+        below = self.radius + inflate
+        base = (self.base[0], self.base[1], self.base[2] - below)
+        return Cylinder(base, self.radius + inflate, self.height + below, self.name)
 
     def plate(self) -> Box | None:
         """The plate's volume (a box centred on the peg), or None."""

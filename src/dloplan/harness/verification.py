@@ -47,7 +47,7 @@ from ..trajectory import TimeLaw
 from ..verify.replay import Replay, clip_motion, replay
 from ..verify.snap import SnapCheck, check_snap_through
 from ..verify.stability import Stability, elastic_stability
-from .held import CHECKED_PHASES, HeldModel, HeldPath
+from .held import CHECKED_PHASES, HeldModel, HeldPath, held_model
 from .insertion import section_cable
 from .phases import fixture_clips
 
@@ -440,6 +440,24 @@ def verify_harness(
                                runs, model)
 
 
+def verify_harness_result(result, **options) -> HarnessVerification:
+    """:func:`verify_harness` of a job's :class:`~dloplan.harness.job.HarnessResult`: its held
+    cable (:func:`~dloplan.harness.held.held_model`), trajectory, regrasp time and rated load;
+    ``options`` as :func:`verify_harness`'s (``rated_load`` overrides the result's)."""
+    ins = result.insertion
+    if math.isnan(ins.offset):
+        raise ValueError(f"result: the tensioning failed ({ins.message}): nothing to verify")
+    clips = [result.grippers.clip_poses(k) for k in range(len(result.shapes))]
+    sections = np.stack([ins.lowering[0].shape, ins.inserted.shape,
+                         ins.tensioned.equilibrium.shape])
+    model = held_model(result.cable, result.board, result.shapes, clips, result.knots,
+                       ins.offset, ins.tensioned.section.n_links, sections)
+    options = {"rated_load": result.rated_load,
+               "regrasp_time": result.cycle.breakdown().get("regrasp", 0.0), **options}
+    return verify_harness(model, result.trajectory.times, clips, result.knots,
+                          law=result.trajectory.law, **options)
+
+
 def _phase_row(model: HeldModel, phase: str, stabs, snap_check, runs, knots, rated_load,
                robot_rows, tolerance) -> PhaseRow:
     path = model.paths[phase]
@@ -522,5 +540,5 @@ def _tensions(cable, x):
     return link_tensions(SpringChain.from_cable(cable), x)
 
 
-__all__ = ["MOVING", "REPLAY_TOLERANCE", "HarnessVerification", "PhaseRow", "phase_table",
-           "verify_harness"]
+__all__ = ["BOARD_FRICTION", "MOVING", "REPLAY_TOLERANCE", "HarnessVerification", "PhaseReplay",
+           "PhaseRow", "phase_table", "verify_harness", "verify_harness_result"]
