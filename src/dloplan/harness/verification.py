@@ -400,6 +400,8 @@ def verify_harness(
         raise ValueError(f"rated_load: got {rated_load!r}, expected a force > 0 [N] or None")
     if not (math.isfinite(tolerance) and tolerance > 0):
         raise ValueError(f"tolerance: got {tolerance!r}, expected a distance > 0 [m]")
+    if not (math.isfinite(regrasp_time) and regrasp_time >= 0):
+        raise ValueError(f"regrasp_time: got {regrasp_time!r}, expected a duration >= 0 [s]")
     contacts, gravity = model.contacts, model.gravity
     timings: dict[str, float] = {}
 
