@@ -10,6 +10,7 @@ but not the taut one, and a rated load below what the tensioned hose carries.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,6 +20,8 @@ from dloplan.cable import catalogue_cable
 from dloplan.harness import Board, Fixture, HarnessSettings, Peg, run_harness
 from dloplan.harness.verification import CHECKED_PHASES, verify_harness_result
 from dloplan.obstacles import Box
+
+EXAMPLES = Path(__file__).parents[1] / "examples"
 
 pytestmark = pytest.mark.slow
 
@@ -139,3 +142,34 @@ def test_the_usb_cable_on_the_hose_board_is_checked_on_where_it_really_rests():
     assert check.model.paths["phase2"].settle_distance > 0.03
     assert any("from the plan's shapes" in note for note in check.row("phase2").notes)
     assert all(row.verdict in ("ok", "warning", "FAILED") for row in check.rows)
+
+
+def test_a_tensioning_whose_replay_overshoots_the_rated_load_is_repaired_by_a_slower_pull(
+        tmp_path):
+    """The hose on the centred peg with a rated load between the tension the tensioned hose
+    carries at rest and the peak the replay reaches at the planned speed: the tensioning
+    fails on the replay alone, and the job planned again with a slower tensioning passes,
+    the repair recorded in the plan document."""
+    import yaml
+
+    from dloplan.app import load_job
+    from dloplan.app.harness import plan_harness
+
+    data = yaml.safe_load((EXAMPLES / "harness_pu.yaml").read_text())
+    data["harness"]["pegs"][0]["base"] = [0.38, 0.0, 0.0]
+    path = tmp_path / "hose.yaml"
+    path.write_text(yaml.safe_dump(data))
+    job = load_job(path)
+    first = plan_harness(job, verify=True, repair=False)
+    tension = next(r for r in first.verification.phases if r["phase"] == "tensioning")
+    statics = first.harness["max_tension"]
+    assert tension["peak_tension"] > statics  # the pull's dynamics add to the static tension
+    load = 0.5 * (statics + tension["peak_tension"])
+    data["harness"]["tension"]["rated_load"] = load
+    path.write_text(yaml.safe_dump(data))
+    doc = plan_harness(load_job(path), verify=True, repair=True)
+    assert doc.verification.ok, doc.verification.messages
+    assert len(doc.repairs) == 1 and doc.repairs[0]["kind"] == "tensioning"
+    assert "slowed to" in doc.repairs[0]["change"] and "rated load" in doc.repairs[0]["before"]
+    repaired = next(r for r in doc.verification.phases if r["phase"] == "tensioning")
+    assert repaired["peak_tension"] <= load
