@@ -28,7 +28,8 @@ import sys
 import time
 from pathlib import Path
 
-from dloplan.harness import load_harness, run_harness_job
+from dloplan.app import load_job
+from dloplan.harness import run_harness
 from dloplan.harness.verification import verify_harness_result
 
 EXAMPLES = Path(__file__).parent.parent / "examples"
@@ -36,9 +37,9 @@ EXAMPLES = Path(__file__).parent.parent / "examples"
 
 def main(names) -> None:
     for name in names:
-        job = load_harness(EXAMPLES / f"harness_{name}.yaml")
+        job = load_job(EXAMPLES / f"harness_{name}.yaml")
         t = time.perf_counter()
-        result = run_harness_job(job)
+        result = run_harness(job.cable, job.start, job.board, job.settings)
         planned = time.perf_counter() - t
         t = time.perf_counter()
         check = verify_harness_result(result)
