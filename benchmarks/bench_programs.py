@@ -13,8 +13,8 @@ Numbers of 2026-12-02 on the 2 cores shared with six other sessions (load averag
 times are several times an idle machine's):
   ur5e_pair_usb   ur_rtde 407 ms (2 files, 276 kB: 1621 rows at 500 Hz), urscript 120 ms,
                   ros_joints 391 ms (276 kB); streamed TCP vs planned TCP: largest 0.295 mm
-  m2 USB (YuMi)   rapid 104 ms, ros_joints 1.8 s (526 kB, most of it the YuMi's timeline:
-                  the approach law and the replayed sub-steps' splines)
+  m2 USB (YuMi)   rapid 104 ms, ros_joints 1.8 s (526 kB; in a profile 0.86 s of it the
+                  timeline: the joint motion and its action clock)
 Before the ROS 2 YAML was written as text, PyYAML's representer took 1.8 s (UR5e) and 4.2 s
 (M2 USB) of the ros_joints times.
 """
