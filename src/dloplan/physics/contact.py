@@ -6,7 +6,7 @@ U^c = sum_i 1/2 k_c max(0, d_i)^2 pushes it out along the surface normal n_i wit
 k_c d_i n_i. Its Hessian is taken as k_c n n^T for the penetrating points (exact for flat faces;
 the curvature term of round faces, of order k_c d / R, is left out: Newton's method then
 converges linearly rather than quadratically at a contact on a peg, which the trust region
-absorbs). With k_c a hundred times the axial spring constant, a contact carrying a force F
+absorbs). With k_c a hundred times E A / l (the axial springs of the bending modulus), a contact
 penetrates F / k_c: a hundredth of the stretch the same force gives one link.
 
 The penalty's Hessian jumps where a point touches a surface: a Newton step computed while a point
