@@ -35,8 +35,8 @@ from dloplan.physics.compiled import resample_polyline, stretch_to_length
 from dloplan.sim.clips import ClipPoses, conform_guess, place_held_points
 from dloplan.sim.compiled import restore_link_lengths
 from dloplan.sim.newton import factor_band, solve_band, trust_region_newton
-from dloplan.sim.result import clip_reactions
-from dloplan.sim.statics import equilibrium, force_scale, minimize_energy
+from dloplan.sim.result import clip_reactions, residual_tolerance
+from dloplan.sim.statics import equilibrium, minimize_energy
 
 
 def arc(cable, total_angle):
@@ -139,7 +139,9 @@ def test_compiled_newton_loop_follows_the_generic_loop(case):
         chain = SpringChain.from_cable(cable, (0.0, 0.0, 0.0))  # saddle and must leave it
         start = place_held_points(straight, clips, l)
     free = slice(2, n - 1)
-    tolerance = 1e-10 * force_scale(cable)
+    # the solvers' own tolerance: with the Ethernet's copper axial springs 1e-10 of the force
+    # scale is below the residual's round-off floor (residual_tolerance)
+    tolerance = residual_tolerance(cable, x=start)
     x, g, iterations, residual, stable, history, message = minimize_energy(
         chain, start, free, cable.length, tolerance)
 
@@ -165,7 +167,9 @@ def test_compiled_newton_loop_follows_the_generic_loop(case):
     assert iterations == generic.iterations
     assert message == generic.message
     assert np.max(np.abs(x - generic.state)) < 1e-12
-    assert np.allclose(history, generic.history, rtol=1e-9, atol=0)
+    # to the round-off of the run's largest energy (the saddle's compressed copper springs start
+    # at 309 J and end at 3.4 mJ: the two loops' sums differ by 8e-11 J there)
+    assert np.allclose(history, generic.history, rtol=1e-9, atol=1e-12 * history[0])
     assert np.all(np.diff(history) <= 1e-13 * np.abs(history[:-1]))
     if case == "saddle":
         assert np.max(np.hypot(x[:, 1], x[:, 2])) > 0.05  # buckled out of the line
