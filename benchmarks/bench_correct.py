@@ -163,7 +163,11 @@ def written_and_verified(doc, correction, folder: Path) -> str:
         f"written, verify FAILS: {'; '.join(verification.messages)[:50]}"
 
 
-def part2(names, floor: bool, folder: Path, plans, n_cases: int = 7) -> None:
+CASES = ("base", "own n", "E x0.5", "E x10", "grip 0.8", "early", "late")
+"""Part 2's cases, one factor at a time around the base case (module docstring)."""
+
+
+def part2(names, floor: bool, folder: Path, plans, cases=CASES) -> None:
     print("\nPart 2: plants; final mean error [mm] against the plan's stabilized target")
     print(f"{'plan':>12} {'n':>3} {'plant':>7} {'E':>5} {'grip':>6} {'K':>2} {'open':>7} "
           f"{'closed':>7} {'ratio':>6} {'floor':>6} {'interval':>13} {'cover':>5} "
@@ -179,11 +183,11 @@ def part2(names, floor: bool, folder: Path, plans, n_cases: int = 7) -> None:
         base_n = 20
         own_n = next(k for k in docs if k != 20) if len(docs) > 1 else 20
         for plant_name, make in makers.items():
-            cases = [(base_n, 2.0, 1.0, "mid"), (own_n, 2.0, 1.0, "mid"),
-                     (base_n, 0.5, 1.0, "mid"), (base_n, 10.0, 1.0, "mid"),
-                     (base_n, 2.0, 0.8, "mid"), (base_n, 2.0, 1.0, "early"),
-                     (base_n, 2.0, 1.0, "late")][:n_cases]
-            for n, factor, grip, when in dict.fromkeys(cases):
+            table = dict(zip(CASES, [
+                (base_n, 2.0, 1.0, "mid"), (own_n, 2.0, 1.0, "mid"), (base_n, 0.5, 1.0, "mid"),
+                (base_n, 10.0, 1.0, "mid"), (base_n, 2.0, 0.8, "mid"),
+                (base_n, 2.0, 1.0, "early"), (base_n, 2.0, 1.0, "late")], strict=True))
+            for n, factor, grip, when in dict.fromkeys(table[c] for c in cases):
                 doc = docs[n]
                 cable = doc.cable
                 last = len(doc.shapes) - 1
@@ -228,20 +232,22 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--plants", default="chain,mujoco")
     parser.add_argument("--no-floor", action="store_true")
-    parser.add_argument("--cases", type=int, default=7,
-                        help="the first CASES cases per plan and plant (base, own n, E x0.5, "
-                        "E x10, grip 0.8, early, late)")
+    parser.add_argument("--cases", default=",".join(CASES),
+                        help="comma-separated, of: " + ", ".join(CASES))
     parser.add_argument("--plans", default=",".join(SCENARIOS),
                         help="comma-separated, of: " + ", ".join(SCENARIOS))
     parser.add_argument("--part", choices=["1", "2", "both"], default="both")
     args = parser.parse_args()
+    unknown = set(args.cases.split(",")) - set(CASES)
+    if unknown:
+        parser.error(f"--cases: unknown {sorted(unknown)}, expected of: {', '.join(CASES)}")
     print(json.dumps({"host": "2 cores shared with other sessions"}))
     with tempfile.TemporaryDirectory() as folder:
         if args.part in ("1", "both"):
             part1(Path(folder))
         if args.part in ("2", "both"):
             part2(args.plants.split(","), not args.no_floor, Path(folder),
-                  args.plans.split(","), args.cases)
+                  args.plans.split(","), args.cases.split(","))
     return 0
 
 
