@@ -12,13 +12,15 @@ Part 2, plants: every example plan (sagging demo, 3D Ethernet, embedded U demo) 
 
 * ``chain``: dloplan's own chain on 100 links (the same physics, finer);
 * ``mujoco``: MuJoCo 3.x's elastic cable (``tests/plants.py``: capsules on ball joints, Cosserat
-  bending and twist, welded grippers; 5 segments per model link, ``MUJOCO_SEGMENTS``;
+  bending and twist, welded grippers; 4 segments per model link, ``MUJOCO_SEGMENTS``;
   optional, skipped when ``mujoco`` is missing),
 
 one factor at a time around the base case (n = 20, E x2, each gripper clamping one model link
 L / n, correction at mid-path): the plan's own n; E x0.5 and x10; a grip of 0.8 L / n; the
-correction early (shape 1) and late (T - 1). Columns: final mean error against the plan's
-stabilized target (curves at equal arc length) open loop and closed loop [mm], their ratio,
+correction early (shape 1) and late (T - 1); and the grip of 0.8 L / n at the plan's own n.
+The grip column is the one the plant has (whole segments of its own). Columns: final mean
+error against the plan's stabilized target (curves at equal arc length) open loop and closed
+loop [mm], their ratio,
 the floor (the least error any correction of the target's clips leaves that plant,
 ``reachable_error``; ``--no-floor`` skips it), the correction's prediction interval of the final
 error [mm] and whether it covers the plant's, the clamp length the correction estimated [mm]
@@ -127,12 +129,14 @@ def part1(folder: Path) -> None:
                   f"timed from outside): {lines[-1] if lines else done.stderr.strip()}")
 
 
-MUJOCO_SEGMENTS = 5
-"""MuJoCo segments per model link: a grip of 0.8 L / n is 4 whole segments, and the cable comes
-to rest at the examples' n = 12 (2 per link did not)."""
+MUJOCO_SEGMENTS = 4
+"""MuJoCo segments per model link (``--mujoco-segments``): a grip of 0.8 L / n rounds to 3 whole
+segments, 0.75 L / n (the table prints the grip the plant has). A MuJoCo step costs about n^3
+(the chain's joint-space mass matrix is dense): 1.3, 3.2 and 12 ms CPU for 40, 60 and 100
+segments, 5000 steps a rest state at most."""
 
 
-def plants(names):
+def plants(names, segments: int = MUJOCO_SEGMENTS):
     out = {"chain": lambda cable, clamp, links: Plant(cable.with_links(100), noise=NOISE,
                                                       n_measured=POINTS, seed=1, clamp=clamp)}
     if "mujoco" in names:
@@ -143,7 +147,7 @@ def plants(names):
             print(f"mujoco plant skipped: {exc} (pip install dloplan[plants])")
         else:
             out["mujoco"] = lambda cable, clamp, links: MujocoPlant(
-                cable.with_links(MUJOCO_SEGMENTS * links), noise=NOISE, n_measured=POINTS,
+                cable.with_links(segments * links), noise=NOISE, n_measured=POINTS,
                 seed=1, clamp=clamp)
     return {k: v for k, v in out.items() if k in names}
 
@@ -163,16 +167,17 @@ def written_and_verified(doc, correction, folder: Path) -> str:
         f"written, verify FAILS: {'; '.join(verification.messages)[:50]}"
 
 
-CASES = ("base", "own n", "E x0.5", "E x10", "grip 0.8", "early", "late")
+CASES = ("base", "own n", "E x0.5", "E x10", "grip 0.8", "early", "late", "own n grip 0.8")
 """Part 2's cases, one factor at a time around the base case (module docstring)."""
 
 
-def part2(names, floor: bool, folder: Path, plans, cases=CASES) -> None:
+def part2(names, floor: bool, folder: Path, plans, cases=CASES,
+          segments: int = MUJOCO_SEGMENTS) -> None:
     print("\nPart 2: plants; final mean error [mm] against the plan's stabilized target")
     print(f"{'plan':>12} {'n':>3} {'plant':>7} {'E':>5} {'grip':>6} {'K':>2} {'open':>7} "
           f"{'closed':>7} {'ratio':>6} {'floor':>6} {'interval':>13} {'cover':>5} "
           f"{'clamp':>7} {'CPU ms':>6}  written?")
-    makers = plants(names)
+    makers = plants(names, segments)
     for name, source in SCENARIOS.items():
         if name not in plans:
             continue
@@ -186,7 +191,8 @@ def part2(names, floor: bool, folder: Path, plans, cases=CASES) -> None:
             table = dict(zip(CASES, [
                 (base_n, 2.0, 1.0, "mid"), (own_n, 2.0, 1.0, "mid"), (base_n, 0.5, 1.0, "mid"),
                 (base_n, 10.0, 1.0, "mid"), (base_n, 2.0, 0.8, "mid"),
-                (base_n, 2.0, 1.0, "early"), (base_n, 2.0, 1.0, "late")], strict=True))
+                (base_n, 2.0, 1.0, "early"), (base_n, 2.0, 1.0, "late"),
+                (own_n, 2.0, 0.8, "mid")], strict=True))
             for n, factor, grip, when in dict.fromkeys(table[c] for c in cases):
                 doc = docs[n]
                 cable = doc.cable
@@ -194,12 +200,14 @@ def part2(names, floor: bool, folder: Path, plans, cases=CASES) -> None:
                 at = {"early": 1, "mid": last // 2, "late": last - 1}[when]
                 plant = make(cable.with_modulus(factor * cable.youngs_modulus),
                              grip * cable.rest_link_length, cable.n_links)
+                # the grip the plant has: whole segments of its own
+                grip = plant.clamp_links * plant.cable.rest_link_length / cable.rest_link_length
                 started = time.process_time()
                 try:
                     run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [at],
                                           stabilized=doc.stabilized, trajectory=doc.trajectory)
                 except RuntimeError as exc:
-                    print(f"{name:>12} {n:>3} {plant_name:>7} x{factor:<4g} {grip:>4.1f}L/n "
+                    print(f"{name:>12} {n:>3} {plant_name:>7} x{factor:<4g} {grip:>4.2f}L/n"
                           f"{at:>2} plant failed: {exc}")
                     continue
                 plant_seconds = time.process_time() - started
@@ -221,7 +229,7 @@ def part2(names, floor: bool, folder: Path, plans, cases=CASES) -> None:
                 else:
                     interval, cover, cpu, clamp = "-", "-", "-", "-"
                     written = "refused: " + "; ".join(run.refusals)[:70]
-                print(f"{name:>12} {n:>3} {plant_name:>7} x{factor:<4g} {grip:>4.1f}L/n "
+                print(f"{name:>12} {n:>3} {plant_name:>7} x{factor:<4g} {grip:>4.2f}L/n"
                       f"{at:>2} {1e3 * run.open_loop_error:>7.2f} "
                       f"{1e3 * run.closed_loop_error:>7.2f} {run.improvement:>6.1f} "
                       f"{floor_mm:>6} {interval:>13} {cover:>5} {clamp:>7} {cpu:>6}  {written}"
@@ -237,6 +245,8 @@ def main() -> int:
     parser.add_argument("--plans", default=",".join(SCENARIOS),
                         help="comma-separated, of: " + ", ".join(SCENARIOS))
     parser.add_argument("--part", choices=["1", "2", "both"], default="both")
+    parser.add_argument("--mujoco-segments", type=int, default=MUJOCO_SEGMENTS,
+                        help="MuJoCo segments per model link")
     args = parser.parse_args()
     unknown = set(args.cases.split(",")) - set(CASES)
     if unknown:
@@ -247,7 +257,7 @@ def main() -> int:
             part1(Path(folder))
         if args.part in ("2", "both"):
             part2(args.plants.split(","), not args.no_floor, Path(folder),
-                  args.plans.split(","), args.cases.split(","))
+                  args.plans.split(","), args.cases.split(","), args.mujoco_segments)
     return 0
 
 
