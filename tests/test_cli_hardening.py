@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 import pytest
+from signal_runs import group_members
 from test_cli import STIFF, write
 
 from dloplan.cli import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, EXIT_WARNINGS, main
@@ -145,7 +146,9 @@ def test_ctrl_c_in_a_terminal_stops_every_process_quietly(tmp_path, when):
     out = tmp_path / "out"
     process = _dloplan("demo", "-o", str(out), start_new_session=True)
     if when == "while the figure server warms up":
-        time.sleep(0.4)
+        while len(group_members(process.pid)) < 2:  # the server is started (importing)
+            assert process.poll() is None, process.communicate()
+            time.sleep(0.01)
         first = ""
     else:
         first = ""

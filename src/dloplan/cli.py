@@ -3,7 +3,8 @@
 ``main(argv=None) -> int`` returns the exit code: 0 success, 1 success with warnings, 2 bad
 input or a job that cannot be planned (a one-line error naming the problem, never a traceback,
 no output written), 3 planned but a check failed (the plan and its report are written, no robot
-program), 130 interrupted by Ctrl-C (nothing written).
+program), 128 + the signal when interrupted: 130 Ctrl-C (SIGINT), 143 SIGTERM, 129 SIGHUP (nothing
+written, every process the command started ended; :mod:`dloplan.interrupts`).
 """
 
 from __future__ import annotations
@@ -11,14 +12,26 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import signal
 import sys
 import time
 from pathlib import Path
 
 from . import __version__
-from .cable import CATALOGUE_NAMES, catalogue_cable
-from .exit_codes import EXIT_CHECK_FAILED, EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, EXIT_WARNINGS
-from .interrupts import catching_interrupts, raise_if_interrupted
+from .exit_codes import (  # noqa: F401 - EXIT_INTERRUPTED re-exported: the command's codes
+    EXIT_CHECK_FAILED,
+    EXIT_FAILURE,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_WARNINGS,
+)
+from .interrupts import (
+    SIGNALS,
+    catching_interrupts,
+    interrupt_of,
+    raise_if_interrupted,
+    shielded,
+)
 
 FIGURE_WORKERS = 2
 """Processes drawing a plan's figures while it is verified (:mod:`dloplan.app.figure_workers`)."""
@@ -39,6 +52,8 @@ class Console:
 
 
 def _constants_table(n_links: int) -> str:
+    from .cable import CATALOGUE_NAMES, catalogue_cable
+
     cables = [catalogue_cable(name, n_links=n_links) for name in CATALOGUE_NAMES]
     keys = list(cables[0].constants())
     width = max(len(k) for k in keys)
@@ -377,6 +392,13 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
+    from .io.files import output_lock
+
+    with output_lock(args.output):  # refused at once while another run writes the folder
+        return _study(args)
+
+
+def _study(args: argparse.Namespace) -> int:
     from .app import load_scenario, run_job
     from .app.study import study_problem_of, study_spec, with_closed_loop
     from .plots.report import write_report
@@ -596,18 +618,36 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    try:
-        with catching_interrupts():
+    with catching_interrupts():
+        try:
             return args.func(args)
-    except KeyboardInterrupt:
-        print("dloplan: interrupted (nothing written)", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    except OSError as exc:
-        where = f"{exc.filename}: " if exc.filename else ""
-        print(f"dloplan: error: {where}{exc.strerror or exc}", file=sys.stderr)
-        return EXIT_FAILURE
-    except (ValueError, ArithmeticError) as exc:
-        print(f"dloplan: error: {exc}", file=sys.stderr)
+        except BaseException as exc:
+            code = _failed(exc)
+            if code is None:
+                raise
+            return code
+
+
+def _failed(exc: BaseException) -> int | None:
+    """The exit code of a command that ended with ``exc``, its one line printed: a signal
+    (``128 + signal``, the processes it started ended), a file that cannot be read or written, or
+    bad input (2); ``None`` for a bug (its traceback is shown)."""
+    from .processes import end_forkserver
+
+    with shielded():
+        interrupt = interrupt_of(exc)
+        if interrupt is None and not isinstance(exc, OSError | ValueError | ArithmeticError):
+            return None
+        end_forkserver()  # were it still importing its preload, it would hold our pipes
+        if interrupt is not None:
+            cause = "" if interrupt.signum == signal.SIGINT else f" by {interrupt.name}"
+            print(f"dloplan: interrupted{cause} (nothing written)", file=sys.stderr)
+            return interrupt.exit_code
+        if isinstance(exc, OSError):
+            where = f"{exc.filename}: " if exc.filename else ""
+            print(f"dloplan: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        else:
+            print(f"dloplan: error: {exc}", file=sys.stderr)
         return EXIT_FAILURE
 
 
@@ -625,6 +665,8 @@ def run() -> None:  # pragma: no cover - the console script, exercised by subpro
     import os
 
     code = main()
+    for signum in SIGNALS:  # done: a late signal must not cut the flush below short
+        signal.signal(signum, signal.SIG_IGN)
     if sys.getprofile() is not None or sys.gettrace() is not None:
         sys.exit(code)
     atexit._run_exitfuncs()

@@ -20,7 +20,7 @@ from ..exit_codes import (  # noqa: F401 - re-exported: the codes of the command
     EXIT_OK,
     EXIT_WARNINGS,
 )
-from ..io.files import staged_folder
+from ..io.files import output_lock, staged_folder
 from ..io.scenario import PROGRAM_NAMES
 from ..robot.cell_program import program_formats
 from .document import PlanDocument, read_plan
@@ -46,13 +46,16 @@ def exit_code(doc: PlanDocument) -> int:
 
 def export_plan(doc: PlanDocument, name: str, target: Path, options: WriteOptions) -> list[Path]:
     """Write output ``name`` of a plan document to ``target`` under :func:`plan_into`'s rule: a
-    plan that failed a check gets no robot program or trajectory (ValueError naming them)."""
+    plan that failed a check gets no robot program or trajectory (ValueError naming them).
+    The target's lock (:func:`dloplan.io.files.output_lock`) refuses a second export to it while
+    this one writes."""
     failed = doc.failed_checks
     if name in ROBOT_OUTPUTS and failed:
         raise ValueError(f"{name}: not written, the plan failed a check ({', '.join(failed)}; "
                          "dloplan verify shows the table): a robot must not run it; json and "
                          "report export it for inspection")
-    return WRITERS[name].write(doc, target, options)
+    with output_lock(target):  # a second export to the same target waits for none: refused
+        return WRITERS[name].write(doc, target, options)
 
 
 def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,

@@ -29,6 +29,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from .files import atomic_write_texts
+
 
 def hermite_velocities(times, positions) -> np.ndarray:
     """Catmull-Rom velocities: central differences inside, zero at both ends.
@@ -98,7 +100,7 @@ def write_joint_trajectories(folder, times, joints, joint_names, *, arms=("left"
         raise ValueError(f"joint_prefix: expected one per arm, got {joint_prefix!r}")
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    written = []
+    texts = {}
     for a, arm in enumerate(arms):
         names = [f"{prefixes[a]}{name}" for name in joint_names[a]]
         q = np.asarray(joints[a], dtype=float)
@@ -117,6 +119,5 @@ def write_joint_trajectories(folder, times, joints, joint_names, *, arms=("left"
         path = folder / f"{stem}_{arm}_joint_trajectory.yaml"
         header = (f"# trajectory_msgs/msg/JointTrajectory of the {arm} arm: {len(t)} points, "
                   f"verified joint values [rad]. Setup: docs/cells.md.\n")
-        path.write_text(header + yaml.safe_dump(message, sort_keys=False), encoding="utf-8")
-        written.append(path)
-    return written
+        texts[path] = header + yaml.safe_dump(message, sort_keys=False)
+    return atomic_write_texts(texts)

@@ -26,6 +26,7 @@ from ..cable import CATALOGUE_NAMES, Cable, catalogue_cable
 from ..obstacles.shapes import Box, Cylinder, Table
 from ..shapes import arc_shape, place, sine_shape, straight_shape
 from ..study.spec import StudySpec
+from .files import read_text
 
 SCHEMA_VERSION = 1
 
@@ -471,26 +472,22 @@ MAX_FILE_BYTES = 10_000_000
 
 
 def read_mapping(path: str | Path) -> dict:
-    """Read a YAML or JSON file into a mapping; one-line errors for unreadable files."""
+    """Read a YAML or JSON file into a mapping; one-line errors for unreadable files (a regular
+    text file of at most :data:`MAX_FILE_BYTES`, :func:`dloplan.io.files.read_text`)."""
     path = Path(path)
     try:
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise ScenarioError(f"{path}: the file is {size / 1e6:.1f} MB, more than the "
-                                f"{MAX_FILE_BYTES / 1e6:.0f} MB a job file may have (thin out "
-                                "its points: shapes are resampled to n + 1 points anyway)")
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ScenarioError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
-    except UnicodeDecodeError:
-        raise ScenarioError(f"{path}: not a text file (not UTF-8): expected YAML or JSON") \
-            from None
+        text = read_text(path, MAX_FILE_BYTES, "job file", " (thin out its points: shapes "
+                         "are resampled to n + 1 points anyway)")
+    except ValueError as exc:
+        raise ScenarioError(str(exc)) from None
     try:
         data = json.loads(text) if path.suffix.lower() == ".json" else yaml.safe_load(text)
     except (json.JSONDecodeError, yaml.YAMLError) as exc:
         detail = str(exc).splitlines()[0]
         kind = "JSON" if path.suffix.lower() == ".json" else "YAML"
         raise ScenarioError(f"{path}: not valid {kind}: {detail}") from None
+    except RecursionError:
+        raise ScenarioError(f"{path}: nested too deeply to be a job file") from None
     if not isinstance(data, dict):
         raise ScenarioError(f"{path}: expected a mapping at the top level, got "
                             f"{type(data).__name__}")

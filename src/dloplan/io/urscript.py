@@ -33,6 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .files import atomic_write_texts
+
 MODES = ("movej", "movel")
 """Motion commands a script can be written with."""
 
@@ -133,7 +135,7 @@ def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=Non
     offsets = None if tcp_offsets is None else _check("tcp_offsets", tcp_offsets, (n_arms, 6))
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    written = []
+    texts = {}
     for a, arm in enumerate(arms):
         name = f"{stem}_{arm}"
         lines = [f"# {name}.script: dloplan plan for the {arm} arm ({n_points} waypoints, "
@@ -160,7 +162,5 @@ def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=Non
         lines += [f"  set_standard_digital_out({ready_output}, False)",
                   "end",
                   f"{name}()"]
-        path = folder / f"{name}.script"
-        path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-        written.append(path)
-    return written
+        texts[folder / f"{name}.script"] = "\n".join(lines) + "\n"
+    return atomic_write_texts(texts)
