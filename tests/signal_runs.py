@@ -133,7 +133,7 @@ def signal_run(argv: list[str], output: Path, signum: int, *, marker: str | None
     moment = (f"{delay:g} s after {marker!r}" if marker else f"{delay:g} s") + \
         (f" and {processes} processes" if processes else "") + (" (group)" if to_group else "")
     outcome = Outcome(label or " ".join(argv[:1]), signum, moment)
-    process = subprocess.Popen([sys.executable, "-m", "dloplan.cli", *argv], cwd=cwd,
+    process = subprocess.Popen([sys.executable, "-m", "dloplan", *argv], cwd=cwd,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                start_new_session=True, preexec_fn=interruptible)
     lines: list[str] = []

@@ -74,7 +74,7 @@ def test_cli_overrides_pass_the_schema(tmp_path, capsys):
         assert main(["study", str(example), "--samples", samples, "-o", str(out)]) == \
             EXIT_FAILURE
         err = capsys.readouterr().err.strip()
-        assert "study.samples" in err and len(err.splitlines()) == 1
+        assert "--samples" in err and len(err.splitlines()) == 1
         assert not out.exists()
     bare = write(tmp_path, SMALL)  # no study: section: nothing to vary
     assert main(["study", str(bare), "-o", str(tmp_path / "s")]) == EXIT_FAILURE
@@ -112,7 +112,7 @@ def _interruptible() -> None:
 
 
 def _dloplan(*args, **kwargs) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "dloplan.cli", *args],
+    return subprocess.Popen([sys.executable, "-m", "dloplan", *args],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=_interruptible, **kwargs)
 

@@ -117,7 +117,7 @@ def test_a_keyboard_interrupt_that_compiled_code_turned_into_another_error(
 
 
 def _dloplan(*args) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "dloplan.cli", *args], stdout=subprocess.PIPE,
+    return subprocess.Popen([sys.executable, "-m", "dloplan", *args], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, preexec_fn=interruptible)
 
 
@@ -147,7 +147,7 @@ def test_a_second_study_into_the_same_folder_is_refused_before_any_work(tmp_path
     line = first.stderr.readline()  # the first holds the folder from its start
     assert "loaded" in line or line.startswith("["), line
     before = snapshot(out)
-    second = subprocess.run([sys.executable, "-m", "dloplan.cli", "study", str(STUDY),
+    second = subprocess.run([sys.executable, "-m", "dloplan", "study", str(STUDY),
                              "--samples", "8", "--csv", "-o", str(out), "-q"],
                             capture_output=True, text=True, timeout=300)
     first_code = first.wait(600)

@@ -18,6 +18,14 @@ import time
 from pathlib import Path
 
 from . import __version__
+from .bounds import (
+    MAX_LINKS,
+    MAX_MEASURED_POINTS,
+    MAX_MODULUS_STEPS,
+    MAX_STUDY_SAMPLES,
+    MAX_WORKERS,
+    MIN_LINKS,
+)
 from .exit_codes import (  # noqa: F401 - EXIT_INTERRUPTED re-exported: the command's codes
     EXIT_CHECK_FAILED,
     EXIT_FAILURE,
@@ -32,6 +40,17 @@ from .interrupts import (
     raise_if_interrupted,
     shielded,
 )
+
+EXPORT_FORMATS = {
+    "json": "the plan document",
+    "csv": "the dual-arm TCP trajectory sampled at --rate",
+    "ros": "a ROS 2 MultiDOFJointTrajectory",
+    "ros_joints": "a ROS 2 JointTrajectory per arm",
+    "urscript": "a URScript program per arm, cells of 6-joint arms",
+    "rapid": "ABB RAPID modules, YuMi cells",
+    "report": "the HTML report",
+}
+"""What ``dloplan export --format`` writes (the writers of :mod:`dloplan.app.writers`)."""
 
 FIGURE_WORKERS = 2
 """Processes drawing a plan's figures while it is verified (:mod:`dloplan.app.figure_workers`)."""
@@ -71,13 +90,46 @@ def _cmd_cables(args: argparse.Namespace) -> int:
 
 def positive_number(text: str) -> float:
     """An option's value as a finite number > 0 (argparse names the option when it fails)."""
+    value = finite_number(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected a finite number > 0")
+    return value
+
+
+def finite_number(text: str) -> float:
+    """An option's value as a finite number (not nan, not inf)."""
     try:
         value = float(text)
     except ValueError:
         value = math.nan
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"got {text!r}, expected a finite number > 0")
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected a finite number")
     return value
+
+
+def integer(low: int, high: int | None = None):
+    """The type of an integer option in ``low..high`` (bounds of :mod:`dloplan.bounds`)."""
+    expected = f"an integer >= {low}" if high is None else f"an integer in {low}..{high}"
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"got {text!r}, expected {expected}") from None
+        if value < low or (high is not None and value > high):
+            raise argparse.ArgumentTypeError(f"got {text!r}, expected {expected}")
+        return value
+
+    parse.__name__ = expected
+    return parse
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line errors: ``dloplan plan: error: argument --workers: got '0',
+    expected an integer in 1..256 (dloplan plan --help)``, exit 2, as for every bad input."""
+
+    def error(self, message: str):
+        self.exit(EXIT_FAILURE, f"{self.prog}: error: {message} ({self.prog} --help)\n")
 
 
 def _cmd_schema(args: argparse.Namespace) -> int:
@@ -461,7 +513,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="dloplan",
         description="Plan dual-arm robot manipulation of cables and hoses (deformable linear "
                     "objects).",
@@ -489,7 +541,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "with the checks' verdict in its header)")
     plan.add_argument("--no-repair", action="store_true", help="report failed "
                       "checks without repairing the plan (docs/repair.md)")
-    plan.add_argument("--workers", type=int, default=1,
+    plan.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1,
                       help="batch: local worker processes")
     plan.add_argument("--scheduler", help="batch: Dask scheduler address tcp://HOST:PORT")
 
@@ -500,9 +552,11 @@ def build_parser() -> argparse.ArgumentParser:
     study = command("study", _cmd_study, "robustness study of a scenario's plan over cable and "
                     "pose tolerances (its study section)")
     study.add_argument("scenario")
-    study.add_argument("--samples", type=int, help="override the number of samples")
-    study.add_argument("--seed", type=int, help="override the seed")
-    study.add_argument("--workers", type=int, default=1, help="local worker processes")
+    study.add_argument("--samples", type=integer(1, MAX_STUDY_SAMPLES),
+                       help="override the number of samples")
+    study.add_argument("--seed", type=integer(0), help="override the seed")
+    study.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1,
+                       help="local worker processes")
     study.add_argument("--scheduler", help="Dask scheduler address tcp://HOST:PORT")
     study.add_argument("--csv", action="store_true", help="CSV instead of Parquet")
     study.add_argument("--overwrite", action="store_true", help="start over, do not resume")
@@ -516,13 +570,14 @@ def build_parser() -> argparse.ArgumentParser:
                           "drag -k_d v (eq. 3.3)")
     simulate.add_argument("--torsion", action="store_true",
                           help="simulate with twist (the gripper frames set the material frames)")
-    simulate.add_argument("--modulus-cap", type=float,
+    simulate.add_argument("--modulus-cap", type=positive_number,
                           help="fictitious modulus [Pa] for the time step (thesis Fig. 6.5): "
                           "larger steps for stiff cables")
     simulate.add_argument("-o", "--output", help="folder for the figures")
 
     cables = command("cables", _cmd_cables, "print the model constants of the thesis' cables")
-    cables.add_argument("--links", type=int, default=10, help="number of links n")
+    cables.add_argument("--links", type=integer(MIN_LINKS, MAX_LINKS), default=10,
+                        help="number of links n")
     command("schema", _cmd_schema, "print the JSON Schema of scenario files")
     check = command("check", _cmd_check, "check a scenario without planning (target stability, "
                     "clip reach, obstacles at start and target)")
@@ -536,19 +591,18 @@ def build_parser() -> argparse.ArgumentParser:
     identify.add_argument("--design", action="store_true", help="score candidate experiments "
                           "by the predicted sd of E and recommend one")
     identify.add_argument("--cable", help="--design: catalogue cable name")
-    identify.add_argument("--modulus", type=float, help="--design: expected E [Pa]")
-    identify.add_argument("--noise", type=float, default=1.0,
+    identify.add_argument("--modulus", type=positive_number, help="--design: expected E [Pa]")
+    identify.add_argument("--noise", type=positive_number, default=1.0,
                           help="--design: measurement noise [mm] (default 1)")
-    identify.add_argument("--points", type=int, default=100,
+    identify.add_argument("--points", type=integer(2, MAX_MEASURED_POINTS), default=100,
                           help="--design: measured points along the cable (default 100)")
-    identify.add_argument("--links", type=int, help="--design: starting n")
+    identify.add_argument("--links", type=integer(MIN_LINKS, MAX_LINKS),
+                          help="--design: starting n")
 
-    export = command("export", _cmd_export, "export a plan as JSON, CSV, ROS 2 trajectory or "
-                     "ABB RAPID")
+    export = command("export", _cmd_export, "export one output of a plan: " + "; ".join(
+        f"{name} ({what})" for name, what in EXPORT_FORMATS.items()))
     export.add_argument("plan", help="plan file written by dloplan plan (plan.json)")
-    export.add_argument("--format", choices=["json", "csv", "ros", "ros_joints", "urscript",
-                                             "rapid", "report"],
-                        required=True)
+    export.add_argument("--format", choices=list(EXPORT_FORMATS), required=True)
     export.add_argument("-o", "--output", required=True,
                         help="output file (a folder for rapid: one module per arm)")
     export.add_argument("--rate", type=positive_number, help="sampling rate [Hz] for csv/ros")
@@ -584,12 +638,13 @@ def build_parser() -> argparse.ArgumentParser:
     correct = command("correct", _cmd_correct, "correct the rest of a plan from the shape "
                       "measured at shape K (closed loop, docs/correction.md)")
     correct.add_argument("plan", help="plan.json")
-    correct.add_argument("--at", type=int, required=True, help="K, the shape just reached")
+    correct.add_argument("--at", type=integer(0), required=True,
+                         help="K, the shape just reached")
     correct.add_argument("--measured", required=True, help="measured shape (.csv or .json)")
     correct.add_argument("-o", "--output", default="out/correct", help="output folder")
     correct.add_argument("--mode", choices=["target", "all"], default="target")
     correct.add_argument("--reference", choices=["stabilized", "planned"], default="stabilized")
-    correct.add_argument("--modulus-steps", type=int, default=3,
+    correct.add_argument("--modulus-steps", type=integer(0, MAX_MODULUS_STEPS), default=3,
                          help="Gauss-Newton steps of the E update (0: keep E)")
     correct.add_argument("--model-error", choices=["discretization", "modulus"],
                          default="discretization",
@@ -609,8 +664,10 @@ def build_parser() -> argparse.ArgumentParser:
     register.add_argument("images", nargs="+")
     register.add_argument("--calibration", required=True)
     register.add_argument("--hsv", required=True, help="colour range H,S,V:H,S,V (OpenCV HSV)")
-    register.add_argument("--links", type=int, default=10, help="n: shapes get n + 1 points")
-    register.add_argument("--height", type=float, default=0.0, help="plane height z [m]")
+    register.add_argument("--links", type=integer(MIN_LINKS, MAX_LINKS), default=10,
+                          help="n: shapes get n + 1 points")
+    register.add_argument("--height", type=finite_number, default=0.0,
+                          help="plane height z [m]")
     register.add_argument("-o", "--output", required=True, help="shapes .csv or .json")
     return parser
 

@@ -22,12 +22,13 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..bounds import MAX_PLAN_BYTES
 from ..cable import Cable
 from ..geometry import as_path
 from ..grippers.axes import CLIP_NAMES
 from ..grippers.path import GripperPath
 from ..io.export import DEFAULT_FRAME_ID, check_frame_id
-from ..io.files import atomic_write_text
+from ..io.files import atomic_write_text, read_text
 from ..io.poses import (
     canonical_quaternions,
     duration_dict,
@@ -749,10 +750,10 @@ def read_plan(path: str | os.PathLike) -> PlanDocument:
         field).
     """
     try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ValueError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        data = json.loads(read_text(path, MAX_PLAN_BYTES, "plan document"))
+    except RecursionError:
+        raise ValueError(f"{path}: nested too deeply to be a plan document") from None
+    except json.JSONDecodeError as exc:
         if Path(path).suffix.lower() in (".yaml", ".yml"):
             raise ValueError(f"{path}: a YAML job file, not a plan document: plan it first "
                              "(dloplan plan JOB -o OUT) and give OUT/plan.json") from None

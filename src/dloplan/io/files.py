@@ -22,6 +22,7 @@ import tempfile
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
+from ..bounds import MAX_INPUT_BYTES
 from ..interrupts import raise_if_interrupted, shielded
 
 try:
@@ -44,7 +45,8 @@ def _publish(path: Path, mode: int) -> None:
     os.chmod(path, mode & ~umask())
 
 
-def read_text(path: str | os.PathLike, limit: int, kind: str = "file", advice: str = "") -> str:
+def read_text(path: str | os.PathLike, limit: int = MAX_INPUT_BYTES, kind: str = "file",
+              advice: str = "") -> str:
     """The UTF-8 text of a regular file of at most ``limit`` bytes, read once.
 
     Every input file of dloplan is read here (or by :func:`dloplan.io.scenario.read_mapping`,

@@ -22,11 +22,12 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 from scipy.spatial.transform import Rotation
 
+from ..bounds import MAX_LINKS, MAX_SHAPES, MIN_LINKS
 from ..cable import CATALOGUE_NAMES, Cable, catalogue_cable
 from ..obstacles.shapes import Box, Cylinder, Table
 from ..shapes import arc_shape, place, sine_shape, straight_shape
 from ..study.spec import StudySpec
-from .files import read_text
+from .files import MAX_INPUT_BYTES, read_text
 
 SCHEMA_VERSION = 1
 
@@ -138,9 +139,6 @@ ShapeSpec = Annotated[
 ]
 
 
-MAX_LINKS = 1000
-"""Largest n a scenario may ask for (docs/scenario.md: plan time grows about as n S)."""
-
 WORKSPACE = 10.0
 """Largest distance [m] of any point of a job from the world origin: a dual-arm cell spans about
 a metre, so a coordinate beyond 10 m is a typo (often metres written into a mm file)."""
@@ -159,7 +157,7 @@ class CableSpec(_Model):
     poisson_ratio: float | None = Field(None, gt=-1, le=0.5)
     axial_modulus: PositiveLength | None = Field(
         None, description="[Pa] modulus of the axial springs (default: youngs_modulus)")
-    n_links: int = Field(10, ge=4, le=MAX_LINKS, description=(
+    n_links: int = Field(10, ge=MIN_LINKS, le=MAX_LINKS, description=(
         "n >= 4: each clip holds two points, so n = 4 is the least that leaves the cable a "
         f"free point; n <= {MAX_LINKS}: plans in minutes at most"))
     bending: Literal["rod", "thesis"] = "rod"
@@ -219,7 +217,7 @@ ObstacleSpec = Annotated[BoxSpec | CylinderSpec, Field(discriminator="type")]
 class PlannerSpec(_Model):
     """Planner settings (thesis chapter 4, Tables 6.1/6.2)."""
 
-    n_shapes: int = Field(5, ge=1, le=500, description="S, intermediate shapes")
+    n_shapes: int = Field(5, ge=1, le=MAX_SHAPES, description="S, intermediate shapes")
     physical_mode: Literal["thesis", "equilibrium"] | None = None
     keep_target: bool = Field(
         False, description="plan to the target as given, not to its minimal-energy shape "
@@ -466,9 +464,35 @@ def parse_scenario(data: Any, source: str = "scenario") -> Scenario:
     return parse_model(Scenario, data, source)
 
 
-MAX_FILE_BYTES = 10_000_000
-"""Largest job file read [bytes]: 10 MB is some 100 000 points, far more than any cable needs
-(a shape is resampled to n + 1 <= 1001 points), and loads in seconds."""
+MAX_FILE_BYTES = MAX_INPUT_BYTES
+"""Largest job file read [bytes] (:data:`dloplan.io.files.MAX_INPUT_BYTES`)."""
+
+
+MAX_VALUES = 5_000_000
+"""Most values (numbers, strings, lists, mappings) a job file may hold once its YAML aliases are
+expanded: a 10 MB file of plain numbers holds at most about this many; a few lines of nested
+aliases would otherwise expand to billions (the "billion laughs")."""
+
+
+def expanded_size(data) -> int:
+    """The number of values in ``data`` with every shared list or mapping counted as often as
+    it is referenced (what validating it would visit), in time linear in the distinct ones."""
+    sizes: dict[int, int] = {}
+
+    def size(node) -> int:
+        if not isinstance(node, dict | list):
+            return 1
+        key = id(node)
+        if key not in sizes:
+            sizes[key] = 0  # a cycle (YAML allows them) counts once
+            items = node.values() if isinstance(node, dict) else node
+            sizes[key] = 1 + sum(size(item) for item in items)
+        return sizes[key]
+
+    try:
+        return size(data)
+    except RecursionError:
+        return MAX_VALUES + 1
 
 
 def read_mapping(path: str | Path) -> dict:
@@ -488,6 +512,10 @@ def read_mapping(path: str | Path) -> dict:
         raise ScenarioError(f"{path}: not valid {kind}: {detail}") from None
     except RecursionError:
         raise ScenarioError(f"{path}: nested too deeply to be a job file") from None
+    values = expanded_size(data)
+    if values > MAX_VALUES:
+        raise ScenarioError(f"{path}: expands to {values:.3g} values (YAML aliases repeat what "
+                            f"they name), more than the {MAX_VALUES:.0e} a job file may hold")
     if not isinstance(data, dict):
         raise ScenarioError(f"{path}: expected a mapping at the top level, got "
                             f"{type(data).__name__}")

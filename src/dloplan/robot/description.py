@@ -35,6 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bounds import MAX_MESH_BYTES
+
 MOVING = ("revolute", "continuous")
 """URDF joint types that move in the chain."""
 
@@ -286,19 +288,12 @@ def _mesh_reader(urdf_path: Path, package_dirs: dict[str, str]):
     return read
 
 
-MAX_URDF_BYTES = 10_000_000
-"""Largest URDF file read [bytes] (the vendored ones have about 10 kB; meshes are files of their
-own)."""
-
-MAX_MESH_BYTES = 100_000_000
-"""Largest mesh file read for collision capsules [bytes]."""
-
-
 def read_urdf(path: Path):
     """A URDF file as a ``yourdfpy.URDF`` (the ``robot`` extra), without meshes or scene graph.
 
     The file is read once, bounded (:func:`dloplan.io.files.read_text`: a missing file, a
-    symlink loop, a device or a folder, a file over :data:`MAX_URDF_BYTES`, binary data) and
+    symlink loop, a device or a folder, a file over 10 MB, binary data; the vendored URDFs have
+    about 10 kB) and
     parsed as XML here, so that what is not a URDF is refused with one line naming the file and
     the fault (yourdfpy would fall back to a recovering parser and fail later without saying
     why); a document type with entity declarations is refused (no entity is expanded).
@@ -316,7 +311,7 @@ def read_urdf(path: Path):
 
     from ..io.files import read_text
 
-    text = read_text(path, MAX_URDF_BYTES, "URDF file")
+    text = read_text(path, kind="URDF file")
     parser = etree.XMLParser(remove_blank_text=True, resolve_entities=False, no_network=True)
     try:
         root = etree.fromstring(text.encode("utf-8"), parser=parser)

@@ -1,0 +1,33 @@
+"""The ``dloplan`` console script (and ``python -m dloplan``): signals handled from its first line.
+
+Until :func:`dloplan.cli.main` installs its handlers
+(:func:`dloplan.interrupts.catching_interrupts`) the interpreter starts and imports the command
+line, a few hundred milliseconds on a loaded host.
+A signal then would kill the process by the signal (SIGTERM, SIGHUP) or print a KeyboardInterrupt
+traceback (SIGINT). Nothing has been started or written yet, so this module, imported first, ends
+the process at once with the code of an interrupted run, ``128 + signal``. A signal that is
+ignored when the command starts (``nohup``, a background job of a non-interactive shell) stays
+ignored.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+
+
+def _before_start(signum, frame) -> None:
+    os._exit(128 + signum)
+
+
+for _name in ("SIGINT", "SIGTERM", "SIGHUP"):
+    _signum = getattr(signal, _name, None)
+    if _signum is not None and signal.getsignal(_signum) is not signal.SIG_IGN:
+        signal.signal(_signum, _before_start)
+
+
+def run() -> None:
+    """The command (:func:`dloplan.cli.run`)."""
+    from .cli import run as command
+
+    command()
