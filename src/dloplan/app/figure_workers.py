@@ -33,9 +33,9 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ..interrupts import shielded
+from ..pipeline.document import PlanDocument
 from ..plots import worker
 from ..processes import end_pool
-from .document import PlanDocument
 from .report import figure_drawings
 
 DRAFTS = ".figures"

@@ -1,0 +1,102 @@
+"""The plan document's file: ``plan.json`` written and read (the document's types and its
+JSON-ready data are :mod:`dloplan.pipeline.document`'s).
+
+Floats are written with Python's shortest round-tripping repr, so a document read back is the
+document written. The file records a checksum of its content (``"checksum": "sha256:..."``, the
+SHA-256 of its data as canonical JSON: sorted keys, no spaces, the checksum left out), so that a
+document changed after dloplan wrote it is recognised: :func:`read_plan` refuses it (and one
+without a checksum), with one line. A plan is what was planned and verified; a hand edit (a shape,
+a time, a pose) would be verified, exported or corrected as if it had been: plan the job again
+instead (``export --speed`` re-times a plan). Whitespace and key order are not content.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..bounds import MAX_PLAN_BYTES
+from ..io.files import atomic_write_text, read_text
+from ..pipeline.document import PLAN_FORMAT, PlanDocument, document_from_dict, document_to_dict
+
+
+def json_default(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"not JSON serializable: {type(value).__name__}")
+
+
+CHECKSUM = "checksum"
+"""The key of the content's checksum in a plan file."""
+
+
+def content_checksum(data: dict) -> str:
+    """``sha256:<hex>`` of a plan file's data (parsed JSON) without its checksum: canonical
+    JSON, sorted keys, no whitespace."""
+    content = {key: value for key, value in data.items() if key != CHECKSUM}
+    text = json.dumps(content, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return "sha256:" + hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def plan_json(doc: PlanDocument) -> str:
+    """The plan document's JSON text with its checksum (no NaN: a non-finite number is an
+    error)."""
+    try:
+        text = json.dumps(document_to_dict(doc), allow_nan=False, default=json_default)
+    except ValueError as exc:
+        raise ValueError(f"plan: not writable as JSON ({exc})") from None
+    data = json.loads(text)  # what a reader will parse: the checksum is of that
+    return json.dumps({**data, CHECKSUM: content_checksum(data)}, indent=1) + "\n"
+
+
+def write_plan(path: str | os.PathLike, doc: PlanDocument) -> Path:
+    """Write the plan document atomically to ``path`` (JSON); returns the path."""
+    return atomic_write_text(path, plan_json(doc))
+
+
+def read_plan(path: str | os.PathLike) -> PlanDocument:
+    """Read a plan document written by :func:`write_plan` (or a version 1 file).
+
+    Raises
+    ------
+    ValueError
+        When the file cannot be read, is not valid JSON or not a plan document (naming the
+        field).
+    """
+    try:
+        data = json.loads(read_text(path, MAX_PLAN_BYTES, "plan document"))
+    except RecursionError:
+        raise ValueError(f"{path}: nested too deeply to be a plan document") from None
+    except json.JSONDecodeError as exc:
+        if Path(path).suffix.lower() in (".yaml", ".yml"):
+            raise ValueError(f"{path}: a YAML job file, not a plan document: plan it first "
+                             "(dloplan plan JOB -o OUT) and give OUT/plan.json") from None
+        raise ValueError(f"{path}: not a plan document (not valid JSON: {exc})") from None
+    check_checksum(path, data)
+    return document_from_dict({k: v for k, v in data.items() if k != CHECKSUM})
+
+
+def check_checksum(path, data) -> None:
+    """Refuse a plan file whose content is not what dloplan wrote (see the module docstring).
+
+    Raises
+    ------
+    ValueError
+        One line naming the file: no checksum, or one that does not match the content.
+    """
+    if not isinstance(data, dict) or data.get("format") != PLAN_FORMAT:
+        return  # not a plan document at all: document_from_dict says so
+    recorded = data.get(CHECKSUM)
+    if recorded is None:
+        raise ValueError(f"{path}: the plan document has no checksum (written by hand, or by a "
+                         "dloplan before checksums): plan the job again (dloplan plan)")
+    if recorded != content_checksum(data):
+        raise ValueError(f"{path}: the plan document was edited after dloplan wrote it (its "
+                         f"checksum {str(recorded)[:19]}... does not match its content): plan "
+                         "the job again (dloplan plan; export --speed re-times a plan)")
