@@ -41,7 +41,7 @@ def _files(folder: Path) -> dict:
 
 
 @pytest.fixture(scope="session")
-def world(tmp_path_factory) -> World:
+def pristine_world(tmp_path_factory) -> World:
     """The good files the cases start from: a small job and its plan (made once)."""
     from dloplan.vision import RegisteredShape, write_shapes
 
@@ -59,6 +59,19 @@ def world(tmp_path_factory) -> World:
     urdf = folder / "ur5e.urdf"
     shutil.copy(ROOT / "src" / "dloplan" / "robot" / "data" / "ur5e.urdf", urdf)
     return World(folder, job, plan, identification, measured, urdf, study)
+
+
+@pytest.fixture
+def world(pristine_world, tmp_path_factory) -> World:
+    """The world, put back as it was after a case that changed it (which fails that case)."""
+    before = _files(pristine_world.folder)
+    copy = tmp_path_factory.mktemp("pristine") / "world"
+    shutil.copytree(pristine_world.folder, copy, symlinks=True)
+    yield pristine_world
+    if _files(pristine_world.folder) != before:
+        shutil.rmtree(pristine_world.folder)
+        shutil.copytree(copy, pristine_world.folder, symlinks=True)
+    shutil.rmtree(copy)
 
 
 def _argv(case: Case, world: World, folder: Path) -> tuple[list[str], Path]:

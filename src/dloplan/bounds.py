@@ -30,6 +30,10 @@ MAX_TRAJECTORY_SAMPLES = 1_000_000
 """Most samples of a sampled trajectory (CSV, ROS at a rate): 2.7 hours of motion at 100 Hz, as
 CSV about 200 MB."""
 
+MAX_RATE = 10_000.0
+"""Highest sampling rate of an exported trajectory [Hz] (a robot controller's cycle is 0.25 ms
+or longer)."""
+
 MAX_STUDY_SAMPLES = 10_000_000
 """Most samples of a study."""
 

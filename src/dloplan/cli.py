@@ -22,6 +22,7 @@ from .bounds import (
     MAX_LINKS,
     MAX_MEASURED_POINTS,
     MAX_MODULUS_STEPS,
+    MAX_RATE,
     MAX_STUDY_SAMPLES,
     MAX_WORKERS,
     MIN_LINKS,
@@ -93,6 +94,36 @@ def positive_number(text: str) -> float:
     value = finite_number(text)
     if not value > 0:
         raise argparse.ArgumentTypeError(f"got {text!r}, expected a finite number > 0")
+    return value
+
+
+def hsv_range(text: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """``H,S,V:H,S,V`` as its low and high corners (OpenCV's HSV: H 0..180, S and V 0..255)."""
+    try:
+        low, high = (tuple(finite_number(v) for v in part.split(",")) for part in text.split(":"))
+    except (ValueError, argparse.ArgumentTypeError):
+        low = high = ()
+    if len(low) != 3 or len(high) != 3:
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected H,S,V:H,S,V (six numbers)")
+    return low, high
+
+
+def scheduler_address(text: str) -> str:
+    """A Dask scheduler address ``tcp://HOST:PORT`` (checked before any work; connected to
+    later)."""
+    scheme, _, rest = text.partition("://")
+    host, _, port = rest.rpartition(":")
+    if not (scheme and host and port.isdigit() and 0 < int(port) < 65536):
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected an address like "
+                                         "tcp://HOST:PORT")
+    return text
+
+
+def rate(text: str) -> float:
+    """A sampling rate [Hz]: a number > 0 and at most :data:`dloplan.bounds.MAX_RATE`."""
+    value = positive_number(text)
+    if value > MAX_RATE:
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected at most {MAX_RATE:g} Hz")
     return value
 
 
@@ -287,11 +318,7 @@ def _cmd_register(args: argparse.Namespace) -> int:
     from .vision._deps import cv2
 
     calibration = read_calibration(args.calibration)
-    try:
-        low, high = ([float(v) for v in part.split(",")] for part in args.hsv.split(":"))
-    except ValueError:
-        raise ValueError(f"--hsv: got {args.hsv!r}, expected H,S,V:H,S,V") from None
-    colour = HsvRange(tuple(low), tuple(high))
+    colour = HsvRange(*args.hsv)
     shapes = []
     for k, path in enumerate(args.images):
         image = cv2().imread(path)
@@ -543,7 +570,8 @@ def build_parser() -> argparse.ArgumentParser:
                       "checks without repairing the plan (docs/repair.md)")
     plan.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1,
                       help="batch: local worker processes")
-    plan.add_argument("--scheduler", help="batch: Dask scheduler address tcp://HOST:PORT")
+    plan.add_argument("--scheduler", type=scheduler_address,
+                      help="batch: Dask scheduler address tcp://HOST:PORT")
 
     demo = command("demo", _cmd_demo, "run the embedded default job (needs no input)")
     demo.add_argument("-o", "--output", default="out/demo", help="output folder")
@@ -557,7 +585,8 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--seed", type=integer(0), help="override the seed")
     study.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1,
                        help="local worker processes")
-    study.add_argument("--scheduler", help="Dask scheduler address tcp://HOST:PORT")
+    study.add_argument("--scheduler", type=scheduler_address,
+                       help="Dask scheduler address tcp://HOST:PORT")
     study.add_argument("--csv", action="store_true", help="CSV instead of Parquet")
     study.add_argument("--overwrite", action="store_true", help="start over, do not resume")
     study.add_argument("-o", "--output", default="out/study", help="study folder")
@@ -605,7 +634,7 @@ def build_parser() -> argparse.ArgumentParser:
     export.add_argument("--format", choices=list(EXPORT_FORMATS), required=True)
     export.add_argument("-o", "--output", required=True,
                         help="output file (a folder for rapid: one module per arm)")
-    export.add_argument("--rate", type=positive_number, help="sampling rate [Hz] for csv/ros")
+    export.add_argument("--rate", type=rate, help="sampling rate [Hz] for csv/ros")
     export.add_argument("--speed", type=positive_number,
                         help="re-time with this TCP speed [m/s]")
     export.add_argument("--angular-speed", type=positive_number,
@@ -663,7 +692,8 @@ def build_parser() -> argparse.ArgumentParser:
                        "images onto the table plane")
     register.add_argument("images", nargs="+")
     register.add_argument("--calibration", required=True)
-    register.add_argument("--hsv", required=True, help="colour range H,S,V:H,S,V (OpenCV HSV)")
+    register.add_argument("--hsv", required=True, type=hsv_range,
+                          help="colour range H,S,V:H,S,V (OpenCV HSV)")
     register.add_argument("--links", type=integer(MIN_LINKS, MAX_LINKS), default=10,
                           help="n: shapes get n + 1 points")
     register.add_argument("--height", type=finite_number, default=0.0,
@@ -672,14 +702,35 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+INPUTS = {"plan": ("scenarios",), "study": ("scenario",), "simulate": ("file",),
+          "export": ("plan",), "correct": ("plan", "measured"), "compare": ("plan", "shapes"),
+          "identify": ("experiment",), "calibrate": ("image", "intrinsics", "markers"),
+          "register": ("images", "calibration")}
+"""The input arguments of each command that writes ``-o``: an output that is (or holds) one
+of them is refused before any work (:func:`dloplan.io.files.refuse_overwriting_inputs`)."""
+
+
+def _inputs(args: argparse.Namespace) -> list:
+    found = []
+    for name in INPUTS.get(args.command, ()):
+        value = getattr(args, name, None)
+        found += value if isinstance(value, list) else [value]
+    return found
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     with catching_interrupts():
         try:
+            if args.command in INPUTS:
+                from .io.files import refuse_overwriting_inputs
+
+                refuse_overwriting_inputs(getattr(args, "output", None), _inputs(args))
             return args.func(args)
         except BaseException as exc:
-            code = _failed(exc)
+            with shielded():  # a second signal waits: the first one's line is printed
+                code = _failed(exc)
             if code is None:
                 raise
             return code
@@ -688,24 +739,23 @@ def main(argv: list[str] | None = None) -> int:
 def _failed(exc: BaseException) -> int | None:
     """The exit code of a command that ended with ``exc``, its one line printed: a signal
     (``128 + signal``, the processes it started ended), a file that cannot be read or written, or
-    bad input (2); ``None`` for a bug (its traceback is shown)."""
+    bad input (2); ``None`` for a bug (its traceback is shown). Called shielded."""
+    interrupt = interrupt_of(exc)
+    if interrupt is None and not isinstance(exc, OSError | ValueError | ArithmeticError):
+        return None
     from .processes import end_forkserver
 
-    with shielded():
-        interrupt = interrupt_of(exc)
-        if interrupt is None and not isinstance(exc, OSError | ValueError | ArithmeticError):
-            return None
-        end_forkserver()  # were it still importing its preload, it would hold our pipes
-        if interrupt is not None:
-            cause = "" if interrupt.signum == signal.SIGINT else f" by {interrupt.name}"
-            print(f"dloplan: interrupted{cause} (nothing written)", file=sys.stderr)
-            return interrupt.exit_code
-        if isinstance(exc, OSError):
-            where = f"{exc.filename}: " if exc.filename else ""
-            print(f"dloplan: error: {where}{exc.strerror or exc}", file=sys.stderr)
-        else:
-            print(f"dloplan: error: {exc}", file=sys.stderr)
-        return EXIT_FAILURE
+    end_forkserver()  # were it still importing its preload, it would hold our pipes
+    if interrupt is not None:
+        cause = "" if interrupt.signum == signal.SIGINT else f" by {interrupt.name}"
+        print(f"dloplan: interrupted{cause} (nothing written)", file=sys.stderr)
+        return interrupt.exit_code
+    if isinstance(exc, OSError):
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"dloplan: error: {where}{exc.strerror or exc}", file=sys.stderr)
+    else:
+        print(f"dloplan: error: {exc}", file=sys.stderr)
+    return EXIT_FAILURE
 
 
 def run() -> None:  # pragma: no cover - the console script, exercised by subprocess tests

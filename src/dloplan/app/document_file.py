@@ -79,7 +79,9 @@ def read_plan(path: str | os.PathLike) -> PlanDocument:
                              "(dloplan plan JOB -o OUT) and give OUT/plan.json") from None
         raise ValueError(f"{path}: not a plan document (not valid JSON: {exc})") from None
     check_checksum(path, data)
-    return document_from_dict({k: v for k, v in data.items() if k != CHECKSUM})
+    if isinstance(data, dict):
+        data = {key: value for key, value in data.items() if key != CHECKSUM}
+    return document_from_dict(data)
 
 
 def check_checksum(path, data) -> None:
@@ -96,7 +98,11 @@ def check_checksum(path, data) -> None:
     if recorded is None:
         raise ValueError(f"{path}: the plan document has no checksum (written by hand, or by a "
                          "dloplan before checksums): plan the job again (dloplan plan)")
-    if recorded != content_checksum(data):
+    try:
+        actual = content_checksum(data)
+    except ValueError:  # NaN or an infinity: json.dumps(allow_nan=False) writes neither
+        actual = None
+    if recorded != actual:
         raise ValueError(f"{path}: the plan document was edited after dloplan wrote it (its "
                          f"checksum {str(recorded)[:19]}... does not match its content): plan "
                          "the job again (dloplan plan; export --speed re-times a plan)")

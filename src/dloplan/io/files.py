@@ -92,6 +92,29 @@ def read_text(path: str | os.PathLike, limit: int = MAX_INPUT_BYTES, kind: str =
         raise ValueError(f"{path}: not a text file (not UTF-8): expected a {kind}") from None
 
 
+def refuse_overwriting_inputs(output: str | os.PathLike | None, inputs, option: str = "-o") -> None:
+    """Refuse an output that is, or holds, an input of the same command (``export
+    OUT/plan.json --format report -o OUT/plan.json`` would replace the plan with its report;
+    ``plan OUT/job.yaml -o OUT`` would replace the folder holding the job). Paths are compared
+    with their symlinks resolved.
+
+    Raises
+    ------
+    ValueError
+        Naming the option, the output and the input it would replace.
+    """
+    if output is None:
+        return
+    target = Path(os.path.realpath(output))
+    for given in inputs:
+        if given is None:
+            continue
+        source = Path(os.path.realpath(given))
+        if source == target or target in source.parents:
+            raise ValueError(f"{option} {output}: it would replace {given}, an input of this "
+                             "command; choose another output")
+
+
 def _named(exc: OSError, path) -> OSError:
     """``exc`` with the file named (a full disk's ``write()`` names none)."""
     if exc.filename is None:

@@ -22,7 +22,7 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 from scipy.spatial.transform import Rotation
 
-from ..bounds import MAX_LINKS, MAX_SHAPES, MIN_LINKS
+from ..bounds import MAX_LINKS, MAX_RATE, MAX_SHAPES, MIN_LINKS
 from ..cable import CATALOGUE_NAMES, Cable, catalogue_cable
 from ..obstacles.shapes import Box, Cylinder, Table
 from ..shapes import arc_shape, place, sine_shape, straight_shape
@@ -121,7 +121,8 @@ class ArcShape(_Model):
     """A circular arc turning by ``angle`` [deg] in the placement's x-y plane."""
 
     kind: Literal["arc"] = "arc"
-    angle: float = Field(..., allow_inf_nan=False, description="total turning angle [deg]")
+    angle: float = Field(..., ge=-360, le=360, allow_inf_nan=False,
+                         description="total turning angle [deg], at most a full turn")
     placement: Placement = Field(default_factory=Placement)
 
 
@@ -258,6 +259,14 @@ class GripperSpec(_Model):
     auxiliary_vector: Vector3 = Field(default_factory=lambda: [0.0, 0.0, 1.0])
     initial_frames: FrameSpec = Field(default_factory=FrameSpec)
 
+    @field_validator("auxiliary_vector")
+    @classmethod
+    def _direction(cls, v):
+        arr = np.asarray(_finite(v, "auxiliary_vector"), dtype=float)
+        if not np.linalg.norm(arr) > 0:
+            raise ValueError(f"expected a non-zero direction, got {v}")
+        return v
+
 
 class TrajectorySpec(_Model):
     """Timed dual-arm motion (thesis 7.3: 100 mm/s; limits: dloplan.trajectory.limits)."""
@@ -265,7 +274,7 @@ class TrajectorySpec(_Model):
     tcp_speed: PositiveLength | None = Field(
         None, description="[file units/s]; default 100 mm/s (thesis 7.3)")
     angular_speed: PositiveLength = Field(1.0, description="[rad/s]")
-    rate: PositiveLength = Field(50.0, description="sampling rate [Hz]")
+    rate: PositiveLength = Field(50.0, le=MAX_RATE, description="sampling rate [Hz]")
     acceleration: PositiveLength | None = Field(
         None, description="TCP acceleration limit [units/s^2]; default 1 m/s^2 (YuMi)")
     jerk: PositiveLength | None = Field(

@@ -49,6 +49,10 @@ DEFAULT_MAX_ANGULAR_JERK = 100.0
 """TCP angular jerk limit [rad/s^3] (module docstring)."""
 
 
+SLOWEST = 1e-4
+"""Least value of every limit, in SI units (m/s, m/s^2, m/s^3, rad/s, ...)."""
+
+
 def positive(name: str, value) -> float:
     """``value`` as a finite float > 0, or a ValueError naming ``name``, the value and why."""
     try:
@@ -82,7 +86,9 @@ class MotionLimits:
     Raises
     ------
     ValueError
-        For a limit that is not a finite number > 0 (a zero jerk cannot move anything).
+        For a limit that is not a finite number of at least :data:`SLOWEST` (a zero jerk cannot
+        move anything; 1e-300 m/s would take longer than the universe has existed and leaves
+        the time-optimal law's solver without a solution).
     """
 
     speed: float = DEFAULT_MAX_SPEED
@@ -94,7 +100,11 @@ class MotionLimits:
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            object.__setattr__(self, f.name, positive(f.name, getattr(self, f.name)))
+            value = positive(f.name, getattr(self, f.name))
+            if value < SLOWEST:
+                raise ValueError(f"{f.name}: got {value:g}, expected at least {SLOWEST:g} (SI "
+                                 "units: 0.1 mm/s moves a metre in under 3 hours)")
+            object.__setattr__(self, f.name, value)
 
     def scaled(self, factor: float) -> MotionLimits:
         """The same limits with acceleration and jerk (linear and angular) times ``factor``."""
@@ -112,5 +122,6 @@ __all__ = [
     "DEFAULT_MAX_JERK",
     "DEFAULT_MAX_SPEED",
     "MotionLimits",
+    "SLOWEST",
     "positive",
 ]
