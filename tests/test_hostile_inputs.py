@@ -128,3 +128,22 @@ def test_the_console_script_on_endless_inputs(command, tmp_path):
     assert done.returncode == EXIT_FAILURE, done.stderr
     assert len(done.stderr.strip().splitlines()) == 1, done.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_a_full_disk_is_one_line_naming_the_file(world, tmp_path, capsys, monkeypatch):
+    """"No space left on device" alone does not say which file: the line names it, and nothing
+    is left half-written (a tiny tmpfs would do the same; the write is made to fail here)."""
+    import errno
+    import os
+
+    from dloplan.io import files
+
+    def full(fd):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(files.os, "fsync", full)
+    out = tmp_path / "exported" / "trajectory.csv"
+    assert main(["export", str(world.plan), "--format", "csv", "-o", str(out)]) == EXIT_FAILURE
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"dloplan: error: {out}: No space left on device"]
+    assert not (tmp_path / "exported").exists()

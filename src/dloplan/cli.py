@@ -26,6 +26,7 @@ from .bounds import (
     MAX_STUDY_SAMPLES,
     MAX_WORKERS,
     MIN_LINKS,
+    SLOWEST,
 )
 from .exit_codes import (  # noqa: F401 - EXIT_INTERRUPTED re-exported: the command's codes
     EXIT_CHECK_FAILED,
@@ -117,6 +118,14 @@ def scheduler_address(text: str) -> str:
         raise argparse.ArgumentTypeError(f"got {text!r}, expected an address like "
                                          "tcp://HOST:PORT")
     return text
+
+
+def motion_limit(text: str) -> float:
+    """A speed limit [m/s or rad/s]: a number of at least :data:`dloplan.bounds.SLOWEST`."""
+    value = positive_number(text)
+    if value < SLOWEST:
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected at least {SLOWEST:g}")
+    return value
 
 
 def rate(text: str) -> float:
@@ -215,6 +224,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
 def _cmd_correct(args: argparse.Namespace) -> int:
     from .app import read_plan
     from .correct.document import correct_document, measured_points, write_correction
+    from .io.files import staged_files
 
     console = Console(args.quiet)
     doc = read_plan(args.plan)
@@ -223,7 +233,8 @@ def _cmd_correct(args: argparse.Namespace) -> int:
                               reference=args.reference, modulus_steps=args.modulus_steps,
                               model_error=args.model_error)
     console.stage(result.message)
-    written = write_correction(doc, result, args.output)
+    with staged_files(args.output) as staging:  # all of the correction's files, or none
+        written = write_correction(doc, result, staging)
     console.stage(f"wrote {len(written)} files into {args.output}")
     print(json.dumps(result.report()) if args.json else result.message)
     return EXIT_WARNINGS if result.warnings else EXIT_OK
@@ -272,21 +283,21 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     trials = [read_shapes(path) for path in args.shapes]
     result = compare_trials(planned, trials, frame_id=doc.frame_id, end_order=args.end_order)
     if args.output:
+        from .io.files import staged_files
         from .plots.compare import write_comparison_figures
         from .plots.report import write_report
 
-        folder = Path(args.output)
-        folder.mkdir(parents=True, exist_ok=True)
-        written = write_comparison_figures(result, folder, args.plane)
         header = ["shape", "error_x [m]", "error_y [m]", "error_z [m]", "error_tot [m]",
                   "error_euclid [m]"]
         rows = [[r[0], *(f"{v:.4f}" for v in r[1:])] for r in result.rows()]
-        report = write_report(folder / "report.html", title=f"dloplan compare: {args.plan}",
-                              shapes=planned, stabilized=result.registered[0],
-                              overlay_label="registered (trial 1)", summary=[result.message],
-                              tables=[("Planned vs registered (thesis Table 7.2)", header,
-                                       rows)],
-                              images=[p for p in written if p.suffix == ".png"])
+        with staged_files(args.output) as folder:  # the figures and the report, or nothing
+            written = write_comparison_figures(result, folder, args.plane)
+            write_report(folder / "report.html", title=f"dloplan compare: {args.plan}",
+                         shapes=planned, stabilized=result.registered[0],
+                         overlay_label="registered (trial 1)", summary=[result.message],
+                         tables=[("Planned vs registered (thesis Table 7.2)", header, rows)],
+                         images=[p for p in written if p.suffix == ".png"])
+        report = Path(args.output) / "report.html"
         console.stage(f"figures: {', '.join(p.name for p in written)}; report: {report}")
     print(json.dumps({"rows": result.rows(), "message": result.message}, indent=2, default=float)
           if args.json else result.table())
@@ -356,12 +367,14 @@ def _cmd_identify(args: argparse.Namespace) -> int:
                                      simulator=job.simulator)
     console.stage(f"{result.simulations} simulations")
     if args.output:
+        from .io.files import staged_files
         from .plots.figures import identification_figure, save_figure
 
         figure = identification_figure(result.curve[:, 0], result.curve[:, 1],
                                        result.youngs_modulus if result.success else None)
-        written = save_figure(figure, args.output, "identification_cost")
-        console.stage(f"figure: {', '.join(str(p) for p in written)}")
+        with staged_files(args.output) as folder:
+            written = save_figure(figure, folder, "identification_cost")
+        console.stage("figure: " + ", ".join(str(Path(args.output) / p.name) for p in written))
     print(json.dumps(to_dict(result), indent=2) if args.json else "\n".join(report_lines(result)))
     return exit_code(result)
 
@@ -523,10 +536,11 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
                                     youngs_modulus_cap=args.modulus_cap)
     console.stage(run.message)
     if args.output:
+        from .io.files import staged_files
         from .plots.compare import write_comparison_figures
 
-        Path(args.output).mkdir(parents=True, exist_ok=True)
-        written = write_comparison_figures(comparison, args.output, "xz")
+        with staged_files(args.output) as folder:
+            written = write_comparison_figures(comparison, folder, "xz")
         console.stage(f"figures: {', '.join(p.name for p in written)}")
     if args.json:
         print(json.dumps({"ok": run.ok, "message": run.message, "rows": comparison.rows()},
@@ -635,9 +649,9 @@ def build_parser() -> argparse.ArgumentParser:
     export.add_argument("-o", "--output", required=True,
                         help="output file (a folder for rapid: one module per arm)")
     export.add_argument("--rate", type=rate, help="sampling rate [Hz] for csv/ros")
-    export.add_argument("--speed", type=positive_number,
+    export.add_argument("--speed", type=motion_limit,
                         help="re-time with this TCP speed [m/s]")
-    export.add_argument("--angular-speed", type=positive_number,
+    export.add_argument("--angular-speed", type=motion_limit,
                         help="re-time: angular limit [rad/s]")
 
     verify = command("verify", _cmd_verify, "verify a plan: elastic stability, snap-through, "

@@ -344,6 +344,43 @@ def staged_folder(target: str | os.PathLike) -> Iterator[Path]:
             raise
 
 
+@contextlib.contextmanager
+def staged_files(folder: str | os.PathLike) -> Iterator[Path]:
+    """Write files into a folder that may hold other files (a folder of figures): yields a fresh
+    staging folder beside it to write into; on success every file written there is moved into
+    ``folder`` (created if missing; files of the same name replaced, others left alone), on any
+    error or signal nothing is. The folder is locked meanwhile (:func:`output_lock`)."""
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"{folder}: exists and is not a folder (the output folder)")
+    with output_lock(folder):
+        try:
+            staging = Path(tempfile.mkdtemp(dir=folder.parent, prefix=f".{folder.name}.tmp-"))
+        except OSError as exc:
+            raise _named(exc, folder) from None
+        created = not folder.exists()
+        try:
+            yield staging
+            raise_if_interrupted()
+            with shielded():
+                folder.mkdir(exist_ok=True)
+                for path in sorted(staging.rglob("*")):
+                    if path.is_file():
+                        target = folder / path.relative_to(staging)
+                        target.parent.mkdir(parents=True, exist_ok=True)
+                        os.replace(path, target)
+        except BaseException as exc:
+            with shielded():
+                if created and folder.exists() and not any(folder.iterdir()):
+                    folder.rmdir()
+            if isinstance(exc, OSError):
+                raise _named(exc, folder) from None
+            raise
+        finally:
+            with shielded():
+                shutil.rmtree(staging, ignore_errors=True)
+
+
 def _publish_folder(staging: Path, target: Path) -> None:
     """Move ``staging`` into the place of ``target`` (the previous output, if any, is removed;
     put back if the move fails)."""

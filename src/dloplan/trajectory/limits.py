@@ -30,6 +30,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
+from ..bounds import SLOWEST
+
 DEFAULT_MAX_SPEED = 0.1
 """TCP speed limit [m/s] (thesis 7.3: 100 mm/s)."""
 
@@ -47,10 +49,6 @@ DEFAULT_MAX_ANGULAR_ACCELERATION = 10.0
 
 DEFAULT_MAX_ANGULAR_JERK = 100.0
 """TCP angular jerk limit [rad/s^3] (module docstring)."""
-
-
-SLOWEST = 1e-4
-"""Least value of every limit, in SI units (m/s, m/s^2, m/s^3, rad/s, ...)."""
 
 
 def positive(name: str, value) -> float:
