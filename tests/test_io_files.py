@@ -9,12 +9,12 @@ import sys
 
 import pytest
 
+from dloplan.inputs import read_text
 from dloplan.io import files
 from dloplan.io.files import (
     atomic_file,
     atomic_write_texts,
     output_lock,
-    read_text,
     refuse_overwriting_inputs,
     staged_files,
     staged_folder,

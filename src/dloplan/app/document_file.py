@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from ..bounds import MAX_PLAN_BYTES
-from ..io.files import atomic_write_text, read_text
+from ..inputs import read_text
+from ..io.files import atomic_write_text
 from ..pipeline.document import PLAN_FORMAT, PlanDocument, document_from_dict, document_to_dict
 
 

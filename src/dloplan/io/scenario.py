@@ -22,12 +22,12 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 from scipy.spatial.transform import Rotation
 
-from ..bounds import MAX_LINKS, MAX_RATE, MAX_SHAPES, MIN_LINKS
+from ..bounds import MAX_INPUT_BYTES, MAX_LINKS, MAX_RATE, MAX_SHAPES, MIN_LINKS
 from ..cable import CATALOGUE_NAMES, Cable, catalogue_cable
+from ..inputs import read_text
 from ..obstacles.shapes import Box, Cylinder, Table
 from ..shapes import arc_shape, place, sine_shape, straight_shape
 from ..study.spec import StudySpec
-from .files import MAX_INPUT_BYTES, read_text
 
 SCHEMA_VERSION = 1
 
@@ -474,7 +474,7 @@ def parse_scenario(data: Any, source: str = "scenario") -> Scenario:
 
 
 MAX_FILE_BYTES = MAX_INPUT_BYTES
-"""Largest job file read [bytes] (:data:`dloplan.io.files.MAX_INPUT_BYTES`)."""
+"""Largest job file read [bytes] (:data:`dloplan.bounds.MAX_INPUT_BYTES`)."""
 
 
 MAX_VALUES = 5_000_000
@@ -506,7 +506,7 @@ def expanded_size(data) -> int:
 
 def read_mapping(path: str | Path) -> dict:
     """Read a YAML or JSON file into a mapping; one-line errors for unreadable files (a regular
-    text file of at most :data:`MAX_FILE_BYTES`, :func:`dloplan.io.files.read_text`)."""
+    text file of at most :data:`MAX_FILE_BYTES`, :func:`dloplan.inputs.read_text`)."""
     path = Path(path)
     try:
         text = read_text(path, MAX_FILE_BYTES, "job file", " (thin out its points: shapes "

@@ -291,7 +291,7 @@ def _mesh_reader(urdf_path: Path, package_dirs: dict[str, str]):
 def read_urdf(path: Path):
     """A URDF file as a ``yourdfpy.URDF`` (the ``robot`` extra), without meshes or scene graph.
 
-    The file is read once, bounded (:func:`dloplan.io.files.read_text`: a missing file, a
+    The file is read once, bounded (:func:`dloplan.inputs.read_text`: a missing file, a
     symlink loop, a device or a folder, a file over 10 MB, binary data; the vendored URDFs have
     about 10 kB) and
     parsed as XML here, so that what is not a URDF is refused with one line naming the file and
@@ -309,7 +309,7 @@ def read_urdf(path: Path):
         raise ImportError("reading a URDF needs yourdfpy: pip install 'dloplan[robot]'") from exc
     from lxml import etree
 
-    from ..io.files import read_text
+    from ..inputs import read_text
 
     text = read_text(path, kind="URDF file")
     parser = etree.XMLParser(remove_blank_text=True, resolve_entities=False, no_network=True)

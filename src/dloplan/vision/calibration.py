@@ -22,7 +22,8 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..io.files import atomic_write_text, read_text
+from ..inputs import read_text
+from ..io.files import atomic_write_text
 from ..io.poses import canonical_quaternions, pose_from_dict, transform_dict
 from . import _deps
 from .camera import CameraIntrinsics, project_normalized

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..io.files import read_text
+from ..inputs import read_text
 from ..io.poses import pose_from_dict
 from . import _deps
 from .camera import CameraIntrinsics, normalize_pixels, project_normalized

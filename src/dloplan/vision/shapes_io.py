@@ -32,7 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from ..geometry import as_shape
-from ..io.files import atomic_write_text, read_text
+from ..inputs import read_text
+from ..io.files import atomic_write_text
 
 SHAPES_FORMAT = "dloplan-shapes"
 CSV_COLUMNS = ("label", "frame_id", "x", "y", "z")
