@@ -97,10 +97,7 @@ def test_a_hostile_input_exits_2_with_one_line_and_writes_nothing(case, world, t
     previous = signal.signal(signal.SIGALRM, _alarm)
     signal.setitimer(signal.ITIMER_REAL, HANG)
     try:
-        try:
-            code = main(argv)
-        except SystemExit as exc:  # argparse
-            code = exc.code
+        code = main(argv)
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)

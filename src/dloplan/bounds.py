@@ -34,10 +34,10 @@ MAX_RATE = 10_000.0
 """Highest sampling rate of an exported trajectory [Hz] (a robot controller's cycle is 0.25 ms
 or longer)."""
 
-SLOWEST = 1e-4
+SLOWEST = 1e-5
 """Least value of every motion limit (speed, acceleration, jerk, linear and angular) in SI units
-(m/s, m/s^2, m/s^3, rad/s, ...): 0.1 mm/s moves a metre in under 3 hours; 1e-300 m/s would
-leave the time-optimal law's solver without a solution."""
+(m/s, m/s^2, m/s^3, rad/s, ...): 0.01 mm/s moves a metre in 28 hours; 1e-300 m/s would leave
+the time-optimal law's solver without a solution."""
 
 MAX_STUDY_SAMPLES = 10_000_000
 """Most samples of a study."""

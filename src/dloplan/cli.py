@@ -92,8 +92,11 @@ def _cmd_cables(args: argparse.Namespace) -> int:
 
 def positive_number(text: str) -> float:
     """An option's value as a finite number > 0 (argparse names the option when it fails)."""
-    value = finite_number(text)
-    if not value > 0:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"got {text!r}, expected a finite number > 0")
     return value
 
@@ -733,8 +736,13 @@ def _inputs(args: argparse.Namespace) -> list:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command of ``argv`` (default ``sys.argv[1:]``); returns its exit code, also for
+    a bad option (2, one line) and ``--help`` or ``--version`` (0)."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:
+        return exc.code if isinstance(exc.code, int) else EXIT_OK
     with catching_interrupts():
         try:
             if args.command in INPUTS:

@@ -5,7 +5,8 @@ Floats are written with Python's shortest round-tripping repr, so a document rea
 document written. The file records a checksum of its content (``"checksum": "sha256:..."``, the
 SHA-256 of its data as canonical JSON: sorted keys, no spaces, the checksum left out), so that a
 document changed after dloplan wrote it is recognised: :func:`read_plan` refuses it (and one
-without a checksum), with one line. A plan is what was planned and verified; a hand edit (a shape,
+without a checksum), with one line. Version 1 documents, from before checksums, are read as they
+are: an edit to one is not detected. A plan is what was planned and verified; a hand edit (a shape,
 a time, a pose) would be verified, exported or corrected as if it had been: plan the job again
 instead (``export --speed`` re-times a plan). Whitespace and key order are not content.
 """
@@ -93,8 +94,9 @@ def check_checksum(path, data) -> None:
     ValueError
         One line naming the file: no checksum, or one that does not match the content.
     """
-    if not isinstance(data, dict) or data.get("format") != PLAN_FORMAT:
-        return  # not a plan document at all: document_from_dict says so
+    if not isinstance(data, dict) or data.get("format") != PLAN_FORMAT or \
+            data.get("version") == 1:
+        return  # not a plan document at all (document_from_dict says so), or one from before
     recorded = data.get(CHECKSUM)
     if recorded is None:
         raise ValueError(f"{path}: the plan document has no checksum (written by hand, or by a "

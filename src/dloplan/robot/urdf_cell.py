@@ -604,8 +604,11 @@ def cell_from_specs(name: str, left: ArmSpec, right: ArmSpec, *,
         try:
             description = load_arm(spec.urdf, spec.tip_link, base_link=spec.base_link,
                                    name=f"{name}_{side}", package_dirs=spec.package_dirs)
-        except ValueError as exc:
-            raise ValueError(f"robot.cell.arms.{side}: {exc}") from None
+        except ValueError as exc:  # about tip_link / base_link, or about the URDF file
+            field_name = str(exc).split(":", 1)[0]
+            where = f"robot.cell.arms.{side}" + ("" if field_name in ("tip_link", "base_link")
+                                                 else ".urdf")
+            raise ValueError(f"{where}: {exc}") from None
         if spec.home is not None and len(spec.home) != description.n_joints:
             raise ValueError(f"robot.cell.arms.{side}.home_deg: got {len(spec.home)} values, "
                              f"expected {description.n_joints} (one per joint of "

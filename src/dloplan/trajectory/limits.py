@@ -101,7 +101,7 @@ class MotionLimits:
             value = positive(f.name, getattr(self, f.name))
             if value < SLOWEST:
                 raise ValueError(f"{f.name}: got {value:g}, expected at least {SLOWEST:g} (SI "
-                                 "units: 0.1 mm/s moves a metre in under 3 hours)")
+                                 "units: 0.01 mm/s moves a metre in 28 hours)")
             object.__setattr__(self, f.name, value)
 
     def scaled(self, factor: float) -> MotionLimits:
