@@ -69,10 +69,16 @@ def read_plan(path: str | os.PathLike) -> PlanDocument:
     ------
     ValueError
         When the file cannot be read, is not valid JSON or not a plan document (naming the
-        field).
+        field), or its content is not what dloplan wrote (:func:`check_checksum`).
     """
+    return plan_from_data(path, read_plan_data(path))
+
+
+def read_plan_data(path: str | os.PathLike):
+    """The parsed JSON of a plan file (bounded: :data:`dloplan.bounds.MAX_PLAN_BYTES`), not yet
+    checked to be a plan document (:func:`plan_from_data`)."""
     try:
-        data = json.loads(read_text(path, MAX_PLAN_BYTES, "plan document"))
+        return json.loads(read_text(path, MAX_PLAN_BYTES, "plan document"))
     except RecursionError:
         raise ValueError(f"{path}: nested too deeply to be a plan document") from None
     except json.JSONDecodeError as exc:
@@ -80,6 +86,10 @@ def read_plan(path: str | os.PathLike) -> PlanDocument:
             raise ValueError(f"{path}: a YAML job file, not a plan document: plan it first "
                              "(dloplan plan JOB -o OUT) and give OUT/plan.json") from None
         raise ValueError(f"{path}: not a plan document (not valid JSON: {exc})") from None
+
+
+def plan_from_data(path, data) -> PlanDocument:
+    """The plan document of a plan file's parsed data, its checksum checked."""
     check_checksum(path, data)
     if isinstance(data, dict):
         data = {key: value for key, value in data.items() if key != CHECKSUM}
