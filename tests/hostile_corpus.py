@@ -447,7 +447,10 @@ def _cases() -> list[Case]:  # noqa: C901 - one long table
         "deep": (special("deep", "plan.json"), "nested too deeply"),
     }
     for name, (make, fragment) in documents.items():
-        add(f"verify-plan-{name}", "verify {f}", fragment, make)
+        if name in ("yaml-job", "scenario-json"):  # verify plans a job file first: export not
+            add(f"export-plan-{name}", "export {f} --format csv -o {out}", fragment, make)
+        else:
+            add(f"verify-plan-{name}", "verify {f}", fragment, make)
     for command in ("export {f} --format csv -o {out}", "simulate {f} -o {out}",
                     "correct {f} --at 1 --measured {measured} -o {out}",
                     "compare {f} {measured} -o {out}"):
