@@ -105,7 +105,9 @@ def main_sweep(quick: bool) -> int:
                         problems = [p for p in problems if p != "the output folder changed"]
                     outcomes.append((outcome, problems))
                     verdict = "not reached" if not outcome.reached else (
-                        "ok" if not problems else "BAD: " + "; ".join(problems))
+                        "BAD: " + "; ".join(problems) if problems else
+                        "ok (ended by the signal before dloplan's first line)"
+                        if outcome.before_start else "ok")
                     print(f"{label:14s} {signal.Signals(signum).name:7s} {outcome.moment:38s} "
                           f"exit {outcome.code!s:>4}  gone after {outcome.gone_after:5.2f} s  "
                           f"{verdict}", flush=True)
@@ -119,8 +121,9 @@ def main_sweep(quick: bool) -> int:
     reached = [(o, p) for o, p in outcomes if o.reached]
     bad = [(o, p) for o, p in reached if p]
     gone = sorted(o.gone_after for o, _ in reached)
-    print(f"\n{len(outcomes)} runs, {len(reached)} signalled before the command ended, "
-          f"{len(bad)} bad outcomes")
+    early = sum(o.before_start for o, _ in reached)
+    print(f"\n{len(outcomes)} runs, {len(reached)} signalled before the command ended ({early} "
+          f"of them before dloplan's first line ran), {len(bad)} bad outcomes")
     if gone:
         p90 = gone[int(0.9 * (len(gone) - 1))]
         print(f"signal -> every process gone and the pipes shut: median "

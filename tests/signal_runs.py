@@ -88,14 +88,21 @@ class Outcome:
     changed: bool = False
     left: list = field(default_factory=list)
 
-    def problems(self, *, interrupted_code: bool = True) -> list[str]:
+    @property
+    def before_start(self) -> bool:
+        """The signal came while the interpreter itself started, before dloplan's first line
+        (:mod:`dloplan.console`): the process ended by the signal's default action, which a
+        shell reports as the same 128 + signal, with nothing started or written."""
+        return self.code == -self.signum and not self.stderr.strip()
+
+    def problems(self) -> list[str]:
         """What went wrong (empty when nothing did); a moment that was not reached (the
         command had ended by itself) is no problem of the signal's."""
         if not self.reached:
             return []
         found = []
         expected = 128 + self.signum
-        if self.code != expected:
+        if self.code != expected and not self.before_start:
             found.append(f"exit {self.code}, expected {expected}")
         if "Traceback" in self.stderr or "Exception ignored" in self.stderr:
             found.append("traceback on stderr")
