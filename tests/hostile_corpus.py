@@ -166,7 +166,8 @@ def shape_file(rows: list[str], name: str = "measured.csv"):
     """A maker of a registered-shape CSV with the given point rows (x,y,z)."""
     def make(folder: Path, world: World) -> Path:
         path = folder / name
-        path.write_text("label,frame_id,x,y,z\n" + "".join(f"xi_1,robot_base,{row}\n"
+        frame = json.loads(world.plan.read_text())["frame_id"]
+        path.write_text("label,frame_id,x,y,z\n" + "".join(f"xi_1,{frame},{row}\n"
                                                            for row in rows))
         return path
     return make

@@ -112,7 +112,8 @@ def test_export_help_lists_every_format_and_every_writer_is_exportable():
 
     export = COMMANDS["export"]
     choices = set(_options("export")["--format"].choices)
-    assert choices == set(WRITERS) - {"figures"}
+    # figures go with the report; a correction is written by dloplan correct
+    assert choices == set(WRITERS) - {"figures", "correction"}
     for name in choices:  # in the description, not only in the usage's list of choices
         assert re.search(rf"\b{name}\b", export.description), name
 

@@ -49,9 +49,9 @@ def pristine_world(tmp_path_factory) -> World:
     job = write_yaml(folder, SMALL)
     assert main(["plan", str(job), "-o", str(folder / "planned"), "-q"]) in (0, 1)
     plan = folder / "planned" / "plan.json"
-    stabilized = np.asarray(json.loads(plan.read_text())["stabilized"][1])
-    measured = write_shapes(folder / "measured.csv", [RegisteredShape(stabilized,
-                                                                      label="xi_1")])
+    data = json.loads(plan.read_text())
+    measured = write_shapes(folder / "measured.csv", [RegisteredShape(
+        np.asarray(data["stabilized"][1]), frame_id=data["frame_id"], label="xi_1")])
     identification = folder / "identify.yaml"
     shutil.copy(ROOT / "examples" / "identify_ethernet.yaml", identification)
     study = folder / "study.yaml"
