@@ -556,5 +556,12 @@ def test_a_hand_edited_plan_is_refused(plans, tmp_path, capsys):
                                           frame_id=doc.frame_id)])
     assert main(["correct", str(edited), "--at", "3", "--measured", str(shapes), "-o",
                  str(tmp_path / "out"), "-q"]) == 2
+    assert "edited after dloplan wrote it" in capsys.readouterr().err  # its checksum
+    # with the checksum forged too, the recorded program is still checked against the plan
+    from dloplan.app.document_file import CHECKSUM, content_checksum
+
+    edited.write_text(json.dumps({**data, CHECKSUM: content_checksum(data)}))
+    assert main(["correct", str(edited), "--at", "3", "--measured", str(shapes), "-o",
+                 str(tmp_path / "out"), "-q"]) == 2
     assert "plan.robot" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()

@@ -35,8 +35,9 @@ def study_spec(job: Job, samples: int | None = None, seed: int | None = None) ->
     Raises
     ------
     StudyError
-        No ``study:`` section or no parameters (a study with nothing to vary), or an override
-        the schema refuses (e.g. ``samples: 0``).
+        No ``study:`` section or no parameters (a study with nothing to vary), an override the
+        schema refuses (e.g. ``samples: 0``), or a ``correction.at`` that is not a shape before
+        the target: all before any work is done.
     """
     if job.study is None:
         raise StudyError(f"{job.source}: no study section: nothing to vary (see docs/study.md)")
@@ -45,6 +46,11 @@ def study_spec(job: Job, samples: int | None = None, seed: int | None = None) ->
     spec = parse_study(data, f"{job.source}: study")
     if not spec.parameters:
         raise StudyError(f"{job.source}: study.parameters: none given: nothing varies")
+    last = job.planner.n_shapes  # shapes 0 .. S + 1; the target cannot be corrected
+    if spec.correction is not None and spec.correction.at > last:
+        raise StudyError(f"{job.source}: study.correction.at: got {spec.correction.at}, "
+                         f"expected a shape 0 .. {last} (the plan has S + 2 = {last + 2} "
+                         "shapes; the target cannot be corrected)")
     return spec
 
 

@@ -29,6 +29,8 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from ..bounds import MAX_MEASURED_POINTS, MAX_STUDY_SAMPLES
+
 PARAMETERS: dict[str, str] = {
     "youngs_modulus": "%",
     "mass_per_length": "%",
@@ -105,7 +107,7 @@ class CorrectionSpec(_Model):
     at: int = Field(..., ge=0, description="the shape after which the cable is measured")
     noise: float = Field(1.0, ge=0, allow_inf_nan=False,
                          description="measurement noise per coordinate [mm]")
-    n_measured: int = Field(200, ge=2, le=100_000, description="measured points")
+    n_measured: int = Field(200, ge=2, le=MAX_MEASURED_POINTS, description="measured points")
     tolerance: float = Field(5.0, gt=0, allow_inf_nan=False,
                              description="largest final mean error counted a success [mm]")
     plant_links: int | None = Field(None, ge=2, le=2000,
@@ -117,7 +119,7 @@ class CorrectionSpec(_Model):
 class StudySpec(_Model):
     """A robustness study (the ``study:`` section of a scenario file)."""
 
-    samples: int = Field(100, ge=1, le=10_000_000, description="number of samples N")
+    samples: int = Field(100, ge=1, le=MAX_STUDY_SAMPLES, description="number of samples N")
     seed: int = Field(0, ge=0, description="seed of the sampler (same seed, same table)")
     sampler: Literal["lhs", "random"] = Field(
         "lhs", description="lhs: Latin hypercube (scipy.stats.qmc); random: independent draws")
