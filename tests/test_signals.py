@@ -134,11 +134,13 @@ def test_two_exports_into_one_folder_leave_files_that_read_back(tmp_path):
     assert any(code == EXIT_OK for code, _ in results), results
     for code, err in results:
         assert code == EXIT_OK or (code == EXIT_FAILURE and "another dloplan run" in err), err
-    files = sorted(target.glob("*.yaml"))
+    files = sorted(target.glob("*_joint_trajectory.yaml"))
     assert len(files) == 2 and not leftovers(target)
+    assert len(list(target.glob("*.yaml"))) == 3  # and the gripper actions
     for path in files:
         message = yaml.safe_load(path.read_text())
         assert len(message["points"]) > 1 and len(message["joint_names"]) == 6
+    assert yaml.safe_load((target / "dloplan_gripper_actions.yaml").read_text())["actions"]
 
 
 def test_a_second_study_into_the_same_folder_is_refused_before_any_work(tmp_path):
