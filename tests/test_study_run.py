@@ -160,8 +160,9 @@ def test_a_chunk_is_its_samples_evaluated_one_by_one(problem):
     # (clips out of reach, a cable with a negative mass) and their messages included
     study = parse_study({"samples": 24, "seed": 3, "parameters": {
         "youngs_modulus": {"spread": 40},
-        "mass_per_length": {"spread": 150, "distribution": "uniform"}, "length": {"spread": 10}, "clip_position": {"spread": 3},
-        "clip_orientation": {"spread": 3}, "obstacle_position": {"spread": 10}}})
+        "mass_per_length": {"spread": 150, "distribution": "uniform"}, "length": {"spread": 10},
+        "clip_position": {"spread": 3}, "clip_orientation": {"spread": 3},
+        "obstacle_position": {"spread": 10}}})
     samples = draw_samples(study, problem.cable, problem.obstacles)
     chunk = chunk_items(samples, 24, [0])[0]
     table = evaluate_chunk(problem, chunk)
