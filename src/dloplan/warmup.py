@@ -1,0 +1,146 @@
+"""Fill numba's on-disk cache with every kernel a run uses, in parallel processes.
+
+dloplan's compiled kernels (``@dloplan.jit.njit(cache=True)``) are compiled on their first call
+and loaded from ``__pycache__`` afterwards. Compiling all of them costs about 100 s of CPU, which
+the first ``dloplan demo`` after an install, or the first test of each test worker, would
+otherwise wait for. ``make`` runs ``python -m dloplan.warmup`` once after installing, so a fresh
+clone's first ``make demo`` starts warm and ``make test``'s workers load rather than compile
+(two test workers on an empty cache both compile the kernels they share).
+
+A kernel is compiled for the argument types of its call, so the warm-up calls the kernels the
+way the commands do: it runs small real jobs (:data:`EXERCISES`), each in the processes of a
+pool with one process per core, the longest first. A kernel two exercises need at the same
+moment is compiled by both (numba has no lock between compilations); the saves are safe
+(:mod:`dloplan.jit`), and the exercises are chosen to share little. Exercises started after a
+kernel was saved load it.
+
+Run: ``python -m dloplan.warmup [--workers N]``; it prints each exercise's time and the kernels
+compiled, and exits 1 naming an exercise that failed (the kernels it compiled stay cached).
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+
+def _demo_mapping(**changes) -> dict:
+    """The embedded demo's scenario mapping, with top-level sections replaced."""
+    from importlib import resources
+
+    from .io.scenario import read_mapping
+
+    with resources.as_file(resources.files("dloplan.data").joinpath("demo.yaml")) as path:
+        return {**read_mapping(path), **changes}
+
+
+def _job(**changes):
+    from .app.load import resolve_mapping
+
+    return resolve_mapping(_demo_mapping(**changes), "warm-up")
+
+
+def plan_verify_repair() -> None:
+    """``dloplan plan --verify`` of the demo: planner, twist, the YuMi's program, stability,
+    snap-through and replay."""
+    from .repair import plan_and_repair
+
+    plan_and_repair(_job(), physics=True)
+
+
+def described_cell() -> None:
+    """A plan on two Franka Pandas: a described cell's IK, placement and program."""
+    from .repair import plan_and_repair
+
+    plan_and_repair(_job(robot={"cell": {"preset": "panda_pair", "separation": 1.0},
+                                "place": True}), physics=False)
+
+
+def dynamics_with_torsion() -> None:
+    """``dloplan simulate --torsion`` of a plan: the explicit time stepping with twist."""
+    from .app.pipeline import run_job, simulate_plan
+
+    doc = run_job(_job(planner={"n_shapes": 2}), check_robot=False)
+    simulate_plan(doc, torsion=True)
+    simulate_plan(doc, torsion=False)
+
+
+def study() -> None:
+    """A study chunk: the batched equilibria and the obstacle checks."""
+    from .app.pipeline import run_job
+    from .app.study import study_problem_of
+    from .study import draw_samples, evaluate_chunk, parse_study
+    from .study.run import chunk_items
+
+    problem = study_problem_of(run_job(_job(planner={"n_shapes": 2}), check_robot=False))
+    spec = parse_study({"samples": 4, "parameters": {"youngs_modulus": {"spread": 10},
+                                                     "obstacle_position": {"spread": 1}}})
+    samples = draw_samples(spec, problem.cable, problem.obstacles)
+    evaluate_chunk(problem, chunk_items(samples, 4, [0])[0])
+
+
+EXERCISES = {
+    "plan --verify": plan_verify_repair,
+    "described cell": described_cell,
+    "simulate --torsion": dynamics_with_torsion,
+    "study": study,
+}
+"""The warm-up's jobs, longest first (on 2 cores the first takes one core alone)."""
+
+
+def kernel_files(root: Path | None = None) -> int:
+    """The number of compiled overloads (``*.nbc``) cached under dloplan's folder."""
+    root = Path(__file__).parent if root is None else root
+    return sum(1 for _ in root.rglob("__pycache__/*.nbc"))
+
+
+def _run(name: str) -> tuple[str, float, str]:
+    """One exercise in a pool process: (name, seconds, error or "")."""
+    import warnings
+
+    start = time.perf_counter()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            EXERCISES[name]()
+    except Exception as exc:  # noqa: BLE001 - reported, the other exercises go on
+        return name, time.perf_counter() - start, f"{type(exc).__name__}: {exc}"
+    return name, time.perf_counter() - start, ""
+
+
+def warm(workers: int | None = None, progress=print) -> bool:
+    """Run every exercise on ``workers`` processes (default: one per core); True if all ran."""
+    workers = workers or os.cpu_count() or 1
+    before = kernel_files()
+    start = time.perf_counter()
+    context = multiprocessing.get_context("spawn")  # fresh interpreters: nothing half-loaded
+    ok = True
+    with ProcessPoolExecutor(min(workers, len(EXERCISES)), mp_context=context) as pool:
+        futures = [pool.submit(_run, name) for name in EXERCISES]
+        for future in as_completed(futures):
+            name, seconds, error = future.result()
+            ok = ok and not error
+            progress(f"warm-up: {name} {seconds:.1f} s" + (f" FAILED: {error}" if error else ""))
+    progress(f"warm-up: {kernel_files() - before} kernels compiled and cached in "
+             f"{time.perf_counter() - start:.1f} s on {workers} processes")
+    return ok
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m dloplan.warmup",
+                                     description=__doc__.splitlines()[0])
+    parser.add_argument("--workers", type=int, default=None,
+                        help="processes (default: one per core)")
+    args = parser.parse_args(argv)
+    if args.workers is not None and args.workers < 1:
+        parser.error(f"--workers: got {args.workers}, expected an integer >= 1")
+    return 0 if warm(args.workers) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
