@@ -28,7 +28,7 @@ browser:
 	  >/dev/null) ; } || echo "chromium not installed: the browser test will be skipped"
 
 test: lint browser
-	$(BIN)/python -m pytest -q -n 2
+	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
 
 # some benchmarks reuse the tests' scene builders (tests/ on the path)
 bench: $(STAMP)

@@ -24,6 +24,9 @@ from dloplan.app import WRITERS, load_scenario, read_plan, run_job, write_output
 from dloplan.app.document import PLAN_VERSION, PlanDocument, document_from_dict, document_to_dict
 from dloplan.cable import Cable, catalogue_cable
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_plan_document")
+
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 DATA = Path(__file__).resolve().parent / "data"
 

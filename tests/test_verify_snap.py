@@ -11,6 +11,9 @@ from dloplan.sim.clips import ClipPoses
 from dloplan.sim.statics import continuation, equilibrium
 from dloplan.verify.snap import check_snap_through, clip_motion
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_verify_snap")
+
 WEIGHTLESS = (0.0, 0.0, 0.0)
 TILT = math.radians(20.0)
 ROTATION = math.radians(-60.0)
