@@ -122,14 +122,16 @@ EXERCISES = {
     "robot program": robot_program,
     "twist": twist,
     "plan --verify": plan_verify,
-    "described cell": described_cell,
     "simulate --torsion": dynamics_with_torsion,
     "study": study,
+    "described cell": described_cell,
 }
 """The warm-up's jobs in the order they are started. The first three compile disjoint kernel
-sets of about equal cost (the static solver and planner; the IK; the torsion solver), so that
-two processes share the work; the demo's ``plan --verify`` then finds them cached and compiles
-only the verification's kernels; the last three add what the demo does not use."""
+sets (the static solver and planner, about 55 % of the demo's compilation; the IK, 30 %; the
+torsion solver, 20 %): on two processes the first takes one while the other two follow each
+other on the second, so that when the demo's ``plan --verify`` starts it finds them cached and
+compiles only the replay's stepping; the last three add what the demo does not use (measured
+with numba's compile events: docs/performance.md)."""
 
 
 def kernel_files(root: Path | None = None) -> int:
@@ -138,7 +140,7 @@ def kernel_files(root: Path | None = None) -> int:
     return sum(1 for _ in root.rglob("__pycache__/*.nbc"))
 
 
-def _run(name: str) -> tuple[str, float, str]:
+def run_exercise(name: str) -> tuple[str, float, str]:
     """One exercise in a pool process: (name, seconds, error or "")."""
     import warnings
 
@@ -152,15 +154,17 @@ def _run(name: str) -> tuple[str, float, str]:
     return name, time.perf_counter() - start, ""
 
 
-def warm(workers: int | None = None, progress=print) -> bool:
-    """Run every exercise on ``workers`` processes (default: one per core); True if all ran."""
+def warm(workers: int | None = None, progress=print, exercises=None) -> bool:
+    """Run the exercises (default :data:`EXERCISES`, by name) on ``workers`` processes
+    (default: one per core); True if all ran."""
     workers = workers or os.cpu_count() or 1
+    names = list(EXERCISES if exercises is None else exercises)
     before = kernel_files()
     start = time.perf_counter()
     context = multiprocessing.get_context("spawn")  # fresh interpreters: nothing half-loaded
     ok = True
-    with ProcessPoolExecutor(min(workers, len(EXERCISES)), mp_context=context) as pool:
-        futures = [pool.submit(_run, name) for name in EXERCISES]
+    with ProcessPoolExecutor(min(workers, len(names)), mp_context=context) as pool:
+        futures = [pool.submit(run_exercise, name) for name in names]
         for future in as_completed(futures):
             name, seconds, error = future.result()
             ok = ok and not error
