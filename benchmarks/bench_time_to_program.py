@@ -18,8 +18,9 @@ the plan document it wrote (``plan.json``: ``timings`` per stage, the verificati
                 included), the rest (re-verifications, refused kinds) as ``other``
 
 An example ``dloplan plan`` does not verify (a harness job) or does not take (an
-identification file) is listed with the reason. Each example runs ``--runs`` times after one
-untimed run (byte code and kernel caches); the fastest run by wall time is shown.
+identification file) is listed with the reason. Each example runs ``--runs`` times (the fastest
+by wall time is shown), after one untimed run of the first example per checkout (byte code and
+kernel caches; ``--warm-each`` runs every example once untimed first).
 
 ``--before REV`` times another revision (a git revision of this repository, exported with
 ``git archive``, or a ``src`` folder), run for run alternating with this checkout, and prints
@@ -153,6 +154,10 @@ def main() -> None:
     parser.add_argument("--before", help="a git revision or a src folder to compare with")
     parser.add_argument("--first-run", action="store_true",
                         help="also time the first run on an empty kernel cache")
+    parser.add_argument("--warm-each", action="store_true",
+                        help="one untimed run of every example first (not only the first)")
+    parser.add_argument("--no-examples", action="store_true",
+                        help="skip the examples (with --first-run: only the first run)")
     args = parser.parse_args()
     adopt_orphans()
     print(f"load average {', '.join(f'{v:.1f}' for v in os.getloadavg())} on "
@@ -163,16 +168,17 @@ def main() -> None:
         if args.before:
             sources = {"before": source_of(args.before, folder / "before"), "this": None}
         results: dict[str, dict[str, list]] = {name: {} for name in sources}
-        for example in examples(args.only):
-            for source in sources.values():  # untimed: byte code, kernels
-                run_plan(example, folder / "out", source)
+        for k, example in enumerate([] if args.no_examples else examples(args.only)):
+            if k == 0 or args.warm_each:
+                for source in sources.values():  # untimed: byte code, kernels
+                    run_plan(example, folder / "out", source)
             for _ in range(args.runs):
                 for name, source in sources.items():
                     results[name].setdefault(example.stem, []).append(
                         run_plan(example, folder / "out", source))
         header = (f"{'example':<28} {'exit':>4} {'wall':>6} {'CPU':>6} "
                   + "".join(f" {k:>7}" for k in ("load+wr", *dict(STAGES))))
-        for name in sources:
+        for name in sources if not args.no_examples else ():
             print(f"\n== {name}: dloplan plan EX --verify, best of {args.runs} by wall [s] "
                   f"(target {TARGET_WARM_S:.0f} s wall warm)")
             print(header)
@@ -183,7 +189,7 @@ def main() -> None:
                 line = details(best(runs))
                 if line:
                     print(f"   {stem:<28} {line}")
-        if args.before:
+        if args.before and not args.no_examples:
             print("\nthis / before (wall, CPU):")
             for stem, runs in results["this"].items():
                 this, before = best(runs), best(results["before"][stem])
