@@ -166,11 +166,11 @@ def adopt_orphans() -> None:
     ctypes.CDLL(None, use_errno=True).prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
 
 
-def run(command: list[str], env: dict[str, str], check: bool = True
-        ) -> tuple[float, float, str, int]:
+def run(command: list[str], env: dict[str, str], check: bool = True, stdout: bool = False
+        ) -> tuple:
     """Wall time [s] (until the output streams close), CPU time [s] (user + sys of the command
-    and every process it started, reaped here: :func:`adopt_orphans`), stderr and the exit
-    code (``check``: an exit code other than 0 raises)."""
+    and every process it started, reaped here: :func:`adopt_orphans`), stderr, the exit code
+    (``check``: an exit code other than 0 raises) and, with ``stdout``, the standard output."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     done = subprocess.run(command, capture_output=True, text=True, check=check, env=env)
@@ -182,7 +182,8 @@ def run(command: list[str], env: dict[str, str], check: bool = True
             break
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    return wall, cpu, done.stderr, done.returncode
+    out = (wall, cpu, done.stderr, done.returncode)
+    return (*out, done.stdout) if stdout else out
 
 
 def main() -> None:
