@@ -7,7 +7,7 @@ the plan document it wrote (``plan.json``: ``timings`` per stage, the verificati
 ``timings``, each kept repair's ``seconds``):
 
     load+write  interpreter start, imports, reading the job, writing the files, exit: the
-                wall time not in a stage
+                wall time not in a stage (a harness job's phases are listed below the table)
     target      the target check (stabilized start and target, their collision check)
     plan        the three-stage planner with stabilization and obstacle re-planning
     motion      gripper frames and the timed trajectory; twist: the torsion solve
@@ -79,14 +79,16 @@ def run_plan(example: Path, folder: Path, source: str | None) -> dict:
     doc = json.loads(document.read_text())
     timings = doc.get("timings") or {}
     stages = {name: sum(float(timings.get(k, 0.0)) for k in keys) for name, keys in STAGES}
-    stages["load+write"] = wall - sum(stages.values())
+    known = {k for _, keys in STAGES for k in keys}
+    others = {k: float(v) for k, v in timings.items() if k not in known}  # a harness's phases
+    stages["load+write"] = wall - sum(stages.values()) - sum(others.values())
     verification = (doc.get("verification") or {}).get("timings") or {}
     repairs: dict[str, float] = {}
     for repair in doc.get("repairs") or ():
         repairs[repair["kind"]] = repairs.get(repair["kind"], 0.0) + float(repair["seconds"])
     if stages["repair"] > 0:
         repairs["other"] = stages["repair"] - sum(repairs.values())
-    out.update(stages=stages, verification=verification, repairs=repairs,
+    out.update(stages=stages, others=others, verification=verification, repairs=repairs,
                verified=doc.get("verification") is not None)
     return out
 
@@ -107,7 +109,8 @@ def details(result: dict) -> str:
     """The verification's and the repairs' split of one example, one line."""
     if "error" in result:
         return ""
-    parts = []
+    parts = [", ".join(f"{k} {v:.2f}" for k, v in result["others"].items())] \
+        if result["others"] else []
     if result["verification"]:
         parts.append("verify: " + ", ".join(f"{k} {float(v):.2f}"
                                             for k, v in result["verification"].items()))
