@@ -1,6 +1,6 @@
 """The plan's figures and its HTML report, made from the plan document alone.
 
-Everything shown is read from the :class:`~dloplan.app.document.PlanDocument`, so the report of
+Everything shown is read from the :class:`~dloplan.pipeline.document.PlanDocument`, so the report of
 a plan written by ``dloplan plan`` and of the same plan read back from ``plan.json`` are the
 same page.
 """
@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..obstacles.shapes import Table
-from .document import PlanDocument
+from ..pipeline.document import PlanDocument
 
 VERIFY_TITLES = {
     "index": "shape", "smallest_eigenvalue": "lambda_1 [N/m]",
@@ -120,6 +120,9 @@ def summary_lines(doc: PlanDocument) -> list[str]:
         lines += [f"{name}: {t0:.2f} s to {t1:.2f} s"
                   for name, (t0, t1) in doc.harness.get("phase_times", {}).items()]
     lines += [f"repair: {r.get('kind', '')}: {r.get('change', '')}" for r in doc.repairs]
+    if doc.placement is not None:
+        made = "moved" if doc.placement.applied else "proposed, not made"
+        lines.append(f"placement ({made}): {doc.placement.message}")
     if doc.robot is not None:
         lines.append(doc.robot.message)
     if doc.verification is not None:

@@ -27,10 +27,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..app.pipeline import collision_rows
-from ..grippers.path import GripperPath
-from ..obstacles.collisions import check_path
-from ..robot.reachability import ReachOptions, format_offset
+from ...grippers.path import GripperPath
+from ...obstacles.collisions import check_path
+from ...robot.reachability import ReachOptions, format_offset
+from ..document import PlacementSection
+from ..stages import collision_rows
 from .rebuild import left_clip, timed, timed_with_robot, without_robot
 
 SEARCHES = ((0.2, 0.05, "nearest"),)
@@ -112,6 +113,14 @@ class TableMove:
         if np.any(self.offset):
             parts.append(f"offset {format_offset(self.offset)} m")
         return ", ".join(parts)
+
+
+def placement_section(move: TableMove, applied: bool) -> PlacementSection:
+    """The plan document's record of a placement: made (``applied``) or proposed."""
+    where = (f"the job file's start and target {move.describe()}"
+             + (" (turn first, then the offset)" if move.yaw and np.any(move.offset) else ""))
+    return PlacementSection(applied, float(move.yaw), move.pivot.copy(), move.offset.copy(),
+                            where)
 
 
 def moved_job(job, move: TableMove):
@@ -236,8 +245,8 @@ def targets_reached(grippers: GripperPath, cell) -> int:
     holding the clip on its side (:func:`dloplan.robot.reachability.reach_at_targets`): a
     cheap score that ranks gripper frames before their robot program is made (2-10 s each).
     A described cell, which places the job itself, counts every target (no ranking)."""
-    from ..robot.cell import RobotCell
-    from ..robot.reachability import reach_at_targets
+    from ...robot.cell import RobotCell
+    from ...robot.reachability import reach_at_targets
 
     if not isinstance(cell, RobotCell):
         return 2 * (grippers.n_shapes + 2)
@@ -259,7 +268,7 @@ def placements(grippers: GripperPath, *, searches=SEARCHES, yaws=YAWS, cell=None
     :class:`PlacementRepair` per successful search, and one per turn that no search of it
     passed (``success`` False).
     """
-    from ..robot import search_placement
+    from ...robot import search_placement
 
     pivot = grippers.positions.reshape(-1, 3).mean(axis=0) * [1.0, 1.0, 0.0]
     options = replace(ReachOptions() if cell is None else cell.reach, verdict_only=True)
