@@ -32,9 +32,9 @@ from pathlib import Path
 import numpy as np
 
 from dloplan.app import load_scenario, run_job
-from dloplan.app.pipeline import settled_shapes
 from dloplan.app.study import study_problem_of, study_spec
 from dloplan.correct import closed_loop_study
+from dloplan.pipeline.stages import settled_shapes
 from dloplan.study import (
     DaskBackend,
     ProcessBackend,

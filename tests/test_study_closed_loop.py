@@ -84,8 +84,8 @@ def test_the_correction_section_does_not_change_the_study_identity():
 
 def test_the_closed_loop_rows_do_not_depend_on_the_backend():
     from dloplan.app import load_scenario, run_job
-    from dloplan.app.pipeline import settled_shapes
     from dloplan.correct import closed_loop_study
+    from dloplan.pipeline.stages import settled_shapes
     from dloplan.study import ProcessBackend, draw_samples
     from dloplan.study.spec import CorrectionSpec
 

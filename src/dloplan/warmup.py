@@ -56,14 +56,14 @@ def _straight_path(job):
 def plan_path() -> None:
     """The demo's planner: target check, the three stages, stabilization, obstacle re-planning
     (the static solver, the advanced stage's Newton systems, the box distance search)."""
-    from .app.pipeline import plan_path
+    from .pipeline.stages import plan_path
 
     plan_path(_job())
 
 
 def robot_program() -> None:
     """The YuMi's program of a motion: gripper frames, IK of every target, the path check."""
-    from .app.pipeline import plan_motion, plan_program
+    from .pipeline.stages import plan_motion, plan_program
 
     job = _job()
     grippers, trajectory = plan_motion(job, _straight_path(job))
@@ -72,7 +72,7 @@ def robot_program() -> None:
 
 def twist() -> None:
     """The torsion solve of a motion under its gripper frames."""
-    from .app.pipeline import gripper_frames, plan_twist
+    from .pipeline.stages import gripper_frames, plan_twist
 
     job = _job()
     path = _straight_path(job)
@@ -82,22 +82,22 @@ def twist() -> None:
 def plan_verify() -> None:
     """``dloplan plan --verify`` of the demo: what the exercises above leave (stability,
     snap-through continuation, dynamic replay, the repair loop's checks)."""
-    from .repair import plan_and_repair
+    from .pipeline.plan import make_plan
 
-    plan_and_repair(_job(), physics=True)
+    make_plan(_job(), verify=True)
 
 
 def described_cell() -> None:
     """A plan on two Franka Pandas: a described cell's IK, placement and program."""
-    from .repair import plan_and_repair
+    from .pipeline.plan import make_plan
 
-    plan_and_repair(_job(robot={"cell": {"preset": "panda_pair", "separation": 1.0},
-                                "place": True}), physics=False)
+    make_plan(_job(robot={"cell": {"preset": "panda_pair", "separation": 1.0}, "place": True},
+                   repair={"placement": True}))
 
 
 def dynamics_with_torsion() -> None:
     """``dloplan simulate --torsion`` of a plan: the explicit time stepping with twist."""
-    from .app.pipeline import run_job, simulate_plan
+    from .pipeline.stages import run_job, simulate_plan
 
     doc = run_job(_job(planner={"n_shapes": 2}), check_robot=False)
     simulate_plan(doc, torsion=True)
@@ -105,8 +105,8 @@ def dynamics_with_torsion() -> None:
 
 def study() -> None:
     """A study chunk: the batched equilibria and the obstacle checks."""
-    from .app.pipeline import run_job
     from .app.study import study_problem_of
+    from .pipeline.stages import run_job
     from .study import draw_samples, evaluate_chunk, parse_study
     from .study.run import chunk_items
 
