@@ -91,7 +91,9 @@ def solve_held(guesses, cable_of, k_s, rest_lengths, k_b, rest_angles, masses, g
             status[b] = HANDED_BACK
             continue
         x = shapes[b]
-        x[:] = guesses[b]
+        for i in range(n_points):  # a loop: a slice assignment compiles numba's shape check
+            for a in range(3):
+                x[i, a] = guesses[b, i, a]
         conform_free_part(x, held, need, length[c], gravity)
         history[0] = chain_energy(x, k_s[c], rest_lengths[c], k_b[c], rest_angles[c], masses[c],
                                   gravity)
