@@ -429,7 +429,7 @@ def harness_settings(scenario, scale: float) -> HarnessSettings:
         max_angular_speed=scenario.trajectory.angular_speed, limits=limits,
         zone=scenario.trajectory.zone * scale, grasp_time=scenario.trajectory.grasp_time,
         release_time=scenario.trajectory.release_time, min_tension=t.min_tension,
-        gripper_method=scenario.grippers.method,
+        rated_load=t.rated_load, gripper_method=scenario.grippers.method,
         physical_mode=scenario.planner.physical_mode or "equilibrium",
         z_safety=check_lengths(scenario.check, scale)[1], max_rounds=scenario.check.max_rounds)
 

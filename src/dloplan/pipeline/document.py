@@ -271,15 +271,24 @@ class AvoidanceSection:
 
 @dataclass(frozen=True)
 class VerificationSection:
-    """The plan verification (:func:`~dloplan.verify.verify_path`): verdict, messages, table."""
+    """The plan verification (:func:`~dloplan.verify.verify_path`): verdict, messages, table;
+    for a wire-harness plan one row per phase (``phases``,
+    :class:`~dloplan.harness.verification.PhaseRow` fields) instead of one per shape."""
 
     ok: bool
     messages: tuple[str, ...]
     rows: tuple = ()
     timings: dict = field(default_factory=dict)
+    phases: tuple = ()
 
     def table(self) -> str:
-        """The table as fixed-width text (:meth:`dloplan.verify.Verification.table`)."""
+        """The table as fixed-width text (:meth:`dloplan.verify.Verification.table`, or the
+        harness plan's :func:`~dloplan.harness.verification.phase_table`)."""
+        if self.phases:
+            from ..harness.verification import PhaseRow, phase_table
+
+            return phase_table([PhaseRow(**{**row, "notes": tuple(row.get("notes", ()))})
+                                for row in self.phases], self.ok, self.messages)
         from ..verify.report import ShapeRow, Verification
 
         rows = tuple(ShapeRow(**row) for row in self.rows)

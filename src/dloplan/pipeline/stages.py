@@ -401,12 +401,6 @@ def replay_modulus_cap(cable, progress=quiet) -> float | None:
     return REPLAY_MODULUS_CAP
 
 
-HARNESS_NOT_VERIFIED = ("a wire-harness plan is not verified: the checks model a free cable "
-                        "between the two grippers, not one pressed into the board's fixtures "
-                        "(its snap-through and replay would fail where the fixtures hold it)")
-"""Why :func:`verify_plan` refuses a wire-harness plan and ``plan --verify`` warns on one."""
-
-
 def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
                 robot: bool = True, tensile_limit=None, tolerance: float = 0.01,
                 progress=quiet):
@@ -418,15 +412,21 @@ def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
     same motion as the timed dual-arm trajectory. Returns the
     :class:`~dloplan.verify.Verification`.
 
-    Raises
-    ------
-    ValueError
-        For a wire-harness plan (:data:`HARNESS_NOT_VERIFIED`).
+    A wire-harness plan is verified on its held cable, phase by phase
+    (:func:`dloplan.pipeline.harness.verify_harness_plan`, a
+    :class:`~dloplan.harness.verification.HarnessVerification`): ``tensile_limit``, when
+    given, replaces the cable's rated load the plan records.
     """
     from ..verify import verify_path
 
     if doc.harness is not None:
-        raise ValueError(f"plan: {HARNESS_NOT_VERIFIED}")
+        from .harness import verify_harness_plan
+
+        rows = program_of(doc).checks if robot and doc.trajectory is not None else None
+        return verify_harness_plan(doc, snap=snap, replay=replay, robot_rows=rows,
+                                   rated_load=tensile_limit, tolerance=tolerance,
+                                   youngs_modulus_cap=replay_modulus_cap(doc.cable, progress),
+                                   progress=progress)
     times = doc.trajectory.times if replay and doc.trajectory is not None else None
     reach = None
     if robot and doc.trajectory is not None:
@@ -443,9 +443,11 @@ def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
 def with_verification(doc: PlanDocument, verification) -> PlanDocument:
     """The document with its verification section (and the failures among its warnings)."""
     data = verification.to_dict()
-    section = VerificationSection(bool(data["ok"]), tuple(data["messages"]), tuple(data["rows"]),
-                                  dict(data["timings_s"]))
-    failures = tuple(verification.messages) if not verification.ok else ()
+    section = VerificationSection(bool(data["ok"]), tuple(data["messages"]),
+                                  tuple(data.get("rows", ())), dict(data["timings_s"]),
+                                  tuple(data.get("phases", ())))
+    failures = tuple(verification.messages) if not verification.ok else tuple(
+        data.get("warnings", ()))
     return replace(doc, verification=section, warnings=doc.warnings + failures)
 
 
