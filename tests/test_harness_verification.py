@@ -21,12 +21,10 @@ from dloplan.harness import Board, Fixture, HarnessSettings, Peg, run_harness
 from dloplan.harness.verification import CHECKED_PHASES, verify_harness_result
 from dloplan.obstacles import Box
 
-# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
-pytestmark = pytest.mark.xdist_group("test_harness_verification")
-
 EXAMPLES = Path(__file__).parents[1] / "examples"
 
-pytestmark = pytest.mark.slow
+# slow; its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("test_harness_verification")]
 
 SETTINGS = HarnessSettings(max_speed=0.1, max_angular_speed=1.0)
 
