@@ -127,6 +127,7 @@ def source_of(revision: str, folder: Path) -> str:
         return str(Path(revision).resolve())
     archive = subprocess.run(["git", "-C", str(ROOT), "archive", revision, "src"],
                              capture_output=True, check=True).stdout
+    folder.mkdir(parents=True, exist_ok=True)
     subprocess.run(["tar", "-x", "-C", str(folder)], input=archive, check=True)
     return str(folder / "src")
 
