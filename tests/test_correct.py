@@ -35,6 +35,9 @@ from dloplan.grippers import GripperPath
 from dloplan.sim import equilibrium
 from dloplan.vision.shapes_io import RegisteredShape, write_shapes
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_correct")
+
 SCENARIOS = {
     "demo": Path(__file__).resolve().parent / "data" / "sagging_demo.yaml",
     "ethernet-3d": Path(__file__).resolve().parents[1] / "examples/qualitative2_ethernet_3d.yaml",

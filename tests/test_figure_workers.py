@@ -16,6 +16,9 @@ from dloplan.app.figure_workers import DRAFTS, FigureWorkers
 from dloplan.app.files import plan_into
 from dloplan.app.report import write_figures
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_figure_workers")
+
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 

@@ -29,6 +29,9 @@ from dloplan.pipeline.document import (
     document_to_dict,
 )
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_plan_document")
+
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 DATA = Path(__file__).resolve().parent / "data"
 

@@ -29,6 +29,9 @@ from dloplan.trajectory import (
     trajectory_from_grippers,
 )
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_trajectory")
+
 STEP = 1e-3  # [s] the sampling of the limits
 LIMITS = MotionLimits()
 

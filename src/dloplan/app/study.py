@@ -54,13 +54,14 @@ def study_spec(job: Job, samples: int | None = None, seed: int | None = None) ->
     return spec
 
 
-def with_closed_loop(doc: PlanDocument, result: StudyResult) -> StudyResult:
+def with_closed_loop(doc: PlanDocument, result: StudyResult, backend=None) -> StudyResult:
     """The study result with its closed-loop success (the spec's ``correction:`` section).
 
     Runs :func:`dloplan.correct.closed_loop_study` on the study's samples and the plan; the
     summary gains ``closed_loop`` (its lines, ``summary.json`` and the figures show it); with a
     study folder, ``closed_loop.json`` holds every sample's row and ``summary.json`` is
-    rewritten. Without a ``correction:`` section the result is returned as it is.
+    rewritten. Without a ``correction:`` section the result is returned as it is. The samples
+    run on ``backend`` (default: this process), like the study's.
     """
     from ..correct import closed_loop_study
     from ..pipeline.stages import settled_shapes
@@ -70,7 +71,8 @@ def with_closed_loop(doc: PlanDocument, result: StudyResult) -> StudyResult:
         return result
     rows, success = closed_loop_study(doc.cable, doc.shapes, doc.grippers, result.samples, spec,
                                       stabilized=settled_shapes(doc), trajectory=doc.trajectory,
-                                      confidence=result.spec.confidence, gravity=GRAVITY)
+                                      confidence=result.spec.confidence, gravity=GRAVITY,
+                                      backend=backend)
     summary = replace(result.summary, closed_loop=success)
     if result.folder is not None:
         folder = Path(result.folder)
