@@ -12,7 +12,7 @@ Part 2, plants: every example plan (sagging demo, 3D Ethernet, embedded U demo) 
 
 * ``chain``: dloplan's own chain on 100 links (the same physics, finer);
 * ``mujoco``: MuJoCo 3.x's elastic cable (``tests/plants.py``: capsules on ball joints, Cosserat
-  bending and twist, welded grippers; 4 segments per model link, ``MUJOCO_SEGMENTS``;
+  bending and twist, welded grippers; 5 segments per model link, ``MUJOCO_SEGMENTS``;
   optional, skipped when ``mujoco`` is missing),
 
 one factor at a time around the base case (n = 20, E x2, each gripper clamping one model link
@@ -129,11 +129,12 @@ def part1(folder: Path) -> None:
                   f"timed from outside): {lines[-1] if lines else done.stderr.strip()}")
 
 
-MUJOCO_SEGMENTS = 4
-"""MuJoCo segments per model link (``--mujoco-segments``): a grip of 0.8 L / n rounds to 3 whole
-segments, 0.75 L / n (the table prints the grip the plant has). A MuJoCo step costs about n^3
-(the chain's joint-space mass matrix is dense): 1.3, 3.2 and 12 ms CPU for 40, 60 and 100
-segments, 5000 steps a rest state at most."""
+MUJOCO_SEGMENTS = 5
+"""MuJoCo segments per model link (``--mujoco-segments``): a grip of 0.8 L / n is 4 whole
+segments, and the Ethernet comes to rest at n = 12 (on 4 per link it did not). A MuJoCo step
+costs about n^3 (the chain's joint-space mass matrix is dense): 1.3, 3.2 and 12 ms CPU for 40,
+60 and 100 segments, 5000 steps a rest state at most; so the MuJoCo rows are run at the plans'
+own n (``--cases "own n,own n grip 0.8"``)."""
 
 
 def plants(names, segments: int = MUJOCO_SEGMENTS):

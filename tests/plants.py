@@ -170,14 +170,21 @@ class MujocoPlant:
         end = origins[-1] + d.xmat[ids[-1]].reshape(3, 3)[:, 0] * self.cable.rest_link_length
         return np.vstack([origins, end])
 
-    def _place(self, shape: np.ndarray) -> None:
+    def _place(self, shape: np.ndarray, clips) -> None:
         """Put the cable's segments on a polyline of n + 1 points (the free root's pose and
-        the ball joints' rotations), at rest."""
+        the ball joints' rotations), at rest, the clamped segments straight along the clips'
+        u-axes where the welds hold them (a shape planned with another clamp length would
+        start with the welds yanking the end segments)."""
         import mujoco
         from scipy.spatial.transform import Rotation
 
         m, d = self._model, self._data
         x = resample_by_arc_length(shape, self.cable.n_points)
+        k = self.clamp_links
+        offsets = (np.arange(k + 1) - 0.5 * k) * self.cable.rest_link_length
+        u = clips.u_axes
+        x[: k + 1] = clips.positions[0] + offsets[:, None] * u[0]
+        x[::-1][: k + 1] = clips.positions[1] + offsets[:, None] * u[1]
         tangents = np.diff(x, axis=0)
         tangents /= np.linalg.norm(tangents, axis=1, keepdims=True)
         frames = []
@@ -215,7 +222,7 @@ class MujocoPlant:
             d.qpos[:], d.mocap_pos[:2], d.mocap_quat[:2] = self._states[key]
             d.qvel[:] = 0.0
         else:
-            self._place(shape)
+            self._place(shape, clips)
         from scipy.spatial.transform import Rotation, Slerp
 
         target_pos = np.asarray(clips.positions, dtype=float)

@@ -115,8 +115,9 @@ def test_the_tolerance_follows_the_stiffest_spring():
 def test_the_twist_check_of_a_path_succeeds_with_copper_axial_springs():
     """The plan's twist check (:func:`dloplan.sim.torsion.twist_along_path`, every shape
     stabilized with torsion under the gripper frames) on the USB with its copper axial springs,
-    the last clip rolled 0 .. 12 degrees while the clips close in (below the check's 15 degrees): success, where the job is and
-    moved 0.3 m, with the same twist (issue 35: it reported success False)."""
+    the last clip rolled 0 .. 12 degrees while the clips close in (below the check's 15
+    degrees): success, where the job is and moved 0.3 m, with the same twist (issue 35: it
+    reported success False)."""
     from dloplan.sim.torsion import twist_along_path
 
     cable = catalogue_cable("usb", n_links=20)
