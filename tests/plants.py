@@ -45,6 +45,25 @@ def _quat_wxyz(matrix: np.ndarray) -> np.ndarray:
     return Rotation.from_matrix(matrix).as_quat(scalar_first=True)
 
 
+def _free_part(x: np.ndarray, segment: float) -> np.ndarray:
+    """The free part between the clamps, (m + 1, 3), as segments of ``segment`` [m]: a polyline
+    too short for them (a shorter clamp than the shape was planned with leaves excess cable; a
+    taut start cannot take it) is given a sag of the missing length, then resampled."""
+    from dloplan.geometry import shape_length
+    from dloplan.physics.compiled import stretch_to_length
+
+    need = (len(x) - 1) * segment
+    if float(shape_length(x)) < need:
+        along = (x[-1] - x[0]) / max(float(np.linalg.norm(x[-1] - x[0])), 1e-12)
+        gravity = np.array([0.0, 0.0, -1.0])
+        down = gravity - float(gravity @ along) * along  # across the chord, downwards
+        if np.linalg.norm(down) < 1e-6:  # a vertical chord: any direction across it
+            down = np.cross(along, [1.0, 0.0, 0.0])
+        bump = np.sin(np.linspace(0.0, np.pi, len(x)))[:, None] * (down / np.linalg.norm(down))
+        x = x + stretch_to_length(x, bump, need) * bump
+    return resample_by_arc_length(x, len(x))
+
+
 @dataclass(eq=False)
 class MujocoPlant:
     """MuJoCo's elastic cable held by two welded grippers (module docstring).
@@ -185,6 +204,7 @@ class MujocoPlant:
         u = clips.u_axes
         x[: k + 1] = clips.positions[0] + offsets[:, None] * u[0]
         x[::-1][: k + 1] = clips.positions[1] + offsets[:, None] * u[1]
+        x[k : len(x) - k] = _free_part(x[k : len(x) - k], self.cable.rest_link_length)
         tangents = np.diff(x, axis=0)
         tangents /= np.linalg.norm(tangents, axis=1, keepdims=True)
         frames = []
