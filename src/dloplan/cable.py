@@ -37,8 +37,9 @@ switches both, and the axial modulus, to the thesis' choices to reproduce its nu
 The axial modulus E_a is ``axial_modulus`` when given, else E (the thesis: one modulus for
 bending and stretching). Composite cables need their own: their bending modulus is an
 equivalent one, tiny against their copper cores' axial stiffness, and with E_a = E a USB cable
-stretches by about 1 % under its own weight (see ``docs/model.md``, "Axial stiffness"). The
-catalogue's USB and Ethernet cables have theirs by default (:data:`COMPOSITE_AXIAL_MODULI`).
+stretches by about 1 % under its own weight (see ``docs/model.md``, "Axial stiffness"). For the
+catalogue's USB and Ethernet cables pass :data:`COMPOSITE_AXIAL_MODULI` (not the default:
+docs/decisions.md, "Axial modulus of composite cables").
 """
 
 from __future__ import annotations
@@ -100,7 +101,7 @@ class Cable:
     axial_modulus : float, optional
         Modulus of the axial springs E_a [Pa] (k_s = E_a A / l), separate from the bending
         modulus; ``None`` (default) uses ``youngs_modulus`` (the thesis' model, right for a
-        hose of one material). :func:`catalogue_cable` gives the composite cables
+        hose of one material). For the composite catalogue cables see
         :data:`COMPOSITE_AXIAL_MODULI`.
     """
 
@@ -332,8 +333,8 @@ _CATALOGUE: dict[str, dict[str, float]] = {
 CATALOGUE_NAMES: tuple[str, ...] = tuple(_CATALOGUE)
 
 COMPOSITE_AXIAL_MODULI: dict[str, float] = {"usb": 2e9, "ethernet": 2e9}
-"""Axial moduli E_a [Pa] of the composite catalogue cables (USB, Ethernet):
-:func:`catalogue_cable`'s default for them.
+"""Axial moduli E_a [Pa] of the composite catalogue cables (USB, Ethernet), to pass as
+``axial_modulus`` (``axial_modulus: 2e9`` in a scenario); not the default (docs/decisions.md).
 
 Order-of-magnitude estimates from their copper: E_cu ~ 117 GPa on about 0.3 mm^2 (USB, four
 AWG 28 conductors and the shield) or 1.6 mm^2 (Ethernet, eight AWG 24), derated about three
@@ -343,9 +344,9 @@ cable is then practically inextensible: the USB between level clips sags within 
 2 GPa shape at 0.4 m apart, 0.25 mm nearly taut at 0.48 m), so the estimate need not be
 precise. With the thesis' single modulus (E_a = E) the USB stretches about 1 % under its own
 weight and a nearly taut shape differs by up to 3 mm from an inextensible cable's (MuJoCo's
-cable, issue 35); that model stays an option: ``catalogue_cable("usb", axial_modulus=None)``,
-:meth:`Cable.thesis_model`, or ``axial_modulus: thesis`` in a scenario (docs/decisions.md).
-The static solver converges on such nearly inextensible links by a second-order correction
+cable, issue 35); it stays the default because the explicit replay's stable time step shrinks
+with sqrt(E_a) (about 28x more steps at 2 GPa) and the thesis' catalogue moduli were identified
+with it (docs/decisions.md). The static solver converges on such nearly inextensible links by a second-order correction
 of its Newton steps (:func:`dloplan.sim.compiled.restore_link_lengths`).
 """
 
@@ -357,9 +358,8 @@ def catalogue_cable(name: str, n_links: int = 10, **overrides) -> Cable:
     (d 6 mm, 11 g, E 100 MPa) and ``pa12`` hose (d 6 mm, 9 g, E 1 GPa), all 0.5 m long. The
     moduli of USB and Ethernet are those the thesis identified with its own bending model;
     Poisson ratios are not given in the thesis and are typical values for the materials. The
-    composite cables (USB, Ethernet) stretch with their copper's axial modulus
-    (:data:`COMPOSITE_AXIAL_MODULI`) unless ``axial_modulus`` is given (None: the thesis' one
-    modulus for bending and stretching, E_a = E); the hoses with their E.
+    axial springs have E (the thesis' one modulus for bending and stretching) unless
+    ``axial_modulus`` is given, e.g. :data:`COMPOSITE_AXIAL_MODULI` for the composite cables.
 
     Parameters
     ----------
@@ -375,6 +375,5 @@ def catalogue_cable(name: str, n_links: int = 10, **overrides) -> Cable:
         raise ValueError(
             f"cable: unknown catalogue name {name!r}, expected one of {', '.join(_CATALOGUE)}"
         )
-    axial = {"axial_modulus": COMPOSITE_AXIAL_MODULI[key]} if key in COMPOSITE_AXIAL_MODULI else {}
-    params = {**_CATALOGUE[key], **axial, "n_links": n_links, "name": key, **overrides}
+    params = {**_CATALOGUE[key], "n_links": n_links, "name": key, **overrides}
     return Cable(**params)
