@@ -17,6 +17,7 @@ from dloplan.robot import (
     IKOptions,
     RobotCell,
     Tool,
+    arm_angle,
     assign_arms,
     confdata,
     forward,
@@ -128,8 +129,11 @@ def test_the_program_holds_exactly_its_verified_targets():
         assert np.abs(p - program.positions[:, a]).max() < 2e-5  # IK tolerance 1e-5 m
         written = Rotation.from_quat(program.quaternions[:, a], scalar_first=True)
         assert (written.inv() * r).magnitude().max() < 2e-5
-        assert np.allclose(np.degrees(program.joints[:, a, 2]), program.arm_angles[:, a],
-                           atol=1e-9)
+        # eax_a is the joints' arm angle (the controller's), not axis 7 (as before RobotWare 6)
+        assert np.allclose(np.degrees(arm_angle(arm, program.joints[:, a])),
+                           program.arm_angles[:, a], atol=1e-4)
+        assert not np.allclose(np.degrees(program.joints[:, a, 2]), program.arm_angles[:, a],
+                               atol=1.0)
         assert np.array_equal(confdata(program.joints[:, a]), program.confdata[:, a])
     # the shapes' targets are the clip points (TCP on the clip), times the trajectory's
     _, grippers, trajectory, _ = example_plan("m2_uniform_curvature_usb.yaml")
@@ -170,14 +174,15 @@ def test_held_arm_angle_ik():
     arm = yumi().left
     q = arm.home + np.array([0.3, 0.2, -0.4, 0.1, 0.5, -0.3, 0.4])
     p, r = forward(arm, q)
-    res = inverse(arm, p, r, seed=q + 0.05, arm_angle=q[2], options=IKOptions(restarts=0))
-    assert res.success and res.q[2] == q[2]
+    psi = float(arm_angle(arm, q))
+    res = inverse(arm, p, r, seed=q + 0.05, arm_angle=psi, options=IKOptions(restarts=0))
+    assert res.success and abs(float(arm_angle(arm, res.q)) - psi) < 1e-5
     assert np.abs(res.q - q).max() < 1e-4  # isolated solution: the same joints back
     many, ok, perr, _ = solve_many(arm, np.stack([p, p]), np.stack([r.as_matrix()] * 2),
-                                   np.stack([q + 0.05, q - 0.05]), IKOptions(), [q[2], q[2]])
+                                   np.stack([q + 0.05, q - 0.05]), IKOptions(), [psi, psi])
     assert ok.all() and perr.max() < 1e-5 and np.abs(many - q).max() < 1e-4
     with pytest.raises(ValueError, match="arm_angle"):
-        inverse(arm, p, r, arm_angle=4.0)
+        inverse(arm, p, r, arm_angle=float("nan"))
 
 
 def test_confdata_quadrants():

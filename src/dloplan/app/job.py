@@ -243,7 +243,7 @@ def check_workspace(points, name: str, source: str) -> None:
 
 
 YUMI_ONLY = ("base_position", "base_rotation", "wobj", "tools", "approach", "grip_time",
-             "hold_force")
+             "hold_force", "arm_angle_reference")
 """Settings of the ``robot:`` section that describe the YuMi's cell (not a described one)."""
 
 
@@ -289,7 +289,9 @@ def robot_cell(scenario, scale: float, folder=".") -> RobotCell | DescribedCell:
             Rotation.identity(),
             tools=tuple(tools), wobj=spec.wobj, table_height=table,
             approach=defaults.approach if spec.approach is None else spec.approach * scale,
-            grip_time=spec.grip_time, hold_force=spec.hold_force)
+            grip_time=spec.grip_time, hold_force=spec.hold_force,
+            arm_angle_reference=defaults.arm_angle_reference
+            if spec.arm_angle_reference is None else tuple(spec.arm_angle_reference))
     except ValueError as exc:
         raise ScenarioError(f"robot: {exc}") from None
 

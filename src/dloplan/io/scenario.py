@@ -382,6 +382,10 @@ class RobotSpec(_Model):
                                    description="approach/retreat distance [units]; 5 cm")
     grip_time: float = Field(0.5, ge=0, allow_inf_nan=False, description="[s]")
     hold_force: float | None = Field(None, gt=0, le=20, description="SmartGripper [N]")
+    arm_angle_reference: list[Vector3] | None = Field(
+        None, min_length=2, max_length=2,
+        description="YuMi: the controller's Arm-Angle Reference Direction of the left and the "
+        "right arm, in the robot's base frame (default [0, -1, 0], [0, 1, 0]; docs/robot.md)")
 
     @field_validator("base_position")
     @classmethod

@@ -7,10 +7,11 @@ robot program that the RAPID writer writes (:func:`robot_program`).
 See ``docs/robot.md`` for the frames, the TCP mapping, the checks and how to run a program.
 """
 
+from .armangle import arm_angle
 from .assignment import ArmAssignment, assign_arms
 from .cell import SMARTGRIPPER_SOURCE, RobotCell, Tool
 from .collision import arm_capsules, arm_clearance, segment_distance
-from .confdata import arm_angle, confdata
+from .confdata import confdata
 from .kinematics import (
     IKOptions,
     IKResult,

@@ -20,13 +20,17 @@ from scipy.spatial.transform import Rotation
 
 from .reachability import ReachOptions
 from .yumi import (
+    ARM_ANGLE_REFERENCE,
+    ARMS,
     DEFAULT_TCP_IN_CLIP,
     DEFAULT_TCP_OFFSET,
+    DEFAULT_TOOL0_OFFSET,
+    DEFAULT_TOOL0_ROTATION,
     Gripper,
     Robot,
     as_rotation,
     as_vector,
-    yumi,
+    yumi_arm,
 )
 
 SMARTGRIPPER_SOURCE = (
@@ -70,15 +74,15 @@ class Tool:
     name : str
         The ``tooldata`` name in the program (a RAPID identifier).
     tcp_offset : array_like
-        (3,) flange-to-TCP translation [m] in the flange frame (``tframe.trans``).
+        (3,) tool0-to-TCP translation [m] in the tool0 frame (``tframe.trans``).
     tcp_rotation : scipy.spatial.transform.Rotation, optional
-        Flange-to-TCP rotation (``tframe.rot``); identity by default.
+        ``tcp_to_tool0`` (``tframe.rot``); identity by default.
     mass : float
         Tool mass [kg] (``tload.mass``).
     cog : array_like
-        (3,) centre of gravity [m] in the flange frame (``tload.cog``).
+        (3,) centre of gravity [m] in the tool0 frame (``tload.cog``).
     inertia : array_like
-        (3,) moments of inertia [kg m^2] about the centre of gravity, axes of the flange
+        (3,) moments of inertia [kg m^2] about the centre of gravity, axes of tool0
         (``tload.ix, iy, iz``; ``tload.aom`` identity).
     tcp_in_clip : scipy.spatial.transform.Rotation
         ``tcp_to_clip``: the TCP axes in the clip frame (u, v, w); see
@@ -109,10 +113,12 @@ class Tool:
             raise ValueError(f"Tool.inertia: expected moments >= 0 [kg m^2], got {self.inertia!r}")
         set_(self, "inertia", inertia)
 
-    @property
-    def gripper(self) -> Gripper:
-        """The kinematic part: TCP offset and rotation, clip-to-TCP mapping."""
-        return Gripper(self.tcp_offset, self.tcp_rotation, self.tcp_in_clip)
+    def gripper(self, tool0_offset=DEFAULT_TOOL0_OFFSET,
+                tool0_rotation: Rotation = DEFAULT_TOOL0_ROTATION) -> Gripper:
+        """The kinematic part: TCP offset and rotation on tool0 (which sits at
+        ``tool0_offset`` / ``tool0_rotation`` in the last link), clip-to-TCP mapping."""
+        return Gripper(self.tcp_offset, self.tcp_rotation, self.tcp_in_clip, tool0_offset,
+                       tool0_rotation)
 
 
 @dataclass(frozen=True, eq=False)
@@ -144,6 +150,18 @@ class RobotCell:
     reach : ReachOptions
         Tolerances and limits of the checks (IK tolerances, sub-step lengths, largest joint
         step, wanted joint margin, smallest arm-arm clearance, symmetric grip).
+    tool0_offset : array_like
+        (3,) where ABB's ``tool0`` (the frame the tool data refer to) sits in the last link
+        ``yumi_link_7`` [m]; default 7 mm along its z-axis
+        (:data:`~dloplan.robot.yumi.DEFAULT_TOOL0_OFFSET`, docs/decisions.md).
+    tool0_rotation : scipy.spatial.transform.Rotation
+        ``tool0_to_link7``; default turned by pi about z
+        (:data:`~dloplan.robot.yumi.DEFAULT_TOOL0_ROTATION`).
+    arm_angle_reference : tuple of array_like
+        The controller's "Arm-Angle Reference Direction" of the left and the right arm, unit
+        vectors in the robot's base frame (:mod:`dloplan.robot.armangle`); default the
+        controller's (:data:`~dloplan.robot.yumi.ARM_ANGLE_REFERENCE`). Written into the RAPID
+        modules' header: the controller must be configured alike.
     """
 
     base_position: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -156,6 +174,9 @@ class RobotCell:
     grip_time: float = 0.5
     hold_force: float | None = None
     reach: ReachOptions = field(default_factory=ReachOptions)
+    tool0_offset: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_TOOL0_OFFSET))
+    tool0_rotation: Rotation = DEFAULT_TOOL0_ROTATION
+    arm_angle_reference: tuple = (ARM_ANGLE_REFERENCE["left"], ARM_ANGLE_REFERENCE["right"])
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -183,9 +204,25 @@ class RobotCell:
             set_(self, "hold_force", force)
         if not isinstance(self.reach, ReachOptions):
             raise ValueError(f"RobotCell.reach: expected ReachOptions, got {self.reach!r}")
-        arms = [yumi(gripper=tool.gripper, base_position=self.base_position,
-                     base_rotation=self.base_rotation).arms[a]
-                for a, tool in enumerate(tools)]
+        set_(self, "tool0_offset", as_vector(self.tool0_offset, "RobotCell.tool0_offset"))
+        set_(self, "tool0_rotation", as_rotation(self.tool0_rotation,
+                                                 "RobotCell.tool0_rotation"))
+        references = tuple(self.arm_angle_reference)
+        if len(references) != 2:
+            raise ValueError(f"RobotCell.arm_angle_reference: expected two directions (left, "
+                             f"right), got {self.arm_angle_reference!r}")
+        references = tuple(as_vector(r, f"RobotCell.arm_angle_reference ({side})")
+                           for r, side in zip(references, ARMS, strict=True))
+        for r, side in zip(references, ARMS, strict=True):
+            if np.linalg.norm(r) < 1e-9:
+                raise ValueError(f"RobotCell.arm_angle_reference ({side}): expected a nonzero "
+                                 f"direction, got {r.tolist()}")
+        set_(self, "arm_angle_reference", tuple(r / np.linalg.norm(r) for r in references))
+        arms = [yumi_arm(side, gripper=tool.gripper(self.tool0_offset, self.tool0_rotation),
+                         base_position=self.base_position, base_rotation=self.base_rotation,
+                         arm_angle_reference=reference)
+                for side, tool, reference in zip(ARMS, tools, self.arm_angle_reference,
+                                                 strict=True)]
         set_(self, "_robot", Robot(*arms))
 
     @property
@@ -211,3 +248,60 @@ class RobotCell:
             replace(tool, name=name) for tool, name in zip(self.tools, tools, strict=True))
         return replace(self, tools=new_tools, wobj=self.wobj if wobj is None else wobj)
 
+
+    def to_dict(self) -> dict:
+        """JSON-ready data that builds the cell again (:func:`cell_from_record`; quaternions
+        x-y-z-w, lengths in m)."""
+        def quat(rotation: Rotation) -> list:
+            return rotation.as_quat(canonical=True).tolist()
+
+        return {
+            "base_position": self.base_position.tolist(),
+            "base_rotation": quat(self.base_rotation),
+            "wobj": self.wobj, "table_height": self.table_height, "approach": self.approach,
+            "approach_speed": self.approach_speed, "grip_time": self.grip_time,
+            "hold_force": self.hold_force,
+            "tools": [{"name": t.name, "tcp_offset": t.tcp_offset.tolist(),
+                       "tcp_rotation": quat(t.tcp_rotation), "mass": t.mass,
+                       "cog": t.cog.tolist(), "inertia": t.inertia.tolist(),
+                       "tcp_in_clip": quat(t.tcp_in_clip), "source": t.source}
+                      for t in self.tools],
+            "tool0_offset": self.tool0_offset.tolist(),
+            "tool0_rotation": quat(self.tool0_rotation),
+            "arm_angle_reference": [r.tolist() for r in self.arm_angle_reference],
+        }
+
+
+def cell_from_record(data: dict) -> RobotCell:
+    """The cell of :meth:`RobotCell.to_dict`'s data (a plan document's ``robot.cell``); a record
+    written before ``tool0_*`` and ``arm_angle_reference`` were recorded gets their defaults.
+
+    Raises
+    ------
+    ValueError
+        A missing or malformed field (KeyError, TypeError and ValueError are re-raised as
+        ValueError naming it).
+    """
+    try:
+        tools = tuple(Tool(name=t["name"], tcp_offset=np.asarray(t["tcp_offset"], float),
+                           tcp_rotation=Rotation.from_quat(t["tcp_rotation"]), mass=t["mass"],
+                           cog=np.asarray(t["cog"], float),
+                           inertia=np.asarray(t["inertia"], float),
+                           tcp_in_clip=Rotation.from_quat(t["tcp_in_clip"]), source=t["source"])
+                      for t in data["tools"])
+        defaults = RobotCell.__dataclass_fields__
+        return RobotCell(
+            base_position=np.asarray(data["base_position"], float),
+            base_rotation=Rotation.from_quat(data["base_rotation"]), tools=tools,
+            wobj=data["wobj"], table_height=data["table_height"], approach=data["approach"],
+            approach_speed=data["approach_speed"], grip_time=data["grip_time"],
+            hold_force=data["hold_force"],
+            tool0_offset=np.asarray(data.get("tool0_offset", DEFAULT_TOOL0_OFFSET), float),
+            tool0_rotation=Rotation.from_quat(data["tool0_rotation"])
+            if "tool0_rotation" in data else DEFAULT_TOOL0_ROTATION,
+            arm_angle_reference=tuple(data.get("arm_angle_reference",
+                                               defaults["arm_angle_reference"].default)))
+    except KeyError as exc:
+        raise ValueError(f"missing field {exc}") from None
+    except (TypeError, ValueError) as exc:
+        raise ValueError(str(exc)) from None

@@ -120,30 +120,98 @@ def null_projector(jac, eye):
 
 
 @njit(cache=True)
+def cross3(a, b, out):
+    """out = a x b for 3-vectors; returns ``out``."""
+    out[0] = a[1] * b[2] - a[2] * b[1]
+    out[1] = a[2] * b[0] - a[0] * b[2]
+    out[2] = a[0] * b[1] - a[1] * b[0]
+    return out
+
+
+@njit(cache=True)
+def arm_angle_row(rots, points, axes, shoulder, wrist, reference, elbow, row):
+    """The arm angle psi [rad] of the chain's frames and its gradient d psi / dq into ``row``
+    (n,): :func:`dloplan.robot.armangle.arm_angle` and ``arm_angle_jacobian`` compiled.
+
+    ``shoulder`` and ``wrist`` are the distances [m] of S along axis 1 from joint 1's origin
+    and of W along the last axis from the last joint's origin; ``reference`` the world
+    reference direction (3,); ``elbow`` the index of the joint whose axis is h."""
+    n = row.size
+    z = np.empty((n, 3))
+    for i in range(n):
+        for a in range(3):
+            z[i, a] = rots[i, a, 0] * axes[i, 0] + rots[i, a, 1] * axes[i, 1] + \
+                rots[i, a, 2] * axes[i, 2]
+    s_pt = points[0] + shoulder * z[0]
+    w_pt = points[n - 1] + wrist * z[n - 1]
+    sw = w_pt - s_pt
+    length = math.sqrt(sw[0] ** 2 + sw[1] ** 2 + sw[2] ** 2)
+    e = sw / length
+    h = z[elbow].copy()
+    tmp = np.empty(3)
+    eh = e[0] * h[0] + e[1] * h[1] + e[2] * h[2]
+    er_e = e[0] * reference[0] + e[1] * reference[1] + e[2] * reference[2]
+    cross3(e, h, tmp)
+    x = tmp[0] * reference[0] + tmp[1] * reference[1] + tmp[2] * reference[2]
+    y = h[0] * reference[0] + h[1] * reference[1] + h[2] * reference[2] - er_e * eh
+    norm2 = x * x + y * y
+    d_w = np.empty(3)
+    d_e = np.empty(3)
+    d_h = np.empty(3)
+    lever = np.empty(3)
+    for i in range(n):
+        for a in range(3):
+            lever[a] = w_pt[a] - points[i, a]
+        cross3(z[i], lever, d_w)
+        dwe = d_w[0] * e[0] + d_w[1] * e[1] + d_w[2] * e[2]
+        for a in range(3):
+            d_e[a] = (d_w[a] - dwe * e[a]) / length
+        if i < elbow:
+            cross3(z[i], h, d_h)
+        else:
+            d_h[:] = 0.0
+        cross3(d_e, h, tmp)
+        dx = tmp[0] * reference[0] + tmp[1] * reference[1] + tmp[2] * reference[2]
+        cross3(e, d_h, tmp)
+        dx += tmp[0] * reference[0] + tmp[1] * reference[1] + tmp[2] * reference[2]
+        dy = (d_h[0] * reference[0] + d_h[1] * reference[1] + d_h[2] * reference[2]
+              - (d_e[0] * reference[0] + d_e[1] * reference[1] + d_e[2] * reference[2]) * eh
+              - er_e * (d_e[0] * h[0] + d_e[1] * h[1] + d_e[2] * h[2]
+                        + d_h[0] * e[0] + d_h[1] * e[1] + d_h[2] * e[2]))
+        row[i] = (x * dy - y * dx) / norm2 if norm2 > 0.0 else 0.0
+    return math.atan2(y, x)
+
+
+@njit(cache=True)
 def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
-          upper, position, target_rot, seed, held_joint, held_value, max_iterations,
-          position_tolerance, angle_tolerance, damping, max_step, null_gain, min_margin, polish,
-          length_scale, null_fade):
+          upper, position, target_rot, seed, hold_angle, angle, angle_points, reference,
+          max_iterations, position_tolerance, angle_tolerance, damping, max_step, null_gain,
+          min_margin, polish, length_scale, null_fade, stall_window=0, stall_ratio=1.0):
     """Damped least squares from one seed: (q (7,), position error [m], angle error [rad],
     iterations, converged).
 
-    ``held_joint`` >= 0 holds that joint at ``held_value`` (its column and step are zero);
-    ``polish`` null-space steps at most once converged closer than ``min_margin`` to a limit.
+    ``hold_angle``: the arm angle (:func:`arm_angle_row`, ``angle_points`` = (s, w) [m],
+    ``reference`` (3,) in the world) is a 7th task row held at ``angle`` [rad] (the square
+    7x7 system of the controller's semantics; no null space left, no polish); its error counts
+    with the orientation error. Otherwise ``polish`` null-space steps at most once converged
+    closer than ``min_margin`` to a limit. ``stall_window`` > 0: the seed is given up when the
+    weighted error (position + ``length_scale`` x angle) has not dropped below
+    ``stall_ratio`` of its value ``stall_window`` iterations before.
     """
     q = np.minimum(np.maximum(seed, lower), upper)
-    free = np.ones(7)
-    if held_joint >= 0:
-        q[held_joint] = held_value
-        free[held_joint] = 0.0
+    rows = 7 if hold_angle else 6
+    history = np.empty(max_iterations + 1)
     half = 0.5 * (upper - lower)
     mid = 0.5 * (lower + upper)
     eye = np.eye(7)
     scale = np.array([1.0, 1.0, 1.0, length_scale, length_scale, length_scale])
+    ones = np.ones(7)
     rots = np.empty((8, 3, 3))
     points = np.empty((8, 3))
-    jac = np.empty((6, 7))
-    err = np.empty(6)
+    jac = np.empty((rows, 7))
+    err = np.empty(rows)
     relative = np.empty((3, 3))
+    angle_row = np.empty(7)
     done_q = q.copy()
     done_perr = done_aerr = 0.0
     done_it = -1
@@ -156,29 +224,41 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
         dtheta = rotation_log(times_transposed(target_rot, rots[7], relative))
         perr = math.sqrt(dp[0] ** 2 + dp[1] ** 2 + dp[2] ** 2)
         aerr = math.sqrt(dtheta[0] ** 2 + dtheta[1] ** 2 + dtheta[2] ** 2)
+        dpsi = 0.0
+        if hold_angle:
+            psi = arm_angle_row(rots, points, axes, angle_points[0], angle_points[1],
+                                reference, 3, angle_row)
+            dpsi = angle - psi
+            dpsi -= 2.0 * math.pi * math.floor((dpsi + math.pi) / (2.0 * math.pi))
+            aerr = max(aerr, abs(dpsi))
         converged = perr <= position_tolerance and aerr <= angle_tolerance
         if converged:
             done_q[:] = q
             done_perr, done_aerr, done_it = perr, aerr, it
-            if polish == 0 or np.min(np.minimum(q - lower, upper - q)) >= min_margin:
+            if hold_angle or polish == 0 or \
+                    np.min(np.minimum(q - lower, upper - q)) >= min_margin:
                 break
-        if it == max_iterations:
+        history[it] = perr + length_scale * aerr
+        if it == max_iterations or (stall_window > 0 and it >= stall_window and history[it]
+                                    > stall_ratio * history[it - stall_window]):
             break
-        weighted_jacobian(rots, points, axes, scale, free, jac)  # held joint: zero column
+        weighted_jacobian(rots, points, axes, scale, ones, jac[:6])
         for row in range(3):
             err[row] = dp[row]
             err[row + 3] = length_scale * dtheta[row]
+        if hold_angle:
+            for col in range(7):
+                jac[6, col] = length_scale * angle_row[col]
+            err[6] = length_scale * dpsi
         energy = 0.5 * (err @ err)
-        grad = (q - mid) / half**2
         if converged:  # polish: a pure self-motion step away from the limits
             polish -= 1
-            dq = -null_gain * (null_projector(jac, eye) @ grad)
+            dq = -null_gain * (null_projector(jac, eye) @ ((q - mid) / half**2))
         else:
             dq = np.linalg.solve(jac.T @ jac + (energy + damping) * eye, jac.T @ err)
-            if null_gain != 0.0:
+            if null_gain != 0.0 and not hold_angle:
                 fade = min(1.0, math.sqrt(2.0 * energy) / null_fade)
-                dq -= null_gain * fade * (null_projector(jac, eye) @ grad)
-        dq *= free
+                dq -= null_gain * fade * (null_projector(jac, eye) @ ((q - mid) / half**2))
         largest = np.max(np.abs(dq))
         if largest > max_step:
             dq *= max_step / largest
@@ -190,8 +270,9 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
 
 @njit(cache=True)
 def solve_batch(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
-                upper, positions, target_rots, seeds, held_joint, held_values, max_iterations,
-                position_tolerance, angle_tolerance, damping, max_step, length_scale):
+                upper, positions, target_rots, seeds, hold_angle, angles, angle_points,
+                reference, max_iterations, position_tolerance, angle_tolerance, damping,
+                max_step, length_scale, stall_window, stall_ratio):
     """N independent solves (:func:`solve` without null-space motion or polish): joints
     (N, 7) [rad], converged (N,), position (N,) [m] and angle errors (N,) [rad]."""
     n = positions.shape[0]
@@ -202,9 +283,9 @@ def solve_batch(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offs
     for k in range(n):
         q[k], perr[k], aerr[k], _, success[k] = solve(
             origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
-            upper, positions[k], target_rots[k], seeds[k], held_joint, held_values[k],
-            max_iterations, position_tolerance, angle_tolerance, damping, max_step, 0.0, 0.0, 0,
-            length_scale, 1.0)
+            upper, positions[k], target_rots[k], seeds[k], hold_angle, angles[k], angle_points,
+            reference, max_iterations, position_tolerance, angle_tolerance, damping, max_step,
+            0.0, 0.0, 0, length_scale, 1.0, stall_window, stall_ratio)
     return q, success, perr, aerr
 
 

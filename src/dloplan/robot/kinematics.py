@@ -66,7 +66,7 @@ def link_frames(arm: Arm, q) -> Frames:
             rots.append(r)
             points.append(p)
         rots.append(r @ arm._tcp_rot)
-        points.append(p + r @ arm.gripper.tcp_offset)
+        points.append(p + r @ arm._tcp_xyz)
         return Frames(np.array(rots), np.array(points))
     rot = np.empty(batch + (8, 3, 3))
     pos = np.empty(batch + (8, 3))
@@ -78,7 +78,7 @@ def link_frames(arm: Arm, q) -> Frames:
         rot[..., i, :, :] = r
         pos[..., i, :] = p
     rot[..., 7, :, :] = r @ arm._tcp_rot
-    pos[..., 7, :] = p + r @ arm.gripper.tcp_offset
+    pos[..., 7, :] = p + r @ arm._tcp_xyz
     return Frames(rot, pos)
 
 
@@ -238,10 +238,6 @@ class IKResult:
     message: str
 
 
-ARM_ANGLE_JOINT = 2
-"""Index of the YuMi's redundant "arm angle" joint (ABB axis 7) in the physical joint order."""
-
-
 def inverse(arm: Arm, position, rotation: Rotation, seed=None,
             options: IKOptions | None = None, rng: np.random.Generator | None = None,
             arm_angle: float | None = None) -> IKResult:
@@ -272,10 +268,10 @@ def inverse(arm: Arm, position, rotation: Rotation, seed=None,
     rng : numpy.random.Generator, optional
         For the random restarts; default a generator seeded with 0 (deterministic).
     arm_angle : float, optional
-        Hold the arm angle (ABB axis 7, :data:`ARM_ANGLE_JOINT`) at this value [rad], as the
-        controller does with a robtarget's ``eax_a``: the remaining six joints solve the 6-D
-        task, which has finitely many solutions, so from a seed on the right branch the IK
-        returns that branch's solution (no null-space motion).
+        Hold the arm angle psi (:mod:`dloplan.robot.armangle`, the controller's ``eax_a``) at
+        this value [rad], as the controller does with a robtarget: psi is a 7th task row, the
+        7x7 task has finitely many solutions, so from a seed on the right branch the IK returns
+        that branch's solution (no null-space motion).
     """
     position = np.asarray(position, dtype=float)
     if position.shape != (3,) or not np.all(np.isfinite(position)):
@@ -286,11 +282,8 @@ def inverse(arm: Arm, position, rotation: Rotation, seed=None,
     if seed.shape != (7,):
         raise ValueError(f"seed: expected 7 joint values [rad], got shape {seed.shape}")
     opts = options if options is not None else IKOptions()
-    if arm_angle is not None:
-        j = ARM_ANGLE_JOINT
-        if not (np.isfinite(arm_angle) and arm.lower[j] <= arm_angle <= arm.upper[j]):
-            raise ValueError(f"arm_angle: expected a value within the joint limits "
-                             f"[{arm.lower[j]:.4f}, {arm.upper[j]:.4f}] rad, got {arm_angle!r}")
+    if arm_angle is not None and not np.isfinite(arm_angle):
+        raise ValueError(f"arm_angle: expected a finite angle [rad], got {arm_angle!r}")
     return _inverse(arm, position, rotation.as_matrix(), seed, opts, rng, arm_angle)
 
 
@@ -310,7 +303,7 @@ def solve_from(arm: Arm, position, rotation_matrix, seed, options: IKOptions,
         (7,) start [rad].
     options : IKOptions
     arm_angle : float, optional
-        Hold ABB axis 7 at this value [rad] (see :func:`inverse`).
+        Hold the arm angle psi at this value [rad] (see :func:`inverse`).
     """
     q, perr, aerr, its, ok = _solve(arm, position, rotation_matrix, seed, options, arm_angle)
     return IKResult(q, ok, perr, aerr, its, 1, "converged" if ok else
@@ -318,8 +311,18 @@ def solve_from(arm: Arm, position, rotation_matrix, seed, options: IKOptions,
                     f"{np.degrees(aerr):.2f} deg")
 
 
+STALL_WINDOW = 10
+"""Iterations over which an enumerating solve (``solve_many(..., give_up=True)``) must make
+progress ..."""
+
+STALL_RATIO = 0.99
+"""... shrinking the weighted error below this fraction of its value STALL_WINDOW iterations
+before; else the seed is given up (a local minimum: the next seed is tried)."""
+
+
 def solve_many(arm: Arm, positions, rotation_matrices, seeds, options: IKOptions,
-               arm_angles=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+               arm_angles=None, give_up: bool = False
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Many independent damped-least-squares solves at once, each from its own seed.
 
     The step of :func:`inverse` (Levenberg-Marquardt with Sugihara's damping, steps limited to
@@ -340,7 +343,10 @@ def solve_many(arm: Arm, positions, rotation_matrices, seeds, options: IKOptions
         (N, 7) starts [rad].
     options : IKOptions
     arm_angles : numpy.ndarray, optional
-        (N,) hold ABB axis 7 at these values [rad] (see :func:`inverse`).
+        (N,) hold the arm angle psi at these values [rad] (see :func:`inverse`).
+    give_up : bool
+        Stop a solve whose error stalls (:data:`STALL_WINDOW`, :data:`STALL_RATIO`): for
+        enumerating solutions from many seeds, most of which lead nowhere.
 
     Returns
     -------
@@ -357,9 +363,10 @@ def solve_many(arm: Arm, positions, rotation_matrices, seeds, options: IKOptions
         np.asarray(arm_angles, dtype=float), (n,)).copy()
     return ik_compiled.solve_batch(
         *_compiled_chain(arm), positions, np.ascontiguousarray(rotation_matrices, dtype=float),
-        np.ascontiguousarray(seeds, dtype=float), -1 if arm_angles is None else ARM_ANGLE_JOINT,
-        held, options.max_iterations, options.position_tolerance, options.angle_tolerance,
-        options.damping, options.max_step, LENGTH_SCALE)
+        np.ascontiguousarray(seeds, dtype=float), arm_angles is not None, held,
+        *_angle_geometry(arm), options.max_iterations, options.position_tolerance,
+        options.angle_tolerance, options.damping, options.max_step, LENGTH_SCALE,
+        STALL_WINDOW if give_up else 0, STALL_RATIO)
 
 
 def _compiled_chain(arm: Arm) -> tuple:
@@ -367,14 +374,20 @@ def _compiled_chain(arm: Arm) -> tuple:
     points, the axes' cross-product matrices and their squares, the TCP rotation and offset in
     the flange, the unit axes and the joint limits."""
     return (arm._origin_rot, arm._origin_xyz, arm._axis_skew, arm._axis_skew2, arm._tcp_rot,
-            np.asarray(arm.gripper.tcp_offset, dtype=float), arm.axes, arm.lower, arm.upper)
+            arm._tcp_xyz, arm.axes, arm.lower, arm.upper)
+
+
+def _angle_geometry(arm: Arm) -> tuple[np.ndarray, np.ndarray]:
+    """What the compiled solve needs of the arm angle: the feet (s, w) [m] of its shoulder and
+    wrist points and the reference direction in the world (:mod:`dloplan.robot.armangle`)."""
+    return arm._angle_points, arm.base_rotation.apply(arm.arm_angle_reference)
 
 
 def _inverse(arm: Arm, position: np.ndarray, target_rot: np.ndarray, seed: np.ndarray,
              opts: IKOptions, rng: np.random.Generator | None,
              arm_angle: float | None = None) -> IKResult:
     """:func:`inverse` without input checks (target rotation as a matrix)."""
-    flange = position - target_rot @ arm._tcp_rot.T @ arm.gripper.tcp_offset
+    flange = position - target_rot @ arm._tcp_rot.T @ arm._tcp_xyz
     distance = float(np.linalg.norm(flange - arm._origin_xyz[0]))
     if distance > reach(arm):
         q = np.clip(seed, arm.lower, arm.upper)
@@ -447,32 +460,27 @@ def _solve(arm: Arm, position, target_rot, seed, opts: IKOptions,
     q, perr, aerr, it, ok = ik_compiled.solve(
         *_compiled_chain(arm), np.asarray(position, dtype=float),
         np.ascontiguousarray(target_rot, dtype=float),
-        np.asarray(seed, dtype=float), -1 if arm_angle is None else ARM_ANGLE_JOINT,
-        0.0 if arm_angle is None else float(arm_angle), opts.max_iterations,
-        opts.position_tolerance, opts.angle_tolerance, opts.damping, opts.max_step,
-        opts.null_gain, opts.min_margin, polish, LENGTH_SCALE, NULL_FADE)
+        np.asarray(seed, dtype=float), arm_angle is not None,
+        0.0 if arm_angle is None else float(arm_angle), *_angle_geometry(arm),
+        opts.max_iterations, opts.position_tolerance, opts.angle_tolerance, opts.damping,
+        opts.max_step, opts.null_gain, opts.min_margin, polish, LENGTH_SCALE, NULL_FADE)
     return q, float(perr), float(aerr), int(it), bool(ok)
 
 
-def solve_reference(arm: Arm, position, target_rot, seed, opts: IKOptions,
-                    arm_angle: float | None = None):
+def solve_reference(arm: Arm, position, target_rot, seed, opts: IKOptions):
     """Damped least squares from one seed in numpy: (q, position error, angle error,
-    iterations, ok); the readable reference of the compiled solve the IK uses.
+    iterations, ok); the readable reference of the compiled solve the IK uses (with the arm
+    angle held: :func:`dloplan.robot.armangle.solve_reference`).
 
     Once converged closer than ``min_margin`` to a limit, up to ``polish`` null-space steps
     (each followed by re-convergence) move the redundant elbow away; the last converged q is
-    returned. With ``arm_angle`` the arm-angle joint is held there (its Jacobian column and
-    step are zero; no null space is left to polish in).
+    returned.
     """
     q = np.clip(seed, arm.lower, arm.upper)
-    free = np.ones(7)
-    if arm_angle is not None:
-        q[ARM_ANGLE_JOINT] = arm_angle
-        free[ARM_ANGLE_JOINT] = 0.0
     half = 0.5 * (arm.upper - arm.lower)
     eye = np.eye(7)
     scale = np.array([1.0, 1.0, 1.0, LENGTH_SCALE, LENGTH_SCALE, LENGTH_SCALE])
-    polish = opts.polish if opts.min_margin > 0 and arm_angle is None else 0
+    polish = opts.polish if opts.min_margin > 0 else 0
     done = None
     for it in range(opts.max_iterations + 1):
         frames = link_frames(arm, q)
@@ -486,7 +494,7 @@ def solve_reference(arm: Arm, position, target_rot, seed, opts: IKOptions,
                 break
         if it == opts.max_iterations:
             break
-        jac = _jacobian(arm, frames) * scale[:, None] * free
+        jac = _jacobian(arm, frames) * scale[:, None]
         err = np.concatenate([dp, LENGTH_SCALE * dtheta])
         energy = 0.5 * float(err @ err)
         grad = (q - arm.mid) / half**2
@@ -505,7 +513,6 @@ def solve_reference(arm: Arm, position, target_rot, seed, opts: IKOptions,
             # not keep the task from converging to the tolerance.
             fade = min(1.0, np.sqrt(2.0 * energy) / NULL_FADE)
             dq -= opts.null_gain * fade * (null @ grad)
-        dq *= free
         largest = np.max(np.abs(dq))
         if largest > opts.max_step:
             dq *= opts.max_step / largest

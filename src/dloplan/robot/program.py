@@ -45,12 +45,14 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from .armangle import arm_angle
 from .assignment import ArmAssignment, assign_arms
 from .cell import RobotCell
 from .collision import arm_clearance
-from .confdata import arm_angle, confdata
+from .confdata import confdata
 from .kinematics import forward, joint_margin, solve_from
 from .replay import replay_moves
+from .robtarget import ROUND_TRIP_TOLERANCE, solve_robtarget
 from .solutions import ranked_solutions
 from .yumi import ABB_AXIS_NUMBERS, ARMS
 
@@ -63,7 +65,8 @@ MIN_ANGULAR_SPEED = float(np.radians(0.1))
 END_TOLERANCE = 1e-3
 """[rad] A replayed MoveL ends on the target's solution when every joint is this close."""
 
-CHECKS = ("assignment", "reach", "joint limits", "clearance", "continuity", "joint speed")
+CHECKS = ("assignment", "reach", "round trip", "joint limits", "clearance", "continuity",
+          "joint speed")
 """The checks of a program, in the order of its rows."""
 
 MAX_TRIES = 2
@@ -412,7 +415,8 @@ def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, q
     quat = np.stack([quats[c.grip][:, a] for a, c in enumerate(chosen)], axis=1)
     rot = np.stack([rots[c.grip][:, a] for a, c in enumerate(chosen)], axis=1)
     q0 = np.stack([c.joints for c in chosen], axis=1)
-    eax = np.round(arm_angle(q0), 6)
+    eax = np.round(np.degrees(np.stack([arm_angle(arm, q0[:, a])
+                                        for a, arm in enumerate(robot.arms)], axis=1)), 6)
     joints = np.empty_like(q0)
     solved = np.zeros(eax.shape, dtype=bool)
     for m in range(len(pos)):
@@ -424,7 +428,11 @@ def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, q
     waits[grasp] = cell.grip_time
     times = np.cumsum(np.r_[0.0, durations]) + np.concatenate([[0.0], np.cumsum(waits[:-1])])
     replay = replay_moves(robot, pos, rot, eax, joints, durations, opts)
-    rows = _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay)
+    trip = [[solve_robtarget(arm, pos[m, a], rot[m, a], np.radians(eax[m, a]),
+                             confdata(joints[m, a]), seeds=[joints[m, a]], options=opts.ik)
+             for a, arm in enumerate(robot.arms)] for m in range(len(pos))]
+    rows = _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay,
+                 trip)
     motion_times = np.concatenate([times[:1]] + [
         times[m] - durations[m - 1] * (1.0 - np.arange(1, len(q) + 1) / len(q))
         for m, q in enumerate(replay["joints"], start=1)])
@@ -458,8 +466,10 @@ def _link(i: int) -> str:
     return "gripper" if i == 7 else f"link {i + 1}"
 
 
-def _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay) -> list:
-    """The verdict table (module docstring)."""
+def _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay,
+          trip) -> list:
+    """The verdict table (module docstring); ``trip[m][a]`` the controller's solutions of
+    target m's robtarget (:func:`~dloplan.robot.robtarget.solve_robtarget`)."""
     opts = cell.reach
     rows = []
     for k, sep in enumerate(assignment.separation):
@@ -476,6 +486,16 @@ def _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, rep
                                  bool(solved[m, a]),
                                  f"orientation error {np.degrees(aerr):.2g} deg" if
                                  not solved[m, a] else ""))
+        for a in range(2):
+            found = trip[m][a]
+            deviation = found.deviation(joints[m, a])
+            conf = confdata(joints[m, a]).tolist()
+            note = (f"{len(found.solutions)} solutions of the pose and arm angle, "
+                    f"{len(found.matching)} with confdata {conf}")
+            rows.append(CheckRow("round trip", m, label, int(shapes[m]), ARMS[a],
+                                 float(np.degrees(deviation)), "deg",
+                                 bool(found.unique and deviation <= ROUND_TRIP_TOLERANCE),
+                                 note))
         for a, arm in enumerate(robot.arms):
             gaps = np.minimum(joints[m, a] - arm.lower, arm.upper - joints[m, a])
             j = int(np.argmin(gaps))

@@ -1,7 +1,8 @@
 """The controller's MoveL into every target of a robot program, replayed joint by joint.
 
-TCP linear, orientation slerp, arm angle (``eax_a``) linear between the written values, each
-sub-step's IK seeded from the previous one with the arm angle held
+TCP linear, orientation slerp, arm angle (``eax_a``, :mod:`dloplan.robot.armangle`) linear
+between the written values, each sub-step's IK seeded from the previous one with the arm
+angle held
 (:func:`~dloplan.robot.kinematics.solve_many`, all moves of an arm advanced together). What
 :mod:`dloplan.robot.program` checks continuity, clearance and joint speed on.
 """

@@ -27,7 +27,7 @@ from .collision import segment_distance
 from .description import load_arm, vendored
 from .program import CheckRow
 from .reachability import ReachOptions
-from .yumi import ARMS, DEFAULT_TCP_IN_CLIP, DEFAULT_TCP_OFFSET, HOME_DEG
+from .yumi import ARMS, DEFAULT_TCP_IN_CLIP, HOME_DEG, Gripper
 
 START_RESTARTS = 16
 """Random restarts of the IK at the first pose (at least; more if ``options.ik`` asks): the one
@@ -450,13 +450,16 @@ def panda_pair(*, separation: float = 0.8, table_height: float = 0.0) -> Describ
 
 def yumi_cell(*, table_height: float = 0.0) -> DescribedCell:
     """The ABB YuMi as a description-built cell: both arms from the one ``yumi.urdf`` (body
-    ``yumi_body`` at the world origin), SmartGripper TCP (:data:`~dloplan.robot.yumi.
-    DEFAULT_TCP_OFFSET`; the gripper's capsule is part of the description), ABB's home pose.
-    Gives the FK of :func:`dloplan.robot.yumi.yumi` (tested to 1e-9)."""
+    ``yumi_body`` at the world origin), the SmartGripper's TCP on tool0
+    (:class:`~dloplan.robot.yumi.Gripper`'s default; the gripper's capsule is part of the
+    description), ABB's home pose. Gives the FK of :func:`dloplan.robot.yumi.yumi` (tested to
+    1e-9)."""
     path = vendored("yumi.urdf")
+    tcp_xyz, tcp_rot = Gripper().tcp_in_link
     arms = [CellArm(side, load_arm(path, f"yumi_link_7_{side[0]}", base_link="yumi_body",
                                    name=f"yumi_{side}"),
-                    tcp_offset=DEFAULT_TCP_OFFSET, home=np.radians(HOME_DEG[side]))
+                    tcp_offset=tcp_xyz, tcp_rotation=Rotation.from_matrix(tcp_rot),
+                    home=np.radians(HOME_DEG[side]))
             for side in ARMS]
     return DescribedCell("yumi", *arms, table_height=table_height, shared_base=True,
                          source={"preset": "yumi", "table_height": table_height})

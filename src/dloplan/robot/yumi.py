@@ -49,17 +49,36 @@ ABB_AXIS_NUMBERS = (1, 2, 7, 3, 4, 5, 6)
 
 _DEG = np.pi / 180.0
 
-# URDF <joint> data, physical order. Only joint 1 (the arm's mount on the body) differs
-# between the arms; rows: xyz [m], rpy [rad] (URDF fixed-axis roll-pitch-yaw).
-_MOUNT = {
-    "right": ((0.05355, -0.0725, 0.41492), (-0.9795, -0.5682, -2.3155)),
-    "left": ((0.05355, 0.07250, 0.41492), (0.9781, -0.5716, 2.3180)),
-}
+# URDF <joint> data, physical order; rows: xyz [m], rpy [rad] (URDF fixed-axis roll-pitch-yaw).
+# Only joint 1 (the arm's mount on the body) differs between the arms. Where ABB's controller
+# data differ from the description, ABB's are used (docs/decisions.md, "YuMi kinematics"):
+#  - the mount's rotation is the arm base frame of a real controller's configuration turned by
+#    pi about its z-axis: ROBOT -gravity_alpha/-gravity_beta/-gamma_rotation (rad) of ROB_R /
+#    ROB_L in SYSPAR/MOC.cfg of the RobotWare 6.06 backup in BerkeleyAutomation/yumipy
+#    (intrinsic x-y-z angles; the description's rpy agree to 0.07 / 0.16 deg);
+#  - the mount's position: RobotStudio's home robtargets of both arms (tool0 at
+#    [-9.578368507, -182.609892723, 198.627808149] mm for the right arm; tests/data) solved for
+#    it (the description's differs by 0.2 mm);
+#  - ABB axis 3's origin: 40.5 mm off axis 7 and 251.5 mm from axis 2 (the description has
+#    41.88 and 251.56 mm), fitted to RobotStudio's 10 tool0 poses to 0.005 mm (tests/data).
+_GRAVITY_ANGLES = {"right": (0.629233, 0.950657, 0.184266),
+                   "left": (-0.629233, 0.950657, -0.184266)}
+_MOUNT_XYZ = {"right": (0.0537106, -0.0725734, 0.4150099),
+              "left": (0.0537106, 0.0725734, 0.4150099)}
+
+
+def _mount_rpy(side: str) -> tuple[float, float, float]:
+    """URDF rpy of the mount: the controller's arm base frame turned by pi about its z-axis."""
+    base = Rotation.from_euler("XYZ", _GRAVITY_ANGLES[side])
+    return tuple((base * Rotation.from_rotvec([0.0, 0.0, np.pi])).as_euler("xyz"))
+
+
+_MOUNT = {side: (_MOUNT_XYZ[side], _mount_rpy(side)) for side in ("right", "left")}
 _HALF_PI = 1.57079632679
 _CHAIN_XYZ = (
     (0.03, 0.0, 0.1),
     (-0.03, 0.17283, 0.0),
-    (-0.04188, 0.0, 0.07873),
+    (-0.0405, 0.0, 0.07867),
     (0.0405, 0.16461, 0.0),
     (-0.027, 0.0, 0.10039),
     (0.027, 0.029, 0.0),
@@ -93,10 +112,26 @@ _CAPSULES = (
 )
 
 DEFAULT_TCP_OFFSET = (0.0, 0.0, 0.1142)
-"""Flange-to-TCP translation [m] of ABB's SmartGripper tool data (servo module only; ABB,
-Product manual - Grippers for IRB 14000): TCP 114.2 mm along the flange z-axis, orientation
-unchanged. The fingertips of the URDF gripper end 143 mm out. The full tool data (mass, centre
-of gravity, inertia) is :class:`dloplan.robot.cell.Tool`'s default."""
+"""tool0-to-TCP translation [m] of ABB's SmartGripper tool data (servo module only; ABB,
+Product manual - Grippers for IRB 14000): TCP 114.2 mm along tool0's z-axis, orientation
+unchanged. The fingertips of the URDF gripper end 136 mm beyond tool0. The full tool data (mass,
+centre of gravity, inertia) is :class:`dloplan.robot.cell.Tool`'s default."""
+
+DEFAULT_TOOL0_OFFSET = (0.0, 0.0, 0.007)
+"""Origin [m] of ABB's ``tool0`` (the flange frame RAPID's tool data refer to) in the last
+link frame ``yumi_link_7``: 7 mm along its z-axis (the description's ``gripper_*_base``
+joint). Fitted: RobotStudio's tool0 poses of 10 joint vectors agree to 0.005 mm
+(docs/decisions.md, "YuMi tool0")."""
+
+DEFAULT_TOOL0_ROTATION = Rotation.from_rotvec([0.0, 0.0, np.pi])
+"""``tool0_to_link7``: tool0 is ``yumi_link_7`` turned by pi about its z-axis (RobotStudio's
+tool0 orientation of the same 10 joint vectors agrees to 0.005 deg)."""
+
+ARM_ANGLE_REFERENCE = {"left": (0.0, -1.0, 0.0), "right": (0.0, 1.0, 0.0)}
+"""Default reference direction (unit vector in the robot's base frame) of each arm's arm angle
+(RobotWare's "Arm-Angle Reference Direction"): the arm angles these give reproduce the
+``eax_a`` of RobotStudio's home robtargets, -101.964427132 deg (right) and +101.964427132
+deg (left), to 1e-6 deg (docs/decisions.md, "YuMi arm angle")."""
 
 DEFAULT_TCP_IN_CLIP = Rotation.from_matrix([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 """The TCP axes expressed in the clip frame (u, v, w): TCP x = v, TCP y = u, TCP z = -w.
@@ -130,30 +165,75 @@ def as_rotation(value, name: str) -> Rotation:
     return value
 
 
+def axis_feet(origin_rot, origin_xyz, axes) -> np.ndarray:
+    """Where the arm angle's shoulder and wrist points sit on their axes (the feet of the
+    common normals of axes 1-2 on axis 1 and of axes 7-6 on axis 7, physical order): (s, w)
+    [m] along axis 1 from joint 1's origin and along the last axis from the last joint's
+    origin (:mod:`dloplan.robot.armangle`).
+
+    The relative pose of consecutive axes is fixed by the chain, so the feet are read at
+    q = 0 from the joint origins ``origin_rot`` (n, 3, 3), ``origin_xyz`` (n, 3) and the axes
+    (n, 3)."""
+    r, p = np.eye(3), np.zeros(3)
+    z, points = [], []
+    for i in range(len(axes)):
+        p = p + r @ origin_xyz[i]
+        r = r @ origin_rot[i]
+        z.append(r @ axes[i])
+        points.append(p)
+
+    def foot(i, j):
+        d = points[j] - points[i]
+        b = float(z[i] @ z[j])
+        if abs(1.0 - b * b) < 1e-12:
+            raise ValueError(f"axes: joint axes {i + 1} and {j + 1} are parallel; the arm "
+                             "angle needs them skew or intersecting")
+        return float((d @ z[i] - b * (d @ z[j])) / (1.0 - b * b))
+
+    return np.array([foot(0, 1), foot(len(axes) - 1, len(axes) - 2)])
+
+
 @dataclass(frozen=True, eq=False)
 class Gripper:
-    """Where the tool centre point sits on the flange and how a clip frame maps onto it.
+    """Where tool0 sits on the last link, the tool centre point on tool0, and how a clip frame
+    maps onto the TCP.
 
     Parameters
     ----------
     tcp_offset : array_like
-        (3,) flange-to-TCP translation [m] in the flange frame.
+        (3,) tool0-to-TCP translation [m] in the tool0 frame (RAPID ``tframe.trans``).
     tcp_rotation : scipy.spatial.transform.Rotation, optional
-        Flange-to-TCP rotation (``tcp_to_flange``); identity by default.
+        ``tcp_to_tool0`` (RAPID ``tframe.rot``); identity by default.
     tcp_in_clip : scipy.spatial.transform.Rotation, optional
         ``tcp_to_clip``: the TCP axes expressed in the clip frame (u, v, w); the TCP pose that
         holds a clip at ``clip_to_world`` is ``clip_to_world * tcp_in_clip`` at the clip point.
         Default :data:`DEFAULT_TCP_IN_CLIP`.
+    tool0_offset : array_like, optional
+        (3,) tool0's origin [m] in the last link frame (:data:`DEFAULT_TOOL0_OFFSET`).
+    tool0_rotation : scipy.spatial.transform.Rotation, optional
+        ``tool0_to_link7`` (:data:`DEFAULT_TOOL0_ROTATION`).
     """
 
     tcp_offset: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_TCP_OFFSET))
     tcp_rotation: Rotation = field(default_factory=Rotation.identity)
     tcp_in_clip: Rotation = DEFAULT_TCP_IN_CLIP
+    tool0_offset: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_TOOL0_OFFSET))
+    tool0_rotation: Rotation = DEFAULT_TOOL0_ROTATION
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "tcp_offset", as_vector(self.tcp_offset, "tcp_offset"))
         object.__setattr__(self, "tcp_rotation", as_rotation(self.tcp_rotation, "tcp_rotation"))
         object.__setattr__(self, "tcp_in_clip", as_rotation(self.tcp_in_clip, "tcp_in_clip"))
+        object.__setattr__(self, "tool0_offset", as_vector(self.tool0_offset, "tool0_offset"))
+        object.__setattr__(self, "tool0_rotation",
+                           as_rotation(self.tool0_rotation, "tool0_rotation"))
+
+    @property
+    def tcp_in_link(self) -> tuple[np.ndarray, np.ndarray]:
+        """The TCP in the last link frame: position (3,) [m] and ``tcp_to_link7`` (3, 3)."""
+        tool0 = self.tool0_rotation.as_matrix()
+        return (self.tool0_offset + tool0 @ self.tcp_offset,
+                tool0 @ self.tcp_rotation.as_matrix())
 
 
 @dataclass(frozen=True, eq=False)
@@ -163,7 +243,7 @@ class Arm:
     Joint ``i`` turns link ``i`` about ``axes[i]`` (in the joint frame) by ``q[i]``; its frame
     sits at ``origin_xyz[i]``, turned by ``origin_rpy[i]``, in the frame of link ``i - 1``
     (link 0 is the robot body, placed in the world by ``base_to_world``). The TCP is fixed in
-    the last link (the flange) by ``gripper``.
+    the last link by ``gripper`` (tool0, then the tool's TCP).
 
     Parameters
     ----------
@@ -192,6 +272,10 @@ class Arm:
         ``base_to_world`` rotation of the body frame.
     joint_names : tuple of str
         URDF joint names.
+    arm_angle_reference : array_like
+        (3,) reference direction of the arm angle (:mod:`dloplan.robot.armangle`), a vector
+        in the robot's base (body) frame; default ``(0, 0, 1)``, :func:`yumi_arm` sets the
+        controller's default of the arm (:data:`ARM_ANGLE_REFERENCE`).
     """
 
     name: str
@@ -208,6 +292,7 @@ class Arm:
     base_position: np.ndarray = field(default_factory=lambda: np.zeros(3))
     base_rotation: Rotation = field(default_factory=Rotation.identity)
     joint_names: tuple[str, ...] = ()
+    arm_angle_reference: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
 
     def __post_init__(self) -> None:
         for key, shape in (("origin_xyz", (7, 3)), ("origin_rpy", (7, 3)), ("axes", (7, 3)),
@@ -232,7 +317,15 @@ class Arm:
         xyz[0] = base @ xyz[0] + self.base_position
         object.__setattr__(self, "_origin_rot", rot)
         object.__setattr__(self, "_origin_xyz", xyz)
-        object.__setattr__(self, "_tcp_rot", self.gripper.tcp_rotation.as_matrix())
+        tcp_xyz, tcp_rot = self.gripper.tcp_in_link
+        object.__setattr__(self, "_tcp_rot", tcp_rot)
+        object.__setattr__(self, "_tcp_xyz", tcp_xyz)
+        object.__setattr__(self, "_angle_points", axis_feet(rot, xyz, self.axes))
+        reference = as_vector(self.arm_angle_reference, "arm_angle_reference")
+        if np.linalg.norm(reference) < 1e-9:
+            raise ValueError(f"arm_angle_reference: expected a nonzero direction, got "
+                             f"{self.arm_angle_reference!r}")
+        object.__setattr__(self, "arm_angle_reference", reference / np.linalg.norm(reference))
         skew = np.zeros((7, 3, 3))
         skew[:, [2, 0, 1], [1, 2, 0]] = self.axes
         skew[:, [1, 2, 0], [2, 0, 1]] = -self.axes
@@ -264,7 +357,7 @@ class Robot:
 
 
 def yumi_arm(side: str, *, gripper: Gripper | None = None, base_position=(0.0, 0.0, 0.0),
-             base_rotation: Rotation | None = None) -> Arm:
+             base_rotation: Rotation | None = None, arm_angle_reference=None) -> Arm:
     """One arm of a YuMi with the URDF data of this module.
 
     Parameters
@@ -272,9 +365,13 @@ def yumi_arm(side: str, *, gripper: Gripper | None = None, base_position=(0.0, 0
     side : str
         ``"left"`` or ``"right"``.
     gripper : Gripper, optional
-        Default: ABB SmartGripper TCP (:data:`DEFAULT_TCP_OFFSET`), :data:`DEFAULT_TCP_IN_CLIP`.
+        Default: ABB SmartGripper TCP (:data:`DEFAULT_TCP_OFFSET`) on tool0,
+        :data:`DEFAULT_TCP_IN_CLIP`.
     base_position, base_rotation
         Placement ``base_to_world`` of the robot body frame [m].
+    arm_angle_reference : array_like, optional
+        (3,) the arm angle's reference direction in the base frame (default
+        :data:`ARM_ANGLE_REFERENCE` of the side).
     """
     if side not in ARMS:
         raise ValueError(f"side: expected one of {ARMS}, got {side!r}")
@@ -295,6 +392,8 @@ def yumi_arm(side: str, *, gripper: Gripper | None = None, base_position=(0.0, 0
         base_position=base_position,
         base_rotation=base_rotation if base_rotation is not None else Rotation.identity(),
         joint_names=tuple(f"yumi_joint_{k}_{suffix}" for k in ABB_AXIS_NUMBERS),
+        arm_angle_reference=ARM_ANGLE_REFERENCE[side] if arm_angle_reference is None
+        else arm_angle_reference,
     )
 
 
