@@ -15,7 +15,7 @@ from scipy.spatial.transform import Rotation
 
 from dloplan.robot import RobotCell, Tool, confdata, forward, yumi_arm
 from dloplan.robot.armangle import arm_angle, arm_angle_jacobian, solve_reference, wrap
-from dloplan.robot.kinematics import IKOptions, link_frames, solve_from
+from dloplan.robot.kinematics import IKOptions, jacobian, link_frames, solve_from
 from dloplan.robot.robtarget import ROUND_TRIP_TOLERANCE, solve_robtarget
 from dloplan.robot.yumi import Gripper
 
@@ -162,16 +162,30 @@ def test_compiled_held_angle_solve_is_the_numpy_reference():
         np.testing.assert_allclose(compiled.q, reference[0], atol=1e-9)
 
 
+def _conditioning(arm, q) -> float:
+    """Smallest singular value of the 7x7 task Jacobian (TCP pose and arm angle, angular rows
+    weighted by 0.1 m/rad): near 0 at a singularity of the arm or of its arm angle."""
+    jac = np.vstack([jacobian(arm, q), arm_angle_jacobian(arm, q)])
+    return float(np.linalg.svd(jac * np.r_[1, 1, 1, 0.1, 0.1, 0.1, 0.1][:, None],
+                               compute_uv=False).min())
+
+
 def test_controller_ik_returns_the_joints_of_a_robtarget():
     # Round trip on joint vectors we did not design: FK -> (pose, arm angle, confdata) ->
     # the controller-semantics IK finds the joints among the solutions with that confdata,
     # within 0.05 deg (whether it is the only one is the program's check: two solutions of
-    # one confdata are possible for this arm).
+    # one confdata are possible for this arm). Joint vectors within 1e-3 of a singularity of
+    # the 7x7 task are left out: there the solution is ill-conditioned (the controller's too)
+    # and the program's round trip check fails them, as it should.
     rng = np.random.default_rng(7)
     arm = yumi_arm("right")
     margin = np.radians(10.0)
-    for _ in range(8):
+    checked = 0
+    while checked < 8:
         q = rng.uniform(arm.lower + margin, arm.upper - margin)
+        if _conditioning(arm, q) < 1e-3:
+            continue
+        checked += 1
         position, rotation = forward(arm, q)
         found = solve_robtarget(arm, position, rotation.as_matrix(), float(arm_angle(arm, q)),
                                 confdata(q))

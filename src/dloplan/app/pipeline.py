@@ -295,11 +295,32 @@ def plan_program(cell, grippers, trajectory, progress=quiet):
 
 
 def with_program(doc: PlanDocument, program) -> PlanDocument:
-    """The document with its robot program section (and its failure among the warnings)."""
+    """The document with its robot program section (and its failure among the warnings); when
+    the program slowed the trajectory down (a joint over its speed limit), the document's
+    trajectory and cycle are the program's timing."""
     section = RobotSection(program.ok, program.message, cell_to_dict(program.cell),
                            program.to_dict())
     failures = () if program.ok else (program.message,)
-    return replace(doc, robot=section, program=program, warnings=doc.warnings + failures)
+    timing = {}
+    if program.trajectory is not None and program.trajectory is not doc.trajectory:
+        timing = {"trajectory": program.trajectory, "verification": None,
+                  "cycle": None if doc.cycle is None else retimed_cycle(doc.cycle,
+                                                                        program.trajectory)}
+    return replace(doc, robot=section, program=program, warnings=doc.warnings + failures,
+                   **timing)
+
+
+def retimed_cycle(cycle: dict, trajectory) -> dict:
+    """A document's cycle section with the same gripper actions and motion phases on another
+    timing of the same knots."""
+    actions = [GripperAction(p["name"], p["knots"][0], p["duration"])
+               for p in cycle["phases"] if p["kind"] == "action"]
+    phases: dict = {}
+    for p in cycle["phases"]:
+        if p["kind"] == "motion":
+            first, last = phases.get(p["name"], (p["knots"][0], p["knots"][1]))
+            phases[p["name"]] = (first, p["knots"][1])
+    return cycle_to_dict(plan_cycle(trajectory, actions, phases or None))
 
 
 def program_of(doc: PlanDocument):

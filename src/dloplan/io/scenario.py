@@ -367,13 +367,19 @@ class RobotSpec(_Model):
         None, description="a cell from descriptions: {preset: ur5e_pair | panda_pair | yumi, "
         "...} or {arms: {left: {urdf, tip_link, ...}, right: ...}} (docs/cells.md)")
     place: bool = Field(True, description="search the job's placement on the table (cell)")
+    min_joint_margin: float = Field(
+        5.0, ge=0, lt=90, allow_inf_nan=False,
+        description="smallest distance of every joint from its limits at every target [deg]: "
+        "a program closer fails (any cell)")
     programs: list[ProgramName] | None = Field(
         None, description="robot programs `dloplan plan` writes (default all the cell takes)")
     urscript: UrscriptSpec = Field(default_factory=UrscriptSpec)
     ros_joints: RosJointsSpec = Field(default_factory=RosJointsSpec)
 
-    base_position: Vector3 = Field(default_factory=lambda: [0.0, 0.0, 0.0],
-                                   description="robot base origin in the plan's frame [units]")
+    base_position: Vector3 = Field(
+        default_factory=lambda: [0.0, 0.0, 0.0],
+        description="robot base origin in the plan's frame [units]; default: the YuMi standing "
+        "on the table, 0.1 m above it over the plan's origin (no table: the origin)")
     base_rotation: RotationSpec | None = None
     wobj: str = Field("dlo_wobj", description="wobjdata name of the plan's frame")
     tools: list[ToolSpec] = Field(default_factory=lambda: [ToolSpec(), ToolSpec()],

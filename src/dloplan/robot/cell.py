@@ -6,9 +6,10 @@ the tool of each arm as RAPID ``tooldata`` (ABB's SmartGripper data by default),
 object's name, the table height and the settings of the approach, the grip and the checks.
 
 Frames: the plan's frame is the work frame. ``base_position`` / ``base_rotation`` place the
-robot's base frame (ABB's base frame of the IRB 14000: bottom centre of the body, x forward,
-y to the robot's left, z up) in it (``base_to_work``); the RAPID work object's user frame is
-the inverse, the work frame seen from the robot's base (what is taught on the controller).
+robot's base frame (ABB's base frame of the IRB 14000: on the body's vertical axis, 0.1 m above
+the foot, x forward, y to the robot's left, z up) in it (``base_to_work``); the RAPID work
+object's user frame is the inverse, the work frame seen from the robot's base (what is taught
+on the controller, docs/robot.md).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from .reachability import ReachOptions
 from .yumi import (
     ARM_ANGLE_REFERENCE,
     ARMS,
+    BASE_ABOVE_FOOT,
     DEFAULT_TCP_IN_CLIP,
     DEFAULT_TCP_OFFSET,
     DEFAULT_TOOL0_OFFSET,
@@ -135,8 +137,9 @@ class RobotCell:
         The tool of the left and of the right arm.
     wobj : str
         The ``wobjdata`` name the targets are written in.
-    table_height : float
-        Height of the table top in the work frame [m] (drawn in the report).
+    table_height : float, optional
+        Height of the table top in the work frame [m] (drawn in the report); default the table
+        the robot stands on, :data:`~dloplan.robot.yumi.BASE_ABOVE_FOOT` below the base frame.
     approach : float
         Distance [m] the gripper comes from (and leaves to) along its approach axis (TCP z)
         before grasping and after releasing; 0 grasps directly.
@@ -168,7 +171,7 @@ class RobotCell:
     base_rotation: Rotation = field(default_factory=Rotation.identity)
     tools: tuple[Tool, Tool] = (Tool(name="dlo_tool_l"), Tool(name="dlo_tool_r"))
     wobj: str = "dlo_wobj"
-    table_height: float = 0.0
+    table_height: float | None = None
     approach: float = 0.05
     approach_speed: float = 0.05
     grip_time: float = 0.5
@@ -188,7 +191,8 @@ class RobotCell:
                              f"{self.tools!r}")
         set_(self, "tools", tools)
         check_rapid_name("RobotCell.wobj", self.wobj)
-        height = float(self.table_height)
+        height = (float(self.base_position[2]) - BASE_ABOVE_FOOT if self.table_height is None
+                  else float(self.table_height))
         if not np.isfinite(height):
             raise ValueError(f"RobotCell.table_height: expected a finite height [m], got "
                              f"{self.table_height!r}")
@@ -269,12 +273,14 @@ class RobotCell:
             "tool0_offset": self.tool0_offset.tolist(),
             "tool0_rotation": quat(self.tool0_rotation),
             "arm_angle_reference": [r.tolist() for r in self.arm_angle_reference],
+            "min_margin": self.reach.min_margin,
         }
 
 
 def cell_from_record(data: dict) -> RobotCell:
     """The cell of :meth:`RobotCell.to_dict`'s data (a plan document's ``robot.cell``); a record
-    written before ``tool0_*`` and ``arm_angle_reference`` were recorded gets their defaults.
+    written before ``tool0_*``, ``arm_angle_reference`` and ``min_margin`` were recorded gets
+    their defaults.
 
     Raises
     ------
@@ -300,7 +306,9 @@ def cell_from_record(data: dict) -> RobotCell:
             tool0_rotation=Rotation.from_quat(data["tool0_rotation"])
             if "tool0_rotation" in data else DEFAULT_TOOL0_ROTATION,
             arm_angle_reference=tuple(data.get("arm_angle_reference",
-                                               defaults["arm_angle_reference"].default)))
+                                               defaults["arm_angle_reference"].default)),
+            reach=ReachOptions(min_margin=float(data.get("min_margin",
+                                                         ReachOptions().min_margin))))
     except KeyError as exc:
         raise ValueError(f"missing field {exc}") from None
     except (TypeError, ValueError) as exc:

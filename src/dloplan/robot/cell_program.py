@@ -11,19 +11,22 @@ A :class:`CellProgram` is the verification of the plan's trajectory on a describ
 (:func:`~dloplan.robot.urdf_cell.verify_on_cell`: arm assignment by side, placement search,
 IK tracked through sub-steps, joint limits, continuity, arm-arm and arm-table clearance), one
 target per kept trajectory knot (a knot per shape), with the verified joints the URScript and
-ROS 2 writers write.
+ROS 2 writers write, and the peak joint speeds and accelerations along the trajectory's time
+law (:mod:`dloplan.robot.peaks`) against the arms' published limits; a segment over a joint
+speed limit is slowed first, as on the YuMi.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 import numpy as np
 
 from .cell import RobotCell
 from .chain import capsules
-from .program import CheckedProgram, CheckRow, check_summary, robot_program
+from .peaks import joint_peaks, slowed_scale
+from .program import SLOW_ROUNDS, CheckedProgram, CheckRow, check_summary, robot_program
 from .urdf_cell import CHECKS, CellPlan, DescribedCell, verify_on_cell
 
 LOWER_IS_WORSE = {"joint limits", "clearance", "table clearance"}
@@ -49,6 +52,7 @@ class Program(Protocol):
 
     cell: Cell
     checks: tuple[CheckRow, ...]
+    trajectory: object  # the Trajectory the program was verified with (maybe slowed)
 
     @property
     def ok(self) -> bool: ...
@@ -116,12 +120,17 @@ class CellProgram(CheckedProgram):
     left_clip : int
         The clip the left arm holds (0: the cable's first end).
     checks : tuple of CheckRow
-        The verdict's rows, labelled ``"shape k"``.
+        The verdict's rows, labelled ``"shape k"``, then the joint speed and acceleration
+        rows along the time law.
+    trajectory : Trajectory or None
+        The timing the program was verified with: the plan's, or slowed where a joint was
+        over its speed limit.
     """
 
     plan: CellPlan
     left_clip: int
     checks: tuple[CheckRow, ...]
+    trajectory: object = None
 
     @property
     def cell(self) -> DescribedCell:
@@ -225,11 +234,63 @@ class CellProgram(CheckedProgram):
 
 def cell_program(cell: DescribedCell, trajectory) -> CellProgram:
     """Verify a plan's timed trajectory on a described cell (:func:`verify_on_cell` with the
-    cell's placement setting) as a :class:`CellProgram`."""
+    cell's placement setting) as a :class:`CellProgram`: the verdict's rows, then per moving
+    segment and arm the peak joint speed and (where the arm has published limits) joint
+    acceleration along the time law. Segments over a joint speed limit are slowed (the law's
+    speed scale, :func:`~dloplan.robot.peaks.slowed_scale`) up to
+    :data:`~dloplan.robot.program.SLOW_ROUNDS` times; the joints' path does not change."""
     plan = verify_on_cell(cell, trajectory)
     arm_clips = tuple(trajectory.arm_clips)
     left_clip = arm_clips[1] if plan.swapped else arm_clips[0]
-    return CellProgram(plan, int(left_clip), plan.verdict.rows)
+    timing = trajectory
+    for round_ in range(SLOW_ROUNDS + 1):
+        peaks = _peaks(plan, timing)
+        ratios = np.zeros(timing.n_knots - 1)
+        ratios[plan.shapes[1:] - 1] = np.max([p.speed for p in peaks], axis=0)
+        if not np.any(ratios > 1.0) or round_ == SLOW_ROUNDS:
+            break
+        timing = timing.with_speed_scale(slowed_scale(timing, ratios))
+        plan = replace(plan, times=timing.times[plan.shapes])
+    return CellProgram(plan, int(left_clip), plan.verdict.rows + _speed_rows(plan, peaks),
+                       timing)
+
+
+def _peaks(plan: CellPlan, trajectory) -> list:
+    """Per arm the :class:`~dloplan.robot.peaks.JointPeaks` of every kept segment: the tracked
+    sub-steps of the segment (uniform in its path parameter) timed by the trajectory's law of
+    the segment that ends at its end knot (the ones before it, between knots at the same
+    instant, do not move)."""
+    verdict = plan.verdict
+    laws = [trajectory.law.profiles[k - 1] for k in plan.shapes[1:]]
+    out = []
+    for a, arm in enumerate(plan.cell.arms):
+        paths = []
+        for j in range(len(plan.shapes) - 1):
+            start = np.searchsorted(verdict.motion_times, j, side="right") - 1
+            end = np.searchsorted(verdict.motion_times, j + 1, side="right")
+            paths.append(verdict.motion_joints[a][start:end])
+        out.append(joint_peaks(paths, laws, arm.max_velocity, arm.max_acceleration))
+    return out
+
+
+def _speed_rows(plan: CellPlan, peaks) -> tuple[CheckRow, ...]:
+    """One ``joint speed`` row per segment and arm, and a ``joint acceleration`` row where the
+    arm has published acceleration limits."""
+    rows = []
+    for j, shape in enumerate(plan.shapes[1:]):
+        label = f"shape {shape}"
+        for a, arm in enumerate(plan.cell.arms):
+            p = peaks[a]
+            rows.append(CheckRow("joint speed", j + 1, label, int(shape), arm.name,
+                                 float(p.speed[j]), "of the limit", bool(p.speed[j] <= 1.0),
+                                 f"joint {int(p.speed_joint[j]) + 1}; peak along the time law"))
+            if np.isfinite(arm.max_acceleration).any():
+                rows.append(CheckRow("joint acceleration", j + 1, label, int(shape), arm.name,
+                                     float(p.acceleration[j]), "of the limit",
+                                     bool(p.acceleration[j] <= 1.0),
+                                     f"joint {int(p.acceleration_joint[j]) + 1}; "
+                                     f"{p.largest_acceleration[j]:.3g} rad/s^2"))
+    return tuple(rows)
 
 
 def placement_message(cell, grippers, trajectory) -> str:

@@ -56,6 +56,9 @@ class CellArm:
         The TCP axes in the clip frame (u, v, w): how the tool holds a clip
         (default :data:`~dloplan.robot.yumi.DEFAULT_TCP_IN_CLIP`: approach from above, the cable
         along TCP y, for fingers closing along TCP x).
+    max_acceleration : array_like, optional
+        (n,) published joint acceleration limits [rad/s^2]; default none (inf): the program's
+        ``joint acceleration`` check applies where a limit is given.
     """
 
     name: str
@@ -67,10 +70,17 @@ class CellArm:
     tool_radius: float = 0.0
     home: np.ndarray | None = None
     tcp_in_clip: Rotation = DEFAULT_TCP_IN_CLIP
+    max_acceleration: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         d = self.description
         n = d.n_joints
+        accel = np.full(n, np.inf) if self.max_acceleration is None else \
+            np.asarray(self.max_acceleration, dtype=float)
+        if accel.shape != (n,) or np.any(~(accel > 0)):
+            raise ValueError(f"{self.name}.max_acceleration: expected {n} limits > 0 "
+                             f"[rad/s^2], got {self.max_acceleration!r}")
+        object.__setattr__(self, "max_acceleration", accel)
         object.__setattr__(self, "base_position",
                            as_vector(self.base_position, f"{self.name}.base_position", 3))
         object.__setattr__(self, "tcp_offset",
@@ -127,6 +137,11 @@ class CellArm:
     def upper(self) -> np.ndarray:
         """(n,) upper joint limits [rad]."""
         return self.description.upper
+
+    @property
+    def max_velocity(self) -> np.ndarray:
+        """(n,) joint speed limits [rad/s] (the description's)."""
+        return self.description.max_velocity
 
     @property
     def joint_names(self) -> tuple[str, ...]:

@@ -17,6 +17,9 @@ import numpy as np
 
 from ..jit import njit
 
+STALL_FLOOR = 1e-3
+"""[m] Weighted error below which a solve is never given up as stalled (:func:`solve`)."""
+
 
 @njit(cache=True)
 def chain_frames(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, q, rots,
@@ -195,8 +198,9 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
     7x7 system of the controller's semantics; no null space left, no polish); its error counts
     with the orientation error. Otherwise ``polish`` null-space steps at most once converged
     closer than ``min_margin`` to a limit. ``stall_window`` > 0: the seed is given up when the
-    weighted error (position + ``length_scale`` x angle) has not dropped below
-    ``stall_ratio`` of its value ``stall_window`` iterations before.
+    weighted error (position + ``length_scale`` x angle) is still above :data:`STALL_FLOOR`
+    and has not dropped below ``stall_ratio`` of its value ``stall_window`` iterations before
+    (a solve that is close keeps going: near a singularity it converges slowly).
     """
     q = np.minimum(np.maximum(seed, lower), upper)
     rows = 7 if hold_angle else 6
@@ -239,8 +243,9 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
                     np.min(np.minimum(q - lower, upper - q)) >= min_margin:
                 break
         history[it] = perr + length_scale * aerr
-        if it == max_iterations or (stall_window > 0 and it >= stall_window and history[it]
-                                    > stall_ratio * history[it - stall_window]):
+        if it == max_iterations or (stall_window > 0 and it >= stall_window
+                                    and history[it] > STALL_FLOOR
+                                    and history[it] > stall_ratio * history[it - stall_window]):
             break
         weighted_jacobian(rots, points, axes, scale, ones, jac[:6])
         for row in range(3):

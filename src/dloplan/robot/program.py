@@ -21,8 +21,12 @@ its timing (:class:`~dloplan.trajectory.Trajectory`) into a :class:`RobotProgram
 
    - ``assignment``: per shape, the y-separation of the two arms' clips (negative: crossed);
    - ``reach``: the IK reaches the written target (error of FK of the written solution);
-   - ``joint limits``: distance of the nearest joint to its limit (> 0 required; below
-     ``reach.min_margin`` is noted);
+   - ``round trip``: the written robtarget (pose, ``eax_a``, confdata) solved by the
+     controller-semantics IK (:mod:`dloplan.robot.robtarget`) gives exactly the verified
+     joints (0.05 deg), and no other solution has that confdata;
+   - ``joint limits``: distance of the nearest joint to its limit, at least the cell's
+     ``reach.min_margin`` (5 deg by default: the model's uncertainty, flange and calibration,
+     is larger than a fraction of a degree);
    - ``clearance``: smallest arm-arm capsule distance at the target and along the move into it;
    - ``continuity``: the controller's MoveL into the target, replayed: TCP linear, orientation
      slerp, arm angle linear between the written values, each sub-step's IK seeded from the
@@ -31,10 +35,15 @@ its timing (:class:`~dloplan.trajectory.Trajectory`) into a :class:`RobotProgram
      finer steps: fast motion near a singularity passes, a jump does not), and the move ends
      on the target's own solution (so the controller with ``ConfL \\On`` reaches the
      programmed configuration);
-   - ``joint speed``: the largest joint speed of that replay at the planned move duration,
-     as a fraction of the joint's speed limit.
+   - ``joint speed``: the peak joint speed of that replay along the move's time law (the
+     trajectory's jerk-limited law, :mod:`dloplan.robot.peaks`), as a fraction of the joint's
+     speed limit (ABB's product specification of the IRB 14000).
 
-The program is ``ok`` when every row is. Everything computed is kept (:attr:`RobotProgram.checks`,
+A program whose only trouble is a joint over its speed limit is slowed first: each such
+segment's speed scale of the time law (:meth:`dloplan.trajectory.Trajectory.with_speed_scale`)
+brings it to 98 % of the limit, up to :data:`SLOW_ROUNDS` times; the program keeps the
+trajectory it was verified with (:attr:`RobotProgram.trajectory`). The program is ``ok`` when
+every row is. Everything computed is kept (:attr:`RobotProgram.checks`,
 :meth:`RobotProgram.summary`, :meth:`RobotProgram.to_dict`).
 """
 
@@ -50,7 +59,8 @@ from .assignment import ArmAssignment, assign_arms
 from .cell import RobotCell
 from .collision import arm_clearance
 from .confdata import confdata
-from .kinematics import forward, joint_margin, solve_from
+from .kinematics import forward, solve_from
+from .peaks import joint_peaks, slowed_scale
 from .replay import replay_moves
 from .robtarget import ROUND_TRIP_TOLERANCE, solve_robtarget
 from .solutions import ranked_solutions
@@ -71,6 +81,9 @@ CHECKS = ("assignment", "reach", "round trip", "joint limits", "clearance", "con
 
 MAX_TRIES = 2
 """Joint solutions (best ranked first) replayed before the program settles for the first."""
+
+SLOW_ROUNDS = 3
+"""Times a program over a joint-speed limit is slowed (re-timed) before it is refused."""
 
 _LOWER_IS_WORSE = {"assignment", "joint limits", "clearance"}
 _TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
@@ -176,6 +189,12 @@ class RobotProgram(CheckedProgram):
     zones : numpy.ndarray or None
         (M,) fly-by zone radius [m] at each target (the trajectory's zones at the shapes; 0,
         a fine point, at the approach, the grasp, the release and the retreat).
+    trajectory : Trajectory or None
+        The timing the program was verified with: the plan's, or slowed where a joint was
+        over its speed limit.
+    joint_speed : numpy.ndarray or None
+        (M - 1, 2) per move and arm the peak joint speed along the time law as a fraction of
+        the limit.
     """
 
     cell: RobotCell
@@ -197,6 +216,8 @@ class RobotProgram(CheckedProgram):
     motion_joints: np.ndarray
     checks: tuple[CheckRow, ...]
     zones: np.ndarray | None = None
+    trajectory: object = None
+    joint_speed: np.ndarray | None = None
 
     @property
     def n_targets(self) -> int:
@@ -337,13 +358,20 @@ def robot_program(grippers, trajectory, cell: RobotCell | None = None) -> RobotP
     _check_inputs(grippers, trajectory)
     assignment = assign_arms(grippers.positions, cell)
     program = _build(grippers, trajectory, cell, assignment)
-    if program.ok or not assignment.ok:
-        return program
-    failed = {r.check for r in program.failures}
-    if failed & {"clearance", "continuity"} and "reach" not in failed:
-        other = _build(grippers, trajectory, cell, assignment.swapped())
-        if other.ok:
-            return other
+    if not program.ok and assignment.ok:
+        failed = {r.check for r in program.failures}
+        if failed & {"clearance", "continuity"} and "reach" not in failed:
+            other = _build(grippers, trajectory, cell, assignment.swapped())
+            if other.ok:
+                program = other
+    for _ in range(SLOW_ROUNDS):
+        inner = program.joint_speed[1:-1] if cell.approach > 0 else program.joint_speed
+        ratios = inner.max(axis=1)
+        if not np.any(ratios > 1.0):
+            break
+        timing = program.trajectory
+        program = _build(grippers, timing.with_speed_scale(slowed_scale(timing, ratios)), cell,
+                         program.assignment)
     return program
 
 
@@ -427,12 +455,16 @@ def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, q
     waits = np.zeros(len(pos))
     waits[grasp] = cell.grip_time
     times = np.cumsum(np.r_[0.0, durations]) + np.concatenate([[0.0], np.cumsum(waits[:-1])])
-    replay = replay_moves(robot, pos, rot, eax, joints, durations, opts)
+    replay = replay_moves(robot, pos, rot, eax, joints, opts)
+    laws = _move_laws(trajectory, cell)
+    peaks = [joint_peaks([np.concatenate([joints[m, a][None], q[:, a]])
+                          for m, q in enumerate(replay["joints"])], laws, arm.max_velocity,
+                         np.full(7, np.inf)) for a, arm in enumerate(robot.arms)]
     trip = [[solve_robtarget(arm, pos[m, a], rot[m, a], np.radians(eax[m, a]),
                              confdata(joints[m, a]), seeds=[joints[m, a]], options=opts.ik)
              for a, arm in enumerate(robot.arms)] for m in range(len(pos))]
     rows = _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay,
-                 trip)
+                 trip, peaks)
     motion_times = np.concatenate([times[:1]] + [
         times[m] - durations[m - 1] * (1.0 - np.arange(1, len(q) + 1) / len(q))
         for m, q in enumerate(replay["joints"], start=1)])
@@ -443,7 +475,25 @@ def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, q
     zones[[0, grasp, release, -1]] = 0.0
     return RobotProgram(cell, assignment, turned, labels, shapes, grasp, release, pos, quat,
                         joints, confdata(joints), eax, times, durations, speeds,
-                        motion_times, motion, tuple(rows), zones)
+                        motion_times, motion, tuple(rows), zones, trajectory,
+                        np.stack([p.speed for p in peaks], axis=1))
+
+
+def _move_laws(trajectory, cell: RobotCell) -> list:
+    """The time law of every move (M - 1): the trajectory's segments, and for the approach
+    and the retreat the jerk-limited rest-to-rest law at ``cell.approach_speed`` under the
+    trajectory's acceleration and jerk limits."""
+    from ..trajectory import MotionLimits
+    from ..trajectory.timelaw import Profile
+
+    laws = list(trajectory.law.profiles)
+    if cell.approach > 0:
+        limits = trajectory.limits if trajectory.limits is not None else MotionLimits()
+        approach = Profile.jerk_limited(cell.approach_speed / cell.approach,
+                                        limits.acceleration / cell.approach,
+                                        limits.jerk / cell.approach)
+        laws = [approach] + laws + [approach]
+    return laws
 
 
 def _timing(trajectory, cell: RobotCell, assignment: ArmAssignment, approach: bool):
@@ -467,9 +517,10 @@ def _link(i: int) -> str:
 
 
 def _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay,
-          trip) -> list:
+          trip, peaks) -> list:
     """The verdict table (module docstring); ``trip[m][a]`` the controller's solutions of
-    target m's robtarget (:func:`~dloplan.robot.robtarget.solve_robtarget`)."""
+    target m's robtarget (:func:`~dloplan.robot.robtarget.solve_robtarget`), ``peaks[a]``
+    the arm's :class:`~dloplan.robot.peaks.JointPeaks` per move."""
     opts = cell.reach
     rows = []
     for k, sep in enumerate(assignment.separation):
@@ -502,9 +553,9 @@ def _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, rep
             margin = float(np.degrees(gaps[j]))
             note = f"ABB axis {ABB_AXIS_NUMBERS[j]}"
             if margin < np.degrees(opts.min_margin):
-                note += f", less than the wanted {np.degrees(opts.min_margin):.0f} deg"
+                note += f", less than the {np.degrees(opts.min_margin):.0f} deg required"
             rows.append(CheckRow("joint limits", m, label, int(shapes[m]), ARMS[a], margin,
-                                 "deg", bool(joint_margin(arm, joints[m, a]) > 0), note))
+                                 "deg", bool(gaps[j] >= opts.min_margin), note))
     # clearance at each target and along the move into it
     steps = [joints[:1]] + replay["joints"]
     for m, label in enumerate(labels):
@@ -529,7 +580,11 @@ def _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, rep
             rows.append(CheckRow("continuity", m, labels[m], int(shapes[m]), ARMS[a],
                                  float(np.degrees(largest)), "deg", bool(ok), note))
         for a in range(2):
-            ratio = float(replay["speed_ratio"][m - 1][a])
+            ratio = float(peaks[a].speed[m - 1])
+            axis = ABB_AXIS_NUMBERS[int(peaks[a].speed_joint[m - 1])]
             rows.append(CheckRow("joint speed", m, labels[m], int(shapes[m]), ARMS[a], ratio,
-                                 "of the limit", bool(ratio <= 1.0), f"from {labels[m - 1]}"))
+                                 "of the limit", bool(ratio <= 1.0),
+                                 f"from {labels[m - 1]}; peak along the time law, ABB axis "
+                                 f"{axis}; peak joint acceleration "
+                                 f"{peaks[a].largest_acceleration[m - 1]:.3g} rad/s^2"))
     return rows

@@ -42,8 +42,13 @@ COMFORT_MARGIN = float(np.radians(30.0))
 PLACEMENT_TRIES = 3
 """Best-ranked placements verified in full by :func:`search_cell_placement`."""
 
-CHECKS = ("reach", "joint limits", "continuity", "clearance", "table clearance")
-"""The checks of a cell verdict, in the order of its rows."""
+CHECKS = ("reach", "joint limits", "continuity", "clearance", "table clearance", "joint speed",
+          "joint acceleration")
+"""The checks of a cell program, in the order of its rows (the last two along the time law,
+:func:`dloplan.robot.cell_program.cell_program`)."""
+
+MIN_MARGIN = float(np.radians(5.0))
+"""[rad] Default smallest joint margin of a cell's program (:attr:`DescribedCell.min_margin`)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,6 +75,9 @@ class DescribedCell:
     source : dict, optional
         The mapping that builds the cell again (:func:`cell_from_mapping`, lengths in m, URDF
         paths absolute); the presets record theirs.
+    min_margin : float
+        Smallest distance [rad] of every joint from its limits at every pose: a program closer
+        fails its ``joint limits`` check (default :data:`MIN_MARGIN`, 5 deg).
     """
 
     name: str
@@ -80,6 +88,7 @@ class DescribedCell:
     place: bool = True
     writers: dict = field(default_factory=dict)
     source: dict | None = None
+    min_margin: float = MIN_MARGIN
 
     def __post_init__(self) -> None:
         if (self.left.name, self.right.name) != ARMS:
@@ -88,6 +97,9 @@ class DescribedCell:
         if not np.isfinite(self.table_height):
             raise ValueError(f"table_height: expected a finite number [m], got "
                              f"{self.table_height!r}")
+        if not (np.isfinite(self.min_margin) and self.min_margin >= 0):
+            raise ValueError(f"min_margin: expected a joint margin >= 0 [rad], got "
+                             f"{self.min_margin!r}")
 
     @property
     def arms(self) -> tuple[CellArm, CellArm]:
@@ -114,7 +126,7 @@ class DescribedCell:
             raise ValueError(f"cell {self.name!r}: built without a mapping, cannot be recorded "
                              "(build it with cell_from_mapping or a preset)")
         return {"kind": "described", **self.source, "place": self.place,
-                "writers": self.writers}
+                "writers": self.writers, "min_margin": self.min_margin}
 
 
 @dataclass(frozen=True, eq=False)
@@ -311,8 +323,8 @@ def _rows(cell, reach_ok, cont, perr, margin, step, table, clearance, opts) -> l
             low = margin[k, a] < opts.min_margin
             rows.append(CheckRow("joint limits", k, label, k, arm.name,
                                    float(np.degrees(margin[k, a])), "deg",
-                                   bool(reach_ok[k, a] and margin[k, a] > 0),
-                                   f"below the wanted {np.degrees(opts.min_margin):.0f} deg"
+                                   bool(reach_ok[k, a] and not low),
+                                   f"below the {np.degrees(opts.min_margin):.0f} deg required"
                                    if low else ""))
             rows.append(CheckRow("continuity", k, label, k, arm.name,
                                    float(np.degrees(step[k, a])), "deg", bool(cont[k, a]),
@@ -418,6 +430,11 @@ def ur5e_pair(*, separation: float = 0.8, tcp_offset: float = 0.15, tool_radius:
         "tool_radius": tool_radius, "table_height": table_height})
 
 
+PANDA_MAX_ACCELERATION = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
+"""[rad/s^2] The Panda's joint acceleration limits (Franka Emika, "Robot and interface
+specifications", Franka Control Interface documentation: ddq_max); its joint speed limits
+(2.175 rad/s for joints 1-4, 2.61 for 5-7) are the description's."""
+
 PANDA_TCP_IN_CLIP = Rotation.from_matrix(np.diag([1.0, -1.0, -1.0]))
 """TCP axes in the clip frame for the Franka Hand: TCP x = u (the cable), y = -v, z = -w."""
 
@@ -442,7 +459,7 @@ def panda_pair(*, separation: float = 0.8, table_height: float = 0.0) -> Describ
     arms = [CellArm(side, replace(description, name=f"panda_{side}"),
                     base_position=(0.0, sign * separation / 2, table_height),
                     tcp_offset=(0.0, 0.0, 0.1034), tool_radius=0.03, home=home,
-                    tcp_in_clip=PANDA_TCP_IN_CLIP)
+                    tcp_in_clip=PANDA_TCP_IN_CLIP, max_acceleration=PANDA_MAX_ACCELERATION)
             for side, sign in zip(ARMS, (1.0, -1.0), strict=True)]
     return DescribedCell("panda_pair", *arms, table_height=table_height, source={
         "preset": "panda_pair", "separation": separation, "table_height": table_height})
@@ -527,6 +544,7 @@ def verify_on_cell(cell: DescribedCell, trajectory, *, tcp_in_clip: Rotation | N
     place : bool, optional
     options : ReachOptions, optional
     """
+    options = options if options is not None else ReachOptions(min_margin=cell.min_margin)
     times = np.asarray(trajectory.times, dtype=float)
     keep = np.concatenate([[True], np.diff(times) > 0])
     pos = np.asarray(trajectory.positions, dtype=float)[keep]
@@ -575,6 +593,8 @@ class ArmSpec:
         (n,) [rad].
     cable_along : str
         Key of :data:`CABLE_ALONG`.
+    max_acceleration : tuple, optional
+        (n,) published joint acceleration limits [rad/s^2].
     package_dirs : dict
         For :func:`~dloplan.robot.description.load_arm`.
     """
@@ -588,6 +608,7 @@ class ArmSpec:
     tool_radius: float = 0.0
     home: tuple | None = None
     cable_along: str = "y"
+    max_acceleration: tuple | None = None
     package_dirs: dict = field(default_factory=dict)
 
 
@@ -608,7 +629,8 @@ def cell_from_specs(name: str, left: ArmSpec, right: ArmSpec, *,
         arms.append(CellArm(side, description, base_position=spec.base_position,
                             base_rotation=Rotation.from_euler("xyz", spec.base_rpy),
                             tcp_offset=spec.tcp_offset, tool_radius=spec.tool_radius,
-                            home=spec.home, tcp_in_clip=_cable_along(spec.cable_along, side)))
+                            home=spec.home, tcp_in_clip=_cable_along(spec.cable_along, side),
+                            max_acceleration=spec.max_acceleration))
     shared = (left.urdf == right.urdf and left.base_link == right.base_link
               and tuple(left.base_position) == tuple(right.base_position)
               and tuple(left.base_rpy) == tuple(right.base_rpy))
@@ -617,8 +639,9 @@ def cell_from_specs(name: str, left: ArmSpec, right: ArmSpec, *,
 
 
 ARM_KEYS = {"urdf", "tip_link", "base_link", "base_position", "base_rpy", "tcp_offset",
-            "tool_radius", "home_deg", "cable_along"}
-"""Keys of one arm in a scenario's ``robot.cell.arms`` (angles in degrees, lengths in m)."""
+            "tool_radius", "home_deg", "cable_along", "max_acceleration"}
+"""Keys of one arm in a scenario's ``robot.cell.arms`` (angles in degrees, lengths in m,
+``max_acceleration`` the published joint acceleration limits in rad/s^2)."""
 
 LENGTH_KEYS = {"separation", "tcp_offset", "tool_radius", "table_height", "base_position"}
 """Keys of a cell mapping (a preset's settings, the cell's, an arm's) that are lengths: given in
@@ -697,7 +720,9 @@ def cell_from_mapping(data: dict, folder=".", scale: float = 1.0) -> DescribedCe
                              tuple(arm.get("tcp_offset", (0.0, 0.0, 0.0))),
                              float(arm.get("tool_radius", 0.0)),
                              None if home is None else tuple(np.radians(home)),
-                             arm.get("cable_along", "y")))
+                             arm.get("cable_along", "y"),
+                             None if arm.get("max_acceleration") is None
+                             else tuple(float(v) for v in arm["max_acceleration"])))
     cell = cell_from_specs(str(data.get("name", "cell")), *specs,
                            table_height=float(source.get("table_height", 0.0)))
     return replace(cell, source=source)
@@ -707,6 +732,8 @@ def cell_from_record(data: dict) -> DescribedCell:
     """The cell of :meth:`DescribedCell.to_dict`'s data (a plan document's ``robot.cell``)."""
     if not isinstance(data, dict) or data.get("kind") != "described":
         raise ValueError(f"robot.cell: expected a described cell record, got {data!r}")
-    mapping = {k: v for k, v in data.items() if k not in ("kind", "place", "writers")}
+    mapping = {k: v for k, v in data.items()
+               if k not in ("kind", "place", "writers", "min_margin")}
     return replace(cell_from_mapping(mapping), place=bool(data.get("place", True)),
-                   writers=dict(data.get("writers") or {}))
+                   writers=dict(data.get("writers") or {}),
+                   min_margin=float(data.get("min_margin", MIN_MARGIN)))

@@ -25,8 +25,9 @@ from the body outward, which in ABB's numbering is 1, 2, 7, 3, 4, 5, 6 (the redu
 angle" axis 7 sits third).
 
 Frames: the body frame ``yumi_body`` (= ``yumi_base_link``) is ABB's base frame of the robot,
-at the bottom of the body on the table, x forward (toward the workspace), y to the robot's
-left, z up. The last link frame ``yumi_link_7_*`` is the flange (ABB's ``tool0``).
+0.1 m above its foot (:data:`BASE_ABOVE_FOOT`), x forward (toward the workspace), y to the
+robot's left, z up. ABB's ``tool0`` is the last link frame ``yumi_link_7_*`` turned by pi about
+its z-axis and 7 mm out (:data:`DEFAULT_TOOL0_OFFSET`).
 
 Collision capsules: one capsule per link enclosing every vertex of that link's coarse collision
 mesh (``meshes/coarse/link_*.stl`` of the same package; gripper: ``gripper/coarse/base.stl``
@@ -126,6 +127,13 @@ joint). Fitted: RobotStudio's tool0 poses of 10 joint vectors agree to 0.005 mm
 DEFAULT_TOOL0_ROTATION = Rotation.from_rotvec([0.0, 0.0, np.pi])
 """``tool0_to_link7``: tool0 is ``yumi_link_7`` turned by pi about its z-axis (RobotStudio's
 tool0 orientation of the same 10 joint vectors agrees to 0.005 deg)."""
+
+BASE_ABOVE_FOOT = 0.1
+"""[m] Height of the YuMi's base frame (``yumi_body`` = ``yumi_base_link``, ABB's base frame)
+above the robot's foot, the table it stands on: the description's body mesh spans z = -0.100
+to +0.471 m (the robot is 571 mm tall), and a real robot's logged tool0 positions (yumipy's
+joint/pose pairs) put the base frame at yumi_body within 2 mm (tests/test_robot_armangle.py).
+A table under the robot is at z = -0.1 m in the base frame."""
 
 ARM_ANGLE_REFERENCE = {"left": (0.0, -1.0, 0.0), "right": (0.0, 1.0, 0.0)}
 """Default reference direction (unit vector in the robot's base frame) of each arm's arm angle
@@ -401,9 +409,10 @@ def yumi(*, gripper: Gripper | None = None, base_position=(0.0, 0.0, 0.0),
          base_rotation: Rotation | None = None) -> Robot:
     """An ABB YuMi (IRB 14000) placed in the world frame.
 
-    By default the world frame is the robot's base frame: origin at the bottom of the body on
-    the table, x forward, y to the robot's left, z up, so a job on the table in front of the
-    robot has x ~ 0.3..0.5 m and z a little above 0.
+    By default the world frame is the robot's base frame: origin 0.1 m above the robot's foot
+    (:data:`BASE_ABOVE_FOOT`; the table is at z = -0.1 m), x forward, y to the robot's left,
+    z up, so a job on the table in front of the robot has x ~ 0.3..0.5 m and z a little above
+    -0.1 m.
 
     Parameters
     ----------
