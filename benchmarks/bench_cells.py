@@ -108,7 +108,7 @@ def _program_stage() -> None:
     from pathlib import Path
 
     from dloplan.app import load_scenario, read_plan, run_job, write_outputs
-    from dloplan.app.pipeline import plan_program, program_of
+    from dloplan.pipeline.stages import plan_program, program_of
 
     for example in sorted((Path(__file__).parents[1] / "examples" / "cells").glob("*.yaml")):
         job = load_scenario(example)
@@ -117,7 +117,7 @@ def _program_stage() -> None:
         program = plan_program(job.robot, doc.grippers, doc.trajectory)
         t1 = time.perf_counter()
         with tempfile.TemporaryDirectory() as folder:
-            from dloplan.app.pipeline import with_program
+            from dloplan.pipeline.stages import with_program
 
             write_outputs(with_program(doc, program), folder, ("json",))
             back = read_plan(Path(folder) / "plan.json")

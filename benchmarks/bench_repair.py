@@ -5,8 +5,9 @@ Run: PYTHONPATH=src python benchmarks/bench_repair.py [--no-replay] [NAME ...]
 Each scenario of examples/ and examples/cells/ is planned (:func:`dloplan.app.run_job`), verified as
 ``dloplan plan --verify`` does (stability, snap-through, robot reach, dynamic replay; the replay
 left out with ``--no-replay``: it costs minutes for the stiff PA12 hose), and repaired
-(:func:`dloplan.repair.repair_plan`). Identification files have no job to plan; harness jobs are
-planned by their own stages and are not verified by ``--verify``: both are listed as skipped.
+(:func:`dloplan.pipeline.repair.repair_plan`). Identification files have no job to plan;
+harness jobs are planned by their own stages and are not verified by ``--verify``: both are
+listed as skipped.
 
 Every example, replay included, quiet machine (load 0.8-1.4), main after issue 25's last round
 (18:01-18:05 UTC, 2026-11-30):
@@ -146,10 +147,10 @@ from pathlib import Path
 
 from dloplan.app import Job, load_job
 from dloplan.app.load import file_kind
-from dloplan.app.pipeline import run_job, verify_plan
 from dloplan.io.scenario import read_mapping
-from dloplan.repair import diagnose, repair_plan
-from dloplan.repair.failures import summary
+from dloplan.pipeline.repair import diagnose, repair_plan
+from dloplan.pipeline.repair.failures import summary
+from dloplan.pipeline.stages import run_job, verify_plan
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

@@ -78,8 +78,8 @@ def demo_timing(repeats: int = 5) -> None:
     from importlib import resources
 
     from dloplan.app.load import resolve_mapping
-    from dloplan.app.pipeline import run_job, verify_plan
     from dloplan.io.scenario import read_mapping
+    from dloplan.pipeline.stages import run_job, verify_plan
 
     with resources.as_file(resources.files("dloplan.data").joinpath("demo.yaml")) as path:
         job = resolve_mapping(read_mapping(path), "demo (embedded)")

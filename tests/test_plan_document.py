@@ -21,8 +21,13 @@ from gripper_paths import turned_hose_plan
 from scipy.spatial.transform import Rotation
 
 from dloplan.app import WRITERS, load_scenario, read_plan, run_job, write_outputs, write_plan
-from dloplan.app.document import PLAN_VERSION, PlanDocument, document_from_dict, document_to_dict
 from dloplan.cable import Cable, catalogue_cable
+from dloplan.pipeline.document import (
+    PLAN_VERSION,
+    PlanDocument,
+    document_from_dict,
+    document_to_dict,
+)
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 DATA = Path(__file__).resolve().parent / "data"
@@ -37,7 +42,7 @@ def pieces():
 def planned():
     """A real plan with every section, its robot program passing, verified (M2, USB cable)."""
     job = load_scenario(EXAMPLES / "m2_uniform_curvature_usb.yaml")
-    from dloplan.app.pipeline import verify_plan, with_verification
+    from dloplan.pipeline.stages import verify_plan, with_verification
 
     doc = run_job(job)
     return with_verification(doc, verify_plan(doc, snap=False))
@@ -249,7 +254,7 @@ def test_an_unknown_format_is_named(planned, tmp_path):
 def test_the_exported_program_is_the_verified_one(planned, tmp_path):
     """A plan read back rebuilds exactly the robot program it records (verified = exported);
     a document whose recorded program was altered is refused."""
-    from dloplan.app.pipeline import program_of
+    from dloplan.pipeline.stages import program_of
 
     assert planned.robot.ok and planned.program is not None
     back = read_plan(write_plan(tmp_path / "plan.json", planned))
@@ -266,7 +271,7 @@ def test_the_exported_program_is_the_verified_one(planned, tmp_path):
 def test_a_re_timed_plan_keeps_its_arms_and_limits_and_checks_its_program_again(planned):
     """``export --speed``: the same arms, acceleration, jerk and zones; the cycle and the robot
     program made again for the new timing."""
-    from dloplan.app.pipeline import retimed
+    from dloplan.pipeline.stages import retimed
 
     slower = retimed(planned, speed=0.05)
     old, new = planned.trajectory, slower.trajectory

@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from dloplan.app.job import resolve_scenario
+from dloplan.app.resolve import resolve_scenario
 from dloplan.cable import Cable
 from dloplan.io.scenario import ScenarioError, parse_scenario
 from dloplan.physics import SpringChain, energy, gradient

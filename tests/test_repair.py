@@ -18,17 +18,22 @@ import yaml
 from scipy.spatial.transform import Rotation
 
 from dloplan.app import load_job
-from dloplan.app.document import read_plan
+from dloplan.app.document_file import read_plan
 from dloplan.app.files import EXIT_CHECK_FAILED, plan_into
 from dloplan.app.load import resolve_mapping
-from dloplan.app.pipeline import program_of, run_job, verify_plan
 from dloplan.cli import main
-from dloplan.repair import Budget, diagnose, repair_plan, translated_job
-from dloplan.repair.frames import grasp_rolled, untwisted
-from dloplan.repair.loop import attempts
-from dloplan.repair.placement import TableMove, moved_document, moved_job, translated_document
-from dloplan.repair.rebuild import slowed, timed
-from dloplan.repair.routes import follow_branch, moved, rigid_motion, routes
+from dloplan.pipeline.repair import Budget, diagnose, repair_plan, translated_job
+from dloplan.pipeline.repair.frames import grasp_rolled, untwisted
+from dloplan.pipeline.repair.loop import attempts
+from dloplan.pipeline.repair.placement import (
+    TableMove,
+    moved_document,
+    moved_job,
+    translated_document,
+)
+from dloplan.pipeline.repair.rebuild import slowed, timed
+from dloplan.pipeline.repair.routes import follow_branch, moved, rigid_motion, routes
+from dloplan.pipeline.stages import program_of, run_job, verify_plan
 from dloplan.sim.clips import ClipPoses, clip_poses_from_shape
 from dloplan.verify.stability import elastic_stability
 

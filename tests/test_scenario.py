@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from dloplan.app import load_scenario
-from dloplan.app.job import resolve_scenario
+from dloplan.app.resolve import resolve_scenario
 from dloplan.io.scenario import ScenarioError, parse_scenario, scenario_json_schema
 from dloplan.physics import link_lengths, shape_length
 

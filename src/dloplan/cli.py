@@ -99,8 +99,8 @@ def _cmd_check(args: argparse.Namespace) -> int:
 def _cmd_export(args: argparse.Namespace) -> int:
     from .app import read_plan
     from .app.files import export_plan
-    from .app.pipeline import retimed
     from .app.writers import WriteOptions
+    from .pipeline.stages import retimed
 
     console = Console(args.quiet)
     doc = read_plan(args.plan)
@@ -143,7 +143,7 @@ def _cmd_verify(args: argparse.Namespace) -> int:
     console.stage("done: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
     program = None
     if not args.no_robot and doc.trajectory is not None:
-        from .app.pipeline import program_of
+        from .pipeline.stages import program_of
 
         program = program_of(doc)
     if args.json:
@@ -155,7 +155,7 @@ def _cmd_verify(args: argparse.Namespace) -> int:
             print(program_table(program.summary()))
             print(program.message)
     if args.place and doc.grippers is not None and doc.trajectory is not None:
-        from .app.document import document_cell
+        from .pipeline.document import document_cell
         from .robot.cell_program import placement_message
 
         cell = program.cell if program is not None else document_cell(doc)  # built once
@@ -165,7 +165,7 @@ def _cmd_verify(args: argparse.Namespace) -> int:
 
 def _cmd_compare(args: argparse.Namespace) -> int:
     from .app import read_plan
-    from .app.pipeline import settled_shapes
+    from .pipeline.stages import settled_shapes
     from .vision import compare_trials, read_shapes
 
     console = Console(args.quiet)
@@ -411,7 +411,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
     from .app.files import document_of
-    from .app.pipeline import simulate_plan
+    from .pipeline.stages import simulate_plan
 
     console = Console(args.quiet)
     doc = document_of(args.file, progress=console.stage)

@@ -1,24 +1,28 @@
-"""The application layer: load a job file once, run one pipeline, write every output.
+"""The application layer: load a job file once, get its plan from the pipeline, write every output.
 
 ::
 
-    job file ──► load (load.py, job.py) ──► Job (SI units, weights chosen, settings resolved)
+    job file ──► load.py, resolve.py ──► Job (dloplan.pipeline.job: SI units, weights chosen)
                                               │
-                 pipeline.py: check_job | run_job (plan_path ─► plan_motion ─► plan_twist
-                                              │                ─► verify_plan)
+                 dloplan.pipeline: check_job | run_job (plan_path ─► plan_motion ─► plan_twist
+                                              │                ─► verify_plan), repair
                                               ▼
-                 document.py: PlanDocument (typed, versioned plan.json) ◄── read_plan
+                 PlanDocument (dloplan.pipeline.document) ◄── read_plan (document_file.py)
                                               │
                  writers.py: json, csv, ros, rapid, figures, report (report.py)
 
 ``cli.py`` parses arguments, calls these functions and prints; ``study.py`` gives a study the
-same plan; ``batch.py`` plans many files on a backend.
+same plan; ``files.py`` plans one file or a batch into folders. The pipeline's public names are
+re-exported here, so ``from dloplan.app import load_job, run_job, write_outputs`` is the whole
+way from a file to its outputs.
 """
 
-from .document import PlanDocument, read_plan, write_plan
-from .job import Job
+from ..pipeline.document import PlanDocument
+from ..pipeline.job import Job
+from ..pipeline.stages import check_job, run_job, simulate_plan, verify_plan
+from .document_file import read_plan, write_plan
+from .harness import run_harness_job
 from .load import load_job, load_scenario
-from .pipeline import check_job, run_harness_job, run_job, simulate_plan, verify_plan
 from .writers import WRITERS, write_outputs
 
 __all__ = [

@@ -30,8 +30,8 @@ from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from pathlib import Path
 
+from ..pipeline.document import PlanDocument
 from ..plots import worker
-from .document import PlanDocument
 from .report import figure_drawings
 
 DRAFTS = ".figures"

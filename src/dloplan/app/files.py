@@ -22,12 +22,14 @@ from ..exit_codes import (  # noqa: F401 - re-exported: the codes of the command
 )
 from ..io.files import staged_folder
 from ..io.scenario import PROGRAM_NAMES
+from ..pipeline.document import PlanDocument
+from ..pipeline.job import Job
+from ..pipeline.stages import HARNESS_NOT_VERIFIED, quiet, run_job
 from ..robot.cell_program import program_formats
-from .document import PlanDocument, read_plan
+from .document_file import read_plan
 from .figure_workers import figure_workers as workers_for
-from .job import Job
+from .harness import run_harness_job
 from .load import file_kind, load_job
-from .pipeline import HARNESS_NOT_VERIFIED, quiet, run_harness_job, run_job
 from .writers import WRITERS, WriteOptions, write_outputs
 
 ROBOT_OUTPUTS = ("csv", "ros", "rapid", "ros_joints", "urscript")
@@ -63,8 +65,8 @@ def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
     that fails or is interrupted leaves it as it was, and a second run on the same folder is
     refused while this one holds it. A plan that failed a check gets its plan document, figures
     and report, but no robot program or trajectory file. With ``repair`` a plan that fails a
-    check is repaired first (:func:`dloplan.repair.plan_and_repair`: every check with
-    ``verify``, else the robot program's; ``budget`` a :class:`dloplan.repair.Budget`).
+    check is repaired first (:func:`dloplan.pipeline.repair.plan_and_repair`: every check with
+    ``verify``, else the robot program's; ``budget`` a :class:`dloplan.pipeline.repair.Budget`).
     With ``figure_workers`` > 0 the figures are drawn on that many worker processes
     (:mod:`dloplan.app.figure_workers`), from the moment the plan is made, while its robot
     program is made and it is verified; the files written are the same.
@@ -75,7 +77,7 @@ def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
     with staged_folder(folder) as staging, \
             workers_for(staging, figure_workers if drawn else 0) as drawer:
         if isinstance(job, Job) and check_robot and repair:
-            from ..repair import plan_and_repair
+            from ..pipeline.repair import plan_and_repair
 
             doc, repairs = plan_and_repair(job, progress, budget, physics=verify,
                                            planned=None if drawer is None else drawer.draft)

@@ -3,7 +3,7 @@
 :func:`load_job` is the only way the commands turn a file into work: it reads the file, picks
 its kind by its sections (``harness:`` -> a wire-harness job; ``identify:`` without ``start`` ->
 an identification experiment; otherwise a scenario), validates it against the kind's schema and
-resolves it into SI units (:mod:`dloplan.app.job`). A scenario whose cable says
+resolves it into SI units (:mod:`dloplan.app.resolve`). A scenario whose cable says
 ``youngs_modulus: identify`` is identified first (thesis Fig. 6.11: measured shape -> E ->
 stiffness family and weights -> plan).
 """
@@ -13,8 +13,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..io.scenario import ScenarioError, parse_scenario, read_mapping
-from .document import PLAN_FORMAT
-from .job import Job, resolve_scenario
+from ..pipeline.document import PLAN_FORMAT
+from ..pipeline.job import Job
+from .resolve import resolve_scenario
 
 
 def file_kind(data: dict) -> str:
@@ -54,7 +55,7 @@ def identify_first(data: dict, source: str, progress=lambda text: None):
 
 
 def resolve_mapping(data: dict, source: str, progress=lambda text: None):
-    """A job file's mapping resolved: a :class:`~dloplan.app.job.Job` or a ``HarnessJob``."""
+    """A job file's mapping resolved: a :class:`~dloplan.pipeline.job.Job` or a ``HarnessJob``."""
     kind = file_kind(data)
     if kind == "plan":
         raise ScenarioError(f"{source}: a plan document (written by dloplan plan), not a job "

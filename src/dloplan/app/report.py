@@ -1,6 +1,6 @@
 """The plan's figures and its HTML report, made from the plan document alone.
 
-Everything shown is read from the :class:`~dloplan.app.document.PlanDocument`, so the report of
+Everything shown is read from the :class:`~dloplan.pipeline.document.PlanDocument`, so the report of
 a plan written by ``dloplan plan`` and of the same plan read back from ``plan.json`` are the
 same page.
 """
@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..obstacles.shapes import Table
-from .document import PlanDocument
+from ..pipeline.document import PlanDocument
 
 VERIFY_TITLES = {
     "index": "shape", "smallest_eigenvalue": "lambda_1 [N/m]",

@@ -1,6 +1,6 @@
 """A robustness study of a job: the very plan ``dloplan plan`` makes, perturbed sample by sample.
 
-The nominal plan comes from the pipeline (:func:`dloplan.app.pipeline.run_job`: the same
+The nominal plan comes from the pipeline (:func:`dloplan.pipeline.stages.run_job`: the same
 weights, family, physical mode, obstacle re-planning and gripper frames as ``dloplan plan``), so
 the study's nominal stabilized shapes are the plan's, and a sample with zero spread reproduces
 them. The study itself runs in :mod:`dloplan.study`.
@@ -14,16 +14,16 @@ from pathlib import Path
 
 from ..cable import GRAVITY
 from ..io.files import atomic_write_text
+from ..pipeline.document import PlanDocument
+from ..pipeline.job import Job
 from ..study.evaluate import StudyProblem
 from ..study.run import StudyResult
 from ..study.spec import StudyError, StudySpec, parse_study
-from .document import PlanDocument
-from .job import Job
 
 
 def study_problem_of(doc: PlanDocument) -> StudyProblem:
     """The study problem of a plan document: its shapes, gripper clip poses and stabilized path."""
-    from .pipeline import settled_shapes
+    from ..pipeline.stages import settled_shapes
 
     return StudyProblem(doc.cable, doc.shapes, tuple(doc.clip_poses()), settled_shapes(doc),
                         tuple(doc.obstacles), GRAVITY)
@@ -57,7 +57,7 @@ def with_closed_loop(doc: PlanDocument, result: StudyResult) -> StudyResult:
     rewritten. Without a ``correction:`` section the result is returned as it is.
     """
     from ..correct import closed_loop_study
-    from .pipeline import settled_shapes
+    from ..pipeline.stages import settled_shapes
 
     spec = result.spec.correction
     if spec is None:

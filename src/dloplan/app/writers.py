@@ -7,7 +7,7 @@ in :data:`WRITERS`.
 =========  ==================================================================================
 name       what it writes
 =========  ==================================================================================
-json       ``plan.json``, the plan document itself (:mod:`dloplan.app.document`)
+json       ``plan.json``, the plan document itself (:mod:`dloplan.pipeline.document`)
 csv        ``trajectory.csv``, the dual-arm TCP trajectory sampled at the rate
 ros        ``trajectory.yaml``, a ROS 2 ``trajectory_msgs/MultiDOFJointTrajectory``
 rapid      ``rapid/``, one ABB RAPID module per YuMi arm (ABB cells only)
@@ -25,7 +25,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..io.export import DEFAULT_CSV_RATE, write_ros_trajectory, write_trajectory_csv
-from .document import PlanDocument, write_plan
+from ..pipeline.document import PlanDocument
+from .document_file import write_plan
 from .report import write_figures, write_plan_report
 
 
@@ -64,7 +65,7 @@ def write_ros(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Pa
 
 
 def verified_program(doc: PlanDocument, name: str):
-    """The document's verified robot program (:func:`dloplan.app.pipeline.program_of`) for
+    """The document's verified robot program (:func:`dloplan.pipeline.stages.program_of`) for
     the program format ``name``.
 
     Raises
@@ -72,8 +73,8 @@ def verified_program(doc: PlanDocument, name: str):
     ValueError
         A plan without trajectory, or a cell that does not take the format.
     """
+    from ..pipeline.stages import program_of
     from ..robot.cell_program import cell_name
-    from .pipeline import program_of
 
     _needs_trajectory(doc, name)
     program = program_of(doc)
@@ -147,7 +148,7 @@ def write_report_file(doc: PlanDocument, target: Path, options: WriteOptions) ->
     images = sorted((target.parent / WRITERS["figures"].target).glob("*.png"))
     arms = {}
     if doc.robot is not None and doc.trajectory is not None:
-        from .pipeline import program_of
+        from ..pipeline.stages import program_of
 
         arms = program_of(doc).report_arms()
     return [write_plan_report(doc, target, images, arms)]

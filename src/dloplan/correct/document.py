@@ -27,11 +27,12 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..app.document import PlanDocument, document_cell, write_plan
+from ..app.document_file import write_plan
 from ..app.writers import WRITERS, program_files
 from ..grippers import GripperPath
 from ..io.export import write_trajectory_csv
 from ..io.files import atomic_write_text
+from ..pipeline.document import PlanDocument, document_cell
 from ..sim import equilibrium
 from .measurement import CorrectionRefused
 from .step import Correction, correct_plan, sliced_grippers

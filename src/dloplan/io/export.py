@@ -5,7 +5,8 @@
 * :func:`write_trajectory_csv`: the trajectory sampled at a rate, one row per sample.
 
 Both are written atomically (:mod:`dloplan.io.files`). The plan document itself (its versioned
-JSON schema) is owned by :mod:`dloplan.app.document`, the RAPID program by :mod:`dloplan.io.rapid`.
+JSON schema) is owned by :mod:`dloplan.pipeline.document`, the RAPID program by
+:mod:`dloplan.io.rapid`.
 See ``docs/grippers-and-exports.md`` for the formats with examples.
 """
 

@@ -8,7 +8,7 @@
     plan_twist      every shape with torsion under the planned gripper frames
     verify_plan     stability, snap-through, robot reachability, dynamic replay
 
-:func:`run_job` runs them all and returns the :class:`~dloplan.app.document.PlanDocument` that
+:func:`run_job` runs them all and returns the :class:`~dloplan.pipeline.document.PlanDocument` that
 every output is written from; ``dloplan plan``, ``plan --verify``, ``simulate`` of a scenario,
 ``study`` (its nominal plan) and the batch mode call it, ``verify``, ``simulate`` and ``export``
 work on the document it wrote. A wire-harness job has its own stages
@@ -540,31 +540,6 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
         doc = replace(doc, timings={**doc.timings, "verify": time.perf_counter() - t0})
         progress(f"verification: {'passed' if verification.ok else 'FAILED'}")
     return doc
-
-
-def run_harness_job(job, *, check_robot: bool = True, progress=quiet) -> PlanDocument:
-    """The wire-harness job (thesis 7.3) as a plan document: both phases, insertion, tensioning.
-
-    One knot per shape of the whole job; the harness numbers in the ``harness`` section, the
-    forces of each phase in ``forces``, the board's pegs and fixtures as obstacles.
-    """
-    from ..harness import harness_summary
-    from ..harness.files import run_harness_job as run
-    from .job import robot_cell
-
-    progress(f"harness job: {job.cable.name or 'cable'}, board checked")
-    result = run(job)
-    progress(result.message)
-    doc = PlanDocument(
-        cable=job.cable, shapes=result.shapes, grippers=result.grippers,
-        trajectory=result.trajectory, warnings=tuple(result.warnings), source=job.source,
-        obstacles=tuple(result.board.contacts()), forces=dict(result.forces),
-        harness=harness_summary(result), cycle=cycle_to_dict(result.cycle),
-        timings=dict(result.timings))
-    if not check_robot:
-        return doc
-    cell = robot_cell(job.scenario, job.scenario.scale)
-    return with_program(doc, plan_program(cell, result.grippers, result.trajectory, progress))
 
 
 def simulate_plan(doc: PlanDocument, *, damping: str = "relative", torsion: bool = False,

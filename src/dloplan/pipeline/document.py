@@ -3,21 +3,20 @@
 :class:`PlanDocument` is the plan as data, with a typed section per concern: the cable, the
 planned shapes, the gripper frames, the timed trajectory, and what the pipeline computed on them
 (planner stages and forces, stabilized shapes and clip wrenches, target check, obstacle
-re-planning, twist, verification, identification, harness summary). :func:`write_plan` and
-:func:`read_plan` are its only writer and reader (format ``"dloplan-plan"``,
+re-planning, twist, verification, identification, harness summary). :func:`document_to_dict` and
+:func:`document_from_dict` are its only writer and reader (format ``"dloplan-plan"``,
 :data:`PLAN_VERSION`); version 1 files (whose computed sections sat in a free-form ``extra``
 mapping) still load. Poses are ``geometry_msgs/PoseStamped`` shaped; floats are written with
 Python's shortest round-tripping repr and quaternions canonical (w >= 0), so a document read back
 is the document written. Every other output (CSV, ROS, RAPID, figures, report) is made from this
-document by a writer of :mod:`dloplan.app.writers`.
+document by a writer of :mod:`dloplan.app.writers`. The file itself (:func:`dloplan.app.write_plan`,
+:func:`dloplan.app.read_plan`) is the application's: this module turns the document into plain
+JSON-ready data and back (:func:`document_to_dict`, :func:`document_from_dict`).
 """
 
 from __future__ import annotations
 
-import json
-import os
 from dataclasses import MISSING, dataclass, field, fields
-from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -27,7 +26,6 @@ from ..geometry import as_path
 from ..grippers.axes import CLIP_NAMES
 from ..grippers.path import GripperPath
 from ..io.export import DEFAULT_FRAME_ID, check_frame_id
-from ..io.files import atomic_write_text
 from ..io.poses import (
     canonical_quaternions,
     duration_dict,
@@ -89,14 +87,6 @@ def _trajectory_section(trajectory: Trajectory, frame_id: str) -> dict:
             for t, left, right in zip(trajectory.times, *poses, strict=True)
         ],
     }
-
-
-def _json_default(value):
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    raise TypeError(f"not JSON serializable: {type(value).__name__}")
 
 
 def _get(mapping, key: str, where: str, kind=None):
@@ -394,8 +384,8 @@ class PlanDocument:
     robot : RobotSection or None
         The verified robot program (None when the plan was made without robot checks).
     repairs : tuple of dict
-        The repairs the plan went through after a failed check (:mod:`dloplan.repair`): what
-        failed, what was changed, the check before and after.
+        The repairs the plan went through after a failed check (:mod:`dloplan.pipeline.repair`):
+        what failed, what was changed, the check before and after.
     cycle : dict or None
         The timeline with gripper actions (:class:`dloplan.trajectory.Cycle`): ``phases``
         (name, kind, start, duration, knots), ``motion_time``, ``action_time``,
@@ -689,41 +679,6 @@ def document_from_dict(data: dict) -> PlanDocument:
         frame_id=frame_id,
         version=version,
     )
-
-
-def plan_json(doc: PlanDocument) -> str:
-    """The plan document's JSON text (no NaN: a non-finite number is an error)."""
-    try:
-        return json.dumps(document_to_dict(doc), indent=1, allow_nan=False,
-                          default=_json_default) + "\n"
-    except ValueError as exc:
-        raise ValueError(f"plan: not writable as JSON ({exc})") from None
-
-
-def write_plan(path: str | os.PathLike, doc: PlanDocument) -> Path:
-    """Write the plan document atomically to ``path`` (JSON); returns the path."""
-    return atomic_write_text(path, plan_json(doc))
-
-
-def read_plan(path: str | os.PathLike) -> PlanDocument:
-    """Read a plan document written by :func:`write_plan` (or a version 1 file).
-
-    Raises
-    ------
-    ValueError
-        When the file cannot be read, is not valid JSON or not a plan document (naming the
-        field).
-    """
-    try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ValueError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        if Path(path).suffix.lower() in (".yaml", ".yml"):
-            raise ValueError(f"{path}: a YAML job file, not a plan document: plan it first "
-                             "(dloplan plan JOB -o OUT) and give OUT/plan.json") from None
-        raise ValueError(f"{path}: not a plan document (not valid JSON: {exc})") from None
-    return document_from_dict(data)
 
 
 def cycle_to_dict(cycle) -> dict:

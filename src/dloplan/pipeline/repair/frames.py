@@ -27,8 +27,8 @@ from dataclasses import replace
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..grippers.path import GripperPath, relative_twist
-from ..sim.torsion import twist_along_path
+from ...grippers.path import GripperPath, relative_twist
+from ...sim.torsion import twist_along_path
 
 ROLL_STEPS = 4
 """Fixed-point steps of :func:`untwisted`."""

@@ -3,7 +3,7 @@
 A repair changes the shapes (:func:`with_path`), the gripper method (:func:`with_motion`), the
 frames themselves (:func:`with_grippers`) or the speed (:func:`slowed`, :func:`timed`); the
 gripper frames, the trajectory, the twist and the clip wrenches are then made again by
-:func:`dloplan.app.pipeline.plan_motion` and :func:`~dloplan.app.pipeline.plan_twist`, and the
+:func:`dloplan.pipeline.stages.plan_motion` and :func:`~dloplan.pipeline.stages.plan_twist`, and the
 warnings of the old motion and of the old verification are replaced by the new ones. The
 planner's own sections (stages, forces, target check, obstacle re-planning) stay those of the
 plan that was repaired.
@@ -15,8 +15,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..app.document import TwistSection
-from ..app.pipeline import (
+from ...sim.statics import clip_wrenches
+from ..document import TwistSection
+from ..stages import (
     plan_motion,
     plan_program,
     plan_twist,
@@ -24,7 +25,6 @@ from ..app.pipeline import (
     timed_trajectory,
     with_program,
 )
-from ..sim.statics import clip_wrenches
 
 
 def left_clip(grippers) -> int:
@@ -50,7 +50,7 @@ def slowed(job, factor: float):
 
 def timed(job, doc):
     """``doc`` with its trajectory timed again under ``job``'s motion settings
-    (:func:`dloplan.app.pipeline.timed_trajectory`)."""
+    (:func:`dloplan.pipeline.stages.timed_trajectory`)."""
     trajectory = timed_trajectory(doc.grippers, job.motion, job.robot)
     return replace(doc, trajectory=trajectory, verification=None)
 

@@ -1,15 +1,14 @@
-"""The resolved job: one immutable object in SI units and domain types, made once at load.
+"""Resolving a job file: a validated scenario turned into a :class:`~dloplan.pipeline.job.Job`.
 
-Everything below the loader (:mod:`dloplan.app.load`) works on a :class:`Job`: the cable, the
-start and target discretized to the cable's n + 1 points, obstacles, and the settings of every
-stage with their defaults applied and their units converted (lengths [m], speeds [m/s], angles
-[rad]). The planner's weights and stiffness family are chosen here, so the planner, the study and
-the report all see the same ones. No pydantic model and no file unit passes this point.
+Every unit conversion of a scenario happens here (lengths in the file's ``units`` to metres,
+degrees to radians, the trajectory's limits, the robot cell), and the planner's weights and
+stiffness family are chosen, so the planner, the study and the report all see the same ones. No
+pydantic model and no file unit passes this point (:mod:`dloplan.app.load` reads the file).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -26,148 +25,13 @@ from ..io.scenario import (
     build_obstacles,
     build_shape,
 )
-from ..planning.tuning import PlannerWeights, planner_weights, stiffness_family
+from ..pipeline.job import GripperSettings, Job, MotionSettings, PlannerSettings
+from ..planning.tuning import planner_weights, stiffness_family
 from ..robot.cell import RobotCell
 from ..robot.cell_program import cell_name, program_formats
 from ..robot.urdf_cell import DescribedCell, cell_from_mapping
 from ..robot.yumi import BASE_ABOVE_FOOT
 from ..shapes import discretize
-from ..trajectory import MotionLimits
-
-
-@dataclass(frozen=True)
-class PlannerSettings:
-    """How the three-stage planner runs (thesis chapter 4, 5.4).
-
-    Attributes
-    ----------
-    n_shapes : int
-        S, the number of intermediate shapes.
-    weights : PlannerWeights
-        The weights of every stage (Table 6.1, the Table 6.2 row of ``family``, overrides).
-    family : str
-        The stiffness family whose physical weights are in ``weights``.
-    family_forced : bool
-        True when the scenario named the family; False when it follows from E.
-    physical_mode : str
-        "equilibrium" or "thesis" (the physical stage, :mod:`dloplan.planning.physical`).
-    z_safety : float
-        Lift safety offset of the obstacle re-planning [m] (thesis 5.4.3).
-    max_rounds : int
-        Largest number of re-planning rounds.
-    keep_target : bool
-        Plan to the target as given instead of its minimal-energy shape (thesis 4.5.1).
-    """
-
-    n_shapes: int
-    weights: PlannerWeights
-    family: str
-    family_forced: bool
-    physical_mode: str
-    z_safety: float
-    max_rounds: int
-    keep_target: bool = False
-
-    @property
-    def weights_used(self) -> bool:
-        """True when the family's physical weights shape the plan ("thesis" physical mode).
-
-        In the default "equilibrium" mode every intermediate shape is an equilibrium of the
-        cable, whatever the weights; the family then only labels the cable.
-        """
-        return self.physical_mode == "thesis"
-
-
-@dataclass(frozen=True, eq=False)
-class GripperSettings:
-    """Gripper orientation (thesis 4.6, Table 4.3).
-
-    Attributes
-    ----------
-    method : str
-        "auto", "auxiliary", "minimal" or "rigid".
-    auxiliary_vector : numpy.ndarray
-        (3,) the auxiliary vector of the auxiliary-vector method.
-    initial : Rotation or None
-        Two clip-to-world rotations (first, last) the minimal and rigid methods start from.
-    """
-
-    method: str
-    auxiliary_vector: np.ndarray
-    initial: Rotation | None = None
-
-
-@dataclass(frozen=True)
-class MotionSettings:
-    """The timed dual-arm motion (:mod:`dloplan.trajectory`).
-
-    Attributes
-    ----------
-    limits : MotionLimits
-        Per-arm TCP speed [m/s], acceleration [m/s^2], jerk [m/s^3] and their angular
-        counterparts [rad/s, rad/s^2, rad/s^3].
-    zone : float
-        Fly-by zone radius at the interior shapes [m]; 0 stops at every shape.
-    grasp_time, release_time : float
-        Gripper action durations [s].
-    rate : float
-        Sampling rate of the trajectory exports [Hz].
-    """
-
-    limits: MotionLimits
-    zone: float
-    grasp_time: float
-    release_time: float
-    rate: float
-
-    @property
-    def tcp_speed(self) -> float:
-        """Largest TCP speed [m/s]."""
-        return self.limits.speed
-
-
-@dataclass(frozen=True, eq=False)
-class Job:
-    """A scenario resolved into library objects, in SI units (see the module docstring).
-
-    Attributes
-    ----------
-    source : str
-        Where the job came from (a file name), for messages and reports.
-    cable : Cable
-    start, target : numpy.ndarray
-        (n + 1, 3) start and target shapes [m], discretized to the cable's points.
-    obstacles : tuple
-        Obstacles (:class:`~dloplan.obstacles.Box`, ``Cylinder``, ``Table``) [m].
-    planner : PlannerSettings
-    grippers : GripperSettings
-    motion : MotionSettings
-    target_threshold : float
-        T_cf [m] of the target stability check (thesis 5.3).
-    outputs : tuple of str
-        The files ``dloplan plan`` writes ("json", "csv", "rapid", "ros", "figures", "report").
-    robot : RobotCell or DescribedCell
-        The robot cell the plan is executed in: the YuMi (placement, tools, work object), or
-        two arms from descriptions (``robot.cell``, docs/cells.md).
-    identification : Identification or None
-        How the cable's E was identified, when the scenario asked for it.
-    study : StudySpec or None
-        The scenario's robustness study section.
-    """
-
-    source: str
-    cable: Cable
-    start: np.ndarray
-    target: np.ndarray
-    obstacles: tuple
-    planner: PlannerSettings
-    grippers: GripperSettings
-    motion: MotionSettings
-    target_threshold: float
-    outputs: tuple[str, ...]
-    robot: RobotCell | DescribedCell = field(default_factory=RobotCell)
-    identification: object = None
-    study: object = None
 
 
 def _initial_frames(spec) -> Rotation | None:

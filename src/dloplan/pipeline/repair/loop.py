@@ -1,16 +1,16 @@
 """The repair loop: a plan that fails its checks is changed until it passes, or refused.
 
-:func:`repair_plan` sorts the failures of a verified plan (:func:`~dloplan.repair.diagnose`) and
-handles their kinds in the order of :data:`~dloplan.repair.failures.KINDS`. For each kind the
+:func:`repair_plan` sorts the failures of a verified plan (:func:`~.diagnose`) and
+handles their kinds in the order of :data:`~.failures.KINDS`. For each kind the
 repairs below are tried in this order; each candidate is checked at once by the check that
 failed (on the part of the plan it changed), and the first that passes is kept:
 
 ``snap`` (the first failing segment s, shape s -> s + 1)
     1. follow the stable branch from shape s along the planned clip poses and take its
-       equilibria as the remaining shapes (:func:`~dloplan.repair.routes.follow_branch`; the last
+       equilibria as the remaining shapes (:func:`~.routes.follow_branch`; the last
        within T_cf of the target);
     2. re-route the clips of segment s: rotate first, translate first, rotate last
-       (:func:`~dloplan.repair.routes.routes`), the waypoints' equilibria inserted as shapes;
+       (:func:`~.routes.routes`), the waypoints' equilibria inserted as shapes;
     3. plan again with twice the intermediate shapes.
     None passes: refused. When s is the last segment: "the target is reached only through a
     snap-through", with the segment.
@@ -19,32 +19,32 @@ between shapes)
     1. the other gripper methods: rigid rotation, minimal rotation, auxiliary vector (thesis
        Table 4.3), on the same shapes;
     2. the clips rolled about their u-axes against the twist
-       (:func:`~dloplan.repair.frames.untwisted`; the roll on the last clip, shared, on the
+       (:func:`~.frames.untwisted`; the roll on the last clip, shared, on the
        first), on the frames of the plan's method, then of the rigid rotation;
     3. (none passing) intermediate rotations: the equilibria at clip poses interpolated on the
        flipping segment inserted as shapes.
     Of the frame sets that pass, the one whose program targets the arms reach most often by
-    IK at the targets (:func:`~dloplan.repair.placement.targets_reached`) is kept; the others
+    IK at the targets (:func:`~.placement.targets_reached`) is kept; the others
     are the reach repair's frame sets.
 ``replay`` (the replay at real speed strays from the planned shapes)
     the motion slowed down in time by 1/2, then 1/4, then 1/8 (speeds times the factor,
     accelerations times its square, jerks times its cube: the same path, a time dilation;
-    :func:`~dloplan.repair.rebuild.slowed`), the whole program (the RAPID module has one
+    :func:`~.rebuild.slowed`), the whole program (the RAPID module has one
     speeddata per move, but the replay judges the settled knots, where a slower approach of
     every knot is what helps). A deviation on a segment that also has a snap failure waits for
     the snap repair.
 ``reach`` (a pose out of an arm's reach, or another failing check of the robot program)
-    the job placed on the table (:class:`~dloplan.repair.placement.TableMove`): for each turn
-    about the vertical of :data:`~dloplan.repair.placement.YAWS` (smallest first) and each set
+    the job placed on the table (:class:`~.placement.TableMove`): for each turn
+    about the vertical of :data:`~.placement.YAWS` (smallest first) and each set
     of gripper frames -- the plan's, the plan's with the grasps rolled for that place so that
     the wrists stay above, apart and towards the robot, per clip or as a twist-free pair
-    (:func:`~dloplan.repair.frames.grasp_rolled`), then the other gripper methods' (after a
+    (:func:`~.frames.grasp_rolled`), then the other gripper methods' (after a
     twist repair: its other passing frame sets) and theirs rolled, those that do not twist the
     cable -- the robot program is made and
     checked where the reachability check (approach and retreat included) passes: first with
     the job turned only, then (the plan's frames, rolled or not) shifted to the nearest such
     place within +-20 cm
-    (:func:`~dloplan.repair.placement.placements`); the first that passes is kept.
+    (:func:`~.placement.placements`); the first that passes is kept.
     None works: refused with everything tried. A placement whose shapes collide with the
     obstacles (fixed in the world) is not kept. On a described cell the cell's own placement
     search moves the job instead (:meth:`_Session.fix_cell_reach`).
@@ -52,7 +52,7 @@ between shapes)
 After each round every check the plan was verified with runs again on the whole plan; the loop
 ends when that passes, on a refusal, or when the :class:`Budget` is spent. Repairs never move the
 start (the first shape is the planned one) and never the target beyond T_cf (thesis 5.3); a
-placement moves the whole job, recorded as its :class:`~dloplan.repair.placement.TableMove`.
+placement moves the whole job, recorded as its :class:`~.placement.TableMove`.
 """
 
 from __future__ import annotations
@@ -64,11 +64,11 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
-from ..app.pipeline import quiet, run_job, verify_plan, with_verification
-from ..robot.cell import RobotCell
-from ..robot.urdf_cell import verify_on_cell
-from ..sim.statics import interpolate_clips
-from ..verify import check_snap_through
+from ...robot.cell import RobotCell
+from ...robot.urdf_cell import verify_on_cell
+from ...sim.statics import interpolate_clips
+from ...verify import check_snap_through
+from ..stages import quiet, run_job, verify_plan, with_verification
 from .failures import KINDS, diagnose, frame_steps, score, summary, twist_failures
 from .frames import SHARES, grasp_rolled, untwisted
 from .placement import (
@@ -129,7 +129,7 @@ class Repair:
     Attributes
     ----------
     kind : str
-        The failure kind it addresses (:data:`~dloplan.repair.failures.KINDS`).
+        The failure kind it addresses (:data:`~.failures.KINDS`).
     failed : str
         What failed.
     change : str
@@ -216,7 +216,8 @@ class Checks:
                    None if run is None else run.tensile_limit)
 
     def verify(self, doc, **only):
-        """:func:`dloplan.app.pipeline.verify_plan` with these checks (``only`` turns some off)."""
+        """:func:`~dloplan.pipeline.stages.verify_plan` with these checks (``only`` turns some
+        off)."""
         flags = {"snap": self.snap, "replay": self.replay, "robot": self.robot}
         flags.update({k: v and flags[k] for k, v in only.items()})
         return verify_plan(doc, tolerance=self.tolerance, tensile_limit=self.tensile_limit,
@@ -388,7 +389,7 @@ class _Session:
 
     def reachable_first(self, passing):
         """The frame set of ``passing`` whose robot program targets the arms reach most often
-        by IK at the targets alone (:func:`~dloplan.repair.placement.targets_reached`; the
+        by IK at the targets alone (:func:`~.placement.targets_reached`; the
         first of the best), or the first when the plan has no robot program."""
         if len(passing) == 1 or not self.checks.robot and self.state.doc.program is None:
             return passing[0]
@@ -397,7 +398,7 @@ class _Session:
 
     def intermediate_rotations(self, job, doc):
         """Equilibria at clip poses interpolated on each segment whose frames turn more than
-        :data:`~dloplan.repair.routes.MAX_TURN`, inserted as shapes."""
+        :data:`~.routes.MAX_TURN`, inserted as shapes."""
         steps, poses, shapes = frame_steps(doc.grippers), doc.clip_poses(), doc.stabilized
         path = [shapes[0]]
         for s, step in enumerate(steps):
@@ -513,7 +514,7 @@ class _Session:
     def turned_frames(self, job, doc, pivot, tried):
         """(turn, job, document) for every turn of :data:`YAWS` about the vertical through
         ``pivot`` and every set of gripper frames, made on demand: the plan's, its grasps rolled
-        for the turned place (:func:`~dloplan.repair.frames.grasp_rolled`), then the other
+        for the turned place (:func:`~.frames.grasp_rolled`), then the other
         gripper methods' (and theirs rolled) -- those that do not twist the cable and differ
         from the earlier ones."""
         untwisted = [(j, d) for j, d in self.untwisted if np.array_equal(d.shapes, doc.shapes)]
@@ -609,7 +610,7 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
     doc : PlanDocument
         Its plan.
     verification : Verification
-        :func:`dloplan.app.pipeline.verify_plan` of ``doc``; the repaired plan is verified with
+        :func:`dloplan.pipeline.stages.verify_plan` of ``doc``; the repaired plan is verified with
         the same checks (snap-through, replay, robot: those that were run).
     budget : Budget, optional
         Default :class:`Budget()`.
@@ -667,8 +668,8 @@ def plan_and_repair(job, progress=quiet, budget: Budget | None = None, physics: 
                     planned=None):
     """``dloplan plan`` with repair: plan, verify, repair what fails.
 
-    Calls the pipeline's stages (:func:`dloplan.app.pipeline.run_job`,
-    :func:`~dloplan.app.pipeline.verify_plan`) and :func:`repair_plan`; returns the plan
+    Calls the pipeline's stages (:func:`dloplan.pipeline.stages.run_job`,
+    :func:`~dloplan.pipeline.stages.verify_plan`) and :func:`repair_plan`; returns the plan
     document (with its verification section) and the repairs kept. A refused plan's document
     keeps its failing verification and carries the refusal among its warnings.
 

@@ -36,11 +36,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..cable import Cable
-from ..sim.clips import ClipPoses
-from ..sim.statics import continuation
-from ..verify import check_snap_through, clip_motion
-from ..verify.stability import elastic_stability
+from ...cable import Cable
+from ...sim.clips import ClipPoses
+from ...sim.statics import continuation
+from ...verify import check_snap_through, clip_motion
+from ...verify.stability import elastic_stability
 
 MAX_TURN = math.radians(30.0)
 """Largest rotation [rad] of one rigid step of a route (below the 45 deg frame-flip check)."""

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..grippers.path import DEFAULT_MAX_STEP
+from ...grippers.path import DEFAULT_MAX_STEP
 
 KINDS = ("snap", "twist", "replay", "reach")
 """Failure kinds, in the order the repair loop handles them."""
@@ -150,7 +150,7 @@ def diagnose(doc, verification) -> list[Failure]:
     doc : PlanDocument
         The plan (its gripper frames give the twist failures).
     verification : Verification
-        :func:`dloplan.app.pipeline.verify_plan` of ``doc``.
+        :func:`dloplan.pipeline.stages.verify_plan` of ``doc``.
     """
     twist = twist_failures(doc) if doc.grippers is not None else []
     found = (snap_failures(verification) + twist + replay_failures(verification)

@@ -27,10 +27,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..app.pipeline import collision_rows
-from ..grippers.path import GripperPath
-from ..obstacles.collisions import check_path
-from ..robot.reachability import ReachOptions, format_offset
+from ...grippers.path import GripperPath
+from ...obstacles.collisions import check_path
+from ...robot.reachability import ReachOptions, format_offset
+from ..stages import collision_rows
 from .rebuild import left_clip, timed, timed_with_robot, without_robot
 
 SEARCHES = ((0.2, 0.05, "nearest"),)
@@ -236,8 +236,8 @@ def targets_reached(grippers: GripperPath, cell) -> int:
     holding the clip on its side (:func:`dloplan.robot.reachability.reach_at_targets`): a
     cheap score that ranks gripper frames before their robot program is made (2-10 s each).
     A described cell, which places the job itself, counts every target (no ranking)."""
-    from ..robot.cell import RobotCell
-    from ..robot.reachability import reach_at_targets
+    from ...robot.cell import RobotCell
+    from ...robot.reachability import reach_at_targets
 
     if not isinstance(cell, RobotCell):
         return 2 * (grippers.n_shapes + 2)
@@ -259,7 +259,7 @@ def placements(grippers: GripperPath, *, searches=SEARCHES, yaws=YAWS, cell=None
     :class:`PlacementRepair` per successful search, and one per turn that no search of it
     passed (``success`` False).
     """
-    from ..robot import search_placement
+    from ...robot import search_placement
 
     pivot = grippers.positions.reshape(-1, 3).mean(axis=0) * [1.0, 1.0, 0.0]
     options = replace(ReachOptions() if cell is None else cell.reach, verdict_only=True)
