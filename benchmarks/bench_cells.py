@@ -45,8 +45,7 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from dloplan.robot.chain import forward, inverse
-from dloplan.robot.kinematics import IKOptions
+from dloplan.robot.kinematics import IKOptions, forward, inverse
 from dloplan.robot.urdf_cell import PRESETS, check_cell_path, search_cell_placement
 
 

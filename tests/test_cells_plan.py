@@ -11,7 +11,7 @@ import pytest
 import yaml
 from scipy.spatial.transform import Rotation
 
-from dloplan.robot.chain import forward
+from dloplan.robot.kinematics import forward
 from dloplan.robot.urdf_cell import (
     PANDA_TCP_IN_CLIP,
     cell_from_mapping,

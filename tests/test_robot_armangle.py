@@ -28,8 +28,9 @@ def _in_mount_frame(arm, q):
     """tool0 poses of joint vectors (N, 7) in the arm's mount frame (joint 1's frame at
     q1 = 0): what the chain from joint 1 on gives, independent of where the mount sits."""
     position, rotation = forward(arm, q)
-    mount = arm._origin_rot[0]
-    return (position - arm._origin_xyz[0]) @ mount, mount.T @ rotation.as_matrix()
+    mount = arm.description.origin_rot[0]
+    return ((position - arm.description.origin_xyz[0]) @ mount,
+            mount.T @ rotation.as_matrix())
 
 
 def test_tool0_and_chain_reproduce_robotstudio_poses():
@@ -68,7 +69,7 @@ def test_tool0_is_link7_turned_and_7_mm_out_not_link7():
 def test_arm_angle_reproduces_robotstudio(direction):
     # The arm's base frame is the mount turned by pi about z: its z is the mount's z, its y
     # the mount's -y. RobotStudio prints 0.01 deg: within 0.01 deg for all 10 cases.
-    mount = yumi_arm("left")._origin_rot[0]
+    mount = yumi_arm("left").description.origin_rot[0]
     reference = mount[:, 2] if direction == "z" else -mount[:, 1]
     arm = yumi_arm("left", arm_angle_reference=reference)
     psi = np.degrees(arm_angle(arm, np.radians(CASES["q_deg"])))

@@ -273,9 +273,11 @@ def test_solve_many_is_one_reference_solve_per_problem():
     for held in (None, armangle.arm_angle(arm, q_true)):
         q, ok, perr, aerr = solve_many(arm, positions, targets, seeds, options, held)
         for k in range(len(q)):
-            ref = (solve_reference(arm, positions[k], targets[k], seeds[k], tracking)
+            ref = (solve_reference(arm, positions[k], targets[k], seeds[k], tracking,
+                                   give_up=False)
                    if held is None else armangle.solve_reference(
-                       arm, positions[k], targets[k], seeds[k], tracking, held[k]))
+                       arm, positions[k], targets[k], seeds[k], tracking, held[k],
+                       give_up=False))
             assert ok[k] == ref[4]
             assert np.abs(q[k] - ref[0]).max() < (1e-9 if ref[4] else 1e-3)
             assert perr[k] == pytest.approx(ref[1], rel=1e-3, abs=1e-12)

@@ -90,7 +90,7 @@ def test_clips_that_cross_are_refused_with_the_shapes_named():
     u = (pos[:, 1] - pos[:, 0]) / 0.4
     quats = frame_from_axis(np.concatenate([u, -u])).as_quat().reshape(2, k, 4)
     grippers = _still_path(pos, (Rotation.from_quat(quats[0]), Rotation.from_quat(quats[1])))
-    assignment = assign_arms(grippers.positions)
+    assignment = assign_arms(grippers.positions, RobotCell())
     assert assignment.crossings == (3, 4, 5) and not assignment.ok
     program = robot_program(grippers, trajectory_from_grippers(grippers))
     assert not program.ok
@@ -196,7 +196,9 @@ def test_confdata_quadrants():
 def test_cell_validation_and_defaults():
     cell = RobotCell()
     assert cell.tools[0].mass == 0.215 and "Grippers for IRB 14000" in cell.tools[0].source
-    assert np.allclose(cell.robot.left.gripper.tcp_offset, [0, 0, 0.1142])
+    # the SmartGripper's TCP 114.2 mm along tool0, which is 7 mm along link 7 (turned by pi)
+    assert np.allclose(cell.tools[0].tcp_offset, [0, 0, 0.1142])
+    assert np.allclose(cell.robot.left.tcp_offset, [0, 0, 0.1212])
     placed = RobotCell(base_position=(0.1, 0.2, 0.0),
                        base_rotation=Rotation.from_euler("z", 90, degrees=True))
     pos, rot = placed.wobj_frame
@@ -223,3 +225,26 @@ def test_inputs_that_do_not_belong_together_are_refused():
         robot_program(grippers, None)
     with pytest.raises(ValueError, match="cell: expected a RobotCell"):
         robot_program(grippers, trajectory, cell="yumi")
+
+
+def test_the_side_rule_follows_a_turned_base():
+    # One rule for every site (program, reachability's "auto", a described cell, the repair):
+    # the clip on the robot's left in the robot's base frame goes to the left arm. A robot
+    # turned by 180 deg about the vertical sees the plan's +y side as its right.
+    from dloplan.pipeline.repair.rebuild import left_clip
+    from dloplan.robot.reachability import check_reachability
+    from dloplan.robot.urdf_cell import DescribedCell
+
+    _, grippers, trajectory, _ = example_plan("m2_uniform_curvature_usb.yaml")
+    plain = RobotCell()
+    turned = RobotCell(base_position=(0.8, 0.0, 0.0),
+                       base_rotation=Rotation.from_euler("z", 180, degrees=True))
+    first = assign_arms(grippers.positions, plain).left_clip
+    assert assign_arms(grippers.positions, turned).left_clip == 1 - first
+    assert left_clip(grippers, turned) == 1 - first
+    reach = check_reachability(grippers.positions, Rotation.from_matrix(grippers.matrices),
+                               turned.robot)
+    assert reach.clip_of_arm == (1 - first, first)
+    arms = turned.robot.arms
+    described = DescribedCell("yumi_turned", *arms, shared_base=True)
+    assert assign_arms(grippers.positions, described).left_clip == 1 - first

@@ -36,7 +36,8 @@ def _obstacle_dict(obstacle) -> dict | None:
 
 def _arm_data(arm_joints, robot, arm_motion, n_shapes: int) -> dict:
     """Capsules (end points [m], radii [m]) of both arms per shape and per motion sample."""
-    from ..robot import arm_capsules, yumi
+    from ..robot import capsules as arm_capsules
+    from ..robot import yumi
 
     robot = robot if robot is not None else yumi()
     joints = np.asarray(arm_joints, dtype=float)
@@ -49,7 +50,8 @@ def _arm_data(arm_joints, robot, arm_motion, n_shapes: int) -> dict:
                         axis=1).round(5).tolist()
 
     data = {"shapes": capsules(joints),
-            "radii": [arm.radii.round(4).tolist() for arm in robot.arms], "motion": None}
+            "radii": [arm_capsules(arm, arm.home)[1].round(4).tolist() for arm in robot.arms],
+            "motion": None}
     if arm_motion is not None:
         times, motion, shape_times = (np.asarray(v, dtype=float) for v in arm_motion)
         if (motion.ndim != 3 or motion.shape[1:] != (2, 7) or times.shape != (len(motion),)
@@ -124,7 +126,7 @@ def report_html(
     arm_joints : numpy.ndarray, optional
         (S + 2, 2, 7) joint values [rad] of the left and right arm at every shape (e.g.
         ``RobotProgram.shape_joints``): both arms are drawn, each link as the capsule of the
-        collision check (:func:`dloplan.robot.arm_capsules`).
+        collision check (:func:`dloplan.robot.capsules`).
     robot : dloplan.robot.Robot, optional
         The robot placed in the plan's frame (default: a YuMi at the origin).
     arm_motion : tuple, optional

@@ -30,8 +30,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from .kinematics import LENGTH_SCALE, jacobian, link_frames, rotation_log
-from .yumi import Arm
+from .chain import CellArm
+from .ik_compiled import STALL_FLOOR
+from .kinematics import (
+    LENGTH_SCALE,
+    STALL_RATIO,
+    STALL_WINDOW,
+    jacobian,
+    link_frames,
+    rotation_log,
+)
 
 ELBOW_JOINT = 3
 """Physical index of ABB axis 3, whose axis is the elbow direction h."""
@@ -42,7 +50,7 @@ def wrap(angle):
     return np.pi - np.mod(np.pi - np.asarray(angle, dtype=float), 2.0 * np.pi)
 
 
-def _parts(arm: Arm, frames):
+def _parts(arm: CellArm, frames):
     """S, W, h, e_r in the world from link frames (..., 8, ...)."""
     s, w = arm._angle_points  # the feet of S and W on their axes (yumi.axis_feet)
     z = np.einsum("...kij,kj->...ki", frames.rotations[..., :7, :, :], arm.axes)
@@ -52,12 +60,12 @@ def _parts(arm: Arm, frames):
     return shoulder, wrist, z, reference
 
 
-def arm_angle(arm: Arm, q) -> np.ndarray:
+def arm_angle(arm: CellArm, q) -> np.ndarray:
     """The arm angle psi [rad] in (-pi, pi] of joint vectors (module docstring).
 
     Parameters
     ----------
-    arm : Arm
+    arm : CellArm
     q : array_like
         (..., 7) joint values [rad], physical order (ABB 1, 2, 7, 3, 4, 5, 6).
 
@@ -76,7 +84,7 @@ def arm_angle(arm: Arm, q) -> np.ndarray:
     return np.arctan2(y, x)
 
 
-def arm_angle_jacobian(arm: Arm, q) -> np.ndarray:
+def arm_angle_jacobian(arm: CellArm, q) -> np.ndarray:
     """d psi / d q [1], (7,), of one joint vector: the derivative of the module docstring's
     formula with ``dW/dq_i = z_i x (W - p_i)``, ``dh/dq_i = z_i x h`` (joints before the
     elbow) and ``de = (I - e e^T) dW / |W - S|`` (S lies on axis 1 and does not move)."""
@@ -96,7 +104,8 @@ def arm_angle_jacobian(arm: Arm, q) -> np.ndarray:
     return (x * dy - y * dx) / (x * x + y * y)
 
 
-def solve_reference(arm: Arm, position, target_rot, seed, opts, psi: float):
+def solve_reference(arm: CellArm, position, target_rot, seed, opts, psi: float,
+                    give_up: bool = True):
     """Damped least squares from one seed with the arm angle held at ``psi`` [rad], in numpy:
     (q, position error [m], angle error [rad], iterations, ok); the readable reference of the
     compiled solve (:func:`dloplan.robot.ik_compiled.solve` with ``hold_angle``).
@@ -105,12 +114,14 @@ def solve_reference(arm: Arm, position, target_rot, seed, opts, psi: float):
     :data:`~dloplan.robot.kinematics.LENGTH_SCALE`, its 7x7 Jacobian the TCP's (angular rows
     times L) over L d psi / dq; Sugihara's step ``(J^T J + (E + damping) I) dq = J^T e``
     limited to ``max_step`` and clipped into the limits. The angle error is the larger of the
-    orientation and the arm angle error.
+    orientation and the arm angle error. With ``give_up`` the seed is given up when its error
+    stalls, as :func:`dloplan.robot.kinematics.solve_reference`.
     """
     q = np.clip(np.asarray(seed, dtype=float), arm.lower, arm.upper)
     scale = np.array([1.0, 1.0, 1.0] + [LENGTH_SCALE] * 4)
     perr = aerr = 0.0
     it = 0
+    history = []
     for it in range(opts.max_iterations + 1):
         frames = link_frames(arm, q)
         dp = position - frames.positions[7]
@@ -120,7 +131,10 @@ def solve_reference(arm: Arm, position, target_rot, seed, opts, psi: float):
         aerr = max(float(np.linalg.norm(dtheta)), abs(dpsi))
         if perr <= opts.position_tolerance and aerr <= opts.angle_tolerance:
             return q, perr, aerr, it, True
-        if it == opts.max_iterations:
+        history.append(perr + LENGTH_SCALE * aerr)
+        if it == opts.max_iterations or (
+                give_up and it >= STALL_WINDOW and history[-1] > STALL_FLOOR
+                and history[-1] > STALL_RATIO * history[-1 - STALL_WINDOW]):
             break
         jac = np.vstack([jacobian(arm, q), arm_angle_jacobian(arm, q)]) * scale[:, None]
         err = np.concatenate([dp, dtheta, [dpsi]]) * scale

@@ -19,19 +19,17 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from .chain import DEFAULT_TCP_IN_CLIP, as_rotation, as_vector
 from .reachability import ReachOptions
 from .yumi import (
     ARM_ANGLE_REFERENCE,
     ARMS,
     BASE_ABOVE_FOOT,
-    DEFAULT_TCP_IN_CLIP,
     DEFAULT_TCP_OFFSET,
     DEFAULT_TOOL0_OFFSET,
     DEFAULT_TOOL0_ROTATION,
     Gripper,
     Robot,
-    as_rotation,
-    as_vector,
     yumi_arm,
 )
 

@@ -17,9 +17,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .chain import CellArm
 from .confdata import confdata
 from .kinematics import IKOptions, solve_many, wrist_flip
-from .yumi import Arm
 
 RANDOM_SEEDS = 96
 """Seeded-random joint vectors tried per robtarget (besides the given seeds and home)."""
@@ -60,14 +60,14 @@ class RobtargetSolution:
         return float(np.abs(self.matching - np.asarray(q, dtype=float)).max(axis=1).min())
 
 
-def robtarget_solutions(arm: Arm, position, rotation_matrix, psi: float, seeds=(),
+def robtarget_solutions(arm: CellArm, position, rotation_matrix, psi: float, seeds=(),
                         options: IKOptions | None = None,
                         rng: np.random.Generator | None = None) -> np.ndarray:
     """Every distinct joint vector within the limits found with a TCP pose and arm angle.
 
     Parameters
     ----------
-    arm : Arm
+    arm : CellArm
     position : array_like
         (3,) TCP position in the world [m].
     rotation_matrix : array_like
@@ -108,7 +108,7 @@ def robtarget_solutions(arm: Arm, position, rotation_matrix, psi: float, seeds=(
     return found[np.argsort(np.abs(found - starts[0]).max(axis=1), kind="stable")]
 
 
-def _with_turns(arm: Arm, solutions: np.ndarray) -> list:
+def _with_turns(arm: CellArm, solutions: np.ndarray) -> list:
     """The solutions (K, 7) and their turns: every combination of whole turns of the joints
     whose range exceeds 2 pi that stays within the limits."""
     out = [np.asarray(q, dtype=float) for q in solutions]
@@ -119,7 +119,7 @@ def _with_turns(arm: Arm, solutions: np.ndarray) -> list:
     return out
 
 
-def solve_robtarget(arm: Arm, position, rotation_matrix, psi: float, conf, seeds=(),
+def solve_robtarget(arm: CellArm, position, rotation_matrix, psi: float, conf, seeds=(),
                     options: IKOptions | None = None) -> RobtargetSolution:
     """The controller's solutions of a robtarget: those of :func:`robtarget_solutions` whose
     :func:`~dloplan.robot.confdata.confdata` is ``conf`` (4,) int."""

@@ -22,12 +22,14 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
-from .chain import CellArm, capsules, in_base_frame, inverse, joint_margin
-from .collision import segment_distance
+from .assignment import assign_arms
+from .chain import DEFAULT_TCP_IN_CLIP, CellArm, capsules, in_base_frame
+from .collision import arm_clearance
 from .description import load_arm, vendored
+from .kinematics import inverse, joint_margin
 from .program import CheckRow
 from .reachability import ReachOptions
-from .yumi import ARMS, DEFAULT_TCP_IN_CLIP, HOME_DEG, Gripper
+from .yumi import ARMS, yumi
 
 START_RESTARTS = 16
 """Random restarts of the IK at the first pose (at least; more if ``options.ik`` asks): the one
@@ -108,13 +110,15 @@ class DescribedCell:
 
     def to_base(self, positions) -> np.ndarray:
         """World points [m], (..., 3), in the cell's frame: origin between the two bases, y
-        from the right base to the left one (horizontal), z up; the world frame when both arms
-        share a base. The clip with the larger y goes to the left arm."""
+        from the right base to the left one (horizontal), z up; the arms' base frame when both
+        share a base (one body, e.g. the YuMi, however it is turned). The clip with the larger
+        y goes to the left arm (:func:`~dloplan.robot.assignment.assign_arms`)."""
         pos = np.asarray(positions, dtype=float)
         across = self.left.base_position - self.right.base_position
         across[2] = 0.0
         if np.linalg.norm(across) < 1e-9:
-            return pos
+            return self.left.base_rotation.inv().apply(
+                pos.reshape(-1, 3) - self.left.base_position).reshape(pos.shape)
         y = across / np.linalg.norm(across)
         axes = np.stack([np.cross(y, [0.0, 0.0, 1.0]), y, [0.0, 0.0, 1.0]], 1)
         middle = 0.5 * (self.left.base_position + self.right.base_position)
@@ -189,21 +193,17 @@ class CellVerdict:
 
 
 def pair_clearance(cell: DescribedCell, q_left, q_right) -> np.ndarray:
-    """Smallest arm-arm capsule clearance [m], (...,), negative when they overlap.
+    """Smallest arm-arm capsule clearance [m], (...,), negative when they overlap
+    (:func:`~dloplan.robot.collision.arm_clearance`; the base links of arms on one body not
+    against each other).
 
     Parameters
     ----------
     q_left, q_right : array_like
         (..., n_arm) joint values [rad] of each arm, same batch shape.
     """
-    seg_l, rad_l, link_l = capsules(cell.left, q_left)
-    seg_r, rad_r, link_r = capsules(cell.right, q_right)
-    dist = segment_distance(seg_l[..., :, None, 0, :], seg_l[..., :, None, 1, :],
-                            seg_r[..., None, :, 0, :], seg_r[..., None, :, 1, :])
-    gap = dist - rad_l[:, None] - rad_r[None, :]
-    if cell.shared_base:
-        gap = np.where((link_l[:, None] < 0) & (link_r[None, :] < 0), np.inf, gap)
-    return gap.min(axis=(-1, -2))
+    return arm_clearance(cell.left, q_left, cell.right, q_right,
+                         shared_base=cell.shared_base)[0]
 
 
 def _table_clearance(cell: DescribedCell, arm: CellArm, q) -> np.ndarray:
@@ -466,20 +466,13 @@ def panda_pair(*, separation: float = 0.8, table_height: float = 0.0) -> Describ
 
 
 def yumi_cell(*, table_height: float = 0.0) -> DescribedCell:
-    """The ABB YuMi as a description-built cell: both arms from the one ``yumi.urdf`` (body
-    ``yumi_body`` at the world origin), the SmartGripper's TCP on tool0
-    (:class:`~dloplan.robot.yumi.Gripper`'s default; the gripper's capsule is part of the
-    description), ABB's home pose. Gives the FK of :func:`dloplan.robot.yumi.yumi` (tested to
-    1e-9)."""
-    path = vendored("yumi.urdf")
-    tcp_xyz, tcp_rot = Gripper().tcp_in_link
-    arms = [CellArm(side, load_arm(path, f"yumi_link_7_{side[0]}", base_link="yumi_body",
-                                   name=f"yumi_{side}"),
-                    tcp_offset=tcp_xyz, tcp_rotation=Rotation.from_matrix(tcp_rot),
-                    home=np.radians(HOME_DEG[side]))
-            for side in ARMS]
-    return DescribedCell("yumi", *arms, table_height=table_height, shared_base=True,
-                         source={"preset": "yumi", "table_height": table_height})
+    """The ABB YuMi as a described cell: both arms of :func:`dloplan.robot.yumi.yumi` (body
+    ``yumi_body`` at the world origin, the SmartGripper's TCP on tool0, ABB's home pose, the
+    arm angle's plug-in); the vendored ``yumi.urdf`` loads to the same chains (tested)."""
+    robot = yumi()
+    return DescribedCell("yumi", robot.left, robot.right, table_height=table_height,
+                         shared_base=True, source={"preset": "yumi",
+                                                   "table_height": table_height})
 
 
 @dataclass(frozen=True, eq=False)
@@ -549,8 +542,7 @@ def verify_on_cell(cell: DescribedCell, trajectory, *, tcp_in_clip: Rotation | N
     keep = np.concatenate([[True], np.diff(times) > 0])
     pos = np.asarray(trajectory.positions, dtype=float)[keep]
     mats = np.stack([r.as_matrix() for r in trajectory.rotations], 1)[keep]
-    y = cell.to_base(pos)[..., 1]
-    swapped = bool(y[:, 0].mean() < y[:, 1].mean())
+    swapped = assign_arms(pos, cell).left_clip == 1
     if swapped:
         pos, mats = pos[:, ::-1], mats[:, ::-1]
     mats = np.stack([mats[:, a] @ (tcp_in_clip or arm.tcp_in_clip).as_matrix()

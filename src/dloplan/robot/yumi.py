@@ -42,6 +42,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from .chain import DEFAULT_TCP_IN_CLIP, CellArm, as_rotation, as_vector
+from .description import ArmDescription
+
 ARMS = ("left", "right")
 """Order of the two arms in every per-arm array of this subpackage."""
 
@@ -141,64 +144,12 @@ ARM_ANGLE_REFERENCE = {"left": (0.0, -1.0, 0.0), "right": (0.0, 1.0, 0.0)}
 ``eax_a`` of RobotStudio's home robtargets, -101.964427132 deg (right) and +101.964427132
 deg (left), to 1e-6 deg (docs/decisions.md, "YuMi arm angle")."""
 
-DEFAULT_TCP_IN_CLIP = Rotation.from_matrix([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
-"""The TCP axes expressed in the clip frame (u, v, w): TCP x = v, TCP y = u, TCP z = -w.
-
-The YuMi gripper's fingers close along the gripper's x-axis and approach along its z-axis, so a
-held cable runs along its y-axis: the held link direction u is TCP y, and with the clip's w-axis
-leaning up (:func:`dloplan.frames.frame_from_axis`) the gripper approaches from above."""
-
 HOME_DEG = {
     "right": (0.0, -130.0, -135.0, 30.0, 0.0, 40.0, 0.0),
     "left": (0.0, -130.0, 135.0, 30.0, 0.0, 40.0, 0.0),
 }
 """ABB's YuMi home position [deg] in physical joint order (ABB axes 1, 2, 7, 3, 4, 5, 6 =
 0, -130, -+135, 30, 0, 40, 0): arms folded in front of the body. The IK's fallback seed."""
-
-
-def as_vector(value, name: str, size: int = 3) -> np.ndarray:
-    """``value`` as a (size,) float array, else ValueError naming ``name``."""
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != (size,) or not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: expected {size} finite numbers, got {value!r}")
-    return arr
-
-
-def as_rotation(value, name: str) -> Rotation:
-    """``value`` as a single scipy Rotation (None: identity), else ValueError naming ``name``."""
-    if value is None:
-        return Rotation.identity()
-    if not isinstance(value, Rotation) or not value.single:
-        raise ValueError(f"{name}: expected a single scipy Rotation, got {value!r}")
-    return value
-
-
-def axis_feet(origin_rot, origin_xyz, axes) -> np.ndarray:
-    """Where the arm angle's shoulder and wrist points sit on their axes (the feet of the
-    common normals of axes 1-2 on axis 1 and of axes 7-6 on axis 7, physical order): (s, w)
-    [m] along axis 1 from joint 1's origin and along the last axis from the last joint's
-    origin (:mod:`dloplan.robot.armangle`).
-
-    The relative pose of consecutive axes is fixed by the chain, so the feet are read at
-    q = 0 from the joint origins ``origin_rot`` (n, 3, 3), ``origin_xyz`` (n, 3) and the axes
-    (n, 3)."""
-    r, p = np.eye(3), np.zeros(3)
-    z, points = [], []
-    for i in range(len(axes)):
-        p = p + r @ origin_xyz[i]
-        r = r @ origin_rot[i]
-        z.append(r @ axes[i])
-        points.append(p)
-
-    def foot(i, j):
-        d = points[j] - points[i]
-        b = float(z[i] @ z[j])
-        if abs(1.0 - b * b) < 1e-12:
-            raise ValueError(f"axes: joint axes {i + 1} and {j + 1} are parallel; the arm "
-                             "angle needs them skew or intersecting")
-        return float((d @ z[i] - b * (d @ z[j])) / (1.0 - b * b))
-
-    return np.array([foot(0, 1), foot(len(axes) - 1, len(axes) - 2)])
 
 
 @dataclass(frozen=True, eq=False)
@@ -245,128 +196,52 @@ class Gripper:
 
 
 @dataclass(frozen=True, eq=False)
-class Arm:
-    """One serial 7-DoF arm as a URDF-style chain placed in the world frame.
-
-    Joint ``i`` turns link ``i`` about ``axes[i]`` (in the joint frame) by ``q[i]``; its frame
-    sits at ``origin_xyz[i]``, turned by ``origin_rpy[i]``, in the frame of link ``i - 1``
-    (link 0 is the robot body, placed in the world by ``base_to_world``). The TCP is fixed in
-    the last link by ``gripper`` (tool0, then the tool's TCP).
-
-    Parameters
-    ----------
-    name : str
-        ``"left"`` or ``"right"``.
-    origin_xyz, origin_rpy : numpy.ndarray
-        (7, 3) joint origins [m] and URDF roll-pitch-yaw [rad] (fixed axes x, y, z).
-    axes : numpy.ndarray
-        (7, 3) unit joint axes in the joint frames.
-    lower, upper : numpy.ndarray
-        (7,) joint limits [rad].
-    max_velocity : numpy.ndarray
-        (7,) joint speed limits [rad/s].
-    capsules : numpy.ndarray
-        (8, 2, 3) capsule segment end points [m]: one per link 1..7 in its frame, then the
-        gripper in the flange frame.
-    radii : numpy.ndarray
-        (8,) capsule radii [m].
-    home : numpy.ndarray
-        (7,) a fallback IK seed [rad] within the limits.
-    gripper : Gripper
-        TCP offset and clip-to-TCP mapping.
-    base_position : numpy.ndarray
-        (3,) position of the robot body frame in the world [m].
-    base_rotation : scipy.spatial.transform.Rotation
-        ``base_to_world`` rotation of the body frame.
-    joint_names : tuple of str
-        URDF joint names.
-    arm_angle_reference : array_like
-        (3,) reference direction of the arm angle (:mod:`dloplan.robot.armangle`), a vector
-        in the robot's base (body) frame; default ``(0, 0, 1)``, :func:`yumi_arm` sets the
-        controller's default of the arm (:data:`ARM_ANGLE_REFERENCE`).
-    """
-
-    name: str
-    origin_xyz: np.ndarray
-    origin_rpy: np.ndarray
-    axes: np.ndarray
-    lower: np.ndarray
-    upper: np.ndarray
-    max_velocity: np.ndarray
-    capsules: np.ndarray
-    radii: np.ndarray
-    home: np.ndarray
-    gripper: Gripper = field(default_factory=Gripper)
-    base_position: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    base_rotation: Rotation = field(default_factory=Rotation.identity)
-    joint_names: tuple[str, ...] = ()
-    arm_angle_reference: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
-
-    def __post_init__(self) -> None:
-        for key, shape in (("origin_xyz", (7, 3)), ("origin_rpy", (7, 3)), ("axes", (7, 3)),
-                           ("lower", (7,)), ("upper", (7,)), ("max_velocity", (7,)),
-                           ("capsules", (8, 2, 3)), ("radii", (8,)), ("home", (7,))):
-            arr = np.asarray(getattr(self, key), dtype=float)
-            if arr.shape != shape or not np.all(np.isfinite(arr)):
-                raise ValueError(f"{key}: expected finite values of shape {shape}, got {arr.shape}")
-            object.__setattr__(self, key, arr)
-        if np.any(self.lower >= self.upper):
-            raise ValueError(f"joint limits: lower {self.lower} must be below upper {self.upper}")
-        if np.any((self.home < self.lower) | (self.home > self.upper)):
-            raise ValueError(f"home: {self.home} is outside the joint limits")
-        object.__setattr__(self, "axes", self.axes / np.linalg.norm(self.axes, axis=1)[:, None])
-        object.__setattr__(self, "base_position", as_vector(self.base_position, "base_position"))
-        object.__setattr__(self, "base_rotation", as_rotation(self.base_rotation, "base_rotation"))
-        # Fixed parts of the chain, precomputed: joint 1's origin carries the world placement.
-        rot = Rotation.from_euler("xyz", self.origin_rpy).as_matrix()
-        xyz = self.origin_xyz.copy()
-        base = self.base_rotation.as_matrix()
-        rot[0] = base @ rot[0]
-        xyz[0] = base @ xyz[0] + self.base_position
-        object.__setattr__(self, "_origin_rot", rot)
-        object.__setattr__(self, "_origin_xyz", xyz)
-        tcp_xyz, tcp_rot = self.gripper.tcp_in_link
-        object.__setattr__(self, "_tcp_rot", tcp_rot)
-        object.__setattr__(self, "_tcp_xyz", tcp_xyz)
-        object.__setattr__(self, "_angle_points", axis_feet(rot, xyz, self.axes))
-        reference = as_vector(self.arm_angle_reference, "arm_angle_reference")
-        if np.linalg.norm(reference) < 1e-9:
-            raise ValueError(f"arm_angle_reference: expected a nonzero direction, got "
-                             f"{self.arm_angle_reference!r}")
-        object.__setattr__(self, "arm_angle_reference", reference / np.linalg.norm(reference))
-        skew = np.zeros((7, 3, 3))
-        skew[:, [2, 0, 1], [1, 2, 0]] = self.axes
-        skew[:, [1, 2, 0], [2, 0, 1]] = -self.axes
-        object.__setattr__(self, "_axis_skew", skew)
-        object.__setattr__(self, "_axis_skew2", skew @ skew)
-
-    @property
-    def n_joints(self) -> int:
-        """Number of joints (7)."""
-        return 7
-
-    @property
-    def mid(self) -> np.ndarray:
-        """Middle of each joint's range [rad], (7,)."""
-        return 0.5 * (self.lower + self.upper)
-
-
-@dataclass(frozen=True, eq=False)
 class Robot:
     """A dual-arm robot: the two arms in the order of :data:`ARMS`."""
 
-    left: Arm
-    right: Arm
+    left: CellArm
+    right: CellArm
+
+    def to_base(self, positions) -> np.ndarray:
+        """World points [m], (..., 3), in the robot's base (body) frame (both arms share it):
+        the frame of the arm assignment's side rule (:func:`dloplan.robot.assign_arms`)."""
+        arm = self.left
+        return arm.base_rotation.inv().apply(
+            np.asarray(positions, dtype=float).reshape(-1, 3) - arm.base_position).reshape(
+            np.shape(positions))
 
     @property
-    def arms(self) -> tuple[Arm, Arm]:
+    def arms(self) -> tuple[CellArm, CellArm]:
         """``(left, right)``."""
         return (self.left, self.right)
 
 
+def yumi_description(side: str) -> ArmDescription:
+    """The chain of one YuMi arm from the body frame ``yumi_body`` to ``yumi_link_7_*``: the
+    data of this module (the vendored ``yumi.urdf`` holds the same), its collision capsules (7
+    links, then the gripper on link 7)."""
+    if side not in ARMS:
+        raise ValueError(f"side: expected one of {ARMS}, got {side!r}")
+    xyz, rpy = _MOUNT[side]
+    suffix = side[0]
+    return ArmDescription(
+        name=f"yumi_{side}",
+        joint_names=tuple(f"yumi_joint_{k}_{suffix}" for k in ABB_AXIS_NUMBERS),
+        origin_xyz=np.array((xyz,) + _CHAIN_XYZ),
+        origin_rot=Rotation.from_euler("xyz", np.array((rpy,) + _CHAIN_RPY)).as_matrix(),
+        axes=np.tile([0.0, 0.0, 1.0], (7, 1)),
+        lower=np.array(_LOWER), upper=np.array(_UPPER), max_velocity=np.array(_VELOCITY),
+        tip_xyz=np.zeros(3), tip_rot=np.eye(3),
+        capsules=np.array([(p0, p1) for p0, p1, _ in _CAPSULES]),
+        capsule_link=np.array([0, 1, 2, 3, 4, 5, 6, 6]),
+        radii=np.array([r for _, _, r in _CAPSULES]),
+        base_link="yumi_body", tip_link=f"yumi_link_7_{suffix}", source="dloplan.robot.yumi")
+
+
 def yumi_arm(side: str, *, gripper: Gripper | None = None, base_position=(0.0, 0.0, 0.0),
-             base_rotation: Rotation | None = None, arm_angle_reference=None) -> Arm:
-    """One arm of a YuMi with the URDF data of this module.
+             base_rotation: Rotation | None = None, arm_angle_reference=None) -> CellArm:
+    """One arm of a YuMi: a :class:`~dloplan.robot.chain.CellArm` of :func:`yumi_description`
+    with the YuMi's plug-in data (the arm angle's reference direction).
 
     Parameters
     ----------
@@ -381,28 +256,16 @@ def yumi_arm(side: str, *, gripper: Gripper | None = None, base_position=(0.0, 0
         (3,) the arm angle's reference direction in the base frame (default
         :data:`ARM_ANGLE_REFERENCE` of the side).
     """
-    if side not in ARMS:
-        raise ValueError(f"side: expected one of {ARMS}, got {side!r}")
-    suffix = side[0]
-    xyz, rpy = _MOUNT[side]
-    return Arm(
-        name=side,
-        origin_xyz=np.array((xyz,) + _CHAIN_XYZ),
-        origin_rpy=np.array((rpy,) + _CHAIN_RPY),
-        axes=np.tile([0.0, 0.0, 1.0], (7, 1)),
-        lower=np.array(_LOWER),
-        upper=np.array(_UPPER),
-        max_velocity=np.array(_VELOCITY),
-        capsules=np.array([(p0, p1) for p0, p1, _ in _CAPSULES]),
-        radii=np.array([r for _, _, r in _CAPSULES]),
-        home=np.array(HOME_DEG[side]) * _DEG,
-        gripper=gripper if gripper is not None else Gripper(),
-        base_position=base_position,
+    description = yumi_description(side)
+    gripper = gripper if gripper is not None else Gripper()
+    tcp_xyz, tcp_rot = gripper.tcp_in_link
+    return CellArm(
+        side, description, base_position=base_position,
         base_rotation=base_rotation if base_rotation is not None else Rotation.identity(),
-        joint_names=tuple(f"yumi_joint_{k}_{suffix}" for k in ABB_AXIS_NUMBERS),
+        tcp_offset=tcp_xyz, tcp_rotation=Rotation.from_matrix(tcp_rot),
+        home=np.array(HOME_DEG[side]) * _DEG, tcp_in_clip=gripper.tcp_in_clip,
         arm_angle_reference=ARM_ANGLE_REFERENCE[side] if arm_angle_reference is None
-        else arm_angle_reference,
-    )
+        else arm_angle_reference)
 
 
 def yumi(*, gripper: Gripper | None = None, base_position=(0.0, 0.0, 0.0),
