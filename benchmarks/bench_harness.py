@@ -22,7 +22,8 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from dloplan.harness import load_harness, run_harness_job
+from dloplan.app import load_job
+from dloplan.harness import run_harness
 
 EXAMPLES = Path(__file__).parent.parent / "examples"
 
@@ -31,10 +32,10 @@ def main() -> None:
     print(f"{'cable':10s} {'phase1':>8s} {'phase2':>8s} {'insert':>8s} {'total':>8s} "
           f"{'solves':>6s} {'offset':>9s} {'mechanism':>9s} {'peg':>7s} {'cycle':>7s}")
     for name in ("usb", "ethernet", "pu"):
-        job = load_harness(EXAMPLES / f"harness_{name}.yaml")
-        run_harness_job(job)  # warm-up (imports, caches)
+        job = load_job(EXAMPLES / f"harness_{name}.yaml")
+        run_harness(job.cable, job.start, job.board, job.settings)  # warm-up (imports, caches)
         t = time.perf_counter()
-        result = run_harness_job(job)
+        result = run_harness(job.cable, job.start, job.board, job.settings)
         wall = time.perf_counter() - t
         tm = result.timings
         print(f"{name:10s} {tm['phase1']:8.3f} {tm['phase2']:8.3f} {tm['insertion']:8.3f} "

@@ -50,9 +50,9 @@ import time
 from pathlib import Path
 
 import numpy as np
-from dloplan.jobs import load_job, plan_job
 
-from dloplan.harness import load_harness, run_harness_job
+from dloplan.app import load_job, run_job
+from dloplan.harness import run_harness
 from dloplan.trajectory import GripperAction, dual_arm_trajectory, plan_cycle
 from dloplan.verify.replay import replay
 
@@ -94,14 +94,15 @@ def main(jobs=("demo", "usb", "ethernet", "pu")) -> None:
     print(f"{'job':10s} {'timing':8s} {'motion':>8s} {'actions':>8s} {'cycle':>8s} "
           f"{'knot dev':>10s} {'segment dev':>11s} {'peak T':>8s} {'time law':>10s}")
     if "demo" in jobs:
-        outcome = plan_job(load_job(DEMO)[0])
-        traj = outcome.trajectory
-        poses = [outcome.grippers.clip_poses(k) for k in range(traj.n_knots)]
+        job = load_job(DEMO)
+        doc = run_job(job, check_robot=False)
+        traj = doc.trajectory
+        poses = [doc.grippers.clip_poses(k) for k in range(traj.n_knots)]
         for label, timed, wall in _timings(traj, ()):
-            _row("demo", label, timed, None, outcome.job.cable, outcome.plan.stabilized, poses,
-                 wall)
+            _row("demo", label, timed, None, job.cable, doc.stabilized, poses, wall)
     for name in [j for j in jobs if j != "demo"]:
-        result = run_harness_job(load_harness(EXAMPLES / f"harness_{name}.yaml"))
+        job = load_job(EXAMPLES / f"harness_{name}.yaml")
+        result = run_harness(job.cable, job.start, job.board, job.settings)
         k1, k2 = result.knots["phase1"][1], result.knots["insertion"][0]
         shapes = np.concatenate([result.phases.avoidance.stabilized,
                                  result.phases.plan2.stabilized[1:]])

@@ -28,10 +28,11 @@ def example_plan(name: str):
 
 @functools.cache
 def harness_plan(name: str = "harness_usb.yaml"):
-    """The harness job of an example (:func:`dloplan.harness.files.run_harness_job`)."""
-    from dloplan.harness.files import run_harness_job
+    """The harness job of an example (:func:`dloplan.harness.run_harness`)."""
+    from dloplan.harness import run_harness
 
-    return run_harness_job(load_job(EXAMPLES / name))
+    job = load_job(EXAMPLES / name)
+    return run_harness(job.cable, job.start, job.board, job.settings)
 
 
 def mirrored(grippers: GripperPath) -> GripperPath:

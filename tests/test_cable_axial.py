@@ -7,11 +7,12 @@ import math
 import pytest
 from conftest import level_clips, sagging_guess
 
+from dloplan.app.resolve import build_cable
 from dloplan.cable import COMPOSITE_AXIAL_MODULI, Cable, catalogue_cable
 from dloplan.geometry import link_lengths
 from dloplan.identify import bending_manipulation, identify_youngs_modulus, synthetic_experiment
 from dloplan.identify.simulate import relative_tolerance
-from dloplan.io.scenario import CableSpec, build_cable
+from dloplan.io.scenario import CableSpec
 from dloplan.pipeline.document import cable_to_dict
 from dloplan.sim.statics import equilibrium
 

@@ -54,14 +54,15 @@ def test_check_fails_when_the_target_sits_in_an_obstacle(tmp_path, capsys):
 
 def test_check_says_that_plan_searches_a_placement_when_an_arm_cannot_reach(capsys):
     """Qualitative test 1 as shipped: its start is out of the left arm's reach where it lies,
-    and dloplan plan places the job elsewhere on the table (exit 0); the check says so."""
+    and dloplan plan places the job elsewhere on the table (its file allows it: exit 0); the
+    check says so."""
     example = Path(__file__).resolve().parents[1] / "examples" / "qualitative1_curved_pa12.yaml"
     assert main(["check", str(example), "-q"]) == EXIT_FAILURE
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("ERROR"))
     assert "start robot reach: the left arm cannot reach" in line
     assert line.endswith("dloplan plan will search where on the table to turn and shift the "
-                         "job so that both arms reach (docs/repair.md; --no-repair plans it "
-                         "where it is)")
+                         "job so that both arms reach, and move it there if the job allows it "
+                         "(repair: {placement: true} or --allow-placement; docs/repair.md)")
 
 
 @pytest.mark.parametrize("command", ["check", "plan"])
@@ -196,6 +197,19 @@ def test_a_harness_scenario_runs_the_whole_job(tmp_path, capsys):
                                                       "tensioning"}
     assert (out / "plan.json").exists() and (out / "rapid" / "DloPlanL.mod").exists()
     assert (out / "report.html").exists() and (out / "figures" / "forces_phase2.png").exists()
+
+
+def test_a_harness_job_writes_the_outputs_it_asks_for(tmp_path, capsys):
+    """``outputs: [json]`` in a harness file writes plan.json and nothing else (the harness
+    job used to write its figures, report and program whatever the file asked)."""
+    data = yaml.safe_load((Path(__file__).parents[1] / "examples" / "harness_usb.yaml")
+                          .read_text())
+    data["outputs"] = ["json"]
+    job = tmp_path / "harness.yaml"
+    job.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    assert main(["plan", str(job), "-o", str(out), "-q"]) in (EXIT_OK, EXIT_WARNINGS)
+    assert sorted(p.name for p in out.iterdir()) == ["plan.json"]
 
 
 def test_batch_mode_plans_several_files_on_two_workers(tmp_path, capsys):

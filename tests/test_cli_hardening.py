@@ -245,9 +245,9 @@ def test_a_dropped_ctrl_c_is_raised_again_before_anything_is_written(tmp_path, m
     "Exception ignored" and dropped (seen in llvmlite's finalizers while numba compiles under
     load); the CLI records the signal, keeps the dropped one off the terminal and raises it again
     at the next progress line, so the run still ends with 130, one line and nothing written."""
-    import dloplan.pipeline.repair
+    import dloplan.app.files
 
-    planned = dloplan.pipeline.repair.plan_and_repair
+    planned = dloplan.app.files.make_plan
 
     class Finalized:
         def __del__(self):  # where llvmlite's finalizers met the interrupt
@@ -258,7 +258,7 @@ def test_a_dropped_ctrl_c_is_raised_again_before_anything_is_written(tmp_path, m
         Finalized()  # collected at once: its KeyboardInterrupt is unraisable
         return planned(*args, **kwargs)
 
-    monkeypatch.setattr(dloplan.pipeline.repair, "plan_and_repair", dropping_the_interrupt)
+    monkeypatch.setattr(dloplan.app.files, "make_plan", dropping_the_interrupt)
     monkeypatch.setattr(sys, "unraisablehook", sys.__unraisablehook__)  # not pytest's: print it
     out = tmp_path / "out"
     assert main(["plan", str(write(tmp_path, SMALL)), "-o", str(out)]) == EXIT_INTERRUPTED

@@ -9,6 +9,8 @@ import pytest
 import yaml
 from harness_boards import DIAGONAL, demo_board, demo_start
 
+from dloplan.app import load_job
+from dloplan.app.load import file_kind
 from dloplan.cable import catalogue_cable
 from dloplan.harness import (
     Board,
@@ -16,8 +18,6 @@ from dloplan.harness import (
     HarnessSettings,
     Peg,
     check_board,
-    is_harness,
-    load_harness,
     route_length,
     run_harness,
 )
@@ -122,15 +122,42 @@ def test_fixture_frame_is_normalized_and_the_approach_is_out_of_the_slot():
 def test_the_examples_are_harness_files_and_load():
     for name in ("usb", "ethernet", "pu"):
         path = EXAMPLES / f"harness_{name}.yaml"
-        assert is_harness(yaml.safe_load(path.read_text()))
-        job = load_harness(path)
+        assert file_kind(yaml.safe_load(path.read_text())) == "harness"
+        job = load_job(path)
         assert job.cable.name == name
         assert len(job.board.pegs) == 1 and len(job.board.obstacles) == 1
         assert job.settings.n_shapes == (4, 4)
-    moduli = [load_harness(EXAMPLES / f"harness_{c}.yaml").cable.youngs_modulus
+    moduli = [load_job(EXAMPLES / f"harness_{c}.yaml").cable.youngs_modulus
               for c in ("usb", "ethernet", "pu")]
     assert moduli == [2.5e6, 7.5e6, 1e8]  # thesis Table 7.3
-    assert not is_harness(yaml.safe_load((EXAMPLES / "harness_phase1_obstacle.yaml").read_text()))
+    assert file_kind(yaml.safe_load((EXAMPLES / "harness_phase1_obstacle.yaml").read_text())) \
+        == "scenario"
+
+
+def test_a_harness_file_resolves_once_into_a_frozen_job_with_its_cell(tmp_path):
+    """The harness job keeps no file model (nothing of pydantic) into plan time: its robot cell
+    (base position in the file's units, converted) and its outputs are resolved at load, and
+    the job is frozen."""
+    import dataclasses
+
+    from pydantic import BaseModel
+
+    from dloplan.pipeline import HarnessJob
+
+    def placed(data):
+        data["units"] = "m"
+        data["robot"] = {"base_position": [0.0, 0.02, 0.0]}
+        data["outputs"] = ["json"]
+
+    job = load_job(_example(tmp_path, placed))
+    assert isinstance(job, HarnessJob)
+    values = [getattr(job, f.name) for f in dataclasses.fields(job)]
+    assert not any(isinstance(v, BaseModel) for v in values)
+    assert not any(isinstance(v, BaseModel) for v in dataclasses.asdict(job.settings).values())
+    assert np.allclose(job.robot.base_position, [0.0, 0.02, 0.0])
+    assert job.outputs == ("json",)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        job.outputs = ("json", "rapid")
 
 
 def _example(tmp_path, edit) -> Path:
@@ -146,20 +173,20 @@ def test_harness_file_errors_are_one_line_and_name_the_field(tmp_path):
         data["harness"]["fixtures"][1]["position"] = [0.5, 0.40, 0.03]
 
     with pytest.raises(ScenarioError, match=r"harness: fixtures: .* out of reach") as info:
-        load_harness(_example(tmp_path, far))
+        load_job(_example(tmp_path, far))
     assert "\n" not in str(info.value)
 
     def one_fixture(data):
         data["harness"]["fixtures"] = data["harness"]["fixtures"][:1]
 
     with pytest.raises(ScenarioError, match="harness.fixtures: List should have at least 2"):
-        load_harness(_example(tmp_path, one_fixture))
+        load_job(_example(tmp_path, one_fixture))
 
     def typo(data):
         data["harness"]["pegs"][0]["radious"] = 0.01
 
     with pytest.raises(ScenarioError, match="harness.pegs.0.radious: Extra inputs"):
-        load_harness(_example(tmp_path, typo))
+        load_job(_example(tmp_path, typo))
 
 
 def test_millimetre_files_are_converted(tmp_path):
@@ -177,8 +204,8 @@ def test_millimetre_files_are_converted(tmp_path):
         data["start"]["placement"]["position"] = [220.0, -250.0, 50.0]
         data["obstacles"][0].update(center=[300.0, 0.0, 30.0], size=[30.0, 160.0, 60.0])
 
-    mm = load_harness(_example(tmp_path, to_mm))
-    m = load_harness(EXAMPLES / "harness_usb.yaml")
+    mm = load_job(_example(tmp_path, to_mm))
+    m = load_job(EXAMPLES / "harness_usb.yaml")
     assert mm.board.fixtures[1].position == pytest.approx(m.board.fixtures[1].position)
     assert mm.board.pegs[0].plate().top == pytest.approx(m.board.pegs[0].plate().top)
     assert mm.settings.max_offset == pytest.approx(m.settings.max_offset)

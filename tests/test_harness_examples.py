@@ -12,16 +12,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dloplan.app import load_scenario, run_job
-from dloplan.harness import load_harness, run_harness_job
+from dloplan.app import load_job, load_scenario, run_job
+from dloplan.harness import run_harness
 
 EXAMPLES = Path(__file__).parent.parent / "examples"
 
 
 @pytest.fixture(scope="module")
 def runs():
-    return {name: run_harness_job(load_harness(EXAMPLES / f"harness_{name}.yaml"))
-            for name in ("usb", "ethernet", "pu")}
+    jobs = {name: load_job(EXAMPLES / f"harness_{name}.yaml") for name in ("usb", "ethernet", "pu")}
+    return {name: run_harness(job.cable, job.start, job.board, job.settings)
+            for name, job in jobs.items()}
 
 
 def _over_the_wall(result) -> bool:

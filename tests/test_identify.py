@@ -16,6 +16,12 @@ from functools import cache
 import numpy as np
 import pytest
 
+from dloplan.app.identification import (
+    dump_identification,
+    experiment_to_dict,
+    load_identification,
+    parse_identification,
+)
 from dloplan.cable import catalogue_cable
 from dloplan.geometry import arc_length, resample_by_arc_length
 from dloplan.identify import (
@@ -33,12 +39,6 @@ from dloplan.identify import (
 )
 from dloplan.identify.distance import curve_residuals
 from dloplan.identify.experiment import initial_on
-from dloplan.identify.files import (
-    dump_identification,
-    experiment_to_dict,
-    load_identification,
-    parse_identification,
-)
 from dloplan.identify.fit import links_for_curvature
 from dloplan.identify.measured import measured_curve
 from dloplan.identify.report import FAILURE, OK, WARNINGS, exit_code, plan_warnings

@@ -7,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
+from dloplan.app.identification import dump_identification, experiment_to_dict
 from dloplan.cable import catalogue_cable
 from dloplan.cli import EXIT_FAILURE, EXIT_OK, EXIT_WARNINGS, main
 from dloplan.identify import bending_manipulation, synthetic_experiment
-from dloplan.identify.files import dump_identification, experiment_to_dict
 from dloplan.identify.recommend import (
     candidate_designs,
     recommend_design,

@@ -21,11 +21,11 @@ from conftest import level_clips, load_reference
 from scipy.integrate import solve_bvp
 from scipy.spatial.transform import Rotation
 
+from dloplan.app.identification import load_identification
 from dloplan.cable import catalogue_cable
 from dloplan.frames import frame_from_axis
 from dloplan.geometry import resample_by_arc_length
 from dloplan.identify import Experiment, Manipulation, identify_youngs_modulus
-from dloplan.identify.files import load_identification
 from dloplan.identify.report import FAILURE, exit_code
 from dloplan.sim.clips import ClipPoses
 from dloplan.vision.shapes_io import RegisteredShape, write_shapes

@@ -16,8 +16,9 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from dloplan.app.resolve import resolve_scenario
+from dloplan.app.schema import parse_scenario
 from dloplan.cable import Cable
-from dloplan.io.scenario import ScenarioError, parse_scenario
+from dloplan.io.scenario import ScenarioError
 from dloplan.physics import SpringChain, energy, gradient
 from dloplan.physics.chain import energy_terms
 

@@ -48,6 +48,7 @@ STRAIGHT_TO_U = {  # a PA12 hose from straight (across the robot) to a U standin
                "placement": {"position": [0.35, -0.10, 0.30], "rotation": {"euler": [0, 90, 90]}}},
     "planner": {"n_shapes": 5},
     "table": {"height": 0.0},
+    "repair": {"placement": True},  # its reach repair turns the job: allowed
 }
 
 
@@ -340,14 +341,21 @@ def test_budget_rejects_bad_values():
         Budget(seconds=float("nan"))
 
 
-def far_ur_job():
+def far_ur_data(placement: bool = True) -> dict:
     """The UR5e pair example verified where it lies (no placement search), its start and
-    target 25 cm further from the robots: the right arm loses shape 3 (joint limits, IK)."""
+    target 25 cm further from the robots: the right arm loses shape 3 (joint limits, IK). With
+    ``placement`` the job allows its reach repair to move it."""
     data = yaml.safe_load((EXAMPLES / "cells" / "ur5e_pair_usb.yaml").read_text())
     data["robot"]["place"] = False
     for key in ("start", "target"):
         data[key]["placement"]["position"][0] += 0.25
-    return resolve_mapping(data, "ur5e pair, far")
+    data["repair"] = {"placement": placement}
+    return data
+
+
+def far_ur_job():
+    """:func:`far_ur_data`, resolved."""
+    return resolve_mapping(far_ur_data(), "ur5e pair, far")
 
 
 @pytest.fixture(scope="module")
@@ -401,3 +409,43 @@ def test_a_refusal_names_each_attempt_once_with_its_count():
              "minimal frames: no offset", "minimal frames: no offset"]
     assert attempts(tried) == "minimal frames: no offset (x3) | auxiliary frames: no offset"
     assert attempts([]) == ""
+
+
+def test_a_placement_without_consent_is_proposed_not_made(ur_placed, tmp_path, capsys):
+    """The far UR5e job whose file does not allow the job to be moved: the reach repair finds
+    the same placement as with consent, but only proposes it -- exit 3 with the proposal in one
+    line, the plan where the file puts it, the proposed move in plan.json's placement section,
+    no robot program. ``--allow-placement`` makes it: the same plan as the file's consent, and
+    the programs say where the job must be placed."""
+    _, allowed, allowed_folder = ur_placed
+    path = tmp_path / "far.yaml"
+    path.write_text(yaml.safe_dump(far_ur_data(placement=False)))
+    out = tmp_path / "out"
+    assert main(["plan", str(path), "-o", str(out), "-q"]) == EXIT_CHECK_FAILED
+    lines = [line for line in capsys.readouterr().out.splitlines()
+             if "placement proposed" in line]
+    assert len(lines) == 1 and "--allow-placement" in lines[0], lines
+    proposed = read_plan(out / "plan.json")
+    as_planned = run_job(far_ur_job())
+    assert np.array_equal(proposed.shapes, as_planned.shapes)  # not moved
+    assert not proposed.robot.ok and not proposed.repairs
+    section = proposed.placement
+    assert section is not None and not section.applied
+    made = allowed.placement
+    assert made is not None and made.applied
+    assert np.array_equal(section.offset, made.offset) and section.yaw == made.yaw
+    assert not (out / "urscript").exists() and not (out / "ros_joints").exists()
+    # simulate of the job file works on that same plan, and says that it failed a check
+    assert main(["simulate", str(path), "-q", "--json"]) == EXIT_CHECK_FAILED
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "failed a check (robot program" in err[0], err
+
+    consented = tmp_path / "consented"
+    assert main(["plan", str(path), "-o", str(consented), "-q", "--allow-placement"]) in (0, 1)
+    plan = read_plan(consented / "plan.json")
+    assert np.array_equal(plan.shapes, allowed.shapes)
+    assert np.array_equal(plan.placement.offset, made.offset)
+    for folder in (consented, allowed_folder):
+        scripts = sorted((folder / "urscript").glob("*.script"))
+        assert scripts and all("Place the cable where dloplan moved the job" in f.read_text()
+                               and made.message in f.read_text() for f in scripts)

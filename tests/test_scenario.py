@@ -9,7 +9,8 @@ import pytest
 
 from dloplan.app import load_scenario
 from dloplan.app.resolve import resolve_scenario
-from dloplan.io.scenario import ScenarioError, parse_scenario, scenario_json_schema
+from dloplan.app.schema import parse_scenario, scenario_json_schema
+from dloplan.io.scenario import ScenarioError
 from dloplan.physics import link_lengths, shape_length
 
 BASE = {

@@ -364,11 +364,13 @@ def test_bad_rate_poses_and_actions(bending_trajectory):
 def test_the_scenario_trajectory_section_gives_the_limits():
     from pydantic import ValidationError
 
+    from dloplan.app.resolve import motion_limits
     from dloplan.io.scenario import TrajectorySpec
 
     spec = TrajectorySpec(tcp_speed=0.05, acceleration=0.5, jerk=4.0, zone=0.01)
-    assert spec.limits(1.0) == MotionLimits(speed=0.05, acceleration=0.5, jerk=4.0)
-    assert spec.limits(1e-3) == MotionLimits(speed=5e-5, acceleration=5e-4, jerk=4e-3)
+    assert motion_limits(spec, 1.0) == MotionLimits(speed=0.05, acceleration=0.5, jerk=4.0)
+    assert motion_limits(spec, 1e-3) == MotionLimits(speed=5e-5, acceleration=5e-4,
+                                                     jerk=4e-3)
     assert (spec.zone, spec.grasp_time, spec.release_time) == (0.01, 0.5, 0.4)
     for bad in ({"jerk": 0.0}, {"acceleration": -1.0}, {"zone": -0.01}):
         with pytest.raises(ValidationError, match=next(iter(bad))):

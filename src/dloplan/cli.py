@@ -20,6 +20,11 @@ from .cable import CATALOGUE_NAMES, catalogue_cable
 from .exit_codes import EXIT_CHECK_FAILED, EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, EXIT_WARNINGS
 from .interrupts import catching_interrupts, raise_if_interrupted
 
+ALLOW_PLACEMENT = ("let the repair move or turn the job on the table where the robot reaches it, "
+                   "as `repair: {placement: true}` in the job file does (otherwise such a move "
+                   "is only proposed, exit 3; docs/repair.md)")
+"""Help of ``--allow-placement`` (plan, demo, study, simulate, verify)."""
+
 FIGURE_WORKERS = 2
 """Processes drawing a plan's figures while it is verified (:mod:`dloplan.app.figure_workers`)."""
 
@@ -66,7 +71,7 @@ def positive_number(text: str) -> float:
 
 
 def _cmd_schema(args: argparse.Namespace) -> int:
-    from .io.scenario import scenario_json_schema
+    from .app.schema import scenario_json_schema
 
     print(json.dumps(scenario_json_schema(), indent=2))
     return EXIT_OK
@@ -132,10 +137,11 @@ def _cmd_correct(args: argparse.Namespace) -> int:
 
 
 def _cmd_verify(args: argparse.Namespace) -> int:
-    from .app import read_plan, verify_plan
+    from .app import verify_plan
+    from .app.files import document_of
 
     console = Console(args.quiet)
-    doc = read_plan(args.plan)
+    doc = document_of(args.plan, progress=console.stage, allow_placement=args.allow_placement)
     console.stage(f"verifying {len(doc.shapes)} shapes of {args.plan}")
     result = verify_plan(doc, snap=not args.no_snap, replay=not args.no_replay,
                          tensile_limit=args.tensile_limit, tolerance=args.tolerance,
@@ -200,14 +206,12 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     from .vision import (
         CameraIntrinsics,
         calibrate_extrinsics,
+        read_image,
         read_marker_layout,
         write_calibration,
     )
-    from .vision._deps import cv2
 
-    image = cv2().imread(args.image)
-    if image is None:
-        raise ValueError(f"{args.image}: cannot read the image")
+    image = read_image(args.image)
     intrinsics = CameraIntrinsics.from_dict(read_mapping(args.intrinsics))
     result = calibrate_extrinsics(image, intrinsics, read_marker_layout(args.markers))
     write_calibration(args.output, result)
@@ -216,8 +220,14 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def _cmd_register(args: argparse.Namespace) -> int:
-    from .vision import HsvRange, RegisteredShape, read_calibration, register_on_plane, write_shapes
-    from .vision._deps import cv2
+    from .vision import (
+        HsvRange,
+        RegisteredShape,
+        read_calibration,
+        read_image,
+        register_on_plane,
+        write_shapes,
+    )
 
     calibration = read_calibration(args.calibration)
     try:
@@ -227,9 +237,7 @@ def _cmd_register(args: argparse.Namespace) -> int:
     colour = HsvRange(tuple(low), tuple(high))
     shapes = []
     for k, path in enumerate(args.images):
-        image = cv2().imread(path)
-        if image is None:
-            raise ValueError(f"{path}: cannot read the image")
+        image = read_image(path)
         points = register_on_plane(image, calibration, colour, args.links + 1, args.height)
         shapes.append(RegisteredShape(points, frame_id="world", label=f"xi_{k}"))
     write_shapes(args.output, shapes)
@@ -238,13 +246,14 @@ def _cmd_register(args: argparse.Namespace) -> int:
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
+    from .app.identification import load_identification
     from .identify import identify_youngs_modulus
-    from .identify.files import load_identification
     from .identify.report import exit_code, report_lines, to_dict
 
     console = Console(args.quiet)
     if args.design:
-        from .identify.recommend import design_cable, recommend_design
+        from .app.identification import design_cable
+        from .identify.recommend import recommend_design
 
         cable = design_cable(args.cable, args.experiment, modulus=args.modulus,
                              n_links=args.links)
@@ -330,7 +339,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     start_server()  # the figure workers' server warms up while the planner is imported
     from .app import load_job
 
-    job = load_job(args.scenarios[0], console.stage)
+    job = load_job(args.scenarios[0], console.stage, allow_placement=args.allow_placement)
     console.stage(f"loaded {job.source}: {job.cable.name or 'cable'}, E "
                   f"{job.cable.youngs_modulus:.3g} Pa, n = {job.cable.n_links}")
     return _plan_one(job, Path(args.output), args, console)
@@ -341,7 +350,8 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
     from .study.backends import make_backend, map_jobs
 
     options = {"output": str(Path(args.output)), "verify": args.verify,
-               "check_robot": not args.no_verify, "repair": not args.no_repair}
+               "check_robot": not args.no_verify, "repair": not args.no_repair,
+               "allow_placement": args.allow_placement}
     codes = {}
     with make_backend(None if args.scheduler else args.workers, args.scheduler) as backend:
         for _, (path, code, line) in map_jobs(plan_file, args.scenarios, backend,
@@ -368,7 +378,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     console = Console(args.quiet)
     source = resources.files("dloplan.data").joinpath("demo.yaml")
     with resources.as_file(source) as path:
-        job = resolve_mapping(read_mapping(path), "demo (embedded)")
+        job = resolve_mapping(read_mapping(path), "demo (embedded)",
+                              allow_placement=args.allow_placement)
     console.stage("the embedded demo: an Ethernet cable moved over an obstacle on the table")
     output = Path(args.output)
     code = _plan_one(job, output, args, console)
@@ -377,17 +388,18 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
-    from .app import load_scenario, run_job
+    from .app import load_scenario
     from .app.study import study_problem_of, study_spec, with_closed_loop
+    from .pipeline import make_plan
     from .plots.report import write_report
     from .plots.study import study_figures
     from .study.backends import make_backend
     from .study.run import run_study
 
     console = Console(args.quiet)
-    job = load_scenario(args.scenario, console.stage)
+    job = load_scenario(args.scenario, console.stage, allow_placement=args.allow_placement)
     spec = study_spec(job, args.samples, args.seed)
-    doc = run_job(job, progress=console.stage)
+    doc = make_plan(job, progress=console.stage)
     problem = study_problem_of(doc)
     console.stage(f"the plan of dloplan plan: {doc.n_shapes} shapes; running {spec.samples} "
                   "samples")
@@ -406,7 +418,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
     console.stage(f"{len(written)} figures and the report {report} in {args.output}")
     for line in result.summary.lines():
         print(line)
-    return EXIT_OK
+    return _plan_verdict(doc, EXIT_OK)
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
@@ -414,7 +426,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     from .pipeline.stages import simulate_plan
 
     console = Console(args.quiet)
-    doc = document_of(args.file, progress=console.stage)
+    doc = document_of(args.file, progress=console.stage, allow_placement=args.allow_placement)
     if doc.trajectory is None:
         raise ValueError(f"{args.file}: the plan has no timed trajectory to simulate")
     console.stage(f"simulating {doc.trajectory.duration:.2f} s of motion at real speed")
@@ -435,7 +447,17 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         print("replay deviations from the planned stabilized shapes (model against model; "
               "measured shapes: dloplan compare)")
         print(comparison.table())
-    return EXIT_OK if run.ok else EXIT_WARNINGS
+    return _plan_verdict(doc, EXIT_OK if run.ok else EXIT_WARNINGS)
+
+
+def _plan_verdict(doc, code: int) -> int:
+    """``code``, or 3 with one line on stderr when the plan a command worked on failed a check
+    (the plan ``dloplan plan`` writes without a robot program, exit 3)."""
+    if doc.ok:
+        return code
+    print(f"dloplan: the plan failed a check ({', '.join(doc.failed_checks)}): it has no "
+          "robot program (dloplan plan exits 3 on it)", file=sys.stderr)
+    return EXIT_CHECK_FAILED
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -467,6 +489,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "with the checks' verdict in its header)")
     plan.add_argument("--no-repair", action="store_true", help="report failed "
                       "checks without repairing the plan (docs/repair.md)")
+    plan.add_argument("--allow-placement", action="store_true", help=ALLOW_PLACEMENT)
     plan.add_argument("--workers", type=int, default=1,
                       help="batch: local worker processes")
     plan.add_argument("--scheduler", help="batch: Dask scheduler address tcp://HOST:PORT")
@@ -474,6 +497,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo = command("demo", _cmd_demo, "run the embedded default job (needs no input)")
     demo.add_argument("-o", "--output", default="out/demo", help="output folder")
     demo.set_defaults(verify=True, no_verify=False, no_repair=False)
+    demo.add_argument("--allow-placement", action="store_true", help=ALLOW_PLACEMENT)
 
     study = command("study", _cmd_study, "robustness study of a scenario's plan over cable and "
                     "pose tolerances (its study section)")
@@ -485,10 +509,12 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--csv", action="store_true", help="CSV instead of Parquet")
     study.add_argument("--overwrite", action="store_true", help="start over, do not resume")
     study.add_argument("-o", "--output", default="out/study", help="study folder")
+    study.add_argument("--allow-placement", action="store_true", help=ALLOW_PLACEMENT)
 
     simulate = command("simulate", _cmd_simulate, "run a plan's timed trajectory through the "
                        "dynamic simulator and tabulate its deviations from the planned shapes")
-    simulate.add_argument("file", help="plan.json, or a scenario file (planned first)")
+    simulate.add_argument("file", help="plan.json, or a job file (planned first, as dloplan "
+                          "plan plans it)")
     simulate.add_argument("--damping", choices=["relative", "absolute"], default="relative",
                           help="relative: dashpots between neighbours; absolute: the thesis' "
                           "drag -k_d v (eq. 3.3)")
@@ -498,6 +524,7 @@ def build_parser() -> argparse.ArgumentParser:
                           help="fictitious modulus [Pa] for the time step (thesis Fig. 6.5): "
                           "larger steps for stiff cables")
     simulate.add_argument("-o", "--output", help="folder for the figures")
+    simulate.add_argument("--allow-placement", action="store_true", help=ALLOW_PLACEMENT)
 
     cables = command("cables", _cmd_cables, "print the model constants of the thesis' cables")
     cables.add_argument("--links", type=int, default=10, help="number of links n")
@@ -537,7 +564,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     verify = command("verify", _cmd_verify, "verify a plan: elastic stability, snap-through, "
                      "dynamic replay (exit 3 when a check fails)")
-    verify.add_argument("plan", help="plan.json")
+    verify.add_argument("plan", help="plan.json, or a job file (planned first, as dloplan plan "
+                        "plans it)")
     verify.add_argument("--no-snap", action="store_true", help="skip the snap-through check")
     verify.add_argument("--no-replay", action="store_true", help="skip the dynamic replay")
     verify.add_argument("--no-robot", action="store_true",
@@ -548,6 +576,7 @@ def build_parser() -> argparse.ArgumentParser:
     verify.add_argument("--tensile-limit", type=positive_number, help="largest axial force [N]")
     verify.add_argument("--tolerance", type=positive_number, default=0.01,
                         help="largest replay deviation accepted [m]")
+    verify.add_argument("--allow-placement", action="store_true", help=ALLOW_PLACEMENT)
 
     compare = command("compare", _cmd_compare, "compare a plan with registered shapes "
                       "(thesis Table 7.2)")

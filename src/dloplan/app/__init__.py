@@ -13,15 +13,15 @@
 
 ``cli.py`` parses arguments, calls these functions and prints; ``study.py`` gives a study the
 same plan; ``files.py`` plans one file or a batch into folders. The pipeline's public names are
-re-exported here, so ``from dloplan.app import load_job, run_job, write_outputs`` is the whole
-way from a file to its outputs.
+re-exported here, so ``from dloplan.app import load_job, make_plan, write_outputs`` is the
+whole way from a file to its outputs.
 """
 
 from ..pipeline.document import PlanDocument
 from ..pipeline.job import Job
-from ..pipeline.stages import check_job, run_job, simulate_plan, verify_plan
+from ..pipeline.plan import make_plan
+from ..pipeline.stages import check_job, run_harness_job, run_job, simulate_plan, verify_plan
 from .document_file import read_plan, write_plan
-from .harness import run_harness_job
 from .load import load_job, load_scenario
 from .writers import WRITERS, write_outputs
 
@@ -32,6 +32,7 @@ __all__ = [
     "check_job",
     "load_job",
     "load_scenario",
+    "make_plan",
     "read_plan",
     "run_harness_job",
     "run_job",

@@ -10,7 +10,6 @@ status line), run on local processes or Dask by :func:`dloplan.study.map_jobs`;
 
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 
 from ..exit_codes import (  # noqa: F401 - re-exported: the codes of the command
@@ -24,19 +23,16 @@ from ..io.files import staged_folder
 from ..io.scenario import PROGRAM_NAMES
 from ..pipeline.document import PlanDocument
 from ..pipeline.job import Job
-from ..pipeline.stages import HARNESS_NOT_VERIFIED, quiet, run_job
+from ..pipeline.plan import make_plan
+from ..pipeline.stages import quiet
 from ..robot.cell_program import program_formats
 from .document_file import read_plan
 from .figure_workers import figure_workers as workers_for
-from .harness import run_harness_job
 from .load import file_kind, load_job
 from .writers import WRITERS, WriteOptions, write_outputs
 
 ROBOT_OUTPUTS = ("csv", "ros", "rapid", "ros_joints", "urscript")
 """The outputs a robot could run: not written for a plan that failed a check."""
-
-HARNESS_OUTPUTS = ("json", "csv", "rapid", "figures", "report")
-"""What a wire-harness job writes."""
 
 
 def exit_code(doc: PlanDocument) -> int:
@@ -65,34 +61,22 @@ def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
     that fails or is interrupted leaves it as it was, and a second run on the same folder is
     refused while this one holds it. A plan that failed a check gets its plan document, figures
     and report, but no robot program or trajectory file. With ``repair`` a plan that fails a
-    check is repaired first (:func:`dloplan.pipeline.repair.plan_and_repair`: every check with
-    ``verify``, else the robot program's; ``budget`` a :class:`dloplan.pipeline.repair.Budget`).
+    check is repaired first (:func:`dloplan.pipeline.make_plan`: every check with ``verify``,
+    else the robot program's; ``budget`` a :class:`dloplan.pipeline.repair.Budget`).
     With ``figure_workers`` > 0 the figures are drawn on that many worker processes
     (:mod:`dloplan.app.figure_workers`), from the moment the plan is made, while its robot
     program is made and it is verified; the files written are the same.
     """
     folder = Path(folder)
-    formats = job.outputs if isinstance(job, Job) else HARNESS_OUTPUTS
+    formats = job.outputs
     drawn = "figures" in formats or "report" in formats
     with staged_folder(folder) as staging, \
             workers_for(staging, figure_workers if drawn else 0) as drawer:
-        if isinstance(job, Job) and check_robot and repair:
-            from ..pipeline.repair import plan_and_repair
-
-            doc, repairs = plan_and_repair(job, progress, budget, physics=verify,
-                                           planned=None if drawer is None else drawer.draft)
-            doc = replace(doc, repairs=tuple(r.to_dict() for r in repairs))
-            options = WriteOptions(rate=job.motion.rate, figure_workers=drawer)
-        elif isinstance(job, Job):
-            doc = run_job(job, verify=verify, check_robot=check_robot, progress=progress,
-                          planned=None if drawer is None else drawer.draft)
-            options = WriteOptions(rate=job.motion.rate, figure_workers=drawer)
-        else:
-            doc = run_harness_job(job, check_robot=check_robot, progress=progress)
-            if verify:  # asked for and not done: said, not skipped silently
-                progress(f"--verify: {HARNESS_NOT_VERIFIED}")
-                doc = replace(doc, warnings=doc.warnings + (HARNESS_NOT_VERIFIED,))
-            options = WriteOptions(figure_workers=drawer)
+        doc = make_plan(job, verify=verify, check_robot=check_robot, repair=repair,
+                        budget=budget, progress=progress,
+                        planned=None if drawer is None else drawer.draft)
+        options = WriteOptions(rate=job.motion.rate, figure_workers=drawer) \
+            if isinstance(job, Job) else WriteOptions(figure_workers=drawer)
         if not doc.ok:
             formats = tuple(f for f in formats if f not in ROBOT_OUTPUTS)
             progress("a check failed: writing the plan and its report, no robot program")
@@ -119,7 +103,8 @@ def plan_file(options: dict, path: str) -> tuple[str, int, str]:
         if file_kind(read_mapping(path)) == "identification":
             return path, EXIT_WARNINGS, f"{path}: skipped (an identification file: use " \
                 "dloplan identify)"
-        doc, _ = plan_into(load_job(path), folder, verify=options["verify"],
+        job = load_job(path, allow_placement=options.get("allow_placement", False))
+        doc, _ = plan_into(job, folder, verify=options["verify"],
                            check_robot=options.get("check_robot", True),
                            repair=options.get("repair", True))
     except ValueError as exc:
@@ -129,13 +114,12 @@ def plan_file(options: dict, path: str) -> tuple[str, int, str]:
     return path, code, f"{path}: {status} -> {folder}"
 
 
-def document_of(path, progress=quiet) -> PlanDocument:
-    """A plan document: read from a plan file, or planned now from a scenario file."""
+def document_of(path, progress=quiet, *, allow_placement: bool = False) -> PlanDocument:
+    """A plan document: read from a plan file, or planned now from a job file the way
+    ``dloplan plan`` plans it (:func:`dloplan.pipeline.make_plan`: checked and repaired)."""
     from ..io.scenario import read_mapping
 
     if Path(path).suffix.lower() == ".json" and file_kind(read_mapping(path)) == "plan":
         return read_plan(path)
-    job = load_job(path, progress)
-    if not isinstance(job, Job):
-        return run_harness_job(job, progress=progress)
-    return run_job(job, progress=progress)
+    return make_plan(load_job(path, progress, allow_placement=allow_placement),
+                     progress=progress)

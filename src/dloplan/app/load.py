@@ -12,10 +12,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..io.scenario import ScenarioError, parse_scenario, read_mapping
+from ..io.scenario import ScenarioError, read_mapping
 from ..pipeline.document import PLAN_FORMAT
-from ..pipeline.job import Job
-from .resolve import resolve_scenario
+from ..pipeline.job import HarnessJob, Job
+from .resolve import resolve_harness, resolve_scenario
+from .schema import parse_harness, parse_scenario
 
 
 def file_kind(data: dict) -> str:
@@ -42,7 +43,7 @@ def identify_first(data: dict, source: str, progress=lambda text: None):
         When the identification did not succeed (its one-line message).
     """
     from ..identify import identify_youngs_modulus
-    from ..identify.files import parse_identification
+    from .identification import parse_identification
 
     setup = parse_identification(data, source)
     progress(f"identifying E of the {setup.cable.name or 'cable'} from the identify section")
@@ -54,28 +55,32 @@ def identify_first(data: dict, source: str, progress=lambda text: None):
     return result
 
 
-def resolve_mapping(data: dict, source: str, progress=lambda text: None):
-    """A job file's mapping resolved: a :class:`~dloplan.pipeline.job.Job` or a ``HarnessJob``."""
+def resolve_mapping(data: dict, source: str, progress=lambda text: None, *,
+                    allow_placement: bool = False) -> Job | HarnessJob:
+    """A job file's mapping resolved: a :class:`~dloplan.pipeline.job.Job` or a
+    :class:`~dloplan.pipeline.job.HarnessJob`; ``allow_placement`` lets the repair move the job
+    on the table (``--allow-placement``, as the file's ``repair: {placement: true}``)."""
     kind = file_kind(data)
     if kind == "plan":
         raise ScenarioError(f"{source}: a plan document (written by dloplan plan), not a job "
                             "file: use dloplan verify (or export, simulate) on it")
     if kind == "harness":
-        from ..harness.files import parse_harness, resolve_harness
-
         return resolve_harness(parse_harness(data, source), source)
     if kind == "identification":
         raise ScenarioError(f"{source}: an identification file has no job to plan (no start): "
                             "use dloplan identify")
     scenario = parse_scenario(data, source)
     if scenario.cable.youngs_modulus != "identify":
-        return resolve_scenario(scenario, source)
+        return resolve_scenario(scenario, source, allow_placement=allow_placement)
     identification = identify_first(data, source, progress)
-    return resolve_scenario(scenario, source, identification.youngs_modulus, identification)
+    return resolve_scenario(scenario, source, identification.youngs_modulus, identification,
+                            allow_placement=allow_placement)
 
 
-def load_job(path: str | Path, progress=lambda text: None):
-    """Read and resolve a job file (see the module docstring).
+def load_job(path: str | Path, progress=lambda text: None, *,
+             allow_placement: bool = False) -> Job | HarnessJob:
+    """Read and resolve a job file (see the module docstring); with ``allow_placement`` the
+    job may be moved on the table by the repair (:func:`resolve_mapping`).
 
     Returns
     -------
@@ -87,12 +92,14 @@ def load_job(path: str | Path, progress=lambda text: None):
         One line naming the file and the field (:class:`~dloplan.io.scenario.ScenarioError`),
         or an identification that did not succeed.
     """
-    return resolve_mapping(read_mapping(path), str(path), progress)
+    return resolve_mapping(read_mapping(path), str(path), progress,
+                           allow_placement=allow_placement)
 
 
-def load_scenario(path: str | Path, progress=lambda text: None) -> Job:
+def load_scenario(path: str | Path, progress=lambda text: None, *,
+                  allow_placement: bool = False) -> Job:
     """Read and resolve a scenario file (not a harness or identification file) into a Job."""
-    job = load_job(path, progress)
+    job = load_job(path, progress, allow_placement=allow_placement)
     if not isinstance(job, Job):
         raise ScenarioError(f"{path}: a harness job, expected a scenario with a target")
     return job

@@ -120,6 +120,9 @@ def summary_lines(doc: PlanDocument) -> list[str]:
         lines += [f"{name}: {t0:.2f} s to {t1:.2f} s"
                   for name, (t0, t1) in doc.harness.get("phase_times", {}).items()]
     lines += [f"repair: {r.get('kind', '')}: {r.get('change', '')}" for r in doc.repairs]
+    if doc.placement is not None:
+        made = "moved" if doc.placement.applied else "proposed, not made"
+        lines.append(f"placement ({made}): {doc.placement.message}")
     if doc.robot is not None:
         lines.append(doc.robot.message)
     if doc.verification is not None:

@@ -1,46 +1,211 @@
-"""Resolving a job file: a validated scenario turned into a :class:`~dloplan.pipeline.job.Job`.
+"""Resolving a job file: validated sections turned into a frozen job in SI units.
 
-Every unit conversion of a scenario happens here (lengths in the file's ``units`` to metres,
-degrees to radians, the trajectory's limits, the robot cell), and the planner's weights and
-stiffness family are chosen, so the planner, the study and the report all see the same ones. No
-pydantic model and no file unit passes this point (:mod:`dloplan.app.load` reads the file).
+Every conversion of a job file happens here, once, at load: lengths in the file's ``units`` to
+metres (:func:`build_cable`, :func:`build_shape`, :func:`build_obstacles`, :func:`build_board`,
+the motion limits, T_cf and the lift safety, the robot cell's base, tools and approach, the
+URScript writer's settings), degrees to radians (rotations, yaws, arcs), the defaults of every
+stage applied, and the planner's weights and stiffness family chosen, so the planner, the study
+and the report all see the same ones. :func:`resolve_scenario` makes a
+:class:`~dloplan.pipeline.job.Job`, :func:`resolve_harness` a
+:class:`~dloplan.pipeline.job.HarnessJob`. No pydantic model and no file unit passes this point
+(:mod:`dloplan.app.load` reads the file; :mod:`dloplan.io.scenario` describes its sections).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..cable import Cable
+from ..cable import Cable, catalogue_cable
 from ..geometry import resample_by_arc_length
+from ..harness.board import Board, Fixture, Peg, check_board
+from ..harness.job import HarnessSettings
 from ..io.scenario import (
     PROGRAM_NAMES,
-    WORKSPACE,
-    Scenario,
+    ArcShape,
+    BoxSpec,
+    CableSpec,
+    CheckSpec,
+    PointsShape,
+    RotationSpec,
     ScenarioError,
-    build_cable,
-    build_obstacles,
-    build_shape,
+    StraightShape,
+    TableSpec,
+    TrajectorySpec,
+    UrscriptSpec,
 )
-from ..pipeline.job import GripperSettings, Job, MotionSettings, PlannerSettings
+from ..obstacles.shapes import Box, Cylinder, Table
+from ..pipeline.job import (
+    GripperSettings,
+    HarnessJob,
+    Job,
+    MotionSettings,
+    PlannerSettings,
+    RepairSettings,
+)
 from ..planning.tuning import planner_weights, stiffness_family
 from ..robot.cell import RobotCell
 from ..robot.cell_program import cell_name, program_formats
 from ..robot.urdf_cell import DescribedCell, cell_from_mapping
 from ..robot.yumi import BASE_ABOVE_FOOT
-from ..shapes import discretize
+from ..shapes import arc_shape, discretize, place, sine_shape, straight_shape
+from ..trajectory import MotionLimits
+
+WORKSPACE = 10.0
+"""Largest distance [m] of any point of a job from the world origin: a dual-arm cell spans about
+a metre, so a coordinate beyond 10 m is a typo (often metres written into a mm file)."""
 
 
+DEFAULT_THRESHOLD = 0.01
+"""Default T_cf [m] of the target stability check (thesis 5.3)."""
+DEFAULT_Z_SAFETY = 0.02
+"""Default safety offset [m] of the obstacle lift (thesis 5.4.3)."""
+
+
+SMALLEST = {"length": 0.02, "diameter": 1e-4}
+"""Least cable length and diameter [m]: two grippers hold a cable's ends (about a centimetre
+each), and no cable or hose is thinner than a tenth of a millimetre; less is a length in the
+wrong units (metres written into a mm file)."""
+
+
+# -- the sections' conversions ------------------------------------------------------------------
+def rotation(spec: RotationSpec) -> Rotation:
+    """A rotation section (Euler angles in its ``seq`` and ``degrees``, or a quaternion
+    x-y-z-w) as a scipy :class:`~scipy.spatial.transform.Rotation`."""
+    if spec.euler is not None:
+        return Rotation.from_euler(spec.seq, spec.euler, degrees=spec.degrees)
+    return Rotation.from_quat(spec.quaternion)
+
+
+def motion_limits(spec: TrajectorySpec, scale: float) -> MotionLimits:
+    """The :class:`dloplan.trajectory.MotionLimits` of a ``trajectory:`` section in SI
+    (lengths times ``scale`` [m/unit]; the YuMi defaults of :mod:`dloplan.trajectory.limits`
+    where the file gives none)."""
+    defaults = MotionLimits()
+    given = {"speed": spec.tcp_speed, "acceleration": spec.acceleration, "jerk": spec.jerk}
+    lengths = {k: getattr(defaults, k) if v is None else v * scale for k, v in given.items()}
+    return MotionLimits(**lengths, angular_speed=spec.angular_speed,
+                        angular_acceleration=spec.angular_acceleration,
+                        angular_jerk=spec.angular_jerk)
+
+
+def check_lengths(spec: CheckSpec, scale: float) -> tuple[float, float]:
+    """(T_cf, z_safety) [m] of a ``check:`` section: the file's values times ``scale``, or
+    the thesis' defaults (:data:`DEFAULT_THRESHOLD`, :data:`DEFAULT_Z_SAFETY`)."""
+    threshold = DEFAULT_THRESHOLD if spec.threshold is None else spec.threshold * scale
+    z_safety = DEFAULT_Z_SAFETY if spec.z_safety is None else spec.z_safety * scale
+    return threshold, z_safety
+
+
+def urscript_settings(spec: UrscriptSpec, scale: float) -> dict:
+    """The URScript writer's keyword settings (:func:`dloplan.io.urscript.write_urscript`) in
+    SI (lengths times ``scale``)."""
+    return {**spec.model_dump(), "blend": spec.blend * scale,
+            "acceleration": spec.acceleration * scale}
+
+
+def build_cable(spec: CableSpec, scale: float, youngs_modulus: float | None) -> Cable:
+    """The :class:`Cable` of a cable specification (lengths in file units times ``scale``).
+
+    Raises
+    ------
+    ValueError
+        Naming the field: a length or diameter below :data:`SMALLEST`, or a bad cable.
+    """
+    params: dict[str, Any] = {"n_links": spec.n_links, "bending": spec.bending,
+                              "masses": spec.masses}
+    for key in ("length", "diameter"):
+        value = getattr(spec, key)
+        if value is not None:
+            params[key] = value * scale
+            if params[key] < SMALLEST[key]:
+                raise ValueError(f"{key}: got {value:g} file units ({params[key]:.3g} m), "
+                                 f"expected at least {SMALLEST[key]:g} m (a length in metres "
+                                 "in a mm file?)")
+    for key in ("mass", "poisson_ratio", "axial_modulus"):
+        if getattr(spec, key) is not None:
+            params[key] = getattr(spec, key)
+    if youngs_modulus is not None:
+        params["youngs_modulus"] = youngs_modulus
+    elif spec.youngs_modulus not in (None, "identify"):
+        params["youngs_modulus"] = spec.youngs_modulus
+    if spec.name is not None:
+        return catalogue_cable(spec.name, **params)
+    return Cable(**params)
+
+
+def build_shape(spec, cable: Cable, scale: float, name: str) -> np.ndarray:
+    """The points [m] of a shape specification for ``cable``."""
+    if isinstance(spec, PointsShape):
+        pts = np.asarray(spec.points, dtype=float) * scale
+        if pts.shape[1] == 2:
+            pts = np.stack([pts[:, 0], np.zeros(len(pts)), pts[:, 1]], axis=1)
+        return pts
+    n, length = cable.n_links, cable.length
+    try:
+        if isinstance(spec, StraightShape):
+            local = straight_shape(length, n)
+        elif isinstance(spec, ArcShape):
+            local = arc_shape(length, n, math.radians(spec.angle))
+        else:
+            local = sine_shape(length, n, spec.amplitude * scale, spec.periods)
+    except ValueError as exc:
+        raise ScenarioError(f"{name}: {exc}") from None
+    turn = rotation(spec.placement.rotation) if spec.placement.rotation else None
+    return place(local, np.asarray(spec.placement.position) * scale, turn)
+
+
+def build_obstacles(specs, table: TableSpec | None, scale: float) -> list:
+    """Obstacle objects [m] from their specifications."""
+    out: list = []
+    for k, spec in enumerate(specs):
+        try:
+            if isinstance(spec, BoxSpec):
+                if spec.center is not None:
+                    out.append(Box(tuple(np.multiply(spec.center, scale)),
+                                   tuple(np.multiply(spec.size, scale)),
+                                   math.radians(spec.yaw), spec.name))
+                else:
+                    out.append(Box.from_corners(np.multiply(spec.min, scale),
+                                                np.multiply(spec.max, scale),
+                                                math.radians(spec.yaw), spec.name))
+            else:
+                out.append(Cylinder(tuple(np.multiply(spec.base, scale)), spec.radius * scale,
+                                    spec.height * scale, spec.name))
+        except ValueError as exc:
+            raise ScenarioError(f"obstacles.{k}: {exc}") from None
+    if table is not None:
+        out.append(Table(table.height * scale))
+    return out
+
+
+def build_board(spec, scale: float, obstacles=(), table: Table | None = None) -> Board:
+    """The :class:`~dloplan.harness.board.Board` of a ``harness:`` section in metres (its
+    fixtures and pegs; obstacles and table from the file's own sections; ``table`` None: no
+    table)."""
+    fixtures = tuple(Fixture(tuple(np.multiply(f.position, scale)), tuple(f.axis),
+                             tuple(f.opening), f.slot_width * scale, f.depth * scale,
+                             f.length * scale, f.wall * scale, f.name) for f in spec.fixtures)
+    pegs = tuple(Peg(tuple(np.multiply(p.base, scale)), p.radius * scale, p.height * scale,
+                     None if p.plate_height is None else p.plate_height * scale,
+                     tuple(np.multiply(p.plate_size, scale)), p.plate_thickness * scale,
+                     tuple(p.side), p.name) for p in spec.pegs)
+    return Board(fixtures, pegs, tuple(obstacles), table)
+
+
+# -- a scenario -----------------------------------------------------------------------------------
 def _initial_frames(spec) -> Rotation | None:
     frames = spec.grippers.initial_frames
     if frames.first is None and frames.last is None:
         return None
     if frames.first is None or frames.last is None:
         raise ScenarioError("grippers.initial_frames: give both first and last, or neither")
-    return Rotation.concatenate([frames.first.to_rotation(), frames.last.to_rotation()])
+    return Rotation.concatenate([rotation(frames.first), rotation(frames.last)])
 
 
 def resolve_cable(scenario, source: str, youngs_modulus: float | None = None) -> Cable:
@@ -75,7 +240,7 @@ def planner_settings(scenario, cable: Cable, scale: float) -> PlannerSettings:
         weights = planner_weights(family=family, overrides=spec.weights or None)
     except ValueError as exc:
         raise ScenarioError(f"planner.weights: {exc}") from None
-    z_safety = scenario.check.lengths(scale)[1]
+    z_safety = check_lengths(scenario.check, scale)[1]
     return PlannerSettings(spec.n_shapes, weights, family, forced,
                            spec.physical_mode or "equilibrium", z_safety,
                            scenario.check.max_rounds, spec.keep_target)
@@ -85,7 +250,7 @@ def motion_settings(scenario, scale: float) -> MotionSettings:
     """Motion limits and zone in SI (the file's length units per second...), actions, rate."""
     spec = scenario.trajectory
     try:
-        limits = spec.limits(scale)
+        limits = motion_limits(spec, scale)
     except ValueError as exc:
         raise ScenarioError(f"trajectory: {exc}") from None
     return MotionSettings(limits, spec.zone * scale, spec.grasp_time, spec.release_time,
@@ -112,15 +277,18 @@ YUMI_ONLY = ("base_position", "base_rotation", "wobj", "tools", "approach", "gri
 """Settings of the ``robot:`` section that describe the YuMi's cell (not a described one)."""
 
 
-def robot_cell(scenario, scale: float, folder=".") -> RobotCell | DescribedCell:
-    """The robot cell of a scenario's ``robot:`` section (lengths in file units times
+def robot_cell(scenario, scale: float, folder=".", *,
+               placement: bool = False) -> RobotCell | DescribedCell:
+    """The robot cell of a job file's ``robot:`` section (lengths in file units times
     ``scale``): the YuMi's :class:`RobotCell`, or with ``robot.cell`` a
     :class:`~dloplan.robot.urdf_cell.DescribedCell` (URDF paths relative to ``folder``; table
-    height by default the scenario's table). The YuMi stands on the scenario's table unless
+    height by default the file's table). The YuMi stands on the file's table unless
     ``robot.base_position`` says otherwise: its base frame
     :data:`~dloplan.robot.yumi.BASE_ABOVE_FOOT` above the table top, above the plan's origin;
     without a table, the plan's frame is the base frame (the table, under the robot's foot, at
-    -0.1 m)."""
+    -0.1 m). A described cell searches where on the table it runs the job (``robot.place``)
+    only when the job may be moved (``placement``: the consent of docs/repair.md); otherwise it
+    verifies the job where the file puts it."""
     spec = scenario.robot
     table = scenario.table.height * scale if scenario.table is not None else None
     if spec.cell is not None:
@@ -130,7 +298,7 @@ def robot_cell(scenario, scale: float, folder=".") -> RobotCell | DescribedCell:
                                 "with robot.cell (its arms are placed in robot.cell)")
         data = dict(spec.cell)
         data.setdefault("table_height", scenario.table.height if scenario.table else 0.0)
-        writers = {"urscript": spec.urscript.settings(scale),
+        writers = {"urscript": urscript_settings(spec.urscript, scale),
                    "ros_joints": {k: v for k, v in spec.ros_joints.model_dump().items()
                                   if v is not None}}
         try:
@@ -139,7 +307,7 @@ def robot_cell(scenario, scale: float, folder=".") -> RobotCell | DescribedCell:
             message = str(exc)
             raise ScenarioError(message if message.startswith("robot.") else
                                 f"robot.cell: {message}") from None
-        return replace(cell, place=spec.place, writers=writers,
+        return replace(cell, place=spec.place and placement, writers=writers,
                        min_margin=float(np.radians(spec.min_joint_margin)))
     defaults = RobotCell()
     tools = []
@@ -158,7 +326,7 @@ def robot_cell(scenario, scale: float, folder=".") -> RobotCell | DescribedCell:
     try:
         return RobotCell(
             base_position=base,
-            base_rotation=spec.base_rotation.to_rotation() if spec.base_rotation else
+            base_rotation=rotation(spec.base_rotation) if spec.base_rotation else
             Rotation.identity(),
             tools=tuple(tools), wobj=spec.wobj, table_height=table,
             approach=defaults.approach if spec.approach is None else spec.approach * scale,
@@ -195,13 +363,13 @@ def job_outputs(scenario, cell) -> tuple[str, ...]:
     return tuple(others + [f for f in PROGRAM_NAMES if f in wanted])
 
 
-def resolve_scenario(scenario: Scenario, source: str = "scenario",
-                     youngs_modulus: float | None = None, identification=None) -> Job:
+def resolve_scenario(scenario, source: str = "scenario", youngs_modulus: float | None = None,
+                     identification=None, *, allow_placement: bool = False) -> Job:
     """Turn a validated scenario into a :class:`Job` (SI units, library objects, defaults).
 
     Parameters
     ----------
-    scenario : Scenario
+    scenario : dloplan.app.schema.Scenario
         The validated file.
     source : str
         Its name, for messages.
@@ -209,6 +377,9 @@ def resolve_scenario(scenario: Scenario, source: str = "scenario",
         Replaces the file's E [Pa] (after an identification).
     identification : Identification, optional
         Kept in the job, for the plan document.
+    allow_placement : bool
+        Let the repair move the job on the table even when the file does not
+        (``--allow-placement``; the file's ``repair: {placement: true}`` does too).
 
     Raises
     ------
@@ -217,15 +388,16 @@ def resolve_scenario(scenario: Scenario, source: str = "scenario",
         bad weights, ...
     """
     try:
-        return _resolved(scenario, source, youngs_modulus, identification)
+        return _resolved(scenario, source, youngs_modulus, identification,
+                         scenario.repair.placement or allow_placement)
     except ScenarioError as exc:
         if str(exc).startswith(f"{source}: "):
             raise
         raise ScenarioError(f"{source}: {exc}") from None
 
 
-def _resolved(scenario: Scenario, source: str, youngs_modulus: float | None,
-              identification) -> Job:
+def _resolved(scenario, source: str, youngs_modulus: float | None, identification,
+              placement: bool) -> Job:
     """:func:`resolve_scenario`'s work (its messages name the field, not always the file)."""
     scale = scenario.scale
     cable = resolve_cable(scenario, source, youngs_modulus)
@@ -236,11 +408,11 @@ def _resolved(scenario: Scenario, source: str, youngs_modulus: float | None,
             shapes[name] = discretize(points, cable, name)
         except ValueError as exc:
             raise ScenarioError(f"{source}: {exc}") from None
-    threshold = scenario.check.lengths(scale)[0]
+    threshold = check_lengths(scenario.check, scale)[0]
     obstacles = tuple(build_obstacles(scenario.obstacles, scenario.table, scale))
     for name, shape in shapes.items():
         check_workspace(shape, name, source)
-    cell = robot_cell(scenario, scale, Path(source).parent)
+    cell = robot_cell(scenario, scale, Path(source).parent, placement=placement)
     for k, obstacle in enumerate(obstacles):
         corner = np.array(getattr(obstacle, "center", getattr(obstacle, "base", (0, 0, 0))))
         check_workspace(corner, f"obstacles.{k}", source)
@@ -251,4 +423,67 @@ def _resolved(scenario: Scenario, source: str, youngs_modulus: float | None,
         motion=motion_settings(scenario, scale), target_threshold=threshold,
         outputs=job_outputs(scenario, cell), robot=cell,
         identification=identification, study=scenario.study,
+        repair=RepairSettings(placement=placement),
     )
+
+
+# -- a wire-harness job ---------------------------------------------------------------------------
+def harness_settings(scenario, scale: float) -> HarnessSettings:
+    """The harness job's settings in SI: the ``harness:`` section's phases, insertion and
+    tensioning, the trajectory's limits, the planner's mode and the check's lift safety."""
+    h, t = scenario.harness, scenario.harness.tension
+    limits = motion_limits(scenario.trajectory, scale)
+    return HarnessSettings(
+        n_shapes=tuple(h.n_shapes), approach_height=h.approach_height * scale,
+        clearance=h.clearance * scale, contact_force=t.contact_force,
+        max_axial_force=t.max_axial_force, max_offset=t.max_offset * scale,
+        section_links=t.n_links, substeps=t.substeps, max_speed=limits.speed,
+        max_angular_speed=scenario.trajectory.angular_speed, limits=limits,
+        zone=scenario.trajectory.zone * scale, grasp_time=scenario.trajectory.grasp_time,
+        release_time=scenario.trajectory.release_time, min_tension=t.min_tension,
+        gripper_method=scenario.grippers.method,
+        physical_mode=scenario.planner.physical_mode or "equilibrium",
+        z_safety=check_lengths(scenario.check, scale)[1], max_rounds=scenario.check.max_rounds)
+
+
+def resolve_harness(scenario, source: str = "harness scenario") -> HarnessJob:
+    """Turn a validated harness file (:class:`dloplan.app.schema.HarnessScenario`) into a
+    :class:`~dloplan.pipeline.job.HarnessJob`: the cable, the start, the board checked against
+    the cable (:func:`~dloplan.harness.board.check_board`), the settings, the robot cell (which
+    does not move the job: a board is fixed) and the outputs.
+
+    Raises
+    ------
+    ScenarioError
+        One line naming the file and the section: an identification request (not supported
+        here: give a modulus), planner weights (not supported by harness jobs), an invalid
+        fixture or peg, a board the cable cannot be used on, a program the cell cannot run.
+    """
+    scale = scenario.scale
+    if scenario.cable.youngs_modulus == "identify":
+        raise ScenarioError(f"{source}: cable.youngs_modulus: 'identify' is not supported in a "
+                            "harness job, give the modulus [Pa]")
+    if scenario.planner.weights:
+        raise ScenarioError(f"{source}: planner.weights: not supported in a harness job "
+                            "(the planner's defaults for the cable's stiffness family are used)")
+    try:
+        cable = build_cable(scenario.cable, scale, None)
+    except ValueError as exc:
+        raise ScenarioError(f"{source}: cable.{exc}") from None
+    try:
+        start = build_shape(scenario.start, cable, scale, "start")
+        obstacles = build_obstacles(scenario.obstacles, None, scale)
+        cell = robot_cell(scenario, scale, Path(source).parent)
+        outputs = job_outputs(scenario, cell)
+        settings = harness_settings(scenario, scale)
+    except ScenarioError as exc:
+        raise ScenarioError(f"{source}: {exc}") from None
+    except ValueError as exc:  # the limits
+        raise ScenarioError(f"{source}: trajectory: {exc}") from None
+    try:
+        board = build_board(scenario.harness, scale, obstacles,
+                            Table(scenario.table.height * scale))
+        check_board(board, cable)
+    except ValueError as exc:
+        raise ScenarioError(f"{source}: harness: {exc}") from None
+    return HarnessJob(source, cable, start, board, settings, cell, outputs)

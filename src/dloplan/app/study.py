@@ -1,9 +1,9 @@
 """A robustness study of a job: the very plan ``dloplan plan`` makes, perturbed sample by sample.
 
-The nominal plan comes from the pipeline (:func:`dloplan.pipeline.stages.run_job`: the same
-weights, family, physical mode, obstacle re-planning and gripper frames as ``dloplan plan``), so
-the study's nominal stabilized shapes are the plan's, and a sample with zero spread reproduces
-them. The study itself runs in :mod:`dloplan.study`.
+The nominal plan is the one ``dloplan plan`` makes (:func:`dloplan.pipeline.make_plan`: the
+same weights, family, physical mode, obstacle re-planning, gripper frames, checks and repairs),
+so the study's nominal stabilized shapes are the plan's, and a sample with zero spread
+reproduces them. The study itself runs in :mod:`dloplan.study`.
 """
 
 from __future__ import annotations

@@ -90,25 +90,36 @@ def write_rapid_program(doc: PlanDocument, target: Path, options: WriteOptions) 
     without robot checks (``--no-verify``) gets its program written with the checks' verdict
     in the module header; a program that failed its checks is refused."""
     return program_files(verified_program(doc, "rapid"), target, "rapid",
-                         force=doc.robot is None)
+                         force=doc.robot is None, notes=program_notes(doc))
 
 
-def program_files(program, folder: Path, name: str, *, force: bool = False) -> list[Path]:
+def program_notes(doc: PlanDocument) -> tuple[str, ...]:
+    """What a robot program of the document says in its header beyond its checks: where the
+    job must be placed on the table when a repair moved it (its ``placement`` section)."""
+    if doc.placement is None or not doc.placement.applied:
+        return ()
+    return (f"Place the cable where dloplan moved the job: {doc.placement.message}; this "
+            "program runs only with it there (plan.json: placement).",)
+
+
+def program_files(program, folder: Path, name: str, *, force: bool = False,
+                  notes=()) -> list[Path]:
     """Write a verified program (:class:`dloplan.robot.cell_program.Program`) in the format
     ``name`` (one of its ``formats``: rapid, urscript, ros_joints) into ``folder``; ``force``
-    writes a RAPID program made without checks (its verdict in the module header)."""
+    writes a RAPID program made without checks (its verdict in the module header); ``notes``
+    are comment lines for the program's header (:func:`program_notes`)."""
     if name == "rapid":
         from ..io.rapid import write_rapid
 
-        return list(write_rapid(folder, program, force=force).values())
+        return list(write_rapid(folder, program, force=force, notes=notes).values())
     if name == "urscript":
         from ..io.urscript import write_urscript
 
-        return write_urscript(folder, **program.urscript_arguments())
+        return write_urscript(folder, **program.urscript_arguments(), notes=notes)
     if name == "ros_joints":
         from ..io.ros_joints import write_joint_trajectories
 
-        return write_joint_trajectories(folder, **program.ros_joints_arguments())
+        return write_joint_trajectories(folder, **program.ros_joints_arguments(), notes=notes)
     raise ValueError(f"{name}: not a robot program format (rapid, urscript, ros_joints)")
 
 
@@ -124,14 +135,16 @@ def write_joint_trajectory_files(doc: PlanDocument, target: Path,
     """One ROS 2 JointTrajectory per arm in the folder ``target``: the verified joints of the
     document's robot program at its target times (:mod:`dloplan.io.ros_joints`); a program
     that failed its checks is refused, as for RAPID."""
-    return program_files(_passed(doc, "ros_joints"), target, "ros_joints")
+    return program_files(_passed(doc, "ros_joints"), target, "ros_joints",
+                         notes=program_notes(doc))
 
 
 def write_urscript_files(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
     """One URScript program per arm in the folder ``target`` (:mod:`dloplan.io.urscript`): the
     verified joints of a described cell of 6-joint arms; a program that failed its checks is
     refused."""
-    return program_files(_passed(doc, "urscript"), target, "urscript")
+    return program_files(_passed(doc, "urscript"), target, "urscript",
+                         notes=program_notes(doc))
 
 
 def write_figure_files(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:

@@ -1,11 +1,11 @@
 """Wire-harness jobs (thesis 7.3): boards, two-phase planning, insertion and tensioning.
 
-``run_harness(cable, start, board)`` runs a whole job; ``load_harness(path)`` reads a scenario
-file with a ``harness:`` section; see ``docs/harness.md``.
+``run_harness(cable, start, board)`` runs a whole job; a job file with a ``harness:`` section is
+read by :func:`dloplan.app.load_job` into a :class:`dloplan.pipeline.job.HarnessJob`; see
+``docs/harness.md``.
 """
 
-from .board import Board, Fixture, HarnessSpec, Peg, check_board, route_length
-from .files import HarnessJob, HarnessScenario, is_harness, load_harness, run_harness_job
+from .board import Board, Fixture, Peg, check_board, route_length
 from .insertion import (
     Insertion,
     TensionState,
@@ -29,11 +29,8 @@ __all__ = [
     "PHASES",
     "Board",
     "Fixture",
-    "HarnessJob",
     "HarnessResult",
-    "HarnessScenario",
     "HarnessSettings",
-    "HarnessSpec",
     "Insertion",
     "Peg",
     "Phases",
@@ -45,12 +42,9 @@ __all__ = [
     "harness_summary",
     "insert_and_tension",
     "insertion_pose",
-    "is_harness",
-    "load_harness",
     "plan_phases",
     "route_length",
     "run_harness",
-    "run_harness_job",
     "section_cable",
     "section_shape",
     "tension_state",

@@ -18,7 +18,8 @@ Frames and conventions (world frame, z up, SI units):
 
 :func:`check_board` rejects a board the cable cannot be used on, before any planning: a fixture
 out of reach, a peg overlapping a fixture, a slot narrower than the cable, a plate above its
-peg's top. :class:`HarnessSpec` is the ``harness:`` section of a scenario file.
+peg's top. The ``harness:`` section of a job file (file units) is
+:mod:`dloplan.io.harness_spec`; :mod:`dloplan.app.resolve` builds the board from it.
 """
 
 from __future__ import annotations
@@ -27,7 +28,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ..cable import Cable
 from ..obstacles.shapes import Box, Cylinder, Table
@@ -351,113 +351,3 @@ def check_board(board: Board, cable: Cable) -> None:
                     f"{1e3 * gap:.1f} mm from the fixture's body, expected at least the cable's "
                     f"diameter {1e3 * cable.diameter:.1f} mm)"
                 )
-
-
-class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-_Vec3 = list[float]
-
-
-def _finite_list(values, size: int, name: str):
-    if values is None:
-        return values
-    if len(values) != size or not all(math.isfinite(v) for v in values):
-        raise ValueError(f"{name}: expected {size} finite numbers, got {values!r}")
-    return values
-
-
-class FixtureSpec(_Model):
-    """A fixture in a scenario's ``harness:`` section (lengths in file units)."""
-
-    name: str = "fixture"
-    position: _Vec3 = Field(..., description="cable axis at the slot bottom")
-    axis: _Vec3 = Field(..., description="slot direction, pointing inward (toward the route)")
-    opening: _Vec3 = Field(default_factory=lambda: [0.0, 0.0, 1.0])
-    slot_width: float = Field(0.008, gt=0, allow_inf_nan=False)
-    depth: float = Field(0.01, ge=0, allow_inf_nan=False, description="insertion depth")
-    length: float = Field(0.015, gt=0, allow_inf_nan=False)
-    wall: float = Field(0.005, ge=0, allow_inf_nan=False)
-
-    @model_validator(mode="after")
-    def _vectors(self):
-        for key in ("position", "axis", "opening"):
-            _finite_list(getattr(self, key), 3, key)
-        return self
-
-    def build(self, scale: float) -> Fixture:
-        """The :class:`Fixture` in metres."""
-        return Fixture(tuple(np.multiply(self.position, scale)), tuple(self.axis),
-                       tuple(self.opening), self.slot_width * scale, self.depth * scale,
-                       self.length * scale, self.wall * scale, self.name)
-
-
-class PegSpec(_Model):
-    """A peg (with an optional plate) in a ``harness:`` section (lengths in file units)."""
-
-    name: str = "peg"
-    base: _Vec3
-    radius: float = Field(..., gt=0, allow_inf_nan=False)
-    height: float = Field(..., gt=0, allow_inf_nan=False)
-    plate_height: float | None = Field(None, gt=0, allow_inf_nan=False)
-    plate_size: list[float] = Field(default_factory=lambda: [0.08, 0.08])
-    plate_thickness: float = Field(0.003, gt=0, allow_inf_nan=False)
-    side: _Vec3 = Field(default_factory=lambda: [-1.0, 0.0, 0.0],
-                        description="horizontal direction to the side the cable passes")
-
-    @model_validator(mode="after")
-    def _vectors(self):
-        _finite_list(self.base, 3, "base")
-        _finite_list(self.side, 3, "side")
-        _finite_list(self.plate_size, 2, "plate_size")
-        return self
-
-    def build(self, scale: float) -> Peg:
-        """The :class:`Peg` in metres."""
-        plate = None if self.plate_height is None else self.plate_height * scale
-        return Peg(tuple(np.multiply(self.base, scale)), self.radius * scale,
-                   self.height * scale, plate, tuple(np.multiply(self.plate_size, scale)),
-                   self.plate_thickness * scale, tuple(self.side), self.name)
-
-
-class TensionSpec(_Model):
-    """Insertion and tensioning settings (forces in N, lengths in file units)."""
-
-    contact_force: float = Field(0.2, gt=0, allow_inf_nan=False,
-                                 description="wanted force of the cable on the peg(s) [N]")
-    min_tension: float = Field(0.01, gt=0, allow_inf_nan=False,
-                               description="tension every inner link of the section reaches [N]")
-    max_axial_force: float = Field(5.0, gt=0, allow_inf_nan=False,
-                                   description="largest link tension allowed [N]")
-    max_offset: float = Field(0.05, gt=0, allow_inf_nan=False,
-                              description="largest pull-apart offset per arm")
-    n_links: int | None = Field(None, ge=6, le=2000,
-                                description="links of the insertion simulation (default: auto)")
-    substeps: int = Field(8, ge=1, le=200, description="equilibria while inserting")
-
-
-class HarnessSpec(_Model):
-    """The ``harness:`` section of a scenario: the board and the job's settings."""
-
-    fixtures: list[FixtureSpec] = Field(..., min_length=2, max_length=2)
-    pegs: list[PegSpec] = Field(default_factory=list)
-    approach_height: float = Field(0.08, gt=0, allow_inf_nan=False,
-                                   description="phase 1 ends this high above the insertion pose")
-    clearance: float = Field(0.005, ge=0, allow_inf_nan=False,
-                             description="gap kept to the pegs by the planned shapes")
-    n_shapes: list[int] = Field(default_factory=lambda: [4, 4], min_length=2, max_length=2,
-                                description="intermediate shapes of phase 1 and phase 2")
-    tension: TensionSpec = Field(default_factory=TensionSpec)
-
-    @model_validator(mode="after")
-    def _counts(self):
-        if any(s < 1 or s > 500 for s in self.n_shapes):
-            raise ValueError(f"n_shapes: got {self.n_shapes}, expected two integers in 1..500")
-        return self
-
-    def build_board(self, scale: float, obstacles=(), table: Table | None = None) -> Board:
-        """The :class:`Board` in metres (obstacles and table from the scenario's own sections;
-        ``table`` None: no table)."""
-        return Board(tuple(f.build(scale) for f in self.fixtures),
-                     tuple(p.build(scale) for p in self.pegs), tuple(obstacles), table)

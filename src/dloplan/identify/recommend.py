@@ -207,36 +207,3 @@ def recommend_design(cable: Cable, *, noise: float = 1e-3, n_measured: int = 100
     scores.sort(key=lambda s: (not s.usable, s.log_sd))
     best = scores[0] if scores and scores[0].usable else None
     return DesignReport(tuple(scores), best)
-
-
-def design_cable(name: str | None = None, experiment_file: str | None = None, *,
-                 modulus: float | None = None, n_links: int | None = None) -> Cable:
-    """The cable to design an experiment for: a catalogue name or an identification file's.
-
-    Parameters
-    ----------
-    name : str, optional
-        A catalogue cable (its modulus is the expected one unless ``modulus`` is given).
-    experiment_file : str, optional
-        An identification file (its cable; ``modulus`` is then required).
-    modulus : float, optional
-        The expected E [Pa].
-    n_links : int, optional
-        Starting discretization (default the file's, or 16).
-    """
-    from ..cable import catalogue_cable
-    from .files import load_identification
-
-    if (name is None) == (experiment_file is None):
-        raise ValueError("design: give a catalogue cable name (--cable) or an identification "
-                         "file, not both")
-    if name is not None:
-        cable = catalogue_cable(name, n_links=n_links or 16)
-    else:
-        if modulus is None:
-            raise ValueError("modulus: an identification file has no expected E; give "
-                             "--modulus [Pa]")
-        cable = load_identification(experiment_file).cable
-        if n_links is not None:
-            cable = cable.with_links(n_links)
-    return cable if modulus is None else cable.with_modulus(modulus)

@@ -22,18 +22,16 @@ import yaml
 
 from ..trajectory import ARMS, Trajectory
 from .files import atomic_write_text
-from .poses import canonical_quaternions, duration_dict, transform_dict
+from .poses import (
+    DEFAULT_FRAME_ID,
+    canonical_quaternions,
+    check_frame_id,
+    duration_dict,
+    transform_dict,
+)
 
-DEFAULT_FRAME_ID = "world"
 DEFAULT_CSV_RATE = 100.0
 """Default sampling rate [Hz] of the CSV export."""
-
-
-def check_frame_id(frame_id) -> str:
-    """``frame_id`` when it is a non-empty string; ValueError otherwise."""
-    if not isinstance(frame_id, str) or not frame_id.strip():
-        raise ValueError(f"frame_id: got {frame_id!r}, expected a non-empty string")
-    return frame_id
 
 
 def _trajectory_points(trajectory: Trajectory, rate: float | None):

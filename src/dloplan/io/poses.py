@@ -14,6 +14,16 @@ import math
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+DEFAULT_FRAME_ID = "world"
+"""The frame of every pose unless a plan says otherwise."""
+
+
+def check_frame_id(frame_id) -> str:
+    """``frame_id`` when it is a non-empty string; ValueError otherwise."""
+    if not isinstance(frame_id, str) or not frame_id.strip():
+        raise ValueError(f"frame_id: got {frame_id!r}, expected a non-empty string")
+    return frame_id
+
 
 def canonical_quaternions(rotations: Rotation, scalar_first: bool = False) -> np.ndarray:
     """(N, 4) unit quaternions with w >= 0, x-y-z-w order (or w-x-y-z with ``scalar_first``).

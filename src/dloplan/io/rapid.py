@@ -145,7 +145,8 @@ def speeddata_text(v_tcp: float, v_ori: float) -> str:
     return _array([v_tcp * 1000.0, math.degrees(v_ori), 5000, 1000], 6)
 
 
-def rapid_modules(program: RobotProgram, settings: RapidSettings | None = None) -> dict[str, str]:
+def rapid_modules(program: RobotProgram, settings: RapidSettings | None = None,
+                  notes=()) -> dict[str, str]:
     """The RAPID module text of each task (module docstring).
 
     Parameters
@@ -153,6 +154,9 @@ def rapid_modules(program: RobotProgram, settings: RapidSettings | None = None) 
     program : RobotProgram
         The verified program (:func:`dloplan.robot.robot_program`).
     settings : RapidSettings, optional
+    notes : sequence of str
+        Lines of text written as comments into each module's header (where the job must be
+        placed on the table when a repair moved it, docs/repair.md).
 
     Returns
     -------
@@ -183,6 +187,7 @@ def rapid_modules(program: RobotProgram, settings: RapidSettings | None = None) 
             f"{', grip turned by 180 deg about the TCP z-axis' if program.grip_turned[a] else ''}"
             f". Task {s.tasks[1 - a]} runs module {s.modules[1 - a]} with the same move IDs.",
             f"    ! Verified by dloplan on exactly these targets: {program.message}.",
+            *(f"    ! {note}" for note in notes),
             f"    ! Tool {tool.name}: {tool.source}.",
             f"    ! Work object {cell.wobj}: the plan's frame in the robot's base frame; teach "
             "it in the cell (docs/robot.md).",
@@ -258,7 +263,8 @@ def _zone_names(program: RobotProgram, fine: str) -> dict:
 
 
 def write_rapid(directory: str | os.PathLike, program: RobotProgram,
-                settings: RapidSettings | None = None, *, force: bool = False) -> dict[str, Path]:
+                settings: RapidSettings | None = None, *, force: bool = False,
+                notes=()) -> dict[str, Path]:
     """Write one ``<module>.mod`` file per task into ``directory``, atomically (both or none).
 
     The one writer of robot programs: ``dloplan plan`` and ``dloplan export --format rapid``
@@ -273,6 +279,8 @@ def write_rapid(directory: str | os.PathLike, program: RobotProgram,
     force : bool
         Write a program that fails a check too (for inspection in RobotStudio, never to run);
         by default such a program is refused.
+    notes : sequence of str
+        Comment lines for the modules' headers (:func:`rapid_modules`).
 
     Returns
     -------
@@ -287,7 +295,7 @@ def write_rapid(directory: str | os.PathLike, program: RobotProgram,
     s = settings or RapidSettings()
     if isinstance(program, RobotProgram) and not program.ok and not force:
         raise ValueError(f"program: not written, it fails its checks: {program.message}")
-    texts = rapid_modules(program, s)
+    texts = rapid_modules(program, s, notes)
     folder = Path(directory)
     if folder.exists() and not folder.is_dir():
         raise ValueError(f"directory: {str(folder)!r} exists and is not a folder")

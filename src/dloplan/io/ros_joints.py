@@ -60,7 +60,7 @@ def _stamp(seconds: float) -> dict:
 
 def write_joint_trajectories(folder, times, joints, joint_names, *, arms=("left", "right"),
                              joint_prefix=None, velocities: bool = True,
-                             stem: str = "dloplan") -> list[Path]:
+                             stem: str = "dloplan", notes=()) -> list[Path]:
     """Write one JointTrajectory YAML file per arm (module docstring).
 
     Parameters
@@ -81,6 +81,9 @@ def write_joint_trajectories(folder, times, joints, joint_names, *, arms=("left"
         Write the spline velocities (:func:`hermite_velocities`).
     stem : str
         File name stem.
+    notes : sequence of str
+        Lines of text written as comments into each file's header (where the job must be
+        placed on the table when a repair moved it, docs/repair.md).
 
     Returns
     -------
@@ -116,7 +119,8 @@ def write_joint_trajectories(folder, times, joints, joint_names, *, arms=("left"
         message = {"header": {"frame_id": ""}, "joint_names": names, "points": points}
         path = folder / f"{stem}_{arm}_joint_trajectory.yaml"
         header = (f"# trajectory_msgs/msg/JointTrajectory of the {arm} arm: {len(t)} points, "
-                  f"verified joint values [rad]. Setup: docs/cells.md.\n")
+                  f"verified joint values [rad]. Setup: docs/cells.md.\n"
+                  + "".join(f"# {note}\n" for note in notes))
         path.write_text(header + yaml.safe_dump(message, sort_keys=False), encoding="utf-8")
         written.append(path)
     return written

@@ -1,13 +1,15 @@
-"""Scenario files: one job described in YAML or JSON, validated by a pydantic schema.
+"""The sections of a job file (schema version 1): pydantic models in the file's units.
 
-A scenario names the cable (a catalogue name or explicit properties), the discretization, the
-start and target shapes (point lists or parametric: straight, arc, sine, each with a placement),
-obstacles, gripper, trajectory and planner settings, and the outputs wanted. Lengths in the file
-are in ``units`` (``m`` by default, or ``mm``), converted to SI on loading. Every error names
-the field, the value and what was expected, on one line (:class:`ScenarioError`).
+A job file names the cable (a catalogue name or explicit properties), the discretization, the
+start (and target) shapes (point lists or parametric: straight, arc, sine, each with a
+placement), obstacles, gripper, trajectory, planner, check and robot settings. Lengths in the
+file are in ``units`` (``m`` by default, or ``mm``). Every error names the field, the value and
+what was expected, on one line (:class:`ScenarioError`). :func:`read_mapping` reads a file,
+:func:`parse_model` validates it.
 
-The JSON Schema of the format (for editor completion) is ``scenario_json_schema()``, shipped as
-``dloplan/data/scenario.schema.json`` and printed by ``dloplan schema``.
+This module only describes: the root models of the job files (a scenario, a harness job) are
+:mod:`dloplan.app.schema`'s, and every conversion to SI units and library objects
+(cables, shapes, obstacles, limits, the robot cell) is :mod:`dloplan.app.resolve`'s.
 """
 
 from __future__ import annotations
@@ -20,12 +22,8 @@ from typing import Annotated, Any, Literal, get_args
 import numpy as np
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
-from scipy.spatial.transform import Rotation
 
-from ..cable import CATALOGUE_NAMES, Cable, catalogue_cable
-from ..obstacles.shapes import Box, Cylinder, Table
-from ..shapes import arc_shape, place, sine_shape, straight_shape
-from ..study.spec import StudySpec
+from ..cable import CATALOGUE_NAMES
 
 SCHEMA_VERSION = 1
 
@@ -72,11 +70,6 @@ class RotationSpec(_Model):
             if np.linalg.norm(self.quaternion) < 1e-9:
                 raise ValueError("quaternion has zero norm")
         return self
-
-    def to_rotation(self) -> Rotation:
-        if self.euler is not None:
-            return Rotation.from_euler(self.seq, self.euler, degrees=self.degrees)
-        return Rotation.from_quat(self.quaternion)
 
 
 class Placement(_Model):
@@ -139,11 +132,6 @@ ShapeSpec = Annotated[
 
 MAX_LINKS = 1000
 """Largest n a scenario may ask for (docs/scenario.md: plan time grows about as n S)."""
-
-WORKSPACE = 10.0
-"""Largest distance [m] of any point of a job from the world origin: a dual-arm cell spans about
-a metre, so a coordinate beyond 10 m is a typo (often metres written into a mm file)."""
-
 
 class CableSpec(_Model):
     """The cable: a catalogue ``name`` and/or explicit properties (explicit ones win)."""
@@ -278,19 +266,6 @@ class TrajectorySpec(_Model):
     grasp_time: PositiveLength = Field(0.5, description="gripper grasp duration [s]")
     release_time: PositiveLength = Field(0.4, description="gripper release duration [s]")
 
-    def limits(self, scale: float):
-        """The :class:`dloplan.trajectory.MotionLimits` in SI (lengths times ``scale``; the
-        YuMi defaults of :mod:`dloplan.trajectory.limits` where the file gives none)."""
-        from ..trajectory import MotionLimits
-
-        defaults = MotionLimits()
-        given = {"speed": self.tcp_speed, "acceleration": self.acceleration,
-                 "jerk": self.jerk}
-        lengths = {k: getattr(defaults, k) if v is None else v * scale for k, v in given.items()}
-        return MotionLimits(**lengths, angular_speed=self.angular_speed,
-                            angular_acceleration=self.angular_acceleration,
-                            angular_jerk=self.angular_jerk)
-
 
 class CheckSpec(_Model):
     """Target stability check (thesis 5.3) and obstacle avoidance (5.4) settings."""
@@ -299,18 +274,6 @@ class CheckSpec(_Model):
     z_safety: float | None = Field(None, ge=0, allow_inf_nan=False,
                                    description="lift safety [file units]; 2 cm")
     max_rounds: int = Field(5, ge=0, le=50)
-
-    def lengths(self, scale: float) -> tuple[float, float]:
-        """(T_cf, z_safety) [m]: the file's values times ``scale``, or the thesis' defaults."""
-        threshold = DEFAULT_THRESHOLD if self.threshold is None else self.threshold * scale
-        z_safety = DEFAULT_Z_SAFETY if self.z_safety is None else self.z_safety * scale
-        return threshold, z_safety
-
-
-DEFAULT_THRESHOLD = 0.01
-"""Default T_cf [m] of the target stability check (thesis 5.3)."""
-DEFAULT_Z_SAFETY = 0.02
-"""Default safety offset [m] of the obstacle lift (thesis 5.4.3)."""
 
 
 class TableSpec(_Model):
@@ -343,11 +306,6 @@ class UrscriptSpec(_Model):
     start_speed: PositiveLength = Field(0.5, description="joint speed to the start [rad/s]")
     start_input: int = Field(0, ge=0, le=7, description="standard digital input to wait for")
     ready_output: int = Field(0, ge=0, le=7, description="standard digital output raised")
-
-    def settings(self, scale: float) -> dict:
-        """The writer's keyword settings in SI (lengths times ``scale``)."""
-        return {**self.model_dump(), "blend": self.blend * scale,
-                "acceleration": self.acceleration * scale}
 
 
 class RosJointsSpec(_Model):
@@ -399,6 +357,14 @@ class RobotSpec(_Model):
         return _finite(v, "base_position")
 
 
+class RepairSpec(_Model):
+    """What a repair may change without asking (docs/repair.md, "Consent")."""
+
+    placement: bool = Field(
+        False, description="move or turn the job on the table where the robot reaches it (the "
+        "robot program then says where to place it); false: such a move is only proposed")
+
+
 class JobSpec(_Model):
     """What every job file has: units, the cable, its start, planner, obstacles, robot motion."""
 
@@ -418,27 +384,6 @@ class JobSpec(_Model):
     def scale(self) -> float:
         """Metres per file unit."""
         return 1e-3 if self.units == "mm" else 1.0
-
-
-class Scenario(JobSpec):
-    """A dloplan job (schema version 1): from ``start`` to ``target``."""
-
-    target: ShapeSpec
-    identify: dict[str, Any] | None = Field(
-        None, description="an identification experiment (see docs/identification.md)"
-    )
-    study: StudySpec | None = Field(
-        None, description="a robustness study of the plan (see docs/study.md)"
-    )
-    outputs: list[OutputName] = Field(
-        default_factory=lambda: ["json", "csv", "rapid", "figures", "report"]
-    )
-
-    @model_validator(mode="after")
-    def _identify(self):
-        if self.cable.youngs_modulus == "identify" and self.identify is None:
-            raise ValueError("cable.youngs_modulus is 'identify' but there is no identify section")
-        return self
 
 
 _TAGS = {"points", "straight", "arc", "sine", "box", "cylinder"}
@@ -468,11 +413,6 @@ def parse_model(model: type[BaseModel], data: Any, source: str):
         return model.model_validate(data)
     except ValidationError as exc:
         raise ScenarioError(f"{source}: {format_validation_error(exc)}") from None
-
-
-def parse_scenario(data: Any, source: str = "scenario") -> Scenario:
-    """Validate a mapping as a :class:`Scenario`; raises :class:`ScenarioError` (one line)."""
-    return parse_model(Scenario, data, source)
 
 
 MAX_FILE_BYTES = 10_000_000
@@ -505,92 +445,3 @@ def read_mapping(path: str | Path) -> dict:
         raise ScenarioError(f"{path}: expected a mapping at the top level, got "
                             f"{type(data).__name__}")
     return data
-
-
-SMALLEST = {"length": 0.02, "diameter": 1e-4}
-"""Least cable length and diameter [m]: two grippers hold a cable's ends (about a centimetre
-each), and no cable or hose is thinner than a tenth of a millimetre; less is a length in the
-wrong units (metres written into a mm file)."""
-
-
-def build_cable(spec: CableSpec, scale: float, youngs_modulus: float | None) -> Cable:
-    """The :class:`Cable` of a cable specification (lengths in file units times ``scale``).
-
-    Raises
-    ------
-    ValueError
-        Naming the field: a length or diameter below :data:`SMALLEST`, or a bad cable.
-    """
-    params: dict[str, Any] = {"n_links": spec.n_links, "bending": spec.bending,
-                              "masses": spec.masses}
-    for key in ("length", "diameter"):
-        value = getattr(spec, key)
-        if value is not None:
-            params[key] = value * scale
-            if params[key] < SMALLEST[key]:
-                raise ValueError(f"{key}: got {value:g} file units ({params[key]:.3g} m), "
-                                 f"expected at least {SMALLEST[key]:g} m (a length in metres "
-                                 "in a mm file?)")
-    for key in ("mass", "poisson_ratio", "axial_modulus"):
-        if getattr(spec, key) is not None:
-            params[key] = getattr(spec, key)
-    if youngs_modulus is not None:
-        params["youngs_modulus"] = youngs_modulus
-    elif spec.youngs_modulus not in (None, "identify"):
-        params["youngs_modulus"] = spec.youngs_modulus
-    if spec.name is not None:
-        return catalogue_cable(spec.name, **params)
-    return Cable(**params)
-
-
-def build_shape(spec, cable: Cable, scale: float, name: str) -> np.ndarray:
-    """The points [m] of a shape specification for ``cable``."""
-    if isinstance(spec, PointsShape):
-        pts = np.asarray(spec.points, dtype=float) * scale
-        if pts.shape[1] == 2:
-            pts = np.stack([pts[:, 0], np.zeros(len(pts)), pts[:, 1]], axis=1)
-        return pts
-    n, length = cable.n_links, cable.length
-    try:
-        if isinstance(spec, StraightShape):
-            local = straight_shape(length, n)
-        elif isinstance(spec, ArcShape):
-            local = arc_shape(length, n, math.radians(spec.angle))
-        else:
-            local = sine_shape(length, n, spec.amplitude * scale, spec.periods)
-    except ValueError as exc:
-        raise ScenarioError(f"{name}: {exc}") from None
-    rotation = spec.placement.rotation.to_rotation() if spec.placement.rotation else None
-    return place(local, np.asarray(spec.placement.position) * scale, rotation)
-
-
-def build_obstacles(specs, table: TableSpec | None, scale: float) -> list:
-    """Obstacle objects [m] from their specifications."""
-    out: list = []
-    for k, spec in enumerate(specs):
-        try:
-            if isinstance(spec, BoxSpec):
-                if spec.center is not None:
-                    out.append(Box(tuple(np.multiply(spec.center, scale)),
-                                   tuple(np.multiply(spec.size, scale)),
-                                   math.radians(spec.yaw), spec.name))
-                else:
-                    out.append(Box.from_corners(np.multiply(spec.min, scale),
-                                                np.multiply(spec.max, scale),
-                                                math.radians(spec.yaw), spec.name))
-            else:
-                out.append(Cylinder(tuple(np.multiply(spec.base, scale)), spec.radius * scale,
-                                    spec.height * scale, spec.name))
-        except ValueError as exc:
-            raise ScenarioError(f"obstacles.{k}: {exc}") from None
-    if table is not None:
-        out.append(Table(table.height * scale))
-    return out
-
-
-def scenario_json_schema() -> dict:
-    """The JSON Schema of the scenario format."""
-    schema = Scenario.model_json_schema()
-    schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
-    schema["title"] = "dloplan scenario"
-    return schema

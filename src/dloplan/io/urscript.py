@@ -63,7 +63,7 @@ def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=Non
                    speeds=None, tcp_offsets=None, mode: str = "movej", blend: float = 0.0,
                    acceleration: float = 1.2, start_speed: float = 0.5,
                    arms=("left", "right"), start_input: int = 0, ready_output: int = 0,
-                   stem: str = "dloplan") -> list[Path]:
+                   stem: str = "dloplan", notes=()) -> list[Path]:
     """Write one URScript program per arm (module docstring).
 
     Parameters
@@ -97,6 +97,9 @@ def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=Non
         Standard digital input waited for, output raised while ready (0..7).
     stem : str
         File name stem.
+    notes : sequence of str
+        Lines of text written as comments into each script's header (where the job must be
+        placed on the table when a repair moved it, docs/repair.md).
 
     Returns
     -------
@@ -139,6 +142,7 @@ def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=Non
         lines = [f"# {name}.script: dloplan plan for the {arm} arm ({n_points} waypoints, "
                  f"{t[-1] - t[0]:.3f} s, {mode}).",
                  "# Poses in this arm's base frame [m, rad]; joints [rad]. Setup: docs/cells.md.",
+                 *(f"# {note}" for note in notes),
                  f"def {name}():"]
         if offsets is not None:
             lines.append(f"  set_tcp(p{_list(offsets[a])})")

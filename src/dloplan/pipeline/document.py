@@ -25,9 +25,10 @@ from ..cable import Cable
 from ..geometry import as_path
 from ..grippers.axes import CLIP_NAMES
 from ..grippers.path import GripperPath
-from ..io.export import DEFAULT_FRAME_ID, check_frame_id
 from ..io.poses import (
+    DEFAULT_FRAME_ID,
     canonical_quaternions,
+    check_frame_id,
     duration_dict,
     pose_stamped_dict,
     pose_stamped_from_dict,
@@ -324,6 +325,36 @@ class RobotSection:
     program: dict
 
 
+@dataclass(frozen=True, eq=False)
+class PlacementSection:
+    """Where the job must lie on the table: the job file's start and target turned by ``yaw``
+    about the vertical through ``pivot``, then shifted by ``offset``,
+    x -> R_z(yaw) (x - pivot) + pivot + offset (the repair's
+    :class:`~dloplan.pipeline.repair.placement.TableMove`; docs/repair.md, "Consent").
+
+    Attributes
+    ----------
+    applied : bool
+        True: the plan is made for the moved job (allowed by ``repair: {placement: true}`` or
+        ``--allow-placement``), and the cable must be placed so for its robot program. False:
+        proposed only; the plan is the job where the file puts it, and it fails its robot check.
+    yaw : float
+        Turn about the vertical [rad].
+    pivot : numpy.ndarray
+        (3,) a point of the vertical axis of the turn [m].
+    offset : numpy.ndarray
+        (3,) shift after the turn [m].
+    message : str
+        Where the job goes, in words ("the job file's start and target turned ...").
+    """
+
+    applied: bool
+    yaw: float
+    pivot: np.ndarray
+    offset: np.ndarray
+    message: str
+
+
 def cell_to_dict(cell) -> dict:
     """A cell as JSON-ready data: :meth:`~dloplan.robot.RobotCell.to_dict` (quaternions
     x-y-z-w), a :class:`~dloplan.robot.urdf_cell.DescribedCell` as its record (``kind:
@@ -386,6 +417,8 @@ class PlanDocument:
     repairs : tuple of dict
         The repairs the plan went through after a failed check (:mod:`dloplan.pipeline.repair`):
         what failed, what was changed, the check before and after.
+    placement : PlacementSection or None
+        Where the job must lie on the table when a repair moved it (or proposes to move it).
     cycle : dict or None
         The timeline with gripper actions (:class:`dloplan.trajectory.Cycle`): ``phases``
         (name, kind, start, duration, knots), ``motion_time``, ``action_time``,
@@ -424,6 +457,7 @@ class PlanDocument:
     harness: dict | None = None
     robot: RobotSection | None = None
     repairs: tuple = ()
+    placement: PlacementSection | None = None
     cycle: dict | None = None
     correction: dict | None = None
     timings: dict = field(default_factory=dict)
@@ -576,6 +610,7 @@ def document_to_dict(doc: PlanDocument) -> dict:
         "harness": _plain(doc.harness),
         "robot": section_to_dict(doc.robot),
         "repairs": _plain(doc.repairs),
+        "placement": section_to_dict(doc.placement),
         "cycle": _plain(doc.cycle),
         "correction": _plain(doc.correction),
         "timings": _plain(doc.timings),
@@ -673,6 +708,8 @@ def document_from_dict(data: dict) -> PlanDocument:
         harness=sections.get("harness"),
         robot=section_from_dict(RobotSection, sections.get("robot"), "plan.robot"),
         repairs=tuple(sections.get("repairs") or ()),
+        placement=section_from_dict(PlacementSection, sections.get("placement"),
+                                    "plan.placement"),
         cycle=sections.get("cycle"),
         correction=sections.get("correction"),
         timings=dict(sections.get("timings") or {}),

@@ -11,6 +11,7 @@ pydantic.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -20,6 +21,10 @@ from ..planning.tuning import PlannerWeights
 from ..robot.cell import RobotCell
 from ..robot.urdf_cell import DescribedCell
 from ..trajectory import MotionLimits
+
+if TYPE_CHECKING:
+    from ..harness.board import Board
+    from ..harness.job import HarnessSettings
 
 
 @dataclass(frozen=True)
@@ -113,6 +118,26 @@ class MotionSettings:
         return self.limits.speed
 
 
+@dataclass(frozen=True)
+class RepairSettings:
+    """What a repair may change without asking (docs/repair.md, "Consent").
+
+    Repairs that keep the job as asked (the stable branch, clip routes, the gripper frames and
+    the grasp roll, the arm assignment, a slower motion within the job's own limits) are always
+    made. A repair that changes the task itself is only proposed unless allowed here.
+
+    Attributes
+    ----------
+    placement : bool
+        Move or turn the job on the table (its start and target, where the operator puts the
+        cable) so that the robot reaches it; the robot program then says where the job must be
+        placed. False: such a placement is written into the plan as a proposal, and the plan
+        fails its robot check.
+    """
+
+    placement: bool = False
+
+
 @dataclass(frozen=True, eq=False)
 class Job:
     """A scenario resolved into library objects, in SI units (see the module docstring).
@@ -140,6 +165,8 @@ class Job:
         How the cable's E was identified, when the scenario asked for it.
     study : StudySpec or None
         The scenario's robustness study section.
+    repair : RepairSettings
+        What a repair may change without asking (the placement of the job on the table).
     """
 
     source: str
@@ -155,3 +182,35 @@ class Job:
     robot: RobotCell | DescribedCell = field(default_factory=RobotCell)
     identification: object = None
     study: object = None
+    repair: RepairSettings = field(default_factory=RepairSettings)
+
+
+@dataclass(frozen=True, eq=False)
+class HarnessJob:
+    """A wire-harness job file resolved into library objects, in SI units (thesis 7.3).
+
+    Attributes
+    ----------
+    source : str
+        Where the job came from (a file name), for messages and reports.
+    cable : Cable
+    start : numpy.ndarray
+        (n + 1, 3) start shape [m]; the target follows from the board.
+    board : Board
+        Fixtures, pegs, obstacles and the table (:mod:`dloplan.harness.board`), checked against
+        the cable.
+    settings : HarnessSettings
+        Phases, insertion, tensioning and motion (:class:`dloplan.harness.job.HarnessSettings`).
+    robot : RobotCell or DescribedCell
+        The robot cell the program is made for (its placement search off: a board is fixed).
+    outputs : tuple of str
+        The files ``dloplan plan`` writes (the file's ``outputs``).
+    """
+
+    source: str
+    cable: Cable
+    start: np.ndarray
+    board: Board
+    settings: HarnessSettings
+    robot: RobotCell | DescribedCell = field(default_factory=RobotCell)
+    outputs: tuple[str, ...] = ("json", "rapid")

@@ -8,12 +8,12 @@
     plan_twist      every shape with torsion under the planned gripper frames
     verify_plan     stability, snap-through, robot reachability, dynamic replay
 
-:func:`run_job` runs them all and returns the :class:`~dloplan.pipeline.document.PlanDocument` that
-every output is written from; ``dloplan plan``, ``plan --verify``, ``simulate`` of a scenario,
-``study`` (its nominal plan) and the batch mode call it, ``verify``, ``simulate`` and ``export``
-work on the document it wrote. A wire-harness job has its own stages
-(:func:`dloplan.harness.run_harness`) and ends in the same kind of document
-(:func:`run_harness_job`).
+:func:`run_job` runs them in order and returns the
+:class:`~dloplan.pipeline.document.PlanDocument` that every output is written from. A
+wire-harness job has its own stages (:func:`dloplan.harness.run_harness`) and ends in the same
+kind of document (:func:`run_harness_job`). Commands do not call these directly to make a plan:
+:func:`dloplan.pipeline.make_plan` runs them, checks the plan and repairs it, and ``verify``,
+``simulate``, ``export`` and ``compare`` work on the document it made.
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ from ..trajectory import GripperAction, plan_cycle
 from .document import (
     AvoidanceSection,
     IdentificationSection,
+    PlacementSection,
     PlanDocument,
     RobotSection,
     Stages,
@@ -40,7 +41,7 @@ from .document import (
     cycle_to_dict,
     document_cell,
 )
-from .job import Job
+from .job import HarnessJob, Job
 
 TESTED_MODULI = (1e5, 1e11)
 """Young's moduli [Pa] the solvers are tested on (tests/test_statics.py): a plan outside them
@@ -118,7 +119,8 @@ def check_job(job: Job) -> CheckReport:
 
 
 PLACEMENT_HINT = ("; dloplan plan will search where on the table to turn and shift the job so "
-                  "that both arms reach (docs/repair.md; --no-repair plans it where it is)")
+                  "that both arms reach, and move it there if the job allows it (repair: "
+                  "{placement: true} or --allow-placement; docs/repair.md)")
 """What a reach error of :func:`check_job` adds: the plan may still succeed, moved."""
 
 
@@ -295,19 +297,31 @@ def plan_program(cell, grippers, trajectory, progress=quiet):
 
 
 def with_program(doc: PlanDocument, program) -> PlanDocument:
-    """The document with its robot program section (and its failure among the warnings); when
-    the program slowed the trajectory down (a joint over its speed limit), the document's
-    trajectory and cycle are the program's timing."""
+    """The document with its robot program section (and its failure among the warnings). A
+    program that the cell verified with the job shifted on the table (a described cell's own
+    placement search, ``robot.place``, on only when the job may be moved) records the shift as
+    the document's placement: the cable must lie there for it. When the program slowed the
+    trajectory down (a joint over its speed limit), the document's trajectory and cycle are
+    the program's timing."""
+    from ..robot.cell_program import cell_name
+    from ..robot.reachability import format_offset
+
     section = RobotSection(program.ok, program.message, cell_to_dict(program.cell),
                            program.to_dict())
     failures = () if program.ok else (program.message,)
+    shift = np.asarray(section.program.get("offset", np.zeros(3)), dtype=float)
+    placement = doc.placement
+    if np.any(shift):
+        placement = PlacementSection(True, 0.0, np.zeros(3), shift, (
+            f"the job file's start and target offset {format_offset(shift)} m (the "
+            f"{cell_name(program.cell)} cell's placement search)"))
     timing = {}
     if program.trajectory is not None and program.trajectory is not doc.trajectory:
         timing = {"trajectory": program.trajectory, "verification": None,
                   "cycle": None if doc.cycle is None else retimed_cycle(doc.cycle,
                                                                         program.trajectory)}
     return replace(doc, robot=section, program=program, warnings=doc.warnings + failures,
-                   **timing)
+                   placement=placement, **timing)
 
 
 def retimed_cycle(cycle: dict, trajectory) -> dict:
@@ -540,6 +554,31 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
         doc = replace(doc, timings={**doc.timings, "verify": time.perf_counter() - t0})
         progress(f"verification: {'passed' if verification.ok else 'FAILED'}")
     return doc
+
+
+def run_harness_job(job: HarnessJob, *, check_robot: bool = True,
+                    progress=quiet) -> PlanDocument:
+    """The wire-harness job (thesis 7.3) as a plan document: both phases, insertion, tensioning
+    (:func:`dloplan.harness.run_harness`), and the robot program in the job's cell.
+
+    One knot per shape of the whole job; the harness numbers in the ``harness`` section, the
+    forces of each phase in ``forces``, the board's pegs and fixtures as obstacles.
+    """
+    from ..harness import harness_summary, run_harness
+
+    progress(f"harness job: {job.cable.name or 'cable'}, board checked")
+    result = run_harness(job.cable, job.start, job.board, job.settings)
+    progress(result.message)
+    doc = PlanDocument(
+        cable=job.cable, shapes=result.shapes, grippers=result.grippers,
+        trajectory=result.trajectory, warnings=tuple(result.warnings), source=job.source,
+        obstacles=tuple(result.board.contacts()), forces=dict(result.forces),
+        harness=harness_summary(result), cycle=cycle_to_dict(result.cycle),
+        timings=dict(result.timings))
+    if not check_robot:
+        return doc
+    return with_program(doc, plan_program(job.robot, result.grippers, result.trajectory,
+                                          progress))
 
 
 def simulate_plan(doc: PlanDocument, *, damping: str = "relative", torsion: bool = False,

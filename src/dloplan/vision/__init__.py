@@ -5,7 +5,7 @@ scikit-image, ``pip install dloplan[vision]``), imported only when one of them i
 ``import dloplan.vision`` works without it; reading and writing registered shapes and the error
 table need only numpy.
 
-* :mod:`.camera` — pinhole intrinsics with distortion;
+* :mod:`.camera` — pinhole intrinsics with distortion; reading an image file;
 * :mod:`.transforms` — 4x4 rigid transforms (eqs. 7.1, 7.3);
 * :mod:`.markers` — ArUco marker layout and detection with edge-refined corners;
 * :mod:`.calibration` — extrinsic calibration A_c^r = A_m^r (A_m^c)^-1 (eq. 7.2), its JSON file;
@@ -23,7 +23,7 @@ from .calibration import (
     read_calibration,
     write_calibration,
 )
-from .camera import CameraIntrinsics, normalize_pixels, project_normalized
+from .camera import CameraIntrinsics, normalize_pixels, project_normalized, read_image
 from .centreline import Centreline, CentrelineError, HsvRange, extract_centreline
 from .compare import ShapeComparison, compare_shapes, compare_trials
 from .deprojection import deproject_depth, deproject_to_plane, depth_at_pixels
@@ -46,6 +46,6 @@ __all__ = [
     "compare_trials", "deproject_depth", "deproject_to_plane", "depth_at_pixels",
     "detect_markers", "extract_centreline", "invert_pose", "marker_to_camera",
     "normalize_pixels", "pose_matrix", "project_normalized", "read_calibration",
-    "read_marker_layout", "read_shapes", "register_on_plane", "register_with_depth",
+    "read_image", "read_marker_layout", "read_shapes", "register_on_plane", "register_with_depth",
     "transform_points", "transform_poses", "write_calibration", "write_shapes",
 ]

@@ -133,3 +133,19 @@ def project_normalized(normalized, intrinsics: CameraIntrinsics) -> np.ndarray:
     pix, _ = cv2.projectPoints(rays, np.zeros(3), np.zeros(3), intrinsics.matrix,
                                intrinsics.distortion_array)
     return pix.reshape(-1, 2)
+
+
+def read_image(path) -> np.ndarray:
+    """The colour image (H, W, 3) uint8, OpenCV's BGR order, of an image file.
+
+    Raises
+    ------
+    ImportError
+        OpenCV is not installed (naming the extra: ``pip install dloplan[vision]``).
+    ValueError
+        The file cannot be read as an image (naming it).
+    """
+    image = _deps.cv2().imread(str(path))
+    if image is None:
+        raise ValueError(f"{path}: cannot read the image")
+    return image

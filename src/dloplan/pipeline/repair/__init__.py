@@ -3,11 +3,11 @@
 Reading order: :mod:`.failures` (what failed, sorted by kind), :mod:`.routes` (stable branches
 and clip routes against snap-through), :mod:`.placement` (the job's place on the table),
 :mod:`.rebuild` (a document made again by the pipeline's stages), :mod:`.loop` (the order, the
-budget, the records: :func:`repair_plan`, and :func:`plan_and_repair` for ``dloplan plan``).
+budget, the records: :func:`repair_plan`; :func:`dloplan.pipeline.make_plan` calls it).
 """
 
 from .failures import KINDS, Failure, diagnose
-from .loop import Budget, Repair, RepairResult, plan_and_repair, repair_plan
+from .loop import Budget, Repair, RepairResult, repair_plan
 from .placement import translated_job
 
 __all__ = [
@@ -17,7 +17,6 @@ __all__ = [
     "Repair",
     "RepairResult",
     "diagnose",
-    "plan_and_repair",
     "repair_plan",
     "translated_job",
 ]

@@ -156,6 +156,39 @@ class Repair:
         return asdict(self)
 
 
+CONSENT = "allow it with `repair: {placement: true}` in the job file or --allow-placement"
+"""How a proposed placement is allowed (:class:`~dloplan.pipeline.job.RepairSettings`)."""
+
+
+@dataclass(frozen=True, eq=False)
+class Proposal:
+    """A reach repair that changes the task, proposed instead of made: the job moved or turned
+    on the table (:class:`~.placement.TableMove`) where the job does not allow it
+    (:class:`~dloplan.pipeline.job.RepairSettings`).
+
+    Attributes
+    ----------
+    failed : str
+        What failed.
+    change : str
+        The move (and the gripper frames) that makes the robot program pass.
+    after : str
+        The robot program's verdict with the move.
+    move : TableMove
+        The placement proposed (the one the repair makes when the job allows it).
+    """
+
+    failed: str
+    change: str
+    after: str
+    move: TableMove
+
+    def line(self) -> str:
+        """One line for the console, the warnings and the report."""
+        return (f"placement proposed, not made: {self.change} (then {self.after}); the job "
+                f"is moved only with consent: {CONSENT}")
+
+
 @dataclass(frozen=True, eq=False)
 class RepairResult:
     """Outcome of :func:`repair_plan`.
@@ -183,6 +216,9 @@ class RepairResult:
         Candidates checked.
     seconds : float
         Wall time of the repair [s].
+    proposal : Proposal or None
+        The placement the robot needs where the job does not allow it to be moved (then
+        ``ok`` is False, ``refusal`` None and ``move`` no move).
     """
 
     job: object
@@ -195,6 +231,7 @@ class RepairResult:
     failures_before: tuple
     attempts: int
     seconds: float
+    proposal: Proposal | None = None
 
 
 @dataclass(frozen=True)
@@ -251,6 +288,7 @@ class _Session:
         self.start = time.perf_counter()
         self.attempts = 0
         self.repairs: list[Repair] = []
+        self.proposal: Proposal | None = None
         self.untwisted: list = []  # (job, document) of every frame set the twist repair passed
 
     # -- budget and records -----------------------------------------------------------------
@@ -271,6 +309,16 @@ class _Session:
         self.state = state
         self.repairs.append(repair)
         self.progress(repair.line())
+
+    def keep_placed(self, failures, change, after, state, move, since) -> None:
+        """Keep a reach repair that places the job by ``move``: at once when it leaves the job
+        where it is or the job allows it to be moved (``job.repair.placement``), else only as
+        a :class:`Proposal` (the plan stays as it was)."""
+        if move.is_identity or self.state.job.repair.placement:
+            self.keep("reach", failures, change, after, state, since)
+            return
+        self.proposal = Proposal("; ".join(f.message for f in failures), change, after, move)
+        self.progress(self.proposal.line())
 
     # -- snap ------------------------------------------------------------------------------
     def snap_check(self, doc, first: int):
@@ -477,8 +525,9 @@ class _Session:
                         continue
                     change = f"job {move.describe()}" + (
                         "" if new is doc else f", gripper frames: {new.grippers.message}")
-                    self.keep("reach", failures, change, placed.program.message,
-                              _State(placed_job, placed, self.state.move.then(move)), since)
+                    self.keep_placed(failures, change, placed.program.message,
+                                     _State(placed_job, placed, self.state.move.then(move)),
+                                     move, since)
                     return
         raise Refused("no placement of the job on the table makes every pose reachable; "
                       "tried: " + attempts(tried))
@@ -507,9 +556,9 @@ class _Session:
         left = [f.message for f in diagnose(placed, rows) if f.kind == "reach"]
         if left:
             raise Refused(f"{where}: {left[0]}")
-        self.keep("reach", failures, f"job {move.describe()} (the {job.robot.name} cell's "
-                  "placement search)", placed.program.message,
-                  _State(placed_job, placed, self.state.move.then(move)), since)
+        self.keep_placed(failures, f"job {move.describe()} (the {job.robot.name} cell's "
+                         "placement search)", placed.program.message,
+                         _State(placed_job, placed, self.state.move.then(move)), move, since)
 
     def turned_frames(self, job, doc, pivot, tried):
         """(turn, job, document) for every turn of :data:`YAWS` about the vertical through
@@ -643,9 +692,15 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
             refusal = str(exc)
             break
         state = session.state
-        verification = checks.verify(state.doc)
+        changed = state.doc is not verified[1]  # not changed: a placement only proposed
+        verification = checks.verify(state.doc) if changed else verified[2]
         new_failures = diagnose(state.doc, verification)
-        progress(f"repaired plan verified: {summary(new_failures)}")
+        if changed:
+            progress(f"repaired plan verified: {summary(new_failures)}")
+        if session.proposal is not None:  # the repairs made, the placement proposed
+            verified = (state.job, state.doc, verification, state.move)
+            failures = new_failures
+            break
         if score(new_failures) >= score(failures) and new_failures:
             refusal = f"the repairs did not remove the failures ({summary(new_failures)})"
             verified = (state.job, state.doc, verification, state.move)
@@ -655,45 +710,12 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
         failures = new_failures
         if session.spent():
             break
-    if failures and refusal is None:
+    if failures and refusal is None and session.proposal is None:
         refusal = (f"repair budget spent ({session.attempts} attempts, "
                    f"{time.perf_counter() - session.start:.0f} s): {summary(failures)}")
     final_job, final_doc, final_ver, move = verified
     return RepairResult(final_job, with_verification(final_doc, final_ver),
                         final_ver, tuple(session.repairs), not failures, refusal, move,
-                        before, session.attempts, time.perf_counter() - session.start)
+                        before, session.attempts, time.perf_counter() - session.start,
+                        session.proposal)
 
-
-def plan_and_repair(job, progress=quiet, budget: Budget | None = None, physics: bool = True,
-                    planned=None):
-    """``dloplan plan`` with repair: plan, verify, repair what fails.
-
-    Calls the pipeline's stages (:func:`dloplan.pipeline.stages.run_job`,
-    :func:`~dloplan.pipeline.stages.verify_plan`) and :func:`repair_plan`; returns the plan
-    document (with its verification section) and the repairs kept. A refused plan's document
-    keeps its failing verification and carries the refusal among its warnings.
-
-    With ``physics`` (``--verify``) every check runs: stability, snap-through, replay and the
-    robot program. Without, only the robot program's checks (they always run): a plan whose
-    program passes is returned as planned, without a verification section; one whose program
-    fails is repaired for its reach (placement, grasp) and verified for it. ``planned``, when
-    given, is called with the planned document before its robot program is made and it is
-    verified (the command line starts drawing its figures then).
-    """
-    doc = run_job(job, progress=progress, planned=planned)
-    t0 = time.perf_counter()
-    if not physics and (doc.program is None or doc.program.ok):
-        return doc, ()
-    verification = verify_plan(doc, snap=physics, replay=physics)
-    progress(f"verification: {'passed' if verification.ok else 'FAILED'}")
-    if not diagnose(doc, verification):
-        doc = with_verification(doc, verification)
-        return replace(doc, timings={**doc.timings, "verify": time.perf_counter() - t0}), ()
-    result = repair_plan(job, doc, verification, budget, progress)
-    out = result.document
-    if result.refusal is not None:
-        progress(f"repair refused: {result.refusal}")
-        out = replace(out, warnings=out.warnings + (f"repair refused: {result.refusal}",))
-    timings = {**out.timings, "verify": time.perf_counter() - t0 - result.seconds,
-               "repair": result.seconds}
-    return replace(out, timings=timings), result.repairs

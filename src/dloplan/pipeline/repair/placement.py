@@ -30,6 +30,7 @@ from scipy.spatial.transform import Rotation
 from ...grippers.path import GripperPath
 from ...obstacles.collisions import check_path
 from ...robot.reachability import ReachOptions, format_offset
+from ..document import PlacementSection
 from ..stages import collision_rows
 from .rebuild import left_clip, timed, timed_with_robot, without_robot
 
@@ -112,6 +113,14 @@ class TableMove:
         if np.any(self.offset):
             parts.append(f"offset {format_offset(self.offset)} m")
         return ", ".join(parts)
+
+
+def placement_section(move: TableMove, applied: bool) -> PlacementSection:
+    """The plan document's record of a placement: made (``applied``) or proposed."""
+    where = (f"the job file's start and target {move.describe()}"
+             + (" (turn first, then the offset)" if move.yaw and np.any(move.offset) else ""))
+    return PlacementSection(applied, float(move.yaw), move.pivot.copy(), move.offset.copy(),
+                            where)
 
 
 def moved_job(job, move: TableMove):

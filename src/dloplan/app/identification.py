@@ -38,20 +38,20 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 from scipy.spatial.transform import Rotation
 
-from ..cable import Cable
+from ..cable import Cable, catalogue_cable
 from ..frames import frame_from_axis
+from ..identify.experiment import Experiment, Manipulation
+from ..identify.fit import DEFAULT_BOUNDS
 from ..io.scenario import (
     CableSpec,
     RotationSpec,
     ScenarioError,
-    build_cable,
     parse_model,
     read_mapping,
 )
 from ..sim.clips import ClipPoses
 from ..sim.statics import interpolate_clips
-from .experiment import Experiment, Manipulation
-from .fit import DEFAULT_BOUNDS
+from .resolve import build_cable, rotation
 
 Vector3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 Points = Annotated[list[Annotated[list[float], Field(min_length=2, max_length=3)]],
@@ -83,7 +83,7 @@ class ClipSpec(_Model):
     def rotation_to_world(self):
         if self.u is not None:
             return frame_from_axis(self.u)[0]
-        return self.rotation.to_rotation()
+        return rotation(self.rotation)
 
 
 class ClipPairSpec(_Model):
@@ -316,3 +316,32 @@ def dump_identification(data: dict) -> str:
     _Dumper.add_representer(list, short_list)
     return yaml.dump(data, Dumper=_Dumper, sort_keys=False, width=100)
 
+
+def design_cable(name: str | None = None, experiment_file: str | None = None, *,
+                 modulus: float | None = None, n_links: int | None = None) -> Cable:
+    """The cable to design an experiment for: a catalogue name or an identification file's.
+
+    Parameters
+    ----------
+    name : str, optional
+        A catalogue cable (its modulus is the expected one unless ``modulus`` is given).
+    experiment_file : str, optional
+        An identification file (its cable; ``modulus`` is then required).
+    modulus : float, optional
+        The expected E [Pa].
+    n_links : int, optional
+        Starting discretization (default the file's, or 16).
+    """
+    if (name is None) == (experiment_file is None):
+        raise ValueError("design: give a catalogue cable name (--cable) or an identification "
+                         "file, not both")
+    if name is not None:
+        cable = catalogue_cable(name, n_links=n_links or 16)
+    else:
+        if modulus is None:
+            raise ValueError("modulus: an identification file has no expected E; give "
+                             "--modulus [Pa]")
+        cable = load_identification(experiment_file).cable
+        if n_links is not None:
+            cable = cable.with_links(n_links)
+    return cable if modulus is None else cable.with_modulus(modulus)

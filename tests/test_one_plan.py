@@ -1,0 +1,124 @@
+"""One plan per job: every command that plans a job file gets the plan ``dloplan plan`` writes.
+
+``plan``, ``study`` (its nominal plan) and ``simulate JOB`` all call
+:func:`dloplan.pipeline.make_plan` (plan, check, repair, check again). Qualitative test 1 is the
+case that told them apart: ``plan`` repaired it (turned and moved on the table, grasps rolled)
+while ``study`` and ``simulate`` of the job file planned it without the repair, shapes up to
+0.39 m apart. The floor's own rule (nothing in ``dloplan.pipeline`` knows files, pydantic or
+the application) is checked on its imports.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from dloplan.app import read_plan
+from dloplan.cli import main
+from dloplan.exit_codes import EXIT_OK, EXIT_WARNINGS
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+
+
+def test_plan_study_and_simulate_of_a_job_file_use_one_plan(tmp_path, monkeypatch):
+    """The same shapes (bit for bit: plan.json writes round-tripping floats), gripper poses and
+    verdict for ``plan``, ``study`` and ``simulate`` of qualitative test 1 (with a study
+    section of two samples added)."""
+    import dloplan.app.study
+    import dloplan.pipeline.stages
+
+    data = yaml.safe_load((EXAMPLES / "qualitative1_curved_pa12.yaml").read_text())
+    data["study"] = {"samples": 2, "seed": 1, "parameters": {"youngs_modulus": {"spread": 5}}}
+    job = tmp_path / "qualitative1.yaml"
+    job.write_text(yaml.safe_dump(data))
+
+    seen = {}
+
+    def spying(name, function):
+        def spy(doc, *args, **kwargs):
+            seen[name] = doc
+            return function(doc, *args, **kwargs)
+        return spy
+
+    monkeypatch.setattr(dloplan.app.study, "study_problem_of",
+                        spying("study", dloplan.app.study.study_problem_of))
+    monkeypatch.setattr(dloplan.pipeline.stages, "simulate_plan",
+                        spying("simulate", dloplan.pipeline.stages.simulate_plan))
+
+    assert main(["plan", str(job), "-o", str(tmp_path / "plan"), "-q"]) in (EXIT_OK,
+                                                                            EXIT_WARNINGS)
+    planned = read_plan(tmp_path / "plan" / "plan.json")
+    assert [r["kind"] for r in planned.repairs] == ["reach"]  # the case: a repaired plan
+    assert planned.placement is not None and planned.placement.applied
+    modules = sorted((tmp_path / "plan" / "rapid").glob("*.mod"))
+    assert len(modules) == 2
+    for module in modules:  # each says where the cable must lie
+        header = module.read_text().split("PERS tasks")[0]
+        assert "! Place the cable where dloplan moved the job: " \
+            f"{planned.placement.message};" in header, module
+    assert main(["study", str(job), "-o", str(tmp_path / "study"), "-q", "--csv"]) == EXIT_OK
+    assert main(["simulate", str(job), "-q"]) in (EXIT_OK, EXIT_WARNINGS)
+    for name in ("study", "simulate"):
+        doc = seen[name]
+        assert np.array_equal(doc.shapes, planned.shapes), name
+        assert np.array_equal(doc.stabilized, planned.stabilized), name
+        assert np.array_equal(doc.grippers.positions, planned.grippers.positions), name
+        assert doc.ok == planned.ok and doc.failed_checks == planned.failed_checks, name
+        assert [(r["kind"], r["change"]) for r in doc.repairs] == \
+            [(r["kind"], r["change"]) for r in planned.repairs], name
+
+
+def _imports(path: Path, package: str) -> set[str]:
+    """Every module a source file imports (relative imports resolved; function-level too)."""
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            names |= {alias.name for alias in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[:len(package.split(".")) - node.level + 1]
+                names.add(".".join(base + ([node.module] if node.module else [])))
+            else:
+                names.add(node.module)
+    return names
+
+
+def test_the_pipeline_floor_knows_no_files_pydantic_or_application():
+    """Nothing in dloplan.pipeline, nor any dloplan module it imports (transitively, lazy
+    imports included), imports pydantic, the application (dloplan.app, dloplan.cli) or the
+    scenario schema (file units); and the floor itself opens no file."""
+    src = ROOT / "src"
+
+    def source(module: str) -> Path | None:
+        path = src / Path(*module.split("."))
+        return path / "__init__.py" if (path / "__init__.py").exists() else \
+            path.with_suffix(".py") if path.with_suffix(".py").exists() else None
+
+    floor = [str(p.relative_to(src).with_suffix("")).replace("/", ".").removesuffix(".__init__")
+             for p in (src / "dloplan" / "pipeline").rglob("*.py")]
+    seen, todo, outside = set(), list(floor), {}
+    while todo:
+        module = todo.pop()
+        if module in seen:
+            continue
+        seen.add(module)
+        path = source(module)
+        package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
+        for name in _imports(path, package):
+            if name.startswith("dloplan."):
+                parts = name.split(".")
+                todo += [".".join(parts[:k]) for k in range(2, len(parts) + 1)
+                         if source(".".join(parts[:k]))]
+            else:
+                outside.setdefault(name.split(".")[0], set()).add(module)
+    assert "pydantic" not in outside, outside.get("pydantic")
+    assert not {m for m in seen if m.startswith(("dloplan.app", "dloplan.cli"))}
+    assert "dloplan.io.scenario" not in seen
+    for module in floor:
+        text = source(module).read_text()
+        assert "open(" not in text and "read_text(" not in text and "write_text(" not in text, \
+            module
