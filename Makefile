@@ -10,7 +10,7 @@ STAMP  := $(VENV)/.installed-stamp
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev,vision,robot,study]'
+	$(BIN)/python -m pip install --quiet -e '.[dev,vision,robot,study,plants]'
 	touch $(STAMP)
 
 # exit code 1 means "planned, with warnings" (shown above it): the demo still succeeded
@@ -18,7 +18,7 @@ demo: $(STAMP)
 	$(BIN)/dloplan demo -o out/demo || [ $$? -eq 1 ]
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks examples
+	$(BIN)/ruff check src tests benchmarks examples tools
 
 # The HTML report is tested in headless Chromium: install it where we can (root with apt),
 # otherwise that one test is skipped with its reason.

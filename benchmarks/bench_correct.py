@@ -1,144 +1,243 @@
-"""Closed-loop shape correction (issue 22): its time, and what one correction buys.
+"""Closed-loop shape correction (issues 22, 35): its time, and what one correction buys on plants
+that are not the model.
 
-Part 1: the time of one correction (`correct_plan`, target mode, until the corrected trajectory is
-ready; the predictions that follow are timed apart) for a model of n = 20, 50, 100 links, on the
-sagging demo plan (8 shapes) measured at mid-path (shape 3) on a plant of n = 200 links and twice
-the modulus, 1 mm noise, 200 points, timed as the plan was (its trajectory's limits). Best of 5.
-"correction" ends when the remaining trajectory is ready (what the robot waits for); the whole
-trajectory and the predictions follow. Wall times, and the correction's CPU time
-(`Correction.cpu_seconds`, this thread): the difference is waiting for a shared core.
+Part 1, time: a warm correction (:class:`dloplan.app.correct.CorrectionService`, the plan kept
+in memory: the first call loads the compiled kernels, the next ones are what a robot cell's loop
+pays), at the sagging demo's own n and at n = 20, 50, 100, measured at shape 3 on a chain plant
+of 200 links at E x1.5, 1 mm noise, 200 points; best and median of 10 warm calls, CPU and wall;
+and the one-shot ``dloplan correct`` command's own report of its CPU and wall time.
 
-Part 2: the plant (n = 100; E x0.5 and x2, 1 mm noise) running the n = 20 plans of the sagging
-demo (tests/data/sagging_demo.yaml, the issue's demo), of the embedded demo (a U hanging in a
-vertical plane) and of the 3D Ethernet example, open loop and corrected once at mid-path (the
-tests' scenarios), plus corrected twice (mid-path and before the target). Mean error of the final
-shape against the plan's stabilized target (curves at equal arc length), in mm; "floor" is the
-least error any correction of the target's clips leaves this plant (`reachable_error`).
+Part 2, plants: every example plan (sagging demo, 3D Ethernet, embedded U demo) planned by
+``dloplan plan`` at its own n and at n = 20, run open loop and corrected once on
 
-Numbers before this session (2026-11-30 morning, E-only model update; best of two runs):
+* ``chain``: dloplan's own chain on 100 links (the same physics, finer);
+* ``mujoco``: MuJoCo 3.x's elastic cable (``tests/plants.py``: capsules on ball joints, Cosserat
+  bending and twist, welded grippers; 2 segments per model link, so only the grip-L/n cases;
+  optional, skipped when ``mujoco`` is missing),
 
-    correction [ms]: n = 20: 34, n = 50: 45, n = 100: 46 (+ ~30 ms of predictions)
-    sagging demo x0.5: 6.06 -> 4.06 mm (1.5x); x2: 18.20 -> 2.87 mm (6.3x)
-    3D x0.5: 1.73 -> 1.12 mm (1.5x);          x2: 4.84 -> 1.15 mm (4.2x)
+one factor at a time around the base case (n = 20, E x2, each gripper clamping one model link
+L / n, correction at mid-path): the plan's own n; E x0.5 and x10; a grip of 0.8 L / n; the
+correction early (shape 1) and late (T - 1). Columns: final mean error against the plan's
+stabilized target (curves at equal arc length) open loop and closed loop [mm], their ratio,
+the floor (the least error any correction of the target's clips leaves that plant,
+``reachable_error``; ``--no-floor`` skips it), the correction's prediction interval of the final
+error [mm] and whether it covers the plant's, whether the correction as ``dloplan correct``
+writes it passes ``dloplan verify`` (``written``: checked, written, read back and verified) or
+what refused it, and the correction's CPU time [ms]. 1 mm noise, 200 points.
 
-Numbers after (E and the discretization bias; 2 cores shared with 4 other agents, best of 3):
-
-    correction, n = 20, 50, 100: CPU 25, 34, 33 ms (Correction.cpu_seconds); wall 33, 42, 73 ms
-                     at load ~5, 150-240 ms at load ~8 (the 2n solves add to the E-only work)
-    sagging demo x0.5: 6.06 -> 3.31 mm (1.8x, floor 3.26); x2: 18.20 -> 2.95 mm (6.2x, floor 2.98)
-    3D x0.5: 1.73 -> 0.87 mm (2.0x, floor 0.86);          x2: 4.84 -> 0.89 mm (5.4x, floor 0.85)
-    U demo: open loop 0.2-0.5 mm, below the 1 mm noise: nothing to correct
+Run: ``PYTHONPATH=tests python benchmarks/bench_correct.py [--plants chain,mujoco] [--no-floor]``.
+Timings on this machine are shared with other sessions (2 cores); read the CPU column.
 """
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import io
+import json
+import statistics
+import subprocess
 import sys
 import tempfile
+import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import yaml
 
-from dloplan.app import read_plan
+from dloplan.app import read_plan, verify_plan, write_plan
+from dloplan.app.correct import CorrectionService, check_correction
 from dloplan.cli import main as dloplan_main
-from dloplan.correct import Plant, correct_plan, reachable_error, run_closed_loop
-from dloplan.geometry import as_path, resample_by_arc_length
-from dloplan.grippers import gripper_path
-from dloplan.sim import equilibrium
+from dloplan.correct import CorrectionRefused, Plant, reachable_error, run_closed_loop
+from dloplan.geometry import resample_by_arc_length
+from dloplan.pipeline.stages import program_of
+from dloplan.vision.shapes_io import RegisteredShape, write_shapes
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = {"sagging demo": ROOT / "tests" / "data" / "sagging_demo.yaml",
-             "U demo": ROOT / "src" / "dloplan" / "data" / "demo.yaml",
-             "3D ethernet": ROOT / "examples" / "qualitative2_ethernet_3d.yaml"}
+             "3D ethernet": ROOT / "examples" / "qualitative2_ethernet_3d.yaml",
+             "U demo": ROOT / "src" / "dloplan" / "data" / "demo.yaml"}
+NOISE, POINTS = 1e-3, 200
 
 
-def plan_with_links(source: Path, n_links: int, folder: Path):
+def plan_with_links(source: Path, n_links: int | None, folder: Path):
+    """The plan of ``dloplan plan`` for the scenario, on ``n_links`` (None: its own)."""
     data = yaml.safe_load(source.read_text(encoding="utf-8"))
-    data["cable"]["n_links"] = n_links
+    if n_links is not None:
+        data["cable"]["n_links"] = n_links
     data["outputs"] = ["json"]
-    scenario = folder / f"{source.stem}_{n_links}.yaml"
+    n = data["cable"]["n_links"]
+    scenario = folder / f"{source.stem}_{n}.yaml"
     scenario.write_text(yaml.safe_dump(data), encoding="utf-8")
     out = folder / scenario.stem
-    with contextlib.redirect_stdout(io.StringIO()):
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
         dloplan_main(["plan", str(scenario), "-o", str(out), "-q"])
-    return read_plan(out / "plan.json")
+    return read_plan(out / "plan.json"), out / "plan.json"
 
 
-def refined(doc, n_links: int):
-    """The plan's shapes on n links, their clip poses and stabilized shapes."""
-    cable = doc.cable.with_links(n_links)
-    shapes = as_path(np.stack([resample_by_arc_length(s, n_links + 1) for s in doc.shapes]))
-    grippers = gripper_path(shapes, method=doc.grippers.method, cable=cable)
-    stable = np.stack([equilibrium(cable, s, grippers.clip_poses(j)).shape
-                       for j, s in enumerate(shapes)])
-    return cable, shapes, grippers, stable
+def measurement(doc, at: int, factor: float, seed: int = 0) -> np.ndarray:
+    plant = Plant(doc.cable.with_links(200).with_modulus(factor * doc.cable.youngs_modulus),
+                  clamp=doc.cable.rest_link_length)
+    run = run_closed_loop(plant, doc.cable, doc.shapes, doc.grippers, [],
+                          stabilized=doc.stabilized)
+    rng = np.random.default_rng(seed)
+    return resample_by_arc_length(run.open_loop[at], POINTS) + rng.normal(scale=NOISE,
+                                                                         size=(POINTS, 3))
 
 
-def part1(doc) -> None:
-    print("Part 1: time of one correction (target mode; sagging demo at shape 3, plant n = 200 at "
-          "E x2, 1 mm noise; best of 5)")
-    print(f"{'n':>4} {'correction [ms]':>16} {'its CPU [ms]':>13} {'predictions [ms]':>17} "
-          f"{'LM its':>7} {'E steps':>8} {'alpha':>6}")
-    rng = np.random.default_rng(0)
-    for n in (20, 50, 100):
-        cable, shapes, grippers, stable = refined(doc, n)
-        plant = Plant(doc.cable.with_links(200).with_modulus(2 * cable.youngs_modulus),
-                      clamp=cable.rest_link_length)
-        truth, ok, message = plant.hold(resample_by_arc_length(stable[3], 201),
-                                        grippers.clip_poses(3))
-        assert ok, message
-        measured = resample_by_arc_length(truth, 200) + rng.normal(scale=1e-3, size=(200, 3))
-        runs = [correct_plan(cable, shapes, grippers, 3, measured, stabilized=stable,
-                             trajectory=doc.trajectory) for _ in range(5)]
-        result = min(runs, key=lambda r: r.seconds)
-        cpu = min(r.cpu_seconds for r in runs)
-        print(f"{n:>4} {1e3 * result.seconds:>16.0f} {1e3 * cpu:>13.0f} "
-              f"{1e3 * result.prediction_seconds:>17.0f} {result.iterations:>7} "
-              f"{result.model.steps:>8} "
-              f"{result.model.discretization:>6.2f}")
+def part1(folder: Path) -> None:
+    print("Part 1: a warm correction (CorrectionService; sagging demo at shape 3, plant n = 200 "
+          "at E x1.5, 1 mm noise, 200 points; 10 calls after the first, CPU ms, median (best))")
+    print(f"{'n':>4} {'first wall':>10} {'to the motion':>14} {'fast answer':>12} "
+          f"{'+ predictions':>14} {'+ program check':>16}  verdict")
+    source = SCENARIOS["sagging demo"]
+    for n in (None, 20, 50, 100):
+        doc, path = plan_with_links(source, n, folder)
+        points = measurement(doc, 3, 1.5)
+        service = CorrectionService(doc)
+        first = service.correct(3, points)
+        columns = []
+        for flags in (dict(predict=False, check_program=False),
+                      dict(predict=True, check_program=False),
+                      dict(predict=True, check_program=True)):
+            warm = [service.correct(3, points, **flags) for _ in range(10)]
+            cpu = [1e3 * a["cpu_seconds"] for a in warm]
+            columns.append(f"{statistics.median(cpu):.1f} ({min(cpu):.1f})")
+            if not flags["predict"]:
+                motion = [1e3 * a["correction"]["cpu_seconds"] for a in warm if a["ok"]]
+        verdict = "ok" if warm[-1]["ok"] else warm[-1]["error"][:60]
+        print(f"{doc.cable.n_links:>4} {1e3 * first['seconds']:>8.0f} ms "
+              f"{statistics.median(motion):>8.1f} ({min(motion):.1f}) {columns[0]:>12} "
+              f"{columns[1]:>14} {columns[2]:>16}  {verdict}")
+        if n is None:  # the one-shot command, its own timing line
+            shapes = folder / "measured.csv"
+            write_shapes(shapes, [RegisteredShape(points, frame_id=doc.frame_id,
+                                                  label="xi_3")])
+            started = time.perf_counter()
+            done = subprocess.run([sys.executable, "-m", "dloplan.cli", "correct", str(path),
+                                   "--at", "3", "--measured", str(shapes), "-o",
+                                   str(folder / "one-shot"), "--mode", "all", "-q"],
+                                  capture_output=True, text=True, check=False)
+            outside = time.perf_counter() - started
+            lines = [line for line in (done.stdout + done.stderr).splitlines()
+                     if "ms CPU" in line or "error" in line]
+            print(f"     one-shot dloplan correct (exit {done.returncode}, {outside:.2f} s as "
+                  f"timed from outside): {lines[-1] if lines else done.stderr.strip()}")
 
 
-def part2(docs) -> None:
-    print("\nPart 2: the plant (n = 100, 1 mm noise, 200 points) on the n = 20 plans; final mean "
-          "error [mm]")
-    print(f"{'plan':>12} {'plant':>22} {'checkpoints':>12} {'open loop':>10} {'closed':>8} "
-          f"{'ratio':>6} {'floor':>6} {'E model -> updated [Pa]':>25}")
-    for name, doc in docs.items():
-        cable = doc.cable
-        last = len(doc.shapes) - 1
-        stable = doc.stabilized
-        cases = [
-            ("E x0.5", cable.with_links(100).with_modulus(0.5 * cable.youngs_modulus),
-             [last // 2]),
-            ("E x2", cable.with_links(100).with_modulus(2 * cable.youngs_modulus), [last // 2]),
-            ("E x0.5", cable.with_links(100).with_modulus(0.5 * cable.youngs_modulus),
-             [last // 2, last - 1]),
-            ("E x2", cable.with_links(100).with_modulus(2 * cable.youngs_modulus),
-             [last // 2, last - 1]),
-        ]
-        floors = {}
-        for label, plant_cable, checks in cases:
-            plant = Plant(plant_cable, noise=1e-3, n_measured=200, seed=1,
-                          clamp=cable.rest_link_length)
-            run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, checks,
-                                  stabilized=stable, trajectory=doc.trajectory)
-            if label not in floors:
-                floors[label] = reachable_error(plant, doc.grippers.clip_poses(last),
-                                                run.reference, run.open_loop[-1])
-            e = (f"{cable.youngs_modulus:.3g} -> {run.corrections[-1].model.youngs_modulus:.3g}"
-                 if run.corrections else "refused: " + "; ".join(run.refusals)[:60])
-            print(f"{name:>12} {label:>22} {','.join(map(str, checks)):>12} "
-                  f"{1e3 * run.open_loop_error:>10.2f} {1e3 * run.closed_loop_error:>8.2f} "
-                  f"{run.improvement:>6.1f} {1e3 * floors[label]:>6.2f} {e:>25}")
+def plants(names):
+    out = {"chain": lambda cable, clamp, links: Plant(cable.with_links(100), noise=NOISE,
+                                                      n_measured=POINTS, seed=1, clamp=clamp)}
+    if "mujoco" in names:
+        try:
+            import mujoco  # noqa: F401
+            from plants import MujocoPlant
+        except ImportError as exc:
+            print(f"mujoco plant skipped: {exc} (pip install dloplan[plants])")
+        else:
+            # 2 segments per model link (one link's grip is whole segments; 0.8 of it rounds
+            # to the same 2: the MuJoCo rows are the grip-L/n cases), within the time of a run
+            out["mujoco"] = lambda cable, clamp, links: MujocoPlant(
+                cable.with_links(2 * links), noise=NOISE, n_measured=POINTS, seed=1, clamp=clamp)
+    return {k: v for k, v in out.items() if k in names}
 
 
-def main() -> None:
+def written_and_verified(doc, correction, folder: Path) -> str:
+    """What ``dloplan correct`` does with the correction: check it (refused: the reason), write
+    the corrected plan, read it back and run dloplan verify's checks on it."""
+    try:
+        corrected, _ = check_correction(doc, correction, verify=True)
+    except CorrectionRefused as exc:
+        return "refused: " + str(exc)[:70]
+    path = write_plan(folder / "corrected.json", corrected)
+    back = read_plan(path)
+    verification = verify_plan(back)
+    program = program_of(back)
+    return "written, verify ok" if verification.ok and program.ok else \
+        f"written, verify FAILS: {'; '.join(verification.messages)[:50]}"
+
+
+def part2(names, floor: bool, folder: Path, plans, n_cases: int = 7) -> None:
+    print("\nPart 2: plants; final mean error [mm] against the plan's stabilized target")
+    print(f"{'plan':>12} {'n':>3} {'plant':>7} {'E':>5} {'grip':>6} {'K':>2} {'open':>7} "
+          f"{'closed':>7} {'ratio':>6} {'floor':>6} {'interval':>13} {'cover':>5} "
+          f"{'CPU ms':>6}  written?")
+    makers = plants(names)
+    for name, source in SCENARIOS.items():
+        if name not in plans:
+            continue
+        docs = {}
+        for n in (None, 20):
+            doc, _ = plan_with_links(source, n, folder)
+            docs[doc.cable.n_links] = doc
+        base_n = 20
+        own_n = next(k for k in docs if k != 20) if len(docs) > 1 else 20
+        for plant_name, make in makers.items():
+            cases = [(base_n, 2.0, 1.0, "mid"), (own_n, 2.0, 1.0, "mid"),
+                     (base_n, 0.5, 1.0, "mid"), (base_n, 10.0, 1.0, "mid"),
+                     (base_n, 2.0, 0.8, "mid"), (base_n, 2.0, 1.0, "early"),
+                     (base_n, 2.0, 1.0, "late")][:n_cases]
+            if plant_name == "mujoco":  # its 2 segments per link cannot clamp 0.8 of one
+                cases = [c for c in cases if c[2] == 1.0]
+            for n, factor, grip, when in dict.fromkeys(cases):
+                doc = docs[n]
+                cable = doc.cable
+                last = len(doc.shapes) - 1
+                at = {"early": 1, "mid": last // 2, "late": last - 1}[when]
+                plant = make(cable.with_modulus(factor * cable.youngs_modulus),
+                             grip * cable.rest_link_length, cable.n_links)
+                started = time.process_time()
+                try:
+                    run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [at],
+                                          stabilized=doc.stabilized, trajectory=doc.trajectory)
+                except RuntimeError as exc:
+                    print(f"{name:>12} {n:>3} {plant_name:>7} x{factor:<4g} {grip:>4.1f}L/n "
+                          f"{at:>2} plant failed: {exc}")
+                    continue
+                plant_seconds = time.process_time() - started
+                floor_mm = "-"
+                if floor:
+                    budget = 200 if plant_name == "chain" else 40  # MuJoCo: ~1 s a solve
+                    best = reachable_error(plant, doc.grippers.clip_poses(last), run.reference,
+                                           run.open_loop[-1], max_evaluations=budget)
+                    floor_mm = f"{1e3 * best:.2f}"
+                if run.corrections:
+                    (c,) = run.corrections
+                    low, high = c.prediction_interval
+                    interval = f"{1e3 * low:5.2f}-{1e3 * high:5.2f}"
+                    cover = "yes" if low <= run.closed_loop_error <= high else "NO"
+                    written = written_and_verified(replace(doc), c, folder)
+                    cpu = f"{1e3 * c.cpu_seconds:.0f}"
+                else:
+                    interval, cover, cpu = "-", "-", "-"
+                    written = "refused: " + "; ".join(run.refusals)[:70]
+                print(f"{name:>12} {n:>3} {plant_name:>7} x{factor:<4g} {grip:>4.1f}L/n "
+                      f"{at:>2} {1e3 * run.open_loop_error:>7.2f} "
+                      f"{1e3 * run.closed_loop_error:>7.2f} {run.improvement:>6.1f} "
+                      f"{floor_mm:>6} {interval:>13} {cover:>5} {cpu:>6}  {written}"
+                      f"  [plant {plant_seconds:.0f} s CPU]", flush=True)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--plants", default="chain,mujoco")
+    parser.add_argument("--no-floor", action="store_true")
+    parser.add_argument("--cases", type=int, default=7,
+                        help="the first CASES cases per plan and plant (base, own n, E x0.5, "
+                        "E x10, grip 0.8, early, late)")
+    parser.add_argument("--plans", default=",".join(SCENARIOS),
+                        help="comma-separated, of: " + ", ".join(SCENARIOS))
+    parser.add_argument("--part", choices=["1", "2", "both"], default="both")
+    args = parser.parse_args()
+    print(json.dumps({"host": "2 cores shared with other sessions"}))
     with tempfile.TemporaryDirectory() as folder:
-        docs = {name: plan_with_links(path, 20, Path(folder)) for name, path in SCENARIOS.items()}
-    part1(docs["sagging demo"])
-    part2(docs)
+        if args.part in ("1", "both"):
+            part1(Path(folder))
+        if args.part in ("2", "both"):
+            part2(args.plants.split(","), not args.no_floor, Path(folder),
+                  args.plans.split(","), args.cases)
+    return 0
 
 
 if __name__ == "__main__":

@@ -210,7 +210,8 @@ def test_cell_plan_document_reads_back_and_programs_are_the_verified_joints(tmp_
                                atol=1e-5)
     assert len(drawn["shapes"]) == len(doc.shapes)
     WRITERS["report"].write(back, tmp_path / "report.html", None)
-    assert '"arms": {"shapes"' in (tmp_path / "report.html").read_text()
+    page = (tmp_path / "report.html").read_text()
+    assert '"robot":{"arms"' in page and '"model":"ur5e"' in page  # both UR5e drawn
     with pytest.raises(ValueError, match="rapid: the cell 'ur5e_pair' takes urscript"):
         WRITERS["rapid"].write(back, tmp_path / "rapid", None)
     data = json.loads((tmp_path / "plan.json").read_text())
@@ -302,11 +303,19 @@ def test_verify_place_and_correct_on_a_described_cell(tmp_path, capsys):
     at = 3
     measured = resample_by_arc_length(doc.stabilized[at], 200)
     measured += np.random.default_rng(0).normal(scale=0.5e-3, size=measured.shape)
-    write_shapes(tmp_path / "measured.csv", [RegisteredShape(measured, label=f"xi_{at}")])
+    write_shapes(tmp_path / "measured.csv", [RegisteredShape(measured, label=f"xi_{at}",
+                                                             frame_id=doc.frame_id)])
     out = tmp_path / "corrected"
     code = main(["correct", str(tmp_path / "plan" / "plan.json"), "--at", str(at),
                  "--measured", str(tmp_path / "measured.csv"), "-o", str(out), "-q"])
     assert code in (0, 1)
+    # the corrected plan keeps its cell (issue 36: it was written with robot: null, and
+    # verify then checked a YuMi), and dloplan verify passes it
+    from dloplan.app import read_plan
+
+    corrected = read_plan(out / "plan.json")
+    assert corrected.robot.cell["kind"] == "described" and corrected.robot.ok
+    assert main(["verify", str(out / "plan.json"), "-q"]) == 0
     assert not (out / "rapid").exists()
     scripts = sorted((out / "urscript").glob("*.script"))
     assert len(scripts) == 2 and len(list((out / "ros_joints").iterdir())) == 2

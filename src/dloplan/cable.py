@@ -329,7 +329,7 @@ _CATALOGUE: dict[str, dict[str, float]] = {
 CATALOGUE_NAMES: tuple[str, ...] = tuple(_CATALOGUE)
 
 COMPOSITE_AXIAL_MODULI: dict[str, float] = {"usb": 2e9, "ethernet": 2e9}
-"""Axial moduli E_a [Pa] to use for the composite catalogue cables with the rod model.
+"""Axial moduli E_a [Pa] to use for the composite catalogue cables (USB, Ethernet).
 
 Order-of-magnitude estimates from their copper: E_cu ~ 117 GPa on about 0.3 mm^2 (USB, four
 AWG 28 conductors and the shield) or 1.6 mm^2 (Ethernet, eight AWG 24), derated about three
@@ -337,9 +337,14 @@ times for the twist of the pairs and spread over the whole section A: E_a ~ 2 GP
 times their bending moduli. Any value above about 1e8 Pa gives nearly the same shapes (the
 cable is then practically inextensible: the USB between level clips sags within 0.01 mm of the
 2 GPa shape at 0.4 m apart, 0.25 mm nearly taut at 0.48 m), so the estimate need not be
-precise. The catalogue leaves
-``axial_modulus`` unset to reproduce the thesis; pass
-``catalogue_cable("usb", axial_modulus=COMPOSITE_AXIAL_MODULI["usb"])`` for a real cable.
+precise. With the thesis' single modulus (E_a = E), the catalogue's default, the USB stretches
+about 1 % under its own weight and a nearly taut shape differs by up to 3 mm from an
+inextensible cable's (MuJoCo's cable, issue 35). Pass
+``catalogue_cable("usb", axial_modulus=COMPOSITE_AXIAL_MODULI["usb"])`` (or ``axial_modulus:
+2e9`` in a scenario) for a real cable. It is not the default yet: the static solver's
+trust-region Newton needs many more iterations with axial springs a thousand times stiffer
+than the bending ones (8 -> 516 on the identification's bending manipulation of the Ethernet at
+n = 64, beyond its limit of 500), see docs/decisions.md.
 """
 
 
@@ -349,7 +354,9 @@ def catalogue_cable(name: str, n_links: int = 10, **overrides) -> Cable:
     ``usb`` (d 3 mm, 10 g, E 2.5 MPa), ``ethernet`` (d 5 mm, 10 g, E 7.5 MPa), ``pu`` hose
     (d 6 mm, 11 g, E 100 MPa) and ``pa12`` hose (d 6 mm, 9 g, E 1 GPa), all 0.5 m long. The
     moduli of USB and Ethernet are those the thesis identified with its own bending model;
-    Poisson ratios are not given in the thesis and are typical values for the materials.
+    Poisson ratios are not given in the thesis and are typical values for the materials. The
+    axial modulus is E (the thesis) unless ``axial_modulus`` is given: for a real composite
+    cable pass :data:`COMPOSITE_AXIAL_MODULI` (not yet the default: docs/decisions.md).
 
     Parameters
     ----------

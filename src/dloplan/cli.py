@@ -23,7 +23,7 @@ from .interrupts import catching_interrupts, raise_if_interrupted
 ALLOW_PLACEMENT = ("let the repair move or turn the job on the table where the robot reaches it, "
                    "as `repair: {placement: true}` in the job file does (otherwise such a move "
                    "is only proposed, exit 3; docs/repair.md)")
-"""Help of ``--allow-placement`` (plan, demo, study, simulate, verify)."""
+"""Help of ``--allow-placement`` (plan, demo, study, simulate, verify, correct)."""
 
 FIGURE_WORKERS = 2
 """Processes drawing a plan's figures while it is verified (:mod:`dloplan.app.figure_workers`)."""
@@ -120,20 +120,79 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_correct(args: argparse.Namespace) -> int:
-    from .app import read_plan
-    from .correct.document import correct_document, measured_points, write_correction
+    from .app.correct import correct_and_check, correct_into, measured_points
+    from .app.files import document_of
 
+    wall0, cpu0 = time.perf_counter(), time.process_time()
     console = Console(args.quiet)
-    doc = read_plan(args.plan)
-    result = correct_document(doc, args.at, measured_points(args.measured, args.at),
-                              robot=not args.no_robot, mode=args.mode,
-                              reference=args.reference, modulus_steps=args.modulus_steps,
-                              model_error=args.model_error)
+    doc = document_of(args.plan, progress=console.stage, allow_placement=args.allow_placement)
+    options = dict(mode=args.mode, reference=args.reference, modulus_steps=args.modulus_steps,
+                   model_error=args.model_error)
+    if args.serve:
+        return _serve_corrections(doc, options)
+    if args.at is None or args.measured is None:
+        raise ValueError("correct: --at and --measured are required (or --serve)")
+    points = measured_points(args.measured, args.at, doc.frame_id)
+    result, corrected, remaining = correct_and_check(doc, args.at, points,
+                                                     verify=not args.no_verify,
+                                                     progress=console.stage, **options)
     console.stage(result.message)
-    written = write_correction(doc, result, args.output)
-    console.stage(f"wrote {len(written)} files into {args.output}")
-    print(json.dumps(result.report()) if args.json else result.message)
+    written = correct_into(corrected, remaining, args.output, progress=console.stage)
+    for warning in result.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
+    wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
+    timing = (f"correction {1e3 * result.seconds:.0f} ms wall, {1e3 * result.cpu_seconds:.0f} "
+              f"ms CPU; the whole command {wall:.2f} s wall, {cpu:.2f} s CPU (loading, "
+              f"{'checks' if args.no_verify else 'verification'} and writing {len(written)} "
+              "files included)")
+    if args.json:
+        print(json.dumps({**result.report(), "command_seconds": wall,
+                          "command_cpu_seconds": cpu, "written": [str(p) for p in written]}))
+    else:
+        print(result.message)
+        print(timing)
     return EXIT_WARNINGS if result.warnings else EXIT_OK
+
+
+def _serve_corrections(doc, options: dict) -> int:
+    """``dloplan correct --serve``: one JSON request per line on stdin, one answer per line on
+    stdout (docs/correction.md, "A correction service")."""
+    from .app.correct import CorrectionService
+
+    service = CorrectionService(doc, **options)
+    for line in sys.stdin:
+        if not line.strip():
+            continue
+        try:
+            request = json.loads(line)
+            if not isinstance(request, dict):
+                raise ValueError("expected a JSON object {\"at\": K, \"points\": [[x, y, z], ...]}")
+            frame = request.get("frame_id", doc.frame_id)
+            if frame != doc.frame_id:
+                raise ValueError(f"frame_id: got {frame!r}, the plan is in {doc.frame_id!r}")
+            units = request.get("units", "m")
+            if units not in ("m", "mm"):
+                raise ValueError(f"units: got {units!r}, expected 'm' or 'mm'")
+            if "at" not in request or "points" not in request:
+                raise ValueError("expected the keys 'at' and 'points'")
+            scale = 1e-3 if units == "mm" else 1.0
+            flags = {key: request[key] for key in ("predict", "check_program") if key in request}
+            if any(not isinstance(v, bool) for v in flags.values()):
+                raise ValueError(f"predict, check_program: got {flags!r}, expected true or false")
+            answer = service.correct(request["at"], _points(request["points"]) * scale, **flags)
+        except (ValueError, TypeError) as exc:
+            answer = {"ok": False, "error": f"request: {exc}"}
+        print(json.dumps(answer), flush=True)
+    return EXIT_OK
+
+
+def _points(value):
+    import numpy as np
+
+    points = np.asarray(value, dtype=float)
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise ValueError(f"points: got an array of shape {points.shape}, expected (k, 3)")
+    return points
 
 
 def _cmd_verify(args: argparse.Namespace) -> int:
@@ -590,9 +649,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     correct = command("correct", _cmd_correct, "correct the rest of a plan from the shape "
                       "measured at shape K (closed loop, docs/correction.md)")
-    correct.add_argument("plan", help="plan.json")
-    correct.add_argument("--at", type=int, required=True, help="K, the shape just reached")
-    correct.add_argument("--measured", required=True, help="measured shape (.csv or .json)")
+    correct.add_argument("plan", help="plan.json, or a job file (planned as dloplan plan plans "
+                         "it)")
+    correct.add_argument("--allow-placement", action="store_true", help=ALLOW_PLACEMENT)
+    correct.add_argument("--at", type=int, help="K, the shape just reached")
+    correct.add_argument("--measured", help="measured shape (.csv or .json, in the plan's "
+                         "frame; docs/correction.md shows the format)")
     correct.add_argument("-o", "--output", default="out/correct", help="output folder")
     correct.add_argument("--mode", choices=["target", "all"], default="target")
     correct.add_argument("--reference", choices=["stabilized", "planned"], default="stabilized")
@@ -601,8 +663,12 @@ def build_parser() -> argparse.ArgumentParser:
     correct.add_argument("--model-error", choices=["discretization", "modulus"],
                          default="discretization",
                          help="identify E and the discretization bias (default), or E alone")
-    correct.add_argument("--no-robot", action="store_true",
-                         help="skip the YuMi reachability of the corrected poses")
+    correct.add_argument("--no-verify", action="store_true",
+                         help="skip the physics verification of the corrected plan (stability, "
+                         "snap-through, replay); its robot programs are still checked")
+    correct.add_argument("--serve", action="store_true",
+                         help="keep the plan warm: read one JSON request per line on stdin "
+                         "({\"at\": K, \"points\": [[x, y, z], ...]}), answer one JSON line each")
 
     calibrate = command("calibrate", _cmd_calibrate, "extrinsic camera calibration from ArUco "
                         "markers (eq. 7.2)")

@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ..obstacles.shapes import Table
 from ..pipeline.document import PlanDocument
@@ -199,11 +200,108 @@ def robot_table(doc: PlanDocument):
             ["check", "verdict", "worst", "where", "failing rows", "first failure"], rows)
 
 
-def write_plan_report(doc: PlanDocument, path, images=(), arms=None) -> Path:
-    """The self-contained HTML report of a plan document (``arms``: the robot program's
-    ``report_arms()``, to draw both arms of its cell: the YuMi's
-    :meth:`~dloplan.robot.RobotProgram.report_arms` or a described cell's
-    :meth:`~dloplan.robot.cell_program.CellProgram.report_arms`)."""
+def verdict_checks(doc: PlanDocument) -> list[dict]:
+    """The checks of the verdict banner, in the pipeline's order: target stability, obstacles,
+    harness, verification, and each check of the robot program; per check ``name``, ``ok``
+    and ``detail`` (the worst value and where, or what failed first)."""
+    checks = []
+    if doc.target_check is not None:
+        t = doc.target_check
+        checks.append({"name": "target stable", "ok": bool(t.stable),
+                       "detail": f"moves {1e3 * t.max_displacement:.1f} mm under gravity "
+                                 f"(limit {1e3 * t.threshold:.1f} mm)"})
+    if doc.avoidance is not None:
+        a = doc.avoidance
+        checks.append({"name": "obstacles", "ok": a.status in ("clear", "replanned"),
+                       "detail": a.status + (f" after {a.rounds} rounds" if a.rounds else "")})
+    if doc.harness is not None:
+        checks.append({"name": "harness", "ok": bool(doc.harness.get("success", True)),
+                       "detail": doc.harness.get("message", "")})
+    if doc.verification is not None:
+        v = doc.verification
+        checks.append({"name": "verification", "ok": bool(v.ok),
+                       "detail": v.messages[-1] if v.ok else v.messages[0]})
+    if doc.robot is not None:
+        for line in doc.robot.program["summary"]:
+            detail = (f"worst {line['worst']:.4g} {line['unit']} at {line['where']}"
+                      if line["ok"] else f"{line['failures']} rows fail, first at "
+                      f"{line['first_failure']}; worst {line['worst']:.4g} {line['unit']}")
+            checks.append({"name": f"robot: {line['check']}", "ok": bool(line["ok"]),
+                           "detail": detail})
+    return checks
+
+
+def _pose(position, rotation: Rotation) -> dict:
+    return {"xyz": np.asarray(position, float).round(9).tolist(),
+            "quaternion": rotation.as_quat().round(12).tolist()}
+
+
+def arm_scene(arm, offset=(0.0, 0.0, 0.0)) -> dict:
+    """One arm of a cell as the report draws it (:func:`dloplan.plots.report.report_html`'s
+    ``robot["arms"]`` entry): base pose in the plan's frame (the cell's placement ``offset``
+    [m] taken off), the moving joints (origin and axis in the parent link's frame), flange and
+    TCP in the last link's frame, the tool radius [m], the axis the fingers close along
+    (across the held cable and the approach) and the link capsules in their link frames.
+
+    ``arm``: a :class:`~dloplan.robot.chain.CellArm` (every cell's arms, the YuMi's included:
+    the chain of its ``description``).
+    """
+    d = arm.description
+    origins, xyz, axes = Rotation.from_matrix(d.origin_rot), d.origin_xyz, d.axes
+    tip_xyz, tip_rot = d.tip_xyz, Rotation.from_matrix(d.tip_rot)
+    tcp_xyz, tcp_rot = tip_xyz + tip_rot.apply(arm.tcp_offset), tip_rot * arm.tcp_rotation
+    capsules, capsule_links, radii = d.capsules, d.capsule_link, d.radii
+    tool_radius, tcp_in_clip = arm.tool_radius, arm.tcp_in_clip
+    if tool_radius > 0:  # the tool's capsule from the flange to the TCP
+        capsules = np.concatenate([capsules, [[tip_xyz, tcp_xyz]]])
+        capsule_links = np.r_[capsule_links, len(xyz) - 1]
+        radii = np.r_[radii, tool_radius]
+    cable = tcp_in_clip.as_matrix()[0]  # the clip's u (the cable) in the TCP frame
+    fingers = np.cross([0.0, 0.0, 1.0], cable)
+    fingers = fingers / np.linalg.norm(fingers) if np.linalg.norm(fingers) > 1e-9 else np.eye(3)[0]
+    return {
+        "name": arm.name,
+        "base": _pose(np.asarray(arm.base_position) - offset, arm.base_rotation),
+        "joints": [{"name": name, **_pose(xyz[i], origins[i]),
+                    "axis": np.asarray(axes[i], float).round(12).tolist()}
+                   for i, name in enumerate(arm.joint_names)],
+        "tip": _pose(tip_xyz, tip_rot),
+        "tcp": _pose(tcp_xyz, tcp_rot),
+        "tool_radius": float(tool_radius),
+        "finger_axis": tcp_rot.apply(fingers).round(9).tolist(),
+        "capsules": [{"link": int(link), "ends": np.asarray(ends, float).round(6).tolist(),
+                      "radius": float(r)}
+                     for ends, link, r in zip(capsules, capsule_links, radii, strict=True)],
+    }
+
+
+def report_robot(program) -> dict:
+    """Both arms of a verified robot program and their timed motion as the report's plain data
+    (``robot`` of :func:`dloplan.plots.report.report_html`).
+
+    Relies on the program's cell (``program.cell``: the YuMi's RobotCell with ``robot.arms``,
+    or a described cell with ``arms``; each arm drawn by :func:`arm_scene`) and on
+    ``program.to_dict()``: its ``targets`` (per target ``time`` [s], ``shape`` and per arm
+    ``joints_deg``, exactly the verified joints the program files hold) and, on a described
+    cell, the placement ``offset`` [m]. The timeline's samples are the targets; the page
+    interpolates the joints linearly between them.
+    """
+    record = program.to_dict()
+    offset = np.asarray(record.get("offset", (0.0, 0.0, 0.0)), dtype=float)
+    arms = getattr(program.cell, "robot", program.cell).arms
+    targets = record["targets"]
+    return {"arms": [arm_scene(arm, offset) for arm in arms],
+            "times": [float(t["time"]) for t in targets],
+            "shapes": [int(t["shape"]) for t in targets],
+            "joints": [np.radians([t["arms"][arm.name]["joints_deg"] for t in targets])
+                       for arm in arms]}
+
+
+def write_plan_report(doc: PlanDocument, path, images=(), program=None) -> Path:
+    """The self-contained HTML report of a plan document: the verdict banner
+    (:func:`verdict_checks`), the 3D view with both arms of the verified robot ``program``
+    (:func:`report_robot`; without one the timeline plays the shapes at the trajectory's
+    times), the summary, the tables and the PNG ``images``."""
     from ..plots.report import write_report
 
     tables = [shape_table(doc)]
@@ -216,5 +314,8 @@ def write_plan_report(doc: PlanDocument, path, images=(), arms=None) -> Path:
         stabilized=doc.stabilized,
         clip_positions=None if doc.grippers is None else doc.grippers.positions,
         clip_rotations=None if doc.grippers is None else doc.grippers.matrices,
-        obstacles=doc.obstacles, summary=summary_lines(doc), warnings=list(doc.warnings),
-        tables=tables, images=images, labels=shape_labels(doc), **(arms or {}))
+        obstacles=doc.obstacles, summary=summary_lines(doc)[1:], warnings=list(doc.warnings),
+        tables=tables, images=images, labels=shape_labels(doc),
+        cable_radius=doc.cable.diameter / 2, checks=verdict_checks(doc),
+        shape_times=None if doc.trajectory is None else doc.trajectory.times,
+        robot=None if program is None else report_robot(program))

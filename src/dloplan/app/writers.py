@@ -15,6 +15,7 @@ ros_joints ``ros_joints/``, a ROS 2 ``trajectory_msgs/JointTrajectory`` per arm 
 urscript   ``urscript/``, one URScript program per arm (cells of two 6-joint arms)
 figures    ``figures/``, PNG and SVG figures
 report     ``report.html``, the self-contained interactive report (with the figures)
+correction ``correction.json`` and ``correction.txt``: a corrected plan's correction report
 =========  ==================================================================================
 """
 
@@ -159,12 +160,28 @@ def write_report_file(doc: PlanDocument, target: Path, options: WriteOptions) ->
     """The HTML report, with the PNG figures of the ``figures/`` folder beside it embedded and
     both robot arms drawn when the plan has a robot program."""
     images = sorted((target.parent / WRITERS["figures"].target).glob("*.png"))
-    arms = {}
+    program = None
     if doc.robot is not None and doc.trajectory is not None:
         from ..pipeline.stages import program_of
 
-        arms = program_of(doc).report_arms()
-    return [write_plan_report(doc, target, images, arms)]
+        program = program_of(doc)
+    return [write_plan_report(doc, target, images, program)]
+
+
+def write_correction_report(doc: PlanDocument, target: Path,
+                            options: WriteOptions) -> list[Path]:
+    """A corrected plan's correction report (``dloplan correct``): ``correction.json`` (the
+    report's numbers, SI units) and ``correction.txt`` beside it (the same as a table)."""
+    import json
+
+    from ..correct.report import correction_table
+    from ..io.files import atomic_write_text
+
+    if doc.correction is None:
+        raise ValueError("correction: the plan is not a corrected plan (no correction section)")
+    report = {k: v for k, v in doc.correction.items() if k not in ("measured", "predicted")}
+    return [atomic_write_text(target, json.dumps(report, indent=1) + "\n"),
+            atomic_write_text(target.with_suffix(".txt"), correction_table(report))]
 
 
 @dataclass(frozen=True)
@@ -184,6 +201,7 @@ WRITERS: dict[str, Writer] = {
     "urscript": Writer("urscript", write_urscript_files),
     "figures": Writer("figures", write_figure_files),
     "report": Writer("report.html", write_report_file),
+    "correction": Writer("correction.json", write_correction_report),
 }
 """Output name -> writer, in the order they run (the report embeds the figures)."""
 

@@ -5,12 +5,12 @@
 * :mod:`.step` -- :func:`correct_plan`: modulus update, clip correction, re-timing;
 * :mod:`.plant` -- :func:`run_closed_loop`: the plan run on a mismatched simulated cable;
   :func:`reachable_error`: the floor a perfect correction would reach;
-* :mod:`.document` -- :func:`correct_document` / :func:`write_correction`: the same on a plan
-  document, and its outputs (``dloplan correct``);
+* :mod:`.report` -- a correction's report as text;
 * :mod:`.probability` -- :func:`closed_loop_sample` / :func:`closed_loop_success`: closed-loop
   success probability over sampled cables, for a study.
 
-The method, its limits and the command are in ``docs/correction.md``.
+The method, its limits and the command are in ``docs/correction.md``; the command's adapter
+(a plan document corrected, checked and written) is :mod:`dloplan.app.correct`.
 """
 
 from .measurement import CorrectionRefused, resample_measured

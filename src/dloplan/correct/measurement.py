@@ -21,7 +21,10 @@ the reason, rather than used:
 * another cable: the smoothed length differs from the cable's by more than
   :data:`MAX_LENGTH_ERROR`;
 * another shape altogether: the mean distance to the predicted shape exceeds
-  ``max_disagreement`` (default :data:`MAX_DISAGREEMENT` cable lengths).
+  ``max_disagreement`` (default :data:`MAX_DISAGREEMENT` cable lengths);
+* too few points to tell a shape (fewer than :data:`MIN_POINTS`: two points are the clips);
+* points in another unit: a polyline :data:`UNIT_FACTOR` times longer (or shorter) than the
+  cable is named as millimetres (or kilometres) written as metres.
 """
 
 from __future__ import annotations
@@ -47,6 +50,13 @@ DENSE = 20
 
 POINTS_PER_SPAN = 4
 """Fewest measured points per knot span of the smoothing spline."""
+
+MIN_POINTS = 5
+"""Fewest measured points of a shape: fewer say next to nothing about the cable between the clips
+(two points are the clips themselves), so no correction is made from them."""
+
+UNIT_FACTOR = 1000.0
+"""A measured polyline about this many times longer than the cable is in millimetres."""
 
 
 class CorrectionRefused(ValueError):
@@ -90,6 +100,28 @@ def smooth_polyline(points: np.ndarray, along: np.ndarray, n_spans: int,
     return make_lsq_spline(u, x, knots, k=3)(np.linspace(u[0], u[-1], n_dense))
 
 
+def check_scale(points: np.ndarray, cable_length: float) -> None:
+    """Refuse a measurement of too few points, or one in millimetres written as metres.
+
+    Raises
+    ------
+    CorrectionRefused
+        Naming the count, or the length and the likely unit.
+    """
+    if len(points) < MIN_POINTS:
+        raise CorrectionRefused(
+            f"measured: {len(points)} points, expected at least {MIN_POINTS} along the cable: "
+            "too few to tell its shape between the clips (a camera centreline gives hundreds)")
+    raw = float(np.sum(np.linalg.norm(np.diff(points, axis=0), axis=1)))
+    ratio = raw / cable_length
+    for factor, unit in ((UNIT_FACTOR, "millimetres"), (1.0 / UNIT_FACTOR, "kilometres")):
+        if 0.5 * factor <= ratio <= 3.0 * factor:
+            raise CorrectionRefused(
+                f"measured: the points span {raw:.4g} m along the cable, {ratio:.3g} times its "
+                f"{cable_length:.4g} m: the coordinates look like {unit} written as metres "
+                "(a CSV is in metres; convert it, or write JSON with \"units\": \"mm\")")
+
+
 def resample_measured(points, predicted: np.ndarray, cable_length: float, *,
                       max_disagreement: float = MAX_DISAGREEMENT) -> np.ndarray:
     """Check a measured shape against the model's prediction and resample it onto its points.
@@ -118,6 +150,7 @@ def resample_measured(points, predicted: np.ndarray, cable_length: float, *,
         For malformed points (fewer than 2, not 3D, non-finite).
     """
     x = as_shape(points, name="measured")
+    check_scale(x, cable_length)
     n_points = len(predicted)
     s = positions_along(x, predicted)
     if len(x) >= 3:

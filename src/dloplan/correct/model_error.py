@@ -20,13 +20,16 @@ reference, with d re-evaluated at the corrected clips.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..cable import GRAVITY, Cable
 from ..geometry import resample_by_arc_length
 from ..physics.chain import SpringChain
 from ..sim import ClipPoses
-from ..sim.statics import force_scale, minimize_energy
+from ..sim.result import residual_tolerance
+from ..sim.statics import minimize_energy
 from .measurement import CorrectionRefused
 
 MAX_ALPHA = 4.0
@@ -34,7 +37,8 @@ MAX_ALPHA = 4.0
 
 
 def clamped_equilibrium(cable: Cable, guess, clips: ClipPoses, clamp_links: int = 1, *,
-                        gravity=GRAVITY, rtol: float = 1e-9, chain: SpringChain | None = None):
+                        gravity=GRAVITY, rtol: float | None = None,
+                        chain: SpringChain | None = None):
     """Stable equilibrium of a cable whose grippers each clamp ``clamp_links`` links.
 
     The clamped links lie straight along the clip's u-axis, centred on the clip point (one
@@ -54,8 +58,10 @@ def clamped_equilibrium(cable: Cable, guess, clips: ClipPoses, clamp_links: int 
         Links held by each gripper (>= 1).
     gravity : array_like
         Gravity [m/s^2].
-    rtol : float
-        Convergence when the largest free force is below rtol times the cable's force scale.
+    rtol : float, optional
+        Convergence when the largest free force is below rtol times the cable's force scale
+        (default: 1e-10 or the round-off floor of its stiffest spring,
+        :func:`dloplan.sim.result.residual_tolerance`).
     chain : SpringChain, optional
         The chain of ``cable`` under ``gravity``.
 
@@ -74,7 +80,7 @@ def clamped_equilibrium(cable: Cable, guess, clips: ClipPoses, clamp_links: int 
         chain = SpringChain.from_cable(cable, gravity)
     x, _, _, _, stable, _, message = minimize_energy(
         chain, x, slice(k + 1, cable.n_points - k - 1), cable.length,
-        rtol * force_scale(cable, gravity))
+        residual_tolerance(cable, gravity, rtol, x))
     return x, stable, message
 
 
@@ -147,3 +153,77 @@ def fit_model_error(jacobian: np.ndarray, direction: np.ndarray | None,
         alpha = float(np.clip(alpha, 0.0, MAX_ALPHA))
         delta = float(j @ (r - alpha * d)) / jj if jj > 0 else 0.0
     return float(delta), float(alpha)
+
+
+def log_modulus_sd(jacobian: np.ndarray, direction: np.ndarray | None,
+                   residual: np.ndarray) -> float:
+    """Standard deviation of the fitted delta log E (Gauss-Newton linearization).
+
+    The residual left by the fit gives the scatter per coordinate, s^2 = |r|^2 / (N - p) (N
+    coordinates, p = 1 or 2 parameters); var(delta) = s^2 [(A^T A)^-1]_00 with A = [J, d]: the
+    discretization direction takes its share of the information when it is fitted too.
+
+    Parameters
+    ----------
+    jacobian : numpy.ndarray
+        (n + 1, 3) d x / d log E [m].
+    direction : numpy.ndarray or None
+        (n + 1, 3) the discretization direction d [m], or None (E alone).
+    residual : numpy.ndarray
+        (n + 1, 3) what the fit leaves: measured minus the fitted model [m].
+
+    Returns
+    -------
+    float
+        sd(ln E) (inf when the shape does not depend on E).
+    """
+    columns = [jacobian.ravel()] + ([] if direction is None else [direction.ravel()])
+    a = np.stack(columns, axis=1)
+    dof = max(a.shape[0] - a.shape[1], 1)
+    s2 = float(residual.ravel() @ residual.ravel()) / dof
+    normal = a.T @ a
+    try:
+        inverse = np.linalg.inv(normal)
+    except np.linalg.LinAlgError:
+        return math.inf
+    variance = s2 * float(inverse[0, 0])
+    return math.sqrt(variance) if variance >= 0 and math.isfinite(variance) else math.inf
+
+
+def grip_direction(cable: Cable, shape: np.ndarray, clips: ClipPoses, *,
+                   gravity=GRAVITY) -> np.ndarray:
+    """The change of the model's shape when each gripper clamps half a link more cable.
+
+    A real gripper's jaws end somewhere near the clip, not exactly where the model's held link
+    does (L / n). The chain on 2 n links clamps 2 of its links (the model's grip) and 3 (half a
+    model link more); the difference, resampled onto the model's points, is the shape's
+    response to the clamp length, used for the prediction's uncertainty (:mod:`.step`).
+
+    Parameters
+    ----------
+    cable : Cable
+        The model cable (n links).
+    shape : numpy.ndarray
+        (n + 1, 3) its equilibrium at ``clips`` [m] (the branch).
+    clips : ClipPoses
+        The clip poses.
+    gravity : array_like
+        Gravity [m/s^2].
+
+    Returns
+    -------
+    numpy.ndarray
+        (n + 1, 3) [m] per L / (2 n) of clamp length.
+    """
+    fine = cable.with_links(2 * cable.n_links)
+    chain = SpringChain.from_cable(fine, gravity)
+    guess = resample_by_arc_length(shape, fine.n_points)
+    shapes = []
+    for links in (2, 3):
+        guess, stable, message = clamped_equilibrium(fine, guess, clips, links, gravity=gravity,
+                                                     chain=chain)
+        if not stable:
+            raise CorrectionRefused(f"model: the refined model (n = {fine.n_links}) clamped over "
+                                    f"{links} links finds no stable equilibrium ({message})")
+        shapes.append(resample_by_arc_length(guess, cable.n_points))
+    return shapes[1] - shapes[0]

@@ -78,7 +78,8 @@ class Plant:
             return 1
         return max(1, round(self.clamp / self.cable.rest_link_length))
 
-    def hold(self, shape: np.ndarray, clips: ClipPoses, gravity=GRAVITY, rtol: float = 1e-9):
+    def hold(self, shape: np.ndarray, clips: ClipPoses, gravity=GRAVITY,
+             rtol: float | None = None):
         """The plant's equilibrium held by ``clips`` from the guess ``shape``.
 
         Returns
@@ -244,7 +245,8 @@ def shape_error(shape: np.ndarray, reference: np.ndarray) -> float:
 
 
 def reachable_error(plant: Plant, clips: ClipPoses, reference: np.ndarray, guess: np.ndarray, *,
-                    limits: CorrectionLimits | None = None, gravity=GRAVITY) -> float:
+                    limits: CorrectionLimits | None = None, gravity=GRAVITY,
+                    max_evaluations: int = 200) -> float:
     """The floor: the least final error [m] any correction of ``clips`` within ``limits`` leaves.
 
     A bounded least-squares fit (:func:`scipy.optimize.least_squares`, finite differences on the
@@ -264,6 +266,10 @@ def reachable_error(plant: Plant, clips: ClipPoses, reference: np.ndarray, guess
         (n_plant + 1, 3) the plant's shape at ``clips`` (selects the branch) [m].
     limits : CorrectionLimits, optional
         The bounds of the correction (default :class:`~.step.CorrectionLimits`).
+    gravity : array_like
+        Gravity [m/s^2].
+    max_evaluations : int
+        Plant solves at most (a slow plant, another simulator, gets fewer).
     """
     limits = CorrectionLimits() if limits is None else limits
     scale = np.tile(np.r_[np.ones(3), np.full(3, 0.5 * plant.cable.length)], 2)
@@ -277,7 +283,7 @@ def reachable_error(plant: Plant, clips: ClipPoses, reference: np.ndarray, guess
                 - resample_by_arc_length(reference, n_points)).ravel()
 
     fit = least_squares(residual, np.zeros(12), bounds=(-bound, bound), x_scale=bound,
-                        diff_step=1e-3, max_nfev=200)
+                        diff_step=1e-3, max_nfev=max_evaluations)
     x, _, _ = plant.hold(guess, perturbed_clips(clips, fit.x / scale), gravity)
     return shape_error(x, reference)
 

@@ -45,12 +45,19 @@ from scipy.spatial.transform import Rotation
 from ..cable import GRAVITY, Cable
 from ..geometry import as_path, resample_by_arc_length
 from ..grippers import GripperPath, relative_twist
+from ..least_squares import Damping, damped_minimize
 from ..physics.chain import SpringChain
 from ..sim import ClipPoses, continuation, equilibrium
 from ..sim.sensitivity import equilibrium_sensitivity, perturbed_clips
 from ..trajectory import Trajectory, trajectory_from_grippers
 from .measurement import MAX_DISAGREEMENT, CorrectionRefused, resample_measured
-from .model_error import clamped_equilibrium, discretization_error, fit_model_error
+from .model_error import (
+    clamped_equilibrium,
+    discretization_error,
+    fit_model_error,
+    grip_direction,
+    log_modulus_sd,
+)
 
 REFERENCES = ("stabilized", "planned")
 
@@ -59,6 +66,13 @@ MODULUS_STEP_TOLERANCE = 0.01
 
 MAX_LOG_STEP = math.log(2.0)
 """Largest change of log E in one Gauss-Newton step (a factor 2 in E)."""
+
+GRIP_UNCERTAINTY = 0.25
+"""The clamp length's uncertainty in model links: a gripper's jaws end within L / (4 n) of where
+the model's held link ends (a 20 mm grip on 25 mm links is 0.2)."""
+
+SIGNIFICANCE = 2.0
+"""E is updated only when the measurement's first step is at least this many sd(ln E)."""
 
 COST_TOLERANCE = 1e-3
 """The clip fit stops once an iteration lowers the squared error by less than this fraction."""
@@ -123,6 +137,10 @@ class ModelUpdate:
     discretization : float
         alpha, the measured amplitude of the discretization error carried as a bias
         (:mod:`.model_error`; 0 when not estimated).
+    log_sd : float
+        Standard deviation of ln E the measurement gives (inf when not computed).
+    note : str
+        Why E was kept, when it was ("" when it was updated).
     """
 
     youngs_modulus_before: float
@@ -132,6 +150,8 @@ class ModelUpdate:
     steps: int
     state: np.ndarray
     discretization: float = 0.0
+    log_sd: float = math.inf
+    note: str = ""
 
 
 @dataclass(frozen=True, eq=False)
@@ -150,16 +170,28 @@ class Correction:
         The updated model cable (E).
     reference : numpy.ndarray
         (T - K, n + 1, 3) the shapes the remaining motion should produce [m].
-    open_loop, corrected : numpy.ndarray
+    open_loop, corrected : numpy.ndarray or None
         (T - K, n + 1, 3) the updated model's predictions of the remaining shapes with the
-        planned and with the corrected clips [m].
+        planned and with the corrected clips [m], the discretization bias alpha d included:
+        what the cable is expected to do.
+    equilibria : numpy.ndarray or None
+        (T - K, n + 1, 3) the updated model's stable equilibria at the corrected clips [m], the
+        bias not included: the stabilized shapes of the corrected plan, which ``dloplan
+        verify`` checks as equilibria of the model the plan states.
+    uncertainty : dict
+        The prediction's error budget at the target [m]: ``unexplained`` (what the updated
+        model leaves at shape K: the model errors it cannot represent, measurement offset and
+        noise), ``grip`` (a clamp length L / (4 n) off the model's, :data:`GRIP_UNCERTAINTY`),
+        ``modulus`` (2 sd of ln E); their sum bounds the final error's prediction interval
+        (:attr:`prediction_interval`). The three are None (``uncertainty`` empty) for a
+        correction made with ``predict=False``.
     clip_corrections : numpy.ndarray
         (T - K, 12) the corrections of the remaining shapes' clip coordinates
         (:data:`dloplan.sim.sensitivity.CLIP_COORDINATES`).
     grippers : GripperPath
         The whole gripper path with the remaining shapes corrected.
-    trajectory : Trajectory
-        Its timed dual-arm trajectory (shapes 0 .. K unchanged).
+    trajectory : Trajectory or None
+        Its timed dual-arm trajectory (shapes 0 .. K unchanged; None with ``predict=False``).
     remaining : Trajectory
         The trajectory from shape K to the target, starting at time 0: the program to run now.
     mode, reference_kind, model_error : str
@@ -182,11 +214,13 @@ class Correction:
     model: ModelUpdate
     cable: Cable
     reference: np.ndarray
-    open_loop: np.ndarray
-    corrected: np.ndarray
+    open_loop: np.ndarray | None
+    corrected: np.ndarray | None
+    equilibria: np.ndarray | None
+    uncertainty: dict
     clip_corrections: np.ndarray
     grippers: GripperPath
-    trajectory: Trajectory
+    trajectory: Trajectory | None
     remaining: Trajectory
     mode: str
     reference_kind: str
@@ -208,16 +242,34 @@ class Correction:
         return _mean_distance(self.corrected, self.reference)
 
     @property
+    def predicted_error(self) -> float:
+        """The predicted final error [m]: the corrected prediction's, but never below what the
+        model could not explain at shape K (it is there at the target too)."""
+        return max(float(self.corrected_error[-1]), self.uncertainty["unexplained"])
+
+    @property
+    def prediction_interval(self) -> tuple[float, float]:
+        """(low, high) of the final error [m]: the corrected prediction's error plus or minus
+        the sum of :attr:`uncertainty` (mean distances add at most: triangle inequality)."""
+        p = float(self.corrected_error[-1])
+        spread = sum(self.uncertainty.values())
+        return max(0.0, p - spread), p + spread
+
+    @property
     def message(self) -> str:
         """One line: the modulus update and the predicted final errors."""
         m = self.model
         bias = (f", discretization bias x{m.discretization:.2f}" if self.model_error ==
                 "discretization" else "")
-        return (f"corrected at shape {self.at}: E {m.youngs_modulus_before:.3g} -> "
+        head = (f"corrected at shape {self.at}: E {m.youngs_modulus_before:.3g} -> "
                 f"{m.youngs_modulus:.3g} Pa{bias} (measured vs model "
-                f"{1e3 * m.residual_before:.1f} -> {1e3 * m.residual_after:.1f} mm); "
-                f"predicted final error {1e3 * self.open_loop_error[-1]:.1f} mm open loop, "
-                f"{1e3 * self.corrected_error[-1]:.1f} mm corrected")
+                f"{1e3 * m.residual_before:.1f} -> {1e3 * m.residual_after:.1f} mm)")
+        if self.corrected is None:
+            return head + "; no predictions (predict=False)"
+        return (f"{head}; predicted final error {1e3 * self.open_loop_error[-1]:.1f} mm open loop, "
+                f"{1e3 * self.predicted_error:.1f} mm corrected (interval "
+                f"{1e3 * self.prediction_interval[0]:.1f} - "
+                f"{1e3 * self.prediction_interval[1]:.1f} mm)")
 
     def report(self) -> dict:
         """The correction as JSON-ready values (SI units)."""
@@ -234,8 +286,14 @@ class Correction:
             "model_error": self.model_error,
             "discretization_alpha": m.discretization,
             "shapes": list(range(self.at + 1, self.at + 1 + len(self.reference))),
-            "open_loop_error": self.open_loop_error.tolist(),
-            "corrected_error": self.corrected_error.tolist(),
+            **({} if self.corrected is None else {
+                "open_loop_error": self.open_loop_error.tolist(),
+                "corrected_error": self.corrected_error.tolist(),
+                "predicted_error": self.predicted_error,
+                "prediction_interval": list(self.prediction_interval),
+                "uncertainty": dict(self.uncertainty)}),
+            "log_modulus_sd": m.log_sd if math.isfinite(m.log_sd) else None,
+            "modulus_note": m.note,
             "clip_corrections": self.clip_corrections.tolist(),
             "iterations": self.iterations,
             "seconds": self.seconds,
@@ -259,6 +317,14 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     With ``discretization``, each step fits log E and the amplitude alpha of the discretization
     error together (:func:`.model_error.fit_model_error`): measured ~ x(E) + alpha d.
 
+    E is only changed when the measurement tells it: a first step smaller than
+    :data:`SIGNIFICANCE` standard deviations of ln E (:func:`.model_error.log_modulus_sd`, the
+    scatter the fit leaves) keeps E, with the reason in ``ModelUpdate.note`` (a measurement
+    equal to the plan's prediction plus noise, or a shape that hardly depends on E). A step is
+    at most a factor 2 in E (a trust region); steps cut by it do not count against ``steps``, so
+    the updates reach any factor up to ``max_factor`` and a measurement asking for more is
+    refused.
+
     Parameters
     ----------
     cable : Cable
@@ -268,8 +334,8 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     clips : ClipPoses
         The clip poses it was measured at.
     steps : int
-        Most Gauss-Newton steps (0: only the residual is computed); they stop early once a step
-        changes E by less than 1 % (:data:`MODULUS_STEP_TOLERANCE`).
+        Most Gauss-Newton steps within the trust region (0: only the residual is computed);
+        they stop early once a step changes E by less than 1 % (:data:`MODULUS_STEP_TOLERANCE`).
     max_factor : float
         Refuse an update that changes E by more than this factor.
     gravity : array_like
@@ -279,6 +345,11 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         shape, already an equilibrium of ``cable`` on the same branch, saves the iterations).
     discretization : bool
         Also estimate the discretization error's amplitude (:mod:`.model_error`).
+
+    Raises
+    ------
+    CorrectionRefused
+        When the measurement asks for E more than ``max_factor`` times off the plan's.
     """
     log_e0 = math.log(cable.youngs_modulus)
     log_e = log_e0
@@ -286,31 +357,46 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     chain = SpringChain.from_cable(model, gravity)
     eq = _solve(model, measured if guess is None else guess, clips, gravity, chain)
     residual0 = float(np.mean(np.linalg.norm(eq.shape - measured, axis=1)))
-    taken, alpha, direction = 0, 0.0, None
+    taken, alpha, direction, log_sd, note = 0, 0.0, None, math.inf, ""
     fine = resample_by_arc_length(eq.shape, 2 * cable.n_links + 1)  # refined, warm from E to E
-    for _ in range(steps):
+    limit = math.log(max_factor)
+    budget = steps + math.ceil(limit / MAX_LOG_STEP) + 1 if steps > 0 else 0
+    full = 0
+    for _ in range(budget):
         sens = equilibrium_sensitivity(model, eq.shape, clips, chain=chain)
         if discretization:
             direction = discretization_error(model, eq.shape, clips, gravity=gravity,
                                              fine_guess=fine)
-        step, alpha = fit_model_error(sens.log_modulus, direction, measured - eq.shape)
+        residual = measured - eq.shape
+        step, alpha = fit_model_error(sens.log_modulus, direction, residual)
         if float(np.sum(sens.log_modulus**2)) <= 1e-24 * cable.length**2:
-            break  # the shape does not depend on E here (no sag)
-        step = max(-MAX_LOG_STEP, min(MAX_LOG_STEP, step))  # a trust region: E x2 per step
-        log_e += step
-        if abs(log_e - log_e0) > math.log(max_factor):
+            note = "the measured shape does not depend on E here (no sag): E kept"
+            break
+        if taken == 0:
+            left = residual - step * sens.log_modulus - (0.0 if direction is None
+                                                          else alpha * direction)
+            log_sd = log_modulus_sd(sens.log_modulus, direction, left)
+            if not abs(step) >= SIGNIFICANCE * log_sd:
+                note = (f"the measurement does not inform E: it asks for a change of "
+                        f"{100 * math.expm1(step):+.1f} % with sd(ln E) = {log_sd:.3g} (less "
+                        f"than {SIGNIFICANCE:g} sd): E kept")
+                break
+        clipped = max(-MAX_LOG_STEP, min(MAX_LOG_STEP, step))  # a trust region: E x2 per step
+        if abs(log_e + clipped - log_e0) > limit:
             raise CorrectionRefused(
-                f"modulus: the measurement asks for E = {math.exp(log_e):.3g} Pa, more than "
-                f"{max_factor:g} times off the plan's {cable.youngs_modulus:.3g} Pa (limit "
-                "max_modulus_factor)"
+                f"modulus: the measurement asks for E = {math.exp(log_e + step):.3g} Pa or "
+                f"beyond, more than {max_factor:g} times off the plan's "
+                f"{cable.youngs_modulus:.3g} Pa (limit max_modulus_factor)"
             )
+        log_e += clipped
         model = cable.with_modulus(math.exp(log_e))
         chain = SpringChain.from_cable(model, gravity)
-        guess = sens.predict(delta_log_modulus=step)
+        guess = sens.predict(delta_log_modulus=clipped)
         eq = _resolve(model, guess, clips, gravity, chain) or _solve(model, guess, clips, gravity,
                                                                      chain)
         taken += 1
-        if abs(step) < MODULUS_STEP_TOLERANCE:
+        full += clipped == step
+        if abs(clipped) < MODULUS_STEP_TOLERANCE or full >= steps:
             break
     if direction is not None:  # alpha at the final E (the direction barely moved with it)
         alpha = fit_model_error(np.zeros_like(direction), direction, measured - eq.shape)[1]
@@ -319,7 +405,7 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         bias = 0.0
     residual = float(np.mean(np.linalg.norm(eq.shape + bias - measured, axis=1)))
     return ModelUpdate(cable.youngs_modulus, model.youngs_modulus, residual0, residual,
-                       taken, eq.shape, alpha)
+                       taken, eq.shape, alpha, log_sd, note)
 
 
 @dataclass(frozen=True, eq=False)
@@ -338,7 +424,7 @@ def _resolve(cable: Cable, guess: np.ndarray, clips: ClipPoses, gravity,
     conforming and the clip reactions of :func:`dloplan.sim.equilibrium`; None when it does
     not converge or the clips are out of the cable's reach.
     """
-    x, converged, _ = clamped_equilibrium(cable, guess, clips, 1, gravity=gravity, rtol=1e-10,
+    x, converged, _ = clamped_equilibrium(cable, guess, clips, 1, gravity=gravity,
                                           chain=chain)
     reach = (cable.n_links - 2) * cable.rest_link_length
     if not converged or np.linalg.norm(x[-2] - x[1]) > reach:
@@ -392,39 +478,67 @@ def fit_clips(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess: np.n
     return _levenberg_marquardt(cable, clips, reference, eq, p, limits, gravity, chain)
 
 
+CLIP_DAMPING = Damping(initial=1e-3, start=1e-9, increase=8.0, decrease=4.0, minimum=1e-9,
+                       good=0.0, poor=0.0)
+"""The clip fit's damping (:class:`dloplan.least_squares.Damping`): mu diag(J^T J) from 1e-3,
+four times smaller after every accepted step (down to 1e-9), eight times larger after a
+rejected one."""
+
+MAX_TRIALS = 10
+"""Trials per Levenberg-Marquardt iteration of the clip fit before it stops."""
+
+
+@dataclass(frozen=True, eq=False)
+class _ClipSystem:
+    """One Levenberg-Marquardt iteration of the clip fit: J^T J, J^T r in the scaled
+    coordinates z = scale p, and the sensitivity for the trials' warm start."""
+
+    a: np.ndarray
+    b: np.ndarray
+    scale: np.ndarray
+    sens: object
+
+    def solve(self, shift: float) -> np.ndarray:
+        damped = self.a + shift * np.diag(np.diag(self.a)) + 1e-12 * np.trace(self.a) * np.eye(12)
+        return -np.linalg.solve(damped, self.b) / self.scale
+
+    def predicted(self, step, shift: float) -> None:
+        return None  # every trial is an exact equilibrium: accepted when the cost does not rise
+
+
 def _levenberg_marquardt(cable: Cable, clips: ClipPoses, reference: np.ndarray, eq, p: np.ndarray,
                          limits: CorrectionLimits, gravity, chain: SpringChain):
-    """:func:`fit_clips` from ``eq``, the equilibrium already solved at ``clips`` + ``p``."""
+    """:func:`fit_clips` from ``eq``, the equilibrium already solved at ``clips`` + ``p``, by
+    the shared damped least-squares loop (:func:`dloplan.least_squares.damped_minimize`): the
+    system is J^T J with the Jacobian of the equilibrium, each trial an exact equilibrium
+    warm-started from the linear prediction."""
     scale = np.tile(np.r_[np.ones(3), np.full(3, 0.5 * cable.length)], 2)  # z = scale * p
-    r = (eq.shape - reference).ravel()
-    cost = float(r @ r)
-    mu = 1e-3
-    iterations = 0
-    for iterations in range(1, limits.iterations + 1):  # noqa: B007 (the count is returned)
-        sens = equilibrium_sensitivity(cable, eq.shape, eq.clips, chain=chain)
+
+    def residual(held):
+        return (held.shape - reference).ravel()
+
+    def linearize(state):
+        held, _ = state
+        sens = equilibrium_sensitivity(cable, held.shape, held.clips, chain=chain)
         jz = sens.clips.reshape(-1, 12) / scale
-        a = jz.T @ jz
-        b = jz.T @ r
-        improved = False
-        for _ in range(10):
-            damped = a + mu * np.diag(np.diag(a)) + 1e-12 * np.trace(a) * np.eye(12)
-            trial_p = p - np.linalg.solve(damped, b) / scale
-            # warm start from the linear prediction: Newton then needs few iterations
-            trial = _resolve(cable, sens.predict(trial_p - p), perturbed_clips(clips, trial_p),
-                             gravity, chain)
-            if trial is not None:
-                r_trial = (trial.shape - reference).ravel()
-                cost_trial = float(r_trial @ r_trial)
-                if cost_trial < cost:
-                    improved = cost - cost_trial > COST_TOLERANCE * cost
-                    p, eq, r, cost = trial_p, trial, r_trial, cost_trial
-                    mu = max(mu / 4.0, 1e-9)
-                    break
-            mu *= 8.0
-        if not improved:
-            break
+        return _ClipSystem(jz.T @ jz, jz.T @ residual(held), scale, sens)
+
+    def evaluate(state, step, system):
+        held, p_now = state
+        trial = _resolve(cable, system.sens.predict(step), perturbed_clips(clips, p_now + step),
+                         gravity, chain)
+        if trial is None:
+            return None
+        r = residual(trial)
+        return (trial, p_now + step), float(r @ r)
+
+    r = residual(eq)
+    run = damped_minimize((eq, p), float(r @ r), linearize, evaluate, CLIP_DAMPING,
+                          max_iterations=limits.iterations, max_trials=MAX_TRIALS,
+                          stop_gain=COST_TOLERANCE)
+    eq, p = run.state
     _check_bounds(p, limits)
-    return p, eq, iterations
+    return p, eq, run.iterations
 
 
 def _check_bounds(p: np.ndarray, limits: CorrectionLimits) -> None:
@@ -455,6 +569,7 @@ def correct_plan(
     model_error: str = "discretization",
     limits: CorrectionLimits = CorrectionLimits(),
     gravity=GRAVITY,
+    predict: bool = True,
 ) -> Correction:
     """Correct the rest of a plan from the shape measured at shape ``at`` (module docstring).
 
@@ -490,6 +605,10 @@ def correct_plan(
         Bounds beyond which the correction is refused.
     gravity : array_like
         Gravity [m/s^2].
+    predict : bool
+        Also time the whole corrected path and predict the remaining shapes open loop and
+        corrected, with the interval (default); False stops when the remaining motion is ready
+        (a correction service's fast answer).
 
     Raises
     ------
@@ -563,16 +682,7 @@ def correct_plan(
     now = trajectory_from_grippers(sliced_grippers(new_grippers, at), **timing)
     seconds = time.perf_counter() - t0  # the robot can go on: the rest is for the record
     cpu_seconds = time.thread_time() - cpu0
-    new_trajectory = trajectory_from_grippers(new_grippers, **timing)
-    # the predictions of the updated model from the measured state: planned vs corrected clips
-    alpha = update.discretization
-    open_loop = _predict(model, update.state, remaining, gravity, alpha)
-    corrected_clips = [perturbed_clips(c, p) for c, p in zip(remaining, corrections, strict=True)]
-    corrected = (np.stack([_with_bias(model, x, c, alpha, gravity)
-                           for x, c in zip(fitted, corrected_clips, strict=True)])
-                 if mode == "all" else _predict(model, update.state, corrected_clips, gravity,
-                                                alpha))
-    warnings = []
+    warnings = [f"modulus: {update.note}"] if update.note else []
     if update.residual_after > 0.5 * update.residual_before and update.residual_before > 0:
         what, other = (("E and the discretization bias", "rest shape, grip, measurement noise")
                        if model_error == "discretization" else
@@ -582,14 +692,30 @@ def correct_plan(
             f"({1e3 * update.residual_before:.1f} -> {1e3 * update.residual_after:.1f} mm): "
             f"another cause ({other}) dominates"
         )
-    return Correction(
-        at=at, measured=y, model=update, cable=model, reference=np.asarray(wanted),
-        open_loop=open_loop, corrected=corrected, clip_corrections=np.asarray(corrections),
-        grippers=new_grippers, trajectory=new_trajectory, remaining=now, mode=mode,
-        reference_kind=reference, model_error=model_error, iterations=iterations, seconds=seconds,
-        prediction_seconds=time.perf_counter() - t0 - seconds, cpu_seconds=cpu_seconds,
-        warnings=tuple(warnings),
-    )
+    common = dict(at=at, measured=y, model=update, cable=model, reference=np.asarray(wanted),
+                  clip_corrections=np.asarray(corrections), grippers=new_grippers,
+                  remaining=now, mode=mode, reference_kind=reference, model_error=model_error,
+                  iterations=iterations, seconds=seconds, cpu_seconds=cpu_seconds,
+                  warnings=tuple(warnings))
+    if not predict:
+        return Correction(open_loop=None, corrected=None, equilibria=None, uncertainty={},
+                          trajectory=None, prediction_seconds=0.0, **common)
+    new_trajectory = trajectory_from_grippers(new_grippers, **timing)
+    # the predictions of the updated model from the measured state: planned vs corrected clips
+    alpha = update.discretization
+    open_loop = _predict(model, update.state, remaining, gravity, alpha)[1]
+    corrected_clips = [perturbed_clips(c, p) for c, p in zip(remaining, corrections, strict=True)]
+    if mode == "all":
+        equilibria = np.stack(fitted)
+        corrected = np.stack([_with_bias(model, x, c, alpha, gravity)
+                              for x, c in zip(fitted, corrected_clips, strict=True)])
+    else:
+        equilibria, corrected = _predict(model, update.state, corrected_clips, gravity, alpha)
+    uncertainty = _uncertainty(model, equilibria[-1], corrected_clips[-1], update, gravity,
+                               model_chain)
+    return Correction(open_loop=open_loop, corrected=corrected, equilibria=equilibria,
+                      uncertainty=uncertainty, trajectory=new_trajectory,
+                      prediction_seconds=time.perf_counter() - t0 - seconds, **common)
 
 
 def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess: np.ndarray,
@@ -623,16 +749,30 @@ def _with_bias(cable: Cable, shape: np.ndarray, clips: ClipPoses, alpha: float,
     return shape + alpha * discretization_error(cable, shape, clips, gravity=gravity)
 
 
-def _predict(cable: Cable, state: np.ndarray, clips, gravity, alpha: float = 0.0) -> np.ndarray:
-    """Quasi-static continuation from ``state`` along ``clips`` plus the bias, (len(clips), n + 1,
-    3)."""
+def _predict(cable: Cable, state: np.ndarray, clips, gravity, alpha: float = 0.0):
+    """Quasi-static continuation from ``state`` along ``clips``: the equilibria and the same plus
+    the bias, each (len(clips), n + 1, 3)."""
     runs = continuation(cable, state, clips, gravity=gravity)
-    failed = [k for k, eq in enumerate(runs) if not eq.converged]
+    failed = [k for k, eq in enumerate(runs) if not eq.success]
     if failed:
-        raise CorrectionRefused(f"prediction: the model finds no equilibrium at the remaining "
-                                f"shape {failed[0]} ({runs[failed[0]].message})")
-    return np.stack([_with_bias(cable, eq.shape, c, alpha, gravity)
-                     for eq, c in zip(runs, clips, strict=True)])
+        raise CorrectionRefused(f"prediction: the model finds no stable equilibrium at the "
+                                f"remaining shape {failed[0]} ({runs[failed[0]].message})")
+    shapes = np.stack([eq.shape for eq in runs])
+    return shapes, np.stack([_with_bias(cable, x, c, alpha, gravity)
+                             for x, c in zip(shapes, clips, strict=True)])
+
+
+def _uncertainty(cable: Cable, shape: np.ndarray, clips: ClipPoses, update: ModelUpdate,
+                 gravity, chain: SpringChain) -> dict:
+    """The error budget of the final prediction [m] (:attr:`Correction.uncertainty`)."""
+    grip = grip_direction(cable, shape, clips, gravity=gravity)
+    modulus = 0.0
+    if math.isfinite(update.log_sd):
+        jacobian = equilibrium_sensitivity(cable, shape, clips, chain=chain).log_modulus
+        modulus = 2.0 * update.log_sd * float(np.mean(np.linalg.norm(jacobian, axis=1)))
+    return {"unexplained": update.residual_after,
+            "grip": 2.0 * GRIP_UNCERTAINTY * float(np.mean(np.linalg.norm(grip, axis=1))),
+            "modulus": modulus}
 
 
 def _corrected_grippers(grippers: GripperPath, at: int, remaining, corrections) -> GripperPath:

@@ -24,9 +24,11 @@ Steps of :func:`identify_youngs_modulus`:
    is reported with its cost.
 3. **Discretization error.** The best E is fitted again with 2n links (Gauss-Newton from the
    first E). With an error of E(n) of first order in 1/n (the clip holds half a link of cable
-   outside its point), E(n) - E(inf) ~ 2 (E(n) - E(2n)): the 95 % interval of ln E is widened by
-   that amount, 2 |ln E(n) - ln E(2n)|, added to the statistical half-width (a bias, not a
-   random error).
+   outside its point), E(n) - E(inf) ~ 2 (E(n) - E(2n)): the first-order extrapolate lies that
+   far from E(n), so the 95 % interval of ln E is widened by half as much again,
+   ``DISCRETIZATION_COVER`` |ln E(n) - ln E(2n)| = 3 |...|, added to the statistical half-width
+   (a bias, not a random error; with 2 |...| the extrapolate sat on the interval's edge and the
+   truth fell outside at n = 16, issue 35).
 4. **Path check** (``"branch"`` only). The manipulation simulated quasi-statically at the
    identified E must end on the measured branch; if not, a warning (the model cannot reproduce
    the measured manipulation, although the measured shape is one of its equilibria).
@@ -73,6 +75,10 @@ DEFAULT_BOUNDS = (1e5, 1e10)
 
 MAX_LOG_SD = 0.1
 """Largest standard deviation of ln E of an informative experiment."""
+
+DISCRETIZATION_COVER = 3.0
+"""The interval's discretization term in units of |ln E(n) - ln E(2n)|: 2 to the first-order
+extrapolate E(inf), and 1 more for the noise on it and the higher orders of a coarse n."""
 
 MAX_NOISE_RATIO = 3.0
 """Largest residual sigma_hat / stated noise of a successful fit."""
@@ -496,7 +502,7 @@ def _conclude(cable, experiment, prepared, search, minima: list[Minimum], settin
                                                                               math.log(hi)))
         all_searches.append(fine_search)
         if math.isfinite(s_fine):
-            disc = 2.0 * abs(s_fine - sample.s)
+            disc = DISCRETIZATION_COVER * abs(s_fine - sample.s)
             if disc > MAX_DISCRETIZATION:
                 warnings.append(
                     f"discretization error: E with {2 * cable.n_links} links is "

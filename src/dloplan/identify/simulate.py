@@ -42,7 +42,7 @@ import scipy.sparse.linalg as spla
 
 from ..cable import GRAVITY, Cable
 from ..physics.chain import SpringChain, forces, hessian
-from ..sim.statics import continuation, equilibrium, force_scale
+from ..sim.statics import continuation, equilibrium
 from .experiment import Manipulation
 
 SIMULATORS = ("branch", "static", "dynamic")
@@ -121,18 +121,6 @@ RTOL = 1e-10
 """Relative force tolerance of the equilibria (as :func:`dloplan.sim.statics.equilibrium`)."""
 
 
-def relative_tolerance(cable: Cable, gravity=GRAVITY) -> float:
-    """``rtol`` of the equilibria: RTOL, or the round-off floor of stiff axial springs.
-
-    An axial modulus far above the bending one (a composite cable's copper, 1e3 times its
-    bending modulus) leaves a force residual of about eps k_s L from round-off alone, which can
-    exceed RTOL times the statics' force scale (a point's weight plus k_b / l); the tolerance
-    is raised to 10 eps k_s L, still a tiny fraction of the weights.
-    """
-    floor = 10.0 * np.finfo(float).eps * cable.k_axial * cable.length
-    return max(RTOL, floor / force_scale(cable, gravity))
-
-
 def free_slice(cable: Cable, held: str) -> slice:
     """The points not held by the clips: 2 .. n-2 (both clips) or 2 .. n (first clip only)."""
     return slice(2, cable.n_points - 2 if held == "both" else cable.n_points)
@@ -189,7 +177,7 @@ def final_equilibrium(cable: Cable, manipulation: Manipulation, guess: np.ndarra
     """
     result = equilibrium(cable, guess, manipulation.final_clips, gravity=manipulation.gravity,
                          held=manipulation.held,
-                         rtol=relative_tolerance(cable, manipulation.gravity))
+                         rtol=None)
     return _finish(cable, manipulation, result.shape[None], result.success,
                    "" if result.success else f"final equilibrium failed: {result.message}",
                    result.iterations)
@@ -225,7 +213,7 @@ def run_manipulation(
     if simulator == "dynamic":
         return _run_dynamic(cable, manipulation, initial, dynamic or DynamicSettings())
     gravity = manipulation.gravity
-    rtol = relative_tolerance(cable, gravity)
+    rtol = None  # the static solvers' default: RTOL, or the round-off floor
     if warm_start is None:
         results = continuation(cable, initial, manipulation.clips, gravity=gravity,
                                held=manipulation.held, rtol=rtol)

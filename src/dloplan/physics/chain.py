@@ -100,7 +100,9 @@ class SpringChain:
         Without contacts, the chain of a cable and gravity is built once and then reused.
 
         ``contacts``: obstacles the cable rests on or wraps around (pegs, plates, the table),
-        with the penalty stiffness ``contact_stiffness`` [N/m] (default 100 k_s).
+        with the penalty stiffness ``contact_stiffness`` [N/m] (default 100 E A / l: a hundred
+        times the axial springs of the bending modulus E, so a composite cable's copper axial
+        modulus does not make the penalty a thousand times stiffer).
         """
         g = np.asarray(gravity, dtype=float)
         if g.shape != (3,) or not np.all(np.isfinite(g)):
@@ -112,7 +114,8 @@ class SpringChain:
         chain = cls(
             contacts=tuple(contacts),
             contact_radius=cable.diameter / 2,
-            contact_stiffness=100.0 * cable.k_axial if contact_stiffness is None
+            contact_stiffness=100.0 * cable.youngs_modulus * cable.area / cable.rest_link_length
+            if contact_stiffness is None
             else float(contact_stiffness),
             k_axial=cable.k_axial,
             rest_lengths=np.full(cable.n_links, cable.rest_link_length),

@@ -401,10 +401,21 @@ fictitious modulus for the explicit time step (thesis Fig. 6.5), so its replay t
 few hundred thousand steps instead of tens of millions."""
 
 
+REPLAY_AXIAL_CAP = 1e8
+"""Largest axial modulus E_a [Pa] the dynamic replay steps with (when E is below it): a
+composite cable's copper (2e9 Pa) would shrink the explicit time step 16 times (Ethernet) for
+shapes within 0.01-0.25 mm of E_a = 1e8 Pa's (docs/decisions.md)."""
+
+
 def replay_modulus_cap(cable, progress=quiet) -> float | None:
-    """The fictitious modulus of a stiff cable's replay (None: the cable's own E)."""
+    """The fictitious modulus of a stiff cable's replay (None: the cable's own E and E_a)."""
     if cable.youngs_modulus <= REPLAY_MODULUS_CAP:
-        return None
+        cap = max(REPLAY_AXIAL_CAP, cable.youngs_modulus)
+        if cable.axial_youngs_modulus <= cap:
+            return None
+        progress(f"replay: the axial modulus {cable.axial_youngs_modulus:.3g} Pa is stepped with "
+                 f"{cap:.3g} Pa (docs/decisions.md)")
+        return cap
     progress(f"replay: E = {cable.youngs_modulus:.3g} Pa is stepped with the fictitious "
              f"modulus {REPLAY_MODULUS_CAP:.0e} Pa (thesis Fig. 6.5)")
     return REPLAY_MODULUS_CAP

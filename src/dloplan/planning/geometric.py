@@ -58,6 +58,7 @@ from scipy.linalg import solve_banded
 from scipy.sparse.linalg import splu
 
 from ..geometry import bending_angles, link_lengths
+from ..least_squares import Damping
 from ..physics.axial import axial_energy, axial_gradient
 from ..physics.bending import bending_energy, bending_gradient
 from .grid_newton import (
@@ -377,19 +378,21 @@ RATIO_POOR = 0.25
 the two it is kept."""
 
 
+PLANNER_DAMPING = Damping(start=SHIFT_START, increase=10.0, decrease=SHIFT_DECREASE,
+                          reset_below=SHIFT_FLOOR, good=RATIO_GOOD, poor=RATIO_POOR)
+"""The advanced stage's damping policy, in the shared form (:class:`dloplan.least_squares.
+Damping`)."""
+
+
 def next_shift(shift: float, ratio: float) -> float:
     """The Levenberg-Marquardt shift after a trial whose actual / predicted decrease is ``ratio``.
 
     A rejected trial (``ratio`` = -inf: the cost did not fall) and a poor model (``ratio`` <
     :data:`RATIO_POOR`) raise the shift tenfold, at least to :data:`SHIFT_START`; a good one
     (``ratio`` >= :data:`RATIO_GOOD`) lowers it by :data:`SHIFT_DECREASE`, to 0 from
-    :data:`SHIFT_FLOOR`; in between it stays.
+    :data:`SHIFT_FLOOR`; in between it stays (:data:`PLANNER_DAMPING`).
     """
-    if ratio < RATIO_POOR:
-        return max(10.0 * shift, SHIFT_START)
-    if ratio < RATIO_GOOD:
-        return shift
-    return 0.0 if shift <= SHIFT_FLOOR else shift / SHIFT_DECREASE
+    return PLANNER_DAMPING.after(shift, ratio)
 
 
 def _damped_newton(problem: AdvancedProblem, y: np.ndarray, gtol: float, max_iterations: int,
@@ -445,7 +448,7 @@ def _damped_newton(problem: AdvancedProblem, y: np.ndarray, gtol: float, max_ite
             # g^T p by einsum: a threaded BLAS dot costs 10-20 ms on a loaded machine
             slope = np.nan if step is None else float(np.einsum("i,i->", g.ravel(), step))
             if step is None or not (np.all(np.isfinite(step)) and slope < 0.0):
-                shift = max(10.0 * shift, SHIFT_START)
+                shift = PLANNER_DAMPING.raised(shift)
                 continue
             decrement = -slope  # twice the predicted decrease
             # a round-off decrement ends the iteration only with a small gradient: with

@@ -53,6 +53,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..cable import GRAVITY, Cable
+from ..least_squares import Damping, damped_minimize
 from ..physics.chain import SpringChain, hessian, sparse_to_band
 from ..physics.chain import forces as chain_forces
 from ..sim.clips import held_links_conformed
@@ -154,42 +155,57 @@ class ThesisCost:
         return (2.0 * (self.jacobian(x).T @ self.residuals(x).ravel())).reshape(x.shape)
 
 
+THESIS_DAMPING = Damping(initial=1e-3, start=1e-12, increase=8.0, decrease=5.0,
+                         minimum=1e-12, good=0.0, poor=0.0, maximum=1e12)
+"""The thesis-mode least squares' damping (:class:`dloplan.least_squares.Damping`): mu diag(J^T J)
+from 1e-3, five times smaller after an accepted step (down to 1e-12), eight times larger after
+a rejected one; beyond 1e12 the fit has stalled."""
+
+
+@dataclass(frozen=True, eq=False)
+class _NormalBand:
+    """One iteration's banded normal equations J^T J p = -J^T r over the free points."""
+
+    band: np.ndarray
+    scale: np.ndarray
+    grad: np.ndarray
+
+    def solve(self, shift: float):
+        shifted = self.band.copy()
+        shifted[0] += shift * self.scale
+        factor = factor_band(shifted)  # None: not positive definite, damp more
+        return None if factor is None else solve_band(factor, -self.grad)
+
+    def predicted(self, step, shift: float) -> None:
+        return None
+
+
 def _minimize_thesis(cost: ThesisCost, x: np.ndarray, free: slice, *, gtol: float = 1e-9,
                      max_iterations: int = 200) -> tuple[np.ndarray, bool, str, int]:
-    """Levenberg-Marquardt on the banded normal equations over the free points."""
+    """Levenberg-Marquardt on the banded normal equations over the free points (the shared
+    loop :func:`dloplan.least_squares.damped_minimize`)."""
     cols = np.arange(3 * free.start, 3 * free.stop)
-    r = cost.residuals(x).ravel()
-    f = float(r @ r)
-    damping = 1e-3
-    for iteration in range(1, max_iterations + 1):
+
+    def linearize(state):
+        x, r = state
         jac = cost.jacobian(x)[:, cols]
         grad = jac.T @ r
         normal = (jac.T @ jac).tocsr()
-        scale = normal.diagonal()
         # gradient with respect to x / l: the test does not depend on the length unit
-        if float(np.max(np.abs(grad))) * cost.link_length <= gtol * max(1.0, f):
-            return x, True, f"converged in {iteration - 1} iterations", iteration - 1
-        band = sparse_to_band(normal, 17)
-        while True:
-            shifted = band.copy()
-            shifted[0] += damping * scale
-            factor = factor_band(shifted)  # None: not positive definite, damp more
-            if factor is not None:
-                trial = x.copy()
-                trial[free] += solve_band(factor, -grad).reshape(-1, 3)
-                r_trial = cost.residuals(trial).ravel()
-                f_trial = float(r_trial @ r_trial)
-                if f_trial <= f:
-                    relative = (f - f_trial) / max(f, 1e-300)
-                    x, r, f = trial, r_trial, f_trial
-                    damping = max(damping / 5.0, 1e-12)
-                    break
-            damping *= 8.0
-            if damping > 1e12:
-                return x, False, f"stalled after {iteration} iterations (cost {f:.3g})", iteration
-        if relative < 1e-13:
-            return x, True, f"converged in {iteration} iterations (no further decrease)", iteration
-    return x, False, f"no convergence in {max_iterations} iterations (cost {f:.3g})", max_iterations
+        if float(np.max(np.abs(grad))) * cost.link_length <= gtol * max(1.0, float(r @ r)):
+            return None
+        return _NormalBand(sparse_to_band(normal, 17), normal.diagonal(), grad)
+
+    def evaluate(state, step, system):
+        trial = state[0].copy()
+        trial[free] += step.reshape(-1, 3)
+        r_trial = cost.residuals(trial).ravel()
+        return (trial, r_trial), float(r_trial @ r_trial)
+
+    r = cost.residuals(x).ravel()
+    run = damped_minimize((x, r), float(r @ r), linearize, evaluate, THESIS_DAMPING,
+                          max_iterations=max_iterations, stop_gain=1e-13)
+    return run.state[0], run.success, run.message, run.iterations
 
 
 def held_conformed(shape: np.ndarray, cable: Cable) -> np.ndarray:

@@ -80,6 +80,61 @@ def force_scale(cable: Cable, gravity=GRAVITY) -> float:
     return weight + cable.k_bending / cable.rest_link_length
 
 
+ROUNDOFF = 16.0
+"""The round-off floor of a force residual is ``ROUNDOFF * eps * X * k_max``
+(:func:`residual_tolerance`): a few terms per point, each a stiffness times a difference of
+coordinates of size X."""
+
+
+def stiffest(cable: Cable, contact_stiffness: float = 0.0) -> float:
+    """The largest stiffness [N/m] of the discretized cable: k_s, k_b / l^2, k_t / l^2 (a
+    torque per angle as a force per displacement of a point a link away) or a contact penalty.
+    """
+    l2 = cable.rest_link_length**2
+    return max(cable.k_axial, cable.k_bending / l2, cable.k_twist / l2, contact_stiffness)
+
+
+DEFAULT_RTOL = 1e-10
+"""The static solvers' relative force tolerance when the caller gives none."""
+
+
+def residual_tolerance(cable: Cable, gravity=GRAVITY, rtol: float | None = None, x=None,
+                       contact_stiffness: float = 0.0) -> float:
+    """The force residual [N] under which an equilibrium counts as converged.
+
+    Without ``rtol``: :data:`DEFAULT_RTOL` times :func:`force_scale`, or the round-off floor of
+    the residual, whichever is larger; a force k (x_j - x_i) computed from coordinates of size X
+    carries an error of about
+    eps k X, so with a stiff spring (a composite cable's axial modulus, 1000 times its bending
+    one; a contact penalty) no iterate gets below ``ROUNDOFF * eps * X * k_max``
+    (:func:`stiffest`, X = max |x| + L). Moving the same shape 0.3 m away raises the floor with
+    X, as it raises the residual. Every static solver (:func:`dloplan.sim.equilibrium`,
+    :func:`dloplan.sim.equilibrium_with_twist`, the identification's and the correction's
+    equilibria) takes its tolerance from here. An explicit ``rtol`` is taken as asked (``rtol``
+    times :func:`force_scale`): a caller who wants a tighter solve where round-off allows it
+    (finite differences of equilibria) gets it.
+
+    Parameters
+    ----------
+    cable : Cable
+    gravity : array_like
+        Gravity [m/s^2].
+    rtol : float, optional
+        Relative tolerance against :func:`force_scale` (default: :data:`DEFAULT_RTOL` or the
+        round-off floor).
+    x : array_like, optional
+        (n + 1, 3) the shape [m] (its coordinates' size; default the cable's length from the
+        origin).
+    contact_stiffness : float
+        The contact penalty [N/m] when obstacles are present.
+    """
+    if rtol is not None:
+        return rtol * force_scale(cable, gravity)
+    size = cable.length + (0.0 if x is None else float(np.max(np.abs(x))))
+    floor = ROUNDOFF * np.finfo(float).eps * size * stiffest(cable, contact_stiffness)
+    return max(DEFAULT_RTOL * force_scale(cable, gravity), floor)
+
+
 def clip_reactions(x: np.ndarray, grad: np.ndarray, clips: ClipPoses, held: str = "both"
                    ) -> np.ndarray:
     """Force [N] and moment [N m] the cable puts on each clip, (2, 6): minus the held reactions.

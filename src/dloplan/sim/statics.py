@@ -14,8 +14,9 @@ by Newton's method on the exact banded Hessian:
   moves farther than the trust radius; the ratio of actual to predicted decrease adapts lambda
   and the radius;
 * convergence: the largest free-point force residual below ``rtol`` times a force scale of the
-  cable (the weight of a point plus k_b / l), and the final Hessian positive definite (a stable
-  equilibrium) -- both reported, never hidden.
+  cable (the weight of a point plus k_b / l) or the round-off floor of its stiffest spring
+  (axial, bending, twist, contact: :func:`dloplan.sim.result.residual_tolerance`), and the
+  final Hessian positive definite (a stable equilibrium) -- both reported, never hidden.
 
 The result is the nearest stable equilibrium downhill from the guess: a clamped-clamped cable has
 several (sagging, arching, S-shaped), and the guess chooses the branch. :func:`continuation`
@@ -55,7 +56,13 @@ from .newton import (
     newton_message,
     trust_region_newton,
 )
-from .result import Equilibrium, clip_reactions, equilibrium_result, force_scale
+from .result import (
+    Equilibrium,
+    clip_reactions,
+    equilibrium_result,
+    force_scale,
+    residual_tolerance,
+)
 
 __all__ = [  # the static solvers, and the shared names callers have always imported from here
     "Equilibrium", "TargetCheck", "check_clip_reach", "check_target", "clip_wrenches",
@@ -70,7 +77,7 @@ def equilibrium(
     clips: ClipPoses | None = None,
     *,
     gravity=GRAVITY,
-    rtol: float = 1e-10,
+    rtol: float | None = None,
     max_iterations: int = 500,
     chain: SpringChain | None = None,
     held: str = "both",
@@ -93,9 +100,10 @@ def equilibrium(
         Clip poses; default: those of the guess (its own end links).
     gravity : array_like
         Gravity acceleration [m/s^2]; ``(0, 0, 0)`` for a weightless cable.
-    rtol : float
+    rtol : float, optional
         Convergence when the largest free-point force is below ``rtol`` times
-        :func:`force_scale`.
+        :func:`force_scale`; by default 1e-10, or the round-off floor of the stiffest spring
+        when that is larger (:func:`dloplan.sim.result.residual_tolerance`).
     max_iterations : int
         Iteration limit; reaching it gives ``converged=False``.
     chain : SpringChain, optional
@@ -126,7 +134,6 @@ def equilibrium(
         clips = clip_poses_from_shape(x)
     if chain is None:
         chain = SpringChain.from_cable(cable, gravity, contacts)
-    tolerance = rtol * force_scale(cable, gravity)
     if held == "both":
         check_clip_reach(cable, clips)
         x = conform_guess(cable, x, clips, gravity)
@@ -138,11 +145,13 @@ def equilibrium(
     # with contacts, no point may jump farther than the cable's diameter in one step, or it
     # could tunnel through a thin obstacle into a region where the penalty no longer sees it
     max_step = max(cable.diameter, 1e-3) if chain.contacts else cable.length
+    limit = residual_tolerance(cable, gravity, rtol, x,
+                               chain.contact_stiffness if chain.contacts else 0.0)
     x, g, iterations, residual, stable, history, message = minimize_energy(
-        chain, x, free, max_step, tolerance, max_iterations
+        chain, x, free, max_step, limit, max_iterations
     )
-    return equilibrium_result(cable, chain, x, g, clips, iterations, residual <= tolerance,
-                              residual, tolerance, stable, history, message, held)
+    return equilibrium_result(cable, chain, x, g, clips, iterations, residual <= limit,
+                              residual, limit, stable, history, message, held)
 
 
 def minimize_energy(

@@ -73,7 +73,7 @@ from .newton import (
     newton_message,
     trust_region_newton,
 )
-from .result import Equilibrium, equilibrium_result, force_scale
+from .result import Equilibrium, equilibrium_result, residual_tolerance
 
 TWIST_HALF_BANDWIDTH = 10
 """Half bandwidth of the joint Hessian over interleaved (x, y, z, theta) coordinates."""
@@ -256,7 +256,7 @@ def equilibrium_with_twist(
     directors=None,
     natural_twist: float = 0.0,
     gravity=GRAVITY,
-    rtol: float = 1e-10,
+    rtol: float | None = None,
     max_iterations: int = 500,
     contacts=(),
     chain: SpringChain | None = None,
@@ -320,7 +320,7 @@ def equilibrium_with_twist(
     link = cable.rest_link_length
     n = cable.n_links
     free = _layout(n)[3]
-    tolerance = rtol * force_scale(cable, gravity)
+    tolerance = residual_tolerance(cable, gravity, rtol, start)
 
     def energy_of(state):
         x, d1 = state
