@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -189,6 +190,31 @@ def test_harness_file_errors_are_one_line_and_name_the_field(tmp_path):
         load_job(_example(tmp_path, typo))
 
 
+def test_the_rated_load_is_read_in_newtons_and_a_bad_one_is_named(tmp_path):
+    def rated(value):
+        def edit(data):
+            data["harness"]["tension"]["rated_load"] = value
+        return edit
+
+    assert load_job(_example(tmp_path, rated(2.5))).settings.rated_load == 2.5
+    assert load_job(EXAMPLES / "harness_usb.yaml").settings.rated_load is None
+    with pytest.raises(ScenarioError, match="harness.tension.rated_load: Input should be greater"):
+        load_job(_example(tmp_path, rated(-1.0)))
+
+
+def test_a_board_goes_through_the_plan_document_unchanged():
+    """board_to_dict and board_from_dict (with the document's obstacle volumes) give the board
+    back: the fixtures and pegs field by field, the wall and the table."""
+    from dloplan.harness.board import board_from_dict, board_to_dict
+
+    board = load_job(EXAMPLES / "harness_pu.yaml").board
+    again = board_from_dict(json.loads(json.dumps(board_to_dict(board))), board.contacts())
+    assert again.fixtures == board.fixtures and again.pegs == board.pegs
+    assert again.obstacles == board.obstacles and again.table == board.table
+    with pytest.raises(ValueError, match="harness.board: 'pegs'"):
+        board_from_dict({"fixtures": board_to_dict(board)["fixtures"]})
+
+
 def test_millimetre_files_are_converted(tmp_path):
     def to_mm(data):
         data["units"] = "mm"
@@ -210,3 +236,27 @@ def test_millimetre_files_are_converted(tmp_path):
     assert mm.board.pegs[0].plate().top == pytest.approx(m.board.pegs[0].plate().top)
     assert mm.settings.max_offset == pytest.approx(m.settings.max_offset)
     assert np.allclose(mm.start, m.start)
+
+
+def test_a_harness_document_without_what_the_checks_need_is_refused_by_name():
+    """A harness plan written before harness plans were verified (no board, section or planned
+    states in its harness section), or whose tensioning failed (no offset), is refused with the
+    entry named, not verified on made-up data."""
+    from dloplan.cable import catalogue_cable
+    from dloplan.grippers import gripper_path
+    from dloplan.pipeline.document import PlanDocument
+    from dloplan.pipeline.harness import harness_model
+    from dloplan.shapes import arc_shape
+
+    cable = catalogue_cable("usb")
+    shapes = np.stack([arc_shape(cable.length, cable.n_links, a) for a in (1.0, 1.5, 2.0)])
+    doc = PlanDocument(cable=cable, shapes=shapes, grippers=gripper_path(shapes, cable=cable),
+                       harness={"offset": 0.02, "knots": {"phase1": [0, 2]}})
+    with pytest.raises(ValueError, match=r"plan.harness: no board, section_links, sections"):
+        harness_model(doc)
+    failed = PlanDocument(cable=cable, shapes=shapes, grippers=doc.grippers,
+                          harness={"offset": None, "message": "no force"})
+    with pytest.raises(ValueError, match="plan.harness.offset: none, the tensioning failed"):
+        harness_model(failed)
+    with pytest.raises(ValueError, match="not a wire-harness plan"):
+        harness_model(PlanDocument(cable=cable, shapes=shapes))

@@ -21,7 +21,6 @@ from dloplan.harness import (
     section_cable,
     section_shape,
     tension_state,
-    write_harness_rapid,
 )
 from dloplan.physics.chain import SpringChain, link_tensions
 from dloplan.sim.clips import clip_poses_from_shape
@@ -178,15 +177,6 @@ def test_the_force_statistics_are_the_planners_for_phase_2(usb):
         assert np.allclose(getattr(ours, key), getattr(planned, key), rtol=1e-12, atol=0)
     # phase 2 imposes more curvature than phase 1 (thesis Fig. 7.31 vs 7.29)
     assert usb.forces["phase2"].bending_mean.max() > usb.forces["phase1"].bending_mean.max()
-
-
-def test_one_rapid_module_per_arm_holds_the_whole_job(usb, tmp_path):
-    files = write_harness_rapid(tmp_path / "rapid", usb)
-    assert len(files) == 2
-    for path in files.values():
-        text = path.read_text()
-        assert text.count("MoveL ") == usb.trajectory.n_knots + 1  # + approach, retreat - 1st
-        assert f"planned duration {usb.trajectory.duration:.3f} s" in text
 
 
 def test_insertion_pose_keeps_the_clearance_and_lines_up_with_the_fixtures():

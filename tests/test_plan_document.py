@@ -194,10 +194,12 @@ def test_pieces_that_do_not_fit_are_rejected(pieces, tmp_path):
 
 # -- every writer writes what the document says ------------------------------------------------
 def test_every_writer_writes_the_document(planned, tmp_path):
-    # URScript: 6-joint UR arms; correction: a corrected plan's report (tests/test_correct.py)
-    yumi = tuple(name for name in WRITERS if name not in ("urscript", "correction"))
-    with pytest.raises(ValueError, match="urscript: the cell 'yumi' takes rapid, ros_joints"):
-        write_outputs(planned, tmp_path / "ur", ("urscript",))
+    # URScript and the RTDE streamer: 6-joint UR arms; correction: a corrected plan's report
+    # (tests/test_correct.py)
+    yumi = tuple(name for name in WRITERS if name not in ("urscript", "ur_rtde", "correction"))
+    for name in ("urscript", "ur_rtde"):
+        with pytest.raises(ValueError, match=f"{name}: the cell 'yumi' takes rapid, ros_joints"):
+            write_outputs(planned, tmp_path / "ur", (name,))
     with pytest.raises(ValueError, match="correction: the plan is not a corrected plan"):
         write_outputs(planned, tmp_path / "report", ("correction",))
     written = write_outputs(planned, tmp_path, yumi)

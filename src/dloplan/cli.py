@@ -607,14 +607,14 @@ def build_parser() -> argparse.ArgumentParser:
                           help="--design: measured points along the cable (default 100)")
     identify.add_argument("--links", type=int, help="--design: starting n")
 
-    export = command("export", _cmd_export, "export a plan as JSON, CSV, ROS 2 trajectory or "
-                     "ABB RAPID")
+    export = command("export", _cmd_export, "export a plan as JSON, CSV, ROS 2 trajectories, "
+                     "ABB RAPID, URScript or the UR pair's RTDE program")
     export.add_argument("plan", help="plan file written by dloplan plan (plan.json)")
     export.add_argument("--format", choices=["json", "csv", "ros", "ros_joints", "urscript",
-                                             "rapid", "report"],
+                                             "ur_rtde", "rapid", "report"],
                         required=True)
     export.add_argument("-o", "--output", required=True,
-                        help="output file (a folder for rapid: one module per arm)")
+                        help="output file (a folder for rapid, urscript, ur_rtde, ros_joints)")
     export.add_argument("--rate", type=positive_number, help="sampling rate [Hz] for csv/ros")
     export.add_argument("--speed", type=positive_number,
                         help="re-time with this TCP speed [m/s]")

@@ -31,7 +31,7 @@ from .figure_workers import figure_workers as workers_for
 from .load import file_kind, load_job
 from .writers import WRITERS, WriteOptions, write_outputs
 
-ROBOT_OUTPUTS = ("csv", "ros", "rapid", "ros_joints", "urscript")
+ROBOT_OUTPUTS = ("csv", "ros", "rapid", "ros_joints", "urscript", "ur_rtde")
 """The outputs a robot could run: not written for a plan that failed a check."""
 
 

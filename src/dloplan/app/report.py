@@ -160,8 +160,41 @@ def shape_table(doc: PlanDocument):
     return "Shapes", header, rows
 
 
+PHASE_TITLES = {
+    "phase": "phase", "holders": "held by", "configurations": "configurations",
+    "stable": "stable", "smallest_eigenvalue": "lambda_1 [N/m]",
+    "relative_eigenvalue": "lambda_1 / ref", "contacts": "contacts", "snap": "snap",
+    "replay_deviation": "replay deviation [mm]", "peak_tension": "peak tension [N]",
+    "rated_load": "rated load [N]", "robot": "robot", "verdict": "verdict", "notes": "notes",
+}
+"""Column titles of a wire-harness plan's verification table, one row per phase."""
+
+
+def phase_verification_table(doc: PlanDocument):
+    """A harness plan's verification, one row per phase with titled columns, or None."""
+    phases = doc.verification.phases if doc.verification is not None else ()
+    if not phases:
+        return None
+
+    def cell(key, value):
+        if value is None:
+            return "-"
+        if isinstance(value, bool):
+            return "yes" if value else "NO"
+        if isinstance(value, float):
+            return f"{1e3 * value:.2f}" if key == "replay_deviation" else f"{value:.4g}"
+        if isinstance(value, list):
+            return "; ".join(value) or "-"
+        return value
+
+    return ("Verification per phase", list(PHASE_TITLES.values()),
+            [[cell(key, row.get(key)) for key in PHASE_TITLES] for row in phases])
+
+
 def verification_table(doc: PlanDocument):
-    """The verification rows with titled columns, or None."""
+    """The verification rows with titled columns (per phase for a harness plan), or None."""
+    if doc.verification is not None and doc.verification.phases:
+        return phase_verification_table(doc)
     rows = doc.verification.rows if doc.verification is not None else ()
     if not rows:
         return None

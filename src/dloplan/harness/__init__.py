@@ -21,7 +21,6 @@ from .job import (
     force_statistics,
     harness_summary,
     run_harness,
-    write_harness_rapid,
 )
 from .phases import Phases, approach_shape, fixture_clips, insertion_pose, plan_phases
 
@@ -48,5 +47,4 @@ __all__ = [
     "section_cable",
     "section_shape",
     "tension_state",
-    "write_harness_rapid",
 ]

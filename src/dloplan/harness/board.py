@@ -25,7 +25,7 @@ peg's top. The ``harness:`` section of a job file (file units) is
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -201,8 +201,14 @@ class Peg:
             )
 
     def cylinder(self, inflate: float = 0.0) -> Cylinder:
-        """The peg's volume, its radius grown by ``inflate`` [m]."""
-        return Cylinder(self.base, self.radius + inflate, self.height, self.name)
+        """The peg's volume, its radius grown by ``inflate`` [m].
+
+        It reaches one radius below the peg's base: the peg stands in the board, and a point
+        pressed into its foot must be pushed out sideways, not through its bottom face into the
+        table (which pushes back: a penalty fight of hundreds of newtons in the statics)."""
+        below = self.radius + inflate
+        base = (self.base[0], self.base[1], self.base[2] - below)
+        return Cylinder(base, self.radius + inflate, self.height + below, self.name)
 
     def plate(self) -> Box | None:
         """The plate's volume (a box centred on the peg), or None."""
@@ -281,6 +287,37 @@ class Board:
     def collision_volumes(self) -> tuple:
         """What the planned motion must avoid: :meth:`contacts`."""
         return self.contacts()
+
+
+def board_to_dict(board: Board) -> dict:
+    """The board's fixtures and pegs as JSON-ready data (SI units), for the plan document; its
+    obstacles and table are the document's own ``obstacles``."""
+    def plain(part) -> dict:
+        return {f.name: (list(v) if isinstance(v := getattr(part, f.name), tuple) else v)
+                for f in fields(part)}
+
+    return {"fixtures": [plain(f) for f in board.fixtures], "pegs": [plain(p) for p in board.pegs]}
+
+
+def board_from_dict(data: dict, volumes=(), where: str = "harness.board") -> Board:
+    """The :class:`Board` of :func:`board_to_dict`'s data and the document's obstacle volumes
+    (the pegs' own volumes among them are left out: the pegs make them again; a
+    :class:`~dloplan.obstacles.Table` is the table).
+
+    Raises
+    ------
+    ValueError
+        Naming the part of ``data`` that is missing or invalid.
+    """
+    try:
+        fixtures = tuple(Fixture(**f) for f in data["fixtures"])
+        pegs = tuple(Peg(**p) for p in data["pegs"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"{where}: {exc}") from None
+    own = {name for peg in pegs for name in (peg.name, f"{peg.name} plate")}
+    tables = [v for v in volumes if isinstance(v, Table)]
+    others = tuple(v for v in volumes if not isinstance(v, Table) and v.name not in own)
+    return Board(fixtures, pegs, others, tables[0] if tables else None)
 
 
 def route_length(board: Board, cable: Cable) -> float:

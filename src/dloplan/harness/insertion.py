@@ -173,6 +173,37 @@ def tension_state(cable: Cable, n_links: int, offset: float, guess, board: Board
                         float(tensions.max()), pull, float(tensions[1:-1].min()))
 
 
+def lower_into_slots(cable: Cable, shape, board: Board, n_links: int, substeps: int = 8,
+                     gravity=GRAVITY) -> list[Equilibrium]:
+    """The insertion: the section settled at the fixtures' approach poses, then lowered into
+    the slots in ``substeps`` equilibria (module docstring).
+
+    Parameters
+    ----------
+    cable : Cable
+        The whole cable.
+    shape : array_like
+        (n + 1, 3) the whole cable at the insertion pose (the end of phase 2) [m].
+    board : Board
+        The board; its contacts act throughout.
+    n_links : int
+        Links of the section.
+    substeps : int
+        Equilibria solved on the way down.
+    gravity : array_like
+        Gravity [m/s^2].
+
+    Returns
+    -------
+    list of Equilibrium
+        The section at the approach poses and in the slots.
+    """
+    section = section_cable(cable, n_links, 0.0)
+    return continuation(section, section_shape(shape, cable, section),
+                        [fixture_clips(board), fixture_clips(board, inserted=True)],
+                        substeps=substeps, gravity=gravity, contacts=board.contacts())
+
+
 @dataclass(frozen=True, eq=False)
 class Insertion:
     """Result of :func:`insert_and_tension`.
@@ -287,9 +318,7 @@ def insert_and_tension(
             "the fixtures' approach poses, expected the end of phase 2 (within 1 mm, 1 degree)"
         )
     slots = fixture_clips(board, inserted=True)
-    section = section_cable(cable, n_links, 0.0)
-    lowering = continuation(section, section_shape(x, cable, section), [approach, slots],
-                            substeps=substeps, gravity=gravity, contacts=board.contacts())
+    lowering = lower_into_slots(cable, x, board, n_links, substeps, gravity)
     inserted = lowering[-1]
     axes = slots.u_axes
     down = slots.positions - approach.positions

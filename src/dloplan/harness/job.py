@@ -13,7 +13,9 @@ close on it again outside the fixtures before pulling) and a release after tensi
 cycle time is motion plus actions, broken down per phase. It is not compared with the thesis'
 9 s (Table 7.3), a time measured on the robot whose ingredients (the robot's ramps, the
 gripper actions, how the cable was picked up) are not given.
-:func:`write_harness_rapid` writes the motion as one RAPID module per arm.
+The plan document of the job (:func:`dloplan.pipeline.run_harness_job`) carries the cycle, and
+every robot program written from it (the writers of :mod:`dloplan.app.writers`) carries its
+gripper actions, the regrasp included.
 """
 
 from __future__ import annotations
@@ -28,9 +30,7 @@ from scipy.spatial.transform import Rotation
 from ..cable import GRAVITY, Cable
 from ..geometry import resample_by_arc_length
 from ..grippers import GripperPath, gripper_path, relative_twist
-from ..io.rapid import RapidSettings, write_rapid
 from ..planning.result import ForceStatistics, stage_forces
-from ..robot.program import robot_program
 from ..trajectory import (
     DEFAULT_GRASP_TIME,
     DEFAULT_MAX_ANGULAR_SPEED,
@@ -43,7 +43,7 @@ from ..trajectory import (
     plan_cycle,
     trajectory_from_grippers,
 )
-from .board import Board, check_board
+from .board import Board, board_to_dict, check_board
 from .insertion import Insertion, insert_and_tension
 from .phases import Phases, fixture_clips, plan_phases
 
@@ -95,6 +95,11 @@ class HarnessSettings:
         Obstacle avoidance rounds.
     weights : dict or None
         Planner weight overrides.
+    rated_load : float or None
+        Largest tension the cable may carry [N]: the checks of the plan fail above it
+        (:mod:`dloplan.harness.verification`); None: not checked.
+    tensioning_speed : float
+        Factor (0, 1] on the speeds of the tensioning motion (the repair's slower tensioning).
     """
 
     n_shapes: tuple[int, int] = (4, 4)
@@ -117,6 +122,8 @@ class HarnessSettings:
     z_safety: float = 0.02
     max_rounds: int = 5
     weights: dict | None = field(default=None, hash=False)
+    rated_load: float | None = None
+    tensioning_speed: float = 1.0
 
 
 def section_links(cable: Cable, board: Board) -> int:
@@ -165,6 +172,8 @@ class HarnessResult:
         Phases planned, insertion and tensioning succeeded, gripper path without excess twist.
     message : str
         One line with the cycle time and the tensioning's forces and mechanism.
+    rated_load : float or None
+        The cable's rated load the checks use [N] (:class:`HarnessSettings`).
     """
 
     cable: Cable
@@ -182,6 +191,7 @@ class HarnessResult:
     warnings: tuple[str, ...]
     success: bool
     message: str
+    rated_load: float | None = None
 
     @property
     def cycle_time(self) -> float:
@@ -304,10 +314,16 @@ def run_harness(
     left_clip = 0 if grippers.positions[0, 0, 1] >= grippers.positions[0, 1, 1] else 1
     last = len(shapes) - 1
     settle = [k for k in (k1, k2, k2 + 1) if 0 < k < last]
+    if not (math.isfinite(s.tensioning_speed) and 0 < s.tensioning_speed <= 1):
+        raise ValueError(f"settings.tensioning_speed: got {s.tensioning_speed!r}, expected a "
+                         "factor in (0, 1]")
+    scale = np.ones(last)
+    scale[k2 + 1] = s.tensioning_speed  # the segment from the slots to the pulled poses
     trajectory = trajectory_from_grippers(grippers, max_speed=s.max_speed,
                                           max_angular_speed=s.max_angular_speed,
                                           limits=s.limits, zone=s.zone, stops=settle,
-                                          left_clip=left_clip)
+                                          left_clip=left_clip,
+                                          speed_scale=None if s.tensioning_speed == 1 else scale)
     actions = [GripperAction("grasp", 0, s.grasp_time),
                GripperAction.regrasp_at(k2 + 1, s.release_time, s.grasp_time),
                GripperAction("release", last, s.release_time)]
@@ -326,18 +342,8 @@ def run_harness(
     timings = {"phase1": phases.timings["phase1"], "phase2": phases.timings["phase2"],
                "insertion": t2 - t1, "total": time.perf_counter() - t0}
     return HarnessResult(cable, board, phases, insertion, shapes, grippers, knots, trajectory,
-                         cycle, alignment, forces, timings, tuple(warnings), success, message)
-
-
-def write_harness_rapid(directory, result: HarnessResult,
-                        settings: RapidSettings | None = None) -> dict:
-    """Write the job's single program as one RAPID module per arm (:func:`write_rapid` of
-    :func:`~dloplan.robot.robot_program`; a program failing its checks is written for
-    inspection, its header says why)."""
-    if not isinstance(result, HarnessResult):
-        raise ValueError(f"result: got {type(result).__name__}, expected a HarnessResult")
-    return write_rapid(directory, robot_program(result.grippers, result.trajectory), settings,
-                       force=True)
+                         cycle, alignment, forces, timings, tuple(warnings), success, message,
+                         s.rated_load)
 
 
 def harness_summary(result: HarnessResult) -> dict:
@@ -371,4 +377,11 @@ def harness_summary(result: HarnessResult) -> dict:
         "forces": stats,
         "timings": result.timings,
         "warnings": list(result.warnings),
+        "board": board_to_dict(result.board),
+        "section_links": ins.tensioned.section.n_links,
+        "sections": {"approach": ins.lowering[0].shape.tolist(),
+                     "inserted": ins.inserted.shape.tolist(),
+                     "tensioned": ins.tensioned.equilibrium.shape.tolist()},
+        "regrasp_time": result.cycle.breakdown().get("regrasp", 0.0),
+        "rated_load": result.rated_load,
     }

@@ -83,6 +83,9 @@ class TensionSpec(_Model):
     n_links: int | None = Field(None, ge=6, le=2000,
                                 description="links of the insertion simulation (default: auto)")
     substeps: int = Field(8, ge=1, le=200, description="equilibria while inserting")
+    rated_load: float | None = Field(None, gt=0, allow_inf_nan=False,
+                                     description="largest tension the cable may carry [N] "
+                                                 "(the checks fail above it)")
 
 
 class HarnessSpec(_Model):

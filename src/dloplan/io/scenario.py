@@ -282,9 +282,9 @@ class TableSpec(_Model):
     height: float = Field(0.0, allow_inf_nan=False)
 
 
-OutputName = Literal["json", "csv", "rapid", "ros", "ros_joints", "urscript", "figures",
-                     "report"]
-ProgramName = Literal["rapid", "urscript", "ros_joints"]
+OutputName = Literal["json", "csv", "rapid", "ros", "ros_joints", "urscript", "ur_rtde",
+                     "figures", "report"]
+ProgramName = Literal["rapid", "urscript", "ur_rtde", "ros_joints"]
 PROGRAM_NAMES = get_args(ProgramName)
 """The robot program formats a cell may take (``robot.programs``)."""
 
@@ -308,12 +308,42 @@ class UrscriptSpec(_Model):
     ready_output: int = Field(0, ge=0, le=7, description="standard digital output raised")
 
 
+class UrRtdeSpec(_Model):
+    """How the UR pair's RTDE streamer is written (:mod:`dloplan.io.ur_rtde`)."""
+
+    hosts: list[str] = Field(default_factory=lambda: ["", ""], min_length=2, max_length=2,
+                             description="left, right controller address (or on the "
+                             "command line)")
+    rate: PositiveLength = Field(500.0, description="control rate [Hz]: 500 e-Series, 125 CB3")
+    lookahead: float = Field(0.1, ge=0.03, le=0.2, description="servoJ lookahead [s]")
+    gain: float = Field(300.0, ge=100, le=2000, description="servoJ gain")
+    start_speed: PositiveLength = Field(0.5, description="joint speed to the start [rad/s]")
+    start_tolerance: PositiveLength = Field(0.01, description="[rad] from the start joints")
+    tracking_tolerance: PositiveLength = Field(0.05, description="[rad] from the commanded "
+                                               "joints one lookahead earlier")
+
+
+class GripperIoSpec(_Model):
+    """The gripper of each UR arm, driven by one digital output (URScript and ur_rtde)."""
+
+    output: int = Field(1, ge=0, le=7, description="digital output (tool: 0..1)")
+    tool: bool = Field(False, description="the tool flange's output instead of a standard one")
+    closed: bool = Field(True, description="the level that closes the fingers")
+
+    @model_validator(mode="after")
+    def _tool_output(self):
+        if self.tool and self.output > 1:
+            raise ValueError(f"output: got {self.output}, a tool digital output is 0 or 1")
+        return self
+
+
 class RosJointsSpec(_Model):
     """How the ROS 2 joint trajectories are written (:mod:`dloplan.io.ros_joints`)."""
 
     joint_prefix: list[str] | None = Field(None, min_length=2, max_length=2,
                                            description="per arm before every joint name")
-    velocities: bool = True
+    velocities: bool = Field(True, description="write velocities and accelerations")
+    rate: PositiveLength = Field(100.0, description="points per second [Hz]")
 
 
 class RobotSpec(_Model):
@@ -332,6 +362,8 @@ class RobotSpec(_Model):
     programs: list[ProgramName] | None = Field(
         None, description="robot programs `dloplan plan` writes (default all the cell takes)")
     urscript: UrscriptSpec = Field(default_factory=UrscriptSpec)
+    ur_rtde: UrRtdeSpec = Field(default_factory=UrRtdeSpec)
+    gripper: GripperIoSpec = Field(default_factory=GripperIoSpec)
     ros_joints: RosJointsSpec = Field(default_factory=RosJointsSpec)
 
     base_position: Vector3 = Field(
@@ -344,7 +376,6 @@ class RobotSpec(_Model):
                                   min_length=2, max_length=2, description="left, right")
     approach: float | None = Field(None, ge=0, allow_inf_nan=False,
                                    description="approach/retreat distance [units]; 5 cm")
-    grip_time: float = Field(0.5, ge=0, allow_inf_nan=False, description="[s]")
     hold_force: float | None = Field(None, gt=0, le=20, description="SmartGripper [N]")
     arm_angle_reference: list[Vector3] | None = Field(
         None, min_length=2, max_length=2,

@@ -55,3 +55,4 @@ def box_segment_distances(a, b, center, half, yaw, out):
         ends = min(_box_distance(ax, ay, az, center, half, c, s),
                    _box_distance(b[i, 0], b[i, 1], b[i, 2], center, half, c, s))
         out[i] = min(middle, ends)
+

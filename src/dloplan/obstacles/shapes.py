@@ -9,7 +9,13 @@ inflated by the cable's radius), vectorized over all links of a shape or a batch
   [m] (the thesis' z_depth, Fig. 5.14, measured on segments rather than on mass points).
 
 A new convex shape is a new class with these two methods (and ``name``), and ``edges()``, its
-outline as polylines for the figures; nothing else changes.
+outline as polylines for the figures; nothing else changes. For the contact of mass points
+(:mod:`dloplan.physics.contact`) a volume also gives ``signed_distance(points)`` (the distance
+phi and its gradient, the outward normal n) and ``distance_hessian(points)``, the Hessian of phi
+(the derivative of n): zero on a flat face, (I - n n^T - a a^T) / rho beside a round face of
+curvature radius rho about the axis a, and the curvature of the distance to an edge or corner.
+The explicit simulator reads a volume as ``contact_row()``
+(:mod:`dloplan.physics.contact_compiled`).
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..physics.contact_compiled import BOX, CYLINDER, PLANE
 from .compiled import box_segment_distances
 
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
@@ -80,6 +87,26 @@ def _box_normal(q: np.ndarray, excess: np.ndarray) -> tuple[np.ndarray, np.ndarr
     direction = np.where(inside[..., None], face_normal, outside / safe)
     phi = np.where(inside, np.max(excess, axis=-1), dist)
     return np.sign(np.where(q == 0, 1.0, q)) * direction, phi
+
+
+def _box_hessian(excess: np.ndarray, jacobian: np.ndarray) -> np.ndarray:
+    """Hessian (..., 3, 3) of the signed distance of a box-like set, its own curvature left out.
+
+    ``excess`` (..., k) as in :func:`_box_normal`; ``jacobian`` (..., k, 3) the gradients of its
+    components. Outside, phi = |o| with o the positive part of the excess, whose Hessian is
+    J^T (I_A - o o^T / phi^2) J / phi (I_A: the identity on the positive components); inside,
+    phi is one component, linear here: zero. (A component that is curved itself, as the radial
+    excess of a cylinder, adds its own Hessian: the caller's.)
+    """
+    outside = np.maximum(excess, 0.0)
+    phi = np.linalg.norm(outside, axis=-1)
+    active = (excess > 0).astype(float)
+    safe = np.where(phi > 0, phi, 1.0)
+    unit = outside / safe[..., None]
+    projector = (active[..., :, None] * np.eye(excess.shape[-1])
+                 - unit[..., :, None] * unit[..., None, :]) / safe[..., None, None]
+    hessian = np.einsum("...ai,...ab,...bj->...ij", jacobian, projector, jacobian)
+    return np.where((phi > 0)[..., None, None], hessian, 0.0)
 
 
 @dataclass(frozen=True)
@@ -173,6 +200,22 @@ class Box:
                            local_normal[..., 2]], axis=-1)
         return phi, normal
 
+    def contact_row(self) -> np.ndarray:
+        """The box for the simulator's contacts (:mod:`dloplan.physics.contact_compiled`),
+        (8,)."""
+        return np.array([BOX, *self.center, *(np.asarray(self.size) / 2), self.yaw])
+
+    def distance_hessian(self, points: np.ndarray) -> np.ndarray:
+        """Hessian of :meth:`signed_distance` [1/m], (..., 3, 3): zero beside a face and inside,
+        the curvature of the distance to an edge or a corner beyond them."""
+        q = self._local(points)
+        excess = np.abs(q) - np.asarray(self.size) / 2
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        world = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])  # local -> world
+        signs = np.sign(np.where(q == 0, 1.0, q))
+        jacobian = signs[..., :, None] * world.T  # d excess_k / d p = sign(q_k) (row k of R^T)
+        return _box_hessian(excess, jacobian)
+
     def penetration(self, a: np.ndarray, b: np.ndarray, radius: float) -> np.ndarray:
         """How deep capsules (a, b, radius) enter the box [m]; <= 0 means clear, (...,).
 
@@ -264,6 +307,37 @@ class Cylinder:
         weights, phi = _box_normal(np.ones_like(excess), excess)
         return phi, weights[..., :1] * radial + weights[..., 1:] * vertical
 
+    def contact_row(self) -> np.ndarray:
+        """The cylinder for the simulator's contacts (:mod:`dloplan.physics.contact_compiled`),
+        (8,)."""
+        return np.array([CYLINDER, *self.base, self.radius, self.height, 0.0, 0.0])
+
+    def distance_hessian(self, points: np.ndarray) -> np.ndarray:
+        """Hessian of :meth:`signed_distance` [1/m], (..., 3, 3).
+
+        The radial excess rho - R is curved, (I - r r^T - z z^T) / rho (r the radial and z the
+        vertical unit vector); where it is the distance (beside the round face, inside or out)
+        or a part of it (beyond the rims) that curvature enters weighted by its share of the
+        distance, and the rim adds the curvature of the distance to a circle's edge
+        (:func:`_box_hessian`).
+        """
+        q = points - np.asarray(self.base)
+        rho = np.hypot(q[..., 0], q[..., 1])
+        safe = np.where(rho > 0, rho, 1.0)
+        radial = np.stack([np.where(rho > 0, q[..., 0] / safe, 1.0),
+                           np.where(rho > 0, q[..., 1] / safe, 0.0), np.zeros_like(rho)], -1)
+        above = q[..., 2] > 0.5 * self.height
+        vertical = np.zeros_like(radial)
+        vertical[..., 2] = np.where(above, 1.0, -1.0)
+        excess = np.stack([rho - self.radius,
+                           np.where(above, q[..., 2] - self.height, -q[..., 2])], axis=-1)
+        weights, _ = _box_normal(np.ones_like(excess), excess)  # d phi / d excess_k
+        tangential = np.eye(3) - radial[..., :, None] * radial[..., None, :]
+        tangential[..., 2, 2] = 0.0  # drop z z^T (r has no z component)
+        curved = tangential / safe[..., None, None]  # Hessian of rho
+        jacobian = np.stack([radial, vertical], axis=-2)
+        return weights[..., 0, None, None] * curved + _box_hessian(excess, jacobian)
+
     def penetration(self, a: np.ndarray, b: np.ndarray, radius: float) -> np.ndarray:
         """How deep capsules (a, b, radius) enter the cylinder [m]; <= 0 means clear."""
         return radius - _min_along_segment(a, b, self.distance)
@@ -295,6 +369,15 @@ class Table:
         normal = np.zeros(points.shape)
         normal[..., 2] = 1.0
         return points[..., 2] - self.height, normal
+
+    def contact_row(self) -> np.ndarray:
+        """The plane for the simulator's contacts (:mod:`dloplan.physics.contact_compiled`),
+        (8,)."""
+        return np.array([PLANE, self.height, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+
+    def distance_hessian(self, points: np.ndarray) -> np.ndarray:
+        """Hessian of :meth:`signed_distance`: zero (a plane), (..., 3, 3)."""
+        return np.zeros(points.shape + (3,))
 
     def penetration(self, a: np.ndarray, b: np.ndarray, radius: float) -> np.ndarray:
         """Depth of the capsules below the plane [m]; <= 0 means clear."""

@@ -9,23 +9,61 @@ converges linearly rather than quadratically at a contact on a peg, which the tr
 absorbs). With k_c a hundred times the axial spring constant, a contact carrying a force F
 penetrates F / k_c: a hundredth of the stretch the same force gives one link.
 
-Obstacles provide ``signed_distance(points) -> (phi, normal)`` (:mod:`dloplan.obstacles`).
+Obstacles provide ``signed_distance(points) -> (phi, normal)`` (:mod:`dloplan.obstacles`);
+those that also give their ``contact_row()`` (boxes, cylinders, the table) are measured by the
+compiled :func:`dloplan.physics.contact_compiled.signed_distances` in one call for all of them
+(the same numbers to round-off: a static solve with a board's contacts evaluates them three
+times per Newton iteration).
+
+The stability check needs the exact Hessian (:func:`contact_hessian_blocks`): with the curvature
+term, k_c (n n^T - d grad^2 phi), a cable pressed on a peg with a force lambda per point is softer
+by lambda / rho along the peg's surface than the static solver's Hessian says; for a cable
+wrapped tight around a peg this is of the order of the tension's own transverse stiffness
+(lambda / rho = T l / rho^2 against T / l), so leaving it out would call a sliding wrap stiffer
+than it is. Obstacles give the curvature as ``distance_hessian(points)``.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import lru_cache
 
 import numpy as np
+
+from .contact_compiled import signed_distances
+
+
+@lru_cache(maxsize=64)
+def _rows(obstacles: tuple) -> np.ndarray | None:
+    """The obstacles' contact rows (K, 8), or None when one has none."""
+    if not all(hasattr(o, "contact_row") for o in obstacles):
+        return None
+    return np.stack([np.asarray(o.contact_row(), dtype=float) for o in obstacles])
+
+
+def _compiled_rows(obstacles: Sequence) -> np.ndarray | None:
+    try:
+        return _rows(tuple(obstacles))
+    except TypeError:  # an obstacle that cannot be hashed: measured by its own method
+        return None
 
 
 def penetrations(x: np.ndarray, obstacles: Sequence, radius: float):
     """Per obstacle, penetration depths (..., n + 1) [m] (> 0 in contact) and normals."""
-    out = []
-    for obstacle in obstacles:
-        phi, normal = obstacle.signed_distance(x)
-        out.append((radius - phi, normal))
-    return out
+    rows = _compiled_rows(obstacles) if len(obstacles) else None
+    if rows is None:
+        out = []
+        for obstacle in obstacles:
+            phi, normal = obstacle.signed_distance(x)
+            out.append((radius - phi, normal))
+        return out
+    x = np.asarray(x, dtype=float)
+    points = np.ascontiguousarray(x.reshape(-1, 3))
+    phi = np.empty((len(rows), len(points)))
+    normals = np.empty((len(rows), len(points), 3))
+    signed_distances(points, rows, phi, normals)
+    return [(radius - phi[k].reshape(x.shape[:-1]), normals[k].reshape(x.shape))
+            for k in range(len(rows))]
 
 
 def contact_energy(x: np.ndarray, obstacles: Sequence, radius: float, stiffness: float):
@@ -51,4 +89,24 @@ def contact_hessian_diagonal(x: np.ndarray, obstacles: Sequence, radius: float,
     for depth, normal in penetrations(x, obstacles, radius):
         active = (depth > 0)[..., None, None]
         blocks += np.where(active, stiffness * normal[..., :, None] * normal[..., None, :], 0.0)
+    return blocks
+
+
+def contact_hessian_blocks(x: np.ndarray, obstacles: Sequence, radius: float,
+                           stiffness: float) -> np.ndarray:
+    """Exact per-point 3x3 Hessian blocks of the penalty, (n + 1, 3, 3) [N/m].
+
+    k_c (n n^T - d grad^2 phi) for the penetrating points (d > 0): the derivative of
+    :func:`contact_gradient`, the surface's curvature included (module docstring); obstacles
+    provide ``distance_hessian(points)``.
+    """
+    blocks = np.zeros(x.shape + (3,))
+    for obstacle in obstacles:
+        phi, normal = obstacle.signed_distance(x)
+        depth = radius - phi
+        active = (depth > 0)[..., None, None]
+        curvature = obstacle.distance_hessian(x)
+        block = stiffness * (normal[..., :, None] * normal[..., None, :]
+                             - depth[..., None, None] * curvature)
+        blocks += np.where(active, block, 0.0)
     return blocks

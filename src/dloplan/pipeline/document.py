@@ -271,15 +271,24 @@ class AvoidanceSection:
 
 @dataclass(frozen=True)
 class VerificationSection:
-    """The plan verification (:func:`~dloplan.verify.verify_path`): verdict, messages, table."""
+    """The plan verification (:func:`~dloplan.verify.verify_path`): verdict, messages, table;
+    for a wire-harness plan one row per phase (``phases``,
+    :class:`~dloplan.harness.verification.PhaseRow` fields) instead of one per shape."""
 
     ok: bool
     messages: tuple[str, ...]
     rows: tuple = ()
     timings: dict = field(default_factory=dict)
+    phases: tuple = ()
 
     def table(self) -> str:
-        """The table as fixed-width text (:meth:`dloplan.verify.Verification.table`)."""
+        """The table as fixed-width text (:meth:`dloplan.verify.Verification.table`, or the
+        harness plan's :func:`~dloplan.harness.verification.phase_table`)."""
+        if self.phases:
+            from ..harness.verification import PhaseRow, phase_table
+
+            return phase_table([PhaseRow(**{**row, "notes": tuple(row.get("notes", ()))})
+                                for row in self.phases], self.ok, self.messages)
         from ..verify.report import ShapeRow, Verification
 
         rows = tuple(ShapeRow(**row) for row in self.rows)
@@ -719,7 +728,34 @@ def document_from_dict(data: dict) -> PlanDocument:
 
 
 def cycle_to_dict(cycle) -> dict:
-    """A :class:`~dloplan.trajectory.Cycle` as the document's ``cycle`` section."""
+    """A :class:`~dloplan.trajectory.Cycle` as the document's ``cycle`` section: its phases,
+    times and gripper ``actions`` (name, knot, duration, opening [s])."""
     return {"phases": [section_to_dict(p) for p in cycle.phases],
+            "actions": [section_to_dict(a) for a in cycle.actions],
             "motion_time": cycle.motion_time, "action_time": cycle.action_time,
             "cycle_time": cycle.cycle_time, "breakdown": cycle.breakdown()}
+
+
+def cycle_actions(section: dict | None) -> tuple:
+    """The gripper actions (:class:`~dloplan.trajectory.GripperAction`) of a document's
+    ``cycle`` section, in the order they run; a document written before the section listed
+    them gives its grasp and release phases.
+
+    Raises
+    ------
+    ValueError
+        A malformed section, or a regrasp of an older document (its opening part was not
+        recorded: plan again).
+    """
+    from ..trajectory import GripperAction
+
+    if section is None:
+        return ()
+    try:
+        if "actions" in section:
+            return tuple(GripperAction(a["name"], a["knot"], a["duration"], a["opening"])
+                         for a in section["actions"])
+        return tuple(GripperAction(p["name"], p["knots"][0], p["duration"])
+                     for p in section["phases"] if p["kind"] == "action")
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"plan.cycle.actions: malformed ({exc}); plan again") from None

@@ -16,17 +16,11 @@ import time
 from dataclasses import replace
 
 from .document import PlanDocument
+from .harness import plan_harness
 from .job import HarnessJob, Job
 from .repair import Budget, diagnose, repair_plan
 from .repair.placement import placement_section
-from .stages import (
-    HARNESS_NOT_VERIFIED,
-    quiet,
-    run_harness_job,
-    run_job,
-    verify_plan,
-    with_verification,
-)
+from .stages import quiet, run_job, verify_plan, with_verification
 
 
 def make_plan(job: Job | HarnessJob, *, verify: bool = False, check_robot: bool = True,
@@ -38,9 +32,9 @@ def make_plan(job: Job | HarnessJob, *, verify: bool = False, check_robot: bool 
     ----------
     job : Job or HarnessJob
         A resolved job (:func:`dloplan.app.load_job`). A wire-harness job is planned by its
-        own stages (:func:`~dloplan.pipeline.stages.run_harness_job`), neither verified (the
-        checks model a free cable, :data:`~dloplan.pipeline.stages.HARNESS_NOT_VERIFIED`: with
-        ``verify`` a warning says so) nor repaired.
+        own stages (:func:`~dloplan.pipeline.stages.run_harness_job`), verified on its held
+        cable phase by phase and repaired by a slower tensioning where that is what failed
+        (:func:`dloplan.pipeline.harness.plan_harness`).
     verify : bool
         Check the physics too (stability, snap-through, dynamic replay: ``--verify``). Without,
         only the robot program's checks run: a plan whose program passes is returned as
@@ -69,11 +63,8 @@ def make_plan(job: Job | HarnessJob, *, verify: bool = False, check_robot: bool 
         ``applied`` True.
     """
     if isinstance(job, HarnessJob):
-        doc = run_harness_job(job, check_robot=check_robot, progress=progress)
-        if verify:  # asked for and not done: said, not skipped silently
-            progress(f"--verify: {HARNESS_NOT_VERIFIED}")
-            doc = replace(doc, warnings=doc.warnings + (HARNESS_NOT_VERIFIED,))
-        return doc
+        return plan_harness(job, verify=verify, check_robot=check_robot, repair=repair,
+                            progress=progress)
     if not (check_robot and repair):
         return run_job(job, verify=verify, check_robot=check_robot, progress=progress,
                        planned=planned)

@@ -38,6 +38,7 @@ from .document import (
     TwistSection,
     VerificationSection,
     cell_to_dict,
+    cycle_actions,
     cycle_to_dict,
     document_cell,
 )
@@ -247,13 +248,22 @@ def retimed(doc: PlanDocument, speed: float | None = None,
                   warnings=tuple(w for w in doc.warnings
                                  if doc.robot is None or w != doc.robot.message))
     if doc.cycle is not None:
-        actions = {p["name"]: p["duration"] for p in doc.cycle["phases"]
-                   if p["kind"] == "action"}
-        new = replace(new, cycle=cycle_to_dict(default_cycle(trajectory, actions)))
+        new = replace(new, cycle=retimed_cycle(doc.cycle, trajectory))
     if doc.robot is None:
         return new
     return with_program(new, plan_program(document_cell(doc), doc.grippers,
                                           trajectory))
+
+
+def retimed_cycle(cycle: dict, trajectory) -> dict:
+    """A document's cycle section with the same gripper actions (:func:`cycle_actions`) and
+    motion phases on another timing of the same knots."""
+    phases: dict = {}
+    for p in cycle["phases"]:
+        if p["kind"] == "motion":
+            first, _ = phases.get(p["name"], p["knots"])
+            phases[p["name"]] = (first, p["knots"][1])
+    return cycle_to_dict(plan_cycle(trajectory, cycle_actions(cycle), phases or None))
 
 
 def default_cycle(trajectory, durations: dict):
@@ -322,19 +332,6 @@ def with_program(doc: PlanDocument, program) -> PlanDocument:
                                                                         program.trajectory)}
     return replace(doc, robot=section, program=program, warnings=doc.warnings + failures,
                    placement=placement, **timing)
-
-
-def retimed_cycle(cycle: dict, trajectory) -> dict:
-    """A document's cycle section with the same gripper actions and motion phases on another
-    timing of the same knots."""
-    actions = [GripperAction(p["name"], p["knots"][0], p["duration"])
-               for p in cycle["phases"] if p["kind"] == "action"]
-    phases: dict = {}
-    for p in cycle["phases"]:
-        if p["kind"] == "motion":
-            first, last = phases.get(p["name"], (p["knots"][0], p["knots"][1]))
-            phases[p["name"]] = (first, p["knots"][1])
-    return cycle_to_dict(plan_cycle(trajectory, actions, phases or None))
 
 
 def program_of(doc: PlanDocument):
@@ -421,12 +418,6 @@ def replay_modulus_cap(cable, progress=quiet) -> float | None:
     return REPLAY_MODULUS_CAP
 
 
-HARNESS_NOT_VERIFIED = ("a wire-harness plan is not verified: the checks model a free cable "
-                        "between the two grippers, not one pressed into the board's fixtures "
-                        "(its snap-through and replay would fail where the fixtures hold it)")
-"""Why :func:`verify_plan` refuses a wire-harness plan and ``plan --verify`` warns on one."""
-
-
 def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
                 robot: bool = True, tensile_limit=None, tolerance: float = 0.01,
                 progress=quiet):
@@ -438,15 +429,21 @@ def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
     same motion as the timed dual-arm trajectory. Returns the
     :class:`~dloplan.verify.Verification`.
 
-    Raises
-    ------
-    ValueError
-        For a wire-harness plan (:data:`HARNESS_NOT_VERIFIED`).
+    A wire-harness plan is verified on its held cable, phase by phase
+    (:func:`dloplan.pipeline.harness.verify_harness_plan`, a
+    :class:`~dloplan.harness.verification.HarnessVerification`): ``tensile_limit``, when
+    given, replaces the cable's rated load the plan records.
     """
     from ..verify import verify_path
 
     if doc.harness is not None:
-        raise ValueError(f"plan: {HARNESS_NOT_VERIFIED}")
+        from .harness import verify_harness_plan
+
+        rows = program_of(doc).checks if robot and doc.trajectory is not None else None
+        return verify_harness_plan(doc, snap=snap, replay=replay, robot_rows=rows,
+                                   rated_load=tensile_limit, tolerance=tolerance,
+                                   youngs_modulus_cap=replay_modulus_cap(doc.cable, progress),
+                                   progress=progress)
     times = doc.trajectory.times if replay and doc.trajectory is not None else None
     reach = None
     if robot and doc.trajectory is not None:
@@ -463,9 +460,11 @@ def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
 def with_verification(doc: PlanDocument, verification) -> PlanDocument:
     """The document with its verification section (and the failures among its warnings)."""
     data = verification.to_dict()
-    section = VerificationSection(bool(data["ok"]), tuple(data["messages"]), tuple(data["rows"]),
-                                  dict(data["timings_s"]))
-    failures = tuple(verification.messages) if not verification.ok else ()
+    section = VerificationSection(bool(data["ok"]), tuple(data["messages"]),
+                                  tuple(data.get("rows", ())), dict(data["timings_s"]),
+                                  tuple(data.get("phases", ())))
+    failures = tuple(verification.messages) if not verification.ok else tuple(
+        data.get("warnings", ()))
     return replace(doc, verification=section, warnings=doc.warnings + failures)
 
 

@@ -143,8 +143,6 @@ class RobotCell:
         before grasping and after releasing; 0 grasps directly.
     approach_speed : float
         TCP speed [m/s] of the approach and the retreat.
-    grip_time : float
-        Wait [s] after ``g_GripIn`` / ``g_GripOut`` for the fingers to close / open.
     hold_force : float, optional
         SmartGripper holding force [N] (0..20) for ``g_GripIn \\holdForce``; None uses the
         gripper's configured default.
@@ -172,7 +170,6 @@ class RobotCell:
     table_height: float | None = None
     approach: float = 0.05
     approach_speed: float = 0.05
-    grip_time: float = 0.5
     hold_force: float | None = None
     reach: ReachOptions = field(default_factory=ReachOptions)
     tool0_offset: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_TOOL0_OFFSET))
@@ -197,7 +194,6 @@ class RobotCell:
         set_(self, "table_height", height)
         set_(self, "approach", _positive("RobotCell.approach", self.approach, allow_zero=True))
         set_(self, "approach_speed", _positive("RobotCell.approach_speed", self.approach_speed))
-        set_(self, "grip_time", _positive("RobotCell.grip_time", self.grip_time, allow_zero=True))
         if self.hold_force is not None:
             force = _positive("RobotCell.hold_force", self.hold_force)
             if force > 20.0:
@@ -261,8 +257,7 @@ class RobotCell:
             "base_position": self.base_position.tolist(),
             "base_rotation": quat(self.base_rotation),
             "wobj": self.wobj, "table_height": self.table_height, "approach": self.approach,
-            "approach_speed": self.approach_speed, "grip_time": self.grip_time,
-            "hold_force": self.hold_force,
+            "approach_speed": self.approach_speed, "hold_force": self.hold_force,
             "tools": [{"name": t.name, "tcp_offset": t.tcp_offset.tolist(),
                        "tcp_rotation": quat(t.tcp_rotation), "mass": t.mass,
                        "cog": t.cog.tolist(), "inertia": t.inertia.tolist(),
@@ -298,8 +293,7 @@ def cell_from_record(data: dict) -> RobotCell:
             base_position=np.asarray(data["base_position"], float),
             base_rotation=Rotation.from_quat(data["base_rotation"]), tools=tools,
             wobj=data["wobj"], table_height=data["table_height"], approach=data["approach"],
-            approach_speed=data["approach_speed"], grip_time=data["grip_time"],
-            hold_force=data["hold_force"],
+            approach_speed=data["approach_speed"], hold_force=data["hold_force"],
             tool0_offset=np.asarray(data.get("tool0_offset", DEFAULT_TOOL0_OFFSET), float),
             tool0_rotation=Rotation.from_quat(data["tool0_rotation"])
             if "tool0_rotation" in data else DEFAULT_TOOL0_ROTATION,

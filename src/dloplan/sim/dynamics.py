@@ -8,7 +8,11 @@ Euler scheme of eq. 3.24::
 with the time step dt = sqrt(m_i l / k_s) of 3.8.2 (optionally computed from a capped,
 fictitious Young's modulus as in chapter 6, Fig. 6.5). The four held points follow the clip
 poses, interpolated in time (linear in position, slerp in rotation). An optional ground plane
-z = 0 is a one-sided contact: points are projected back onto it and lose their downward speed.
+z = 0 is a one-sided contact: points are projected back onto it and lose their downward speed;
+so are obstacles (pegs, plates, boxes, the table: ``contacts``,
+:mod:`dloplan.physics.contact_compiled`). A cable that changes while it moves (``cable_at``: a
+wire-harness section that gets shorter as the grippers pull it through the fixtures) takes its
+constants at each millisecond.
 
 Running this to rest takes 10^4 to 10^6 steps; :mod:`dloplan.sim.statics` finds the same rest
 shape directly. The simulator is kept for what only it can do: replaying a timed plan at its
@@ -36,6 +40,9 @@ from .result import Equilibrium, equilibrium_result
 from .stepping import DIVERGED, RUNNING, SETTLED, explicit_steps, twist_steps
 
 _CHUNK = 4096  # steps whose clip poses are interpolated at once
+
+SCHEDULE_INTERVAL = 1e-3
+"""Time [s] between updates of the cable's constants when it changes (``cable_at``)."""
 
 
 class SampledPoses(Sequence):
@@ -210,6 +217,9 @@ def simulate(
     damping: str = "absolute",
     torsion: bool = False,
     natural_twist: float = 0.0,
+    contacts=(),
+    friction: float = 0.0,
+    cable_at=None,
 ) -> Simulation:
     """Integrate eq. 3.24 from ``initial_shape`` (at rest) with the clips driving the ends.
 
@@ -249,6 +259,15 @@ def simulate(
         frames. About 2 ms per step: use it with a capped modulus and small n.
     natural_twist : float
         Natural twist of the cable [rad] (with ``torsion``).
+    contacts : sequence
+        Obstacles the free points cannot enter (each with ``contact_row()``, :mod:`dloplan.
+        obstacles`): a hard, inelastic contact.
+    friction : float
+        Coulomb friction coefficient of the ``contacts`` (0: frictionless).
+    cable_at : callable, optional
+        ``cable_at(t)`` -> the cable at time t [s], with ``cable``'s number of links: its
+        constants (springs, rest lengths, masses, damping, held link length) are taken every
+        :data:`SCHEDULE_INTERVAL`; ``cable`` is the cable at t = 0. Not with ``torsion``.
     """
     x = as_shape(initial_shape, cable.n_points, "initial_shape").copy()
     if not (math.isfinite(duration) and duration > 0):
@@ -271,6 +290,17 @@ def simulate(
     chain = SpringChain.from_cable(cable, gravity)
     if damping not in ("absolute", "relative"):
         raise ValueError(f"damping: got {damping!r}, expected 'absolute' or 'relative'")
+    if not (math.isfinite(friction) and friction >= 0):
+        raise ValueError(f"friction: got {friction!r}, expected a coefficient >= 0")
+    if cable_at is not None and torsion:
+        raise ValueError("cable_at: a changing cable is not simulated with torsion")
+    rows = np.zeros((0, 8))
+    if len(contacts):
+        missing = [type(c).__name__ for c in contacts if not hasattr(c, "contact_row")]
+        if missing:
+            raise ValueError(f"contacts: {', '.join(missing)} without contact_row(), expected "
+                             "obstacle volumes (Table, Cylinder, Box)")
+        rows = np.stack([np.asarray(c.contact_row(), dtype=float) for c in contacts])
     n_records = n_steps // record_every + 2
     times, speeds = np.zeros(n_records), np.zeros(n_records)
     shapes = np.empty((n_records,) + x.shape)
@@ -285,24 +315,37 @@ def simulate(
         twist = QuasiStaticTwist(cable, x, trajectory.frames(np.array([0.0]))[1][0],
                                  natural_twist)
         chain = twist.chain_for(chain)
-    settings = (n_steps, dt, cable.k_damping, damping == "relative", bool(ground), record_every,
+
+    def settings(model: Cable, constants: tuple) -> tuple:
+        return (n_steps, dt, model.k_damping, damping == "relative", bool(ground), rows,
+                cable.diameter / 2, float(friction), record_every,
                 -1.0 if rest_speed is None else float(rest_speed), float(trajectory.times[-1]),
-                *chain.constants, times, shapes, speeds)
+                *constants, times, shapes, speeds)
+
+    fixed = settings(cable, chain.constants)
+    chunk = _CHUNK if cable_at is None else max(1, int(math.ceil(SCHEDULE_INTERVAL / dt)))
     no_load = np.zeros_like(x)
     status, step, recorded = RUNNING, 0, 1
     # a diverging run is detected in the loop and reported with its time: no float warnings
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         while step < n_steps and status == RUNNING:
-            chunk_steps = np.arange(step + 1, min(step + _CHUNK, n_steps) + 1)
-            targets = trajectory.held_points(chunk_steps * dt, cable.rest_link_length)
+            chunk_steps = np.arange(step + 1, min(step + chunk, n_steps) + 1)
+            model, current = cable, fixed
+            if cable_at is not None:
+                model = cable_at(float(np.mean(chunk_steps)) * dt)
+                if model.n_links != cable.n_links:
+                    raise ValueError(f"cable_at: a cable of {model.n_links} links, expected "
+                                     f"{cable.n_links}")
+                current = settings(model, SpringChain.from_cable(model, gravity).constants)
+            targets = trajectory.held_points(chunk_steps * dt, model.rest_link_length)
             if twist is None:
                 step, recorded, status = explicit_steps(x, v, previous_held, targets, no_load, step,
-                                                        *settings, recorded)
+                                                        *current, recorded)
                 continue
             held = held_directors(trajectory.frames(chunk_steps * dt)[1])
             step, recorded, status = twist_steps(
                 x, v, previous_held, targets, np.ascontiguousarray(held), twist.directors,
-                twist.twist_chain.constants, scratch(), step, *settings, recorded)
+                twist.twist_chain.constants, scratch(), step, *current, recorded)
     if status == DIVERGED:
         raise FloatingPointError(
             f"simulation diverged at t = {step * dt:.4g} s (dt = {dt:.3g} s too large)")

@@ -6,7 +6,8 @@ One step of the semi-implicit Euler scheme (thesis 3.8) with the fictitious damp
 
 with D(v) = v (the thesis' absolute damping) or the graph Laplacian of v (relative damping:
 dashpots between neighbouring points); then the four held points are put where the clips hold
-them (their velocity is the clips'), and an optional ground plane z = 0 is one-sided. The force
+them (their velocity is the clips'), an optional ground plane z = 0 and obstacles (pegs, plates,
+boxes, the table: :func:`dloplan.physics.contact_compiled.push_out`) are one-sided. The force
 F = -dU/dx comes from :func:`dloplan.physics.compiled.chain_gradient`, plus an optional external
 gradient held fixed over the call. With torsion, :func:`twist_steps` relaxes the quasi-static
 twist angles before every step (:class:`dloplan.sim.torsion.QuasiStaticTwist`) and adds their
@@ -25,6 +26,7 @@ import numpy as np
 
 from ..jit import njit
 from ..physics.compiled import chain_gradient
+from ..physics.contact_compiled import push_out
 from ..physics.twist_compiled import carry_directors, link_tangents, twist_load, twist_stencils
 from .newton import cholesky_band, cholesky_solve
 
@@ -33,8 +35,9 @@ RUNNING, SETTLED, DIVERGED = 0, 1, 2
 
 @njit(cache=True)
 def explicit_steps(x, v, previous_held, targets, extra, first_step, n_steps, dt, k_d, relative,
-                   ground, record_every, rest_speed, clips_stop, k_s, rest_lengths, k_b,
-                   rest_angles, masses, gravity, times, shapes, speeds, n_records):
+                   ground, obstacles, radius, friction, record_every, rest_speed, clips_stop, k_s,
+                   rest_lengths, k_b, rest_angles, masses, gravity, times, shapes, speeds,
+                   n_records):
     """Advance x, v (n + 1, 3) in place through the clip targets of one chunk.
 
     Parameters
@@ -53,6 +56,13 @@ def explicit_steps(x, v, previous_held, targets, extra, first_step, n_steps, dt,
         Time step [s] and damping constant [N s/m].
     relative, ground : bool
         Relative damping; the one-sided plane z = 0.
+    obstacles : numpy.ndarray
+        (K, 8) obstacle rows the free points cannot enter (``contact_row()``,
+        :mod:`dloplan.physics.contact_compiled`; K = 0: none).
+    radius : float
+        The cable's radius for the obstacles [m].
+    friction : float
+        Coulomb friction coefficient of the obstacles (0: frictionless).
     record_every : int
         Record every this many steps (and the last one).
     rest_speed : float
@@ -72,17 +82,17 @@ def explicit_steps(x, v, previous_held, targets, extra, first_step, n_steps, dt,
         or :data:`DIVERGED`.
     """
     return _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt, k_d,
-                           relative, ground, record_every, rest_speed, clips_stop, k_s,
-                           rest_lengths, k_b, rest_angles, masses, gravity, times, shapes,
-                           speeds, n_records, np.empty_like(x), np.empty_like(x),
-                           np.empty_like(x))
+                           relative, ground, obstacles, radius, friction, record_every, rest_speed,
+                           clips_stop, k_s, rest_lengths, k_b, rest_angles, masses, gravity,
+                           times, shapes, speeds, n_records, np.empty_like(x),
+                           np.empty_like(x), np.empty_like(x))
 
 
 @njit(cache=True)
 def _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt, k_d, relative,
-                    ground, record_every, rest_speed, clips_stop, k_s, rest_lengths, k_b,
-                    rest_angles, masses, gravity, times, shapes, speeds, n_records, grad, drag,
-                    accel):
+                    ground, obstacles, radius, friction, record_every, rest_speed, clips_stop, k_s,
+                    rest_lengths, k_b, rest_angles, masses, gravity, times, shapes, speeds,
+                    n_records, grad, drag, accel):
     """:func:`explicit_steps` with its work arrays (n + 1, 3) given (:func:`twist_steps` calls
     it once per step)."""
     n_points = x.shape[0]
@@ -112,6 +122,8 @@ def _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt
                 v[held[h], a] = (targets[k, h, a] - previous_held[h, a]) / dt
                 x[held[h], a] = targets[k, h, a]
                 previous_held[h, a] = targets[k, h, a]
+        if obstacles.shape[0] > 0:
+            push_out(x, v, accel, obstacles, radius, friction, 2, n_points - 2)
         if ground:
             for i in range(n_points):
                 if x[i, 2] < 0.0:
@@ -195,9 +207,9 @@ def relax_twist(x, d1, twist, tangents, lengths, work, tgrad, dgrad, agrad, bloc
 
 @njit(cache=True)
 def twist_steps(x, v, previous_held, targets, held_directors, d1, twist, work, first_step,
-                n_steps, dt, k_d, relative, ground, record_every, rest_speed, clips_stop, k_s,
-                rest_lengths, k_b, rest_angles, masses, gravity, times, shapes, speeds,
-                n_records):
+                n_steps, dt, k_d, relative, ground, obstacles, radius, friction, record_every,
+                rest_speed, clips_stop, k_s, rest_lengths, k_b, rest_angles, masses, gravity,
+                times, shapes, speeds, n_records):
     """:func:`explicit_steps` with quasi-static twist: before each step the angles relax
     (:func:`relax_twist`, whose twisting force loads the step), after it the free directors d1
     (n, 3) are turned by the relaxed angles and carried to the new links by parallel transport
@@ -228,8 +240,9 @@ def twist_steps(x, v, previous_held, targets, held_directors, d1, twist, work, f
                     factor, rhs, angles, extra)
         step, n_records, status = _explicit_chunk(
             x, v, previous_held, targets[k : k + 1], extra, step, n_steps, dt, k_d, relative,
-            ground, record_every, rest_speed, clips_stop, k_s, rest_lengths, k_b, rest_angles,
-            masses, gravity, times, shapes, speeds, n_records, grad, drag, accel)
+            ground, obstacles, radius, friction, record_every, rest_speed, clips_stop, k_s,
+            rest_lengths, k_b, rest_angles, masses, gravity, times, shapes, speeds, n_records,
+            grad, drag, accel)
         if not carry_directors(tangents, lengths, x, d1, angles, 1, n - 1):
             return step, n_records, DIVERGED  # a link reversed or folded back in one step
         d1[0] = held_directors[k, 0]

@@ -29,6 +29,15 @@ its chord by a_max h^2 / 8, 0.1 um at 1 m/s^2). Without it the clips move at con
 between the knots (the velocity-only timing: a velocity jump, an infinite acceleration, at
 every knot).
 
+**Contacts and a changing cable.** With ``contacts`` (pegs, plates, the table) the simulator
+keeps the points out of the obstacles (a hard, frictionless contact,
+:mod:`dloplan.physics.contact_compiled`), and the replay records, per obstacle and recorded
+shape, the smallest gap between the cable's surface and the obstacle (``contact_gaps``): a
+contact is closed where the gap is below :data:`CONTACT_GAP` times the cable's radius, so the
+run shows where the cable lifts off a peg or comes to rest on a plate. With ``cable_at`` the
+cable changes with time (a harness section pulled through its fixtures): the simulator takes its
+constants as it goes, and the link tensions are those of the cable at each record's time.
+
 The simulated shapes are recorded often enough (at least 20 records per knot interval, every step
 while the run has fewer than :data:`MAX_RECORDS` steps) that the shape at a knot time is
 interpolated linearly between two records and the force peak is sampled at that resolution.
@@ -45,8 +54,9 @@ from scipy.spatial.transform import Rotation
 from ..cable import GRAVITY, Cable
 from ..geometry import as_path
 from ..physics.chain import SpringChain, link_tensions
+from ..physics.contact import penetrations
 from ..sim.clips import ClipPoses
-from ..sim.dynamics import ClipTrajectory, Simulation, simulate
+from ..sim.dynamics import SCHEDULE_INTERVAL, ClipTrajectory, Simulation, simulate
 from ..trajectory import TimeLaw, interpolate_poses, sample_times
 from ._inputs import as_times
 
@@ -55,6 +65,10 @@ MAX_RECORDS = 100_000
 
 CLIP_RATE = 1000.0
 """Rate [Hz] at which :func:`clip_motion` samples the clip poses along a time law."""
+
+CONTACT_GAP = 0.05
+"""A recorded point touches an obstacle when its surface is closer than this fraction of the
+cable's radius (the hard contact puts a pressing point at a gap of zero)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,6 +109,15 @@ class Replay:
         Largest axial link force while the clips move [N] (the settling excluded).
     law : TimeLaw
         The time law the clips followed (constant speed between the knots when none given).
+    tensions : numpy.ndarray
+        (R, n) axial force of each link at each recorded time [N] (positive in tension).
+    contact_names : tuple of str
+        The obstacles of ``contacts`` (empty without).
+    contact_gaps : numpy.ndarray
+        (R, K) smallest gap between the cable's surface and each obstacle at each recorded time
+        [m] (module docstring).
+    contact_tolerance : float
+        The gap below which a contact counts as closed [m].
     """
 
     knot_times: np.ndarray
@@ -112,11 +135,45 @@ class Replay:
     segment_deviations: np.ndarray
     motion_peak_tension: float
     law: TimeLaw
+    tensions: np.ndarray
+    contact_names: tuple[str, ...] = ()
+    contact_gaps: np.ndarray | None = None
+    contact_tolerance: float = 0.0
 
     @property
     def max_deviation(self) -> float:
         """Largest knot deviation [m]."""
         return float(np.max(self.deviations))
+
+    def _window(self, start: float, end: float) -> np.ndarray:
+        times = self.simulation.times
+        inside = (times >= start - 1e-12) & (times <= end + 1e-12)
+        if not inside.any():  # a window between two records: the nearer record
+            inside[int(np.argmin(np.abs(times - 0.5 * (start + end))))] = True
+        return inside
+
+    def peak_tension_between(self, start: float, end: float) -> tuple[float, float, int]:
+        """Largest link tension [N] over the records in [start, end] [s] (the replay's clock),
+        with its time [s] and link."""
+        inside = self._window(start, end)
+        tensions = self.tensions[inside]
+        when, link = np.unravel_index(int(np.argmax(tensions)), tensions.shape)
+        return float(tensions[when, link]), float(self.simulation.times[inside][when]), int(link)
+
+    def contact_between(self, start: float, end: float) -> dict:
+        """Per obstacle: ``(closed at start, closed at end, first time it opened, first time it
+        closed)`` over the records in [start, end] [s] (None where it did not)."""
+        inside = self._window(start, end)
+        times = self.simulation.times[inside]
+        out = {}
+        for k, name in enumerate(self.contact_names):
+            closed = self.contact_gaps[inside, k] < self.contact_tolerance
+            opened = np.flatnonzero(closed[:-1] & ~closed[1:])
+            shut = np.flatnonzero(~closed[:-1] & closed[1:])
+            out[name] = (bool(closed[0]), bool(closed[-1]),
+                         float(times[opened[0] + 1]) if len(opened) else None,
+                         float(times[shut[0] + 1]) if len(shut) else None)
+        return out
 
     @property
     def success(self) -> bool:
@@ -201,6 +258,10 @@ def replay(
     max_steps: int = 10_000_000,
     damping: str = "relative",
     torsion: bool = False,
+    contacts=(),
+    friction: float = 0.0,
+    cable_at=None,
+    record_interval: float | None = None,
 ) -> Replay:
     """Simulate the timed plan at its real speed and compare with the planned shapes.
 
@@ -281,20 +342,30 @@ def replay(
     motion = float(shifted.times[-1])
     model = fictitious_cable(cable, youngs_modulus_cap)
     step = dt if dt is not None else model.time_step()
+    changing = None
+    if cable_at is not None:
+        def changing(t: float) -> Cable:
+            return fictitious_cable(cable_at(t + start), youngs_modulus_cap)
+
+        if dt is None:  # the shortest links set the step
+            step = min(step, changing(motion).time_step())
     duration = motion + settle_duration
     spacing = np.diff(knots)
     finest = float(np.min(spacing)) / 20.0 if len(spacing) else duration
-    record = min(max(step, duration / MAX_RECORDS), finest)
+    longest = max(step, duration / MAX_RECORDS) if record_interval is None else max(
+        step, float(record_interval))
+    record = min(longest, finest)
     run = simulate(
-        model, path[0], shifted, duration=duration, dt=dt,
+        model, path[0], shifted, duration=duration, dt=step,
         gravity=gravity, record_interval=record, rest_speed=rest_speed, max_steps=max_steps,
-        damping=damping, torsion=torsion,
+        damping=damping, torsion=torsion, contacts=contacts, friction=friction,
+        cable_at=changing,
     )
     deviations = np.array([_deviation_at(run, t, x) for t, x in zip(knots, path, strict=True)])
     final = float(np.max(np.linalg.norm(run.shapes[-1] - path[-1], axis=1)))
     timing = law if law is not None else TimeLaw.constant_speed(knots)
     segments = _segment_deviations(run, path, timing, knots, deviations)
-    tensions = link_tensions(SpringChain.from_cable(cable, gravity), run.shapes)
+    tensions = _tensions(run, cable, cable_at, start, gravity)
     when, link = np.unravel_index(int(np.argmax(tensions)), tensions.shape)
     peak = float(tensions[when, link])
     moving = run.times <= motion + 1e-12
@@ -317,9 +388,30 @@ def replay(
                f"settled {1e3 * final:.2f} mm, peak tension {motion_peak:.3g} N in motion, "
                f"{peak:.3g} N overall")
     message = "; ".join(problems) + f" ({summary})" if problems else f"replay ok: {summary}"
+    gaps = np.zeros((len(run.times), 0))
+    if len(contacts):  # the gap is minus the deepest penetration
+        gaps = -np.stack([np.max(depth, axis=1) for depth, _ in
+                          penetrations(run.shapes, contacts, cable.diameter / 2)], axis=1)
+    names = tuple(str(getattr(c, "name", type(c).__name__)) for c in contacts)
     return Replay(knots, deviations, final, bool(run.settled), peak, float(run.times[when]),
                   int(link), tensile_limit, float(tolerance), not problems, message, run,
-                  segments, motion_peak, timing)
+                  segments, motion_peak, timing, tensions, names, gaps,
+                  CONTACT_GAP * cable.diameter / 2)
+
+
+def _tensions(run: Simulation, cable: Cable, cable_at, start: float, gravity) -> np.ndarray:
+    """(R, n) link tensions of the recorded shapes [N]: of ``cable``, or of the cable at each
+    record's time, taken per interval of :data:`~dloplan.sim.dynamics.SCHEDULE_INTERVAL` as the
+    simulator takes it."""
+    if cable_at is None:
+        return link_tensions(SpringChain.from_cable(cable, gravity), run.shapes)
+    slots = np.floor(run.times / SCHEDULE_INTERVAL).astype(int)
+    out = np.empty((len(run.times), cable.n_links))
+    for slot in np.unique(slots):
+        mine = slots == slot
+        model = cable_at((slot + 0.5) * SCHEDULE_INTERVAL + start)
+        out[mine] = link_tensions(SpringChain.from_cable(model, gravity), run.shapes[mine])
+    return out
 
 
 def _segment_deviations(run: Simulation, path: np.ndarray, law: TimeLaw, knots: np.ndarray,
@@ -344,4 +436,4 @@ def _deviation_at(run: Simulation, t: float, planned: np.ndarray) -> float:
     return float(np.max(np.linalg.norm(run.at(t)[0] - planned, axis=1)))
 
 
-__all__ = ["CLIP_RATE", "Replay", "as_clip_trajectory", "clip_motion", "replay"]
+__all__ = ["CLIP_RATE", "CONTACT_GAP", "Replay", "as_clip_trajectory", "clip_motion", "replay"]

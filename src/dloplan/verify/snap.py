@@ -37,10 +37,29 @@ snap (critical point)
 unstable
     A sub-step whose equilibrium is not a stable minimum (solver not converged, or smallest
     eigenvalue not above the threshold of :func:`dloplan.verify.stability.elastic_stability`):
-    the smallest eigenvalue has crossed zero.
+    the smallest eigenvalue has crossed zero. With contacts the eigenvalue followed is the one
+    with the pressing points sticking (``Stability.sticking``): a slack cable that the
+    frictionless model lets slide along a plate is held there by friction, which the
+    continuation reports through its contact states rather than as a snap.
 branch
     The continuation ends farther than ``branch_tolerance`` (default 1 mm) from the planned
     stabilized shape of the segment's end: the plan's shape is not the one the motion produces.
+
+contacts
+    With ``contacts`` (pegs, plates, the table) every equilibrium and stability test includes
+    them as one-sided contacts (:mod:`dloplan.verify.contacts`); a contact may open or close
+    along the way. Each opening (``"lift-off"``) and closing (``"touch-down"``) is recorded with
+    its sub-step (:class:`ContactChange`); it is not an event by itself. A snap whose window
+    holds a change names the obstacle, and a sub-step whose shape jumps (ratio above
+    ``jump_ratio``) while a contact changes is an event of its own (``"contact"``): the contact's
+    state jumped, the cable with it.
+changing cable
+    With ``cables`` (one :class:`~dloplan.cable.Cable` per shape, the same discretization) the
+    cable itself changes along the path: between shapes s and s + 1 its length and mass are
+    interpolated linearly. A wire-harness section being tensioned is such a path: held at the
+    fixtures, it gets shorter as the grippers pull the cable through them. The forcing of a
+    sub-step is then its clip motion plus the change of the cable's length between its clip
+    points (L - l) [m].
 
 Each segment starts from the planned stabilized shape at its start, so one event does not hide
 the next. Per segment the *straying* is the largest distance of a quasi-static shape from the
@@ -52,7 +71,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -62,6 +81,7 @@ from ..physics.chain import SpringChain
 from ..sim.clips import ClipPoses
 from ..sim.statics import equilibrium, interpolate_clips
 from ._inputs import as_clip_sequence, max_distance
+from .contacts import contact_changes
 from .stability import STABILITY_RTOL, elastic_stability, quickest_method
 
 CRITICAL = 0.1
@@ -88,7 +108,7 @@ class SnapEvent:
         Where in the segment, as a fraction of the clip interpolation in [0, 1] (localized to
         the smallest eigenvalue for a snap).
     kind : str
-        ``"snap"``, ``"unstable"`` or ``"branch"`` (see the module docstring).
+        ``"snap"``, ``"unstable"``, ``"contact"`` or ``"branch"`` (see the module docstring).
     distance : float
         Largest point displacement of one sub-step at the event [m].
     ratio : float
@@ -97,6 +117,8 @@ class SnapEvent:
         Smallest eigenvalue at the event [N/m] (the minimum found for a snap).
     message : str
         The event in words.
+    contacts : tuple of str
+        The obstacles whose contact opened or closed at the event (empty: none).
     """
 
     segment: int
@@ -107,6 +129,36 @@ class SnapEvent:
     ratio: float
     eigenvalue: float
     message: str
+    contacts: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class ContactChange:
+    """A contact that opened or closed in a sub-step of the continuation.
+
+    Attributes
+    ----------
+    segment : int
+        Segment index s.
+    substep : int
+        Sub-step (1-based) at whose end the contact's state differs from its start.
+    fraction : float
+        The sub-step's end, as a fraction of the segment.
+    name : str
+        The obstacle.
+    change : str
+        ``"lift-off"`` (the contact opened) or ``"touch-down"`` (it closed).
+    """
+
+    segment: int
+    substep: int
+    fraction: float
+    name: str
+    change: str
+
+    def describe(self) -> str:
+        """One phrase."""
+        return f"{self.name}: {self.change} in segment {self.segment} at t = {self.fraction:.3f}"
 
 
 @dataclass(frozen=True, eq=False)
@@ -131,6 +183,11 @@ class SegmentContinuation:
         Largest distance between the last shape and the planned shape s + 1 [m].
     events : tuple of SnapEvent
         Events flagged in this segment.
+    contact_changes : tuple of ContactChange
+        Contacts that opened or closed along the segment (empty without contacts).
+    contacts : tuple
+        (m + 1) tuples of :class:`~dloplan.verify.contacts.ContactState`, one per shape (empty
+        without contacts).
     """
 
     segment: int
@@ -141,6 +198,8 @@ class SegmentContinuation:
     straying: float
     end_mismatch: float
     events: tuple[SnapEvent, ...]
+    contact_changes: tuple[ContactChange, ...] = ()
+    contacts: tuple = ()
 
     @property
     def max_ratio(self) -> float:
@@ -174,6 +233,11 @@ class SnapCheck:
         """Same as ``ok``."""
         return self.ok
 
+    @property
+    def contact_changes(self) -> tuple[ContactChange, ...]:
+        """Every contact that opened or closed, in path order."""
+        return tuple(c for seg in self.segments for c in seg.contact_changes)
+
 
 def clip_motion(a: ClipPoses, b: ClipPoses, reach: float) -> float:
     """Largest over the two clips of |dp| + reach * (angle between the u-axes) [m]."""
@@ -182,13 +246,55 @@ def clip_motion(a: ClipPoses, b: ClipPoses, reach: float) -> float:
     return float(np.max(shift + reach * np.arccos(cos)))
 
 
+def interpolate_cable(a: Cable, b: Cable, t: float) -> Cable:
+    """The cable at fraction t between two cables that differ in length and mass only.
+
+    Length and mass linear in t (the rest of ``a``'s fields kept); ``a`` itself at t = 0, ``b``
+    at t = 1.
+    """
+    if a is b or t == 0.0:
+        return a
+    if t == 1.0:
+        return b
+    return replace(a, length=(1.0 - t) * a.length + t * b.length,
+                   mass=(1.0 - t) * a.mass + t * b.mass)
+
+
+def _check_cables(cables, count: int, cable: Cable) -> list[Cable]:
+    """One cable per shape, differing from ``cable`` in length and mass only."""
+    if cables is None:
+        return [cable] * count
+    items = list(cables)
+    if len(items) != count:
+        raise ValueError(f"cables: {len(items)} given, expected {count} (one per shape)")
+    fixed = [f.name for f in fields(Cable) if f.name not in ("length", "mass")]
+    for k, item in enumerate(items):
+        if not isinstance(item, Cable):
+            raise ValueError(f"cables[{k}]: got {type(item).__name__}, expected a Cable")
+        differing = [name for name in fixed if not _same(getattr(item, name),
+                                                        getattr(cable, name))]
+        if differing:
+            raise ValueError(f"cables[{k}]: differs from the cable in {', '.join(differing)}; "
+                             "expected the same cable with another length and mass")
+    return items
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return a is b or (a is not None and b is not None and np.array_equal(a, b))
+    return a == b
+
+
 class _Segment:
     """The solver state shared by the sub-steps and the localization of one segment."""
 
-    def __init__(self, cable, chain, start: ClipPoses, end: ClipPoses, gravity, rtol):
-        self.cable, self.chain, self.gravity, self.rtol = cable, chain, gravity, rtol
+    def __init__(self, cables: tuple[Cable, Cable], start: ClipPoses, end: ClipPoses, gravity,
+                 rtol, contacts=()):
+        self.cables, self.gravity, self.rtol = cables, gravity, rtol
+        self.contacts = tuple(contacts)
         self.start, self.end = start, end
         self._clips: dict[float, ClipPoses] = {}
+        self._chains: dict[float, tuple[Cable, SpringChain]] = {}
 
     def prepare(self, fractions: np.ndarray) -> None:
         """Interpolate the clips at all sub-step fractions at once (Rotation calls are slow)."""
@@ -201,19 +307,38 @@ class _Segment:
             self._clips[t] = interpolate_clips(self.start, self.end, [t])[0]
         return self._clips[t]
 
+    def model(self, t: float) -> tuple[Cable, SpringChain]:
+        """The cable at fraction t and its chain (with the contacts)."""
+        t = float(t)
+        if t not in self._chains:
+            cable = interpolate_cable(*self.cables, t)
+            self._chains[t] = cable, SpringChain.from_cable(cable, self.gravity, self.contacts)
+        return self._chains[t]
+
+    def stability(self, x: np.ndarray, t: float):
+        cable = self.model(t)[0]
+        return elastic_stability(cable, x, gravity=self.gravity, k=1, rtol=self.rtol,
+                                 method=quickest_method(cable.n_points), contacts=self.contacts)
+
     def solve(self, guess: np.ndarray, t: float):
-        eq = equilibrium(self.cable, guess, self.clips(t), gravity=self.gravity, chain=self.chain)
-        stab = elastic_stability(self.cable, eq.shape, gravity=self.gravity, k=1, rtol=self.rtol,
-                                 method=quickest_method(self.cable.n_points))
-        return eq, stab
+        cable, chain = self.model(t)
+        eq = equilibrium(cable, guess, self.clips(t), gravity=self.gravity, chain=chain)
+        return eq, self.stability(eq.shape, t)
+
+    def forcing(self, t0: float, t1: float) -> float:
+        """Clip motion plus the change of the held length between fractions t0 and t1 [m]."""
+        a, b = self.model(t0)[0], self.model(t1)[0]
+        held = abs((b.length - b.rest_link_length) - (a.length - a.rest_link_length))
+        return clip_motion(self.clips(t0), self.clips(t1), self.cables[0].length) + held
 
     def ratio(self, x0, t0, x1, t1) -> float:
-        motion = clip_motion(self.clips(t0), self.clips(t1), self.cable.length)
+        motion = self.forcing(t0, t1)
         return max_distance(x0, x1) / motion if motion > 0 else math.inf
 
     def smallest_at(self, guess: np.ndarray, t: float) -> float:
-        """Smallest eigenvalue of the equilibrium at fraction t reached from ``guess``."""
-        return self.solve(guess, t)[1].smallest
+        """Smallest eigenvalue of the equilibrium at fraction t reached from ``guess`` (with
+        contacts: the pressing points sticking)."""
+        return self.solve(guess, t)[1].sticking
 
 
 def check_snap_through(
@@ -228,6 +353,8 @@ def check_snap_through(
     refinements: int = 10,
     branch_tolerance: float = 1e-3,
     rtol: float = STABILITY_RTOL,
+    contacts=(),
+    cables: Sequence[Cable] | None = None,
 ) -> SnapCheck:
     """Follow the equilibrium branch between consecutive planned clip poses; flag snaps.
 
@@ -254,6 +381,11 @@ def check_snap_through(
         Largest distance [m] accepted between the continuation's end and the planned shape.
     rtol : float
         Relative eigenvalue tolerance of the stability test.
+    contacts : sequence
+        Obstacles in one-sided contact with the cable (module docstring).
+    cables : sequence of Cable, optional
+        One cable per shape, differing from ``cable`` in length and mass only (module
+        docstring: a changing cable); default ``cable`` throughout.
 
     Returns
     -------
@@ -262,6 +394,7 @@ def check_snap_through(
     """
     path = as_path(stabilized_shapes, cable.n_points, "stabilized_shapes")
     poses = as_clip_sequence(clip_poses, path)
+    models = _check_cables(cables, len(path), cable)
     for name, value in (("max_clip_step", max_clip_step), ("jump_ratio", jump_ratio),
                         ("branch_tolerance", branch_tolerance)):
         if not (math.isfinite(value) and value > 0):
@@ -270,12 +403,12 @@ def check_snap_through(
         raise ValueError(f"substeps: got {substeps!r}, expected an integer >= 1 or None")
     if int(refinements) != refinements or refinements < 0:
         raise ValueError(f"refinements: got {refinements!r}, expected an integer >= 0")
-    chain = SpringChain.from_cable(cable, gravity)
     segments = []
     for s in range(len(path) - 1):
-        seg = _Segment(cable, chain, poses[s], poses[s + 1], gravity, rtol)
+        seg = _Segment((models[s], models[s + 1]), poses[s], poses[s + 1], gravity, rtol,
+                       contacts)
         if substeps is None:
-            total = clip_motion(poses[s], poses[s + 1], cable.length)
+            total = seg.forcing(0.0, 1.0)
             m = max(1, math.ceil(total / (max_clip_step * cable.length)))
         else:
             m = int(substeps)
@@ -293,29 +426,36 @@ def _continue_segment(seg: _Segment, s, start, end, m, jump_ratio, refinements, 
     fractions = np.linspace(0.0, 1.0, m + 1)
     seg.prepare(fractions)
     shapes = [start]
-    eigenvalues = [elastic_stability(seg.cable, start, gravity=seg.gravity, k=1,
-                                     rtol=seg.rtol,
-                                     method=quickest_method(seg.cable.n_points)).smallest]
-    ratios, events = [], []
+    first = seg.stability(start, 0.0)
+    eigenvalues, states = [first.sticking], [first.contacts]
+    ratios, events, changes = [], [], []
     x = start
     for j in range(1, m + 1):
         eq, stab = seg.solve(x, fractions[j])
         ratios.append(seg.ratio(x, fractions[j - 1], eq.shape, fractions[j]))
-        if not (eq.converged and stab.stable):
+        changed = contact_changes(states[-1], stab.contacts)
+        changes += [ContactChange(s, j, float(fractions[j]), name, kind)
+                    for name, kind in changed]
+        # with contacts the penalty's kinks may stall Newton short of its tolerance: the
+        # stability test's equilibrium tolerance decides then
+        if not ((eq.converged or seg.contacts) and stab.stable_with_friction):
             events.append(SnapEvent(
                 s, j, float(fractions[j]), "unstable", max_distance(eq.shape, x), ratios[-1],
-                stab.smallest, f"segment {s}, sub-step {j} (t = {fractions[j]:.4f}): no stable "
+                stab.sticking, f"segment {s}, sub-step {j} (t = {fractions[j]:.4f}): no stable "
                 f"equilibrium ({eq.message}; {stab.message})",
             ))
         x = eq.shape
         shapes.append(x)
-        eigenvalues.append(stab.smallest)
+        eigenvalues.append(stab.sticking)
+        states.append(stab.contacts)
     shapes, eigenvalues, ratios = np.stack(shapes), np.asarray(eigenvalues), np.asarray(ratios)
-    for first, last in _candidate_windows(ratios, eigenvalues, jump_ratio):
-        event = _localize(seg, s, fractions, shapes, eigenvalues, ratios, first, last,
-                          refinements)
+    windows = _candidate_windows(ratios, eigenvalues, jump_ratio)
+    for first_step, last_step in windows:
+        event = _localize(seg, s, fractions, shapes, eigenvalues, ratios, first_step, last_step,
+                          refinements, changes)
         if event is not None:
             events.append(event)
+    events += _contact_jumps(s, fractions, shapes, ratios, jump_ratio, changes, events)
     events.sort(key=lambda e: e.fraction)
     straight = (1.0 - fractions)[:, None, None] * start + fractions[:, None, None] * end
     straying = float(np.max(np.linalg.norm(shapes - straight, axis=-1)))
@@ -328,7 +468,26 @@ def _continue_segment(seg: _Segment, s, start, end, m, jump_ratio, refinements, 
             f"equilibrium the motion reaches (another branch, or not stabilized)",
         ))
     return SegmentContinuation(s, fractions, shapes, eigenvalues, ratios, straying, mismatch,
-                               tuple(events))
+                               tuple(events), tuple(changes),
+                               tuple(states) if seg.contacts else ())
+
+
+def _contact_jumps(s, fractions, shapes, ratios, jump_ratio, changes, events) -> list[SnapEvent]:
+    """A sub-step whose shape jumps while a contact opens or closes, not already in a snap."""
+    covered = {e.substep for e in events if e.kind in ("snap", "contact")}
+    out = []
+    for j in sorted({c.substep for c in changes}):
+        if ratios[j - 1] <= jump_ratio or j in covered:
+            continue
+        names = tuple(c.name for c in changes if c.substep == j)
+        what = ", ".join(f"{c.change} at {c.name}" for c in changes if c.substep == j)
+        distance = max_distance(shapes[j], shapes[j - 1])
+        out.append(SnapEvent(
+            s, j, float(fractions[j]), "contact", distance, float(ratios[j - 1]), math.nan,
+            f"segment {s}, sub-step {j} (t = {fractions[j]:.4f}): the contact jumps ({what}), "
+            f"the shape moves {1e3 * distance:.1f} mm in one sub-step "
+            f"({ratios[j - 1]:.3g} times the forcing)", names))
+    return out
 
 
 def _candidate_windows(ratios, eigenvalues, jump_ratio):
@@ -358,7 +517,8 @@ def _candidate_windows(ratios, eigenvalues, jump_ratio):
     return windows
 
 
-def _localize(seg, s, fractions, shapes, eigenvalues, ratios, first, last, refinements):
+def _localize(seg, s, fractions, shapes, eigenvalues, ratios, first, last, refinements,
+              changes=()):
     """Find the smallest eigenvalue over a candidate window; an event if it is near zero."""
     a, b = first - 1, min(last + 1, len(fractions) - 1)
     guess = shapes[a]
@@ -377,11 +537,15 @@ def _localize(seg, s, fractions, shapes, eigenvalues, ratios, first, last, refin
     window = slice(first - 1, last)
     j = first + int(np.argmax(ratios[window]))
     distance = max_distance(shapes[j], shapes[j - 1])
+    inside = [c for c in changes if a < c.substep <= b]
+    names = tuple(dict.fromkeys(c.name for c in inside))
+    at = ("; the contact changes: " + ", ".join(f"{c.change} at {c.name}" for c in inside)
+          if inside else "")
     return SnapEvent(
         s, j, t_star, "snap", distance, float(np.max(ratios[window])), lam_star,
         f"segment {s}, sub-step {j}: snap-through (critical point) at t = {t_star:.4f}, the "
         f"smallest eigenvalue "
         f"falls to {lam_star:.3g} N/m (from {ends:.3g}) and the shape moves "
         f"{1e3 * distance:.1f} mm in one sub-step ({float(np.max(ratios[window])):.3g} times "
-        f"the clip motion)",
+        f"the clip motion){at}", names,
     )

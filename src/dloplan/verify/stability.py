@@ -25,6 +25,28 @@ axially stiff cables (n = 1000: about 1e-4 lambda_ref). A smaller lambda_1 is ze
 accuracy of the model: the shape is neutral (a rigid rotation the torsion-free model does not
 resist, e.g. a weightless cable whose clips both point along the chord) or unstable.
 
+Contacts
+--------
+A cable resting on a plate or wrapped around a peg is held there by one-sided contacts
+(:mod:`dloplan.physics.contact`). With ``contacts`` the energy includes the penalty of the
+obstacles, and the Hessian its exact blocks k_c (n n^T - d grad^2 phi)
+(:func:`dloplan.physics.contact.contact_hessian_blocks`): an active contact resists motion into
+the obstacle (with the stiffness k_c of the penalty, the hard constraint's limit) and, along a
+curved surface, softens the cable by the pressing force over the curvature radius; an inactive
+contact adds nothing. So lambda_1 is the smallest eigenvalue of the *constrained* Hessian: the
+held points removed, the active contacts acting. Each obstacle's state (active with its force,
+or clear by a gap) is reported (:mod:`dloplan.verify.contacts`), and an active contact along
+which the lowest mode slides is marked as sliding: frictionless, it does not resist that mode.
+
+The statics are frictionless, a real board is not: a slack cable resting on a plate or touching
+a peg may be neutral or unstable along the surface in the frictionless model (lambda_1 <= 0 with
+the mode sliding along the contact) and held there by friction. So with contacts a second
+eigenvalue is computed, ``sticking`` [N/m]: the smallest of the same Hessian with the pressing
+points held as well (sticking friction pins them, as long as they press: a perturbation asks an
+infinitesimal tangential force of them). ``stable_with_friction`` asks it to exceed the
+threshold; a configuration stable with friction but not without is *held by friction*, its
+sliding contacts named. By Cauchy's interlacing theorem ``sticking >= lambda_1``.
+
 The stability verdict is only meaningful at an equilibrium, so the net force on the free points
 is checked as well: a shape whose largest free-point force exceeds ``equilibrium_rtol`` times
 :func:`dloplan.sim.statics.force_scale` is reported as not an equilibrium (and not stable).
@@ -56,13 +78,15 @@ from ..geometry import as_path, as_shape
 from ..physics.chain import (
     HALF_BANDWIDTH,
     SpringChain,
-    gradient,
-    gradient_and_hessian_band,
+    band_to_sparse,
+    shape_derivatives,
     sparse_to_band,
 )
-from ..physics.gravity import gravity_force
+from ..physics.compiled import add_point_blocks
+from ..physics.contact import contact_gradient, contact_hessian_blocks
 from ..sim.newton import factor_band, free_band, solve_band
-from ..sim.statics import force_scale, free_hessian
+from ..sim.statics import force_scale
+from .contacts import ContactState, contact_states, contact_stiffness, sliding_states
 
 STABILITY_RTOL = 1e-6
 """Default relative tolerance on the smallest eigenvalue, against :func:`stiffness_scale`."""
@@ -112,6 +136,11 @@ class Stability:
         An equilibrium whose smallest eigenvalue exceeds ``threshold``.
     message : str
         The verdict in words.
+    contacts : tuple of ContactState
+        The state of each contact obstacle (empty without contacts).
+    sticking : float
+        Smallest eigenvalue with the pressing points held too [N/m] (module docstring; equal
+        to the smallest eigenvalue when no point presses).
     """
 
     eigenvalues: np.ndarray
@@ -122,6 +151,19 @@ class Stability:
     is_equilibrium: bool
     stable: bool
     message: str
+    contacts: tuple[ContactState, ...] = ()
+    sticking: float = math.inf
+
+    @property
+    def stable_with_friction(self) -> bool:
+        """An equilibrium that is stable with its pressing contacts sticking (module
+        docstring); the same as ``stable`` without contacts."""
+        return self.is_equilibrium and self.sticking > self.threshold
+
+    @property
+    def held_by_friction(self) -> bool:
+        """Stable only with friction at the pressing contacts."""
+        return self.stable_with_friction and not self.stable
 
     @property
     def smallest(self) -> float:
@@ -247,6 +289,42 @@ def band_eigenpairs(band: np.ndarray, k: int = 3) -> tuple[np.ndarray, np.ndarra
     return values, vectors, float(rows.max())
 
 
+def constrained_hessian(cable: Cable, shape, *, gravity=GRAVITY, contacts=(),
+                        stiffness: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The energy gradient and the lower Hessian band of a held cable over its free points.
+
+    Parameters
+    ----------
+    cable : Cable
+        The cable.
+    shape : array_like
+        (n + 1, 3) shape [m]; points 0, 1, n-1, n are held by the clips.
+    gravity : array_like
+        Gravity [m/s^2].
+    contacts : sequence
+        Obstacles in one-sided contact (module docstring), with their exact Hessian blocks.
+    stiffness : float, optional
+        Penalty stiffness k_c [N/m]; default the statics' (100 k_s).
+
+    Returns
+    -------
+    gradient : numpy.ndarray
+        (n + 1, 3) dU/dx at every point [N] (gravity and contacts included).
+    band : numpy.ndarray
+        (HALF_BANDWIDTH + 1, 3 (n - 3)) lower band of d^2U/dx^2 over the free points 2 .. n-2
+        [N/m]: the held points' coordinates removed.
+    """
+    x = as_shape(shape, cable.n_points, "shape")
+    chain = SpringChain.from_cable(cable, gravity)
+    _, grad, band = shape_derivatives(chain, x)
+    if contacts:
+        k_c = contact_stiffness(cable) if stiffness is None else float(stiffness)
+        radius = cable.diameter / 2
+        grad = grad + contact_gradient(x, contacts, radius, k_c)
+        add_point_blocks(band, contact_hessian_blocks(x, contacts, radius, k_c))
+    return grad, free_band(band, slice(2, cable.n_points - 2))
+
+
 def elastic_stability(
     cable: Cable,
     shape,
@@ -256,6 +334,7 @@ def elastic_stability(
     rtol: float = STABILITY_RTOL,
     equilibrium_rtol: float = EQUILIBRIUM_RTOL,
     method: str = "auto",
+    contacts=(),
 ) -> Stability:
     """Smallest eigenvalues and modes of the held cable's stiffness, and the stability verdict.
 
@@ -276,11 +355,15 @@ def elastic_stability(
     method : {"auto", "sparse", "dense", "band"}
         Eigen-solver, see :func:`smallest_eigenpairs`; ``"band"``: :func:`band_eigenpairs` on
         the Hessian's band, without a sparse matrix (the continuation's choice).
+    contacts : sequence
+        Obstacles in one-sided contact with the cable (pegs, plates, the table): their penalty
+        enters the equilibrium and the constrained Hessian (module docstring), and their
+        states are reported.
 
     Returns
     -------
     Stability
-        Eigenvalues [N/m], modes, threshold, equilibrium residual and verdict.
+        Eigenvalues [N/m], modes, threshold, equilibrium residual, verdict and contact states.
     """
     x = as_shape(shape, cable.n_points, "shape")
     if isinstance(k, bool) or int(k) != k or k < 1:
@@ -288,27 +371,23 @@ def elastic_stability(
     for name, value in (("rtol", rtol), ("equilibrium_rtol", equilibrium_rtol)):
         if not (math.isfinite(value) and value > 0):
             raise ValueError(f"{name}: got {value!r}, expected a number > 0")
-    chain = SpringChain.from_cable(cable, gravity)
-    band = None
-    if method == "band":  # one pass for the elastic gradient and the Hessian band
-        elastic, band = gradient_and_hessian_band(chain, x)
-        grad = elastic - gravity_force(chain.point_masses, chain.gravity)
-    else:
-        grad = gradient(chain, x)
+    contacts = tuple(contacts)
+    grad, band = constrained_hessian(cable, x, gravity=gravity, contacts=contacts)
     residual = 0.0
     if cable.n_points > 4:
         residual = float(np.max(np.linalg.norm(grad[2:-2], axis=1)))
     is_equilibrium = residual <= equilibrium_rtol * force_scale(cable, gravity)
     scale = stiffness_scale(cable)
+    states = contact_states(cable, x, contacts) if contacts else ()
     n_dof = 3 * max(cable.n_points - 4, 0)
     if n_dof == 0:
         return Stability(np.zeros(0), np.zeros((0, cable.n_points, 3)), scale, 0.0, residual,
-                         True, True, "no free point: the clips fix the whole cable")
+                         True, True, "no free point: the clips fix the whole cable", states,
+                         math.inf)
     if method == "band":
-        values, vectors, norm = band_eigenpairs(free_band(band, slice(2, cable.n_points - 2)),
-                                                int(k))
+        values, vectors, norm = band_eigenpairs(band, int(k))
     else:
-        matrix = free_hessian(cable, x, gravity)
+        matrix = band_to_sparse(band)
         values, vectors = smallest_eigenpairs(matrix, int(k), scale=scale, method=method)
         norm = float(abs(matrix).sum(axis=1).max())
     threshold = max(rtol * scale, ROUNDOFF_FACTOR * np.finfo(float).eps * norm)
@@ -316,6 +395,11 @@ def elastic_stability(
     for j in range(len(values)):
         v = vectors[:, j]
         modes[j, 2:-2] = (v if v[np.argmax(np.abs(v))] > 0 else -v).reshape(-1, 3)
+    sticking = float(values[0])
+    if states:
+        states = sliding_states(states, x, modes[0], contacts, cable.diameter / 2)
+        sticking = _sticking_eigenvalue(band, x, contacts, cable.diameter / 2, scale,
+                                        float(values[0]))
     positive = bool(values[0] > threshold)
     stable = positive and is_equilibrium
     summary = f"lambda_1 = {values[0]:.4g} N/m ({values[0] / scale:.4g} lambda_ref)"
@@ -324,10 +408,33 @@ def elastic_stability(
                    f"(tolerance {equilibrium_rtol * force_scale(cable, gravity):.3g} N); {summary}")
     elif positive:
         message = f"stable: {summary}"
+    elif sticking > threshold:
+        message = (f"held by friction: {summary} is not above {threshold:.3g} N/m without "
+                   f"friction, {sticking:.4g} N/m with the pressing points sticking")
     else:
         message = f"not stable: {summary} is not above {threshold:.3g} N/m"
+    if states:
+        message += "; contacts: " + ", ".join(state.describe() for state in states)
     return Stability(values, modes, scale, float(threshold), residual, bool(is_equilibrium),
-                     stable, message)
+                     stable, message, states, sticking)
+
+
+def _sticking_eigenvalue(band: np.ndarray, x: np.ndarray, contacts, radius: float,
+                         scale: float, smallest: float) -> float:
+    """Smallest eigenvalue of the free Hessian ``band`` with the pressing points' coordinates
+    removed too (module docstring); ``smallest`` when no free point presses."""
+    pressing = np.zeros(len(x), dtype=bool)
+    for obstacle in contacts:
+        pressing |= obstacle.signed_distance(x)[0] < radius
+    keep = ~pressing[2:-2]
+    if keep.all():
+        return smallest
+    if not keep.any():
+        return math.inf
+    coordinates = np.repeat(keep, 3)
+    matrix = band_to_sparse(band)[coordinates][:, coordinates]
+    values, _ = smallest_eigenpairs(matrix.tocsr(), 1, scale=scale)
+    return float(values[0])
 
 
 def path_stability(
@@ -353,6 +460,7 @@ def path_stability(
 __all__ = [
     "Stability",
     "band_eigenpairs",
+    "constrained_hessian",
     "quickest_method",
     "elastic_stability",
     "path_stability",

@@ -1,0 +1,175 @@
+"""Wire-harness plans verified phase by phase, on jobs the examples do not ship.
+
+Each job is planned (:func:`dloplan.harness.run_harness`) and checked on its held cable
+(:func:`dloplan.harness.verification.verify_harness_result`): the PU hose on the USB cable's
+board (its peg on the centre line: the example puts the hose's 4 cm off it), the same job
+mirrored, the USB cable on the hose's board, a board whose second peg holds the slack cable
+but not the taut one, and a rated load below what the tensioned hose carries.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from harness_boards import demo_board, demo_start
+
+from dloplan.cable import catalogue_cable
+from dloplan.harness import Board, Fixture, HarnessSettings, Peg, run_harness
+from dloplan.harness.verification import CHECKED_PHASES, verify_harness_result
+from dloplan.obstacles import Box
+
+EXAMPLES = Path(__file__).parents[1] / "examples"
+
+pytestmark = pytest.mark.slow
+
+SETTINGS = HarnessSettings(max_speed=0.1, max_angular_speed=1.0)
+
+
+def _mirror(v):
+    return (v[0], -v[1], v[2])
+
+
+def mirrored(board: Board) -> Board:
+    """The board mirrored in the plane y = 0 (fixtures, pegs and their sides, obstacles)."""
+    fixtures = tuple(Fixture(_mirror(f.position), _mirror(f.axis), _mirror(f.opening),
+                             f.slot_width, f.depth, f.length, f.wall, f.name)
+                     for f in board.fixtures)
+    pegs = tuple(Peg(_mirror(p.base), p.radius, p.height, p.plate_height, p.plate_size,
+                     p.plate_thickness, _mirror(p.side), p.name) for p in board.pegs)
+    obstacles = tuple(Box(_mirror(b.center), b.size, -b.yaw, b.name) for b in board.obstacles)
+    return Board(fixtures, pegs, obstacles, board.table)
+
+
+@pytest.fixture(scope="module")
+def hose_on_the_usb_board():
+    cable = catalogue_cable("pu")
+    result = run_harness(cable, demo_start(cable), demo_board(cable), SETTINGS)
+    assert result.success, result.message
+    return result, verify_harness_result(result)
+
+
+def test_the_hose_on_the_usb_board_passes_with_its_peak_tension_in_the_table(
+        hose_on_the_usb_board):
+    """The stiff hose keeps to its plan on the centred peg: every phase passes, the tensioned
+    section presses the peg, and the replay's peak tension in the tensioning is of the order of
+    the statics' (the pull is slow: 0.4 s for 16 mm) and below the planned tension limit."""
+    result, check = hose_on_the_usb_board
+    assert check.ok, check.table()
+    assert [row.phase for row in check.rows] == list(CHECKED_PHASES)
+    tensioning = check.row("tensioning")
+    statics = result.insertion.tensioned.max_tension
+    assert 0.5 * statics < tensioning.peak_tension < SETTINGS.max_axial_force
+    assert "peg " in tensioning.contacts and tensioning.snap is False
+    assert all(row.replay_deviation < 0.01 for row in check.rows)
+
+
+def test_the_mirrored_job_has_the_mirrored_verdict(hose_on_the_usb_board):
+    """Mirroring the board and the start in y = 0 mirrors the physics: the same verdict per
+    phase, smallest eigenvalues within 1 % (the solvers' paths differ by round-off), peak
+    tensions within 5 % and replay deviations within 1 mm (explicit dynamics amplify
+    round-off over 10^5 steps)."""
+    result, check = hose_on_the_usb_board
+    cable = result.cable
+    start = demo_start(cable) * np.array([1.0, -1.0, 1.0])
+    board = mirrored(result.board)
+    other = run_harness(cable, start, board, SETTINGS)
+    assert other.success, other.message
+    assert math.isclose(other.offset, result.offset, rel_tol=1e-3)
+    mirror = verify_harness_result(other)
+    for a, b in zip(check.rows, mirror.rows, strict=True):
+        assert (a.phase, a.verdict, a.stable, a.snap) == (b.phase, b.verdict, b.stable, b.snap)
+        assert b.smallest_eigenvalue == pytest.approx(a.smallest_eigenvalue, rel=0.01)
+        assert b.peak_tension == pytest.approx(a.peak_tension, rel=0.05)
+        assert abs(b.replay_deviation - a.replay_deviation) < 1e-3
+
+
+def test_a_tensioning_above_the_rated_load_fails_and_no_timing_repairs_it(
+        hose_on_the_usb_board):
+    """A rated load below what the tensioned hose carries statically: the tensioning fails,
+    naming the load, and the repair by a slower pull does not apply (the configurations carry
+    it at rest)."""
+    from dloplan.pipeline.harness import slower_tensioning_helps
+
+    result, _ = hose_on_the_usb_board
+    load = 0.5 * result.insertion.tensioned.max_tension
+    check = verify_harness_result(result, rated_load=load, snap=False)
+    row = check.row("tensioning")
+    assert not check.ok and row.verdict == "FAILED" and row.rated_load == load
+    assert any("no timing avoids it" in note for note in row.notes)
+    assert row.peak_tension > load
+    assert not slower_tensioning_helps(check)
+    assert check.row("phase1").verdict != "FAILED" or "rated load" in " ".join(
+        check.row("phase1").notes)
+
+
+def test_a_peg_the_tensioning_pulls_the_cable_off_fails_and_the_replay_shows_the_lift_off():
+    """The Ethernet cable's board with a second, thin peg moved out of the loop (the cable
+    passes on its +x side) to where the slack cable in the slots rests against it but the
+    taut one does not: the tensioning fails naming the peg, and the dynamic replay shows its
+    contact open during the tensioning."""
+    cable = catalogue_cable("ethernet")
+    base = demo_board(cable)
+    moved = Peg((0.395, 0.08, 0.0), 0.008, 0.06, side=(1.0, 0.0, 0.0), name="peg_b")
+    board = Board(base.fixtures, (base.pegs[0], moved), base.obstacles, base.table)
+    result = run_harness(cable, demo_start(cable), board, SETTINGS)
+    assert result.success, result.message
+    assert result.insertion.tensioned.peg_forces[1] == 0.0
+    check = verify_harness_result(result)
+    row = check.row("tensioning")
+    assert row.verdict == "FAILED"
+    assert any("lifts off" in note and "peg_b" in note for note in row.notes), row.notes
+    part = check.replays["tensioning"]
+    closed_before, closed_after, opened, _ = part.run.contact_between(part.start,
+                                                                     part.end)["peg_b"]
+    assert closed_before and not closed_after and part.start < opened < part.end
+    assert "peg_b lift-off (replay" in row.contacts
+    inserted = check.stability["regrasp"][0].contacts
+    assert next(s for s in inserted if s.name == "peg_b").active
+
+
+def test_the_usb_cable_on_the_hose_board_is_checked_on_where_it_really_rests():
+    """The soft USB cable on the hose's board (peg 4 cm off the centre line): the planner's
+    gravity-free phase-2 shapes are far from where the cable rests (it sags onto the board by
+    centimetres), which the checks report, and every phase gets its verdict."""
+    cable = catalogue_cable("usb")
+    board = demo_board(cable, peg_y=0.04)
+    result = run_harness(cable, demo_start(cable), board, SETTINGS)
+    check = verify_harness_result(result)
+    assert [row.phase for row in check.rows] == list(CHECKED_PHASES)
+    assert check.model.paths["phase2"].settle_distance > 0.03
+    assert any("from the plan's shapes" in note for note in check.row("phase2").notes)
+    assert all(row.verdict in ("ok", "warning", "FAILED") for row in check.rows)
+
+
+def test_a_tensioning_whose_replay_overshoots_the_rated_load_is_repaired_by_a_slower_pull(
+        tmp_path):
+    """The hose on the centred peg with a rated load between the tension the tensioned hose
+    carries at rest and the peak the replay reaches at the planned speed: the tensioning
+    fails on the replay alone, and the job planned again with a slower tensioning passes,
+    the repair recorded in the plan document."""
+    import yaml
+
+    from dloplan.app import load_job
+    from dloplan.pipeline.harness import plan_harness
+
+    data = yaml.safe_load((EXAMPLES / "harness_pu.yaml").read_text())
+    data["harness"]["pegs"][0]["base"] = [0.38, 0.0, 0.0]
+    path = tmp_path / "hose.yaml"
+    path.write_text(yaml.safe_dump(data))
+    job = load_job(path)
+    first = plan_harness(job, verify=True, repair=False)
+    tension = next(r for r in first.verification.phases if r["phase"] == "tensioning")
+    statics = first.harness["max_tension"]
+    assert tension["peak_tension"] > statics  # the pull's dynamics add to the static tension
+    load = 0.5 * (statics + tension["peak_tension"])
+    data["harness"]["tension"]["rated_load"] = load
+    path.write_text(yaml.safe_dump(data))
+    doc = plan_harness(load_job(path), verify=True, repair=True)
+    assert doc.verification.ok, doc.verification.messages
+    assert len(doc.repairs) == 1 and doc.repairs[0]["kind"] == "tensioning"
+    assert "slowed to" in doc.repairs[0]["change"] and "rated load" in doc.repairs[0]["before"]
+    repaired = next(r for r in doc.verification.phases if r["phase"] == "tensioning")
+    assert repaired["peak_tension"] <= load
