@@ -1,5 +1,5 @@
-"""Peak joint speeds and accelerations along the time law (closed forms and finite
-differences in time), slowing a program that exceeds a joint's speed limit, the hard joint
+"""Peak joint speeds and accelerations along the time law (closed forms, finite differences in
+time, the overlap of two moves at a fly-by target), slowing a program that exceeds a joint's speed limit, the hard joint
 margin, and the frames a user teaches (the robot standing on the scenario's table)."""
 
 from __future__ import annotations
@@ -10,13 +10,24 @@ from robot_plans import example_plan
 
 from dloplan.robot import RobotCell, robot_program
 from dloplan.robot.cell_program import cell_program
-from dloplan.robot.peaks import segment_peaks
+from dloplan.robot.motion import JointMotion
+from dloplan.robot.peaks import motion_peaks
 from dloplan.robot.reachability import ReachOptions
 from dloplan.robot.urdf_cell import ur5e_pair
 from dloplan.trajectory import MotionLimits, trajectory_from_grippers
 from dloplan.trajectory.timelaw import Profile
 
 LAW = Profile.jerk_limited(2.0, 8.0, 60.0)  # u: rest to rest, cruising at 2 /s
+
+
+def segment_peaks(path, law, max_velocity, max_acceleration):
+    """The peaks of one move of one arm along ``law``, as a tuple (speed ratio, its joint,
+    acceleration ratio, its joint, largest acceleration)."""
+    path = np.asarray(path, dtype=float)
+    motion = JointMotion(((path,),), (law,), np.array([0.0]), np.array([0.0, law.duration]))
+    p = motion_peaks(motion, [max_velocity], [max_acceleration])[0]
+    return (p.speed[0], p.speed_joint[0], p.acceleration[0], p.acceleration_joint[0],
+            p.largest_acceleration[0])
 
 
 def test_linear_joint_path_peaks_are_the_laws():
@@ -35,9 +46,9 @@ def test_linear_joint_path_peaks_are_the_laws():
 
 def test_curved_joint_path_against_differences_in_time():
     # q(s) = sin(3 s) on 41 sub-steps: the peaks of dq/dt and d2q/dt2 along the law equal
-    # those of q(u(t)) differentiated numerically in time (1e-5 s steps) within the
-    # sub-steps' O(h^2) error (h = 0.025: 3e-3 relative on the speed, 1e-2 on the
-    # acceleration, whose q'' term is a second difference).
+    # those of q(u(t)) differentiated numerically in time (1e-5 s steps) within the error of
+    # the spline through the sub-steps (h = 0.025: O(h^3) on q', O(h^2) on q''; 3e-3 relative
+    # on the speed, 1e-2 on the acceleration) and of the time grid (200 samples per move).
     s = np.linspace(0.0, 1.0, 41)
     speed, _, accel, _, largest = segment_peaks(np.sin(3 * s)[:, None], LAW, [1.0], [1.0])
     t = np.arange(0.0, LAW.duration, 1e-5)
@@ -56,6 +67,22 @@ def test_peaks_are_up_to_twice_the_average():
     path = np.linspace(0.0, 1.0, 11)[:, None] * (0.6 / average)
     speed = segment_peaks(path, LAW, [1.0], [np.inf])[0]
     assert speed > 1.0 and speed == pytest.approx(0.6 * LAW.peak_rate() / average, rel=1e-9)
+
+
+def test_overlapping_moves_add_their_joint_speeds():
+    # Two moves of the same straight joint path overlapping by half a law: during the overlap
+    # both run at once, so the peak of the first move is at least its own cruise rate and at
+    # most twice it; the sum of the two laws' rates sampled in time is the truth.
+    dq = np.array([1.0])
+    path = np.linspace(0.0, 1.0, 5)[:, None] * dq
+    half = LAW.duration / 2
+    motion = JointMotion(((path, path + dq),), (LAW, LAW), np.array([0.0, half]),
+                         np.array([0.0, LAW.duration, LAW.duration + half]))
+    first = motion_peaks(motion, [[1.0]], [[np.inf]])[0].speed[0]
+    t = np.linspace(0.0, LAW.duration, 20001)
+    truth = (LAW.evaluate(t, 1)[1] + LAW.evaluate(t - half, 1)[1]).max()
+    assert LAW.peak_rate() < first <= 2 * LAW.peak_rate()
+    assert first == pytest.approx(truth, rel=1e-3)
 
 
 def _fast(grippers, left_clip, speed):

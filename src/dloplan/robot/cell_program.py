@@ -26,7 +26,7 @@ import numpy as np
 from .cell import RobotCell
 from .chain import capsules
 from .motion import JointMotion
-from .peaks import joint_peaks, slowed_scale
+from .peaks import motion_peaks, slowed_scale
 from .program import SLOW_ROUNDS, CheckedProgram, CheckRow, check_summary, robot_program
 from .urdf_cell import CHECKS, CellPlan, DescribedCell, verify_on_cell
 
@@ -280,8 +280,10 @@ def cell_program(cell: DescribedCell, trajectory) -> CellProgram:
     arm_clips = tuple(trajectory.arm_clips)
     left_clip = arm_clips[1] if plan.swapped else arm_clips[0]
     timing = trajectory
+    limits = ([arm.max_velocity for arm in cell.arms], [arm.max_acceleration for arm in cell.arms])
     for round_ in range(SLOW_ROUNDS + 1):
-        peaks = _peaks(plan, timing)
+        peaks = motion_peaks(CellProgram(plan, int(left_clip), plan.verdict.rows,
+                                         timing).joint_motion(timing), *limits)
         ratios = np.zeros(timing.n_knots - 1)
         ratios[plan.shapes[1:] - 1] = np.max([p.speed for p in peaks], axis=0)
         if not np.any(ratios > 1.0) or round_ == SLOW_ROUNDS:
@@ -290,24 +292,6 @@ def cell_program(cell: DescribedCell, trajectory) -> CellProgram:
         plan = replace(plan, times=timing.times[plan.shapes])
     return CellProgram(plan, int(left_clip), plan.verdict.rows + _speed_rows(plan, peaks),
                        timing)
-
-
-def _peaks(plan: CellPlan, trajectory) -> list:
-    """Per arm the :class:`~dloplan.robot.peaks.JointPeaks` of every kept segment: the tracked
-    sub-steps of the segment (uniform in its path parameter) timed by the trajectory's law of
-    the segment that ends at its end knot (the ones before it, between knots at the same
-    instant, do not move)."""
-    verdict = plan.verdict
-    laws = [trajectory.law.profiles[k - 1] for k in plan.shapes[1:]]
-    out = []
-    for a, arm in enumerate(plan.cell.arms):
-        paths = []
-        for j in range(len(plan.shapes) - 1):
-            start = np.searchsorted(verdict.motion_times, j, side="right") - 1
-            end = np.searchsorted(verdict.motion_times, j + 1, side="right")
-            paths.append(verdict.motion_joints[a][start:end])
-        out.append(joint_peaks(paths, laws, arm.max_velocity, arm.max_acceleration))
-    return out
 
 
 def _speed_rows(plan: CellPlan, peaks) -> tuple[CheckRow, ...]:

@@ -1,21 +1,18 @@
 """Peak joint speeds and accelerations of a robot program along its time law.
 
-A controller moves each arm's TCP along the segment's straight line (and, on the YuMi, its arm
-angle linearly) with one path parameter s in [0, 1] timed by the segment's law u(t)
-(:class:`dloplan.trajectory.timelaw.Profile`). The joints follow q(s), known at the sub-steps
-of the program's replay (uniform in s). Along the law,
+A controller moves each arm's TCP along the move's straight line (and, on the YuMi, its arm
+angle linearly) with one path parameter s in [0, 1] timed by the move's law u(t)
+(:class:`dloplan.trajectory.timelaw.Profile`). The joints along the time law are the
+program's :class:`~dloplan.robot.motion.JointMotion` (the one every writer samples: q(s) the
+spline through the verified sub-steps),
 
     dq/dt = q'(s) u',        d2q/dt2 = q''(s) u'^2 + q'(s) u''
 
-with q', q'' by central differences over the sub-steps (second order; one-sided at the ends)
-and u', u'' from the law, sampled on a time grid that holds the law's phase boundaries. The
-peak of |dq_j/dt| / v_j over the segment is what a controller must deliver: the jerk-limited
-law cruises at up to twice the average rate of the segment, so averages (joint change over
-duration) miss it by up to 2x.
-
-Two segments overlapping at a fly-by knot are checked each with its own law (their joint
-velocities add during the overlap; the overlap is short and taken at half the acceleration
-limits, docs/grippers-and-exports.md).
+summed over the moves that run (two moves overlap at a fly-by target: their joint velocities
+add there). Each move is sampled on a time grid of :data:`GRID` instants that holds its law's
+phase boundaries; the peak of |dq_j/dt| / v_j over the move is what a controller must deliver:
+the jerk-limited law cruises at up to twice the move's average rate, so averages (joint change
+over duration) miss it by up to 2x.
 """
 
 from __future__ import annotations
@@ -24,8 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .motion import JointMotion
+
 GRID = 200
-"""Time samples per segment (besides the law's phase boundaries)."""
+"""Time samples per move (besides the law's phase boundaries)."""
 
 SLOW_MARGIN = 0.98
 """A segment over a joint-speed limit is slowed to this fraction of the limit."""
@@ -33,7 +32,7 @@ SLOW_MARGIN = 0.98
 
 @dataclass(frozen=True)
 class JointPeaks:
-    """Per segment the peak joint speed and acceleration of one arm.
+    """Per move the peak joint speed and acceleration of one arm.
 
     Attributes
     ----------
@@ -57,55 +56,41 @@ class JointPeaks:
     largest_acceleration: np.ndarray
 
 
-def segment_peaks(path, profile, max_velocity, max_acceleration):
-    """Peak joint speed and acceleration of one segment (module docstring).
+def motion_peaks(motion: JointMotion, max_velocity, max_acceleration) -> list[JointPeaks]:
+    """The peaks of every move of every arm of a program's motion (module docstring).
 
     Parameters
     ----------
-    path : array_like
-        (n + 1, J) joints [rad] at s = 0, 1/n, ..., 1 (n >= 1).
-    profile : Profile
-        The segment's law u(t).
-    max_velocity, max_acceleration : array_like
-        (J,) limits [rad/s], [rad/s^2]; inf where none is published.
+    motion : JointMotion
+        The program's joints along its time law (``program.joint_motion(trajectory)``).
+    max_velocity, max_acceleration : sequence of array_like
+        Per arm the (J,) limits [rad/s], [rad/s^2]; inf where none is published.
 
     Returns
     -------
-    tuple
-        (speed ratio, its joint, acceleration ratio, its joint, largest acceleration [rad/s^2]).
+    list of JointPeaks
+        One per arm.
     """
-    q = np.asarray(path, dtype=float)
-    if profile.duration <= 0.0 or len(q) < 2:
-        return 0.0, 0, 0.0, 0, 0.0
-    s = np.linspace(0.0, 1.0, len(q))
-    d1 = np.gradient(q, s, axis=0, edge_order=2 if len(q) > 2 else 1)
-    d2 = np.gradient(d1, s, axis=0, edge_order=2 if len(q) > 2 else 1)
-    t = np.union1d(np.linspace(0.0, profile.duration, GRID), profile.bounds)
-    t = t[t < profile.duration]
-    u, rate, accel = profile.evaluate(t, 2)
-    u = np.clip(u, 0.0, 1.0)
-    q1 = np.stack([np.interp(u, s, d1[:, j]) for j in range(q.shape[1])], axis=1)
-    q2 = np.stack([np.interp(u, s, d2[:, j]) for j in range(q.shape[1])], axis=1)
-    velocity = np.abs(q1 * rate[:, None])
-    acceleration = np.abs(q2 * rate[:, None] ** 2 + q1 * accel[:, None])
-    speed = (velocity / np.asarray(max_velocity, dtype=float)).max(axis=0)
-    limits = np.asarray(max_acceleration, dtype=float)
-    published = np.isfinite(limits)
-    ratio = np.where(published, acceleration.max(axis=0) / np.where(published, limits, 1.0),
-                     0.0)
-    return (float(speed.max()), int(speed.argmax()), float(ratio.max()), int(ratio.argmax()),
-            float(acceleration.max()))
-
-
-def joint_peaks(paths, profiles, max_velocity, max_acceleration) -> JointPeaks:
-    """:func:`segment_peaks` of every segment of one arm: ``paths`` and ``profiles`` one per
-    segment."""
-    rows = [segment_peaks(p, law, max_velocity, max_acceleration)
-            for p, law in zip(paths, profiles, strict=True)]
-    columns = list(zip(*rows, strict=True)) if rows else [[]] * 5
-    return JointPeaks(np.array(columns[0], float), np.array(columns[1], int),
-                      np.array(columns[2], float), np.array(columns[3], int),
-                      np.array(columns[4], float))
+    rows = [[] for _ in motion.paths]
+    for m, law in enumerate(motion.profiles):
+        t = np.union1d(np.linspace(0.0, law.duration, GRID), law.bounds)
+        t = motion.starts[m] + t[(t >= 0.0) & (t <= law.duration)]
+        for a, sampled in enumerate(motion.sample(t, 2)):
+            velocity = np.abs(sampled[1]).max(axis=0)
+            acceleration = np.abs(sampled[2]).max(axis=0)
+            speed = velocity / np.asarray(max_velocity[a], dtype=float)
+            limits = np.asarray(max_acceleration[a], dtype=float)
+            published = np.isfinite(limits)
+            ratio = np.where(published, acceleration / np.where(published, limits, 1.0), 0.0)
+            rows[a].append((float(speed.max()), int(speed.argmax()), float(ratio.max()),
+                            int(ratio.argmax()), float(acceleration.max())))
+    out = []
+    for arm in rows:
+        columns = list(zip(*arm, strict=True)) if arm else [[]] * 5
+        out.append(JointPeaks(np.array(columns[0], float), np.array(columns[1], int),
+                              np.array(columns[2], float), np.array(columns[3], int),
+                              np.array(columns[4], float)))
+    return out
 
 
 def slowed_scale(trajectory, ratios) -> np.ndarray:

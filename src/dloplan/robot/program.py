@@ -52,7 +52,7 @@ every row is. Everything computed is kept (:attr:`RobotProgram.checks`,
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -64,7 +64,7 @@ from .collision import arm_clearance
 from .confdata import confdata
 from .kinematics import forward, solve_from
 from .motion import JointMotion
-from .peaks import joint_peaks, slowed_scale
+from .peaks import motion_peaks, slowed_scale
 from .replay import replay_moves
 from .robtarget import ROUND_TRIP_TOLERANCE, solve_robtarget
 from .solutions import ranked_solutions
@@ -495,15 +495,11 @@ def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, q
     durations, speeds = _timing(trajectory, cell, assignment, cell.approach > 0)
     times = np.cumsum(np.r_[0.0, durations])
     replay = replay_moves(robot, pos, rot, eax, joints, opts)
-    laws = _move_laws(trajectory, cell)
-    peaks = [joint_peaks([np.concatenate([joints[m, a][None], q[:, a]])
-                          for m, q in enumerate(replay["joints"])], laws, arm.max_velocity,
-                         np.full(7, np.inf)) for a, arm in enumerate(robot.arms)]
     trip = [[solve_robtarget(arm, pos[m, a], rot[m, a], np.radians(eax[m, a]),
                              confdata(joints[m, a]), seeds=[joints[m, a]], options=opts.ik)
              for a, arm in enumerate(robot.arms)] for m in range(len(pos))]
     rows = _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay,
-                 trip, peaks)
+                 trip)
     motion_times = np.concatenate([times[:1]] + [
         times[m] - durations[m - 1] * (1.0 - np.arange(1, len(q) + 1) / len(q))
         for m, q in enumerate(replay["joints"], start=1)])
@@ -512,28 +508,14 @@ def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, q
     knots = slice(1, -1) if cell.approach > 0 else slice(None)
     zones[knots] = trajectory.zones
     zones[[0, grasp, release, -1]] = 0.0
-    return RobotProgram(cell, assignment, turned, labels, shapes, grasp, release, pos, quat,
-                        joints, confdata(joints), eax, times, durations, speeds,
-                        motion_times, motion, tuple(rows), zones, trajectory,
-                        np.stack([p.speed for p in peaks], axis=1),
-                        np.array([len(q) for q in replay["joints"]]))
-
-
-def _move_laws(trajectory, cell: RobotCell) -> list:
-    """The time law of every move (M - 1): the trajectory's segments, and for the approach
-    and the retreat the jerk-limited rest-to-rest law at ``cell.approach_speed`` under the
-    trajectory's acceleration and jerk limits."""
-    from ..trajectory import MotionLimits
-    from ..trajectory.timelaw import Profile
-
-    laws = list(trajectory.law.profiles)
-    if cell.approach > 0:
-        limits = trajectory.limits if trajectory.limits is not None else MotionLimits()
-        approach = Profile.jerk_limited(cell.approach_speed / cell.approach,
-                                        limits.acceleration / cell.approach,
-                                        limits.jerk / cell.approach)
-        laws = [approach] + laws + [approach]
-    return laws
+    program = RobotProgram(cell, assignment, turned, labels, shapes, grasp, release, pos, quat,
+                           joints, confdata(joints), eax, times, durations, speeds,
+                           motion_times, motion, tuple(rows), zones, trajectory, None,
+                           np.array([len(q) for q in replay["joints"]]))
+    peaks = motion_peaks(program.joint_motion(trajectory), [arm.max_velocity for arm in
+                                                             robot.arms], [np.full(7, np.inf)] * 2)
+    return replace(program, checks=program.checks + _speed_rows(labels, shapes, peaks),
+                   joint_speed=np.stack([p.speed for p in peaks], axis=1))
 
 
 def _timing(trajectory, cell: RobotCell, assignment: ArmAssignment, approach: bool):
@@ -557,10 +539,10 @@ def _link(i: int) -> str:
 
 
 def _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay,
-          trip, peaks) -> list:
-    """The verdict table (module docstring); ``trip[m][a]`` the controller's solutions of
-    target m's robtarget (:func:`~dloplan.robot.robtarget.solve_robtarget`), ``peaks[a]``
-    the arm's :class:`~dloplan.robot.peaks.JointPeaks` per move."""
+          trip) -> list:
+    """The verdict table but its joint speeds (module docstring); ``trip[m][a]`` the
+    controller's solutions of target m's robtarget
+    (:func:`~dloplan.robot.robtarget.solve_robtarget`)."""
     opts = cell.reach
     rows = []
     for k, sep in enumerate(assignment.separation):
@@ -621,6 +603,14 @@ def _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, rep
                 note += f"; ends {np.degrees(end):.1f} deg from the target's solution"
             rows.append(CheckRow("continuity", m, labels[m], int(shapes[m]), ARMS[a],
                                  float(np.degrees(largest)), "deg", bool(ok), note))
+    return rows
+
+
+def _speed_rows(labels, shapes, peaks) -> tuple[CheckRow, ...]:
+    """One ``joint speed`` row per move and arm; ``peaks[a]`` the arm's
+    :class:`~dloplan.robot.peaks.JointPeaks` per move."""
+    rows = []
+    for m in range(1, len(labels)):
         for a in range(2):
             ratio = float(peaks[a].speed[m - 1])
             axis = ABB_AXIS_NUMBERS[int(peaks[a].speed_joint[m - 1])]
@@ -629,4 +619,4 @@ def _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, rep
                                  f"from {labels[m - 1]}; peak along the time law, ABB axis "
                                  f"{axis}; peak joint acceleration "
                                  f"{peaks[a].largest_acceleration[m - 1]:.3g} rad/s^2"))
-    return rows
+    return tuple(rows)
