@@ -316,7 +316,8 @@ def _speed_rows(plan: CellPlan, peaks) -> tuple[CheckRow, ...]:
 
 def placement_message(cell, grippers, trajectory) -> str:
     """Where on the table the cell runs a plan best (``dloplan verify --place``): the YuMi's
-    grid search over shifts of the whole job (:func:`dloplan.robot.search_placement`), or the
+    grid search over shifts of the whole job (:func:`dloplan.robot.search_placement`, the
+    robot where the cell places it), or the
     described cell's (:func:`~dloplan.robot.urdf_cell.search_cell_placement`, verified along
     the timed trajectory); one line."""
     from scipy.spatial.transform import Rotation
@@ -324,8 +325,8 @@ def placement_message(cell, grippers, trajectory) -> str:
     from .reachability import search_placement
 
     if isinstance(cell, RobotCell):
-        return search_placement(grippers.positions,
-                                Rotation.from_matrix(grippers.matrices)).message
+        return search_placement(grippers.positions, Rotation.from_matrix(grippers.matrices),
+                                cell.robot, options=cell.reach).message
     plan = verify_on_cell(cell, trajectory, place=True)
     shift = np.round(1e3 * plan.offset, 1).tolist()
     return f"{cell.name}: job shifted by {shift} mm; {plan.verdict.message}"
@@ -335,8 +336,8 @@ def reach_rows(cell, grippers) -> list[dict]:
     """Can the cell's arms hold the clips of a gripper path (before planning the motion)?
     Per pose ``reachable_left``, ``reachable_right``, ``joint_margin`` [rad] and ``error_left``,
     ``error_right`` (the IK's position error [m]: how far the arm's best try stays from the
-    clip; ~0 when reached): for the YuMi
-    either arm at each pose (:func:`dloplan.robot.check_reachability`), for a described cell
+    clip; ~0 when reached): for the YuMi where the cell places it, either arm at each pose
+    (:func:`dloplan.robot.check_reachability`), for a described cell
     the arm assigned by side, tracked from pose to pose where the placement search puts
     the path."""
     from scipy.spatial.transform import Rotation
@@ -345,7 +346,8 @@ def reach_rows(cell, grippers) -> list[dict]:
     from .reachability import check_reachability
 
     if isinstance(cell, RobotCell):
-        reach = check_reachability(grippers.positions, Rotation.from_matrix(grippers.matrices))
+        reach = check_reachability(grippers.positions, Rotation.from_matrix(grippers.matrices),
+                                   cell.robot, options=cell.reach)
         return [{"reachable_left": bool(reach.reachable[k, 0]),
                  "reachable_right": bool(reach.reachable[k, 1]),
                  "joint_margin": float(np.min(reach.joint_margin[k])),
