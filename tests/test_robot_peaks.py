@@ -1,6 +1,7 @@
 """Peak joint speeds and accelerations along the time law (closed forms, finite differences in
-time, the overlap of two moves at a fly-by target), slowing a program that exceeds a joint's speed limit, the hard joint
-margin, and the frames a user teaches (the robot standing on the scenario's table)."""
+time, the overlap of two moves at a fly-by target), slowing a program that exceeds a joint's
+speed limit, the hard joint margin, and the frames a user teaches (the robot standing on the
+scenario's table)."""
 
 from __future__ import annotations
 
