@@ -16,6 +16,9 @@ consent for a move) and its programs are written by the writers of ``dloplan pla
   (inf: none has it), and how many targets have more than one solution with that confdata.
 - **ROS 2 round trip** (every cell): the written trajectory's positions at every target's
   arrival instant against the verified joints [deg].
+- **Gripper actions**: the planned commands of the plan's cycle (each action's open / close
+  and the wait after it) against those written: RAPID's ``g_GripIn`` / ``g_GripOut`` and the
+  ``WaitTime`` after each in every task (after the start move), the ROS 2 action list per arm.
 - **Peak joint speed**: per arm the largest |velocity| / limit of the written ROS 2 trajectory
   (sampled at 500 Hz along the time law, the targets' instants added), beside the program
   check's own peak (its ``joint speed`` rows).
@@ -126,6 +129,34 @@ def ros_round_trip(doc, program, folder: Path) -> tuple[float, list[float]]:
     return worst, peaks
 
 
+def planned_commands(doc) -> list:
+    """The plan's gripper commands in order: (open | close, wait [s])."""
+    from dloplan.pipeline.document import cycle_actions
+
+    return [(command, round(wait, 3)) for action in cycle_actions(doc.cycle)
+            for command, wait in action.commands()]
+
+
+def rapid_commands(folder: Path) -> list[list]:
+    """Per task the gripper commands written after the start move: (open | close, the
+    ``WaitTime`` after it [s])."""
+    out = []
+    for module in sorted(folder.glob("*.mod")):
+        body = module.read_text().split("MoveAbsJ", 1)[1]
+        calls = re.findall(r"g_Grip(In|Out)\b.*?;\s*WaitTime ([0-9.]+);", body, re.S)
+        out.append([("close" if c == "In" else "open", round(float(w), 3)) for c, w in calls])
+    return out
+
+
+def ros_commands(folder: Path) -> list[list]:
+    """Per arm the commands of the written ROS 2 action list: (command, duration [s])."""
+    import yaml
+
+    rows = yaml.safe_load((folder / "dloplan_gripper_actions.yaml").read_text())["actions"]
+    return [[(r["command"], round(r["duration"], 3)) for r in rows if r["arm"] == side]
+            for side in ("left", "right")]
+
+
 def checked_peaks(program) -> list[float]:
     """Per arm the program check's own largest peak joint speed (its ``joint speed`` rows)."""
     names = [r.arm for r in program.checks if r.check == "joint speed"]
@@ -176,11 +207,17 @@ def after(paths) -> None:
             except ValueError as exc:
                 print(f"  not written: {exc}")
                 continue
+            planned = planned_commands(doc)
+            written = ros_commands(Path(tmp) / "ros_joints")
             if "rapid" in formats:
                 worst, ambiguous = rapid_round_trip(program, Path(tmp) / "rapid")
                 print(f"  RAPID round trip: largest joint error {worst:.4f} deg; "
                       f"{ambiguous} targets with another solution of the written confdata")
+                written += rapid_commands(Path(tmp) / "rapid")
             worst, peaks = ros_round_trip(doc, program, Path(tmp) / "ros_joints")
+        same = all(w == planned for w in written)
+        print(f"  gripper actions: {len(planned)} planned commands {planned}; written "
+              f"{'the same in every program and arm' if same else written}")
         print(f"  ROS 2 round trip: largest joint error at the targets {worst:.2e} deg")
         print("  peak joint speed / limit (written, sampled at "
               f"{RATE:.0f} Hz): left {peaks[0]:.3f}, right {peaks[1]:.3f}; the check's: "
