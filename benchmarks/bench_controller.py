@@ -27,9 +27,8 @@ consent for a move) and its programs are written by the writers of ``dloplan pla
   cell's reference direction). ``--before DIR`` runs the same on a checkout of main before the
   controller semantics (``git archive e95960b src examples | tar -x -C DIR``; that tree's
   examples, its own writer: ``eax_a`` was ABB axis 7) in a subprocess and computes the arm
-  angle of its verified joints with today's definition (the default cell's reference
-  direction; the arm's geometry of today: ABB's axis-3 offset, which moves the arm angle by
-  well under a degree).
+  angle of its verified joints as the controller would (today's arm model: ABB's geometry,
+  the default cell's reference direction).
 
 The numbers are facts of the programs, not timings; the planning takes minutes on the shared
 host.
@@ -113,8 +112,8 @@ def ros_round_trip(doc, program, folder: Path) -> tuple[float, list[float]]:
 
     timeline = program_timeline(program, doc.trajectory, cycle_actions(doc.cycle))
     arms = program.cell.robot.arms if hasattr(program.cell, "robot") else program.cell.arms
-    verified = [np.asarray(program.joints)[:, a] if np.ndim(program.joints) == 3
-                else program.joints[a] for a in range(2)]
+    joints = program.joints  # the YuMi's (M, 2, 7), a described cell's per arm (K, J)
+    verified = list(joints) if isinstance(joints, tuple) else [joints[:, 0], joints[:, 1]]
     worst, peaks = 0.0, []
     for a, side in enumerate(("left", "right")):
         message = yaml.safe_load((folder / f"dloplan_{side}_joint_trajectory.yaml").read_text())
