@@ -142,7 +142,7 @@ def rapid_commands(folder: Path) -> list[list]:
     out = []
     for module in sorted(folder.glob("*.mod")):
         body = module.read_text().split("MoveAbsJ", 1)[1]
-        calls = re.findall(r"g_Grip(In|Out)\b.*?;\s*WaitTime ([0-9.]+);", body, re.S)
+        calls = re.findall(r"g_Grip(In|Out)\b[^;]*;[^\n]*\n\s*WaitTime ([0-9.]+);", body)
         out.append([("close" if c == "In" else "open", round(float(w), 3)) for c, w in calls])
     return out
 
