@@ -225,6 +225,13 @@ def test_cell_plan_document_reads_back_and_programs_are_the_verified_joints(tmp_
     data = json.loads((tmp_path / "plan.json").read_text())
     data["robot"]["program"]["targets"][2]["arms"]["left"]["joints_deg"][0] += 1.0
     (tmp_path / "tampered.json").write_text(json.dumps(data))
+    with pytest.raises(ValueError, match="edited after dloplan wrote it"):
+        read_plan(tmp_path / "tampered.json")
+    # with its checksum forged too, the writer's own check still refuses the program
+    from dloplan.app.document_file import CHECKSUM, content_checksum
+
+    (tmp_path / "tampered.json").write_text(json.dumps({**data,
+                                                         CHECKSUM: content_checksum(data)}))
     with pytest.raises(ValueError, match="differs from the verified one"):
         WRITERS["urscript"].write(read_plan(tmp_path / "tampered.json"), tmp_path / "t", None)
 

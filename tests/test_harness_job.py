@@ -26,6 +26,9 @@ from dloplan.physics.chain import SpringChain, link_tensions
 from dloplan.sim.clips import clip_poses_from_shape
 from dloplan.trajectory import trajectory_from_grippers
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_harness_job")
+
 N_LINKS = 10
 SETTINGS = HarnessSettings(n_shapes=(3, 3), section_links=30)
 

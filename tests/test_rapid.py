@@ -25,6 +25,9 @@ from dloplan.io.rapid import RapidSettings, rapid_modules, write_rapid
 from dloplan.robot import Gripper, IKOptions, RobotCell, confdata, forward, inverse, yumi
 from dloplan.robot import robot_program as make_program
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_rapid")
+
 PREDEFINED = {"v100", "fine"}  # controller data the modules use without declaring
 CELL = RobotCell(base_position=(-0.03, 0.02, -0.01),
                  base_rotation=Rotation.from_euler("z", 4, degrees=True))

@@ -46,6 +46,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from .files import atomic_write_texts
+
 DEFAULT_RATE = 100.0
 """[Hz] Points per second of the written trajectories (besides the targets' instants)."""
 
@@ -132,7 +134,7 @@ def write_joint_trajectories(folder, timeline, joint_names, *, arms=("left", "ri
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     comments = "".join(f"# {note}\n" for note in notes)
-    written = []
+    texts = {}
     for a, arm in enumerate(arms):
         names = [f"{prefixes[a]}{name}" for name in joint_names[a]]
         q, qd, qdd = values[a]
@@ -142,8 +144,7 @@ def write_joint_trajectories(folder, timeline, joint_names, *, arms=("left", "ri
         header = (f"# trajectory_msgs/msg/JointTrajectory of the {arm} arm: {len(times)} points "
                   f"at {rate:g} Hz along the planned time law [rad, rad/s, rad/s^2]; gripper "
                   f"actions in {stem}_gripper_actions.yaml. Setup: docs/cells.md.\n" + comments)
-        path.write_text(header + _message(names, times, fields), encoding="utf-8")
-        written.append(path)
+        texts[path] = header + _message(names, times, fields)
     rows = [{"time": float(c.time), "arm": arm, "action": c.action, "command": c.command,
              "duration": float(c.wait), "knot": int(c.knot)}
             for c in timeline.commands for arm in arms]
@@ -151,7 +152,5 @@ def write_joint_trajectories(folder, timeline, joint_names, *, arms=("left", "ri
     header = ("# The plan's gripper actions beside the joint trajectories: each command given "
               "at `time` [s] on their clock,\n# the arms standing for `duration` [s] after "
               "it. Setup: docs/cells.md.\n" + comments)
-    path.write_text(header + yaml.safe_dump({"actions": rows}, sort_keys=False),
-                    encoding="utf-8")
-    written.append(path)
-    return written
+    texts[path] = header + yaml.safe_dump({"actions": rows}, sort_keys=False)
+    return atomic_write_texts(texts)

@@ -23,7 +23,9 @@ import numpy as np
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from ..bounds import MAX_INPUT_BYTES, MAX_LINKS, MAX_RATE, MAX_SHAPES, MIN_LINKS
 from ..cable import CATALOGUE_NAMES
+from ..inputs import read_text
 
 SCHEMA_VERSION = 1
 
@@ -112,7 +114,8 @@ class ArcShape(_Model):
     """A circular arc turning by ``angle`` [deg] in the placement's x-y plane."""
 
     kind: Literal["arc"] = "arc"
-    angle: float = Field(..., allow_inf_nan=False, description="total turning angle [deg]")
+    angle: float = Field(..., ge=-360, le=360, allow_inf_nan=False,
+                         description="total turning angle [deg], at most a full turn")
     placement: Placement = Field(default_factory=Placement)
 
 
@@ -130,9 +133,6 @@ ShapeSpec = Annotated[
 ]
 
 
-MAX_LINKS = 1000
-"""Largest n a scenario may ask for (docs/scenario.md: plan time grows about as n S)."""
-
 class CableSpec(_Model):
     """The cable: a catalogue ``name`` and/or explicit properties (explicit ones win)."""
 
@@ -146,7 +146,7 @@ class CableSpec(_Model):
     poisson_ratio: float | None = Field(None, gt=-1, le=0.5)
     axial_modulus: PositiveLength | None = Field(
         None, description="[Pa] modulus of the axial springs (default: youngs_modulus)")
-    n_links: int = Field(10, ge=4, le=MAX_LINKS, description=(
+    n_links: int = Field(10, ge=MIN_LINKS, le=MAX_LINKS, description=(
         "n >= 4: each clip holds two points, so n = 4 is the least that leaves the cable a "
         f"free point; n <= {MAX_LINKS}: plans in minutes at most"))
     bending: Literal["rod", "thesis"] = "rod"
@@ -206,7 +206,7 @@ ObstacleSpec = Annotated[BoxSpec | CylinderSpec, Field(discriminator="type")]
 class PlannerSpec(_Model):
     """Planner settings (thesis chapter 4, Tables 6.1/6.2)."""
 
-    n_shapes: int = Field(5, ge=1, le=500, description="S, intermediate shapes")
+    n_shapes: int = Field(5, ge=1, le=MAX_SHAPES, description="S, intermediate shapes")
     physical_mode: Literal["thesis", "equilibrium"] | None = None
     keep_target: bool = Field(
         False, description="plan to the target as given, not to its minimal-energy shape "
@@ -247,6 +247,14 @@ class GripperSpec(_Model):
     auxiliary_vector: Vector3 = Field(default_factory=lambda: [0.0, 0.0, 1.0])
     initial_frames: FrameSpec = Field(default_factory=FrameSpec)
 
+    @field_validator("auxiliary_vector")
+    @classmethod
+    def _direction(cls, v):
+        arr = np.asarray(_finite(v, "auxiliary_vector"), dtype=float)
+        if not np.linalg.norm(arr) > 0:
+            raise ValueError(f"expected a non-zero direction, got {v}")
+        return v
+
 
 class TrajectorySpec(_Model):
     """Timed dual-arm motion (thesis 7.3: 100 mm/s; limits: dloplan.trajectory.limits)."""
@@ -254,7 +262,7 @@ class TrajectorySpec(_Model):
     tcp_speed: PositiveLength | None = Field(
         None, description="[file units/s]; default 100 mm/s (thesis 7.3)")
     angular_speed: PositiveLength = Field(1.0, description="[rad/s]")
-    rate: PositiveLength = Field(50.0, description="sampling rate [Hz]")
+    rate: PositiveLength = Field(50.0, le=MAX_RATE, description="sampling rate [Hz]")
     acceleration: PositiveLength | None = Field(
         None, description="TCP acceleration limit [units/s^2]; default 1 m/s^2 (YuMi)")
     jerk: PositiveLength | None = Field(
@@ -446,32 +454,57 @@ def parse_model(model: type[BaseModel], data: Any, source: str):
         raise ScenarioError(f"{source}: {format_validation_error(exc)}") from None
 
 
-MAX_FILE_BYTES = 10_000_000
-"""Largest job file read [bytes]: 10 MB is some 100 000 points, far more than any cable needs
-(a shape is resampled to n + 1 <= 1001 points), and loads in seconds."""
+MAX_FILE_BYTES = MAX_INPUT_BYTES
+"""Largest job file read [bytes] (:data:`dloplan.bounds.MAX_INPUT_BYTES`)."""
+
+MAX_VALUES = 5_000_000
+"""Most values (numbers, strings, lists, mappings) a job file may hold once its YAML aliases are
+expanded: a 10 MB file of plain numbers holds at most about this many; a few lines of nested
+aliases would otherwise expand to billions (the "billion laughs")."""
+
+
+def expanded_size(data) -> int:
+    """The number of values in ``data`` with every shared list or mapping counted as often as
+    it is referenced (what validating it would visit), in time linear in the distinct ones."""
+    sizes: dict[int, int] = {}
+
+    def size(node) -> int:
+        if not isinstance(node, dict | list):
+            return 1
+        key = id(node)
+        if key not in sizes:
+            sizes[key] = 0  # a cycle (YAML allows them) counts once
+            items = node.values() if isinstance(node, dict) else node
+            sizes[key] = 1 + sum(size(item) for item in items)
+        return sizes[key]
+
+    try:
+        return size(data)
+    except RecursionError:
+        return MAX_VALUES + 1
 
 
 def read_mapping(path: str | Path) -> dict:
-    """Read a YAML or JSON file into a mapping; one-line errors for unreadable files."""
+    """Read a YAML or JSON file into a mapping; one-line errors for unreadable files (a regular
+    text file of at most :data:`MAX_FILE_BYTES`, :func:`dloplan.inputs.read_text`)."""
     path = Path(path)
     try:
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise ScenarioError(f"{path}: the file is {size / 1e6:.1f} MB, more than the "
-                                f"{MAX_FILE_BYTES / 1e6:.0f} MB a job file may have (thin out "
-                                "its points: shapes are resampled to n + 1 points anyway)")
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ScenarioError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
-    except UnicodeDecodeError:
-        raise ScenarioError(f"{path}: not a text file (not UTF-8): expected YAML or JSON") \
-            from None
+        text = read_text(path, MAX_FILE_BYTES, "job file", " (thin out its points: shapes "
+                         "are resampled to n + 1 points anyway)")
+    except ValueError as exc:
+        raise ScenarioError(str(exc)) from None
     try:
         data = json.loads(text) if path.suffix.lower() == ".json" else yaml.safe_load(text)
     except (json.JSONDecodeError, yaml.YAMLError) as exc:
         detail = str(exc).splitlines()[0]
         kind = "JSON" if path.suffix.lower() == ".json" else "YAML"
         raise ScenarioError(f"{path}: not valid {kind}: {detail}") from None
+    except RecursionError:
+        raise ScenarioError(f"{path}: nested too deeply to be a job file") from None
+    values = expanded_size(data)
+    if values > MAX_VALUES:
+        raise ScenarioError(f"{path}: expands to {values:.3g} values (YAML aliases repeat what "
+                            f"they name), more than the {MAX_VALUES:.0e} a job file may hold")
     if not isinstance(data, dict):
         raise ScenarioError(f"{path}: expected a mapping at the top level, got "
                             f"{type(data).__name__}")

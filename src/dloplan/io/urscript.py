@@ -45,6 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from ..robot.actions import picks_up
+from .files import atomic_write_texts
 from .ur_rtde import DEFAULT_GRIPPER, check_gripper
 
 MODES = ("movej", "movel")
@@ -190,7 +191,7 @@ def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=Non
         "  end")]
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    written = []
+    texts = {}
     for a, arm in enumerate(arms):
         name = f"{stem}_{arm}"
         lines = [f"# {name}.script: dloplan plan for the {arm} arm ({n_points} waypoints, "
@@ -226,7 +227,5 @@ def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=Non
         lines += [f"  set_standard_digital_out({ready_output}, False)",
                   "end",
                   f"{name}()"]
-        path = folder / f"{name}.script"
-        path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-        written.append(path)
-    return written
+        texts[folder / f"{name}.script"] = "\n".join(lines) + "\n"
+    return atomic_write_texts(texts)
