@@ -39,8 +39,8 @@ from ..geometry import arc_length, as_shape, resample_by_arc_length
 from ..obstacles import Avoidance, Cylinder, avoid_obstacles, check_path
 from ..planning import Plan, plan
 from ..shapes import arc_shape
-from ..sim.clips import ClipPoses
-from ..sim.statics import Equilibrium, equilibrium
+from ..sim.clips import ClipPoses, clip_poses_from_shape
+from ..sim.statics import Equilibrium, check_target, equilibrium
 from .board import Board, check_board
 
 WEIGHTLESS = np.zeros(3)
@@ -126,6 +126,45 @@ def _at_half_length(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return x[k] + t * tangent, tangent / np.linalg.norm(tangent)
 
 
+def taut_approach(cable: Cable, insertion: np.ndarray, height: float) -> np.ndarray:
+    """Phase 1's target for a cable that cannot carry the arc: the cable straight and level,
+    ``height`` above the insertion pose's middle point, across the route's front, (n + 1, 3)
+    [m] (module docstring).
+
+    Its middle point is above the insertion pose's; it runs horizontally perpendicular to the
+    direction from the fixtures' chord middle (the pose's two clip points) to that point, its
+    first point on the side of the pose's first clip. Held taut, a soft cable sags by
+    (3 w L^3 / (64 E A))^(1/3) at most (its weight w per length stretching it) and keeps its
+    place; pulled back to the fixtures in phase 2 it is bent around the pegs' sides.
+
+    Parameters
+    ----------
+    cable : Cable
+        The cable (length and n).
+    insertion : array_like
+        (n + 1, 3) the insertion pose [m].
+    height : float
+        How far above the insertion pose's middle point the line lies [m].
+    """
+    x = as_shape(insertion, cable.n_points, "insertion")
+    if not (math.isfinite(height) and height > 0):
+        raise ValueError(f"approach_height: got {height!r}, expected a height > 0 [m]")
+    mid, _ = _at_half_length(x)
+    clips = clip_poses_from_shape(x).positions
+    front = mid - 0.5 * (clips[0] + clips[1])
+    front[2] = 0.0
+    if np.linalg.norm(front) < 1e-9 * cable.length:  # a straight route: along its chord
+        along = clips[1] - clips[0]
+    else:
+        along = np.cross([0.0, 0.0, 1.0], front)
+        if along @ (clips[1] - clips[0]) < 0:
+            along = -along
+    along[2] = 0.0
+    along /= np.linalg.norm(along)
+    s = np.linspace(-0.5, 0.5, cable.n_points)[:, None] * cable.length
+    return mid + s * along + np.array([0.0, 0.0, height])
+
+
 def approach_shape(cable: Cable, insertion: np.ndarray, height: float) -> np.ndarray:
     """Phase 1's target: a horizontal arc carrying the insertion pose's curvature, ``height``
     above it (module docstring), (n + 1, 3) [m].
@@ -159,7 +198,8 @@ class Phases:
     insertion : Equilibrium
         The insertion pose (phase 2's target) as solved.
     approach : numpy.ndarray
-        (n + 1, 3) phase 1's proposed target [m] (the arc, before pre-processing).
+        (n + 1, 3) phase 1's proposed target [m] (the arc or the taut line, before
+        pre-processing).
     plan1, plan2 : Plan
         The planner's results of phase 1 and phase 2.
     avoidance : Avoidance
@@ -175,6 +215,8 @@ class Phases:
         Both plans succeeded, avoidance succeeded and the insertion pose converged.
     message : str
         One line.
+    approach_kind : str
+        ``"arc"`` or ``"taut"`` (:func:`approach_target`).
     """
 
     insertion: Equilibrium
@@ -188,6 +230,25 @@ class Phases:
     warnings: tuple[str, ...]
     success: bool
     message: str
+    approach_kind: str = "arc"
+
+
+CARRY_TOLERANCE = 0.01
+"""Largest sag [m] of the arc (settled under gravity, its clips held) for which the cable
+carries it to the board: the thesis' T_cf of a stable target (5.3)."""
+
+
+def approach_target(cable: Cable, insertion: np.ndarray, height: float,
+                    gravity=GRAVITY) -> tuple[np.ndarray, str]:
+    """Phase 1's target and its kind: the arc (:func:`approach_shape`, ``"arc"``) when the
+    cable carries it, i.e. settled under gravity with its clips held no point moves more than
+    :data:`CARRY_TOLERANCE` (the thesis' target stability, 5.3); else the cable laid taut across
+    the route (:func:`taut_approach`, ``"taut"``): a soft cable cannot hold the curvature in the
+    air, and the pegs give it."""
+    arc = approach_shape(cable, insertion, height)
+    if check_target(arc, cable, threshold=CARRY_TOLERANCE, gravity=gravity).stable:
+        return arc, "arc"
+    return taut_approach(cable, insertion, height), "taut"
 
 
 def plan_phases(
@@ -239,7 +300,7 @@ def plan_phases(
     insertion = insertion_pose(cable, board, clearance)
     if not insertion.success:
         warnings.append(f"insertion pose: {insertion.message}")
-    approach = approach_shape(cable, insertion.shape, approach_height)
+    approach, approach_kind = approach_target(cable, insertion.shape, approach_height, gravity)
     options = dict(weights=weights, physical_mode=physical_mode, map=map)
     plan1 = plan(cable, start, approach, int(counts[0]), **options)
     warnings += [f"phase 1: {w}" for w in plan1.warnings]
@@ -265,4 +326,5 @@ def plan_phases(
     message = ("planned both phases" if success else warnings[0] if warnings
                else "a planning stage did not succeed")
     return Phases(insertion, approach, plan1, plan2, avoidance, path1, path2,
-                  {"phase1": t1 - t0, "phase2": t2 - t1}, tuple(warnings), success, message)
+                  {"phase1": t1 - t0, "phase2": t2 - t1}, tuple(warnings), success, message,
+                  approach_kind)
