@@ -91,7 +91,7 @@ def test_a_tensioning_above_the_rated_load_fails_and_no_timing_repairs_it(
     """A rated load below what the tensioned hose carries statically: the tensioning fails,
     naming the load, and the repair by a slower pull does not apply (the configurations carry
     it at rest)."""
-    from dloplan.pipeline.harness import slower_tensioning_helps
+    from dloplan.pipeline.repair.harness import slower_tensioning_helps
 
     result, _ = hose_on_the_usb_board
     load = 0.5 * result.insertion.tensioned.max_tension
@@ -153,7 +153,7 @@ def test_a_tensioning_whose_replay_overshoots_the_rated_load_is_repaired_by_a_sl
     import yaml
 
     from dloplan.app import load_job
-    from dloplan.pipeline.harness import plan_harness
+    from dloplan.pipeline.repair.harness import plan_harness
 
     data = yaml.safe_load((EXAMPLES / "harness_pu.yaml").read_text())
     data["harness"]["pegs"][0]["base"] = [0.38, 0.0, 0.0]

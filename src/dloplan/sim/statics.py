@@ -35,7 +35,6 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from ..cable import GRAVITY, Cable
 from ..geometry import as_shape, norms
-from ..physics.contact import contact_rows
 from ..physics.chain import (
     HALF_BANDWIDTH,
     SpringChain,
@@ -46,6 +45,7 @@ from ..physics.chain import (
     shape_derivatives,
     shape_energy,
 )
+from ..physics.contact import contact_rows
 from .clips import ClipPoses, check_clip_reach, clip_poses_from_shape, conform_guess
 from .compiled import CONVERGED, MAX_ITERATIONS, SADDLE, STALLED, newton_positions
 from .contact_newton import newton_contacts
