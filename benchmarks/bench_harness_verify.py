@@ -24,6 +24,7 @@ plate on the table; the plan's tensioned section, resting on the plate, carries 
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from pathlib import Path
@@ -38,15 +39,17 @@ EXAMPLES = Path(__file__).parent.parent / "examples"
 def main(names) -> None:
     for name in names:
         job = load_job(EXAMPLES / f"harness_{name}.yaml")
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         result = run_harness(job.cable, job.start, job.board, job.settings)
-        planned = time.perf_counter() - t
-        t = time.perf_counter()
+        planned, planned_cpu = time.perf_counter() - t, time.process_time() - c
+        t, c = time.perf_counter(), time.process_time()
         check = verify_harness_result(result)
-        total = time.perf_counter() - t
+        total, total_cpu = time.perf_counter() - t, time.process_time() - c
         checks = ", ".join(f"{k} {v:.1f} s" for k, v in check.timings.items())
-        print(f"{name}: planned in {planned:.1f} s; verified in {total:.1f} s (held model "
-              f"{total - sum(check.timings.values()):.1f} s, {checks})")
+        print(f"{name}: planned in {planned:.1f} s wall ({planned_cpu:.1f} s CPU); verified in "
+              f"{total:.1f} s wall ({total_cpu:.1f} s CPU; held model "
+              f"{total - sum(check.timings.values()):.1f} s, {checks}); host load "
+              f"{os.getloadavg()[0]:.1f}")
         print(check.table())
         print()
 

@@ -21,6 +21,7 @@ from dloplan.harness import (
     section_cable,
     section_shape,
     tension_state,
+    whole_shape,
     write_harness_rapid,
 )
 from dloplan.physics.chain import SpringChain, link_tensions
@@ -236,6 +237,22 @@ def test_the_section_model_keeps_the_cable_between_the_clips():
     assert np.allclose(a.u_axes, b.u_axes, atol=1e-12)
     with pytest.raises(ValueError, match="offset: got 0.3"):
         section_cable(cable, 30, 0.3)
+
+
+def test_a_section_comes_back_to_the_planning_links_on_its_clips():
+    # whole_shape inverts section_shape up to the resampling: the end links exactly on the
+    # clips (so the grippers hold what the section was held by), the shape within a fraction of
+    # a planning link of the original, every link within 2 % of its rest length
+    cable = catalogue_cable("ethernet", n_links=10)
+    x = insertion_pose(cable, demo_board(cable)).shape
+    sec = section_cable(cable, 40)
+    clips = clip_poses_from_shape(x)
+    back = whole_shape(cable, section_shape(x, cable, sec), clips)
+    again = clip_poses_from_shape(back)
+    assert np.allclose(again.positions, clips.positions, atol=1e-12)
+    assert np.allclose(again.u_axes, clips.u_axes, atol=1e-12)
+    assert np.max(np.linalg.norm(back - x, axis=1)) < 0.1 * cable.rest_link_length
+    assert np.allclose(link_lengths(back), cable.rest_link_length, rtol=0.02)
 
 
 def test_insertion_rejects_a_shape_that_is_not_at_the_fixtures():

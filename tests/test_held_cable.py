@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 from dloplan.cable import Cable
 from dloplan.harness import Fixture
 from dloplan.harness.held import stub_sag
-from dloplan.harness.insertion import section_cable
+from dloplan.harness.section import section_cable
 from dloplan.obstacles import Box, Cylinder, Table
 from dloplan.physics.chain import SpringChain, link_tensions
 from dloplan.physics.contact import contact_gradient, contact_hessian_blocks

@@ -10,8 +10,6 @@ from .insertion import (
     Insertion,
     TensionState,
     insert_and_tension,
-    section_cable,
-    section_shape,
     tension_state,
 )
 from .job import (
@@ -24,6 +22,7 @@ from .job import (
     write_harness_rapid,
 )
 from .phases import Phases, approach_shape, fixture_clips, insertion_pose, plan_phases
+from .section import section_cable, section_shape, whole_shape
 
 __all__ = [
     "PHASES",
@@ -48,5 +47,6 @@ __all__ = [
     "section_cable",
     "section_shape",
     "tension_state",
+    "whole_shape",
     "write_harness_rapid",
 ]

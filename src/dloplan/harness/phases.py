@@ -40,8 +40,9 @@ from ..obstacles import Avoidance, Cylinder, avoid_obstacles, check_path
 from ..planning import Plan, plan
 from ..shapes import arc_shape
 from ..sim.clips import ClipPoses, clip_poses_from_shape
-from ..sim.statics import Equilibrium, check_target, equilibrium
+from ..sim.statics import Equilibrium, check_target, equilibrium, interpolate_clips
 from .board import Board, check_board
+from .section import follow, section_cable, section_shape, whole_shape
 
 WEIGHTLESS = np.zeros(3)
 
@@ -201,7 +202,8 @@ class Phases:
         (n + 1, 3) phase 1's proposed target [m] (the arc or the taut line, before
         pre-processing).
     plan1, plan2 : Plan
-        The planner's results of phase 1 and phase 2.
+        The planner's results of phase 1 and phase 2 (a settled phase 2 may take its clip
+        poses, :func:`settled_phase2`).
     avoidance : Avoidance
         Obstacle avoidance of phase 1 (its ``path`` is phase 1's path).
     path1, path2 : numpy.ndarray
@@ -217,6 +219,12 @@ class Phases:
         One line.
     approach_kind : str
         ``"arc"`` or ``"taut"`` (:func:`approach_target`).
+    phase2_kind : str
+        ``"planned"`` (the planner's shapes) or ``"settled (... clip route)"``
+        (:func:`settled_phase2`, after a taut approach).
+    section : numpy.ndarray or None
+        (n_s + 1, 3) a settled phase 2's section at the approach poses [m] (what the insertion
+        starts from), else None.
     """
 
     insertion: Equilibrium
@@ -231,6 +239,8 @@ class Phases:
     success: bool
     message: str
     approach_kind: str = "arc"
+    phase2_kind: str = "planned"
+    section: np.ndarray | None = None
 
 
 CARRY_TOLERANCE = 0.01
@@ -251,6 +261,85 @@ def approach_target(cable: Cable, insertion: np.ndarray, height: float,
     return taut_approach(cable, insertion, height), "taut"
 
 
+@dataclass(frozen=True, eq=False)
+class SettledPhase2:
+    """Result of :func:`settled_phase2`.
+
+    Attributes
+    ----------
+    path : numpy.ndarray
+        (S + 2, n + 1, 3) phase 2's shapes on the planning's links, the first phase 1's last
+        [m].
+    section : numpy.ndarray
+        (n_s + 1, 3) the section at the fixtures' approach poses as reached [m].
+    route : str
+        The clip route taken: ``"planned"`` (the planner's clip poses) or ``"straight"``.
+    distance : float
+        Largest point distance between the section reached and the insertion pose as it rests
+        [m].
+    """
+
+    path: np.ndarray
+    section: np.ndarray
+    route: str
+    distance: float
+
+
+def settled_phase2(cable: Cable, path1, planned, insertion, board: Board, section_links: int,
+                   gravity=GRAVITY) -> SettledPhase2:
+    """Phase 2 with gravity and the board (module docstring): the cable's shapes its equilibria
+    with gravity and the board's contacts as the clips move, on the first clip route that
+    brings it to the insertion pose as it rests.
+
+    The cable is followed as the section of ``section_links`` links
+    (:func:`dloplan.harness.section.follow`): settled at phase 1's first clip poses, through
+    phase 1's knots, then phase 2's. Two clip routes are tried, in this order: the planner's
+    (the clip poses of ``planned``, its last the fixtures' approach poses) and straight lines
+    (linear positions, slerped frames) in as many steps. A route is taken when the section it
+    reaches at the approach poses is within :data:`CARRY_TOLERANCE` of the insertion pose as it
+    rests there (the weightless pose settled with gravity and the contacts); else the closer
+    one. Each equilibrium is brought back to the planning's links with its end links on the
+    clips (:func:`~dloplan.harness.section.whole_shape`).
+
+    Parameters
+    ----------
+    cable : Cable
+    path1 : array_like
+        (S1 + 2, n + 1, 3) phase 1's shapes [m].
+    planned : array_like
+        (S + 2, n + 1, 3) the planner's phase 2 [m].
+    insertion : array_like
+        (n + 1, 3) the insertion pose [m].
+    board : Board
+    section_links : int
+    gravity : array_like
+        Gravity [m/s^2].
+    """
+    path1 = np.asarray(path1, dtype=float)
+    section = section_cable(cable, section_links)
+    contacts = board.contacts()
+    approach = fixture_clips(board)
+    rest = follow(section, section_shape(insertion, cable, section), [approach], contacts,
+                  gravity)[-1]
+    clips1 = [clip_poses_from_shape(x) for x in path1]
+    x = follow(section, section_shape(path1[0], cable, section), clips1, contacts, gravity)[-1]
+    count = len(planned)
+    routes = {"planned": [clip_poses_from_shape(y) for y in planned[:-1]] + [approach],
+              "straight": interpolate_clips(clips1[-1], approach, np.linspace(0.0, 1.0, count))}
+    best = None
+    for route, poses in routes.items():
+        settled = follow(section, x, poses, contacts, gravity)
+        distance = float(np.max(np.linalg.norm(settled[-1] - rest, axis=1)))
+        if best is None or distance < best[2]:
+            best = (route, poses, distance, settled)
+        if distance <= CARRY_TOLERANCE:
+            break
+    route, poses, distance, settled = best
+    path = np.stack([path1[-1]] + [whole_shape(cable, shape, pose)
+                                   for shape, pose in zip(settled[1:], poses[1:], strict=True)])
+    return SettledPhase2(path, settled[-1], route, distance)
+
+
 def plan_phases(
     cable: Cable,
     start,
@@ -264,6 +353,7 @@ def plan_phases(
     z_safety: float = 0.02,
     max_rounds: int = 5,
     gravity=GRAVITY,
+    section_links: int = 40,
     map: Callable = map,
 ) -> Phases:
     """Plan phase 1 (to above the board, avoiding obstacles) and phase 2 (to the fixtures).
@@ -287,7 +377,9 @@ def plan_phases(
     z_safety, max_rounds
         Obstacle avoidance settings (thesis 5.4.3: 2 cm).
     gravity : array_like
-        Gravity [m/s^2] for the stabilization of the avoidance.
+        Gravity [m/s^2] for the stabilization of the avoidance and a settled phase 2.
+    section_links : int
+        Links of the section a settled phase 2 is followed with (:func:`settled_phase2`).
     map : callable
         Passed to the planner.
     """
@@ -316,15 +408,25 @@ def plan_phases(
     path1 = avoidance.path
     plan2 = plan(cable, path1[-1], insertion.shape, int(counts[1]), preprocess=False, **options)
     warnings += [f"phase 2: {w}" for w in plan2.warnings]
-    path2 = plan2.path
-    for report in check_path(path2[1:-1], board.collision_volumes(), cable.diameter / 2):
-        if report.colliding:
-            warnings.append(f"phase 2, shape {report.shape_index + 1} (planned): "
-                            f"{report.describe().split(': ', 1)[1]}")
+    path2, section, phase2_kind = plan2.path, None, "planned"
+    if approach_kind == "taut":
+        settled = settled_phase2(cable, path1, plan2.path, insertion.shape, board,
+                                 section_links, gravity)
+        path2, section = settled.path, settled.section
+        phase2_kind = f"settled ({settled.route} clip route)"
+        if settled.distance > CARRY_TOLERANCE:
+            warnings.append(f"phase 2: the cable comes to rest {1e3 * settled.distance:.1f} mm "
+                            "from the insertion pose as it rests (tolerance "
+                            f"{1e3 * CARRY_TOLERANCE:.0f} mm) on either clip route")
+    else:
+        for report in check_path(path2[1:-1], board.collision_volumes(), cable.diameter / 2):
+            if report.colliding:
+                warnings.append(f"phase 2, shape {report.shape_index + 1} (planned): "
+                                f"{report.describe().split(': ', 1)[1]}")
     t2 = time.perf_counter()
     success = plan1.success and plan2.success and avoidance.success and insertion.success
     message = ("planned both phases" if success else warnings[0] if warnings
                else "a planning stage did not succeed")
     return Phases(insertion, approach, plan1, plan2, avoidance, path1, path2,
                   {"phase1": t1 - t0, "phase2": t2 - t1}, tuple(warnings), success, message,
-                  approach_kind)
+                  approach_kind, phase2_kind, section)
