@@ -207,7 +207,8 @@ class Phases:
     avoidance : Avoidance
         Obstacle avoidance of phase 1 (its ``path`` is phase 1's path).
     path1, path2 : numpy.ndarray
-        (S1 + 2, n + 1, 3) and (S2 + 2, n + 1, 3) the paths of the phases [m];
+        (S1 + 2, n + 1, 3) and (S2 + 2, n + 1, 3) the paths of the phases [m] (the avoidance's
+        and the planner's; both settled after a taut approach, :func:`settled_phase2`);
         ``path2[0]`` is ``path1[-1]``.
     timings : dict
         Wall time [s] of "phase1" (planning and avoidance) and "phase2".
@@ -267,6 +268,8 @@ class SettledPhase2:
 
     Attributes
     ----------
+    path1 : numpy.ndarray
+        (S1 + 2, n + 1, 3) phase 1's shapes as the cable rests at its clip poses [m].
     path : numpy.ndarray
         (S + 2, n + 1, 3) phase 2's shapes on the planning's links, the first phase 1's last
         [m].
@@ -279,6 +282,7 @@ class SettledPhase2:
         [m].
     """
 
+    path1: np.ndarray
     path: np.ndarray
     section: np.ndarray
     route: str
@@ -293,13 +297,14 @@ def settled_phase2(cable: Cable, path1, planned, insertion, board: Board, sectio
 
     The cable is followed as the section of ``section_links`` links
     (:func:`dloplan.harness.section.follow`): settled at phase 1's first clip poses, through
-    phase 1's knots, then phase 2's. Two clip routes are tried, in this order: the planner's
-    (the clip poses of ``planned``, its last the fixtures' approach poses) and straight lines
-    (linear positions, slerped frames) in as many steps. A route is taken when the section it
-    reaches at the approach poses is within :data:`CARRY_TOLERANCE` of the insertion pose as it
-    rests there (the weightless pose settled with gravity and the contacts); else the closer
-    one. Each equilibrium is brought back to the planning's links with its end links on the
-    clips (:func:`~dloplan.harness.section.whole_shape`).
+    phase 1's knots (phase 1's shapes become these equilibria: the avoidance's are stabilized
+    on the planning's coarser links), then phase 2's. Two clip routes are tried, in this
+    order: the planner's (the clip poses of ``planned``, its last the fixtures' approach poses)
+    and straight lines (linear positions, slerped frames) in as many steps. A route is taken
+    when the section it reaches at the approach poses is within :data:`CARRY_TOLERANCE` of the
+    insertion pose as it rests there (the weightless pose settled with gravity and the
+    contacts); else the closer one. Each equilibrium is brought back to the planning's links
+    with its end links on the clips (:func:`~dloplan.harness.section.whole_shape`).
 
     Parameters
     ----------
@@ -322,7 +327,8 @@ def settled_phase2(cable: Cable, path1, planned, insertion, board: Board, sectio
     rest = follow(section, section_shape(insertion, cable, section), [approach], contacts,
                   gravity)[-1]
     clips1 = [clip_poses_from_shape(x) for x in path1]
-    x = follow(section, section_shape(path1[0], cable, section), clips1, contacts, gravity)[-1]
+    first = follow(section, section_shape(path1[0], cable, section), clips1, contacts, gravity)
+    x = first[-1]
     count = len(planned)
     routes = {"planned": [clip_poses_from_shape(y) for y in planned[:-1]] + [approach],
               "straight": interpolate_clips(clips1[-1], approach, np.linspace(0.0, 1.0, count))}
@@ -335,9 +341,11 @@ def settled_phase2(cable: Cable, path1, planned, insertion, board: Board, sectio
         if distance <= CARRY_TOLERANCE:
             break
     route, poses, distance, settled = best
+    path1 = np.stack([whole_shape(cable, shape, pose)
+                      for shape, pose in zip(first, clips1, strict=True)])
     path = np.stack([path1[-1]] + [whole_shape(cable, shape, pose)
                                    for shape, pose in zip(settled[1:], poses[1:], strict=True)])
-    return SettledPhase2(path, settled[-1], route, distance)
+    return SettledPhase2(path1, path, settled[-1], route, distance)
 
 
 def plan_phases(
@@ -412,7 +420,7 @@ def plan_phases(
     if approach_kind == "taut":
         settled = settled_phase2(cable, path1, plan2.path, insertion.shape, board,
                                  section_links, gravity)
-        path2, section = settled.path, settled.section
+        path1, path2, section = settled.path1, settled.path, settled.section
         phase2_kind = f"settled ({settled.route} clip route)"
         if settled.distance > CARRY_TOLERANCE:
             warnings.append(f"phase 2: the cable comes to rest {1e3 * settled.distance:.1f} mm "
