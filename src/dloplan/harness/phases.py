@@ -426,6 +426,10 @@ def plan_phases(
             warnings.append(f"phase 2: the cable comes to rest {1e3 * settled.distance:.1f} mm "
                             "from the insertion pose as it rests (tolerance "
                             f"{1e3 * CARRY_TOLERANCE:.0f} mm) on either clip route")
+        for report in check_path(path1[1:-1], board.collision_volumes(), cable.diameter / 2):
+            if report.colliding:  # the avoidance checked the coarser stabilized shapes
+                warnings.append(f"phase 1, shape {report.shape_index + 1} (settled): "
+                                f"{report.describe().split(': ', 1)[1]}")
     else:
         for report in check_path(path2[1:-1], board.collision_volumes(), cable.diameter / 2):
             if report.colliding:
