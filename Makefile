@@ -1,5 +1,7 @@
 # Every target sets itself up on a fresh machine: it creates .venv and installs dloplan with
 # everything its tests need (all extras), so `make demo` and `make test` are the only commands.
+# After installing, the numba kernels are compiled into their on-disk cache by parallel
+# processes (python -m dloplan.warmup, about a minute on 2 cores): the first run starts warm.
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -11,6 +13,7 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[dev,vision,robot,study,plants]'
+	$(BIN)/python -m dloplan.warmup || echo "warm-up incomplete: the rest compiles on first use"
 	touch $(STAMP)
 
 # exit code 1 means "planned, with warnings" (shown above it): the demo still succeeded
@@ -28,7 +31,7 @@ browser:
 	  >/dev/null) ; } || echo "chromium not installed: the browser test will be skipped"
 
 test: lint browser
-	$(BIN)/python -m pytest -q -n 2
+	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
 
 # some benchmarks reuse the tests' scene builders (tests/ on the path)
 bench: $(STAMP)

@@ -166,12 +166,14 @@ def adopt_orphans() -> None:
     ctypes.CDLL(None, use_errno=True).prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
 
 
-def run(command: list[str], env: dict[str, str]) -> tuple[float, float, str]:
+def run(command: list[str], env: dict[str, str], check: bool = True, stdout: bool = False
+        ) -> tuple:
     """Wall time [s] (until the output streams close), CPU time [s] (user + sys of the command
-    and every process it started, reaped here: :func:`adopt_orphans`) and stderr."""
+    and every process it started, reaped here: :func:`adopt_orphans`), stderr, the exit code
+    (``check``: an exit code other than 0 raises) and, with ``stdout``, the standard output."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    done = subprocess.run(command, capture_output=True, text=True, check=True, env=env)
+    done = subprocess.run(command, capture_output=True, text=True, check=check, env=env)
     wall = time.perf_counter() - t0
     while True:  # the orphans: gone once the streams closed, to be reaped
         try:
@@ -180,7 +182,8 @@ def run(command: list[str], env: dict[str, str]) -> tuple[float, float, str]:
             break
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    return wall, cpu, done.stderr
+    out = (wall, cpu, done.stderr, done.returncode)
+    return (*out, done.stdout) if stdout else out
 
 
 def main() -> None:
@@ -191,7 +194,7 @@ def main() -> None:
     adopt_orphans()
     python = sys.executable
     sources = {"this": None} if args.before is None else {"before": args.before, "this": None}
-    best: dict[str, tuple[float, float, str]] = {}
+    best: dict[str, tuple[float, float, str, int]] = {}
     with tempfile.TemporaryDirectory() as folder:
         for name, source in sources.items():  # the first run: compilation and byte code caches
             run([python, "-m", "dloplan.cli", "demo", "-o", f"{folder}/{name}"],
@@ -203,7 +206,7 @@ def main() -> None:
                 if name not in best or result[0] < best[name][0]:
                     best[name] = result
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
-    for name, (wall, cpu, stages) in best.items():
+    for name, (wall, cpu, stages, _) in best.items():
         if name == "this":
             print(stages.rstrip())
         ratio = "" if name != "this" or "before" in best else \
@@ -211,7 +214,7 @@ def main() -> None:
         print(f"dloplan demo ({name}): {wall:.2f} s wall, {cpu:.2f} s CPU (best of {args.runs} "
               f"by wall{ratio}; target {TARGET_S['demo']:.0f} s)")
     if "before" in best:
-        (w0, c0, _), (w1, c1, _) = best["before"], best["this"]
+        (w0, c0, *_), (w1, c1, *_) = best["before"], best["this"]
         print(f"this / before: {w0 / w1:.2f}x wall, {c0 / c1:.2f}x CPU")
     print(f"load average (1, 5, 15 min): {load} on {os.cpu_count()} cores")
     env = environment(None)

@@ -1,22 +1,24 @@
-"""Robustness-study throughput: serial, 2 local processes, a 2-worker Dask LocalCluster.
+"""Robustness-study throughput on the study example: serial, 2 local processes, Dask.
 
-Prints samples per second on each backend, the per-task overhead of each backend (trivial
-tasks), the data volume per sample (pickled parameters sent, table rows returned) and, from
-these, an estimate of the throughput of a 100-worker cluster with the reasoning.
+The problem is the plan ``dloplan study examples/study_m2_ethernet.yaml`` studies (the plan of
+``dloplan plan``, its ``study:`` section's parameters), at ``--samples`` samples. Printed:
 
-Before issue 20 (quiet machine): 14.6 samples/s serial; at commit 2268328 (compiled collision
-search and Newton loop; quiet) 70.9 samples/s, 14.1 ms per sample; target 150 samples/s on one
-core. The ratio printed is against 2268328. Now the static solve's set-up is compiled or cached
-(clip conforming, reach check, reactions, clip axes from quaternions, the chain of a cable), a
-sample builds its clip-error rotation once, and the collision columns come from the obstacles'
-penetration depths (no lift report): 223 samples/s serial (4.5 ms per sample, 3.1x) under load
-average 1.3, 97 samples/s under load 6.6 (best of 3 runs): the target is met on a quiet core.
-A shape's warm-started solve takes 13 Newton iterations on average at n = 20 (6 to 74).
+* the samples per second of the per-sample reference (``evaluate_sample``: one ``equilibrium``
+  call per shape, the study's algorithm before issue 34) and of the batched chunk
+  (``evaluate_chunk``: every equilibrium of a chunk in one compiled loop), side by side in this
+  process, with their CPU time, and whether their rows are equal (they are bit for bit);
+* ``run_study`` on the serial backend, 2 local processes, a Dask LocalCluster of 2 one-thread
+  workers and, with ``--scheduler tcp://HOST:PORT``, the workers of that cluster (start one
+  with ``dask scheduler`` and ``dask worker tcp://HOST:PORT --nthreads 1`` twice; the workers
+  need dloplan installed), the speed-up over serial and the per-task overhead of each backend;
+* the closed-loop column (the ``correction:`` section, ``--closed-loop`` samples): samples per
+  second serial and on 2 processes;
+* from these, an estimate of a 100-worker cluster.
 
-Run: PYTHONPATH=src python benchmarks/bench_study.py [--samples 96] [--links 20]
+Before issue 34 (quiet machine): 195 samples/s serial; target 1000 samples/s on 2 cores.
+The host is shared: compare CPU times and ratios measured side by side.
 
-Quiet machine after the third round's merge (main 7f40e43, load 1.2, 2026-11-30 22:28 UTC), four
-runs: 174-238 samples/s serial (noisy; target 150: met).
+Run: python benchmarks/bench_study.py [--samples 4096] [--closed-loop 8] [--scheduler ADDR]
 """
 
 from __future__ import annotations
@@ -25,45 +27,31 @@ import argparse
 import os
 import pickle
 import time
+from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from dloplan.cable import catalogue_cable
-from dloplan.obstacles import Box, Table
-from dloplan.sim.clips import ClipPoses
-from dloplan.sim.statics import equilibrium
+from dloplan.app import load_scenario, run_job
+from dloplan.app.study import study_problem_of, study_spec
+from dloplan.correct import closed_loop_study
+from dloplan.pipeline.stages import settled_shapes
 from dloplan.study import (
     DaskBackend,
     ProcessBackend,
     SerialBackend,
     draw_samples,
+    evaluate_chunk,
+    evaluate_sample,
     map_jobs,
-    parse_study,
     run_study,
-    study_problem,
 )
+from dloplan.study.evaluate import OUTCOME_COLUMNS
 from dloplan.study.run import chunk_items
+from dloplan.study.spec import CorrectionSpec
 
-BEFORE_RATE = 70.9  # serial samples/s at commit 2268328, quiet (docstring)
-TARGET_RATE = 150.0
-
-
-def problem(n_links: int, n_shapes: int):
-    """An Ethernet cable hanging between level clips that move apart, a box and the table."""
-    cable = catalogue_cable("ethernet", n_links=n_links)
-    shapes, clips = [], []
-    for d in np.linspace(0.08, 0.20, n_shapes):
-        c = ClipPoses(np.array([[0, 0, 0.2], [d, 0, 0.2]]),
-                      Rotation.from_euler("z", [[0.0], [180.0]], degrees=True))
-        s = np.linspace(0, 1, n_links + 1)
-        l = cable.rest_link_length
-        guess = np.stack([np.linspace(-l / 2, d + l / 2, n_links + 1), 0 * s,
-                          0.2 - 0.1 * np.sin(np.pi * s)], axis=1)
-        shapes.append(equilibrium(cable, guess, c).shape)
-        clips.append(c)
-    obstacles = [Box((0.1, 0.0, 0.02), (0.05, 0.05, 0.04), 0.0, "block"), Table(0.0)]
-    return study_problem(cable, np.stack(shapes), clips, obstacles)
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "study_m2_ethernet.yaml"
+BEFORE_RATE = 195.0  # serial samples/s before issue 34 (quiet)
+TARGET_RATE = 1000.0  # on 2 cores
 
 
 def _noop(shared, item):
@@ -78,95 +66,129 @@ def task_overhead(backend, count: int = 200) -> float:
     return (time.perf_counter() - t) / count
 
 
-def timed(problem_, study, backend) -> tuple[float, dict]:
-    t = time.perf_counter()
-    result = run_study(problem_, study, backend=backend)
-    return time.perf_counter() - t, result.table
+def timed(function, *args, **kwargs):
+    """(wall [s], CPU of this process [s], result)."""
+    wall, cpu = time.perf_counter(), time.process_time()
+    result = function(*args, **kwargs)
+    return time.perf_counter() - wall, time.process_time() - cpu, result
+
+
+def reference_rows(problem, chunk: dict) -> dict:
+    """The chunk's outcome columns by ``evaluate_sample``, one sample after the other."""
+    params = [name for name in chunk if name != "sample"]
+    rows: dict[str, list] = {name: [] for name in OUTCOME_COLUMNS}
+    for j in range(len(chunk["sample"])):
+        one = evaluate_sample(problem, {name: float(chunk[name][j]) for name in params})
+        for name in OUTCOME_COLUMNS:
+            rows[name].extend(one[name])
+    return rows
+
+
+def equal_rows(table: dict, rows: dict) -> bool:
+    for name in OUTCOME_COLUMNS:
+        a, b = table[name], np.asarray(rows[name], dtype=table[name].dtype)
+        same = list(a) == list(b) if a.dtype == object else np.array_equal(a, b, equal_nan=True)
+        if not same:
+            return False
+    return True
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--samples", type=int, default=96)
-    parser.add_argument("--links", type=int, default=20)
-    parser.add_argument("--shapes", type=int, default=7, help="S + 2")
-    parser.add_argument("--chunk", type=int, default=8)
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--samples", type=int, default=4096)
+    parser.add_argument("--reference", type=int, default=256,
+                        help="samples evaluated one by one for the side-by-side rate")
+    parser.add_argument("--closed-loop", type=int, default=8, help="closed-loop samples")
+    parser.add_argument("--scheduler", help="a Dask scheduler address tcp://HOST:PORT")
     args = parser.parse_args()
-    prob = problem(args.links, args.shapes)
-    study = {"samples": args.samples, "chunk_size": args.chunk, "seed": 1,
-             "parameters": {"youngs_modulus": {"spread": 30}, "mass_per_length": {"spread": 5},
-                            "length": {"spread": 1}, "clip_position": {"spread": 1},
-                            "clip_orientation": {"spread": 1},
-                            "obstacle_position": {"spread": 5}}}
-    spec = parse_study(study)
-    print(f"study: n = {args.links} links, S + 2 = {args.shapes} shapes, N = {args.samples} "
-          f"samples, chunks of {args.chunk}; {os.cpu_count()} cores, load average "
-          f"{os.getloadavg()[0]:.1f} (other jobs make the speed-ups noisy)")
+    job = load_scenario(EXAMPLE)
+    doc = run_job(job)
+    problem = study_problem_of(doc)
+    spec = study_spec(job, args.samples, 1)
+    print(f"{EXAMPLE.name}: n = {doc.cable.n_links} links, {problem.n_shapes} shapes, "
+          f"{len(problem.obstacles)} obstacle(s), N = {spec.samples} samples in chunks of "
+          f"{spec.chunk}; {os.cpu_count()} cores, load average "
+          f"{os.getloadavg()[0]:.1f} (a shared host: compare CPU times and ratios)")
 
-    # data volume
-    samples = draw_samples(spec, prob.cable, prob.obstacles)
-    item = chunk_items(samples, args.chunk, [0])[0]
-    sent = len(pickle.dumps(item)) / args.chunk
-    shared = len(pickle.dumps(prob))
+    samples = draw_samples(spec, problem.cable, problem.obstacles)
+    chunk = chunk_items(samples, args.reference, [0])[0]
+    evaluate_chunk(problem, chunk)  # kernels loaded
+    w_ref, c_ref, rows = timed(reference_rows, problem, chunk)
+    w_new, c_new, table = timed(evaluate_chunk, problem, chunk)
+    n = args.reference
+    print(f"\none process, {n} samples side by side:")
+    print(f"  per sample (evaluate_sample):  {n / w_ref:8.1f} samples/s wall, "
+          f"{n / c_ref:8.1f} per CPU second")
+    print(f"  batched (evaluate_chunk):      {n / w_new:8.1f} samples/s wall, "
+          f"{n / c_new:8.1f} per CPU second  (x{c_ref / c_new:.1f} CPU)")
+    print(f"  rows equal bit for bit: {equal_rows(table, rows)}; "
+          f"{int(np.sum(table['converged']))}/{len(table['converged'])} equilibria converged, "
+          f"{np.mean(table['iterations']):.1f} Newton iterations on average")
 
-    rates = {}
-    serial_time, table = timed(prob, study, SerialBackend())
-    rates["serial"] = args.samples / serial_time
-    per_sample = serial_time / args.samples
-    returned = len(pickle.dumps({k: v[:args.chunk * args.shapes] for k, v in table.items()}))
-    returned /= args.chunk
-    rows = len(table["sample"])
+    rates, overheads = {}, {}
+    wall, cpu, result = timed(run_study, problem, spec, backend=SerialBackend())
+    rates["serial"] = spec.samples / wall
+    print(f"\nrun_study, {spec.samples} samples ({1e3 * cpu / spec.samples:.2f} ms CPU per "
+          "sample serial):")
     with ProcessBackend(2) as backend:
-        timed(prob, {**study, "samples": 2 * args.chunk}, backend)  # start the forkserver
-        t, _ = timed(prob, study, backend)
-        rates["2 local processes"] = args.samples / t
-        overhead_proc = task_overhead(backend)
+        run_study(problem, {**spec.model_dump(), "samples": 64}, backend=backend)  # started
+        wall, _, _ = timed(run_study, problem, spec, backend=backend)
+        rates["2 local processes"] = spec.samples / wall
+        overheads["local processes"] = task_overhead(backend)
     from dask.distributed import Client, LocalCluster
 
     with LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
                       dashboard_address=None) as cluster, Client(cluster) as client:
         backend = DaskBackend(client=client)
-        timed(prob, {**study, "samples": 2 * args.chunk}, backend)  # warm the workers
-        t, _ = timed(prob, study, backend)
-        rates["Dask LocalCluster, 2 workers"] = args.samples / t
-        overhead_dask = task_overhead(backend)
-
-    print(f"\nper sample (serial): {1e3 * per_sample:.1f} ms = {args.shapes} equilibria + "
-          f"collision checks; per task of {args.chunk} samples: "
-          f"{1e3 * per_sample * args.chunk:.0f} ms")
+        run_study(problem, {**spec.model_dump(), "samples": 64}, backend=backend)  # warm
+        wall, _, _ = timed(run_study, problem, spec, backend=backend)
+        rates["Dask LocalCluster, 2 workers"] = spec.samples / wall
+        overheads["Dask"] = task_overhead(backend)
+    if args.scheduler:
+        with DaskBackend(scheduler=args.scheduler) as backend:
+            run_study(problem, {**spec.model_dump(), "samples": 64}, backend=backend)
+            wall, _, _ = timed(run_study, problem, spec, backend=backend)
+            rates[f"Dask at {args.scheduler} ({backend.workers} threads)"] = spec.samples / wall
     for name, rate in rates.items():
-        print(f"  {name:<30} {rate:8.1f} samples/s  (x{rate / rates['serial']:.2f})")
-    print(f"  serial against commit 2268328 ({BEFORE_RATE} samples/s, quiet): "
-          f"{rates['serial'] / BEFORE_RATE:.1f}x; target {TARGET_RATE:.0f} samples/s")
-    print(f"\ntrivial-task overhead: local processes {1e3 * overhead_proc:.2f} ms, "
-          f"Dask {1e3 * overhead_dask:.2f} ms per task")
-    print(f"data per sample: {sent:.0f} B of parameters sent, {returned:.0f} B of table rows "
-          f"returned ({rows // args.samples} rows); the problem ({shared / 1e3:.1f} kB) is "
-          "sent once per worker")
+        print(f"  {name:<34} {rate:8.1f} samples/s  (x{rate / rates['serial']:.2f})")
+    print(f"  serial against before issue 34 ({BEFORE_RATE:.0f} samples/s, quiet): "
+          f"{rates['serial'] / BEFORE_RATE:.1f}x; target {TARGET_RATE:.0f} samples/s on 2 cores")
+    print("  trivial-task overhead: " + ", ".join(f"{k} {1e3 * v:.2f} ms"
+                                                  for k, v in overheads.items()))
+    item = chunk_items(samples, spec.chunk, [0])[0]
+    sent = len(pickle.dumps(item)) / spec.chunk
+    returned = len(pickle.dumps(evaluate_chunk(problem, item))) / spec.chunk
+    print(f"  data per sample: {sent:.0f} B sent, {returned:.0f} B returned; the problem "
+          f"({len(pickle.dumps(problem)) / 1e3:.1f} kB) once per worker")
 
-    # estimate for a 100-worker cluster
+    if args.closed_loop:
+        correction = CorrectionSpec(at=problem.n_shapes // 2, samples=args.closed_loop)
+        common = {"stabilized": settled_shapes(doc), "trajectory": doc.trajectory}
+        closed_loop_study(doc.cable, doc.shapes, doc.grippers, samples,
+                          CorrectionSpec(at=correction.at, samples=1), **common)
+        wall, cpu, _ = timed(closed_loop_study, doc.cable, doc.shapes, doc.grippers, samples,
+                             correction, **common)
+        print(f"\nclosed loop (one correction after shape {correction.at}), "
+              f"{args.closed_loop} samples: serial {args.closed_loop / wall:.1f} samples/s "
+              f"({cpu / args.closed_loop:.2f} s CPU per sample)", end="")
+        with ProcessBackend(2) as backend:
+            closed_loop_study(doc.cable, doc.shapes, doc.grippers, samples,
+                              CorrectionSpec(at=correction.at, samples=2), backend=backend,
+                              **common)
+            wall, _, _ = timed(closed_loop_study, doc.cable, doc.shapes, doc.grippers, samples,
+                               correction, backend=backend, **common)
+        print(f", 2 local processes {args.closed_loop / wall:.1f} samples/s")
+
     workers = 100
-    task_compute = per_sample * args.chunk
-    # the Dask scheduler handles tasks one after another: its cost per task bounds the task
-    # rate whatever the number of workers; the trivial-task time on 2 workers measures it
-    # (with 2 workers nearly all of it is scheduler and transfer latency)
-    scheduler_rate = 1.0 / overhead_dask  # tasks/s
-    compute_rate = workers / (task_compute + overhead_dask)  # tasks/s if the scheduler keeps up
-    tasks_per_s = min(scheduler_rate, compute_rate)
-    bandwidth = (sent + returned) * args.chunk * tasks_per_s
-    print(f"\nestimate for {workers} workers (one thread each, as fast as these cores):")
-    print(f"  compute-bound: {workers} / ({1e3 * task_compute:.0f} ms + "
-          f"{1e3 * overhead_dask:.1f} ms) = {compute_rate:.0f} tasks/s")
-    print(f"  scheduler-bound: 1 / {1e3 * overhead_dask:.2f} ms = {scheduler_rate:.0f} tasks/s")
+    per_sample = 1.0 / rates["serial"]
+    task_compute = per_sample * spec.chunk
+    overhead = overheads["Dask"]
+    compute_rate, scheduler_rate = workers / (task_compute + overhead), 1.0 / overhead
+    tasks_per_s = min(compute_rate, scheduler_rate)
     bound = "compute" if compute_rate < scheduler_rate else "scheduler"
-    print(f"  -> {tasks_per_s:.0f} tasks/s = {tasks_per_s * args.chunk:.0f} samples/s "
-          f"({bound}-bound), scheduler traffic {bandwidth / 1e3:.0f} kB/s")
-    print(f"  per-task overhead is {100 * overhead_dask / task_compute:.1f} % of a task's "
-          f"compute: chunks of {args.chunk} samples keep it small; chunks of "
-          f"{max(1, int(np.ceil(20 * overhead_dask / per_sample)))} samples or more keep it "
-          "under 5 %, and a 100-worker study needs N >= a few hundred chunks to fill the "
-          "workers.")
-    print(f"  a study of 10^5 samples: about {1e5 / (tasks_per_s * args.chunk) / 60:.1f} min "
-          f"on {workers} workers, {1e5 * per_sample / 3600:.1f} h serial here.")
+    print(f"\nestimate for {workers} one-thread workers as fast as these cores: "
+          f"{tasks_per_s * spec.chunk:.0f} samples/s ({bound}-bound: tasks of "
+          f"{1e3 * task_compute:.0f} ms, {1e3 * overhead:.1f} ms scheduler time per task)")
 
 
 if __name__ == "__main__":

@@ -47,7 +47,23 @@ DICTIONARY = cv2.aruco.DICT_4X4_50
 
 
 def plane_maps(intrinsics, camera_to_robot, height, ss):
-    """Robot-frame x, y (H*ss, W*ss) where the supersampled pixels' rays meet z = height."""
+    """Robot-frame x, y (H*ss, W*ss) where the supersampled pixels' rays meet z = height.
+
+    Computed once per camera, height and supersampling (the scenes of a test module share
+    them; read-only arrays)."""
+    key = (intrinsics, np.asarray(camera_to_robot, float).tobytes(), float(height), ss)
+    if key not in _PLANE_MAPS:
+        maps = _plane_maps(intrinsics, camera_to_robot, height, ss)
+        for m in maps:
+            m.flags.writeable = False
+        _PLANE_MAPS[key] = maps
+    return _PLANE_MAPS[key]
+
+
+_PLANE_MAPS: dict = {}
+
+
+def _plane_maps(intrinsics, camera_to_robot, height, ss):
     w, h = intrinsics.width, intrinsics.height
     u, v = np.meshgrid(np.arange(w, dtype=np.float32), np.arange(h, dtype=np.float32))
     n = cv2.undistortPoints(np.stack([u.ravel(), v.ravel()], 1).reshape(-1, 1, 2),
@@ -101,6 +117,24 @@ def _cable_texture(points_xy, radius, origin, res, shape):
     return tex
 
 
+def _table(intrinsics, camera_to_robot, markers, marker_length, ss):
+    """The table with its markers (H*ss, W*ss, 3) float32, drawn once per camera and markers
+    (read-only: copy it to draw on)."""
+    key = (intrinsics, np.asarray(camera_to_robot, float).tobytes(), marker_length, ss,
+           tuple((k, np.asarray(p, float).tobytes()) for k, p in sorted(markers.items())))
+    if key not in _TABLES:
+        x0, y0 = plane_maps(intrinsics, camera_to_robot, 0.0, ss)
+        img = np.empty(x0.shape + (3,), np.float32)
+        img[:] = TABLE_BGR
+        _paint_markers(img, x0, y0, markers, marker_length)
+        img.flags.writeable = False
+        _TABLES[key] = img
+    return _TABLES[key]
+
+
+_TABLES: dict = {}
+
+
 def render(cables=(), markers=None, *, intrinsics=INTRINSICS, camera_to_robot=CAMERA_TO_ROBOT,
            marker_length=MARKER_LENGTH, ss=3):
     """A BGR uint8 image of the table with markers and cables.
@@ -109,10 +143,7 @@ def render(cables=(), markers=None, *, intrinsics=INTRINSICS, camera_to_robot=CA
     centreline is drawn through the x-y of the points at height diameter / 2.
     """
     markers = MARKER_POSES if markers is None else markers
-    x0, y0 = plane_maps(intrinsics, camera_to_robot, 0.0, ss)
-    img = np.empty(x0.shape + (3,), np.float32)
-    img[:] = TABLE_BGR
-    _paint_markers(img, x0, y0, markers, marker_length)
+    img = _table(intrinsics, camera_to_robot, markers, marker_length, ss).copy()
     res = 0.0002
     for points, diameter, bgr in cables:
         xc, yc = plane_maps(intrinsics, camera_to_robot, diameter / 2, ss)

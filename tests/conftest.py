@@ -39,3 +39,10 @@ def sagging_guess(cable, distance: float, depth: float = -0.1) -> np.ndarray:
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+def pytest_collection_modifyitems(config, items):
+    """The modules that run whole on one worker (``xdist_group``, ``make test``'s ``--dist
+    loadgroup``) first: xdist hands out work in collection order, and a long group started last
+    would run alone while the other worker idles. Order within each part is kept."""
+    items.sort(key=lambda item: item.get_closest_marker("xdist_group") is None)

@@ -261,7 +261,7 @@ def test_urdf_primitives_become_capsules(tmp_path):
     np.testing.assert_array_equal(arm.capsule_link, [-1, 0])
     with pytest.raises(ValueError, match="tip_link"):
         load_arm(urdf, "nope")
-    with pytest.raises(ValueError, match="path"):
+    with pytest.raises(ValueError, match="missing.urdf: cannot read the file"):
         load_arm(tmp_path / "missing.urdf", "c")
     with pytest.raises(ValueError, match="base_link"):
         load_arm(urdf, "a", base_link="c")

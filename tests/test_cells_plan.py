@@ -11,6 +11,8 @@ import pytest
 import yaml
 from scipy.spatial.transform import Rotation
 
+from dloplan.pipeline.document import cycle_actions
+from dloplan.robot.actions import program_timeline
 from dloplan.robot.chain import forward
 from dloplan.robot.urdf_cell import (
     PANDA_TCP_IN_CLIP,
@@ -127,7 +129,7 @@ def test_scenario_cell_resolves_in_any_units_and_by_paths(tmp_path):
         np.testing.assert_allclose(a_mm.tcp_offset, a_m.tcp_offset, atol=1e-12)
         assert a_mm.tool_radius == pytest.approx(a_m.tool_radius)
     assert job_mm.robot.writers["urscript"]["blend"] == pytest.approx(0.002)
-    assert set(job_m.outputs[-2:]) == {"ros_joints", "urscript"}  # every program it takes
+    assert {"ros_joints", "urscript", "ur_rtde"} <= set(job_m.outputs)  # every program it takes
     assert "rapid" not in job_m.outputs
     urdf = str(Path("..") / "src" / "dloplan" / "robot" / "data" / "ur5e.urdf")
     arms = {side: {"urdf": urdf, "tip_link": "tool0", "base_position": [0, y, 0],
@@ -186,19 +188,25 @@ def test_cell_plan_document_reads_back_and_programs_are_the_verified_joints(tmp_
     assert back.robot.cell["kind"] == "described" and back.program is None
     recorded = [np.radians([t["arms"][arm]["joints_deg"] for t in doc.robot.program["targets"]])
                 for arm in ("left", "right")]
-    times = [t["time"] for t in doc.robot.program["targets"]]
+    times = np.array([t["time"] for t in doc.robot.program["targets"]])
+    # the targets' instants on the programs' clock: the gripper actions' waits come on top
+    holds = np.zeros(len(times))
+    for action in cycle_actions(doc.cycle):
+        holds[action.knot] += action.duration
+    arrive = times + np.r_[0.0, np.cumsum(holds)[:-1]]
     scripts = WRITERS["urscript"].write(back, tmp_path / "urscript", None)
     ros = WRITERS["ros_joints"].write(back, tmp_path / "ros_joints", None)
     for a, arm in enumerate(job.robot.arms):
         moves = parse_urscript(scripts[a].read_text())["moves"]
         np.testing.assert_allclose([m[1] for m in moves], recorded[a], atol=1e-9)
         message = yaml.safe_load(ros[a].read_text())
-        np.testing.assert_allclose([p["positions"] for p in message["points"]], recorded[a],
-                                   atol=1e-12)
         assert message["joint_names"] == list(arm.joint_names)
-        stamps = [p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"]
-                  for p in message["points"]]
-        np.testing.assert_allclose(stamps, times, atol=1e-9)
+        stamps = np.array([p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"]
+                           for p in message["points"]])
+        at = [int(np.argmin(np.abs(stamps - t))) for t in arrive]
+        np.testing.assert_allclose(stamps[at], arrive, atol=1e-9)
+        np.testing.assert_allclose([message["points"][i]["positions"] for i in at],
+                                   recorded[a], atol=1e-10)
         # the recorded joints hold the TCP at the recorded target (the verified pose)
         target = np.array([t["arms"][arm.name]["position"] for t in
                            doc.robot.program["targets"]])
@@ -212,11 +220,18 @@ def test_cell_plan_document_reads_back_and_programs_are_the_verified_joints(tmp_
     WRITERS["report"].write(back, tmp_path / "report.html", None)
     page = (tmp_path / "report.html").read_text()
     assert '"robot":{"arms"' in page and '"model":"ur5e"' in page  # both UR5e drawn
-    with pytest.raises(ValueError, match="rapid: the cell 'ur5e_pair' takes urscript"):
+    with pytest.raises(ValueError, match="rapid: the cell 'ur5e_pair' takes ur_rtde, urscript"):
         WRITERS["rapid"].write(back, tmp_path / "rapid", None)
     data = json.loads((tmp_path / "plan.json").read_text())
     data["robot"]["program"]["targets"][2]["arms"]["left"]["joints_deg"][0] += 1.0
     (tmp_path / "tampered.json").write_text(json.dumps(data))
+    with pytest.raises(ValueError, match="edited after dloplan wrote it"):
+        read_plan(tmp_path / "tampered.json")
+    # with its checksum forged too, the writer's own check still refuses the program
+    from dloplan.app.document_file import CHECKSUM, content_checksum
+
+    (tmp_path / "tampered.json").write_text(json.dumps({**data,
+                                                         CHECKSUM: content_checksum(data)}))
     with pytest.raises(ValueError, match="differs from the verified one"):
         WRITERS["urscript"].write(read_plan(tmp_path / "tampered.json"), tmp_path / "t", None)
 
@@ -251,15 +266,18 @@ def test_ros_joints_writer_of_a_plan_document_is_the_verified_yumi_program(tmp_p
     assert program is not None and program.ok, program.message
     files = WRITERS["ros_joints"].write(doc, tmp_path / "ros_joints", None)
     assert [f.name for f in files] == ["dloplan_left_joint_trajectory.yaml",
-                                       "dloplan_right_joint_trajectory.yaml"]
-    for a, path in enumerate(files):
+                                       "dloplan_right_joint_trajectory.yaml",
+                                       "dloplan_gripper_actions.yaml"]
+    clock = program_timeline(program, doc.trajectory, cycle_actions(doc.cycle)).clock
+    for a, path in enumerate(files[:2]):
         message = yaml.safe_load(path.read_text())
         assert message["joint_names"] == list(program.cell.robot.arms[a].joint_names)
-        np.testing.assert_array_equal([p["positions"] for p in message["points"]],
-                                      program.joints[:, a])
-        stamps = [p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"]
-                  for p in message["points"]]
-        np.testing.assert_allclose(stamps, program.times, atol=1e-9)
+        stamps = np.array([p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"]
+                           for p in message["points"]])
+        at = [int(np.argmin(np.abs(stamps - t))) for t in clock.arrive]
+        np.testing.assert_allclose(stamps[at], clock.arrive, atol=1e-9)
+        np.testing.assert_allclose([message["points"][i]["positions"] for i in at],
+                                   program.joints[:, a], atol=1e-10)
 
 
 @pytest.mark.slow
@@ -318,6 +336,14 @@ def test_verify_place_and_correct_on_a_described_cell(tmp_path, capsys):
     assert main(["verify", str(out / "plan.json"), "-q"]) == 0
     assert not (out / "rapid").exists()
     scripts = sorted((out / "urscript").glob("*.script"))
-    assert len(scripts) == 2 and len(list((out / "ros_joints").iterdir())) == 2
+    assert len(scripts) == 2 and len(list((out / "ros_joints").iterdir())) == 3
+    assert (out / "ur_rtde" / "dloplan_ur_pair.py").exists()
     moves = parse_urscript(scripts[0].read_text())["moves"]
     assert len(moves) == len(doc.shapes) - at
+    # the remaining motion starts with the cable held: no gripper opens before it, and its
+    # programs carry the actions still to come (the release at the end)
+    hooks = parse_urscript(scripts[0].read_text())["hooks"]
+    assert hooks == [("dloplan_grip_open", len(moves) - 1)]
+    rows = yaml.safe_load((out / "ros_joints" / "dloplan_gripper_actions.yaml").read_text())
+    assert [(r["action"], r["knot"]) for r in rows["actions"]] == [
+        ("release", len(moves) - 1)] * 2

@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 import pytest
+from signal_runs import group_members
 from test_cli import STIFF, write
 
 from dloplan.cli import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, EXIT_WARNINGS, main
@@ -73,7 +74,7 @@ def test_cli_overrides_pass_the_schema(tmp_path, capsys):
         assert main(["study", str(example), "--samples", samples, "-o", str(out)]) == \
             EXIT_FAILURE
         err = capsys.readouterr().err.strip()
-        assert "study.samples" in err and len(err.splitlines()) == 1
+        assert "--samples" in err and len(err.splitlines()) == 1
         assert not out.exists()
     bare = write(tmp_path, SMALL)  # no study: section: nothing to vary
     assert main(["study", str(bare), "-o", str(tmp_path / "s")]) == EXIT_FAILURE
@@ -111,7 +112,7 @@ def _interruptible() -> None:
 
 
 def _dloplan(*args, **kwargs) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "dloplan.cli", *args],
+    return subprocess.Popen([sys.executable, "-m", "dloplan", *args],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=_interruptible, **kwargs)
 
@@ -145,7 +146,9 @@ def test_ctrl_c_in_a_terminal_stops_every_process_quietly(tmp_path, when):
     out = tmp_path / "out"
     process = _dloplan("demo", "-o", str(out), start_new_session=True)
     if when == "while the figure server warms up":
-        time.sleep(0.4)
+        while len(group_members(process.pid)) < 2:  # the server is started (importing)
+            assert process.poll() is None, process.communicate()
+            time.sleep(0.01)
         first = ""
     else:
         first = ""

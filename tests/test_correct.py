@@ -35,6 +35,9 @@ from dloplan.grippers import GripperPath
 from dloplan.sim import equilibrium
 from dloplan.vision.shapes_io import RegisteredShape, write_shapes
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_correct")
+
 SCENARIOS = {
     "demo": Path(__file__).resolve().parent / "data" / "sagging_demo.yaml",
     "ethernet-3d": Path(__file__).resolve().parents[1] / "examples/qualitative2_ethernet_3d.yaml",
@@ -554,6 +557,13 @@ def test_a_hand_edited_plan_is_refused(plans, tmp_path, capsys):
     shapes = tmp_path / "m.csv"
     write_shapes(shapes, [RegisteredShape(_measure(_stabilized(doc)[3]), label="xi_3",
                                           frame_id=doc.frame_id)])
+    assert main(["correct", str(edited), "--at", "3", "--measured", str(shapes), "-o",
+                 str(tmp_path / "out"), "-q"]) == 2
+    assert "edited after dloplan wrote it" in capsys.readouterr().err  # its checksum
+    # with the checksum forged too, the recorded program is still checked against the plan
+    from dloplan.app.document_file import CHECKSUM, content_checksum
+
+    edited.write_text(json.dumps({**data, CHECKSUM: content_checksum(data)}))
     assert main(["correct", str(edited), "--at", "3", "--measured", str(shapes), "-o",
                  str(tmp_path / "out"), "-q"]) == 2
     assert "plan.robot" in capsys.readouterr().err

@@ -24,6 +24,9 @@ from dloplan.io.export import (
     write_trajectory_csv,
 )
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_export")
+
 
 @pytest.fixture(scope="module")
 def plan():

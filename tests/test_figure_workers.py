@@ -16,6 +16,9 @@ from dloplan.app.figure_workers import DRAFTS, FigureWorkers
 from dloplan.app.files import plan_into
 from dloplan.app.report import write_figures
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_figure_workers")
+
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
@@ -83,7 +86,8 @@ def test_the_planned_hook_sees_the_final_figures_before_the_robot_program(job, d
 def test_plan_into_writes_the_same_files_with_and_without_workers(job, tmp_path):
     def strip(data):
         if isinstance(data, dict):
-            return {k: strip(v) for k, v in data.items() if k not in ("timings", "timings_s")}
+            return {k: strip(v) for k, v in data.items()
+                    if k not in ("timings", "timings_s", "checksum")}
         return [strip(v) for v in data] if isinstance(data, list) else data
 
     _, inline = plan_into(job, tmp_path / "inline")

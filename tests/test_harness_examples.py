@@ -15,6 +15,9 @@ import pytest
 from dloplan.app import load_job, load_scenario, run_job
 from dloplan.harness import run_harness
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_harness_examples")
+
 EXAMPLES = Path(__file__).parent.parent / "examples"
 
 

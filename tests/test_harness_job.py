@@ -22,11 +22,13 @@ from dloplan.harness import (
     section_shape,
     tension_state,
     whole_shape,
-    write_harness_rapid,
 )
 from dloplan.physics.chain import SpringChain, link_tensions
 from dloplan.sim.clips import clip_poses_from_shape
 from dloplan.trajectory import trajectory_from_grippers
+
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_harness_job")
 
 N_LINKS = 10
 SETTINGS = HarnessSettings(n_shapes=(3, 3), section_links=30)
@@ -209,15 +211,6 @@ def test_a_soft_cable_is_carried_taut_and_its_phase_2_settled_on_the_board(usb, 
     assert np.allclose(end.u_axes, [f.axis for f in usb.board.fixtures], atol=1e-9)
     summary = harness_summary(usb)
     assert (summary["approach"], summary["phase2"]) == ("taut", usb.phases.phase2_kind)
-
-
-def test_one_rapid_module_per_arm_holds_the_whole_job(usb, tmp_path):
-    files = write_harness_rapid(tmp_path / "rapid", usb)
-    assert len(files) == 2
-    for path in files.values():
-        text = path.read_text()
-        assert text.count("MoveL ") == usb.trajectory.n_knots + 1  # + approach, retreat - 1st
-        assert f"planned duration {usb.trajectory.duration:.3f} s" in text
 
 
 def test_insertion_pose_keeps_the_clearance_and_lines_up_with_the_fixtures():

@@ -23,7 +23,8 @@ from dloplan.obstacles import Box
 
 EXAMPLES = Path(__file__).parents[1] / "examples"
 
-pytestmark = pytest.mark.slow
+# slow; its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("test_harness_verification")]
 
 SETTINGS = HarnessSettings(max_speed=0.1, max_angular_speed=1.0)
 

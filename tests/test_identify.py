@@ -47,6 +47,9 @@ from dloplan.identify.tuning_loop import thesis_equivalent_modulus, tune_for_ide
 from dloplan.io.scenario import ScenarioError
 from dloplan.planning.tuning import stiffness_family
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_identify")
+
 DESIGNS = {
     "two-clip": bending_manipulation,  # thesis Fig. 6.3: clips to 0.15 m, tilted up 90 deg
     "cantilever": cantilever_manipulation,

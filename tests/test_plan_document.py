@@ -29,6 +29,9 @@ from dloplan.pipeline.document import (
     document_to_dict,
 )
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_plan_document")
+
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 DATA = Path(__file__).resolve().parent / "data"
 
@@ -93,7 +96,9 @@ def test_the_pieces_round_trip(pieces, tmp_path):
     for arm in (0, 1):
         assert _same_rotations(t.rotations[arm], trajectory.rotations[arm])
     assert back.warnings == ("a warning",)
-    _assert_same(document_to_dict(back), json.loads((tmp_path / "plan.json").read_text()))
+    written = json.loads((tmp_path / "plan.json").read_text())
+    assert written.pop("checksum").startswith("sha256:")  # of the file's content, not a section
+    _assert_same(document_to_dict(back), written)
 
 
 def test_a_planned_document_round_trips_every_section(planned, tmp_path):
@@ -194,10 +199,12 @@ def test_pieces_that_do_not_fit_are_rejected(pieces, tmp_path):
 
 # -- every writer writes what the document says ------------------------------------------------
 def test_every_writer_writes_the_document(planned, tmp_path):
-    # URScript: 6-joint UR arms; correction: a corrected plan's report (tests/test_correct.py)
-    yumi = tuple(name for name in WRITERS if name not in ("urscript", "correction"))
-    with pytest.raises(ValueError, match="urscript: the cell 'yumi' takes rapid, ros_joints"):
-        write_outputs(planned, tmp_path / "ur", ("urscript",))
+    # URScript and the RTDE streamer: 6-joint UR arms; correction: a corrected plan's report
+    # (tests/test_correct.py)
+    yumi = tuple(name for name in WRITERS if name not in ("urscript", "ur_rtde", "correction"))
+    for name in ("urscript", "ur_rtde"):
+        with pytest.raises(ValueError, match=f"{name}: the cell 'yumi' takes rapid, ros_joints"):
+            write_outputs(planned, tmp_path / "ur", (name,))
     with pytest.raises(ValueError, match="correction: the plan is not a corrected plan"):
         write_outputs(planned, tmp_path / "report", ("correction",))
     written = write_outputs(planned, tmp_path, yumi)

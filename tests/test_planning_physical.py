@@ -23,6 +23,9 @@ from dloplan.planning.tuning import PHYSICAL_WEIGHTS
 from dloplan.sim.clips import HELD_INDICES, clip_poses_from_shape, place_held_points
 from dloplan.sim.statics import equilibrium
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_planning_physical")
+
 
 @pytest.fixture(scope="module")
 def geometric():

@@ -19,6 +19,9 @@ from dloplan.planning import (
     stiffness_family,
 )
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_planning_pipeline")
+
 
 @pytest.fixture(scope="module")
 def folding_plan():

@@ -16,6 +16,7 @@ import re
 
 import numpy as np
 import pytest
+from program_readers import rapid_commands
 from robot_plans import example_plan, harness_plan, read_module
 from scipy.spatial.transform import Rotation
 
@@ -23,6 +24,9 @@ from dloplan.io import files
 from dloplan.io.rapid import RapidSettings, rapid_modules, write_rapid
 from dloplan.robot import Gripper, IKOptions, RobotCell, confdata, forward, inverse, yumi
 from dloplan.robot import robot_program as make_program
+
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_rapid")
 
 PREDEFINED = {"v100", "fine"}  # controller data the modules use without declaring
 CELL = RobotCell(base_position=(-0.03, 0.02, -0.01),
@@ -83,18 +87,18 @@ def test_modules_declare_everything_they_use(program):
                             f"MoveAbsJ dlo_start, v100, fine, {program.cell.tools[a].name} "
                             f"\\WObj:={program.cell.wobj};", "SyncMoveOn dlo_sync_on, dlo_tasks;"]
         assert body[-1] == "SyncMoveOff dlo_sync_off;"
-        # the gripper closes after reaching the grasp target and opens after the last shape
-        moves = [i for i, line in enumerate(body) if line.startswith("MoveL ")]
-        grip_in, grip_out = body.index("g_GripIn;"), body.index("g_GripOut;", 2)
-        assert grip_in == moves[program.grasp - 1] + 1 and grip_out == moves[
-            program.release - 1] + 1
-        assert body[grip_in + 1] == body[grip_out + 1] == f"WaitTime {program.cell.grip_time:g};"
+        # the gripper closes after reaching the grasp target and opens after the last shape,
+        # with the default cycle's waits (the pipeline passes the plan's: test_program_actions)
+        text = rapid_modules(program)[("T_ROB_L", "T_ROB_R")[a]]
+        assert rapid_commands(text) == [(f"shape {0}", "close", 0.5),
+                                        (f"shape {program.release - program.grasp}", "open",
+                                         0.4)]
         used = set()
         for line in body:
             if line.startswith(("MoveL ", "MoveAbsJ ")):
                 used |= set(re.findall(r"[A-Za-z_]\w*", line.split(" ", 1)[1])) - {"ID", "WObj",
                                                                                    "T"}
-            if line.startswith(("SyncMoveOn", "SyncMoveOff")):
+            if line.startswith(("SyncMoveOn", "SyncMoveOff", "WaitSyncTask")):
                 used |= set(re.findall(r"[A-Za-z_]\w*", line.split(" ", 1)[1]))
         assert used - set(decl) <= PREDEFINED, used - set(decl)
         kinds = {name: typ for name, (_, typ, _) in decl.items()}

@@ -37,6 +37,9 @@ from dloplan.pipeline.stages import program_of, run_job, verify_plan
 from dloplan.sim.clips import ClipPoses, clip_poses_from_shape
 from dloplan.verify.stability import elastic_stability
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_repair")
+
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 ALONG_Y = {"euler": [0, 0, 90]}
 

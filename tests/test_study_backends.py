@@ -15,6 +15,9 @@ from dloplan.study import (
     run_study,
 )
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_study_backends")
+
 PROBLEM = hanging_problem(obstacles=True)
 STUDY = {"samples": 24, "chunk_size": 4, "seed": 5,
          "parameters": {"youngs_modulus": {"spread": 30}, "length": {"spread": 1},

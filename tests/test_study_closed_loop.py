@@ -80,3 +80,27 @@ def test_the_correction_section_does_not_change_the_study_identity():
     corrected = problem_fingerprint(problem, parse_study({**base, "correction": {"at": 1}}))
     other = problem_fingerprint(problem, parse_study({**base, "samples": 5}))
     assert plain == corrected != other
+
+
+def test_the_closed_loop_rows_do_not_depend_on_the_backend():
+    from dloplan.app import load_scenario, run_job
+    from dloplan.correct import closed_loop_study
+    from dloplan.pipeline.stages import settled_shapes
+    from dloplan.study import ProcessBackend, draw_samples
+    from dloplan.study.spec import CorrectionSpec
+
+    job = load_scenario(DEMO)
+    doc = run_job(job, check_robot=False)
+    spec = parse_study({"samples": 3, "seed": 4, "parameters": {"youngs_modulus": {"spread": 40}}})
+    samples = draw_samples(spec, doc.cable, doc.obstacles)
+    correction = CorrectionSpec(at=3, noise=1.0, tolerance=4.0)
+    runs = []
+    for backend in (None, ProcessBackend(2)):
+        runs.append(closed_loop_study(doc.cable, doc.shapes, doc.grippers, samples, correction,
+                                      stabilized=settled_shapes(doc), trajectory=doc.trajectory,
+                                      backend=backend))
+    (serial, serial_success), (parallel, parallel_success) = runs
+    assert [r["sample"] for r in parallel] == [0, 1, 2]
+    assert json.dumps(parallel) == json.dumps(serial)  # NaN (no estimate) equal to NaN
+    assert parallel_success == serial_success
+    assert len({r["open_loop_error"] for r in serial}) == 3  # three different plants

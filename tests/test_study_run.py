@@ -9,7 +9,16 @@ import pytest
 from scipy.stats import spearmanr
 from study_cases import ALL_PARAMETERS, hanging_problem, tables_equal
 
-from dloplan.study import read_table, run_study
+from dloplan.study import (
+    draw_samples,
+    evaluate_chunk,
+    evaluate_sample,
+    parse_study,
+    read_table,
+    run_study,
+)
+from dloplan.study.evaluate import OUTCOME_COLUMNS
+from dloplan.study.run import chunk_items
 
 PROBLEM = hanging_problem(obstacles=True)
 
@@ -141,3 +150,32 @@ def test_a_sample_out_of_reach_is_recorded_not_raised():
     assert all("out of reach" in m for m in t["message"][short])
     assert np.isnan(t["deviation"][short]).all()
     assert result.summary.failures["stable"] >= short.sum()
+
+
+@pytest.mark.parametrize("problem", [PROBLEM, hanging_problem(distances=(0.30, 0.37))],
+                         ids=["obstacles", "reach"])
+def test_a_chunk_is_its_samples_evaluated_one_by_one(problem):
+    # the batched chunk (one compiled loop for every sample and shape) against the readable
+    # per-sample evaluation through equilibrium(): the same rows bit for bit, refusals
+    # (clips out of reach, a cable with a negative mass) and their messages included
+    study = parse_study({"samples": 24, "seed": 3, "parameters": {
+        "youngs_modulus": {"spread": 40},
+        "mass_per_length": {"spread": 150, "distribution": "uniform"}, "length": {"spread": 10},
+        "clip_position": {"spread": 3}, "clip_orientation": {"spread": 3},
+        "obstacle_position": {"spread": 10}}})
+    samples = draw_samples(study, problem.cable, problem.obstacles)
+    chunk = chunk_items(samples, 24, [0])[0]
+    table = evaluate_chunk(problem, chunk)
+    params = [name for name in chunk if name != "sample"]
+    rows = {name: [] for name in OUTCOME_COLUMNS}
+    for j in range(24):
+        one = evaluate_sample(problem, {name: float(chunk[name][j]) for name in params})
+        for name in OUTCOME_COLUMNS:
+            rows[name].extend(one[name])
+    reference = {name: np.asarray(rows[name], dtype=table[name].dtype) for name in rows}
+    assert tables_equal({name: table[name] for name in OUTCOME_COLUMNS}, reference)
+    messages = set(table["message"])
+    assert any(m.startswith("sample: mass:") for m in messages)  # the cable cannot be built
+    if problem is not PROBLEM:
+        assert any("out of reach" in m for m in messages)
+    assert table["converged"].sum() > len(table["converged"]) // 2

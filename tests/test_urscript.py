@@ -1,6 +1,7 @@
 """Vendor programs from a verified cell path: URScript (syntax checked by a small parser, the
-waypoints read back equal the verified ones) and ROS 2 joint trajectories (values equal the
-verified IK)."""
+waypoints read back equal the verified ones, the gripper hooks and the planned actions at their
+waypoints) and ROS 2 joint trajectories (the verified IK at the targets' instants, held while
+the gripper acts)."""
 
 from __future__ import annotations
 
@@ -12,15 +13,19 @@ import pytest
 import yaml
 from scipy.spatial.transform import Rotation
 
-from dloplan.io.ros_joints import hermite_velocities, write_joint_trajectories
+from dloplan.io.ros_joints import write_joint_trajectories
 from dloplan.io.urscript import write_urscript
+from dloplan.robot.actions import ProgramTimeline, action_clock, place_actions
 from dloplan.robot.chain import forward, in_base_frame, inverse
+from dloplan.robot.motion import JointMotion
 from dloplan.robot.urdf_cell import check_cell_path, panda_pair, ur5e_pair
+from dloplan.trajectory import GripperAction
+from dloplan.trajectory.timelaw import Profile
 
 pytest.importorskip("yourdfpy")
 
 FUNCTIONS = {"movej", "movel", "set_tcp", "set_standard_digital_out", "textmsg",
-             "get_standard_digital_in", "sync"}
+             "get_standard_digital_in", "sync", "sleep", "set_tool_digital_out"}
 NUMBER = r"-?\d+(?:\.\d+)?(?:e-?\d+)?"
 LIST = rf"p?\[{NUMBER}(?:, {NUMBER})*\]"
 ARGUMENT = rf"(?:{LIST}|{NUMBER}|True|False|\"[^\"]*\"|[a-z]+={NUMBER})"
@@ -28,19 +33,25 @@ CALL = re.compile(rf"^(?:while not )?([a-z_]+)\(((?:{ARGUMENT}(?:, {ARGUMENT})*)
 
 
 def parse_urscript(text: str) -> dict:
-    """A small URScript checker: balanced ``def``/``while`` ... ``end`` blocks, only known
-    functions, numeric lists of 6 numbers, every number finite. Returns the program name and
-    the argument lists of every ``movej`` / ``movel`` (floats)."""
-    depth, name, moves, called = 0, None, [], False
+    """A small URScript checker: balanced ``def``/``while`` ... ``end`` blocks, functions
+    defined in the program (its hooks, one level deep) or known, numeric lists of 6 numbers,
+    every number finite. Returns the program name, the argument lists of every ``movej`` /
+    ``movel`` (floats) and the calls of the program's own functions with the waypoint (moves
+    so far, minus one) they follow."""
+    depth, name, moves, called, defined, hooks = 0, None, [], False, set(), []
     for raw in text.splitlines():
-        line = raw.strip()
-        if not line or line.startswith("#"):
+        line = raw.split("#")[0].strip()
+        if not line:
             continue
         if line.startswith("def "):
-            assert depth == 0, f"nested def: {line}"
+            assert depth <= 1, f"nested def: {line}"
             match = re.fullmatch(r"def ([a-z_][a-z0-9_]*)\(\):", line)
             assert match, line
-            name, depth = match.group(1), 1
+            if depth == 0:
+                name = match.group(1)
+            else:
+                defined.add(match.group(1))
+            depth += 1
             continue
         if line == "end":
             depth -= 1
@@ -57,6 +68,9 @@ def parse_urscript(text: str) -> dict:
             assert function == "get_standard_digital_in", line
             depth += 1
             continue
+        if function in defined:
+            hooks.append((function, len(moves) - 1))
+            continue
         assert function in FUNCTIONS, f"unknown function {function}"
         for values in re.findall(r"\[([^\]]*)\]", match.group(2)):
             numbers = [float(v) for v in values.split(", ")]
@@ -68,7 +82,7 @@ def parse_urscript(text: str) -> dict:
                           {k: float(v) for k, v in keywords.items()}))
     assert depth == 0, "unbalanced blocks"
     assert called, "the program is never called"
-    return {"name": name, "moves": moves}
+    return {"name": name, "moves": moves, "hooks": hooks}
 
 
 @cache
@@ -162,42 +176,93 @@ def test_parser_rejects_broken_scripts():
             parse_urscript(bad)
 
 
-def test_ros_joint_trajectory_values_equal_the_verified_ik(tmp_path):
+def _timeline(joints, arrivals, actions) -> ProgramTimeline:
+    """A timeline through per-arm target joints (K, J) reached at ``arrivals`` [s], straight in
+    joint space, each move jerk-limited to fit its interval."""
+    paths = tuple(tuple(np.linspace(q[m], q[m + 1], 3) for m in range(len(q) - 1))
+                  for q in joints)
+    laws = []
+    for d in np.diff(arrivals):
+        law = Profile.jerk_limited(2.0 / d, 8.0 / d**2, 64.0 / d**3)
+        assert law.duration <= d
+        laws.append(law)
+    starts = np.asarray(arrivals[1:]) - [law.duration for law in laws]
+    motion = JointMotion(paths, tuple(laws), starts, np.asarray(arrivals, float))
+    placed = place_actions(actions, np.arange(len(arrivals)))
+    return ProgramTimeline(motion, action_clock(motion.arrivals, placed), placed)
+
+
+def test_urscript_writes_the_gripper_actions_at_their_waypoints(tmp_path):
+    _, verdict, times, _, _ = _verified()
+    last = len(times) - 1
+    placed = place_actions((GripperAction("grasp", 0, 0.5), GripperAction.regrasp_at(3, 0.4, 0.5),
+                            GripperAction("release", last, 0.4)), np.arange(len(times)))
+    files = write_urscript(tmp_path, times, verdict.joints, actions=placed, blend=0.001,
+                           gripper={"output": 1, "tool": True, "closed": False})
+    for path in files:
+        text = path.read_text()
+        program = parse_urscript(text)
+        assert program["hooks"] == [("dloplan_grip_open", -1), ("dloplan_grip_close", 0),
+                                    ("dloplan_grip_open", 3), ("dloplan_grip_close", 3),
+                                    ("dloplan_grip_open", last)]
+        assert "def dloplan_grip_close():\n    set_tool_digital_out(1, False)" in text
+        assert re.findall(r"sleep\(([0-9.]+)\)", text) == ["0.500000000", "0.400000000",
+                                                           "0.500000000", "0.400000000"]
+        # no blend into the waypoint where the gripper acts
+        assert program["moves"][3][2]["r"] == 0.0 and program["moves"][2][2]["r"] == 0.001
+    with pytest.raises(ValueError, match="ready_output"):
+        write_urscript(tmp_path, times, verdict.joints,
+                       gripper={"output": 0, "tool": False, "closed": True})
+
+
+def test_ros_joint_trajectory_holds_the_verified_ik_while_the_gripper_acts(tmp_path):
     cell, verdict, times, _, _ = _verified()
-    files = write_joint_trajectories(tmp_path, times, verdict.joints,
-                                     [arm.joint_names for arm in cell.arms],
-                                     joint_prefix=("left_", "right_"))
-    for a, path in enumerate(files):
+    actions = (GripperAction("grasp", 0, 0.5), GripperAction.regrasp_at(2, 0.4, 0.5),
+               GripperAction("release", len(times) - 1, 0.4))
+    timeline = _timeline(verdict.joints, times, actions)
+    files = write_joint_trajectories(tmp_path, timeline, [arm.joint_names for arm in cell.arms],
+                                     joint_prefix=("left_", "right_"), rate=50.0)
+    assert [f.name for f in files] == ["dloplan_left_joint_trajectory.yaml",
+                                       "dloplan_right_joint_trajectory.yaml",
+                                       "dloplan_gripper_actions.yaml"]
+    rows = yaml.safe_load(files[2].read_text())["actions"]
+    assert [(r["arm"], r["action"], r["command"], r["duration"]) for r in rows] == [
+        (arm, action, command, wait) for action, command, wait in
+        (("grasp", "close", 0.5), ("regrasp", "open", 0.4), ("regrasp", "close", 0.5),
+         ("release", "open", 0.4)) for arm in ("left", "right")]
+    clock = timeline.clock
+    assert [r["time"] for r in rows[::2]] == pytest.approx(
+        [0.0, clock.arrive[2], clock.arrive[2] + 0.4, clock.arrive[-1]])
+    for a, path in enumerate(files[:2]):
         message = yaml.safe_load(path.read_text())
         assert message["joint_names"][0] == f"{cell.arms[a].name}_shoulder_pan_joint"
-        positions = np.array([p["positions"] for p in message["points"]])
-        np.testing.assert_array_equal(positions, verdict.joints[a])
-        stamps = [p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"]
-                  for p in message["points"]]
-        np.testing.assert_allclose(stamps, times, atol=1e-9)
-        velocities = np.array([p["velocities"] for p in message["points"]])
+        points = message["points"]
+        positions = np.array([p["positions"] for p in points])
+        stamps = np.array([p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"]
+                           for p in points])
+        # every target at its instant, held over every gripper command there
+        for k, (arrive, leave) in enumerate(zip(clock.arrive, clock.leave, strict=True)):
+            inside = (stamps >= arrive - 1e-9) & (stamps <= leave + 1e-9)
+            assert inside.any()
+            np.testing.assert_allclose(positions[inside], np.broadcast_to(
+                verdict.joints[a][k], positions[inside].shape), atol=1e-12)
+        velocities = np.array([p["velocities"] for p in points])
         np.testing.assert_allclose(velocities[[0, -1]], 0.0)
+        assert stamps[-1] == pytest.approx(clock.end, abs=1e-9)
 
 
 def test_ros_joint_trajectory_of_a_seven_joint_cell(tmp_path):
-    """Any number of joints (Panda: 7); positions written exactly."""
+    """Any number of joints (Panda: 7); positions only when asked."""
     cell = panda_pair()
     rng = np.random.default_rng(0)
     joints = [rng.uniform(arm.lower, arm.upper, (4, 7)) for arm in cell.arms]
-    files = write_joint_trajectories(tmp_path, [0.0, 0.5, 1.25, 2.0], joints,
-                                     [arm.joint_names for arm in cell.arms], velocities=False)
+    timeline = _timeline(joints, [0.0, 0.5, 1.25, 2.0], ())
+    files = write_joint_trajectories(tmp_path, timeline, [arm.joint_names for arm in cell.arms],
+                                     velocities=False)
     message = yaml.safe_load(files[1].read_text())
     assert message["joint_names"] == list(cell.right.joint_names)
     assert "velocities" not in message["points"][0]
-    np.testing.assert_array_equal([p["positions"] for p in message["points"]], joints[1])
-    with pytest.raises(ValueError, match="times"):
-        write_joint_trajectories(tmp_path, [0.0, 0.0, 1.0, 2.0], joints,
-                                 [arm.joint_names for arm in cell.arms])
-
-
-def test_hermite_velocities_are_exact_for_a_quadratic_on_uniform_times():
-    """Central differences are exact for a quadratic at uniform spacing."""
-    t = np.linspace(0, 2, 9)
-    q = np.stack([t**2, 3 * t], 1)
-    vel = hermite_velocities(t, q)
-    np.testing.assert_allclose(vel[1:-1], np.stack([2 * t, 3 + 0 * t], 1)[1:-1], atol=1e-12)
+    assert yaml.safe_load(files[2].read_text())["actions"] == []
+    with pytest.raises(ValueError, match="joint_names"):
+        write_joint_trajectories(tmp_path, timeline, [cell.left.joint_names[:6],
+                                                      cell.right.joint_names])

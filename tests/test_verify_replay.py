@@ -13,6 +13,9 @@ from dloplan.sim.statics import continuation
 from dloplan.trajectory import MotionLimits, dual_arm_trajectory
 from dloplan.verify.replay import as_clip_trajectory, clip_motion, replay
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_verify_replay")
+
 # A soft USB cable (E / 10, the thesis' fictitious-modulus idea): its explicit time step is about
 # 3x longer, so a replay of a few seconds takes a few thousand steps.
 CABLE = catalogue_cable("usb", 8).with_modulus(2.5e5)

@@ -12,6 +12,9 @@ from dloplan.sim.clips import ClipPoses
 from dloplan.sim.statics import continuation
 from dloplan.verify.report import Reachability, verify_path
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_verify_report")
+
 CABLE = catalogue_cable("usb", 8).with_modulus(2.5e5)
 FACING = Rotation.from_rotvec([[0, 0, 0], [0, 0, math.pi]])
 POSES = [ClipPoses(np.array([[0, 0, 0.3], [0.4 - dx, dx, 0.3]]), FACING) for dx in (0, 0.04, 0.08)]

@@ -11,6 +11,9 @@ from dloplan.sim.clips import ClipPoses
 from dloplan.sim.statics import continuation, equilibrium
 from dloplan.verify.snap import check_snap_through, clip_motion
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_verify_snap")
+
 WEIGHTLESS = (0.0, 0.0, 0.0)
 TILT = math.radians(20.0)
 ROTATION = math.radians(-60.0)
@@ -146,8 +149,9 @@ def test_clip_motion_and_bad_inputs():
 
 
 def test_interpolated_clips_are_the_slerp_at_each_fraction():
-    """interpolate_clips evaluates both slerps at all fractions at once: the poses are those of
-    one slerp call per fraction (the former loop), bit for bit, and the end poses are a and b."""
+    """interpolate_clips evaluates both slerps at all fractions at once (one array slerp): the
+    poses are those of scipy's Slerp per clip and fraction (the former loop) to round-off, the
+    positions bit for bit, and the end poses are a and b."""
     from scipy.spatial.transform import Slerp
 
     from dloplan.sim.statics import interpolate_clips
@@ -162,8 +166,10 @@ def test_interpolated_clips_are_the_slerp_at_each_fraction():
               for k in range(2)]
     for t, pose in zip(fractions, poses, strict=True):
         np.testing.assert_array_equal(pose.positions, (1.0 - t) * a.positions + t * b.positions)
-        expected = Rotation.concatenate([slerps[k](t) for k in range(2)]).as_quat()
-        np.testing.assert_array_equal(pose.rotations.as_quat(), expected)
+        expected = Rotation.concatenate([slerps[k](t) for k in range(2)])
+        assert np.all((pose.rotations * expected.inv()).magnitude() < 1e-14)
+        np.testing.assert_allclose(np.linalg.norm(pose.rotations.as_quat(), axis=1), 1.0,
+                                   rtol=0, atol=1e-15)
     for pose, end in ((poses[0], a), (poses[-1], b)):
         np.testing.assert_allclose(pose.positions, end.positions, rtol=0, atol=1e-15)
         assert np.all((pose.rotations * end.rotations.inv()).magnitude() < 1e-12)

@@ -42,6 +42,9 @@ from dloplan.vision import (
 )
 from dloplan.vision.markers import marker_corners
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_vision_calibration")
+
 
 def pose_error(estimate, truth):
     """Position error [m] and rotation error [deg] between two camera_to_robot poses."""

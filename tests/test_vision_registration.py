@@ -40,6 +40,9 @@ from dloplan.vision import (
     transform_points,
 )
 
+# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
+pytestmark = pytest.mark.xdist_group("test_vision_registration")
+
 BLUE = HsvRange((95, 120, 60), (120, 255, 255))
 RED = HsvRange((170, 120, 60), (10, 255, 255))  # wraps around hue 180
 N_POINTS = 21

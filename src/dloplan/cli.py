@@ -3,7 +3,8 @@
 ``main(argv=None) -> int`` returns the exit code: 0 success, 1 success with warnings, 2 bad
 input or a job that cannot be planned (a one-line error naming the problem, never a traceback,
 no output written), 3 planned but a check failed (the plan and its report are written, no robot
-program), 130 interrupted by Ctrl-C (nothing written).
+program), 128 + the signal when interrupted: 130 Ctrl-C (SIGINT), 143 SIGTERM, 129 SIGHUP (nothing
+written, every process the command started ended; :mod:`dloplan.interrupts`).
 """
 
 from __future__ import annotations
@@ -11,14 +12,49 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import signal
 import sys
 import time
 from pathlib import Path
 
 from . import __version__
-from .cable import CATALOGUE_NAMES, catalogue_cable
-from .exit_codes import EXIT_CHECK_FAILED, EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, EXIT_WARNINGS
-from .interrupts import catching_interrupts, raise_if_interrupted
+from .bounds import (
+    MAX_INPUT_BYTES,
+    MAX_LINKS,
+    MAX_MEASURED_POINTS,
+    MAX_MODULUS_STEPS,
+    MAX_RATE,
+    MAX_STUDY_SAMPLES,
+    MAX_WORKERS,
+    MIN_LINKS,
+    SLOWEST,
+)
+from .exit_codes import (  # noqa: F401 - EXIT_INTERRUPTED re-exported: the command's codes
+    EXIT_CHECK_FAILED,
+    EXIT_FAILURE,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_WARNINGS,
+)
+from .interrupts import (
+    SIGNALS,
+    catching_interrupts,
+    interrupt_of,
+    raise_if_interrupted,
+    shielded,
+)
+
+EXPORT_FORMATS = {
+    "json": "the plan document",
+    "csv": "the dual-arm TCP trajectory sampled at --rate",
+    "ros": "a ROS 2 MultiDOFJointTrajectory",
+    "ros_joints": "a ROS 2 JointTrajectory per arm",
+    "urscript": "a URScript program per arm, cells of 6-joint arms",
+    "ur_rtde": "the UR pair's RTDE streamer, cells of two UR arms",
+    "rapid": "ABB RAPID modules, YuMi cells",
+    "report": "the HTML report",
+}
+"""What ``dloplan export --format`` writes (the writers of :mod:`dloplan.app.writers`)."""
 
 ALLOW_PLACEMENT = ("let the repair move or turn the job on the table where the robot reaches it, "
                    "as `repair: {placement: true}` in the job file does (otherwise such a move "
@@ -44,6 +80,8 @@ class Console:
 
 
 def _constants_table(n_links: int) -> str:
+    from .cable import CATALOGUE_NAMES, catalogue_cable
+
     cables = [catalogue_cable(name, n_links=n_links) for name in CATALOGUE_NAMES]
     keys = list(cables[0].constants())
     width = max(len(k) for k in keys)
@@ -68,6 +106,80 @@ def positive_number(text: str) -> float:
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"got {text!r}, expected a finite number > 0")
     return value
+
+
+def hsv_range(text: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """``H,S,V:H,S,V`` as its low and high corners (OpenCV's HSV: H 0..180, S and V 0..255)."""
+    try:
+        low, high = (tuple(finite_number(v) for v in part.split(",")) for part in text.split(":"))
+    except (ValueError, argparse.ArgumentTypeError):
+        low = high = ()
+    if len(low) != 3 or len(high) != 3:
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected H,S,V:H,S,V (six numbers)")
+    return low, high
+
+
+def scheduler_address(text: str) -> str:
+    """A Dask scheduler address ``tcp://HOST:PORT`` (checked before any work; connected to
+    later)."""
+    scheme, _, rest = text.partition("://")
+    host, _, port = rest.rpartition(":")
+    if not (scheme and host and port.isdigit() and 0 < int(port) < 65536):
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected an address like "
+                                         "tcp://HOST:PORT")
+    return text
+
+
+def motion_limit(text: str) -> float:
+    """A speed limit [m/s or rad/s]: a number of at least :data:`dloplan.bounds.SLOWEST`."""
+    value = positive_number(text)
+    if value < SLOWEST:
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected at least {SLOWEST:g}")
+    return value
+
+
+def rate(text: str) -> float:
+    """A sampling rate [Hz]: a number > 0 and at most :data:`dloplan.bounds.MAX_RATE`."""
+    value = positive_number(text)
+    if value > MAX_RATE:
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected at most {MAX_RATE:g} Hz")
+    return value
+
+
+def finite_number(text: str) -> float:
+    """An option's value as a finite number (not nan, not inf)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected a finite number")
+    return value
+
+
+def integer(low: int, high: int | None = None):
+    """The type of an integer option in ``low..high`` (bounds of :mod:`dloplan.bounds`)."""
+    expected = f"an integer >= {low}" if high is None else f"an integer in {low}..{high}"
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"got {text!r}, expected {expected}") from None
+        if value < low or (high is not None and value > high):
+            raise argparse.ArgumentTypeError(f"got {text!r}, expected {expected}")
+        return value
+
+    parse.__name__ = expected
+    return parse
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line errors: ``dloplan plan: error: argument --workers: got '0',
+    expected an integer in 1..256 (dloplan plan --help)``, exit 2, as for every bad input."""
+
+    def error(self, message: str):
+        self.exit(EXIT_FAILURE, f"{self.prog}: error: {message} ({self.prog} --help)\n")
 
 
 def _cmd_schema(args: argparse.Namespace) -> int:
@@ -154,16 +266,33 @@ def _cmd_correct(args: argparse.Namespace) -> int:
     return EXIT_WARNINGS if result.warnings else EXIT_OK
 
 
+def _request_lines(stream, limit: int):
+    """The lines of ``stream``, each read bounded: a line longer than ``limit`` characters (an
+    endless one: ``< /dev/zero``) is skipped to its end, in pieces, and given as ``None``."""
+    while True:
+        line = stream.readline(limit + 1)
+        if not line:
+            return
+        if len(line) > limit and not line.endswith("\n"):
+            while (rest := stream.readline(limit + 1)) and not rest.endswith("\n"):
+                pass
+            yield None
+            continue
+        yield line
+
+
 def _serve_corrections(doc, options: dict) -> int:
     """``dloplan correct --serve``: one JSON request per line on stdin, one answer per line on
     stdout (docs/correction.md, "A correction service")."""
     from .app.correct import CorrectionService
 
     service = CorrectionService(doc, **options)
-    for line in sys.stdin:
-        if not line.strip():
+    for line in _request_lines(sys.stdin, MAX_INPUT_BYTES):
+        if line is not None and not line.strip():
             continue
         try:
+            if line is None:
+                raise ValueError(f"longer than {MAX_INPUT_BYTES / 1e6:g} MB (dloplan.bounds)")
             request = json.loads(line)
             if not isinstance(request, dict):
                 raise ValueError("expected a JSON object {\"at\": K, \"points\": [[x, y, z], ...]}")
@@ -182,6 +311,8 @@ def _serve_corrections(doc, options: dict) -> int:
             answer = service.correct(request["at"], _points(request["points"]) * scale, **flags)
         except (ValueError, TypeError) as exc:
             answer = {"ok": False, "error": f"request: {exc}"}
+        except RecursionError:
+            answer = {"ok": False, "error": "request: nested too deeply"}
         print(json.dumps(answer), flush=True)
     return EXIT_OK
 
@@ -239,21 +370,21 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     trials = [read_shapes(path) for path in args.shapes]
     result = compare_trials(planned, trials, frame_id=doc.frame_id, end_order=args.end_order)
     if args.output:
+        from .io.files import staged_files
         from .plots.compare import write_comparison_figures
         from .plots.report import write_report
 
-        folder = Path(args.output)
-        folder.mkdir(parents=True, exist_ok=True)
-        written = write_comparison_figures(result, folder, args.plane)
         header = ["shape", "error_x [m]", "error_y [m]", "error_z [m]", "error_tot [m]",
                   "error_euclid [m]"]
         rows = [[r[0], *(f"{v:.4f}" for v in r[1:])] for r in result.rows()]
-        report = write_report(folder / "report.html", title=f"dloplan compare: {args.plan}",
-                              shapes=planned, stabilized=result.registered[0],
-                              overlay_label="registered (trial 1)", summary=[result.message],
-                              tables=[("Planned vs registered (thesis Table 7.2)", header,
-                                       rows)],
-                              images=[p for p in written if p.suffix == ".png"])
+        with staged_files(args.output) as folder:  # the figures and the report, or nothing
+            written = write_comparison_figures(result, folder, args.plane)
+            write_report(folder / "report.html", title=f"dloplan compare: {args.plan}",
+                         shapes=planned, stabilized=result.registered[0],
+                         overlay_label="registered (trial 1)", summary=[result.message],
+                         tables=[("Planned vs registered (thesis Table 7.2)", header, rows)],
+                         images=[p for p in written if p.suffix == ".png"])
+        report = Path(args.output) / "report.html"
         console.stage(f"figures: {', '.join(p.name for p in written)}; report: {report}")
     print(json.dumps({"rows": result.rows(), "message": result.message}, indent=2, default=float)
           if args.json else result.table())
@@ -289,11 +420,7 @@ def _cmd_register(args: argparse.Namespace) -> int:
     )
 
     calibration = read_calibration(args.calibration)
-    try:
-        low, high = ([float(v) for v in part.split(",")] for part in args.hsv.split(":"))
-    except ValueError:
-        raise ValueError(f"--hsv: got {args.hsv!r}, expected H,S,V:H,S,V") from None
-    colour = HsvRange(tuple(low), tuple(high))
+    colour = HsvRange(*args.hsv)
     shapes = []
     for k, path in enumerate(args.images):
         image = read_image(path)
@@ -330,12 +457,14 @@ def _cmd_identify(args: argparse.Namespace) -> int:
                                      simulator=job.simulator)
     console.stage(f"{result.simulations} simulations")
     if args.output:
+        from .io.files import staged_files
         from .plots.figures import identification_figure, save_figure
 
         figure = identification_figure(result.curve[:, 0], result.curve[:, 1],
                                        result.youngs_modulus if result.success else None)
-        written = save_figure(figure, args.output, "identification_cost")
-        console.stage(f"figure: {', '.join(str(p) for p in written)}")
+        with staged_files(args.output) as folder:
+            written = save_figure(figure, folder, "identification_cost")
+        console.stage("figure: " + ", ".join(str(Path(args.output) / p.name) for p in written))
     print(json.dumps(to_dict(result), indent=2) if args.json else "\n".join(report_lines(result)))
     return exit_code(result)
 
@@ -447,6 +576,13 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
+    from .io.files import output_lock
+
+    with output_lock(args.output):  # refused at once while another run writes the folder
+        return _study(args)
+
+
+def _study(args: argparse.Namespace) -> int:
     from .app import load_scenario
     from .app.study import study_problem_of, study_spec, with_closed_loop
     from .pipeline import make_plan
@@ -466,9 +602,9 @@ def _cmd_study(args: argparse.Namespace) -> int:
         result = run_study(problem, spec, out=args.output, backend=backend,
                            progress=lambda p: console.stage(p.line()),
                            resume=not args.overwrite, file_format="csv" if args.csv else "parquet")
-    if spec.correction is not None:
-        console.stage(f"closed loop: one correction after shape {spec.correction.at}")
-    result = with_closed_loop(doc, result)
+        if spec.correction is not None:
+            console.stage(f"closed loop: one correction after shape {spec.correction.at}")
+        result = with_closed_loop(doc, result, backend)
     written = study_figures(result.table, result.summary, spec.criteria, args.output)
     report = write_report(Path(args.output) / "report.html", title=f"dloplan study: "
                           f"{args.scenario}", shapes=doc.shapes, stabilized=problem.nominal,
@@ -493,10 +629,11 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
                                     youngs_modulus_cap=args.modulus_cap)
     console.stage(run.message)
     if args.output:
+        from .io.files import staged_files
         from .plots.compare import write_comparison_figures
 
-        Path(args.output).mkdir(parents=True, exist_ok=True)
-        written = write_comparison_figures(comparison, args.output, "xz")
+        with staged_files(args.output) as folder:
+            written = write_comparison_figures(comparison, folder, "xz")
         console.stage(f"figures: {', '.join(p.name for p in written)}")
     if args.json:
         print(json.dumps({"ok": run.ok, "message": run.message, "rows": comparison.rows()},
@@ -520,7 +657,7 @@ def _plan_verdict(doc, code: int) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="dloplan",
         description="Plan dual-arm robot manipulation of cables and hoses (deformable linear "
                     "objects).",
@@ -549,9 +686,10 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--no-repair", action="store_true", help="report failed "
                       "checks without repairing the plan (docs/repair.md)")
     plan.add_argument("--allow-placement", action="store_true", help=ALLOW_PLACEMENT)
-    plan.add_argument("--workers", type=int, default=1,
+    plan.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1,
                       help="batch: local worker processes")
-    plan.add_argument("--scheduler", help="batch: Dask scheduler address tcp://HOST:PORT")
+    plan.add_argument("--scheduler", type=scheduler_address,
+                      help="batch: Dask scheduler address tcp://HOST:PORT")
 
     demo = command("demo", _cmd_demo, "run the embedded default job (needs no input)")
     demo.add_argument("-o", "--output", default="out/demo", help="output folder")
@@ -561,10 +699,13 @@ def build_parser() -> argparse.ArgumentParser:
     study = command("study", _cmd_study, "robustness study of a scenario's plan over cable and "
                     "pose tolerances (its study section)")
     study.add_argument("scenario")
-    study.add_argument("--samples", type=int, help="override the number of samples")
-    study.add_argument("--seed", type=int, help="override the seed")
-    study.add_argument("--workers", type=int, default=1, help="local worker processes")
-    study.add_argument("--scheduler", help="Dask scheduler address tcp://HOST:PORT")
+    study.add_argument("--samples", type=integer(1, MAX_STUDY_SAMPLES),
+                       help="override the number of samples")
+    study.add_argument("--seed", type=integer(0), help="override the seed")
+    study.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1,
+                       help="local worker processes")
+    study.add_argument("--scheduler", type=scheduler_address,
+                       help="Dask scheduler address tcp://HOST:PORT")
     study.add_argument("--csv", action="store_true", help="CSV instead of Parquet")
     study.add_argument("--overwrite", action="store_true", help="start over, do not resume")
     study.add_argument("-o", "--output", default="out/study", help="study folder")
@@ -579,14 +720,15 @@ def build_parser() -> argparse.ArgumentParser:
                           "drag -k_d v (eq. 3.3)")
     simulate.add_argument("--torsion", action="store_true",
                           help="simulate with twist (the gripper frames set the material frames)")
-    simulate.add_argument("--modulus-cap", type=float,
+    simulate.add_argument("--modulus-cap", type=positive_number,
                           help="fictitious modulus [Pa] for the time step (thesis Fig. 6.5): "
                           "larger steps for stiff cables")
     simulate.add_argument("-o", "--output", help="folder for the figures")
     simulate.add_argument("--allow-placement", action="store_true", help=ALLOW_PLACEMENT)
 
     cables = command("cables", _cmd_cables, "print the model constants of the thesis' cables")
-    cables.add_argument("--links", type=int, default=10, help="number of links n")
+    cables.add_argument("--links", type=integer(MIN_LINKS, MAX_LINKS), default=10,
+                        help="number of links n")
     command("schema", _cmd_schema, "print the JSON Schema of scenario files")
     check = command("check", _cmd_check, "check a scenario without planning (target stability, "
                     "clip reach, obstacles at start and target)")
@@ -600,25 +742,24 @@ def build_parser() -> argparse.ArgumentParser:
     identify.add_argument("--design", action="store_true", help="score candidate experiments "
                           "by the predicted sd of E and recommend one")
     identify.add_argument("--cable", help="--design: catalogue cable name")
-    identify.add_argument("--modulus", type=float, help="--design: expected E [Pa]")
-    identify.add_argument("--noise", type=float, default=1.0,
+    identify.add_argument("--modulus", type=positive_number, help="--design: expected E [Pa]")
+    identify.add_argument("--noise", type=positive_number, default=1.0,
                           help="--design: measurement noise [mm] (default 1)")
-    identify.add_argument("--points", type=int, default=100,
+    identify.add_argument("--points", type=integer(2, MAX_MEASURED_POINTS), default=100,
                           help="--design: measured points along the cable (default 100)")
-    identify.add_argument("--links", type=int, help="--design: starting n")
+    identify.add_argument("--links", type=integer(MIN_LINKS, MAX_LINKS),
+                          help="--design: starting n")
 
-    export = command("export", _cmd_export, "export a plan as JSON, CSV, ROS 2 trajectory or "
-                     "ABB RAPID")
+    export = command("export", _cmd_export, "export one output of a plan: " + "; ".join(
+        f"{name} ({what})" for name, what in EXPORT_FORMATS.items()))
     export.add_argument("plan", help="plan file written by dloplan plan (plan.json)")
-    export.add_argument("--format", choices=["json", "csv", "ros", "ros_joints", "urscript",
-                                             "rapid", "report"],
-                        required=True)
+    export.add_argument("--format", choices=list(EXPORT_FORMATS), required=True)
     export.add_argument("-o", "--output", required=True,
-                        help="output file (a folder for rapid: one module per arm)")
-    export.add_argument("--rate", type=positive_number, help="sampling rate [Hz] for csv/ros")
-    export.add_argument("--speed", type=positive_number,
+                        help="output file (a folder for rapid, urscript, ur_rtde, ros_joints)")
+    export.add_argument("--rate", type=rate, help="sampling rate [Hz] for csv/ros")
+    export.add_argument("--speed", type=motion_limit,
                         help="re-time with this TCP speed [m/s]")
-    export.add_argument("--angular-speed", type=positive_number,
+    export.add_argument("--angular-speed", type=motion_limit,
                         help="re-time: angular limit [rad/s]")
 
     verify = command("verify", _cmd_verify, "verify a plan: elastic stability, snap-through, "
@@ -652,13 +793,13 @@ def build_parser() -> argparse.ArgumentParser:
     correct.add_argument("plan", help="plan.json, or a job file (planned as dloplan plan plans "
                          "it)")
     correct.add_argument("--allow-placement", action="store_true", help=ALLOW_PLACEMENT)
-    correct.add_argument("--at", type=int, help="K, the shape just reached")
+    correct.add_argument("--at", type=integer(0), help="K, the shape just reached")
     correct.add_argument("--measured", help="measured shape (.csv or .json, in the plan's "
                          "frame; docs/correction.md shows the format)")
     correct.add_argument("-o", "--output", default="out/correct", help="output folder")
     correct.add_argument("--mode", choices=["target", "all"], default="target")
     correct.add_argument("--reference", choices=["stabilized", "planned"], default="stabilized")
-    correct.add_argument("--modulus-steps", type=int, default=3,
+    correct.add_argument("--modulus-steps", type=integer(0, MAX_MODULUS_STEPS), default=3,
                          help="Gauss-Newton steps of the E update (0: keep E)")
     correct.add_argument("--model-error", choices=["discretization", "modulus"],
                          default="discretization",
@@ -681,29 +822,75 @@ def build_parser() -> argparse.ArgumentParser:
                        "images onto the table plane")
     register.add_argument("images", nargs="+")
     register.add_argument("--calibration", required=True)
-    register.add_argument("--hsv", required=True, help="colour range H,S,V:H,S,V (OpenCV HSV)")
-    register.add_argument("--links", type=int, default=10, help="n: shapes get n + 1 points")
-    register.add_argument("--height", type=float, default=0.0, help="plane height z [m]")
+    register.add_argument("--hsv", required=True, type=hsv_range,
+                          help="colour range H,S,V:H,S,V (OpenCV HSV)")
+    register.add_argument("--links", type=integer(MIN_LINKS, MAX_LINKS), default=10,
+                          help="n: shapes get n + 1 points")
+    register.add_argument("--height", type=finite_number, default=0.0,
+                          help="plane height z [m]")
     register.add_argument("-o", "--output", required=True, help="shapes .csv or .json")
     return parser
 
 
+INPUTS = {"plan": ("scenarios",), "study": ("scenario",), "simulate": ("file",),
+          "export": ("plan",), "correct": ("plan", "measured"), "compare": ("plan", "shapes"),
+          "identify": ("experiment",), "calibrate": ("image", "intrinsics", "markers"),
+          "register": ("images", "calibration")}
+"""The input arguments of each command that writes ``-o``: an output that is (or holds) one
+of them is refused before any work (:func:`dloplan.io.files.refuse_overwriting_inputs`)."""
+
+
+def _inputs(args: argparse.Namespace) -> list:
+    found = []
+    for name in INPUTS.get(args.command, ()):
+        value = getattr(args, name, None)
+        found += value if isinstance(value, list) else [value]
+    return found
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run the command of ``argv`` (default ``sys.argv[1:]``); returns its exit code, also for
+    a bad option (2, one line) and ``--help`` or ``--version`` (0)."""
     parser = build_parser()
-    args = parser.parse_args(argv)
     try:
-        with catching_interrupts():
+        args = parser.parse_args(argv)
+    except SystemExit as exc:
+        return exc.code if isinstance(exc.code, int) else EXIT_OK
+    with catching_interrupts():
+        try:
+            if args.command in INPUTS:
+                from .io.files import refuse_overwriting_inputs
+
+                refuse_overwriting_inputs(getattr(args, "output", None), _inputs(args))
             return args.func(args)
-    except KeyboardInterrupt:
-        print("dloplan: interrupted (nothing written)", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    except OSError as exc:
+        except BaseException as exc:
+            with shielded():  # a second signal waits: the first one's line is printed
+                code = _failed(exc)
+            if code is None:
+                raise
+            return code
+
+
+def _failed(exc: BaseException) -> int | None:
+    """The exit code of a command that ended with ``exc``, its one line printed: a signal
+    (``128 + signal``, the processes it started ended), a file that cannot be read or written, or
+    bad input (2); ``None`` for a bug (its traceback is shown). Called shielded."""
+    interrupt = interrupt_of(exc)
+    if interrupt is None and not isinstance(exc, OSError | ValueError | ArithmeticError):
+        return None
+    from .processes import end_forkserver
+
+    end_forkserver()  # were it still importing its preload, it would hold our pipes
+    if interrupt is not None:
+        cause = "" if interrupt.signum == signal.SIGINT else f" by {interrupt.name}"
+        print(f"dloplan: interrupted{cause} (nothing written)", file=sys.stderr)
+        return interrupt.exit_code
+    if isinstance(exc, OSError):
         where = f"{exc.filename}: " if exc.filename else ""
         print(f"dloplan: error: {where}{exc.strerror or exc}", file=sys.stderr)
-        return EXIT_FAILURE
-    except (ValueError, ArithmeticError) as exc:
+    else:
         print(f"dloplan: error: {exc}", file=sys.stderr)
-        return EXIT_FAILURE
+    return EXIT_FAILURE
 
 
 def run() -> None:  # pragma: no cover - the console script, exercised by subprocess tests
@@ -720,6 +907,8 @@ def run() -> None:  # pragma: no cover - the console script, exercised by subpro
     import os
 
     code = main()
+    for signum in SIGNALS:  # done: a late signal must not cut the flush below short
+        signal.signal(signum, signal.SIG_IGN)
     if sys.getprofile() is not None or sys.gettrace() is not None:
         sys.exit(code)
     atexit._run_exitfuncs()

@@ -5,4 +5,5 @@ EXIT_OK, EXIT_WARNINGS, EXIT_FAILURE, EXIT_CHECK_FAILED = 0, 1, 2, 3
 (nothing written); planned, but a check failed (the plan document and the report are written
 for inspection, no robot program or trajectory)."""
 EXIT_INTERRUPTED = 130
-"""Ctrl-C: nothing written."""
+"""Ctrl-C: nothing written. Every signal that ends a run gives ``128 + signal`` (SIGTERM 143,
+SIGHUP 129; :func:`dloplan.interrupts.exit_code`)."""

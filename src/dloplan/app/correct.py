@@ -33,15 +33,17 @@ import numpy as np
 from ..correct import Correction, CorrectionRefused, correct_plan
 from ..correct.step import sliced_grippers
 from ..io.files import staged_folder
-from ..pipeline.document import PlanDocument, document_cell
+from ..pipeline.document import PlanDocument, cycle_actions, cycle_to_dict, document_cell
 from ..pipeline.stages import (
     program_of,
     quiet,
+    retimed_cycle,
     verify_plan,
     with_program,
     with_verification,
 )
 from ..sim import equilibrium
+from ..trajectory import plan_cycle
 from .writers import WRITERS, WriteOptions, write_outputs
 
 MODES = ("target", "all")
@@ -123,7 +125,8 @@ def corrected_document(doc: PlanDocument, correction: Correction) -> PlanDocumen
         doc, cable=correction.cable, grippers=correction.grippers,
         trajectory=correction.trajectory, warnings=(*doc.warnings, *correction.warnings),
         stabilized=stabilized, clip_wrenches=None, verification=None, robot=None,
-        program=None, correction=section, repairs=())
+        program=None, correction=section, repairs=(),
+        cycle=None if doc.cycle is None else retimed_cycle(doc.cycle, correction.trajectory))
     return with_program(corrected, _program(doc, correction.grippers, correction.trajectory))
 
 
@@ -133,11 +136,19 @@ def remaining_document(corrected: PlanDocument, correction: Correction) -> PlanD
     now, written by the same writers (csv, the cell's program formats)."""
     at = correction.at
     grippers = sliced_grippers(correction.grippers, at)
+    cycle = plan_cycle(correction.remaining, remaining_actions(corrected, at))
     remaining = replace(corrected, shapes=corrected.shapes[at:], grippers=grippers,
                         trajectory=correction.remaining, stabilized=corrected.stabilized[at:],
-                        robot=None, program=None, verification=None, cycle=None, stages=None,
-                        twist=None, avoidance=None, target_check=None)
+                        robot=None, program=None, verification=None, cycle=cycle_to_dict(cycle),
+                        stages=None, twist=None, avoidance=None, target_check=None)
     return with_program(remaining, _program(corrected, grippers, correction.remaining))
+
+
+def remaining_actions(doc: PlanDocument, at: int) -> tuple:
+    """The plan's gripper actions still to come after shape ``at`` (the arms hold the cable
+    there), on the knots of the remaining motion (which starts at shape ``at``): what its
+    programs carry (the release at the end, a regrasp still ahead)."""
+    return tuple(replace(a, knot=a.knot - at) for a in cycle_actions(doc.cycle) if a.knot > at)
 
 
 def _program(doc: PlanDocument, grippers, trajectory):

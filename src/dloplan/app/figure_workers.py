@@ -15,8 +15,10 @@ its import alone about 0.7 s). :class:`FigureWorkers` takes that off the run's c
   are drawn then. The files are the same as :func:`dloplan.app.report.write_figures` writes.
 
 Everything is drawn into the run's staging folder (:func:`dloplan.io.files.staged_folder`), so
-an error or Ctrl-C leaves nothing half-written: the workers ignore SIGINT, and closing the
-workers cancels what has not started and waits for what has, before the staging folder goes.
+an error or a signal leaves nothing half-written: the workers leave Ctrl-C to the command
+(:func:`dloplan.interrupts.worker_signals`); a run that ends well closes them (what has not
+started is cancelled, what has is waited for), one that fails or is interrupted ends them at once
+(:func:`dloplan.processes.end_pool`), before the staging folder goes.
 """
 
 from __future__ import annotations
@@ -30,8 +32,10 @@ from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from pathlib import Path
 
+from ..interrupts import shielded
 from ..pipeline.document import PlanDocument
 from ..plots import worker
+from ..processes import end_pool
 from .report import figure_drawings
 
 DRAFTS = ".figures"
@@ -116,6 +120,13 @@ class FigureWorkers:
         finally:
             self._pool.shutdown(wait=True, cancel_futures=True)
 
+    def abort(self) -> None:
+        """End the workers at once (the run failed or was interrupted: no drawing is wanted);
+        their drafts are removed."""
+        with shielded():
+            end_pool(self._pool)
+            shutil.rmtree(self._scratch, ignore_errors=True)
+
 
 @contextmanager
 def figure_workers(staging: Path, workers: int):
@@ -128,5 +139,7 @@ def figure_workers(staging: Path, workers: int):
     pool = FigureWorkers(staging, workers)
     try:
         yield pool
-    finally:
-        pool.close()
+    except BaseException:
+        pool.abort()
+        raise
+    pool.close()

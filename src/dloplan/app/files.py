@@ -19,19 +19,19 @@ from ..exit_codes import (  # noqa: F401 - re-exported: the codes of the command
     EXIT_OK,
     EXIT_WARNINGS,
 )
-from ..io.files import staged_folder
+from ..io.files import output_lock, staged_folder
 from ..io.scenario import PROGRAM_NAMES
 from ..pipeline.document import PlanDocument
 from ..pipeline.job import Job
 from ..pipeline.plan import make_plan
 from ..pipeline.stages import quiet
 from ..robot.cell_program import program_formats
-from .document_file import read_plan
+from .document_file import plan_from_data, read_plan_data
 from .figure_workers import figure_workers as workers_for
 from .load import file_kind, load_job
 from .writers import WRITERS, WriteOptions, write_outputs
 
-ROBOT_OUTPUTS = ("csv", "ros", "rapid", "ros_joints", "urscript")
+ROBOT_OUTPUTS = ("csv", "ros", "rapid", "ros_joints", "urscript", "ur_rtde")
 """The outputs a robot could run: not written for a plan that failed a check."""
 
 
@@ -44,13 +44,16 @@ def exit_code(doc: PlanDocument) -> int:
 
 def export_plan(doc: PlanDocument, name: str, target: Path, options: WriteOptions) -> list[Path]:
     """Write output ``name`` of a plan document to ``target`` under :func:`plan_into`'s rule: a
-    plan that failed a check gets no robot program or trajectory (ValueError naming them)."""
+    plan that failed a check gets no robot program or trajectory (ValueError naming them).
+    The target's lock (:func:`dloplan.io.files.output_lock`) refuses a second export to it while
+    this one writes."""
     failed = doc.failed_checks
     if name in ROBOT_OUTPUTS and failed:
         raise ValueError(f"{name}: not written, the plan failed a check ({', '.join(failed)}; "
                          "dloplan verify shows the table): a robot must not run it; json and "
                          "report export it for inspection")
-    return WRITERS[name].write(doc, target, options)
+    with output_lock(target):  # a second export to the same target waits for none: refused
+        return WRITERS[name].write(doc, target, options)
 
 
 def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
@@ -117,9 +120,9 @@ def plan_file(options: dict, path: str) -> tuple[str, int, str]:
 def document_of(path, progress=quiet, *, allow_placement: bool = False) -> PlanDocument:
     """A plan document: read from a plan file, or planned now from a job file the way
     ``dloplan plan`` plans it (:func:`dloplan.pipeline.make_plan`: checked and repaired)."""
-    from ..io.scenario import read_mapping
-
-    if Path(path).suffix.lower() == ".json" and file_kind(read_mapping(path)) == "plan":
-        return read_plan(path)
+    if Path(path).suffix.lower() == ".json":  # read once, bounded as a plan document
+        data = read_plan_data(path)
+        if isinstance(data, dict) and file_kind(data) == "plan":
+            return plan_from_data(path, data)
     return make_plan(load_job(path, progress, allow_placement=allow_placement),
                      progress=progress)

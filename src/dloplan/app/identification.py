@@ -332,7 +332,10 @@ def design_cable(name: str | None = None, experiment_file: str | None = None, *,
     n_links : int, optional
         Starting discretization (default the file's, or 16).
     """
-    if (name is None) == (experiment_file is None):
+    if name is None and experiment_file is None:
+        raise ValueError("design: give a catalogue cable name (--cable NAME) or an "
+                         "identification file (with --modulus)")
+    if name is not None and experiment_file is not None:
         raise ValueError("design: give a catalogue cable name (--cable) or an identification "
                          "file, not both")
     if name is not None:

@@ -271,8 +271,7 @@ def check_workspace(points, name: str, source: str) -> None:
                             f"within {WORKSPACE:g} m of the robot (a length in wrong units?)")
 
 
-YUMI_ONLY = ("base_position", "base_rotation", "wobj", "tools", "approach", "grip_time",
-             "hold_force")
+YUMI_ONLY = ("base_position", "base_rotation", "wobj", "tools", "approach", "hold_force")
 """Settings of the ``robot:`` section that describe the YuMi's cell (not a described one)."""
 
 
@@ -293,9 +292,15 @@ def robot_cell(scenario, scale: float, folder=".", *,
                                 "with robot.cell (its arms are placed in robot.cell)")
         data = dict(spec.cell)
         data.setdefault("table_height", scenario.table.height if scenario.table else 0.0)
-        writers = {"urscript": urscript_settings(spec.urscript, scale),
+        gripper = spec.gripper.model_dump()
+        writers = {"urscript": {**urscript_settings(spec.urscript, scale), "gripper": gripper},
+                   "ur_rtde": {**spec.ur_rtde.model_dump(), "hosts": tuple(spec.ur_rtde.hosts),
+                               "gripper": gripper},
                    "ros_joints": {k: v for k, v in spec.ros_joints.model_dump().items()
                                   if v is not None}}
+        if not gripper["tool"] and gripper["output"] == spec.urscript.ready_output:
+            raise ScenarioError(f"robot.gripper.output: got {gripper['output']}, the standard "
+                                "digital output robot.urscript.ready_output; expected another")
         try:
             cell = cell_from_mapping(data, folder, scale)
         except ValueError as exc:
@@ -321,7 +326,7 @@ def robot_cell(scenario, scale: float, folder=".", *,
             Rotation.identity(),
             tools=tuple(tools), wobj=spec.wobj, table_height=table,
             approach=defaults.approach if spec.approach is None else spec.approach * scale,
-            grip_time=spec.grip_time, hold_force=spec.hold_force)
+            hold_force=spec.hold_force)
     except ValueError as exc:
         raise ScenarioError(f"robot: {exc}") from None
 

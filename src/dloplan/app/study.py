@@ -35,8 +35,9 @@ def study_spec(job: Job, samples: int | None = None, seed: int | None = None) ->
     Raises
     ------
     StudyError
-        No ``study:`` section or no parameters (a study with nothing to vary), or an override
-        the schema refuses (e.g. ``samples: 0``).
+        No ``study:`` section or no parameters (a study with nothing to vary), an override the
+        schema refuses (e.g. ``samples: 0``), or a ``correction.at`` that is not a shape before
+        the target: all before any work is done.
     """
     if job.study is None:
         raise StudyError(f"{job.source}: no study section: nothing to vary (see docs/study.md)")
@@ -45,16 +46,22 @@ def study_spec(job: Job, samples: int | None = None, seed: int | None = None) ->
     spec = parse_study(data, f"{job.source}: study")
     if not spec.parameters:
         raise StudyError(f"{job.source}: study.parameters: none given: nothing varies")
+    last = job.planner.n_shapes  # shapes 0 .. S + 1; the target cannot be corrected
+    if spec.correction is not None and spec.correction.at > last:
+        raise StudyError(f"{job.source}: study.correction.at: got {spec.correction.at}, "
+                         f"expected a shape 0 .. {last} (the plan has S + 2 = {last + 2} "
+                         "shapes; the target cannot be corrected)")
     return spec
 
 
-def with_closed_loop(doc: PlanDocument, result: StudyResult) -> StudyResult:
+def with_closed_loop(doc: PlanDocument, result: StudyResult, backend=None) -> StudyResult:
     """The study result with its closed-loop success (the spec's ``correction:`` section).
 
     Runs :func:`dloplan.correct.closed_loop_study` on the study's samples and the plan; the
     summary gains ``closed_loop`` (its lines, ``summary.json`` and the figures show it); with a
     study folder, ``closed_loop.json`` holds every sample's row and ``summary.json`` is
-    rewritten. Without a ``correction:`` section the result is returned as it is.
+    rewritten. Without a ``correction:`` section the result is returned as it is. The samples
+    run on ``backend`` (default: this process), like the study's.
     """
     from ..correct import closed_loop_study
     from ..pipeline.stages import settled_shapes
@@ -64,7 +71,8 @@ def with_closed_loop(doc: PlanDocument, result: StudyResult) -> StudyResult:
         return result
     rows, success = closed_loop_study(doc.cable, doc.shapes, doc.grippers, result.samples, spec,
                                       stabilized=settled_shapes(doc), trajectory=doc.trajectory,
-                                      confidence=result.spec.confidence, gravity=GRAVITY)
+                                      confidence=result.spec.confidence, gravity=GRAVITY,
+                                      backend=backend)
     summary = replace(result.summary, closed_loop=success)
     if result.folder is not None:
         folder = Path(result.folder)

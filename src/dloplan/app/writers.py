@@ -11,8 +11,10 @@ json       ``plan.json``, the plan document itself (:mod:`dloplan.pipeline.docum
 csv        ``trajectory.csv``, the dual-arm TCP trajectory sampled at the rate
 ros        ``trajectory.yaml``, a ROS 2 ``trajectory_msgs/MultiDOFJointTrajectory``
 rapid      ``rapid/``, one ABB RAPID module per YuMi arm (ABB cells only)
-ros_joints ``ros_joints/``, a ROS 2 ``trajectory_msgs/JointTrajectory`` per arm (verified joints)
+ros_joints ``ros_joints/``, a ROS 2 ``trajectory_msgs/JointTrajectory`` per arm (verified joints
+           along the time law) and the gripper action list
 urscript   ``urscript/``, one URScript program per arm (cells of two 6-joint arms)
+ur_rtde    ``ur_rtde/``, one Python program streaming both UR arms over RTDE, in lockstep
 figures    ``figures/``, PNG and SVG figures
 report     ``report.html``, the self-contained interactive report (with the figures)
 correction ``correction.json`` and ``correction.txt``: a corrected plan's correction report
@@ -26,7 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..io.export import DEFAULT_CSV_RATE, write_ros_trajectory, write_trajectory_csv
-from ..pipeline.document import PlanDocument
+from ..pipeline.document import PlanDocument, cycle_actions
 from .document_file import write_plan
 from .report import write_figures, write_plan_report
 
@@ -90,8 +92,9 @@ def write_rapid_program(doc: PlanDocument, target: Path, options: WriteOptions) 
     robot program of the document (:func:`verified_program`; ABB cells only). A plan made
     without robot checks (``--no-verify``) gets its program written with the checks' verdict
     in the module header; a program that failed its checks is refused."""
-    return program_files(verified_program(doc, "rapid"), target, "rapid",
-                         force=doc.robot is None, notes=program_notes(doc))
+    return program_files(verified_program(doc, "rapid"), target, "rapid", doc.trajectory,
+                         cycle_actions(doc.cycle), force=doc.robot is None,
+                         notes=program_notes(doc))
 
 
 def program_notes(doc: PlanDocument) -> tuple[str, ...]:
@@ -103,25 +106,42 @@ def program_notes(doc: PlanDocument) -> tuple[str, ...]:
             "program runs only with it there (plan.json: placement).",)
 
 
-def program_files(program, folder: Path, name: str, *, force: bool = False,
-                  notes=()) -> list[Path]:
+def program_files(program, folder: Path, name: str, trajectory, actions=(), *,
+                  force: bool = False, notes=()) -> list[Path]:
     """Write a verified program (:class:`dloplan.robot.cell_program.Program`) in the format
-    ``name`` (one of its ``formats``: rapid, urscript, ros_joints) into ``folder``; ``force``
+    ``name`` (one of its ``formats``: rapid, urscript, ur_rtde, ros_joints) into ``folder``:
+    its motion along ``trajectory`` (the plan's timing it was verified with) and every gripper
+    action of the plan's cycle (``actions``, :class:`~dloplan.trajectory.GripperAction` s,
+    placed at their targets by :func:`dloplan.robot.actions.program_timeline`); ``force``
     writes a RAPID program made without checks (its verdict in the module header); ``notes``
     are comment lines for the program's header (:func:`program_notes`)."""
+    from ..robot.actions import program_timeline
+
     if name == "rapid":
         from ..io.rapid import write_rapid
 
-        return list(write_rapid(folder, program, force=force, notes=notes).values())
+        return list(write_rapid(folder, program, force=force, notes=notes,
+                                actions=actions).values())
+    if name not in PROGRAM_FORMATS:
+        raise ValueError(f"{name}: not a robot program format ({', '.join(PROGRAM_FORMATS)})")
+    timeline = program_timeline(program, trajectory, actions)
     if name == "urscript":
         from ..io.urscript import write_urscript
 
-        return write_urscript(folder, **program.urscript_arguments(), notes=notes)
-    if name == "ros_joints":
-        from ..io.ros_joints import write_joint_trajectories
+        return write_urscript(folder, **program.urscript_arguments(),
+                              actions=timeline.actions, notes=notes)
+    if name == "ur_rtde":
+        from ..io.ur_rtde import write_ur_rtde
 
-        return write_joint_trajectories(folder, **program.ros_joints_arguments(), notes=notes)
-    raise ValueError(f"{name}: not a robot program format (rapid, urscript, ros_joints)")
+        return write_ur_rtde(folder, timeline, **program.ur_rtde_arguments(), notes=notes)
+    from ..io.ros_joints import write_joint_trajectories
+
+    return write_joint_trajectories(folder, timeline, **program.ros_joints_arguments(),
+                                    notes=notes)
+
+
+PROGRAM_FORMATS = ("rapid", "urscript", "ur_rtde", "ros_joints")
+"""The robot program formats (:func:`program_files`)."""
 
 
 def _passed(doc: PlanDocument, name: str):
@@ -136,16 +156,24 @@ def write_joint_trajectory_files(doc: PlanDocument, target: Path,
     """One ROS 2 JointTrajectory per arm in the folder ``target``: the verified joints of the
     document's robot program at its target times (:mod:`dloplan.io.ros_joints`); a program
     that failed its checks is refused, as for RAPID."""
-    return program_files(_passed(doc, "ros_joints"), target, "ros_joints",
-                         notes=program_notes(doc))
+    return program_files(_passed(doc, "ros_joints"), target, "ros_joints", doc.trajectory,
+                         cycle_actions(doc.cycle), notes=program_notes(doc))
 
 
 def write_urscript_files(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
     """One URScript program per arm in the folder ``target`` (:mod:`dloplan.io.urscript`): the
     verified joints of a described cell of 6-joint arms; a program that failed its checks is
     refused."""
-    return program_files(_passed(doc, "urscript"), target, "urscript",
-                         notes=program_notes(doc))
+    return program_files(_passed(doc, "urscript"), target, "urscript", doc.trajectory,
+                         cycle_actions(doc.cycle), notes=program_notes(doc))
+
+
+def write_ur_rtde_files(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
+    """The UR pair's program streamed from a PC over RTDE in the folder ``target``
+    (:mod:`dloplan.io.ur_rtde`): both arms in lockstep along the plan's time law, the
+    gripper actions on the way; a program that failed its checks is refused."""
+    return program_files(_passed(doc, "ur_rtde"), target, "ur_rtde", doc.trajectory,
+                         cycle_actions(doc.cycle), notes=program_notes(doc))
 
 
 def write_figure_files(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
@@ -199,6 +227,7 @@ WRITERS: dict[str, Writer] = {
     "rapid": Writer("rapid", write_rapid_program),
     "ros_joints": Writer("ros_joints", write_joint_trajectory_files),
     "urscript": Writer("urscript", write_urscript_files),
+    "ur_rtde": Writer("ur_rtde", write_ur_rtde_files),
     "figures": Writer("figures", write_figure_files),
     "report": Writer("report.html", write_report_file),
     "correction": Writer("correction.json", write_correction_report),

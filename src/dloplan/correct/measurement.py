@@ -16,6 +16,8 @@ fewer than 4 points is used as a polyline.
 A measurement that disagrees wildly with the model is refused (:class:`CorrectionRefused`), with
 the reason, rather than used:
 
+* it is in the wrong units: its points span more than :data:`MAX_EXTENT` cable lengths (a
+  millimetre file read as metres), said so before its order is judged;
 * its points run the wrong way or are not ordered along the cable: their positions projected
   onto the predicted shape must grow with their index (correlation >= :data:`MIN_ORDER`);
 * another cable: the smoothed length differs from the cable's by more than
@@ -38,6 +40,9 @@ from ..geometry import arc_length, as_shape, resample_by_arc_length
 
 MAX_LENGTH_ERROR = 0.10
 """Largest relative difference between the measured (smoothed) and the cable's length."""
+
+MAX_EXTENT = 10.0
+"""A measurement spanning more than this many cable lengths is in the wrong units."""
 
 MIN_ORDER = 0.9
 """Smallest correlation between the points' index and their position along the prediction."""
@@ -152,6 +157,12 @@ def resample_measured(points, predicted: np.ndarray, cable_length: float, *,
     x = as_shape(points, name="measured")
     check_scale(x, cable_length)
     n_points = len(predicted)
+    extent = float(np.linalg.norm(np.ptp(x, axis=0)))
+    if extent > MAX_EXTENT * cable_length:
+        raise CorrectionRefused(
+            f"measured: the points span {extent:.4g} m for a {1e3 * cable_length:.0f} mm cable: "
+            "millimetres read as metres? (a registered-shape CSV is in metres; a JSON one may "
+            "say \"units\": \"mm\")")
     s = positions_along(x, predicted)
     if len(x) >= 3:
         order = float(np.corrcoef(np.arange(len(x)), s)[0, 1]) if np.ptp(s) > 0 else 0.0

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 from ..cable import GRAVITY, Cable
 from ..grippers import GripperPath
+from ..study.backends import map_jobs
 from ..study.evaluate import perturbed_cable
 from ..study.sampling import Samples
 from ..study.spec import CorrectionSpec, StudyError
@@ -142,7 +143,7 @@ def closed_loop_success(rows: Sequence[dict], tolerance: float, *,
 
 def closed_loop_study(cable: Cable, shapes, grippers: GripperPath, samples: Samples,
                       spec: CorrectionSpec, *, stabilized=None, trajectory=None,
-                      confidence: float = 0.95, gravity=GRAVITY,
+                      confidence: float = 0.95, gravity=GRAVITY, backend=None,
                       ) -> tuple[list[dict], ClosedLoopSuccess]:
     """Closed-loop success of a study's sampled cables (the ``correction:`` section).
 
@@ -157,12 +158,17 @@ def closed_loop_study(cable: Cable, shapes, grippers: GripperPath, samples: Samp
         Checkpoint, noise [mm], measured points, tolerance [mm], plant links, sample count.
     confidence : float
         Level of the success intervals.
+    backend : dloplan.study.Backend, optional
+        Where the samples run (one task each; the plan is sent once per worker); default
+        this process. A row depends only on its sample (its noise is seeded by its index), so
+        every backend gives the same rows.
 
     Returns
     -------
     tuple
         ``(rows, success)``: one :func:`closed_loop_sample` row per sample (with its
-        ``sample`` index) and :func:`closed_loop_success` of them at ``spec.tolerance``.
+        ``sample`` index), in sample order, and :func:`closed_loop_success` of them at
+        ``spec.tolerance``.
 
     Raises
     ------
@@ -175,18 +181,42 @@ def closed_loop_study(cable: Cable, shapes, grippers: GripperPath, samples: Samp
                          f"(the plan has {last + 1} shapes; the target cannot be corrected)")
     count = len(samples) if spec.samples is None else min(spec.samples, len(samples))
     columns = samples.take(range(count))
-    links = spec.plant_links or cable.n_links
-    rows = []
-    for i in range(count):
-        plant = perturbed_cable(cable, columns["youngs_modulus"][i],
-                                columns["mass_per_length"][i], columns["length"][i])
-        try:
-            row = closed_loop_sample(cable, shapes, grippers, plant.with_links(links), [spec.at],
-                                     noise=1e-3 * spec.noise, n_measured=spec.n_measured,
-                                     seed=i, stabilized=stabilized, trajectory=trajectory,
-                                     gravity=gravity)
-        except RuntimeError as exc:  # the plant itself lost its equilibrium: a failure
-            row = {"open_loop_error": math.nan, "closed_loop_error": math.nan,
-                   "corrections": 0, "youngs_modulus_estimate": math.nan, "refusal": str(exc)}
-        rows.append({"sample": i, **row})
+    items = [(i, columns["youngs_modulus"][i], columns["mass_per_length"][i],
+              columns["length"][i]) for i in range(count)]
+    plan = ClosedLoopPlan(cable, shapes, grippers, spec, stabilized, trajectory, gravity)
+    rows: list = [None] * count
+    for position, row in map_jobs(closed_loop_row, items, backend, shared=plan):
+        rows[position] = row
     return rows, closed_loop_success(rows, 1e-3 * spec.tolerance, confidence=confidence)
+
+
+@dataclass(frozen=True, eq=False)
+class ClosedLoopPlan:
+    """What every closed-loop sample of a study shares (sent once to each worker)."""
+
+    cable: Cable
+    shapes: object
+    grippers: GripperPath
+    spec: CorrectionSpec
+    stabilized: object
+    trajectory: object
+    gravity: object
+
+
+def closed_loop_row(plan: ClosedLoopPlan, item: tuple) -> dict:
+    """The row of one sample ``(index, E [Pa], mass per length [kg/m], length [m])``: its
+    plant cable run by :func:`closed_loop_sample` (noise seeded by the index); a plant that
+    loses its equilibrium is a failure with the reason."""
+    index, youngs_modulus, mass_per_length, length = item
+    spec = plan.spec
+    plant = perturbed_cable(plan.cable, youngs_modulus, mass_per_length, length)
+    try:
+        row = closed_loop_sample(plan.cable, plan.shapes, plan.grippers,
+                                 plant.with_links(spec.plant_links or plan.cable.n_links),
+                                 [spec.at], noise=1e-3 * spec.noise, n_measured=spec.n_measured,
+                                 seed=index, stabilized=plan.stabilized,
+                                 trajectory=plan.trajectory, gravity=plan.gravity)
+    except RuntimeError as exc:  # the plant itself lost its equilibrium: a failure
+        row = {"open_loop_error": math.nan, "closed_loop_error": math.nan,
+               "corrections": 0, "youngs_modulus_estimate": math.nan, "refusal": str(exc)}
+    return {"sample": index, **row}

@@ -19,7 +19,6 @@ from .job import (
     force_statistics,
     harness_summary,
     run_harness,
-    write_harness_rapid,
 )
 from .phases import Phases, approach_shape, fixture_clips, insertion_pose, plan_phases
 from .section import section_cable, section_shape, whole_shape
@@ -48,5 +47,4 @@ __all__ = [
     "section_shape",
     "tension_state",
     "whole_shape",
-    "write_harness_rapid",
 ]

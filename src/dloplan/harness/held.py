@@ -16,7 +16,7 @@ tensioning     the fixtures, the grippers pulling cable        the section, shor
 
 **The section.** The part of the cable between the two holders' clip points (L - l long, the
 grippers holding the middles of the end links) is simulated with ``section_links`` links,
-finer than the planning's (:func:`dloplan.harness.insertion.section_cable`): contact acts on
+finer than the planning's (:func:`dloplan.harness.section.section_cable`): contact acts on
 mass points, and a planning link of 5 cm would pass through a 12 mm peg or hang across a
 plate's edge (a soft cable held at the phase-2 poses sags onto the board). The parts beyond the
 clip points are the held halves of the end links, as in the planning. So every phase is the same
@@ -104,7 +104,7 @@ class HeldPath:
         The job's knot of each configuration (the regrasp's is the knot in the slots).
     settle_distance : float
         Largest point distance between a configuration and the plan's [m]: the section on the
-        planned shape (:func:`~dloplan.harness.insertion.section_shape`) in phases 1 and 2, the
+        planned shape (:func:`~dloplan.harness.section.section_shape`) in phases 1 and 2, the
         plan's section simulation in the slots and tensioned.
     """
 

@@ -13,7 +13,9 @@ close on it again outside the fixtures before pulling) and a release after tensi
 cycle time is motion plus actions, broken down per phase. It is not compared with the thesis'
 9 s (Table 7.3), a time measured on the robot whose ingredients (the robot's ramps, the
 gripper actions, how the cable was picked up) are not given.
-:func:`write_harness_rapid` writes the motion as one RAPID module per arm.
+The plan document of the job (:func:`dloplan.pipeline.run_harness_job`) carries the cycle, and
+every robot program written from it (the writers of :mod:`dloplan.app.writers`) carries its
+gripper actions, the regrasp included.
 """
 
 from __future__ import annotations
@@ -28,9 +30,7 @@ from scipy.spatial.transform import Rotation
 from ..cable import GRAVITY, Cable
 from ..geometry import resample_by_arc_length
 from ..grippers import GripperPath, gripper_path, relative_twist
-from ..io.rapid import RapidSettings, write_rapid
 from ..planning.result import ForceStatistics, stage_forces
-from ..robot.program import robot_program
 from ..trajectory import (
     DEFAULT_GRASP_TIME,
     DEFAULT_MAX_ANGULAR_SPEED,
@@ -345,17 +345,6 @@ def run_harness(
     return HarnessResult(cable, board, phases, insertion, shapes, grippers, knots, trajectory,
                          cycle, alignment, forces, timings, tuple(warnings), success, message,
                          s.rated_load)
-
-
-def write_harness_rapid(directory, result: HarnessResult,
-                        settings: RapidSettings | None = None) -> dict:
-    """Write the job's single program as one RAPID module per arm (:func:`write_rapid` of
-    :func:`~dloplan.robot.robot_program`; a program failing its checks is written for
-    inspection, its header says why)."""
-    if not isinstance(result, HarnessResult):
-        raise ValueError(f"result: got {type(result).__name__}, expected a HarnessResult")
-    return write_rapid(directory, robot_program(result.grippers, result.trajectory), settings,
-                       force=True)
 
 
 def harness_summary(result: HarnessResult) -> dict:

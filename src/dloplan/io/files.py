@@ -3,9 +3,13 @@
 Every file is first written to a temporary file beside its target, flushed to disk, and only
 then moved over the target with :func:`os.replace` (atomic on POSIX and Windows). A run that
 writes a whole folder (:func:`staged_folder`) writes into a fresh temporary folder beside it and
-moves it into place at the end, holding a lock so that a second run cannot write into the same
-folder meanwhile: the folder always holds one run's complete output. Files and folders get the
-permissions of the process' umask (as ``open()`` would give), not the 0600 of temporary files.
+moves it into place at the end, holding a lock (:func:`output_lock`, also taken by commands that
+write single files) so that a second run cannot write into the same output meanwhile: the folder
+always holds one run's complete output. Temporary names are unique, so two runs never write into
+one temporary file; a signal never leaves a half-published folder
+(:func:`dloplan.interrupts.shielded`), and a full disk's error names the file. Files and folders
+get the permissions of the process' umask (as ``open()`` would give), not the 0600 of temporary
+files.
 """
 
 from __future__ import annotations
@@ -17,7 +21,12 @@ import tempfile
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
-from ..interrupts import raise_if_interrupted
+from ..interrupts import raise_if_interrupted, shielded
+
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - Windows: the lock file alone, no stale-lock take-over
+    fcntl = None
 
 OUTPUT_MARK = "plan.json"
 """A folder holding this file is a dloplan output folder that a new run may replace."""
@@ -34,6 +43,66 @@ def _publish(path: Path, mode: int) -> None:
     os.chmod(path, mode & ~umask())
 
 
+def refuse_overwriting_inputs(output: str | os.PathLike | None, inputs, option: str = "-o") -> None:
+    """Refuse an output that is, or holds, an input of the same command (``export
+    OUT/plan.json --format report -o OUT/plan.json`` would replace the plan with its report;
+    ``plan OUT/job.yaml -o OUT`` would replace the folder holding the job). Paths are compared
+    with their symlinks resolved.
+
+    Raises
+    ------
+    ValueError
+        Naming the option, the output and the input it would replace.
+    """
+    if output is None:
+        return
+    target = Path(os.path.realpath(output))
+    for given in inputs:
+        if given is None:
+            continue
+        source = Path(os.path.realpath(given))
+        if source == target or target in source.parents:
+            raise ValueError(f"{option} {output}: it would replace {given}, an input of this "
+                             "command; choose another output")
+
+
+def _named(exc: OSError, path) -> OSError:
+    """``exc`` with the file named (a full disk's ``write()`` names none)."""
+    if exc.filename is None:
+        return OSError(exc.errno, exc.strerror or str(exc), str(path))
+    return exc
+
+
+@contextlib.contextmanager
+def atomic_file(path: str | os.PathLike) -> Iterator[Path]:
+    """Write one file atomically by any writer: yields a fresh temporary path beside ``path``
+    (a unique name, so two runs writing the same file never write into one temporary file)
+    to write; on success it replaces ``path`` with the umask's permissions; on any error it is
+    removed and ``path`` is left as it was. An ``OSError`` that names no file (a full disk)
+    is raised naming ``path``. Missing parent folders are created."""
+    path = Path(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, temp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+        os.close(fd)
+    except OSError as exc:
+        raise _named(exc, path) from None
+    try:
+        yield Path(temp)
+        _publish(Path(temp), 0o666)
+        os.replace(temp, path)
+    except OSError as exc:
+        with shielded():
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(temp)
+        raise _named(exc, path) from None
+    except BaseException:
+        with shielded():
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(temp)
+        raise
+
+
 def atomic_write_texts(
     files: Mapping[str | os.PathLike, str], encoding: str = "utf-8"
 ) -> list[Path]:
@@ -41,7 +110,8 @@ def atomic_write_texts(
 
     All contents are written to temporary files first; the targets are replaced only when every
     temporary file is complete, so an error while writing (disk full, bad text) leaves every
-    target as it was. Missing parent folders are created.
+    target as it was. Missing parent folders are created. An ``OSError`` that names no file (a
+    full disk) is raised naming the file being written.
 
     Parameters
     ----------
@@ -56,6 +126,7 @@ def atomic_write_texts(
         The written targets, in the mapping's order.
     """
     temps: list[tuple[str, Path]] = []
+    path = None
     try:
         for target, text in files.items():
             path = Path(target)
@@ -67,12 +138,16 @@ def atomic_write_texts(
                 handle.flush()
                 os.fsync(handle.fileno())
             _publish(Path(temp), 0o666)
-        for temp, path in temps:
-            os.replace(temp, path)
-    except BaseException:
-        for temp, _ in temps:
-            with contextlib.suppress(FileNotFoundError):
-                os.unlink(temp)
+        with shielded():  # all targets or none: a signal waits until every one is replaced
+            for temp, path in temps:
+                os.replace(temp, path)
+    except BaseException as exc:
+        with shielded():
+            for temp, _ in temps:
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(temp)
+        if isinstance(exc, OSError):
+            raise _named(exc, path) from None
         raise
     return [path for _, path in temps]
 
@@ -82,28 +157,97 @@ def atomic_write_text(path: str | os.PathLike, text: str, encoding: str = "utf-8
     return atomic_write_texts({path: text}, encoding)[0]
 
 
-def _take_lock(lock: Path, target: Path) -> None:
+LOCK_RETRIES = 5
+"""Attempts to take a lock whose file a finishing run removed meanwhile."""
+
+
+@contextlib.contextmanager
+def output_lock(target: str | os.PathLike) -> Iterator[None]:
+    """Hold the lock of an output (file or folder) ``target`` while the block runs: a second
+    run on the same output is refused (ValueError naming the process that holds it).
+
+    The lock is ``.NAME.lock`` beside ``target``, held with ``flock`` (released by the kernel
+    when its process ends, however it ends); it holds the owner's process id and is removed at
+    the end. A lock file that nobody holds was left by a run that was killed before its clean-up
+    (SIGKILL, a power cut): it is taken over, and that run's staging folders beside ``target``
+    are removed. Missing parent folders of ``target`` are created (and removed again, when
+    empty, if the block fails).
+    """
+    target = Path(target)
+    lock = target.with_name(f".{target.name}.lock")
+    with _parents(target):
+        with _locked(target, lock):
+            yield
+
+
+@contextlib.contextmanager
+def _parents(target: Path) -> Iterator[None]:
+    """Create the missing parent folders of ``target``; remove them again (when still empty)
+    if the block fails, so a failed run writes nothing."""
+    missing = [p for p in reversed(target.parents) if not p.exists()]
     try:
-        fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
-    except FileExistsError:
+        target.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise _named(exc, target.parent) from None
+    try:
+        yield
+    except BaseException:
+        with shielded():
+            for folder in reversed(missing):
+                with contextlib.suppress(OSError):
+                    folder.rmdir()
+        raise
+
+
+@contextlib.contextmanager
+def _locked(target: Path, lock: Path) -> Iterator[None]:
+    for _ in range(LOCK_RETRIES):
         try:
-            owner = int(lock.read_text().strip() or 0)
-        except (OSError, ValueError):
-            owner = 0
-        if owner > 0 and _alive(owner):
-            raise ValueError(f"{target}: another dloplan run (process {owner}) is writing this "
-                             f"folder; wait for it, or choose another output folder") from None
-        lock.unlink(missing_ok=True)  # left by a run that died: take it over
-        fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
-        _remove_leftovers(target)
-    with os.fdopen(fd, "w") as handle:
-        handle.write(str(os.getpid()))
+            fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_RDWR, 0o644)
+            stale = False
+        except FileExistsError:
+            try:
+                fd = os.open(lock, os.O_RDWR)
+            except FileNotFoundError:  # its run ended just now: try again
+                continue
+            stale = True
+        except OSError as exc:
+            raise _named(exc, lock) from None
+        try:
+            if fcntl is None and stale:
+                raise BlockingIOError
+            if fcntl is not None:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            owner = os.read(fd, 32).decode(errors="replace").strip() or "?"
+            os.close(fd)
+            raise ValueError(f"{target}: another dloplan run (process {owner}) is writing "
+                             f"this output; wait for it, or choose another output") from None
+        try:
+            same = os.stat(lock).st_ino == os.fstat(fd).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        os.close(fd)  # the lock file was removed by its finishing run after we opened it
+    else:
+        raise ValueError(f"{target}: the lock {lock} keeps changing: another run is busy there")
+    try:
+        os.ftruncate(fd, 0)
+        os.write(fd, str(os.getpid()).encode())
+        if stale:
+            _remove_leftovers(target)
+        yield
+    finally:
+        with shielded():
+            lock.unlink(missing_ok=True)
+            os.close(fd)
 
 
 def _remove_leftovers(target: Path) -> None:
-    """Remove the half-written folders of a run on ``target`` that died (killed, e.g. by
-    ``timeout``'s SIGTERM, before its clean-up): its staging folder, and its folder of the
-    previous output once ``target`` is back in place. Called holding the lock."""
+    """Remove the half-written folders of a run on ``target`` that was killed before its
+    clean-up: its staging folder, and its folder of the previous output once ``target`` is back
+    in place. Called holding the lock."""
     for stale in target.parent.glob(f".{target.name}.tmp-*"):
         shutil.rmtree(stale, ignore_errors=True)
     if target.exists():
@@ -111,24 +255,14 @@ def _remove_leftovers(target: Path) -> None:
             shutil.rmtree(stale, ignore_errors=True)
 
 
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
 @contextlib.contextmanager
 def staged_folder(target: str | os.PathLike) -> Iterator[Path]:
     """Write a whole output folder atomically: yields a fresh folder to write into.
 
     On success the folder replaces ``target`` (created if missing; a previous dloplan output
-    folder, one holding ``plan.json``, is replaced whole); on any error, or Ctrl-C, it is
-    removed and ``target`` is left as it was. A lock file beside ``target`` refuses a second run
-    on the same folder while the first holds it.
+    folder, one holding ``plan.json``, is replaced whole); on any error, or a signal
+    (:mod:`dloplan.interrupts`), it is removed and ``target`` is left as it was. The lock of
+    :func:`output_lock` refuses a second run on the same folder while the first holds it.
 
     Raises
     ------
@@ -142,23 +276,74 @@ def staged_folder(target: str | os.PathLike) -> Iterator[Path]:
     if target.is_dir() and any(target.iterdir()) and not (target / OUTPUT_MARK).exists():
         raise ValueError(f"{target}: the folder has other files than a dloplan output "
                          f"(no {OUTPUT_MARK}); choose an empty or new output folder")
-    target.parent.mkdir(parents=True, exist_ok=True)
-    lock = target.with_name(f".{target.name}.lock")
-    _take_lock(lock, target)
-    staging = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.tmp-"))
+    with output_lock(target):
+        try:
+            staging = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.tmp-"))
+        except OSError as exc:
+            raise _named(exc, target) from None
+        try:
+            _publish(staging, 0o777)
+            yield staging
+            raise_if_interrupted()  # a signal dropped on its way (dloplan.interrupts)
+            with shielded():  # a signal waits until the folder is in place
+                _publish_folder(staging, target)
+        except BaseException as exc:
+            with shielded():
+                shutil.rmtree(staging, ignore_errors=True)
+            if isinstance(exc, OSError):
+                raise _named(exc, target) from None
+            raise
+
+
+@contextlib.contextmanager
+def staged_files(folder: str | os.PathLike) -> Iterator[Path]:
+    """Write files into a folder that may hold other files (a folder of figures): yields a fresh
+    staging folder beside it to write into; on success every file written there is moved into
+    ``folder`` (created if missing; files of the same name replaced, others left alone), on any
+    error or signal nothing is. The folder is locked meanwhile (:func:`output_lock`)."""
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"{folder}: exists and is not a folder (the output folder)")
+    with output_lock(folder):
+        try:
+            staging = Path(tempfile.mkdtemp(dir=folder.parent, prefix=f".{folder.name}.tmp-"))
+        except OSError as exc:
+            raise _named(exc, folder) from None
+        created = not folder.exists()
+        try:
+            yield staging
+            raise_if_interrupted()
+            with shielded():
+                folder.mkdir(exist_ok=True)
+                for path in sorted(staging.rglob("*")):
+                    if path.is_file():
+                        target = folder / path.relative_to(staging)
+                        target.parent.mkdir(parents=True, exist_ok=True)
+                        os.replace(path, target)
+        except BaseException as exc:
+            with shielded():
+                if created and folder.exists() and not any(folder.iterdir()):
+                    folder.rmdir()
+            if isinstance(exc, OSError):
+                raise _named(exc, folder) from None
+            raise
+        finally:
+            with shielded():
+                shutil.rmtree(staging, ignore_errors=True)
+
+
+def _publish_folder(staging: Path, target: Path) -> None:
+    """Move ``staging`` into the place of ``target`` (the previous output, if any, is removed;
+    put back if the move fails)."""
+    if not target.exists():
+        os.rename(staging, target)
+        return
+    old = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.old-"))
+    os.rename(target, old / "previous")
     try:
-        _publish(staging, 0o777)
-        yield staging
-        raise_if_interrupted()  # a Ctrl-C dropped on its way (dloplan.interrupts): publish nothing
-        if target.exists():
-            old = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.old-"))
-            os.rename(target, old / "previous")
-            os.rename(staging, target)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.rename(staging, target)
+        os.rename(staging, target)
     except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
+        os.rename(old / "previous", target)
         raise
     finally:
-        lock.unlink(missing_ok=True)
+        shutil.rmtree(old, ignore_errors=True)

@@ -10,23 +10,34 @@ program target whose position, orientation, confdata and arm angle (``eax_a``) a
 program verified. Its ``PROC main()`` runs::
 
     ConfL \\On;                              (stop rather than take another configuration)
-    g_GripOut;                               (SmartGripper open)
+    g_GripOut;                               (SmartGripper open, when the program picks the
+                                              cable up: its first action is a grasp)
     MoveAbsJ dlo_start, v100, fine, tool;    (the verified joints of the first target)
     SyncMoveOn dlo_sync_on, dlo_tasks;
     MoveL dlo_p01 \\ID:=10, dlo_v01 \\T:=0.5, fine, tool \\WObj:=wobj;   (approach -> grasp;
         \\T: the planned, jerk-limited duration; fly-by shapes get a declared zonedata)
-    g_GripIn; WaitTime t_grip;
+    SyncMoveOff dlo_off_01;                  (a planned gripper action at this target:)
+    WaitSyncTask dlo_g01, dlo_tasks;         (both grippers start together)
+    g_GripIn; WaitTime 0.5;                  (the planned grasp and its duration)
+    SyncMoveOn dlo_on_01, dlo_tasks;         (both arms move on together)
     MoveL dlo_p02 \\ID:=20, dlo_v02, ...      (one MoveL per shape, same IDs in both tasks)
-    ...
-    g_GripOut; WaitTime t_grip;
+    ...                                      (a regrasp: g_GripOut; WaitTime t_open;
+                                              WaitSyncTask; g_GripIn; WaitTime t_close)
+    SyncMoveOff dlo_off_09; WaitSyncTask dlo_g03, dlo_tasks; g_GripOut; WaitTime 0.4;
+    SyncMoveOn dlo_on_09, dlo_tasks;
     MoveL ... (retreat)
     SyncMoveOff dlo_sync_off;
 
 In synchronized mode the controller starts and ends each pair of ``MoveL`` with the same
 ``\\ID`` together; each arm's ``speeddata`` is its planned speed in that segment (TCP mm/s and
-orientation deg/s), so both arrive at the planned time. Robtargets are in millimetres in the
-work object, orientations as RAPID quaternions [q1, q2, q3, q4] = [w, x, y, z] with q1 >= 0.
-Loading and teaching: ``docs/robot.md``.
+orientation deg/s), so both arrive at the planned time. **Gripper actions**: every action of
+the plan's cycle (:mod:`dloplan.robot.actions`: grasp, release, a harness job's regrasp) is
+written at its target as SmartGripper calls (``g_GripIn`` closes, ``g_GripOut`` opens) each
+followed by the planned ``WaitTime``; the tasks leave synchronized mode at the target (a fine
+point), meet at a ``WaitSyncTask`` before every call so both grippers act together, and enter
+it again before the next move. Robtargets are in millimetres in the work object, orientations
+as RAPID quaternions [q1, q2, q3, q4] = [w, x, y, z] with q1 >= 0. Loading and teaching:
+``docs/robot.md``.
 """
 
 from __future__ import annotations
@@ -39,6 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from ..grippers.axes import CLIP_NAMES
+from ..robot.actions import default_actions, picks_up, place_actions
 from ..robot.cell import check_rapid_name
 from ..robot.program import RobotProgram
 from ..trajectory import ARMS
@@ -145,7 +157,7 @@ def speeddata_text(v_tcp: float, v_ori: float) -> str:
 
 
 def rapid_modules(program: RobotProgram, settings: RapidSettings | None = None,
-                  notes=()) -> dict[str, str]:
+                  notes=(), actions=None) -> dict[str, str]:
     """The RAPID module text of each task (module docstring).
 
     Parameters
@@ -156,6 +168,10 @@ def rapid_modules(program: RobotProgram, settings: RapidSettings | None = None,
     notes : sequence of str
         Lines of text written as comments into each module's header (where the job must be
         placed on the table when a repair moved it, docs/repair.md).
+    actions : sequence of GripperAction, optional
+        The plan's gripper actions (its cycle's); default a grasp at the first shape and a
+        release at the last with the default durations
+        (:func:`dloplan.robot.actions.default_actions`).
 
     Returns
     -------
@@ -169,15 +185,21 @@ def rapid_modules(program: RobotProgram, settings: RapidSettings | None = None,
     s = settings or RapidSettings()
     cell = program.cell
     n = program.n_targets
+    knots = program.knot_targets()
+    placed = place_actions(default_actions(len(knots)) if actions is None else actions, knots,
+                           program.zones)
     width = max(2, len(str(n - 1)))
     names = [f"dlo_p{i:0{width}d}" for i in range(n)]
     speeds = [f"dlo_v{i:0{width}d}" for i in range(1, n)]
     tasks_list = "[" + ",".join(f'["{t}"]' for t in s.tasks) + "]"
     hold = "" if cell.hold_force is None else f" \\holdForce:={_num(cell.hold_force, 3)}"
+    zones = _zone_names(program, s.zone)
     modules = {}
     for a, arm in enumerate(ARMS):
         tool = cell.tools[a]
         clip = CLIP_NAMES[program.assignment.clips[a]]
+        tail = f", {tool.name} \\WObj:={cell.wobj};"
+        body, syncs = _procedure(program, placed, names, speeds, zones, tail, hold)
         lines = [
             f"MODULE {s.modules[a]}",
             f"    ! Generated by dloplan {__version__} (dloplan RAPID format "
@@ -194,10 +216,10 @@ def rapid_modules(program: RobotProgram, settings: RapidSettings | None = None,
             "confdata and eax_a (the arm angle) from the verified joint solution.",
             f"    ! {n} targets ({program.labels[0]} to {program.labels[-1]}); planned duration "
             f"{program.path_duration:.3f} s from grasp to release ({program.times[-1]:.3f} s "
-            "with approach, retreat and grip waits).",
+            "with approach and retreat; the gripper actions' waits come on top).",
+            f"    ! Gripper actions (plan.json cycle): {_action_summary(placed, program.labels)}.",
             f"    PERS tasks dlo_tasks{{2}} := {tasks_list};",
-            "    VAR syncident dlo_sync_on;",
-            "    VAR syncident dlo_sync_off;",
+            *(f"    VAR syncident {name};" for name in syncs),
             f"    PERS tooldata {tool.name} := {tooldata_text(tool)};",
             f"    PERS wobjdata {cell.wobj} := {wobjdata_text(cell)};",
             f"    CONST jointtarget dlo_start := {jointtarget_text(program.joints[0, a])};",
@@ -209,37 +231,72 @@ def rapid_modules(program: RobotProgram, settings: RapidSettings | None = None,
             target = robtarget_text(program.positions[m, a], program.quaternions[m, a],
                                     program.confdata[m, a], program.arm_angles[m, a])
             lines.append(f"    CONST robtarget {name} := {target};  ! {program.labels[m]}")
-        zones = _zone_names(program, s.zone)
         for radius, name in sorted(set(zones.values()) - {(0.0, s.zone)}):
             lines.append(f"    CONST zonedata {name} := {zonedata_text(radius)};")
-        tail = f", {tool.name} \\WObj:={cell.wobj};"
         lines += [
             "    PROC main()",
             f"        {s.procedure};",
             "    ENDPROC",
             f"    PROC {s.procedure}()",
             "        ConfL \\On;",
-            "        g_GripOut;",
+            *(["        g_GripOut;"] if picks_up(placed) else []),
             f"        MoveAbsJ dlo_start, {s.start_speed}, fine, {tool.name} \\WObj:={cell.wobj};",
-            "        SyncMoveOn dlo_sync_on, dlo_tasks;",
-        ]
-        if program.grasp == 0:
-            lines += [f"        g_GripIn{hold};", f"        WaitTime {_num(cell.grip_time, 3)};"]
-        for m in range(1, n):
-            lines.append(f"        MoveL {names[m]} \\ID:={10 * m}, {speeds[m - 1]} "
-                         f"\\T:={_num(program.durations[m - 1], 4)}, {zones[m][1]}{tail}")
-            if m == program.grasp:
-                lines += [f"        g_GripIn{hold};",
-                          f"        WaitTime {_num(cell.grip_time, 3)};"]
-            if m == program.release:
-                lines += ["        g_GripOut;", f"        WaitTime {_num(cell.grip_time, 3)};"]
-        lines += [
-            "        SyncMoveOff dlo_sync_off;",
+            *body,
             "    ENDPROC",
             "ENDMODULE",
         ]
         modules[s.tasks[a]] = "\n".join(lines) + "\n"
     return modules
+
+
+def _procedure(program: RobotProgram, placed, names, speeds, zones, tail: str,
+               hold: str) -> tuple[list[str], list[str]]:
+    """The motion procedure's lines after the first ``MoveAbsJ`` (module docstring) and the
+    ``syncident`` s they use, in order."""
+    n = program.n_targets
+    at = {m: [p for p in placed if p.target == m] for m in range(n)}
+    width = len(str(n - 1))
+    body: list[str] = []
+    syncs = ["dlo_sync_on"]
+    count = 0
+
+    def act(m: int) -> None:
+        nonlocal count
+        for p in at[m]:
+            for command, wait in p.action.commands():
+                count += 1
+                syncs.append(f"dlo_g{count:02d}")
+                call = f"g_GripIn{hold}" if command == "close" else "g_GripOut"
+                body.extend([f"        WaitSyncTask {syncs[-1]}, dlo_tasks;",
+                             f"        {call};  ! {p.action.name}",
+                             f"        WaitTime {_num(wait, 4)};"])
+
+    act(0)
+    body.append("        SyncMoveOn dlo_sync_on, dlo_tasks;")
+    for m in range(1, n):
+        body.append(f"        MoveL {names[m]} \\ID:={10 * m}, {speeds[m - 1]} "
+                    f"\\T:={_num(program.durations[m - 1], 4)}, {zones[m][1]}{tail}")
+        if at[m]:
+            syncs.append(f"dlo_off_{m:0{width}d}")
+            body.append(f"        SyncMoveOff {syncs[-1]};")
+            act(m)
+            if m < n - 1:
+                syncs.append(f"dlo_on_{m:0{width}d}")
+                body.append(f"        SyncMoveOn {syncs[-1]}, dlo_tasks;")
+    if not at[n - 1]:
+        syncs.append("dlo_sync_off")
+        body.append("        SyncMoveOff dlo_sync_off;")
+    return body, syncs
+
+
+def _action_summary(placed, labels) -> str:
+    """One line: every planned gripper action at its target with its commands' waits."""
+    if not placed:
+        return "none"
+    return "; ".join(
+        f"{p.action.name} at {labels[p.target]} ("
+        + " + ".join(f"{'close' if c == 'close' else 'open'} {_num(w, 4)} s"
+                     for c, w in p.action.commands()) + ")" for p in placed)
 
 
 def zonedata_text(radius: float) -> str:
@@ -259,7 +316,7 @@ def _zone_names(program: RobotProgram, fine: str) -> dict:
 
 def write_rapid(directory: str | os.PathLike, program: RobotProgram,
                 settings: RapidSettings | None = None, *, force: bool = False,
-                notes=()) -> dict[str, Path]:
+                notes=(), actions=None) -> dict[str, Path]:
     """Write one ``<module>.mod`` file per task into ``directory``, atomically (both or none).
 
     The one writer of robot programs: ``dloplan plan`` and ``dloplan export --format rapid``
@@ -276,6 +333,8 @@ def write_rapid(directory: str | os.PathLike, program: RobotProgram,
         by default such a program is refused.
     notes : sequence of str
         Comment lines for the modules' headers (:func:`rapid_modules`).
+    actions : sequence of GripperAction, optional
+        The plan's gripper actions (:func:`rapid_modules`).
 
     Returns
     -------
@@ -290,7 +349,7 @@ def write_rapid(directory: str | os.PathLike, program: RobotProgram,
     s = settings or RapidSettings()
     if isinstance(program, RobotProgram) and not program.ok and not force:
         raise ValueError(f"program: not written, it fails its checks: {program.message}")
-    texts = rapid_modules(program, s, notes)
+    texts = rapid_modules(program, s, notes, actions)
     folder = Path(directory)
     if folder.exists() and not folder.is_dir():
         raise ValueError(f"directory: {str(folder)!r} exists and is not a folder")

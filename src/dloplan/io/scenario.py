@@ -23,7 +23,9 @@ import numpy as np
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from ..bounds import MAX_INPUT_BYTES, MAX_LINKS, MAX_RATE, MAX_SHAPES, MIN_LINKS
 from ..cable import CATALOGUE_NAMES
+from ..inputs import read_text
 
 SCHEMA_VERSION = 1
 
@@ -112,7 +114,8 @@ class ArcShape(_Model):
     """A circular arc turning by ``angle`` [deg] in the placement's x-y plane."""
 
     kind: Literal["arc"] = "arc"
-    angle: float = Field(..., allow_inf_nan=False, description="total turning angle [deg]")
+    angle: float = Field(..., ge=-360, le=360, allow_inf_nan=False,
+                         description="total turning angle [deg], at most a full turn")
     placement: Placement = Field(default_factory=Placement)
 
 
@@ -130,9 +133,6 @@ ShapeSpec = Annotated[
 ]
 
 
-MAX_LINKS = 1000
-"""Largest n a scenario may ask for (docs/scenario.md: plan time grows about as n S)."""
-
 class CableSpec(_Model):
     """The cable: a catalogue ``name`` and/or explicit properties (explicit ones win)."""
 
@@ -146,7 +146,7 @@ class CableSpec(_Model):
     poisson_ratio: float | None = Field(None, gt=-1, le=0.5)
     axial_modulus: PositiveLength | None = Field(
         None, description="[Pa] modulus of the axial springs (default: youngs_modulus)")
-    n_links: int = Field(10, ge=4, le=MAX_LINKS, description=(
+    n_links: int = Field(10, ge=MIN_LINKS, le=MAX_LINKS, description=(
         "n >= 4: each clip holds two points, so n = 4 is the least that leaves the cable a "
         f"free point; n <= {MAX_LINKS}: plans in minutes at most"))
     bending: Literal["rod", "thesis"] = "rod"
@@ -206,7 +206,7 @@ ObstacleSpec = Annotated[BoxSpec | CylinderSpec, Field(discriminator="type")]
 class PlannerSpec(_Model):
     """Planner settings (thesis chapter 4, Tables 6.1/6.2)."""
 
-    n_shapes: int = Field(5, ge=1, le=500, description="S, intermediate shapes")
+    n_shapes: int = Field(5, ge=1, le=MAX_SHAPES, description="S, intermediate shapes")
     physical_mode: Literal["thesis", "equilibrium"] | None = None
     keep_target: bool = Field(
         False, description="plan to the target as given, not to its minimal-energy shape "
@@ -247,6 +247,14 @@ class GripperSpec(_Model):
     auxiliary_vector: Vector3 = Field(default_factory=lambda: [0.0, 0.0, 1.0])
     initial_frames: FrameSpec = Field(default_factory=FrameSpec)
 
+    @field_validator("auxiliary_vector")
+    @classmethod
+    def _direction(cls, v):
+        arr = np.asarray(_finite(v, "auxiliary_vector"), dtype=float)
+        if not np.linalg.norm(arr) > 0:
+            raise ValueError(f"expected a non-zero direction, got {v}")
+        return v
+
 
 class TrajectorySpec(_Model):
     """Timed dual-arm motion (thesis 7.3: 100 mm/s; limits: dloplan.trajectory.limits)."""
@@ -254,7 +262,7 @@ class TrajectorySpec(_Model):
     tcp_speed: PositiveLength | None = Field(
         None, description="[file units/s]; default 100 mm/s (thesis 7.3)")
     angular_speed: PositiveLength = Field(1.0, description="[rad/s]")
-    rate: PositiveLength = Field(50.0, description="sampling rate [Hz]")
+    rate: PositiveLength = Field(50.0, le=MAX_RATE, description="sampling rate [Hz]")
     acceleration: PositiveLength | None = Field(
         None, description="TCP acceleration limit [units/s^2]; default 1 m/s^2 (YuMi)")
     jerk: PositiveLength | None = Field(
@@ -282,9 +290,9 @@ class TableSpec(_Model):
     height: float = Field(0.0, allow_inf_nan=False)
 
 
-OutputName = Literal["json", "csv", "rapid", "ros", "ros_joints", "urscript", "figures",
-                     "report"]
-ProgramName = Literal["rapid", "urscript", "ros_joints"]
+OutputName = Literal["json", "csv", "rapid", "ros", "ros_joints", "urscript", "ur_rtde",
+                     "figures", "report"]
+ProgramName = Literal["rapid", "urscript", "ur_rtde", "ros_joints"]
 PROGRAM_NAMES = get_args(ProgramName)
 """The robot program formats a cell may take (``robot.programs``)."""
 
@@ -308,12 +316,42 @@ class UrscriptSpec(_Model):
     ready_output: int = Field(0, ge=0, le=7, description="standard digital output raised")
 
 
+class UrRtdeSpec(_Model):
+    """How the UR pair's RTDE streamer is written (:mod:`dloplan.io.ur_rtde`)."""
+
+    hosts: list[str] = Field(default_factory=lambda: ["", ""], min_length=2, max_length=2,
+                             description="left, right controller address (or on the "
+                             "command line)")
+    rate: PositiveLength = Field(500.0, description="control rate [Hz]: 500 e-Series, 125 CB3")
+    lookahead: float = Field(0.1, ge=0.03, le=0.2, description="servoJ lookahead [s]")
+    gain: float = Field(300.0, ge=100, le=2000, description="servoJ gain")
+    start_speed: PositiveLength = Field(0.5, description="joint speed to the start [rad/s]")
+    start_tolerance: PositiveLength = Field(0.01, description="[rad] from the start joints")
+    tracking_tolerance: PositiveLength = Field(0.05, description="[rad] from the commanded "
+                                               "joints one lookahead earlier")
+
+
+class GripperIoSpec(_Model):
+    """The gripper of each UR arm, driven by one digital output (URScript and ur_rtde)."""
+
+    output: int = Field(1, ge=0, le=7, description="digital output (tool: 0..1)")
+    tool: bool = Field(False, description="the tool flange's output instead of a standard one")
+    closed: bool = Field(True, description="the level that closes the fingers")
+
+    @model_validator(mode="after")
+    def _tool_output(self):
+        if self.tool and self.output > 1:
+            raise ValueError(f"output: got {self.output}, a tool digital output is 0 or 1")
+        return self
+
+
 class RosJointsSpec(_Model):
     """How the ROS 2 joint trajectories are written (:mod:`dloplan.io.ros_joints`)."""
 
     joint_prefix: list[str] | None = Field(None, min_length=2, max_length=2,
                                            description="per arm before every joint name")
-    velocities: bool = True
+    velocities: bool = Field(True, description="write velocities and accelerations")
+    rate: PositiveLength = Field(100.0, description="points per second [Hz]")
 
 
 class RobotSpec(_Model):
@@ -328,6 +366,8 @@ class RobotSpec(_Model):
     programs: list[ProgramName] | None = Field(
         None, description="robot programs `dloplan plan` writes (default all the cell takes)")
     urscript: UrscriptSpec = Field(default_factory=UrscriptSpec)
+    ur_rtde: UrRtdeSpec = Field(default_factory=UrRtdeSpec)
+    gripper: GripperIoSpec = Field(default_factory=GripperIoSpec)
     ros_joints: RosJointsSpec = Field(default_factory=RosJointsSpec)
 
     base_position: Vector3 = Field(default_factory=lambda: [0.0, 0.0, 0.0],
@@ -338,7 +378,6 @@ class RobotSpec(_Model):
                                   min_length=2, max_length=2, description="left, right")
     approach: float | None = Field(None, ge=0, allow_inf_nan=False,
                                    description="approach/retreat distance [units]; 5 cm")
-    grip_time: float = Field(0.5, ge=0, allow_inf_nan=False, description="[s]")
     hold_force: float | None = Field(None, gt=0, le=20, description="SmartGripper [N]")
 
     @field_validator("base_position")
@@ -405,32 +444,57 @@ def parse_model(model: type[BaseModel], data: Any, source: str):
         raise ScenarioError(f"{source}: {format_validation_error(exc)}") from None
 
 
-MAX_FILE_BYTES = 10_000_000
-"""Largest job file read [bytes]: 10 MB is some 100 000 points, far more than any cable needs
-(a shape is resampled to n + 1 <= 1001 points), and loads in seconds."""
+MAX_FILE_BYTES = MAX_INPUT_BYTES
+"""Largest job file read [bytes] (:data:`dloplan.bounds.MAX_INPUT_BYTES`)."""
+
+MAX_VALUES = 5_000_000
+"""Most values (numbers, strings, lists, mappings) a job file may hold once its YAML aliases are
+expanded: a 10 MB file of plain numbers holds at most about this many; a few lines of nested
+aliases would otherwise expand to billions (the "billion laughs")."""
+
+
+def expanded_size(data) -> int:
+    """The number of values in ``data`` with every shared list or mapping counted as often as
+    it is referenced (what validating it would visit), in time linear in the distinct ones."""
+    sizes: dict[int, int] = {}
+
+    def size(node) -> int:
+        if not isinstance(node, dict | list):
+            return 1
+        key = id(node)
+        if key not in sizes:
+            sizes[key] = 0  # a cycle (YAML allows them) counts once
+            items = node.values() if isinstance(node, dict) else node
+            sizes[key] = 1 + sum(size(item) for item in items)
+        return sizes[key]
+
+    try:
+        return size(data)
+    except RecursionError:
+        return MAX_VALUES + 1
 
 
 def read_mapping(path: str | Path) -> dict:
-    """Read a YAML or JSON file into a mapping; one-line errors for unreadable files."""
+    """Read a YAML or JSON file into a mapping; one-line errors for unreadable files (a regular
+    text file of at most :data:`MAX_FILE_BYTES`, :func:`dloplan.inputs.read_text`)."""
     path = Path(path)
     try:
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise ScenarioError(f"{path}: the file is {size / 1e6:.1f} MB, more than the "
-                                f"{MAX_FILE_BYTES / 1e6:.0f} MB a job file may have (thin out "
-                                "its points: shapes are resampled to n + 1 points anyway)")
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ScenarioError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
-    except UnicodeDecodeError:
-        raise ScenarioError(f"{path}: not a text file (not UTF-8): expected YAML or JSON") \
-            from None
+        text = read_text(path, MAX_FILE_BYTES, "job file", " (thin out its points: shapes "
+                         "are resampled to n + 1 points anyway)")
+    except ValueError as exc:
+        raise ScenarioError(str(exc)) from None
     try:
         data = json.loads(text) if path.suffix.lower() == ".json" else yaml.safe_load(text)
     except (json.JSONDecodeError, yaml.YAMLError) as exc:
         detail = str(exc).splitlines()[0]
         kind = "JSON" if path.suffix.lower() == ".json" else "YAML"
         raise ScenarioError(f"{path}: not valid {kind}: {detail}") from None
+    except RecursionError:
+        raise ScenarioError(f"{path}: nested too deeply to be a job file") from None
+    values = expanded_size(data)
+    if values > MAX_VALUES:
+        raise ScenarioError(f"{path}: expands to {values:.3g} values (YAML aliases repeat what "
+                            f"they name), more than the {MAX_VALUES:.0e} a job file may hold")
     if not isinstance(data, dict):
         raise ScenarioError(f"{path}: expected a mapping at the top level, got "
                             f"{type(data).__name__}")

@@ -3,28 +3,39 @@
 Each arm gets ``<stem>_<arm>.script``, one ``def ... end`` program that
 
 1. sets the tool (``set_tcp``) from the cell's TCP offset, when given;
-2. moves with ``movej`` to the verified start joints (so the controller is on the verified
-   configuration branch before any Cartesian move);
-3. raises its *ready* standard digital output and waits until its *start* standard digital
+2. defines the gripper hooks ``dloplan_grip_close()`` and ``dloplan_grip_open()``: each sets
+   the gripper's digital output (the cell's ``gripper`` setting: the output, standard or tool,
+   and the level that closes); replace their bodies for a gripper driven otherwise (a URCap's
+   functions, say), the rest of the program calls only them;
+3. opens the gripper (when the program picks the cable up: its first action is a grasp) and
+   moves with ``movej`` to the verified start joints (so the controller
+   is on the verified configuration branch before any Cartesian move);
+4. raises its *ready* standard digital output and waits until its *start* standard digital
    input is high: wire both inputs to one start signal (a PLC output, a push button, or one
    robot's ready output to the other's input) so both arms leave together;
-4. runs the motion, one line per waypoint, either
+5. runs the motion, one line per waypoint, either
 
    - ``mode="movej"`` (default): ``movej(q, t=dt, r=blend)`` to every verified joint vector
      with the planned segment duration ``dt`` [s]: with ``t`` given the controller times each
-     move to exactly ``dt``, so both arms stay synchronized segment by segment; or
+     move to exactly ``dt``; or
    - ``mode="movel"``: ``movel(p[x, y, z, rx, ry, rz], a, v, r=blend)`` to every TCP pose in the
      arm's base frame [m, axis-angle rad] at the planned TCP speed ``v`` [m/s]; the controller
-     solves its own IK, continuing from the verified start configuration (the arms stay
-     synchronized only as far as both reach the planned speeds);
+     solves its own IK, continuing from the verified start configuration;
 
-5. lowers the ready output.
+   and at every waypoint where the plan has a gripper action (grasp, release, regrasp;
+   :mod:`dloplan.robot.actions`), its commands: ``dloplan_grip_close()`` or
+   ``dloplan_grip_open()`` each followed by ``sleep(wait)`` with the planned wait;
+6. lowers the ready output.
 
-The user sets up in the cell: the robot's base frame as installed (the scripts' poses are in
-each arm's base frame, i.e. the controller's ``base``), the tool's mass and centre of gravity
-(``set_payload``, not written), the wiring of the start signal, the gripper actions (none are
-written), and a speed slider of 100 % for the timing to hold. Numbers are written with 9
-decimals (rad, m, s): well below the 0.1 mm / 0.05 deg verification tolerance.
+**Not synchronized past the start**: each controller runs its own clock, so the arms drift
+apart as soon as one slows or pauses (speed slider, a protective stop). Where both arms hold
+the cable, run the ``ur_rtde`` program instead (:mod:`dloplan.io.ur_rtde`: both arms streamed
+from one PC in lockstep, both stopped when either faults; docs/decisions.md). The user sets up
+in the cell: the robot's base frame as installed (the scripts' poses are in each arm's base
+frame, i.e. the controller's ``base``), the tool's mass and centre of gravity
+(``set_payload``, not written), the wiring of the start signal and of the gripper, and a speed
+slider of 100 % for the timing to hold. Numbers are written with 9 decimals (rad, m, s): well
+below the 0.1 mm / 0.05 deg verification tolerance.
 """
 
 from __future__ import annotations
@@ -32,6 +43,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+
+from ..robot.actions import picks_up
+from .files import atomic_write_texts
+from .ur_rtde import DEFAULT_GRIPPER, check_gripper
 
 MODES = ("movej", "movel")
 """Motion commands a script can be written with."""
@@ -59,11 +74,28 @@ def _check(name: str, value, shape: tuple) -> np.ndarray:
     return arr
 
 
+def _action_lines(placed) -> list[str]:
+    """The script lines of the gripper actions at one waypoint: hook call and planned wait."""
+    return [line for p in placed for command, wait in p.action.commands()
+            for line in (f"  dloplan_grip_{command}()  # {p.action.name}",
+                         f"  sleep({_number(wait)})")]
+
+
+def _action_summary(actions) -> str:
+    """One line: every gripper action at its waypoint with its commands' waits."""
+    if not actions:
+        return "none"
+    return "; ".join(f"{p.action.name} at waypoint {p.target} ("
+                     + " + ".join(f"{c} {w:g} s" for c, w in p.action.commands()) + ")"
+                     for p in actions)
+
+
 def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=None,
                    speeds=None, tcp_offsets=None, mode: str = "movej", blend: float = 0.0,
                    acceleration: float = 1.2, start_speed: float = 0.5,
                    arms=("left", "right"), start_input: int = 0, ready_output: int = 0,
-                   stem: str = "dloplan", notes=()) -> list[Path]:
+                   gripper=None, actions=(), stem: str = "dloplan",
+                   notes=()) -> list[Path]:
     """Write one URScript program per arm (module docstring).
 
     Parameters
@@ -95,6 +127,13 @@ def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=Non
         Arm names (file names and program names).
     start_input, ready_output : int
         Standard digital input waited for, output raised while ready (0..7).
+    gripper : dict, optional
+        ``{output, tool, closed}``: the digital output of the gripper hooks and the level that
+        closes (default :data:`dloplan.io.ur_rtde.DEFAULT_GRIPPER`).
+    actions : sequence of ProgramAction
+        The plan's gripper actions at their waypoints (:func:`dloplan.robot.actions.
+        place_actions`); a blend is not written into a waypoint with an action (the arms
+        stand there).
     stem : str
         File name stem.
     notes : sequence of str
@@ -134,26 +173,49 @@ def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=Non
         # An arm that stands still in a segment gets a crawl: movel needs v > 0.
         vel = np.maximum(_check("speeds", speeds, (n_points - 1, n_arms)), MIN_SPEED)
     offsets = None if tcp_offsets is None else _check("tcp_offsets", tcp_offsets, (n_arms, 6))
+    grip = check_gripper(DEFAULT_GRIPPER if gripper is None else gripper)
+    if not grip["tool"] and grip["output"] == ready_output:
+        raise ValueError(f"gripper.output: standard digital output {ready_output} is the "
+                         "ready_output; expected another one")
+    at = {k: [] for k in range(n_points)}
+    for placed in actions:
+        if placed.target not in at:
+            raise ValueError(f"actions: {placed.action.name} at waypoint {placed.target}, "
+                             f"expected 0..{n_points - 1}")
+        at[placed.target].append(placed)
+    setter = "set_tool_digital_out" if grip["tool"] else "set_standard_digital_out"
+    levels = {"close": grip["closed"], "open": not grip["closed"]}
+    hooks = [line for command in ("close", "open") for line in (
+        f"  def dloplan_grip_{command}():",
+        f"    {setter}({grip['output']}, {levels[command]})",
+        "  end")]
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    written = []
+    texts = {}
     for a, arm in enumerate(arms):
         name = f"{stem}_{arm}"
         lines = [f"# {name}.script: dloplan plan for the {arm} arm ({n_points} waypoints, "
                  f"{t[-1] - t[0]:.3f} s, {mode}).",
                  "# Poses in this arm's base frame [m, rad]; joints [rad]. Setup: docs/cells.md.",
+                 "# Not synchronized with the other arm past the start: for a cable held by "
+                 "both, run the ur_rtde program.",
+                 f"# Gripper actions: {_action_summary(actions)}; hooks dloplan_grip_close/"
+                 f"open ({setter} {grip['output']}, closed = {levels['close']}).",
                  *(f"# {note}" for note in notes),
                  f"def {name}():"]
         if offsets is not None:
             lines.append(f"  set_tcp(p{_list(offsets[a])})")
-        lines += [f"  movej({_list(q[a][0])}, a=1.0, v={_number(start_speed)})",
+        lines += [*hooks,
+                  *(["  dloplan_grip_open()"] if picks_up(actions) else []),
+                  f"  movej({_list(q[a][0])}, a=1.0, v={_number(start_speed)})",
                   f"  set_standard_digital_out({ready_output}, True)",
                   f"  textmsg(\"{name}: ready, waiting for digital input {start_input}\")",
                   f"  while not get_standard_digital_in({start_input}):",
                   "    sync()",
                   "  end"]
+        lines += _action_lines(at[0])
         for k in range(1, n_points):
-            r = blend if k < n_points - 1 else 0.0
+            r = blend if k < n_points - 1 and not at[k] else 0.0
             if mode == "movej":
                 lines.append(f"  movej({_list(q[a][k])}, t={_number(t[k] - t[k - 1])}, "
                              f"r={_number(r)})")
@@ -161,10 +223,9 @@ def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=Non
                 pose = np.concatenate([pos[k, a], rvec[k, a]])
                 lines.append(f"  movel(p{_list(pose)}, a={_number(acceleration)}, "
                              f"v={_number(vel[k - 1, a])}, r={_number(r)})")
+            lines += _action_lines(at[k])
         lines += [f"  set_standard_digital_out({ready_output}, False)",
                   "end",
                   f"{name}()"]
-        path = folder / f"{name}.script"
-        path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-        written.append(path)
-    return written
+        texts[folder / f"{name}.script"] = "\n".join(lines) + "\n"
+    return atomic_write_texts(texts)

@@ -379,8 +379,7 @@ def cell_to_dict(cell) -> dict:
         "base_position": cell.base_position.tolist(),
         "base_rotation": _rotation_to_list(cell.base_rotation),
         "wobj": cell.wobj, "table_height": cell.table_height, "approach": cell.approach,
-        "approach_speed": cell.approach_speed, "grip_time": cell.grip_time,
-        "hold_force": cell.hold_force,
+        "approach_speed": cell.approach_speed, "hold_force": cell.hold_force,
         "tools": [{"name": t.name, "tcp_offset": t.tcp_offset.tolist(),
                    "tcp_rotation": _rotation_to_list(t.tcp_rotation), "mass": t.mass,
                    "cog": t.cog.tolist(), "inertia": t.inertia.tolist(),
@@ -420,7 +419,7 @@ def cell_from_dict(data: dict, where: str = "plan.robot.cell"):
                          base_rotation=Rotation.from_quat(data["base_rotation"]), tools=tools,
                          wobj=data["wobj"], table_height=data["table_height"],
                          approach=data["approach"], approach_speed=data["approach_speed"],
-                         grip_time=data["grip_time"], hold_force=data["hold_force"])
+                         hold_force=data["hold_force"])
     except (KeyError, TypeError, ValueError) as exc:
         raise ValueError(f"{where}: {exc}") from None
 
@@ -762,7 +761,34 @@ def document_from_dict(data: dict) -> PlanDocument:
 
 
 def cycle_to_dict(cycle) -> dict:
-    """A :class:`~dloplan.trajectory.Cycle` as the document's ``cycle`` section."""
+    """A :class:`~dloplan.trajectory.Cycle` as the document's ``cycle`` section: its phases,
+    times and gripper ``actions`` (name, knot, duration, opening [s])."""
     return {"phases": [section_to_dict(p) for p in cycle.phases],
+            "actions": [section_to_dict(a) for a in cycle.actions],
             "motion_time": cycle.motion_time, "action_time": cycle.action_time,
             "cycle_time": cycle.cycle_time, "breakdown": cycle.breakdown()}
+
+
+def cycle_actions(section: dict | None) -> tuple:
+    """The gripper actions (:class:`~dloplan.trajectory.GripperAction`) of a document's
+    ``cycle`` section, in the order they run; a document written before the section listed
+    them gives its grasp and release phases.
+
+    Raises
+    ------
+    ValueError
+        A malformed section, or a regrasp of an older document (its opening part was not
+        recorded: plan again).
+    """
+    from ..trajectory import GripperAction
+
+    if section is None:
+        return ()
+    try:
+        if "actions" in section:
+            return tuple(GripperAction(a["name"], a["knot"], a["duration"], a["opening"])
+                         for a in section["actions"])
+        return tuple(GripperAction(p["name"], p["knots"][0], p["duration"])
+                     for p in section["phases"] if p["kind"] == "action")
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"plan.cycle.actions: malformed ({exc}); plan again") from None

@@ -38,6 +38,7 @@ from .document import (
     TwistSection,
     VerificationSection,
     cell_to_dict,
+    cycle_actions,
     cycle_to_dict,
     document_cell,
 )
@@ -247,13 +248,22 @@ def retimed(doc: PlanDocument, speed: float | None = None,
                   warnings=tuple(w for w in doc.warnings
                                  if doc.robot is None or w != doc.robot.message))
     if doc.cycle is not None:
-        actions = {p["name"]: p["duration"] for p in doc.cycle["phases"]
-                   if p["kind"] == "action"}
-        new = replace(new, cycle=cycle_to_dict(default_cycle(trajectory, actions)))
+        new = replace(new, cycle=retimed_cycle(doc.cycle, trajectory))
     if doc.robot is None:
         return new
     return with_program(new, plan_program(document_cell(doc), doc.grippers,
                                           trajectory))
+
+
+def retimed_cycle(cycle: dict, trajectory) -> dict:
+    """A document's cycle section with the same gripper actions (:func:`cycle_actions`) and
+    motion phases on another timing of the same knots."""
+    phases: dict = {}
+    for p in cycle["phases"]:
+        if p["kind"] == "motion":
+            first, _ = phases.get(p["name"], p["knots"])
+            phases[p["name"]] = (first, p["knots"][1])
+    return cycle_to_dict(plan_cycle(trajectory, cycle_actions(cycle), phases or None))
 
 
 def default_cycle(trajectory, durations: dict):

@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io.files import atomic_file
+
 AXIS_COLOURS = ("#d32f2f", "#388e3c", "#1976d2")  # u, v, w
 
 
@@ -46,9 +48,8 @@ def save_figure(figure, folder: str | Path, name: str, tight: bool = True) -> li
         bbox = figure.get_tightbbox(figure.canvas.get_renderer()).padded(0.1)
     for suffix in ("png", "svg"):
         path = folder / f"{name}.{suffix}"
-        tmp = path.with_name(f".{path.name}.tmp")
-        figure.savefig(tmp, format=suffix, dpi=110, bbox_inches=bbox)
-        tmp.replace(path)
+        with atomic_file(path) as tmp:
+            figure.savefig(tmp, format=suffix, dpi=110, bbox_inches=bbox)
         paths.append(path)
     pyplot().close(figure)
     return paths

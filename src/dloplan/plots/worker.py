@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import io
 import multiprocessing
-import multiprocessing.forkserver
-import signal
 from pathlib import Path
+
+from ..interrupts import task, worker_signals
+from ..processes import start_forkserver
 
 _warm = False
 
@@ -38,15 +39,17 @@ def warm_up() -> None:
 
 
 def start() -> None:
-    """A worker's start: Ctrl-C is the parent's to handle; matplotlib warmed up (at once when
-    the worker was forked from a warm server)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    """A worker's start: Ctrl-C is the parent's to handle, SIGTERM and SIGHUP end it
+    (:func:`dloplan.interrupts.worker_signals`); matplotlib warmed up (at once when the worker
+    was forked from a warm server)."""
+    worker_signals()
     warm_up()
 
 
 def draw(drawing, folder: Path) -> list[Path]:
     """Draw one :class:`~dloplan.plots.figures.Drawing` into ``folder``: its PNG and SVG."""
-    return drawing.save(folder)
+    with task():
+        return drawing.save(folder)
 
 
 def context():
@@ -65,18 +68,7 @@ def context():
 def start_server() -> None:
     """Start the workers' server now, without waiting for it: it imports matplotlib while this
     process imports the planner (the first worker's start waits until the server is warm, about
-    1 s). Nothing to do where the platform has no server.
-
-    The server is started with Ctrl-C ignored (kept across its ``exec``; Python then installs no
-    handler of its own), so a Ctrl-C in the terminal, sent to the whole process group, stops
-    only the command, which handles it; one arriving meanwhile is held and handled after.
-    """
-    if context().get_start_method() != "forkserver":
-        return
-    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    handler = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        multiprocessing.forkserver.ensure_running()
-    finally:
-        signal.signal(signal.SIGINT, handler)
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    1 s). Nothing to do where the platform has no server. Started out of the reach of a
+    terminal's Ctrl-C (:func:`dloplan.processes.start_forkserver`): the command handles it and
+    ends the server."""
+    start_forkserver(context())

@@ -136,8 +136,6 @@ class RobotCell:
         before grasping and after releasing; 0 grasps directly.
     approach_speed : float
         TCP speed [m/s] of the approach and the retreat.
-    grip_time : float
-        Wait [s] after ``g_GripIn`` / ``g_GripOut`` for the fingers to close / open.
     hold_force : float, optional
         SmartGripper holding force [N] (0..20) for ``g_GripIn \\holdForce``; None uses the
         gripper's configured default.
@@ -153,7 +151,6 @@ class RobotCell:
     table_height: float = 0.0
     approach: float = 0.05
     approach_speed: float = 0.05
-    grip_time: float = 0.5
     hold_force: float | None = None
     reach: ReachOptions = field(default_factory=ReachOptions)
 
@@ -174,7 +171,6 @@ class RobotCell:
         set_(self, "table_height", height)
         set_(self, "approach", _positive("RobotCell.approach", self.approach, allow_zero=True))
         set_(self, "approach_speed", _positive("RobotCell.approach_speed", self.approach_speed))
-        set_(self, "grip_time", _positive("RobotCell.grip_time", self.grip_time, allow_zero=True))
         if self.hold_force is not None:
             force = _positive("RobotCell.hold_force", self.hold_force)
             if force > 20.0:

@@ -23,6 +23,7 @@ import numpy as np
 
 from .cell import RobotCell
 from .chain import capsules
+from .motion import JointMotion
 from .program import CheckedProgram, CheckRow, check_summary, robot_program
 from .urdf_cell import CHECKS, CellPlan, DescribedCell, verify_on_cell
 
@@ -45,7 +46,8 @@ class Cell(Protocol):
 class Program(Protocol):
     """What the pipeline, the plan document, the writers and the report need of a verified
     program (:class:`~dloplan.robot.program.RobotProgram`, :class:`CellProgram`). A program
-    whose ``formats`` has ``urscript`` also has ``urscript_arguments()``."""
+    whose ``formats`` has ``urscript`` also has ``urscript_arguments()`` and
+    ``ur_rtde_arguments()``."""
 
     cell: Cell
     checks: tuple[CheckRow, ...]
@@ -64,6 +66,8 @@ class Program(Protocol):
 
     def summary(self) -> list[dict]: ...
 
+    def knot_targets(self) -> np.ndarray: ...
+
     def to_dict(self) -> dict: ...
 
     def ros_joints_arguments(self) -> dict: ...
@@ -73,12 +77,13 @@ class Program(Protocol):
 
 def program_formats(cell) -> tuple[str, ...]:
     """The program formats a cell takes: ``rapid`` and ``ros_joints`` for the YuMi;
-    ``ros_joints`` for any described cell, and ``urscript`` when both arms have
+    ``ros_joints`` for any described cell, and ``ur_rtde`` (both arms streamed in lockstep,
+    the program for a held cable) and ``urscript`` when both arms have
     :data:`URSCRIPT_JOINTS` joints (a Universal Robots controller runs no other arm)."""
     if isinstance(cell, RobotCell):
         return ("rapid", "ros_joints")
     six = all(arm.n_joints == URSCRIPT_JOINTS for arm in cell.arms)
-    return ("urscript", "ros_joints") if six else ("ros_joints",)
+    return ("ur_rtde", "urscript", "ros_joints") if six else ("ros_joints",)
 
 
 def cell_name(cell) -> str:
@@ -142,6 +147,34 @@ class CellProgram(CheckedProgram):
         """:func:`program_formats` of the cell."""
         return program_formats(self.cell)
 
+    def joint_motion(self, trajectory) -> JointMotion:
+        """Both arms' joints along the time law (:class:`~dloplan.robot.motion.JointMotion`):
+        the move between two kept knots timed by ``trajectory``'s law (the plan's, which this
+        program was verified on) of the segment that ends at the later one (the segments
+        before it, between knots at the same instant, do not move); its path the tracked
+        sub-steps (uniform in the move's parameter) from one target's verified joints to the
+        next's."""
+        law, plan = trajectory.law, self.plan
+        verdict = plan.verdict
+        segments = plan.shapes[1:] - 1
+        paths = []
+        for q, targets in zip(verdict.motion_joints, self.joints, strict=True):
+            arm = []
+            for j in range(len(segments)):
+                first = np.searchsorted(verdict.motion_times, j, side="right") - 1
+                last = np.searchsorted(verdict.motion_times, j + 1, side="right")
+                arm.append(np.concatenate([targets[j][None], q[first + 1:last - 1],
+                                           targets[j + 1][None]]))
+            paths.append(tuple(arm))
+        return JointMotion(tuple(paths), tuple(law.profiles[k] for k in segments),
+                           law.starts[segments], law.knot_times[plan.shapes])
+
+    def knot_targets(self) -> np.ndarray:
+        """(K,) int: the target of each trajectory knot (a dropped knot, reached at the same
+        instant as the one before it, is that knot's target)."""
+        knots = np.arange(int(self.plan.shapes[-1]) + 1)
+        return np.searchsorted(self.plan.shapes, knots, side="right") - 1
+
     @property
     def assignment_message(self) -> str:
         clips = ("first", "last")
@@ -184,10 +217,9 @@ class CellProgram(CheckedProgram):
 
     def ros_joints_arguments(self) -> dict:
         """Keyword arguments of :func:`dloplan.io.ros_joints.write_joint_trajectories` after
-        the folder: the target times (K,) [s], per arm the verified (K, n_arm) joints [rad],
-        the URDF joint names and the cell's ``ros_joints`` settings."""
-        return {"times": self.times, "joints": list(self.joints),
-                "joint_names": [arm.joint_names for arm in self.cell.arms],
+        the folder and the timeline: the URDF joint names and the cell's ``ros_joints``
+        settings."""
+        return {"joint_names": [arm.joint_names for arm in self.cell.arms],
                 **self.cell.writers.get("ros_joints", {})}
 
     def urscript_arguments(self) -> dict:
@@ -200,6 +232,11 @@ class CellProgram(CheckedProgram):
         return {"times": self.times, "joints": list(self.joints), "tcp_positions": positions,
                 "tcp_rotvecs": rotvecs, "tcp_offsets": tcp,
                 **self.cell.writers.get("urscript", {})}
+
+    def ur_rtde_arguments(self) -> dict:
+        """Keyword arguments of :func:`dloplan.io.ur_rtde.write_ur_rtde` after the folder and
+        the timeline: the cell's ``ur_rtde`` settings."""
+        return dict(self.cell.writers.get("ur_rtde", {}))
 
     def report_arms(self) -> dict:
         """Keyword arguments of :func:`dloplan.plots.report.write_report` that draw both arms

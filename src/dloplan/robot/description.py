@@ -28,11 +28,14 @@ convex meshes (see ``docs/cells.md``).
 
 from __future__ import annotations
 
+import io
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
+
+from ..bounds import MAX_MESH_BYTES
 
 MOVING = ("revolute", "continuous")
 """URDF joint types that move in the chain."""
@@ -112,7 +115,8 @@ class ArmDescription:
         for key, shape in shapes.items():
             arr = np.asarray(getattr(self, key), dtype=float)
             if arr.shape != shape or np.any(np.isnan(arr)):
-                raise ValueError(f"{key}: expected shape {shape}, got {arr.shape}")
+                raise ValueError(f"{key}: expected numbers (no NaN) of shape {shape}, got "
+                                 f"{arr.tolist() if arr.size <= 12 else arr.shape}")
             object.__setattr__(self, key, arr)
         if np.any(self.lower >= self.upper):
             raise ValueError(f"joint limits of {self.name!r}: lower {self.lower} must be below "
@@ -266,12 +270,93 @@ def _mesh_reader(urdf_path: Path, package_dirs: dict[str, str]):
             path = urdf_path.parent / name
         if not path.is_file():
             return None
+        if path.stat().st_size > MAX_MESH_BYTES:
+            raise ValueError(f"{urdf_path}: mesh {name!r} has {path.stat().st_size / 1e6:.0f} "
+                             f"MB, more than the {MAX_MESH_BYTES / 1e6:.0f} MB read for "
+                             "collision capsules")
         import trimesh
 
-        loaded = trimesh.load(path, force="mesh")
-        return np.asarray(loaded.vertices, dtype=float)
+        try:
+            loaded = trimesh.load(path, force="mesh")
+            points = np.asarray(loaded.vertices, dtype=float).reshape(-1, 3)
+        except Exception as exc:  # noqa: BLE001 - any reader's fault: named in one line
+            raise ValueError(f"{urdf_path}: mesh {name!r} cannot be read ({exc})") from None
+        if len(points) == 0 or not np.all(np.isfinite(points)):
+            raise ValueError(f"{urdf_path}: mesh {name!r} has no finite vertices")
+        return points
 
     return read
+
+
+def read_urdf(path: Path):
+    """A URDF file as a ``yourdfpy.URDF`` (the ``robot`` extra), without meshes or scene graph.
+
+    The file is read once, bounded (:func:`dloplan.inputs.read_text`: a missing file, a
+    symlink loop, a device or a folder, a file over 10 MB, binary data; the vendored URDFs have
+    about 10 kB) and
+    parsed as XML here, so that what is not a URDF is refused with one line naming the file and
+    the fault (yourdfpy would fall back to a recovering parser and fail later without saying
+    why); a document type with entity declarations is refused (no entity is expanded).
+
+    Raises
+    ------
+    ValueError
+        Naming the file and what is wrong with it.
+    """
+    try:
+        import yourdfpy
+    except ImportError as exc:  # pragma: no cover - the robot extra is installed by make test
+        raise ImportError("reading a URDF needs yourdfpy: pip install 'dloplan[robot]'") from exc
+    from lxml import etree
+
+    from ..inputs import read_text
+
+    text = read_text(path, kind="URDF file")
+    parser = etree.XMLParser(remove_blank_text=True, resolve_entities=False, no_network=True)
+    try:
+        root = etree.fromstring(text.encode("utf-8"), parser=parser)
+    except etree.XMLSyntaxError as exc:
+        raise ValueError(f"{path}: not a URDF file (not valid XML: {exc})") from None
+    if root.getroottree().docinfo.internalDTD is not None:
+        raise ValueError(f"{path}: a URDF file with a document type (<!DOCTYPE ...>) is not "
+                         "read; expected plain XML")
+    if root.tag != "robot":
+        raise ValueError(f"{path}: not a URDF file (the root element is <{root.tag}>, expected "
+                         "<robot>)")
+    try:
+        return yourdfpy.URDF.load(io.BytesIO(text.encode("utf-8")), build_scene_graph=False,
+                                  load_meshes=False, build_collision_scene_graph=False,
+                                  load_collision_meshes=False)
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+        detail = f"missing attribute {exc}" if isinstance(exc, KeyError) else str(exc)
+        raise ValueError(f"{path}: not a valid URDF ({detail})") from None
+
+
+def check_joint(path: Path, joint) -> None:
+    """Refuse a joint of the chain whose numbers cannot move an arm: an origin or axis that is
+    not finite, a zero axis, limits that are not finite or not ordered, a speed limit <= 0
+    (ValueError naming the file, the joint, the value and what was expected)."""
+    where = f"{path}: joint {joint.name!r}"
+    origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin, dtype=float)
+    if not np.all(np.isfinite(origin)):
+        raise ValueError(f"{where}: origin {origin[:3, 3].tolist()} (xyz), expected finite "
+                         "numbers")
+    if joint.type not in MOVING:
+        return
+    axis = np.asarray(joint.axis if joint.axis is not None else [1.0, 0.0, 0.0], dtype=float)
+    if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) < 1e-9:
+        raise ValueError(f"{where}: axis {axis.tolist()}, expected a finite non-zero vector")
+    limit = joint.limit
+    if limit is None:
+        return
+    bounds = [v for v in (limit.lower, limit.upper) if v is not None]
+    if joint.type == "revolute" and (not np.all(np.isfinite(bounds)) or (
+            len(bounds) == 2 and bounds[0] >= bounds[1])):
+        raise ValueError(f"{where}: limits lower {limit.lower}, upper {limit.upper}, expected "
+                         "finite numbers with lower < upper [rad]")
+    if limit.velocity is not None and not (np.isfinite(limit.velocity) and limit.velocity > 0):
+        raise ValueError(f"{where}: velocity limit {limit.velocity}, expected a number > 0 "
+                         "[rad/s] (or none)")
 
 
 def load_arm(path, tip_link: str, *, base_link: str | None = None, name: str | None = None,
@@ -297,16 +382,8 @@ def load_arm(path, tip_link: str, *, base_link: str | None = None, name: str | N
     -------
     ArmDescription
     """
-    try:
-        import yourdfpy
-    except ImportError as exc:  # pragma: no cover - the robot extra is installed by make test
-        raise ImportError("reading a URDF needs yourdfpy: pip install 'dloplan[robot]'") from exc
     path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"path: URDF file {str(path)!r} does not exist")
-    urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False,
-                              build_collision_scene_graph=False, load_collision_meshes=False)
-    robot = urdf.robot
+    robot = read_urdf(path).robot
     links = {link.name: link for link in robot.links}
     by_child = {joint.child: joint for joint in robot.joints}
     if tip_link not in links:
@@ -336,8 +413,13 @@ def load_arm(path, tip_link: str, *, base_link: str | None = None, name: str | N
     def add_capsules(link_name: str, to_frame: np.ndarray, index: int) -> None:
         for collision in links[link_name].collisions:
             origin = np.eye(4) if collision.origin is None else np.asarray(collision.origin)
-            for p0, p1, radius in _geometry_capsules(collision.geometry, to_frame @ origin,
-                                                     mesh_points):
+            found = _geometry_capsules(collision.geometry, to_frame @ origin, mesh_points)
+            for p0, p1, radius in found:
+                if not (np.all(np.isfinite([*p0, *p1, radius])) and radius >= 0):
+                    raise ValueError(f"{path}: link {link_name!r}: collision geometry gives "
+                                     f"a capsule of radius {radius:g} m from {np.round(p0, 4)}"
+                                     f" to {np.round(p1, 4)}; expected finite sizes >= 0")
+            for p0, p1, radius in found:
                 caps.append((p0, p1))
                 radii.append(radius)
                 cap_link.append(index)
@@ -371,6 +453,8 @@ def load_arm(path, tip_link: str, *, base_link: str | None = None, name: str | N
                              "joints are supported")
         to_frame, index = link_pose[joint.child]
         add_capsules(joint.child, to_frame, index)
+    for joint in chain:
+        check_joint(path, joint)
     return ArmDescription(
         name=name or tip_link, joint_names=tuple(names), origin_xyz=np.array(xyz).reshape(-1, 3),
         origin_rot=np.array(rot).reshape(-1, 3, 3), axes=np.array(axes).reshape(-1, 3),

@@ -50,6 +50,7 @@ from .cell import RobotCell
 from .collision import arm_clearance
 from .confdata import arm_angle, confdata
 from .kinematics import forward, joint_margin, solve_from
+from .motion import JointMotion
 from .replay import replay_moves
 from .solutions import ranked_solutions
 from .yumi import ABB_AXIS_NUMBERS, ARMS
@@ -160,7 +161,8 @@ class RobotProgram(CheckedProgram):
     arm_angles : numpy.ndarray
         (M, 2) ``eax_a`` [deg] as written (ABB axis 7 of ``joints``).
     times : numpy.ndarray
-        (M,) time [s] each target is reached, from the approach target (grip waits included).
+        (M,) time [s] each target is reached, from the approach target, on the motion's clock
+        (the gripper actions' waits come on top: :mod:`dloplan.robot.actions`).
     durations : numpy.ndarray
         (M - 1,) planned duration [s] of each move.
     speeds : numpy.ndarray
@@ -173,6 +175,9 @@ class RobotProgram(CheckedProgram):
     zones : numpy.ndarray or None
         (M,) fly-by zone radius [m] at each target (the trajectory's zones at the shapes; 0,
         a fine point, at the approach, the grasp, the release and the retreat).
+    move_substeps : numpy.ndarray or None
+        (M - 1,) int: the replayed sub-steps of each move in ``motion_joints`` (after its
+        first row, the first target).
     """
 
     cell: RobotCell
@@ -194,6 +199,7 @@ class RobotProgram(CheckedProgram):
     motion_joints: np.ndarray
     checks: tuple[CheckRow, ...]
     zones: np.ndarray | None = None
+    move_substeps: np.ndarray | None = None
 
     @property
     def n_targets(self) -> int:
@@ -206,12 +212,47 @@ class RobotProgram(CheckedProgram):
         left out)."""
         return self.joints[self.grasp:self.release + 1]
 
+    def joint_motion(self, trajectory) -> JointMotion:
+        """Both arms' joints along the time law (:class:`~dloplan.robot.motion.JointMotion`):
+        between the shapes the moves of ``trajectory``'s law (the plan's, which this program
+        was made from), the approach and the retreat by the jerk-limited rest-to-rest law at
+        ``cell.approach_speed`` under the trajectory's limits; each move's path the replayed
+        sub-steps (uniform in the move's parameter), ending on the target's verified joints
+        (the replay's last sub-step reaches them within the IK's tolerance)."""
+        from ..trajectory import MotionLimits
+        from ..trajectory.timelaw import Profile
+
+        law = trajectory.law
+        profiles, starts, arrivals = list(law.profiles), law.starts, law.knot_times
+        if self.cell.approach > 0:
+            limits = law.limits if law.limits is not None else MotionLimits()
+            length = self.cell.approach
+            approach = Profile.jerk_limited(self.cell.approach_speed / length,
+                                            limits.acceleration / length, limits.jerk / length)
+            d = approach.duration
+            profiles = [approach, *profiles, approach]
+            starts = np.r_[0.0, starts + d, law.duration + d]
+            arrivals = np.r_[0.0, arrivals + d, law.duration + 2 * d]
+        ends = 1 + np.cumsum(self.move_substeps)
+        paths = tuple(tuple(np.concatenate([self.joints[m, a][None],
+                                            self.motion_joints[end - n:end - 1, a],
+                                            self.joints[m + 1, a][None]])
+                            for m, (end, n) in enumerate(zip(ends, self.move_substeps,
+                                                             strict=True)))
+                      for a in range(2))
+        return JointMotion(paths, tuple(profiles), np.asarray(starts, float),
+                           np.asarray(arrivals, float))
+
+    def knot_targets(self) -> np.ndarray:
+        """(S + 2,) int: the target of each plan knot (shape): the targets between the
+        approach and the retreat."""
+        return np.arange(self.grasp, self.release + 1)
+
     @property
     def path_duration(self) -> float:
-        """Planned time [s] from the grasp to the release target, grip wait excluded (the
-        trajectory's duration)."""
-        wait = self.cell.grip_time if self.release > self.grasp else 0.0
-        return float(self.times[self.release] - self.times[self.grasp] - wait)
+        """Planned time [s] from the grasp to the release target (the trajectory's
+        duration)."""
+        return float(self.times[self.release] - self.times[self.grasp])
 
     @property
     def formats(self) -> tuple[str, ...]:
@@ -221,11 +262,8 @@ class RobotProgram(CheckedProgram):
 
     def ros_joints_arguments(self) -> dict:
         """Keyword arguments of :func:`dloplan.io.ros_joints.write_joint_trajectories` after
-        the folder: the target times (M,) [s], per arm the verified (M, 7) joints [rad] in
-        physical order and the joint names."""
-        arms = self.cell.robot.arms
-        return {"times": self.times, "joints": [self.joints[:, a] for a in range(len(arms))],
-                "joint_names": [arm.joint_names for arm in arms]}
+        the folder and the timeline: the joint names (physical order)."""
+        return {"joint_names": [arm.joint_names for arm in self.cell.robot.arms]}
 
     def report_arms(self) -> dict:
         """Keyword arguments of :func:`dloplan.plots.report.write_report` that draw both arms
@@ -420,9 +458,7 @@ def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, q
             res = solve_from(arm, pos[m, a], rot[m, a], q0[m, a], opts.ik, np.radians(eax[m, a]))
             joints[m, a], solved[m, a] = res.q, res.success and chosen[a].solved[m]
     durations, speeds = _timing(trajectory, cell, assignment, cell.approach > 0)
-    waits = np.zeros(len(pos))
-    waits[grasp] = cell.grip_time
-    times = np.cumsum(np.r_[0.0, durations]) + np.concatenate([[0.0], np.cumsum(waits[:-1])])
+    times = np.cumsum(np.r_[0.0, durations])
     replay = replay_moves(robot, pos, rot, eax, joints, durations, opts)
     rows = _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay)
     motion_times = np.concatenate([times[:1]] + [
@@ -435,7 +471,8 @@ def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, q
     zones[[0, grasp, release, -1]] = 0.0
     return RobotProgram(cell, assignment, turned, labels, shapes, grasp, release, pos, quat,
                         joints, confdata(joints), eax, times, durations, speeds,
-                        motion_times, motion, tuple(rows), zones)
+                        motion_times, motion, tuple(rows), zones,
+                        np.array([len(q) for q in replay["joints"]]))
 
 
 def _timing(trajectory, cell: RobotCell, assignment: ArmAssignment, approach: bool):

@@ -16,6 +16,7 @@ arms with the Franka Hand), ``yumi`` (the ABB YuMi from one description with two
 from __future__ import annotations
 
 import inspect
+import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -600,8 +601,18 @@ def cell_from_specs(name: str, left: ArmSpec, right: ArmSpec, *,
     """A cell from one URDF per arm (or the same URDF with two tip links)."""
     arms = []
     for side, spec in zip(ARMS, (left, right), strict=True):
-        description = load_arm(spec.urdf, spec.tip_link, base_link=spec.base_link,
-                               name=f"{name}_{side}", package_dirs=spec.package_dirs)
+        try:
+            description = load_arm(spec.urdf, spec.tip_link, base_link=spec.base_link,
+                                   name=f"{name}_{side}", package_dirs=spec.package_dirs)
+        except ValueError as exc:  # about tip_link / base_link, or about the URDF file
+            field_name = str(exc).split(":", 1)[0]
+            where = f"robot.cell.arms.{side}" + ("" if field_name in ("tip_link", "base_link")
+                                                 else ".urdf")
+            raise ValueError(f"{where}: {exc}") from None
+        if spec.home is not None and len(spec.home) != description.n_joints:
+            raise ValueError(f"robot.cell.arms.{side}.home_deg: got {len(spec.home)} values, "
+                             f"expected {description.n_joints} (one per joint of "
+                             f"{spec.tip_link!r})")
         arms.append(CellArm(side, description, base_position=spec.base_position,
                             base_rotation=Rotation.from_euler("xyz", spec.base_rpy),
                             tcp_offset=spec.tcp_offset, tool_radius=spec.tool_radius,
@@ -633,6 +644,60 @@ def _scaled(mapping: dict, scale: float) -> dict:
             raise ValueError(f"robot.cell.{key}: got {value!r}, expected a length (a number or "
                              "a list of numbers)") from None
     return {key: scale_value(key, value) for key, value in mapping.items()}
+
+
+def _numbers(field_name: str, value, count: int | None, unit: str) -> tuple[float, ...]:
+    """``value`` as ``count`` finite numbers (any count for None), else a ValueError naming the
+    field, the value and what was expected."""
+    expected = f"{count} finite numbers [{unit}]" if count else \
+        f"finite numbers [{unit}], one per joint"
+    if isinstance(value, str | bytes | bool) or not isinstance(value, list | tuple):
+        raise ValueError(f"{field_name}: got {value!r}, expected a list of {expected}")
+    try:
+        numbers = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{field_name}: got {value!r}, expected {expected}") from None
+    if numbers.ndim != 1 or (count is not None and len(numbers) != count) or \
+            not np.all(np.isfinite(numbers)) or any(isinstance(v, bool) for v in value):
+        raise ValueError(f"{field_name}: got {value!r}, expected {expected}")
+    return tuple(float(v) for v in numbers)
+
+
+def _arm_spec(side: str, arm, folder, scale: float) -> tuple[ArmSpec, dict]:
+    """One arm of a scenario's ``robot.cell.arms`` checked field by field (before any file is
+    read): its :class:`ArmSpec` and its record (lengths in m, the URDF path absolute)."""
+    where = f"robot.cell.arms.{side}"
+    if not isinstance(arm, dict):
+        raise ValueError(f"{where}: expected a mapping, got {arm!r}")
+    extra = set(arm) - ARM_KEYS
+    if extra or not {"urdf", "tip_link"} <= set(arm):
+        raise ValueError(f"{where}: got keys {sorted(arm)}, expected "
+                         f"urdf, tip_link and some of {sorted(ARM_KEYS)}")
+    for key in ("urdf", "tip_link", "base_link", "cable_along"):
+        if key in arm and not (isinstance(arm[key], str) and arm[key]):
+            raise ValueError(f"{where}.{key}: got {arm[key]!r}, expected a name (text)")
+    urdf = Path(os.path.abspath(Path(folder) / arm["urdf"]))  # symlinks are the reader's
+    for key, unit in (("base_position", "file units"), ("tcp_offset", "file units"),
+                      ("base_rpy", "deg")):
+        if key in arm:
+            _numbers(f"{where}.{key}", arm[key], 3, unit)
+    home = arm.get("home_deg")
+    if home is not None:
+        home = _numbers(f"{where}.home_deg", home, None, "deg")
+    radius = arm.get("tool_radius", 0.0)
+    if isinstance(radius, bool) or not isinstance(radius, int | float) or \
+            not (np.isfinite(radius) and radius >= 0):
+        raise ValueError(f"{where}.tool_radius: got {radius!r}, expected a finite number >= 0 "
+                         "[file units]")
+    record = {**_scaled(arm, scale), "urdf": str(urdf)}
+    spec = ArmSpec(str(urdf), arm["tip_link"], arm.get("base_link"),
+                   tuple(record.get("base_position", (0.0, 0.0, 0.0))),
+                   tuple(np.radians(arm.get("base_rpy", (0.0, 0.0, 0.0)))),
+                   tuple(record.get("tcp_offset", (0.0, 0.0, 0.0))),
+                   float(record.get("tool_radius", 0.0)),
+                   None if home is None else tuple(np.radians(home)),
+                   arm.get("cable_along", "y"))
+    return spec, record
 
 
 def cell_from_mapping(data: dict, folder=".", scale: float = 1.0) -> DescribedCell:
@@ -675,26 +740,8 @@ def cell_from_mapping(data: dict, folder=".", scale: float = 1.0) -> DescribedCe
     specs, source = [], {"arms": {}, **_scaled({k: v for k, v in data.items() if k != "arms"},
                                                scale)}
     for side in ARMS:
-        arm = arms[side]
-        if not isinstance(arm, dict):
-            raise ValueError(f"robot.cell.arms.{side}: expected a mapping, got {arm!r}")
-        extra = set(arm) - ARM_KEYS
-        if extra or not {"urdf", "tip_link"} <= set(arm):
-            raise ValueError(f"robot.cell.arms.{side}: got keys {sorted(arm)}, expected "
-                             f"urdf, tip_link and some of {sorted(ARM_KEYS)}")
-        urdf = (Path(folder) / str(arm["urdf"])).resolve()
-        if not urdf.is_file():
-            raise ValueError(f"robot.cell.arms.{side}.urdf: got {arm['urdf']!r}, expected a "
-                             f"URDF file (no file {urdf})")
-        arm = source["arms"][side] = {**_scaled(arm, scale), "urdf": str(urdf)}
-        home = arm.get("home_deg")
-        specs.append(ArmSpec(str(urdf), arm["tip_link"], arm.get("base_link"),
-                             tuple(arm.get("base_position", (0.0, 0.0, 0.0))),
-                             tuple(np.radians(arm.get("base_rpy", (0.0, 0.0, 0.0)))),
-                             tuple(arm.get("tcp_offset", (0.0, 0.0, 0.0))),
-                             float(arm.get("tool_radius", 0.0)),
-                             None if home is None else tuple(np.radians(home)),
-                             arm.get("cable_along", "y")))
+        spec, source["arms"][side] = _arm_spec(side, arms[side], folder, scale)
+        specs.append(spec)
     cell = cell_from_specs(str(data.get("name", "cell")), *specs,
                            table_height=float(source.get("table_height", 0.0)))
     return replace(cell, source=source)

@@ -118,6 +118,13 @@ def _held_points(positions, u_axes, link_length):
     return out
 
 
+@njit(cache=True)
+def held_points_of(positions, quaternions, link_length):
+    """:meth:`ClipPoses.held_points` (4, 3) [m] of clips at ``positions`` (2, 3) [m] with
+    ``clip_to_world`` unit quaternions (2, 4) (x, y, z, w), for compiled callers."""
+    return _held_points(positions, _x_axes(quaternions), link_length)
+
+
 def clip_poses_from_shape(shape, rotations: Rotation | None = None) -> ClipPoses:
     """Read the clip poses off a shape: the middle of the end links and their inward u-axes.
 

@@ -31,9 +31,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.spatial.transform import Rotation, Slerp
+from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
+from ..frames import slerp_quaternions
 from ..geometry import as_shape, norms
 from ..physics.chain import (
     HALF_BANDWIDTH,
@@ -374,16 +375,15 @@ def check_target(
 def interpolate_clips(a: ClipPoses, b: ClipPoses, fractions) -> list[ClipPoses]:
     """Clip poses between ``a`` and ``b``: linear in position, slerp in rotation.
 
-    Each clip's slerp is evaluated at all fractions at once (a scipy call costs more than its
-    arithmetic); the slerped quaternions are taken as they are (``normalize=False``), as
-    concatenating the slerped rotations did.
+    Both clips at all fractions in one array slerp (:func:`dloplan.frames.slerp_quaternions`:
+    scipy's ``Slerp`` to round-off, without building a ``Slerp`` and ``Rotation`` objects per
+    clip, which cost more than the arithmetic in the continuations of the snap check and the
+    closed-loop plant).
     """
     w = np.asarray(fractions, dtype=float).reshape(-1)
     positions = (1.0 - w)[:, None, None] * a.positions + w[:, None, None] * b.positions
-    quats = np.stack([
-        Slerp([0.0, 1.0], Rotation.concatenate([a.rotations[k], b.rotations[k]]))(w).as_quat()
-        for k in range(2)
-    ], axis=1)  # (len(w), 2, 4)
+    keys = np.stack([a.rotations.as_quat(), b.rotations.as_quat()])  # (2 keys, 2 clips, 4)
+    quats = slerp_quaternions(np.array([0.0, 1.0]), keys, w)  # (len(w), 2, 4)
     return [ClipPoses(pos, Rotation(q, normalize=False))
             for pos, q in zip(positions, quats, strict=True)]
 

@@ -13,7 +13,10 @@ worker), so every backend produces the same results; only their completion order
 * :class:`SerialBackend`: in this process (debugging, small studies, benchmarks' baseline).
 * :class:`ProcessBackend`: ``concurrent.futures.ProcessPoolExecutor`` with ``workers``
   processes (a ``forkserver`` context on POSIX, which never forks a threaded parent; its
-  server preloads the solver so that workers start in milliseconds).
+  server preloads the solver so that workers start in milliseconds). The workers leave Ctrl-C
+  to the caller and end on SIGTERM or SIGHUP, running their task's clean-up
+  (:func:`dloplan.interrupts.worker_signals`); an error or a signal in the caller ends them at
+  once (:func:`dloplan.processes.end_pool`) rather than waiting for their tasks.
 * :class:`DaskBackend`: a ``dask.distributed.Client`` given by the caller, or one connected to
   a scheduler address (``tcp://HOST:PORT``) and closed at the end. Dask is imported only here,
   and only when this backend is made.
@@ -29,16 +32,21 @@ from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any
 
+from ..interrupts import task, worker_signals
+from ..processes import end_pool, start_forkserver
+
 _SHARED: Any = None  # the shared object inside a worker process (set by the initializer)
 
 
 def _install_shared(shared) -> None:
     global _SHARED
+    worker_signals()
     _SHARED = shared
 
 
 def _call_with_installed(function: Callable, item):
-    return function(_SHARED, item)
+    with task():
+        return function(_SHARED, item)
 
 
 def _call(function: Callable, shared, item):
@@ -121,6 +129,7 @@ class ProcessBackend(Backend):
             self._context = multiprocessing.get_context("spawn")
 
     def map(self, function, items, shared=None):
+        start_forkserver(self._context)  # out of the reach of a terminal's Ctrl-C
         pool = ProcessPoolExecutor(self.workers, mp_context=self._context,
                                    initializer=_install_shared, initargs=(shared,))
 
@@ -133,6 +142,9 @@ class ProcessBackend(Backend):
         try:
             for position, future in _bounded(submit, items, self.max_in_flight, wait_any):
                 yield position, future.result()
+        except (Exception, KeyboardInterrupt):  # an error, a signal: nobody wants the tasks
+            end_pool(pool)
+            raise
         finally:  # also when the consumer stops early: drop what has not started
             pool.shutdown(wait=True, cancel_futures=True)
 

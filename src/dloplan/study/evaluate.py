@@ -31,8 +31,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
+from ..geometry import link_vectors, norms
 from ..obstacles.shapes import Box, Cylinder, Table
 from ..physics.chain import SpringChain, link_tensions
+from ..sim.batch import held_equilibria
 from ..sim.clips import ClipPoses, clip_poses_from_shape
 from ..sim.statics import equilibrium
 from .sampling import AXES
@@ -280,6 +282,12 @@ def _failed(out: dict, message: str) -> None:
 def evaluate_chunk(problem: StudyProblem, chunk: dict) -> dict:
     """Evaluate a chunk of samples; the tidy rows (sample x shape) of the study table.
 
+    What :func:`evaluate_sample` does for each sample, batched: the chunk's cables and clip
+    poses are arrays, every (sample, shape) equilibrium is solved in one compiled loop
+    (:func:`dloplan.sim.batch.held_equilibria`: each item bit for bit ``equilibrium``'s), and
+    the measurements are taken on all of them at once. The rows equal :func:`evaluate_sample`'s
+    (tested).
+
     Parameters
     ----------
     problem : StudyProblem
@@ -296,17 +304,110 @@ def evaluate_chunk(problem: StudyProblem, chunk: dict) -> dict:
     s = problem.n_shapes
     samples = np.asarray(chunk["sample"], dtype=np.int64)
     params = [name for name in chunk if name != "sample"]
+    values = {name: np.asarray(chunk[name], dtype=float) for name in params}
+    m = len(samples)
+    obstacle_offsets = _columns(values, "obstacle", "d", len(problem.obstacles))
+    cables, obstacles, failures = [], [], {}
+    for j in range(m):
+        try:
+            cable = perturbed_cable(problem.cable, values["youngs_modulus"][j],
+                                    values["mass_per_length"][j], values["length"][j])
+            moved = [perturbed_obstacle(o, d)
+                     for o, d in zip(problem.obstacles, obstacle_offsets[j], strict=True)]
+        except ValueError as exc:
+            failures[j] = f"sample: {exc}"
+            continue
+        cables.append(cable)
+        obstacles.append(moved)
+    valid = np.array([j for j in range(m) if j not in failures], dtype=np.int64)
+    measured = _measure(problem, cables, obstacles, _columns(values, "clip", "d", 2)[valid],
+                        _columns(values, "clip", "r", 2)[valid])
     rows: dict[str, list] = {name: [] for name in OUTCOME_COLUMNS}
-    for j in range(len(samples)):
-        result = evaluate_sample(problem, {name: float(chunk[name][j]) for name in params})
-        for name in OUTCOME_COLUMNS:
-            rows[name].extend(result[name])
+    position = {j: i for i, j in enumerate(valid)}
+    for j in range(m):
+        for k in range(s):
+            if j in failures:
+                _failed(rows, failures[j])
+                continue
+            for name in OUTCOME_COLUMNS:
+                rows[name].append(measured[name][position[j] * s + k])
     table = {"sample": np.repeat(samples, s), "shape": np.tile(np.arange(s, dtype=np.int64),
                                                                 len(samples))}
-    table.update({name: np.repeat(np.asarray(chunk[name], dtype=float), s) for name in params})
+    table.update({name: np.repeat(values[name], s) for name in params})
     for name in OUTCOME_COLUMNS:
         table[name] = _column(name, rows[name])
     return table
+
+
+def _columns(values: dict, prefix: str, kind: str, count: int) -> np.ndarray:
+    """The (m, count, 3) offsets or rotation vectors of every sample of a chunk."""
+    m = len(values["youngs_modulus"])
+    columns = [values[f"{prefix}{k}_{kind}{a}"] for k in range(count) for a in AXES]
+    return np.stack(columns, axis=-1).reshape(m, count, 3) if count else np.zeros((m, 0, 3))
+
+
+def _measure(problem: StudyProblem, cables: list, obstacles: list, offsets: np.ndarray,
+             rotvecs: np.ndarray) -> dict:
+    """:data:`OUTCOME_COLUMNS` of every shape of the m valid samples of a chunk, sample-major
+    lists of m (S + 2) values: their cables, moved obstacles, clip offsets (m, 2, 3) [m] and
+    rotation vectors (m, 2, 3) [rad]."""
+    m, s = len(cables), problem.n_shapes
+    if m == 0:
+        return {name: [] for name in OUTCOME_COLUMNS}
+    nominal_positions = np.stack([c.positions for c in problem.clips])  # (S, 2, 3)
+    positions = nominal_positions[None] + offsets[:, None]  # (m, S, 2, 3)
+    nominal_rotations = Rotation.concatenate([c.rotations for c in problem.clips])
+    errors = Rotation.from_rotvec(rotvecs.reshape(-1, 3))
+    # item (sample j, shape k), clip c: the nominal rotation 2 k + c times the error 2 j + c
+    nominal_index = 2 * np.arange(s)[None, :, None] + np.arange(2)
+    error_index = 2 * np.arange(m)[:, None, None] + np.arange(2)
+    rotations = (nominal_rotations[np.broadcast_to(nominal_index, (m, s, 2)).ravel()]
+                 * errors[np.broadcast_to(error_index, (m, s, 2)).ravel()])
+    result = held_equilibria(cables, np.repeat(np.arange(m), s),
+                             np.tile(problem.nominal, (m, 1, 1)), positions.reshape(-1, 2, 3),
+                             rotations, gravity=problem.gravity)
+    x = result.shapes.reshape(m, s, -1, 3)
+    radius = problem.cable.diameter / 2.0
+    penetration = np.full((m, s), np.nan)
+    if problem.obstacles:  # each sample's obstacles against all its shapes' links at once
+        a, b = x[:, :, :-1], x[:, :, 1:]
+        for j, moved in enumerate(obstacles):
+            penetration[j] = np.max([o.penetration(a[j], b[j], radius).max(axis=-1)
+                                     for o in moved], axis=0)
+    penetration = penetration.ravel()
+    k_s = np.array([c.k_axial for c in cables])[:, None, None]
+    rest = np.array([np.full(c.n_links, c.rest_link_length) for c in cables])[:, None, :]
+    tensions = k_s * (norms(link_vectors(x)) - rest)
+    success = result.success
+    measured = {
+        "converged": result.converged,
+        "stable": result.stable,
+        "iterations": result.iterations,
+        "residual": result.residuals,
+        "deviation": _largest_distances(x, problem.nominal[None]),
+        "displacement": _largest_distances(x, problem.planned[None]),
+        "sag": (positions[..., 2].min(axis=-1) - x[..., 2].min(axis=-1)).ravel(),
+        "collision": penetration > 0.0,
+        "penetration": penetration,
+        "max_tension": tensions.max(axis=-1).ravel(),
+        "clip_force": np.linalg.norm(result.clip_wrenches[..., :3], axis=-1).max(axis=-1),
+        "clip_moment": np.linalg.norm(result.clip_wrenches[..., 3:], axis=-1).max(axis=-1),
+        "message": ["" if ok else message for ok, message in zip(success, result.messages,
+                                                                 strict=True)],
+    }
+    out = {name: list(value) for name, value in measured.items()}
+    for b in np.flatnonzero(result.refused):  # equilibrium refused: as evaluate_sample records
+        failed: dict[str, list] = {name: [] for name in OUTCOME_COLUMNS}
+        _failed(failed, result.messages[b])
+        for name in OUTCOME_COLUMNS:
+            out[name][b] = failed[name][0]
+    return out
+
+
+def _largest_distances(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """:func:`_largest_distance` of shapes (m, S, n + 1, 3) to y (broadcast), (m S,)."""
+    d = x - y
+    return np.sqrt(np.max(np.einsum("...ij,...ij->...i", d, d), axis=-1)).ravel()
 
 
 def _column(name: str, values: list) -> np.ndarray:

@@ -27,13 +27,11 @@ import csv
 import hashlib
 import io
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from ..io.files import atomic_write_text
+from ..io.files import atomic_file, atomic_write_text
 
 MANIFEST = "manifest.json"
 FORMAT_NAME = "dloplan-study"
@@ -87,20 +85,6 @@ def fingerprint(*parts) -> str:
 
 
 # -- one table file ---------------------------------------------------------------------------
-def _atomic_bytes(path: Path, write) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, temp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
-        write(temp)
-        os.replace(temp, path)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(temp)
-        raise
-    return path
-
-
 def write_table(path, table: dict, units: dict | None = None,
                 metadata: dict | None = None) -> Path:
     """Write a table as Parquet or CSV (by the suffix), atomically.
@@ -139,7 +123,9 @@ def write_table(path, table: dict, units: dict | None = None,
         arrays.append(pa.array(data, type=typ))
     schema = pa.schema(fields, metadata=metadata or {})
     arrow = pa.Table.from_arrays(arrays, schema=schema)
-    return _atomic_bytes(path, lambda temp: pq.write_table(arrow, temp))
+    with atomic_file(path) as temp:
+        pq.write_table(arrow, temp)
+    return path
 
 
 def _csv_values(values: np.ndarray) -> list:

@@ -1,7 +1,7 @@
 """Run a study: draw the samples, evaluate them in chunks on a backend, store, summarize.
 
 :func:`run_study` is the library function behind ``dloplan study``. The N samples are split
-into chunks of ``spec.chunk_size`` consecutive sample indices; a chunk is one task on the
+into chunks of ``spec.chunk`` consecutive sample indices; a chunk is one task on the
 backend and one file in the study folder. Chunks complete in any order; each is written the
 moment it arrives, and ``progress`` is called after each. An interruption (Ctrl-C, a killed
 job, a ``progress`` callback that raises) leaves the completed chunks on disk; running the
@@ -193,7 +193,7 @@ def run_study(
                          "(dloplan.study.study_problem)")
     backend = backend or SerialBackend()
     samples = draw_samples(spec, problem.cable, problem.obstacles)
-    n_chunks = -(-spec.samples // spec.chunk_size)
+    n_chunks = -(-spec.samples // spec.chunk)
     schema = column_schema(len(problem.obstacles))
     units = {name: c["unit"] for name, c in schema.items()}
     done: list[int] = []
@@ -201,7 +201,7 @@ def run_study(
     if out is not None:
         folder = Path(out)
         manifest = {"fingerprint": problem_fingerprint(problem, spec), "file_format": file_format,
-                    "n_samples": spec.samples, "chunk_size": spec.chunk_size,
+                    "n_samples": spec.samples, "chunk_size": spec.chunk,
                     "n_chunks": n_chunks, "n_shapes": problem.n_shapes,
                     "study": spec.model_dump(mode="json"), "columns": schema}
         done = open_folder(folder, manifest, resume=resume)
@@ -209,7 +209,7 @@ def run_study(
     tables: dict[int, dict] = {}
     samples_done = sum(_chunk_length(k, spec) for k in done)
     samples_run = 0
-    items = chunk_items(samples, spec.chunk_size, todo)
+    items = chunk_items(samples, spec.chunk, todo)
     metadata = {"fingerprint": manifest["fingerprint"]} if folder else None
     for count, (position, table) in enumerate(
             map_jobs(evaluate_chunk, items, backend, shared=problem), start=1):
@@ -236,4 +236,4 @@ def run_study(
 
 
 def _chunk_length(chunk: int, spec: StudySpec) -> int:
-    return min(spec.chunk_size, spec.samples - chunk * spec.chunk_size)
+    return min(spec.chunk, spec.samples - chunk * spec.chunk)

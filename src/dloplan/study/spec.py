@@ -29,6 +29,8 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from ..bounds import MAX_MEASURED_POINTS, MAX_STUDY_SAMPLES
+
 PARAMETERS: dict[str, str] = {
     "youngs_modulus": "%",
     "mass_per_length": "%",
@@ -105,7 +107,7 @@ class CorrectionSpec(_Model):
     at: int = Field(..., ge=0, description="the shape after which the cable is measured")
     noise: float = Field(1.0, ge=0, allow_inf_nan=False,
                          description="measurement noise per coordinate [mm]")
-    n_measured: int = Field(200, ge=2, le=100_000, description="measured points")
+    n_measured: int = Field(200, ge=2, le=MAX_MEASURED_POINTS, description="measured points")
     tolerance: float = Field(5.0, gt=0, allow_inf_nan=False,
                              description="largest final mean error counted a success [mm]")
     plant_links: int | None = Field(None, ge=2, le=2000,
@@ -114,14 +116,20 @@ class CorrectionSpec(_Model):
                                 description="closed-loop runs: the first N samples (default all)")
 
 
+DEFAULT_CHUNKS = (16, 256)
+"""Smallest and largest default chunk (:attr:`StudySpec.chunk`) [samples]."""
+
+
 class StudySpec(_Model):
     """A robustness study (the ``study:`` section of a scenario file)."""
 
-    samples: int = Field(100, ge=1, le=10_000_000, description="number of samples N")
+    samples: int = Field(100, ge=1, le=MAX_STUDY_SAMPLES, description="number of samples N")
     seed: int = Field(0, ge=0, description="seed of the sampler (same seed, same table)")
     sampler: Literal["lhs", "random"] = Field(
         "lhs", description="lhs: Latin hypercube (scipy.stats.qmc); random: independent draws")
-    chunk_size: int = Field(16, ge=1, le=100_000, description="samples per task and per file")
+    chunk_size: int | None = Field(
+        None, ge=1, le=100_000,
+        description="samples per task and per file (default: N / 16 within 16 .. 256)")
     confidence: float = Field(0.95, gt=0, lt=1, description="level of the success interval")
     parameters: dict[str, Variation] = Field(
         default_factory=dict, description=f"any of {', '.join(PARAMETERS)}")
@@ -142,6 +150,17 @@ class StudySpec(_Model):
                     f"{name}: a lognormal distribution needs a positive quantity; use normal or "
                     f"uniform for a signed error")
         return value
+
+    @property
+    def chunk(self) -> int:
+        """Samples per task and per file: ``chunk_size``, or by default N / 16 rounded up
+        within :data:`DEFAULT_CHUNKS` (a chunk of a large study is about a quarter of a second
+        of one core, so a task's scheduling, transfer and file cost little; a small study still
+        has up to 16 chunks to share among the workers)."""
+        if self.chunk_size is not None:
+            return self.chunk_size
+        low, high = DEFAULT_CHUNKS
+        return min(high, max(low, -(-self.samples // 16)))
 
     def distribution(self, name: str) -> str:
         """The distribution of a varied parameter (its default filled in)."""

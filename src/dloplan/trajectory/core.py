@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..bounds import MAX_TRAJECTORY_SAMPLES
 from .limits import DEFAULT_MAX_ANGULAR_SPEED, DEFAULT_MAX_SPEED, MotionLimits, positive
 from .timelaw import TimeLaw, jerk_limited_law
 
@@ -292,8 +293,8 @@ class Trajectory:
         return self.at(sample_times(self.duration, rate))
 
 
-MAX_SAMPLES = 10_000_000
-"""Most samples of a trajectory (over a gigabyte of poses; 28 hours of motion at 100 Hz)."""
+MAX_SAMPLES = MAX_TRAJECTORY_SAMPLES
+"""Most samples of a trajectory (:data:`dloplan.bounds.MAX_TRAJECTORY_SAMPLES`)."""
 
 
 def sample_times(duration: float, rate: float) -> np.ndarray:

@@ -6,6 +6,10 @@ job needs one (the harness insertion: the fingers let go of the cable lying in t
 close again outside the fixtures before pulling). The **cycle time** is the motion time plus
 the action time, broken down into phases (:class:`Cycle`).
 
+Every robot program carries the cycle's actions as gripper commands (:meth:`GripperAction.
+commands`): a grasp closes the fingers and waits its duration, a release opens them, a regrasp
+opens them for its ``opening`` part and closes them for the rest (docs/cells.md, docs/robot.md).
+
 Default durations, for a YuMi smart gripper (fingers at up to 25 mm/s): closing the fingers
 10 mm onto the cable and building up the grip force takes about 0.5 s, opening them 10 mm
 0.4 s.
@@ -27,6 +31,9 @@ DEFAULT_RELEASE_TIME = 0.4
 
 ACTIONS = ("grasp", "release", "regrasp")
 
+COMMANDS = ("open", "close")
+"""What a gripper is told to do: open or close its fingers."""
+
 
 @dataclass(frozen=True)
 class GripperAction:
@@ -39,11 +46,15 @@ class GripperAction:
         The knot of the motion where it happens (0: before the motion; the last knot: after).
     duration : float
         [s] (> 0).
+    opening : float
+        [s] A regrasp's first part, while the fingers open (0 < opening < duration; the rest
+        they close); 0 for a grasp or a release.
     """
 
     name: str
     knot: int
     duration: float
+    opening: float = 0.0
 
     def __post_init__(self) -> None:
         if self.name not in ACTIONS:
@@ -52,12 +63,30 @@ class GripperAction:
             raise ValueError(f"{self.name}.knot: got {self.knot!r}, expected a knot index >= 0")
         object.__setattr__(self, "knot", int(self.knot))
         object.__setattr__(self, "duration", positive(f"{self.name}.duration", self.duration))
+        opening = float(self.opening)
+        if self.name == "regrasp" and not 0.0 < opening < self.duration:
+            raise ValueError(f"regrasp.opening: got {self.opening!r}, expected the opening part "
+                             f"of the regrasp, in (0, {self.duration}) s")
+        if self.name != "regrasp" and opening != 0.0:
+            raise ValueError(f"{self.name}.opening: got {self.opening!r}, expected 0 (only a "
+                             "regrasp opens and closes)")
+        object.__setattr__(self, "opening", opening)
 
     @classmethod
     def regrasp_at(cls, knot: int, release: float = DEFAULT_RELEASE_TIME,
                    grasp: float = DEFAULT_GRASP_TIME) -> GripperAction:
         """A release followed by a grasp at ``knot``."""
-        return cls("regrasp", knot, positive("release", release) + positive("grasp", grasp))
+        return cls("regrasp", knot, positive("release", release) + positive("grasp", grasp),
+                   release)
+
+    def commands(self) -> tuple[tuple[str, float], ...]:
+        """The gripper commands of the action in order: (``"open"`` or ``"close"``, the wait
+        after it [s]); their waits add up to the duration."""
+        if self.name == "grasp":
+            return (("close", self.duration),)
+        if self.name == "release":
+            return (("open", self.duration),)
+        return (("open", self.opening), ("close", self.duration - self.opening))
 
 
 @dataclass(frozen=True)
@@ -89,9 +118,17 @@ class Phase:
 
 @dataclass(frozen=True, eq=False)
 class Cycle:
-    """A job's timeline: motion intervals and gripper actions in order."""
+    """A job's timeline: motion intervals and gripper actions in order.
+
+    Attributes
+    ----------
+    phases : tuple of Phase
+    actions : tuple of GripperAction
+        The gripper actions in the order they run (what every robot program carries).
+    """
 
     phases: tuple[Phase, ...]
+    actions: tuple[GripperAction, ...] = ()
 
     @property
     def motion_time(self) -> float:
@@ -175,11 +212,13 @@ def plan_cycle(trajectory, actions=None, motion_phases=None) -> Cycle:
     times = trajectory.times
     clock = 0.0
     out: list[Phase] = []
+    done: list[GripperAction] = []
 
     def act(k: int) -> None:
         nonlocal clock
         for action in waits.pop(k, []):
             out.append(Phase(action.name, "action", clock, action.duration, (k, k)))
+            done.append(action)
             clock += action.duration
 
     act(0)
@@ -190,8 +229,9 @@ def plan_cycle(trajectory, actions=None, motion_phases=None) -> Cycle:
             clock += float(times[b] - times[a])
             act(b)
     act(last)
-    return Cycle(tuple(out))
+    return Cycle(tuple(out), tuple(done))
 
 
-__all__ = ["ACTIONS", "DEFAULT_GRASP_TIME", "DEFAULT_RELEASE_TIME", "Cycle", "GripperAction",
+__all__ = ["ACTIONS", "COMMANDS", "DEFAULT_GRASP_TIME", "DEFAULT_RELEASE_TIME", "Cycle",
+           "GripperAction",
            "Phase", "plan_cycle"]

@@ -30,6 +30,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
+from ..bounds import SLOWEST
+
 DEFAULT_MAX_SPEED = 0.1
 """TCP speed limit [m/s] (thesis 7.3: 100 mm/s)."""
 
@@ -82,7 +84,9 @@ class MotionLimits:
     Raises
     ------
     ValueError
-        For a limit that is not a finite number > 0 (a zero jerk cannot move anything).
+        For a limit that is not a finite number of at least :data:`SLOWEST` (a zero jerk cannot
+        move anything; 1e-300 m/s would take longer than the universe has existed and leaves
+        the time-optimal law's solver without a solution).
     """
 
     speed: float = DEFAULT_MAX_SPEED
@@ -94,7 +98,11 @@ class MotionLimits:
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            object.__setattr__(self, f.name, positive(f.name, getattr(self, f.name)))
+            value = positive(f.name, getattr(self, f.name))
+            if value < SLOWEST:
+                raise ValueError(f"{f.name}: got {value:g}, expected at least {SLOWEST:g} (SI "
+                                 "units: 0.01 mm/s moves a metre in 28 hours)")
+            object.__setattr__(self, f.name, value)
 
     def scaled(self, factor: float) -> MotionLimits:
         """The same limits with acceleration and jerk (linear and angular) times ``factor``."""
@@ -112,5 +120,6 @@ __all__ = [
     "DEFAULT_MAX_JERK",
     "DEFAULT_MAX_SPEED",
     "MotionLimits",
+    "SLOWEST",
     "positive",
 ]

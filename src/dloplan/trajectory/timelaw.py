@@ -48,7 +48,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from ruckig import InputParameter, Result, Ruckig
+from ruckig import InputParameter, Result, Ruckig, RuckigError
 from ruckig import Trajectory as RuckigTrajectory
 
 from .limits import MotionLimits
@@ -112,9 +112,15 @@ class Profile:
         request.max_acceleration = [acceleration]
         request.max_jerk = [jerk]
         result = RuckigTrajectory(1)
-        status = Ruckig(1).calculate(request, result)
-        if status != Result.Working:  # pragma: no cover - ruckig solves every finite input
-            raise RuntimeError(f"ruckig: {status} for limits {velocity}, {acceleration}, {jerk}")
+        try:
+            status = Ruckig(1).calculate(request, result)
+        except RuckigError as exc:  # limits far outside any robot's (MotionLimits bounds them)
+            raise ValueError(f"trajectory: no jerk-limited motion under the limits (path "
+                             f"parameter) v {velocity:g}, a {acceleration:g}, j {jerk:g} "
+                             f"({str(exc).strip().splitlines()[0]})") from None
+        if status != Result.Working:
+            raise ValueError(f"trajectory: ruckig: {status} for the limits (path parameter) "
+                             f"v {velocity:g}, a {acceleration:g}, j {jerk:g}")
         phases = result.profiles[0][0]
         return cls(np.r_[0.0, np.cumsum(phases.t)], np.array(phases.p[:-1]),
                    np.array(phases.v[:-1]), np.array(phases.a[:-1]), np.array(phases.j))

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..inputs import read_text
 from ..io.files import atomic_write_text
 from ..io.poses import canonical_quaternions, pose_from_dict, transform_dict
 from . import _deps
@@ -192,9 +193,9 @@ def read_calibration(path) -> ExtrinsicCalibration:
     """Read a calibration JSON written by :func:`write_calibration` (or by hand)."""
     where = str(path)
     try:
-        data = json.loads(Path(path).read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ValueError(f"{where}: cannot read a camera calibration: {exc}") from exc
+        data = json.loads(read_text(path, kind="camera calibration (JSON)"))
+    except (json.JSONDecodeError, RecursionError) as exc:
+        raise ValueError(f"{where}: not a camera calibration (not valid JSON: {exc})") from None
     if not isinstance(data, dict) or data.get("format") != CALIBRATION_FORMAT:
         raise ValueError(f"{where}: expected a JSON object with format {CALIBRATION_FORMAT!r}")
     transform = data.get("camera_to_robot")

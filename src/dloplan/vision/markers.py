@@ -16,11 +16,11 @@ import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..inputs import read_text
 from ..io.poses import pose_from_dict
 from . import _deps
 from .camera import CameraIntrinsics, normalize_pixels, project_normalized
@@ -98,9 +98,9 @@ def read_marker_layout(path) -> MarkerLayout:
     """
     where = str(path)
     try:
-        data = json.loads(Path(path).read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ValueError(f"{where}: cannot read a marker layout: {exc}") from exc
+        data = json.loads(read_text(path, kind="marker layout (JSON)"))
+    except (json.JSONDecodeError, RecursionError) as exc:
+        raise ValueError(f"{where}: not a marker layout (not valid JSON: {exc})") from None
     if not isinstance(data, dict) or not isinstance(data.get("markers"), list):
         raise ValueError(f"{where}: expected an object with a 'markers' list")
     poses = {}

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..geometry import as_shape
+from ..inputs import read_text
 from ..io.files import atomic_write_text
 
 SHAPES_FORMAT = "dloplan-shapes"
@@ -165,7 +166,7 @@ def _shapes_from_csv(text: str, where: str) -> list[RegisteredShape]:
 def _shapes_from_json(text: str, where: str) -> list[RegisteredShape]:
     try:
         data = json.loads(text)
-    except json.JSONDecodeError as exc:
+    except (json.JSONDecodeError, RecursionError) as exc:
         raise ValueError(f"{where}: not valid JSON: {exc}") from exc
     if not isinstance(data, dict) or not isinstance(data.get("shapes"), list):
         raise ValueError(f"{where}: expected an object with a 'shapes' list")
@@ -202,8 +203,5 @@ def read_shapes(path) -> list[RegisteredShape]:
     suffix = Path(path).suffix.lower()
     if suffix not in (".csv", ".json"):
         raise ValueError(f"path: {where!r} has suffix {suffix!r}, expected .csv or .json")
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ValueError(f"{where}: cannot read: {exc}") from exc
+    text = read_text(path, kind="shape file (.csv or .json)")
     return _shapes_from_csv(text, where) if suffix == ".csv" else _shapes_from_json(text, where)

@@ -1,0 +1,189 @@
+"""Fill numba's on-disk cache with every kernel a run uses, in parallel processes.
+
+dloplan's compiled kernels (``@dloplan.jit.njit(cache=True)``) are compiled on their first call
+and loaded from ``__pycache__`` afterwards. Compiling all of them costs about 100 s of CPU, which
+the first ``dloplan demo`` after an install, or the first test of each test worker, would
+otherwise wait for. ``make`` runs ``python -m dloplan.warmup`` once after installing, so a fresh
+clone's first ``make demo`` starts warm and ``make test``'s workers load rather than compile
+(two test workers on an empty cache both compile the kernels they share).
+
+A kernel is compiled for the argument types of its call, so the warm-up calls the kernels the
+way the commands do: it runs small real jobs (:data:`EXERCISES`), each in the processes of a
+pool with one process per core, the longest first. A kernel two exercises need at the same
+moment is compiled by both (numba has no lock between compilations); the saves are safe
+(:mod:`dloplan.jit`), and the exercises are chosen to share little. Exercises started after a
+kernel was saved load it.
+
+Run: ``python -m dloplan.warmup [--workers N]``; it prints each exercise's time and the kernels
+compiled, and exits 1 naming an exercise that failed (the kernels it compiled stay cached).
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+
+
+def _demo_mapping(**changes) -> dict:
+    """The embedded demo's scenario mapping, with top-level sections replaced."""
+    from importlib import resources
+
+    from .io.scenario import read_mapping
+
+    with resources.as_file(resources.files("dloplan.data").joinpath("demo.yaml")) as path:
+        return {**read_mapping(path), **changes}
+
+
+def _job(**changes):
+    from .app.load import resolve_mapping
+
+    return resolve_mapping(_demo_mapping(**changes), "warm-up")
+
+
+def _straight_path(job):
+    """The job's start and target as a two-shape path (a motion the robot can be checked on
+    without planning one)."""
+    import numpy as np
+
+    return np.stack([job.start, job.target])
+
+
+def plan_path() -> None:
+    """The demo's planner: target check, the three stages, stabilization, obstacle re-planning
+    (the static solver, the advanced stage's Newton systems, the box distance search)."""
+    from .pipeline.stages import plan_path
+
+    plan_path(_job())
+
+
+def robot_program() -> None:
+    """The YuMi's program of a motion: gripper frames, IK of every target, the path check."""
+    from .pipeline.stages import plan_motion, plan_program
+
+    job = _job()
+    grippers, trajectory = plan_motion(job, _straight_path(job))
+    plan_program(job.robot, grippers, trajectory)
+
+
+def twist() -> None:
+    """The torsion solve of a motion under its gripper frames."""
+    from .pipeline.stages import gripper_frames, plan_twist
+
+    job = _job()
+    path = _straight_path(job)
+    plan_twist(job.cable, path, gripper_frames(job, path))
+
+
+def plan_verify() -> None:
+    """``dloplan plan --verify`` of the demo: what the exercises above leave (stability,
+    snap-through continuation, dynamic replay, the repair loop's checks)."""
+    from .pipeline.plan import make_plan
+
+    make_plan(_job(), verify=True)
+
+
+def described_cell() -> None:
+    """A plan on two Franka Pandas: a described cell's IK, placement and program."""
+    from .pipeline.plan import make_plan
+
+    make_plan(_job(robot={"cell": {"preset": "panda_pair", "separation": 1.0}, "place": True},
+                   repair={"placement": True}))
+
+
+def dynamics_with_torsion() -> None:
+    """``dloplan simulate --torsion`` of a plan: the explicit time stepping with twist."""
+    from .pipeline.stages import run_job, simulate_plan
+
+    doc = run_job(_job(planner={"n_shapes": 2}), check_robot=False)
+    simulate_plan(doc, torsion=True)
+
+
+def study() -> None:
+    """A study chunk: the batched equilibria and the obstacle checks."""
+    from .app.study import study_problem_of
+    from .pipeline.stages import run_job
+    from .study import draw_samples, evaluate_chunk, parse_study
+    from .study.run import chunk_items
+
+    problem = study_problem_of(run_job(_job(planner={"n_shapes": 2}), check_robot=False))
+    spec = parse_study({"samples": 4, "parameters": {"youngs_modulus": {"spread": 10},
+                                                     "obstacle_position": {"spread": 1}}})
+    samples = draw_samples(spec, problem.cable, problem.obstacles)
+    evaluate_chunk(problem, chunk_items(samples, 4, [0])[0])
+
+
+EXERCISES = {
+    "plan path": plan_path,
+    "robot program": robot_program,
+    "twist": twist,
+    "plan --verify": plan_verify,
+    "simulate --torsion": dynamics_with_torsion,
+    "study": study,
+    "described cell": described_cell,
+}
+"""The warm-up's jobs in the order they are started. The first three compile disjoint kernel
+sets (the static solver and planner, about 55 % of the demo's compilation; the IK, 30 %; the
+torsion solver, 20 %): on two processes the first takes one while the other two follow each
+other on the second, so that when the demo's ``plan --verify`` starts it finds them cached and
+compiles only the replay's stepping; the last three add what the demo does not use (measured
+with numba's compile events: docs/performance.md)."""
+
+
+def kernel_files(root: Path | None = None) -> int:
+    """The number of compiled overloads (``*.nbc``) cached under dloplan's folder."""
+    root = Path(__file__).parent if root is None else root
+    return sum(1 for _ in root.rglob("__pycache__/*.nbc"))
+
+
+def run_exercise(name: str) -> tuple[str, float, str]:
+    """One exercise in a pool process: (name, seconds, error or "")."""
+    import warnings
+
+    start = time.perf_counter()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            EXERCISES[name]()
+    except Exception as exc:  # noqa: BLE001 - reported, the other exercises go on
+        return name, time.perf_counter() - start, f"{type(exc).__name__}: {exc}"
+    return name, time.perf_counter() - start, ""
+
+
+def warm(workers: int | None = None, progress=print, exercises=None) -> bool:
+    """Run the exercises (default :data:`EXERCISES`, by name) on ``workers`` processes
+    (default: one per core); True if all ran."""
+    workers = workers or os.cpu_count() or 1
+    names = list(EXERCISES if exercises is None else exercises)
+    before = kernel_files()
+    start = time.perf_counter()
+    context = multiprocessing.get_context("spawn")  # fresh interpreters: nothing half-loaded
+    ok = True
+    with ProcessPoolExecutor(min(workers, len(names)), mp_context=context) as pool:
+        futures = [pool.submit(run_exercise, name) for name in names]
+        for future in as_completed(futures):
+            name, seconds, error = future.result()
+            ok = ok and not error
+            progress(f"warm-up: {name} {seconds:.1f} s" + (f" FAILED: {error}" if error else ""))
+    progress(f"warm-up: {kernel_files() - before} kernels compiled and cached in "
+             f"{time.perf_counter() - start:.1f} s on {workers} processes")
+    return ok
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m dloplan.warmup",
+                                     description=__doc__.splitlines()[0])
+    parser.add_argument("--workers", type=int, default=None,
+                        help="processes (default: one per core)")
+    args = parser.parse_args(argv)
+    if args.workers is not None and args.workers < 1:
+        parser.error(f"--workers: got {args.workers}, expected an integer >= 1")
+    return 0 if warm(args.workers) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,35 @@
+"""The kernel warm-up that `make` runs after installing (dloplan.warmup)."""
+
+from __future__ import annotations
+
+import pytest
+
+from dloplan import warmup
+
+
+def test_an_exercise_runs_in_a_pool_process_and_is_reported():
+    lines = []
+    assert warmup.warm(workers=1, progress=lines.append, exercises=["study"])
+    assert lines[0].startswith("warm-up: study ") and "FAILED" not in lines[0]
+    assert "kernels compiled and cached in" in lines[-1]
+
+
+def test_a_failing_exercise_is_named_with_its_error(monkeypatch):
+    def broken():
+        raise ValueError("no such scenario")
+
+    monkeypatch.setitem(warmup.EXERCISES, "broken", broken)
+    name, _, error = warmup.run_exercise("broken")
+    assert name == "broken" and error == "ValueError: no such scenario"
+
+
+def test_every_exercise_is_a_documented_function():
+    assert list(warmup.EXERCISES)[:3] == ["plan path", "robot program", "twist"]
+    assert all(callable(f) and f.__doc__ for f in warmup.EXERCISES.values())
+
+
+def test_bad_worker_count_is_refused(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        warmup.main(["--workers", "0"])
+    assert exit_.value.code == 2
+    assert "--workers: got 0, expected an integer >= 1" in capsys.readouterr().err
