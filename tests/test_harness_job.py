@@ -23,6 +23,7 @@ from dloplan.harness import (
     tension_state,
     whole_shape,
 )
+from dloplan.harness.held import held_model
 from dloplan.physics.chain import SpringChain, link_tensions
 from dloplan.sim.clips import clip_poses_from_shape
 from dloplan.trajectory import trajectory_from_grippers
@@ -211,6 +212,24 @@ def test_a_soft_cable_is_carried_taut_and_its_phase_2_settled_on_the_board(usb, 
     assert np.allclose(end.u_axes, [f.axis for f in usb.board.fixtures], atol=1e-9)
     summary = harness_summary(usb)
     assert (summary["approach"], summary["phase2"]) == ("taut", usb.phases.phase2_kind)
+
+
+def test_the_checks_follow_the_settled_phases_the_plan_wrote():
+    # the seam: the held model the checks run on follows the cable from the plan's shapes and
+    # clip poses as the settled phases did, so it rests where the plan says it does; within the
+    # resampling of the section onto the planning's 10 links (a few mm), not the centimetres a
+    # gravity-free phase 2 was off
+    cable = catalogue_cable("ethernet", n_links=N_LINKS)
+    result = run_harness(cable, demo_start(cable), demo_board(cable), SETTINGS)
+    assert result.phases.phase2_kind.startswith("settled")
+    ins = result.insertion
+    clips = [result.grippers.clip_poses(k) for k in range(len(result.shapes))]
+    sections = np.stack([ins.lowering[0].shape, ins.inserted.shape,
+                         ins.tensioned.equilibrium.shape])
+    model = held_model(cable, result.board, result.shapes, clips, result.knots, ins.offset,
+                       ins.tensioned.section.n_links, sections)
+    for phase, path in model.paths.items():
+        assert path.settle_distance < 5e-3, phase
 
 
 def test_insertion_pose_keeps_the_clearance_and_lines_up_with_the_fixtures():
