@@ -3,8 +3,9 @@
 Run: PYTHONPATH=src python benchmarks/bench_harness_verify.py [usb ethernet pu]
 Prints, per example file (examples/harness_*.yaml): the wall and CPU time of the planning and
 of the verification, the wall time of the held model (the configurations followed through the
-job), of the stability, snap-through and replay checks, then the verdict table per phase (docs/harness.md, "Verification"). The host is
-shared (2 cores, several sessions): the times say what costs what, not how fast it is.
+job), of the stability, snap-through and replay checks, then the verdict table per phase
+(docs/harness.md, "Verification"). The host is shared (2 cores, several sessions): the times
+say what costs what, not how fast it is.
 
 Measured on a shared host (load 11-13 on its 2 cores: wall times are 4-7 times the CPU times,
 so the CPU times are what compares). Verification CPU time before (main before the harness2
