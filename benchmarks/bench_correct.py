@@ -12,7 +12,7 @@ Part 2, plants: every example plan (sagging demo, 3D Ethernet, embedded U demo) 
 
 * ``chain``: dloplan's own chain on 100 links (the same physics, finer);
 * ``mujoco``: MuJoCo 3.x's elastic cable (``tests/plants.py``: capsules on ball joints, Cosserat
-  bending and twist, welded grippers; 2 segments per model link, so only the grip-L/n cases;
+  bending and twist, welded grippers; 5 segments per model link, ``MUJOCO_SEGMENTS``;
   optional, skipped when ``mujoco`` is missing),
 
 one factor at a time around the base case (n = 20, E x2, each gripper clamping one model link
@@ -21,9 +21,10 @@ correction early (shape 1) and late (T - 1). Columns: final mean error against t
 stabilized target (curves at equal arc length) open loop and closed loop [mm], their ratio,
 the floor (the least error any correction of the target's clips leaves that plant,
 ``reachable_error``; ``--no-floor`` skips it), the correction's prediction interval of the final
-error [mm] and whether it covers the plant's, whether the correction as ``dloplan correct``
-writes it passes ``dloplan verify`` (``written``: checked, written, read back and verified) or
-what refused it, and the correction's CPU time [ms]. 1 mm noise, 200 points.
+error [mm] and whether it covers the plant's, the clamp length the correction estimated [mm]
+("model": not told by the measurement, the model's L / n kept), whether the correction as
+``dloplan correct`` writes it passes ``dloplan verify`` (``written``: checked, written, read
+back and verified) or what refused it, and the correction's CPU time [ms]. 1 mm noise, 200 points.
 
 Run: ``PYTHONPATH=tests python benchmarks/bench_correct.py [--plants chain,mujoco] [--no-floor]``.
 Timings on this machine are shared with other sessions (2 cores); read the CPU column.
@@ -126,6 +127,11 @@ def part1(folder: Path) -> None:
                   f"timed from outside): {lines[-1] if lines else done.stderr.strip()}")
 
 
+MUJOCO_SEGMENTS = 5
+"""MuJoCo segments per model link: a grip of 0.8 L / n is 4 whole segments, and the cable comes
+to rest at the examples' n = 12 (2 per link did not)."""
+
+
 def plants(names):
     out = {"chain": lambda cable, clamp, links: Plant(cable.with_links(100), noise=NOISE,
                                                       n_measured=POINTS, seed=1, clamp=clamp)}
@@ -136,10 +142,9 @@ def plants(names):
         except ImportError as exc:
             print(f"mujoco plant skipped: {exc} (pip install dloplan[plants])")
         else:
-            # 2 segments per model link (one link's grip is whole segments; 0.8 of it rounds
-            # to the same 2: the MuJoCo rows are the grip-L/n cases), within the time of a run
             out["mujoco"] = lambda cable, clamp, links: MujocoPlant(
-                cable.with_links(2 * links), noise=NOISE, n_measured=POINTS, seed=1, clamp=clamp)
+                cable.with_links(MUJOCO_SEGMENTS * links), noise=NOISE, n_measured=POINTS,
+                seed=1, clamp=clamp)
     return {k: v for k, v in out.items() if k in names}
 
 
@@ -162,7 +167,7 @@ def part2(names, floor: bool, folder: Path, plans, n_cases: int = 7) -> None:
     print("\nPart 2: plants; final mean error [mm] against the plan's stabilized target")
     print(f"{'plan':>12} {'n':>3} {'plant':>7} {'E':>5} {'grip':>6} {'K':>2} {'open':>7} "
           f"{'closed':>7} {'ratio':>6} {'floor':>6} {'interval':>13} {'cover':>5} "
-          f"{'CPU ms':>6}  written?")
+          f"{'clamp':>7} {'CPU ms':>6}  written?")
     makers = plants(names)
     for name, source in SCENARIOS.items():
         if name not in plans:
@@ -178,8 +183,6 @@ def part2(names, floor: bool, folder: Path, plans, n_cases: int = 7) -> None:
                      (base_n, 0.5, 1.0, "mid"), (base_n, 10.0, 1.0, "mid"),
                      (base_n, 2.0, 0.8, "mid"), (base_n, 2.0, 1.0, "early"),
                      (base_n, 2.0, 1.0, "late")][:n_cases]
-            if plant_name == "mujoco":  # its 2 segments per link cannot clamp 0.8 of one
-                cases = [c for c in cases if c[2] == 1.0]
             for n, factor, grip, when in dict.fromkeys(cases):
                 doc = docs[n]
                 cable = doc.cable
@@ -209,13 +212,15 @@ def part2(names, floor: bool, folder: Path, plans, n_cases: int = 7) -> None:
                     cover = "yes" if low <= run.closed_loop_error <= high else "NO"
                     written = written_and_verified(replace(doc), c, folder)
                     cpu = f"{1e3 * c.cpu_seconds:.0f}"
+                    clamp = (f"{1e3 * (1 + 0.5 * c.model.grip) * cable.rest_link_length:.1f}"
+                             if c.model.grip_estimated else "model")
                 else:
-                    interval, cover, cpu = "-", "-", "-"
+                    interval, cover, cpu, clamp = "-", "-", "-", "-"
                     written = "refused: " + "; ".join(run.refusals)[:70]
                 print(f"{name:>12} {n:>3} {plant_name:>7} x{factor:<4g} {grip:>4.1f}L/n "
                       f"{at:>2} {1e3 * run.open_loop_error:>7.2f} "
                       f"{1e3 * run.closed_loop_error:>7.2f} {run.improvement:>6.1f} "
-                      f"{floor_mm:>6} {interval:>13} {cover:>5} {cpu:>6}  {written}"
+                      f"{floor_mm:>6} {interval:>13} {cover:>5} {clamp:>7} {cpu:>6}  {written}"
                       f"  [plant {plant_seconds:.0f} s CPU]", flush=True)
 
 

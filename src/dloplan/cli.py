@@ -239,7 +239,7 @@ def _cmd_correct(args: argparse.Namespace) -> int:
     console = Console(args.quiet)
     doc = document_of(args.plan, progress=console.stage, allow_placement=args.allow_placement)
     options = dict(mode=args.mode, reference=args.reference, modulus_steps=args.modulus_steps,
-                   model_error=args.model_error)
+                   model_error=args.model_error, grip=args.grip)
     if args.serve:
         return _serve_corrections(doc, options)
     if args.at is None or args.measured is None:
@@ -804,6 +804,11 @@ def build_parser() -> argparse.ArgumentParser:
     correct.add_argument("--model-error", choices=["discretization", "modulus"],
                          default="discretization",
                          help="identify E and the discretization bias (default), or E alone")
+    correct.add_argument("--grip", choices=["estimate", "model"], default="estimate",
+                         help="the clamp length (where the gripper's jaws end on the cable): "
+                         "estimated with E and the bias when the measurement tells it, else the "
+                         "model's with its uncertainty in the interval (default), or always "
+                         "the model's")
     correct.add_argument("--no-verify", action="store_true",
                          help="skip the physics verification of the corrected plan (stability, "
                          "snap-through, replay); its robot programs are still checked")

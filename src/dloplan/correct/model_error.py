@@ -84,10 +84,25 @@ def clamped_equilibrium(cable: Cable, guess, clips: ClipPoses, clamp_links: int 
     return x, stable, message
 
 
-def discretization_error(cable: Cable, shape: np.ndarray, clips: ClipPoses, *,
-                         gravity=GRAVITY, fine_chain: SpringChain | None = None,
-                         fine_guess: np.ndarray | None = None) -> np.ndarray:
-    """d = R_n[x_2n] - x_n: the Richardson direction of the model's discretization error.
+MAX_GRIP = 1.0
+"""Largest clamp-length change accepted, in half model links (:func:`model_error_directions`'
+g): the gripper's jaws end within half a link of where the model's held link ends."""
+
+
+def model_error_directions(cable: Cable, shape: np.ndarray, clips: ClipPoses, *, grip: bool,
+                           gravity=GRAVITY, fine_chain: SpringChain | None = None,
+                           fine_guess: np.ndarray | None = None):
+    """d, the Richardson direction of the discretization error, and g, the response to the
+    clamp length.
+
+    The chain on 2 n links is clamped over 2 of its links (the model's grip, L / n) and, with
+    ``grip``, over 3 (half a model link more):
+
+        d = R_n[x_2n,2] - x_n,        g = R_n[x_2n,3] - R_n[x_2n,2],
+
+    R_n resampling by arc length onto the model's n + 1 points. A real gripper's jaws end
+    somewhere near the clip, not exactly where the model's held link does; a clamp of
+    (1 + beta / 2) L / n changes the shape by about beta g (:func:`fit_model_error`).
 
     Parameters
     ----------
@@ -97,133 +112,127 @@ def discretization_error(cable: Cable, shape: np.ndarray, clips: ClipPoses, *,
         (n + 1, 3) its stable equilibrium x_n at ``clips`` [m].
     clips : ClipPoses
         The clip poses.
+    grip : bool
+        Also compute g (one more solve on 2 n links).
     gravity : array_like
         Gravity [m/s^2].
     fine_chain : SpringChain, optional
         The chain of ``cable.with_links(2 n)`` (saves its construction in loops).
     fine_guess : numpy.ndarray, optional
         (2 n + 1, 3) start of the refined solve [m] (default ``shape`` resampled; the refined
-        shape of a nearby modulus saves iterations). Overwritten with the refined equilibrium.
+        shape of a nearby modulus saves iterations). Overwritten with the refined equilibrium
+        clamped over 2 links.
 
     Returns
     -------
-    numpy.ndarray
-        (n + 1, 3) [m]; x_inf - x_n is about 2 d.
+    tuple
+        ``(d, g)``, each (n + 1, 3) [m] (x_inf - x_n is about 2 d; g per L / (2 n) of clamp
+        length); g is None without ``grip``.
     """
     fine = cable.with_links(2 * cable.n_links)
     if fine_chain is None:
         fine_chain = SpringChain.from_cable(fine, gravity)
     guess = resample_by_arc_length(shape, fine.n_points) if fine_guess is None else fine_guess
-    x, stable, message = clamped_equilibrium(fine, guess, clips, 2, gravity=gravity,
-                                             chain=fine_chain)
-    if not stable:
-        raise CorrectionRefused(f"model: the refined model (n = {fine.n_links}) finds no stable "
-                                f"equilibrium at these clip poses ({message})")
-    if fine_guess is not None:
-        fine_guess[:] = x
-    return resample_by_arc_length(x, cable.n_points) - shape
+    resampled = []
+    for links in (2, 3) if grip else (2,):
+        guess, stable, message = clamped_equilibrium(fine, guess, clips, links, gravity=gravity,
+                                                     chain=fine_chain)
+        if not stable:
+            raise CorrectionRefused(f"model: the refined model (n = {fine.n_links}) clamped over "
+                                    f"{links} links finds no stable equilibrium ({message})")
+        if links == 2 and fine_guess is not None:
+            fine_guess[:] = guess
+        resampled.append(resample_by_arc_length(guess, cable.n_points))
+    return resampled[0] - shape, (resampled[1] - resampled[0] if grip else None)
 
 
-def fit_model_error(jacobian: np.ndarray, direction: np.ndarray | None,
-                    residual: np.ndarray) -> tuple[float, float]:
-    """Least-squares (delta log E, alpha) with residual ~ J delta + alpha d.
+def discretization_error(cable: Cable, shape: np.ndarray, clips: ClipPoses, *,
+                         gravity=GRAVITY, fine_chain: SpringChain | None = None,
+                         fine_guess: np.ndarray | None = None) -> np.ndarray:
+    """d = R_n[x_2n] - x_n (n + 1, 3) [m]: :func:`model_error_directions` without g."""
+    return model_error_directions(cable, shape, clips, grip=False, gravity=gravity,
+                                  fine_chain=fine_chain, fine_guess=fine_guess)[0]
+
+
+def grip_direction(cable: Cable, shape: np.ndarray, clips: ClipPoses, *,
+                   gravity=GRAVITY) -> np.ndarray:
+    """g (n + 1, 3) [m] per L / (2 n) of clamp length: :func:`model_error_directions`' second
+    direction, for the prediction's uncertainty (:mod:`.step`)."""
+    return model_error_directions(cable, shape, clips, grip=True, gravity=gravity)[1]
+
+
+BOUNDS = ((0.0, MAX_ALPHA), (-MAX_GRIP, MAX_GRIP))
+"""The ranges of the directions' amplitudes (alpha, beta) :func:`fit_model_error` accepts."""
+
+
+def fit_model_error(jacobian: np.ndarray, directions, residual: np.ndarray
+                    ) -> tuple[float, np.ndarray]:
+    """Least-squares (delta log E, amplitudes) with residual ~ J delta + sum_k c_k D_k.
 
     Parameters
     ----------
     jacobian : numpy.ndarray
-        (n + 1, 3) d x / d log E [m].
-    direction : numpy.ndarray or None
-        (n + 1, 3) the discretization direction d [m]; None fits delta alone (alpha = 0).
+        (n + 1, 3) d x / d log E [m] (zeros: the amplitudes alone).
+    directions : sequence of numpy.ndarray
+        The error directions D_k (n + 1, 3) [m]: none (E alone), d, or d and g
+        (:func:`model_error_directions`).
     residual : numpy.ndarray
         (n + 1, 3) measured minus predicted [m].
 
     Returns
     -------
-    tuple of float
-        ``(delta, alpha)``; alpha clipped to [0, :data:`MAX_ALPHA`] (delta refitted then).
+    tuple
+        ``(delta, amplitudes)``: amplitudes (len(directions),), alpha clipped to
+        [0, :data:`MAX_ALPHA`], beta to [-:data:`MAX_GRIP`, :data:`MAX_GRIP`] (:data:`BOUNDS`);
+        the others refitted with a clipped one held.
     """
-    j, r = jacobian.ravel(), residual.ravel()
-    jj = float(j @ j)
-    if direction is None:
-        return (float(j @ r) / jj if jj > 0 else 0.0), 0.0
-    d = direction.ravel()
-    a = np.stack([j, d], axis=1)
-    delta, alpha = np.linalg.lstsq(a, r, rcond=1e-10)[0]
-    if not 0.0 <= alpha <= MAX_ALPHA:
-        alpha = float(np.clip(alpha, 0.0, MAX_ALPHA))
-        delta = float(j @ (r - alpha * d)) / jj if jj > 0 else 0.0
-    return float(delta), float(alpha)
+    r = residual.ravel()
+    columns = [jacobian.ravel()] + [d.ravel() for d in directions]
+    bounds = [(-math.inf, math.inf), *BOUNDS[: len(directions)]]
+    values = np.zeros(len(columns))
+    held = np.zeros(len(columns), dtype=bool)
+    for _ in columns:  # clip one amplitude at a time, refit the others
+        free = np.flatnonzero(~held)
+        a = np.stack([columns[k] for k in free], axis=1)
+        rest = r - sum((values[k] * columns[k] for k in np.flatnonzero(held)), np.zeros_like(r))
+        if np.any(np.abs(a).sum(axis=0) > 0):
+            values[free] = np.linalg.lstsq(a, rest, rcond=1e-10)[0]
+        out = [k for k in free if not bounds[k][0] <= values[k] <= bounds[k][1]]
+        if not out:
+            break
+        k = max(out, key=lambda k: max(bounds[k][0] - values[k], values[k] - bounds[k][1]))
+        values[k] = min(max(values[k], bounds[k][0]), bounds[k][1])
+        held[k] = True
+    return float(values[0]), values[1:]
 
 
-def log_modulus_sd(jacobian: np.ndarray, direction: np.ndarray | None,
-                   residual: np.ndarray) -> float:
-    """Standard deviation of the fitted delta log E (Gauss-Newton linearization).
+def parameter_sds(jacobian: np.ndarray, directions, residual: np.ndarray) -> np.ndarray:
+    """Standard deviations of the fitted (delta log E, amplitudes) (Gauss-Newton linearization).
 
     The residual left by the fit gives the scatter per coordinate, s^2 = |r|^2 / (N - p) (N
-    coordinates, p = 1 or 2 parameters); var(delta) = s^2 [(A^T A)^-1]_00 with A = [J, d]: the
-    discretization direction takes its share of the information when it is fitted too.
+    coordinates, p parameters); var = s^2 diag((A^T A)^-1) with A = [J, D_1, ...]: each
+    direction fitted takes its share of the information.
 
     Parameters
     ----------
     jacobian : numpy.ndarray
         (n + 1, 3) d x / d log E [m].
-    direction : numpy.ndarray or None
-        (n + 1, 3) the discretization direction d [m], or None (E alone).
+    directions : sequence of numpy.ndarray
+        The error directions fitted with it (:func:`fit_model_error`).
     residual : numpy.ndarray
         (n + 1, 3) what the fit leaves: measured minus the fitted model [m].
 
     Returns
     -------
-    float
-        sd(ln E) (inf when the shape does not depend on E).
+    numpy.ndarray
+        (1 + len(directions),) sd(ln E) first (inf where the shape does not inform it).
     """
-    columns = [jacobian.ravel()] + ([] if direction is None else [direction.ravel()])
-    a = np.stack(columns, axis=1)
+    a = np.stack([jacobian.ravel()] + [d.ravel() for d in directions], axis=1)
     dof = max(a.shape[0] - a.shape[1], 1)
     s2 = float(residual.ravel() @ residual.ravel()) / dof
-    normal = a.T @ a
     try:
-        inverse = np.linalg.inv(normal)
+        variance = s2 * np.diag(np.linalg.inv(a.T @ a))
     except np.linalg.LinAlgError:
-        return math.inf
-    variance = s2 * float(inverse[0, 0])
-    return math.sqrt(variance) if variance >= 0 and math.isfinite(variance) else math.inf
-
-
-def grip_direction(cable: Cable, shape: np.ndarray, clips: ClipPoses, *,
-                   gravity=GRAVITY) -> np.ndarray:
-    """The change of the model's shape when each gripper clamps half a link more cable.
-
-    A real gripper's jaws end somewhere near the clip, not exactly where the model's held link
-    does (L / n). The chain on 2 n links clamps 2 of its links (the model's grip) and 3 (half a
-    model link more); the difference, resampled onto the model's points, is the shape's
-    response to the clamp length, used for the prediction's uncertainty (:mod:`.step`).
-
-    Parameters
-    ----------
-    cable : Cable
-        The model cable (n links).
-    shape : numpy.ndarray
-        (n + 1, 3) its equilibrium at ``clips`` [m] (the branch).
-    clips : ClipPoses
-        The clip poses.
-    gravity : array_like
-        Gravity [m/s^2].
-
-    Returns
-    -------
-    numpy.ndarray
-        (n + 1, 3) [m] per L / (2 n) of clamp length.
-    """
-    fine = cable.with_links(2 * cable.n_links)
-    chain = SpringChain.from_cable(fine, gravity)
-    guess = resample_by_arc_length(shape, fine.n_points)
-    shapes = []
-    for links in (2, 3):
-        guess, stable, message = clamped_equilibrium(fine, guess, clips, links, gravity=gravity,
-                                                     chain=chain)
-        if not stable:
-            raise CorrectionRefused(f"model: the refined model (n = {fine.n_links}) clamped over "
-                                    f"{links} links finds no stable equilibrium ({message})")
-        shapes.append(resample_by_arc_length(guess, cable.n_points))
-    return shapes[1] - shapes[0]
+        return np.full(a.shape[1], math.inf)
+    ok = np.isfinite(variance) & (variance >= 0)
+    return np.where(ok, np.sqrt(np.where(ok, variance, 0.0)), math.inf)

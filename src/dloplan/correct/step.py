@@ -8,7 +8,9 @@ reaches shape K the cable is measured; the correction
    amplitude alpha of the discretization error d (:mod:`.model_error`) take Gauss-Newton steps
    on ||y - x_K(log E) - alpha d_K||^2 with the sensitivity J = d x / d log E
    (:mod:`dloplan.sim.sensitivity`) (``model_error="modulus"``: log E alone, delta = (J . r) /
-   (J . J)). In statics E and the mass enter only as their ratio, so this absorbs a wrong mass
+   (J . J)); with ``grip="estimate"`` the clamp length's response g joins d
+   (x_K(log E) + alpha d_K + beta g_K), kept when the measurement tells it. In statics E and the
+   mass enter only as their ratio, so this absorbs a wrong mass
    as well; what is left is reported as the unexplained residual. Each step changes E by at
    most a factor 2; they stop when one changes E by less than 1 %;
 2. **corrects the clips** so that the predicted stabilized shapes, bias included, match the
@@ -52,11 +54,12 @@ from ..sim.sensitivity import equilibrium_sensitivity, perturbed_clips
 from ..trajectory import Trajectory, trajectory_from_grippers
 from .measurement import MAX_DISAGREEMENT, CorrectionRefused, resample_measured
 from .model_error import (
+    MAX_GRIP,
     clamped_equilibrium,
-    discretization_error,
     fit_model_error,
     grip_direction,
-    log_modulus_sd,
+    model_error_directions,
+    parameter_sds,
 )
 
 REFERENCES = ("stabilized", "planned")
@@ -71,13 +74,27 @@ GRIP_UNCERTAINTY = 0.25
 """The clamp length's uncertainty in model links: a gripper's jaws end within L / (4 n) of where
 the model's held link ends (a 20 mm grip on 25 mm links is 0.2)."""
 
+GRIP_LINEARITY = 0.5
+"""The estimated clamp length's error beyond its statistics, relative to its change from the
+model's: the response g is a half-link difference, and the fit shares the residual with E and
+the discretization bias (on the chain plant a 20 mm grip on 25 mm links comes out 21-22 mm, a
+third of the change short)."""
+
 SIGNIFICANCE = 2.0
 """E is updated only when the measurement's first step is at least this many sd(ln E)."""
+
+MAX_LOG_SD = math.log(2.0)
+"""E is kept when the measurement cannot tell it within a factor 2 (sd(ln E) above this): a
+shape that hardly depends on E (the U demo: sd(ln E) = 31 with the clamp length fitted too)
+asks for steps that mean nothing, however many sd they are."""
 
 COST_TOLERANCE = 1e-3
 """The clip fit stops once an iteration lowers the squared error by less than this fraction."""
 MODES = ("target", "all")
 MODEL_ERRORS = ("discretization", "modulus")
+GRIPS = ("estimate", "model")
+"""The clamp length: estimated with E and the bias when the measurement tells it (default), or
+the model's one link with its uncertainty in the interval."""
 
 
 @dataclass(frozen=True)
@@ -141,6 +158,13 @@ class ModelUpdate:
         Standard deviation of ln E the measurement gives (inf when not computed).
     note : str
         Why E was kept, when it was ("" when it was updated).
+    grip : float
+        beta, the measured clamp length's change in half model links (:mod:`.model_error`: the
+        grippers clamp (1 + beta / 2) L / n; 0 when not estimated).
+    grip_sd : float
+        Its standard deviation (inf when the clamp length was not estimated).
+    grip_note : str
+        The clamp length estimated, or why not.
     """
 
     youngs_modulus_before: float
@@ -152,6 +176,24 @@ class ModelUpdate:
     discretization: float = 0.0
     log_sd: float = math.inf
     note: str = ""
+    grip: float = 0.0
+    grip_sd: float = math.inf
+    grip_note: str = ""
+
+    @property
+    def grip_estimated(self) -> bool:
+        """Whether the measurement told the clamp length (else the model's is kept)."""
+        return math.isfinite(self.grip_sd)
+
+    def bias(self, cable: Cable, shape: np.ndarray, clips: ClipPoses, gravity=GRAVITY
+             ) -> np.ndarray:
+        """The measured model error alpha d + beta g at ``clips`` (n + 1, 3) [m]
+        (:func:`.model_error.model_error_directions` at the model's ``shape``)."""
+        if self.discretization == 0.0 and self.grip == 0.0:
+            return np.zeros_like(shape)
+        d, g = model_error_directions(cable, shape, clips, grip=self.grip != 0.0,
+                                      gravity=gravity)
+        return self.discretization * d + (0.0 if g is None else self.grip * g)
 
 
 @dataclass(frozen=True, eq=False)
@@ -181,7 +223,9 @@ class Correction:
     uncertainty : dict
         The prediction's error budget at the target [m]: ``unexplained`` (what the updated
         model leaves at shape K: the model errors it cannot represent, measurement offset and
-        noise), ``grip`` (a clamp length L / (4 n) off the model's, :data:`GRIP_UNCERTAINTY`),
+        noise), ``grip`` (the estimated clamp length's 2 sd plus :data:`GRIP_LINEARITY` of its
+        change, or, not estimated, a clamp length L / (4 n) off the model's,
+        :data:`GRIP_UNCERTAINTY`),
         ``modulus`` (2 sd of ln E); their sum bounds the final error's prediction interval
         (:attr:`prediction_interval`). The three are None (``uncertainty`` empty) for a
         correction made with ``predict=False``.
@@ -261,6 +305,8 @@ class Correction:
         m = self.model
         bias = (f", discretization bias x{m.discretization:.2f}" if self.model_error ==
                 "discretization" else "")
+        if m.grip_estimated:
+            bias += f", clamp {1e3 * (1.0 + 0.5 * m.grip) * self.cable.rest_link_length:.1f} mm"
         head = (f"corrected at shape {self.at}: E {m.youngs_modulus_before:.3g} -> "
                 f"{m.youngs_modulus:.3g} Pa{bias} (measured vs model "
                 f"{1e3 * m.residual_before:.1f} -> {1e3 * m.residual_after:.1f} mm)")
@@ -285,6 +331,10 @@ class Correction:
             "modulus_steps": m.steps,
             "model_error": self.model_error,
             "discretization_alpha": m.discretization,
+            "grip_beta": m.grip,
+            "grip_sd": m.grip_sd if m.grip_estimated else None,
+            "clamp_length": (1.0 + 0.5 * m.grip) * self.cable.rest_link_length,
+            "grip_note": m.grip_note,
             "shapes": list(range(self.at + 1, self.at + 1 + len(self.reference))),
             **({} if self.corrected is None else {
                 "open_loop_error": self.open_loop_error.tolist(),
@@ -311,14 +361,18 @@ def _mean_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, steps: int = 3,
                    max_factor: float = 10.0, gravity=GRAVITY, guess=None,
-                   discretization: bool = False) -> ModelUpdate:
+                   discretization: bool = False, grip: bool = False) -> ModelUpdate:
     """Gauss-Newton steps in log E fitting the model's equilibrium at ``clips`` to ``measured``.
 
     With ``discretization``, each step fits log E and the amplitude alpha of the discretization
-    error together (:func:`.model_error.fit_model_error`): measured ~ x(E) + alpha d.
+    error together (:func:`.model_error.fit_model_error`): measured ~ x(E) + alpha d; with
+    ``grip`` too, the clamp length's amplitude beta as well: measured ~ x(E) + alpha d + beta g
+    (:func:`.model_error.model_error_directions`), kept only when the first step finds it at
+    least :data:`SIGNIFICANCE` standard deviations from 0 (else the clamp length stays the
+    model's and its uncertainty goes into the prediction's interval, ``ModelUpdate.grip_note``).
 
     E is only changed when the measurement tells it: a first step smaller than
-    :data:`SIGNIFICANCE` standard deviations of ln E (:func:`.model_error.log_modulus_sd`, the
+    :data:`SIGNIFICANCE` standard deviations of ln E (:func:`.model_error.parameter_sds`, the
     scatter the fit leaves) keeps E, with the reason in ``ModelUpdate.note`` (a measurement
     equal to the plan's prediction plus noise, or a shape that hardly depends on E). A step is
     at most a factor 2 in E (a trust region); steps cut by it do not count against ``steps``, so
@@ -345,6 +399,8 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         shape, already an equilibrium of ``cable`` on the same branch, saves the iterations).
     discretization : bool
         Also estimate the discretization error's amplitude (:mod:`.model_error`).
+    grip : bool
+        With ``discretization``: also estimate the clamp length when the measurement tells it.
 
     Raises
     ------
@@ -357,25 +413,36 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     chain = SpringChain.from_cable(model, gravity)
     eq = _solve(model, measured if guess is None else guess, clips, gravity, chain)
     residual0 = float(np.mean(np.linalg.norm(eq.shape - measured, axis=1)))
-    taken, alpha, direction, log_sd, note = 0, 0.0, None, math.inf, ""
+    taken, directions, log_sd, note = 0, [], math.inf, ""
+    grip = grip and discretization
+    grip_sd, grip_note = math.inf, ("" if grip else "not estimated")
     fine = resample_by_arc_length(eq.shape, 2 * cable.n_links + 1)  # refined, warm from E to E
     limit = math.log(max_factor)
     budget = steps + math.ceil(limit / MAX_LOG_STEP) + 1 if steps > 0 else 0
     full = 0
     for _ in range(budget):
         sens = equilibrium_sensitivity(model, eq.shape, clips, chain=chain)
-        if discretization:
-            direction = discretization_error(model, eq.shape, clips, gravity=gravity,
-                                             fine_guess=fine)
+        directions = _directions(model, eq.shape, clips, discretization, grip, gravity, fine)
         residual = measured - eq.shape
-        step, alpha = fit_model_error(sens.log_modulus, direction, residual)
+        step, amplitudes = fit_model_error(sens.log_modulus, directions, residual)
         if float(np.sum(sens.log_modulus**2)) <= 1e-24 * cable.length**2:
             note = "the measured shape does not depend on E here (no sag): E kept"
             break
         if taken == 0:
-            left = residual - step * sens.log_modulus - (0.0 if direction is None
-                                                          else alpha * direction)
-            log_sd = log_modulus_sd(sens.log_modulus, direction, left)
+            sds = parameter_sds(sens.log_modulus, directions,
+                                _left(residual, sens.log_modulus, step, directions, amplitudes))
+            if grip:
+                grip, grip_sd, grip_note = _grip_verdict(amplitudes[1], sds[2], model)
+                if not grip:  # the clamp length stays the model's: refit without it
+                    directions = directions[:1]
+                    step, amplitudes = fit_model_error(sens.log_modulus, directions, residual)
+                    sds = parameter_sds(sens.log_modulus, directions, _left(
+                        residual, sens.log_modulus, step, directions, amplitudes))
+            log_sd = float(sds[0])
+            if log_sd > MAX_LOG_SD:
+                note = (f"the measurement does not inform E: sd(ln E) = {log_sd:.3g}, more "
+                        f"than a factor {math.exp(MAX_LOG_SD):g}: E kept")
+                break
             if not abs(step) >= SIGNIFICANCE * log_sd:
                 note = (f"the measurement does not inform E: it asks for a change of "
                         f"{100 * math.expm1(step):+.1f} % with sd(ln E) = {log_sd:.3g} (less "
@@ -398,14 +465,44 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         full += clipped == step
         if abs(clipped) < MODULUS_STEP_TOLERANCE or full >= steps:
             break
-    if direction is not None:  # alpha at the final E (the direction barely moved with it)
-        alpha = fit_model_error(np.zeros_like(direction), direction, measured - eq.shape)[1]
-        bias = alpha * direction
-    else:
-        bias = 0.0
+    alpha = beta = 0.0
+    if directions:  # the amplitudes at the final E (the directions barely moved with it)
+        directions = _directions(model, eq.shape, clips, True, grip, gravity, fine)
+        amplitudes = fit_model_error(np.zeros_like(eq.shape), directions, measured - eq.shape)[1]
+        alpha = float(amplitudes[0])
+        beta = float(amplitudes[1]) if grip else 0.0
+    bias = sum((c * d for c, d in zip(amplitudes, directions, strict=True)), 0.0) \
+        if directions else 0.0
     residual = float(np.mean(np.linalg.norm(eq.shape + bias - measured, axis=1)))
     return ModelUpdate(cable.youngs_modulus, model.youngs_modulus, residual0, residual,
-                       taken, eq.shape, alpha, log_sd, note)
+                       taken, eq.shape, alpha, log_sd, note, beta, grip_sd, grip_note)
+
+
+def _directions(cable, shape, clips, discretization, grip, gravity, fine) -> list:
+    """The error directions fitted with E: none, [d] or [d, g] (:mod:`.model_error`)."""
+    if not discretization:
+        return []
+    d, g = model_error_directions(cable, shape, clips, grip=grip, gravity=gravity,
+                                  fine_guess=fine)
+    return [d] if g is None else [d, g]
+
+
+def _left(residual, jacobian, step, directions, amplitudes) -> np.ndarray:
+    """What the fit (delta log E, amplitudes) leaves of ``residual``."""
+    return residual - step * jacobian - sum(
+        (c * d for c, d in zip(amplitudes, directions, strict=True)), np.zeros_like(residual))
+
+
+def _grip_verdict(beta: float, sd: float, cable: Cable) -> tuple[bool, float, str]:
+    """Whether the measurement tells the clamp length: ``(estimated, sd(beta), note)``."""
+    clamp = 1e3 * cable.rest_link_length
+    if abs(beta) >= SIGNIFICANCE * sd and abs(beta) < MAX_GRIP:
+        return True, sd, (f"clamp length {clamp * (1 + beta / 2):.1f} mm (the model's "
+                          f"{clamp:.1f} mm, sd {clamp * sd / 2:.1f} mm)")
+    why = (f"at the bound of half a link ({beta:+.2f})" if abs(beta) >= MAX_GRIP else
+           f"{clamp * beta / 2:+.1f} mm from the model's with sd {clamp * sd / 2:.1f} mm")
+    return False, math.inf, (f"the measurement does not tell the clamp length ({why}): the "
+                             f"model's {clamp:.1f} mm kept, its uncertainty in the interval")
 
 
 @dataclass(frozen=True, eq=False)
@@ -567,6 +664,7 @@ def correct_plan(
     mode: str = "target",
     modulus_steps: int = 3,
     model_error: str = "discretization",
+    grip: str = "estimate",
     limits: CorrectionLimits = CorrectionLimits(),
     gravity=GRAVITY,
     predict: bool = True,
@@ -601,6 +699,10 @@ def correct_plan(
     model_error : {"discretization", "modulus"}
         What the measurement identifies: E and the amplitude of the discretization error,
         carried as a bias onto the remaining shapes (default, :mod:`.model_error`), or E only.
+    grip : {"estimate", "model"}
+        With ``model_error="discretization"``: estimate the clamp length (where the gripper's
+        jaws end on the cable) with E and the bias when the measurement tells it, else keep the
+        model's with its uncertainty in the interval (default); or always keep the model's.
     limits : CorrectionLimits
         Bounds beyond which the correction is refused.
     gravity : array_like
@@ -632,6 +734,8 @@ def correct_plan(
         raise ValueError(f"mode: got {mode!r}, expected one of {MODES}")
     if model_error not in MODEL_ERRORS:
         raise ValueError(f"model_error: got {model_error!r}, expected one of {MODEL_ERRORS}")
+    if grip not in GRIPS:
+        raise ValueError(f"grip: got {grip!r}, expected one of {GRIPS}")
     if isinstance(modulus_steps, bool) or int(modulus_steps) != modulus_steps or modulus_steps < 0:
         raise ValueError(f"modulus_steps: got {modulus_steps!r}, expected an integer >= 0")
     clips = [grippers.clip_poses(j) for j in range(len(path))]
@@ -649,7 +753,8 @@ def correct_plan(
                           max_disagreement=limits.max_disagreement)
     update = update_modulus(cable, y, clips[at], steps=modulus_steps,
                             max_factor=limits.max_modulus_factor, gravity=gravity,
-                            guess=stable[at], discretization=model_error == "discretization")
+                            guess=stable[at], discretization=model_error == "discretization",
+                            grip=grip == "estimate")
     model = cable.with_modulus(update.youngs_modulus)
     model_chain = SpringChain.from_cable(model, gravity)
     # the plan's stabilized target carried to the updated E to first order: the fit's start
@@ -662,7 +767,7 @@ def correct_plan(
     iterations = 0
     if mode == "target":  # fit the target from the plan's stabilized target, ramp it in
         p_target, _, iterations = _fit_with_bias(model, remaining[-1], wanted[-1], target_guess,
-                                                 update.discretization, limits=limits,
+                                                 update, limits=limits,
                                                  gravity=gravity, chain=model_chain)
         ramp = np.arange(1, len(remaining) + 1) / len(remaining)
         corrections = ramp[:, None] * p_target[None, :]
@@ -670,7 +775,7 @@ def correct_plan(
         corrections, fitted = [], []
         x, p = update.state, np.zeros(12)
         for c, ref in zip(remaining, wanted, strict=True):
-            p, eq, its = _fit_with_bias(model, c, ref, x, update.discretization, start=p,
+            p, eq, its = _fit_with_bias(model, c, ref, x, update, start=p,
                                         limits=limits, gravity=gravity, chain=model_chain)
             iterations += its
             x = eq.shape
@@ -702,15 +807,14 @@ def correct_plan(
                           trajectory=None, prediction_seconds=0.0, **common)
     new_trajectory = trajectory_from_grippers(new_grippers, **timing)
     # the predictions of the updated model from the measured state: planned vs corrected clips
-    alpha = update.discretization
-    open_loop = _predict(model, update.state, remaining, gravity, alpha)[1]
+    open_loop = _predict(model, update.state, remaining, gravity, update)[1]
     corrected_clips = [perturbed_clips(c, p) for c, p in zip(remaining, corrections, strict=True)]
     if mode == "all":
         equilibria = np.stack(fitted)
-        corrected = np.stack([_with_bias(model, x, c, alpha, gravity)
+        corrected = np.stack([x + update.bias(model, x, c, gravity)
                               for x, c in zip(fitted, corrected_clips, strict=True)])
     else:
-        equilibria, corrected = _predict(model, update.state, corrected_clips, gravity, alpha)
+        equilibria, corrected = _predict(model, update.state, corrected_clips, gravity, update)
     uncertainty = _uncertainty(model, equilibria[-1], corrected_clips[-1], update, gravity,
                                model_chain)
     return Correction(open_loop=open_loop, corrected=corrected, equilibria=equilibria,
@@ -719,37 +823,29 @@ def correct_plan(
 
 
 def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess: np.ndarray,
-                   alpha: float, *, start=None, limits: CorrectionLimits, gravity,
+                   update: ModelUpdate, *, start=None, limits: CorrectionLimits, gravity,
                    chain: SpringChain):
-    """:func:`fit_clips` of x_n + alpha d (:mod:`.model_error`) to ``reference``.
+    """:func:`fit_clips` of x_n + alpha d + beta g (:meth:`ModelUpdate.bias`) to ``reference``.
 
-    d is evaluated at the planned clips (plus ``start``), the clips fitted to reference - alpha
-    d, then d re-evaluated at the corrected clips and the fit repeated from there (d moves with
-    the clips: 1 mm on the demo's target for a 20 degree correction).
+    The bias is evaluated at the planned clips (plus ``start``), the clips fitted to reference
+    - bias, then the bias re-evaluated at the corrected clips and the fit repeated from there
+    (d moves with the clips: 1 mm on the demo's target for a 20 degree correction).
     """
-    if alpha == 0.0:
+    if update.discretization == 0.0 and update.grip == 0.0:
         return fit_clips(cable, clips, reference, guess, start=start, limits=limits,
                          gravity=gravity, chain=chain)
     p = np.zeros(12) if start is None else np.asarray(start, dtype=float).copy()
     eq = _solve(cable, guess, perturbed_clips(clips, p), gravity, chain)
     iterations = 0
     for _ in range(2):
-        bias = alpha * discretization_error(cable, eq.shape, eq.clips, gravity=gravity)
+        bias = update.bias(cable, eq.shape, eq.clips, gravity)
         p, eq, more = _levenberg_marquardt(cable, clips, reference - bias, eq, p, limits, gravity,
                                            chain)
         iterations += more
     return p, eq, iterations
 
 
-def _with_bias(cable: Cable, shape: np.ndarray, clips: ClipPoses, alpha: float,
-               gravity) -> np.ndarray:
-    """The model's shape plus the carried discretization bias alpha d, (n + 1, 3)."""
-    if alpha == 0.0:
-        return shape
-    return shape + alpha * discretization_error(cable, shape, clips, gravity=gravity)
-
-
-def _predict(cable: Cable, state: np.ndarray, clips, gravity, alpha: float = 0.0):
+def _predict(cable: Cable, state: np.ndarray, clips, gravity, update: ModelUpdate):
     """Quasi-static continuation from ``state`` along ``clips``: the equilibria and the same plus
     the bias, each (len(clips), n + 1, 3)."""
     runs = continuation(cable, state, clips, gravity=gravity)
@@ -758,20 +854,24 @@ def _predict(cable: Cable, state: np.ndarray, clips, gravity, alpha: float = 0.0
         raise CorrectionRefused(f"prediction: the model finds no stable equilibrium at the "
                                 f"remaining shape {failed[0]} ({runs[failed[0]].message})")
     shapes = np.stack([eq.shape for eq in runs])
-    return shapes, np.stack([_with_bias(cable, x, c, alpha, gravity)
+    return shapes, np.stack([x + update.bias(cable, x, c, gravity)
                              for x, c in zip(shapes, clips, strict=True)])
 
 
 def _uncertainty(cable: Cable, shape: np.ndarray, clips: ClipPoses, update: ModelUpdate,
                  gravity, chain: SpringChain) -> dict:
-    """The error budget of the final prediction [m] (:attr:`Correction.uncertainty`)."""
+    """The error budget of the final prediction [m] (:attr:`Correction.uncertainty`): the
+    clamp length's term is 2 sd of the estimated one plus :data:`GRIP_LINEARITY` of its change,
+    or a quarter link (:data:`GRIP_UNCERTAINTY`) when it was not estimated."""
     grip = grip_direction(cable, shape, clips, gravity=gravity)
     modulus = 0.0
     if math.isfinite(update.log_sd):
         jacobian = equilibrium_sensitivity(cable, shape, clips, chain=chain).log_modulus
         modulus = 2.0 * update.log_sd * float(np.mean(np.linalg.norm(jacobian, axis=1)))
+    spread = (2.0 * update.grip_sd + GRIP_LINEARITY * abs(update.grip) if update.grip_estimated
+              else 4.0 * GRIP_UNCERTAINTY)  # in half links, g's unit
     return {"unexplained": update.residual_after,
-            "grip": 2.0 * GRIP_UNCERTAINTY * float(np.mean(np.linalg.norm(grip, axis=1))),
+            "grip": spread * float(np.mean(np.linalg.norm(grip, axis=1))),
             "modulus": modulus}
 
 
