@@ -519,6 +519,60 @@ def test_the_prediction_interval_holds_the_unexplained_residual(plans):
     assert low <= run.closed_loop_error <= high
 
 
+@pytest.mark.parametrize("name", list(SCENARIOS))
+@pytest.mark.parametrize("factor", [1.0, 2.0])
+def test_an_unknown_grip_is_estimated_with_e_and_the_bias(plans, name, factor):
+    """A gripper that clamps 0.8 L / n (20 mm of the 25 mm model link; issue 35): the clamp
+    length is estimated from the measurement at K with E and the bias, the correction then
+    reaches further than with the model's grip, and the interval covers the plant's result.
+    Measured (chain plant, seed 1): the clamp comes out 21-22.3 mm (a third of the change short:
+    the response is a half-link difference, GRIP_LINEARITY); final error 3D 3.72 -> 1.17 mm at E
+    x2 and 2.90 -> 0.81 at E x1, demo 4.51 -> 3.36 and 4.82 -> 2.17 (grip="model" -> estimated).
+    """
+    doc, _ = plans[name]
+    cable = doc.cable
+    last = len(doc.shapes) - 1
+    errors = {}
+    for grip in ("estimate", "model"):
+        plant = Plant(cable.with_links(100).with_modulus(factor * cable.youngs_modulus),
+                      noise=NOISE, n_measured=200, seed=1, clamp=0.8 * cable.rest_link_length)
+        run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [last // 2],
+                              stabilized=_stabilized(doc), trajectory=doc.trajectory, grip=grip)
+        (correction,) = run.corrections
+        low, high = correction.prediction_interval
+        assert low <= run.closed_loop_error <= high
+        errors[grip] = run.closed_loop_error
+        model = correction.model
+        if grip == "model":
+            assert not model.grip_estimated and model.grip == 0.0
+            continue
+        assert model.grip_estimated
+        clamp = correction.report()["clamp_length"]
+        assert 0.8 * cable.rest_link_length <= clamp <= 0.92 * cable.rest_link_length
+        assert "clamp length" in model.grip_note
+    assert errors["estimate"] < 0.8 * errors["model"]
+
+
+def test_the_model_error_fit_and_its_standard_deviations():
+    """fit_model_error recovers (delta, alpha) with beta 0 when the data hold no grip, and
+    parameter_sds then finds beta within 2 sd of 0 (the clamp stays the model's); an amplitude
+    out of its bounds is held there and the others refitted."""
+    from dloplan.correct.model_error import fit_model_error, parameter_sds
+
+    rng = np.random.default_rng(3)
+    j, d, g = (rng.normal(size=(21, 3)) for _ in range(3))
+    noise = rng.normal(size=(21, 3))
+    delta, (alpha, beta) = fit_model_error(j, [d, g], 0.3 * j + 0.5 * d + 0.01 * noise)
+    assert delta == pytest.approx(0.3, abs=0.01) and alpha == pytest.approx(0.5, abs=0.01)
+    left = 0.3 * j + 0.5 * d + 0.01 * noise - delta * j - alpha * d - beta * g
+    sds = parameter_sds(j, [d, g], left)
+    assert abs(beta) < 2 * sds[2]  # no grip in the data: not significant
+    # a clipped amplitude is held at its bound and the others refitted
+    delta, (alpha, beta) = fit_model_error(j, [d, g], 0.3 * j - 1.0 * d + 0.2 * g)
+    assert alpha == 0.0
+    assert beta == pytest.approx(0.2, abs=0.15)
+
+
 def test_the_warm_service_answers_as_the_command_corrects(plans, monkeypatch, capsys):
     import io
 
