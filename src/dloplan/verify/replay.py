@@ -56,7 +56,14 @@ from ..geometry import as_path
 from ..physics.chain import SpringChain, link_tensions
 from ..physics.contact import penetrations
 from ..sim.clips import ClipPoses
-from ..sim.dynamics import SCHEDULE_INTERVAL, ClipTrajectory, Simulation, simulate
+from ..sim.dynamics import (
+    SCHEDULE_INTERVAL,
+    SCHEMES,
+    ClipTrajectory,
+    IndefiniteStep,
+    Simulation,
+    simulate,
+)
 from ..trajectory import TimeLaw, interpolate_poses, sample_times
 from ._inputs import as_times
 
@@ -65,6 +72,9 @@ MAX_RECORDS = 100_000
 
 CLIP_RATE = 1000.0
 """Rate [Hz] at which :func:`clip_motion` samples the clip poses along a time law."""
+
+IMPLICIT_STEP = 1.0 / CLIP_RATE
+"""Time step [s] of the implicit replay: the clip samples' spacing (docs/decisions.md)."""
 
 CONTACT_GAP = 0.05
 """A recorded point touches an obstacle when its surface is closer than this fraction of the
@@ -262,6 +272,7 @@ def replay(
     friction: float = 0.0,
     cable_at=None,
     record_interval: float | None = None,
+    scheme: str = "auto",
 ) -> Replay:
     """Simulate the timed plan at its real speed and compare with the planned shapes.
 
@@ -303,6 +314,12 @@ def replay(
     torsion : bool
         Simulate with twist (quasi-static angles, :func:`dloplan.sim.dynamics.simulate`): the
         gripper frames then matter, not only the held links' directions. Slower (~2 ms/step).
+    scheme : {"auto", "explicit", "implicit"}
+        Time stepping (module docstring, *Scheme*): ``"explicit"`` the thesis' eq. 3.24 at
+        its time step; ``"implicit"`` linearly implicit Euler at :data:`IMPLICIT_STEP` (or
+        ``dt``); ``"auto"`` (default) implicit where it applies (no torsion, contacts,
+        changing cable or tensile limit), explicit otherwise and when an implicit step finds
+        the chain's stiffness indefinite.
 
     Returns
     -------
@@ -340,8 +357,12 @@ def replay(
     shifted = ClipTrajectory(clips.times - start, clips.poses)
     knots = knots - start
     motion = float(shifted.times[-1])
+    if scheme not in ("auto", *SCHEMES):
+        raise ValueError(f"scheme: got {scheme!r}, expected 'auto', 'explicit' or 'implicit'")
     model = fictitious_cable(cable, youngs_modulus_cap)
-    step = dt if dt is not None else model.time_step()
+    implicit = scheme == "implicit" or (scheme == "auto" and not torsion and not len(contacts)
+                                        and cable_at is None and tensile_limit is None)
+    step = dt if dt is not None else IMPLICIT_STEP if implicit else model.time_step()
     changing = None
     if cable_at is not None:
         def changing(t: float) -> Cable:
@@ -352,15 +373,22 @@ def replay(
     duration = motion + settle_duration
     spacing = np.diff(knots)
     finest = float(np.min(spacing)) / 20.0 if len(spacing) else duration
-    longest = max(step, duration / MAX_RECORDS) if record_interval is None else max(
-        step, float(record_interval))
-    record = min(longest, finest)
-    run = simulate(
-        model, path[0], shifted, duration=duration, dt=step,
-        gravity=gravity, record_interval=record, rest_speed=rest_speed, max_steps=max_steps,
-        damping=damping, torsion=torsion, contacts=contacts, friction=friction,
-        cable_at=changing,
-    )
+
+    def run_with(step: float, scheme: str) -> Simulation:
+        longest = max(step, duration / MAX_RECORDS) if record_interval is None else max(
+            step, float(record_interval))
+        return simulate(model, path[0], shifted, duration=duration, dt=step, gravity=gravity,
+                        record_interval=min(longest, finest), rest_speed=rest_speed,
+                        max_steps=max_steps, damping=damping, torsion=torsion,
+                        contacts=contacts, friction=friction, cable_at=changing,
+                        scheme=scheme)
+
+    try:
+        run = run_with(step, "implicit" if implicit else "explicit")
+    except IndefiniteStep:
+        if scheme == "implicit":
+            raise
+        run = run_with(model.time_step() if dt is None else dt, "explicit")
     deviations = np.array([_deviation_at(run, t, x) for t, x in zip(knots, path, strict=True)])
     final = float(np.max(np.linalg.norm(run.shapes[-1] - path[-1], axis=1)))
     timing = law if law is not None else TimeLaw.constant_speed(knots)
