@@ -352,7 +352,9 @@ class _Segment:
         positions = ((1.0 - w)[:, None, None] * self.start.positions
                      + w[:, None, None] * self.end.positions)
         keys = np.stack([self.start.rotations.as_quat(), self.end.rotations.as_quat()])
-        return positions, slerp_quaternions(np.array([0.0, 1.0]), keys, w)
+        quaternions = slerp_quaternions(np.array([0.0, 1.0]), keys, w)
+        # contiguous: the compiled loop is compiled for one memory layout
+        return np.ascontiguousarray(positions), np.ascontiguousarray(quaternions)
 
     def forcings(self, fractions: np.ndarray) -> np.ndarray:
         """(m,) :meth:`forcing` of each sub-step between consecutive fractions [m]."""
