@@ -268,8 +268,8 @@ def verify_path(
         progress("verification: stability, snap-through and replay of the plan before its "
                  "rigid move reused")
         stability, snap_check, run = physics.stability, physics.snap, physics.replay
-        if len(stability) != len(path) or (snap_check is None) != (snap and len(path) > 1) or (
-                run is None) != (times is None):
+        if len(stability) != len(path) or (snap_check is not None) != (
+                snap and len(path) > 1) or (run is None) != (times is None):
             raise ValueError("physics: a verification of another path or of other checks")
     messages += [f"shape {k}: {s.message}" for k, s in enumerate(stability) if not s.stable]
     messages += [] if snap_check is None else [e.message for e in snap_check.events]
