@@ -14,6 +14,10 @@ so are obstacles (pegs, plates, boxes, the table: ``contacts``,
 wire-harness section that gets shorter as the grippers pull it through the fixtures) takes its
 constants at each millisecond.
 
+``scheme="implicit"`` steps by linearly implicit Euler instead
+(:func:`dloplan.sim.stepping.implicit_steps`), stable at a step set by the motion (the replay's
+1 ms) while the chain's stiffness is positive definite.
+
 Running this to rest takes 10^4 to 10^6 steps; :mod:`dloplan.sim.statics` finds the same rest
 shape directly. The simulator is kept for what only it can do: replaying a timed plan at its
 real speed (inertia, overshoot) and reproducing the thesis' own stabilization.

@@ -1,4 +1,4 @@
-"""The explicit time stepping of eq. 3.24, compiled: a chunk of steps in one call.
+"""The time stepping of eq. 3.24 (and its implicit variant), compiled: a chunk of steps in one call.
 
 One step of the semi-implicit Euler scheme (thesis 3.8) with the fictitious damping k_d::
 
@@ -15,7 +15,8 @@ twisting force, also without Python per step.
 
 :func:`explicit_steps` runs the steps of one chunk of clip targets, records shapes at the
 recording interval, and stops early at rest or when the state diverges: no Python per step.
-:func:`dloplan.sim.dynamics.simulate` drives it.
+:func:`implicit_steps` does the same by linearly implicit Euler (a banded solve per step, no
+contacts). :func:`dloplan.sim.dynamics.simulate` drives them.
 """
 
 from __future__ import annotations
