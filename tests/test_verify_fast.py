@@ -194,3 +194,54 @@ def test_what_is_not_a_rigid_move_is_verified_again(moved):
     # other checks asked for than were run: not reused either
     fewer = verify_plan(placed, robot=False, snap=False, reuse=(doc, before))
     assert fewer.snap is None and "replay" in fewer.timings
+
+
+@pytest.mark.parametrize("damping", ["absolute", "relative"])
+def test_implicit_step_is_the_backward_euler_system_solved_densely(damping):
+    # (M + dt k_d D + dt^2 H) v+ = M v + dt F over the free points, the held points' v+ the
+    # clips', written out with the numpy gradient and the sparse Hessian: the same steps to
+    # round-off (dt = 5 ms: 150 explicit steps each; a stiff PU hose, compressed and moved)
+    from scipy.spatial.transform import Rotation
+
+    from dloplan.physics.chain import SpringChain, gradient, hessian
+    from dloplan.sim.clips import ClipPoses
+    from dloplan.sim.dynamics import ClipTrajectory, simulate
+    from dloplan.sim.statics import equilibrium
+
+    cable = catalogue_cable("pu", 8)
+    facing = Rotation.from_rotvec([[0, 0, 0], [0, 0, math.pi]])
+    first = ClipPoses(np.array([[0, 0, 0.3], [0.4, 0, 0.3]]), facing)
+    last = ClipPoses(np.array([[0, 0, 0.3], [0.3, 0.05, 0.32]]), facing)
+    guess = np.zeros((9, 3))
+    guess[:, 0] = np.linspace(-0.05, 0.45, 9)
+    start = equilibrium(cable, guess, first).shape
+    trajectory = ClipTrajectory(np.array([0.0, 0.1]), [first, last])
+    dt, steps = 5e-3, 40
+    run = simulate(cable, start, trajectory, duration=steps * dt, dt=dt, damping=damping,
+                   record_interval=dt, scheme="implicit")
+    chain = SpringChain.from_cable(cable)
+    n_dof = 3 * cable.n_points
+    laplacian = np.diag(np.r_[1.0, 2.0 * np.ones(cable.n_points - 2), 1.0]) - \
+        np.eye(cable.n_points, k=1) - np.eye(cable.n_points, k=-1)
+    damper = np.kron(laplacian if damping == "relative" else np.eye(cable.n_points), np.eye(3))
+    mass = np.repeat(cable.point_masses, 3)
+    held = np.r_[0:6, n_dof - 6:n_dof]
+    free = np.r_[6:n_dof - 6]
+    x, v = start.ravel().copy(), np.zeros(n_dof)
+    previous = trajectory.held_points(np.array([0.0]), cable.rest_link_length)[0].ravel()
+    x[held] = previous
+    for step in range(1, steps + 1):
+        shape = x.reshape(-1, 3)
+        system = np.diag(mass) + dt * cable.k_damping * damper + \
+            dt**2 * hessian(chain, shape).toarray()
+        target = trajectory.held_points(np.array([step * dt]), cable.rest_link_length)[0]
+        new = np.zeros(n_dof)
+        new[held] = (target.ravel() - previous) / dt
+        rhs = mass * v - dt * gradient(chain, shape).ravel() - system @ new
+        new[free] = np.linalg.solve(system[np.ix_(free, free)], rhs[free])
+        v, x = new, x + dt * new
+        x[held] = previous = target.ravel()
+        assert np.max(np.abs(run.shapes[step] - x.reshape(-1, 3))) < 1e-11
+    assert run.steps == steps
+    with pytest.raises(ValueError, match="implicit"):
+        simulate(cable, start, trajectory, duration=0.1, scheme="implicit")  # no dt
