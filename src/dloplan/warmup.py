@@ -135,8 +135,9 @@ EXERCISES = {
 sets (the static solver and planner, about 55 % of the demo's compilation; the IK, 30 %; the
 torsion solver, 20 %): on two processes the first takes one while the other two follow each
 other on the second, so that when the demo's ``plan --verify`` starts it finds them cached and
-compiles only the replay's (implicit) stepping and the snap check's continuation; the last three add what the demo does not use (measured
-with numba's compile events: docs/performance.md)."""
+compiles only the replay's (implicit) stepping and the snap check's continuation; the last
+three add what the demo does not use (measured with numba's compile events:
+docs/performance.md)."""
 
 
 def kernel_files(root: Path | None = None) -> int:
