@@ -239,7 +239,8 @@ def verify_path(
         A verification of the same physics (the same path moved rigidly about the vertical:
         :func:`dloplan.pipeline.reuse.moved_rigidly`): its stability, snap-through and replay
         are taken instead of run (their timings are not recorded), only the reachability is
-        new. The caller vouches for the sameness.
+        new. The caller vouches for the sameness; the shapes those results hold (the
+        continuation's, the replay's records) stay in the frame of the plan they were run on.
 
     Returns
     -------
