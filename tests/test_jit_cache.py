@@ -7,12 +7,15 @@ is forced here: each saver waits after reading the index until the others have r
 
 from __future__ import annotations
 
+import os
+import signal
 import threading
 
 import pytest
 from numba.core import caching
 
 from dloplan import jit
+from dloplan.interrupts import Interrupted, catching_interrupts
 
 fcntl = pytest.importorskip("fcntl")
 
@@ -80,3 +83,22 @@ def test_a_numba_without_the_cache_internals_keeps_its_own_save(monkeypatch):
     monkeypatch.delattr(caching.IndexDataCacheFile, "_save_index")
     assert jit.install_cache_lock() is False
     assert caching.IndexDataCacheFile.save is jit.NUMBA_SAVE
+
+
+def test_a_signal_during_a_cached_load_is_raised_after_the_load(monkeypatch):
+    """A Ctrl-C that comes while numba rebuilds a cached overload waits for the rebuild to end
+    (a half-linked library segfaulted, 1 in 20 Ctrl-Cs in identify), then ends the run."""
+    jit.install_cache_lock()
+    assert caching.Cache.load_overload is jit.shielded_load
+    steps = []
+
+    def load(cache, sig, context):
+        steps.append("started")
+        os.kill(os.getpid(), signal.SIGINT)  # delivered at the next byte code
+        steps.append("finished")
+        return "overload"
+
+    monkeypatch.setattr(jit, "NUMBA_LOAD", load)
+    with catching_interrupts(), pytest.raises(Interrupted):
+        jit.shielded_load(None, None, None)
+    assert steps == ["started", "finished"]

@@ -66,6 +66,7 @@ _pending: list[int] = []  # the signals received while catching_interrupts was o
 _shields = [0]  # nesting depth of shielded() blocks in the main thread
 _busy = [False]  # a worker process is running a task (task())
 _worker = [False]  # this process is a pool's worker (worker_signals())
+_ending: list[int] = []  # the signal a busy worker is ending by (its clean-up running)
 
 
 def pending_signal() -> int | None:
@@ -151,9 +152,12 @@ def catching_interrupts() -> Iterator[None]:
 
 
 def _end_worker(signum, frame) -> None:
-    if _busy[0]:
+    if _busy[0] and not _ending:
+        _ending.append(signum)
         raise Interrupted(signum)
-    os._exit(exit_code(signum))  # between tasks: nothing to clean up
+    # between tasks nothing to clean up; a second signal during the clean-up of the first
+    # (the parent's SIGTERM after a terminal's SIGHUP) ends it quietly with the first's code
+    os._exit(exit_code(_ending[0] if _ending else signum))
 
 
 def worker_signals() -> None:

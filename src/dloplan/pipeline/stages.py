@@ -311,7 +311,9 @@ def with_program(doc: PlanDocument, program) -> PlanDocument:
     """The document with its robot program section (and its failure among the warnings). A
     program that the cell verified with the job shifted on the table (a described cell's own
     placement search, ``robot.place``, on only when the job may be moved) records the shift as
-    the document's placement: the cable must lie there for it."""
+    the document's placement: the cable must lie there for it. When the program slowed the
+    trajectory down (a joint over its speed limit), the document's trajectory and cycle are
+    the program's timing."""
     from ..robot.cell_program import cell_name
     from ..robot.reachability import format_offset
 
@@ -324,8 +326,13 @@ def with_program(doc: PlanDocument, program) -> PlanDocument:
         placement = PlacementSection(True, 0.0, np.zeros(3), shift, (
             f"the job file's start and target offset {format_offset(shift)} m (the "
             f"{cell_name(program.cell)} cell's placement search)"))
+    timing = {}
+    if program.trajectory is not None and program.trajectory is not doc.trajectory:
+        timing = {"trajectory": program.trajectory, "verification": None,
+                  "cycle": None if doc.cycle is None else retimed_cycle(doc.cycle,
+                                                                        program.trajectory)}
     return replace(doc, robot=section, program=program, warnings=doc.warnings + failures,
-                   placement=placement)
+                   placement=placement, **timing)
 
 
 def program_of(doc: PlanDocument):
