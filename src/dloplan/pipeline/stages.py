@@ -43,6 +43,7 @@ from .document import (
     document_cell,
 )
 from .job import HarnessJob, Job
+from .reuse import moved_rigidly
 
 TESTED_MODULI = (1e5, 1e11)
 """Young's moduli [Pa] the solvers are tested on (tests/test_statics.py): a plan outside them
@@ -420,7 +421,7 @@ def replay_modulus_cap(cable, progress=quiet) -> float | None:
 
 def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
                 robot: bool = True, tensile_limit=None, tolerance: float = 0.01,
-                progress=quiet):
+                progress=quiet, reuse=None):
     """Verify a plan document: stability, snap-through, robot reachability, dynamic replay.
 
     The reachability columns are those of the robot program (:func:`program_of`): the exported
@@ -433,6 +434,12 @@ def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
     (:func:`dloplan.pipeline.harness.verify_harness_plan`, a
     :class:`~dloplan.harness.verification.HarnessVerification`): ``tensile_limit``, when
     given, replaces the cable's rated load the plan records.
+
+    ``reuse``, a pair (document, its verification), gives a verification of this plan before
+    a rigid move on the table (a placement repair): when ``doc`` is that document turned about
+    the vertical and shifted (:func:`dloplan.pipeline.reuse.moved_rigidly`) and it ran the
+    same physics checks, its stability, snap-through and replay are kept and only the robot
+    checks run again.
     """
     from ..verify import verify_path
 
@@ -448,13 +455,26 @@ def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
     reach = None
     if robot and doc.trajectory is not None:
         reach = program_reachability(program_of(doc), len(doc.shapes))
+    physics = None
+    if reuse is not None and _same_checks(reuse[1], snap, times is not None, tolerance,
+                                          tensile_limit) and moved_rigidly(reuse[0], doc):
+        physics = reuse[1]
     return verify_path(doc.cable, settled_shapes(doc), doc.clip_poses(), times=times, snap=snap,
                        replay_options={"tolerance": tolerance, "tensile_limit": tensile_limit,
                                        "law": None if doc.trajectory is None
                                        else doc.trajectory.law,
                                        "youngs_modulus_cap": replay_modulus_cap(doc.cable,
                                                                                 progress)},
-                       reachability=reach, progress=progress)
+                       reachability=reach, progress=progress, physics=physics)
+
+
+def _same_checks(verification, snap: bool, replay: bool, tolerance: float,
+                 tensile_limit) -> bool:
+    """The verification ran the physics checks asked for, with the same replay settings."""
+    run = verification.replay
+    if (verification.snap is not None) != snap or (run is not None) != replay:
+        return False
+    return run is None or (run.tolerance == tolerance and run.tensile_limit == tensile_limit)
 
 
 def with_verification(doc: PlanDocument, verification) -> PlanDocument:
