@@ -49,7 +49,7 @@ def main() -> None:
                 print(f"  {fmt:10s} {1e3 * (time.perf_counter() - t0):7.1f} ms, "
                       f"{len(files)} files, {size / 1e3:7.1f} kB")
         if name.startswith("cells"):
-            from dloplan.robot.chain import forward
+            from dloplan.robot.kinematics import forward
 
             motion = program.joint_motion(trajectory)
             t = np.arange(0.0, motion.duration, 1 / 500)

@@ -21,6 +21,16 @@ with the vectorized numpy ``solve_many``, 0.080 s and 0.294 s with it compiled t
 (``solve_batch``: the same solve per problem; 4.9x and 3.2x). ``dloplan plan`` of the q1 example
 (qualitative1_curved_pa12.yaml: its repair searches 61 placements) 173 s -> 17.6 s (repair
 167 s -> 11.7 s), with the same repair chosen.
+
+One kinematics API for every cell (issue 32: the YuMi's arms are CellArms, one compiled solve
+for every arm, seeds given up when their error stalls) and the controller's semantics (issue
+31: the arm angle held as a 7th task row, every written robtarget solved back from 96 seeds,
+peak joint speeds along the time law). Shared host (another helper's jobs running), best of 3
+CPU, OMP/OPENBLAS_NUM_THREADS=1, before (ed58a84) -> after: IK seeded 0.20 -> 0.21 ms CPU per
+pose, from home without restarts 0.74 -> 0.64 ms (success 84 % -> 81 %: a stalled seed is
+given up); the 50-pose path 0.149 -> 0.136 s; the placement search 0.249 -> 0.181 s; the robot
+program of the 7-shape job 0.094 -> 0.208 s CPU and of the 50-shape job 0.388 -> 1.21 s CPU:
+the round trip (a new check, 96 seeds per target and arm) and the peaks along the law.
 """
 
 from __future__ import annotations

@@ -7,13 +7,23 @@ Before (main 11d9c62, 2026-11-30, quiet): demo replay 0.25-0.26 s, of which 0.14
 scipy ``Rotation`` objects for the clips' slerp; with ``frames.slerp_quaternions`` 0.18 s,
 with the held points from the quaternions' x-axes (``frames.quaternion_x_axes``) 0.17 s (load 1.2).
 
-Run: PYTHONPATH=src python benchmarks/bench_verify.py
+Fast against reference paths (issue 34, docs/performance.md section 1): for shipped examples
+(planned once, without the robot), the snap-through check and the replay timed in this process,
+CPU seconds (best of ``--repeats``, the two alternating), the reference being the Python loop
+of the continuation (``compiled=False``) and the thesis' explicit replay (``scheme="explicit"``),
+with the largest difference of their knot deviations and whether the verdicts agree.
+
+Run: PYTHONPATH=src python benchmarks/bench_verify.py [--examples NAME ...] [--repeats 2]
 """
 
 from __future__ import annotations
 
+import argparse
 import math
+import os
 import time
+from functools import partial
+from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -97,7 +107,65 @@ def demo_timing(repeats: int = 5) -> None:
         print(f"  {check:<10} {seconds:8.3f} s{versus}")
 
 
+EXAMPLES = ("qualitative1_curved_pa12", "m1_sine_pu_hose", "m2_uniform_curvature_pa12",
+            "fig4_8_straight_to_bent", "qualitative2_ethernet_3d", "m2_uniform_curvature_usb")
+
+
+def cpu_of(fn, repeats: int):
+    """(best CPU seconds, last result) of ``repeats`` calls."""
+    best, out = math.inf, None
+    for _ in range(repeats):
+        start = time.process_time()
+        out = fn()
+        best = min(best, time.process_time() - start)
+    return best, out
+
+
+def fast_against_reference(names, repeats: int) -> None:
+    from dloplan.app import load_job
+    from dloplan.pipeline.stages import replay_modulus_cap, run_job, settled_shapes
+    from dloplan.verify.replay import replay
+    from dloplan.verify.snap import check_snap_through
+
+    root = Path(__file__).resolve().parent.parent / "examples"
+    print(f"\nfast against reference paths, CPU s, best of {repeats} (load average "
+          f"{os.getloadavg()[0]:.1f}; a shared host)")
+    print(f"{'example':<27} {'snap ref':>8} {'fast':>6} {'x':>5}  {'replay ref':>10} {'fast':>6} "
+          f"{'x':>5}  {'steps ref/fast':>15} {'max dDev um':>11} {'verdicts':>8}")
+    for name in names:
+        doc = run_job(load_job(root / f"{name}.yaml"), check_robot=False)
+        args = (doc.cable, settled_shapes(doc), doc.clip_poses())
+        options = dict(knot_times=doc.trajectory.times, law=doc.trajectory.law,
+                       youngs_modulus_cap=replay_modulus_cap(doc.cable))
+        snaps, replays = {}, {}
+        for fast in (False, True) * repeats:  # alternating
+            snaps.setdefault(fast, []).append(cpu_of(partial(
+                check_snap_through, *args, compiled=fast), 1))
+            replays.setdefault(fast, []).append(cpu_of(partial(
+                replay, *args, scheme="implicit" if fast else "explicit", **options), 1))
+        (s_ref, snap_ref), (s_fast, snap_fast) = (min(snaps[f], key=lambda t: t[0])
+                                                  for f in (False, True))
+        (r_ref, run_ref), (r_fast, run_fast) = (min(replays[f], key=lambda t: t[0])
+                                                for f in (False, True))
+        same = (snap_ref.message == snap_fast.message and run_ref.ok == run_fast.ok
+                and run_ref.settled == run_fast.settled)
+        worst = 1e6 * float(np.max(np.abs(run_ref.deviations - run_fast.deviations)))
+        steps = f"{run_ref.simulation.steps}/{run_fast.simulation.steps}"
+        print(f"{name:<27} {s_ref:8.3f} {s_fast:6.3f} {s_ref / s_fast:5.1f}  {r_ref:10.3f} "
+              f"{r_fast:6.3f} {r_ref / r_fast:5.1f}  {steps:>15} {worst:11.2f} "
+              f"{'same' if same else 'DIFFER':>8}")
+
+
 if __name__ == "__main__":
-    eigen_scaling()
-    path_timing()
-    demo_timing()
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--examples", nargs="*", default=list(EXAMPLES),
+                        help="example file stems for the fast/reference comparison")
+    parser.add_argument("--repeats", type=int, default=2)
+    parser.add_argument("--only-examples", action="store_true",
+                        help="skip the eigen-solve, path and demo timings")
+    cli = parser.parse_args()
+    if not cli.only_examples:
+        eigen_scaling()
+        path_timing()
+        demo_timing()
+    fast_against_reference(cli.examples, cli.repeats)

@@ -11,15 +11,15 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from dloplan.robot import arm_clearance, forward, yumi
-from dloplan.robot.chain import CellArm, capsules, in_base_frame, inverse, rotation_vector
-from dloplan.robot.chain import forward as chain_forward
+from dloplan.robot.chain import CellArm, capsules, in_base_frame
 from dloplan.robot.description import (
     capsule_from_points,
     capsules_from_points,
     load_arm,
     vendored,
 )
-from dloplan.robot.kinematics import IKOptions
+from dloplan.robot.kinematics import IKOptions, inverse
+from dloplan.robot.kinematics import forward as chain_forward
 from dloplan.robot.reachability import ReachOptions
 from dloplan.robot.urdf_cell import (
     PRESETS,
@@ -116,22 +116,35 @@ def test_panda_hand_tcp_is_franka_hand_frame():
     np.testing.assert_allclose(_pose(arm, q), expected, atol=1e-12)
 
 
-def test_yumi_from_its_description_equals_robot_yumi():
-    """Same FK (to 1e-9) and the same arm-arm capsule clearance as dloplan.robot.yumi."""
+def test_yumi_from_its_vendored_urdf_equals_robot_yumi():
+    """The vendored yumi.urdf, read like any description (yourdfpy), gives the chains of
+    dloplan.robot.yumi (the YuMi cell's arms): the same FK to 1e-9 and the same arm-arm
+    capsule clearance (its capsules are written as cylinders of the same axes and radii)."""
+    from dloplan.robot.description import load_arm, vendored
+
     robot, described = yumi(), yumi_cell()
+    assert described.left is not None and described.shared_base
     rng = np.random.default_rng(5)
     q = {a.name: rng.uniform(a.lower, a.upper, (200, 7)) for a in robot.arms}
-    for old, new in zip(robot.arms, described.arms, strict=True):
+    loaded = []
+    for old in robot.arms:
+        urdf = load_arm(vendored("yumi.urdf"), f"yumi_link_7_{old.name[0]}",
+                        base_link="yumi_body", name=f"yumi_{old.name}")
+        new = CellArm(old.name, urdf, tcp_offset=old.tcp_offset, tcp_rotation=old.tcp_rotation,
+                      home=old.home)
+        loaded.append(new)
         assert new.joint_names == old.joint_names
         np.testing.assert_allclose(new.lower, old.lower, atol=0)
-        np.testing.assert_allclose(new.description.max_velocity, old.max_velocity, atol=0)
+        np.testing.assert_allclose(new.max_velocity, old.max_velocity, atol=0)
         p0, r0 = forward(old, q[old.name])
         p1, r1 = chain_forward(new, q[old.name])
         np.testing.assert_allclose(p1, p0, atol=1e-9)
         np.testing.assert_allclose(r1.as_matrix(), r0.as_matrix(), atol=1e-9)
     expected, _ = arm_clearance(robot.left, q["left"], robot.right, q["right"])
-    got = pair_clearance(described, q["left"], q["right"])
+    got, _ = arm_clearance(loaded[0], q["left"], loaded[1], q["right"], shared_base=True)
     np.testing.assert_allclose(got, expected, atol=1e-9)
+    np.testing.assert_allclose(pair_clearance(described, q["left"], q["right"]), expected,
+                               atol=1e-12)
 
 
 @pytest.mark.parametrize("name", sorted(PRESETS))
@@ -158,11 +171,11 @@ def test_ik_of_fk_round_trips_on_every_cell(name):
 
 @pytest.mark.parametrize("name", sorted(PRESETS))
 def test_compiled_chain_ik_is_the_numpy_reference(name):
-    """Every cell's compiled solve and its numpy reference iterate alike, from random seeds to
-    reachable poses and to poses out of reach (where the error stalls): the same iterations and
-    verdict; a converged solve's joints to 1e-9 rad, a failed one's errors to 0.1 %."""
-    from dloplan.robot.chain import solve_from, solve_reference
-    from dloplan.robot.ik_compiled import rotation_vector as compiled_vector
+    """Every cell's compiled solve (the one solve of :mod:`dloplan.robot.kinematics`) and its
+    numpy reference iterate alike, from random seeds to reachable poses and to poses out of
+    reach (where the error stalls): the same iterations and verdict; a converged solve's
+    joints to 1e-9 rad, a failed one's errors to 0.1 %."""
+    from dloplan.robot.kinematics import solve_from, solve_reference
 
     rng = np.random.default_rng(8)
     options = IKOptions()
@@ -175,30 +188,19 @@ def test_compiled_chain_ik_is_the_numpy_reference(name):
             seed = np.clip(q[i] + rng.normal(0.0, 0.6, arm.n_joints), arm.lower, arm.upper)
             mine = solve_from(arm, pos[i], rot[i].as_matrix(), seed, options)
             ref = solve_reference(arm, pos[i], rot[i].as_matrix(), seed, options)
-            assert mine[3:] == ref[3:]
+            assert (mine.iterations, mine.success) == ref[3:]
             tolerance = 1e-9 if ref[4] else 1e-3
-            assert np.abs(mine[0] - ref[0]).max() < tolerance
-            assert mine[1] == pytest.approx(ref[1], rel=1e-3, abs=1e-12)
-            assert mine[2] == pytest.approx(ref[2], rel=1e-3, abs=1e-12)
+            assert np.abs(mine.q - ref[0]).max() < tolerance
+            assert mine.position_error == pytest.approx(ref[1], rel=1e-3, abs=1e-12)
+            assert mine.angle_error == pytest.approx(ref[2], rel=1e-3, abs=1e-12)
             verdicts.append(ref[4])
     assert any(verdicts) and not all(verdicts)
-    for m in Rotation.random(50, random_state=9).as_matrix():
-        np.testing.assert_allclose(compiled_vector(m), rotation_vector(m), atol=1e-12)
 
 
 def test_ik_out_of_reach_is_reported_not_raised():
     arm = cell("ur5e_pair").left
     result = inverse(arm, arm.shoulder + [2.0, 0.0, 0.0], Rotation.identity())
     assert not result.success and "out of reach" in result.message
-
-
-def test_rotation_vector_matches_scipy_up_to_pi():
-    rots = Rotation.random(500, random_state=7)
-    got = np.array([rotation_vector(m) for m in rots.as_matrix()])
-    np.testing.assert_allclose(got, rots.as_rotvec(), atol=1e-12)
-    half_turn = Rotation.from_rotvec([0.0, np.pi, 0.0])
-    back = Rotation.from_rotvec(rotation_vector(half_turn.as_matrix()))
-    np.testing.assert_allclose(back.as_matrix(), half_turn.as_matrix(), atol=1e-12)
 
 
 def test_capsule_from_points_encloses_and_is_tight_for_a_cylinder():

@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 
 from dloplan.pipeline.document import cycle_actions
 from dloplan.robot.actions import program_timeline
-from dloplan.robot.chain import forward
+from dloplan.robot.kinematics import forward
 from dloplan.robot.urdf_cell import (
     PANDA_TCP_IN_CLIP,
     cell_from_mapping,

@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 from dloplan.cable import Cable
 from dloplan.harness import Fixture
 from dloplan.harness.held import stub_sag
-from dloplan.harness.insertion import section_cable
+from dloplan.harness.section import section_cable
 from dloplan.obstacles import Box, Cylinder, Table
 from dloplan.physics.chain import SpringChain, link_tensions
 from dloplan.physics.contact import contact_gradient, contact_hessian_blocks
@@ -244,3 +244,27 @@ def test_a_section_shortened_slowly_in_the_simulator_ends_in_its_static_state():
                    damping="absolute", rest_speed=1e-6, dt=shorter.time_step())
     end = equilibrium(shorter, run.shapes[-1], clips)
     assert np.abs(run.shapes[-1] - end.shape).max() < 1e-4
+
+
+@pytest.mark.parametrize("name", ["usb", "ethernet"])
+def test_the_compiled_contact_newton_loop_takes_the_generic_loops_steps(name, monkeypatch):
+    # sim.contact_newton claims the same decisions in the same order as the generic
+    # trust-region loop: a section settled on the demo board (peg, plate, table) from the
+    # weightless insertion pose reaches the same shape in the same number of iterations when
+    # the obstacles' compiled rows are withheld (the generic loop then measures them itself)
+    from harness_boards import demo_board
+
+    from dloplan.cable import catalogue_cable
+    from dloplan.harness import fixture_clips, insertion_pose, section_shape
+    from dloplan.sim import statics
+
+    cable = catalogue_cable(name, n_links=10)
+    board = demo_board(cable)
+    section = section_cable(cable, 30)
+    x0 = section_shape(insertion_pose(cable, board).shape, cable, section)
+    compiled = equilibrium(section, x0, fixture_clips(board), contacts=board.contacts())
+    monkeypatch.setattr(statics, "contact_rows", lambda obstacles: None)
+    generic = equilibrium(section, x0, fixture_clips(board), contacts=board.contacts())
+    assert compiled.converged and generic.converged
+    assert compiled.iterations == generic.iterations
+    assert np.max(np.abs(compiled.shape - generic.shape)) <= 1e-12

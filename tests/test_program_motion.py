@@ -128,7 +128,7 @@ def test_the_ur5e_samples_follow_the_planned_tcp_path():
     of the straight TCP path between them."""
     pytest.importorskip("yourdfpy")
     from dloplan.pipeline.stages import plan_program
-    from dloplan.robot.chain import forward
+    from dloplan.robot.kinematics import forward
 
     _, grippers, trajectory, job = example_plan("cells/ur5e_pair_usb.yaml")
     program = plan_program(job.robot, grippers, trajectory)

@@ -196,3 +196,43 @@ def test_rapid_files_are_written_both_or_none(tmp_path, monkeypatch):
         write_rapid(folder, program)
     assert sorted(os.listdir(folder)) == ["DloPlanL.mod"]
     assert (folder / "DloPlanL.mod").read_text() == "old left"
+
+
+@pytest.mark.parametrize("name", ["m1_sine_pu_hose.yaml", "m2_uniform_curvature_pa12.yaml",
+                                  "m2_uniform_curvature_usb.yaml", "harness"])
+def test_the_controller_reads_the_verified_joints_from_every_robtarget(name, tmp_path):
+    """The written modules read as RobotWare reads them: each robtarget (pose in the work
+    object, ``eax_a`` the arm angle, confdata) solved by the controller-semantics IK from no
+    knowledge of the plan (the home pose, random seeds, every turn) has the verified joints
+    among its solutions with that confdata, within 0.05 deg (the examples' own cells: the
+    robot on the table); where another solution shares the confdata, the MoveL into the
+    target ends on the verified one (the program's continuity row)."""
+    from dloplan.robot.robtarget import ROUND_TRIP_TOLERANCE, solve_robtarget
+
+    if name == "harness":
+        result = harness_plan()
+        grippers, trajectory, cell = result.grippers, result.trajectory, CELL
+    else:
+        _, grippers, trajectory, job = example_plan(name)
+        cell = job.robot
+    program = make_program(grippers, trajectory, cell)
+    assert program.ok, program.message
+    written = write_rapid(tmp_path, program)
+    for a, task in enumerate(("T_ROB_L", "T_ROB_R")):
+        decl = read_module(written[task].read_text())["declarations"]
+        uframe = decl[cell.wobj][2][3]
+        wobj_pos, wobj_rot = np.array(uframe[0]) / 1e3, Rotation.from_quat(uframe[1],
+                                                                            scalar_first=True)
+        arm = cell.robot.arms[a]  # placed in the plan's frame: the base frame back to it
+        names = sorted(n for n, d in decl.items() if d[1] == "robtarget")
+        for m, target in enumerate(names):
+            trans, quat, conf, extax = decl[target][2]
+            p_base = wobj_pos + wobj_rot.apply(np.array(trans) / 1e3)
+            r_base = wobj_rot * Rotation.from_quat(quat, scalar_first=True)
+            p = cell.base_rotation.apply(p_base) + cell.base_position
+            r = cell.base_rotation * r_base
+            found = solve_robtarget(arm, p, r.as_matrix(), np.radians(extax[0]), conf)
+            assert found.deviation(program.joints[m, a]) <= ROUND_TRIP_TOLERANCE, (task, target)
+            if not found.unique:
+                assert all(r.ok for r in program.checks
+                           if r.check == "continuity" and r.target == m), (task, target)

@@ -241,17 +241,16 @@ def test_table_moves_compose_and_check_their_input():
 
 def test_qualitative2_arms_clear_each_other_after_a_grasp_roll():
     """Qualitative test 2 (thesis 7.2.3): the rigid-rotation frames put both wrists between the
-    ends of the 140 deg arc, the arms collide (-25 mm at shape 6, -103 mm at the retreat along
-    the approach axes). Rolling the grasps about the clips' u-axes fixes it (now the twist-free
-    pair -90/+90 deg at the job's own place; before the pair existed, 65 and -70 deg with the job
-    shifted 5 cm towards the robot); the shapes, clip points relative to each other and u-axes
-    stay."""
+    ends of the 140 deg arc, the arms collide (-23 mm at shape 6; with the robot standing on
+    the table the right arm also misses shape 0). Rolling the grasps about the clips' u-axes
+    fixes it (a twist-free pair at the job's own place); the shapes, clip points relative to
+    each other and u-axes stay."""
     job = load_job(EXAMPLES / "qualitative2_ethernet_3d.yaml")
     doc = run_job(job)
     verification = verify_plan(doc, snap=False, replay=False)
     failures = diagnose(doc, verification)
     assert {f.kind for f in failures} == {"reach"}
-    assert all("clearance" in f.message for f in failures)
+    assert any("clearance" in f.message for f in failures)
     result = repair_plan(job, doc, verification)
     assert result.ok and [r.kind for r in result.repairs] == ["reach"], result.refusal
     assert "grasps rolled" in result.repairs[0].change

@@ -141,7 +141,8 @@ def test_the_meshes_hang_where_the_collision_capsules_are():
     capsules to 5 mm (decimation moves a surface by up to ~4 mm), >= 95 % of the Panda's
     vertices (the visual meshes of links 1 and 2 stick out of the capsules fitted to the
     collision meshes by up to ~2 cm)."""
-    from dloplan.robot.chain import capsules, link_frames
+    from dloplan.robot.chain import capsules
+    from dloplan.robot.kinematics import link_frames
 
     rng = np.random.default_rng(3)
     for model, cell in _cells().items():
@@ -150,7 +151,8 @@ def test_the_meshes_hang_where_the_collision_capsules_are():
             parts, _ = model_parts(model, [j["name"] for j in scene["joints"]])
             for q in rng.uniform(arm.lower / 2, arm.upper / 2, (3, arm.n_joints)):
                 frames = scene_frames(scene, q)
-                rot, pos = link_frames(arm, q)  # dloplan's FK: the page's links are its links
+                frames_fk = link_frames(arm, q)  # dloplan's FK: the page's links are its links
+                rot, pos = frames_fk.rotations, frames_fk.positions
                 np.testing.assert_allclose(np.stack([f[:3, 3] for f in frames[1:]]), pos,
                                            atol=1e-9)
                 np.testing.assert_allclose(np.stack([f[:3, :3] for f in frames[1:]]), rot,
@@ -203,16 +205,12 @@ def _cell_plan(cell):
 
 
 def _tcp(program, arm_index: int, q) -> np.ndarray:
-    """dloplan's FK of the program's arm in the plan's frame."""
-    from dloplan.robot import kinematics
-    from dloplan.robot.chain import forward
+    """dloplan's FK of the program's arm in the plan's frame (one kinematics for every arm)."""
+    from dloplan.robot.kinematics import forward
 
-    arms = getattr(program.cell, "robot", program.cell).arms
-    arm = arms[arm_index]
+    arm = getattr(program.cell, "robot", program.cell).arms[arm_index]
     offset = np.asarray(program.to_dict().get("offset", (0.0, 0.0, 0.0)))
-    if hasattr(arm, "description"):
-        return forward(arm, q)[0] - offset
-    return kinematics.forward(arm, q)[0]
+    return forward(arm, q)[0] - offset
 
 
 def test_report_robot_is_the_programs_verified_joints_at_its_times():

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dloplan.robot import arm_capsules, arm_clearance, forward, inverse, segment_distance, yumi
+from dloplan.robot import arm_clearance, capsules, forward, inverse, segment_distance, yumi
 
 
 def test_parallel_segments():
@@ -60,8 +60,9 @@ def test_capsules_enclose_link_origins_and_follow_fk():
     robot = yumi()
     arm = robot.right
     q = arm.home
-    ends, radii = arm_capsules(arm, q)
+    ends, radii, links = capsules(arm, q)
     assert ends.shape == (8, 2, 3) and radii.shape == (8,)
+    assert links.tolist() == [0, 1, 2, 3, 4, 5, 6, 6]  # links 1..7, the gripper on link 7
     # the gripper capsule ends within its radius of the flange axis, below the TCP
     p_tcp, r_tcp = forward(arm, q)
     axis_dist = segment_distance(ends[7, 0], ends[7, 1], p_tcp, p_tcp)

@@ -23,12 +23,13 @@ from dloplan.robot.yumi import Gripper
 ROBOT = yumi()
 
 # Right arm of yumi.urdf (rtb-data 1.0.1, yumi_description), joint <origin> elements as
-# written in the file, physical order.
+# written in the file, physical order, with ABB's controller data where they differ
+# (docs/decisions.md, "YuMi kinematics"): the mount (joint 1) and joint 3's x and z.
 URDF_RIGHT = [
-    ((0.05355, -0.0725, 0.41492), (-0.9795, -0.5682, -2.3155)),
+    ((0.0537106, -0.0725734, 0.4150099), (-0.979068206212, -0.569210975216, -2.316178620014)),
     ((0.03, 0.0, 0.1), (1.57079632679, 0.0, 0.0)),
     ((-0.03, 0.17283, 0.0), (-1.57079632679, 0.0, 0.0)),
-    ((-0.04188, 0.0, 0.07873), (1.57079632679, -1.57079632679, 0.0)),
+    ((-0.0405, 0.0, 0.07867), (1.57079632679, -1.57079632679, 0.0)),
     ((0.0405, 0.16461, 0.0), (-1.57079632679, 0.0, 0.0)),
     ((-0.027, 0.0, 0.10039), (1.57079632679, 0.0, 0.0)),
     ((0.027, 0.029, 0.0), (-1.57079632679, 0.0, 0.0)),
@@ -48,11 +49,13 @@ def _homogeneous(xyz, rpy):
 
 
 def _hand_fk(q):
-    """The URDF chain composed by hand: T = prod_i Origin_i Rz(q_i), then the flange->TCP."""
+    """The URDF chain composed by hand: T = prod_i Origin_i Rz(q_i), then link 7 -> tool0
+    (7 mm out, turned by pi about z) -> TCP (114.2 mm along tool0's z)."""
     t = np.eye(4)
     for (xyz, rpy), qi in zip(URDF_RIGHT, q, strict=True):
         t = t @ _homogeneous(xyz, rpy) @ _homogeneous((0, 0, 0), (0, 0, qi))
-    return t @ _homogeneous((0, 0, 0.1142), (0, 0, 0))
+    return t @ _homogeneous((0, 0, 0.007), (0, 0, np.pi)) @ _homogeneous((0, 0, 0.1142),
+                                                                          (0, 0, 0))
 
 
 @pytest.mark.parametrize("q", [np.zeros(7), np.array([0.3, -0.5, 1.0, -0.8, 2.0, 0.7, -1.5])])
@@ -65,15 +68,18 @@ def test_fk_matches_urdf_composed_by_hand(q):
 
 
 def test_fk_zero_configuration_known_values():
-    # Zero configuration, right arm: shoulder (joint 1 origin) exactly at the URDF mount, and
-    # the TCP at the value of the hand composition above (0.6422, 0.0858, 0.3452) m +- 0.1 mm.
+    # Zero configuration, right arm: shoulder (joint 1 origin) exactly at the mount, and the
+    # TCP at the value of the hand composition above (0.6331, 0.0754, 0.3536) m +- 0.1 mm.
     frames = link_frames(ROBOT.right, np.zeros(7))
-    np.testing.assert_allclose(frames.positions[0], [0.05355, -0.0725, 0.41492], atol=1e-12)
-    np.testing.assert_allclose(frames.positions[7], [0.6297, 0.0723, 0.3569], atol=1e-4)
-    # The TCP lies 0.1142 m from the flange along the flange z-axis (SmartGripper tool data;
-    # the zero-pose TCP above is 0.136 - 0.1142 m closer than with the former 136 mm).
-    flange_z = frames.rotations[6][:, 2]
-    np.testing.assert_allclose(frames.positions[7] - frames.positions[6], 0.1142 * flange_z,
+    np.testing.assert_allclose(frames.positions[0], [0.0537106, -0.0725734, 0.4150099],
+                               atol=1e-12)
+    np.testing.assert_allclose(frames.positions[7], [0.6331, 0.0754, 0.3536], atol=1e-4)
+    # The TCP lies 7 + 114.2 mm from link 7 along its z-axis (tool0, then the SmartGripper's
+    # tool data) and its x-axis is link 7's turned by pi (tool0's orientation).
+    link_z = frames.rotations[6][:, 2]
+    np.testing.assert_allclose(frames.positions[7] - frames.positions[6], 0.1212 * link_z,
+                               atol=1e-12)
+    np.testing.assert_allclose(frames.rotations[7][:, 0], -frames.rotations[6][:, 0],
                                atol=1e-12)
 
 
@@ -175,7 +181,7 @@ def test_tcp_offset_is_configurable():
     q = np.array([0.2, -0.4, 0.5, -0.6, 0.7, 0.8, -0.9])
     short = yumi_arm("right", gripper=Gripper(tcp_offset=(0.0, 0.0, 0.0)))
     p_flange, r_flange = forward(short, q)
-    p_tcp, _ = forward(ROBOT.right, q)
+    p_tcp, _ = forward(ROBOT.right, q)  # r_flange: tool0's orientation
     np.testing.assert_allclose(p_tcp - p_flange, r_flange.apply([0, 0, 0.1142]), atol=1e-12)
 
 
@@ -197,11 +203,12 @@ def test_bad_inputs_raise_value_error():
 
 @pytest.mark.parametrize("side", ["left", "right"])
 def test_compiled_ik_is_the_numpy_reference(side):
-    """The compiled solve (the IK's) and the numpy reference iterate alike: from random seeds
+    """The compiled solve (the IK's) and the numpy references iterate alike: from random seeds
     to reachable poses (free, the arm angle held, the polish near a limit with min_margin) and
     to poses out of reach, the same iterations and verdict; a converged solve's joints to
     1e-9 rad (round-off through a converging damped Newton iteration), a failed one's errors to
     0.1 % (100 steps pressed against the joint limits, where round-off grows)."""
+    from dloplan.robot import armangle
     from dloplan.robot.kinematics import solve_from, solve_reference
 
     arm = getattr(yumi(), side)
@@ -215,10 +222,11 @@ def test_compiled_ik_is_the_numpy_reference(side):
             position = position + [0.4, 0.0, 0.3]  # likely out of reach: a failed solve
         seed = np.clip(q_true + rng.normal(0.0, 0.6, 7), arm.lower, arm.upper)
         options = IKOptions(min_margin=0.3 if k % 3 == 0 else 0.0)
-        held = float(q_true[2]) if k % 5 == 1 else None
+        held = float(armangle.arm_angle(arm, q_true)) if k % 5 == 1 else None
         mine = solve_from(arm, position, target, seed, options, held)
-        q, perr, aerr, iterations, ok = solve_reference(arm, position, target, seed, options,
-                                                        held)
+        q, perr, aerr, iterations, ok = (
+            solve_reference(arm, position, target, seed, options) if held is None else
+            armangle.solve_reference(arm, position, target, seed, options, held))
         assert (mine.iterations, mine.success) == (iterations, ok), (k, mine, perr, aerr)
         if ok:
             assert np.abs(mine.q - q).max() < 1e-9
@@ -250,6 +258,7 @@ def test_compiled_rotation_log_near_pi_and_zero():
 def test_solve_many_is_one_reference_solve_per_problem():
     """solve_many (tracking: no null-space motion, no polish) is the reference solve of each
     problem with ``null_gain = 0``: free and with the arm angle held, converging and failing."""
+    from dloplan.robot import armangle
     from dloplan.robot.kinematics import IKOptions, solve_many, solve_reference
 
     arm = yumi().right
@@ -261,11 +270,14 @@ def test_solve_many_is_one_reference_solve_per_problem():
     seeds = np.clip(q_true + rng.normal(0.0, 0.3, q_true.shape), arm.lower, arm.upper)
     options = IKOptions()
     tracking = IKOptions(null_gain=0.0)
-    for held in (None, q_true[:, 2]):
+    for held in (None, armangle.arm_angle(arm, q_true)):
         q, ok, perr, aerr = solve_many(arm, positions, targets, seeds, options, held)
         for k in range(len(q)):
-            ref = solve_reference(arm, positions[k], targets[k], seeds[k], tracking,
-                                  None if held is None else held[k])
+            ref = (solve_reference(arm, positions[k], targets[k], seeds[k], tracking,
+                                   give_up=False)
+                   if held is None else armangle.solve_reference(
+                       arm, positions[k], targets[k], seeds[k], tracking, held[k],
+                       give_up=False))
             assert ok[k] == ref[4]
             assert np.abs(q[k] - ref[0]).max() < (1e-9 if ref[4] else 1e-3)
             assert perr[k] == pytest.approx(ref[1], rel=1e-3, abs=1e-12)

@@ -17,6 +17,7 @@ from dloplan.robot import (
     IKOptions,
     RobotCell,
     Tool,
+    arm_angle,
     assign_arms,
     confdata,
     forward,
@@ -89,7 +90,7 @@ def test_clips_that_cross_are_refused_with_the_shapes_named():
     u = (pos[:, 1] - pos[:, 0]) / 0.4
     quats = frame_from_axis(np.concatenate([u, -u])).as_quat().reshape(2, k, 4)
     grippers = _still_path(pos, (Rotation.from_quat(quats[0]), Rotation.from_quat(quats[1])))
-    assignment = assign_arms(grippers.positions)
+    assignment = assign_arms(grippers.positions, RobotCell())
     assert assignment.crossings == (3, 4, 5) and not assignment.ok
     program = robot_program(grippers, trajectory_from_grippers(grippers))
     assert not program.ok
@@ -128,8 +129,11 @@ def test_the_program_holds_exactly_its_verified_targets():
         assert np.abs(p - program.positions[:, a]).max() < 2e-5  # IK tolerance 1e-5 m
         written = Rotation.from_quat(program.quaternions[:, a], scalar_first=True)
         assert (written.inv() * r).magnitude().max() < 2e-5
-        assert np.allclose(np.degrees(program.joints[:, a, 2]), program.arm_angles[:, a],
-                           atol=1e-9)
+        # eax_a is the joints' arm angle (the controller's), not axis 7 (as before RobotWare 6)
+        assert np.allclose(np.degrees(arm_angle(arm, program.joints[:, a])),
+                           program.arm_angles[:, a], atol=1e-4)
+        assert not np.allclose(np.degrees(program.joints[:, a, 2]), program.arm_angles[:, a],
+                               atol=1.0)
         assert np.array_equal(confdata(program.joints[:, a]), program.confdata[:, a])
     # the shapes' targets are the clip points (TCP on the clip), times the trajectory's
     _, grippers, trajectory, _ = example_plan("m2_uniform_curvature_usb.yaml")
@@ -170,14 +174,15 @@ def test_held_arm_angle_ik():
     arm = yumi().left
     q = arm.home + np.array([0.3, 0.2, -0.4, 0.1, 0.5, -0.3, 0.4])
     p, r = forward(arm, q)
-    res = inverse(arm, p, r, seed=q + 0.05, arm_angle=q[2], options=IKOptions(restarts=0))
-    assert res.success and res.q[2] == q[2]
+    psi = float(arm_angle(arm, q))
+    res = inverse(arm, p, r, seed=q + 0.05, arm_angle=psi, options=IKOptions(restarts=0))
+    assert res.success and abs(float(arm_angle(arm, res.q)) - psi) < 1e-5
     assert np.abs(res.q - q).max() < 1e-4  # isolated solution: the same joints back
     many, ok, perr, _ = solve_many(arm, np.stack([p, p]), np.stack([r.as_matrix()] * 2),
-                                   np.stack([q + 0.05, q - 0.05]), IKOptions(), [q[2], q[2]])
+                                   np.stack([q + 0.05, q - 0.05]), IKOptions(), [psi, psi])
     assert ok.all() and perr.max() < 1e-5 and np.abs(many - q).max() < 1e-4
     with pytest.raises(ValueError, match="arm_angle"):
-        inverse(arm, p, r, arm_angle=4.0)
+        inverse(arm, p, r, arm_angle=float("nan"))
 
 
 def test_confdata_quadrants():
@@ -191,7 +196,9 @@ def test_confdata_quadrants():
 def test_cell_validation_and_defaults():
     cell = RobotCell()
     assert cell.tools[0].mass == 0.215 and "Grippers for IRB 14000" in cell.tools[0].source
-    assert np.allclose(cell.robot.left.gripper.tcp_offset, [0, 0, 0.1142])
+    # the SmartGripper's TCP 114.2 mm along tool0, which is 7 mm along link 7 (turned by pi)
+    assert np.allclose(cell.tools[0].tcp_offset, [0, 0, 0.1142])
+    assert np.allclose(cell.robot.left.tcp_offset, [0, 0, 0.1212])
     placed = RobotCell(base_position=(0.1, 0.2, 0.0),
                        base_rotation=Rotation.from_euler("z", 90, degrees=True))
     pos, rot = placed.wobj_frame
@@ -218,3 +225,26 @@ def test_inputs_that_do_not_belong_together_are_refused():
         robot_program(grippers, None)
     with pytest.raises(ValueError, match="cell: expected a RobotCell"):
         robot_program(grippers, trajectory, cell="yumi")
+
+
+def test_the_side_rule_follows_a_turned_base():
+    # One rule for every site (program, reachability's "auto", a described cell, the repair):
+    # the clip on the robot's left in the robot's base frame goes to the left arm. A robot
+    # turned by 180 deg about the vertical sees the plan's +y side as its right.
+    from dloplan.pipeline.repair.rebuild import left_clip
+    from dloplan.robot.reachability import check_reachability
+    from dloplan.robot.urdf_cell import DescribedCell
+
+    _, grippers, trajectory, _ = example_plan("m2_uniform_curvature_usb.yaml")
+    plain = RobotCell()
+    turned = RobotCell(base_position=(0.8, 0.0, 0.0),
+                       base_rotation=Rotation.from_euler("z", 180, degrees=True))
+    first = assign_arms(grippers.positions, plain).left_clip
+    assert assign_arms(grippers.positions, turned).left_clip == 1 - first
+    assert left_clip(grippers, turned) == 1 - first
+    reach = check_reachability(grippers.positions, Rotation.from_matrix(grippers.matrices),
+                               turned.robot)
+    assert reach.clip_of_arm == (1 - first, first)
+    arms = turned.robot.arms
+    described = DescribedCell("yumi_turned", *arms, shared_base=True)
+    assert assign_arms(grippers.positions, described).left_clip == 1 - first

@@ -159,3 +159,30 @@ def test_bad_inputs_raise_value_error():
         search_placement(pos, rot, step=0.0)
     with pytest.raises(ValueError, match="step_length"):
         ReachOptions(step_length=-1.0)
+
+
+def test_reach_rows_and_the_placement_see_the_robot_where_the_cell_places_it():
+    # The same job seen from a YuMi turned 90 deg and standing elsewhere (on a table 0.1 m
+    # down) is the same job for the robot: the rows of the placed cell on the placed path
+    # equal those of the robot at the origin on the path itself (the rows once checked a
+    # default YuMi at the origin, whatever the cell said).
+    from dloplan.grippers import GripperPath
+    from dloplan.robot import RobotCell
+    from dloplan.robot.cell_program import placement_message, reach_rows
+
+    pos, rot = _cable_job(5)
+    quats = rot.as_quat()
+    rots = tuple(Rotation.from_quat(quats[:, c]) for c in range(2))
+    here = GripperPath(pos, rots, "minimal", np.zeros(len(pos)))
+    turn, shift = Rotation.from_euler("z", 90, degrees=True), np.array([0.3, -0.2, 0.1])
+    there = GripperPath(turn.apply(pos.reshape(-1, 3)).reshape(pos.shape) + shift,
+                        tuple(turn * r for r in rots), "minimal", np.zeros(len(pos)))
+    placed = RobotCell(base_position=shift, base_rotation=turn)
+    expected = reach_rows(RobotCell(), here)
+    assert all(r["reachable_left"] and r["reachable_right"] for r in expected)
+    got = reach_rows(placed, there)
+    assert [(r["reachable_left"], r["reachable_right"]) for r in got] == \
+        [(r["reachable_left"], r["reachable_right"]) for r in expected]
+    np.testing.assert_allclose([r["joint_margin"] for r in got],
+                               [r["joint_margin"] for r in expected], atol=1e-6)
+    assert placement_message(placed, there, None) == placement_message(RobotCell(), here, None)

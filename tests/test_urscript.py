@@ -16,7 +16,8 @@ from scipy.spatial.transform import Rotation
 from dloplan.io.ros_joints import write_joint_trajectories
 from dloplan.io.urscript import write_urscript
 from dloplan.robot.actions import ProgramTimeline, action_clock, place_actions
-from dloplan.robot.chain import forward, in_base_frame, inverse
+from dloplan.robot.chain import in_base_frame
+from dloplan.robot.kinematics import forward, inverse
 from dloplan.robot.motion import JointMotion
 from dloplan.robot.urdf_cell import check_cell_path, panda_pair, ur5e_pair
 from dloplan.trajectory import GripperAction

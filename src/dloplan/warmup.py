@@ -96,11 +96,16 @@ def described_cell() -> None:
 
 
 def dynamics_with_torsion() -> None:
-    """``dloplan simulate --torsion`` of a plan: the explicit time stepping with twist."""
-    from .pipeline.stages import run_job, simulate_plan
+    """``dloplan simulate --torsion`` of a plan: the explicit time stepping with twist; and the
+    explicit replay without (a harness's replay, a tensile check: the demo's replay steps
+    implicitly)."""
+    from .pipeline.stages import run_job, settled_shapes, simulate_plan
+    from .verify.replay import replay
 
     doc = run_job(_job(planner={"n_shapes": 2}), check_robot=False)
     simulate_plan(doc, torsion=True)
+    replay(doc.cable, settled_shapes(doc), (doc.trajectory.times, doc.clip_poses()),
+           settle_duration=0.05, scheme="explicit")
 
 
 def study() -> None:
@@ -130,8 +135,9 @@ EXERCISES = {
 sets (the static solver and planner, about 55 % of the demo's compilation; the IK, 30 %; the
 torsion solver, 20 %): on two processes the first takes one while the other two follow each
 other on the second, so that when the demo's ``plan --verify`` starts it finds them cached and
-compiles only the replay's stepping; the last three add what the demo does not use (measured
-with numba's compile events: docs/performance.md)."""
+compiles only the replay's (implicit) stepping and the snap check's continuation; the last
+three add what the demo does not use (measured with numba's compile events:
+docs/performance.md)."""
 
 
 def kernel_files(root: Path | None = None) -> int:

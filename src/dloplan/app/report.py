@@ -276,27 +276,19 @@ def arm_scene(arm, offset=(0.0, 0.0, 0.0)) -> dict:
     TCP in the last link's frame, the tool radius [m], the axis the fingers close along
     (across the held cable and the approach) and the link capsules in their link frames.
 
-    ``arm``: a described cell's :class:`~dloplan.robot.chain.CellArm` (its ``description``)
-    or the YuMi's :class:`~dloplan.robot.yumi.Arm` (the chain's fields on the arm itself).
+    ``arm``: a :class:`~dloplan.robot.chain.CellArm` (every cell's arms, the YuMi's included:
+    the chain of its ``description``).
     """
-    d = getattr(arm, "description", None)
-    if d is None:  # the YuMi's own arm: tip = link 7 (the flange), the gripper's capsule last
-        origins = Rotation.from_euler("xyz", arm.origin_rpy)
-        xyz, axes, tool = arm.origin_xyz, arm.axes, arm.gripper
-        tip_xyz, tip_rot = np.zeros(3), Rotation.identity()
-        tcp_xyz, tcp_rot, tool_radius = tool.tcp_offset, tool.tcp_rotation, 0.0
-        capsule_links = np.r_[np.arange(len(arm.capsules) - 1), len(xyz) - 1]
-        capsules, radii, tcp_in_clip = arm.capsules, arm.radii, tool.tcp_in_clip
-    else:
-        origins, xyz, axes = Rotation.from_matrix(d.origin_rot), d.origin_xyz, d.axes
-        tip_xyz, tip_rot = d.tip_xyz, Rotation.from_matrix(d.tip_rot)
-        tcp_xyz, tcp_rot = tip_xyz + tip_rot.apply(arm.tcp_offset), tip_rot * arm.tcp_rotation
-        capsules, capsule_links, radii = d.capsules, d.capsule_link, d.radii
-        tool_radius, tcp_in_clip = arm.tool_radius, arm.tcp_in_clip
-        if tool_radius > 0:  # the tool's capsule from the flange to the TCP
-            capsules = np.concatenate([capsules, [[tip_xyz, tcp_xyz]]])
-            capsule_links = np.r_[capsule_links, len(xyz) - 1]
-            radii = np.r_[radii, tool_radius]
+    d = arm.description
+    origins, xyz, axes = Rotation.from_matrix(d.origin_rot), d.origin_xyz, d.axes
+    tip_xyz, tip_rot = d.tip_xyz, Rotation.from_matrix(d.tip_rot)
+    tcp_xyz, tcp_rot = tip_xyz + tip_rot.apply(arm.tcp_offset), tip_rot * arm.tcp_rotation
+    capsules, capsule_links, radii = d.capsules, d.capsule_link, d.radii
+    tool_radius, tcp_in_clip = arm.tool_radius, arm.tcp_in_clip
+    if tool_radius > 0:  # the tool's capsule from the flange to the TCP
+        capsules = np.concatenate([capsules, [[tip_xyz, tcp_xyz]]])
+        capsule_links = np.r_[capsule_links, len(xyz) - 1]
+        radii = np.r_[radii, tool_radius]
     cable = tcp_in_clip.as_matrix()[0]  # the clip's u (the cable) in the TCP frame
     fingers = np.cross([0.0, 0.0, 1.0], cable)
     fingers = fingers / np.linalg.norm(fingers) if np.linalg.norm(fingers) > 1e-9 else np.eye(3)[0]

@@ -52,6 +52,7 @@ from ..planning.tuning import planner_weights, stiffness_family
 from ..robot.cell import RobotCell
 from ..robot.cell_program import cell_name, program_formats
 from ..robot.urdf_cell import DescribedCell, cell_from_mapping
+from ..robot.yumi import BASE_ABOVE_FOOT
 from ..shapes import arc_shape, discretize, place, sine_shape, straight_shape
 from ..trajectory import MotionLimits
 
@@ -273,7 +274,8 @@ def check_workspace(points, name: str, source: str) -> None:
                             f"within {WORKSPACE:g} m of the robot (a length in wrong units?)")
 
 
-YUMI_ONLY = ("base_position", "base_rotation", "wobj", "tools", "approach", "hold_force")
+YUMI_ONLY = ("base_position", "base_rotation", "wobj", "tools", "approach", "hold_force",
+             "arm_angle_reference")
 """Settings of the ``robot:`` section that describe the YuMi's cell (not a described one)."""
 
 
@@ -282,11 +284,15 @@ def robot_cell(scenario, scale: float, folder=".", *,
     """The robot cell of a job file's ``robot:`` section (lengths in file units times
     ``scale``): the YuMi's :class:`RobotCell`, or with ``robot.cell`` a
     :class:`~dloplan.robot.urdf_cell.DescribedCell` (URDF paths relative to ``folder``; table
-    height by default the file's table). A described cell searches where on the table it runs
-    the job (``robot.place``) only when the job may be moved (``placement``: the consent of
-    docs/repair.md); otherwise it verifies the job where the file puts it."""
+    height by default the file's table). The YuMi stands on the file's table unless
+    ``robot.base_position`` says otherwise: its base frame
+    :data:`~dloplan.robot.yumi.BASE_ABOVE_FOOT` above the table top, above the plan's origin;
+    without a table, the plan's frame is the base frame (the table, under the robot's foot, at
+    -0.1 m). A described cell searches where on the table it runs the job (``robot.place``)
+    only when the job may be moved (``placement``: the consent of docs/repair.md); otherwise it
+    verifies the job where the file puts it."""
     spec = scenario.robot
-    table = scenario.table.height * scale if scenario.table is not None else 0.0
+    table = scenario.table.height * scale if scenario.table is not None else None
     if spec.cell is not None:
         mixed = sorted(set(YUMI_ONLY) & spec.model_fields_set)
         if mixed:
@@ -309,7 +315,8 @@ def robot_cell(scenario, scale: float, folder=".", *,
             message = str(exc)
             raise ScenarioError(message if message.startswith("robot.") else
                                 f"robot.cell: {message}") from None
-        return replace(cell, place=spec.place and placement, writers=writers)
+        return replace(cell, place=spec.place and placement, writers=writers,
+                       min_margin=float(np.radians(spec.min_joint_margin)))
     defaults = RobotCell()
     tools = []
     for k, (tool_spec, tool) in enumerate(zip(spec.tools, defaults.tools, strict=True)):
@@ -321,14 +328,20 @@ def robot_cell(scenario, scale: float, folder=".", *,
             tools.append(replace(tool, **changes))
         except ValueError as exc:
             raise ScenarioError(f"robot.tools.{k}: {exc}") from None
+    base = np.multiply(spec.base_position, scale)
+    if "base_position" not in spec.model_fields_set and table is not None:
+        base = np.array([0.0, 0.0, table + BASE_ABOVE_FOOT])  # the robot's foot on the table
     try:
         return RobotCell(
-            base_position=np.multiply(spec.base_position, scale),
+            base_position=base,
             base_rotation=rotation(spec.base_rotation) if spec.base_rotation else
             Rotation.identity(),
             tools=tuple(tools), wobj=spec.wobj, table_height=table,
             approach=defaults.approach if spec.approach is None else spec.approach * scale,
-            hold_force=spec.hold_force)
+            hold_force=spec.hold_force,
+            arm_angle_reference=defaults.arm_angle_reference
+            if spec.arm_angle_reference is None else tuple(spec.arm_angle_reference),
+            reach=replace(defaults.reach, min_margin=float(np.radians(spec.min_joint_margin))))
     except ValueError as exc:
         raise ScenarioError(f"robot: {exc}") from None
 

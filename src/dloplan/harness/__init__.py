@@ -10,8 +10,6 @@ from .insertion import (
     Insertion,
     TensionState,
     insert_and_tension,
-    section_cable,
-    section_shape,
     tension_state,
 )
 from .job import (
@@ -23,6 +21,7 @@ from .job import (
     run_harness,
 )
 from .phases import Phases, approach_shape, fixture_clips, insertion_pose, plan_phases
+from .section import section_cable, section_shape, whole_shape
 
 __all__ = [
     "PHASES",
@@ -47,4 +46,5 @@ __all__ = [
     "section_cable",
     "section_shape",
     "tension_state",
+    "whole_shape",
 ]

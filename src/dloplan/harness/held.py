@@ -16,7 +16,7 @@ tensioning     the fixtures, the grippers pulling cable        the section, shor
 
 **The section.** The part of the cable between the two holders' clip points (L - l long, the
 grippers holding the middles of the end links) is simulated with ``section_links`` links,
-finer than the planning's (:func:`dloplan.harness.insertion.section_cable`): contact acts on
+finer than the planning's (:func:`dloplan.harness.section.section_cable`): contact acts on
 mass points, and a planning link of 5 cm would pass through a 12 mm peg or hang across a
 plate's edge (a soft cable held at the phase-2 poses sags onto the board). The parts beyond the
 clip points are the held halves of the end links, as in the planning. So every phase is the same
@@ -66,20 +66,15 @@ from ..cable import GRAVITY, Cable
 from ..frames import frame_from_axis
 from ..geometry import as_path
 from ..sim.clips import ClipPoses
-from ..sim.statics import continuation, equilibrium
-from ..verify.snap import clip_motion
+from ..sim.statics import equilibrium
 from .board import Board
-from .insertion import section_cable, section_shape, tension_state
+from .insertion import tension_state
 from .phases import fixture_clips
+from .section import FOLLOW_STEP, follow, section_cable, section_shape
 
 CHECKED_PHASES: tuple[str, ...] = ("phase1", "phase2", "insertion", "regrasp", "tensioning")
 """The phases the checks report on, in order: the job's motion phases with the regrasp (a
 gripper action in the slots) between insertion and tensioning."""
-
-FOLLOW_STEP = 0.005
-"""Largest clip motion (and change of the held length) of one sub-step when the configurations
-are followed, as a fraction of the section's length: the snap-through continuation's default
-(:func:`dloplan.verify.snap.check_snap_through`), so that it follows the same path."""
 
 HOLDERS = {"phase1": "grippers", "phase2": "grippers", "insertion": "grippers",
            "regrasp": "fixtures", "tensioning": "fixtures"}
@@ -109,7 +104,7 @@ class HeldPath:
         The job's knot of each configuration (the regrasp's is the knot in the slots).
     settle_distance : float
         Largest point distance between a configuration and the plan's [m]: the section on the
-        planned shape (:func:`~dloplan.harness.insertion.section_shape`) in phases 1 and 2, the
+        planned shape (:func:`~dloplan.harness.section.section_shape`) in phases 1 and 2, the
         plan's section simulation in the slots and tensioned.
     """
 
@@ -185,24 +180,6 @@ class HeldModel:
     def contacts(self) -> tuple:
         """The board's contact volumes: pegs, plates, obstacles, table."""
         return self.board.contacts()
-
-
-def _followed(section: Cable, start, clips, contacts, gravity) -> np.ndarray:
-    """Configurations (m, n + 1, 3) at every clip pose, each reached from the one before
-    (module docstring; the sub-steps of :func:`dloplan.verify.snap.check_snap_through`)."""
-    x = np.asarray(start, dtype=float)
-    shapes = []
-    for k, pose in enumerate(clips):
-        if k == 0:
-            eqs = continuation(section, x, [pose], gravity=gravity, contacts=contacts)
-        else:
-            motion = clip_motion(clips[k - 1], pose, section.length)
-            steps = max(1, math.ceil(motion / (FOLLOW_STEP * section.length)))
-            eqs = continuation(section, x, [clips[k - 1], pose], substeps=steps,
-                               gravity=gravity, contacts=contacts)
-        x = eqs[-1].shape
-        shapes.append(x)
-    return np.stack(shapes)
 
 
 def _distance(shapes: np.ndarray, planned: np.ndarray, cable: Cable, section: Cable) -> float:
@@ -331,7 +308,7 @@ def held_model(
     for phase in ("phase1", "phase2"):
         first, last = knots[phase]
         index = tuple(range(first, last + 1))
-        followed = _followed(section, x, poses[first:last + 1], contacts, g)
+        followed = follow(section, x, poses[first:last + 1], contacts, g)
         paths[phase] = HeldPath(phase, HOLDERS[phase], (section,) * len(index), followed,
                                 tuple(poses[first:last + 1]),
                                 tuple(f"knot {k}" for k in index), index,
@@ -343,7 +320,7 @@ def held_model(
                          "slots, tensioned)")
     k2, in_slots = knots["insertion"]
     approach, slots = fixture_clips(board), fixture_clips(board, inserted=True)
-    lowered = _followed(section, x, [approach, slots], contacts, g)
+    lowered = follow(section, x, [approach, slots], contacts, g)
     inserted = lowered[-1]
 
     def distance(shapes, plan) -> float:

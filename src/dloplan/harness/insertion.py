@@ -36,7 +36,7 @@ names the mechanism (:attr:`TensionState.mechanism`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import brentq
@@ -50,41 +50,10 @@ from ..sim.clips import clip_poses_from_shape
 from ..sim.statics import Equilibrium, continuation, equilibrium
 from .board import Board, check_board
 from .phases import fixture_clips
+from .section import section_cable, section_shape
 
 GROW_STEPS = 16
 """The offset grows by ``max_offset / GROW_STEPS`` per step while bracketing."""
-
-
-def section_cable(cable: Cable, n_links: int, offset: float = 0.0) -> Cable:
-    """The cable between the fixtures after pulling ``offset`` [m] through each one.
-
-    Same material and diameter, mass in proportion to the length, ``n_links`` links; its clip
-    points (middles of its end links) are ``L - l - 2 offset`` apart along it.
-    """
-    if isinstance(n_links, bool) or int(n_links) != n_links or n_links < 4:
-        raise ValueError(f"n_links: got {n_links!r}, expected an integer >= 4")
-    between = cable.length - cable.rest_link_length - 2.0 * offset
-    if not (math.isfinite(offset) and offset >= 0 and between > 0):
-        largest = (cable.length - cable.rest_link_length) / 2
-        raise ValueError(f"offset: got {offset!r}, expected 0 <= offset < {largest:.4g} m")
-    length = between * n_links / (n_links - 1)
-    return replace(cable, length=length, mass=cable.mass * length / cable.length,
-                   n_links=int(n_links), rest_shape=None)
-
-
-def section_shape(shape, cable: Cable, section: Cable) -> np.ndarray:
-    """The section's points (n_s + 1, 3) [m] on a planned shape of the whole cable.
-
-    The part of the shape between its clip points, extended by half a section link along
-    each clip's axis, resampled by arc length: the section's clips then sit at the shape's.
-    """
-    x = as_shape(shape, cable.n_points, "shape")
-    clips = clip_poses_from_shape(x)
-    half = 0.5 * section.rest_link_length * clips.u_axes
-    polyline = np.vstack([clips.positions[0] - half[0], x[1:-1], clips.positions[1] - half[1]])
-    polyline[1] = clips.positions[0] + 0.5 * cable.rest_link_length * clips.u_axes[0]
-    polyline[-2] = clips.positions[1] + 0.5 * cable.rest_link_length * clips.u_axes[1]
-    return resample_by_arc_length(polyline, section.n_points)
 
 
 def peg_forces(section: Cable, shape: np.ndarray, board: Board, gravity=GRAVITY) -> np.ndarray:
@@ -174,7 +143,7 @@ def tension_state(cable: Cable, n_links: int, offset: float, guess, board: Board
 
 
 def lower_into_slots(cable: Cable, shape, board: Board, n_links: int, substeps: int = 8,
-                     gravity=GRAVITY) -> list[Equilibrium]:
+                     gravity=GRAVITY, section=None) -> list[Equilibrium]:
     """The insertion: the section settled at the fixtures' approach poses, then lowered into
     the slots in ``substeps`` equilibria (module docstring).
 
@@ -192,14 +161,20 @@ def lower_into_slots(cable: Cable, shape, board: Board, n_links: int, substeps: 
         Equilibria solved on the way down.
     gravity : array_like
         Gravity [m/s^2].
+    section : array_like, optional
+        (n_links + 1, 3) the section at the approach poses as followed through phase 2 [m]
+        (a settled phase 2, :func:`dloplan.harness.phases.settled_phase2`); default the
+        section on ``shape``.
 
     Returns
     -------
     list of Equilibrium
         The section at the approach poses and in the slots.
     """
-    section = section_cable(cable, n_links, 0.0)
-    return continuation(section, section_shape(shape, cable, section),
+    cut = section_cable(cable, n_links, 0.0)
+    start = section_shape(shape, cable, cut) if section is None else as_shape(
+        section, cut.n_points, "section")
+    return continuation(cut, start,
                         [fixture_clips(board), fixture_clips(board, inserted=True)],
                         substeps=substeps, gravity=gravity, contacts=board.contacts())
 
@@ -263,6 +238,7 @@ def insert_and_tension(
     substeps: int = 8,
     gravity=GRAVITY,
     xtol: float = 1e-6,
+    section=None,
 ) -> Insertion:
     """Insert the cable into the fixtures and find the tensioning offset (module docstring).
 
@@ -291,6 +267,9 @@ def insert_and_tension(
         Gravity [m/s^2].
     xtol : float
         Offset tolerance of the root search [m].
+    section : array_like, optional
+        (n_links + 1, 3) the section at the approach poses as followed through a settled phase
+        2 [m] (:func:`lower_into_slots`).
 
     Raises
     ------
@@ -318,7 +297,7 @@ def insert_and_tension(
             "the fixtures' approach poses, expected the end of phase 2 (within 1 mm, 1 degree)"
         )
     slots = fixture_clips(board, inserted=True)
-    lowering = lower_into_slots(cable, x, board, n_links, substeps, gravity)
+    lowering = lower_into_slots(cable, x, board, n_links, substeps, gravity, section)
     inserted = lowering[-1]
     axes = slots.u_axes
     down = slots.positions - approach.positions

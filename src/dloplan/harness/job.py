@@ -290,15 +290,16 @@ def run_harness(
     check_board(board, cable)
     if not board.pegs:
         raise ValueError("board: no pegs; a harness job tensions the cable against pegs")
+    links = s.section_links if s.section_links is not None else section_links(cable, board)
     phases = plan_phases(cable, start, board, s.n_shapes, approach_height=s.approach_height,
                          clearance=s.clearance, weights=s.weights, physical_mode=s.physical_mode,
-                         z_safety=s.z_safety, max_rounds=s.max_rounds, gravity=gravity)
+                         z_safety=s.z_safety, max_rounds=s.max_rounds, gravity=gravity,
+                         section_links=links)
     t1 = time.perf_counter()
-    links = s.section_links if s.section_links is not None else section_links(cable, board)
     insertion = insert_and_tension(
         cable, phases.path2[-1], board, contact_force=s.contact_force,
         min_tension=s.min_tension, max_axial_force=s.max_axial_force, max_offset=s.max_offset,
-        n_links=links, substeps=s.substeps, gravity=gravity)
+        n_links=links, substeps=s.substeps, gravity=gravity, section=phases.section)
     t2 = time.perf_counter()
     grippers, gripper_warnings = _joined_grippers(cable, phases, insertion, s.gripper_method)
     axes = fixture_clips(board, inserted=True).u_axes
@@ -372,6 +373,8 @@ def harness_summary(result: HarnessResult) -> dict:
         "penetration": ins.penetration,
         "link_penetration": ins.link_penetration,
         "fixture_alignment_deg": np.degrees(result.fixture_alignment).tolist(),
+        "approach": result.phases.approach_kind,
+        "phase2": result.phases.phase2_kind,
         "avoidance": {"status": result.phases.avoidance.status,
                       "rounds": result.phases.avoidance.rounds},
         "forces": stats,

@@ -39,9 +39,10 @@ from ..geometry import arc_length, as_shape, resample_by_arc_length
 from ..obstacles import Avoidance, Cylinder, avoid_obstacles, check_path
 from ..planning import Plan, plan
 from ..shapes import arc_shape
-from ..sim.clips import ClipPoses
-from ..sim.statics import Equilibrium, equilibrium
+from ..sim.clips import ClipPoses, clip_poses_from_shape
+from ..sim.statics import Equilibrium, check_target, equilibrium, interpolate_clips
 from .board import Board, check_board
+from .section import follow, section_cable, section_shape, whole_shape
 
 WEIGHTLESS = np.zeros(3)
 
@@ -126,6 +127,45 @@ def _at_half_length(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return x[k] + t * tangent, tangent / np.linalg.norm(tangent)
 
 
+def taut_approach(cable: Cable, insertion: np.ndarray, height: float) -> np.ndarray:
+    """Phase 1's target for a cable that cannot carry the arc: the cable straight and level,
+    ``height`` above the insertion pose's middle point, across the route's front, (n + 1, 3)
+    [m] (module docstring).
+
+    Its middle point is above the insertion pose's; it runs horizontally perpendicular to the
+    direction from the fixtures' chord middle (the pose's two clip points) to that point, its
+    first point on the side of the pose's first clip. Held taut, a soft cable sags by
+    (3 w L^3 / (64 E A))^(1/3) at most (its weight w per length stretching it) and keeps its
+    place; pulled back to the fixtures in phase 2 it is bent around the pegs' sides.
+
+    Parameters
+    ----------
+    cable : Cable
+        The cable (length and n).
+    insertion : array_like
+        (n + 1, 3) the insertion pose [m].
+    height : float
+        How far above the insertion pose's middle point the line lies [m].
+    """
+    x = as_shape(insertion, cable.n_points, "insertion")
+    if not (math.isfinite(height) and height > 0):
+        raise ValueError(f"approach_height: got {height!r}, expected a height > 0 [m]")
+    mid, _ = _at_half_length(x)
+    clips = clip_poses_from_shape(x).positions
+    front = mid - 0.5 * (clips[0] + clips[1])
+    front[2] = 0.0
+    if np.linalg.norm(front) < 1e-9 * cable.length:  # a straight route: along its chord
+        along = clips[1] - clips[0]
+    else:
+        along = np.cross([0.0, 0.0, 1.0], front)
+        if along @ (clips[1] - clips[0]) < 0:
+            along = -along
+    along[2] = 0.0
+    along /= np.linalg.norm(along)
+    s = np.linspace(-0.5, 0.5, cable.n_points)[:, None] * cable.length
+    return mid + s * along + np.array([0.0, 0.0, height])
+
+
 def approach_shape(cable: Cable, insertion: np.ndarray, height: float) -> np.ndarray:
     """Phase 1's target: a horizontal arc carrying the insertion pose's curvature, ``height``
     above it (module docstring), (n + 1, 3) [m].
@@ -159,13 +199,16 @@ class Phases:
     insertion : Equilibrium
         The insertion pose (phase 2's target) as solved.
     approach : numpy.ndarray
-        (n + 1, 3) phase 1's proposed target [m] (the arc, before pre-processing).
+        (n + 1, 3) phase 1's proposed target [m] (the arc or the taut line, before
+        pre-processing).
     plan1, plan2 : Plan
-        The planner's results of phase 1 and phase 2.
+        The planner's results of phase 1 and phase 2 (a settled phase 2 may take its clip
+        poses, :func:`settled_phase2`).
     avoidance : Avoidance
         Obstacle avoidance of phase 1 (its ``path`` is phase 1's path).
     path1, path2 : numpy.ndarray
-        (S1 + 2, n + 1, 3) and (S2 + 2, n + 1, 3) the paths of the phases [m];
+        (S1 + 2, n + 1, 3) and (S2 + 2, n + 1, 3) the paths of the phases [m] (the avoidance's
+        and the planner's; both settled after a taut approach, :func:`settled_phase2`);
         ``path2[0]`` is ``path1[-1]``.
     timings : dict
         Wall time [s] of "phase1" (planning and avoidance) and "phase2".
@@ -175,6 +218,14 @@ class Phases:
         Both plans succeeded, avoidance succeeded and the insertion pose converged.
     message : str
         One line.
+    approach_kind : str
+        ``"arc"`` or ``"taut"`` (:func:`approach_target`).
+    phase2_kind : str
+        ``"planned"`` (the planner's shapes) or ``"settled (... clip route)"``
+        (:func:`settled_phase2`, after a taut approach).
+    section : numpy.ndarray or None
+        (n_s + 1, 3) a settled phase 2's section at the approach poses [m] (what the insertion
+        starts from), else None.
     """
 
     insertion: Equilibrium
@@ -188,6 +239,113 @@ class Phases:
     warnings: tuple[str, ...]
     success: bool
     message: str
+    approach_kind: str = "arc"
+    phase2_kind: str = "planned"
+    section: np.ndarray | None = None
+
+
+CARRY_TOLERANCE = 0.01
+"""Largest sag [m] of the arc (settled under gravity, its clips held) for which the cable
+carries it to the board: the thesis' T_cf of a stable target (5.3)."""
+
+
+def approach_target(cable: Cable, insertion: np.ndarray, height: float,
+                    gravity=GRAVITY) -> tuple[np.ndarray, str]:
+    """Phase 1's target and its kind: the arc (:func:`approach_shape`, ``"arc"``) when the
+    cable carries it, i.e. settled under gravity with its clips held no point moves more than
+    :data:`CARRY_TOLERANCE` (the thesis' target stability, 5.3); else the cable laid taut across
+    the route (:func:`taut_approach`, ``"taut"``): a soft cable cannot hold the curvature in the
+    air, and the pegs give it."""
+    arc = approach_shape(cable, insertion, height)
+    if check_target(arc, cable, threshold=CARRY_TOLERANCE, gravity=gravity).stable:
+        return arc, "arc"
+    return taut_approach(cable, insertion, height), "taut"
+
+
+@dataclass(frozen=True, eq=False)
+class SettledPhase2:
+    """Result of :func:`settled_phase2`.
+
+    Attributes
+    ----------
+    path1 : numpy.ndarray
+        (S1 + 2, n + 1, 3) phase 1's shapes as the cable rests at its clip poses [m].
+    path : numpy.ndarray
+        (S + 2, n + 1, 3) phase 2's shapes on the planning's links, the first phase 1's last
+        [m].
+    section : numpy.ndarray
+        (n_s + 1, 3) the section at the fixtures' approach poses as reached [m].
+    route : str
+        The clip route taken: ``"planned"`` (the planner's clip poses) or ``"straight"``.
+    distance : float
+        Largest point distance between the section reached and the insertion pose as it rests
+        [m].
+    """
+
+    path1: np.ndarray
+    path: np.ndarray
+    section: np.ndarray
+    route: str
+    distance: float
+
+
+def settled_phase2(cable: Cable, path1, planned, insertion, board: Board, section_links: int,
+                   gravity=GRAVITY) -> SettledPhase2:
+    """Phase 2 with gravity and the board (module docstring): the cable's shapes its equilibria
+    with gravity and the board's contacts as the clips move, on the first clip route that
+    brings it to the insertion pose as it rests.
+
+    The cable is followed as the section of ``section_links`` links
+    (:func:`dloplan.harness.section.follow`): settled at phase 1's first clip poses, through
+    phase 1's knots (phase 1's shapes become these equilibria: the avoidance's are stabilized
+    on the planning's coarser links), then phase 2's. Two clip routes are tried, in this
+    order: the planner's (the clip poses of ``planned``, its last the fixtures' approach poses)
+    and straight lines (linear positions, slerped frames) in as many steps. A route is taken
+    when the section it reaches at the approach poses is within :data:`CARRY_TOLERANCE` of the
+    insertion pose as it rests there (the weightless pose settled with gravity and the
+    contacts); else the closer one. Each equilibrium is brought back to the planning's links
+    with its end links on the clips (:func:`~dloplan.harness.section.whole_shape`).
+
+    Parameters
+    ----------
+    cable : Cable
+    path1 : array_like
+        (S1 + 2, n + 1, 3) phase 1's shapes [m].
+    planned : array_like
+        (S + 2, n + 1, 3) the planner's phase 2 [m].
+    insertion : array_like
+        (n + 1, 3) the insertion pose [m].
+    board : Board
+    section_links : int
+    gravity : array_like
+        Gravity [m/s^2].
+    """
+    path1 = np.asarray(path1, dtype=float)
+    section = section_cable(cable, section_links)
+    contacts = board.contacts()
+    approach = fixture_clips(board)
+    rest = follow(section, section_shape(insertion, cable, section), [approach], contacts,
+                  gravity)[-1]
+    clips1 = [clip_poses_from_shape(x) for x in path1]
+    first = follow(section, section_shape(path1[0], cable, section), clips1, contacts, gravity)
+    x = first[-1]
+    count = len(planned)
+    routes = {"planned": [clip_poses_from_shape(y) for y in planned[:-1]] + [approach],
+              "straight": interpolate_clips(clips1[-1], approach, np.linspace(0.0, 1.0, count))}
+    best = None
+    for route, poses in routes.items():
+        settled = follow(section, x, poses, contacts, gravity)
+        distance = float(np.max(np.linalg.norm(settled[-1] - rest, axis=1)))
+        if best is None or distance < best[2]:
+            best = (route, poses, distance, settled)
+        if distance <= CARRY_TOLERANCE:
+            break
+    route, poses, distance, settled = best
+    path1 = np.stack([whole_shape(cable, shape, pose)
+                      for shape, pose in zip(first, clips1, strict=True)])
+    path = np.stack([path1[-1]] + [whole_shape(cable, shape, pose)
+                                   for shape, pose in zip(settled[1:], poses[1:], strict=True)])
+    return SettledPhase2(path1, path, settled[-1], route, distance)
 
 
 def plan_phases(
@@ -203,6 +361,7 @@ def plan_phases(
     z_safety: float = 0.02,
     max_rounds: int = 5,
     gravity=GRAVITY,
+    section_links: int = 40,
     map: Callable = map,
 ) -> Phases:
     """Plan phase 1 (to above the board, avoiding obstacles) and phase 2 (to the fixtures).
@@ -226,7 +385,9 @@ def plan_phases(
     z_safety, max_rounds
         Obstacle avoidance settings (thesis 5.4.3: 2 cm).
     gravity : array_like
-        Gravity [m/s^2] for the stabilization of the avoidance.
+        Gravity [m/s^2] for the stabilization of the avoidance and a settled phase 2.
+    section_links : int
+        Links of the section a settled phase 2 is followed with (:func:`settled_phase2`).
     map : callable
         Passed to the planner.
     """
@@ -239,7 +400,7 @@ def plan_phases(
     insertion = insertion_pose(cable, board, clearance)
     if not insertion.success:
         warnings.append(f"insertion pose: {insertion.message}")
-    approach = approach_shape(cable, insertion.shape, approach_height)
+    approach, approach_kind = approach_target(cable, insertion.shape, approach_height, gravity)
     options = dict(weights=weights, physical_mode=physical_mode, map=map)
     plan1 = plan(cable, start, approach, int(counts[0]), **options)
     warnings += [f"phase 1: {w}" for w in plan1.warnings]
@@ -255,14 +416,29 @@ def plan_phases(
     path1 = avoidance.path
     plan2 = plan(cable, path1[-1], insertion.shape, int(counts[1]), preprocess=False, **options)
     warnings += [f"phase 2: {w}" for w in plan2.warnings]
-    path2 = plan2.path
-    for report in check_path(path2[1:-1], board.collision_volumes(), cable.diameter / 2):
-        if report.colliding:
-            warnings.append(f"phase 2, shape {report.shape_index + 1} (planned): "
-                            f"{report.describe().split(': ', 1)[1]}")
+    path2, section, phase2_kind = plan2.path, None, "planned"
+    if approach_kind == "taut":
+        settled = settled_phase2(cable, path1, plan2.path, insertion.shape, board,
+                                 section_links, gravity)
+        path1, path2, section = settled.path1, settled.path, settled.section
+        phase2_kind = f"settled ({settled.route} clip route)"
+        if settled.distance > CARRY_TOLERANCE:
+            warnings.append(f"phase 2: the cable comes to rest {1e3 * settled.distance:.1f} mm "
+                            "from the insertion pose as it rests (tolerance "
+                            f"{1e3 * CARRY_TOLERANCE:.0f} mm) on either clip route")
+        for report in check_path(path1[1:-1], board.collision_volumes(), cable.diameter / 2):
+            if report.colliding:  # the avoidance checked the coarser stabilized shapes
+                warnings.append(f"phase 1, shape {report.shape_index + 1} (settled): "
+                                f"{report.describe().split(': ', 1)[1]}")
+    else:
+        for report in check_path(path2[1:-1], board.collision_volumes(), cable.diameter / 2):
+            if report.colliding:
+                warnings.append(f"phase 2, shape {report.shape_index + 1} (planned): "
+                                f"{report.describe().split(': ', 1)[1]}")
     t2 = time.perf_counter()
     success = plan1.success and plan2.success and avoidance.success and insertion.success
     message = ("planned both phases" if success else warnings[0] if warnings
                else "a planning stage did not succeed")
     return Phases(insertion, approach, plan1, plan2, avoidance, path1, path2,
-                  {"phase1": t1 - t0, "phase2": t2 - t1}, tuple(warnings), success, message)
+                  {"phase1": t1 - t0, "phase2": t2 - t1}, tuple(warnings), success, message,
+                  approach_kind, phase2_kind, section)

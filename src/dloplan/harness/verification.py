@@ -48,8 +48,8 @@ from ..verify.replay import Replay, clip_motion, replay
 from ..verify.snap import SnapCheck, check_snap_through
 from ..verify.stability import Stability, elastic_stability
 from .held import CHECKED_PHASES, HeldModel, HeldPath, held_model
-from .insertion import section_cable
 from .phases import fixture_clips
+from .section import section_cable
 
 MOVING = ("phase1", "phase2", "insertion", "tensioning")
 """The phases whose holders move (the snap-through continuation runs along them)."""

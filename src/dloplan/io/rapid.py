@@ -6,8 +6,9 @@ One module per motion task, ``T_ROB_L`` (left arm) and ``T_ROB_R`` (right arm), 
 arm's ``tooldata`` (from :class:`~dloplan.robot.cell.Tool`, ABB's SmartGripper data by
 default) and the ``wobjdata`` (the plan's frame seen from the robot's base), the start
 ``jointtarget``, one ``speeddata`` per move (the planned speeds), and one ``robtarget`` per
-program target whose position, orientation, confdata and arm angle (``eax_a``) are those the
-program verified. Its ``PROC main()`` runs::
+program target whose position, orientation, confdata and arm angle (``eax_a``, RobotWare's arm
+angle of :mod:`dloplan.robot.armangle` with the cell's reference direction, named in the
+header) are those the program verified. Its ``PROC main()`` runs::
 
     ConfL \\On;                              (stop rather than take another configuration)
     g_GripOut;                               (SmartGripper open, when the program picks the
@@ -56,7 +57,7 @@ from ..robot.program import RobotProgram
 from ..trajectory import ARMS
 from .files import atomic_write_texts
 
-RAPID_FORMAT_VERSION = 2
+RAPID_FORMAT_VERSION = 3
 _NOT_USED = "9E+09"
 
 
@@ -214,6 +215,10 @@ def rapid_modules(program: RobotProgram, settings: RapidSettings | None = None,
             "it in the cell (docs/robot.md).",
             f"    ! Robtargets in mm in {cell.wobj}; quaternions [q1,q2,q3,q4] = [w,x,y,z]; "
             "confdata and eax_a (the arm angle) from the verified joint solution.",
+            "    ! eax_a is RobotWare's arm angle (new arm-angle definition, RobotWare 6 and "
+            "later) with the Arm-Angle Reference Direction "
+            f"{_array(cell.arm_angle_reference[a], 6)} in the robot's base frame: the "
+            "controller's Motion > Robot setting must be the same (docs/robot.md).",
             f"    ! {n} targets ({program.labels[0]} to {program.labels[-1]}); planned duration "
             f"{program.path_duration:.3f} s from grasp to release ({program.times[-1]:.3f} s "
             "with approach and retreat; the gripper actions' waits come on top).",

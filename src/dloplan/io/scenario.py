@@ -365,6 +365,10 @@ class RobotSpec(_Model):
         None, description="a cell from descriptions: {preset: ur5e_pair | panda_pair | yumi, "
         "...} or {arms: {left: {urdf, tip_link, ...}, right: ...}} (docs/cells.md)")
     place: bool = Field(True, description="search the job's placement on the table (cell)")
+    min_joint_margin: float = Field(
+        5.0, ge=0, lt=90, allow_inf_nan=False,
+        description="smallest distance of every joint from its limits at every target [deg]: "
+        "a program closer fails (any cell)")
     programs: list[ProgramName] | None = Field(
         None, description="robot programs `dloplan plan` writes (default all the cell takes)")
     urscript: UrscriptSpec = Field(default_factory=UrscriptSpec)
@@ -372,8 +376,10 @@ class RobotSpec(_Model):
     gripper: GripperIoSpec = Field(default_factory=GripperIoSpec)
     ros_joints: RosJointsSpec = Field(default_factory=RosJointsSpec)
 
-    base_position: Vector3 = Field(default_factory=lambda: [0.0, 0.0, 0.0],
-                                   description="robot base origin in the plan's frame [units]")
+    base_position: Vector3 = Field(
+        default_factory=lambda: [0.0, 0.0, 0.0],
+        description="robot base origin in the plan's frame [units]; default: the YuMi standing "
+        "on the table, 0.1 m above it over the plan's origin (no table: the origin)")
     base_rotation: RotationSpec | None = None
     wobj: str = Field("dlo_wobj", description="wobjdata name of the plan's frame")
     tools: list[ToolSpec] = Field(default_factory=lambda: [ToolSpec(), ToolSpec()],
@@ -381,6 +387,10 @@ class RobotSpec(_Model):
     approach: float | None = Field(None, ge=0, allow_inf_nan=False,
                                    description="approach/retreat distance [units]; 5 cm")
     hold_force: float | None = Field(None, gt=0, le=20, description="SmartGripper [N]")
+    arm_angle_reference: list[Vector3] | None = Field(
+        None, min_length=2, max_length=2,
+        description="YuMi: the controller's Arm-Angle Reference Direction of the left and the "
+        "right arm, in the robot's base frame (default [0, -1, 0], [0, 1, 0]; docs/robot.md)")
 
     @field_validator("base_position")
     @classmethod

@@ -53,6 +53,12 @@ def _compiled_rows(obstacles: Sequence) -> np.ndarray | None:
         return None
 
 
+def contact_rows(obstacles: Sequence) -> np.ndarray | None:
+    """The obstacles' compiled contact rows (K, 8) (:mod:`dloplan.physics.contact_compiled`),
+    or None when one of them has none (it is measured by its own ``signed_distance``)."""
+    return _compiled_rows(obstacles) if len(obstacles) else np.zeros((0, 8))
+
+
 def penetrations(x: np.ndarray, obstacles: Sequence, radius: float):
     """Per obstacle, penetration depths (..., n + 1) [m] (> 0 in contact) and normals."""
     rows = _compiled_rows(obstacles) if len(obstacles) else None

@@ -364,28 +364,11 @@ class PlacementSection:
     message: str
 
 
-def _rotation_to_list(rotation: Rotation) -> list:
-    return canonical_quaternions(rotation)[0].tolist()
-
-
 def cell_to_dict(cell) -> dict:
-    """A :class:`~dloplan.robot.RobotCell` as JSON-ready data (quaternions x-y-z-w); a
-    :class:`~dloplan.robot.urdf_cell.DescribedCell` as its record (``kind: described``)."""
-    from ..robot.cell import RobotCell
-
-    if not isinstance(cell, RobotCell):
-        return cell.to_dict()
-    return {
-        "base_position": cell.base_position.tolist(),
-        "base_rotation": _rotation_to_list(cell.base_rotation),
-        "wobj": cell.wobj, "table_height": cell.table_height, "approach": cell.approach,
-        "approach_speed": cell.approach_speed, "hold_force": cell.hold_force,
-        "tools": [{"name": t.name, "tcp_offset": t.tcp_offset.tolist(),
-                   "tcp_rotation": _rotation_to_list(t.tcp_rotation), "mass": t.mass,
-                   "cog": t.cog.tolist(), "inertia": t.inertia.tolist(),
-                   "tcp_in_clip": _rotation_to_list(t.tcp_in_clip), "source": t.source}
-                  for t in cell.tools],
-    }
+    """A cell as JSON-ready data: :meth:`~dloplan.robot.RobotCell.to_dict` (quaternions
+    x-y-z-w), a :class:`~dloplan.robot.urdf_cell.DescribedCell` as its record (``kind:
+    described``)."""
+    return cell.to_dict()
 
 
 def document_cell(doc: PlanDocument):
@@ -399,28 +382,12 @@ def document_cell(doc: PlanDocument):
 def cell_from_dict(data: dict, where: str = "plan.robot.cell"):
     """The cell of :func:`cell_to_dict`'s data: a described cell for ``kind: described`` (its
     URDF files must still be where the plan was made), else the YuMi's RobotCell."""
-    from ..robot.cell import RobotCell, Tool
+    from ..robot import cell, urdf_cell
 
-    if isinstance(data, dict) and data.get("kind") == "described":
-        from ..robot.urdf_cell import cell_from_record
-
-        try:
-            return cell_from_record(data)
-        except ValueError as exc:
-            raise ValueError(f"{where}: {exc}") from None
+    described = isinstance(data, dict) and data.get("kind") == "described"
     try:
-        tools = tuple(Tool(name=t["name"], tcp_offset=np.asarray(t["tcp_offset"], float),
-                           tcp_rotation=Rotation.from_quat(t["tcp_rotation"]), mass=t["mass"],
-                           cog=np.asarray(t["cog"], float),
-                           inertia=np.asarray(t["inertia"], float),
-                           tcp_in_clip=Rotation.from_quat(t["tcp_in_clip"]), source=t["source"])
-                      for t in data["tools"])
-        return RobotCell(base_position=np.asarray(data["base_position"], float),
-                         base_rotation=Rotation.from_quat(data["base_rotation"]), tools=tools,
-                         wobj=data["wobj"], table_height=data["table_height"],
-                         approach=data["approach"], approach_speed=data["approach_speed"],
-                         hold_force=data["hold_force"])
-    except (KeyError, TypeError, ValueError) as exc:
+        return (urdf_cell if described else cell).cell_from_record(data)
+    except ValueError as exc:
         raise ValueError(f"{where}: {exc}") from None
 
 

@@ -7,15 +7,11 @@ discretization, the plan's section at the approach poses, in the slots and tensi
 tensioning offset, the regrasp's duration and the cable's rated load. :func:`harness_model`
 rebuilds the held cable of :mod:`dloplan.harness.held` from it and :func:`verify_harness_plan`
 runs every check of :mod:`dloplan.harness.verification` on it, with the robot program's check
-rows: what ``dloplan plan --verify`` and ``dloplan verify`` report for a harness plan.
-:func:`plan_harness` is the harness job's way through :func:`dloplan.pipeline.plan.make_plan`:
-planned, verified, and repaired by a slower tensioning where that is what failed.
+rows: what ``dloplan plan --verify`` and ``dloplan verify`` report for a harness plan (the
+harness job's repairs are :mod:`dloplan.pipeline.repair.harness`).
 """
 
 from __future__ import annotations
-
-import time
-from dataclasses import replace
 
 import numpy as np
 
@@ -102,58 +98,4 @@ def verify_harness_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = 
                           youngs_modulus_cap=youngs_modulus_cap, progress=progress)
 
 
-TENSIONING_SPEEDS = (0.5, 0.25, 0.125)
-"""Factors on the tensioning's speeds tried by the repair, in this order."""
-
-
-def slower_tensioning_helps(verification: HarnessVerification) -> bool:
-    """The tensioning failed on the dynamic replay alone (its peak tension above the rated load,
-    a deviation, a cable not at rest), every configuration within the rated load: a slower
-    pull is the repair that applies."""
-    row = verification.row("tensioning")
-    return row.failed and all(note.startswith("replay:") for note in row.notes)
-
-
-def plan_harness(job, *, verify: bool = False, check_robot: bool = True, repair: bool = True,
-                 progress=lambda text: None) -> PlanDocument:
-    """A harness job's plan document (:func:`dloplan.pipeline.stages.run_harness_job`),
-    verified with ``verify`` (every check per phase, :func:`verify_harness_plan`); a plan that
-    fails only in the tensioning's replay is planned again with the tensioning slowed down
-    (:data:`TENSIONING_SPEEDS`, ``HarnessSettings.tensioning_speed``) until it passes, the
-    repair recorded in the document's ``repairs`` (or its refusal)."""
-    from .stages import run_harness_job, verify_plan, with_verification
-
-    doc = run_harness_job(job, check_robot=check_robot, progress=progress)
-    if not verify:
-        return doc
-    t0 = time.perf_counter()
-    verification = verify_plan(doc, robot=check_robot, progress=progress)
-    progress(f"verification: {'passed' if verification.ok else 'FAILED'}")
-    verified = with_verification(doc, verification)
-    verified = replace(verified, timings={**verified.timings,
-                                          "verify": time.perf_counter() - t0})
-    if verification.ok or not repair or not slower_tensioning_helps(verification):
-        return verified
-    start = time.perf_counter()
-    before = "; ".join(verification.row("tensioning").notes)
-    for factor in TENSIONING_SPEEDS:
-        progress(f"repair (tensioning): the tensioning at {factor:g} times its speed")
-        candidate = run_harness_job(replace(job, settings=replace(
-            job.settings, tensioning_speed=factor)), check_robot=check_robot, progress=progress)
-        checked = verify_plan(candidate, robot=check_robot, progress=progress)
-        if checked.ok:
-            record = {"kind": "tensioning", "failed": "replay", "before": before,
-                      "change": f"the tensioning slowed to {factor:g} times its speed",
-                      "after": checked.messages[-1], "seconds": time.perf_counter() - start}
-            progress(f"repair (tensioning): passes at {factor:g} times the speed")
-            return replace(with_verification(candidate, checked), repairs=(record,))
-    refusal = {"kind": "tensioning", "failed": "replay", "before": before,
-               "change": "refused: the tensioning fails at "
-                         f"{min(TENSIONING_SPEEDS):g} times its speed too",
-               "after": before, "seconds": time.perf_counter() - start}
-    progress(f"repair refused: {refusal['change']}")
-    return replace(verified, repairs=(refusal,))
-
-
-__all__ = ["TENSIONING_SPEEDS", "harness_model", "plan_harness", "slower_tensioning_helps",
-           "verify_harness_plan"]
+__all__ = ["harness_model", "verify_harness_plan"]

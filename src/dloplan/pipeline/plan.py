@@ -16,9 +16,9 @@ import time
 from dataclasses import replace
 
 from .document import PlanDocument
-from .harness import plan_harness
 from .job import HarnessJob, Job
 from .repair import Budget, diagnose, repair_plan
+from .repair.harness import plan_harness
 from .repair.placement import placement_section
 from .stages import quiet, run_job, verify_plan, with_verification
 
@@ -34,7 +34,7 @@ def make_plan(job: Job | HarnessJob, *, verify: bool = False, check_robot: bool 
         A resolved job (:func:`dloplan.app.load_job`). A wire-harness job is planned by its
         own stages (:func:`~dloplan.pipeline.stages.run_harness_job`), verified on its held
         cable phase by phase and repaired by a slower tensioning where that is what failed
-        (:func:`dloplan.pipeline.harness.plan_harness`).
+        (:func:`dloplan.pipeline.repair.harness.plan_harness`).
     verify : bool
         Check the physics too (stability, snap-through, dynamic replay: ``--verify``). Without,
         only the robot program's checks run: a plan whose program passes is returned as

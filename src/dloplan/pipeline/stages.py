@@ -43,6 +43,7 @@ from .document import (
     document_cell,
 )
 from .job import HarnessJob, Job
+from .reuse import moved_rigidly
 
 TESTED_MODULI = (1e5, 1e11)
 """Young's moduli [Pa] the solvers are tested on (tests/test_statics.py): a plan outside them
@@ -310,7 +311,9 @@ def with_program(doc: PlanDocument, program) -> PlanDocument:
     """The document with its robot program section (and its failure among the warnings). A
     program that the cell verified with the job shifted on the table (a described cell's own
     placement search, ``robot.place``, on only when the job may be moved) records the shift as
-    the document's placement: the cable must lie there for it."""
+    the document's placement: the cable must lie there for it. When the program slowed the
+    trajectory down (a joint over its speed limit), the document's trajectory and cycle are
+    the program's timing."""
     from ..robot.cell_program import cell_name
     from ..robot.reachability import format_offset
 
@@ -323,8 +326,13 @@ def with_program(doc: PlanDocument, program) -> PlanDocument:
         placement = PlacementSection(True, 0.0, np.zeros(3), shift, (
             f"the job file's start and target offset {format_offset(shift)} m (the "
             f"{cell_name(program.cell)} cell's placement search)"))
+    timing = {}
+    if program.trajectory is not None and program.trajectory is not doc.trajectory:
+        timing = {"trajectory": program.trajectory, "verification": None,
+                  "cycle": None if doc.cycle is None else retimed_cycle(doc.cycle,
+                                                                        program.trajectory)}
     return replace(doc, robot=section, program=program, warnings=doc.warnings + failures,
-                   placement=placement)
+                   placement=placement, **timing)
 
 
 def program_of(doc: PlanDocument):
@@ -413,7 +421,7 @@ def replay_modulus_cap(cable, progress=quiet) -> float | None:
 
 def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
                 robot: bool = True, tensile_limit=None, tolerance: float = 0.01,
-                progress=quiet):
+                progress=quiet, reuse=None):
     """Verify a plan document: stability, snap-through, robot reachability, dynamic replay.
 
     The reachability columns are those of the robot program (:func:`program_of`): the exported
@@ -426,6 +434,12 @@ def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
     (:func:`dloplan.pipeline.harness.verify_harness_plan`, a
     :class:`~dloplan.harness.verification.HarnessVerification`): ``tensile_limit``, when
     given, replaces the cable's rated load the plan records.
+
+    ``reuse``, a pair (document, its verification), gives a verification of this plan before
+    a rigid move on the table (a placement repair): when ``doc`` is that document turned about
+    the vertical and shifted (:func:`dloplan.pipeline.reuse.moved_rigidly`) and it ran the
+    same physics checks, its stability, snap-through and replay are kept and only the robot
+    checks run again.
     """
     from ..verify import verify_path
 
@@ -441,13 +455,26 @@ def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
     reach = None
     if robot and doc.trajectory is not None:
         reach = program_reachability(program_of(doc), len(doc.shapes))
+    physics = None
+    if reuse is not None and _same_checks(reuse[1], snap, times is not None, tolerance,
+                                          tensile_limit) and moved_rigidly(reuse[0], doc):
+        physics = reuse[1]
     return verify_path(doc.cable, settled_shapes(doc), doc.clip_poses(), times=times, snap=snap,
                        replay_options={"tolerance": tolerance, "tensile_limit": tensile_limit,
                                        "law": None if doc.trajectory is None
                                        else doc.trajectory.law,
                                        "youngs_modulus_cap": replay_modulus_cap(doc.cable,
                                                                                 progress)},
-                       reachability=reach, progress=progress)
+                       reachability=reach, progress=progress, physics=physics)
+
+
+def _same_checks(verification, snap: bool, replay: bool, tolerance: float,
+                 tensile_limit) -> bool:
+    """The verification ran the physics checks asked for, with the same replay settings."""
+    run = verification.replay
+    if (verification.snap is not None) != snap or (run is not None) != replay:
+        return False
+    return run is None or (run.tolerance == tolerance and run.tensile_limit == tensile_limit)
 
 
 def with_verification(doc: PlanDocument, verification) -> PlanDocument:

@@ -7,10 +7,12 @@ robot program that the RAPID writer writes (:func:`robot_program`).
 See ``docs/robot.md`` for the frames, the TCP mapping, the checks and how to run a program.
 """
 
+from .armangle import arm_angle
 from .assignment import ArmAssignment, assign_arms
 from .cell import SMARTGRIPPER_SOURCE, RobotCell, Tool
-from .collision import arm_capsules, arm_clearance, segment_distance
-from .confdata import arm_angle, confdata
+from .chain import CellArm, capsules
+from .collision import arm_clearance, segment_distance
+from .confdata import confdata
 from .kinematics import (
     IKOptions,
     IKResult,
@@ -20,7 +22,6 @@ from .kinematics import (
     joint_margin,
     link_frames,
     manipulability,
-    reach,
     solve_from,
     solve_many,
     wrist_flip,
@@ -35,11 +36,11 @@ from .reachability import (
     search_placement,
     tcp_poses_from_clips,
 )
-from .yumi import ARMS, Arm, Gripper, Robot, yumi, yumi_arm
+from .yumi import ARMS, Gripper, Robot, yumi, yumi_arm
 
 __all__ = [
     "ARMS",
-    "Arm",
+    "CellArm",
     "ArmAssignment",
     "CHECKS",
     "CheckRow",
@@ -55,7 +56,7 @@ __all__ = [
     "SMARTGRIPPER_SOURCE",
     "Tool",
     "arm_angle",
-    "arm_capsules",
+    "capsules",
     "arm_clearance",
     "assign_arms",
     "check_path",
@@ -67,7 +68,6 @@ __all__ = [
     "joint_margin",
     "link_frames",
     "manipulability",
-    "reach",
     "robot_program",
     "search_placement",
     "segment_distance",

@@ -1,11 +1,14 @@
-"""Which arm holds which clip, decided once per plan from the geometry.
+"""Which arm holds which clip, decided once per plan from the geometry: the one rule of every
+cell (the YuMi, the described cells, the reachability check, the placement repair).
 
-The YuMi's left arm is mounted on the robot's +y side, its right arm on the -y side; arms that
-reach across each other collide. So the clip that stays on the robot's left (larger y in the
-robot's base frame) goes to the left arm. The rule is applied to the whole path at once: the
-side of the two clips is the sign of the y-difference summed over all shapes, and every shape
-where the clips are the other way round is named (the arms would have to cross there). The
-program built on the assignment then confirms it by IK and arm-arm clearance
+A cell's left arm stands on its +y side, its right arm on the -y side, in the cell's own frame
+(``cell.to_base``: the YuMi's base frame, however the robot is turned and placed in the plan's
+frame; a described cell's frame from its right base to its left one); arms that reach across
+each other collide. So the clip that stays on the cell's left (larger y in that frame) goes to
+the left arm. The rule is applied to the whole path at once: the side of the two clips is the
+sign of the y-difference summed over all shapes, and every shape where the clips are the
+other way round is named (the arms would have to cross there). The program built on the
+assignment then confirms it by IK and arm-arm clearance
 (:func:`dloplan.robot.program.robot_program`).
 """
 
@@ -14,8 +17,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from .cell import RobotCell
 
 SIDE_TOLERANCE = 1e-3
 """[m] Clips closer than this in the robot's y are not counted as having changed sides."""
@@ -73,21 +74,20 @@ class ArmAssignment:
         return ArmAssignment(1 - self.left_clip, crossings, separation, "swapped")
 
 
-def assign_arms(clip_positions, cell: RobotCell | None = None) -> ArmAssignment:
+def assign_arms(clip_positions, cell) -> ArmAssignment:
     """The side rule (module docstring) on a path's clip points.
 
     Parameters
     ----------
     clip_positions : array_like
-        (K, 2, 3) clip points [m] in the work frame, clip 0 then clip 1.
-    cell : RobotCell, optional
-        Where the robot stands (default :class:`RobotCell`).
+        (K, 2, 3) clip points [m] in the plan's (work) frame, clip 0 then clip 1.
+    cell : RobotCell, DescribedCell or Robot
+        Anything with ``to_base(positions)``: where the robot stands.
 
     Returns
     -------
     ArmAssignment
     """
-    cell = cell if cell is not None else RobotCell()
     pos = np.asarray(clip_positions, dtype=float)
     if pos.ndim != 3 or pos.shape[1:] != (2, 3) or len(pos) == 0 or not np.all(np.isfinite(pos)):
         raise ValueError(f"clip_positions: expected finite (K, 2, 3) points [m], got shape "

@@ -6,9 +6,10 @@ the tool of each arm as RAPID ``tooldata`` (ABB's SmartGripper data by default),
 object's name, the table height and the settings of the approach, the grip and the checks.
 
 Frames: the plan's frame is the work frame. ``base_position`` / ``base_rotation`` place the
-robot's base frame (ABB's base frame of the IRB 14000: bottom centre of the body, x forward,
-y to the robot's left, z up) in it (``base_to_work``); the RAPID work object's user frame is
-the inverse, the work frame seen from the robot's base (what is taught on the controller).
+robot's base frame (ABB's base frame of the IRB 14000: on the body's vertical axis, 0.1 m above
+the foot, x forward, y to the robot's left, z up) in it (``base_to_work``); the RAPID work
+object's user frame is the inverse, the work frame seen from the robot's base (what is taught
+on the controller, docs/robot.md).
 """
 
 from __future__ import annotations
@@ -18,15 +19,18 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from .chain import DEFAULT_TCP_IN_CLIP, as_rotation, as_vector
 from .reachability import ReachOptions
 from .yumi import (
-    DEFAULT_TCP_IN_CLIP,
+    ARM_ANGLE_REFERENCE,
+    ARMS,
+    BASE_ABOVE_FOOT,
     DEFAULT_TCP_OFFSET,
+    DEFAULT_TOOL0_OFFSET,
+    DEFAULT_TOOL0_ROTATION,
     Gripper,
     Robot,
-    as_rotation,
-    as_vector,
-    yumi,
+    yumi_arm,
 )
 
 SMARTGRIPPER_SOURCE = (
@@ -70,15 +74,15 @@ class Tool:
     name : str
         The ``tooldata`` name in the program (a RAPID identifier).
     tcp_offset : array_like
-        (3,) flange-to-TCP translation [m] in the flange frame (``tframe.trans``).
+        (3,) tool0-to-TCP translation [m] in the tool0 frame (``tframe.trans``).
     tcp_rotation : scipy.spatial.transform.Rotation, optional
-        Flange-to-TCP rotation (``tframe.rot``); identity by default.
+        ``tcp_to_tool0`` (``tframe.rot``); identity by default.
     mass : float
         Tool mass [kg] (``tload.mass``).
     cog : array_like
-        (3,) centre of gravity [m] in the flange frame (``tload.cog``).
+        (3,) centre of gravity [m] in the tool0 frame (``tload.cog``).
     inertia : array_like
-        (3,) moments of inertia [kg m^2] about the centre of gravity, axes of the flange
+        (3,) moments of inertia [kg m^2] about the centre of gravity, axes of tool0
         (``tload.ix, iy, iz``; ``tload.aom`` identity).
     tcp_in_clip : scipy.spatial.transform.Rotation
         ``tcp_to_clip``: the TCP axes in the clip frame (u, v, w); see
@@ -109,10 +113,12 @@ class Tool:
             raise ValueError(f"Tool.inertia: expected moments >= 0 [kg m^2], got {self.inertia!r}")
         set_(self, "inertia", inertia)
 
-    @property
-    def gripper(self) -> Gripper:
-        """The kinematic part: TCP offset and rotation, clip-to-TCP mapping."""
-        return Gripper(self.tcp_offset, self.tcp_rotation, self.tcp_in_clip)
+    def gripper(self, tool0_offset=DEFAULT_TOOL0_OFFSET,
+                tool0_rotation: Rotation = DEFAULT_TOOL0_ROTATION) -> Gripper:
+        """The kinematic part: TCP offset and rotation on tool0 (which sits at
+        ``tool0_offset`` / ``tool0_rotation`` in the last link), clip-to-TCP mapping."""
+        return Gripper(self.tcp_offset, self.tcp_rotation, self.tcp_in_clip, tool0_offset,
+                       tool0_rotation)
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,8 +135,9 @@ class RobotCell:
         The tool of the left and of the right arm.
     wobj : str
         The ``wobjdata`` name the targets are written in.
-    table_height : float
-        Height of the table top in the work frame [m] (drawn in the report).
+    table_height : float, optional
+        Height of the table top in the work frame [m] (drawn in the report); default the table
+        the robot stands on, :data:`~dloplan.robot.yumi.BASE_ABOVE_FOOT` below the base frame.
     approach : float
         Distance [m] the gripper comes from (and leaves to) along its approach axis (TCP z)
         before grasping and after releasing; 0 grasps directly.
@@ -142,17 +149,32 @@ class RobotCell:
     reach : ReachOptions
         Tolerances and limits of the checks (IK tolerances, sub-step lengths, largest joint
         step, wanted joint margin, smallest arm-arm clearance, symmetric grip).
+    tool0_offset : array_like
+        (3,) where ABB's ``tool0`` (the frame the tool data refer to) sits in the last link
+        ``yumi_link_7`` [m]; default 7 mm along its z-axis
+        (:data:`~dloplan.robot.yumi.DEFAULT_TOOL0_OFFSET`, docs/decisions.md).
+    tool0_rotation : scipy.spatial.transform.Rotation
+        ``tool0_to_link7``; default turned by pi about z
+        (:data:`~dloplan.robot.yumi.DEFAULT_TOOL0_ROTATION`).
+    arm_angle_reference : tuple of array_like
+        The controller's "Arm-Angle Reference Direction" of the left and the right arm, unit
+        vectors in the robot's base frame (:mod:`dloplan.robot.armangle`); default the
+        controller's (:data:`~dloplan.robot.yumi.ARM_ANGLE_REFERENCE`). Written into the RAPID
+        modules' header: the controller must be configured alike.
     """
 
     base_position: np.ndarray = field(default_factory=lambda: np.zeros(3))
     base_rotation: Rotation = field(default_factory=Rotation.identity)
     tools: tuple[Tool, Tool] = (Tool(name="dlo_tool_l"), Tool(name="dlo_tool_r"))
     wobj: str = "dlo_wobj"
-    table_height: float = 0.0
+    table_height: float | None = None
     approach: float = 0.05
     approach_speed: float = 0.05
     hold_force: float | None = None
     reach: ReachOptions = field(default_factory=ReachOptions)
+    tool0_offset: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_TOOL0_OFFSET))
+    tool0_rotation: Rotation = DEFAULT_TOOL0_ROTATION
+    arm_angle_reference: tuple = (ARM_ANGLE_REFERENCE["left"], ARM_ANGLE_REFERENCE["right"])
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -164,7 +186,8 @@ class RobotCell:
                              f"{self.tools!r}")
         set_(self, "tools", tools)
         check_rapid_name("RobotCell.wobj", self.wobj)
-        height = float(self.table_height)
+        height = (float(self.base_position[2]) - BASE_ABOVE_FOOT if self.table_height is None
+                  else float(self.table_height))
         if not np.isfinite(height):
             raise ValueError(f"RobotCell.table_height: expected a finite height [m], got "
                              f"{self.table_height!r}")
@@ -179,9 +202,25 @@ class RobotCell:
             set_(self, "hold_force", force)
         if not isinstance(self.reach, ReachOptions):
             raise ValueError(f"RobotCell.reach: expected ReachOptions, got {self.reach!r}")
-        arms = [yumi(gripper=tool.gripper, base_position=self.base_position,
-                     base_rotation=self.base_rotation).arms[a]
-                for a, tool in enumerate(tools)]
+        set_(self, "tool0_offset", as_vector(self.tool0_offset, "RobotCell.tool0_offset"))
+        set_(self, "tool0_rotation", as_rotation(self.tool0_rotation,
+                                                 "RobotCell.tool0_rotation"))
+        references = tuple(self.arm_angle_reference)
+        if len(references) != 2:
+            raise ValueError(f"RobotCell.arm_angle_reference: expected two directions (left, "
+                             f"right), got {self.arm_angle_reference!r}")
+        references = tuple(as_vector(r, f"RobotCell.arm_angle_reference ({side})")
+                           for r, side in zip(references, ARMS, strict=True))
+        for r, side in zip(references, ARMS, strict=True):
+            if np.linalg.norm(r) < 1e-9:
+                raise ValueError(f"RobotCell.arm_angle_reference ({side}): expected a nonzero "
+                                 f"direction, got {r.tolist()}")
+        set_(self, "arm_angle_reference", tuple(r / np.linalg.norm(r) for r in references))
+        arms = [yumi_arm(side, gripper=tool.gripper(self.tool0_offset, self.tool0_rotation),
+                         base_position=self.base_position, base_rotation=self.base_rotation,
+                         arm_angle_reference=reference)
+                for side, tool, reference in zip(ARMS, tools, self.arm_angle_reference,
+                                                 strict=True)]
         set_(self, "_robot", Robot(*arms))
 
     @property
@@ -207,3 +246,62 @@ class RobotCell:
             replace(tool, name=name) for tool, name in zip(self.tools, tools, strict=True))
         return replace(self, tools=new_tools, wobj=self.wobj if wobj is None else wobj)
 
+
+    def to_dict(self) -> dict:
+        """JSON-ready data that builds the cell again (:func:`cell_from_record`; quaternions
+        x-y-z-w, lengths in m)."""
+        def quat(rotation: Rotation) -> list:
+            return rotation.as_quat(canonical=True).tolist()
+
+        return {
+            "base_position": self.base_position.tolist(),
+            "base_rotation": quat(self.base_rotation),
+            "wobj": self.wobj, "table_height": self.table_height, "approach": self.approach,
+            "approach_speed": self.approach_speed, "hold_force": self.hold_force,
+            "tools": [{"name": t.name, "tcp_offset": t.tcp_offset.tolist(),
+                       "tcp_rotation": quat(t.tcp_rotation), "mass": t.mass,
+                       "cog": t.cog.tolist(), "inertia": t.inertia.tolist(),
+                       "tcp_in_clip": quat(t.tcp_in_clip), "source": t.source}
+                      for t in self.tools],
+            "tool0_offset": self.tool0_offset.tolist(),
+            "tool0_rotation": quat(self.tool0_rotation),
+            "arm_angle_reference": [r.tolist() for r in self.arm_angle_reference],
+            "min_margin": self.reach.min_margin,
+        }
+
+
+def cell_from_record(data: dict) -> RobotCell:
+    """The cell of :meth:`RobotCell.to_dict`'s data (a plan document's ``robot.cell``); a record
+    written before ``tool0_*``, ``arm_angle_reference`` and ``min_margin`` were recorded gets
+    their defaults.
+
+    Raises
+    ------
+    ValueError
+        A missing or malformed field (KeyError, TypeError and ValueError are re-raised as
+        ValueError naming it).
+    """
+    try:
+        tools = tuple(Tool(name=t["name"], tcp_offset=np.asarray(t["tcp_offset"], float),
+                           tcp_rotation=Rotation.from_quat(t["tcp_rotation"]), mass=t["mass"],
+                           cog=np.asarray(t["cog"], float),
+                           inertia=np.asarray(t["inertia"], float),
+                           tcp_in_clip=Rotation.from_quat(t["tcp_in_clip"]), source=t["source"])
+                      for t in data["tools"])
+        defaults = RobotCell.__dataclass_fields__
+        return RobotCell(
+            base_position=np.asarray(data["base_position"], float),
+            base_rotation=Rotation.from_quat(data["base_rotation"]), tools=tools,
+            wobj=data["wobj"], table_height=data["table_height"], approach=data["approach"],
+            approach_speed=data["approach_speed"], hold_force=data["hold_force"],
+            tool0_offset=np.asarray(data.get("tool0_offset", DEFAULT_TOOL0_OFFSET), float),
+            tool0_rotation=Rotation.from_quat(data["tool0_rotation"])
+            if "tool0_rotation" in data else DEFAULT_TOOL0_ROTATION,
+            arm_angle_reference=tuple(data.get("arm_angle_reference",
+                                               defaults["arm_angle_reference"].default)),
+            reach=ReachOptions(min_margin=float(data.get("min_margin",
+                                                         ReachOptions().min_margin))))
+    except KeyError as exc:
+        raise ValueError(f"missing field {exc}") from None
+    except (TypeError, ValueError) as exc:
+        raise ValueError(str(exc)) from None

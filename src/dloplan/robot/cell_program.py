@@ -11,12 +11,14 @@ A :class:`CellProgram` is the verification of the plan's trajectory on a describ
 (:func:`~dloplan.robot.urdf_cell.verify_on_cell`: arm assignment by side, placement search,
 IK tracked through sub-steps, joint limits, continuity, arm-arm and arm-table clearance), one
 target per kept trajectory knot (a knot per shape), with the verified joints the URScript and
-ROS 2 writers write.
+ROS 2 writers write, and the peak joint speeds and accelerations along the trajectory's time
+law (:mod:`dloplan.robot.peaks`) against the arms' published limits; a segment over a joint
+speed limit is slowed first, as on the YuMi.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 import numpy as np
@@ -24,7 +26,8 @@ import numpy as np
 from .cell import RobotCell
 from .chain import capsules
 from .motion import JointMotion
-from .program import CheckedProgram, CheckRow, check_summary, robot_program
+from .peaks import motion_peaks, slowed_scale
+from .program import SLOW_ROUNDS, CheckedProgram, CheckRow, check_summary, robot_program
 from .urdf_cell import CHECKS, CellPlan, DescribedCell, verify_on_cell
 
 LOWER_IS_WORSE = {"joint limits", "clearance", "table clearance"}
@@ -51,6 +54,7 @@ class Program(Protocol):
 
     cell: Cell
     checks: tuple[CheckRow, ...]
+    trajectory: object  # the Trajectory the program was verified with (maybe slowed)
 
     @property
     def ok(self) -> bool: ...
@@ -121,12 +125,17 @@ class CellProgram(CheckedProgram):
     left_clip : int
         The clip the left arm holds (0: the cable's first end).
     checks : tuple of CheckRow
-        The verdict's rows, labelled ``"shape k"``.
+        The verdict's rows, labelled ``"shape k"``, then the joint speed and acceleration
+        rows along the time law.
+    trajectory : Trajectory or None
+        The timing the program was verified with: the plan's, or slowed where a joint was
+        over its speed limit.
     """
 
     plan: CellPlan
     left_clip: int
     checks: tuple[CheckRow, ...]
+    trajectory: object = None
 
     @property
     def cell(self) -> DescribedCell:
@@ -262,16 +271,53 @@ class CellProgram(CheckedProgram):
 
 def cell_program(cell: DescribedCell, trajectory) -> CellProgram:
     """Verify a plan's timed trajectory on a described cell (:func:`verify_on_cell` with the
-    cell's placement setting) as a :class:`CellProgram`."""
+    cell's placement setting) as a :class:`CellProgram`: the verdict's rows, then per moving
+    segment and arm the peak joint speed and (where the arm has published limits) joint
+    acceleration along the time law. Segments over a joint speed limit are slowed (the law's
+    speed scale, :func:`~dloplan.robot.peaks.slowed_scale`) up to
+    :data:`~dloplan.robot.program.SLOW_ROUNDS` times; the joints' path does not change."""
     plan = verify_on_cell(cell, trajectory)
     arm_clips = tuple(trajectory.arm_clips)
     left_clip = arm_clips[1] if plan.swapped else arm_clips[0]
-    return CellProgram(plan, int(left_clip), plan.verdict.rows)
+    timing = trajectory
+    limits = ([arm.max_velocity for arm in cell.arms], [arm.max_acceleration for arm in cell.arms])
+    for round_ in range(SLOW_ROUNDS + 1):
+        peaks = motion_peaks(CellProgram(plan, int(left_clip), plan.verdict.rows,
+                                         timing).joint_motion(timing), *limits)
+        ratios = np.zeros(timing.n_knots - 1)
+        ratios[plan.shapes[1:] - 1] = np.max([p.speed for p in peaks], axis=0)
+        if not np.any(ratios > 1.0) or round_ == SLOW_ROUNDS:
+            break
+        timing = timing.with_speed_scale(slowed_scale(timing, ratios))
+        plan = replace(plan, times=timing.times[plan.shapes])
+    return CellProgram(plan, int(left_clip), plan.verdict.rows + _speed_rows(plan, peaks),
+                       timing)
+
+
+def _speed_rows(plan: CellPlan, peaks) -> tuple[CheckRow, ...]:
+    """One ``joint speed`` row per segment and arm, and a ``joint acceleration`` row where the
+    arm has published acceleration limits."""
+    rows = []
+    for j, shape in enumerate(plan.shapes[1:]):
+        label = f"shape {shape}"
+        for a, arm in enumerate(plan.cell.arms):
+            p = peaks[a]
+            rows.append(CheckRow("joint speed", j + 1, label, int(shape), arm.name,
+                                 float(p.speed[j]), "of the limit", bool(p.speed[j] <= 1.0),
+                                 f"joint {int(p.speed_joint[j]) + 1}; peak along the time law"))
+            if np.isfinite(arm.max_acceleration).any():
+                rows.append(CheckRow("joint acceleration", j + 1, label, int(shape), arm.name,
+                                     float(p.acceleration[j]), "of the limit",
+                                     bool(p.acceleration[j] <= 1.0),
+                                     f"joint {int(p.acceleration_joint[j]) + 1}; "
+                                     f"{p.largest_acceleration[j]:.3g} rad/s^2"))
+    return tuple(rows)
 
 
 def placement_message(cell, grippers, trajectory) -> str:
     """Where on the table the cell runs a plan best (``dloplan verify --place``): the YuMi's
-    grid search over shifts of the whole job (:func:`dloplan.robot.search_placement`), or the
+    grid search over shifts of the whole job (:func:`dloplan.robot.search_placement`, the
+    robot where the cell places it), or the
     described cell's (:func:`~dloplan.robot.urdf_cell.search_cell_placement`, verified along
     the timed trajectory); one line."""
     from scipy.spatial.transform import Rotation
@@ -279,8 +325,8 @@ def placement_message(cell, grippers, trajectory) -> str:
     from .reachability import search_placement
 
     if isinstance(cell, RobotCell):
-        return search_placement(grippers.positions,
-                                Rotation.from_matrix(grippers.matrices)).message
+        return search_placement(grippers.positions, Rotation.from_matrix(grippers.matrices),
+                                cell.robot, options=cell.reach).message
     plan = verify_on_cell(cell, trajectory, place=True)
     shift = np.round(1e3 * plan.offset, 1).tolist()
     return f"{cell.name}: job shifted by {shift} mm; {plan.verdict.message}"
@@ -290,8 +336,8 @@ def reach_rows(cell, grippers) -> list[dict]:
     """Can the cell's arms hold the clips of a gripper path (before planning the motion)?
     Per pose ``reachable_left``, ``reachable_right``, ``joint_margin`` [rad] and ``error_left``,
     ``error_right`` (the IK's position error [m]: how far the arm's best try stays from the
-    clip; ~0 when reached): for the YuMi
-    either arm at each pose (:func:`dloplan.robot.check_reachability`), for a described cell
+    clip; ~0 when reached): for the YuMi where the cell places it, either arm at each pose
+    (:func:`dloplan.robot.check_reachability`), for a described cell
     the arm assigned by side, tracked from pose to pose where the placement search puts
     the path."""
     from scipy.spatial.transform import Rotation
@@ -300,7 +346,8 @@ def reach_rows(cell, grippers) -> list[dict]:
     from .reachability import check_reachability
 
     if isinstance(cell, RobotCell):
-        reach = check_reachability(grippers.positions, Rotation.from_matrix(grippers.matrices))
+        reach = check_reachability(grippers.positions, Rotation.from_matrix(grippers.matrices),
+                                   cell.robot, options=cell.reach)
         return [{"reachable_left": bool(reach.reachable[k, 0]),
                  "reachable_right": bool(reach.reachable[k, 1]),
                  "joint_margin": float(np.min(reach.joint_margin[k])),

@@ -1,12 +1,10 @@
-"""Kinematics of any serial arm read from a description, placed in the world with a tool:
-forward kinematics, the geometric Jacobian, seeded damped-least-squares IK, joint margins and
-the world capsules of its links.
+"""One arm of a cell: any serial arm from a description, placed in the world with a tool.
 
-Plain numpy, batched over joint vectors: the link frames are ``T_i = T_{i-1} O_i R(a_i, q_i)``
-(:class:`~dloplan.robot.description.ArmDescription`), the first origin carrying the arm's base
-pose in the world, the TCP fixed in the tip frame. For the YuMi the result equals
-:func:`dloplan.robot.kinematics.forward` (tested to 1e-9); :mod:`dloplan.robot.kinematics`
-stays the YuMi-specific solver (wrist flips, arm-angle handling).
+:class:`CellArm` is the one arm type of :mod:`dloplan.robot`: the YuMi's arms
+(:func:`dloplan.robot.yumi.yumi_arm`, with the arm-angle plug-in), the UR5e's and the Panda's
+(:mod:`dloplan.robot.urdf_cell`) and any arm read from URDF. It holds the chain as the arrays
+the kinematics needs (:mod:`dloplan.robot.kinematics`: forward kinematics, Jacobian, IK), its
+base pose, tool, limits and collision capsules (:func:`capsules`).
 """
 
 from __future__ import annotations
@@ -16,18 +14,60 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from . import ik_compiled
 from .description import ArmDescription
-from .kinematics import LENGTH_SCALE, NULL_FADE, IKOptions, IKResult
-from .yumi import DEFAULT_TCP_IN_CLIP, as_vector
+from .kinematics import link_frames
 
-STALL_WINDOW = 10
-"""Iterations over which a solve must make progress ..."""
+DEFAULT_TCP_IN_CLIP = Rotation.from_matrix([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+"""The TCP axes expressed in the clip frame (u, v, w): TCP x = v, TCP y = u, TCP z = -w.
 
-STALL_RATIO = 0.99
-"""... shrinking the weighted error (position + 0.1 m/rad x angle) below this fraction of its
-value STALL_WINDOW iterations before; else the seed is given up (stuck at a limit or in a
-local minimum: the next seed is tried rather than spending the remaining iterations)."""
+The YuMi gripper's fingers close along the gripper's x-axis and approach along its z-axis, so a
+held cable runs along its y-axis: the held link direction u is TCP y, and with the clip's w-axis
+leaning up (:func:`dloplan.frames.frame_from_axis`) the gripper approaches from above."""
+
+
+def as_vector(value, name: str, size: int = 3) -> np.ndarray:
+    """``value`` as a (size,) float array, else ValueError naming ``name``."""
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != (size,) or not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: expected {size} finite numbers, got {value!r}")
+    return arr
+
+
+def as_rotation(value, name: str) -> Rotation:
+    """``value`` as a single scipy Rotation (None: identity), else ValueError naming ``name``."""
+    if value is None:
+        return Rotation.identity()
+    if not isinstance(value, Rotation) or not value.single:
+        raise ValueError(f"{name}: expected a single scipy Rotation, got {value!r}")
+    return value
+
+
+def axis_feet(origin_rot, origin_xyz, axes) -> np.ndarray:
+    """Where the arm angle's shoulder and wrist points sit on their axes (the feet of the
+    common normals of axes 1-2 on axis 1 and of the last two axes on the last one): (s, w)
+    [m] along axis 1 from joint 1's origin and along the last axis from the last joint's
+    origin (:mod:`dloplan.robot.armangle`).
+
+    The relative pose of consecutive axes is fixed by the chain, so the feet are read at
+    q = 0 from the joint origins ``origin_rot`` (n, 3, 3), ``origin_xyz`` (n, 3) and the axes
+    (n, 3)."""
+    r, p = np.eye(3), np.zeros(3)
+    z, points = [], []
+    for i in range(len(axes)):
+        p = p + r @ origin_xyz[i]
+        r = r @ origin_rot[i]
+        z.append(r @ axes[i])
+        points.append(p)
+
+    def foot(i, j):
+        d = points[j] - points[i]
+        b = float(z[i] @ z[j])
+        if abs(1.0 - b * b) < 1e-12:
+            raise ValueError(f"axes: joint axes {i + 1} and {j + 1} are parallel; the arm "
+                             "angle needs them skew or intersecting")
+        return float((d @ z[i] - b * (d @ z[j])) / (1.0 - b * b))
+
+    return np.array([foot(0, 1), foot(len(axes) - 1, len(axes) - 2)])
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,6 +96,13 @@ class CellArm:
         The TCP axes in the clip frame (u, v, w): how the tool holds a clip
         (default :data:`~dloplan.robot.yumi.DEFAULT_TCP_IN_CLIP`: approach from above, the cable
         along TCP y, for fingers closing along TCP x).
+    max_acceleration : array_like, optional
+        (n,) published joint acceleration limits [rad/s^2]; default none (inf): the program's
+        ``joint acceleration`` check applies where a limit is given.
+    arm_angle_reference : array_like, optional
+        (3,) reference direction (a vector in the base frame) of the arm angle of a 7-joint
+        arm parameterized like the YuMi's (:mod:`dloplan.robot.armangle`: the IK can hold it,
+        the robot program writes it); None: the arm has none.
     """
 
     name: str
@@ -67,10 +114,18 @@ class CellArm:
     tool_radius: float = 0.0
     home: np.ndarray | None = None
     tcp_in_clip: Rotation = DEFAULT_TCP_IN_CLIP
+    max_acceleration: np.ndarray | None = None
+    arm_angle_reference: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         d = self.description
         n = d.n_joints
+        accel = np.full(n, np.inf) if self.max_acceleration is None else \
+            np.asarray(self.max_acceleration, dtype=float)
+        if accel.shape != (n,) or np.any(~(accel > 0)):
+            raise ValueError(f"{self.name}.max_acceleration: expected {n} limits > 0 "
+                             f"[rad/s^2], got {self.max_acceleration!r}")
+        object.__setattr__(self, "max_acceleration", accel)
         object.__setattr__(self, "base_position",
                            as_vector(self.base_position, f"{self.name}.base_position", 3))
         object.__setattr__(self, "tcp_offset",
@@ -112,6 +167,15 @@ class CellArm:
         object.__setattr__(self, "_caps", caps)
         object.__setattr__(self, "_cap_link", links)
         object.__setattr__(self, "_radii", radii)
+        if self.arm_angle_reference is not None:
+            reference = as_vector(self.arm_angle_reference, f"{self.name}.arm_angle_reference")
+            if n != 7 or np.linalg.norm(reference) < 1e-9:
+                raise ValueError(f"{self.name}.arm_angle_reference: expected a nonzero direction "
+                                 f"on a 7-joint arm, got {self.arm_angle_reference!r} ({n} "
+                                 "joints)")
+            object.__setattr__(self, "arm_angle_reference", reference / np.linalg.norm(reference))
+            object.__setattr__(self, "_angle_points", axis_feet(d.origin_rot, d.origin_xyz,
+                                                                d.axes))
 
     @property
     def n_joints(self) -> int:
@@ -127,6 +191,21 @@ class CellArm:
     def upper(self) -> np.ndarray:
         """(n,) upper joint limits [rad]."""
         return self.description.upper
+
+    @property
+    def axes(self) -> np.ndarray:
+        """(n, 3) unit joint axes in the joint frames."""
+        return self.description.axes
+
+    @property
+    def mid(self) -> np.ndarray:
+        """(n,) middle of each joint's range [rad]."""
+        return 0.5 * (self.lower + self.upper)
+
+    @property
+    def max_velocity(self) -> np.ndarray:
+        """(n,) joint speed limits [rad/s] (the description's)."""
+        return self.description.max_velocity
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -169,69 +248,6 @@ def in_base_frame(arm: CellArm, positions, rotations: Rotation) -> tuple[np.ndar
     return pos.reshape(shape), rot.reshape(shape)
 
 
-def link_frames(arm: CellArm, q) -> tuple[np.ndarray, np.ndarray]:
-    """World frames of the n links and the TCP.
-
-    Parameters
-    ----------
-    arm : CellArm
-    q : array_like
-        (..., n) joint values [rad].
-
-    Returns
-    -------
-    rotations : numpy.ndarray
-        (..., n + 1, 3, 3) ``link_to_world`` of links 0..n-1, then the TCP.
-    positions : numpy.ndarray
-        (..., n + 1, 3) link origins [m] (on the joint axes), then the TCP point.
-    """
-    q = np.asarray(q, dtype=float)
-    n = arm.n_joints
-    if q.ndim < 1 or q.shape[-1] != n:
-        raise ValueError(f"q: expected joint values of shape (..., {n}) for {arm.name}, got "
-                         f"{q.shape}")
-    batch = q.shape[:-1]
-    # Rodrigues: R(a, q) = I + sin q K + (1 - cos q) K^2 with K the cross-product matrix of a.
-    sin, cos = np.sin(q)[..., None, None], np.cos(q)[..., None, None]
-    turn = np.eye(3) + sin * arm._skew + (1.0 - cos) * arm._skew2
-    rot = np.empty(batch + (n + 1, 3, 3))
-    pos = np.empty(batch + (n + 1, 3))
-    r = np.eye(3)
-    p = np.zeros(3)
-    for i in range(n):
-        p = p + r @ arm._xyz[i]
-        r = r @ arm._rot[i] @ turn[..., i, :, :]
-        rot[..., i, :, :] = r
-        pos[..., i, :] = p
-    rot[..., n, :, :] = r @ arm._tcp_rot
-    pos[..., n, :] = p + r @ arm._tcp_xyz
-    return rot, pos
-
-
-def forward(arm: CellArm, q) -> tuple[np.ndarray, Rotation]:
-    """TCP pose in the world: (..., 3) position [m] and ``tcp_to_world`` rotation."""
-    rot, pos = link_frames(arm, q)
-    return pos[..., -1, :], Rotation.from_matrix(rot[..., -1, :, :])
-
-
-def jacobian(arm: CellArm, q) -> np.ndarray:
-    """Geometric Jacobian of the TCP in the world, (..., 6, n): column i is
-    ``(z_i x (p_tcp - p_i), z_i)`` with z_i joint i's world axis through p_i."""
-    return _jacobian(arm, *link_frames(arm, q))
-
-
-def _jacobian(arm: CellArm, rot: np.ndarray, pos: np.ndarray) -> np.ndarray:
-    z = np.einsum("...kij,kj->...ki", rot[..., :-1, :, :], arm.description.axes)
-    lever = pos[..., -1:, :] - pos[..., :-1, :]
-    return np.concatenate([np.cross(z, lever), z], axis=-1).swapaxes(-1, -2)
-
-
-def joint_margin(arm: CellArm, q) -> np.ndarray:
-    """Distance of the nearest joint to its nearest limit [rad], (...,); negative outside."""
-    q = np.asarray(q, dtype=float)
-    return np.min(np.minimum(q - arm.lower, arm.upper - q), axis=-1)
-
-
 def capsules(arm: CellArm, q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """World capsules of the arm (description's, then the tool's).
 
@@ -249,7 +265,8 @@ def capsules(arm: CellArm, q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     links : numpy.ndarray
         (m,) int link index of each capsule (-1: the base link, which does not move).
     """
-    rot, pos = link_frames(arm, q)
+    frames = link_frames(arm, q)
+    rot, pos = frames.rotations, frames.positions
     links = arm._cap_link
     base_rot = arm.base_rotation.as_matrix()
     # Link -1 (base): world = base pose.
@@ -257,142 +274,3 @@ def capsules(arm: CellArm, q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     p = np.where((links < 0)[:, None], arm.base_position, pos[..., np.maximum(links, 0), :])
     ends = np.einsum("...lij,lej->...lei", r, arm._caps) + p[..., None, :]
     return ends, arm._radii, links
-
-
-def inverse(arm: CellArm, position, rotation: Rotation, seed=None,
-            options: IKOptions | None = None, rng: np.random.Generator | None = None) -> IKResult:
-    """Joint values placing the TCP at a world pose: damped least squares from a seed.
-
-    The step of Sugihara (2011), ``(J^T J + (E + damping) I) dq = J^T e`` with the error
-    ``e = (p* - p, L rotvec(R* R^T))`` (L = :data:`~dloplan.robot.kinematics.LENGTH_SCALE`),
-    plus for a redundant arm (n > 6) the null-space pull of the joints toward the middle of
-    their ranges (faded out near the target); the step is capped at ``max_step`` and q clipped
-    to the limits. Seeds: ``seed``, the arm's home, then ``options.restarts`` random vectors;
-    the first converged solution at least ``min_margin`` from the limits is returned (else the
-    converged one with the largest margin, else the closest with ``success=False``).
-
-    Parameters
-    ----------
-    arm : CellArm
-    position : array_like
-        (3,) target TCP position [m].
-    rotation : scipy.spatial.transform.Rotation
-        Target ``tcp_to_world``.
-    seed : array_like, optional
-        (n,) [rad]; default the home pose.
-    options : IKOptions, optional
-    rng : numpy.random.Generator, optional
-        For the restarts; default seeded with 0.
-    """
-    position = as_vector(position, "position", 3)
-    if not isinstance(rotation, Rotation) or not rotation.single:
-        raise ValueError(f"rotation: expected a single scipy Rotation, got {rotation!r}")
-    seed = arm.home if seed is None else as_vector(seed, "seed", arm.n_joints)
-    opts = options if options is not None else IKOptions()
-    target = rotation.as_matrix()
-    shoulder = float(np.linalg.norm(position - arm.shoulder))
-    if shoulder > arm.reach:
-        q = np.clip(seed, arm.lower, arm.upper)
-        p, r = forward(arm, q)
-        return IKResult(q, False, float(np.linalg.norm(position - p)),
-                        float((Rotation.from_matrix(target) * r.inv()).magnitude()), 0, 0,
-                        f"out of reach: TCP target {shoulder:.3f} m from the shoulder, the arm "
-                        f"reaches at most {arm.reach:.3f} m")
-    rng = rng if rng is not None else np.random.default_rng(0)
-    solves = []  # (q, position error, angle error, iterations, converged, margin)
-    for tried in range(2 + opts.restarts):
-        start = (seed, arm.home)[tried] if tried < 2 else rng.uniform(arm.lower, arm.upper)
-        solves.append((*solve_from(arm, position, target, start, opts), 0.0))
-        q, ok = solves[-1][0], solves[-1][4]
-        if ok:
-            solves[-1] = solves[-1][:5] + (float(joint_margin(arm, q)),)
-            if solves[-1][5] >= opts.min_margin:
-                break
-    total = sum(s[3] for s in solves)
-    good = [s for s in solves if s[4]]
-    if good:
-        q, perr, aerr, _, _, margin = max(good, key=lambda s: s[5])
-        note = "converged" if margin >= opts.min_margin else (
-            f"converged, {np.degrees(margin):.1f} deg from a joint limit")
-        return IKResult(q, True, perr, aerr, total, len(solves), note)
-    q, perr, aerr, *_ = min(solves, key=lambda s: s[1] + LENGTH_SCALE * s[2])
-    return IKResult(q, False, perr, aerr, total, len(solves),
-                    f"not converged from {len(solves)} seeds: position error "
-                    f"{perr * 1e3:.2f} mm, orientation error {np.degrees(aerr):.2f} deg")
-
-
-def rotation_vector(matrix: np.ndarray) -> np.ndarray:
-    """Rotation vector [rad] of one 3x3 rotation matrix (the log map), via its unit quaternion
-    (Shepperd's method: the largest of w, x, y, z computed first, stable up to pi)."""
-    m = matrix
-    trace = m[0, 0] + m[1, 1] + m[2, 2]
-    k = int(np.argmax([trace, m[0, 0], m[1, 1], m[2, 2]]))
-    if k == 0:
-        w = 0.5 * np.sqrt(1.0 + trace)
-        v = np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]]) / (4.0 * w)
-    else:
-        i = k - 1
-        j, l = (i + 1) % 3, (i + 2) % 3
-        v = np.empty(3)
-        v[i] = 0.5 * np.sqrt(max(1.0 + m[i, i] - m[j, j] - m[l, l], 0.0))
-        w = (m[l, j] - m[j, l]) / (4.0 * v[i])
-        v[j] = (m[j, i] + m[i, j]) / (4.0 * v[i])
-        v[l] = (m[l, i] + m[i, l]) / (4.0 * v[i])
-    if w < 0:
-        w, v = -w, -v
-    norm = float(np.linalg.norm(v))
-    if norm < 1e-15:
-        return 2.0 * v
-    return (2.0 * np.arctan2(norm, w) / norm) * v
-
-
-def solve_from(arm: CellArm, position, target, seed, opts: IKOptions):
-    """Damped least squares from one seed, no fallback seeds and no input checks: (q, position
-    error [m], angle error [rad], iterations, ok) for a target position (3,) and
-    ``tcp_to_world`` matrix (3, 3); :func:`solve_reference`'s iteration compiled
-    (:func:`dloplan.robot.ik_compiled.chain_solve`)."""
-    q, perr, aerr, it, ok = ik_compiled.chain_solve(
-        arm._rot, arm._xyz, arm._skew, arm._skew2, arm._tcp_rot, arm._tcp_xyz,
-        arm.description.axes, arm.lower, arm.upper, np.asarray(position, dtype=float),
-        np.ascontiguousarray(target, dtype=float), np.asarray(seed, dtype=float),
-        opts.max_iterations, opts.position_tolerance, opts.angle_tolerance, opts.damping,
-        opts.max_step, opts.null_gain, LENGTH_SCALE, NULL_FADE, STALL_WINDOW, STALL_RATIO)
-    return q, float(perr), float(aerr), int(it), bool(ok)
-
-
-def solve_reference(arm: CellArm, position, target, seed, opts: IKOptions):
-    """Damped least squares from one seed in numpy: (q, position error, angle error,
-    iterations, ok); stops when the error stalls (:data:`STALL_WINDOW`, :data:`STALL_RATIO`).
-    The readable reference of the compiled solve the IK uses."""
-    n = arm.n_joints
-    q = np.clip(seed, arm.lower, arm.upper)
-    eye = np.eye(n)
-    weight = np.array([1.0, 1.0, 1.0, LENGTH_SCALE, LENGTH_SCALE, LENGTH_SCALE])
-    mid = 0.5 * (arm.lower + arm.upper)
-    half = np.minimum(0.5 * (arm.upper - arm.lower), np.pi)
-    redundant = n > 6 and opts.null_gain > 0
-    history = []
-    for it in range(opts.max_iterations + 1):
-        rot, pos = link_frames(arm, q)
-        dp = position - pos[-1]
-        dtheta = rotation_vector(target @ rot[-1].T)
-        perr, aerr = float(np.linalg.norm(dp)), float(np.linalg.norm(dtheta))
-        if perr <= opts.position_tolerance and aerr <= opts.angle_tolerance:
-            return q, perr, aerr, it, True
-        history.append(perr + LENGTH_SCALE * aerr)
-        if it == opts.max_iterations or (
-                it >= STALL_WINDOW and history[-1] > STALL_RATIO * history[-1 - STALL_WINDOW]):
-            break
-        jac = _jacobian(arm, rot, pos) * weight[:, None]
-        err = np.concatenate([dp, LENGTH_SCALE * dtheta])
-        energy = 0.5 * float(err @ err)
-        dq = np.linalg.solve(jac.T @ jac + (energy + opts.damping) * eye, jac.T @ err)
-        if redundant:
-            null = eye - np.linalg.pinv(jac, rcond=1e-8) @ jac
-            fade = min(1.0, np.sqrt(2.0 * energy) / NULL_FADE)
-            dq -= opts.null_gain * fade * (null @ ((q - mid) / half**2))
-        largest = np.max(np.abs(dq))
-        if largest > opts.max_step:
-            dq *= opts.max_step / largest
-        q = np.clip(q + dq, arm.lower, arm.upper)
-    return q, perr, aerr, it, False

@@ -8,8 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .kinematics import link_frames
-from .yumi import Arm
+from .chain import capsules
 
 _EPS = 1e-12
 
@@ -62,51 +61,36 @@ def segment_distance(p0, p1, q0, q1) -> np.ndarray:
     return np.linalg.norm(closest, axis=-1)
 
 
-def arm_capsules(arm: Arm, q) -> tuple[np.ndarray, np.ndarray]:
-    """World end points and radii of an arm's capsules.
+def arm_clearance(left, q_left, right, q_right, *,
+                  shared_base: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Smallest capsule-capsule clearance between two arms (:func:`~dloplan.robot.chain.
+    capsules`: the description's, then the tool's).
 
     Parameters
     ----------
-    arm : Arm
-    q : array_like
-        (..., 7) joint values [rad].
-
-    Returns
-    -------
-    segments : numpy.ndarray
-        (..., 8, 2, 3) capsule end points [m] (links 1..7, then the gripper).
-    radii : numpy.ndarray
-        (8,) radii [m].
-    """
-    frames = link_frames(arm, np.asarray(q, dtype=float))
-    rot = np.concatenate([frames.rotations[..., :7, :, :], frames.rotations[..., 6:7, :, :]], -3)
-    pos = np.concatenate([frames.positions[..., :7, :], frames.positions[..., 6:7, :]], -2)
-    ends = np.einsum("...lij,lej->...lei", rot, arm.capsules) + pos[..., None, :]
-    return ends, arm.radii
-
-
-def arm_clearance(left: Arm, q_left, right: Arm, q_right) -> tuple[np.ndarray, np.ndarray]:
-    """Smallest capsule-capsule clearance between the two arms.
-
-    Parameters
-    ----------
-    left, right : Arm
+    left, right : CellArm
     q_left, q_right : array_like
-        (..., 7) joint values [rad] of each arm, same batch shape.
+        (..., n) joint values [rad] of each arm, same batch shape.
+    shared_base : bool
+        Both arms hang on one body (one description with two chains): their base links'
+        capsules are not checked against each other.
 
     Returns
     -------
     clearance : numpy.ndarray
-        (...,) smallest surface distance [m] over all link pairs; negative when they overlap.
+        (...,) smallest surface distance [m] over all capsule pairs; negative when they
+        overlap.
     pair : numpy.ndarray
-        (..., 2) int: the link index (0-6 links 1-7, 7 gripper) of the left and right arm that
-        come closest.
+        (..., 2) int: the capsule index of the left and the right arm that come closest (for
+        the YuMi 0-6 links 1-7, 7 the gripper).
     """
-    seg_l, rad_l = arm_capsules(left, q_left)
-    seg_r, rad_r = arm_capsules(right, q_right)
+    seg_l, rad_l, link_l = capsules(left, q_left)
+    seg_r, rad_r, link_r = capsules(right, q_right)
     dist = segment_distance(seg_l[..., :, None, 0, :], seg_l[..., :, None, 1, :],
                             seg_r[..., None, :, 0, :], seg_r[..., None, :, 1, :])
     gap = dist - rad_l[:, None] - rad_r[None, :]
+    if shared_base:
+        gap = np.where((link_l[:, None] < 0) & (link_r[None, :] < 0), np.inf, gap)
     flat = gap.reshape(gap.shape[:-2] + (-1,))
     idx = np.argmin(flat, axis=-1)
     clearance = np.take_along_axis(flat, idx[..., None], axis=-1)[..., 0]

@@ -1,24 +1,22 @@
-"""ABB configuration data (``confdata``) and arm angle of a YuMi joint solution.
+"""ABB configuration data (``confdata``) of a YuMi joint solution.
 
-A robtarget names a TCP pose; ``confdata [cf1, cf4, cf6, cfx]`` and, on the 7-axis IRB 14000,
-the arm angle (the robtarget's first external axis value ``eax_a``, ABB axis 7 in degrees)
-name which joint solution the controller takes for it.
+A robtarget names a TCP pose; on the 7-axis IRB 14000 its arm angle (``eax_a``,
+:mod:`dloplan.robot.armangle`) and ``confdata [cf1, cf4, cf6, cfx]`` name which joint solution
+the controller takes for it.
 
 - cf1, cf4, cf6: the quadrants of ABB axes 1, 4 and 6: ``floor(angle / 90 deg)`` (0 for
   0..90 deg, 1 for 90..180, -1 for -90..0, ...), as in ABB's RAPID reference (``confdata``).
 - cfx: ABB's configuration number 0..7 of its 6-axis robots (4: wrist centre behind axis 1,
   2: behind the lower arm, 1: axis 5 negative), read on the YuMi as 4 * (axis 2 < 0)
-  + 2 * (axis 3 < 0) + (axis 5 < 0). This is our reading for the IRB 14000 (it gives the
-  cfx = 4 of YuMi programs in the usual posture, axis 2 negative, axes 3 and 5 positive);
-  ABB's definition for the YuMi could not be checked: docs/robot.md says how to confirm it on
-  the controller before the first run.
+  + 2 * (axis 3 < 0) + (axis 5 < 0). It gives RobotStudio's [0, 0, 0, 4] of both arms' home
+  robtargets (RobotWare 6's "new arm-angle definition", tests/data); ABB's rule for the IRB
+  14000 is not published, and no public robtarget decides between this reading and the
+  geometric one: docs/robot.md says how to confirm it on the controller before the first run.
 """
 
 from __future__ import annotations
 
 import numpy as np
-
-from .kinematics import ARM_ANGLE_JOINT
 
 _ABB_AXIS = {1: 0, 2: 1, 7: 2, 3: 3, 4: 4, 5: 5, 6: 6}
 """Physical joint index of each ABB axis number."""
@@ -52,8 +50,3 @@ def confdata(q) -> np.ndarray:
            + (abb_joint(q, 5) < 0)).astype(int)
     return np.stack([quadrant(abb_joint(q, 1)), quadrant(abb_joint(q, 4)),
                      quadrant(abb_joint(q, 6)), cfx], axis=-1)
-
-
-def arm_angle(q) -> np.ndarray:
-    """The arm angle ``eax_a`` [deg] of joint vectors (..., 7): ABB axis 7."""
-    return np.degrees(np.asarray(q, dtype=float)[..., ARM_ANGLE_JOINT])

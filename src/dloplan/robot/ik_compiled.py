@@ -1,12 +1,13 @@
-"""The damped-least-squares IK solves from one seed, compiled (numba).
+"""The damped-least-squares IK solve from one seed, compiled (numba).
 
-:func:`solve` is the YuMi's iteration of :func:`dloplan.robot.kinematics.solve_reference`
-(Sugihara's Levenberg-Marquardt step, null-space motion away from the joint limits, steps
-limited and clipped, the polish of a solution near a limit); :func:`chain_solve` that of a
-described cell's arm, :func:`dloplan.robot.chain.solve_reference` (stops when the error
-stalls). Plain loops over 3x3 and n x n arrays: the numpy versions spend about 0.4 ms per
-iteration in array calls on 3x3 matrices, and the placement search of a repair runs some
-500 000 iterations. The chains are passed as the arrays their arms precompute.
+:func:`solve` is the iteration of :func:`dloplan.robot.kinematics.solve_reference` for any
+arm of n joints (Sugihara's Levenberg-Marquardt step, null-space motion away from the joint
+limits for a redundant arm, steps limited and clipped, the polish of a solution near a limit,
+a seed given up when its error stalls) and, with the arm angle held, of
+:func:`dloplan.robot.armangle.solve_reference` (a square 7x7 task). Plain loops over 3x3 and
+n x n arrays: the numpy versions spend about 0.4 ms per iteration in array calls on 3x3
+matrices, and the placement search of a repair runs some 500 000 iterations. The chains are
+passed as the arrays their arms precompute.
 """
 
 from __future__ import annotations
@@ -16,6 +17,9 @@ import math
 import numpy as np
 
 from ..jit import njit
+
+STALL_FLOOR = 1e-3
+"""[m] Weighted error below which a solve is never given up as stalled (:func:`solve`)."""
 
 
 @njit(cache=True)
@@ -111,7 +115,7 @@ def rotation_log(m):
 
 @njit(cache=True)
 def null_projector(jac, eye):
-    """I - J^+ J (7, 7) for J (6, 7), J^+ = J^T (J J^T)^-1 (J has full row rank away from
+    """I - J^+ J (n, n) for J (6, n), J^+ = J^T (J J^T)^-1 (J has full row rank away from
     singularities; pinv's truncation where it has not)."""
     try:
         return eye - jac.T @ np.linalg.solve(jac @ jac.T, jac)
@@ -120,30 +124,100 @@ def null_projector(jac, eye):
 
 
 @njit(cache=True)
+def cross3(a, b, out):
+    """out = a x b for 3-vectors; returns ``out``."""
+    out[0] = a[1] * b[2] - a[2] * b[1]
+    out[1] = a[2] * b[0] - a[0] * b[2]
+    out[2] = a[0] * b[1] - a[1] * b[0]
+    return out
+
+
+@njit(cache=True)
+def arm_angle_row(rots, points, axes, shoulder, wrist, reference, elbow, row):
+    """The arm angle psi [rad] of the chain's frames and its gradient d psi / dq into ``row``
+    (n,): :func:`dloplan.robot.armangle.arm_angle` and ``arm_angle_jacobian`` compiled.
+
+    ``shoulder`` and ``wrist`` are the distances [m] of S along axis 1 from joint 1's origin
+    and of W along the last axis from the last joint's origin; ``reference`` the world
+    reference direction (3,); ``elbow`` the index of the joint whose axis is h."""
+    n = row.size
+    z = np.empty((n, 3))
+    for i in range(n):
+        for a in range(3):
+            z[i, a] = rots[i, a, 0] * axes[i, 0] + rots[i, a, 1] * axes[i, 1] + \
+                rots[i, a, 2] * axes[i, 2]
+    s_pt = points[0] + shoulder * z[0]
+    w_pt = points[n - 1] + wrist * z[n - 1]
+    sw = w_pt - s_pt
+    length = math.sqrt(sw[0] ** 2 + sw[1] ** 2 + sw[2] ** 2)
+    e = sw / length
+    h = z[elbow].copy()
+    tmp = np.empty(3)
+    eh = e[0] * h[0] + e[1] * h[1] + e[2] * h[2]
+    er_e = e[0] * reference[0] + e[1] * reference[1] + e[2] * reference[2]
+    cross3(e, h, tmp)
+    x = tmp[0] * reference[0] + tmp[1] * reference[1] + tmp[2] * reference[2]
+    y = h[0] * reference[0] + h[1] * reference[1] + h[2] * reference[2] - er_e * eh
+    norm2 = x * x + y * y
+    d_w = np.empty(3)
+    d_e = np.empty(3)
+    d_h = np.empty(3)
+    lever = np.empty(3)
+    for i in range(n):
+        for a in range(3):
+            lever[a] = w_pt[a] - points[i, a]
+        cross3(z[i], lever, d_w)
+        dwe = d_w[0] * e[0] + d_w[1] * e[1] + d_w[2] * e[2]
+        for a in range(3):
+            d_e[a] = (d_w[a] - dwe * e[a]) / length
+        if i < elbow:
+            cross3(z[i], h, d_h)
+        else:
+            d_h[:] = 0.0
+        cross3(d_e, h, tmp)
+        dx = tmp[0] * reference[0] + tmp[1] * reference[1] + tmp[2] * reference[2]
+        cross3(e, d_h, tmp)
+        dx += tmp[0] * reference[0] + tmp[1] * reference[1] + tmp[2] * reference[2]
+        dy = (d_h[0] * reference[0] + d_h[1] * reference[1] + d_h[2] * reference[2]
+              - (d_e[0] * reference[0] + d_e[1] * reference[1] + d_e[2] * reference[2]) * eh
+              - er_e * (d_e[0] * h[0] + d_e[1] * h[1] + d_e[2] * h[2]
+                        + d_h[0] * e[0] + d_h[1] * e[1] + d_h[2] * e[2]))
+        row[i] = (x * dy - y * dx) / norm2 if norm2 > 0.0 else 0.0
+    return math.atan2(y, x)
+
+
+@njit(cache=True)
 def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
-          upper, position, target_rot, seed, held_joint, held_value, max_iterations,
-          position_tolerance, angle_tolerance, damping, max_step, null_gain, min_margin, polish,
-          length_scale, null_fade):
-    """Damped least squares from one seed: (q (7,), position error [m], angle error [rad],
+          upper, position, target_rot, seed, hold_angle, angle, angle_points, reference,
+          max_iterations, position_tolerance, angle_tolerance, damping, max_step, null_gain,
+          min_margin, polish, length_scale, null_fade, stall_window=0, stall_ratio=1.0):
+    """Damped least squares from one seed: (q (n,), position error [m], angle error [rad],
     iterations, converged).
 
-    ``held_joint`` >= 0 holds that joint at ``held_value`` (its column and step are zero);
-    ``polish`` null-space steps at most once converged closer than ``min_margin`` to a limit.
+    ``hold_angle``: the arm angle (:func:`arm_angle_row`, ``angle_points`` = (s, w) [m],
+    ``reference`` (3,) in the world) is a 7th task row held at ``angle`` [rad] (the square
+    7x7 system of the controller's semantics; no null space left, no polish); its error counts
+    with the orientation error. Otherwise ``polish`` null-space steps at most once converged
+    closer than ``min_margin`` to a limit. ``stall_window`` > 0: the seed is given up when the
+    weighted error (position + ``length_scale`` x angle) is still above :data:`STALL_FLOOR`
+    and has not dropped below ``stall_ratio`` of its value ``stall_window`` iterations before
+    (a solve that is close keeps going: near a singularity it converges slowly).
     """
+    n = seed.size
     q = np.minimum(np.maximum(seed, lower), upper)
-    free = np.ones(7)
-    if held_joint >= 0:
-        q[held_joint] = held_value
-        free[held_joint] = 0.0
+    rows = 7 if hold_angle else 6
+    history = np.empty(max_iterations + 1)
     half = 0.5 * (upper - lower)
     mid = 0.5 * (lower + upper)
-    eye = np.eye(7)
+    eye = np.eye(n)
     scale = np.array([1.0, 1.0, 1.0, length_scale, length_scale, length_scale])
-    rots = np.empty((8, 3, 3))
-    points = np.empty((8, 3))
-    jac = np.empty((6, 7))
-    err = np.empty(6)
+    ones = np.ones(n)
+    rots = np.empty((n + 1, 3, 3))
+    points = np.empty((n + 1, 3))
+    jac = np.empty((rows, n))
+    err = np.empty(rows)
     relative = np.empty((3, 3))
+    angle_row = np.empty(n)
     done_q = q.copy()
     done_perr = done_aerr = 0.0
     done_it = -1
@@ -152,33 +226,46 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
     for it in range(max_iterations + 1):
         chain_frames(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, q,
                      rots, points)
-        dp = position - points[7]
-        dtheta = rotation_log(times_transposed(target_rot, rots[7], relative))
+        dp = position - points[n]
+        dtheta = rotation_log(times_transposed(target_rot, rots[n], relative))
         perr = math.sqrt(dp[0] ** 2 + dp[1] ** 2 + dp[2] ** 2)
         aerr = math.sqrt(dtheta[0] ** 2 + dtheta[1] ** 2 + dtheta[2] ** 2)
+        dpsi = 0.0
+        if hold_angle:
+            psi = arm_angle_row(rots, points, axes, angle_points[0], angle_points[1],
+                                reference, 3, angle_row)
+            dpsi = angle - psi
+            dpsi -= 2.0 * math.pi * math.floor((dpsi + math.pi) / (2.0 * math.pi))
+            aerr = max(aerr, abs(dpsi))
         converged = perr <= position_tolerance and aerr <= angle_tolerance
         if converged:
             done_q[:] = q
             done_perr, done_aerr, done_it = perr, aerr, it
-            if polish == 0 or np.min(np.minimum(q - lower, upper - q)) >= min_margin:
+            if hold_angle or polish == 0 or \
+                    np.min(np.minimum(q - lower, upper - q)) >= min_margin:
                 break
-        if it == max_iterations:
+        history[it] = perr + length_scale * aerr
+        if it == max_iterations or (stall_window > 0 and it >= stall_window
+                                    and history[it] > STALL_FLOOR
+                                    and history[it] > stall_ratio * history[it - stall_window]):
             break
-        weighted_jacobian(rots, points, axes, scale, free, jac)  # held joint: zero column
+        weighted_jacobian(rots, points, axes, scale, ones, jac[:6])
         for row in range(3):
             err[row] = dp[row]
             err[row + 3] = length_scale * dtheta[row]
+        if hold_angle:
+            for col in range(n):
+                jac[6, col] = length_scale * angle_row[col]
+            err[6] = length_scale * dpsi
         energy = 0.5 * (err @ err)
-        grad = (q - mid) / half**2
         if converged:  # polish: a pure self-motion step away from the limits
             polish -= 1
-            dq = -null_gain * (null_projector(jac, eye) @ grad)
+            dq = -null_gain * (null_projector(jac, eye) @ ((q - mid) / half**2))
         else:
             dq = np.linalg.solve(jac.T @ jac + (energy + damping) * eye, jac.T @ err)
-            if null_gain != 0.0:
+            if null_gain != 0.0 and not hold_angle:
                 fade = min(1.0, math.sqrt(2.0 * energy) / null_fade)
-                dq -= null_gain * fade * (null_projector(jac, eye) @ grad)
-        dq *= free
+                dq -= null_gain * fade * (null_projector(jac, eye) @ ((q - mid) / half**2))
         largest = np.max(np.abs(dq))
         if largest > max_step:
             dq *= max_step / largest
@@ -190,104 +277,20 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
 
 @njit(cache=True)
 def solve_batch(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
-                upper, positions, target_rots, seeds, held_joint, held_values, max_iterations,
-                position_tolerance, angle_tolerance, damping, max_step, length_scale):
+                upper, positions, target_rots, seeds, hold_angle, angles, angle_points,
+                reference, max_iterations, position_tolerance, angle_tolerance, damping,
+                max_step, length_scale, stall_window, stall_ratio):
     """N independent solves (:func:`solve` without null-space motion or polish): joints
-    (N, 7) [rad], converged (N,), position (N,) [m] and angle errors (N,) [rad]."""
-    n = positions.shape[0]
-    q = np.empty((n, 7))
-    success = np.empty(n, np.bool_)
-    perr = np.empty(n)
-    aerr = np.empty(n)
-    for k in range(n):
+    (N, n) [rad], converged (N,), position (N,) [m] and angle errors (N,) [rad]."""
+    count = positions.shape[0]
+    q = np.empty((count, seeds.shape[1]))
+    success = np.empty(count, np.bool_)
+    perr = np.empty(count)
+    aerr = np.empty(count)
+    for k in range(count):
         q[k], perr[k], aerr[k], _, success[k] = solve(
             origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
-            upper, positions[k], target_rots[k], seeds[k], held_joint, held_values[k],
-            max_iterations, position_tolerance, angle_tolerance, damping, max_step, 0.0, 0.0, 0,
-            length_scale, 1.0)
+            upper, positions[k], target_rots[k], seeds[k], hold_angle, angles[k], angle_points,
+            reference, max_iterations, position_tolerance, angle_tolerance, damping, max_step,
+            0.0, 0.0, 0, length_scale, 1.0, stall_window, stall_ratio)
     return q, success, perr, aerr
-
-
-@njit(cache=True)
-def rotation_vector(m):
-    """Rotation vector [rad] (3,) of a rotation matrix (3, 3) by Shepperd's quaternion:
-    :func:`dloplan.robot.chain.rotation_vector`."""
-    trace = m[0, 0] + m[1, 1] + m[2, 2]
-    k, big = 0, trace
-    for j in range(3):
-        if m[j, j] > big:
-            k, big = j + 1, m[j, j]
-    v = np.empty(3)
-    if k == 0:
-        w = 0.5 * math.sqrt(1.0 + trace)
-        v[0] = (m[2, 1] - m[1, 2]) / (4.0 * w)
-        v[1] = (m[0, 2] - m[2, 0]) / (4.0 * w)
-        v[2] = (m[1, 0] - m[0, 1]) / (4.0 * w)
-    else:
-        i = k - 1
-        j, l = (i + 1) % 3, (i + 2) % 3
-        v[i] = 0.5 * math.sqrt(max(1.0 + m[i, i] - m[j, j] - m[l, l], 0.0))
-        w = (m[l, j] - m[j, l]) / (4.0 * v[i])
-        v[j] = (m[j, i] + m[i, j]) / (4.0 * v[i])
-        v[l] = (m[l, i] + m[i, l]) / (4.0 * v[i])
-    if w < 0:
-        w = -w
-        v = -v
-    norm = math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2)
-    if norm < 1e-15:
-        return 2.0 * v
-    return (2.0 * math.atan2(norm, w) / norm) * v
-
-
-@njit(cache=True)
-def chain_solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
-                upper, position, target_rot, seed, max_iterations, position_tolerance,
-                angle_tolerance, damping, max_step, null_gain, length_scale, null_fade,
-                stall_window, stall_ratio):
-    """A described arm's damped least squares from one seed: (q (n,), position error [m],
-    angle error [rad], iterations, converged); null-space motion for n > 6; stops when the
-    weighted error has not dropped below ``stall_ratio`` of its value ``stall_window``
-    iterations before."""
-    n = seed.size
-    q = np.minimum(np.maximum(seed, lower), upper)
-    eye = np.eye(n)
-    weight = np.array([1.0, 1.0, 1.0, length_scale, length_scale, length_scale])
-    mid = 0.5 * (lower + upper)
-    half = np.minimum(0.5 * (upper - lower), math.pi)
-    redundant = n > 6 and null_gain > 0
-    history = np.empty(max_iterations + 1)
-    rots = np.empty((n + 1, 3, 3))
-    points = np.empty((n + 1, 3))
-    relative = np.empty((3, 3))
-    jac = np.empty((6, n))
-    err = np.empty(6)
-    perr = aerr = 0.0
-    it = 0
-    for it in range(max_iterations + 1):
-        chain_frames(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, q,
-                     rots, points)
-        dp = position - points[n]
-        dtheta = rotation_vector(times_transposed(target_rot, rots[n], relative))
-        perr = math.sqrt(dp[0] ** 2 + dp[1] ** 2 + dp[2] ** 2)
-        aerr = math.sqrt(dtheta[0] ** 2 + dtheta[1] ** 2 + dtheta[2] ** 2)
-        if perr <= position_tolerance and aerr <= angle_tolerance:
-            return q, perr, aerr, it, True
-        history[it] = perr + length_scale * aerr
-        if it == max_iterations or (
-                it >= stall_window and history[it] > stall_ratio * history[it - stall_window]):
-            break
-        weighted_jacobian(rots, points, axes, weight, np.ones(n), jac)
-        for row in range(3):
-            err[row] = dp[row]
-            err[row + 3] = length_scale * dtheta[row]
-        energy = 0.5 * (err @ err)
-        dq = np.linalg.solve(jac.T @ jac + (energy + damping) * eye, jac.T @ err)
-        if redundant:
-            null = eye - np.linalg.pinv(jac, rcond=1e-8) @ jac
-            fade = min(1.0, math.sqrt(2.0 * energy) / null_fade)
-            dq -= null_gain * fade * (null @ ((q - mid) / half**2))
-        largest = np.max(np.abs(dq))
-        if largest > max_step:
-            dq *= max_step / largest
-        q = np.minimum(np.maximum(q + dq, lower), upper)
-    return q, perr, aerr, it, False

@@ -1,11 +1,14 @@
-"""Forward kinematics, Jacobian and damped-least-squares inverse kinematics of one arm.
+"""Forward kinematics, Jacobian and damped-least-squares inverse kinematics of one arm: the
+one kinematics API of every cell's arms (the YuMi's, the UR5e's, the Panda's, any from URDF).
 
-Plain numpy on the URDF chain of :class:`~dloplan.robot.yumi.Arm`: the pose of link i is
-``T_i = T_{i-1} Origin_i Rot(axis_i, q_i)`` (4x4 homogeneous transforms kept as a rotation
-matrix and a translation), with link 0 the robot body placed in the world. All poses are in the
-WORLD frame. Rotations go through :class:`scipy.spatial.transform.Rotation`. The IK's solve
-from one seed runs compiled (:mod:`dloplan.robot.ik_compiled`; :func:`solve_reference` is its
-numpy original, which the tests compare it with): a placement search runs it some 10^4 times.
+Plain numpy on the chain of a :class:`~dloplan.robot.chain.CellArm` with n joints: the pose of
+link i is ``T_i = T_{i-1} Origin_i Rot(axis_i, q_i)`` (4x4 homogeneous transforms kept as a
+rotation matrix and a translation), the first origin carrying the arm's base pose in the world,
+the TCP fixed in the last link. All poses are in the WORLD frame. Rotations go through
+:class:`scipy.spatial.transform.Rotation`. The IK's solve from one seed runs compiled
+(:mod:`dloplan.robot.ik_compiled`; :func:`solve_reference` is its numpy original, which the
+tests compare it with): a placement search runs it some 10^4 times. An arm with an arm angle
+(the YuMi, :mod:`dloplan.robot.armangle`) can have it held by the IK as a 7th task row.
 """
 
 from __future__ import annotations
@@ -16,7 +19,6 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from . import ik_compiled
-from .yumi import Arm
 
 LENGTH_SCALE = 0.1
 """Length [m] that weighs an orientation error against a position error in the IK: 1 rad of
@@ -33,63 +35,67 @@ class Frames:
     Attributes
     ----------
     rotations : numpy.ndarray
-        (..., 8, 3, 3) ``link_to_world`` rotation matrices of links 1..7 and of the TCP.
+        (..., n + 1, 3, 3) ``link_to_world`` rotation matrices of links 1..n and of the TCP.
     positions : numpy.ndarray
-        (..., 8, 3) origins [m] of links 1..7 (on the joint axes) and the TCP point.
+        (..., n + 1, 3) origins [m] of links 1..n (on the joint axes) and the TCP point.
     """
 
     rotations: np.ndarray
     positions: np.ndarray
 
 
-def link_frames(arm: Arm, q) -> Frames:
+def link_frames(arm, q) -> Frames:
     """World frames of every link and of the TCP.
 
     Parameters
     ----------
-    arm : Arm
+    arm : CellArm
     q : array_like
-        (..., 7) joint values [rad] (not checked against the limits).
+        (..., n) joint values [rad] (not checked against the limits).
     """
     q = np.asarray(q, dtype=float)
+    n = arm.n_joints
+    if q.ndim < 1 or q.shape[-1] != n:
+        raise ValueError(f"q: expected joint values of shape (..., {n}) for {arm.name}, got "
+                         f"{q.shape}")
     batch = q.shape[:-1]
     # Rodrigues: R = I + sin(q) K + (1 - cos(q)) K^2 with K the axis' cross-product matrix
     c, s = np.cos(q)[..., None, None], np.sin(q)[..., None, None]
-    turn = np.eye(3) + s * arm._axis_skew + (1.0 - c) * arm._axis_skew2
+    turn = np.eye(3) + s * arm._skew + (1.0 - c) * arm._skew2
     if not batch:  # the IK's case: one joint vector, a plain loop over 3x3 products
-        joint = arm._origin_rot @ turn
+        joint = arm._rot @ turn
         rots, points = [], []
         r, p = np.eye(3), np.zeros(3)
-        for i in range(7):
-            p = p + r @ arm._origin_xyz[i]
+        for i in range(n):
+            p = p + r @ arm._xyz[i]
             r = r @ joint[i]
             rots.append(r)
             points.append(p)
         rots.append(r @ arm._tcp_rot)
-        points.append(p + r @ arm.gripper.tcp_offset)
+        points.append(p + r @ arm._tcp_xyz)
         return Frames(np.array(rots), np.array(points))
-    rot = np.empty(batch + (8, 3, 3))
-    pos = np.empty(batch + (8, 3))
+    rot = np.empty(batch + (n + 1, 3, 3))
+    pos = np.empty(batch + (n + 1, 3))
     r = np.eye(3)
     p = np.zeros(3)
-    for i in range(7):
-        p = p + r @ arm._origin_xyz[i]
-        r = r @ arm._origin_rot[i] @ turn[..., i, :, :]
+    for i in range(n):
+        p = p + r @ arm._xyz[i]
+        r = r @ arm._rot[i] @ turn[..., i, :, :]
         rot[..., i, :, :] = r
         pos[..., i, :] = p
-    rot[..., 7, :, :] = r @ arm._tcp_rot
-    pos[..., 7, :] = p + r @ arm.gripper.tcp_offset
+    rot[..., n, :, :] = r @ arm._tcp_rot
+    pos[..., n, :] = p + r @ arm._tcp_xyz
     return Frames(rot, pos)
 
 
-def forward(arm: Arm, q) -> tuple[np.ndarray, Rotation]:
+def forward(arm, q) -> tuple[np.ndarray, Rotation]:
     """TCP pose in the world frame.
 
     Parameters
     ----------
-    arm : Arm
+    arm : CellArm
     q : array_like
-        (..., 7) joint values [rad].
+        (..., n) joint values [rad].
 
     Returns
     -------
@@ -98,12 +104,12 @@ def forward(arm: Arm, q) -> tuple[np.ndarray, Rotation]:
     rotation : scipy.spatial.transform.Rotation
         ``tcp_to_world``, of the batch shape of ``q``.
     """
-    q = _as_joints(q, "q")
+    q = _as_joints(q, "q", arm.n_joints)
     frames = link_frames(arm, q)
-    return frames.positions[..., 7, :], Rotation.from_matrix(frames.rotations[..., 7, :, :])
+    return frames.positions[..., -1, :], Rotation.from_matrix(frames.rotations[..., -1, :, :])
 
 
-def jacobian(arm: Arm, q) -> np.ndarray:
+def jacobian(arm, q) -> np.ndarray:
     """Geometric Jacobian of the TCP, world frame.
 
     Column i is ``(z_i x (p_tcp - p_i), z_i)`` for the revolute joint i with world axis z_i
@@ -111,28 +117,29 @@ def jacobian(arm: Arm, q) -> np.ndarray:
 
     Parameters
     ----------
-    arm : Arm
+    arm : CellArm
     q : array_like
-        (..., 7) joint values [rad].
+        (..., n) joint values [rad].
 
     Returns
     -------
     numpy.ndarray
-        (..., 6, 7): rows 0-2 TCP linear velocity [m/rad], rows 3-5 angular velocity [1].
+        (..., 6, n): rows 0-2 TCP linear velocity [m/rad], rows 3-5 angular velocity [1].
     """
     frames = link_frames(arm, np.asarray(q, dtype=float))
     return _jacobian(arm, frames)
 
 
-def _jacobian(arm: Arm, frames: Frames) -> np.ndarray:
-    z = (frames.rotations[..., :7, :, :] @ arm.axes[:, :, None])[..., 0]
-    lever = frames.positions[..., 7:8, :] - frames.positions[..., :7, :]
+def _jacobian(arm, frames: Frames) -> np.ndarray:
+    n = arm.n_joints
+    z = (frames.rotations[..., :n, :, :] @ arm.axes[:, :, None])[..., 0]
+    lever = frames.positions[..., n:n + 1, :] - frames.positions[..., :n, :]
     cross = z[..., [1, 2, 0]] * lever[..., [2, 0, 1]] - z[..., [2, 0, 1]] * lever[..., [1, 2, 0]]
     return np.concatenate([cross, z], axis=-1).swapaxes(-1, -2)
 
 
-def manipulability(arm: Arm, q) -> np.ndarray:
-    """Yoshikawa's manipulability sqrt(det(J J^T)) of the full 6x7 Jacobian.
+def manipulability(arm, q) -> np.ndarray:
+    """Yoshikawa's manipulability sqrt(det(J J^T)) of the full 6 x n Jacobian.
 
     Zero at a singularity. Mixed units (three rows in metres, three dimensionless) make it
     [m^3]; compare values of the same arm, not across robots.
@@ -140,14 +147,14 @@ def manipulability(arm: Arm, q) -> np.ndarray:
     Parameters
     ----------
     q : array_like
-        (..., 7) joint values [rad].
+        (..., n) joint values [rad].
     """
     j = jacobian(arm, q)
     det = np.linalg.det(j @ j.swapaxes(-1, -2))
     return np.sqrt(np.maximum(det, 0.0))
 
 
-def joint_margin(arm: Arm, q) -> np.ndarray:
+def joint_margin(arm, q) -> np.ndarray:
     """Distance of the nearest joint to its nearest limit [rad], (...,); negative outside."""
     q = np.asarray(q, dtype=float)
     return np.min(np.minimum(q - arm.lower, arm.upper - q), axis=-1)
@@ -215,7 +222,7 @@ class IKResult:
     Attributes
     ----------
     q : numpy.ndarray
-        (7,) joint values [rad], always within the limits (the best found if not converged).
+        (n,) joint values [rad], always within the limits (the best found if not converged).
     success : bool
         Converged within the tolerances.
     position_error : float
@@ -238,11 +245,7 @@ class IKResult:
     message: str
 
 
-ARM_ANGLE_JOINT = 2
-"""Index of the YuMi's redundant "arm angle" joint (ABB axis 7) in the physical joint order."""
-
-
-def inverse(arm: Arm, position, rotation: Rotation, seed=None,
+def inverse(arm, position, rotation: Rotation, seed=None,
             options: IKOptions | None = None, rng: np.random.Generator | None = None,
             arm_angle: float | None = None) -> IKResult:
     """Joint values placing the TCP at a world pose: damped least squares from a seed.
@@ -261,56 +264,57 @@ def inverse(arm: Arm, position, rotation: Rotation, seed=None,
 
     Parameters
     ----------
-    arm : Arm
+    arm : CellArm
     position : array_like
         (3,) target TCP position in the world [m].
     rotation : scipy.spatial.transform.Rotation
         Target ``tcp_to_world`` (single).
     seed : array_like, optional
-        (7,) start [rad] (clipped into the limits); default the arm's home pose.
+        (n,) start [rad] (clipped into the limits); default the arm's home pose.
     options : IKOptions, optional
     rng : numpy.random.Generator, optional
         For the random restarts; default a generator seeded with 0 (deterministic).
     arm_angle : float, optional
-        Hold the arm angle (ABB axis 7, :data:`ARM_ANGLE_JOINT`) at this value [rad], as the
-        controller does with a robtarget's ``eax_a``: the remaining six joints solve the 6-D
-        task, which has finitely many solutions, so from a seed on the right branch the IK
-        returns that branch's solution (no null-space motion).
+        Hold the arm angle psi (:mod:`dloplan.robot.armangle`, the controller's ``eax_a``) at
+        this value [rad], as the controller does with a robtarget: psi is a 7th task row, the
+        7x7 task has finitely many solutions, so from a seed on the right branch the IK returns
+        that branch's solution (no null-space motion).
     """
     position = np.asarray(position, dtype=float)
     if position.shape != (3,) or not np.all(np.isfinite(position)):
         raise ValueError(f"position: expected 3 finite numbers [m], got {position!r}")
     if not isinstance(rotation, Rotation) or not rotation.single:
         raise ValueError(f"rotation: expected a single scipy Rotation, got {rotation!r}")
-    seed = arm.home if seed is None else _as_joints(seed, "seed")
-    if seed.shape != (7,):
-        raise ValueError(f"seed: expected 7 joint values [rad], got shape {seed.shape}")
+    seed = arm.home if seed is None else _as_joints(seed, "seed", arm.n_joints)
+    if seed.ndim != 1:
+        raise ValueError(f"seed: expected {arm.n_joints} joint values [rad], got shape "
+                         f"{seed.shape}")
     opts = options if options is not None else IKOptions()
-    if arm_angle is not None:
-        j = ARM_ANGLE_JOINT
-        if not (np.isfinite(arm_angle) and arm.lower[j] <= arm_angle <= arm.upper[j]):
-            raise ValueError(f"arm_angle: expected a value within the joint limits "
-                             f"[{arm.lower[j]:.4f}, {arm.upper[j]:.4f}] rad, got {arm_angle!r}")
+    if arm_angle is not None and not np.isfinite(arm_angle):
+        raise ValueError(f"arm_angle: expected a finite angle [rad], got {arm_angle!r}")
+    if arm_angle is not None and arm.arm_angle_reference is None:
+        raise ValueError(f"arm_angle: the {arm.name} arm has no arm angle (only a 7-joint arm "
+                         "with an arm_angle_reference)")
     return _inverse(arm, position, rotation.as_matrix(), seed, opts, rng, arm_angle)
 
 
-def solve_from(arm: Arm, position, rotation_matrix, seed, options: IKOptions,
+def solve_from(arm, position, rotation_matrix, seed, options: IKOptions,
                arm_angle: float | None = None) -> IKResult:
     """One damped-least-squares solve from one seed, no fallback seeds and no input checks:
     the step of a tracking loop (each sub-step seeded with the previous solution).
 
     Parameters
     ----------
-    arm : Arm
+    arm : CellArm
     position : numpy.ndarray
         (3,) target TCP position [m].
     rotation_matrix : numpy.ndarray
         (3, 3) target ``tcp_to_world``.
     seed : numpy.ndarray
-        (7,) start [rad].
+        (n,) start [rad].
     options : IKOptions
     arm_angle : float, optional
-        Hold ABB axis 7 at this value [rad] (see :func:`inverse`).
+        Hold the arm angle psi at this value [rad] (see :func:`inverse`).
     """
     q, perr, aerr, its, ok = _solve(arm, position, rotation_matrix, seed, options, arm_angle)
     return IKResult(q, ok, perr, aerr, its, 1, "converged" if ok else
@@ -318,8 +322,20 @@ def solve_from(arm: Arm, position, rotation_matrix, seed, options: IKOptions,
                     f"{np.degrees(aerr):.2f} deg")
 
 
-def solve_many(arm: Arm, positions, rotation_matrices, seeds, options: IKOptions,
-               arm_angles=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+STALL_WINDOW = 10
+"""Iterations over which a solve must make progress (every solve of :func:`inverse` and
+:func:`solve_from`; :func:`solve_many` with ``give_up``) ..."""
+
+STALL_RATIO = 0.99
+"""... shrinking the weighted error (position + 0.1 m/rad x angle) below this fraction of its
+value STALL_WINDOW iterations before, unless it is already below
+:data:`~dloplan.robot.ik_compiled.STALL_FLOOR`; else the seed is given up (stuck at a limit or
+in a local minimum: the next seed is tried)."""
+
+
+def solve_many(arm, positions, rotation_matrices, seeds, options: IKOptions,
+               arm_angles=None, give_up: bool = False
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Many independent damped-least-squares solves at once, each from its own seed.
 
     The step of :func:`inverse` (Levenberg-Marquardt with Sugihara's damping, steps limited to
@@ -331,21 +347,24 @@ def solve_many(arm: Arm, positions, rotation_matrices, seeds, options: IKOptions
 
     Parameters
     ----------
-    arm : Arm
+    arm : CellArm
     positions : numpy.ndarray
         (N, 3) target TCP positions [m].
     rotation_matrices : numpy.ndarray
         (N, 3, 3) target ``tcp_to_world``.
     seeds : numpy.ndarray
-        (N, 7) starts [rad].
+        (N, n) starts [rad].
     options : IKOptions
     arm_angles : numpy.ndarray, optional
-        (N,) hold ABB axis 7 at these values [rad] (see :func:`inverse`).
+        (N,) hold the arm angle psi at these values [rad] (see :func:`inverse`).
+    give_up : bool
+        Stop a solve whose error stalls (:data:`STALL_WINDOW`, :data:`STALL_RATIO`): for
+        enumerating solutions from many seeds, most of which lead nowhere.
 
     Returns
     -------
     q : numpy.ndarray
-        (N, 7) joint values [rad].
+        (N, n) joint values [rad].
     success : numpy.ndarray
         (N,) bool, converged within the tolerances.
     position_error, angle_error : numpy.ndarray
@@ -357,33 +376,42 @@ def solve_many(arm: Arm, positions, rotation_matrices, seeds, options: IKOptions
         np.asarray(arm_angles, dtype=float), (n,)).copy()
     return ik_compiled.solve_batch(
         *_compiled_chain(arm), positions, np.ascontiguousarray(rotation_matrices, dtype=float),
-        np.ascontiguousarray(seeds, dtype=float), -1 if arm_angles is None else ARM_ANGLE_JOINT,
-        held, options.max_iterations, options.position_tolerance, options.angle_tolerance,
-        options.damping, options.max_step, LENGTH_SCALE)
+        np.ascontiguousarray(seeds, dtype=float), arm_angles is not None, held,
+        *_angle_geometry(arm), options.max_iterations, options.position_tolerance,
+        options.angle_tolerance, options.damping, options.max_step, LENGTH_SCALE,
+        STALL_WINDOW if give_up else 0, STALL_RATIO)
 
 
-def _compiled_chain(arm: Arm) -> tuple:
+def _compiled_chain(arm) -> tuple:
     """The arm's chain as :mod:`dloplan.robot.ik_compiled` takes it: origin rotations and
     points, the axes' cross-product matrices and their squares, the TCP rotation and offset in
-    the flange, the unit axes and the joint limits."""
-    return (arm._origin_rot, arm._origin_xyz, arm._axis_skew, arm._axis_skew2, arm._tcp_rot,
-            np.asarray(arm.gripper.tcp_offset, dtype=float), arm.axes, arm.lower, arm.upper)
+    the last link, the unit axes and the joint limits."""
+    return (arm._rot, arm._xyz, arm._skew, arm._skew2, arm._tcp_rot, arm._tcp_xyz, arm.axes,
+            arm.lower, arm.upper)
 
 
-def _inverse(arm: Arm, position: np.ndarray, target_rot: np.ndarray, seed: np.ndarray,
+def _angle_geometry(arm) -> tuple[np.ndarray, np.ndarray]:
+    """What the compiled solve needs of the arm angle: the feet (s, w) [m] of its shoulder and
+    wrist points and the reference direction in the world (:mod:`dloplan.robot.armangle`);
+    zeros for an arm without one (never held)."""
+    if arm.arm_angle_reference is None:
+        return np.zeros(2), np.array([0.0, 0.0, 1.0])
+    return arm._angle_points, arm.base_rotation.apply(arm.arm_angle_reference)
+
+
+def _inverse(arm, position: np.ndarray, target_rot: np.ndarray, seed: np.ndarray,
              opts: IKOptions, rng: np.random.Generator | None,
              arm_angle: float | None = None) -> IKResult:
     """:func:`inverse` without input checks (target rotation as a matrix)."""
-    flange = position - target_rot @ arm._tcp_rot.T @ arm.gripper.tcp_offset
-    distance = float(np.linalg.norm(flange - arm._origin_xyz[0]))
-    if distance > reach(arm):
+    distance = float(np.linalg.norm(position - arm.shoulder))
+    if distance > arm.reach:
         q = np.clip(seed, arm.lower, arm.upper)
         frames = link_frames(arm, q)
-        perr = float(np.linalg.norm(position - frames.positions[7]))
-        aerr = float(Rotation.from_matrix(target_rot @ frames.rotations[7].T).magnitude())
+        perr = float(np.linalg.norm(position - frames.positions[-1]))
+        aerr = float(Rotation.from_matrix(target_rot @ frames.rotations[-1].T).magnitude())
         return IKResult(q, False, perr, aerr, 0, 0,
-                        f"out of reach: flange point {distance:.3f} m from the shoulder, the arm "
-                        f"reaches at most {reach(arm):.3f} m")
+                        f"out of reach: TCP target {distance:.3f} m from the shoulder, the arm "
+                        f"reaches at most {arm.reach:.3f} m")
     seeds = [seed, wrist_flip(arm, seed), arm.home, wrist_flip(arm, arm.home)]
     best = converged = None
     total = tried = 0
@@ -418,75 +446,78 @@ def _inverse(arm: Arm, position: np.ndarray, target_rot: np.ndarray, seed: np.nd
     return IKResult(q, False, perr, aerr, total, tried, message)
 
 
-def reach(arm: Arm) -> float:
-    """Upper bound of the distance from joint 1's origin (the shoulder) to the flange [m]: the
-    sum of the chain's link offsets. A flange target beyond it is out of reach without IK."""
-    return float(np.linalg.norm(arm.origin_xyz[1:], axis=1).sum())
-
-
-def wrist_flip(arm: Arm, q) -> np.ndarray:
-    """The other wrist configuration as a seed: ABB axis 4 and 6 turned by pi, axis 5 negated.
+def wrist_flip(arm, q) -> np.ndarray:
+    """The other wrist configuration as a seed: the last three joints' first and last turned by
+    pi, the middle one negated (the YuMi's ABB axes 4, 6 and 5; a UR's wrists 1, 3 and 2).
 
     Exact for a spherical wrist; the YuMi's wrist has small offsets, so it is a seed for the IK,
     not a solution. Turns go the way that stays within the limits; the result is clipped.
     """
     flipped = np.array(q, dtype=float)
-    for i in (4, 6):
+    n = len(flipped)
+    for i in (n - 3, n - 1):
         flipped[i] += np.pi if flipped[i] + np.pi <= arm.upper[i] else -np.pi
-    flipped[5] = -flipped[5]
+    flipped[n - 2] = -flipped[n - 2]
     return np.clip(flipped, arm.lower, arm.upper)
 
 
-def _solve(arm: Arm, position, target_rot, seed, opts: IKOptions,
+def _solve(arm, position, target_rot, seed, opts: IKOptions,
            arm_angle: float | None = None):
     """Damped least squares from one seed: (q, position error, angle error, iterations, ok).
 
     :func:`solve_reference`'s iteration compiled (:func:`dloplan.robot.ik_compiled.solve`).
     """
-    polish = opts.polish if opts.min_margin > 0 and arm_angle is None else 0
+    redundant = arm.n_joints > 6 and arm_angle is None
+    polish = opts.polish if opts.min_margin > 0 and redundant else 0
     q, perr, aerr, it, ok = ik_compiled.solve(
         *_compiled_chain(arm), np.asarray(position, dtype=float),
         np.ascontiguousarray(target_rot, dtype=float),
-        np.asarray(seed, dtype=float), -1 if arm_angle is None else ARM_ANGLE_JOINT,
-        0.0 if arm_angle is None else float(arm_angle), opts.max_iterations,
-        opts.position_tolerance, opts.angle_tolerance, opts.damping, opts.max_step,
-        opts.null_gain, opts.min_margin, polish, LENGTH_SCALE, NULL_FADE)
+        np.asarray(seed, dtype=float), arm_angle is not None,
+        0.0 if arm_angle is None else float(arm_angle), *_angle_geometry(arm),
+        opts.max_iterations, opts.position_tolerance, opts.angle_tolerance, opts.damping,
+        opts.max_step, opts.null_gain if redundant else 0.0, opts.min_margin, polish,
+        LENGTH_SCALE, NULL_FADE, STALL_WINDOW, STALL_RATIO)
     return q, float(perr), float(aerr), int(it), bool(ok)
 
 
-def solve_reference(arm: Arm, position, target_rot, seed, opts: IKOptions,
-                    arm_angle: float | None = None):
+def solve_reference(arm, position, target_rot, seed, opts: IKOptions, give_up: bool = True):
     """Damped least squares from one seed in numpy: (q, position error, angle error,
-    iterations, ok); the readable reference of the compiled solve the IK uses.
+    iterations, ok); the readable reference of the compiled solve the IK uses (with the arm
+    angle held: :func:`dloplan.robot.armangle.solve_reference`).
 
-    Once converged closer than ``min_margin`` to a limit, up to ``polish`` null-space steps
-    (each followed by re-convergence) move the redundant elbow away; the last converged q is
-    returned. With ``arm_angle`` the arm-angle joint is held there (its Jacobian column and
-    step are zero; no null space is left to polish in).
+    For a redundant arm (n > 6) the null-space motion pulls the joints toward the middle of
+    their ranges, and once converged closer than ``min_margin`` to a limit, up to ``polish``
+    null-space steps (each followed by re-convergence) move the redundant elbow away; the last
+    converged q is returned. With ``give_up`` (as in :func:`solve_from`; not in
+    :func:`solve_many`'s tracking) the seed is given up when its error stalls
+    (:data:`STALL_WINDOW`, :data:`STALL_RATIO`).
     """
+    n = arm.n_joints
+    redundant = n > 6
     q = np.clip(seed, arm.lower, arm.upper)
-    free = np.ones(7)
-    if arm_angle is not None:
-        q[ARM_ANGLE_JOINT] = arm_angle
-        free[ARM_ANGLE_JOINT] = 0.0
     half = 0.5 * (arm.upper - arm.lower)
-    eye = np.eye(7)
+    eye = np.eye(n)
     scale = np.array([1.0, 1.0, 1.0, LENGTH_SCALE, LENGTH_SCALE, LENGTH_SCALE])
-    polish = opts.polish if opts.min_margin > 0 and arm_angle is None else 0
+    polish = opts.polish if opts.min_margin > 0 and redundant else 0
+    null_gain = opts.null_gain if redundant else 0.0
     done = None
+    history = []
     for it in range(opts.max_iterations + 1):
         frames = link_frames(arm, q)
-        dp = position - frames.positions[7]
-        dtheta = rotation_log(target_rot @ frames.rotations[7].T)
+        dp = position - frames.positions[-1]
+        dtheta = rotation_log(target_rot @ frames.rotations[-1].T)
         perr, aerr = float(np.linalg.norm(dp)), float(np.linalg.norm(dtheta))
         converged = perr <= opts.position_tolerance and aerr <= opts.angle_tolerance
         if converged:
             done = (q, perr, aerr, it)
             if polish == 0 or joint_margin(arm, q) >= opts.min_margin:
                 break
-        if it == opts.max_iterations:
+        history.append(perr + LENGTH_SCALE * aerr)
+        if it == opts.max_iterations or (
+                give_up and it >= STALL_WINDOW and history[-1] > ik_compiled.STALL_FLOOR
+                and history[-1] > STALL_RATIO * history[-1 - STALL_WINDOW]):
             break
-        jac = _jacobian(arm, frames) * scale[:, None] * free
+        jac = _jacobian(arm, frames) * scale[:, None]
         err = np.concatenate([dp, LENGTH_SCALE * dtheta])
         energy = 0.5 * float(err @ err)
         grad = (q - arm.mid) / half**2
@@ -498,14 +529,14 @@ def solve_reference(arm: Arm, position, target_rot, seed, opts: IKOptions,
             null = eye - np.linalg.pinv(jac, rcond=1e-8) @ jac
         if converged:  # polish: a pure self-motion step away from the limits
             polish -= 1
-            dq = -opts.null_gain * (null @ grad)
+            dq = -null_gain * (null @ grad)
         else:
             dq = np.linalg.solve(jac.T @ jac + (energy + opts.damping) * eye, jac.T @ err)
-            # Faded out as the task error vanishes: its second-order effect on the TCP must
-            # not keep the task from converging to the tolerance.
-            fade = min(1.0, np.sqrt(2.0 * energy) / NULL_FADE)
-            dq -= opts.null_gain * fade * (null @ grad)
-        dq *= free
+            if null_gain:
+                # Faded out as the task error vanishes: its second-order effect on the TCP
+                # must not keep the task from converging to the tolerance.
+                fade = min(1.0, np.sqrt(2.0 * energy) / NULL_FADE)
+                dq -= null_gain * fade * (null @ grad)
         largest = np.max(np.abs(dq))
         if largest > opts.max_step:
             dq *= opts.max_step / largest
@@ -547,8 +578,8 @@ def rotation_log(m) -> np.ndarray:
     return out
 
 
-def _as_joints(q, name: str) -> np.ndarray:
+def _as_joints(q, name: str, n: int) -> np.ndarray:
     arr = np.asarray(q, dtype=float)
-    if arr.ndim < 1 or arr.shape[-1] != 7 or not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: expected finite joint values of shape (..., 7), got {q!r}")
+    if arr.ndim < 1 or arr.shape[-1] != n or not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: expected finite joint values of shape (..., {n}), got {q!r}")
     return arr

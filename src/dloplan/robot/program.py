@@ -21,8 +21,15 @@ its timing (:class:`~dloplan.trajectory.Trajectory`) into a :class:`RobotProgram
 
    - ``assignment``: per shape, the y-separation of the two arms' clips (negative: crossed);
    - ``reach``: the IK reaches the written target (error of FK of the written solution);
-   - ``joint limits``: distance of the nearest joint to its limit (> 0 required; below
-     ``reach.min_margin`` is noted);
+   - ``round trip``: the written robtarget (pose, ``eax_a``, confdata) solved by the
+     controller-semantics IK (:mod:`dloplan.robot.robtarget`) gives the verified joints
+     (0.05 deg) among its solutions with that confdata (180 deg when none has it); where
+     another solution shares the confdata (the 7-joint arm has up to 16 per pose and arm
+     angle; confdata separates fewer), the MoveL into the target follows the path from the
+     previous one, which the ``continuity`` replay checks ends on the verified joints;
+   - ``joint limits``: distance of the nearest joint to its limit, at least the cell's
+     ``reach.min_margin`` (5 deg by default: the model's uncertainty, flange and calibration,
+     is larger than a fraction of a degree);
    - ``clearance``: smallest arm-arm capsule distance at the target and along the move into it;
    - ``continuity``: the controller's MoveL into the target, replayed: TCP linear, orientation
      slerp, arm angle linear between the written values, each sub-step's IK seeded from the
@@ -31,27 +38,35 @@ its timing (:class:`~dloplan.trajectory.Trajectory`) into a :class:`RobotProgram
      finer steps: fast motion near a singularity passes, a jump does not), and the move ends
      on the target's own solution (so the controller with ``ConfL \\On`` reaches the
      programmed configuration);
-   - ``joint speed``: the largest joint speed of that replay at the planned move duration,
-     as a fraction of the joint's speed limit.
+   - ``joint speed``: the peak joint speed of that replay along the move's time law (the
+     trajectory's jerk-limited law, :mod:`dloplan.robot.peaks`), as a fraction of the joint's
+     speed limit (ABB's product specification of the IRB 14000).
 
-The program is ``ok`` when every row is. Everything computed is kept (:attr:`RobotProgram.checks`,
+A program whose only trouble is a joint over its speed limit is slowed first: each such
+segment's speed scale of the time law (:meth:`dloplan.trajectory.Trajectory.with_speed_scale`)
+brings it to 98 % of the limit, up to :data:`SLOW_ROUNDS` times; the program keeps the
+trajectory it was verified with (:attr:`RobotProgram.trajectory`). The program is ``ok`` when
+every row is. Everything computed is kept (:attr:`RobotProgram.checks`,
 :meth:`RobotProgram.summary`, :meth:`RobotProgram.to_dict`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from .armangle import arm_angle
 from .assignment import ArmAssignment, assign_arms
 from .cell import RobotCell
 from .collision import arm_clearance
-from .confdata import arm_angle, confdata
-from .kinematics import forward, joint_margin, solve_from
+from .confdata import confdata
+from .kinematics import forward, solve_from
 from .motion import JointMotion
+from .peaks import motion_peaks, slowed_scale
 from .replay import replay_moves
+from .robtarget import ROUND_TRIP_TOLERANCE, solve_robtarget
 from .solutions import ranked_solutions
 from .yumi import ABB_AXIS_NUMBERS, ARMS
 
@@ -64,11 +79,15 @@ MIN_ANGULAR_SPEED = float(np.radians(0.1))
 END_TOLERANCE = 1e-3
 """[rad] A replayed MoveL ends on the target's solution when every joint is this close."""
 
-CHECKS = ("assignment", "reach", "joint limits", "clearance", "continuity", "joint speed")
+CHECKS = ("assignment", "reach", "round trip", "joint limits", "clearance", "continuity",
+          "joint speed")
 """The checks of a program, in the order of its rows."""
 
 MAX_TRIES = 2
 """Joint solutions (best ranked first) replayed before the program settles for the first."""
+
+SLOW_ROUNDS = 3
+"""Times a program over a joint-speed limit is slowed (re-timed) before it is refused."""
 
 _LOWER_IS_WORSE = {"assignment", "joint limits", "clearance"}
 _TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
@@ -175,6 +194,12 @@ class RobotProgram(CheckedProgram):
     zones : numpy.ndarray or None
         (M,) fly-by zone radius [m] at each target (the trajectory's zones at the shapes; 0,
         a fine point, at the approach, the grasp, the release and the retreat).
+    trajectory : Trajectory or None
+        The timing the program was verified with: the plan's, or slowed where a joint was
+        over its speed limit.
+    joint_speed : numpy.ndarray or None
+        (M - 1, 2) per move and arm the peak joint speed along the time law as a fraction of
+        the limit.
     move_substeps : numpy.ndarray or None
         (M - 1,) int: the replayed sub-steps of each move in ``motion_joints`` (after its
         first row, the first target).
@@ -199,6 +224,8 @@ class RobotProgram(CheckedProgram):
     motion_joints: np.ndarray
     checks: tuple[CheckRow, ...]
     zones: np.ndarray | None = None
+    trajectory: object = None
+    joint_speed: np.ndarray | None = None
     move_substeps: np.ndarray | None = None
 
     @property
@@ -372,13 +399,20 @@ def robot_program(grippers, trajectory, cell: RobotCell | None = None) -> RobotP
     _check_inputs(grippers, trajectory)
     assignment = assign_arms(grippers.positions, cell)
     program = _build(grippers, trajectory, cell, assignment)
-    if program.ok or not assignment.ok:
-        return program
-    failed = {r.check for r in program.failures}
-    if failed & {"clearance", "continuity"} and "reach" not in failed:
-        other = _build(grippers, trajectory, cell, assignment.swapped())
-        if other.ok:
-            return other
+    if not program.ok and assignment.ok:
+        failed = {r.check for r in program.failures}
+        if failed & {"clearance", "continuity"} and "reach" not in failed:
+            other = _build(grippers, trajectory, cell, assignment.swapped())
+            if other.ok:
+                program = other
+    for _ in range(SLOW_ROUNDS):
+        inner = program.joint_speed[1:-1] if cell.approach > 0 else program.joint_speed
+        ratios = inner.max(axis=1)
+        if not np.any(ratios > 1.0):
+            break
+        timing = program.trajectory
+        program = _build(grippers, timing.with_speed_scale(slowed_scale(timing, ratios)), cell,
+                         program.assignment)
     return program
 
 
@@ -450,7 +484,8 @@ def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, q
     quat = np.stack([quats[c.grip][:, a] for a, c in enumerate(chosen)], axis=1)
     rot = np.stack([rots[c.grip][:, a] for a, c in enumerate(chosen)], axis=1)
     q0 = np.stack([c.joints for c in chosen], axis=1)
-    eax = np.round(arm_angle(q0), 6)
+    eax = np.round(np.degrees(np.stack([arm_angle(arm, q0[:, a])
+                                        for a, arm in enumerate(robot.arms)], axis=1)), 6)
     joints = np.empty_like(q0)
     solved = np.zeros(eax.shape, dtype=bool)
     for m in range(len(pos)):
@@ -459,8 +494,12 @@ def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, q
             joints[m, a], solved[m, a] = res.q, res.success and chosen[a].solved[m]
     durations, speeds = _timing(trajectory, cell, assignment, cell.approach > 0)
     times = np.cumsum(np.r_[0.0, durations])
-    replay = replay_moves(robot, pos, rot, eax, joints, durations, opts)
-    rows = _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay)
+    replay = replay_moves(robot, pos, rot, eax, joints, opts)
+    trip = [[solve_robtarget(arm, pos[m, a], rot[m, a], np.radians(eax[m, a]),
+                             confdata(joints[m, a]), seeds=[joints[m, a]], options=opts.ik)
+             for a, arm in enumerate(robot.arms)] for m in range(len(pos))]
+    rows = _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay,
+                 trip)
     motion_times = np.concatenate([times[:1]] + [
         times[m] - durations[m - 1] * (1.0 - np.arange(1, len(q) + 1) / len(q))
         for m, q in enumerate(replay["joints"], start=1)])
@@ -469,10 +508,14 @@ def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, q
     knots = slice(1, -1) if cell.approach > 0 else slice(None)
     zones[knots] = trajectory.zones
     zones[[0, grasp, release, -1]] = 0.0
-    return RobotProgram(cell, assignment, turned, labels, shapes, grasp, release, pos, quat,
-                        joints, confdata(joints), eax, times, durations, speeds,
-                        motion_times, motion, tuple(rows), zones,
-                        np.array([len(q) for q in replay["joints"]]))
+    program = RobotProgram(cell, assignment, turned, labels, shapes, grasp, release, pos, quat,
+                           joints, confdata(joints), eax, times, durations, speeds,
+                           motion_times, motion, tuple(rows), zones, trajectory, None,
+                           np.array([len(q) for q in replay["joints"]]))
+    peaks = motion_peaks(program.joint_motion(trajectory), [arm.max_velocity for arm in
+                                                             robot.arms], [np.full(7, np.inf)] * 2)
+    return replace(program, checks=program.checks + _speed_rows(labels, shapes, peaks),
+                   joint_speed=np.stack([p.speed for p in peaks], axis=1))
 
 
 def _timing(trajectory, cell: RobotCell, assignment: ArmAssignment, approach: bool):
@@ -495,8 +538,11 @@ def _link(i: int) -> str:
     return "gripper" if i == 7 else f"link {i + 1}"
 
 
-def _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay) -> list:
-    """The verdict table (module docstring)."""
+def _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay,
+          trip) -> list:
+    """The verdict table but its joint speeds (module docstring); ``trip[m][a]`` the
+    controller's solutions of target m's robtarget
+    (:func:`~dloplan.robot.robtarget.solve_robtarget`)."""
     opts = cell.reach
     rows = []
     for k, sep in enumerate(assignment.separation):
@@ -513,15 +559,27 @@ def _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, rep
                                  bool(solved[m, a]),
                                  f"orientation error {np.degrees(aerr):.2g} deg" if
                                  not solved[m, a] else ""))
+        for a in range(2):
+            found = trip[m][a]
+            deviation = found.deviation(joints[m, a])
+            conf = confdata(joints[m, a]).tolist()
+            note = (f"{len(found.solutions)} solutions of the pose and arm angle, "
+                    f"{len(found.matching)} with confdata {conf}")
+            if len(found.matching) > 1:
+                note += ("; the MoveL into it follows its branch (the continuity check) and "
+                         "ConfL confirms the confdata")
+            rows.append(CheckRow("round trip", m, label, int(shapes[m]), ARMS[a],
+                                 float(np.degrees(min(deviation, np.pi))), "deg",
+                                 bool(deviation <= ROUND_TRIP_TOLERANCE), note))
         for a, arm in enumerate(robot.arms):
             gaps = np.minimum(joints[m, a] - arm.lower, arm.upper - joints[m, a])
             j = int(np.argmin(gaps))
             margin = float(np.degrees(gaps[j]))
             note = f"ABB axis {ABB_AXIS_NUMBERS[j]}"
             if margin < np.degrees(opts.min_margin):
-                note += f", less than the wanted {np.degrees(opts.min_margin):.0f} deg"
+                note += f", less than the {np.degrees(opts.min_margin):.0f} deg required"
             rows.append(CheckRow("joint limits", m, label, int(shapes[m]), ARMS[a], margin,
-                                 "deg", bool(joint_margin(arm, joints[m, a]) > 0), note))
+                                 "deg", bool(gaps[j] >= opts.min_margin), note))
     # clearance at each target and along the move into it
     steps = [joints[:1]] + replay["joints"]
     for m, label in enumerate(labels):
@@ -545,8 +603,20 @@ def _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, rep
                 note += f"; ends {np.degrees(end):.1f} deg from the target's solution"
             rows.append(CheckRow("continuity", m, labels[m], int(shapes[m]), ARMS[a],
                                  float(np.degrees(largest)), "deg", bool(ok), note))
-        for a in range(2):
-            ratio = float(replay["speed_ratio"][m - 1][a])
-            rows.append(CheckRow("joint speed", m, labels[m], int(shapes[m]), ARMS[a], ratio,
-                                 "of the limit", bool(ratio <= 1.0), f"from {labels[m - 1]}"))
     return rows
+
+
+def _speed_rows(labels, shapes, peaks) -> tuple[CheckRow, ...]:
+    """One ``joint speed`` row per move and arm; ``peaks[a]`` the arm's
+    :class:`~dloplan.robot.peaks.JointPeaks` per move."""
+    rows = []
+    for m in range(1, len(labels)):
+        for a in range(2):
+            ratio = float(peaks[a].speed[m - 1])
+            axis = ABB_AXIS_NUMBERS[int(peaks[a].speed_joint[m - 1])]
+            rows.append(CheckRow("joint speed", m, labels[m], int(shapes[m]), ARMS[a], ratio,
+                                 "of the limit", bool(ratio <= 1.0),
+                                 f"from {labels[m - 1]}; peak along the time law, ABB axis "
+                                 f"{axis}; peak joint acceleration "
+                                 f"{peaks[a].largest_acceleration[m - 1]:.3g} rad/s^2"))
+    return tuple(rows)

@@ -15,9 +15,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
+from .assignment import assign_arms
+from .chain import CellArm
 from .collision import arm_clearance
 from .kinematics import IKOptions, inverse, joint_margin, manipulability, solve_from
-from .yumi import ABB_AXIS_NUMBERS, ARMS, Arm, Robot, yumi
+from .yumi import ABB_AXIS_NUMBERS, ARMS, Robot, yumi
 
 _TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
 """The TCP turned by pi about its own z-axis (the other grip of a symmetric gripper)."""
@@ -177,7 +179,7 @@ def tcp_poses_from_clips(robot: Robot, clip_positions, clip_rotations: Rotation)
         (K, 2) ``tcp_to_world``.
     """
     mats = clip_rotations.as_matrix()
-    tcp = np.stack([mats[:, a] @ arm.gripper.tcp_in_clip.as_matrix()
+    tcp = np.stack([mats[:, a] @ arm.tcp_in_clip.as_matrix()
                     for a, arm in enumerate(robot.arms)], axis=1)
     return np.array(clip_positions, dtype=float), Rotation.from_matrix(tcp)
 
@@ -253,7 +255,7 @@ def check_reachability(gripper_positions, gripper_rotations: Rotation, robot: Ro
     pos, mats = _validate_path(gripper_positions, gripper_rotations, "gripper_positions",
                                "gripper_rotations")
     offset = _as_offset(offset)
-    order = _assign(pos, assignment)
+    order = _assign(pos, assignment, robot)
     clip_pos = pos[:, order] + offset
     clip_rot = Rotation.from_matrix(mats[:, order])
     tcp_pos, tcp_rot = tcp_poses_from_clips(robot, clip_pos, clip_rot)
@@ -334,7 +336,7 @@ def search_placement(gripper_positions, gripper_rotations: Rotation, robot: Robo
     axes = [np.arange(-np.floor(e / step), np.floor(e / step) + 1) * step for e in extent]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
     grid = grid[np.argsort(np.linalg.norm(grid, axis=1), kind="stable")]
-    order = _assign(pos, assignment)
+    order = _assign(pos, assignment, robot)
     best = None
     checked = 0
     for offset in grid:
@@ -460,7 +462,7 @@ def _stopped(robot: Robot, track, index: int, n_times: int, planned,
                         f"{first} (verdict only: the check stopped there)", messages)
 
 
-def _track(arm: Arm, index: int, pos, mats, times, planned, seed, opts: ReachOptions):
+def _track(arm: CellArm, index: int, pos, mats, times, planned, seed, opts: ReachOptions):
     """Follow one arm's path through the sub-steps; returns per sub-step q and per pose flags
     (with ``opts.verdict_only``, up to the first pose not reached or motion lost: the poses
     after it read unreachable)."""
@@ -602,15 +604,15 @@ def _at_targets(robot: Robot, clip_pos, clip_rot: Rotation, opts: ReachOptions,
     return reached
 
 
-def _assign(pos: np.ndarray, assignment: str) -> list[int]:
-    """Clip index held by (left, right)."""
+def _assign(pos: np.ndarray, assignment: str, robot: Robot) -> list[int]:
+    """Clip index held by (left, right): ``auto`` the side rule in the robot's base frame
+    (:func:`~dloplan.robot.assignment.assign_arms`)."""
     if assignment == "first-left":
         return [0, 1]
     if assignment == "first-right":
         return [1, 0]
     if assignment == "auto":
-        mean_y = pos[:, :, 1].mean(axis=0)
-        return [0, 1] if mean_y[0] >= mean_y[1] else [1, 0]
+        return list(assign_arms(pos, robot).clips)
     raise ValueError(
         f"assignment: expected 'auto', 'first-left' or 'first-right', got {assignment!r}")
 

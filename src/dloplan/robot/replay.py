@@ -1,7 +1,8 @@
 """The controller's MoveL into every target of a robot program, replayed joint by joint.
 
-TCP linear, orientation slerp, arm angle (``eax_a``) linear between the written values, each
-sub-step's IK seeded from the previous one with the arm angle held
+TCP linear, orientation slerp, arm angle (``eax_a``, :mod:`dloplan.robot.armangle`) linear
+between the written values, each sub-step's IK seeded from the previous one with the arm
+angle held
 (:func:`~dloplan.robot.kinematics.solve_many`, all moves of an arm advanced together). What
 :mod:`dloplan.robot.program` checks continuity, clearance and joint speed on.
 """
@@ -20,7 +21,7 @@ REFINE = 8
 """Finer steps a sub-step with a large joint step is replayed in (:func:`_replay`)."""
 
 
-def replay_moves(robot, pos, rot, eax, joints, durations, opts) -> dict:
+def replay_moves(robot, pos, rot, eax, joints, opts) -> dict:
     """The controller's MoveL into every target (module docstring, ``continuity``).
 
     Both arms advance through the same sub-steps of a move; all moves of an arm advance
@@ -29,8 +30,7 @@ def replay_moves(robot, pos, rot, eax, joints, durations, opts) -> dict:
     continuous motion that is merely fast (near a singularity) then moves each joint by about
     a REFINE-th, a jump to another branch still jumps. Returns per move m = 1..M-1 the
     sub-step joints (n_m, 2, 7) and per move and arm: converged, largest refined joint step
-    [rad] and its joint, distance of the end from the target's solution [rad], and the largest
-    joint speed as a fraction of the limit at the move's planned duration.
+    [rad] and its joint, and the distance of the end from the target's solution [rad].
 
     Parameters
     ----------
@@ -41,8 +41,6 @@ def replay_moves(robot, pos, rot, eax, joints, durations, opts) -> dict:
         (M, 2) arm angles [deg], as written.
     joints : numpy.ndarray
         (M, 2, 7) the targets' solutions [rad].
-    durations : numpy.ndarray
-        (M - 1,) planned move durations [s].
     opts : ReachOptions
     """
     track = replace(opts.ik, max_iterations=TRACK_ITERATIONS)
@@ -66,10 +64,8 @@ def replay_moves(robot, pos, rot, eax, joints, durations, opts) -> dict:
             q[live], ok, _, _ = solve_many(arm, p[live], r[live], q[live], track, theta[live])
             converged[live, a] = ok
             sub[i, :, a] = q
-    limit = np.stack([arm.max_velocity for arm in robot.arms])
     out = {"joints": [], "converged": converged, "largest": np.zeros((n_moves, 2)),
-           "worst_joint": np.zeros((n_moves, 2), dtype=int), "end_error": np.zeros((n_moves, 2)),
-           "speed_ratio": np.zeros((n_moves, 2))}
+           "worst_joint": np.zeros((n_moves, 2), dtype=int), "end_error": np.zeros((n_moves, 2))}
     for m in range(n_moves):
         q_move = sub[:n_sub[m], m]
         steps = np.abs(np.diff(np.concatenate([joints[m][None], q_move]), axis=0))  # (n, 2, 7)
@@ -83,10 +79,6 @@ def replay_moves(robot, pos, rot, eax, joints, durations, opts) -> dict:
                                                start, track)
             out["largest"][m, a], out["worst_joint"][m, a] = largest, joint
         out["end_error"][m] = np.abs(q_move[-1] - joints[m + 1]).max(axis=-1)
-        dt = durations[m] / n_sub[m]
-        moved = steps.max(axis=(0, 2))
-        out["speed_ratio"][m] = ((steps / limit).max(axis=(0, 2)) / dt if dt > 0
-                                 else np.where(moved > 1e-9, np.inf, 0.0))
         out["joints"].append(q_move)
     return out
 

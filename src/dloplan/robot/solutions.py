@@ -1,10 +1,12 @@
 """Joint solutions of a robot program's targets: candidates per arm, ranked in pairs.
 
-The YuMi's arm has one redundant joint, the arm angle (ABB axis 7). Per arm and grip, the first
-target is solved freely from the home pose; its arm angle and the angles around it, 30 deg
-apart, are held constant while each candidate tracks the whole path in sub-steps (every IK
-seeded from the previous sub-step; all candidates of an arm solved together by
-:func:`~dloplan.robot.kinematics.solve_many`). :func:`ranked_solutions` ranks the (left, right)
+The YuMi's arm is redundant by one degree of freedom, which the controller parameterizes by the
+arm angle psi (:mod:`dloplan.robot.armangle`, a robtarget's ``eax_a``). Per arm and grip, the
+first target is solved freely from the home pose; its arm angle and the angles around the
+circle, 30 deg apart, are held constant while each candidate tracks the whole path in
+sub-steps (every IK seeded from the previous sub-step; all candidates of an arm solved together
+by :func:`~dloplan.robot.kinematics.solve_many`): the motion the controller's MoveL makes
+between targets of one written arm angle. :func:`ranked_solutions` ranks the (left, right)
 pairs: every target solved, tracked smoothly, clearance and joint margin (see
 :mod:`dloplan.robot.program`, which verifies the chosen pair).
 """
@@ -16,16 +18,17 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from .armangle import arm_angle, wrap
 from .collision import arm_clearance
-from .kinematics import ARM_ANGLE_JOINT, inverse, joint_margin, solve_many
+from .kinematics import inverse, joint_margin, solve_many
 from .reachability import check_path
 
 ARM_ANGLE_STEP = float(np.radians(30.0))
-"""[rad] Spacing of the constant arm angles (ABB axis 7) tried for each arm."""
+"""[rad] Spacing of the constant arm angles tried for each arm."""
 
-ARM_ANGLES = 11
-"""Most arm angle steps tried each way from the first target's free solution (the axis'
-range, +-168.5 deg, holds at most 11 steps)."""
+ARM_ANGLES = 12
+"""Arm angles tried per arm and grip: the first target's free solution's and the others
+:data:`ARM_ANGLE_STEP` apart around the circle."""
 
 TRACK_ITERATIONS = 12
 """IK iterations allowed per tracking sub-step, here and in the replay (a converging solve
@@ -51,22 +54,20 @@ class Candidate:
 
 
 def _arm_candidates(arm, pos, rots, n_sub, opts) -> list[Candidate]:
-    """Per grip: target 0 solved freely from the home pose (its arm angle theta*), then the arm
-    angles theta* + k * :data:`ARM_ANGLE_STEP` within the limits, seeded with that solution
-    and, where that fails, with a solved neighbour's (a continuation in the arm angle); each
-    candidate then tracks the
-    path with its arm angle held, in ``n_sub[m]`` sub-steps per move, each seeded from the
-    previous one (all candidates at once)."""
+    """Per grip: target 0 solved freely from the home pose (its arm angle psi*), then the arm
+    angles psi* + k * :data:`ARM_ANGLE_STEP` around the circle, seeded with that solution and,
+    where that fails, with a solved neighbour's (a continuation in the arm angle); each
+    candidate then tracks the path with its arm angle held, in ``n_sub[m]`` sub-steps per
+    move, each seeded from the previous one (all candidates at once)."""
     first = replace(opts.ik, min_margin=opts.min_margin, restarts=0)
     track = replace(opts.ik, max_iterations=TRACK_ITERATIONS)
-    lo, hi = arm.lower[ARM_ANGLE_JOINT], arm.upper[ARM_ANGLE_JOINT]
+    steps = np.arange(ARM_ANGLES) - (ARM_ANGLES - 1) // 2
     starts = []  # (grip, theta, joints at target 0)
     for grip, rot in enumerate(rots):
         start = inverse(arm, pos[0], Rotation.from_matrix(rot[0]), None, first)
         if not start.success:
             continue
-        theta = start.q[ARM_ANGLE_JOINT] + ARM_ANGLE_STEP * np.arange(-ARM_ANGLES, ARM_ANGLES + 1)
-        theta = theta[(theta >= lo) & (theta <= hi)]
+        theta = wrap(arm_angle(arm, start.q) + ARM_ANGLE_STEP * steps)
         q = np.tile(start.q, (len(theta), 1))
         done = np.zeros(len(theta), dtype=bool)
         for _ in range(3):  # continuation: the unsolved start again from a solved neighbour

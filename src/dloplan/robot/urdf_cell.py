@@ -23,12 +23,14 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
-from .chain import CellArm, capsules, in_base_frame, inverse, joint_margin
-from .collision import segment_distance
+from .assignment import assign_arms
+from .chain import DEFAULT_TCP_IN_CLIP, CellArm, capsules, in_base_frame
+from .collision import arm_clearance
 from .description import load_arm, vendored
+from .kinematics import inverse, joint_margin
 from .program import CheckRow
 from .reachability import ReachOptions
-from .yumi import ARMS, DEFAULT_TCP_IN_CLIP, DEFAULT_TCP_OFFSET, HOME_DEG
+from .yumi import ARMS, yumi
 
 START_RESTARTS = 16
 """Random restarts of the IK at the first pose (at least; more if ``options.ik`` asks): the one
@@ -43,8 +45,13 @@ COMFORT_MARGIN = float(np.radians(30.0))
 PLACEMENT_TRIES = 3
 """Best-ranked placements verified in full by :func:`search_cell_placement`."""
 
-CHECKS = ("reach", "joint limits", "continuity", "clearance", "table clearance")
-"""The checks of a cell verdict, in the order of its rows."""
+CHECKS = ("reach", "joint limits", "continuity", "clearance", "table clearance", "joint speed",
+          "joint acceleration")
+"""The checks of a cell program, in the order of its rows (the last two along the time law,
+:func:`dloplan.robot.cell_program.cell_program`)."""
+
+MIN_MARGIN = float(np.radians(5.0))
+"""[rad] Default smallest joint margin of a cell's program (:attr:`DescribedCell.min_margin`)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,6 +78,9 @@ class DescribedCell:
     source : dict, optional
         The mapping that builds the cell again (:func:`cell_from_mapping`, lengths in m, URDF
         paths absolute); the presets record theirs.
+    min_margin : float
+        Smallest distance [rad] of every joint from its limits at every pose: a program closer
+        fails its ``joint limits`` check (default :data:`MIN_MARGIN`, 5 deg).
     """
 
     name: str
@@ -81,6 +91,7 @@ class DescribedCell:
     place: bool = True
     writers: dict = field(default_factory=dict)
     source: dict | None = None
+    min_margin: float = MIN_MARGIN
 
     def __post_init__(self) -> None:
         if (self.left.name, self.right.name) != ARMS:
@@ -89,6 +100,9 @@ class DescribedCell:
         if not np.isfinite(self.table_height):
             raise ValueError(f"table_height: expected a finite number [m], got "
                              f"{self.table_height!r}")
+        if not (np.isfinite(self.min_margin) and self.min_margin >= 0):
+            raise ValueError(f"min_margin: expected a joint margin >= 0 [rad], got "
+                             f"{self.min_margin!r}")
 
     @property
     def arms(self) -> tuple[CellArm, CellArm]:
@@ -97,13 +111,15 @@ class DescribedCell:
 
     def to_base(self, positions) -> np.ndarray:
         """World points [m], (..., 3), in the cell's frame: origin between the two bases, y
-        from the right base to the left one (horizontal), z up; the world frame when both arms
-        share a base. The clip with the larger y goes to the left arm."""
+        from the right base to the left one (horizontal), z up; the arms' base frame when both
+        share a base (one body, e.g. the YuMi, however it is turned). The clip with the larger
+        y goes to the left arm (:func:`~dloplan.robot.assignment.assign_arms`)."""
         pos = np.asarray(positions, dtype=float)
         across = self.left.base_position - self.right.base_position
         across[2] = 0.0
         if np.linalg.norm(across) < 1e-9:
-            return pos
+            return self.left.base_rotation.inv().apply(
+                pos.reshape(-1, 3) - self.left.base_position).reshape(pos.shape)
         y = across / np.linalg.norm(across)
         axes = np.stack([np.cross(y, [0.0, 0.0, 1.0]), y, [0.0, 0.0, 1.0]], 1)
         middle = 0.5 * (self.left.base_position + self.right.base_position)
@@ -115,7 +131,7 @@ class DescribedCell:
             raise ValueError(f"cell {self.name!r}: built without a mapping, cannot be recorded "
                              "(build it with cell_from_mapping or a preset)")
         return {"kind": "described", **self.source, "place": self.place,
-                "writers": self.writers}
+                "writers": self.writers, "min_margin": self.min_margin}
 
 
 @dataclass(frozen=True, eq=False)
@@ -178,21 +194,17 @@ class CellVerdict:
 
 
 def pair_clearance(cell: DescribedCell, q_left, q_right) -> np.ndarray:
-    """Smallest arm-arm capsule clearance [m], (...,), negative when they overlap.
+    """Smallest arm-arm capsule clearance [m], (...,), negative when they overlap
+    (:func:`~dloplan.robot.collision.arm_clearance`; the base links of arms on one body not
+    against each other).
 
     Parameters
     ----------
     q_left, q_right : array_like
         (..., n_arm) joint values [rad] of each arm, same batch shape.
     """
-    seg_l, rad_l, link_l = capsules(cell.left, q_left)
-    seg_r, rad_r, link_r = capsules(cell.right, q_right)
-    dist = segment_distance(seg_l[..., :, None, 0, :], seg_l[..., :, None, 1, :],
-                            seg_r[..., None, :, 0, :], seg_r[..., None, :, 1, :])
-    gap = dist - rad_l[:, None] - rad_r[None, :]
-    if cell.shared_base:
-        gap = np.where((link_l[:, None] < 0) & (link_r[None, :] < 0), np.inf, gap)
-    return gap.min(axis=(-1, -2))
+    return arm_clearance(cell.left, q_left, cell.right, q_right,
+                         shared_base=cell.shared_base)[0]
 
 
 def _table_clearance(cell: DescribedCell, arm: CellArm, q) -> np.ndarray:
@@ -312,8 +324,8 @@ def _rows(cell, reach_ok, cont, perr, margin, step, table, clearance, opts) -> l
             low = margin[k, a] < opts.min_margin
             rows.append(CheckRow("joint limits", k, label, k, arm.name,
                                    float(np.degrees(margin[k, a])), "deg",
-                                   bool(reach_ok[k, a] and margin[k, a] > 0),
-                                   f"below the wanted {np.degrees(opts.min_margin):.0f} deg"
+                                   bool(reach_ok[k, a] and not low),
+                                   f"below the {np.degrees(opts.min_margin):.0f} deg required"
                                    if low else ""))
             rows.append(CheckRow("continuity", k, label, k, arm.name,
                                    float(np.degrees(step[k, a])), "deg", bool(cont[k, a]),
@@ -419,6 +431,11 @@ def ur5e_pair(*, separation: float = 0.8, tcp_offset: float = 0.15, tool_radius:
         "tool_radius": tool_radius, "table_height": table_height})
 
 
+PANDA_MAX_ACCELERATION = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
+"""[rad/s^2] The Panda's joint acceleration limits (Franka Emika, "Robot and interface
+specifications", Franka Control Interface documentation: ddq_max); its joint speed limits
+(2.175 rad/s for joints 1-4, 2.61 for 5-7) are the description's."""
+
 PANDA_TCP_IN_CLIP = Rotation.from_matrix(np.diag([1.0, -1.0, -1.0]))
 """TCP axes in the clip frame for the Franka Hand: TCP x = u (the cable), y = -v, z = -w."""
 
@@ -443,24 +460,20 @@ def panda_pair(*, separation: float = 0.8, table_height: float = 0.0) -> Describ
     arms = [CellArm(side, replace(description, name=f"panda_{side}"),
                     base_position=(0.0, sign * separation / 2, table_height),
                     tcp_offset=(0.0, 0.0, 0.1034), tool_radius=0.03, home=home,
-                    tcp_in_clip=PANDA_TCP_IN_CLIP)
+                    tcp_in_clip=PANDA_TCP_IN_CLIP, max_acceleration=PANDA_MAX_ACCELERATION)
             for side, sign in zip(ARMS, (1.0, -1.0), strict=True)]
     return DescribedCell("panda_pair", *arms, table_height=table_height, source={
         "preset": "panda_pair", "separation": separation, "table_height": table_height})
 
 
 def yumi_cell(*, table_height: float = 0.0) -> DescribedCell:
-    """The ABB YuMi as a description-built cell: both arms from the one ``yumi.urdf`` (body
-    ``yumi_body`` at the world origin), SmartGripper TCP (:data:`~dloplan.robot.yumi.
-    DEFAULT_TCP_OFFSET`; the gripper's capsule is part of the description), ABB's home pose.
-    Gives the FK of :func:`dloplan.robot.yumi.yumi` (tested to 1e-9)."""
-    path = vendored("yumi.urdf")
-    arms = [CellArm(side, load_arm(path, f"yumi_link_7_{side[0]}", base_link="yumi_body",
-                                   name=f"yumi_{side}"),
-                    tcp_offset=DEFAULT_TCP_OFFSET, home=np.radians(HOME_DEG[side]))
-            for side in ARMS]
-    return DescribedCell("yumi", *arms, table_height=table_height, shared_base=True,
-                         source={"preset": "yumi", "table_height": table_height})
+    """The ABB YuMi as a described cell: both arms of :func:`dloplan.robot.yumi.yumi` (body
+    ``yumi_body`` at the world origin, the SmartGripper's TCP on tool0, ABB's home pose, the
+    arm angle's plug-in); the vendored ``yumi.urdf`` loads to the same chains (tested)."""
+    robot = yumi()
+    return DescribedCell("yumi", robot.left, robot.right, table_height=table_height,
+                         shared_base=True, source={"preset": "yumi",
+                                                   "table_height": table_height})
 
 
 @dataclass(frozen=True, eq=False)
@@ -525,12 +538,12 @@ def verify_on_cell(cell: DescribedCell, trajectory, *, tcp_in_clip: Rotation | N
     place : bool, optional
     options : ReachOptions, optional
     """
+    options = options if options is not None else ReachOptions(min_margin=cell.min_margin)
     times = np.asarray(trajectory.times, dtype=float)
     keep = np.concatenate([[True], np.diff(times) > 0])
     pos = np.asarray(trajectory.positions, dtype=float)[keep]
     mats = np.stack([r.as_matrix() for r in trajectory.rotations], 1)[keep]
-    y = cell.to_base(pos)[..., 1]
-    swapped = bool(y[:, 0].mean() < y[:, 1].mean())
+    swapped = assign_arms(pos, cell).left_clip == 1
     if swapped:
         pos, mats = pos[:, ::-1], mats[:, ::-1]
     mats = np.stack([mats[:, a] @ (tcp_in_clip or arm.tcp_in_clip).as_matrix()
@@ -573,6 +586,8 @@ class ArmSpec:
         (n,) [rad].
     cable_along : str
         Key of :data:`CABLE_ALONG`.
+    max_acceleration : tuple, optional
+        (n,) published joint acceleration limits [rad/s^2].
     package_dirs : dict
         For :func:`~dloplan.robot.description.load_arm`.
     """
@@ -586,6 +601,7 @@ class ArmSpec:
     tool_radius: float = 0.0
     home: tuple | None = None
     cable_along: str = "y"
+    max_acceleration: tuple | None = None
     package_dirs: dict = field(default_factory=dict)
 
 
@@ -613,10 +629,16 @@ def cell_from_specs(name: str, left: ArmSpec, right: ArmSpec, *,
             raise ValueError(f"robot.cell.arms.{side}.home_deg: got {len(spec.home)} values, "
                              f"expected {description.n_joints} (one per joint of "
                              f"{spec.tip_link!r})")
+        if spec.max_acceleration is not None and \
+                len(spec.max_acceleration) != description.n_joints:
+            raise ValueError(f"robot.cell.arms.{side}.max_acceleration: got "
+                             f"{len(spec.max_acceleration)} values, expected "
+                             f"{description.n_joints} (one per joint of {spec.tip_link!r})")
         arms.append(CellArm(side, description, base_position=spec.base_position,
                             base_rotation=Rotation.from_euler("xyz", spec.base_rpy),
                             tcp_offset=spec.tcp_offset, tool_radius=spec.tool_radius,
-                            home=spec.home, tcp_in_clip=_cable_along(spec.cable_along, side)))
+                            home=spec.home, tcp_in_clip=_cable_along(spec.cable_along, side),
+                            max_acceleration=spec.max_acceleration))
     shared = (left.urdf == right.urdf and left.base_link == right.base_link
               and tuple(left.base_position) == tuple(right.base_position)
               and tuple(left.base_rpy) == tuple(right.base_rpy))
@@ -625,8 +647,9 @@ def cell_from_specs(name: str, left: ArmSpec, right: ArmSpec, *,
 
 
 ARM_KEYS = {"urdf", "tip_link", "base_link", "base_position", "base_rpy", "tcp_offset",
-            "tool_radius", "home_deg", "cable_along"}
-"""Keys of one arm in a scenario's ``robot.cell.arms`` (angles in degrees, lengths in m)."""
+            "tool_radius", "home_deg", "cable_along", "max_acceleration"}
+"""Keys of one arm in a scenario's ``robot.cell.arms`` (angles in degrees, lengths in m,
+``max_acceleration`` the published joint acceleration limits in rad/s^2)."""
 
 LENGTH_KEYS = {"separation", "tcp_offset", "tool_radius", "table_height", "base_position"}
 """Keys of a cell mapping (a preset's settings, the cell's, an arm's) that are lengths: given in
@@ -684,6 +707,12 @@ def _arm_spec(side: str, arm, folder, scale: float) -> tuple[ArmSpec, dict]:
     home = arm.get("home_deg")
     if home is not None:
         home = _numbers(f"{where}.home_deg", home, None, "deg")
+    accel = arm.get("max_acceleration")
+    if accel is not None:
+        accel = _numbers(f"{where}.max_acceleration", accel, None, "rad/s^2")
+        if min(accel) <= 0:
+            raise ValueError(f"{where}.max_acceleration: got {arm['max_acceleration']!r}, "
+                             "expected limits > 0 [rad/s^2], one per joint")
     radius = arm.get("tool_radius", 0.0)
     if isinstance(radius, bool) or not isinstance(radius, int | float) or \
             not (np.isfinite(radius) and radius >= 0):
@@ -696,7 +725,7 @@ def _arm_spec(side: str, arm, folder, scale: float) -> tuple[ArmSpec, dict]:
                    tuple(record.get("tcp_offset", (0.0, 0.0, 0.0))),
                    float(record.get("tool_radius", 0.0)),
                    None if home is None else tuple(np.radians(home)),
-                   arm.get("cable_along", "y"))
+                   arm.get("cable_along", "y"), accel)
     return spec, record
 
 
@@ -751,6 +780,8 @@ def cell_from_record(data: dict) -> DescribedCell:
     """The cell of :meth:`DescribedCell.to_dict`'s data (a plan document's ``robot.cell``)."""
     if not isinstance(data, dict) or data.get("kind") != "described":
         raise ValueError(f"robot.cell: expected a described cell record, got {data!r}")
-    mapping = {k: v for k, v in data.items() if k not in ("kind", "place", "writers")}
+    mapping = {k: v for k, v in data.items()
+               if k not in ("kind", "place", "writers", "min_margin")}
     return replace(cell_from_mapping(mapping), place=bool(data.get("place", True)),
-                   writers=dict(data.get("writers") or {}))
+                   writers=dict(data.get("writers") or {}),
+                   min_margin=float(data.get("min_margin", MIN_MARGIN)))

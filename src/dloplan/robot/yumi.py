@@ -25,8 +25,9 @@ from the body outward, which in ABB's numbering is 1, 2, 7, 3, 4, 5, 6 (the redu
 angle" axis 7 sits third).
 
 Frames: the body frame ``yumi_body`` (= ``yumi_base_link``) is ABB's base frame of the robot,
-at the bottom of the body on the table, x forward (toward the workspace), y to the robot's
-left, z up. The last link frame ``yumi_link_7_*`` is the flange (ABB's ``tool0``).
+0.1 m above its foot (:data:`BASE_ABOVE_FOOT`), x forward (toward the workspace), y to the
+robot's left, z up. ABB's ``tool0`` is the last link frame ``yumi_link_7_*`` turned by pi about
+its z-axis and 7 mm out (:data:`DEFAULT_TOOL0_OFFSET`).
 
 Collision capsules: one capsule per link enclosing every vertex of that link's coarse collision
 mesh (``meshes/coarse/link_*.stl`` of the same package; gripper: ``gripper/coarse/base.stl``
@@ -41,6 +42,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from .chain import DEFAULT_TCP_IN_CLIP, CellArm, as_rotation, as_vector
+from .description import ArmDescription
+
 ARMS = ("left", "right")
 """Order of the two arms in every per-arm array of this subpackage."""
 
@@ -49,17 +53,36 @@ ABB_AXIS_NUMBERS = (1, 2, 7, 3, 4, 5, 6)
 
 _DEG = np.pi / 180.0
 
-# URDF <joint> data, physical order. Only joint 1 (the arm's mount on the body) differs
-# between the arms; rows: xyz [m], rpy [rad] (URDF fixed-axis roll-pitch-yaw).
-_MOUNT = {
-    "right": ((0.05355, -0.0725, 0.41492), (-0.9795, -0.5682, -2.3155)),
-    "left": ((0.05355, 0.07250, 0.41492), (0.9781, -0.5716, 2.3180)),
-}
+# URDF <joint> data, physical order; rows: xyz [m], rpy [rad] (URDF fixed-axis roll-pitch-yaw).
+# Only joint 1 (the arm's mount on the body) differs between the arms. Where ABB's controller
+# data differ from the description, ABB's are used (docs/decisions.md, "YuMi kinematics"):
+#  - the mount's rotation is the arm base frame of a real controller's configuration turned by
+#    pi about its z-axis: ROBOT -gravity_alpha/-gravity_beta/-gamma_rotation (rad) of ROB_R /
+#    ROB_L in SYSPAR/MOC.cfg of the RobotWare 6.06 backup in BerkeleyAutomation/yumipy
+#    (intrinsic x-y-z angles; the description's rpy agree to 0.07 / 0.16 deg);
+#  - the mount's position: RobotStudio's home robtargets of both arms (tool0 at
+#    [-9.578368507, -182.609892723, 198.627808149] mm for the right arm; tests/data) solved for
+#    it (the description's differs by 0.2 mm);
+#  - ABB axis 3's origin: 40.5 mm off axis 7 and 251.5 mm from axis 2 (the description has
+#    41.88 and 251.56 mm), fitted to RobotStudio's 10 tool0 poses to 0.005 mm (tests/data).
+_GRAVITY_ANGLES = {"right": (0.629233, 0.950657, 0.184266),
+                   "left": (-0.629233, 0.950657, -0.184266)}
+_MOUNT_XYZ = {"right": (0.0537106, -0.0725734, 0.4150099),
+              "left": (0.0537106, 0.0725734, 0.4150099)}
+
+
+def _mount_rpy(side: str) -> tuple[float, float, float]:
+    """URDF rpy of the mount: the controller's arm base frame turned by pi about its z-axis."""
+    base = Rotation.from_euler("XYZ", _GRAVITY_ANGLES[side])
+    return tuple((base * Rotation.from_rotvec([0.0, 0.0, np.pi])).as_euler("xyz"))
+
+
+_MOUNT = {side: (_MOUNT_XYZ[side], _mount_rpy(side)) for side in ("right", "left")}
 _HALF_PI = 1.57079632679
 _CHAIN_XYZ = (
     (0.03, 0.0, 0.1),
     (-0.03, 0.17283, 0.0),
-    (-0.04188, 0.0, 0.07873),
+    (-0.0405, 0.0, 0.07867),
     (0.0405, 0.16461, 0.0),
     (-0.027, 0.0, 0.10039),
     (0.027, 0.029, 0.0),
@@ -93,17 +116,33 @@ _CAPSULES = (
 )
 
 DEFAULT_TCP_OFFSET = (0.0, 0.0, 0.1142)
-"""Flange-to-TCP translation [m] of ABB's SmartGripper tool data (servo module only; ABB,
-Product manual - Grippers for IRB 14000): TCP 114.2 mm along the flange z-axis, orientation
-unchanged. The fingertips of the URDF gripper end 143 mm out. The full tool data (mass, centre
-of gravity, inertia) is :class:`dloplan.robot.cell.Tool`'s default."""
+"""tool0-to-TCP translation [m] of ABB's SmartGripper tool data (servo module only; ABB,
+Product manual - Grippers for IRB 14000): TCP 114.2 mm along tool0's z-axis, orientation
+unchanged. The fingertips of the URDF gripper end 136 mm beyond tool0. The full tool data (mass,
+centre of gravity, inertia) is :class:`dloplan.robot.cell.Tool`'s default."""
 
-DEFAULT_TCP_IN_CLIP = Rotation.from_matrix([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
-"""The TCP axes expressed in the clip frame (u, v, w): TCP x = v, TCP y = u, TCP z = -w.
+DEFAULT_TOOL0_OFFSET = (0.0, 0.0, 0.007)
+"""Origin [m] of ABB's ``tool0`` (the flange frame RAPID's tool data refer to) in the last
+link frame ``yumi_link_7``: 7 mm along its z-axis (the description's ``gripper_*_base``
+joint). Fitted: RobotStudio's tool0 poses of 10 joint vectors agree to 0.005 mm
+(docs/decisions.md, "YuMi tool0")."""
 
-The YuMi gripper's fingers close along the gripper's x-axis and approach along its z-axis, so a
-held cable runs along its y-axis: the held link direction u is TCP y, and with the clip's w-axis
-leaning up (:func:`dloplan.frames.frame_from_axis`) the gripper approaches from above."""
+DEFAULT_TOOL0_ROTATION = Rotation.from_rotvec([0.0, 0.0, np.pi])
+"""``tool0_to_link7``: tool0 is ``yumi_link_7`` turned by pi about its z-axis (RobotStudio's
+tool0 orientation of the same 10 joint vectors agrees to 0.005 deg)."""
+
+BASE_ABOVE_FOOT = 0.1
+"""[m] Height of the YuMi's base frame (``yumi_body`` = ``yumi_base_link``, ABB's base frame)
+above the robot's foot, the table it stands on: the description's body mesh spans z = -0.100
+to +0.471 m (the robot is 571 mm tall), and a real robot's logged tool0 positions (yumipy's
+joint/pose pairs) put the base frame at yumi_body within 2 mm (tests/test_robot_armangle.py).
+A table under the robot is at z = -0.1 m in the base frame."""
+
+ARM_ANGLE_REFERENCE = {"left": (0.0, -1.0, 0.0), "right": (0.0, 1.0, 0.0)}
+"""Default reference direction (unit vector in the robot's base frame) of each arm's arm angle
+(RobotWare's "Arm-Angle Reference Direction"): the arm angles these give reproduce the
+``eax_a`` of RobotStudio's home robtargets, -101.964427132 deg (right) and +101.964427132
+deg (left), to 1e-6 deg (docs/decisions.md, "YuMi arm angle")."""
 
 HOME_DEG = {
     "right": (0.0, -130.0, -135.0, 30.0, 0.0, 40.0, 0.0),
@@ -113,198 +152,130 @@ HOME_DEG = {
 0, -130, -+135, 30, 0, 40, 0): arms folded in front of the body. The IK's fallback seed."""
 
 
-def as_vector(value, name: str, size: int = 3) -> np.ndarray:
-    """``value`` as a (size,) float array, else ValueError naming ``name``."""
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != (size,) or not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: expected {size} finite numbers, got {value!r}")
-    return arr
-
-
-def as_rotation(value, name: str) -> Rotation:
-    """``value`` as a single scipy Rotation (None: identity), else ValueError naming ``name``."""
-    if value is None:
-        return Rotation.identity()
-    if not isinstance(value, Rotation) or not value.single:
-        raise ValueError(f"{name}: expected a single scipy Rotation, got {value!r}")
-    return value
-
-
 @dataclass(frozen=True, eq=False)
 class Gripper:
-    """Where the tool centre point sits on the flange and how a clip frame maps onto it.
+    """Where tool0 sits on the last link, the tool centre point on tool0, and how a clip frame
+    maps onto the TCP.
 
     Parameters
     ----------
     tcp_offset : array_like
-        (3,) flange-to-TCP translation [m] in the flange frame.
+        (3,) tool0-to-TCP translation [m] in the tool0 frame (RAPID ``tframe.trans``).
     tcp_rotation : scipy.spatial.transform.Rotation, optional
-        Flange-to-TCP rotation (``tcp_to_flange``); identity by default.
+        ``tcp_to_tool0`` (RAPID ``tframe.rot``); identity by default.
     tcp_in_clip : scipy.spatial.transform.Rotation, optional
         ``tcp_to_clip``: the TCP axes expressed in the clip frame (u, v, w); the TCP pose that
         holds a clip at ``clip_to_world`` is ``clip_to_world * tcp_in_clip`` at the clip point.
         Default :data:`DEFAULT_TCP_IN_CLIP`.
+    tool0_offset : array_like, optional
+        (3,) tool0's origin [m] in the last link frame (:data:`DEFAULT_TOOL0_OFFSET`).
+    tool0_rotation : scipy.spatial.transform.Rotation, optional
+        ``tool0_to_link7`` (:data:`DEFAULT_TOOL0_ROTATION`).
     """
 
     tcp_offset: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_TCP_OFFSET))
     tcp_rotation: Rotation = field(default_factory=Rotation.identity)
     tcp_in_clip: Rotation = DEFAULT_TCP_IN_CLIP
+    tool0_offset: np.ndarray = field(default_factory=lambda: np.array(DEFAULT_TOOL0_OFFSET))
+    tool0_rotation: Rotation = DEFAULT_TOOL0_ROTATION
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "tcp_offset", as_vector(self.tcp_offset, "tcp_offset"))
         object.__setattr__(self, "tcp_rotation", as_rotation(self.tcp_rotation, "tcp_rotation"))
         object.__setattr__(self, "tcp_in_clip", as_rotation(self.tcp_in_clip, "tcp_in_clip"))
-
-
-@dataclass(frozen=True, eq=False)
-class Arm:
-    """One serial 7-DoF arm as a URDF-style chain placed in the world frame.
-
-    Joint ``i`` turns link ``i`` about ``axes[i]`` (in the joint frame) by ``q[i]``; its frame
-    sits at ``origin_xyz[i]``, turned by ``origin_rpy[i]``, in the frame of link ``i - 1``
-    (link 0 is the robot body, placed in the world by ``base_to_world``). The TCP is fixed in
-    the last link (the flange) by ``gripper``.
-
-    Parameters
-    ----------
-    name : str
-        ``"left"`` or ``"right"``.
-    origin_xyz, origin_rpy : numpy.ndarray
-        (7, 3) joint origins [m] and URDF roll-pitch-yaw [rad] (fixed axes x, y, z).
-    axes : numpy.ndarray
-        (7, 3) unit joint axes in the joint frames.
-    lower, upper : numpy.ndarray
-        (7,) joint limits [rad].
-    max_velocity : numpy.ndarray
-        (7,) joint speed limits [rad/s].
-    capsules : numpy.ndarray
-        (8, 2, 3) capsule segment end points [m]: one per link 1..7 in its frame, then the
-        gripper in the flange frame.
-    radii : numpy.ndarray
-        (8,) capsule radii [m].
-    home : numpy.ndarray
-        (7,) a fallback IK seed [rad] within the limits.
-    gripper : Gripper
-        TCP offset and clip-to-TCP mapping.
-    base_position : numpy.ndarray
-        (3,) position of the robot body frame in the world [m].
-    base_rotation : scipy.spatial.transform.Rotation
-        ``base_to_world`` rotation of the body frame.
-    joint_names : tuple of str
-        URDF joint names.
-    """
-
-    name: str
-    origin_xyz: np.ndarray
-    origin_rpy: np.ndarray
-    axes: np.ndarray
-    lower: np.ndarray
-    upper: np.ndarray
-    max_velocity: np.ndarray
-    capsules: np.ndarray
-    radii: np.ndarray
-    home: np.ndarray
-    gripper: Gripper = field(default_factory=Gripper)
-    base_position: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    base_rotation: Rotation = field(default_factory=Rotation.identity)
-    joint_names: tuple[str, ...] = ()
-
-    def __post_init__(self) -> None:
-        for key, shape in (("origin_xyz", (7, 3)), ("origin_rpy", (7, 3)), ("axes", (7, 3)),
-                           ("lower", (7,)), ("upper", (7,)), ("max_velocity", (7,)),
-                           ("capsules", (8, 2, 3)), ("radii", (8,)), ("home", (7,))):
-            arr = np.asarray(getattr(self, key), dtype=float)
-            if arr.shape != shape or not np.all(np.isfinite(arr)):
-                raise ValueError(f"{key}: expected finite values of shape {shape}, got {arr.shape}")
-            object.__setattr__(self, key, arr)
-        if np.any(self.lower >= self.upper):
-            raise ValueError(f"joint limits: lower {self.lower} must be below upper {self.upper}")
-        if np.any((self.home < self.lower) | (self.home > self.upper)):
-            raise ValueError(f"home: {self.home} is outside the joint limits")
-        object.__setattr__(self, "axes", self.axes / np.linalg.norm(self.axes, axis=1)[:, None])
-        object.__setattr__(self, "base_position", as_vector(self.base_position, "base_position"))
-        object.__setattr__(self, "base_rotation", as_rotation(self.base_rotation, "base_rotation"))
-        # Fixed parts of the chain, precomputed: joint 1's origin carries the world placement.
-        rot = Rotation.from_euler("xyz", self.origin_rpy).as_matrix()
-        xyz = self.origin_xyz.copy()
-        base = self.base_rotation.as_matrix()
-        rot[0] = base @ rot[0]
-        xyz[0] = base @ xyz[0] + self.base_position
-        object.__setattr__(self, "_origin_rot", rot)
-        object.__setattr__(self, "_origin_xyz", xyz)
-        object.__setattr__(self, "_tcp_rot", self.gripper.tcp_rotation.as_matrix())
-        skew = np.zeros((7, 3, 3))
-        skew[:, [2, 0, 1], [1, 2, 0]] = self.axes
-        skew[:, [1, 2, 0], [2, 0, 1]] = -self.axes
-        object.__setattr__(self, "_axis_skew", skew)
-        object.__setattr__(self, "_axis_skew2", skew @ skew)
+        object.__setattr__(self, "tool0_offset", as_vector(self.tool0_offset, "tool0_offset"))
+        object.__setattr__(self, "tool0_rotation",
+                           as_rotation(self.tool0_rotation, "tool0_rotation"))
 
     @property
-    def n_joints(self) -> int:
-        """Number of joints (7)."""
-        return 7
-
-    @property
-    def mid(self) -> np.ndarray:
-        """Middle of each joint's range [rad], (7,)."""
-        return 0.5 * (self.lower + self.upper)
+    def tcp_in_link(self) -> tuple[np.ndarray, np.ndarray]:
+        """The TCP in the last link frame: position (3,) [m] and ``tcp_to_link7`` (3, 3)."""
+        tool0 = self.tool0_rotation.as_matrix()
+        return (self.tool0_offset + tool0 @ self.tcp_offset,
+                tool0 @ self.tcp_rotation.as_matrix())
 
 
 @dataclass(frozen=True, eq=False)
 class Robot:
     """A dual-arm robot: the two arms in the order of :data:`ARMS`."""
 
-    left: Arm
-    right: Arm
+    left: CellArm
+    right: CellArm
+
+    def to_base(self, positions) -> np.ndarray:
+        """World points [m], (..., 3), in the robot's base (body) frame (both arms share it):
+        the frame of the arm assignment's side rule (:func:`dloplan.robot.assign_arms`)."""
+        arm = self.left
+        return arm.base_rotation.inv().apply(
+            np.asarray(positions, dtype=float).reshape(-1, 3) - arm.base_position).reshape(
+            np.shape(positions))
 
     @property
-    def arms(self) -> tuple[Arm, Arm]:
+    def arms(self) -> tuple[CellArm, CellArm]:
         """``(left, right)``."""
         return (self.left, self.right)
 
 
+def yumi_description(side: str) -> ArmDescription:
+    """The chain of one YuMi arm from the body frame ``yumi_body`` to ``yumi_link_7_*``: the
+    data of this module (the vendored ``yumi.urdf`` holds the same), its collision capsules (7
+    links, then the gripper on link 7)."""
+    if side not in ARMS:
+        raise ValueError(f"side: expected one of {ARMS}, got {side!r}")
+    xyz, rpy = _MOUNT[side]
+    suffix = side[0]
+    return ArmDescription(
+        name=f"yumi_{side}",
+        joint_names=tuple(f"yumi_joint_{k}_{suffix}" for k in ABB_AXIS_NUMBERS),
+        origin_xyz=np.array((xyz,) + _CHAIN_XYZ),
+        origin_rot=Rotation.from_euler("xyz", np.array((rpy,) + _CHAIN_RPY)).as_matrix(),
+        axes=np.tile([0.0, 0.0, 1.0], (7, 1)),
+        lower=np.array(_LOWER), upper=np.array(_UPPER), max_velocity=np.array(_VELOCITY),
+        tip_xyz=np.zeros(3), tip_rot=np.eye(3),
+        capsules=np.array([(p0, p1) for p0, p1, _ in _CAPSULES]),
+        capsule_link=np.array([0, 1, 2, 3, 4, 5, 6, 6]),
+        radii=np.array([r for _, _, r in _CAPSULES]),
+        base_link="yumi_body", tip_link=f"yumi_link_7_{suffix}", source="dloplan.robot.yumi")
+
+
 def yumi_arm(side: str, *, gripper: Gripper | None = None, base_position=(0.0, 0.0, 0.0),
-             base_rotation: Rotation | None = None) -> Arm:
-    """One arm of a YuMi with the URDF data of this module.
+             base_rotation: Rotation | None = None, arm_angle_reference=None) -> CellArm:
+    """One arm of a YuMi: a :class:`~dloplan.robot.chain.CellArm` of :func:`yumi_description`
+    with the YuMi's plug-in data (the arm angle's reference direction).
 
     Parameters
     ----------
     side : str
         ``"left"`` or ``"right"``.
     gripper : Gripper, optional
-        Default: ABB SmartGripper TCP (:data:`DEFAULT_TCP_OFFSET`), :data:`DEFAULT_TCP_IN_CLIP`.
+        Default: ABB SmartGripper TCP (:data:`DEFAULT_TCP_OFFSET`) on tool0,
+        :data:`DEFAULT_TCP_IN_CLIP`.
     base_position, base_rotation
         Placement ``base_to_world`` of the robot body frame [m].
+    arm_angle_reference : array_like, optional
+        (3,) the arm angle's reference direction in the base frame (default
+        :data:`ARM_ANGLE_REFERENCE` of the side).
     """
-    if side not in ARMS:
-        raise ValueError(f"side: expected one of {ARMS}, got {side!r}")
-    suffix = side[0]
-    xyz, rpy = _MOUNT[side]
-    return Arm(
-        name=side,
-        origin_xyz=np.array((xyz,) + _CHAIN_XYZ),
-        origin_rpy=np.array((rpy,) + _CHAIN_RPY),
-        axes=np.tile([0.0, 0.0, 1.0], (7, 1)),
-        lower=np.array(_LOWER),
-        upper=np.array(_UPPER),
-        max_velocity=np.array(_VELOCITY),
-        capsules=np.array([(p0, p1) for p0, p1, _ in _CAPSULES]),
-        radii=np.array([r for _, _, r in _CAPSULES]),
-        home=np.array(HOME_DEG[side]) * _DEG,
-        gripper=gripper if gripper is not None else Gripper(),
-        base_position=base_position,
+    description = yumi_description(side)
+    gripper = gripper if gripper is not None else Gripper()
+    tcp_xyz, tcp_rot = gripper.tcp_in_link
+    return CellArm(
+        side, description, base_position=base_position,
         base_rotation=base_rotation if base_rotation is not None else Rotation.identity(),
-        joint_names=tuple(f"yumi_joint_{k}_{suffix}" for k in ABB_AXIS_NUMBERS),
-    )
+        tcp_offset=tcp_xyz, tcp_rotation=Rotation.from_matrix(tcp_rot),
+        home=np.array(HOME_DEG[side]) * _DEG, tcp_in_clip=gripper.tcp_in_clip,
+        arm_angle_reference=ARM_ANGLE_REFERENCE[side] if arm_angle_reference is None
+        else arm_angle_reference)
 
 
 def yumi(*, gripper: Gripper | None = None, base_position=(0.0, 0.0, 0.0),
          base_rotation: Rotation | None = None) -> Robot:
     """An ABB YuMi (IRB 14000) placed in the world frame.
 
-    By default the world frame is the robot's base frame: origin at the bottom of the body on
-    the table, x forward, y to the robot's left, z up, so a job on the table in front of the
-    robot has x ~ 0.3..0.5 m and z a little above 0.
+    By default the world frame is the robot's base frame: origin 0.1 m above the robot's foot
+    (:data:`BASE_ABOVE_FOOT`; the table is at z = -0.1 m), x forward, y to the robot's left,
+    z up, so a job on the table in front of the robot has x ~ 0.3..0.5 m and z a little above
+    -0.1 m.
 
     Parameters
     ----------

@@ -30,7 +30,7 @@ from scipy.spatial.transform import Rotation
 from ..cable import GRAVITY, Cable
 from ..jit import njit
 from ..physics.chain import HALF_BANDWIDTH, SpringChain
-from ..physics.compiled import chain_energy, conform_free_part
+from ..physics.compiled import chain_derivatives, chain_energy, conform_free_part
 from .clips import MAX_STRAIN, ClipPoses, held_points_of
 from .compiled import CONVERGED, MAX_ITERATIONS, SADDLE, STALLED, newton_positions
 from .newton import newton_message
@@ -76,32 +76,117 @@ def solve_held(guesses, cable_of, k_s, rest_lengths, k_b, rest_angles, masses, g
         (B,) out: Newton iterations, the residual [N] and the loop's status
         (:data:`~dloplan.sim.compiled.CONVERGED` ...), or :data:`HANDED_BACK`.
     """
-    n_points = guesses.shape[1]
-    n_links = n_points - 1
     history = np.empty(max_iterations + 1)
-    band = np.empty((HALF_BANDWIDTH + 1, 3 * n_points))
+    band = np.empty((HALF_BANDWIDTH + 1, 3 * guesses.shape[1]))
     for b in range(guesses.shape[0]):
         c = cable_of[b]
-        held = held_points_of(positions[b], quaternions[b], link[c])
-        distance = math.sqrt(np.sum((positions[b, 0] - positions[b, 1]) ** 2))
-        gap = math.sqrt(np.sum((held[2] - held[1]) ** 2))
-        need = (n_links - 2) * link[c]
-        if gap > need * (1.0 + MAX_STRAIN) * (1.0 - _EDGE) or \
-                distance < 1e-6 * length[c] * (1.0 + _EDGE):
-            status[b] = HANDED_BACK
-            continue
-        x = shapes[b]
-        for i in range(n_points):  # a loop: a slice assignment compiles numba's shape check
-            for a in range(3):
-                x[i, a] = guesses[b, i, a]
-        conform_free_part(x, held, need, length[c], gravity)
-        history[0] = chain_energy(x, k_s[c], rest_lengths[c], k_b[c], rest_angles[c], masses[c],
-                                  gravity)
-        outcome, iterations[b], residuals[b], _, _ = newton_positions(
-            x, 2, n_points - 2, k_s[c], rest_lengths[c], k_b[c], rest_angles[c], masses[c],
-            gravity, length[c], tolerance[c], max_iterations, 0, 0.25 * length[c], history, 1,
-            gradients[b], band, True)
-        status[b] = HANDED_BACK if outcome == SADDLE else outcome
+        status[b], iterations[b], residuals[b], _ = _held_item(
+            shapes[b], guesses[b], k_s[c], rest_lengths[c], k_b[c], rest_angles[c], masses[c],
+            gravity, positions[b], quaternions[b], link[c], length[c], tolerance[c], 0.0, 0.0,
+            max_iterations, gradients[b], band, history)
+
+
+@njit(cache=True)
+def _held_item(x, guess, k_s, rest_lengths, k_b, rest_angles, masses, gravity, position,
+               quaternion, link, length, tolerance, roundoff, stiff, max_iterations, grad, band,
+               history):
+    """One equilibrium of :func:`solve_held` into x (n + 1, 3) from ``guess``: returns
+    ``(status, iterations, residual, tolerance)``. The tolerance [N] is ``max(tolerance,
+    roundoff (L + max |x|) stiff)`` at the conformed guess (``roundoff`` > 0: the round-off
+    floor of :func:`dloplan.sim.result.residual_tolerance`, ``stiff`` its largest stiffness
+    [N/m], in the same order of operations)."""
+    n_points = guess.shape[0]
+    held = held_points_of(position, quaternion, link)
+    distance = math.sqrt(np.sum((position[0] - position[1]) ** 2))
+    gap = math.sqrt(np.sum((held[2] - held[1]) ** 2))
+    need = (n_points - 3) * link
+    if gap > need * (1.0 + MAX_STRAIN) * (1.0 - _EDGE) or \
+            distance < 1e-6 * length * (1.0 + _EDGE):
+        return HANDED_BACK, 0, math.nan, tolerance
+    for i in range(n_points):  # a loop: a slice assignment compiles numba's shape check
+        for a in range(3):
+            x[i, a] = guess[i, a]
+    conform_free_part(x, held, need, length, gravity)
+    if roundoff > 0.0:
+        tolerance = max(tolerance, roundoff * (length + np.max(np.abs(x))) * stiff)
+    history[0] = chain_energy(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity)
+    outcome, iterations, residual, _, _ = newton_positions(
+        x, 2, n_points - 2, k_s, rest_lengths, k_b, rest_angles, masses, gravity, length,
+        tolerance, max_iterations, 0, 0.25 * length, history, 1, grad, band, True)
+    return (HANDED_BACK if outcome == SADDLE else outcome), iterations, residual, tolerance
+
+
+@njit(cache=True)
+def continue_held(shapes, positions, quaternions, k_s, rest_lengths, k_b, rest_angles, masses,
+                  gravity, link, length, tolerance, roundoff, stiff, max_iterations, converged,
+                  residuals, eigenvalues, norms):
+    """A quasi-static continuation in one call: the equilibria at sub-steps 1 .. m, each from
+    the one before, with the smallest eigenvalue of each (the loop of the snap-through check,
+    :mod:`dloplan.verify.snap`).
+
+    Sub-step j is :func:`~dloplan.sim.statics.equilibrium` of the cable from ``shapes[j - 1]``
+    at clips j with the default tolerance (``tolerance``, ``roundoff``, ``stiff``:
+    :func:`_held_item`),
+    bit for bit, then the free Hessian at it, dense, and its eigenvalues by LAPACK's symmetric
+    solver (those of :func:`dloplan.verify.stability.elastic_stability` to round-off).
+
+    Parameters
+    ----------
+    shapes : numpy.ndarray
+        (m + 1, n + 1, 3): ``shapes[0]`` the start [m]; out: the equilibria.
+    positions, quaternions : numpy.ndarray
+        (m + 1, 2, 3) clip points [m] and (m + 1, 2, 4) unit quaternions (x, y, z, w).
+    k_s, rest_lengths, k_b, rest_angles, masses, gravity
+        The chain's constants.
+    link, length, tolerance, roundoff, stiff : float
+        l [m], L [m], the residual tolerance [N], the round-off factor (16 eps) and the
+        largest stiffness [N/m] of its floor (:func:`dloplan.sim.result.residual_tolerance`).
+    max_iterations : int
+        Newton iterations per sub-step.
+    converged : numpy.ndarray
+        (m + 1,) bool out: the Newton loop met its tolerance.
+    residuals, eigenvalues, norms : numpy.ndarray
+        (m + 1,) out: the largest free-point force at the equilibrium [N], the smallest
+        eigenvalue of its free Hessian [N/m] and that Hessian's infinity norm [N/m].
+
+    Returns
+    -------
+    int
+        The sub-steps done (m, or fewer: sub-step ``done + 1`` is a saddle or at the edge of
+        the cable's reach, for :func:`~dloplan.sim.statics.equilibrium` to do).
+    """
+    n_points = shapes.shape[1]
+    n_free = 3 * (n_points - 4)
+    history = np.empty(max_iterations + 1)
+    band = np.empty((HALF_BANDWIDTH + 1, 3 * n_points))
+    grad = np.empty((n_points, 3))
+    dense = np.zeros((n_free, n_free))
+    for j in range(1, shapes.shape[0]):
+        outcome, _, residual, limit = _held_item(
+            shapes[j], shapes[j - 1], k_s, rest_lengths, k_b, rest_angles, masses, gravity,
+            positions[j], quaternions[j], link, length, tolerance, roundoff, stiff,
+            max_iterations, grad, band, history)
+        if outcome == HANDED_BACK:
+            return j - 1
+        converged[j] = residual <= limit
+        chain_derivatives(shapes[j], k_s, rest_lengths, k_b, rest_angles, masses, gravity,
+                          grad, band)
+        largest = 0.0
+        for i in range(2, n_points - 2):
+            largest = max(largest, math.sqrt(grad[i, 0] ** 2 + grad[i, 1] ** 2
+                                             + grad[i, 2] ** 2))
+        residuals[j] = largest
+        norm = 0.0
+        for r in range(n_free):
+            row = 0.0
+            for c in range(max(0, r - HALF_BANDWIDTH), min(n_free, r + HALF_BANDWIDTH + 1)):
+                value = band[r - c, 6 + c] if r >= c else band[c - r, 6 + r]
+                dense[r, c] = value
+                row += abs(value)
+            norm = max(norm, row)
+        norms[j] = norm
+        eigenvalues[j] = np.linalg.eigvalsh(dense)[0]
+    return shapes.shape[0] - 1
 
 
 @dataclass(frozen=True, eq=False)

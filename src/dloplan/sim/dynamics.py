@@ -14,6 +14,10 @@ so are obstacles (pegs, plates, boxes, the table: ``contacts``,
 wire-harness section that gets shorter as the grippers pull it through the fixtures) takes its
 constants at each millisecond.
 
+``scheme="implicit"`` steps by linearly implicit Euler instead
+(:func:`dloplan.sim.stepping.implicit_steps`), stable at a step set by the motion (the replay's
+1 ms) while the chain's stiffness is positive definite.
+
 Running this to rest takes 10^4 to 10^6 steps; :mod:`dloplan.sim.statics` finds the same rest
 shape directly. The simulator is kept for what only it can do: replaying a timed plan at its
 real speed (inertia, overshoot) and reproducing the thesis' own stabilization.
@@ -37,12 +41,28 @@ from ..physics.twist_compiled import scratch
 from .clips import HELD_INDICES, ClipPoses, clip_poses_from_shape
 from .newton import factor_band, free_band
 from .result import Equilibrium, equilibrium_result
-from .stepping import DIVERGED, RUNNING, SETTLED, explicit_steps, twist_steps
+from .stepping import (
+    DIVERGED,
+    INDEFINITE,
+    RUNNING,
+    SETTLED,
+    explicit_steps,
+    implicit_steps,
+    twist_steps,
+)
 
 _CHUNK = 4096  # steps whose clip poses are interpolated at once
 
 SCHEDULE_INTERVAL = 1e-3
 """Time [s] between updates of the cable's constants when it changes (``cable_at``)."""
+
+SCHEMES = ("explicit", "implicit")
+"""Time stepping schemes of :func:`simulate`: the thesis' semi-implicit Euler (eq. 3.24) and
+the linearly implicit Euler of :func:`dloplan.sim.stepping.implicit_steps`."""
+
+
+class IndefiniteStep(FloatingPointError):
+    """An implicit step whose system M + dt k_d D + dt^2 H is not positive definite."""
 
 
 class SampledPoses(Sequence):
@@ -220,6 +240,7 @@ def simulate(
     contacts=(),
     friction: float = 0.0,
     cable_at=None,
+    scheme: str = "explicit",
 ) -> Simulation:
     """Integrate eq. 3.24 from ``initial_shape`` (at rest) with the clips driving the ends.
 
@@ -268,6 +289,12 @@ def simulate(
         ``cable_at(t)`` -> the cable at time t [s], with ``cable``'s number of links: its
         constants (springs, rest lengths, masses, damping, held link length) are taken every
         :data:`SCHEDULE_INTERVAL`; ``cable`` is the cable at t = 0. Not with ``torsion``.
+    scheme : {"explicit", "implicit"}
+        ``"explicit"``: eq. 3.24, stable only below about the thesis' time step.
+        ``"implicit"``: linearly implicit Euler (:func:`dloplan.sim.stepping.implicit_steps`),
+        stable at any ``dt`` while the chain's stiffness is positive enough (raises
+        :class:`IndefiniteStep` otherwise); its ``dt`` (required) is set by the motion. Not
+        with ``torsion``, ``ground``, ``contacts`` or ``cable_at``.
     """
     x = as_shape(initial_shape, cable.n_points, "initial_shape").copy()
     if not (math.isfinite(duration) and duration > 0):
@@ -275,6 +302,12 @@ def simulate(
     if clips is None:
         clips = clip_poses_from_shape(x)
     trajectory = clips if isinstance(clips, ClipTrajectory) else ClipTrajectory.hold(clips)
+    if scheme not in SCHEMES:
+        raise ValueError(f"scheme: got {scheme!r}, expected one of {', '.join(SCHEMES)}")
+    implicit = scheme == "implicit"
+    if implicit and (torsion or ground or len(contacts) or cable_at is not None or dt is None):
+        raise ValueError("scheme 'implicit': needs a time step dt, and steps a chain without "
+                         "torsion, ground, contacts or a changing cable")
     if dt is None:
         dt = cable.time_step(youngs_modulus_cap)
     if not (math.isfinite(dt) and dt > 0):
@@ -338,6 +371,10 @@ def simulate(
                                      f"{cable.n_links}")
                 current = settings(model, SpringChain.from_cable(model, gravity).constants)
             targets = trajectory.held_points(chunk_steps * dt, model.rest_link_length)
+            if implicit:
+                step, recorded, status = implicit_steps(
+                    x, v, previous_held, targets, step, *current[:4], *current[8:], recorded)
+                continue
             if twist is None:
                 step, recorded, status = explicit_steps(x, v, previous_held, targets, no_load, step,
                                                         *current, recorded)
@@ -346,6 +383,9 @@ def simulate(
             step, recorded, status = twist_steps(
                 x, v, previous_held, targets, np.ascontiguousarray(held), twist.directors,
                 twist.twist_chain.constants, scratch(), step, *current, recorded)
+    if status == INDEFINITE:
+        raise IndefiniteStep(f"implicit step at t = {step * dt:.4g} s: the chain's stiffness "
+                             f"is not positive enough for dt = {dt:.3g} s")
     if status == DIVERGED:
         raise FloatingPointError(
             f"simulation diverged at t = {step * dt:.4g} s (dt = {dt:.3g} s too large)")

@@ -46,7 +46,7 @@ from ..physics.chain import (
     shape_derivatives,
     shape_energy,
 )
-from ..physics.contact import entry_fraction
+from ..physics.contact import contact_rows, entry_fraction
 from .clips import ClipPoses, check_clip_reach, clip_poses_from_shape, conform_guess
 from .compiled import (
     CONVERGED,
@@ -56,6 +56,7 @@ from .compiled import (
     newton_positions,
     restore_link_lengths,
 )
+from .contact_newton import newton_contacts
 from .dynamics import settle
 from .newton import (
     MAX_ESCAPES,
@@ -221,7 +222,8 @@ def minimize_energy(
     def displacement(p):
         return float(np.max(norms(p.reshape(-1, 3))))
 
-    if chain.contacts:  # obstacles are Python objects: the generic loop
+    rows = contact_rows(chain.contacts)
+    if rows is None:  # an obstacle without a compiled row: the generic loop
         def limit(x, p):  # land a point entering an obstacle just inside it
             return entry_fraction(x, moved(x, p), chain.contacts, chain.contact_radius)
 
@@ -229,14 +231,15 @@ def minimize_energy(
                                   tolerance, max_iterations, corrected=corrected, limit=limit)
     else:
         run = _compiled_newton(chain, x, free, length_scale, tolerance, max_iterations,
-                               energy_of, moved, displacement)
+                               energy_of, moved, displacement, rows)
     return run.state, run.extra, run.iterations, run.residual, run.stable, run.history, \
         run.message
 
 
 def _compiled_newton(chain, x, free, length_scale, tolerance, max_iterations, energy_of, moved,
-                     displacement) -> NewtonRun:
-    """:func:`trust_region_newton` for the plain chain, in :func:`newton_positions`.
+                     displacement, rows) -> NewtonRun:
+    """:func:`trust_region_newton` for the chain, in :func:`newton_positions` (no contacts) or
+    :func:`~dloplan.sim.contact_newton.newton_contacts` (``rows``: the contacts' compiled rows).
 
     The compiled loop returns at a saddle; the escape along the lowest mode is done here, as
     in the generic loop, and the compiled loop resumes.
@@ -246,9 +249,16 @@ def _compiled_newton(chain, x, free, length_scale, tolerance, max_iterations, en
     n_history, iterations, radius, escapes = 1, 0, 0.25 * length_scale, 0
     grad, band = np.empty(x.shape), np.empty((HALF_BANDWIDTH + 1, x.size))
     while True:
-        status, iterations, residual, radius, n_history = newton_positions(
-            x, free.start, free.stop, *chain.constants, length_scale, tolerance, max_iterations,
-            iterations, radius, history, n_history, grad, band, escapes < MAX_ESCAPES)
+        if len(rows):
+            status, iterations, residual, radius, n_history = newton_contacts(
+                x, free.start, free.stop, chain.constants, rows, chain.contact_radius,
+                chain.contact_stiffness, length_scale, tolerance, max_iterations, iterations,
+                radius, history, n_history, grad, band, escapes < MAX_ESCAPES)
+        else:
+            status, iterations, residual, radius, n_history = newton_positions(
+                x, free.start, free.stop, *chain.constants, length_scale, tolerance,
+                max_iterations, iterations, radius, history, n_history, grad, band,
+                escapes < MAX_ESCAPES)
         if status != SADDLE:
             break
         escaped = escape_saddle(x, history[n_history - 1], free_band(band, free), energy_of,

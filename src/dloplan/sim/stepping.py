@@ -1,4 +1,4 @@
-"""The explicit time stepping of eq. 3.24, compiled: a chunk of steps in one call.
+"""The time stepping of eq. 3.24 (and its implicit variant), compiled: a chunk of steps in one call.
 
 One step of the semi-implicit Euler scheme (thesis 3.8) with the fictitious damping k_d::
 
@@ -15,7 +15,8 @@ twisting force, also without Python per step.
 
 :func:`explicit_steps` runs the steps of one chunk of clip targets, records shapes at the
 recording interval, and stops early at rest or when the state diverges: no Python per step.
-:func:`dloplan.sim.dynamics.simulate` drives it.
+:func:`implicit_steps` does the same by linearly implicit Euler (a banded solve per step, no
+contacts). :func:`dloplan.sim.dynamics.simulate` drives them.
 """
 
 from __future__ import annotations
@@ -25,12 +26,33 @@ import math
 import numpy as np
 
 from ..jit import njit
-from ..physics.compiled import chain_gradient
+from ..physics.compiled import chain_derivatives, chain_gradient
 from ..physics.contact_compiled import push_out
 from ..physics.twist_compiled import carry_directors, link_tangents, twist_load, twist_stencils
 from .newton import cholesky_band, cholesky_solve
 
-RUNNING, SETTLED, DIVERGED = 0, 1, 2
+RUNNING, SETTLED, DIVERGED, INDEFINITE = 0, 1, 2, 3
+
+
+@njit(cache=True, inline="always")
+def _record(x, v, accel, step, dt, record_every, rest_speed, clips_stop, times, shapes, speeds,
+            n_records):
+    """Record the state of ``step``; returns ``(n_records, at rest)``: the clips have stopped
+    and every point is slower than ``rest_speed`` and not about to speed up within a record
+    interval (its acceleration times the interval)."""
+    n_points = x.shape[0]
+    speed = 0.0
+    for i in range(n_points):
+        speed = max(speed, math.sqrt(v[i, 0] ** 2 + v[i, 1] ** 2 + v[i, 2] ** 2))
+    times[n_records] = step * dt
+    shapes[n_records] = x
+    speeds[n_records] = speed
+    pull = 0.0
+    for i in range(2, n_points - 2):
+        pull = max(pull, math.sqrt(accel[i, 0] ** 2 + accel[i, 1] ** 2 + accel[i, 2] ** 2))
+    pull *= record_every * dt
+    at_rest = rest_speed >= 0.0 and step * dt >= clips_stop and max(speed, pull) < rest_speed
+    return n_records + 1, at_rest
 
 
 @njit(cache=True)
@@ -130,19 +152,99 @@ def _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt
                     x[i, 2] = 0.0
                     v[i, 2] = max(v[i, 2], 0.0)
         if step % record_every == 0 or step == n_steps:
-            speed = 0.0
-            for i in range(n_points):
-                speed = max(speed, math.sqrt(v[i, 0] ** 2 + v[i, 1] ** 2 + v[i, 2] ** 2))
-            times[n_records] = step * dt
-            shapes[n_records] = x
-            speeds[n_records] = speed
-            n_records += 1
-            pull = 0.0
-            for i in range(2, n_points - 2):
-                pull = max(pull, math.sqrt(accel[i, 0] ** 2 + accel[i, 1] ** 2
-                                           + accel[i, 2] ** 2))
-            pull *= record_every * dt
-            if rest_speed >= 0.0 and step * dt >= clips_stop and max(speed, pull) < rest_speed:
+            n_records, at_rest = _record(x, v, accel, step, dt, record_every, rest_speed,
+                                         clips_stop, times, shapes, speeds, n_records)
+            if at_rest:
+                return step, n_records, SETTLED
+        if not (math.isfinite(x[2, 0]) and math.isfinite(x[2, 1]) and math.isfinite(x[2, 2])):
+            return step, n_records, DIVERGED
+    return step, n_records, RUNNING
+
+
+@njit(cache=True)
+def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, relative,
+                   record_every, rest_speed, clips_stop, k_s, rest_lengths, k_b, rest_angles,
+                   masses, gravity, times, shapes, speeds, n_records):
+    """Linearly implicit Euler steps through the clip targets of one chunk (no contacts).
+
+    Backward Euler, v+ = v + dt M^-1 (F(x+) - k_d D v+) and x+ = x + dt v+, with the force
+    linearized at x, F(x+) = F(x) - dt H(x) v+ (one Newton step of the implicit equations, as
+    Baraff and Witkin's cloth step): per step the banded system
+
+        (M + dt k_d D + dt^2 H) v+ = M v + dt F(x)
+
+    over the free points, the held points' v+ the clips' (target minus position over dt) and
+    their columns moved to the right-hand side; H is the chain's Hessian
+    (:func:`dloplan.physics.compiled.chain_derivatives`), M the lumped masses, D the damping's
+    graph Laplacian (``relative``) or the identity. It is unconditionally stable for a
+    positive definite H (docs/decisions.md: the replay's time step), so ``dt`` is set by the
+    motion, not by the axial springs. Arguments, records, rest test and the returned tuple as
+    in :func:`explicit_steps`; status :data:`INDEFINITE` when the system is not positive
+    definite (a compressed chain stiffer than M / dt^2: the caller steps explicitly instead).
+    """
+    n_points = x.shape[0]
+    n_dof = 3 * n_points
+    held = (0, 1, n_points - 2, n_points - 1)
+    grad = np.empty_like(x)
+    accel = np.empty_like(x)
+    band = np.empty((9, n_dof))
+    free = np.empty((9, n_dof - 12))
+    factor = np.empty((9, n_dof - 12))
+    velocity = np.empty(n_dof)
+    rhs = np.empty(n_dof)
+    step = first_step
+    dt2 = dt * dt
+    for k in range(targets.shape[0]):
+        step = first_step + k + 1
+        chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, grad, band)
+        for j in range(n_dof):  # A = M + dt k_d D + dt^2 H (lower band)
+            for d in range(9):
+                band[d, j] *= dt2
+            i = j // 3
+            band[0, j] += masses[i]
+            if relative:
+                band[0, j] += dt * k_d * ((i > 0) + (i < n_points - 1))
+                if i < n_points - 1:
+                    band[3, j] -= dt * k_d
+            else:
+                band[0, j] += dt * k_d
+        for i in range(n_points):
+            for a in range(3):
+                rhs[3 * i + a] = masses[i] * v[i, a] - dt * grad[i, a]
+                velocity[3 * i + a] = 0.0
+        for h in range(4):
+            for a in range(3):
+                velocity[3 * held[h] + a] = (targets[k, h, a] - previous_held[h, a]) / dt
+        for j in range(n_dof):  # rhs -= A v_held (symmetric band: both triangles)
+            for d in range(9):
+                if j + d >= n_dof:
+                    break
+                if d == 0:
+                    rhs[j] -= band[0, j] * velocity[j]
+                else:
+                    rhs[j + d] -= band[d, j] * velocity[j]
+                    rhs[j] -= band[d, j] * velocity[j + d]
+        for j in range(n_dof - 12):
+            for d in range(9):
+                free[d, j] = band[d, j + 6]
+        if not cholesky_band(free, 0.0, factor):
+            return step - 1, n_records, INDEFINITE
+        cholesky_solve(factor, rhs[6 : n_dof - 6])
+        for j in range(6, n_dof - 6):
+            velocity[j] = rhs[j]
+        for i in range(n_points):
+            for a in range(3):
+                accel[i, a] = (velocity[3 * i + a] - v[i, a]) / dt
+                v[i, a] = velocity[3 * i + a]
+                x[i, a] += v[i, a] * dt
+        for h in range(4):
+            for a in range(3):
+                x[held[h], a] = targets[k, h, a]
+                previous_held[h, a] = targets[k, h, a]
+        if step % record_every == 0 or step == n_steps:
+            n_records, at_rest = _record(x, v, accel, step, dt, record_every, rest_speed,
+                                         clips_stop, times, shapes, speeds, n_records)
+            if at_rest:
                 return step, n_records, SETTLED
         if not (math.isfinite(x[2, 0]) and math.isfinite(x[2, 1]) and math.isfinite(x[2, 2])):
             return step, n_records, DIVERGED

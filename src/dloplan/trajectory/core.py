@@ -26,7 +26,7 @@ For a robot program the trajectory exposes, per segment, the TCP speed to progra
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -261,6 +261,43 @@ class Trajectory:
                  "speed": speed[k].tolist(), "angular_speed": angular[k].tolist(),
                  "zone": float(self.zones[k + 1]), "fine": bool(self.zones[k + 1] == 0.0)}
                 for k, d in enumerate(self.segment_durations)]
+
+    def segment_speed_use(self) -> np.ndarray:
+        """(K - 1,) the fraction of its speed limit (times its speed scale) each segment's law
+        reaches: 1 when it cruises at the limit, less when the acceleration or jerk limit
+        keeps it from getting there (a short segment), 0 where nothing moves. A speed scale
+        below this fraction is what slows such a segment down."""
+        dist, angle = self.segment_distances()
+        rate = np.array([p.peak_rate() for p in self.law.profiles])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            allowed = np.minimum(np.where(dist > 0, self.max_speed / dist, np.inf),
+                                 np.where(angle > 0, self.max_angular_speed / angle,
+                                          np.inf)).min(axis=1)
+        scale = self.law.speed_scale if self.law.speed_scale is not None else 1.0
+        allowed = allowed * scale
+        return np.where(np.isfinite(allowed) & (allowed > 0),
+                        np.minimum(rate / np.where(np.isfinite(allowed), allowed, 1.0), 1.0),
+                        0.0)
+
+    def with_speed_scale(self, speed_scale) -> Trajectory:
+        """The same path timed again with per-segment factors (K - 1,) in (0, 1] on the speed
+        limits (the hook for joint-speed limits): the law's other limits, its fly-by zones and
+        fine points stay; a constant-speed law's segments last 1 / factor as long as at
+        factor 1."""
+        old = self.law.speed_scale if self.law.speed_scale is not None else \
+            np.ones(self.n_knots - 1)
+        scale = _speed_scale(speed_scale, self.positions, self.rotations, self.n_knots - 1)
+        steps, rotvecs = segment_motion(self.positions, self.rotations)
+        if self.law.kind == "constant-speed":
+            durations = np.diff(self.times) * old / scale
+            law = TimeLaw.constant_speed(np.r_[0.0, np.cumsum(durations)])
+            law = replace(law, speed_scale=scale)
+        else:
+            zone = float(np.max(self.zones))
+            stops = [k for k in range(1, self.n_knots - 1) if self.zones[k] == 0.0]
+            law = jerk_limited_law(steps, rotvecs, self.law.limits, zone=zone,
+                                   stops=stops if zone > 0 else (), speed_scale=scale)
+        return replace(self, times=law.knot_times, law=law)
 
     def _clipped(self, times) -> np.ndarray:
         t = np.atleast_1d(np.asarray(times, dtype=float))

@@ -207,6 +207,7 @@ def verify_path(
     snap_options: Mapping | None = None,
     replay_options: Mapping | None = None,
     progress=lambda text: None,
+    physics: Verification | None = None,
 ) -> Verification:
     """Verify a planned path: stability, snap-through, reachability (given), dynamic replay.
 
@@ -234,6 +235,12 @@ def verify_path(
         :func:`~dloplan.verify.snap.check_snap_through`, :func:`~dloplan.verify.replay.replay`.
     progress : callable
         Called with a line of text before each check (the long ones say how long they take).
+    physics : Verification, optional
+        A verification of the same physics (the same path moved rigidly about the vertical:
+        :func:`dloplan.pipeline.reuse.moved_rigidly`): its stability, snap-through and replay
+        are taken instead of run (their timings are not recorded), only the reachability is
+        new. The caller vouches for the sameness; the shapes those results hold (the
+        continuation's, the replay's records) stay in the frame of the plan they were run on.
 
     Returns
     -------
@@ -254,32 +261,21 @@ def verify_path(
     timings: dict[str, float] = {}
     messages: list[str] = []
 
-    progress(f"verification: elastic stability of {len(path)} shapes")
-    start = time.perf_counter()
-    stability = path_stability(cable, path, gravity=gravity, **dict(stability_options or {}))
-    timings["stability"] = time.perf_counter() - start
+    if physics is None:
+        stability, snap_check, run = _physics(cable, path, poses, times, trajectory, gravity,
+                                              snap, stability_options, snap_options,
+                                              replay_options, progress, timings)
+    else:
+        progress("verification: stability, snap-through and replay of the plan before its "
+                 "rigid move reused")
+        stability, snap_check, run = physics.stability, physics.snap, physics.replay
+        if len(stability) != len(path) or (snap_check is not None) != (
+                snap and len(path) > 1) or (run is None) != (times is None):
+            raise ValueError("physics: a verification of another path or of other checks")
     messages += [f"shape {k}: {s.message}" for k, s in enumerate(stability) if not s.stable]
-
-    snap_check = None
-    if snap and len(path) > 1:
-        progress(f"verification: snap-through along {len(path) - 1} segments (continuation)")
-        start = time.perf_counter()
-        snap_check = check_snap_through(cable, path, poses, gravity=gravity,
-                                        **dict(snap_options or {}))
-        timings["snap"] = time.perf_counter() - start
-        messages += [e.message for e in snap_check.events]
-
-    run = None
-    if times is not None:
-        progress(f"verification: dynamic replay of {float(times[-1] - times[0]):.2f} s of motion "
-                 "at real speed")
-        start = time.perf_counter()
-        drive = trajectory if trajectory is not None else (times, poses)
-        run = replay(cable, path, drive, knot_times=times, gravity=gravity,
-                     **dict(replay_options or {}))
-        timings["replay"] = time.perf_counter() - start
-        if not run.ok:
-            messages.append(f"replay: {run.message}")
+    messages += [] if snap_check is None else [e.message for e in snap_check.events]
+    if run is not None and not run.ok:
+        messages.append(f"replay: {run.message}")
 
     rows = []
     for k, s in enumerate(stability):
@@ -308,3 +304,29 @@ def verify_path(
             ["reachability"] if reach else []) + (["replay"] if run else [])
         messages.append(f"{len(path)} shapes pass: {', '.join(checks)}")
     return Verification(tuple(rows), ok, tuple(messages), timings, stability, snap_check, run)
+
+
+def _physics(cable, path, poses, times, trajectory, gravity, snap, stability_options,
+             snap_options, replay_options, progress, timings):
+    """Stability, snap-through (or None) and replay (or None) of :func:`verify_path`, each
+    timed into ``timings``."""
+    progress(f"verification: elastic stability of {len(path)} shapes")
+    start = time.perf_counter()
+    stability = path_stability(cable, path, gravity=gravity, **dict(stability_options or {}))
+    timings["stability"] = time.perf_counter() - start
+    snap_check = run = None
+    if snap and len(path) > 1:
+        progress(f"verification: snap-through along {len(path) - 1} segments (continuation)")
+        start = time.perf_counter()
+        snap_check = check_snap_through(cable, path, poses, gravity=gravity,
+                                        **dict(snap_options or {}))
+        timings["snap"] = time.perf_counter() - start
+    if times is not None:
+        progress(f"verification: dynamic replay of {float(times[-1] - times[0]):.2f} s of motion "
+                 "at real speed")
+        start = time.perf_counter()
+        drive = trajectory if trajectory is not None else (times, poses)
+        run = replay(cable, path, drive, knot_times=times, gravity=gravity,
+                     **dict(replay_options or {}))
+        timings["replay"] = time.perf_counter() - start
+    return stability, snap_check, run

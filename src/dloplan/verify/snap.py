@@ -76,13 +76,23 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from ..cable import GRAVITY, Cable
+from ..frames import quaternion_x_axes, slerp_quaternions
 from ..geometry import as_path
 from ..physics.chain import SpringChain
+from ..sim.batch import continue_held
 from ..sim.clips import ClipPoses
+from ..sim.result import DEFAULT_RTOL, ROUNDOFF, force_scale, stiffest
 from ..sim.statics import equilibrium, interpolate_clips
 from ._inputs import as_clip_sequence, max_distance
 from .contacts import contact_changes
-from .stability import STABILITY_RTOL, elastic_stability, quickest_method
+from .stability import (
+    EQUILIBRIUM_RTOL,
+    ROUNDOFF_FACTOR,
+    STABILITY_RTOL,
+    elastic_stability,
+    quickest_method,
+    stiffness_scale,
+)
 
 CRITICAL = 0.1
 """A candidate is a critical point when the smallest eigenvalue found in its window is below this
@@ -91,6 +101,10 @@ fraction of the values at the window's ends."""
 DIP = 0.5
 """A sampled local minimum of the smallest eigenvalue below this fraction of its larger neighbour
 makes its sub-steps candidates (a critical point may fall between samples)."""
+
+NEWTON_ITERATIONS = 500
+"""Newton iterations of a sub-step's equilibrium (:func:`dloplan.sim.statics.equilibrium`'s
+default)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -331,9 +345,29 @@ class _Segment:
         held = abs((b.length - b.rest_link_length) - (a.length - a.rest_link_length))
         return clip_motion(self.clips(t0), self.clips(t1), self.cables[0].length) + held
 
-    def ratio(self, x0, t0, x1, t1) -> float:
-        motion = self.forcing(t0, t1)
-        return max_distance(x0, x1) / motion if motion > 0 else math.inf
+    def arrays(self, fractions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Clip points (m + 1, 2, 3) [m] and unit quaternions (m + 1, 2, 4) at the fractions,
+        those of :meth:`prepare`'s clip poses, without making them."""
+        w = np.asarray(fractions, dtype=float)
+        positions = ((1.0 - w)[:, None, None] * self.start.positions
+                     + w[:, None, None] * self.end.positions)
+        keys = np.stack([self.start.rotations.as_quat(), self.end.rotations.as_quat()])
+        quaternions = slerp_quaternions(np.array([0.0, 1.0]), keys, w)
+        # contiguous: the compiled loop is compiled for one memory layout
+        return np.ascontiguousarray(positions), np.ascontiguousarray(quaternions)
+
+    def forcings(self, fractions: np.ndarray) -> np.ndarray:
+        """(m,) :meth:`forcing` of each sub-step between consecutive fractions [m]."""
+        positions, quaternions = self.arrays(fractions)
+        u = quaternion_x_axes(quaternions)
+        shift = np.linalg.norm(np.diff(positions, axis=0), axis=-1)
+        cos = np.clip(np.einsum("kij,kij->ki", u[:-1], u[1:]), -1.0, 1.0)
+        out = np.max(shift + self.cables[0].length * np.arccos(cos), axis=1)
+        if self.cables[0] is not self.cables[1]:
+            held = np.array([c.length - c.rest_link_length
+                             for c in (self.model(t)[0] for t in fractions)])
+            out += np.abs(np.diff(held))
+        return out
 
     def smallest_at(self, guess: np.ndarray, t: float) -> float:
         """Smallest eigenvalue of the equilibrium at fraction t reached from ``guess`` (with
@@ -355,6 +389,7 @@ def check_snap_through(
     rtol: float = STABILITY_RTOL,
     contacts=(),
     cables: Sequence[Cable] | None = None,
+    compiled: bool = True,
 ) -> SnapCheck:
     """Follow the equilibrium branch between consecutive planned clip poses; flag snaps.
 
@@ -386,6 +421,11 @@ def check_snap_through(
     cables : sequence of Cable, optional
         One cable per shape, differing from ``cable`` in length and mass only (module
         docstring: a changing cable); default ``cable`` throughout.
+    compiled : bool
+        Run the sub-steps of a segment in one compiled loop where it applies (no contacts, one
+        cable, the banded eigen-solver's sizes: :func:`_compiled_substeps`); False: the
+        reference loop, sub-step by sub-step in Python (the same shapes bit for bit, the same
+        eigenvalues to round-off; tests compare the two).
 
     Returns
     -------
@@ -413,7 +453,7 @@ def check_snap_through(
         else:
             m = int(substeps)
         segments.append(_continue_segment(seg, s, path[s], path[s + 1], m, jump_ratio,
-                                          int(refinements), branch_tolerance))
+                                          int(refinements), branch_tolerance, compiled))
     events = tuple(e for seg in segments for e in seg.events)
     if events:
         message = f"{len(events)} event(s): " + "; ".join(e.message for e in events)
@@ -422,33 +462,48 @@ def check_snap_through(
     return SnapCheck(tuple(segments), events, not events, message)
 
 
-def _continue_segment(seg: _Segment, s, start, end, m, jump_ratio, refinements, tolerance):
+def _continue_segment(seg: _Segment, s, start, end, m, jump_ratio, refinements, tolerance,
+                      compiled):
     fractions = np.linspace(0.0, 1.0, m + 1)
-    seg.prepare(fractions)
-    shapes = [start]
     first = seg.stability(start, 0.0)
-    eigenvalues, states = [first.sticking], [first.contacts]
-    ratios, events, changes = [], [], []
-    x = start
-    for j in range(1, m + 1):
+    shapes, eigenvalues, states = [start], [first.sticking], [first.contacts]
+    done, unstable = (_compiled_substeps(seg, start, fractions, shapes, eigenvalues)
+                      if compiled else (0, set()))
+    if done < m or unstable:
+        seg.prepare(fractions)
+    problems = {}
+    for j in range(1, m + 1):  # the reference loop: after the compiled ones, or to say why
+        if j <= done and j not in unstable:
+            states.append(())
+            continue
+        x = shapes[j - 1]
         eq, stab = seg.solve(x, fractions[j])
-        ratios.append(seg.ratio(x, fractions[j - 1], eq.shape, fractions[j]))
-        changed = contact_changes(states[-1], stab.contacts)
-        changes += [ContactChange(s, j, float(fractions[j]), name, kind)
-                    for name, kind in changed]
         # with contacts the penalty's kinks may stall Newton short of its tolerance: the
         # stability test's equilibrium tolerance decides then
         if not ((eq.converged or seg.contacts) and stab.stable_with_friction):
-            events.append(SnapEvent(
-                s, j, float(fractions[j]), "unstable", max_distance(eq.shape, x), ratios[-1],
-                stab.sticking, f"segment {s}, sub-step {j} (t = {fractions[j]:.4f}): no stable "
-                f"equilibrium ({eq.message}; {stab.message})",
-            ))
-        x = eq.shape
-        shapes.append(x)
+            problems[j] = (eq.message, stab)
+        if j <= done:  # a compiled sub-step found unstable: its messages
+            states.append(stab.contacts)
+            continue
+        shapes.append(eq.shape)
         eigenvalues.append(stab.sticking)
         states.append(stab.contacts)
-    shapes, eigenvalues, ratios = np.stack(shapes), np.asarray(eigenvalues), np.asarray(ratios)
+    shapes, eigenvalues = np.stack(shapes), np.asarray(eigenvalues)
+    forcing = seg.forcings(fractions)
+    moved = np.max(np.linalg.norm(np.diff(shapes, axis=0), axis=-1), axis=1)
+    with np.errstate(divide="ignore"):
+        ratios = np.where(forcing > 0, moved / np.where(forcing > 0, forcing, 1.0), math.inf)
+    events, changes = [], []
+    for j in range(1, m + 1):
+        changes += [ContactChange(s, j, float(fractions[j]), name, kind)
+                    for name, kind in contact_changes(states[j - 1], states[j])]
+        if j in problems:
+            message, stab = problems[j]
+            events.append(SnapEvent(
+                s, j, float(fractions[j]), "unstable", float(moved[j - 1]), ratios[j - 1],
+                stab.sticking, f"segment {s}, sub-step {j} (t = {fractions[j]:.4f}): no stable "
+                f"equilibrium ({message}; {stab.message})",
+            ))
     windows = _candidate_windows(ratios, eigenvalues, jump_ratio)
     for first_step, last_step in windows:
         event = _localize(seg, s, fractions, shapes, eigenvalues, ratios, first_step, last_step,
@@ -470,6 +525,43 @@ def _continue_segment(seg: _Segment, s, start, end, m, jump_ratio, refinements, 
     return SegmentContinuation(s, fractions, shapes, eigenvalues, ratios, straying, mismatch,
                                tuple(events), tuple(changes),
                                tuple(states) if seg.contacts else ())
+
+
+def _compiled_substeps(seg: _Segment, start, fractions, shapes: list,
+                       eigenvalues: list) -> tuple[int, set]:
+    """The sub-steps of a segment in one compiled loop (:func:`dloplan.sim.batch.continue_held`),
+    appended to ``shapes`` and ``eigenvalues``: how many were done, and which of them are not
+    a converged, stable equilibrium (:func:`~.stability.elastic_stability`'s verdict from the
+    loop's residual, Hessian norm and smallest eigenvalue).
+
+    None without contacts and one cable along the segment where the stability test's quickest
+    eigen-solver is the banded one (:func:`~.stability.quickest_method`): there every
+    equilibrium is :func:`~dloplan.sim.statics.equilibrium`'s bit for bit and every eigenvalue
+    the one :func:`~.stability.elastic_stability` finds, to round-off. The loop stops before a
+    sub-step that needs the Python solver (a saddle to escape, clips at the reach's edge); the
+    reference loop does the rest.
+    """
+    cable = seg.cables[0]
+    if seg.contacts or seg.cables[1] is not cable or cable.n_points <= 4 or \
+            quickest_method(cable.n_points) != "band":
+        return 0, set()
+    positions, quaternions = seg.arrays(fractions)
+    count = len(fractions)
+    out = np.empty((count, cable.n_points, 3))
+    out[0] = start
+    converged = np.zeros(count, dtype=bool)
+    residuals, values, norms = (np.full(count, math.nan) for _ in range(3))
+    scale = force_scale(cable, seg.gravity)
+    done = continue_held(out, positions, quaternions, *seg.model(0.0)[1].constants,
+                         cable.rest_link_length, cable.length, DEFAULT_RTOL * scale,
+                         ROUNDOFF * np.finfo(float).eps, stiffest(cable), NEWTON_ITERATIONS,
+                         converged, residuals, values, norms)
+    threshold = np.maximum(seg.rtol * stiffness_scale(cable),
+                           ROUNDOFF_FACTOR * np.finfo(float).eps * norms)
+    ok = converged & (residuals <= EQUILIBRIUM_RTOL * scale) & (values > threshold)
+    shapes += list(out[1 : done + 1])
+    eigenvalues += values[1 : done + 1].tolist()
+    return done, {j for j in range(1, done + 1) if not ok[j]}
 
 
 def _contact_jumps(s, fractions, shapes, ratios, jump_ratio, changes, events) -> list[SnapEvent]:

@@ -252,13 +252,13 @@ class Checks:
                    0.01 if run is None else run.tolerance,
                    None if run is None else run.tensile_limit)
 
-    def verify(self, doc, **only):
+    def verify(self, doc, reuse=None, **only):
         """:func:`~dloplan.pipeline.stages.verify_plan` with these checks (``only`` turns some
-        off)."""
+        off; ``reuse``: its physics checks of the plan before a rigid move)."""
         flags = {"snap": self.snap, "replay": self.replay, "robot": self.robot}
         flags.update({k: v and flags[k] for k, v in only.items()})
         return verify_plan(doc, tolerance=self.tolerance, tensile_limit=self.tensile_limit,
-                           **flags)
+                           reuse=reuse, **flags)
 
 
 class Refused(Exception):
@@ -693,7 +693,8 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
             break
         state = session.state
         changed = state.doc is not verified[1]  # not changed: a placement only proposed
-        verification = checks.verify(state.doc) if changed else verified[2]
+        # a placement moves the plan rigidly: its physics checks are kept (pipeline.reuse)
+        verification = checks.verify(state.doc, reuse=verified[1:3]) if changed else verified[2]
         new_failures = diagnose(state.doc, verification)
         if changed:
             progress(f"repaired plan verified: {summary(new_failures)}")

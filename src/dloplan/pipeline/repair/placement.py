@@ -251,7 +251,7 @@ def targets_reached(grippers: GripperPath, cell) -> int:
     if not isinstance(cell, RobotCell):
         return 2 * (grippers.n_shapes + 2)
     positions, matrices = with_approach(grippers.positions, grippers.matrices, cell)
-    order = [0, 1] if left_clip(grippers) == 0 else [1, 0]
+    order = [0, 1] if left_clip(grippers, cell) == 0 else [1, 0]
     return int(reach_at_targets(cell.robot, positions[:, order],
                                 Rotation.from_matrix(matrices[:, order]), cell.reach).sum())
 
@@ -275,7 +275,7 @@ def placements(grippers: GripperPath, *, searches=SEARCHES, yaws=YAWS, cell=None
     seen = set()
     for yaw in yaws:
         turned = moved_grippers(grippers, TableMove(yaw=yaw, pivot=pivot))
-        side = left_clip(turned)
+        side = left_clip(turned, cell)
         positions, matrices = with_approach(turned.positions, turned.matrices, cell)
         messages = []
         for half, step, objective in searches:

@@ -27,11 +27,12 @@ from ..stages import (
 )
 
 
-def left_clip(grippers) -> int:
-    """The clip the left arm holds: the one further to the robot's left (+y) on average (the
-    assignment the reachability check makes)."""
-    mean_y = grippers.positions[:, :, 1].mean(axis=0)
-    return 0 if mean_y[0] >= mean_y[1] else 1
+def left_clip(grippers, cell) -> int:
+    """The clip the left arm of ``cell`` holds (the side rule,
+    :func:`dloplan.robot.assign_arms`; the default YuMi for None)."""
+    from ...robot import RobotCell, assign_arms
+
+    return assign_arms(grippers.positions, RobotCell() if cell is None else cell).left_clip
 
 
 def slowed(job, factor: float):

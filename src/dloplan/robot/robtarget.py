@@ -1,0 +1,129 @@
+"""The controller's inverse kinematics of a YuMi robtarget: (TCP pose, arm angle, confdata) ->
+joints, as RobotWare reads a robtarget with the new arm-angle definition.
+
+A robtarget fixes the TCP pose (6 equations) and the arm angle ``eax_a`` (the 7th,
+:mod:`dloplan.robot.armangle`): finitely many joint vectors satisfy them (up to 16 for the
+YuMi's geometry, Elias & Wen 2025). ``confdata`` picks one of them. :func:`robtarget_solutions`
+finds them by the 7x7 damped least squares of :func:`dloplan.robot.kinematics.solve_many`
+from many seeds (the given ones, the home pose and its wrist flip, and seeded-random joint
+vectors) and keeps the distinct ones within the joint limits; :func:`solve_robtarget` keeps
+those whose confdata is the written one. A program's round trip (:mod:`dloplan.robot.program`)
+asks that exactly one solution matches and that it is the verified one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .chain import CellArm
+from .confdata import confdata
+from .kinematics import IKOptions, solve_many, wrist_flip
+
+RANDOM_SEEDS = 96
+"""Seeded-random joint vectors tried per robtarget (besides the given seeds and home)."""
+
+SAME_SOLUTION = 1e-4
+"""[rad] Two solutions closer than this in every joint are one."""
+
+ROUND_TRIP_TOLERANCE = float(np.radians(0.05))
+"""[rad] A robtarget round-trips when the controller's solution is this close to the verified
+joints in every joint."""
+
+
+@dataclass(frozen=True, eq=False)
+class RobtargetSolution:
+    """What the controller's IK makes of one robtarget.
+
+    Attributes
+    ----------
+    solutions : numpy.ndarray
+        (K, 7) every distinct joint vector found [rad] with the robtarget's pose and arm angle.
+    matching : numpy.ndarray
+        (J, 7) those with the robtarget's confdata.
+    """
+
+    solutions: np.ndarray
+    matching: np.ndarray
+
+    @property
+    def unique(self) -> bool:
+        """Exactly one solution has the written confdata."""
+        return len(self.matching) == 1
+
+    def deviation(self, q) -> float:
+        """Largest joint difference [rad] of the matching solution nearest ``q`` (7,) from
+        ``q``; inf when none matches."""
+        if not len(self.matching):
+            return float("inf")
+        return float(np.abs(self.matching - np.asarray(q, dtype=float)).max(axis=1).min())
+
+
+def robtarget_solutions(arm: CellArm, position, rotation_matrix, psi: float, seeds=(),
+                        options: IKOptions | None = None,
+                        rng: np.random.Generator | None = None) -> np.ndarray:
+    """Every distinct joint vector within the limits found with a TCP pose and arm angle.
+
+    Parameters
+    ----------
+    arm : CellArm
+    position : array_like
+        (3,) TCP position in the world [m].
+    rotation_matrix : array_like
+        (3, 3) ``tcp_to_world``.
+    psi : float
+        The arm angle [rad].
+    seeds : sequence of array_like
+        (7,) joint vectors [rad] to start from besides the home pose, its wrist flip and
+        :data:`RANDOM_SEEDS` random ones.
+    options : IKOptions, optional
+        Damping and step (default :class:`IKOptions`); converged at 1e-9 m and 1e-9 rad
+        (a Newton step from 1e-5 gets there in one or two more iterations, and distinct
+        solutions near a singularity of the arm angle stay apart), 100 iterations per seed,
+        a seed whose error stalls given up.
+    rng : numpy.random.Generator, optional
+        For the random seeds; default seeded with 0 (deterministic).
+
+    Returns
+    -------
+    numpy.ndarray
+        (K, 7) [rad], ordered by their distance from the first seed (or home).
+    """
+    opts = replace(options if options is not None else IKOptions(), max_iterations=100,
+                   position_tolerance=1e-9, angle_tolerance=1e-9)
+    rng = rng if rng is not None else np.random.default_rng(0)
+    starts = np.array([np.clip(np.asarray(s, dtype=float), arm.lower, arm.upper)
+                       for s in seeds] + [arm.home, wrist_flip(arm, arm.home)]
+                      + list(rng.uniform(arm.lower, arm.upper, (RANDOM_SEEDS, 7))))
+    n = len(starts)
+    q, ok, _, _ = solve_many(arm, np.tile(np.asarray(position, dtype=float), (n, 1)),
+                             np.tile(np.asarray(rotation_matrix, dtype=float), (n, 1, 1)),
+                             starts, opts, np.full(n, float(psi)), give_up=True)
+    found = []
+    for candidate in _with_turns(arm, q[ok]):
+        if not any(np.abs(candidate - other).max() < SAME_SOLUTION for other in found):
+            found.append(candidate)
+    found = np.array(found).reshape(-1, 7)
+    return found[np.argsort(np.abs(found - starts[0]).max(axis=1), kind="stable")]
+
+
+def _with_turns(arm: CellArm, solutions: np.ndarray) -> list:
+    """The solutions (K, 7) and their turns: every combination of whole turns of the joints
+    whose range exceeds 2 pi that stays within the limits."""
+    out = [np.asarray(q, dtype=float) for q in solutions]
+    for j in np.flatnonzero(arm.upper - arm.lower > 2.0 * np.pi):
+        turns = np.arange(-2, 3) * 2.0 * np.pi
+        out = [q + turn * np.eye(7)[j] for q in out for turn in turns
+               if arm.lower[j] <= q[j] + turn <= arm.upper[j]]
+    return out
+
+
+def solve_robtarget(arm: CellArm, position, rotation_matrix, psi: float, conf, seeds=(),
+                    options: IKOptions | None = None) -> RobtargetSolution:
+    """The controller's solutions of a robtarget: those of :func:`robtarget_solutions` whose
+    :func:`~dloplan.robot.confdata.confdata` is ``conf`` (4,) int."""
+    found = robtarget_solutions(arm, position, rotation_matrix, psi, seeds, options)
+    conf = np.asarray(conf, dtype=int)
+    keep = np.all(confdata(found) == conf, axis=-1) if len(found) else np.zeros(0, bool)
+    return RobtargetSolution(found, found[keep])
