@@ -23,7 +23,7 @@ import pytest
 from conftest import level_clips, sagging_guess
 from scipy.spatial.transform import Rotation
 
-from dloplan.cable import catalogue_cable
+from dloplan.cable import COMPOSITE_AXIAL_MODULI, catalogue_cable
 from dloplan.obstacles.shapes import Cylinder, Table
 from dloplan.physics.chain import SpringChain
 from dloplan.sim.clips import ClipPoses
@@ -34,6 +34,7 @@ from dloplan.sim.torsion import equilibrium_with_twist
 SHIFT = np.array([0.3, 0.2, 0.1])
 DISTANCE = 0.44
 USB_E = catalogue_cable("usb").youngs_modulus
+COPPER = dict(axial_modulus=COMPOSITE_AXIAL_MODULI["usb"])  # 800 E, not the default
 
 
 def _contacts(shift):
@@ -47,13 +48,14 @@ CASES = {
     # axial springs of 1000 E (the catalogue's copper 2e9 Pa is 800 E)
     "axial 1000 E": dict(cable=dict(axial_modulus=1000 * USB_E)),
     # bending 1000 times stiffer (and so its twist), the copper axial springs kept
-    "bending E x1000": dict(cable=dict(youngs_modulus=1000 * USB_E)),
+    "bending E x1000": dict(cable=dict(youngs_modulus=1000 * USB_E, **COPPER)),
     # twist: G = E / (2 (1 + nu)) five times the catalogue's (nu = -0.9), clips turned 60 deg
     "twist G x5": dict(cable=dict(poisson_ratio=-0.9), twist=60.0),
-    "twist, copper axial": dict(cable={}, twist=60.0),
-    # contacts: the table and a peg, their penalty 1000 times the default 100 E A / l
-    "contact k_c x1000": dict(cable={}, contacts=1000.0),
-    "contact, default k_c": dict(cable={}, contacts=1.0),
+    "twist, copper axial": dict(cable=COPPER, twist=60.0),
+    # contacts: the table and a peg, their penalty 1000 times the default 100 E A / l, with the
+    # copper axial springs
+    "contact k_c x1000": dict(cable=COPPER, contacts=1000.0),
+    "contact, default k_c": dict(cable=COPPER, contacts=1.0),
 }
 
 
@@ -101,7 +103,7 @@ def test_every_stiffness_converges_where_the_job_is_and_moved(name):
 def test_the_tolerance_follows_the_stiffest_spring():
     """The floor term is 16 eps X k_max with k_max the stiffest spring of the four kinds."""
     eps = np.finfo(float).eps
-    usb = catalogue_cable("usb", n_links=30)
+    usb = catalogue_cable("usb", n_links=30, **COPPER)  # the axial springs set it
     x = sagging_guess(usb, DISTANCE) + SHIFT
     size = usb.length + float(np.max(np.abs(x)))
     assert residual_tolerance(usb, x=x) == pytest.approx(max(
@@ -120,7 +122,7 @@ def test_the_twist_check_of_a_path_succeeds_with_copper_axial_springs():
     reported success False)."""
     from dloplan.sim.torsion import twist_along_path
 
-    cable = catalogue_cable("usb", n_links=20)
+    cable = catalogue_cable("usb", n_links=20, **COPPER)
     reports = []
     for shift in (np.zeros(3), SHIFT):
         poses, shapes = [], []

@@ -67,6 +67,13 @@ def _positive(name: str, value: float) -> float:
     return value
 
 
+STIFF_AXIAL_RATIO = 10.0
+"""E_a / E from which a cable's axial springs count as stiff (:attr:`Cable.stiff_axial`): the
+static solvers' second-order correction of the link lengths is applied from there on
+(docs/decisions.md, "Second-order correction only for stiff axial springs"). The composite
+cables' copper is 270-800 E; E_a = E (the thesis, the default) takes the plain Newton steps."""
+
+
 @dataclass(frozen=True, eq=False)
 class Cable:
     """An elastic cable discretized into a chain of mass points (thesis chapter 3).
@@ -218,6 +225,15 @@ class Cable:
         return self.youngs_modulus if self.axial_modulus is None else self.axial_modulus
 
     @property
+    def stiff_axial(self) -> bool:
+        """Whether the axial springs are much stiffer than the bending modulus gives them:
+        E_a >= :data:`STIFF_AXIAL_RATIO` E (e.g. :data:`COMPOSITE_AXIAL_MODULI`). The static
+        solvers then correct their Newton steps' link lengths
+        (:func:`dloplan.sim.compiled.restore_link_lengths`); with E_a = E (the thesis) they take
+        the plain steps."""
+        return self.axial_youngs_modulus >= STIFF_AXIAL_RATIO * self.youngs_modulus
+
+    @property
     def axial_stiffness(self) -> float:
         """Axial stiffness E_a A [N] (the force that would double a link's length)."""
         return self.axial_youngs_modulus * self.area
@@ -346,8 +362,9 @@ precise. With the thesis' single modulus (E_a = E) the USB stretches about 1 % u
 weight and a nearly taut shape differs by up to 3 mm from an inextensible cable's (MuJoCo's
 cable, issue 35); it stays the default because the explicit replay's stable time step shrinks
 with sqrt(E_a) (about 28x more steps at 2 GPa) and the thesis' catalogue moduli were identified
-with it (docs/decisions.md). The static solver converges on such nearly inextensible links by a second-order correction
-of its Newton steps (:func:`dloplan.sim.compiled.restore_link_lengths`).
+with it (docs/decisions.md). The static solver converges on such nearly inextensible links by a
+second-order correction of its Newton steps (:func:`dloplan.sim.compiled.restore_link_lengths`,
+from :data:`STIFF_AXIAL_RATIO` E on).
 """
 
 

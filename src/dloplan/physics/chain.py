@@ -80,6 +80,10 @@ class SpringChain:
         Radius of the cable for contacts [m].
     contact_stiffness : float
         Penalty stiffness k_c [N/m].
+    stiff_axial : bool
+        The axial springs are much stiffer than the bending modulus gives them
+        (:attr:`dloplan.cable.Cable.stiff_axial`): the static solvers correct their steps' link
+        lengths.
     """
 
     k_axial: float
@@ -91,6 +95,7 @@ class SpringChain:
     contacts: tuple = ()
     contact_radius: float = 0.0
     contact_stiffness: float = 0.0
+    stiff_axial: bool = False
 
     @classmethod
     def from_cable(cls, cable: Cable, gravity=GRAVITY, contacts=(),
@@ -123,6 +128,7 @@ class SpringChain:
             rest_angles=cable.rest_angles,
             point_masses=cable.point_masses,
             gravity=g,
+            stiff_axial=cable.stiff_axial,
         )
         if plain:
             _CHAINS.setdefault(cable, {})[key] = chain

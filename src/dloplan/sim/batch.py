@@ -49,7 +49,7 @@ _EDGE = 1e-9  # relative margin of the compiled reach test: closer calls go to e
 
 @njit(cache=True)
 def solve_held(guesses, cable_of, k_s, rest_lengths, k_b, rest_angles, masses, gravity,
-               positions, quaternions, link, length, tolerance, max_iterations,
+               positions, quaternions, link, length, tolerance, stiff_axial, max_iterations,
                shapes, gradients, iterations, residuals, status):
     """The equilibria of B held cables, in place (the loop of :func:`held_equilibria`).
 
@@ -68,6 +68,9 @@ def solve_held(guesses, cable_of, k_s, rest_lengths, k_b, rest_angles, masses, g
         (B, 2, 3) clip points [m] and (B, 2, 4) ``clip_to_world`` quaternions (x, y, z, w).
     link, length, tolerance : numpy.ndarray
         Per cable (C,): rest link length l [m], length L [m], residual tolerance [N].
+    stiff_axial : numpy.ndarray
+        Per cable (C,) bool: :attr:`dloplan.physics.chain.SpringChain.stiff_axial` (the Newton
+        steps' link lengths corrected).
     max_iterations : int
         Newton iterations per item.
     shapes, gradients : numpy.ndarray
@@ -83,18 +86,18 @@ def solve_held(guesses, cable_of, k_s, rest_lengths, k_b, rest_angles, masses, g
         status[b], iterations[b], residuals[b], _ = _held_item(
             shapes[b], guesses[b], k_s[c], rest_lengths[c], k_b[c], rest_angles[c], masses[c],
             gravity, positions[b], quaternions[b], link[c], length[c], tolerance[c], 0.0, 0.0,
-            max_iterations, gradients[b], band, history)
+            stiff_axial[c], max_iterations, gradients[b], band, history)
 
 
 @njit(cache=True)
 def _held_item(x, guess, k_s, rest_lengths, k_b, rest_angles, masses, gravity, position,
-               quaternion, link, length, tolerance, roundoff, stiff, max_iterations, grad, band,
-               history):
+               quaternion, link, length, tolerance, roundoff, stiff, stiff_axial, max_iterations,
+               grad, band, history):
     """One equilibrium of :func:`solve_held` into x (n + 1, 3) from ``guess``: returns
     ``(status, iterations, residual, tolerance)``. The tolerance [N] is ``max(tolerance,
     roundoff (L + max |x|) stiff)`` at the conformed guess (``roundoff`` > 0: the round-off
     floor of :func:`dloplan.sim.result.residual_tolerance`, ``stiff`` its largest stiffness
-    [N/m], in the same order of operations)."""
+    [N/m], in the same order of operations; ``stiff_axial``: the chain's, for the Newton loop)."""
     n_points = guess.shape[0]
     held = held_points_of(position, quaternion, link)
     distance = math.sqrt(np.sum((position[0] - position[1]) ** 2))
@@ -112,14 +115,14 @@ def _held_item(x, guess, k_s, rest_lengths, k_b, rest_angles, masses, gravity, p
     history[0] = chain_energy(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity)
     outcome, iterations, residual, _, _ = newton_positions(
         x, 2, n_points - 2, k_s, rest_lengths, k_b, rest_angles, masses, gravity, length,
-        tolerance, max_iterations, 0, 0.25 * length, history, 1, grad, band, True)
+        tolerance, max_iterations, 0, 0.25 * length, history, 1, grad, band, True, stiff_axial)
     return (HANDED_BACK if outcome == SADDLE else outcome), iterations, residual, tolerance
 
 
 @njit(cache=True)
 def continue_held(shapes, positions, quaternions, k_s, rest_lengths, k_b, rest_angles, masses,
-                  gravity, link, length, tolerance, roundoff, stiff, max_iterations, converged,
-                  residuals, eigenvalues, norms):
+                  gravity, link, length, tolerance, roundoff, stiff, stiff_axial, max_iterations,
+                  converged, residuals, eigenvalues, norms):
     """A quasi-static continuation in one call: the equilibria at sub-steps 1 .. m, each from
     the one before, with the smallest eigenvalue of each (the loop of the snap-through check,
     :mod:`dloplan.verify.snap`).
@@ -141,6 +144,8 @@ def continue_held(shapes, positions, quaternions, k_s, rest_lengths, k_b, rest_a
     link, length, tolerance, roundoff, stiff : float
         l [m], L [m], the residual tolerance [N], the round-off factor (16 eps) and the
         largest stiffness [N/m] of its floor (:func:`dloplan.sim.result.residual_tolerance`).
+    stiff_axial : bool
+        :attr:`dloplan.physics.chain.SpringChain.stiff_axial` of the chain.
     max_iterations : int
         Newton iterations per sub-step.
     converged : numpy.ndarray
@@ -165,7 +170,7 @@ def continue_held(shapes, positions, quaternions, k_s, rest_lengths, k_b, rest_a
         outcome, _, residual, limit = _held_item(
             shapes[j], shapes[j - 1], k_s, rest_lengths, k_b, rest_angles, masses, gravity,
             positions[j], quaternions[j], link, length, tolerance, roundoff, stiff,
-            max_iterations, grad, band, history)
+            stiff_axial, max_iterations, grad, band, history)
         if outcome == HANDED_BACK:
             return j - 1
         converged[j] = residual <= limit
@@ -297,6 +302,7 @@ def held_equilibria(
     link = np.array([cable.rest_link_length for cable in cables])
     length = np.array([cable.length for cable in cables])
     tolerance = np.array([rtol * force_scale(cable, gravity) for cable in cables])
+    stiff_axial = np.array([chain.stiff_axial for chain in chains])
     quaternions = clip_rotations.as_quat().reshape(n_items, 2, 4)
 
     cable_of = index.astype(np.int64)
@@ -306,7 +312,7 @@ def held_equilibria(
     residuals = np.full(n_items, np.nan)
     status = np.empty(n_items, dtype=np.int64)
     solve_held(x0, cable_of, *constants, chains[0].constants[5], positions, quaternions,
-               link, length, tolerance, max_iterations, shapes, gradients, iterations,
+               link, length, tolerance, stiff_axial, max_iterations, shapes, gradients, iterations,
                residuals, status)
 
     wrenches = _clip_wrenches(shapes, gradients, positions)

@@ -211,7 +211,7 @@ def _model_step(h, g, shift, scale, radius, factor, p, twist):
 @njit(cache=True)
 def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses, gravity,
                      length_scale, tolerance, max_iterations, iterations, radius, history,
-                     n_history, grad, band, stop_at_saddle):
+                     n_history, grad, band, stop_at_saddle, correct_lengths):
     """Run the trust-region Newton loop on the free points ``first .. stop - 1`` of x, in place.
 
     Parameters
@@ -237,6 +237,10 @@ def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses
         (n + 1, 3) and (9, 3(n + 1)) work arrays: on return the last gradient [N] and band.
     stop_at_saddle : bool
         Return :data:`SADDLE` at a converged but unstable point (else step on from it).
+    correct_lengths : bool
+        Try the second-order correction :func:`restore_link_lengths` on a step that is not very
+        successful (:func:`dloplan.sim.newton.wants_correction`): for stiff axial springs
+        (:attr:`dloplan.physics.chain.SpringChain.stiff_axial`); else the plain steps.
 
     Returns
     -------
@@ -274,7 +278,7 @@ def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses
             for j in range(n_free):
                 trial[first + j // 3, j % 3] += alpha * p[j]
             f_trial = chain_energy(trial, k_s, rest_lengths, k_b, rest_angles, masses, gravity)
-            if wants_correction(f, f_trial, predicted):
+            if correct_lengths and wants_correction(f, f_trial, predicted):
                 corrected[:] = trial
                 if restore_link_lengths(x, corrected, first, stop):
                     f_corrected = chain_energy(corrected, k_s, rest_lengths, k_b, rest_angles,
@@ -373,7 +377,7 @@ def twist_step_length(p):
 @njit(cache=True)
 def newton_twist(x, d1, chain, twist, link, length_scale, tolerance, max_iterations, iterations,
                  radius, history, n_history, work, grad, tgrad, dgrad, agrad, blocks, band_pos,
-                 band, stop_at_saddle):
+                 band, stop_at_saddle, correct_lengths):
     """The trust-region Newton loop of :func:`dloplan.sim.torsion.equilibrium_with_twist`.
 
     The same decisions in the same order as :func:`dloplan.sim.newton.trust_region_newton` with
@@ -382,7 +386,8 @@ def newton_twist(x, d1, chain, twist, link, length_scale, tolerance, max_iterati
     place. ``chain`` and ``twist`` are the constants of :class:`dloplan.physics.chain.
     SpringChain` and :class:`dloplan.physics.twist.TwistChain`; the work arrays hold the last
     derivatives on return (``grad`` the points' total gradient [N], ``band`` the joint band).
-    Other arguments and the returned tuple as in :func:`newton_positions`.
+    Other arguments (``correct_lengths``: the points' :func:`restore_link_lengths`) and the
+    returned tuple as in :func:`newton_positions`.
     """
     n = d1.shape[0]
     first = 7
@@ -418,7 +423,7 @@ def newton_twist(x, d1, chain, twist, link, length_scale, tolerance, max_iterati
                 p[j] *= alpha
             twist_trial(x, d1, p, link, trial, trial_d1, angles, False)
             f_trial = twist_energy_of(trial, trial_d1, chain, twist)
-            if wants_correction(f, f_trial, predicted) and twist_trial(
+            if correct_lengths and wants_correction(f, f_trial, predicted) and twist_trial(
                     x, d1, p, link, corrected, corrected_d1, angles, True):
                 f_corrected = twist_energy_of(corrected, corrected_d1, chain, twist)
                 if f_corrected < f_trial:

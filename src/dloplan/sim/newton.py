@@ -387,8 +387,7 @@ def step_verdict(f, f_trial, predicted, shift, scale, radius, longest, length_sc
         ratio = actual / predicted if abs(predicted) > noise else 1.0
         if ratio > 0.75:
             shift = 0.0 if shift < 1e-6 * scale else shift / 8.0
-            if longest >= radius:  # the step was cut at the radius: widen it
-                radius = min(2.0 * radius, length_scale)
+            radius = min(2.0 * radius, length_scale)
         elif ratio < 0.25:
             shift = max(4.0 * shift, 1e-8 * scale)
         return True, shift, radius

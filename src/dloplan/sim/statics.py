@@ -227,8 +227,10 @@ def minimize_energy(
         def limit(x, p):  # land a point entering an obstacle just inside it
             return entry_fraction(x, moved(x, p), chain.contacts, chain.contact_radius)
 
+        stiff = chain.stiff_axial  # the stiff links' measures; E_a = E takes the plain steps
         run = trust_region_newton(x, energy_of, derivatives, moved, displacement, length_scale,
-                                  tolerance, max_iterations, corrected=corrected, limit=limit)
+                                  tolerance, max_iterations, corrected=corrected if stiff else None,
+                                  limit=limit if stiff else None)
     else:
         run = _compiled_newton(chain, x, free, length_scale, tolerance, max_iterations,
                                energy_of, moved, displacement, rows)
@@ -258,7 +260,7 @@ def _compiled_newton(chain, x, free, length_scale, tolerance, max_iterations, en
             status, iterations, residual, radius, n_history = newton_positions(
                 x, free.start, free.stop, *chain.constants, length_scale, tolerance,
                 max_iterations, iterations, radius, history, n_history, grad, band,
-                escapes < MAX_ESCAPES)
+                escapes < MAX_ESCAPES, chain.stiff_axial)
         if status != SADDLE:
             break
         escaped = escape_saddle(x, history[n_history - 1], free_band(band, free), energy_of,

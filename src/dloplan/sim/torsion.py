@@ -196,7 +196,7 @@ def _compiled_twist_newton(chain: SpringChain, tc: TwistChain, state, link: floa
         status, iterations, residual, radius, n_history = newton_twist(
             x, d1, chain.constants, tc.constants, link, length_scale, tolerance,
             max_iterations, iterations, radius, history, n_history, scratch(), *arrays.values(),
-            escapes < MAX_ESCAPES)
+            escapes < MAX_ESCAPES, chain.stiff_axial)
         if status != SADDLE:
             break
         escaped = escape_saddle((x, d1), history[n_history - 1], arrays["band"][:, free],
@@ -347,7 +347,7 @@ def equilibrium_with_twist(
     if chain.contacts:  # obstacles are Python objects: the generic loop
         run = trust_region_newton((start, d1), energy_of, derivatives, moved,
                                   twist_step_length, cable.length, tolerance, max_iterations,
-                                  corrected=corrected)
+                                  corrected=corrected if chain.stiff_axial else None)
     else:
         run = _compiled_twist_newton(chain, tc, (start, d1), link, cable.length, tolerance,
                                      max_iterations, energy_of, moved)

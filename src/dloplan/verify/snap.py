@@ -554,8 +554,8 @@ def _compiled_substeps(seg: _Segment, start, fractions, shapes: list,
     scale = force_scale(cable, seg.gravity)
     done = continue_held(out, positions, quaternions, *seg.model(0.0)[1].constants,
                          cable.rest_link_length, cable.length, DEFAULT_RTOL * scale,
-                         ROUNDOFF * np.finfo(float).eps, stiffest(cable), NEWTON_ITERATIONS,
-                         converged, residuals, values, norms)
+                         ROUNDOFF * np.finfo(float).eps, stiffest(cable), cable.stiff_axial,
+                         NEWTON_ITERATIONS, converged, residuals, values, norms)
     threshold = np.maximum(seg.rtol * stiffness_scale(cable),
                            ROUNDOFF_FACTOR * np.finfo(float).eps * norms)
     ok = converged & (residuals <= EQUILIBRIUM_RTOL * scale) & (values > threshold)
