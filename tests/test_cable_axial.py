@@ -9,10 +9,11 @@ import pytest
 from conftest import level_clips, sagging_guess
 
 from dloplan.app.resolve import build_cable
-from dloplan.cable import COMPOSITE_AXIAL_MODULI, Cable, catalogue_cable
+from dloplan.cable import COMPOSITE_AXIAL_MODULI, STIFF_AXIAL_RATIO, Cable, catalogue_cable
 from dloplan.geometry import link_lengths
 from dloplan.identify import bending_manipulation, identify_youngs_modulus, synthetic_experiment
 from dloplan.io.scenario import CableSpec
+from dloplan.physics.chain import SpringChain
 from dloplan.pipeline.document import cable_to_dict
 from dloplan.sim.statics import equilibrium
 
@@ -32,6 +33,19 @@ def test_the_thesis_one_modulus_is_the_default_and_copper_an_option():
                        1.0, None).axial_modulus is None
     with pytest.raises(ValueError, match="axial_modulus"):
         CableSpec(name="usb", axial_modulus="copper")
+
+
+def test_only_stiff_axial_springs_get_the_solvers_link_length_correction():
+    """The static solvers' second-order correction is for E_a >= 10 E (docs/decisions.md): the
+    default E_a = E and a modulus just below the ratio take the plain Newton steps."""
+    usb = catalogue_cable("usb", n_links=10)
+    e = usb.youngs_modulus
+    assert not usb.stiff_axial and not SpringChain.from_cable(usb).stiff_axial
+    assert not catalogue_cable("usb", axial_modulus=0.99 * STIFF_AXIAL_RATIO * e).stiff_axial
+    assert catalogue_cable("usb", axial_modulus=STIFF_AXIAL_RATIO * e).stiff_axial
+    copper = catalogue_cable("usb", n_links=10, axial_modulus=COMPOSITE_AXIAL_MODULI["usb"])
+    assert copper.stiff_axial and SpringChain.from_cable(copper).stiff_axial
+    assert not copper.with_modulus(COMPOSITE_AXIAL_MODULI["usb"]).stiff_axial  # E_a = E again
 
 
 def test_without_an_axial_modulus_the_thesis_model_is_unchanged():
@@ -71,7 +85,7 @@ def test_the_axial_modulus_round_trips_through_exports_and_scenarios():
     assert Cable(**cable_to_dict(catalogue_cable("pu"))).axial_modulus is None
     built = build_cable(CableSpec(name="usb", axial_modulus=2e9), 1.0, None)
     assert built.axial_modulus == 2e9
-    assert build_cable(CableSpec(name="usb"), 1.0, None).axial_modulus == 2e9
+    assert build_cable(CableSpec(name="usb"), 1.0, None).axial_modulus is None  # the thesis
     assert build_cable(CableSpec(name="pu"), 1.0, None).axial_modulus is None
     # a plan made with the thesis' one modulus reads back as such
     assert Cable(**cable_to_dict(catalogue_cable("usb", axial_modulus=None))).axial_modulus \

@@ -5,7 +5,7 @@ Tolerance: 1e-6 of the largest entry. The finite differences are central with a 
 curved hose (whose held free length makes the equilibrium strongly nonlinear in the clip
 distance: 1.7e-5 at h = 1e-5, 1.7e-7 at h = 1e-6), and the equilibria are solved until round-off
 stops the force residual falling (``POLISH``), whose effect on the quotient is below 1e-8
-relative (also with the composite Ethernet's copper axial springs, the catalogue's default); so
+relative (also with the composite Ethernet's copper axial springs, passed explicitly); so
 a 1e-6 disagreement can only come from a wrong derivative.
 """
 
@@ -16,7 +16,7 @@ import pytest
 from gripper_paths import curved_hose
 from scipy.spatial.transform import Rotation
 
-from dloplan.cable import catalogue_cable
+from dloplan.cable import COMPOSITE_AXIAL_MODULI, catalogue_cable
 from dloplan.shapes import arc_shape, place, sine_shape
 from dloplan.sim import clip_poses_from_shape, equilibrium
 from dloplan.sim.sensitivity import (
@@ -37,8 +37,9 @@ STEP = 1e-6
 
 
 def _case(name: str):
-    if name == "ethernet-3d-arc":
-        cable = catalogue_cable("ethernet", n_links=16)
+    if name == "ethernet-3d-arc":  # the copper axial springs (COMPOSITE_AXIAL_MODULI)
+        cable = catalogue_cable("ethernet", n_links=16,
+                                axial_modulus=COMPOSITE_AXIAL_MODULI["ethernet"])
         turn = Rotation.from_euler("xyz", [70, 0, 60], degrees=True)
         shape = place(arc_shape(cable.length, 16, np.radians(120)), (0.3, 0.0, 0.2), turn)
     elif name == "usb-sine-thesis-model":

@@ -306,7 +306,7 @@ def test_dynamic_simulation_with_torsion_settles_on_the_static_twisted_equilibri
 
     from dloplan.sim import simulate
 
-    # the thesis' one modulus: the copper axial springs (the catalogue's default) would need a
+    # the thesis' one modulus (the default): copper axial springs (COMPOSITE_AXIAL_MODULI) need a
     # 28 times shorter explicit step than the capped E's (replays cap E_a, REPLAY_AXIAL_CAP)
     cable = catalogue_cable("usb", n_links=8, axial_modulus=None)
     clips = level_clips(0.35)
