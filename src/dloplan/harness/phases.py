@@ -127,6 +127,14 @@ def _at_half_length(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return x[k] + t * tangent, tangent / np.linalg.norm(tangent)
 
 
+def _insertion_shape(cable: Cable, insertion, height: float) -> np.ndarray:
+    """The insertion pose as an (n + 1, 3) shape [m], with the approach height checked."""
+    x = as_shape(insertion, cable.n_points, "insertion")
+    if not (math.isfinite(height) and height > 0):
+        raise ValueError(f"approach_height: got {height!r}, expected a height > 0 [m]")
+    return x
+
+
 def taut_approach(cable: Cable, insertion: np.ndarray, height: float) -> np.ndarray:
     """Phase 1's target for a cable that cannot carry the arc: the cable straight and level,
     ``height`` above the insertion pose's middle point, across the route's front, (n + 1, 3)
@@ -147,9 +155,7 @@ def taut_approach(cable: Cable, insertion: np.ndarray, height: float) -> np.ndar
     height : float
         How far above the insertion pose's middle point the line lies [m].
     """
-    x = as_shape(insertion, cable.n_points, "insertion")
-    if not (math.isfinite(height) and height > 0):
-        raise ValueError(f"approach_height: got {height!r}, expected a height > 0 [m]")
+    x = _insertion_shape(cable, insertion, height)
     mid, _ = _at_half_length(x)
     clips = clip_poses_from_shape(x).positions
     front = mid - 0.5 * (clips[0] + clips[1])
@@ -179,9 +185,7 @@ def approach_shape(cable: Cable, insertion: np.ndarray, height: float) -> np.nda
     height : float
         How far above the insertion pose's middle point the arc's middle point lies [m].
     """
-    x = as_shape(insertion, cable.n_points, "insertion")
-    if not (math.isfinite(height) and height > 0):
-        raise ValueError(f"approach_height: got {height!r}, expected a height > 0 [m]")
+    x = _insertion_shape(cable, insertion, height)
     arc = arc_shape(cable.length, cable.n_links, _heading_turn(x))
     arc_mid, arc_tangent = _at_half_length(arc)
     mid, tangent = _at_half_length(x)

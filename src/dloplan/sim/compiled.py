@@ -181,7 +181,7 @@ def newton_direction(h, g, shift, factor, p):
 
 
 @njit(cache=True)
-def _stop_status(residual, tolerance, h, scale, factor, iterations, max_iterations,
+def stop_status(residual, tolerance, h, scale, factor, iterations, max_iterations,
                  stop_at_saddle):
     """Why the loop stops here (converged and stable, out of iterations, at a saddle), or
     :data:`RUNNING`."""
@@ -195,7 +195,7 @@ def _stop_status(residual, tolerance, h, scale, factor, iterations, max_iteratio
 
 
 @njit(cache=True)
-def _model_step(h, g, shift, scale, radius, factor, p, twist):
+def model_step(h, g, shift, scale, radius, factor, p, twist):
     """The Newton step p for the shift, its size (:func:`twist_step_length` with ``twist``,
     else the largest point displacement), the factor alpha truncating it to the trust radius
     and the model's predicted change; ``(solved, shift, longest, alpha, predicted)``, the shift
@@ -264,13 +264,13 @@ def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses
         g = grad.ravel()[free]
         h = band[:, free]
         scale = np.mean(h[0])
-        status = _stop_status(residual, tolerance, h, scale, factor, iterations, max_iterations,
-                              stop_at_saddle)
+        status = stop_status(residual, tolerance, h, scale, factor, iterations, max_iterations,
+                             stop_at_saddle)
         if status != RUNNING:
             return status, iterations, residual, radius, n_history
         accepted = False
         for _ in range(60):  # adapt the shift until a step is accepted
-            solved, shift, longest, alpha, predicted = _model_step(h, g, shift, scale, radius,
+            solved, shift, longest, alpha, predicted = model_step(h, g, shift, scale, radius,
                                                                    factor, p, False)
             if not solved:
                 continue
@@ -409,13 +409,13 @@ def newton_twist(x, d1, chain, twist, link, length_scale, tolerance, max_iterati
         g = g_all[first:stop]
         h = band[:, first:stop]
         scale = np.mean(h[0])
-        status = _stop_status(residual, tolerance, h, scale, factor, iterations, max_iterations,
-                              stop_at_saddle)
+        status = stop_status(residual, tolerance, h, scale, factor, iterations, max_iterations,
+                             stop_at_saddle)
         if status != RUNNING:
             return status, iterations, residual, radius, n_history
         accepted = False
         for _ in range(60):  # adapt the shift until a step is accepted
-            solved, shift, longest, alpha, predicted = _model_step(h, g, shift, scale, radius,
+            solved, shift, longest, alpha, predicted = model_step(h, g, shift, scale, radius,
                                                                    factor, p, True)
             if not solved:
                 continue

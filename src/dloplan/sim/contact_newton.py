@@ -29,8 +29,8 @@ import numpy as np
 from ..jit import njit
 from ..physics.compiled import chain_derivatives, chain_energy
 from ..physics.contact_compiled import point_distance
-from .compiled import CONVERGED, MAX_ITERATIONS, SADDLE, STALLED, newton_direction
-from .newton import NEUTRAL, cholesky_band, step_verdict
+from .compiled import RUNNING, STALLED, model_step, stop_status
+from .newton import step_verdict
 
 __all__ = ["newton_contacts", "penalty_energy", "penalty_terms"]
 
@@ -129,24 +129,16 @@ def newton_contacts(x, first, stop, constants, rows, radius, stiffness, length_s
         g = grad.ravel()[free]
         h = band[:, free]
         scale = np.mean(h[0])
-        if residual <= tolerance and cholesky_band(h, NEUTRAL * scale, factor):
-            return CONVERGED, iterations, residual, trust, n_history
-        if iterations >= max_iterations:
-            return MAX_ITERATIONS, iterations, residual, trust, n_history
-        if residual <= tolerance and stop_at_saddle:
-            return SADDLE, iterations, residual, trust, n_history
+        status = stop_status(residual, tolerance, h, scale, factor, iterations, max_iterations,
+                             stop_at_saddle)
+        if status != RUNNING:
+            return status, iterations, residual, trust, n_history
         accepted = False
         for _ in range(60):  # adapt the shift until a step is accepted
-            solved, g_p, p_p = newton_direction(h, g, shift, factor, p)
+            solved, shift, longest, alpha, predicted = model_step(h, g, shift, scale, trust,
+                                                                  factor, p, False)
             if not solved:
-                shift = max(4.0 * shift, 1e-8 * scale)
                 continue
-            longest = 0.0
-            for i in range(n_free // 3):
-                longest = max(longest, math.sqrt(p[3 * i] ** 2 + p[3 * i + 1] ** 2
-                                                 + p[3 * i + 2] ** 2))
-            alpha = min(1.0, trust / longest) if longest > 0 else 1.0
-            predicted = alpha * g_p + 0.5 * alpha**2 * (-g_p - shift * p_p)
             trial[:] = x
             for j in range(n_free):
                 trial[first + j // 3, j % 3] += alpha * p[j]
