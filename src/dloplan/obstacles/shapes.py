@@ -292,8 +292,10 @@ class Cylinder:
         vertical = np.maximum(np.maximum(-q[..., 2], q[..., 2] - self.height), 0.0)
         return np.hypot(radial, vertical)
 
-    def signed_distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Signed distance [m] (negative inside) and outward unit normal, (...,), (..., 3)."""
+    def _faces(self, points: np.ndarray):
+        """The points' distance rho from the axis [m] (...,; 1 on the axis, where it divides),
+        the radial and the vertical unit vectors (..., 3) (up above half height, else down) and
+        the excess over the round face and the nearer flat face [m] (..., 2)."""
         q = points - np.asarray(self.base)
         rho = np.hypot(q[..., 0], q[..., 1])
         safe = np.where(rho > 0, rho, 1.0)
@@ -304,6 +306,11 @@ class Cylinder:
         vertical[..., 2] = np.where(above, 1.0, -1.0)
         excess = np.stack([rho - self.radius,
                            np.where(above, q[..., 2] - self.height, -q[..., 2])], axis=-1)
+        return safe, radial, vertical, excess
+
+    def signed_distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Signed distance [m] (negative inside) and outward unit normal, (...,), (..., 3)."""
+        _, radial, vertical, excess = self._faces(points)
         weights, phi = _box_normal(np.ones_like(excess), excess)
         return phi, weights[..., :1] * radial + weights[..., 1:] * vertical
 
@@ -321,20 +328,11 @@ class Cylinder:
         distance, and the rim adds the curvature of the distance to a circle's edge
         (:func:`_box_hessian`).
         """
-        q = points - np.asarray(self.base)
-        rho = np.hypot(q[..., 0], q[..., 1])
-        safe = np.where(rho > 0, rho, 1.0)
-        radial = np.stack([np.where(rho > 0, q[..., 0] / safe, 1.0),
-                           np.where(rho > 0, q[..., 1] / safe, 0.0), np.zeros_like(rho)], -1)
-        above = q[..., 2] > 0.5 * self.height
-        vertical = np.zeros_like(radial)
-        vertical[..., 2] = np.where(above, 1.0, -1.0)
-        excess = np.stack([rho - self.radius,
-                           np.where(above, q[..., 2] - self.height, -q[..., 2])], axis=-1)
+        rho, radial, vertical, excess = self._faces(points)
         weights, _ = _box_normal(np.ones_like(excess), excess)  # d phi / d excess_k
         tangential = np.eye(3) - radial[..., :, None] * radial[..., None, :]
         tangential[..., 2, 2] = 0.0  # drop z z^T (r has no z component)
-        curved = tangential / safe[..., None, None]  # Hessian of rho
+        curved = tangential / rho[..., None, None]  # Hessian of rho
         jacobian = np.stack([radial, vertical], axis=-2)
         return weights[..., 0, None, None] * curved + _box_hessian(excess, jacobian)
 
