@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from conftest import level_clips, sagging_guess
@@ -45,7 +47,9 @@ def test_ground_plane_is_one_sided():
     hanging = equilibrium(cable, sagging_guess(cable, 0.25), clips, gravity=(0, 0, 0)).shape
     assert hanging[:, 2].min() < -0.05  # without the table it would hang through it
     start = np.maximum(hanging, [-np.inf, -np.inf, 0.0])
-    run = simulate(cable, start, clips, duration=0.5, ground=True, youngs_modulus_cap=1e6)
+    # the loop cut off at the table has links 20-25 % short: the copper axial springs throw the
+    # cable up (8.6 cm at 0.1 s) before it falls back onto the table (at rest there by 0.6 s)
+    run = simulate(cable, start, clips, duration=1.0, ground=True, youngs_modulus_cap=1e6)
     assert run.shapes[:, :, 2].min() >= 0.0
     assert np.isclose(run.shapes[-1, :, 2].min(), 0.0, atol=1e-9)  # it lies on the table
 
@@ -79,12 +83,16 @@ def test_clip_trajectory_validates_times():
         ClipTrajectory(np.array([0.0]), [level_clips(0.4), level_clips(0.3)])
 
 
+@pytest.mark.parametrize("axial, atol", [("copper", 1e-11), ("thesis", 1e-12)])
 @pytest.mark.parametrize("damping", ["absolute", "relative"])
-def test_compiled_stepping_matches_a_plain_numpy_euler_loop(damping):
-    # eq. 3.24 written out with the numpy reference gradient; the same steps to round-off
+def test_compiled_stepping_matches_a_plain_numpy_euler_loop(damping, axial, atol):
+    # eq. 3.24 written out with the numpy reference gradient; the same steps to round-off (the
+    # copper axial springs, 800 times E's, carry forces whose round-off is as many times larger:
+    # the two loops part by up to 5e-12 m over the 300 steps)
     from dloplan.physics.chain import SpringChain, gradient
 
     cable = catalogue_cable("usb", n_links=8)
+    cable = cable if axial == "copper" else replace(cable, axial_modulus=None)  # E_a = E
     start = equilibrium(cable, sagging_guess(cable, 0.3), level_clips(0.3)).shape
     start[2:-2, 2] -= 0.05  # sagging below the ground plane z = 0, which pushes it back up
     end = level_clips(0.25, z=0.02)
@@ -115,6 +123,6 @@ def test_compiled_stepping_matches_a_plain_numpy_euler_loop(damping):
         if step % 100 == 0:
             k = step // 100
             assert np.isclose(run.times[k], step * dt)
-            assert np.max(np.abs(run.shapes[k] - x)) < 1e-12
+            assert np.max(np.abs(run.shapes[k] - x)) < atol
     assert run.steps == 300 and len(run.times) == 4
     assert np.max(np.abs(run.shapes[0] - start)) == 0.0  # the shape as given

@@ -112,16 +112,24 @@ def test_reference_cantilevers_are_identified_within_their_interval(name, gamma,
 def test_clamped_ethernet_reference_is_identified(variant):
     # the dual-arm hold: clips level, 0.4 m apart; n40 is the continuum solution of the very
     # set-up the 40-link model describes (half links outside the clips), limit the cable
-    # clamped at its ends
+    # clamped at its ends. The references are inextensible, as the catalogue Ethernet with its
+    # copper axial modulus (the default) is.
     ref = load_reference(f"clamped_ethernet_D0.4_{variant}")
     cable, truth = cable_for("ethernet", ref["q"] * 0.5**3 / ref["EI"], 40)
+    assert cable.stiff_axial
     shape = np.stack([ref["x"], np.zeros(ref["K"]), HEIGHT + np.asarray(ref["z"])], axis=1)
     noisy = shape + np.random.default_rng(1).normal(0.0, 1e-3, shape.shape)
     manipulation = Manipulation(shape, [level_clips(0.4, HEIGHT)], held="both")
     result = identify_youngs_modulus(cable, Experiment(manipulation, noisy))
     assert covers_or_refuses(result, truth)
     if variant == "n40":
-        assert result.success and result.youngs_modulus == pytest.approx(truth, rel=0.1)
+        # the sag hardly depends on E here (95 % interval a factor 35 wide): 1 mm of noise moves
+        # the estimate by 10 % (seeds 1-4: -10.0, -4.3, -4.6, -3.5 %, the same with E_a = E);
+        # without noise the 40-link chain is 4.4 % off the continuum it discretizes
+        assert result.success
+        clean = identify_youngs_modulus(cable, Experiment(manipulation, shape,
+                                                          measurement_noise=1e-4))
+        assert clean.success and clean.youngs_modulus == pytest.approx(truth, rel=0.06)
 
 
 def test_clamped_pu_hose_reference_is_refused_as_uninformative():

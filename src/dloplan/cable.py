@@ -13,7 +13,7 @@ point masses m_i          m / (n+1) (``"equal"``) or consistent        3.1
 axial constant k_s        E_a A / l,  A = pi d^2 / 4                  3.10
 bending constant k_b      3 E I / l (``"thesis"``) or E I / l         3.13
 twist constant k_t        G I_p / l,  G = E / (2 (1 + nu))             3.16
-damping k_d               2 xi sqrt(m_i k_s),  xi = 0.05               3.23
+damping k_d               2 xi sqrt(m_i E A / l), xi = 0.05           3.23
 time step                 sqrt(m_i l / k_s)                            3.8.2 / 6.5
 ========================  ==========================================  ===============
 
@@ -37,9 +37,8 @@ switches both, and the axial modulus, to the thesis' choices to reproduce its nu
 The axial modulus E_a is ``axial_modulus`` when given, else E (the thesis: one modulus for
 bending and stretching). Composite cables need their own: their bending modulus is an
 equivalent one, tiny against their copper cores' axial stiffness, and with E_a = E a USB cable
-stretches by about 1 % under its own weight (see ``docs/model.md``, "Axial stiffness"). For the
-catalogue's USB and Ethernet cables pass :data:`COMPOSITE_AXIAL_MODULI` (not the default:
-docs/decisions.md, "Axial modulus of composite cables").
+stretches by about 1 % under its own weight (see ``docs/model.md``, "Axial stiffness"). The
+catalogue's USB and Ethernet cables have theirs by default (:data:`COMPOSITE_AXIAL_MODULI`).
 """
 
 from __future__ import annotations
@@ -108,7 +107,7 @@ class Cable:
     axial_modulus : float, optional
         Modulus of the axial springs E_a [Pa] (k_s = E_a A / l), separate from the bending
         modulus; ``None`` (default) uses ``youngs_modulus`` (the thesis' model, right for a
-        hose of one material). For the composite catalogue cables see
+        hose of one material). :func:`catalogue_cable` gives the composite cables
         :data:`COMPOSITE_AXIAL_MODULI`.
     """
 
@@ -270,9 +269,18 @@ class Cable:
 
     @property
     def k_damping(self) -> float:
-        """Fictitious damping k_d = 2 xi sqrt(m_i k_s) [N s/m] (eq. 3.23), m_i the mean mass."""
+        """Fictitious damping k_d = 2 xi sqrt(m_i k_s) [N s/m] (eq. 3.23), m_i the mean mass.
+
+        k_s is the thesis' axial spring, E A / l with the (bending) modulus E, also when the
+        axial springs have a modulus of their own: the thesis sized its fictitious damping with
+        its one modulus, and -k_d v damps every mode at the same rate k_d / (2 m_i), so the
+        composite cables' copper (E_a ~ 800 E) would otherwise get a drag 27 times the thesis'
+        that lets a USB cable fall at 7 mm/s (docs/decisions.md, "Axial modulus of composite
+        cables"); their axial vibration decays at the thesis' rate all the same.
+        """
         m_i = self.mass / self.n_points
-        return 2.0 * self.damping_ratio * math.sqrt(m_i * self.k_axial)
+        k_s = self.youngs_modulus * self.area / self.rest_link_length
+        return 2.0 * self.damping_ratio * math.sqrt(m_i * k_s)
 
     def time_step(self, youngs_modulus_cap: float | None = None) -> float:
         """Explicit time step sqrt(m_i l / k_s) [s] (eq. 3.8.2 / 6.5).
@@ -280,13 +288,18 @@ class Cable:
         Parameters
         ----------
         youngs_modulus_cap : float, optional
-            The fictitious modulus of thesis chapter 6 (Fig. 6.5): k_s is computed from
-            min(E_a, cap), which enlarges the step of stiff cables (at the price of an explicit
-            scheme that may then need more damping to stay stable).
+            The fictitious modulus of thesis chapter 6 (Fig. 6.5): with the thesis' one modulus
+            (E_a = E) k_s is computed from min(E, cap), which enlarges the step of stiff cables
+            (at the price of an explicit scheme that may then need more damping to stay
+            stable). It stands in for E only: axial springs with a modulus of their own
+            (``axial_modulus``, e.g. the composite cables' copper) set the step at their own
+            stiffness, since a step from the cap would be tens of times too long for them and
+            the scheme would diverge (the thesis' cap assumes the springs are E's).
         """
         modulus = self.axial_youngs_modulus
         if youngs_modulus_cap is not None:
-            modulus = min(modulus, _positive("youngs_modulus_cap", youngs_modulus_cap))
+            cap = _positive("youngs_modulus_cap", youngs_modulus_cap)
+            modulus = modulus if self.axial_modulus is not None else min(modulus, cap)
         k_s = modulus * self.area / self.rest_link_length
         m_i = self.mass / self.n_points
         return math.sqrt(m_i * self.rest_link_length / k_s)
@@ -349,8 +362,8 @@ _CATALOGUE: dict[str, dict[str, float]] = {
 CATALOGUE_NAMES: tuple[str, ...] = tuple(_CATALOGUE)
 
 COMPOSITE_AXIAL_MODULI: dict[str, float] = {"usb": 2e9, "ethernet": 2e9}
-"""Axial moduli E_a [Pa] of the composite catalogue cables (USB, Ethernet), to pass as
-``axial_modulus`` (``axial_modulus: 2e9`` in a scenario); not the default (docs/decisions.md).
+"""Axial moduli E_a [Pa] of the composite catalogue cables (USB, Ethernet):
+:func:`catalogue_cable`'s default for them.
 
 Order-of-magnitude estimates from their copper: E_cu ~ 117 GPa on about 0.3 mm^2 (USB, four
 AWG 28 conductors and the shield) or 1.6 mm^2 (Ethernet, eight AWG 24), derated about three
@@ -360,11 +373,11 @@ cable is then practically inextensible: the USB between level clips sags within 
 2 GPa shape at 0.4 m apart, 0.25 mm nearly taut at 0.48 m), so the estimate need not be
 precise. With the thesis' single modulus (E_a = E) the USB stretches about 1 % under its own
 weight and a nearly taut shape differs by up to 3 mm from an inextensible cable's (MuJoCo's
-cable, issue 35); it stays the default because the explicit replay's stable time step shrinks
-with sqrt(E_a) (about 28x more steps at 2 GPa) and the thesis' catalogue moduli were identified
-with it (docs/decisions.md). The static solver converges on such nearly inextensible links by a
-second-order correction of its Newton steps (:func:`dloplan.sim.compiled.restore_link_lengths`,
-from :data:`STIFF_AXIAL_RATIO` E on).
+cable, issue 35); that model stays an option: ``catalogue_cable("usb", axial_modulus=None)``,
+:meth:`Cable.thesis_model`, or ``axial_modulus: thesis`` in a scenario (docs/decisions.md).
+The static solver converges on such nearly inextensible links by a second-order correction
+of its Newton steps (:func:`dloplan.sim.compiled.restore_link_lengths`, from
+:data:`STIFF_AXIAL_RATIO` E on).
 """
 
 
@@ -375,8 +388,9 @@ def catalogue_cable(name: str, n_links: int = 10, **overrides) -> Cable:
     (d 6 mm, 11 g, E 100 MPa) and ``pa12`` hose (d 6 mm, 9 g, E 1 GPa), all 0.5 m long. The
     moduli of USB and Ethernet are those the thesis identified with its own bending model;
     Poisson ratios are not given in the thesis and are typical values for the materials. The
-    axial springs have E (the thesis' one modulus for bending and stretching) unless
-    ``axial_modulus`` is given, e.g. :data:`COMPOSITE_AXIAL_MODULI` for the composite cables.
+    composite cables (USB, Ethernet) stretch with their copper's axial modulus
+    (:data:`COMPOSITE_AXIAL_MODULI`) unless ``axial_modulus`` is given (None: the thesis' one
+    modulus for bending and stretching, E_a = E); the hoses with their E.
 
     Parameters
     ----------
@@ -392,5 +406,6 @@ def catalogue_cable(name: str, n_links: int = 10, **overrides) -> Cable:
         raise ValueError(
             f"cable: unknown catalogue name {name!r}, expected one of {', '.join(_CATALOGUE)}"
         )
-    params = {**_CATALOGUE[key], "n_links": n_links, "name": key, **overrides}
+    axial = {"axial_modulus": COMPOSITE_AXIAL_MODULI[key]} if key in COMPOSITE_AXIAL_MODULI else {}
+    params = {**_CATALOGUE[key], **axial, "n_links": n_links, "name": key, **overrides}
     return Cable(**params)

@@ -145,9 +145,9 @@ class CableSpec(_Model):
     )
     poisson_ratio: float | None = Field(None, gt=-1, le=0.5)
     axial_modulus: PositiveLength | Literal["thesis"] | None = Field(
-        None, description="[Pa] modulus of the axial springs (default, or 'thesis': the thesis' "
-        "one modulus for bending and stretching, E_a = youngs_modulus; about 2e9 for the "
-        "copper of usb and ethernet)")
+        None, description="[Pa] modulus of the axial springs (default: the catalogue's for usb "
+        "and ethernet, their copper's 2e9; else youngs_modulus), or 'thesis': the thesis' one "
+        "modulus for bending and stretching (E_a = youngs_modulus)")
     n_links: int = Field(10, ge=MIN_LINKS, le=MAX_LINKS, description=(
         "n >= 4: each clip holds two points, so n = 4 is the least that leaves the cable a "
         f"free point; n <= {MAX_LINKS}: plans in minutes at most"))

@@ -57,6 +57,7 @@ from ..least_squares import Damping, damped_minimize
 from ..physics.chain import SpringChain, hessian, sparse_to_band
 from ..physics.chain import forces as chain_forces
 from ..sim.clips import held_links_conformed
+from ..sim.compiled import restore_link_lengths
 from ..sim.newton import factor_band, solve_band
 from .geometric import REFERENCE_LINKS
 from .tuning import PhysicalWeights
@@ -199,6 +200,8 @@ def _minimize_thesis(cost: ThesisCost, x: np.ndarray, free: slice, *, gtol: floa
     def evaluate(state, step, system):
         trial = state[0].copy()
         trial[free] += step.reshape(-1, 3)
+        if cost.chain.stiff_axial:  # the links' lengths the step's linearization promised
+            restore_link_lengths(state[0], trial, free.start, free.stop)
         r_trial = cost.residuals(trial).ravel()
         return (trial, r_trial), float(r_trial @ r_trial)
 
