@@ -1,9 +1,11 @@
-"""The cable's axial modulus of its own (issues 19, 35): k_s = E_a A / l; the thesis' E_a = E is
-the default, the composite catalogue cables' copper (COMPOSITE_AXIAL_MODULI) an option."""
+"""The cable's axial modulus of its own (issues 19, 35): k_s = E_a A / l; the composite catalogue
+cables (USB, Ethernet) have their copper's (COMPOSITE_AXIAL_MODULI) by default, the thesis'
+E_a = E is an option."""
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 from conftest import level_clips, sagging_guess
@@ -18,17 +20,23 @@ from dloplan.pipeline.document import cable_to_dict
 from dloplan.sim.statics import equilibrium
 
 
-def test_the_thesis_one_modulus_is_the_default_and_copper_an_option():
-    for name in ("usb", "ethernet", "pa12", "pu"):
-        assert catalogue_cable(name).axial_modulus is None  # E_a = E (docs/decisions.md)
-    assert catalogue_cable("usb", axial_modulus=COMPOSITE_AXIAL_MODULI["usb"]
-                           ).axial_youngs_modulus == 2e9
-    assert catalogue_cable("usb", axial_modulus=2e9).thesis_model().axial_modulus is None
+def test_composite_catalogue_cables_stretch_with_their_copper_by_default():
+    assert catalogue_cable("usb").axial_modulus == COMPOSITE_AXIAL_MODULI["usb"]
+    assert catalogue_cable("ethernet").axial_modulus == COMPOSITE_AXIAL_MODULI["ethernet"]
+    assert catalogue_cable("pa12").axial_modulus is None  # a hose: one material, E_a = E
+    assert catalogue_cable("pu").axial_modulus is None
+    # the thesis' one modulus for bending and stretching stays an option, three ways
+    assert catalogue_cable("usb", axial_modulus=None).axial_modulus is None
+    assert catalogue_cable("usb").thesis_model().axial_modulus is None
     assert build_cable(CableSpec(name="usb", axial_modulus="thesis"), 1.0, None
                        ).axial_modulus is None
-    assert build_cable(CableSpec(name="usb"), 1.0, None).axial_modulus is None
-    assert build_cable(CableSpec(name="ethernet", axial_modulus=2e9), 1.0, None
+    assert build_cable(CableSpec(name="usb"), 1.0, None).axial_modulus == 2e9
+    assert build_cable(CableSpec(name="ethernet", axial_modulus=1e9), 1.0, None
+                       ).axial_modulus == 1e9
+    # a new E (given or identified) keeps the copper
+    assert build_cable(CableSpec(name="usb", youngs_modulus=3e6), 1.0, None
                        ).axial_modulus == 2e9
+    # a cable of its own (no catalogue name) is one material unless told otherwise
     assert build_cable(CableSpec(length=0.5, diameter=0.004, mass=0.01, youngs_modulus=5e6),
                        1.0, None).axial_modulus is None
     with pytest.raises(ValueError, match="axial_modulus"):
@@ -37,15 +45,30 @@ def test_the_thesis_one_modulus_is_the_default_and_copper_an_option():
 
 def test_only_stiff_axial_springs_get_the_solvers_link_length_correction():
     """The static solvers' second-order correction is for E_a >= 10 E (docs/decisions.md): the
-    default E_a = E and a modulus just below the ratio take the plain Newton steps."""
-    usb = catalogue_cable("usb", n_links=10)
+    thesis' E_a = E and a modulus just below the ratio take the plain Newton steps."""
+    usb = catalogue_cable("usb", n_links=10, axial_modulus=None)
     e = usb.youngs_modulus
     assert not usb.stiff_axial and not SpringChain.from_cable(usb).stiff_axial
     assert not catalogue_cable("usb", axial_modulus=0.99 * STIFF_AXIAL_RATIO * e).stiff_axial
     assert catalogue_cable("usb", axial_modulus=STIFF_AXIAL_RATIO * e).stiff_axial
-    copper = catalogue_cable("usb", n_links=10, axial_modulus=COMPOSITE_AXIAL_MODULI["usb"])
+    copper = catalogue_cable("usb", n_links=10)
     assert copper.stiff_axial and SpringChain.from_cable(copper).stiff_axial
     assert not copper.with_modulus(COMPOSITE_AXIAL_MODULI["usb"]).stiff_axial  # E_a = E again
+
+
+def test_the_thesis_damping_and_time_step_with_copper_axial_springs():
+    """k_d keeps the thesis' E A / l (its drag, every mode decaying at k_d / 2 m_i); the time
+    step is the copper springs' own, also under a fictitious modulus for E (thesis Fig. 6.5),
+    which would make it sqrt(800) times too long for them."""
+    copper = catalogue_cable("usb", n_links=8)
+    thesis = replace(copper, axial_modulus=None)
+    assert copper.k_damping == thesis.k_damping
+    assert copper.k_damping == pytest.approx(
+        2 * 0.05 * math.sqrt(copper.mass / 9 * 2.5e6 * copper.area / copper.rest_link_length))
+    assert copper.time_step(1e6) == copper.time_step()
+    assert thesis.time_step(1e6) == pytest.approx(thesis.time_step() * math.sqrt(2.5))
+    with pytest.raises(ValueError, match="youngs_modulus_cap"):
+        copper.time_step(-1.0)
 
 
 def test_without_an_axial_modulus_the_thesis_model_is_unchanged():
@@ -85,7 +108,9 @@ def test_the_axial_modulus_round_trips_through_exports_and_scenarios():
     assert Cable(**cable_to_dict(catalogue_cable("pu"))).axial_modulus is None
     built = build_cable(CableSpec(name="usb", axial_modulus=2e9), 1.0, None)
     assert built.axial_modulus == 2e9
-    assert build_cable(CableSpec(name="usb"), 1.0, None).axial_modulus is None  # the thesis
+    assert build_cable(CableSpec(name="usb"), 1.0, None).axial_modulus == 2e9  # the default
+    assert build_cable(CableSpec(name="usb", axial_modulus="thesis"), 1.0, None
+                       ).axial_modulus is None
     assert build_cable(CableSpec(name="pu"), 1.0, None).axial_modulus is None
     # a plan made with the thesis' one modulus reads back as such
     assert Cable(**cable_to_dict(catalogue_cable("usb", axial_modulus=None))).axial_modulus \

@@ -553,6 +553,65 @@ def test_an_unknown_grip_is_estimated_with_e_and_the_bias(plans, name, factor):
     assert errors["estimate"] < 0.8 * errors["model"]
 
 
+@pytest.mark.parametrize("name", list(SCENARIOS))
+def test_a_measurement_offset_is_estimated_and_taken_out(plans, name):
+    """A camera whose calibration is 5.4 mm off (issue 35: the measurement's offset): read off
+    the held points, which lie on the clips whatever E, the bias and the clamp length are, it
+    is recovered within the noise (1 mm per coordinate; measured, seed 1: 0.3-0.9 mm off per
+    component), taken out of the measurement, and the correction ends where it ends without
+    an offset (3D 0.87 -> 0.93 mm, demo 2.98 -> 3.01). Taken as zero, the same offset makes the
+    correction ask for E x11 (3D) or a 24 degree turn (demo): refused."""
+    doc, _ = plans[name]
+    cable = doc.cable
+    last = len(doc.shapes) - 1
+    offset = np.array([0.003, -0.002, 0.004])
+    runs = {}
+    for shift, mode in ((offset, "estimate"), (np.zeros(3), "estimate"), (offset, "none")):
+        plant = Plant(cable.with_links(100).with_modulus(2 * cable.youngs_modulus), noise=NOISE,
+                      n_measured=200, seed=1, clamp=cable.rest_link_length, offset=tuple(shift))
+        runs[np.any(shift != 0), mode] = run_closed_loop(
+            plant, cable, doc.shapes, doc.grippers, [last // 2], stabilized=_stabilized(doc),
+            trajectory=doc.trajectory, offset=mode)
+    assert runs[True, "none"].refusals and not runs[True, "none"].corrections
+    run, plain = runs[True, "estimate"], runs[False, "estimate"]
+    (correction,) = run.corrections
+    model = correction.model
+    assert model.offset_estimated and "taken out" in model.offset_note
+    assert np.all(np.abs(model.offset - offset) < NOISE)
+    assert model.offset_sd < NOISE and correction.uncertainty["offset"] == 0.0
+    assert correction.report()["offset"] == pytest.approx(model.offset.tolist())
+    assert "measurement offset" in correction.message
+    assert abs(run.closed_loop_error - plain.closed_loop_error) < 0.2e-3
+    low, high = correction.prediction_interval
+    assert low <= run.closed_loop_error <= high
+    # no offset: what the held points show is noise, not applied, its size in the interval
+    (unshifted,) = plain.corrections
+    assert not unshifted.model.offset_estimated
+    assert unshifted.uncertainty["offset"] > 0.0 and "does not tell" in unshifted.model.offset_note
+    low, high = unshifted.prediction_interval
+    assert low <= plain.closed_loop_error <= high
+
+
+def test_the_offset_is_read_off_the_held_points():
+    """measured_offset: the mean of the four held points' residuals, whatever the others do
+    (there E, the bias and the clamp length act); its sd from their scatter about it."""
+    from dloplan.correct.model_error import measured_offset
+
+    rng = np.random.default_rng(4)
+    residual = rng.normal(scale=0.01, size=(21, 3))  # the free points: anything
+    held = [0, 1, -2, -1]
+    residual[held] = [0.002, -0.001, 0.003]
+    offset, sds = measured_offset(residual)
+    np.testing.assert_allclose(offset, [0.002, -0.001, 0.003], atol=1e-15)
+    assert np.all(sds < 1e-15)
+    noise = rng.normal(scale=1e-3, size=(4, 3))
+    residual[held] += noise - noise.mean(axis=0)
+    offset, sds = measured_offset(residual)
+    np.testing.assert_allclose(offset, [0.002, -0.001, 0.003], atol=1e-15)
+    assert sds == pytest.approx(np.full(3, np.sqrt(np.sum((noise - noise.mean(axis=0)) ** 2) / 9)
+                                        / 2))
+
+
 def test_the_model_error_fit_and_its_standard_deviations():
     """fit_model_error recovers (delta, alpha) with beta 0 when the data hold no grip, and
     parameter_sds then finds beta within 2 sd of 0 (the clamp stays the model's); an amplitude

@@ -239,7 +239,7 @@ def _cmd_correct(args: argparse.Namespace) -> int:
     console = Console(args.quiet)
     doc = document_of(args.plan, progress=console.stage, allow_placement=args.allow_placement)
     options = dict(mode=args.mode, reference=args.reference, modulus_steps=args.modulus_steps,
-                   model_error=args.model_error, grip=args.grip)
+                   model_error=args.model_error, grip=args.grip, offset=args.offset)
     if args.serve:
         return _serve_corrections(doc, options)
     if args.at is None or args.measured is None:
@@ -809,6 +809,11 @@ def build_parser() -> argparse.ArgumentParser:
                          "estimated with E and the bias when the measurement tells it, else the "
                          "model's with its uncertainty in the interval (default), or always "
                          "the model's")
+    correct.add_argument("--offset", choices=["estimate", "none"], default="estimate",
+                         help="the measurement's offset (a rigid translation of the measured "
+                         "shape, e.g. a camera's calibration error): estimated with E when the "
+                         "measurement tells it, else its size in the interval (default), or "
+                         "taken as zero")
     correct.add_argument("--no-verify", action="store_true",
                          help="skip the physics verification of the corrected plan (stability, "
                          "snap-through, replay); its robot programs are still checked")

@@ -28,6 +28,7 @@ from ..cable import GRAVITY, Cable
 from ..geometry import resample_by_arc_length
 from ..physics.chain import SpringChain
 from ..sim import ClipPoses
+from ..sim.clips import HELD_INDICES
 from ..sim.result import residual_tolerance
 from ..sim.statics import minimize_energy
 from .measurement import CorrectionRefused
@@ -236,3 +237,33 @@ def parameter_sds(jacobian: np.ndarray, directions, residual: np.ndarray) -> np.
         return np.full(a.shape[1], math.inf)
     ok = np.isfinite(variance) & (variance >= 0)
     return np.where(ok, np.sqrt(np.where(ok, variance, 0.0)), math.inf)
+
+
+def measured_offset(residual: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The measurement's offset o (a rigid translation of every measured point, e.g. a camera's
+    calibration error) and its standard deviations, from the held points.
+
+    The model's four held points (:data:`dloplan.sim.clips.HELD_INDICES`) lie on the clips,
+    which the robot places, and E, the discretization bias and the clamp length leave them
+    where they are (d, g and d x / d log E vanish there; a shorter real clamp moves them at
+    second order): what the measurement puts them off by is its offset. Fitted jointly with
+    the other directions over every point it would take up their misfit instead (on the 3D
+    Ethernet job a third of a millimetre with no offset at all, and the clamp length could no
+    longer be told).
+
+    Parameters
+    ----------
+    residual : numpy.ndarray
+        (n + 1, 3) measured minus the model's equilibrium [m].
+
+    Returns
+    -------
+    tuple
+        ``(offset (3,) [m], sds (3,) [m])``: the mean of the held points' residuals, and its
+        standard deviations from their scatter about it (s / 2, s^2 = sum |r - o|^2 / 9: 12
+        coordinates, 3 fitted).
+    """
+    held = residual[list(HELD_INDICES)]
+    offset = held.mean(axis=0)
+    scatter = math.sqrt(float(np.sum((held - offset) ** 2)) / (held.size - 3))
+    return offset, np.full(3, scatter / math.sqrt(len(held)))

@@ -51,6 +51,9 @@ class Plant:
     clamp : float, optional
         Length of cable each gripper clamps [m] (default: one plant link; :func:`run_closed_loop`
         passes the model's link length).
+    offset : array_like
+        (3,) the measurement's offset [m]: every measured point is translated by it (a camera's
+        calibration error), the cable is not.
     """
 
     cable: Cable
@@ -59,8 +62,13 @@ class Plant:
     seed: int = 0
     substeps: int = 2
     clamp: float | None = None
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
+        offset = np.asarray(self.offset, dtype=float)
+        if offset.shape != (3,) or not np.all(np.isfinite(offset)):
+            raise ValueError(f"plant.offset: got {self.offset!r}, expected three finite "
+                             "distances [m]")
         if not (np.isfinite(self.noise) and self.noise >= 0):
             raise ValueError(f"plant.noise: got {self.noise!r}, expected a distance >= 0 [m]")
         if int(self.n_measured) != self.n_measured or self.n_measured < 2:
@@ -92,8 +100,8 @@ class Plant:
                                    rtol=rtol)
 
     def measure(self, shape: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """The noisy measurement of a plant shape, (n_measured, 3) [m]."""
-        points = resample_by_arc_length(shape, self.n_measured)
+        """The noisy measurement of a plant shape, offset, (n_measured, 3) [m]."""
+        points = resample_by_arc_length(shape, self.n_measured) + np.asarray(self.offset)
         return points + rng.normal(scale=self.noise, size=points.shape)
 
 

@@ -9,7 +9,10 @@ reaches shape K the cable is measured; the correction
    on ||y - x_K(log E) - alpha d_K||^2 with the sensitivity J = d x / d log E
    (:mod:`dloplan.sim.sensitivity`) (``model_error="modulus"``: log E alone, delta = (J . r) /
    (J . J)); with ``grip="estimate"`` the clamp length's response g joins d
-   (x_K(log E) + alpha d_K + beta g_K), kept when the measurement tells it. In statics E and the
+   (x_K(log E) + alpha d_K + beta g_K), kept when the measurement tells it; with
+   ``offset="estimate"`` a rigid translation o of the measured points too (a camera's
+   calibration error: y ~ x_K + alpha d_K + beta g_K + o), taken out of the comparison when the
+   measurement tells it and never carried into the predictions. In statics E and the
    mass enter only as their ratio, so this absorbs a wrong mass
    as well; what is left is reported as the unexplained residual. Each step changes E by at
    most a factor 2; they stop when one changes E by less than 1 %;
@@ -58,6 +61,7 @@ from .model_error import (
     clamped_equilibrium,
     fit_model_error,
     grip_direction,
+    measured_offset,
     model_error_directions,
     parameter_sds,
 )
@@ -90,11 +94,20 @@ asks for steps that mean nothing, however many sd they are."""
 
 COST_TOLERANCE = 1e-3
 """The clip fit stops once an iteration lowers the squared error by less than this fraction."""
+OFFSET_SIGNIFICANCE = math.sqrt(7.815)
+"""The measurement's offset is applied when its components, in standard deviations, have a norm
+of at least this: the 95 % quantile of the chi distribution with 3 degrees of freedom (an offset
+of zero passes it one time in twenty)."""
+
 MODES = ("target", "all")
 MODEL_ERRORS = ("discretization", "modulus")
 GRIPS = ("estimate", "model")
 """The clamp length: estimated with E and the bias when the measurement tells it (default), or
 the model's one link with its uncertainty in the interval."""
+OFFSETS = ("estimate", "none")
+"""The measurement's offset (a rigid translation of the measured shape, e.g. a camera's
+calibration error): estimated with E when the measurement tells it, else its size in the
+interval (default), or taken as zero."""
 
 
 @dataclass(frozen=True)
@@ -165,6 +178,19 @@ class ModelUpdate:
         Its standard deviation (inf when the clamp length was not estimated).
     grip_note : str
         The clamp length estimated, or why not.
+    offset : numpy.ndarray
+        (3,) the measurement's offset [m] (a rigid translation of the measured points,
+        :func:`.model_error.offset_directions`): applied to the model when it is compared with
+        the measurement, never to the predictions (zeros when not estimated).
+    offset_sd : float
+        Standard deviation of its length [m] (the root sum of the components' variances; inf
+        when not fitted).
+    offset_uncertainty : float
+        The offset's share of the prediction's error budget [m]: the size of an offset the fit
+        found but could not tell from noise (it may bias E and the bias by as much), 0 when
+        it was applied or not fitted.
+    offset_note : str
+        The offset estimated, or why not.
     """
 
     youngs_modulus_before: float
@@ -179,6 +205,15 @@ class ModelUpdate:
     grip: float = 0.0
     grip_sd: float = math.inf
     grip_note: str = ""
+    offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    offset_sd: float = math.inf
+    offset_uncertainty: float = 0.0
+    offset_note: str = "not estimated"
+
+    @property
+    def offset_estimated(self) -> bool:
+        """Whether the measured offset was applied."""
+        return bool(np.any(self.offset != 0.0))
 
     @property
     def grip_estimated(self) -> bool:
@@ -222,13 +257,14 @@ class Correction:
         verify`` checks as equilibria of the model the plan states.
     uncertainty : dict
         The prediction's error budget at the target [m]: ``unexplained`` (what the updated
-        model leaves at shape K: the model errors it cannot represent, measurement offset and
-        noise), ``grip`` (the estimated clamp length's 2 sd plus :data:`GRIP_LINEARITY` of its
-        change, or, not estimated, a clamp length L / (4 n) off the model's,
-        :data:`GRIP_UNCERTAINTY`),
-        ``modulus`` (2 sd of ln E); their sum bounds the final error's prediction interval
-        (:attr:`prediction_interval`). The three are None (``uncertainty`` empty) for a
-        correction made with ``predict=False``.
+        model leaves at shape K: the model errors it cannot represent, a measurement offset
+        not taken out, noise), ``grip`` (the estimated clamp length's 2 sd plus
+        :data:`GRIP_LINEARITY` of its change, or, not estimated, a clamp length L / (4 n) off
+        the model's, :data:`GRIP_UNCERTAINTY`), ``modulus`` (2 sd of ln E), ``offset`` (an
+        offset of the measurement found but not told from noise: its size plus 2 sd,
+        :attr:`ModelUpdate.offset_uncertainty`; 0 when it was taken out or not estimated);
+        their sum bounds the final error's prediction interval (:attr:`prediction_interval`).
+        Empty for a correction made with ``predict=False``.
     clip_corrections : numpy.ndarray
         (T - K, 12) the corrections of the remaining shapes' clip coordinates
         (:data:`dloplan.sim.sensitivity.CLIP_COORDINATES`).
@@ -307,6 +343,8 @@ class Correction:
                 "discretization" else "")
         if m.grip_estimated:
             bias += f", clamp {1e3 * (1.0 + 0.5 * m.grip) * self.cable.rest_link_length:.1f} mm"
+        if m.offset_estimated:
+            bias += f", measurement offset {1e3 * float(np.linalg.norm(m.offset)):.1f} mm"
         head = (f"corrected at shape {self.at}: E {m.youngs_modulus_before:.3g} -> "
                 f"{m.youngs_modulus:.3g} Pa{bias} (measured vs model "
                 f"{1e3 * m.residual_before:.1f} -> {1e3 * m.residual_after:.1f} mm)")
@@ -335,6 +373,9 @@ class Correction:
             "grip_sd": m.grip_sd if m.grip_estimated else None,
             "clamp_length": (1.0 + 0.5 * m.grip) * self.cable.rest_link_length,
             "grip_note": m.grip_note,
+            "offset": m.offset.tolist(),
+            "offset_sd": m.offset_sd if math.isfinite(m.offset_sd) else None,
+            "offset_note": m.offset_note,
             "shapes": list(range(self.at + 1, self.at + 1 + len(self.reference))),
             **({} if self.corrected is None else {
                 "open_loop_error": self.open_loop_error.tolist(),
@@ -361,7 +402,8 @@ def _mean_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, steps: int = 3,
                    max_factor: float = 10.0, gravity=GRAVITY, guess=None,
-                   discretization: bool = False, grip: bool = False) -> ModelUpdate:
+                   discretization: bool = False, grip: bool = False,
+                   offset: bool = False) -> ModelUpdate:
     """Gauss-Newton steps in log E fitting the model's equilibrium at ``clips`` to ``measured``.
 
     With ``discretization``, each step fits log E and the amplitude alpha of the discretization
@@ -370,6 +412,12 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     (:func:`.model_error.model_error_directions`), kept only when the first step finds it at
     least :data:`SIGNIFICANCE` standard deviations from 0 (else the clamp length stays the
     model's and its uncertainty goes into the prediction's interval, ``ModelUpdate.grip_note``).
+    With ``offset``, the measurement's offset o (a rigid translation of the measured points,
+    measured ~ x(E) + alpha d + beta g + o) is first read off the held points
+    (:func:`.model_error.measured_offset`) and, when it is at least :data:`OFFSET_SIGNIFICANCE`
+    standard deviations from 0, taken out of the measurement before the fit (else its size goes
+    into the interval, ``ModelUpdate.offset_uncertainty``); it explains the measurement, not the
+    cable, so the predictions never carry it.
 
     E is only changed when the measurement tells it: a first step smaller than
     :data:`SIGNIFICANCE` standard deviations of ln E (:func:`.model_error.parameter_sds`, the
@@ -401,6 +449,8 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         Also estimate the discretization error's amplitude (:mod:`.model_error`).
     grip : bool
         With ``discretization``: also estimate the clamp length when the measurement tells it.
+    offset : bool
+        Also estimate the measurement's offset when the measurement tells it.
 
     Raises
     ------
@@ -416,6 +466,11 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     taken, directions, log_sd, note = 0, [], math.inf, ""
     grip = grip and discretization
     grip_sd, grip_note = math.inf, ("" if grip else "not estimated")
+    shift, offset_sd, offset_spread, offset_note = np.zeros(3), math.inf, 0.0, "not estimated"
+    if offset:
+        shift, offset_sd, offset_spread, offset_note = _offset_verdict(
+            *measured_offset(measured - eq.shape))
+        measured = measured - shift  # what the fit explains: the cable, not the camera
     fine = resample_by_arc_length(eq.shape, 2 * cable.n_links + 1)  # refined, warm from E to E
     limit = math.log(max_factor)
     budget = steps + math.ceil(limit / MAX_LOG_STEP) + 1 if steps > 0 else 0
@@ -424,20 +479,16 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         sens = equilibrium_sensitivity(model, eq.shape, clips, chain=chain)
         directions = _directions(model, eq.shape, clips, discretization, grip, gravity, fine)
         residual = measured - eq.shape
-        step, amplitudes = fit_model_error(sens.log_modulus, directions, residual)
+        step, amplitudes, sds = _fit(sens.log_modulus, directions, residual)
         if float(np.sum(sens.log_modulus**2)) <= 1e-24 * cable.length**2:
             note = "the measured shape does not depend on E here (no sag): E kept"
             break
         if taken == 0:
-            sds = parameter_sds(sens.log_modulus, directions,
-                                _left(residual, sens.log_modulus, step, directions, amplitudes))
             if grip:
                 grip, grip_sd, grip_note = _grip_verdict(amplitudes[1], sds[2], model)
                 if not grip:  # the clamp length stays the model's: refit without it
                     directions = directions[:1]
-                    step, amplitudes = fit_model_error(sens.log_modulus, directions, residual)
-                    sds = parameter_sds(sens.log_modulus, directions, _left(
-                        residual, sens.log_modulus, step, directions, amplitudes))
+                    step, amplitudes, sds = _fit(sens.log_modulus, directions, residual)
             log_sd = float(sds[0])
             if log_sd > MAX_LOG_SD:
                 note = (f"the measurement does not inform E: sd(ln E) = {log_sd:.3g}, more "
@@ -475,7 +526,31 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         if directions else 0.0
     residual = float(np.mean(np.linalg.norm(eq.shape + bias - measured, axis=1)))
     return ModelUpdate(cable.youngs_modulus, model.youngs_modulus, residual0, residual,
-                       taken, eq.shape, alpha, log_sd, note, beta, grip_sd, grip_note)
+                       taken, eq.shape, alpha, log_sd, note, beta, grip_sd, grip_note, shift,
+                       offset_sd, offset_spread, offset_note)
+
+
+def _fit(jacobian, directions, residual):
+    """(delta log E, amplitudes, sds): the fit (:func:`.model_error.fit_model_error`) and the
+    sds of (delta, amplitudes) from the scatter it leaves."""
+    step, amplitudes = fit_model_error(jacobian, directions, residual)
+    sds = parameter_sds(jacobian, directions,
+                        _left(residual, jacobian, step, directions, amplitudes))
+    return step, amplitudes, sds
+
+
+def _offset_verdict(offset, sds) -> tuple[np.ndarray, float, float, str]:
+    """The offset applied (zeros when the measurement does not tell it), the sd of its length,
+    its share of the interval and a note."""
+    size, sd = float(np.linalg.norm(offset)), float(np.linalg.norm(sds))
+    score = float(np.linalg.norm(offset / sds)) if np.all(sds > 0) else math.inf
+    shown = ", ".join(f"{1e3 * v:+.1f}" for v in offset)
+    if score >= OFFSET_SIGNIFICANCE:
+        return offset, sd, 0.0, (f"measured shape offset by ({shown}) mm, sd {1e3 * sd:.1f} "
+                                 "mm: taken out of the measurement")
+    return np.zeros(3), sd, size + 2.0 * sd, (
+        f"the measurement does not tell an offset (({shown}) mm with sd {1e3 * sd:.1f} mm): "
+        f"not applied, its size and 2 sd, {1e3 * (size + 2.0 * sd):.1f} mm, in the interval")
 
 
 def _directions(cable, shape, clips, discretization, grip, gravity, fine) -> list:
@@ -665,6 +740,7 @@ def correct_plan(
     modulus_steps: int = 3,
     model_error: str = "discretization",
     grip: str = "estimate",
+    offset: str = "estimate",
     limits: CorrectionLimits = CorrectionLimits(),
     gravity=GRAVITY,
     predict: bool = True,
@@ -703,6 +779,10 @@ def correct_plan(
         With ``model_error="discretization"``: estimate the clamp length (where the gripper's
         jaws end on the cable) with E and the bias when the measurement tells it, else keep the
         model's with its uncertainty in the interval (default); or always keep the model's.
+    offset : {"estimate", "none"}
+        The measurement's offset (a rigid translation of the measured points, e.g. a camera's
+        calibration error): estimated with E when the measurement tells it and taken out of
+        the comparison, else its size in the interval (default); or taken as zero.
     limits : CorrectionLimits
         Bounds beyond which the correction is refused.
     gravity : array_like
@@ -736,6 +816,8 @@ def correct_plan(
         raise ValueError(f"model_error: got {model_error!r}, expected one of {MODEL_ERRORS}")
     if grip not in GRIPS:
         raise ValueError(f"grip: got {grip!r}, expected one of {GRIPS}")
+    if offset not in OFFSETS:
+        raise ValueError(f"offset: got {offset!r}, expected one of {OFFSETS}")
     if isinstance(modulus_steps, bool) or int(modulus_steps) != modulus_steps or modulus_steps < 0:
         raise ValueError(f"modulus_steps: got {modulus_steps!r}, expected an integer >= 0")
     clips = [grippers.clip_poses(j) for j in range(len(path))]
@@ -754,7 +836,7 @@ def correct_plan(
     update = update_modulus(cable, y, clips[at], steps=modulus_steps,
                             max_factor=limits.max_modulus_factor, gravity=gravity,
                             guess=stable[at], discretization=model_error == "discretization",
-                            grip=grip == "estimate")
+                            grip=grip == "estimate", offset=offset == "estimate")
     model = cable.with_modulus(update.youngs_modulus)
     model_chain = SpringChain.from_cable(model, gravity)
     # the plan's stabilized target carried to the updated E to first order: the fit's start
@@ -872,7 +954,7 @@ def _uncertainty(cable: Cable, shape: np.ndarray, clips: ClipPoses, update: Mode
               else 4.0 * GRIP_UNCERTAINTY)  # in half links, g's unit
     return {"unexplained": update.residual_after,
             "grip": spread * float(np.mean(np.linalg.norm(grip, axis=1))),
-            "modulus": modulus}
+            "modulus": modulus, "offset": update.offset_uncertainty}
 
 
 def _corrected_grippers(grippers: GripperPath, at: int, remaining, corrections) -> GripperPath:
