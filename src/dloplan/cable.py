@@ -70,7 +70,7 @@ STIFF_AXIAL_RATIO = 10.0
 """E_a / E from which a cable's axial springs count as stiff (:attr:`Cable.stiff_axial`): the
 static solvers' second-order correction of the link lengths is applied from there on
 (docs/decisions.md, "Second-order correction only for stiff axial springs"). The composite
-cables' copper is 270-800 E; E_a = E (the thesis, the default) takes the plain Newton steps."""
+cables' copper is 270-800 E; E_a = E (the thesis; the hoses) takes the plain Newton steps."""
 
 
 @dataclass(frozen=True, eq=False)
