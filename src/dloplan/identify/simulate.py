@@ -64,7 +64,8 @@ class DynamicSettings:
         The fictitious modulus E_discretization [Pa] of Fig. 6.5: the time step is computed
         from min(E, cap). It shortens stiff runs, but the explicit scheme is only stable while
         E / cap stays below roughly 1 / (l [m]) (about 30 for l = 3 cm): a larger ratio
-        diverges, and is reported as a failed simulation.
+        diverges, and is reported as a failed simulation. Axial springs with a modulus of their
+        own (the composite cables' copper) keep their own step (:meth:`Cable.time_step`).
     """
 
     step_duration: float = 0.5

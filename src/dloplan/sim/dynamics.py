@@ -257,7 +257,8 @@ def simulate(
     dt : float, optional
         Time step [s]; default the thesis' ``cable.time_step(youngs_modulus_cap)``.
     youngs_modulus_cap : float, optional
-        Fictitious modulus for the default time step (thesis Fig. 6.5).
+        Fictitious modulus for the default time step (thesis Fig. 6.5): it stands in for E;
+        axial springs with a modulus of their own keep their step (:meth:`Cable.time_step`).
     gravity : array_like
         Gravity [m/s^2].
     ground : bool
