@@ -246,12 +246,20 @@ def test_a_section_shortened_slowly_in_the_simulator_ends_in_its_static_state():
     assert np.abs(run.shapes[-1] - end.shape).max() < 1e-4
 
 
+@pytest.mark.parametrize("axial", ["thesis", "copper"])
 @pytest.mark.parametrize("name", ["usb", "ethernet"])
-def test_the_compiled_contact_newton_loop_takes_the_generic_loops_steps(name, monkeypatch):
+def test_the_compiled_contact_newton_loop_takes_the_generic_loops_steps(name, axial,
+                                                                       monkeypatch):
     # sim.contact_newton claims the same decisions in the same order as the generic
     # trust-region loop: a section settled on the demo board (peg, plate, table) from the
     # weightless insertion pose reaches the same shape in the same number of iterations when
-    # the obstacles' compiled rows are withheld (the generic loop then measures them itself)
+    # the obstacles' compiled rows are withheld (the generic loop then measures them itself).
+    # With the thesis' E_a = E, step for step. With the copper axial springs (the default) the
+    # generic loop corrects its steps' link lengths and lands entering points just inside; the
+    # compiled loop does not (docs/decisions.md): the same equilibrium to its tolerance, in 185
+    # instead of 101 iterations (USB), 71 instead of 23 (Ethernet)
+    from dataclasses import replace
+
     from harness_boards import demo_board
 
     from dloplan.cable import catalogue_cable
@@ -259,6 +267,7 @@ def test_the_compiled_contact_newton_loop_takes_the_generic_loops_steps(name, mo
     from dloplan.sim import statics
 
     cable = catalogue_cable(name, n_links=10)
+    cable = replace(cable, axial_modulus=None) if axial == "thesis" else cable
     board = demo_board(cable)
     section = section_cable(cable, 30)
     x0 = section_shape(insertion_pose(cable, board).shape, cable, section)
@@ -266,5 +275,8 @@ def test_the_compiled_contact_newton_loop_takes_the_generic_loops_steps(name, mo
     monkeypatch.setattr(statics, "contact_rows", lambda obstacles: None)
     generic = equilibrium(section, x0, fixture_clips(board), contacts=board.contacts())
     assert compiled.converged and generic.converged
-    assert compiled.iterations == generic.iterations
-    assert np.max(np.abs(compiled.shape - generic.shape)) <= 1e-12
+    if axial == "thesis":
+        assert compiled.iterations == generic.iterations
+        assert np.max(np.abs(compiled.shape - generic.shape)) <= 1e-12
+    else:  # two converged solves of a 0.2 m section (residuals 3e-9 and 3e-10 N): 0.2 um
+        assert np.max(np.abs(compiled.shape - generic.shape)) <= 1e-6
