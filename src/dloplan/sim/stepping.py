@@ -15,8 +15,9 @@ twisting force, also without Python per step.
 
 :func:`explicit_steps` runs the steps of one chunk of clip targets, records shapes at the
 recording interval, and stops early at rest or when the state diverges: no Python per step.
-:func:`implicit_steps` does the same by linearly implicit Euler (a banded solve per step, no
-contacts). :func:`dloplan.sim.dynamics.simulate` drives them.
+:func:`implicit_steps` does the same by linearly implicit Euler (a banded solve per step; the
+contacts held through the step by the statics' penalty). :func:`dloplan.sim.dynamics.simulate`
+drives them.
 """
 
 from __future__ import annotations
@@ -27,11 +28,24 @@ import numpy as np
 
 from ..jit import njit
 from ..physics.compiled import chain_derivatives, chain_gradient
-from ..physics.contact_compiled import push_out
+from ..physics.contact_compiled import coulomb, point_distance, push_out
 from ..physics.twist_compiled import carry_directors, link_tangents, twist_load, twist_stencils
+from .contact_newton import add_penalty
 from .newton import cholesky_band, cholesky_solve
 
 RUNNING, SETTLED, DIVERGED, INDEFINITE = 0, 1, 2, 3
+
+HOLD_MARGIN = 1e-6
+"""A free point closer to an obstacle than the cable's radius times (1 + this) at the start of
+an implicit step is in contact through the step (:func:`implicit_steps`); the explicit scheme's
+hard contact leaves a pressing point exactly at the radius."""
+
+HOLD_STIFFNESS = 1e4
+"""The implicit step's contact stiffness k_c in units of the stiffer of a point's inertia over
+the step, max m_i / dt^2, and the axial springs k_s: a pressing point moves into the obstacle
+by 1e-4 of what it would move free (and the hard contact puts it back), whatever the step and
+the (fictitious) modulus; the statics' penalty of :mod:`dloplan.physics.contact`, 100 E A / l,
+would be softer than the inertia of a capped cable's point at 1 ms."""
 
 
 @njit(cache=True, inline="always")
@@ -162,85 +176,113 @@ def _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt
 
 
 @njit(cache=True)
-def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, relative,
-                   record_every, rest_speed, clips_stop, k_s, rest_lengths, k_b, rest_angles,
-                   masses, gravity, times, shapes, speeds, n_records):
-    """Linearly implicit Euler steps through the clip targets of one chunk (no contacts).
+def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, relative, ground,
+                   obstacles, radius, friction, record_every, rest_speed, clips_stop, k_s,
+                   rest_lengths, k_b, rest_angles, masses, gravity, times, shapes, speeds,
+                   n_records):
+    """Linearly implicit Euler steps through the clip targets of one chunk, with contacts.
 
     Backward Euler, v+ = v + dt M^-1 (F(x+) - k_d D v+) and x+ = x + dt v+, with the force
     linearized at x, F(x+) = F(x) - dt H(x) v+ (one Newton step of the implicit equations, as
     Baraff and Witkin's cloth step): per step the banded system
 
-        (M + dt k_d D + dt^2 H) v+ = M v + dt F(x)
+        (M + dt k_d D + dt^2 (H + H^c)) v+ = M v + dt (F(x) + F^c(x))
 
     over the free points, the held points' v+ the clips' (target minus position over dt) and
     their columns moved to the right-hand side; H is the chain's Hessian
     (:func:`dloplan.physics.compiled.chain_derivatives`), M the lumped masses, D the damping's
-    graph Laplacian (``relative``) or the identity. It is unconditionally stable for a
-    positive definite H (docs/decisions.md: the replay's time step), so ``dt`` is set by the
-    motion, not by the axial springs. Arguments, records, rest test and the returned tuple as
-    in :func:`explicit_steps`; status :data:`INDEFINITE` when the system is not positive
-    definite (a compressed chain stiffer than M / dt^2: the caller steps explicitly instead).
+    graph Laplacian (``relative``) or the identity.
+
+    **Contacts.** A free point touching an obstacle at the step's start (closer than the radius
+    plus :data:`HOLD_MARGIN` of it) is held on its surface through the step by a penalty in the
+    solve (F^c = k_c d n, H^c = k_c n n^T as the statics' penalty,
+    :func:`dloplan.sim.contact_newton.add_penalty`, with k_c = :data:`HOLD_STIFFNESS` (max m_i /
+    dt^2 + k_s)), so a cable pulled against a peg or pressed on a plate stays on it instead of
+    being moved into it and back. The contact is one-sided within the step as well: where the
+    penalty's normal force at the step's end, k_c (d - dt v+.n) (linearized as in the solve),
+    would pull, the point is let go and the step solved again (an active set, a few solves at
+    most, only where a contact opens). The pressing force times dt is the contact's normal
+    impulse, and Coulomb friction (:func:`dloplan.physics.contact_compiled.coulomb`) takes at
+    most ``friction`` times it of the point's tangential velocity before the point moves. A
+    point that reaches an obstacle during the step is put back by the explicit scheme's hard,
+    inelastic contact (:func:`dloplan.physics.contact_compiled.push_out`, the same function),
+    and so is a held point's small penetration; the ground plane z = 0 as in
+    :func:`explicit_steps`.
+
+    The step is unconditionally stable for a positive definite H (docs/decisions.md: the
+    replay's time step; H^c only adds to it), so ``dt`` is set by the motion, not by the axial
+    springs or the contacts. Arguments, records, rest test and the returned tuple as in
+    :func:`explicit_steps` (no external gradient); status :data:`INDEFINITE` when the system is
+    not positive definite (a compressed chain stiffer than M / dt^2: the caller steps
+    explicitly instead).
     """
     n_points = x.shape[0]
     n_dof = 3 * n_points
     held = (0, 1, n_points - 2, n_points - 1)
     grad = np.empty_like(x)
     accel = np.empty_like(x)
-    band = np.empty((9, n_dof))
-    free = np.empty((9, n_dof - 12))
-    factor = np.empty((9, n_dof - 12))
+    work = (np.empty((9, n_dof)), np.empty((9, n_dof - 12)), np.empty((9, n_dof - 12)),
+            np.empty(n_dof))
     velocity = np.empty(n_dof)
-    rhs = np.empty(n_dof)
+    touching = np.empty((obstacles.shape[0], n_points, 4))  # depth d [m], normal n
+    holding = np.zeros((obstacles.shape[0], n_points), dtype=np.bool_)
+    reach = radius * (1.0 + HOLD_MARGIN)
+    stiffness = HOLD_STIFFNESS * (np.max(masses) / (dt * dt) + k_s)
     step = first_step
-    dt2 = dt * dt
     for k in range(targets.shape[0]):
         step = first_step + k + 1
-        chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, grad, band)
-        for j in range(n_dof):  # A = M + dt k_d D + dt^2 H (lower band)
-            for d in range(9):
-                band[d, j] *= dt2
-            i = j // 3
-            band[0, j] += masses[i]
-            if relative:
-                band[0, j] += dt * k_d * ((i > 0) + (i < n_points - 1))
-                if i < n_points - 1:
-                    band[3, j] -= dt * k_d
-            else:
-                band[0, j] += dt * k_d
-        for i in range(n_points):
-            for a in range(3):
-                rhs[3 * i + a] = masses[i] * v[i, a] - dt * grad[i, a]
-                velocity[3 * i + a] = 0.0
         for h in range(4):
             for a in range(3):
                 velocity[3 * held[h] + a] = (targets[k, h, a] - previous_held[h, a]) / dt
-        for j in range(n_dof):  # rhs -= A v_held (symmetric band: both triangles)
-            for d in range(9):
-                if j + d >= n_dof:
-                    break
-                if d == 0:
-                    rhs[j] -= band[0, j] * velocity[j]
-                else:
-                    rhs[j + d] -= band[d, j] * velocity[j]
-                    rhs[j] -= band[d, j] * velocity[j + d]
-        for j in range(n_dof - 12):
-            for d in range(9):
-                free[d, j] = band[d, j + 6]
-        if not cholesky_band(free, 0.0, factor):
-            return step - 1, n_records, INDEFINITE
-        cholesky_solve(factor, rhs[6 : n_dof - 6])
-        for j in range(6, n_dof - 6):
-            velocity[j] = rhs[j]
+        for r in range(obstacles.shape[0]):
+            for i in range(2, n_points - 2):
+                phi, n0, n1, n2 = point_distance(x[i, 0], x[i, 1], x[i, 2], obstacles[r])
+                touching[r, i, 0] = reach - phi
+                touching[r, i, 1] = n0
+                touching[r, i, 2] = n1
+                touching[r, i, 3] = n2
+                holding[r, i] = phi < reach
+        for _ in range(n_points):  # let go of the contacts that would pull, solve again
+            if not _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b,
+                                      rest_angles, masses, gravity, touching, holding,
+                                      stiffness, grad, work):
+                return step - 1, n_records, INDEFINITE
+            let_go = False
+            for r in range(obstacles.shape[0]):
+                for i in range(2, n_points - 2):
+                    if holding[r, i] and touching[r, i, 0] < dt * _normal_speed(
+                            velocity, i, touching[r, i]):
+                        holding[r, i] = False
+                        let_go = True
+            if not let_go:
+                break
         for i in range(n_points):
             for a in range(3):
-                accel[i, a] = (velocity[3 * i + a] - v[i, a]) / dt
+                accel[i, a] = v[i, a]
                 v[i, a] = velocity[3 * i + a]
+        if friction > 0.0:
+            for r in range(obstacles.shape[0]):
+                for i in range(2, n_points - 2):
+                    if holding[r, i]:
+                        speed = _normal_speed(velocity, i, touching[r, i])
+                        force = stiffness * (touching[r, i, 0] - dt * speed)
+                        coulomb(v, i, touching[r, i, 1], touching[r, i, 2], touching[r, i, 3],
+                                speed, force * dt / masses[i], friction)
+        for i in range(n_points):
+            for a in range(3):
+                accel[i, a] = (v[i, a] - accel[i, a]) / dt
                 x[i, a] += v[i, a] * dt
         for h in range(4):
             for a in range(3):
                 x[held[h], a] = targets[k, h, a]
                 previous_held[h, a] = targets[k, h, a]
+        if obstacles.shape[0] > 0:
+            push_out(x, v, accel, obstacles, radius, friction, 2, n_points - 2)
+        if ground:
+            for i in range(n_points):
+                if x[i, 2] < 0.0:
+                    x[i, 2] = 0.0
+                    v[i, 2] = max(v[i, 2], 0.0)
         if step % record_every == 0 or step == n_steps:
             n_records, at_rest = _record(x, v, accel, step, dt, record_every, rest_speed,
                                          clips_stop, times, shapes, speeds, n_records)
@@ -249,6 +291,68 @@ def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, r
         if not (math.isfinite(x[2, 0]) and math.isfinite(x[2, 1]) and math.isfinite(x[2, 2])):
             return step, n_records, DIVERGED
     return step, n_records, RUNNING
+
+
+@njit(cache=True, inline="always")
+def _normal_speed(velocity, i, contact):
+    """Speed [m/s] of point i of the flat ``velocity`` (3(n + 1),) along a contact's normal
+    ``contact[1:4]``."""
+    return (velocity[3 * i] * contact[1] + velocity[3 * i + 1] * contact[2]
+            + velocity[3 * i + 2] * contact[3])
+
+
+@njit(cache=True)
+def _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b, rest_angles,
+                       masses, gravity, touching, holding, stiffness, grad, work):
+    """Solve one step's system of :func:`implicit_steps` for the free points' v+ into
+    ``velocity`` (3(n + 1),), whose held entries are the clips' already; the contacts in
+    ``holding`` (K, n + 1) held with ``touching`` (K, n + 1, 4): depth d [m] and normal.
+    ``work``: band (9, 3(n + 1)), free band and factor (9, 3(n + 1) - 12), rhs (3(n + 1),).
+    False when the system is not positive definite."""
+    band, free, factor, rhs = work
+    n_points = x.shape[0]
+    n_dof = 3 * n_points
+    dt2 = dt * dt
+    chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, grad, band)
+    for r in range(holding.shape[0]):
+        for i in range(n_points):
+            if holding[r, i]:
+                add_penalty(i, touching[r, i, 0], touching[r, i, 1], touching[r, i, 2],
+                            touching[r, i, 3], stiffness, grad, band)
+    for j in range(n_dof):  # A = M + dt k_d D + dt^2 H (lower band)
+        for d in range(9):
+            band[d, j] *= dt2
+        i = j // 3
+        band[0, j] += masses[i]
+        if relative:
+            band[0, j] += dt * k_d * ((i > 0) + (i < n_points - 1))
+            if i < n_points - 1:
+                band[3, j] -= dt * k_d
+        else:
+            band[0, j] += dt * k_d
+    for i in range(n_points):
+        for a in range(3):
+            rhs[3 * i + a] = masses[i] * v[i, a] - dt * grad[i, a]
+    for j in range(6, n_dof - 6):
+        velocity[j] = 0.0
+    for j in range(n_dof):  # rhs -= A v_held (symmetric band: both triangles)
+        for d in range(9):
+            if j + d >= n_dof:
+                break
+            if d == 0:
+                rhs[j] -= band[0, j] * velocity[j]
+            else:
+                rhs[j + d] -= band[d, j] * velocity[j]
+                rhs[j] -= band[d, j] * velocity[j + d]
+    for j in range(n_dof - 12):
+        for d in range(9):
+            free[d, j] = band[d, j + 6]
+    if not cholesky_band(free, 0.0, factor):
+        return False
+    cholesky_solve(factor, rhs[6 : n_dof - 6])
+    for j in range(6, n_dof - 6):
+        velocity[j] = rhs[j]
+    return True
 
 
 @njit(cache=True)
