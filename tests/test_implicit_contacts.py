@@ -76,14 +76,14 @@ def test_coulomb_threshold_on_a_tilted_table(scheme, creep, ratio, slides):
 
 @pytest.fixture(scope="module")
 def onto_a_plate():
-    """A hose hanging between clips 0.3 m apart, lowered 6 cm onto a plate in 0.6 s, held,
-    lifted back in 0.6 s: touch-down, resting with friction, lift-off."""
+    """A hose (0.5 m) hanging between clips 0.3 m apart, lowered 6 cm onto a plate in 0.6 s,
+    held, lifted back in 0.6 s: touch-down, resting with friction, lift-off."""
     cable = catalogue_cable("pu", 10)
-    high = ClipPoses(np.array([[0.0, 0, 0.12], [0.3, 0, 0.12]]), FACING)
-    low = ClipPoses(np.array([[0.0, 0, 0.06], [0.3, 0, 0.06]]), FACING)
+    high = ClipPoses(np.array([[0.0, 0, 0.2], [0.3, 0, 0.2]]), FACING)
+    low = ClipPoses(np.array([[0.0, 0, 0.14], [0.3, 0, 0.14]]), FACING)
     guess = np.zeros((cable.n_points, 3))
     guess[:, 0] = np.linspace(-0.1, 0.4, cable.n_points)
-    guess[:, 2] = 0.1
+    guess[:, 2] = 0.2
     start = equilibrium(cable, guess, high).shape
     plate = Box(center=(0.15, 0.0, 0.0), size=(0.2, 0.1, 0.08), name="plate")
     assert start[:, 2].min() > 0.04 + cable.diameter / 2  # clear of it at the start
@@ -91,7 +91,7 @@ def onto_a_plate():
     knots = np.array([0.3, 0.6, 1.0, 1.3, 1.6, 2.0])
 
     def run(scheme, dt=None):
-        return simulate(cable, start, trajectory, duration=2.0, dt=dt, youngs_modulus_cap=1e7,
+        return simulate(cable, start, trajectory, duration=2.0, dt=dt,
                         contacts=[plate], friction=0.3, damping="relative",
                         record_interval=dt or 1e-3, scheme=scheme)
 
@@ -106,7 +106,7 @@ def test_a_cable_lowered_onto_a_plate_replays_implicitly_as_explicitly(onto_a_pl
     # the cable touched the plate and left it again
     lowest = reference.at(np.array([1.0]))[0][:, 2].min()
     assert lowest == pytest.approx(0.04 + cable.diameter / 2, abs=1e-6)
-    assert reference.shapes[-1, :, 2].min() > 0.05
+    assert reference.shapes[-1, :, 2].min() > 0.04 + cable.diameter
 
     def distance(sim):
         return max(float(np.max(np.linalg.norm(sim.at(t)[0] - reference.at(t)[0], axis=1)))

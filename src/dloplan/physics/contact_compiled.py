@@ -85,24 +85,6 @@ def signed_distances(points, rows, phi, normals):
             normals[k, i, 2] = nz
 
 
-@njit(cache=True, inline="always")
-def coulomb(v, i, nx, ny, nz, normal_speed, impulse, friction):
-    """Coulomb friction of one normal impulse: point i of v (n + 1, 3) [m/s], moving at
-    ``normal_speed`` along the unit normal (nx, ny, nz), loses at most ``friction`` times the
-    ``impulse`` per unit mass [m/s] of its tangential velocity (all of it: it sticks)."""
-    if friction <= 0.0 or impulse <= 0.0:
-        return
-    t0 = v[i, 0] - normal_speed * nx
-    t1 = v[i, 1] - normal_speed * ny
-    t2 = v[i, 2] - normal_speed * nz
-    slip = math.sqrt(t0 ** 2 + t1 ** 2 + t2 ** 2)
-    if slip > 0.0:
-        keep = max(0.0, 1.0 - friction * impulse / slip)
-        v[i, 0] = normal_speed * nx + keep * t0
-        v[i, 1] = normal_speed * ny + keep * t1
-        v[i, 2] = normal_speed * nz + keep * t2
-
-
 @njit(cache=True)
 def push_out(x, v, accel, rows, radius, friction, first, stop):
     """Hard one-sided contact of points ``first .. stop - 1`` of x, v, accel (n + 1, 3) [m],
@@ -130,7 +112,13 @@ def push_out(x, v, accel, rows, radius, friction, first, stop):
                 v[i, 0] -= inward * nx
                 v[i, 1] -= inward * ny
                 v[i, 2] -= inward * nz
-                coulomb(v, i, nx, ny, nz, 0.0, -inward, friction)  # v is tangential now
+                if friction > 0.0:
+                    slip = math.sqrt(v[i, 0] ** 2 + v[i, 1] ** 2 + v[i, 2] ** 2)
+                    if slip > 0.0:  # v is tangential now
+                        keep = max(0.0, 1.0 - friction * (-inward) / slip)
+                        v[i, 0] *= keep
+                        v[i, 1] *= keep
+                        v[i, 2] *= keep
             pressed = accel[i, 0] * nx + accel[i, 1] * ny + accel[i, 2] * nz
             if pressed < 0.0:
                 accel[i, 0] -= pressed * nx

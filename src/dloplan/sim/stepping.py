@@ -28,17 +28,25 @@ import numpy as np
 
 from ..jit import njit
 from ..physics.compiled import chain_derivatives, chain_gradient
-from ..physics.contact_compiled import coulomb, point_distance, push_out
+from ..physics.contact_compiled import point_distance, push_out
 from ..physics.twist_compiled import carry_directors, link_tangents, twist_load, twist_stencils
 from .contact_newton import add_penalty
 from .newton import cholesky_band, cholesky_solve
 
 RUNNING, SETTLED, DIVERGED, INDEFINITE = 0, 1, 2, 3
 
-HOLD_MARGIN = 1e-6
+FREE, SLIDE, STICK = 0, 1, 2
+"""States of a point's contact in an implicit step (:func:`implicit_steps`)."""
+
+HOLD_MARGIN = 1e-9
 """A free point closer to an obstacle than the cable's radius times (1 + this) at the start of
 an implicit step is in contact through the step (:func:`implicit_steps`); the explicit scheme's
 hard contact leaves a pressing point exactly at the radius."""
+
+LOOK_AHEAD = 2.0
+"""A free point within this many times its own step, dt (|v| + dt |g|), of an obstacle at the
+start of an implicit step may reach it during the step: it is held in the solve unless the
+contact would pull (:func:`implicit_steps`)."""
 
 HOLD_STIFFNESS = 1e4
 """The implicit step's contact stiffness k_c in units of the stiffer of a point's inertia over
@@ -193,20 +201,25 @@ def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, r
     (:func:`dloplan.physics.compiled.chain_derivatives`), M the lumped masses, D the damping's
     graph Laplacian (``relative``) or the identity.
 
-    **Contacts.** A free point touching an obstacle at the step's start (closer than the radius
-    plus :data:`HOLD_MARGIN` of it) is held on its surface through the step by a penalty in the
-    solve (F^c = k_c d n, H^c = k_c n n^T as the statics' penalty,
-    :func:`dloplan.sim.contact_newton.add_penalty`, with k_c = :data:`HOLD_STIFFNESS` (max m_i /
-    dt^2 + k_s)), so a cable pulled against a peg or pressed on a plate stays on it instead of
-    being moved into it and back. The contact is one-sided within the step as well: where the
-    penalty's normal force at the step's end, k_c (d - dt v+.n) (linearized as in the solve),
-    would pull, the point is let go and the step solved again (an active set, a few solves at
-    most, only where a contact opens). The pressing force times dt is the contact's normal
-    impulse, and Coulomb friction (:func:`dloplan.physics.contact_compiled.coulomb`) takes at
-    most ``friction`` times it of the point's tangential velocity before the point moves. A
-    point that reaches an obstacle during the step is put back by the explicit scheme's hard,
-    inelastic contact (:func:`dloplan.physics.contact_compiled.push_out`, the same function),
-    and so is a held point's small penetration; the ground plane z = 0 as in
+    **Contacts.** A free point touching an obstacle at the step's start, or near enough to reach
+    it during the step (closer than the radius times 1 + :data:`HOLD_MARGIN` plus
+    :data:`LOOK_AHEAD` dt (|v| + dt |g|)), is held on its surface through the step by a penalty
+    in the solve (F^c = k_c d n, H^c = k_c n n^T with d = r - phi, as the statics' penalty,
+    :func:`dloplan.sim.contact_newton.add_penalty`; k_c = :data:`HOLD_STIFFNESS` (max m_i /
+    dt^2 + k_s)): the solve sees the obstacle, so a cable pulled against a peg or pressed on a
+    plate stays on it, and a point coming down lands on it at the step's end (inelastic), rather
+    than being moved into it and put back, which would stretch its links by up to |v| dt. The
+    contact is one-sided within the step, and Coulomb's: the step is solved with every such
+    point sticking (held in all directions, k_c I, from where it is), and where the contact's
+    normal force at the step's end, N = k_c (d - dt v+.n) (linearized as in the solve), would
+    pull (a contact opening, or a point that does not reach the surface) the point is let go;
+    where the force holding it along the surface, k_c dt |v+_t|, exceeds ``friction`` N it
+    slides instead (normal penalty only, and the kinetic friction ``friction`` N against its
+    slip); then the step is solved again with these contacts until they all hold (an active
+    set: each contact changes at most twice, mostly one or two solves). A point that reaches
+    an obstacle unforeseen is put back by the explicit scheme's hard, inelastic contact
+    (:func:`dloplan.physics.contact_compiled.push_out`, the same function, with its impulse
+    friction), and so is a held point's small penetration; the ground plane z = 0 as in
     :func:`explicit_steps`.
 
     The step is unconditionally stable for a positive definite H (docs/decisions.md: the
@@ -224,9 +237,11 @@ def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, r
     work = (np.empty((9, n_dof)), np.empty((9, n_dof - 12)), np.empty((9, n_dof - 12)),
             np.empty(n_dof))
     velocity = np.empty(n_dof)
-    touching = np.empty((obstacles.shape[0], n_points, 4))  # depth d [m], normal n
-    holding = np.zeros((obstacles.shape[0], n_points), dtype=np.bool_)
+    touching = np.zeros((obstacles.shape[0], n_points, 7))  # d [m], n, friction force [N]
+    holding = np.zeros((obstacles.shape[0], n_points), dtype=np.int8)
     reach = radius * (1.0 + HOLD_MARGIN)
+    ahead = np.empty(n_points)
+    pull = math.sqrt(gravity[0] ** 2 + gravity[1] ** 2 + gravity[2] ** 2)
     stiffness = HOLD_STIFFNESS * (np.max(masses) / (dt * dt) + k_s)
     step = first_step
     for k in range(targets.shape[0]):
@@ -234,6 +249,9 @@ def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, r
         for h in range(4):
             for a in range(3):
                 velocity[3 * held[h] + a] = (targets[k, h, a] - previous_held[h, a]) / dt
+        for i in range(n_points):  # how far a point may come within the step
+            ahead[i] = LOOK_AHEAD * dt * (math.sqrt(v[i, 0] ** 2 + v[i, 1] ** 2 + v[i, 2] ** 2)
+                                          + dt * pull)
         for r in range(obstacles.shape[0]):
             for i in range(2, n_points - 2):
                 phi, n0, n1, n2 = point_distance(x[i, 0], x[i, 1], x[i, 2], obstacles[r])
@@ -241,36 +259,19 @@ def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, r
                 touching[r, i, 1] = n0
                 touching[r, i, 2] = n1
                 touching[r, i, 3] = n2
-                holding[r, i] = phi < reach
-        for _ in range(n_points):  # let go of the contacts that would pull, solve again
+                holding[r, i] = FREE if phi >= reach + ahead[i] else (
+                    STICK if friction > 0.0 else SLIDE)
+        for _ in range(2 * obstacles.shape[0] * n_points + 1):  # the active set
             if not _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b,
                                       rest_angles, masses, gravity, touching, holding,
                                       stiffness, grad, work):
                 return step - 1, n_records, INDEFINITE
-            let_go = False
-            for r in range(obstacles.shape[0]):
-                for i in range(2, n_points - 2):
-                    if holding[r, i] and touching[r, i, 0] < dt * _normal_speed(
-                            velocity, i, touching[r, i]):
-                        holding[r, i] = False
-                        let_go = True
-            if not let_go:
+            if _contacts_settled(velocity, touching, holding, stiffness, dt, friction):
                 break
         for i in range(n_points):
             for a in range(3):
-                accel[i, a] = v[i, a]
+                accel[i, a] = (velocity[3 * i + a] - v[i, a]) / dt
                 v[i, a] = velocity[3 * i + a]
-        if friction > 0.0:
-            for r in range(obstacles.shape[0]):
-                for i in range(2, n_points - 2):
-                    if holding[r, i]:
-                        speed = _normal_speed(velocity, i, touching[r, i])
-                        force = stiffness * (touching[r, i, 0] - dt * speed)
-                        coulomb(v, i, touching[r, i, 1], touching[r, i, 2], touching[r, i, 3],
-                                speed, force * dt / masses[i], friction)
-        for i in range(n_points):
-            for a in range(3):
-                accel[i, a] = (v[i, a] - accel[i, a]) / dt
                 x[i, a] += v[i, a] * dt
         for h in range(4):
             for a in range(3):
@@ -293,12 +294,37 @@ def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, r
     return step, n_records, RUNNING
 
 
-@njit(cache=True, inline="always")
-def _normal_speed(velocity, i, contact):
-    """Speed [m/s] of point i of the flat ``velocity`` (3(n + 1),) along a contact's normal
-    ``contact[1:4]``."""
-    return (velocity[3 * i] * contact[1] + velocity[3 * i + 1] * contact[2]
-            + velocity[3 * i + 2] * contact[3])
+@njit(cache=True)
+def _contacts_settled(velocity, touching, holding, stiffness, dt, friction):
+    """Check the contacts of one implicit step's solution ``velocity`` (3(n + 1),) against
+    Coulomb's law (:func:`implicit_steps`); change those that break it and return False (solve
+    again), or True when all hold. ``touching`` (K, n + 1, 7): depth d [m], normal n and the
+    sliding friction force [N] (written here); ``holding`` (K, n + 1): FREE, SLIDE or STICK."""
+    settled = True
+    for r in range(holding.shape[0]):
+        for i in range(holding.shape[1]):
+            if holding[r, i] == FREE:
+                continue
+            j = 3 * i
+            c = touching[r, i]
+            speed = velocity[j] * c[1] + velocity[j + 1] * c[2] + velocity[j + 2] * c[3]
+            normal = stiffness * (c[0] - dt * speed)  # the penalty's force at the step's end
+            if normal < 0.0:  # it would pull: the contact opens
+                holding[r, i] = FREE
+                settled = False
+                continue
+            if holding[r, i] == SLIDE:
+                continue
+            t0 = velocity[j] - speed * c[1]
+            t1 = velocity[j + 1] - speed * c[2]
+            t2 = velocity[j + 2] - speed * c[3]
+            along = stiffness * dt * math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)  # holding force
+            if along > friction * normal:  # more than friction can hold: it slides
+                scale = friction * normal / along * stiffness * dt
+                c[4], c[5], c[6] = -scale * t0, -scale * t1, -scale * t2
+                holding[r, i] = SLIDE
+                settled = False
+    return settled
 
 
 @njit(cache=True)
@@ -306,7 +332,7 @@ def _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b
                        masses, gravity, touching, holding, stiffness, grad, work):
     """Solve one step's system of :func:`implicit_steps` for the free points' v+ into
     ``velocity`` (3(n + 1),), whose held entries are the clips' already; the contacts in
-    ``holding`` (K, n + 1) held with ``touching`` (K, n + 1, 4): depth d [m] and normal.
+    ``holding`` (K, n + 1) held as :func:`_contacts_settled` says with ``touching``.
     ``work``: band (9, 3(n + 1)), free band and factor (9, 3(n + 1) - 12), rhs (3(n + 1),).
     False when the system is not positive definite."""
     band, free, factor, rhs = work
@@ -316,9 +342,16 @@ def _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b
     chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, grad, band)
     for r in range(holding.shape[0]):
         for i in range(n_points):
-            if holding[r, i]:
-                add_penalty(i, touching[r, i, 0], touching[r, i, 1], touching[r, i, 2],
-                            touching[r, i, 3], stiffness, grad, band)
+            c = touching[r, i]
+            if holding[r, i] != FREE:
+                add_penalty(i, c[0], c[1], c[2], c[3], stiffness, grad, band)
+            if holding[r, i] == STICK:  # the tangential spring, at rest at the step's start
+                for a in range(3):
+                    for b in range(a + 1):
+                        band[a - b, 3 * i + b] += stiffness * ((a == b) - c[1 + a] * c[1 + b])
+            elif holding[r, i] == SLIDE:  # the kinetic friction, against the slip
+                for a in range(3):
+                    grad[i, a] -= c[4 + a]
     for j in range(n_dof):  # A = M + dt k_d D + dt^2 H (lower band)
         for d in range(9):
             band[d, j] *= dt2
