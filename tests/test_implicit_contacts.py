@@ -50,15 +50,17 @@ def test_a_cable_laid_on_the_table_rests_straight_at_its_radius(scheme, dt):
     np.testing.assert_allclose(run.shapes[-1], x, atol=1e-9)
 
 
-@pytest.mark.parametrize("scheme, creep", [("implicit", 1e-9), ("explicit", 2e-3)])
+@pytest.mark.parametrize("scheme, creep", [("implicit", 1e-6), ("explicit", 2e-3)])
 @pytest.mark.parametrize("ratio, slides", [(1.2, False), (0.8, True)])
 def test_coulomb_threshold_on_a_tilted_table(scheme, creep, ratio, slides):
     # gravity tilted by a = 20 degrees across the cable: each free point of the straight cable
     # is pulled along the table by m g sin a and pressed on it by m g cos a, so it sticks for
     # mu > tan a and slides for mu < tan a (the held ends' pull is zero while it is straight).
-    # The implicit step applies the friction impulse before it moves the point: a sticking
-    # point stays put; the explicit step moves it first and takes the velocity after, so it
-    # creeps (0.8 mm in 0.3 s measured), well below the 5 mm of sliding
+    # The implicit step holds a sticking point in the solve by the stiffness k_c, 1e4 times
+    # its inertia over the step: it gives way by 1e-4 of a free step, g sin a dt^2 / 1e4, per
+    # step (0.1 um in 300 steps); the explicit step moves the point before the friction
+    # impulse takes its velocity, so it creeps (0.8 mm in 0.3 s measured), well below the
+    # 5 mm of sliding
     cable = catalogue_cable("usb", 8)
     a = math.radians(20.0)
     gravity = 9.81 * np.array([0.0, math.sin(a), -math.cos(a)])
@@ -90,29 +92,34 @@ def onto_a_plate():
     trajectory = ClipTrajectory(np.array([0.0, 0.6, 1.0, 1.6]), [high, low, low, high])
     knots = np.array([0.3, 0.6, 1.0, 1.3, 1.6, 2.0])
 
-    def run(scheme, dt=None):
+    def run(scheme, dt=None, friction=0.0):
         return simulate(cable, start, trajectory, duration=2.0, dt=dt,
-                        contacts=[plate], friction=0.3, damping="relative",
-                        record_interval=dt or 1e-3, scheme=scheme)
+                        contacts=[plate], friction=friction, damping="relative",
+                        record_interval=dt or 1e-5, scheme=scheme)
 
     return cable, plate, knots, run
 
 
 def test_a_cable_lowered_onto_a_plate_replays_implicitly_as_explicitly(onto_a_plate):
     cable, plate, knots, run = onto_a_plate
-    reference = run("explicit")
-    coarse, fine = run("implicit", 1e-3), run("implicit", 5e-4)
+    reference = run("explicit", friction=0.3)
+    coarse, fine = run("implicit", 1e-3, 0.3), run("implicit", 5e-4, 0.3)
     assert reference.steps > 20 * coarse.steps
-    # the cable touched the plate and left it again
+    # the cable lay on the plate and left it again
     lowest = reference.at(np.array([1.0]))[0][:, 2].min()
     assert lowest == pytest.approx(0.04 + cable.diameter / 2, abs=1e-6)
+    assert coarse.at(np.array([1.0]))[0][:, 2].min() == pytest.approx(lowest, abs=1e-6)
     assert reference.shapes[-1, :, 2].min() > 0.04 + cable.diameter
 
     def distance(sim):
-        return max(float(np.max(np.linalg.norm(sim.at(t)[0] - reference.at(t)[0], axis=1)))
-                   for t in knots)
+        return np.array([np.max(np.linalg.norm(sim.at(t)[0] - reference.at(t)[0], axis=1))
+                         for t in knots])
 
     near, nearer = distance(coarse), distance(fine)
-    assert near < 2e-4  # 0.2 mm: 1/50 of the replay's 10 mm tolerance
-    assert 1.6 < near / nearer < 2.6  # first order in dt
-    assert coarse.at(np.array([1.0]))[0][:, 2].min() == pytest.approx(lowest, abs=1e-6)
+    # where the cable hangs free (falling at 0.3 s, at rest after 2 s) the implicit run
+    # converges to the explicit one at first order; where it lies on the plate the two
+    # friction models differ (the explicit step's impulse friction creeps: the tilted-table
+    # test), by 0.27 mm at 1 ms: 1/40 of the replay's 10 mm tolerance
+    free = [0, 5]
+    assert np.all(near < 5e-4)
+    assert np.all((1.6 < near[free] / nearer[free]) & (near[free] / nearer[free] < 2.6))

@@ -40,16 +40,18 @@ constants as it goes, and the link tensions are those of the cable at each recor
 
 **Scheme.** The thesis' explicit scheme (eq. 3.24) is stable only below a time step set by
 the axial springs (3.8.2: 8.5 us for the capped PA12, a million steps for a 9 s motion). By
-default (``scheme="auto"``) a replay without torsion or a tensile limit steps by linearly
-implicit Euler instead (:func:`dloplan.sim.stepping.implicit_steps`) at :data:`IMPLICIT_STEP`,
-the clip samples' spacing: stable at any step while the chain's stiffness is positive definite,
-first order in dt, its knot deviations within micrometres of the explicit run's on the examples
-(docs/decisions.md, "the replay's time step"). A point touching an obstacle is held on it
-through the implicit step by the statics' contact penalty in the solve (the same hard contact
-as the explicit scheme's for a point that arrives during a step); a changing cable takes its
-constants per step as the explicit scheme per millisecond. A tensile limit is judged on the
-explicit run (the implicit scheme damps the axial ringing whose peaks it checks), and so is a
-replay whose implicit system is found indefinite.
+default (``scheme="auto"``) a replay without torsion, a changing cable or a tensile limit steps
+by linearly implicit Euler instead (:func:`dloplan.sim.stepping.implicit_steps`) at
+:data:`IMPLICIT_STEP`, the clip samples' spacing: stable at any step while the chain's
+stiffness is positive definite, first order in dt, its knot deviations within micrometres of
+the explicit run's on the examples (docs/decisions.md, "the replay's time step"). A point on an
+obstacle, or reaching one within the step, is held on it in the implicit solve by a stiff
+penalty and sticks or slides by Coulomb's law. A tensile limit is judged on the explicit run
+(the implicit scheme damps the axial ringing whose peaks it checks), and so is a replay whose
+implicit system is found indefinite, and a changing cable (a harness section being tensioned:
+its links all get shorter, so its points slide along the peg they are pressed on, which the
+implicit step's sticking friction resists where the explicit step's impulse friction lets them
+creep; docs/decisions.md).
 
 The simulated shapes are recorded often enough (at least 20 records per knot interval, every step
 while the run has fewer than :data:`MAX_RECORDS` steps) that the shape at a knot time is
@@ -330,9 +332,9 @@ def replay(
     scheme : {"auto", "explicit", "implicit"}
         Time stepping (module docstring, *Scheme*): ``"explicit"`` the thesis' eq. 3.24 at
         its time step; ``"implicit"`` linearly implicit Euler at :data:`IMPLICIT_STEP` (or
-        ``dt``); ``"auto"`` (default) implicit where it applies (no torsion or tensile
-        limit), explicit otherwise and when an implicit step finds the chain's stiffness
-        indefinite.
+        ``dt``); ``"auto"`` (default) implicit where it applies (no torsion, changing cable
+        or tensile limit), explicit otherwise and when an implicit step finds the chain's
+        stiffness indefinite.
 
     Returns
     -------
@@ -374,7 +376,7 @@ def replay(
         raise ValueError(f"scheme: got {scheme!r}, expected 'auto', 'explicit' or 'implicit'")
     model = fictitious_cable(cable, youngs_modulus_cap)
     implicit = scheme == "implicit" or (scheme == "auto" and not torsion
-                                        and tensile_limit is None)
+                                        and tensile_limit is None and cable_at is None)
     changing = None
     if cable_at is not None:
         def changing(t: float) -> Cable:
