@@ -77,6 +77,21 @@ def _record(x, v, accel, step, dt, record_every, rest_speed, clips_stop, times, 
     return n_records + 1, at_rest
 
 
+@njit(cache=True, inline="always")
+def _keep_out(x, v, accel, ground, obstacles, radius, friction):
+    """The one-sided contacts after a step: the free points of x, v, accel (n + 1, 3) put out
+    of the obstacle rows (:func:`dloplan.physics.contact_compiled.push_out`) and, with
+    ``ground``, above the plane z = 0 with no downward speed."""
+    n_points = x.shape[0]
+    if obstacles.shape[0] > 0:
+        push_out(x, v, accel, obstacles, radius, friction, 2, n_points - 2)
+    if ground:
+        for i in range(n_points):
+            if x[i, 2] < 0.0:
+                x[i, 2] = 0.0
+                v[i, 2] = max(v[i, 2], 0.0)
+
+
 @njit(cache=True)
 def explicit_steps(x, v, previous_held, targets, extra, first_step, n_steps, dt, k_d, relative,
                    ground, obstacles, radius, friction, record_every, rest_speed, clips_stop, k_s,
@@ -166,13 +181,7 @@ def _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt
                 v[held[h], a] = (targets[k, h, a] - previous_held[h, a]) / dt
                 x[held[h], a] = targets[k, h, a]
                 previous_held[h, a] = targets[k, h, a]
-        if obstacles.shape[0] > 0:
-            push_out(x, v, accel, obstacles, radius, friction, 2, n_points - 2)
-        if ground:
-            for i in range(n_points):
-                if x[i, 2] < 0.0:
-                    x[i, 2] = 0.0
-                    v[i, 2] = max(v[i, 2], 0.0)
+        _keep_out(x, v, accel, ground, obstacles, radius, friction)
         if step % record_every == 0 or step == n_steps:
             n_records, at_rest = _record(x, v, accel, step, dt, record_every, rest_speed,
                                          clips_stop, times, shapes, speeds, n_records)
@@ -277,13 +286,7 @@ def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, r
             for a in range(3):
                 x[held[h], a] = targets[k, h, a]
                 previous_held[h, a] = targets[k, h, a]
-        if obstacles.shape[0] > 0:
-            push_out(x, v, accel, obstacles, radius, friction, 2, n_points - 2)
-        if ground:
-            for i in range(n_points):
-                if x[i, 2] < 0.0:
-                    x[i, 2] = 0.0
-                    v[i, 2] = max(v[i, 2], 0.0)
+        _keep_out(x, v, accel, ground, obstacles, radius, friction)
         if step % record_every == 0 or step == n_steps:
             n_records, at_rest = _record(x, v, accel, step, dt, record_every, rest_speed,
                                          clips_stop, times, shapes, speeds, n_records)
