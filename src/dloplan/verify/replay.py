@@ -30,8 +30,9 @@ between the knots (the velocity-only timing: a velocity jump, an infinite accele
 every knot).
 
 **Contacts and a changing cable.** With ``contacts`` (pegs, plates, the table) the simulator
-keeps the points out of the obstacles (a hard, frictionless contact,
-:mod:`dloplan.physics.contact_compiled`), and the replay records, per obstacle and recorded
+keeps the points out of the obstacles (a hard, inelastic contact with Coulomb friction
+``friction``: :mod:`dloplan.physics.contact_compiled` in the explicit step, held in the solve of
+the implicit one, *Scheme* below), and the replay records, per obstacle and recorded
 shape, the smallest gap between the cable's surface and the obstacle (``contact_gaps``): a
 contact is closed where the gap is below :data:`CONTACT_GAP` times the cable's radius, so the
 run shows where the cable lifts off a peg or comes to rest on a plate. With ``cable_at`` the
