@@ -12,6 +12,7 @@ from scipy.spatial.transform import Rotation
 
 from dloplan.robot import arm_clearance, forward, yumi
 from dloplan.robot.chain import CellArm, capsules, in_base_frame
+from dloplan.robot.described import pair_clearance
 from dloplan.robot.description import (
     capsule_from_points,
     capsules_from_points,
@@ -20,14 +21,12 @@ from dloplan.robot.description import (
 )
 from dloplan.robot.kinematics import IKOptions, inverse
 from dloplan.robot.kinematics import forward as chain_forward
-from dloplan.robot.reachability import ReachOptions
+from dloplan.robot.path import ReachOptions, check_cell_path
+from dloplan.robot.placement import search_cell_placement
 from dloplan.robot.urdf_cell import (
     PRESETS,
     ArmSpec,
     cell_from_specs,
-    check_cell_path,
-    pair_clearance,
-    search_cell_placement,
     ur5e_pair,
     yumi_cell,
 )
