@@ -236,7 +236,7 @@ def search_cell_placement(cell: DescribedCell, positions, rotations: Rotation, *
         kept = sorted(scores.values(), reverse=True)[:PLACEMENT_TRIES]
         if len(kept) == PLACEMENT_TRIES and kept[-1] > bounds[i]:
             break  # no candidate left can rank among the best: none is solved
-        scores[i] = _target_score(cell, pos + offsets[i], mats, quick, shifts[i])
+        scores[i] = target_score(cell, pos + offsets[i], mats, quick, shifts[i])
     ranked = sorted(sorted(scores), key=lambda i: scores[i], reverse=True)
     first = None
     for i in ranked[:PLACEMENT_TRIES]:
@@ -247,10 +247,22 @@ def search_cell_placement(cell: DescribedCell, positions, rotations: Rotation, *
     return first
 
 
-def _target_score(cell: DescribedCell, pos, mats, options, shift: float) -> tuple:
+def target_score(cell: DescribedCell, pos, mats, options, shift: float) -> tuple:
     """A placement's rank by IK at the targets (each seeded from the arm's previous one): poses
     both arms reach, smallest arm-arm clearance (up to :data:`COMFORT_CLEARANCE`, -1 when no
-    pose is reached), smallest joint margin (up to :data:`COMFORT_MARGIN`), ``shift``."""
+    pose is reached), smallest joint margin (up to :data:`COMFORT_MARGIN`), ``shift``.
+
+    Parameters
+    ----------
+    cell : DescribedCell
+    pos : numpy.ndarray
+        (K, 2, 3) TCP targets [m] of the placement, arms (left, right).
+    mats : numpy.ndarray
+        (K, 2, 3, 3) ``tcp_to_world``.
+    options : IKOptions
+    shift : float
+        Minus the placement's translation length [m] (a smaller shift ranks higher).
+    """
     qs = [[], []]
     reached = np.ones(len(pos), bool)
     for a, arm in enumerate(cell.arms):
