@@ -1,16 +1,13 @@
-"""A dual-arm cell built from robot descriptions, and its verification along a plan.
+"""Dual-arm cells built from robot descriptions, and a plan's verification on one.
 
-A :class:`DescribedCell` is two :class:`~dloplan.robot.chain.CellArm` s (any serial arms read
-from URDF, each with its base pose, tool and joint limits) and the table they stand on.
-:func:`check_cell_path` verifies a dual-arm TCP path on it as :mod:`dloplan.robot.reachability`
-does for the YuMi: IK at every planned pose, tracked continuously through sub-steps between
-poses (each solve seeded from the previous one), joint margins, arm-arm and arm-table capsule
-clearance at every sub-step, and one verdict row per check, target and arm (the robot
-program's :class:`~dloplan.robot.program.CheckRow`).
-:func:`search_cell_placement` shifts the job on the table to where the cell executes it best.
-
-Presets (:data:`PRESETS`): ``ur5e_pair`` (two UR5e side by side), ``panda_pair`` (two Franka
-arms with the Franka Hand), ``yumi`` (the ABB YuMi from one description with two chains).
+The presets (:data:`PRESETS`): ``ur5e_pair`` (two UR5e side by side), ``panda_pair`` (two Franka
+arms with the Franka Hand), ``yumi`` (the ABB YuMi, :func:`dloplan.robot.yumi.yumi`); a cell
+from one URDF per arm (:func:`cell_from_specs`, a scenario's ``robot.cell`` section:
+:func:`cell_from_mapping`), each a :class:`~dloplan.robot.described.DescribedCell`.
+:func:`verify_on_cell` verifies a plan's timed trajectory on such a cell (the arm assignment,
+the cell's placement search, :func:`~dloplan.robot.placement.search_cell_placement`, and the
+path check, :func:`~dloplan.robot.path.check_cell_path`) as the :class:`CellPlan` the vendor
+writers are given.
 """
 
 from __future__ import annotations
