@@ -33,9 +33,6 @@ from .peaks import motion_peaks, slowed_scale
 from .program import robot_program
 from .urdf_cell import CellPlan, verify_on_cell
 
-LOWER_IS_WORSE = {"joint limits", "clearance", "table clearance"}
-"""Checks of a described cell whose worst row is the lowest value."""
-
 URSCRIPT_JOINTS = 6
 """Joints per arm of the arms a Universal Robots controller runs (URScript's ``movej``)."""
 
@@ -202,7 +199,7 @@ class CellProgram(CheckedProgram):
 
     def summary(self) -> list[dict]:
         """Per check: passed, the worst value and where, how many rows fail and the first."""
-        return check_summary(self.checks, CHECKS, LOWER_IS_WORSE)
+        return check_summary(self.checks, CHECKS)
 
     def to_dict(self) -> dict:
         """JSON-ready: placement, assignment, targets with their verified joints, checks."""

@@ -13,6 +13,10 @@ from dataclasses import dataclass
 SLOW_ROUNDS = 3
 """Times a program over a joint-speed limit is slowed (re-timed) before it is refused."""
 
+LOWER_IS_WORSE = frozenset({"assignment", "joint limits", "clearance", "table clearance"})
+"""Checks whose worst row is the lowest value (a separation, margin or clearance); of the others
+the highest (an error, a joint step, a ratio to a limit)."""
+
 
 @dataclass(frozen=True)
 class CheckRow:
@@ -71,16 +75,16 @@ class CheckedProgram:
         return tuple(row for row in self.checks if not row.ok)
 
 
-def check_summary(rows, checks, lower_is_worse) -> list[dict]:
+def check_summary(rows, checks) -> list[dict]:
     """Per check of ``checks`` (in that order) with rows: ``check``, ``ok``, ``failures``,
-    ``worst`` (the lowest value for a check in ``lower_is_worse``, else the highest) with its
+    ``worst`` (the lowest value for a check in :data:`LOWER_IS_WORSE`, else the highest) with its
     ``unit`` and ``where``, and the label of the ``first_failure`` (or None)."""
     lines = []
     for name in checks:
         mine = [r for r in rows if r.check == name]
         if not mine:
             continue
-        pick = min if name in lower_is_worse else max
+        pick = min if name in LOWER_IS_WORSE else max
         worst = pick(mine, key=lambda r: r.value)
         failed = [r for r in mine if not r.ok]
         lines.append({"check": name, "ok": not failed, "failures": len(failed),

@@ -87,7 +87,6 @@ CHECKS = ("assignment", "reach", "round trip", "joint limits", "clearance", "con
 MAX_TRIES = 2
 """Joint solutions (best ranked first) replayed before the program settles for the first."""
 
-_LOWER_IS_WORSE = {"assignment", "joint limits", "clearance"}
 _TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
 
 
@@ -242,7 +241,7 @@ class RobotProgram(CheckedProgram):
 
     def summary(self) -> list[dict]:
         """Per check: passed, the worst value and where, how many rows fail and the first."""
-        return check_summary(self.checks, CHECKS, _LOWER_IS_WORSE)
+        return check_summary(self.checks, CHECKS)
 
     @property
     def message(self) -> str:
