@@ -30,7 +30,8 @@ def folding_case(n_links: int = 10, scale: float = 1.0):
     if scale != 1.0:
         cable = dloplan.Cable(length=cable.length * scale, diameter=cable.diameter * scale,
                               mass=cable.mass, youngs_modulus=cable.youngs_modulus / scale,
-                              poisson_ratio=cable.poisson_ratio, n_links=n_links)
+                              poisson_ratio=cable.poisson_ratio, n_links=n_links,
+                              axial_modulus=cable.axial_modulus / scale)
     length = cable.length
     start = arc(length, 0.0, n_links)
     target = arc(length, np.pi, n_links, origin=(0.2 * length, 0.0, 0.1 * length))
