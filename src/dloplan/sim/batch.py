@@ -34,7 +34,7 @@ from ..physics.compiled import chain_derivatives, chain_energy, conform_free_par
 from .clips import MAX_STRAIN, ClipPoses, held_points_of
 from .compiled import CONVERGED, MAX_ITERATIONS, SADDLE, STALLED, newton_positions
 from .newton import newton_message
-from .result import force_scale
+from .result import DEFAULT_RTOL, ROUNDOFF, force_scale, stiffest
 from .statics import equilibrium
 
 HANDED_BACK = -1
@@ -49,8 +49,8 @@ _EDGE = 1e-9  # relative margin of the compiled reach test: closer calls go to e
 
 @njit(cache=True)
 def solve_held(guesses, cable_of, k_s, rest_lengths, k_b, rest_angles, masses, gravity,
-               positions, quaternions, link, length, tolerance, stiff_axial, max_iterations,
-               shapes, gradients, iterations, residuals, status):
+               positions, quaternions, link, length, tolerance, roundoff, stiff, stiff_axial,
+               max_iterations, shapes, gradients, iterations, residuals, status, tolerances):
     """The equilibria of B held cables, in place (the loop of :func:`held_equilibria`).
 
     Parameters
@@ -68,6 +68,11 @@ def solve_held(guesses, cable_of, k_s, rest_lengths, k_b, rest_angles, masses, g
         (B, 2, 3) clip points [m] and (B, 2, 4) ``clip_to_world`` quaternions (x, y, z, w).
     link, length, tolerance : numpy.ndarray
         Per cable (C,): rest link length l [m], length L [m], residual tolerance [N].
+    roundoff : float
+        The round-off factor of the tolerance's floor (16 eps; 0: no floor, an explicit rtol).
+    stiff : numpy.ndarray
+        Per cable (C,): the largest stiffness of the floor [N/m]
+        (:func:`dloplan.sim.result.residual_tolerance`).
     stiff_axial : numpy.ndarray
         Per cable (C,) bool: :attr:`dloplan.physics.chain.SpringChain.stiff_axial` (the Newton
         steps' link lengths corrected).
@@ -75,18 +80,19 @@ def solve_held(guesses, cable_of, k_s, rest_lengths, k_b, rest_angles, masses, g
         Newton iterations per item.
     shapes, gradients : numpy.ndarray
         (B, n + 1, 3) out: the equilibria [m] and their energy gradients [N].
-    iterations, residuals, status : numpy.ndarray
-        (B,) out: Newton iterations, the residual [N] and the loop's status
-        (:data:`~dloplan.sim.compiled.CONVERGED` ...), or :data:`HANDED_BACK`.
+    iterations, residuals, status, tolerances : numpy.ndarray
+        (B,) out: Newton iterations, the residual [N], the loop's status
+        (:data:`~dloplan.sim.compiled.CONVERGED` ...), or :data:`HANDED_BACK`, and the
+        tolerance [N].
     """
     history = np.empty(max_iterations + 1)
     band = np.empty((HALF_BANDWIDTH + 1, 3 * guesses.shape[1]))
     for b in range(guesses.shape[0]):
         c = cable_of[b]
-        status[b], iterations[b], residuals[b], _ = _held_item(
+        status[b], iterations[b], residuals[b], tolerances[b] = _held_item(
             shapes[b], guesses[b], k_s[c], rest_lengths[c], k_b[c], rest_angles[c], masses[c],
-            gravity, positions[b], quaternions[b], link[c], length[c], tolerance[c], 0.0, 0.0,
-            stiff_axial[c], max_iterations, gradients[b], band, history)
+            gravity, positions[b], quaternions[b], link[c], length[c], tolerance[c], roundoff,
+            stiff[c], stiff_axial[c], max_iterations, gradients[b], band, history)
 
 
 @njit(cache=True)
@@ -242,7 +248,7 @@ def held_equilibria(
     clip_rotations: Rotation,
     *,
     gravity=GRAVITY,
-    rtol: float = 1e-10,
+    rtol: float | None = None,
     max_iterations: int = 500,
 ) -> HeldEquilibria:
     """The nearest stable equilibria of many cables held by both clips, in one compiled loop.
@@ -301,7 +307,10 @@ def held_equilibria(
     constants = [np.array([ch.constants[k] for ch in chains]) for k in range(5)]
     link = np.array([cable.rest_link_length for cable in cables])
     length = np.array([cable.length for cable in cables])
-    tolerance = np.array([rtol * force_scale(cable, gravity) for cable in cables])
+    tolerance = np.array([(DEFAULT_RTOL if rtol is None else rtol) * force_scale(cable, gravity)
+                          for cable in cables])
+    roundoff = ROUNDOFF * np.finfo(float).eps if rtol is None else 0.0  # the floor, as asked
+    stiff = np.array([stiffest(cable) for cable in cables])
     stiff_axial = np.array([chain.stiff_axial for chain in chains])
     quaternions = clip_rotations.as_quat().reshape(n_items, 2, 4)
 
@@ -311,12 +320,12 @@ def held_equilibria(
     iterations = np.zeros(n_items, dtype=np.int64)
     residuals = np.full(n_items, np.nan)
     status = np.empty(n_items, dtype=np.int64)
+    tolerances = np.empty(n_items)
     solve_held(x0, cable_of, *constants, chains[0].constants[5], positions, quaternions,
-               link, length, tolerance, stiff_axial, max_iterations, shapes, gradients, iterations,
-               residuals, status)
+               link, length, tolerance, roundoff, stiff, stiff_axial, max_iterations, shapes,
+               gradients, iterations, residuals, status, tolerances)
 
     wrenches = _clip_wrenches(shapes, gradients, positions)
-    tolerances = tolerance[cable_of]
     converged = residuals <= tolerances
     stable = status == CONVERGED
     refused = np.zeros(n_items, dtype=bool)
