@@ -19,20 +19,20 @@ Part 2, plants: every example plan (sagging demo, 3D Ethernet, embedded U demo) 
   optional; not run by default: a rest state is a simulation to rest, minutes per row at the
   examples' n = 12 and about an hour at n = 20, ``tests/plants.py`` says why),
 
-one factor at a time around the base case (n = 20, E x2, each gripper clamping one model link
-L / n, correction at mid-path): the plan's own n; E x0.5 and x10; a grip of 0.8 L / n; the
-correction early (shape 1) and late (T - 1) (``--cases``). Columns: final mean error against the
-plan's stabilized target (curves at equal arc length) open loop and closed loop [mm], their
-ratio, the floor (the least error any correction of the target's clips leaves that plant,
-``reachable_error``; ``--no-floor`` skips it; computed on the chain only: its finite differences
-take SciPy's relative step, 1e-3 |x|, which falls to 1e-8 m next to x = 0, below the solver
-tolerance of another simulator (dismech's 1e-5 m, float32), so on those plants the fit stops at
-its first point and the "floor" would be the open loop's error), the correction's prediction
-interval of the final
-error [mm] and whether it covers the plant's, the clamp length the correction estimated [mm]
-("model": not told by the measurement, the model's L / n kept), whether the correction as
-``dloplan correct`` writes it passes ``dloplan verify`` (``written``: checked, written, read
-back and verified) or what refused it, and the correction's CPU time [ms]. 1 mm noise, 200 points.
+one factor at a time around the base case (n = 20, E x2, each gripper clamping one model link L / n,
+correction at mid-path): the plan's own n; E x0.5 and x10; a grip of 0.8 L / n; the correction early
+(shape 1) and late (T - 1) (``--cases``). Columns: final mean error against the plan's stabilized
+target (curves at equal arc length) open loop and closed loop [mm], their ratio, the floor (the
+least error any correction of the target's clips leaves that plant, ``reachable_error``;
+``--no-floor`` skips it; computed on the chain only: its finite differences take SciPy's relative
+step ``diff_step`` x |x| (SciPy 1.17; 1.5e-8 at x = 0), 1e-8 m where the fit starts, below the
+solver tolerance of another simulator (dismech's 1e-5 m in float32), so on those plants the fit
+stops at its first point and the "floor" would be the open loop's error), the correction's
+prediction interval of the final error [mm] and whether it covers the plant's, the clamp length the
+correction estimated [mm] ("model": not told by the measurement, the model's L / n kept), whether
+the correction as ``dloplan correct`` writes it passes ``dloplan verify`` (``written``: checked,
+written, read back and verified) or what refused it, and the correction's CPU time [ms]. 1 mm noise,
+200 points.
 
 Run: ``PYTHONPATH=tests python benchmarks/bench_correct.py [--part 2]
 [--plants chain,dismech,mujoco] [--cases base,own n,...] [--plans ...] [--no-floor]``.
