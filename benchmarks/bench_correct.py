@@ -60,6 +60,7 @@ import yaml
 
 from dloplan.app import read_plan, verify_plan, write_plan
 from dloplan.app.correct import CorrectionService, check_correction
+from dloplan.cable import COMPOSITE_AXIAL_MODULI
 from dloplan.cli import main as dloplan_main
 from dloplan.correct import CorrectionRefused, Plant, reachable_error, run_closed_loop
 from dloplan.geometry import resample_by_arc_length
@@ -190,9 +191,11 @@ def written_and_verified(doc, correction, folder: Path) -> str:
         f"written, verify FAILS: {'; '.join(verification.messages)[:50]}"
 
 
-CASES = ("base", "own n", "E x0.5", "E x10", "grip 0.8", "early", "late")
+CASES = ("base", "own n", "E x0.5", "E x10", "grip 0.8", "early", "late", "stiff axial")
 """The cases around the base (n = 20, E x2, grip L / n, correction at mid-path), one factor at a
-time."""
+time; "stiff axial": the plant's cable nearly inextensible (the composite cables' copper axial
+modulus, ``COMPOSITE_AXIAL_MODULI``, 2 GPa; the plans' model stretches with E_a = E), marked
+"Ea" in the E column."""
 
 
 def part2(names, floor: bool, folder: Path, plans, chosen=CASES) -> None:
@@ -211,24 +214,28 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES) -> None:
         base_n = 20
         own_n = next(k for k in docs if k != 20) if len(docs) > 1 else 20
         for plant_name, make in makers.items():
-            cases = dict(zip(CASES, [(base_n, 2.0, 1.0, "mid"), (own_n, 2.0, 1.0, "mid"),
-                                     (base_n, 0.5, 1.0, "mid"), (base_n, 10.0, 1.0, "mid"),
-                                     (base_n, 2.0, 0.8, "mid"), (base_n, 2.0, 1.0, "early"),
-                                     (base_n, 2.0, 1.0, "late")], strict=True))
+            base = (base_n, 2.0, 1.0, "mid", False)
+            cases = dict(zip(CASES, [base, (own_n, *base[1:]), (base_n, 0.5, *base[2:]),
+                                     (base_n, 10.0, *base[2:]), (*base[:2], 0.8, *base[3:]),
+                                     (*base[:3], "early", False), (*base[:3], "late", False),
+                                     (*base[:4], True)], strict=True))
             cases = [cases[case] for case in chosen]
-            for n, factor, grip, when in dict.fromkeys(cases):
+            for n, factor, grip, when, stiff in dict.fromkeys(cases):
                 doc = docs[n]
                 cable = doc.cable
                 last = len(doc.shapes) - 1
                 at = {"early": 1, "mid": last // 2, "late": last - 1}[when]
-                plant = make(cable.with_modulus(factor * cable.youngs_modulus),
-                             grip * cable.rest_link_length, cable.n_links)
+                real = cable.with_modulus(factor * cable.youngs_modulus)
+                if stiff:
+                    real = replace(real, axial_modulus=COMPOSITE_AXIAL_MODULI[cable.name])
+                modulus = f"x{factor:g}" + ("Ea" if stiff else "")
+                plant = make(real, grip * cable.rest_link_length, cable.n_links)
                 started = time.process_time()
                 try:
                     run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [at],
                                           stabilized=doc.stabilized, trajectory=doc.trajectory)
                 except RuntimeError as exc:
-                    print(f"{name:>12} {n:>3} {plant_name:>7} x{factor:<4g} {grip:>4.1f}L/n "
+                    print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {grip:>4.1f}L/n "
                           f"{at:>2} plant failed: {exc}")
                     continue
                 plant_seconds = time.process_time() - started
@@ -251,7 +258,7 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES) -> None:
                 else:
                     interval, cover, cpu, clamp = "-", "-", "-", "-"
                     written = "refused: " + "; ".join(run.refusals)[:70]
-                print(f"{name:>12} {n:>3} {plant_name:>7} x{factor:<4g} {grip:>4.1f}L/n "
+                print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {grip:>4.1f}L/n "
                       f"{at:>2} {1e3 * run.open_loop_error:>7.2f} "
                       f"{1e3 * run.closed_loop_error:>7.2f} {run.improvement:>6.1f} "
                       f"{floor_mm:>6} {interval:>13} {cover:>5} {clamp:>7} {cpu:>6}  {written}"

@@ -531,3 +531,41 @@ class DismechPlant(_Gripped):
                                               rest.dismech.triplet_ref_twist_q.numpy().copy(),
                                               clips)
         return points, ok, message
+
+
+def assert_demo_corrected(folder, make_plant):
+    """The sagging demo planned at its own n (12) by ``dloplan plan``, run on the plant
+    ``make_plant(cable)`` (the plan's cable) with one correction at mid-path: the correction is
+    not refused, at least halves the final error, its prediction interval holds the plant's
+    result, and the corrected plan passes every check ``dloplan verify`` runs or is refused
+    naming the check (robot program, verification). Returns the run."""
+    from pathlib import Path
+
+    import yaml
+
+    from dloplan.app import read_plan
+    from dloplan.app.correct import check_correction
+    from dloplan.cli import main
+    from dloplan.correct import CorrectionRefused, run_closed_loop
+
+    data = yaml.safe_load((Path(__file__).parent / "data" / "sagging_demo.yaml").read_text())
+    data["outputs"] = ["json"]
+    scenario = folder / "demo.yaml"
+    scenario.write_text(yaml.safe_dump(data))
+    assert main(["plan", str(scenario), "-o", str(folder / "plan"), "-q"]) in (0, 1)
+    doc = read_plan(folder / "plan" / "plan.json")
+    run = run_closed_loop(make_plant(doc.cable), doc.cable, doc.shapes, doc.grippers,
+                          [(len(doc.shapes) - 1) // 2], stabilized=doc.stabilized,
+                          trajectory=doc.trajectory)
+    assert not run.refusals, run.refusals
+    (correction,) = run.corrections
+    assert run.closed_loop_error < 0.5 * run.open_loop_error
+    low, high = correction.prediction_interval
+    assert low <= run.closed_loop_error <= high
+    try:
+        corrected, _ = check_correction(doc, correction, verify=True)
+    except CorrectionRefused as exc:
+        assert "robot program" in str(exc) or "verification" in str(exc)
+    else:
+        assert corrected.robot.ok and corrected.verification.ok
+    return run

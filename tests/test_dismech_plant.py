@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import level_clips, sagging_guess
+from plants import DismechPlant, assert_demo_corrected, import_dismech
 
 from dloplan.cable import Cable, catalogue_cable
 from dloplan.correct import Plant
@@ -24,8 +25,6 @@ from dloplan.correct import Plant
 def dismech_plant():
     """The plant class, dismech-newton imported once (skipped when it is missing)."""
     pytest.importorskip("warp", reason="the dismech plant needs pip install dloplan[plants]")
-    from plants import DismechPlant, import_dismech
-
     try:
         import_dismech()
     except ImportError as exc:  # pragma: no cover - the extra is installed by make test
@@ -71,3 +70,13 @@ def test_the_rod_at_rest_is_the_models_equilibrium_at_fine_n(dismech_plant):
     assert np.mean(distance) < 5e-5
     assert np.max(distance) < 1e-4
     assert rest[:, 2].min() < 0.3 - 0.1  # a large sag, not a small-load case
+
+
+def test_a_correction_on_the_rod_is_verified_and_its_interval_holds(dismech_plant, tmp_path):
+    """The sagging demo at its own n (12) run on the rod at E x2 (100 edges, each gripper
+    clamping one model link, 8 edges): one correction at mid-path at least halves the final
+    error, its prediction interval holds the plant's, and the corrected plan passes every check
+    `dloplan verify` runs, or is refused naming the check."""
+    assert_demo_corrected(tmp_path, lambda cable: dismech_plant(
+        cable.with_links(100).with_modulus(2 * cable.youngs_modulus), noise=1e-3,
+        n_measured=200, seed=1, clamp=cable.rest_link_length))
