@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from dloplan.cable import GRAVITY, Cable
+from dloplan.cable import GRAVITY
 from dloplan.correct import Plant
 from dloplan.geometry import resample_by_arc_length
 
@@ -80,51 +80,31 @@ def _free_part(x: np.ndarray, segment: float) -> np.ndarray:
     return resample_by_arc_length(x, len(x))
 
 
-class _Gripped:
-    """What the plants share: the clamp in whole segments of their own, the noisy measurement."""
-
-    @property
-    def clamp_links(self) -> int:
-        """Segments held by each gripper (>= 1)."""
-        if self.clamp is None:
-            return 1
-        return max(1, round(self.clamp / self.cable.rest_link_length))
-
-    def clamped_polyline(self, shape: np.ndarray, clips) -> np.ndarray:
-        """``shape`` resampled to the plant's n + 1 points, the clamped segments straight along
-        the clips' u-axes and centred on the clip points, the free part between them of whole
-        segments (:func:`_free_part`)."""
-        x = resample_by_arc_length(shape, self.cable.n_points)
-        k = self.clamp_links
-        offsets = (np.arange(k + 1) - 0.5 * k) * self.cable.rest_link_length
-        u = clips.u_axes
-        x[: k + 1] = clips.positions[0] + offsets[:, None] * u[0]
-        x[::-1][: k + 1] = clips.positions[1] + offsets[:, None] * u[1]
-        x[k : len(x) - k] = _free_part(x[k : len(x) - k], self.cable.rest_link_length)
-        return x
-
-    measure = Plant.measure
+def clamped_polyline(plant: Plant, shape: np.ndarray, clips) -> np.ndarray:
+    """``shape`` resampled to the plant's n + 1 points, the clamped segments straight along the
+    clips' u-axes and centred on the clip points, the free part between them of whole segments
+    (:func:`_free_part`)."""
+    x = resample_by_arc_length(shape, plant.cable.n_points)
+    k = plant.clamp_links
+    offsets = (np.arange(k + 1) - 0.5 * k) * plant.cable.rest_link_length
+    u = clips.u_axes
+    x[: k + 1] = clips.positions[0] + offsets[:, None] * u[0]
+    x[::-1][: k + 1] = clips.positions[1] + offsets[:, None] * u[1]
+    x[k : len(x) - k] = _free_part(x[k : len(x) - k], plant.cable.rest_link_length)
+    return x
 
 
-@dataclass(eq=False)
-class MujocoPlant(_Gripped):
+@dataclass(frozen=True, eq=False)
+class MujocoPlant(Plant):
     """MuJoCo's elastic cable held by two welded grippers (module docstring).
 
     Parameters
     ----------
-    cable : Cable
-        The real cable: its length, diameter, mass and E (bending; G = E / (2 (1 + nu)) for
-        twist); ``cable.n_links`` MuJoCo segments.
-    noise : float
-        Measurement noise per coordinate [m].
-    n_measured : int
-        Points measured along the cable.
-    seed : int
-        Seed of the noise.
-    substeps : int
-        Rest states solved between consecutive clip poses.
-    clamp : float, optional
-        Length each gripper clamps [m] (default one segment); rounded to whole segments.
+    cable, noise, n_measured, seed, substeps, clamp
+        As :class:`dloplan.correct.Plant`: the real cable (its length, diameter, mass and E:
+        bending, G = E / (2 (1 + nu)) for twist; ``cable.n_links`` MuJoCo segments), noise per
+        coordinate [m], points measured, the noise's seed, rest states between consecutive clip
+        poses, the clamped length [m] (default one segment; rounded to whole segments).
     timestep : float
         MuJoCo's time step [s].
     settle : float
@@ -138,18 +118,11 @@ class MujocoPlant(_Gripped):
         (linear and slerp; a jump would yank the welds), then the cable settles.
     """
 
-    cable: Cable
-    noise: float = 0.0
-    n_measured: int = 50
-    seed: int = 0
-    substeps: int = 2
-    clamp: float | None = None
     timestep: float = 1e-3
     settle: float = 5.0
     rest_speed: float = 5e-5
     ramp: float = 0.5
-    _model: object = field(default=None, init=False, repr=False)
-    _data: object = field(default=None, init=False, repr=False)
+    _sim: dict = field(default_factory=dict, init=False, repr=False)
     _states: dict = field(default_factory=dict, init=False, repr=False)
 
     def _build(self) -> None:
@@ -194,8 +167,8 @@ class MujocoPlant(_Gripped):
   </worldbody>
   <equality>{equality}</equality>
 </mujoco>"""
-        self._model = mujoco.MjModel.from_xml_string(xml)
-        self._data = mujoco.MjData(self._model)
+        self._sim["model"] = mujoco.MjModel.from_xml_string(xml)
+        self._sim["data"] = mujoco.MjData(self._sim["model"])
 
     def _stiffness(self) -> float:
         """A segment joint's bending stiffness E I / l [N m / rad]."""
@@ -215,7 +188,7 @@ class MujocoPlant(_Gripped):
         """(n + 1, 3) the cable's points now [m]: the segments' origins and the last's end."""
         import mujoco
 
-        m, d = self._model, self._data
+        m, d = self._sim["model"], self._sim["data"]
         ids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "B_first")]
         ids += [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"B_{j}")
                 for j in range(1, self.cable.n_links - 1)]
@@ -232,8 +205,8 @@ class MujocoPlant(_Gripped):
         import mujoco
         from scipy.spatial.transform import Rotation
 
-        m, d = self._model, self._data
-        x = self.clamped_polyline(shape, clips)
+        m, d = self._sim["model"], self._sim["data"]
+        x = clamped_polyline(self, shape, clips)
         tangents = np.diff(x, axis=0)
         tangents /= np.linalg.norm(tangents, axis=1, keepdims=True)
         frames = []
@@ -263,9 +236,9 @@ class MujocoPlant(_Gripped):
         first time): ``(points (n + 1, 3), ok, message)``."""
         import mujoco
 
-        if self._model is None:
+        if not self._sim:
             self._build()
-        m, d = self._model, self._data
+        m, d = self._sim["model"], self._sim["data"]
         key = np.asarray(shape, dtype=float).tobytes()
         if key in self._states:  # a rest state this plant returned: continue from it exactly
             d.qpos[:], d.mocap_pos[:2], d.mocap_quat[:2] = self._states[key]
@@ -331,8 +304,8 @@ def _angle_about(axis: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.arctan2(np.einsum("ij,ij->i", axis, np.cross(a, b)), np.einsum("ij,ij->i", a, b))
 
 
-@dataclass(eq=False)
-class DismechPlant(_Gripped):
+@dataclass(frozen=True, eq=False)
+class DismechPlant(Plant):
     """dismech-newton's discrete elastic rod held by two clamps (module docstring).
 
     The rod is built straight (its rest shape) with ``cable.n_links`` edges of the cable's
@@ -348,12 +321,11 @@ class DismechPlant(_Gripped):
 
     Parameters
     ----------
-    cable : Cable
-        The real cable; ``cable.n_links`` edges (100 in the benchmark).
-    noise, n_measured, seed, substeps, clamp
-        As :class:`dloplan.correct.Plant`: noise per coordinate [m], points measured, the
-        noise's seed, rest states between consecutive clip poses, clamped length [m] (default
-        one edge; rounded to whole edges).
+    cable, noise, n_measured, seed, substeps, clamp
+        As :class:`dloplan.correct.Plant`: the real cable (``cable.n_links`` edges, 100 in the
+        benchmark), noise per coordinate [m], points measured, the noise's seed, rest states
+        between consecutive clip poses, clamped length [m] (default one edge; rounded to whole
+        edges).
     tolerance : float
         [m] the largest coordinate change of the last Newton step at rest (float32 positions
         resolve about 1e-8 m here).
@@ -366,12 +338,6 @@ class DismechPlant(_Gripped):
         Steps per rest state at most.
     """
 
-    cable: Cable
-    noise: float = 0.0
-    n_measured: int = 50
-    seed: int = 0
-    substeps: int = 2
-    clamp: float | None = None
     tolerance: float = 1e-5
     first_step: float = 0.02
     static_step: float = 1e3
@@ -443,7 +409,7 @@ class DismechPlant(_Gripped):
         """``state`` on the polyline ``shape`` (clamps straight), reference directors transported
         along the curve from the first clip's z-axis (reference twist 0), the free edges
         untwisted, the clamped ones twisted to their clips."""
-        x = self.clamped_polyline(shape, clips) - self._sim["centre"]
+        x = clamped_polyline(self, shape, clips) - self._sim["centre"]
         t = np.diff(x, axis=0)
         t /= np.linalg.norm(t, axis=1, keepdims=True)
         d1 = np.empty_like(t)
