@@ -461,7 +461,8 @@ class DismechPlant(Plant):
                 return b if taken else a, True, f"at rest after {step} steps"
             if taken:
                 a, b = b, a
-                dt = min(4.0 * dt, 1e3 * self.static_step)
+            if taken or moved < self.tolerance:  # a step below the tolerance may find no
+                dt = min(4.0 * dt, 1e3 * self.static_step)  # descent in float32: go on
             else:  # no descent along the Newton step: more inertia (a shorter step)
                 dt = max(dt / 16.0, 1e-6)
         return a, False, (f"not at rest after {self.max_steps} steps (last Newton step "
