@@ -319,6 +319,13 @@ class DismechPlant(Plant):
     step moves no coordinate by more than ``tolerance`` at a step so long that inertia is
     negligible (``static_step``).
 
+    Limits: positions, strains and energies are float32 (dismech-newton's kernels), so a rest
+    state is resolved to about 1e-8 m of position but only to the tolerance where the line
+    search still sees the energy fall: 1e-5 m with E_a = E; with a copper axial modulus
+    (E_a = 267 E) the stretch energy's rounding hides the bending's last changes (Newton steps
+    of 10-40 micrometres stall; 0.1 mm is reached), and on the 3D Ethernet job one rest state
+    did not settle at all (benchmarks/bench_correct.py, "stiff axial").
+
     Parameters
     ----------
     cable, noise, n_measured, seed, substeps, clamp
