@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import signal
 import warnings
 from pathlib import Path
 
@@ -40,6 +41,16 @@ def sagging_guess(cable, distance: float, depth: float = -0.1) -> np.ndarray:
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+@pytest.fixture
+def terminal_sigint():
+    """SIGINT as in a terminal (Python's KeyboardInterrupt handler) for the test, whatever the
+    runner inherited: started in the background of a non-interactive shell, SIGINT is ignored
+    and dloplan, rightly, does not catch it (``catching_interrupts`` keeps it ignored)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
 
 
 @pytest.hookimpl(trylast=True)  # after pytest-xdist's worker has named the groups
