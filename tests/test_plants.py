@@ -42,7 +42,7 @@ def test_mujocos_cable_at_rest_is_the_models_inextensible_equilibrium():
     assert np.max(np.linalg.norm(rest - model, axis=1)) < 2e-4
 
 
-@dataclass(eq=False)
+@dataclass(frozen=True, eq=False)
 class OffsetCamera(MujocoPlant):
     """MuJoCo's cable seen through a camera whose calibration is off by ``offset`` [m]."""
 
