@@ -9,8 +9,6 @@ every clip pose; nothing of dloplan's physics is in it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import pytest
 from conftest import level_clips, sagging_guess
@@ -42,16 +40,6 @@ def test_mujocos_cable_at_rest_is_the_models_inextensible_equilibrium():
     assert np.max(np.linalg.norm(rest - model, axis=1)) < 2e-4
 
 
-@dataclass(frozen=True, eq=False)
-class OffsetCamera(MujocoPlant):
-    """MuJoCo's cable seen through a camera whose calibration is off by ``offset`` [m]."""
-
-    offset: tuple = (0.003, -0.002, 0.004)
-
-    def measure(self, shape, rng):
-        return super().measure(shape, rng) + np.asarray(self.offset)
-
-
 @pytest.mark.slow
 def test_a_correction_on_the_mujoco_cable_is_verified_and_its_interval_holds(tmp_path):
     """The sagging demo at its own n (12), run on MuJoCo's cable at E x2 (60 segments, each
@@ -60,9 +48,10 @@ def test_a_correction_on_the_mujoco_cable_is_verified_and_its_interval_holds(tmp
     off the held points within the noise and taken out (issue 35), one correction at mid-path
     lowers the final error, its prediction interval holds the plant's, and the corrected plan
     passes every check `dloplan verify` runs, or is refused naming the check."""
-    run = assert_demo_corrected(tmp_path, lambda cable: OffsetCamera(
+    offset = (0.003, -0.002, 0.004)
+    run = assert_demo_corrected(tmp_path, lambda cable: MujocoPlant(
         cable.with_links(5 * cable.n_links).with_modulus(2 * cable.youngs_modulus),
-        noise=1e-3, n_measured=200, seed=1, clamp=cable.rest_link_length))
+        noise=1e-3, n_measured=200, seed=1, clamp=cable.rest_link_length, offset=offset))
     model = run.corrections[0].model
     assert model.offset_estimated, model.offset_note
-    assert np.all(np.abs(model.offset - np.asarray(OffsetCamera.offset)) < 1e-3)
+    assert np.all(np.abs(model.offset - np.asarray(offset)) < 1e-3)
