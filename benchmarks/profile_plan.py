@@ -87,6 +87,9 @@ def print_imports(rows, top: int) -> None:
 INNER = r"""
 import cProfile, json, os, pstats, sys, time
 t_start = time.process_time()
+import dloplan.cli as cli
+for name, value in cli.BLAS_THREADS.items():  # as the command sets them (cli.run)
+    os.environ.setdefault(name, value)
 from numba.core import base, dispatcher
 calls, refresh = {}, []
 original = dispatcher.Dispatcher._compile_for_args
@@ -114,9 +117,9 @@ def timed_load(cache, sig, context):
     loads.append((cache._name, time.process_time() - c0, data is not None))
     return data
 jit.KERNEL_LOAD = timed_load
-import dloplan.cli as cli
 from dloplan.app import writers
-timeline = [("interpreter start", t_start), ("import dloplan.cli", time.process_time())]
+timeline = [("interpreter start", t_start),
+            ("imports (numba, dloplan.cli, dloplan.app)", time.process_time())]
 stage = cli.Console.stage
 def timed_stage(self, text):
     timeline.append((text[:70], time.process_time()))
