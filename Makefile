@@ -30,8 +30,10 @@ browser:
 	  && (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium \
 	  >/dev/null) ; } || echo "chromium not installed: the browser test will be skipped"
 
+# --durations=10: the ten slowest test phases (wall), to see where the suite's time goes;
+# benchmarks/bench_test_suite.py gives CPU per test and module
 test: lint browser
-	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
+	$(BIN)/python -m pytest -q -n 2 --dist loadgroup --durations=10
 
 # some benchmarks reuse the tests' scene builders (tests/ on the path)
 bench: $(STAMP)

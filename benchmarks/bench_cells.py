@@ -52,7 +52,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from dloplan.robot.kinematics import IKOptions, forward, inverse
-from dloplan.robot.urdf_cell import PRESETS, check_cell_path, search_cell_placement
+from dloplan.robot.path import check_cell_path
+from dloplan.robot.placement import search_cell_placement
+from dloplan.robot.urdf_cell import PRESETS
 
 
 def _ik(arm, n=40):

@@ -11,22 +11,33 @@ Part 2, plants: every example plan (sagging demo, 3D Ethernet, embedded U demo) 
 ``dloplan plan`` at its own n and at n = 20, run open loop and corrected once on
 
 * ``chain``: dloplan's own chain on 100 links (the same physics, finer);
+* ``dismech``: dismech-newton's discrete elastic rod (``tests/plants.py``: 100 edges whatever
+  the plan's n, ``DISMECH_EDGES``; clamped edges prescribed with their twist; a static solve per
+  rest state, 0.1-0.5 s CPU; optional, skipped when ``dismech-newton`` is missing);
 * ``mujoco``: MuJoCo 3.x's elastic cable (``tests/plants.py``: capsules on ball joints, Cosserat
   bending and twist, welded grippers; 5 segments per model link, ``MUJOCO_SEGMENTS``;
-  optional, skipped when ``mujoco`` is missing),
+  optional; not run by default: a rest state is a simulation to rest, minutes per row at the
+  examples' n = 12 and about an hour at n = 20, ``tests/plants.py`` says why),
 
-one factor at a time around the base case (n = 20, E x2, each gripper clamping one model link
-L / n, correction at mid-path): the plan's own n; E x0.5 and x10; a grip of 0.8 L / n; the
-correction early (shape 1) and late (T - 1). Columns: final mean error against the plan's
-stabilized target (curves at equal arc length) open loop and closed loop [mm], their ratio,
-the floor (the least error any correction of the target's clips leaves that plant,
-``reachable_error``; ``--no-floor`` skips it), the correction's prediction interval of the final
-error [mm] and whether it covers the plant's, the clamp length the correction estimated [mm]
-("model": not told by the measurement, the model's L / n kept), whether the correction as
-``dloplan correct`` writes it passes ``dloplan verify`` (``written``: checked, written, read
-back and verified) or what refused it, and the correction's CPU time [ms]. 1 mm noise, 200 points.
+one factor at a time around the base case (n = 20, E x2, each gripper clamping one model link L / n,
+correction at mid-path): the plan's own n; E x0.5 and x10; a grip of 0.8 L / n; the correction early
+(shape 1) and late (T - 1) (``--cases``). Columns: final mean error against the plan's stabilized
+target (curves at equal arc length) open loop and closed loop [mm], their ratio, the floor (the
+least error any correction of the target's clips leaves that plant, ``reachable_error``;
+``--no-floor`` skips it; computed on the chain only: its finite differences take SciPy's relative
+step ``diff_step`` x |x| (SciPy 1.17; 1.5e-8 at x = 0), 1e-8 m where the fit starts, below the
+solver tolerance of another simulator (dismech's 1e-5 m in float32), so on those plants the fit
+stops at its first point and the "floor" would be the open loop's error), the correction's
+prediction interval of the final error [mm] and whether it covers the plant's, the clamp length the
+correction estimated [mm] ("model": not told by the measurement, the model's L / n kept), whether
+the correction as ``dloplan correct`` writes it passes ``dloplan verify`` (``written``: checked,
+written, read back and verified) or what refused it, and the correction's CPU time [ms]. 1 mm noise,
+200 points.
 
-Run: ``PYTHONPATH=tests python benchmarks/bench_correct.py [--plants chain,mujoco] [--no-floor]``.
+Run: ``PYTHONPATH=tests python benchmarks/bench_correct.py [--part 2]
+[--plants chain,dismech,mujoco] [--cases base,own n,...] [--plans ...] [--no-floor]``.
+Part 2 with the default plants (chain and dismech, 21 rows each) costs about 15 minutes of CPU,
+most of it planning the six plans and the chain's floors; a dismech row is 3-15 s of plant CPU.
 Timings on this machine are shared with other sessions (2 cores); read the CPU column.
 """
 
@@ -49,6 +60,7 @@ import yaml
 
 from dloplan.app import read_plan, verify_plan, write_plan
 from dloplan.app.correct import CorrectionService, check_correction
+from dloplan.cable import COMPOSITE_AXIAL_MODULI
 from dloplan.cli import main as dloplan_main
 from dloplan.correct import CorrectionRefused, Plant, reachable_error, run_closed_loop
 from dloplan.geometry import resample_by_arc_length
@@ -132,6 +144,16 @@ MUJOCO_SEGMENTS = 5
 to rest at the examples' n = 12 (2 per link did not)."""
 
 
+STIFF_AXIAL_TOLERANCE = 1e-4
+"""[m] the rod's Newton tolerance with the copper axial modulus (267 E): in float32 the stretch
+energy's rounding hides the bending energy's last changes, and the line search stalls with
+Newton steps of 10-40 micrometres (a tenth of the measurement's noise; 1e-5 m otherwise)."""
+
+DISMECH_EDGES = 100
+"""Edges of the dismech-newton rod whatever the plan's n (a clamp of 0.8 L / n at n = 20 is 4
+edges, at n = 12 7 edges: 0.84 L / n)."""
+
+
 def plants(names):
     out = {"chain": lambda cable, clamp, links: Plant(cable.with_links(100), noise=NOISE,
                                                       n_measured=POINTS, seed=1, clamp=clamp)}
@@ -145,6 +167,17 @@ def plants(names):
             out["mujoco"] = lambda cable, clamp, links: MujocoPlant(
                 cable.with_links(MUJOCO_SEGMENTS * links), noise=NOISE, n_measured=POINTS,
                 seed=1, clamp=clamp)
+    if "dismech" in names:
+        try:
+            from plants import DismechPlant, import_dismech
+
+            import_dismech()
+        except ImportError as exc:
+            print(f"dismech plant skipped: {exc} (pip install dloplan[plants])")
+        else:
+            out["dismech"] = lambda cable, clamp, links: DismechPlant(
+                cable.with_links(DISMECH_EDGES), noise=NOISE, n_measured=POINTS, seed=1,
+                clamp=clamp)
     return {k: v for k, v in out.items() if k in names}
 
 
@@ -163,7 +196,14 @@ def written_and_verified(doc, correction, folder: Path) -> str:
         f"written, verify FAILS: {'; '.join(verification.messages)[:50]}"
 
 
-def part2(names, floor: bool, folder: Path, plans, n_cases: int = 7) -> None:
+CASES = ("base", "own n", "E x0.5", "E x10", "grip 0.8", "early", "late", "stiff axial")
+"""The cases around the base (n = 20, E x2, grip L / n, correction at mid-path), one factor at a
+time; "stiff axial": the plant's cable nearly inextensible (the composite cables' copper axial
+modulus, ``COMPOSITE_AXIAL_MODULI``, 2 GPa; the plans' model stretches with E_a = E), marked
+"Ea" in the E column."""
+
+
+def part2(names, floor: bool, folder: Path, plans, chosen=CASES) -> None:
     print("\nPart 2: plants; final mean error [mm] against the plan's stabilized target")
     print(f"{'plan':>12} {'n':>3} {'plant':>7} {'E':>5} {'grip':>6} {'K':>2} {'open':>7} "
           f"{'closed':>7} {'ratio':>6} {'floor':>6} {'interval':>13} {'cover':>5} "
@@ -179,31 +219,39 @@ def part2(names, floor: bool, folder: Path, plans, n_cases: int = 7) -> None:
         base_n = 20
         own_n = next(k for k in docs if k != 20) if len(docs) > 1 else 20
         for plant_name, make in makers.items():
-            cases = [(base_n, 2.0, 1.0, "mid"), (own_n, 2.0, 1.0, "mid"),
-                     (base_n, 0.5, 1.0, "mid"), (base_n, 10.0, 1.0, "mid"),
-                     (base_n, 2.0, 0.8, "mid"), (base_n, 2.0, 1.0, "early"),
-                     (base_n, 2.0, 1.0, "late")][:n_cases]
-            for n, factor, grip, when in dict.fromkeys(cases):
+            base = (base_n, 2.0, 1.0, "mid", False)
+            cases = dict(zip(CASES, [base, (own_n, *base[1:]), (base_n, 0.5, *base[2:]),
+                                     (base_n, 10.0, *base[2:]), (*base[:2], 0.8, *base[3:]),
+                                     (*base[:3], "early", False), (*base[:3], "late", False),
+                                     (*base[:4], True)], strict=True))
+            cases = [cases[case] for case in chosen]
+            for n, factor, grip, when, stiff in dict.fromkeys(cases):
                 doc = docs[n]
                 cable = doc.cable
                 last = len(doc.shapes) - 1
                 at = {"early": 1, "mid": last // 2, "late": last - 1}[when]
-                plant = make(cable.with_modulus(factor * cable.youngs_modulus),
-                             grip * cable.rest_link_length, cable.n_links)
+                real = cable.with_modulus(factor * cable.youngs_modulus)
+                if stiff:
+                    real = replace(real, axial_modulus=COMPOSITE_AXIAL_MODULI[cable.name])
+                modulus = f"x{factor:g}" + ("Ea" if stiff else "")
+                plant = make(real, grip * cable.rest_link_length, cable.n_links)
+                if stiff and plant_name == "dismech":
+                    plant = replace(plant, tolerance=STIFF_AXIAL_TOLERANCE)
                 started = time.process_time()
                 try:
                     run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [at],
                                           stabilized=doc.stabilized, trajectory=doc.trajectory)
                 except RuntimeError as exc:
-                    print(f"{name:>12} {n:>3} {plant_name:>7} x{factor:<4g} {grip:>4.1f}L/n "
+                    print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {grip:>4.1f}L/n "
                           f"{at:>2} plant failed: {exc}")
                     continue
                 plant_seconds = time.process_time() - started
                 floor_mm = "-"
-                if floor:
-                    budget = 200 if plant_name == "chain" else 40  # MuJoCo: ~1 s a solve
+                if floor and plant_name != "chain":
+                    floor_mm = "n/a"  # reachable_error's finite differences: module docstring
+                elif floor:
                     best = reachable_error(plant, doc.grippers.clip_poses(last), run.reference,
-                                           run.open_loop[-1], max_evaluations=budget)
+                                           run.open_loop[-1], max_evaluations=200)
                     floor_mm = f"{1e3 * best:.2f}"
                 if run.corrections:
                     (c,) = run.corrections
@@ -217,7 +265,7 @@ def part2(names, floor: bool, folder: Path, plans, n_cases: int = 7) -> None:
                 else:
                     interval, cover, cpu, clamp = "-", "-", "-", "-"
                     written = "refused: " + "; ".join(run.refusals)[:70]
-                print(f"{name:>12} {n:>3} {plant_name:>7} x{factor:<4g} {grip:>4.1f}L/n "
+                print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {grip:>4.1f}L/n "
                       f"{at:>2} {1e3 * run.open_loop_error:>7.2f} "
                       f"{1e3 * run.closed_loop_error:>7.2f} {run.improvement:>6.1f} "
                       f"{floor_mm:>6} {interval:>13} {cover:>5} {clamp:>7} {cpu:>6}  {written}"
@@ -226,11 +274,10 @@ def part2(names, floor: bool, folder: Path, plans, n_cases: int = 7) -> None:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--plants", default="chain,mujoco")
+    parser.add_argument("--plants", default="chain,dismech")
     parser.add_argument("--no-floor", action="store_true")
-    parser.add_argument("--cases", type=int, default=7,
-                        help="the first CASES cases per plan and plant (base, own n, E x0.5, "
-                        "E x10, grip 0.8, early, late)")
+    parser.add_argument("--cases", default=",".join(CASES),
+                        help="comma-separated, of: " + ", ".join(CASES))
     parser.add_argument("--plans", default=",".join(SCENARIOS),
                         help="comma-separated, of: " + ", ".join(SCENARIOS))
     parser.add_argument("--part", choices=["1", "2", "both"], default="both")
@@ -241,7 +288,7 @@ def main() -> int:
             part1(Path(folder))
         if args.part in ("2", "both"):
             part2(args.plants.split(","), not args.no_floor, Path(folder),
-                  args.plans.split(","), args.cases)
+                  args.plans.split(","), args.cases.split(","))
     return 0
 
 

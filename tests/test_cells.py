@@ -12,6 +12,7 @@ from scipy.spatial.transform import Rotation
 
 from dloplan.robot import arm_clearance, forward, yumi
 from dloplan.robot.chain import CellArm, capsules, in_base_frame
+from dloplan.robot.described import pair_clearance
 from dloplan.robot.description import (
     capsule_from_points,
     capsules_from_points,
@@ -20,14 +21,12 @@ from dloplan.robot.description import (
 )
 from dloplan.robot.kinematics import IKOptions, inverse
 from dloplan.robot.kinematics import forward as chain_forward
-from dloplan.robot.reachability import ReachOptions
+from dloplan.robot.path import ReachOptions, check_cell_path
+from dloplan.robot.placement import search_cell_placement
 from dloplan.robot.urdf_cell import (
     PRESETS,
     ArmSpec,
     cell_from_specs,
-    check_cell_path,
-    pair_clearance,
-    search_cell_placement,
     ur5e_pair,
     yumi_cell,
 )
@@ -376,3 +375,43 @@ def test_options_are_used():
     pos, rot = _cable_path("ur5e_pair")
     strict = check_cell_path(c, pos, rot, options=ReachOptions(min_clearance=0.5))
     assert not strict.ok and "clearance" in strict.message
+
+
+def test_the_reach_sphere_rejects_exactly_what_the_ik_gives_up_on():
+    """within_reach (no IK) flags a target outside an arm's reach sphere where the IK itself
+    answers "out of reach" without iterating, and only there."""
+    from dloplan.robot.placement import within_reach
+
+    c = cell("ur5e_pair")
+    pos, rot = _cable_path("ur5e_pair")
+    mats = rot.as_matrix().reshape(len(pos), 2, 3, 3)
+    offsets = np.array([[0.0, 0.0, 0.0], [0.45, 0.0, 0.0], [0.9, 0.3, 0.0], [-0.3, 0.0, 0.6]])
+    inside = within_reach(c, pos, offsets)
+    assert inside.shape == (4, len(pos), 2) and inside[0].all() and not inside[2].any()
+    for i, offset in enumerate(offsets):
+        for k in range(len(pos)):
+            for a, arm in enumerate(c.arms):
+                result = inverse(arm, pos[k, a] + offset, Rotation.from_matrix(mats[k, a]),
+                                 options=IKOptions(restarts=0))
+                assert result.message.startswith("out of reach") == (not inside[i, k, a])
+
+
+def test_the_placement_search_ranks_as_if_it_scored_every_candidate():
+    """The bound-ordered scoring (candidates whose bound cannot reach the best three are never
+    solved) picks the offset and verdict that scoring every candidate picks."""
+    from dloplan.robot.placement import PLACEMENT_TRIES, target_score
+
+    c = cell("ur5e_pair")
+    pos, rot = _cable_path("ur5e_pair")
+    shifted = pos + [0.3, 0.0, 0.0]
+    mats = rot.as_matrix().reshape(len(pos), 2, 3, 3)
+    grid = np.stack(np.meshgrid(np.arange(-0.6, 0.61, 0.15), np.arange(-0.3, 0.31, 0.15),
+                                [0.0], indexing="ij"), -1).reshape(-1, 3)
+    quick = IKOptions(restarts=1)
+    scores = [target_score(c, shifted + o, mats, quick, -float(np.linalg.norm(o))) for o in grid]
+    ranked = sorted(range(len(grid)), key=lambda i: scores[i], reverse=True)
+    expected = next((i for i in ranked[:PLACEMENT_TRIES]
+                     if check_cell_path(c, shifted + grid[i], rot).ok), ranked[0])
+    offset, verdict = search_cell_placement(c, shifted, rot, offsets=grid)
+    np.testing.assert_array_equal(offset, grid[expected])
+    assert verdict.ok == check_cell_path(c, shifted + grid[expected], rot).ok

@@ -232,16 +232,6 @@ def test_the_demo_prints_no_warning(tmp_path, capsys):
     assert report.split("<p>", 1)[1].startswith("verdict: ok")  # the report opens with it
 
 
-@pytest.fixture
-def terminal_sigint():
-    """SIGINT as in a terminal (Python's KeyboardInterrupt handler) for the test, whatever the
-    runner inherited: started in the background of a non-interactive shell, SIGINT is ignored
-    and the CLI, rightly, does not catch it."""
-    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
-    yield
-    signal.signal(signal.SIGINT, previous)
-
-
 def test_a_dropped_ctrl_c_is_raised_again_before_anything_is_written(tmp_path, monkeypatch,
                                                                       capsys, terminal_sigint):
     """A KeyboardInterrupt raised inside a finalizer or a ctypes callback is reported as

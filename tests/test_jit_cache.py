@@ -85,7 +85,7 @@ def test_a_numba_without_the_cache_internals_keeps_its_own_save(monkeypatch):
     assert caching.IndexDataCacheFile.save is jit.NUMBA_SAVE
 
 
-def test_a_signal_during_a_cached_load_is_raised_after_the_load(monkeypatch):
+def test_a_signal_during_a_cached_load_is_raised_after_the_load(monkeypatch, terminal_sigint):
     """A Ctrl-C that comes while numba rebuilds a cached overload waits for the rebuild to end
     (a half-linked library segfaulted, 1 in 20 Ctrl-Cs in identify), then ends the run."""
     jit.install_cache_lock()

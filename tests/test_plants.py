@@ -11,17 +11,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import yaml
 from conftest import level_clips, sagging_guess
 
 pytest.importorskip("mujoco", minversion="3.1", reason="the MuJoCo plant needs "
                     "pip install dloplan[plants]")
 
-from plants import MujocoPlant  # noqa: E402
+from plants import MujocoPlant, assert_demo_corrected  # noqa: E402
 
-from dloplan.app.correct import check_correction  # noqa: E402
 from dloplan.cable import COMPOSITE_AXIAL_MODULI, catalogue_cable  # noqa: E402
-from dloplan.correct import CorrectionRefused, run_closed_loop  # noqa: E402
 from dloplan.correct.model_error import clamped_equilibrium  # noqa: E402
 
 
@@ -50,31 +47,6 @@ def test_a_correction_on_the_mujoco_cable_is_verified_and_its_interval_holds(tmp
     rest): one correction at mid-path lowers the final
     error, its prediction interval holds the plant's, and the corrected plan passes every check
     `dloplan verify` runs, or is refused naming the check."""
-    from pathlib import Path
-
-    from dloplan.app import read_plan
-    from dloplan.cli import main
-
-    data = yaml.safe_load((Path(__file__).parent / "data" / "sagging_demo.yaml").read_text())
-    data["outputs"] = ["json"]
-    scenario = tmp_path / "demo.yaml"
-    scenario.write_text(yaml.safe_dump(data))
-    assert main(["plan", str(scenario), "-o", str(tmp_path / "plan"), "-q"]) in (0, 1)
-    doc = read_plan(tmp_path / "plan" / "plan.json")
-    cable = doc.cable
-    last = len(doc.shapes) - 1
-    plant = MujocoPlant(cable.with_links(5 * cable.n_links).with_modulus(2 * cable.youngs_modulus),
-                        noise=1e-3, n_measured=200, seed=1, clamp=cable.rest_link_length)
-    run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [last // 2],
-                          stabilized=doc.stabilized, trajectory=doc.trajectory)
-    assert not run.refusals, run.refusals
-    (correction,) = run.corrections
-    assert run.closed_loop_error < 0.5 * run.open_loop_error
-    low, high = correction.prediction_interval
-    assert low <= run.closed_loop_error <= high
-    try:
-        corrected, _ = check_correction(doc, correction, verify=True)
-    except CorrectionRefused as exc:  # refused: with the check named
-        assert "robot program" in str(exc) or "verification" in str(exc)
-    else:
-        assert corrected.robot.ok and corrected.verification.ok
+    assert_demo_corrected(tmp_path, lambda cable: MujocoPlant(
+        cable.with_links(5 * cable.n_links).with_modulus(2 * cable.youngs_modulus),
+        noise=1e-3, n_measured=200, seed=1, clamp=cable.rest_link_length))

@@ -12,8 +12,8 @@ from robot_plans import example_plan
 from dloplan.robot import RobotCell, robot_program
 from dloplan.robot.cell_program import cell_program
 from dloplan.robot.motion import JointMotion
+from dloplan.robot.path import ReachOptions
 from dloplan.robot.peaks import motion_peaks
-from dloplan.robot.reachability import ReachOptions
 from dloplan.robot.urdf_cell import ur5e_pair
 from dloplan.trajectory import MotionLimits, trajectory_from_grippers
 from dloplan.trajectory.timelaw import Profile

@@ -19,7 +19,8 @@ from dloplan.robot.actions import ProgramTimeline, action_clock, place_actions
 from dloplan.robot.chain import in_base_frame
 from dloplan.robot.kinematics import forward, inverse
 from dloplan.robot.motion import JointMotion
-from dloplan.robot.urdf_cell import check_cell_path, panda_pair, ur5e_pair
+from dloplan.robot.path import check_cell_path
+from dloplan.robot.urdf_cell import panda_pair, ur5e_pair
 from dloplan.trajectory import GripperAction
 from dloplan.trajectory.timelaw import Profile
 

@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation
 from ..cable import Cable
 from ..planning.tuning import PlannerWeights
 from ..robot.cell import RobotCell
-from ..robot.urdf_cell import DescribedCell
+from ..robot.described import DescribedCell
 from ..trajectory import MotionLimits
 
 if TYPE_CHECKING:

@@ -315,7 +315,7 @@ def with_program(doc: PlanDocument, program) -> PlanDocument:
     trajectory down (a joint over its speed limit), the document's trajectory and cycle are
     the program's timing."""
     from ..robot.cell_program import cell_name
-    from ..robot.reachability import format_offset
+    from ..robot.placement import format_offset
 
     section = RobotSection(program.ok, program.message, cell_to_dict(program.cell),
                            program.to_dict())

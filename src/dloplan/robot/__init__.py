@@ -1,8 +1,9 @@
-"""Robot side of a plan for an ABB YuMi (IRB 14000): forward and inverse kinematics of both
-7-DoF arms (plain numpy on the URDF chain), joint limits, the gripper's TCP, arm-arm clearance
-as capsules, per-pose reachability along a path and a search for the job's placement; the
-robot cell (placement, SmartGripper tools, work object), the arm assignment, and the verified
-robot program that the RAPID writer writes (:func:`robot_program`).
+"""Robot side of a plan: dual-arm cells from descriptions (:class:`DescribedCell`: the UR5e and
+Panda pairs from URDF, the ABB YuMi, :func:`yumi`), forward and inverse kinematics of their arms
+(plain numpy on the chain, the IK's solve compiled), joint limits, TCPs, arm-arm clearance as
+capsules, the path checks and the placement searches; the YuMi's plug-in (its RAPID cell with
+SmartGripper tools and work object, arm angle, confdata) and the verified robot program that
+the RAPID writer writes (:func:`robot_program`).
 
 See ``docs/robot.md`` for the frames, the TCP mapping, the checks and how to run a program.
 """
@@ -11,8 +12,10 @@ from .armangle import arm_angle
 from .assignment import ArmAssignment, assign_arms
 from .cell import SMARTGRIPPER_SOURCE, RobotCell, Tool
 from .chain import CellArm, capsules
+from .checks import CheckRow
 from .collision import arm_clearance, segment_distance
 from .confdata import confdata
+from .described import DescribedCell
 from .kinematics import (
     IKOptions,
     IKResult,
@@ -26,17 +29,11 @@ from .kinematics import (
     solve_many,
     wrist_flip,
 )
-from .program import CHECKS, CheckRow, RobotProgram, robot_program
-from .reachability import (
-    Placement,
-    Reachability,
-    ReachOptions,
-    check_path,
-    check_reachability,
-    search_placement,
-    tcp_poses_from_clips,
-)
-from .yumi import ARMS, Gripper, Robot, yumi, yumi_arm
+from .path import ReachOptions
+from .placement import Placement, search_placement
+from .program import CHECKS, RobotProgram, robot_program
+from .reachability import Reachability, check_path, check_reachability, tcp_poses_from_clips
+from .yumi import ARMS, Gripper, yumi, yumi_arm
 
 __all__ = [
     "ARMS",
@@ -44,13 +41,13 @@ __all__ = [
     "ArmAssignment",
     "CHECKS",
     "CheckRow",
+    "DescribedCell",
     "Gripper",
     "IKOptions",
     "IKResult",
     "Placement",
     "ReachOptions",
     "Reachability",
-    "Robot",
     "RobotCell",
     "RobotProgram",
     "SMARTGRIPPER_SOURCE",

@@ -20,17 +20,16 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .chain import DEFAULT_TCP_IN_CLIP, as_rotation, as_vector
-from .reachability import ReachOptions
+from .described import ARMS, DescribedCell
+from .path import ReachOptions
 from .yumi import (
     ARM_ANGLE_REFERENCE,
-    ARMS,
     BASE_ABOVE_FOOT,
     DEFAULT_TCP_OFFSET,
     DEFAULT_TOOL0_OFFSET,
     DEFAULT_TOOL0_ROTATION,
     Gripper,
-    Robot,
-    yumi_arm,
+    yumi,
 )
 
 SMARTGRIPPER_SOURCE = (
@@ -216,16 +215,16 @@ class RobotCell:
                 raise ValueError(f"RobotCell.arm_angle_reference ({side}): expected a nonzero "
                                  f"direction, got {r.tolist()}")
         set_(self, "arm_angle_reference", tuple(r / np.linalg.norm(r) for r in references))
-        arms = [yumi_arm(side, gripper=tool.gripper(self.tool0_offset, self.tool0_rotation),
-                         base_position=self.base_position, base_rotation=self.base_rotation,
-                         arm_angle_reference=reference)
-                for side, tool, reference in zip(ARMS, tools, self.arm_angle_reference,
-                                                 strict=True)]
-        set_(self, "_robot", Robot(*arms))
+        set_(self, "_robot", yumi(
+            gripper=tuple(tool.gripper(self.tool0_offset, self.tool0_rotation)
+                          for tool in tools),
+            base_position=self.base_position, base_rotation=self.base_rotation,
+            arm_angle_reference=self.arm_angle_reference, table_height=height))
 
     @property
-    def robot(self) -> Robot:
-        """The YuMi placed in the work frame, each arm with its tool's TCP."""
+    def robot(self) -> DescribedCell:
+        """The YuMi placed in the work frame as a described cell (:func:`~dloplan.robot.
+        yumi.yumi`), each arm with its tool's TCP, on the cell's table."""
         return self._robot
 
     def to_base(self, positions) -> np.ndarray:

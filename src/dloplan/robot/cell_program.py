@@ -1,7 +1,7 @@
 """The robot program of a plan on any cell, behind one interface.
 
 Two kinds of cell run a plan: the YuMi's :class:`~dloplan.robot.cell.RobotCell` (its own
-kinematics, arm angles, RAPID) and a :class:`~dloplan.robot.urdf_cell.DescribedCell` (any two
+kinematics, arm angles, RAPID) and a :class:`~dloplan.robot.described.DescribedCell` (any two
 arms from URDF). Both satisfy :class:`Cell`; :func:`make_program` makes the verified program
 of either, and both programs satisfy :class:`Program`: the pipeline, the plan document, the
 writers and the report use only that interface. This module is the one place that tells the
@@ -25,13 +25,13 @@ import numpy as np
 
 from .cell import RobotCell
 from .chain import capsules
+from .checks import SLOW_ROUNDS, CheckedProgram, CheckRow, check_summary
+from .described import DescribedCell
 from .motion import JointMotion
+from .path import CHECKS
 from .peaks import motion_peaks, slowed_scale
-from .program import SLOW_ROUNDS, CheckedProgram, CheckRow, check_summary, robot_program
-from .urdf_cell import CHECKS, CellPlan, DescribedCell, verify_on_cell
-
-LOWER_IS_WORSE = {"joint limits", "clearance", "table clearance"}
-"""Checks of a described cell whose worst row is the lowest value."""
+from .program import robot_program
+from .urdf_cell import CellPlan, verify_on_cell
 
 URSCRIPT_JOINTS = 6
 """Joints per arm of the arms a Universal Robots controller runs (URScript's ``movej``)."""
@@ -199,7 +199,7 @@ class CellProgram(CheckedProgram):
 
     def summary(self) -> list[dict]:
         """Per check: passed, the worst value and where, how many rows fail and the first."""
-        return check_summary(self.checks, CHECKS, LOWER_IS_WORSE)
+        return check_summary(self.checks, CHECKS)
 
     def to_dict(self) -> dict:
         """JSON-ready: placement, assignment, targets with their verified joints, checks."""
@@ -275,7 +275,7 @@ def cell_program(cell: DescribedCell, trajectory) -> CellProgram:
     segment and arm the peak joint speed and (where the arm has published limits) joint
     acceleration along the time law. Segments over a joint speed limit are slowed (the law's
     speed scale, :func:`~dloplan.robot.peaks.slowed_scale`) up to
-    :data:`~dloplan.robot.program.SLOW_ROUNDS` times; the joints' path does not change."""
+    :data:`~dloplan.robot.checks.SLOW_ROUNDS` times; the joints' path does not change."""
     plan = verify_on_cell(cell, trajectory)
     arm_clips = tuple(trajectory.arm_clips)
     left_clip = arm_clips[1] if plan.swapped else arm_clips[0]
@@ -316,13 +316,13 @@ def _speed_rows(plan: CellPlan, peaks) -> tuple[CheckRow, ...]:
 
 def placement_message(cell, grippers, trajectory) -> str:
     """Where on the table the cell runs a plan best (``dloplan verify --place``): the YuMi's
-    grid search over shifts of the whole job (:func:`dloplan.robot.search_placement`, the
+    grid search over shifts of the whole job (:func:`dloplan.robot.placement.search_placement`, the
     robot where the cell places it), or the
-    described cell's (:func:`~dloplan.robot.urdf_cell.search_cell_placement`, verified along
+    described cell's (:func:`~dloplan.robot.placement.search_cell_placement`, verified along
     the timed trajectory); one line."""
     from scipy.spatial.transform import Rotation
 
-    from .reachability import search_placement
+    from .placement import search_placement
 
     if isinstance(cell, RobotCell):
         return search_placement(grippers.positions, Rotation.from_matrix(grippers.matrices),

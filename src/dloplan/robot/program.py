@@ -60,6 +60,7 @@ from scipy.spatial.transform import Rotation
 from .armangle import arm_angle
 from .assignment import ArmAssignment, assign_arms
 from .cell import RobotCell
+from .checks import SLOW_ROUNDS, CheckedProgram, CheckRow, check_summary
 from .collision import arm_clearance
 from .confdata import confdata
 from .kinematics import forward, solve_from
@@ -86,68 +87,7 @@ CHECKS = ("assignment", "reach", "round trip", "joint limits", "clearance", "con
 MAX_TRIES = 2
 """Joint solutions (best ranked first) replayed before the program settles for the first."""
 
-SLOW_ROUNDS = 3
-"""Times a program over a joint-speed limit is slowed (re-timed) before it is refused."""
-
-_LOWER_IS_WORSE = {"assignment", "joint limits", "clearance"}
 _TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
-
-
-@dataclass(frozen=True)
-class CheckRow:
-    """One line of the verdict table.
-
-    Attributes
-    ----------
-    check : str
-        One of :data:`CHECKS`.
-    target : int or None
-        Index of the program target (None for a per-shape assignment row).
-    label : str
-        ``"approach"``, ``"shape k"`` or ``"retreat"``.
-    shape : int
-        The plan's shape index the target belongs to (approach: 0, retreat: the last).
-    arm : str
-        ``"left"``, ``"right"`` or ``"both"``.
-    value : float
-        The checked quantity, in ``unit``.
-    unit : str
-    ok : bool
-    note : str
-        What it means when not obvious (closest links, joint that limits, ...).
-    """
-
-    check: str
-    target: int | None
-    label: str
-    shape: int
-    arm: str
-    value: float
-    unit: str
-    ok: bool
-    note: str = ""
-
-    def to_dict(self) -> dict:
-        """JSON-ready."""
-        return {"check": self.check, "target": self.target, "label": self.label,
-                "shape": self.shape, "arm": self.arm, "value": float(self.value),
-                "unit": self.unit, "ok": bool(self.ok), "note": self.note}
-
-
-class CheckedProgram:
-    """The verdict of a program from its ``checks`` (a tuple of :class:`CheckRow`)."""
-
-    checks: tuple[CheckRow, ...]
-
-    @property
-    def ok(self) -> bool:
-        """Every check passes: the program may be written and run."""
-        return all(row.ok for row in self.checks)
-
-    @property
-    def failures(self) -> tuple[CheckRow, ...]:
-        """The rows that fail."""
-        return tuple(row for row in self.checks if not row.ok)
 
 
 @dataclass(frozen=True, eq=False)
@@ -301,7 +241,7 @@ class RobotProgram(CheckedProgram):
 
     def summary(self) -> list[dict]:
         """Per check: passed, the worst value and where, how many rows fail and the first."""
-        return check_summary(self.checks, CHECKS, _LOWER_IS_WORSE)
+        return check_summary(self.checks, CHECKS)
 
     @property
     def message(self) -> str:
@@ -346,26 +286,6 @@ class RobotProgram(CheckedProgram):
             "summary": self.summary(),
             "checks": [row.to_dict() for row in self.checks],
         }
-
-
-def check_summary(rows, checks, lower_is_worse) -> list[dict]:
-    """Per check of ``checks`` (in that order) with rows: ``check``, ``ok``, ``failures``,
-    ``worst`` (the lowest value for a check in ``lower_is_worse``, else the highest) with its
-    ``unit`` and ``where``, and the label of the ``first_failure`` (or None)."""
-    lines = []
-    for name in checks:
-        mine = [r for r in rows if r.check == name]
-        if not mine:
-            continue
-        pick = min if name in lower_is_worse else max
-        worst = pick(mine, key=lambda r: r.value)
-        failed = [r for r in mine if not r.ok]
-        lines.append({"check": name, "ok": not failed, "failures": len(failed),
-                      "worst": float(worst.value), "unit": worst.unit,
-                      "where": f"{worst.label}, {worst.arm}" + (
-                          f" ({worst.note})" if worst.note else ""),
-                      "first_failure": failed[0].label if failed else None})
-    return lines
 
 
 def robot_program(grippers, trajectory, cell: RobotCell | None = None) -> RobotProgram:

@@ -1,16 +1,20 @@
-"""Can a dual-arm robot execute a plan? Reachability of every TCP pose along a path, and the
-placement of the job on the table that makes it so.
+"""Can a dual-arm cell hold a plan's clips? The reach check of every TCP pose along a path, with
+both grips of a symmetric gripper, for grips and placements.
 
-A path gives, per planned pose k and arm, a TCP pose in the WORLD frame. Both arms move from
-pose k-1 to pose k together along straight lines with spherical-linear orientation (the motion
-of :mod:`dloplan.trajectory`); this module follows that motion in small sub-steps with the
-IK seeded from the previous sub-step, so the joint motion it reports is the continuous one a
-controller would execute, not a fresh solution per pose.
+The motion between poses is that of :mod:`dloplan.robot.path` (straight TCP lines with slerped
+orientation, the sub-steps of :func:`~dloplan.robot.path.substeps`, each IK seeded from the
+previous sub-step). :func:`check_path` follows it per arm with the null-space motion keeping a
+redundant elbow from its limits and keeps the better grip of each arm;
+:func:`check_reachability` does so for a plan's clip poses with the arm assignment;
+:func:`reach_at_targets` is its cheap version (IK at the targets only). The placement searches
+(:mod:`dloplan.robot.placement`) and the free-elbow candidate of the YuMi's program
+(:mod:`dloplan.robot.solutions`) use them; a described cell's program is verified by
+:func:`dloplan.robot.path.check_cell_path`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
@@ -18,72 +22,13 @@ from scipy.spatial.transform import Rotation, Slerp
 from .assignment import assign_arms
 from .chain import CellArm
 from .collision import arm_clearance
-from .kinematics import IKOptions, inverse, joint_margin, manipulability, solve_from
-from .yumi import ABB_AXIS_NUMBERS, ARMS, Robot, yumi
+from .described import ARMS, DescribedCell
+from .kinematics import inverse, joint_margin, manipulability, solve_from
+from .path import ReachOptions, substeps
+from .yumi import ABB_AXIS_NUMBERS, yumi
 
 _TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
 """The TCP turned by pi about its own z-axis (the other grip of a symmetric gripper)."""
-
-
-@dataclass(frozen=True, eq=False)
-class ReachOptions:
-    """Settings of the path check.
-
-    Parameters
-    ----------
-    ik : IKOptions
-        Settings of each IK solve (tolerances: a pose counts as reached within them).
-    step_length : float
-        Largest TCP translation [m] of one tracking sub-step between planned poses.
-    step_angle : float
-        Largest TCP rotation [rad] of one sub-step.
-    max_joint_step : float
-        A joint moving more than this over one sub-step [rad] is a configuration jump: the
-        motion between the two poses is flagged as not continuous.
-    min_margin : float
-        Wanted distance from every joint limit [rad]: the first pose is solved for it (seeds are
-        tried until one gives it), and a reachable pose closer than this is reported in the
-        messages (a warning, not a failure).
-    min_clearance : float
-        Smallest allowed distance between the two arms' capsules [m]; less is a collision.
-    symmetric_grip : bool
-        The gripper's two fingers are alike, so holding a clip with the TCP turned by pi about
-        its approach (z) axis grips the cable the same way. When True, :func:`check_reachability`
-        tracks both grips for each arm (one grip for the whole path, so the wrist does not spin
-        between poses) and keeps the better one (more poses reachable, then continuous, then
-        the larger joint margin).
-    verdict_only : bool
-        Only the verdict is wanted (a search that tries many placements): the tracking of an
-        arm's grip stops at its first pose it cannot reach or motion it loses, the other arm and
-        the clearance are skipped once an arm has no grip without a failure, and the rows after
-        the failure are not computed (they read unreachable, their errors and clearance NaN).
-        ``success`` is that of the complete check: a grip without a failure is tracked to the
-        end, and of two such grips the one with the larger joint margin is kept, as in the
-        complete check (so the clearance is judged for the same joint motion). The user-facing
-        checks keep the default False: every row.
-    """
-
-    ik: IKOptions = field(default_factory=IKOptions)
-    step_length: float = 0.02
-    step_angle: float = 0.1
-    max_joint_step: float = 0.5
-    min_margin: float = np.radians(5.0)
-    min_clearance: float = 0.005
-    symmetric_grip: bool = True
-    verdict_only: bool = False
-
-    def __post_init__(self) -> None:
-        for key in ("step_length", "step_angle", "max_joint_step"):
-            value = getattr(self, key)
-            if not (np.isfinite(value) and value > 0):
-                raise ValueError(f"ReachOptions.{key}: expected a positive number, got {value!r}")
-        for key in ("min_margin", "min_clearance"):
-            value = getattr(self, key)
-            if not np.isfinite(value) or (key == "min_margin" and value < 0):
-                raise ValueError(f"ReachOptions.{key}: expected a finite number >= 0, got "
-                                 f"{value!r}")
-        if not isinstance(self.ik, IKOptions):
-            raise ValueError(f"ReachOptions.ik: expected IKOptions, got {self.ik!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -159,13 +104,13 @@ class Reachability:
         return float(self.clearance.min())
 
 
-def tcp_poses_from_clips(robot: Robot, clip_positions, clip_rotations: Rotation):
+def tcp_poses_from_clips(robot: DescribedCell, clip_positions, clip_rotations: Rotation):
     """TCP targets that hold clips at the given poses: the TCP sits on the clip point and its
     orientation is ``clip_to_world * gripper.tcp_in_clip`` (per arm's gripper).
 
     Parameters
     ----------
-    robot : Robot
+    robot : DescribedCell
     clip_positions : array_like
         (K, 2, 3) clip points [m], already ordered by arm (left, right).
     clip_rotations : scipy.spatial.transform.Rotation
@@ -184,7 +129,7 @@ def tcp_poses_from_clips(robot: Robot, clip_positions, clip_rotations: Rotation)
     return np.array(clip_positions, dtype=float), Rotation.from_matrix(tcp)
 
 
-def check_path(robot: Robot, positions, rotations: Rotation, *, seeds=None,
+def check_path(robot: DescribedCell, positions, rotations: Rotation, *, seeds=None,
                options: ReachOptions | None = None,
                alternatives: Rotation | None = None) -> Reachability:
     """Reachability of a dual-arm TCP path, tracked continuously from pose to pose.
@@ -199,7 +144,7 @@ def check_path(robot: Robot, positions, rotations: Rotation, *, seeds=None,
 
     Parameters
     ----------
-    robot : Robot
+    robot : DescribedCell
     positions : array_like
         (K, 2, 3) TCP positions [m] in the world frame, arms in the order of :data:`ARMS`.
     rotations : scipy.spatial.transform.Rotation
@@ -217,10 +162,10 @@ def check_path(robot: Robot, positions, rotations: Rotation, *, seeds=None,
     -------
     Reachability
     """
-    pos, mats = _validate_path(positions, rotations)
+    pos, mats = validate_path(positions, rotations)
     grips = [mats]
     if alternatives is not None:
-        grips.append(_validate_path(positions, alternatives, "positions", "alternatives")[1])
+        grips.append(validate_path(positions, alternatives, "positions", "alternatives")[1])
     opts = options if options is not None else ReachOptions()
     if seeds is None:
         seeds = np.stack([arm.home for arm in robot.arms])
@@ -230,8 +175,9 @@ def check_path(robot: Robot, positions, rotations: Rotation, *, seeds=None,
     return _check(robot, pos, grips, seeds, opts, clip_of_arm=(0, 1))
 
 
-def check_reachability(gripper_positions, gripper_rotations: Rotation, robot: Robot | None = None,
-                       *, offset=(0.0, 0.0, 0.0), assignment: str = "auto",
+def check_reachability(gripper_positions, gripper_rotations: Rotation,
+                       robot: DescribedCell | None = None, *, offset=(0.0, 0.0, 0.0),
+                       assignment: str = "auto",
                        options: ReachOptions | None = None) -> Reachability:
     """Reachability of a plan's clip poses by a dual-arm robot (default: a YuMi at the world
     origin, see :func:`~dloplan.robot.yumi.yumi`).
@@ -243,7 +189,7 @@ def check_reachability(gripper_positions, gripper_rotations: Rotation, robot: Ro
         clip 1 its last (:class:`~dloplan.sim.clips.ClipPoses`).
     gripper_rotations : scipy.spatial.transform.Rotation
         (S+2, 2) ``clip_to_world`` rotations (x-axis = u, the held link direction).
-    robot : Robot, optional
+    robot : DescribedCell, optional
     offset : array_like
         (3,) translation [m] applied to the whole job (e.g. from :func:`search_placement`).
     assignment : str
@@ -252,10 +198,10 @@ def check_reachability(gripper_positions, gripper_rotations: Rotation, robot: Ro
     options : ReachOptions, optional
     """
     robot = robot if robot is not None else yumi()
-    pos, mats = _validate_path(gripper_positions, gripper_rotations, "gripper_positions",
+    pos, mats = validate_path(gripper_positions, gripper_rotations, "gripper_positions",
                                "gripper_rotations")
     offset = _as_offset(offset)
-    order = _assign(pos, assignment, robot)
+    order = arm_order(pos, assignment, robot)
     clip_pos = pos[:, order] + offset
     clip_rot = Rotation.from_matrix(mats[:, order])
     tcp_pos, tcp_rot = tcp_poses_from_clips(robot, clip_pos, clip_rot)
@@ -267,123 +213,16 @@ def check_reachability(gripper_positions, gripper_rotations: Rotation, robot: Ro
     return _check(robot, tcp_pos, grips, seeds, opts, clip_of_arm=tuple(order))
 
 
-@dataclass(frozen=True, eq=False)
-class Placement:
-    """Outcome of :func:`search_placement`.
-
-    Attributes
-    ----------
-    offset : numpy.ndarray
-        (3,) translation of the job [m] (the best found when none works).
-    reachability : Reachability or None
-        The check at that offset.
-    candidates : int
-        Offsets fully checked.
-    success : bool
-        Every pose reachable, continuous and collision-free at ``offset``.
-    message : str
-    """
-
-    offset: np.ndarray
-    reachability: Reachability
-    candidates: int
-    success: bool
-    message: str
-
-
-def search_placement(gripper_positions, gripper_rotations: Rotation, robot: Robot | None = None,
-                     *, extent=(0.2, 0.2, 0.0), step: float = 0.05, objective: str = "nearest",
-                     assignment: str = "auto", options: ReachOptions | None = None,
-                     explain: bool = True) -> Placement:
-    """Search a translation of the whole job on the table that makes every pose reachable.
-
-    The candidate offsets form a grid of spacing ``step`` within ``+-extent`` per axis (z
-    extent 0 keeps the job at its height). With ``objective="nearest"`` they are checked in
-    order of distance from the original placement and the first that succeeds is returned;
-    with ``"margin"`` every candidate is checked and the successful one with the largest
-    smallest joint margin wins. A quick pre-check (the planned poses only, no sub-steps, first
-    failure stops it) discards hopeless offsets before the full :func:`check_reachability`
-    (with ``options.verdict_only`` the grid's checks stop at their first failure; ``explain``
-    checks in full).
-
-    Parameters
-    ----------
-    gripper_positions, gripper_rotations, robot, assignment, options
-        As for :func:`check_reachability`.
-    extent : array_like
-        (3,) half-widths [m] of the searched box.
-    step : float
-        Grid spacing [m].
-    objective : str
-        ``"nearest"`` or ``"margin"``.
-    explain : bool
-        When no offset passes the pre-check, check the original placement in full to say why
-        (its ``reachability``); False skips that (``reachability`` None: a caller that tries
-        many searches, like the repair loop, only needs to know that none passed).
-    """
-    robot = robot if robot is not None else yumi()
-    extent = np.asarray(extent, dtype=float)
-    if extent.shape != (3,) or not np.all(np.isfinite(extent)) or np.any(extent < 0):
-        raise ValueError(f"extent: expected 3 half-widths >= 0 [m], got {extent!r}")
-    if not (np.isfinite(step) and step > 0):
-        raise ValueError(f"step: expected a positive grid spacing [m], got {step!r}")
-    if objective not in ("nearest", "margin"):
-        raise ValueError(f"objective: expected 'nearest' or 'margin', got {objective!r}")
-    pos, mats = _validate_path(gripper_positions, gripper_rotations, "gripper_positions",
-                               "gripper_rotations")
-    rot = Rotation.from_matrix(mats)
-    opts = options if options is not None else ReachOptions()
-    axes = [np.arange(-np.floor(e / step), np.floor(e / step) + 1) * step for e in extent]
-    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    grid = grid[np.argsort(np.linalg.norm(grid, axis=1), kind="stable")]
-    order = _assign(pos, assignment, robot)
-    best = None
-    checked = 0
-    for offset in grid:
-        if not _quick_check(robot, pos[:, order] + offset, Rotation.from_matrix(mats[:, order]),
-                            opts):
-            continue
-        result = check_reachability(pos, rot, robot, offset=offset, assignment=assignment,
-                                    options=opts)
-        checked += 1
-        key = (result.success, result.min_joint_margin if objective == "margin" else 0.0)
-        if best is None or key > best[0]:
-            best = (key, offset, result)
-        if result.success and objective == "nearest":
-            break
-    if best is None:
-        result = check_reachability(pos, rot, robot, assignment=assignment,
-                                    options=replace(opts, verdict_only=False)) \
-            if explain else None
-        return Placement(np.zeros(3), result, int(explain), False,
-                         f"no offset within +-{format_offset(extent)} m (step {step} m) passed "
-                         "the pre-check")
-    (ok, _), offset, result = best
-    text = format_offset(offset)
-    if ok:
-        return Placement(offset, result, checked, True,
-                         f"offset {text} m: every pose reachable (min joint margin "
-                         f"{np.degrees(result.min_joint_margin):.1f} deg)")
-    return Placement(offset, result, checked, False,
-                     f"no offset within +-{format_offset(extent)} m works; best {text} m: "
-                     f"{result.message}")
-
-
-def format_offset(offset) -> str:
-    """An offset (3,) [m] as ``[x, y, z]`` with millimetre digits (no ``-0.``)."""
-    return "[" + ", ".join(f"{v:.3f}" for v in np.round(np.asarray(offset, float), 4) + 0.0) + "]"
-
-
 # --------------------------------------------------------------------------------------------
 
 
-def _check(robot: Robot, pos: np.ndarray, grips: list[np.ndarray], seeds: np.ndarray,
+def _check(robot: DescribedCell, pos: np.ndarray, grips: list[np.ndarray], seeds: np.ndarray,
            opts: ReachOptions, clip_of_arm: tuple[int, int]) -> Reachability:
     """Track both arms through the sub-steps (each arm with the best of the ``grips``, each a
     (K, 2, 3, 3) set of TCP rotations), then margins, manipulability and clearance; with
     ``opts.verdict_only`` the first arm without a flawless grip ends the check
     (:func:`_stopped`)."""
-    n_sub = _substeps(pos, grips[0], opts)
+    n_sub = substeps(pos, grips[0], opts)
     times = np.concatenate([[0.0]] + [k - 1 + np.arange(1, n + 1) / n
                                       for k, n in enumerate(n_sub, start=1)])
     planned = np.concatenate([[0], np.cumsum(n_sub)]).astype(int)
@@ -441,7 +280,7 @@ def _check(robot: Robot, pos: np.ndarray, grips: list[np.ndarray], seeds: np.nda
                         clip_of_arm, tuple(turned), success, message, tuple(messages))
 
 
-def _stopped(robot: Robot, track, index: int, n_times: int, planned,
+def _stopped(robot: DescribedCell, track, index: int, n_times: int, planned,
              clip_of_arm: tuple[int, int]) -> Reachability:
     """The failed verdict of a ``verdict_only`` check: arm ``index``'s best ``track`` up to its
     first failure; the other arm and the clearance not computed (unreachable rows, NaN)."""
@@ -534,48 +373,35 @@ def _track(arm: CellArm, index: int, pos, mats, times, planned, seed, opts: Reac
     return q_all, reachable, perr, aerr, continuous, messages
 
 
-def _substeps(pos, mats, opts: ReachOptions) -> np.ndarray:
-    """Number of sub-steps per segment, (K-1,), the same for both arms."""
-    if len(pos) < 2:
-        return np.zeros(0, dtype=int)
-    dist = np.linalg.norm(np.diff(pos, axis=0), axis=-1)  # (K-1, 2)
-    rel = Rotation.from_matrix(np.einsum("kaji,kajl->kail", mats[:-1], mats[1:]))
-    angle = rel.magnitude()
-    n = np.maximum(np.ceil(dist / opts.step_length), np.ceil(angle / opts.step_angle))
-    return np.maximum(n.max(axis=1), 1).astype(int)
-
-
-def _quick_check(robot: Robot, clip_pos, clip_rot: Rotation, opts: ReachOptions) -> bool:
-    """Every planned pose solvable (seeded from the previous one), no sub-steps."""
-    return bool(_at_targets(robot, clip_pos, clip_rot, opts, stop=True).all())
-
-
-def reach_at_targets(robot: Robot, clip_positions, clip_rotations: Rotation,
-                     options: ReachOptions | None = None) -> np.ndarray:
+def reach_at_targets(robot: DescribedCell, clip_positions, clip_rotations: Rotation,
+                     options: ReachOptions | None = None, *, stop: bool = False) -> np.ndarray:
     """Which planned poses each arm reaches, by IK at the targets only (no sub-steps, no
-    continuity, no clearance): the cheap pre-check of :func:`search_placement`, counted.
+    continuity, no clearance): the cheap pre-check of
+    :func:`~dloplan.robot.placement.search_placement` (with ``stop``), counted.
 
     Parameters
     ----------
-    robot : Robot
+    robot : DescribedCell
     clip_positions : array_like
         (K, 2, 3) clip points [m], ordered by arm (left, right).
     clip_rotations : scipy.spatial.transform.Rotation
         (K, 2) ``clip_to_world``, ordered by arm.
     options : ReachOptions, optional
+    stop : bool
+        Stop at an arm's first pose that no grip reaches (the poses after it read False): a
+        yes-or-no pre-check.
 
     Returns
     -------
     numpy.ndarray
         (K, 2) bool: pose k solved for the arm (each pose seeded from the arm's previous one).
     """
-    pos, mats = _validate_path(clip_positions, clip_rotations, "clip_positions",
-                               "clip_rotations")
+    pos, _ = validate_path(clip_positions, clip_rotations, "clip_positions", "clip_rotations")
     opts = options if options is not None else ReachOptions()
-    return _at_targets(robot, pos, Rotation.from_matrix(mats), opts, stop=False)
+    return _at_targets(robot, pos, clip_rotations, opts, stop=stop)
 
 
-def _at_targets(robot: Robot, clip_pos, clip_rot: Rotation, opts: ReachOptions,
+def _at_targets(robot: DescribedCell, clip_pos, clip_rot: Rotation, opts: ReachOptions,
                 stop: bool) -> np.ndarray:
     """(K, 2) IK success at each target, seeded along the path, per arm with the better of its
     grips (the TCP turned by pi about z too when ``opts.symmetric_grip``, as the full check
@@ -604,9 +430,18 @@ def _at_targets(robot: Robot, clip_pos, clip_rot: Rotation, opts: ReachOptions,
     return reached
 
 
-def _assign(pos: np.ndarray, assignment: str, robot: Robot) -> list[int]:
-    """Clip index held by (left, right): ``auto`` the side rule in the robot's base frame
-    (:func:`~dloplan.robot.assignment.assign_arms`)."""
+def arm_order(pos: np.ndarray, assignment: str, robot: DescribedCell) -> list[int]:
+    """The clip (0 first, 1 last) held by the left and by the right arm: ``auto`` the side rule
+    in the robot's base frame (:func:`~dloplan.robot.assignment.assign_arms`), ``first-left``
+    or ``first-right``.
+
+    Parameters
+    ----------
+    pos : numpy.ndarray
+        (K, 2, 3) clip points [m], clip 0 then clip 1.
+    assignment : str
+    robot : DescribedCell
+    """
     if assignment == "first-left":
         return [0, 1]
     if assignment == "first-right":
@@ -628,8 +463,10 @@ def _as_offset(offset) -> np.ndarray:
     return arr
 
 
-def _validate_path(positions, rotations, pos_name: str = "positions",
-                   rot_name: str = "rotations") -> tuple[np.ndarray, np.ndarray]:
+def validate_path(positions, rotations, pos_name: str = "positions",
+                  rot_name: str = "rotations") -> tuple[np.ndarray, np.ndarray]:
+    """A dual-arm path's positions (K, 2, 3) [m] and rotation matrices (K, 2, 3, 3), checked:
+    a ValueError naming ``pos_name`` or ``rot_name`` otherwise."""
     pos = np.asarray(positions, dtype=float)
     if pos.ndim != 3 or pos.shape[1:] != (2, 3) or pos.shape[0] < 1:
         raise ValueError(f"{pos_name}: expected shape (K, 2, 3) [m], got {pos.shape}")

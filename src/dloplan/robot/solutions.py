@@ -21,6 +21,7 @@ from scipy.spatial.transform import Rotation
 from .armangle import arm_angle, wrap
 from .collision import arm_clearance
 from .kinematics import inverse, joint_margin, solve_many
+from .path import COMFORT_CLEARANCE, COMFORT_MARGIN
 from .reachability import check_path
 
 ARM_ANGLE_STEP = float(np.radians(30.0))
@@ -33,13 +34,6 @@ ARM_ANGLES = 12
 TRACK_ITERATIONS = 12
 """IK iterations allowed per tracking sub-step, here and in the replay (a converging solve
 from the previous sub-step's solution needs a handful)."""
-
-COMFORT_CLEARANCE = 0.05
-"""[m] Arm-arm clearance beyond which the ranking prefers joint margin to more clearance."""
-
-COMFORT_MARGIN = float(np.radians(30.0))
-"""[rad] Joint margin beyond which more margin no longer ranks a solution higher."""
-
 
 @dataclass(frozen=True, eq=False)
 class Candidate:

@@ -43,9 +43,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .chain import DEFAULT_TCP_IN_CLIP, CellArm, as_rotation, as_vector
+from .described import ARMS, DescribedCell
 from .description import ArmDescription
 
-ARMS = ("left", "right")
 """Order of the two arms in every per-arm array of this subpackage."""
 
 ABB_AXIS_NUMBERS = (1, 2, 7, 3, 4, 5, 6)
@@ -195,27 +195,6 @@ class Gripper:
                 tool0 @ self.tcp_rotation.as_matrix())
 
 
-@dataclass(frozen=True, eq=False)
-class Robot:
-    """A dual-arm robot: the two arms in the order of :data:`ARMS`."""
-
-    left: CellArm
-    right: CellArm
-
-    def to_base(self, positions) -> np.ndarray:
-        """World points [m], (..., 3), in the robot's base (body) frame (both arms share it):
-        the frame of the arm assignment's side rule (:func:`dloplan.robot.assign_arms`)."""
-        arm = self.left
-        return arm.base_rotation.inv().apply(
-            np.asarray(positions, dtype=float).reshape(-1, 3) - arm.base_position).reshape(
-            np.shape(positions))
-
-    @property
-    def arms(self) -> tuple[CellArm, CellArm]:
-        """``(left, right)``."""
-        return (self.left, self.right)
-
-
 def yumi_description(side: str) -> ArmDescription:
     """The chain of one YuMi arm from the body frame ``yumi_body`` to ``yumi_link_7_*``: the
     data of this module (the vendored ``yumi.urdf`` holds the same), its collision capsules (7
@@ -269,8 +248,10 @@ def yumi_arm(side: str, *, gripper: Gripper | None = None, base_position=(0.0, 0
 
 
 def yumi(*, gripper: Gripper | None = None, base_position=(0.0, 0.0, 0.0),
-         base_rotation: Rotation | None = None) -> Robot:
-    """An ABB YuMi (IRB 14000) placed in the world frame.
+         base_rotation: Rotation | None = None, arm_angle_reference=(None, None),
+         table_height: float | None = None) -> DescribedCell:
+    """An ABB YuMi (IRB 14000) placed in the world frame: a described cell of both arms on one
+    body (:func:`yumi_arm`, each with the arm angle's plug-in data).
 
     By default the world frame is the robot's base frame: origin 0.1 m above the robot's foot
     (:data:`BASE_ABOVE_FOOT`; the table is at z = -0.1 m), x forward, y to the robot's left,
@@ -279,12 +260,23 @@ def yumi(*, gripper: Gripper | None = None, base_position=(0.0, 0.0, 0.0),
 
     Parameters
     ----------
-    gripper : Gripper, optional
-        The same gripper on both arms.
+    gripper : Gripper or tuple of Gripper, optional
+        The same gripper on both arms, or one per arm (left, right).
     base_position : array_like
         (3,) the body frame's origin in the world [m].
     base_rotation : scipy.spatial.transform.Rotation, optional
         ``base_to_world`` rotation of the body frame.
+    arm_angle_reference : tuple
+        Per arm (left, right) the arm angle's reference direction in the base frame, or None
+        for :data:`ARM_ANGLE_REFERENCE`.
+    table_height : float, optional
+        z of the table top in the world [m]; default the robot's foot,
+        :data:`BASE_ABOVE_FOOT` below the body frame.
     """
-    kwargs = dict(gripper=gripper, base_position=base_position, base_rotation=base_rotation)
-    return Robot(left=yumi_arm("left", **kwargs), right=yumi_arm("right", **kwargs))
+    grippers = gripper if isinstance(gripper, tuple) else (gripper, gripper)
+    arms = [yumi_arm(side, gripper=g, base_position=base_position, base_rotation=base_rotation,
+                     arm_angle_reference=reference)
+            for side, g, reference in zip(ARMS, grippers, arm_angle_reference, strict=True)]
+    height = (float(np.asarray(base_position, dtype=float)[2]) - BASE_ABOVE_FOOT
+              if table_height is None else table_height)
+    return DescribedCell("yumi", *arms, table_height=height, shared_base=True)

@@ -32,7 +32,7 @@ from ..physics.contact_compiled import point_distance
 from .compiled import RUNNING, STALLED, model_step, stop_status
 from .newton import step_verdict
 
-__all__ = ["newton_contacts", "penalty_energy", "penalty_terms"]
+__all__ = ["add_penalty", "newton_contacts", "penalty_energy", "penalty_terms"]
 
 
 @njit(cache=True)
@@ -47,18 +47,25 @@ def penalty_terms(x, rows, radius, stiffness, grad, band):
             if depth <= 0.0:
                 continue
             total += 0.5 * stiffness * depth * depth
-            push = stiffness * depth
-            grad[i, 0] -= push * n0
-            grad[i, 1] -= push * n1
-            grad[i, 2] -= push * n2
-            j = 3 * i
-            band[0, j] += stiffness * n0 * n0
-            band[0, j + 1] += stiffness * n1 * n1
-            band[0, j + 2] += stiffness * n2 * n2
-            band[1, j] += stiffness * n1 * n0
-            band[1, j + 1] += stiffness * n2 * n1
-            band[2, j] += stiffness * n2 * n0
+            add_penalty(i, depth, n0, n1, n2, stiffness, grad, band)
     return total
+
+
+@njit(cache=True, inline="always")
+def add_penalty(i, depth, n0, n1, n2, stiffness, grad, band):
+    """Add one pressing point's penalty: the gradient -k_c d n [N] to row i of ``grad`` and the
+    block k_c n n^T [N/m] to the lower ``band`` (module docstring)."""
+    push = stiffness * depth
+    grad[i, 0] -= push * n0
+    grad[i, 1] -= push * n1
+    grad[i, 2] -= push * n2
+    j = 3 * i
+    band[0, j] += stiffness * n0 * n0
+    band[0, j + 1] += stiffness * n1 * n1
+    band[0, j + 2] += stiffness * n2 * n2
+    band[1, j] += stiffness * n1 * n0
+    band[1, j + 1] += stiffness * n2 * n1
+    band[2, j] += stiffness * n2 * n0
 
 
 @njit(cache=True)

@@ -16,7 +16,8 @@ constants at each millisecond.
 
 ``scheme="implicit"`` steps by linearly implicit Euler instead
 (:func:`dloplan.sim.stepping.implicit_steps`), stable at a step set by the motion (the replay's
-1 ms) while the chain's stiffness is positive definite.
+1 ms) while the chain's stiffness is positive definite; a point touching an obstacle is held on
+it through the step by the statics' contact penalty, in the solve.
 
 Running this to rest takes 10^4 to 10^6 steps; :mod:`dloplan.sim.statics` finds the same rest
 shape directly. The simulator is kept for what only it can do: replaying a timed plan at its
@@ -294,7 +295,7 @@ def simulate(
         ``"implicit"``: linearly implicit Euler (:func:`dloplan.sim.stepping.implicit_steps`),
         stable at any ``dt`` while the chain's stiffness is positive enough (raises
         :class:`IndefiniteStep` otherwise); its ``dt`` (required) is set by the motion. Not
-        with ``torsion``, ``ground``, ``contacts`` or ``cable_at``.
+        with ``torsion``.
     """
     x = as_shape(initial_shape, cable.n_points, "initial_shape").copy()
     if not (math.isfinite(duration) and duration > 0):
@@ -305,9 +306,9 @@ def simulate(
     if scheme not in SCHEMES:
         raise ValueError(f"scheme: got {scheme!r}, expected one of {', '.join(SCHEMES)}")
     implicit = scheme == "implicit"
-    if implicit and (torsion or ground or len(contacts) or cable_at is not None or dt is None):
+    if implicit and (torsion or dt is None):
         raise ValueError("scheme 'implicit': needs a time step dt, and steps a chain without "
-                         "torsion, ground, contacts or a changing cable")
+                         "torsion")
     if dt is None:
         dt = cable.time_step(youngs_modulus_cap)
     if not (math.isfinite(dt) and dt > 0):
@@ -372,8 +373,8 @@ def simulate(
                 current = settings(model, SpringChain.from_cable(model, gravity).constants)
             targets = trajectory.held_points(chunk_steps * dt, model.rest_link_length)
             if implicit:
-                step, recorded, status = implicit_steps(
-                    x, v, previous_held, targets, step, *current[:4], *current[8:], recorded)
+                step, recorded, status = implicit_steps(x, v, previous_held, targets, step,
+                                                        *current, recorded)
                 continue
             if twist is None:
                 step, recorded, status = explicit_steps(x, v, previous_held, targets, no_load, step,

@@ -15,8 +15,9 @@ twisting force, also without Python per step.
 
 :func:`explicit_steps` runs the steps of one chunk of clip targets, records shapes at the
 recording interval, and stops early at rest or when the state diverges: no Python per step.
-:func:`implicit_steps` does the same by linearly implicit Euler (a banded solve per step, no
-contacts). :func:`dloplan.sim.dynamics.simulate` drives them.
+:func:`implicit_steps` does the same by linearly implicit Euler (a banded solve per step; the
+contacts held through the step by the statics' penalty). :func:`dloplan.sim.dynamics.simulate`
+drives them.
 """
 
 from __future__ import annotations
@@ -27,11 +28,32 @@ import numpy as np
 
 from ..jit import njit
 from ..physics.compiled import chain_derivatives, chain_gradient
-from ..physics.contact_compiled import push_out
+from ..physics.contact_compiled import point_distance, push_out
 from ..physics.twist_compiled import carry_directors, link_tangents, twist_load, twist_stencils
+from .contact_newton import add_penalty
 from .newton import cholesky_band, cholesky_solve
 
 RUNNING, SETTLED, DIVERGED, INDEFINITE = 0, 1, 2, 3
+
+FREE, SLIDE, STICK = 0, 1, 2
+"""States of a point's contact in an implicit step (:func:`implicit_steps`)."""
+
+HOLD_MARGIN = 1e-9
+"""A free point closer to an obstacle than the cable's radius times (1 + this) at the start of
+an implicit step is in contact through the step (:func:`implicit_steps`); the explicit scheme's
+hard contact leaves a pressing point exactly at the radius."""
+
+LOOK_AHEAD = 2.0
+"""A free point within this many times its own step, dt (|v| + dt |g|), of an obstacle at the
+start of an implicit step may reach it during the step: it is held in the solve unless the
+contact would pull (:func:`implicit_steps`)."""
+
+HOLD_STIFFNESS = 1e4
+"""The implicit step's contact stiffness k_c in units of the stiffer of a point's inertia over
+the step, max m_i / dt^2, and the axial springs k_s: a pressing point moves into the obstacle
+by 1e-4 of what it would move free (and the hard contact puts it back), whatever the step and
+the (fictitious) modulus; the statics' penalty of :mod:`dloplan.physics.contact`, 100 E A / l,
+would be softer than the inertia of a capped cable's point at 1 ms."""
 
 
 @njit(cache=True, inline="always")
@@ -53,6 +75,21 @@ def _record(x, v, accel, step, dt, record_every, rest_speed, clips_stop, times, 
     pull *= record_every * dt
     at_rest = rest_speed >= 0.0 and step * dt >= clips_stop and max(speed, pull) < rest_speed
     return n_records + 1, at_rest
+
+
+@njit(cache=True, inline="always")
+def _keep_out(x, v, accel, ground, obstacles, radius, friction):
+    """The one-sided contacts after a step: the free points of x, v, accel (n + 1, 3) put out
+    of the obstacle rows (:func:`dloplan.physics.contact_compiled.push_out`) and, with
+    ``ground``, above the plane z = 0 with no downward speed."""
+    n_points = x.shape[0]
+    if obstacles.shape[0] > 0:
+        push_out(x, v, accel, obstacles, radius, friction, 2, n_points - 2)
+    if ground:
+        for i in range(n_points):
+            if x[i, 2] < 0.0:
+                x[i, 2] = 0.0
+                v[i, 2] = max(v[i, 2], 0.0)
 
 
 @njit(cache=True)
@@ -144,13 +181,7 @@ def _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt
                 v[held[h], a] = (targets[k, h, a] - previous_held[h, a]) / dt
                 x[held[h], a] = targets[k, h, a]
                 previous_held[h, a] = targets[k, h, a]
-        if obstacles.shape[0] > 0:
-            push_out(x, v, accel, obstacles, radius, friction, 2, n_points - 2)
-        if ground:
-            for i in range(n_points):
-                if x[i, 2] < 0.0:
-                    x[i, 2] = 0.0
-                    v[i, 2] = max(v[i, 2], 0.0)
+        _keep_out(x, v, accel, ground, obstacles, radius, friction)
         if step % record_every == 0 or step == n_steps:
             n_records, at_rest = _record(x, v, accel, step, dt, record_every, rest_speed,
                                          clips_stop, times, shapes, speeds, n_records)
@@ -162,76 +193,90 @@ def _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt
 
 
 @njit(cache=True)
-def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, relative,
-                   record_every, rest_speed, clips_stop, k_s, rest_lengths, k_b, rest_angles,
-                   masses, gravity, times, shapes, speeds, n_records):
-    """Linearly implicit Euler steps through the clip targets of one chunk (no contacts).
+def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, relative, ground,
+                   obstacles, radius, friction, record_every, rest_speed, clips_stop, k_s,
+                   rest_lengths, k_b, rest_angles, masses, gravity, times, shapes, speeds,
+                   n_records):
+    """Linearly implicit Euler steps through the clip targets of one chunk, with contacts.
 
     Backward Euler, v+ = v + dt M^-1 (F(x+) - k_d D v+) and x+ = x + dt v+, with the force
     linearized at x, F(x+) = F(x) - dt H(x) v+ (one Newton step of the implicit equations, as
     Baraff and Witkin's cloth step): per step the banded system
 
-        (M + dt k_d D + dt^2 H) v+ = M v + dt F(x)
+        (M + dt k_d D + dt^2 (H + H^c)) v+ = M v + dt (F(x) + F^c(x))
 
     over the free points, the held points' v+ the clips' (target minus position over dt) and
     their columns moved to the right-hand side; H is the chain's Hessian
     (:func:`dloplan.physics.compiled.chain_derivatives`), M the lumped masses, D the damping's
-    graph Laplacian (``relative``) or the identity. It is unconditionally stable for a
-    positive definite H (docs/decisions.md: the replay's time step), so ``dt`` is set by the
-    motion, not by the axial springs. Arguments, records, rest test and the returned tuple as
-    in :func:`explicit_steps`; status :data:`INDEFINITE` when the system is not positive
-    definite (a compressed chain stiffer than M / dt^2: the caller steps explicitly instead).
+    graph Laplacian (``relative``) or the identity.
+
+    **Contacts.** A free point touching an obstacle at the step's start, or near enough to reach
+    it during the step (closer than the radius times 1 + :data:`HOLD_MARGIN` plus
+    :data:`LOOK_AHEAD` dt (|v| + dt |g|)), is held on its surface through the step by a penalty
+    in the solve (F^c = k_c d n, H^c = k_c n n^T with d = r - phi, as the statics' penalty,
+    :func:`dloplan.sim.contact_newton.add_penalty`; k_c = :data:`HOLD_STIFFNESS` (max m_i /
+    dt^2 + k_s)): the solve sees the obstacle, so a cable pulled against a peg or pressed on a
+    plate stays on it, and a point coming down lands on it at the step's end (inelastic), rather
+    than being moved into it and put back, which would stretch its links by up to |v| dt. The
+    contact is one-sided within the step, and Coulomb's: the step is solved with every such
+    point sticking (held in all directions, k_c I, from where it is), and where the contact's
+    normal force at the step's end, N = k_c (d - dt v+.n) (linearized as in the solve), would
+    pull (a contact opening, or a point that does not reach the surface) the point is let go;
+    where the force holding it along the surface, k_c dt |v+_t|, exceeds ``friction`` N it
+    slides instead (normal penalty only, and the kinetic friction ``friction`` N against its
+    slip); then the step is solved again with these contacts until they all hold (an active
+    set: each contact changes at most twice, mostly one or two solves). A point that reaches
+    an obstacle unforeseen is put back by the explicit scheme's hard, inelastic contact
+    (:func:`dloplan.physics.contact_compiled.push_out`, the same function, with its impulse
+    friction), and so is a held point's small penetration; the ground plane z = 0 as in
+    :func:`explicit_steps`.
+
+    The step is unconditionally stable for a positive definite H (docs/decisions.md: the
+    replay's time step; H^c only adds to it), so ``dt`` is set by the motion, not by the axial
+    springs or the contacts. Arguments, records, rest test and the returned tuple as in
+    :func:`explicit_steps` (no external gradient); status :data:`INDEFINITE` when the system is
+    not positive definite (a compressed chain stiffer than M / dt^2: the caller steps
+    explicitly instead).
     """
     n_points = x.shape[0]
     n_dof = 3 * n_points
     held = (0, 1, n_points - 2, n_points - 1)
     grad = np.empty_like(x)
     accel = np.empty_like(x)
-    band = np.empty((9, n_dof))
-    free = np.empty((9, n_dof - 12))
-    factor = np.empty((9, n_dof - 12))
+    work = (np.empty((9, n_dof)), np.empty((9, n_dof - 12)), np.empty((9, n_dof - 12)),
+            np.empty(n_dof))
     velocity = np.empty(n_dof)
-    rhs = np.empty(n_dof)
+    touching = np.zeros((obstacles.shape[0], n_points, 7))  # d [m], n, friction force [N]
+    holding = np.zeros((obstacles.shape[0], n_points), dtype=np.int8)
+    reach = radius * (1.0 + HOLD_MARGIN)
+    ahead = np.empty(n_points)
+    pull = math.sqrt(gravity[0] ** 2 + gravity[1] ** 2 + gravity[2] ** 2)
+    stiffness = HOLD_STIFFNESS * (np.max(masses) / (dt * dt) + k_s)
     step = first_step
-    dt2 = dt * dt
     for k in range(targets.shape[0]):
         step = first_step + k + 1
-        chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, grad, band)
-        for j in range(n_dof):  # A = M + dt k_d D + dt^2 H (lower band)
-            for d in range(9):
-                band[d, j] *= dt2
-            i = j // 3
-            band[0, j] += masses[i]
-            if relative:
-                band[0, j] += dt * k_d * ((i > 0) + (i < n_points - 1))
-                if i < n_points - 1:
-                    band[3, j] -= dt * k_d
-            else:
-                band[0, j] += dt * k_d
-        for i in range(n_points):
-            for a in range(3):
-                rhs[3 * i + a] = masses[i] * v[i, a] - dt * grad[i, a]
-                velocity[3 * i + a] = 0.0
         for h in range(4):
             for a in range(3):
                 velocity[3 * held[h] + a] = (targets[k, h, a] - previous_held[h, a]) / dt
-        for j in range(n_dof):  # rhs -= A v_held (symmetric band: both triangles)
-            for d in range(9):
-                if j + d >= n_dof:
-                    break
-                if d == 0:
-                    rhs[j] -= band[0, j] * velocity[j]
-                else:
-                    rhs[j + d] -= band[d, j] * velocity[j]
-                    rhs[j] -= band[d, j] * velocity[j + d]
-        for j in range(n_dof - 12):
-            for d in range(9):
-                free[d, j] = band[d, j + 6]
-        if not cholesky_band(free, 0.0, factor):
-            return step - 1, n_records, INDEFINITE
-        cholesky_solve(factor, rhs[6 : n_dof - 6])
-        for j in range(6, n_dof - 6):
-            velocity[j] = rhs[j]
+        for i in range(n_points):  # how far a point may come within the step
+            ahead[i] = LOOK_AHEAD * dt * (math.sqrt(v[i, 0] ** 2 + v[i, 1] ** 2 + v[i, 2] ** 2)
+                                          + dt * pull)
+        for r in range(obstacles.shape[0]):
+            for i in range(2, n_points - 2):
+                phi, n0, n1, n2 = point_distance(x[i, 0], x[i, 1], x[i, 2], obstacles[r])
+                touching[r, i, 0] = reach - phi
+                touching[r, i, 1] = n0
+                touching[r, i, 2] = n1
+                touching[r, i, 3] = n2
+                holding[r, i] = FREE if phi >= reach + ahead[i] else (
+                    STICK if friction > 0.0 else SLIDE)
+        for _ in range(2 * obstacles.shape[0] * n_points + 1):  # the active set
+            if not _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b,
+                                      rest_angles, masses, gravity, touching, holding,
+                                      stiffness, grad, work):
+                return step - 1, n_records, INDEFINITE
+            if _contacts_settled(velocity, touching, holding, stiffness, dt, friction):
+                break
         for i in range(n_points):
             for a in range(3):
                 accel[i, a] = (velocity[3 * i + a] - v[i, a]) / dt
@@ -241,6 +286,7 @@ def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, r
             for a in range(3):
                 x[held[h], a] = targets[k, h, a]
                 previous_held[h, a] = targets[k, h, a]
+        _keep_out(x, v, accel, ground, obstacles, radius, friction)
         if step % record_every == 0 or step == n_steps:
             n_records, at_rest = _record(x, v, accel, step, dt, record_every, rest_speed,
                                          clips_stop, times, shapes, speeds, n_records)
@@ -249,6 +295,100 @@ def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, r
         if not (math.isfinite(x[2, 0]) and math.isfinite(x[2, 1]) and math.isfinite(x[2, 2])):
             return step, n_records, DIVERGED
     return step, n_records, RUNNING
+
+
+@njit(cache=True)
+def _contacts_settled(velocity, touching, holding, stiffness, dt, friction):
+    """Check the contacts of one implicit step's solution ``velocity`` (3(n + 1),) against
+    Coulomb's law (:func:`implicit_steps`); change those that break it and return False (solve
+    again), or True when all hold. ``touching`` (K, n + 1, 7): depth d [m], normal n and the
+    sliding friction force [N] (written here); ``holding`` (K, n + 1): FREE, SLIDE or STICK."""
+    settled = True
+    for r in range(holding.shape[0]):
+        for i in range(holding.shape[1]):
+            if holding[r, i] == FREE:
+                continue
+            j = 3 * i
+            c = touching[r, i]
+            speed = velocity[j] * c[1] + velocity[j + 1] * c[2] + velocity[j + 2] * c[3]
+            normal = stiffness * (c[0] - dt * speed)  # the penalty's force at the step's end
+            if normal < 0.0:  # it would pull: the contact opens
+                holding[r, i] = FREE
+                settled = False
+                continue
+            if holding[r, i] == SLIDE:
+                continue
+            t0 = velocity[j] - speed * c[1]
+            t1 = velocity[j + 1] - speed * c[2]
+            t2 = velocity[j + 2] - speed * c[3]
+            along = stiffness * dt * math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)  # holding force
+            if along > friction * normal:  # more than friction can hold: it slides
+                scale = friction * normal / along * stiffness * dt
+                c[4], c[5], c[6] = -scale * t0, -scale * t1, -scale * t2
+                holding[r, i] = SLIDE
+                settled = False
+    return settled
+
+
+@njit(cache=True)
+def _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b, rest_angles,
+                       masses, gravity, touching, holding, stiffness, grad, work):
+    """Solve one step's system of :func:`implicit_steps` for the free points' v+ into
+    ``velocity`` (3(n + 1),), whose held entries are the clips' already; the contacts in
+    ``holding`` (K, n + 1) held as :func:`_contacts_settled` says with ``touching``.
+    ``work``: band (9, 3(n + 1)), free band and factor (9, 3(n + 1) - 12), rhs (3(n + 1),).
+    False when the system is not positive definite."""
+    band, free, factor, rhs = work
+    n_points = x.shape[0]
+    n_dof = 3 * n_points
+    dt2 = dt * dt
+    chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, grad, band)
+    for r in range(holding.shape[0]):
+        for i in range(n_points):
+            c = touching[r, i]
+            if holding[r, i] != FREE:
+                add_penalty(i, c[0], c[1], c[2], c[3], stiffness, grad, band)
+            if holding[r, i] == STICK:  # the tangential spring, at rest at the step's start
+                for a in range(3):
+                    for b in range(a + 1):
+                        band[a - b, 3 * i + b] += stiffness * ((a == b) - c[1 + a] * c[1 + b])
+            elif holding[r, i] == SLIDE:  # the kinetic friction, against the slip
+                for a in range(3):
+                    grad[i, a] -= c[4 + a]
+    for j in range(n_dof):  # A = M + dt k_d D + dt^2 H (lower band)
+        for d in range(9):
+            band[d, j] *= dt2
+        i = j // 3
+        band[0, j] += masses[i]
+        if relative:
+            band[0, j] += dt * k_d * ((i > 0) + (i < n_points - 1))
+            if i < n_points - 1:
+                band[3, j] -= dt * k_d
+        else:
+            band[0, j] += dt * k_d
+    for i in range(n_points):
+        for a in range(3):
+            rhs[3 * i + a] = masses[i] * v[i, a] - dt * grad[i, a]
+    for j in range(6, n_dof - 6):
+        velocity[j] = 0.0
+    for j in range(n_dof):  # rhs -= A v_held (symmetric band: both triangles)
+        for d in range(9):
+            if j + d >= n_dof:
+                break
+            if d == 0:
+                rhs[j] -= band[0, j] * velocity[j]
+            else:
+                rhs[j + d] -= band[d, j] * velocity[j]
+                rhs[j] -= band[d, j] * velocity[j + d]
+    for j in range(n_dof - 12):
+        for d in range(9):
+            free[d, j] = band[d, j + 6]
+    if not cholesky_band(free, 0.0, factor):
+        return False
+    cholesky_solve(factor, rhs[6 : n_dof - 6])
+    for j in range(6, n_dof - 6):
+        velocity[j] = rhs[j]
+    return True
 
 
 @njit(cache=True)

@@ -30,8 +30,9 @@ between the knots (the velocity-only timing: a velocity jump, an infinite accele
 every knot).
 
 **Contacts and a changing cable.** With ``contacts`` (pegs, plates, the table) the simulator
-keeps the points out of the obstacles (a hard, frictionless contact,
-:mod:`dloplan.physics.contact_compiled`), and the replay records, per obstacle and recorded
+keeps the points out of the obstacles (a hard, inelastic contact with Coulomb friction
+``friction``: :mod:`dloplan.physics.contact_compiled` in the explicit step, held in the solve of
+the implicit one, *Scheme* below), and the replay records, per obstacle and recorded
 shape, the smallest gap between the cable's surface and the obstacle (``contact_gaps``): a
 contact is closed where the gap is below :data:`CONTACT_GAP` times the cable's radius, so the
 run shows where the cable lifts off a peg or comes to rest on a plate. With ``cable_at`` the
@@ -40,13 +41,18 @@ constants as it goes, and the link tensions are those of the cable at each recor
 
 **Scheme.** The thesis' explicit scheme (eq. 3.24) is stable only below a time step set by
 the axial springs (3.8.2: 8.5 us for the capped PA12, a million steps for a 9 s motion). By
-default (``scheme="auto"``) a replay without torsion, contacts, a changing cable or a tensile
-limit steps by linearly implicit Euler instead (:func:`dloplan.sim.stepping.implicit_steps`) at
+default (``scheme="auto"``) a replay without torsion, a changing cable or a tensile limit steps
+by linearly implicit Euler instead (:func:`dloplan.sim.stepping.implicit_steps`) at
 :data:`IMPLICIT_STEP`, the clip samples' spacing: stable at any step while the chain's
 stiffness is positive definite, first order in dt, its knot deviations within micrometres of
-the explicit run's on the examples (docs/decisions.md, "the replay's time step"). A tensile
-limit is judged on the explicit run (the implicit scheme damps the axial ringing whose peaks
-it checks), and so is a replay whose implicit system is found indefinite.
+the explicit run's on the examples (docs/decisions.md, "the replay's time step"). A point on an
+obstacle, or reaching one within the step, is held on it in the implicit solve by a stiff
+penalty and sticks or slides by Coulomb's law. A tensile limit is judged on the explicit run
+(the implicit scheme damps the axial ringing whose peaks it checks), and so is a replay whose
+implicit system is found indefinite, and a changing cable (a harness section being tensioned:
+its links all get shorter, so its points slide along the peg they are pressed on, which the
+implicit step's sticking friction resists where the explicit step's impulse friction lets them
+creep; docs/decisions.md).
 
 The simulated shapes are recorded often enough (at least 20 records per knot interval, every step
 while the run has fewer than :data:`MAX_RECORDS` steps) that the shape at a knot time is
@@ -327,9 +333,9 @@ def replay(
     scheme : {"auto", "explicit", "implicit"}
         Time stepping (module docstring, *Scheme*): ``"explicit"`` the thesis' eq. 3.24 at
         its time step; ``"implicit"`` linearly implicit Euler at :data:`IMPLICIT_STEP` (or
-        ``dt``); ``"auto"`` (default) implicit where it applies (no torsion, contacts,
-        changing cable or tensile limit), explicit otherwise and when an implicit step finds
-        the chain's stiffness indefinite.
+        ``dt``); ``"auto"`` (default) implicit where it applies (no torsion, changing cable
+        or tensile limit), explicit otherwise and when an implicit step finds the chain's
+        stiffness indefinite.
 
     Returns
     -------
@@ -370,16 +376,21 @@ def replay(
     if scheme not in ("auto", *SCHEMES):
         raise ValueError(f"scheme: got {scheme!r}, expected 'auto', 'explicit' or 'implicit'")
     model = fictitious_cable(cable, youngs_modulus_cap)
-    implicit = scheme == "implicit" or (scheme == "auto" and not torsion and not len(contacts)
-                                        and cable_at is None and tensile_limit is None)
-    step = dt if dt is not None else IMPLICIT_STEP if implicit else model.time_step()
+    implicit = scheme == "implicit" or (scheme == "auto" and not torsion
+                                        and tensile_limit is None and cable_at is None)
     changing = None
     if cable_at is not None:
         def changing(t: float) -> Cable:
             return fictitious_cable(cable_at(t + start), youngs_modulus_cap)
 
-        if dt is None:  # the shortest links set the step
-            step = min(step, changing(motion).time_step())
+    def explicit_step() -> float:
+        if dt is not None:
+            return dt
+        if changing is None:
+            return model.time_step()
+        return min(model.time_step(), changing(motion).time_step())  # the shortest links
+
+    step = explicit_step() if not implicit else IMPLICIT_STEP if dt is None else dt
     duration = motion + settle_duration
     spacing = np.diff(knots)
     finest = float(np.min(spacing)) / 20.0 if len(spacing) else duration
@@ -398,7 +409,7 @@ def replay(
     except IndefiniteStep:
         if scheme == "implicit":
             raise
-        run = run_with(model.time_step() if dt is None else dt, "explicit")
+        run = run_with(explicit_step(), "explicit")
     deviations = np.array([_deviation_at(run, t, x) for t, x in zip(knots, path, strict=True)])
     final = float(np.max(np.linalg.norm(run.shapes[-1] - path[-1], axis=1)))
     timing = law if law is not None else TimeLaw.constant_speed(knots)

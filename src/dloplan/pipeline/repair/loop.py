@@ -534,7 +534,7 @@ class _Session:
 
     def fix_cell_reach(self, failures) -> None:
         """A described cell: the job shifted to where the cell's own placement search
-        (:func:`dloplan.robot.urdf_cell.search_cell_placement`, along the timed trajectory)
+        (:func:`dloplan.robot.placement.search_cell_placement`, along the timed trajectory)
         puts it, then its program checked there."""
         job, doc = self.state.job, self.state.doc
         since = time.perf_counter()

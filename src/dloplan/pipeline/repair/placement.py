@@ -29,7 +29,8 @@ from scipy.spatial.transform import Rotation
 
 from ...grippers.path import GripperPath
 from ...obstacles.collisions import check_path
-from ...robot.reachability import ReachOptions, format_offset
+from ...robot.path import ReachOptions
+from ...robot.placement import format_offset
 from ..document import PlacementSection
 from ..stages import collision_rows
 from .rebuild import left_clip, timed, timed_with_robot, without_robot
@@ -268,7 +269,7 @@ def placements(grippers: GripperPath, *, searches=SEARCHES, yaws=YAWS, cell=None
     :class:`PlacementRepair` per successful search, and one per turn that no search of it
     passed (``success`` False).
     """
-    from ...robot import search_placement
+    from ...robot.placement import search_placement
 
     pivot = grippers.positions.reshape(-1, 3).mean(axis=0) * [1.0, 1.0, 0.0]
     options = replace(ReachOptions() if cell is None else cell.reach, verdict_only=True)
