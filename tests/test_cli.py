@@ -398,3 +398,23 @@ def test_the_robot_table_prints_no_negative_zero():
     table = program_table([{"check": "assignment", "ok": True, "worst": -0.0, "unit": "mm",
                             "where": "shape 0, both"}])
     assert "-0" not in table and " 0 mm" in table
+
+
+@pytest.mark.parametrize("given", [None, "2"])
+def test_the_command_runs_openblas_on_one_thread_unless_told(given):
+    """The console script sets OPENBLAS_NUM_THREADS=1 before numpy loads (cli.BLAS_THREADS);
+    a value the caller set is kept."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("import atexit, os, sys; "
+            "atexit.register(lambda: print(os.environ.get('OPENBLAS_NUM_THREADS'), "
+            "'numpy' in sys.modules)); sys.argv = ['dloplan', '--version']; "
+            "from dloplan.cli import run; run()")
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if given is not None:
+        env["OPENBLAS_NUM_THREADS"] = given
+    done = subprocess.run([sys.executable, "-c", code],
+                          capture_output=True, text=True, env=env, check=True)
+    assert done.stdout.split()[-2:] == [given or "1", "False"]  # set before numpy loaded

@@ -98,7 +98,46 @@ def test_a_signal_during_a_cached_load_is_raised_after_the_load(monkeypatch, ter
         steps.append("finished")
         return "overload"
 
-    monkeypatch.setattr(jit, "NUMBA_LOAD", load)
+    monkeypatch.setattr(jit, "KERNEL_LOAD", load)
     with catching_interrupts(), pytest.raises(Interrupted):
         jit.shielded_load(None, None, None)
     assert steps == ["started", "finished"]
+
+
+KERNELS = '''
+import sys
+
+import numpy as np
+
+from dloplan.jit import njit
+
+
+@njit(cache=True)
+def solve(a, b):
+    return np.linalg.solve(a, b)
+
+
+def check(cached):
+    x = solve(np.array([[2.0, 1.0], [1.0, 3.0]]), np.array([3.0, 5.0]))
+    assert np.allclose(x, [0.8, 1.4]), x
+    # a cached overload comes without numba's registries (its polynomials among them), which
+    # its compilation refreshed
+    assert ("numba.np.polynomial.polynomial_core" in sys.modules) is not cached
+    assert solve.stats.cache_hits if cached else solve.stats.cache_misses
+    # a kernel compiled afterwards in the same process gets them (numba's compiler refreshes)
+    fresh = njit(lambda a: np.linalg.det(a) + np.sum(np.empty(2) * 0.0))
+    assert abs(fresh(np.eye(3) * 2.0) - 8.0) < 1e-12
+'''
+
+
+def test_a_cached_kernel_loads_without_numbas_registries_and_compiling_still_works(tmp_path):
+    """jit.lean_load: the overload loaded from the cache runs, and so does a compilation after it
+    (in a fresh process each: the first compiles and saves, the second loads)."""
+    import subprocess
+    import sys
+
+    (tmp_path / "kernels.py").write_text(KERNELS)
+    for cached in (False, True):
+        done = subprocess.run([sys.executable, "-c", f"import kernels; kernels.check({cached})"],
+                              cwd=tmp_path, capture_output=True, text=True, check=False)
+        assert done.returncode == 0, done.stderr[-2000:]

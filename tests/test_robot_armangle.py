@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from dloplan.robot import RobotCell, Tool, confdata, forward, yumi_arm
+from dloplan.robot import RobotCell, Tool, confdata, forward, robtarget, yumi_arm
 from dloplan.robot.armangle import arm_angle, arm_angle_jacobian, solve_reference, wrap
 from dloplan.robot.kinematics import IKOptions, jacobian, link_frames, solve_from
 from dloplan.robot.robtarget import ROUND_TRIP_TOLERANCE, solve_robtarget
@@ -195,6 +195,35 @@ def test_controller_ik_returns_the_joints_of_a_robtarget():
             p, r = forward(arm, other)
             np.testing.assert_allclose(p, position, atol=1e-5)
             assert abs(float(wrap(arm_angle(arm, other) - arm_angle(arm, q)))) < 1e-5
+
+
+def test_a_robtarget_asked_again_gets_the_kept_solutions(monkeypatch):
+    """The same question (arm, pose, arm angle, seeds, options) is solved once a process; its
+    answer is what solving it again gives, and any other question is solved."""
+    arm = yumi_arm("left")
+    q = np.radians([10.0, -60.0, 20.0, 30.0, 40.0, 50.0, 60.0])
+    position, rotation = forward(arm, q)
+    psi = float(arm_angle(arm, q))
+    asked = []
+    solve = robtarget._solutions
+    monkeypatch.setattr(robtarget, "_solutions", lambda *a: asked.append(a) or solve(*a))
+    monkeypatch.setattr(robtarget, "_memo", {})
+    first = robtarget.robtarget_solutions(arm, position, rotation.as_matrix(), psi, [q])
+    again = robtarget.robtarget_solutions(arm, list(position), rotation.as_matrix(), psi, [q])
+    assert again is first and len(asked) == 1 and not first.flags.writeable
+    fresh = robtarget.robtarget_solutions(arm, position, rotation.as_matrix(), psi, [q],
+                                          rng=np.random.default_rng(0))  # solved, not kept
+    assert len(asked) == 2 and fresh.tobytes() == first.tobytes()
+    for other in ((arm, position, rotation.as_matrix(), psi + 1e-9, [q]),
+                  (arm, position, rotation.as_matrix(), psi, [q + 1e-3]),
+                  (yumi_arm("left"), position, rotation.as_matrix(), psi, [q])):
+        robtarget.robtarget_solutions(*other)
+    assert len(asked) == 5
+    monkeypatch.setattr(robtarget, "MEMO_SIZE", 2)  # bounded: the oldest answers go
+    robtarget.robtarget_solutions(arm, position, rotation.as_matrix(), psi + 2e-9, [q])
+    assert len(robtarget._memo) == 2 and len(asked) == 6
+    robtarget.robtarget_solutions(arm, position, rotation.as_matrix(), psi, [q])
+    assert len(asked) == 7  # the first answer went
 
 
 def test_shoulder_and_wrist_points_are_the_common_normals_feet():

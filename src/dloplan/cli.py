@@ -64,6 +64,13 @@ ALLOW_PLACEMENT = ("let the repair move or turn the job on the table where the r
 FIGURE_WORKERS = 2
 """Processes drawing a plan's figures while it is verified (:mod:`dloplan.app.figure_workers`)."""
 
+BLAS_THREADS = {"OPENBLAS_NUM_THREADS": "1"}
+"""The command's BLAS threads (:func:`run`; a variable the caller set is kept). dloplan's linear
+algebra is small (a cable's bands, 3x3 to 7x7 systems, splines through a few sub-steps), and
+OpenBLAS's threads only cost there: waking and spinning them around each call took 8 ms CPU per
+3-point spline of a robot program on the shared host (0.25 ms on one thread), and on 2 cores
+they spin on the core the figure workers draw on (docs/performance.md)."""
+
 
 class Console:
     """Human-readable progress on stderr (silenced by -q); results on stdout."""
@@ -916,6 +923,8 @@ def run() -> None:  # pragma: no cover - the console script, exercised by subpro
     import atexit
     import os
 
+    for name, value in BLAS_THREADS.items():  # before numpy and scipy load OpenBLAS
+        os.environ.setdefault(name, value)
     code = main()
     for signum in SIGNALS:  # done: a late signal must not cut the flush below short
         signal.signal(signum, signal.SIG_IGN)

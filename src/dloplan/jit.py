@@ -26,6 +26,14 @@ current, so a reader needs no lock. Compiled code, cache file names and formats 
 Without ``fcntl`` (Windows), or with a numba whose cache class lacks what the locked save uses,
 the cache is numba's, unlocked.
 
+Loading a cached overload skips numba's refresh of its registries (:func:`lean_load`): numba's
+``Cache.load_overload`` first refreshes the target context, which imports and installs every
+lowering and typing registry numba has (its linear algebra, typed containers, random
+generators, jitclass...: about 0.25 s of CPU in each process, the largest part of the first
+kernel's call in a ``dloplan`` run). A cached overload is machine code: it needs numba's runtime
+(NRT) initialized, which :func:`lean_load` does, not the registries, which only a compilation
+uses, and numba's compiler refreshes them itself before it compiles (``CompilerBase``).
+
 Loading a cached overload is also shielded from signals (:func:`shielded_load`): numba rebuilds
 the machine code through ctypes, and a Ctrl-C raised in the middle of it (or swallowed in one of
 its callbacks) left a half-linked library whose environment pointer numba then wrote through, a
@@ -41,6 +49,7 @@ import os
 
 import numba
 from numba.core import caching
+from numba.core.runtime import rtsys
 
 from .interrupts import raise_if_interrupted, shielded
 
@@ -96,10 +105,31 @@ NUMBA_LOAD = caching.Cache.load_overload
 """numba's own ``Cache.load_overload`` (rebuilds a cached overload's machine code)."""
 
 
+LOAD_METHODS = ("_guard_against_spurious_io_errors", "_load_overload")
+"""The methods :func:`lean_load` calls on numba's ``Cache`` (numba 0.68)."""
+
+
+def lean_load(cache: caching.Cache, sig, target_context):
+    """numba's ``Cache.load_overload`` without the refresh of the target context's registries
+    it starts with (module docstring): numba's runtime initialized, then the overload loaded as
+    numba loads it (None when the cache has none: the dispatcher then compiles, and the
+    compiler refreshes the registries first)."""
+    rtsys.initialize(target_context)
+    with cache._guard_against_spurious_io_errors():
+        return cache._load_overload(sig, target_context)
+
+
+KERNEL_LOAD = lean_load if all(callable(getattr(caching.Cache, name, None))
+                                for name in LOAD_METHODS) else NUMBA_LOAD
+"""How :func:`shielded_load` loads: :func:`lean_load`, or numba's own ``load_overload`` with a
+numba whose ``Cache`` lacks what :func:`lean_load` uses."""
+
+
 def shielded_load(cache: caching.Cache, sig, target_context):
-    """``Cache.load_overload`` run to its end: a signal meanwhile is raised after it."""
+    """A cached overload loaded (:data:`KERNEL_LOAD`) to the end: a signal meanwhile is raised
+    after it."""
     with shielded():
-        data = NUMBA_LOAD(cache, sig, target_context)
+        data = KERNEL_LOAD(cache, sig, target_context)
     raise_if_interrupted()
     return data
 
@@ -107,7 +137,7 @@ def shielded_load(cache: caching.Cache, sig, target_context):
 def install_cache_lock() -> bool:
     """Make numba's on-disk cache save through :func:`locked_save` (idempotent, per process).
 
-    Loading is shielded from signals (:func:`shielded_load`) in any case.
+    Loading is lean and shielded from signals (:func:`shielded_load`) in any case.
 
     Returns False, leaving numba's own save, when this numba's ``IndexDataCacheFile`` lacks what
     :func:`locked_save` uses (a numba that reorganized its cache): the lock is then off, never a

@@ -12,7 +12,8 @@ summed over the moves that run (two moves overlap at a fly-by target: their join
 add there). Each move is sampled on a time grid of :data:`GRID` instants that holds its law's
 phase boundaries; the peak of |dq_j/dt| / v_j over the move is what a controller must deliver:
 the jerk-limited law cruises at up to twice the move's average rate, so averages (joint change
-over duration) miss it by up to 2x.
+over duration) miss it by up to 2x. The grids of all moves are sampled in one evaluation of the
+motion (each spline once over all of them, not once per move).
 """
 
 from __future__ import annotations
@@ -71,13 +72,18 @@ def motion_peaks(motion: JointMotion, max_velocity, max_acceleration) -> list[Jo
     list of JointPeaks
         One per arm.
     """
-    rows = [[] for _ in motion.paths]
+    windows = []
     for m, law in enumerate(motion.profiles):
         t = np.union1d(np.linspace(0.0, law.duration, GRID), law.bounds)
-        t = motion.starts[m] + t[(t >= 0.0) & (t <= law.duration)]
-        for a, sampled in enumerate(motion.sample(t, 2)):
-            velocity = np.abs(sampled[1]).max(axis=0)
-            acceleration = np.abs(sampled[2]).max(axis=0)
+        windows.append(motion.starts[m] + t[(t >= 0.0) & (t <= law.duration)])
+    # every move's window in one evaluation of the splines (the same values as one by one)
+    ends = np.cumsum([len(t) for t in windows])
+    sampled = motion.sample(np.concatenate(windows), 2) if windows else []
+    rows = [[] for _ in motion.paths]
+    for a, values in enumerate(sampled):
+        for window in np.split(values, ends[:-1], axis=1):
+            velocity = np.abs(window[1]).max(axis=0)
+            acceleration = np.abs(window[2]).max(axis=0)
             speed = velocity / np.asarray(max_velocity[a], dtype=float)
             limits = np.asarray(max_acceleration[a], dtype=float)
             published = np.isfinite(limits)

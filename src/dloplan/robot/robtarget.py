@@ -13,7 +13,7 @@ asks that exactly one solution matches and that it is the verified one.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import astuple, dataclass, replace
 
 import numpy as np
 
@@ -60,6 +60,13 @@ class RobtargetSolution:
         return float(np.abs(self.matching - np.asarray(q, dtype=float)).max(axis=1).min())
 
 
+MEMO_SIZE = 4096
+"""Robtargets whose solutions a process keeps (:func:`robtarget_solutions`): a plan's repairs
+and re-checks ask for the same ones again (qualitative-1: 280 asks, 80 distinct robtargets)."""
+
+_memo: dict = {}
+
+
 def robtarget_solutions(arm: CellArm, position, rotation_matrix, psi: float, seeds=(),
                         options: IKOptions | None = None,
                         rng: np.random.Generator | None = None) -> np.ndarray:
@@ -83,39 +90,63 @@ def robtarget_solutions(arm: CellArm, position, rotation_matrix, psi: float, see
         solutions near a singularity of the arm angle stay apart), 100 iterations per seed,
         a seed whose error stalls given up.
     rng : numpy.random.Generator, optional
-        For the random seeds; default seeded with 0 (deterministic).
+        For the random seeds; default seeded with 0 (deterministic: the answer is then kept,
+        and the same question asked again, exactly the same arm, pose, arm angle, seeds and
+        options, gets it without solving; :data:`MEMO_SIZE`).
 
     Returns
     -------
     numpy.ndarray
-        (K, 7) [rad], ordered by their distance from the first seed (or home).
+        (K, 7) [rad] (read-only), ordered by their distance from the first seed (or home).
     """
     opts = replace(options if options is not None else IKOptions(), max_iterations=100,
                    position_tolerance=1e-9, angle_tolerance=1e-9)
-    rng = rng if rng is not None else np.random.default_rng(0)
-    starts = np.array([np.clip(np.asarray(s, dtype=float), arm.lower, arm.upper)
-                       for s in seeds] + [arm.home, wrist_flip(arm, arm.home)]
+    position = np.asarray(position, dtype=float)
+    rotation_matrix = np.asarray(rotation_matrix, dtype=float)
+    seeds = [np.asarray(s, dtype=float) for s in seeds]
+    if rng is not None:
+        return _solutions(arm, position, rotation_matrix, psi, seeds, opts, rng)
+    key = (arm, position.tobytes(), rotation_matrix.tobytes(), float(psi),
+           tuple(s.tobytes() for s in seeds), astuple(opts))
+    found = _memo.get(key)
+    if found is None:
+        found = _solutions(arm, position, rotation_matrix, psi, seeds, opts,
+                           np.random.default_rng(0))
+        while len(_memo) >= MEMO_SIZE:  # the oldest answer goes
+            del _memo[next(iter(_memo))]
+        _memo[key] = found
+    return found
+
+
+def _solutions(arm: CellArm, position, rotation_matrix, psi: float, seeds, opts: IKOptions,
+               rng: np.random.Generator) -> np.ndarray:
+    """:func:`robtarget_solutions` solved (its options complete)."""
+    starts = np.array([np.clip(s, arm.lower, arm.upper) for s in seeds]
+                      + [arm.home, wrist_flip(arm, arm.home)]
                       + list(rng.uniform(arm.lower, arm.upper, (RANDOM_SEEDS, 7))))
     n = len(starts)
-    q, ok, _, _ = solve_many(arm, np.tile(np.asarray(position, dtype=float), (n, 1)),
-                             np.tile(np.asarray(rotation_matrix, dtype=float), (n, 1, 1)),
+    q, ok, _, _ = solve_many(arm, np.tile(position, (n, 1)), np.tile(rotation_matrix, (n, 1, 1)),
                              starts, opts, np.full(n, float(psi)), give_up=True)
-    found = []
+    found = np.empty((0, 7))
     for candidate in _with_turns(arm, q[ok]):
-        if not any(np.abs(candidate - other).max() < SAME_SOLUTION for other in found):
-            found.append(candidate)
-    found = np.array(found).reshape(-1, 7)
-    return found[np.argsort(np.abs(found - starts[0]).max(axis=1), kind="stable")]
+        if not np.any(np.abs(candidate - found).max(axis=1) < SAME_SOLUTION):
+            found = np.concatenate([found, candidate[None]])
+    found = found[np.argsort(np.abs(found - starts[0]).max(axis=1), kind="stable")]
+    found.setflags(write=False)
+    return found
 
 
-def _with_turns(arm: CellArm, solutions: np.ndarray) -> list:
-    """The solutions (K, 7) and their turns: every combination of whole turns of the joints
-    whose range exceeds 2 pi that stays within the limits."""
-    out = [np.asarray(q, dtype=float) for q in solutions]
+def _with_turns(arm: CellArm, solutions: np.ndarray) -> np.ndarray:
+    """The solutions (K, 7) and their turns, (K', 7), each solution followed by its turns:
+    every combination of whole turns of the joints whose range exceeds 2 pi that stays within
+    the limits."""
+    out = np.asarray(solutions, dtype=float).reshape(-1, 7)
+    turns = np.arange(-2, 3) * 2.0 * np.pi
     for j in np.flatnonzero(arm.upper - arm.lower > 2.0 * np.pi):
-        turns = np.arange(-2, 3) * 2.0 * np.pi
-        out = [q + turn * np.eye(7)[j] for q in out for turn in turns
-               if arm.lower[j] <= q[j] + turn <= arm.upper[j]]
+        turned = out[:, None, :] + (turns[:, None] * np.eye(7)[j])[None]
+        within = (arm.lower[j] <= out[:, j, None] + turns) & (out[:, j, None] + turns
+                                                              <= arm.upper[j])
+        out = turned[within]
     return out
 
 
