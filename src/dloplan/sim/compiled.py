@@ -194,6 +194,13 @@ def stop_status(residual, tolerance, h, scale, factor, iterations, max_iteration
     return RUNNING
 
 
+@njit(cache=True, inline="always")
+def model_change(alpha, g_p, p_p, shift):
+    """The quadratic model's change [J] for the step alpha p, p the solution of
+    (H + shift I) p = -g: alpha g.p + alpha^2 p.H.p / 2 with p.H.p = -g.p - shift p.p."""
+    return alpha * g_p + 0.5 * alpha**2 * (-g_p - shift * p_p)
+
+
 @njit(cache=True)
 def model_step(h, g, shift, scale, radius, factor, p, twist):
     """The Newton step p for the shift, its size (:func:`twist_step_length` with ``twist``,
@@ -205,7 +212,7 @@ def model_step(h, g, shift, scale, radius, factor, p, twist):
         return False, max(4.0 * shift, 1e-8 * scale), 0.0, 0.0, 0.0
     longest = twist_step_length(p) if twist else _longest(p)
     alpha = min(1.0, radius / longest) if longest > 0 else 1.0
-    return True, shift, longest, alpha, alpha * g_p + 0.5 * alpha**2 * (-g_p - shift * p_p)
+    return True, shift, longest, alpha, model_change(alpha, g_p, p_p, shift)
 
 
 @njit(cache=True)
