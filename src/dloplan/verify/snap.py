@@ -104,7 +104,7 @@ makes its sub-steps candidates (a critical point may fall between samples)."""
 
 NEWTON_ITERATIONS = 500
 """Newton iterations of a sub-step's equilibrium (:func:`dloplan.sim.statics.equilibrium`'s
-default)."""
+default), in the compiled loop and the reference loop alike."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -336,7 +336,8 @@ class _Segment:
 
     def solve(self, guess: np.ndarray, t: float):
         cable, chain = self.model(t)
-        eq = equilibrium(cable, guess, self.clips(t), gravity=self.gravity, chain=chain)
+        eq = equilibrium(cable, guess, self.clips(t), gravity=self.gravity, chain=chain,
+                         max_iterations=NEWTON_ITERATIONS)
         return eq, self.stability(eq.shape, t)
 
     def forcing(self, t0: float, t1: float) -> float:
