@@ -69,6 +69,17 @@ def test_each_harness_example_does_what_its_comment_says(runs, name, approach):
         assert state.contact_force == pytest.approx(0.2, rel=0.02)
 
 
+def test_the_ethernet_jobs_phases_are_stable_and_snap_free_with_its_copper_springs(runs):
+    """The Ethernet example with its catalogue default, copper axial springs (2e9 Pa, 270 E):
+    every phase stable, no snap-through. Phase 2's continuation once reported sub-step 10 of
+    segment 1 as "no stable equilibrium": the compiled contact loop crawled 500 iterations
+    where a step carried a point into the peg (tests/test_held_cable.py)."""
+    assert runs["ethernet"].cable.stiff_axial
+    check = verify_harness_result(runs["ethernet"], replay_run=False)
+    assert check.ok, check.messages
+    assert all(row.verdict == "ok" for row in check.rows), [row.notes for row in check.rows]
+
+
 def test_the_phase1_obstacle_example_needs_re_planning():
     path = EXAMPLES / "harness_phase1_obstacle.yaml"
     assert "re-planned around it" in path.read_text()
