@@ -95,7 +95,12 @@ def test_every_stiffness_converges_where_the_job_is_and_moved(name):
         # still a tiny force: 1e-5 of a point's weight plus k_b / l with the penalty of 1e8 N/m
         assert limit < 1e-4 * force_scale(cable)
         shapes.append(eq.shape - shift)
-    assert np.max(np.abs(shapes[0] - shapes[1])) < 1e-6
+    # the same equilibrium, or its mirror image in the clips' plane y = 0: a cable compressed on
+    # the table buckles sideways, to a side the sign of an eigenvector decides (the saddle escape),
+    # which round-off may flip where the job is moved; the two are mirror images to 3e-16 m, of
+    # equal energy, neither touching the peg (measured with the contact loops' entry fraction)
+    mirrored = shapes[1] * np.array([1.0, -1.0, 1.0])
+    assert min(np.max(np.abs(shapes[0] - shapes[1])), np.max(np.abs(shapes[0] - mirrored))) < 1e-6
     if "contacts" in case:  # the cable does rest on the table: the contact is in the problem
         assert np.min(shapes[0][:, 2]) < -0.06 + cable.diameter
 
