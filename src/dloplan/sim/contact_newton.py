@@ -29,8 +29,8 @@ import numpy as np
 from ..jit import njit
 from ..physics.compiled import chain_derivatives, chain_energy
 from ..physics.contact_compiled import point_distance
-from .compiled import RUNNING, STALLED, model_step, restore_link_lengths, stop_status
-from .newton import step_verdict, wants_correction
+from .compiled import RUNNING, STALLED, model_step, stop_status
+from .newton import step_verdict
 
 __all__ = ["add_penalty", "newton_contacts", "penalty_energy", "penalty_terms"]
 
@@ -83,7 +83,7 @@ def penalty_energy(x, rows, radius, stiffness):
 @njit(cache=True)
 def newton_contacts(x, first, stop, constants, rows, radius, stiffness, length_scale, tolerance,
                     max_iterations, iterations, trust, history, n_history, grad, band,
-                    stop_at_saddle, correct_lengths):
+                    stop_at_saddle):
     """Run the trust-region Newton loop on U + U^c over the free points ``first .. stop - 1``.
 
     Parameters
@@ -112,10 +112,6 @@ def newton_contacts(x, first, stop, constants, rows, radius, stiffness, length_s
         (n + 1, 3) and (9, 3(n + 1)) work arrays: on return the last gradient [N] and band.
     stop_at_saddle : bool
         Return :data:`SADDLE` at a converged but unstable point (else step on from it).
-    correct_lengths : bool
-        Try the second-order correction :func:`dloplan.sim.compiled.restore_link_lengths` on a
-        step that is not very successful, as :func:`dloplan.sim.compiled.newton_positions`
-        does (stiff axial springs: :attr:`dloplan.physics.chain.SpringChain.stiff_axial`).
 
     Returns
     -------
@@ -128,7 +124,6 @@ def newton_contacts(x, first, stop, constants, rows, radius, stiffness, length_s
     factor = np.empty((band.shape[0], n_free))
     p = np.empty(n_free)
     trial = np.empty_like(x)
-    corrected = np.empty_like(x)
     shift = 0.0
     f = history[n_history - 1]
     while True:
@@ -156,14 +151,6 @@ def newton_contacts(x, first, stop, constants, rows, radius, stiffness, length_s
                 trial[first + j // 3, j % 3] += alpha * p[j]
             f_trial = chain_energy(trial, *constants) + penalty_energy(trial, rows, radius,
                                                                        stiffness)
-            if correct_lengths and wants_correction(f, f_trial, predicted):
-                corrected[:] = trial
-                if restore_link_lengths(x, corrected, first, stop):
-                    f_corrected = chain_energy(corrected, *constants) \
-                        + penalty_energy(corrected, rows, radius, stiffness)
-                    if f_corrected < f_trial:
-                        trial[:] = corrected
-                        f_trial = f_corrected
             accepted, shift, trust = step_verdict(f, f_trial, predicted, shift, scale, trust,
                                                   longest, length_scale)
             if accepted:
