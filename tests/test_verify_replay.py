@@ -181,3 +181,17 @@ def test_segment_deviations_and_motion_peak(shapes):
         clip_motion(slow.law, POSES[:2])
     with pytest.raises(ValueError, match="law: got tuple"):
         clip_motion((0, 1), POSES)
+
+
+def test_a_capped_cable_reports_the_tension_its_springs_carry(shapes):
+    """The replay of a cable with stiff axial springs (the USB's copper, 2 GPa) at the capped
+    axial modulus (1e8 Pa, the pipeline's replay cap) stretches it 20x more under the same
+    load; its tension is that of the springs simulated, not the real cable's springs times the
+    capped stretch (which reported 20x the load: 132 N on the harness Ethernet job's phase 2).
+    Slow motion, so the peak is the static load within the ringing (10 %)."""
+    law = (np.array([0.0, 1.5, 3.0]), POSES)
+    assert CABLE.stiff_axial and CABLE.axial_youngs_modulus > 10 * 1e8
+    real = replay(CABLE, shapes, law)
+    capped = replay(CABLE, shapes, law, youngs_modulus_cap=1e8)
+    assert real.peak_tension > 0
+    assert abs(capped.peak_tension / real.peak_tension - 1.0) < 0.1

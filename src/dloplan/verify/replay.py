@@ -414,7 +414,7 @@ def replay(
     final = float(np.max(np.linalg.norm(run.shapes[-1] - path[-1], axis=1)))
     timing = law if law is not None else TimeLaw.constant_speed(knots)
     segments = _segment_deviations(run, path, timing, knots, deviations)
-    tensions = _tensions(run, cable, cable_at, start, gravity)
+    tensions = _tensions(run, model, changing, gravity)
     when, link = np.unravel_index(int(np.argmax(tensions)), tensions.shape)
     peak = float(tensions[when, link])
     moving = run.times <= motion + 1e-12
@@ -448,18 +448,20 @@ def replay(
                   CONTACT_GAP * cable.diameter / 2)
 
 
-def _tensions(run: Simulation, cable: Cable, cable_at, start: float, gravity) -> np.ndarray:
-    """(R, n) link tensions of the recorded shapes [N]: of ``cable``, or of the cable at each
-    record's time, taken per interval of :data:`~dloplan.sim.dynamics.SCHEDULE_INTERVAL` as the
-    simulator takes it."""
-    if cable_at is None:
-        return link_tensions(SpringChain.from_cable(cable, gravity), run.shapes)
+def _tensions(run: Simulation, model: Cable, changing, gravity) -> np.ndarray:
+    """(R, n) link tensions of the recorded shapes [N]: the forces of the springs the run
+    simulated, of ``model`` or of the cable ``changing`` gives at each record's time (on the
+    run's clock), taken per interval of :data:`~dloplan.sim.dynamics.SCHEDULE_INTERVAL` as the
+    simulator takes it. A capped cable (:func:`fictitious_cable`) stretches more under the same
+    load: its own springs give the load, the real cable's would give it times E_a / cap."""
+    if changing is None:
+        return link_tensions(SpringChain.from_cable(model, gravity), run.shapes)
     slots = np.floor(run.times / SCHEDULE_INTERVAL).astype(int)
-    out = np.empty((len(run.times), cable.n_links))
+    out = np.empty((len(run.times), model.n_links))
     for slot in np.unique(slots):
         mine = slots == slot
-        model = cable_at((slot + 0.5) * SCHEDULE_INTERVAL + start)
-        out[mine] = link_tensions(SpringChain.from_cable(model, gravity), run.shapes[mine])
+        cable = changing((slot + 0.5) * SCHEDULE_INTERVAL)
+        out[mine] = link_tensions(SpringChain.from_cable(cable, gravity), run.shapes[mine])
     return out
 
 
