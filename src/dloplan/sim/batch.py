@@ -32,7 +32,14 @@ from ..jit import njit
 from ..physics.chain import HALF_BANDWIDTH, SpringChain
 from ..physics.compiled import chain_derivatives, chain_energy, conform_free_part
 from .clips import MAX_STRAIN, ClipPoses, held_points_of
-from .compiled import CONVERGED, MAX_ITERATIONS, SADDLE, STALLED, newton_positions
+from .compiled import (
+    CONVERGED,
+    MAX_ITERATIONS,
+    SADDLE,
+    STALLED,
+    largest_force,
+    newton_positions,
+)
 from .newton import newton_message
 from .result import DEFAULT_RTOL, ROUNDOFF, force_scale, stiffest
 from .statics import equilibrium
@@ -182,11 +189,7 @@ def continue_held(shapes, positions, quaternions, k_s, rest_lengths, k_b, rest_a
         converged[j] = residual <= limit
         chain_derivatives(shapes[j], k_s, rest_lengths, k_b, rest_angles, masses, gravity,
                           grad, band)
-        largest = 0.0
-        for i in range(2, n_points - 2):
-            largest = max(largest, math.sqrt(grad[i, 0] ** 2 + grad[i, 1] ** 2
-                                             + grad[i, 2] ** 2))
-        residuals[j] = largest
+        residuals[j] = largest_force(grad, 2, n_points - 2)
         norm = 0.0
         for r in range(n_free):
             row = 0.0

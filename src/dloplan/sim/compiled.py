@@ -215,6 +215,24 @@ def model_step(h, g, shift, scale, radius, factor, p, twist):
     return True, shift, longest, alpha, model_change(alpha, g_p, p_p, shift)
 
 
+@njit(cache=True, inline="always")
+def largest_force(grad, first, stop):
+    """The largest net force on the points ``first .. stop - 1`` [N]: the Newton loops'
+    residual, from the (n + 1, 3) gradient ``grad``."""
+    largest = 0.0
+    for i in range(first, stop):
+        largest = max(largest, math.sqrt(grad[i, 0] ** 2 + grad[i, 1] ** 2 + grad[i, 2] ** 2))
+    return largest
+
+
+@njit(cache=True, inline="always")
+def moved_by(x, alpha, p, first, trial):
+    """``trial`` <- ``x`` with the free points from ``first`` on moved by alpha p [m]."""
+    trial[:] = x
+    for j in range(p.shape[0]):
+        trial[first + j // 3, j % 3] += alpha * p[j]
+
+
 @njit(cache=True)
 def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses, gravity,
                      length_scale, tolerance, max_iterations, iterations, radius, history,
@@ -264,10 +282,7 @@ def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses
     f = history[n_history - 1]
     while True:
         chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, grad, band)
-        residual = 0.0
-        for i in range(first, stop):
-            residual = max(residual, math.sqrt(grad[i, 0] ** 2 + grad[i, 1] ** 2
-                                               + grad[i, 2] ** 2))
+        residual = largest_force(grad, first, stop)
         g = grad.ravel()[free]
         h = band[:, free]
         scale = np.mean(h[0])
@@ -281,9 +296,7 @@ def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses
                                                                    factor, p, False)
             if not solved:
                 continue
-            trial[:] = x
-            for j in range(n_free):
-                trial[first + j // 3, j % 3] += alpha * p[j]
+            moved_by(x, alpha, p, first, trial)
             f_trial = chain_energy(trial, k_s, rest_lengths, k_b, rest_angles, masses, gravity)
             if correct_lengths and wants_correction(f, f_trial, predicted):
                 corrected[:] = trial

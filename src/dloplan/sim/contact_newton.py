@@ -22,8 +22,6 @@ takes over, as for the plain chain.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..jit import njit
@@ -33,14 +31,16 @@ from ..physics.contact_compiled import point_distance
 from .compiled import (
     RUNNING,
     STALLED,
+    largest_force,
     model_change,
     model_step,
+    moved_by,
     restore_link_lengths,
     stop_status,
 )
 from .newton import step_verdict, wants_correction
 
-__all__ = ["add_penalty", "entry_fraction_rows", "moved_by", "newton_contacts", "penalty_energy",
+__all__ = ["add_penalty", "entry_fraction_rows", "newton_contacts", "penalty_energy",
            "penalty_terms"]
 
 
@@ -108,14 +108,6 @@ def entry_fraction_rows(x, trial, first, stop, rows, radius):
     return fraction
 
 
-@njit(cache=True, inline="always")
-def moved_by(x, alpha, p, first, trial):
-    """``trial`` <- ``x`` with the free points from ``first`` on moved by alpha p [m]."""
-    trial[:] = x
-    for j in range(p.shape[0]):
-        trial[first + j // 3, j % 3] += alpha * p[j]
-
-
 @njit(cache=True)
 def newton_contacts(x, first, stop, constants, rows, radius, stiffness, length_scale, tolerance,
                     max_iterations, iterations, trust, history, n_history, grad, band,
@@ -176,10 +168,7 @@ def newton_contacts(x, first, stop, constants, rows, radius, stiffness, length_s
     while True:
         chain_derivatives(x, *constants, grad, band)
         penalty_terms(x, rows, radius, stiffness, grad, band)
-        residual = 0.0
-        for i in range(first, stop):
-            residual = max(residual, math.sqrt(grad[i, 0] ** 2 + grad[i, 1] ** 2
-                                               + grad[i, 2] ** 2))
+        residual = largest_force(grad, first, stop)
         g = grad.ravel()[free]
         h = band[:, free]
         scale = np.mean(h[0])
