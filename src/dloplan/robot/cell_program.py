@@ -25,12 +25,13 @@ import numpy as np
 
 from .cell import RobotCell
 from .chain import capsules
-from .checks import SLOW_ROUNDS, CheckedProgram, CheckRow, check_summary
+from .checks import CheckRow
 from .described import DescribedCell
 from .motion import JointMotion
 from .path import CHECKS
-from .peaks import motion_peaks, slowed_scale
+from .peaks import motion_peaks
 from .program import robot_program
+from .program_core import ProgramCore, slowed, speed_rows
 from .urdf_cell import CellPlan, verify_on_cell
 
 URSCRIPT_JOINTS = 6
@@ -115,7 +116,7 @@ def make_program(cell, grippers, trajectory) -> Program:
 
 
 @dataclass(frozen=True, eq=False)
-class CellProgram(CheckedProgram):
+class CellProgram(ProgramCore):
     """A plan verified on a described cell: what the URScript and ROS 2 writers write.
 
     Attributes
@@ -130,12 +131,18 @@ class CellProgram(CheckedProgram):
     trajectory : Trajectory or None
         The timing the program was verified with: the plan's, or slowed where a joint was
         over its speed limit.
+    joint_speed : numpy.ndarray or None
+        (K - 1, 2) per move and arm the peak joint speed along the time law as a fraction of
+        the limit.
     """
 
     plan: CellPlan
     left_clip: int
     checks: tuple[CheckRow, ...]
     trajectory: object = None
+    joint_speed: np.ndarray | None = None
+
+    CHECKS = CHECKS
 
     @property
     def cell(self) -> DescribedCell:
@@ -192,14 +199,35 @@ class CellProgram(CheckedProgram):
 
     @property
     def message(self) -> str:
-        """One line: the cell, the placement, and the verdict (its key numbers or failures)."""
+        """One line: the cell, the placement, and the verdict (the path's key numbers, or the
+        first failure of every failing check, those along the time law included)."""
         shift = np.round(1e3 * self.plan.offset, 1).tolist()
-        return (f"{self.cell.name}: job shifted by {shift} mm; "
-                f"{self.plan.verdict.message}")
+        verdict = (self.plan.verdict.message if self.ok else
+                   "cell FAILS: " + self.failure_text(lambda arm: f"{arm}: "))
+        return f"{self.cell.name}: job shifted by {shift} mm; {verdict}"
 
-    def summary(self) -> list[dict]:
-        """Per check: passed, the worst value and where, how many rows fail and the first."""
-        return check_summary(self.checks, CHECKS)
+    def segment_speed_ratios(self) -> np.ndarray:
+        """(K - 1,) per segment of the trajectory the larger arm's peak joint speed as a
+        fraction of the limit (0 for a dropped knot's segment: no arm moves)."""
+        ratios = np.zeros(self.trajectory.n_knots - 1)
+        ratios[self.plan.shapes[1:] - 1] = self.joint_speed.max(axis=1)
+        return ratios
+
+    def retimed(self, trajectory) -> CellProgram:
+        """The same targets and joints timed by ``trajectory`` (the plan's trajectory, maybe
+        slowed): the knot times, and the verdict's rows followed by the joint speed and
+        acceleration rows along its time law (:func:`~dloplan.robot.program_core.
+        speed_rows`)."""
+        plan = replace(self.plan, times=trajectory.times[self.plan.shapes])
+        cell = plan.cell
+        timed = CellProgram(plan, self.left_clip, plan.verdict.rows, trajectory)
+        peaks = motion_peaks(timed.joint_motion(trajectory),
+                             [arm.max_velocity for arm in cell.arms],
+                             [arm.max_acceleration for arm in cell.arms])
+        labels = [f"shape {s}" for s in plan.shapes]
+        rows = speed_rows(labels, plan.shapes, cell.arms, peaks, lambda j: f"joint {j + 1}")
+        return replace(timed, checks=plan.verdict.rows + rows,
+                       joint_speed=np.stack([p.speed for p in peaks], axis=1))
 
     def to_dict(self) -> dict:
         """JSON-ready: placement, assignment, targets with their verified joints, checks."""
@@ -273,45 +301,12 @@ def cell_program(cell: DescribedCell, trajectory) -> CellProgram:
     """Verify a plan's timed trajectory on a described cell (:func:`verify_on_cell` with the
     cell's placement setting) as a :class:`CellProgram`: the verdict's rows, then per moving
     segment and arm the peak joint speed and (where the arm has published limits) joint
-    acceleration along the time law. Segments over a joint speed limit are slowed (the law's
-    speed scale, :func:`~dloplan.robot.peaks.slowed_scale`) up to
-    :data:`~dloplan.robot.checks.SLOW_ROUNDS` times; the joints' path does not change."""
+    acceleration along the time law. Segments over a joint speed limit are slowed
+    (:func:`~dloplan.robot.program_core.slowed`); the joints' path does not change."""
     plan = verify_on_cell(cell, trajectory)
     arm_clips = tuple(trajectory.arm_clips)
     left_clip = arm_clips[1] if plan.swapped else arm_clips[0]
-    timing = trajectory
-    limits = ([arm.max_velocity for arm in cell.arms], [arm.max_acceleration for arm in cell.arms])
-    for round_ in range(SLOW_ROUNDS + 1):
-        peaks = motion_peaks(CellProgram(plan, int(left_clip), plan.verdict.rows,
-                                         timing).joint_motion(timing), *limits)
-        ratios = np.zeros(timing.n_knots - 1)
-        ratios[plan.shapes[1:] - 1] = np.max([p.speed for p in peaks], axis=0)
-        if not np.any(ratios > 1.0) or round_ == SLOW_ROUNDS:
-            break
-        timing = timing.with_speed_scale(slowed_scale(timing, ratios))
-        plan = replace(plan, times=timing.times[plan.shapes])
-    return CellProgram(plan, int(left_clip), plan.verdict.rows + _speed_rows(plan, peaks),
-                       timing)
-
-
-def _speed_rows(plan: CellPlan, peaks) -> tuple[CheckRow, ...]:
-    """One ``joint speed`` row per segment and arm, and a ``joint acceleration`` row where the
-    arm has published acceleration limits."""
-    rows = []
-    for j, shape in enumerate(plan.shapes[1:]):
-        label = f"shape {shape}"
-        for a, arm in enumerate(plan.cell.arms):
-            p = peaks[a]
-            rows.append(CheckRow("joint speed", j + 1, label, int(shape), arm.name,
-                                 float(p.speed[j]), "of the limit", bool(p.speed[j] <= 1.0),
-                                 f"joint {int(p.speed_joint[j]) + 1}; peak along the time law"))
-            if np.isfinite(arm.max_acceleration).any():
-                rows.append(CheckRow("joint acceleration", j + 1, label, int(shape), arm.name,
-                                     float(p.acceleration[j]), "of the limit",
-                                     bool(p.acceleration[j] <= 1.0),
-                                     f"joint {int(p.acceleration_joint[j]) + 1}; "
-                                     f"{p.largest_acceleration[j]:.3g} rad/s^2"))
-    return tuple(rows)
+    return slowed(CellProgram(plan, int(left_clip), plan.verdict.rows).retimed(trajectory))
 
 
 def placement_message(cell, grippers, trajectory) -> str:

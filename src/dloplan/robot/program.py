@@ -42,11 +42,19 @@ its timing (:class:`~dloplan.trajectory.Trajectory`) into a :class:`RobotProgram
      trajectory's jerk-limited law, :mod:`dloplan.robot.peaks`), as a fraction of the joint's
      speed limit (ABB's product specification of the IRB 14000).
 
-A program whose only trouble is a joint over its speed limit is slowed first: each such
-segment's speed scale of the time law (:meth:`dloplan.trajectory.Trajectory.with_speed_scale`)
-brings it to 98 % of the limit, up to :data:`SLOW_ROUNDS` times; the program keeps the
-trajectory it was verified with (:attr:`RobotProgram.trajectory`). The program is ``ok`` when
-every row is. Everything computed is kept (:attr:`RobotProgram.checks`,
+The joint solutions are tried best ranked first (up to :data:`MAX_TRIES`), each judged on its
+replayed motion (reach, continuity, clearance) before the controller's round trip and the time
+law are computed for it: a pair passed over costs its replay only; when the side rule's
+program fails on clearance or continuity the swapped assignment is tried the same way and
+taken only when it passes every check.
+
+A program over a joint speed limit is slowed (:func:`~dloplan.robot.program_core.slowed`,
+shared with every cell): each such segment's speed scale of the time law
+(:meth:`dloplan.trajectory.Trajectory.with_speed_scale`) brings it to 98 % of the limit, up to
+:data:`~dloplan.robot.checks.SLOW_ROUNDS` times, re-timing the program (its targets, joints and
+replayed motion do not depend on the timing, so they are not solved again); the program keeps
+the trajectory it was verified with (:attr:`RobotProgram.trajectory`). The program is ``ok``
+when every row is. Everything computed is kept (:attr:`RobotProgram.checks`,
 :meth:`RobotProgram.summary`, :meth:`RobotProgram.to_dict`).
 """
 
@@ -60,12 +68,13 @@ from scipy.spatial.transform import Rotation
 from .armangle import arm_angle
 from .assignment import ArmAssignment, assign_arms
 from .cell import RobotCell
-from .checks import SLOW_ROUNDS, CheckedProgram, CheckRow, check_summary
+from .checks import CheckRow
 from .collision import arm_clearance
 from .confdata import confdata
 from .kinematics import forward, solve_from
 from .motion import JointMotion
-from .peaks import motion_peaks, slowed_scale
+from .peaks import motion_peaks
+from .program_core import ProgramCore, slowed, speed_rows
 from .replay import replay_moves
 from .robtarget import ROUND_TRIP_TOLERANCE, solve_robtarget
 from .solutions import ranked_solutions
@@ -91,7 +100,7 @@ _TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
 
 
 @dataclass(frozen=True, eq=False)
-class RobotProgram(CheckedProgram):
+class RobotProgram(ProgramCore):
     """A verified dual-arm program: what the RAPID writer writes, and its checks.
 
     Arrays are indexed ``[target, arm]`` with the arms in the order ``("left", "right")``; the
@@ -168,6 +177,8 @@ class RobotProgram(CheckedProgram):
     joint_speed: np.ndarray | None = None
     move_substeps: np.ndarray | None = None
 
+    CHECKS = CHECKS
+
     @property
     def n_targets(self) -> int:
         """Number of targets M."""
@@ -239,9 +250,16 @@ class RobotProgram(CheckedProgram):
                 "arm_motion": (self.motion_times, self.motion_joints,
                                self.times[self.grasp:self.release + 1])}
 
-    def summary(self) -> list[dict]:
-        """Per check: passed, the worst value and where, how many rows fail and the first."""
-        return check_summary(self.checks, CHECKS)
+    def segment_speed_ratios(self) -> np.ndarray:
+        """(K - 1,) per segment of the trajectory (a move between shapes) the larger arm's peak
+        joint speed as a fraction of the limit (the approach and the retreat, at the cell's
+        approach speed, are not the trajectory's)."""
+        inner = self.joint_speed[1:-1] if self.cell.approach > 0 else self.joint_speed
+        return inner.max(axis=1)
+
+    def retimed(self, trajectory) -> RobotProgram:
+        """The same targets and joints timed by ``trajectory`` (:func:`_timed`)."""
+        return _timed(self, trajectory)
 
     @property
     def message(self) -> str:
@@ -253,15 +271,7 @@ class RobotProgram(CheckedProgram):
                     f"{summary['joint limits']['worst']:.1f} deg, largest joint step "
                     f"{summary['continuity']['worst']:.1f} deg, joint speed up to "
                     f"{100 * summary['joint speed']['worst']:.0f} % of the limit")
-        parts = []
-        for line in summary.values():
-            if not line["ok"]:
-                first = next(r for r in self.failures if r.check == line["check"])
-                who = "" if first.arm == "both" else f"{first.arm} arm: "
-                note = f"; {first.note}" if first.note else ""
-                parts.append(f"{line['check']} at {first.label} ({who}{first.value:.4g} "
-                             f"{first.unit}{note})")
-        return "robot program FAILS: " + "; ".join(parts)
+        return "robot program FAILS: " + self.failure_text()
 
     def to_dict(self) -> dict:
         """JSON-ready: the assignment, the targets as written, the joints and every check."""
@@ -322,18 +332,10 @@ def robot_program(grippers, trajectory, cell: RobotCell | None = None) -> RobotP
     if not program.ok and assignment.ok:
         failed = {r.check for r in program.failures}
         if failed & {"clearance", "continuity"} and "reach" not in failed:
-            other = _build(grippers, trajectory, cell, assignment.swapped())
-            if other.ok:
+            other = _build(grippers, trajectory, cell, assignment.swapped(), passing=True)
+            if other is not None and other.ok:
                 program = other
-    for _ in range(SLOW_ROUNDS):
-        inner = program.joint_speed[1:-1] if cell.approach > 0 else program.joint_speed
-        ratios = inner.max(axis=1)
-        if not np.any(ratios > 1.0):
-            break
-        timing = program.trajectory
-        program = _build(grippers, timing.with_speed_scale(slowed_scale(timing, ratios)), cell,
-                         program.assignment)
-    return program
+    return slowed(program)
 
 
 def _check_inputs(grippers, trajectory) -> None:
@@ -355,7 +357,15 @@ def _check_inputs(grippers, trajectory) -> None:
                          "path's clip points; expected the trajectory of the same plan")
 
 
-def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment) -> RobotProgram:
+def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment,
+           passing: bool = False) -> RobotProgram | None:
+    """The program of an arm assignment: its targets, then the ranked joint solutions tried
+    in order (up to :data:`MAX_TRIES`): the first whose motion neither collides nor loses
+    continuity, or the first with a target no solution reaches, else the best ranked.
+    A try is judged on its motion (reach, continuity, clearance) before the controller's
+    round trip and the time law are computed: a try that is passed over costs its replay
+    only. With ``passing`` only a program whose motion passes is wanted (None otherwise:
+    the swapped assignment, taken only when it passes every check)."""
     robot, opts = cell.robot, cell.reach
     clips = list(assignment.clips)
     n_shapes = len(grippers.positions)
@@ -383,25 +393,30 @@ def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment) -> 
         canonical=True, scalar_first=True), 9).reshape(g.shape[:2] + (4,)) for g in grips]
     rots = [Rotation.from_quat(q.reshape(-1, 4), scalar_first=True).as_matrix().reshape(
         q.shape[:2] + (3, 3)) for q in quats]
-    best = None
+    targets = (labels, shapes, grasp, release, pos, quats, rots)
+    first = None
     for left, right in ranked_solutions(robot, pos, rots, opts)[:MAX_TRIES]:
-        program = _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos,
-                          quats, rots, (left, right))
-        if best is None:
-            best = program
-        failed = {r.check for r in program.failures}
-        if not failed & {"clearance", "continuity"} or "reach" in failed:
-            return program  # passed, or a target no solution reaches: no other pair helps
-    return best
+        motion = _motion(cell, targets, (left, right))
+        reached = bool(motion["solved"].all())
+        moves = all(r.ok for r in motion["rows"])
+        if passing and not (reached and moves):
+            if not reached:
+                return None  # a target no solution reaches: no other pair helps
+            continue
+        if first is None and not passing:
+            first = motion
+        if moves or not reached:
+            return _finish(trajectory, cell, assignment, targets, motion)
+    return _finish(trajectory, cell, assignment, targets, first) if first is not None else None
 
 
-def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, quats, rots,
-            chosen) -> RobotProgram:
-    """The program of one joint solution per arm: written arm angles, re-solved joints,
-    timing, the controller replay and the verdict rows."""
+def _motion(cell: RobotCell, targets, chosen) -> dict:
+    """The motion of one joint solution per arm (``chosen``, candidates of
+    :func:`~dloplan.robot.solutions.ranked_solutions`): the written arm angles, every target
+    re-solved with its arm angle held, the controller's MoveL replayed into every target, and
+    the rows judged on that motion alone (``clearance`` and ``continuity``)."""
     robot, opts = cell.robot, cell.reach
-    turned = tuple(bool(c.grip) for c in chosen)
-    quat = np.stack([quats[c.grip][:, a] for a, c in enumerate(chosen)], axis=1)
+    labels, shapes, _, _, pos, quats, rots = targets
     rot = np.stack([rots[c.grip][:, a] for a, c in enumerate(chosen)], axis=1)
     q0 = np.stack([c.joints for c in chosen], axis=1)
     eax = np.round(np.degrees(np.stack([arm_angle(arm, q0[:, a])
@@ -412,29 +427,57 @@ def _finish(trajectory, cell, assignment, labels, shapes, grasp, release, pos, q
         for a, arm in enumerate(robot.arms):
             res = solve_from(arm, pos[m, a], rot[m, a], q0[m, a], opts.ik, np.radians(eax[m, a]))
             joints[m, a], solved[m, a] = res.q, res.success and chosen[a].solved[m]
-    durations, speeds = _timing(trajectory, cell, assignment, cell.approach > 0)
-    times = np.cumsum(np.r_[0.0, durations])
     replay = replay_moves(robot, pos, rot, eax, joints, opts)
+    return {"chosen": chosen, "rot": rot, "eax": eax, "joints": joints, "solved": solved,
+            "replay": replay, "rows": _motion_rows(robot, opts, labels, shapes, joints, replay)}
+
+
+def _finish(trajectory, cell, assignment, targets, motion) -> RobotProgram:
+    """The program of a solved motion (:func:`_motion`): the controller's round trip of every
+    written robtarget, the verdict rows and the timing."""
+    robot, opts = cell.robot, cell.reach
+    labels, shapes, grasp, release, pos, quats, _ = targets
+    chosen, rot, eax, joints = motion["chosen"], motion["rot"], motion["eax"], motion["joints"]
+    turned = tuple(bool(c.grip) for c in chosen)
+    quat = np.stack([quats[c.grip][:, a] for a, c in enumerate(chosen)], axis=1)
     trip = [[solve_robtarget(arm, pos[m, a], rot[m, a], np.radians(eax[m, a]),
                              confdata(joints[m, a]), seeds=[joints[m, a]], options=opts.ik)
              for a, arm in enumerate(robot.arms)] for m in range(len(pos))]
-    rows = _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay,
-                 trip)
+    rows = _target_rows(robot, cell, assignment, labels, shapes, pos, rot, joints,
+                        motion["solved"], trip) + motion["rows"]
+    replayed = motion["replay"]["joints"]
+    untimed = RobotProgram(cell, assignment, turned, labels, shapes, grasp, release, pos, quat,
+                           joints, confdata(joints), eax, None, None, None, None,
+                           np.concatenate([joints[:1]] + replayed), tuple(rows),
+                           move_substeps=np.array([len(q) for q in replayed]))
+    return _timed(untimed, trajectory)
+
+
+def _timed(program: RobotProgram, trajectory) -> RobotProgram:
+    """``program`` (its targets, joints and replayed motion) timed by ``trajectory``: move
+    durations, written speeds and zones, the replay's sub-step times, and the joint speed rows
+    along the time law (replacing any it had). Re-timing never changes a target or a joint:
+    a program slowed for its joint speeds is re-timed, not solved again."""
+    cell = program.cell
+    durations, speeds = _timing(trajectory, cell, program.assignment, cell.approach > 0)
+    times = np.cumsum(np.r_[0.0, durations])
     motion_times = np.concatenate([times[:1]] + [
-        times[m] - durations[m - 1] * (1.0 - np.arange(1, len(q) + 1) / len(q))
-        for m, q in enumerate(replay["joints"], start=1)])
-    motion = np.concatenate([joints[:1]] + replay["joints"])
-    zones = np.zeros(len(pos))
+        times[m] - durations[m - 1] * (1.0 - np.arange(1, n + 1) / n)
+        for m, n in enumerate(program.move_substeps, start=1)])
+    zones = np.zeros(program.n_targets)
     knots = slice(1, -1) if cell.approach > 0 else slice(None)
     zones[knots] = trajectory.zones
-    zones[[0, grasp, release, -1]] = 0.0
-    program = RobotProgram(cell, assignment, turned, labels, shapes, grasp, release, pos, quat,
-                           joints, confdata(joints), eax, times, durations, speeds,
-                           motion_times, motion, tuple(rows), zones, trajectory, None,
-                           np.array([len(q) for q in replay["joints"]]))
-    peaks = motion_peaks(program.joint_motion(trajectory), [arm.max_velocity for arm in
-                                                             robot.arms], [np.full(7, np.inf)] * 2)
-    return replace(program, checks=program.checks + _speed_rows(labels, shapes, peaks),
+    zones[[0, program.grasp, program.release, -1]] = 0.0
+    checks = tuple(row for row in program.checks if row.check != "joint speed")
+    program = replace(program, times=times, durations=durations, speeds=speeds,
+                      motion_times=motion_times, zones=zones, trajectory=trajectory,
+                      checks=checks)
+    arms = cell.robot.arms
+    peaks = motion_peaks(program.joint_motion(trajectory), [arm.max_velocity for arm in arms],
+                         [arm.max_acceleration for arm in arms])
+    rows = speed_rows(program.labels, program.shapes, cell.robot.arms, peaks,
+                      lambda j: f"ABB axis {ABB_AXIS_NUMBERS[j]}")
+    return replace(program, checks=checks + rows,
                    joint_speed=np.stack([p.speed for p in peaks], axis=1))
 
 
@@ -458,9 +501,10 @@ def _link(i: int) -> str:
     return "gripper" if i == 7 else f"link {i + 1}"
 
 
-def _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, replay,
-          trip) -> list:
-    """The verdict table but its joint speeds (module docstring); ``trip[m][a]`` the
+def _target_rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved,
+                 trip) -> list:
+    """The verdict rows of the arm assignment and of the targets (module docstring:
+    ``assignment``, ``reach``, ``round trip``, ``joint limits``); ``trip[m][a]`` the
     controller's solutions of target m's robtarget
     (:func:`~dloplan.robot.robtarget.solve_robtarget`)."""
     opts = cell.reach
@@ -500,7 +544,13 @@ def _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, rep
                 note += f", less than the {np.degrees(opts.min_margin):.0f} deg required"
             rows.append(CheckRow("joint limits", m, label, int(shapes[m]), ARMS[a], margin,
                                  "deg", bool(gaps[j] >= opts.min_margin), note))
-    # clearance at each target and along the move into it
+    return rows
+
+
+def _motion_rows(robot, opts, labels, shapes, joints, replay) -> list:
+    """The verdict rows of the replayed motion (module docstring): ``clearance`` at each
+    target and along the move into it, ``continuity`` of every move."""
+    rows = []
     steps = [joints[:1]] + replay["joints"]
     for m, label in enumerate(labels):
         q = steps[m]
@@ -524,19 +574,3 @@ def _rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved, rep
             rows.append(CheckRow("continuity", m, labels[m], int(shapes[m]), ARMS[a],
                                  float(np.degrees(largest)), "deg", bool(ok), note))
     return rows
-
-
-def _speed_rows(labels, shapes, peaks) -> tuple[CheckRow, ...]:
-    """One ``joint speed`` row per move and arm; ``peaks[a]`` the arm's
-    :class:`~dloplan.robot.peaks.JointPeaks` per move."""
-    rows = []
-    for m in range(1, len(labels)):
-        for a in range(2):
-            ratio = float(peaks[a].speed[m - 1])
-            axis = ABB_AXIS_NUMBERS[int(peaks[a].speed_joint[m - 1])]
-            rows.append(CheckRow("joint speed", m, labels[m], int(shapes[m]), ARMS[a], ratio,
-                                 "of the limit", bool(ratio <= 1.0),
-                                 f"from {labels[m - 1]}; peak along the time law, ABB axis "
-                                 f"{axis}; peak joint acceleration "
-                                 f"{peaks[a].largest_acceleration[m - 1]:.3g} rad/s^2"))
-    return tuple(rows)
