@@ -19,9 +19,9 @@ difference of
 * the planned and the stabilized shapes, the gripper positions [m] and frames (quaternions),
   the trajectory's knot times [s] and poses (``plan.json``);
 * the robot program as recorded in ``plan.json`` (``robot.program``: every target's joints
-  [deg], the checks) and the program files written (``rapid/``, ``urscript/``,
-  ``ros_joints/``, ``trajectory.csv``, ``trajectory.yaml``: compared as text, so any change of a
-  digit counts);
+  [deg]; its check rows and message, compared as they are: the first differing row is shown)
+  and the program files written (``rapid/``, ``urscript/``, ``ur_rtde/``, ``ros_joints/``,
+  ``trajectory.csv``, ``trajectory.yaml``: compared as text, so any change of a digit counts);
 
 and which files only one version wrote. A difference of 0.0 everywhere is what "behaviour kept"
 means; where a seam changes a plan on purpose the row says so and the reason is the caller's to
@@ -40,7 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
-PROGRAM_FILES = ("rapid", "urscript", "ros_joints", "trajectory.csv", "trajectory.yaml")
+PROGRAM_FILES = ("rapid", "urscript", "ur_rtde", "ros_joints", "trajectory.csv",
+                 "trajectory.yaml")
 """What a robot runs: compared as text."""
 
 
@@ -110,6 +111,13 @@ def _difference(a: np.ndarray, b: np.ndarray) -> float | str:
     return float(np.max(np.abs(a - b))) if a.size else 0.0
 
 
+def _checks(plan: dict) -> list[dict]:
+    """The robot program's check rows and message as recorded in a plan.json (none without a
+    robot program)."""
+    program = (plan.get("robot") or {}).get("program") or {}
+    return list(program.get("checks", [])) + [{"message": program.get("message")}]
+
+
 def _program_texts(folder: Path) -> dict[str, str]:
     texts = {}
     for name in PROGRAM_FILES:
@@ -141,6 +149,9 @@ def compare(out: Path, old: str, new: str) -> int:
                  for key in arrays[0] if key in arrays[1]}
         keys = set(arrays[0]) ^ set(arrays[1])
         texts = [_program_texts(f) for f in (a, b)]
+        checks = [_checks(json.loads((f / "plan.json").read_text())) for f in (a, b)]
+        rows = [k for k in range(max(map(len, checks)))
+                if k >= min(map(len, checks)) or checks[0][k] != checks[1][k]]
         changed = [k for k in texts[0] if k in texts[1] and texts[0][k] != texts[1][k]]
         only = sorted(set(texts[0]) ^ set(texts[1]))
         files = [sorted(str(p.relative_to(f)) for p in f.rglob("*") if p.is_file()
@@ -148,11 +159,15 @@ def compare(out: Path, old: str, new: str) -> int:
         worst = max((d for d in diffs.values() if isinstance(d, float)), default=0.0)
         shapes = [k for k, d in diffs.items() if not isinstance(d, float)]
         line.append(f"largest difference {worst:.3g}")
-        if worst or shapes or keys or changed or only:
+        if worst or shapes or keys or changed or only or rows:
             differing += 1
             line += [f"{k} {d}" for k, d in diffs.items() if d]
             if keys:
                 line.append(f"sections in one only: {sorted(keys)}")
+            if rows:
+                line.append(f"robot checks differ: {len(rows)} of {len(checks[0])} rows "
+                            f"(first: {checks[0][rows[0]] if rows[0] < len(checks[0]) else None}"
+                            f" -> {checks[1][rows[0]] if rows[0] < len(checks[1]) else None})")
             if changed:
                 line.append(f"program files differ: {changed}")
             if only:
