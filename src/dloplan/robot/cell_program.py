@@ -229,13 +229,12 @@ class CellProgram(ProgramCore):
         return replace(timed, checks=plan.verdict.rows + rows,
                        joint_speed=np.stack([p.speed for p in peaks], axis=1))
 
-    def to_dict(self) -> dict:
-        """JSON-ready: placement, assignment, targets with their verified joints, checks."""
+    def record(self) -> dict:
+        """The cell, the placement, the assignment, the formats and the targets with their
+        verified joints (:meth:`to_dict`)."""
         plan = self.plan
         rotvecs = plan.rotations.as_rotvec().reshape(-1, 2, 3)
         return {
-            "ok": self.ok,
-            "message": self.message,
             "cell": self.cell.name,
             "offset": plan.offset.tolist(),
             "assignment": {"left_clip": self.left_clip, "swapped": plan.swapped,
@@ -248,8 +247,6 @@ class CellProgram(ProgramCore):
                                                  self.joints[a][k]).tolist()}
                                   for a, arm in enumerate(self.cell.arms)}}
                         for k, s in enumerate(plan.shapes)],
-            "summary": self.summary(),
-            "checks": [row.to_dict() for row in self.checks],
         }
 
     def ros_joints_arguments(self) -> dict:

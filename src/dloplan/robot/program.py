@@ -273,11 +273,10 @@ class RobotProgram(ProgramCore):
                     f"{100 * summary['joint speed']['worst']:.0f} % of the limit")
         return "robot program FAILS: " + self.failure_text()
 
-    def to_dict(self) -> dict:
-        """JSON-ready: the assignment, the targets as written, the joints and every check."""
+    def record(self) -> dict:
+        """The assignment, the tools and work object, the targets as written (position,
+        quaternion, confdata, arm angle) and their verified joints (:meth:`to_dict`)."""
         return {
-            "ok": self.ok,
-            "message": self.message,
             "assignment": {"left_clip": self.assignment.left_clip, "rule": self.assignment.rule,
                            "crossings": list(self.assignment.crossings),
                            "message": self.assignment.message},
@@ -293,8 +292,6 @@ class RobotProgram(ProgramCore):
                                         "arm_angle_deg": float(self.arm_angles[m, a])}
                                   for a, arm in enumerate(ARMS)}}
                         for m, label in enumerate(self.labels)],
-            "summary": self.summary(),
-            "checks": [row.to_dict() for row in self.checks],
         }
 
 

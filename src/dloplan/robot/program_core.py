@@ -29,10 +29,11 @@ from .peaks import slowed_scale
 class ProgramCore(CheckedProgram):
     """The verdict of a program from its ``checks`` in the order of its ``CHECKS``.
 
-    A program also has ``trajectory`` (the timing it was verified with), and for
-    :func:`slowed` ``segment_speed_ratios()`` (per segment of the trajectory the peak joint
-    speed ratio of the moves it times) and ``retimed(trajectory)`` (the same targets and joints
-    timed by another trajectory of the same path)."""
+    A program also has ``trajectory`` (the timing it was verified with), ``record()`` (what
+    :meth:`to_dict` writes of its targets), and for :func:`slowed` ``segment_speed_ratios()``
+    (per segment of the trajectory the peak joint speed ratio of the moves it times) and
+    ``retimed(trajectory)`` (the same targets and joints timed by another trajectory of the
+    same path)."""
 
     CHECKS: tuple[str, ...] = ()
 
@@ -52,6 +53,13 @@ class ProgramCore(CheckedProgram):
                 parts.append(f"{name} at {first.label} ({who(first.arm)}{first.value:.4g} "
                              f"{first.unit}{note})")
         return "; ".join(parts)
+
+    def to_dict(self) -> dict:
+        """JSON-ready: the verdict and its message, what the cell's program records of its
+        targets (``record()``: the assignment, the targets as written, their joints), the
+        summary and every check row."""
+        return {"ok": self.ok, "message": self.message, **self.record(),
+                "summary": self.summary(), "checks": [row.to_dict() for row in self.checks]}
 
 
 def speed_rows(labels, shapes, arms, peaks, axis_name) -> tuple[CheckRow, ...]:
