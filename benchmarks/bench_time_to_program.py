@@ -201,7 +201,7 @@ def main() -> None:
                 if line:
                     print(f"   {stem:<28} {line}")
         if args.before and not args.no_examples:
-            print("\nthis / before (wall, CPU):")
+            print("\nspeed-up, before / this (wall, CPU):")
             for stem, runs in results["this"].items():
                 this, before = best(runs), best(results["before"][stem])
                 print(f"   {stem:<28} {before['wall'] / this['wall']:5.2f}x "
