@@ -13,7 +13,10 @@ IK tracked through sub-steps, joint limits, continuity, arm-arm and arm-table cl
 target per kept trajectory knot (a knot per shape), with the verified joints the URScript and
 ROS 2 writers write, and the peak joint speeds and accelerations along the trajectory's time
 law (:mod:`dloplan.robot.peaks`) against the arms' published limits; a segment over a joint
-speed limit is slowed first, as on the YuMi.
+speed limit is slowed first, as on the YuMi. Both programs are a
+:class:`~dloplan.robot.program_core.ProgramCore`: the verdict, its summary and failure text,
+the dict they are written to, the speed rows and the slow-down are the same code for every
+cell; what each program adds is how its targets are solved and what its writers are given.
 """
 
 from __future__ import annotations
@@ -49,9 +52,9 @@ class Cell(Protocol):
 
 class Program(Protocol):
     """What the pipeline, the plan document, the writers and the report need of a verified
-    program (:class:`~dloplan.robot.program.RobotProgram`, :class:`CellProgram`). A program
-    whose ``formats`` has ``urscript`` also has ``urscript_arguments()`` and
-    ``ur_rtde_arguments()``."""
+    program (:class:`~dloplan.robot.program.RobotProgram`, :class:`CellProgram`, both on
+    :class:`~dloplan.robot.program_core.ProgramCore`). A program whose ``formats`` has
+    ``urscript`` also has ``urscript_arguments()`` and ``ur_rtde_arguments()``."""
 
     cell: Cell
     checks: tuple[CheckRow, ...]
