@@ -288,9 +288,13 @@ def _replays(model: HeldModel, times: np.ndarray, law: TimeLaw | None, clips: li
     pulled = t_pull - times[k_slots]
     cable, n_links = model.cable, model.section_links
 
+    sections: dict[float, object] = {}  # one cable per offset: the simulator reuses its chain
+
     def cable_at(t: float):
         d = float(np.interp(t - start_pull, pulled, offsets)) if t > start_pull else 0.0
-        return section_cable(cable, n_links, d)
+        if d not in sections:
+            sections[d] = section_cable(cable, n_links, d)
+        return sections[d]
 
     insertion, tensioning = paths["insertion"], paths["tensioning"]
     shapes = [insertion.shapes[0], insertion.shapes[1]] + (
