@@ -177,22 +177,22 @@ def test_interpolated_clips_are_the_slerp_at_each_fraction():
 
 
 def _lowered_onto_the_table(cable):
-    """Level clips 0.35 m apart lowered from 8 cm to 2 cm above a table, a peg beside the
-    chord: the sagging cable touches down on the table (and the peg) on the way."""
+    """Level clips 0.45 m apart lowered from 15 cm to 3 cm above a table, a peg beside the
+    chord: the sagging cable touches down on the table on the way."""
     from dloplan.obstacles import Cylinder, Table
 
-    contacts = (Cylinder((0.17, 0.04, 0.0), 0.012, 0.06, "peg"), Table(0.0))
+    contacts = (Cylinder((0.22, 0.03, 0.0), 0.012, 0.06, "peg"), Table(0.0))
     turn = Rotation.from_euler("z", [[0.0], [180.0]], degrees=True)
 
     def clips(h):
-        return ClipPoses(np.array([[0.0, 0.0, h], [0.35, 0.0, h]]), turn)
+        return ClipPoses(np.array([[0.0, 0.0, h], [0.45, 0.0, h]]), turn)
 
-    guess = np.zeros((cable.n_points, 3))
-    guess[:, 0] = np.linspace(-0.02, 0.37, cable.n_points)
-    guess[:, 2] = 0.08
-    poses = [clips(0.08), clips(0.05), clips(0.02)]
+    s = np.linspace(0.0, 1.0, cable.n_points)
+    guess = np.stack([np.linspace(-0.01, 0.46, cable.n_points), np.zeros_like(s),
+                      0.15 - 0.1 * np.sin(np.pi * s)], axis=1)
+    poses = [clips(0.15), clips(0.09), clips(0.03)]
     start = equilibrium(cable, guess, poses[0], contacts=contacts).shape
-    path = [start] + [eq.shape for eq in continuation(cable, start, poses[1:], substeps=20,
+    path = [start] + [eq.shape for eq in continuation(cable, start, poses[1:], substeps=24,
                                                       contacts=contacts)]
     return np.stack(path), poses, contacts
 
@@ -231,14 +231,16 @@ def test_the_continuation_with_contacts_is_the_reference_loop(changing):
 def test_stabilities_of_many_shapes_are_each_shapes_own():
     """:func:`elastic_stabilities` of a path with contacts (the obstacles evaluated once for
     all shapes, each cable's chain built once) against :func:`elastic_stability` shape by
-    shape: the same eigenvalues, modes, verdicts, messages and contact states, exactly."""
+    shape: the same eigenvalues, modes, verdicts, messages and contact states, exactly (with
+    the deterministic banded eigen-solver; ARPACK's random start vector differs between two
+    calls on the same shape by round-off)."""
     from dloplan.verify.stability import elastic_stabilities, elastic_stability
 
     cable = catalogue_cable("usb", 24)
     path, _, contacts = _lowered_onto_the_table(cable)
-    together = elastic_stabilities([cable] * len(path), path, contacts=contacts)
+    together = elastic_stabilities([cable] * len(path), path, contacts=contacts, method="band")
     for x, stab in zip(path, together, strict=True):
-        alone = elastic_stability(cable, x, contacts=contacts)
+        alone = elastic_stability(cable, x, contacts=contacts, method="band")
         np.testing.assert_array_equal(stab.eigenvalues, alone.eigenvalues)
         np.testing.assert_array_equal(stab.modes, alone.modes)
         assert (stab.message, stab.contacts, stab.sticking, stab.residual) == \
