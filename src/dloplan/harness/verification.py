@@ -46,7 +46,7 @@ from ..sim.dynamics import ClipTrajectory
 from ..trajectory import TimeLaw
 from ..verify.replay import Replay, clip_motion, replay
 from ..verify.snap import SnapCheck, check_snap_through
-from ..verify.stability import Stability, elastic_stability
+from ..verify.stability import Stability, elastic_stabilities
 from .held import CHECKED_PHASES, HeldModel, HeldPath, held_model
 from .phases import fixture_clips
 from .section import section_cable
@@ -314,8 +314,7 @@ def _replays(model: HeldModel, times: np.ndarray, law: TimeLaw | None, clips: li
 
 # -- the checks -----------------------------------------------------------------------------------
 def _stabilities(path: HeldPath, contacts, gravity) -> tuple[Stability, ...]:
-    return tuple(elastic_stability(cable, x, gravity=gravity, contacts=contacts)
-                 for cable, x in zip(path.cables, path.shapes, strict=True))
+    return elastic_stabilities(path.cables, path.shapes, gravity=gravity, contacts=contacts)
 
 
 def _snap(path: HeldPath, contacts, gravity) -> SnapCheck:
