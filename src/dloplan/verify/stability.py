@@ -391,8 +391,8 @@ def elastic_stabilities(
     Shape b is judged as ``elastic_stability(cables[b], shapes[b], ...)`` (the same numbers):
     the obstacles' distances, normals and curvatures at every point of every shape come from
     one call each (:class:`~dloplan.verify.contacts.BoardContacts`), the chain of each distinct
-    cable is built once, and the sticking eigenvalue is a dense LAPACK solve of the Hessian
-    with the pressing points removed (:func:`_sticking_eigenvalue`). The snap-through
+    cable is built once, and the sticking eigenvalue is LAPACK's banded solve of the Hessian
+    with the pressing points' coordinates cleared (:func:`_sticking_eigenvalue`). The snap-through
     continuation with contacts judges its sub-steps this way.
 
     Parameters
@@ -462,7 +462,7 @@ def _judged(cable: Cable, chain: SpringChain, x: np.ndarray, board: BoardContact
     sticking = float(values[0])
     if states:
         states = board.sliding(b, states, modes[0])
-        sticking = _sticking_eigenvalue(band, board.pressing(b), float(values[0]))
+        sticking = _sticking_eigenvalue(band, board.pressing(b), float(values[0]), norm)
     positive = bool(values[0] > threshold)
     stable = positive and is_equilibrium
     summary = f"lambda_1 = {values[0]:.4g} N/m ({values[0] / scale:.4g} lambda_ref)"
@@ -482,25 +482,31 @@ def _judged(cable: Cable, chain: SpringChain, x: np.ndarray, board: BoardContact
                      stable, message, states, sticking)
 
 
-def _sticking_eigenvalue(band: np.ndarray, pressing: np.ndarray, smallest: float) -> float:
-    """Smallest eigenvalue of the free Hessian ``band`` with the coordinates of the points
-    ``pressing`` (n + 1,) removed too (module docstring), by LAPACK's dense symmetric solver;
-    ``smallest`` when no free point presses."""
+def _sticking_eigenvalue(band: np.ndarray, pressing: np.ndarray, smallest: float,
+                         norm: float) -> float:
+    """Smallest eigenvalue of the free Hessian ``band`` (its norm ``norm`` [N/m]) with the
+    coordinates of the points ``pressing`` (n + 1,) removed too (module docstring); ``smallest``
+    when no free point presses.
+
+    The removed coordinates' rows and columns are cleared and their diagonal set to 2 ||H||,
+    above every eigenvalue of the rest (a principal submatrix of H: its eigenvalues lie within
+    H's, at most ||H||): the band's smallest eigenvalue is then the reduced matrix's, by
+    LAPACK's banded solver (:func:`band_eigenpairs`'s), without leaving the band.
+    """
     keep = ~pressing[2:-2]
     if keep.all():
         return smallest
     if not keep.any():
         return math.inf
-    coordinates = np.flatnonzero(np.repeat(keep, 3))
-    n_dof = band.shape[1]
-    dense = np.zeros((n_dof, n_dof))
-    for d in range(min(band.shape[0], n_dof)):  # both triangles of the band
-        rows = np.arange(d, n_dof)
-        dense[rows, rows - d] = band[d, : n_dof - d]
-        dense[rows - d, rows] = band[d, : n_dof - d]
-    reduced = dense[np.ix_(coordinates, coordinates)]
-    return float(sla.eigh(reduced, eigvals_only=True, subset_by_index=[0, 0],
-                          check_finite=False)[0])
+    removed = np.flatnonzero(np.repeat(~keep, 3))
+    held = band.copy()
+    for d in range(held.shape[0]):  # band[d, j] = H[j + d, j]
+        held[d, removed] = 0.0  # column j removed
+        rows = removed - d
+        held[d, rows[rows >= 0]] = 0.0  # row j + d removed
+    held[0, removed] = 2.0 * norm
+    return float(sla.eig_banded(held, lower=True, select="i", select_range=(0, 0),
+                                eigvals_only=True, check_finite=False)[0])
 
 
 def path_stability(
