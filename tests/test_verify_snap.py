@@ -248,3 +248,32 @@ def test_stabilities_of_many_shapes_are_each_shapes_own():
     assert any(state.active for stab in together for state in stab.contacts)
     with pytest.raises(ValueError, match="cables"):
         elastic_stabilities([cable], path, contacts=contacts)
+
+
+def test_the_sticking_eigenvalue_is_the_reduced_hessians_smallest():
+    """``Stability.sticking`` (the band with the pressing points' coordinates cleared and their
+    diagonal put above the spectrum) against numpy's dense solve of the free Hessian with those
+    coordinates removed, on the lowered cable's shapes that press on the table: equal to
+    round-off of the Hessian's norm (1e-12 of it: both are backward-stable solves of matrices of
+    that norm)."""
+    from dloplan.physics.chain import band_to_sparse
+    from dloplan.verify.stability import constrained_hessian, elastic_stability
+
+    cable = catalogue_cable("usb", 24)
+    path, _, contacts = _lowered_onto_the_table(cable)
+    checked = 0
+    for x in path:
+        stab = elastic_stability(cable, x, contacts=contacts, k=1, method="band")
+        pressing = np.zeros(len(x), dtype=bool)
+        for obstacle in contacts:
+            pressing |= obstacle.signed_distance(x)[0] < cable.diameter / 2
+        if not pressing[2:-2].any():
+            continue
+        hessian = band_to_sparse(constrained_hessian(cable, x, contacts=contacts)[1]).toarray()
+        keep = np.repeat(~pressing[2:-2], 3)
+        reduced = np.linalg.eigvalsh(hessian[np.ix_(keep, keep)])[0]
+        norm = np.abs(hessian).sum(axis=1).max()
+        assert abs(stab.sticking - reduced) < 1e-12 * norm
+        assert stab.sticking >= stab.smallest - 1e-12 * norm  # Cauchy's interlacing
+        checked += 1
+    assert checked
