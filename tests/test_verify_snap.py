@@ -174,3 +174,106 @@ def test_interpolated_clips_are_the_slerp_at_each_fraction():
         np.testing.assert_allclose(pose.positions, end.positions, rtol=0, atol=1e-15)
         assert np.all((pose.rotations * end.rotations.inv()).magnitude() < 1e-12)
     assert interpolate_clips(a, b, []) == []
+
+
+def _lowered_onto_the_table(cable):
+    """Level clips 0.45 m apart lowered from 15 cm to 3 cm above a table, a peg beside the
+    chord: the sagging cable touches down on the table on the way."""
+    from dloplan.obstacles import Cylinder, Table
+
+    contacts = (Cylinder((0.22, 0.03, 0.0), 0.012, 0.06, "peg"), Table(0.0))
+    turn = Rotation.from_euler("z", [[0.0], [180.0]], degrees=True)
+
+    def clips(h):
+        return ClipPoses(np.array([[0.0, 0.0, h], [0.45, 0.0, h]]), turn)
+
+    s = np.linspace(0.0, 1.0, cable.n_points)
+    guess = np.stack([np.linspace(-0.01, 0.46, cable.n_points), np.zeros_like(s),
+                      0.15 - 0.1 * np.sin(np.pi * s)], axis=1)
+    poses = [clips(0.15), clips(0.09), clips(0.03)]
+    start = equilibrium(cable, guess, poses[0], contacts=contacts).shape
+    path = [start] + [eq.shape for eq in continuation(cable, start, poses[1:], substeps=24,
+                                                      contacts=contacts)]
+    return np.stack(path), poses, contacts
+
+
+@pytest.mark.parametrize("changing", [False, True], ids=["one cable", "shortened"])
+def test_the_continuation_with_contacts_is_the_reference_loop(changing):
+    """With contacts the sub-steps' equilibria are solved first and their stability tested
+    together (``compiled=True``, the obstacles' distances evaluated once for all sub-steps):
+    the same shapes, eigenvalues, contact changes and events as the reference loop, sub-step
+    by sub-step, number for number (the same kernels and formulas, elementwise on more points
+    at once). ``shortened``: the cable 1 % shorter at the last shape (a tensioning's changing
+    cable, its constants per sub-step)."""
+    from dataclasses import replace
+
+    cable = catalogue_cable("usb", 24)
+    path, poses, contacts = _lowered_onto_the_table(cable)
+    cables = None
+    if changing:
+        short = replace(cable, length=0.99 * cable.length, mass=0.99 * cable.mass)
+        cables = [cable, cable, short]
+    checks = [check_snap_through(cable, path, poses, contacts=contacts, cables=cables,
+                                 compiled=compiled) for compiled in (True, False)]
+    fast, reference = checks
+    assert any(c.change == "touch-down" for c in reference.contact_changes)
+    assert fast.message == reference.message
+    assert [(e.kind, e.segment, e.substep) for e in fast.events] == \
+        [(e.kind, e.segment, e.substep) for e in reference.events]
+    assert [c.describe() for c in fast.contact_changes] == \
+        [c.describe() for c in reference.contact_changes]
+    for a, b in zip(fast.segments, reference.segments, strict=True):
+        np.testing.assert_array_equal(a.shapes, b.shapes)
+        np.testing.assert_array_equal(a.eigenvalues, b.eigenvalues)
+        assert a.contacts == b.contacts
+
+
+def test_stabilities_of_many_shapes_are_each_shapes_own():
+    """:func:`elastic_stabilities` of a path with contacts (the obstacles evaluated once for
+    all shapes, each cable's chain built once) against :func:`elastic_stability` shape by
+    shape: the same eigenvalues, modes, verdicts, messages and contact states, exactly (with
+    the deterministic banded eigen-solver; ARPACK's random start vector differs between two
+    calls on the same shape by round-off)."""
+    from dloplan.verify.stability import elastic_stabilities, elastic_stability
+
+    cable = catalogue_cable("usb", 24)
+    path, _, contacts = _lowered_onto_the_table(cable)
+    together = elastic_stabilities([cable] * len(path), path, contacts=contacts, method="band")
+    for x, stab in zip(path, together, strict=True):
+        alone = elastic_stability(cable, x, contacts=contacts, method="band")
+        np.testing.assert_array_equal(stab.eigenvalues, alone.eigenvalues)
+        np.testing.assert_array_equal(stab.modes, alone.modes)
+        assert (stab.message, stab.contacts, stab.sticking, stab.residual) == \
+            (alone.message, alone.contacts, alone.sticking, alone.residual)
+    assert any(state.active for stab in together for state in stab.contacts)
+    with pytest.raises(ValueError, match="cables"):
+        elastic_stabilities([cable], path, contacts=contacts)
+
+
+def test_the_sticking_eigenvalue_is_the_reduced_hessians_smallest():
+    """``Stability.sticking`` (the band with the pressing points' coordinates cleared and their
+    diagonal put above the spectrum) against numpy's dense solve of the free Hessian with those
+    coordinates removed, on the lowered cable's shapes that press on the table: equal to
+    round-off of the Hessian's norm (1e-12 of it: both are backward-stable solves of matrices of
+    that norm)."""
+    from dloplan.physics.chain import band_to_sparse
+    from dloplan.verify.stability import constrained_hessian, elastic_stability
+
+    cable = catalogue_cable("usb", 24)
+    path, _, contacts = _lowered_onto_the_table(cable)
+    checked = 0
+    for x in path:
+        stab = elastic_stability(cable, x, contacts=contacts, k=1, method="band")
+        pressing = np.zeros(len(x), dtype=bool)
+        for obstacle in contacts:
+            pressing |= obstacle.signed_distance(x)[0] < cable.diameter / 2
+        if not pressing[2:-2].any():
+            continue
+        hessian = band_to_sparse(constrained_hessian(cable, x, contacts=contacts)[1]).toarray()
+        keep = np.repeat(~pressing[2:-2], 3)
+        reduced = np.linalg.eigvalsh(hessian[np.ix_(keep, keep)])[0]
+        norm = np.abs(hessian).sum(axis=1).max()
+        assert abs(stab.sticking - reduced) < 1e-12 * norm
+        assert stab.sticking >= stab.smallest - 1e-12 * norm  # Cauchy's interlacing
+        checked += 1
+    assert checked

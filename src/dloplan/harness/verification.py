@@ -46,7 +46,7 @@ from ..sim.dynamics import ClipTrajectory
 from ..trajectory import TimeLaw
 from ..verify.replay import Replay, clip_motion, replay
 from ..verify.snap import SnapCheck, check_snap_through
-from ..verify.stability import Stability, elastic_stability
+from ..verify.stability import Stability, elastic_stabilities
 from .held import CHECKED_PHASES, HeldModel, HeldPath, held_model
 from .phases import fixture_clips
 from .section import section_cable
@@ -288,9 +288,13 @@ def _replays(model: HeldModel, times: np.ndarray, law: TimeLaw | None, clips: li
     pulled = t_pull - times[k_slots]
     cable, n_links = model.cable, model.section_links
 
+    sections: dict[float, object] = {}  # one cable per offset: the simulator reuses its chain
+
     def cable_at(t: float):
         d = float(np.interp(t - start_pull, pulled, offsets)) if t > start_pull else 0.0
-        return section_cable(cable, n_links, d)
+        if d not in sections:
+            sections[d] = section_cable(cable, n_links, d)
+        return sections[d]
 
     insertion, tensioning = paths["insertion"], paths["tensioning"]
     shapes = [insertion.shapes[0], insertion.shapes[1]] + (
@@ -310,8 +314,7 @@ def _replays(model: HeldModel, times: np.ndarray, law: TimeLaw | None, clips: li
 
 # -- the checks -----------------------------------------------------------------------------------
 def _stabilities(path: HeldPath, contacts, gravity) -> tuple[Stability, ...]:
-    return tuple(elastic_stability(cable, x, gravity=gravity, contacts=contacts)
-                 for cable, x in zip(path.cables, path.shapes, strict=True))
+    return elastic_stabilities(path.cables, path.shapes, gravity=gravity, contacts=contacts)
 
 
 def _snap(path: HeldPath, contacts, gravity) -> SnapCheck:

@@ -54,6 +54,8 @@ from .stepping import (
 
 _CHUNK = 4096  # steps whose clip poses are interpolated at once
 
+_BLOCK = 65536  # steps whose clip poses :class:`_HeldSchedule` interpolates at once
+
 SCHEDULE_INTERVAL = 1e-3
 """Time [s] between updates of the cable's constants when it changes (``cable_at``)."""
 
@@ -174,13 +176,45 @@ class ClipTrajectory:
 
     def held_points(self, t: np.ndarray, link_length: float) -> np.ndarray:
         """Positions of the four held points at times ``t`` [s], (len(t), 4, 3) [m]."""
+        return held_points_at(*self.clip_axes(t), link_length)
+
+    def clip_axes(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Clip points (len(t), 2, 3) [m] and u-axes (len(t), 2, 3) at times ``t`` [s]: what
+        :meth:`held_points` needs of the poses, whatever the held link's length."""
         pos, quats = self.poses_at(t)
-        half = 0.5 * link_length * quaternion_x_axes(quats)  # u-axes
-        return np.stack(
-            [pos[:, 0] - half[:, 0], pos[:, 0] + half[:, 0], pos[:, 1] + half[:, 1],
-             pos[:, 1] - half[:, 1]],
-            axis=1,
-        )
+        return pos, quaternion_x_axes(quats)
+
+
+def held_points_at(positions: np.ndarray, u_axes: np.ndarray, link_length: float) -> np.ndarray:
+    """The four held points (K, 4, 3) [m] of clips at ``positions`` (K, 2, 3) [m] with u-axes
+    (K, 2, 3) holding the middles of end links of length ``link_length`` [m]."""
+    half = 0.5 * link_length * u_axes
+    return np.stack(
+        [positions[:, 0] - half[:, 0], positions[:, 0] + half[:, 0],
+         positions[:, 1] + half[:, 1], positions[:, 1] - half[:, 1]],
+        axis=1,
+    )
+
+
+class _HeldSchedule:
+    """The clips' points and u-axes at the steps of a run, interpolated for a block of
+    :data:`_BLOCK` steps at once (a changing cable's chunks are a millisecond: interpolating
+    the poses per chunk cost a fifth of a harness replay)."""
+
+    def __init__(self, trajectory: ClipTrajectory, dt: float, n_steps: int) -> None:
+        self.trajectory, self.dt, self.n_steps = trajectory, dt, n_steps
+        self.first, self.positions, self.axes = 1, np.zeros((0, 2, 3)), np.zeros((0, 2, 3))
+
+    def targets(self, steps: np.ndarray, link_length: float) -> np.ndarray:
+        """Held points (len(steps), 4, 3) [m] at the consecutive ``steps``."""
+        start = int(steps[0]) - self.first
+        if start < 0 or start + len(steps) > len(self.positions):
+            block = np.arange(int(steps[0]), min(int(steps[0]) + max(_BLOCK, len(steps)),
+                                                 self.n_steps) + 1)
+            self.first, start = int(block[0]), 0
+            self.positions, self.axes = self.trajectory.clip_axes(block * self.dt)
+        end = start + len(steps)
+        return held_points_at(self.positions[start:end], self.axes[start:end], link_length)
 
 
 @dataclass(frozen=True, eq=False)
@@ -290,7 +324,8 @@ def simulate(
     cable_at : callable, optional
         ``cable_at(t)`` -> the cable at time t [s], with ``cable``'s number of links: its
         constants (springs, rest lengths, masses, damping, held link length) are taken every
-        :data:`SCHEDULE_INTERVAL`; ``cable`` is the cable at t = 0. Not with ``torsion``.
+        :data:`SCHEDULE_INTERVAL` (the chain built again only when it returns another object
+        than the last time); ``cable`` is the cable at t = 0. Not with ``torsion``.
     scheme : {"explicit", "implicit"}
         ``"explicit"``: eq. 3.24, stable only below about the thesis' time step.
         ``"implicit"``: linearly implicit Euler (:func:`dloplan.sim.stepping.implicit_steps`),
@@ -359,8 +394,10 @@ def simulate(
 
     fixed = settings(cable, chain.constants)
     chunk = _CHUNK if cable_at is None else max(1, int(math.ceil(SCHEDULE_INTERVAL / dt)))
+    schedule = _HeldSchedule(trajectory, dt, n_steps)
     no_load = np.zeros_like(x)
     status, step, recorded = RUNNING, 0, 1
+    previous = cable, fixed  # a changing cable's last model and its settings
     # a diverging run is detected in the loop and reported with its time: no float warnings
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         while step < n_steps and status == RUNNING:
@@ -371,8 +408,11 @@ def simulate(
                 if model.n_links != cable.n_links:
                     raise ValueError(f"cable_at: a cable of {model.n_links} links, expected "
                                      f"{cable.n_links}")
-                current = settings(model, SpringChain.from_cable(model, gravity).constants)
-            targets = trajectory.held_points(chunk_steps * dt, model.rest_link_length)
+                if model is not previous[0]:  # the same cable object: the same constants
+                    previous = model, settings(model,
+                                               SpringChain.from_cable(model, gravity).constants)
+                current = previous[1]
+            targets = schedule.targets(chunk_steps, model.rest_link_length)
             if implicit:
                 step, recorded, status = implicit_steps(x, v, previous_held, targets, step,
                                                         *current, recorded)

@@ -59,6 +59,101 @@ class ContactState:
         return f"{self.name}: {self.force:.3g} N on {self.points} point(s){sliding}"
 
 
+@dataclass(frozen=True, eq=False)
+class BoardContacts:
+    """The obstacles' penalty at every point of M shapes, evaluated once.
+
+    The stability test of a shape needs each obstacle's signed distance phi, normal and
+    curvature at its points four times (the penalty's gradient and exact Hessian blocks, the
+    contact states, the sliding test, the pressing points); the snap-through continuation
+    judges hundreds of shapes against the same obstacles. Here each obstacle's
+    ``signed_distance`` and ``distance_hessian`` run once on all points of all shapes.
+
+    Attributes
+    ----------
+    names : tuple of str
+        (K,) the obstacles' names.
+    depths : numpy.ndarray
+        (K, M, n + 1) r - phi per obstacle and point [m] (> 0: the point presses).
+    normals : numpy.ndarray
+        (K, M, n + 1, 3) outward unit normals.
+    stiffness : numpy.ndarray
+        (M,) the penalty stiffness k_c of each shape's cable [N/m].
+    gradient : numpy.ndarray
+        (M, n + 1, 3) the penalty's gradient, -k_c d n summed over the pressing points' obstacles
+        [N] (:func:`dloplan.physics.contact.contact_gradient`).
+    blocks : numpy.ndarray
+        (M, n + 1, 3, 3) its exact Hessian blocks k_c (n n^T - d grad^2 phi) [N/m]
+        (:func:`dloplan.physics.contact.contact_hessian_blocks`).
+    """
+
+    names: tuple[str, ...]
+    depths: np.ndarray
+    normals: np.ndarray
+    stiffness: np.ndarray
+    gradient: np.ndarray
+    blocks: np.ndarray
+
+    @classmethod
+    def at(cls, shapes, contacts, radius: float, stiffness) -> BoardContacts:
+        """The penalty of ``contacts`` (obstacles with ``signed_distance``,
+        ``distance_hessian`` and ``name``) at shapes (M, n + 1, 3) [m] of a cable of radius
+        ``radius`` [m], with penalty stiffness ``stiffness`` [N/m] (a number, or one per shape)."""
+        x = np.asarray(shapes, dtype=float)
+        k_c = np.broadcast_to(np.asarray(stiffness, dtype=float), x.shape[:1])
+        gradient = np.zeros(x.shape)
+        blocks = np.zeros(x.shape + (3,))
+        depths, normals = [], []
+        for obstacle in contacts:
+            phi, normal = obstacle.signed_distance(x)
+            depth = radius - phi
+            gradient -= k_c[:, None, None] * np.maximum(depth, 0.0)[..., None] * normal
+            block = k_c[:, None, None, None] * (normal[..., :, None] * normal[..., None, :]
+                                                - depth[..., None, None]
+                                                * obstacle.distance_hessian(x))
+            blocks += np.where((depth > 0)[..., None, None], block, 0.0)
+            depths.append(depth)
+            normals.append(normal)
+        names = tuple(str(getattr(c, "name", type(c).__name__)) for c in contacts)
+        shape = (0,) + x.shape[:2]
+        return cls(names, np.stack(depths) if depths else np.zeros(shape),
+                   np.stack(normals) if normals else np.zeros(shape + (3,)),
+                   np.array(k_c), gradient, blocks)
+
+    def pressing(self, b: int) -> np.ndarray:
+        """(n + 1,) bool: the points of shape b that press on an obstacle."""
+        return np.any(self.depths[:, b] > 0, axis=0)
+
+    def states(self, b: int) -> tuple[ContactState, ...]:
+        """Each obstacle's contact with shape b (module docstring), in the given order."""
+        states = []
+        for name, depth, normal in zip(self.names, self.depths[:, b], self.normals[:, b],
+                                       strict=True):
+            pressing = depth > 0
+            force = self.stiffness[b] * np.sum(np.where(pressing, depth, 0.0)[:, None] * normal,
+                                               axis=0)
+            states.append(ContactState(name, bool(pressing.any()), float(np.linalg.norm(force)),
+                                       int(pressing.sum()), float(np.min(-depth))))
+        return tuple(states)
+
+    def sliding(self, b: int, states, mode, share: float = 0.5) -> tuple[ContactState, ...]:
+        """``states`` of shape b with ``slides`` set where ``mode`` (n + 1, 3), a stability
+        mode (point displacements), moves the pressing points along the surface: the tangential
+        displacement of one of them is at least ``share`` of the mode's largest point
+        displacement."""
+        largest = float(np.max(np.linalg.norm(mode, axis=1)))
+        out = []
+        for state, depth, normal in zip(states, self.depths[:, b], self.normals[:, b],
+                                        strict=True):
+            if not state.active or largest == 0.0:
+                out.append(state)
+                continue
+            along = mode - np.sum(mode * normal, axis=1)[:, None] * normal
+            slip = float(np.max(np.linalg.norm(along[depth > 0], axis=1)))
+            out.append(replace(state, slides=slip >= share * largest))
+        return tuple(out)
+
+
 def contact_stiffness(cable: Cable) -> float:
     """The penalty stiffness k_c the statics use for ``cable`` [N/m]
     (:meth:`~dloplan.physics.chain.SpringChain.from_cable`)."""
@@ -86,52 +181,8 @@ def contact_states(cable: Cable, shape, contacts, *, stiffness: float | None = N
         One per obstacle, in the given order.
     """
     x = as_shape(shape, cable.n_points, "shape")
-    radius = cable.diameter / 2
     k_c = contact_stiffness(cable) if stiffness is None else float(stiffness)
-    states = []
-    for obstacle in contacts:
-        phi, normal = obstacle.signed_distance(x)
-        depth = radius - phi
-        pressing = depth > 0
-        force = k_c * np.sum(np.where(pressing, depth, 0.0)[:, None] * normal, axis=0)
-        states.append(ContactState(str(getattr(obstacle, "name", type(obstacle).__name__)),
-                                   bool(pressing.any()), float(np.linalg.norm(force)),
-                                   int(pressing.sum()), float(np.min(-depth))))
-    return tuple(states)
-
-
-def sliding_states(states, shape, mode, contacts, radius: float,
-                   share: float = 0.5) -> tuple[ContactState, ...]:
-    """The states with ``slides`` set where a mode moves the pressing points along the surface.
-
-    Parameters
-    ----------
-    states : sequence of ContactState
-        The states of ``contacts`` at ``shape``.
-    shape : numpy.ndarray
-        (n + 1, 3) shape [m].
-    mode : numpy.ndarray
-        (n + 1, 3) a stability mode (point displacements, unit norm).
-    contacts : sequence
-        The obstacles of ``states``.
-    radius : float
-        The cable's radius [m].
-    share : float
-        A contact slides when the tangential displacement of one of its pressing points is at
-        least this share of the mode's largest point displacement.
-    """
-    largest = float(np.max(np.linalg.norm(mode, axis=1)))
-    out = []
-    for state, obstacle in zip(states, contacts, strict=True):
-        if not state.active or largest == 0.0:
-            out.append(state)
-            continue
-        phi, normal = obstacle.signed_distance(shape)
-        pressing = radius - phi > 0
-        along = mode - np.sum(mode * normal, axis=1)[:, None] * normal
-        slip = float(np.max(np.linalg.norm(along[pressing], axis=1)))
-        out.append(replace(state, slides=slip >= share * largest))
-    return tuple(out)
+    return BoardContacts.at(x[None], contacts, cable.diameter / 2, k_c).states(0)
 
 
 def contact_changes(before, after) -> list[tuple[str, str]]:
@@ -146,5 +197,5 @@ def contact_changes(before, after) -> list[tuple[str, str]]:
     return changes
 
 
-__all__ = ["ContactState", "contact_changes", "contact_states", "contact_stiffness",
-           "sliding_states"]
+__all__ = ["BoardContacts", "ContactState", "contact_changes", "contact_states",
+           "contact_stiffness"]

@@ -380,8 +380,13 @@ def replay(
                                         and tensile_limit is None and cable_at is None)
     changing = None
     if cable_at is not None:
+        last: list = [None, None]  # cable_at's last cable and its fictitious one
+
         def changing(t: float) -> Cable:
-            return fictitious_cable(cable_at(t + start), youngs_modulus_cap)
+            real = cable_at(t + start)
+            if real is not last[0]:  # the same object: the simulator keeps its constants
+                last[:] = real, fictitious_cable(real, youngs_modulus_cap)
+            return last[1]
 
     def explicit_step() -> float:
         if dt is not None:
@@ -458,10 +463,13 @@ def _tensions(run: Simulation, model: Cable, changing, gravity) -> np.ndarray:
         return link_tensions(SpringChain.from_cable(model, gravity), run.shapes)
     slots = np.floor(run.times / SCHEDULE_INTERVAL).astype(int)
     out = np.empty((len(run.times), model.n_links))
+    last = None, None  # the last slot's cable and chain (the same cable: the same chain)
     for slot in np.unique(slots):
         mine = slots == slot
         cable = changing((slot + 0.5) * SCHEDULE_INTERVAL)
-        out[mine] = link_tensions(SpringChain.from_cable(cable, gravity), run.shapes[mine])
+        if cable is not last[0]:
+            last = cable, SpringChain.from_cable(cable, gravity)
+        out[mine] = link_tensions(last[1], run.shapes[mine])
     return out
 
 

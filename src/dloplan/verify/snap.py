@@ -89,6 +89,7 @@ from .stability import (
     EQUILIBRIUM_RTOL,
     ROUNDOFF_FACTOR,
     STABILITY_RTOL,
+    elastic_stabilities,
     elastic_stability,
     quickest_method,
     stiffness_scale,
@@ -334,11 +335,23 @@ class _Segment:
         return elastic_stability(cable, x, gravity=self.gravity, k=1, rtol=self.rtol,
                                  method=quickest_method(cable.n_points), contacts=self.contacts)
 
-    def solve(self, guess: np.ndarray, t: float):
+    def equilibrium(self, guess: np.ndarray, t: float):
+        """The equilibrium at fraction t reached from ``guess``."""
         cable, chain = self.model(t)
-        eq = equilibrium(cable, guess, self.clips(t), gravity=self.gravity, chain=chain,
-                         max_iterations=NEWTON_ITERATIONS)
+        return equilibrium(cable, guess, self.clips(t), gravity=self.gravity, chain=chain,
+                           max_iterations=NEWTON_ITERATIONS)
+
+    def solve(self, guess: np.ndarray, t: float):
+        eq = self.equilibrium(guess, t)
         return eq, self.stability(eq.shape, t)
+
+    def stabilities(self, shapes: np.ndarray, fractions: np.ndarray):
+        """:meth:`stability` of the shapes (m + 1, n + 1, 3) at the fractions, the contacts'
+        penalty evaluated once for all (:func:`~.stability.elastic_stabilities`)."""
+        cables = [self.model(t)[0] for t in fractions]
+        return elastic_stabilities(cables, shapes, gravity=self.gravity, k=1, rtol=self.rtol,
+                                   method=quickest_method(cables[0].n_points),
+                                   contacts=self.contacts)
 
     def forcing(self, t0: float, t1: float) -> float:
         """Clip motion plus the change of the held length between fractions t0 and t1 [m]."""
@@ -424,9 +437,11 @@ def check_snap_through(
         docstring: a changing cable); default ``cable`` throughout.
     compiled : bool
         Run the sub-steps of a segment in one compiled loop where it applies (no contacts, one
-        cable, the banded eigen-solver's sizes: :func:`_compiled_substeps`); False: the
-        reference loop, sub-step by sub-step in Python (the same shapes bit for bit, the same
-        eigenvalues to round-off; tests compare the two).
+        cable, the banded eigen-solver's sizes: :func:`_compiled_substeps`), and with contacts
+        solve a segment's equilibria first and test their stability together
+        (:func:`_contact_substeps`); False: the reference loop, sub-step by sub-step in Python
+        (the same shapes bit for bit, the same eigenvalues to round-off; tests compare the
+        two).
 
     Returns
     -------
@@ -466,6 +481,10 @@ def check_snap_through(
 def _continue_segment(seg: _Segment, s, start, end, m, jump_ratio, refinements, tolerance,
                       compiled):
     fractions = np.linspace(0.0, 1.0, m + 1)
+    if compiled and seg.contacts:
+        shapes, eigenvalues, states, problems = _contact_substeps(seg, start, fractions)
+        return _segment(seg, s, start, end, fractions, np.stack(shapes), np.asarray(eigenvalues),
+                        states, problems, jump_ratio, refinements, tolerance)
     first = seg.stability(start, 0.0)
     shapes, eigenvalues, states = [start], [first.sticking], [first.contacts]
     done, unstable = (_compiled_substeps(seg, start, fractions, shapes, eigenvalues)
@@ -489,7 +508,34 @@ def _continue_segment(seg: _Segment, s, start, end, m, jump_ratio, refinements, 
         shapes.append(eq.shape)
         eigenvalues.append(stab.sticking)
         states.append(stab.contacts)
-    shapes, eigenvalues = np.stack(shapes), np.asarray(eigenvalues)
+    return _segment(seg, s, start, end, fractions, np.stack(shapes), np.asarray(eigenvalues),
+                    states, problems, jump_ratio, refinements, tolerance)
+
+
+def _contact_substeps(seg: _Segment, start, fractions) -> tuple[list, list, list, dict]:
+    """The sub-steps of a segment with contacts: the equilibria one after the other, then
+    their stability at once (:meth:`_Segment.stabilities`: the numbers of the reference loop's
+    sub-step by sub-step solves and tests, in another order). Returns the
+    shapes, the sticking eigenvalues, the contact states and the problems of
+    :func:`_continue_segment`'s reference loop."""
+    seg.prepare(fractions)
+    shapes, messages = [start], [""]
+    for t in fractions[1:]:
+        eq = seg.equilibrium(shapes[-1], t)
+        shapes.append(eq.shape)
+        messages.append(eq.message)
+    stabs = seg.stabilities(np.stack(shapes), fractions)
+    # with contacts the penalty's kinks may stall Newton short of its tolerance: the stability
+    # test's equilibrium tolerance decides (as in the reference loop)
+    problems = {j: (messages[j], stab) for j, stab in enumerate(stabs)
+                if j and not stab.stable_with_friction}
+    return shapes, [stab.sticking for stab in stabs], [stab.contacts for stab in stabs], problems
+
+
+def _segment(seg: _Segment, s, start, end, fractions, shapes, eigenvalues, states, problems,
+             jump_ratio, refinements, tolerance) -> SegmentContinuation:
+    """The segment's continuation from its sub-steps: ratios, events, contact changes."""
+    m = len(fractions) - 1
     forcing = seg.forcings(fractions)
     moved = np.max(np.linalg.norm(np.diff(shapes, axis=0), axis=-1), axis=1)
     with np.errstate(divide="ignore"):

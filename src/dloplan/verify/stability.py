@@ -83,10 +83,9 @@ from ..physics.chain import (
     sparse_to_band,
 )
 from ..physics.compiled import add_point_blocks
-from ..physics.contact import contact_gradient, contact_hessian_blocks
 from ..sim.newton import factor_band, free_band, solve_band
 from ..sim.statics import force_scale
-from .contacts import ContactState, contact_states, contact_stiffness, sliding_states
+from .contacts import BoardContacts, ContactState, contact_stiffness
 
 STABILITY_RTOL = 1e-6
 """Default relative tolerance on the smallest eigenvalue, against :func:`stiffness_scale`."""
@@ -315,14 +314,19 @@ def constrained_hessian(cable: Cable, shape, *, gravity=GRAVITY, contacts=(),
         [N/m]: the held points' coordinates removed.
     """
     x = as_shape(shape, cable.n_points, "shape")
-    chain = SpringChain.from_cable(cable, gravity)
+    k_c = contact_stiffness(cable) if stiffness is None else float(stiffness)
+    board = BoardContacts.at(x[None], tuple(contacts), cable.diameter / 2, k_c)
+    return _free_derivatives(SpringChain.from_cable(cable, gravity), x, board, 0)
+
+
+def _free_derivatives(chain: SpringChain, x: np.ndarray, board: BoardContacts,
+                      b: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`constrained_hessian` of shape ``x``, shape b of ``board``."""
     _, grad, band = shape_derivatives(chain, x)
-    if contacts:
-        k_c = contact_stiffness(cable) if stiffness is None else float(stiffness)
-        radius = cable.diameter / 2
-        grad = grad + contact_gradient(x, contacts, radius, k_c)
-        add_point_blocks(band, contact_hessian_blocks(x, contacts, radius, k_c))
-    return grad, free_band(band, slice(2, cable.n_points - 2))
+    if board.names:
+        grad = grad + board.gradient[b]
+        add_point_blocks(band, board.blocks[b])
+    return grad, free_band(band, slice(2, len(x) - 2))
 
 
 def elastic_stability(
@@ -366,29 +370,89 @@ def elastic_stability(
         Eigenvalues [N/m], modes, threshold, equilibrium residual, verdict and contact states.
     """
     x = as_shape(shape, cable.n_points, "shape")
+    return elastic_stabilities([cable], x[None], gravity=gravity, k=k, rtol=rtol,
+                               equilibrium_rtol=equilibrium_rtol, method=method,
+                               contacts=contacts)[0]
+
+
+def elastic_stabilities(
+    cables,
+    shapes,
+    *,
+    gravity=GRAVITY,
+    k: int = 3,
+    rtol: float = STABILITY_RTOL,
+    equilibrium_rtol: float = EQUILIBRIUM_RTOL,
+    method: str = "auto",
+    contacts=(),
+) -> tuple[Stability, ...]:
+    """:func:`elastic_stability` of M shapes, the contacts' penalty evaluated once for all.
+
+    Shape b is judged as ``elastic_stability(cables[b], shapes[b], ...)`` (the same numbers):
+    the obstacles' distances, normals and curvatures at every point of every shape come from
+    one call each (:class:`~dloplan.verify.contacts.BoardContacts`), the chain of each distinct
+    cable is built once, and the sticking eigenvalue is LAPACK's banded solve of the Hessian
+    with the pressing points' coordinates cleared (:func:`_sticking_eigenvalue`). The snap-through
+    continuation with contacts judges its sub-steps this way.
+
+    Parameters
+    ----------
+    cables : sequence of Cable
+        (M,) the cable of each shape (the same number of links; a cable may repeat).
+    shapes : array_like
+        (M, n + 1, 3) equilibrium shapes [m].
+    gravity, k, rtol, equilibrium_rtol, method, contacts
+        As for :func:`elastic_stability`.
+
+    Returns
+    -------
+    tuple of Stability
+        One per shape.
+    """
+    cables = list(cables)
+    if not cables:
+        raise ValueError("cables: none given, expected one per shape")
+    x = as_path(shapes, cables[0].n_points, "shapes")
+    if len(cables) != len(x) or len({c.n_points for c in cables}) != 1:
+        raise ValueError(f"cables: {len(cables)} given for {len(x)} shapes, expected one per "
+                         "shape, all with the same number of links")
     if isinstance(k, bool) or int(k) != k or k < 1:
         raise ValueError(f"k: got {k!r}, expected an integer >= 1")
     for name, value in (("rtol", rtol), ("equilibrium_rtol", equilibrium_rtol)):
         if not (math.isfinite(value) and value > 0):
             raise ValueError(f"{name}: got {value!r}, expected a number > 0")
     contacts = tuple(contacts)
-    grad, band = constrained_hessian(cable, x, gravity=gravity, contacts=contacts)
+    chains: dict[int, SpringChain] = {}
+    for cable in cables:
+        if id(cable) not in chains:
+            chains[id(cable)] = SpringChain.from_cable(cable, gravity)
+    board = BoardContacts.at(x, contacts, cables[0].diameter / 2,
+                             [chains[id(c)].contact_stiffness for c in cables])
+    return tuple(_judged(cable, chains[id(cable)], shape, board, b, gravity, int(k), rtol,
+                         equilibrium_rtol, method)
+                 for b, (cable, shape) in enumerate(zip(cables, x, strict=True)))
+
+
+def _judged(cable: Cable, chain: SpringChain, x: np.ndarray, board: BoardContacts, b: int,
+            gravity, k: int, rtol: float, equilibrium_rtol: float, method: str) -> Stability:
+    """The :class:`Stability` of shape ``x``, shape b of ``board`` (:func:`elastic_stability`)."""
+    grad, band = _free_derivatives(chain, x, board, b)
     residual = 0.0
     if cable.n_points > 4:
         residual = float(np.max(np.linalg.norm(grad[2:-2], axis=1)))
     is_equilibrium = residual <= equilibrium_rtol * force_scale(cable, gravity)
     scale = stiffness_scale(cable)
-    states = contact_states(cable, x, contacts) if contacts else ()
+    states = board.states(b) if board.names else ()
     n_dof = 3 * max(cable.n_points - 4, 0)
     if n_dof == 0:
         return Stability(np.zeros(0), np.zeros((0, cable.n_points, 3)), scale, 0.0, residual,
                          True, True, "no free point: the clips fix the whole cable", states,
                          math.inf)
     if method == "band":
-        values, vectors, norm = band_eigenpairs(band, int(k))
+        values, vectors, norm = band_eigenpairs(band, k)
     else:
         matrix = band_to_sparse(band)
-        values, vectors = smallest_eigenpairs(matrix, int(k), scale=scale, method=method)
+        values, vectors = smallest_eigenpairs(matrix, k, scale=scale, method=method)
         norm = float(abs(matrix).sum(axis=1).max())
     threshold = max(rtol * scale, ROUNDOFF_FACTOR * np.finfo(float).eps * norm)
     modes = np.zeros((len(values), cable.n_points, 3))
@@ -397,9 +461,8 @@ def elastic_stability(
         modes[j, 2:-2] = (v if v[np.argmax(np.abs(v))] > 0 else -v).reshape(-1, 3)
     sticking = float(values[0])
     if states:
-        states = sliding_states(states, x, modes[0], contacts, cable.diameter / 2)
-        sticking = _sticking_eigenvalue(band, x, contacts, cable.diameter / 2, scale,
-                                        float(values[0]))
+        states = board.sliding(b, states, modes[0])
+        sticking = _sticking_eigenvalue(band, board.pressing(b), float(values[0]), norm)
     positive = bool(values[0] > threshold)
     stable = positive and is_equilibrium
     summary = f"lambda_1 = {values[0]:.4g} N/m ({values[0] / scale:.4g} lambda_ref)"
@@ -419,22 +482,31 @@ def elastic_stability(
                      stable, message, states, sticking)
 
 
-def _sticking_eigenvalue(band: np.ndarray, x: np.ndarray, contacts, radius: float,
-                         scale: float, smallest: float) -> float:
-    """Smallest eigenvalue of the free Hessian ``band`` with the pressing points' coordinates
-    removed too (module docstring); ``smallest`` when no free point presses."""
-    pressing = np.zeros(len(x), dtype=bool)
-    for obstacle in contacts:
-        pressing |= obstacle.signed_distance(x)[0] < radius
+def _sticking_eigenvalue(band: np.ndarray, pressing: np.ndarray, smallest: float,
+                         norm: float) -> float:
+    """Smallest eigenvalue of the free Hessian ``band`` (its norm ``norm`` [N/m]) with the
+    coordinates of the points ``pressing`` (n + 1,) removed too (module docstring); ``smallest``
+    when no free point presses.
+
+    The removed coordinates' rows and columns are cleared and their diagonal set to 2 ||H||,
+    above every eigenvalue of the rest (a principal submatrix of H: its eigenvalues lie within
+    H's, at most ||H||): the band's smallest eigenvalue is then the reduced matrix's, by
+    LAPACK's banded solver (:func:`band_eigenpairs`'s), without leaving the band.
+    """
     keep = ~pressing[2:-2]
     if keep.all():
         return smallest
     if not keep.any():
         return math.inf
-    coordinates = np.repeat(keep, 3)
-    matrix = band_to_sparse(band)[coordinates][:, coordinates]
-    values, _ = smallest_eigenpairs(matrix.tocsr(), 1, scale=scale)
-    return float(values[0])
+    removed = np.flatnonzero(np.repeat(~keep, 3))
+    held = band.copy()
+    for d in range(held.shape[0]):  # band[d, j] = H[j + d, j]
+        held[d, removed] = 0.0  # column j removed
+        rows = removed - d
+        held[d, rows[rows >= 0]] = 0.0  # row j + d removed
+    held[0, removed] = 2.0 * norm
+    return float(sla.eig_banded(held, lower=True, select="i", select_range=(0, 0),
+                                eigvals_only=True, check_finite=False)[0])
 
 
 def path_stability(
@@ -462,6 +534,7 @@ __all__ = [
     "band_eigenpairs",
     "constrained_hessian",
     "quickest_method",
+    "elastic_stabilities",
     "elastic_stability",
     "path_stability",
     "smallest_eigenpairs",
