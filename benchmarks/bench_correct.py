@@ -24,10 +24,9 @@ correction at mid-path): the plan's own n; E x0.5 and x10; a grip of 0.8 L / n; 
 (shape 1) and late (T - 1) (``--cases``). Columns: final mean error against the plan's stabilized
 target (curves at equal arc length) open loop and closed loop [mm], their ratio, the floor (the
 least error any correction of the target's clips leaves that plant, ``reachable_error``;
-``--no-floor`` skips it; computed on the chain only: its finite differences take SciPy's relative
-step ``diff_step`` x |x| (SciPy 1.17; 1.5e-8 at x = 0), 1e-8 m where the fit starts, below the
-solver tolerance of another simulator (dismech's 1e-5 m in float32), so on those plants the fit
-stops at its first point and the "floor" would be the open loop's error), the correction's
+``--no-floor`` skips it; on every plant, with forward differences of a step 100 times the plant's
+resolution, ``Plant.resolution``, and fewer evaluations on the slow plants, ``FLOOR_EVALUATIONS``:
+there it is what the fit reached, an upper bound of the floor), the correction's
 prediction interval of the final error [mm] and whether it covers the plant's, the clamp length the
 correction estimated [mm] ("model": not told by the measurement, the model's L / n kept), whether
 the correction as ``dloplan correct`` writes it passes ``dloplan verify`` (``written``: checked,
@@ -154,6 +153,11 @@ DISMECH_EDGES = 100
 edges, at n = 12 7 edges: 0.84 L / n)."""
 
 
+FLOOR_EVALUATIONS = {"chain": 200, "dismech": 12, "mujoco": 4}
+"""Evaluations of the floor's cost per plant (``reachable_error``; each Jacobian is 12 plant
+solves more): another simulator's rest state costs 10-1000 times the chain's."""
+
+
 def plants(names):
     out = {"chain": lambda cable, clamp, links: Plant(cable.with_links(100), noise=NOISE,
                                                       n_measured=POINTS, seed=1, clamp=clamp)}
@@ -247,11 +251,10 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES) -> None:
                     continue
                 plant_seconds = time.process_time() - started
                 floor_mm = "-"
-                if floor and plant_name != "chain":
-                    floor_mm = "n/a"  # reachable_error's finite differences: module docstring
-                elif floor:
+                if floor:
                     best = reachable_error(plant, doc.grippers.clip_poses(last), run.reference,
-                                           run.open_loop[-1], max_evaluations=200)
+                                           run.open_loop[-1],
+                                           max_evaluations=FLOOR_EVALUATIONS[plant_name])
                     floor_mm = f"{1e3 * best:.2f}"
                 if run.corrections:
                     (c,) = run.corrections

@@ -113,6 +113,56 @@ def test_one_correction_at_mid_path_reaches_one_fifth_or_the_physical_floor(plan
     assert run.closed_loop_error <= 1.15 * floor
 
 
+@pytest.fixture(scope="module")
+def u_demo(tmp_path_factory):
+    """The embedded U demo planned by the CLI at its own n (12) and at n = 20."""
+    source = Path(__file__).resolve().parents[1] / "src" / "dloplan" / "data" / "demo.yaml"
+    out = {}
+    for n_links in (None, MODEL_LINKS):
+        data = yaml.safe_load(source.read_text(encoding="utf-8"))
+        if n_links is not None:
+            data["cable"]["n_links"] = n_links
+        data["outputs"] = ["json"]
+        folder = tmp_path_factory.mktemp(f"u{n_links}")
+        scenario = folder / "scenario.yaml"
+        scenario.write_text(yaml.safe_dump(data), encoding="utf-8")
+        assert main(["plan", str(scenario), "-o", str(folder / "plan"), "-q", "--no-repair"]) \
+            in (0, 1, 3)
+        doc = read_plan(folder / "plan" / "plan.json")
+        out[doc.cable.n_links] = doc
+    return out
+
+
+@pytest.mark.parametrize(("n_links", "factor"), [(12, 2.0), (20, 0.5), (20, 2.0)])
+def test_the_closed_loop_never_ends_worse_than_the_open_loop_on_the_u_demo(u_demo, n_links,
+                                                                          factor):
+    """The U demo (issue 35): its shapes hardly depend on E, and at n = 12 the clamp length's
+    response g is nearly parallel to the discretization direction d, so with alpha clipped at 0
+    the clamp took up the coarse model's error and the correction made the final error worse
+    (1.04 -> 1.52 mm at n = 12, 0.19 -> 0.43 mm at E x0.5). With alpha's prior at its
+    first-order value (alpha_prior) and the gain check, the closed loop ends no worse than the
+    open loop: the correction is made, or refused because its predicted gain is within its
+    uncertainty of zero (the plan kept, the reason given), and the interval holds."""
+    doc = u_demo[n_links]
+    cable = doc.cable
+    last = len(doc.shapes) - 1
+    plant = Plant(cable.with_links(100).with_modulus(factor * cable.youngs_modulus),
+                  noise=NOISE, n_measured=200, seed=1, clamp=cable.rest_link_length)
+    run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [last // 2],
+                          stabilized=doc.stabilized, trajectory=doc.trajectory)
+    # 0.05 mm: a tenth of the noise smoothed over the cable (the plant's own result is exact)
+    assert run.closed_loop_error <= run.open_loop_error + 0.05e-3
+    if run.refusals:
+        (reason,) = run.refusals
+        assert "gain" in reason and "the plan is kept" in reason
+        assert run.closed_loop_error == pytest.approx(run.open_loop_error, abs=1e-9)
+    else:
+        (correction,) = run.corrections
+        low, high = correction.prediction_interval
+        assert low <= run.closed_loop_error <= high
+        assert correction.model.discretization > 0.5  # near its prior (1.6-1.76), not clipped
+
+
 def test_estimating_e_alone_leaves_the_discretization_error(plans):
     """The old correction (E only) on the 3D example at 2E stays above one fifth."""
     doc, _ = plans["ethernet-3d"]

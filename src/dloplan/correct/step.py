@@ -58,9 +58,9 @@ from ..trajectory import Trajectory, trajectory_from_grippers
 from .measurement import MAX_DISAGREEMENT, CorrectionRefused, resample_measured
 from .model_error import (
     MAX_GRIP,
+    alpha_prior,
     clamped_equilibrium,
     fit_model_error,
-    grip_direction,
     measured_offset,
     model_error_directions,
     parameter_sds,
@@ -166,7 +166,10 @@ class ModelUpdate:
         (n + 1, 3) the updated model's equilibrium at shape K: the start of the predictions.
     discretization : float
         alpha, the measured amplitude of the discretization error carried as a bias
-        (:mod:`.model_error`; 0 when not estimated).
+        (:mod:`.model_error`; 0 when not estimated), fitted with its first-order value as the
+        prior (:func:`.model_error.alpha_prior`).
+    discretization_sd : float
+        Its standard deviation, the prior's information included (inf when not estimated).
     log_sd : float
         Standard deviation of ln E the measurement gives (inf when not computed).
     note : str
@@ -209,6 +212,7 @@ class ModelUpdate:
     offset_sd: float = math.inf
     offset_uncertainty: float = 0.0
     offset_note: str = "not estimated"
+    discretization_sd: float = math.inf
 
     @property
     def offset_estimated(self) -> bool:
@@ -262,7 +266,8 @@ class Correction:
         :data:`GRIP_LINEARITY` of its change, or, not estimated, a clamp length L / (4 n) off
         the model's, :data:`GRIP_UNCERTAINTY`), ``modulus`` (2 sd of ln E), ``offset`` (an
         offset of the measurement found but not told from noise: its size plus 2 sd,
-        :attr:`ModelUpdate.offset_uncertainty`; 0 when it was taken out or not estimated);
+        :attr:`ModelUpdate.offset_uncertainty`; 0 when it was taken out or not estimated),
+        ``discretization`` (2 sd of alpha times d at the target);
         their sum bounds the final error's prediction interval (:attr:`prediction_interval`).
         Empty for a correction made with ``predict=False``.
     clip_corrections : numpy.ndarray
@@ -403,11 +408,12 @@ def _mean_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, steps: int = 3,
                    max_factor: float = 10.0, gravity=GRAVITY, guess=None,
                    discretization: bool = False, grip: bool = False,
-                   offset: bool = False) -> ModelUpdate:
+                   offset: bool = False, measured_links: int | None = None) -> ModelUpdate:
     """Gauss-Newton steps in log E fitting the model's equilibrium at ``clips`` to ``measured``.
 
     With ``discretization``, each step fits log E and the amplitude alpha of the discretization
-    error together (:func:`.model_error.fit_model_error`): measured ~ x(E) + alpha d; with
+    error together (:func:`.model_error.fit_model_error`; alpha with its first-order value as
+    the prior, :func:`.model_error.alpha_prior`): measured ~ x(E) + alpha d; with
     ``grip`` too, the clamp length's amplitude beta as well: measured ~ x(E) + alpha d + beta g
     (:func:`.model_error.model_error_directions`), kept only when the first step finds it at
     least :data:`SIGNIFICANCE` standard deviations from 0 (else the clamp length stays the
@@ -451,6 +457,9 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         With ``discretization``: also estimate the clamp length when the measurement tells it.
     offset : bool
         Also estimate the measurement's offset when the measurement tells it.
+    measured_links : int, optional
+        The measured cable's own discretization (a simulated plant's links), the centre of the
+        prior on alpha; None: a real cable, the continuum.
 
     Raises
     ------
@@ -472,6 +481,8 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
             *measured_offset(measured - eq.shape))
         measured = measured - shift  # what the fit explains: the cable, not the camera
     fine = resample_by_arc_length(eq.shape, 2 * cable.n_links + 1)  # refined, warm from E to E
+    prior = alpha_prior(cable.n_links, measured_links)
+    alpha_sd = math.inf
     limit = math.log(max_factor)
     budget = steps + math.ceil(limit / MAX_LOG_STEP) + 1 if steps > 0 else 0
     full = 0
@@ -479,7 +490,7 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         sens = equilibrium_sensitivity(model, eq.shape, clips, chain=chain)
         directions = _directions(model, eq.shape, clips, discretization, grip, gravity, fine)
         residual = measured - eq.shape
-        step, amplitudes, sds = _fit(sens.log_modulus, directions, residual)
+        step, amplitudes, sds = _fit(sens.log_modulus, directions, residual, prior)
         if float(np.sum(sens.log_modulus**2)) <= 1e-24 * cable.length**2:
             note = "the measured shape does not depend on E here (no sag): E kept"
             break
@@ -488,8 +499,9 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
                 grip, grip_sd, grip_note = _grip_verdict(amplitudes[1], sds[2], model)
                 if not grip:  # the clamp length stays the model's: refit without it
                     directions = directions[:1]
-                    step, amplitudes, sds = _fit(sens.log_modulus, directions, residual)
+                    step, amplitudes, sds = _fit(sens.log_modulus, directions, residual, prior)
             log_sd = float(sds[0])
+            alpha_sd = float(sds[1]) if directions else math.inf
             if log_sd > MAX_LOG_SD:
                 note = (f"the measurement does not inform E: sd(ln E) = {log_sd:.3g}, more "
                         f"than a factor {math.exp(MAX_LOG_SD):g}: E kept")
@@ -519,7 +531,8 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     alpha = beta = 0.0
     if directions:  # the amplitudes at the final E (the directions barely moved with it)
         directions = _directions(model, eq.shape, clips, True, grip, gravity, fine)
-        amplitudes = fit_model_error(np.zeros_like(eq.shape), directions, measured - eq.shape)[1]
+        amplitudes = fit_model_error(np.zeros_like(eq.shape), directions, measured - eq.shape,
+                                     prior)[1]
         alpha = float(amplitudes[0])
         beta = float(amplitudes[1]) if grip else 0.0
     bias = sum((c * d for c, d in zip(amplitudes, directions, strict=True)), 0.0) \
@@ -527,15 +540,15 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     residual = float(np.mean(np.linalg.norm(eq.shape + bias - measured, axis=1)))
     return ModelUpdate(cable.youngs_modulus, model.youngs_modulus, residual0, residual,
                        taken, eq.shape, alpha, log_sd, note, beta, grip_sd, grip_note, shift,
-                       offset_sd, offset_spread, offset_note)
+                       offset_sd, offset_spread, offset_note, alpha_sd)
 
 
-def _fit(jacobian, directions, residual):
-    """(delta log E, amplitudes, sds): the fit (:func:`.model_error.fit_model_error`) and the
-    sds of (delta, amplitudes) from the scatter it leaves."""
-    step, amplitudes = fit_model_error(jacobian, directions, residual)
+def _fit(jacobian, directions, residual, prior):
+    """(delta log E, amplitudes, sds): the fit (:func:`.model_error.fit_model_error`, alpha's
+    ``prior``) and the sds of (delta, amplitudes) from the scatter it leaves."""
+    step, amplitudes = fit_model_error(jacobian, directions, residual, prior)
     sds = parameter_sds(jacobian, directions,
-                        _left(residual, jacobian, step, directions, amplitudes))
+                        _left(residual, jacobian, step, directions, amplitudes), prior)
     return step, amplitudes, sds
 
 
@@ -744,6 +757,7 @@ def correct_plan(
     limits: CorrectionLimits = CorrectionLimits(),
     gravity=GRAVITY,
     predict: bool = True,
+    measured_links: int | None = None,
 ) -> Correction:
     """Correct the rest of a plan from the shape measured at shape ``at`` (module docstring).
 
@@ -790,12 +804,20 @@ def correct_plan(
     predict : bool
         Also time the whole corrected path and predict the remaining shapes open loop and
         corrected, with the interval (default); False stops when the remaining motion is ready
-        (a correction service's fast answer).
+        (a correction service's fast answer, without the gain check below).
+    measured_links : int, optional
+        The measured cable's own discretization (a simulated plant's links or edges): the
+        centre of the prior on the discretization bias (:func:`.model_error.alpha_prior`);
+        None (default): a real cable, the continuum.
 
     Raises
     ------
     CorrectionRefused
-        For a measurement that disagrees wildly or a correction beyond the limits (the reason).
+        For a measurement that disagrees wildly or a correction beyond the limits (the reason),
+        and, with ``predict``, for a correction whose predicted gain is within its uncertainty
+        of zero (the terms of what it estimated and acts on: E when updated, the
+        discretization bias, the clamp length when estimated, an offset not taken out): the
+        plan is kept.
     ValueError
         For inconsistent inputs (named).
     """
@@ -836,7 +858,8 @@ def correct_plan(
     update = update_modulus(cable, y, clips[at], steps=modulus_steps,
                             max_factor=limits.max_modulus_factor, gravity=gravity,
                             guess=stable[at], discretization=model_error == "discretization",
-                            grip=grip == "estimate", offset=offset == "estimate")
+                            grip=grip == "estimate", offset=offset == "estimate",
+                            measured_links=measured_links)
     model = cable.with_modulus(update.youngs_modulus)
     model_chain = SpringChain.from_cable(model, gravity)
     # the plan's stabilized target carried to the updated E to first order: the fit's start
@@ -899,6 +922,14 @@ def correct_plan(
         equilibria, corrected = _predict(model, update.state, corrected_clips, gravity, update)
     uncertainty = _uncertainty(model, equilibria[-1], corrected_clips[-1], update, gravity,
                                model_chain)
+    before, after = (float(_mean_distance(x[-1], wanted[-1])) for x in (open_loop, corrected))
+    spread = _gain_uncertainty(uncertainty, update)
+    if before - after <= spread:
+        raise CorrectionRefused(
+            f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm (final "
+            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is within its uncertainty, "
+            f"{1e3 * spread:.2f} mm (E, discretization bias, clamp length, offset "
+            "as estimated), of zero: the plan is kept")
     return Correction(open_loop=open_loop, corrected=corrected, equilibria=equilibria,
                       uncertainty=uncertainty, trajectory=new_trajectory,
                       prediction_seconds=time.perf_counter() - t0 - seconds, **common)
@@ -944,8 +975,11 @@ def _uncertainty(cable: Cable, shape: np.ndarray, clips: ClipPoses, update: Mode
                  gravity, chain: SpringChain) -> dict:
     """The error budget of the final prediction [m] (:attr:`Correction.uncertainty`): the
     clamp length's term is 2 sd of the estimated one plus :data:`GRIP_LINEARITY` of its change,
-    or a quarter link (:data:`GRIP_UNCERTAINTY`) when it was not estimated."""
-    grip = grip_direction(cable, shape, clips, gravity=gravity)
+    or a quarter link (:data:`GRIP_UNCERTAINTY`) when it was not estimated; the discretization
+    bias's is 2 sd(alpha) times d at the target."""
+    d, grip = model_error_directions(cable, shape, clips, grip=True, gravity=gravity)
+    alpha = (2.0 * update.discretization_sd * float(np.mean(np.linalg.norm(d, axis=1)))
+             if math.isfinite(update.discretization_sd) else 0.0)
     modulus = 0.0
     if math.isfinite(update.log_sd):
         jacobian = equilibrium_sensitivity(cable, shape, clips, chain=chain).log_modulus
@@ -954,7 +988,22 @@ def _uncertainty(cable: Cable, shape: np.ndarray, clips: ClipPoses, update: Mode
               else 4.0 * GRIP_UNCERTAINTY)  # in half links, g's unit
     return {"unexplained": update.residual_after,
             "grip": spread * float(np.mean(np.linalg.norm(grip, axis=1))),
-            "modulus": modulus, "offset": update.offset_uncertainty}
+            "modulus": modulus, "offset": update.offset_uncertainty, "discretization": alpha}
+
+
+def _gain_uncertainty(uncertainty: dict, update: ModelUpdate) -> float:
+    """How far the predicted gain (open loop minus corrected final error) may be off [m].
+
+    The terms of :attr:`Correction.uncertainty` that belong to what the correction estimated
+    and acts on: the discretization bias (2 sd(alpha)), the clamp length when estimated, E
+    when it was updated, an offset not taken out (the fit may have absorbed it). What the
+    model cannot represent (``unexplained``), a clamp length kept at the model's and an E kept
+    are errors of both predictions alike (the same model at nearly the same clips): they move
+    the final error, not the gain.
+    """
+    return (uncertainty["discretization"] + uncertainty["offset"]
+            + (uncertainty["grip"] if update.grip_estimated else 0.0)
+            + (uncertainty["modulus"] if update.steps > 0 else 0.0))
 
 
 def _corrected_grippers(grippers: GripperPath, at: int, remaining, corrections) -> GripperPath:
