@@ -10,9 +10,10 @@ and the one-shot ``dloplan correct`` command's own report of its CPU and wall ti
 Part 2, plants: every example plan (sagging demo, 3D Ethernet, embedded U demo) planned by
 ``dloplan plan`` at its own n and at n = 20, run open loop and corrected once on
 
-* ``chain``: dloplan's own chain on 100 links (the same physics, finer);
-* ``dismech``: dismech-newton's discrete elastic rod (``tests/plants.py``: 100 edges whatever
-  the plan's n, ``DISMECH_EDGES``; clamped edges prescribed with their twist; a static solve per
+* ``chain``: dloplan's own chain on about 100 links (the same physics, finer; the multiple of
+  the plan's n nearest to 100, ``fine_links``, so it clamps exactly L / n);
+* ``dismech``: dismech-newton's discrete elastic rod (``tests/plants.py``: as many edges,
+  ``fine_links``; clamped edges prescribed with their twist; a static solve per
   rest state, 0.1-0.5 s CPU; optional, skipped when ``dismech-newton`` is missing);
 * ``mujoco``: MuJoCo 3.x's elastic cable (``tests/plants.py``: capsules on ball joints, Cosserat
   bending and twist, welded grippers; 5 segments per model link, ``MUJOCO_SEGMENTS``;
@@ -148,9 +149,16 @@ STIFF_AXIAL_TOLERANCE = 1e-4
 energy's rounding hides the bending energy's last changes, and the line search stalls with
 Newton steps of 10-40 micrometres (a tenth of the measurement's noise; 1e-5 m otherwise)."""
 
-DISMECH_EDGES = 100
-"""Edges of the dismech-newton rod whatever the plan's n (a clamp of 0.8 L / n at n = 20 is 4
-edges, at n = 12 7 edges: 0.84 L / n)."""
+FINE = 100
+"""About this many links of the chain plant and edges of the dismech-newton rod: the multiple of
+the plan's n nearest to it (:func:`fine_links`: 100 at n = 20, 96 at n = 12), so that the plant
+clamps exactly the model's L / n (a clamp of 0.8 L / n is then 4 links at n = 20, 6 at n = 12:
+0.75 L / n)."""
+
+
+def fine_links(n_links: int) -> int:
+    """The plant's links for a plan of ``n_links``: the multiple nearest to :data:`FINE`."""
+    return n_links * max(1, round(FINE / n_links))
 
 
 FLOOR_EVALUATIONS = {"chain": 200, "dismech": 12, "mujoco": 4}
@@ -159,7 +167,8 @@ solves more): another simulator's rest state costs 10-1000 times the chain's."""
 
 
 def plants(names):
-    out = {"chain": lambda cable, clamp, links: Plant(cable.with_links(100), noise=NOISE,
+    out = {"chain": lambda cable, clamp, links: Plant(cable.with_links(fine_links(links)),
+                                                      noise=NOISE,
                                                       n_measured=POINTS, seed=1, clamp=clamp)}
     if "mujoco" in names:
         try:
@@ -180,7 +189,7 @@ def plants(names):
             print(f"dismech plant skipped: {exc} (pip install dloplan[plants])")
         else:
             out["dismech"] = lambda cable, clamp, links: DismechPlant(
-                cable.with_links(DISMECH_EDGES), noise=NOISE, n_measured=POINTS, seed=1,
+                cable.with_links(fine_links(links)), noise=NOISE, n_measured=POINTS, seed=1,
                 clamp=clamp)
     return {k: v for k, v in out.items() if k in names}
 
@@ -200,11 +209,16 @@ def written_and_verified(doc, correction, folder: Path) -> str:
         f"written, verify FAILS: {'; '.join(verification.messages)[:50]}"
 
 
-CASES = ("base", "own n", "E x0.5", "E x10", "grip 0.8", "early", "late", "stiff axial")
-"""The cases around the base (n = 20, E x2, grip L / n, correction at mid-path), one factor at a
-time; "stiff axial": the plant's cable nearly inextensible (the composite cables' copper axial
-modulus, ``COMPOSITE_AXIAL_MODULI``, 2 GPa; the plans' model stretches with E_a = E), marked
-"Ea" in the E column."""
+CASES = ("base", "own n", "E x0.5", "E x10", "grip 0.8", "early", "late", "stiff axial",
+         "grip told")
+"""The cases around the base (n = 20, E x2, grip L / n known to the correction, correction at
+mid-path), one factor at a time; "stiff axial": the plant's cable nearly inextensible (the
+composite cables' copper axial modulus, ``COMPOSITE_AXIAL_MODULI``, 2 GPa; the plans' model
+stretches with E_a = E), marked "Ea" in the E column; "grip 0.8": the plant clamps 0.8 L / n and
+the correction estimates it (``grip="estimate"``); "grip told": the base with the correction's
+default, the clamp length estimated when the measurement tells it (``grip="estimate"``, marked
+"est" in the grip column). Where the plant clamps L / n the correction is told so
+(``grip="known"``): the grip is known."""
 
 
 def part2(names, floor: bool, folder: Path, plans, chosen=CASES) -> None:
@@ -223,13 +237,16 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES) -> None:
         base_n = 20
         own_n = next(k for k in docs if k != 20) if len(docs) > 1 else 20
         for plant_name, make in makers.items():
-            base = (base_n, 2.0, 1.0, "mid", False)
+            base = (base_n, 2.0, 1.0, "mid", False, "known")
             cases = dict(zip(CASES, [base, (own_n, *base[1:]), (base_n, 0.5, *base[2:]),
-                                     (base_n, 10.0, *base[2:]), (*base[:2], 0.8, *base[3:]),
-                                     (*base[:3], "early", False), (*base[:3], "late", False),
-                                     (*base[:4], True)], strict=True))
+                                     (base_n, 10.0, *base[2:]),
+                                     (*base[:2], 0.8, *base[3:5], "estimate"),
+                                     (*base[:3], "early", *base[4:]),
+                                     (*base[:3], "late", *base[4:]),
+                                     (*base[:4], True, base[5]), (*base[:5], "estimate")],
+                             strict=True))
             cases = [cases[case] for case in chosen]
-            for n, factor, grip, when, stiff in dict.fromkeys(cases):
+            for n, factor, grip, when, stiff, told in dict.fromkeys(cases):
                 doc = docs[n]
                 cable = doc.cable
                 last = len(doc.shapes) - 1
@@ -239,14 +256,16 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES) -> None:
                     real = replace(real, axial_modulus=COMPOSITE_AXIAL_MODULI[cable.name])
                 modulus = f"x{factor:g}" + ("Ea" if stiff else "")
                 plant = make(real, grip * cable.rest_link_length, cable.n_links)
+                shown = f"{grip:>4.1f}" + ("est" if told == "estimate" else "L/n")
                 if stiff and plant_name == "dismech":
                     plant = replace(plant, tolerance=STIFF_AXIAL_TOLERANCE)
                 started = time.process_time()
                 try:
                     run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [at],
-                                          stabilized=doc.stabilized, trajectory=doc.trajectory)
+                                          stabilized=doc.stabilized, trajectory=doc.trajectory,
+                                          grip=told)
                 except RuntimeError as exc:
-                    print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {grip:>4.1f}L/n "
+                    print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {shown:>7} "
                           f"{at:>2} plant failed: {exc}")
                     continue
                 plant_seconds = time.process_time() - started
@@ -268,7 +287,7 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES) -> None:
                 else:
                     interval, cover, cpu, clamp = "-", "-", "-", "-"
                     written = "refused: " + "; ".join(run.refusals)[:70]
-                print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {grip:>4.1f}L/n "
+                print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {shown:>7} "
                       f"{at:>2} {1e3 * run.open_loop_error:>7.2f} "
                       f"{1e3 * run.closed_loop_error:>7.2f} {run.improvement:>6.1f} "
                       f"{floor_mm:>6} {interval:>13} {cover:>5} {clamp:>7} {cpu:>6}  {written}"

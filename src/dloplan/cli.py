@@ -811,11 +811,11 @@ def build_parser() -> argparse.ArgumentParser:
     correct.add_argument("--model-error", choices=["discretization", "modulus"],
                          default="discretization",
                          help="identify E and the discretization bias (default), or E alone")
-    correct.add_argument("--grip", choices=["estimate", "model"], default="estimate",
+    correct.add_argument("--grip", choices=["estimate", "model", "known"], default="estimate",
                          help="the clamp length (where the gripper's jaws end on the cable): "
                          "estimated with E and the bias when the measurement tells it, else the "
-                         "model's with its uncertainty in the interval (default), or always "
-                         "the model's")
+                         "model's with its uncertainty in the interval (default), always the "
+                         "model's with its uncertainty, or known to be the model's L/n")
     correct.add_argument("--offset", choices=["estimate", "none"], default="estimate",
                          help="the measurement's offset (a rigid translation of the measured "
                          "shape, e.g. a camera's calibration error): estimated with E when the "

@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -101,9 +101,10 @@ of zero passes it one time in twenty)."""
 
 MODES = ("target", "all")
 MODEL_ERRORS = ("discretization", "modulus")
-GRIPS = ("estimate", "model")
-"""The clamp length: estimated with E and the bias when the measurement tells it (default), or
-the model's one link with its uncertainty in the interval."""
+GRIPS = ("estimate", "model", "known")
+"""The clamp length: estimated with E and the bias when the measurement tells it (default), the
+model's one link with its uncertainty in the interval, or known to be the model's (a gripper
+whose jaws are calibrated to end where the model's held link does: no uncertainty)."""
 OFFSETS = ("estimate", "none")
 """The measurement's offset (a rigid translation of the measured shape, e.g. a camera's
 calibration error): estimated with E when the measurement tells it, else its size in the
@@ -173,7 +174,8 @@ class ModelUpdate:
     log_sd : float
         Standard deviation of ln E the measurement gives (inf when not computed).
     note : str
-        Why E was kept, when it was ("" when it was updated).
+        Why E was kept, or held at the limit ``max_modulus_factor`` (a measurement asking for
+        E beyond it by less than 2 sd), when it was ("" otherwise).
     grip : float
         beta, the measured clamp length's change in half model links (:mod:`.model_error`: the
         grippers clamp (1 + beta / 2) L / n; 0 when not estimated).
@@ -221,7 +223,8 @@ class ModelUpdate:
 
     @property
     def grip_estimated(self) -> bool:
-        """Whether the measurement told the clamp length (else the model's is kept)."""
+        """Whether the clamp length is told: by the measurement, or known (``grip="known"``,
+        sd 0); else the model's is kept with its uncertainty."""
         return math.isfinite(self.grip_sd)
 
     def bias(self, cable: Cable, shape: np.ndarray, clips: ClipPoses, gravity=GRAVITY
@@ -430,8 +433,9 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     scatter the fit leaves) keeps E, with the reason in ``ModelUpdate.note`` (a measurement
     equal to the plan's prediction plus noise, or a shape that hardly depends on E). A step is
     at most a factor 2 in E (a trust region); steps cut by it do not count against ``steps``, so
-    the updates reach any factor up to ``max_factor`` and a measurement asking for more is
-    refused.
+    the updates reach any factor up to ``max_factor`` (the last step cut to end on it); a
+    measurement asking for more from there is refused when it asks for more by over
+    :data:`SIGNIFICANCE` sd(ln E), else E is held at the limit (``note``).
 
     Parameters
     ----------
@@ -512,12 +516,20 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
                         f"than {SIGNIFICANCE:g} sd): E kept")
                 break
         clipped = max(-MAX_LOG_STEP, min(MAX_LOG_STEP, step))  # a trust region: E x2 per step
-        if abs(log_e + clipped - log_e0) > limit:
-            raise CorrectionRefused(
-                f"modulus: the measurement asks for E = {math.exp(log_e + step):.3g} Pa or "
-                f"beyond, more than {max_factor:g} times off the plan's "
-                f"{cable.youngs_modulus:.3g} Pa (limit max_modulus_factor)"
-            )
+        room = limit - math.copysign(1.0, clipped) * (log_e - log_e0)  # to the limit, this side
+        if abs(clipped) > room:  # the step would leave the limit: stop on it
+            if room <= MODULUS_STEP_TOLERANCE:
+                if abs(log_e + step - log_e0) - limit > SIGNIFICANCE * log_sd:
+                    raise CorrectionRefused(
+                        f"modulus: the measurement asks for E = {math.exp(log_e + step):.3g} "
+                        f"Pa, more than {max_factor:g} times off the plan's "
+                        f"{cable.youngs_modulus:.3g} Pa by over {SIGNIFICANCE:g} sd(ln E) = "
+                        f"{SIGNIFICANCE * log_sd:.2g} (limit max_modulus_factor)")
+                note = (f"the measurement asks for E = {math.exp(log_e + step):.3g} Pa, beyond "
+                        f"{max_factor:g} times the plan's by less than {SIGNIFICANCE:g} "
+                        "sd(ln E): E held at the limit")
+                break
+            clipped = math.copysign(room, clipped)
         log_e += clipped
         model = cable.with_modulus(math.exp(log_e))
         chain = SpringChain.from_cable(model, gravity)
@@ -789,10 +801,12 @@ def correct_plan(
     model_error : {"discretization", "modulus"}
         What the measurement identifies: E and the amplitude of the discretization error,
         carried as a bias onto the remaining shapes (default, :mod:`.model_error`), or E only.
-    grip : {"estimate", "model"}
+    grip : {"estimate", "model", "known"}
         With ``model_error="discretization"``: estimate the clamp length (where the gripper's
         jaws end on the cable) with E and the bias when the measurement tells it, else keep the
-        model's with its uncertainty in the interval (default); or always keep the model's.
+        model's with its uncertainty in the interval (default); or always keep the model's,
+        with its uncertainty (``model``) or as known exactly (``known``: the gripper clamps
+        the model's L / n, calibrated).
     offset : {"estimate", "none"}
         The measurement's offset (a rigid translation of the measured points, e.g. a camera's
         calibration error): estimated with E when the measurement tells it and taken out of
@@ -814,10 +828,10 @@ def correct_plan(
     ------
     CorrectionRefused
         For a measurement that disagrees wildly or a correction beyond the limits (the reason),
-        and, with ``predict``, for a correction whose predicted gain is within its uncertainty
-        of zero (the terms of what it estimated and acts on: E when updated, the
-        discretization bias, the clamp length when estimated, an offset not taken out): the
-        plan is kept.
+        and, with ``predict``, for a correction whose predicted gain (open loop minus
+        corrected final error) is within :data:`SIGNIFICANCE` sd of zero, linearized in the
+        sds of E, the discretization bias and the clamp length (:func:`_gain_sd`): the plan is
+        kept.
     ValueError
         For inconsistent inputs (named).
     """
@@ -860,6 +874,9 @@ def correct_plan(
                             guess=stable[at], discretization=model_error == "discretization",
                             grip=grip == "estimate", offset=offset == "estimate",
                             measured_links=measured_links)
+    if grip == "known":
+        update = replace(update, grip_sd=0.0, grip_note=(
+            f"clamp length known: the model's {1e3 * cable.rest_link_length:.1f} mm"))
     model = cable.with_modulus(update.youngs_modulus)
     model_chain = SpringChain.from_cable(model, gravity)
     # the plan's stabilized target carried to the updated E to first order: the fit's start
@@ -920,16 +937,17 @@ def correct_plan(
                               for x, c in zip(fitted, corrected_clips, strict=True)])
     else:
         equilibria, corrected = _predict(model, update.state, corrected_clips, gravity, update)
-    uncertainty = _uncertainty(model, equilibria[-1], corrected_clips[-1], update, gravity,
-                               model_chain)
+    directions = _target_directions(model, equilibria[-1], corrected_clips[-1], gravity,
+                                    model_chain)
+    uncertainty = _uncertainty(directions, update)
     before, after = (float(_mean_distance(x[-1], wanted[-1])) for x in (open_loop, corrected))
-    spread = _gain_uncertainty(uncertainty, update)
-    if before - after <= spread:
+    spread = _gain_sd(open_loop[-1], corrected[-1], wanted[-1], directions, update)
+    if before - after <= SIGNIFICANCE * spread:
         raise CorrectionRefused(
             f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm (final "
-            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is within its uncertainty, "
-            f"{1e3 * spread:.2f} mm (E, discretization bias, clamp length, offset "
-            "as estimated), of zero: the plan is kept")
+            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is within {SIGNIFICANCE:g} sd "
+            f"({1e3 * spread:.2f} mm; E, discretization bias, clamp length as estimated) "
+            "of zero: the plan is kept")
     return Correction(open_loop=open_loop, corrected=corrected, equilibria=equilibria,
                       uncertainty=uncertainty, trajectory=new_trajectory,
                       prediction_seconds=time.perf_counter() - t0 - seconds, **common)
@@ -971,39 +989,63 @@ def _predict(cable: Cable, state: np.ndarray, clips, gravity, update: ModelUpdat
                              for x, c in zip(shapes, clips, strict=True)])
 
 
-def _uncertainty(cable: Cable, shape: np.ndarray, clips: ClipPoses, update: ModelUpdate,
-                 gravity, chain: SpringChain) -> dict:
-    """The error budget of the final prediction [m] (:attr:`Correction.uncertainty`): the
-    clamp length's term is 2 sd of the estimated one plus :data:`GRIP_LINEARITY` of its change,
-    or a quarter link (:data:`GRIP_UNCERTAINTY`) when it was not estimated; the discretization
-    bias's is 2 sd(alpha) times d at the target."""
+def _target_directions(cable: Cable, shape: np.ndarray, clips: ClipPoses, gravity,
+                       chain: SpringChain) -> dict:
+    """The target's responses to the estimated quantities, each (n + 1, 3) [m] per unit:
+    ``modulus`` d x / d ln E, ``discretization`` d, ``grip`` g (:mod:`.model_error`)."""
     d, grip = model_error_directions(cable, shape, clips, grip=True, gravity=gravity)
-    alpha = (2.0 * update.discretization_sd * float(np.mean(np.linalg.norm(d, axis=1)))
-             if math.isfinite(update.discretization_sd) else 0.0)
-    modulus = 0.0
-    if math.isfinite(update.log_sd):
-        jacobian = equilibrium_sensitivity(cable, shape, clips, chain=chain).log_modulus
-        modulus = 2.0 * update.log_sd * float(np.mean(np.linalg.norm(jacobian, axis=1)))
-    spread = (2.0 * update.grip_sd + GRIP_LINEARITY * abs(update.grip) if update.grip_estimated
-              else 4.0 * GRIP_UNCERTAINTY)  # in half links, g's unit
-    return {"unexplained": update.residual_after,
-            "grip": spread * float(np.mean(np.linalg.norm(grip, axis=1))),
-            "modulus": modulus, "offset": update.offset_uncertainty, "discretization": alpha}
+    jacobian = equilibrium_sensitivity(cable, shape, clips, chain=chain).log_modulus
+    return {"modulus": jacobian, "discretization": d, "grip": grip}
 
 
-def _gain_uncertainty(uncertainty: dict, update: ModelUpdate) -> float:
-    """How far the predicted gain (open loop minus corrected final error) may be off [m].
+def _parameter_sds(update: ModelUpdate) -> dict:
+    """sd of ln E, alpha and beta [half links] (0 where not known: E with no sag). beta's is
+    its sd plus half :data:`GRIP_LINEARITY` of its change when estimated (its 2 sd then bound
+    the error of the estimate: the response g is a half-link difference), 0 when known, and
+    2 :data:`GRIP_UNCERTAINTY` when the model's clamp is kept (2 sd: a quarter link, in g's
+    unit of half a link)."""
+    if update.grip_estimated:
+        grip = update.grip_sd + 0.5 * GRIP_LINEARITY * abs(update.grip)
+    else:
+        grip = 2.0 * GRIP_UNCERTAINTY
+    return {"modulus": update.log_sd if math.isfinite(update.log_sd) else 0.0,
+            "discretization": (update.discretization_sd
+                               if math.isfinite(update.discretization_sd) else 0.0),
+            "grip": grip}
 
-    The terms of :attr:`Correction.uncertainty` that belong to what the correction estimated
-    and acts on: the discretization bias (2 sd(alpha)), the clamp length when estimated, E
-    when it was updated, an offset not taken out (the fit may have absorbed it). What the
-    model cannot represent (``unexplained``), a clamp length kept at the model's and an E kept
-    are errors of both predictions alike (the same model at nearly the same clips): they move
-    the final error, not the gain.
+
+def _uncertainty(directions: dict, update: ModelUpdate) -> dict:
+    """The error budget of the final prediction [m] (:attr:`Correction.uncertainty`): 2 sd of
+    each estimated quantity (:func:`_parameter_sds`) times its mean response at the target
+    (``directions``, :func:`_target_directions`), the unexplained residual at K and the
+    offset's share."""
+    sds = _parameter_sds(update)
+    budget = {k: 2.0 * sds[k] * float(np.mean(np.linalg.norm(v, axis=1)))
+              for k, v in directions.items()}
+    return {"unexplained": update.residual_after, **budget,
+            "offset": update.offset_uncertainty}
+
+
+def _gain_sd(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarray,
+             directions: dict, update: ModelUpdate) -> float:
+    """The standard deviation of the predicted gain (open loop minus corrected final error)
+    [m], linearized in the estimated quantities.
+
+    A change dq of ln E, alpha or beta moves both final predictions by about D dq (D its
+    response at the target, ``directions``: the clips differ little), so the mean errors
+    e = mean_i |x_i - r_i| change by mean_i (u_i . D_i) dq with u_i the unit error vectors,
+    and the gain by s dq, s = mean_i((u_open,i - u_corrected,i) . D_i). The sds of the
+    quantities (:func:`_parameter_sds`) add in quadrature. What moves both errors alike (the
+    unexplained residual, a shift along the error) leaves the gain as it is.
     """
-    return (uncertainty["discretization"] + uncertainty["offset"]
-            + (uncertainty["grip"] if update.grip_estimated else 0.0)
-            + (uncertainty["modulus"] if update.steps > 0 else 0.0))
+    def unit(x):
+        e = x - reference
+        return e / np.maximum(np.linalg.norm(e, axis=1, keepdims=True), 1e-300)
+
+    du = unit(open_loop) - unit(corrected)
+    sds = _parameter_sds(update)
+    return math.sqrt(sum((float(np.mean(np.sum(du * v, axis=1))) * sds[k]) ** 2
+                         for k, v in directions.items()))
 
 
 def _corrected_grippers(grippers: GripperPath, at: int, remaining, corrections) -> GripperPath:
