@@ -190,13 +190,6 @@ def discretization_error(cable: Cable, shape: np.ndarray, clips: ClipPoses, *,
                                   fine_chain=fine_chain, fine_guess=fine_guess)[0]
 
 
-def grip_direction(cable: Cable, shape: np.ndarray, clips: ClipPoses, *,
-                   gravity=GRAVITY) -> np.ndarray:
-    """g (n + 1, 3) [m] per L / (2 n) of clamp length: :func:`model_error_directions`' second
-    direction, for the prediction's uncertainty (:mod:`.step`)."""
-    return model_error_directions(cable, shape, clips, grip=True, gravity=gravity)[1]
-
-
 BOUNDS = ((0.0, MAX_ALPHA), (-MAX_GRIP, MAX_GRIP))
 """The ranges of the directions' amplitudes (alpha, beta) :func:`fit_model_error` accepts."""
 
