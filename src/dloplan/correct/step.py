@@ -1002,12 +1002,12 @@ def _parameter_sds(update: ModelUpdate) -> dict:
     """sd of ln E, alpha and beta [half links] (0 where not known: E with no sag). beta's is
     its sd plus half :data:`GRIP_LINEARITY` of its change when estimated (its 2 sd then bound
     the error of the estimate: the response g is a half-link difference), 0 when known, and
-    2 :data:`GRIP_UNCERTAINTY` when the model's clamp is kept (2 sd: a quarter link, in g's
-    unit of half a link)."""
+    :data:`GRIP_UNCERTAINTY` when the model's clamp is kept (its 2 sd a quarter link: 2
+    GRIP_UNCERTAINTY in g's unit of half a link)."""
     if update.grip_estimated:
         grip = update.grip_sd + 0.5 * GRIP_LINEARITY * abs(update.grip)
-    else:
-        grip = 2.0 * GRIP_UNCERTAINTY
+    else:  # 2 sd: a quarter link, 2 GRIP_UNCERTAINTY half links
+        grip = GRIP_UNCERTAINTY
     return {"modulus": update.log_sd if math.isfinite(update.log_sd) else 0.0,
             "discretization": (update.discretization_sd
                                if math.isfinite(update.discretization_sd) else 0.0),
