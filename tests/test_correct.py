@@ -374,6 +374,16 @@ def test_dloplan_correct_writes_the_corrected_plan_program_and_report(plans, tmp
     rows = (out / "trajectory.csv").read_text().splitlines()
     assert len(rows) > 3
     assert "open-loop" in (out / "correction.txt").read_text()
+    # the plant clamps the model's L / n: told so (--grip known), the clamp is neither estimated
+    # nor in the interval
+    known = tmp_path / "known"
+    assert main(["correct", str(plan_path), "--at", str(at), "--measured", str(shapes_file),
+                 "-o", str(known), "-q", "--grip", "known"]) in (0, 1)
+    report = json.loads((known / "correction.json").read_text())
+    assert report["clamp_length"] == pytest.approx(doc.cable.rest_link_length)
+    assert report["grip_sd"] == 0.0 and "known" in report["grip_note"]
+    assert report["uncertainty"]["grip"] == 0.0
+    assert main(["verify", str(known / "plan.json"), "-q"]) == 0
 
 
 def test_dloplan_correct_refuses_what_verify_would_fail_and_prints_its_warnings(
