@@ -266,9 +266,9 @@ class Correction:
         The prediction's error budget at the target [m]: ``unexplained`` (what the updated
         model leaves at shape K: the model errors it cannot represent, a measurement offset
         not taken out, noise), ``grip`` (the estimated clamp length's 2 sd plus
-        :data:`GRIP_LINEARITY` of its change, or, not estimated, a clamp length L / (4 n) off
-        the model's, :data:`GRIP_UNCERTAINTY`), ``modulus`` (2 sd of ln E), ``offset`` (an
-        offset of the measurement found but not told from noise: its size plus 2 sd,
+        :data:`GRIP_LINEARITY` of its change, 0 when known, or, not estimated, a clamp length
+        L / (4 n) off the model's, :data:`GRIP_UNCERTAINTY`), ``modulus`` (2 sd of ln E),
+        ``offset`` (an offset of the measurement found but not told from noise: its size plus 2 sd,
         :attr:`ModelUpdate.offset_uncertainty`; 0 when it was taken out or not estimated),
         ``discretization`` (2 sd of alpha times d at the target);
         their sum bounds the final error's prediction interval (:attr:`prediction_interval`).
