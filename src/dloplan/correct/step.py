@@ -32,10 +32,12 @@ reaches shape K the cable is measured; the correction
    loop and corrected: quasi-static continuations along the planned and the corrected clip
    poses (:func:`dloplan.sim.continuation`), reported side by side.
 
-The correction is damped and bounded: a measured shape that disagrees wildly (:mod:`.measurement`),
-a modulus update beyond ``limits.max_modulus_factor`` or a clip correction beyond
-``limits.max_translation`` / ``limits.max_rotation`` raises :class:`~.measurement.
-CorrectionRefused` with the reason, and nothing is applied.
+The correction is damped and bounded: a measured shape that disagrees wildly (:mod:`.measurement`)
+or a modulus update beyond ``limits.max_modulus_factor`` raises :class:`~.measurement.
+CorrectionRefused` with the reason, and nothing is applied; the clip fit is held within
+``limits.max_translation`` / ``limits.max_rotation`` (its trial steps projected onto them, a
+warning when it ends on them), and a correction whose predicted gain is not significant is
+refused (the plan kept).
 """
 
 from __future__ import annotations
@@ -656,17 +658,13 @@ def fit_clips(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess: np.n
     start : array_like, optional
         (12,) initial correction (default zero).
     limits : CorrectionLimits
-        Iterations and bounds.
+        Iterations and bounds: the correction is held within them (each trial projected onto
+        them).
 
     Returns
     -------
     tuple
         ``(correction (12,), equilibrium, iterations)``.
-
-    Raises
-    ------
-    CorrectionRefused
-        When the best correction lies beyond the limits.
     """
     if chain is None:
         chain = SpringChain.from_cable(cable, gravity)
@@ -722,6 +720,7 @@ def _levenberg_marquardt(cable: Cable, clips: ClipPoses, reference: np.ndarray, 
 
     def evaluate(state, step, system):
         held, p_now = state
+        step = _within_limits(p_now + step, limits) - p_now  # projected onto the limits
         trial = _resolve(cable, system.sens.predict(step), perturbed_clips(clips, p_now + step),
                          gravity, chain)
         if trial is None:
@@ -734,21 +733,37 @@ def _levenberg_marquardt(cable: Cable, clips: ClipPoses, reference: np.ndarray, 
                           max_iterations=limits.iterations, max_trials=MAX_TRIALS,
                           stop_gain=COST_TOLERANCE)
     eq, p = run.state
-    _check_bounds(p, limits)
     return p, eq, run.iterations
 
 
-def _check_bounds(p: np.ndarray, limits: CorrectionLimits) -> None:
+def _within_limits(p: np.ndarray, limits: CorrectionLimits) -> np.ndarray:
+    """The clip correction p (12,) with each clip's translation and rotation vector shortened
+    to ``limits.max_translation`` / ``max_rotation`` (the projection onto the limits)."""
+    out = np.array(p, dtype=float)
+    for start, bound in ((0, limits.max_translation), (3, limits.max_rotation),
+                         (6, limits.max_translation), (9, limits.max_rotation)):
+        norm = float(np.linalg.norm(out[start : start + 3]))
+        if norm > bound:
+            out[start : start + 3] *= bound / norm
+    return out
+
+
+def _held_at_limits(p: np.ndarray, limits: CorrectionLimits) -> str:
+    """A warning when a clip's correction is on the limits (the fit asked for more), else ""."""
+    held = []
     for clip, name in enumerate(("first", "last")):
         move = float(np.linalg.norm(p[6 * clip : 6 * clip + 3]))
         turn = float(np.linalg.norm(p[6 * clip + 3 : 6 * clip + 6]))
-        if move > limits.max_translation or turn > limits.max_rotation:
-            raise CorrectionRefused(
-                f"correction: the {name} clip would have to move {1e3 * move:.1f} mm and turn "
-                f"{math.degrees(turn):.1f} degrees, beyond the limits "
-                f"{1e3 * limits.max_translation:.0f} mm / {math.degrees(limits.max_rotation):.0f} "
-                "degrees (limits.max_translation / max_rotation)"
-            )
+        if move >= (1 - 1e-6) * limits.max_translation or \
+                turn >= (1 - 1e-6) * limits.max_rotation:
+            held.append(f"the {name} clip's ({1e3 * move:.1f} mm, "
+                        f"{math.degrees(turn):.1f} degrees)")
+    if not held:
+        return ""
+    return (f"correction: {' and '.join(held)} held at the limits "
+            f"{1e3 * limits.max_translation:.0f} mm / {math.degrees(limits.max_rotation):.0f} "
+            "degrees (limits.max_translation / max_rotation): the fit asks for more, the best "
+            "correction within them is used")
 
 
 def correct_plan(
@@ -910,6 +925,11 @@ def correct_plan(
     seconds = time.perf_counter() - t0  # the robot can go on: the rest is for the record
     cpu_seconds = time.thread_time() - cpu0
     warnings = [f"modulus: {update.note}"] if update.note else []
+    held = _held_at_limits(np.asarray(corrections)[-1] if mode == "target" else
+                           np.asarray(corrections)[np.argmax(np.abs(corrections).sum(axis=1))],
+                           limits)
+    if held:
+        warnings.append(held)
     if update.residual_after > 0.5 * update.residual_before and update.residual_before > 0:
         what, other = (("E and the discretization bias", "rest shape, grip, measurement noise")
                        if model_error == "discretization" else
