@@ -308,14 +308,26 @@ def test_an_absurd_measurement_is_refused_with_the_reason(plans, make, reason):
         correct_plan(doc.cable, doc.shapes, doc.grippers, 3, measured, stabilized=stable)
 
 
-def test_a_correction_beyond_the_limits_is_refused(plans):
+def _assert_within(corrections, limits):
+    for p in corrections:
+        for start, bound in ((0, limits.max_translation), (3, limits.max_rotation),
+                             (6, limits.max_translation), (9, limits.max_rotation)):
+            assert np.linalg.norm(p[start : start + 3]) <= bound * (1 + 1e-9)
+
+
+def test_a_correction_beyond_the_limits_is_held_at_them_and_e_beyond_is_refused(plans):
+    """A cable 5 times softer needs more than 1 mm / 0.57 degrees of clip correction: the fit is
+    held at those limits, with the warning naming them; a measurement asking for E beyond the
+    modulus limit by more than 2 sd is refused."""
     doc, _ = plans["demo"]
     stable = _stabilized(doc)
     softer = doc.cable.with_modulus(0.2 * doc.cable.youngs_modulus)
     truth = equilibrium(softer, stable[3], doc.grippers.clip_poses(3)).shape
-    with pytest.raises(CorrectionRefused, match="beyond the limits"):
-        correct_plan(doc.cable, doc.shapes, doc.grippers, 3, truth, stabilized=stable,
-                     limits=CorrectionLimits(max_translation=1e-3, max_rotation=0.01))
+    tight = CorrectionLimits(max_translation=1e-3, max_rotation=0.01)
+    result = correct_plan(doc.cable, doc.shapes, doc.grippers, 3, truth, stabilized=stable,
+                          limits=tight, predict=False)
+    _assert_within(result.clip_corrections, tight)
+    assert any("held at the limits 1 mm / 1 degrees" in w for w in result.warnings)
     with pytest.raises(CorrectionRefused, match="times off"):
         correct_plan(doc.cable, doc.shapes, doc.grippers, 3, truth, stabilized=stable,
                      limits=CorrectionLimits(max_modulus_factor=2.0))
@@ -435,9 +447,9 @@ def test_dloplan_correct_refuses_an_absurd_measurement_and_writes_nothing(plans,
 def test_closed_loop_success_probability_over_sampled_cables(plans):
     """Four cables with E scattered by a factor up to 2.5 (plant n = 40): more of them end within
     2.5 mm of the target with one correction than without (final errors [mm], open -> closed:
-    x0.45 10.0 -> 4.1, x1.6 12.6 -> 2.2; x0.7 3.0 refused: its predicted gain, 1.4 mm, within
-    2 sd of zero with the clamp length not told (it would have reached 1.7); x2.5 refused: 21
-    degrees of clip rotation, beyond the limit)."""
+    x0.45 10.0 -> 4.1, x1.6 12.6 -> 2.2, x2.5 19.9 -> 3.5 (its clips held at the 20 degree
+    limit: it asks for 21); x0.7 3.0 refused: its predicted gain, 1.4 mm, within 2 sd of zero
+    with the clamp length not told (it would have reached 1.7))."""
     doc, _ = plans["demo"]
     cable = doc.cable
     last = len(doc.shapes) - 1
@@ -446,15 +458,13 @@ def test_closed_loop_success_probability_over_sampled_cables(plans):
                                cable.with_links(40).with_modulus(f * cable.youngs_modulus),
                                [last // 2], seed=k, stabilized=_stabilized(doc))
             for k, f in enumerate(factors)]
-    for row in (rows[0], rows[2]):
+    for row in (rows[0], rows[2], rows[3]):
         assert row["corrections"] == 1
         assert row["closed_loop_error"] < 0.7 * row["open_loop_error"]
     assert rows[1]["corrections"] == 0 and "the plan is kept" in rows[1]["refusal"]
-    assert rows[3]["corrections"] == 0 and "beyond the limits" in rows[3]["refusal"]
-    for row in (rows[1], rows[3]):
-        assert row["closed_loop_error"] == row["open_loop_error"]
+    assert rows[1]["closed_loop_error"] == rows[1]["open_loop_error"]
     success = closed_loop_success(rows, 2.5e-3)
-    assert (success.trials, success.refused) == (4, 2)
+    assert (success.trials, success.refused) == (4, 1)
     assert success.open_loop[0] == 0.0 and success.closed_loop[0] == 0.25
     assert success.closed_loop[1] <= success.closed_loop[0] <= success.closed_loop[2]
     assert "closed loop" in success.message
@@ -519,7 +529,7 @@ def test_the_planned_reference_also_corrects_the_plans_own_drift_within_the_limi
     """With the cable exactly as modelled, aiming at the planned shapes instead of the stabilized
     ones corrects the plan's stabilization drift: the 3D Ethernet target (21 mm off when
     stabilized) comes 3x closer; the demo target (76 mm off) would need 52 degrees of clip
-    rotation and is refused."""
+    rotation: the fit is held at the 20 degree limit, with the warning."""
     doc, _ = plans["ethernet-3d"]
     stable = _stabilized(doc)
     exact = resample_by_arc_length(stable[3], 300)
@@ -529,10 +539,11 @@ def test_the_planned_reference_also_corrects_the_plans_own_drift_within_the_limi
     assert result.corrected_error[-1] < result.open_loop_error[-1] / 3
     doc, _ = plans["demo"]
     stable = _stabilized(doc)
-    with pytest.raises(CorrectionRefused, match="beyond the limits"):
-        correct_plan(doc.cable, doc.shapes, doc.grippers, 3,
-                     resample_by_arc_length(stable[3], 300), stabilized=stable,
-                     reference="planned")
+    result = correct_plan(doc.cable, doc.shapes, doc.grippers, 3,
+                          resample_by_arc_length(stable[3], 300), stabilized=stable,
+                          reference="planned", predict=False)
+    _assert_within(result.clip_corrections, CorrectionLimits())
+    assert any("held at the limits 30 mm / 20 degrees" in w for w in result.warnings)
 
 
 # -- strict input (issue 35, 36) ----------------------------------------------------------------
@@ -638,7 +649,7 @@ def test_a_measurement_offset_is_estimated_and_taken_out(plans, name):
     component), taken out of the measurement, and the correction ends where it ends without
     an offset (3D 0.87 -> 0.93 mm, demo 2.98 -> 3.01). Taken as zero, the same offset makes the
     correction ask for E x9.4 for the plant's x2 (3D: it ends 3.31 mm off, not 0.91) or a 24
-    degree turn (demo: refused)."""
+    degree turn (demo: held at the 20 degree limit, it ends 3.59 mm off, not 3.01)."""
     doc, _ = plans[name]
     cable = doc.cable
     last = len(doc.shapes) - 1
@@ -652,7 +663,7 @@ def test_a_measurement_offset_is_estimated_and_taken_out(plans, name):
             trajectory=doc.trajectory, offset=mode)
     run, plain = runs[True, "estimate"], runs[False, "estimate"]
     assert runs[True, "none"].refusals or \
-        runs[True, "none"].closed_loop_error > 2 * run.closed_loop_error
+        runs[True, "none"].closed_loop_error > 1.15 * run.closed_loop_error
     (correction,) = run.corrections
     model = correction.model
     assert model.offset_estimated and "taken out" in model.offset_note
