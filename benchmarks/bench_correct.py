@@ -36,8 +36,10 @@ written, read back and verified) or what refused it, and the correction's CPU ti
 
 Run: ``PYTHONPATH=tests python benchmarks/bench_correct.py [--part 2]
 [--plants chain,dismech,mujoco] [--cases base,own n,...] [--plans ...] [--no-floor]``.
-Part 2 with the default plants (chain and dismech, 21 rows each) costs about 15 minutes of CPU,
-most of it planning the six plans and the chain's floors; a dismech row is 3-15 s of plant CPU.
+Part 2 with the default plants (chain and dismech, 24 rows each) took about 8 minutes of wall
+time per plant on the shared host (load 13; run them as two processes, ``--plants chain`` and
+``--plants dismech``), most of it planning the six plans and the floors; a dismech row is 1-5 s of
+plant CPU plus its floor (12 evaluations of 13 rest states).
 Timings on this machine are shared with other sessions (2 cores); read the CPU column.
 """
 
