@@ -129,6 +129,9 @@ class CorrectionLimits:
         Largest mean distance between the measured and the predicted shape, in cable lengths.
     iterations : int
         Levenberg-Marquardt iterations per fitted shape.
+    gain_significance : float
+        The predicted gain must be more than this many of its sd from zero, else the plan is
+        kept (default :data:`SIGNIFICANCE`; 0: any predicted gain will do).
     """
 
     max_translation: float = 0.03
@@ -136,8 +139,12 @@ class CorrectionLimits:
     max_modulus_factor: float = 10.0
     max_disagreement: float = MAX_DISAGREEMENT
     iterations: int = 12
+    gain_significance: float = SIGNIFICANCE
 
     def __post_init__(self) -> None:
+        if not (math.isfinite(self.gain_significance) and self.gain_significance >= 0):
+            raise ValueError(f"limits.gain_significance: got {self.gain_significance!r}, "
+                             "expected a number >= 0")
         for name in ("max_translation", "max_rotation", "max_disagreement"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
@@ -962,10 +969,11 @@ def correct_plan(
     uncertainty = _uncertainty(directions, update)
     before, after = (float(_mean_distance(x[-1], wanted[-1])) for x in (open_loop, corrected))
     spread = _gain_sd(open_loop[-1], corrected[-1], wanted[-1], directions, update)
-    if before - after <= SIGNIFICANCE * spread:
+    if before - after <= limits.gain_significance * spread:
         raise CorrectionRefused(
             f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm (final "
-            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is within {SIGNIFICANCE:g} sd "
+            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is within "
+            f"{limits.gain_significance:g} sd "
             f"({1e3 * spread:.2f} mm; E, discretization bias, clamp length as estimated) "
             "of zero: the plan is kept")
     return Correction(open_loop=open_loop, corrected=corrected, equilibria=equilibria,
