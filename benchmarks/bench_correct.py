@@ -10,9 +10,10 @@ and the one-shot ``dloplan correct`` command's own report of its CPU and wall ti
 Part 2, plants: every example plan (sagging demo, 3D Ethernet, embedded U demo) planned by
 ``dloplan plan`` at its own n and at n = 20, run open loop and corrected once on
 
-* ``chain``: dloplan's own chain on 100 links (the same physics, finer);
-* ``dismech``: dismech-newton's discrete elastic rod (``tests/plants.py``: 100 edges whatever
-  the plan's n, ``DISMECH_EDGES``; clamped edges prescribed with their twist; a static solve per
+* ``chain``: dloplan's own chain on about 100 links (the same physics, finer; the multiple of
+  the plan's n nearest to 100, ``fine_links``, so it clamps exactly L / n);
+* ``dismech``: dismech-newton's discrete elastic rod (``tests/plants.py``: as many edges,
+  ``fine_links``; clamped edges prescribed with their twist; a static solve per
   rest state, 0.1-0.5 s CPU; optional, skipped when ``dismech-newton`` is missing);
 * ``mujoco``: MuJoCo 3.x's elastic cable (``tests/plants.py``: capsules on ball joints, Cosserat
   bending and twist, welded grippers; 5 segments per model link, ``MUJOCO_SEGMENTS``;
@@ -24,10 +25,9 @@ correction at mid-path): the plan's own n; E x0.5 and x10; a grip of 0.8 L / n; 
 (shape 1) and late (T - 1) (``--cases``). Columns: final mean error against the plan's stabilized
 target (curves at equal arc length) open loop and closed loop [mm], their ratio, the floor (the
 least error any correction of the target's clips leaves that plant, ``reachable_error``;
-``--no-floor`` skips it; computed on the chain only: its finite differences take SciPy's relative
-step ``diff_step`` x |x| (SciPy 1.17; 1.5e-8 at x = 0), 1e-8 m where the fit starts, below the
-solver tolerance of another simulator (dismech's 1e-5 m in float32), so on those plants the fit
-stops at its first point and the "floor" would be the open loop's error), the correction's
+``--no-floor`` skips it; on every plant, with forward differences of a step 100 times the plant's
+resolution, ``Plant.resolution``, and fewer evaluations on the slow plants, ``FLOOR_EVALUATIONS``:
+there it is what the fit reached, an upper bound of the floor), the correction's
 prediction interval of the final error [mm] and whether it covers the plant's, the clamp length the
 correction estimated [mm] ("model": not told by the measurement, the model's L / n kept), whether
 the correction as ``dloplan correct`` writes it passes ``dloplan verify`` (``written``: checked,
@@ -36,8 +36,10 @@ written, read back and verified) or what refused it, and the correction's CPU ti
 
 Run: ``PYTHONPATH=tests python benchmarks/bench_correct.py [--part 2]
 [--plants chain,dismech,mujoco] [--cases base,own n,...] [--plans ...] [--no-floor]``.
-Part 2 with the default plants (chain and dismech, 21 rows each) costs about 15 minutes of CPU,
-most of it planning the six plans and the chain's floors; a dismech row is 3-15 s of plant CPU.
+Part 2 with the default plants (chain and dismech, 24 rows each) took about 8 minutes of wall
+time per plant on the shared host (load 13; run them as two processes, ``--plants chain`` and
+``--plants dismech``), most of it planning the six plans and the floors; a dismech row is 1-5 s of
+plant CPU plus its floor (12 evaluations of 13 rest states).
 Timings on this machine are shared with other sessions (2 cores); read the CPU column.
 """
 
@@ -149,13 +151,26 @@ STIFF_AXIAL_TOLERANCE = 1e-4
 energy's rounding hides the bending energy's last changes, and the line search stalls with
 Newton steps of 10-40 micrometres (a tenth of the measurement's noise; 1e-5 m otherwise)."""
 
-DISMECH_EDGES = 100
-"""Edges of the dismech-newton rod whatever the plan's n (a clamp of 0.8 L / n at n = 20 is 4
-edges, at n = 12 7 edges: 0.84 L / n)."""
+FINE = 100
+"""About this many links of the chain plant and edges of the dismech-newton rod: the multiple of
+the plan's n nearest to it (:func:`fine_links`: 100 at n = 20, 96 at n = 12), so that the plant
+clamps exactly the model's L / n (a clamp of 0.8 L / n is then 4 links at n = 20, 6 at n = 12:
+0.75 L / n)."""
+
+
+def fine_links(n_links: int) -> int:
+    """The plant's links for a plan of ``n_links``: the multiple nearest to :data:`FINE`."""
+    return n_links * max(1, round(FINE / n_links))
+
+
+FLOOR_EVALUATIONS = {"chain": 200, "dismech": 12, "mujoco": 4}
+"""Evaluations of the floor's cost per plant (``reachable_error``; each Jacobian is 12 plant
+solves more): another simulator's rest state costs 10-1000 times the chain's."""
 
 
 def plants(names):
-    out = {"chain": lambda cable, clamp, links: Plant(cable.with_links(100), noise=NOISE,
+    out = {"chain": lambda cable, clamp, links: Plant(cable.with_links(fine_links(links)),
+                                                      noise=NOISE,
                                                       n_measured=POINTS, seed=1, clamp=clamp)}
     if "mujoco" in names:
         try:
@@ -176,7 +191,7 @@ def plants(names):
             print(f"dismech plant skipped: {exc} (pip install dloplan[plants])")
         else:
             out["dismech"] = lambda cable, clamp, links: DismechPlant(
-                cable.with_links(DISMECH_EDGES), noise=NOISE, n_measured=POINTS, seed=1,
+                cable.with_links(fine_links(links)), noise=NOISE, n_measured=POINTS, seed=1,
                 clamp=clamp)
     return {k: v for k, v in out.items() if k in names}
 
@@ -196,14 +211,19 @@ def written_and_verified(doc, correction, folder: Path) -> str:
         f"written, verify FAILS: {'; '.join(verification.messages)[:50]}"
 
 
-CASES = ("base", "own n", "E x0.5", "E x10", "grip 0.8", "early", "late", "stiff axial")
-"""The cases around the base (n = 20, E x2, grip L / n, correction at mid-path), one factor at a
-time; "stiff axial": the plant's cable nearly inextensible (the composite cables' copper axial
-modulus, ``COMPOSITE_AXIAL_MODULI``, 2 GPa; the plans' model stretches with E_a = E), marked
-"Ea" in the E column."""
+CASES = ("base", "own n", "E x0.5", "E x10", "grip 0.8", "early", "late", "stiff axial",
+         "grip told")
+"""The cases around the base (n = 20, E x2, grip L / n known to the correction, correction at
+mid-path), one factor at a time. "grip 0.8": the plant clamps 0.8 L / n and the correction
+estimates it (``grip="estimate"``); "grip told": the base with the correction's default, the
+clamp length estimated when the measurement tells it (``grip="estimate"``, "est" in the grip
+column); where the plant clamps L / n the correction is told so (``grip="known"``). "stiff
+axial": the plant's cable nearly inextensible (the composite cables' copper axial modulus,
+``COMPOSITE_AXIAL_MODULI``, 2 GPa), "Ea" in the E column; not run by default: the plans' cables
+have it already (the catalogue's default), so it is the base case."""
 
 
-def part2(names, floor: bool, folder: Path, plans, chosen=CASES) -> None:
+def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=False) -> None:
     print("\nPart 2: plants; final mean error [mm] against the plan's stabilized target")
     print(f"{'plan':>12} {'n':>3} {'plant':>7} {'E':>5} {'grip':>6} {'K':>2} {'open':>7} "
           f"{'closed':>7} {'ratio':>6} {'floor':>6} {'interval':>13} {'cover':>5} "
@@ -219,39 +239,45 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES) -> None:
         base_n = 20
         own_n = next(k for k in docs if k != 20) if len(docs) > 1 else 20
         for plant_name, make in makers.items():
-            base = (base_n, 2.0, 1.0, "mid", False)
+            base = (base_n, 2.0, 1.0, "mid", False, "known")
             cases = dict(zip(CASES, [base, (own_n, *base[1:]), (base_n, 0.5, *base[2:]),
-                                     (base_n, 10.0, *base[2:]), (*base[:2], 0.8, *base[3:]),
-                                     (*base[:3], "early", False), (*base[:3], "late", False),
-                                     (*base[:4], True)], strict=True))
+                                     (base_n, 10.0, *base[2:]),
+                                     (*base[:2], 0.8, *base[3:5], "estimate"),
+                                     (*base[:3], "early", *base[4:]),
+                                     (*base[:3], "late", *base[4:]),
+                                     (*base[:4], True, base[5]), (*base[:5], "estimate")],
+                             strict=True))
             cases = [cases[case] for case in chosen]
-            for n, factor, grip, when, stiff in dict.fromkeys(cases):
+            for n, factor, grip, when, stiff, told in dict.fromkeys(cases):
                 doc = docs[n]
                 cable = doc.cable
                 last = len(doc.shapes) - 1
                 at = {"early": 1, "mid": last // 2, "late": last - 1}[when]
                 real = cable.with_modulus(factor * cable.youngs_modulus)
+                modulus = f"x{factor:g}" + ("Ea" if stiff else "")
                 if stiff:
                     real = replace(real, axial_modulus=COMPOSITE_AXIAL_MODULI[cable.name])
-                modulus = f"x{factor:g}" + ("Ea" if stiff else "")
+                elif axial_like_e:  # the plant's cable stretches with E_a = E (marked "a")
+                    real, modulus = replace(real, axial_modulus=None), modulus + "a"
                 plant = make(real, grip * cable.rest_link_length, cable.n_links)
-                if stiff and plant_name == "dismech":
+                shown = f"{grip:>4.1f}" + ("est" if told == "estimate" else "L/n")
+                if real.stiff_axial and plant_name == "dismech":
                     plant = replace(plant, tolerance=STIFF_AXIAL_TOLERANCE)
                 started = time.process_time()
                 try:
                     run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [at],
-                                          stabilized=doc.stabilized, trajectory=doc.trajectory)
+                                          stabilized=doc.stabilized, trajectory=doc.trajectory,
+                                          grip=told)
                 except RuntimeError as exc:
-                    print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {grip:>4.1f}L/n "
+                    print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {shown:>7} "
                           f"{at:>2} plant failed: {exc}")
                     continue
                 plant_seconds = time.process_time() - started
                 floor_mm = "-"
-                if floor and plant_name != "chain":
-                    floor_mm = "n/a"  # reachable_error's finite differences: module docstring
-                elif floor:
+                if floor:
                     best = reachable_error(plant, doc.grippers.clip_poses(last), run.reference,
-                                           run.open_loop[-1], max_evaluations=200)
+                                           run.open_loop[-1],
+                                           max_evaluations=FLOOR_EVALUATIONS[plant_name])
                     floor_mm = f"{1e3 * best:.2f}"
                 if run.corrections:
                     (c,) = run.corrections
@@ -265,7 +291,7 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES) -> None:
                 else:
                     interval, cover, cpu, clamp = "-", "-", "-", "-"
                     written = "refused: " + "; ".join(run.refusals)[:70]
-                print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {grip:>4.1f}L/n "
+                print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {shown:>7} "
                       f"{at:>2} {1e3 * run.open_loop_error:>7.2f} "
                       f"{1e3 * run.closed_loop_error:>7.2f} {run.improvement:>6.1f} "
                       f"{floor_mm:>6} {interval:>13} {cover:>5} {clamp:>7} {cpu:>6}  {written}"
@@ -276,11 +302,15 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--plants", default="chain,dismech")
     parser.add_argument("--no-floor", action="store_true")
-    parser.add_argument("--cases", default=",".join(CASES),
+    parser.add_argument("--cases", default=",".join(c for c in CASES if c != "stiff axial"),
                         help="comma-separated, of: " + ", ".join(CASES))
     parser.add_argument("--plans", default=",".join(SCENARIOS),
                         help="comma-separated, of: " + ", ".join(SCENARIOS))
     parser.add_argument("--part", choices=["1", "2", "both"], default="both")
+    parser.add_argument("--plant-axial-like-e", action="store_true",
+                        help="the plants' cables stretch with E_a = E (the rod's float32 solve "
+                             "does not settle every rest state of the 3D job with the plans' "
+                             "copper axial modulus)")
     args = parser.parse_args()
     print(json.dumps({"host": "2 cores shared with other sessions"}))
     with tempfile.TemporaryDirectory() as folder:
@@ -288,7 +318,7 @@ def main() -> int:
             part1(Path(folder))
         if args.part in ("2", "both"):
             part2(args.plants.split(","), not args.no_floor, Path(folder),
-                  args.plans.split(","), args.cases.split(","))
+                  args.plans.split(","), args.cases.split(","), args.plant_axial_like_e)
     return 0
 
 

@@ -170,6 +170,12 @@ class MujocoPlant(Plant):
         self._sim["model"] = mujoco.MjModel.from_xml_string(xml)
         self._sim["data"] = mujoco.MjData(self._sim["model"])
 
+    @property
+    def resolution(self) -> float:
+        """[m] a rest state's resolution: at ``rest_speed`` the slowest modes (about 10 rad/s)
+        are within rest_speed / (5 rad/s) of rest (0.01 mm)."""
+        return self.rest_speed / 5.0
+
     def _stiffness(self) -> float:
         """A segment joint's bending stiffness E I / l [N m / rad]."""
         c = self.cable
@@ -351,6 +357,11 @@ class DismechPlant(Plant):
     max_steps: int = 200
     _sim: dict = field(default_factory=dict, init=False, repr=False)
     _states: dict = field(default_factory=dict, init=False, repr=False)
+
+    @property
+    def resolution(self) -> float:
+        """[m] a rest state's resolution: the Newton tolerance (``tolerance``)."""
+        return self.tolerance
 
     def _build(self, gravity) -> None:
         newton, dismech = import_dismech()

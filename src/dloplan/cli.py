@@ -245,8 +245,11 @@ def _cmd_correct(args: argparse.Namespace) -> int:
     wall0, cpu0 = time.perf_counter(), time.process_time()
     console = Console(args.quiet)
     doc = document_of(args.plan, progress=console.stage, allow_placement=args.allow_placement)
+    from .correct import CorrectionLimits
+
     options = dict(mode=args.mode, reference=args.reference, modulus_steps=args.modulus_steps,
-                   model_error=args.model_error, grip=args.grip, offset=args.offset)
+                   model_error=args.model_error, grip=args.grip, offset=args.offset,
+                   limits=CorrectionLimits(gain_significance=args.gain_sd))
     if args.serve:
         return _serve_corrections(doc, options)
     if args.at is None or args.measured is None:
@@ -811,11 +814,11 @@ def build_parser() -> argparse.ArgumentParser:
     correct.add_argument("--model-error", choices=["discretization", "modulus"],
                          default="discretization",
                          help="identify E and the discretization bias (default), or E alone")
-    correct.add_argument("--grip", choices=["estimate", "model"], default="estimate",
+    correct.add_argument("--grip", choices=["estimate", "model", "known"], default="estimate",
                          help="the clamp length (where the gripper's jaws end on the cable): "
                          "estimated with E and the bias when the measurement tells it, else the "
-                         "model's with its uncertainty in the interval (default), or always "
-                         "the model's")
+                         "model's with its uncertainty in the interval (default), always the "
+                         "model's with its uncertainty, or known to be the model's L/n")
     correct.add_argument("--offset", choices=["estimate", "none"], default="estimate",
                          help="the measurement's offset (a rigid translation of the measured "
                          "shape, e.g. a camera's calibration error): estimated with E when the "
@@ -824,6 +827,9 @@ def build_parser() -> argparse.ArgumentParser:
     correct.add_argument("--no-verify", action="store_true",
                          help="skip the physics verification of the corrected plan (stability, "
                          "snap-through, replay); its robot programs are still checked")
+    correct.add_argument("--gain-sd", type=float, default=2.0,
+                         help="keep the plan unless the correction's predicted gain is more "
+                         "than this many of its sd from zero (default 2; 0: any gain)")
     correct.add_argument("--serve", action="store_true",
                          help="keep the plan warm: read one JSON request per line on stdin "
                          "({\"at\": K, \"points\": [[x, y, z], ...]}), answer one JSON line each")

@@ -14,8 +14,10 @@ where x_2n is the same cable on twice the links, clamped over the same length (t
 direction of the discretization error; R_n resamples by arc length onto the model's n + 1
 points). alpha is fitted to the measurement together with log E (:func:`fit_model_error`): about
 1 for a plant on 2n links, 1.6 for n = 100 against n = 20, 2 for the continuum (a first-order
-error: x_inf - x_n = 2 d). The clips are then fitted so that x_n + alpha d, not x_n, matches the
-reference, with d re-evaluated at the corrected clips.
+error: x_inf - x_n = 2 d), with that first-order value as its prior (:func:`alpha_prior`) so
+that a direction the measurement cannot tell from d (the clamp length's g, on the coarse U demo)
+does not take alpha's share. The clips are then fitted so that x_n + alpha d, not x_n, matches
+the reference, with d re-evaluated at the corrected clips.
 """
 
 from __future__ import annotations
@@ -35,6 +37,39 @@ from .measurement import CorrectionRefused
 
 MAX_ALPHA = 4.0
 """Largest discretization-error amplitude accepted (2 is the continuum's); beyond, it is clipped."""
+
+ALPHA_SD = 0.5
+"""Standard deviation of the prior on alpha (:func:`alpha_prior`): the first-order value leaves
+out the second-order terms, O(1 / n) of it (a quarter at n = 12 on the sagging demo, whose
+target moves 7.5, 3.6, 1.5 mm for n = 20, 40, 80: ratios 2.1 and 2.4, not 2), and the
+measured cable's own resolution when it is not known (1.6 for a 100-link plant at n = 20, 2
+for the continuum: 0.8 sd apart)."""
+
+
+def alpha_prior(n_links: int, measured_links: int | None = None) -> tuple[float, float]:
+    """The prior (centre, sd) of the discretization error's amplitude alpha.
+
+    A chain of n links converges to the rod at first order in 1 / n, x_N - x_n = c (1 / n -
+    1 / N), so with d = x_2n - x_n = c / (2 n) the cable measured (N links; the continuum for a
+    real cable) is x_n + alpha d with
+
+        alpha = 2 (1 - n / N)        (2 for N -> inf, 1.76 for N = 100 at n = 12).
+
+    Parameters
+    ----------
+    n_links : int
+        The model's links n.
+    measured_links : int, optional
+        The measured cable's own discretization N (a simulated plant's links or edges); None:
+        a real cable, the continuum.
+
+    Returns
+    -------
+    tuple
+        ``(alpha_0, sd)``, sd = :data:`ALPHA_SD`.
+    """
+    ratio = 0.0 if measured_links is None else n_links / measured_links
+    return 2.0 * (1.0 - min(ratio, 1.0)), ALPHA_SD
 
 
 def clamped_equilibrium(cable: Cable, guess, clips: ClipPoses, clamp_links: int = 1, *,
@@ -155,20 +190,19 @@ def discretization_error(cable: Cable, shape: np.ndarray, clips: ClipPoses, *,
                                   fine_chain=fine_chain, fine_guess=fine_guess)[0]
 
 
-def grip_direction(cable: Cable, shape: np.ndarray, clips: ClipPoses, *,
-                   gravity=GRAVITY) -> np.ndarray:
-    """g (n + 1, 3) [m] per L / (2 n) of clamp length: :func:`model_error_directions`' second
-    direction, for the prediction's uncertainty (:mod:`.step`)."""
-    return model_error_directions(cable, shape, clips, grip=True, gravity=gravity)[1]
-
-
 BOUNDS = ((0.0, MAX_ALPHA), (-MAX_GRIP, MAX_GRIP))
 """The ranges of the directions' amplitudes (alpha, beta) :func:`fit_model_error` accepts."""
 
 
-def fit_model_error(jacobian: np.ndarray, directions, residual: np.ndarray
+def fit_model_error(jacobian: np.ndarray, directions, residual: np.ndarray, prior=None
                     ) -> tuple[float, np.ndarray]:
     """Least-squares (delta log E, amplitudes) with residual ~ J delta + sum_k c_k D_k.
+
+    With ``prior`` (alpha_0, sd) on alpha, the first amplitude (:func:`alpha_prior`), the
+    least squares is the maximum a posteriori estimate: one more row (s / sd)(alpha - alpha_0),
+    s the scatter per coordinate of the fit without the prior (:func:`_scatter`), so alpha
+    stays near alpha_0 along what the measurement cannot tell (d and g nearly parallel) and
+    follows the measurement where it can.
 
     Parameters
     ----------
@@ -179,6 +213,8 @@ def fit_model_error(jacobian: np.ndarray, directions, residual: np.ndarray
         (:func:`model_error_directions`).
     residual : numpy.ndarray
         (n + 1, 3) measured minus predicted [m].
+    prior : tuple of float, optional
+        (alpha_0, sd) of alpha (ignored without directions); None: no prior.
 
     Returns
     -------
@@ -187,17 +223,16 @@ def fit_model_error(jacobian: np.ndarray, directions, residual: np.ndarray
         [0, :data:`MAX_ALPHA`], beta to [-:data:`MAX_GRIP`, :data:`MAX_GRIP`] (:data:`BOUNDS`);
         the others refitted with a clipped one held.
     """
-    r = residual.ravel()
-    columns = [jacobian.ravel()] + [d.ravel() for d in directions]
+    a, r = _system(jacobian, directions, residual, prior)
+    columns = list(a.T)
     bounds = [(-math.inf, math.inf), *BOUNDS[: len(directions)]]
     values = np.zeros(len(columns))
     held = np.zeros(len(columns), dtype=bool)
     for _ in columns:  # clip one amplitude at a time, refit the others
         free = np.flatnonzero(~held)
-        a = np.stack([columns[k] for k in free], axis=1)
         rest = r - sum((values[k] * columns[k] for k in np.flatnonzero(held)), np.zeros_like(r))
-        if np.any(np.abs(a).sum(axis=0) > 0):
-            values[free] = np.linalg.lstsq(a, rest, rcond=1e-10)[0]
+        if np.any(np.abs(a[:, free]).sum(axis=0) > 0):
+            values[free] = np.linalg.lstsq(a[:, free], rest, rcond=1e-10)[0]
         out = [k for k in free if not bounds[k][0] <= values[k] <= bounds[k][1]]
         if not out:
             break
@@ -207,12 +242,33 @@ def fit_model_error(jacobian: np.ndarray, directions, residual: np.ndarray
     return float(values[0]), values[1:]
 
 
-def parameter_sds(jacobian: np.ndarray, directions, residual: np.ndarray) -> np.ndarray:
+def _scatter(a: np.ndarray, r: np.ndarray) -> float:
+    """s^2, the scatter per coordinate the unbounded least squares a c ~ r leaves [m^2]."""
+    left = r - a @ np.linalg.lstsq(a, r, rcond=1e-10)[0]
+    return float(left @ left) / max(a.shape[0] - a.shape[1], 1)
+
+
+def _system(jacobian, directions, residual, prior) -> tuple[np.ndarray, np.ndarray]:
+    """The least-squares system [J, D_1, ...] c ~ r, with the prior's row on alpha appended."""
+    r = residual.ravel()
+    a = np.stack([jacobian.ravel()] + [d.ravel() for d in directions], axis=1)
+    if prior is None or not directions:
+        return a, r
+    centre, sd = prior
+    weight = math.sqrt(_scatter(a, r)) / sd
+    row = np.zeros(a.shape[1])
+    row[1] = weight
+    return np.vstack([a, row]), np.r_[r, weight * centre]
+
+
+def parameter_sds(jacobian: np.ndarray, directions, residual: np.ndarray,
+                  prior=None) -> np.ndarray:
     """Standard deviations of the fitted (delta log E, amplitudes) (Gauss-Newton linearization).
 
     The residual left by the fit gives the scatter per coordinate, s^2 = |r|^2 / (N - p) (N
-    coordinates, p parameters); var = s^2 diag((A^T A)^-1) with A = [J, D_1, ...]: each
-    direction fitted takes its share of the information.
+    coordinates, p parameters); var = s^2 diag((A^T A + (s / sd)^2 e e^T)^-1) with
+    A = [J, D_1, ...] and e the unit vector of alpha (the prior's row; absent without a prior):
+    each direction fitted takes its share of the information, the prior on alpha adds its own.
 
     Parameters
     ----------
@@ -222,6 +278,8 @@ def parameter_sds(jacobian: np.ndarray, directions, residual: np.ndarray) -> np.
         The error directions fitted with it (:func:`fit_model_error`).
     residual : numpy.ndarray
         (n + 1, 3) what the fit leaves: measured minus the fitted model [m].
+    prior : tuple of float, optional
+        (alpha_0, sd) of alpha, as given to :func:`fit_model_error`.
 
     Returns
     -------
@@ -231,8 +289,11 @@ def parameter_sds(jacobian: np.ndarray, directions, residual: np.ndarray) -> np.
     a = np.stack([jacobian.ravel()] + [d.ravel() for d in directions], axis=1)
     dof = max(a.shape[0] - a.shape[1], 1)
     s2 = float(residual.ravel() @ residual.ravel()) / dof
+    information = a.T @ a
+    if prior is not None and directions:
+        information[1, 1] += s2 / prior[1] ** 2
     try:
-        variance = s2 * np.diag(np.linalg.inv(a.T @ a))
+        variance = s2 * np.diag(np.linalg.inv(information))
     except np.linalg.LinAlgError:
         return np.full(a.shape[1], math.inf)
     ok = np.isfinite(variance) & (variance >= 0)

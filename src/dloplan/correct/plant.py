@@ -31,6 +31,14 @@ from .measurement import CorrectionRefused
 from .model_error import clamped_equilibrium
 from .step import Correction, CorrectionLimits, correct_plan
 
+CHAIN_RESOLUTION = 1e-9
+"""[m] the resolution of the chain plant's rest states (:attr:`Plant.resolution`): an upper
+bound; its Newton solve stops at forces of 1e-10 of the cable's scale."""
+
+DIFFERENCE_STEPS = 100.0
+"""The floor's finite-difference step in units of the plant's resolution: the derivative's
+round-off error is then 1 % of a unit response (a clip moved by h moves the shape by about h)."""
+
 
 @dataclass(frozen=True)
 class Plant:
@@ -78,6 +86,13 @@ class Plant:
                 np.isfinite(self.clamp) and 0 < self.clamp < 0.25 * self.cable.length):
             raise ValueError(f"plant.clamp: got {self.clamp!r}, expected a length > 0 and below "
                              "a quarter of the cable [m]")
+
+    @property
+    def resolution(self) -> float:
+        """[m] how closely a rest state is resolved: the chain's Newton solve converges to
+        forces of 1e-10 of its scale, far below a nanometre (:data:`CHAIN_RESOLUTION`); another
+        simulator's plant states its own (a tolerance of its solve)."""
+        return CHAIN_RESOLUTION
 
     @property
     def clamp_links(self) -> int:
@@ -189,8 +204,11 @@ def run_closed_loop(
     gravity : array_like
         Gravity [m/s^2].
     **options
-        Passed to :func:`correct_plan` (reference, mode, modulus_steps, limits).
+        Passed to :func:`correct_plan` (reference, mode, modulus_steps, limits, ...);
+        ``measured_links`` defaults to the plant's links (the prior on the discretization bias,
+        :func:`~.model_error.alpha_prior`).
     """
+    options.setdefault("measured_links", plant.cable.n_links)
     path = as_path(shapes, cable.n_points, "shapes")
     last = len(path) - 1
     checks = sorted({int(k) for k in checkpoints})
@@ -257,10 +275,16 @@ def reachable_error(plant: Plant, clips: ClipPoses, reference: np.ndarray, guess
                     max_evaluations: int = 200) -> float:
     """The floor: the least final error [m] any correction of ``clips`` within ``limits`` leaves.
 
-    A bounded least-squares fit (:func:`scipy.optimize.least_squares`, finite differences on the
-    plant itself, no noise, no model) of the 12 clip coordinates minimizing the plant's
+    A bounded least-squares fit (:func:`scipy.optimize.least_squares`, forward differences on
+    the plant itself, no noise, no model) of the 12 clip coordinates minimizing the plant's
     :func:`shape_error` to ``reference``: what a perfect correction could reach. A cable of
     another stiffness sags differently; two clips cannot always give it the planned shape.
+
+    The differences take an absolute step of :data:`DIFFERENCE_STEPS` times the plant's
+    :attr:`~Plant.resolution` (the clip coordinates in metres, rotations times L / 2: 1e-7 m on
+    the chain, 1 mm on a plant resolved to 1e-5 m); SciPy's relative ``diff_step`` is a step
+    times |x|, 1.5e-8 at x = 0, below another simulator's solver tolerance, where the fit
+    would stop at its first point.
 
     Parameters
     ----------
@@ -277,21 +301,33 @@ def reachable_error(plant: Plant, clips: ClipPoses, reference: np.ndarray, guess
     gravity : array_like
         Gravity [m/s^2].
     max_evaluations : int
-        Plant solves at most (a slow plant, another simulator, gets fewer).
+        Evaluations of the cost at most (each Jacobian costs 12 plant solves more; a slow
+        plant, another simulator, gets fewer).
     """
     limits = CorrectionLimits() if limits is None else limits
     scale = np.tile(np.r_[np.ones(3), np.full(3, 0.5 * plant.cable.length)], 2)
     bound = np.tile(np.r_[np.full(3, limits.max_translation), np.full(3, limits.max_rotation)],
                     2) * scale / np.sqrt(3.0)
+    h = DIFFERENCE_STEPS * plant.resolution
+    n_points = len(reference)
+    wanted = resample_by_arc_length(reference, n_points)
 
     def residual(z):
         x, _, _ = plant.hold(guess, perturbed_clips(clips, z / scale), gravity)
-        n_points = len(reference)
-        return (resample_by_arc_length(x, n_points)
-                - resample_by_arc_length(reference, n_points)).ravel()
+        return (resample_by_arc_length(x, n_points) - wanted).ravel()
 
-    fit = least_squares(residual, np.zeros(12), bounds=(-bound, bound), x_scale=bound,
-                        diff_step=1e-3, max_nfev=max_evaluations)
+    def jacobian(z):
+        f0 = residual(z)
+        steps = np.where(z + h <= bound, h, -h)  # inside the bounds
+        columns = []
+        for k in range(len(z)):
+            moved = z.copy()
+            moved[k] += steps[k]
+            columns.append((residual(moved) - f0) / steps[k])
+        return np.stack(columns, axis=1)
+
+    fit = least_squares(residual, np.zeros(12), jac=jacobian, bounds=(-bound, bound),
+                        x_scale=bound, max_nfev=max_evaluations)
     x, _, _ = plant.hold(guess, perturbed_clips(clips, fit.x / scale), gravity)
     return shape_error(x, reference)
 

@@ -32,17 +32,19 @@ reaches shape K the cable is measured; the correction
    loop and corrected: quasi-static continuations along the planned and the corrected clip
    poses (:func:`dloplan.sim.continuation`), reported side by side.
 
-The correction is damped and bounded: a measured shape that disagrees wildly (:mod:`.measurement`),
-a modulus update beyond ``limits.max_modulus_factor`` or a clip correction beyond
-``limits.max_translation`` / ``limits.max_rotation`` raises :class:`~.measurement.
-CorrectionRefused` with the reason, and nothing is applied.
+The correction is damped and bounded: a measured shape that disagrees wildly (:mod:`.measurement`)
+or a modulus update beyond ``limits.max_modulus_factor`` raises :class:`~.measurement.
+CorrectionRefused` with the reason, and nothing is applied; the clip fit is held within
+``limits.max_translation`` / ``limits.max_rotation`` (its trial steps projected onto them, a
+warning when it ends on them), and a correction whose predicted gain is not significant is
+refused (the plan kept).
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -58,9 +60,9 @@ from ..trajectory import Trajectory, trajectory_from_grippers
 from .measurement import MAX_DISAGREEMENT, CorrectionRefused, resample_measured
 from .model_error import (
     MAX_GRIP,
+    alpha_prior,
     clamped_equilibrium,
     fit_model_error,
-    grip_direction,
     measured_offset,
     model_error_directions,
     parameter_sds,
@@ -101,9 +103,10 @@ of zero passes it one time in twenty)."""
 
 MODES = ("target", "all")
 MODEL_ERRORS = ("discretization", "modulus")
-GRIPS = ("estimate", "model")
-"""The clamp length: estimated with E and the bias when the measurement tells it (default), or
-the model's one link with its uncertainty in the interval."""
+GRIPS = ("estimate", "model", "known")
+"""The clamp length: estimated with E and the bias when the measurement tells it (default), the
+model's one link with its uncertainty in the interval, or known to be the model's (a gripper
+whose jaws are calibrated to end where the model's held link does: no uncertainty)."""
 OFFSETS = ("estimate", "none")
 """The measurement's offset (a rigid translation of the measured shape, e.g. a camera's
 calibration error): estimated with E when the measurement tells it, else its size in the
@@ -126,6 +129,9 @@ class CorrectionLimits:
         Largest mean distance between the measured and the predicted shape, in cable lengths.
     iterations : int
         Levenberg-Marquardt iterations per fitted shape.
+    gain_significance : float
+        The predicted gain must be more than this many of its sd from zero, else the plan is
+        kept (default :data:`SIGNIFICANCE`; 0: any predicted gain will do).
     """
 
     max_translation: float = 0.03
@@ -133,8 +139,12 @@ class CorrectionLimits:
     max_modulus_factor: float = 10.0
     max_disagreement: float = MAX_DISAGREEMENT
     iterations: int = 12
+    gain_significance: float = SIGNIFICANCE
 
     def __post_init__(self) -> None:
+        if not (math.isfinite(self.gain_significance) and self.gain_significance >= 0):
+            raise ValueError(f"limits.gain_significance: got {self.gain_significance!r}, "
+                             "expected a number >= 0")
         for name in ("max_translation", "max_rotation", "max_disagreement"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
@@ -166,11 +176,15 @@ class ModelUpdate:
         (n + 1, 3) the updated model's equilibrium at shape K: the start of the predictions.
     discretization : float
         alpha, the measured amplitude of the discretization error carried as a bias
-        (:mod:`.model_error`; 0 when not estimated).
+        (:mod:`.model_error`; 0 when not estimated), fitted with its first-order value as the
+        prior (:func:`.model_error.alpha_prior`).
+    discretization_sd : float
+        Its standard deviation, the prior's information included (inf when not estimated).
     log_sd : float
         Standard deviation of ln E the measurement gives (inf when not computed).
     note : str
-        Why E was kept, when it was ("" when it was updated).
+        Why E was kept, or held at the limit ``max_modulus_factor`` (a measurement asking for
+        E beyond it by less than 2 sd), when it was ("" otherwise).
     grip : float
         beta, the measured clamp length's change in half model links (:mod:`.model_error`: the
         grippers clamp (1 + beta / 2) L / n; 0 when not estimated).
@@ -209,6 +223,7 @@ class ModelUpdate:
     offset_sd: float = math.inf
     offset_uncertainty: float = 0.0
     offset_note: str = "not estimated"
+    discretization_sd: float = math.inf
 
     @property
     def offset_estimated(self) -> bool:
@@ -217,7 +232,8 @@ class ModelUpdate:
 
     @property
     def grip_estimated(self) -> bool:
-        """Whether the measurement told the clamp length (else the model's is kept)."""
+        """Whether the clamp length is told: by the measurement, or known (``grip="known"``,
+        sd 0); else the model's is kept with its uncertainty."""
         return math.isfinite(self.grip_sd)
 
     def bias(self, cable: Cable, shape: np.ndarray, clips: ClipPoses, gravity=GRAVITY
@@ -259,10 +275,11 @@ class Correction:
         The prediction's error budget at the target [m]: ``unexplained`` (what the updated
         model leaves at shape K: the model errors it cannot represent, a measurement offset
         not taken out, noise), ``grip`` (the estimated clamp length's 2 sd plus
-        :data:`GRIP_LINEARITY` of its change, or, not estimated, a clamp length L / (4 n) off
-        the model's, :data:`GRIP_UNCERTAINTY`), ``modulus`` (2 sd of ln E), ``offset`` (an
-        offset of the measurement found but not told from noise: its size plus 2 sd,
-        :attr:`ModelUpdate.offset_uncertainty`; 0 when it was taken out or not estimated);
+        :data:`GRIP_LINEARITY` of its change, 0 when known, or, not estimated, a clamp length
+        L / (4 n) off the model's, :data:`GRIP_UNCERTAINTY`), ``modulus`` (2 sd of ln E),
+        ``offset`` (an offset of the measurement found but not told from noise: its size plus 2 sd,
+        :attr:`ModelUpdate.offset_uncertainty`; 0 when it was taken out or not estimated),
+        ``discretization`` (2 sd of alpha times d at the target);
         their sum bounds the final error's prediction interval (:attr:`prediction_interval`).
         Empty for a correction made with ``predict=False``.
     clip_corrections : numpy.ndarray
@@ -403,11 +420,12 @@ def _mean_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, steps: int = 3,
                    max_factor: float = 10.0, gravity=GRAVITY, guess=None,
                    discretization: bool = False, grip: bool = False,
-                   offset: bool = False) -> ModelUpdate:
+                   offset: bool = False, measured_links: int | None = None) -> ModelUpdate:
     """Gauss-Newton steps in log E fitting the model's equilibrium at ``clips`` to ``measured``.
 
     With ``discretization``, each step fits log E and the amplitude alpha of the discretization
-    error together (:func:`.model_error.fit_model_error`): measured ~ x(E) + alpha d; with
+    error together (:func:`.model_error.fit_model_error`; alpha with its first-order value as
+    the prior, :func:`.model_error.alpha_prior`): measured ~ x(E) + alpha d; with
     ``grip`` too, the clamp length's amplitude beta as well: measured ~ x(E) + alpha d + beta g
     (:func:`.model_error.model_error_directions`), kept only when the first step finds it at
     least :data:`SIGNIFICANCE` standard deviations from 0 (else the clamp length stays the
@@ -424,8 +442,9 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     scatter the fit leaves) keeps E, with the reason in ``ModelUpdate.note`` (a measurement
     equal to the plan's prediction plus noise, or a shape that hardly depends on E). A step is
     at most a factor 2 in E (a trust region); steps cut by it do not count against ``steps``, so
-    the updates reach any factor up to ``max_factor`` and a measurement asking for more is
-    refused.
+    the updates reach any factor up to ``max_factor`` (the last step cut to end on it); a
+    measurement asking for more from there is refused when it asks for more by over
+    :data:`SIGNIFICANCE` sd(ln E), else E is held at the limit (``note``).
 
     Parameters
     ----------
@@ -451,6 +470,9 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         With ``discretization``: also estimate the clamp length when the measurement tells it.
     offset : bool
         Also estimate the measurement's offset when the measurement tells it.
+    measured_links : int, optional
+        The measured cable's own discretization (a simulated plant's links), the centre of the
+        prior on alpha; None: a real cable, the continuum.
 
     Raises
     ------
@@ -472,6 +494,8 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
             *measured_offset(measured - eq.shape))
         measured = measured - shift  # what the fit explains: the cable, not the camera
     fine = resample_by_arc_length(eq.shape, 2 * cable.n_links + 1)  # refined, warm from E to E
+    prior = alpha_prior(cable.n_links, measured_links)
+    alpha_sd = math.inf
     limit = math.log(max_factor)
     budget = steps + math.ceil(limit / MAX_LOG_STEP) + 1 if steps > 0 else 0
     full = 0
@@ -479,7 +503,7 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         sens = equilibrium_sensitivity(model, eq.shape, clips, chain=chain)
         directions = _directions(model, eq.shape, clips, discretization, grip, gravity, fine)
         residual = measured - eq.shape
-        step, amplitudes, sds = _fit(sens.log_modulus, directions, residual)
+        step, amplitudes, sds = _fit(sens.log_modulus, directions, residual, prior)
         if float(np.sum(sens.log_modulus**2)) <= 1e-24 * cable.length**2:
             note = "the measured shape does not depend on E here (no sag): E kept"
             break
@@ -488,8 +512,9 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
                 grip, grip_sd, grip_note = _grip_verdict(amplitudes[1], sds[2], model)
                 if not grip:  # the clamp length stays the model's: refit without it
                     directions = directions[:1]
-                    step, amplitudes, sds = _fit(sens.log_modulus, directions, residual)
+                    step, amplitudes, sds = _fit(sens.log_modulus, directions, residual, prior)
             log_sd = float(sds[0])
+            alpha_sd = float(sds[1]) if directions else math.inf
             if log_sd > MAX_LOG_SD:
                 note = (f"the measurement does not inform E: sd(ln E) = {log_sd:.3g}, more "
                         f"than a factor {math.exp(MAX_LOG_SD):g}: E kept")
@@ -500,12 +525,20 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
                         f"than {SIGNIFICANCE:g} sd): E kept")
                 break
         clipped = max(-MAX_LOG_STEP, min(MAX_LOG_STEP, step))  # a trust region: E x2 per step
-        if abs(log_e + clipped - log_e0) > limit:
-            raise CorrectionRefused(
-                f"modulus: the measurement asks for E = {math.exp(log_e + step):.3g} Pa or "
-                f"beyond, more than {max_factor:g} times off the plan's "
-                f"{cable.youngs_modulus:.3g} Pa (limit max_modulus_factor)"
-            )
+        room = limit - math.copysign(1.0, clipped) * (log_e - log_e0)  # to the limit, this side
+        if abs(clipped) > room:  # the step would leave the limit: stop on it
+            if room <= MODULUS_STEP_TOLERANCE:
+                if abs(log_e + step - log_e0) - limit > SIGNIFICANCE * log_sd:
+                    raise CorrectionRefused(
+                        f"modulus: the measurement asks for E = {math.exp(log_e + step):.3g} "
+                        f"Pa, more than {max_factor:g} times off the plan's "
+                        f"{cable.youngs_modulus:.3g} Pa by over {SIGNIFICANCE:g} sd(ln E) = "
+                        f"{SIGNIFICANCE * log_sd:.2g} (limit max_modulus_factor)")
+                note = (f"the measurement asks for E = {math.exp(log_e + step):.3g} Pa, beyond "
+                        f"{max_factor:g} times the plan's by less than {SIGNIFICANCE:g} "
+                        "sd(ln E): E held at the limit")
+                break
+            clipped = math.copysign(room, clipped)
         log_e += clipped
         model = cable.with_modulus(math.exp(log_e))
         chain = SpringChain.from_cable(model, gravity)
@@ -519,7 +552,8 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     alpha = beta = 0.0
     if directions:  # the amplitudes at the final E (the directions barely moved with it)
         directions = _directions(model, eq.shape, clips, True, grip, gravity, fine)
-        amplitudes = fit_model_error(np.zeros_like(eq.shape), directions, measured - eq.shape)[1]
+        amplitudes = fit_model_error(np.zeros_like(eq.shape), directions, measured - eq.shape,
+                                     prior)[1]
         alpha = float(amplitudes[0])
         beta = float(amplitudes[1]) if grip else 0.0
     bias = sum((c * d for c, d in zip(amplitudes, directions, strict=True)), 0.0) \
@@ -527,15 +561,15 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     residual = float(np.mean(np.linalg.norm(eq.shape + bias - measured, axis=1)))
     return ModelUpdate(cable.youngs_modulus, model.youngs_modulus, residual0, residual,
                        taken, eq.shape, alpha, log_sd, note, beta, grip_sd, grip_note, shift,
-                       offset_sd, offset_spread, offset_note)
+                       offset_sd, offset_spread, offset_note, alpha_sd)
 
 
-def _fit(jacobian, directions, residual):
-    """(delta log E, amplitudes, sds): the fit (:func:`.model_error.fit_model_error`) and the
-    sds of (delta, amplitudes) from the scatter it leaves."""
-    step, amplitudes = fit_model_error(jacobian, directions, residual)
+def _fit(jacobian, directions, residual, prior):
+    """(delta log E, amplitudes, sds): the fit (:func:`.model_error.fit_model_error`, alpha's
+    ``prior``) and the sds of (delta, amplitudes) from the scatter it leaves."""
+    step, amplitudes = fit_model_error(jacobian, directions, residual, prior)
     sds = parameter_sds(jacobian, directions,
-                        _left(residual, jacobian, step, directions, amplitudes))
+                        _left(residual, jacobian, step, directions, amplitudes), prior)
     return step, amplitudes, sds
 
 
@@ -631,17 +665,13 @@ def fit_clips(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess: np.n
     start : array_like, optional
         (12,) initial correction (default zero).
     limits : CorrectionLimits
-        Iterations and bounds.
+        Iterations and bounds: the correction is held within them (each trial projected onto
+        them).
 
     Returns
     -------
     tuple
         ``(correction (12,), equilibrium, iterations)``.
-
-    Raises
-    ------
-    CorrectionRefused
-        When the best correction lies beyond the limits.
     """
     if chain is None:
         chain = SpringChain.from_cable(cable, gravity)
@@ -697,6 +727,7 @@ def _levenberg_marquardt(cable: Cable, clips: ClipPoses, reference: np.ndarray, 
 
     def evaluate(state, step, system):
         held, p_now = state
+        step = _within_limits(p_now + step, limits) - p_now  # projected onto the limits
         trial = _resolve(cable, system.sens.predict(step), perturbed_clips(clips, p_now + step),
                          gravity, chain)
         if trial is None:
@@ -709,21 +740,37 @@ def _levenberg_marquardt(cable: Cable, clips: ClipPoses, reference: np.ndarray, 
                           max_iterations=limits.iterations, max_trials=MAX_TRIALS,
                           stop_gain=COST_TOLERANCE)
     eq, p = run.state
-    _check_bounds(p, limits)
     return p, eq, run.iterations
 
 
-def _check_bounds(p: np.ndarray, limits: CorrectionLimits) -> None:
+def _within_limits(p: np.ndarray, limits: CorrectionLimits) -> np.ndarray:
+    """The clip correction p (12,) with each clip's translation and rotation vector shortened
+    to ``limits.max_translation`` / ``max_rotation`` (the projection onto the limits)."""
+    out = np.array(p, dtype=float)
+    for start, bound in ((0, limits.max_translation), (3, limits.max_rotation),
+                         (6, limits.max_translation), (9, limits.max_rotation)):
+        norm = float(np.linalg.norm(out[start : start + 3]))
+        if norm > bound:
+            out[start : start + 3] *= bound / norm
+    return out
+
+
+def _held_at_limits(p: np.ndarray, limits: CorrectionLimits) -> str:
+    """A warning when a clip's correction is on the limits (the fit asked for more), else ""."""
+    held = []
     for clip, name in enumerate(("first", "last")):
         move = float(np.linalg.norm(p[6 * clip : 6 * clip + 3]))
         turn = float(np.linalg.norm(p[6 * clip + 3 : 6 * clip + 6]))
-        if move > limits.max_translation or turn > limits.max_rotation:
-            raise CorrectionRefused(
-                f"correction: the {name} clip would have to move {1e3 * move:.1f} mm and turn "
-                f"{math.degrees(turn):.1f} degrees, beyond the limits "
-                f"{1e3 * limits.max_translation:.0f} mm / {math.degrees(limits.max_rotation):.0f} "
-                "degrees (limits.max_translation / max_rotation)"
-            )
+        if move >= (1 - 1e-6) * limits.max_translation or \
+                turn >= (1 - 1e-6) * limits.max_rotation:
+            held.append(f"the {name} clip's ({1e3 * move:.1f} mm, "
+                        f"{math.degrees(turn):.1f} degrees)")
+    if not held:
+        return ""
+    return (f"correction: {' and '.join(held)} held at the limits "
+            f"{1e3 * limits.max_translation:.0f} mm / {math.degrees(limits.max_rotation):.0f} "
+            "degrees (limits.max_translation / max_rotation): the fit asks for more, the best "
+            "correction within them is used")
 
 
 def correct_plan(
@@ -744,6 +791,7 @@ def correct_plan(
     limits: CorrectionLimits = CorrectionLimits(),
     gravity=GRAVITY,
     predict: bool = True,
+    measured_links: int | None = None,
 ) -> Correction:
     """Correct the rest of a plan from the shape measured at shape ``at`` (module docstring).
 
@@ -775,10 +823,12 @@ def correct_plan(
     model_error : {"discretization", "modulus"}
         What the measurement identifies: E and the amplitude of the discretization error,
         carried as a bias onto the remaining shapes (default, :mod:`.model_error`), or E only.
-    grip : {"estimate", "model"}
+    grip : {"estimate", "model", "known"}
         With ``model_error="discretization"``: estimate the clamp length (where the gripper's
         jaws end on the cable) with E and the bias when the measurement tells it, else keep the
-        model's with its uncertainty in the interval (default); or always keep the model's.
+        model's with its uncertainty in the interval (default); or always keep the model's,
+        with its uncertainty (``model``) or as known exactly (``known``: the gripper clamps
+        the model's L / n, calibrated).
     offset : {"estimate", "none"}
         The measurement's offset (a rigid translation of the measured points, e.g. a camera's
         calibration error): estimated with E when the measurement tells it and taken out of
@@ -790,12 +840,20 @@ def correct_plan(
     predict : bool
         Also time the whole corrected path and predict the remaining shapes open loop and
         corrected, with the interval (default); False stops when the remaining motion is ready
-        (a correction service's fast answer).
+        (a correction service's fast answer, without the gain check below).
+    measured_links : int, optional
+        The measured cable's own discretization (a simulated plant's links or edges): the
+        centre of the prior on the discretization bias (:func:`.model_error.alpha_prior`);
+        None (default): a real cable, the continuum.
 
     Raises
     ------
     CorrectionRefused
-        For a measurement that disagrees wildly or a correction beyond the limits (the reason).
+        For a measurement that disagrees wildly or a correction beyond the limits (the reason),
+        and, with ``predict``, for a correction whose predicted gain (open loop minus
+        corrected final error) is within :data:`SIGNIFICANCE` sd of zero, linearized in the
+        sds of E, the discretization bias and the clamp length (:func:`_gain_sd`): the plan is
+        kept.
     ValueError
         For inconsistent inputs (named).
     """
@@ -836,7 +894,11 @@ def correct_plan(
     update = update_modulus(cable, y, clips[at], steps=modulus_steps,
                             max_factor=limits.max_modulus_factor, gravity=gravity,
                             guess=stable[at], discretization=model_error == "discretization",
-                            grip=grip == "estimate", offset=offset == "estimate")
+                            grip=grip == "estimate", offset=offset == "estimate",
+                            measured_links=measured_links)
+    if grip == "known":
+        update = replace(update, grip_sd=0.0, grip_note=(
+            f"clamp length known: the model's {1e3 * cable.rest_link_length:.1f} mm"))
     model = cable.with_modulus(update.youngs_modulus)
     model_chain = SpringChain.from_cable(model, gravity)
     # the plan's stabilized target carried to the updated E to first order: the fit's start
@@ -870,6 +932,11 @@ def correct_plan(
     seconds = time.perf_counter() - t0  # the robot can go on: the rest is for the record
     cpu_seconds = time.thread_time() - cpu0
     warnings = [f"modulus: {update.note}"] if update.note else []
+    held = _held_at_limits(np.asarray(corrections)[-1] if mode == "target" else
+                           np.asarray(corrections)[np.argmax(np.abs(corrections).sum(axis=1))],
+                           limits)
+    if held:
+        warnings.append(held)
     if update.residual_after > 0.5 * update.residual_before and update.residual_before > 0:
         what, other = (("E and the discretization bias", "rest shape, grip, measurement noise")
                        if model_error == "discretization" else
@@ -897,8 +964,18 @@ def correct_plan(
                               for x, c in zip(fitted, corrected_clips, strict=True)])
     else:
         equilibria, corrected = _predict(model, update.state, corrected_clips, gravity, update)
-    uncertainty = _uncertainty(model, equilibria[-1], corrected_clips[-1], update, gravity,
-                               model_chain)
+    directions = _target_directions(model, equilibria[-1], corrected_clips[-1], gravity,
+                                    model_chain)
+    uncertainty = _uncertainty(directions, update)
+    before, after = (float(_mean_distance(x[-1], wanted[-1])) for x in (open_loop, corrected))
+    spread = _gain_sd(open_loop[-1], corrected[-1], wanted[-1], directions, update)
+    if before - after <= limits.gain_significance * spread:
+        raise CorrectionRefused(
+            f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm (final "
+            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is within "
+            f"{limits.gain_significance:g} sd "
+            f"({1e3 * spread:.2f} mm; E, discretization bias, clamp length as estimated) "
+            "of zero: the plan is kept")
     return Correction(open_loop=open_loop, corrected=corrected, equilibria=equilibria,
                       uncertainty=uncertainty, trajectory=new_trajectory,
                       prediction_seconds=time.perf_counter() - t0 - seconds, **common)
@@ -940,21 +1017,63 @@ def _predict(cable: Cable, state: np.ndarray, clips, gravity, update: ModelUpdat
                              for x, c in zip(shapes, clips, strict=True)])
 
 
-def _uncertainty(cable: Cable, shape: np.ndarray, clips: ClipPoses, update: ModelUpdate,
-                 gravity, chain: SpringChain) -> dict:
-    """The error budget of the final prediction [m] (:attr:`Correction.uncertainty`): the
-    clamp length's term is 2 sd of the estimated one plus :data:`GRIP_LINEARITY` of its change,
-    or a quarter link (:data:`GRIP_UNCERTAINTY`) when it was not estimated."""
-    grip = grip_direction(cable, shape, clips, gravity=gravity)
-    modulus = 0.0
-    if math.isfinite(update.log_sd):
-        jacobian = equilibrium_sensitivity(cable, shape, clips, chain=chain).log_modulus
-        modulus = 2.0 * update.log_sd * float(np.mean(np.linalg.norm(jacobian, axis=1)))
-    spread = (2.0 * update.grip_sd + GRIP_LINEARITY * abs(update.grip) if update.grip_estimated
-              else 4.0 * GRIP_UNCERTAINTY)  # in half links, g's unit
-    return {"unexplained": update.residual_after,
-            "grip": spread * float(np.mean(np.linalg.norm(grip, axis=1))),
-            "modulus": modulus, "offset": update.offset_uncertainty}
+def _target_directions(cable: Cable, shape: np.ndarray, clips: ClipPoses, gravity,
+                       chain: SpringChain) -> dict:
+    """The target's responses to the estimated quantities, each (n + 1, 3) [m] per unit:
+    ``modulus`` d x / d ln E, ``discretization`` d, ``grip`` g (:mod:`.model_error`)."""
+    d, grip = model_error_directions(cable, shape, clips, grip=True, gravity=gravity)
+    jacobian = equilibrium_sensitivity(cable, shape, clips, chain=chain).log_modulus
+    return {"modulus": jacobian, "discretization": d, "grip": grip}
+
+
+def _parameter_sds(update: ModelUpdate) -> dict:
+    """sd of ln E, alpha and beta [half links] (0 where not known: E with no sag). beta's is
+    its sd plus half :data:`GRIP_LINEARITY` of its change when estimated (its 2 sd then bound
+    the error of the estimate: the response g is a half-link difference), 0 when known, and
+    :data:`GRIP_UNCERTAINTY` when the model's clamp is kept (its 2 sd a quarter link: 2
+    GRIP_UNCERTAINTY in g's unit of half a link)."""
+    if update.grip_estimated:
+        grip = update.grip_sd + 0.5 * GRIP_LINEARITY * abs(update.grip)
+    else:  # 2 sd: a quarter link, 2 GRIP_UNCERTAINTY half links
+        grip = GRIP_UNCERTAINTY
+    return {"modulus": update.log_sd if math.isfinite(update.log_sd) else 0.0,
+            "discretization": (update.discretization_sd
+                               if math.isfinite(update.discretization_sd) else 0.0),
+            "grip": grip}
+
+
+def _uncertainty(directions: dict, update: ModelUpdate) -> dict:
+    """The error budget of the final prediction [m] (:attr:`Correction.uncertainty`): 2 sd of
+    each estimated quantity (:func:`_parameter_sds`) times its mean response at the target
+    (``directions``, :func:`_target_directions`), the unexplained residual at K and the
+    offset's share."""
+    sds = _parameter_sds(update)
+    budget = {k: 2.0 * sds[k] * float(np.mean(np.linalg.norm(v, axis=1)))
+              for k, v in directions.items()}
+    return {"unexplained": update.residual_after, **budget,
+            "offset": update.offset_uncertainty}
+
+
+def _gain_sd(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarray,
+             directions: dict, update: ModelUpdate) -> float:
+    """The standard deviation of the predicted gain (open loop minus corrected final error)
+    [m], linearized in the estimated quantities.
+
+    A change dq of ln E, alpha or beta moves both final predictions by about D dq (D its
+    response at the target, ``directions``: the clips differ little), so the mean errors
+    e = mean_i |x_i - r_i| change by mean_i (u_i . D_i) dq with u_i the unit error vectors,
+    and the gain by s dq, s = mean_i((u_open,i - u_corrected,i) . D_i). The sds of the
+    quantities (:func:`_parameter_sds`) add in quadrature. What moves both errors alike (the
+    unexplained residual, a shift along the error) leaves the gain as it is.
+    """
+    def unit(x):
+        e = x - reference
+        return e / np.maximum(np.linalg.norm(e, axis=1, keepdims=True), 1e-300)
+
+    du = unit(open_loop) - unit(corrected)
+    sds = _parameter_sds(update)
+    return math.sqrt(sum((float(np.mean(np.sum(du * v, axis=1))) * sds[k]) ** 2
+                         for k, v in directions.items()))
 
 
 def _corrected_grippers(grippers: GripperPath, at: int, remaining, corrections) -> GripperPath:
