@@ -29,14 +29,8 @@ from scipy.spatial.transform import Rotation
 
 from .described import DescribedCell, pair_clearance
 from .kinematics import inverse, joint_margin
-from .path import COMFORT_CLEARANCE, COMFORT_MARGIN, ReachOptions, check_cell_path
-from .reachability import (
-    Reachability,
-    arm_order,
-    check_reachability,
-    reach_at_targets,
-    validate_path,
-)
+from .path import COMFORT_CLEARANCE, COMFORT_MARGIN, ReachOptions, check_path, validate_path
+from .reachability import Reachability, arm_order, check_reachability, reach_at_targets
 from .yumi import yumi
 
 PLACEMENT_TRIES = 3
@@ -219,7 +213,7 @@ def search_cell_placement(cell: DescribedCell, positions, rotations: Rotation, *
     verdict : CellVerdict
         Of the shifted path.
     """
-    opts = options if options is not None else ReachOptions()
+    opts = options if options is not None else ReachOptions.cell_program()
     pos = np.asarray(positions, dtype=float)
     if offsets is None:
         gx, gy = np.meshgrid(np.arange(-0.2, 0.201, 0.1), np.arange(-0.1, 0.101, 0.1))
@@ -240,7 +234,7 @@ def search_cell_placement(cell: DescribedCell, positions, rotations: Rotation, *
     ranked = sorted(sorted(scores), key=lambda i: scores[i], reverse=True)
     first = None
     for i in ranked[:PLACEMENT_TRIES]:
-        verdict = check_cell_path(cell, pos + offsets[i], rotations, options=opts)
+        verdict = check_path(cell, pos + offsets[i], rotations, options=opts)
         if verdict.ok:
             return offsets[i], verdict
         first = first or (offsets[i], verdict)
