@@ -438,13 +438,14 @@ def test_the_one_placement_search_equals_scoring_every_candidate(seed, tries):
     scores = [None if rng.random() < 0.2 else (float(b - rng.integers(0, 3)),) for b in bounds]
     passes = rng.random(n) < 0.3
     rejected = rng.random(n) < 0.1
+    scored = []
+
+    def score(i):
+        scored.append(i)
+        return scores[i]
+
     for first_pass in (True, False):
-        scored = []
-
-        def score(i):
-            scored.append(i)
-            return scores[i]
-
+        scored.clear()
         found = search_offsets(
             c, np.zeros((2, 2, 3)), offsets, score=score, tries=tries, first_pass=first_pass,
             bound=lambda i, inside: None if rejected[i] else (bounds[i],),
