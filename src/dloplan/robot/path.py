@@ -45,6 +45,9 @@ START_RESTARTS = 16
 ``options.ik`` asks; :meth:`ReachOptions.cell_program`): the one solve without a previous
 solution to follow, where a margin from the limits is wanted."""
 
+TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
+"""The TCP turned by pi about its own z-axis: the other grip of a symmetric gripper."""
+
 CHECKS = ("reach", "joint limits", "continuity", "clearance", "table clearance", "joint speed",
           "joint acceleration")
 """The checks of a cell program, in the order of its rows (the last two along the time law,
@@ -74,10 +77,10 @@ class ReachOptions:
         Smallest allowed distance between the two arms' capsules [m]; less is a collision.
     symmetric_grip : bool
         The gripper's two fingers are alike, so holding a clip with the TCP turned by pi about
-        its approach (z) axis grips the cable the same way. When True, :func:`check_reachability`
-        tracks both grips for each arm (one grip for the whole path, so the wrist does not spin
-        between poses) and keeps the better one (more poses reachable, then continuous, then
-        the larger joint margin).
+        its approach (z) axis grips the cable the same way. When True, :func:`check_path`
+        tracks both grips for each arm (unless given other ``alternatives``; one grip for the
+        whole path, so the wrist does not spin between poses) and keeps the better one (more
+        poses reachable, then continuous, then the larger joint margin).
     verdict_only : bool
         Only the verdict is wanted (a search that tries many placements): the tracking of an
         arm's grip stops at its first pose it cannot reach or motion it loses, the other arm and
@@ -124,10 +127,11 @@ class ReachOptions:
     def cell_program(cls, **settings) -> ReachOptions:
         """The settings of a described cell's program check (:func:`~dloplan.robot.urdf_cell.
         verify_on_cell`): :data:`START_RESTARTS` at the first pose, sub-steps tracked without a
-        margin, every sub-step tracked after a loss, the table clearance; ``settings`` as
-        for the class."""
+        margin, every sub-step tracked after a loss, the table clearance, the mapped grip only;
+        ``settings`` as for the class."""
         return cls(**{"start_restarts": START_RESTARTS, "track_margin": False,
-                      "follow_lost": True, "table_clearance": True, **settings})
+                      "follow_lost": True, "table_clearance": True, "symmetric_grip": False,
+                      **settings})
 
     def __post_init__(self) -> None:
         for key in ("step_length", "step_angle", "max_joint_step"):
@@ -289,9 +293,10 @@ def check_path(cell: DescribedCell, positions, rotations: Rotation, *, seeds=Non
         Default ``ReachOptions()``, the reach check's settings.
     alternatives : scipy.spatial.transform.Rotation, optional
         Other TCP rotations, shaped like ``rotations``, an arm may use instead for the whole
-        path (e.g. the grip turned by pi of a symmetric gripper): each arm keeps the better
-        of the two (more poses reachable, then continuous, then the larger joint margin), and
-        ``PathCheck.grip_turned`` says which arm uses its alternative.
+        path; default with ``options.symmetric_grip`` the grip turned by pi about the TCP
+        z-axis (:data:`TURN_Z`). Each arm keeps the better of the two (more poses reachable,
+        then continuous, then the larger joint margin), and ``PathCheck.grip_turned`` says
+        which arm uses its alternative.
 
     Returns
     -------
@@ -299,8 +304,11 @@ def check_path(cell: DescribedCell, positions, rotations: Rotation, *, seeds=Non
     """
     opts = options if options is not None else ReachOptions()
     pos, mats = validate_path(positions, rotations)
-    grips = [mats] if alternatives is None else [
-        mats, validate_path(positions, alternatives, "positions", "alternatives")[1]]
+    grips = [mats]
+    if alternatives is not None:
+        grips.append(validate_path(positions, alternatives, "positions", "alternatives")[1])
+    elif opts.symmetric_grip:
+        grips.append(mats @ TURN_Z)
     seeds = [arm.home for arm in cell.arms] if seeds is None else list(seeds)
     for a, arm in enumerate(cell.arms):
         seed = np.asarray(seeds[a], dtype=float) if a < len(seeds) else None

@@ -19,11 +19,8 @@ from scipy.spatial.transform import Rotation
 from .assignment import assign_arms
 from .described import ARMS, DescribedCell
 from .kinematics import inverse, manipulability
-from .path import PathCheck, ReachOptions, check_path, validate_path
+from .path import TURN_Z, PathCheck, ReachOptions, check_path, validate_path
 from .yumi import ABB_AXIS_NUMBERS, yumi
-
-_TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
-"""The TCP turned by pi about its own z-axis (the other grip of a symmetric gripper)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -155,9 +152,7 @@ def check_reachability(gripper_positions, gripper_rotations: Rotation,
     clip_rot = Rotation.from_matrix(mats[:, order])
     tcp_pos, tcp_rot = tcp_poses_from_clips(robot, clip_pos, clip_rot)
     opts = options if options is not None else ReachOptions()
-    turned = Rotation.from_matrix(tcp_rot.as_matrix() @ _TURN_Z) if opts.symmetric_grip \
-        else None
-    check = check_path(robot, tcp_pos, tcp_rot, options=opts, alternatives=turned)
+    check = check_path(robot, tcp_pos, tcp_rot, options=opts)
     return reach_verdict(robot, check, opts, clip_of_arm=tuple(order))
 
 
@@ -253,7 +248,7 @@ def _at_targets(robot: DescribedCell, clip_pos, clip_rot: Rotation, opts: ReachO
     tcp_pos, tcp_rot = tcp_poses_from_clips(robot, clip_pos, clip_rot)
     grips = [tcp_rot.as_matrix()]
     if opts.symmetric_grip:
-        grips.append(grips[0] @ _TURN_Z)
+        grips.append(grips[0] @ TURN_Z)
     quick = replace(opts.ik, restarts=0)
     reached = np.zeros(tcp_pos.shape[:2], dtype=bool)
     for a, arm in enumerate(robot.arms):
