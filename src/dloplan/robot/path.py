@@ -102,9 +102,10 @@ class ReachOptions:
     follow_lost : bool
         After the tracking of a move is lost (the IK, or a joint jumping more than
         ``max_joint_step``), keep tracking its sub-steps from the last solution (the recorded
-        motion is the one a program would run) and solve the pose afresh when a sub-step's IK
-        failed; False: hold the joints to the pose and solve it afresh only when it is not
-        reached from there.
+        motion is the one a program would run) and solve the pose afresh at its planned
+        rotation when a sub-step's IK failed; False: hold the joints to the pose and solve it
+        afresh (at the end of the move's slerp, the same rotation to 1e-16) only when it is
+        not reached from there.
     table_clearance : bool
         Check the arms' capsules against the table at every sub-step (a ``table clearance``
         verdict row per pose and arm); False: not computed (NaN, no rows).
@@ -443,7 +444,8 @@ def _follow(arm, name: str, pos, mats, counts, seed, opts: ReachOptions) -> _Tra
             q = res.q
             motion.append(q)
         if not res.success or (opts.follow_lost and (broken or failed)):
-            res = inverse(arm, pos[k], Rotation.from_matrix(mats[k]), seed=q, options=start)
+            pose = mats[k] if opts.follow_lost else sub_mats[-1]
+            res = inverse(arm, pos[k], Rotation.from_matrix(pose), seed=q, options=start)
             motion[-1] = res.q
             if not res.success:
                 messages.append(f"{name} arm, pose {k}: not reachable ({res.message})")
