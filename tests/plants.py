@@ -124,6 +124,7 @@ class MujocoPlant(Plant):
     ramp: float = 0.5
     _sim: dict = field(default_factory=dict, init=False, repr=False)
     _states: dict = field(default_factory=dict, init=False, repr=False)
+    _held: dict = field(default_factory=dict, init=False, repr=False)
 
     def _build(self) -> None:
         import mujoco
@@ -233,7 +234,24 @@ class MujocoPlant(Plant):
 
     def hold(self, shape: np.ndarray, clips, gravity=GRAVITY, rtol: float = 0.0):
         """The rest state held by ``clips`` from the plant's current state (or ``shape`` the
-        first time): ``(points (n + 1, 3), ok, message)``."""
+        first time): ``(points (n + 1, 3), ok, message)``.
+
+        The simulation is deterministic (the start state is the rest state this plant returned
+        as ``shape``, or ``shape`` placed anew), so a hold asked again from the same shape with
+        the same clips returns the first answer without simulating it again: the closed loop
+        drives the plant through the open loop's first shapes (up to its checkpoint) once.
+        """
+        key = (np.asarray(shape, dtype=float).tobytes(),
+               np.asarray(clips.positions, dtype=float).tobytes(),
+               clips.rotations.as_quat().tobytes(), np.asarray(gravity, dtype=float).tobytes())
+        if key not in self._held:
+            self._held[key] = self._rest(shape, clips)
+        points, ok, message = self._held[key]
+        return points.copy(), ok, message
+
+    def _rest(self, shape: np.ndarray, clips):
+        """:meth:`hold` simulated: the grippers ramped to ``clips``, then the damped dynamics
+        stepped until the cable is at rest."""
         import mujoco
 
         if not self._sim:
@@ -351,6 +369,7 @@ class DismechPlant(Plant):
     max_steps: int = 200
     _sim: dict = field(default_factory=dict, init=False, repr=False)
     _states: dict = field(default_factory=dict, init=False, repr=False)
+    _held: dict = field(default_factory=dict, init=False, repr=False)
 
     def _build(self, gravity) -> None:
         newton, dismech = import_dismech()
