@@ -1089,7 +1089,8 @@ def _gain_at_risk(open_loop: np.ndarray, corrected: np.ndarray, reference: np.nd
         if k == "modulus":
             low, high = max(low, -room - moved), min(high, room - moved)
         losses[k] = max(0.0, gain - min(gain_at(low * v), gain_at(high * v)))
-    names = {"modulus": "E", "discretization": "the discretization bias", "grip": "the clamp length"}
+    names = {"modulus": "E", "discretization": "the discretization bias",
+             "grip": "the clamp length"}
     most = max(losses, key=losses.get)
     return (math.sqrt(sum(x**2 for x in losses.values())),
             f"{names[most]}, {1e3 * losses[most]:.2f} mm")
