@@ -851,9 +851,10 @@ def correct_plan(
     CorrectionRefused
         For a measurement that disagrees wildly or a correction beyond the limits (the reason),
         and, with ``predict``, for a correction whose predicted gain (open loop minus
-        corrected final error), its mean over the uncertainty of E, the discretization bias
-        and the clamp length, is within :data:`SIGNIFICANCE` sd of zero
-        (:func:`_gain_statistics`): the plan is kept.
+        corrected final error) is within :data:`SIGNIFICANCE` sd of zero, linearized in the
+        sds of E, the discretization bias and the clamp length (:func:`_gain_sd`), or is lost
+        with one of them :data:`SIGNIFICANCE` sd off, evaluated (:func:`_gain_at_bounds`):
+        the plan is kept.
     ValueError
         For inconsistent inputs (named).
     """
@@ -968,15 +969,22 @@ def correct_plan(
                                     model_chain)
     uncertainty = _uncertainty(directions, update)
     before, after = (float(_mean_distance(x[-1], wanted[-1])) for x in (open_loop, corrected))
-    mean, spread, most = _gain_statistics(open_loop[-1], corrected[-1], wanted[-1], directions,
-                                          update, limits.max_modulus_factor)
-    if mean <= limits.gain_significance * spread:
+    spread = _gain_sd(open_loop[-1], corrected[-1], wanted[-1], directions, update)
+    if before - after <= limits.gain_significance * spread:
         raise CorrectionRefused(
             f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm (final "
-            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm; {1e3 * mean:.2f} mm expected "
-            f"over the uncertainty of E, the discretization bias and the clamp length as "
-            f"estimated), is within {limits.gain_significance:g} sd ({1e3 * spread:.2f} mm; "
-            f"most: {most}) of zero: the plan is kept")
+            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is within "
+            f"{limits.gain_significance:g} sd "
+            f"({1e3 * spread:.2f} mm; E, discretization bias, clamp length as estimated) "
+            "of zero: the plan is kept")
+    worst, which = _gain_at_bounds(open_loop[-1], corrected[-1], wanted[-1], directions, update,
+                                   limits)
+    if worst <= 0.0:
+        raise CorrectionRefused(
+            f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm (final "
+            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is lost with {which} "
+            f"({1e3 * worst:+.2f} mm: the corrected final error above the open loop's): the "
+            "plan is kept")
     return Correction(open_loop=open_loop, corrected=corrected, equilibria=equilibria,
                       uncertainty=uncertainty, trajectory=new_trajectory,
                       prediction_seconds=time.perf_counter() - t0 - seconds, **common)
@@ -1055,44 +1063,64 @@ def _uncertainty(directions: dict, update: ModelUpdate) -> dict:
             "offset": update.offset_uncertainty}
 
 
-def _gain_statistics(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarray,
-                     directions: dict, update: ModelUpdate, max_factor: float
-                     ) -> tuple[float, float, str]:
-    """The predicted gain's (open loop minus corrected final error) mean and standard deviation
-    [m] over the estimated quantities' uncertainty, and the one that spreads it most.
+def _gain_sd(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarray,
+             directions: dict, update: ModelUpdate) -> float:
+    """The standard deviation of the predicted gain (open loop minus corrected final error)
+    [m], linearized in the estimated quantities.
 
     A change dq of ln E, alpha or beta moves both final predictions by about D dq (D its
-    response at the target, ``directions``: the clips differ little), so the gain becomes
-    G(dq) = e(open + D dq) - e(corrected + D dq), e(x) = mean_i |x_i - r_i|. G is evaluated,
-    not linearized, at dq = -sd, 0, +sd of each quantity (:func:`_parameter_sds`; sigma points):
-    with a = (G(+sd) - G(-sd)) / 2 and b = G(+sd) + G(-sd) - 2 G(0), a quadratic through them
-    has mean G(0) + b / 2 and variance a^2 + b^2 / 2 over dq ~ N(0, sd^2); the quantities add.
-    The corrected prediction was fitted to the reference, so its error is small and its mean
-    distance far from linear in a shift of millimetres: on the U demo at n = 12 against a plant
-    clamping 40 mm for the model's 41.7 (0.1 half link of clamp moves the target 2.8 mm), the
-    linearized sd, 0.58 mm, let a gain of 3.60 mm stand and the plant went 1.09 -> 3.88 mm.
-    ln E's sd is taken at most ln(``max_factor``) / :data:`SIGNIFICANCE` (2 sd: the E a
-    correction accepts, ``max_modulus_factor``, x10 either way): where the shape hardly tells
-    E it is 7-31 (the U demo), and E x e^14 is no cable.
+    response at the target, ``directions``: the clips differ little), so the mean errors
+    e = mean_i |x_i - r_i| change by mean_i (u_i . D_i) dq with u_i the unit error vectors,
+    and the gain by s dq, s = mean_i((u_open,i - u_corrected,i) . D_i). The sds of the
+    quantities (:func:`_parameter_sds`) add in quadrature. What moves both errors alike (the
+    unexplained residual, a shift along the error) leaves the gain as it is.
+    """
+    def unit(x):
+        e = x - reference
+        return e / np.maximum(np.linalg.norm(e, axis=1, keepdims=True), 1e-300)
+
+    du = unit(open_loop) - unit(corrected)
+    sds = _parameter_sds(update)
+    return math.sqrt(sum((float(np.mean(np.sum(du * v, axis=1))) * sds[k]) ** 2
+                         for k, v in directions.items()))
+
+
+def _gain_at_bounds(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarray,
+                    directions: dict, update: ModelUpdate, limits: CorrectionLimits
+                    ) -> tuple[float, str]:
+    """The least predicted gain [m] with one estimated quantity ``limits.gain_significance`` sd
+    off, evaluated, not linearized, and which quantity and side gives it.
+
+    Each quantity's change dq moves both final predictions by D dq (as in :func:`_gain_sd`),
+    and the gain is evaluated there: e(open + D dq) - e(corrected + D dq), e the mean distance
+    to the reference. The corrected prediction was fitted to the reference, so its error is
+    small and far from linear in a shift of millimetres; linearized, it did not move: on the U
+    demo at n = 12 against a plant clamping 40 mm for the model's 41.7 (a tenth of a half link
+    of clamp moves the target 2.8 mm), the clamp came out 37.9 mm (1.9 sd from the truth), the
+    linearized sd (0.58 mm) let a gain of 3.60 mm stand, and the plant went 1.09 -> 3.88 mm; at
+    the clamp length 2 sd off the gain is -1.91 mm. ln E is moved no further than the E a
+    correction accepts (``max_modulus_factor`` of the plan's either side): where the shape
+    hardly tells E its sd is 7-31 (the U demo), and E x e^14 is no cable.
     """
     def gain_at(shift):
         return (float(np.mean(np.linalg.norm(open_loop + shift - reference, axis=1)))
                 - float(np.mean(np.linalg.norm(corrected + shift - reference, axis=1))))
 
-    gain = gain_at(0.0)
     sds = _parameter_sds(update)
-    sds["modulus"] = min(sds["modulus"], math.log(max_factor) / SIGNIFICANCE)
-    mean, variances = gain, {}
-    for k, v in directions.items():
-        up, down = gain_at(sds[k] * v), gain_at(-sds[k] * v)
-        slope, curvature = 0.5 * (up - down), up + down - 2.0 * gain
-        mean += 0.5 * curvature
-        variances[k] = slope**2 + 0.5 * curvature**2
+    room = math.log(limits.max_modulus_factor)
+    moved = math.log(update.youngs_modulus / update.youngs_modulus_before)
     names = {"modulus": "E", "discretization": "the discretization bias",
              "grip": "the clamp length"}
-    most = max(variances, key=variances.get)
-    return (mean, math.sqrt(sum(variances.values())),
-            f"{names[most]}, sd {1e3 * math.sqrt(variances[most]):.2f} mm")
+    worst, which = gain_at(0.0), ""
+    for k, v in directions.items():
+        low, high = -limits.gain_significance * sds[k], limits.gain_significance * sds[k]
+        if k == "modulus":
+            low, high = max(low, -room - moved), min(high, room - moved)
+        for step, side in ((low, "-"), (high, "+")):
+            gain = gain_at(step * v)
+            if gain < worst:
+                worst, which = gain, f"{names[k]} {side}{limits.gain_significance:g} sd"
+    return worst, which
 
 
 def _corrected_grippers(grippers: GripperPath, at: int, remaining, corrections) -> GripperPath:
