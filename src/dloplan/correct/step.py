@@ -853,8 +853,8 @@ def correct_plan(
         and, with ``predict``, for a correction whose predicted gain (open loop minus
         corrected final error) is within :data:`SIGNIFICANCE` sd of zero, linearized in the
         sds of E, the discretization bias and the clamp length (:func:`_gain_sd`), or is lost
-        with one of them :data:`SIGNIFICANCE` sd off, evaluated (:func:`_gain_at_bounds`):
-        the plan is kept.
+        with the clamp length :data:`SIGNIFICANCE` sd off, evaluated
+        (:func:`_gain_at_clamp_bounds`): the plan is kept.
     ValueError
         For inconsistent inputs (named).
     """
@@ -977,14 +977,14 @@ def correct_plan(
             f"{limits.gain_significance:g} sd "
             f"({1e3 * spread:.2f} mm; E, discretization bias, clamp length as estimated) "
             "of zero: the plan is kept")
-    worst, which = _gain_at_bounds(open_loop[-1], corrected[-1], wanted[-1], directions, update,
-                                   limits)
+    worst, which = _gain_at_clamp_bounds(open_loop[-1], corrected[-1], wanted[-1], directions,
+                                         update, limits.gain_significance)
     if worst <= 0.0:
         raise CorrectionRefused(
             f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm (final "
-            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is lost with {which} "
-            f"({1e3 * worst:+.2f} mm: the corrected final error above the open loop's): the "
-            "plan is kept")
+            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is lost with the clamp length "
+            f"{which} off ({1e3 * worst:+.2f} mm: the corrected final error above the open "
+            "loop's): the plan is kept")
     return Correction(open_loop=open_loop, corrected=corrected, equilibria=equilibria,
                       uncertainty=uncertainty, trajectory=new_trajectory,
                       prediction_seconds=time.perf_counter() - t0 - seconds, **common)
@@ -1085,42 +1085,31 @@ def _gain_sd(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarray
                          for k, v in directions.items()))
 
 
-def _gain_at_bounds(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarray,
-                    directions: dict, update: ModelUpdate, limits: CorrectionLimits
-                    ) -> tuple[float, str]:
-    """The least predicted gain [m] with one estimated quantity ``limits.gain_significance`` sd
-    off, evaluated, not linearized, and which quantity and side gives it.
+def _gain_at_clamp_bounds(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarray,
+                          directions: dict, update: ModelUpdate, significance: float
+                          ) -> tuple[float, str]:
+    """The least predicted gain [m] with the clamp length ``significance`` sd off either way,
+    evaluated, not linearized, and the side that gives it ("+2 sd", ...).
 
-    Each quantity's change dq moves both final predictions by D dq (as in :func:`_gain_sd`),
-    and the gain is evaluated there: e(open + D dq) - e(corrected + D dq), e the mean distance
-    to the reference. The corrected prediction was fitted to the reference, so its error is
-    small and far from linear in a shift of millimetres; linearized, it did not move: on the U
-    demo at n = 12 against a plant clamping 40 mm for the model's 41.7 (a tenth of a half link
-    of clamp moves the target 2.8 mm), the clamp came out 37.9 mm (1.9 sd from the truth), the
-    linearized sd (0.58 mm) let a gain of 3.60 mm stand, and the plant went 1.09 -> 3.88 mm; at
-    the clamp length 2 sd off the gain is -1.91 mm. ln E is moved no further than the E a
-    correction accepts (``max_modulus_factor`` of the plan's either side): where the shape
-    hardly tells E its sd is 7-31 (the U demo), and E x e^14 is no cable.
+    The clamp length's change dq moves both final predictions by g dq (as in :func:`_gain_sd`),
+    and the gain is evaluated there: e(open + g dq) - e(corrected + g dq), e the mean distance to
+    the reference. Its sd is a bound of a systematic error (:func:`_parameter_sds`: the fit's
+    statistics plus :data:`GRIP_LINEARITY` of the change) and its response the largest at the
+    target (28 mm per half link on the U demo at n = 12), so the corrected prediction, fitted
+    to the reference and small, is far from linear in it: on the U demo at n = 12 against a
+    plant clamping 40 mm for the model's 41.7 the clamp came out 37.9 mm (the truth 1.9 sd
+    off), the linearized sd (0.58 mm) let a gain of 3.60 mm stand, and the plant went 1.09 ->
+    3.88 mm; at the clamp 2 sd off the gain is -1.91 mm. (E and alpha evaluated so at their
+    marginal sds refused corrections that helped, 0.46 -> 0.18 mm on the same demo: the
+    measurement at K constrains them jointly, which the marginal sds leave out.)
     """
     def gain_at(shift):
         return (float(np.mean(np.linalg.norm(open_loop + shift - reference, axis=1)))
                 - float(np.mean(np.linalg.norm(corrected + shift - reference, axis=1))))
 
-    sds = _parameter_sds(update)
-    room = math.log(limits.max_modulus_factor)
-    moved = math.log(update.youngs_modulus / update.youngs_modulus_before)
-    names = {"modulus": "E", "discretization": "the discretization bias",
-             "grip": "the clamp length"}
-    worst, which = gain_at(0.0), ""
-    for k, v in directions.items():
-        low, high = -limits.gain_significance * sds[k], limits.gain_significance * sds[k]
-        if k == "modulus":
-            low, high = max(low, -room - moved), min(high, room - moved)
-        for step, side in ((low, "-"), (high, "+")):
-            gain = gain_at(step * v)
-            if gain < worst:
-                worst, which = gain, f"{names[k]} {side}{limits.gain_significance:g} sd"
-    return worst, which
+    bound = significance * _parameter_sds(update)["grip"]
+    return min((gain_at(sign * bound * directions["grip"]), f"{sign * significance:+g} sd")
+               for sign in (-1.0, 1.0))
 
 
 def _corrected_grippers(grippers: GripperPath, at: int, remaining, corrections) -> GripperPath:
