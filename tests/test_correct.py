@@ -176,8 +176,9 @@ def test_an_unknown_grip_on_the_u_demo_never_makes_the_closed_loop_worse(u_demo,
     estimate's error (37.9 mm for 40, seed 1) carries millimetres to the target: the correction
     made it 1.09 -> 3.88 mm while the gain check, linearized in the mean distance, let it pass
     (the corrected prediction sits on the reference, where a shift of millimetres is far from
-    linear). With the gain also evaluated at each quantity 2 sd off (step._gain_at_bounds) the
-    correction is refused naming the cause, or made and no worse than the open loop."""
+    linear). With the gain also evaluated with the clamp length 2 sd off
+    (step._gain_at_clamp_bounds) the correction is refused naming the cause, or made and no
+    worse than the open loop."""
     doc = u_demo[12]
     cable = doc.cable
     last = len(doc.shapes) - 1
