@@ -130,8 +130,9 @@ class CorrectionLimits:
     iterations : int
         Levenberg-Marquardt iterations per fitted shape.
     gain_significance : float
-        The predicted gain must be more than this many of its sd from zero, else the plan is
-        kept (default :data:`SIGNIFICANCE`; 0: any predicted gain will do).
+        The predicted gain must be more than this many of its sd from zero, and still a gain
+        with the clamp length this many sd off, else the plan is kept (default
+        :data:`SIGNIFICANCE`; 0: any predicted gain will do).
     """
 
     max_translation: float = 0.03
