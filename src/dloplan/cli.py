@@ -829,7 +829,8 @@ def build_parser() -> argparse.ArgumentParser:
                          "snap-through, replay); its robot programs are still checked")
     correct.add_argument("--gain-sd", type=float, default=2.0,
                          help="keep the plan unless the correction's predicted gain is more "
-                         "than this many of its sd from zero (default 2; 0: any gain)")
+                         "than this many of its sd from zero and still a gain with the clamp "
+                         "length this many sd off (default 2; 0: any gain)")
     correct.add_argument("--serve", action="store_true",
                          help="keep the plan warm: read one JSON request per line on stdin "
                          "({\"at\": K, \"points\": [[x, y, z], ...]}), answer one JSON line each")
