@@ -28,7 +28,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ...grippers.path import GripperPath, relative_twist
-from ...sim.torsion import twist_along_path
+from ...sim.torsion import TwistReport, twist_along_path
 
 ROLL_STEPS = 4
 """Fixed-point steps of :func:`untwisted`."""
@@ -93,8 +93,47 @@ def untwisted(cable, shapes: np.ndarray, grippers: GripperPath,
 
 
 def _twist(cable, shapes, grippers) -> np.ndarray:
+    return twist_of(cable, shapes, grippers).twist
+
+
+def twist_of(cable, shapes: np.ndarray, grippers: GripperPath) -> TwistReport:
+    """The torsion model's solve along the path: every shape (S + 2, n + 1, 3) [m] stabilized
+    with torsion under the frames of ``grippers`` (:func:`dloplan.sim.torsion.twist_along_path`,
+    as :func:`dloplan.pipeline.stages.plan_twist`)."""
     poses = [grippers.clip_poses(k) for k in range(len(shapes))]
-    return twist_along_path(cable, shapes, poses).twist
+    return twist_along_path(cable, shapes, poses)
+
+
+class RolledTwists:
+    """The torsion model's twist of frame sets rolled by grasp rolls, each solved once.
+
+    The reach repair tries every frame set of the plan, as it is and with its grasps rolled
+    (:func:`grasp_rolled`), at every turn of the job about the vertical
+    (:data:`~.placement.YAWS`). A turn about the vertical moves the shapes and the frames
+    rigidly and leaves gravity as it is, so the solve's twist, relative twist and twist energy
+    (scalars per shape) do not change with it: the report of a frame set rolled by given rolls
+    is solved at the first turn that asks for it and given again at the others (equal to a
+    solve of the turned frames to the solver's round-off, tests/test_repair.py).
+
+    Parameters
+    ----------
+    cable : Cable
+        The cable (the same for every frame set).
+    """
+
+    def __init__(self, cable) -> None:
+        self.cable = cable
+        self.reports: dict[tuple, TwistReport] = {}
+
+    def __call__(self, base, rolls: np.ndarray, shapes: np.ndarray,
+                 grippers: GripperPath) -> TwistReport:
+        """The report of ``grippers`` on ``shapes``: the frame set ``base`` (any hashable
+        name of the unrolled frames, e.g. their index) rolled by ``rolls`` (2,) [rad], turned
+        or not; solved (:func:`twist_of`) the first time the pair is asked for."""
+        key = (base, *(float(r) for r in rolls))
+        if key not in self.reports:
+            self.reports[key] = twist_of(self.cable, shapes, grippers)
+        return self.reports[key]
 
 
 def grasp_scores(grippers: GripperPath, cell, *, towards_robot: bool = True) -> np.ndarray:

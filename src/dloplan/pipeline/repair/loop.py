@@ -68,9 +68,9 @@ from ...robot.cell import RobotCell
 from ...robot.urdf_cell import verify_on_cell
 from ...sim.statics import interpolate_clips
 from ...verify import check_snap_through
-from ..stages import plan_twist, quiet, run_job, verify_plan, with_verification
+from ..stages import quiet, run_job, verify_plan, with_verification
 from .failures import KINDS, diagnose, frame_steps, score, summary, twist_failures
-from .frames import SHARES, grasp_rolled, grasp_scores, untwisted
+from .frames import SHARES, RolledTwists, grasp_rolled, grasp_scores, untwisted
 from .placement import (
     SEARCHES,
     YAWS,
@@ -573,14 +573,19 @@ class _Session:
         ``pivot`` and every set of gripper frames, made on demand: the plan's, its grasps rolled
         for the turned place (:func:`~.frames.grasp_rolled`), then the other
         gripper methods' (and theirs rolled) -- those that do not twist the cable and differ
-        from the earlier ones."""
+        from the earlier ones.
+
+        What a frame set costs is paid only for those tried: a rolled set is compared with the
+        earlier ones before its document is made, the rolled sets of one place share their
+        clip wrenches (the same shapes), and the torsion model's solve of a set rolled by the
+        same rolls is shared by every turn (:class:`~.frames.RolledTwists`)."""
         untwisted = [(j, d) for j, d in self.untwisted if np.array_equal(d.shapes, doc.shapes)]
         if untwisted:  # the twist repair's other frame sets (the other methods twist)
             bases = _Made([(job, doc), *untwisted])
         else:
             others = [m for m in GRIPPER_METHODS if m != doc.grippers.method]
             bases = _Made(self.method_frames(job, doc, others, tried))
-        twists = {}  # (base, rolls): the torsion model's twist, the same at every turn
+        twists = RolledTwists(job.cable)  # the same at every turn
         for yaw in YAWS:
             turn = TableMove(yaw=yaw, pivot=pivot)
             kept = []
@@ -595,13 +600,11 @@ class _Session:
                     kept.append(frames)
                     candidate = new
                     if rolls is not None:
-                        key = (base, *rolls)
-                        if key not in twists:
-                            twists[key] = plan_twist(other.cable, new.shapes, frames)
                         if wrenches is None:
                             wrenches = stabilized_wrenches(other.cable, new.stabilized)
                         candidate = with_grippers(other, new, frames, program=False,
-                                                  twist=twists[key], wrenches=wrenches)
+                                                  twist=twists(base, rolls, new.shapes, frames),
+                                                  wrenches=wrenches)
                     left = twist_failures(candidate)
                     if left and candidate is not doc:
                         tried.append(f"{candidate.grippers.message}: {summary(left)}")
