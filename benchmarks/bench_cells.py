@@ -3,8 +3,9 @@
 For each preset (two UR5e, two Franka Panda, the YuMi from its description): the IK of one
 arm at random reachable poses, seeded 0.1 rad away (what tracking along a path does) and from
 the home pose with restarts (a first pose); then the verification of an 8-pose cable path
-(check_cell_path: IK tracked through sub-steps, clearance, table, rows) and the placement
-search with full checks (search_cell_placement); last, the program stage of the cell examples.
+(path.check_path with ReachOptions.cell_program(): IK tracked through sub-steps, clearance,
+table, rows) and the placement search with full checks (search_cell_placement); last, the
+program stage of the cell examples.
 
 Run: PYTHONPATH=src python benchmarks/bench_cells.py
 
@@ -52,7 +53,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from dloplan.robot.kinematics import IKOptions, forward, inverse
-from dloplan.robot.path import check_cell_path
+from dloplan.robot.path import ReachOptions, check_path
 from dloplan.robot.placement import search_cell_placement
 from dloplan.robot.urdf_cell import PRESETS
 
@@ -96,7 +97,7 @@ def main() -> None:
         _ik(cell.left)
         pos, rot = _path(*where[name])
         t0 = time.perf_counter()
-        verdict = check_cell_path(cell, pos, rot)
+        verdict = check_path(cell, pos, rot, options=ReachOptions.cell_program())
         t1 = time.perf_counter()
         offset, placed = search_cell_placement(cell, pos, rot)
         t2 = time.perf_counter()

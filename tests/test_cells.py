@@ -21,7 +21,7 @@ from dloplan.robot.description import (
 )
 from dloplan.robot.kinematics import IKOptions, inverse
 from dloplan.robot.kinematics import forward as chain_forward
-from dloplan.robot.path import ReachOptions, check_cell_path
+from dloplan.robot.path import ReachOptions, check_path
 from dloplan.robot.placement import search_cell_placement
 from dloplan.robot.urdf_cell import (
     PRESETS,
@@ -35,6 +35,11 @@ pytest.importorskip("yourdfpy")
 
 POSITION_TOL = 1e-4  # 0.1 mm
 ANGLE_TOL = np.radians(0.05)
+
+
+def program_check(cell, positions, rotations, **settings):
+    """The path check with a described cell's program settings (``ReachOptions.cell_program``)."""
+    return check_path(cell, positions, rotations, options=ReachOptions.cell_program(**settings))
 
 
 @cache
@@ -302,7 +307,7 @@ def _cable_path(cell_name, n=8, x0=0.45, half0=0.2, z0=0.1, mirror=False):
 def test_cable_path_verifies_on_the_arm_pairs(name):
     c = cell(name)
     pos, rot = _cable_path(name)
-    verdict = check_cell_path(c, pos, rot)
+    verdict = program_check(c, pos, rot)
     assert verdict.ok, verdict.message
     assert {row.check for row in verdict.rows} == {"reach", "joint limits", "continuity",
                                                    "clearance", "table clearance"}
@@ -312,7 +317,7 @@ def test_cable_path_verifies_on_the_arm_pairs(name):
         assert np.abs(p - pos[:, a]).max() < POSITION_TOL
         assert (r * Rotation.from_matrix(rot.as_matrix().reshape(-1, 2, 3, 3)[:, a]).inv()
                 ).magnitude().max() < ANGLE_TOL
-    mirrored = check_cell_path(c, *_cable_path(name, mirror=True))
+    mirrored = program_check(c, *_cable_path(name, mirror=True))
     assert mirrored.ok, mirrored.message
     np.testing.assert_allclose(mirrored.clearance, verdict.clearance, atol=0.02)
 
@@ -320,11 +325,11 @@ def test_cable_path_verifies_on_the_arm_pairs(name):
 def test_crossed_arms_table_and_reach_are_refused():
     c = cell("ur5e_pair")
     pos, rot = _cable_path("ur5e_pair")
-    crossed = check_cell_path(c, pos[:, ::-1].copy(),
-                              Rotation.from_matrix(rot.as_matrix().reshape(-1, 2, 3, 3)[:, ::-1]
-                                                   .reshape(-1, 3, 3)))
-    low = check_cell_path(c, pos - [0, 0, 0.12], rot)
-    far = check_cell_path(c, pos + [1.2, 0, 0], rot)
+    crossed = program_check(c, pos[:, ::-1].copy(),
+                            Rotation.from_matrix(rot.as_matrix().reshape(-1, 2, 3, 3)[:, ::-1]
+                                                 .reshape(-1, 3, 3)))
+    low = program_check(c, pos - [0, 0, 0.12], rot)
+    far = program_check(c, pos + [1.2, 0, 0], rot)
     assert not crossed.ok and "clearance" in crossed.message
     assert not low.ok and "table clearance" in low.message
     assert not far.ok and "reach" in far.message and not far.reachable.any()
@@ -334,7 +339,7 @@ def test_placement_search_moves_a_far_job_back():
     c = cell("ur5e_pair")
     pos, rot = _cable_path("ur5e_pair")
     shifted = pos + [0.45, 0.0, 0.0]
-    assert not check_cell_path(c, shifted, rot).ok
+    assert not program_check(c, shifted, rot).ok
     candidates = [[0.0, 0.0, 0.0], [-0.25, 0.0, 0.0], [-0.45, 0.0, 0.0], [-0.45, 0.3, 0.0]]
     offset, verdict = search_cell_placement(c, shifted, rot, offsets=candidates)
     assert verdict.ok, verdict.message
@@ -373,7 +378,7 @@ def test_in_base_frame_inverts_the_placement():
 def test_options_are_used():
     c = cell("ur5e_pair")
     pos, rot = _cable_path("ur5e_pair")
-    strict = check_cell_path(c, pos, rot, options=ReachOptions(min_clearance=0.5))
+    strict = program_check(c, pos, rot, min_clearance=0.5)
     assert not strict.ok and "clearance" in strict.message
 
 
@@ -411,7 +416,47 @@ def test_the_placement_search_ranks_as_if_it_scored_every_candidate():
     scores = [target_score(c, shifted + o, mats, quick, -float(np.linalg.norm(o))) for o in grid]
     ranked = sorted(range(len(grid)), key=lambda i: scores[i], reverse=True)
     expected = next((i for i in ranked[:PLACEMENT_TRIES]
-                     if check_cell_path(c, shifted + grid[i], rot).ok), ranked[0])
+                     if program_check(c, shifted + grid[i], rot).ok), ranked[0])
     offset, verdict = search_cell_placement(c, shifted, rot, offsets=grid)
     np.testing.assert_array_equal(offset, grid[expected])
-    assert verdict.ok == check_cell_path(c, shifted + grid[expected], rot).ok
+    assert verdict.ok == program_check(c, shifted + grid[expected], rot).ok
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("tries", [None, 1, 3])
+def test_the_one_placement_search_equals_scoring_every_candidate(seed, tries):
+    """search_offsets with random scores under random bounds (ties included) keeps what
+    scoring every candidate, ranking (score, then the earlier candidate) and verifying the
+    best ``tries`` in order keeps, and never scores a candidate that cannot rank."""
+    from dloplan.robot.placement import search_offsets
+
+    rng = np.random.default_rng(seed)
+    c = cell("ur5e_pair")
+    n = 40
+    offsets = np.zeros((n, 3))
+    bounds = rng.integers(0, 6, n).astype(float)
+    scores = [None if rng.random() < 0.2 else (float(b - rng.integers(0, 3)),) for b in bounds]
+    passes = rng.random(n) < 0.3
+    rejected = rng.random(n) < 0.1
+    scored = []
+
+    def score(i):
+        scored.append(i)
+        return scores[i]
+
+    for first_pass in (True, False):
+        scored.clear()
+        found = search_offsets(
+            c, np.zeros((2, 2, 3)), offsets, score=score, tries=tries, first_pass=first_pass,
+            bound=lambda i, inside: None if rejected[i] else (bounds[i],),
+            verify=lambda i: ((bool(passes[i]), -i), i))
+        ranked = sorted((i for i in range(n) if not rejected[i] and scores[i] is not None),
+                        key=lambda i: (scores[i], -i), reverse=True)[:tries]
+        verified = ranked
+        if first_pass and passes[ranked].any():
+            verified = ranked[:int(np.argmax(passes[ranked])) + 1]
+        expected = max(verified, key=lambda i: (bool(passes[i]), -i)) if verified else None
+        assert (found is None) == (expected is None)
+        if found is not None:
+            assert found[0] == found[1] == expected and found[2] == len(verified)
+        assert not any(rejected[i] for i in scored)

@@ -19,7 +19,7 @@ from dloplan.robot.actions import ProgramTimeline, action_clock, place_actions
 from dloplan.robot.chain import in_base_frame
 from dloplan.robot.kinematics import forward, inverse
 from dloplan.robot.motion import JointMotion
-from dloplan.robot.path import check_cell_path
+from dloplan.robot.path import ReachOptions, check_path
 from dloplan.robot.urdf_cell import panda_pair, ur5e_pair
 from dloplan.trajectory import GripperAction
 from dloplan.trajectory.timelaw import Profile
@@ -32,6 +32,11 @@ NUMBER = r"-?\d+(?:\.\d+)?(?:e-?\d+)?"
 LIST = rf"p?\[{NUMBER}(?:, {NUMBER})*\]"
 ARGUMENT = rf"(?:{LIST}|{NUMBER}|True|False|\"[^\"]*\"|[a-z]+={NUMBER})"
 CALL = re.compile(rf"^(?:while not )?([a-z_]+)\(((?:{ARGUMENT}(?:, {ARGUMENT})*)?)\):?$")
+
+
+def program_check(cell, positions, rotations, **settings):
+    """The path check with a described cell's program settings (``ReachOptions.cell_program``)."""
+    return check_path(cell, positions, rotations, options=ReachOptions.cell_program(**settings))
 
 
 def parse_urscript(text: str) -> dict:
@@ -101,7 +106,7 @@ def _verified():
         rots += [Rotation.from_rotvec([0, 0, 0.3 * t]) * down,
                  Rotation.from_rotvec([0, 0, -0.3 * t]) * down]
     rot = Rotation.from_quat([r.as_quat() for r in rots])
-    verdict = check_cell_path(cell, pos, rot)
+    verdict = program_check(cell, pos, rot)
     assert verdict.ok, verdict.message
     times = np.linspace(0.0, 5.0, n)
     return cell, verdict, times, pos, rot

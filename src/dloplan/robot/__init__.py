@@ -29,10 +29,10 @@ from .kinematics import (
     solve_many,
     wrist_flip,
 )
-from .path import ReachOptions
+from .path import PathCheck, ReachOptions, check_path
 from .placement import Placement, search_placement
 from .program import CHECKS, RobotProgram, robot_program
-from .reachability import Reachability, check_path, check_reachability, tcp_poses_from_clips
+from .reachability import Reachability, check_reachability, tcp_poses_from_clips
 from .yumi import ARMS, Gripper, yumi, yumi_arm
 
 __all__ = [
@@ -45,6 +45,7 @@ __all__ = [
     "Gripper",
     "IKOptions",
     "IKResult",
+    "PathCheck",
     "Placement",
     "ReachOptions",
     "Reachability",

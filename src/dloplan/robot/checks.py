@@ -3,7 +3,7 @@ check, target and arm, the verdict from the rows (:class:`CheckedProgram`) and t
 (:func:`check_summary`). The YuMi's RAPID program (:class:`~dloplan.robot.program.
 RobotProgram`) and a described cell's program (:class:`~dloplan.robot.cell_program.
 CellProgram`) both are :class:`CheckedProgram` s; the path check of a described cell
-(:func:`~dloplan.robot.path.check_cell_path`) writes its rows.
+(:func:`~dloplan.robot.path.check_path`) writes its rows.
 """
 
 from __future__ import annotations

@@ -120,13 +120,6 @@ def pair_clearance(cell: DescribedCell, q_left, q_right) -> np.ndarray:
                          shared_base=cell.shared_base)[0]
 
 
-def _table_clearance(cell: DescribedCell, arm: CellArm, q) -> np.ndarray:
-    """(...,) lowest surface of the arm's moving capsules above the table [m]."""
-    seg, rad, link = capsules(arm, q)
-    low = seg[..., 2].min(axis=-1) - rad - cell.table_height
-    return np.where(link >= 0, low, np.inf).min(axis=-1)
-
-
 def table_clearance(cell: DescribedCell, arm: CellArm, q) -> np.ndarray:
     """(...,) lowest surface of the arm's moving capsules above the table [m].
 

@@ -1,20 +1,22 @@
-"""Following a dual-arm TCP path: the settings every path check shares, the one sub-step rule, and
-the path check of a described cell.
+"""Following a dual-arm TCP path: the settings, the one sub-step rule and the one path check of
+every cell.
 
 A path gives, per planned pose k and arm, a TCP pose in the world. Both arms move from pose
 k-1 to pose k together, the TCP on a straight line with spherical-linear orientation (the
 motion of :mod:`dloplan.trajectory`), in the same number of sub-steps (:func:`substeps`: at
-most ``step_length`` and ``step_angle`` each); a check follows that motion with every IK seeded
-from the previous sub-step, so the joint motion it reports is the continuous one a controller
-executes, not a fresh solution per pose.
+most ``step_length`` and ``step_angle`` each); :func:`check_path` follows that motion with every
+IK seeded from the previous sub-step, so the joint motion it reports is the continuous one a
+controller executes, not a fresh solution per pose. It reports per pose and arm the joints,
+reach, continuity, errors, joint margin and step, the arm-arm (and optionally arm-table)
+capsule clearance, one verdict row per check, pose and arm (:class:`~dloplan.robot.checks.
+CheckRow`) and one message per problem (:class:`PathCheck`).
 
-:func:`check_cell_path` verifies a path on a :class:`~dloplan.robot.described.DescribedCell`
-for its program: IK at every planned pose, tracked through the sub-steps, joint margins,
-arm-arm and arm-table capsule clearance at every sub-step, one verdict row per check, target
-and arm (:class:`~dloplan.robot.checks.CheckRow`). The reach check of a grip or a placement,
-which tries both grips of a symmetric gripper and may stop at the first failure, is
-:func:`dloplan.robot.reachability.check_path` (the YuMi's program is verified along the
-controller's own semantics, :mod:`dloplan.robot.program`).
+Its users differ only in named settings of :class:`ReachOptions`: the reach check of a grip or a
+placement (:mod:`dloplan.robot.reachability`, the defaults: the elbow kept from its limits while
+tracking, a lost motion skipped to the next pose, both grips of a symmetric gripper, optionally
+stopped at the first failure) and a described cell's program (:meth:`ReachOptions.cell_program`:
+restarts at the first pose, every sub-step tracked and recorded even after a loss, the arm-table
+clearance).
 """
 
 from __future__ import annotations
@@ -25,8 +27,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
 from .checks import CheckRow
-from .described import DescribedCell, pair_clearance, table_clearance
-from .kinematics import IKOptions, inverse, joint_margin
+from .collision import arm_clearance
+from .described import ARMS, DescribedCell, table_clearance
+from .kinematics import IKOptions, inverse, joint_margin, solve_from
+from .yumi import ABB_AXIS_NUMBERS
 
 COMFORT_CLEARANCE = 0.05
 """[m] Arm-arm clearance beyond which a ranking (a program's joint solutions, a placement) no
@@ -37,8 +41,12 @@ COMFORT_MARGIN = float(np.radians(30.0))
 
 
 START_RESTARTS = 16
-"""Random restarts of the IK at the first pose (at least; more if ``options.ik`` asks): the one
-solve without a previous solution to follow, where a margin from the limits is wanted."""
+"""Random restarts of the IK at the first pose of a cell program's check (at least; more if
+``options.ik`` asks; :meth:`ReachOptions.cell_program`): the one solve without a previous
+solution to follow, where a margin from the limits is wanted."""
+
+TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
+"""The TCP turned by pi about its own z-axis: the other grip of a symmetric gripper."""
 
 CHECKS = ("reach", "joint limits", "continuity", "clearance", "table clearance", "joint speed",
           "joint acceleration")
@@ -69,10 +77,10 @@ class ReachOptions:
         Smallest allowed distance between the two arms' capsules [m]; less is a collision.
     symmetric_grip : bool
         The gripper's two fingers are alike, so holding a clip with the TCP turned by pi about
-        its approach (z) axis grips the cable the same way. When True, :func:`check_reachability`
-        tracks both grips for each arm (one grip for the whole path, so the wrist does not spin
-        between poses) and keeps the better one (more poses reachable, then continuous, then
-        the larger joint margin).
+        its approach (z) axis grips the cable the same way. When True, :func:`check_path`
+        tracks both grips for each arm (unless given other ``alternatives``; one grip for the
+        whole path, so the wrist does not spin between poses) and keeps the better one (more
+        poses reachable, then continuous, then the larger joint margin).
     verdict_only : bool
         Only the verdict is wanted (a search that tries many placements): the tracking of an
         arm's grip stops at its first pose it cannot reach or motion it loses, the other arm and
@@ -82,6 +90,25 @@ class ReachOptions:
         end, and of two such grips the one with the larger joint margin is kept, as in the
         complete check (so the clearance is judged for the same joint motion). The user-facing
         checks keep the default False: every row.
+    start_restarts : int
+        Random restarts (at least; more if ``ik.restarts`` asks) of the IK at the first pose and
+        of a pose solved afresh after a lost motion.
+    track_margin : bool
+        Every tracking sub-step keeps ``min_margin`` from the limits (the null-space polish of a
+        redundant elbow) and is one solve from the previous sub-step; False: the sub-steps
+        ask no margin, and a sub-step that does not converge from the previous one is retried
+        from its wrist flip and the home pose (:func:`~dloplan.robot.kinematics.inverse`
+        without restarts).
+    follow_lost : bool
+        After the tracking of a move is lost (the IK, or a joint jumping more than
+        ``max_joint_step``), keep tracking its sub-steps from the last solution (the recorded
+        motion is the one a program would run) and solve the pose afresh at its planned
+        rotation when a sub-step's IK failed; False: hold the joints to the pose and solve it
+        afresh (at the end of the move's slerp, the same rotation to 1e-16) only when it is
+        not reached from there.
+    table_clearance : bool
+        Check the arms' capsules against the table at every sub-step (a ``table clearance``
+        verdict row per pose and arm); False: not computed (NaN, no rows).
     """
 
     ik: IKOptions = field(default_factory=IKOptions)
@@ -92,6 +119,20 @@ class ReachOptions:
     min_clearance: float = 0.005
     symmetric_grip: bool = True
     verdict_only: bool = False
+    start_restarts: int = 0
+    track_margin: bool = True
+    follow_lost: bool = False
+    table_clearance: bool = False
+
+    @classmethod
+    def cell_program(cls, **settings) -> ReachOptions:
+        """The settings of a described cell's program check (:func:`~dloplan.robot.urdf_cell.
+        verify_on_cell`): :data:`START_RESTARTS` at the first pose, sub-steps tracked without a
+        margin, every sub-step tracked after a loss, the table clearance, the mapped grip only;
+        ``settings`` as for the class."""
+        return cls(**{"start_restarts": START_RESTARTS, "track_margin": False,
+                      "follow_lost": True, "table_clearance": True, "symmetric_grip": False,
+                      **settings})
 
     def __post_init__(self) -> None:
         for key in ("step_length", "step_angle", "max_joint_step"):
@@ -103,6 +144,9 @@ class ReachOptions:
             if not np.isfinite(value) or (key == "min_margin" and value < 0):
                 raise ValueError(f"ReachOptions.{key}: expected a finite number >= 0, got "
                                  f"{value!r}")
+        if int(self.start_restarts) < 0:
+            raise ValueError(f"ReachOptions.start_restarts: expected an integer >= 0, got "
+                             f"{self.start_restarts!r}")
         if not isinstance(self.ik, IKOptions):
             raise ValueError(f"ReachOptions.ik: expected IKOptions, got {self.ik!r}")
 
@@ -134,28 +178,48 @@ def substeps(positions, matrices, options: ReachOptions) -> np.ndarray:
     return np.maximum(n.max(axis=1), 1).astype(int)
 
 
+
 @dataclass(frozen=True, eq=False)
-class CellVerdict:
-    """Verification of a dual-arm TCP path on a :class:`DescribedCell`.
+class PathCheck:
+    """A dual-arm TCP path followed on a :class:`DescribedCell` (:func:`check_path`).
 
     Attributes
     ----------
     joints : tuple of numpy.ndarray
-        Per arm (K, n_arm) the tracked joint solutions [rad] at the K poses (the closest found
-        where not reachable), within the limits.
+        Per arm (K, n_arm) the joint solutions [rad] at the K poses (the closest found where not
+        reachable), within the limits.
     reachable, continuous : numpy.ndarray
         (K, 2) bool. ``continuous[k]``: the arm followed the straight TCP motion from pose k-1
-        through every sub-step without losing the IK or a joint step above ``max_joint_step``.
+        through every sub-step without losing the IK or a joint step above ``max_joint_step``
+        (True at k = 0 and after an unreachable pose, which ``reachable`` already reports).
     position_error, angle_error, joint_margin, joint_step, table_clearance : numpy.ndarray
-        (K, 2) [m], [rad], [rad], largest joint step of a sub-step into pose k [rad], lowest
-        capsule surface above the table over the motion into pose k [m].
+        (K, 2) [m], [rad], [rad], largest joint step of a tracked sub-step into pose k [rad],
+        lowest capsule surface above the table over the motion into pose k [m] (NaN unless
+        ``ReachOptions.table_clearance``).
     clearance : numpy.ndarray
-        (K,) smallest arm-arm capsule distance [m] over the motion into pose k.
+        (K,) smallest arm-arm capsule distance [m] over the motion into pose k (negative:
+        overlap; NaN when a ``verdict_only`` check stopped before it).
     motion_times : numpy.ndarray
         (N,) sub-step parameter (k + fraction) of the tracked motion.
     motion_joints : tuple of numpy.ndarray
         Per arm (N, n_arm) the joints [rad] of every sub-step (for a joint trajectory).
+    motion_clearance : numpy.ndarray
+        (N,) arm-arm clearance [m] of every sub-step.
+    closest : numpy.ndarray
+        (N, 2) int: the capsules of the left and the right arm that come closest at each
+        sub-step (:func:`~dloplan.robot.collision.arm_clearance`).
+    poses : numpy.ndarray
+        (K,) int: the sub-step of each planned pose.
+    grip_turned : tuple of bool
+        Per arm: the arm follows the ``alternatives`` rotations of :func:`check_path`.
+    stopped : bool
+        A ``verdict_only`` check stopped at an arm's first failure: the rows after it (and the
+        other arm, and the clearance) were not computed.
+    messages : tuple of str
+        One line per tracking problem, naming the arm and the pose index.
     rows : tuple of CheckRow
+        Per pose and arm ``reach``, ``joint limits``, ``continuity`` (and ``table clearance``),
+        per pose ``clearance``.
     """
 
     joints: tuple[np.ndarray, np.ndarray]
@@ -169,7 +233,18 @@ class CellVerdict:
     clearance: np.ndarray
     motion_times: np.ndarray
     motion_joints: tuple[np.ndarray, np.ndarray]
+    motion_clearance: np.ndarray
+    closest: np.ndarray
+    poses: np.ndarray
+    grip_turned: tuple[bool, bool]
+    stopped: bool
+    messages: tuple[str, ...]
     rows: tuple[CheckRow, ...]
+
+    @property
+    def q(self) -> np.ndarray:
+        """(K, 2, n) the joints of both arms (arms with the same number of joints)."""
+        return np.stack(self.joints, axis=1)
 
     @property
     def ok(self) -> bool:
@@ -180,9 +255,10 @@ class CellVerdict:
     def message(self) -> str:
         """One line: ok with the key numbers, or the first failure of each failing check."""
         if self.ok:
+            table = "" if not np.isfinite(self.table_clearance).all() else (
+                f", min table clearance {1e3 * self.table_clearance.min():.1f} mm")
             return (f"cell ok: {len(self.clearance)} poses; min clearance "
-                    f"{1e3 * self.clearance.min():.1f} mm, min table clearance "
-                    f"{1e3 * self.table_clearance.min():.1f} mm, min joint margin "
+                    f"{1e3 * self.clearance.min():.1f} mm{table}, min joint margin "
                     f"{np.degrees(self.joint_margin.min()):.1f} deg")
         parts = []
         for name in CHECKS:
@@ -193,15 +269,17 @@ class CellVerdict:
         return "cell FAILS: " + "; ".join(parts)
 
 
-def check_cell_path(cell: DescribedCell, positions, rotations: Rotation, *, seeds=None,
-                    options: ReachOptions | None = None) -> CellVerdict:
-    """Verify a dual-arm TCP path on a cell (module docstring).
+def check_path(cell: DescribedCell, positions, rotations: Rotation, *, seeds=None,
+               options: ReachOptions | None = None,
+               alternatives: Rotation | None = None) -> PathCheck:
+    """Follow a dual-arm TCP path on a cell (module docstring): the one path check.
 
-    Pose 0 is solved from ``seeds`` (default the arms' home poses) with the random restarts of
-    ``options.ik`` and the wanted ``min_margin``. Between poses both arms move in the same
-    number of sub-steps (at most ``step_length`` [m] and ``step_angle`` [rad] each), the TCP on
-    a straight line with slerped orientation, each IK seeded from the previous sub-step without
-    restarts; a pose the tracking loses is solved afresh (restarts) and marked not continuous.
+    Pose 0 is solved from ``seeds`` (default the arms' home poses) for the wanted
+    ``min_margin`` (with at least ``start_restarts`` random restarts). Between poses both arms
+    move in the same number of sub-steps (:func:`substeps`), the TCP on a straight line with
+    slerped orientation, each IK seeded from the previous sub-step (``track_margin``); a move
+    the tracking loses is reported not continuous and its pose solved afresh
+    (``follow_lost``). Never raises for an unreachable pose: it is reported.
 
     Parameters
     ----------
@@ -209,79 +287,173 @@ def check_cell_path(cell: DescribedCell, positions, rotations: Rotation, *, seed
     positions : array_like
         (K, 2, 3) TCP positions [m] in the world, arms in the order (left, right).
     rotations : scipy.spatial.transform.Rotation
-        (K, 2) ``tcp_to_world``.
+        (K, 2) or (K * 2,) pose-major ``tcp_to_world``.
     seeds : sequence of array_like, optional
         Per arm the (n_arm,) joints [rad] to start pose 0 from.
     options : ReachOptions, optional
-        ``ik``, ``step_length``, ``step_angle``, ``max_joint_step``, ``min_margin``,
-        ``min_clearance`` are used.
+        Default ``ReachOptions()``, the reach check's settings.
+    alternatives : scipy.spatial.transform.Rotation, optional
+        Other TCP rotations, shaped like ``rotations``, an arm may use instead for the whole
+        path; default with ``options.symmetric_grip`` the grip turned by pi about the TCP
+        z-axis (:data:`TURN_Z`). Each arm keeps the better of the two (more poses reachable,
+        then continuous, then the larger joint margin), and ``PathCheck.grip_turned`` says
+        which arm uses its alternative.
+
+    Returns
+    -------
+    PathCheck
     """
     opts = options if options is not None else ReachOptions()
-    pos = np.asarray(positions, dtype=float)
-    if pos.ndim != 3 or pos.shape[1:] != (2, 3) or not np.all(np.isfinite(pos)):
-        raise ValueError(f"positions: expected finite (K, 2, 3) TCP positions [m], got shape "
-                         f"{pos.shape}")
-    if not isinstance(rotations, Rotation) or rotations.single or len(rotations) != pos.size // 3:
-        raise ValueError("rotations: expected a scipy Rotation of shape (K, 2) matching "
-                         "positions")
-    n_poses = len(pos)
-    mats = rotations.as_matrix().reshape(n_poses, 2, 3, 3)
+    pos, mats = validate_path(positions, rotations)
+    grips = [mats]
+    if alternatives is not None:
+        grips.append(validate_path(positions, alternatives, "positions", "alternatives")[1])
+    elif opts.symmetric_grip:
+        grips.append(mats @ TURN_Z)
     seeds = [arm.home for arm in cell.arms] if seeds is None else list(seeds)
-    start_opts = replace(opts.ik, min_margin=opts.min_margin,
-                         restarts=max(opts.ik.restarts, START_RESTARTS))
-    track_opts = replace(opts.ik, restarts=0, min_margin=0.0)
-    shape = (n_poses, 2)
-    reach_ok, cont = np.zeros(shape, bool), np.ones(shape, bool)
-    perr, aerr, step = np.zeros(shape), np.zeros(shape), np.zeros(shape)
-    joints = [np.zeros((n_poses, arm.n_joints)) for arm in cell.arms]
-    motion = [[] for _ in cell.arms]
-    times = []
-    clearance, table = np.full(n_poses, np.inf), np.full(shape, np.inf)
     for a, arm in enumerate(cell.arms):
-        first = inverse(arm, pos[0, a], Rotation.from_matrix(mats[0, a]), seed=seeds[a],
-                        options=start_opts)
-        joints[a][0] = first.q
-        reach_ok[0, a], perr[0, a], aerr[0, a] = (first.success, first.position_error,
-                                                  first.angle_error)
-        motion[a].append(first.q)
-    times.append(0.0)
+        seed = np.asarray(seeds[a], dtype=float) if a < len(seeds) else None
+        if len(seeds) != 2 or seed.shape != (arm.n_joints,) or not np.all(np.isfinite(seed)):
+            raise ValueError(f"seeds: expected per arm ({arm.n_joints},) finite joint values "
+                             f"[rad], got {seeds!r}")
     counts = substeps(pos, mats, opts)
+    times = np.concatenate([[0.0]] + [k - 1 + np.arange(1, n + 1) / n
+                                      for k, n in enumerate(counts, start=1)])
+    poses = np.concatenate([[0], np.cumsum(counts)]).astype(int)
+    tracks = []
+    for a, arm in enumerate(cell.arms):
+        tried = [_follow(arm, ARMS[a], pos[:, a], g[:, a], counts, np.asarray(seeds[a], float),
+                         opts) for g in grips]
+        scores = [(t.reachable.sum(), t.continuous.sum(),
+                   joint_margin(arm, t.motion[poses]).min()) for t in tried]
+        best = max(range(len(tried)), key=lambda i: scores[i])
+        tracks.append((tried[best], best == 1))
+        if tried[best].stopped:  # verdict_only: the verdict is known, the rest not computed
+            tracks = [(tried[best], False) if i == a else (_unknown(other, len(times),
+                                                                    len(pos)), False)
+                      for i, other in enumerate(cell.arms)]
+            break
+    stopped = any(t.stopped for t, _ in tracks)
+    motion = tuple(t.motion for t, _ in tracks)
+    joints = tuple(m[poses] for m in motion)
+    reachable, continuous, perr, aerr, step = (
+        np.stack([getattr(t, key) for t, _ in tracks], axis=1)
+        for key in ("reachable", "continuous", "position_error", "angle_error", "joint_step"))
+    margin = np.stack([joint_margin(arm, joints[a]) for a, arm in enumerate(cell.arms)], 1)
+    starts = np.concatenate([[0], poses[:-1] + 1])
+    if stopped:
+        gaps, closest = np.full(len(times), np.nan), np.zeros((len(times), 2), dtype=int)
+        clearance = np.full(len(pos), np.nan)
+    else:
+        gaps, closest = arm_clearance(cell.left, motion[0], cell.right, motion[1],
+                                      shared_base=cell.shared_base)
+        clearance = np.minimum.reduceat(gaps, starts)
+    table = np.full((len(pos), 2), np.nan)
+    if opts.table_clearance and not stopped:
+        table = np.stack([np.minimum.reduceat(table_clearance(cell, arm, motion[a]), starts)
+                          for a, arm in enumerate(cell.arms)], 1)
+    rows = _rows(cell, reachable, continuous, perr, margin, step, table, clearance, opts)
+    return PathCheck(joints, reachable, continuous, perr, aerr, margin, step, table, clearance,
+                     times, motion, gaps, closest, poses,
+                     (False, False) if stopped else tuple(turned for _, turned in tracks),
+                     stopped, tuple(m for t, _ in tracks for m in t.messages), tuple(rows))
+
+
+@dataclass(frozen=True, eq=False)
+class _Track:
+    """One arm's tracked motion: (N, n) joints of every sub-step; per pose reached,
+    continuous, errors [m], [rad] and largest tracked joint step [rad]; messages; stopped
+    (``verdict_only``: the poses after the first failure not tracked)."""
+
+    motion: np.ndarray
+    reachable: np.ndarray
+    continuous: np.ndarray
+    position_error: np.ndarray
+    angle_error: np.ndarray
+    joint_step: np.ndarray
+    messages: tuple[str, ...]
+    stopped: bool = False
+
+
+def _unknown(arm, n_times: int, n_poses: int) -> _Track:
+    """The arm a stopped check did not track: its home pose, nothing reached."""
+    return _Track(np.repeat(arm.home[None], n_times, axis=0), np.zeros(n_poses, bool),
+                  np.ones(n_poses, bool), np.full(n_poses, np.nan), np.full(n_poses, np.nan),
+                  np.zeros(n_poses), (), True)
+
+
+def _follow(arm, name: str, pos, mats, counts, seed, opts: ReachOptions) -> _Track:
+    """Track one arm through the sub-steps of its (K, 3) positions and (K, 3, 3) rotations
+    (:func:`check_path`)."""
+    n_poses = len(pos)
+    start = replace(opts.ik, min_margin=opts.min_margin,
+                    restarts=max(opts.ik.restarts, opts.start_restarts))
+    track = replace(opts.ik, restarts=0, min_margin=opts.min_margin if opts.track_margin else 0.0)
+    reach, cont = np.zeros(n_poses, dtype=bool), np.ones(n_poses, dtype=bool)
+    perr, aerr, step = np.full(n_poses, np.nan), np.full(n_poses, np.nan), np.zeros(n_poses)
+    messages = []
+    total = 1 + int(np.sum(counts))
+
+    def finish(motion, stopped=False):
+        motion = motion + [motion[-1]] * (total - len(motion))
+        return _Track(np.array(motion), reach, cont, perr, aerr, step, tuple(messages), stopped)
+
+    res = inverse(arm, pos[0], Rotation.from_matrix(mats[0]), seed=seed, options=start)
+    motion = [res.q]
+    reach[0], perr[0], aerr[0] = res.success, res.position_error, res.angle_error
+    if not res.success:
+        messages.append(f"{name} arm, pose 0: not reachable ({res.message})")
+        if opts.verdict_only:
+            return finish(motion, True)
     for k in range(1, n_poses):
         n_sub = int(counts[k - 1])
         frac = np.arange(1, n_sub + 1) / n_sub
-        for a, arm in enumerate(cell.arms):
-            sub_rot = Slerp([0.0, 1.0], Rotation.from_matrix(mats[k - 1:k + 1, a]))(frac)
-            q = joints[a][k - 1]
-            lost = not reach_ok[k - 1, a]
-            for s, f in enumerate(frac):
-                target = (1.0 - f) * pos[k - 1, a] + f * pos[k, a]
-                result = inverse(arm, target, sub_rot[s], seed=q, options=track_opts)
-                step[k, a] = max(step[k, a], float(np.max(np.abs(result.q - q))))
-                lost = lost or not result.success
-                q = result.q
-                motion[a].append(q)
-            result_k = result
-            if lost:
-                result_k = inverse(arm, pos[k, a], Rotation.from_matrix(mats[k, a]), seed=q,
-                                   options=start_opts)
-                cont[k, a] = not reach_ok[k - 1, a]  # after an unreachable pose: not a jump
-                motion[a][-1] = result_k.q
-            cont[k, a] &= step[k, a] <= opts.max_joint_step
-            joints[a][k] = result_k.q
-            reach_ok[k, a], perr[k, a], aerr[k, a] = (result_k.success, result_k.position_error,
-                                                      result_k.angle_error)
-        times.extend(k - 1 + frac)
-    motion_q = [np.array(m) for m in motion]
-    times = np.array(times)
-    owner = np.concatenate([[0], np.ceil(times[1:] - 1e-9).astype(int)])
-    sub_clear = pair_clearance(cell, motion_q[0], motion_q[1])
-    np.minimum.at(clearance, owner, sub_clear)
-    for a, arm in enumerate(cell.arms):
-        np.minimum.at(table[:, a], owner, table_clearance(cell, arm, motion_q[a]))
-    margin = np.stack([joint_margin(arm, joints[a]) for a, arm in enumerate(cell.arms)], 1)
-    rows = _rows(cell, reach_ok, cont, perr, margin, step, table, clearance, opts)
-    return CellVerdict(tuple(joints), reach_ok, cont, perr, aerr, margin, step, table, clearance,
-                       times, tuple(motion_q), tuple(rows))
+        sub_rot = Slerp([0.0, 1.0], Rotation.from_matrix(mats[k - 1:k + 1]))(frac)
+        sub_mats = sub_rot.as_matrix()
+        q = motion[-1]
+        broken = not reach[k - 1]  # the motion into pose k starts from an unreached pose
+        lost = failed = False
+        for s, f in enumerate(frac):
+            held = (broken or lost) and not opts.follow_lost
+            if held and s < n_sub - 1:
+                motion.append(q)  # the motion is reported broken: only the pose matters
+                continue
+            target = (1.0 - f) * pos[k - 1] + f * pos[k]
+            if opts.track_margin:
+                res = solve_from(arm, target, sub_mats[s], q, track)
+            else:
+                res = inverse(arm, target, sub_rot[s], seed=q, options=track)
+            if not held:
+                jump = np.abs(res.q - q)
+                step[k] = max(step[k], float(np.max(jump)))
+                failed = failed or not res.success
+                if not (lost or broken) and not res.success:
+                    messages.append(f"{name} arm, between pose {k - 1} and {k}: lost the "
+                                    f"straight TCP motion at {f:.2f} of the way (error "
+                                    f"{res.position_error * 1e3:.2f} mm, "
+                                    f"{np.degrees(res.angle_error):.2f} deg)")
+                    lost = True
+                elif not (lost or broken) and jump.max() > opts.max_joint_step:
+                    messages.append(f"{name} arm, between pose {k - 1} and {k}: configuration "
+                                    f"jump, ABB axis {ABB_AXIS_NUMBERS[int(np.argmax(jump))]} "
+                                    f"moves {np.degrees(jump.max()):.0f} deg in one sub-step")
+                    lost = True
+                if lost and opts.verdict_only:
+                    cont[k] = False
+                    return finish(motion, True)
+            q = res.q
+            motion.append(q)
+        if not res.success or (opts.follow_lost and (broken or failed)):
+            pose = mats[k] if opts.follow_lost else sub_mats[-1]
+            res = inverse(arm, pos[k], Rotation.from_matrix(pose), seed=q, options=start)
+            motion[-1] = res.q
+            if not res.success:
+                messages.append(f"{name} arm, pose {k}: not reachable ({res.message})")
+        reach[k], perr[k], aerr[k] = res.success, res.position_error, res.angle_error
+        cont[k] = not lost and step[k] <= opts.max_joint_step
+        if not res.success and opts.verdict_only:
+            return finish(motion, True)
+    return finish(motion)
 
 
 def _rows(cell, reach_ok, cont, perr, margin, step, table, clearance, opts) -> list[CheckRow]:
@@ -291,20 +463,42 @@ def _rows(cell, reach_ok, cont, perr, margin, step, table, clearance, opts) -> l
         for a, arm in enumerate(cell.arms):
             note = "" if reach_ok[k, a] else "IK did not converge"
             rows.append(CheckRow("reach", k, label, k, arm.name, 1e3 * perr[k, a], "mm",
-                                   bool(reach_ok[k, a]), note))
+                                 bool(reach_ok[k, a]), note))
             low = margin[k, a] < opts.min_margin
             rows.append(CheckRow("joint limits", k, label, k, arm.name,
-                                   float(np.degrees(margin[k, a])), "deg",
-                                   bool(reach_ok[k, a] and not low),
-                                   f"below the {np.degrees(opts.min_margin):.0f} deg required"
-                                   if low else ""))
+                                 float(np.degrees(margin[k, a])), "deg",
+                                 bool(reach_ok[k, a] and not low),
+                                 f"below the {np.degrees(opts.min_margin):.0f} deg required"
+                                 if low else ""))
             rows.append(CheckRow("continuity", k, label, k, arm.name,
-                                   float(np.degrees(step[k, a])), "deg", bool(cont[k, a]),
-                                   "" if cont[k, a] else "configuration change or IK lost"))
-            rows.append(CheckRow("table clearance", k, label, k, arm.name,
-                                   1e3 * table[k, a], "mm",
-                                   bool(table[k, a] >= opts.min_clearance)))
+                                 float(np.degrees(step[k, a])), "deg", bool(cont[k, a]),
+                                 "" if cont[k, a] else "configuration change or IK lost"))
+            if opts.table_clearance:
+                rows.append(CheckRow("table clearance", k, label, k, arm.name,
+                                     1e3 * table[k, a], "mm",
+                                     bool(table[k, a] >= opts.min_clearance)))
         both = bool(reach_ok[k].all())
         rows.append(CheckRow("clearance", k, label, k, "both", 1e3 * clearance[k], "mm",
-                               bool(clearance[k] >= opts.min_clearance or not both)))
+                             bool(clearance[k] >= opts.min_clearance or not both)))
     return rows
+
+
+def validate_path(positions, rotations, pos_name: str = "positions",
+                  rot_name: str = "rotations") -> tuple[np.ndarray, np.ndarray]:
+    """A dual-arm path's positions (K, 2, 3) [m] and rotation matrices (K, 2, 3, 3), checked
+    (rotations given (K, 2) or pose-major (K * 2,)): a ValueError naming ``pos_name`` or
+    ``rot_name`` otherwise."""
+    pos = np.asarray(positions, dtype=float)
+    if pos.ndim != 3 or pos.shape[1:] != (2, 3) or pos.shape[0] < 1:
+        raise ValueError(f"{pos_name}: expected shape (K, 2, 3) [m], got {pos.shape}")
+    if not np.all(np.isfinite(pos)):
+        raise ValueError(f"{pos_name}: non-finite coordinate (NaN or inf)")
+    if not isinstance(rotations, Rotation) or rotations.shape not in ((pos.shape[0], 2),
+                                                                      (2 * pos.shape[0],)):
+        shape = getattr(rotations, "shape", None) if isinstance(rotations, Rotation) else None
+        raise ValueError(f"{rot_name}: expected a scipy Rotation of shape ({pos.shape[0]}, 2), "
+                         f"got {type(rotations).__name__} of shape {shape}")
+    mats = rotations.as_matrix().reshape(pos.shape[0], 2, 3, 3)
+    if not np.all(np.isfinite(mats)):
+        raise ValueError(f"{rot_name}: non-finite rotation")
+    return pos, mats

@@ -1,23 +1,24 @@
-"""Where on the table a cell runs a job: the placement searches, and the cheap tests that reject
-a candidate placement before any IK.
+"""Where on the table a cell runs a job: the one placement search, its two rankings, and the
+cheap test that rejects a candidate placement before any IK.
 
-A placement is a translation of the whole job (every TCP pose) on the table. Two searches, for
-two uses:
+A placement is a translation of the whole job (every TCP pose) on the table.
+:func:`search_offsets` is the search: it rejects the candidates that cannot pass without solving
+anything (:func:`within_reach`: a target beyond an arm's reach sphere, the bound the IK itself
+applies), scores the others best bound first with the caller's score, and verifies them in the
+order of their scores, never solving a candidate that cannot rank; the result is that of
+scoring every candidate. Its two callers differ only in the score and the verification:
 
 - :func:`search_placement`: the repair's search (:mod:`dloplan.pipeline.repair.placement`) and
-  ``dloplan verify --place`` on the YuMi: a grid of offsets checked nearest first, each by IK
-  at the targets (:func:`~dloplan.robot.reachability.reach_at_targets`), then along the path
-  with both grips (:func:`~dloplan.robot.reachability.check_reachability`); the first that
-  passes wins, so the job moves as little as possible.
+  ``dloplan verify --place`` on the YuMi: a grid of offsets scored by their distance (the
+  nearest first) if IK at the targets reaches them
+  (:func:`~dloplan.robot.reachability.reach_at_targets`), verified along the path with both
+  grips (:func:`~dloplan.robot.reachability.check_reachability`); the first that passes wins,
+  so the job moves as little as possible.
 - :func:`search_cell_placement`: a described cell's program, which places the job itself
-  (``DescribedCell.place``): candidates ranked by IK at the targets (poses reached, clearance,
-  margin, shift), the best verified along the path (:func:`~dloplan.robot.path.check_cell_path`).
-
-Both first reject the candidates that cannot pass without solving anything
-(:func:`within_reach`: a target beyond an arm's reach sphere, the bound the IK itself applies)
-and take the others in order of cost: the nearest first, or the best bound first with the
-candidates whose bound cannot reach the best ranked never solved (:func:`search_cell_placement`).
-The result is that of checking every candidate.
+  (``DescribedCell.place``): candidates scored by IK at the targets (:func:`target_score`:
+  poses reached, clearance, margin, shift), the :data:`PLACEMENT_TRIES` best verified along the
+  path (:func:`~dloplan.robot.path.check_path` with :meth:`~dloplan.robot.path.ReachOptions.
+  cell_program`).
 """
 
 from __future__ import annotations
@@ -29,14 +30,8 @@ from scipy.spatial.transform import Rotation
 
 from .described import DescribedCell, pair_clearance
 from .kinematics import inverse, joint_margin
-from .path import COMFORT_CLEARANCE, COMFORT_MARGIN, ReachOptions, check_cell_path
-from .reachability import (
-    Reachability,
-    arm_order,
-    check_reachability,
-    reach_at_targets,
-    validate_path,
-)
+from .path import COMFORT_CLEARANCE, COMFORT_MARGIN, ReachOptions, check_path, validate_path
+from .reachability import Reachability, arm_order, check_reachability, reach_at_targets
 from .yumi import yumi
 
 PLACEMENT_TRIES = 3
@@ -73,6 +68,69 @@ def within_reach(cell: DescribedCell, positions, offsets) -> np.ndarray:
         moved = pos[None, :, a] + offsets[:, None] - arm.shoulder
         inside[..., a] = np.linalg.norm(moved, axis=-1) <= arm.reach + REACH_SLACK
     return inside
+
+
+def search_offsets(cell: DescribedCell, positions, offsets, *, bound, score, verify,
+                   tries: int | None = None, first_pass: bool = True):
+    """The placement search: candidates ranked by a caller's score, the best verified in full.
+
+    Every candidate offset first gets the ``bound`` of its score from :func:`within_reach`
+    alone (None: it cannot pass, and is never solved); candidates are then scored (``score``:
+    cheap IK, None rejects) best bound first, and verified (``verify``) in the order of their
+    scores (ties: the earlier candidate first) as soon as no candidate left unscored can rank
+    before them. The first verified that passes ends the search (``first_pass``), else the best
+    verified is kept, at most ``tries`` are verified; a candidate whose bound cannot rank among
+    them is never solved. The result is that of scoring every candidate first.
+
+    Parameters
+    ----------
+    cell : DescribedCell
+    positions : array_like
+        (K, 2, 3) TCP targets [m], ordered by arm (left, right), before any offset.
+    offsets : array_like
+        (C, 3) candidate translations [m].
+    bound : callable
+        ``bound(c, inside)`` with ``inside`` the (K, 2) bool of :func:`within_reach` for
+        candidate c: the best score it can have (a tuple), or None.
+    score : callable
+        ``score(c)``: its score (a tuple, never above its bound), or None (rejected).
+    verify : callable
+        ``verify(c)``: ``(key, result)`` of the full check; ``key[0]`` True when it passes, the
+        largest key (the first of equal ones) is kept.
+    tries : int, optional
+        Best-scored candidates verified at most (default all).
+    first_pass : bool
+
+    Returns
+    -------
+    tuple or None
+        ``(c, result, verified)``: the candidate kept, its check and the number of candidates
+        verified; None when none was verified.
+    """
+    offsets = np.asarray(offsets, dtype=float).reshape(-1, 3)
+    inside = within_reach(cell, positions, offsets)
+    bounds = [bound(c, inside[c]) for c in range(len(offsets))]
+    todo = sorted((c for c in range(len(offsets)) if bounds[c] is not None),
+                  key=lambda c: bounds[c], reverse=True)
+    ranked, best, verified, i = [], None, 0, 0
+    while tries is None or verified < tries:
+        if ranked and (i == len(todo) or ranked[0][0] > bounds[todo[i]]):
+            _, c = ranked.pop(0)
+            key, result = verify(c)
+            verified += 1
+            if best is None or key > best[0]:
+                best = (key, c, result)
+            if first_pass and key[0]:
+                break
+            continue
+        if i == len(todo):
+            break
+        c, i = todo[i], i + 1
+        value = score(c)
+        if value is not None:
+            ranked.append((value, c))
+            ranked.sort(key=lambda item: (item[0], -item[1]), reverse=True)
+    return None if best is None else (best[1], best[2], verified)
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,7 +173,8 @@ def search_placement(gripper_positions, gripper_rotations: Rotation,
     sub-steps, first failure stops it,
     :func:`~dloplan.robot.reachability.reach_at_targets`) discards hopeless offsets before the
     full :func:`~dloplan.robot.reachability.check_reachability` (with ``options.verdict_only``
-    the grid's checks stop at their first failure; ``explain`` checks in full).
+    the grid's checks stop at their first failure; ``explain`` checks in full): the
+    :func:`search_offsets` whose score is minus the offset's length.
 
     Parameters
     ----------
@@ -147,36 +206,39 @@ def search_placement(gripper_positions, gripper_rotations: Rotation,
     opts = options if options is not None else ReachOptions()
     axes = [np.arange(-np.floor(e / step), np.floor(e / step) + 1) * step for e in extent]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    grid = grid[np.argsort(np.linalg.norm(grid, axis=1), kind="stable")]
+    distance = np.linalg.norm(grid, axis=1)
+    order = np.argsort(distance, kind="stable")
+    grid, distance = grid[order], distance[order]
     order = arm_order(pos, assignment, robot)
     by_arm = Rotation.from_matrix(mats[:, order])
-    best = None
-    checked = 0
-    for offset in grid[within_reach(robot, pos[:, order], grid).all(axis=(1, 2))]:
-        if not reach_at_targets(robot, pos[:, order] + offset, by_arm, opts, stop=True).all():
-            continue
-        result = check_reachability(pos, rot, robot, offset=offset, assignment=assignment,
+
+    def reached(c):
+        """The nearest first, if IK at the targets reaches every one."""
+        hits = reach_at_targets(robot, pos[:, order] + grid[c], by_arm, opts, stop=True)
+        return (-distance[c],) if hits.all() else None
+
+    def verify(c):
+        result = check_reachability(pos, rot, robot, offset=grid[c], assignment=assignment,
                                     options=opts)
-        checked += 1
-        key = (result.success, result.min_joint_margin if objective == "margin" else 0.0)
-        if best is None or key > best[0]:
-            best = (key, offset, result)
-        if result.success and objective == "nearest":
-            break
-    if best is None:
+        return (result.success, result.min_joint_margin if objective == "margin" else 0.0), result
+
+    found = search_offsets(robot, pos[:, order], grid, score=reached, verify=verify,
+                           bound=lambda c, inside: (-distance[c],) if inside.all() else None,
+                           first_pass=objective == "nearest")
+    if found is None:
         result = check_reachability(pos, rot, robot, assignment=assignment,
                                     options=replace(opts, verdict_only=False)) \
             if explain else None
         return Placement(np.zeros(3), result, int(explain), False,
                          f"no offset within +-{format_offset(extent)} m (step {step} m) passed "
                          "the pre-check")
-    (ok, _), offset, result = best
-    text = format_offset(offset)
-    if ok:
-        return Placement(offset, result, checked, True,
+    c, result, checked = found
+    text = format_offset(grid[c])
+    if result.success:
+        return Placement(grid[c], result, checked, True,
                          f"offset {text} m: every pose reachable (min joint margin "
                          f"{np.degrees(result.min_joint_margin):.1f} deg)")
-    return Placement(offset, result, checked, False,
+    return Placement(grid[c], result, checked, False,
                      f"no offset within +-{format_offset(extent)} m works; best {text} m: "
                      f"{result.message}")
 
@@ -195,19 +257,16 @@ def search_cell_placement(cell: DescribedCell, positions, rotations: Rotation, *
     both arms reach, then the smallest arm-arm clearance (up to :data:`COMFORT_CLEARANCE`),
     then the smallest joint margin (up to :data:`COMFORT_MARGIN`), then the smallest shift.
     The :data:`PLACEMENT_TRIES` best candidates are then verified in full with
-    :func:`check_cell_path` (whose IK may choose other solutions, e.g. another elbow of a
-    7-joint arm) in that order: the first that passes is returned, else the best ranked.
-
-    Candidates are scored best bound first (:func:`within_reach`: a pose with a target beyond
-    an arm's reach sphere is not reached; clearance and margin at most their comfort values),
-    and scoring stops once the :data:`PLACEMENT_TRIES` best scores exceed every bound left: the
-    candidates left could not rank among them. The ranking is that of scoring every candidate.
+    :func:`~dloplan.robot.path.check_path` (whose IK may choose other solutions, e.g. another
+    elbow of a 7-joint arm) in that order: the first that passes is returned, else the best
+    ranked (:func:`search_offsets`, the bound of a score: a pose with a target beyond an arm's
+    reach sphere is not reached, clearance and margin at most their comfort values).
 
     Parameters
     ----------
     cell : DescribedCell
     positions, rotations
-        As for :func:`check_cell_path`.
+        As for :func:`~dloplan.robot.path.check_path`.
     offsets : array_like, optional
         (C, 3) candidate translations [m]; default a grid of +-0.2 m in x and +-0.1 m in y in
         0.1 m steps (15 candidates).
@@ -216,10 +275,10 @@ def search_cell_placement(cell: DescribedCell, positions, rotations: Rotation, *
     -------
     offset : numpy.ndarray
         (3,) the best translation [m].
-    verdict : CellVerdict
+    verdict : PathCheck
         Of the shifted path.
     """
-    opts = options if options is not None else ReachOptions()
+    opts = options if options is not None else ReachOptions.cell_program()
     pos = np.asarray(positions, dtype=float)
     if offsets is None:
         gx, gy = np.meshgrid(np.arange(-0.2, 0.201, 0.1), np.arange(-0.1, 0.101, 0.1))
@@ -228,23 +287,20 @@ def search_cell_placement(cell: DescribedCell, positions, rotations: Rotation, *
     mats = rotations.as_matrix().reshape(len(pos), 2, 3, 3)
     quick = replace(opts.ik, restarts=1, min_margin=0.0)
     shifts = [-float(np.linalg.norm(offset)) for offset in offsets]
-    # the best score a candidate can have: its poses within both arms' reach, comfort, its shift
-    bounds = [(int(n), COMFORT_CLEARANCE, COMFORT_MARGIN, float(shift)) for n, shift in
-              zip(within_reach(cell, pos, offsets).all(axis=2).sum(axis=1), shifts, strict=True)]
-    scores = {}
-    for i in sorted(range(len(offsets)), key=lambda i: bounds[i], reverse=True):
-        kept = sorted(scores.values(), reverse=True)[:PLACEMENT_TRIES]
-        if len(kept) == PLACEMENT_TRIES and kept[-1] > bounds[i]:
-            break  # no candidate left can rank among the best: none is solved
-        scores[i] = target_score(cell, pos + offsets[i], mats, quick, shifts[i])
-    ranked = sorted(sorted(scores), key=lambda i: scores[i], reverse=True)
-    first = None
-    for i in ranked[:PLACEMENT_TRIES]:
-        verdict = check_cell_path(cell, pos + offsets[i], rotations, options=opts)
-        if verdict.ok:
-            return offsets[i], verdict
-        first = first or (offsets[i], verdict)
-    return first
+
+    def bound(c, inside):
+        """The best score a candidate can have: its poses within both arms' reach, comfort,
+        its shift."""
+        return (int(inside.all(axis=1).sum()), COMFORT_CLEARANCE, COMFORT_MARGIN, shifts[c])
+
+    def verify(c):
+        verdict = check_path(cell, pos + offsets[c], rotations, options=opts)
+        return (verdict.ok,), verdict
+
+    c, verdict, _ = search_offsets(
+        cell, pos, offsets, bound=bound, verify=verify, tries=PLACEMENT_TRIES,
+        score=lambda c: target_score(cell, pos + offsets[c], mats, quick, shifts[c]))
+    return offsets[c], verdict
 
 
 def target_score(cell: DescribedCell, pos, mats, options, shift: float) -> tuple:

@@ -1,15 +1,12 @@
-"""Can a dual-arm cell hold a plan's clips? The reach check of every TCP pose along a path, with
-both grips of a symmetric gripper, for grips and placements.
+"""Can a dual-arm cell hold a plan's clips? The reach verdict of a path, with both grips of a
+symmetric gripper, for grips and placements.
 
-The motion between poses is that of :mod:`dloplan.robot.path` (straight TCP lines with slerped
-orientation, the sub-steps of :func:`~dloplan.robot.path.substeps`, each IK seeded from the
-previous sub-step). :func:`check_path` follows it per arm with the null-space motion keeping a
-redundant elbow from its limits and keeps the better grip of each arm;
-:func:`check_reachability` does so for a plan's clip poses with the arm assignment;
-:func:`reach_at_targets` is its cheap version (IK at the targets only). The placement searches
-(:mod:`dloplan.robot.placement`) and the free-elbow candidate of the YuMi's program
-(:mod:`dloplan.robot.solutions`) use them; a described cell's program is verified by
-:func:`dloplan.robot.path.check_cell_path`.
+:func:`check_reachability` maps a plan's clip poses to TCP poses with the arm assignment and
+follows them with the one path check (:func:`dloplan.robot.path.check_path`, the reach check's
+settings of :class:`~dloplan.robot.path.ReachOptions`, the grip turned by pi as the
+alternative); :func:`reach_verdict` turns a path check into the verdict (success, warnings,
+collisions naming the closest links); :func:`reach_at_targets` is its cheap version (IK at the
+targets only). The placement searches (:mod:`dloplan.robot.placement`) use them.
 """
 
 from __future__ import annotations
@@ -17,18 +14,13 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
+from scipy.spatial.transform import Rotation
 
 from .assignment import assign_arms
-from .chain import CellArm
-from .collision import arm_clearance
 from .described import ARMS, DescribedCell
-from .kinematics import inverse, joint_margin, manipulability, solve_from
-from .path import ReachOptions, substeps
+from .kinematics import inverse, manipulability
+from .path import TURN_Z, PathCheck, ReachOptions, check_path, validate_path
 from .yumi import ABB_AXIS_NUMBERS, yumi
-
-_TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
-"""The TCP turned by pi about its own z-axis (the other grip of a symmetric gripper)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,52 +121,6 @@ def tcp_poses_from_clips(robot: DescribedCell, clip_positions, clip_rotations: R
     return np.array(clip_positions, dtype=float), Rotation.from_matrix(tcp)
 
 
-def check_path(robot: DescribedCell, positions, rotations: Rotation, *, seeds=None,
-               options: ReachOptions | None = None,
-               alternatives: Rotation | None = None) -> Reachability:
-    """Reachability of a dual-arm TCP path, tracked continuously from pose to pose.
-
-    Pose 0 is solved from ``seeds`` (default the home poses), trying seeds until a solution at
-    least ``min_margin`` from the limits is found. Between poses k-1 and k both arms move in
-    the same number of sub-steps (at most ``step_length`` and ``step_angle`` each); every
-    sub-step's IK is seeded from the previous one (continuous joint motion, the null-space term
-    of :func:`~dloplan.robot.kinematics.inverse` keeping the elbow from its limits). A pose
-    that the tracking loses is solved afresh from all seeds; the motion to it is then marked
-    not continuous. Never raises for an unreachable pose: it is reported.
-
-    Parameters
-    ----------
-    robot : DescribedCell
-    positions : array_like
-        (K, 2, 3) TCP positions [m] in the world frame, arms in the order of :data:`ARMS`.
-    rotations : scipy.spatial.transform.Rotation
-        (K, 2) ``tcp_to_world`` rotations.
-    seeds : array_like, optional
-        (2, 7) joint values [rad] to start pose 0 from.
-    options : ReachOptions, optional
-    alternatives : scipy.spatial.transform.Rotation, optional
-        (K, 2) other TCP rotations an arm may use instead, for the whole path (e.g. the grip
-        turned by pi of a symmetric gripper); each arm keeps the better of the two (more poses
-        reachable, then continuous, then the larger joint margin) and
-        ``Reachability.grip_turned`` says which arm uses its alternative.
-
-    Returns
-    -------
-    Reachability
-    """
-    pos, mats = validate_path(positions, rotations)
-    grips = [mats]
-    if alternatives is not None:
-        grips.append(validate_path(positions, alternatives, "positions", "alternatives")[1])
-    opts = options if options is not None else ReachOptions()
-    if seeds is None:
-        seeds = np.stack([arm.home for arm in robot.arms])
-    seeds = np.asarray(seeds, dtype=float)
-    if seeds.shape != (2, 7) or not np.all(np.isfinite(seeds)):
-        raise ValueError(f"seeds: expected (2, 7) finite joint values [rad], got {seeds.shape}")
-    return _check(robot, pos, grips, seeds, opts, clip_of_arm=(0, 1))
-
-
 def check_reachability(gripper_positions, gripper_rotations: Rotation,
                        robot: DescribedCell | None = None, *, offset=(0.0, 0.0, 0.0),
                        assignment: str = "auto",
@@ -206,67 +152,54 @@ def check_reachability(gripper_positions, gripper_rotations: Rotation,
     clip_rot = Rotation.from_matrix(mats[:, order])
     tcp_pos, tcp_rot = tcp_poses_from_clips(robot, clip_pos, clip_rot)
     opts = options if options is not None else ReachOptions()
-    seeds = np.stack([arm.home for arm in robot.arms])
-    grips = [tcp_rot.as_matrix()]
-    if opts.symmetric_grip:
-        grips.append(grips[0] @ _TURN_Z)
-    return _check(robot, tcp_pos, grips, seeds, opts, clip_of_arm=tuple(order))
+    check = check_path(robot, tcp_pos, tcp_rot, options=opts)
+    return reach_verdict(robot, check, opts, clip_of_arm=tuple(order))
 
 
-# --------------------------------------------------------------------------------------------
+def reach_verdict(robot: DescribedCell, check: PathCheck, options: ReachOptions,
+                  clip_of_arm: tuple[int, int] = (0, 1)) -> Reachability:
+    """The reach verdict of a path check (:func:`~dloplan.robot.path.check_path`): manipulability,
+    joint-margin warnings and arm collisions (naming the closest links) added to its messages;
+    success when every pose is reachable, every motion continuous and the arms never closer than
+    ``options.min_clearance`` where both reach.
 
-
-def _check(robot: DescribedCell, pos: np.ndarray, grips: list[np.ndarray], seeds: np.ndarray,
-           opts: ReachOptions, clip_of_arm: tuple[int, int]) -> Reachability:
-    """Track both arms through the sub-steps (each arm with the best of the ``grips``, each a
-    (K, 2, 3, 3) set of TCP rotations), then margins, manipulability and clearance; with
-    ``opts.verdict_only`` the first arm without a flawless grip ends the check
-    (:func:`_stopped`)."""
-    n_sub = substeps(pos, grips[0], opts)
-    times = np.concatenate([[0.0]] + [k - 1 + np.arange(1, n + 1) / n
-                                      for k, n in enumerate(n_sub, start=1)])
-    planned = np.concatenate([[0], np.cumsum(n_sub)]).astype(int)
-    tracks = []
-    turned = []
-    for a, arm in enumerate(robot.arms):
-        options = [_track(arm, a, pos[:, a], g[:, a], times, planned, seeds[a], opts)
-                   for g in grips]
-        scores = [(t[1].sum(), t[4].sum(), joint_margin(arm, t[0][planned]).min())
-                  for t in options]
-        best = max(range(len(options)), key=lambda i: scores[i])
-        if opts.verdict_only and not (options[best][1].all() and options[best][4].all()):
-            return _stopped(robot, options[best], a, len(times), planned, clip_of_arm)
-        tracks.append(options[best])
-        turned.append(best == 1)
-    q_all = np.stack([t[0] for t in tracks], axis=1)  # (M, 2, 7)
-    q = q_all[planned]
-    reachable = np.stack([t[1] for t in tracks], axis=1)
-    perr = np.stack([t[2] for t in tracks], axis=1)
-    aerr = np.stack([t[3] for t in tracks], axis=1)
-    continuous = np.stack([t[4] for t in tracks], axis=1)
-    messages = [m for t in tracks for m in t[5]]
-    margin = np.stack([joint_margin(arm, q[:, a]) for a, arm in enumerate(robot.arms)], axis=1)
+    Parameters
+    ----------
+    robot : DescribedCell
+    check : PathCheck
+    options : ReachOptions
+        Those of the check.
+    clip_of_arm : tuple of int
+        Which clip each arm holds (``(0, 1)`` when the poses were given per arm).
+    """
+    q, reachable, margin = check.q, check.reachable, check.joint_margin
     manip = np.stack([manipulability(arm, q[:, a]) for a, arm in enumerate(robot.arms)], axis=1)
-    gaps, pairs = arm_clearance(robot.left, q_all[:, 0], robot.right, q_all[:, 1])
-    # clearance at pose k: min over the sub-steps leading to it and the pose itself
-    clearance = np.minimum.reduceat(gaps, np.concatenate([[0], planned[:-1] + 1]))
+    fields = (reachable, q, margin, manip, check.position_error, check.angle_error,
+              check.continuous, check.clearance, clip_of_arm, check.grip_turned)
+    if check.stopped:
+        first = check.messages[0] if check.messages else "an arm failed"
+        return Reachability(*fields, False, f"{first} (verdict only: the check stopped there)",
+                            check.messages)
+    messages = list(check.messages)
+    clearance, gaps, planned = check.clearance, check.motion_clearance, check.poses
     for k in range(len(q)):
-        if reachable[k].all() and opts.min_margin > 0:
+        if reachable[k].all() and options.min_margin > 0:
             for a, name in enumerate(ARMS):
-                if margin[k, a] < opts.min_margin:
+                if margin[k, a] < options.min_margin:
                     j = int(np.argmin(np.minimum(q[k, a] - robot.arms[a].lower,
                                                  robot.arms[a].upper - q[k, a])))
                     messages.append(f"warning: {name} arm, pose {k}: ABB axis "
                                     f"{ABB_AXIS_NUMBERS[j]} {np.degrees(margin[k, a]):.1f} deg "
                                     f"from its limit")
-        if reachable[k].all() and clearance[k] < opts.min_clearance:
+        if reachable[k].all() and clearance[k] < options.min_clearance:
             lo = 0 if k == 0 else planned[k - 1] + 1
             i = lo + int(np.argmin(gaps[lo:planned[k] + 1]))
             where = f"pose {k}" if i == planned[k] else f"between pose {k - 1} and {k}"
             messages.append(f"arms collide, {where}: clearance {clearance[k] * 1e3:.1f} mm "
-                            f"(left link {_link_name(pairs[i, 0])}, right link "
-                            f"{_link_name(pairs[i, 1])})")
-    collide = reachable.all(axis=1) & (clearance < opts.min_clearance)
+                            f"(left link {_link_name(check.closest[i, 0])}, right link "
+                            f"{_link_name(check.closest[i, 1])})")
+    collide = reachable.all(axis=1) & (clearance < options.min_clearance)
+    continuous = check.continuous
     success = bool(reachable.all() and continuous.all() and not collide.any())
     if success:
         message = (f"all {len(q)} poses reachable by both arms; min joint margin "
@@ -276,101 +209,7 @@ def _check(robot: DescribedCell, pos: np.ndarray, grips: list[np.ndarray], seeds
         message = (f"{int((~reachable).sum())} unreachable pose(s), "
                    f"{int((~continuous).sum())} discontinuous motion(s), "
                    f"{int(collide.sum())} arm collision(s) over {len(q)} poses")
-    return Reachability(reachable, q, margin, manip, perr, aerr, continuous, clearance,
-                        clip_of_arm, tuple(turned), success, message, tuple(messages))
-
-
-def _stopped(robot: DescribedCell, track, index: int, n_times: int, planned,
-             clip_of_arm: tuple[int, int]) -> Reachability:
-    """The failed verdict of a ``verdict_only`` check: arm ``index``'s best ``track`` up to its
-    first failure; the other arm and the clearance not computed (unreachable rows, NaN)."""
-    n_poses = len(planned)
-    other = robot.arms[1 - index]
-    unknown = (np.repeat(other.home[None], n_times, axis=0), np.zeros(n_poses, dtype=bool),
-               np.full(n_poses, np.nan), np.full(n_poses, np.nan), np.ones(n_poses, dtype=bool))
-    pair = [track[:5], unknown][::1 if index == 0 else -1]
-    q = np.stack([t[0][planned] for t in pair], axis=1)
-    reachable, perr, aerr, continuous = (np.stack([t[i] for t in pair], axis=1)
-                                         for i in range(1, 5))
-    margin = np.stack([joint_margin(arm, q[:, a]) for a, arm in enumerate(robot.arms)], axis=1)
-    manip = np.stack([manipulability(arm, q[:, a]) for a, arm in enumerate(robot.arms)], axis=1)
-    messages = tuple(track[5])
-    first = messages[0] if messages else f"{ARMS[index]} arm failed"
-    return Reachability(reachable, q, margin, manip, perr, aerr, continuous,
-                        np.full(n_poses, np.nan), clip_of_arm, (False, False), False,
-                        f"{first} (verdict only: the check stopped there)", messages)
-
-
-def _track(arm: CellArm, index: int, pos, mats, times, planned, seed, opts: ReachOptions):
-    """Follow one arm's path through the sub-steps; returns per sub-step q and per pose flags
-    (with ``opts.verdict_only``, up to the first pose not reached or motion lost: the poses
-    after it read unreachable)."""
-    name = ARMS[index]
-    n_poses = len(pos)
-    if n_poses > 1:
-        slerp = Slerp(np.arange(n_poses), Rotation.from_matrix(mats))
-        sub_rot = slerp(times).as_matrix()
-    else:
-        sub_rot = mats.copy()
-    base = np.minimum(np.floor(times).astype(int), n_poses - 1)
-    frac = times - base
-    nxt = np.minimum(base + 1, n_poses - 1)
-    sub_pos = (1.0 - frac)[:, None] * pos[base] + frac[:, None] * pos[nxt]
-    first_opts = replace(opts.ik, min_margin=opts.min_margin)
-    track_opts = replace(opts.ik, min_margin=opts.min_margin, restarts=0)
-    q_all = np.empty((len(times), 7))
-    reachable = np.zeros(n_poses, dtype=bool)
-    continuous = np.ones(n_poses, dtype=bool)
-    perr = np.full(n_poses, np.nan)
-    aerr = np.full(n_poses, np.nan)
-    messages = []
-    res = inverse(arm, sub_pos[0], Rotation.from_matrix(sub_rot[0]), seed, first_opts)
-    q_all[0] = res.q
-    reachable[0], perr[0], aerr[0] = res.success, res.position_error, res.angle_error
-    if not res.success:
-        messages.append(f"{name} arm, pose 0: not reachable ({res.message})")
-        if opts.verdict_only:
-            q_all[1:] = res.q
-            return q_all, reachable, perr, aerr, continuous, messages
-    k = 1
-    lost = False
-    for i in range(1, len(times)):
-        if (lost or not reachable[k - 1]) and i != planned[k]:
-            q_all[i] = q_all[i - 1]  # motion already reported broken: only the pose matters
-            continue
-        step = solve_from(arm, sub_pos[i], sub_rot[i], q_all[i - 1], track_opts)
-        q, pe, ae, ok = step.q, step.position_error, step.angle_error, step.success
-        jump = np.max(np.abs(q - q_all[i - 1]))
-        if ok and jump > opts.max_joint_step and not lost and reachable[k - 1]:
-            j = int(np.argmax(np.abs(q - q_all[i - 1])))
-            messages.append(f"{name} arm, between pose {k - 1} and {k}: configuration jump, "
-                            f"ABB axis {ABB_AXIS_NUMBERS[j]} moves {np.degrees(jump):.0f} deg "
-                            f"in one sub-step")
-            lost = True
-        if not ok and not lost and reachable[k - 1]:
-            messages.append(f"{name} arm, between pose {k - 1} and {k}: lost the straight TCP "
-                            f"motion at {times[i] - (k - 1):.2f} of the way (error "
-                            f"{pe * 1e3:.2f} mm, {np.degrees(ae):.2f} deg)")
-            lost = True
-        if lost and opts.verdict_only:
-            q_all[i:] = q_all[i - 1]
-            continuous[k] = False
-            return q_all, reachable, perr, aerr, continuous, messages
-        if i == planned[k]:
-            if not ok:  # solve the planned pose afresh
-                res = inverse(arm, sub_pos[i], Rotation.from_matrix(sub_rot[i]), q, first_opts)
-                q, pe, ae, ok = res.q, res.position_error, res.angle_error, res.success
-                if not ok:
-                    messages.append(f"{name} arm, pose {k}: not reachable ({res.message})")
-            reachable[k], perr[k], aerr[k] = ok, pe, ae
-            if not ok and opts.verdict_only:
-                q_all[i:] = q
-                return q_all, reachable, perr, aerr, continuous, messages
-            continuous[k] = not lost
-            lost = False
-            k += 1
-        q_all[i] = q
-    return q_all, reachable, perr, aerr, continuous, messages
+    return Reachability(*fields, success, message, tuple(messages))
 
 
 def reach_at_targets(robot: DescribedCell, clip_positions, clip_rotations: Rotation,
@@ -409,7 +248,7 @@ def _at_targets(robot: DescribedCell, clip_pos, clip_rot: Rotation, opts: ReachO
     tcp_pos, tcp_rot = tcp_poses_from_clips(robot, clip_pos, clip_rot)
     grips = [tcp_rot.as_matrix()]
     if opts.symmetric_grip:
-        grips.append(grips[0] @ _TURN_Z)
+        grips.append(grips[0] @ TURN_Z)
     quick = replace(opts.ik, restarts=0)
     reached = np.zeros(tcp_pos.shape[:2], dtype=bool)
     for a, arm in enumerate(robot.arms):
@@ -461,22 +300,3 @@ def _as_offset(offset) -> np.ndarray:
     if arr.shape != (3,) or not np.all(np.isfinite(arr)):
         raise ValueError(f"offset: expected 3 finite numbers [m], got {offset!r}")
     return arr
-
-
-def validate_path(positions, rotations, pos_name: str = "positions",
-                  rot_name: str = "rotations") -> tuple[np.ndarray, np.ndarray]:
-    """A dual-arm path's positions (K, 2, 3) [m] and rotation matrices (K, 2, 3, 3), checked:
-    a ValueError naming ``pos_name`` or ``rot_name`` otherwise."""
-    pos = np.asarray(positions, dtype=float)
-    if pos.ndim != 3 or pos.shape[1:] != (2, 3) or pos.shape[0] < 1:
-        raise ValueError(f"{pos_name}: expected shape (K, 2, 3) [m], got {pos.shape}")
-    if not np.all(np.isfinite(pos)):
-        raise ValueError(f"{pos_name}: non-finite coordinate (NaN or inf)")
-    if not isinstance(rotations, Rotation) or rotations.shape != (pos.shape[0], 2):
-        shape = getattr(rotations, "shape", None) if isinstance(rotations, Rotation) else None
-        raise ValueError(f"{rot_name}: expected a scipy Rotation of shape ({pos.shape[0]}, 2), "
-                         f"got {type(rotations).__name__} of shape {shape}")
-    mats = rotations.as_matrix()
-    if not np.all(np.isfinite(mats)):
-        raise ValueError(f"{rot_name}: non-finite rotation")
-    return pos, mats

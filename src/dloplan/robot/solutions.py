@@ -21,8 +21,7 @@ from scipy.spatial.transform import Rotation
 from .armangle import arm_angle, wrap
 from .collision import arm_clearance
 from .kinematics import inverse, joint_margin, solve_many
-from .path import COMFORT_CLEARANCE, COMFORT_MARGIN
-from .reachability import check_path
+from .path import COMFORT_CLEARANCE, COMFORT_MARGIN, check_path
 
 ARM_ANGLE_STEP = float(np.radians(30.0))
 """[rad] Spacing of the constant arm angles tried for each arm."""
@@ -104,7 +103,7 @@ def _arm_candidates(arm, pos, rots, n_sub, opts) -> list[Candidate]:
 
 
 def _tracked_candidates(robot, pos, rots, opts) -> list[Candidate]:
-    """The free-elbow tracking of :func:`~dloplan.robot.reachability.check_path` (the arm
+    """The free-elbow tracking of :func:`~dloplan.robot.path.check_path` (the arm
     angle follows the null-space motion), one candidate per arm."""
     tracked = check_path(robot, pos, Rotation.from_matrix(rots[0]), options=opts,
                          alternatives=Rotation.from_matrix(rots[-1]))

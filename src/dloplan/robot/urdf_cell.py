@@ -6,7 +6,7 @@ from one URDF per arm (:func:`cell_from_specs`, a scenario's ``robot.cell`` sect
 :func:`cell_from_mapping`), each a :class:`~dloplan.robot.described.DescribedCell`.
 :func:`verify_on_cell` verifies a plan's timed trajectory on such a cell (the arm assignment,
 the cell's placement search, :func:`~dloplan.robot.placement.search_cell_placement`, and the
-path check, :func:`~dloplan.robot.path.check_cell_path`) as the :class:`CellPlan` the vendor
+path check, :func:`~dloplan.robot.path.check_path`) as the :class:`CellPlan` the vendor
 writers are given.
 """
 
@@ -24,7 +24,7 @@ from .assignment import assign_arms
 from .chain import DEFAULT_TCP_IN_CLIP, CellArm, in_base_frame
 from .described import ARMS, MIN_MARGIN, DescribedCell
 from .description import load_arm, vendored
-from .path import CellVerdict, ReachOptions, check_cell_path
+from .path import PathCheck, ReachOptions, check_path
 from .placement import search_cell_placement
 from .yumi import yumi
 
@@ -118,7 +118,7 @@ class CellPlan:
         (K, 2, 3) TCP positions [m] in the world, offset applied.
     rotations : scipy.spatial.transform.Rotation
         (K * 2,) ``tcp_to_world``, pose-major (k, arm).
-    verdict : CellVerdict
+    verdict : PathCheck
         Its rows labelled by the plan's shapes.
     shapes : numpy.ndarray
         (K,) int, the plan's shape (trajectory knot) of each kept knot.
@@ -130,7 +130,7 @@ class CellPlan:
     times: np.ndarray
     positions: np.ndarray
     rotations: Rotation
-    verdict: CellVerdict
+    verdict: PathCheck
     shapes: np.ndarray
 
     def base_poses(self) -> tuple[np.ndarray, np.ndarray]:
@@ -163,7 +163,8 @@ def verify_on_cell(cell: DescribedCell, trajectory, *, tcp_in_clip: Rotation | N
     place : bool, optional
     options : ReachOptions, optional
     """
-    options = options if options is not None else ReachOptions(min_margin=cell.min_margin)
+    options = options if options is not None else ReachOptions.cell_program(
+        min_margin=cell.min_margin)
     times = np.asarray(trajectory.times, dtype=float)
     keep = np.concatenate([[True], np.diff(times) > 0])
     pos = np.asarray(trajectory.positions, dtype=float)[keep]
@@ -177,7 +178,7 @@ def verify_on_cell(cell: DescribedCell, trajectory, *, tcp_in_clip: Rotation | N
     if cell.place if place is None else place:
         offset, verdict = search_cell_placement(cell, pos, rot, options=options)
     else:
-        offset, verdict = np.zeros(3), check_cell_path(cell, pos, rot, options=options)
+        offset, verdict = np.zeros(3), check_path(cell, pos, rot, options=options)
     shapes = np.flatnonzero(keep)
     rows = tuple(replace(row, label=f"shape {shapes[row.shape]}", shape=int(shapes[row.shape]))
                  for row in verdict.rows)
