@@ -55,6 +55,24 @@ DAMPING = 3.0
 settle in about 2 s of simulated time)."""
 
 
+def remembered_hold(plant, shape: np.ndarray, clips, gravity, rest):
+    """``rest(shape, clips, gravity)`` once per shape, clips and gravity: the plant's answer
+    ``(points, ok, message)``, kept in ``plant._held``.
+
+    A plant here is deterministic (its start is the rest state it returned as ``shape``, or
+    ``shape`` placed anew), so a hold asked again from the same shape with the same clips is the
+    first answer: the closed loop drives the plant through the open loop's first shapes (up to
+    its checkpoint) again, and they are simulated once.
+    """
+    key = (np.asarray(shape, dtype=float).tobytes(),
+           np.asarray(clips.positions, dtype=float).tobytes(),
+           clips.rotations.as_quat().tobytes(), np.asarray(gravity, dtype=float).tobytes())
+    if key not in plant._held:
+        plant._held[key] = rest(shape, clips, gravity)
+    points, ok, message = plant._held[key]
+    return points.copy(), ok, message
+
+
 def _quat_wxyz(matrix: np.ndarray) -> np.ndarray:
     from scipy.spatial.transform import Rotation
 
@@ -124,6 +142,7 @@ class MujocoPlant(Plant):
     ramp: float = 0.5
     _sim: dict = field(default_factory=dict, init=False, repr=False)
     _states: dict = field(default_factory=dict, init=False, repr=False)
+    _held: dict = field(default_factory=dict, init=False, repr=False)
 
     def _build(self) -> None:
         import mujoco
@@ -239,7 +258,12 @@ class MujocoPlant(Plant):
 
     def hold(self, shape: np.ndarray, clips, gravity=GRAVITY, rtol: float = 0.0):
         """The rest state held by ``clips`` from the plant's current state (or ``shape`` the
-        first time): ``(points (n + 1, 3), ok, message)``."""
+        first time): ``(points (n + 1, 3), ok, message)`` (:func:`remembered_hold`)."""
+        return remembered_hold(self, shape, clips, gravity, self._rest)
+
+    def _rest(self, shape: np.ndarray, clips, gravity):
+        """:meth:`hold` simulated: the grippers ramped to ``clips``, then the damped dynamics
+        stepped until the cable is at rest (MuJoCo's gravity is the model's)."""
         import mujoco
 
         if not self._sim:
@@ -357,6 +381,7 @@ class DismechPlant(Plant):
     max_steps: int = 200
     _sim: dict = field(default_factory=dict, init=False, repr=False)
     _states: dict = field(default_factory=dict, init=False, repr=False)
+    _held: dict = field(default_factory=dict, init=False, repr=False)
 
     @property
     def resolution(self) -> float:
@@ -489,7 +514,11 @@ class DismechPlant(Plant):
     def hold(self, shape: np.ndarray, clips, gravity=GRAVITY, rtol: float = 0.0):
         """The rest state held by ``clips`` from the plant's state ``shape`` (a rest state this
         plant returned: continued from it, twist and frames included) or from the polyline
-        ``shape``: ``(points (n + 1, 3), ok, message)``."""
+        ``shape``: ``(points (n + 1, 3), ok, message)`` (:func:`remembered_hold`)."""
+        return remembered_hold(self, shape, clips, gravity, self._rest)
+
+    def _rest(self, shape: np.ndarray, clips, gravity):
+        """:meth:`hold` solved."""
         if not self._sim:
             self._build(gravity)
         if not np.allclose(self._sim["gravity"], gravity):

@@ -14,6 +14,7 @@ import ast
 from pathlib import Path
 
 import numpy as np
+import pytest
 import yaml
 
 from dloplan.app import read_plan
@@ -54,6 +55,10 @@ def test_plan_study_and_simulate_of_a_job_file_use_one_plan(tmp_path, monkeypatc
     planned = read_plan(tmp_path / "plan" / "plan.json")
     assert [r["kind"] for r in planned.repairs] == ["reach"]  # the case: a repaired plan
     assert planned.placement is not None and planned.placement.applied
+    # the cycle is the written motion's (a repair that tried a slowed program and then kept
+    # another, unslowed one once left the slowed cycle, 12.34 s, over an 8.20 s motion)
+    assert planned.cycle["motion_time"] == pytest.approx(planned.trajectory.duration,
+                                                         rel=1e-12)
     modules = sorted((tmp_path / "plan" / "rapid").glob("*.mod"))
     assert len(modules) == 2
     for module in modules:  # each says where the cable must lie

@@ -33,3 +33,14 @@ def test_bad_worker_count_is_refused(capsys):
         warmup.main(["--workers", "0"])
     assert exit_.value.code == 2
     assert "--workers: got 0, expected an integer >= 1" in capsys.readouterr().err
+
+
+def test_the_harness_exercise_is_a_harness_job_with_pegs_and_fixtures():
+    """The embedded harness job resolves (a schema change would otherwise show only as a FAILED
+    line of make's warm-up), with the contacts whose kernels it is there to compile."""
+    from dloplan.app.load import resolve_mapping
+    from dloplan.pipeline.job import HarnessJob
+
+    job = resolve_mapping(warmup.HARNESS, "warm-up harness")
+    assert isinstance(job, HarnessJob)
+    assert len(job.board.pegs) == 1 and len(job.board.fixtures) == 2

@@ -39,6 +39,14 @@ the machine code through ctypes, and a Ctrl-C raised in the middle of it (or swa
 its callbacks) left a half-linked library whose environment pointer numba then wrote through, a
 segmentation fault instead of exit 130 (1 in 20 Ctrl-Cs during ``dloplan identify``'s first
 equilibria). A load takes milliseconds; the signal is raised as soon as it is done.
+
+A kernel called from another kernel with a constant argument (``f(x, 3)``, ``g(x, True)``) is
+compiled for the constant's literal type (``Literal[int](3)``), so two calls with two constants
+compile two overloads of the callee where one would do (and the warm-up compiles both). Where
+the constant only selects an offset or a branch, the caller passes a typed value instead
+(``np.int64(3)``, ``np.bool_(True)``, ``bool(flag)``): one overload, the same arithmetic. Where
+the constant is a loop bound that numba should unroll (the banded Cholesky's widths in
+:mod:`dloplan.sim.newton`), the literal is kept on purpose.
 """
 
 from __future__ import annotations

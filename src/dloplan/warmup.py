@@ -108,6 +108,35 @@ def dynamics_with_torsion() -> None:
            settle_duration=0.05, scheme="explicit")
 
 
+HARNESS = {
+    "cable": {"name": "usb", "n_links": 10, "youngs_modulus": 2.5e6},
+    "start": {"kind": "straight",
+              "placement": {"position": [0.22, -0.25, 0.05], "rotation": {"euler": [0, 0, 90]}}},
+    "table": {"height": 0.0},
+    "planner": {"physical_mode": "equilibrium"},
+    "harness": {
+        "fixtures": [{"name": "right", "position": [0.50, -0.15, 0.0315],
+                      "axis": [-0.7071, 0.7071, 0], "slot_width": 0.008, "depth": 0.01},
+                     {"name": "left", "position": [0.50, 0.15, 0.0315],
+                      "axis": [-0.7071, -0.7071, 0], "slot_width": 0.008, "depth": 0.01}],
+        "pegs": [{"name": "peg", "base": [0.38, 0.0, 0.0], "radius": 0.012, "height": 0.06,
+                  "plate_height": 0.03, "plate_size": [0.08, 0.12], "side": [-1, 0, 0]}],
+        "n_shapes": [2, 2],
+        "tension": {"contact_force": 0.2, "max_axial_force": 5.0, "max_offset": 0.05}},
+}
+"""A small wire-harness job (the USB cable of ``examples/harness_usb.yaml`` on its board, two
+shapes per phase): its plan and verification are what compile the contact kernels."""
+
+
+def harness() -> None:
+    """``dloplan plan --verify`` of a harness job: the held equilibria against pegs and plates
+    (the compiled contact Newton loop) and the replay with contacts."""
+    from .app.load import resolve_mapping
+    from .pipeline.plan import make_plan
+
+    make_plan(resolve_mapping(HARNESS, "warm-up harness"), verify=True)
+
+
 def study() -> None:
     """A study chunk: the batched equilibria and the obstacle checks."""
     from .app.study import study_problem_of
@@ -128,6 +157,7 @@ EXERCISES = {
     "twist": twist,
     "plan --verify": plan_verify,
     "simulate --torsion": dynamics_with_torsion,
+    "harness": harness,
     "study": study,
     "described cell": described_cell,
 }
@@ -136,8 +166,8 @@ sets (the static solver and planner, about 55 % of the demo's compilation; the I
 torsion solver, 20 %): on two processes the first takes one while the other two follow each
 other on the second, so that when the demo's ``plan --verify`` starts it finds them cached and
 compiles only the replay's (implicit) stepping and the snap check's continuation; the last
-three add what the demo does not use (measured with numba's compile events:
-docs/performance.md)."""
+four add what the demo does not use (measured with numba's compile events:
+docs/performance.md), the harness's contact kernels among them."""
 
 
 def kernel_files(root: Path | None = None) -> int:

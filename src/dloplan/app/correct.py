@@ -37,9 +37,9 @@ from ..pipeline.document import PlanDocument, cycle_actions, cycle_to_dict, docu
 from ..pipeline.stages import (
     program_of,
     quiet,
-    retimed_cycle,
     verify_plan,
     with_program,
+    with_trajectory,
     with_verification,
 )
 from ..sim import equilibrium
@@ -122,11 +122,10 @@ def corrected_document(doc: PlanDocument, correction: Correction) -> PlanDocumen
     section = {**correction.report(), "measured": correction.measured.tolist(),
                "predicted": correction.corrected.tolist()}
     corrected = replace(
-        doc, cable=correction.cable, grippers=correction.grippers,
-        trajectory=correction.trajectory, warnings=(*doc.warnings, *correction.warnings),
-        stabilized=stabilized, clip_wrenches=None, verification=None, robot=None,
-        program=None, correction=section, repairs=(),
-        cycle=None if doc.cycle is None else retimed_cycle(doc.cycle, correction.trajectory))
+        with_trajectory(doc, correction.trajectory), cable=correction.cable,
+        grippers=correction.grippers, warnings=(*doc.warnings, *correction.warnings),
+        stabilized=stabilized, clip_wrenches=None, robot=None, program=None,
+        correction=section, repairs=())
     return with_program(corrected, _program(doc, correction.grippers, correction.trajectory))
 
 

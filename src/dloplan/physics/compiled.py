@@ -217,8 +217,9 @@ def chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, g
     """
     grad[:] = 0.0
     band[:] = 0.0
-    return (_axial_terms(x, k_s, rest_lengths, grad, band, True)
-            + _bending_terms(x, k_b, rest_angles, grad, band, True)
+    with_band = np.bool_(True)  # a bool, not Literal[bool](True): one overload (dloplan.jit)
+    return (_axial_terms(x, k_s, rest_lengths, grad, band, with_band)
+            + _bending_terms(x, k_b, rest_angles, grad, band, with_band)
             + _gravity_terms(x, masses, gravity, grad))
 
 
@@ -227,8 +228,9 @@ def chain_gradient(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, grad
     """Energy [J], and in place its gradient (n + 1, 3) [N] (gravity included)."""
     grad[:] = 0.0
     band = np.empty((0, 0))
-    return (_axial_terms(x, k_s, rest_lengths, grad, band, False)
-            + _bending_terms(x, k_b, rest_angles, grad, band, False)
+    with_band = np.bool_(False)
+    return (_axial_terms(x, k_s, rest_lengths, grad, band, with_band)
+            + _bending_terms(x, k_b, rest_angles, grad, band, with_band)
             + _gravity_terms(x, masses, gravity, grad))
 
 
@@ -238,8 +240,9 @@ def chain_term_gradients(x, k_s, rest_lengths, k_b, rest_angles, axial, bending)
     axial[:] = 0.0
     bending[:] = 0.0
     band = np.empty((0, 0))
-    _axial_terms(x, k_s, rest_lengths, axial, band, False)
-    _bending_terms(x, k_b, rest_angles, bending, band, False)
+    with_band = np.bool_(False)
+    _axial_terms(x, k_s, rest_lengths, axial, band, with_band)
+    _bending_terms(x, k_b, rest_angles, bending, band, with_band)
 
 
 @njit(cache=True)

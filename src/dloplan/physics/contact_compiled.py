@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ..jit import njit
 
 PLANE, CYLINDER, BOX = 0.0, 1.0, 2.0
@@ -62,13 +64,13 @@ def point_distance(x, y, z, row):
         rx, ry = (qx / rho, qy / rho) if rho > 0.0 else (1.0, 0.0)
         above = qz > 0.5 * row[5]
         phi, w0, w1, _ = _box_like(1.0, 1.0, 1.0, rho - row[4],
-                                   qz - row[5] if above else -qz, 0.0, 2)
+                                   qz - row[5] if above else -qz, 0.0, np.int64(2))
         return phi, w0 * rx, w0 * ry, w1 if above else -w1
     c, s = math.cos(row[7]), math.sin(row[7])
     qx, qy, qz = x - row[1], y - row[2], z - row[3]
     lx, ly = c * qx + s * qy, -s * qx + c * qy
     phi, n0, n1, n2 = _box_like(lx, ly, qz, abs(lx) - row[4], abs(ly) - row[5],
-                                abs(qz) - row[6], 3)
+                                abs(qz) - row[6], np.int64(3))  # int64 (dloplan.jit)
     return phi, c * n0 - s * n1, s * n0 + c * n1, n2
 
 

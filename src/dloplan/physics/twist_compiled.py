@@ -197,12 +197,13 @@ def _direction_local(ea, eb, m1a, m1b, bar, k_b, g, h, work):
     Hm1a[:] = 0.0
     Jm1b[:] = 0.0
     Hm1b[:] = 0.0
-    la = _unit(ea, 0, ta, Jta, Hta)
-    lb = _unit(eb, 3, tb, Jtb, Htb)
+    first, second = np.int64(0), np.int64(3)  # int64, not literals: one overload (dloplan.jit)
+    la = _unit(ea, first, ta, Jta, Hta)
+    lb = _unit(eb, second, tb, Jtb, Htb)
     m1av[:] = m1a
     m1bv[:] = m1b
-    _transported(ta, m1a, la, 0, Jm1a, Hm1a)
-    _transported(tb, m1b, lb, 3, Jm1b, Hm1b)
+    _transported(ta, m1a, la, first, Jm1a, Hm1a)
+    _transported(tb, m1b, lb, second, Jm1b, Hm1b)
     _cross2(ta, Jta, Hta, m1av, Jm1a, Hm1a, m2a, Jm2a, Hm2a)
     _cross2(tb, Jtb, Htb, m1bv, Jm1b, Hm1b, m2b, Jm2b, Hm2b)
     _cross2(ta, Jta, Hta, tb, Jtb, Htb, w, Jw, Hw)
@@ -218,8 +219,11 @@ def _direction_local(ea, eb, m1a, m1b, bar, k_b, g, h, work):
                 Hk[k, i, j] = (f0 * Hw[k, i, j] + f1 * (Jw[k, i] * gc[j] + gc[i] * Jw[k, j])
                                + f2 * w[k] * gc[i] * gc[j] + f1 * w[k] * hc[i, j])
     half = -0.5 * k_b
-    total = _link_pairing(kap, Jk, Hk, m1av, Jm1a, Hm1a, m2a, Jm2a, Hm2a, bar[0], 6, half, g, h)
-    total += _link_pairing(kap, Jk, Hk, m1bv, Jm1b, Hm1b, m2b, Jm2b, Hm2b, bar[1], 7, half, g, h)
+    th_a, th_b = np.int64(6), np.int64(7)
+    total = _link_pairing(kap, Jk, Hk, m1av, Jm1a, Hm1a, m2a, Jm2a, Hm2a, bar[0], th_a, half, g,
+                          h)
+    total += _link_pairing(kap, Jk, Hk, m1bv, Jm1b, Hm1b, m2b, Jm2b, Hm2b, bar[1], th_b, half, g,
+                           h)
     rest = bar[0, 0] ** 2 + bar[0, 1] ** 2
     return 0.5 * k_b * (rest - total)
 
@@ -353,7 +357,8 @@ def twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, wo
     kb = np.empty(3)
     tt = np.empty(3)
     d8 = np.empty(8)
-    if full:
+    hessian = bool(full)  # a bool even when ``full`` is a literal: one overload of the helpers
+    if hessian:
         blocks[:] = 0.0
     else:  # the angle entries alone: zeroing all 121 per stencil costs more than the rest
         for s in range(blocks.shape[0]):
@@ -377,8 +382,8 @@ def twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, wo
         u_twist += 0.5 * k_t * strain * strain
         g8[:] = 0.0
         h8[:] = 0.0
-        _twist_local(ta, tb, la, lb, strain, k_t, g8, h8, kb, tt, d8, full)
-        _stencil_map(g8, h8, g11, blocks[s], hm, full)
+        _twist_local(ta, tb, la, lb, strain, k_t, g8, h8, kb, tt, d8, hessian)
+        _stencil_map(g8, h8, g11, blocks[s], hm, hessian)
         _scatter(g11, s, twist_grad, angle_grad)
         if not directional:
             continue
@@ -386,7 +391,7 @@ def twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, wo
         h8[:] = 0.0
         u_direction += _direction_local(ea, eb, d1[s], d1[s + 1], rest_curvatures[s], k_b,
                                         g8, h8, work)
-        _stencil_map(g8, h8, g11, blocks[s], hm, full)
+        _stencil_map(g8, h8, g11, blocks[s], hm, hessian)
         _scatter(g11, s, direction_grad, angle_grad)
     return u_twist, u_direction
 

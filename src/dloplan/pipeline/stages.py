@@ -245,15 +245,22 @@ def retimed(doc: PlanDocument, speed: float | None = None,
     zone = float(np.max(old.zones)) if old.law is not None else 0.0
     trajectory = trajectory_from_grippers(doc.grippers, left_clip=old.arm_clips[0],
                                           limits=limits, zone=zone)
-    new = replace(doc, trajectory=trajectory, verification=None, robot=None, program=None,
+    new = replace(with_trajectory(doc, trajectory), robot=None, program=None,
                   warnings=tuple(w for w in doc.warnings
                                  if doc.robot is None or w != doc.robot.message))
-    if doc.cycle is not None:
-        new = replace(new, cycle=retimed_cycle(doc.cycle, trajectory))
     if doc.robot is None:
         return new
     return with_program(new, plan_program(document_cell(doc), doc.grippers,
                                           trajectory))
+
+
+def with_trajectory(doc: PlanDocument, trajectory) -> PlanDocument:
+    """The document with another ``trajectory`` of its knots: its cycle section timed again
+    to it (the same gripper actions, :func:`retimed_cycle`), its verification cleared. Every
+    change of a document's trajectory goes through here, so that the cycle it reports is the
+    motion it carries."""
+    cycle = None if doc.cycle is None else retimed_cycle(doc.cycle, trajectory)
+    return replace(doc, trajectory=trajectory, cycle=cycle, verification=None)
 
 
 def retimed_cycle(cycle: dict, trajectory) -> dict:
@@ -326,13 +333,10 @@ def with_program(doc: PlanDocument, program) -> PlanDocument:
         placement = PlacementSection(True, 0.0, np.zeros(3), shift, (
             f"the job file's start and target offset {format_offset(shift)} m (the "
             f"{cell_name(program.cell)} cell's placement search)"))
-    timing = {}
     if program.trajectory is not None and program.trajectory is not doc.trajectory:
-        timing = {"trajectory": program.trajectory, "verification": None,
-                  "cycle": None if doc.cycle is None else retimed_cycle(doc.cycle,
-                                                                        program.trajectory)}
+        doc = with_trajectory(doc, program.trajectory)
     return replace(doc, robot=section, program=program, warnings=doc.warnings + failures,
-                   placement=placement, **timing)
+                   placement=placement)
 
 
 def program_of(doc: PlanDocument):

@@ -73,6 +73,7 @@ from .collision import arm_clearance
 from .confdata import confdata
 from .kinematics import forward, solve_from
 from .motion import JointMotion
+from .path import TURN_Z
 from .peaks import motion_peaks
 from .program_core import ProgramCore, slowed, speed_rows
 from .replay import replay_moves
@@ -96,7 +97,6 @@ CHECKS = ("assignment", "reach", "round trip", "joint limits", "clearance", "con
 MAX_TRIES = 2
 """Joint solutions (best ranked first) replayed before the program settles for the first."""
 
-_TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
 
 
 @dataclass(frozen=True, eq=False)
@@ -371,7 +371,7 @@ def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment,
     tcp_in = np.stack([tool.tcp_in_clip.as_matrix() for tool in cell.tools])
     grips = [clip_rot @ tcp_in]
     if opts.symmetric_grip:
-        grips.append(grips[0] @ _TURN_Z)
+        grips.append(grips[0] @ TURN_Z)
     # targets: approach, shapes, retreat (TCP z is the same for both grips)
     approach = cell.approach > 0
     pos = clip_pos

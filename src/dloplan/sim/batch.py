@@ -126,9 +126,11 @@ def _held_item(x, guess, k_s, rest_lengths, k_b, rest_angles, masses, gravity, p
     if roundoff > 0.0:
         tolerance = max(tolerance, roundoff * (length + np.max(np.abs(x))) * stiff)
     history[0] = chain_energy(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity)
+    # typed, not literal, constants: the overload `equilibrium` compiles (dloplan.jit)
     outcome, iterations, residual, _, _ = newton_positions(
-        x, 2, n_points - 2, k_s, rest_lengths, k_b, rest_angles, masses, gravity, length,
-        tolerance, max_iterations, 0, 0.25 * length, history, 1, grad, band, True, stiff_axial)
+        x, np.int64(2), n_points - 2, k_s, rest_lengths, k_b, rest_angles, masses, gravity,
+        length, tolerance, max_iterations, np.int64(0), 0.25 * length, history, np.int64(1),
+        grad, band, np.bool_(True), stiff_axial)
     return (HANDED_BACK if outcome == SADDLE else outcome), iterations, residual, tolerance
 
 

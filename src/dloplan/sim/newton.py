@@ -180,7 +180,7 @@ def cholesky_band(band, shift, factor):
             factor[i, j] = band[i, j]
         factor[0, j] += shift
     bulk = max(n - w, 0)
-    if not _bulk(FACTOR, factor, factor[0], bulk):
+    if not _bulk(np.int64(FACTOR), factor, factor[0], bulk):  # int64: one overload per width
         return False
     for j in range(bulk, n):  # the last columns, with fewer entries below the diagonal
         if not _eliminate(factor, j, n - 1 - j):
@@ -193,12 +193,12 @@ def cholesky_solve(factor, rhs):
     """Solve L L^T y = rhs in place with a factor of :func:`cholesky_band`."""
     n = factor.shape[1]
     bulk = max(n - factor.shape[0] + 1, 0)
-    _bulk(FORWARD, factor, rhs, bulk)
+    _bulk(np.int64(FORWARD), factor, rhs, bulk)
     for j in range(bulk, n):  # L z = rhs
         _substitute(factor, rhs, j, n - 1 - j)
     for j in range(n - 1, bulk - 1, -1):  # L^T y = z
         _back_substitute(factor, rhs, j, n - 1 - j)
-    _bulk(BACKWARD, factor, rhs, bulk)
+    _bulk(np.int64(BACKWARD), factor, rhs, bulk)
 
 
 def lowest_mode(band: np.ndarray) -> np.ndarray:

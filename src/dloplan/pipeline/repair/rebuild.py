@@ -24,6 +24,7 @@ from ..stages import (
     quiet,
     timed_trajectory,
     with_program,
+    with_trajectory,
 )
 
 
@@ -52,8 +53,7 @@ def slowed(job, factor: float):
 def timed(job, doc):
     """``doc`` with its trajectory timed again under ``job``'s motion settings
     (:func:`dloplan.pipeline.stages.timed_trajectory`)."""
-    trajectory = timed_trajectory(doc.grippers, job.motion, job.robot)
-    return replace(doc, trajectory=trajectory, verification=None)
+    return with_trajectory(doc, timed_trajectory(doc.grippers, job.motion, job.robot))
 
 
 def timed_with_robot(job, doc, progress=quiet, always=False):
@@ -122,9 +122,8 @@ def with_grippers(job, doc, grippers, shapes=None, stabilized=None, progress=qui
     if not twist.success:
         warnings.append(f"twist: {twist.message}")
     trajectory = timed_trajectory(grippers, job.motion, job.robot)
-    new = replace(doc, shapes=shapes, stabilized=stabilized, grippers=grippers,
-                  trajectory=trajectory, warnings=tuple(warnings), verification=None,
-                  robot=None, program=None,
+    new = replace(with_trajectory(doc, trajectory), shapes=shapes, stabilized=stabilized,
+                  grippers=grippers, warnings=tuple(warnings), robot=None, program=None,
                   clip_wrenches=wrenches,
                   twist=TwistSection(twist.twist, twist.relative_twist, twist.twist_energy,
                                      grippers.twist, twist.message))
