@@ -10,6 +10,7 @@ example test); the refusal, the replay repair and the CLI use a soft, coarse cab
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +29,7 @@ from dloplan.pipeline.repair.loop import attempts
 from dloplan.pipeline.repair.placement import (
     TableMove,
     moved_document,
+    moved_grippers,
     moved_job,
     translated_document,
 )
@@ -286,6 +288,77 @@ def test_grasp_roll_lifts_the_wrists_and_mirrors():
         _, plain = grasp_rolled(path, job.robot, towards_robot=towards_robot)
         _, mirrored = grasp_rolled(flipped, job.robot, towards_robot=towards_robot)
         assert np.allclose(np.abs(mirrored), np.abs(plain), atol=1e-12)
+
+
+def test_grasp_scores_in_one_batch_equal_one_roll_at_a_time():
+    """The grasp scores of every roll, computed as one batch of rotations per clip, are bit for
+    bit those of the definition evaluated one roll at a time (the clip's frames composed with
+    the roll, the wrist direction's height plus AWAY_WEIGHT times its horizontal parts away from
+    the other clip and towards the robot, the smallest over the shapes): the rolls the reach
+    repair chooses do not depend on how the scores are computed. Checked on the straight-to-U
+    frames, turned about the vertical and not, with both scores."""
+    from dloplan.grippers import gripper_path
+    from dloplan.pipeline.repair.frames import AWAY_WEIGHT, GRASP_ROLLS, grasp_scores
+
+    job = resolve_mapping(STRAIGHT_TO_U, "straight to U")
+    wrist = -job.robot.tools[0].tcp_in_clip.apply([0.0, 0.0, 1.0])
+    shapes = resolve_mapping(STRAIGHT_TO_U, "U").target[None].repeat(3, axis=0)
+    shapes[0] = job.start
+    shapes[1] = 0.5 * (shapes[0] + shapes[2])
+    for yaw in (0.0, 0.7):
+        turned = shapes @ Rotation.from_euler("z", yaw).as_matrix().T
+        path = gripper_path(turned, method="minimal", cable=job.cable)
+        for towards_robot in (True, False):
+            expected = np.empty((2, len(GRASP_ROLLS)))
+            for c in range(2):
+                here, other = path.positions[:, c], path.positions[:, 1 - c]
+                for i, roll in enumerate(GRASP_ROLLS):
+                    w = (path.rotations[c] * Rotation.from_rotvec([roll, 0.0, 0.0])).apply(wrist)
+                    score = w[:, 2]
+                    aims = [here - other] + ([job.robot.base_position - here]
+                                             if towards_robot else [])
+                    for aim in aims:
+                        aim = aim * [1.0, 1.0, 0.0]
+                        aim /= np.maximum(np.linalg.norm(aim, axis=1, keepdims=True), 1e-12)
+                        score = score + AWAY_WEIGHT * np.sum(w * aim, axis=1)
+                    expected[c, i] = np.min(score)
+            assert np.array_equal(grasp_scores(path, job.robot, towards_robot=towards_robot),
+                                  expected)
+
+
+def test_rolled_twists_are_solved_once_and_shared_by_turns():
+    """The reach repair's twist memo (RolledTwists): a frame set rolled by given rolls is solved
+    once; asked again for the same set turned about the vertical (gravity unchanged) it gives
+    the same report, which equals a solve of the turned frames to the solver's round-off
+    (1e-9 rad and J: the turn moves every coordinate, the solve's tolerance is far below);
+    other rolls, or another frame set, are solved anew and equal their own solve exactly."""
+    from dloplan.grippers import gripper_path
+    from dloplan.pipeline.repair.frames import RolledTwists, twist_of
+
+    job = resolve_mapping(STRAIGHT_TO_U, "straight to U")
+    shapes = resolve_mapping(STRAIGHT_TO_U, "U").target[None].repeat(3, axis=0)
+    shapes[0] = job.start
+    shapes[1] = 0.5 * (shapes[0] + shapes[2])
+    path = gripper_path(shapes, method="rigid", cable=job.cable)
+    rolled, rolls = grasp_rolled(path, job.robot, towards_robot=False)
+    assert rolls.all()
+    turn = TableMove(yaw=np.radians(30.0), pivot=np.array([0.3, -0.1, 0.0]))
+    turned_shapes = turn.points(shapes)
+    twists = RolledTwists(job.cable)
+    first = twists(0, rolls, shapes, rolled)
+    again = twists(0, rolls, turned_shapes, moved_grippers(rolled, turn))
+    assert again is first and len(twists.reports) == 1
+    solved = twist_of(job.cable, turned_shapes, moved_grippers(rolled, turn))
+    for name in ("twist", "relative_twist", "twist_energy"):
+        assert np.allclose(getattr(first, name), getattr(solved, name), rtol=0, atol=1e-9)
+    assert np.array_equal(first.twist, twist_of(job.cable, shapes, rolled).twist)
+    other_rolls = rolls + np.radians([5.0, 0.0])
+    other = twists(0, other_rolls, shapes, replace(rolled, rotations=(
+        rolled.rotations[0] * Rotation.from_rotvec([np.radians(5.0), 0.0, 0.0]),
+        rolled.rotations[1])))
+    assert other is not first and len(twists.reports) == 2
+    assert not np.allclose(other.twist, first.twist)
+    assert twists(1, rolls, shapes, path) is not first and len(twists.reports) == 3
 
 
 def test_a_replay_that_strays_at_speed_is_repaired_by_slowing_down():

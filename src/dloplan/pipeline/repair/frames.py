@@ -28,7 +28,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ...grippers.path import GripperPath, relative_twist
-from ...sim.torsion import twist_along_path
+from ...sim.torsion import TwistReport, twist_along_path
 
 ROLL_STEPS = 4
 """Fixed-point steps of :func:`untwisted`."""
@@ -39,7 +39,7 @@ put the wrist under the clip)."""
 
 AWAY_WEIGHT = 0.5
 """Weight of the wrist direction's horizontal components, away from the other clip and towards
-the robot, against its height in :func:`grasp_score` (the table is below: height comes
+the robot, against its height in :func:`grasp_scores` (the table is below: height comes
 first)."""
 
 
@@ -93,42 +93,98 @@ def untwisted(cable, shapes: np.ndarray, grippers: GripperPath,
 
 
 def _twist(cable, shapes, grippers) -> np.ndarray:
+    return twist_of(cable, shapes, grippers).twist
+
+
+def twist_of(cable, shapes: np.ndarray, grippers: GripperPath) -> TwistReport:
+    """The torsion model's solve along the path: every shape (S + 2, n + 1, 3) [m] stabilized
+    with torsion under the frames of ``grippers`` (:func:`dloplan.sim.torsion.twist_along_path`,
+    as :func:`dloplan.pipeline.stages.plan_twist`)."""
     poses = [grippers.clip_poses(k) for k in range(len(shapes))]
-    return twist_along_path(cable, shapes, poses).twist
+    return twist_along_path(cable, shapes, poses)
 
 
-def grasp_score(rotations: Rotation, positions: np.ndarray, other: np.ndarray,
-                wrist_in_clip: np.ndarray, base: np.ndarray | None) -> float:
-    """How well a clip's gripper is placed along a path: the smallest, over the shapes, of the
-    wrist direction's height plus :data:`AWAY_WEIGHT` times its horizontal components away from
-    the other clip and towards the robot (the arm comes from its base: a wrist on the far side
-    of the clip makes the arm reach around it).
+class RolledTwists:
+    """The torsion model's twist of frame sets rolled by grasp rolls, each solved once.
+
+    The reach repair tries every frame set of the plan, as it is and with its grasps rolled
+    (:func:`grasp_rolled`), at every turn of the job about the vertical
+    (:data:`~.placement.YAWS`). A turn about the vertical moves the shapes and the frames
+    rigidly and leaves gravity as it is, so the solve's twist, relative twist and twist energy
+    (scalars per shape) do not change with it: the report of a frame set rolled by given rolls
+    is solved at the first turn that asks for it and given again at the others (equal to a
+    solve of the turned frames to the solver's round-off, tests/test_repair.py).
 
     Parameters
     ----------
-    rotations : scipy.spatial.transform.Rotation
-        (K,) the clip's frames (clip to world).
-    positions, other : numpy.ndarray
-        (K, 3) this clip's and the other clip's points [m].
-    wrist_in_clip : numpy.ndarray
-        (3,) unit direction from the clip point to the wrist, in the clip frame (minus the
-        TCP z-axis).
-    base : numpy.ndarray or None
-        (3,) the robot's base position [m]; None leaves the "towards the robot" term out.
+    cable : Cable
+        The cable (the same for every frame set).
     """
-    wrist = rotations.apply(wrist_in_clip)
-    score = wrist[:, 2]
-    for towards in (positions - other, *(() if base is None else (base - positions,))):
-        towards = towards * [1.0, 1.0, 0.0]
-        towards /= np.maximum(np.linalg.norm(towards, axis=1, keepdims=True), 1e-12)
-        score = score + AWAY_WEIGHT * np.sum(wrist * towards, axis=1)
-    return float(np.min(score))
+
+    def __init__(self, cable) -> None:
+        self.cable = cable
+        self.reports: dict[tuple, TwistReport] = {}
+
+    def __call__(self, base, rolls: np.ndarray, shapes: np.ndarray,
+                 grippers: GripperPath) -> TwistReport:
+        """The report of ``grippers`` on ``shapes``: the frame set ``base`` (any hashable
+        name of the unrolled frames, e.g. their index) rolled by ``rolls`` (2,) [rad], turned
+        or not; solved (:func:`twist_of`) the first time the pair is asked for."""
+        key = (base, *(float(r) for r in rolls))
+        if key not in self.reports:
+            self.reports[key] = twist_of(self.cable, shapes, grippers)
+        return self.reports[key]
+
+
+def grasp_scores(grippers: GripperPath, cell, *, towards_robot: bool = True) -> np.ndarray:
+    """How well each clip's gripper is placed along the path, for each grasp roll of
+    :data:`GRASP_ROLLS`: the smallest, over the shapes, of the wrist direction's height plus
+    :data:`AWAY_WEIGHT` times its horizontal components away from the other clip and towards
+    the robot (the arm comes from its base: a wrist on the far side of the clip makes the arm
+    reach around it).
+
+    The wrist direction is minus the TCP z-axis (``cell.tools[0].tcp_in_clip``) in the clip's
+    frame rolled about its u-axis by the roll. All rolls and shapes of a clip are one batch of
+    rotations: element by element the same arithmetic as one roll at a time.
+
+    Parameters
+    ----------
+    grippers : GripperPath
+        The plan's frames (any method), K shapes.
+    cell : RobotCell
+        The robot cell: its base position and its tools' ``tcp_in_clip``.
+    towards_robot : bool
+        Score the wrist towards the robot's base too (:func:`grasp_rolled`); False leaves that
+        term out.
+
+    Returns
+    -------
+    numpy.ndarray
+        (2, len(GRASP_ROLLS)) the scores, clip by clip.
+    """
+    wrist_in_clip = -cell.tools[0].tcp_in_clip.apply([0.0, 0.0, 1.0])
+    base = np.asarray(cell.base_position, dtype=float) if towards_robot else None
+    pos = grippers.positions
+    k, a = len(pos), len(GRASP_ROLLS)
+    rolls = Rotation.from_rotvec(np.outer(GRASP_ROLLS, [1.0, 0.0, 0.0]))[np.repeat(range(a), k)]
+    scores = np.empty((2, a))
+    for c in range(2):
+        frames = grippers.rotations[c][np.tile(range(k), a)]
+        wrist = (frames * rolls).apply(wrist_in_clip).reshape(a, k, 3)  # (rolls, shapes, 3)
+        score = wrist[..., 2]
+        for towards in (pos[:, c] - pos[:, 1 - c], *(() if base is None else (base - pos[:, c],))):
+            towards = towards * [1.0, 1.0, 0.0]
+            towards /= np.maximum(np.linalg.norm(towards, axis=1, keepdims=True), 1e-12)
+            score = score + AWAY_WEIGHT * np.sum(wrist * towards, axis=2)
+        scores[c] = np.min(score, axis=1)
+    return scores
 
 
 def grasp_rolled(grippers: GripperPath, cell, *, towards_robot: bool = True,
-                 paired: bool = False) -> tuple[GripperPath, np.ndarray]:
+                 paired: bool = False, scores: np.ndarray | None = None,
+                 ) -> tuple[GripperPath, np.ndarray]:
     """The gripper frames with each clip rolled about its u-axis by the grasp roll of
-    :data:`GRASP_ROLLS` that maximizes :func:`grasp_score` (module docstring).
+    :data:`GRASP_ROLLS` that maximizes its score (:func:`grasp_scores`, module docstring).
 
     Parameters
     ----------
@@ -145,21 +201,21 @@ def grasp_rolled(grippers: GripperPath, cell, *, towards_robot: bool = True,
         the two clips' scores: the cable turned about its own axis at both ends alike, which
         leaves the torsion model's twist as it is (both u-axes point into the cable; rolls of
         the same sign would twist it by their sum). Frames already untwisted stay untwisted.
+    scores : numpy.ndarray, optional
+        (2, len(GRASP_ROLLS)) :func:`grasp_scores` of ``grippers``, ``cell`` and
+        ``towards_robot`` when already computed (the paired and the per-clip choice read the
+        same scores); computed when None.
 
     Returns
     -------
     grippers : GripperPath
         Same positions and u-axes, each clip's frames rolled by its grasp roll (the frames'
-        relative twist computed again).
+        relative twist computed again); ``grippers`` itself when neither clip is rolled.
     rolls : numpy.ndarray
         (2,) the grasp roll of each clip [rad] (0 when the plan's own grasp scores best).
     """
-    wrist_in_clip = -cell.tools[0].tcp_in_clip.apply([0.0, 0.0, 1.0])
-    base = np.asarray(cell.base_position, dtype=float) if towards_robot else None
-    pos = grippers.positions
-    scores = np.array([[grasp_score(grippers.rotations[c] * Rotation.from_rotvec([a, 0.0, 0.0]),
-                                    pos[:, c], pos[:, 1 - c], wrist_in_clip, base)
-                        for a in GRASP_ROLLS] for c in range(2)])  # (2, rolls)
+    if scores is None:
+        scores = grasp_scores(grippers, cell, towards_robot=towards_robot)
     plain = int(np.argmin(np.abs(GRASP_ROLLS)))  # the roll 0: the plan's own grasp
     rolls = np.zeros(2)
     if paired:  # the last clip's scores at -r: GRASP_ROLLS is symmetric about 0
@@ -172,6 +228,8 @@ def grasp_rolled(grippers: GripperPath, cell, *, towards_robot: bool = True,
             best = int(np.argmax(scores[c]))
             if scores[c, best] > scores[c, plain]:
                 rolls[c] = GRASP_ROLLS[best]
+    if not rolls.any():
+        return grippers, rolls
     first, last = (r * Rotation.from_rotvec([a, 0.0, 0.0])
                    for r, a in zip(grippers.rotations, rolls, strict=True))
     rolled = with_rotations(grippers, first, last, f"grasps rolled by "

@@ -70,7 +70,7 @@ from ...sim.statics import interpolate_clips
 from ...verify import check_snap_through
 from ..stages import quiet, run_job, verify_plan, with_verification
 from .failures import KINDS, diagnose, frame_steps, score, summary, twist_failures
-from .frames import SHARES, grasp_rolled, untwisted
+from .frames import SHARES, RolledTwists, grasp_rolled, grasp_scores, untwisted
 from .placement import (
     SEARCHES,
     YAWS,
@@ -81,7 +81,15 @@ from .placement import (
     placements,
     targets_reached,
 )
-from .rebuild import slowed, timed_with_robot, with_grippers, with_motion, with_path, with_robot
+from .rebuild import (
+    slowed,
+    stabilized_wrenches,
+    timed_with_robot,
+    with_grippers,
+    with_motion,
+    with_path,
+    with_robot,
+)
 from .routes import MAX_TURN, equilibria_along, follow_branch, route_segment, routes
 
 GRIPPER_METHODS = ("rigid", "minimal", "auxiliary")
@@ -565,31 +573,38 @@ class _Session:
         ``pivot`` and every set of gripper frames, made on demand: the plan's, its grasps rolled
         for the turned place (:func:`~.frames.grasp_rolled`), then the other
         gripper methods' (and theirs rolled) -- those that do not twist the cable and differ
-        from the earlier ones."""
+        from the earlier ones.
+
+        What a frame set costs is paid only for those tried: a rolled set is compared with the
+        earlier ones before its document is made, the rolled sets of one place share their
+        clip wrenches (the same shapes), and the torsion model's solve of a set rolled by the
+        same rolls is shared by every turn (:class:`~.frames.RolledTwists`)."""
         untwisted = [(j, d) for j, d in self.untwisted if np.array_equal(d.shapes, doc.shapes)]
         if untwisted:  # the twist repair's other frame sets (the other methods twist)
             bases = _Made([(job, doc), *untwisted])
         else:
             others = [m for m in GRIPPER_METHODS if m != doc.grippers.method]
             bases = _Made(self.method_frames(job, doc, others, tried))
+        twists = RolledTwists(job.cable)  # the same at every turn
         for yaw in YAWS:
             turn = TableMove(yaw=yaw, pivot=pivot)
             kept = []
-            for other, new in bases:
+            for base, (other, new) in enumerate(bases):
                 if yaw:
                     other = moved_job(other, turn)
                     new = moved_document(other, new, turn, program=False)
-                candidates = [new]
-                for paired in (False, True):
-                    for towards_robot in (True, False):
-                        rolled, rolls = grasp_rolled(new.grippers, other.robot,
-                                                     towards_robot=towards_robot, paired=paired)
-                        if rolls.any():
-                            candidates.append(with_grippers(other, new, rolled, program=False))
-                for candidate in candidates:
-                    if any(_same_frames(candidate, made) for made in kept):
+                wrenches = None  # the rolled frames hold the same shapes: one set of wrenches
+                for frames, rolls in _grasps(new.grippers, other.robot):
+                    if any(_same_frames(frames, made) for made in kept):
                         continue  # e.g. rigid = minimal rotation for a planar bend
-                    kept.append(candidate)
+                    kept.append(frames)
+                    candidate = new
+                    if rolls is not None:
+                        if wrenches is None:
+                            wrenches = stabilized_wrenches(other.cable, new.stabilized)
+                        candidate = with_grippers(other, new, frames, program=False,
+                                                  twist=twists(base, rolls, new.shapes, frames),
+                                                  wrenches=wrenches)
                     left = twist_failures(candidate)
                     if left and candidate is not doc:
                         tried.append(f"{candidate.grippers.message}: {summary(left)}")
@@ -614,10 +629,26 @@ def _frames_name(doc) -> str:
     return f"{doc.grippers.method} frames{rolled}"
 
 
+def _grasps(grippers, cell):
+    """(frames, rolls) for ``grippers`` as they are (rolls None), then with their grasps rolled
+    (:func:`~.frames.grasp_rolled`, per clip then paired, towards the robot then not) where a
+    roll helps; made on demand, each table of scores once."""
+    yield grippers, None
+    scores = {}
+    for paired in (False, True):
+        for towards_robot in (True, False):
+            if towards_robot not in scores:
+                scores[towards_robot] = grasp_scores(grippers, cell, towards_robot=towards_robot)
+            frames, rolls = grasp_rolled(grippers, cell, towards_robot=towards_robot,
+                                         paired=paired, scores=scores[towards_robot])
+            if rolls.any():
+                yield frames, rolls
+
+
 def _same_frames(a, b, tolerance: float = 1e-6) -> bool:
-    """Two documents whose clip frames agree to ``tolerance`` [rad]."""
+    """Two gripper paths whose clip frames agree to ``tolerance`` [rad]."""
     return all(np.max((p * q.inv()).magnitude()) < tolerance
-               for p, q in zip(a.grippers.rotations, b.grippers.rotations, strict=True))
+               for p, q in zip(a.rotations, b.rotations, strict=True))
 
 
 class _Made:

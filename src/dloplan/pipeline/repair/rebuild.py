@@ -100,13 +100,21 @@ def with_motion(job, doc, shapes=None, stabilized=None, progress=quiet, program=
 
 
 def with_grippers(job, doc, grippers, shapes=None, stabilized=None, progress=quiet,
-                  program=None):
+                  program=None, twist=None, wrenches=None):
     """``doc`` with the gripper frames ``grippers`` of ``shapes`` (default its own), its
     trajectory timed again, the twist computed again, the motion's warnings replaced; its robot
-    program made again when ``program`` (default: when ``doc`` had one)."""
+    program made again when ``program`` (default: when ``doc`` had one).
+
+    ``twist`` (a :class:`~dloplan.sim.torsion.TwistReport`) and ``wrenches`` ((S + 2, 2, 6)
+    clip wrenches of ``stabilized``) are used as given when the caller already has them (the
+    reach repair's frame sets: the same shapes under several frames, the same frames turned
+    about the vertical); both are computed when None."""
     shapes = doc.shapes if shapes is None else np.asarray(shapes, dtype=float)
     stabilized = doc.stabilized if stabilized is None else np.asarray(stabilized, dtype=float)
-    twist = plan_twist(job.cable, shapes, grippers, progress)
+    if twist is None:
+        twist = plan_twist(job.cable, shapes, grippers, progress)
+    if wrenches is None:
+        wrenches = stabilized_wrenches(job.cable, stabilized)
     warnings = [w for w in doc.warnings if w not in motion_warnings(doc)]
     warnings += list(grippers.warnings)
     if not grippers.success:
@@ -116,13 +124,19 @@ def with_grippers(job, doc, grippers, shapes=None, stabilized=None, progress=qui
     trajectory = timed_trajectory(grippers, job.motion, job.robot)
     new = replace(with_trajectory(doc, trajectory), shapes=shapes, stabilized=stabilized,
                   grippers=grippers, warnings=tuple(warnings), robot=None, program=None,
-                  clip_wrenches=np.stack([clip_wrenches(job.cable, s) for s in stabilized]),
+                  clip_wrenches=wrenches,
                   twist=TwistSection(twist.twist, twist.relative_twist, twist.twist_energy,
                                      grippers.twist, twist.message))
     if program is None:
         program = doc.robot is not None or doc.program is not None
     return with_program(new, plan_program(job.robot, grippers, trajectory, progress)) \
         if program else new
+
+
+def stabilized_wrenches(cable, stabilized: np.ndarray) -> np.ndarray:
+    """The clip wrenches (:func:`dloplan.sim.statics.clip_wrenches`) of every stabilized shape
+    (S + 2, n + 1, 3) [m]: (S + 2, 2, 6) [N, N m]."""
+    return np.stack([clip_wrenches(cable, s) for s in stabilized])
 
 
 def with_path(job, doc, shapes: np.ndarray, progress=quiet):
