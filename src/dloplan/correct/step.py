@@ -1105,8 +1105,8 @@ def _gain_at_clamp_bounds(open_loop: np.ndarray, corrected: np.ndarray, referenc
     measurement at K constrains them jointly, which the marginal sds leave out.)
     """
     def gain_at(shift):
-        return (float(np.mean(np.linalg.norm(open_loop + shift - reference, axis=1)))
-                - float(np.mean(np.linalg.norm(corrected + shift - reference, axis=1))))
+        return float(_mean_distance(open_loop + shift, reference)
+                     - _mean_distance(corrected + shift, reference))
 
     bound = significance * _parameter_sds(update)["grip"]
     return min((gain_at(sign * bound * directions["grip"]), f"{sign * significance:+g} sd")
