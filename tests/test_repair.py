@@ -333,7 +333,8 @@ def test_rolled_twists_are_solved_once_and_shared_by_turns():
     (1e-9 rad and J: the turn moves every coordinate, the solve's tolerance is far below);
     other rolls, or another frame set, are solved anew and equal their own solve exactly."""
     from dloplan.grippers import gripper_path
-    from dloplan.pipeline.repair.frames import RolledTwists, twist_of
+    from dloplan.pipeline.repair.frames import RolledTwists
+    from dloplan.pipeline.stages import plan_twist
 
     job = resolve_mapping(STRAIGHT_TO_U, "straight to U")
     shapes = resolve_mapping(STRAIGHT_TO_U, "U").target[None].repeat(3, axis=0)
@@ -348,10 +349,10 @@ def test_rolled_twists_are_solved_once_and_shared_by_turns():
     first = twists(0, rolls, shapes, rolled)
     again = twists(0, rolls, turned_shapes, moved_grippers(rolled, turn))
     assert again is first and len(twists.reports) == 1
-    solved = twist_of(job.cable, turned_shapes, moved_grippers(rolled, turn))
+    solved = plan_twist(job.cable, turned_shapes, moved_grippers(rolled, turn))
     for name in ("twist", "relative_twist", "twist_energy"):
         assert np.allclose(getattr(first, name), getattr(solved, name), rtol=0, atol=1e-9)
-    assert np.array_equal(first.twist, twist_of(job.cable, shapes, rolled).twist)
+    assert np.array_equal(first.twist, plan_twist(job.cable, shapes, rolled).twist)
     other_rolls = rolls + np.radians([5.0, 0.0])
     other = twists(0, other_rolls, shapes, replace(rolled, rotations=(
         rolled.rotations[0] * Rotation.from_rotvec([np.radians(5.0), 0.0, 0.0]),

@@ -28,7 +28,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ...grippers.path import GripperPath, relative_twist
-from ...sim.torsion import TwistReport, twist_along_path
+from ...sim.torsion import TwistReport
+from ..stages import plan_twist
 
 ROLL_STEPS = 4
 """Fixed-point steps of :func:`untwisted`."""
@@ -93,15 +94,7 @@ def untwisted(cable, shapes: np.ndarray, grippers: GripperPath,
 
 
 def _twist(cable, shapes, grippers) -> np.ndarray:
-    return twist_of(cable, shapes, grippers).twist
-
-
-def twist_of(cable, shapes: np.ndarray, grippers: GripperPath) -> TwistReport:
-    """The torsion model's solve along the path: every shape (S + 2, n + 1, 3) [m] stabilized
-    with torsion under the frames of ``grippers`` (:func:`dloplan.sim.torsion.twist_along_path`,
-    as :func:`dloplan.pipeline.stages.plan_twist`)."""
-    poses = [grippers.clip_poses(k) for k in range(len(shapes))]
-    return twist_along_path(cable, shapes, poses)
+    return plan_twist(cable, shapes, grippers).twist
 
 
 class RolledTwists:
@@ -129,10 +122,11 @@ class RolledTwists:
                  grippers: GripperPath) -> TwistReport:
         """The report of ``grippers`` on ``shapes``: the frame set ``base`` (any hashable
         name of the unrolled frames, e.g. their index) rolled by ``rolls`` (2,) [rad], turned
-        or not; solved (:func:`twist_of`) the first time the pair is asked for."""
+        or not; solved (:func:`~dloplan.pipeline.stages.plan_twist`) the first time the pair
+        is asked for."""
         key = (base, *(float(r) for r in rolls))
         if key not in self.reports:
-            self.reports[key] = twist_of(self.cable, shapes, grippers)
+            self.reports[key] = plan_twist(self.cable, shapes, grippers)
         return self.reports[key]
 
 
