@@ -469,10 +469,10 @@ def _solve(arm, position, target_rot, seed, opts: IKOptions,
     """
     redundant = arm.n_joints > 6 and arm_angle is None
     polish = opts.polish if opts.min_margin > 0 and redundant else 0
-    q, perr, aerr, it, ok = ik_compiled.solve(
-        *_compiled_chain(arm), np.asarray(position, dtype=float),
+    q, perr, aerr, it, ok = ik_compiled.solve(  # contiguous: one compiled overload
+        *_compiled_chain(arm), np.ascontiguousarray(position, dtype=float),
         np.ascontiguousarray(target_rot, dtype=float),
-        np.asarray(seed, dtype=float), arm_angle is not None,
+        np.ascontiguousarray(seed, dtype=float), arm_angle is not None,
         0.0 if arm_angle is None else float(arm_angle), *_angle_geometry(arm),
         opts.max_iterations, opts.position_tolerance, opts.angle_tolerance, opts.damping,
         opts.max_step, opts.null_gain if redundant else 0.0, opts.min_margin, polish,
