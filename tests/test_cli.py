@@ -190,7 +190,21 @@ def test_export_formats_from_a_plan(tmp_path, capsys):
     assert "positions in m" in (tmp_path / "t.csv").read_text().splitlines()[0]
 
 
-@pytest.mark.parametrize("name", ["usb", "ethernet", "pu"])
+def assert_the_whole_harness_job(out):
+    """A harness job's outputs in ``out``: its four phases timed in plan.json, the RAPID
+    modules, the report and the force figures; the regrasp in the slots and the planned waits
+    in the RAPID modules and the ROS 2 trajectories (parsed back against plan.json's cycle)."""
+    from dloplan.app import read_plan
+
+    assert (out / "rapid" / "DloPlanL.mod").exists()
+    assert (out / "report.html").exists() and (out / "figures" / "forces_phase2.png").exists()
+    doc = read_plan(out / "plan.json")
+    assert set(doc.harness["phase_times"]) == {"phase1", "phase2", "insertion", "tensioning"}
+    assert [a.name for a in cycle_actions(doc.cycle)] == ["grasp", "regrasp", "release"]
+    assert check_every_program(doc, out) == ["rapid", "ros_joints"]
+
+
+@pytest.mark.parametrize("name", ["usb", "ethernet"])  # the PU hose's: the verified test below
 def test_a_harness_scenario_runs_the_whole_job(tmp_path, capsys, name):
     example = Path(__file__).parents[1] / "examples" / f"harness_{name}.yaml"
     out = tmp_path / "out"
@@ -199,15 +213,7 @@ def test_a_harness_scenario_runs_the_whole_job(tmp_path, capsys, name):
     assert code in (EXIT_OK, EXIT_WARNINGS) and summary["ok"]
     assert set(summary["harness"]["phase_times"]) == {"phase1", "phase2", "insertion",
                                                       "tensioning"}
-    assert (out / "plan.json").exists() and (out / "rapid" / "DloPlanL.mod").exists()
-    assert (out / "report.html").exists() and (out / "figures" / "forces_phase2.png").exists()
-    # the regrasp in the slots and the planned waits are in the RAPID modules and the ROS 2
-    # trajectories (parsed back against plan.json's cycle)
-    from dloplan.app import read_plan
-
-    doc = read_plan(out / "plan.json")
-    assert [a.name for a in cycle_actions(doc.cycle)] == ["grasp", "regrasp", "release"]
-    assert check_every_program(doc, out) == ["rapid", "ros_joints"]
+    assert_the_whole_harness_job(out)
 
 
 def test_a_harness_job_writes_the_outputs_it_asks_for(tmp_path, capsys):
@@ -311,11 +317,13 @@ def test_planner_family_and_weight_overrides(tmp_path, capsys):
 def test_a_harness_plan_is_verified_per_phase_by_plan_and_by_verify(tmp_path, capsys):
     """`plan --verify` on a harness job prints the verdict table per phase (the PU hose's
     passes: exit 0 or 1), the plan document records it, and `dloplan verify` of that document
-    reports the same table (the same checks on the same document)."""
+    reports the same table (the same checks on the same document); the whole job's outputs
+    are written as without --verify."""
     example = Path(__file__).parents[1] / "examples" / "harness_pu.yaml"
     out = tmp_path / "out"
     assert main(["plan", str(example), "-o", str(out), "-q", "--verify"]) in (EXIT_OK,
                                                                              EXIT_WARNINGS)
+    assert_the_whole_harness_job(out)
     printed = capsys.readouterr().out
     table = printed[printed.index("phase      held by"):printed.index("robot check")].strip()
     assert [line.split()[0] for line in table.splitlines()[1:6]] == [
