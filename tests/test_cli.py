@@ -271,7 +271,7 @@ def test_compare_a_plan_with_shifted_registered_shapes(tmp_path, capsys):
 
 def test_simulate_and_verify_a_plan(tmp_path, capsys):
     out = tmp_path / "out"
-    main(["plan", str(write(tmp_path, STIFF)), "-o", str(out), "-q"])
+    main(["plan", str(write(tmp_path, {**STIFF, "outputs": ["json"]})), "-o", str(out), "-q"])
     capsys.readouterr()
     assert main(["simulate", str(out / "plan.json"), "-q", "--json"]) == EXIT_OK
     assert json.loads(capsys.readouterr().out)["ok"]

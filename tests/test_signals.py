@@ -124,9 +124,11 @@ def _dloplan(*args) -> subprocess.Popen:
 def test_two_exports_into_one_folder_leave_files_that_read_back(tmp_path):
     """Two exports of the same joint trajectories into one folder at once: one writes, the
     other is refused while it holds the folder (or writes after it); every file reads back."""
-    example = Path(__file__).parents[1] / "examples" / "cells" / "ur5e_pair_usb.yaml"
-    planned = tmp_path / "plan"
-    assert main(["plan", str(example), "-o", str(planned), "-q"]) in (EXIT_OK, EXIT_WARNINGS)
+    example = yaml.safe_load((Path(__file__).parents[1] / "examples" / "cells" /
+                              "ur5e_pair_usb.yaml").read_text())
+    planned = tmp_path / "plan"  # plan.json alone: what the exports read
+    assert main(["plan", str(write(tmp_path, {**example, "outputs": ["json"]})), "-o",
+                 str(planned), "-q"]) in (EXIT_OK, EXIT_WARNINGS)
     target = tmp_path / "joints"
     runs = [_dloplan("export", str(planned / "plan.json"), "--format", "ros_joints", "-o",
                      str(target), "-q") for _ in range(4)]
