@@ -35,6 +35,22 @@ def test_bad_worker_count_is_refused(capsys):
     assert "--workers: got 0, expected an integer >= 1" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("given", [None, "2"])
+def test_the_exercises_run_blas_on_one_thread_unless_told(monkeypatch, given):
+    """As the command (dloplan.cli.BLAS_THREADS): the pool's processes inherit the variable;
+    a value the caller set is kept."""
+    import os
+
+    seen = []
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    if given is not None:
+        monkeypatch.setenv("OPENBLAS_NUM_THREADS", given)
+    monkeypatch.setattr(warmup, "warm", lambda workers: seen.append(
+        os.environ.get("OPENBLAS_NUM_THREADS")) or True)
+    assert warmup.main([]) == 0
+    assert seen == [given or "1"]
+
+
 def test_the_harness_exercise_is_a_harness_job_with_pegs_and_fixtures():
     """The embedded harness job resolves (a schema change would otherwise show only as a FAILED
     line of make's warm-up), with the contacts whose kernels it is there to compile."""

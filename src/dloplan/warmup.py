@@ -211,6 +211,8 @@ def warm(workers: int | None = None, progress=print, exercises=None) -> bool:
 
 
 def main(argv=None) -> int:
+    from .cli import BLAS_THREADS
+
     parser = argparse.ArgumentParser(prog="python -m dloplan.warmup",
                                      description=__doc__.splitlines()[0])
     parser.add_argument("--workers", type=int, default=None,
@@ -218,6 +220,8 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.workers is not None and args.workers < 1:
         parser.error(f"--workers: got {args.workers}, expected an integer >= 1")
+    for name, value in BLAS_THREADS.items():  # the exercises run as the command does (its
+        os.environ.setdefault(name, value)  # pool processes inherit it; numpy not yet loaded)
     return 0 if warm(args.workers) else 1
 
 
