@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -38,13 +39,23 @@ def load():
     busy.wait()
 
 
-@pytest.fixture
-def planned(tmp_path):
-    """A small job, planned once into ``out``: the folder a signal must leave as it was."""
-    job = write(tmp_path, SMALL)
-    out = tmp_path / "out"
+@pytest.fixture(scope="module")
+def planned_once(tmp_path_factory):
+    """A small job and its output folder, planned once for the module."""
+    folder = tmp_path_factory.mktemp("planned")
+    job = write(folder, SMALL)
+    out = folder / "out"
     assert main(["plan", str(job), "-o", str(out), "-q"]) in (EXIT_OK, EXIT_WARNINGS)
     return job, out
+
+
+@pytest.fixture
+def planned(planned_once, tmp_path):
+    """The small job and a copy of its planned ``out``: the folder a signal must leave as it
+    was."""
+    job, out = planned_once
+    shutil.copytree(out, tmp_path / "out")
+    return Path(shutil.copy(job, tmp_path / job.name)), tmp_path / "out"
 
 
 @pytest.mark.parametrize("signum, marker, to_group", [
