@@ -1,8 +1,7 @@
 """The verdict table every robot program carries, whatever its cell: one :class:`CheckRow` per
 check, target and arm, the verdict from the rows (:class:`CheckedProgram`) and their summary
-(:func:`check_summary`). The YuMi's RAPID program (:class:`~dloplan.robot.program.
-RobotProgram`) and a described cell's program (:class:`~dloplan.robot.cell_program.
-CellProgram`) both are :class:`CheckedProgram` s; the path check of a described cell
+(:func:`check_summary`). The robot program of every cell (:class:`~dloplan.robot.program.
+RobotProgram`) is a :class:`CheckedProgram`; the path check of a described cell
 (:func:`~dloplan.robot.path.check_path`) writes its rows.
 """
 

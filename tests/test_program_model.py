@@ -1,4 +1,4 @@
-"""The program core every cell shares (dloplan.robot.program_core): a program slowed for its
+"""The one program model of every cell (dloplan.robot.program): a program slowed for its
 joint speeds is exactly the program made on its slowed timing (re-timing solves nothing again),
 the speed rows are those of the motion the writers sample, and a described cell's program that
 fails only along the time law says so."""
@@ -10,7 +10,8 @@ from robot_plans import example_plan
 
 from dloplan.robot import robot_program
 from dloplan.robot.actions import program_timeline
-from dloplan.robot.cell_program import CellProgram, cell_program
+from dloplan.robot.program import RobotProgram
+from dloplan.robot.tracked_program import TrackedTargets, tracked_moves
 from dloplan.robot.urdf_cell import ur5e_pair, verify_on_cell
 from dloplan.trajectory import MotionLimits, trajectory_from_grippers
 
@@ -37,10 +38,13 @@ def test_a_slowed_yumi_program_is_the_program_of_its_own_timing():
     assert slowed.trajectory is not fast  # it was over a limit, and re-timed
     fresh = robot_program(grippers, slowed.trajectory, job.robot)
     assert fresh.trajectory is slowed.trajectory  # within the limits: not slowed again
-    for name in ("positions", "quaternions", "joints", "confdata", "arm_angles", "times",
-                 "durations", "speeds", "zones", "motion_times", "motion_joints",
-                 "joint_speed"):
-        np.testing.assert_array_equal(getattr(slowed, name), getattr(fresh, name), err_msg=name)
+    for name in ("positions", "quaternions", "confdata", "arm_angles", "times", "durations",
+                 "speeds", "zones", "motion_times", "motion_joints"):
+        np.testing.assert_array_equal(getattr(slowed.targets, name),
+                                      getattr(fresh.targets, name), err_msg=name)
+    for a in range(2):
+        np.testing.assert_array_equal(slowed.joints[a], fresh.joints[a])
+    np.testing.assert_array_equal(slowed.joint_speed, fresh.joint_speed)
     _same_rows(slowed, fresh)
     assert slowed.message == fresh.message
 
@@ -48,11 +52,11 @@ def test_a_slowed_yumi_program_is_the_program_of_its_own_timing():
 def test_a_slowed_cell_program_is_the_program_of_its_own_timing():
     _, grippers, trajectory, _ = example_plan(EXAMPLE)
     fast = _fast(grippers, trajectory.arm_clips[0], 50.0)
-    slowed = cell_program(ur5e_pair(), fast)
+    slowed = robot_program(grippers, fast, ur5e_pair())
     assert slowed.trajectory is not fast
-    fresh = cell_program(ur5e_pair(), slowed.trajectory)
+    fresh = robot_program(grippers, slowed.trajectory, ur5e_pair())
     assert fresh.trajectory is slowed.trajectory
-    np.testing.assert_array_equal(slowed.plan.times, fresh.plan.times)
+    np.testing.assert_array_equal(slowed.times, fresh.times)
     for a in range(2):
         np.testing.assert_array_equal(slowed.joints[a], fresh.joints[a])
     np.testing.assert_array_equal(slowed.joint_speed, fresh.joint_speed)
@@ -74,8 +78,9 @@ def test_the_speed_rows_are_those_of_the_written_motion():
     law's phase boundaries, the writers at 1 kHz: within 1 %) and never exceeds it."""
     _, grippers, trajectory, job = example_plan(EXAMPLE)
     yumi = robot_program(grippers, trajectory, job.robot)
-    cell = cell_program(ur5e_pair(), trajectory)
-    for program, arms in ((yumi, yumi.cell.robot.arms), (cell, cell.cell.arms)):
+    cell = robot_program(grippers, trajectory, ur5e_pair())
+    for program in (yumi, cell):
+        arms = program.cell.arms
         checked = max(r.value for r in program.checks if r.check == "joint speed")
         written = _written_speed_ratio(program, [arm.max_velocity for arm in arms])
         assert checked > 0.05
@@ -90,7 +95,8 @@ def test_a_cell_program_failing_along_the_time_law_says_so():
     fast = _fast(grippers, trajectory.arm_clips[0], 50.0)
     plan = verify_on_cell(ur5e_pair(), fast)
     assert plan.verdict.ok, plan.verdict.message
-    program = CellProgram(plan, 0, plan.verdict.rows).retimed(fast)
+    program = RobotProgram(plan.cell, TrackedTargets(plan, 0), plan.verdict.joints,
+                           tracked_moves(plan), plan.verdict.rows).retimed(fast)
     assert not program.ok
     assert {r.check for r in program.failures} <= {"joint speed", "joint acceleration"}
     assert "cell FAILS: joint speed at shape" in program.message
