@@ -168,7 +168,7 @@ def test_reach_rows_and_the_placement_see_the_robot_where_the_cell_places_it():
     # default YuMi at the origin, whatever the cell said).
     from dloplan.grippers import GripperPath
     from dloplan.robot import RobotCell
-    from dloplan.robot.cell_program import placement_message, reach_rows
+    from dloplan.robot.plugins import placement_message, reach_rows
 
     pos, rot = _cable_job(5)
     quats = rot.as_quat()
