@@ -6,6 +6,7 @@ fails only along the time law says so."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from robot_plans import example_plan
 
 from dloplan.robot import robot_program
@@ -101,3 +102,81 @@ def test_a_cell_program_failing_along_the_time_law_says_so():
     assert {r.check for r in program.failures} <= {"joint speed", "joint acceleration"}
     assert "cell FAILS: joint speed at shape" in program.message
     assert "cell ok" not in program.message
+
+
+def _ros_joints_at_targets(program, folder) -> list[np.ndarray]:
+    """Per arm the joints [rad] the written ROS 2 joint trajectories hold at the program's
+    target arrivals (every cell takes ``ros_joints``)."""
+    import yaml
+
+    from dloplan.app.writers import program_files
+
+    files = program_files(program, folder, "ros_joints", program.trajectory)
+    clock = program_timeline(program, program.trajectory, ()).clock
+    joints = []
+    for path in files[:2]:
+        points = yaml.safe_load(path.read_text())["points"]
+        stamps = np.array([p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"]
+                           for p in points])
+        at = [int(np.argmin(np.abs(stamps - t))) for t in clock.arrive]
+        np.testing.assert_allclose(stamps[at], clock.arrive, atol=1e-9)
+        joints.append(np.array([points[i]["positions"] for i in at]))
+    return joints
+
+
+def _vendor_joints(program, folder) -> list[np.ndarray]:
+    """Per arm the joints [rad] at the targets read back from the cell's vendor program: the
+    YuMi's RAPID (the start jointtarget, ABB axes 1-6 and eax_a = axis 7, in degrees to 1e-6,
+    of the first target; the targets themselves are robtargets), a UR pair's URScript (a
+    ``movej`` per target); none for a cell that takes neither (the Panda pair)."""
+    import re
+
+    from robot_plans import read_module
+
+    from dloplan.app.writers import program_files
+
+    if "rapid" in program.formats:
+        files = program_files(program, folder, "rapid", program.trajectory)
+        joints = []
+        for path in files:
+            start = read_module(path.read_text())["declarations"]["dlo_start"][2]
+            robax, extax = np.asarray(start[0]), np.asarray(start[1])
+            joints.append(np.radians(np.r_[robax[:2], extax[0], robax[2:]])[None])
+        return joints
+    if "urscript" not in program.formats:
+        return [np.zeros((0, arm.n_joints)) for arm in program.cell.arms]
+    files = program_files(program, folder, "urscript", program.trajectory)
+    return [np.array([[float(v) for v in m.split(",")]
+                      for m in re.findall(r"movej\(\[([^\]]*)\]", path.read_text())])
+            for path in files[:2]]
+
+
+@pytest.mark.parametrize("example", ["m2_uniform_curvature_usb.yaml", "cells/ur5e_pair_usb.yaml",
+                                     "cells/panda_pair_ethernet.yaml"])
+def test_every_cells_program_is_read_back_and_checked_by_the_one_model(tmp_path, example):
+    """The seam of the one program model: whatever the cell (the YuMi's plug-in, a URDF pair's),
+    the program is a RobotProgram whose ``joints`` are per arm (M, n_arm) [rad]; the joints its
+    files hold (ROS 2 for every cell, RAPID's start or URScript's ``movej`` s) read back to
+    exactly those, its record (plan.json) holds them, and the same model checks them: the
+    forward kinematics of the joints read back puts each TCP on the target the program
+    records (within the IK's tolerance)."""
+    from dloplan.robot.kinematics import forward
+
+    _, grippers, trajectory, job = example_plan(example)
+    program = robot_program(grippers, trajectory, job.robot)
+    assert isinstance(program, RobotProgram) and program.ok, program.message
+    record = program.to_dict()
+    read = _ros_joints_at_targets(program, tmp_path / "ros")
+    vendor = _vendor_joints(program, tmp_path / "vendor")
+    for a, arm in enumerate(program.cell.arms):
+        q = program.joints[a]
+        assert q.shape == (program.n_targets, arm.n_joints)
+        assert all(len(move) >= 2 and move.shape[1] == arm.n_joints
+                   for move in program.moves[a])
+        np.testing.assert_allclose(read[a], q, atol=1e-10)
+        np.testing.assert_allclose(vendor[a], q[:len(vendor[a])], atol=1e-7)  # 1e-6 deg
+        recorded = np.radians([t["arms"][arm.name]["joints_deg"] for t in record["targets"]])
+        np.testing.assert_allclose(recorded, q, atol=1e-12)
+        tcp, _ = forward(arm, read[a])
+        targets = np.array([t["arms"][arm.name]["position"] for t in record["targets"]])
+        assert np.abs(tcp - targets).max() < 1e-4
