@@ -321,8 +321,8 @@ def with_program(doc: PlanDocument, program) -> PlanDocument:
     the document's placement: the cable must lie there for it. When the program slowed the
     trajectory down (a joint over its speed limit), the document's trajectory and cycle are
     the program's timing."""
-    from ..robot.plugins import cell_name
     from ..robot.placement import format_offset
+    from ..robot.plugins import cell_name
 
     section = RobotSection(program.ok, program.message, cell_to_dict(program.cell),
                            program.to_dict())

@@ -92,7 +92,8 @@ class RobotProgram(CheckedProgram):
         (the YuMi's replayed MoveL, a described cell's tracked sub-steps), starting on
         ``joints[a][m]`` and ending on ``joints[a][m + 1]``.
     checks : tuple of CheckRow
-        The verdict rows, their checks in the order of ``targets.CHECKS``, those along the time law last.
+        The verdict rows, their checks in the order of ``targets.CHECKS``, those along the
+        time law last.
     trajectory : Trajectory or None
         The timing the program was verified with: the plan's, or slowed where a joint was
         over its speed limit.
