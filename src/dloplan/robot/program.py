@@ -31,7 +31,7 @@ from typing import Protocol
 
 import numpy as np
 
-from .checks import SLOW_ROUNDS, CheckedProgram, CheckRow, check_summary
+from .checks import SLOW_ROUNDS, CheckRow, check_summary
 from .motion import JointMotion
 from .peaks import motion_peaks, slowed_scale
 
@@ -71,7 +71,7 @@ class Targets(Protocol):
 
 
 @dataclass(frozen=True, eq=False)
-class RobotProgram(CheckedProgram):
+class RobotProgram:
     """A verified dual-arm program on any cell: what its writers write, and its checks.
 
     Attributes
@@ -109,6 +109,16 @@ class RobotProgram(CheckedProgram):
     checks: tuple[CheckRow, ...]
     trajectory: object = None
     joint_speed: np.ndarray | None = None
+
+    @property
+    def ok(self) -> bool:
+        """Every check passes: the program may be written and run."""
+        return all(row.ok for row in self.checks)
+
+    @property
+    def failures(self) -> tuple[CheckRow, ...]:
+        """The rows that fail."""
+        return tuple(row for row in self.checks if not row.ok)
 
     @property
     def n_targets(self) -> int:
