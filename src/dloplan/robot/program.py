@@ -44,7 +44,13 @@ class Targets(Protocol):
     written of each target, its timing, and what the cell's writers are given. Implemented by
     :class:`~dloplan.robot.yumi_program.YumiTargets` (the YuMi: robtargets, RAPID) and
     :class:`~dloplan.robot.tracked_program.TrackedTargets` (a described cell: URScript,
-    ur_rtde)."""
+    ur_rtde).
+
+    Its methods: ``axis_name(j)`` a joint's name in the rows' notes; ``knot_targets()`` (K,)
+    the target reaching each plan knot; ``timed(cell, trajectory)`` the record timed by another
+    trajectory of the same path; ``move_timing(cell, trajectory)`` the moves' profiles, starts
+    and arrivals (:class:`~dloplan.robot.motion.JointMotion`); ``message``, ``record``,
+    ``writer_arguments`` and ``report_arms`` of a program (:class:`RobotProgram`'s)."""
 
     CHECKS: tuple[str, ...]  # the checks of the cell's programs, in the order of the rows
     formats: tuple[str, ...]  # the program formats written from it (dloplan.app.writers)
