@@ -148,6 +148,16 @@ def test_clip_poses_read_back_from_an_equilibrium():
     assert np.allclose(read.u_axes, clips.u_axes, atol=1e-12)
 
 
+def test_clip_poses_keep_c_ordered_positions_of_a_transposed_array():
+    """ClipPoses copies its positions C-ordered: a transposed (Fortran-ordered) array does not
+    compile a second overload of the kernels that take them (held points, clip wrenches)."""
+    clips = level_clips(0.42, z=0.1)
+    given = np.asfortranarray(clips.positions)
+    copied = ClipPoses(given, clips.rotations)
+    assert copied.positions.flags.c_contiguous and copied.positions is not given
+    assert np.array_equal(copied.held_points(0.01), clips.held_points(0.01))
+
+
 def test_continuation_follows_the_clips():
     cable = catalogue_cable("ethernet", n_links=16)
     start = equilibrium(cable, sagging_guess(cable, 0.45), level_clips(0.45)).shape

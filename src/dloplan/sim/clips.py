@@ -49,7 +49,9 @@ class ClipPoses:
     rotations: Rotation
 
     def __post_init__(self) -> None:
-        pos = np.array(self.positions, dtype=float)  # its own copy: held points are cached
+        # its own copy (held points are cached), C-ordered whatever the caller's (a transposed
+        # array): the compiled kernels taking the positions then have one overload each
+        pos = np.array(self.positions, dtype=float, order="C")
         if pos.shape != (2, 3):
             raise ValueError(f"clips.positions: expected shape (2, 3), got {pos.shape}")
         if not np.all(np.isfinite(pos)):
