@@ -197,10 +197,54 @@ def arm_angle_row(rots, points, axes, shoulder, wrist, reference, elbow, row, wo
 
 
 @njit(cache=True)
+def damped_step(jac, err, mu, normal, step):
+    """The Levenberg-Marquardt step ``(J^T J + mu I)^-1 J^T e`` (n,) into ``step`` for J
+    (rows, n), e (rows,), mu > 0 [m^2], by Cholesky's factorization of the symmetric positive
+    definite ``J^T J + mu I`` (into ``normal`` (n, n), lower triangle) and two triangular
+    solves: plain loops, no LAPACK call (whose overhead is most of a 7x7 solve). Equal to
+    ``np.linalg.solve`` to rounding (cond(J^T J + mu I) <= (|J|^2 + mu) / mu). Returns
+    ``step``."""
+    rows, n = jac.shape
+    for i in range(n):
+        for j in range(i + 1):
+            t = 0.0
+            for r in range(rows):
+                t += jac[r, i] * jac[r, j]
+            normal[i, j] = t + mu if i == j else t
+        t = 0.0
+        for r in range(rows):
+            t += jac[r, i] * err[r]
+        step[i] = t
+    for j in range(n):  # normal = L L^T, L in the lower triangle
+        d = normal[j, j]
+        for k in range(j):
+            d -= normal[j, k] * normal[j, k]
+        d = math.sqrt(d)
+        normal[j, j] = d
+        for i in range(j + 1, n):
+            t = normal[i, j]
+            for k in range(j):
+                t -= normal[i, k] * normal[j, k]
+            normal[i, j] = t / d
+    for i in range(n):  # L y = b
+        t = step[i]
+        for k in range(i):
+            t -= normal[i, k] * step[k]
+        step[i] = t / normal[i, i]
+    for i in range(n - 1, -1, -1):  # L^T x = y
+        t = step[i]
+        for k in range(i + 1, n):
+            t -= normal[k, i] * step[k]
+        step[i] = t / normal[i, i]
+    return step
+
+
+@njit(cache=True)
 def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
           upper, position, target_rot, seed, hold_angle, angle, angle_points, reference,
           max_iterations, position_tolerance, angle_tolerance, damping, max_step, null_gain,
-          min_margin, polish, length_scale, null_fade, stall_window=0, stall_ratio=1.0):
+          min_margin, polish, length_scale, null_fade, stall_window=0, stall_ratio=1.0,
+          cholesky=False):
     """Damped least squares from one seed: (q (n,), position error [m], angle error [rad],
     iterations, converged).
 
@@ -212,6 +256,8 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
     weighted error (position + ``length_scale`` x angle) is still above :data:`STALL_FLOOR`
     and has not dropped below ``stall_ratio`` of its value ``stall_window`` iterations before
     (a solve that is close keeps going: near a singularity it converges slowly).
+    ``cholesky``: the step by :func:`damped_step` instead of LAPACK's ``gesv`` (the same step
+    to rounding, in a fraction of the time; :func:`solve_batch`).
     """
     n = seed.size
     q = np.minimum(np.maximum(seed, lower), upper)
@@ -232,6 +278,8 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
     angle_work = np.empty((n + 8, 3))
     dp = np.empty(3)
     dtheta = np.empty(3)
+    normal = np.empty((n, n))
+    step = np.empty(n)
     done_q = q.copy()
     done_perr = done_aerr = 0.0
     done_it = -1
@@ -276,11 +324,13 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
         if converged:  # polish: a pure self-motion step away from the limits
             polish -= 1
             dq = -null_gain * (null_projector(jac, eye) @ ((q - mid) / half**2))
+        elif cholesky:
+            dq = damped_step(jac, err, energy + damping, normal, step)
         else:
-            normal = jac.T @ jac
+            gram = jac.T @ jac
             for col in range(n):  # + (energy + damping) I, in place
-                normal[col, col] += energy + damping
-            dq = np.linalg.solve(normal, jac.T @ err)
+                gram[col, col] += energy + damping
+            dq = np.linalg.solve(gram, jac.T @ err)
             if null_gain != 0.0 and not hold_angle:
                 fade = min(1.0, math.sqrt(2.0 * energy) / null_fade)
                 dq -= null_gain * fade * (null_projector(jac, eye) @ ((q - mid) / half**2))
@@ -301,9 +351,10 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
 def solve_batch(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
                 upper, positions, target_rots, seeds, hold_angle, angles, angle_points,
                 reference, max_iterations, position_tolerance, angle_tolerance, damping,
-                max_step, length_scale, stall_window, stall_ratio):
+                max_step, length_scale, stall_window, stall_ratio, cholesky=False):
     """N independent solves (:func:`solve` without null-space motion or polish): joints
-    (N, n) [rad], converged (N,), position (N,) [m] and angle errors (N,) [rad]."""
+    (N, n) [rad], converged (N,), position (N,) [m] and angle errors (N,) [rad]; ``cholesky``:
+    each step by :func:`damped_step` (solutions equal to rounding, not bitwise)."""
     count = positions.shape[0]
     q = np.empty((count, seeds.shape[1]))
     success = np.empty(count, np.bool_)
@@ -314,5 +365,5 @@ def solve_batch(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offs
             origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
             upper, positions[k], target_rots[k], seeds[k], hold_angle, angles[k], angle_points,
             reference, max_iterations, position_tolerance, angle_tolerance, damping, max_step,
-            0.0, 0.0, 0, length_scale, 1.0, stall_window, stall_ratio)
+            0.0, 0.0, 0, length_scale, 1.0, stall_window, stall_ratio, cholesky)
     return q, success, perr, aerr

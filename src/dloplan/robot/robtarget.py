@@ -124,16 +124,29 @@ def _solutions(arm: CellArm, position, rotation_matrix, psi: float, seeds, opts:
     starts = np.array([np.clip(s, arm.lower, arm.upper) for s in seeds]
                       + [arm.home, wrist_flip(arm, arm.home)]
                       + list(rng.uniform(arm.lower, arm.upper, (RANDOM_SEEDS, 7))))
-    n = len(starts)
-    q, ok, _, _ = solve_many(arm, np.tile(position, (n, 1)), np.tile(rotation_matrix, (n, 1, 1)),
-                             starts, opts, np.full(n, float(psi)), give_up=True)
+    given = len(seeds)
+    converged = [_solved(arm, position, rotation_matrix, psi, starts[:given], opts, False),
+                 _solved(arm, position, rotation_matrix, psi, starts[given:], opts, True)]
     found = np.empty((0, 7))
-    for candidate in _with_turns(arm, q[ok]):
+    for candidate in _with_turns(arm, np.concatenate(converged)):
         if not np.any(np.abs(candidate - found).max(axis=1) < SAME_SOLUTION):
             found = np.concatenate([found, candidate[None]])
     found = found[np.argsort(np.abs(found - starts[0]).max(axis=1), kind="stable")]
     found.setflags(write=False)
     return found
+
+
+def _solved(arm: CellArm, position, rotation_matrix, psi: float, starts, opts: IKOptions,
+            cholesky: bool) -> np.ndarray:
+    """The converged solutions (K, 7) of the 7x7 damped least squares from ``starts`` (N, 7),
+    given up when stalled; ``cholesky`` for the enumeration's own seeds (module docstring)."""
+    n = len(starts)
+    if not n:
+        return np.empty((0, 7))
+    q, ok, _, _ = solve_many(arm, np.tile(position, (n, 1)), np.tile(rotation_matrix, (n, 1, 1)),
+                             starts, opts, np.full(n, float(psi)), give_up=True,
+                             cholesky=cholesky)
+    return q[ok]
 
 
 def _with_turns(arm: CellArm, solutions: np.ndarray) -> np.ndarray:
