@@ -199,30 +199,29 @@ def test_controller_ik_returns_the_joints_of_a_robtarget():
 
 @pytest.mark.parametrize("side", ["left", "right"])
 def test_enumeration_by_cholesky_steps_finds_the_lapack_solutions(side, monkeypatch):
-    """The controller's solutions of a robtarget are enumerated from the given seed (stepped
-    by LAPACK: its solution is the verified joints' round trip, bitwise) and from the
-    enumeration's own seeds (stepped by the Cholesky solve): the same solutions, branch by
-    branch (every confdata found), as when every seed is stepped by LAPACK, to 1e-9 rad; the
-    given seed's solution identical."""
+    """The controller's solutions of a robtarget are enumerated with the enumeration's own
+    seeds stepped by the Cholesky solve, the seeds that found a distinct solution solved again
+    by LAPACK: the same solutions, branch by branch (several confdata), bitwise, as when every
+    seed is stepped by LAPACK; and the Cholesky steps alone find them to 1e-9 rad."""
     arm = yumi_arm(side)
     rng = np.random.default_rng(12)
-    lapack_only = robtarget.solve_many
+    solve_many = robtarget.solve_many
     branches = set()
     for _ in range(6):
         q = rng.uniform(arm.lower + 0.2, arm.upper - 0.2)
         position, rotation = forward(arm, q)
-        psi = float(arm_angle(arm, q))
-        args = (arm, position, rotation.as_matrix(), psi, [q])
-        fast = robtarget.robtarget_solutions(*args, rng=np.random.default_rng(0))
-        with monkeypatch.context() as patched:
-            patched.setattr(robtarget, "solve_many",
-                            lambda *a, **k: lapack_only(*a, **{**k, "cholesky": False}))
-            slow = robtarget.robtarget_solutions(*args, rng=np.random.default_rng(0))
-        assert len(fast) == len(slow) >= 1
-        np.testing.assert_array_equal(fast[0], slow[0])  # the given seed's solution
-        np.testing.assert_allclose(fast, slow, rtol=0.0, atol=1e-9)
-        np.testing.assert_array_equal(confdata(fast), confdata(slow))
-        branches |= {tuple(c) for c in confdata(fast)}
+        args = (arm, position, rotation.as_matrix(), float(arm_angle(arm, q)), [q])
+        found = {}
+        for name, cholesky in (("mixed", None), ("lapack", False), ("cholesky", True)):
+            with monkeypatch.context() as patched:
+                if cholesky is not None:
+                    patched.setattr(robtarget, "solve_many", lambda *a, c=cholesky, **k:
+                                    solve_many(*a, **{**k, "cholesky": c}))
+                found[name] = robtarget.robtarget_solutions(*args, rng=np.random.default_rng(0))
+        assert len(found["lapack"]) >= 1
+        np.testing.assert_array_equal(found["mixed"], found["lapack"])
+        np.testing.assert_allclose(found["cholesky"], found["lapack"], rtol=0.0, atol=1e-9)
+        branches |= {tuple(c) for c in confdata(found["lapack"])}
     assert len(branches) >= 4  # several confdata branches were compared
 
 

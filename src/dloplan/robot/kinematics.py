@@ -362,9 +362,9 @@ def solve_many(arm, positions, rotation_matrices, seeds, options: IKOptions,
         enumerating solutions from many seeds, most of which lead nowhere.
     cholesky : bool
         Each step by a hand-written Cholesky solve of the damped normal equations
-        (:func:`dloplan.robot.ik_compiled.damped_step`) instead of LAPACK: about half the time
-        per iteration, the same steps to rounding (not bitwise): for solutions of which only
-        the distinct ones are kept, not their last digits (:mod:`dloplan.robot.robtarget`).
+        (:func:`dloplan.robot.ik_compiled.damped_step`) instead of LAPACK: about a third less
+        time per iteration, the same steps to rounding (not bitwise): for finding which
+        solutions there are (:mod:`dloplan.robot.robtarget`).
 
     Returns
     -------
