@@ -171,12 +171,12 @@ def _distinct(arm: CellArm, solutions: np.ndarray) -> tuple[np.ndarray, np.ndarr
     (:func:`_with_turns`), in order (closer than :data:`SAME_SOLUTION` to an earlier kept one
     in every joint: the same), and the solution (K,) int each came from."""
     candidates, sources = _with_turns(arm, solutions)
-    close = (np.abs(candidates[:, None, :] - candidates[None, :, :]).max(axis=-1)
-             < SAME_SOLUTION).tolist()
     kept: list[int] = []
-    for i, row in enumerate(close):
-        if not any(row[k] for k in kept):
-            kept.append(i)
+    alive = np.ones(len(candidates), dtype=bool)
+    while alive.any():  # the first candidate no kept one is close to is kept
+        first = int(np.argmax(alive))
+        kept.append(first)
+        alive &= np.abs(candidates - candidates[first]).max(axis=1) >= SAME_SOLUTION
     return candidates[kept], sources[kept]
 
 
