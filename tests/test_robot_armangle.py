@@ -202,13 +202,15 @@ def test_enumeration_by_cholesky_steps_finds_the_lapack_solutions(side, monkeypa
     """The controller's solutions of a robtarget are enumerated with the enumeration's own
     seeds stepped by the Cholesky solve, the seeds that found a distinct solution solved again
     by LAPACK: the same solutions, branch by branch (several confdata), bitwise, as when every
-    seed is stepped by LAPACK; and the Cholesky steps alone find them to 1e-9 rad."""
+    seed is stepped by LAPACK; and the Cholesky steps alone find them to 1e-9 rad. Poses: the
+    10 joint vectors of the RobotStudio cases (clipped into this arm's limits) and 4 random."""
     arm = yumi_arm(side)
     rng = np.random.default_rng(12)
     solve_many = robtarget.solve_many
     branches = set()
-    for _ in range(6):
-        q = rng.uniform(arm.lower + 0.2, arm.upper - 0.2)
+    joints = list(np.clip(np.radians(CASES["q_deg"]), arm.lower, arm.upper)) + list(
+        rng.uniform(arm.lower + 0.2, arm.upper - 0.2, (4, 7)))
+    for q in joints:
         position, rotation = forward(arm, q)
         args = (arm, position, rotation.as_matrix(), float(arm_angle(arm, q)), [q])
         found = {}
