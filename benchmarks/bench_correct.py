@@ -27,7 +27,10 @@ target (curves at equal arc length) open loop and closed loop [mm], their ratio,
 least error any correction of the target's clips leaves that plant, ``reachable_error``;
 ``--no-floor`` skips it; on every plant, with forward differences of a step 100 times the plant's
 resolution, ``Plant.resolution``, and fewer evaluations on the slow plants, ``FLOOR_EVALUATIONS``:
-there it is what the fit reached, an upper bound of the floor), the correction's
+there it is what the fit reached, an upper bound of the floor), "E told" (the closed loop
+with the correction told the plant's E, ``modulus="known"``: what it reaches when E is not
+limited by what the measurement at K tells; ``--no-told`` skips it), "E/E sd" (the corrected
+model's E over the plant's, and sd(ln E) as the measurement tells it), the correction's
 prediction interval of the final error [mm] and whether it covers the plant's, the clamp length the
 correction estimated [mm] ("model": not told by the measurement, the model's L / n kept), whether
 the correction as ``dloplan correct`` writes it passes ``dloplan verify`` (``written``: checked,
@@ -223,10 +226,23 @@ axial": the plant's cable nearly inextensible (the composite cables' copper axia
 have it already (the catalogue's default), so it is the base case."""
 
 
-def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=False) -> None:
+def oracle(plant, doc, at: int, modulus: float, grip: str) -> str:
+    """The closed loop's final error [mm] with the correction told the plant's E
+    (``modulus="known"`` on the plan's cable at the plant's E; the bias, clamp length and offset
+    estimated as in the row): what the correction reaches when E is not limited by what the
+    measurement tells ("-": refused)."""
+    run = run_closed_loop(plant, doc.cable.with_modulus(modulus), doc.shapes, doc.grippers,
+                          [at], stabilized=doc.stabilized, trajectory=doc.trajectory, grip=grip,
+                          modulus="known")
+    return f"{1e3 * run.closed_loop_error:.2f}" if run.corrections else "-"
+
+
+def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=False,
+          with_told: bool = True) -> None:
     print("\nPart 2: plants; final mean error [mm] against the plan's stabilized target")
     print(f"{'plan':>12} {'n':>3} {'plant':>7} {'E':>5} {'grip':>6} {'K':>2} {'open':>7} "
-          f"{'closed':>7} {'ratio':>6} {'floor':>6} {'interval':>13} {'cover':>5} "
+          f"{'closed':>7} {'ratio':>6} {'floor':>6} {'E told':>6} {'E/E sd':>10} "
+          f"{'interval':>13} {'cover':>5} "
           f"{'clamp':>7} {'CPU ms':>6}  written?")
     makers = plants(names)
     for name, source in SCENARIOS.items():
@@ -273,6 +289,7 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=Fa
                           f"{at:>2} plant failed: {exc}")
                     continue
                 plant_seconds = time.process_time() - started
+                told_mm = oracle(plant, doc, at, real.youngs_modulus, told) if with_told else "-"
                 floor_mm = "-"
                 if floor:
                     best = reachable_error(plant, doc.grippers.clip_poses(last), run.reference,
@@ -288,13 +305,16 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=Fa
                     cpu = f"{1e3 * c.cpu_seconds:.0f}"
                     clamp = (f"{1e3 * (1 + 0.5 * c.model.grip) * cable.rest_link_length:.1f}"
                              if c.model.grip_estimated else "model")
+                    fitted = (f"{c.model.youngs_modulus / real.youngs_modulus:.2f} "
+                              f"{c.model.log_sd:.2g}")
                 else:
-                    interval, cover, cpu, clamp = "-", "-", "-", "-"
+                    interval, cover, cpu, clamp, fitted = "-", "-", "-", "-", "-"
                     written = "refused: " + "; ".join(run.refusals)[:70]
                 print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {shown:>7} "
                       f"{at:>2} {1e3 * run.open_loop_error:>7.2f} "
                       f"{1e3 * run.closed_loop_error:>7.2f} {run.improvement:>6.1f} "
-                      f"{floor_mm:>6} {interval:>13} {cover:>5} {clamp:>7} {cpu:>6}  {written}"
+                      f"{floor_mm:>6} {told_mm:>6} {fitted:>10} {interval:>13} {cover:>5} "
+                      f"{clamp:>7} {cpu:>6}  {written}"
                       f"  [plant {plant_seconds:.0f} s CPU]", flush=True)
 
 
@@ -302,6 +322,8 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--plants", default="chain,dismech")
     parser.add_argument("--no-floor", action="store_true")
+    parser.add_argument("--no-told", action="store_true",
+                        help="skip the 'E told' column (a second closed loop per row)")
     parser.add_argument("--cases", default=",".join(c for c in CASES if c != "stiff axial"),
                         help="comma-separated, of: " + ", ".join(CASES))
     parser.add_argument("--plans", default=",".join(SCENARIOS),
@@ -318,7 +340,8 @@ def main() -> int:
             part1(Path(folder))
         if args.part in ("2", "both"):
             part2(args.plants.split(","), not args.no_floor, Path(folder),
-                  args.plans.split(","), args.cases.split(","), args.plant_axial_like_e)
+                  args.plans.split(","), args.cases.split(","), args.plant_axial_like_e,
+                  not args.no_told)
     return 0
 
 

@@ -273,7 +273,7 @@ def parameter_sds(jacobian: np.ndarray, directions, residual: np.ndarray,
     Parameters
     ----------
     jacobian : numpy.ndarray
-        (n + 1, 3) d x / d log E [m].
+        (n + 1, 3) d x / d log E [m]; all zeros: E held (known), its sd 0.
     directions : sequence of numpy.ndarray
         The error directions fitted with it (:func:`fit_model_error`).
     residual : numpy.ndarray
@@ -287,15 +287,18 @@ def parameter_sds(jacobian: np.ndarray, directions, residual: np.ndarray,
         (1 + len(directions),) sd(ln E) first (inf where the shape does not inform it).
     """
     a = np.stack([jacobian.ravel()] + [d.ravel() for d in directions], axis=1)
-    dof = max(a.shape[0] - a.shape[1], 1)
+    known = not np.any(jacobian)  # E held: its column is zero and its sd 0
+    dof = max(a.shape[0] - a.shape[1] + known, 1)
     s2 = float(residual.ravel() @ residual.ravel()) / dof
     information = a.T @ a
+    information[0, 0] += known  # decoupled (a zero column): leaves the others' variances
     if prior is not None and directions:
         information[1, 1] += s2 / prior[1] ** 2
     try:
         variance = s2 * np.diag(np.linalg.inv(information))
     except np.linalg.LinAlgError:
         return np.full(a.shape[1], math.inf)
+    variance[0] *= not known
     ok = np.isfinite(variance) & (variance >= 0)
     return np.where(ok, np.sqrt(np.where(ok, variance, 0.0)), math.inf)
 

@@ -103,6 +103,11 @@ of zero passes it one time in twenty)."""
 
 MODES = ("target", "all")
 MODEL_ERRORS = ("discretization", "modulus")
+MODULI = ("estimate", "known")
+"""Young's modulus: estimated from the measurement when it tells it (default), or known to be the
+model's (identified beforehand, ``dloplan identify``: no update, no uncertainty in the interval).
+A shape that hardly depends on E -- every shape of the U demo: sd(ln E) 5-6 at mid-path, 0.9 at
+the target with 1 mm of noise -- cannot tell it, while its target still depends on it."""
 GRIPS = ("estimate", "model", "known")
 """The clamp length: estimated with E and the bias when the measurement tells it (default), the
 model's one link with its uncertainty in the interval, or known to be the model's (a gripper
@@ -421,7 +426,8 @@ def _mean_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, steps: int = 3,
                    max_factor: float = 10.0, gravity=GRAVITY, guess=None,
                    discretization: bool = False, grip: bool = False,
-                   offset: bool = False, measured_links: int | None = None) -> ModelUpdate:
+                   offset: bool = False, measured_links: int | None = None,
+                   modulus: bool = True) -> ModelUpdate:
     """Gauss-Newton steps in log E fitting the model's equilibrium at ``clips`` to ``measured``.
 
     With ``discretization``, each step fits log E and the amplitude alpha of the discretization
@@ -474,6 +480,10 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     measured_links : int, optional
         The measured cable's own discretization (a simulated plant's links), the centre of the
         prior on alpha; None: a real cable, the continuum.
+    modulus : bool
+        Estimate E (default); False: E is known to be ``cable``'s (kept, sd(ln E) = 0), the
+        bias's amplitudes (and the clamp length, the offset) are fitted at it, even with
+        ``steps = 0``.
 
     Raises
     ------
@@ -498,14 +508,15 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     prior = alpha_prior(cable.n_links, measured_links)
     alpha_sd = math.inf
     limit = math.log(max_factor)
-    budget = steps + math.ceil(limit / MAX_LOG_STEP) + 1 if steps > 0 else 0
+    budget = steps + math.ceil(limit / MAX_LOG_STEP) + 1 if steps > 0 else int(not modulus)
     full = 0
     for _ in range(budget):
         sens = equilibrium_sensitivity(model, eq.shape, clips, chain=chain)
         directions = _directions(model, eq.shape, clips, discretization, grip, gravity, fine)
         residual = measured - eq.shape
-        step, amplitudes, sds = _fit(sens.log_modulus, directions, residual, prior)
-        if float(np.sum(sens.log_modulus**2)) <= 1e-24 * cable.length**2:
+        jacobian = sens.log_modulus if modulus else np.zeros_like(residual)  # known: no column
+        step, amplitudes, sds = _fit(jacobian, directions, residual, prior)
+        if modulus and float(np.sum(sens.log_modulus**2)) <= 1e-24 * cable.length**2:
             note = "the measured shape does not depend on E here (no sag): E kept"
             break
         if taken == 0:
@@ -513,9 +524,11 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
                 grip, grip_sd, grip_note = _grip_verdict(amplitudes[1], sds[2], model)
                 if not grip:  # the clamp length stays the model's: refit without it
                     directions = directions[:1]
-                    step, amplitudes, sds = _fit(sens.log_modulus, directions, residual, prior)
+                    step, amplitudes, sds = _fit(jacobian, directions, residual, prior)
             log_sd = float(sds[0])
             alpha_sd = float(sds[1]) if directions else math.inf
+            if not modulus:  # known: the amplitudes below are fitted at the model's E
+                break
             if log_sd > MAX_LOG_SD:
                 note = (f"the measurement does not inform E: sd(ln E) = {log_sd:.3g}, more "
                         f"than a factor {math.exp(MAX_LOG_SD):g}: E kept")
@@ -789,6 +802,7 @@ def correct_plan(
     model_error: str = "discretization",
     grip: str = "estimate",
     offset: str = "estimate",
+    modulus: str = "estimate",
     limits: CorrectionLimits = CorrectionLimits(),
     gravity=GRAVITY,
     predict: bool = True,
@@ -834,6 +848,10 @@ def correct_plan(
         The measurement's offset (a rigid translation of the measured points, e.g. a camera's
         calibration error): estimated with E when the measurement tells it and taken out of
         the comparison, else its size in the interval (default); or taken as zero.
+    modulus : {"estimate", "known"}
+        Young's modulus: estimated when the measurement tells it (default), or known to be the
+        plan's (identified beforehand: kept, no uncertainty in the interval; the bias, clamp
+        length and offset are still estimated), :data:`MODULI`.
     limits : CorrectionLimits
         Bounds beyond which the correction is refused.
     gravity : array_like
@@ -878,6 +896,8 @@ def correct_plan(
         raise ValueError(f"grip: got {grip!r}, expected one of {GRIPS}")
     if offset not in OFFSETS:
         raise ValueError(f"offset: got {offset!r}, expected one of {OFFSETS}")
+    if modulus not in MODULI:
+        raise ValueError(f"modulus: got {modulus!r}, expected one of {MODULI}")
     if isinstance(modulus_steps, bool) or int(modulus_steps) != modulus_steps or modulus_steps < 0:
         raise ValueError(f"modulus_steps: got {modulus_steps!r}, expected an integer >= 0")
     clips = [grippers.clip_poses(j) for j in range(len(path))]
@@ -897,7 +917,7 @@ def correct_plan(
                             max_factor=limits.max_modulus_factor, gravity=gravity,
                             guess=stable[at], discretization=model_error == "discretization",
                             grip=grip == "estimate", offset=offset == "estimate",
-                            measured_links=measured_links)
+                            measured_links=measured_links, modulus=modulus == "estimate")
     if grip == "known":
         update = replace(update, grip_sd=0.0, grip_note=(
             f"clamp length known: the model's {1e3 * cable.rest_link_length:.1f} mm"))
