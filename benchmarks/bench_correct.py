@@ -215,7 +215,7 @@ def written_and_verified(doc, correction, folder: Path) -> str:
 
 
 CASES = ("base", "own n", "E x0.5", "E x10", "grip 0.8", "early", "late", "stiff axial",
-         "grip told")
+         "grip told", "early again")
 """The cases around the base (n = 20, E x2, grip L / n known to the correction, correction at
 mid-path), one factor at a time. "grip 0.8": the plant clamps 0.8 L / n and the correction
 estimates it (``grip="estimate"``); "grip told": the base with the correction's default, the
@@ -223,16 +223,17 @@ clamp length estimated when the measurement tells it (``grip="estimate"``, "est"
 column); where the plant clamps L / n the correction is told so (``grip="known"``). "stiff
 axial": the plant's cable nearly inextensible (the composite cables' copper axial modulus,
 ``COMPOSITE_AXIAL_MODULI``, 2 GPa), "Ea" in the E column; not run by default: the plans' cables
-have it already (the catalogue's default), so it is the base case."""
+have it already (the catalogue's default), so it is the base case. "early again": corrected
+early (shape 1) and again at mid-path, each correction from its own measurement (K "1+3")."""
 
 
-def oracle(plant, doc, at: int, modulus: float, grip: str) -> str:
+def oracle(plant, doc, at: list, modulus: float, grip: str) -> str:
     """The closed loop's final error [mm] with the correction told the plant's E
     (``modulus="known"`` on the plan's cable at the plant's E; the bias, clamp length and offset
     estimated as in the row): what the correction reaches when E is not limited by what the
     measurement tells ("-": refused)."""
     run = run_closed_loop(plant, doc.cable.with_modulus(modulus), doc.shapes, doc.grippers,
-                          [at], stabilized=doc.stabilized, trajectory=doc.trajectory, grip=grip,
+                          at, stabilized=doc.stabilized, trajectory=doc.trajectory, grip=grip,
                           modulus="known")
     return f"{1e3 * run.closed_loop_error:.2f}" if run.corrections else "-"
 
@@ -240,7 +241,7 @@ def oracle(plant, doc, at: int, modulus: float, grip: str) -> str:
 def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=False,
           with_told: bool = True) -> None:
     print("\nPart 2: plants; final mean error [mm] against the plan's stabilized target")
-    print(f"{'plan':>12} {'n':>3} {'plant':>7} {'E':>5} {'grip':>6} {'K':>2} {'open':>7} "
+    print(f"{'plan':>12} {'n':>3} {'plant':>7} {'E':>5} {'grip':>6} {'K':>3} {'open':>7} "
           f"{'closed':>7} {'ratio':>6} {'floor':>6} {'E told':>6} {'E/E sd':>10} "
           f"{'interval':>13} {'cover':>5} "
           f"{'clamp':>7} {'CPU ms':>6}  written?")
@@ -261,14 +262,17 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=Fa
                                      (*base[:2], 0.8, *base[3:5], "estimate"),
                                      (*base[:3], "early", *base[4:]),
                                      (*base[:3], "late", *base[4:]),
-                                     (*base[:4], True, base[5]), (*base[:5], "estimate")],
+                                     (*base[:4], True, base[5]), (*base[:5], "estimate"),
+                                     (*base[:3], "early again", *base[4:])],
                              strict=True))
             cases = [cases[case] for case in chosen]
             for n, factor, grip, when, stiff, told in dict.fromkeys(cases):
                 doc = docs[n]
                 cable = doc.cable
                 last = len(doc.shapes) - 1
-                at = {"early": 1, "mid": last // 2, "late": last - 1}[when]
+                at = {"early": [1], "mid": [last // 2], "late": [last - 1],
+                      "early again": [1, last // 2]}[when]
+                shown_at = "+".join(map(str, at))
                 real = cable.with_modulus(factor * cable.youngs_modulus)
                 modulus = f"x{factor:g}" + ("Ea" if stiff else "")
                 if stiff:
@@ -281,12 +285,12 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=Fa
                     plant = replace(plant, tolerance=STIFF_AXIAL_TOLERANCE)
                 started = time.process_time()
                 try:
-                    run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [at],
+                    run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, at,
                                           stabilized=doc.stabilized, trajectory=doc.trajectory,
                                           grip=told)
                 except RuntimeError as exc:
                     print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {shown:>7} "
-                          f"{at:>2} plant failed: {exc}")
+                          f"{shown_at:>3} plant failed: {exc}")
                     continue
                 plant_seconds = time.process_time() - started
                 told_mm = oracle(plant, doc, at, real.youngs_modulus, told) if with_told else "-"
@@ -297,7 +301,7 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=Fa
                                            max_evaluations=FLOOR_EVALUATIONS[plant_name])
                     floor_mm = f"{1e3 * best:.2f}"
                 if run.corrections:
-                    (c,) = run.corrections
+                    c = run.corrections[-1]  # the last: its interval is of the final error
                     low, high = c.prediction_interval
                     interval = f"{1e3 * low:5.2f}-{1e3 * high:5.2f}"
                     cover = "yes" if low <= run.closed_loop_error <= high else "NO"
@@ -311,7 +315,7 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=Fa
                     interval, cover, cpu, clamp, fitted = "-", "-", "-", "-", "-"
                     written = "refused: " + "; ".join(run.refusals)[:70]
                 print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {shown:>7} "
-                      f"{at:>2} {1e3 * run.open_loop_error:>7.2f} "
+                      f"{shown_at:>3} {1e3 * run.open_loop_error:>7.2f} "
                       f"{1e3 * run.closed_loop_error:>7.2f} {run.improvement:>6.1f} "
                       f"{floor_mm:>6} {told_mm:>6} {fitted:>10} {interval:>13} {cover:>5} "
                       f"{clamp:>7} {cpu:>6}  {written}"

@@ -906,3 +906,57 @@ def test_no_shape_of_the_u_demo_tells_e_while_its_target_depends_on_it(u_demo):
     assert correction.model.log_sd > 3.0  # sd(ln E): the measurement does not tell E
     assert correction.model.youngs_modulus == cable.youngs_modulus
     assert "does not inform E" in correction.model.note
+
+
+def test_the_parameter_covariance_is_the_scatter_of_the_fit_correlation_included():
+    """A known answer: y = c_E J + c_a d + noise with J and d overlapping (both sag-like, as on
+    the 3D job's shape 1), fitted with alpha's prior. Over 400 noise draws the fitted (c_E, c_a)
+    scatter as parameter_covariance says -- the sds within 10 % and the correlation (about
+    -0.75 here) within 0.1 -- which the gain check carries to the target (step._gain_sd)."""
+    from dloplan.correct.model_error import fit_model_error, parameter_covariance
+
+    s = np.linspace(0.0, 1.0, 21)
+    jacobian = np.stack([0 * s, 0 * s, -np.sin(np.pi * s)], axis=1) * 1e-3
+    d = np.stack([0.3 * np.sin(2 * np.pi * s), 0 * s, -np.sin(np.pi * s) ** 2], axis=1) * 1e-3
+    prior, noise = (1.6, 0.5), 0.3e-3
+    rng = np.random.default_rng(7)
+    fits, covariances = [], []
+    for _ in range(400):
+        y = 0.2 * jacobian + 1.6 * d + rng.normal(scale=noise, size=jacobian.shape)
+        step, (alpha,) = fit_model_error(jacobian, [d], y, prior)
+        fits.append((step, alpha))
+        covariances.append(parameter_covariance(jacobian, [d], y - step * jacobian - alpha * d,
+                                                prior))
+    fits = np.array(fits)
+    predicted = np.mean(covariances, axis=0)
+    measured = np.cov(fits.T)
+    assert np.allclose(np.sqrt(np.diag(measured)), np.sqrt(np.diag(predicted)), rtol=0.1)
+    rho = predicted[0, 1] / np.sqrt(predicted[0, 0] * predicted[1, 1])
+    assert rho < -0.5
+    assert measured[0, 1] / np.sqrt(measured[0, 0] * measured[1, 1]) == pytest.approx(rho,
+                                                                                    abs=0.1)
+
+
+def test_corrected_early_and_again_the_3d_job_reaches_the_floor(plans):
+    """Measured again at mid-path after an early correction (3D job, E x2, seed 1, grip known):
+    the first correction, from shape 1, draws E 1.2 sd low and alone ends 1.36 times the floor
+    (test_what_limits_the_early_correction_is_the_measurements_noise); the second, from
+    shape 3, predicts a gain of 0.31 mm (1.14 -> 0.84 mm). With ln E and alpha's sds added in
+    quadrature as if independent (sd of the gain 0.19 mm) the gain check refused it and the
+    plan ended at 1.16 mm; with their correlation in the fit (-0.7: the errors of the two
+    cancel at the target) it is made and the closed loop ends at the floor (0.863 for 0.853 mm),
+    inside its interval."""
+    doc, _ = plans["ethernet-3d"]
+    cable, last = doc.cable, len(doc.shapes) - 1
+    plant = Plant(cable.with_links(100).with_modulus(2.0 * cable.youngs_modulus), noise=NOISE,
+                  n_measured=200, seed=1, clamp=cable.rest_link_length)
+    run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [1, last // 2],
+                          stabilized=doc.stabilized, trajectory=doc.trajectory, grip="known")
+    assert [c.at for c in run.corrections] == [1, last // 2] and not run.refusals
+    second = run.corrections[-1]
+    assert second.model.correlation < -0.3
+    floor = reachable_error(plant, doc.grippers.clip_poses(last), run.reference,
+                            run.open_loop[-1])
+    assert run.closed_loop_error <= 1.05 * floor
+    low, high = second.prediction_interval
+    assert low <= run.closed_loop_error <= high
