@@ -22,7 +22,8 @@ Part 2, plants: every example plan (sagging demo, 3D Ethernet, embedded U demo) 
 
 one factor at a time around the base case (n = 20, E x2, each gripper clamping one model link L / n,
 correction at mid-path): the plan's own n; E x0.5 and x10; a grip of 0.8 L / n; the correction early
-(shape 1) and late (T - 1); early and again at mid-path ("early again", K "1+3") (``--cases``). Columns: final mean error against the plan's stabilized
+(shape 1) and late (T - 1); early and again at mid-path ("early again", K "1+3") (``--cases``).
+Columns: final mean error against the plan's stabilized
 target (curves at equal arc length) open loop and closed loop [mm], their ratio, the floor (the
 least error any correction of the target's clips leaves that plant, ``reachable_error``;
 ``--no-floor`` skips it; on every plant, with forward differences of a step 100 times the plant's
