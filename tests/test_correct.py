@@ -436,6 +436,7 @@ def test_dloplan_correct_writes_the_corrected_plan_program_and_report(plans, tmp
         report = json.loads((told / "correction.json").read_text())
         assert report["youngs_modulus"] == doc.cable.youngs_modulus
         assert report["log_modulus_sd"] == 0.0 and report["uncertainty"]["modulus"] == 0.0
+        assert report["modulus_alpha_correlation"] == 0.0  # E known: nothing to correlate
         assert report["discretization_alpha"] > 0.5
 
 

@@ -317,7 +317,13 @@ def parameter_sds(jacobian: np.ndarray, directions, residual: np.ndarray,
         (1 + len(directions),) sd(ln E) first (inf where the shape does not inform it; 0 for
         E held, a zero ``jacobian``).
     """
-    variance = np.diag(parameter_covariance(jacobian, directions, residual, prior))
+    return standard_deviations(parameter_covariance(jacobian, directions, residual, prior))
+
+
+def standard_deviations(covariance: np.ndarray) -> np.ndarray:
+    """The square roots of a covariance's diagonal (p,), inf where a variance is not finite
+    or negative (a parameter the data do not inform)."""
+    variance = np.diag(covariance)
     ok = np.isfinite(variance) & (variance >= 0)
     return np.where(ok, np.sqrt(np.where(ok, variance, 0.0)), math.inf)
 

@@ -66,6 +66,7 @@ from .model_error import (
     measured_offset,
     model_error_directions,
     parameter_covariance,
+    standard_deviations,
 )
 
 REFERENCES = ("stabilized", "planned")
@@ -412,6 +413,7 @@ class Correction:
                 "prediction_interval": list(self.prediction_interval),
                 "uncertainty": dict(self.uncertainty)}),
             "log_modulus_sd": m.log_sd if math.isfinite(m.log_sd) else None,
+            "modulus_alpha_correlation": m.correlation,
             "modulus_note": m.note,
             "clip_corrections": self.clip_corrections.tolist(),
             "iterations": self.iterations,
@@ -593,9 +595,7 @@ def _fit(jacobian, directions, residual, prior):
     step, amplitudes = fit_model_error(jacobian, directions, residual, prior)
     covariance = parameter_covariance(
         jacobian, directions, _left(residual, jacobian, step, directions, amplitudes), prior)
-    variance = np.diag(covariance)
-    ok = np.isfinite(variance) & (variance >= 0)
-    sds = np.where(ok, np.sqrt(np.where(ok, variance, 0.0)), math.inf)
+    sds = standard_deviations(covariance)
     correlation = 0.0
     if len(sds) > 1 and all(0.0 < sds[k] < math.inf for k in (0, 1)):
         correlation = float(np.clip(covariance[0, 1] / (sds[0] * sds[1]), -1.0, 1.0))
