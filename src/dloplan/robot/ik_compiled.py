@@ -324,13 +324,14 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
         if converged:  # polish: a pure self-motion step away from the limits
             polish -= 1
             dq = -null_gain * (null_projector(jac, eye) @ ((q - mid) / half**2))
-        elif cholesky:
-            dq = damped_step(jac, err, energy + damping, normal, step)
         else:
-            gram = jac.T @ jac
-            for col in range(n):  # + (energy + damping) I, in place
-                gram[col, col] += energy + damping
-            dq = np.linalg.solve(gram, jac.T @ err)
+            if cholesky:
+                dq = damped_step(jac, err, energy + damping, normal, step)
+            else:
+                gram = jac.T @ jac
+                for col in range(n):  # + (energy + damping) I, in place
+                    gram[col, col] += energy + damping
+                dq = np.linalg.solve(gram, jac.T @ err)
             if null_gain != 0.0 and not hold_angle:
                 fade = min(1.0, math.sqrt(2.0 * energy) / null_fade)
                 dq -= null_gain * fade * (null_projector(jac, eye) @ ((q - mid) / half**2))
