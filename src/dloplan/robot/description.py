@@ -271,13 +271,14 @@ def _mesh_reader(urdf_path: Path, package_dirs: dict[str, str], looked_for: dict
             path = Path(name[len("file://"):])
         else:
             path = urdf_path.parent / name
-        looked_for[str(path.resolve())] = description_cache.file_digest(str(path))
+        looked_for[str(path.resolve())] = None
         if not path.is_file():
             return None
         if path.stat().st_size > MAX_MESH_BYTES:
             raise ValueError(f"{urdf_path}: mesh {name!r} has {path.stat().st_size / 1e6:.0f} "
                              f"MB, more than the {MAX_MESH_BYTES / 1e6:.0f} MB read for "
                              "collision capsules")
+        looked_for[str(path.resolve())] = description_cache.file_digest(str(path))
         import trimesh
 
         try:
