@@ -153,6 +153,19 @@ def test_the_repair_hands_its_repaired_plan_to_the_hook_before_verifying_it():
         [pickle.dumps(d) for d in figure_drawings(final)]
 
 
+def test_a_harness_job_hands_its_plan_to_the_hook_before_its_robot_program():
+    """A wire-harness job's plan goes to the figure workers as soon as it is planned, before
+    its robot program and its (long) verification: the drafts are the final figures."""
+    from dloplan.app import load_job, make_plan
+    from dloplan.app.report import figure_drawings
+
+    seen = []
+    final = make_plan(load_job(EXAMPLES / "harness_ethernet.yaml"), planned=seen.append)
+    assert len(seen) == 1 and seen[0].program is None and final.program is not None
+    assert [pickle.dumps(d) for d in figure_drawings(seen[0])] == \
+        [pickle.dumps(d) for d in figure_drawings(final)]
+
+
 def test_workers_are_counted(tmp_path):
     with pytest.raises(ValueError, match="workers: expected at least 1 process, got 0"):
         FigureWorkers(tmp_path, 0)

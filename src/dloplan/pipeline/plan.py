@@ -65,7 +65,7 @@ def make_plan(job: Job | HarnessJob, *, verify: bool = False, check_robot: bool 
     """
     if isinstance(job, HarnessJob):
         return plan_harness(job, verify=verify, check_robot=check_robot, repair=repair,
-                            progress=progress)
+                            progress=progress, planned=planned)
     if not (check_robot and repair):
         return run_job(job, verify=verify, check_robot=check_robot, progress=progress,
                        planned=planned)
