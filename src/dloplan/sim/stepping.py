@@ -35,8 +35,21 @@ from .newton import cholesky_band, cholesky_solve
 
 RUNNING, SETTLED, DIVERGED, INDEFINITE = 0, 1, 2, 3
 
-FREE, SLIDE, STICK = 0, 1, 2
-"""States of a point's contact in an implicit step (:func:`implicit_steps`)."""
+FREE, SLIDE, STICK, OPEN = 0, 1, 2, 3
+"""States of a point's contact in an implicit step (:func:`implicit_steps`): not near the
+obstacle; held on it, sliding or sticking; near it but let go (held again should the solution
+end inside it)."""
+
+FRICTION_TOLERANCE = 0.05
+"""A sliding contact's friction force is taken as Coulomb's, mu N against the slip, once its
+coefficient c = mu N / |slip| changes by less than this fraction between two solves of an
+implicit step (:func:`implicit_steps`)."""
+
+MAX_SOLVES = 64
+"""Most solves of one implicit step's contact iteration (:func:`implicit_steps`; one where
+nothing touches, a few where a contact slides: the lagged coefficient of a lone sliding point
+converges at the rate mu N / (the force that drives it) per solve; the cap is reached where
+contacts at a corner, a peg on its plate, keep changing each other)."""
 
 HOLD_MARGIN = 1e-9
 """A free point closer to an obstacle than the cable's radius times (1 + this) at the start of
@@ -193,8 +206,8 @@ def _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt
 
 
 @njit(cache=True)
-def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, relative, ground,
-                   obstacles, radius, friction, record_every, rest_speed, clips_stop, k_s,
+def implicit_steps(x, v, previous_held, targets, drift, first_step, n_steps, dt, k_d, relative,
+                   ground, obstacles, radius, friction, record_every, rest_speed, clips_stop, k_s,
                    rest_lengths, k_b, rest_angles, masses, gravity, times, shapes, speeds,
                    n_records):
     """Linearly implicit Euler steps through the clip targets of one chunk, with contacts.
@@ -218,18 +231,39 @@ def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, r
     dt^2 + k_s)): the solve sees the obstacle, so a cable pulled against a peg or pressed on a
     plate stays on it, and a point coming down lands on it at the step's end (inelastic), rather
     than being moved into it and put back, which would stretch its links by up to |v| dt. The
-    contact is one-sided within the step, and Coulomb's: the step is solved with every such
-    point sticking (held in all directions, k_c I, from where it is), and where the contact's
-    normal force at the step's end, N = k_c (d - dt v+.n) (linearized as in the solve), would
-    pull (a contact opening, or a point that does not reach the surface) the point is let go;
-    where the force holding it along the surface, k_c dt |v+_t|, exceeds ``friction`` N it
-    slides instead (normal penalty only, and the kinetic friction ``friction`` N against its
-    slip); then the step is solved again with these contacts until they all hold (an active
-    set: each contact changes at most twice, mostly one or two solves). A point that reaches
-    an obstacle unforeseen is put back by the explicit scheme's hard, inelastic contact
-    (:func:`dloplan.physics.contact_compiled.push_out`, the same function, with its impulse
-    friction), and so is a held point's small penetration; the ground plane z = 0 as in
-    :func:`explicit_steps`.
+    contact is one-sided within the step, and Coulomb's, with the friction implicit in the step
+    as the penalty is: the friction force on a touching point is -c P_t (v+ - u), P_t = I -
+    n n^T and u the point's motion through its material (below; zero for a fixed cable), with
+    c = k_c dt while it sticks (the tangential spring k_c holding it where its material is) and
+    c = mu N / |P_t (v+ - u)| while it slides (the kinetic friction mu N against the slip; the
+    coefficient lagged one solve, as a fixed point), N = k_c (d - dt v+.n) the normal force at
+    the step's end (linearized as in the solve). The step is solved with every touching point
+    sticking; then, from each solution, a contact whose N would pull (a contact opening, or a
+    point that does not reach the surface) loses its friction first (a sticking point's
+    tangential lock can pull it off) and is let go if it still pulls; a point let go whose
+    solution ends inside the obstacle is held again (letting it penetrate would have the hard
+    contact below put it back, stretching its links by the depth: a 0.1 mm penetration is a
+    20 N tension spike in the PU hose); and each friction coefficient is set again, c =
+    min(k_c dt, mu N / |slip|) (from the fifth solve on, the geometric mean of that and the
+    last c, which damps coupled contacts' oscillation), until no contact changes and no c
+    changes by more than :data:`FRICTION_TOLERANCE` (at most :data:`MAX_SOLVES` solves). A
+    sliding point's friction thus stays within mu N of the same solution and never reverses
+    its slip within the step, as a friction force held fixed through the step would.
+    A point that reaches an obstacle unforeseen is put back by the explicit scheme's hard,
+    inelastic contact (:func:`dloplan.physics.contact_compiled.push_out`, the same function,
+    with its impulse friction), and so is a held point's small penetration; the ground plane
+    z = 0 as in :func:`explicit_steps`.
+
+    **A changing cable** (a harness section whose links get shorter) moves its mass points
+    through the material: ``drift`` (n + 1,) [m/s] is the rate ds_i/dt at which point i's
+    material coordinate s_i grows (for links of length l(t) shortening about the middle point,
+    s_i = (i - n/2) l and ds_i/dt = (i - n/2) dl/dt), so the material at point i moves at
+    v_i - u_i with u_i = ds_i/dt tau_i, tau_i = (x_(i+1) - x_(i-1)) / (l_(i-1) + l_i) the
+    tangent scaled by the stretch, projected onto the surfaces the point touches. Friction acts
+    on the material (an arbitrary Lagrangian-Eulerian contact): a sticking point's tangential
+    spring is at rest where its material point is, x + dt u (the force k_c P_t dt (u - v+)),
+    and the slip that Coulomb's law judges and the kinetic friction opposes is P_t (v+ - u).
+    Zero for a fixed cable.
 
     The step is unconditionally stable for a positive definite H (docs/decisions.md: the
     replay's time step; H^c only adds to it), so ``dt`` is set by the motion, not by the axial
@@ -246,7 +280,8 @@ def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, r
     work = (np.empty((9, n_dof)), np.empty((9, n_dof - 12)), np.empty((9, n_dof - 12)),
             np.empty(n_dof))
     velocity = np.empty(n_dof)
-    touching = np.zeros((obstacles.shape[0], n_points, 7))  # d [m], n, friction force [N]
+    touching = np.zeros((obstacles.shape[0], n_points, 5))  # d [m], n, friction c [N s/m]
+    through = np.zeros_like(x)  # u: each point's velocity relative to its material [m/s]
     holding = np.zeros((obstacles.shape[0], n_points), dtype=np.int8)
     reach = radius * (1.0 + HOLD_MARGIN)
     ahead = np.empty(n_points)
@@ -268,14 +303,18 @@ def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, r
                 touching[r, i, 1] = n0
                 touching[r, i, 2] = n1
                 touching[r, i, 3] = n2
+                touching[r, i, 4] = stiffness * dt if friction > 0.0 else 0.0
                 holding[r, i] = FREE if phi >= reach + ahead[i] else (
                     STICK if friction > 0.0 else SLIDE)
-        for _ in range(2 * obstacles.shape[0] * n_points + 1):  # the active set
+        if obstacles.shape[0] > 0:
+            _material_drift(x, drift, rest_lengths, touching, holding, through)
+        for solve in range(MAX_SOLVES):  # the contacts' active set and friction coefficients
             if not _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b,
                                       rest_angles, masses, gravity, touching, holding,
-                                      stiffness, grad, work):
+                                      stiffness, through, grad, work):
                 return step - 1, n_records, INDEFINITE
-            if _contacts_settled(velocity, touching, holding, stiffness, dt, friction):
+            if _contacts_settled(velocity, touching, holding, stiffness, dt, friction, through,
+                                 solve >= 4):
                 break
         for i in range(n_points):
             for a in range(3):
@@ -298,12 +337,54 @@ def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, r
 
 
 @njit(cache=True)
-def _contacts_settled(velocity, touching, holding, stiffness, dt, friction):
+def _material_drift(x, drift, rest_lengths, touching, holding, through):
+    """Each inner point's velocity relative to its material, u_i = ds_i/dt tau_i [m/s], into
+    ``through`` (n + 1, 3) (:func:`implicit_steps`: ``drift`` (n + 1,) the rates ds_i/dt [m/s],
+    tau_i the central difference over the rest lengths ``rest_lengths`` (n,) [m]), projected
+    onto the surfaces the point touches (``holding`` (K, n + 1) not FREE, normals in
+    ``touching`` (K, n + 1, 7)): the material slides along them. A chord tau_i crossing a
+    surface (a point where the cable comes onto a peg) would otherwise ask a point sticking
+    on a second surface (the peg's plate) to move into the first one."""
+    basis = np.empty((3, 3))  # the touched normals, orthonormalized
+    for i in range(1, x.shape[0] - 1):
+        rate = drift[i] / (rest_lengths[i - 1] + rest_lengths[i])
+        for a in range(3):
+            through[i, a] = rate * (x[i + 1, a] - x[i - 1, a])
+        found = 0
+        for r in range(holding.shape[0]):
+            if holding[r, i] == FREE or found == 3:
+                continue
+            for a in range(3):
+                basis[found, a] = touching[r, i, 1 + a]
+            for b in range(found):
+                along = (basis[found, 0] * basis[b, 0] + basis[found, 1] * basis[b, 1]
+                         + basis[found, 2] * basis[b, 2])
+                for a in range(3):
+                    basis[found, a] -= along * basis[b, a]
+            size = math.sqrt(basis[found, 0] ** 2 + basis[found, 1] ** 2 + basis[found, 2] ** 2)
+            if size < 1e-9:  # within the span of the normals before
+                continue
+            across = 0.0
+            for a in range(3):
+                basis[found, a] /= size
+                across += through[i, a] * basis[found, a]
+            for a in range(3):
+                through[i, a] -= across * basis[found, a]
+            found += 1
+
+
+@njit(cache=True)
+def _contacts_settled(velocity, touching, holding, stiffness, dt, friction, through, relax):
     """Check the contacts of one implicit step's solution ``velocity`` (3(n + 1),) against
-    Coulomb's law (:func:`implicit_steps`); change those that break it and return False (solve
-    again), or True when all hold. ``touching`` (K, n + 1, 7): depth d [m], normal n and the
-    sliding friction force [N] (written here); ``holding`` (K, n + 1): FREE, SLIDE or STICK."""
+    Coulomb's law (:func:`implicit_steps`): let go those that would pull, set each friction
+    coefficient c = min(k_c dt, mu N / |slip|) from this solution; return True when no contact
+    changed (c within :data:`FRICTION_TOLERANCE`), False to solve again. ``touching``
+    (K, n + 1, 5): depth d [m], normal n and c [N s/m] (written here); ``holding`` (K, n + 1):
+    FREE, SLIDE, STICK or OPEN; ``through`` (n + 1, 3): each point's velocity relative to its
+    material u [m/s], so the material slips at the tangential part of v+ - u; ``relax``: the
+    new c is the geometric mean of the one the solution gives and the last."""
     settled = True
+    held = stiffness * dt  # a sticking point's coefficient
     for r in range(holding.shape[0]):
         for i in range(holding.shape[1]):
             if holding[r, i] == FREE:
@@ -312,30 +393,45 @@ def _contacts_settled(velocity, touching, holding, stiffness, dt, friction):
             c = touching[r, i]
             speed = velocity[j] * c[1] + velocity[j + 1] * c[2] + velocity[j + 2] * c[3]
             normal = stiffness * (c[0] - dt * speed)  # the penalty's force at the step's end
+            if holding[r, i] == OPEN:
+                if normal > 0.0:  # let go, it would end inside the obstacle: held again
+                    holding[r, i] = STICK if friction > 0.0 else SLIDE
+                    c[4] = held if friction > 0.0 else 0.0
+                    settled = False
+                continue
             if normal < 0.0:  # it would pull: the contact opens
-                holding[r, i] = FREE
+                if holding[r, i] == STICK and c[4] > 0.0:  # first without the friction's lock
+                    c[4] = 0.0
+                    holding[r, i] = SLIDE
+                else:
+                    holding[r, i] = OPEN
                 settled = False
                 continue
-            if holding[r, i] == SLIDE:
+            if friction == 0.0:
                 continue
-            t0 = velocity[j] - speed * c[1]
-            t1 = velocity[j + 1] - speed * c[2]
-            t2 = velocity[j + 2] - speed * c[3]
-            along = stiffness * dt * math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)  # holding force
-            if along > friction * normal:  # more than friction can hold: it slides
-                scale = friction * normal / along * stiffness * dt
-                c[4], c[5], c[6] = -scale * t0, -scale * t1, -scale * t2
-                holding[r, i] = SLIDE
+            s0 = velocity[j] - through[i, 0]
+            s1 = velocity[j + 1] - through[i, 1]
+            s2 = velocity[j + 2] - through[i, 2]
+            across = s0 * c[1] + s1 * c[2] + s2 * c[3]
+            slip = math.sqrt((s0 - across * c[1]) ** 2 + (s1 - across * c[2]) ** 2
+                             + (s2 - across * c[3]) ** 2)  # the material's, along the surface
+            coefficient = held if held * slip <= friction * normal else friction * normal / slip
+            if relax and c[4] > 0.0:
+                coefficient = math.sqrt(coefficient * c[4])
+            if abs(coefficient - c[4]) > FRICTION_TOLERANCE * c[4]:
+                c[4] = coefficient
+                holding[r, i] = STICK if coefficient == held else SLIDE
                 settled = False
     return settled
 
 
 @njit(cache=True)
 def _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b, rest_angles,
-                       masses, gravity, touching, holding, stiffness, grad, work):
+                       masses, gravity, touching, holding, stiffness, through, grad, work):
     """Solve one step's system of :func:`implicit_steps` for the free points' v+ into
     ``velocity`` (3(n + 1),), whose held entries are the clips' already; the contacts in
-    ``holding`` (K, n + 1) held as :func:`_contacts_settled` says with ``touching``.
+    ``holding`` (K, n + 1) held as :func:`_contacts_settled` says with ``touching`` and
+    ``through`` (the friction -c P_t (v+ - u) acts on the slip of the material).
     ``work``: band (9, 3(n + 1)), free band and factor (9, 3(n + 1) - 12), rhs (3(n + 1),).
     False when the system is not positive definite."""
     band, free, factor, rhs = work
@@ -346,15 +442,15 @@ def _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b
     for r in range(holding.shape[0]):
         for i in range(n_points):
             c = touching[r, i]
-            if holding[r, i] != FREE:
-                add_penalty(i, c[0], c[1], c[2], c[3], stiffness, grad, band)
-            if holding[r, i] == STICK:  # the tangential spring, at rest at the step's start
-                for a in range(3):
+            if holding[r, i] == FREE or holding[r, i] == OPEN:
+                continue
+            add_penalty(i, c[0], c[1], c[2], c[3], stiffness, grad, band)
+            if c[4] > 0.0:  # the friction -c P_t (v+ - u)
+                across = through[i, 0] * c[1] + through[i, 1] * c[2] + through[i, 2] * c[3]
+                for a in range(3):  # c / dt here: the band is scaled by dt^2 below
+                    grad[i, a] -= c[4] * (through[i, a] - across * c[1 + a])
                     for b in range(a + 1):
-                        band[a - b, 3 * i + b] += stiffness * ((a == b) - c[1 + a] * c[1 + b])
-            elif holding[r, i] == SLIDE:  # the kinetic friction, against the slip
-                for a in range(3):
-                    grad[i, a] -= c[4 + a]
+                        band[a - b, 3 * i + b] += c[4] / dt * ((a == b) - c[1 + a] * c[1 + b])
     for j in range(n_dof):  # A = M + dt k_d D + dt^2 H (lower band)
         for d in range(9):
             band[d, j] *= dt2
