@@ -401,7 +401,7 @@ def simulate(
     schedule = _HeldSchedule(trajectory, dt, n_steps)
     no_load = np.zeros_like(x)
     offsets = np.arange(cable.n_points) - 0.5 * cable.n_links  # (i - n/2): ds_i = offset dl
-    drift = np.zeros(cable.n_points)  # ds_i/dt of the implicit step [m/s]
+    drift = np.zeros(cable.n_points)  # the implicit step's (ds_i/dt) / l [1/s]
     status, step, recorded = RUNNING, 0, 1
     previous = cable, fixed  # a changing cable's last model and its settings
     # a diverging run is detected in the loop and reported with its time: no float warnings
@@ -414,8 +414,9 @@ def simulate(
                 if model.n_links != cable.n_links:
                     raise ValueError(f"cable_at: a cable of {model.n_links} links, expected "
                                      f"{cable.n_links}")
-                drift = offsets * ((model.rest_link_length - previous[0].rest_link_length)
-                                   / (len(chunk_steps) * dt))  # the change spread over the chunk
+                last = previous[0].rest_link_length  # the material between the points
+                drift = offsets * ((model.rest_link_length - last)
+                                   / (last * len(chunk_steps) * dt))  # spread over the chunk
                 if model is not previous[0]:  # the same cable object: the same constants
                     previous = model, settings(model,
                                                SpringChain.from_cable(model, gravity).constants)

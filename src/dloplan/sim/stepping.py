@@ -255,11 +255,12 @@ def implicit_steps(x, v, previous_held, targets, drift, first_step, n_steps, dt,
     z = 0 as in :func:`explicit_steps`.
 
     **A changing cable** (a harness section whose links get shorter) moves its mass points
-    through the material: ``drift`` (n + 1,) [m/s] is the rate ds_i/dt at which point i's
-    material coordinate s_i grows (for links of length l(t) shortening about the middle point,
-    s_i = (i - n/2) l and ds_i/dt = (i - n/2) dl/dt), so the material at point i moves at
-    v_i - u_i with u_i = ds_i/dt tau_i, tau_i = (x_(i+1) - x_(i-1)) / (l_(i-1) + l_i) the
-    tangent scaled by the stretch, projected onto the surfaces the point touches. Friction acts
+    through the material: ``drift`` (n + 1,) [1/s] is the rate at which point i's material
+    coordinate s_i grows, in units of the material between two points at the step's start:
+    (ds_i/dt) / l (for links of length l(t) shortening about the middle point, s_i = (i - n/2)
+    l and ds_i/dt = (i - n/2) dl/dt), so the material at point i moves at v_i - u_i with u_i =
+    drift_i (x_(i+1) - x_(i-1)) / 2 (the material's tangent dx/ds, stretch included, times
+    ds_i/dt), projected onto the surfaces the point touches. Friction acts
     on the material (an arbitrary Lagrangian-Eulerian contact): a sticking point's tangential
     spring is at rest where its material point is, x + dt u (the force k_c P_t dt (u - v+)),
     and the slip that Coulomb's law judges and the kinetic friction opposes is P_t (v+ - u).
@@ -307,7 +308,7 @@ def implicit_steps(x, v, previous_held, targets, drift, first_step, n_steps, dt,
                 holding[r, i] = FREE if phi >= reach + ahead[i] else (
                     STICK if friction > 0.0 else SLIDE)
         if obstacles.shape[0] > 0:
-            _material_drift(x, drift, rest_lengths, touching, holding, through)
+            _material_drift(x, drift, touching, holding, through)
         for solve in range(MAX_SOLVES):  # the contacts' active set and friction coefficients
             if not _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b,
                                       rest_angles, masses, gravity, touching, holding,
@@ -337,19 +338,17 @@ def implicit_steps(x, v, previous_held, targets, drift, first_step, n_steps, dt,
 
 
 @njit(cache=True)
-def _material_drift(x, drift, rest_lengths, touching, holding, through):
-    """Each inner point's velocity relative to its material, u_i = ds_i/dt tau_i [m/s], into
-    ``through`` (n + 1, 3) (:func:`implicit_steps`: ``drift`` (n + 1,) the rates ds_i/dt [m/s],
-    tau_i the central difference over the rest lengths ``rest_lengths`` (n,) [m]), projected
+def _material_drift(x, drift, touching, holding, through):
+    """Each inner point's velocity relative to its material, u_i = drift_i (x_(i+1) -
+    x_(i-1)) / 2 [m/s], into ``through`` (n + 1, 3) (:func:`implicit_steps`), projected
     onto the surfaces the point touches (``holding`` (K, n + 1) not FREE, normals in
     ``touching`` (K, n + 1, 7)): the material slides along them. A chord tau_i crossing a
     surface (a point where the cable comes onto a peg) would otherwise ask a point sticking
     on a second surface (the peg's plate) to move into the first one."""
     basis = np.empty((3, 3))  # the touched normals, orthonormalized
     for i in range(1, x.shape[0] - 1):
-        rate = drift[i] / (rest_lengths[i - 1] + rest_lengths[i])
         for a in range(3):
-            through[i, a] = rate * (x[i + 1, a] - x[i - 1, a])
+            through[i, a] = 0.5 * drift[i] * (x[i + 1, a] - x[i - 1, a])
         found = 0
         for r in range(holding.shape[0]):
             if holding[r, i] == FREE or found == 3:
