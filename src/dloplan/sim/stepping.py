@@ -40,7 +40,7 @@ FREE, SLIDE, STICK, OPEN = 0, 1, 2, 3
 obstacle; held on it, sliding or sticking; near it but let go (held again should the solution
 end inside it)."""
 
-FRICTION_TOLERANCE = 0.05
+FRICTION_TOLERANCE = 1e-3
 """A sliding contact's friction force is taken as Coulomb's, mu N against the slip, once its
 coefficient c = mu N / |slip| changes by less than this fraction between two solves of an
 implicit step (:func:`implicit_steps`)."""
