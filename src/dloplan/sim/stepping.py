@@ -281,7 +281,7 @@ def implicit_steps(x, v, previous_held, targets, drift, first_step, n_steps, dt,
     work = (np.empty((9, n_dof)), np.empty((9, n_dof - 12)), np.empty((9, n_dof - 12)),
             np.empty(n_dof))
     velocity = np.empty(n_dof)
-    touching = np.zeros((obstacles.shape[0], n_points, 5))  # d [m], n, friction c [N s/m]
+    touching = np.zeros((obstacles.shape[0], n_points, 7))  # d, n, c, the last c and slip
     through = np.zeros_like(x)  # u: each point's velocity relative to its material [m/s]
     holding = np.zeros((obstacles.shape[0], n_points), dtype=np.int8)
     reach = radius * (1.0 + HOLD_MARGIN)
@@ -305,6 +305,7 @@ def implicit_steps(x, v, previous_held, targets, drift, first_step, n_steps, dt,
                 touching[r, i, 2] = n1
                 touching[r, i, 3] = n2
                 touching[r, i, 4] = stiffness * dt if friction > 0.0 else 0.0
+                touching[r, i, 5] = -1.0  # no solve with another coefficient yet
                 holding[r, i] = FREE if phi >= reach + ahead[i] else (
                     STICK if friction > 0.0 else SLIDE)
         if obstacles.shape[0] > 0:
@@ -414,9 +415,18 @@ def _contacts_settled(velocity, touching, holding, stiffness, dt, friction, thro
             across = s0 * c[1] + s1 * c[2] + s2 * c[3]
             slip = math.sqrt((s0 - across * c[1]) ** 2 + (s1 - across * c[2]) ** 2
                              + (s2 - across * c[3]) ** 2)  # the material's, along the surface
-            coefficient = held if held * slip <= friction * normal else friction * normal / slip
-            if relax and c[4] > 0.0:
+            limit = friction * normal
+            coefficient = held if held * slip <= limit else limit / slip
+            if c[5] >= 0.0 and c[5] != c[4] and c[6] != slip and held * slip > limit:
+                # the point's slip as A / (B + c) (its tangential stiffness B), fitted to
+                # this solve and the last: mu N = c A / (B + c) solved for c
+                stiff = (c[6] * c[5] - slip * c[4]) / (slip - c[6])
+                pull = slip * (stiff + c[4])
+                if stiff > 0.0 and pull > limit:
+                    coefficient = min(held, limit * stiff / (pull - limit))
+            elif relax and c[4] > 0.0:
                 coefficient = math.sqrt(coefficient * c[4])
+            c[5], c[6] = c[4], slip
             if abs(coefficient - c[4]) > FRICTION_TOLERANCE * c[4]:
                 c[4] = coefficient
                 holding[r, i] = STICK if coefficient == held else SLIDE
