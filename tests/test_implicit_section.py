@@ -11,8 +11,7 @@ material (sim.stepping.implicit_steps, the ALE drift):
   0.25 N in the links (measured);
 * a cable lying on a table in an arc while its section is pulled through fixed clips (the
   material slides on the table with friction): the peak tension converges as dt is halved
-  (2, 1, 0.5 ms) to the explicit scheme's, and the settled shape's distance to the explicit
-  run's halves with dt (first order).
+  (2, 1, 0.5 ms) to the explicit scheme's, and the settled shapes agree to 0.1 mm.
 """
 
 import math
@@ -111,14 +110,15 @@ def arc_runs():
 
 
 def test_the_peak_tension_of_a_section_pulled_over_a_table_converges_with_dt(arc_runs):
-    # measured: 2.391, 2.387, 2.386 N at 2, 1, 0.5 ms; explicit 2.377 N (the links' tension
-    # at the end of the pull; the arc's sag went from 73 mm to 15.7 mm)
+    # measured: 2.3785, 2.3780, 2.3780 N at 2, 1, 0.5 ms; explicit 2.3773 N (the links' tension
+    # at the end of the pull; the arc's sag went from 73 mm to 15.7 mm). The old step held the
+    # mesh points, not the material: its peaks grew as 1/dt on the harness tensioning
     peaks = [arc_runs[dt][1] for dt in (2e-3, 1e-3, 5e-4)]
     explicit = arc_runs[None][1]
-    assert abs(peaks[2] - peaks[1]) < 0.7 * abs(peaks[1] - peaks[0])  # converging
-    assert peaks == pytest.approx([explicit] * 3, rel=0.01)
-    # the settled shapes approach the explicit one at first order (0.11, 0.056, 0.027 mm)
+    assert abs(peaks[2] - peaks[1]) < 0.5 * abs(peaks[1] - peaks[0])  # converging
+    assert peaks == pytest.approx([explicit] * 3, rel=1e-3)
+    # the settled shapes: 0.033, 0.019, 0.038 mm from the explicit one (the two friction
+    # models differ where the cable comes to rest, tests/test_implicit_contacts.py)
     reference = arc_runs[None][0].shapes[-1]
-    gaps = [float(np.max(np.linalg.norm(arc_runs[dt][0].shapes[-1] - reference, axis=1)))
-            for dt in (2e-3, 1e-3, 5e-4)]
-    assert gaps[0] < 2e-4 and gaps[1] < 0.7 * gaps[0] and gaps[2] < 0.7 * gaps[1]
+    for dt in (2e-3, 1e-3, 5e-4):
+        assert np.max(np.linalg.norm(arc_runs[dt][0].shapes[-1] - reference, axis=1)) < 1e-4

@@ -35,21 +35,8 @@ from .newton import cholesky_band, cholesky_solve
 
 RUNNING, SETTLED, DIVERGED, INDEFINITE = 0, 1, 2, 3
 
-FREE, SLIDE, STICK, OPEN = 0, 1, 2, 3
-"""States of a point's contact in an implicit step (:func:`implicit_steps`): not near the
-obstacle; held on it, sliding or sticking; near it but let go (held again should the solution
-end inside it)."""
-
-FRICTION_TOLERANCE = 1e-3
-"""A sliding contact's friction force is taken as Coulomb's, mu N against the slip, once its
-coefficient c = mu N / |slip| changes by less than this fraction between two solves of an
-implicit step (:func:`implicit_steps`)."""
-
-MAX_SOLVES = 64
-"""Most solves of one implicit step's contact iteration (:func:`implicit_steps`; one where
-nothing touches, a few where a contact slides: the lagged coefficient of a lone sliding point
-converges at the rate mu N / (the force that drives it) per solve; the cap is reached where
-contacts at a corner, a peg on its plate, keep changing each other)."""
+FREE, SLIDE, STICK = 0, 1, 2
+"""States of a point's contact in an implicit step (:func:`implicit_steps`)."""
 
 HOLD_MARGIN = 1e-9
 """A free point closer to an obstacle than the cable's radius times (1 + this) at the start of
@@ -231,28 +218,18 @@ def implicit_steps(x, v, previous_held, targets, drift, first_step, n_steps, dt,
     dt^2 + k_s)): the solve sees the obstacle, so a cable pulled against a peg or pressed on a
     plate stays on it, and a point coming down lands on it at the step's end (inelastic), rather
     than being moved into it and put back, which would stretch its links by up to |v| dt. The
-    contact is one-sided within the step, and Coulomb's, with the friction implicit in the step
-    as the penalty is: the friction force on a touching point is -c P_t (v+ - u), P_t = I -
-    n n^T and u the point's motion through its material (below; zero for a fixed cable), with
-    c = k_c dt while it sticks (the tangential spring k_c holding it where its material is) and
-    c = mu N / |P_t (v+ - u)| while it slides (the kinetic friction mu N against the slip; the
-    coefficient lagged one solve, as a fixed point), N = k_c (d - dt v+.n) the normal force at
-    the step's end (linearized as in the solve). The step is solved with every touching point
-    sticking; then, from each solution, a contact whose N would pull (a contact opening, or a
-    point that does not reach the surface) loses its friction first (a sticking point's
-    tangential lock can pull it off) and is let go if it still pulls; a point let go whose
-    solution ends inside the obstacle is held again (letting it penetrate would have the hard
-    contact below put it back, stretching its links by the depth: a 0.1 mm penetration is a
-    20 N tension spike in the PU hose); and each friction coefficient is set again, c =
-    min(k_c dt, mu N / |slip|) (from the fifth solve on, the geometric mean of that and the
-    last c, which damps coupled contacts' oscillation), until no contact changes and no c
-    changes by more than :data:`FRICTION_TOLERANCE` (at most :data:`MAX_SOLVES` solves). A
-    sliding point's friction thus stays within mu N of the same solution and never reverses
-    its slip within the step, as a friction force held fixed through the step would.
-    A point that reaches an obstacle unforeseen is put back by the explicit scheme's hard,
-    inelastic contact (:func:`dloplan.physics.contact_compiled.push_out`, the same function,
-    with its impulse friction), and so is a held point's small penetration; the ground plane
-    z = 0 as in :func:`explicit_steps`.
+    contact is one-sided within the step, and Coulomb's: the step is solved with every such
+    point sticking (held in all directions, k_c I, from where it is), and where the contact's
+    normal force at the step's end, N = k_c (d - dt v+.n) (linearized as in the solve), would
+    pull (a contact opening, or a point that does not reach the surface) the point is let go;
+    where the force holding it along the surface, k_c dt |v+_t|, exceeds ``friction`` N it
+    slides instead (normal penalty only, and the kinetic friction ``friction`` N against its
+    slip); then the step is solved again with these contacts until they all hold (an active
+    set: each contact changes at most twice, mostly one or two solves). A point that reaches
+    an obstacle unforeseen is put back by the explicit scheme's hard, inelastic contact
+    (:func:`dloplan.physics.contact_compiled.push_out`, the same function, with its impulse
+    friction), and so is a held point's small penetration; the ground plane z = 0 as in
+    :func:`explicit_steps`.
 
     **A changing cable** (a harness section whose links get shorter) moves its mass points
     through the material: ``drift`` (n + 1,) [1/s] is the rate at which point i's material
@@ -260,9 +237,9 @@ def implicit_steps(x, v, previous_held, targets, drift, first_step, n_steps, dt,
     (ds_i/dt) / l (for links of length l(t) shortening about the middle point, s_i = (i - n/2)
     l and ds_i/dt = (i - n/2) dl/dt), so the material at point i moves at v_i - u_i with u_i =
     drift_i (x_(i+1) - x_(i-1)) / 2 (the material's tangent dx/ds, stretch included, times
-    ds_i/dt), projected onto the surfaces the point touches. Friction acts
-    on the material (an arbitrary Lagrangian-Eulerian contact): a sticking point's tangential
-    spring is at rest where its material point is, x + dt u (the force k_c P_t dt (u - v+)),
+    ds_i/dt), projected onto the surfaces the point touches. Friction acts on the material (an
+    arbitrary Lagrangian-Eulerian contact): a sticking point's tangential spring is at rest
+    where its material point is, x + dt u (the force k_c P_t (dt u - dt v+), P_t = I - n n^T),
     and the slip that Coulomb's law judges and the kinetic friction opposes is P_t (v+ - u).
     Zero for a fixed cable.
 
@@ -281,7 +258,7 @@ def implicit_steps(x, v, previous_held, targets, drift, first_step, n_steps, dt,
     work = (np.empty((9, n_dof)), np.empty((9, n_dof - 12)), np.empty((9, n_dof - 12)),
             np.empty(n_dof))
     velocity = np.empty(n_dof)
-    touching = np.zeros((obstacles.shape[0], n_points, 7))  # d, n, c, the last c and slip
+    touching = np.zeros((obstacles.shape[0], n_points, 7))  # d [m], n, friction force [N]
     through = np.zeros_like(x)  # u: each point's velocity relative to its material [m/s]
     holding = np.zeros((obstacles.shape[0], n_points), dtype=np.int8)
     reach = radius * (1.0 + HOLD_MARGIN)
@@ -304,19 +281,16 @@ def implicit_steps(x, v, previous_held, targets, drift, first_step, n_steps, dt,
                 touching[r, i, 1] = n0
                 touching[r, i, 2] = n1
                 touching[r, i, 3] = n2
-                touching[r, i, 4] = stiffness * dt if friction > 0.0 else 0.0
-                touching[r, i, 5] = -1.0  # no solve with another coefficient yet
                 holding[r, i] = FREE if phi >= reach + ahead[i] else (
                     STICK if friction > 0.0 else SLIDE)
         if obstacles.shape[0] > 0:
             _material_drift(x, drift, touching, holding, through)
-        for solve in range(MAX_SOLVES):  # the contacts' active set and friction coefficients
+        for _ in range(2 * obstacles.shape[0] * n_points + 1):  # the active set
             if not _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b,
                                       rest_angles, masses, gravity, touching, holding,
                                       stiffness, through, grad, work):
                 return step - 1, n_records, INDEFINITE
-            if _contacts_settled(velocity, touching, holding, stiffness, dt, friction, through,
-                                 solve >= 4):
+            if _contacts_settled(velocity, touching, holding, stiffness, dt, friction, through):
                 break
         for i in range(n_points):
             for a in range(3):
@@ -374,17 +348,14 @@ def _material_drift(x, drift, touching, holding, through):
 
 
 @njit(cache=True)
-def _contacts_settled(velocity, touching, holding, stiffness, dt, friction, through, relax):
+def _contacts_settled(velocity, touching, holding, stiffness, dt, friction, through):
     """Check the contacts of one implicit step's solution ``velocity`` (3(n + 1),) against
-    Coulomb's law (:func:`implicit_steps`): let go those that would pull, set each friction
-    coefficient c = min(k_c dt, mu N / |slip|) from this solution; return True when no contact
-    changed (c within :data:`FRICTION_TOLERANCE`), False to solve again. ``touching``
-    (K, n + 1, 5): depth d [m], normal n and c [N s/m] (written here); ``holding`` (K, n + 1):
-    FREE, SLIDE, STICK or OPEN; ``through`` (n + 1, 3): each point's velocity relative to its
-    material u [m/s], so the material slips at the tangential part of v+ - u; ``relax``: the
-    new c is the geometric mean of the one the solution gives and the last."""
+    Coulomb's law (:func:`implicit_steps`); change those that break it and return False (solve
+    again), or True when all hold. ``touching`` (K, n + 1, 7): depth d [m], normal n and the
+    sliding friction force [N] (written here); ``holding`` (K, n + 1): FREE, SLIDE or STICK;
+    ``through`` (n + 1, 3): each point's velocity relative to its material u [m/s], so the
+    material slips at the tangential part of v+ - u."""
     settled = True
-    held = stiffness * dt  # a sticking point's coefficient
     for r in range(holding.shape[0]):
         for i in range(holding.shape[1]):
             if holding[r, i] == FREE:
@@ -393,43 +364,24 @@ def _contacts_settled(velocity, touching, holding, stiffness, dt, friction, thro
             c = touching[r, i]
             speed = velocity[j] * c[1] + velocity[j + 1] * c[2] + velocity[j + 2] * c[3]
             normal = stiffness * (c[0] - dt * speed)  # the penalty's force at the step's end
-            if holding[r, i] == OPEN:
-                if normal > 0.0:  # let go, it would end inside the obstacle: held again
-                    holding[r, i] = STICK if friction > 0.0 else SLIDE
-                    c[4] = held if friction > 0.0 else 0.0
-                    settled = False
-                continue
             if normal < 0.0:  # it would pull: the contact opens
-                if holding[r, i] == STICK and c[4] > 0.0:  # first without the friction's lock
-                    c[4] = 0.0
-                    holding[r, i] = SLIDE
-                else:
-                    holding[r, i] = OPEN
+                holding[r, i] = FREE
                 settled = False
                 continue
-            if friction == 0.0:
+            if holding[r, i] == SLIDE:
                 continue
             s0 = velocity[j] - through[i, 0]
             s1 = velocity[j + 1] - through[i, 1]
             s2 = velocity[j + 2] - through[i, 2]
             across = s0 * c[1] + s1 * c[2] + s2 * c[3]
-            slip = math.sqrt((s0 - across * c[1]) ** 2 + (s1 - across * c[2]) ** 2
-                             + (s2 - across * c[3]) ** 2)  # the material's, along the surface
-            limit = friction * normal
-            coefficient = held if held * slip <= limit else limit / slip
-            if c[5] >= 0.0 and c[5] != c[4] and c[6] != slip and held * slip > limit:
-                # the point's slip as A / (B + c) (its tangential stiffness B), fitted to
-                # this solve and the last: mu N = c A / (B + c) solved for c
-                stiff = (c[6] * c[5] - slip * c[4]) / (slip - c[6])
-                pull = slip * (stiff + c[4])
-                if stiff > 0.0 and pull > limit:
-                    coefficient = min(held, limit * stiff / (pull - limit))
-            elif relax and c[4] > 0.0:
-                coefficient = math.sqrt(coefficient * c[4])
-            c[5], c[6] = c[4], slip
-            if abs(coefficient - c[4]) > FRICTION_TOLERANCE * c[4]:
-                c[4] = coefficient
-                holding[r, i] = STICK if coefficient == held else SLIDE
+            t0 = s0 - across * c[1]  # the material's slip along the surface
+            t1 = s1 - across * c[2]
+            t2 = s2 - across * c[3]
+            along = stiffness * dt * math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)  # holding force
+            if along > friction * normal:  # more than friction can hold: it slides
+                scale = friction * normal / along * stiffness * dt
+                c[4], c[5], c[6] = -scale * t0, -scale * t1, -scale * t2
+                holding[r, i] = SLIDE
                 settled = False
     return settled
 
@@ -440,7 +392,7 @@ def _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b
     """Solve one step's system of :func:`implicit_steps` for the free points' v+ into
     ``velocity`` (3(n + 1),), whose held entries are the clips' already; the contacts in
     ``holding`` (K, n + 1) held as :func:`_contacts_settled` says with ``touching`` and
-    ``through`` (the friction -c P_t (v+ - u) acts on the slip of the material).
+    ``through`` (a sticking point's spring at rest where its material is at the step's end).
     ``work``: band (9, 3(n + 1)), free band and factor (9, 3(n + 1) - 12), rhs (3(n + 1),).
     False when the system is not positive definite."""
     band, free, factor, rhs = work
@@ -451,15 +403,17 @@ def _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b
     for r in range(holding.shape[0]):
         for i in range(n_points):
             c = touching[r, i]
-            if holding[r, i] == FREE or holding[r, i] == OPEN:
-                continue
-            add_penalty(i, c[0], c[1], c[2], c[3], stiffness, grad, band)
-            if c[4] > 0.0:  # the friction -c P_t (v+ - u)
+            if holding[r, i] != FREE:
+                add_penalty(i, c[0], c[1], c[2], c[3], stiffness, grad, band)
+            if holding[r, i] == STICK:  # the tangential spring, at rest on the material
                 across = through[i, 0] * c[1] + through[i, 1] * c[2] + through[i, 2] * c[3]
-                for a in range(3):  # c / dt here: the band is scaled by dt^2 below
-                    grad[i, a] -= c[4] * (through[i, a] - across * c[1 + a])
+                for a in range(3):
+                    grad[i, a] -= stiffness * dt * (through[i, a] - across * c[1 + a])
                     for b in range(a + 1):
-                        band[a - b, 3 * i + b] += c[4] / dt * ((a == b) - c[1 + a] * c[1 + b])
+                        band[a - b, 3 * i + b] += stiffness * ((a == b) - c[1 + a] * c[1 + b])
+            elif holding[r, i] == SLIDE:  # the kinetic friction, against the slip
+                for a in range(3):
+                    grad[i, a] -= c[4 + a]
     for j in range(n_dof):  # A = M + dt k_d D + dt^2 H (lower band)
         for d in range(9):
             band[d, j] *= dt2
