@@ -97,7 +97,7 @@ def rapid_round_trip(program, folder: Path) -> tuple[float, int]:
                 cell.base_position
             r = cell.base_rotation * w_rot * Rotation.from_quat(quat, scalar_first=True)
             found = solve_robtarget(arm, p, r.as_matrix(), np.radians(extax[0]), conf)
-            worst = max(worst, float(np.degrees(found.deviation(program.joints[m, a]))))
+            worst = max(worst, float(np.degrees(found.deviation(program.joints[a][m]))))
             ambiguous += len(found.matching) > 1
     return worst, ambiguous
 
@@ -168,9 +168,9 @@ def eax_beside_arm_angle(program) -> tuple[np.ndarray, np.ndarray]:
     """(M, 2) written eax_a [deg] and (M, 2) arm angle of the verified joints [deg]."""
     from dloplan.robot.armangle import arm_angle
 
-    psi = np.stack([arm_angle(arm, program.joints[:, a])
-                    for a, arm in enumerate(program.cell.robot.arms)], axis=1)
-    return np.asarray(program.arm_angles), np.degrees(psi)
+    psi = np.stack([arm_angle(arm, program.joints[a])
+                    for a, arm in enumerate(program.cell.arms)], axis=1)
+    return np.asarray(program.targets.arm_angles), np.degrees(psi)
 
 
 def wrapped(deg) -> np.ndarray:
@@ -230,7 +230,7 @@ def dump_before(paths) -> None:
     out = {}
     for path in paths:
         program = plan_document(path).program
-        out[path.name] = {"eax": np.asarray(program.arm_angles).tolist(),
+        out[path.name] = {"eax": np.asarray(program.targets.arm_angles).tolist(),
                           "joints": np.asarray(program.joints).tolist()}
     print(json.dumps(out))
 

@@ -55,9 +55,9 @@ def main() -> None:
             t = np.arange(0.0, motion.duration, 1 / 500)
             joints = motion.sample(t, 0)
             planned = trajectory.law.blend(trajectory.positions, t)[0]
-            columns = [1, 0] if program.plan.swapped else [0, 1]
+            columns = [1, 0] if program.targets.plan.swapped else [0, 1]
             worst = max(float(np.linalg.norm(forward(arm, joints[a][0])[0]
-                                             - planned[:, columns[a]] - program.plan.offset,
+                                             - planned[:, columns[a]] - program.targets.plan.offset,
                                              axis=1).max())
                         for a, arm in enumerate(program.cell.arms))
             print(f"  streamed TCP vs planned TCP (500 Hz): largest {1e3 * worst:.3f} mm")

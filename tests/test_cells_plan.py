@@ -250,9 +250,10 @@ def test_a_mirrored_job_on_a_ur_pair_swaps_the_arms():
     mirrored = replace(job, start=job.start * mirror, target=job.target * mirror)
     programs = [run_job(j).program for j in (job, mirrored)]
     assert all(p.ok for p in programs), [p.message for p in programs]
-    assert programs[0].left_clip == 1 - programs[1].left_clip
+    assert programs[0].targets.left_clip == 1 - programs[1].targets.left_clip
     for program in programs:  # the left arm's TCP stays left of the right arm's
-        assert np.all(program.plan.positions[:, 0, 1] > program.plan.positions[:, 1, 1])
+        tcp = program.targets.plan.positions
+        assert np.all(tcp[:, 0, 1] > tcp[:, 1, 1])
 
 
 def test_ros_joints_writer_of_a_plan_document_is_the_verified_yumi_program(tmp_path):
@@ -271,13 +272,13 @@ def test_ros_joints_writer_of_a_plan_document_is_the_verified_yumi_program(tmp_p
     clock = program_timeline(program, doc.trajectory, cycle_actions(doc.cycle)).clock
     for a, path in enumerate(files[:2]):
         message = yaml.safe_load(path.read_text())
-        assert message["joint_names"] == list(program.cell.robot.arms[a].joint_names)
+        assert message["joint_names"] == list(program.cell.arms[a].joint_names)
         stamps = np.array([p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"]
                            for p in message["points"]])
         at = [int(np.argmin(np.abs(stamps - t))) for t in clock.arrive]
         np.testing.assert_allclose(stamps[at], clock.arrive, atol=1e-9)
         np.testing.assert_allclose([message["points"][i]["positions"] for i in at],
-                                   program.joints[:, a], atol=1e-10)
+                                   program.joints[a], atol=1e-10)
 
 
 @pytest.mark.slow

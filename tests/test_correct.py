@@ -447,7 +447,7 @@ def test_dloplan_correct_refuses_what_verify_would_fail_and_prints_its_warnings(
     out = tmp_path / "out"
     args = ["correct", str(plan_path), "--at", "3", "-o", str(out), "-q", "--measured"]
     with monkeypatch.context() as strict:
-        strict.setattr("dloplan.robot.program.ROUND_TRIP_TOLERANCE", 0.0)
+        strict.setattr("dloplan.robot.yumi_program.ROUND_TRIP_TOLERANCE", 0.0)
         assert main([*args, str(tmp_path / "x2.csv")]) == 2
     err = capsys.readouterr().err
     assert "robot program (the whole path" in err and "round trip" in err

@@ -137,11 +137,11 @@ def test_the_ur5e_samples_follow_the_planned_tcp_path():
     t = np.linspace(0.0, motion.duration, 1500)
     joints = motion.sample(t, 0)
     planned = trajectory.law.blend(trajectory.positions, t)[0]  # (N, 2, 3) clip points
-    columns = [1, 0] if program.plan.swapped else [0, 1]
+    columns = [1, 0] if program.targets.plan.swapped else [0, 1]
     worst = 0.0
     for a, arm in enumerate(program.cell.arms):
         position, _ = forward(arm, joints[a][0])
-        target = planned[:, columns[a]] + program.plan.offset
+        target = planned[:, columns[a]] + program.targets.plan.offset
         worst = max(worst, float(np.linalg.norm(position - target, axis=1).max()))
     assert worst < 5e-4, worst
 

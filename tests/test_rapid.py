@@ -58,7 +58,7 @@ def test_read_back_robtargets_give_the_verified_joints(program, tmp_path):
         wobj_rot = Rotation.from_quat(uframe, scalar_first=True)
         start = decl["dlo_start"][2]
         q = np.radians(np.r_[start[0][:2], start[1][0], start[0][2:]])  # ABB 1,2,7,3,4,5,6
-        assert np.abs(np.degrees(q - program.joints[0, a])).max() < 1e-5
+        assert np.abs(np.degrees(q - program.joints[a][0])).max() < 1e-5
         names = sorted(n for n, d in decl.items() if d[1] == "robtarget")
         assert len(names) == program.n_targets
         for m, name in enumerate(names):
@@ -69,8 +69,8 @@ def test_read_back_robtargets_give_the_verified_joints(program, tmp_path):
                           arm_angle=np.radians(extax[0]))
             assert res.success, (task, name, res.message)
             q = res.q
-            assert np.abs(np.degrees(q - program.joints[m, a])).max() < 0.05, (task, name)
-            assert list(confdata(q)) == conf == list(program.confdata[m, a])
+            assert np.abs(np.degrees(q - program.joints[a][m])).max() < 0.05, (task, name)
+            assert list(confdata(q)) == conf == list(program.targets.confdata[m, a])
             fk, _ = forward(arm, q)
             assert np.linalg.norm(fk - p) < 1e-4
 
@@ -91,7 +91,8 @@ def test_modules_declare_everything_they_use(program):
         # with the default cycle's waits (the pipeline passes the plan's: test_program_actions)
         text = rapid_modules(program)[("T_ROB_L", "T_ROB_R")[a]]
         assert rapid_commands(text) == [(f"shape {0}", "close", 0.5),
-                                        (f"shape {program.release - program.grasp}", "open",
+                                        (f"shape {program.targets.release - program.targets.grasp}",
+                                         "open",
                                          0.4)]
         used = set()
         for line in body:
@@ -110,8 +111,9 @@ def test_modules_declare_everything_they_use(program):
         # speeds: the planned ones, per move and arm
         for m in range(1, program.n_targets):
             v_tcp, v_ori = decl[f"dlo_v{m:02d}"][2][:2]
-            assert v_tcp == pytest.approx(1e3 * program.speeds[m - 1, a, 0], abs=1e-6)
-            assert v_ori == pytest.approx(np.degrees(program.speeds[m - 1, a, 1]), abs=1e-6)
+            assert v_tcp == pytest.approx(1e3 * program.targets.speeds[m - 1, a, 0], abs=1e-6)
+            assert v_ori == pytest.approx(np.degrees(program.targets.speeds[m - 1, a, 1]),
+                                          abs=1e-6)
     ids = [[re.search(r"\\ID:=(\d+)", line).group(1) for line in body] for body in bodies]
     assert ids[0] == ids[1] and len(set(ids[0])) == len(ids[0])
 
@@ -138,14 +140,15 @@ def test_literals_agree_with_abb_motion_program_exec(program):
             canonical=True, scalar_first=True)), abb.pose([0, 0, 0], [1, 0, 0, 0]))
         np.testing.assert_allclose(_flat(decl[cell.wobj][2]), _flat(rapid_value(
             wobj.to_rapid())), atol=1e-6)
-        deg = np.degrees(program.joints[0, a])
+        deg = np.degrees(program.joints[a][0])
         start = abb.jointtarget(deg[[0, 1, 3, 4, 5, 6]], [deg[2]] + [9e9] * 5)
         np.testing.assert_allclose(_flat(decl["dlo_start"][2]), _flat(rapid_value(
             start.to_rapid())), atol=1e-5)
         for m in range(program.n_targets):
-            target = abb.robtarget(program.positions[m, a] * 1e3, program.quaternions[m, a],
-                                   abb.confdata(*program.confdata[m, a]),
-                                   [program.arm_angles[m, a]] + [9e9] * 5)
+            written = program.targets
+            target = abb.robtarget(written.positions[m, a] * 1e3, written.quaternions[m, a],
+                                   abb.confdata(*written.confdata[m, a]),
+                                   [written.arm_angles[m, a]] + [9e9] * 5)
             np.testing.assert_allclose(_flat(decl[f"dlo_p{m:02d}"][2]), _flat(rapid_value(
                 target.to_rapid())), atol=1e-5)
 
@@ -232,7 +235,7 @@ def test_the_controller_reads_the_verified_joints_from_every_robtarget(name, tmp
             p = cell.base_rotation.apply(p_base) + cell.base_position
             r = cell.base_rotation * r_base
             found = solve_robtarget(arm, p, r.as_matrix(), np.radians(extax[0]), conf)
-            assert found.deviation(program.joints[m, a]) <= ROUND_TRIP_TOLERANCE, (task, target)
+            assert found.deviation(program.joints[a][m]) <= ROUND_TRIP_TOLERANCE, (task, target)
             if not found.unique:
                 assert all(r.ok for r in program.checks
                            if r.check == "continuity" and r.target == m), (task, target)

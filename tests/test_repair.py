@@ -471,9 +471,9 @@ def test_a_placed_plan_reads_back_as_one_placed_job(ur_placed):
     assert np.allclose(plan.grippers.positions, clips, atol=1e-9)
     program = program_of(plan)
     assert program.ok
-    cell_plan = program.plan
-    knots = plan.grippers.positions[cell_plan.shapes][:, [program.left_clip,
-                                                          1 - program.left_clip]]
+    cell_plan = program.targets.plan
+    knots = plan.grippers.positions[cell_plan.shapes][:, [program.targets.left_clip,
+                                                          1 - program.targets.left_clip]]
     assert np.allclose(cell_plan.positions, knots + cell_plan.offset, atol=1e-9)
     assert plan.verification is not None and plan.verification.ok
 

@@ -190,10 +190,10 @@ def _clip_trajectory(x: float = 0.8):
 def _cell_plan(cell):
     """A verified program of ``cell`` and the page's keyword arguments: the cable sagging
     between the clips of every shape."""
-    from dloplan.robot.cell_program import cell_program
+    from dloplan.robot.tracked_program import tracked_program
 
     trajectory, clip = _clip_trajectory()
-    program = cell_program(cell, trajectory)
+    program = tracked_program(cell, trajectory)
     s = np.linspace(0.0, 1.0, 13)[:, None]
     ends = np.asarray(trajectory.positions)
     shapes = ends[:, None, 0] + s * (ends[:, None, 1] - ends[:, None, 0])
@@ -208,7 +208,7 @@ def _tcp(program, arm_index: int, q) -> np.ndarray:
     """dloplan's FK of the program's arm in the plan's frame (one kinematics for every arm)."""
     from dloplan.robot.kinematics import forward
 
-    arm = getattr(program.cell, "robot", program.cell).arms[arm_index]
+    arm = program.cell.arms[arm_index]
     offset = np.asarray(program.to_dict().get("offset", (0.0, 0.0, 0.0)))
     return forward(arm, q)[0] - offset
 

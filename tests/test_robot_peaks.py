@@ -10,7 +10,6 @@ import pytest
 from robot_plans import example_plan
 
 from dloplan.robot import RobotCell, robot_program
-from dloplan.robot.cell_program import cell_program
 from dloplan.robot.motion import JointMotion
 from dloplan.robot.path import ReachOptions
 from dloplan.robot.peaks import motion_peaks
@@ -103,7 +102,7 @@ def test_a_yumi_program_over_a_joint_speed_limit_is_slowed():
     assert program.joint_speed.max() <= 1.0
     assert program.joint_speed.max() > 0.9  # slowed to 98 % of the limit, not beyond
     # the program's timing is the slowed trajectory's: RAPID's \T are its segments
-    inner = program.durations[1:-1]
+    inner = program.targets.durations[1:-1]
     np.testing.assert_allclose(inner, program.trajectory.segment_durations, atol=1e-12)
     # unchanged where nothing was over: the plan's own trajectory is kept
     assert robot_program(grippers, trajectory, job.robot).trajectory is trajectory
@@ -113,12 +112,12 @@ def test_a_described_cell_over_a_joint_speed_limit_is_slowed():
     _, grippers, trajectory, _ = example_plan("m2_uniform_curvature_usb.yaml")
     cell = ur5e_pair()
     fast = _fast(grippers, trajectory.arm_clips[0], 50.0)
-    program = cell_program(cell, fast)
+    program = robot_program(grippers, fast, cell)
     speeds = [r for r in program.checks if r.check == "joint speed"]
     assert speeds and all(r.ok for r in speeds)
     assert max(r.value for r in speeds) > 0.9
     assert program.trajectory.duration > fast.duration
-    np.testing.assert_allclose(program.plan.times, program.trajectory.times[program.plan.shapes])
+    np.testing.assert_allclose(program.times, program.trajectory.times[program.targets.shapes])
 
 
 def test_the_joint_margin_is_a_hard_check():

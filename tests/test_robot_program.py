@@ -41,7 +41,7 @@ def _program(name, cell=None):
 @pytest.mark.parametrize("name", PLAN_EXAMPLES)
 def test_every_example_puts_the_left_arm_on_the_left(name):
     program = _program(name)
-    y = program.cell.to_base(program.positions)[..., 1].mean(axis=0)
+    y = program.cell.to_base(program.targets.positions)[..., 1].mean(axis=0)
     assert y[0] >= y[1]  # the left arm's targets on the robot's +y side
     assert set(CHECKS) == {row.check for row in program.checks}
     json.dumps(program.to_dict())  # the plan document can carry it
@@ -61,12 +61,13 @@ def test_a_mirrored_job_swaps_the_arms():
     flipped = mirrored(grippers)
     other = robot_program(flipped, trajectory_from_grippers(
         flipped, max_speed=trajectory.max_speed, max_angular_speed=trajectory.max_angular_speed))
-    assert other.assignment.left_clip == 1 - program.assignment.left_clip
+    assert other.targets.assignment.left_clip == 1 - program.targets.assignment.left_clip
     assert other.ok, other.message
-    assert np.all(other.positions[:, 0, 1] > other.positions[:, 1, 1])
+    assert np.all(other.targets.positions[:, 0, 1] > other.targets.positions[:, 1, 1])
     # the same job mirrored: the same timing, targets mirrored arm for arm
     assert np.allclose(other.times, program.times)
-    assert np.allclose(other.positions[:, ::-1] * [1, -1, 1], program.positions, atol=1e-8)
+    assert np.allclose(other.targets.positions[:, ::-1] * [1, -1, 1],
+                       program.targets.positions, atol=1e-8)
 
 
 def _still_path(positions, rotations):
@@ -123,30 +124,32 @@ def test_a_wrist_turned_too_far_fails_the_continuity():
 
 def test_the_program_holds_exactly_its_verified_targets():
     program = _program("m2_uniform_curvature_usb.yaml")
-    robot = program.cell.robot
-    for a, arm in enumerate(robot.arms):
-        p, r = forward(arm, program.joints[:, a])
-        assert np.abs(p - program.positions[:, a]).max() < 2e-5  # IK tolerance 1e-5 m
-        written = Rotation.from_quat(program.quaternions[:, a], scalar_first=True)
-        assert (written.inv() * r).magnitude().max() < 2e-5
+    written = program.targets  # the YuMi's plug-in: what RAPID is given
+    for a, arm in enumerate(program.cell.arms):
+        q = program.joints[a]  # (M, 7) [rad], physical order
+        assert q.shape == (program.n_targets, 7)
+        p, r = forward(arm, q)
+        assert np.abs(p - written.positions[:, a]).max() < 2e-5  # IK tolerance 1e-5 m
+        quat = Rotation.from_quat(written.quaternions[:, a], scalar_first=True)
+        assert (quat.inv() * r).magnitude().max() < 2e-5
         # eax_a is the joints' arm angle (the controller's), not axis 7 (as before RobotWare 6)
-        assert np.allclose(np.degrees(arm_angle(arm, program.joints[:, a])),
-                           program.arm_angles[:, a], atol=1e-4)
-        assert not np.allclose(np.degrees(program.joints[:, a, 2]), program.arm_angles[:, a],
-                               atol=1.0)
-        assert np.array_equal(confdata(program.joints[:, a]), program.confdata[:, a])
+        assert np.allclose(np.degrees(arm_angle(arm, q)), written.arm_angles[:, a], atol=1e-4)
+        assert not np.allclose(np.degrees(q[:, 2]), written.arm_angles[:, a], atol=1.0)
+        assert np.array_equal(confdata(q), written.confdata[:, a])
+        # the replayed motion starts and ends on the verified joints, each move too
+        assert np.allclose(written.motion_joints[0, a], q[0])
+        assert np.allclose(written.motion_joints[-1, a], q[-1], atol=1e-3)
+        for m, move in enumerate(program.moves[a]):
+            np.testing.assert_array_equal(move[[0, -1]], q[[m, m + 1]])
     # the shapes' targets are the clip points (TCP on the clip), times the trajectory's
     _, grippers, trajectory, _ = example_plan("m2_uniform_curvature_usb.yaml")
-    clips = grippers.positions[:, list(program.assignment.clips)]
-    assert np.abs(program.positions[program.grasp:program.release + 1] - clips).max() < 1e-9
-    assert program.path_duration == pytest.approx(trajectory.duration, rel=1e-12)
+    clips = grippers.positions[:, list(written.assignment.clips)]
+    assert np.abs(written.positions[written.grasp:written.release + 1] - clips).max() < 1e-9
+    assert written.path_duration == pytest.approx(trajectory.duration, rel=1e-12)
     # approach and retreat: cell.approach back along the TCP z-axis
-    z = Rotation.from_quat(program.quaternions[0], scalar_first=True).apply([0, 0, 1])
-    assert np.allclose(program.positions[0] + 0.05 * z, program.positions[1], atol=1e-8)
-    # the replayed motion starts and ends on the verified joints
-    assert np.allclose(program.motion_joints[0], program.joints[0])
-    assert np.allclose(program.motion_joints[-1], program.joints[-1], atol=1e-3)
-    assert np.all(np.diff(program.motion_times) >= 0)
+    z = Rotation.from_quat(written.quaternions[0], scalar_first=True).apply([0, 0, 1])
+    assert np.allclose(written.positions[0] + 0.05 * z, written.positions[1], atol=1e-8)
+    assert np.all(np.diff(written.motion_times) >= 0)
 
 
 def test_a_placed_robot_gives_the_same_joints():
@@ -159,8 +162,9 @@ def test_a_placed_robot_gives_the_same_joints():
                         grippers.twist)
     cell = RobotCell(base_position=shift, base_rotation=turn)
     other = robot_program(moved, trajectory_from_grippers(moved), cell)
-    assert other.ok and other.assignment.left_clip == program.assignment.left_clip
-    assert np.abs(other.joints - program.joints).max() < 1e-6
+    assert other.ok and other.targets.assignment.left_clip == program.targets.assignment.left_clip
+    for a in range(2):
+        assert np.abs(other.joints[a] - program.joints[a]).max() < 1e-6
 
 
 def test_harness_job_program_passes():
@@ -223,7 +227,7 @@ def test_inputs_that_do_not_belong_together_are_refused():
         robot_program(grippers, other_trajectory)
     with pytest.raises(ValueError, match="trajectory: expected a Trajectory"):
         robot_program(grippers, None)
-    with pytest.raises(ValueError, match="cell: expected a RobotCell"):
+    with pytest.raises(ValueError, match="cell: expected a RobotCell or a DescribedCell"):
         robot_program(grippers, trajectory, cell="yumi")
 
 

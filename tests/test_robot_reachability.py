@@ -168,7 +168,7 @@ def test_reach_rows_and_the_placement_see_the_robot_where_the_cell_places_it():
     # default YuMi at the origin, whatever the cell said).
     from dloplan.grippers import GripperPath
     from dloplan.robot import RobotCell
-    from dloplan.robot.cell_program import placement_message, reach_rows
+    from dloplan.robot.plugins import placement_message, reach_rows
 
     pos, rot = _cable_job(5)
     quats = rot.as_quat()
@@ -186,3 +186,29 @@ def test_reach_rows_and_the_placement_see_the_robot_where_the_cell_places_it():
     np.testing.assert_allclose([r["joint_margin"] for r in got],
                                [r["joint_margin"] for r in expected], atol=1e-6)
     assert placement_message(placed, there, None) == placement_message(RobotCell(), here, None)
+
+
+def test_ik_at_targets_reaches_what_forward_kinematics_put_there():
+    """The one IK-at-targets loop (the YuMi's pre-check, a described cell's placement score):
+    targets made by forward kinematics of a smooth joint path are reached, each solution puts
+    the TCP on its target; a target out of reach is missed, and with ``stop`` so is every
+    target after it, while without it the loop goes on (seeded from the last reached target,
+    or from the miss's closest try)."""
+    from dloplan.robot import IKOptions, forward, yumi
+    from dloplan.robot.reachability import ik_at_targets
+
+    arm = yumi().left
+    path = arm.home + np.linspace(0.0, 0.3, 6)[:, None] * np.sin(np.arange(arm.n_joints) + 1.0)
+    pos, rot = forward(arm, path)
+    mats = rot.as_matrix()
+    q, hits = ik_at_targets(arm, pos, mats, IKOptions())
+    assert hits.all()
+    reached, _ = forward(arm, q)
+    assert np.abs(reached - pos).max() < 2e-5  # the IK's tolerance, 1e-5 m
+    far = pos.copy()
+    far[2] += [5.0, 0.0, 0.0]  # 5 m away: beyond the arm's reach
+    for stop, expected in ((True, [1, 1, 0, 0, 0, 0]), (False, [1, 1, 0, 1, 1, 1])):
+        for seed_from_miss in (False, True):
+            _, hits = ik_at_targets(arm, far, mats, IKOptions(), stop=stop,
+                                    seed_from_miss=seed_from_miss)
+            assert hits.tolist() == [bool(e) for e in expected], (stop, seed_from_miss)

@@ -362,7 +362,7 @@ def _cmd_verify(args: argparse.Namespace) -> int:
             print(program.message)
     if args.place and doc.grippers is not None and doc.trajectory is not None:
         from .pipeline.document import document_cell
-        from .robot.cell_program import placement_message
+        from .robot.plugins import placement_message
 
         cell = program.cell if program is not None else document_cell(doc)  # built once
         print(f"placement: {placement_message(cell, doc.grippers, doc.trajectory)}")

@@ -151,9 +151,9 @@ def remaining_actions(doc: PlanDocument, at: int) -> tuple:
 
 
 def _program(doc: PlanDocument, grippers, trajectory):
-    from ..robot.cell_program import make_program
+    from ..robot.plugins import robot_program
 
-    return make_program(document_cell(doc), grippers, trajectory)
+    return robot_program(grippers, trajectory, document_cell(doc))
 
 
 def check_correction(doc: PlanDocument, correction: Correction, *, verify: bool = True,
@@ -310,7 +310,7 @@ class CorrectionService:
             check's verdict, or None) and ``seconds`` / ``cpu_seconds`` of the whole call; or
             ``ok`` False with ``error`` (the reason of a refusal or a bad input).
         """
-        from ..robot.cell_program import make_program
+        from ..robot.plugins import robot_program
 
         predict = self.predict if predict is None else bool(predict)
         check = self.check_program if check_program is None else bool(check_program)
@@ -319,8 +319,8 @@ class CorrectionService:
             result = correct_document(self.doc, at, points, predict=predict, **self.options)
             program = None
             if check:
-                program = make_program(self.cell, sliced_grippers(result.grippers, result.at),
-                                       result.remaining)
+                program = robot_program(sliced_grippers(result.grippers, result.at),
+                                        result.remaining, self.cell)
                 if not program.ok:
                     raise CorrectionRefused(f"robot program (the remaining motion from shape "
                                             f"{result.at}): {program.message}")

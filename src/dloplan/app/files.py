@@ -25,7 +25,7 @@ from ..pipeline.document import PlanDocument
 from ..pipeline.job import Job
 from ..pipeline.plan import make_plan
 from ..pipeline.stages import quiet
-from ..robot.cell_program import program_formats
+from ..robot.plugins import program_formats
 from .document_file import plan_from_data, read_plan_data
 from .figure_workers import figure_workers as workers_for
 from .load import file_kind, load_job

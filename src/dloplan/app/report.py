@@ -312,8 +312,8 @@ def report_robot(program) -> dict:
     """Both arms of a verified robot program and their timed motion as the report's plain data
     (``robot`` of :func:`dloplan.plots.report.report_html`).
 
-    Relies on the program's cell (``program.cell``: the YuMi's RobotCell with ``robot.arms``,
-    or a described cell with ``arms``; each arm drawn by :func:`arm_scene`) and on
+    Relies on the program's cell (``program.cell.arms``, each arm drawn by :func:`arm_scene`)
+    and on
     ``program.to_dict()``: its ``targets`` (per target ``time`` [s], ``shape`` and per arm
     ``joints_deg``, exactly the verified joints the program files hold) and, on a described
     cell, the placement ``offset`` [m]. The timeline's samples are the targets; the page
@@ -321,7 +321,7 @@ def report_robot(program) -> dict:
     """
     record = program.to_dict()
     offset = np.asarray(record.get("offset", (0.0, 0.0, 0.0)), dtype=float)
-    arms = getattr(program.cell, "robot", program.cell).arms
+    arms = program.cell.arms
     targets = record["targets"]
     return {"arms": [arm_scene(arm, offset) for arm in arms],
             "times": [float(t["time"]) for t in targets],

@@ -50,7 +50,7 @@ from ..pipeline.job import (
 )
 from ..planning.tuning import planner_weights, stiffness_family
 from ..robot.cell import RobotCell
-from ..robot.cell_program import cell_name, program_formats
+from ..robot.plugins import cell_name, program_formats
 from ..robot.urdf_cell import DescribedCell, cell_from_mapping
 from ..robot.yumi import BASE_ABOVE_FOOT
 from ..shapes import arc_shape, discretize, place, sine_shape, straight_shape

@@ -77,7 +77,7 @@ def verified_program(doc: PlanDocument, name: str):
         A plan without trajectory, or a cell that does not take the format.
     """
     from ..pipeline.stages import program_of
-    from ..robot.cell_program import cell_name
+    from ..robot.plugins import cell_name
 
     _needs_trajectory(doc, name)
     program = program_of(doc)
@@ -108,7 +108,7 @@ def program_notes(doc: PlanDocument) -> tuple[str, ...]:
 
 def program_files(program, folder: Path, name: str, trajectory, actions=(), *,
                   force: bool = False, notes=()) -> list[Path]:
-    """Write a verified program (:class:`dloplan.robot.cell_program.Program`) in the format
+    """Write a verified program (:class:`dloplan.robot.program.RobotProgram`) in the format
     ``name`` (one of its ``formats``: rapid, urscript, ur_rtde, ros_joints) into ``folder``:
     its motion along ``trajectory`` (the plan's timing it was verified with) and every gripper
     action of the plan's cycle (``actions``, :class:`~dloplan.trajectory.GripperAction` s,
@@ -128,15 +128,16 @@ def program_files(program, folder: Path, name: str, trajectory, actions=(), *,
     if name == "urscript":
         from ..io.urscript import write_urscript
 
-        return write_urscript(folder, **program.urscript_arguments(),
+        return write_urscript(folder, **program.writer_arguments("urscript"),
                               actions=timeline.actions, notes=notes)
     if name == "ur_rtde":
         from ..io.ur_rtde import write_ur_rtde
 
-        return write_ur_rtde(folder, timeline, **program.ur_rtde_arguments(), notes=notes)
+        return write_ur_rtde(folder, timeline, **program.writer_arguments("ur_rtde"),
+                             notes=notes)
     from ..io.ros_joints import write_joint_trajectories
 
-    return write_joint_trajectories(folder, timeline, **program.ros_joints_arguments(),
+    return write_joint_trajectories(folder, timeline, **program.writer_arguments("ros_joints"),
                                     notes=notes)
 
 

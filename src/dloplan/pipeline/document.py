@@ -321,11 +321,10 @@ class RobotSection:
     cell : dict
         The robot cell the program was made for (:func:`cell_to_dict`).
     program : dict
-        The program as written: arm assignment, targets with their verified joints,
-        confdata and arm angles, the checks' summary and rows
-        (:meth:`dloplan.robot.RobotProgram.to_dict`); on a described cell the placement
-        offset, the assignment, the targets' TCP poses and verified joints, the checks
-        (:meth:`dloplan.robot.cell_program.CellProgram.to_dict`).
+        The program as written (:meth:`dloplan.robot.RobotProgram.to_dict`): on the YuMi
+        the arm assignment, targets with their verified joints, confdata and arm angles; on a
+        described cell the placement offset, the assignment, the targets' TCP poses and
+        verified joints; the checks' summary and rows.
     """
 
     ok: bool

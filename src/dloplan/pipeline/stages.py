@@ -295,21 +295,21 @@ def plan_twist(cable, path: np.ndarray, grippers, progress=quiet):
 
 def robot_rows(grippers, cell=None) -> list[dict]:
     """Reachability of a gripper path's poses by the cell's arms (default the YuMi, either arm
-    before an arm is assigned; :func:`dloplan.robot.cell_program.reach_rows`)."""
+    before an arm is assigned; :func:`dloplan.robot.plugins.reach_rows`)."""
     from ..robot.cell import RobotCell
-    from ..robot.cell_program import reach_rows
+    from ..robot.plugins import reach_rows
 
     return reach_rows(RobotCell() if cell is None else cell, grippers)
 
 
 def plan_program(cell, grippers, trajectory, progress=quiet):
     """The robot program of a plan on its cell, verified
-    (:func:`dloplan.robot.cell_program.make_program`): on the YuMi arm assignment, IK of every
+    (:func:`dloplan.robot.plugins.robot_program`): on the YuMi arm assignment, IK of every
     exported target, joint limits, arm-arm clearance, continuity and joint speeds; on a
     described cell the same checks along the tracked motion, table clearance and placement."""
-    from ..robot.cell_program import make_program
+    from ..robot.plugins import robot_program
 
-    program = make_program(cell, grippers, trajectory)
+    program = robot_program(grippers, trajectory, cell)
     progress(program.message)
     return program
 
@@ -321,8 +321,8 @@ def with_program(doc: PlanDocument, program) -> PlanDocument:
     the document's placement: the cable must lie there for it. When the program slowed the
     trajectory down (a joint over its speed limit), the document's trajectory and cycle are
     the program's timing."""
-    from ..robot.cell_program import cell_name
     from ..robot.placement import format_offset
+    from ..robot.plugins import cell_name
 
     section = RobotSection(program.ok, program.message, cell_to_dict(program.cell),
                            program.to_dict())
@@ -353,9 +353,9 @@ def program_of(doc: PlanDocument):
         return doc.program
     if doc.grippers is None or doc.trajectory is None:
         raise ValueError("plan: no gripper poses and trajectory to make a robot program from")
-    from ..robot.cell_program import make_program
+    from ..robot.plugins import robot_program
 
-    program = make_program(document_cell(doc), doc.grippers, doc.trajectory)
+    program = robot_program(doc.grippers, doc.trajectory, document_cell(doc))
     if doc.robot is not None:
         recorded = _target_joints(doc.robot.program)
         rebuilt = _target_joints(program.to_dict())

@@ -2,8 +2,8 @@
 Panda pairs from URDF, the ABB YuMi, :func:`yumi`), forward and inverse kinematics of their arms
 (plain numpy on the chain, the IK's solve compiled), joint limits, TCPs, arm-arm clearance as
 capsules, the path checks and the placement searches; the YuMi's plug-in (its RAPID cell with
-SmartGripper tools and work object, arm angle, confdata) and the verified robot program that
-the RAPID writer writes (:func:`robot_program`).
+SmartGripper tools and work object, arm angle, confdata) and the one verified robot program of every
+cell that the writers write (:class:`RobotProgram`, :func:`robot_program`).
 
 See ``docs/robot.md`` for the frames, the TCP mapping, the checks and how to run a program.
 """
@@ -31,9 +31,11 @@ from .kinematics import (
 )
 from .path import PathCheck, ReachOptions, check_path
 from .placement import Placement, search_placement
-from .program import CHECKS, RobotProgram, robot_program
+from .plugins import robot_program
+from .program import RobotProgram
 from .reachability import Reachability, check_reachability, tcp_poses_from_clips
 from .yumi import ARMS, Gripper, yumi, yumi_arm
+from .yumi_program import CHECKS
 
 __all__ = [
     "ARMS",

@@ -9,7 +9,7 @@ the left arm. The rule is applied to the whole path at once: the side of the two
 sign of the y-difference summed over all shapes, and every shape where the clips are the
 other way round is named (the arms would have to cross there). The program built on the
 assignment then confirms it by IK and arm-arm clearance
-(:func:`dloplan.robot.program.robot_program`).
+(:func:`dloplan.robot.plugins.robot_program`).
 """
 
 from __future__ import annotations

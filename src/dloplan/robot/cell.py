@@ -227,6 +227,11 @@ class RobotCell:
         yumi.yumi`), each arm with its tool's TCP, on the cell's table."""
         return self._robot
 
+    @property
+    def arms(self):
+        """The YuMi's two arms (left, right): :attr:`robot`'s, as every cell's ``arms``."""
+        return self._robot.arms
+
     def to_base(self, positions) -> np.ndarray:
         """Work-frame points [m], (..., 3), in the robot's base frame."""
         return (np.asarray(positions, dtype=float) - self.base_position) @ \

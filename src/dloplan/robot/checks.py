@@ -1,9 +1,7 @@
 """The verdict table every robot program carries, whatever its cell: one :class:`CheckRow` per
-check, target and arm, the verdict from the rows (:class:`CheckedProgram`) and their summary
-(:func:`check_summary`). The YuMi's RAPID program (:class:`~dloplan.robot.program.
-RobotProgram`) and a described cell's program (:class:`~dloplan.robot.cell_program.
-CellProgram`) both are :class:`CheckedProgram` s; the path check of a described cell
-(:func:`~dloplan.robot.path.check_path`) writes its rows.
+check, target and arm, and their summary (:func:`check_summary`), the verdict of the one
+robot program (:class:`~dloplan.robot.program.RobotProgram`); the path check of a described
+cell (:func:`~dloplan.robot.path.check_path`) writes its rows.
 """
 
 from __future__ import annotations
@@ -57,22 +55,6 @@ class CheckRow:
         return {"check": self.check, "target": self.target, "label": self.label,
                 "shape": self.shape, "arm": self.arm, "value": float(self.value),
                 "unit": self.unit, "ok": bool(self.ok), "note": self.note}
-
-
-class CheckedProgram:
-    """The verdict of a program from its ``checks`` (a tuple of :class:`CheckRow`)."""
-
-    checks: tuple[CheckRow, ...]
-
-    @property
-    def ok(self) -> bool:
-        """Every check passes: the program may be written and run."""
-        return all(row.ok for row in self.checks)
-
-    @property
-    def failures(self) -> tuple[CheckRow, ...]:
-        """The rows that fail."""
-        return tuple(row for row in self.checks if not row.ok)
 
 
 def check_summary(rows, checks) -> list[dict]:

@@ -51,7 +51,7 @@ TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
 CHECKS = ("reach", "joint limits", "continuity", "clearance", "table clearance", "joint speed",
           "joint acceleration")
 """The checks of a cell program, in the order of its rows (the last two along the time law,
-:func:`dloplan.robot.cell_program.cell_program`)."""
+:func:`dloplan.robot.tracked_program.tracked_program`)."""
 
 
 @dataclass(frozen=True, eq=False)

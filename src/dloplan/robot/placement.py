@@ -29,9 +29,15 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .described import DescribedCell, pair_clearance
-from .kinematics import inverse, joint_margin
+from .kinematics import joint_margin
 from .path import COMFORT_CLEARANCE, COMFORT_MARGIN, ReachOptions, check_path, validate_path
-from .reachability import Reachability, arm_order, check_reachability, reach_at_targets
+from .reachability import (
+    Reachability,
+    arm_order,
+    check_reachability,
+    ik_at_targets,
+    reach_at_targets,
+)
 from .yumi import yumi
 
 PLACEMENT_TRIES = 3
@@ -319,17 +325,10 @@ def target_score(cell: DescribedCell, pos, mats, options, shift: float) -> tuple
     shift : float
         Minus the placement's translation length [m] (a smaller shift ranks higher).
     """
-    qs = [[], []]
-    reached = np.ones(len(pos), bool)
-    for a, arm in enumerate(cell.arms):
-        q = arm.home
-        for k in range(len(pos)):
-            result = inverse(arm, pos[k, a], Rotation.from_matrix(mats[k, a]), seed=q,
-                             options=options)
-            reached[k] &= result.success
-            q = result.q
-            qs[a].append(q)
-    q_l, q_r = np.array(qs[0]), np.array(qs[1])
+    (q_l, hit_l), (q_r, hit_r) = (ik_at_targets(arm, pos[:, a], mats[:, a], options,
+                                                seed_from_miss=True)
+                                  for a, arm in enumerate(cell.arms))
+    reached = hit_l & hit_r
     clear = float(pair_clearance(cell, q_l, q_r)[reached].min()) if reached.any() else -1.0
     margin = min(float(joint_margin(cell.left, q_l).min()),
                  float(joint_margin(cell.right, q_r).min()))

@@ -1,573 +1,277 @@
-"""The robot program of a plan: the exact TCP targets written to RAPID, their verified joint
-solutions, and the checks run on exactly those targets.
+"""The robot program of a plan: one model for every cell, the cell's specifics a plug-in.
 
-:func:`robot_program` turns a plan's clip poses (:class:`~dloplan.grippers.GripperPath`) and
-its timing (:class:`~dloplan.trajectory.Trajectory`) into a :class:`RobotProgram` for a
-:class:`~dloplan.robot.cell.RobotCell`:
+A :class:`RobotProgram` is a sequence of M targets, the verified joints of both arms at them,
+the joints along each move between them (the controller's motion, sub-step by sub-step) timed
+by the plan's time law, and the verdict rows checked on exactly that
+(:mod:`dloplan.robot.checks`). What differs from cell to cell is its plug-in, the program's
+``targets`` record (:class:`Targets`):
 
-1. **Arm assignment** once per plan from the geometry (:func:`~dloplan.robot.assignment.
-   assign_arms`): the clip on the robot's left goes to the left arm.
-2. **Targets**: per arm, an approach pose (``cell.approach`` back along the TCP z-axis), the
-   TCP pose at every shape (``clip_to_work * tool.tcp_in_clip``, at the clip point, possibly
-   turned by pi about TCP z for a symmetric gripper) and a retreat pose, in the work frame,
-   rounded to what RAPID is given (1e-6 mm, quaternions [w, x, y, z] to 1e-9).
-3. **Joint solutions**: per arm, candidate solutions with a constant arm angle (ABB axis 7)
-   around the first target's free solution, each tracked along the path in sub-steps; the
-   (left, right) pair ranked best on reach, smoothness, clearance and joint margin is kept
-   (:mod:`dloplan.robot.solutions`).
-   Every target is re-solved with the arm angle held at the value written as ``eax_a``;
-   confdata from that solution.
-4. **Checks on exactly those targets**, each as :class:`CheckRow` s:
+- how the targets are solved (the YuMi's arm-angle IK with its controller round trip,
+  :mod:`dloplan.robot.yumi_program`; a described cell's IK tracked along the trajectory,
+  :mod:`dloplan.robot.tracked_program`), which makes the record;
+- what a target records (a robtarget with confdata and arm angle; a TCP pose with its
+  placement offset) and its timing (the approach and retreat moves of the YuMi; the knots of
+  the trajectory on a described cell);
+- how the joint motion between targets is timed, and which writers it is given (RAPID;
+  URScript, ur_rtde; ROS 2 for both).
 
-   - ``assignment``: per shape, the y-separation of the two arms' clips (negative: crossed);
-   - ``reach``: the IK reaches the written target (error of FK of the written solution);
-   - ``round trip``: the written robtarget (pose, ``eax_a``, confdata) solved by the
-     controller-semantics IK (:mod:`dloplan.robot.robtarget`) gives the verified joints
-     (0.05 deg) among its solutions with that confdata (180 deg when none has it); where
-     another solution shares the confdata (the 7-joint arm has up to 16 per pose and arm
-     angle; confdata separates fewer), the MoveL into the target follows the path from the
-     previous one, which the ``continuity`` replay checks ends on the verified joints;
-   - ``joint limits``: distance of the nearest joint to its limit, at least the cell's
-     ``reach.min_margin`` (5 deg by default: the model's uncertainty, flange and calibration,
-     is larger than a fraction of a degree);
-   - ``clearance``: smallest arm-arm capsule distance at the target and along the move into it;
-   - ``continuity``: the controller's MoveL into the target, replayed: TCP linear, orientation
-     slerp, arm angle linear between the written values, each sub-step's IK seeded from the
-     previous one (:mod:`dloplan.robot.replay`). Ok when every sub-step converges, no joint
-     moves more than ``reach.max_joint_step`` in one sub-step (one that does is replayed in
-     finer steps: fast motion near a singularity passes, a jump does not), and the move ends
-     on the target's own solution (so the controller with ``ConfL \\On`` reaches the
-     programmed configuration);
-   - ``joint speed``: the peak joint speed of that replay along the move's time law (the
-     trajectory's jerk-limited law, :mod:`dloplan.robot.peaks`), as a fraction of the joint's
-     speed limit (ABB's product specification of the IRB 14000).
-
-The joint solutions are tried best ranked first (up to :data:`MAX_TRIES`), each judged on its
-replayed motion (reach, continuity, clearance) before the controller's round trip and the time
-law are computed for it: a pair passed over costs its replay only; when the side rule's
-program fails on clearance or continuity the swapped assignment is tried the same way and
-taken only when it passes every check.
-
-A program over a joint speed limit is slowed (:func:`~dloplan.robot.program_core.slowed`,
-shared with every cell): each such segment's speed scale of the time law
-(:meth:`dloplan.trajectory.Trajectory.with_speed_scale`) brings it to 98 % of the limit, up to
-:data:`~dloplan.robot.checks.SLOW_ROUNDS` times, re-timing the program (its targets, joints and
-replayed motion do not depend on the timing, so they are not solved again); the program keeps
-the trajectory it was verified with (:attr:`RobotProgram.trajectory`). The program is ``ok``
-when every row is. Everything computed is kept (:attr:`RobotProgram.checks`,
-:meth:`RobotProgram.summary`, :meth:`RobotProgram.to_dict`).
+What does not differ is here, once: the verdict (``ok``, ``failures``), its summary per check
+and the one-line failure text (:class:`RobotProgram`); the joint motion along the time law
+(:meth:`RobotProgram.joint_motion`) and the ``joint speed`` (and, where the arm publishes
+acceleration limits, ``joint acceleration``) rows along it (:func:`speed_rows`); re-timing
+(:meth:`RobotProgram.retimed`) and the slow-down of a program over a joint speed limit
+(:func:`slowed`: its targets and joints never change, only its timing and the speed rows with
+it). :func:`dloplan.robot.plugins.robot_program` makes the program of any cell.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Protocol
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from .armangle import arm_angle
-from .assignment import ArmAssignment, assign_arms
-from .cell import RobotCell
-from .checks import CheckRow
-from .collision import arm_clearance
-from .confdata import confdata
-from .kinematics import forward, solve_from
+from .checks import SLOW_ROUNDS, CheckRow, check_summary
 from .motion import JointMotion
-from .path import TURN_Z
-from .peaks import motion_peaks
-from .program_core import ProgramCore, slowed, speed_rows
-from .replay import replay_moves
-from .robtarget import ROUND_TRIP_TOLERANCE, solve_robtarget
-from .solutions import ranked_solutions
-from .yumi import ABB_AXIS_NUMBERS, ARMS
+from .peaks import motion_peaks, slowed_scale
 
-MIN_SPEED = 1e-4
-"""[m/s] Smallest TCP speed written (an arm that does not move in a synchronized segment)."""
+TIMED_CHECKS = ("joint speed", "joint acceleration")
+"""The checks along the time law (:func:`speed_rows`): replaced when a program is re-timed."""
 
-MIN_ANGULAR_SPEED = float(np.radians(0.1))
-"""[rad/s] Smallest TCP angular speed written."""
 
-END_TOLERANCE = 1e-3
-"""[rad] A replayed MoveL ends on the target's solution when every joint is this close."""
+class Targets(Protocol):
+    """A cell plug-in's record of a program's targets (:class:`RobotProgram.targets`): what is
+    written of each target, its timing, and what the cell's writers are given. Implemented by
+    :class:`~dloplan.robot.yumi_program.YumiTargets` (the YuMi: robtargets, RAPID) and
+    :class:`~dloplan.robot.tracked_program.TrackedTargets` (a described cell: URScript,
+    ur_rtde).
 
-CHECKS = ("assignment", "reach", "round trip", "joint limits", "clearance", "continuity",
-          "joint speed")
-"""The checks of a program, in the order of its rows."""
+    Its methods: ``axis_name(j)`` a joint's name in the rows' notes; ``knot_targets()`` (K,)
+    the target reaching each plan knot; ``timed(cell, trajectory)`` the record timed by another
+    trajectory of the same path; ``move_timing(cell, trajectory)`` the moves' profiles, starts
+    and arrivals (:class:`~dloplan.robot.motion.JointMotion`); ``message``, ``record``,
+    ``writer_arguments`` and ``report_arms`` of a program (:class:`RobotProgram`'s)."""
 
-MAX_TRIES = 2
-"""Joint solutions (best ranked first) replayed before the program settles for the first."""
+    CHECKS: tuple[str, ...]  # the checks of the cell's programs, in the order of the rows
+    formats: tuple[str, ...]  # the program formats written from it (dloplan.app.writers)
+    labels: tuple[str, ...]  # (M,) the targets' labels
+    shapes: np.ndarray  # (M,) int: the plan's shape (trajectory knot) of each target
+    times: np.ndarray  # (M,) [s]: when each target is reached, on the motion's clock
+    move_segments: np.ndarray  # (M - 1,) int: the trajectory segment each move is (-1: none)
 
+    def axis_name(self, joint: int) -> str: ...
+
+    def knot_targets(self) -> np.ndarray: ...
+
+    def timed(self, cell, trajectory) -> Targets: ...
+
+    def move_timing(self, cell, trajectory) -> tuple: ...
+
+    def message(self, program: RobotProgram) -> str: ...
+
+    def record(self, program: RobotProgram) -> dict: ...
+
+    def writer_arguments(self, program: RobotProgram, name: str) -> dict: ...
+
+    def report_arms(self, program: RobotProgram) -> dict: ...
 
 
 @dataclass(frozen=True, eq=False)
-class RobotProgram(ProgramCore):
-    """A verified dual-arm program: what the RAPID writer writes, and its checks.
-
-    Arrays are indexed ``[target, arm]`` with the arms in the order ``("left", "right")``; the
-    M targets are the approach (when ``cell.approach > 0``), one per shape, and the retreat.
+class RobotProgram:
+    """A verified dual-arm program on any cell: what its writers write, and its checks.
 
     Attributes
     ----------
-    cell : RobotCell
-    assignment : ArmAssignment
-    grip_turned : tuple of bool
-        Per arm: the TCP holds its clip turned by pi about TCP z.
-    labels : tuple of str
-        (M,) ``"approach"``, ``"shape k"``, ``"retreat"``.
-    shapes : numpy.ndarray
-        (M,) int: the shape each target belongs to.
-    grasp, release : int
-        Target indices where the grippers close (``g_GripIn``) and open (``g_GripOut``).
-    positions : numpy.ndarray
-        (M, 2, 3) TCP positions [m] in the work frame, exactly as written.
-    quaternions : numpy.ndarray
-        (M, 2, 4) TCP orientations [w, x, y, z] in the work frame, exactly as written.
-    joints : numpy.ndarray
-        (M, 2, 7) the verified joint solutions [rad], physical order (ABB 1, 2, 7, 3, 4, 5, 6).
-    confdata : numpy.ndarray
-        (M, 2, 4) int ``[cf1, cf4, cf6, cfx]`` of ``joints``.
-    arm_angles : numpy.ndarray
-        (M, 2) ``eax_a`` [deg] as written (ABB axis 7 of ``joints``).
-    times : numpy.ndarray
-        (M,) time [s] each target is reached, from the approach target, on the motion's clock
-        (the gripper actions' waits come on top: :mod:`dloplan.robot.actions`).
-    durations : numpy.ndarray
-        (M - 1,) planned duration [s] of each move.
-    speeds : numpy.ndarray
-        (M - 1, 2, 2) per move and arm: TCP speed [m/s] and angular speed [rad/s] written.
-    motion_times : numpy.ndarray
-        (N,) times [s] of the replayed controller motion (every sub-step).
-    motion_joints : numpy.ndarray
-        (N, 2, 7) joint values [rad] of that replay.
+    cell : RobotCell or DescribedCell
+        The YuMi's RAPID cell or a cell of two arms from descriptions; ``cell.arms`` are its
+        two arms (left, right).
+    targets : Targets
+        The cell plug-in's record of the M targets (:class:`Targets`): labels, plan shapes,
+        times, and what is written of them.
+    joints : tuple of numpy.ndarray
+        Per arm (left, right) the (M, n_arm) verified joint values [rad] at the targets, in
+        the order of the arm's chain (the YuMi: physical order, ABB axes 1, 2, 7, 3, 4, 5, 6;
+        a URDF arm: its joints from base to tip).
+    moves : tuple of tuple of numpy.ndarray
+        Per arm, per move m = 0..M-2 the joints (n_m + 1, n_arm) [rad] along the move from
+        target m to target m + 1, uniform in the move's parameter: the controller's motion
+        (the YuMi's replayed MoveL, a described cell's tracked sub-steps), starting on
+        ``joints[a][m]`` and ending on ``joints[a][m + 1]``.
     checks : tuple of CheckRow
-    zones : numpy.ndarray or None
-        (M,) fly-by zone radius [m] at each target (the trajectory's zones at the shapes; 0,
-        a fine point, at the approach, the grasp, the release and the retreat).
+        The verdict rows, their checks in the order of ``targets.CHECKS``, those along the
+        time law last.
     trajectory : Trajectory or None
         The timing the program was verified with: the plan's, or slowed where a joint was
         over its speed limit.
     joint_speed : numpy.ndarray or None
         (M - 1, 2) per move and arm the peak joint speed along the time law as a fraction of
         the limit.
-    move_substeps : numpy.ndarray or None
-        (M - 1,) int: the replayed sub-steps of each move in ``motion_joints`` (after its
-        first row, the first target).
     """
 
-    cell: RobotCell
-    assignment: ArmAssignment
-    grip_turned: tuple[bool, bool]
-    labels: tuple[str, ...]
-    shapes: np.ndarray
-    grasp: int
-    release: int
-    positions: np.ndarray
-    quaternions: np.ndarray
-    joints: np.ndarray
-    confdata: np.ndarray
-    arm_angles: np.ndarray
-    times: np.ndarray
-    durations: np.ndarray
-    speeds: np.ndarray
-    motion_times: np.ndarray
-    motion_joints: np.ndarray
+    cell: object
+    targets: Targets
+    joints: tuple[np.ndarray, np.ndarray]
+    moves: tuple
     checks: tuple[CheckRow, ...]
-    zones: np.ndarray | None = None
     trajectory: object = None
     joint_speed: np.ndarray | None = None
-    move_substeps: np.ndarray | None = None
 
-    CHECKS = CHECKS
+    @property
+    def ok(self) -> bool:
+        """Every check passes: the program may be written and run."""
+        return all(row.ok for row in self.checks)
+
+    @property
+    def failures(self) -> tuple[CheckRow, ...]:
+        """The rows that fail."""
+        return tuple(row for row in self.checks if not row.ok)
 
     @property
     def n_targets(self) -> int:
         """Number of targets M."""
-        return len(self.labels)
+        return len(self.targets.labels)
 
     @property
-    def shape_joints(self) -> np.ndarray:
-        """(S + 2, 2, 7) the verified joints [rad] at the plan's shapes (approach and retreat
-        left out)."""
-        return self.joints[self.grasp:self.release + 1]
-
-    def joint_motion(self, trajectory) -> JointMotion:
-        """Both arms' joints along the time law (:class:`~dloplan.robot.motion.JointMotion`):
-        between the shapes the moves of ``trajectory``'s law (the plan's, which this program
-        was made from), the approach and the retreat by the jerk-limited rest-to-rest law at
-        ``cell.approach_speed`` under the trajectory's limits; each move's path the replayed
-        sub-steps (uniform in the move's parameter), ending on the target's verified joints
-        (the replay's last sub-step reaches them within the IK's tolerance)."""
-        from ..trajectory import MotionLimits
-        from ..trajectory.timelaw import Profile
-
-        law = trajectory.law
-        profiles, starts, arrivals = list(law.profiles), law.starts, law.knot_times
-        if self.cell.approach > 0:
-            limits = law.limits if law.limits is not None else MotionLimits()
-            length = self.cell.approach
-            approach = Profile.jerk_limited(self.cell.approach_speed / length,
-                                            limits.acceleration / length, limits.jerk / length)
-            d = approach.duration
-            profiles = [approach, *profiles, approach]
-            starts = np.r_[0.0, starts + d, law.duration + d]
-            arrivals = np.r_[0.0, arrivals + d, law.duration + 2 * d]
-        ends = 1 + np.cumsum(self.move_substeps)
-        paths = tuple(tuple(np.concatenate([self.joints[m, a][None],
-                                            self.motion_joints[end - n:end - 1, a],
-                                            self.joints[m + 1, a][None]])
-                            for m, (end, n) in enumerate(zip(ends, self.move_substeps,
-                                                             strict=True)))
-                      for a in range(2))
-        return JointMotion(paths, tuple(profiles), np.asarray(starts, float),
-                           np.asarray(arrivals, float))
-
-    def knot_targets(self) -> np.ndarray:
-        """(S + 2,) int: the target of each plan knot (shape): the targets between the
-        approach and the retreat."""
-        return np.arange(self.grasp, self.release + 1)
+    def labels(self) -> tuple[str, ...]:
+        """(M,) the targets' labels (``"shape k"``; the YuMi's ``"approach"``, ``"retreat"``)."""
+        return self.targets.labels
 
     @property
-    def path_duration(self) -> float:
-        """Planned time [s] from the grasp to the release target (the trajectory's
-        duration)."""
-        return float(self.times[self.release] - self.times[self.grasp])
+    def times(self) -> np.ndarray:
+        """(M,) time [s] each target is reached, on the motion's clock."""
+        return self.targets.times
 
     @property
     def formats(self) -> tuple[str, ...]:
-        """The program formats written from it (:mod:`dloplan.app.writers`): RAPID for the
-        YuMi's controller and the ROS 2 joint trajectories."""
-        return ("rapid", "ros_joints")
-
-    def ros_joints_arguments(self) -> dict:
-        """Keyword arguments of :func:`dloplan.io.ros_joints.write_joint_trajectories` after
-        the folder and the timeline: the joint names (physical order)."""
-        return {"joint_names": [arm.joint_names for arm in self.cell.robot.arms]}
-
-    def report_arms(self) -> dict:
-        """Keyword arguments of :func:`dloplan.plots.report.write_report` that draw both arms
-        at every shape and along the replayed motion."""
-        return {"arm_joints": self.shape_joints, "robot": self.cell.robot,
-                "arm_motion": (self.motion_times, self.motion_joints,
-                               self.times[self.grasp:self.release + 1])}
-
-    def segment_speed_ratios(self) -> np.ndarray:
-        """(K - 1,) per segment of the trajectory (a move between shapes) the larger arm's peak
-        joint speed as a fraction of the limit (the approach and the retreat, at the cell's
-        approach speed, are not the trajectory's)."""
-        inner = self.joint_speed[1:-1] if self.cell.approach > 0 else self.joint_speed
-        return inner.max(axis=1)
-
-    def retimed(self, trajectory) -> RobotProgram:
-        """The same targets and joints timed by ``trajectory`` (:func:`_timed`)."""
-        return _timed(self, trajectory)
+        """The program formats written from it (:mod:`dloplan.app.writers`)."""
+        return self.targets.formats
 
     @property
     def message(self) -> str:
-        """One line: passed with the key numbers, or the first failure of every failing check."""
-        summary = {line["check"]: line for line in self.summary()}
-        if self.ok:
-            return (f"robot program ok: {self.n_targets} targets per arm; min clearance "
-                    f"{summary['clearance']['worst']:.1f} mm, min joint margin "
-                    f"{summary['joint limits']['worst']:.1f} deg, largest joint step "
-                    f"{summary['continuity']['worst']:.1f} deg, joint speed up to "
-                    f"{100 * summary['joint speed']['worst']:.0f} % of the limit")
-        return "robot program FAILS: " + self.failure_text()
+        """One line: passed with the key numbers, or the first failure of every failing
+        check."""
+        return self.targets.message(self)
 
-    def record(self) -> dict:
-        """The assignment, the tools and work object, the targets as written (position,
-        quaternion, confdata, arm angle) and their verified joints (:meth:`to_dict`)."""
-        return {
-            "assignment": {"left_clip": self.assignment.left_clip, "rule": self.assignment.rule,
-                           "crossings": list(self.assignment.crossings),
-                           "message": self.assignment.message},
-            "grip_turned": list(self.grip_turned),
-            "tools": [tool.name for tool in self.cell.tools],
-            "wobj": self.cell.wobj,
-            "targets": [{"label": label, "shape": int(self.shapes[m]),
-                         "time": float(self.times[m]),
-                         "arms": {arm: {"position": self.positions[m, a].tolist(),
-                                        "quaternion_wxyz": self.quaternions[m, a].tolist(),
-                                        "joints_deg": np.degrees(self.joints[m, a]).tolist(),
-                                        "confdata": self.confdata[m, a].tolist(),
-                                        "arm_angle_deg": float(self.arm_angles[m, a])}
-                                  for a, arm in enumerate(ARMS)}}
-                        for m, label in enumerate(self.labels)],
-        }
+    def knot_targets(self) -> np.ndarray:
+        """(K,) int: the target at which the program reaches each plan knot (shape)."""
+        return self.targets.knot_targets()
+
+    def joint_motion(self, trajectory) -> JointMotion:
+        """Both arms' joints along the time law (:class:`~dloplan.robot.motion.JointMotion`):
+        each move's path ``moves``, timed by ``trajectory``'s law (the plan's, which this
+        program was made from) as the cell's plug-in times its moves."""
+        return JointMotion(self.moves, *self.targets.move_timing(self.cell, trajectory))
+
+    def segment_speed_ratios(self) -> np.ndarray:
+        """(K - 1,) per segment of the trajectory the larger arm's peak joint speed as a
+        fraction of the limit (0 for a segment no move is: a dropped knot's; moves that are
+        no segment, the YuMi's approach and retreat, are not the trajectory's)."""
+        segments = np.asarray(self.targets.move_segments)
+        inner = segments >= 0
+        ratios = np.zeros(self.trajectory.n_knots - 1)
+        ratios[segments[inner]] = self.joint_speed[inner].max(axis=1)
+        return ratios
+
+    def retimed(self, trajectory) -> RobotProgram:
+        """The same targets and joints timed by ``trajectory`` (the plan's trajectory, maybe
+        slowed): the plug-in's target times (and what is written of them), and the rows along
+        the time law (:func:`speed_rows`) replacing any it had. Re-timing never changes a
+        target or a joint."""
+        targets = self.targets.timed(self.cell, trajectory)
+        checks = tuple(row for row in self.checks if row.check not in TIMED_CHECKS)
+        timed = replace(self, targets=targets, checks=checks, trajectory=trajectory)
+        arms = self.cell.arms
+        peaks = motion_peaks(timed.joint_motion(trajectory), [arm.max_velocity for arm in arms],
+                             [arm.max_acceleration for arm in arms])
+        rows = speed_rows(targets.labels, targets.shapes, arms, peaks, targets.axis_name)
+        return replace(timed, checks=checks + rows,
+                       joint_speed=np.stack([p.speed for p in peaks], axis=1))
+
+    def writer_arguments(self, name: str) -> dict:
+        """Keyword arguments of the writer of program format ``name`` (one of ``formats``
+        but ``rapid``, which is given the program): ``ros_joints``
+        (:func:`dloplan.io.ros_joints.write_joint_trajectories` after the folder and the
+        timeline), ``urscript`` (:func:`dloplan.io.urscript.write_urscript` after the folder),
+        ``ur_rtde`` (:func:`dloplan.io.ur_rtde.write_ur_rtde` after the folder and the
+        timeline)."""
+        return self.targets.writer_arguments(self, name)
+
+    def report_arms(self) -> dict:
+        """Keyword arguments of :func:`dloplan.plots.report.write_report` that draw both arms
+        at every shape and along the program's motion."""
+        return self.targets.report_arms(self)
+
+    def summary(self) -> list[dict]:
+        """Per check: passed, the worst value and where, how many rows fail and the first."""
+        return check_summary(self.checks, self.targets.CHECKS)
+
+    def failure_text(self, who=lambda arm: "" if arm == "both" else f"{arm} arm: ") -> str:
+        """The first failing row of every failing check, in the order of ``CHECKS``:
+        ``check at label (who value unit; note)`` joined by ``; `` (empty when none fails);
+        ``who`` names a row's arm (``left``, ``right`` or ``both``)."""
+        parts = []
+        for name in self.targets.CHECKS:
+            first = next((r for r in self.checks if r.check == name and not r.ok), None)
+            if first is not None:
+                note = f"; {first.note}" if first.note else ""
+                parts.append(f"{name} at {first.label} ({who(first.arm)}{first.value:.4g} "
+                             f"{first.unit}{note})")
+        return "; ".join(parts)
+
+    def to_dict(self) -> dict:
+        """JSON-ready: the verdict and its message, what the cell's plug-in records of the
+        targets (the assignment, the targets as written, their joints [deg]), the summary and
+        every check row."""
+        return {"ok": self.ok, "message": self.message, **self.targets.record(self),
+                "summary": self.summary(), "checks": [row.to_dict() for row in self.checks]}
 
 
-def robot_program(grippers, trajectory, cell: RobotCell | None = None) -> RobotProgram:
-    """The verified robot program of a plan (module docstring).
+def speed_rows(labels, shapes, arms, peaks, axis_name) -> tuple[CheckRow, ...]:
+    """The rows along the time law: per move into target m = 1..M-1 and arm, ``joint speed``
+    (the peak |dq/dt| over the joints as a fraction of the joint's limit) and, where the arm
+    publishes acceleration limits, ``joint acceleration`` (the same for d2q/dt2).
 
     Parameters
     ----------
-    grippers : GripperPath
-        Clip poses at every shape (S + 2), work frame.
-    trajectory : Trajectory
-        The timing of the same path: knot times and per-segment speeds are taken from it; its
-        knots must be the clip points of ``grippers`` (in any arm order).
-    cell : RobotCell, optional
-        Default :class:`RobotCell` (YuMi at the work frame's origin, SmartGripper tools).
-
-    Returns
-    -------
-    RobotProgram
-        Never raises for an infeasible plan: its checks say what fails and where. When the side
-        rule's program fails on arm-arm clearance or continuity, the swapped assignment is tried
-        and taken if it passes every check.
-
-    Raises
-    ------
-    ValueError
-        Inputs that do not belong together (shape counts, knots that are not the clip points).
+    labels : sequence of str
+        (M,) the targets' labels.
+    shapes : sequence of int
+        (M,) the plan's shape each target belongs to.
+    arms : sequence of CellArm
+        The two arms (their ``name`` and ``max_acceleration``).
+    peaks : sequence of JointPeaks
+        Per arm the peaks of every move (:func:`~dloplan.robot.peaks.motion_peaks`).
+    axis_name : callable
+        Joint index (physical order) -> the axis' name in a note (``ABB axis 7``, ``joint 3``).
     """
-    cell = cell if cell is not None else RobotCell()
-    if not isinstance(cell, RobotCell):
-        raise ValueError(f"cell: expected a RobotCell, got {type(cell).__name__}")
-    _check_inputs(grippers, trajectory)
-    assignment = assign_arms(grippers.positions, cell)
-    program = _build(grippers, trajectory, cell, assignment)
-    if not program.ok and assignment.ok:
-        failed = {r.check for r in program.failures}
-        if failed & {"clearance", "continuity"} and "reach" not in failed:
-            other = _build(grippers, trajectory, cell, assignment.swapped(), passing=True)
-            if other is not None and other.ok:
-                program = other
-    return slowed(program)
-
-
-def _check_inputs(grippers, trajectory) -> None:
-    from ..trajectory import Trajectory
-
-    positions = getattr(grippers, "positions", None)
-    rotations = getattr(grippers, "rotations", None)
-    if positions is None or rotations is None:
-        raise ValueError(f"grippers: expected a GripperPath, got {type(grippers).__name__}")
-    if not isinstance(trajectory, Trajectory):
-        raise ValueError(f"trajectory: expected a Trajectory, got {type(trajectory).__name__}")
-    if trajectory.n_knots != len(positions):
-        raise ValueError(f"trajectory: {trajectory.n_knots} knots, expected one per shape of the "
-                         f"gripper path ({len(positions)})")
-    knots = positions[:, list(trajectory.arm_clips)]
-    gap = float(np.max(np.abs(knots - trajectory.positions)))
-    if gap > 1e-6:
-        raise ValueError(f"trajectory: its knots are up to {gap * 1e3:.3f} mm from the gripper "
-                         "path's clip points; expected the trajectory of the same plan")
-
-
-def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment,
-           passing: bool = False) -> RobotProgram | None:
-    """The program of an arm assignment: its targets, then the ranked joint solutions tried
-    in order (up to :data:`MAX_TRIES`): the first whose motion neither collides nor loses
-    continuity, or the first with a target no solution reaches, else the best ranked.
-    A try is judged on its motion (reach, continuity, clearance) before the controller's
-    round trip and the time law are computed: a try that is passed over costs its replay
-    only. With ``passing`` only a program whose motion passes is wanted (None otherwise:
-    the swapped assignment, taken only when it passes every check)."""
-    robot, opts = cell.robot, cell.reach
-    clips = list(assignment.clips)
-    n_shapes = len(grippers.positions)
-    clip_pos = grippers.positions[:, clips]
-    clip_rot = np.stack([grippers.rotations[c].as_matrix() for c in clips], axis=1)
-    tcp_in = np.stack([tool.tcp_in_clip.as_matrix() for tool in cell.tools])
-    grips = [clip_rot @ tcp_in]
-    if opts.symmetric_grip:
-        grips.append(grips[0] @ TURN_Z)
-    # targets: approach, shapes, retreat (TCP z is the same for both grips)
-    approach = cell.approach > 0
-    pos = clip_pos
-    if approach:
-        pos = np.concatenate([clip_pos[:1] - cell.approach * grips[0][:1, :, :, 2], clip_pos,
-                              clip_pos[-1:] - cell.approach * grips[0][-1:, :, :, 2]])
-        grips = [np.concatenate([g[:1], g, g[-1:]]) for g in grips]
-    labels = tuple((["approach"] if approach else []) + [f"shape {k}" for k in range(n_shapes)]
-                   + (["retreat"] if approach else []))
-    shapes = np.array(([0] if approach else []) + list(range(n_shapes))
-                      + ([n_shapes - 1] if approach else []))
-    grasp, release = (1, n_shapes) if approach else (0, n_shapes - 1)
-    # exactly what RAPID is given
-    pos = np.round(pos * 1e3, 6) / 1e3
-    quats = [np.round(Rotation.from_matrix(g.reshape(-1, 3, 3)).as_quat(
-        canonical=True, scalar_first=True), 9).reshape(g.shape[:2] + (4,)) for g in grips]
-    rots = [Rotation.from_quat(q.reshape(-1, 4), scalar_first=True).as_matrix().reshape(
-        q.shape[:2] + (3, 3)) for q in quats]
-    targets = (labels, shapes, grasp, release, pos, quats, rots)
-    first = None
-    for left, right in ranked_solutions(robot, pos, rots, opts)[:MAX_TRIES]:
-        motion = _motion(cell, targets, (left, right))
-        reached = bool(motion["solved"].all())
-        moves = all(r.ok for r in motion["rows"])
-        if passing and not (reached and moves):
-            if not reached:
-                return None  # a target no solution reaches: no other pair helps
-            continue
-        if first is None and not passing:
-            first = motion
-        if moves or not reached:
-            return _finish(trajectory, cell, assignment, targets, motion)
-    return _finish(trajectory, cell, assignment, targets, first) if first is not None else None
-
-
-def _motion(cell: RobotCell, targets, chosen) -> dict:
-    """The motion of one joint solution per arm (``chosen``, candidates of
-    :func:`~dloplan.robot.solutions.ranked_solutions`): the written arm angles, every target
-    re-solved with its arm angle held, the controller's MoveL replayed into every target, and
-    the rows judged on that motion alone (``clearance`` and ``continuity``)."""
-    robot, opts = cell.robot, cell.reach
-    labels, shapes, _, _, pos, quats, rots = targets
-    rot = np.stack([rots[c.grip][:, a] for a, c in enumerate(chosen)], axis=1)
-    q0 = np.stack([c.joints for c in chosen], axis=1)
-    eax = np.round(np.degrees(np.stack([arm_angle(arm, q0[:, a])
-                                        for a, arm in enumerate(robot.arms)], axis=1)), 6)
-    joints = np.empty_like(q0)
-    solved = np.zeros(eax.shape, dtype=bool)
-    for m in range(len(pos)):
-        for a, arm in enumerate(robot.arms):
-            res = solve_from(arm, pos[m, a], rot[m, a], q0[m, a], opts.ik, np.radians(eax[m, a]))
-            joints[m, a], solved[m, a] = res.q, res.success and chosen[a].solved[m]
-    replay = replay_moves(robot, pos, rot, eax, joints, opts)
-    return {"chosen": chosen, "rot": rot, "eax": eax, "joints": joints, "solved": solved,
-            "replay": replay, "rows": _motion_rows(robot, opts, labels, shapes, joints, replay)}
-
-
-def _finish(trajectory, cell, assignment, targets, motion) -> RobotProgram:
-    """The program of a solved motion (:func:`_motion`): the controller's round trip of every
-    written robtarget, the verdict rows and the timing."""
-    robot, opts = cell.robot, cell.reach
-    labels, shapes, grasp, release, pos, quats, _ = targets
-    chosen, rot, eax, joints = motion["chosen"], motion["rot"], motion["eax"], motion["joints"]
-    turned = tuple(bool(c.grip) for c in chosen)
-    quat = np.stack([quats[c.grip][:, a] for a, c in enumerate(chosen)], axis=1)
-    trip = [[solve_robtarget(arm, pos[m, a], rot[m, a], np.radians(eax[m, a]),
-                             confdata(joints[m, a]), seeds=[joints[m, a]], options=opts.ik)
-             for a, arm in enumerate(robot.arms)] for m in range(len(pos))]
-    rows = _target_rows(robot, cell, assignment, labels, shapes, pos, rot, joints,
-                        motion["solved"], trip) + motion["rows"]
-    replayed = motion["replay"]["joints"]
-    untimed = RobotProgram(cell, assignment, turned, labels, shapes, grasp, release, pos, quat,
-                           joints, confdata(joints), eax, None, None, None, None,
-                           np.concatenate([joints[:1]] + replayed), tuple(rows),
-                           move_substeps=np.array([len(q) for q in replayed]))
-    return _timed(untimed, trajectory)
-
-
-def _timed(program: RobotProgram, trajectory) -> RobotProgram:
-    """``program`` (its targets, joints and replayed motion) timed by ``trajectory``: move
-    durations, written speeds and zones, the replay's sub-step times, and the joint speed rows
-    along the time law (replacing any it had). Re-timing never changes a target or a joint:
-    a program slowed for its joint speeds is re-timed, not solved again."""
-    cell = program.cell
-    durations, speeds = _timing(trajectory, cell, program.assignment, cell.approach > 0)
-    times = np.cumsum(np.r_[0.0, durations])
-    motion_times = np.concatenate([times[:1]] + [
-        times[m] - durations[m - 1] * (1.0 - np.arange(1, n + 1) / n)
-        for m, n in enumerate(program.move_substeps, start=1)])
-    zones = np.zeros(program.n_targets)
-    knots = slice(1, -1) if cell.approach > 0 else slice(None)
-    zones[knots] = trajectory.zones
-    zones[[0, program.grasp, program.release, -1]] = 0.0
-    checks = tuple(row for row in program.checks if row.check != "joint speed")
-    program = replace(program, times=times, durations=durations, speeds=speeds,
-                      motion_times=motion_times, zones=zones, trajectory=trajectory,
-                      checks=checks)
-    arms = cell.robot.arms
-    peaks = motion_peaks(program.joint_motion(trajectory), [arm.max_velocity for arm in arms],
-                         [arm.max_acceleration for arm in arms])
-    rows = speed_rows(program.labels, program.shapes, cell.robot.arms, peaks,
-                      lambda j: f"ABB axis {ABB_AXIS_NUMBERS[j]}")
-    return replace(program, checks=checks + rows,
-                   joint_speed=np.stack([p.speed for p in peaks], axis=1))
-
-
-def _timing(trajectory, cell: RobotCell, assignment: ArmAssignment, approach: bool):
-    """Move durations [s], (M - 1,), and written speeds, (M - 1, 2, 2) [m/s, rad/s]: the
-    trajectory's segments between the shapes, ``cell.approach_speed`` for approach and
-    retreat."""
-    columns = [list(trajectory.arm_clips).index(c) for c in assignment.clips]
-    lin, ang = trajectory.segment_speeds()
-    durations = trajectory.segment_durations
-    speeds = np.stack([lin[:, columns], ang[:, columns]], axis=-1)
-    if approach:
-        t_move = cell.approach / cell.approach_speed
-        move = np.array([[[cell.approach_speed, 0.0]] * 2])
-        durations = np.concatenate([[t_move], durations, [t_move]])
-        speeds = np.concatenate([move, speeds, move])
-    return durations, np.maximum(speeds, [MIN_SPEED, MIN_ANGULAR_SPEED])
-
-
-def _link(i: int) -> str:
-    return "gripper" if i == 7 else f"link {i + 1}"
-
-
-def _target_rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved,
-                 trip) -> list:
-    """The verdict rows of the arm assignment and of the targets (module docstring:
-    ``assignment``, ``reach``, ``round trip``, ``joint limits``); ``trip[m][a]`` the
-    controller's solutions of target m's robtarget
-    (:func:`~dloplan.robot.robtarget.solve_robtarget`)."""
-    opts = cell.reach
     rows = []
-    for k, sep in enumerate(assignment.separation):
-        rows.append(CheckRow("assignment", None, f"shape {k}", k, "both", 1e3 * sep, "mm",
-                             k not in assignment.crossings,
-                             "" if k not in assignment.crossings else
-                             "the left arm's clip is right of the right arm's clip"))
-    for m, label in enumerate(labels):
-        for a, arm in enumerate(robot.arms):
-            p, r = forward(arm, joints[m, a])
-            perr = float(np.linalg.norm(p - pos[m, a]))
-            aerr = float(Rotation.from_matrix(rot[m, a] @ r.as_matrix().T).magnitude())
-            rows.append(CheckRow("reach", m, label, int(shapes[m]), ARMS[a], 1e3 * perr, "mm",
-                                 bool(solved[m, a]),
-                                 f"orientation error {np.degrees(aerr):.2g} deg" if
-                                 not solved[m, a] else ""))
-        for a in range(2):
-            found = trip[m][a]
-            deviation = found.deviation(joints[m, a])
-            conf = confdata(joints[m, a]).tolist()
-            note = (f"{len(found.solutions)} solutions of the pose and arm angle, "
-                    f"{len(found.matching)} with confdata {conf}")
-            if len(found.matching) > 1:
-                note += ("; the MoveL into it follows its branch (the continuity check) and "
-                         "ConfL confirms the confdata")
-            rows.append(CheckRow("round trip", m, label, int(shapes[m]), ARMS[a],
-                                 float(np.degrees(min(deviation, np.pi))), "deg",
-                                 bool(deviation <= ROUND_TRIP_TOLERANCE), note))
-        for a, arm in enumerate(robot.arms):
-            gaps = np.minimum(joints[m, a] - arm.lower, arm.upper - joints[m, a])
-            j = int(np.argmin(gaps))
-            margin = float(np.degrees(gaps[j]))
-            note = f"ABB axis {ABB_AXIS_NUMBERS[j]}"
-            if margin < np.degrees(opts.min_margin):
-                note += f", less than the {np.degrees(opts.min_margin):.0f} deg required"
-            rows.append(CheckRow("joint limits", m, label, int(shapes[m]), ARMS[a], margin,
-                                 "deg", bool(gaps[j] >= opts.min_margin), note))
-    return rows
-
-
-def _motion_rows(robot, opts, labels, shapes, joints, replay) -> list:
-    """The verdict rows of the replayed motion (module docstring): ``clearance`` at each
-    target and along the move into it, ``continuity`` of every move."""
-    rows = []
-    steps = [joints[:1]] + replay["joints"]
-    for m, label in enumerate(labels):
-        q = steps[m]
-        gap, pair = arm_clearance(robot.left, q[:, 0], robot.right, q[:, 1])
-        i = int(np.argmin(gap))
-        rows.append(CheckRow("clearance", m, label, int(shapes[m]), "both", 1e3 * float(gap[i]),
-                             "mm", bool(gap[i] >= opts.min_clearance),
-                             f"left {_link(pair[i, 0])}, right {_link(pair[i, 1])}"))
     for m in range(1, len(labels)):
-        for a in range(2):
-            largest = float(replay["largest"][m - 1][a])
-            end = float(replay["end_error"][m - 1][a])
-            ok = (replay["converged"][m - 1][a] and largest <= opts.max_joint_step
-                  and end <= END_TOLERANCE)
-            axis = ABB_AXIS_NUMBERS[int(replay["worst_joint"][m - 1][a])]
-            note = f"from {labels[m - 1]}; ABB axis {axis}"
-            if not replay["converged"][m - 1][a]:
-                note += "; the straight TCP motion is lost on the way"
-            if end > END_TOLERANCE:
-                note += f"; ends {np.degrees(end):.1f} deg from the target's solution"
-            rows.append(CheckRow("continuity", m, labels[m], int(shapes[m]), ARMS[a],
-                                 float(np.degrees(largest)), "deg", bool(ok), note))
-    return rows
+        j = m - 1
+        for arm, p in zip(arms, peaks, strict=True):
+            common = (m, labels[m], int(shapes[m]), arm.name)
+            rows.append(CheckRow("joint speed", *common, float(p.speed[j]), "of the limit",
+                                 bool(p.speed[j] <= 1.0),
+                                 f"from {labels[m - 1]}; peak along the time law, "
+                                 f"{axis_name(int(p.speed_joint[j]))}; peak joint acceleration "
+                                 f"{p.largest_acceleration[j]:.3g} rad/s^2"))
+            if np.isfinite(arm.max_acceleration).any():
+                rows.append(CheckRow("joint acceleration", *common, float(p.acceleration[j]),
+                                     "of the limit", bool(p.acceleration[j] <= 1.0),
+                                     f"from {labels[m - 1]}; peak along the time law, "
+                                     f"{axis_name(int(p.acceleration_joint[j]))}; "
+                                     f"{p.largest_acceleration[j]:.3g} rad/s^2"))
+    return tuple(rows)
+
+
+def slowed(program: RobotProgram) -> RobotProgram:
+    """``program`` re-timed while a move is over a joint speed limit: each such segment's speed
+    scale of the time law (:func:`~dloplan.robot.peaks.slowed_scale`) brings it to
+    :data:`~dloplan.robot.peaks.SLOW_MARGIN` of the limit, up to :data:`SLOW_ROUNDS` times
+    (the last timing is kept whatever its verdict: its speed rows say what is left)."""
+    for _ in range(SLOW_ROUNDS):
+        ratios = program.segment_speed_ratios()
+        if not np.any(ratios > 1.0):
+            break
+        timing = program.trajectory
+        program = program.retimed(timing.with_speed_scale(slowed_scale(timing, ratios)))
+    return program

@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 
 from .assignment import assign_arms
 from .described import ARMS, DescribedCell
-from .kinematics import inverse, manipulability
+from .kinematics import IKOptions, inverse, manipulability
 from .path import TURN_Z, PathCheck, ReachOptions, check_path, validate_path
 from .yumi import ABB_AXIS_NUMBERS, yumi
 
@@ -253,13 +253,7 @@ def _at_targets(robot: DescribedCell, clip_pos, clip_rot: Rotation, opts: ReachO
     reached = np.zeros(tcp_pos.shape[:2], dtype=bool)
     for a, arm in enumerate(robot.arms):
         for mats in grips:
-            q, hits = arm.home, np.zeros(len(tcp_pos), dtype=bool)
-            for k in range(len(tcp_pos)):
-                res = inverse(arm, tcp_pos[k, a], Rotation.from_matrix(mats[k, a]), q, quick)
-                hits[k] = res.success
-                if not res.success and stop:
-                    break
-                q = res.q if res.success else q
+            _, hits = ik_at_targets(arm, tcp_pos[:, a], mats[:, a], quick, stop=stop)
             if hits.sum() > reached[:, a].sum():
                 reached[:, a] = hits
             if hits.all():
@@ -267,6 +261,47 @@ def _at_targets(robot: DescribedCell, clip_pos, clip_rot: Rotation, opts: ReachO
         if stop and not reached[:, a].all():
             return reached
     return reached
+
+
+def ik_at_targets(arm, positions, matrices, options: IKOptions, *, stop: bool = False,
+                  seed_from_miss: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """IK of one arm at its targets only (no sub-steps), target k seeded from the solution at
+    target k - 1 (the first from the arm's home pose): the one loop of the YuMi's reach
+    pre-check (:func:`reach_at_targets`) and of a described cell's placement score
+    (:func:`~dloplan.robot.placement.target_score`).
+
+    Parameters
+    ----------
+    arm : CellArm
+    positions : numpy.ndarray
+        (K, 3) TCP targets [m] in the world.
+    matrices : numpy.ndarray
+        (K, 3, 3) ``tcp_to_world``.
+    options : IKOptions
+    stop : bool
+        Stop at the first target missed (the targets after it read False, their joints the
+        miss's).
+    seed_from_miss : bool
+        After a miss, seed the next target from the miss's closest try (True) or from the last
+        target reached (False).
+
+    Returns
+    -------
+    q : numpy.ndarray
+        (K, n) joint values [rad] (a miss: the IK's closest try).
+    hits : numpy.ndarray
+        (K,) bool: target k reached.
+    """
+    q, qs = arm.home, np.empty((len(positions), len(arm.home)))
+    hits = np.zeros(len(positions), dtype=bool)
+    for k in range(len(positions)):
+        res = inverse(arm, positions[k], Rotation.from_matrix(matrices[k]), q, options)
+        hits[k], qs[k] = res.success, res.q
+        if not res.success and stop:
+            qs[k + 1:] = res.q
+            break
+        q = res.q if res.success or seed_from_miss else q
+    return qs, hits
 
 
 def arm_order(pos: np.ndarray, assignment: str, robot: DescribedCell) -> list[int]:
