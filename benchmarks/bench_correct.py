@@ -22,12 +22,16 @@ Part 2, plants: every example plan (sagging demo, 3D Ethernet, embedded U demo) 
 
 one factor at a time around the base case (n = 20, E x2, each gripper clamping one model link L / n,
 correction at mid-path): the plan's own n; E x0.5 and x10; a grip of 0.8 L / n; the correction early
-(shape 1) and late (T - 1) (``--cases``). Columns: final mean error against the plan's stabilized
+(shape 1) and late (T - 1); early and again at mid-path ("early again", K "1+3") (``--cases``).
+Columns: final mean error against the plan's stabilized
 target (curves at equal arc length) open loop and closed loop [mm], their ratio, the floor (the
 least error any correction of the target's clips leaves that plant, ``reachable_error``;
 ``--no-floor`` skips it; on every plant, with forward differences of a step 100 times the plant's
 resolution, ``Plant.resolution``, and fewer evaluations on the slow plants, ``FLOOR_EVALUATIONS``:
-there it is what the fit reached, an upper bound of the floor), the correction's
+there it is what the fit reached, an upper bound of the floor), "E told" (the closed loop
+with the correction told the plant's E, ``modulus="known"``: what it reaches when E is not
+limited by what the measurement at K tells; ``--no-told`` skips it), "E/E sd" (the corrected
+model's E over the plant's, and sd(ln E) as the measurement tells it), the correction's
 prediction interval of the final error [mm] and whether it covers the plant's, the clamp length the
 correction estimated [mm] ("model": not told by the measurement, the model's L / n kept), whether
 the correction as ``dloplan correct`` writes it passes ``dloplan verify`` (``written``: checked,
@@ -212,7 +216,7 @@ def written_and_verified(doc, correction, folder: Path) -> str:
 
 
 CASES = ("base", "own n", "E x0.5", "E x10", "grip 0.8", "early", "late", "stiff axial",
-         "grip told")
+         "grip told", "early again")
 """The cases around the base (n = 20, E x2, grip L / n known to the correction, correction at
 mid-path), one factor at a time. "grip 0.8": the plant clamps 0.8 L / n and the correction
 estimates it (``grip="estimate"``); "grip told": the base with the correction's default, the
@@ -220,13 +224,27 @@ clamp length estimated when the measurement tells it (``grip="estimate"``, "est"
 column); where the plant clamps L / n the correction is told so (``grip="known"``). "stiff
 axial": the plant's cable nearly inextensible (the composite cables' copper axial modulus,
 ``COMPOSITE_AXIAL_MODULI``, 2 GPa), "Ea" in the E column; not run by default: the plans' cables
-have it already (the catalogue's default), so it is the base case."""
+have it already (the catalogue's default), so it is the base case. "early again": corrected
+early (shape 1) and again at mid-path, each correction from its own measurement (K "1+3")."""
 
 
-def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=False) -> None:
+def oracle(plant, doc, at: list, modulus: float, grip: str) -> str:
+    """The closed loop's final error [mm] with the correction told the plant's E
+    (``modulus="known"`` on the plan's cable at the plant's E; the bias, clamp length and offset
+    estimated as in the row): what the correction reaches when E is not limited by what the
+    measurement tells ("-": refused)."""
+    run = run_closed_loop(plant, doc.cable.with_modulus(modulus), doc.shapes, doc.grippers,
+                          at, stabilized=doc.stabilized, trajectory=doc.trajectory, grip=grip,
+                          modulus="known")
+    return f"{1e3 * run.closed_loop_error:.2f}" if run.corrections else "-"
+
+
+def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=False,
+          with_told: bool = True) -> None:
     print("\nPart 2: plants; final mean error [mm] against the plan's stabilized target")
-    print(f"{'plan':>12} {'n':>3} {'plant':>7} {'E':>5} {'grip':>6} {'K':>2} {'open':>7} "
-          f"{'closed':>7} {'ratio':>6} {'floor':>6} {'interval':>13} {'cover':>5} "
+    print(f"{'plan':>12} {'n':>3} {'plant':>7} {'E':>5} {'grip':>6} {'K':>3} {'open':>7} "
+          f"{'closed':>7} {'ratio':>6} {'floor':>6} {'E told':>6} {'E/E sd':>10} "
+          f"{'interval':>13} {'cover':>5} "
           f"{'clamp':>7} {'CPU ms':>6}  written?")
     makers = plants(names)
     for name, source in SCENARIOS.items():
@@ -245,14 +263,17 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=Fa
                                      (*base[:2], 0.8, *base[3:5], "estimate"),
                                      (*base[:3], "early", *base[4:]),
                                      (*base[:3], "late", *base[4:]),
-                                     (*base[:4], True, base[5]), (*base[:5], "estimate")],
+                                     (*base[:4], True, base[5]), (*base[:5], "estimate"),
+                                     (*base[:3], "early again", *base[4:])],
                              strict=True))
             cases = [cases[case] for case in chosen]
             for n, factor, grip, when, stiff, told in dict.fromkeys(cases):
                 doc = docs[n]
                 cable = doc.cable
                 last = len(doc.shapes) - 1
-                at = {"early": 1, "mid": last // 2, "late": last - 1}[when]
+                at = {"early": [1], "mid": [last // 2], "late": [last - 1],
+                      "early again": [1, last // 2]}[when]
+                shown_at = "+".join(map(str, at))
                 real = cable.with_modulus(factor * cable.youngs_modulus)
                 modulus = f"x{factor:g}" + ("Ea" if stiff else "")
                 if stiff:
@@ -265,14 +286,15 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=Fa
                     plant = replace(plant, tolerance=STIFF_AXIAL_TOLERANCE)
                 started = time.process_time()
                 try:
-                    run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [at],
+                    run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, at,
                                           stabilized=doc.stabilized, trajectory=doc.trajectory,
                                           grip=told)
                 except RuntimeError as exc:
                     print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {shown:>7} "
-                          f"{at:>2} plant failed: {exc}")
+                          f"{shown_at:>3} plant failed: {exc}")
                     continue
                 plant_seconds = time.process_time() - started
+                told_mm = oracle(plant, doc, at, real.youngs_modulus, told) if with_told else "-"
                 floor_mm = "-"
                 if floor:
                     best = reachable_error(plant, doc.grippers.clip_poses(last), run.reference,
@@ -280,7 +302,7 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=Fa
                                            max_evaluations=FLOOR_EVALUATIONS[plant_name])
                     floor_mm = f"{1e3 * best:.2f}"
                 if run.corrections:
-                    (c,) = run.corrections
+                    c = run.corrections[-1]  # the last: its interval is of the final error
                     low, high = c.prediction_interval
                     interval = f"{1e3 * low:5.2f}-{1e3 * high:5.2f}"
                     cover = "yes" if low <= run.closed_loop_error <= high else "NO"
@@ -288,13 +310,16 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=Fa
                     cpu = f"{1e3 * c.cpu_seconds:.0f}"
                     clamp = (f"{1e3 * (1 + 0.5 * c.model.grip) * cable.rest_link_length:.1f}"
                              if c.model.grip_estimated else "model")
+                    fitted = (f"{c.model.youngs_modulus / real.youngs_modulus:.2f} "
+                              f"{c.model.log_sd:.2g}")
                 else:
-                    interval, cover, cpu, clamp = "-", "-", "-", "-"
+                    interval, cover, cpu, clamp, fitted = "-", "-", "-", "-", "-"
                     written = "refused: " + "; ".join(run.refusals)[:70]
                 print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {shown:>7} "
-                      f"{at:>2} {1e3 * run.open_loop_error:>7.2f} "
+                      f"{shown_at:>3} {1e3 * run.open_loop_error:>7.2f} "
                       f"{1e3 * run.closed_loop_error:>7.2f} {run.improvement:>6.1f} "
-                      f"{floor_mm:>6} {interval:>13} {cover:>5} {clamp:>7} {cpu:>6}  {written}"
+                      f"{floor_mm:>6} {told_mm:>6} {fitted:>10} {interval:>13} {cover:>5} "
+                      f"{clamp:>7} {cpu:>6}  {written}"
                       f"  [plant {plant_seconds:.0f} s CPU]", flush=True)
 
 
@@ -302,6 +327,8 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--plants", default="chain,dismech")
     parser.add_argument("--no-floor", action="store_true")
+    parser.add_argument("--no-told", action="store_true",
+                        help="skip the 'E told' column (a second closed loop per row)")
     parser.add_argument("--cases", default=",".join(c for c in CASES if c != "stiff axial"),
                         help="comma-separated, of: " + ", ".join(CASES))
     parser.add_argument("--plans", default=",".join(SCENARIOS),
@@ -318,7 +345,8 @@ def main() -> int:
             part1(Path(folder))
         if args.part in ("2", "both"):
             part2(args.plants.split(","), not args.no_floor, Path(folder),
-                  args.plans.split(","), args.cases.split(","), args.plant_axial_like_e)
+                  args.plans.split(","), args.cases.split(","), args.plant_axial_like_e,
+                  not args.no_told)
     return 0
 
 

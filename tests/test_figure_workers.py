@@ -103,6 +103,69 @@ def test_plan_into_writes_the_same_files_with_and_without_workers(job, tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["inline", "parallel"]
 
 
+def test_a_changed_plan_sends_every_figure_before_waiting_for_one(doc, tmp_path, monkeypatch):
+    """render() of a plan whose drafts are stale sends all its figures to the workers first,
+    then waits: they are drawn side by side, not one after the other."""
+    from concurrent.futures import Future
+
+    events = []
+    moved = replace(doc, shapes=doc.shapes + np.array([0.0, 0.0, 0.01]))
+    staging = tmp_path / "staging"
+    staging.mkdir()
+    workers = FigureWorkers(staging, 2)
+    submit, result = workers._submit, Future.result
+
+    def recorded_submit(drawing):
+        events.append("send")
+        return submit(drawing)
+
+    def recorded_result(future, timeout=None):
+        events.append("wait")
+        return result(future, timeout)
+
+    monkeypatch.setattr(workers, "_submit", recorded_submit)
+    monkeypatch.setattr(Future, "result", recorded_result)
+    try:
+        drawn = workers.render(moved, staging / "figures")
+    finally:
+        monkeypatch.undo()
+        workers.close()
+    n = len(events) // 2
+    assert n >= 4 and events == ["send"] * n + ["wait"] * n
+    assert _pngs(drawn) == _pngs(write_figures(moved, tmp_path / "here"))
+
+
+def test_the_repair_hands_its_repaired_plan_to_the_hook_before_verifying_it():
+    """make_plan gives the planned hook the repaired plan too, as soon as a repair round is
+    made: the figures drafted then are the final document's (fig4_8: its reach repair turns
+    the job on the table)."""
+    from dloplan.app import load_job, make_plan
+    from dloplan.app.report import figure_drawings
+
+    job = load_job(EXAMPLES / "fig4_8_straight_to_bent.yaml")
+    seen = []
+    final = make_plan(job, planned=seen.append)
+    assert final.repairs and len(seen) == 2
+    assert seen[0].program is None and seen[1].verification is None
+    assert [pickle.dumps(d) for d in figure_drawings(seen[1])] == \
+        [pickle.dumps(d) for d in figure_drawings(final)]
+    assert [pickle.dumps(d) for d in figure_drawings(seen[0])] != \
+        [pickle.dumps(d) for d in figure_drawings(final)]
+
+
+def test_a_harness_job_hands_its_plan_to_the_hook_before_its_robot_program():
+    """A wire-harness job's plan goes to the figure workers as soon as it is planned, before
+    its robot program and its (long) verification: the drafts are the final figures."""
+    from dloplan.app import load_job, make_plan
+    from dloplan.app.report import figure_drawings
+
+    seen = []
+    final = make_plan(load_job(EXAMPLES / "harness_ethernet.yaml"), planned=seen.append)
+    assert len(seen) == 1 and seen[0].program is None and final.program is not None
+    assert [pickle.dumps(d) for d in figure_drawings(seen[0])] == \
+        [pickle.dumps(d) for d in figure_drawings(final)]
+
+
 def test_workers_are_counted(tmp_path):
     with pytest.raises(ValueError, match="workers: expected at least 1 process, got 0"):
         FigureWorkers(tmp_path, 0)

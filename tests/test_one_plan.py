@@ -1,6 +1,6 @@
 """One plan per job: every command that plans a job file gets the plan ``dloplan plan`` writes.
 
-``plan``, ``study`` (its nominal plan) and ``simulate JOB`` all call
+``plan``, ``study`` (its nominal plan), ``simulate JOB`` and ``correct JOB`` all call
 :func:`dloplan.pipeline.make_plan` (plan, check, repair, check again). Qualitative test 1 is the
 case that told them apart: ``plan`` repaired it (turned and moved on the table, grasps rolled)
 while ``study`` and ``simulate`` of the job file planned it without the repair, shapes up to
@@ -19,16 +19,19 @@ import yaml
 
 from dloplan.app import read_plan
 from dloplan.cli import main
-from dloplan.exit_codes import EXIT_OK, EXIT_WARNINGS
+from dloplan.exit_codes import EXIT_FAILURE, EXIT_OK, EXIT_WARNINGS
+from dloplan.geometry import resample_by_arc_length
+from dloplan.vision.shapes_io import RegisteredShape, write_shapes
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 
 
-def test_plan_study_and_simulate_of_a_job_file_use_one_plan(tmp_path, monkeypatch):
+def test_plan_study_simulate_and_correct_of_a_job_file_use_one_plan(tmp_path, monkeypatch):
     """The same shapes (bit for bit: plan.json writes round-tripping floats), gripper poses and
-    verdict for ``plan``, ``study`` and ``simulate`` of qualitative test 1 (with a study
-    section of two samples added)."""
+    verdict for ``plan``, ``study``, ``simulate`` and ``correct`` of qualitative test 1 (with a
+    study section of two samples added; ``correct`` given the job file and a measured shape)."""
+    import dloplan.app.correct
     import dloplan.app.study
     import dloplan.pipeline.stages
 
@@ -50,6 +53,8 @@ def test_plan_study_and_simulate_of_a_job_file_use_one_plan(tmp_path, monkeypatc
                         spying("study", dloplan.app.study.study_problem_of))
     monkeypatch.setattr(dloplan.pipeline.stages, "simulate_plan",
                         spying("simulate", dloplan.pipeline.stages.simulate_plan))
+    monkeypatch.setattr(dloplan.app.correct, "correct_and_check",
+                        spying("correct", dloplan.app.correct.correct_and_check))
 
     assert main(["plan", str(job), "-o", str(tmp_path / "plan"), "-q"]) in (EXIT_OK,
                                                                             EXIT_WARNINGS)
@@ -68,7 +73,16 @@ def test_plan_study_and_simulate_of_a_job_file_use_one_plan(tmp_path, monkeypatc
             f"{planned.placement.message};" in header, module
     assert main(["study", str(job), "-o", str(tmp_path / "study"), "-q", "--csv"]) == EXIT_OK
     assert main(["simulate", str(job), "-q"]) in (EXIT_OK, EXIT_WARNINGS)
-    for name in ("study", "simulate"):
+    # correct plans the job file as plan does; the measured shape (the plan's own shape 2 and
+    # 1 mm of noise) is nothing worth correcting, so it may keep the plan (exit 2, named)
+    measured = tmp_path / "measured.csv"
+    points = resample_by_arc_length(planned.stabilized[2], 200)
+    write_shapes(measured, [RegisteredShape(
+        points + np.random.default_rng(0).normal(scale=1e-3, size=points.shape),
+        label="xi_2", frame_id=planned.frame_id)])
+    assert main(["correct", str(job), "--at", "2", "--measured", str(measured), "-q",
+                 "-o", str(tmp_path / "corrected")]) in (EXIT_OK, EXIT_WARNINGS, EXIT_FAILURE)
+    for name in ("study", "simulate", "correct"):
         doc = seen[name]
         assert np.array_equal(doc.shapes, planned.shapes), name
         assert np.array_equal(doc.stabilized, planned.stabilized), name

@@ -197,6 +197,36 @@ def test_controller_ik_returns_the_joints_of_a_robtarget():
             assert abs(float(wrap(arm_angle(arm, other) - arm_angle(arm, q)))) < 1e-5
 
 
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_enumeration_by_cholesky_steps_finds_the_lapack_solutions(side, monkeypatch):
+    """The controller's solutions of a robtarget are enumerated with the enumeration's own
+    seeds stepped by the Cholesky solve, the seeds that found a distinct solution solved again
+    by LAPACK: the same solutions, branch by branch (several confdata), bitwise, as when every
+    seed is stepped by LAPACK; and the Cholesky steps alone find them to 1e-9 rad. Poses: the
+    10 joint vectors of the RobotStudio cases (clipped into this arm's limits) and 4 random."""
+    arm = yumi_arm(side)
+    rng = np.random.default_rng(12)
+    solve_many = robtarget.solve_many
+    branches = set()
+    joints = list(np.clip(np.radians(CASES["q_deg"]), arm.lower, arm.upper)) + list(
+        rng.uniform(arm.lower + 0.2, arm.upper - 0.2, (4, 7)))
+    for q in joints:
+        position, rotation = forward(arm, q)
+        args = (arm, position, rotation.as_matrix(), float(arm_angle(arm, q)), [q])
+        found = {}
+        for name, cholesky in (("mixed", None), ("lapack", False), ("cholesky", True)):
+            with monkeypatch.context() as patched:
+                if cholesky is not None:
+                    patched.setattr(robtarget, "solve_many", lambda *a, c=cholesky, **k:
+                                    solve_many(*a, **{**k, "cholesky": c}))
+                found[name] = robtarget.robtarget_solutions(*args, rng=np.random.default_rng(0))
+        assert len(found["lapack"]) >= 1
+        np.testing.assert_array_equal(found["mixed"], found["lapack"])
+        np.testing.assert_allclose(found["cholesky"], found["lapack"], rtol=0.0, atol=1e-9)
+        branches |= {tuple(c) for c in confdata(found["lapack"])}
+    assert len(branches) >= 4  # several confdata branches were compared
+
+
 def test_a_robtarget_asked_again_gets_the_kept_solutions(monkeypatch):
     """The same question (arm, pose, arm angle, seeds, options) is solved once a process; its
     answer is what solving it again gives, and any other question is solved."""

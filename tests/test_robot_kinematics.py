@@ -255,6 +255,29 @@ def test_compiled_rotation_log_near_pi_and_zero():
         assert np.allclose(compiled_log(m), rotation_log(m), atol=1e-12)
 
 
+def test_damped_step_is_the_levenberg_marquardt_step():
+    """The hand-written Cholesky step solves the damped normal equations: it is LAPACK's
+    solution to rounding (relative to the conditioning), for square and wide Jacobians, well
+    and badly conditioned, and its residual ``J^T (J dq - e) + mu dq`` vanishes."""
+    from dloplan.robot.ik_compiled import damped_step
+
+    rng = np.random.default_rng(11)
+    for rows, n in ((7, 7), (6, 7), (6, 6)):
+        for mu in (1e-6, 1e-3, 1.0):
+            for rank_drop in (0, 1):
+                jac = rng.normal(size=(rows, n))
+                if rank_drop:  # a singular Jacobian: only the damping keeps the step finite
+                    jac[-1] = jac[0]
+                err = rng.normal(size=rows)
+                step = damped_step(jac, err, mu, np.empty((n, n)), np.empty(n))
+                normal = jac.T @ jac + mu * np.eye(n)
+                expected = np.linalg.solve(normal, jac.T @ err)
+                bound = 1e-13 * np.linalg.cond(normal) * np.abs(expected).max()
+                assert np.abs(step - expected).max() <= bound
+                assert np.abs(normal @ step - jac.T @ err).max() <= 1e-10 * np.abs(
+                    jac.T @ err).max()
+
+
 def test_solve_many_is_one_reference_solve_per_problem():
     """solve_many (tracking: no null-space motion, no polish) is the reference solve of each
     problem with ``null_gain = 0``: free and with the arm angle held, converging and failing."""

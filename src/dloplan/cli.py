@@ -249,7 +249,7 @@ def _cmd_correct(args: argparse.Namespace) -> int:
 
     options = dict(mode=args.mode, reference=args.reference, modulus_steps=args.modulus_steps,
                    model_error=args.model_error, grip=args.grip, offset=args.offset,
-                   limits=CorrectionLimits(gain_significance=args.gain_sd))
+                   modulus=args.modulus, limits=CorrectionLimits(gain_significance=args.gain_sd))
     if args.serve:
         return _serve_corrections(doc, options)
     if args.at is None or args.measured is None:
@@ -819,6 +819,10 @@ def build_parser() -> argparse.ArgumentParser:
                          "estimated with E and the bias when the measurement tells it, else the "
                          "model's with its uncertainty in the interval (default), always the "
                          "model's with its uncertainty, or known to be the model's L/n")
+    correct.add_argument("--modulus", choices=["estimate", "known"], default="estimate",
+                         help="Young's modulus: estimated when the measurement tells it "
+                         "(default), or known to be the plan's (identified beforehand: kept, "
+                         "no uncertainty in the interval)")
     correct.add_argument("--offset", choices=["estimate", "none"], default="estimate",
                          help="the measurement's offset (a rigid translation of the measured "
                          "shape, e.g. a camera's calibration error): estimated with E when the "

@@ -91,8 +91,10 @@ class FigureWorkers:
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
         drawings = figure_drawings(doc)
-        try:
-            drawn = [(drawing, self._submit(drawing).result()) for drawing in drawings]
+        try:  # every figure sent before any is waited for: the new ones are drawn side by side
+            futures = [self._submit(drawing) for drawing in drawings]
+            drawn = [(drawing, future.result()) for drawing, future in zip(drawings, futures,
+                                                                            strict=True)]
         except BrokenProcessPool:  # a worker died (killed, out of memory): draw them here
             drawn = [(drawing, drawing.save(self._scratch / _key(drawing)))
                      for drawing in drawings]

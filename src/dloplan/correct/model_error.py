@@ -261,19 +261,21 @@ def _system(jacobian, directions, residual, prior) -> tuple[np.ndarray, np.ndarr
     return np.vstack([a, row]), np.r_[r, weight * centre]
 
 
-def parameter_sds(jacobian: np.ndarray, directions, residual: np.ndarray,
-                  prior=None) -> np.ndarray:
-    """Standard deviations of the fitted (delta log E, amplitudes) (Gauss-Newton linearization).
+def parameter_covariance(jacobian: np.ndarray, directions, residual: np.ndarray,
+                         prior=None) -> np.ndarray:
+    """Covariance of the fitted (delta log E, amplitudes) (Gauss-Newton linearization).
 
     The residual left by the fit gives the scatter per coordinate, s^2 = |r|^2 / (N - p) (N
-    coordinates, p parameters); var = s^2 diag((A^T A + (s / sd)^2 e e^T)^-1) with
-    A = [J, D_1, ...] and e the unit vector of alpha (the prior's row; absent without a prior):
-    each direction fitted takes its share of the information, the prior on alpha adds its own.
+    coordinates, p parameters); C = s^2 (A^T A + (s / sd)^2 e e^T)^-1 with A = [J, D_1, ...]
+    and e the unit vector of alpha (the prior's row; absent without a prior): each direction
+    fitted takes its share of the information, the prior on alpha adds its own. The columns
+    overlap (d x / d log E and d are both sag-like: ln E and alpha correlate, -0.73 on the 3D
+    job's shape 1), which the off-diagonal terms carry.
 
     Parameters
     ----------
     jacobian : numpy.ndarray
-        (n + 1, 3) d x / d log E [m].
+        (n + 1, 3) d x / d log E [m]; all zeros: E held (known), its row and column 0.
     directions : sequence of numpy.ndarray
         The error directions fitted with it (:func:`fit_model_error`).
     residual : numpy.ndarray
@@ -284,18 +286,44 @@ def parameter_sds(jacobian: np.ndarray, directions, residual: np.ndarray,
     Returns
     -------
     numpy.ndarray
-        (1 + len(directions),) sd(ln E) first (inf where the shape does not inform it).
+        (p, p), p = 1 + len(directions), ln E first; inf on the diagonal and 0 off it when the
+        information is singular (the shape does not inform the parameters).
     """
     a = np.stack([jacobian.ravel()] + [d.ravel() for d in directions], axis=1)
-    dof = max(a.shape[0] - a.shape[1], 1)
+    known = not np.any(jacobian)  # E held: its column is zero and its sd 0
+    dof = max(a.shape[0] - a.shape[1] + known, 1)
     s2 = float(residual.ravel() @ residual.ravel()) / dof
     information = a.T @ a
+    information[0, 0] += known  # decoupled (a zero column): leaves the others' variances
     if prior is not None and directions:
         information[1, 1] += s2 / prior[1] ** 2
     try:
-        variance = s2 * np.diag(np.linalg.inv(information))
+        covariance = s2 * np.linalg.inv(information)
     except np.linalg.LinAlgError:
-        return np.full(a.shape[1], math.inf)
+        return np.diag(np.full(a.shape[1], math.inf))
+    if known:
+        covariance[0, :] = covariance[:, 0] = 0.0
+    return covariance
+
+
+def parameter_sds(jacobian: np.ndarray, directions, residual: np.ndarray,
+                  prior=None) -> np.ndarray:
+    """Standard deviations of the fitted (delta log E, amplitudes): the square roots of the
+    diagonal of :func:`parameter_covariance` (same parameters).
+
+    Returns
+    -------
+    numpy.ndarray
+        (1 + len(directions),) sd(ln E) first (inf where the shape does not inform it; 0 for
+        E held, a zero ``jacobian``).
+    """
+    return standard_deviations(parameter_covariance(jacobian, directions, residual, prior))
+
+
+def standard_deviations(covariance: np.ndarray) -> np.ndarray:
+    """The square roots of a covariance's diagonal (p,), inf where a variance is not finite
+    or negative (a parameter the data do not inform)."""
+    variance = np.diag(covariance)
     ok = np.isfinite(variance) & (variance >= 0)
     return np.where(ok, np.sqrt(np.where(ok, variance, 0.0)), math.inf)
 

@@ -65,7 +65,8 @@ from .model_error import (
     fit_model_error,
     measured_offset,
     model_error_directions,
-    parameter_sds,
+    parameter_covariance,
+    standard_deviations,
 )
 
 REFERENCES = ("stabilized", "planned")
@@ -103,6 +104,11 @@ of zero passes it one time in twenty)."""
 
 MODES = ("target", "all")
 MODEL_ERRORS = ("discretization", "modulus")
+MODULI = ("estimate", "known")
+"""Young's modulus: estimated from the measurement when it tells it (default), or known to be the
+model's (identified beforehand, ``dloplan identify``: no update, no uncertainty in the interval).
+A shape that hardly depends on E -- every shape of the U demo: sd(ln E) 5-6 at mid-path, 0.9 at
+the target with 1 mm of noise -- cannot tell it, while its target still depends on it."""
 GRIPS = ("estimate", "model", "known")
 """The clamp length: estimated with E and the bias when the measurement tells it (default), the
 model's one link with its uncertainty in the interval, or known to be the model's (a gripper
@@ -181,6 +187,10 @@ class ModelUpdate:
         prior (:func:`.model_error.alpha_prior`).
     discretization_sd : float
         Its standard deviation, the prior's information included (inf when not estimated).
+    correlation : float
+        The correlation of ln E and alpha in the fit (:func:`.model_error.
+        parameter_covariance`; 0 when either is not estimated or E is known): the gain check
+        carries it to the target (:func:`_gain_sd`).
     log_sd : float
         Standard deviation of ln E the measurement gives (inf when not computed).
     note : str
@@ -225,6 +235,7 @@ class ModelUpdate:
     offset_uncertainty: float = 0.0
     offset_note: str = "not estimated"
     discretization_sd: float = math.inf
+    correlation: float = 0.0
 
     @property
     def offset_estimated(self) -> bool:
@@ -402,6 +413,7 @@ class Correction:
                 "prediction_interval": list(self.prediction_interval),
                 "uncertainty": dict(self.uncertainty)}),
             "log_modulus_sd": m.log_sd if math.isfinite(m.log_sd) else None,
+            "modulus_alpha_correlation": m.correlation,
             "modulus_note": m.note,
             "clip_corrections": self.clip_corrections.tolist(),
             "iterations": self.iterations,
@@ -421,7 +433,8 @@ def _mean_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, steps: int = 3,
                    max_factor: float = 10.0, gravity=GRAVITY, guess=None,
                    discretization: bool = False, grip: bool = False,
-                   offset: bool = False, measured_links: int | None = None) -> ModelUpdate:
+                   offset: bool = False, measured_links: int | None = None,
+                   modulus: bool = True) -> ModelUpdate:
     """Gauss-Newton steps in log E fitting the model's equilibrium at ``clips`` to ``measured``.
 
     With ``discretization``, each step fits log E and the amplitude alpha of the discretization
@@ -474,6 +487,10 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     measured_links : int, optional
         The measured cable's own discretization (a simulated plant's links), the centre of the
         prior on alpha; None: a real cable, the continuum.
+    modulus : bool
+        Estimate E (default); False: E is known to be ``cable``'s (kept, sd(ln E) = 0), the
+        bias's amplitudes (and the clamp length, the offset) are fitted at it, even with
+        ``steps = 0``.
 
     Raises
     ------
@@ -496,16 +513,17 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         measured = measured - shift  # what the fit explains: the cable, not the camera
     fine = resample_by_arc_length(eq.shape, 2 * cable.n_links + 1)  # refined, warm from E to E
     prior = alpha_prior(cable.n_links, measured_links)
-    alpha_sd = math.inf
+    alpha_sd, taken_correlation = math.inf, 0.0
     limit = math.log(max_factor)
-    budget = steps + math.ceil(limit / MAX_LOG_STEP) + 1 if steps > 0 else 0
+    budget = steps + math.ceil(limit / MAX_LOG_STEP) + 1 if steps > 0 else int(not modulus)
     full = 0
     for _ in range(budget):
         sens = equilibrium_sensitivity(model, eq.shape, clips, chain=chain)
         directions = _directions(model, eq.shape, clips, discretization, grip, gravity, fine)
         residual = measured - eq.shape
-        step, amplitudes, sds = _fit(sens.log_modulus, directions, residual, prior)
-        if float(np.sum(sens.log_modulus**2)) <= 1e-24 * cable.length**2:
+        jacobian = sens.log_modulus if modulus else np.zeros_like(residual)  # known: no column
+        step, amplitudes, sds, correlation = _fit(jacobian, directions, residual, prior)
+        if modulus and float(np.sum(sens.log_modulus**2)) <= 1e-24 * cable.length**2:
             note = "the measured shape does not depend on E here (no sag): E kept"
             break
         if taken == 0:
@@ -513,9 +531,12 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
                 grip, grip_sd, grip_note = _grip_verdict(amplitudes[1], sds[2], model)
                 if not grip:  # the clamp length stays the model's: refit without it
                     directions = directions[:1]
-                    step, amplitudes, sds = _fit(sens.log_modulus, directions, residual, prior)
+                    step, amplitudes, sds, correlation = _fit(jacobian, directions, residual, prior)
             log_sd = float(sds[0])
             alpha_sd = float(sds[1]) if directions else math.inf
+            taken_correlation = correlation
+            if not modulus:  # known: the amplitudes below are fitted at the model's E
+                break
             if log_sd > MAX_LOG_SD:
                 note = (f"the measurement does not inform E: sd(ln E) = {log_sd:.3g}, more "
                         f"than a factor {math.exp(MAX_LOG_SD):g}: E kept")
@@ -562,16 +583,23 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     residual = float(np.mean(np.linalg.norm(eq.shape + bias - measured, axis=1)))
     return ModelUpdate(cable.youngs_modulus, model.youngs_modulus, residual0, residual,
                        taken, eq.shape, alpha, log_sd, note, beta, grip_sd, grip_note, shift,
-                       offset_sd, offset_spread, offset_note, alpha_sd)
+                       offset_sd, offset_spread, offset_note, alpha_sd,
+                       taken_correlation if directions else 0.0)
 
 
 def _fit(jacobian, directions, residual, prior):
-    """(delta log E, amplitudes, sds): the fit (:func:`.model_error.fit_model_error`, alpha's
-    ``prior``) and the sds of (delta, amplitudes) from the scatter it leaves."""
+    """(delta log E, amplitudes, sds, correlation): the fit (:func:`.model_error.
+    fit_model_error`, alpha's ``prior``), the sds of (delta, amplitudes) from the scatter it
+    leaves and the correlation of ln E and alpha (:func:`.model_error.parameter_covariance`;
+    0 without alpha, or where either sd is 0 or infinite)."""
     step, amplitudes = fit_model_error(jacobian, directions, residual, prior)
-    sds = parameter_sds(jacobian, directions,
-                        _left(residual, jacobian, step, directions, amplitudes), prior)
-    return step, amplitudes, sds
+    covariance = parameter_covariance(
+        jacobian, directions, _left(residual, jacobian, step, directions, amplitudes), prior)
+    sds = standard_deviations(covariance)
+    correlation = 0.0
+    if len(sds) > 1 and all(0.0 < sds[k] < math.inf for k in (0, 1)):
+        correlation = float(np.clip(covariance[0, 1] / (sds[0] * sds[1]), -1.0, 1.0))
+    return step, amplitudes, sds, correlation
 
 
 def _offset_verdict(offset, sds) -> tuple[np.ndarray, float, float, str]:
@@ -789,6 +817,7 @@ def correct_plan(
     model_error: str = "discretization",
     grip: str = "estimate",
     offset: str = "estimate",
+    modulus: str = "estimate",
     limits: CorrectionLimits = CorrectionLimits(),
     gravity=GRAVITY,
     predict: bool = True,
@@ -834,6 +863,10 @@ def correct_plan(
         The measurement's offset (a rigid translation of the measured points, e.g. a camera's
         calibration error): estimated with E when the measurement tells it and taken out of
         the comparison, else its size in the interval (default); or taken as zero.
+    modulus : {"estimate", "known"}
+        Young's modulus: estimated when the measurement tells it (default), or known to be the
+        plan's (identified beforehand: kept, no uncertainty in the interval; the bias, clamp
+        length and offset are still estimated), :data:`MODULI`.
     limits : CorrectionLimits
         Bounds beyond which the correction is refused.
     gravity : array_like
@@ -878,6 +911,8 @@ def correct_plan(
         raise ValueError(f"grip: got {grip!r}, expected one of {GRIPS}")
     if offset not in OFFSETS:
         raise ValueError(f"offset: got {offset!r}, expected one of {OFFSETS}")
+    if modulus not in MODULI:
+        raise ValueError(f"modulus: got {modulus!r}, expected one of {MODULI}")
     if isinstance(modulus_steps, bool) or int(modulus_steps) != modulus_steps or modulus_steps < 0:
         raise ValueError(f"modulus_steps: got {modulus_steps!r}, expected an integer >= 0")
     clips = [grippers.clip_poses(j) for j in range(len(path))]
@@ -897,7 +932,7 @@ def correct_plan(
                             max_factor=limits.max_modulus_factor, gravity=gravity,
                             guess=stable[at], discretization=model_error == "discretization",
                             grip=grip == "estimate", offset=offset == "estimate",
-                            measured_links=measured_links)
+                            measured_links=measured_links, modulus=modulus == "estimate")
     if grip == "known":
         update = replace(update, grip_sd=0.0, grip_note=(
             f"clamp length known: the model's {1e3 * cable.rest_link_length:.1f} mm"))
@@ -1072,9 +1107,13 @@ def _gain_sd(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarray
     A change dq of ln E, alpha or beta moves both final predictions by about D dq (D its
     response at the target, ``directions``: the clips differ little), so the mean errors
     e = mean_i |x_i - r_i| change by mean_i (u_i . D_i) dq with u_i the unit error vectors,
-    and the gain by s dq, s = mean_i((u_open,i - u_corrected,i) . D_i). The sds of the
-    quantities (:func:`_parameter_sds`) add in quadrature. What moves both errors alike (the
-    unexplained residual, a shift along the error) leaves the gain as it is.
+    and the gain by s dq, s = mean_i((u_open,i - u_corrected,i) . D_i). With the sds of the
+    quantities (:func:`_parameter_sds`) the gain's variance is t^T R t, t_k = s_k sd_k and R
+    their correlations: ln E and alpha as the fit found them (:attr:`ModelUpdate.correlation`;
+    the measurement tells their sag-like directions jointly, -0.73 on the 3D job's shape 1, so
+    the errors of the two largely cancel at the target), the clamp length's independent (its sd
+    is mostly the bound :data:`GRIP_LINEARITY`, not the fit's). What moves both errors alike
+    (the unexplained residual, a shift along the error) leaves the gain as it is.
     """
     def unit(x):
         e = x - reference
@@ -1082,8 +1121,10 @@ def _gain_sd(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarray
 
     du = unit(open_loop) - unit(corrected)
     sds = _parameter_sds(update)
-    return math.sqrt(sum((float(np.mean(np.sum(du * v, axis=1))) * sds[k]) ** 2
-                         for k, v in directions.items()))
+    t = {k: float(np.mean(np.sum(du * v, axis=1))) * sds[k] for k, v in directions.items()}
+    variance = sum(v * v for v in t.values()) \
+        + 2.0 * update.correlation * t["modulus"] * t["discretization"]
+    return math.sqrt(max(variance, 0.0))
 
 
 def _gain_at_clamp_bounds(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarray,

@@ -49,8 +49,9 @@ def make_plan(job: Job | HarnessJob, *, verify: bool = False, check_robot: bool 
     progress : callable
         Called with a line of text after each step.
     planned : callable, optional
-        Called with the planned document before its robot program is made and it is checked
-        (the command line starts drawing its figures then).
+        Called with the planned document before its robot program is made and it is checked,
+        and with each repaired document before it is verified again (the command line starts
+        drawing its figures then: a figure depends on neither).
 
     Returns
     -------
@@ -64,7 +65,7 @@ def make_plan(job: Job | HarnessJob, *, verify: bool = False, check_robot: bool 
     """
     if isinstance(job, HarnessJob):
         return plan_harness(job, verify=verify, check_robot=check_robot, repair=repair,
-                            progress=progress)
+                            progress=progress, planned=planned)
     if not (check_robot and repair):
         return run_job(job, verify=verify, check_robot=check_robot, progress=progress,
                        planned=planned)
@@ -77,7 +78,7 @@ def make_plan(job: Job | HarnessJob, *, verify: bool = False, check_robot: bool 
     if not diagnose(doc, verification):
         doc = with_verification(doc, verification)
         return replace(doc, timings={**doc.timings, "verify": time.perf_counter() - t0})
-    result = repair_plan(job, doc, verification, budget, progress)
+    result = repair_plan(job, doc, verification, budget, progress, repaired=planned)
     out, placement = result.document, None
     if result.proposal is not None:
         out = replace(out, warnings=out.warnings + (result.proposal.line(),))

@@ -591,12 +591,14 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
 
 
 def run_harness_job(job: HarnessJob, *, check_robot: bool = True,
-                    progress=quiet) -> PlanDocument:
+                    progress=quiet, planned=None) -> PlanDocument:
     """The wire-harness job (thesis 7.3) as a plan document: both phases, insertion, tensioning
     (:func:`dloplan.harness.run_harness`), and the robot program in the job's cell.
 
     One knot per shape of the whole job; the harness numbers in the ``harness`` section, the
     forces of each phase in ``forces``, the board's pegs and fixtures as obstacles.
+    ``planned`` (optional) is called with the document before its robot program is made (as by
+    :func:`run_job`: the command line starts drawing its figures then).
     """
     from ..harness import harness_summary, run_harness
 
@@ -609,6 +611,8 @@ def run_harness_job(job: HarnessJob, *, check_robot: bool = True,
         obstacles=tuple(result.board.contacts()), forces=dict(result.forces),
         harness=harness_summary(result), cycle=cycle_to_dict(result.cycle),
         timings=dict(result.timings))
+    if planned is not None:
+        planned(doc)
     if not check_robot:
         return doc
     return with_program(doc, plan_program(job.robot, result.grippers, result.trajectory,

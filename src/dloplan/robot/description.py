@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from ..bounds import MAX_MESH_BYTES
+from . import description_cache
 
 MOVING = ("revolute", "continuous")
 """URDF joint types that move in the chain."""
@@ -254,8 +255,10 @@ def _geometry_capsules(geometry, origin: np.ndarray, mesh_points) -> list[tuple]
     return []
 
 
-def _mesh_reader(urdf_path: Path, package_dirs: dict[str, str]):
-    """A function URDF mesh -> (N, 3) vertices [m] or None when the file does not resolve."""
+def _mesh_reader(urdf_path: Path, package_dirs: dict[str, str], looked_for: dict):
+    """A function URDF mesh -> (N, 3) vertices [m] or None when the file does not resolve;
+    every file it looks for is recorded in ``looked_for`` (path -> content digest, None when
+    missing: what a kept parse depends on, :mod:`.description_cache`)."""
 
     def read(mesh):
         name = mesh.filename
@@ -268,12 +271,14 @@ def _mesh_reader(urdf_path: Path, package_dirs: dict[str, str]):
             path = Path(name[len("file://"):])
         else:
             path = urdf_path.parent / name
+        looked_for[str(path.resolve())] = None
         if not path.is_file():
             return None
         if path.stat().st_size > MAX_MESH_BYTES:
             raise ValueError(f"{urdf_path}: mesh {name!r} has {path.stat().st_size / 1e6:.0f} "
                              f"MB, more than the {MAX_MESH_BYTES / 1e6:.0f} MB read for "
                              "collision capsules")
+        looked_for[str(path.resolve())] = description_cache.file_digest(str(path))
         import trimesh
 
         try:
@@ -288,15 +293,14 @@ def _mesh_reader(urdf_path: Path, package_dirs: dict[str, str]):
     return read
 
 
-def read_urdf(path: Path):
-    """A URDF file as a ``yourdfpy.URDF`` (the ``robot`` extra), without meshes or scene graph.
+def read_urdf(path: Path, text: str):
+    """A URDF file's ``text`` as a ``yourdfpy.URDF`` (the ``robot`` extra), without meshes or
+    scene graph.
 
-    The file is read once, bounded (:func:`dloplan.inputs.read_text`: a missing file, a
-    symlink loop, a device or a folder, a file over 10 MB, binary data; the vendored URDFs have
-    about 10 kB) and
-    parsed as XML here, so that what is not a URDF is refused with one line naming the file and
-    the fault (yourdfpy would fall back to a recovering parser and fail later without saying
-    why); a document type with entity declarations is refused (no entity is expanded).
+    The text (read by :func:`load_arm`) is parsed as XML here, so that what is not a URDF is
+    refused with one line naming the file and the fault (yourdfpy would fall back to a
+    recovering parser and fail later without saying why); a document type with entity
+    declarations is refused (no entity is expanded).
 
     Raises
     ------
@@ -309,9 +313,6 @@ def read_urdf(path: Path):
         raise ImportError("reading a URDF needs yourdfpy: pip install 'dloplan[robot]'") from exc
     from lxml import etree
 
-    from ..inputs import read_text
-
-    text = read_text(path, kind="URDF file")
     parser = etree.XMLParser(remove_blank_text=True, resolve_entities=False, no_network=True)
     try:
         root = etree.fromstring(text.encode("utf-8"), parser=parser)
@@ -381,9 +382,33 @@ def load_arm(path, tip_link: str, *, base_link: str | None = None, name: str | N
     Returns
     -------
     ArmDescription
+
+    Notes
+    -----
+    The file is read once, bounded (:func:`dloplan.inputs.read_text`: a missing file, a
+    symlink loop, a device or a folder, a file over 10 MB, binary data; the vendored URDFs have
+    about 10 kB); its parse is kept on disk and used again while the file, the arguments and
+    the mesh files are unchanged (:mod:`.description_cache`: no ``yourdfpy`` import then).
     """
+    from ..inputs import read_text
+
     path = Path(path)
-    robot = read_urdf(path).robot
+    text = read_text(path, kind="URDF file")
+    key = description_cache.entry_key(path, text, tip_link, base_link, package_dirs)
+    fields = description_cache.load(key)
+    if fields is None:
+        meshes: dict[str, str | None] = {}
+        fields = parse_arm(path, text, tip_link, base_link, package_dirs or {}, meshes)
+        description_cache.save(key, fields, meshes)
+    return ArmDescription(name=name or tip_link, source=str(path), **fields)
+
+
+def parse_arm(path: Path, text: str, tip_link: str, base_link: str | None,
+              package_dirs: dict[str, str], meshes: dict) -> dict:
+    """The fields of :func:`load_arm`'s :class:`ArmDescription` but its name and source, parsed
+    from the URDF ``text`` of ``path``; ``meshes`` gets the mesh files looked for (path ->
+    digest or None)."""
+    robot = read_urdf(path, text).robot
     links = {link.name: link for link in robot.links}
     by_child = {joint.child: joint for joint in robot.joints}
     if tip_link not in links:
@@ -403,7 +428,7 @@ def load_arm(path, tip_link: str, *, base_link: str | None = None, name: str | N
         chain.append(joint)
         link = joint.parent
     chain.reverse()
-    mesh_points = _mesh_reader(path, package_dirs or {})
+    mesh_points = _mesh_reader(path, package_dirs, meshes)
 
     names, xyz, rot, axes, lower, upper, speed = [], [], [], [], [], [], []
     caps, cap_link, radii = [], [], []
@@ -455,13 +480,13 @@ def load_arm(path, tip_link: str, *, base_link: str | None = None, name: str | N
         add_capsules(joint.child, to_frame, index)
     for joint in chain:
         check_joint(path, joint)
-    return ArmDescription(
-        name=name or tip_link, joint_names=tuple(names), origin_xyz=np.array(xyz).reshape(-1, 3),
+    return dict(
+        joint_names=tuple(names), origin_xyz=np.array(xyz).reshape(-1, 3),
         origin_rot=np.array(rot).reshape(-1, 3, 3), axes=np.array(axes).reshape(-1, 3),
         lower=np.array(lower), upper=np.array(upper), max_velocity=np.array(speed),
-        tip_xyz=pending[:3, 3], tip_rot=pending[:3, :3],
+        tip_xyz=pending[:3, 3].copy(), tip_rot=pending[:3, :3].copy(),
         capsules=np.array(caps).reshape(-1, 2, 3), capsule_link=np.array(cap_link, dtype=int),
-        radii=np.array(radii), base_link=root, tip_link=tip_link, source=str(path))
+        radii=np.array(radii), base_link=root, tip_link=tip_link)
 
 
 def vendored(filename: str) -> Path:

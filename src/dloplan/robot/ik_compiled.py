@@ -24,19 +24,20 @@ STALL_FLOOR = 1e-3
 
 @njit(cache=True)
 def chain_frames(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, q, rots,
-                 points):
+                 points, work):
     """World frames of the n links and the TCP into ``rots`` (n + 1, 3, 3) and ``points``
-    (n + 1, 3), for joint values ``q`` (n,) [rad].
+    (n + 1, 3), for joint values ``q`` (n,) [rad]; ``work`` (3, 3, 3) scratch.
 
     ``T_i = T_{i-1} Origin_i Rot(axis_i, q_i)``, Rodrigues' formula for the joint rotation
     (``I + sin q K + (1 - cos q) K^2``): the origins' rotations (n, 3, 3) and points (n, 3)
     (the first joint's carrying the world placement), the axes' cross-product matrices and
     their squares (n, 3, 3), the TCP's rotation (3, 3) and offset (3,) in the last link.
     """
-    r = np.eye(3)
-    p = np.zeros(3)
-    joint = np.empty((3, 3))
-    nxt = np.empty((3, 3))
+    r, joint, nxt = work[0], work[1], work[2]
+    for a in range(3):
+        for b in range(3):
+            r[a, b] = 1.0 if a == b else 0.0
+    p0 = p1 = p2 = 0.0
     n = q.size
     for i in range(n):  # 3x3 products as loops: a BLAS call per product costs more than it
         s, c = math.sin(q[i]), math.cos(q[i])
@@ -47,16 +48,17 @@ def chain_frames(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_off
                     t += origin_rot[i, a, m] * ((1.0 if m == b else 0.0) + s * axis_skew[i, m, b]
                                                 + (1.0 - c) * axis_skew2[i, m, b])
                 joint[a, b] = t
+        p0 += r[0, 0] * origin_xyz[i, 0] + r[0, 1] * origin_xyz[i, 1] + r[0, 2] * origin_xyz[i, 2]
+        p1 += r[1, 0] * origin_xyz[i, 0] + r[1, 1] * origin_xyz[i, 1] + r[1, 2] * origin_xyz[i, 2]
+        p2 += r[2, 0] * origin_xyz[i, 0] + r[2, 1] * origin_xyz[i, 1] + r[2, 2] * origin_xyz[i, 2]
         for a in range(3):
-            p[a] += r[a, 0] * origin_xyz[i, 0] + r[a, 1] * origin_xyz[i, 1] + \
-                r[a, 2] * origin_xyz[i, 2]
             for b in range(3):
                 nxt[a, b] = r[a, 0] * joint[0, b] + r[a, 1] * joint[1, b] + r[a, 2] * joint[2, b]
         r[:] = nxt
         rots[i] = r
-        points[i] = p
+        points[i, 0], points[i, 1], points[i, 2] = p0, p1, p2
     for a in range(3):
-        points[n, a] = p[a] + r[a, 0] * tcp_offset[0] + r[a, 1] * tcp_offset[1] + \
+        points[n, a] = points[n - 1, a] + r[a, 0] * tcp_offset[0] + r[a, 1] * tcp_offset[1] + \
             r[a, 2] * tcp_offset[2]
         for b in range(3):
             rots[n, a, b] = r[a, 0] * tcp_rot[0, b] + r[a, 1] * tcp_rot[1, b] + \
@@ -93,24 +95,33 @@ def weighted_jacobian(rots, points, axes, weight, free, jac):
 @njit(cache=True)
 def rotation_log(m):
     """Rotation vector [rad] (3,) of a rotation matrix (3, 3): :func:`kinematics.rotation_log`."""
-    skew = np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]])
+    return rotation_log_into(m, np.empty(3))
+
+
+@njit(cache=True)
+def rotation_log_into(m, out):
+    """:func:`rotation_log` into ``out`` (3,); returns ``out``."""
+    s0, s1, s2 = m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]
     cos = min(1.0, max(-1.0, 0.5 * (m[0, 0] + m[1, 1] + m[2, 2] - 1.0)))
     angle = math.acos(cos)
-    if angle < 1e-6:
-        return 0.5 * skew
     if angle <= math.pi - 1e-3:
-        return angle / (2.0 * math.sin(angle)) * skew
+        factor = 0.5 if angle < 1e-6 else angle / (2.0 * math.sin(angle))
+        out[0], out[1], out[2] = factor * s0, factor * s1, factor * s2
+        return out
     # near pi: the axis from the largest column of (m + I) / 2 = a a^T, signed by the skew part
     k = 0
     for j in range(1, 3):
         if m[j, j] > m[k, k]:
             k = j
-    column = np.empty(3)
     for i in range(3):
-        column[i] = 0.5 * (m[i, k] + (1.0 if i == k else 0.0))
-    axis = column / math.sqrt(column[0] ** 2 + column[1] ** 2 + column[2] ** 2)
-    sign = 1.0 if axis[0] * skew[0] + axis[1] * skew[1] + axis[2] * skew[2] >= 0.0 else -1.0
-    return sign * angle * axis
+        out[i] = 0.5 * (m[i, k] + (1.0 if i == k else 0.0))
+    norm = math.sqrt(out[0] ** 2 + out[1] ** 2 + out[2] ** 2)
+    for i in range(3):
+        out[i] = out[i] / norm
+    sign = 1.0 if out[0] * s0 + out[1] * s1 + out[2] * s2 >= 0.0 else -1.0
+    for i in range(3):
+        out[i] = sign * angle * out[i]
+    return out
 
 
 @njit(cache=True)
@@ -133,36 +144,35 @@ def cross3(a, b, out):
 
 
 @njit(cache=True)
-def arm_angle_row(rots, points, axes, shoulder, wrist, reference, elbow, row):
+def arm_angle_row(rots, points, axes, shoulder, wrist, reference, elbow, row, work):
     """The arm angle psi [rad] of the chain's frames and its gradient d psi / dq into ``row``
     (n,): :func:`dloplan.robot.armangle.arm_angle` and ``arm_angle_jacobian`` compiled.
 
     ``shoulder`` and ``wrist`` are the distances [m] of S along axis 1 from joint 1's origin
     and of W along the last axis from the last joint's origin; ``reference`` the world
-    reference direction (3,); ``elbow`` the index of the joint whose axis is h."""
+    reference direction (3,); ``elbow`` the index of the joint whose axis is h; ``work``
+    (n + 8, 3) scratch."""
     n = row.size
-    z = np.empty((n, 3))
+    z = work[:n]
     for i in range(n):
         for a in range(3):
             z[i, a] = rots[i, a, 0] * axes[i, 0] + rots[i, a, 1] * axes[i, 1] + \
                 rots[i, a, 2] * axes[i, 2]
-    s_pt = points[0] + shoulder * z[0]
-    w_pt = points[n - 1] + wrist * z[n - 1]
-    sw = w_pt - s_pt
-    length = math.sqrt(sw[0] ** 2 + sw[1] ** 2 + sw[2] ** 2)
-    e = sw / length
-    h = z[elbow].copy()
-    tmp = np.empty(3)
+    w_pt, e, h, tmp, d_w, d_e, d_h, lever = work[n], work[n + 1], work[n + 2], work[n + 3], \
+        work[n + 4], work[n + 5], work[n + 6], work[n + 7]
+    for a in range(3):  # e = (W - S) / |W - S| in e until normalized
+        w_pt[a] = points[n - 1, a] + wrist * z[n - 1, a]
+        e[a] = w_pt[a] - (points[0, a] + shoulder * z[0, a])
+        h[a] = z[elbow, a]
+    length = math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
+    for a in range(3):
+        e[a] = e[a] / length
     eh = e[0] * h[0] + e[1] * h[1] + e[2] * h[2]
     er_e = e[0] * reference[0] + e[1] * reference[1] + e[2] * reference[2]
     cross3(e, h, tmp)
     x = tmp[0] * reference[0] + tmp[1] * reference[1] + tmp[2] * reference[2]
     y = h[0] * reference[0] + h[1] * reference[1] + h[2] * reference[2] - er_e * eh
     norm2 = x * x + y * y
-    d_w = np.empty(3)
-    d_e = np.empty(3)
-    d_h = np.empty(3)
-    lever = np.empty(3)
     for i in range(n):
         for a in range(3):
             lever[a] = w_pt[a] - points[i, a]
@@ -187,10 +197,54 @@ def arm_angle_row(rots, points, axes, shoulder, wrist, reference, elbow, row):
 
 
 @njit(cache=True)
+def damped_step(jac, err, mu, normal, step):
+    """The Levenberg-Marquardt step ``(J^T J + mu I)^-1 J^T e`` (n,) into ``step`` for J
+    (rows, n), e (rows,), mu > 0 [m^2], by Cholesky's factorization of the symmetric positive
+    definite ``J^T J + mu I`` (into ``normal`` (n, n), lower triangle) and two triangular
+    solves: plain loops, no LAPACK call (whose overhead is most of a 7x7 solve). Equal to
+    ``np.linalg.solve`` to rounding (cond(J^T J + mu I) <= (|J|^2 + mu) / mu). Returns
+    ``step``."""
+    rows, n = jac.shape
+    for i in range(n):
+        for j in range(i + 1):
+            t = 0.0
+            for r in range(rows):
+                t += jac[r, i] * jac[r, j]
+            normal[i, j] = t + mu if i == j else t
+        t = 0.0
+        for r in range(rows):
+            t += jac[r, i] * err[r]
+        step[i] = t
+    for j in range(n):  # normal = L L^T, L in the lower triangle
+        d = normal[j, j]
+        for k in range(j):
+            d -= normal[j, k] * normal[j, k]
+        d = math.sqrt(d)
+        normal[j, j] = d
+        for i in range(j + 1, n):
+            t = normal[i, j]
+            for k in range(j):
+                t -= normal[i, k] * normal[j, k]
+            normal[i, j] = t / d
+    for i in range(n):  # L y = b
+        t = step[i]
+        for k in range(i):
+            t -= normal[i, k] * step[k]
+        step[i] = t / normal[i, i]
+    for i in range(n - 1, -1, -1):  # L^T x = y
+        t = step[i]
+        for k in range(i + 1, n):
+            t -= normal[k, i] * step[k]
+        step[i] = t / normal[i, i]
+    return step
+
+
+@njit(cache=True)
 def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
           upper, position, target_rot, seed, hold_angle, angle, angle_points, reference,
           max_iterations, position_tolerance, angle_tolerance, damping, max_step, null_gain,
-          min_margin, polish, length_scale, null_fade, stall_window=0, stall_ratio=1.0):
+          min_margin, polish, length_scale, null_fade, stall_window=0, stall_ratio=1.0,
+          cholesky=False):
     """Damped least squares from one seed: (q (n,), position error [m], angle error [rad],
     iterations, converged).
 
@@ -202,6 +256,8 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
     weighted error (position + ``length_scale`` x angle) is still above :data:`STALL_FLOOR`
     and has not dropped below ``stall_ratio`` of its value ``stall_window`` iterations before
     (a solve that is close keeps going: near a singularity it converges slowly).
+    ``cholesky``: the step by :func:`damped_step` instead of LAPACK's ``gesv`` (the same step
+    to rounding, in a fraction of the time; :func:`solve_batch`).
     """
     n = seed.size
     q = np.minimum(np.maximum(seed, lower), upper)
@@ -218,6 +274,12 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
     err = np.empty(rows)
     relative = np.empty((3, 3))
     angle_row = np.empty(n)
+    frame_work = np.empty((3, 3, 3))
+    angle_work = np.empty((n + 8, 3))
+    dp = np.empty(3)
+    dtheta = np.empty(3)
+    normal = np.empty((n, n))
+    step = np.empty(n)
     done_q = q.copy()
     done_perr = done_aerr = 0.0
     done_it = -1
@@ -225,15 +287,16 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
     it = 0
     for it in range(max_iterations + 1):
         chain_frames(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, q,
-                     rots, points)
-        dp = position - points[n]
-        dtheta = rotation_log(times_transposed(target_rot, rots[n], relative))
+                     rots, points, frame_work)
+        for a in range(3):
+            dp[a] = position[a] - points[n, a]
+        rotation_log_into(times_transposed(target_rot, rots[n], relative), dtheta)
         perr = math.sqrt(dp[0] ** 2 + dp[1] ** 2 + dp[2] ** 2)
         aerr = math.sqrt(dtheta[0] ** 2 + dtheta[1] ** 2 + dtheta[2] ** 2)
         dpsi = 0.0
         if hold_angle:
             psi = arm_angle_row(rots, points, axes, angle_points[0], angle_points[1],
-                                reference, 3, angle_row)
+                                reference, 3, angle_row, angle_work)
             dpsi = angle - psi
             dpsi -= 2.0 * math.pi * math.floor((dpsi + math.pi) / (2.0 * math.pi))
             aerr = max(aerr, abs(dpsi))
@@ -262,14 +325,24 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
             polish -= 1
             dq = -null_gain * (null_projector(jac, eye) @ ((q - mid) / half**2))
         else:
-            dq = np.linalg.solve(jac.T @ jac + (energy + damping) * eye, jac.T @ err)
+            if cholesky:
+                dq = damped_step(jac, err, energy + damping, normal, step)
+            else:
+                gram = jac.T @ jac
+                for col in range(n):  # + (energy + damping) I, in place
+                    gram[col, col] += energy + damping
+                dq = np.linalg.solve(gram, jac.T @ err)
             if null_gain != 0.0 and not hold_angle:
                 fade = min(1.0, math.sqrt(2.0 * energy) / null_fade)
                 dq -= null_gain * fade * (null_projector(jac, eye) @ ((q - mid) / half**2))
-        largest = np.max(np.abs(dq))
+        largest = abs(dq[0])
+        for col in range(1, n):  # np.max(np.abs(dq)), NaN propagating
+            if not abs(dq[col]) <= largest:
+                largest = abs(dq[col]) if not math.isnan(largest) else largest
         if largest > max_step:
             dq *= max_step / largest
-        q = np.minimum(np.maximum(q + dq, lower), upper)
+        for col in range(n):
+            q[col] = np.minimum(np.maximum(q[col] + dq[col], lower[col]), upper[col])
     if done_it >= 0:
         return done_q, done_perr, done_aerr, it, True
     return q, perr, aerr, it, False
@@ -279,9 +352,10 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
 def solve_batch(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
                 upper, positions, target_rots, seeds, hold_angle, angles, angle_points,
                 reference, max_iterations, position_tolerance, angle_tolerance, damping,
-                max_step, length_scale, stall_window, stall_ratio):
+                max_step, length_scale, stall_window, stall_ratio, cholesky=False):
     """N independent solves (:func:`solve` without null-space motion or polish): joints
-    (N, n) [rad], converged (N,), position (N,) [m] and angle errors (N,) [rad]."""
+    (N, n) [rad], converged (N,), position (N,) [m] and angle errors (N,) [rad]; ``cholesky``:
+    each step by :func:`damped_step` (solutions equal to rounding, not bitwise)."""
     count = positions.shape[0]
     q = np.empty((count, seeds.shape[1]))
     success = np.empty(count, np.bool_)
@@ -292,5 +366,5 @@ def solve_batch(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offs
             origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
             upper, positions[k], target_rots[k], seeds[k], hold_angle, angles[k], angle_points,
             reference, max_iterations, position_tolerance, angle_tolerance, damping, max_step,
-            0.0, 0.0, 0, length_scale, 1.0, stall_window, stall_ratio)
+            0.0, 0.0, 0, length_scale, 1.0, stall_window, stall_ratio, cholesky)
     return q, success, perr, aerr

@@ -9,6 +9,15 @@ from many seeds (the given ones, the home pose and its wrist flip, and seeded-ra
 vectors) and keeps the distinct ones within the joint limits; :func:`solve_robtarget` keeps
 those whose confdata is the written one. A program's round trip (:mod:`dloplan.robot.program`)
 asks that exactly one solution matches and that it is the verified one.
+
+Cost (issue 34): the enumeration's own seeds (home, its flip, the random ones: most of them
+lead nowhere) are stepped by a hand-written Cholesky solve of the damped normal equations
+(``cholesky`` of :func:`~dloplan.robot.kinematics.solve_many`), a third cheaper per iteration
+than LAPACK's call; the given seeds, and afterwards the few seeds that found a distinct
+solution, are stepped by LAPACK, so every solution kept is bitwise the one stepping every seed
+by LAPACK gives, as long as the same seeds converge to the same roots both ways (rounding
+decides that only for a seed on the edge of a basin or of the stall test; on the 152
+robtargets of fig4_8's and qualitative-1's plans and in the tests they all do).
 """
 
 from __future__ import annotations
@@ -120,34 +129,71 @@ def robtarget_solutions(arm: CellArm, position, rotation_matrix, psi: float, see
 
 def _solutions(arm: CellArm, position, rotation_matrix, psi: float, seeds, opts: IKOptions,
                rng: np.random.Generator) -> np.ndarray:
-    """:func:`robtarget_solutions` solved (its options complete)."""
+    """:func:`robtarget_solutions` solved (its options complete): the enumeration's own seeds
+    stepped by the Cholesky solve, then the seeds that found a distinct solution solved again
+    by LAPACK (module docstring)."""
     starts = np.array([np.clip(s, arm.lower, arm.upper) for s in seeds]
                       + [arm.home, wrist_flip(arm, arm.home)]
                       + list(rng.uniform(arm.lower, arm.upper, (RANDOM_SEEDS, 7))))
-    n = len(starts)
-    q, ok, _, _ = solve_many(arm, np.tile(position, (n, 1)), np.tile(rotation_matrix, (n, 1, 1)),
-                             starts, opts, np.full(n, float(psi)), give_up=True)
-    found = np.empty((0, 7))
-    for candidate in _with_turns(arm, q[ok]):
-        if not np.any(np.abs(candidate - found).max(axis=1) < SAME_SOLUTION):
-            found = np.concatenate([found, candidate[None]])
+    given = len(seeds)
+    q, ok = _solved(arm, position, rotation_matrix, psi, starts, opts, given)
+    _, sources = _distinct(arm, q[ok])
+    again = np.flatnonzero(ok)[sources]
+    again = again[again >= given]
+    if len(again):
+        q[again], ok[again] = _solved(arm, position, rotation_matrix, psi, starts[again], opts,
+                                      len(again))
+    found, _ = _distinct(arm, q[ok])
     found = found[np.argsort(np.abs(found - starts[0]).max(axis=1), kind="stable")]
     found.setflags(write=False)
     return found
 
 
-def _with_turns(arm: CellArm, solutions: np.ndarray) -> np.ndarray:
+def _solved(arm: CellArm, position, rotation_matrix, psi: float, starts, opts: IKOptions,
+            exact: int) -> tuple[np.ndarray, np.ndarray]:
+    """The 7x7 damped least squares from ``starts`` (N, 7), each given up when stalled: joints
+    (N, 7) [rad] and converged (N,); the first ``exact`` starts stepped by LAPACK, the rest by
+    the Cholesky solve (:func:`dloplan.robot.kinematics.solve_many`)."""
+    n = len(starts)
+    q, ok = np.empty((n, 7)), np.zeros(n, dtype=bool)
+    for part, cholesky in ((slice(0, exact), False), (slice(exact, n), True)):
+        count = len(starts[part])
+        if count:
+            q[part], ok[part], _, _ = solve_many(
+                arm, np.tile(position, (count, 1)), np.tile(rotation_matrix, (count, 1, 1)),
+                starts[part], opts, np.full(count, float(psi)), give_up=True,
+                cholesky=cholesky)
+    return q, ok
+
+
+def _distinct(arm: CellArm, solutions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct joint vectors (K, 7) among the solutions (N, 7) and their turns
+    (:func:`_with_turns`), in order (closer than :data:`SAME_SOLUTION` to an earlier kept one
+    in every joint: the same), and the solution (K,) int each came from."""
+    candidates, sources = _with_turns(arm, solutions)
+    kept: list[int] = []
+    alive = np.ones(len(candidates), dtype=bool)
+    while alive.any():  # the first candidate no kept one is close to is kept
+        first = int(np.argmax(alive))
+        kept.append(first)
+        alive &= np.abs(candidates - candidates[first]).max(axis=1) >= SAME_SOLUTION
+    return candidates[kept], sources[kept]
+
+
+def _with_turns(arm: CellArm, solutions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The solutions (K, 7) and their turns, (K', 7), each solution followed by its turns:
     every combination of whole turns of the joints whose range exceeds 2 pi that stays within
-    the limits."""
+    the limits; and the solution (K',) int each is a turn of."""
     out = np.asarray(solutions, dtype=float).reshape(-1, 7)
+    sources = np.arange(len(out))
     turns = np.arange(-2, 3) * 2.0 * np.pi
     for j in np.flatnonzero(arm.upper - arm.lower > 2.0 * np.pi):
         turned = out[:, None, :] + (turns[:, None] * np.eye(7)[j])[None]
         within = (arm.lower[j] <= out[:, j, None] + turns) & (out[:, j, None] + turns
                                                               <= arm.upper[j])
         out = turned[within]
-    return out
+        sources = np.broadcast_to(sources[:, None], within.shape)[within]
+    return out, sources
 
 
 def solve_robtarget(arm: CellArm, position, rotation_matrix, psi: float, conf, seeds=(),

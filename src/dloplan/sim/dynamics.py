@@ -325,7 +325,11 @@ def simulate(
         ``cable_at(t)`` -> the cable at time t [s], with ``cable``'s number of links: its
         constants (springs, rest lengths, masses, damping, held link length) are taken every
         :data:`SCHEDULE_INTERVAL` (the chain built again only when it returns another object
-        than the last time); ``cable`` is the cable at t = 0. Not with ``torsion``.
+        than the last time); ``cable`` is the cable at t = 0. Not with ``torsion``. Its links
+        change length about the middle point (the material there stays: a harness section
+        pulled equally through both fixtures), so the implicit step's friction follows the
+        material, through which the other points move
+        (:func:`dloplan.sim.stepping.implicit_steps`, ``drift``).
     scheme : {"explicit", "implicit"}
         ``"explicit"``: eq. 3.24, stable only below about the thesis' time step.
         ``"implicit"``: linearly implicit Euler (:func:`dloplan.sim.stepping.implicit_steps`),
@@ -396,6 +400,8 @@ def simulate(
     chunk = _CHUNK if cable_at is None else max(1, int(math.ceil(SCHEDULE_INTERVAL / dt)))
     schedule = _HeldSchedule(trajectory, dt, n_steps)
     no_load = np.zeros_like(x)
+    offsets = np.arange(cable.n_points) - 0.5 * cable.n_links  # (i - n/2): ds_i = offset dl
+    drift = np.zeros(cable.n_points)  # the implicit step's (ds_i/dt) / l [1/s]
     status, step, recorded = RUNNING, 0, 1
     previous = cable, fixed  # a changing cable's last model and its settings
     # a diverging run is detected in the loop and reported with its time: no float warnings
@@ -408,14 +414,17 @@ def simulate(
                 if model.n_links != cable.n_links:
                     raise ValueError(f"cable_at: a cable of {model.n_links} links, expected "
                                      f"{cable.n_links}")
+                last = previous[0].rest_link_length  # the material between the points
+                drift = offsets * ((model.rest_link_length - last)
+                                   / (last * len(chunk_steps) * dt))  # spread over the chunk
                 if model is not previous[0]:  # the same cable object: the same constants
                     previous = model, settings(model,
                                                SpringChain.from_cable(model, gravity).constants)
                 current = previous[1]
             targets = schedule.targets(chunk_steps, model.rest_link_length)
             if implicit:
-                step, recorded, status = implicit_steps(x, v, previous_held, targets, step,
-                                                        *current, recorded)
+                step, recorded, status = implicit_steps(x, v, previous_held, targets, drift,
+                                                        step, *current, recorded)
                 continue
             if twist is None:
                 step, recorded, status = explicit_steps(x, v, previous_held, targets, no_load, step,

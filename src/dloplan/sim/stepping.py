@@ -193,8 +193,8 @@ def _explicit_chunk(x, v, previous_held, targets, extra, first_step, n_steps, dt
 
 
 @njit(cache=True)
-def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, relative, ground,
-                   obstacles, radius, friction, record_every, rest_speed, clips_stop, k_s,
+def implicit_steps(x, v, previous_held, targets, drift, first_step, n_steps, dt, k_d, relative,
+                   ground, obstacles, radius, friction, record_every, rest_speed, clips_stop, k_s,
                    rest_lengths, k_b, rest_angles, masses, gravity, times, shapes, speeds,
                    n_records):
     """Linearly implicit Euler steps through the clip targets of one chunk, with contacts.
@@ -231,6 +231,18 @@ def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, r
     friction), and so is a held point's small penetration; the ground plane z = 0 as in
     :func:`explicit_steps`.
 
+    **A changing cable** (a harness section whose links get shorter) moves its mass points
+    through the material: ``drift`` (n + 1,) [1/s] is the rate at which point i's material
+    coordinate s_i grows, in units of the material between two points at the step's start:
+    (ds_i/dt) / l (for links of length l(t) shortening about the middle point, s_i = (i - n/2)
+    l and ds_i/dt = (i - n/2) dl/dt), so the material at point i moves at v_i - u_i with u_i =
+    drift_i (x_(i+1) - x_(i-1)) / 2 (the material's tangent dx/ds, stretch included, times
+    ds_i/dt), projected onto the surfaces the point touches. Friction acts on the material (an
+    arbitrary Lagrangian-Eulerian contact): a sticking point's tangential spring is at rest
+    where its material point is, x + dt u (the force k_c P_t (dt u - dt v+), P_t = I - n n^T),
+    and the slip that Coulomb's law judges and the kinetic friction opposes is P_t (v+ - u).
+    Zero for a fixed cable.
+
     The step is unconditionally stable for a positive definite H (docs/decisions.md: the
     replay's time step; H^c only adds to it), so ``dt`` is set by the motion, not by the axial
     springs or the contacts. Arguments, records, rest test and the returned tuple as in
@@ -247,6 +259,7 @@ def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, r
             np.empty(n_dof))
     velocity = np.empty(n_dof)
     touching = np.zeros((obstacles.shape[0], n_points, 7))  # d [m], n, friction force [N]
+    through = np.zeros_like(x)  # u: each point's velocity relative to its material [m/s]
     holding = np.zeros((obstacles.shape[0], n_points), dtype=np.int8)
     reach = radius * (1.0 + HOLD_MARGIN)
     ahead = np.empty(n_points)
@@ -270,12 +283,14 @@ def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, r
                 touching[r, i, 3] = n2
                 holding[r, i] = FREE if phi >= reach + ahead[i] else (
                     STICK if friction > 0.0 else SLIDE)
+        if obstacles.shape[0] > 0:
+            _material_drift(x, drift, touching, holding, through)
         for _ in range(2 * obstacles.shape[0] * n_points + 1):  # the active set
             if not _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b,
                                       rest_angles, masses, gravity, touching, holding,
-                                      stiffness, grad, work):
+                                      stiffness, through, grad, work):
                 return step - 1, n_records, INDEFINITE
-            if _contacts_settled(velocity, touching, holding, stiffness, dt, friction):
+            if _contacts_settled(velocity, touching, holding, stiffness, dt, friction, through):
                 break
         for i in range(n_points):
             for a in range(3):
@@ -298,11 +313,48 @@ def implicit_steps(x, v, previous_held, targets, first_step, n_steps, dt, k_d, r
 
 
 @njit(cache=True)
-def _contacts_settled(velocity, touching, holding, stiffness, dt, friction):
+def _material_drift(x, drift, touching, holding, through):
+    """Each inner point's velocity relative to its material, u_i = drift_i (x_(i+1) -
+    x_(i-1)) / 2 [m/s], into ``through`` (n + 1, 3) (:func:`implicit_steps`), projected
+    onto the surfaces the point touches (``holding`` (K, n + 1) not FREE, normals in
+    ``touching`` (K, n + 1, 7)): the material slides along them. A chord tau_i crossing a
+    surface (a point where the cable comes onto a peg) would otherwise ask a point sticking
+    on a second surface (the peg's plate) to move into the first one."""
+    basis = np.empty((3, 3))  # the touched normals, orthonormalized
+    for i in range(1, x.shape[0] - 1):
+        for a in range(3):
+            through[i, a] = 0.5 * drift[i] * (x[i + 1, a] - x[i - 1, a])
+        found = 0
+        for r in range(holding.shape[0]):
+            if holding[r, i] == FREE or found == 3:
+                continue
+            for a in range(3):
+                basis[found, a] = touching[r, i, 1 + a]
+            for b in range(found):
+                along = (basis[found, 0] * basis[b, 0] + basis[found, 1] * basis[b, 1]
+                         + basis[found, 2] * basis[b, 2])
+                for a in range(3):
+                    basis[found, a] -= along * basis[b, a]
+            size = math.sqrt(basis[found, 0] ** 2 + basis[found, 1] ** 2 + basis[found, 2] ** 2)
+            if size < 1e-9:  # within the span of the normals before
+                continue
+            across = 0.0
+            for a in range(3):
+                basis[found, a] /= size
+                across += through[i, a] * basis[found, a]
+            for a in range(3):
+                through[i, a] -= across * basis[found, a]
+            found += 1
+
+
+@njit(cache=True)
+def _contacts_settled(velocity, touching, holding, stiffness, dt, friction, through):
     """Check the contacts of one implicit step's solution ``velocity`` (3(n + 1),) against
     Coulomb's law (:func:`implicit_steps`); change those that break it and return False (solve
     again), or True when all hold. ``touching`` (K, n + 1, 7): depth d [m], normal n and the
-    sliding friction force [N] (written here); ``holding`` (K, n + 1): FREE, SLIDE or STICK."""
+    sliding friction force [N] (written here); ``holding`` (K, n + 1): FREE, SLIDE or STICK;
+    ``through`` (n + 1, 3): each point's velocity relative to its material u [m/s], so the
+    material slips at the tangential part of v+ - u."""
     settled = True
     for r in range(holding.shape[0]):
         for i in range(holding.shape[1]):
@@ -318,9 +370,13 @@ def _contacts_settled(velocity, touching, holding, stiffness, dt, friction):
                 continue
             if holding[r, i] == SLIDE:
                 continue
-            t0 = velocity[j] - speed * c[1]
-            t1 = velocity[j + 1] - speed * c[2]
-            t2 = velocity[j + 2] - speed * c[3]
+            s0 = velocity[j] - through[i, 0]
+            s1 = velocity[j + 1] - through[i, 1]
+            s2 = velocity[j + 2] - through[i, 2]
+            across = s0 * c[1] + s1 * c[2] + s2 * c[3]
+            t0 = s0 - across * c[1]  # the material's slip along the surface
+            t1 = s1 - across * c[2]
+            t2 = s2 - across * c[3]
             along = stiffness * dt * math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)  # holding force
             if along > friction * normal:  # more than friction can hold: it slides
                 scale = friction * normal / along * stiffness * dt
@@ -332,10 +388,11 @@ def _contacts_settled(velocity, touching, holding, stiffness, dt, friction):
 
 @njit(cache=True)
 def _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b, rest_angles,
-                       masses, gravity, touching, holding, stiffness, grad, work):
+                       masses, gravity, touching, holding, stiffness, through, grad, work):
     """Solve one step's system of :func:`implicit_steps` for the free points' v+ into
     ``velocity`` (3(n + 1),), whose held entries are the clips' already; the contacts in
-    ``holding`` (K, n + 1) held as :func:`_contacts_settled` says with ``touching``.
+    ``holding`` (K, n + 1) held as :func:`_contacts_settled` says with ``touching`` and
+    ``through`` (a sticking point's spring at rest where its material is at the step's end).
     ``work``: band (9, 3(n + 1)), free band and factor (9, 3(n + 1) - 12), rhs (3(n + 1),).
     False when the system is not positive definite."""
     band, free, factor, rhs = work
@@ -348,8 +405,10 @@ def _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b
             c = touching[r, i]
             if holding[r, i] != FREE:
                 add_penalty(i, c[0], c[1], c[2], c[3], stiffness, grad, band)
-            if holding[r, i] == STICK:  # the tangential spring, at rest at the step's start
+            if holding[r, i] == STICK:  # the tangential spring, at rest on the material
+                across = through[i, 0] * c[1] + through[i, 1] * c[2] + through[i, 2] * c[3]
                 for a in range(3):
+                    grad[i, a] -= stiffness * dt * (through[i, a] - across * c[1 + a])
                     for b in range(a + 1):
                         band[a - b, 3 * i + b] += stiffness * ((a == b) - c[1 + a] * c[1 + b])
             elif holding[r, i] == SLIDE:  # the kinetic friction, against the slip

@@ -49,10 +49,10 @@ the explicit run's on the examples (docs/decisions.md, "the replay's time step")
 obstacle, or reaching one within the step, is held on it in the implicit solve by a stiff
 penalty and sticks or slides by Coulomb's law. A tensile limit is judged on the explicit run
 (the implicit scheme damps the axial ringing whose peaks it checks), and so is a replay whose
-implicit system is found indefinite, and a changing cable (a harness section being tensioned:
-its links all get shorter, so its points slide along the peg they are pressed on, which the
-implicit step's sticking friction resists where the explicit step's impulse friction lets them
-creep; docs/decisions.md).
+implicit system is found indefinite, and a changing cable (a harness section being tensioned,
+its links all getting shorter: ``scheme="implicit"`` steps it with the friction on the material
+through which the points move, but its peak tensions on the harness jobs do not yet agree with
+the explicit ones where the section is pulled onto the peg and its plate; docs/decisions.md).
 
 The simulated shapes are recorded often enough (at least 20 records per knot interval, every step
 while the run has fewer than :data:`MAX_RECORDS` steps) that the shape at a knot time is

@@ -29,14 +29,16 @@ def slower_tensioning_helps(verification: HarnessVerification) -> bool:
 
 
 def plan_harness(job, *, verify: bool = False, check_robot: bool = True, repair: bool = True,
-                 progress=lambda text: None) -> PlanDocument:
+                 progress=lambda text: None, planned=None) -> PlanDocument:
     """A harness job's plan document (:func:`dloplan.pipeline.stages.run_harness_job`),
     verified with ``verify`` (every check per phase,
     :func:`dloplan.pipeline.harness.verify_harness_plan`); a plan that
     fails only in the tensioning's replay is planned again with the tensioning slowed down
     (:data:`TENSIONING_SPEEDS`, ``HarnessSettings.tensioning_speed``) until it passes, the
-    repair recorded in the document's ``repairs`` (or its refusal)."""
-    doc = run_harness_job(job, check_robot=check_robot, progress=progress)
+    repair recorded in the document's ``repairs`` (or its refusal). ``planned`` (optional) is
+    called with each planned document before it is verified (the command line draws its
+    figures meanwhile)."""
+    doc = run_harness_job(job, check_robot=check_robot, progress=progress, planned=planned)
     if not verify:
         return doc
     t0 = time.perf_counter()
@@ -52,7 +54,8 @@ def plan_harness(job, *, verify: bool = False, check_robot: bool = True, repair:
     for factor in TENSIONING_SPEEDS:
         progress(f"repair (tensioning): the tensioning at {factor:g} times its speed")
         candidate = run_harness_job(replace(job, settings=replace(
-            job.settings, tensioning_speed=factor)), check_robot=check_robot, progress=progress)
+            job.settings, tensioning_speed=factor)), check_robot=check_robot, progress=progress,
+            planned=planned)
         checked = verify_plan(candidate, robot=check_robot, progress=progress)
         if checked.ok:
             record = {"kind": "tensioning", "failed": "replay", "before": before,

@@ -680,7 +680,7 @@ def _own(failures, kind):
 
 
 def repair_plan(job, doc, verification, budget: Budget | None = None,
-                progress=quiet) -> RepairResult:
+                progress=quiet, repaired=None) -> RepairResult:
     """Repair a plan that failed its checks (module docstring): keep the first plan that passes.
 
     Parameters
@@ -696,6 +696,9 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
         Default :class:`Budget()`.
     progress : callable
         Called with a line of text per repair kept.
+    repaired : callable, optional
+        Called with each round's repaired document before it is verified again (the command
+        line draws its figures meanwhile).
 
     Returns
     -------
@@ -724,6 +727,8 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
             break
         state = session.state
         changed = state.doc is not verified[1]  # not changed: a placement only proposed
+        if changed and repaired is not None:
+            repaired(state.doc)
         # a placement moves the plan rigidly: its physics checks are kept (pipeline.reuse)
         verification = checks.verify(state.doc, reuse=verified[1:3]) if changed else verified[2]
         new_failures = diagnose(state.doc, verification)
