@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 
 import pytest
-from signal_runs import group_members
+from signal_runs import group_members, interruptible
 from test_cli import STIFF, write
 
 from dloplan.cli import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, EXIT_WARNINGS, main
@@ -104,17 +104,24 @@ def test_files_follow_the_umask(tmp_path):
         assert (path.stat().st_mode & 0o777) == expected, path
 
 
-def _interruptible() -> None:
-    """Give the child the default SIGINT disposition: a test runner started in the background of
-    a non-interactive shell ignores SIGINT, its children inherit that, and Python then installs no
-    KeyboardInterrupt handler (the Ctrl-C test would wait forever)."""
-    signal.signal(signal.SIGINT, signal.default_int_handler)
-
-
 def _dloplan(*args, **kwargs) -> subprocess.Popen:
+    """``dloplan ARGS`` with the default SIGINT disposition (:func:`interruptible`) and Python's
+    fault handler on, so that :func:`_communicate` can show where a run that hangs is stuck."""
     return subprocess.Popen([sys.executable, "-m", "dloplan", *args],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=_interruptible, **kwargs)
+                            preexec_fn=interruptible,
+                            env={**os.environ, "PYTHONFAULTHANDLER": "1"}, **kwargs)
+
+
+def _communicate(process: subprocess.Popen, timeout: float) -> tuple[str, str]:
+    """The run's output once it ends; a run still going after ``timeout`` [s] is aborted
+    (SIGABRT: the fault handler prints every thread's stack) and the test fails with it."""
+    try:
+        return process.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        process.send_signal(signal.SIGABRT)
+        _, stderr = process.communicate(timeout=30)
+        pytest.fail(f"dloplan still ran {timeout:g} s after the signal; its stacks:\n{stderr}")
 
 
 def test_ctrl_c_exits_130_and_leaves_the_folder_as_it_was(tmp_path):
@@ -128,7 +135,7 @@ def test_ctrl_c_exits_130_and_leaves_the_folder_as_it_was(tmp_path):
     first = process.stderr.readline()  # the job is loaded: planning has started
     time.sleep(1.0)
     process.send_signal(signal.SIGINT)
-    stdout, stderr = process.communicate(timeout=120)
+    stdout, stderr = _communicate(process, 120)
     stderr = first + stderr
     assert process.returncode == EXIT_INTERRUPTED, stderr
     assert stderr.strip().splitlines()[-1] == "dloplan: interrupted (nothing written)"
@@ -157,7 +164,7 @@ def test_ctrl_c_in_a_terminal_stops_every_process_quietly(tmp_path, when):
             assert line, "the demo ended before its figures were drawn"
             first += line
     os.killpg(process.pid, signal.SIGINT)
-    _, stderr = process.communicate(timeout=120)
+    _, stderr = _communicate(process, 120)
     stderr = first + stderr  # everything the group wrote: the pipe closes when all have gone
     assert process.returncode == EXIT_INTERRUPTED, stderr
     assert "Traceback" not in stderr and "KeyboardInterrupt" not in stderr, stderr
