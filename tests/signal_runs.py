@@ -12,6 +12,7 @@ folder or a temporary file, or a process of its group (or a pipe it holds) outli
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -142,7 +143,8 @@ def signal_run(argv: list[str], output: Path, signum: int, *, marker: str | None
     outcome = Outcome(label or " ".join(argv[:1]), signum, moment)
     process = subprocess.Popen([sys.executable, "-m", "dloplan", *argv], cwd=cwd,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               start_new_session=True, preexec_fn=interruptible)
+                               start_new_session=True, preexec_fn=interruptible,
+                               env={**os.environ, "PYTHONFAULTHANDLER": "1"})
     lines: list[str] = []
     seen = threading.Event()
     reader = threading.Thread(target=_reader, args=(process.stderr, lines, marker, seen),
@@ -168,8 +170,10 @@ def signal_run(argv: list[str], output: Path, signum: int, *, marker: str | None
     try:
         process.wait(HANG)
         outcome.exited_after = time.monotonic() - sent
-    except subprocess.TimeoutExpired:
-        pass
+    except subprocess.TimeoutExpired:  # hung: the fault handler prints its threads' stacks
+        process.send_signal(signal.SIGABRT)
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            process.wait(5.0)
     deadline = sent + HANG
     while time.monotonic() < deadline and (group_members(process.pid) or reader.is_alive()
                                            or drain.is_alive()):

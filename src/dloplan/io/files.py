@@ -83,11 +83,13 @@ def atomic_file(path: str | os.PathLike) -> Iterator[Path]:
     path = Path(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, temp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-        os.close(fd)
+        with shielded():  # a signal cannot end the run between the file's creation and its name
+            fd, temp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+            os.close(fd)
     except OSError as exc:
         raise _named(exc, path) from None
     try:
+        raise_if_interrupted()  # one that came meanwhile: the temporary file is removed below
         yield Path(temp)
         _publish(Path(temp), 0o666)
         os.replace(temp, path)
@@ -131,9 +133,12 @@ def atomic_write_texts(
         for target, text in files.items():
             path = Path(target)
             path.parent.mkdir(parents=True, exist_ok=True)
-            fd, temp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-            temps.append((temp, path))
+            with shielded():  # no signal between the file's creation and its name kept
+                fd, temp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.",
+                                            suffix=".tmp")
+                temps.append((temp, path))
             with os.fdopen(fd, "w", encoding=encoding, newline="") as handle:
+                raise_if_interrupted()  # one that came meanwhile: removed below
                 handle.write(text)
                 handle.flush()
                 os.fsync(handle.fileno())
