@@ -3,15 +3,12 @@
 from __future__ import annotations
 
 # ruff: noqa: E402 - the imports below follow the BLAS variables, set before numpy loads
-import os
-
-from dloplan.cli import BLAS_THREADS
+from dloplan.cli import use_command_blas_threads
 
 # The tests run dloplan's commands in-process (dloplan.cli.main): their BLAS runs as the
 # command's does, on one thread (set before numpy loads; the xdist workers inherit it). With
 # OpenBLAS's default threads, two workers on 2 cores spin on each other's core.
-for _name, _value in BLAS_THREADS.items():
-    os.environ.setdefault(_name, _value)
+use_command_blas_threads()
 
 import json
 import signal

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import signal
 import sys
 import time
@@ -70,6 +71,13 @@ algebra is small (a cable's bands, 3x3 to 7x7 systems, splines through a few sub
 OpenBLAS's threads only cost there: waking and spinning them around each call took 8 ms CPU per
 3-point spline of a robot program on the shared host (0.25 ms on one thread), and on 2 cores
 they spin on the core the figure workers draw on (docs/performance.md)."""
+
+
+def use_command_blas_threads() -> None:
+    """Put :data:`BLAS_THREADS` into the environment (a variable the caller set is kept), for
+    this process and the processes it starts; effective only before numpy loads OpenBLAS."""
+    for name, value in BLAS_THREADS.items():
+        os.environ.setdefault(name, value)
 
 
 class Console:
@@ -932,10 +940,8 @@ def run() -> None:  # pragma: no cover - the console script, exercised by subpro
     their results.
     """
     import atexit
-    import os
 
-    for name, value in BLAS_THREADS.items():  # before numpy and scipy load OpenBLAS
-        os.environ.setdefault(name, value)
+    use_command_blas_threads()  # before numpy and scipy load OpenBLAS
     code = main()
     for signum in SIGNALS:  # done: a late signal must not cut the flush below short
         signal.signal(signum, signal.SIG_IGN)

@@ -211,7 +211,7 @@ def warm(workers: int | None = None, progress=print, exercises=None) -> bool:
 
 
 def main(argv=None) -> int:
-    from .cli import BLAS_THREADS
+    from .cli import use_command_blas_threads
 
     parser = argparse.ArgumentParser(prog="python -m dloplan.warmup",
                                      description=__doc__.splitlines()[0])
@@ -220,8 +220,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.workers is not None and args.workers < 1:
         parser.error(f"--workers: got {args.workers}, expected an integer >= 1")
-    for name, value in BLAS_THREADS.items():  # the exercises run as the command does (its
-        os.environ.setdefault(name, value)  # pool processes inherit it; numpy not yet loaded)
+    use_command_blas_threads()  # the exercises run as the command does (the pool inherits it)
     return 0 if warm(args.workers) else 1
 
 
