@@ -56,8 +56,11 @@ def start_forkserver(context) -> None:
     raise_if_interrupted()
 
 
-GRACE = 0.5
-"""[s] A worker is given this long to end after SIGTERM (its task's clean-up), then killed."""
+GRACE = 2.0
+"""[s] A worker is given this long to end after SIGTERM (its task's clean-up), then killed.
+A worker that answers ends in milliseconds, and the wait ends as soon as none runs. It was 0.5 s:
+once, in a fresh-clone make test under load, a SIGTERMed batch left a worker's staging folder
+and lock behind, most likely a worker killed before its clean-up had run."""
 
 
 def running(pid: int) -> bool:
