@@ -15,7 +15,7 @@ from pathlib import Path
 from dloplan.app.identification import dump_identification, experiment_to_dict
 from dloplan.cable import catalogue_cable
 from dloplan.identify import cantilever_manipulation, synthetic_experiment
-from dloplan.io.files import atomic_write_text
+from dloplan.output_files import atomic_write_text
 
 cable = catalogue_cable("ethernet", n_links=16)
 manipulation = cantilever_manipulation(cable, angle=45.0)

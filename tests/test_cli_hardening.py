@@ -203,7 +203,7 @@ def test_two_runs_on_one_folder_leave_one_complete_output(tmp_path):
 def test_a_run_killed_before_its_clean_up_leaves_nothing_behind_the_next_run(tmp_path):
     """timeout's SIGTERM ends a run without its clean-up: its lock and its staging folder stay
     beside the output folder; the next run takes the lock over and removes the folder."""
-    from dloplan.io.files import OUTPUT_MARK, staged_folder
+    from dloplan.output_files import OUTPUT_MARK, staged_folder
 
     dead = subprocess.Popen([sys.executable, "-c", "pass"])
     dead.wait()

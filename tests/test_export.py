@@ -17,7 +17,7 @@ import yaml
 from gripper_paths import turned_hose_plan
 from scipy.spatial.transform import Rotation
 
-from dloplan.io import files
+from dloplan import output_files as files
 from dloplan.io.export import (
     multi_dof_trajectory_msg,
     write_ros_trajectory,

@@ -133,7 +133,7 @@ def test_a_full_disk_is_one_line_naming_the_file(world, tmp_path, capsys, monkey
     import errno
     import os
 
-    from dloplan.io import files
+    from dloplan import output_files as files
 
     def full(fd):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))

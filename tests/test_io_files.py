@@ -9,9 +9,9 @@ import sys
 
 import pytest
 
+from dloplan import output_files as files
 from dloplan.inputs import read_text
-from dloplan.io import files
-from dloplan.io.files import (
+from dloplan.output_files import (
     atomic_file,
     atomic_write_texts,
     output_lock,
@@ -77,7 +77,7 @@ def test_two_writers_of_one_file_use_two_temporary_files(tmp_path):
 def test_a_lock_is_refused_while_held_and_taken_over_when_its_owner_died(tmp_path):
     out = tmp_path / "out"
     holder = subprocess.Popen([sys.executable, "-c", (
-        "import sys, time; from dloplan.io.files import output_lock\n"
+        "import sys, time; from dloplan.output_files import output_lock\n"
         f"with output_lock({str(out)!r}):\n"
         "    print('held', flush=True); time.sleep(60)")],
         stdout=subprocess.PIPE, text=True)

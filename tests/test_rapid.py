@@ -20,7 +20,7 @@ from program_readers import rapid_commands
 from robot_plans import example_plan, harness_plan, read_module
 from scipy.spatial.transform import Rotation
 
-from dloplan.io import files
+from dloplan import output_files as files
 from dloplan.io.rapid import RapidSettings, rapid_modules, write_rapid
 from dloplan.robot import Gripper, IKOptions, RobotCell, confdata, forward, inverse, yumi
 from dloplan.robot import robot_program as make_program

@@ -388,7 +388,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     trials = [read_shapes(path) for path in args.shapes]
     result = compare_trials(planned, trials, frame_id=doc.frame_id, end_order=args.end_order)
     if args.output:
-        from .io.files import staged_files
+        from .output_files import staged_files
         from .plots.compare import write_comparison_figures
         from .plots.report import write_report
 
@@ -475,7 +475,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
                                      simulator=job.simulator)
     console.stage(f"{result.simulations} simulations")
     if args.output:
-        from .io.files import staged_files
+        from .output_files import staged_files
         from .plots.figures import identification_figure, save_figure
 
         figure = identification_figure(result.curve[:, 0], result.curve[:, 1],
@@ -594,7 +594,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
-    from .io.files import output_lock
+    from .output_files import output_lock
 
     with output_lock(args.output):  # refused at once while another run writes the folder
         return _study(args)
@@ -647,7 +647,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
                                     youngs_modulus_cap=args.modulus_cap)
     console.stage(run.message)
     if args.output:
-        from .io.files import staged_files
+        from .output_files import staged_files
         from .plots.compare import write_comparison_figures
 
         with staged_files(args.output) as folder:
@@ -873,7 +873,7 @@ INPUTS = {"plan": ("scenarios",), "study": ("scenario",), "simulate": ("file",),
           "identify": ("experiment",), "calibrate": ("image", "intrinsics", "markers"),
           "register": ("images", "calibration")}
 """The input arguments of each command that writes ``-o``: an output that is (or holds) one
-of them is refused before any work (:func:`dloplan.io.files.refuse_overwriting_inputs`)."""
+of them is refused before any work (:func:`dloplan.output_files.refuse_overwriting_inputs`)."""
 
 
 def _inputs(args: argparse.Namespace) -> list:
@@ -895,7 +895,7 @@ def main(argv: list[str] | None = None) -> int:
     with catching_interrupts():
         try:
             if args.command in INPUTS:
-                from .io.files import refuse_overwriting_inputs
+                from .output_files import refuse_overwriting_inputs
 
                 refuse_overwriting_inputs(getattr(args, "output", None), _inputs(args))
             return args.func(args)

@@ -4,7 +4,7 @@ A job, identification, shape, calibration or URDF file, and a plan document, is 
 :func:`read_text`: a device, a pipe or a folder is refused before it is opened (``/dev/zero`` or a
 FIFO would never end), and no more than the limit (:mod:`dloplan.bounds`) plus one byte is read
 (a file that grows while read, a ``/proc`` file whose size says 0). The errors are one line
-naming the file. (Writing is :mod:`dloplan.io.files`'.)
+naming the file. (Writing is :mod:`dloplan.output_files`'.)
 """
 
 from __future__ import annotations

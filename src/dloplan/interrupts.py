@@ -2,9 +2,9 @@
 
 :func:`catching_interrupts` (the command line's) turns each of :data:`SIGNALS` into an
 :class:`Interrupted` exception raised in the main thread, a :class:`KeyboardInterrupt` that
-carries the signal: every ``finally`` and ``except BaseException`` on its way runs, so the staging
-folder and the lock of :func:`dloplan.io.files.staged_folder` are removed and the worker processes
-are ended (:mod:`dloplan.processes`) before the command exits with ``128 + signal``
+carries the signal: every ``finally`` and ``except BaseException`` on its way runs, so the
+staging folder and the lock of :func:`dloplan.output_files.staged_folder` are removed and the
+worker processes are ended (:mod:`dloplan.processes`) before the command exits with ``128 + signal``
 (:func:`exit_code`: 130 for Ctrl-C, 143 for SIGTERM, 129 for SIGHUP).
 
 Python raises the exception at the next byte code. When that byte code belongs to a finalizer or

@@ -32,7 +32,7 @@ import numpy as np
 
 from ..correct import Correction, CorrectionRefused, correct_plan
 from ..correct.step import sliced_grippers
-from ..io.files import staged_folder
+from ..output_files import staged_folder
 from ..pipeline.document import PlanDocument, cycle_actions, cycle_to_dict, document_cell
 from ..pipeline.stages import (
     program_of,
@@ -247,7 +247,7 @@ def correct_and_check(doc: PlanDocument, at: int, measured, *, verify: bool = Tr
 def correct_into(corrected: PlanDocument, remaining: PlanDocument, folder, *,
                  rate: float | None = None, progress=quiet) -> list[Path]:
     """Write a checked correction (:func:`check_correction`) into ``folder``, whole or not at
-    all (:func:`dloplan.io.files.staged_folder`): ``plan.json`` and ``correction.json`` /
+    all (:func:`dloplan.output_files.staged_folder`): ``plan.json`` and ``correction.json`` /
     ``correction.txt`` of the corrected plan; ``trajectory.csv`` and the cell's robot program
     formats of the remaining motion. Returns the written paths (in ``folder``)."""
     folder = Path(folder)

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..bounds import MAX_PLAN_BYTES
 from ..inputs import read_text
-from ..io.files import atomic_write_text
+from ..output_files import atomic_write_text
 from ..pipeline.document import PLAN_FORMAT, PlanDocument, document_from_dict, document_to_dict
 
 

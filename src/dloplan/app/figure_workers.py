@@ -14,7 +14,7 @@ its import alone about 0.7 s). :class:`FigureWorkers` takes that off the run's c
   drafts whose inputs (every array, compared exactly) it still has; the others (a repaired plan)
   are drawn then. The files are the same as :func:`dloplan.app.report.write_figures` writes.
 
-Everything is drawn into the run's staging folder (:func:`dloplan.io.files.staged_folder`), so
+Everything is drawn into the run's staging folder (:func:`dloplan.output_files.staged_folder`), so
 an error or a signal leaves nothing half-written: the workers leave Ctrl-C to the command
 (:func:`dloplan.interrupts.worker_signals`); a run that ends well closes them (what has not
 started is cancelled, what has is waited for), one that fails or is interrupted ends them at once

@@ -19,8 +19,8 @@ from ..exit_codes import (  # noqa: F401 - re-exported: the codes of the command
     EXIT_OK,
     EXIT_WARNINGS,
 )
-from ..io.files import output_lock, staged_folder
 from ..io.scenario import PROGRAM_NAMES
+from ..output_files import output_lock, staged_folder
 from ..pipeline.document import PlanDocument
 from ..pipeline.job import Job
 from ..pipeline.plan import make_plan
@@ -45,7 +45,7 @@ def exit_code(doc: PlanDocument) -> int:
 def export_plan(doc: PlanDocument, name: str, target: Path, options: WriteOptions) -> list[Path]:
     """Write output ``name`` of a plan document to ``target`` under :func:`plan_into`'s rule: a
     plan that failed a check gets no robot program or trajectory (ValueError naming them).
-    The target's lock (:func:`dloplan.io.files.output_lock`) refuses a second export to it while
+    The target's lock (:func:`dloplan.output_files.output_lock`) refuses a second export to it while
     this one writes."""
     failed = doc.failed_checks
     if name in ROBOT_OUTPUTS and failed:
@@ -60,7 +60,7 @@ def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
               repair: bool = True, progress=quiet, budget=None, figure_workers: int = 0):
     """Plan a resolved job and write its outputs into ``folder``: ``(document, written paths)``.
 
-    The folder is written whole or not at all (:func:`dloplan.io.files.staged_folder`): a run
+    The folder is written whole or not at all (:func:`dloplan.output_files.staged_folder`): a run
     that fails or is interrupted leaves it as it was, and a second run on the same folder is
     refused while this one holds it. A plan that failed a check gets its plan document, figures
     and report, but no robot program or trajectory file. With ``repair`` a plan that fails a

@@ -13,7 +13,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from ..cable import GRAVITY
-from ..io.files import atomic_write_text
+from ..output_files import atomic_write_text
 from ..pipeline.document import PlanDocument
 from ..pipeline.job import Job
 from ..study.evaluate import StudyProblem

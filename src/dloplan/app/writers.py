@@ -204,7 +204,7 @@ def write_correction_report(doc: PlanDocument, target: Path,
     import json
 
     from ..correct.report import correction_table
-    from ..io.files import atomic_write_text
+    from ..output_files import atomic_write_text
 
     if doc.correction is None:
         raise ValueError("correction: the plan is not a corrected plan (no correction section)")

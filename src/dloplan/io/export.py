@@ -4,7 +4,7 @@
   message (YAML or JSON) with two "joints" ``left_tcp`` and ``right_tcp``.
 * :func:`write_trajectory_csv`: the trajectory sampled at a rate, one row per sample.
 
-Both are written atomically (:mod:`dloplan.io.files`). The plan document itself (its versioned
+Both are written atomically (:mod:`dloplan.output_files`). The plan document itself (its versioned
 JSON schema) is owned by :mod:`dloplan.pipeline.document`, the RAPID program by
 :mod:`dloplan.io.rapid`.
 See ``docs/grippers-and-exports.md`` for the formats with examples.
@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from ..output_files import atomic_write_text
 from ..trajectory import ARMS, Trajectory
-from .files import atomic_write_text
 from .poses import (
     DEFAULT_FRAME_ID,
     canonical_quaternions,

@@ -52,12 +52,12 @@ from pathlib import Path
 import numpy as np
 
 from ..grippers.axes import CLIP_NAMES
+from ..output_files import atomic_write_texts
 from ..robot.actions import default_actions, picks_up, place_actions
 from ..robot.cell import check_rapid_name
 from ..robot.program import RobotProgram
 from ..robot.yumi_program import YumiTargets
 from ..trajectory import ARMS
-from .files import atomic_write_texts
 
 RAPID_FORMAT_VERSION = 3
 _NOT_USED = "9E+09"

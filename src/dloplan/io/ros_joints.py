@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .files import atomic_write_texts
+from ..output_files import atomic_write_texts
 
 DEFAULT_RATE = 100.0
 """[Hz] Points per second of the written trajectories (besides the targets' instants)."""

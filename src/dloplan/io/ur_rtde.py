@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .files import atomic_write_texts
+from ..output_files import atomic_write_texts
 
 DEFAULT_GRIPPER = {"output": 1, "tool": False, "closed": True}
 """The gripper on standard digital output 1, closed by a high level (output 0 is the

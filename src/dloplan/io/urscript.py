@@ -44,8 +44,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..output_files import atomic_write_texts
 from ..robot.actions import picks_up
-from .files import atomic_write_texts
 from .ur_rtde import DEFAULT_GRIPPER, check_gripper
 
 MODES = ("movej", "movel")

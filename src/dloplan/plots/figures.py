@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.files import atomic_file
+from ..output_files import atomic_file
 
 AXIS_COLOURS = ("#d32f2f", "#388e3c", "#1976d2")  # u, v, w
 

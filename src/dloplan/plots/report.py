@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.files import atomic_write_text
 from ..obstacles.shapes import Box, Cylinder, Table
+from ..output_files import atomic_write_text
 from .robot_meshes import credits, encoded_meshes, match_model, model_parts
 
 DEFAULT_CABLE_RADIUS = 0.0025

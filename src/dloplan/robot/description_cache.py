@@ -24,11 +24,11 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from ..output_files import atomic_file
 
 FOLDER = Path(__file__).resolve().parent / "__pycache__" / "descriptions"
 """Where the entries are kept."""
@@ -94,22 +94,13 @@ def save(key: str, fields: dict, meshes: dict[str, str | None],
     meta = {"format": FORMAT, "joint_names": list(fields["joint_names"]),
             "base_link": fields["base_link"], "tip_link": fields["tip_link"],
             "meshes": sorted(meshes.items(), key=lambda item: item[0])}
-    temp = None
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-        fd, temp = tempfile.mkstemp(dir=folder, prefix=f".{key}.", suffix=".tmp")
-        with os.fdopen(fd, "wb") as handle:
+        with atomic_file(folder / f"{key}.npz") as temp, open(temp, "wb") as handle:
             np.savez(handle, meta=np.array(json.dumps(meta)),
                      **{name: np.asarray(fields[name]) for name in ARRAYS})
-        os.replace(temp, folder / f"{key}.npz")
-        temp = None
         prune(folder)
     except OSError:
         pass
-    finally:
-        if temp is not None:
-            with contextlib.suppress(OSError):
-                os.unlink(temp)
 
 
 def prune(folder: Path, keep: int = MAX_ENTRIES) -> None:

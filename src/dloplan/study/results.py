@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.files import atomic_file, atomic_write_text
+from ..output_files import atomic_file, atomic_write_text
 
 MANIFEST = "manifest.json"
 FORMAT_NAME = "dloplan-study"

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.files import atomic_write_text
+from ..output_files import atomic_write_text
 from .backends import Backend, SerialBackend, map_jobs
 from .evaluate import COLUMN_TYPES, OUTCOME_COLUMNS, StudyProblem, evaluate_chunk
 from .results import (

@@ -23,8 +23,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..inputs import read_text
-from ..io.files import atomic_write_text
 from ..io.poses import canonical_quaternions, pose_from_dict, transform_dict
+from ..output_files import atomic_write_text
 from . import _deps
 from .camera import CameraIntrinsics, project_normalized
 from .markers import (

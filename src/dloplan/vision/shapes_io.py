@@ -33,7 +33,7 @@ import numpy as np
 
 from ..geometry import as_shape
 from ..inputs import read_text
-from ..io.files import atomic_write_text
+from ..output_files import atomic_write_text
 
 SHAPES_FORMAT = "dloplan-shapes"
 CSV_COLUMNS = ("label", "frame_id", "x", "y", "z")

@@ -21,7 +21,7 @@ import tempfile
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
-from ..interrupts import raise_if_interrupted, shielded
+from .interrupts import raise_if_interrupted, shielded
 
 try:
     import fcntl
