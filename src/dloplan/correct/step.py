@@ -57,7 +57,7 @@ from ..physics.chain import SpringChain
 from ..sim import ClipPoses, continuation, equilibrium
 from ..sim.sensitivity import equilibrium_sensitivity, perturbed_clips
 from ..trajectory import Trajectory, trajectory_from_grippers
-from .measurement import MAX_DISAGREEMENT, CorrectionRefused, resample_measured
+from .measurement import MAX_DISAGREEMENT, CorrectionRefused, noise_sd, resample_measured
 from .model_error import (
     MAX_GRIP,
     alpha_prior,
@@ -65,6 +65,7 @@ from .model_error import (
     fit_model_error,
     measured_offset,
     model_error_directions,
+    offset_covariance,
     parameter_covariance,
     standard_deviations,
 )
@@ -191,6 +192,12 @@ class ModelUpdate:
         The correlation of ln E and alpha in the fit (:func:`.model_error.
         parameter_covariance`; 0 when either is not estimated or E is known): the gain check
         carries it to the target (:func:`_gain_sd`).
+    log_prior_sd : float
+        The sd of ln E the correction assumes before the measurement: E within the limit
+        ``max_modulus_factor`` of the plan's at 2 sd (beyond it a correction is refused),
+        ln(max_modulus_factor) / 2; combined with :attr:`log_sd` for the interval and the gain
+        check (:func:`_parameter_sds`), where a shape that does not tell E (the U demo,
+        sd(ln E) 7) would otherwise put factors of e^14 into a linearization.
     log_sd : float
         Standard deviation of ln E the measurement gives (inf when not computed).
     note : str
@@ -236,6 +243,7 @@ class ModelUpdate:
     offset_note: str = "not estimated"
     discretization_sd: float = math.inf
     correlation: float = 0.0
+    log_prior_sd: float = math.inf
 
     @property
     def offset_estimated(self) -> bool:
@@ -441,7 +449,7 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
                    max_factor: float = 10.0, gravity=GRAVITY, guess=None,
                    discretization: bool = False, grip: bool = False,
                    offset: bool = False, measured_links: int | None = None,
-                   modulus: bool = True) -> ModelUpdate:
+                   modulus: bool = True, noise: float = 0.0) -> ModelUpdate:
     """Gauss-Newton steps in log E fitting the model's equilibrium at ``clips`` to ``measured``.
 
     With ``discretization``, each step fits log E and the amplitude alpha of the discretization
@@ -498,6 +506,11 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         Estimate E (default); False: E is known to be ``cable``'s (kept, sd(ln E) = 0), the
         bias's amplitudes (and the clamp length, the offset) are fitted at it, even with
         ``steps = 0``.
+    noise : float
+        The measurement's noise, sd per coordinate [m] (:func:`.measurement.noise_sd`): the
+        offset's covariance carries it along the clips' axes, where the measured curve's ends
+        are as uncertain as one point (:func:`.model_error.offset_covariance`; 0: the held
+        points' scatter alone).
 
     Raises
     ------
@@ -515,8 +528,9 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     grip_sd, grip_note = math.inf, ("" if grip else "not estimated")
     shift, offset_sd, offset_spread, offset_note = np.zeros(3), math.inf, 0.0, "not estimated"
     if offset:
+        offset, sds = measured_offset(measured - eq.shape)
         shift, offset_sd, offset_spread, offset_note = _offset_verdict(
-            *measured_offset(measured - eq.shape))
+            offset, offset_covariance(sds, clips.u_axes, noise))
         measured = measured - shift  # what the fit explains: the cable, not the camera
     fine = resample_by_arc_length(eq.shape, 2 * cable.n_links + 1)  # refined, warm from E to E
     prior = alpha_prior(cable.n_links, measured_links)
@@ -591,7 +605,8 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     return ModelUpdate(cable.youngs_modulus, model.youngs_modulus, residual0, residual,
                        taken, eq.shape, alpha, log_sd, note, beta, grip_sd, grip_note, shift,
                        offset_sd, offset_spread, offset_note, alpha_sd,
-                       taken_correlation if directions else 0.0)
+                       taken_correlation if directions else 0.0,
+                       0.5 * limit if limit > 0 else math.inf)
 
 
 def _fit(jacobian, directions, residual, prior):
@@ -609,11 +624,15 @@ def _fit(jacobian, directions, residual, prior):
     return step, amplitudes, sds, correlation
 
 
-def _offset_verdict(offset, sds) -> tuple[np.ndarray, float, float, str]:
+def _offset_verdict(offset, covariance) -> tuple[np.ndarray, float, float, str]:
     """The offset applied (zeros when the measurement does not tell it), the sd of its length,
-    its share of the interval and a note."""
-    size, sd = float(np.linalg.norm(offset)), float(np.linalg.norm(sds))
-    score = float(np.linalg.norm(offset / sds)) if np.all(sds > 0) else math.inf
+    its share of the interval and a note; its score is sqrt(o^T C^-1 o) with the covariance C
+    (:func:`.model_error.offset_covariance`)."""
+    size, sd = float(np.linalg.norm(offset)), math.sqrt(float(np.trace(covariance)))
+    try:
+        score = math.sqrt(float(offset @ np.linalg.solve(covariance, offset)))
+    except np.linalg.LinAlgError:  # no scatter, no noise: any offset is told
+        score = math.inf
     shown = ", ".join(f"{1e3 * v:+.1f}" for v in offset)
     if score >= OFFSET_SIGNIFICANCE:
         return offset, sd, 0.0, (f"measured shape offset by ({shown}) mm, sd {1e3 * sd:.1f} "
@@ -1049,11 +1068,13 @@ def correct_plan(
     wanted = (stable if reference == "stabilized" else path)[at + 1 :]
     y = resample_measured(measured, stable[at], cable.length,
                           max_disagreement=limits.max_disagreement)
+    noise = noise_sd(measured, y) if offset == "estimate" else 0.0
     update = update_modulus(cable, y, clips[at], steps=modulus_steps,
                             max_factor=limits.max_modulus_factor, gravity=gravity,
                             guess=stable[at], discretization=model_error == "discretization",
                             grip=grip == "estimate", offset=offset == "estimate",
-                            measured_links=measured_links, modulus=modulus == "estimate")
+                            measured_links=measured_links, modulus=modulus == "estimate",
+                            noise=noise)
     if grip == "known":
         update = replace(update, grip_sd=0.0, grip_note=(
             f"clamp length known: the model's {1e3 * cable.rest_link_length:.1f} mm"))
@@ -1227,10 +1248,18 @@ def _parameter_sds(update: ModelUpdate) -> dict:
         grip = update.grip_sd + 0.5 * GRIP_LINEARITY * abs(update.grip)
     else:  # 2 sd: a quarter link, 2 GRIP_UNCERTAINTY half links
         grip = GRIP_UNCERTAINTY
-    return {"modulus": update.log_sd if math.isfinite(update.log_sd) else 0.0,
+    return {"modulus": _posterior_log_sd(update),
             "discretization": (update.discretization_sd
                                if math.isfinite(update.discretization_sd) else 0.0),
             "grip": grip}
+
+
+def _posterior_log_sd(update: ModelUpdate) -> float:
+    """sd(ln E) with the prior (:attr:`ModelUpdate.log_prior_sd`): 1 / sqrt(1 / sd^2 +
+    1 / sd_prior^2) (0 where E is known, or the measurement did not give an sd)."""
+    if not (math.isfinite(update.log_sd) and update.log_sd > 0.0):
+        return 0.0
+    return 1.0 / math.sqrt(update.log_sd**-2 + update.log_prior_sd**-2)
 
 
 def _uncertainty(directions: dict, update: ModelUpdate) -> dict:
