@@ -356,12 +356,15 @@ def part3(folder: Path, seeds: int, fit_links: int | None = None) -> None:
                 floor = reachable_error(plant, doc.grippers.clip_poses(last), run.reference,
                                         run.open_loop[-1])
             ratios[name].append(run.closed_loop_error / floor)
-            if name == "1" and run.corrections:
-                m = run.corrections[0].model
-                z = np.log(m.youngs_modulus / real.youngs_modulus) / m.log_sd
-                offset = "offset taken out" if m.offset_estimated else ""
-                print(f"  seed {seed:3d}: K 1 {ratios['1'][-1]:.3f}  ln E off by {z:+.2f} sd "
-                      f"{offset}", flush=True)
+            if name == "1":
+                m = run.corrections[0].model if run.corrections else None
+                z = 0.0 if m is None else np.log(m.youngs_modulus / real.youngs_modulus) / m.log_sd
+                shown = ("refused" if m is None else f"ln E off by {z:+.2f} sd"
+                         + (", offset taken out" if m.offset_estimated else ""))
+            else:
+                again = "" if len(run.corrections) == 2 else " (second refused)"
+                print(f"  seed {seed:3d}: K 1 {ratios['1'][-1]:.3f} ({shown}); K 1+3 "
+                      f"{ratios['1+3'][-1]:.3f}{again}", flush=True)
     print(f"  floor {1e3 * floor:.3f} mm")
     for name, values in ratios.items():
         v = np.array(values)

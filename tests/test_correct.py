@@ -420,6 +420,17 @@ def test_dloplan_correct_writes_the_corrected_plan_program_and_report(plans, tmp
     rows = (out / "trajectory.csv").read_text().splitlines()
     assert len(rows) > 3
     assert "open-loop" in (out / "correction.txt").read_text()
+    # the clips fitted on the refined chain (the default: 60 links at n = 20), said so; the
+    # plan's own chain when asked (--fit-links 20); a count not a multiple of n is refused
+    assert report["fit_links"] == 60
+    assert "a chain of 60 links" in (out / "correction.txt").read_text()
+    own = tmp_path / "own"
+    assert main(["correct", str(plan_path), "--at", str(at), "--measured", str(shapes_file),
+                 "-o", str(own), "-q", "--fit-links", "20"]) in (0, 1)
+    assert json.loads((own / "correction.json").read_text())["fit_links"] == 20
+    assert main(["correct", str(plan_path), "--at", str(at), "--measured", str(shapes_file),
+                 "-o", str(tmp_path / "bad"), "-q", "--fit-links", "50"]) == 2
+    assert not (tmp_path / "bad").exists()
     # the plant clamps the model's L / n: told so (--grip known), the clamp is neither estimated
     # nor in the interval
     known = tmp_path / "known"
