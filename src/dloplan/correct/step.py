@@ -679,7 +679,7 @@ class Held:
 
 FIT_LINKS = 60
 """About this many links of the chain the clips are fitted on (:class:`FitModel`): the multiple
-k n of the plan's n nearest to it (60 at n = 12 and 20; n itself from n = 40 on). The plan's
+k n of the plan's n nearest to it (60 at n = 12 and 20; n itself for n > 40). The plan's
 n = 20 chain plus the measured bias predicts a 100-link cable's target to 0.02-0.04 mm, which
 decides the last tens of a percent where the floor is a tenth of a millimetre (the U demo, E
 told, seeds 1-6: 1.17 times the floor on average on the plan's chain, 1.08 on 60 links, 1.04 on
