@@ -1045,3 +1045,18 @@ def test_the_offsets_covariance_holds_the_ends_along_the_clips(plans):
     assert np.mean(np.array(scores) >= chi95) <= 0.10
     assert np.mean(np.array(plain) >= chi95) > 0.15
     assert np.mean(sigmas) == pytest.approx(NOISE, rel=0.05)
+
+
+def test_the_refined_chain_is_the_multiple_of_n_nearest_to_sixty_links():
+    """fit_links_for: the multiple k n of the plan's n nearest to FIT_LINKS (60), at least n;
+    a count asked for must be a multiple of n (n: the plan's own chain); the refined chain
+    resolves alpha_k = 2 (1 - 1/k) of the discretization error (alpha_prior of n against k n)."""
+    from dloplan.correct.step import FitModel, fit_links_for
+
+    assert [fit_links_for(n) for n in (6, 12, 20, 30, 50, 100)] == [60, 60, 60, 60, 50, 100]
+    assert fit_links_for(20, 20) == 20 and fit_links_for(20, 100) == 100
+    fit = FitModel.of(catalogue_cable("ethernet", n_links=20), 60)
+    assert fit.clamp_links == 3 and fit.cable.n_links == 60
+    assert fit.share == pytest.approx(2.0 * (1.0 - 1.0 / 3.0))
+    # each gripper clamps the plan's grip, L / n
+    assert fit.cable.rest_link_length * fit.clamp_links == pytest.approx(fit.cable.length / 20)
