@@ -38,8 +38,18 @@ the correction as ``dloplan correct`` writes it passes ``dloplan verify`` (``wri
 written, read back and verified) or what refused it, and the correction's CPU time [ms]. 1 mm noise,
 200 points.
 
+Part 3, the early correction over noise draws (``--part 3 --seeds 40``): the 3D job corrected
+at shape 1 (and at 1 and again at mid-path) on the chain plant at E x2, grip known, its ratio to
+the floor for each seed and their distribution: one noisy, nearly straight shape tells ln E to
+sd 0.18, so the ratio is a draw.
+
+The correction fits the clips on a refined chain by default (``correct_plan``'s ``fit_links``,
+60 links at n = 12 and 20); ``--fit-links N`` sets it for parts 2 and 3 (the plan's n: its own
+chain, as before).
+
 Run: ``PYTHONPATH=tests python benchmarks/bench_correct.py [--part 2]
-[--plants chain,dismech,mujoco] [--cases base,own n,...] [--plans ...] [--no-floor]``.
+[--plants chain,dismech,mujoco] [--cases base,own n,...] [--plans ...] [--no-floor]
+[--fit-links N]``.
 Part 2 with the default plants (chain and dismech, 24 rows each) took about 8 minutes of wall
 time per plant on the shared host (load 13; run them as two processes, ``--plants chain`` and
 ``--plants dismech``), most of it planning the six plans and the floors; a dismech row is 1-5 s of
@@ -228,19 +238,19 @@ have it already (the catalogue's default), so it is the base case. "early again"
 early (shape 1) and again at mid-path, each correction from its own measurement (K "1+3")."""
 
 
-def oracle(plant, doc, at: list, modulus: float, grip: str) -> str:
+def oracle(plant, doc, at: list, modulus: float, grip: str, fit_links: int | None = None) -> str:
     """The closed loop's final error [mm] with the correction told the plant's E
     (``modulus="known"`` on the plan's cable at the plant's E; the bias, clamp length and offset
     estimated as in the row): what the correction reaches when E is not limited by what the
     measurement tells ("-": refused)."""
     run = run_closed_loop(plant, doc.cable.with_modulus(modulus), doc.shapes, doc.grippers,
                           at, stabilized=doc.stabilized, trajectory=doc.trajectory, grip=grip,
-                          modulus="known")
+                          modulus="known", fit_links=fit_links)
     return f"{1e3 * run.closed_loop_error:.2f}" if run.corrections else "-"
 
 
 def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=False,
-          with_told: bool = True) -> None:
+          with_told: bool = True, fit_links: int | None = None) -> None:
     print("\nPart 2: plants; final mean error [mm] against the plan's stabilized target")
     print(f"{'plan':>12} {'n':>3} {'plant':>7} {'E':>5} {'grip':>6} {'K':>3} {'open':>7} "
           f"{'closed':>7} {'ratio':>6} {'floor':>6} {'E told':>6} {'E/E sd':>10} "
@@ -288,13 +298,14 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=Fa
                 try:
                     run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, at,
                                           stabilized=doc.stabilized, trajectory=doc.trajectory,
-                                          grip=told)
+                                          grip=told, fit_links=fit_links)
                 except RuntimeError as exc:
                     print(f"{name:>12} {n:>3} {plant_name:>7} {modulus:<5} {shown:>7} "
                           f"{shown_at:>3} plant failed: {exc}")
                     continue
                 plant_seconds = time.process_time() - started
-                told_mm = oracle(plant, doc, at, real.youngs_modulus, told) if with_told else "-"
+                told_mm = (oracle(plant, doc, at, real.youngs_modulus, told, fit_links)
+                           if with_told else "-")
                 floor_mm = "-"
                 if floor:
                     best = reachable_error(plant, doc.grippers.clip_poses(last), run.reference,
@@ -323,6 +334,45 @@ def part2(names, floor: bool, folder: Path, plans, chosen=CASES, axial_like_e=Fa
                       f"  [plant {plant_seconds:.0f} s CPU]", flush=True)
 
 
+def part3(folder: Path, seeds: int, fit_links: int | None = None) -> None:
+    """The early correction's ratio to the floor over noise draws: the 3D job (n = 20) on the
+    100-link chain plant at E x2, grip known, corrected at shape 1 ("1") and at shape 1 and
+    again at mid-path ("1+3"), seeds 1 .. ``seeds``; the floor does not depend on the noise."""
+    print(f"\nPart 3: 3D Ethernet, n = 20, chain plant E x2, grip known, {seeds} noise draws: "
+          "closed / floor")
+    doc, _ = plan_with_links(SCENARIOS["3D ethernet"], 20, folder)
+    cable, last = doc.cable, len(doc.shapes) - 1
+    real = cable.with_modulus(2.0 * cable.youngs_modulus)
+    ratios = {"1": [], "1+3": []}
+    floor = None
+    for seed in range(1, seeds + 1):
+        plant = Plant(real.with_links(fine_links(20)), noise=NOISE, n_measured=POINTS, seed=seed,
+                      clamp=cable.rest_link_length)
+        for name, at in (("1", [1]), ("1+3", [1, last // 2])):
+            run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, at,
+                                  stabilized=doc.stabilized, trajectory=doc.trajectory,
+                                  grip="known", fit_links=fit_links)
+            if floor is None:
+                floor = reachable_error(plant, doc.grippers.clip_poses(last), run.reference,
+                                        run.open_loop[-1])
+            ratios[name].append(run.closed_loop_error / floor)
+            if name == "1":
+                m = run.corrections[0].model if run.corrections else None
+                z = 0.0 if m is None else np.log(m.youngs_modulus / real.youngs_modulus) / m.log_sd
+                shown = ("refused" if m is None else f"ln E off by {z:+.2f} sd"
+                         + (", offset taken out" if m.offset_estimated else ""))
+            else:
+                again = "" if len(run.corrections) == 2 else " (second refused)"
+                print(f"  seed {seed:3d}: K 1 {ratios['1'][-1]:.3f} ({shown}); K 1+3 "
+                      f"{ratios['1+3'][-1]:.3f}{again}", flush=True)
+    print(f"  floor {1e3 * floor:.3f} mm")
+    for name, values in ratios.items():
+        v = np.array(values)
+        print(f"  K {name:>3}: median {np.median(v):.3f}, mean {v.mean():.3f}, 90 % "
+              f"{np.percentile(v, 90):.3f}, largest {v.max():.3f}; within 1.15 of the floor: "
+              f"{np.sum(v <= 1.15)} of {len(v)}")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--plants", default="chain,dismech")
@@ -333,7 +383,14 @@ def main() -> int:
                         help="comma-separated, of: " + ", ".join(CASES))
     parser.add_argument("--plans", default=",".join(SCENARIOS),
                         help="comma-separated, of: " + ", ".join(SCENARIOS))
-    parser.add_argument("--part", choices=["1", "2", "both"], default="both")
+    parser.add_argument("--part", choices=["1", "2", "3", "both"], default="both",
+                        help="1: time, 2: plants (both: 1 and 2), 3: the early correction over "
+                        "noise draws")
+    parser.add_argument("--seeds", type=int, default=40, help="part 3: noise draws")
+    parser.add_argument("--fit-links", type=int, default=None,
+                        help="the links the correction fits the clips on (correct_plan's "
+                        "fit_links; default: its own choice, 60 at n = 12 and 20; the plan's n: "
+                        "the plan's chain, as before issue 35's refined fit)")
     parser.add_argument("--plant-axial-like-e", action="store_true",
                         help="the plants' cables stretch with E_a = E (the rod's float32 solve "
                              "does not settle every rest state of the 3D job with the plans' "
@@ -346,7 +403,9 @@ def main() -> int:
         if args.part in ("2", "both"):
             part2(args.plants.split(","), not args.no_floor, Path(folder),
                   args.plans.split(","), args.cases.split(","), args.plant_axial_like_e,
-                  not args.no_told)
+                  not args.no_told, args.fit_links)
+        if args.part == "3":
+            part3(Path(folder), args.seeds, args.fit_links)
     return 0
 
 

@@ -379,6 +379,9 @@ def test_bad_arguments_are_named(plans):
         CorrectionLimits(max_translation=0.0)
     with pytest.raises(ValueError, match="noise"):
         Plant(doc.cable, noise=-1.0)
+    for fit_links in (50, 10, 0):  # not a multiple of n = 20 at least n
+        with pytest.raises(ValueError, match=f"fit_links: got {fit_links}.*multiple"):
+            correct_plan(doc.cable, doc.shapes, doc.grippers, 3, measured, fit_links=fit_links)
 
 
 # -- documents and the command ------------------------------------------------------------------
@@ -417,6 +420,17 @@ def test_dloplan_correct_writes_the_corrected_plan_program_and_report(plans, tmp
     rows = (out / "trajectory.csv").read_text().splitlines()
     assert len(rows) > 3
     assert "open-loop" in (out / "correction.txt").read_text()
+    # the clips fitted on the refined chain (the default: 60 links at n = 20), said so; the
+    # plan's own chain when asked (--fit-links 20); a count not a multiple of n is refused
+    assert report["fit_links"] == 60
+    assert "a chain of 60 links" in (out / "correction.txt").read_text()
+    own = tmp_path / "own"
+    assert main(["correct", str(plan_path), "--at", str(at), "--measured", str(shapes_file),
+                 "-o", str(own), "-q", "--fit-links", "20"]) in (0, 1)
+    assert json.loads((own / "correction.json").read_text())["fit_links"] == 20
+    assert main(["correct", str(plan_path), "--at", str(at), "--measured", str(shapes_file),
+                 "-o", str(tmp_path / "bad"), "-q", "--fit-links", "50"]) == 2
+    assert not (tmp_path / "bad").exists()
     # the plant clamps the model's L / n: told so (--grip known), the clamp is neither estimated
     # nor in the interval
     known = tmp_path / "known"
@@ -848,15 +862,16 @@ def test_the_modulus_estimate_is_honest_on_a_shape_it_was_not_tuned_on(plans):
     assert np.sum(np.abs(z) <= 2.0) >= 14
 
 
-def test_what_limits_the_early_correction_is_the_measurements_noise(plans):
-    """The 3D job corrected at shape 1 (E x2, seed 1): shape 1 tells ln E with sd 0.18 (its
-    Cramer-Rao bound with alpha's prior, 0.177: the estimate is efficient), this draw is 1.2 sd
-    low (E 0.80 of the plant's) and the target moves 4.6 mm per unit ln E, so the correction
-    ends 1.16 mm for a floor of 0.85. Told the plant's E (``modulus="known"``) the same noise
-    goes into the bias's amplitude instead (alpha 1.06 for about 1.65; the two directions are
-    correlated, -0.73) and it ends 0.99 mm. Without the noise the correction reaches the floor
-    (0.858 mm, E 2.01 times the plan's), estimated or told: what limits it is what a noisy shape
-    1 tells, not the method (seeds 2-6 end 1.00-1.04 times the floor)."""
+def test_the_early_correction_reaches_the_floor_when_its_offset_is_not_a_false_one(plans):
+    """The 3D job corrected at shape 1 (E x2, seed 1, grip known). Shape 1 tells ln E with sd
+    0.18-0.2 (its Cramer-Rao bound with alpha's prior: nearly straight), and the target moves
+    4.6 mm per unit ln E. This draw ended 1.36 times the floor with E 1.2 sd low: the held
+    points' scatter had put a measurement offset of (0.4, 0.5, -0.3) mm at the chi 95 % level
+    (their shared error along the clips' axes left out, model_error.offset_covariance) and
+    taking it out of a nearly straight shape took the sag E is read from. With the offset's
+    covariance it is not applied: E within 1 sd, and the correction ends at the floor (0.99).
+    Without noise it reaches the floor estimated or told (E 2.01 times the plan's). Bounds: the
+    issue's 1.15 with noise, 1.05 without (measured 1.01)."""
     doc, _ = plans["ethernet-3d"]
     cable, last = doc.cable, len(doc.shapes) - 1
     runs = {}
@@ -871,9 +886,10 @@ def test_what_limits_the_early_correction_is_the_measurements_noise(plans):
     floor = reachable_error(plant, doc.grippers.clip_poses(last), runs[0.0, "known"].reference,
                             runs[0.0, "known"].open_loop[-1])
     noisy = runs[NOISE, "estimate"].corrections[0].model
+    assert not noisy.offset_estimated
     error = np.log(noisy.youngs_modulus / (2.0 * cable.youngs_modulus))
-    assert -2.0 * noisy.log_sd < error < -noisy.log_sd  # a 1-2 sd draw
-    assert runs[NOISE, "estimate"].closed_loop_error > 1.15 * floor
+    assert abs(error) < noisy.log_sd and 0.1 < noisy.log_sd < 0.3
+    assert runs[NOISE, "estimate"].closed_loop_error <= 1.15 * floor
     exact = runs[0.0, "estimate"].corrections[0].model
     assert abs(np.log(exact.youngs_modulus / (2.0 * cable.youngs_modulus))) < 0.02
     known = runs[0.0, "known"].corrections[0]
@@ -939,25 +955,108 @@ def test_the_parameter_covariance_is_the_scatter_of_the_fit_correlation_included
 
 
 def test_corrected_early_and_again_the_3d_job_reaches_the_floor(plans):
-    """Measured again at mid-path after an early correction (3D job, E x2, seed 1, grip known):
-    the first correction, from shape 1, draws E 1.2 sd low and alone ends 1.36 times the floor
-    (test_what_limits_the_early_correction_is_the_measurements_noise); the second, from
-    shape 3, predicts a gain of 0.31 mm (1.14 -> 0.84 mm). With ln E and alpha's sds added in
-    quadrature as if independent (sd of the gain 0.19 mm) the gain check refused it and the
-    plan ended at 1.16 mm; with their correlation in the fit (-0.7: the errors of the two
-    cancel at the target) it is made and the closed loop ends at the floor (0.863 for 0.853 mm),
-    inside its interval."""
+    """Measured again at mid-path after an early correction (3D job, E x2, seed 1, grip
+    known). The second correction is made when it predicts a significant gain, refused (the
+    plan as corrected kept) when the first already reached the floor; the closed loop ends at
+    the floor either way. (When the first correction ended 1.36 times the floor, from a false
+    measurement offset, the second predicted a gain of 0.31 mm and was made only with ln E and
+    alpha's correlation in the gain's sd, -0.7: added as if independent it was refused.)
+    Bound: 1.05 times the floor (measured 0.99-1.01)."""
     doc, _ = plans["ethernet-3d"]
     cable, last = doc.cable, len(doc.shapes) - 1
     plant = Plant(cable.with_links(100).with_modulus(2.0 * cable.youngs_modulus), noise=NOISE,
                   n_measured=200, seed=1, clamp=cable.rest_link_length)
     run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [1, last // 2],
                           stabilized=doc.stabilized, trajectory=doc.trajectory, grip="known")
-    assert [c.at for c in run.corrections] == [1, last // 2] and not run.refusals
-    second = run.corrections[-1]
-    assert second.model.correlation < -0.3
+    assert run.corrections[0].at == 1
+    assert len(run.corrections) + len(run.refusals) == 2
+    assert all("gain" in reason and "the plan is kept" in reason for reason in run.refusals)
     floor = reachable_error(plant, doc.grippers.clip_poses(last), run.reference,
                             run.open_loop[-1])
     assert run.closed_loop_error <= 1.05 * floor
-    low, high = second.prediction_interval
+    low, high = run.corrections[-1].prediction_interval
     assert low <= run.closed_loop_error <= high
+
+
+def test_fitted_on_a_refined_chain_the_u_demos_clips_reach_the_floor_with_e_told(u_demo):
+    """Issue 35: the U demo's floor is a tenth of a millimetre (0.115 mm at E x2), and told the
+    plant's E the correction fitted on the plan's n = 20 chain plus the measured bias alpha d
+    ended 1.40, 1.21, 1.10 times it (seeds 1-3: the chain's prediction of the 100-link cable's
+    target is 0.02-0.04 mm off). Fitted on the refined chain (60 links, each gripper clamping 3
+    of them, the plan's grip L / n; the share of alpha d the chain resolves, 2 (1 - 1/3), taken
+    off) every seed ends closer: 1.26, 1.08, 1.01 (seeds 4-6: 1.03, 1.01, 1.07 for 1.02, 1.10,
+    1.20). The corrected plan stays the plan's model: its stored shapes are the n = 20 chain's
+    stable equilibria at the corrected clips. Bounds: the issue's 1.15 for the mean of the
+    refined fits, above it for the plan's chain (1.24); each refined fit below the plan chain's
+    (by 0.09-0.14 of the floor here)."""
+    doc = u_demo[MODEL_LINKS]
+    cable, last = doc.cable, len(doc.shapes) - 1
+    real = cable.with_modulus(2.0 * cable.youngs_modulus)
+    ratios = {MODEL_LINKS: [], None: []}
+    floor = None
+    for seed in (1, 2, 3):
+        plant = Plant(real.with_links(100), noise=NOISE, n_measured=200, seed=seed,
+                      clamp=cable.rest_link_length)
+        for links in ratios:
+            run = run_closed_loop(plant, real, doc.shapes, doc.grippers, [last // 2],
+                                  stabilized=doc.stabilized, trajectory=doc.trajectory,
+                                  grip="known", modulus="known", fit_links=links)
+            if floor is None:
+                floor = reachable_error(plant, doc.grippers.clip_poses(last), run.reference,
+                                        run.open_loop[-1])
+            ratios[links].append(run.closed_loop_error / floor)
+            (correction,) = run.corrections
+            low, high = correction.prediction_interval
+            assert low <= run.closed_loop_error <= high
+    assert np.mean(ratios[MODEL_LINKS]) > 1.15 >= np.mean(ratios[None])
+    assert np.all(np.array(ratios[None]) < np.array(ratios[MODEL_LINKS]))
+    assert correction.fit_links == 60 and correction.report()["fit_links"] == 60
+    for j, shape in enumerate(correction.equilibria, start=last // 2 + 1):
+        assert shape.shape == (cable.n_points, 3)
+        settled = equilibrium(correction.cable, shape, correction.grippers.clip_poses(j))
+        assert settled.success
+        assert np.max(np.linalg.norm(settled.shape - shape, axis=1)) < 1e-6
+
+
+def test_the_offsets_covariance_holds_the_ends_along_the_clips(plans):
+    """A measurement of the model's own shape (the 3D job's shape 1, 1 mm noise on 200 points)
+    has no offset. The held points' scatter alone put an offset at the chi 95 % level in 29 %
+    of 300 noise draws (their errors along the clips' axes are shared: the smoothed curve starts
+    and ends where the first and last points lie, each as noisy as one point); with that shared
+    part in the covariance (model_error.offset_covariance) in 5 %, as the level says. Bounds:
+    at most 10 % (3 binomial sd above 5 % for 300 draws) with it, more than 15 % without; the
+    noise's sd recovered within 5 % (measured 1.01 mm)."""
+    from dloplan.correct.measurement import noise_sd
+    from dloplan.correct.model_error import measured_offset, offset_covariance
+
+    doc, _ = plans["ethernet-3d"]
+    x, u = doc.stabilized[1], doc.grippers.clip_poses(1).u_axes
+    scores, plain, sigmas = [], [], []
+    for seed in range(300):
+        points = _measure(x, seed=seed)
+        y = resample_measured(points, x, doc.cable.length)
+        offset, sds = measured_offset(y - x)
+        sigma = noise_sd(points, y)
+        covariance = offset_covariance(sds, u, sigma)
+        scores.append(offset @ np.linalg.solve(covariance, offset))
+        plain.append(np.sum((offset / sds) ** 2))
+        sigmas.append(sigma)
+    chi95 = 7.815
+    assert np.mean(np.array(scores) >= chi95) <= 0.10
+    assert np.mean(np.array(plain) >= chi95) > 0.15
+    assert np.mean(sigmas) == pytest.approx(NOISE, rel=0.05)
+
+
+def test_the_refined_chain_is_the_multiple_of_n_nearest_to_sixty_links():
+    """fit_links_for: the multiple k n of the plan's n nearest to FIT_LINKS (60), at least n;
+    a count asked for must be a multiple of n (n: the plan's own chain); the refined chain
+    resolves alpha_k = 2 (1 - 1/k) of the discretization error (alpha_prior of n against k n)."""
+    from dloplan.correct.step import FitModel, fit_links_for
+
+    assert [fit_links_for(n) for n in (6, 12, 20, 30, 50, 100)] == [60, 60, 60, 60, 50, 100]
+    assert fit_links_for(20, 20) == 20 and fit_links_for(20, 100) == 100
+    fit = FitModel.of(catalogue_cable("ethernet", n_links=20), 60)
+    assert fit.clamp_links == 3 and fit.cable.n_links == 60
+    assert fit.share == pytest.approx(2.0 * (1.0 - 1.0 / 3.0))
+    # each gripper clamps the plan's grip, L / n
+    assert fit.cable.rest_link_length * fit.clamp_links == pytest.approx(fit.cable.length / 20)

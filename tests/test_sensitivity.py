@@ -175,3 +175,42 @@ def test_modulus_column_matches_the_identification_sensitivity(name):
     eq = equilibrium(cable, shape, clips)
     ours = equilibrium_sensitivity(cable, eq.shape, clips).log_modulus
     assert _relative(ours, modulus_sensitivity(cable, eq.shape)) < 1e-9
+
+
+@pytest.mark.parametrize("clamp_links", [2, 3])
+def test_a_grip_of_several_links_has_the_jacobians_of_its_resolved_equilibria(clamp_links):
+    """A finer chain holding the same length of cable holds several links per gripper (the
+    correction's clip fit on a refined model, dloplan.correct.step): the free points start at
+    k + 1. Both Jacobians against central differences of equilibria re-solved with the same
+    clamp (model_error.clamped_equilibrium, solved to rtol 1e-14: the round-off floor of these
+    forces), 1e-6 relative as above; the held points move rigidly with their clip, and k = 1
+    gives the model's own sensitivity."""
+    from dloplan.correct.model_error import clamped_equilibrium
+    from dloplan.sim.sensitivity import held_indices
+
+    cable, shape = _case("ethernet-3d-arc")
+    fine = cable.with_links(16 * clamp_links)
+    clips = clip_poses_from_shape(shape)
+    start = np.array([np.interp(np.linspace(0, 16, fine.n_points), np.arange(17), shape[:, i])
+                      for i in range(3)]).T
+
+    def solve(c, log_e=0.0, guess=None):
+        moved = fine.with_modulus(fine.youngs_modulus * np.exp(log_e))
+        return clamped_equilibrium(moved, start if guess is None else guess, c, clamp_links,
+                                   rtol=1e-14)[0]
+
+    x0 = solve(clips)
+    sens = equilibrium_sensitivity(fine, x0, clips, clamp_links=clamp_links)
+    assert _relative(sens.clips, _fd_clips(lambda c: solve(c, guess=x0), clips)) < 1e-6
+    fd_log = (solve(clips, STEP, x0) - solve(clips, -STEP, x0)) / (2 * STEP)
+    assert _relative(sens.log_modulus, fd_log) < 1e-6
+    held = held_indices(fine.n_points, clamp_links)
+    assert len(held) == 2 * (clamp_links + 1)
+    assert np.all(sens.log_modulus[held] == 0.0)
+    # a common translation moves the held points one for one
+    assert np.allclose(sens.clips[held][:, :, 0:3] + sens.clips[held][:, :, 6:9],
+                       np.broadcast_to(np.eye(3), (len(held), 3, 3)), atol=1e-12)
+    coarse = cable.with_links(16)
+    x1 = equilibrium(coarse, shape, clips, **POLISH).shape
+    one = equilibrium_sensitivity(coarse, x1, clips, clamp_links=1)
+    assert np.array_equal(one.clips, equilibrium_sensitivity(coarse, x1, clips).clips)

@@ -257,7 +257,8 @@ def _cmd_correct(args: argparse.Namespace) -> int:
 
     options = dict(mode=args.mode, reference=args.reference, modulus_steps=args.modulus_steps,
                    model_error=args.model_error, grip=args.grip, offset=args.offset,
-                   modulus=args.modulus, limits=CorrectionLimits(gain_significance=args.gain_sd))
+                   modulus=args.modulus, limits=CorrectionLimits(gain_significance=args.gain_sd),
+                   fit_links=args.fit_links)
     if args.serve:
         return _serve_corrections(doc, options)
     if args.at is None or args.measured is None:
@@ -836,6 +837,10 @@ def build_parser() -> argparse.ArgumentParser:
                          "shape, e.g. a camera's calibration error): estimated with E when the "
                          "measurement tells it, else its size in the interval (default), or "
                          "taken as zero")
+    correct.add_argument("--fit-links", type=integer(MIN_LINKS, MAX_LINKS), default=None,
+                         help="fit the clips on the cable as a chain of this many links, a "
+                         "multiple of the plan's n, each gripper clamping the plan's L/n (the "
+                         "plan's n: its own chain; default: the multiple nearest to 60)")
     correct.add_argument("--no-verify", action="store_true",
                          help="skip the physics verification of the corrected plan (stability, "
                          "snap-through, replay); its robot programs are still checked")

@@ -70,6 +70,12 @@ class CorrectionRefused(ValueError):
 
 def positions_along(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:
     """Arc length [m] of the point of ``polyline`` nearest to each of ``points``, (k,)."""
+    return _nearest(points, polyline)[0]
+
+
+def _nearest(points: np.ndarray, polyline: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(arc length [m], distance [m]) of the point of ``polyline`` nearest to each of
+    ``points``, each (k,)."""
     a, b = polyline[:-1], polyline[1:]
     ab = b - a
     t = np.einsum("kij,ij->ki", points[:, None, :] - a[None], ab) / np.einsum("ij,ij->i", ab, ab)
@@ -79,7 +85,28 @@ def positions_along(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:
     segment = np.argmin(d, axis=1)
     s = arc_length(polyline)
     rows = np.arange(len(points))
-    return s[segment] + t[rows, segment] * np.linalg.norm(ab[segment], axis=1)
+    return s[segment] + t[rows, segment] * np.linalg.norm(ab[segment], axis=1), d[rows, segment]
+
+
+def noise_sd(points, curve: np.ndarray) -> float:
+    """The measurement's noise, its standard deviation per coordinate [m], from the measured
+    points' distances d_i to the smoothed curve they were resampled onto.
+
+    Noise of sd sigma per coordinate has two components across the curve (the one along it
+    does not show in the distance), so sum d_i^2 = 2 sigma^2 (k - m): k points, m = n + 3 the
+    spline's coefficients per coordinate (:func:`smooth_polyline`, n knot spans), at least 1.
+
+    Parameters
+    ----------
+    points : array_like
+        (k, 3) the measured points [m].
+    curve : numpy.ndarray
+        (n + 1, 3) the measurement resampled (:func:`resample_measured`) [m].
+    """
+    x = np.asarray(points, dtype=float)
+    distance = _nearest(x, curve)[1]
+    dof = max(len(x) - (len(curve) + 2), 1)
+    return math.sqrt(float(distance @ distance) / (2.0 * dof))
 
 
 def smooth_polyline(points: np.ndarray, along: np.ndarray, n_spans: int,

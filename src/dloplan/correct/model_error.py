@@ -356,3 +356,32 @@ def measured_offset(residual: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     offset = held.mean(axis=0)
     scatter = math.sqrt(float(np.sum((held - offset) ** 2)) / (held.size - 3))
     return offset, np.full(3, scatter / math.sqrt(len(held)))
+
+
+def offset_covariance(sds: np.ndarray, u_axes: np.ndarray, noise: float) -> np.ndarray:
+    """The covariance of the measured offset (:func:`measured_offset`) [m^2], (3, 3).
+
+    The held points' scatter about their mean gives the part of their errors that differs
+    between them, ``sds``; it misses the part they share at each end. The smoothed measurement
+    (:func:`.measurement.resample_measured`) starts at the first measured point's position along
+    the cable and ends at the last's, so both points of a clip slide along its axis u_c with
+    that point's noise, sd sigma (``noise``, :func:`.measurement.noise_sd`): the mean of the
+    four moves by (e_1 u_1 + e_2 u_2) / 2, so
+
+        C = diag(sds^2) + sigma^2 / 4 (u_1 u_1^T + u_2 u_2^T).
+
+    (On the 3D job's shape 1 with 1 mm noise on 200 points the offset's component along the
+    clips' axes scatters 0.60 mm, the held points' scatter says 0.29 mm; 29 % of noise draws
+    showed an offset at the chi 95 % level, 5.7 % with this covariance.)
+
+    Parameters
+    ----------
+    sds : numpy.ndarray
+        (3,) the sds from the held points' scatter [m].
+    u_axes : numpy.ndarray
+        (2, 3) the clips' unit u-axes (:attr:`dloplan.sim.ClipPoses.u_axes`).
+    noise : float
+        sigma, the measurement's noise per coordinate [m].
+    """
+    u = np.asarray(u_axes, dtype=float)
+    return np.diag(np.asarray(sds, dtype=float) ** 2) + 0.25 * noise**2 * (u.T @ u)

@@ -24,6 +24,7 @@ def correction_table(report: dict) -> str:
         f"{1e3 * report['uncertainty']['unexplained']:.2f}, grip "
         f"{1e3 * report['uncertainty']['grip']:.2f}, modulus "
         f"{1e3 * report['uncertainty']['modulus']:.2f} mm)",
+        f"clips fitted on the cable as a chain of {report.get('fit_links') or '?'} links",
         f"computed in {1e3 * report['seconds']:.0f} ms wall, {1e3 * report['cpu_seconds']:.0f}"
         f" ms CPU (+ {1e3 * report['prediction_seconds']:.0f} ms predictions); remaining "
         f"motion {report['duration_remaining']:.2f} s",

@@ -57,7 +57,7 @@ from ..physics.chain import SpringChain
 from ..sim import ClipPoses, continuation, equilibrium
 from ..sim.sensitivity import equilibrium_sensitivity, perturbed_clips
 from ..trajectory import Trajectory, trajectory_from_grippers
-from .measurement import MAX_DISAGREEMENT, CorrectionRefused, resample_measured
+from .measurement import MAX_DISAGREEMENT, CorrectionRefused, noise_sd, resample_measured
 from .model_error import (
     MAX_GRIP,
     alpha_prior,
@@ -65,6 +65,7 @@ from .model_error import (
     fit_model_error,
     measured_offset,
     model_error_directions,
+    offset_covariance,
     parameter_covariance,
     standard_deviations,
 )
@@ -191,6 +192,12 @@ class ModelUpdate:
         The correlation of ln E and alpha in the fit (:func:`.model_error.
         parameter_covariance`; 0 when either is not estimated or E is known): the gain check
         carries it to the target (:func:`_gain_sd`).
+    log_prior_sd : float
+        The sd of ln E the correction assumes before the measurement: E within the limit
+        ``max_modulus_factor`` of the plan's at 2 sd (beyond it a correction is refused),
+        ln(max_modulus_factor) / 2; combined with :attr:`log_sd` for the interval and the gain
+        check (:func:`_parameter_sds`), where a shape that does not tell E (the U demo,
+        sd(ln E) 7) would otherwise put factors of e^14 into a linearization.
     log_sd : float
         Standard deviation of ln E the measurement gives (inf when not computed).
     note : str
@@ -236,6 +243,7 @@ class ModelUpdate:
     offset_note: str = "not estimated"
     discretization_sd: float = math.inf
     correlation: float = 0.0
+    log_prior_sd: float = math.inf
 
     @property
     def offset_estimated(self) -> bool:
@@ -316,6 +324,11 @@ class Correction:
         CPU time of this thread until the remaining trajectory is ready [s]: ``seconds`` without
         the waiting for a shared core.
     warnings : tuple of str
+    fit_links : int
+        The links of the chain the clips were fitted on (:class:`FitModel`; the plan's n: its
+        own chain, 0: not recorded). With more, the target's predictions (the last of
+        ``open_loop`` and ``corrected``) are that chain's, as the clips were fitted; the shapes
+        before it, and ``equilibria``, the plan's model's.
     """
 
     at: int
@@ -339,6 +352,7 @@ class Correction:
     prediction_seconds: float
     cpu_seconds: float
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    fit_links: int = 0
 
     @property
     def open_loop_error(self) -> np.ndarray:
@@ -416,6 +430,7 @@ class Correction:
             "modulus_alpha_correlation": m.correlation,
             "modulus_note": m.note,
             "clip_corrections": self.clip_corrections.tolist(),
+            "fit_links": self.fit_links,
             "iterations": self.iterations,
             "seconds": self.seconds,
             "prediction_seconds": self.prediction_seconds,
@@ -434,7 +449,7 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
                    max_factor: float = 10.0, gravity=GRAVITY, guess=None,
                    discretization: bool = False, grip: bool = False,
                    offset: bool = False, measured_links: int | None = None,
-                   modulus: bool = True) -> ModelUpdate:
+                   modulus: bool = True, noise: float = 0.0) -> ModelUpdate:
     """Gauss-Newton steps in log E fitting the model's equilibrium at ``clips`` to ``measured``.
 
     With ``discretization``, each step fits log E and the amplitude alpha of the discretization
@@ -491,6 +506,11 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         Estimate E (default); False: E is known to be ``cable``'s (kept, sd(ln E) = 0), the
         bias's amplitudes (and the clamp length, the offset) are fitted at it, even with
         ``steps = 0``.
+    noise : float
+        The measurement's noise, sd per coordinate [m] (:func:`.measurement.noise_sd`): the
+        offset's covariance carries it along the clips' axes, where the measured curve's ends
+        are as uncertain as one point (:func:`.model_error.offset_covariance`; 0: the held
+        points' scatter alone).
 
     Raises
     ------
@@ -508,8 +528,9 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     grip_sd, grip_note = math.inf, ("" if grip else "not estimated")
     shift, offset_sd, offset_spread, offset_note = np.zeros(3), math.inf, 0.0, "not estimated"
     if offset:
+        offset, sds = measured_offset(measured - eq.shape)
         shift, offset_sd, offset_spread, offset_note = _offset_verdict(
-            *measured_offset(measured - eq.shape))
+            offset, offset_covariance(sds, clips.u_axes, noise))
         measured = measured - shift  # what the fit explains: the cable, not the camera
     fine = resample_by_arc_length(eq.shape, 2 * cable.n_links + 1)  # refined, warm from E to E
     prior = alpha_prior(cable.n_links, measured_links)
@@ -584,7 +605,8 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     return ModelUpdate(cable.youngs_modulus, model.youngs_modulus, residual0, residual,
                        taken, eq.shape, alpha, log_sd, note, beta, grip_sd, grip_note, shift,
                        offset_sd, offset_spread, offset_note, alpha_sd,
-                       taken_correlation if directions else 0.0)
+                       taken_correlation if directions else 0.0,
+                       0.5 * limit if limit > 0 else math.inf)
 
 
 def _fit(jacobian, directions, residual, prior):
@@ -602,11 +624,15 @@ def _fit(jacobian, directions, residual, prior):
     return step, amplitudes, sds, correlation
 
 
-def _offset_verdict(offset, sds) -> tuple[np.ndarray, float, float, str]:
+def _offset_verdict(offset, covariance) -> tuple[np.ndarray, float, float, str]:
     """The offset applied (zeros when the measurement does not tell it), the sd of its length,
-    its share of the interval and a note."""
-    size, sd = float(np.linalg.norm(offset)), float(np.linalg.norm(sds))
-    score = float(np.linalg.norm(offset / sds)) if np.all(sds > 0) else math.inf
+    its share of the interval and a note; its score is sqrt(o^T C^-1 o) with the covariance C
+    (:func:`.model_error.offset_covariance`)."""
+    size, sd = float(np.linalg.norm(offset)), math.sqrt(float(np.trace(covariance)))
+    try:
+        score = math.sqrt(float(offset @ np.linalg.solve(covariance, offset)))
+    except np.linalg.LinAlgError:  # no scatter, no noise: any offset is told
+        score = math.inf
     shown = ", ".join(f"{1e3 * v:+.1f}" for v in offset)
     if score >= OFFSET_SIGNIFICANCE:
         return offset, sd, 0.0, (f"measured shape offset by ({shown}) mm, sd {1e3 * sd:.1f} "
@@ -651,18 +677,120 @@ class Held:
     clips: ClipPoses
 
 
+FIT_LINKS = 60
+"""About this many links of the chain the clips are fitted on (:class:`FitModel`): the multiple
+k n of the plan's n nearest to it (60 at n = 12 and 20; n itself for n > 40). The plan's
+n = 20 chain plus the measured bias predicts a 100-link cable's target to 0.02-0.04 mm, which
+decides the last tens of a percent where the floor is a tenth of a millimetre (the U demo, E
+told, seeds 1-6: 1.17 times the floor on average on the plan's chain, 1.08 on 60 links, 1.04 on
+100 -- the chain plant's own discretization, so not the choice; docs/correction.md). The warm
+correction stays under 20 ms (11.8 ms at n = 20, 10.2 on the plan's chain)."""
+
+
+def fit_links_for(n_links: int, fit_links: int | None = None) -> int:
+    """The links of the chain the clips are fitted on, a multiple of the plan's ``n_links``.
+
+    Parameters
+    ----------
+    n_links : int
+        The plan's n.
+    fit_links : int, optional
+        Asked for: a multiple of n (n: the plan's own chain); None: the multiple nearest to
+        :data:`FIT_LINKS` (at least n).
+
+    Raises
+    ------
+    ValueError
+        For a ``fit_links`` that is not a positive multiple of n (named).
+    """
+    if fit_links is None:
+        return n_links * max(1, round(FIT_LINKS / n_links))
+    if isinstance(fit_links, bool) or int(fit_links) != fit_links or fit_links < n_links \
+            or int(fit_links) % n_links:
+        raise ValueError(f"fit_links: got {fit_links!r}, expected a multiple of the plan's "
+                         f"n = {n_links} (n: fit on the plan's own chain)")
+    return int(fit_links)
+
+
+@dataclass(frozen=True, eq=False)
+class FitModel:
+    """The chain the clips are fitted on: the (updated) model cable on k n links, each gripper
+    clamping k of them -- the plan's grip, L / n, straight along the clip's axis.
+
+    The chain converges to the rod at first order in 1 / n (:mod:`.model_error`), so the finer
+    chain resolves the share alpha_k = 2 (1 - 1 / k) of the plan's discretization error d
+    (:func:`.model_error.alpha_prior` of n against k n links), and only alpha - alpha_k of the
+    measured amplitude is left to carry as a bias: its second-order error, which decides where
+    the floor is a tenth of the noise, shrinks with it.
+
+    Attributes
+    ----------
+    cable : Cable
+        The model cable on k n links.
+    chain : SpringChain
+        Its chain under gravity.
+    clamp_links : int
+        k, links held by each gripper (1: the plan's own chain, the bias carried whole).
+    share : float
+        alpha_k, the first-order share of d the chain resolves (0 for k = 1).
+    """
+
+    cable: Cable
+    chain: SpringChain
+    clamp_links: int
+    share: float
+
+    @classmethod
+    def of(cls, model: Cable, links: int, gravity=GRAVITY) -> FitModel:
+        """The fit model of ``model`` (n links) on ``links`` = k n links."""
+        fine = model.with_links(links)
+        return cls(fine, SpringChain.from_cable(fine, gravity), links // model.n_links,
+                   alpha_prior(model.n_links, links)[0])
+
+    def hold(self, shape: np.ndarray, clips: ClipPoses, gravity=GRAVITY) -> Held:
+        """Its equilibrium at ``clips`` from the plan's model's ``shape`` (n + 1, 3), whose
+        points are every k-th of the refined chain's (the links between interpolated)."""
+        n_links = len(shape) - 1
+        index = np.arange(self.cable.n_points) / self.clamp_links
+        guess = np.stack([np.interp(index, np.arange(n_links + 1), shape[:, i])
+                          for i in range(3)], axis=1)
+        held = _resolve(self.cable, guess, clips, gravity, self.chain, self.clamp_links)
+        if held is None:
+            raise CorrectionRefused(f"model: the clip fit's chain (n = {self.cable.n_links}, "
+                                    f"clamping {self.clamp_links} links) finds no stable "
+                                    "equilibrium at these clip poses")
+        return held
+
+    def bias(self, update: ModelUpdate, cable: Cable, shape: np.ndarray, clips: ClipPoses,
+             gravity=GRAVITY) -> np.ndarray:
+        """What this chain leaves of the measured model error: (alpha - alpha_k) d + beta g at
+        ``clips`` (n + 1, 3) [m] (:meth:`ModelUpdate.bias` of the plan's ``cable`` at its
+        equilibrium ``shape``, less the share the chain resolves)."""
+        left = replace(update, discretization=update.discretization - self.share)
+        return left.bias(cable, shape, clips, gravity)
+
+    def predict(self, update: ModelUpdate, cable: Cable, shape: np.ndarray, clips: ClipPoses,
+                gravity=GRAVITY) -> np.ndarray:
+        """The cable's predicted shape at ``clips`` (n + 1, 3) [m]: the chain's equilibrium at
+        the plan's model's points plus :meth:`bias` (``shape``: the plan's model's equilibrium
+        there)."""
+        held = self.hold(shape, clips, gravity)
+        return held.shape[:: self.clamp_links] + self.bias(update, cable, shape, clips, gravity)
+
+
 def _resolve(cable: Cable, guess: np.ndarray, clips: ClipPoses, gravity,
-             chain: SpringChain) -> Held | None:
+             chain: SpringChain, clamp_links: int = 1) -> Held | None:
     """The equilibrium from a warm start already fitting ``clips`` (a linear prediction).
 
-    The Newton solve alone (:func:`.model_error.clamped_equilibrium`), without the guess
-    conforming and the clip reactions of :func:`dloplan.sim.equilibrium`; None when it does
-    not converge or the clips are out of the cable's reach.
+    The Newton solve alone (:func:`.model_error.clamped_equilibrium`, each gripper clamping
+    ``clamp_links`` links), without the guess conforming and the clip reactions of
+    :func:`dloplan.sim.equilibrium`; None when it does not converge or the clips are out of
+    the cable's reach.
     """
-    x, converged, _ = clamped_equilibrium(cable, guess, clips, 1, gravity=gravity,
-                                          chain=chain)
-    reach = (cable.n_links - 2) * cable.rest_link_length
-    if not converged or np.linalg.norm(x[-2] - x[1]) > reach:
+    k = clamp_links
+    x, converged, _ = clamped_equilibrium(cable, guess, clips, k, gravity=gravity, chain=chain)
+    reach = (cable.n_links - 2 * k) * cable.rest_link_length
+    if not converged or np.linalg.norm(x[-k - 1] - x[k]) > reach:
         return None
     return Held(x, clips)
 
@@ -738,27 +866,32 @@ class _ClipSystem:
 
 
 def _levenberg_marquardt(cable: Cable, clips: ClipPoses, reference: np.ndarray, eq, p: np.ndarray,
-                         limits: CorrectionLimits, gravity, chain: SpringChain):
+                         limits: CorrectionLimits, gravity, chain: SpringChain,
+                         clamp_links: int = 1):
     """:func:`fit_clips` from ``eq``, the equilibrium already solved at ``clips`` + ``p``, by
     the shared damped least-squares loop (:func:`dloplan.least_squares.damped_minimize`): the
     system is J^T J with the Jacobian of the equilibrium, each trial an exact equilibrium
-    warm-started from the linear prediction."""
+    warm-started from the linear prediction. On a refined chain (each gripper clamping
+    ``clamp_links`` = k links, :class:`FitModel`) its every k-th point, the material point of
+    the reference's, is compared with ``reference``."""
     scale = np.tile(np.r_[np.ones(3), np.full(3, 0.5 * cable.length)], 2)  # z = scale * p
+    k = clamp_links
 
     def residual(held):
-        return (held.shape - reference).ravel()
+        return (held.shape[::k] - reference).ravel()
 
     def linearize(state):
         held, _ = state
-        sens = equilibrium_sensitivity(cable, held.shape, held.clips, chain=chain)
-        jz = sens.clips.reshape(-1, 12) / scale
+        sens = equilibrium_sensitivity(cable, held.shape, held.clips, chain=chain,
+                                       clamp_links=k)
+        jz = sens.clips[::k].reshape(-1, 12) / scale
         return _ClipSystem(jz.T @ jz, jz.T @ residual(held), scale, sens)
 
     def evaluate(state, step, system):
         held, p_now = state
         step = _within_limits(p_now + step, limits) - p_now  # projected onto the limits
         trial = _resolve(cable, system.sens.predict(step), perturbed_clips(clips, p_now + step),
-                         gravity, chain)
+                         gravity, chain, k)
         if trial is None:
             return None
         r = residual(trial)
@@ -822,6 +955,7 @@ def correct_plan(
     gravity=GRAVITY,
     predict: bool = True,
     measured_links: int | None = None,
+    fit_links: int | None = None,
 ) -> Correction:
     """Correct the rest of a plan from the shape measured at shape ``at`` (module docstring).
 
@@ -879,6 +1013,13 @@ def correct_plan(
         The measured cable's own discretization (a simulated plant's links or edges): the
         centre of the prior on the discretization bias (:func:`.model_error.alpha_prior`);
         None (default): a real cable, the continuum.
+    fit_links : int, optional
+        The links of the chain the clips are fitted on (:class:`FitModel`): a multiple k n of
+        the plan's n, each gripper clamping k of them, the bias's share that chain resolves
+        taken off (n: the plan's own chain); None (default): the multiple nearest to
+        :data:`FIT_LINKS`. The corrected plan's shapes stay the plan's model's equilibria.
+        With ``model_error="modulus"`` the clips are fitted on the plan's chain (E alone
+        stands for its discretization error there).
 
     Raises
     ------
@@ -915,6 +1056,7 @@ def correct_plan(
         raise ValueError(f"modulus: got {modulus!r}, expected one of {MODULI}")
     if isinstance(modulus_steps, bool) or int(modulus_steps) != modulus_steps or modulus_steps < 0:
         raise ValueError(f"modulus_steps: got {modulus_steps!r}, expected an integer >= 0")
+    fit_links = fit_links_for(cable.n_links, fit_links)
     clips = [grippers.clip_poses(j) for j in range(len(path))]
     chain = SpringChain.from_cable(cable, gravity)
     if stabilized is None:
@@ -928,16 +1070,20 @@ def correct_plan(
     wanted = (stable if reference == "stabilized" else path)[at + 1 :]
     y = resample_measured(measured, stable[at], cable.length,
                           max_disagreement=limits.max_disagreement)
+    noise = noise_sd(measured, y) if offset == "estimate" else 0.0
     update = update_modulus(cable, y, clips[at], steps=modulus_steps,
                             max_factor=limits.max_modulus_factor, gravity=gravity,
                             guess=stable[at], discretization=model_error == "discretization",
                             grip=grip == "estimate", offset=offset == "estimate",
-                            measured_links=measured_links, modulus=modulus == "estimate")
+                            measured_links=measured_links, modulus=modulus == "estimate",
+                            noise=noise)
     if grip == "known":
         update = replace(update, grip_sd=0.0, grip_note=(
             f"clamp length known: the model's {1e3 * cable.rest_link_length:.1f} mm"))
     model = cable.with_modulus(update.youngs_modulus)
     model_chain = SpringChain.from_cable(model, gravity)
+    fit = (FitModel.of(model, fit_links, gravity)
+           if fit_links > cable.n_links and model_error == "discretization" else None)
     # the plan's stabilized target carried to the updated E to first order: the fit's start
     try:
         target_guess = equilibrium_sensitivity(cable, stable[-1], clips[-1], chain=chain).predict(
@@ -948,16 +1094,16 @@ def correct_plan(
     iterations = 0
     if mode == "target":  # fit the target from the plan's stabilized target, ramp it in
         p_target, _, iterations = _fit_with_bias(model, remaining[-1], wanted[-1], target_guess,
-                                                 update, limits=limits,
-                                                 gravity=gravity, chain=model_chain)
+                                                 update, limits=limits, gravity=gravity,
+                                                 chain=model_chain, fit=fit)
         ramp = np.arange(1, len(remaining) + 1) / len(remaining)
         corrections = ramp[:, None] * p_target[None, :]
     else:  # fit every remaining shape, each from the previous one
         corrections, fitted = [], []
         x, p = update.state, np.zeros(12)
         for c, ref in zip(remaining, wanted, strict=True):
-            p, eq, its = _fit_with_bias(model, c, ref, x, update, start=p,
-                                        limits=limits, gravity=gravity, chain=model_chain)
+            p, eq, its = _fit_with_bias(model, c, ref, x, update, start=p, limits=limits,
+                                        gravity=gravity, chain=model_chain, fit=fit)
             iterations += its
             x = eq.shape
             corrections.append(p)
@@ -987,13 +1133,14 @@ def correct_plan(
                   clip_corrections=np.asarray(corrections), grippers=new_grippers,
                   remaining=now, mode=mode, reference_kind=reference, model_error=model_error,
                   iterations=iterations, seconds=seconds, cpu_seconds=cpu_seconds,
-                  warnings=tuple(warnings))
+                  warnings=tuple(warnings),
+                  fit_links=cable.n_links if fit is None else fit.cable.n_links)
     if not predict:
         return Correction(open_loop=None, corrected=None, equilibria=None, uncertainty={},
                           trajectory=None, prediction_seconds=0.0, **common)
     new_trajectory = trajectory_from_grippers(new_grippers, **timing)
     # the predictions of the updated model from the measured state: planned vs corrected clips
-    open_loop = _predict(model, update.state, remaining, gravity, update)[1]
+    open_states, open_loop = _predict(model, update.state, remaining, gravity, update)
     corrected_clips = [perturbed_clips(c, p) for c, p in zip(remaining, corrections, strict=True)]
     if mode == "all":
         equilibria = np.stack(fitted)
@@ -1001,6 +1148,9 @@ def correct_plan(
                               for x, c in zip(fitted, corrected_clips, strict=True)])
     else:
         equilibria, corrected = _predict(model, update.state, corrected_clips, gravity, update)
+    if fit is not None:  # the target as the clips were fitted: on the fit model
+        open_loop[-1] = fit.predict(update, model, open_states[-1], remaining[-1], gravity)
+        corrected[-1] = fit.predict(update, model, equilibria[-1], corrected_clips[-1], gravity)
     directions = _target_directions(model, equilibria[-1], corrected_clips[-1], gravity,
                                     model_chain)
     uncertainty = _uncertainty(directions, update)
@@ -1028,24 +1178,43 @@ def correct_plan(
 
 def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess: np.ndarray,
                    update: ModelUpdate, *, start=None, limits: CorrectionLimits, gravity,
-                   chain: SpringChain):
-    """:func:`fit_clips` of x_n + alpha d + beta g (:meth:`ModelUpdate.bias`) to ``reference``.
+                   chain: SpringChain, fit: FitModel | None = None):
+    """:func:`fit_clips` of x_n + alpha d + beta g (:meth:`ModelUpdate.bias`) to ``reference``,
+    or, on a refined ``fit`` model (:class:`FitModel`), of R[x_kn] + (alpha - alpha_k) d + beta g.
 
     The bias is evaluated at the planned clips (plus ``start``), the clips fitted to reference
     - bias, then the bias re-evaluated at the corrected clips and the fit repeated from there
-    (d moves with the clips: 1 mm on the demo's target for a 20 degree correction).
+    (d moves with the clips: 1 mm on the demo's target for a 20 degree correction). The bias
+    is always the plan's model's (d and g of its n links at its equilibrium); on the refined
+    chain its first-order share of d, alpha_k = :attr:`FitModel.share`, is resolved by the
+    chain itself and taken off alpha.
+
+    Returns
+    -------
+    tuple
+        ``(correction (12,), the plan's model's equilibrium at the corrected clips, iterations)``.
     """
-    if update.discretization == 0.0 and update.grip == 0.0:
+    fine = fit is not None and fit.clamp_links > 1
+    if not fine and update.discretization == 0.0 and update.grip == 0.0:
         return fit_clips(cable, clips, reference, guess, start=start, limits=limits,
                          gravity=gravity, chain=chain)
     p = np.zeros(12) if start is None else np.asarray(start, dtype=float).copy()
     eq = _solve(cable, guess, perturbed_clips(clips, p), gravity, chain)
     iterations = 0
+    if not fine:
+        for _ in range(2):
+            bias = update.bias(cable, eq.shape, eq.clips, gravity)
+            p, eq, more = _levenberg_marquardt(cable, clips, reference - bias, eq, p, limits,
+                                               gravity, chain)
+            iterations += more
+        return p, eq, iterations
+    held = fit.hold(eq.shape, eq.clips, gravity)
     for _ in range(2):
-        bias = update.bias(cable, eq.shape, eq.clips, gravity)
-        p, eq, more = _levenberg_marquardt(cable, clips, reference - bias, eq, p, limits, gravity,
-                                           chain)
+        bias = fit.bias(update, cable, eq.shape, eq.clips, gravity)
+        p, held, more = _levenberg_marquardt(fit.cable, clips, reference - bias, held, p, limits,
+                                             gravity, fit.chain, fit.clamp_links)
         iterations += more
+        eq = _solve(cable, held.shape[:: fit.clamp_links], held.clips, gravity, chain)
     return p, eq, iterations
 
 
@@ -1081,10 +1250,18 @@ def _parameter_sds(update: ModelUpdate) -> dict:
         grip = update.grip_sd + 0.5 * GRIP_LINEARITY * abs(update.grip)
     else:  # 2 sd: a quarter link, 2 GRIP_UNCERTAINTY half links
         grip = GRIP_UNCERTAINTY
-    return {"modulus": update.log_sd if math.isfinite(update.log_sd) else 0.0,
+    return {"modulus": _posterior_log_sd(update),
             "discretization": (update.discretization_sd
                                if math.isfinite(update.discretization_sd) else 0.0),
             "grip": grip}
+
+
+def _posterior_log_sd(update: ModelUpdate) -> float:
+    """sd(ln E) with the prior (:attr:`ModelUpdate.log_prior_sd`): 1 / sqrt(1 / sd^2 +
+    1 / sd_prior^2) (0 where E is known, or the measurement did not give an sd)."""
+    if not (math.isfinite(update.log_sd) and update.log_sd > 0.0):
+        return 0.0
+    return 1.0 / math.sqrt(update.log_sd**-2 + update.log_prior_sd**-2)
 
 
 def _uncertainty(directions: dict, update: ModelUpdate) -> dict:

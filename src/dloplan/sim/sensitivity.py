@@ -104,21 +104,52 @@ def perturbed_clips(clips: ClipPoses, delta) -> ClipPoses:
     return ClipPoses(clips.positions + d.reshape(2, 2, 3)[:, 0], turn * clips.rotations)
 
 
-def held_point_jacobian(clips: ClipPoses, link_length: float) -> np.ndarray:
-    """d h / d p: the four held points (:data:`HELD_INDICES`) w.r.t. the clip coordinates.
+def held_point_jacobian(clips: ClipPoses, link_length: float, clamp_links: int = 1
+                        ) -> np.ndarray:
+    """d h / d p: the held points w.r.t. the clip coordinates.
+
+    Each gripper holds ``clamp_links`` links straight along its u-axis, centred on the clip
+    point (:func:`held_indices`): point j of the first clip is c + o_j u with o_j = (j - k / 2) l,
+    j = 0 .. k, and point n - j of the last clip likewise (k = 1: the four held points of
+    :data:`HELD_INDICES`, o = -/+ l / 2). A rotation phi moves o u by o phi x u, so
+    d h / d phi = -o [u]_x.
+
+    Parameters
+    ----------
+    clips : ClipPoses
+        The clip poses.
+    link_length : float
+        The rest length l of one link [m].
+    clamp_links : int
+        Links k held by each gripper (default 1, the model's own grip).
 
     Returns
     -------
     numpy.ndarray
-        (4, 3, 12) [m/m, m/rad].
+        (2 (k + 1), 3, 12) [m/m, m/rad], the held points in the order of :func:`held_indices`.
     """
+    k = _clamp(clamp_links)
     u = clips.u_axes
-    jac = np.zeros((4, 3, 12))
-    # held point = clip point + c u, c = -l/2 (end) or +l/2 (inner); d(c u)/dphi = -c [u]_x
-    for point, (clip, c) in enumerate(((0, -0.5), (0, 0.5), (1, 0.5), (1, -0.5))):
+    offsets = (np.arange(k + 1) - 0.5 * k) * link_length
+    placed = [(0, o) for o in offsets] + [(1, o) for o in offsets[::-1]]
+    jac = np.zeros((len(placed), 3, 12))
+    for point, (clip, o) in enumerate(placed):
         jac[point, :, 6 * clip : 6 * clip + 3] = np.eye(3)
-        jac[point, :, 6 * clip + 3 : 6 * clip + 6] = -c * link_length * _cross_matrix(u[clip])
+        jac[point, :, 6 * clip + 3 : 6 * clip + 6] = -o * _cross_matrix(u[clip])
     return jac
+
+
+def held_indices(n_points: int, clamp_links: int = 1) -> np.ndarray:
+    """The points held by the two grippers, each clamping ``clamp_links`` links: 0 .. k and
+    n - k .. n (k = 1: :data:`HELD_INDICES`), (2 (k + 1),)."""
+    k = _clamp(clamp_links)
+    return np.r_[0 : k + 1, n_points - k - 1 : n_points]
+
+
+def _clamp(clamp_links) -> int:
+    if isinstance(clamp_links, bool) or int(clamp_links) != clamp_links or clamp_links < 1:
+        raise ValueError(f"clamp_links: got {clamp_links!r}, expected an integer >= 1")
+    return int(clamp_links)
 
 
 def _cross_matrix(v: np.ndarray) -> np.ndarray:
@@ -143,7 +174,8 @@ def _band_block(band: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndar
 
 
 def equilibrium_sensitivity(
-    cable: Cable, shape, clips: ClipPoses, *, gravity=GRAVITY, chain: SpringChain | None = None
+    cable: Cable, shape, clips: ClipPoses, *, gravity=GRAVITY, chain: SpringChain | None = None,
+    clamp_links: int = 1,
 ) -> ShapeSensitivity:
     """Sensitivity of a stable equilibrium without torsion to the clips and to log E.
 
@@ -160,6 +192,11 @@ def equilibrium_sensitivity(
         Gravity [m/s^2].
     chain : SpringChain, optional
         The chain of ``cable`` under ``gravity`` (saves its construction in loops).
+    clamp_links : int
+        Links held by each gripper, straight along the clip's u-axis and centred on the clip
+        point (default 1, the model's own grip; a finer chain holding the same length of cable
+        holds several, :func:`dloplan.correct.model_error.clamped_equilibrium`): the free
+        points are k + 1 .. n - k - 1.
 
     Returns
     -------
@@ -176,18 +213,20 @@ def equilibrium_sensitivity(
         chain = SpringChain.from_cable(cable, gravity)
     n_dof = 3 * cable.n_points
     g_elastic, band = _elastic_derivatives(chain, x)
-    free = np.arange(6, n_dof - 6)
-    held = np.r_[0:6, n_dof - 6 : n_dof]
-    factor, info = lapack.dpbtrf(band[:, 6 : n_dof - 6], lower=1)
+    points = held_indices(cable.n_points, clamp_links)
+    edge = 3 * len(points) // 2  # the held coordinates at either end
+    free = np.arange(edge, n_dof - edge)
+    held = np.r_[0:edge, n_dof - edge : n_dof]
+    factor, info = lapack.dpbtrf(band[:, edge : n_dof - edge], lower=1)
     if info != 0:
         raise ValueError("shape: the free Hessian is not positive definite (not a stable "
                          "equilibrium), its sensitivity is undefined")
-    dh = held_point_jacobian(clips, cable.rest_link_length).reshape(12, 12)
+    dh = held_point_jacobian(clips, cable.rest_link_length, clamp_links).reshape(-1, 12)
     g_scaled = _modulus_gradient(cable, chain, x, g_elastic)
     rhs = np.concatenate([-_band_block(band, free, held) @ dh, -g_scaled.ravel()[free, None]],
                          axis=1)
     solved = lapack.dpbtrs(factor, rhs, lower=1)[0]
-    return _assemble(x, dh, solved[:, :12], solved[:, 12], torsion=False)
+    return _assemble(x, dh, solved[:, :12], solved[:, 12], torsion=False, held=points)
 
 
 def _elastic_derivatives(chain: SpringChain, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -216,13 +255,18 @@ def _modulus_gradient(cable: Cable, chain: SpringChain, x: np.ndarray,
     return g_elastic - axial_gradient(x, chain.k_axial, chain.rest_lengths)
 
 
-def _assemble(x, dh, free_clips, free_log_modulus, torsion: bool) -> ShapeSensitivity:
+def _assemble(x, dh, free_clips, free_log_modulus, torsion: bool,
+              held=HELD_INDICES) -> ShapeSensitivity:
+    """The (n + 1)-point derivatives from the held points' ``dh`` and the free points' solves
+    (``held``: the held indices, :func:`held_indices`)."""
     n_points = len(x)
+    edge = len(held) // 2
+    free = slice(edge, n_points - edge)
     jac = np.zeros((n_points, 3, 12))
-    jac[list(HELD_INDICES)] = dh.reshape(4, 3, 12)
-    jac[2:-2] = free_clips.reshape(n_points - 4, 3, 12)
+    jac[list(held)] = dh.reshape(len(held), 3, 12)
+    jac[free] = free_clips.reshape(n_points - len(held), 3, 12)
     dlog = np.zeros((n_points, 3))
-    dlog[2:-2] = free_log_modulus.reshape(n_points - 4, 3)
+    dlog[free] = free_log_modulus.reshape(n_points - len(held), 3)
     return ShapeSensitivity(x, jac, dlog, torsion)
 
 
@@ -307,6 +351,7 @@ __all__ = [
     "CLIP_COORDINATES",
     "ShapeSensitivity",
     "equilibrium_sensitivity",
+    "held_indices",
     "held_point_jacobian",
     "perturbed_clips",
     "twist_equilibrium_sensitivity",
