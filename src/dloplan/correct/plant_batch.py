@@ -58,8 +58,8 @@ def drive_clamped(starts, k_s, rest_lengths, k_b, rest_angles, masses, gravity, 
         The floor's factor (16 eps).
     stiff_axial : numpy.ndarray
         (B,) bool: the chains' :attr:`~dloplan.physics.chain.SpringChain.stiff_axial`.
-    clamp : int
-        Links clamped by each gripper.
+    clamp : numpy.ndarray
+        (B,) int: links clamped by each gripper.
     positions, u_axes : numpy.ndarray
         (B, M, 2, 3) clip points [m] and u-axes of every stop.
     max_iterations : int
@@ -86,8 +86,9 @@ def drive_clamped(starts, k_s, rest_lengths, k_b, rest_angles, masses, gravity, 
             for i in range(n_points):
                 for a in range(3):
                     x[i, a] = guess[i, a]
-            for i in range(clamp + 1):
-                offset = (i - 0.5 * clamp) * link[b]
+            k = clamp[b]
+            for i in range(k + 1):
+                offset = (i - 0.5 * k) * link[b]
                 for a in range(3):
                     x[i, a] = positions[b, s, 0, a] + offset * u_axes[b, s, 0, a]
                     x[n_points - 1 - i, a] = positions[b, s, 1, a] + offset * u_axes[b, s, 1, a]
@@ -96,7 +97,7 @@ def drive_clamped(starts, k_s, rest_lengths, k_b, rest_angles, masses, gravity, 
             history[0] = chain_energy(x, k_s[b], rest_lengths[b], k_b[b], rest_angles[b],
                                       masses[b], gravity)
             outcome, its, residual, _, _ = newton_positions(
-                x, np.int64(clamp + 1), n_points - clamp - 1, k_s[b], rest_lengths[b], k_b[b],
+                x, k + 1, n_points - k - 1, k_s[b], rest_lengths[b], k_b[b],
                 rest_angles[b], masses[b], gravity, length[b], limit, max_iterations,
                 np.int64(0), 0.25 * length[b], history, np.int64(1), grad, band,
                 np.bool_(True), stiff_axial[b])
@@ -126,7 +127,7 @@ class PlantDrive:
     messages: tuple
 
 
-def drive_plants(cables: Sequence[Cable], clamp_links: int, starts, positions, quaternions, *,
+def drive_plants(cables: Sequence[Cable], clamp_links, starts, positions, quaternions, *,
                  gravity) -> PlantDrive:
     """Every plant's equilibria at its stops, each warm-started from the one before.
 
@@ -138,8 +139,8 @@ def drive_plants(cables: Sequence[Cable], clamp_links: int, starts, positions, q
     ----------
     cables : sequence of Cable
         The B plant cables, all with the same number of links.
-    clamp_links : int
-        Links each gripper clamps (:attr:`~.plant.Plant.clamp_links`).
+    clamp_links : array_like
+        (B,) int: links each gripper of a plant clamps (:attr:`~.plant.Plant.clamp_links`).
     starts : array_like
         (B, n + 1, 3) guesses of the first stop [m].
     positions, quaternions : array_like
@@ -156,6 +157,7 @@ def drive_plants(cables: Sequence[Cable], clamp_links: int, starts, positions, q
     quaternions = np.asarray(quaternions, dtype=float)
     u_axes = u_axes_of(quaternions)
     n_samples, n_stops = positions.shape[:2]
+    clamps = np.broadcast_to(np.asarray(clamp_links, dtype=np.int64), (n_samples,)).copy()
     shapes = np.empty((n_samples, n_stops) + starts.shape[1:])
     done = np.zeros(n_samples, dtype=np.int64)
     outcomes = np.zeros(n_samples, dtype=np.int64)
@@ -167,7 +169,7 @@ def drive_plants(cables: Sequence[Cable], clamp_links: int, starts, positions, q
                   np.array([DEFAULT_RTOL * force_scale(cable, gravity) for cable in cables]),
                   ROUNDOFF * np.finfo(float).eps,
                   np.array([stiffest(cable) for cable in cables]),
-                  np.array([chain.stiff_axial for chain in chains]), int(clamp_links),
+                  np.array([chain.stiff_axial for chain in chains]), clamps,
                   positions, u_axes, NEWTON_ITERATIONS, shapes, done, outcomes, iterations,
                   residuals)
     failed = np.full(n_samples, -1)
@@ -182,7 +184,7 @@ def drive_plants(cables: Sequence[Cable], clamp_links: int, starts, positions, q
             clips = ClipPoses(positions[b, s], Rotation(quaternions[b, s], normalize=False))
             guess = starts[b] if s == 0 else shapes[b, s - 1]
             shapes[b, s], ok, message = clamped_equilibrium(
-                cables[b], guess, clips, clamp_links, gravity=gravity, chain=chains[b])
+                cables[b], guess, clips, int(clamps[b]), gravity=gravity, chain=chains[b])
             if not ok:
                 failed[b], messages[b] = s, message
                 break

@@ -1,0 +1,575 @@
+"""The study's closed loop linearized about the nominal plan: a chunk of samples at once.
+
+:func:`~.probability.closed_loop_sample` runs :func:`~.step.correct_plan` per sample: every
+Gauss-Newton step of the model update and every Levenberg-Marquardt iteration of the clip fit
+recomputes the shape's sensitivities and the discretization directions (solves on 2 n links)
+at the current estimate, the corrected path is re-timed twice and the predictions are
+continuations; 20-70 ms of CPU per sample, most of it Python around small solves. A study asks
+the same question of thousands of cables that differ from the nominal one by tolerances, so
+here the derivatives are computed **once per study** at the nominal plan and frozen, and only
+the equilibria, which decide where every estimate ends, are exact:
+
+* the plant (the sampled cable) is driven through the plan's clip poses by
+  :func:`.plant_batch.drive_plants`, bit for bit :meth:`~.plant.Plant.hold`, so the open-loop
+  column is the exact method's, bit for bit;
+* the measurement is the exact method's (the same noise draws, :func:`.measurement.
+  resample_measured`, its refusals);
+* the model update is :func:`~.step.update_modulus`'s algorithm -- the offset read off the held
+  points, the fit of ln E, alpha and beta with alpha's prior, the clamp length's and E's
+  significance tests, steps of at most a factor 2 within the limit ``max_modulus_factor`` --
+  with d x / d ln E, d and g frozen at the nominal state at shape K (a Gauss-Newton step with
+  the nominal Jacobian: a chord method), each step's equilibrium exact;
+* the clip fit is the target's Levenberg-Marquardt fit (:data:`~.step.CLIP_DAMPING`, the
+  limits' projection, ramped in over the remaining shapes) with the clip Jacobian and the bias
+  directions frozen at the nominal target, each trial an exact equilibrium of the updated model;
+* the gain checks are :func:`~.step.correct_plan`'s (the predicted gain against 2 sd of it, and
+  evaluated with the clamp length 2 sd off) on the exact equilibria at the target with the
+  frozen directions;
+* the corrected plan is scored by driving the plant through the corrected clip poses, exact.
+
+Not done here (they do not change a row): the re-timing and the intermediate predictions. The
+rows therefore differ from the exact method's by what freezing the derivatives changes; the
+agreement is tested on samples it was not tuned on (E x0.5 and x2, other seeds,
+``tests/test_study_closed_loop.py``) and quoted in docs/study.md.
+
+Every sample's equilibria of one round -- the model at the updated E, a trial of the clip fit
+-- are solved in one compiled call (:func:`dloplan.sim.batch.held_equilibria`): each sample's
+correction is a generator that yields the equilibria it needs and receives them
+(:func:`_correction`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Generator, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..cable import Cable
+from ..frames import slerp_quaternions
+from ..geometry import as_path, resample_by_arc_length
+from ..grippers import GripperPath
+from ..sim import ClipPoses, equilibrium, interpolate_clips
+from ..sim.batch import held_equilibria
+from ..sim.sensitivity import equilibrium_sensitivity
+from ..study.evaluate import perturbed_cable
+from .measurement import CorrectionRefused, resample_measured
+from .model_error import (
+    MAX_GRIP,
+    alpha_prior,
+    fit_model_error,
+    measured_offset,
+    model_error_directions,
+    parameter_covariance,
+    standard_deviations,
+)
+from .plant_batch import drive_plants
+from .step import (
+    CLIP_DAMPING,
+    COST_TOLERANCE,
+    GRIP_LINEARITY,
+    GRIP_UNCERTAINTY,
+    MAX_LOG_SD,
+    MAX_LOG_STEP,
+    MAX_TRIALS,
+    MODULUS_STEP_TOLERANCE,
+    OFFSET_SIGNIFICANCE,
+    SIGNIFICANCE,
+    CorrectionLimits,
+)
+
+MODULUS_STEPS = 3
+"""Gauss-Newton steps of the model update (:func:`~.step.correct_plan`'s default)."""
+
+SUBSTEPS = 2
+"""Plant equilibria between consecutive clip poses (:class:`~.plant.Plant`'s default)."""
+
+
+@dataclass(frozen=True, eq=False)
+class NominalCorrection:
+    """What every sample's linearized correction shares: computed once per study.
+
+    Attributes
+    ----------
+    cable : Cable
+        The plan's model cable (n links).
+    at : int
+        K, the shape after which the plant is measured.
+    plant_links : int
+        Links of the plants.
+    state, target : numpy.ndarray
+        (n + 1, 3) the model's equilibria at shape K and at the target [m].
+    reference : numpy.ndarray
+        (n + 1, 3) the plan's stabilized target: what the corrections aim at and the errors
+        are measured against [m].
+    modulus_k, modulus_t : numpy.ndarray
+        (n + 1, 3) d x / d ln E at shape K and at the target [m].
+    directions_k, directions_t : tuple of numpy.ndarray
+        (d, g) at shape K and at the target (:func:`.model_error.model_error_directions`) [m].
+    clip_jacobian : numpy.ndarray
+        (3 (n + 1), 12) d x / d p at the target, rotation columns divided by L / 2 (the clip
+        fit's scaled coordinates z = scale p).
+    scale : numpy.ndarray
+        (12,) the scale of the clip coordinates.
+    stops : tuple of numpy.ndarray
+        Positions (M, 2, 3) [m] and quaternions (M, 2, 4) of the plant's stops along the
+        planned path: the start's clips, then :data:`SUBSTEPS` per shape.
+    poses : tuple of numpy.ndarray
+        Positions (T + 1, 2, 3) and quaternions (T + 1, 2, 4) of the planned clip poses.
+    plant_start : numpy.ndarray
+        (n_plant + 1, 3) the planned start resampled onto the plant's points [m].
+    gravity : numpy.ndarray
+    limits : CorrectionLimits
+    """
+
+    cable: Cable
+    at: int
+    plant_links: int
+    state: np.ndarray
+    target: np.ndarray
+    reference: np.ndarray
+    modulus_k: np.ndarray
+    modulus_t: np.ndarray
+    directions_k: tuple
+    directions_t: tuple
+    clip_jacobian: np.ndarray
+    scale: np.ndarray
+    stops: tuple
+    poses: tuple
+    plant_start: np.ndarray
+    gravity: np.ndarray
+    limits: CorrectionLimits
+
+    @property
+    def n_shapes(self) -> int:
+        """T + 1."""
+        return len(self.poses[0])
+
+
+def nominal_correction(cable: Cable, shapes, grippers: GripperPath, at: int, *, stabilized,
+                       gravity, plant_links: int | None = None,
+                       limits: CorrectionLimits | None = None) -> NominalCorrection:
+    """The derivatives and clip poses every linearized correction of a study shares.
+
+    Parameters
+    ----------
+    cable, shapes, grippers
+        The plan's model cable, its planned shapes (T + 1, n + 1, 3) [m] and clip poses.
+    at : int
+        K (0 <= K < T).
+    stabilized : array_like
+        (T + 1, n + 1, 3) the plan's stabilized shapes [m].
+    gravity : array_like
+    plant_links : int, optional
+        The plants' links (default the model's).
+    limits : CorrectionLimits, optional
+
+    Raises
+    ------
+    CorrectionRefused
+        When the model has no stable equilibrium at shape K or at the target.
+    """
+    path = as_path(shapes, cable.n_points, "shapes")
+    stable = as_path(stabilized, cable.n_points, "stabilized")
+    last = len(path) - 1
+    gravity = np.asarray(gravity, dtype=float)
+    clips = [grippers.clip_poses(j) for j in range(len(path))]
+    held = []
+    for j in (at, last):
+        eq = equilibrium(cable, stable[j], clips[j], gravity=gravity)
+        if not eq.success:
+            raise CorrectionRefused(f"model: no stable equilibrium of the plan's cable at shape "
+                                    f"{j} ({eq.message})")
+        sens = equilibrium_sensitivity(cable, eq.shape, clips[j])
+        d, g = model_error_directions(cable, eq.shape, clips[j], grip=True, gravity=gravity)
+        held.append((eq.shape, sens, (d, g)))
+    (state, sens_k, directions_k), (target, sens_t, directions_t) = held
+    scale = np.tile(np.r_[np.ones(3), np.full(3, 0.5 * cable.length)], 2)
+    stops = [clips[0]]
+    fractions = np.arange(1, SUBSTEPS + 1) / SUBSTEPS
+    for j in range(1, len(path)):
+        stops += interpolate_clips(clips[j - 1], clips[j], fractions)
+    links = cable.n_links if plant_links is None else int(plant_links)
+    return NominalCorrection(
+        cable, int(at), links, state, target, stable[-1], sens_k.log_modulus,
+        sens_t.log_modulus, directions_k, directions_t,
+        sens_t.clips.reshape(-1, 12) / scale, scale, _arrays(stops), _arrays(clips),
+        resample_by_arc_length(path[0], links + 1), gravity,
+        CorrectionLimits() if limits is None else limits)
+
+
+def _arrays(clips: Sequence[ClipPoses]) -> tuple[np.ndarray, np.ndarray]:
+    return (np.array([c.positions for c in clips]),
+            np.array([c.rotations.as_quat() for c in clips]))
+
+
+def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise: float,
+                    n_measured: int) -> list[dict]:
+    """The closed-loop rows of a chunk of samples, linearized about the nominal plan.
+
+    Parameters
+    ----------
+    nominal : NominalCorrection
+    items : sequence of tuple
+        ``(index, E [Pa], mass per length [kg/m], length [m])`` per sample; the index seeds
+        its measurement's noise.
+    noise : float
+        Measurement noise per coordinate [m].
+    n_measured : int
+        Measured points.
+
+    Returns
+    -------
+    list of dict
+        One row per item (:data:`~.probability.SAMPLE_COLUMNS` and ``sample``), in order.
+    """
+    cable, at = nominal.cable, nominal.at
+    plants = [perturbed_cable(cable, e, m, length).with_links(nominal.plant_links)
+              for _, e, m, length in items]
+    clamps = [max(1, round(cable.rest_link_length / p.rest_link_length)) for p in plants]
+    count, last = len(items), nominal.n_shapes - 1
+    positions, quaternions = (np.broadcast_to(a, (count,) + a.shape) for a in nominal.stops)
+    drive = drive_plants(plants, clamps, np.broadcast_to(nominal.plant_start, (count,) +
+                                                         nominal.plant_start.shape),
+                         positions, quaternions, gravity=nominal.gravity)
+    rows = [_plant_failure(nominal, drive.failed[b], drive.messages[b])
+            for b in range(count)]
+    open_error = np.full(count, math.nan)
+    corrections: list = [None] * count
+    for b, (index, *_) in enumerate(items):
+        if rows[b] is not None:
+            continue
+        open_error[b] = _shape_error(drive.shapes[b, -1], nominal.reference)
+        points = resample_by_arc_length(drive.shapes[b, SUBSTEPS * at], n_measured)
+        points = points + np.random.default_rng(index).normal(scale=noise, size=points.shape)
+        corrections[b] = _correction(nominal, points, nominal.plant_links)
+    results = _run(nominal, corrections)
+    accepted = [b for b in range(count) if isinstance(results[b], _Corrected)]
+    closed_error = open_error.copy()
+    if accepted:
+        closed = _closed_loop(nominal, [plants[b] for b in accepted],
+                              [clamps[b] for b in accepted], drive.shapes[accepted,
+                                                                          SUBSTEPS * at],
+                              np.array([results[b].clips for b in accepted]))
+        for k, b in enumerate(accepted):
+            if closed.failed[k] >= 0:
+                shape = at + 1 + closed.failed[k] // SUBSTEPS
+                rows[b] = {**_failed_row(), "open_loop_error": open_error[b],
+                           "refusal": f"plant: the quasi-static simulation failed at shape "
+                                      f"{shape}: {closed.messages[k]}"}
+                continue
+            closed_error[b] = _shape_error(closed.shapes[k, -1], nominal.reference)
+    out = []
+    for b, (index, *_) in enumerate(items):
+        row = rows[b]
+        if row is None:
+            result = results[b]
+            done = isinstance(result, _Corrected)
+            row = {"open_loop_error": float(open_error[b]),
+                   "closed_loop_error": float(closed_error[b]), "corrections": int(done),
+                   "youngs_modulus_estimate": result.youngs_modulus if done else math.nan,
+                   "refusal": "" if done else f"shape {at}: {result}"}
+        out.append({"sample": index, **row})
+    return out
+
+
+def _failed_row() -> dict:
+    return {"open_loop_error": math.nan, "closed_loop_error": math.nan, "corrections": 0,
+            "youngs_modulus_estimate": math.nan, "refusal": ""}
+
+
+def _plant_failure(nominal: NominalCorrection, stop: int, message: str) -> dict | None:
+    """The row of a plant that lost its equilibrium at ``stop`` (None: it did not), with
+    :func:`~.plant.run_closed_loop`'s reason."""
+    if stop < 0:
+        return None
+    if stop == 0:
+        return {**_failed_row(), "refusal": f"plant: the start does not settle: {message}"}
+    shape = (stop - 1) // SUBSTEPS + 1
+    return {**_failed_row(), "refusal": f"plant: the quasi-static simulation failed at shape "
+                                        f"{shape}: {message}"}
+
+
+def _shape_error(shape: np.ndarray, reference: np.ndarray) -> float:
+    """:func:`~.plant.shape_error` (mean distance at equal arc length) [m]."""
+    a = resample_by_arc_length(shape, len(reference))
+    b = resample_by_arc_length(reference, len(reference))
+    return float(np.mean(np.linalg.norm(a - b, axis=1)))
+
+
+@dataclass(frozen=True)
+class _Corrected:
+    youngs_modulus: float
+    clips: np.ndarray  # (12,) the target's clip correction
+
+
+@dataclass(frozen=True)
+class _Request:
+    """An equilibrium a sample's correction needs: its E [Pa], the clip correction p (12,)
+    of shape K (``at_target`` False) or of the target, and the guess (n + 1, 3) [m]."""
+
+    youngs_modulus: float
+    clips: np.ndarray
+    at_target: bool
+    guess: np.ndarray
+
+
+def _run(nominal: NominalCorrection, corrections: list) -> list:
+    """Drive every sample's correction generator, solving each round's equilibria in one
+    compiled call; the results (a :class:`_Corrected`, or the refusal's reason) per sample."""
+    results: list = [None] * len(corrections)
+    pending: dict[int, _Request] = {}
+    for b, gen in enumerate(corrections):
+        if gen is not None:
+            _advance(gen, None, b, pending, results)
+    while pending:
+        order = list(pending)
+        requests = [pending.pop(b) for b in order]
+        shapes = _solve(nominal, requests)
+        for b, shape in zip(order, shapes, strict=True):
+            _advance(corrections[b], shape, b, pending, results)
+    return results
+
+
+def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> None:
+    try:
+        pending[b] = gen.send(value)
+    except StopIteration as stop:
+        results[b] = stop.value
+    except CorrectionRefused as exc:
+        results[b] = str(exc)
+
+
+def _solve(nominal: NominalCorrection, requests: list) -> list:
+    """The model's equilibria of ``requests`` in one :func:`held_equilibria` call: shapes
+    (n + 1, 3), None where there is no stable equilibrium."""
+    positions, quaternions = nominal.poses
+    index = [nominal.n_shapes - 1 if r.at_target else nominal.at for r in requests]
+    p = np.array([r.clips for r in requests]).reshape(-1, 2, 2, 3)
+    moved = positions[index] + p[:, :, 0]
+    turns = Rotation.from_rotvec(p[:, :, 1].reshape(-1, 3))
+    rotations = turns * Rotation.from_quat(quaternions[index].reshape(-1, 4))
+    cables = [nominal.cable.with_modulus(r.youngs_modulus) for r in requests]
+    result = held_equilibria(cables, np.arange(len(requests)), [r.guess for r in requests],
+                             moved, rotations, gravity=nominal.gravity)
+    return [result.shapes[k] if result.success[k] else None for k in range(len(requests))]
+
+
+def _fit(jacobian, directions, residual, prior):
+    """(delta ln E, amplitudes, sds, correlation of ln E and alpha) of the model-error fit, as
+    :func:`~.step.update_modulus` takes them (:func:`.model_error.fit_model_error`, the
+    scatter it leaves, :func:`.model_error.parameter_covariance`)."""
+    step, amplitudes = fit_model_error(jacobian, directions, residual, prior)
+    left = residual - step * jacobian - sum(
+        (c * d for c, d in zip(amplitudes, directions, strict=True)), np.zeros_like(residual))
+    covariance = parameter_covariance(jacobian, directions, left, prior)
+    sds = standard_deviations(covariance)
+    correlation = 0.0
+    if len(sds) > 1 and all(0.0 < sds[k] < math.inf for k in (0, 1)):
+        correlation = float(np.clip(covariance[0, 1] / (sds[0] * sds[1]), -1.0, 1.0))
+    return step, amplitudes, sds, correlation
+
+
+@dataclass(frozen=True)
+class _Update:
+    """The linearized model update of one sample (:class:`~.step.ModelUpdate`'s quantities)."""
+
+    log_modulus: float  # ln E [ln Pa]
+    state: np.ndarray  # the model's equilibrium at K at that E
+    alpha: float
+    beta: float
+    log_sd: float
+    alpha_sd: float
+    grip_sd: float  # inf: the clamp length not told
+    correlation: float
+
+
+def _correction(nominal: NominalCorrection, points: np.ndarray, measured_links: int
+                ) -> Generator:
+    """One sample's linearized correction (module docstring): yields :class:`_Request`,
+    receives their equilibria (None: none), returns a :class:`_Corrected` or raises
+    :class:`CorrectionRefused`."""
+    cable, limits = nominal.cable, nominal.limits
+    y = resample_measured(points, nominal.state, cable.length,
+                          max_disagreement=limits.max_disagreement)
+    update = yield from _update_modulus(nominal, y, alpha_prior(cable.n_links, measured_links))
+    d, g = nominal.directions_t
+    bias = update.alpha * d + update.beta * g
+    delta = update.log_modulus - math.log(cable.youngs_modulus)
+    modulus = math.exp(update.log_modulus)
+    open_loop = yield _Request(modulus, np.zeros(12), True,
+                               nominal.target + delta * nominal.modulus_t)
+    if open_loop is None:
+        raise CorrectionRefused(f"prediction: the model (E = {modulus:.3g} Pa) finds no stable "
+                                "equilibrium at the target")
+    p, corrected = yield from _fit_clips(nominal, modulus, open_loop, bias)
+    _check_gain(nominal, update, open_loop + bias, corrected + bias)
+    return _Corrected(modulus, p)
+
+
+def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, prior) -> Generator:
+    """:func:`~.step.update_modulus` (discretization bias, clamp length and offset estimated)
+    with d x / d ln E, d and g frozen at the nominal state at K; each step's equilibrium
+    exact (a yielded :class:`_Request`)."""
+    cable, limits = nominal.cable, nominal.limits
+    jacobian, (d, g) = nominal.modulus_k, nominal.directions_k
+    x = nominal.state
+    offset, offset_sds = measured_offset(measured - x)
+    if np.all(offset_sds > 0) and np.linalg.norm(offset / offset_sds) >= OFFSET_SIGNIFICANCE:
+        measured = measured - offset  # the camera's, not the cable's
+    step, amplitudes, sds, correlation = _fit(jacobian, [d, g], measured - x, prior)
+    directions = [d, g]
+    grip_sd = math.inf
+    if abs(amplitudes[1]) >= SIGNIFICANCE * sds[2] and abs(amplitudes[1]) < MAX_GRIP:
+        grip_sd = float(sds[2])
+    else:  # the clamp length stays the model's: refit without it
+        directions = [d]
+        step, amplitudes, sds, correlation = _fit(jacobian, directions, measured - x, prior)
+    log_sd, alpha_sd = float(sds[0]), float(sds[1])
+    log_e0 = math.log(cable.youngs_modulus)
+    log_e = log_e0
+    informed = (float(np.sum(jacobian**2)) > 1e-24 * cable.length**2 and log_sd <= MAX_LOG_SD
+                and abs(step) >= SIGNIFICANCE * log_sd)
+    limit = math.log(limits.max_modulus_factor)
+    full = 0
+    for _ in range(MODULUS_STEPS + math.ceil(limit / MAX_LOG_STEP) + 1 if informed else 0):
+        clipped = max(-MAX_LOG_STEP, min(MAX_LOG_STEP, step))
+        room = limit - math.copysign(1.0, clipped) * (log_e - log_e0)
+        if abs(clipped) > room:
+            if room <= MODULUS_STEP_TOLERANCE:
+                if abs(log_e + step - log_e0) - limit > SIGNIFICANCE * log_sd:
+                    raise CorrectionRefused(
+                        f"modulus: the measurement asks for E = {math.exp(log_e + step):.3g} "
+                        f"Pa, more than {limits.max_modulus_factor:g} times off the plan's "
+                        f"{cable.youngs_modulus:.3g} Pa by over {SIGNIFICANCE:g} sd(ln E) = "
+                        f"{SIGNIFICANCE * log_sd:.2g} (limit max_modulus_factor)")
+                break
+            clipped = math.copysign(room, clipped)
+        log_e += clipped
+        x_new = yield _Request(math.exp(log_e), np.zeros(12), False, x + clipped * jacobian)
+        if x_new is None:
+            raise CorrectionRefused(f"model: no stable equilibrium of the cable (E = "
+                                    f"{math.exp(log_e):.3g} Pa) at shape {nominal.at}'s clips")
+        x = x_new
+        full += clipped == step
+        if abs(clipped) < MODULUS_STEP_TOLERANCE or full >= MODULUS_STEPS:
+            break
+        step = _fit(jacobian, directions, measured - x, prior)[0]
+    amplitudes = fit_model_error(np.zeros_like(x), directions, measured - x, prior)[1]
+    beta = float(amplitudes[1]) if len(directions) > 1 else 0.0
+    return _Update(log_e, x, float(amplitudes[0]), beta, log_sd, alpha_sd, grip_sd,
+                   correlation)
+
+
+def _fit_clips(nominal: NominalCorrection, modulus: float, start: np.ndarray, bias: np.ndarray
+               ) -> Generator:
+    """The target's Levenberg-Marquardt clip fit (:func:`~.step.fit_clips`' damping, trials
+    and stop) with the nominal target's clip Jacobian, frozen: every trial an exact equilibrium
+    of the updated model. Returns ``(p (12,), equilibrium (n + 1, 3))``."""
+    jz, scale, limits = nominal.clip_jacobian, nominal.scale, nominal.limits
+    normal = jz.T @ jz
+    damping = CLIP_DAMPING
+    x, p = start, np.zeros(12)
+    r = (x + bias - nominal.reference).ravel()
+    cost, mu = float(r @ r), damping.initial
+    for _ in range(limits.iterations):
+        b = jz.T @ r
+        accepted = False
+        for _ in range(MAX_TRIALS):
+            damped = normal + mu * np.diag(np.diag(normal)) + 1e-12 * np.trace(normal) * np.eye(12)
+            trial_p = within_limits(p - np.linalg.solve(damped, b) / scale, limits)
+            guess = x + (jz @ ((trial_p - p) * scale)).reshape(x.shape)
+            trial = yield _Request(modulus, trial_p, True, guess)
+            if trial is not None:
+                r_trial = (trial + bias - nominal.reference).ravel()
+                trial_cost = float(r_trial @ r_trial)
+                if trial_cost <= cost:
+                    accepted = True
+                    break
+            mu *= damping.increase
+        if not accepted:
+            break
+        gain = (cost - trial_cost) / cost if cost > 0 else 0.0
+        x, p, r, cost = trial, trial_p, r_trial, trial_cost
+        mu = max(mu / damping.decrease, damping.minimum)
+        if gain < COST_TOLERANCE:
+            break
+    return p, x
+
+
+def within_limits(p: np.ndarray, limits: CorrectionLimits) -> np.ndarray:
+    """The clip correction p (12,) with each clip's translation and rotation vector shortened
+    to ``limits.max_translation`` / ``max_rotation`` (the projection onto the limits)."""
+    parts = np.array(p, dtype=float).reshape(2, 2, 3)
+    bounds = np.array([limits.max_translation, limits.max_rotation])
+    norms = np.linalg.norm(parts, axis=2)
+    parts *= np.where(norms > bounds, bounds / np.where(norms > 0, norms, 1.0), 1.0)[:, :, None]
+    return parts.ravel()
+
+
+def _check_gain(nominal: NominalCorrection, update: _Update, open_loop: np.ndarray,
+                corrected: np.ndarray) -> None:
+    """:func:`~.step.correct_plan`'s gain checks on the target's predictions (bias included)
+    with the nominal target's directions: the predicted gain must exceed
+    ``limits.gain_significance`` sd of it (ln E and alpha correlated) and survive the clamp
+    length that many sd off, evaluated. Raises :class:`CorrectionRefused` otherwise."""
+    reference, significance = nominal.reference, nominal.limits.gain_significance
+    d, g = nominal.directions_t
+    grip = (update.grip_sd + 0.5 * GRIP_LINEARITY * abs(update.beta)
+            if math.isfinite(update.grip_sd) else GRIP_UNCERTAINTY)
+    sds = {"modulus": (nominal.modulus_t, update.log_sd), "discretization": (d, update.alpha_sd),
+           "grip": (g, grip)}
+
+    def error(x):
+        return float(np.mean(np.linalg.norm(x - reference, axis=1)))
+
+    def unit(x):
+        e = x - reference
+        return e / np.maximum(np.linalg.norm(e, axis=1, keepdims=True), 1e-300)
+
+    du = unit(open_loop) - unit(corrected)
+    t = {k: float(np.mean(np.sum(du * v, axis=1))) * (sd if math.isfinite(sd) else 0.0)
+         for k, (v, sd) in sds.items()}
+    spread = math.sqrt(max(sum(v * v for v in t.values())
+                           + 2.0 * update.correlation * t["modulus"] * t["discretization"], 0.0))
+    before, after = error(open_loop), error(corrected)
+    if before - after <= significance * spread:
+        raise CorrectionRefused(
+            f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm (final "
+            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is within {significance:g} sd "
+            f"({1e3 * spread:.2f} mm; E, discretization bias, clamp length as estimated, "
+            "linearized) of zero: the plan is kept")
+    bound = significance * grip
+    worst = min(error(open_loop + s * bound * g) - error(corrected + s * bound * g)
+                for s in (-1.0, 1.0))
+    if worst <= 0.0:
+        raise CorrectionRefused(
+            f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm, is lost "
+            f"with the clamp length {significance:g} sd off ({1e3 * worst:+.2f} mm): the plan "
+            "is kept")
+
+
+def _closed_loop(nominal: NominalCorrection, plants: list, clamps: list, states: np.ndarray,
+                 corrections: np.ndarray):
+    """The plants driven from their shapes at K through the corrected clip poses (each
+    sample's target correction ramped in, p_j = p_T (j - K) / (T - K)): a
+    :class:`.plant_batch.PlantDrive` of :data:`SUBSTEPS` stops per remaining shape."""
+    at, last = nominal.at, nominal.n_shapes - 1
+    positions, quaternions = nominal.poses
+    ramp = np.arange(0, last - at + 1) / (last - at)  # shape K (0) .. T (1)
+    p = (ramp[None, :, None] * corrections[:, None, :]).reshape(len(plants), -1, 2, 2, 3)
+    moved = positions[None, at:] + p[:, :, :, 0]  # (B, T - K + 1, 2, 3)
+    turns = Rotation.from_rotvec(p[:, :, :, 1].reshape(-1, 3))
+    keys = (turns * Rotation.from_quat(
+        np.broadcast_to(quaternions[at:], moved.shape[:2] + (2, 4)).reshape(-1, 4))).as_quat()
+    keys = keys.reshape(moved.shape[:2] + (2, 4))
+    fractions = np.arange(1, SUBSTEPS + 1) / SUBSTEPS
+    pairs = np.stack([keys[:, :-1], keys[:, 1:]])  # (2, B, T - K, 2, 4)
+    stops_q = slerp_quaternions(np.array([0.0, 1.0]), pairs, fractions)  # (S, B, T - K, 2, 4)
+    stops_q = np.moveaxis(stops_q, 0, 2).reshape(len(plants), -1, 2, 4)
+    w = fractions[None, None, :, None, None]
+    stops_p = ((1.0 - w) * moved[:, :-1, None] + w * moved[:, 1:, None]).reshape(
+        len(plants), -1, 2, 3)
+    return drive_plants(plants, clamps, states, stops_p, stops_q, gravity=nominal.gravity)
