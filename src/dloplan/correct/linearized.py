@@ -73,7 +73,6 @@ from .step import (
     GRIP_UNCERTAINTY,
     MAX_LOG_SD,
     MAX_LOG_STEP,
-    MAX_TRIALS,
     MODULUS_STEP_TOLERANCE,
     OFFSET_SIGNIFICANCE,
     SIGNIFICANCE,
@@ -85,6 +84,48 @@ MODULUS_STEPS = 3
 
 SUBSTEPS = 2
 """Plant equilibria between consecutive clip poses (:class:`~.plant.Plant`'s default)."""
+
+CHORD_TRIALS = 2
+"""Trials per iteration of the clip fit with its Jacobian frozen (a chord method), against
+:data:`~.step.MAX_TRIALS` with the Jacobian updated: once a step from the frozen Jacobian raises
+the cost twice, more damping only shortens it towards the point already reached (on the study
+example the fit then tried 7 more steps, each an equilibrium, to end where it was)."""
+
+
+TABLE_STEP = math.log(2.0) / 4.0
+"""Spacing of the derivatives' table in ln E (:class:`DerivativeTable`): a factor 2^(1/4)."""
+
+
+@dataclass(frozen=True, eq=False)
+class DerivativeTable:
+    """The model's equilibria and their derivatives at shape K and at the target, at the
+    planned clips, tabulated along ln E and interpolated linearly between its nodes.
+
+    Attributes
+    ----------
+    log_moduli : numpy.ndarray
+        (k,) the nodes ln E [ln Pa], increasing, spaced :data:`TABLE_STEP`, covering
+        ``max_modulus_factor`` either way of the plan's E (or up to where the model loses its
+        equilibrium).
+    values : dict
+        Per name, (k, ...) arrays: ``state`` and ``target`` (n + 1, 3) the equilibria at K and
+        at the target [m]; ``modulus_k``, ``modulus_t`` d x / d ln E there [m]; ``d_k``,
+        ``g_k``, ``d_t``, ``g_t`` the discretization and clamp directions
+        (:func:`.model_error.model_error_directions`) [m]; ``clips`` (3 (n + 1), 12) d x / d p
+        at the target, rotation columns divided by L / 2 (the clip fit's scaled coordinates).
+    """
+
+    log_moduli: np.ndarray
+    values: dict
+
+    def at(self, log_modulus: float) -> dict:
+        """Every value at ln E (linear between the nodes, the end node's beyond them)."""
+        nodes = self.log_moduli
+        if len(nodes) == 1:
+            return {name: v[0] for name, v in self.values.items()}
+        k = int(np.clip(np.searchsorted(nodes, log_modulus) - 1, 0, len(nodes) - 2))
+        w = float(np.clip((log_modulus - nodes[k]) / (nodes[k + 1] - nodes[k]), 0.0, 1.0))
+        return {name: (1.0 - w) * v[k] + w * v[k + 1] for name, v in self.values.items()}
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,20 +140,13 @@ class NominalCorrection:
         K, the shape after which the plant is measured.
     plant_links : int
         Links of the plants.
-    state, target : numpy.ndarray
-        (n + 1, 3) the model's equilibria at shape K and at the target [m].
+    table : DerivativeTable
+        The model's equilibria and derivatives at K and at the target along ln E.
     reference : numpy.ndarray
         (n + 1, 3) the plan's stabilized target: what the corrections aim at and the errors
         are measured against [m].
-    modulus_k, modulus_t : numpy.ndarray
-        (n + 1, 3) d x / d ln E at shape K and at the target [m].
-    directions_k, directions_t : tuple of numpy.ndarray
-        (d, g) at shape K and at the target (:func:`.model_error.model_error_directions`) [m].
-    clip_jacobian : numpy.ndarray
-        (3 (n + 1), 12) d x / d p at the target, rotation columns divided by L / 2 (the clip
-        fit's scaled coordinates z = scale p).
     scale : numpy.ndarray
-        (12,) the scale of the clip coordinates.
+        (12,) the scale of the clip coordinates (1 for metres, L / 2 for radians).
     stops : tuple of numpy.ndarray
         Positions (M, 2, 3) [m] and quaternions (M, 2, 4) of the plant's stops along the
         planned path: the start's clips, then :data:`SUBSTEPS` per shape.
@@ -127,14 +161,8 @@ class NominalCorrection:
     cable: Cable
     at: int
     plant_links: int
-    state: np.ndarray
-    target: np.ndarray
+    table: DerivativeTable
     reference: np.ndarray
-    modulus_k: np.ndarray
-    modulus_t: np.ndarray
-    directions_k: tuple
-    directions_t: tuple
-    clip_jacobian: np.ndarray
     scale: np.ndarray
     stops: tuple
     poses: tuple
@@ -173,31 +201,75 @@ def nominal_correction(cable: Cable, shapes, grippers: GripperPath, at: int, *, 
     """
     path = as_path(shapes, cable.n_points, "shapes")
     stable = as_path(stabilized, cable.n_points, "stabilized")
-    last = len(path) - 1
+    limits = CorrectionLimits() if limits is None else limits
     gravity = np.asarray(gravity, dtype=float)
     clips = [grippers.clip_poses(j) for j in range(len(path))]
-    held = []
-    for j in (at, last):
-        eq = equilibrium(cable, stable[j], clips[j], gravity=gravity)
-        if not eq.success:
-            raise CorrectionRefused(f"model: no stable equilibrium of the plan's cable at shape "
-                                    f"{j} ({eq.message})")
-        sens = equilibrium_sensitivity(cable, eq.shape, clips[j])
-        d, g = model_error_directions(cable, eq.shape, clips[j], grip=True, gravity=gravity)
-        held.append((eq.shape, sens, (d, g)))
-    (state, sens_k, directions_k), (target, sens_t, directions_t) = held
     scale = np.tile(np.r_[np.ones(3), np.full(3, 0.5 * cable.length)], 2)
+    table = derivative_table(cable, (clips[at], clips[-1]), (stable[at], stable[-1]), scale,
+                             math.log(limits.max_modulus_factor), gravity)
     stops = [clips[0]]
     fractions = np.arange(1, SUBSTEPS + 1) / SUBSTEPS
     for j in range(1, len(path)):
         stops += interpolate_clips(clips[j - 1], clips[j], fractions)
     links = cable.n_links if plant_links is None else int(plant_links)
-    return NominalCorrection(
-        cable, int(at), links, state, target, stable[-1], sens_k.log_modulus,
-        sens_t.log_modulus, directions_k, directions_t,
-        sens_t.clips.reshape(-1, 12) / scale, scale, _arrays(stops), _arrays(clips),
-        resample_by_arc_length(path[0], links + 1), gravity,
-        CorrectionLimits() if limits is None else limits)
+    return NominalCorrection(cable, int(at), links, table, stable[-1], scale, _arrays(stops),
+                             _arrays(clips), resample_by_arc_length(path[0], links + 1),
+                             gravity, limits)
+
+
+def derivative_table(cable: Cable, clips: tuple, guesses: tuple, scale: np.ndarray,
+                     half_width: float, gravity) -> DerivativeTable:
+    """:class:`DerivativeTable` at the clips of shape K and of the target (``clips``, from the
+    ``guesses``), nodes every :data:`TABLE_STEP` in ln E within ``half_width`` of the plan's,
+    each continued from its neighbour towards the ends; a side ends where the model loses its
+    stable equilibrium.
+
+    Raises
+    ------
+    CorrectionRefused
+        When the plan's own E has no stable equilibrium there.
+    """
+    log_e0 = math.log(cable.youngs_modulus)
+    count = int(math.ceil(half_width / TABLE_STEP - 1e-9))
+    rows = {0: _node(cable, clips, guesses, gravity, scale)}
+    if rows[0] is None:
+        raise CorrectionRefused("model: no stable equilibrium of the plan's cable at the "
+                                "measured shape's or the target's clips")
+    for side in (1, -1):
+        previous = rows[0]
+        for k in range(1, count + 1):
+            log_e = log_e0 + side * min(k * TABLE_STEP, half_width)
+            step = log_e - math.log(previous["youngs_modulus"])
+            guesses = (previous["state"] + step * previous["modulus_k"],
+                       previous["target"] + step * previous["modulus_t"])
+            node = _node(cable.with_modulus(math.exp(log_e)), clips, guesses, gravity, scale)
+            if node is None:
+                break
+            rows[side * k] = previous = node
+    keys = sorted(rows)
+    values = {name: np.array([rows[k][name] for k in keys]) for name in rows[0]
+              if name != "youngs_modulus"}
+    moduli = np.log([rows[k]["youngs_modulus"] for k in keys])
+    return DerivativeTable(moduli, values)
+
+
+def _node(cable: Cable, clips: tuple, guesses: tuple, gravity, scale) -> dict | None:
+    """One node of :func:`derivative_table`, None without a stable equilibrium."""
+    node = {"youngs_modulus": cable.youngs_modulus}
+    for suffix, c, guess in zip(("k", "t"), clips, guesses, strict=True):
+        eq = equilibrium(cable, guess, c, gravity=gravity)
+        if not eq.success:
+            return None
+        sens = equilibrium_sensitivity(cable, eq.shape, c, gravity=gravity)
+        try:
+            d, g = model_error_directions(cable, eq.shape, c, grip=True, gravity=gravity)
+        except CorrectionRefused:
+            return None
+        node.update({"state" if suffix == "k" else "target": eq.shape,
+                     f"modulus_{suffix}": sens.log_modulus, f"d_{suffix}": d, f"g_{suffix}": g})
+        if suffix == "t":
+            node["clips"] = sens.clips.reshape(-1, 12) / scale
+    return node
 
 
 def _arrays(clips: Sequence[ClipPoses]) -> tuple[np.ndarray, np.ndarray]:
@@ -392,44 +464,42 @@ def _correction(nominal: NominalCorrection, points: np.ndarray, measured_links: 
     receives their equilibria (None: none), returns a :class:`_Corrected` or raises
     :class:`CorrectionRefused`."""
     cable, limits = nominal.cable, nominal.limits
-    y = resample_measured(points, nominal.state, cable.length,
+    log_e0 = math.log(cable.youngs_modulus)
+    y = resample_measured(points, nominal.table.at(log_e0)["state"], cable.length,
                           max_disagreement=limits.max_disagreement)
     update = yield from _update_modulus(nominal, y, alpha_prior(cable.n_links, measured_links))
-    d, g = nominal.directions_t
-    bias = update.alpha * d + update.beta * g
-    delta = update.log_modulus - math.log(cable.youngs_modulus)
+    at = nominal.table.at(update.log_modulus)  # the derivatives at the target, at this E
+    bias = update.alpha * at["d_t"] + update.beta * at["g_t"]
     modulus = math.exp(update.log_modulus)
-    open_loop = yield _Request(modulus, np.zeros(12), True,
-                               nominal.target + delta * nominal.modulus_t)
+    open_loop = yield _Request(modulus, np.zeros(12), True, at["target"])
     if open_loop is None:
         raise CorrectionRefused(f"prediction: the model (E = {modulus:.3g} Pa) finds no stable "
                                 "equilibrium at the target")
-    p, corrected = yield from _fit_clips(nominal, modulus, open_loop, bias)
-    _check_gain(nominal, update, open_loop + bias, corrected + bias)
+    p, corrected = yield from _fit_clips(nominal, modulus, at["clips"], open_loop, bias)
+    _check_gain(nominal, update, at, open_loop + bias, corrected + bias)
     return _Corrected(modulus, p)
 
 
 def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, prior) -> Generator:
     """:func:`~.step.update_modulus` (discretization bias, clamp length and offset estimated)
-    with d x / d ln E, d and g frozen at the nominal state at K; each step's equilibrium
-    exact (a yielded :class:`_Request`)."""
-    cable, limits = nominal.cable, nominal.limits
-    jacobian, (d, g) = nominal.modulus_k, nominal.directions_k
-    x = nominal.state
+    with d x / d ln E, d and g at shape K taken from the table at the current E (the plan's
+    clips); each step's equilibrium exact (a yielded :class:`_Request`)."""
+    cable, limits, table = nominal.cable, nominal.limits, nominal.table
+    log_e0 = math.log(cable.youngs_modulus)
+    log_e = log_e0
+    at = table.at(log_e)
+    jacobian, x = at["modulus_k"], at["state"]
     offset, offset_sds = measured_offset(measured - x)
     if np.all(offset_sds > 0) and np.linalg.norm(offset / offset_sds) >= OFFSET_SIGNIFICANCE:
         measured = measured - offset  # the camera's, not the cable's
-    step, amplitudes, sds, correlation = _fit(jacobian, [d, g], measured - x, prior)
-    directions = [d, g]
-    grip_sd = math.inf
-    if abs(amplitudes[1]) >= SIGNIFICANCE * sds[2] and abs(amplitudes[1]) < MAX_GRIP:
-        grip_sd = float(sds[2])
-    else:  # the clamp length stays the model's: refit without it
-        directions = [d]
-        step, amplitudes, sds, correlation = _fit(jacobian, directions, measured - x, prior)
+    step, amplitudes, sds, correlation = _fit(jacobian, [at["d_k"], at["g_k"]], measured - x,
+                                              prior)
+    grip = abs(amplitudes[1]) >= SIGNIFICANCE * sds[2] and abs(amplitudes[1]) < MAX_GRIP
+    grip_sd = float(sds[2]) if grip else math.inf
+    names = ("d_k", "g_k") if grip else ("d_k",)  # else the model's clamp length: refit
+    if not grip:
+        step, amplitudes, sds, correlation = _fit(jacobian, [at["d_k"]], measured - x, prior)
     log_sd, alpha_sd = float(sds[0]), float(sds[1])
-    log_e0 = math.log(cable.youngs_modulus)
-    log_e = log_e0
     informed = (float(np.sum(jacobian**2)) > 1e-24 * cable.length**2 and log_sd <= MAX_LOG_SD
                 and abs(step) >= SIGNIFICANCE * log_sd)
     limit = math.log(limits.max_modulus_factor)
@@ -456,19 +526,24 @@ def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, prior) -> 
         full += clipped == step
         if abs(clipped) < MODULUS_STEP_TOLERANCE or full >= MODULUS_STEPS:
             break
-        step = _fit(jacobian, directions, measured - x, prior)[0]
-    amplitudes = fit_model_error(np.zeros_like(x), directions, measured - x, prior)[1]
-    beta = float(amplitudes[1]) if len(directions) > 1 else 0.0
+        at = table.at(log_e)
+        jacobian = at["modulus_k"]
+        step = _fit(jacobian, [at[name] for name in names], measured - x, prior)[0]
+    at = table.at(log_e)
+    amplitudes = fit_model_error(np.zeros_like(x), [at[name] for name in names], measured - x,
+                                 prior)[1]
+    beta = float(amplitudes[1]) if grip else 0.0
     return _Update(log_e, x, float(amplitudes[0]), beta, log_sd, alpha_sd, grip_sd,
                    correlation)
 
 
-def _fit_clips(nominal: NominalCorrection, modulus: float, start: np.ndarray, bias: np.ndarray
-               ) -> Generator:
-    """The target's Levenberg-Marquardt clip fit (:func:`~.step.fit_clips`' damping, trials
-    and stop) with the nominal target's clip Jacobian, frozen: every trial an exact equilibrium
-    of the updated model. Returns ``(p (12,), equilibrium (n + 1, 3))``."""
-    jz, scale, limits = nominal.clip_jacobian, nominal.scale, nominal.limits
+def _fit_clips(nominal: NominalCorrection, modulus: float, jz: np.ndarray, start: np.ndarray,
+               bias: np.ndarray) -> Generator:
+    """The target's Levenberg-Marquardt clip fit (:func:`~.step.fit_clips`' damping and stop,
+    :data:`CHORD_TRIALS` trials per iteration) with the clip Jacobian ``jz`` (3 (n + 1), 12,
+    scaled) of the planned target at this E, frozen: every trial an exact equilibrium of the
+    updated model. Returns ``(p (12,), equilibrium (n + 1, 3))``."""
+    scale, limits = nominal.scale, nominal.limits
     normal = jz.T @ jz
     damping = CLIP_DAMPING
     x, p = start, np.zeros(12)
@@ -477,7 +552,7 @@ def _fit_clips(nominal: NominalCorrection, modulus: float, start: np.ndarray, bi
     for _ in range(limits.iterations):
         b = jz.T @ r
         accepted = False
-        for _ in range(MAX_TRIALS):
+        for _ in range(CHORD_TRIALS):
             damped = normal + mu * np.diag(np.diag(normal)) + 1e-12 * np.trace(normal) * np.eye(12)
             trial_p = within_limits(p - np.linalg.solve(damped, b) / scale, limits)
             guess = x + (jz @ ((trial_p - p) * scale)).reshape(x.shape)
@@ -509,18 +584,19 @@ def within_limits(p: np.ndarray, limits: CorrectionLimits) -> np.ndarray:
     return parts.ravel()
 
 
-def _check_gain(nominal: NominalCorrection, update: _Update, open_loop: np.ndarray,
+def _check_gain(nominal: NominalCorrection, update: _Update, at: dict, open_loop: np.ndarray,
                 corrected: np.ndarray) -> None:
     """:func:`~.step.correct_plan`'s gain checks on the target's predictions (bias included)
-    with the nominal target's directions: the predicted gain must exceed
+    with the planned target's directions at the updated E (``at``, :meth:`DerivativeTable.at`):
+    the predicted gain must exceed
     ``limits.gain_significance`` sd of it (ln E and alpha correlated) and survive the clamp
     length that many sd off, evaluated. Raises :class:`CorrectionRefused` otherwise."""
     reference, significance = nominal.reference, nominal.limits.gain_significance
-    d, g = nominal.directions_t
+    g = at["g_t"]
     grip = (update.grip_sd + 0.5 * GRIP_LINEARITY * abs(update.beta)
             if math.isfinite(update.grip_sd) else GRIP_UNCERTAINTY)
-    sds = {"modulus": (nominal.modulus_t, update.log_sd), "discretization": (d, update.alpha_sd),
-           "grip": (g, grip)}
+    sds = {"modulus": (at["modulus_t"], update.log_sd),
+           "discretization": (at["d_t"], update.alpha_sd), "grip": (g, grip)}
 
     def error(x):
         return float(np.mean(np.linalg.norm(x - reference, axis=1)))
