@@ -423,8 +423,9 @@ def _solve(nominal: NominalCorrection, requests: list) -> list:
     moved = positions[index] + p[:, :, 0]
     turns = Rotation.from_rotvec(p[:, :, 1].reshape(-1, 3))
     rotations = turns * Rotation.from_quat(quaternions[index].reshape(-1, 4))
-    cables = [nominal.cable.with_modulus(r.youngs_modulus) for r in requests]
-    result = held_equilibria(cables, np.arange(len(requests)), [r.guess for r in requests],
+    moduli, cable_of = np.unique([r.youngs_modulus for r in requests], return_inverse=True)
+    cables = [nominal.cable.with_modulus(float(e)) for e in moduli]  # a sample's trials share E
+    result = held_equilibria(cables, cable_of.astype(np.int64), [r.guess for r in requests],
                              moved, rotations, gravity=nominal.gravity)
     return [result.shapes[k] if result.success[k] else None for k in range(len(requests))]
 
