@@ -216,3 +216,42 @@ def test_the_linearized_closed_loop_agrees_with_the_exact_correction(example_pla
     assert agree >= len(items) - 1
     modulus = [r["refusal"] for r in linearized if "modulus:" in r["refusal"]]
     assert len(modulus) == 2  # E x0.05 and x20: beyond the x10 limit by more than 2 sd
+
+
+@pytest.mark.parametrize("grip", [True, False])
+@pytest.mark.parametrize("held", [False, True])
+def test_the_normal_equations_fit_is_the_model_error_fit(example_plan, grip, held):
+    """fit_amplitudes (normal equations) against fit_model_error and parameter_covariance (SVD
+    least squares) on the example's directions at shape 3 and noisy residuals: equal to 1e-8
+    relative (round-off of a 3 x 33 system), the bounds' clipping included."""
+    import numpy as np
+
+    from dloplan.correct.linearized import fit_amplitudes, nominal_correction
+    from dloplan.correct.model_error import (
+        alpha_prior,
+        fit_model_error,
+        parameter_covariance,
+        standard_deviations,
+    )
+    from dloplan.pipeline.stages import settled_shapes
+
+    doc = example_plan
+    nominal = nominal_correction(doc.cable, doc.shapes, doc.grippers, 3,
+                                 stabilized=settled_shapes(doc), gravity=(0.0, 0.0, -9.81))
+    at = nominal.table.at(np.log(doc.cable.youngs_modulus))
+    directions = [at["d_k"], at["g_k"]] if grip else [at["d_k"]]
+    jacobian = np.zeros_like(at["d_k"]) if held else at["modulus_k"]
+    prior = alpha_prior(doc.cable.n_links, 100)
+    rng = np.random.default_rng(7)
+    for scale in (0.2, -0.1, 0.5):  # E softer and stiffer, alpha inside and beyond its bounds
+        residual = scale * at["modulus_k"] + 1.5 * at["d_k"] * (1 + scale) \
+            + rng.normal(scale=3e-4, size=jacobian.shape)
+        step, amplitudes, sds, _ = fit_amplitudes(None if held else jacobian, directions,
+                                                  residual, prior)
+        want_step, want = fit_model_error(jacobian, directions, residual, prior)
+        left = residual - want_step * jacobian - sum(
+            c * d for c, d in zip(want, directions, strict=True))
+        want_sds = standard_deviations(parameter_covariance(jacobian, directions, left, prior))
+        assert step == pytest.approx(want_step, rel=1e-8, abs=1e-12)
+        assert amplitudes == pytest.approx(want, rel=1e-8, abs=1e-12)
+        assert sds == pytest.approx(want_sds, rel=1e-8, abs=1e-12)

@@ -57,6 +57,7 @@ from ..sim.sensitivity import equilibrium_sensitivity
 from ..study.evaluate import perturbed_cable
 from .measurement import CorrectionRefused, resample_measured
 from .model_error import (
+    BOUNDS,
     MAX_GRIP,
     alpha_prior,
     fit_model_error,
@@ -430,17 +431,74 @@ def _solve(nominal: NominalCorrection, requests: list) -> list:
     return [result.shapes[k] if result.success[k] else None for k in range(len(requests))]
 
 
-def _fit(jacobian, directions, residual, prior):
-    """(delta ln E, amplitudes, sds, correlation of ln E and alpha) of the model-error fit, as
-    :func:`~.step.update_modulus` takes them (:func:`.model_error.fit_model_error`, the
-    scatter it leaves, :func:`.model_error.parameter_covariance`)."""
-    step, amplitudes = fit_model_error(jacobian, directions, residual, prior)
-    left = residual - step * jacobian - sum(
+def fit_amplitudes(jacobian, directions, residual, prior) -> tuple:
+    """(delta ln E, amplitudes, sds, correlation of ln E and alpha): the model-error fit as
+    :func:`~.step.update_modulus` takes it, by its normal equations.
+
+    The estimate of :func:`.model_error.fit_model_error` (alpha's prior weighted by the scatter
+    of the fit without it) and the sds and correlation of :func:`.model_error.
+    parameter_covariance` at what it leaves, from the p x p normal equations of [J, d, g]
+    instead of SVD least squares (a fifth of the time at a chord of 3 x 11 coordinates; equal
+    to round-off, tested). An estimate outside the amplitudes' bounds, or a singular system, is
+    left to those functions (the bounds' hold-and-refit).
+
+    Parameters
+    ----------
+    jacobian : numpy.ndarray or None
+        (n + 1, 3) d x / d ln E [m]; None: E held (a zero column: its step and sd 0).
+    directions : sequence of numpy.ndarray
+        d, or d and g, (n + 1, 3) [m].
+    residual : numpy.ndarray
+        (n + 1, 3) measured minus the model [m].
+    prior : tuple of float
+        (alpha_0, sd) of alpha.
+    """
+    columns = [] if jacobian is None else [jacobian.ravel()]
+    a = np.stack(columns + [d.ravel() for d in directions], axis=1)
+    r = residual.ravel()
+    first = 1 - len(columns)  # alpha's column (0 with E held)
+    dof = max(a.shape[0] - len(directions) - 1, 1)
+    gram, rhs = a.T @ a, a.T @ r
+    try:
+        unbounded = np.linalg.solve(gram, rhs)
+        left = r - a @ unbounded
+        weight = float(left @ left) / dof / prior[1] ** 2
+        gram_prior = gram.copy()
+        gram_prior[1 - first, 1 - first] += weight
+        values = np.linalg.solve(gram_prior, rhs + weight * prior[0] * np.eye(len(rhs))[1 - first])
+    except np.linalg.LinAlgError:
+        return _library_fit(jacobian, directions, residual, prior)
+    amplitudes = values[1 - first:]
+    if not all(low <= v <= high for v, (low, high) in zip(amplitudes, BOUNDS, strict=False)):
+        return _library_fit(jacobian, directions, residual, prior)
+    left = r - a @ values
+    s2 = float(left @ left) / (dof + (jacobian is None))
+    information = gram.copy()
+    information[1 - first, 1 - first] += s2 / prior[1] ** 2
+    try:
+        covariance = s2 * np.linalg.inv(information)
+    except np.linalg.LinAlgError:
+        return _library_fit(jacobian, directions, residual, prior)
+    sds = standard_deviations(covariance)
+    if jacobian is None:
+        return 0.0, amplitudes, np.r_[0.0, sds], 0.0
+    correlation = 0.0
+    if all(0.0 < sds[k] < math.inf for k in (0, 1)):
+        correlation = float(np.clip(covariance[0, 1] / (sds[0] * sds[1]), -1.0, 1.0))
+    return float(values[0]), amplitudes, sds, correlation
+
+
+def _library_fit(jacobian, directions, residual, prior) -> tuple:
+    """:func:`fit_amplitudes` by :func:`.model_error.fit_model_error` and :func:`.model_error.
+    parameter_covariance` themselves."""
+    column = np.zeros_like(residual) if jacobian is None else jacobian
+    step, amplitudes = fit_model_error(column, directions, residual, prior)
+    left = residual - step * column - sum(
         (c * d for c, d in zip(amplitudes, directions, strict=True)), np.zeros_like(residual))
-    covariance = parameter_covariance(jacobian, directions, left, prior)
+    covariance = parameter_covariance(column, directions, left, prior)
     sds = standard_deviations(covariance)
     correlation = 0.0
-    if len(sds) > 1 and all(0.0 < sds[k] < math.inf for k in (0, 1)):
+    if jacobian is not None and all(0.0 < sds[k] < math.inf for k in (0, 1)):
         correlation = float(np.clip(covariance[0, 1] / (sds[0] * sds[1]), -1.0, 1.0))
     return step, amplitudes, sds, correlation
 
@@ -493,13 +551,14 @@ def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, prior) -> 
     offset, offset_sds = measured_offset(measured - x)
     if np.all(offset_sds > 0) and np.linalg.norm(offset / offset_sds) >= OFFSET_SIGNIFICANCE:
         measured = measured - offset  # the camera's, not the cable's
-    step, amplitudes, sds, correlation = _fit(jacobian, [at["d_k"], at["g_k"]], measured - x,
-                                              prior)
+    step, amplitudes, sds, correlation = fit_amplitudes(jacobian, [at["d_k"], at["g_k"]],
+                                                        measured - x, prior)
     grip = abs(amplitudes[1]) >= SIGNIFICANCE * sds[2] and abs(amplitudes[1]) < MAX_GRIP
     grip_sd = float(sds[2]) if grip else math.inf
     names = ("d_k", "g_k") if grip else ("d_k",)  # else the model's clamp length: refit
     if not grip:
-        step, amplitudes, sds, correlation = _fit(jacobian, [at["d_k"]], measured - x, prior)
+        step, amplitudes, sds, correlation = fit_amplitudes(jacobian, [at["d_k"]], measured - x,
+                                                            prior)
     log_sd, alpha_sd = float(sds[0]), float(sds[1])
     informed = (float(np.sum(jacobian**2)) > 1e-24 * cable.length**2 and log_sd <= MAX_LOG_SD
                 and abs(step) >= SIGNIFICANCE * log_sd)
@@ -529,10 +588,9 @@ def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, prior) -> 
             break
         at = table.at(log_e)
         jacobian = at["modulus_k"]
-        step = _fit(jacobian, [at[name] for name in names], measured - x, prior)[0]
+        step = fit_amplitudes(jacobian, [at[name] for name in names], measured - x, prior)[0]
     at = table.at(log_e)
-    amplitudes = fit_model_error(np.zeros_like(x), [at[name] for name in names], measured - x,
-                                 prior)[1]
+    amplitudes = fit_amplitudes(None, [at[name] for name in names], measured - x, prior)[1]
     beta = float(amplitudes[1]) if grip else 0.0
     return _Update(log_e, x, float(amplitudes[0]), beta, log_sd, alpha_sd, grip_sd,
                    correlation)
