@@ -43,6 +43,7 @@ from __future__ import annotations
 import math
 from collections.abc import Generator, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -55,7 +56,7 @@ from ..sim import ClipPoses, equilibrium, interpolate_clips
 from ..sim.batch import held_equilibria
 from ..sim.sensitivity import equilibrium_sensitivity
 from ..study.evaluate import perturbed_cable
-from .measurement import CorrectionRefused, resample_measured
+from .measurement import CorrectionRefused, positions_along, resample_measured
 from .model_error import (
     BOUNDS,
     MAX_GRIP,
@@ -175,6 +176,12 @@ class NominalCorrection:
     def n_shapes(self) -> int:
         """T + 1."""
         return len(self.poses[0])
+
+    @cached_property
+    def resampled_reference(self) -> np.ndarray:
+        """:attr:`reference` resampled by arc length onto its own n + 1 points, as
+        :func:`~.plant.shape_error` compares it [m]."""
+        return resample_by_arc_length(self.reference, len(self.reference))
 
 
 def nominal_correction(cable: Cable, shapes, grippers: GripperPath, at: int, *, stabilized,
@@ -311,13 +318,18 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
             for b in range(count)]
     open_error = np.full(count, math.nan)
     corrections: list = [None] * count
-    for b, (index, *_) in enumerate(items):
-        if rows[b] is not None:
-            continue
-        open_error[b] = _shape_error(drive.shapes[b, -1], nominal.reference)
+    held = [b for b in range(count) if rows[b] is None]
+    measured = {}
+    for b in held:
+        open_error[b] = _shape_error(drive.shapes[b, -1], nominal.resampled_reference)
         points = resample_by_arc_length(drive.shapes[b, SUBSTEPS * at], n_measured)
-        points = points + np.random.default_rng(index).normal(scale=noise, size=points.shape)
-        corrections[b] = _correction(nominal, points, nominal.plant_links)
+        measured[b] = points + np.random.default_rng(items[b][0]).normal(scale=noise,
+                                                                         size=points.shape)
+    if held:  # every measurement projected onto the one prediction at once
+        along = positions_along(np.concatenate([measured[b] for b in held]),
+                                nominal.table.at(math.log(cable.youngs_modulus))["state"])
+        for b, s in zip(held, np.split(along, len(held)), strict=True):
+            corrections[b] = _correction(nominal, measured[b], s, nominal.plant_links)
     results = _run(nominal, corrections)
     accepted = [b for b in range(count) if isinstance(results[b], _Corrected)]
     closed_error = open_error.copy()
@@ -333,7 +345,7 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
                            "refusal": f"plant: the quasi-static simulation failed at shape "
                                       f"{shape}: {closed.messages[k]}"}
                 continue
-            closed_error[b] = _shape_error(closed.shapes[k, -1], nominal.reference)
+            closed_error[b] = _shape_error(closed.shapes[k, -1], nominal.resampled_reference)
     out = []
     for b, (index, *_) in enumerate(items):
         row = rows[b]
@@ -366,10 +378,9 @@ def _plant_failure(nominal: NominalCorrection, stop: int, message: str) -> dict 
 
 
 def _shape_error(shape: np.ndarray, reference: np.ndarray) -> float:
-    """:func:`~.plant.shape_error` (mean distance at equal arc length) [m]."""
+    """:func:`~.plant.shape_error` to ``reference``, already resampled by arc length [m]."""
     a = resample_by_arc_length(shape, len(reference))
-    b = resample_by_arc_length(reference, len(reference))
-    return float(np.mean(np.linalg.norm(a - b, axis=1)))
+    return float(np.mean(np.linalg.norm(a - reference, axis=1)))
 
 
 @dataclass(frozen=True)
@@ -517,20 +528,23 @@ class _Update:
     correlation: float
 
 
-def _correction(nominal: NominalCorrection, points: np.ndarray, measured_links: int
-                ) -> Generator:
-    """One sample's linearized correction (module docstring): yields :class:`_Request`,
-    receives their equilibria (None: none), returns a :class:`_Corrected` or raises
-    :class:`CorrectionRefused`."""
+def _correction(nominal: NominalCorrection, points: np.ndarray, along: np.ndarray,
+                measured_links: int) -> Generator:
+    """One sample's linearized correction (module docstring) from its measured ``points``
+    (k, 3) [m] and their positions ``along`` the prediction (k,) [m]: yields
+    :class:`_Request`, receives their equilibria (None: none), returns a :class:`_Corrected`
+    or raises :class:`CorrectionRefused`."""
     cable, limits = nominal.cable, nominal.limits
     log_e0 = math.log(cable.youngs_modulus)
     y = resample_measured(points, nominal.table.at(log_e0)["state"], cable.length,
-                          max_disagreement=limits.max_disagreement)
+                          max_disagreement=limits.max_disagreement, along=along)
     update = yield from _update_modulus(nominal, y, alpha_prior(cable.n_links, measured_links))
     at = nominal.table.at(update.log_modulus)  # the derivatives at the target, at this E
     bias = update.alpha * at["d_t"] + update.beta * at["g_t"]
     modulus = math.exp(update.log_modulus)
-    open_loop = yield _Request(modulus, np.zeros(12), True, at["target"])
+    open_loop = at["target"]  # E kept: the table's node is the model's equilibrium there
+    if update.log_modulus != log_e0:
+        open_loop = yield _Request(modulus, np.zeros(12), True, at["target"])
     if open_loop is None:
         raise CorrectionRefused(f"prediction: the model (E = {modulus:.3g} Pa) finds no stable "
                                 "equilibrium at the target")
