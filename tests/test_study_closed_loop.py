@@ -129,7 +129,6 @@ def test_the_batched_plants_are_plant_hold_stop_by_stop_bit_for_bit(example_plan
     plants stiffer, softer and heavier than the model, clamping one link or two."""
     import numpy as np
 
-    from dloplan.correct.plant import Plant
     from dloplan.correct.plant_batch import drive_plants
     from dloplan.geometry import resample_by_arc_length
     from dloplan.sim import interpolate_clips
@@ -150,6 +149,14 @@ def test_the_batched_plants_are_plant_hold_stop_by_stop_bit_for_bit(example_plan
                          np.repeat(np.array([c.rotations.as_quat() for c in stops])[None], count,
                                    axis=0), gravity=(0.0, 0.0, -9.81))
     assert list(drive.failed) == [-1] * count
+    _assert_held_stop_by_stop(drive, plants, stops, start, cable, clamp)
+
+
+def _assert_held_stop_by_stop(drive, plants, stops, start, cable, clamp):
+    import numpy as np
+
+    from dloplan.correct.plant import Plant
+
     for b, plant_cable in enumerate(plants):
         plant = Plant(plant_cable, clamp=cable.rest_link_length)
         assert plant.clamp_links == clamp
@@ -158,6 +165,38 @@ def test_the_batched_plants_are_plant_hold_stop_by_stop_bit_for_bit(example_plan
             x, ok, _ = plant.hold(x, clips, (0.0, 0.0, -9.81))
             assert ok
             assert np.array_equal(drive.shapes[b, s], x), (b, s)
+
+
+def test_a_plant_at_a_saddle_is_finished_by_plant_hold(example_plan, monkeypatch):
+    """A sample the compiled loop hands back (its Newton loop stopped at a saddle: here, made
+    to at stop 3) is finished stop by stop by Plant.hold: the same shapes, bit for bit."""
+    import numpy as np
+
+    from dloplan.correct import plant_batch
+    from dloplan.geometry import resample_by_arc_length
+    from dloplan.sim.compiled import SADDLE
+    from dloplan.study.evaluate import perturbed_cable
+
+    kernel = plant_batch.drive_clamped
+
+    def stopped_at_a_saddle(*args):
+        kernel(*args)
+        done, outcomes = args[-4], args[-3]
+        done[0], outcomes[0] = 3, SADDLE
+        args[-5][0, 3:] = np.nan  # what the loop would not have computed
+
+    monkeypatch.setattr(plant_batch, "drive_clamped", stopped_at_a_saddle)
+    doc = example_plan
+    cable, grippers = doc.cable, doc.grippers
+    plants = [perturbed_cable(cable, 0.6 * cable.youngs_modulus, cable.mass / cable.length,
+                              cable.length)]
+    stops = [grippers.clip_poses(j) for j in range(grippers.n_shapes)]
+    start = resample_by_arc_length(doc.shapes[0], cable.n_points)
+    drive = plant_batch.drive_plants(
+        plants, [1], start[None], np.array([c.positions for c in stops])[None],
+        np.array([c.rotations.as_quat() for c in stops])[None], gravity=(0.0, 0.0, -9.81))
+    assert list(drive.failed) == [-1]
+    _assert_held_stop_by_stop(drive, plants, stops, start, cable, 1)
 
 
 # (E, mass per length, length) factors, none of them used to tune the linearized correction:

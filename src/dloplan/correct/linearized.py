@@ -309,7 +309,7 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
     plants = [perturbed_cable(cable, e, m, length).with_links(nominal.plant_links)
               for _, e, m, length in items]
     clamps = [max(1, round(cable.rest_link_length / p.rest_link_length)) for p in plants]
-    count, last = len(items), nominal.n_shapes - 1
+    count = len(items)
     positions, quaternions = (np.broadcast_to(a, (count,) + a.shape) for a in nominal.stops)
     drive = drive_plants(plants, clamps, np.broadcast_to(nominal.plant_start, (count,) +
                                                          nominal.plant_start.shape),

@@ -175,12 +175,12 @@ def drive_plants(cables: Sequence[Cable], clamp_links, starts, positions, quater
     failed = np.full(n_samples, -1)
     messages = [""] * n_samples
     for b in np.flatnonzero(done < n_stops):
-        s = int(done[b])
+        first = int(done[b])
         if outcomes[b] != SADDLE:
-            failed[b], messages[b] = s, newton_message(_OUTCOMES[int(outcomes[b])],
-                                                       int(iterations[b]), float(residuals[b]))
+            failed[b], messages[b] = first, newton_message(
+                _OUTCOMES[int(outcomes[b])], int(iterations[b]), float(residuals[b]))
             continue
-        for s in range(s, n_stops):  # the saddle's escape: the readable way, to the end
+        for s in range(first, n_stops):  # the saddle's escape: the readable way, to the end
             clips = ClipPoses(positions[b, s], Rotation(quaternions[b, s], normalize=False))
             guess = starts[b] if s == 0 else shapes[b, s - 1]
             shapes[b, s], ok, message = clamped_equilibrium(

@@ -19,12 +19,12 @@ from dataclasses import dataclass
 
 from ..cable import GRAVITY, Cable
 from ..grippers import GripperPath
+from ..sim import equilibrium
 from ..study.backends import map_jobs
 from ..study.evaluate import perturbed_cable
 from ..study.sampling import Samples
 from ..study.spec import CorrectionSpec, StudyError
 from ..study.summary import success_interval
-from ..sim import equilibrium
 from .linearized import NominalCorrection, linearized_rows, nominal_correction
 from .plant import Plant, run_closed_loop
 
