@@ -79,6 +79,7 @@ from .step import (
     OFFSET_SIGNIFICANCE,
     SIGNIFICANCE,
     CorrectionLimits,
+    trust_region_step,
 )
 
 MODULUS_STEPS = 3
@@ -576,21 +577,12 @@ def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, prior) -> 
     log_sd, alpha_sd = float(sds[0]), float(sds[1])
     informed = (float(np.sum(jacobian**2)) > 1e-24 * cable.length**2 and log_sd <= MAX_LOG_SD
                 and abs(step) >= SIGNIFICANCE * log_sd)
-    limit = math.log(limits.max_modulus_factor)
+    budget = MODULUS_STEPS + math.ceil(math.log(limits.max_modulus_factor) / MAX_LOG_STEP) + 1
     full = 0
-    for _ in range(MODULUS_STEPS + math.ceil(limit / MAX_LOG_STEP) + 1 if informed else 0):
-        clipped = max(-MAX_LOG_STEP, min(MAX_LOG_STEP, step))
-        room = limit - math.copysign(1.0, clipped) * (log_e - log_e0)
-        if abs(clipped) > room:
-            if room <= MODULUS_STEP_TOLERANCE:
-                if abs(log_e + step - log_e0) - limit > SIGNIFICANCE * log_sd:
-                    raise CorrectionRefused(
-                        f"modulus: the measurement asks for E = {math.exp(log_e + step):.3g} "
-                        f"Pa, more than {limits.max_modulus_factor:g} times off the plan's "
-                        f"{cable.youngs_modulus:.3g} Pa by over {SIGNIFICANCE:g} sd(ln E) = "
-                        f"{SIGNIFICANCE * log_sd:.2g} (limit max_modulus_factor)")
-                break
-            clipped = math.copysign(room, clipped)
+    for _ in range(budget if informed else 0):
+        clipped = trust_region_step(step, log_e, log_e0, log_sd, limits.max_modulus_factor)
+        if clipped is None:  # held on the limit
+            break
         log_e += clipped
         x_new = yield _Request(math.exp(log_e), np.zeros(12), False, x + clipped * jacobian)
         if x_new is None:
