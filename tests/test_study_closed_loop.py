@@ -260,9 +260,10 @@ def test_the_linearized_closed_loop_agrees_with_the_exact_correction(example_pla
 @pytest.mark.parametrize("grip", [True, False])
 @pytest.mark.parametrize("held", [False, True])
 def test_the_normal_equations_fit_is_the_model_error_fit(example_plan, grip, held):
-    """fit_amplitudes (normal equations) against fit_model_error and parameter_covariance (SVD
-    least squares) on the example's directions at shape 3 and noisy residuals: equal to 1e-8
-    relative (round-off of a 3 x 33 system), the bounds' clipping included."""
+    """fit_amplitudes (normal equations, a batch of residuals) against fit_model_error and
+    parameter_covariance (SVD least squares, one residual each) on the example's directions at
+    shape 3 and noisy residuals: equal to 1e-8 relative (round-off of a 3 x 33 system), the
+    bounds' clipping included."""
     import numpy as np
 
     from dloplan.correct.linearized import fit_amplitudes, nominal_correction
@@ -282,11 +283,12 @@ def test_the_normal_equations_fit_is_the_model_error_fit(example_plan, grip, hel
     jacobian = np.zeros_like(at["d_k"]) if held else at["modulus_k"]
     prior = alpha_prior(doc.cable.n_links, 100)
     rng = np.random.default_rng(7)
-    for scale in (0.2, -0.1, 0.5):  # E softer and stiffer, alpha inside and beyond its bounds
-        residual = scale * at["modulus_k"] + 1.5 * at["d_k"] * (1 + scale) \
-            + rng.normal(scale=3e-4, size=jacobian.shape)
-        step, amplitudes, sds, _ = fit_amplitudes(None if held else jacobian, directions,
-                                                  residual, prior)
+    residuals = np.array([  # E softer and stiffer, alpha inside and beyond its bounds
+        scale * at["modulus_k"] + 1.5 * at["d_k"] * (1 + scale)
+        + rng.normal(scale=3e-4, size=jacobian.shape) for scale in (0.2, -0.1, 0.5, -1.2)])
+    fits = fit_amplitudes(None if held else jacobian, directions, residuals, prior)
+    assert len(fits) == len(residuals)
+    for residual, (step, amplitudes, sds, _) in zip(residuals, fits, strict=True):
         want_step, want = fit_model_error(jacobian, directions, residual, prior)
         left = residual - want_step * jacobian - sum(
             c * d for c, d in zip(want, directions, strict=True))

@@ -121,14 +121,33 @@ class DerivativeTable:
     log_moduli: np.ndarray
     values: dict
 
-    def at(self, log_modulus: float) -> dict:
-        """Every value at ln E (linear between the nodes, the end node's beyond them)."""
+    def at(self, log_modulus: float) -> Interpolated:
+        """The values at ln E (linear between the nodes, the end node's beyond them), each
+        interpolated when it is asked for."""
         nodes = self.log_moduli
         if len(nodes) == 1:
-            return {name: v[0] for name, v in self.values.items()}
-        k = int(np.clip(np.searchsorted(nodes, log_modulus) - 1, 0, len(nodes) - 2))
-        w = float(np.clip((log_modulus - nodes[k]) / (nodes[k + 1] - nodes[k]), 0.0, 1.0))
-        return {name: (1.0 - w) * v[k] + w * v[k + 1] for name, v in self.values.items()}
+            return Interpolated(self.values, 0, 0.0)
+        k = min(max(int(np.searchsorted(nodes, log_modulus)) - 1, 0), len(nodes) - 2)
+        w = min(max((log_modulus - float(nodes[k])) / float(nodes[k + 1] - nodes[k]), 0.0), 1.0)
+        return Interpolated(self.values, k, w)
+
+
+@dataclass(frozen=True, eq=False)
+class Interpolated:
+    """:meth:`DerivativeTable.at`: ``self[name]`` is ``(1 - w) values[name][k] + w
+    values[name][k + 1]`` (a node's own array at w = 0 or 1)."""
+
+    values: dict
+    k: int
+    w: float
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        v = self.values[name]
+        if self.w == 0.0:
+            return v[self.k]
+        if self.w == 1.0:
+            return v[self.k + 1]
+        return (1.0 - self.w) * v[self.k] + self.w * v[self.k + 1]
 
 
 @dataclass(frozen=True, eq=False)
@@ -326,12 +345,22 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
         points = resample_by_arc_length(drive.shapes[b, SUBSTEPS * at], n_measured)
         measured[b] = points + np.random.default_rng(items[b][0]).normal(scale=noise,
                                                                          size=points.shape)
+    results: list = [None] * count
     if held:  # every measurement projected onto the one prediction at once
         along = positions_along(np.concatenate([measured[b] for b in held]),
                                 nominal.table.at(math.log(cable.youngs_modulus))["state"])
         for b, s in zip(held, np.split(along, len(held)), strict=True):
-            corrections[b] = _correction(nominal, measured[b], s, nominal.plant_links)
-    results = _run(nominal, corrections)
+            try:
+                measured[b] = _resampled(nominal, measured[b], s)
+            except CorrectionRefused as exc:
+                results[b] = str(exc)
+    fitted = [b for b in held if results[b] is None]
+    prior = alpha_prior(cable.n_links, nominal.plant_links)
+    if fitted:
+        first = _first_fits(nominal, np.array([measured[b] for b in fitted]), prior)
+        for b, fits in zip(fitted, first, strict=True):
+            corrections[b] = _correction(nominal, measured[b], fits, prior)
+    _run(nominal, corrections, results)
     accepted = [b for b in range(count) if isinstance(results[b], _Corrected)]
     closed_error = open_error.copy()
     if accepted:
@@ -401,21 +430,21 @@ class _Request:
     guess: np.ndarray
 
 
-def _run(nominal: NominalCorrection, corrections: list) -> list:
-    """Drive every sample's correction generator, solving each round's equilibria in one
-    compiled call; the results (a :class:`_Corrected`, or the refusal's reason) per sample."""
-    results: list = [None] * len(corrections)
+def _run(nominal: NominalCorrection, corrections: list, results: list) -> None:
+    """Drive every sample's correction generator (None: none), solving each round's
+    equilibria in one compiled call, into ``results`` (a :class:`_Corrected`, or the refusal's
+    reason, per sample)."""
     pending: dict[int, _Request] = {}
+    cables: dict[float, Cable] = {}
     for b, gen in enumerate(corrections):
         if gen is not None:
             _advance(gen, None, b, pending, results)
     while pending:
         order = list(pending)
         requests = [pending.pop(b) for b in order]
-        shapes = _solve(nominal, requests)
+        shapes = _solve(nominal, requests, cables)
         for b, shape in zip(order, shapes, strict=True):
             _advance(corrections[b], shape, b, pending, results)
-    return results
 
 
 def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> None:
@@ -427,9 +456,10 @@ def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> Non
         results[b] = str(exc)
 
 
-def _solve(nominal: NominalCorrection, requests: list) -> list:
+def _solve(nominal: NominalCorrection, requests: list, cables: dict) -> list:
     """The model's equilibria of ``requests`` in one :func:`held_equilibria` call: shapes
-    (n + 1, 3), None where there is no stable equilibrium."""
+    (n + 1, 3), None where there is no stable equilibrium. ``cables`` holds the model cables
+    made so far, per E (their chains are built once while they live)."""
     positions, quaternions = nominal.poses
     index = [nominal.n_shapes - 1 if r.at_target else nominal.at for r in requests]
     p = np.array([r.clips for r in requests]).reshape(-1, 2, 2, 3)
@@ -437,22 +467,25 @@ def _solve(nominal: NominalCorrection, requests: list) -> list:
     turns = Rotation.from_rotvec(p[:, :, 1].reshape(-1, 3))
     rotations = turns * Rotation.from_quat(quaternions[index].reshape(-1, 4))
     moduli, cable_of = np.unique([r.youngs_modulus for r in requests], return_inverse=True)
-    cables = [nominal.cable.with_modulus(float(e)) for e in moduli]  # a sample's trials share E
-    result = held_equilibria(cables, cable_of.astype(np.int64), [r.guess for r in requests],
-                             moved, rotations, gravity=nominal.gravity)
+    for e in moduli:  # a sample's trials share its E: one cable, and its chain, for all
+        cables.setdefault(float(e), nominal.cable.with_modulus(float(e)))
+    result = held_equilibria([cables[float(e)] for e in moduli], cable_of.astype(np.int64),
+                             [r.guess for r in requests], moved, rotations,
+                             gravity=nominal.gravity)
     return [result.shapes[k] if result.success[k] else None for k in range(len(requests))]
 
 
-def fit_amplitudes(jacobian, directions, residual, prior) -> tuple:
-    """(delta ln E, amplitudes, sds, correlation of ln E and alpha): the model-error fit as
-    :func:`~.step.update_modulus` takes it, by its normal equations.
+def fit_amplitudes(jacobian, directions, residuals, prior) -> list[tuple]:
+    """The model-error fit as :func:`~.step.update_modulus` takes it, of many residuals at once,
+    by its normal equations: per residual ``(delta ln E, amplitudes, sds, correlation of ln E
+    and alpha)``.
 
     The estimate of :func:`.model_error.fit_model_error` (alpha's prior weighted by the scatter
     of the fit without it) and the sds and correlation of :func:`.model_error.
     parameter_covariance` at what it leaves, from the p x p normal equations of [J, d, g]
-    instead of SVD least squares (a fifth of the time at a chord of 3 x 11 coordinates; equal
-    to round-off, tested). An estimate outside the amplitudes' bounds, or a singular system, is
-    left to those functions (the bounds' hold-and-refit).
+    shared by the residuals, instead of SVD least squares per residual (equal to round-off,
+    tested). An estimate outside the amplitudes' bounds, or a singular system, is left to those
+    functions (the bounds' hold-and-refit).
 
     Parameters
     ----------
@@ -460,44 +493,88 @@ def fit_amplitudes(jacobian, directions, residual, prior) -> tuple:
         (n + 1, 3) d x / d ln E [m]; None: E held (a zero column: its step and sd 0).
     directions : sequence of numpy.ndarray
         d, or d and g, (n + 1, 3) [m].
-    residual : numpy.ndarray
-        (n + 1, 3) measured minus the model [m].
+    residuals : numpy.ndarray
+        (B, n + 1, 3) measured minus the model [m].
     prior : tuple of float
         (alpha_0, sd) of alpha.
     """
     columns = [] if jacobian is None else [jacobian.ravel()]
     a = np.stack(columns + [d.ravel() for d in directions], axis=1)
-    r = residual.ravel()
-    first = 1 - len(columns)  # alpha's column (0 with E held)
+    r = residuals.reshape(len(residuals), -1)
+    i = len(columns)  # alpha's column
     dof = max(a.shape[0] - len(directions) - 1, 1)
-    gram, rhs = a.T @ a, a.T @ r
+    gram, rhs = a.T @ a, r @ a
     try:
-        unbounded = np.linalg.solve(gram, rhs)
-        left = r - a @ unbounded
-        weight = float(left @ left) / dof / prior[1] ** 2
-        gram_prior = gram.copy()
-        gram_prior[1 - first, 1 - first] += weight
-        values = np.linalg.solve(gram_prior, rhs + weight * prior[0] * np.eye(len(rhs))[1 - first])
+        left = r - np.linalg.solve(gram, rhs.T).T @ a.T
+        weight = np.einsum("bn,bn->b", left, left) / dof / prior[1] ** 2
+        system = np.repeat(gram[None], len(r), axis=0)
+        system[:, i, i] += weight
+        rhs_prior = rhs.copy()
+        rhs_prior[:, i] += weight * prior[0]
+        values = np.linalg.solve(system, rhs_prior[:, :, None])[:, :, 0]
+        left = r - values @ a.T
+        s2 = np.einsum("bn,bn->b", left, left) / (dof + (jacobian is None))
+        system = np.repeat(gram[None], len(r), axis=0)
+        system[:, i, i] += s2 / prior[1] ** 2
+        covariance = s2[:, None, None] * np.linalg.inv(system)
     except np.linalg.LinAlgError:
-        return _library_fit(jacobian, directions, residual, prior)
-    amplitudes = values[1 - first:]
-    if not all(low <= v <= high for v, (low, high) in zip(amplitudes, BOUNDS, strict=False)):
-        return _library_fit(jacobian, directions, residual, prior)
-    left = r - a @ values
-    s2 = float(left @ left) / (dof + (jacobian is None))
-    information = gram.copy()
-    information[1 - first, 1 - first] += s2 / prior[1] ** 2
-    try:
-        covariance = s2 * np.linalg.inv(information)
-    except np.linalg.LinAlgError:
-        return _library_fit(jacobian, directions, residual, prior)
-    sds = standard_deviations(covariance)
-    if jacobian is None:
-        return 0.0, amplitudes, np.r_[0.0, sds], 0.0
-    correlation = 0.0
-    if all(0.0 < sds[k] < math.inf for k in (0, 1)):
-        correlation = float(np.clip(covariance[0, 1] / (sds[0] * sds[1]), -1.0, 1.0))
-    return float(values[0]), amplitudes, sds, correlation
+        return [_library_fit(jacobian, directions, x, prior) for x in residuals]
+    variance = np.diagonal(covariance, axis1=1, axis2=2)
+    ok = np.isfinite(variance) & (variance >= 0)
+    sds = np.where(ok, np.sqrt(np.where(ok, variance, 0.0)), math.inf)
+    out = []
+    bounds = [(-math.inf, math.inf)] * i + list(BOUNDS[: len(directions)])
+    for b, x in enumerate(residuals):
+        if not all(low <= v <= high for v, (low, high) in zip(values[b], bounds, strict=True)):
+            values[b] = _held_at_bounds(gram, rhs[b], weight[b], i, prior[0], values[b], bounds)
+            left_b = r[b] - values[b] @ a.T
+            s2_b = float(left_b @ left_b) / (dof + (jacobian is None))
+            information = gram.copy()
+            information[i, i] += s2_b / prior[1] ** 2
+            try:
+                covariance[b] = s2_b * np.linalg.inv(information)
+            except np.linalg.LinAlgError:
+                out.append(_library_fit(jacobian, directions, x, prior))
+                continue
+            variance = np.diagonal(covariance[b])
+            ok_b = np.isfinite(variance) & (variance >= 0)
+            sds[b] = np.where(ok_b, np.sqrt(np.where(ok_b, variance, 0.0)), math.inf)
+        amplitudes = values[b, i:]
+        if jacobian is None:
+            out.append((0.0, amplitudes, np.r_[0.0, sds[b]], 0.0))
+        else:
+            correlation = 0.0
+            if 0.0 < sds[b, 0] < math.inf and 0.0 < sds[b, 1] < math.inf:
+                correlation = float(np.clip(covariance[b, 0, 1] / (sds[b, 0] * sds[b, 1]),
+                                            -1.0, 1.0))
+            out.append((float(values[b, 0]), amplitudes, sds[b], correlation))
+    return out
+
+
+def _held_at_bounds(gram, rhs, weight, i, centre, values, bounds) -> np.ndarray:
+    """:func:`.model_error.fit_model_error`'s bounds on the normal equations of one residual
+    (``gram`` p x p, ``rhs`` (p,), the prior's ``weight`` on column ``i`` at ``centre``): the
+    amplitude furthest out held at its bound, the others refitted, until all are within."""
+    system = gram.copy()
+    system[i, i] += weight
+    target = rhs.copy()
+    target[i] += weight * centre
+    values = values.copy()
+    held = np.zeros(len(values), dtype=bool)
+    for _ in values:
+        out = [k for k in np.flatnonzero(~held)
+               if not bounds[k][0] <= values[k] <= bounds[k][1]]
+        if not out:
+            break
+        k = max(out, key=lambda k: max(bounds[k][0] - values[k], values[k] - bounds[k][1]))
+        values[k] = min(max(values[k], bounds[k][0]), bounds[k][1])
+        held[k] = True
+        free = np.flatnonzero(~held)
+        if len(free):
+            values[free] = np.linalg.solve(
+                system[np.ix_(free, free)],
+                target[free] - system[np.ix_(free, held)] @ values[held])
+    return values
 
 
 def _library_fit(jacobian, directions, residual, prior) -> tuple:
@@ -529,17 +606,66 @@ class _Update:
     correlation: float
 
 
-def _correction(nominal: NominalCorrection, points: np.ndarray, along: np.ndarray,
-                measured_links: int) -> Generator:
-    """One sample's linearized correction (module docstring) from its measured ``points``
-    (k, 3) [m] and their positions ``along`` the prediction (k,) [m]: yields
-    :class:`_Request`, receives their equilibria (None: none), returns a :class:`_Corrected`
-    or raises :class:`CorrectionRefused`."""
-    cable, limits = nominal.cable, nominal.limits
+def _resampled(nominal: NominalCorrection, points: np.ndarray, along: np.ndarray
+               ) -> np.ndarray:
+    """The measured ``points`` (k, 3) [m] at ``along`` the prediction (k,) [m] resampled onto
+    the model's points (:func:`.measurement.resample_measured`, its checks), the measurement's
+    offset taken out when it tells one (:func:`~.step.update_modulus`), (n + 1, 3) [m]."""
+    x = nominal.table.at(math.log(nominal.cable.youngs_modulus))["state"]
+    y = resample_measured(points, x, nominal.cable.length,
+                          max_disagreement=nominal.limits.max_disagreement, along=along)
+    offset, offset_sds = measured_offset(y - x)
+    if np.all(offset_sds > 0) and np.linalg.norm(offset / offset_sds) >= OFFSET_SIGNIFICANCE:
+        return y - offset  # the camera's, not the cable's
+    return y
+
+
+def _first_fits(nominal: NominalCorrection, measured: np.ndarray, prior) -> list[dict]:
+    """The fits every sample's :func:`_update_modulus` starts with, at the plan's E, each in
+    one :func:`fit_amplitudes` of the chunk's resampled measurements (B, n + 1, 3) [m]: ln E
+    with the bias and the clamp length, kept when the measurement tells the clamp length, else
+    ln E with the bias; where E is then kept, the amplitudes alone at the plan's E.
+
+    Returns
+    -------
+    list of dict
+        Per sample: ``fit`` (the :func:`fit_amplitudes` tuple), ``grip`` (the clamp length
+        told), ``informed`` (E to be updated) and ``held`` (the amplitudes at the plan's E,
+        None where E is updated).
+    """
+    cable = nominal.cable
+    at = nominal.table.at(math.log(cable.youngs_modulus))
+    jacobian = at["modulus_k"]
+    residuals = measured - at["state"]
+    with_grip = fit_amplitudes(jacobian, [at["d_k"], at["g_k"]], residuals, prior)
+    plain = fit_amplitudes(jacobian, [at["d_k"]], residuals, prior)
+    sag = float(np.sum(jacobian**2)) > 1e-24 * cable.length**2
+    out = []
+    for fit, other in zip(with_grip, plain, strict=True):
+        beta, sd = fit[1][1], fit[2][2]
+        grip = bool(abs(beta) >= SIGNIFICANCE * sd and abs(beta) < MAX_GRIP)
+        chosen = fit if grip else other
+        step, log_sd = chosen[0], float(chosen[2][0])
+        informed = sag and log_sd <= MAX_LOG_SD and abs(step) >= SIGNIFICANCE * log_sd
+        out.append({"fit": chosen, "grip": grip, "informed": bool(informed), "held": None})
+    for grip in (True, False):  # the amplitudes alone where E is kept
+        kept = [b for b, f in enumerate(out) if f["grip"] == grip and not f["informed"]]
+        if kept:
+            names = ("d_k", "g_k") if grip else ("d_k",)
+            fits = fit_amplitudes(None, [at[d] for d in names], residuals[kept], prior)
+            for b, fit in zip(kept, fits, strict=True):
+                out[b]["held"] = fit[1]
+    return out
+
+
+def _correction(nominal: NominalCorrection, y: np.ndarray, first: dict, prior) -> Generator:
+    """One sample's linearized correction (module docstring) from its resampled measurement
+    ``y`` (n + 1, 3) [m] and its :func:`_first_fits`: yields :class:`_Request`, receives their
+    equilibria (None: none), returns a :class:`_Corrected` or raises
+    :class:`CorrectionRefused`."""
+    cable = nominal.cable
     log_e0 = math.log(cable.youngs_modulus)
-    y = resample_measured(points, nominal.table.at(log_e0)["state"], cable.length,
-                          max_disagreement=limits.max_disagreement, along=along)
-    update = yield from _update_modulus(nominal, y, alpha_prior(cable.n_links, measured_links))
+    update = yield from _update_modulus(nominal, y, first, prior)
     at = nominal.table.at(update.log_modulus)  # the derivatives at the target, at this E
     bias = update.alpha * at["d_t"] + update.beta * at["g_t"]
     modulus = math.exp(update.log_modulus)
@@ -554,29 +680,23 @@ def _correction(nominal: NominalCorrection, points: np.ndarray, along: np.ndarra
     return _Corrected(modulus, p)
 
 
-def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, prior) -> Generator:
+def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, first: dict, prior
+                    ) -> Generator:
     """:func:`~.step.update_modulus` (discretization bias, clamp length and offset estimated)
     with d x / d ln E, d and g at shape K taken from the table at the current E (the plan's
-    clips); each step's equilibrium exact (a yielded :class:`_Request`)."""
+    clips), from the sample's :func:`_first_fits` at the plan's E; each step's equilibrium
+    exact (a yielded :class:`_Request`)."""
     cable, limits, table = nominal.cable, nominal.limits, nominal.table
     log_e0 = math.log(cable.youngs_modulus)
     log_e = log_e0
     at = table.at(log_e)
     jacobian, x = at["modulus_k"], at["state"]
-    offset, offset_sds = measured_offset(measured - x)
-    if np.all(offset_sds > 0) and np.linalg.norm(offset / offset_sds) >= OFFSET_SIGNIFICANCE:
-        measured = measured - offset  # the camera's, not the cable's
-    step, amplitudes, sds, correlation = fit_amplitudes(jacobian, [at["d_k"], at["g_k"]],
-                                                        measured - x, prior)
-    grip = abs(amplitudes[1]) >= SIGNIFICANCE * sds[2] and abs(amplitudes[1]) < MAX_GRIP
+    step, amplitudes, sds, correlation = first["fit"]
+    grip = first["grip"]
     grip_sd = float(sds[2]) if grip else math.inf
-    names = ("d_k", "g_k") if grip else ("d_k",)  # else the model's clamp length: refit
-    if not grip:
-        step, amplitudes, sds, correlation = fit_amplitudes(jacobian, [at["d_k"]], measured - x,
-                                                            prior)
+    names = ("d_k", "g_k") if grip else ("d_k",)  # else the model's clamp length
     log_sd, alpha_sd = float(sds[0]), float(sds[1])
-    informed = (float(np.sum(jacobian**2)) > 1e-24 * cable.length**2 and log_sd <= MAX_LOG_SD
-                and abs(step) >= SIGNIFICANCE * log_sd)
+    informed = first["informed"]
     budget = MODULUS_STEPS + math.ceil(math.log(limits.max_modulus_factor) / MAX_LOG_STEP) + 1
     full = 0
     for _ in range(budget if informed else 0):
@@ -594,9 +714,14 @@ def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, prior) -> 
             break
         at = table.at(log_e)
         jacobian = at["modulus_k"]
-        step = fit_amplitudes(jacobian, [at[name] for name in names], measured - x, prior)[0]
-    at = table.at(log_e)
-    amplitudes = fit_amplitudes(None, [at[name] for name in names], measured - x, prior)[1]
+        step = fit_amplitudes(jacobian, [at[name] for name in names], (measured - x)[None],
+                              prior)[0][0]
+    if not informed:  # E kept: the amplitudes at the plan's E, fitted already
+        amplitudes = first["held"]
+    else:
+        at = table.at(log_e)
+        amplitudes = fit_amplitudes(None, [at[name] for name in names], (measured - x)[None],
+                                    prior)[0][1]
     beta = float(amplitudes[1]) if grip else 0.0
     return _Update(log_e, x, float(amplitudes[0]), beta, log_sd, alpha_sd, grip_sd,
                    correlation)
@@ -649,7 +774,8 @@ def within_limits(p: np.ndarray, limits: CorrectionLimits) -> np.ndarray:
     return parts.ravel()
 
 
-def _check_gain(nominal: NominalCorrection, update: _Update, at: dict, open_loop: np.ndarray,
+def _check_gain(nominal: NominalCorrection, update: _Update, at: Interpolated,
+                open_loop: np.ndarray,
                 corrected: np.ndarray) -> None:
     """:func:`~.step.correct_plan`'s gain checks on the target's predictions (bias included)
     with the planned target's directions at the updated E (``at``, :meth:`DerivativeTable.at`):
