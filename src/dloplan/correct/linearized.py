@@ -4,32 +4,36 @@
 Gauss-Newton step of the model update and every Levenberg-Marquardt iteration of the clip fit
 recomputes the shape's sensitivities and the discretization directions (solves on 2 n links)
 at the current estimate, the corrected path is re-timed twice and the predictions are
-continuations; 20-70 ms of CPU per sample, most of it Python around small solves. A study asks
+continuations; 17-70 ms of CPU per sample, most of it Python around small solves. A study asks
 the same question of thousands of cables that differ from the nominal one by tolerances, so
-here the derivatives are computed **once per study** at the nominal plan and frozen, and only
-the equilibria, which decide where every estimate ends, are exact:
+here the derivatives are computed **once per study** at the plan's clips, tabulated along ln E
+(:class:`DerivativeTable`) and interpolated at each estimate, and only the equilibria, which
+decide where every estimate ends, are solved per sample, exactly:
 
 * the plant (the sampled cable) is driven through the plan's clip poses by
   :func:`.plant_batch.drive_plants`, bit for bit :meth:`~.plant.Plant.hold`, so the open-loop
   column is the exact method's, bit for bit;
 * the measurement is the exact method's (the same noise draws, :func:`.measurement.
-  resample_measured`, its refusals);
+  resample_measured`, its refusals; a chunk's points projected onto the prediction at once);
 * the model update is :func:`~.step.update_modulus`'s algorithm -- the offset read off the held
   points, the fit of ln E, alpha and beta with alpha's prior, the clamp length's and E's
-  significance tests, steps of at most a factor 2 within the limit ``max_modulus_factor`` --
-  with d x / d ln E, d and g frozen at the nominal state at shape K (a Gauss-Newton step with
-  the nominal Jacobian: a chord method), each step's equilibrium exact;
+  significance tests, steps of at most a factor 2 within the limit ``max_modulus_factor``
+  (:func:`~.step.trust_region_step`) -- with d x / d ln E, d and g at shape K from the table at
+  the current E (at the plan's clips, not re-solved on 2 n links), each step's equilibrium
+  exact; the first fits of a chunk are one batch of normal equations (:func:`fit_amplitudes`);
 * the clip fit is the target's Levenberg-Marquardt fit (:data:`~.step.CLIP_DAMPING`, the
-  limits' projection, ramped in over the remaining shapes) with the clip Jacobian and the bias
-  directions frozen at the nominal target, each trial an exact equilibrium of the updated model;
+  limits' projection, ramped in over the remaining shapes) with the clip Jacobian of the
+  planned target at the updated E, frozen over the fit (a chord method,
+  :data:`CHORD_TRIALS`), and the bias directions there, each trial an exact equilibrium of the
+  updated model;
 * the gain checks are :func:`~.step.correct_plan`'s (the predicted gain against 2 sd of it, and
   evaluated with the clamp length 2 sd off) on the exact equilibria at the target with the
-  frozen directions;
+  table's directions;
 * the corrected plan is scored by driving the plant through the corrected clip poses, exact.
 
 Not done here (they do not change a row): the re-timing and the intermediate predictions. The
-rows therefore differ from the exact method's by what freezing the derivatives changes; the
-agreement is tested on samples it was not tuned on (E x0.5 and x2, other seeds,
+rows differ from the exact method's by what the derivatives taken at the plan's clips change;
+the agreement is tested on samples it was not tuned on (E x0.05 .. x20, other seeds,
 ``tests/test_study_closed_loop.py``) and quoted in docs/study.md.
 
 Every sample's equilibria of one round -- the model at the updated E, a trial of the clip fit
