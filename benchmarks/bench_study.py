@@ -112,8 +112,8 @@ def closed_loop_rates(doc, samples, at: int, n_exact: int, n_linearized: int, ch
                 f"({1e3 * cpu / count:.2f} ms CPU per sample)")
         with ProcessBackend(2) as backend:
             closed_loop_study(doc.cable, doc.shapes, doc.grippers, samples,
-                              CorrectionSpec(at=at, samples=4, method=method), backend=backend,
-                              **common)  # workers started and warm
+                              CorrectionSpec(at=at, samples=8, method=method), backend=backend,
+                              **{**common, "chunk_size": 1})  # both workers started and warm
             wall2, _, _ = timed(closed_loop_study, doc.cable, doc.shapes, doc.grippers, samples,
                                 correction, backend=backend, **common)
         print(f"{line}, 2 local processes {count / wall2:8.1f} samples/s (x{wall / wall2:.2f}); "
