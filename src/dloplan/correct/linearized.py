@@ -739,6 +739,8 @@ def _fit_clips(nominal: NominalCorrection, modulus: float, jz: np.ndarray, start
     updated model. Returns ``(p (12,), equilibrium (n + 1, 3))``."""
     scale, limits = nominal.scale, nominal.limits
     normal = jz.T @ jz
+    diagonal = np.diag(np.diag(normal))  # the damping's shape, mu diag(J^T J)
+    normal = normal + 1e-12 * np.trace(normal) * np.eye(12)  # the fit's floor
     damping = CLIP_DAMPING
     x, p = start, np.zeros(12)
     r = (x + bias - nominal.reference).ravel()
@@ -747,8 +749,8 @@ def _fit_clips(nominal: NominalCorrection, modulus: float, jz: np.ndarray, start
         b = jz.T @ r
         accepted = False
         for _ in range(CHORD_TRIALS):
-            damped = normal + mu * np.diag(np.diag(normal)) + 1e-12 * np.trace(normal) * np.eye(12)
-            trial_p = within_limits(p - np.linalg.solve(damped, b) / scale, limits)
+            trial_p = within_limits(p - np.linalg.solve(normal + mu * diagonal, b) / scale,
+                                    limits)
             guess = x + (jz @ ((trial_p - p) * scale)).reshape(x.shape)
             trial = yield _Request(modulus, trial_p, True, guess)
             if trial is not None:
