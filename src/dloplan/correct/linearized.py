@@ -373,11 +373,11 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
                                                                           SUBSTEPS * at],
                               np.array([results[b].clips for b in accepted]))
         for k, b in enumerate(accepted):
-            if closed.failed[k] >= 0:
+            if closed.failed[k] >= 0:  # a failed run, as the exact method's (no errors)
                 shape = at + 1 + closed.failed[k] // SUBSTEPS
-                rows[b] = {**_failed_row(), "open_loop_error": open_error[b],
-                           "refusal": f"plant: the quasi-static simulation failed at shape "
-                                      f"{shape}: {closed.messages[k]}"}
+                rows[b] = {**_failed_row(), "refusal": f"plant: the quasi-static simulation "
+                                                       f"failed at shape {shape}: "
+                                                       f"{closed.messages[k]}"}
                 continue
             closed_error[b] = _shape_error(closed.shapes[k, -1], nominal.resampled_reference)
     out = []
