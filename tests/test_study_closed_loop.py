@@ -296,3 +296,24 @@ def test_the_normal_equations_fit_is_the_model_error_fit(example_plan, grip, hel
         assert step == pytest.approx(want_step, rel=1e-8, abs=1e-12)
         assert amplitudes == pytest.approx(want, rel=1e-8, abs=1e-12)
         assert sds == pytest.approx(want_sds, rel=1e-8, abs=1e-12)
+
+
+def test_a_measurement_refused_is_refused_alike(example_plan):
+    """With 60 mm of noise every measurement is refused (the smoothed shape far longer than
+    the cable): the linearized rows are the exact method's, messages included."""
+    from dloplan.correct.linearized import linearized_rows, nominal_correction
+    from dloplan.correct.probability import ClosedLoopPlan, closed_loop_row
+    from dloplan.pipeline.stages import settled_shapes
+    from dloplan.study.spec import CorrectionSpec
+
+    doc = example_plan
+    cable, gravity, stable = doc.cable, (0.0, 0.0, -9.81), settled_shapes(doc)
+    items = [(index, cable.youngs_modulus * e, cable.mass / cable.length, cable.length)
+             for index, e in enumerate((0.5, 1.0, 2.0))]
+    nominal = nominal_correction(cable, doc.shapes, doc.grippers, 3, stabilized=stable,
+                                 gravity=gravity)
+    rows = linearized_rows(nominal, items, noise=0.06, n_measured=200)
+    plan = ClosedLoopPlan(cable, doc.shapes, doc.grippers, CorrectionSpec(at=3, noise=60.0),
+                          stable, doc.trajectory, gravity)
+    assert rows == [closed_loop_row(plan, item) for item in items]
+    assert all(row["refusal"].startswith("shape 3: measured: the shape is") for row in rows)
