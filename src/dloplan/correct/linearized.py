@@ -14,7 +14,7 @@ decide where every estimate ends, are solved per sample, exactly:
   :func:`.plant_batch.drive_plants`, bit for bit :meth:`~.plant.Plant.hold`, so the open-loop
   column is the exact method's, bit for bit;
 * the measurement is the exact method's (the same noise draws, :func:`.measurement.
-  resample_measured`, its refusals; a chunk's points projected onto the prediction at once);
+  resample_measured`, its refusals);
 * the model update is :func:`~.step.update_modulus`'s algorithm -- the offset read off the held
   points, the fit of ln E, alpha and beta with alpha's prior, the clamp length's and E's
   significance tests, steps of at most a factor 2 within the limit ``max_modulus_factor``
@@ -60,7 +60,7 @@ from ..sim import ClipPoses, equilibrium, interpolate_clips
 from ..sim.batch import held_equilibria
 from ..sim.sensitivity import equilibrium_sensitivity
 from ..study.evaluate import perturbed_cable
-from .measurement import CorrectionRefused, positions_along, resample_measured
+from .measurement import CorrectionRefused, resample_measured
 from .model_error import (
     BOUNDS,
     MAX_GRIP,
@@ -350,14 +350,11 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
         measured[b] = points + np.random.default_rng(items[b][0]).normal(scale=noise,
                                                                          size=points.shape)
     results: list = [None] * count
-    if held:  # every measurement projected onto the one prediction at once
-        along = positions_along(np.concatenate([measured[b] for b in held]),
-                                nominal.table.at(math.log(cable.youngs_modulus))["state"])
-        for b, s in zip(held, np.split(along, len(held)), strict=True):
-            try:
-                measured[b] = _resampled(nominal, measured[b], s)
-            except CorrectionRefused as exc:
-                results[b] = str(exc)
+    for b in held:
+        try:
+            measured[b] = _resampled(nominal, measured[b])
+        except CorrectionRefused as exc:
+            results[b] = str(exc)
     fitted = [b for b in held if results[b] is None]
     prior = alpha_prior(cable.n_links, nominal.plant_links)
     if fitted:
@@ -610,14 +607,13 @@ class _Update:
     correlation: float
 
 
-def _resampled(nominal: NominalCorrection, points: np.ndarray, along: np.ndarray
-               ) -> np.ndarray:
-    """The measured ``points`` (k, 3) [m] at ``along`` the prediction (k,) [m] resampled onto
-    the model's points (:func:`.measurement.resample_measured`, its checks), the measurement's
-    offset taken out when it tells one (:func:`~.step.update_modulus`), (n + 1, 3) [m]."""
+def _resampled(nominal: NominalCorrection, points: np.ndarray) -> np.ndarray:
+    """The measured ``points`` (k, 3) [m] resampled onto the model's points
+    (:func:`.measurement.resample_measured`, its checks), the measurement's offset taken out
+    when it tells one (:func:`~.step.update_modulus`), (n + 1, 3) [m]."""
     x = nominal.table.at(math.log(nominal.cable.youngs_modulus))["state"]
     y = resample_measured(points, x, nominal.cable.length,
-                          max_disagreement=nominal.limits.max_disagreement, along=along)
+                          max_disagreement=nominal.limits.max_disagreement)
     offset, offset_sds = measured_offset(y - x)
     if np.all(offset_sds > 0) and np.linalg.norm(offset / offset_sds) >= OFFSET_SIGNIFICANCE:
         return y - offset  # the camera's, not the cable's

@@ -128,8 +128,7 @@ def check_scale(points: np.ndarray, cable_length: float) -> None:
 
 
 def resample_measured(points, predicted: np.ndarray, cable_length: float, *,
-                      max_disagreement: float = MAX_DISAGREEMENT,
-                      along: np.ndarray | None = None) -> np.ndarray:
+                      max_disagreement: float = MAX_DISAGREEMENT) -> np.ndarray:
     """Check a measured shape against the model's prediction and resample it onto its points.
 
     Parameters
@@ -142,9 +141,6 @@ def resample_measured(points, predicted: np.ndarray, cable_length: float, *,
         L [m].
     max_disagreement : float
         Largest mean point distance to the prediction, in cable lengths.
-    along : numpy.ndarray, optional
-        (k,) the points' positions along ``predicted`` [m] when already computed
-        (:func:`positions_along`: a study projects a whole chunk's measurements at once).
 
     Returns
     -------
@@ -167,7 +163,7 @@ def resample_measured(points, predicted: np.ndarray, cable_length: float, *,
             f"measured: the points span {extent:.4g} m for a {1e3 * cable_length:.0f} mm cable: "
             "millimetres read as metres? (a registered-shape CSV is in metres; a JSON one may "
             "say \"units\": \"mm\")")
-    s = positions_along(x, predicted) if along is None else along
+    s = positions_along(x, predicted)
     if len(x) >= 3:
         order = float(np.corrcoef(np.arange(len(x)), s)[0, 1]) if np.ptp(s) > 0 else 0.0
         if not order >= MIN_ORDER:
