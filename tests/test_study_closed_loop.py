@@ -100,10 +100,10 @@ def test_the_closed_loop_rows_do_not_depend_on_the_backend(method):
     samples = draw_samples(spec, doc.cable, doc.obstacles)
     correction = CorrectionSpec(at=3, noise=1.0, tolerance=4.0, method=method)
     runs = []
-    for backend in (None, ProcessBackend(2)):
+    for backend in (None, ProcessBackend(2)):  # chunks of 2 samples: several tasks a worker
         runs.append(closed_loop_study(doc.cable, doc.shapes, doc.grippers, samples, correction,
                                       stabilized=settled_shapes(doc), trajectory=doc.trajectory,
-                                      backend=backend))
+                                      backend=backend, chunk_size=2))
     (serial, serial_success), (parallel, parallel_success) = runs
     assert [r["sample"] for r in parallel] == [0, 1, 2]
     assert json.dumps(parallel) == json.dumps(serial)  # NaN (no estimate) equal to NaN
@@ -296,6 +296,29 @@ def test_the_normal_equations_fit_is_the_model_error_fit(example_plan, grip, hel
         assert step == pytest.approx(want_step, rel=1e-8, abs=1e-12)
         assert amplitudes == pytest.approx(want, rel=1e-8, abs=1e-12)
         assert sds == pytest.approx(want_sds, rel=1e-8, abs=1e-12)
+
+
+def test_the_linearized_rows_on_a_dask_cluster_are_the_serial_rows(example_plan):
+    distributed = pytest.importorskip("dask.distributed")
+    from dloplan.correct import closed_loop_study
+    from dloplan.pipeline.stages import settled_shapes
+    from dloplan.study import DaskBackend, draw_samples
+    from dloplan.study.spec import CorrectionSpec
+
+    doc = example_plan
+    spec = parse_study({"samples": 6, "seed": 4, "parameters": {"youngs_modulus": {"spread": 40}}})
+    samples = draw_samples(spec, doc.cable, doc.obstacles)
+    common = {"stabilized": settled_shapes(doc), "trajectory": doc.trajectory, "chunk_size": 2}
+    correction = CorrectionSpec(at=3)
+    serial = closed_loop_study(doc.cable, doc.shapes, doc.grippers, samples, correction,
+                               **common)
+    with distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        dask = closed_loop_study(doc.cable, doc.shapes, doc.grippers, samples, correction,
+                                 backend=DaskBackend(client=client, max_in_flight=2), **common)
+    assert json.dumps(dask[0]) == json.dumps(serial[0])
+    assert dask[1] == serial[1]
 
 
 def test_a_measurement_refused_is_refused_alike(example_plan):
