@@ -298,29 +298,6 @@ def test_the_normal_equations_fit_is_the_model_error_fit(example_plan, grip, hel
         assert sds == pytest.approx(want_sds, rel=1e-8, abs=1e-12)
 
 
-def test_the_linearized_rows_on_a_dask_cluster_are_the_serial_rows(example_plan):
-    distributed = pytest.importorskip("dask.distributed")
-    from dloplan.correct import closed_loop_study
-    from dloplan.pipeline.stages import settled_shapes
-    from dloplan.study import DaskBackend, draw_samples
-    from dloplan.study.spec import CorrectionSpec
-
-    doc = example_plan
-    spec = parse_study({"samples": 6, "seed": 4, "parameters": {"youngs_modulus": {"spread": 40}}})
-    samples = draw_samples(spec, doc.cable, doc.obstacles)
-    common = {"stabilized": settled_shapes(doc), "trajectory": doc.trajectory, "chunk_size": 2}
-    correction = CorrectionSpec(at=3)
-    serial = closed_loop_study(doc.cable, doc.shapes, doc.grippers, samples, correction,
-                               **common)
-    with distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
-                                  dashboard_address=None) as cluster, \
-            distributed.Client(cluster) as client:
-        dask = closed_loop_study(doc.cable, doc.shapes, doc.grippers, samples, correction,
-                                 backend=DaskBackend(client=client, max_in_flight=2), **common)
-    assert json.dumps(dask[0]) == json.dumps(serial[0])
-    assert dask[1] == serial[1]
-
-
 def test_a_measurement_refused_is_refused_alike(example_plan):
     """With 60 mm of noise every measurement is refused (the smoothed shape far longer than
     the cable): the linearized rows are the exact method's, messages included."""
