@@ -11,14 +11,17 @@ The problem is the plan ``dloplan study examples/study_m2_ethernet.yaml`` studie
   workers and, with ``--scheduler tcp://HOST:PORT``, the workers of that cluster (start one
   with ``dask scheduler`` and ``dask worker tcp://HOST:PORT --nthreads 1`` twice; the workers
   need dloplan installed), the speed-up over serial and the per-task overhead of each backend;
-* the closed-loop column (the ``correction:`` section, ``--closed-loop`` samples): samples per
-  second serial and on 2 processes;
+* the closed-loop column (the ``correction:`` section): samples per second serial and on 2
+  processes, exact (``correct_plan`` per sample, the column before issue 34 item 3,
+  ``--closed-loop`` samples) and linearized (a chunk at a time, ``--closed-loop-linearized``
+  samples), and how their rows compare;
 * from these, an estimate of a 100-worker cluster.
 
 Before issue 34 (quiet machine): 195 samples/s serial; target 1000 samples/s on 2 cores.
 The host is shared: compare CPU times and ratios measured side by side.
 
-Run: python benchmarks/bench_study.py [--samples 4096] [--closed-loop 8] [--scheduler ADDR]
+Run: python benchmarks/bench_study.py [--samples 4096] [--closed-loop 16]
+[--closed-loop-linearized 1024] [--scheduler ADDR]
 """
 
 from __future__ import annotations
@@ -93,12 +96,48 @@ def equal_rows(table: dict, rows: dict) -> bool:
     return True
 
 
+def closed_loop_rates(doc, samples, at: int, n_exact: int, n_linearized: int, chunk: int):
+    """The closed-loop column's samples per second, exact (before) and linearized (after),
+    serial and on 2 local processes, and how their rows compare on the exact run's samples."""
+    common = {"stabilized": settled_shapes(doc), "trajectory": doc.trajectory, "chunk_size": chunk}
+    print(f"\nclosed loop (one correction after shape {at}):")
+    rows = {}
+    for method, count in (("exact", n_exact), ("linearized", n_linearized)):
+        correction = CorrectionSpec(at=at, samples=count, method=method)
+        closed_loop_study(doc.cable, doc.shapes, doc.grippers, samples,
+                          CorrectionSpec(at=at, samples=2, method=method), **common)  # warm
+        wall, cpu, (rows[method], success) = timed(
+            closed_loop_study, doc.cable, doc.shapes, doc.grippers, samples, correction, **common)
+        line = (f"  {method:<10} {count:5d} samples: serial {count / wall:8.1f} samples/s "
+                f"({1e3 * cpu / count:.2f} ms CPU per sample)")
+        with ProcessBackend(2) as backend:
+            closed_loop_study(doc.cable, doc.shapes, doc.grippers, samples,
+                              CorrectionSpec(at=at, samples=8, method=method), backend=backend,
+                              **{**common, "chunk_size": 1})  # both workers started and warm
+            wall2, _, _ = timed(closed_loop_study, doc.cable, doc.shapes, doc.grippers, samples,
+                                correction, backend=backend, **common)
+        print(f"{line}, 2 local processes {count / wall2:8.1f} samples/s (x{wall / wall2:.2f}); "
+              f"{success.message}")
+    exact, linear = rows["exact"], rows["linearized"][: len(rows["exact"])]
+    decided = [a["corrections"] == b["corrections"] for a, b in zip(linear, exact, strict=True)]
+    both = [abs(a["closed_loop_error"] - b["closed_loop_error"]) for a, b in
+            zip(linear, exact, strict=True) if a["corrections"] and b["corrections"]]
+    same_open = all(a["open_loop_error"] == b["open_loop_error"] for a, b in
+                    zip(linear, exact, strict=True) if not np.isnan(b["open_loop_error"]))
+    print(f"  on the exact run's {len(exact)} samples: open loop bit for bit {same_open}, "
+          f"decisions equal {sum(decided)}/{len(decided)}, closed-loop errors of the samples "
+          f"both corrected ({len(both)}) within {1e3 * max(both, default=0.0):.3f} mm")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--samples", type=int, default=4096)
     parser.add_argument("--reference", type=int, default=256,
                         help="samples evaluated one by one for the side-by-side rate")
-    parser.add_argument("--closed-loop", type=int, default=8, help="closed-loop samples")
+    parser.add_argument("--closed-loop", type=int, default=16,
+                        help="closed-loop samples of the exact method (correct_plan per sample)")
+    parser.add_argument("--closed-loop-linearized", type=int, default=1024,
+                        help="closed-loop samples of the linearized method (a chunk at a time)")
     parser.add_argument("--scheduler", help="a Dask scheduler address tcp://HOST:PORT")
     args = parser.parse_args()
     job = load_scenario(EXAMPLE)
@@ -162,22 +201,8 @@ def main() -> None:
           f"({len(pickle.dumps(problem)) / 1e3:.1f} kB) once per worker")
 
     if args.closed_loop:
-        correction = CorrectionSpec(at=problem.n_shapes // 2, samples=args.closed_loop)
-        common = {"stabilized": settled_shapes(doc), "trajectory": doc.trajectory}
-        closed_loop_study(doc.cable, doc.shapes, doc.grippers, samples,
-                          CorrectionSpec(at=correction.at, samples=1), **common)
-        wall, cpu, _ = timed(closed_loop_study, doc.cable, doc.shapes, doc.grippers, samples,
-                             correction, **common)
-        print(f"\nclosed loop (one correction after shape {correction.at}), "
-              f"{args.closed_loop} samples: serial {args.closed_loop / wall:.1f} samples/s "
-              f"({cpu / args.closed_loop:.2f} s CPU per sample)", end="")
-        with ProcessBackend(2) as backend:
-            closed_loop_study(doc.cable, doc.shapes, doc.grippers, samples,
-                              CorrectionSpec(at=correction.at, samples=2), backend=backend,
-                              **common)
-            wall, _, _ = timed(closed_loop_study, doc.cable, doc.shapes, doc.grippers, samples,
-                               correction, backend=backend, **common)
-        print(f", 2 local processes {args.closed_loop / wall:.1f} samples/s")
+        closed_loop_rates(doc, samples, problem.n_shapes // 2, args.closed_loop,
+                          args.closed_loop_linearized, spec.chunk)
 
     workers = 100
     per_sample = 1.0 / rates["serial"]

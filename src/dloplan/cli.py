@@ -622,7 +622,8 @@ def _study(args: argparse.Namespace) -> int:
                            progress=lambda p: console.stage(p.line()),
                            resume=not args.overwrite, file_format="csv" if args.csv else "parquet")
         if spec.correction is not None:
-            console.stage(f"closed loop: one correction after shape {spec.correction.at}")
+            console.stage(f"closed loop: one correction after shape {spec.correction.at} "
+                          f"({spec.correction.method})")
         result = with_closed_loop(doc, result, backend)
     written = study_figures(result.table, result.summary, spec.criteria, args.output)
     report = write_report(Path(args.output) / "report.html", title=f"dloplan study: "

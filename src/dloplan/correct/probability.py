@@ -6,7 +6,9 @@ and returns one row, and :func:`closed_loop_success` turns the rows into the pro
 the final shape ends within a tolerance of the target, open loop and with the corrections, with
 binomial confidence intervals (:func:`dloplan.study.summary.success_interval`).
 :func:`closed_loop_study` does both for the samples of a study with a ``correction:`` section
-(:class:`dloplan.study.spec.CorrectionSpec`).
+(:class:`dloplan.study.spec.CorrectionSpec`): by default with the correction linearized about
+the nominal plan, a chunk of samples at a time (:mod:`.linearized`, :func:`linearized_chunk`),
+or with :func:`closed_loop_sample` per sample (``method: exact``).
 """
 
 from __future__ import annotations
@@ -17,11 +19,13 @@ from dataclasses import dataclass
 
 from ..cable import GRAVITY, Cable
 from ..grippers import GripperPath
+from ..sim import equilibrium
 from ..study.backends import map_jobs
 from ..study.evaluate import perturbed_cable
 from ..study.sampling import Samples
 from ..study.spec import CorrectionSpec, StudyError
 from ..study.summary import success_interval
+from .linearized import NominalCorrection, linearized_rows, nominal_correction
 from .plant import Plant, run_closed_loop
 
 SAMPLE_COLUMNS = {
@@ -32,6 +36,9 @@ SAMPLE_COLUMNS = {
     "refusal": "",
 }
 """The columns of a :func:`closed_loop_sample` row and their units."""
+
+METHODS = ("linearized", "exact")
+"""How a study's corrections are computed (:class:`dloplan.study.spec.CorrectionSpec`)."""
 
 
 def closed_loop_sample(
@@ -99,6 +106,10 @@ class ClosedLoopSuccess:
         (probability, low, high) with the confidence interval.
     refused : int
         Samples whose corrections were all refused (they ran open loop).
+    method : str
+        How the corrections were computed: ``"exact"`` (:func:`~.step.correct_plan` per
+        sample) or ``"linearized"`` (:mod:`.linearized`: derivatives frozen at the nominal
+        plan), :data:`METHODS`.
     """
 
     tolerance: float
@@ -106,25 +117,27 @@ class ClosedLoopSuccess:
     open_loop: tuple[float, float, float]
     closed_loop: tuple[float, float, float]
     refused: int
+    method: str = "exact"
 
     def to_dict(self) -> dict:
         """JSON-ready values (SI units)."""
         return {"tolerance": self.tolerance, "trials": self.trials,
                 "open_loop": list(self.open_loop), "closed_loop": list(self.closed_loop),
-                "refused": self.refused, "message": self.message}
+                "refused": self.refused, "method": self.method, "message": self.message}
 
     @property
     def message(self) -> str:
         """One line."""
         o, c = self.open_loop, self.closed_loop
+        how = " (linearized correction)" if self.method == "linearized" else ""
         return (f"final error <= {1e3 * self.tolerance:.1f} mm: open loop {100 * o[0]:.0f} % "
-                f"[{100 * o[1]:.0f}, {100 * o[2]:.0f}], closed loop {100 * c[0]:.0f} % "
+                f"[{100 * o[1]:.0f}, {100 * o[2]:.0f}], closed loop{how} {100 * c[0]:.0f} % "
                 f"[{100 * c[1]:.0f}, {100 * c[2]:.0f}] of {self.trials} samples"
                 + (f" ({self.refused} corrections refused)" if self.refused else ""))
 
 
 def closed_loop_success(rows: Sequence[dict], tolerance: float, *,
-                        confidence: float = 0.95) -> ClosedLoopSuccess:
+                        confidence: float = 0.95, method: str = "exact") -> ClosedLoopSuccess:
     """Probability that the final shape is within ``tolerance`` [m], open and closed loop."""
     if not (math.isfinite(tolerance) and tolerance > 0):
         raise ValueError(f"tolerance: got {tolerance!r}, expected a distance > 0 [m]")
@@ -138,13 +151,13 @@ def closed_loop_success(rows: Sequence[dict], tolerance: float, *,
 
     refused = sum(1 for row in rows if row["corrections"] == 0 and row["refusal"])
     return ClosedLoopSuccess(float(tolerance), len(rows), estimate("open_loop_error"),
-                             estimate("closed_loop_error"), refused)
+                             estimate("closed_loop_error"), refused, method)
 
 
 def closed_loop_study(cable: Cable, shapes, grippers: GripperPath, samples: Samples,
                       spec: CorrectionSpec, *, stabilized=None, trajectory=None,
                       confidence: float = 0.95, gravity=GRAVITY, backend=None,
-                      ) -> tuple[list[dict], ClosedLoopSuccess]:
+                      chunk_size: int = 64) -> tuple[list[dict], ClosedLoopSuccess]:
     """Closed-loop success of a study's sampled cables (the ``correction:`` section).
 
     Parameters
@@ -159,9 +172,12 @@ def closed_loop_study(cable: Cable, shapes, grippers: GripperPath, samples: Samp
     confidence : float
         Level of the success intervals.
     backend : dloplan.study.Backend, optional
-        Where the samples run (one task each; the plan is sent once per worker); default
-        this process. A row depends only on its sample (its noise is seeded by its index), so
-        every backend gives the same rows.
+        Where the samples run (the plan is sent once per worker); default this process. A row
+        depends only on its sample (its noise is seeded by its index), so every backend gives
+        the same rows.
+    chunk_size : int
+        Samples per task of the linearized method (``spec.method``; the exact one runs a
+        sample per task).
 
     Returns
     -------
@@ -183,11 +199,37 @@ def closed_loop_study(cable: Cable, shapes, grippers: GripperPath, samples: Samp
     columns = samples.take(range(count))
     items = [(i, columns["youngs_modulus"][i], columns["mass_per_length"][i],
               columns["length"][i]) for i in range(count)]
-    plan = ClosedLoopPlan(cable, shapes, grippers, spec, stabilized, trajectory, gravity)
-    rows: list = [None] * count
-    for position, row in map_jobs(closed_loop_row, items, backend, shared=plan):
-        rows[position] = row
-    return rows, closed_loop_success(rows, 1e-3 * spec.tolerance, confidence=confidence)
+    if spec.method == "linearized":
+        if stabilized is None:
+            stabilized = [equilibrium(cable, shape, grippers.clip_poses(j), gravity=gravity).shape
+                          for j, shape in enumerate(shapes)]
+        plan = LinearizedPlan(nominal_correction(
+            cable, shapes, grippers, spec.at, stabilized=stabilized, gravity=gravity,
+            plant_links=spec.plant_links), 1e-3 * spec.noise, spec.n_measured)
+        chunks = [items[k : k + chunk_size] for k in range(0, count, chunk_size)]
+        done = sorted(map_jobs(linearized_chunk, chunks, backend, shared=plan),
+                      key=lambda pair: pair[0])
+        rows = [row for _, part in done for row in part]
+    else:
+        plan = ClosedLoopPlan(cable, shapes, grippers, spec, stabilized, trajectory, gravity)
+        rows = [row for _, row in sorted(map_jobs(closed_loop_row, items, backend, shared=plan),
+                                         key=lambda pair: pair[0])]
+    return rows, closed_loop_success(rows, 1e-3 * spec.tolerance, confidence=confidence,
+                                     method=spec.method)
+
+
+@dataclass(frozen=True, eq=False)
+class LinearizedPlan:
+    """What every chunk of the linearized closed loop shares (sent once to each worker)."""
+
+    nominal: NominalCorrection
+    noise: float
+    n_measured: int
+
+
+def linearized_chunk(plan: LinearizedPlan, items: list) -> list[dict]:
+    """The rows of a chunk of samples (:func:`.linearized.linearized_rows`)."""
+    return linearized_rows(plan.nominal, items, noise=plan.noise, n_measured=plan.n_measured)
 
 
 @dataclass(frozen=True, eq=False)

@@ -567,21 +567,12 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
                         f"{100 * math.expm1(step):+.1f} % with sd(ln E) = {log_sd:.3g} (less "
                         f"than {SIGNIFICANCE:g} sd): E kept")
                 break
-        clipped = max(-MAX_LOG_STEP, min(MAX_LOG_STEP, step))  # a trust region: E x2 per step
-        room = limit - math.copysign(1.0, clipped) * (log_e - log_e0)  # to the limit, this side
-        if abs(clipped) > room:  # the step would leave the limit: stop on it
-            if room <= MODULUS_STEP_TOLERANCE:
-                if abs(log_e + step - log_e0) - limit > SIGNIFICANCE * log_sd:
-                    raise CorrectionRefused(
-                        f"modulus: the measurement asks for E = {math.exp(log_e + step):.3g} "
-                        f"Pa, more than {max_factor:g} times off the plan's "
-                        f"{cable.youngs_modulus:.3g} Pa by over {SIGNIFICANCE:g} sd(ln E) = "
-                        f"{SIGNIFICANCE * log_sd:.2g} (limit max_modulus_factor)")
-                note = (f"the measurement asks for E = {math.exp(log_e + step):.3g} Pa, beyond "
-                        f"{max_factor:g} times the plan's by less than {SIGNIFICANCE:g} "
-                        "sd(ln E): E held at the limit")
-                break
-            clipped = math.copysign(room, clipped)
+        clipped = trust_region_step(step, log_e, log_e0, log_sd, max_factor)
+        if clipped is None:  # on the limit already, asked for a little more
+            note = (f"the measurement asks for E = {math.exp(log_e + step):.3g} Pa, beyond "
+                    f"{max_factor:g} times the plan's by less than {SIGNIFICANCE:g} "
+                    "sd(ln E): E held at the limit")
+            break
         log_e += clipped
         model = cable.with_modulus(math.exp(log_e))
         chain = SpringChain.from_cable(model, gravity)
@@ -607,6 +598,40 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
                        offset_sd, offset_spread, offset_note, alpha_sd,
                        taken_correlation if directions else 0.0,
                        0.5 * limit if limit > 0 else math.inf)
+
+
+def trust_region_step(step: float, log_e: float, log_e0: float, log_sd: float,
+                      max_factor: float) -> float | None:
+    """The log E step :func:`update_modulus` takes from ln E = ``log_e`` when the fit asks for
+    ``step``: at most :data:`MAX_LOG_STEP` (a trust region, E x2 per step), and cut to end on
+    the limit ``max_factor`` times the plan's E (ln E = ``log_e0``) when it would leave it.
+
+    Returns
+    -------
+    float or None
+        The step, or None when E is on the limit already and the measurement asks for more by
+        less than :data:`SIGNIFICANCE` sd(ln E) (E held there).
+
+    Raises
+    ------
+    CorrectionRefused
+        When E is on the limit and the measurement asks for more by over :data:`SIGNIFICANCE`
+        sd(ln E).
+    """
+    limit = math.log(max_factor)
+    clipped = max(-MAX_LOG_STEP, min(MAX_LOG_STEP, step))
+    room = limit - math.copysign(1.0, clipped) * (log_e - log_e0)  # to the limit, this side
+    if abs(clipped) <= room:
+        return clipped
+    if room > MODULUS_STEP_TOLERANCE:  # the step would leave the limit: stop on it
+        return math.copysign(room, clipped)
+    if abs(log_e + step - log_e0) - limit > SIGNIFICANCE * log_sd:
+        raise CorrectionRefused(
+            f"modulus: the measurement asks for E = {math.exp(log_e + step):.3g} Pa, more than "
+            f"{max_factor:g} times off the plan's {math.exp(log_e0):.3g} Pa by over "
+            f"{SIGNIFICANCE:g} sd(ln E) = {SIGNIFICANCE * log_sd:.2g} (limit "
+            "max_modulus_factor)")
+    return None
 
 
 def _fit(jacobian, directions, residual, prior):

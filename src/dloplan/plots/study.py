@@ -136,7 +136,8 @@ def closed_loop_figure(closed_loop):
         ax.errorbar(x, 100 * p, yerr=[[100 * (p - low)], [100 * (high - p)]], color="black",
                     capsize=6)
         ax.text(x, 100 * high + 2, f"{100 * p:.0f} %", ha="center", fontsize=9)
-    ax.set_xticks([0, 1], ["open loop", "one correction"])
+    how = "\n(linearized)" if getattr(closed_loop, "method", "exact") == "linearized" else ""
+    ax.set_xticks([0, 1], ["open loop", f"one correction{how}"])
     ax.set_ylim(0, 110)
     ax.set_ylabel("P(final mean error <= tolerance) [%]")
     ax.set_title(f"Final shape within {1e3 * closed_loop.tolerance:.1f} mm "

@@ -114,6 +114,10 @@ class CorrectionSpec(_Model):
                                     description="links of the plant (default: the model's)")
     samples: int | None = Field(None, ge=1,
                                 description="closed-loop runs: the first N samples (default all)")
+    method: Literal["linearized", "exact"] = Field(
+        "linearized", description="linearized: the correction with its derivatives frozen at "
+        "the nominal plan, a chunk of samples at once (dloplan.correct.linearized); exact: "
+        "correct_plan per sample, as `dloplan correct`")
 
 
 DEFAULT_CHUNKS = (16, 256)

@@ -1,0 +1,844 @@
+"""The study's closed loop linearized about the nominal plan: a chunk of samples at once.
+
+:func:`~.probability.closed_loop_sample` runs :func:`~.step.correct_plan` per sample: every
+Gauss-Newton step of the model update and every Levenberg-Marquardt iteration of the clip fit
+recomputes the shape's sensitivities and the discretization directions (solves on 2 n links)
+at the current estimate, the corrected path is re-timed twice and the predictions are
+continuations; 17-70 ms of CPU per sample, most of it Python around small solves. A study asks
+the same question of thousands of cables that differ from the nominal one by tolerances, so
+here the derivatives are computed **once per study** at the plan's clips, tabulated along ln E
+(:class:`DerivativeTable`) and interpolated at each estimate, and only the equilibria, which
+decide where every estimate ends, are solved per sample, exactly:
+
+* the plant (the sampled cable) is driven through the plan's clip poses by
+  :func:`.plant_batch.drive_plants`, bit for bit :meth:`~.plant.Plant.hold`, so the open-loop
+  column is the exact method's, bit for bit;
+* the measurement is the exact method's (the same noise draws, :func:`.measurement.
+  resample_measured`, its refusals);
+* the model update is :func:`~.step.update_modulus`'s algorithm -- the offset read off the held
+  points, the fit of ln E, alpha and beta with alpha's prior, the clamp length's and E's
+  significance tests, steps of at most a factor 2 within the limit ``max_modulus_factor``
+  (:func:`~.step.trust_region_step`) -- with d x / d ln E, d and g at shape K from the table at
+  the current E (at the plan's clips, not re-solved on 2 n links), each step's equilibrium
+  exact; the first fits of a chunk are one batch of normal equations (:func:`fit_amplitudes`);
+* the clip fit is the target's Levenberg-Marquardt fit (:data:`~.step.CLIP_DAMPING`, the
+  limits' projection, ramped in over the remaining shapes) with the clip Jacobian of the
+  planned target at the updated E, frozen over the fit (a chord method,
+  :data:`CHORD_TRIALS`), and the bias directions there, each trial an exact equilibrium of the
+  updated model;
+* the gain checks are :func:`~.step.correct_plan`'s (the predicted gain against 2 sd of it, and
+  evaluated with the clamp length 2 sd off) on the exact equilibria at the target with the
+  table's directions;
+* the corrected plan is scored by driving the plant through the corrected clip poses, exact.
+
+Not done here (they do not change a row): the re-timing and the intermediate predictions. The
+rows differ from the exact method's by what the derivatives taken at the plan's clips change;
+the agreement is tested on samples it was not tuned on (E x0.05 .. x20, other seeds,
+``tests/test_study_closed_loop.py``) and quoted in docs/study.md.
+
+Every sample's equilibria of one round -- the model at the updated E, a trial of the clip fit
+-- are solved in one compiled call (:func:`dloplan.sim.batch.held_equilibria`): each sample's
+correction is a generator that yields the equilibria it needs and receives them
+(:func:`_correction`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Generator, Sequence
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..cable import Cable
+from ..frames import slerp_quaternions
+from ..geometry import as_path, resample_by_arc_length
+from ..grippers import GripperPath
+from ..sim import ClipPoses, equilibrium, interpolate_clips
+from ..sim.batch import held_equilibria
+from ..sim.sensitivity import equilibrium_sensitivity
+from ..study.evaluate import perturbed_cable
+from .measurement import CorrectionRefused, resample_measured
+from .model_error import (
+    BOUNDS,
+    MAX_GRIP,
+    alpha_prior,
+    fit_model_error,
+    measured_offset,
+    model_error_directions,
+    parameter_covariance,
+    standard_deviations,
+)
+from .plant_batch import drive_plants
+from .step import (
+    CLIP_DAMPING,
+    COST_TOLERANCE,
+    GRIP_LINEARITY,
+    GRIP_UNCERTAINTY,
+    MAX_LOG_SD,
+    MAX_LOG_STEP,
+    MODULUS_STEP_TOLERANCE,
+    OFFSET_SIGNIFICANCE,
+    SIGNIFICANCE,
+    CorrectionLimits,
+    trust_region_step,
+)
+
+MODULUS_STEPS = 3
+"""Gauss-Newton steps of the model update (:func:`~.step.correct_plan`'s default)."""
+
+SUBSTEPS = 2
+"""Plant equilibria between consecutive clip poses (:class:`~.plant.Plant`'s default)."""
+
+CHORD_TRIALS = 2
+"""Trials per iteration of the clip fit with its Jacobian frozen (a chord method), against
+:data:`~.step.MAX_TRIALS` with the Jacobian updated: once a step from the frozen Jacobian raises
+the cost twice, more damping only shortens it towards the point already reached (on the study
+example the fit then tried 7 more steps, each an equilibrium, to end where it was)."""
+
+
+TABLE_STEP = math.log(2.0) / 4.0
+"""Spacing of the derivatives' table in ln E (:class:`DerivativeTable`): a factor 2^(1/4)."""
+
+
+@dataclass(frozen=True, eq=False)
+class DerivativeTable:
+    """The model's equilibria and their derivatives at shape K and at the target, at the
+    planned clips, tabulated along ln E and interpolated linearly between its nodes.
+
+    Attributes
+    ----------
+    log_moduli : numpy.ndarray
+        (k,) the nodes ln E [ln Pa], increasing, spaced :data:`TABLE_STEP`, covering
+        ``max_modulus_factor`` either way of the plan's E (or up to where the model loses its
+        equilibrium).
+    values : dict
+        Per name, (k, ...) arrays: ``state`` and ``target`` (n + 1, 3) the equilibria at K and
+        at the target [m]; ``modulus_k``, ``modulus_t`` d x / d ln E there [m]; ``d_k``,
+        ``g_k``, ``d_t``, ``g_t`` the discretization and clamp directions
+        (:func:`.model_error.model_error_directions`) [m]; ``clips`` (3 (n + 1), 12) d x / d p
+        at the target, rotation columns divided by L / 2 (the clip fit's scaled coordinates).
+    """
+
+    log_moduli: np.ndarray
+    values: dict
+
+    def at(self, log_modulus: float) -> Interpolated:
+        """The values at ln E (linear between the nodes, the end node's beyond them), each
+        interpolated when it is asked for."""
+        nodes = self.log_moduli
+        if len(nodes) == 1:
+            return Interpolated(self.values, 0, 0.0)
+        k = min(max(int(np.searchsorted(nodes, log_modulus)) - 1, 0), len(nodes) - 2)
+        w = min(max((log_modulus - float(nodes[k])) / float(nodes[k + 1] - nodes[k]), 0.0), 1.0)
+        return Interpolated(self.values, k, w)
+
+
+@dataclass(frozen=True, eq=False)
+class Interpolated:
+    """:meth:`DerivativeTable.at`: ``self[name]`` is ``(1 - w) values[name][k] + w
+    values[name][k + 1]`` (a node's own array at w = 0 or 1)."""
+
+    values: dict
+    k: int
+    w: float
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        v = self.values[name]
+        if self.w == 0.0:
+            return v[self.k]
+        if self.w == 1.0:
+            return v[self.k + 1]
+        return (1.0 - self.w) * v[self.k] + self.w * v[self.k + 1]
+
+
+@dataclass(frozen=True, eq=False)
+class NominalCorrection:
+    """What every sample's linearized correction shares: computed once per study.
+
+    Attributes
+    ----------
+    cable : Cable
+        The plan's model cable (n links).
+    at : int
+        K, the shape after which the plant is measured.
+    plant_links : int
+        Links of the plants.
+    table : DerivativeTable
+        The model's equilibria and derivatives at K and at the target along ln E.
+    reference : numpy.ndarray
+        (n + 1, 3) the plan's stabilized target: what the corrections aim at and the errors
+        are measured against [m].
+    scale : numpy.ndarray
+        (12,) the scale of the clip coordinates (1 for metres, L / 2 for radians).
+    stops : tuple of numpy.ndarray
+        Positions (M, 2, 3) [m] and quaternions (M, 2, 4) of the plant's stops along the
+        planned path: the start's clips, then :data:`SUBSTEPS` per shape.
+    poses : tuple of numpy.ndarray
+        Positions (T + 1, 2, 3) and quaternions (T + 1, 2, 4) of the planned clip poses.
+    plant_start : numpy.ndarray
+        (n_plant + 1, 3) the planned start resampled onto the plant's points [m].
+    gravity : numpy.ndarray
+    limits : CorrectionLimits
+    """
+
+    cable: Cable
+    at: int
+    plant_links: int
+    table: DerivativeTable
+    reference: np.ndarray
+    scale: np.ndarray
+    stops: tuple
+    poses: tuple
+    plant_start: np.ndarray
+    gravity: np.ndarray
+    limits: CorrectionLimits
+
+    @property
+    def n_shapes(self) -> int:
+        """T + 1."""
+        return len(self.poses[0])
+
+    @cached_property
+    def resampled_reference(self) -> np.ndarray:
+        """:attr:`reference` resampled by arc length onto its own n + 1 points, as
+        :func:`~.plant.shape_error` compares it [m]."""
+        return resample_by_arc_length(self.reference, len(self.reference))
+
+
+def nominal_correction(cable: Cable, shapes, grippers: GripperPath, at: int, *, stabilized,
+                       gravity, plant_links: int | None = None,
+                       limits: CorrectionLimits | None = None) -> NominalCorrection:
+    """The derivatives and clip poses every linearized correction of a study shares.
+
+    Parameters
+    ----------
+    cable, shapes, grippers
+        The plan's model cable, its planned shapes (T + 1, n + 1, 3) [m] and clip poses.
+    at : int
+        K (0 <= K < T).
+    stabilized : array_like
+        (T + 1, n + 1, 3) the plan's stabilized shapes [m].
+    gravity : array_like
+    plant_links : int, optional
+        The plants' links (default the model's).
+    limits : CorrectionLimits, optional
+
+    Raises
+    ------
+    CorrectionRefused
+        When the model has no stable equilibrium at shape K or at the target.
+    """
+    path = as_path(shapes, cable.n_points, "shapes")
+    stable = as_path(stabilized, cable.n_points, "stabilized")
+    limits = CorrectionLimits() if limits is None else limits
+    gravity = np.asarray(gravity, dtype=float)
+    clips = [grippers.clip_poses(j) for j in range(len(path))]
+    scale = np.tile(np.r_[np.ones(3), np.full(3, 0.5 * cable.length)], 2)
+    table = derivative_table(cable, (clips[at], clips[-1]), (stable[at], stable[-1]), scale,
+                             math.log(limits.max_modulus_factor), gravity)
+    stops = [clips[0]]
+    fractions = np.arange(1, SUBSTEPS + 1) / SUBSTEPS
+    for j in range(1, len(path)):
+        stops += interpolate_clips(clips[j - 1], clips[j], fractions)
+    links = cable.n_links if plant_links is None else int(plant_links)
+    return NominalCorrection(cable, int(at), links, table, stable[-1], scale, _arrays(stops),
+                             _arrays(clips), resample_by_arc_length(path[0], links + 1),
+                             gravity, limits)
+
+
+def derivative_table(cable: Cable, clips: tuple, guesses: tuple, scale: np.ndarray,
+                     half_width: float, gravity) -> DerivativeTable:
+    """:class:`DerivativeTable` at the clips of shape K and of the target (``clips``, from the
+    ``guesses``), nodes every :data:`TABLE_STEP` in ln E within ``half_width`` of the plan's,
+    each continued from its neighbour towards the ends; a side ends where the model loses its
+    stable equilibrium.
+
+    Raises
+    ------
+    CorrectionRefused
+        When the plan's own E has no stable equilibrium there.
+    """
+    log_e0 = math.log(cable.youngs_modulus)
+    count = int(math.ceil(half_width / TABLE_STEP - 1e-9))
+    rows = {0: _node(cable, clips, guesses, gravity, scale)}
+    if rows[0] is None:
+        raise CorrectionRefused("model: no stable equilibrium of the plan's cable at the "
+                                "measured shape's or the target's clips")
+    for side in (1, -1):
+        previous = rows[0]
+        for k in range(1, count + 1):
+            log_e = log_e0 + side * min(k * TABLE_STEP, half_width)
+            step = log_e - math.log(previous["youngs_modulus"])
+            guesses = (previous["state"] + step * previous["modulus_k"],
+                       previous["target"] + step * previous["modulus_t"])
+            node = _node(cable.with_modulus(math.exp(log_e)), clips, guesses, gravity, scale)
+            if node is None:
+                break
+            rows[side * k] = previous = node
+    keys = sorted(rows)
+    values = {name: np.array([rows[k][name] for k in keys]) for name in rows[0]
+              if name != "youngs_modulus"}
+    moduli = np.log([rows[k]["youngs_modulus"] for k in keys])
+    return DerivativeTable(moduli, values)
+
+
+def _node(cable: Cable, clips: tuple, guesses: tuple, gravity, scale) -> dict | None:
+    """One node of :func:`derivative_table`, None without a stable equilibrium."""
+    node = {"youngs_modulus": cable.youngs_modulus}
+    for suffix, c, guess in zip(("k", "t"), clips, guesses, strict=True):
+        eq = equilibrium(cable, guess, c, gravity=gravity)
+        if not eq.success:
+            return None
+        sens = equilibrium_sensitivity(cable, eq.shape, c, gravity=gravity)
+        try:
+            d, g = model_error_directions(cable, eq.shape, c, grip=True, gravity=gravity)
+        except CorrectionRefused:
+            return None
+        node.update({"state" if suffix == "k" else "target": eq.shape,
+                     f"modulus_{suffix}": sens.log_modulus, f"d_{suffix}": d, f"g_{suffix}": g})
+        if suffix == "t":
+            node["clips"] = sens.clips.reshape(-1, 12) / scale
+    return node
+
+
+def _arrays(clips: Sequence[ClipPoses]) -> tuple[np.ndarray, np.ndarray]:
+    return (np.array([c.positions for c in clips]),
+            np.array([c.rotations.as_quat() for c in clips]))
+
+
+def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise: float,
+                    n_measured: int) -> list[dict]:
+    """The closed-loop rows of a chunk of samples, linearized about the nominal plan.
+
+    Parameters
+    ----------
+    nominal : NominalCorrection
+    items : sequence of tuple
+        ``(index, E [Pa], mass per length [kg/m], length [m])`` per sample; the index seeds
+        its measurement's noise.
+    noise : float
+        Measurement noise per coordinate [m].
+    n_measured : int
+        Measured points.
+
+    Returns
+    -------
+    list of dict
+        One row per item (:data:`~.probability.SAMPLE_COLUMNS` and ``sample``), in order.
+    """
+    cable, at = nominal.cable, nominal.at
+    plants = [perturbed_cable(cable, e, m, length).with_links(nominal.plant_links)
+              for _, e, m, length in items]
+    clamps = [max(1, round(cable.rest_link_length / p.rest_link_length)) for p in plants]
+    count = len(items)
+    positions, quaternions = (np.broadcast_to(a, (count,) + a.shape) for a in nominal.stops)
+    drive = drive_plants(plants, clamps, np.broadcast_to(nominal.plant_start, (count,) +
+                                                         nominal.plant_start.shape),
+                         positions, quaternions, gravity=nominal.gravity)
+    rows = [_plant_failure(nominal, drive.failed[b], drive.messages[b])
+            for b in range(count)]
+    open_error = np.full(count, math.nan)
+    corrections: list = [None] * count
+    held = [b for b in range(count) if rows[b] is None]
+    measured = {}
+    for b in held:
+        open_error[b] = _shape_error(drive.shapes[b, -1], nominal.resampled_reference)
+        points = resample_by_arc_length(drive.shapes[b, SUBSTEPS * at], n_measured)
+        measured[b] = points + np.random.default_rng(items[b][0]).normal(scale=noise,
+                                                                         size=points.shape)
+    results: list = [None] * count
+    for b in held:
+        try:
+            measured[b] = _resampled(nominal, measured[b])
+        except CorrectionRefused as exc:
+            results[b] = str(exc)
+    fitted = [b for b in held if results[b] is None]
+    prior = alpha_prior(cable.n_links, nominal.plant_links)
+    if fitted:
+        first = _first_fits(nominal, np.array([measured[b] for b in fitted]), prior)
+        for b, fits in zip(fitted, first, strict=True):
+            corrections[b] = _correction(nominal, measured[b], fits, prior)
+    _run(nominal, corrections, results)
+    accepted = [b for b in range(count) if isinstance(results[b], _Corrected)]
+    closed_error = open_error.copy()
+    if accepted:
+        closed = _closed_loop(nominal, [plants[b] for b in accepted],
+                              [clamps[b] for b in accepted], drive.shapes[accepted,
+                                                                          SUBSTEPS * at],
+                              np.array([results[b].clips for b in accepted]))
+        for k, b in enumerate(accepted):
+            if closed.failed[k] >= 0:  # a failed run, as the exact method's (no errors)
+                shape = at + 1 + closed.failed[k] // SUBSTEPS
+                rows[b] = {**_failed_row(), "refusal": f"plant: the quasi-static simulation "
+                                                       f"failed at shape {shape}: "
+                                                       f"{closed.messages[k]}"}
+                continue
+            closed_error[b] = _shape_error(closed.shapes[k, -1], nominal.resampled_reference)
+    out = []
+    for b, (index, *_) in enumerate(items):
+        row = rows[b]
+        if row is None:
+            result = results[b]
+            done = isinstance(result, _Corrected)
+            row = {"open_loop_error": float(open_error[b]),
+                   "closed_loop_error": float(closed_error[b]), "corrections": int(done),
+                   "youngs_modulus_estimate": result.youngs_modulus if done else math.nan,
+                   "refusal": "" if done else f"shape {at}: {result}"}
+        out.append({"sample": index, **row})
+    return out
+
+
+def _failed_row() -> dict:
+    return {"open_loop_error": math.nan, "closed_loop_error": math.nan, "corrections": 0,
+            "youngs_modulus_estimate": math.nan, "refusal": ""}
+
+
+def _plant_failure(nominal: NominalCorrection, stop: int, message: str) -> dict | None:
+    """The row of a plant that lost its equilibrium at ``stop`` (None: it did not), with
+    :func:`~.plant.run_closed_loop`'s reason."""
+    if stop < 0:
+        return None
+    if stop == 0:
+        return {**_failed_row(), "refusal": f"plant: the start does not settle: {message}"}
+    shape = (stop - 1) // SUBSTEPS + 1
+    return {**_failed_row(), "refusal": f"plant: the quasi-static simulation failed at shape "
+                                        f"{shape}: {message}"}
+
+
+def _shape_error(shape: np.ndarray, reference: np.ndarray) -> float:
+    """:func:`~.plant.shape_error` to ``reference``, already resampled by arc length [m]."""
+    a = resample_by_arc_length(shape, len(reference))
+    return float(np.mean(np.linalg.norm(a - reference, axis=1)))
+
+
+@dataclass(frozen=True)
+class _Corrected:
+    youngs_modulus: float
+    clips: np.ndarray  # (12,) the target's clip correction
+
+
+@dataclass(frozen=True)
+class _Request:
+    """An equilibrium a sample's correction needs: its E [Pa], the clip correction p (12,)
+    of shape K (``at_target`` False) or of the target, and the guess (n + 1, 3) [m]."""
+
+    youngs_modulus: float
+    clips: np.ndarray
+    at_target: bool
+    guess: np.ndarray
+
+
+def _run(nominal: NominalCorrection, corrections: list, results: list) -> None:
+    """Drive every sample's correction generator (None: none), solving each round's
+    equilibria in one compiled call, into ``results`` (a :class:`_Corrected`, or the refusal's
+    reason, per sample)."""
+    pending: dict[int, _Request] = {}
+    cables: dict[float, Cable] = {}
+    for b, gen in enumerate(corrections):
+        if gen is not None:
+            _advance(gen, None, b, pending, results)
+    while pending:
+        order = list(pending)
+        requests = [pending.pop(b) for b in order]
+        shapes = _solve(nominal, requests, cables)
+        for b, shape in zip(order, shapes, strict=True):
+            _advance(corrections[b], shape, b, pending, results)
+
+
+def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> None:
+    try:
+        pending[b] = gen.send(value)
+    except StopIteration as stop:
+        results[b] = stop.value
+    except CorrectionRefused as exc:
+        results[b] = str(exc)
+
+
+def _solve(nominal: NominalCorrection, requests: list, cables: dict) -> list:
+    """The model's equilibria of ``requests`` in one :func:`held_equilibria` call: shapes
+    (n + 1, 3), None where there is no stable equilibrium. ``cables`` holds the model cables
+    made so far, per E (their chains are built once while they live)."""
+    positions, quaternions = nominal.poses
+    index = [nominal.n_shapes - 1 if r.at_target else nominal.at for r in requests]
+    p = np.array([r.clips for r in requests]).reshape(-1, 2, 2, 3)
+    moved = positions[index] + p[:, :, 0]
+    turns = Rotation.from_rotvec(p[:, :, 1].reshape(-1, 3))
+    rotations = turns * Rotation.from_quat(quaternions[index].reshape(-1, 4))
+    moduli, cable_of = np.unique([r.youngs_modulus for r in requests], return_inverse=True)
+    for e in moduli:  # a sample's trials share its E: one cable, and its chain, for all
+        cables.setdefault(float(e), nominal.cable.with_modulus(float(e)))
+    result = held_equilibria([cables[float(e)] for e in moduli], cable_of.astype(np.int64),
+                             [r.guess for r in requests], moved, rotations,
+                             gravity=nominal.gravity)
+    return [result.shapes[k] if result.success[k] else None for k in range(len(requests))]
+
+
+def fit_amplitudes(jacobian, directions, residuals, prior) -> list[tuple]:
+    """The model-error fit as :func:`~.step.update_modulus` takes it, of many residuals at once,
+    by its normal equations: per residual ``(delta ln E, amplitudes, sds, correlation of ln E
+    and alpha)``.
+
+    The estimate of :func:`.model_error.fit_model_error` (alpha's prior weighted by the scatter
+    of the fit without it) and the sds and correlation of :func:`.model_error.
+    parameter_covariance` at what it leaves, from the p x p normal equations of [J, d, g]
+    shared by the residuals, instead of SVD least squares per residual (equal to round-off,
+    tested). An estimate outside the amplitudes' bounds, or a singular system, is left to those
+    functions (the bounds' hold-and-refit).
+
+    Parameters
+    ----------
+    jacobian : numpy.ndarray or None
+        (n + 1, 3) d x / d ln E [m]; None: E held (a zero column: its step and sd 0).
+    directions : sequence of numpy.ndarray
+        d, or d and g, (n + 1, 3) [m].
+    residuals : numpy.ndarray
+        (B, n + 1, 3) measured minus the model [m].
+    prior : tuple of float
+        (alpha_0, sd) of alpha.
+    """
+    columns = [] if jacobian is None else [jacobian.ravel()]
+    a = np.stack(columns + [d.ravel() for d in directions], axis=1)
+    r = residuals.reshape(len(residuals), -1)
+    i = len(columns)  # alpha's column
+    dof = max(a.shape[0] - len(directions) - 1, 1)
+    gram, rhs = a.T @ a, r @ a
+    try:
+        left = r - np.linalg.solve(gram, rhs.T).T @ a.T
+        weight = np.einsum("bn,bn->b", left, left) / dof / prior[1] ** 2
+        system = np.repeat(gram[None], len(r), axis=0)
+        system[:, i, i] += weight
+        rhs_prior = rhs.copy()
+        rhs_prior[:, i] += weight * prior[0]
+        values = np.linalg.solve(system, rhs_prior[:, :, None])[:, :, 0]
+        left = r - values @ a.T
+        s2 = np.einsum("bn,bn->b", left, left) / (dof + (jacobian is None))
+        system = np.repeat(gram[None], len(r), axis=0)
+        system[:, i, i] += s2 / prior[1] ** 2
+        covariance = s2[:, None, None] * np.linalg.inv(system)
+    except np.linalg.LinAlgError:
+        return [_library_fit(jacobian, directions, x, prior) for x in residuals]
+    variance = np.diagonal(covariance, axis1=1, axis2=2)
+    ok = np.isfinite(variance) & (variance >= 0)
+    sds = np.where(ok, np.sqrt(np.where(ok, variance, 0.0)), math.inf)
+    out = []
+    bounds = [(-math.inf, math.inf)] * i + list(BOUNDS[: len(directions)])
+    for b, x in enumerate(residuals):
+        if not all(low <= v <= high for v, (low, high) in zip(values[b], bounds, strict=True)):
+            values[b] = _held_at_bounds(gram, rhs[b], weight[b], i, prior[0], values[b], bounds)
+            left_b = r[b] - values[b] @ a.T
+            s2_b = float(left_b @ left_b) / (dof + (jacobian is None))
+            information = gram.copy()
+            information[i, i] += s2_b / prior[1] ** 2
+            try:
+                covariance[b] = s2_b * np.linalg.inv(information)
+            except np.linalg.LinAlgError:
+                out.append(_library_fit(jacobian, directions, x, prior))
+                continue
+            variance = np.diagonal(covariance[b])
+            ok_b = np.isfinite(variance) & (variance >= 0)
+            sds[b] = np.where(ok_b, np.sqrt(np.where(ok_b, variance, 0.0)), math.inf)
+        amplitudes = values[b, i:]
+        if jacobian is None:
+            out.append((0.0, amplitudes, np.r_[0.0, sds[b]], 0.0))
+        else:
+            correlation = 0.0
+            if 0.0 < sds[b, 0] < math.inf and 0.0 < sds[b, 1] < math.inf:
+                correlation = float(np.clip(covariance[b, 0, 1] / (sds[b, 0] * sds[b, 1]),
+                                            -1.0, 1.0))
+            out.append((float(values[b, 0]), amplitudes, sds[b], correlation))
+    return out
+
+
+def _held_at_bounds(gram, rhs, weight, i, centre, values, bounds) -> np.ndarray:
+    """:func:`.model_error.fit_model_error`'s bounds on the normal equations of one residual
+    (``gram`` p x p, ``rhs`` (p,), the prior's ``weight`` on column ``i`` at ``centre``): the
+    amplitude furthest out held at its bound, the others refitted, until all are within."""
+    system = gram.copy()
+    system[i, i] += weight
+    target = rhs.copy()
+    target[i] += weight * centre
+    values = values.copy()
+    held = np.zeros(len(values), dtype=bool)
+    for _ in values:
+        out = [k for k in np.flatnonzero(~held)
+               if not bounds[k][0] <= values[k] <= bounds[k][1]]
+        if not out:
+            break
+        k = max(out, key=lambda k: max(bounds[k][0] - values[k], values[k] - bounds[k][1]))
+        values[k] = min(max(values[k], bounds[k][0]), bounds[k][1])
+        held[k] = True
+        free = np.flatnonzero(~held)
+        if len(free):
+            values[free] = np.linalg.solve(
+                system[np.ix_(free, free)],
+                target[free] - system[np.ix_(free, held)] @ values[held])
+    return values
+
+
+def _library_fit(jacobian, directions, residual, prior) -> tuple:
+    """:func:`fit_amplitudes` by :func:`.model_error.fit_model_error` and :func:`.model_error.
+    parameter_covariance` themselves."""
+    column = np.zeros_like(residual) if jacobian is None else jacobian
+    step, amplitudes = fit_model_error(column, directions, residual, prior)
+    left = residual - step * column - sum(
+        (c * d for c, d in zip(amplitudes, directions, strict=True)), np.zeros_like(residual))
+    covariance = parameter_covariance(column, directions, left, prior)
+    sds = standard_deviations(covariance)
+    correlation = 0.0
+    if jacobian is not None and all(0.0 < sds[k] < math.inf for k in (0, 1)):
+        correlation = float(np.clip(covariance[0, 1] / (sds[0] * sds[1]), -1.0, 1.0))
+    return step, amplitudes, sds, correlation
+
+
+@dataclass(frozen=True)
+class _Update:
+    """The linearized model update of one sample (:class:`~.step.ModelUpdate`'s quantities)."""
+
+    log_modulus: float  # ln E [ln Pa]
+    state: np.ndarray  # the model's equilibrium at K at that E
+    alpha: float
+    beta: float
+    log_sd: float
+    alpha_sd: float
+    grip_sd: float  # inf: the clamp length not told
+    correlation: float
+
+
+def _resampled(nominal: NominalCorrection, points: np.ndarray) -> np.ndarray:
+    """The measured ``points`` (k, 3) [m] resampled onto the model's points
+    (:func:`.measurement.resample_measured`, its checks), the measurement's offset taken out
+    when it tells one (:func:`~.step.update_modulus`), (n + 1, 3) [m]."""
+    x = nominal.table.at(math.log(nominal.cable.youngs_modulus))["state"]
+    y = resample_measured(points, x, nominal.cable.length,
+                          max_disagreement=nominal.limits.max_disagreement)
+    offset, offset_sds = measured_offset(y - x)
+    if np.all(offset_sds > 0) and np.linalg.norm(offset / offset_sds) >= OFFSET_SIGNIFICANCE:
+        return y - offset  # the camera's, not the cable's
+    return y
+
+
+def _first_fits(nominal: NominalCorrection, measured: np.ndarray, prior) -> list[dict]:
+    """The fits every sample's :func:`_update_modulus` starts with, at the plan's E, each in
+    one :func:`fit_amplitudes` of the chunk's resampled measurements (B, n + 1, 3) [m]: ln E
+    with the bias and the clamp length, kept when the measurement tells the clamp length, else
+    ln E with the bias; where E is then kept, the amplitudes alone at the plan's E.
+
+    Returns
+    -------
+    list of dict
+        Per sample: ``fit`` (the :func:`fit_amplitudes` tuple), ``grip`` (the clamp length
+        told), ``informed`` (E to be updated) and ``held`` (the amplitudes at the plan's E,
+        None where E is updated).
+    """
+    cable = nominal.cable
+    at = nominal.table.at(math.log(cable.youngs_modulus))
+    jacobian = at["modulus_k"]
+    residuals = measured - at["state"]
+    with_grip = fit_amplitudes(jacobian, [at["d_k"], at["g_k"]], residuals, prior)
+    plain = fit_amplitudes(jacobian, [at["d_k"]], residuals, prior)
+    sag = float(np.sum(jacobian**2)) > 1e-24 * cable.length**2
+    out = []
+    for fit, other in zip(with_grip, plain, strict=True):
+        beta, sd = fit[1][1], fit[2][2]
+        grip = bool(abs(beta) >= SIGNIFICANCE * sd and abs(beta) < MAX_GRIP)
+        chosen = fit if grip else other
+        step, log_sd = chosen[0], float(chosen[2][0])
+        informed = sag and log_sd <= MAX_LOG_SD and abs(step) >= SIGNIFICANCE * log_sd
+        out.append({"fit": chosen, "grip": grip, "informed": bool(informed), "held": None})
+    for grip in (True, False):  # the amplitudes alone where E is kept
+        kept = [b for b, f in enumerate(out) if f["grip"] == grip and not f["informed"]]
+        if kept:
+            names = ("d_k", "g_k") if grip else ("d_k",)
+            fits = fit_amplitudes(None, [at[d] for d in names], residuals[kept], prior)
+            for b, fit in zip(kept, fits, strict=True):
+                out[b]["held"] = fit[1]
+    return out
+
+
+def _correction(nominal: NominalCorrection, y: np.ndarray, first: dict, prior) -> Generator:
+    """One sample's linearized correction (module docstring) from its resampled measurement
+    ``y`` (n + 1, 3) [m] and its :func:`_first_fits`: yields :class:`_Request`, receives their
+    equilibria (None: none), returns a :class:`_Corrected` or raises
+    :class:`CorrectionRefused`."""
+    cable = nominal.cable
+    log_e0 = math.log(cable.youngs_modulus)
+    update = yield from _update_modulus(nominal, y, first, prior)
+    at = nominal.table.at(update.log_modulus)  # the derivatives at the target, at this E
+    bias = update.alpha * at["d_t"] + update.beta * at["g_t"]
+    modulus = math.exp(update.log_modulus)
+    open_loop = at["target"]  # E kept: the table's node is the model's equilibrium there
+    if update.log_modulus != log_e0:
+        open_loop = yield _Request(modulus, np.zeros(12), True, at["target"])
+    if open_loop is None:
+        raise CorrectionRefused(f"prediction: the model (E = {modulus:.3g} Pa) finds no stable "
+                                "equilibrium at the target")
+    p, corrected = yield from _fit_clips(nominal, modulus, at["clips"], open_loop, bias)
+    _check_gain(nominal, update, at, open_loop + bias, corrected + bias)
+    return _Corrected(modulus, p)
+
+
+def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, first: dict, prior
+                    ) -> Generator:
+    """:func:`~.step.update_modulus` (discretization bias, clamp length and offset estimated)
+    with d x / d ln E, d and g at shape K taken from the table at the current E (the plan's
+    clips), from the sample's :func:`_first_fits` at the plan's E; each step's equilibrium
+    exact (a yielded :class:`_Request`)."""
+    cable, limits, table = nominal.cable, nominal.limits, nominal.table
+    log_e0 = math.log(cable.youngs_modulus)
+    log_e = log_e0
+    at = table.at(log_e)
+    jacobian, x = at["modulus_k"], at["state"]
+    step, amplitudes, sds, correlation = first["fit"]
+    grip = first["grip"]
+    grip_sd = float(sds[2]) if grip else math.inf
+    names = ("d_k", "g_k") if grip else ("d_k",)  # else the model's clamp length
+    log_sd, alpha_sd = float(sds[0]), float(sds[1])
+    informed = first["informed"]
+    budget = MODULUS_STEPS + math.ceil(math.log(limits.max_modulus_factor) / MAX_LOG_STEP) + 1
+    full = 0
+    for _ in range(budget if informed else 0):
+        clipped = trust_region_step(step, log_e, log_e0, log_sd, limits.max_modulus_factor)
+        if clipped is None:  # held on the limit
+            break
+        log_e += clipped
+        x_new = yield _Request(math.exp(log_e), np.zeros(12), False, x + clipped * jacobian)
+        if x_new is None:
+            raise CorrectionRefused(f"model: no stable equilibrium of the cable (E = "
+                                    f"{math.exp(log_e):.3g} Pa) at shape {nominal.at}'s clips")
+        x = x_new
+        full += clipped == step
+        if abs(clipped) < MODULUS_STEP_TOLERANCE or full >= MODULUS_STEPS:
+            break
+        at = table.at(log_e)
+        jacobian = at["modulus_k"]
+        step = fit_amplitudes(jacobian, [at[name] for name in names], (measured - x)[None],
+                              prior)[0][0]
+    if not informed:  # E kept: the amplitudes at the plan's E, fitted already
+        amplitudes = first["held"]
+    else:
+        at = table.at(log_e)
+        amplitudes = fit_amplitudes(None, [at[name] for name in names], (measured - x)[None],
+                                    prior)[0][1]
+    beta = float(amplitudes[1]) if grip else 0.0
+    return _Update(log_e, x, float(amplitudes[0]), beta, log_sd, alpha_sd, grip_sd,
+                   correlation)
+
+
+def _fit_clips(nominal: NominalCorrection, modulus: float, jz: np.ndarray, start: np.ndarray,
+               bias: np.ndarray) -> Generator:
+    """The target's Levenberg-Marquardt clip fit (:func:`~.step.fit_clips`' damping and stop,
+    :data:`CHORD_TRIALS` trials per iteration) with the clip Jacobian ``jz`` (3 (n + 1), 12,
+    scaled) of the planned target at this E, frozen: every trial an exact equilibrium of the
+    updated model. Returns ``(p (12,), equilibrium (n + 1, 3))``."""
+    scale, limits = nominal.scale, nominal.limits
+    normal = jz.T @ jz
+    diagonal = np.diag(np.diag(normal))  # the damping's shape, mu diag(J^T J)
+    normal = normal + 1e-12 * np.trace(normal) * np.eye(12)  # the fit's floor
+    damping = CLIP_DAMPING
+    x, p = start, np.zeros(12)
+    r = (x + bias - nominal.reference).ravel()
+    cost, mu = float(r @ r), damping.initial
+    for _ in range(limits.iterations):
+        b = jz.T @ r
+        accepted = False
+        for _ in range(CHORD_TRIALS):
+            trial_p = within_limits(p - np.linalg.solve(normal + mu * diagonal, b) / scale,
+                                    limits)
+            guess = x + (jz @ ((trial_p - p) * scale)).reshape(x.shape)
+            trial = yield _Request(modulus, trial_p, True, guess)
+            if trial is not None:
+                r_trial = (trial + bias - nominal.reference).ravel()
+                trial_cost = float(r_trial @ r_trial)
+                if trial_cost <= cost:
+                    accepted = True
+                    break
+            mu *= damping.increase
+        if not accepted:
+            break
+        gain = (cost - trial_cost) / cost if cost > 0 else 0.0
+        x, p, r, cost = trial, trial_p, r_trial, trial_cost
+        mu = max(mu / damping.decrease, damping.minimum)
+        if gain < COST_TOLERANCE:
+            break
+    return p, x
+
+
+def within_limits(p: np.ndarray, limits: CorrectionLimits) -> np.ndarray:
+    """The clip correction p (12,) with each clip's translation and rotation vector shortened
+    to ``limits.max_translation`` / ``max_rotation`` (the projection onto the limits)."""
+    parts = np.array(p, dtype=float).reshape(2, 2, 3)
+    bounds = np.array([limits.max_translation, limits.max_rotation])
+    norms = np.linalg.norm(parts, axis=2)
+    parts *= np.where(norms > bounds, bounds / np.where(norms > 0, norms, 1.0), 1.0)[:, :, None]
+    return parts.ravel()
+
+
+def _check_gain(nominal: NominalCorrection, update: _Update, at: Interpolated,
+                open_loop: np.ndarray,
+                corrected: np.ndarray) -> None:
+    """:func:`~.step.correct_plan`'s gain checks on the target's predictions (bias included)
+    with the planned target's directions at the updated E (``at``, :meth:`DerivativeTable.at`):
+    the predicted gain must exceed
+    ``limits.gain_significance`` sd of it (ln E and alpha correlated) and survive the clamp
+    length that many sd off, evaluated. Raises :class:`CorrectionRefused` otherwise."""
+    reference, significance = nominal.reference, nominal.limits.gain_significance
+    g = at["g_t"]
+    grip = (update.grip_sd + 0.5 * GRIP_LINEARITY * abs(update.beta)
+            if math.isfinite(update.grip_sd) else GRIP_UNCERTAINTY)
+    sds = {"modulus": (at["modulus_t"], update.log_sd),
+           "discretization": (at["d_t"], update.alpha_sd), "grip": (g, grip)}
+
+    def error(x):
+        return float(np.mean(np.linalg.norm(x - reference, axis=1)))
+
+    def unit(x):
+        e = x - reference
+        return e / np.maximum(np.linalg.norm(e, axis=1, keepdims=True), 1e-300)
+
+    du = unit(open_loop) - unit(corrected)
+    t = {k: float(np.mean(np.sum(du * v, axis=1))) * (sd if math.isfinite(sd) else 0.0)
+         for k, (v, sd) in sds.items()}
+    spread = math.sqrt(max(sum(v * v for v in t.values())
+                           + 2.0 * update.correlation * t["modulus"] * t["discretization"], 0.0))
+    before, after = error(open_loop), error(corrected)
+    if before - after <= significance * spread:
+        raise CorrectionRefused(
+            f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm (final "
+            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is within {significance:g} sd "
+            f"({1e3 * spread:.2f} mm; E, discretization bias, clamp length as estimated, "
+            "linearized) of zero: the plan is kept")
+    bound = significance * grip
+    worst = min(error(open_loop + s * bound * g) - error(corrected + s * bound * g)
+                for s in (-1.0, 1.0))
+    if worst <= 0.0:
+        raise CorrectionRefused(
+            f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm, is lost "
+            f"with the clamp length {significance:g} sd off ({1e3 * worst:+.2f} mm): the plan "
+            "is kept")
+
+
+def _closed_loop(nominal: NominalCorrection, plants: list, clamps: list, states: np.ndarray,
+                 corrections: np.ndarray):
+    """The plants driven from their shapes at K through the corrected clip poses (each
+    sample's target correction ramped in, p_j = p_T (j - K) / (T - K)): a
+    :class:`.plant_batch.PlantDrive` of :data:`SUBSTEPS` stops per remaining shape."""
+    at, last = nominal.at, nominal.n_shapes - 1
+    positions, quaternions = nominal.poses
+    ramp = np.arange(0, last - at + 1) / (last - at)  # shape K (0) .. T (1)
+    p = (ramp[None, :, None] * corrections[:, None, :]).reshape(len(plants), -1, 2, 2, 3)
+    moved = positions[None, at:] + p[:, :, :, 0]  # (B, T - K + 1, 2, 3)
+    turns = Rotation.from_rotvec(p[:, :, :, 1].reshape(-1, 3))
+    keys = (turns * Rotation.from_quat(
+        np.broadcast_to(quaternions[at:], moved.shape[:2] + (2, 4)).reshape(-1, 4))).as_quat()
+    keys = keys.reshape(moved.shape[:2] + (2, 4))
+    fractions = np.arange(1, SUBSTEPS + 1) / SUBSTEPS
+    pairs = np.stack([keys[:, :-1], keys[:, 1:]])  # (2, B, T - K, 2, 4)
+    stops_q = slerp_quaternions(np.array([0.0, 1.0]), pairs, fractions)  # (S, B, T - K, 2, 4)
+    stops_q = np.moveaxis(stops_q, 0, 2).reshape(len(plants), -1, 2, 4)
+    w = fractions[None, None, :, None, None]
+    stops_p = ((1.0 - w) * moved[:, :-1, None] + w * moved[:, 1:, None]).reshape(
+        len(plants), -1, 2, 3)
+    return drive_plants(plants, clamps, states, stops_p, stops_q, gravity=nominal.gravity)

@@ -1,0 +1,199 @@
+"""Many plants driven through their clip poses in one compiled call (a study's closed loop).
+
+:meth:`~.plant.Plant.hold` is one clamped equilibrium (:func:`.model_error.clamped_equilibrium`):
+its Python set-up (the chain, the tolerance, the clamped points) costs several times the
+compiled Newton loop of a small cable, and a closed-loop study drives every sampled plant
+through a dozen clip poses. :func:`drive_plants` does, sample by sample and stop by stop in one
+compiled loop, what :meth:`~.plant.Plant.hold` does from the previous stop's shape: the clamped
+links laid along the clips' u-axes, the residual tolerance of
+:func:`dloplan.sim.result.residual_tolerance` at that start, the trust-region Newton loop
+(:func:`dloplan.sim.compiled.newton_positions`) from the same start, trust radius and
+tolerance. The same kernels run in the same order, so a stop's shape is bit for bit the one
+``hold`` returns (tested). A Newton loop that stops at a saddle (its escape uses LAPACK's
+banded eigen-solver) hands the sample back: ``hold`` itself finishes its remaining stops.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..cable import Cable
+from ..jit import njit
+from ..physics.chain import HALF_BANDWIDTH, SpringChain
+from ..physics.compiled import chain_energy
+from ..sim import ClipPoses
+from ..sim.compiled import CONVERGED, MAX_ITERATIONS, SADDLE, STALLED, newton_positions
+from ..sim.newton import newton_message
+from ..sim.result import DEFAULT_RTOL, ROUNDOFF, force_scale, stiffest
+from .model_error import clamped_equilibrium
+
+NEWTON_ITERATIONS = 500
+"""Newton iterations per stop (:func:`dloplan.sim.statics.minimize_energy`'s default)."""
+
+_OUTCOMES = {CONVERGED: "converged", MAX_ITERATIONS: "max_iterations", STALLED: "stalled"}
+
+
+@njit(cache=True)
+def drive_clamped(starts, k_s, rest_lengths, k_b, rest_angles, masses, gravity, link, length,
+                  tolerance, roundoff, stiff, stiff_axial, clamp, positions, u_axes,
+                  max_iterations, shapes, done, outcomes, iterations, residuals):
+    """The plants' equilibria at every stop, each from the one before, in place.
+
+    Parameters
+    ----------
+    starts : numpy.ndarray
+        (B, n + 1, 3) the guess of the first stop [m].
+    k_s, rest_lengths, k_b, rest_angles, masses : numpy.ndarray
+        Per sample (B,), (B, n), (B,), (B, n - 1), (B, n + 1): the chains' constants.
+    gravity : numpy.ndarray
+        (3,) [m/s^2].
+    link, length, tolerance, stiff : numpy.ndarray
+        Per sample (B,): rest link length [m], length [m], the tolerance without its round-off
+        floor (1e-10 of the force scale) [N], the stiffest spring of the floor [N/m].
+    roundoff : float
+        The floor's factor (16 eps).
+    stiff_axial : numpy.ndarray
+        (B,) bool: the chains' :attr:`~dloplan.physics.chain.SpringChain.stiff_axial`.
+    clamp : numpy.ndarray
+        (B,) int: links clamped by each gripper.
+    positions, u_axes : numpy.ndarray
+        (B, M, 2, 3) clip points [m] and u-axes of every stop.
+    max_iterations : int
+    shapes : numpy.ndarray
+        (B, M, n + 1, 3) out: the equilibria.
+    done : numpy.ndarray
+        (B,) int out: the stops solved; a sample stops at its first stop that is not a stable
+        equilibrium (``outcomes`` says why) or that reaches a saddle (``outcomes`` = SADDLE,
+        for :meth:`~.plant.Plant.hold` to redo).
+    outcomes, iterations : numpy.ndarray
+        (B,) int out: the Newton outcome and iterations of the last stop tried.
+    residuals : numpy.ndarray
+        (B,) out: its largest free force [N].
+    """
+    n_points = starts.shape[1]
+    history = np.empty(max_iterations + 1)
+    band = np.empty((HALF_BANDWIDTH + 1, 3 * n_points))
+    grad = np.empty((n_points, 3))
+    for b in range(starts.shape[0]):
+        done[b] = 0
+        for s in range(positions.shape[1]):
+            x = shapes[b, s]
+            guess = starts[b] if s == 0 else shapes[b, s - 1]
+            for i in range(n_points):
+                for a in range(3):
+                    x[i, a] = guess[i, a]
+            k = clamp[b]
+            for i in range(k + 1):
+                offset = (i - 0.5 * k) * link[b]
+                for a in range(3):
+                    x[i, a] = positions[b, s, 0, a] + offset * u_axes[b, s, 0, a]
+                    x[n_points - 1 - i, a] = positions[b, s, 1, a] + offset * u_axes[b, s, 1, a]
+            size = length[b] + np.max(np.abs(x))
+            limit = max(tolerance[b], roundoff * size * stiff[b])
+            history[0] = chain_energy(x, k_s[b], rest_lengths[b], k_b[b], rest_angles[b],
+                                      masses[b], gravity)
+            outcome, its, residual, _, _ = newton_positions(
+                x, k + 1, n_points - k - 1, k_s[b], rest_lengths[b], k_b[b],
+                rest_angles[b], masses[b], gravity, length[b], limit, max_iterations,
+                np.int64(0), 0.25 * length[b], history, np.int64(1), grad, band,
+                np.bool_(True), stiff_axial[b])
+            outcomes[b], iterations[b], residuals[b] = outcome, its, residual
+            if outcome != CONVERGED:
+                break
+            done[b] = s + 1
+
+
+@dataclass(frozen=True, eq=False)
+class PlantDrive:
+    """The result of :func:`drive_plants`.
+
+    Attributes
+    ----------
+    shapes : numpy.ndarray
+        (B, M, n + 1, 3) the plants' equilibria at the stops [m] (not meaningful after a
+        failure).
+    failed : numpy.ndarray
+        (B,) int: the first stop that is not a stable equilibrium, -1 when none.
+    messages : tuple of str
+        The failed stop's Newton message ("" when none failed).
+    """
+
+    shapes: np.ndarray
+    failed: np.ndarray
+    messages: tuple
+
+
+def drive_plants(cables: Sequence[Cable], clamp_links, starts, positions, quaternions, *,
+                 gravity) -> PlantDrive:
+    """Every plant's equilibria at its stops, each warm-started from the one before.
+
+    Sample b, stop s is :meth:`~.plant.Plant.hold` of ``cables[b]`` clamping ``clamp_links``
+    links at the stop's clips, from the shape of stop s - 1 (``starts[b]`` for stop 0), bit for
+    bit (the module docstring); a stop that is not a stable equilibrium ends its sample.
+
+    Parameters
+    ----------
+    cables : sequence of Cable
+        The B plant cables, all with the same number of links.
+    clamp_links : array_like
+        (B,) int: links each gripper of a plant clamps (:attr:`~.plant.Plant.clamp_links`).
+    starts : array_like
+        (B, n + 1, 3) guesses of the first stop [m].
+    positions, quaternions : array_like
+        (B, M, 2, 3) clip points [m] and (B, M, 2, 4) unit ``clip_to_world`` quaternions
+        (x, y, z, w) of the stops.
+    gravity : array_like
+        (3,) [m/s^2].
+    """
+    gravity = np.asarray(gravity, dtype=float)
+    chains = [SpringChain.from_cable(cable, gravity) for cable in cables]
+    constants = [np.array([chain.constants[k] for chain in chains]) for k in range(5)]
+    starts = np.ascontiguousarray(starts, dtype=float)
+    positions = np.ascontiguousarray(positions, dtype=float)
+    quaternions = np.asarray(quaternions, dtype=float)
+    u_axes = u_axes_of(quaternions)
+    n_samples, n_stops = positions.shape[:2]
+    clamps = np.broadcast_to(np.asarray(clamp_links, dtype=np.int64), (n_samples,)).copy()
+    shapes = np.empty((n_samples, n_stops) + starts.shape[1:])
+    done = np.zeros(n_samples, dtype=np.int64)
+    outcomes = np.zeros(n_samples, dtype=np.int64)
+    iterations = np.zeros(n_samples, dtype=np.int64)
+    residuals = np.zeros(n_samples)
+    drive_clamped(starts, *constants, gravity,
+                  np.array([cable.rest_link_length for cable in cables]),
+                  np.array([cable.length for cable in cables]),
+                  np.array([DEFAULT_RTOL * force_scale(cable, gravity) for cable in cables]),
+                  ROUNDOFF * np.finfo(float).eps,
+                  np.array([stiffest(cable) for cable in cables]),
+                  np.array([chain.stiff_axial for chain in chains]), clamps,
+                  positions, u_axes, NEWTON_ITERATIONS, shapes, done, outcomes, iterations,
+                  residuals)
+    failed = np.full(n_samples, -1)
+    messages = [""] * n_samples
+    for b in np.flatnonzero(done < n_stops):
+        first = int(done[b])
+        if outcomes[b] != SADDLE:
+            failed[b], messages[b] = first, newton_message(
+                _OUTCOMES[int(outcomes[b])], int(iterations[b]), float(residuals[b]))
+            continue
+        for s in range(first, n_stops):  # the saddle's escape: the readable way, to the end
+            clips = ClipPoses(positions[b, s], Rotation(quaternions[b, s], normalize=False))
+            guess = starts[b] if s == 0 else shapes[b, s - 1]
+            shapes[b, s], ok, message = clamped_equilibrium(
+                cables[b], guess, clips, int(clamps[b]), gravity=gravity, chain=chains[b])
+            if not ok:
+                failed[b], messages[b] = s, message
+                break
+    return PlantDrive(shapes, failed, tuple(messages))
+
+
+def u_axes_of(quaternions: np.ndarray) -> np.ndarray:
+    """The x-axes of unit quaternions (..., 4) (x, y, z, w), (..., 3): the clips' u-axes, by
+    the formula and in the order of operations of :attr:`ClipPoses.u_axes` (bit for bit)."""
+    x, y, z, w = np.moveaxis(quaternions, -1, 0)
+    return np.ascontiguousarray(np.stack(
+        [x * x - y * y - z * z + w * w, 2.0 * (x * y + z * w), 2.0 * (x * z - y * w)], axis=-1))
