@@ -303,7 +303,7 @@ def _replays(model: HeldModel, times: np.ndarray, law: TimeLaw | None, clips: li
         times[k_end] + pause]
     run_b = replay(insertion.cable, np.stack(shapes), ClipTrajectory.sampled(t_b, p_b, q_b),
                    knot_times=np.array(knot_times), contacts=model.contacts, cable_at=cable_at,
-                   **options)
+                   changes_at=start_pull, **options)
     kb = run_b.knot_times
     out["insertion"] = PhaseReplay(run_b, float(kb[0]), float(kb[1]), (0, 1))
     out["regrasp"] = PhaseReplay(run_b, float(kb[1]), float(kb[-2]), (len(kb) - 2,))
