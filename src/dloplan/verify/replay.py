@@ -415,7 +415,8 @@ def replay(
                                                             shifted.poses)
         later = changing if changing is None or begin == 0.0 else (
             lambda t: changing(t + begin))
-        return simulate(model, path[0] if state is None else state.shapes[-1], clock,
+        return simulate(model if state is None else changing(begin),
+                        path[0] if state is None else state.shapes[-1], clock,
                         duration=end - begin, dt=step, gravity=gravity,
                         record_interval=min(longest, finest), rest_speed=rest_speed,
                         max_steps=max_steps, damping=damping, torsion=torsion,
