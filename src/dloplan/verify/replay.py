@@ -53,6 +53,9 @@ implicit system is found indefinite, and a changing cable (a harness section bei
 its links all getting shorter: ``scheme="implicit"`` steps it with the friction on the material
 through which the points move, but its peak tensions on the harness jobs do not yet agree with
 the explicit ones where the section is pulled onto the peg and its plate; docs/decisions.md).
+A changing cable that does not change before ``changes_at`` (the harness section through the
+insertion and the regrasp's pause) steps implicitly until then and explicitly from the state it
+reached (positions and velocities), so only the pull itself takes the explicit steps.
 
 The simulated shapes are recorded often enough (at least 20 records per knot interval, every step
 while the run has fewer than :data:`MAX_RECORDS` steps) that the shape at a knot time is
@@ -406,16 +409,17 @@ def replay(
     finest = float(np.min(spacing)) / 20.0 if len(spacing) else duration
 
     def run_with(step: float, scheme: str, begin: float = 0.0, end: float = duration,
-                 state: Simulation | None = None) -> Simulation:
+                 state: Simulation | None = None, fixed: bool = False) -> Simulation:
         """The simulation from ``begin`` to ``end`` [s] on the replay's clock, from the first
-        shape at rest or from the last state of ``state``."""
+        shape at rest or from the last state of ``state``; ``fixed``: with the cable
+        ``changing`` gives at ``begin`` throughout (it does not change before ``end``)."""
         longest = max(step, duration / MAX_RECORDS) if record_interval is None else max(
             step, float(record_interval))
         clock = shifted if begin == 0.0 else ClipTrajectory(shifted.times - begin,
                                                             shifted.poses)
-        later = changing if changing is None or begin == 0.0 else (
+        later = None if fixed else changing if changing is None or begin == 0.0 else (
             lambda t: changing(t + begin))
-        return simulate(model if state is None else changing(begin),
+        return simulate(model if state is None and not fixed else changing(begin),
                         path[0] if state is None else state.shapes[-1], clock,
                         duration=end - begin, dt=step, gravity=gravity,
                         record_interval=min(longest, finest), rest_speed=rest_speed,
@@ -428,7 +432,7 @@ def replay(
             and switch is not None and IMPLICIT_STEP <= switch < motion):
         try:  # the fixed cable implicitly, up to the last whole step before it changes
             first = run_with(IMPLICIT_STEP, "implicit",
-                             end=math.floor(switch / IMPLICIT_STEP) * IMPLICIT_STEP)
+                             end=math.floor(switch / IMPLICIT_STEP) * IMPLICIT_STEP, fixed=True)
             begin = first.steps * first.dt
             run = _joined(first, run_with(explicit_step(), "explicit", begin, state=first),
                           begin)
