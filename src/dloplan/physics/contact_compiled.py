@@ -9,8 +9,9 @@ out along the normal and removes their velocity into the obstacle: an inelastic 
 simulator's ground plane (:mod:`dloplan.sim.stepping`), with Coulomb friction on the impulse.
 It runs at every explicit step, so it measures a point's distance only to the obstacles whose
 bounding box comes within the radius of the points' (on a harness board the taut section is
-clear of the wall and the table), each box's turn computed once per call. The statics use a penalty instead (:mod:`dloplan.physics.contact`): its stiffness, a hundred
-times the axial springs', would need a ten times smaller explicit time step.
+clear of the wall and the table), each box's turn computed once per call. The statics use a
+penalty instead (:mod:`dloplan.physics.contact`): its stiffness, a hundred times the axial
+springs', would need a ten times smaller explicit time step.
 """
 
 from __future__ import annotations
