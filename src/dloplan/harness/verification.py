@@ -17,9 +17,9 @@ phase (:data:`~dloplan.harness.held.CHECKED_PHASES`):
   insertion, the regrasp (the clips held for the regrasp's duration while the fixtures hold the
   cable) and the tensioning (the section shortened as the grippers' offset grows along the time
   law; the second run steps implicitly until the pull starts and explicitly through the pull,
-  ``replay(changes_at=)``). Per phase: the largest deviation at its knots from the configurations [m], the peak link
-  tension [N] (against the cable's rated load when given) and each contact opening or closing
-  (a lift-off from a peg shows here);
+  ``replay(changes_at=)``). Per phase: the largest deviation at its knots from the
+  configurations [m], the peak link tension [N] (against the cable's rated load when given)
+  and each contact opening or closing (a lift-off from a peg shows here);
 * **the robot program**: its check rows of the phase's targets;
 * **the regrasp**: the stubs beyond the fixtures sag while the grippers open
   (:func:`dloplan.harness.held.stub_sag`); more than the cable's diameter is a warning (the
