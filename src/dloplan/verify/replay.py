@@ -55,7 +55,8 @@ through which the points move, but its peak tensions on the harness jobs do not 
 the explicit ones where the section is pulled onto the peg and its plate; docs/decisions.md).
 A changing cable that does not change before ``changes_at`` (the harness section through the
 insertion and the regrasp's pause) steps implicitly until then and explicitly from the state it
-reached (positions and velocities), so only the pull itself takes the explicit steps.
+reached (positions and velocities), so only the pull itself takes the explicit steps, with a
+tensile limit too: the pull is where a section's tension peaks, and it stays explicit.
 
 The simulated shapes are recorded often enough (at least 20 records per knot interval, every step
 while the run has fewer than :data:`MAX_RECORDS` steps) that the shape at a knot time is
@@ -343,7 +344,8 @@ def replay(
     changes_at : float, optional
         With ``cable_at``: the time on the trajectory's clock [s] before which ``cable_at``
         gives the cable at the start (a harness section not yet pulled). ``"auto"`` then steps
-        implicitly until then and explicitly from that state on (module docstring, *Scheme*).
+        implicitly until then and explicitly from that state on, with or without a tensile
+        limit (module docstring, *Scheme*).
 
     Returns
     -------
@@ -428,8 +430,8 @@ def replay(
                         initial_velocity=None if state is None else state.velocity)
 
     switch = None if changes_at is None else float(changes_at) - start
-    if (scheme == "auto" and changing is not None and not torsion and tensile_limit is None
-            and switch is not None and IMPLICIT_STEP <= switch < motion):
+    if (scheme == "auto" and changing is not None and not torsion and switch is not None
+            and IMPLICIT_STEP <= switch < motion):
         try:  # the fixed cable implicitly, up to the last whole step before it changes
             first = run_with(IMPLICIT_STEP, "implicit",
                              end=math.floor(switch / IMPLICIT_STEP) * IMPLICIT_STEP, fixed=True)
