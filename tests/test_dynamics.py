@@ -54,6 +54,30 @@ def test_ground_plane_is_one_sided():
     assert np.isclose(run.shapes[-1, :, 2].min(), 0.0, atol=1e-9)  # it lies on the table
 
 
+def test_a_run_continued_from_its_last_state_is_the_run_in_one_piece():
+    """``simulate(initial_velocity=)`` from a run's last shape and :attr:`Simulation.velocity`,
+    the clip motion shifted to start there, takes the same explicit steps as one run through
+    (the replay continues a harness section's implicit part explicitly, docs/decisions.md):
+    the clips move for 0.5 s and the run is split at 0.2 s, with the cable still swinging
+    (free points faster than 0.05 m/s): a restart at rest is 1 mm off 0.05 s later."""
+    cable = catalogue_cable("usb", n_links=8)
+    start = equilibrium(cable, sagging_guess(cable, 0.42), level_clips(0.42))
+    end_clips = level_clips(0.3, z=0.05).moved(translation=(0.05, 0.0, 0.0))
+    times, poses = np.array([0.0, 0.5]), [start.clips, end_clips]
+    options = dict(youngs_modulus_cap=1e6, record_interval=0.01)
+    whole = simulate(cable, start.shape, ClipTrajectory(times, poses), duration=0.6, **options)
+    first = simulate(cable, start.shape, ClipTrajectory(times, poses), duration=0.2, **options)
+    begin = first.steps * first.dt
+    assert np.abs(first.velocity[2:-2]).max() > 0.05  # the free points [m/s]
+    later = ClipTrajectory(times - begin, poses)
+    then = simulate(cable, first.shapes[-1], later, duration=0.6 - begin,
+                    initial_velocity=first.velocity, **options)
+    assert first.steps + then.steps == whole.steps
+    np.testing.assert_allclose(then.shapes[-1], whole.shapes[-1], atol=1e-12)
+    at_rest = simulate(cable, first.shapes[-1], later, duration=0.6 - begin, **options)
+    assert np.abs(at_rest.shapes[5] - then.shapes[5]).max() > 5e-4  # 0.05 s after the split
+
+
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")
 def test_too_large_a_time_step_is_reported():
     cable = catalogue_cable("pa12", n_links=8)

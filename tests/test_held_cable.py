@@ -22,7 +22,7 @@ from dloplan.harness.section import section_cable
 from dloplan.obstacles import Box, Cylinder, Table
 from dloplan.physics.chain import SpringChain, link_tensions
 from dloplan.physics.contact import contact_gradient, contact_hessian_blocks
-from dloplan.physics.contact_compiled import signed_distances
+from dloplan.physics.contact_compiled import push_out, signed_distances
 from dloplan.sim.clips import ClipPoses
 from dloplan.sim.dynamics import ClipTrajectory, simulate
 from dloplan.sim.statics import equilibrium
@@ -95,6 +95,27 @@ def test_the_compiled_distances_are_the_volumes_own(rng):
         own_phi, own_normal = obstacle.signed_distance(points)
         assert np.abs(phi[k] - own_phi).max() < 1e-15
         assert np.abs(normals[k] - own_normal).max() < 1e-14
+
+
+@pytest.mark.parametrize("spread", [0.002, 0.05])
+def test_the_hard_contact_skips_only_obstacles_it_cannot_reach(rng, spread):
+    """The explicit step's hard contact (``push_out``) passes over an obstacle whose bounding
+    box is farther than the radius from the points' bounding box: the points it puts back,
+    and where, are those of a plain loop over every point and obstacle (exactly): a cloud of
+    points a few millimetres across (most obstacles skipped) and one spread over all of them."""
+    radius = 0.004
+    rows = np.stack([o.contact_row() for o in OBSTACLES])
+    for centre in ([0.1, 0.0, 0.05], [0.0, 0.01, 0.03], [0.03, 0.0, 0.003], [0.3, 0.3, 0.3]):
+        points = np.ascontiguousarray(spread * rng.normal(size=(60, 3)) + centre)
+        x, v, accel = points.copy(), np.zeros_like(points), np.zeros_like(points)
+        push_out(x, v, accel, rows, radius, 0.0, 0, len(x))
+        plain = points.copy()
+        for k in range(len(rows)):
+            phi, normals = np.empty((1, len(plain))), np.empty((1, len(plain), 3))
+            signed_distances(plain, rows[k : k + 1], phi, normals)
+            inside = phi[0] < radius
+            plain[inside] += (radius - phi[0, inside])[:, None] * normals[0, inside]
+        np.testing.assert_array_equal(x, plain)
 
 
 def _string(n_links: int = 40) -> Cable:

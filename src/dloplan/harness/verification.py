@@ -16,9 +16,10 @@ phase (:data:`~dloplan.harness.held.CHECKED_PHASES`):
   the grippers, along the trajectory's time law, to rest at the approach poses), then the
   insertion, the regrasp (the clips held for the regrasp's duration while the fixtures hold the
   cable) and the tensioning (the section shortened as the grippers' offset grows along the time
-  law). Per phase: the largest deviation at its knots from the configurations [m], the peak link
-  tension [N] (against the cable's rated load when given) and each contact opening or closing
-  (a lift-off from a peg shows here);
+  law; the second run steps implicitly until the pull starts and explicitly through the pull,
+  ``replay(changes_at=)``). Per phase: the largest deviation at its knots from the
+  configurations [m], the peak link tension [N] (against the cable's rated load when given)
+  and each contact opening or closing (a lift-off from a peg shows here);
 * **the robot program**: its check rows of the phase's targets;
 * **the regrasp**: the stubs beyond the fixtures sag while the grippers open
   (:func:`dloplan.harness.held.stub_sag`); more than the cable's diameter is a warning (the
@@ -303,7 +304,7 @@ def _replays(model: HeldModel, times: np.ndarray, law: TimeLaw | None, clips: li
         times[k_end] + pause]
     run_b = replay(insertion.cable, np.stack(shapes), ClipTrajectory.sampled(t_b, p_b, q_b),
                    knot_times=np.array(knot_times), contacts=model.contacts, cable_at=cable_at,
-                   **options)
+                   changes_at=start_pull, **options)
     kb = run_b.knot_times
     out["insertion"] = PhaseReplay(run_b, float(kb[0]), float(kb[1]), (0, 1))
     out["regrasp"] = PhaseReplay(run_b, float(kb[1]), float(kb[-2]), (len(kb) - 2,))

@@ -7,8 +7,11 @@ about z [m, rad]. :func:`point_distance` is the obstacles' ``signed_distance`` f
 (tested equal); :func:`push_out` moves the points that come closer than the cable's radius back
 out along the normal and removes their velocity into the obstacle: an inelastic contact, as the
 simulator's ground plane (:mod:`dloplan.sim.stepping`), with Coulomb friction on the impulse.
-The statics use a penalty instead (:mod:`dloplan.physics.contact`): its stiffness, a hundred
-times the axial springs', would need a ten times smaller explicit time step.
+It runs at every explicit step, so it measures a point's distance only to the obstacles whose
+bounding box comes within the radius of the points' (on a harness board the taut section is
+clear of the wall and the table), each box's turn computed once per call. The statics use a
+penalty instead (:mod:`dloplan.physics.contact`): its stiffness, a hundred times the axial
+springs', would need a ten times smaller explicit time step.
 """
 
 from __future__ import annotations
@@ -55,6 +58,22 @@ def _box_like(q0, q1, q2, e0, e1, e2, count):
 def point_distance(x, y, z, row):
     """Signed distance [m] and outward unit normal of one point to one obstacle row, as the
     obstacle's ``signed_distance``: ``(phi, nx, ny, nz)``."""
+    c, s = row_turn(row)
+    return turned_distance(x, y, z, row, c, s)
+
+
+@njit(cache=True, inline="always")
+def row_turn(row):
+    """cos and sin of a box row's yaw ((1, 0) for the other kinds): what
+    :func:`turned_distance` needs of it, computed once for the points of a loop."""
+    if row[0] == BOX:
+        return math.cos(row[7]), math.sin(row[7])
+    return 1.0, 0.0
+
+
+@njit(cache=True, inline="always")
+def turned_distance(x, y, z, row, c, s):
+    """:func:`point_distance` with the row's ``c, s = row_turn(row)`` given."""
     kind = row[0]
     if kind == PLANE:
         return z - row[1], 0.0, 0.0, 1.0
@@ -66,7 +85,6 @@ def point_distance(x, y, z, row):
         phi, w0, w1, _ = _box_like(1.0, 1.0, 1.0, rho - row[4],
                                    qz - row[5] if above else -qz, 0.0, np.int64(2))
         return phi, w0 * rx, w0 * ry, w1 if above else -w1
-    c, s = math.cos(row[7]), math.sin(row[7])
     qx, qy, qz = x - row[1], y - row[2], z - row[3]
     lx, ly = c * qx + s * qy, -s * qx + c * qy
     phi, n0, n1, n2 = _box_like(lx, ly, qz, abs(lx) - row[4], abs(ly) - row[5],
@@ -79,12 +97,36 @@ def signed_distances(points, rows, phi, normals):
     """:func:`point_distance` of points (m, 3) to every row (K, 8) into ``phi`` (K, m) [m] and
     ``normals`` (K, m, 3)."""
     for k in range(rows.shape[0]):
+        c, s = row_turn(rows[k])
         for i in range(points.shape[0]):
-            d, nx, ny, nz = point_distance(points[i, 0], points[i, 1], points[i, 2], rows[k])
+            d, nx, ny, nz = turned_distance(points[i, 0], points[i, 1], points[i, 2], rows[k],
+                                            c, s)
             phi[k, i] = d
             normals[k, i, 0] = nx
             normals[k, i, 1] = ny
             normals[k, i, 2] = nz
+
+
+REACH_MARGIN = 1e-9
+"""Slack [m] of :func:`push_out`'s bounding-box test, far above the round-off of a distance,
+so that a point the test passes over is one :func:`point_distance` finds clear."""
+
+
+@njit(cache=True, inline="always")
+def _within(row, c, s, lo, hi, reach):
+    """Whether the bounding box [lo, hi] (3,) [m] comes within ``reach`` [m] of the obstacle
+    row's own bounding box (a plane: of the half-space below it); ``c, s = row_turn(row)``."""
+    if row[0] == PLANE:
+        return lo[2] < row[1] + reach
+    if row[0] == CYLINDER:
+        ex, ey, bottom, top = row[4], row[4], row[3], row[3] + row[5]
+    else:
+        ex = abs(c) * row[4] + abs(s) * row[5]
+        ey = abs(s) * row[4] + abs(c) * row[5]
+        bottom, top = row[3] - row[6], row[3] + row[6]
+    return (lo[0] < row[1] + ex + reach and hi[0] > row[1] - ex - reach
+            and lo[1] < row[2] + ey + reach and hi[1] > row[2] - ey - reach
+            and lo[2] < top + reach and hi[2] > bottom - reach)
 
 
 @njit(cache=True)
@@ -100,9 +142,20 @@ def push_out(x, v, accel, rows, radius, friction, first, stop):
     force). The acceleration's part the obstacle carries (into it, and along it within the
     friction cone) is removed too, so that a cable resting on an obstacle counts as at rest.
     """
+    lo = np.empty(3)
+    hi = np.empty(3)
+    for a in range(3):  # the points' bounding box: an obstacle whose own box is farther than
+        lo[a] = x[first, a]  # the radius from it touches none of them
+        hi[a] = x[first, a]
+        for i in range(first + 1, stop):
+            lo[a] = min(lo[a], x[i, a])
+            hi[a] = max(hi[a], x[i, a])
     for k in range(rows.shape[0]):
+        c, s = row_turn(rows[k])
+        if not _within(rows[k], c, s, lo, hi, radius + REACH_MARGIN):
+            continue
         for i in range(first, stop):
-            phi, nx, ny, nz = point_distance(x[i, 0], x[i, 1], x[i, 2], rows[k])
+            phi, nx, ny, nz = turned_distance(x[i, 0], x[i, 1], x[i, 2], rows[k], c, s)
             if phi >= radius:
                 continue
             depth = radius - phi

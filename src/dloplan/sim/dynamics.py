@@ -237,6 +237,9 @@ class Simulation:
         True when the run stopped because every point was slower than the rest speed.
     message : str
         What happened.
+    velocity : numpy.ndarray or None
+        (n + 1, 3) point velocities at the last step [m/s] (the state a run continued from
+        ``shapes[-1]`` starts with, ``simulate(initial_velocity=)``).
     """
 
     times: np.ndarray
@@ -246,6 +249,7 @@ class Simulation:
     steps: int
     settled: bool
     message: str
+    velocity: np.ndarray | None = None
 
     def at(self, times) -> np.ndarray:
         """Recorded shapes linearly interpolated at ``times`` [s] (clamped), (K, n + 1, 3)."""
@@ -276,8 +280,10 @@ def simulate(
     friction: float = 0.0,
     cable_at=None,
     scheme: str = "explicit",
+    initial_velocity=None,
 ) -> Simulation:
-    """Integrate eq. 3.24 from ``initial_shape`` (at rest) with the clips driving the ends.
+    """Integrate eq. 3.24 from ``initial_shape`` (at rest, or moving at ``initial_velocity``)
+    with the clips driving the ends.
 
     Parameters
     ----------
@@ -336,6 +342,10 @@ def simulate(
         stable at any ``dt`` while the chain's stiffness is positive enough (raises
         :class:`IndefiniteStep` otherwise); its ``dt`` (required) is set by the motion. Not
         with ``torsion``.
+    initial_velocity : array_like, optional
+        (n + 1, 3) velocities of the points at t = 0 [m/s] (a run continued from another's
+        last state, :attr:`Simulation.velocity`); default at rest. The held points' are the
+        clips' from the first step on.
     """
     x = as_shape(initial_shape, cable.n_points, "initial_shape").copy()
     if not (math.isfinite(duration) and duration > 0):
@@ -379,7 +389,8 @@ def simulate(
     times, speeds = np.zeros(n_records), np.zeros(n_records)
     shapes = np.empty((n_records,) + x.shape)
     shapes[0] = x  # as given: the clips take hold at the first step
-    v = np.zeros_like(x)
+    v = np.zeros_like(x) if initial_velocity is None else as_shape(
+        initial_velocity, cable.n_points, "initial_velocity").copy()
     previous_held = trajectory.held_points(np.array([0.0]), cable.rest_link_length)[0]
     x[list(HELD_INDICES)] = previous_held
     twist = None
@@ -446,7 +457,7 @@ def simulate(
     else:
         message = f"ran {step} steps ({step * dt:.4g} s)"
     return Simulation(times[:recorded].copy(), shapes[:recorded].copy(),
-                      speeds[:recorded].copy(), float(dt), step, settled, message)
+                      speeds[:recorded].copy(), float(dt), step, settled, message, v)
 
 
 def settle(

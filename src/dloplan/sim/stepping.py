@@ -80,8 +80,9 @@ def _record(x, v, accel, step, dt, record_every, rest_speed, clips_stop, times, 
 @njit(cache=True, inline="always")
 def _keep_out(x, v, accel, ground, obstacles, radius, friction):
     """The one-sided contacts after a step: the free points of x, v, accel (n + 1, 3) put out
-    of the obstacle rows (:func:`dloplan.physics.contact_compiled.push_out`) and, with
-    ``ground``, above the plane z = 0 with no downward speed."""
+    of the obstacle rows (:func:`dloplan.physics.contact_compiled.push_out`, which passes over
+    the obstacles out of the points' reach) and, with ``ground``, above the plane z = 0 with no
+    downward speed."""
     n_points = x.shape[0]
     if obstacles.shape[0] > 0:
         push_out(x, v, accel, obstacles, radius, friction, 2, n_points - 2)

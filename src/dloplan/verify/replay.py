@@ -53,6 +53,10 @@ implicit system is found indefinite, and a changing cable (a harness section bei
 its links all getting shorter: ``scheme="implicit"`` steps it with the friction on the material
 through which the points move, but its peak tensions on the harness jobs do not yet agree with
 the explicit ones where the section is pulled onto the peg and its plate; docs/decisions.md).
+A changing cable that does not change before ``changes_at`` (the harness section through the
+insertion and the regrasp's pause) steps implicitly until then and explicitly from the state it
+reached (positions and velocities), so only the pull itself takes the explicit steps, with a
+tensile limit too: the pull is where a section's tension peaks, and it stays explicit.
 
 The simulated shapes are recorded often enough (at least 20 records per knot interval, every step
 while the run has fewer than :data:`MAX_RECORDS` steps) that the shape at a knot time is
@@ -289,6 +293,7 @@ def replay(
     cable_at=None,
     record_interval: float | None = None,
     scheme: str = "auto",
+    changes_at: float | None = None,
 ) -> Replay:
     """Simulate the timed plan at its real speed and compare with the planned shapes.
 
@@ -336,6 +341,11 @@ def replay(
         ``dt``); ``"auto"`` (default) implicit where it applies (no torsion, changing cable
         or tensile limit), explicit otherwise and when an implicit step finds the chain's
         stiffness indefinite.
+    changes_at : float, optional
+        With ``cable_at``: the time on the trajectory's clock [s] before which ``cable_at``
+        gives the cable at the start (a harness section not yet pulled). ``"auto"`` then steps
+        implicitly until then and explicitly from that state on, with or without a tensile
+        limit (module docstring, *Scheme*).
 
     Returns
     -------
@@ -400,21 +410,43 @@ def replay(
     spacing = np.diff(knots)
     finest = float(np.min(spacing)) / 20.0 if len(spacing) else duration
 
-    def run_with(step: float, scheme: str) -> Simulation:
+    def run_with(step: float, scheme: str, begin: float = 0.0, end: float = duration,
+                 state: Simulation | None = None, fixed: bool = False) -> Simulation:
+        """The simulation from ``begin`` to ``end`` [s] on the replay's clock, from the first
+        shape at rest or from the last state of ``state``; ``fixed``: with the cable
+        ``changing`` gives at ``begin`` throughout (it does not change before ``end``)."""
         longest = max(step, duration / MAX_RECORDS) if record_interval is None else max(
             step, float(record_interval))
-        return simulate(model, path[0], shifted, duration=duration, dt=step, gravity=gravity,
+        clock = shifted if begin == 0.0 else ClipTrajectory(shifted.times - begin,
+                                                            shifted.poses)
+        later = None if fixed else changing if changing is None or begin == 0.0 else (
+            lambda t: changing(t + begin))
+        return simulate(model if state is None and not fixed else changing(begin),
+                        path[0] if state is None else state.shapes[-1], clock,
+                        duration=end - begin, dt=step, gravity=gravity,
                         record_interval=min(longest, finest), rest_speed=rest_speed,
                         max_steps=max_steps, damping=damping, torsion=torsion,
-                        contacts=contacts, friction=friction, cable_at=changing,
-                        scheme=scheme)
+                        contacts=contacts, friction=friction, cable_at=later, scheme=scheme,
+                        initial_velocity=None if state is None else state.velocity)
 
-    try:
-        run = run_with(step, "implicit" if implicit else "explicit")
-    except IndefiniteStep:
-        if scheme == "implicit":
-            raise
-        run = run_with(explicit_step(), "explicit")
+    switch = None if changes_at is None else float(changes_at) - start
+    if (scheme == "auto" and changing is not None and not torsion and switch is not None
+            and IMPLICIT_STEP <= switch < motion):
+        try:  # the fixed cable implicitly, up to the last whole step before it changes
+            first = run_with(IMPLICIT_STEP, "implicit",
+                             end=math.floor(switch / IMPLICIT_STEP) * IMPLICIT_STEP, fixed=True)
+            begin = first.steps * first.dt
+            run = _joined(first, run_with(explicit_step(), "explicit", begin, state=first),
+                          begin)
+        except IndefiniteStep:
+            run = run_with(explicit_step(), "explicit")
+    else:
+        try:
+            run = run_with(step, "implicit" if implicit else "explicit")
+        except IndefiniteStep:
+            if scheme == "implicit":
+                raise
+            run = run_with(explicit_step(), "explicit")
     deviations = np.array([_deviation_at(run, t, x) for t, x in zip(knots, path, strict=True)])
     final = float(np.max(np.linalg.norm(run.shapes[-1] - path[-1], axis=1)))
     timing = law if law is not None else TimeLaw.constant_speed(knots)
@@ -451,6 +483,19 @@ def replay(
                   int(link), tensile_limit, float(tolerance), not problems, message, run,
                   segments, motion_peak, timing, tensions, names, gaps,
                   CONTACT_GAP * cable.diameter / 2)
+
+
+def _joined(first: Simulation, then: Simulation, begin: float) -> Simulation:
+    """Two runs as one: ``then`` continued ``first`` from its last state at ``begin`` [s]
+    (its first record, that state, is dropped); the time step of the second."""
+    steps = first.steps + then.steps
+    end = begin + float(then.times[-1])
+    message = (f"at rest after {steps} steps ({end:.4g} s)" if then.settled
+               else f"ran {steps} steps ({end:.4g} s)")
+    return Simulation(np.concatenate([first.times, begin + then.times[1:]]),
+                      np.concatenate([first.shapes, then.shapes[1:]]),
+                      np.concatenate([first.max_speeds, then.max_speeds[1:]]), then.dt, steps,
+                      then.settled, message, then.velocity)
 
 
 def _tensions(run: Simulation, model: Cable, changing, gravity) -> np.ndarray:
