@@ -60,3 +60,19 @@ def test_the_harness_exercise_is_a_harness_job_with_pegs_and_fixtures():
     job = resolve_mapping(warmup.HARNESS, "warm-up harness")
     assert isinstance(job, HarnessJob)
     assert len(job.board.pegs) == 1 and len(job.board.fixtures) == 2
+
+
+def test_the_warm_up_writes_bytecode_even_when_told_not_to(monkeypatch):
+    """The exercises' processes write the bytecode of what they import (``make`` installs
+    with ``pip install --no-compile``), also under PYTHONDONTWRITEBYTECODE (the pool inherits the
+    environment)."""
+    import os
+    import sys
+
+    seen = []
+    monkeypatch.setenv("PYTHONDONTWRITEBYTECODE", "1")
+    monkeypatch.setattr(sys, "dont_write_bytecode", True)
+    monkeypatch.setattr(warmup, "warm", lambda workers: seen.append(
+        (os.environ.get("PYTHONDONTWRITEBYTECODE"), sys.dont_write_bytecode)) or True)
+    assert warmup.main([]) == 0
+    assert seen == [(None, False)]

@@ -14,6 +14,9 @@ moment is compiled by both (numba has no lock between compilations); the saves a
 (:mod:`dloplan.jit`), and the exercises are chosen to share little. Exercises started after a
 kernel was saved load it.
 
+The command also writes the bytecode of the modules the exercises import (:func:`write_bytecode`),
+which ``pip install --no-compile`` left out, even where ``PYTHONDONTWRITEBYTECODE`` is set.
+
 Run: ``python -m dloplan.warmup [--workers N]``; it prints each exercise's time and the kernels
 compiled, and exits 1 naming an exercise that failed (the kernels it compiled stay cached).
 """
@@ -79,12 +82,25 @@ def twist() -> None:
     plan_twist(job.cable, path, gripper_frames(job, path))
 
 
-def plan_verify() -> None:
-    """``dloplan plan --verify`` of the demo: what the exercises above leave (stability,
-    snap-through continuation, dynamic replay, the repair loop's checks)."""
-    from .pipeline.plan import make_plan
+def demo() -> None:
+    """``dloplan demo`` into a temporary folder: the demo's ``plan --verify`` (what the exercises
+    above leave: stability, snap-through continuation, dynamic replay, the repair loop's checks)
+    and its files written, the figures by the figure workers, so that the modules a run imports
+    (the writers', the report's, matplotlib in the workers' server) have their bytecode written
+    (:func:`write_bytecode`)."""
+    import tempfile
 
-    make_plan(_job(), verify=True)
+    from .app.files import plan_into
+    from .cli import FIGURE_WORKERS
+    from .plots.worker import start_server
+    from .processes import end_forkserver
+
+    start_server()  # as the command: the server warms up while the planner runs
+    try:
+        with tempfile.TemporaryDirectory() as folder:
+            plan_into(_job(), Path(folder) / "demo", verify=True, figure_workers=FIGURE_WORKERS)
+    finally:
+        end_forkserver()
 
 
 def described_cell() -> None:
@@ -155,7 +171,7 @@ EXERCISES = {
     "plan path": plan_path,
     "robot program": robot_program,
     "twist": twist,
-    "plan --verify": plan_verify,
+    "demo": demo,
     "simulate --torsion": dynamics_with_torsion,
     "harness": harness,
     "study": study,
@@ -165,8 +181,9 @@ EXERCISES = {
 sets (the static solver and planner, about 55 % of the demo's compilation; the IK, 30 %; the
 torsion solver, 20 %): on two processes the first takes one while the other two follow each
 other on the second, so that when the demo's ``plan --verify`` starts it finds them cached and
-compiles only the replay's (implicit) stepping and the snap check's continuation; the last
-four add what the demo does not use (measured with numba's compile events:
+compiles only the replay's (implicit) stepping and the snap check's continuation (and
+writes the demo's files, the figures drawn by the figure workers); the last four add what the
+demo does not use (measured with numba's compile events:
 docs/performance.md), the harness's contact kernels among them."""
 
 
@@ -210,7 +227,25 @@ def warm(workers: int | None = None, progress=print, exercises=None) -> bool:
     return ok
 
 
+def write_bytecode() -> None:
+    """Let this process, and the processes it starts afterwards, write the bytecode of the modules
+    they import (``__pycache__/*.pyc``), even where ``PYTHONDONTWRITEBYTECODE`` is set.
+
+    ``make`` installs with ``pip install --no-compile``: pip does not byte-compile the 11 000
+    modules it installs (about 40 s of CPU), so a module's bytecode is written on its first
+    import. Where ``PYTHONDONTWRITEBYTECODE`` is set (container images often set it) nothing
+    ever is, and every process compiled every module it imports from source: 1.2 s of CPU more
+    for each ``dloplan`` command's start (numpy, scipy, numba, dloplan: 2.0 s instead of 0.8 s),
+    in each test worker, each subprocess the tests start and each figure workers' server
+    (docs/performance.md). The warm-up's exercises import what a run imports, so with this they
+    write its bytecode once, as pip would have (pip's byte-compiling ignores the variable too).
+    """
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    sys.dont_write_bytecode = False
+
+
 def main(argv=None) -> int:
+    write_bytecode()  # first: the modules imported from here on are written as well
     from .cli import use_command_blas_threads
 
     parser = argparse.ArgumentParser(prog="python -m dloplan.warmup",
