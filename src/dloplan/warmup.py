@@ -85,22 +85,14 @@ def twist() -> None:
 def demo() -> None:
     """``dloplan demo`` into a temporary folder: the demo's ``plan --verify`` (what the exercises
     above leave: stability, snap-through continuation, dynamic replay, the repair loop's checks)
-    and its files written, the figures by the figure workers, so that the modules a run imports
-    (the writers', the report's, matplotlib in the workers' server) have their bytecode written
-    (:func:`write_bytecode`)."""
+    and its files written, its figures drawn here, so that the modules a run imports to write
+    (the writers, the report, matplotlib) have their bytecode written (:func:`write_bytecode`)."""
     import tempfile
 
     from .app.files import plan_into
-    from .cli import FIGURE_WORKERS
-    from .plots.worker import start_server
-    from .processes import end_forkserver
 
-    start_server()  # as the command: the server warms up while the planner runs
-    try:
-        with tempfile.TemporaryDirectory() as folder:
-            plan_into(_job(), Path(folder) / "demo", verify=True, figure_workers=FIGURE_WORKERS)
-    finally:
-        end_forkserver()
+    with tempfile.TemporaryDirectory() as folder:
+        plan_into(_job(), Path(folder) / "demo", verify=True)
 
 
 def described_cell() -> None:
@@ -182,7 +174,7 @@ sets (the static solver and planner, about 55 % of the demo's compilation; the I
 torsion solver, 20 %): on two processes the first takes one while the other two follow each
 other on the second, so that when the demo's ``plan --verify`` starts it finds them cached and
 compiles only the replay's (implicit) stepping and the snap check's continuation (and
-writes the demo's files, the figures drawn by the figure workers); the last four add what the
+writes the demo's files); the last four add what the
 demo does not use (measured with numba's compile events:
 docs/performance.md), the harness's contact kernels among them."""
 
@@ -216,7 +208,8 @@ def warm(workers: int | None = None, progress=print, exercises=None) -> bool:
     start = time.perf_counter()
     context = multiprocessing.get_context("spawn")  # fresh interpreters: nothing half-loaded
     ok = True
-    with ProcessPoolExecutor(min(workers, len(names)), mp_context=context) as pool:
+    with ProcessPoolExecutor(min(workers, len(names)), mp_context=context,
+                             initializer=write_bytecode) as pool:
         futures = [pool.submit(run_exercise, name) for name in names]
         for future in as_completed(futures):
             name, seconds, error = future.result()
@@ -239,6 +232,9 @@ def write_bytecode() -> None:
     in each test worker, each subprocess the tests start and each figure workers' server
     (docs/performance.md). The warm-up's exercises import what a run imports, so with this they
     write its bytecode once, as pip would have (pip's byte-compiling ignores the variable too).
+    Called by :func:`main` and in each of the pool's processes (their initializer):
+    multiprocessing starts its interpreters with the parent's flags, ``-B`` where the variable was
+    set when the parent started.
     """
     os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
     sys.dont_write_bytecode = False
