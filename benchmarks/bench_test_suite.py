@@ -12,7 +12,8 @@ CPU is in the total, not in any test's.
 
 Prints the total CPU (every process the run started), the CPU inside tests, the modules by CPU
 and the ``--top`` slowest tests by CPU (wall beside them: under load it is several times the
-CPU).
+CPU), then each worker's timeline (first start, last end, busy time, its last tests: a worker
+that ends long before the other idled while a long test or group ran alone).
 
 Run: python benchmarks/bench_test_suite.py [--top 30] [--out FOLDER] [-- pytest arguments]
 """
