@@ -9,8 +9,9 @@ STAMP  := $(VENV)/.installed-stamp
 
 .PHONY: demo test bench lint browser clean
 
-# --no-compile: pip does not byte-compile the 11 000 modules it installs (40 s of CPU); Python
-# compiles the few hundred a run imports on their first import
+# --no-compile: pip does not byte-compile the 11 000 modules it installs (40 s of CPU); the
+# warm-up writes the bytecode of the modules a run imports (also under PYTHONDONTWRITEBYTECODE,
+# where Python would otherwise compile them from source in every process)
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --no-compile --upgrade pip

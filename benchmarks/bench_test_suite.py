@@ -12,7 +12,8 @@ CPU is in the total, not in any test's.
 
 Prints the total CPU (every process the run started), the CPU inside tests, the modules by CPU
 and the ``--top`` slowest tests by CPU (wall beside them: under load it is several times the
-CPU).
+CPU), then each worker's timeline (first start, last end, busy time, its last tests: a worker
+that ends long before the other idled while a long test or group ran alone).
 
 Run: python benchmarks/bench_test_suite.py [--top 30] [--out FOLDER] [-- pytest arguments]
 """
@@ -42,14 +43,15 @@ def _cpu() -> float:
 
 
 def _timed(phase: str):
-    """A pytest hook wrapper that appends (test id, phase, CPU s, wall s) to the worker's file."""
+    """A pytest hook wrapper that appends (test id, phase, CPU s, wall s, start) to the worker's
+    file (start: seconds since the epoch, for the workers' timelines)."""
     import pytest
 
     @pytest.hookimpl(hookwrapper=True)
     def hook(item, *args, **kwargs):
-        cpu, wall = _cpu(), time.perf_counter()
+        cpu, wall, start = _cpu(), time.perf_counter(), time.time()
         yield
-        row = (item.nodeid, phase, _cpu() - cpu, time.perf_counter() - wall)
+        row = (item.nodeid, phase, _cpu() - cpu, time.perf_counter() - wall, start)
         folder = Path(os.environ[OUT])
         worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
         with open(folder / f"{worker}.jsonl", "a") as handle:
@@ -64,17 +66,33 @@ if OUT in os.environ:  # loaded by pytest as a plugin (``-p bench_test_suite``)
     pytest_runtest_teardown = _timed("teardown")
 
 
-def read_rows(folder: Path) -> list[tuple[str, str, float, float]]:
-    """Every row the plugin wrote into ``folder``."""
-    return [tuple(json.loads(line)) for path in sorted(folder.glob("*.jsonl"))
-            for line in path.read_text().splitlines()]
+def read_rows(folder: Path) -> dict[str, list[tuple[str, str, float, float, float]]]:
+    """Every row the plugin wrote into ``folder``, by worker."""
+    return {path.stem: [tuple(json.loads(line)) for line in path.read_text().splitlines()]
+            for path in sorted(folder.glob("*.jsonl"))}
+
+
+def timeline(rows_by_worker) -> str:
+    """Each worker's first test start, last test end and busy time, relative to the first start
+    of any worker [s]: a worker that ends well before the other idled while a long test or group
+    ran alone (its last tests are listed)."""
+    begin = min(row[4] for rows in rows_by_worker.values() for row in rows)
+    end = max(row[4] + row[3] for rows in rows_by_worker.values() for row in rows)
+    lines = ["worker   first   last end   busy (wall in tests)   last tests"]
+    for worker, rows in sorted(rows_by_worker.items()):
+        last = max(row[4] + row[3] for row in rows)
+        tail = sorted({row[0].split("::")[0] for row in sorted(rows, key=lambda r: r[4])[-12:]})
+        lines.append(f"{worker:6s} {min(r[4] for r in rows) - begin:7.1f} {last - begin:10.1f} "
+                     f"{sum(r[3] for r in rows):10.1f}             {', '.join(tail)}")
+    lines.append(f"the last test ended {end - begin:.1f} s after the first started")
+    return "\n".join(lines)
 
 
 def summary(rows, top: int) -> str:
     """The modules by CPU and the ``top`` slowest tests by CPU, as text."""
     tests: dict[str, list[float]] = collections.defaultdict(lambda: [0.0, 0.0])
     modules: dict[str, list[float]] = collections.defaultdict(lambda: [0.0, 0.0, 0])
-    for nodeid, phase, cpu, wall in rows:
+    for nodeid, phase, cpu, wall, _start in rows:
         tests[nodeid][0] += cpu
         tests[nodeid][1] += wall
         module = modules[nodeid.split("::")[0]]
@@ -113,7 +131,9 @@ def main() -> int:
             [sys.executable, "-m", "pytest", "-p", "bench_test_suite", *pytest_args], env,
             check=False, stdout=True)
         print(stdout[-3000:], stderr[-2000:], sep="\n")
-        print(summary(read_rows(folder), args.top))
+        by_worker = read_rows(folder)
+        print(summary([row for rows in by_worker.values() for row in rows], args.top))
+        print("", timeline(by_worker), sep="\n")
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
     print(f"\npytest exit {code}: {wall:.1f} s wall, {cpu:.1f} s CPU in all its processes "
           f"(load average now {load}; the host is shared)")

@@ -60,3 +60,33 @@ def test_the_harness_exercise_is_a_harness_job_with_pegs_and_fixtures():
     job = resolve_mapping(warmup.HARNESS, "warm-up harness")
     assert isinstance(job, HarnessJob)
     assert len(job.board.pegs) == 1 and len(job.board.fixtures) == 2
+
+
+def test_the_warm_up_writes_bytecode_even_when_told_not_to(monkeypatch):
+    """The exercises' processes write the bytecode of what they import (``make`` installs
+    with ``pip install --no-compile``), also under PYTHONDONTWRITEBYTECODE (the pool inherits the
+    environment)."""
+    import os
+    import sys
+
+    seen = []
+    monkeypatch.setenv("PYTHONDONTWRITEBYTECODE", "1")
+    monkeypatch.setattr(sys, "dont_write_bytecode", True)
+    monkeypatch.setattr(warmup, "warm", lambda workers: seen.append(
+        (os.environ.get("PYTHONDONTWRITEBYTECODE"), sys.dont_write_bytecode)) or True)
+    assert warmup.main([]) == 0
+    assert seen == [(None, False)]
+
+
+def test_a_process_started_with_dash_b_writes_bytecode_once_told(tmp_path):
+    """What the pool's initializer does in each of its interpreters, which multiprocessing
+    starts with ``-B`` where the warm-up's own interpreter saw PYTHONDONTWRITEBYTECODE."""
+    import subprocess
+    import sys
+
+    (tmp_path / "probe.py").write_text("VALUE = 1\n")
+    code = ("import sys; from dloplan.warmup import write_bytecode; write_bytecode(); "
+            f"sys.path.insert(0, {str(tmp_path)!r}); import probe")
+    subprocess.run([sys.executable, "-B", "-c", code], check=True, timeout=60)
+    assert [path.name.split(".")[0] for path in (tmp_path / "__pycache__").glob("*.pyc")] \
+        == ["probe"]

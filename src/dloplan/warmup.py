@@ -14,6 +14,9 @@ moment is compiled by both (numba has no lock between compilations); the saves a
 (:mod:`dloplan.jit`), and the exercises are chosen to share little. Exercises started after a
 kernel was saved load it.
 
+The command also writes the bytecode of the modules the exercises import (:func:`write_bytecode`),
+which ``pip install --no-compile`` left out, even where ``PYTHONDONTWRITEBYTECODE`` is set.
+
 Run: ``python -m dloplan.warmup [--workers N]``; it prints each exercise's time and the kernels
 compiled, and exits 1 naming an exercise that failed (the kernels it compiled stay cached).
 """
@@ -79,12 +82,17 @@ def twist() -> None:
     plan_twist(job.cable, path, gripper_frames(job, path))
 
 
-def plan_verify() -> None:
-    """``dloplan plan --verify`` of the demo: what the exercises above leave (stability,
-    snap-through continuation, dynamic replay, the repair loop's checks)."""
-    from .pipeline.plan import make_plan
+def demo() -> None:
+    """``dloplan demo`` into a temporary folder: the demo's ``plan --verify`` (what the exercises
+    above leave: stability, snap-through continuation, dynamic replay, the repair loop's checks)
+    and its files written, its figures drawn here, so that the modules a run imports to write
+    (the writers, the report, matplotlib) have their bytecode written (:func:`write_bytecode`)."""
+    import tempfile
 
-    make_plan(_job(), verify=True)
+    from .app.files import plan_into
+
+    with tempfile.TemporaryDirectory() as folder:
+        plan_into(_job(), Path(folder) / "demo", verify=True)
 
 
 def described_cell() -> None:
@@ -155,7 +163,7 @@ EXERCISES = {
     "plan path": plan_path,
     "robot program": robot_program,
     "twist": twist,
-    "plan --verify": plan_verify,
+    "demo": demo,
     "simulate --torsion": dynamics_with_torsion,
     "harness": harness,
     "study": study,
@@ -165,8 +173,9 @@ EXERCISES = {
 sets (the static solver and planner, about 55 % of the demo's compilation; the IK, 30 %; the
 torsion solver, 20 %): on two processes the first takes one while the other two follow each
 other on the second, so that when the demo's ``plan --verify`` starts it finds them cached and
-compiles only the replay's (implicit) stepping and the snap check's continuation; the last
-four add what the demo does not use (measured with numba's compile events:
+compiles only the replay's (implicit) stepping and the snap check's continuation (and
+writes the demo's files); the last four add what the
+demo does not use (measured with numba's compile events:
 docs/performance.md), the harness's contact kernels among them."""
 
 
@@ -199,7 +208,8 @@ def warm(workers: int | None = None, progress=print, exercises=None) -> bool:
     start = time.perf_counter()
     context = multiprocessing.get_context("spawn")  # fresh interpreters: nothing half-loaded
     ok = True
-    with ProcessPoolExecutor(min(workers, len(names)), mp_context=context) as pool:
+    with ProcessPoolExecutor(min(workers, len(names)), mp_context=context,
+                             initializer=write_bytecode) as pool:
         futures = [pool.submit(run_exercise, name) for name in names]
         for future in as_completed(futures):
             name, seconds, error = future.result()
@@ -210,7 +220,28 @@ def warm(workers: int | None = None, progress=print, exercises=None) -> bool:
     return ok
 
 
+def write_bytecode() -> None:
+    """Let this process, and the processes it starts afterwards, write the bytecode of the modules
+    they import (``__pycache__/*.pyc``), even where ``PYTHONDONTWRITEBYTECODE`` is set.
+
+    ``make`` installs with ``pip install --no-compile``: pip does not byte-compile the 11 000
+    modules it installs (about 40 s of CPU), so a module's bytecode is written on its first
+    import. Where ``PYTHONDONTWRITEBYTECODE`` is set (container images often set it) nothing
+    ever is, and every process compiled every module it imports from source: 1.2 s of CPU more
+    for each ``dloplan`` command's start (numpy, scipy, numba, dloplan: 2.0 s instead of 0.8 s),
+    in each test worker, each subprocess the tests start and each figure workers' server
+    (docs/performance.md). The warm-up's exercises import what a run imports, so with this they
+    write its bytecode once, as pip would have (pip's byte-compiling ignores the variable too).
+    Called by :func:`main` and in each of the pool's processes (their initializer):
+    multiprocessing starts its interpreters with the parent's flags, ``-B`` where the variable was
+    set when the parent started.
+    """
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+    sys.dont_write_bytecode = False
+
+
 def main(argv=None) -> int:
+    write_bytecode()  # first: the modules imported from here on are written as well
     from .cli import use_command_blas_threads
 
     parser = argparse.ArgumentParser(prog="python -m dloplan.warmup",
