@@ -56,6 +56,18 @@ def group_members(pgid: int) -> list[int]:
     return members
 
 
+def describe_process(pid: int) -> str:
+    """A live process for a failure message: its state, where the kernel has it wait, its
+    parent and its command line (what is left when it has gone meanwhile)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        wchan = Path(f"/proc/{pid}/wchan").read_text()
+        command = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
+    except OSError:
+        return "gone"
+    return f"state {stat[0]}, waits in {wchan or '-'}, parent {stat[1]}: {command.strip()}"
+
+
 def snapshot(folder: Path) -> dict:
     """Every file under ``folder`` -> its bytes (empty when it does not exist)."""
     if not folder.exists():

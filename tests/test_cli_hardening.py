@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 
 import pytest
-from signal_runs import group_members, interruptible
+from signal_runs import describe_process, group_members, interruptible
 from test_cli import STIFF, write
 
 from dloplan.cli import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, EXIT_WARNINGS, main
@@ -170,14 +170,10 @@ def test_ctrl_c_in_a_terminal_stops_every_process_quietly(tmp_path, when):
     assert "Traceback" not in stderr and "KeyboardInterrupt" not in stderr, stderr
     assert not out.exists()
     deadline = time.monotonic() + 10.0
-    while time.monotonic() < deadline:
-        try:
-            os.killpg(process.pid, 0)
-        except ProcessLookupError:
-            break
+    while group_members(process.pid) and time.monotonic() < deadline:
         time.sleep(0.1)
-    else:
-        pytest.fail("a process of the command outlived it")
+    survivors = {pid: describe_process(pid) for pid in group_members(process.pid)}
+    assert not survivors, f"a process of the command outlived it by 10 s: {survivors}"
 
 
 def test_two_runs_on_one_folder_leave_one_complete_output(tmp_path):
