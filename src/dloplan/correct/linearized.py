@@ -66,6 +66,7 @@ from ..geometry import as_path, resample_by_arc_length
 from ..grippers import GripperPath
 from ..sim import ClipPoses, equilibrium, interpolate_clips
 from ..sim.batch import held_equilibria
+from ..physics.chain import SpringChain
 from ..sim.sensitivity import equilibrium_sensitivity
 from ..study.evaluate import perturbed_cable
 from .measurement import CorrectionRefused, noise_sd, resample_measured
@@ -73,6 +74,7 @@ from .model_error import (
     BOUNDS,
     MAX_GRIP,
     alpha_prior,
+    clamped_equilibrium,
     fit_model_error,
     measured_offset,
     model_error_directions,
@@ -129,7 +131,10 @@ class DerivativeTable:
         Per name, (k, ...) arrays: ``state`` and ``target`` (n + 1, 3) the equilibria at K and
         at the target [m]; ``modulus_k``, ``modulus_t`` d x / d ln E there [m]; ``d_k``,
         ``g_k``, ``d_t``, ``g_t`` the discretization and clamp directions
-        (:func:`.model_error.model_error_directions`) [m]; ``fine`` (k n + 1, 3) the
+        (:func:`.model_error.model_error_directions`) [m]; ``d_clips``, ``g_clips``
+        (3 (n + 1), 12) d d / d p and d g / d p at the target (the clip sensitivities of the
+        2 n-link equilibria they are differences of, at their every other point: R_n to first
+        order; scaled as ``clips``) [m]; ``fine`` (k n + 1, 3) the
         equilibrium at the target of the chain the clips are fitted on (:class:`~.step.
         FitModel`: k n links, each gripper clamping k) [m], ``fine_clips`` (3 (k n + 1), 12)
         its d x / d p and ``clips`` (3 (n + 1), 12) the same at its every k-th point (the plan's
@@ -326,12 +331,25 @@ def _node(cable: Cable, clips: tuple, guesses: tuple, gravity, scale,
         if not eq.success:
             return None
         sens = equilibrium_sensitivity(cable, eq.shape, c, gravity=gravity)
+        fine = cable.with_links(2 * cable.n_links)
+        chain = SpringChain.from_cable(fine, gravity)
+        refined = resample_by_arc_length(eq.shape, fine.n_points)
         try:
-            d, g = model_error_directions(cable, eq.shape, c, grip=True, gravity=gravity)
+            d, g = model_error_directions(cable, eq.shape, c, grip=True, gravity=gravity,
+                                          fine_chain=chain, fine_guess=refined)
         except CorrectionRefused:
             return None
         node.update({"state" if suffix == "k" else "target": eq.shape,
                      f"modulus_{suffix}": sens.log_modulus, f"d_{suffix}": d, f"g_{suffix}": g})
+        if suffix == "t":  # how d and g move with the clips: the clip fit's bias
+            clamped3, stable, _ = clamped_equilibrium(fine, refined, c, 3, gravity=gravity,
+                                                      chain=chain)
+            if not stable:
+                return None
+            two, three = (equilibrium_sensitivity(fine, x, c, chain=chain, clamp_links=links)
+                          .clips[::2] for x, links in ((refined, 2), (clamped3, 3)))
+            node.update({"d_clips": (two - sens.clips).reshape(-1, 12) / scale,
+                         "g_clips": (three - two).reshape(-1, 12) / scale})
     fit = FitModel.of(cable, fit_links, gravity)
     try:
         held = fit.hold(node["target"], clips[1], gravity)
@@ -720,8 +738,11 @@ def _correction(nominal: NominalCorrection, y: np.ndarray, first: dict, prior) -
     update = yield from _update_modulus(nominal, y, first, prior)
     modulus = update.youngs_modulus
     at = nominal.table.at(math.log(modulus))  # the derivatives at the target, at this E
-    # what the clip fit's chain leaves of the bias (:meth:`~.step.FitModel.bias`)
-    bias = (update.discretization - nominal.share) * at["d_t"] + update.grip * at["g_t"]
+    # what the clip fit's chain leaves of the bias (:meth:`~.step.FitModel.bias`), and how it
+    # moves with the clips (scaled coordinates)
+    left = update.discretization - nominal.share
+    bias = left * at["d_t"] + update.grip * at["g_t"]
+    moves = left * at["d_clips"] + update.grip * at["g_clips"]
     open_loop = at["fine"]  # E kept: the table's node is the fit chain's equilibrium there
     if modulus != nominal.cable.youngs_modulus:
         open_loop = yield _Request(modulus, np.zeros(12), True, at["fine"])
@@ -730,11 +751,13 @@ def _correction(nominal: NominalCorrection, y: np.ndarray, first: dict, prior) -
             f"model: the clip fit's chain (n = {len(at['fine']) - 1}, clamping "
             f"{nominal.clamp_links} links, E = {modulus:.3g} Pa) finds no stable equilibrium "
             "at the target's clip poses")
-    p, corrected = yield from _fit_clips(nominal, modulus, at, open_loop, bias)
-    k = nominal.clamp_links
-    check_gain(open_loop[::k] + bias, corrected[::k] + bias, nominal.reference,
-               {"modulus": at["modulus_t"], "discretization": at["d_t"], "grip": at["g_t"]},
-               update, nominal.limits.gain_significance)
+    p, corrected = yield from _fit_clips(nominal, modulus, at, open_loop, bias, moves)
+    k, z = nominal.clamp_links, p * nominal.scale
+    directions = {"modulus": at["modulus_t"],  # at the corrected clips, d and g to first order
+                  "discretization": at["d_t"] + (at["d_clips"] @ z).reshape(bias.shape),
+                  "grip": at["g_t"] + (at["g_clips"] @ z).reshape(bias.shape)}
+    check_gain(open_loop[::k] + bias, corrected[::k] + bias + (moves @ z).reshape(bias.shape),
+               nominal.reference, directions, update, nominal.limits.gain_significance)
     return _Corrected(modulus, p)
 
 
@@ -791,22 +814,28 @@ def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, first: dic
 
 
 def _fit_clips(nominal: NominalCorrection, modulus: float, at: Interpolated, start: np.ndarray,
-               bias: np.ndarray) -> Generator:
+               bias: np.ndarray, moves: np.ndarray) -> Generator:
     """The target's Levenberg-Marquardt clip fit (:func:`~.step.fit_clips`' damping and stop,
     :data:`CHORD_TRIALS` trials per iteration) on the clip fit's chain (k n links,
     :class:`~.step.FitModel`), its every k-th point plus ``bias`` (n + 1, 3) fitted to the
     reference, from its equilibrium ``start`` (k n + 1, 3) [m] at the planned clips, with the
     clip Jacobian of the planned target at this E (``at``, :meth:`DerivativeTable.at`),
-    frozen: every trial an exact equilibrium of the updated model's fit chain. Returns
-    ``(p (12,), equilibrium (k n + 1, 3))``."""
+    frozen: every trial an exact equilibrium of the updated model's fit chain. The bias moves
+    with the clips, to first order by ``moves`` (3 (n + 1), 12, scaled): where
+    :func:`~.step.correct_plan` re-evaluates it at the clips of a first fit and fits again.
+    Returns ``(p (12,), equilibrium (k n + 1, 3))``."""
     scale, limits, k = nominal.scale, nominal.limits, nominal.clamp_links
-    jz, fine = at["clips"], at["fine_clips"]
+    jz, fine = at["clips"] + moves, at["fine_clips"]
+
+    def residual(x, p):
+        return (x[::k] + bias - nominal.reference).ravel() + moves @ (p * scale)
+
     normal = jz.T @ jz
     diagonal = np.diag(np.diag(normal))  # the damping's shape, mu diag(J^T J)
     normal = normal + 1e-12 * np.trace(normal) * np.eye(12)  # the fit's floor
     damping = CLIP_DAMPING
     x, p = start, np.zeros(12)
-    r = (x[::k] + bias - nominal.reference).ravel()
+    r = residual(x, p)
     cost, mu = float(r @ r), damping.initial
     for _ in range(limits.iterations):
         b = jz.T @ r
@@ -817,7 +846,7 @@ def _fit_clips(nominal: NominalCorrection, modulus: float, at: Interpolated, sta
             guess = x + (fine @ ((trial_p - p) * scale)).reshape(x.shape)
             trial = yield _Request(modulus, trial_p, True, guess)
             if trial is not None:
-                r_trial = (trial[::k] + bias - nominal.reference).ravel()
+                r_trial = residual(trial, trial_p)
                 trial_cost = float(r_trial @ r_trial)
                 if trial_cost <= cost:
                     accepted = True
