@@ -16,12 +16,13 @@ decide where every estimate ends, are solved per sample, exactly:
 * the measurement is the exact method's (the same noise draws, :func:`.measurement.
   resample_measured`, its refusals), and so is its offset's verdict (read off the held points,
   its covariance with the measurement's noise along the clips' axes, :func:`.model_error.
-  offset_covariance`, tested by :func:`~.step.offset_verdict` itself);
-* the model update is :func:`~.step.update_modulus`'s algorithm -- the fit of ln E, alpha and beta with alpha's prior, the clamp length's and E's
-  significance tests, steps of at most a factor 2 within the limit ``max_modulus_factor``
-  (:func:`~.step.trust_region_step`) -- with d x / d ln E, d and g at shape K from the table at
-  the current E (at the plan's clips, not re-solved on 2 n links), each step's equilibrium
-  exact; the first fits of a chunk are one batch of normal equations (:func:`fit_amplitudes`);
+  offset_covariance`, judged by :func:`~.step.offset_verdict` itself);
+* the model update is :func:`~.step.update_modulus`'s algorithm -- the fit of ln E, alpha and
+  beta with alpha's prior, the clamp length's and E's significance tests, steps of at most a
+  factor 2 within the limit ``max_modulus_factor`` (:func:`~.step.trust_region_step`) -- with
+  d x / d ln E, d and g at shape K from the table at the current E (at the plan's clips, not
+  re-solved on 2 n links), each step's equilibrium exact; the first fits of a chunk are one
+  batch of normal equations (:func:`fit_amplitudes`);
 * the clip fit is the target's Levenberg-Marquardt fit (:data:`~.step.CLIP_DAMPING`, the
   limits' projection, ramped in over the remaining shapes) on the chain
   :func:`~.step.correct_plan` fits the clips on (:class:`~.step.FitModel`: the updated model on
@@ -64,9 +65,9 @@ from ..cable import Cable
 from ..frames import slerp_quaternions
 from ..geometry import as_path, resample_by_arc_length
 from ..grippers import GripperPath
+from ..physics.chain import SpringChain
 from ..sim import ClipPoses, equilibrium, interpolate_clips
 from ..sim.batch import held_equilibria
-from ..physics.chain import SpringChain
 from ..sim.sensitivity import equilibrium_sensitivity
 from ..study.evaluate import perturbed_cable
 from .measurement import CorrectionRefused, noise_sd, resample_measured
