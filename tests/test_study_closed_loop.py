@@ -213,11 +213,12 @@ def test_the_linearized_closed_loop_agrees_with_the_exact_correction(example_pla
     Tolerances, and why: the plant and its measurement are the same computation (the open
     loop bit for bit, the same refusals of the measurement and of E beyond its limit); the
     derivatives are tabulated along ln E at the plan's clips instead of re-computed at each
-    estimate, so E comes out within 1 % and a corrected final error within 0.5 mm (measured:
-    0.46 mm at E x3, at most 0.07 mm elsewhere, 2-5 % of the open loop's error); the gain check
-    compares two numbers that both move with the derivatives, so a sample within a few per cent
-    of its threshold may be decided the other way (one of the ten here, E x0.5: a gain of 5.16
-    mm against 2 sd of 5.22 mm).
+    estimate, so E comes out within 1 % and a corrected final error within 0.5 mm (measured
+    with the clips fitted on the refined chain: E within 0.06 %, errors within 0.30 mm at E
+    x0.3 and x0.5, at most 0.24 mm elsewhere, 2-5 % of the open loop's error; before it, 0.46
+    mm at E x3); the gain check compares two numbers that both move with the derivatives, so a
+    sample within a few per cent of its threshold may be decided the other way (none of the ten
+    now; before the refined chain E x0.5: a gain of 5.16 mm against 2 sd of 5.22 mm).
     """
     import math
 
@@ -317,3 +318,41 @@ def test_a_measurement_refused_is_refused_alike(example_plan):
                           stable, doc.trajectory, gravity)
     assert rows == [closed_loop_row(plan, item) for item in items]
     assert all(row["refusal"].startswith("shape 3: measured: the shape is") for row in rows)
+
+
+def test_the_tabulated_clip_derivatives_of_the_bias_are_its_central_differences(example_plan):
+    """d d / d p and d g / d p at the target, tabulated from the clip sensitivities of the
+    2 n-link equilibria d and g are differences of (their every other point for the arc-length
+    resampling R_n), against central differences of model_error_directions at the model's
+    equilibria at perturbed clips (1 mm, 10 mrad), each of the 12 clip coordinates: equal to
+    2e-3 relative (measured at most 8e-4: the step's second-order error and R_n taken as every
+    other point, the links' stretch being that of copper)."""
+    import numpy as np
+
+    from dloplan.correct.linearized import nominal_correction
+    from dloplan.correct.model_error import model_error_directions
+    from dloplan.pipeline.stages import settled_shapes
+    from dloplan.sim import equilibrium
+    from dloplan.sim.sensitivity import perturbed_clips
+
+    doc, gravity = example_plan, (0.0, 0.0, -9.81)
+    stable = settled_shapes(doc)
+    nominal = nominal_correction(doc.cable, doc.shapes, doc.grippers, 3, stabilized=stable,
+                                 gravity=gravity)
+    at = nominal.table.at(np.log(doc.cable.youngs_modulus))
+    clips = doc.grippers.clip_poses(len(stable) - 1)
+
+    def directions(p):
+        c = perturbed_clips(clips, p)
+        x = equilibrium(doc.cable, at["target"], c, gravity=gravity).shape
+        return model_error_directions(doc.cable, x, c, grip=True, gravity=gravity)
+
+    for j in range(12):
+        step = np.zeros(12)
+        step[j] = 1e-3 if j % 6 < 3 else 1e-2
+        (d_plus, g_plus), (d_minus, g_minus) = directions(step), directions(-step)
+        column = np.eye(12)[j] * nominal.scale  # the table's scaled coordinates
+        for name, plus, minus in (("d_clips", d_plus, d_minus), ("g_clips", g_plus, g_minus)):
+            want = (plus - minus) / (2.0 * step[j])
+            got = (at[name] @ column).reshape(want.shape)
+            assert np.linalg.norm(got - want) <= 2e-3 * np.linalg.norm(want), (name, j)

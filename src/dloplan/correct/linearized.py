@@ -14,30 +14,39 @@ decide where every estimate ends, are solved per sample, exactly:
   :func:`.plant_batch.drive_plants`, bit for bit :meth:`~.plant.Plant.hold`, so the open-loop
   column is the exact method's, bit for bit;
 * the measurement is the exact method's (the same noise draws, :func:`.measurement.
-  resample_measured`, its refusals);
-* the model update is :func:`~.step.update_modulus`'s algorithm -- the offset read off the held
-  points, the fit of ln E, alpha and beta with alpha's prior, the clamp length's and E's
-  significance tests, steps of at most a factor 2 within the limit ``max_modulus_factor``
-  (:func:`~.step.trust_region_step`) -- with d x / d ln E, d and g at shape K from the table at
-  the current E (at the plan's clips, not re-solved on 2 n links), each step's equilibrium
-  exact; the first fits of a chunk are one batch of normal equations (:func:`fit_amplitudes`);
+  resample_measured`, its refusals), and so is its offset's verdict (read off the held points,
+  its covariance with the measurement's noise along the clips' axes, :func:`.model_error.
+  offset_covariance`, judged by :func:`~.step.offset_verdict` itself);
+* the model update is :func:`~.step.update_modulus`'s algorithm -- the fit of ln E, alpha and
+  beta with alpha's prior, the clamp length's and E's significance tests, steps of at most a
+  factor 2 within the limit ``max_modulus_factor`` (:func:`~.step.trust_region_step`) -- with
+  d x / d ln E, d and g at shape K from the table at the current E (at the plan's clips, not
+  re-solved on 2 n links), each step's equilibrium exact; the first fits of a chunk are one
+  batch of normal equations (:func:`fit_amplitudes`);
 * the clip fit is the target's Levenberg-Marquardt fit (:data:`~.step.CLIP_DAMPING`, the
-  limits' projection, ramped in over the remaining shapes) with the clip Jacobian of the
+  limits' projection, ramped in over the remaining shapes) on the chain
+  :func:`~.step.correct_plan` fits the clips on (:class:`~.step.FitModel`: the updated model on
+  k n links, :func:`~.step.fit_links_for`, each gripper clamping k; its every k-th point plus
+  the bias less the share alpha_k the chain resolves), with that chain's clip Jacobian of the
   planned target at the updated E, frozen over the fit (a chord method,
   :data:`CHORD_TRIALS`), and the bias directions there, each trial an exact equilibrium of the
-  updated model;
-* the gain checks are :func:`~.step.correct_plan`'s (the predicted gain against 2 sd of it, and
-  evaluated with the clamp length 2 sd off) on the exact equilibria at the target with the
-  table's directions;
+  updated model's fit chain;
+* the gain checks are :func:`~.step.check_gain` itself (the predicted gain against 2 sd of it,
+  sd(ln E) with its prior :attr:`~.step.ModelUpdate.log_prior_sd`, and evaluated with the
+  clamp length 2 sd off) on the fit chain's exact equilibria at the target plus the bias, with
+  the table's directions;
 * the corrected plan is scored by driving the plant through the corrected clip poses, exact.
 
 Not done here (they do not change a row): the re-timing and the intermediate predictions. The
-rows differ from the exact method's by what the derivatives taken at the plan's clips change;
+rows differ from the exact method's by what the derivatives taken at the plan's clips change
+(and the clip fit's one pass with the bias at the planned clips, where the exact fit re-evaluates
+it at the corrected clips and fits again);
 the agreement is tested on samples it was not tuned on (E x0.05 .. x20, other seeds,
 ``tests/test_study_closed_loop.py``) and quoted in docs/study.md.
 
 Every sample's equilibria of one round -- the model at the updated E, a trial of the clip fit
--- are solved in one compiled call (:func:`dloplan.sim.batch.held_equilibria`): each sample's
+-- are solved in two compiled calls (:func:`dloplan.sim.batch.held_equilibria` at shape K,
+:func:`.plant_batch.drive_plants` on the fit chain at the target): each sample's
 correction is a generator that yields the equilibria it needs and receives them
 (:func:`_correction`).
 """
@@ -56,18 +65,21 @@ from ..cable import Cable
 from ..frames import slerp_quaternions
 from ..geometry import as_path, resample_by_arc_length
 from ..grippers import GripperPath
+from ..physics.chain import SpringChain
 from ..sim import ClipPoses, equilibrium, interpolate_clips
 from ..sim.batch import held_equilibria
 from ..sim.sensitivity import equilibrium_sensitivity
 from ..study.evaluate import perturbed_cable
-from .measurement import CorrectionRefused, resample_measured
+from .measurement import CorrectionRefused, noise_sd, resample_measured
 from .model_error import (
     BOUNDS,
     MAX_GRIP,
     alpha_prior,
+    clamped_equilibrium,
     fit_model_error,
     measured_offset,
     model_error_directions,
+    offset_covariance,
     parameter_covariance,
     standard_deviations,
 )
@@ -75,14 +87,16 @@ from .plant_batch import drive_plants
 from .step import (
     CLIP_DAMPING,
     COST_TOLERANCE,
-    GRIP_LINEARITY,
-    GRIP_UNCERTAINTY,
     MAX_LOG_SD,
     MAX_LOG_STEP,
     MODULUS_STEP_TOLERANCE,
-    OFFSET_SIGNIFICANCE,
     SIGNIFICANCE,
     CorrectionLimits,
+    FitModel,
+    ModelUpdate,
+    check_gain,
+    fit_links_for,
+    offset_verdict,
     trust_region_step,
 )
 
@@ -118,8 +132,15 @@ class DerivativeTable:
         Per name, (k, ...) arrays: ``state`` and ``target`` (n + 1, 3) the equilibria at K and
         at the target [m]; ``modulus_k``, ``modulus_t`` d x / d ln E there [m]; ``d_k``,
         ``g_k``, ``d_t``, ``g_t`` the discretization and clamp directions
-        (:func:`.model_error.model_error_directions`) [m]; ``clips`` (3 (n + 1), 12) d x / d p
-        at the target, rotation columns divided by L / 2 (the clip fit's scaled coordinates).
+        (:func:`.model_error.model_error_directions`) [m]; ``d_clips``, ``g_clips``
+        (3 (n + 1), 12) d d / d p and d g / d p at the target (the clip sensitivities of the
+        2 n-link equilibria they are differences of, at their every other point: R_n to first
+        order; scaled as ``clips``) [m]; ``fine`` (k n + 1, 3) the
+        equilibrium at the target of the chain the clips are fitted on (:class:`~.step.
+        FitModel`: k n links, each gripper clamping k) [m], ``fine_clips`` (3 (k n + 1), 12)
+        its d x / d p and ``clips`` (3 (n + 1), 12) the same at its every k-th point (the plan's
+        model's material points), rotation columns divided by L / 2 (the clip fit's scaled
+        coordinates).
     """
 
     log_moduli: np.ndarray
@@ -168,6 +189,15 @@ class NominalCorrection:
         Links of the plants.
     table : DerivativeTable
         The model's equilibria and derivatives at K and at the target along ln E.
+    clamp_links : int
+        k: the clips are fitted on the model cable as a chain of k n links, each gripper
+        clamping k of them (:func:`~.step.fit_links_for`, :class:`~.step.FitModel`).
+    share : float
+        alpha_k, the discretization bias's first-order share that chain resolves
+        (:attr:`~.step.FitModel.share`), taken off alpha in the clip fit and the predictions.
+    u_axes : numpy.ndarray
+        (2, 3) the clips' u-axes at shape K (the measured offset's covariance,
+        :func:`.model_error.offset_covariance`).
     reference : numpy.ndarray
         (n + 1, 3) the plan's stabilized target: what the corrections aim at and the errors
         are measured against [m].
@@ -188,6 +218,9 @@ class NominalCorrection:
     at: int
     plant_links: int
     table: DerivativeTable
+    clamp_links: int
+    share: float
+    u_axes: np.ndarray
     reference: np.ndarray
     scale: np.ndarray
     stops: tuple
@@ -237,24 +270,28 @@ def nominal_correction(cable: Cable, shapes, grippers: GripperPath, at: int, *, 
     gravity = np.asarray(gravity, dtype=float)
     clips = [grippers.clip_poses(j) for j in range(len(path))]
     scale = np.tile(np.r_[np.ones(3), np.full(3, 0.5 * cable.length)], 2)
+    fit_links = fit_links_for(cable.n_links)  # correct_plan's default
     table = derivative_table(cable, (clips[at], clips[-1]), (stable[at], stable[-1]), scale,
-                             math.log(limits.max_modulus_factor), gravity)
+                             math.log(limits.max_modulus_factor), gravity, fit_links)
+    fit = FitModel.of(cable, fit_links, gravity)
     stops = [clips[0]]
     fractions = np.arange(1, SUBSTEPS + 1) / SUBSTEPS
     for j in range(1, len(path)):
         stops += interpolate_clips(clips[j - 1], clips[j], fractions)
     links = cable.n_links if plant_links is None else int(plant_links)
-    return NominalCorrection(cable, int(at), links, table, stable[-1], scale, _arrays(stops),
+    return NominalCorrection(cable, int(at), links, table, fit.clamp_links, fit.share,
+                             clips[at].u_axes, stable[-1], scale, _arrays(stops),
                              _arrays(clips), resample_by_arc_length(path[0], links + 1),
                              gravity, limits)
 
 
 def derivative_table(cable: Cable, clips: tuple, guesses: tuple, scale: np.ndarray,
-                     half_width: float, gravity) -> DerivativeTable:
+                     half_width: float, gravity, fit_links: int) -> DerivativeTable:
     """:class:`DerivativeTable` at the clips of shape K and of the target (``clips``, from the
     ``guesses``), nodes every :data:`TABLE_STEP` in ln E within ``half_width`` of the plan's,
     each continued from its neighbour towards the ends; a side ends where the model loses its
-    stable equilibrium.
+    stable equilibrium, on its own chain or on the clip fit's of ``fit_links`` links
+    (:class:`~.step.FitModel`).
 
     Raises
     ------
@@ -263,7 +300,7 @@ def derivative_table(cable: Cable, clips: tuple, guesses: tuple, scale: np.ndarr
     """
     log_e0 = math.log(cable.youngs_modulus)
     count = int(math.ceil(half_width / TABLE_STEP - 1e-9))
-    rows = {0: _node(cable, clips, guesses, gravity, scale)}
+    rows = {0: _node(cable, clips, guesses, gravity, scale, fit_links)}
     if rows[0] is None:
         raise CorrectionRefused("model: no stable equilibrium of the plan's cable at the "
                                 "measured shape's or the target's clips")
@@ -274,7 +311,8 @@ def derivative_table(cable: Cable, clips: tuple, guesses: tuple, scale: np.ndarr
             step = log_e - math.log(previous["youngs_modulus"])
             guesses = (previous["state"] + step * previous["modulus_k"],
                        previous["target"] + step * previous["modulus_t"])
-            node = _node(cable.with_modulus(math.exp(log_e)), clips, guesses, gravity, scale)
+            node = _node(cable.with_modulus(math.exp(log_e)), clips, guesses, gravity, scale,
+                         fit_links)
             if node is None:
                 break
             rows[side * k] = previous = node
@@ -285,7 +323,8 @@ def derivative_table(cable: Cable, clips: tuple, guesses: tuple, scale: np.ndarr
     return DerivativeTable(moduli, values)
 
 
-def _node(cable: Cable, clips: tuple, guesses: tuple, gravity, scale) -> dict | None:
+def _node(cable: Cable, clips: tuple, guesses: tuple, gravity, scale,
+          fit_links: int) -> dict | None:
     """One node of :func:`derivative_table`, None without a stable equilibrium."""
     node = {"youngs_modulus": cable.youngs_modulus}
     for suffix, c, guess in zip(("k", "t"), clips, guesses, strict=True):
@@ -293,14 +332,34 @@ def _node(cable: Cable, clips: tuple, guesses: tuple, gravity, scale) -> dict | 
         if not eq.success:
             return None
         sens = equilibrium_sensitivity(cable, eq.shape, c, gravity=gravity)
+        fine = cable.with_links(2 * cable.n_links)
+        chain = SpringChain.from_cable(fine, gravity)
+        refined = resample_by_arc_length(eq.shape, fine.n_points)
         try:
-            d, g = model_error_directions(cable, eq.shape, c, grip=True, gravity=gravity)
+            d, g = model_error_directions(cable, eq.shape, c, grip=True, gravity=gravity,
+                                          fine_chain=chain, fine_guess=refined)
         except CorrectionRefused:
             return None
         node.update({"state" if suffix == "k" else "target": eq.shape,
                      f"modulus_{suffix}": sens.log_modulus, f"d_{suffix}": d, f"g_{suffix}": g})
-        if suffix == "t":
-            node["clips"] = sens.clips.reshape(-1, 12) / scale
+        if suffix == "t":  # how d and g move with the clips: the clip fit's bias
+            clamped3, stable, _ = clamped_equilibrium(fine, refined, c, 3, gravity=gravity,
+                                                      chain=chain)
+            if not stable:
+                return None
+            two, three = (equilibrium_sensitivity(fine, x, c, chain=chain, clamp_links=links)
+                          .clips[::2] for x, links in ((refined, 2), (clamped3, 3)))
+            node.update({"d_clips": (two - sens.clips).reshape(-1, 12) / scale,
+                         "g_clips": (three - two).reshape(-1, 12) / scale})
+    fit = FitModel.of(cable, fit_links, gravity)
+    try:
+        held = fit.hold(node["target"], clips[1], gravity)
+    except CorrectionRefused:
+        return None
+    sens = equilibrium_sensitivity(fit.cable, held.shape, clips[1], chain=fit.chain,
+                                   clamp_links=fit.clamp_links)
+    node.update({"fine": held.shape, "fine_clips": sens.clips.reshape(-1, 12) / scale,
+                 "clips": sens.clips[:: fit.clamp_links].reshape(-1, 12) / scale})
     return node
 
 
@@ -423,7 +482,8 @@ class _Corrected:
 @dataclass(frozen=True)
 class _Request:
     """An equilibrium a sample's correction needs: its E [Pa], the clip correction p (12,)
-    of shape K (``at_target`` False) or of the target, and the guess (n + 1, 3) [m]."""
+    of shape K (``at_target`` False: the model's chain, guess (n + 1, 3) [m]) or of the
+    target (the clip fit's chain, :class:`~.step.FitModel`, guess (k n + 1, 3) [m])."""
 
     youngs_modulus: float
     clips: np.ndarray
@@ -458,22 +518,49 @@ def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> Non
 
 
 def _solve(nominal: NominalCorrection, requests: list, cables: dict) -> list:
-    """The model's equilibria of ``requests`` in one :func:`held_equilibria` call: shapes
-    (n + 1, 3), None where there is no stable equilibrium. ``cables`` holds the model cables
-    made so far, per E (their chains are built once while they live)."""
+    """The equilibria of ``requests``: those at shape K on the model's chain in one
+    :func:`held_equilibria` call, those at the target on the clip fit's chain in one
+    :func:`.plant_batch.drive_plants` call (one stop each: the clamped equilibrium of
+    :class:`~.step.FitModel`, bit for bit, and its reach check); shapes, None where there is no
+    stable equilibrium. ``cables`` holds the model cables made so far, per E and links."""
     positions, quaternions = nominal.poses
-    index = [nominal.n_shapes - 1 if r.at_target else nominal.at for r in requests]
     p = np.array([r.clips for r in requests]).reshape(-1, 2, 2, 3)
+    index = [nominal.n_shapes - 1 if r.at_target else nominal.at for r in requests]
     moved = positions[index] + p[:, :, 0]
     turns = Rotation.from_rotvec(p[:, :, 1].reshape(-1, 3))
     rotations = turns * Rotation.from_quat(quaternions[index].reshape(-1, 4))
-    moduli, cable_of = np.unique([r.youngs_modulus for r in requests], return_inverse=True)
-    for e in moduli:  # a sample's trials share its E: one cable, and its chain, for all
-        cables.setdefault(float(e), nominal.cable.with_modulus(float(e)))
-    result = held_equilibria([cables[float(e)] for e in moduli], cable_of.astype(np.int64),
-                             [r.guess for r in requests], moved, rotations,
-                             gravity=nominal.gravity)
-    return [result.shapes[k] if result.success[k] else None for k in range(len(requests))]
+    out: list = [None] * len(requests)
+    shape_k = [b for b, r in enumerate(requests) if not r.at_target]
+    if shape_k:
+        moduli, cable_of = np.unique([requests[b].youngs_modulus for b in shape_k],
+                                     return_inverse=True)
+        for e in moduli:  # a sample's requests share its E: one cable for all
+            cables.setdefault((float(e), 1), nominal.cable.with_modulus(float(e)))
+        result = held_equilibria([cables[float(e), 1] for e in moduli],
+                                 cable_of.astype(np.int64),
+                                 [requests[b].guess for b in shape_k], moved[shape_k],
+                                 rotations[np.ravel([[2 * b, 2 * b + 1] for b in shape_k])],
+                                 gravity=nominal.gravity)
+        for j, b in enumerate(shape_k):
+            out[b] = result.shapes[j] if result.success[j] else None
+    target = [b for b, r in enumerate(requests) if r.at_target]
+    if target:
+        k = nominal.clamp_links
+        fine = []
+        for b in target:
+            e = float(requests[b].youngs_modulus)
+            if (e, k) not in cables:
+                cables[e, k] = nominal.cable.with_modulus(e).with_links(k * nominal.cable.n_links)
+            fine.append(cables[e, k])
+        quats = rotations.as_quat().reshape(-1, 2, 4)[target]
+        drive = drive_plants(fine, [k] * len(target), [requests[b].guess for b in target],
+                             moved[target][:, None], quats[:, None], gravity=nominal.gravity)
+        reach = (fine[0].n_links - 2 * k) * fine[0].rest_link_length
+        for j, b in enumerate(target):
+            x = drive.shapes[j, 0]
+            if drive.failed[j] < 0 and np.linalg.norm(x[-k - 1] - x[k]) <= reach:
+                out[b] = x
+    return out
 
 
 def fit_amplitudes(jacobian, directions, residuals, prior) -> list[tuple]:
@@ -593,31 +680,17 @@ def _library_fit(jacobian, directions, residual, prior) -> tuple:
     return step, amplitudes, sds, correlation
 
 
-@dataclass(frozen=True)
-class _Update:
-    """The linearized model update of one sample (:class:`~.step.ModelUpdate`'s quantities)."""
-
-    log_modulus: float  # ln E [ln Pa]
-    state: np.ndarray  # the model's equilibrium at K at that E
-    alpha: float
-    beta: float
-    log_sd: float
-    alpha_sd: float
-    grip_sd: float  # inf: the clamp length not told
-    correlation: float
-
-
 def _resampled(nominal: NominalCorrection, points: np.ndarray) -> np.ndarray:
     """The measured ``points`` (k, 3) [m] resampled onto the model's points
     (:func:`.measurement.resample_measured`, its checks), the measurement's offset taken out
-    when it tells one (:func:`~.step.update_modulus`), (n + 1, 3) [m]."""
+    when it tells one (:func:`~.step.update_modulus`: the held points' scatter and the
+    measurement's noise along the clips' axes, :func:`~.step.offset_verdict`), (n + 1, 3) [m]."""
     x = nominal.table.at(math.log(nominal.cable.youngs_modulus))["state"]
     y = resample_measured(points, x, nominal.cable.length,
                           max_disagreement=nominal.limits.max_disagreement)
-    offset, offset_sds = measured_offset(y - x)
-    if np.all(offset_sds > 0) and np.linalg.norm(offset / offset_sds) >= OFFSET_SIGNIFICANCE:
-        return y - offset  # the camera's, not the cable's
-    return y
+    offset, sds = measured_offset(y - x)
+    covariance = offset_covariance(sds, nominal.u_axes, noise_sd(points, y))
+    return y - offset_verdict(offset, covariance)[0]  # the camera's, not the cable's
 
 
 def _first_fits(nominal: NominalCorrection, measured: np.ndarray, prior) -> list[dict]:
@@ -663,20 +736,29 @@ def _correction(nominal: NominalCorrection, y: np.ndarray, first: dict, prior) -
     ``y`` (n + 1, 3) [m] and its :func:`_first_fits`: yields :class:`_Request`, receives their
     equilibria (None: none), returns a :class:`_Corrected` or raises
     :class:`CorrectionRefused`."""
-    cable = nominal.cable
-    log_e0 = math.log(cable.youngs_modulus)
     update = yield from _update_modulus(nominal, y, first, prior)
-    at = nominal.table.at(update.log_modulus)  # the derivatives at the target, at this E
-    bias = update.alpha * at["d_t"] + update.beta * at["g_t"]
-    modulus = math.exp(update.log_modulus)
-    open_loop = at["target"]  # E kept: the table's node is the model's equilibrium there
-    if update.log_modulus != log_e0:
-        open_loop = yield _Request(modulus, np.zeros(12), True, at["target"])
+    modulus = update.youngs_modulus
+    at = nominal.table.at(math.log(modulus))  # the derivatives at the target, at this E
+    # what the clip fit's chain leaves of the bias (:meth:`~.step.FitModel.bias`), and how it
+    # moves with the clips (scaled coordinates)
+    left = update.discretization - nominal.share
+    bias = left * at["d_t"] + update.grip * at["g_t"]
+    moves = left * at["d_clips"] + update.grip * at["g_clips"]
+    open_loop = at["fine"]  # E kept: the table's node is the fit chain's equilibrium there
+    if modulus != nominal.cable.youngs_modulus:
+        open_loop = yield _Request(modulus, np.zeros(12), True, at["fine"])
     if open_loop is None:
-        raise CorrectionRefused(f"prediction: the model (E = {modulus:.3g} Pa) finds no stable "
-                                "equilibrium at the target")
-    p, corrected = yield from _fit_clips(nominal, modulus, at["clips"], open_loop, bias)
-    _check_gain(nominal, update, at, open_loop + bias, corrected + bias)
+        raise CorrectionRefused(
+            f"model: the clip fit's chain (n = {len(at['fine']) - 1}, clamping "
+            f"{nominal.clamp_links} links, E = {modulus:.3g} Pa) finds no stable equilibrium "
+            "at the target's clip poses")
+    p, corrected = yield from _fit_clips(nominal, modulus, at, open_loop, bias, moves)
+    k, z = nominal.clamp_links, p * nominal.scale
+    directions = {"modulus": at["modulus_t"],  # at the corrected clips, d and g to first order
+                  "discretization": at["d_t"] + (at["d_clips"] @ z).reshape(bias.shape),
+                  "grip": at["g_t"] + (at["g_clips"] @ z).reshape(bias.shape)}
+    check_gain(open_loop[::k] + bias, corrected[::k] + bias + (moves @ z).reshape(bias.shape),
+               nominal.reference, directions, update, nominal.limits.gain_significance)
     return _Corrected(modulus, p)
 
 
@@ -685,7 +767,8 @@ def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, first: dic
     """:func:`~.step.update_modulus` (discretization bias, clamp length and offset estimated)
     with d x / d ln E, d and g at shape K taken from the table at the current E (the plan's
     clips), from the sample's :func:`_first_fits` at the plan's E; each step's equilibrium
-    exact (a yielded :class:`_Request`)."""
+    exact (a yielded :class:`_Request`). Returns its :class:`~.step.ModelUpdate` (the
+    residuals before and after, which no row reports, NaN)."""
     cable, limits, table = nominal.cable, nominal.limits, nominal.table
     log_e0 = math.log(cable.youngs_modulus)
     log_e = log_e0
@@ -698,7 +781,7 @@ def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, first: dic
     log_sd, alpha_sd = float(sds[0]), float(sds[1])
     informed = first["informed"]
     budget = MODULUS_STEPS + math.ceil(math.log(limits.max_modulus_factor) / MAX_LOG_STEP) + 1
-    full = 0
+    full = taken = 0
     for _ in range(budget if informed else 0):
         clipped = trust_region_step(step, log_e, log_e0, log_sd, limits.max_modulus_factor)
         if clipped is None:  # held on the limit
@@ -709,6 +792,7 @@ def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, first: dic
             raise CorrectionRefused(f"model: no stable equilibrium of the cable (E = "
                                     f"{math.exp(log_e):.3g} Pa) at shape {nominal.at}'s clips")
         x = x_new
+        taken += 1
         full += clipped == step
         if abs(clipped) < MODULUS_STEP_TOLERANCE or full >= MODULUS_STEPS:
             break
@@ -723,23 +807,36 @@ def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, first: dic
         amplitudes = fit_amplitudes(None, [at[name] for name in names], (measured - x)[None],
                                     prior)[0][1]
     beta = float(amplitudes[1]) if grip else 0.0
-    return _Update(log_e, x, float(amplitudes[0]), beta, log_sd, alpha_sd, grip_sd,
-                   correlation)
+    modulus = cable.youngs_modulus if log_e == log_e0 else math.exp(log_e)
+    return ModelUpdate(cable.youngs_modulus, modulus, math.nan, math.nan, taken, x,
+                       discretization=float(amplitudes[0]), log_sd=log_sd, grip=beta,
+                       grip_sd=grip_sd, discretization_sd=alpha_sd, correlation=correlation,
+                       log_prior_sd=0.5 * math.log(limits.max_modulus_factor))
 
 
-def _fit_clips(nominal: NominalCorrection, modulus: float, jz: np.ndarray, start: np.ndarray,
-               bias: np.ndarray) -> Generator:
+def _fit_clips(nominal: NominalCorrection, modulus: float, at: Interpolated, start: np.ndarray,
+               bias: np.ndarray, moves: np.ndarray) -> Generator:
     """The target's Levenberg-Marquardt clip fit (:func:`~.step.fit_clips`' damping and stop,
-    :data:`CHORD_TRIALS` trials per iteration) with the clip Jacobian ``jz`` (3 (n + 1), 12,
-    scaled) of the planned target at this E, frozen: every trial an exact equilibrium of the
-    updated model. Returns ``(p (12,), equilibrium (n + 1, 3))``."""
-    scale, limits = nominal.scale, nominal.limits
+    :data:`CHORD_TRIALS` trials per iteration) on the clip fit's chain (k n links,
+    :class:`~.step.FitModel`), its every k-th point plus ``bias`` (n + 1, 3) fitted to the
+    reference, from its equilibrium ``start`` (k n + 1, 3) [m] at the planned clips, with the
+    clip Jacobian of the planned target at this E (``at``, :meth:`DerivativeTable.at`),
+    frozen: every trial an exact equilibrium of the updated model's fit chain. The bias moves
+    with the clips, to first order by ``moves`` (3 (n + 1), 12, scaled): where
+    :func:`~.step.correct_plan` re-evaluates it at the clips of a first fit and fits again.
+    Returns ``(p (12,), equilibrium (k n + 1, 3))``."""
+    scale, limits, k = nominal.scale, nominal.limits, nominal.clamp_links
+    jz, fine = at["clips"] + moves, at["fine_clips"]
+
+    def residual(x, p):
+        return (x[::k] + bias - nominal.reference).ravel() + moves @ (p * scale)
+
     normal = jz.T @ jz
     diagonal = np.diag(np.diag(normal))  # the damping's shape, mu diag(J^T J)
     normal = normal + 1e-12 * np.trace(normal) * np.eye(12)  # the fit's floor
     damping = CLIP_DAMPING
     x, p = start, np.zeros(12)
-    r = (x + bias - nominal.reference).ravel()
+    r = residual(x, p)
     cost, mu = float(r @ r), damping.initial
     for _ in range(limits.iterations):
         b = jz.T @ r
@@ -747,10 +844,10 @@ def _fit_clips(nominal: NominalCorrection, modulus: float, jz: np.ndarray, start
         for _ in range(CHORD_TRIALS):
             trial_p = within_limits(p - np.linalg.solve(normal + mu * diagonal, b) / scale,
                                     limits)
-            guess = x + (jz @ ((trial_p - p) * scale)).reshape(x.shape)
+            guess = x + (fine @ ((trial_p - p) * scale)).reshape(x.shape)
             trial = yield _Request(modulus, trial_p, True, guess)
             if trial is not None:
-                r_trial = (trial + bias - nominal.reference).ravel()
+                r_trial = residual(trial, trial_p)
                 trial_cost = float(r_trial @ r_trial)
                 if trial_cost <= cost:
                     accepted = True
@@ -774,50 +871,6 @@ def within_limits(p: np.ndarray, limits: CorrectionLimits) -> np.ndarray:
     norms = np.linalg.norm(parts, axis=2)
     parts *= np.where(norms > bounds, bounds / np.where(norms > 0, norms, 1.0), 1.0)[:, :, None]
     return parts.ravel()
-
-
-def _check_gain(nominal: NominalCorrection, update: _Update, at: Interpolated,
-                open_loop: np.ndarray,
-                corrected: np.ndarray) -> None:
-    """:func:`~.step.correct_plan`'s gain checks on the target's predictions (bias included)
-    with the planned target's directions at the updated E (``at``, :meth:`DerivativeTable.at`):
-    the predicted gain must exceed
-    ``limits.gain_significance`` sd of it (ln E and alpha correlated) and survive the clamp
-    length that many sd off, evaluated. Raises :class:`CorrectionRefused` otherwise."""
-    reference, significance = nominal.reference, nominal.limits.gain_significance
-    g = at["g_t"]
-    grip = (update.grip_sd + 0.5 * GRIP_LINEARITY * abs(update.beta)
-            if math.isfinite(update.grip_sd) else GRIP_UNCERTAINTY)
-    sds = {"modulus": (at["modulus_t"], update.log_sd),
-           "discretization": (at["d_t"], update.alpha_sd), "grip": (g, grip)}
-
-    def error(x):
-        return float(np.mean(np.linalg.norm(x - reference, axis=1)))
-
-    def unit(x):
-        e = x - reference
-        return e / np.maximum(np.linalg.norm(e, axis=1, keepdims=True), 1e-300)
-
-    du = unit(open_loop) - unit(corrected)
-    t = {k: float(np.mean(np.sum(du * v, axis=1))) * (sd if math.isfinite(sd) else 0.0)
-         for k, (v, sd) in sds.items()}
-    spread = math.sqrt(max(sum(v * v for v in t.values())
-                           + 2.0 * update.correlation * t["modulus"] * t["discretization"], 0.0))
-    before, after = error(open_loop), error(corrected)
-    if before - after <= significance * spread:
-        raise CorrectionRefused(
-            f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm (final "
-            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is within {significance:g} sd "
-            f"({1e3 * spread:.2f} mm; E, discretization bias, clamp length as estimated, "
-            "linearized) of zero: the plan is kept")
-    bound = significance * grip
-    worst = min(error(open_loop + s * bound * g) - error(corrected + s * bound * g)
-                for s in (-1.0, 1.0))
-    if worst <= 0.0:
-        raise CorrectionRefused(
-            f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm, is lost "
-            f"with the clamp length {significance:g} sd off ({1e3 * worst:+.2f} mm): the plan "
-            "is kept")
 
 
 def _closed_loop(nominal: NominalCorrection, plants: list, clamps: list, states: np.ndarray,

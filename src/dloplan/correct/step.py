@@ -529,7 +529,7 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
     shift, offset_sd, offset_spread, offset_note = np.zeros(3), math.inf, 0.0, "not estimated"
     if offset:
         offset, sds = measured_offset(measured - eq.shape)
-        shift, offset_sd, offset_spread, offset_note = _offset_verdict(
+        shift, offset_sd, offset_spread, offset_note = offset_verdict(
             offset, offset_covariance(sds, clips.u_axes, noise))
         measured = measured - shift  # what the fit explains: the cable, not the camera
     fine = resample_by_arc_length(eq.shape, 2 * cable.n_links + 1)  # refined, warm from E to E
@@ -649,7 +649,7 @@ def _fit(jacobian, directions, residual, prior):
     return step, amplitudes, sds, correlation
 
 
-def _offset_verdict(offset, covariance) -> tuple[np.ndarray, float, float, str]:
+def offset_verdict(offset, covariance) -> tuple[np.ndarray, float, float, str]:
     """The offset applied (zeros when the measurement does not tell it), the sd of its length,
     its share of the interval and a note; its score is sqrt(o^T C^-1 o) with the covariance C
     (:func:`.model_error.offset_covariance`)."""
@@ -1179,26 +1179,56 @@ def correct_plan(
     directions = _target_directions(model, equilibria[-1], corrected_clips[-1], gravity,
                                     model_chain)
     uncertainty = _uncertainty(directions, update)
-    before, after = (float(_mean_distance(x[-1], wanted[-1])) for x in (open_loop, corrected))
-    spread = _gain_sd(open_loop[-1], corrected[-1], wanted[-1], directions, update)
-    if before - after <= limits.gain_significance * spread:
+    check_gain(open_loop[-1], corrected[-1], wanted[-1], directions, update,
+               limits.gain_significance)
+    return Correction(open_loop=open_loop, corrected=corrected, equilibria=equilibria,
+                      uncertainty=uncertainty, trajectory=new_trajectory,
+                      prediction_seconds=time.perf_counter() - t0 - seconds, **common)
+
+
+def check_gain(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarray,
+               directions: dict, update: ModelUpdate, significance: float) -> None:
+    """The gain checks of :func:`correct_plan`: the predicted gain (the open loop's final
+    error minus the corrected one's) must exceed ``significance`` sd of it (:func:`_gain_sd`)
+    and stay positive with the clamp length ``significance`` sd off, evaluated
+    (:func:`_gain_at_clamp_bounds`).
+
+    Parameters
+    ----------
+    open_loop, corrected : numpy.ndarray
+        (n + 1, 3) the target's predictions at the planned and the corrected clips, the bias
+        included [m].
+    reference : numpy.ndarray
+        (n + 1, 3) the shape aimed at [m].
+    directions : dict
+        The target's responses to ln E, alpha and beta (:func:`_target_directions`), each
+        (n + 1, 3) [m].
+    update : ModelUpdate
+        The estimates and their sds.
+    significance : float
+        :attr:`CorrectionLimits.gain_significance`.
+
+    Raises
+    ------
+    CorrectionRefused
+        When either check fails (the gains in the message): the plan is kept.
+    """
+    before, after = (float(_mean_distance(x, reference)) for x in (open_loop, corrected))
+    spread = _gain_sd(open_loop, corrected, reference, directions, update)
+    if before - after <= significance * spread:
         raise CorrectionRefused(
             f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm (final "
-            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is within "
-            f"{limits.gain_significance:g} sd "
+            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is within {significance:g} sd "
             f"({1e3 * spread:.2f} mm; E, discretization bias, clamp length as estimated) "
             "of zero: the plan is kept")
-    worst, which = _gain_at_clamp_bounds(open_loop[-1], corrected[-1], wanted[-1], directions,
-                                         update, limits.gain_significance)
+    worst, which = _gain_at_clamp_bounds(open_loop, corrected, reference, directions, update,
+                                         significance)
     if worst <= 0.0:
         raise CorrectionRefused(
             f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm (final "
             f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is lost with the clamp length "
             f"{which} off ({1e3 * worst:+.2f} mm: the corrected final error above the open "
             "loop's): the plan is kept")
-    return Correction(open_loop=open_loop, corrected=corrected, equilibria=equilibria,
-                      uncertainty=uncertainty, trajectory=new_trajectory,
-                      prediction_seconds=time.perf_counter() - t0 - seconds, **common)
 
 
 def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess: np.ndarray,
