@@ -1140,19 +1140,14 @@ def correct_plan(
                           trajectory=None, prediction_seconds=0.0, **common)
     new_trajectory = trajectory_from_grippers(new_grippers, **timing)
     # the predictions of the updated model from the measured state: planned vs corrected clips
-    open_states, open_loop = _predict(model, update.state, remaining, gravity, update)
+    open_states = _continue(model, update.state, remaining, gravity)
     corrected_clips = [perturbed_clips(c, p) for c, p in zip(remaining, corrections, strict=True)]
-    if mode == "all":
-        equilibria = np.stack(fitted)
-        corrected = np.stack([x + update.bias(model, x, c, gravity)
-                              for x, c in zip(fitted, corrected_clips, strict=True)])
-    else:
-        equilibria, corrected = _predict(model, update.state, corrected_clips, gravity, update)
-    if fit is not None:  # the target as the clips were fitted: on the fit model
-        open_loop[-1] = fit.predict(update, model, open_states[-1], remaining[-1], gravity)
-        corrected[-1] = fit.predict(update, model, equilibria[-1], corrected_clips[-1], gravity)
+    equilibria = (np.stack(fitted) if mode == "all" else
+                  _continue(model, update.state, corrected_clips, gravity))
     directions = _target_directions(model, equilibria[-1], corrected_clips[-1], gravity,
                                     model_chain)
+    open_loop = _biased(model, open_states, remaining, gravity, update, fit)
+    corrected = _biased(model, equilibria, corrected_clips, gravity, update, fit, directions)
     uncertainty = _uncertainty(directions, update)
     before, after = (float(_mean_distance(x[-1], wanted[-1])) for x in (open_loop, corrected))
     spread = _gain_sd(open_loop[-1], corrected[-1], wanted[-1], directions, update)
@@ -1218,17 +1213,40 @@ def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess:
     return p, eq, iterations
 
 
-def _predict(cable: Cable, state: np.ndarray, clips, gravity, update: ModelUpdate):
-    """Quasi-static continuation from ``state`` along ``clips``: the equilibria and the same plus
-    the bias, each (len(clips), n + 1, 3)."""
+def _continue(cable: Cable, state: np.ndarray, clips, gravity) -> np.ndarray:
+    """Quasi-static continuation from ``state`` along ``clips``: the equilibria
+    (len(clips), n + 1, 3) [m]."""
     runs = continuation(cable, state, clips, gravity=gravity)
     failed = [k for k, eq in enumerate(runs) if not eq.success]
     if failed:
         raise CorrectionRefused(f"prediction: the model finds no stable equilibrium at the "
                                 f"remaining shape {failed[0]} ({runs[failed[0]].message})")
-    shapes = np.stack([eq.shape for eq in runs])
-    return shapes, np.stack([x + update.bias(cable, x, c, gravity)
-                             for x, c in zip(shapes, clips, strict=True)])
+    return np.stack([eq.shape for eq in runs])
+
+
+def _biased(cable: Cable, shapes: np.ndarray, clips, gravity, update: ModelUpdate,
+            fit: FitModel | None, directions: dict | None = None) -> np.ndarray:
+    """The predictions (len(clips), n + 1, 3) [m]: the equilibria ``shapes`` plus the bias
+    (:meth:`ModelUpdate.bias`), the target's as the clips were fitted -- on the ``fit`` model
+    (:meth:`FitModel.predict`) when there is one.
+
+    ``directions`` (:func:`_target_directions`), computed at the target's shape and clips
+    already, give its bias alpha d + beta g without solving for d and g again (the same
+    refined solves from the same start: the same values).
+    """
+    out = [x + update.bias(cable, x, c, gravity)
+           for x, c in zip(shapes[:-1], clips[:-1], strict=True)]
+    x, c = shapes[-1], clips[-1]
+    if directions is None:
+        out.append(x + update.bias(cable, x, c, gravity) if fit is None else
+                   fit.predict(update, cable, x, c, gravity))
+        return np.stack(out)
+    alpha = update.discretization - (0.0 if fit is None else fit.share)
+    bias = (np.zeros_like(x) if alpha == 0.0 and update.grip == 0.0 else
+            alpha * directions["discretization"] + update.grip * directions["grip"])
+    base = x if fit is None else fit.hold(x, c, gravity).shape[:: fit.clamp_links]
+    out.append(base + bias)
+    return np.stack(out)
 
 
 def _target_directions(cable: Cable, shape: np.ndarray, clips: ClipPoses, gravity,
