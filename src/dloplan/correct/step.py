@@ -1095,7 +1095,7 @@ def correct_plan(
     if mode == "target":  # fit the target from the plan's stabilized target, ramp it in
         p_target, _, iterations = _fit_with_bias(model, remaining[-1], wanted[-1], target_guess,
                                                  update, limits=limits, gravity=gravity,
-                                                 chain=model_chain, fit=fit)
+                                                 chain=model_chain, fit=fit, state=False)
         ramp = np.arange(1, len(remaining) + 1) / len(remaining)
         corrections = ramp[:, None] * p_target[None, :]
     else:  # fit every remaining shape, each from the previous one
@@ -1109,7 +1109,8 @@ def correct_plan(
             corrections.append(p)
             fitted.append(x)
         corrections = np.array(corrections)
-    new_grippers = _corrected_grippers(grippers, at, remaining, corrections)
+    corrected_clips = [perturbed_clips(c, p) for c, p in zip(remaining, corrections, strict=True)]
+    new_grippers = _corrected_grippers(grippers, at, corrected_clips)
     timing = _timing(trajectory, grippers)
     now = trajectory_from_grippers(sliced_grippers(new_grippers, at), **timing)
     seconds = time.perf_counter() - t0  # the robot can go on: the rest is for the record
@@ -1141,7 +1142,6 @@ def correct_plan(
     new_trajectory = trajectory_from_grippers(new_grippers, **timing)
     # the predictions of the updated model from the measured state: planned vs corrected clips
     open_states = _continue(model, update.state, remaining, gravity)
-    corrected_clips = [perturbed_clips(c, p) for c, p in zip(remaining, corrections, strict=True)]
     equilibria = (np.stack(fitted) if mode == "all" else
                   _continue(model, update.state, corrected_clips, gravity))
     directions = _target_directions(model, equilibria[-1], corrected_clips[-1], gravity,
@@ -1173,7 +1173,7 @@ def correct_plan(
 
 def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess: np.ndarray,
                    update: ModelUpdate, *, start=None, limits: CorrectionLimits, gravity,
-                   chain: SpringChain, fit: FitModel | None = None):
+                   chain: SpringChain, fit: FitModel | None = None, state: bool = True):
     """:func:`fit_clips` of x_n + alpha d + beta g (:meth:`ModelUpdate.bias`) to ``reference``,
     or, on a refined ``fit`` model (:class:`FitModel`), of R[x_kn] + (alpha - alpha_k) d + beta g.
 
@@ -1182,7 +1182,9 @@ def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess:
     (d moves with the clips: 1 mm on the demo's target for a 20 degree correction). The bias
     is always the plan's model's (d and g of its n links at its equilibrium); on the refined
     chain its first-order share of d, alpha_k = :attr:`FitModel.share`, is resolved by the
-    chain itself and taken off alpha.
+    chain itself and taken off alpha. Without ``state`` the plan's model's equilibrium at the
+    corrected clips is not solved for after a fit on the refined chain (None; mode "target"
+    keeps only the clips, and its predictions solve for it by continuation).
 
     Returns
     -------
@@ -1204,11 +1206,13 @@ def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess:
             iterations += more
         return p, eq, iterations
     held = fit.hold(eq.shape, eq.clips, gravity)
-    for _ in range(2):
+    for last in (False, True):
         bias = fit.bias(update, cable, eq.shape, eq.clips, gravity)
         p, held, more = _levenberg_marquardt(fit.cable, clips, reference - bias, held, p, limits,
                                              gravity, fit.chain, fit.clamp_links)
         iterations += more
+        if last and not state:
+            return p, None, iterations
         eq = _solve(cable, held.shape[:: fit.clamp_links], held.clips, gravity, chain)
     return p, eq, iterations
 
@@ -1349,11 +1353,11 @@ def _gain_at_clamp_bounds(open_loop: np.ndarray, corrected: np.ndarray, referenc
                for sign in (-1.0, 1.0))
 
 
-def _corrected_grippers(grippers: GripperPath, at: int, remaining, corrections) -> GripperPath:
+def _corrected_grippers(grippers: GripperPath, at: int, corrected_clips) -> GripperPath:
+    """The gripper path with shapes ``at`` + 1 .. T held by ``corrected_clips``."""
     positions = grippers.positions.copy()
     rotations = [r.as_quat() for r in grippers.rotations]
-    for j, (c, p) in enumerate(zip(remaining, corrections, strict=True), start=at + 1):
-        moved = perturbed_clips(c, p)
+    for j, moved in enumerate(corrected_clips, start=at + 1):
         positions[j] = moved.positions
         for k in range(2):
             rotations[k][j] = moved.rotations[k].as_quat()
