@@ -1060,3 +1060,53 @@ def test_the_refined_chain_is_the_multiple_of_n_nearest_to_sixty_links():
     assert fit.share == pytest.approx(2.0 * (1.0 - 1.0 / 3.0))
     # each gripper clamps the plan's grip, L / n
     assert fit.cable.rest_link_length * fit.clamp_links == pytest.approx(fit.cable.length / 20)
+
+
+@pytest.mark.parametrize("mode", ["target", "all"])
+@pytest.mark.parametrize("fit_links", [None, MODEL_LINKS])
+def test_the_predictions_are_the_equilibria_plus_the_bias_each_evaluated_anew(plans, mode,
+                                                                             fit_links):
+    """correct_plan evaluates the target's bias once (its directions also feed the gain check):
+    the predictions are still the updated model's continuations plus the bias (ModelUpdate.
+    bias, each evaluated anew) at each shape, the target's on the fit model (FitModel.predict),
+    to round-off (the same refined solves from the same starts: 1e-12 m), and the bias's
+    amplitudes those refined solves started cold give at the updated E to 1e-8 of the bias
+    (the modulus fit starts them from the previous E's; they stop at a force residual of
+    1e-10 of the cable's force scale, and d is a difference of two shapes a fraction 1 / n
+    of their size: 3e-9 here)."""
+    from dloplan.correct.model_error import alpha_prior, fit_model_error, model_error_directions
+    from dloplan.correct.step import FitModel, fit_links_for
+    from dloplan.sim import continuation
+
+    doc, _ = plans["demo"]
+    stable, at = _stabilized(doc), 3
+    plant = Plant(doc.cable.with_modulus(1.5 * doc.cable.youngs_modulus).with_links(100),
+                  clamp=doc.cable.rest_link_length)
+    truth, ok, _ = plant.hold(resample_by_arc_length(stable[at], 101),
+                              doc.grippers.clip_poses(at))
+    assert ok
+    result = correct_plan(doc.cable, doc.shapes, doc.grippers, at, _measure(truth, seed=1),
+                          stabilized=stable, trajectory=doc.trajectory, mode=mode,
+                          fit_links=fit_links)
+    m, model = result.model, result.cable
+    assert m.discretization > 0.0 and m.youngs_modulus != m.youngs_modulus_before
+    clips = [doc.grippers.clip_poses(j) for j in range(at + 1, len(doc.shapes))]
+    corrected_clips = [c for c in map(result.grippers.clip_poses,
+                                      range(at + 1, len(doc.shapes)))]
+    links = fit_links_for(MODEL_LINKS, fit_links)
+    fit = FitModel.of(model, links) if links > MODEL_LINKS else None
+    for states, poses, predicted in (
+            ([eq.shape for eq in continuation(model, m.state, clips)], clips, result.open_loop),
+            (result.equilibria, corrected_clips, result.corrected)):
+        expected = [x + m.bias(model, x, c) for x, c in zip(states, poses, strict=True)]
+        if fit is not None:
+            expected[-1] = fit.predict(m, model, states[-1], poses[-1])
+        assert np.max(np.abs(np.array(expected) - predicted)) < 1e-12
+    # the amplitudes from cold-started directions at the updated E
+    d, g = model_error_directions(model, m.state, doc.grippers.clip_poses(at),
+                                  grip=m.grip != 0.0)
+    directions = [d] if g is None else [d, g]
+    cold = fit_model_error(np.zeros_like(d), directions, result.measured - m.offset - m.state,
+                           alpha_prior(MODEL_LINKS))[1]
+    scale = np.max(np.abs(m.bias(model, m.state, doc.grippers.clip_poses(at))))
+    assert abs(cold[0] - m.discretization) * np.max(np.abs(d)) < 1e-8 * scale

@@ -1120,7 +1120,7 @@ def correct_plan(
     if mode == "target":  # fit the target from the plan's stabilized target, ramp it in
         p_target, _, iterations = _fit_with_bias(model, remaining[-1], wanted[-1], target_guess,
                                                  update, limits=limits, gravity=gravity,
-                                                 chain=model_chain, fit=fit)
+                                                 chain=model_chain, fit=fit, state=False)
         ramp = np.arange(1, len(remaining) + 1) / len(remaining)
         corrections = ramp[:, None] * p_target[None, :]
     else:  # fit every remaining shape, each from the previous one
@@ -1134,7 +1134,8 @@ def correct_plan(
             corrections.append(p)
             fitted.append(x)
         corrections = np.array(corrections)
-    new_grippers = _corrected_grippers(grippers, at, remaining, corrections)
+    corrected_clips = [perturbed_clips(c, p) for c, p in zip(remaining, corrections, strict=True)]
+    new_grippers = _corrected_grippers(grippers, at, corrected_clips)
     timing = _timing(trajectory, grippers)
     now = trajectory_from_grippers(sliced_grippers(new_grippers, at), **timing)
     seconds = time.perf_counter() - t0  # the robot can go on: the rest is for the record
@@ -1165,19 +1166,13 @@ def correct_plan(
                           trajectory=None, prediction_seconds=0.0, **common)
     new_trajectory = trajectory_from_grippers(new_grippers, **timing)
     # the predictions of the updated model from the measured state: planned vs corrected clips
-    open_states, open_loop = _predict(model, update.state, remaining, gravity, update)
-    corrected_clips = [perturbed_clips(c, p) for c, p in zip(remaining, corrections, strict=True)]
-    if mode == "all":
-        equilibria = np.stack(fitted)
-        corrected = np.stack([x + update.bias(model, x, c, gravity)
-                              for x, c in zip(fitted, corrected_clips, strict=True)])
-    else:
-        equilibria, corrected = _predict(model, update.state, corrected_clips, gravity, update)
-    if fit is not None:  # the target as the clips were fitted: on the fit model
-        open_loop[-1] = fit.predict(update, model, open_states[-1], remaining[-1], gravity)
-        corrected[-1] = fit.predict(update, model, equilibria[-1], corrected_clips[-1], gravity)
+    open_states = _continue(model, update.state, remaining, gravity)
+    equilibria = (np.stack(fitted) if mode == "all" else
+                  _continue(model, update.state, corrected_clips, gravity))
     directions = _target_directions(model, equilibria[-1], corrected_clips[-1], gravity,
                                     model_chain)
+    open_loop = _biased(model, open_states, remaining, gravity, update, fit)
+    corrected = _biased(model, equilibria, corrected_clips, gravity, update, fit, directions)
     uncertainty = _uncertainty(directions, update)
     check_gain(open_loop[-1], corrected[-1], wanted[-1], directions, update,
                limits.gain_significance)
@@ -1233,7 +1228,7 @@ def check_gain(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarr
 
 def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess: np.ndarray,
                    update: ModelUpdate, *, start=None, limits: CorrectionLimits, gravity,
-                   chain: SpringChain, fit: FitModel | None = None):
+                   chain: SpringChain, fit: FitModel | None = None, state: bool = True):
     """:func:`fit_clips` of x_n + alpha d + beta g (:meth:`ModelUpdate.bias`) to ``reference``,
     or, on a refined ``fit`` model (:class:`FitModel`), of R[x_kn] + (alpha - alpha_k) d + beta g.
 
@@ -1242,7 +1237,9 @@ def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess:
     (d moves with the clips: 1 mm on the demo's target for a 20 degree correction). The bias
     is always the plan's model's (d and g of its n links at its equilibrium); on the refined
     chain its first-order share of d, alpha_k = :attr:`FitModel.share`, is resolved by the
-    chain itself and taken off alpha.
+    chain itself and taken off alpha. Without ``state`` the plan's model's equilibrium at the
+    corrected clips is not solved for after a fit on the refined chain (None; mode "target"
+    keeps only the clips, and its predictions solve for it by continuation).
 
     Returns
     -------
@@ -1264,26 +1261,51 @@ def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess:
             iterations += more
         return p, eq, iterations
     held = fit.hold(eq.shape, eq.clips, gravity)
-    for _ in range(2):
+    for last in (False, True):
         bias = fit.bias(update, cable, eq.shape, eq.clips, gravity)
         p, held, more = _levenberg_marquardt(fit.cable, clips, reference - bias, held, p, limits,
                                              gravity, fit.chain, fit.clamp_links)
         iterations += more
+        if last and not state:
+            return p, None, iterations
         eq = _solve(cable, held.shape[:: fit.clamp_links], held.clips, gravity, chain)
     return p, eq, iterations
 
 
-def _predict(cable: Cable, state: np.ndarray, clips, gravity, update: ModelUpdate):
-    """Quasi-static continuation from ``state`` along ``clips``: the equilibria and the same plus
-    the bias, each (len(clips), n + 1, 3)."""
+def _continue(cable: Cable, state: np.ndarray, clips, gravity) -> np.ndarray:
+    """Quasi-static continuation from ``state`` along ``clips``: the equilibria
+    (len(clips), n + 1, 3) [m]."""
     runs = continuation(cable, state, clips, gravity=gravity)
     failed = [k for k, eq in enumerate(runs) if not eq.success]
     if failed:
         raise CorrectionRefused(f"prediction: the model finds no stable equilibrium at the "
                                 f"remaining shape {failed[0]} ({runs[failed[0]].message})")
-    shapes = np.stack([eq.shape for eq in runs])
-    return shapes, np.stack([x + update.bias(cable, x, c, gravity)
-                             for x, c in zip(shapes, clips, strict=True)])
+    return np.stack([eq.shape for eq in runs])
+
+
+def _biased(cable: Cable, shapes: np.ndarray, clips, gravity, update: ModelUpdate,
+            fit: FitModel | None, directions: dict | None = None) -> np.ndarray:
+    """The predictions (len(clips), n + 1, 3) [m]: the equilibria ``shapes`` plus the bias
+    (:meth:`ModelUpdate.bias`), the target's as the clips were fitted -- on the ``fit`` model
+    (:meth:`FitModel.predict`) when there is one.
+
+    ``directions`` (:func:`_target_directions`), computed at the target's shape and clips
+    already, give its bias alpha d + beta g without solving for d and g again (the same
+    refined solves from the same start: the same values).
+    """
+    out = [x + update.bias(cable, x, c, gravity)
+           for x, c in zip(shapes[:-1], clips[:-1], strict=True)]
+    x, c = shapes[-1], clips[-1]
+    if directions is None:
+        out.append(x + update.bias(cable, x, c, gravity) if fit is None else
+                   fit.predict(update, cable, x, c, gravity))
+        return np.stack(out)
+    alpha = update.discretization - (0.0 if fit is None else fit.share)
+    bias = (np.zeros_like(x) if alpha == 0.0 and update.grip == 0.0 else
+            alpha * directions["discretization"] + update.grip * directions["grip"])
+    base = x if fit is None else fit.hold(x, c, gravity).shape[:: fit.clamp_links]
+    out.append(base + bias)
+    return np.stack(out)
 
 
 def _target_directions(cable: Cable, shape: np.ndarray, clips: ClipPoses, gravity,
@@ -1386,11 +1408,11 @@ def _gain_at_clamp_bounds(open_loop: np.ndarray, corrected: np.ndarray, referenc
                for sign in (-1.0, 1.0))
 
 
-def _corrected_grippers(grippers: GripperPath, at: int, remaining, corrections) -> GripperPath:
+def _corrected_grippers(grippers: GripperPath, at: int, corrected_clips) -> GripperPath:
+    """The gripper path with shapes ``at`` + 1 .. T held by ``corrected_clips``."""
     positions = grippers.positions.copy()
     rotations = [r.as_quat() for r in grippers.rotations]
-    for j, (c, p) in enumerate(zip(remaining, corrections, strict=True), start=at + 1):
-        moved = perturbed_clips(c, p)
+    for j, moved in enumerate(corrected_clips, start=at + 1):
         positions[j] = moved.positions
         for k in range(2):
             rotations[k][j] = moved.rotations[k].as_quat()
