@@ -109,7 +109,7 @@ def clamped_equilibrium(cable: Cable, guess, clips: ClipPoses, clamp_links: int 
     k = int(clamp_links)
     offsets = (np.arange(k + 1) - 0.5 * k) * cable.rest_link_length
     u = clips.u_axes
-    x = np.array(guess, dtype=float)
+    x = np.array(guess, dtype=float, order="C")  # C: a transposed guess compiled 2nd overloads
     x[: k + 1] = clips.positions[0] + offsets[:, None] * u[0]
     x[::-1][: k + 1] = clips.positions[1] + offsets[:, None] * u[1]
     if chain is None:
