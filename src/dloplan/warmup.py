@@ -146,17 +146,23 @@ def harness() -> None:
 
 
 def study() -> None:
-    """A study chunk: the batched equilibria and the obstacle checks."""
+    """A study chunk (the batched equilibria and the obstacle checks) and its closed-loop column
+    (the plants driven as a batch, the linearized correction: ``dloplan correct``'s kernels)."""
     from .app.study import study_problem_of
-    from .pipeline.stages import run_job
+    from .correct import closed_loop_study
+    from .pipeline.stages import run_job, settled_shapes
     from .study import draw_samples, evaluate_chunk, parse_study
     from .study.run import chunk_items
 
-    problem = study_problem_of(run_job(_job(planner={"n_shapes": 2}), check_robot=False))
+    doc = run_job(_job(planner={"n_shapes": 2}), check_robot=False)
+    problem = study_problem_of(doc)
     spec = parse_study({"samples": 4, "parameters": {"youngs_modulus": {"spread": 10},
-                                                     "obstacle_position": {"spread": 1}}})
+                                                     "obstacle_position": {"spread": 1}},
+                        "correction": {"at": 1}})
     samples = draw_samples(spec, problem.cable, problem.obstacles)
     evaluate_chunk(problem, chunk_items(samples, 4, [0])[0])
+    closed_loop_study(doc.cable, doc.shapes, doc.grippers, samples, spec.correction,
+                      stabilized=settled_shapes(doc), trajectory=doc.trajectory)
 
 
 EXERCISES = {

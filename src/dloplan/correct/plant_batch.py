@@ -152,8 +152,10 @@ def drive_plants(cables: Sequence[Cable], clamp_links, starts, positions, quater
     gravity = np.asarray(gravity, dtype=float)
     chains = [SpringChain.from_cable(cable, gravity) for cable in cables]
     constants = [np.array([chain.constants[k] for chain in chains]) for k in range(5)]
-    starts = np.ascontiguousarray(starts, dtype=float)
-    positions = np.ascontiguousarray(positions, dtype=float)
+    # copies: writable and C-ordered whatever the caller holds (a read-only array, as a test's
+    # or a table's, compiled a second overload of the kernel)
+    starts = np.array(starts, dtype=float, order="C")
+    positions = np.array(positions, dtype=float, order="C")
     quaternions = np.asarray(quaternions, dtype=float)
     u_axes = u_axes_of(quaternions)
     n_samples, n_stops = positions.shape[:2]
