@@ -76,12 +76,9 @@ from .model_error import (
     MAX_GRIP,
     alpha_prior,
     clamped_equilibrium,
-    fit_model_error,
     measured_offset,
     model_error_directions,
     offset_covariance,
-    parameter_covariance,
-    standard_deviations,
 )
 from .plant_batch import drive_plants
 from .step import (
@@ -96,8 +93,10 @@ from .step import (
     ModelUpdate,
     check_gain,
     fit_links_for,
+    fit_with_covariance,
     offset_verdict,
     trust_region_step,
+    within_limits,
 )
 
 MODULUS_STEPS = 3
@@ -666,18 +665,11 @@ def _held_at_bounds(gram, rhs, weight, i, centre, values, bounds) -> np.ndarray:
 
 
 def _library_fit(jacobian, directions, residual, prior) -> tuple:
-    """:func:`fit_amplitudes` by :func:`.model_error.fit_model_error` and :func:`.model_error.
-    parameter_covariance` themselves."""
+    """:func:`fit_amplitudes` by :func:`~.step.fit_with_covariance` (the model-error fit and its
+    covariance, as :func:`~.step.update_modulus` takes them); without ``jacobian`` a zero
+    column for ln E."""
     column = np.zeros_like(residual) if jacobian is None else jacobian
-    step, amplitudes = fit_model_error(column, directions, residual, prior)
-    left = residual - step * column - sum(
-        (c * d for c, d in zip(amplitudes, directions, strict=True)), np.zeros_like(residual))
-    covariance = parameter_covariance(column, directions, left, prior)
-    sds = standard_deviations(covariance)
-    correlation = 0.0
-    if jacobian is not None and all(0.0 < sds[k] < math.inf for k in (0, 1)):
-        correlation = float(np.clip(covariance[0, 1] / (sds[0] * sds[1]), -1.0, 1.0))
-    return step, amplitudes, sds, correlation
+    return fit_with_covariance(column, directions, residual, prior)
 
 
 def _resampled(nominal: NominalCorrection, points: np.ndarray) -> np.ndarray:
@@ -861,16 +853,6 @@ def _fit_clips(nominal: NominalCorrection, modulus: float, at: Interpolated, sta
         if gain < COST_TOLERANCE:
             break
     return p, x
-
-
-def within_limits(p: np.ndarray, limits: CorrectionLimits) -> np.ndarray:
-    """The clip correction p (12,) with each clip's translation and rotation vector shortened
-    to ``limits.max_translation`` / ``max_rotation`` (the projection onto the limits)."""
-    parts = np.array(p, dtype=float).reshape(2, 2, 3)
-    bounds = np.array([limits.max_translation, limits.max_rotation])
-    norms = np.linalg.norm(parts, axis=2)
-    parts *= np.where(norms > bounds, bounds / np.where(norms > 0, norms, 1.0), 1.0)[:, :, None]
-    return parts.ravel()
 
 
 def _closed_loop(nominal: NominalCorrection, plants: list, clamps: list, states: np.ndarray,

@@ -543,7 +543,8 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         directions = _directions(model, eq.shape, clips, discretization, grip, gravity, fine)
         residual = measured - eq.shape
         jacobian = sens.log_modulus if modulus else np.zeros_like(residual)  # known: no column
-        step, amplitudes, sds, correlation = _fit(jacobian, directions, residual, prior)
+        step, amplitudes, sds, correlation = fit_with_covariance(jacobian, directions, residual,
+                                                                 prior)
         if modulus and float(np.sum(sens.log_modulus**2)) <= 1e-24 * cable.length**2:
             note = "the measured shape does not depend on E here (no sag): E kept"
             break
@@ -552,7 +553,8 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
                 grip, grip_sd, grip_note = _grip_verdict(amplitudes[1], sds[2], model)
                 if not grip:  # the clamp length stays the model's: refit without it
                     directions = directions[:1]
-                    step, amplitudes, sds, correlation = _fit(jacobian, directions, residual, prior)
+                    step, amplitudes, sds, correlation = fit_with_covariance(
+                        jacobian, directions, residual, prior)
             log_sd = float(sds[0])
             alpha_sd = float(sds[1]) if directions else math.inf
             taken_correlation = correlation
@@ -634,7 +636,7 @@ def trust_region_step(step: float, log_e: float, log_e0: float, log_sd: float,
     return None
 
 
-def _fit(jacobian, directions, residual, prior):
+def fit_with_covariance(jacobian, directions, residual, prior):
     """(delta log E, amplitudes, sds, correlation): the fit (:func:`.model_error.
     fit_model_error`, alpha's ``prior``), the sds of (delta, amplitudes) from the scatter it
     leaves and the correlation of ln E and alpha (:func:`.model_error.parameter_covariance`;
@@ -914,7 +916,7 @@ def _levenberg_marquardt(cable: Cable, clips: ClipPoses, reference: np.ndarray, 
 
     def evaluate(state, step, system):
         held, p_now = state
-        step = _within_limits(p_now + step, limits) - p_now  # projected onto the limits
+        step = within_limits(p_now + step, limits) - p_now  # projected onto the limits
         trial = _resolve(cable, system.sens.predict(step), perturbed_clips(clips, p_now + step),
                          gravity, chain, k)
         if trial is None:
@@ -930,7 +932,7 @@ def _levenberg_marquardt(cable: Cable, clips: ClipPoses, reference: np.ndarray, 
     return p, eq, run.iterations
 
 
-def _within_limits(p: np.ndarray, limits: CorrectionLimits) -> np.ndarray:
+def within_limits(p: np.ndarray, limits: CorrectionLimits) -> np.ndarray:
     """The clip correction p (12,) with each clip's translation and rotation vector shortened
     to ``limits.max_translation`` / ``max_rotation`` (the projection onto the limits)."""
     out = np.array(p, dtype=float)
