@@ -127,6 +127,46 @@ def test_a_keyboard_interrupt_that_compiled_code_turned_into_another_error(
     assert not out.exists() and not leftovers(out)
 
 
+WORKER_TASK = """
+import os, signal, sys
+from dloplan.interrupts import shielded, task, worker_signals
+from dloplan.output_files import staged_folder
+
+class SignalsInItsFinalizer:
+    def __del__(self):
+        os.kill(os.getpid(), signal.SIGTERM)
+        sum(range(1000))  # the handler runs here: its exception is dropped by the finalizer
+
+worker_signals()
+with task(), staged_folder(sys.argv[2]) as staging:
+    (staging / "plan.json").write_text("{}")
+    if sys.argv[1] == "shielded":
+        with shielded():  # a kernel loading (dloplan.jit.shielded_load)
+            os.kill(os.getpid(), signal.SIGTERM)
+            (staging / "loaded").write_text("the shielded block ran to its end")
+            print("shielded block done", flush=True)
+    else:
+        SignalsInItsFinalizer()
+        print("task went on", flush=True)
+print("published", flush=True)
+"""
+
+
+@pytest.mark.parametrize("where", ["shielded", "finalizer"])
+def test_a_worker_signalled_in_shielded_code_or_a_finalizer_cleans_up_and_ends(tmp_path, where):
+    """A pool worker's SIGTERM inside shielded code (a kernel loading) is held until the block
+    ends; one dropped by a finalizer is raised again before the task's folder is published.
+    Either way the staging folder and the lock are removed, nothing is published, and the
+    worker ends with 143 without an "Exception ignored" traceback."""
+    out = tmp_path / "out"
+    run = subprocess.run([sys.executable, "-c", WORKER_TASK, where, str(out)],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 128 + signal.SIGTERM, run.stderr
+    assert "published" not in run.stdout and "Exception ignored" not in run.stderr, run.stderr
+    assert ("shielded block done" if where == "shielded" else "task went on") in run.stdout
+    assert not out.exists() and not leftovers(out) and list(tmp_path.iterdir()) == []
+
+
 def _dloplan(*args) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", "dloplan", *args], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, preexec_fn=interruptible)

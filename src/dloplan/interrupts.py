@@ -152,19 +152,30 @@ def catching_interrupts() -> Iterator[None]:
 
 
 def _end_worker(signum, frame) -> None:
-    if _busy[0] and not _ending:
-        _ending.append(signum)
-        raise Interrupted(signum)
-    # between tasks nothing to clean up; a second signal during the clean-up of the first
-    # (the parent's SIGTERM after a terminal's SIGHUP) ends it quietly with the first's code
-    os._exit(exit_code(_ending[0] if _ending else signum))
+    if not _busy[0]:  # between tasks nothing to clean up
+        os._exit(exit_code(_ending[0] if _ending else signum))
+    _pending.append(signum)  # raised again where the task makes progress, if dropped
+    if _ending or _shields[0]:
+        # a second signal (the parent's SIGTERM after a terminal's SIGHUP) while the first's
+        # clean-up runs, or a signal inside shielded code (a kernel loading): recorded only
+        return
+    _ending.append(signum)
+    raise Interrupted(signum)
 
 
 def worker_signals() -> None:
     """Signals of a pool's worker process (call it in the pool's initializer): Ctrl-C ignored
     (the parent handles it and ends its workers), SIGTERM and SIGHUP end the worker, inside a
-    :func:`task` by :class:`Interrupted` (the task's clean-up runs), between tasks at once."""
+    :func:`task` by :class:`Interrupted` (the task's clean-up runs), between tasks at once.
+
+    Inside a task the signal is handled as :func:`catching_interrupts` handles it in a command:
+    recorded, held back during :func:`shielded` code, raised again by
+    :func:`raise_if_interrupted` when a finalizer or a ctypes callback dropped it (seen as a
+    batch's worker that went on planning after SIGTERM until it was killed, its staging folder
+    and lock left behind)."""
     _worker[0] = True
+    _pending.clear()
+    sys.unraisablehook = _unraisable_unless_interrupt(sys.unraisablehook)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     for signum in SIGNALS:
         if signum != signal.SIGINT:
@@ -179,9 +190,12 @@ def task() -> Iterator[None]:
     _busy[0] = True
     try:
         yield
-    except Interrupted as exc:
         if _worker[0]:
-            os._exit(exc.exit_code)
+            raise_if_interrupted()  # a signal dropped on its way: the task's result is void
+    except BaseException as exc:
+        interrupt = interrupt_of(exc) if _worker[0] else None
+        if interrupt is not None:
+            os._exit(interrupt.exit_code)
         raise
     finally:
         _busy[0] = False
