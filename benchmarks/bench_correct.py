@@ -43,6 +43,19 @@ at shape 1 (and at 1 and again at mid-path) on the chain plant at E x2, grip kno
 the floor for each seed and their distribution: one noisy, nearly straight shape tells ln E to
 sd 0.18, so the ratio is a draw.
 
+Part 4, what one correction can do where the measurement does not tell E (``--part 4``,
+``--factors``): the plan (the U demo by default, ``--plans``) at n = 20 on chain plants of
+about 100 links at E x0.5, x2, x10 (no noise; grip L / n), each plant's floor, and, for every
+pair of them and all together, the largest ratio to its floor that any single correction of
+the target's clips leaves them: between a lower bound (weak duality, the largest B(w) =
+min_p sum_k w_k e_k(p) / f_k over weights w on a grid of the simplex,
+``dloplan.correct.plant.shared_floor``) and the ratios of the best correction found (an upper
+bound). A correction that cannot tell these plants apart from its measurement (the U demo's
+shapes before the target tell ln E to sd 5-9) gives them one correction, up to noise, so one
+of them ends at least the lower bound above its floor. "alone": each plant's own least mean
+distance over its floor (the floor is a least-squares fit's mean distance, not the least mean
+distance). About 1-3 minutes.
+
 The correction fits the clips on a refined chain by default (``correct_plan``'s ``fit_links``,
 60 links at n = 12 and 20); ``--fit-links N`` sets it for parts 2 and 3 (the plan's n: its own
 chain, as before).
@@ -62,7 +75,9 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
+import itertools
 import json
+import math
 import statistics
 import subprocess
 import sys
@@ -78,7 +93,13 @@ from dloplan.app import read_plan, verify_plan, write_plan
 from dloplan.app.correct import CorrectionService, check_correction
 from dloplan.cable import COMPOSITE_AXIAL_MODULI
 from dloplan.cli import main as dloplan_main
-from dloplan.correct import CorrectionRefused, Plant, reachable_error, run_closed_loop
+from dloplan.correct import (
+    CorrectionRefused,
+    Plant,
+    reachable_error,
+    run_closed_loop,
+    shared_floor,
+)
 from dloplan.geometry import resample_by_arc_length
 from dloplan.pipeline.stages import program_of
 from dloplan.vision.shapes_io import RegisteredShape, write_shapes
@@ -373,6 +394,59 @@ def part3(folder: Path, seeds: int, fit_links: int | None = None) -> None:
               f"{np.sum(v <= 1.15)} of {len(v)}")
 
 
+def simplex_grid(count: int, step: float) -> list[np.ndarray]:
+    """The weights w_k >= 0 summing to 1 on a grid of ``step`` (``count`` of them)."""
+    cells = round(1.0 / step)
+    return [np.array([*c, cells - sum(c)]) / cells
+            for c in itertools.product(range(cells + 1), repeat=count - 1) if sum(c) <= cells]
+
+
+def part4(folder: Path, plans, factors) -> None:
+    """The largest ratio to the floor any single correction leaves plants that differ only in
+    E (module docstring, part 4)."""
+    print("\nPart 4: one correction for plants the measurement cannot tell apart (n = 20, chain "
+          f"plants of {fine_links(20)} links, no noise, grip L / n): the largest ratio to the "
+          "floor")
+    for name in plans:
+        doc, _ = plan_with_links(SCENARIOS[name], 20, folder)
+        cable, last = doc.cable, len(doc.shapes) - 1
+        clips, reference = doc.grippers.clip_poses(last), doc.stabilized[-1]
+        plants, guesses, floors = [], [], []
+        for factor in factors:
+            plant = Plant(cable.with_modulus(factor * cable.youngs_modulus).with_links(
+                fine_links(20)), clamp=cable.rest_link_length)
+            run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [],
+                                  stabilized=doc.stabilized)
+            plants.append(plant)
+            guesses.append(run.open_loop[-1])
+            floors.append(reachable_error(plant, clips, reference, run.open_loop[-1]))
+            alone, _ = shared_floor(plants[-1:], clips, reference, guesses[-1:], floors[-1:])
+            print(f"{name:>12} E x{factor:<4g} floor {1e3 * floors[-1]:.3f} mm, alone "
+                  f"{alone:.3f}", flush=True)
+        bounds = {}
+        for size in range(2, len(factors) + 1):
+            for chosen in itertools.combinations(range(len(factors)), size):
+                # a subset's bound holds for the set (its largest ratio is among the set's)
+                lower = max((bounds[c] for c in itertools.combinations(chosen, size - 1)
+                             if c in bounds), default=0.0)
+                weights, upper = None, (math.inf, None)
+                for w in simplex_grid(size, 0.1 if size == 2 else 0.2):
+                    bound, ratios = shared_floor([plants[k] for k in chosen], clips, reference,
+                                                 [guesses[k] for k in chosen],
+                                                 [floors[k] for k in chosen], weights=w)
+                    if bound > lower:
+                        lower, weights = bound, w
+                    if max(ratios) < upper[0]:
+                        upper = (float(max(ratios)), ratios)
+                bounds[chosen] = lower
+                shown = ", ".join(f"x{factors[k]:g}" for k in chosen)
+                how = (f"w {np.round(weights, 2).tolist()}" if weights is not None else
+                       "a subset's")
+                print(f"{name:>12} E {shown}: one correction leaves one of them at least "
+                      f"{lower:.3f} times its floor ({how}); the best found {upper[0]:.3f} "
+                      f"({', '.join(f'{r:.3f}' for r in upper[1])})", flush=True)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--plants", default="chain,dismech")
@@ -383,9 +457,11 @@ def main() -> int:
                         help="comma-separated, of: " + ", ".join(CASES))
     parser.add_argument("--plans", default=",".join(SCENARIOS),
                         help="comma-separated, of: " + ", ".join(SCENARIOS))
-    parser.add_argument("--part", choices=["1", "2", "3", "both"], default="both",
+    parser.add_argument("--part", choices=["1", "2", "3", "4", "both"], default="both",
                         help="1: time, 2: plants (both: 1 and 2), 3: the early correction over "
-                        "noise draws")
+                        "noise draws, 4: one correction for plants of unknown E")
+    parser.add_argument("--factors", default="0.5,2,10",
+                        help="part 4: the plants' E over the plan's, comma-separated")
     parser.add_argument("--seeds", type=int, default=40, help="part 3: noise draws")
     parser.add_argument("--fit-links", type=int, default=None,
                         help="the links the correction fits the clips on (correct_plan's "
@@ -406,6 +482,9 @@ def main() -> int:
                   not args.no_told, args.fit_links)
         if args.part == "3":
             part3(Path(folder), args.seeds, args.fit_links)
+        if args.part == "4":
+            part4(Path(folder), ["U demo"] if args.plans == parser.get_default("plans") else
+                  args.plans.split(","), [float(f) for f in args.factors.split(",")])
     return 0
 
 

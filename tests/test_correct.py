@@ -29,6 +29,7 @@ from dloplan.correct import (
     reachable_error,
     resample_measured,
     run_closed_loop,
+    shared_floor,
 )
 from dloplan.geometry import resample_by_arc_length, shape_length
 from dloplan.grippers import GripperPath
@@ -923,6 +924,45 @@ def test_no_shape_of_the_u_demo_tells_e_while_its_target_depends_on_it(u_demo):
     assert correction.model.log_sd > 3.0  # sd(ln E): the measurement does not tell E
     assert correction.model.youngs_modulus == cable.youngs_modulus
     assert "does not inform E" in correction.model.note
+
+
+def test_one_correction_cannot_bring_the_u_demos_plants_of_unknown_e_to_their_floors(u_demo):
+    """Why no correction of the U demo meets 1.15 times the floor at every E it cannot tell
+    (issue 35). Its shapes before the target do not tell E (above), so plants at E x0.5 and x2
+    measured with the same noise get the same correction (E kept at the plan's, the same bias
+    fitted), and each is compared with its own floor. For any one clip correction p and
+    weights w (sum 1), max_k r_k(p) >= sum_k w_k r_k(p) >= B(w) = min_q sum_k w_k r_k(q)
+    (shared_floor): with equal weights B = 1.24, so one of the two ends at least 1.24 times its
+    floor whatever the correction does (the benchmark's rows: 0.94 and 1.61). Checked too:
+    alone, B is the plant's least mean distance, at most its floor (a least-squares fit's mean
+    distance: 0.85 at x0.5); a plant given twice is the plant once; the closed loops' ratios
+    obey the bound. Bounds: B > 1.15 (the issue's target; measured 1.24), the closed loops'
+    larger ratio >= B."""
+    doc = u_demo[MODEL_LINKS]
+    cable, last = doc.cable, len(doc.shapes) - 1
+    clips, reference = doc.grippers.clip_poses(last), doc.stabilized[-1]
+    plants, guesses, floors, closed = [], [], [], []
+    for factor in (0.5, 2.0):
+        plant = Plant(cable.with_links(100).with_modulus(factor * cable.youngs_modulus),
+                      noise=NOISE, n_measured=200, seed=1, clamp=cable.rest_link_length)
+        run = run_closed_loop(plant, cable, doc.shapes, doc.grippers, [last // 2],
+                              stabilized=doc.stabilized, grip="known")
+        (correction,) = run.corrections
+        assert correction.model.youngs_modulus == cable.youngs_modulus  # E not told: kept
+        plants.append(plant)
+        guesses.append(run.open_loop[-1])
+        floors.append(reachable_error(plant, clips, reference, run.open_loop[-1]))
+        closed.append(run.closed_loop_error / floors[-1])
+    alone, (ratio,) = shared_floor(plants[:1], clips, reference, guesses[:1], floors[:1])
+    assert alone == pytest.approx(ratio) and 0.5 < alone <= 1.0 + 1e-9
+    twice, _ = shared_floor(plants[:1] * 2, clips, reference, guesses[:1] * 2, floors[:1] * 2)
+    assert twice == pytest.approx(alone, rel=1e-6)
+    bound, ratios = shared_floor(plants, clips, reference, guesses, floors)
+    assert bound > 1.15
+    assert max(ratios) >= bound - 1e-9  # the minimizer is one correction: above the bound
+    assert max(closed) >= bound
+    with pytest.raises(ValueError, match="weights"):
+        shared_floor(plants, clips, reference, guesses, floors, weights=[1.0, -1.0])
 
 
 def test_the_parameter_covariance_is_the_scatter_of_the_fit_correlation_included():

@@ -4,7 +4,8 @@
 * :mod:`.model_error` -- the discretization error carried as a measured bias;
 * :mod:`.step` -- :func:`correct_plan`: modulus update, clip correction, re-timing;
 * :mod:`.plant` -- :func:`run_closed_loop`: the plan run on a mismatched simulated cable;
-  :func:`reachable_error`: the floor a perfect correction would reach;
+  :func:`reachable_error`: the floor a perfect correction would reach; :func:`shared_floor`:
+  what one correction can do for cables the measurement cannot tell apart;
 * :mod:`.report` -- a correction's report as text;
 * :mod:`.probability` -- :func:`closed_loop_sample` / :func:`closed_loop_success`: closed-loop
   success probability over sampled cables, for a study.
@@ -14,7 +15,14 @@ The method, its limits and the command are in ``docs/correction.md``; the comman
 """
 
 from .measurement import CorrectionRefused, resample_measured
-from .plant import ClosedLoopRun, Plant, reachable_error, run_closed_loop, shape_error
+from .plant import (
+    ClosedLoopRun,
+    Plant,
+    reachable_error,
+    run_closed_loop,
+    shape_error,
+    shared_floor,
+)
 from .probability import (
     ClosedLoopSuccess,
     closed_loop_sample,
@@ -40,5 +48,6 @@ __all__ = [
     "reachable_error",
     "run_closed_loop",
     "shape_error",
+    "shared_floor",
     "update_modulus",
 ]
