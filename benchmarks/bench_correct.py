@@ -54,7 +54,7 @@ bound). A correction that cannot tell these plants apart from its measurement (t
 shapes before the target tell ln E to sd 5-9) gives them one correction, up to noise, so one
 of them ends at least the lower bound above its floor. "alone": each plant's own least mean
 distance over its floor (the floor is a least-squares fit's mean distance, not the least mean
-distance). About 1-3 minutes.
+distance). About 6 minutes of wall time at load 6-9.
 
 The correction fits the clips on a refined chain by default (``correct_plan``'s ``fit_links``,
 60 links at n = 12 and 20); ``--fit-links N`` sets it for parts 2 and 3 (the plan's n: its own
@@ -431,9 +431,13 @@ def part4(folder: Path, plans, factors) -> None:
                              if c in bounds), default=0.0)
                 weights, upper = None, (math.inf, None)
                 for w in simplex_grid(size, 0.1 if size == 2 else 0.2):
-                    bound, ratios = shared_floor([plants[k] for k in chosen], clips, reference,
-                                                 [guesses[k] for k in chosen],
-                                                 [floors[k] for k in chosen], weights=w)
+                    try:
+                        bound, ratios = shared_floor([plants[k] for k in chosen], clips,
+                                                     reference, [guesses[k] for k in chosen],
+                                                     [floors[k] for k in chosen], weights=w)
+                    except RuntimeError as exc:  # no bound from these weights
+                        print(f"  weights {np.round(w, 2).tolist()}: {exc}")
+                        continue
                     if bound > lower:
                         lower, weights = bound, w
                     if max(ratios) < upper[0]:

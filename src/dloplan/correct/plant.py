@@ -403,6 +403,8 @@ def shared_floor(plants, clips: ClipPoses, reference: np.ndarray, guesses, floor
     ValueError
         For weights that are not one non-negative number per plant with a positive sum, or
         floors that are not positive (named).
+    RuntimeError
+        When the minimization does not converge: its value would not bound anything.
     """
     count = len(plants)
     w = np.full(count, 1.0 / count) if weights is None else np.asarray(weights, dtype=float)
@@ -429,6 +431,9 @@ def shared_floor(plants, clips: ClipPoses, reference: np.ndarray, guesses, floor
     fit = minimize(lambda v: float(w @ ratios(v)), np.zeros(12), jac=gradient,
                    method="L-BFGS-B", bounds=[(-1.0, 1.0)] * 12,
                    options={"maxiter": max_iterations})
+    if not fit.success:
+        raise RuntimeError(f"shared_floor: the minimization did not converge ({fit.message}, "
+                           f"{fit.nit} iterations): no bound")
     return float(fit.fun), ratios(fit.x)
 
 
