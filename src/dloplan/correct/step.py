@@ -54,7 +54,7 @@ from ..geometry import as_path, resample_by_arc_length
 from ..grippers import GripperPath, relative_twist
 from ..least_squares import Damping, damped_minimize
 from ..physics.chain import SpringChain
-from ..sim import ClipPoses, continuation, equilibrium
+from ..sim import ClipPoses, equilibrium
 from ..sim.sensitivity import equilibrium_sensitivity, perturbed_clips
 from ..trajectory import Trajectory, trajectory_from_grippers
 from .measurement import MAX_DISAGREEMENT, CorrectionRefused, noise_sd, resample_measured
@@ -1120,17 +1120,18 @@ def correct_plan(
     remaining = clips[at + 1 :]
     iterations = 0
     if mode == "target":  # fit the target from the plan's stabilized target, ramp it in
-        p_target, _, iterations = _fit_with_bias(model, remaining[-1], wanted[-1], target_guess,
-                                                 update, limits=limits, gravity=gravity,
-                                                 chain=model_chain, fit=fit, state=False)
+        p_target, _, iterations, fit_held = _fit_with_bias(
+            model, remaining[-1], wanted[-1], target_guess, update, limits=limits,
+            gravity=gravity, chain=model_chain, fit=fit, state=False)
         ramp = np.arange(1, len(remaining) + 1) / len(remaining)
         corrections = ramp[:, None] * p_target[None, :]
     else:  # fit every remaining shape, each from the previous one
         corrections, fitted = [], []
         x, p = update.state, np.zeros(12)
         for c, ref in zip(remaining, wanted, strict=True):
-            p, eq, its = _fit_with_bias(model, c, ref, x, update, start=p, limits=limits,
-                                        gravity=gravity, chain=model_chain, fit=fit)
+            p, eq, its, fit_held = _fit_with_bias(model, c, ref, x, update, start=p,
+                                                  limits=limits, gravity=gravity,
+                                                  chain=model_chain, fit=fit)
             iterations += its
             x = eq.shape
             corrections.append(p)
@@ -1168,13 +1169,15 @@ def correct_plan(
                           trajectory=None, prediction_seconds=0.0, **common)
     new_trajectory = trajectory_from_grippers(new_grippers, **timing)
     # the predictions of the updated model from the measured state: planned vs corrected clips
-    open_states = _continue(model, update.state, remaining, gravity)
+    # (the fit chain's target at the corrected clips: the clip fit's last equilibrium, held,
+    # whose clips are the last corrected ones, p_T, exactly)
+    open_states = _continue(model, update.state, remaining, gravity, model_chain, stable[at:])
     equilibria = (np.stack(fitted) if mode == "all" else
-                  _continue(model, update.state, corrected_clips, gravity))
-    directions = _target_directions(model, equilibria[-1], corrected_clips[-1], gravity,
-                                    model_chain)
-    open_loop = _biased(model, open_states, remaining, gravity, update, fit)
-    corrected = _biased(model, equilibria, corrected_clips, gravity, update, fit, directions)
+                  _continue(model, update.state, corrected_clips, gravity, model_chain,
+                            stable[at:]))
+    open_loop, _ = _biased(model, open_states, remaining, gravity, update, fit)
+    corrected, directions = _biased(model, equilibria, corrected_clips, gravity, update, fit,
+                                    chain=model_chain, held=fit_held)
     uncertainty = _uncertainty(directions, update)
     check_gain(open_loop[-1], corrected[-1], wanted[-1], directions, update,
                limits.gain_significance)
@@ -1246,12 +1249,14 @@ def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess:
     Returns
     -------
     tuple
-        ``(correction (12,), the plan's model's equilibrium at the corrected clips, iterations)``.
+        ``(correction (12,), the plan's model's equilibrium at the corrected clips, iterations,
+        held)``: ``held`` the refined chain's equilibrium at the corrected clips
+        (:class:`Held`; None without a refined ``fit``).
     """
     fine = fit is not None and fit.clamp_links > 1
     if not fine and update.discretization == 0.0 and update.grip == 0.0:
-        return fit_clips(cable, clips, reference, guess, start=start, limits=limits,
-                         gravity=gravity, chain=chain)
+        return (*fit_clips(cable, clips, reference, guess, start=start, limits=limits,
+                           gravity=gravity, chain=chain), None)
     p = np.zeros(12) if start is None else np.asarray(start, dtype=float).copy()
     eq = _solve(cable, guess, perturbed_clips(clips, p), gravity, chain)
     iterations = 0
@@ -1261,7 +1266,7 @@ def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess:
             p, eq, more = _levenberg_marquardt(cable, clips, reference - bias, eq, p, limits,
                                                gravity, chain)
             iterations += more
-        return p, eq, iterations
+        return p, eq, iterations, None
     held = fit.hold(eq.shape, eq.clips, gravity)
     for last in (False, True):
         bias = fit.bias(update, cable, eq.shape, eq.clips, gravity)
@@ -1269,45 +1274,66 @@ def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess:
                                              gravity, fit.chain, fit.clamp_links)
         iterations += more
         if last and not state:
-            return p, None, iterations
+            return p, None, iterations, held
         eq = _solve(cable, held.shape[:: fit.clamp_links], held.clips, gravity, chain)
-    return p, eq, iterations
+    return p, eq, iterations, held
 
 
-def _continue(cable: Cable, state: np.ndarray, clips, gravity) -> np.ndarray:
+def _continue(cable: Cable, state: np.ndarray, clips, gravity, chain: SpringChain,
+              plan: np.ndarray) -> np.ndarray:
     """Quasi-static continuation from ``state`` along ``clips``: the equilibria
-    (len(clips), n + 1, 3) [m]."""
-    runs = continuation(cable, state, clips, gravity=gravity)
-    failed = [k for k, eq in enumerate(runs) if not eq.success]
-    if failed:
-        raise CorrectionRefused(f"prediction: the model finds no stable equilibrium at the "
-                                f"remaining shape {failed[0]} ({runs[failed[0]].message})")
-    return np.stack([eq.shape for eq in runs])
+    (len(clips), n + 1, 3) [m].
+
+    A predictor-corrector continuation whose predictor is the plan's own step: each solve
+    (:func:`dloplan.sim.equilibrium`) starts from the previous equilibrium moved as the plan's
+    stabilized shapes ``plan`` (len(clips) + 1, n + 1, 3; the first the state's) move between
+    the two shapes, x_j-1 + (s_j - s_j-1), not from x_j-1 as it is (:func:`dloplan.sim.
+    continuation`): the same equilibrium, to the solver's tolerance, in 3-5 Newton iterations
+    instead of 9-12 on the sagging demo (its shapes move by centimetres between two steps).
+    """
+    x, out = state, []
+    for j, c in enumerate(clips):
+        eq = equilibrium(cable, x + (plan[j + 1] - plan[j]), c, gravity=gravity, chain=chain)
+        if not eq.success:
+            raise CorrectionRefused(f"prediction: the model finds no stable equilibrium at the "
+                                    f"remaining shape {j} ({eq.message})")
+        x = eq.shape
+        out.append(x)
+    return np.stack(out)
 
 
 def _biased(cable: Cable, shapes: np.ndarray, clips, gravity, update: ModelUpdate,
-            fit: FitModel | None, directions: dict | None = None) -> np.ndarray:
+            fit: FitModel | None, *, chain: SpringChain | None = None, held: Held | None = None
+            ) -> tuple[np.ndarray, dict | None]:
     """The predictions (len(clips), n + 1, 3) [m]: the equilibria ``shapes`` plus the bias
     (:meth:`ModelUpdate.bias`), the target's as the clips were fitted -- on the ``fit`` model
-    (:meth:`FitModel.predict`) when there is one.
+    when there is one (its equilibrium at the target's clips: ``held``, where the clip fit
+    solved it already, else :meth:`FitModel.hold`), less the share of d it resolves.
 
-    ``directions`` (:func:`_target_directions`), computed at the target's shape and clips
-    already, give its bias alpha d + beta g without solving for d and g again (the same
-    refined solves from the same start: the same values).
+    With the model's ``chain``, the target's responses (:func:`_target_directions`) are
+    computed, its bias alpha d + beta g taken from them (the same solves).
+
+    Returns
+    -------
+    tuple
+        ``(predictions, directions)``; directions None without ``chain``.
     """
     out = [x + update.bias(cable, x, c, gravity)
            for x, c in zip(shapes[:-1], clips[:-1], strict=True)]
     x, c = shapes[-1], clips[-1]
-    if directions is None:
-        out.append(x + update.bias(cable, x, c, gravity) if fit is None else
-                   fit.predict(update, cable, x, c, gravity))
-        return np.stack(out)
-    alpha = update.discretization - (0.0 if fit is None else fit.share)
-    bias = (np.zeros_like(x) if alpha == 0.0 and update.grip == 0.0 else
-            alpha * directions["discretization"] + update.grip * directions["grip"])
-    base = x if fit is None else fit.hold(x, c, gravity).shape[:: fit.clamp_links]
-    out.append(base + bias)
-    return np.stack(out)
+    left = update if fit is None else replace(update,
+                                              discretization=update.discretization - fit.share)
+    directions = None
+    if chain is None:
+        bias = left.bias(cable, x, c, gravity)
+    else:
+        directions = _target_directions(cable, x, c, gravity, chain)
+        bias = left.discretization * directions["discretization"] \
+            + left.grip * directions["grip"]
+    if fit is not None:
+        x = (fit.hold(x, c, gravity) if held is None else held).shape[:: fit.clamp_links]
+    out.append(x + bias)
+    return np.stack(out), directions
 
 
 def _target_directions(cable: Cable, shape: np.ndarray, clips: ClipPoses, gravity,
