@@ -1170,13 +1170,17 @@ def correct_plan(
     new_trajectory = trajectory_from_grippers(new_grippers, **timing)
     # the predictions of the updated model from the measured state: planned vs corrected clips;
     # the open loop's target is where mode "target"'s clip fit started (the planned clips), the
-    # fit chain's corrected target where the fit ended (its clips are p_T's, exactly)
+    # corrected target's equilibrium where it ended (its clips are p_T's, exactly; on the plan's
+    # chain its state, on a refined one the fit chain's, held)
     if mode == "target":
         open_states = _continue(model, update.state, remaining[:-1], gravity, model_chain,
                                 stable[at:-1])
         open_target = target_fit.start
-        equilibria = _continue(model, update.state, corrected_clips, gravity, model_chain,
-                               stable[at:])
+        fitted = [] if target_fit.state is None else [target_fit.state.shape]
+        equilibria = np.concatenate([
+            _continue(model, update.state, corrected_clips[: len(corrected_clips) - len(fitted)],
+                      gravity, model_chain, stable[at : len(stable) - len(fitted)]),
+            np.reshape(fitted, (-1, *update.state.shape))])
     else:
         open_states = _continue(model, update.state, remaining, gravity, model_chain,
                                 stable[at:])
