@@ -4,8 +4,9 @@ that are not the model.
 Part 1, time: a warm correction (:class:`dloplan.app.correct.CorrectionService`, the plan kept
 in memory: the first call loads the compiled kernels, the next ones are what a robot cell's loop
 pays), at the sagging demo's own n and at n = 20, 50, 100, measured at shape 3 on a chain plant
-of 200 links at E x1.5, 1 mm noise, 200 points; best and median of 10 warm calls, CPU and wall;
-and the one-shot ``dloplan correct`` command's own report of its CPU and wall time.
+of 200 links at E x1.5, 1 mm noise, 200 points; best and median of 10 warm calls
+(``--calls``), CPU and wall; and the one-shot ``dloplan correct`` command's own report of its
+CPU and wall time.
 
 Part 2, plants: every example plan (sagging demo, 3D Ethernet, embedded U demo) planned by
 ``dloplan plan`` at its own n and at n = 20, run open loop and corrected once on
@@ -136,9 +137,10 @@ def measurement(doc, at: int, factor: float, seed: int = 0) -> np.ndarray:
                                                                          size=(POINTS, 3))
 
 
-def part1(folder: Path) -> None:
+def part1(folder: Path, calls: int = 10) -> None:
     print("Part 1: a warm correction (CorrectionService; sagging demo at shape 3, plant n = 200 "
-          "at E x1.5, 1 mm noise, 200 points; 10 calls after the first, CPU ms, median (best))")
+          f"at E x1.5, 1 mm noise, 200 points; {calls} calls after the first, CPU ms, median "
+          "(best))")
     print(f"{'n':>4} {'first wall':>10} {'to the motion':>14} {'fast answer':>12} "
           f"{'+ predictions':>14} {'+ program check':>16}  verdict")
     source = SCENARIOS["sagging demo"]
@@ -151,7 +153,7 @@ def part1(folder: Path) -> None:
         for flags in (dict(predict=False, check_program=False),
                       dict(predict=True, check_program=False),
                       dict(predict=True, check_program=True)):
-            warm = [service.correct(3, points, **flags) for _ in range(10)]
+            warm = [service.correct(3, points, **flags) for _ in range(calls)]
             cpu = [1e3 * a["cpu_seconds"] for a in warm]
             columns.append(f"{statistics.median(cpu):.1f} ({min(cpu):.1f})")
             if not flags["predict"]:
@@ -467,6 +469,8 @@ def main() -> int:
     parser.add_argument("--factors", default="0.5,2,10",
                         help="part 4: the plants' E over the plan's, comma-separated")
     parser.add_argument("--seeds", type=int, default=40, help="part 3: noise draws")
+    parser.add_argument("--calls", type=int, default=10,
+                        help="part 1: warm calls per n and column (their median and best)")
     parser.add_argument("--fit-links", type=int, default=None,
                         help="the links the correction fits the clips on (correct_plan's "
                         "fit_links; default: its own choice, 60 at n = 12 and 20; the plan's n: "
@@ -479,7 +483,7 @@ def main() -> int:
     print(json.dumps({"host": "2 cores shared with other sessions"}))
     with tempfile.TemporaryDirectory() as folder:
         if args.part in ("1", "both"):
-            part1(Path(folder))
+            part1(Path(folder), args.calls)
         if args.part in ("2", "both"):
             part2(args.plants.split(","), not args.no_floor, Path(folder),
                   args.plans.split(","), args.cases.split(","), args.plant_axial_like_e,

@@ -23,6 +23,7 @@ the reference, with d re-evaluated at the corrected clips.
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 
@@ -125,6 +126,19 @@ MAX_GRIP = 1.0
 g): the gripper's jaws end within half a link of where the model's held link ends."""
 
 
+_REFINED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+"""The refined cable (2 n links) per model cable, while it lives: its chain is then built once
+(:meth:`dloplan.physics.chain.SpringChain.from_cable` keeps one per cable object)."""
+
+
+def refined_cable(cable: Cable) -> Cable:
+    """``cable.with_links(2 n)``, the same object for the same ``cable`` (its chain built once)."""
+    fine = _REFINED.get(cable)
+    if fine is None:
+        fine = _REFINED[cable] = cable.with_links(2 * cable.n_links)
+    return fine
+
+
 def model_error_directions(cable: Cable, shape: np.ndarray, clips: ClipPoses, *, grip: bool,
                            gravity=GRAVITY, fine_chain: SpringChain | None = None,
                            fine_guess: np.ndarray | None = None):
@@ -165,7 +179,7 @@ def model_error_directions(cable: Cable, shape: np.ndarray, clips: ClipPoses, *,
         ``(d, g)``, each (n + 1, 3) [m] (x_inf - x_n is about 2 d; g per L / (2 n) of clamp
         length); g is None without ``grip``.
     """
-    fine = cable.with_links(2 * cable.n_links)
+    fine = refined_cable(cable)
     if fine_chain is None:
         fine_chain = SpringChain.from_cable(fine, gravity)
     guess = resample_by_arc_length(shape, fine.n_points) if fine_guess is None else fine_guess
