@@ -59,13 +59,37 @@ _BLOCK = 65536  # steps whose clip poses :class:`_HeldSchedule` interpolates at 
 SCHEDULE_INTERVAL = 1e-3
 """Time [s] between updates of the cable's constants when it changes (``cable_at``)."""
 
+INDEFINITE_BACKOFF = 0.1
+"""Time [s] an implicit run found indefinite gives back (:attr:`IndefiniteStep.partial`): the
+steps before an indefinite one may already be wrong, a chain going soft as it is compressed
+(measured: a harness job's phase 2 off the explicit run's speeds 20 ms before, tensions of
+30-165 N in its last 6 ms, against 1e-11 N explicit; docs/decisions.md)."""
+
 SCHEMES = ("explicit", "implicit")
 """Time stepping schemes of :func:`simulate`: the thesis' semi-implicit Euler (eq. 3.24) and
 the linearly implicit Euler of :func:`dloplan.sim.stepping.implicit_steps`."""
 
 
 class IndefiniteStep(FloatingPointError):
-    """An implicit step whose system M + dt k_d D + dt^2 H is not positive definite."""
+    """An implicit step whose system M + dt k_d D + dt^2 H is not positive definite.
+
+    Attributes
+    ----------
+    partial : Simulation or None
+        The run up to a state at least :data:`INDEFINITE_BACKOFF` before the step that failed
+        (kept at most twice that before it; the start if the run had not got that far): its
+        records, that state as the last record (shape and :attr:`Simulation.velocity`), so a
+        run can continue from it (``simulate(initial_velocity=)``); None when raised
+        without one.
+    time : float or None
+        When the step that failed would have ended [s], on the run's clock.
+    """
+
+    def __init__(self, message: str, partial: Simulation | None = None,
+                 time: float | None = None) -> None:
+        super().__init__(message)
+        self.partial = partial
+        self.time = time
 
 
 class SampledPoses(Sequence):
@@ -409,11 +433,15 @@ def simulate(
 
     fixed = settings(cable, chain.constants)
     chunk = _CHUNK if cable_at is None else max(1, int(math.ceil(SCHEDULE_INTERVAL / dt)))
+    back = max(1, int(math.ceil(INDEFINITE_BACKOFF / dt)))  # steps an indefinite run gives back
+    if implicit:
+        chunk = min(chunk, back)
     schedule = _HeldSchedule(trajectory, dt, n_steps)
     no_load = np.zeros_like(x)
     offsets = np.arange(cable.n_points) - 0.5 * cable.n_links  # (i - n/2): ds_i = offset dl
     drift = np.zeros(cable.n_points)  # the implicit step's (ds_i/dt) / l [1/s]
     status, step, recorded = RUNNING, 0, 1
+    kept = [(0, x.copy(), v.copy(), 1)]  # an implicit run's last states: step, x, v, records
     previous = cable, fixed  # a changing cable's last model and its settings
     # a diverging run is detected in the loop and reported with its time: no float warnings
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
@@ -434,6 +462,8 @@ def simulate(
                 current = previous[1]
             targets = schedule.targets(chunk_steps, model.rest_link_length)
             if implicit:
+                if step - kept[-1][0] >= back:
+                    kept = [kept[-1], (step, x.copy(), v.copy(), recorded)]
                 step, recorded, status = implicit_steps(x, v, previous_held, targets, drift,
                                                         step, *current, recorded)
                 continue
@@ -446,8 +476,10 @@ def simulate(
                 x, v, previous_held, targets, np.ascontiguousarray(held), twist.directors,
                 twist.twist_chain.constants, scratch(), step, *current, recorded)
     if status == INDEFINITE:
-        raise IndefiniteStep(f"implicit step at t = {step * dt:.4g} s: the chain's stiffness "
-                             f"is not positive enough for dt = {dt:.3g} s")
+        raise IndefiniteStep(f"implicit step at t = {(step + 1) * dt:.4g} s: the chain's "
+                             f"stiffness is not positive enough for dt = {dt:.3g} s",
+                             _given_back(kept, step + 1 - back, dt, times, shapes, speeds),
+                             (step + 1) * dt)
     if status == DIVERGED:
         raise FloatingPointError(
             f"simulation diverged at t = {step * dt:.4g} s (dt = {dt:.3g} s too large)")
@@ -458,6 +490,21 @@ def simulate(
         message = f"ran {step} steps ({step * dt:.4g} s)"
     return Simulation(times[:recorded].copy(), shapes[:recorded].copy(),
                       speeds[:recorded].copy(), float(dt), step, settled, message, v)
+
+
+def _given_back(kept: list, latest: int, dt: float, times: np.ndarray, shapes: np.ndarray,
+                speeds: np.ndarray) -> Simulation:
+    """An indefinite implicit run up to the last state ``kept`` (step, x, v, records) at or
+    before step ``latest`` (the first kept, the start, if none is): its records to then and
+    that state as the last record (:attr:`IndefiniteStep.partial`)."""
+    step, x, v, recorded = next((k for k in reversed(kept) if k[0] <= latest), kept[0])
+    if times[recorded - 1] != step * dt:
+        times[recorded], shapes[recorded] = step * dt, x
+        speeds[recorded] = float(np.max(np.linalg.norm(v, axis=1)))
+        recorded += 1
+    return Simulation(times[:recorded].copy(), shapes[:recorded].copy(),
+                      speeds[:recorded].copy(), float(dt), step, False,
+                      f"ran {step} steps ({step * dt:.4g} s) before an indefinite step", v)
 
 
 def settle(

@@ -49,14 +49,18 @@ the explicit run's on the examples (docs/decisions.md, "the replay's time step")
 obstacle, or reaching one within the step, is held on it in the implicit solve by a stiff
 penalty and sticks or slides by Coulomb's law. A tensile limit is judged on the explicit run
 (the implicit scheme damps the axial ringing whose peaks it checks), and so is a replay whose
-implicit system is found indefinite, and a changing cable (a harness section being tensioned,
+implicit system is found indefinite, from the state the implicit run gives back to the end
+(:attr:`~dloplan.sim.dynamics.IndefiniteStep.partial`, at least
+:data:`~dloplan.sim.dynamics.INDEFINITE_BACKOFF` before the step that failed: the steps just
+before it may already be wrong), and a changing cable (a harness section being tensioned,
 its links all getting shorter: ``scheme="implicit"`` steps it with the friction on the material
 through which the points move, but its peak tensions on the harness jobs do not yet agree with
 the explicit ones where the section is pulled onto the peg and its plate; docs/decisions.md).
 A changing cable that does not change before ``changes_at`` (the harness section through the
 insertion and the regrasp's pause) steps implicitly until then and explicitly from the state it
 reached (positions and velocities), so only the pull itself takes the explicit steps, with a
-tensile limit too: the pull is where a section's tension peaks, and it stays explicit.
+tensile limit too: the pull is where a section's tension peaks, and it stays explicit (from
+the state given back if the fixed part is found indefinite).
 
 The simulated shapes are recorded often enough (at least 20 records per knot interval, every step
 while the run has fewer than :data:`MAX_RECORDS` steps) that the shape at a knot time is
@@ -339,8 +343,8 @@ def replay(
         Time stepping (module docstring, *Scheme*): ``"explicit"`` the thesis' eq. 3.24 at
         its time step; ``"implicit"`` linearly implicit Euler at :data:`IMPLICIT_STEP` (or
         ``dt``); ``"auto"`` (default) implicit where it applies (no torsion, changing cable
-        or tensile limit), explicit otherwise and when an implicit step finds the chain's
-        stiffness indefinite.
+        or tensile limit), explicit otherwise and, when an implicit step finds the chain's
+        stiffness indefinite, from the state the implicit run gives back on.
     changes_at : float, optional
         With ``cable_at``: the time on the trajectory's clock [s] before which ``cable_at``
         gives the cable at the start (a harness section not yet pulled). ``"auto"`` then steps
@@ -421,7 +425,8 @@ def replay(
                                                             shifted.poses)
         later = None if fixed else changing if changing is None or begin == 0.0 else (
             lambda t: changing(t + begin))
-        return simulate(model if state is None and not fixed else changing(begin),
+        return simulate(model if changing is None or (begin == 0.0 and not fixed)
+                        else changing(begin),
                         path[0] if state is None else state.shapes[-1], clock,
                         duration=end - begin, dt=step, gravity=gravity,
                         record_interval=min(longest, finest), rest_speed=rest_speed,
@@ -429,24 +434,27 @@ def replay(
                         contacts=contacts, friction=friction, cable_at=later, scheme=scheme,
                         initial_velocity=None if state is None else state.velocity)
 
+    def explicit_after(first: Simulation) -> Simulation:
+        """``first`` continued explicitly from its last state to the end."""
+        begin = float(first.times[-1])
+        return _joined(first, run_with(explicit_step(), "explicit", begin, state=first), begin)
+
     switch = None if changes_at is None else float(changes_at) - start
     if (scheme == "auto" and changing is not None and not torsion and switch is not None
             and IMPLICIT_STEP <= switch < motion):
         try:  # the fixed cable implicitly, up to the last whole step before it changes
             first = run_with(IMPLICIT_STEP, "implicit",
                              end=math.floor(switch / IMPLICIT_STEP) * IMPLICIT_STEP, fixed=True)
-            begin = first.steps * first.dt
-            run = _joined(first, run_with(explicit_step(), "explicit", begin, state=first),
-                          begin)
-        except IndefiniteStep:
-            run = run_with(explicit_step(), "explicit")
+        except IndefiniteStep as stop:  # explicitly from the state it gave back
+            first = stop.partial
+        run = explicit_after(first)
     else:
         try:
             run = run_with(step, "implicit" if implicit else "explicit")
-        except IndefiniteStep:
+        except IndefiniteStep as stop:
             if scheme == "implicit":
                 raise
-            run = run_with(explicit_step(), "explicit")
+            run = explicit_after(stop.partial)
     deviations = np.array([_deviation_at(run, t, x) for t, x in zip(knots, path, strict=True)])
     final = float(np.max(np.linalg.norm(run.shapes[-1] - path[-1], axis=1)))
     timing = law if law is not None else TimeLaw.constant_speed(knots)
@@ -487,14 +495,15 @@ def replay(
 
 def _joined(first: Simulation, then: Simulation, begin: float) -> Simulation:
     """Two runs as one: ``then`` continued ``first`` from its last state at ``begin`` [s]
-    (its first record, that state, is dropped); the time step of the second."""
+    (its first record, that state, is dropped); the smaller time step of the two."""
     steps = first.steps + then.steps
     end = begin + float(then.times[-1])
     message = (f"at rest after {steps} steps ({end:.4g} s)" if then.settled
                else f"ran {steps} steps ({end:.4g} s)")
     return Simulation(np.concatenate([first.times, begin + then.times[1:]]),
                       np.concatenate([first.shapes, then.shapes[1:]]),
-                      np.concatenate([first.max_speeds, then.max_speeds[1:]]), then.dt, steps,
+                      np.concatenate([first.max_speeds, then.max_speeds[1:]]),
+                      min(first.dt, then.dt), steps,
                       then.settled, message, then.velocity)
 
 
