@@ -13,8 +13,9 @@ decide where every estimate ends, are solved per sample, exactly:
 * the plant (the sampled cable) is driven through the plan's clip poses by
   :func:`.plant_batch.drive_plants`, bit for bit :meth:`~.plant.Plant.hold`, so the open-loop
   column is the exact method's, bit for bit;
-* the measurement is the exact method's (the same noise draws, :func:`.measurement.
-  resample_measured`, its refusals), and so is its offset's verdict (read off the held points,
+* the measurement is the exact method's (the same points and noise draws, bit for bit, and
+  :func:`.measurement.resample_measured`, its refusals, to round-off: the chunk's at once,
+  :mod:`.measurement_batch`), and so is its offset's verdict (read off the held points,
   its covariance with the measurement's noise along the clips' axes, :func:`.model_error.
   offset_covariance`, judged by :func:`~.step.offset_verdict` itself);
 * the model update is :func:`~.step.update_modulus`'s algorithm -- the fit of ln E, alpha and
@@ -70,7 +71,13 @@ from ..sim import ClipPoses, equilibrium, interpolate_clips
 from ..sim.batch import held_equilibria
 from ..sim.sensitivity import equilibrium_sensitivity
 from ..study.evaluate import perturbed_cable
-from .measurement import CorrectionRefused, noise_sd, resample_measured
+from .measurement import CorrectionRefused, resample_measured
+from .measurement_batch import (
+    measured_points,
+    noise_sds,
+    resample_measured_batch,
+    resample_polylines,
+)
 from .model_error import (
     BOUNDS,
     MAX_GRIP,
@@ -401,18 +408,17 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
     open_error = np.full(count, math.nan)
     corrections: list = [None] * count
     held = [b for b in range(count) if rows[b] is None]
-    measured = {}
-    for b in held:
-        open_error[b] = _shape_error(drive.shapes[b, -1], nominal.resampled_reference)
-        points = resample_by_arc_length(drive.shapes[b, SUBSTEPS * at], n_measured)
-        measured[b] = points + np.random.default_rng(items[b][0]).normal(scale=noise,
-                                                                         size=points.shape)
     results: list = [None] * count
-    for b in held:
-        try:
-            measured[b] = _resampled(nominal, measured[b])
-        except CorrectionRefused as exc:
-            results[b] = str(exc)
+    measured = {}
+    if held:
+        open_error[held] = _shape_errors(drive.shapes[held, -1], nominal.resampled_reference)
+        points = measured_points(drive.shapes[held, SUBSTEPS * at], [items[b][0] for b in held],
+                                 noise, n_measured)
+        for b, y in zip(held, _resampled(nominal, points), strict=True):
+            if isinstance(y, str):
+                results[b] = y
+            else:
+                measured[b] = y
     fitted = [b for b in held if results[b] is None]
     prior = alpha_prior(cable.n_links, nominal.plant_links)
     if fitted:
@@ -427,6 +433,10 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
                               [clamps[b] for b in accepted], drive.shapes[accepted,
                                                                           SUBSTEPS * at],
                               np.array([results[b].clips for b in accepted]))
+        errors = np.full(len(accepted), math.nan)
+        ran = np.flatnonzero(closed.failed < 0)
+        if len(ran):
+            errors[ran] = _shape_errors(closed.shapes[ran, -1], nominal.resampled_reference)
         for k, b in enumerate(accepted):
             if closed.failed[k] >= 0:  # a failed run, as the exact method's (no errors)
                 shape = at + 1 + closed.failed[k] // SUBSTEPS
@@ -434,7 +444,7 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
                                                        f"failed at shape {shape}: "
                                                        f"{closed.messages[k]}"}
                 continue
-            closed_error[b] = _shape_error(closed.shapes[k, -1], nominal.resampled_reference)
+            closed_error[b] = errors[k]
     out = []
     for b, (index, *_) in enumerate(items):
         row = rows[b]
@@ -466,10 +476,12 @@ def _plant_failure(nominal: NominalCorrection, stop: int, message: str) -> dict 
                                         f"{shape}: {message}"}
 
 
-def _shape_error(shape: np.ndarray, reference: np.ndarray) -> float:
-    """:func:`~.plant.shape_error` to ``reference``, already resampled by arc length [m]."""
-    a = resample_by_arc_length(shape, len(reference))
-    return float(np.mean(np.linalg.norm(a - reference, axis=1)))
+def _shape_errors(shapes: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """:func:`~.plant.shape_error` of B shapes (B, n + 1, 3) to ``reference``, already
+    resampled by arc length, (B,) [m], bit for bit (:func:`.measurement_batch.
+    resample_polylines`)."""
+    a = resample_polylines(shapes, len(reference))
+    return np.array([np.mean(np.linalg.norm(x - reference, axis=1)) for x in a])
 
 
 @dataclass(frozen=True)
@@ -672,17 +684,30 @@ def _library_fit(jacobian, directions, residual, prior) -> tuple:
     return fit_with_covariance(column, directions, residual, prior)
 
 
-def _resampled(nominal: NominalCorrection, points: np.ndarray) -> np.ndarray:
-    """The measured ``points`` (k, 3) [m] resampled onto the model's points
-    (:func:`.measurement.resample_measured`, its checks), the measurement's offset taken out
-    when it tells one (:func:`~.step.update_modulus`: the held points' scatter and the
-    measurement's noise along the clips' axes, :func:`~.step.offset_verdict`), (n + 1, 3) [m]."""
+def _resampled(nominal: NominalCorrection, points: np.ndarray) -> list:
+    """The measured ``points`` (B, k, 3) [m] resampled onto the model's points
+    (:func:`.measurement.resample_measured`, its checks: :func:`.measurement_batch.
+    resample_measured_batch` and the function itself on what the batch hands back), the
+    measurement's offset taken out when it tells one (:func:`~.step.update_modulus`: the held
+    points' scatter and the measurement's noise along the clips' axes, :func:`~.step.
+    offset_verdict`): per sample (n + 1, 3) [m], or the refusal's reason."""
     x = nominal.table.at(math.log(nominal.cable.youngs_modulus))["state"]
-    y = resample_measured(points, x, nominal.cable.length,
-                          max_disagreement=nominal.limits.max_disagreement)
-    offset, sds = measured_offset(y - x)
-    covariance = offset_covariance(sds, nominal.u_axes, noise_sd(points, y))
-    return y - offset_verdict(offset, covariance)[0]  # the camera's, not the cable's
+    length, limit = nominal.cable.length, nominal.limits.max_disagreement
+    shapes, done = resample_measured_batch(points, x, length, limit)
+    out: list = list(shapes)
+    for b in np.flatnonzero(~done):
+        try:
+            out[b] = resample_measured(points[b], x, length, max_disagreement=limit)
+        except CorrectionRefused as exc:
+            out[b] = str(exc)
+    kept = [b for b, y in enumerate(out) if not isinstance(y, str)]
+    if kept:
+        sds = noise_sds(points[kept], np.array([out[b] for b in kept]))
+        for b, sd in zip(kept, sds, strict=True):
+            offset, scatter = measured_offset(out[b] - x)
+            covariance = offset_covariance(scatter, nominal.u_axes, float(sd))
+            out[b] = out[b] - offset_verdict(offset, covariance)[0]  # the camera's
+    return out
 
 
 def _first_fits(nominal: NominalCorrection, measured: np.ndarray, prior) -> list[dict]:

@@ -70,29 +70,32 @@ class CorrectionRefused(ValueError):
 
 def positions_along(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:
     """Arc length [m] of the point of ``polyline`` nearest to each of ``points``, (k,)."""
-    return _nearest(points, polyline)[0]
+    return nearest_points(points, polyline)[0]
 
 
-def _nearest(points: np.ndarray, polyline: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(arc length [m], distance [m]) of the point of ``polyline`` nearest to each of
-    ``points``, each (k,).
+def nearest_points(points: np.ndarray, polyline: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(arc length [m], distance [m]) of the point of ``polyline`` (..., m, 3) nearest to each
+    of ``points`` (..., k, 3), each (..., k) (leading axes broadcast: one polyline for many
+    measurements, or one each).
 
     Every point against every segment, one coordinate at a time: (k, m) arrays rather than
     (k, m, 3) ones and norms over their last axis (0.47 against 1.39 ms CPU for 200 points and
     100 segments).
     """
-    a = polyline[:-1]
-    ab = polyline[1:] - a
-    rel = [points[:, None, i] - a[None, :, i] for i in range(3)]  # 3 x (k, m)
-    t = (rel[0] * ab[:, 0] + rel[1] * ab[:, 1] + rel[2] * ab[:, 2]) / np.einsum("ij,ij->i",
-                                                                                ab, ab)
+    a = polyline[..., :-1, :]
+    ab = polyline[..., 1:, :] - a
+    rel = [points[..., :, None, i] - a[..., None, :, i] for i in range(3)]  # 3 x (..., k, m)
+    t = (rel[0] * ab[..., None, :, 0] + rel[1] * ab[..., None, :, 1]
+         + rel[2] * ab[..., None, :, 2]) / np.einsum("...ij,...ij->...i", ab, ab)[..., None, :]
     np.clip(t, 0.0, 1.0, out=t)
-    squared = sum((r - t * ab[:, i]) ** 2 for i, r in enumerate(rel))
-    segment = np.argmin(squared, axis=1)
-    s = arc_length(polyline)
-    rows = np.arange(len(points))
-    return (s[segment] + t[rows, segment] * np.linalg.norm(ab[segment], axis=1),
-            np.sqrt(squared[rows, segment]))
+    squared = sum((r - t * ab[..., None, :, i]) ** 2 for i, r in enumerate(rel))
+    segment = np.argmin(squared, axis=-1)[..., None]
+    s = np.broadcast_to(arc_length(polyline)[..., None, :-1], squared.shape)
+    lengths = np.broadcast_to(np.linalg.norm(ab, axis=-1)[..., None, :], squared.shape)
+    along = (np.take_along_axis(s, segment, axis=-1)
+             + np.take_along_axis(t, segment, axis=-1)
+             * np.take_along_axis(lengths, segment, axis=-1))
+    return along[..., 0], np.sqrt(np.take_along_axis(squared, segment, axis=-1))[..., 0]
 
 
 def noise_sd(points, curve: np.ndarray) -> float:
@@ -111,7 +114,7 @@ def noise_sd(points, curve: np.ndarray) -> float:
         (n + 1, 3) the measurement resampled (:func:`resample_measured`) [m].
     """
     x = np.asarray(points, dtype=float)
-    distance = _nearest(x, curve)[1]
+    distance = nearest_points(x, curve)[1]
     dof = max(len(x) - (len(curve) + 2), 1)
     return math.sqrt(float(distance @ distance) / (2.0 * dof))
 
