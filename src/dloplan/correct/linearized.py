@@ -597,22 +597,11 @@ def fit_amplitudes(jacobian, directions, residuals, prior) -> list[tuple]:
     prior : tuple of float
         (alpha_0, sd) of alpha.
     """
-    columns = [] if jacobian is None else [jacobian.ravel()]
-    a = np.stack(columns + [d.ravel() for d in directions], axis=1)
-    r = residuals.reshape(len(residuals), -1)
-    i = len(columns)  # alpha's column
-    dof = max(a.shape[0] - len(directions) - 1, 1)
-    gram, rhs = a.T @ a, r @ a
     try:
-        left = r - np.linalg.solve(gram, rhs.T).T @ a.T
-        weight = np.einsum("bn,bn->b", left, left) / dof / prior[1] ** 2
-        system = np.repeat(gram[None], len(r), axis=0)
-        system[:, i, i] += weight
-        rhs_prior = rhs.copy()
-        rhs_prior[:, i] += weight * prior[0]
-        values = np.linalg.solve(system, rhs_prior[:, :, None])[:, :, 0]
+        a, r, i, gram, values = _estimates(jacobian, directions, residuals, prior)
         left = r - values @ a.T
-        s2 = np.einsum("bn,bn->b", left, left) / (dof + (jacobian is None))
+        s2 = np.einsum("bn,bn->b", left, left) / (max(a.shape[0] - len(directions) - 1, 1)
+                                                  + (jacobian is None))
         system = np.repeat(gram[None], len(r), axis=0)
         system[:, i, i] += s2 / prior[1] ** 2
         covariance = s2[:, None, None] * np.linalg.inv(system)
@@ -622,22 +611,7 @@ def fit_amplitudes(jacobian, directions, residuals, prior) -> list[tuple]:
     ok = np.isfinite(variance) & (variance >= 0)
     sds = np.where(ok, np.sqrt(np.where(ok, variance, 0.0)), math.inf)
     out = []
-    bounds = [(-math.inf, math.inf)] * i + list(BOUNDS[: len(directions)])
-    for b, x in enumerate(residuals):
-        if not all(low <= v <= high for v, (low, high) in zip(values[b], bounds, strict=True)):
-            values[b] = _held_at_bounds(gram, rhs[b], weight[b], i, prior[0], values[b], bounds)
-            left_b = r[b] - values[b] @ a.T
-            s2_b = float(left_b @ left_b) / (dof + (jacobian is None))
-            information = gram.copy()
-            information[i, i] += s2_b / prior[1] ** 2
-            try:
-                covariance[b] = s2_b * np.linalg.inv(information)
-            except np.linalg.LinAlgError:
-                out.append(_library_fit(jacobian, directions, x, prior))
-                continue
-            variance = np.diagonal(covariance[b])
-            ok_b = np.isfinite(variance) & (variance >= 0)
-            sds[b] = np.where(ok_b, np.sqrt(np.where(ok_b, variance, 0.0)), math.inf)
+    for b in range(len(r)):
         amplitudes = values[b, i:]
         if jacobian is None:
             out.append((0.0, amplitudes, np.r_[0.0, sds[b]], 0.0))
@@ -648,6 +622,41 @@ def fit_amplitudes(jacobian, directions, residuals, prior) -> list[tuple]:
                                             -1.0, 1.0))
             out.append((float(values[b, 0]), amplitudes, sds[b], correlation))
     return out
+
+
+def fit_step(jacobian, directions, residual, prior) -> float:
+    """delta ln E of :func:`fit_amplitudes` for one ``residual`` (n + 1, 3) [m], without the
+    covariance: a Gauss-Newton step of the model update."""
+    try:
+        return float(_estimates(jacobian, directions, residual[None], prior)[4][0, 0])
+    except np.linalg.LinAlgError:
+        return _library_fit(jacobian, directions, residual, prior)[0]
+
+
+def _estimates(jacobian, directions, residuals, prior) -> tuple:
+    """:func:`fit_amplitudes`' estimates: ``(a, r, i, gram, values)``, the columns [J, d, g]
+    (3 (n + 1), p), the residuals (B, 3 (n + 1)), alpha's column, a^T a and the estimates
+    (B, p): alpha's prior weighted by the scatter of the fit without it (:func:`.model_error.
+    fit_model_error`), an estimate outside the amplitudes' bounds held there
+    (:func:`_held_at_bounds`). Raises LinAlgError on a singular system."""
+    columns = [] if jacobian is None else [jacobian.ravel()]
+    a = np.stack(columns + [d.ravel() for d in directions], axis=1)
+    r = residuals.reshape(len(residuals), -1)
+    i = len(columns)  # alpha's column
+    dof = max(a.shape[0] - len(directions) - 1, 1)
+    gram, rhs = a.T @ a, r @ a
+    left = r - np.linalg.solve(gram, rhs.T).T @ a.T
+    weight = np.einsum("bn,bn->b", left, left) / dof / prior[1] ** 2
+    system = np.repeat(gram[None], len(r), axis=0)
+    system[:, i, i] += weight
+    rhs_prior = rhs.copy()
+    rhs_prior[:, i] += weight * prior[0]
+    values = np.linalg.solve(system, rhs_prior[:, :, None])[:, :, 0]
+    bounds = [(-math.inf, math.inf)] * i + list(BOUNDS[: len(directions)])
+    for b in range(len(r)):
+        if not all(low <= v <= high for v, (low, high) in zip(values[b], bounds, strict=True)):
+            values[b] = _held_at_bounds(gram, rhs[b], weight[b], i, prior[0], values[b], bounds)
+    return a, r, i, gram, values
 
 
 def _held_at_bounds(gram, rhs, weight, i, centre, values, bounds) -> np.ndarray:
@@ -815,8 +824,7 @@ def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, first: dic
             break
         at = table.at(log_e)
         jacobian = at["modulus_k"]
-        step = fit_amplitudes(jacobian, [at[name] for name in names], (measured - x)[None],
-                              prior)[0][0]
+        step = fit_step(jacobian, [at[name] for name in names], measured - x, prior)
     if not informed:  # E kept: the amplitudes at the plan's E, fitted already
         amplitudes = first["held"]
     else:
