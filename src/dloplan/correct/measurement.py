@@ -37,6 +37,7 @@ import numpy as np
 from scipy.interpolate import make_lsq_spline
 
 from ..geometry import arc_length, as_shape, resample_by_arc_length
+from .projection import project_points
 
 MAX_LENGTH_ERROR = 0.10
 """Largest relative difference between the measured (smoothed) and the cable's length."""
@@ -74,28 +75,16 @@ def positions_along(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:
 
 
 def nearest_points(points: np.ndarray, polyline: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(arc length [m], distance [m]) of the point of ``polyline`` (..., m, 3) nearest to each
-    of ``points`` (..., k, 3), each (..., k) (leading axes broadcast: one polyline for many
-    measurements, or one each).
-
-    Every point against every segment, one coordinate at a time: (k, m) arrays rather than
-    (k, m, 3) ones and norms over their last axis (0.47 against 1.39 ms CPU for 200 points and
-    100 segments).
-    """
-    a = polyline[..., :-1, :]
-    ab = polyline[..., 1:, :] - a
-    rel = [points[..., :, None, i] - a[..., None, :, i] for i in range(3)]  # 3 x (..., k, m)
-    t = (rel[0] * ab[..., None, :, 0] + rel[1] * ab[..., None, :, 1]
-         + rel[2] * ab[..., None, :, 2]) / np.einsum("...ij,...ij->...i", ab, ab)[..., None, :]
-    np.clip(t, 0.0, 1.0, out=t)
-    squared = sum((r - t * ab[..., None, :, i]) ** 2 for i, r in enumerate(rel))
-    segment = np.argmin(squared, axis=-1)[..., None]
-    s = np.broadcast_to(arc_length(polyline)[..., None, :-1], squared.shape)
-    lengths = np.broadcast_to(np.linalg.norm(ab, axis=-1)[..., None, :], squared.shape)
-    along = (np.take_along_axis(s, segment, axis=-1)
-             + np.take_along_axis(t, segment, axis=-1)
-             * np.take_along_axis(lengths, segment, axis=-1))
-    return along[..., 0], np.sqrt(np.take_along_axis(squared, segment, axis=-1))[..., 0]
+    """(arc length [m], distance [m]) of the point of ``polyline`` nearest to each of
+    ``points`` (k, 3), each (k,); or of B measurements (B, k, 3) at once, each (B, k), against
+    one polyline (m, 3) or one each (B, m, 3) (:func:`.projection.project_points`)."""
+    x = np.asarray(points, dtype=float)
+    batch = x if x.ndim == 3 else x[None]
+    lines = np.asarray(polyline, dtype=float)
+    lines = lines if lines.ndim == 3 else lines[None]
+    along, distance = np.empty(batch.shape[:2]), np.empty(batch.shape[:2])
+    project_points(np.ascontiguousarray(batch), np.ascontiguousarray(lines), along, distance)
+    return (along, distance) if x.ndim == 3 else (along[0], distance[0])
 
 
 def noise_sd(points, curve: np.ndarray) -> float:

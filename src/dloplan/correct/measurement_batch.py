@@ -97,7 +97,7 @@ def resample_measured_batch(points: np.ndarray, predicted: np.ndarray, cable_len
     for factor in (UNIT_FACTOR, 1.0 / UNIT_FACTOR):
         done &= ~((0.5 * factor <= ratio) & (ratio <= 3.0 * factor))
     done &= np.linalg.norm(np.ptp(points, axis=1), axis=-1) <= MAX_EXTENT * cable_length
-    along = nearest_points(points, predicted[None])[0]  # (B, k)
+    along = nearest_points(points, predicted)[0]  # (B, k)
     if k >= 3:
         index = np.arange(k) - 0.5 * (k - 1)
         centred = along - along.mean(axis=1, keepdims=True)
