@@ -546,7 +546,8 @@ def _solve(nominal: NominalCorrection, requests: list, cables: dict) -> list:
         moduli, cable_of = np.unique([requests[b].youngs_modulus for b in shape_k],
                                      return_inverse=True)
         for e in moduli:  # a sample's requests share its E: one cable for all
-            cables.setdefault((float(e), 1), nominal.cable.with_modulus(float(e)))
+            if (float(e), 1) not in cables:
+                cables[float(e), 1] = nominal.cable.with_modulus(float(e))
         result = held_equilibria([cables[float(e), 1] for e in moduli],
                                  cable_of.astype(np.int64),
                                  [requests[b].guess for b in shape_k], moved[shape_k],
@@ -624,13 +625,15 @@ def fit_amplitudes(jacobian, directions, residuals, prior) -> list[tuple]:
     return out
 
 
-def fit_step(jacobian, directions, residual, prior) -> float:
-    """delta ln E of :func:`fit_amplitudes` for one ``residual`` (n + 1, 3) [m], without the
-    covariance: a Gauss-Newton step of the model update."""
+def fit_estimate(jacobian, directions, residual, prior) -> np.ndarray:
+    """The estimates of :func:`fit_amplitudes` for one ``residual`` (n + 1, 3) [m], without
+    the covariance: ``(delta ln E, amplitudes...)``, or the amplitudes alone without
+    ``jacobian`` (a Gauss-Newton step of the model update, or its last amplitudes)."""
     try:
-        return float(_estimates(jacobian, directions, residual[None], prior)[4][0, 0])
+        return _estimates(jacobian, directions, residual[None], prior)[4][0]
     except np.linalg.LinAlgError:
-        return _library_fit(jacobian, directions, residual, prior)[0]
+        step, amplitudes = _library_fit(jacobian, directions, residual, prior)[:2]
+        return np.asarray(amplitudes) if jacobian is None else np.r_[step, amplitudes]
 
 
 def _estimates(jacobian, directions, residuals, prior) -> tuple:
@@ -824,13 +827,13 @@ def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, first: dic
             break
         at = table.at(log_e)
         jacobian = at["modulus_k"]
-        step = fit_step(jacobian, [at[name] for name in names], measured - x, prior)
+        step = float(fit_estimate(jacobian, [at[name] for name in names], measured - x,
+                                  prior)[0])
     if not informed:  # E kept: the amplitudes at the plan's E, fitted already
         amplitudes = first["held"]
     else:
         at = table.at(log_e)
-        amplitudes = fit_amplitudes(None, [at[name] for name in names], (measured - x)[None],
-                                    prior)[0][1]
+        amplitudes = fit_estimate(None, [at[name] for name in names], measured - x, prior)
     beta = float(amplitudes[1]) if grip else 0.0
     modulus = cable.youngs_modulus if log_e == log_e0 else math.exp(log_e)
     return ModelUpdate(cable.youngs_modulus, modulus, math.nan, math.nan, taken, x,
