@@ -87,7 +87,7 @@ from .model_error import (
     model_error_directions,
     offset_covariance,
 )
-from .plant_batch import drive_plants
+from .plant_batch import PlantChains, drive_chains
 from .step import (
     CLIP_DAMPING,
     COST_TOLERANCE,
@@ -400,7 +400,8 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
     clamps = [max(1, round(cable.rest_link_length / p.rest_link_length)) for p in plants]
     count = len(items)
     positions, quaternions = (np.broadcast_to(a, (count,) + a.shape) for a in nominal.stops)
-    drive = drive_plants(plants, clamps, np.broadcast_to(nominal.plant_start, (count,) +
+    chains = PlantChains.of(plants, nominal.gravity)
+    drive = drive_chains(chains, clamps, np.broadcast_to(nominal.plant_start, (count,) +
                                                          nominal.plant_start.shape),
                          positions, quaternions, gravity=nominal.gravity)
     rows = [_plant_failure(nominal, drive.failed[b], drive.messages[b])
@@ -429,7 +430,7 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
     accepted = [b for b in range(count) if isinstance(results[b], _Corrected)]
     closed_error = open_error.copy()
     if accepted:
-        closed = _closed_loop(nominal, [plants[b] for b in accepted],
+        closed = _closed_loop(nominal, chains.take(accepted),
                               [clamps[b] for b in accepted], drive.shapes[accepted,
                                                                           SUBSTEPS * at],
                               np.array([results[b].clips for b in accepted]))
@@ -507,7 +508,7 @@ def _run(nominal: NominalCorrection, corrections: list, results: list) -> None:
     equilibria in one compiled call, into ``results`` (a :class:`_Corrected`, or the refusal's
     reason, per sample)."""
     pending: dict[int, _Request] = {}
-    cables: dict[float, Cable] = {}
+    cables: dict[tuple, Cable | PlantChains] = {}
     for b, gen in enumerate(corrections):
         if gen is not None:
             _advance(gen, None, b, pending, results)
@@ -531,9 +532,10 @@ def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> Non
 def _solve(nominal: NominalCorrection, requests: list, cables: dict) -> list:
     """The equilibria of ``requests``: those at shape K on the model's chain in one
     :func:`held_equilibria` call, those at the target on the clip fit's chain in one
-    :func:`.plant_batch.drive_plants` call (one stop each: the clamped equilibrium of
+    :func:`.plant_batch.drive_chains` call (one stop each: the clamped equilibrium of
     :class:`~.step.FitModel`, bit for bit, and its reach check); shapes, None where there is no
-    stable equilibrium. ``cables`` holds the model cables made so far, per E and links."""
+    stable equilibrium. ``cables`` holds what was made so far per E and links: the model's
+    cable (1 link clamped), the clip fit chain's :class:`.plant_batch.PlantChains` (k)."""
     positions, quaternions = nominal.poses
     p = np.array([r.clips for r in requests]).reshape(-1, 2, 2, 3)
     index = [nominal.n_shapes - 1 if r.at_target else nominal.at for r in requests]
@@ -562,12 +564,14 @@ def _solve(nominal: NominalCorrection, requests: list, cables: dict) -> list:
         for b in target:
             e = float(requests[b].youngs_modulus)
             if (e, k) not in cables:
-                cables[e, k] = nominal.cable.with_modulus(e).with_links(k * nominal.cable.n_links)
+                cables[e, k] = PlantChains.of([nominal.cable.with_modulus(e).with_links(
+                    k * nominal.cable.n_links)], nominal.gravity)
             fine.append(cables[e, k])
+        fine = PlantChains.join(fine)
         quats = rotations.as_quat().reshape(-1, 2, 4)[target]
-        drive = drive_plants(fine, [k] * len(target), [requests[b].guess for b in target],
+        drive = drive_chains(fine, [k] * len(target), [requests[b].guess for b in target],
                              moved[target][:, None], quats[:, None], gravity=nominal.gravity)
-        reach = (fine[0].n_links - 2 * k) * fine[0].rest_link_length
+        reach = (fine.cables[0].n_links - 2 * k) * fine.cables[0].rest_link_length
         for j, b in enumerate(target):
             x = drive.shapes[j, 0]
             if drive.failed[j] < 0 and np.linalg.norm(x[-k - 1] - x[k]) <= reach:
@@ -891,15 +895,16 @@ def _fit_clips(nominal: NominalCorrection, modulus: float, at: Interpolated, sta
     return p, x
 
 
-def _closed_loop(nominal: NominalCorrection, plants: list, clamps: list, states: np.ndarray,
-                 corrections: np.ndarray):
+def _closed_loop(nominal: NominalCorrection, plants: PlantChains, clamps: list,
+                 states: np.ndarray, corrections: np.ndarray):
     """The plants driven from their shapes at K through the corrected clip poses (each
     sample's target correction ramped in, p_j = p_T (j - K) / (T - K)): a
     :class:`.plant_batch.PlantDrive` of :data:`SUBSTEPS` stops per remaining shape."""
     at, last = nominal.at, nominal.n_shapes - 1
     positions, quaternions = nominal.poses
     ramp = np.arange(0, last - at + 1) / (last - at)  # shape K (0) .. T (1)
-    p = (ramp[None, :, None] * corrections[:, None, :]).reshape(len(plants), -1, 2, 2, 3)
+    count = len(plants.cables)
+    p = (ramp[None, :, None] * corrections[:, None, :]).reshape(count, -1, 2, 2, 3)
     moved = positions[None, at:] + p[:, :, :, 0]  # (B, T - K + 1, 2, 3)
     turns = Rotation.from_rotvec(p[:, :, :, 1].reshape(-1, 3))
     keys = (turns * Rotation.from_quat(
@@ -908,8 +913,8 @@ def _closed_loop(nominal: NominalCorrection, plants: list, clamps: list, states:
     fractions = np.arange(1, SUBSTEPS + 1) / SUBSTEPS
     pairs = np.stack([keys[:, :-1], keys[:, 1:]])  # (2, B, T - K, 2, 4)
     stops_q = slerp_quaternions(np.array([0.0, 1.0]), pairs, fractions)  # (S, B, T - K, 2, 4)
-    stops_q = np.moveaxis(stops_q, 0, 2).reshape(len(plants), -1, 2, 4)
+    stops_q = np.moveaxis(stops_q, 0, 2).reshape(count, -1, 2, 4)
     w = fractions[None, None, :, None, None]
     stops_p = ((1.0 - w) * moved[:, :-1, None] + w * moved[:, 1:, None]).reshape(
-        len(plants), -1, 2, 3)
-    return drive_plants(plants, clamps, states, stops_p, stops_q, gravity=nominal.gravity)
+        count, -1, 2, 3)
+    return drive_chains(plants, clamps, states, stops_p, stops_q, gravity=nominal.gravity)
