@@ -114,3 +114,17 @@ def test_what_the_batch_does_not_vouch_for_is_refused_by_resample_measured():
     for b in (1, 2, 3, 4):
         with pytest.raises(CorrectionRefused):
             resample_measured(points[b], predicted, LENGTH)
+
+
+def test_a_fit_with_empty_knot_spans_is_not_done():
+    """Points only near the ends leave the middle coefficients undetermined: the normal
+    equations are singular and the measurement is handed back, not smoothed."""
+    from dloplan.correct.smoothing import smooth_measurements
+
+    along = np.r_[np.linspace(0.0, 0.05, 20), np.linspace(0.55, 0.6, 20)][None]
+    points = np.stack([along[0], np.zeros(40), np.zeros(40)], axis=1)[None]
+    curves, done = np.empty((1, 50, 3)), np.ones(1, dtype=bool)
+    smooth_measurements(points, along, 10, curves, done)
+    assert not done[0]
+    smooth_measurements(points, along, 1, curves, done)  # one span: four coefficients told
+    assert done[0] and np.allclose(curves[0, :, 0], np.linspace(0.0, 0.6, 50), atol=1e-12)

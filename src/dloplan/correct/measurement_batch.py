@@ -4,17 +4,15 @@
 least-squares cubic spline (:func:`scipy.interpolate.make_lsq_spline`) over the points'
 positions along the prediction and an arc-length resampling: 0.5-0.8 ms of CPU per sample,
 most of it Python and array set-up around arrays of 200 points. A study's chunk measures its B
-sampled plants against the same prediction, so here every step is one array operation over
-the chunk:
+sampled plants against the same prediction, so here every step runs over the whole chunk:
 
 * :func:`measured_points`: the plants' shapes resampled onto the measured points plus each
   sample's noise draws, bit for bit :meth:`~.plant.Plant.measure`'s (the same arithmetic as
   :func:`numpy.interp`, :func:`resample_polylines`);
 * :func:`resample_measured_batch`: :func:`.measurement.resample_measured`'s checks and its
-  spline, the spline's B-spline basis by de Boor's recursion on every sample's knots at once
-  and its least squares by the normal equations of the (spans + 3)-coefficient fit (equal to
-  the library's QR to round-off, tested). A sample that any check would refuse, or that the
-  batch cannot vouch for (a repeated point, too few points), is handed back: the caller runs
+  spline (compiled, measurement by measurement: :mod:`.smoothing`, equal to the library's QR
+  to round-off, tested). A sample that any check would refuse, or that the batch cannot vouch
+  for (a repeated point, too few points, a singular fit), is handed back: the caller runs
   :func:`.measurement.resample_measured` on it, which refuses it with its reason;
 * :func:`noise_sds`: :func:`.measurement.noise_sd` of every sample.
 """
@@ -34,9 +32,7 @@ from .measurement import (
     UNIT_FACTOR,
     nearest_points,
 )
-
-DEGREE = 3
-"""The smoothing spline's degree (cubic, :func:`.measurement.smooth_polyline`)."""
+from .smoothing import smooth_measurements
 
 
 def resample_polylines(points: np.ndarray, n_points: int) -> np.ndarray:
@@ -108,11 +104,10 @@ def resample_measured_batch(points: np.ndarray, predicted: np.ndarray, cable_len
     live = np.flatnonzero(done)
     if len(live) == 0:
         return shapes, done
-    try:
-        smooth = _smoothed(points[live], along[live], min(n_points - 1, k // POINTS_PER_SPAN),
-                           DENSE * n_points)
-    except np.linalg.LinAlgError:  # a degenerate fit among them: all to the function
-        return shapes, np.zeros(count, dtype=bool)
+    smooth, fitted = _smoothed(points[live], along[live],
+                               min(n_points - 1, k // POINTS_PER_SPAN), DENSE * n_points)
+    done[live] &= fitted
+    smooth[~fitted] = points[live][~fitted, :1]  # a finite stand-in, not used
     length = arc_length(smooth)[:, -1]
     done[live] &= np.abs(length / cable_length - 1.0) <= MAX_LENGTH_ERROR
     shapes[live] = resample_polylines(smooth, n_points)
@@ -129,48 +124,15 @@ def noise_sds(points: np.ndarray, curves: np.ndarray) -> np.ndarray:
     return np.sqrt(np.einsum("bk,bk->b", distance, distance) / (2.0 * dof))
 
 
-def _smoothed(points: np.ndarray, along: np.ndarray, spans: int, n_dense: int) -> np.ndarray:
+def _smoothed(points: np.ndarray, along: np.ndarray, spans: int,
+              n_dense: int) -> tuple[np.ndarray, np.ndarray]:
     """:func:`.measurement.smooth_polyline` of B measurements (B, k, 3) over ``along`` (B, k)
-    [m] with ``spans`` uniform knot spans: the least-squares cubic spline on the knots
-    ``u_0 (x4), interior, u_end (x4)`` by its normal equations, at ``n_dense`` points (B,
-    n_dense, 3) [m]."""
+    [m] with ``spans`` uniform knot spans (:func:`.smoothing.smooth_measurements`): ``(curves
+    (B, n_dense, 3) [m], done (B,) bool)``, not done where its normal equations are singular."""
     order = np.argsort(along, axis=1, kind="stable")
-    u = np.take_along_axis(along, order, axis=1)
-    x = np.take_along_axis(points, order[:, :, None], axis=1)
-    first, last = u[:, :1], u[:, -1:]
-    interior = np.linspace(first[:, 0], last[:, 0], spans + 1, axis=-1)
-    knots = np.concatenate([first, first, first, interior, last, last, last], axis=1)
-    design = _basis(knots, u, spans)  # (B, k, spans + 3)
-    transposed = np.swapaxes(design, 1, 2)
-    coefficients = np.linalg.solve(transposed @ design, transposed @ x)
-    grid = np.linspace(first[:, 0], last[:, 0], n_dense, axis=-1)
-    return _basis(knots, grid, spans) @ coefficients
-
-
-def _basis(knots: np.ndarray, u: np.ndarray, spans: int) -> np.ndarray:
-    """The cubic B-spline basis on each sample's ``knots`` (B, spans + 7) at its parameters
-    ``u`` (B, m) within them, (B, m, spans + 3): de Boor's recursion (Piegl & Tiller, The NURBS
-    Book, A2.2) for the four functions not zero on each parameter's knot span."""
-    span = np.sum(knots[:, None, DEGREE + 1 : spans + DEGREE] <= u[:, :, None], axis=-1)
-    span += DEGREE  # knots[span] <= u < knots[span + 1] (the last span closed)
-
-    def knot(offset):
-        return np.take_along_axis(knots, span + offset, axis=1)
-
-    values = [np.ones_like(u)]
-    left, right = [None], [None]
-    for j in range(1, DEGREE + 1):
-        left.append(u - knot(1 - j))
-        right.append(knot(j) - u)
-        saved = np.zeros_like(u)
-        for r in range(j):
-            temp = values[r] / (right[r + 1] + left[j - r])
-            values[r] = saved + right[r + 1] * temp
-            saved = left[j - r] * temp
-        values.append(saved)
-    out = np.zeros(u.shape + (spans + DEGREE,))
-    rows = out.reshape(-1, spans + DEGREE)
-    flat, columns = np.arange(rows.shape[0]), (span - DEGREE).ravel()
-    for r, value in enumerate(values):
-        rows[flat, columns + r] = value.ravel()
-    return out
+    u = np.ascontiguousarray(np.take_along_axis(along, order, axis=1))
+    x = np.ascontiguousarray(np.take_along_axis(points, order[:, :, None], axis=1))
+    curves = np.empty((len(points), n_dense, 3))
+    done = np.zeros(len(points), dtype=np.bool_)
+    smooth_measurements(x, u, spans, curves, done)
+    return curves, done
