@@ -106,8 +106,8 @@ def resample_measured_batch(points: np.ndarray, predicted: np.ndarray, cable_len
         return shapes, done
     smooth, fitted = _smoothed(points[live], along[live],
                                min(n_points - 1, k // POINTS_PER_SPAN), DENSE * n_points)
-    done[live] &= fitted
-    smooth[~fitted] = points[live][~fitted, :1]  # a finite stand-in, not used
+    done[live[~fitted]] = False
+    live, smooth = live[fitted], smooth[fitted]
     length = arc_length(smooth)[:, -1]
     done[live] &= np.abs(length / cable_length - 1.0) <= MAX_LENGTH_ERROR
     shapes[live] = resample_polylines(smooth, n_points)
