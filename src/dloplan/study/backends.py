@@ -13,7 +13,8 @@ worker), so every backend produces the same results; only their completion order
 * :class:`SerialBackend`: in this process (debugging, small studies, benchmarks' baseline).
 * :class:`ProcessBackend`: ``concurrent.futures.ProcessPoolExecutor`` with ``workers``
   processes (a ``forkserver`` context on POSIX, which never forks a threaded parent; its
-  server preloads the solver so that workers start in milliseconds). The workers leave Ctrl-C
+  server preloads a study's modules and kernels, :mod:`dloplan.warm_study`, so that workers
+  start in milliseconds, warm). The workers leave Ctrl-C
   to the caller and end on SIGTERM or SIGHUP, running their task's clean-up
   (:func:`dloplan.interrupts.worker_signals`); an error or a signal in the caller ends them at
   once (:func:`dloplan.processes.end_pool`) rather than waiting for their tasks.
