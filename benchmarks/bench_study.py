@@ -34,10 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dloplan.app import load_scenario, run_job
-from dloplan.app.study import study_problem_of, study_spec
 from dloplan.correct import closed_loop_study
-from dloplan.pipeline.stages import settled_shapes
 from dloplan.study import (
     DaskBackend,
     ProcessBackend,
@@ -51,6 +48,11 @@ from dloplan.study import (
 from dloplan.study.evaluate import OUTCOME_COLUMNS
 from dloplan.study.run import chunk_items
 from dloplan.study.spec import CorrectionSpec
+
+# Only what the workers' server preloads is imported here (dloplan.warm_study: the study and the
+# correction): a local worker runs this script's top level again when it starts (multiprocessing
+# does so with the main script; Python 3.11's forkserver does not preload it), and importing
+# dloplan.app there cost each worker 1.5 s of CPU at each map (x0.6-1.3 on 2 processes).
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "study_m2_ethernet.yaml"
 BEFORE_RATE = 195.0  # serial samples/s before issue 34 (quiet)
@@ -99,6 +101,8 @@ def equal_rows(table: dict, rows: dict) -> bool:
 def closed_loop_rates(doc, samples, at: int, n_exact: int, n_linearized: int, chunk: int):
     """The closed-loop column's samples per second, exact (before) and linearized (after),
     serial and on 2 local processes, and how their rows compare on the exact run's samples."""
+    from dloplan.pipeline.stages import settled_shapes
+
     common = {"stabilized": settled_shapes(doc), "trajectory": doc.trajectory, "chunk_size": chunk}
     print(f"\nclosed loop (one correction after shape {at}):")
     rows = {}
@@ -140,6 +144,9 @@ def main() -> None:
                         help="closed-loop samples of the linearized method (a chunk at a time)")
     parser.add_argument("--scheduler", help="a Dask scheduler address tcp://HOST:PORT")
     args = parser.parse_args()
+    from dloplan.app import load_scenario, run_job
+    from dloplan.app.study import study_problem_of, study_spec
+
     job = load_scenario(EXAMPLE)
     doc = run_job(job)
     problem = study_problem_of(doc)

@@ -152,6 +152,36 @@ def test_the_batched_plants_are_plant_hold_stop_by_stop_bit_for_bit(example_plan
     _assert_held_stop_by_stop(drive, plants, stops, start, cable, clamp)
 
 
+def test_plant_chains_joined_and_taken_drive_as_made_directly(example_plan):
+    """PlantChains made once, joined (the clip fit's chain per E across rounds) and taken
+    apart (a study's plants for their corrected run): the same constants, so the same shapes
+    as drive_plants of the cables, bit for bit."""
+    import numpy as np
+
+    from dloplan.correct.plant_batch import PlantChains, drive_chains, drive_plants
+    from dloplan.geometry import resample_by_arc_length
+    from dloplan.study.evaluate import perturbed_cable
+
+    doc, gravity = example_plan, (0.0, 0.0, -9.81)
+    cable, grippers = doc.cable, doc.grippers
+    plants = [perturbed_cable(cable, cable.youngs_modulus * e, cable.mass / cable.length,
+                              cable.length) for e in (0.5, 1.0, 2.0)]
+    joined = PlantChains.join([PlantChains.of(plants[:2], gravity),
+                               PlantChains.of(plants[2:], gravity)])
+    stops = [grippers.clip_poses(j) for j in range(grippers.n_shapes)]
+    start = resample_by_arc_length(doc.shapes[0], cable.n_points)
+    positions = np.array([c.positions for c in stops])[None]
+    quaternions = np.array([c.rotations.as_quat() for c in stops])[None]
+    for index in ([2, 0], [1]):
+        count = len(index)
+        args = ([1] * count, np.repeat(start[None], count, axis=0),
+                np.repeat(positions, count, axis=0), np.repeat(quaternions, count, axis=0))
+        got = drive_chains(joined.take(index), *args, gravity=gravity)
+        want = drive_plants([plants[i] for i in index], *args, gravity=gravity)
+        assert np.array_equal(got.shapes, want.shapes)
+        assert list(got.failed) == list(want.failed) == [-1] * count
+
+
 def _assert_held_stop_by_stop(drive, plants, stops, start, cable, clamp):
     import numpy as np
 

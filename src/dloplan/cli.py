@@ -560,7 +560,8 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
                "check_robot": not args.no_verify, "repair": not args.no_repair,
                "allow_placement": args.allow_placement}
     codes = {}
-    with make_backend(None if args.scheduler else args.workers, args.scheduler) as backend:
+    with make_backend(None if args.scheduler else args.workers, args.scheduler,
+                      preload=("dloplan.study.evaluate",)) as backend:  # not the study's kernels
         for _, (path, code, line) in map_jobs(plan_file, args.scenarios, backend,
                                               shared=options):
             codes[path] = code
@@ -613,11 +614,12 @@ def _study(args: argparse.Namespace) -> int:
     console = Console(args.quiet)
     job = load_scenario(args.scenario, console.stage, allow_placement=args.allow_placement)
     spec = study_spec(job, args.samples, args.seed)
-    doc = make_plan(job, progress=console.stage)
-    problem = study_problem_of(doc)
-    console.stage(f"the plan of dloplan plan: {doc.n_shapes} shapes; running {spec.samples} "
-                  "samples")
     with make_backend(None if args.scheduler else args.workers, args.scheduler) as backend:
+        backend.start()  # local workers' server: it loads the kernels while the plan is made
+        doc = make_plan(job, progress=console.stage)
+        problem = study_problem_of(doc)
+        console.stage(f"the plan of dloplan plan: {doc.n_shapes} shapes; running "
+                      f"{spec.samples} samples")
         result = run_study(problem, spec, out=args.output, backend=backend,
                            progress=lambda p: console.stage(p.line()),
                            resume=not args.overwrite, file_format="csv" if args.csv else "parquet")

@@ -13,8 +13,9 @@ decide where every estimate ends, are solved per sample, exactly:
 * the plant (the sampled cable) is driven through the plan's clip poses by
   :func:`.plant_batch.drive_plants`, bit for bit :meth:`~.plant.Plant.hold`, so the open-loop
   column is the exact method's, bit for bit;
-* the measurement is the exact method's (the same noise draws, :func:`.measurement.
-  resample_measured`, its refusals), and so is its offset's verdict (read off the held points,
+* the measurement is the exact method's (the same points and noise draws, bit for bit, and
+  :func:`.measurement.resample_measured`, its refusals, to round-off: the chunk's at once,
+  :mod:`.measurement_batch`), and so is its offset's verdict (read off the held points,
   its covariance with the measurement's noise along the clips' axes, :func:`.model_error.
   offset_covariance`, judged by :func:`~.step.offset_verdict` itself);
 * the model update is :func:`~.step.update_modulus`'s algorithm -- the fit of ln E, alpha and
@@ -70,7 +71,13 @@ from ..sim import ClipPoses, equilibrium, interpolate_clips
 from ..sim.batch import held_equilibria
 from ..sim.sensitivity import equilibrium_sensitivity
 from ..study.evaluate import perturbed_cable
-from .measurement import CorrectionRefused, noise_sd, resample_measured
+from .measurement import CorrectionRefused, resample_measured
+from .measurement_batch import (
+    measured_points,
+    noise_sds,
+    resample_measured_batch,
+    resample_polylines,
+)
 from .model_error import (
     BOUNDS,
     MAX_GRIP,
@@ -80,7 +87,7 @@ from .model_error import (
     model_error_directions,
     offset_covariance,
 )
-from .plant_batch import drive_plants
+from .plant_batch import PlantChains, drive_chains
 from .step import (
     CLIP_DAMPING,
     COST_TOLERANCE,
@@ -393,7 +400,8 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
     clamps = [max(1, round(cable.rest_link_length / p.rest_link_length)) for p in plants]
     count = len(items)
     positions, quaternions = (np.broadcast_to(a, (count,) + a.shape) for a in nominal.stops)
-    drive = drive_plants(plants, clamps, np.broadcast_to(nominal.plant_start, (count,) +
+    chains = PlantChains.of(plants, nominal.gravity)
+    drive = drive_chains(chains, clamps, np.broadcast_to(nominal.plant_start, (count,) +
                                                          nominal.plant_start.shape),
                          positions, quaternions, gravity=nominal.gravity)
     rows = [_plant_failure(nominal, drive.failed[b], drive.messages[b])
@@ -401,18 +409,17 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
     open_error = np.full(count, math.nan)
     corrections: list = [None] * count
     held = [b for b in range(count) if rows[b] is None]
-    measured = {}
-    for b in held:
-        open_error[b] = _shape_error(drive.shapes[b, -1], nominal.resampled_reference)
-        points = resample_by_arc_length(drive.shapes[b, SUBSTEPS * at], n_measured)
-        measured[b] = points + np.random.default_rng(items[b][0]).normal(scale=noise,
-                                                                         size=points.shape)
     results: list = [None] * count
-    for b in held:
-        try:
-            measured[b] = _resampled(nominal, measured[b])
-        except CorrectionRefused as exc:
-            results[b] = str(exc)
+    measured = {}
+    if held:
+        open_error[held] = _shape_errors(drive.shapes[held, -1], nominal.resampled_reference)
+        points = measured_points(drive.shapes[held, SUBSTEPS * at], [items[b][0] for b in held],
+                                 noise, n_measured)
+        for b, y in zip(held, _resampled(nominal, points), strict=True):
+            if isinstance(y, str):
+                results[b] = y
+            else:
+                measured[b] = y
     fitted = [b for b in held if results[b] is None]
     prior = alpha_prior(cable.n_links, nominal.plant_links)
     if fitted:
@@ -423,10 +430,14 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
     accepted = [b for b in range(count) if isinstance(results[b], _Corrected)]
     closed_error = open_error.copy()
     if accepted:
-        closed = _closed_loop(nominal, [plants[b] for b in accepted],
+        closed = _closed_loop(nominal, chains.take(accepted),
                               [clamps[b] for b in accepted], drive.shapes[accepted,
                                                                           SUBSTEPS * at],
                               np.array([results[b].clips for b in accepted]))
+        errors = np.full(len(accepted), math.nan)
+        ran = np.flatnonzero(closed.failed < 0)
+        if len(ran):
+            errors[ran] = _shape_errors(closed.shapes[ran, -1], nominal.resampled_reference)
         for k, b in enumerate(accepted):
             if closed.failed[k] >= 0:  # a failed run, as the exact method's (no errors)
                 shape = at + 1 + closed.failed[k] // SUBSTEPS
@@ -434,7 +445,7 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
                                                        f"failed at shape {shape}: "
                                                        f"{closed.messages[k]}"}
                 continue
-            closed_error[b] = _shape_error(closed.shapes[k, -1], nominal.resampled_reference)
+            closed_error[b] = errors[k]
     out = []
     for b, (index, *_) in enumerate(items):
         row = rows[b]
@@ -466,10 +477,12 @@ def _plant_failure(nominal: NominalCorrection, stop: int, message: str) -> dict 
                                         f"{shape}: {message}"}
 
 
-def _shape_error(shape: np.ndarray, reference: np.ndarray) -> float:
-    """:func:`~.plant.shape_error` to ``reference``, already resampled by arc length [m]."""
-    a = resample_by_arc_length(shape, len(reference))
-    return float(np.mean(np.linalg.norm(a - reference, axis=1)))
+def _shape_errors(shapes: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """:func:`~.plant.shape_error` of B shapes (B, n + 1, 3) to ``reference``, already
+    resampled by arc length, (B,) [m], bit for bit (:func:`.measurement_batch.
+    resample_polylines`)."""
+    a = resample_polylines(shapes, len(reference))
+    return np.array([np.mean(np.linalg.norm(x - reference, axis=1)) for x in a])
 
 
 @dataclass(frozen=True)
@@ -495,7 +508,7 @@ def _run(nominal: NominalCorrection, corrections: list, results: list) -> None:
     equilibria in one compiled call, into ``results`` (a :class:`_Corrected`, or the refusal's
     reason, per sample)."""
     pending: dict[int, _Request] = {}
-    cables: dict[float, Cable] = {}
+    cables: dict[tuple, Cable | PlantChains] = {}
     for b, gen in enumerate(corrections):
         if gen is not None:
             _advance(gen, None, b, pending, results)
@@ -519,9 +532,10 @@ def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> Non
 def _solve(nominal: NominalCorrection, requests: list, cables: dict) -> list:
     """The equilibria of ``requests``: those at shape K on the model's chain in one
     :func:`held_equilibria` call, those at the target on the clip fit's chain in one
-    :func:`.plant_batch.drive_plants` call (one stop each: the clamped equilibrium of
+    :func:`.plant_batch.drive_chains` call (one stop each: the clamped equilibrium of
     :class:`~.step.FitModel`, bit for bit, and its reach check); shapes, None where there is no
-    stable equilibrium. ``cables`` holds the model cables made so far, per E and links."""
+    stable equilibrium. ``cables`` holds what was made so far per E and links: the model's
+    cable (1 link clamped), the clip fit chain's :class:`.plant_batch.PlantChains` (k)."""
     positions, quaternions = nominal.poses
     p = np.array([r.clips for r in requests]).reshape(-1, 2, 2, 3)
     index = [nominal.n_shapes - 1 if r.at_target else nominal.at for r in requests]
@@ -534,7 +548,8 @@ def _solve(nominal: NominalCorrection, requests: list, cables: dict) -> list:
         moduli, cable_of = np.unique([requests[b].youngs_modulus for b in shape_k],
                                      return_inverse=True)
         for e in moduli:  # a sample's requests share its E: one cable for all
-            cables.setdefault((float(e), 1), nominal.cable.with_modulus(float(e)))
+            if (float(e), 1) not in cables:
+                cables[float(e), 1] = nominal.cable.with_modulus(float(e))
         result = held_equilibria([cables[float(e), 1] for e in moduli],
                                  cable_of.astype(np.int64),
                                  [requests[b].guess for b in shape_k], moved[shape_k],
@@ -549,12 +564,14 @@ def _solve(nominal: NominalCorrection, requests: list, cables: dict) -> list:
         for b in target:
             e = float(requests[b].youngs_modulus)
             if (e, k) not in cables:
-                cables[e, k] = nominal.cable.with_modulus(e).with_links(k * nominal.cable.n_links)
+                cables[e, k] = PlantChains.of([nominal.cable.with_modulus(e).with_links(
+                    k * nominal.cable.n_links)], nominal.gravity)
             fine.append(cables[e, k])
+        fine = PlantChains.join(fine)
         quats = rotations.as_quat().reshape(-1, 2, 4)[target]
-        drive = drive_plants(fine, [k] * len(target), [requests[b].guess for b in target],
+        drive = drive_chains(fine, [k] * len(target), [requests[b].guess for b in target],
                              moved[target][:, None], quats[:, None], gravity=nominal.gravity)
-        reach = (fine[0].n_links - 2 * k) * fine[0].rest_link_length
+        reach = (fine.cables[0].n_links - 2 * k) * fine.cables[0].rest_link_length
         for j, b in enumerate(target):
             x = drive.shapes[j, 0]
             if drive.failed[j] < 0 and np.linalg.norm(x[-k - 1] - x[k]) <= reach:
@@ -585,22 +602,11 @@ def fit_amplitudes(jacobian, directions, residuals, prior) -> list[tuple]:
     prior : tuple of float
         (alpha_0, sd) of alpha.
     """
-    columns = [] if jacobian is None else [jacobian.ravel()]
-    a = np.stack(columns + [d.ravel() for d in directions], axis=1)
-    r = residuals.reshape(len(residuals), -1)
-    i = len(columns)  # alpha's column
-    dof = max(a.shape[0] - len(directions) - 1, 1)
-    gram, rhs = a.T @ a, r @ a
     try:
-        left = r - np.linalg.solve(gram, rhs.T).T @ a.T
-        weight = np.einsum("bn,bn->b", left, left) / dof / prior[1] ** 2
-        system = np.repeat(gram[None], len(r), axis=0)
-        system[:, i, i] += weight
-        rhs_prior = rhs.copy()
-        rhs_prior[:, i] += weight * prior[0]
-        values = np.linalg.solve(system, rhs_prior[:, :, None])[:, :, 0]
+        a, r, i, gram, values = _estimates(jacobian, directions, residuals, prior)
         left = r - values @ a.T
-        s2 = np.einsum("bn,bn->b", left, left) / (dof + (jacobian is None))
+        s2 = np.einsum("bn,bn->b", left, left) / (max(a.shape[0] - len(directions) - 1, 1)
+                                                  + (jacobian is None))
         system = np.repeat(gram[None], len(r), axis=0)
         system[:, i, i] += s2 / prior[1] ** 2
         covariance = s2[:, None, None] * np.linalg.inv(system)
@@ -610,22 +616,7 @@ def fit_amplitudes(jacobian, directions, residuals, prior) -> list[tuple]:
     ok = np.isfinite(variance) & (variance >= 0)
     sds = np.where(ok, np.sqrt(np.where(ok, variance, 0.0)), math.inf)
     out = []
-    bounds = [(-math.inf, math.inf)] * i + list(BOUNDS[: len(directions)])
-    for b, x in enumerate(residuals):
-        if not all(low <= v <= high for v, (low, high) in zip(values[b], bounds, strict=True)):
-            values[b] = _held_at_bounds(gram, rhs[b], weight[b], i, prior[0], values[b], bounds)
-            left_b = r[b] - values[b] @ a.T
-            s2_b = float(left_b @ left_b) / (dof + (jacobian is None))
-            information = gram.copy()
-            information[i, i] += s2_b / prior[1] ** 2
-            try:
-                covariance[b] = s2_b * np.linalg.inv(information)
-            except np.linalg.LinAlgError:
-                out.append(_library_fit(jacobian, directions, x, prior))
-                continue
-            variance = np.diagonal(covariance[b])
-            ok_b = np.isfinite(variance) & (variance >= 0)
-            sds[b] = np.where(ok_b, np.sqrt(np.where(ok_b, variance, 0.0)), math.inf)
+    for b in range(len(r)):
         amplitudes = values[b, i:]
         if jacobian is None:
             out.append((0.0, amplitudes, np.r_[0.0, sds[b]], 0.0))
@@ -636,6 +627,43 @@ def fit_amplitudes(jacobian, directions, residuals, prior) -> list[tuple]:
                                             -1.0, 1.0))
             out.append((float(values[b, 0]), amplitudes, sds[b], correlation))
     return out
+
+
+def fit_estimate(jacobian, directions, residual, prior) -> np.ndarray:
+    """The estimates of :func:`fit_amplitudes` for one ``residual`` (n + 1, 3) [m], without
+    the covariance: ``(delta ln E, amplitudes...)``, or the amplitudes alone without
+    ``jacobian`` (a Gauss-Newton step of the model update, or its last amplitudes)."""
+    try:
+        return _estimates(jacobian, directions, residual[None], prior)[4][0]
+    except np.linalg.LinAlgError:
+        step, amplitudes = _library_fit(jacobian, directions, residual, prior)[:2]
+        return np.asarray(amplitudes) if jacobian is None else np.r_[step, amplitudes]
+
+
+def _estimates(jacobian, directions, residuals, prior) -> tuple:
+    """:func:`fit_amplitudes`' estimates: ``(a, r, i, gram, values)``, the columns [J, d, g]
+    (3 (n + 1), p), the residuals (B, 3 (n + 1)), alpha's column, a^T a and the estimates
+    (B, p): alpha's prior weighted by the scatter of the fit without it (:func:`.model_error.
+    fit_model_error`), an estimate outside the amplitudes' bounds held there
+    (:func:`_held_at_bounds`). Raises LinAlgError on a singular system."""
+    columns = [] if jacobian is None else [jacobian.ravel()]
+    a = np.stack(columns + [d.ravel() for d in directions], axis=1)
+    r = residuals.reshape(len(residuals), -1)
+    i = len(columns)  # alpha's column
+    dof = max(a.shape[0] - len(directions) - 1, 1)
+    gram, rhs = a.T @ a, r @ a
+    left = r - np.linalg.solve(gram, rhs.T).T @ a.T
+    weight = np.einsum("bn,bn->b", left, left) / dof / prior[1] ** 2
+    system = np.repeat(gram[None], len(r), axis=0)
+    system[:, i, i] += weight
+    rhs_prior = rhs.copy()
+    rhs_prior[:, i] += weight * prior[0]
+    values = np.linalg.solve(system, rhs_prior[:, :, None])[:, :, 0]
+    bounds = [(-math.inf, math.inf)] * i + list(BOUNDS[: len(directions)])
+    for b in range(len(r)):
+        if not all(low <= v <= high for v, (low, high) in zip(values[b], bounds, strict=True)):
+            values[b] = _held_at_bounds(gram, rhs[b], weight[b], i, prior[0], values[b], bounds)
+    return a, r, i, gram, values
 
 
 def _held_at_bounds(gram, rhs, weight, i, centre, values, bounds) -> np.ndarray:
@@ -672,17 +700,30 @@ def _library_fit(jacobian, directions, residual, prior) -> tuple:
     return fit_with_covariance(column, directions, residual, prior)
 
 
-def _resampled(nominal: NominalCorrection, points: np.ndarray) -> np.ndarray:
-    """The measured ``points`` (k, 3) [m] resampled onto the model's points
-    (:func:`.measurement.resample_measured`, its checks), the measurement's offset taken out
-    when it tells one (:func:`~.step.update_modulus`: the held points' scatter and the
-    measurement's noise along the clips' axes, :func:`~.step.offset_verdict`), (n + 1, 3) [m]."""
+def _resampled(nominal: NominalCorrection, points: np.ndarray) -> list:
+    """The measured ``points`` (B, k, 3) [m] resampled onto the model's points
+    (:func:`.measurement.resample_measured`, its checks: :func:`.measurement_batch.
+    resample_measured_batch` and the function itself on what the batch hands back), the
+    measurement's offset taken out when it tells one (:func:`~.step.update_modulus`: the held
+    points' scatter and the measurement's noise along the clips' axes, :func:`~.step.
+    offset_verdict`): per sample (n + 1, 3) [m], or the refusal's reason."""
     x = nominal.table.at(math.log(nominal.cable.youngs_modulus))["state"]
-    y = resample_measured(points, x, nominal.cable.length,
-                          max_disagreement=nominal.limits.max_disagreement)
-    offset, sds = measured_offset(y - x)
-    covariance = offset_covariance(sds, nominal.u_axes, noise_sd(points, y))
-    return y - offset_verdict(offset, covariance)[0]  # the camera's, not the cable's
+    length, limit = nominal.cable.length, nominal.limits.max_disagreement
+    shapes, done = resample_measured_batch(points, x, length, limit)
+    out: list = list(shapes)
+    for b in np.flatnonzero(~done):
+        try:
+            out[b] = resample_measured(points[b], x, length, max_disagreement=limit)
+        except CorrectionRefused as exc:
+            out[b] = str(exc)
+    kept = [b for b, y in enumerate(out) if not isinstance(y, str)]
+    if kept:
+        sds = noise_sds(points[kept], np.array([out[b] for b in kept]))
+        for b, sd in zip(kept, sds, strict=True):
+            offset, scatter = measured_offset(out[b] - x)
+            covariance = offset_covariance(scatter, nominal.u_axes, float(sd))
+            out[b] = out[b] - offset_verdict(offset, covariance)[0]  # the camera's
+    return out
 
 
 def _first_fits(nominal: NominalCorrection, measured: np.ndarray, prior) -> list[dict]:
@@ -790,14 +831,13 @@ def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, first: dic
             break
         at = table.at(log_e)
         jacobian = at["modulus_k"]
-        step = fit_amplitudes(jacobian, [at[name] for name in names], (measured - x)[None],
-                              prior)[0][0]
+        step = float(fit_estimate(jacobian, [at[name] for name in names], measured - x,
+                                  prior)[0])
     if not informed:  # E kept: the amplitudes at the plan's E, fitted already
         amplitudes = first["held"]
     else:
         at = table.at(log_e)
-        amplitudes = fit_amplitudes(None, [at[name] for name in names], (measured - x)[None],
-                                    prior)[0][1]
+        amplitudes = fit_estimate(None, [at[name] for name in names], measured - x, prior)
     beta = float(amplitudes[1]) if grip else 0.0
     modulus = cable.youngs_modulus if log_e == log_e0 else math.exp(log_e)
     return ModelUpdate(cable.youngs_modulus, modulus, math.nan, math.nan, taken, x,
@@ -855,15 +895,16 @@ def _fit_clips(nominal: NominalCorrection, modulus: float, at: Interpolated, sta
     return p, x
 
 
-def _closed_loop(nominal: NominalCorrection, plants: list, clamps: list, states: np.ndarray,
-                 corrections: np.ndarray):
+def _closed_loop(nominal: NominalCorrection, plants: PlantChains, clamps: list,
+                 states: np.ndarray, corrections: np.ndarray):
     """The plants driven from their shapes at K through the corrected clip poses (each
     sample's target correction ramped in, p_j = p_T (j - K) / (T - K)): a
     :class:`.plant_batch.PlantDrive` of :data:`SUBSTEPS` stops per remaining shape."""
     at, last = nominal.at, nominal.n_shapes - 1
     positions, quaternions = nominal.poses
     ramp = np.arange(0, last - at + 1) / (last - at)  # shape K (0) .. T (1)
-    p = (ramp[None, :, None] * corrections[:, None, :]).reshape(len(plants), -1, 2, 2, 3)
+    count = len(plants.cables)
+    p = (ramp[None, :, None] * corrections[:, None, :]).reshape(count, -1, 2, 2, 3)
     moved = positions[None, at:] + p[:, :, :, 0]  # (B, T - K + 1, 2, 3)
     turns = Rotation.from_rotvec(p[:, :, :, 1].reshape(-1, 3))
     keys = (turns * Rotation.from_quat(
@@ -872,8 +913,8 @@ def _closed_loop(nominal: NominalCorrection, plants: list, clamps: list, states:
     fractions = np.arange(1, SUBSTEPS + 1) / SUBSTEPS
     pairs = np.stack([keys[:, :-1], keys[:, 1:]])  # (2, B, T - K, 2, 4)
     stops_q = slerp_quaternions(np.array([0.0, 1.0]), pairs, fractions)  # (S, B, T - K, 2, 4)
-    stops_q = np.moveaxis(stops_q, 0, 2).reshape(len(plants), -1, 2, 4)
+    stops_q = np.moveaxis(stops_q, 0, 2).reshape(count, -1, 2, 4)
     w = fractions[None, None, :, None, None]
     stops_p = ((1.0 - w) * moved[:, :-1, None] + w * moved[:, 1:, None]).reshape(
-        len(plants), -1, 2, 3)
-    return drive_plants(plants, clamps, states, stops_p, stops_q, gravity=nominal.gravity)
+        count, -1, 2, 3)
+    return drive_chains(plants, clamps, states, stops_p, stops_q, gravity=nominal.gravity)

@@ -37,6 +37,7 @@ import numpy as np
 from scipy.interpolate import make_lsq_spline
 
 from ..geometry import arc_length, as_shape, resample_by_arc_length
+from .projection import project_points
 
 MAX_LENGTH_ERROR = 0.10
 """Largest relative difference between the measured (smoothed) and the cable's length."""
@@ -70,29 +71,20 @@ class CorrectionRefused(ValueError):
 
 def positions_along(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:
     """Arc length [m] of the point of ``polyline`` nearest to each of ``points``, (k,)."""
-    return _nearest(points, polyline)[0]
+    return nearest_points(points, polyline)[0]
 
 
-def _nearest(points: np.ndarray, polyline: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def nearest_points(points: np.ndarray, polyline: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(arc length [m], distance [m]) of the point of ``polyline`` nearest to each of
-    ``points``, each (k,).
-
-    Every point against every segment, one coordinate at a time: (k, m) arrays rather than
-    (k, m, 3) ones and norms over their last axis (0.47 against 1.39 ms CPU for 200 points and
-    100 segments).
-    """
-    a = polyline[:-1]
-    ab = polyline[1:] - a
-    rel = [points[:, None, i] - a[None, :, i] for i in range(3)]  # 3 x (k, m)
-    t = (rel[0] * ab[:, 0] + rel[1] * ab[:, 1] + rel[2] * ab[:, 2]) / np.einsum("ij,ij->i",
-                                                                                ab, ab)
-    np.clip(t, 0.0, 1.0, out=t)
-    squared = sum((r - t * ab[:, i]) ** 2 for i, r in enumerate(rel))
-    segment = np.argmin(squared, axis=1)
-    s = arc_length(polyline)
-    rows = np.arange(len(points))
-    return (s[segment] + t[rows, segment] * np.linalg.norm(ab[segment], axis=1),
-            np.sqrt(squared[rows, segment]))
+    ``points`` (k, 3), each (k,); or of B measurements (B, k, 3) at once, each (B, k), against
+    one polyline (m, 3) or one each (B, m, 3) (:func:`.projection.project_points`)."""
+    x = np.asarray(points, dtype=float)
+    batch = x if x.ndim == 3 else x[None]
+    lines = np.asarray(polyline, dtype=float)
+    lines = lines if lines.ndim == 3 else lines[None]
+    along, distance = np.empty(batch.shape[:2]), np.empty(batch.shape[:2])
+    project_points(np.ascontiguousarray(batch), np.ascontiguousarray(lines), along, distance)
+    return (along, distance) if x.ndim == 3 else (along[0], distance[0])
 
 
 def noise_sd(points, curve: np.ndarray) -> float:
@@ -111,7 +103,7 @@ def noise_sd(points, curve: np.ndarray) -> float:
         (n + 1, 3) the measurement resampled (:func:`resample_measured`) [m].
     """
     x = np.asarray(points, dtype=float)
-    distance = _nearest(x, curve)[1]
+    distance = nearest_points(x, curve)[1]
     dof = max(len(x) - (len(curve) + 2), 1)
     return math.sqrt(float(distance @ distance) / (2.0 * dof))
 

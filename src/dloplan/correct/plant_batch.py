@@ -127,6 +127,68 @@ class PlantDrive:
     messages: tuple
 
 
+@dataclass(frozen=True, eq=False)
+class PlantChains:
+    """What :func:`drive_chains` needs of B cables, made once (:meth:`of`) and reused, joined
+    or taken apart (a study's plants driven twice, the clip fit's chain at one E per sample).
+
+    Attributes
+    ----------
+    cables : tuple of Cable
+        The B cables, all with the same number of links.
+    chains : tuple of SpringChain
+        Their chains (a saddle's escape, :func:`.model_error.clamped_equilibrium`).
+    constants : tuple of numpy.ndarray
+        k_s (B,), rest lengths (B, n), k_b (B,), rest angles (B, n - 1), masses (B, n + 1):
+        :attr:`~dloplan.physics.chain.SpringChain.constants` stacked.
+    link, length, tolerance, stiff : numpy.ndarray
+        (B,) rest link length [m], length [m], the residual tolerance without its round-off
+        floor (:func:`dloplan.sim.result.residual_tolerance`'s) [N], the stiffest spring of
+        the floor [N/m].
+    stiff_axial : numpy.ndarray
+        (B,) bool: :attr:`~dloplan.physics.chain.SpringChain.stiff_axial`.
+    """
+
+    cables: tuple
+    chains: tuple
+    constants: tuple
+    link: np.ndarray
+    length: np.ndarray
+    tolerance: np.ndarray
+    stiff: np.ndarray
+    stiff_axial: np.ndarray
+
+    @classmethod
+    def of(cls, cables: Sequence[Cable], gravity) -> PlantChains:
+        """The constants of ``cables`` under ``gravity`` (3,) [m/s^2]."""
+        gravity = np.asarray(gravity, dtype=float)
+        chains = tuple(SpringChain.from_cable(cable, gravity) for cable in cables)
+        return cls(tuple(cables), chains,
+                   tuple(np.array([chain.constants[k] for chain in chains]) for k in range(5)),
+                   np.array([cable.rest_link_length for cable in cables]),
+                   np.array([cable.length for cable in cables]),
+                   np.array([DEFAULT_RTOL * force_scale(cable, gravity) for cable in cables]),
+                   np.array([stiffest(cable) for cable in cables]),
+                   np.array([chain.stiff_axial for chain in chains]))
+
+    @classmethod
+    def join(cls, parts: Sequence[PlantChains]) -> PlantChains:
+        """The cables of ``parts`` one after the other."""
+        return cls(sum((p.cables for p in parts), ()), sum((p.chains for p in parts), ()),
+                   tuple(np.concatenate([p.constants[k] for p in parts]) for k in range(5)),
+                   *(np.concatenate([getattr(p, name) for p in parts]) for name in
+                     ("link", "length", "tolerance", "stiff", "stiff_axial")))
+
+    def take(self, index) -> PlantChains:
+        """The cables at ``index`` (a sequence of positions)."""
+        index = np.asarray(index, dtype=np.int64)
+        return PlantChains(tuple(self.cables[i] for i in index),
+                           tuple(self.chains[i] for i in index),
+                           tuple(c[index] for c in self.constants), self.link[index],
+                           self.length[index], self.tolerance[index], self.stiff[index],
+                           self.stiff_axial[index])
+
+
 def drive_plants(cables: Sequence[Cable], clamp_links, starts, positions, quaternions, *,
                  gravity) -> PlantDrive:
     """Every plant's equilibria at its stops, each warm-started from the one before.
@@ -149,9 +211,14 @@ def drive_plants(cables: Sequence[Cable], clamp_links, starts, positions, quater
     gravity : array_like
         (3,) [m/s^2].
     """
+    return drive_chains(PlantChains.of(cables, gravity), clamp_links, starts, positions,
+                        quaternions, gravity=gravity)
+
+
+def drive_chains(plants: PlantChains, clamp_links, starts, positions, quaternions, *,
+                 gravity) -> PlantDrive:
+    """:func:`drive_plants` of the cables whose constants ``plants`` holds."""
     gravity = np.asarray(gravity, dtype=float)
-    chains = [SpringChain.from_cable(cable, gravity) for cable in cables]
-    constants = [np.array([chain.constants[k] for chain in chains]) for k in range(5)]
     # copies: writable and C-ordered whatever the caller holds (a read-only array, as a test's
     # or a table's, compiled a second overload of the kernel)
     starts = np.array(starts, dtype=float, order="C")
@@ -165,15 +232,10 @@ def drive_plants(cables: Sequence[Cable], clamp_links, starts, positions, quater
     outcomes = np.zeros(n_samples, dtype=np.int64)
     iterations = np.zeros(n_samples, dtype=np.int64)
     residuals = np.zeros(n_samples)
-    drive_clamped(starts, *constants, gravity,
-                  np.array([cable.rest_link_length for cable in cables]),
-                  np.array([cable.length for cable in cables]),
-                  np.array([DEFAULT_RTOL * force_scale(cable, gravity) for cable in cables]),
-                  ROUNDOFF * np.finfo(float).eps,
-                  np.array([stiffest(cable) for cable in cables]),
-                  np.array([chain.stiff_axial for chain in chains]), clamps,
-                  positions, u_axes, NEWTON_ITERATIONS, shapes, done, outcomes, iterations,
-                  residuals)
+    drive_clamped(starts, *plants.constants, gravity, plants.link, plants.length,
+                  plants.tolerance, ROUNDOFF * np.finfo(float).eps, plants.stiff,
+                  plants.stiff_axial, clamps, positions, u_axes, NEWTON_ITERATIONS, shapes,
+                  done, outcomes, iterations, residuals)
     failed = np.full(n_samples, -1)
     messages = [""] * n_samples
     for b in np.flatnonzero(done < n_stops):
@@ -186,7 +248,8 @@ def drive_plants(cables: Sequence[Cable], clamp_links, starts, positions, quater
             clips = ClipPoses(positions[b, s], Rotation(quaternions[b, s], normalize=False))
             guess = starts[b] if s == 0 else shapes[b, s - 1]
             shapes[b, s], ok, message = clamped_equilibrium(
-                cables[b], guess, clips, int(clamps[b]), gravity=gravity, chain=chains[b])
+                plants.cables[b], guess, clips, int(clamps[b]), gravity=gravity,
+                chain=plants.chains[b])
             if not ok:
                 failed[b], messages[b] = s, message
                 break

@@ -13,7 +13,8 @@ worker), so every backend produces the same results; only their completion order
 * :class:`SerialBackend`: in this process (debugging, small studies, benchmarks' baseline).
 * :class:`ProcessBackend`: ``concurrent.futures.ProcessPoolExecutor`` with ``workers``
   processes (a ``forkserver`` context on POSIX, which never forks a threaded parent; its
-  server preloads the solver so that workers start in milliseconds). The workers leave Ctrl-C
+  server preloads a study's modules and kernels, :mod:`dloplan.warm_study`, so that workers
+  start in milliseconds, warm). The workers leave Ctrl-C
   to the caller and end on SIGTERM or SIGHUP, running their task's clean-up
   (:func:`dloplan.interrupts.worker_signals`); an error or a signal in the caller ends them at
   once (:func:`dloplan.processes.end_pool`) rather than waiting for their tasks.
@@ -28,7 +29,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any
 
@@ -36,6 +37,9 @@ from ..interrupts import task, worker_signals
 from ..processes import end_pool, start_forkserver
 
 _SHARED: Any = None  # the shared object inside a worker process (set by the initializer)
+
+STUDY_PRELOAD = ("dloplan.warm_study",)
+""":class:`ProcessBackend`'s default preload: a study's modules and compiled kernels."""
 
 
 def _install_shared(shared) -> None:
@@ -60,6 +64,9 @@ class Backend:
 
     def map(self, function: Callable, items: Iterable, shared=None) -> Iterator[tuple[int, Any]]:
         raise NotImplementedError
+
+    def start(self) -> None:
+        """Get ready for :meth:`map` ahead of it, where that takes a while (nothing here)."""
 
     def close(self) -> None:
         """Release the backend's resources (processes, the client it opened)."""
@@ -113,9 +120,15 @@ class ProcessBackend(Backend):
         Number of processes; default ``os.cpu_count()``.
     max_in_flight : int, optional
         Items submitted ahead of completion; default 4 per worker.
+    preload : sequence of str
+        Modules the server the workers are forked from imports first (a ``forkserver``; the
+        first backend to start it sets them for the process): by default
+        :mod:`dloplan.warm_study`, which loads a study's kernels too, so that no worker loads
+        them again; ``("dloplan.study.evaluate",)`` imports numpy, scipy and the solver only.
     """
 
-    def __init__(self, workers: int | None = None, max_in_flight: int | None = None) -> None:
+    def __init__(self, workers: int | None = None, max_in_flight: int | None = None,
+                 preload: Sequence[str] = STUDY_PRELOAD) -> None:
         workers = (os.cpu_count() or 1) if workers is None else workers
         if isinstance(workers, bool) or int(workers) != workers or workers < 1:
             raise ValueError(f"workers: got {workers!r}, expected an integer >= 1")
@@ -123,13 +136,19 @@ class ProcessBackend(Backend):
         self.max_in_flight = _limit(max_in_flight, self.workers)
         if "forkserver" in multiprocessing.get_all_start_methods():
             self._context = multiprocessing.get_context("forkserver")
-            # the server imports numpy, scipy and the solver once; workers fork from it ready
-            self._context.set_forkserver_preload(["dloplan.study.evaluate"])
+            # the server imports (and warms) once; workers fork from it ready
+            self._context.set_forkserver_preload(list(preload))
         else:  # pragma: no cover - Windows
             self._context = multiprocessing.get_context("spawn")
 
+    def start(self) -> None:
+        """Start the workers' server now, without waiting for its preload (which a first
+        worker waits for): it warms up while the caller does something else, e.g. plans.
+        Out of the reach of a terminal's Ctrl-C (:func:`dloplan.processes.start_forkserver`)."""
+        start_forkserver(self._context)
+
     def map(self, function, items, shared=None):
-        start_forkserver(self._context)  # out of the reach of a terminal's Ctrl-C
+        self.start()
         pool = ProcessPoolExecutor(self.workers, mp_context=self._context,
                                    initializer=_install_shared, initargs=(shared,))
 
@@ -232,11 +251,12 @@ def import_distributed():
 
 
 def make_backend(workers: int | None = None, scheduler: str | None = None,
-                 client=None) -> Backend:
+                 client=None, preload: Sequence[str] = STUDY_PRELOAD) -> Backend:
     """The backend a command line or a caller asks for.
 
     ``client`` or ``scheduler``: :class:`DaskBackend`; ``workers=1``: :class:`SerialBackend`;
-    otherwise :class:`ProcessBackend` with ``workers`` processes (default: every core).
+    otherwise :class:`ProcessBackend` with ``workers`` processes (default: every core) and
+    its server's ``preload``.
     """
     if client is not None or scheduler is not None:
         if workers is not None:
@@ -245,7 +265,7 @@ def make_backend(workers: int | None = None, scheduler: str | None = None,
         return DaskBackend(client=client, scheduler=scheduler)
     if workers == 1:
         return SerialBackend()
-    return ProcessBackend(workers)
+    return ProcessBackend(workers, preload=preload)
 
 
 def map_jobs(function: Callable, items: Iterable, backend: Backend | None = None, *,
