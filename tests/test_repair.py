@@ -362,6 +362,61 @@ def test_rolled_twists_are_solved_once_and_shared_by_turns():
     assert twists(1, rolls, shapes, path) is not first and len(twists.reports) == 3
 
 
+def test_a_frame_set_is_made_when_it_is_placed_and_equals_the_one_made_in_full(monkeypatch):
+    """The reach repair's frame sets (candidates.FrameSet): the frames of a place (the plan
+    turned about the vertical) and their grasps rolled are judged for their twist without any
+    document; the document is made when it is asked for (a place is found), once per place and
+    frame set, and it is the document made in full before (the turned plan, then the frames
+    rolled on it: every array bit for bit, the same warnings and twist verdict)."""
+    from dloplan.pipeline.repair import candidates
+    from dloplan.pipeline.repair.failures import twist_failures
+    from dloplan.pipeline.repair.frames import RolledTwists
+    from dloplan.pipeline.repair.rebuild import stabilized_wrenches, with_grippers
+
+    made = {"moved_document": 0, "with_grippers": 0}
+    for name in made:
+        function = getattr(candidates, name)
+
+        def counted(*args, _function=function, _name=name, **kwargs):
+            made[_name] += 1
+            return _function(*args, **kwargs)
+
+        monkeypatch.setattr(candidates, name, counted)
+    job = resolve_mapping(soft_job(), "soft")
+    doc = run_job(job, check_robot=False)
+    turn = TableMove(yaw=np.radians(30.0), pivot=np.array([0.4, -0.1, 0.0]))
+    place = candidates.Place(turn, job, doc)
+    frames, rolls = grasp_rolled(place.grippers, job.robot)  # -10 and 5 deg at this turn
+    assert rolls.all()
+    twists = RolledTwists(job.cable)
+    own = candidates.FrameSet(place, place.grippers, None, 0, twists, plan=False)
+    rolled = candidates.FrameSet(place, frames, rolls, 0, twists, plan=False)
+    turned_job = moved_job(job, turn)
+    turned = moved_document(turned_job, doc, turn, program=False)
+    full = with_grippers(turned_job, turned, frames, program=False)
+    for candidate, expected in ((own, turned), (rolled, full)):
+        assert [f.message for f in candidate.twist_failures()] == \
+            [f.message for f in twist_failures(expected)]
+    assert made == {"moved_document": 0, "with_grippers": 0}  # judged without a document
+    assert np.array_equal(place.wrenches, stabilized_wrenches(job.cable, turned.stabilized))
+    for candidate, expected in ((own, turned), (rolled, full)):
+        got = candidate.document
+        assert candidate.document is got and candidate.job.start.tolist() == \
+            turned_job.start.tolist()
+        for name in ("shapes", "stabilized", "clip_wrenches"):
+            assert np.array_equal(getattr(got, name), getattr(expected, name)), name
+        assert np.array_equal(got.grippers.positions, expected.grippers.positions)
+        for a, b in zip(got.grippers.rotations, expected.grippers.rotations, strict=True):
+            assert np.array_equal(a.as_matrix(), b.as_matrix())
+        for name in ("times", "positions"):
+            assert np.array_equal(getattr(got.trajectory, name),
+                                  getattr(expected.trajectory, name)), name
+        for name in ("twist", "relative_twist", "twist_energy"):
+            assert np.array_equal(getattr(got.twist, name), getattr(expected.twist, name)), name
+        assert got.warnings == expected.warnings and got.program is None
+    assert made == {"moved_document": 1, "with_grippers": 1}  # the place's, shared
+
+
 def test_a_replay_that_strays_at_speed_is_repaired_by_slowing_down():
     """A soft cable moved fast (0.5 m/s, 5 rad/s) rings after each stop: the replay's deviation
     at the knots falls as the motion is slowed (measured: 3.8 -> 1.4 mm at half speed). With a
