@@ -417,6 +417,26 @@ def test_a_frame_set_is_made_when_it_is_placed_and_equals_the_one_made_in_full(m
     assert made == {"moved_document": 1, "with_grippers": 1}  # the place's, shared
 
 
+def test_a_snap_repair_followed_by_a_proposed_placement_keeps_its_program():
+    """Qualitative test 1 without consent to move the job: its snap repair is kept, its reach
+    repair finds a placement and only proposes it. The snap repair's plan leaves its robot
+    program to be made after the reach repair (which makes its placements' own programs); here
+    the plan is kept where it lies, so it carries the program of its frames and trajectory, as
+    if made at once: the program rebuilt from the document is the one it records, its message
+    is the robot section's and among the warnings once."""
+    from dloplan.pipeline import make_plan
+
+    job = load_job(EXAMPLES / "qualitative1_curved_pa12.yaml")
+    job = replace(job, repair=replace(job.repair, placement=False))
+    doc = make_plan(job, verify=True)
+    assert [r["kind"] for r in doc.repairs] == ["snap"]
+    assert doc.placement is not None and not doc.placement.applied
+    assert doc.program is not None and doc.robot.message == doc.program.message
+    rebuilt = program_of(replace(doc, program=None))  # raises if the targets differ
+    assert rebuilt.message == doc.program.message and rebuilt.ok == doc.program.ok
+    assert doc.warnings.count(doc.program.message) == (0 if doc.program.ok else 1)
+
+
 def test_a_replay_that_strays_at_speed_is_repaired_by_slowing_down():
     """A soft cable moved fast (0.5 m/s, 5 rad/s) rings after each stop: the replay's deviation
     at the knots falls as the motion is slowed (measured: 3.8 -> 1.4 mm at half speed). With a

@@ -282,9 +282,15 @@ def attempts(tried: list[str]) -> str:
 
 @dataclass
 class _State:
+    """The plan being repaired. ``owes_program``: its robot program is still to be made (the
+    snap repair's document when the reach repair follows in the same round, which makes the
+    programs of its placements and drops the plan's: :meth:`_Session.program_made` makes it
+    where it is needed)."""
+
     job: object
     doc: object
     move: TableMove = field(default_factory=TableMove)
+    owes_program: bool = False
 
 
 class _Session:
@@ -298,6 +304,7 @@ class _Session:
         self.repairs: list[Repair] = []
         self.proposal: Proposal | None = None
         self.untwisted: list = []  # (job, document) of every frame set the twist repair passed
+        self.kinds: set[str] = set()  # the kinds of failure the current round repairs
 
     # -- budget and records -----------------------------------------------------------------
     def spent(self) -> bool:
@@ -317,6 +324,13 @@ class _Session:
         self.state = state
         self.repairs.append(repair)
         self.progress(repair.line())
+
+    def program_made(self) -> None:
+        """Make the robot program the current plan owes (:class:`_State`): every repair but
+        the reach repair, and the round's verification, read the plan's program."""
+        if self.state.owes_program:
+            self.state = replace(self.state, owes_program=False, doc=with_robot(
+                self.state.job, self.state.doc, always=True))
 
     def keep_placed(self, failures, change, after, state, move, since) -> None:
         """Keep a reach repair that places the job by ``move``: at once when it leaves the job
@@ -344,18 +358,23 @@ class _Session:
         shapes, poses = doc.stabilized, doc.clip_poses()
         last = len(shapes) - 1
         tried = []
+        # the reach repair follows: it makes its placements' programs and drops the plan's
+        owes = "reach" in self.kinds and isinstance(job.robot, RobotCell) and (
+            doc.robot is not None or doc.program is not None)
+        program = False if owes else None
         if self.attempt():
             branch = follow_branch(job.cable, shapes[s], poses[s:], shapes[-1],
                                    job.target_threshold)
             tried.append(f"stable branch: {branch.message}")
             if branch.success:
-                new = with_path(job, doc, np.concatenate([shapes[:s + 1], branch.shapes]))
+                new = with_path(job, doc, np.concatenate([shapes[:s + 1], branch.shapes]),
+                                program=program)
                 events = self.snap_check(new, s)
                 if not events:
                     self.keep("snap", failures, f"shapes {s + 1}..{last} follow the stable "
                               f"branch from shape {s} (target within "
                               f"{1e3 * branch.end_error:.1f} mm)", "no snap-through from "
-                              f"shape {s} on", _State(job, new, self.state.move), since)
+                              f"shape {s} on", _State(job, new, self.state.move, owes), since)
                     return
                 tried[-1] += f"; then {events[0].message}"
         end_tolerance = job.target_threshold if s + 1 == last else math.inf
@@ -368,12 +387,12 @@ class _Session:
             if not route.success:
                 continue
             path = np.concatenate([shapes[:s + 1], route.shapes, shapes[s + 2:]])
-            new = with_path(job, doc, path)
+            new = with_path(job, doc, path, program=program)
             events = self.snap_check(new, s)
             if not events:
                 self.keep("snap", failures, f"segment {s} re-routed ({name}): "
                           f"{len(waypoints)} shape(s) inserted", "no snap-through from shape "
-                          f"{s} on", _State(job, new, self.state.move), since)
+                          f"{s} on", _State(job, new, self.state.move, owes), since)
                 return
             tried[-1] += f"; then {events[0].message}"
         if self.attempt():
@@ -394,6 +413,7 @@ class _Session:
 
     # -- twist -----------------------------------------------------------------------------
     def fix_twist(self, failures) -> None:
+        self.program_made()
         job, doc = self.state.job, self.state.doc
         since = time.perf_counter()
         tried = []
@@ -467,6 +487,7 @@ class _Session:
 
     # -- replay ----------------------------------------------------------------------------
     def fix_replay(self, failures) -> None:
+        self.program_made()
         doc = self.state.doc
         since = time.perf_counter()
         speed = self.state.job.motion.tcp_speed
@@ -714,6 +735,7 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
             unknown = [f for f in failures if f.kind not in FIXES]
             if unknown:
                 raise Refused(f"no repair for: {unknown[0].message}")
+            session.kinds = {kind for kind in KINDS if _own(failures, kind)}
             for kind in KINDS:
                 mine = _own(failures, kind)
                 if mine:
@@ -721,6 +743,7 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
         except Refused as exc:
             refusal = str(exc)
             break
+        session.program_made()  # (a placement only proposed leaves the snap repair's plan)
         state = session.state
         changed = state.doc is not verified[1]  # not changed: a placement only proposed
         if changed and repaired is not None:
