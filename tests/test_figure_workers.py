@@ -70,17 +70,44 @@ def test_a_plan_changed_after_its_draft_is_drawn_again(doc, tmp_path):
     assert sorted(p.name for p in staging.iterdir()) == ["figures"]
 
 
-def test_the_planned_hook_sees_the_final_figures_before_the_robot_program(job, doc):
-    """run_job hands the plan to the figure workers before its robot program is made: the
-    drafts drawn then are the final document's figures (same inputs, so they are reused)."""
-    from dloplan.app.report import figure_drawings
+def test_the_planned_hook_sees_the_final_figures_before_and_after_the_robot_program(job, doc):
+    """run_job hands the plan to the figure workers before its robot program is made,
+    provisionally (the figures no program or repair changes: forces and lengths), and again
+    with its program when that passes (all of them): the drafts drawn then are the final
+    document's figures (same inputs, so they are reused)."""
+    from dloplan.app.report import figure_drawings, lasting_drawings
 
     seen = []
-    final = run_job(job, planned=seen.append)
-    assert len(seen) == 1 and seen[0].program is None and final.program is not None
-    assert [pickle.dumps(d) for d in figure_drawings(seen[0])] == \
+    final = run_job(job, planned=lambda d, provisional=False: seen.append((d, provisional)))
+    assert [provisional for _, provisional in seen] == [True, False] and final.program.ok
+    assert seen[0][0].program is None and seen[1][0].program is final.program
+    assert [pickle.dumps(d) for d in figure_drawings(seen[1][0])] == \
         [pickle.dumps(d) for d in figure_drawings(final)]  # the workers' key: inputs byte for byte
+    lasting = [pickle.dumps(d) for d in lasting_drawings(seen[0][0])]
+    assert [d.name for d in lasting_drawings(final)] == ["forces", "lengths"]
+    assert lasting == [pickle.dumps(d) for d in lasting_drawings(final)]
     assert len(figure_drawings(final)) == len(figure_drawings(doc)) >= 4
+
+
+def test_a_provisional_draft_draws_the_lasting_figures_and_render_the_rest(doc, tmp_path):
+    """Drafted provisionally (before the robot program), only the forces and lengths are sent;
+    render() draws the others: the same files as drawn here."""
+    here = write_figures(doc, tmp_path / "here")
+    staging = tmp_path / "staging"
+    staging.mkdir()
+    workers = FigureWorkers(staging, 2)
+    sent = []
+    submit = workers._submit
+    try:
+        workers._submit = lambda drawing: sent.append(drawing.name) or submit(drawing)
+        workers.draft(doc, provisional=True)
+        drafted = list(sent)
+        drawn = workers.render(doc, staging / "figures")
+    finally:
+        workers.close()
+    assert drafted == ["forces", "lengths"]
+    assert sent == drafted + [p.stem for p in here if p.suffix == ".png"]
+    assert _pngs(drawn) == _pngs(here)
 
 
 def test_plan_into_writes_the_same_files_with_and_without_workers(job, tmp_path):
@@ -143,9 +170,10 @@ def test_the_repair_hands_its_repaired_plan_to_the_hook_before_verifying_it():
     from dloplan.app.report import figure_drawings
 
     job = load_job(EXAMPLES / "fig4_8_straight_to_bent.yaml")
-    seen = []
-    final = make_plan(job, planned=seen.append)
-    assert final.repairs and len(seen) == 2
+    calls = []
+    final = make_plan(job, planned=lambda d, provisional=False: calls.append((d, provisional)))
+    assert final.repairs and [provisional for _, provisional in calls] == [True, False]
+    seen = [d for d, _ in calls]  # the planned plan (its program fails), the repaired one
     assert seen[0].program is None and seen[1].verification is None
     assert [pickle.dumps(d) for d in figure_drawings(seen[1])] == \
         [pickle.dumps(d) for d in figure_drawings(final)]

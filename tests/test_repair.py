@@ -362,6 +362,81 @@ def test_rolled_twists_are_solved_once_and_shared_by_turns():
     assert twists(1, rolls, shapes, path) is not first and len(twists.reports) == 3
 
 
+def test_a_frame_set_is_made_when_it_is_placed_and_equals_the_one_made_in_full(monkeypatch):
+    """The reach repair's frame sets (candidates.FrameSet): the frames of a place (the plan
+    turned about the vertical) and their grasps rolled are judged for their twist without any
+    document; the document is made when it is asked for (a place is found), once per place and
+    frame set, and it is the document made in full before (the turned plan, then the frames
+    rolled on it: every array bit for bit, the same warnings and twist verdict)."""
+    from dloplan.pipeline.repair import candidates
+    from dloplan.pipeline.repair.failures import twist_failures
+    from dloplan.pipeline.repair.frames import RolledTwists
+    from dloplan.pipeline.repair.rebuild import stabilized_wrenches, with_grippers
+
+    made = {"moved_document": 0, "with_grippers": 0}
+    for name in made:
+        function = getattr(candidates, name)
+
+        def counted(*args, _function=function, _name=name, **kwargs):
+            made[_name] += 1
+            return _function(*args, **kwargs)
+
+        monkeypatch.setattr(candidates, name, counted)
+    job = resolve_mapping(soft_job(), "soft")
+    doc = run_job(job, check_robot=False)
+    turn = TableMove(yaw=np.radians(30.0), pivot=np.array([0.4, -0.1, 0.0]))
+    place = candidates.Place(turn, job, doc)
+    frames, rolls = grasp_rolled(place.grippers, job.robot)  # -10 and 5 deg at this turn
+    assert rolls.all()
+    twists = RolledTwists(job.cable)
+    own = candidates.FrameSet(place, place.grippers, None, 0, twists, plan=False)
+    rolled = candidates.FrameSet(place, frames, rolls, 0, twists, plan=False)
+    turned_job = moved_job(job, turn)
+    turned = moved_document(turned_job, doc, turn, program=False)
+    full = with_grippers(turned_job, turned, frames, program=False)
+    for candidate, expected in ((own, turned), (rolled, full)):
+        assert [f.message for f in candidate.twist_failures()] == \
+            [f.message for f in twist_failures(expected)]
+    assert made == {"moved_document": 0, "with_grippers": 0}  # judged without a document
+    assert np.array_equal(place.wrenches, stabilized_wrenches(job.cable, turned.stabilized))
+    for candidate, expected in ((own, turned), (rolled, full)):
+        got = candidate.document
+        assert candidate.document is got and candidate.job.start.tolist() == \
+            turned_job.start.tolist()
+        for name in ("shapes", "stabilized", "clip_wrenches"):
+            assert np.array_equal(getattr(got, name), getattr(expected, name)), name
+        assert np.array_equal(got.grippers.positions, expected.grippers.positions)
+        for a, b in zip(got.grippers.rotations, expected.grippers.rotations, strict=True):
+            assert np.array_equal(a.as_matrix(), b.as_matrix())
+        for name in ("times", "positions"):
+            assert np.array_equal(getattr(got.trajectory, name),
+                                  getattr(expected.trajectory, name)), name
+        for name in ("twist", "relative_twist", "twist_energy"):
+            assert np.array_equal(getattr(got.twist, name), getattr(expected.twist, name)), name
+        assert got.warnings == expected.warnings and got.program is None
+    assert made == {"moved_document": 1, "with_grippers": 1}  # the place's, shared
+
+
+def test_a_snap_repair_followed_by_a_proposed_placement_keeps_its_program():
+    """Qualitative test 1 without consent to move the job: its snap repair is kept, its reach
+    repair finds a placement and only proposes it. The snap repair's plan leaves its robot
+    program to be made after the reach repair (which makes its placements' own programs); here
+    the plan is kept where it lies, so it carries the program of its frames and trajectory, as
+    if made at once: the program rebuilt from the document is the one it records, its message
+    is the robot section's and among the warnings once."""
+    from dloplan.pipeline import make_plan
+
+    job = load_job(EXAMPLES / "qualitative1_curved_pa12.yaml")
+    job = replace(job, repair=replace(job.repair, placement=False))
+    doc = make_plan(job, verify=True)
+    assert [r["kind"] for r in doc.repairs] == ["snap"]
+    assert doc.placement is not None and not doc.placement.applied
+    assert doc.program is not None and doc.robot.message == doc.program.message
+    rebuilt = program_of(replace(doc, program=None))  # raises if the targets differ
+    assert rebuilt.message == doc.program.message and rebuilt.ok == doc.program.ok
+    assert doc.warnings.count(doc.program.message) == (0 if doc.program.ok else 1)
+
+
 def test_a_replay_that_strays_at_speed_is_repaired_by_slowing_down():
     """A soft cable moved fast (0.5 m/s, 5 rad/s) rings after each stop: the replay's deviation
     at the knots falls as the motion is slowed (measured: 3.8 -> 1.4 mm at half speed). With a

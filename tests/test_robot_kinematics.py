@@ -165,6 +165,31 @@ def test_unreachable_pose_is_reported_not_raised():
         assert np.all(res.q >= arm.lower) and np.all(res.q <= arm.upper)
 
 
+def test_ik_of_a_rotation_matrix_is_that_of_its_rotation():
+    """inverse() takes the target's (3, 3) matrix as well as a scipy Rotation (the loops over
+    many targets: reach_at_targets, the path check's sub-steps): the same solve bit for bit,
+    given the rows of one batch Rotation's as_matrix(), which are each single Rotation's (what
+    the loops rely on, checked here for scipy's from_matrix round trip and a Slerp)."""
+    from scipy.spatial.transform import Slerp
+
+    arm = ROBOT.right
+    rng = np.random.default_rng(3)
+    q = np.clip(arm.mid + rng.normal(0.0, 0.5, (6, 7)), arm.lower, arm.upper)
+    poses = [forward(arm, qk) for qk in q]
+    mats = np.stack([r.as_matrix() for _, r in poses]) + rng.normal(0.0, 1e-9, (6, 3, 3))
+    batch = Rotation.from_matrix(mats).as_matrix()
+    singles = [Rotation.from_matrix(m) for m in mats]
+    assert np.array_equal(batch, np.stack([r.as_matrix() for r in singles]))
+    sub = Slerp([0.0, 1.0], Rotation.from_matrix(mats[:2]))(np.arange(1, 9) / 8)
+    assert np.array_equal(sub.as_matrix(), np.stack([sub[s].as_matrix() for s in range(8)]))
+    for (p, _), m, r in zip(poses, batch, singles, strict=True):
+        by_matrix = inverse(arm, p + 0.01, m, seed=arm.mid)
+        by_rotation = inverse(arm, p + 0.01, r, seed=arm.mid)
+        assert np.array_equal(by_matrix.q, by_rotation.q)
+        assert (by_matrix.success, by_matrix.position_error, by_matrix.message) == \
+            (by_rotation.success, by_rotation.position_error, by_rotation.message)
+
+
 def test_joint_margin_and_manipulability():
     arm = ROBOT.left
     q = arm.mid.copy()
@@ -189,8 +214,9 @@ def test_bad_inputs_raise_value_error():
     arm = ROBOT.left
     with pytest.raises(ValueError, match="position"):
         inverse(arm, [0.3, 0.1], Rotation.identity())
-    with pytest.raises(ValueError, match="rotation"):
-        inverse(arm, [0.3, 0.1, 0.1], np.eye(3))
+    for rotation in (np.eye(2), np.full((3, 3), np.nan), [[1, 0, 0], [0, 1, 0], [0, 0, 1]]):
+        with pytest.raises(ValueError, match="rotation"):
+            inverse(arm, [0.3, 0.1, 0.1], rotation)
     with pytest.raises(ValueError, match="seed"):
         inverse(arm, [0.3, 0.1, 0.1], Rotation.identity(), seed=np.zeros(6))
     with pytest.raises(ValueError, match="q"):

@@ -9,7 +9,10 @@ its import alone about 0.7 s). :class:`FigureWorkers` takes that off the run's c
   (:mod:`dloplan.plots.warm`): each worker starts warm when the first figure is sent, two cost
   one matplotlib import, and none imports dloplan's solvers (a drawing holds plain arrays);
 - :meth:`FigureWorkers.draft` draws a plan's figures as soon as it is planned, while its robot
-  program is made and it is verified (``run_job``'s ``planned`` hook);
+  program is made and it is verified (``run_job``'s ``planned`` hook): before the program only
+  those no program or repair changes (:func:`~dloplan.app.report.lasting_drawings`), the others
+  when the program passes (a plan whose program fails is repaired: its path, shapes and motion
+  figures would be drawn for nothing, beside the repair on a 2-core machine);
 - :meth:`FigureWorkers.render` is the ``figures`` writer: the final document's figures are the
   drafts whose inputs (every array, compared exactly) it still has; the others (a repaired plan)
   are drawn then. The files are the same as :func:`dloplan.app.report.write_figures` writes.
@@ -36,7 +39,7 @@ from ..interrupts import shielded
 from ..pipeline.document import PlanDocument
 from ..plots import worker
 from ..processes import end_pool
-from .report import figure_drawings
+from .report import figure_drawings, lasting_drawings
 
 DRAFTS = ".figures"
 """The folder (inside the staging folder) the workers draw into; removed when done."""
@@ -75,11 +78,12 @@ class FigureWorkers:
             self._drafts[key] = self._pool.submit(worker.draw, drawing, self._scratch / key)
         return self._drafts[key]
 
-    def draft(self, doc: PlanDocument) -> None:
-        """Start drawing the figures of ``doc`` (a planned document, before its robot program
-        and its verification)."""
+    def draft(self, doc: PlanDocument, provisional: bool = False) -> None:
+        """Start drawing the figures of ``doc`` (a planned document, before its verification);
+        ``provisional`` (before its robot program): only those that neither the program nor a
+        repair changes (:func:`~dloplan.app.report.lasting_drawings`)."""
         try:
-            for drawing in figure_drawings(doc):
+            for drawing in lasting_drawings(doc) if provisional else figure_drawings(doc):
                 self._submit(drawing)
         except BrokenProcessPool:  # a worker died: render() draws the figures here
             pass

@@ -74,6 +74,14 @@ def figure_drawings(doc: PlanDocument) -> list:
             in zip(figure_names(doc), figures, strict=True)]
 
 
+def lasting_drawings(doc: PlanDocument) -> list:
+    """The figures of :func:`figure_drawings` that neither the robot program nor a repair
+    changes: the planner's forces and lengths (a repair keeps the planner's sections; the
+    path, the stabilized shapes and the motion profile move with a placement, new frames, a
+    slower motion or new shapes, and the program may slow the motion down)."""
+    return [d for d in figure_drawings(doc) if d.name == "lengths" or d.name.startswith("forces")]
+
+
 def write_figures(doc: PlanDocument, folder) -> list[Path]:
     """The plan's figures as PNG and SVG, drawn here: path with frames, stabilized, forces,
     lengths, motion profile."""

@@ -49,9 +49,10 @@ def make_plan(job: Job | HarnessJob, *, verify: bool = False, check_robot: bool 
     progress : callable
         Called with a line of text after each step.
     planned : callable, optional
-        Called with the planned document before its robot program is made and it is checked,
-        and with each repaired document before it is verified again (the command line starts
-        drawing its figures then: a figure depends on neither).
+        ``planned(doc, provisional=False)``: called as :func:`~dloplan.pipeline.stages.run_job`
+        calls it (the planned document before its robot program, provisionally, and with its
+        program when that passes), and with each repaired document before it is verified again
+        (the command line draws its figures then: a figure depends on no verification).
 
     Returns
     -------

@@ -522,8 +522,11 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
     progress : callable
         Called with a line of text after each step.
     planned : callable, optional
-        Called with the planned document (shapes, gripper poses, trajectory) before its robot
-        program is made and it is verified (the command line starts drawing its figures then).
+        ``planned(doc, provisional)``: called with the planned document (shapes, gripper poses,
+        trajectory) before its robot program is made, ``provisional`` True when a program is
+        made (the command line starts drawing the figures no program or repair changes), and
+        again with the document and its program when the program passes (``provisional``
+        False: the other figures; a plan whose program fails is repaired).
     """
     staged = plan_path(job, progress)
     result, target_check = staged.plan, staged.target_check
@@ -576,11 +579,13 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
         cycle=cycle_to_dict(cycle), timings=timings,
     )
     if planned is not None:
-        planned(doc)
+        planned(doc, provisional=check_robot)
     if check_robot:
         t0 = time.perf_counter()
         doc = with_program(doc, plan_program(job.robot, grippers, trajectory, progress))
         doc = replace(doc, timings={**doc.timings, "robot": time.perf_counter() - t0})
+        if planned is not None and doc.program.ok:
+            planned(doc, provisional=False)
     if verify:
         t0 = time.perf_counter()
         verification = verify_plan(doc, progress=progress)
@@ -597,8 +602,9 @@ def run_harness_job(job: HarnessJob, *, check_robot: bool = True,
 
     One knot per shape of the whole job; the harness numbers in the ``harness`` section, the
     forces of each phase in ``forces``, the board's pegs and fixtures as obstacles.
-    ``planned`` (optional) is called with the document before its robot program is made (as by
-    :func:`run_job`: the command line starts drawing its figures then).
+    ``planned`` (optional) is called with the document before its robot program is made, not
+    provisionally (the command line starts drawing all its figures then: no placement repair
+    moves a harness job on its board).
     """
     from ..harness import harness_summary, run_harness
 

@@ -56,7 +56,7 @@ def _parts(arm: CellArm, frames):
     z = np.einsum("...kij,kj->...ki", frames.rotations[..., :7, :, :], arm.axes)
     shoulder = frames.positions[..., 0, :] + s * z[..., 0, :]
     wrist = frames.positions[..., 6, :] + w * z[..., 6, :]
-    reference = arm.base_rotation.apply(arm.arm_angle_reference)
+    reference = arm.world_arm_angle_reference
     return shoulder, wrist, z, reference
 
 

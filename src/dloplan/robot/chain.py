@@ -176,6 +176,23 @@ class CellArm:
             object.__setattr__(self, "arm_angle_reference", reference / np.linalg.norm(reference))
             object.__setattr__(self, "_angle_points", axis_feet(d.origin_rot, d.origin_xyz,
                                                                 d.axes))
+            object.__setattr__(self, "_angle_reference",
+                               self.base_rotation.apply(self.arm_angle_reference))
+
+    @property
+    def world_arm_angle_reference(self) -> np.ndarray:
+        """(3,) the arm angle's reference direction in the world (``base_rotation`` applied
+        to :attr:`arm_angle_reference`), computed once: every IK solve holding the arm angle
+        reads it.
+
+        Raises
+        ------
+        ValueError
+            The arm has no arm angle.
+        """
+        if self.arm_angle_reference is None:
+            raise ValueError(f"{self.name}: the arm has no arm angle (arm_angle_reference)")
+        return self._angle_reference
 
     @property
     def n_joints(self) -> int:

@@ -245,7 +245,7 @@ class IKResult:
     message: str
 
 
-def inverse(arm, position, rotation: Rotation, seed=None,
+def inverse(arm, position, rotation: Rotation | np.ndarray, seed=None,
             options: IKOptions | None = None, rng: np.random.Generator | None = None,
             arm_angle: float | None = None) -> IKResult:
     """Joint values placing the TCP at a world pose: damped least squares from a seed.
@@ -267,8 +267,10 @@ def inverse(arm, position, rotation: Rotation, seed=None,
     arm : CellArm
     position : array_like
         (3,) target TCP position in the world [m].
-    rotation : scipy.spatial.transform.Rotation
-        Target ``tcp_to_world`` (single).
+    rotation : scipy.spatial.transform.Rotation or numpy.ndarray
+        Target ``tcp_to_world`` (single), or its (3, 3) matrix, used as given (a loop over
+        many targets takes the matrices of one batch ``Rotation``: ``as_matrix()`` of the
+        batch is row for row that of each single one, without a ``Rotation`` per target).
     seed : array_like, optional
         (n,) start [rad] (clipped into the limits); default the arm's home pose.
     options : IKOptions, optional
@@ -283,8 +285,14 @@ def inverse(arm, position, rotation: Rotation, seed=None,
     position = np.asarray(position, dtype=float)
     if position.shape != (3,) or not np.all(np.isfinite(position)):
         raise ValueError(f"position: expected 3 finite numbers [m], got {position!r}")
-    if not isinstance(rotation, Rotation) or not rotation.single:
-        raise ValueError(f"rotation: expected a single scipy Rotation, got {rotation!r}")
+    if isinstance(rotation, Rotation) and rotation.single:
+        matrix = rotation.as_matrix()
+    elif isinstance(rotation, np.ndarray) and rotation.shape == (3, 3) and \
+            np.all(np.isfinite(rotation)):
+        matrix = rotation
+    else:
+        raise ValueError(f"rotation: expected a single scipy Rotation or a (3, 3) rotation "
+                         f"matrix, got {rotation!r}")
     seed = arm.home if seed is None else _as_joints(seed, "seed", arm.n_joints)
     if seed.ndim != 1:
         raise ValueError(f"seed: expected {arm.n_joints} joint values [rad], got shape "
@@ -295,7 +303,7 @@ def inverse(arm, position, rotation: Rotation, seed=None,
     if arm_angle is not None and arm.arm_angle_reference is None:
         raise ValueError(f"arm_angle: the {arm.name} arm has no arm angle (only a 7-joint arm "
                          "with an arm_angle_reference)")
-    return _inverse(arm, position, rotation.as_matrix(), seed, opts, rng, arm_angle)
+    return _inverse(arm, position, matrix, seed, opts, rng, arm_angle)
 
 
 def solve_from(arm, position, rotation_matrix, seed, options: IKOptions,
@@ -401,7 +409,7 @@ def _angle_geometry(arm) -> tuple[np.ndarray, np.ndarray]:
     zeros for an arm without one (never held)."""
     if arm.arm_angle_reference is None:
         return np.zeros(2), np.array([0.0, 0.0, 1.0])
-    return arm._angle_points, arm.base_rotation.apply(arm.arm_angle_reference)
+    return arm._angle_points, arm.world_arm_angle_reference
 
 
 def _inverse(arm, position: np.ndarray, target_rot: np.ndarray, seed: np.ndarray,

@@ -422,7 +422,7 @@ def _follow(arm, name: str, pos, mats, counts, seed, opts: ReachOptions) -> _Tra
             if opts.track_margin:
                 res = solve_from(arm, target, sub_mats[s], q, track)
             else:
-                res = inverse(arm, target, sub_rot[s], seed=q, options=track)
+                res = inverse(arm, target, sub_mats[s], seed=q, options=track)
             if not held:
                 jump = np.abs(res.q - q)
                 step[k] = max(step[k], float(np.max(jump)))

@@ -294,8 +294,9 @@ def ik_at_targets(arm, positions, matrices, options: IKOptions, *, stop: bool = 
     """
     q, qs = arm.home, np.empty((len(positions), len(arm.home)))
     hits = np.zeros(len(positions), dtype=bool)
+    targets = Rotation.from_matrix(matrices).as_matrix()  # each target's, in one batch
     for k in range(len(positions)):
-        res = inverse(arm, positions[k], Rotation.from_matrix(matrices[k]), q, options)
+        res = inverse(arm, positions[k], targets[k], q, options)
         hits[k], qs[k] = res.success, res.q
         if not res.success and stop:
             qs[k + 1:] = res.q

@@ -77,8 +77,16 @@ def twist_failures(doc, max_step: float = DEFAULT_MAX_STEP) -> list[Failure]:
     where the last clip's u-axis turns by 180 deg relative to the first (a planar U): there it
     may read 180 deg for a cable the torsion model finds untwisted.
     """
-    grippers = doc.grippers
-    twist = doc.twist.twist if doc.twist is not None else grippers.twist
+    return frame_twist_failures(doc.grippers, None if doc.twist is None else doc.twist.twist,
+                                max_step)
+
+
+def frame_twist_failures(grippers, twist=None,
+                         max_step: float = DEFAULT_MAX_STEP) -> list[Failure]:
+    """:func:`twist_failures` of gripper frames ``grippers`` and the torsion model's ``twist``
+    (S + 2,) [rad] under them (None: the frames' own relative twist), without a document (the
+    reach repair judges a frame set before it makes its document)."""
+    twist = grippers.twist if twist is None else twist
     failures = []
     worst = int(np.argmax(np.abs(twist)))
     if abs(twist[worst]) > grippers.max_twist:

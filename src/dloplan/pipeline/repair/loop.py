@@ -69,6 +69,7 @@ from ...robot.urdf_cell import verify_on_cell
 from ...sim.statics import interpolate_clips
 from ...verify import check_snap_through
 from ..stages import quiet, run_job, verify_plan, with_verification
+from .candidates import FrameSet, Place
 from .failures import KINDS, diagnose, frame_steps, score, summary, twist_failures
 from .frames import SHARES, RolledTwists, grasp_rolled, grasp_scores, untwisted
 from .placement import (
@@ -83,7 +84,6 @@ from .placement import (
 )
 from .rebuild import (
     slowed,
-    stabilized_wrenches,
     timed_with_robot,
     with_grippers,
     with_motion,
@@ -282,9 +282,15 @@ def attempts(tried: list[str]) -> str:
 
 @dataclass
 class _State:
+    """The plan being repaired. ``owes_program``: its robot program is still to be made (the
+    snap repair's document when the reach repair follows in the same round, which makes the
+    programs of its placements and drops the plan's: :meth:`_Session.program_made` makes it
+    where it is needed)."""
+
     job: object
     doc: object
     move: TableMove = field(default_factory=TableMove)
+    owes_program: bool = False
 
 
 class _Session:
@@ -298,6 +304,7 @@ class _Session:
         self.repairs: list[Repair] = []
         self.proposal: Proposal | None = None
         self.untwisted: list = []  # (job, document) of every frame set the twist repair passed
+        self.kinds: set[str] = set()  # the kinds of failure the current round repairs
 
     # -- budget and records -----------------------------------------------------------------
     def spent(self) -> bool:
@@ -317,6 +324,13 @@ class _Session:
         self.state = state
         self.repairs.append(repair)
         self.progress(repair.line())
+
+    def program_made(self) -> None:
+        """Make the robot program the current plan owes (:class:`_State`): every repair but
+        the reach repair, and the round's verification, read the plan's program."""
+        if self.state.owes_program:
+            self.state = replace(self.state, owes_program=False, doc=with_robot(
+                self.state.job, self.state.doc, always=True))
 
     def keep_placed(self, failures, change, after, state, move, since) -> None:
         """Keep a reach repair that places the job by ``move``: at once when it leaves the job
@@ -344,18 +358,23 @@ class _Session:
         shapes, poses = doc.stabilized, doc.clip_poses()
         last = len(shapes) - 1
         tried = []
+        # the reach repair follows: it makes its placements' programs and drops the plan's
+        owes = "reach" in self.kinds and isinstance(job.robot, RobotCell) and (
+            doc.robot is not None or doc.program is not None)
+        program = False if owes else None
         if self.attempt():
             branch = follow_branch(job.cable, shapes[s], poses[s:], shapes[-1],
                                    job.target_threshold)
             tried.append(f"stable branch: {branch.message}")
             if branch.success:
-                new = with_path(job, doc, np.concatenate([shapes[:s + 1], branch.shapes]))
+                new = with_path(job, doc, np.concatenate([shapes[:s + 1], branch.shapes]),
+                                program=program)
                 events = self.snap_check(new, s)
                 if not events:
                     self.keep("snap", failures, f"shapes {s + 1}..{last} follow the stable "
                               f"branch from shape {s} (target within "
                               f"{1e3 * branch.end_error:.1f} mm)", "no snap-through from "
-                              f"shape {s} on", _State(job, new, self.state.move), since)
+                              f"shape {s} on", _State(job, new, self.state.move, owes), since)
                     return
                 tried[-1] += f"; then {events[0].message}"
         end_tolerance = job.target_threshold if s + 1 == last else math.inf
@@ -368,12 +387,12 @@ class _Session:
             if not route.success:
                 continue
             path = np.concatenate([shapes[:s + 1], route.shapes, shapes[s + 2:]])
-            new = with_path(job, doc, path)
+            new = with_path(job, doc, path, program=program)
             events = self.snap_check(new, s)
             if not events:
                 self.keep("snap", failures, f"segment {s} re-routed ({name}): "
                           f"{len(waypoints)} shape(s) inserted", "no snap-through from shape "
-                          f"{s} on", _State(job, new, self.state.move), since)
+                          f"{s} on", _State(job, new, self.state.move, owes), since)
                 return
             tried[-1] += f"; then {events[0].message}"
         if self.attempt():
@@ -394,6 +413,7 @@ class _Session:
 
     # -- twist -----------------------------------------------------------------------------
     def fix_twist(self, failures) -> None:
+        self.program_made()
         job, doc = self.state.job, self.state.doc
         since = time.perf_counter()
         tried = []
@@ -467,6 +487,7 @@ class _Session:
 
     # -- replay ----------------------------------------------------------------------------
     def fix_replay(self, failures) -> None:
+        self.program_made()
         doc = self.state.doc
         since = time.perf_counter()
         speed = self.state.job.motion.tcp_speed
@@ -498,26 +519,28 @@ class _Session:
         turned = _Made(self.turned_frames(job, doc, pivot, tried))
         seen = set()
         for searches in (HERE, SEARCHES):  # first every turn as it is, then shifted too
-            for turn, other, new in turned:
+            for candidate in turned:
                 if self.spent():
                     raise Refused("repair budget spent placing the job; tried: "
                                   + attempts(tried))
-                if searches is SEARCHES and other.grippers.method != job.grippers.method:
+                if searches is SEARCHES and candidate.job.grippers.method != \
+                        job.grippers.method:
                     continue  # the searches shift the plan's own frames (rolled or not) only
-                for found in placements(new.grippers, yaws=(0.0,), cell=other.robot,
+                for found in placements(candidate.frames, yaws=(0.0,), cell=candidate.job.robot,
                                         searches=searches):
-                    key = (id(new), *np.round(found.move.offset, 6))
-                    if not found.success or key in seen or (new is doc and
+                    key = (id(candidate), *np.round(found.move.offset, 6))
+                    if not found.success or key in seen or (candidate.plan and
                                                             found.move.is_identity):
                         if not found.success:
-                            tried.append(f"{_frames_name(new)}: {found.message}")
+                            tried.append(f"{_frames_name(candidate.frames)}: {found.message}")
                         continue  # (the plan as it is failed already)
                     seen.add(key)
                     if not self.attempt():
                         raise Refused("repair budget spent placing the job; tried: "
                                       + attempts(tried))
-                    move = turn.then(found.move)
-                    placed_job = moved_job(other, found.move)
+                    move = candidate.place.turn.then(found.move)
+                    new = candidate.document  # made now: most frame sets are never placed
+                    placed_job = moved_job(candidate.job, found.move)
                     placed = moved_document(placed_job, new, found.move, program=False)
                     collides = obstacle_collisions(placed)
                     if collides is None:
@@ -526,13 +549,13 @@ class _Session:
                         left = [f.message for f in diagnose(placed, rows) if f.kind == "reach"]
                     else:
                         left = [collides]
-                    tried.append(f"{_frames_name(new)}, job {move.describe()}: "
+                    tried.append(f"{_frames_name(candidate.frames)}, job {move.describe()}: "
                                  + (left[0] if left else "passes"))
                     if left:
                         self.progress(f"placement rejected: {tried[-1]}")
                         continue
                     change = f"job {move.describe()}" + (
-                        "" if new is doc else f", gripper frames: {new.grippers.message}")
+                        "" if candidate.plan else f", gripper frames: {new.grippers.message}")
                     self.keep_placed(failures, change, placed.program.message,
                                      _State(placed_job, placed, self.state.move.then(move)),
                                      move, since)
@@ -569,16 +592,18 @@ class _Session:
                          _State(placed_job, placed, self.state.move.then(move)), move, since)
 
     def turned_frames(self, job, doc, pivot, tried):
-        """(turn, job, document) for every turn of :data:`YAWS` about the vertical through
-        ``pivot`` and every set of gripper frames, made on demand: the plan's, its grasps rolled
-        for the turned place (:func:`~.frames.grasp_rolled`), then the other
-        gripper methods' (and theirs rolled) -- those that do not twist the cable and differ
-        from the earlier ones.
+        """A :class:`~.candidates.FrameSet` for every turn of :data:`YAWS` about the vertical
+        through ``pivot`` and every set of gripper frames, made on demand: the plan's, its grasps
+        rolled for the turned place (:func:`~.frames.grasp_rolled`), then the other gripper
+        methods' (and theirs rolled) -- those that do not twist the cable and differ from the
+        earlier ones.
 
         What a frame set costs is paid only for those tried: a rolled set is compared with the
-        earlier ones before its document is made, the rolled sets of one place share their
-        clip wrenches (the same shapes), and the torsion model's solve of a set rolled by the
-        same rolls is shared by every turn (:class:`~.frames.RolledTwists`)."""
+        earlier ones before its twist is solved, and its document (the trajectory timed again,
+        the clip wrenches) is made only when it is placed (:mod:`.candidates`); the rolled sets
+        of one place share their clip wrenches (the same shapes), and the torsion model's solve
+        of a set rolled by the same rolls is shared by every turn
+        (:class:`~.frames.RolledTwists`)."""
         untwisted = [(j, d) for j, d in self.untwisted if np.array_equal(d.shapes, doc.shapes)]
         if untwisted:  # the twist repair's other frame sets (the other methods twist)
             bases = _Made([(job, doc), *untwisted])
@@ -590,26 +615,18 @@ class _Session:
             turn = TableMove(yaw=yaw, pivot=pivot)
             kept = []
             for base, (other, new) in enumerate(bases):
-                if yaw:
-                    other = moved_job(other, turn)
-                    new = moved_document(other, new, turn, program=False)
-                wrenches = None  # the rolled frames hold the same shapes: one set of wrenches
-                for frames, rolls in _grasps(new.grippers, other.robot):
+                place = Place(turn, other, new)
+                for frames, rolls in _grasps(place.grippers, place.job.robot):
                     if any(_same_frames(frames, made) for made in kept):
                         continue  # e.g. rigid = minimal rotation for a planar bend
                     kept.append(frames)
-                    candidate = new
-                    if rolls is not None:
-                        if wrenches is None:
-                            wrenches = stabilized_wrenches(other.cable, new.stabilized)
-                        candidate = with_grippers(other, new, frames, program=False,
-                                                  twist=twists(base, rolls, new.shapes, frames),
-                                                  wrenches=wrenches)
-                    left = twist_failures(candidate)
-                    if left and candidate is not doc:
-                        tried.append(f"{candidate.grippers.message}: {summary(left)}")
+                    candidate = FrameSet(place, frames, rolls, base, twists,
+                                         plan=new is doc and not yaw and rolls is None)
+                    left = candidate.twist_failures()
+                    if left and not candidate.plan:
+                        tried.append(f"{frames.message}: {summary(left)}")
                     else:
-                        yield turn, other, candidate
+                        yield candidate
 
     @staticmethod
     def method_frames(job, doc, methods, tried):
@@ -623,10 +640,10 @@ class _Session:
                 tried.append(f"{method}: {exc}")
 
 
-def _frames_name(doc) -> str:
+def _frames_name(grippers) -> str:
     """"<method> frames", "rolled" when their grasps were rolled."""
-    rolled = ", grasps rolled" if "grasps rolled" in doc.grippers.message else ""
-    return f"{doc.grippers.method} frames{rolled}"
+    rolled = ", grasps rolled" if "grasps rolled" in grippers.message else ""
+    return f"{grippers.method} frames{rolled}"
 
 
 def _grasps(grippers, cell):
@@ -718,6 +735,7 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
             unknown = [f for f in failures if f.kind not in FIXES]
             if unknown:
                 raise Refused(f"no repair for: {unknown[0].message}")
+            session.kinds = {kind for kind in KINDS if _own(failures, kind)}
             for kind in KINDS:
                 mine = _own(failures, kind)
                 if mine:
@@ -725,6 +743,7 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
         except Refused as exc:
             refusal = str(exc)
             break
+        session.program_made()  # (a placement only proposed leaves the snap repair's plan)
         state = session.state
         changed = state.doc is not verified[1]  # not changed: a placement only proposed
         if changed and repaired is not None:

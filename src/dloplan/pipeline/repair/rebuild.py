@@ -139,9 +139,10 @@ def stabilized_wrenches(cable, stabilized: np.ndarray) -> np.ndarray:
     return np.stack([clip_wrenches(cable, s) for s in stabilized])
 
 
-def with_path(job, doc, shapes: np.ndarray, progress=quiet):
+def with_path(job, doc, shapes: np.ndarray, progress=quiet, program=None):
     """``doc`` whose shapes are ``shapes`` (S' + 2, n + 1, 3) [m], each a stabilized
-    equilibrium (planned = stabilized), with motion and twist made again."""
-    return with_motion(job, doc, shapes, shapes, progress)
+    equilibrium (planned = stabilized), with motion and twist made again (its robot program
+    too when ``program``; default: when ``doc`` had one)."""
+    return with_motion(job, doc, shapes, shapes, progress, program)
 
 
