@@ -426,3 +426,25 @@ def test_the_command_runs_openblas_on_one_thread_unless_told(given):
     done = subprocess.run([sys.executable, "-c", code],
                           capture_output=True, text=True, env=env, check=True)
     assert done.stdout.split()[-2:] == [given or "1", "False"]  # set before numpy loaded
+
+
+def test_the_console_script_runs_the_command_with_its_gc_thresholds(monkeypatch):
+    """``dloplan`` (console.run) sets the collector's thresholds before the command's imports
+    and hands over to cli.run; the signal handlers it installs are put back after."""
+    import gc
+    import signal
+
+    import dloplan.cli
+    from dloplan import console
+
+    seen = []
+    monkeypatch.setattr(dloplan.cli, "run", lambda: seen.append(gc.get_threshold()))
+    thresholds = gc.get_threshold()
+    handlers = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    try:
+        console.run()
+    finally:
+        gc.set_threshold(*thresholds)
+        for signum, handler in handlers.items():
+            signal.signal(signum, handler)
+    assert seen == [console.GC_THRESHOLDS]
