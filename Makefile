@@ -10,7 +10,7 @@ UV     := $(BIN)/uv
 
 .PHONY: demo test bench lint browser clean
 
-# uv installs dloplan and its extras into the venv (pip installs uv, a 20 MB wheel): it fetches
+# uv installs dloplan and its extras into the venv (pip installs uv, an 18 MB wheel): it fetches
 # the wheels in parallel and keeps them in its cache, where pip fetched them one at a time and,
 # on this project's machines, cached none (50-210 s against 16-28 s; docs/performance.md).
 # Like `pip install --no-compile`, uv does not byte-compile the 11 000 modules it installs (40 s
