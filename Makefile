@@ -6,16 +6,20 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
+UV     := $(BIN)/uv
 
 .PHONY: demo test bench lint browser clean
 
-# --no-compile: pip does not byte-compile the 11 000 modules it installs (40 s of CPU); the
-# warm-up writes the bytecode of the modules a run imports (also under PYTHONDONTWRITEBYTECODE,
-# where Python would otherwise compile them from source in every process)
+# uv installs dloplan and its extras into the venv (pip installs uv, an 18 MB wheel): it fetches
+# the wheels in parallel and keeps them in its cache, where pip fetched them one at a time and,
+# on this project's machines, cached none (50-210 s against 16-28 s; docs/performance.md).
+# Like `pip install --no-compile`, uv does not byte-compile the 11 000 modules it installs (40 s
+# of CPU); the warm-up writes the bytecode of the modules a run imports (also under
+# PYTHONDONTWRITEBYTECODE, where Python would otherwise compile them from source in every process)
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --no-compile --upgrade pip
-	$(BIN)/python -m pip install --quiet --no-compile -e '.[dev,vision,robot,study,plants]'
+	$(BIN)/python -m pip install --quiet --no-compile 'uv>=0.5'
+	$(UV) pip install --quiet --python $(BIN)/python -e '.[dev,vision,robot,study,plants]'
 	$(BIN)/python -m dloplan.warmup || echo "warm-up incomplete: the rest compiles on first use"
 	touch $(STAMP)
 

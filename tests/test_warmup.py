@@ -64,8 +64,8 @@ def test_the_harness_exercise_is_a_harness_job_with_pegs_and_fixtures():
 
 def test_the_warm_up_writes_bytecode_even_when_told_not_to(monkeypatch):
     """The exercises' processes write the bytecode of what they import (``make`` installs
-    with ``pip install --no-compile``), also under PYTHONDONTWRITEBYTECODE (the pool inherits the
-    environment)."""
+    with ``uv pip install``, no byte-compiling), also under PYTHONDONTWRITEBYTECODE (the pool
+    inherits the environment)."""
     import os
     import sys
 

@@ -15,7 +15,8 @@ moment is compiled by both (numba has no lock between compilations); the saves a
 kernel was saved load it.
 
 The command also writes the bytecode of the modules the exercises import (:func:`write_bytecode`),
-which ``pip install --no-compile`` left out, even where ``PYTHONDONTWRITEBYTECODE`` is set.
+which ``make``'s install (``uv pip install``: no byte-compiling) left out, even where
+``PYTHONDONTWRITEBYTECODE`` is set.
 
 Run: ``python -m dloplan.warmup [--workers N]``; it prints each exercise's time and the kernels
 compiled, and exits 1 naming an exercise that failed (the kernels it compiled stay cached).
@@ -169,20 +170,23 @@ EXERCISES = {
     "plan path": plan_path,
     "robot program": robot_program,
     "twist": twist,
+    "harness": harness,
     "demo": demo,
     "simulate --torsion": dynamics_with_torsion,
-    "harness": harness,
     "study": study,
     "described cell": described_cell,
 }
 """The warm-up's jobs in the order they are started. The first three compile disjoint kernel
 sets (the static solver and planner, about 55 % of the demo's compilation; the IK, 30 %; the
 torsion solver, 20 %): on two processes the first takes one while the other two follow each
-other on the second, so that when the demo's ``plan --verify`` starts it finds them cached and
-compiles only the replay's (implicit) stepping and the snap check's continuation (and
-writes the demo's files); the last four add what the
-demo does not use (measured with numba's compile events:
-docs/performance.md), the harness's contact kernels among them."""
+other on the second. The harness job comes next, on the first process when the planner is
+done: it is the one exercise that needs none of the torsion solver's kernels, which the second
+process is still compiling then. Started before them, the demo compiled 8 of them a second time
+(125 compilations for 116 kernels; 117 in this order, the one left the frames' quaternions the
+planner and the IK both start with); so the demo's ``plan --verify`` finds them cached and
+compiles only the replay's (implicit) stepping and the snap check's continuation (and writes
+the demo's files); the last three add what the demo does not use (measured with numba's compile
+events: docs/performance.md)."""
 
 
 def kernel_files(root: Path | None = None) -> int:
@@ -230,14 +234,15 @@ def write_bytecode() -> None:
     """Let this process, and the processes it starts afterwards, write the bytecode of the modules
     they import (``__pycache__/*.pyc``), even where ``PYTHONDONTWRITEBYTECODE`` is set.
 
-    ``make`` installs with ``pip install --no-compile``: pip does not byte-compile the 11 000
-    modules it installs (about 40 s of CPU), so a module's bytecode is written on its first
-    import. Where ``PYTHONDONTWRITEBYTECODE`` is set (container images often set it) nothing
-    ever is, and every process compiled every module it imports from source: 1.2 s of CPU more
-    for each ``dloplan`` command's start (numpy, scipy, numba, dloplan: 2.0 s instead of 0.8 s),
-    in each test worker, each subprocess the tests start and each figure workers' server
-    (docs/performance.md). The warm-up's exercises import what a run imports, so with this they
-    write its bytecode once, as pip would have (pip's byte-compiling ignores the variable too).
+    ``make`` installs with ``uv pip install``, which (like ``pip install --no-compile``) does
+    not byte-compile the 11 000 modules it installs (about 40 s of CPU), so a module's bytecode
+    is written on its first import. Where ``PYTHONDONTWRITEBYTECODE`` is set (container images
+    often set it) nothing ever is, and every process compiled every module it imports from
+    source: 1.2 s of CPU more for each ``dloplan`` command's start (numpy, scipy, numba,
+    dloplan: 2.0 s instead of 0.8 s), in each test worker, each subprocess the tests start and
+    each figure workers' server (docs/performance.md). The warm-up's exercises import what a
+    run imports, so with this they write its bytecode once, as pip would have (pip's
+    byte-compiling ignores the variable too).
     Called by :func:`main` and in each of the pool's processes (their initializer):
     multiprocessing starts its interpreters with the parent's flags, ``-B`` where the variable was
     set when the parent started.
