@@ -7,6 +7,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 UV     := $(BIN)/uv
+EXTRAS := .[dev,vision,robot,study,plants]
 
 .PHONY: demo test bench lint browser clean
 
@@ -15,11 +16,14 @@ UV     := $(BIN)/uv
 # on this project's machines, cached none (50-210 s against 16-28 s; docs/performance.md).
 # Like `pip install --no-compile`, uv does not byte-compile the 11 000 modules it installs (40 s
 # of CPU); the warm-up writes the bytecode of the modules a run imports (also under
-# PYTHONDONTWRITEBYTECODE, where Python would otherwise compile them from source in every process)
+# PYTHONDONTWRITEBYTECODE, where Python would otherwise compile them from source in every process).
+# uv reads no pip configuration (index, certificates): where it cannot install, pip does.
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --no-compile 'uv>=0.5'
-	$(UV) pip install --quiet --python $(BIN)/python -e '.[dev,vision,robot,study,plants]'
+	{ $(BIN)/python -m pip install --quiet --no-compile 'uv>=0.5' \
+	  && $(UV) pip install --quiet --python $(BIN)/python -e '$(EXTRAS)'; } \
+	|| { echo "uv could not install: pip installs instead"; \
+	     $(BIN)/python -m pip install --quiet --no-compile -e '$(EXTRAS)'; }
 	$(BIN)/python -m dloplan.warmup || echo "warm-up incomplete: the rest compiles on first use"
 	touch $(STAMP)
 
