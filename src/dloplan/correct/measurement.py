@@ -64,6 +64,10 @@ MIN_POINTS = 5
 UNIT_FACTOR = 1000.0
 """A measured polyline about this many times longer than the cable is in millimetres."""
 
+UNIT_BAND = (0.5, 3.0)
+"""A measured polyline between these multiples of :data:`UNIT_FACTOR` (or of its inverse) times
+the cable's length is read as millimetres (kilometres) written as metres."""
+
 
 class CorrectionRefused(ValueError):
     """A measurement or a correction outside the documented limits; the message says why."""
@@ -145,8 +149,9 @@ def check_scale(points: np.ndarray, cable_length: float) -> None:
             "too few to tell its shape between the clips (a camera centreline gives hundreds)")
     raw = float(np.sum(np.linalg.norm(np.diff(points, axis=0), axis=1)))
     ratio = raw / cable_length
+    low, high = UNIT_BAND
     for factor, unit in ((UNIT_FACTOR, "millimetres"), (1.0 / UNIT_FACTOR, "kilometres")):
-        if 0.5 * factor <= ratio <= 3.0 * factor:
+        if low * factor <= ratio <= high * factor:
             raise CorrectionRefused(
                 f"measured: the points span {raw:.4g} m along the cable, {ratio:.3g} times its "
                 f"{cable_length:.4g} m: the coordinates look like {unit} written as metres "

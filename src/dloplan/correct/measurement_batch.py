@@ -29,6 +29,7 @@ from .measurement import (
     MIN_ORDER,
     MIN_POINTS,
     POINTS_PER_SPAN,
+    UNIT_BAND,
     UNIT_FACTOR,
     nearest_points,
 )
@@ -90,8 +91,9 @@ def resample_measured_batch(points: np.ndarray, predicted: np.ndarray, cable_len
     ratio = steps.sum(axis=1) / cable_length
     done = np.all(steps > 0.0, axis=1) & np.all(np.isfinite(points), axis=(1, 2))
     done &= (k >= MIN_POINTS) & (k // POINTS_PER_SPAN >= 1) & (k >= 4)
+    low, high = UNIT_BAND  # check_scale's
     for factor in (UNIT_FACTOR, 1.0 / UNIT_FACTOR):
-        done &= ~((0.5 * factor <= ratio) & (ratio <= 3.0 * factor))
+        done &= ~((low * factor <= ratio) & (ratio <= high * factor))
     done &= np.linalg.norm(np.ptp(points, axis=1), axis=-1) <= MAX_EXTENT * cable_length
     along = nearest_points(points, predicted)[0]  # (B, k)
     if k >= 3:

@@ -309,8 +309,10 @@ def reachable_error(plant: Plant, clips: ClipPoses, reference: np.ndarray, guess
     box = _ClipBox.of(plant.cable.length, limits)
     h = DIFFERENCE_STEPS * plant.resolution
 
+    wanted = resample_by_arc_length(reference, len(reference))
+
     def residual(z):
-        return box.residual(plant, clips, reference, guess, z, gravity).ravel()
+        return box.residual(plant, clips, wanted, guess, z, gravity).ravel()
 
     def jacobian(z):
         f0 = residual(z)
@@ -344,13 +346,12 @@ class _ClipBox:
                               np.full(3, limits.max_rotation)], 2) * scale / np.sqrt(3.0)
         return cls(scale, bound)
 
-    def residual(self, plant: Plant, clips: ClipPoses, reference: np.ndarray,
+    def residual(self, plant: Plant, clips: ClipPoses, wanted: np.ndarray,
                  guess: np.ndarray, z: np.ndarray, gravity) -> np.ndarray:
-        """(m, 3) the plant's shape at ``clips`` corrected by z, resampled onto the m points of
-        ``reference`` at equal arc length, minus ``reference`` [m]."""
+        """(m, 3) the plant's shape at ``clips`` corrected by z, resampled at equal arc length
+        onto m points, minus ``wanted`` (the shape wanted, resampled so once by the caller) [m]."""
         x, _, _ = plant.hold(guess, perturbed_clips(clips, z / self.scale), gravity)
-        return resample_by_arc_length(x, len(reference)) - resample_by_arc_length(
-            reference, len(reference))
+        return resample_by_arc_length(x, len(wanted)) - wanted
 
 
 def shared_floor(plants, clips: ClipPoses, reference: np.ndarray, guesses, floors, *,
@@ -417,10 +418,11 @@ def shared_floor(plants, clips: ClipPoses, reference: np.ndarray, guesses, floor
     w = w / w.sum()
     box = _ClipBox.of(plants[0].cable.length, limits)
     h = DIFFERENCE_STEPS * max(plant.resolution for plant in plants) / box.bound  # v = z / bound
+    wanted = resample_by_arc_length(reference, len(reference))
 
     def ratios(v):
         return np.array([float(np.mean(np.linalg.norm(
-            box.residual(plant, clips, reference, guess, v * box.bound, gravity), axis=1))) / f
+            box.residual(plant, clips, wanted, guess, v * box.bound, gravity), axis=1))) / f
             for plant, guess, f in zip(plants, guesses, floors, strict=True)])
 
     def gradient(v):
