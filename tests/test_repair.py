@@ -600,3 +600,22 @@ def test_a_placement_without_consent_is_proposed_not_made(ur_placed, tmp_path, c
         scripts = sorted((folder / "urscript").glob("*.script"))
         assert scripts and all("Place the cable where dloplan moved the job" in f.read_text()
                                and made.message in f.read_text() for f in scripts)
+
+
+def test_frames_of_another_method_name_the_method_the_job_asked_for():
+    """M2(PA12) asked for the auxiliary-vector frames: the YuMi reaches none of them, and the
+    reach repair takes the rigid rotation's. Before, the repaired plan's frames said
+    "method 'rigid' as asked" (the unseen-case sweep, docs/verification.md): the message of a
+    method the repair chose names the one the job file asked for."""
+    spec = yaml.safe_load((EXAMPLES / "m2_uniform_curvature_pa12.yaml").read_text())
+    spec["grippers"] = {"method": "auxiliary"}
+    job = resolve_mapping(spec, "m2 pa12, auxiliary")
+    doc = run_job(job)
+    result = repair_plan(job, doc, verify_plan(doc, snap=False, replay=False))
+    assert result.ok and [r.kind for r in result.repairs] == ["reach"], result.refusal
+    grippers = result.document.grippers
+    assert grippers.method != "auxiliary"
+    assert "as asked" not in grippers.message
+    assert "as asked" not in result.repairs[0].change
+    assert f"method {grippers.method!r} chosen by the repair (the job asked for 'auxiliary')" \
+        in grippers.message

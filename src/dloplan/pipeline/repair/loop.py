@@ -298,6 +298,7 @@ class _Session:
 
     def __init__(self, job, doc, checks: Checks, budget: Budget, progress):
         self.state = _State(job, doc)
+        self.asked = job.grippers.method  # the job file's gripper method (by_method)
         self.checks, self.budget, self.progress = checks, budget, progress
         self.start = time.perf_counter()
         self.attempts = 0
@@ -421,9 +422,8 @@ class _Session:
         for method in GRIPPER_METHODS:
             if method == doc.grippers.method or not self.attempt():
                 continue
-            other = replace(job, grippers=replace(job.grippers, method=method))
             try:
-                new = with_motion(other, doc, program=False)
+                other, new = by_method(job, doc, method, self.asked)
             except ValueError as exc:  # e.g. the auxiliary vector along a u-axis
                 tried.append(f"{method}: {exc}")
                 continue
@@ -433,8 +433,8 @@ class _Session:
                 passing.append((other, new, f"gripper frames by the {method} method "
                                 f"(was {doc.grippers.method})"))
         for method in dict.fromkeys((doc.grippers.method, "rigid")):
-            other = replace(job, grippers=replace(job.grippers, method=method))
-            base = with_motion(other, doc, program=False).grippers
+            other, base = by_method(job, doc, method, self.asked)
+            base = base.grippers
             for share in SHARES:
                 if not self.attempt():
                     break
@@ -609,7 +609,7 @@ class _Session:
             bases = _Made([(job, doc), *untwisted])
         else:
             others = [m for m in GRIPPER_METHODS if m != doc.grippers.method]
-            bases = _Made(self.method_frames(job, doc, others, tried))
+            bases = _Made(self.method_frames(job, doc, others, tried, self.asked))
         twists = RolledTwists(job.cable)  # the same at every turn
         for yaw in YAWS:
             turn = TableMove(yaw=yaw, pivot=pivot)
@@ -629,15 +629,37 @@ class _Session:
                         yield candidate
 
     @staticmethod
-    def method_frames(job, doc, methods, tried):
-        """The plan, then the plan with the frames of each of ``methods`` (no program)."""
+    def method_frames(job, doc, methods, tried, asked):
+        """The plan, then the plan with the frames of each of ``methods`` (no program; ``asked``
+        the job file's method, :func:`by_method`)."""
         yield job, doc
         for method in methods:
-            other = replace(job, grippers=replace(job.grippers, method=method))
             try:
-                yield other, with_motion(other, doc, program=False)
+                yield by_method(job, doc, method, asked)
             except ValueError as exc:  # e.g. the auxiliary vector along a u-axis
                 tried.append(f"{method}: {exc}")
+
+
+def by_method(job, doc, method: str, asked: str):
+    """``job`` with the gripper ``method`` and ``doc`` with its frames (no program).
+
+    ``asked`` is the method of the job file (``"auto"`` included): when the repair takes
+    another, the frames' message says so instead of calling ``method`` the one asked for.
+
+    Raises
+    ------
+    ValueError
+        The method cannot make the frames (e.g. the auxiliary vector along a u-axis).
+    """
+    other = replace(job, grippers=replace(job.grippers, method=method))
+    new = with_motion(other, doc, program=False)
+    if method != asked:
+        grippers = new.grippers
+        message = grippers.message.replace(
+            f"method {method!r} as asked",
+            f"method {method!r} chosen by the repair (the job asked for {asked!r})", 1)
+        new = replace(new, grippers=replace(grippers, message=message))
+    return other, new
 
 
 def _frames_name(grippers) -> str:

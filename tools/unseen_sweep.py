@@ -1,0 +1,801 @@
+"""Unseen-case sweep: the CLI on variants of the shipped examples nobody designed.
+
+Run (from the repository root, with the project's venv)::
+
+    .venv/bin/python tools/unseen_sweep.py --quick            # ~40 runs, a few minutes
+    .venv/bin/python tools/unseen_sweep.py                    # every variant of every example
+    .venv/bin/python tools/unseen_sweep.py --only mirror      # the cases whose name has "mirror"
+
+Each example job is varied -- mirrored (y -> -y: the arms swap sides), written in millimetres,
+given every catalogue cable, n coarsened and refined, another grip method, moved rigidly
+(turned about the vertical through the job and shifted on the table), run on the other robot
+cells -- and run through ``plan`` (and ``plan --verify``), ``verify``, ``export`` in every
+format, ``identify`` (other noise, fewer markers, metres), ``correct`` (measured shapes in
+millimetres, in another frame, from another plan), ``compare`` and ``study`` (a few samples).
+Every run has a timeout (``--timeout``, 60 s by default: a longer run is a hang).
+
+For each run the table records the exit code, the one-line verdict, the wall time and the flags:
+
+``traceback``   a Python traceback on stdout or stderr
+``exit``        an exit code that contradicts the printed verdict (``--json``'s ``ok`` and
+                ``warnings``: 0 needs ok and no warning, 1 ok with warnings, 3 not ok)
+``warning``     a run reported as a success whose warnings say that a check failed
+``half``        files left behind by a refusal (exit 2: nothing; exit 3: no robot program)
+``nan``         NaN or inf in a written plan, trajectory or program
+``invariance``  a result that physics says must not change did: the mirrored job's shapes and
+                forces against the mirrored original, the rigidly moved job's internal forces,
+                the job in mm against the job in m (``--tolerance``, metres and relative)
+``message``     an error (exit 2) whose line does not name the field or value and what was
+                expected (a heuristic: read the line)
+``hang``        the run hit the timeout
+
+The table is printed and written as ``OUT/sweep.md`` and ``OUT/sweep.json`` (default
+``/tmp/unseen_sweep``). Exit status 0 when no run was flagged, 1 otherwise.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import csv
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+from scipy.spatial.transform import Rotation
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+CABLES = ("usb", "ethernet", "pu", "pa12")
+LENGTH_KEYS = {"length", "diameter", "position", "center", "size", "min", "max", "base",
+               "radius", "height", "amplitude", "tcp_speed", "threshold", "z_safety",
+               "slot_width", "depth", "plate_height", "plate_size", "approach_height",
+               "clearance", "max_offset", "base_position", "tcp_offset", "tool_radius",
+               "separation", "points"}
+"""Keys whose values are lengths in the file's units (a harness fixture's ``position`` too)."""
+NOT_LENGTH_PARENTS = {"study", "identify", "weights", "initial_frames"}
+"""Sections whose like-named keys are not lengths in file units (the study's are in mm)."""
+PLAN_JOBS = ("m2_uniform_curvature_usb", "m2_uniform_curvature_pa12", "m1_sine_pu_hose",
+             "qualitative2_ethernet_3d", "qualitative1_curved_pa12", "fig4_8_straight_to_bent",
+             "harness_phase1_obstacle")
+QUICK_JOBS = ("m2_uniform_curvature_pa12", "qualitative2_ethernet_3d", "m1_sine_pu_hose")
+HARNESS_JOBS = ("harness_usb", "harness_ethernet", "harness_pu")
+FAILED_WORDS = re.compile(r"\b(fail(ed|s)?|unstable|not stable|unreachable|not reach|collid|"
+                          r"collision at|exceed|violat|refused)\b", re.I)
+HARMLESS_WARNINGS = re.compile(r"target is not stable under gravity|sags|E outside", re.I)
+"""Warnings a success may carry: a sagging target is a documented exit 1 (docs/scenario.md)."""
+
+
+@dataclass
+class Case:
+    """One CLI run of the sweep."""
+
+    name: str
+    argv: list[str]
+    output: Path | None = None
+    kind: str = "plan"                       # plan | verify | export | identify | correct | ...
+    compare_with: tuple[str, str] | None = None   # (base case, transform) for invariance
+    needs: str | None = None                 # a case whose plan.json this one reads
+    result: dict = field(default_factory=dict)
+
+
+# ---------------------------------------------------------------------------------------------
+# job transforms
+
+
+def _scale_lengths(node, factor, parent=""):
+    """``node`` with every length value multiplied by ``factor`` (recursively, by key)."""
+    if isinstance(node, dict):
+        out = {}
+        for key, value in node.items():
+            if parent in NOT_LENGTH_PARENTS:
+                out[key] = value
+            elif key in LENGTH_KEYS:
+                out[key] = _scale_numbers(value, factor)
+            else:
+                out[key] = _scale_lengths(value, factor, key)
+        return out
+    if isinstance(node, list):
+        return [_scale_lengths(v, factor, parent) for v in node]
+    return node
+
+
+def _scale_numbers(value, factor):
+    if isinstance(value, bool):
+        return value
+    if isinstance(value, int | float):
+        return value * factor
+    if isinstance(value, list):
+        return [_scale_numbers(v, factor) for v in value]
+    return value
+
+
+def to_millimetres(job: dict) -> dict:
+    """The job written in millimetres (``units: mm``), every length times 1000."""
+    if job.get("units", "m") != "m":
+        raise ValueError("already in mm")
+    out = _scale_lengths(copy.deepcopy(job), 1000.0)
+    out["units"] = "mm"
+    # the mass, E and angles are no lengths; a cable's "length" in the catalogue stays implied
+    return out
+
+
+def _rotation(spec: dict | None) -> Rotation:
+    if not spec:
+        return Rotation.identity()
+    if "quaternion" in spec:
+        return Rotation.from_quat(spec["quaternion"])
+    return Rotation.from_euler(spec.get("seq", "xyz"), spec["euler"],
+                               degrees=spec.get("degrees", True))
+
+
+def _rotation_spec(rot: Rotation) -> dict:
+    return {"quaternion": [float(v) for v in rot.as_quat()]}
+
+
+MIRROR = np.diag([1.0, -1.0, 1.0])
+
+
+def _mirror_point(p):
+    return [float(p[0]), -float(p[1]), *[float(v) for v in p[2:]]] if len(p) == 3 else list(p)
+
+
+def _mirror_shape(shape: dict) -> dict:
+    """A shape mirrored in the x-z plane: placement conjugated, local shape mirrored."""
+    out = copy.deepcopy(shape)
+    kind = out.get("kind")
+    if kind == "arc":
+        out["angle"] = -out["angle"]
+    elif kind == "sine":
+        out["amplitude"] = -out["amplitude"]
+    elif kind == "points":
+        out["points"] = [_mirror_point(p) for p in out["points"]]
+    if "placement" in out:
+        place = out["placement"]
+        if "position" in place:
+            place["position"] = _mirror_point(place["position"])
+        rot = _rotation(place.get("rotation"))
+        place["rotation"] = _rotation_spec(
+            Rotation.from_matrix(MIRROR @ rot.as_matrix() @ MIRROR))
+    return out
+
+
+def _mirror_obstacle(obs: dict) -> dict:
+    out = copy.deepcopy(obs)
+    for key in ("center", "base"):
+        if key in out:
+            out[key] = _mirror_point(out[key])
+    if "yaw" in out:
+        out["yaw"] = -out["yaw"]
+    if "min" in out and "max" in out:
+        lo, hi = out["min"], out["max"]
+        out["min"] = [lo[0], -hi[1], lo[2]]
+        out["max"] = [hi[0], -lo[1], hi[2]]
+    return out
+
+
+def mirror(job: dict) -> dict:
+    """The job mirrored in the robot's x-z plane (y -> -y): the arms swap sides."""
+    out = copy.deepcopy(job)
+    for key in ("start", "target"):
+        if key in out:
+            out[key] = _mirror_shape(out[key])
+    cable = out.get("cable", {})
+    if "rest_shape" in cable:
+        cable["rest_shape"] = _mirror_shape(cable["rest_shape"])
+    out["obstacles"] = [_mirror_obstacle(o) for o in out.get("obstacles", [])]
+    harness = out.get("harness")
+    if harness:
+        for fixture in harness.get("fixtures", []):
+            fixture["position"] = _mirror_point(fixture["position"])
+            fixture["axis"] = _mirror_point(fixture["axis"])
+        for peg in harness.get("pegs", []):
+            peg["base"] = _mirror_point(peg["base"])
+            if "side" in peg:
+                peg["side"] = _mirror_point(peg["side"])
+    return out
+
+
+def _job_centre(job: dict) -> np.ndarray:
+    points = [job[k]["placement"]["position"] for k in ("start", "target")
+              if k in job and "placement" in job[k] and "position" in job[k]["placement"]]
+    return np.mean(points, axis=0) if points else np.zeros(3)
+
+
+def rigid(job: dict, yaw_deg: float = 8.0, shift=(0.01, 0.02, 0.0)) -> dict:
+    """The job turned by ``yaw_deg`` about the vertical through its centre and shifted [m].
+
+    Gravity and the table stay: the internal forces must not change.
+    """
+    out = copy.deepcopy(job)
+    scale = 1000.0 if out.get("units") == "mm" else 1.0
+    centre = _job_centre(out)
+    turn = Rotation.from_euler("z", yaw_deg, degrees=True)
+    move = np.asarray(shift) * scale
+
+    def point(p):
+        return [float(v) for v in turn.apply(np.asarray(p, float) - centre) + centre + move]
+
+    for key in ("start", "target"):
+        shape = out.get(key)
+        if not shape:
+            continue
+        if shape.get("kind") == "points":
+            shape["points"] = [point(p) for p in shape["points"]]
+        place = shape.setdefault("placement", {})
+        if shape.get("kind") != "points":
+            place["position"] = point(place.get("position", [0, 0, 0]))
+            place["rotation"] = _rotation_spec(turn * _rotation(place.get("rotation")))
+    obstacles = []
+    for obs in out.get("obstacles", []):
+        obs = copy.deepcopy(obs)
+        if "min" in obs:
+            lo, hi = np.asarray(obs.pop("min"), float), np.asarray(obs.pop("max"), float)
+            obs["center"], obs["size"] = list((lo + hi) / 2), list(hi - lo)
+        for key in ("center", "base"):
+            if key in obs:
+                obs[key] = point(obs[key])
+        if obs.get("type") == "box":
+            obs["yaw"] = obs.get("yaw", 0.0) + yaw_deg
+        obstacles.append(obs)
+    out["obstacles"] = obstacles
+    return out
+
+
+def with_cable(job: dict, name: str) -> dict:
+    """The job with the catalogue cable ``name`` (its n and rest shape kept)."""
+    out = copy.deepcopy(job)
+    old = out.get("cable", {})
+    cable = {"name": name, "n_links": old.get("n_links", 10)}
+    if "rest_shape" in old:
+        cable["rest_shape"] = old["rest_shape"]
+    out["cable"] = cable
+    return out
+
+
+def with_links(job: dict, n: int) -> dict:
+    out = copy.deepcopy(job)
+    out.setdefault("cable", {})["n_links"] = n
+    return out
+
+
+def with_grip(job: dict, method: str) -> dict:
+    out = copy.deepcopy(job)
+    out["grippers"] = {**out.get("grippers", {}), "method": method}
+    return out
+
+
+def with_cell(job: dict, cell_file: Path) -> dict:
+    """The job run on the robot cell of ``cell_file`` (its relative URDF paths made absolute)."""
+    out = copy.deepcopy(job)
+    robot = copy.deepcopy(yaml.safe_load(cell_file.read_text())["robot"])
+    for arm in robot.get("cell", {}).get("arms", {}).values():
+        if "urdf" in arm:
+            arm["urdf"] = str((cell_file.parent / arm["urdf"]).resolve())
+    out["robot"] = robot
+    out["repair"] = {"placement": True}
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# checks of a run's outputs
+
+
+def _load_plan(folder: Path) -> dict | None:
+    path = folder / "plan.json"
+    if not path.is_file():
+        return None
+    return json.loads(path.read_text())
+
+
+def nan_files(folder: Path) -> list[str]:
+    """Written text files holding NaN or inf."""
+    bad = []
+    if not folder.exists():
+        return bad
+    paths = [folder] if folder.is_file() else [p for p in folder.rglob("*") if p.is_file()]
+    for path in paths:
+        if path.suffix not in {".json", ".csv", ".mod", ".script", ".yaml", ".py", ".txt"}:
+            continue
+        text = path.read_text(errors="replace")
+        if re.search(r"(?<![A-Za-z_])(nan|NaN|-?inf|-?Infinity)(?![A-Za-z_])", text):
+            bad.append(str(path.relative_to(folder.parent)))
+    return bad
+
+
+def _arr(doc: dict, *keys):
+    node = doc
+    for key in keys:
+        if node is None:
+            return None
+        node = node.get(key) if isinstance(node, dict) else None
+    return None if node is None else np.asarray(node, dtype=float)
+
+
+def _placed(doc: dict) -> bool:
+    return bool(doc.get("placement")) or any(
+        "placement" in json.dumps(r) for r in doc.get("repairs", []))
+
+
+def invariance(base: dict, variant: dict, transform: str, tol: float,
+               measured: dict | None = None) -> list[str]:
+    """Where ``variant``'s physics differs from ``base``'s under ``transform``.
+
+    mirror: shapes and stabilized shapes mirrored (y -> -y), axial and bending forces equal;
+    mm: everything equal (both documents are SI); rigid: axial and bending forces equal.
+    Returns the differences above ``tol`` (metres, and relative for forces); every difference
+    measured goes into ``measured`` (name -> value).
+    """
+    notes = []
+    measured = {} if measured is None else measured
+    if _placed(base) or _placed(variant):
+        return ["skipped: a placement moved one of the jobs"]
+    if [r.get("kind") for r in base.get("repairs", [])] != \
+            [r.get("kind") for r in variant.get("repairs", [])]:
+        notes.append("repairs differ: " + json.dumps([r.get("kind") for r in
+                                                      variant.get("repairs", [])])[:80])
+    if transform in {"mirror", "mm"}:
+        for key in ("shapes", "stabilized"):
+            a, b = _arr(base, key), _arr(variant, key)
+            if a is None or b is None or a.shape != b.shape:
+                notes.append(f"{key}: shapes differ in size")
+                continue
+            if transform == "mirror":
+                a = a * np.array([1.0, -1.0, 1.0])
+            err = float(np.max(np.abs(a - b)))
+            measured[key] = err
+            if not err <= tol:
+                notes.append(f"{key} differ by {err:.2e} m")
+    for key in ("axial_mean", "bending_mean"):
+        a, b = _arr(base, "forces", "physical", key), _arr(variant, "forces", "physical", key)
+        if a is None or b is None:
+            continue
+        scale = max(float(np.max(np.abs(a))), 1e-9)
+        err = float(np.max(np.abs(a - b))) / scale
+        measured[key] = err
+        if not err <= max(tol * 100, 1e-4):
+            notes.append(f"forces.{key} differ by {err:.1e} (relative)")
+    return notes
+
+
+def verdict_line(stdout: str, stderr: str, summary: dict | None) -> str:
+    """The run's one-line verdict: the JSON summary's message, else the last stderr line."""
+    if summary and "n_shapes" in summary and "ok" in summary:   # plan
+        warnings = summary.get("warnings") or []
+        return (("ok" if summary["ok"] else "FAILED") + f", {len(warnings)} warning(s)"
+                + (f": {warnings[-1]}" if warnings else ""))[:160]
+    if summary:
+        for key in ("message", "verdict", "result", "error"):
+            if isinstance(summary.get(key), str):
+                return summary[key].splitlines()[0][:160]
+    lines = [ln for ln in stderr.splitlines() if ln.strip()]
+    if lines:
+        return re.sub(r"^\[\s*[\d.]+ s\] ", "", lines[-1])[:160]
+    lines = [ln for ln in stdout.splitlines() if ln.strip()]
+    return lines[-1][:160] if lines else ""
+
+
+def parse_summary(stdout: str) -> dict | None:
+    try:
+        data = json.loads(stdout)
+    except ValueError:
+        start = stdout.find("{")
+        try:
+            data = json.loads(stdout[start:]) if start >= 0 else None
+        except ValueError:
+            return None
+    return data if isinstance(data, dict) else None
+
+
+def flags_of(case: Case, code: int | None, stdout: str, stderr: str,
+             summary: dict | None) -> list[str]:
+    flags = []
+    if code is None:
+        return ["hang"]
+    if "Traceback (most recent call last)" in stdout + stderr:
+        flags.append("traceback")
+    if summary is not None and "ok" in summary and code in (0, 1, 3):
+        ok = summary.get("ok")
+        warnings = summary.get("warnings") or []
+        if (code == 3) == bool(ok) or (code == 0 and warnings and case.kind == "plan"):
+            flags.append(f"exit: {code} with ok={ok}, {len(warnings)} warning(s)")
+        bad = [w for w in warnings if FAILED_WORDS.search(str(w))
+               and not HARMLESS_WARNINGS.search(str(w))]
+        if ok and bad:
+            flags.append("warning: ok but " + str(bad[0])[:100])
+    if code == 2:
+        line = verdict_line(stdout, stderr, None)
+        if case.output is not None and case.output.exists() and any(case.output.iterdir()
+                                                                     if case.output.is_dir()
+                                                                     else [1]):
+            flags.append("half: exit 2 left " + str(case.output))
+        if not re.search(r"expected|need|must|got|at least|at most|within|should|"
+                         r"transform it|reverse|look like|not where|only|no |cannot|outside|takes",
+                         line, re.I):
+            flags.append("message: " + line[:100])
+    if code == 3 and case.output is not None and case.output.is_dir():
+        programs = [p.name for p in case.output.iterdir()
+                    if p.name in {"rapid", "urscript", "ur_rtde", "ros_joints",
+                                  "trajectory.csv"}]
+        if programs:
+            flags.append("half: exit 3 wrote " + ", ".join(programs))
+    if case.output is not None and code in (0, 1, 3):
+        bad = nan_files(case.output)
+        if bad:
+            flags.append("nan: " + ", ".join(bad[:3]))
+    return flags
+
+
+# ---------------------------------------------------------------------------------------------
+# the cases
+
+
+def _write(path: Path, data: dict) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+def job_cases(out: Path, quick: bool) -> list[Case]:
+    """plan (and plan --verify) of every variant of the example jobs."""
+    cases = []
+    jobs = QUICK_JOBS if quick else PLAN_JOBS
+    cells = sorted((EXAMPLES / "cells").glob("*.yaml"))
+    for stem in jobs:
+        job = yaml.safe_load((EXAMPLES / f"{stem}.yaml").read_text())
+        variants = {"base": job, "mirror": mirror(job), "mm": to_millimetres(job),
+                    "rigid": rigid(job)}
+        links = (6, 30) if quick else (6, 8, 30, 40)
+        for n in links:
+            variants[f"n{n}"] = with_links(job, n)
+        cables = CABLES if not quick else [c for c in CABLES
+                                           if c != job.get("cable", {}).get("name")][:1]
+        for name in cables:
+            variants[f"cable_{name}"] = with_cable(job, name)
+        for method in (("rigid", "auxiliary") if quick else ("minimal", "rigid", "auxiliary")):
+            variants[f"grip_{method}"] = with_grip(job, method)
+        for cell in cells[:1] if quick else cells:
+            variants[f"cell_{cell.stem.split('_')[0]}"] = with_cell(job, cell)
+        if not quick:
+            variants["mirror_mm"] = to_millimetres(variants["mirror"])
+        for tag, data in variants.items():
+            name = f"{stem}/{tag}"
+            path = _write(out / "jobs" / stem / f"{tag}.yaml", data)
+            target = out / "runs" / stem / tag
+            compare = {"mirror": ("mirror", "base"), "mm": ("mm", "base"),
+                       "rigid": ("rigid", "base")}.get(tag)
+            cases.append(Case(name, ["plan", str(path), "-o", str(target)], target,
+                              compare_with=(f"{stem}/base", compare[0]) if compare else None))
+        # the verified plan of the mirrored job (the replay and snap checks on the other side)
+        vtarget = out / "runs" / stem / "mirror_verify"
+        cases.append(Case(f"{stem}/mirror --verify",
+                          ["plan", str(out / "jobs" / stem / "mirror.yaml"), "--verify", "-o",
+                           str(vtarget)], vtarget))
+    for cell in cells:
+        job = yaml.safe_load(cell.read_text())
+        for arm in job["robot"].get("cell", {}).get("arms", {}).values():
+            arm["urdf"] = str((cell.parent / arm["urdf"]).resolve())
+        variants = {"base": job, "mirror": mirror(job), "mm": to_millimetres(job)}
+        if quick:
+            variants.pop("mm")
+        for tag, data in variants.items():
+            path = _write(out / "jobs" / cell.stem / f"{tag}.yaml", data)
+            target = out / "runs" / cell.stem / tag
+            cases.append(Case(f"{cell.stem}/{tag}", ["plan", str(path), "--verify", "-o",
+                                                     str(target)], target))
+    if not quick:
+        for stem in HARNESS_JOBS:
+            job = yaml.safe_load((EXAMPLES / f"{stem}.yaml").read_text())
+            for tag, data in {"mirror": mirror(job), "mm": to_millimetres(job)}.items():
+                path = _write(out / "jobs" / stem / f"{tag}.yaml", data)
+                target = out / "runs" / stem / tag
+                cases.append(Case(f"{stem}/{tag}", ["plan", str(path), "-o", str(target)],
+                                  target))
+    return cases
+
+
+def document_cases(out: Path, quick: bool) -> list[Case]:
+    """verify and export of a planned YuMi job and a planned UR job."""
+    cases = []
+    docs = [("m2_uniform_curvature_pa12/mirror", "yumi"), ("ur5e_pair_usb/mirror", "ur")]
+    formats = ("json", "csv", "ros", "ros_joints", "urscript", "ur_rtde", "rapid", "report")
+    for plan_case, cell in docs:
+        plan = out / "runs" / plan_case / "plan.json"
+        tag = plan_case.replace("/", "_")
+        cases.append(Case(f"verify {plan_case}", ["verify", str(plan)], None, "verify",
+                          needs=plan_case))
+        for fmt in formats if not quick or cell == "yumi" else ("ur_rtde", "rapid"):
+            suffix = {"json": ".json", "csv": ".csv", "ros": ".yaml", "report": ".html"}
+            target = out / "exports" / tag / (fmt + suffix.get(fmt, ""))
+            cases.append(Case(f"export {fmt} {plan_case}",
+                              ["export", str(plan), "--format", fmt, "-o", str(target)],
+                              target, "export", needs=plan_case))
+        target = out / "exports" / tag / "slow.csv"
+        cases.append(Case(f"export csv --speed 0.02 --rate 20 {plan_case}",
+                          ["export", str(plan), "--format", "csv", "--speed", "0.02",
+                           "--rate", "20", "-o", str(target)], target, "export",
+                          needs=plan_case))
+    return cases
+
+
+def identify_cases(out: Path, quick: bool) -> list[Case]:
+    """identify on the example with more noise, fewer markers, and in metres."""
+    data = yaml.safe_load((EXAMPLES / "identify_ethernet.yaml").read_text())
+    rng = np.random.default_rng(7)
+    measured = np.asarray(data["identify"]["measured_shape"], float)
+    variants = {}
+    noisy = copy.deepcopy(data)
+    noisy["identify"]["measured_shape"] = (measured + rng.normal(0, 3.0, measured.shape)).tolist()
+    noisy["identify"]["measurement_noise"] = 3.0
+    variants["noise3mm"] = noisy
+    sparse = copy.deepcopy(data)
+    sparse["identify"]["measured_shape"] = measured[::6].tolist()
+    variants["markers9"] = sparse
+    few = copy.deepcopy(data)
+    few["identify"]["measured_shape"] = measured[::16].tolist()
+    variants["markers4"] = few
+    if not quick:
+        metres = copy.deepcopy(data)
+        metres["units"] = "m"
+        ident = metres["identify"]
+        ident["measured_shape"] = (measured / 1000).tolist()
+        ident["initial_shape"] = (np.asarray(ident["initial_shape"]) / 1000).tolist()
+        for step in ident["trajectory"]:
+            for end in step.values():
+                end["position"] = [v / 1000 for v in end["position"]]
+        ident["measurement_noise"] = ident["measurement_noise"]   # stays in mm (docs)
+        variants["metres"] = metres
+        variants["cable_pu"] = {**copy.deepcopy(data),
+                                "cable": {"name": "pu", "n_links": 16,
+                                          "youngs_modulus": "identify"}}
+    cases = []
+    for tag, job in variants.items():
+        path = _write(out / "jobs" / "identify" / f"{tag}.yaml", job)
+        target = out / "runs" / "identify" / tag
+        cases.append(Case(f"identify/{tag}", ["identify", str(path), "-o", str(target)],
+                          target, "identify"))
+    return cases
+
+
+def _write_shapes_csv(path: Path, shapes: list[np.ndarray], frame: str, scale=1.0) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["label", "frame_id", "x", "y", "z"])
+        for k, shape in enumerate(shapes):
+            for p in shape:
+                writer.writerow([f"xi_{k}", frame, *(f"{v * scale:.9f}" for v in p)])
+    return path
+
+
+class Deferred(Case):
+    """A case whose input files are made from another case's plan just before it runs."""
+
+    def __init__(self, name, make, kind, needs, output=None):
+        super().__init__(name, [], output, kind, needs=needs)
+        self.make = make
+
+
+def measurement_cases(out: Path, quick: bool) -> list[Case]:
+    """correct and compare with measured shapes made from the plans."""
+    cases = []
+    own, other = "qualitative2_ethernet_3d/base", "m2_uniform_curvature_pa12/base"
+    rng = np.random.default_rng(3)
+
+    def plan_of(case):
+        return out / "runs" / case / "plan.json"
+
+    def measured(case, at):
+        doc = json.loads(plan_of(case).read_text())
+        shape = np.asarray(doc["stabilized"][at], float)
+        dense = np.concatenate([np.linspace(a, b, 5, endpoint=False)
+                                for a, b in zip(shape[:-1], shape[1:], strict=True)]
+                               + [shape[-1:]])
+        return dense + rng.normal(0, 0.0005, dense.shape), doc.get("frame_id", "world")
+
+    def correct_case(tag, make_csv, extra=()):
+        folder = out / "measured"
+        target = out / "runs" / "correct" / tag
+
+        def make():
+            path = make_csv(folder / f"{tag}.csv")
+            return ["correct", str(plan_of(own)), "--at", "3", "--measured", str(path),
+                    "-o", str(target), *extra]
+        return Deferred(f"correct/{tag}", make, "correct", own, target)
+
+    def plain(path):
+        points, frame = measured(own, 3)
+        return _write_shapes_csv(path, [points], frame)
+
+    def robot_base(path):
+        points, _ = measured(own, 3)
+        return _write_shapes_csv(path, [points], "robot_base")
+
+    def camera(path):
+        points, _ = measured(own, 3)
+        return _write_shapes_csv(path, [points], "camera")
+
+    def in_mm(path):
+        points, frame = measured(own, 3)
+        return _write_shapes_csv(path, [points], frame, scale=1000.0)
+
+    def json_mm(path):
+        points, frame = measured(own, 3)
+        path = path.with_suffix(".json")
+        path.write_text(json.dumps({"format": "dloplan-shapes", "version": 1, "units": "mm",
+                                    "frame_id": frame,
+                                    "shapes": [{"label": "xi_3",
+                                                "points": (points * 1000).tolist()}]}))
+        return path
+
+    def from_other(path):
+        points, frame = measured(other, 3)
+        return _write_shapes_csv(path, [points], frame)
+
+    def reversed_(path):
+        points, frame = measured(own, 3)
+        return _write_shapes_csv(path, [points[::-1]], frame)
+
+    for tag, maker in [("own", plain), ("json_mm", json_mm), ("csv_in_mm", in_mm),
+                       ("frame_camera", camera), ("frame_robot_base", robot_base),
+                       ("other_plan", from_other), ("reversed", reversed_)]:
+        if quick and tag in {"reversed", "frame_robot_base"}:
+            continue
+        cases.append(correct_case(tag, maker, ("--no-verify",) if tag != "own" else ()))
+
+    def compare_case(tag, transform, needs=(own,)):
+        target = out / "runs" / "compare" / tag
+
+        def make():
+            doc = json.loads(plan_of(own).read_text())
+            shapes = [transform(np.asarray(s, float)) for s in doc["stabilized"]]
+            path = _write_shapes_csv(out / "measured" / f"compare_{tag}.csv", shapes,
+                                     doc.get("frame_id", "world"))
+            return ["compare", str(plan_of(own)), str(path), "--stabilized", "-o", str(target)]
+        return Deferred(f"compare/{tag}", make, "compare", own, target)
+
+    cases.append(compare_case("own", lambda s: s))
+    cases.append(compare_case("reversed", lambda s: s[::-1]))
+    cases.append(compare_case("mirrored", lambda s: s * np.array([1, -1, 1])))
+    return cases
+
+
+def study_cases(out: Path, quick: bool) -> list[Case]:
+    job = yaml.safe_load((EXAMPLES / "study_m2_ethernet.yaml").read_text())
+    variants = {"base": job, "mirror": mirror(job)}
+    if not quick:
+        variants["mm"] = to_millimetres(job)
+        variants["cable_pa12"] = with_cable(job, "pa12")
+    cases = []
+    for tag, data in variants.items():
+        path = _write(out / "jobs" / "study" / f"{tag}.yaml", data)
+        target = out / "runs" / "study" / tag
+        cases.append(Case(f"study/{tag}", ["study", str(path), "--samples", "3", "--workers",
+                                           "1", "--csv", "-o", str(target)], target, "study"))
+    return cases
+
+
+# ---------------------------------------------------------------------------------------------
+# running
+
+
+def run_case(case: Case, timeout: float, done: dict[str, Case]) -> None:
+    if case.needs and done.get(case.needs, Case("", [])).result.get("code") not in (0, 1, 3):
+        case.result = {"code": None, "seconds": 0.0, "verdict": f"skipped: {case.needs} failed",
+                       "flags": []}
+        return
+    if isinstance(case, Deferred):
+        try:
+            case.argv = case.make()
+        except Exception as exc:  # noqa: BLE001 - the sweep reports, never stops
+            case.result = {"code": None, "seconds": 0.0, "verdict": f"not made: {exc}",
+                           "flags": []}
+            return
+    if case.output is not None and case.output.exists():
+        shutil.rmtree(case.output) if case.output.is_dir() else case.output.unlink()
+    argv = [sys.executable, "-m", "dloplan", *case.argv, "--json"]
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    t0 = time.perf_counter()
+    try:
+        run = subprocess.run(argv, capture_output=True, text=True, timeout=timeout, env=env,
+                             cwd=ROOT)
+        code, stdout, stderr = run.returncode, run.stdout, run.stderr
+    except subprocess.TimeoutExpired as exc:
+        code = None
+        stdout = exc.stdout.decode() if isinstance(exc.stdout, bytes) else (exc.stdout or "")
+        stderr = exc.stderr.decode() if isinstance(exc.stderr, bytes) else (exc.stderr or "")
+    seconds = time.perf_counter() - t0
+    summary = parse_summary(stdout)
+    flags = flags_of(case, code, stdout, stderr, summary)
+    if case.compare_with and code in (0, 1, 3):
+        base = done.get(case.compare_with[0])
+        doc_a = _load_plan(base.output) if base and base.output else None
+        doc_b = _load_plan(case.output)
+        if doc_a is not None and doc_b is not None:
+            measured: dict = {}
+            notes = invariance(doc_a, doc_b, case.compare_with[1], TOLERANCE, measured)
+            flags += [f"invariance: {n}" for n in notes if not n.startswith("skipped")]
+            if any(n.startswith("skipped") for n in notes):
+                case.result["note"] = notes[0]
+            elif measured:
+                case.result["note"] = "vs base: " + ", ".join(
+                    f"{k} {v:.0e}" for k, v in measured.items())
+        if base and base.result.get("code") != code:
+            case.result["note"] = (case.result.get("note", "") +
+                                   f"; exit {code}, base exit {base.result.get('code')}")
+    verdict = verdict_line(stdout, stderr, summary)
+    if code == 2 or not verdict:
+        verdict = verdict_line("", stderr, None) or verdict
+    case.result.update({"code": code, "seconds": round(seconds, 1), "verdict": verdict,
+                        "flags": flags, "stderr_tail": stderr[-2000:]})
+
+
+TOLERANCE = 1e-6
+
+
+def table(cases: list[Case]) -> str:
+    rows = ["| case | exit | s | verdict | flags |", "|---|---|---|---|---|"]
+    for case in cases:
+        r = case.result
+        verdict = (r.get("verdict", "") + (f" ({r['note']})" if r.get("note") else ""))
+        rows.append(f"| {case.name} | {r.get('code')} | {r.get('seconds', 0):.0f} | "
+                    f"{verdict.replace('|', '/')[:140]} | "
+                    f"{'; '.join(r.get('flags', [])).replace('|', '/')} |")
+    return "\n".join(rows)
+
+
+def main(argv=None) -> int:
+    global TOLERANCE
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="a small subset (64 runs, ~10 min on a shared 2-core machine)")
+    parser.add_argument("--only", help="run only the cases whose name contains one of these "
+                        "(comma-separated)")
+    parser.add_argument("--out", type=Path, default=Path("/tmp/unseen_sweep"))
+    parser.add_argument("--timeout", type=float, default=60.0, help="seconds: a hang")
+    parser.add_argument("--tolerance", type=float, default=1e-6,
+                        help="invariance tolerance [m] (forces: x100, relative)")
+    parser.add_argument("--list", action="store_true", help="list the cases, run nothing")
+    args = parser.parse_args(argv)
+    TOLERANCE = args.tolerance
+    out = args.out.resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    cases = (job_cases(out, args.quick) + document_cases(out, args.quick)
+             + identify_cases(out, args.quick) + measurement_cases(out, args.quick)
+             + study_cases(out, args.quick))
+    if args.only:
+        patterns = args.only.split(",")
+        wanted = [c for c in cases if any(p in c.name for p in patterns)]
+        # the plans a wanted case reads, and the bases it is compared with, run first
+        needed = {c.needs for c in wanted} | {c.compare_with[0] for c in wanted
+                                               if c.compare_with}
+        cases = [c for c in cases if c in wanted or c.name in needed]
+    if args.list:
+        print("\n".join(" ".join(c.argv) if c.argv else c.name for c in cases))
+        return 0
+    done: dict[str, Case] = {}
+    for case in cases:
+        run_case(case, args.timeout, done)
+        done[case.name] = case
+        r = case.result
+        print(f"{case.name:55s} exit {r.get('code')!s:4s} {r.get('seconds', 0):5.1f} s  "
+              f"{r.get('verdict', '')[:70]}" + ("  FLAGS: " + "; ".join(r["flags"])
+                                                 if r.get("flags") else ""), flush=True)
+    text = table(cases)
+    (out / "sweep.md").write_text(text + "\n")
+    (out / "sweep.json").write_text(json.dumps(
+        [{"name": c.name, "argv": c.argv, **c.result} for c in cases], indent=1))
+    flagged = [c for c in cases if c.result.get("flags")]
+    print(f"\n{len(cases)} runs, {len(flagged)} flagged; table: {out / 'sweep.md'}")
+    return 1 if flagged else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
