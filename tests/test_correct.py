@@ -31,6 +31,7 @@ from dloplan.correct import (
     run_closed_loop,
     shared_floor,
 )
+from dloplan.correct import step as correct_step
 from dloplan.geometry import resample_by_arc_length, shape_length
 from dloplan.grippers import GripperPath
 from dloplan.sim import equilibrium
@@ -1290,3 +1291,18 @@ def test_warm_started_predictions_agree_with_cold_ones_to_the_solvers_tolerance(
     assert verdict is None  # passed on both
     # not by a gain the tolerance could take (each final error moves by at most the tolerance)
     assert result.open_loop_error[-1] - result.corrected_error[-1] > 2 * tolerance
+
+
+def test_a_gain_refusal_states_what_2_sd_is(monkeypatch):
+    """The gain check's refusal said "a gain of 2.35 mm is within 2 sd (1.73 mm; ...)": the
+    number was one sd, and the line read as a contradiction (the unseen-case sweep's
+    correction with a shape from another plan). It now names both."""
+    monkeypatch.setattr(correct_step, "_gain_sd", lambda *args: 1.73e-3)  # sd of the gain [m]
+    reference = np.zeros((5, 3))
+    open_loop = reference + [0.0, 0.0, 2.35e-3]   # final error 2.35 mm, corrected 0
+    with pytest.raises(CorrectionRefused) as refused:
+        correct_step.check_gain(open_loop, reference, reference, {}, None, 2.0)
+    message = str(refused.value)
+    assert "predicted gain, 2.35 mm" in message
+    assert "within 2 sd of zero (2 sd = 3.46 mm, sd 1.73 mm" in message
+    assert "the plan is kept" in message

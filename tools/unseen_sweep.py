@@ -755,7 +755,8 @@ def table(cases: list[Case]) -> str:
 def main(argv=None) -> int:
     global TOLERANCE
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="a small subset (64 runs, ~10 min on a shared 2-core machine)")
+    parser.add_argument("--quick", action="store_true",
+                        help="a small subset (64 runs, ~10 min on 2 shared cores)")
     parser.add_argument("--only", help="run only the cases whose name contains one of these "
                         "(comma-separated)")
     parser.add_argument("--out", type=Path, default=Path("/tmp/unseen_sweep"))

@@ -1238,8 +1238,9 @@ def check_gain(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarr
         raise CorrectionRefused(
             f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm (final "
             f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is within {significance:g} sd "
-            f"({1e3 * spread:.2f} mm; E, discretization bias, clamp length as estimated) "
-            "of zero: the plan is kept")
+            f"of zero ({significance:g} sd = {1e3 * significance * spread:.2f} mm, sd "
+            f"{1e3 * spread:.2f} mm from E, discretization bias, clamp length as estimated): "
+            "the plan is kept")
     worst, which = _gain_at_clamp_bounds(open_loop, corrected, reference, directions, update,
                                          significance)
     if worst <= 0.0:
