@@ -142,3 +142,25 @@ def test_the_pipeline_floor_knows_no_files_pydantic_or_application():
         text = source(module).read_text()
         assert "open(" not in text and "read_text(" not in text and "write_text(" not in text, \
             module
+
+
+def test_an_end_that_sags_into_the_table_is_refused_with_the_lift_that_clears_it():
+    """Qualitative test 1 with the softer PU hose (the unseen-case sweep's cable swap): held by
+    its clips 2 cm above the table, the start sags into it. The refusal said where and by how
+    much, not what was expected; it now names the lift that clears it, and that lift does."""
+    from dloplan.app.load import resolve_mapping
+    from dloplan.obstacles.collisions import check_shape
+    from dloplan.pipeline.stages import plan_path
+    from dloplan.sim.statics import stabilize
+
+    data = yaml.safe_load((EXAMPLES / "qualitative1_curved_pa12.yaml").read_text())
+    data["cable"] = {**data["cable"], "name": "pu"}
+    job = resolve_mapping(data, "qualitative 1, PU hose")
+    with pytest.raises(ValueError, match="start: the stabilized start collides") as refused:
+        plan_path(job)
+    message = str(refused.value)
+    assert "expected it clear of every obstacle" in message
+    lift = float(message.split("lift it by ")[1].split(" mm")[0]) * 1e-3
+    assert lift > 0
+    start = stabilize(job.start + [0.0, 0.0, lift + 1e-4], job.cable).shape
+    assert not check_shape(start, job.obstacles, job.cable.diameter / 2).colliding

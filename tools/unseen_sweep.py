@@ -27,7 +27,8 @@ For each run the table records the exit code, the one-line verdict, the wall tim
                 the job in mm against the job in m (``--tolerance``, metres and relative)
 ``message``     an error (exit 2) whose line does not name the field or value and what was
                 expected (a heuristic: read the line)
-``hang``        the run hit the timeout
+``hang``        the run hit the timeout (wall time: on a shared machine read it with the CPU
+                time of the runs that finished)
 
 The table is printed and written as ``OUT/sweep.md`` and ``OUT/sweep.json`` (default
 ``/tmp/unseen_sweep``). Exit status 0 when no run was flagged, 1 otherwise.
@@ -41,6 +42,7 @@ import csv
 import json
 import os
 import re
+import resource
 import shutil
 import subprocess
 import sys
@@ -687,6 +689,12 @@ def study_cases(out: Path, quick: bool) -> list[Case]:
 # running
 
 
+def _children_cpu() -> float:
+    """CPU seconds [s] of the finished child processes (a run's figure workers included)."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
 def run_case(case: Case, timeout: float, done: dict[str, Case]) -> None:
     if case.needs and done.get(case.needs, Case("", [])).result.get("code") not in (0, 1, 3):
         case.result = {"code": None, "seconds": 0.0, "verdict": f"skipped: {case.needs} failed",
@@ -704,6 +712,7 @@ def run_case(case: Case, timeout: float, done: dict[str, Case]) -> None:
     argv = [sys.executable, "-m", "dloplan", *case.argv, "--json"]
     env = {**os.environ, "PYTHONWARNINGS": "ignore"}
     t0 = time.perf_counter()
+    cpu0 = _children_cpu()
     try:
         run = subprocess.run(argv, capture_output=True, text=True, timeout=timeout, env=env,
                              cwd=ROOT)
@@ -713,6 +722,7 @@ def run_case(case: Case, timeout: float, done: dict[str, Case]) -> None:
         stdout = exc.stdout.decode() if isinstance(exc.stdout, bytes) else (exc.stdout or "")
         stderr = exc.stderr.decode() if isinstance(exc.stderr, bytes) else (exc.stderr or "")
     seconds = time.perf_counter() - t0
+    cpu = _children_cpu() - cpu0
     summary = parse_summary(stdout)
     flags = flags_of(case, code, stdout, stderr, summary)
     if case.compare_with and code in (0, 1, 3):
@@ -734,7 +744,8 @@ def run_case(case: Case, timeout: float, done: dict[str, Case]) -> None:
     verdict = verdict_line(stdout, stderr, summary)
     if code == 2 or not verdict:
         verdict = verdict_line("", stderr, None) or verdict
-    case.result.update({"code": code, "seconds": round(seconds, 1), "verdict": verdict,
+    case.result.update({"code": code, "seconds": round(seconds, 1), "cpu": round(cpu, 1),
+                        "verdict": verdict,
                         "flags": flags, "stderr_tail": stderr[-2000:]})
 
 
@@ -742,11 +753,12 @@ TOLERANCE = 1e-6
 
 
 def table(cases: list[Case]) -> str:
-    rows = ["| case | exit | s | verdict | flags |", "|---|---|---|---|---|"]
+    rows = ["| case | exit | wall s | CPU s | verdict | flags |", "|---|---|---|---|---|---|"]
     for case in cases:
         r = case.result
         verdict = (r.get("verdict", "") + (f" ({r['note']})" if r.get("note") else ""))
         rows.append(f"| {case.name} | {r.get('code')} | {r.get('seconds', 0):.0f} | "
+                    f"{r.get('cpu', 0):.0f} | "
                     f"{verdict.replace('|', '/')[:140]} | "
                     f"{'; '.join(r.get('flags', [])).replace('|', '/')} |")
     return "\n".join(rows)
@@ -786,7 +798,8 @@ def main(argv=None) -> int:
         run_case(case, args.timeout, done)
         done[case.name] = case
         r = case.result
-        print(f"{case.name:55s} exit {r.get('code')!s:4s} {r.get('seconds', 0):5.1f} s  "
+        print(f"{case.name:55s} exit {r.get('code')!s:4s} {r.get('seconds', 0):5.1f} s "
+              f"(CPU {r.get('cpu', 0):5.1f} s)  "
               f"{r.get('verdict', '')[:70]}" + ("  FLAGS: " + "; ".join(r["flags"])
                                                  if r.get("flags") else ""), flush=True)
     text = table(cases)

@@ -175,7 +175,10 @@ def plan_path(job: Job, progress=quiet) -> PathStage:
             collision = check_shape(shape, job.obstacles, cable.diameter / 2)
             if collision.colliding:
                 raise ValueError(f"{name}: the stabilized {name} collides: "
-                                 f"{collision.describe()}")
+                                 f"{collision.describe()}; expected it clear of every obstacle "
+                                 "(an end that collides cannot be planned around, thesis "
+                                 f"5.4.3): lift it by {1e3 * collision.z_depth:.1f} mm or more, "
+                                 "or move it")
     timings["target check"] = time.perf_counter() - t0
     progress(target_check.message)
 
