@@ -448,3 +448,27 @@ def test_the_console_script_runs_the_command_with_its_gc_thresholds(monkeypatch)
         for signum, handler in handlers.items():
             signal.signal(signum, handler)
     assert seen == [console.GC_THRESHOLDS]
+
+
+def test_json_is_json_for_study_cables_and_design(tmp_path, capsys):
+    """``--json`` promises a machine-readable summary on stdout for every command; ``study``,
+    ``cables`` and ``identify --design`` printed their text tables instead (the unseen-case
+    sweep parsed every command's stdout)."""
+    import json
+
+    example = Path(__file__).parents[1] / "examples" / "study_m2_ethernet.yaml"
+    out = tmp_path / "study"
+    assert main(["study", str(example), "--samples", "2", "--csv", "-o", str(out), "-q",
+                 "--json"]) == EXIT_OK
+    study = json.loads(capsys.readouterr().out)
+    assert study["plan_ok"] is True and study["summary"]["n_samples"] == 2
+    assert 0 <= study["summary"]["n_success"] <= 2 and Path(study["report"]).exists()
+    assert main(["cables", "--json"]) == EXIT_OK
+    cables = json.loads(capsys.readouterr().out)
+    assert set(cables["cables"]) == {"usb", "ethernet", "pu", "pa12"}
+    assert cables["cables"]["usb"]["d [m]"] == pytest.approx(0.003)
+    assert main(["identify", "--design", "--cable", "usb", "--modulus", "2.5e6", "-q",
+                 "--json"]) == EXIT_OK
+    design = json.loads(capsys.readouterr().out)
+    assert design["recommended"] == design["scores"][0]["design"]
+    assert all(s["usable"] == (s["informative"] and s["robust"]) for s in design["scores"])

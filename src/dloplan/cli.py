@@ -107,6 +107,13 @@ def _constants_table(n_links: int) -> str:
 
 
 def _cmd_cables(args: argparse.Namespace) -> int:
+    if args.json:
+        from .cable import CATALOGUE_NAMES, catalogue_cable
+
+        print(json.dumps({"n_links": args.links, "bending": "rod", "cables": {
+            name: catalogue_cable(name, n_links=args.links).constants()
+            for name in CATALOGUE_NAMES}}, indent=2))
+        return EXIT_OK
     print(f"The thesis' cables (section 7.2), n = {args.links}, bending model 'rod':")
     print(_constants_table(args.links))
     return EXIT_OK
@@ -465,7 +472,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         console.stage(f"scoring experiments for the {cable.name or 'cable'} at E = "
                       f"{cable.youngs_modulus:.3g} Pa, {args.noise:g} mm noise")
         report = recommend_design(cable, noise=1e-3 * args.noise, n_measured=args.points)
-        print("\n".join(report.lines()))
+        print(json.dumps(report.to_dict(), indent=2) if args.json else "\n".join(report.lines()))
         return EXIT_OK if report.recommended is not None else EXIT_FAILURE
     if args.experiment is None:
         raise ValueError("experiment: give an identification file (or --design --cable NAME)")
@@ -633,8 +640,13 @@ def _study(args: argparse.Namespace) -> int:
                           obstacles=doc.obstacles, summary=result.summary.lines(),
                           images=[p for p in written if p.suffix == ".png"])
     console.stage(f"{len(written)} figures and the report {report} in {args.output}")
-    for line in result.summary.lines():
-        print(line)
+    if args.json:
+        print(json.dumps({"scenario": str(args.scenario), "plan_ok": bool(doc.ok),
+                          "summary": result.summary.to_dict(), "report": str(report),
+                          "figures": [str(p) for p in written]}, indent=2))
+    else:
+        for line in result.summary.lines():
+            print(line)
     return _plan_verdict(doc, EXIT_OK)
 
 

@@ -165,6 +165,13 @@ class DesignReport:
     scores: tuple[DesignScore, ...]
     recommended: DesignScore | None
 
+    def to_dict(self) -> dict:
+        """JSON-able form: every score (best first) and the recommended design's name."""
+        return {"scores": [{"design": s.name, "log_sd": s.log_sd, "n_links": s.n_links,
+                            "robust": s.robust, "informative": s.informative,
+                            "usable": s.usable, "message": s.message} for s in self.scores],
+                "recommended": None if self.recommended is None else self.recommended.name}
+
     def lines(self) -> list[str]:
         """A table and the recommendation, for printing."""
         out = [f"{'design':28}{'sd(ln E)':>10}{'n':>6}  robust  verdict"]
