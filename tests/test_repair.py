@@ -605,7 +605,7 @@ def test_a_placement_without_consent_is_proposed_not_made(ur_placed, tmp_path, c
 def test_frames_of_another_method_name_the_method_the_job_asked_for():
     """M2(PA12) asked for the auxiliary-vector frames: the YuMi reaches none of them, and the
     reach repair takes the rigid rotation's. Before, the repaired plan's frames said
-    "method 'rigid' as asked" (the unseen-case sweep, docs/verification.md): the message of a
+    "method 'rigid' as asked" (the unseen-case sweep, docs/scenario.md): the message of a
     method the repair chose names the one the job file asked for."""
     spec = yaml.safe_load((EXAMPLES / "m2_uniform_curvature_pa12.yaml").read_text())
     spec["grippers"] = {"method": "auxiliary"}

@@ -68,6 +68,8 @@ NOT_LENGTH_PARENTS = {"study", "identify", "weights", "initial_frames"}
 PLAN_JOBS = ("m2_uniform_curvature_usb", "m2_uniform_curvature_pa12", "m1_sine_pu_hose",
              "qualitative2_ethernet_3d", "qualitative1_curved_pa12", "fig4_8_straight_to_bent",
              "harness_phase1_obstacle")
+MEASURED_JOB = "qualitative2_ethernet_3d"
+"""The job whose plan the correction and compare cases measure."""
 QUICK_JOBS = ("m2_uniform_curvature_pa12", "qualitative2_ethernet_3d", "m1_sine_pu_hose")
 HARNESS_JOBS = ("harness_usb", "harness_ethernet", "harness_pu")
 FAILED_WORDS = re.compile(r"\b(fail(ed|s)?|unstable|not stable|unreachable|not reach|collid|"
@@ -260,6 +262,17 @@ def with_cable(job: dict, name: str) -> dict:
     if "rest_shape" in old:
         cable["rest_shape"] = old["rest_shape"]
     out["cable"] = cable
+    return out
+
+
+def with_modulus(job: dict, factor: float) -> dict:
+    """The job with the cable's Young's modulus times ``factor`` (the catalogue's by name)."""
+    from dloplan.cable import catalogue_cable
+
+    out = copy.deepcopy(job)
+    cable = out.setdefault("cable", {})
+    modulus = cable.get("youngs_modulus") or catalogue_cable(cable["name"]).youngs_modulus
+    cable["youngs_modulus"] = float(modulus) * factor
     return out
 
 
@@ -468,6 +481,8 @@ def job_cases(out: Path, quick: bool) -> list[Case]:
             variants[f"cell_{cell.stem.split('_')[0]}"] = with_cell(job, cell)
         if not quick:
             variants["mirror_mm"] = to_millimetres(variants["mirror"])
+        if stem == MEASURED_JOB:  # the "real" cable of the correction cases: E halved
+            variants["E_half"] = with_modulus(job, 0.5)
         for tag, data in variants.items():
             name = f"{stem}/{tag}"
             path = _write(out / "jobs" / stem / f"{tag}.yaml", data)
@@ -589,9 +604,8 @@ class Deferred(Case):
 def measurement_cases(out: Path, quick: bool) -> list[Case]:
     """correct and compare with measured shapes made from the plans."""
     cases = []
-    own, other = "qualitative2_ethernet_3d/base", "m2_uniform_curvature_pa12/base"
-    rng = np.random.default_rng(3)
-
+    own, other = f"{MEASURED_JOB}/base", "m2_uniform_curvature_pa12/base"
+    softer = f"{MEASURED_JOB}/E_half"
     def plan_of(case):
         return out / "runs" / case / "plan.json"
 
@@ -601,9 +615,10 @@ def measurement_cases(out: Path, quick: bool) -> list[Case]:
         dense = np.concatenate([np.linspace(a, b, 5, endpoint=False)
                                 for a, b in zip(shape[:-1], shape[1:], strict=True)]
                                + [shape[-1:]])
-        return dense + rng.normal(0, 0.0005, dense.shape), doc.get("frame_id", "world")
+        noise = np.random.default_rng(3).normal(0, 0.0005, dense.shape)  # the same each time
+        return dense + noise, doc.get("frame_id", "world")
 
-    def correct_case(tag, make_csv, extra=()):
+    def correct_case(tag, make_csv, extra=(), needs=own):
         folder = out / "measured"
         target = out / "runs" / "correct" / tag
 
@@ -611,7 +626,25 @@ def measurement_cases(out: Path, quick: bool) -> list[Case]:
             path = make_csv(folder / f"{tag}.csv")
             return ["correct", str(plan_of(own)), "--at", "3", "--measured", str(path),
                     "-o", str(target), *extra]
-        return Deferred(f"correct/{tag}", make, "correct", own, target)
+        return Deferred(f"correct/{tag}", make, "correct", needs, target)
+
+    def soft(path):
+        points, frame = measured(softer, 3)
+        return _write_shapes_csv(path, [points], frame)
+
+    def soft_mm(path):
+        points, frame = measured(softer, 3)
+        path = path.with_suffix(".json")
+        path.write_text(json.dumps({"format": "dloplan-shapes", "version": 1, "units": "mm",
+                                    "frame_id": frame,
+                                    "shapes": [{"label": "xi_3",
+                                                "points": (points * 1000).tolist()}]}))
+        return path
+
+    # the plan measured on a cable of half its E: a correction is made, the same in m and mm
+    cases.append(correct_case("E_half", soft, needs=softer))
+    cases.append(correct_case("E_half_json_mm", soft_mm, needs=softer))
+    cases[-1].compare_with = ("correct/E_half", "correction")
 
     def plain(path):
         points, frame = measured(own, 3)
@@ -725,7 +758,18 @@ def run_case(case: Case, timeout: float, done: dict[str, Case]) -> None:
     cpu = _children_cpu() - cpu0
     summary = parse_summary(stdout)
     flags = flags_of(case, code, stdout, stderr, summary)
-    if case.compare_with and code in (0, 1, 3):
+    if case.compare_with and case.compare_with[1] == "correction" and code in (0, 1, 3):
+        base = done.get(case.compare_with[0])
+        files = [c.output / "correction.json" for c in (base, case) if c and c.output]
+        if len(files) == 2 and all(f.is_file() for f in files):
+            a, b = (json.loads(f.read_text()) for f in files)
+            de = abs(a["youngs_modulus"] / b["youngs_modulus"] - 1)
+            dc = float(np.max(np.abs(np.subtract(a["clip_corrections"],
+                                                 b["clip_corrections"]))))
+            case.result["note"] = f"vs m: E {de:.0e} (relative), clips {dc:.0e}"
+            if not (de <= 1e-6 and dc <= TOLERANCE):
+                flags.append(f"invariance: correction in mm differs (E {de:.1e}, clips {dc:.1e})")
+    elif case.compare_with and code in (0, 1, 3):
         base = done.get(case.compare_with[0])
         doc_a = _load_plan(base.output) if base and base.output else None
         doc_b = _load_plan(case.output)
