@@ -517,3 +517,19 @@ def test_tuning_loop_returns_the_identified_cable():
     # the USB modulus (~2.5e6 Pa) is a soft cable's (thesis 6.2), as the planner classes it
     assert setup.family == "soft" == stiffness_family(result.youngs_modulus)
     assert setup.weights.physical.bending == 1000.0
+
+
+def test_a_shape_of_a_few_markers_is_refused_naming_the_points_it_needs():
+    """Four markers along the USB cable's cantilever (the unseen-case sweep's identification
+    with fewer markers): the polyline through them is 5 % short of the cable. The refusal named
+    the lengths only, as if the wrong cable were measured; it now says that too few points
+    were measured, and how many the cable's n asks for."""
+    cable = catalogue_cable("usb", n_links=16)
+    manipulation = cantilever_manipulation(cable)
+    experiment = synthetic_experiment(cable, manipulation, seed=3)
+    sparse = Experiment(manipulation, experiment.measured_shape[::16])
+    assert len(sparse.measured_shape) == 4
+    with pytest.raises(ValueError, match=r"measured_shape: the shape is .* long but the cable "
+                       r"is 0.5 m \(only 4 points measured: .*at least n \+ 1 = 17 points"):
+        prepare_shapes(cable, sparse)
+    prepare_shapes(cable, Experiment(manipulation, experiment.measured_shape))  # dense: fine

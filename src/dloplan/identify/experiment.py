@@ -197,7 +197,11 @@ def prepare_shapes(cable: Cable, experiment: Experiment,
         curve = measured_curve(experiment.measured_shape, experiment.measurement_noise)
     ratio = curve.length / cable.length
     if abs(ratio - 1.0) > LENGTH_TOLERANCE:
-        hint = " (given in millimetres?)" if 500 < ratio < 2000 else ""
+        k = len(experiment.measured_shape)
+        hint = " (given in millimetres?)" if 500 < ratio < 2000 else (
+            f" (only {k} points measured: the polyline through them cuts the bends short; "
+            f"measure at least n + 1 = {cable.n_links + 1} points along the cable)"
+            if ratio < 1.0 and k < cable.n_links + 1 else "")
         raise ValueError(
             f"measured_shape: the shape is {curve.length:.4g} m long but the cable is "
             f"{cable.length:.4g} m{hint}; expected within {100 * LENGTH_TOLERANCE:g} %")
