@@ -568,7 +568,9 @@ def identify_cases(out: Path, quick: bool) -> list[Case]:
         for step in ident["trajectory"]:
             for end in step.values():
                 end["position"] = [v / 1000 for v in end["position"]]
-        ident["measurement_noise"] = ident["measurement_noise"]   # stays in mm (docs)
+        ident["measurement_noise"] = ident["measurement_noise"] / 1000  # file units
+        variants["metres_noise_kept"] = copy.deepcopy(metres)        # 1.0: mm left in a m file
+        variants["metres_noise_kept"]["identify"]["measurement_noise"] = 1.0
         variants["metres"] = metres
         variants["cable_pu"] = {**copy.deepcopy(data),
                                 "cable": {"name": "pu", "n_links": 16,

@@ -223,6 +223,11 @@ def experiment_from_spec(spec: IdentifySpec, scale: float = 1.0, name: str = "",
                       name=name)
 
 
+MAX_NOISE_FRACTION = 0.1
+"""Largest measurement noise (one sd per coordinate) as a fraction of the cable's length: more
+is a noise in the wrong units (1.0 kept from a file in mm when its units became m)."""
+
+
 def parse_identification(data: Any, source: str = "identification") -> IdentificationJob:
     """Validate and resolve an identification mapping (see the module docstring).
 
@@ -244,6 +249,12 @@ def parse_identification(data: Any, source: str = "identification") -> Identific
         cable = build_cable(spec.cable, scale, youngs_modulus=1e7)  # placeholder modulus
         experiment = experiment_from_spec(spec.identify, scale, name=Path(source).stem,
                                           folder=Path(source).parent)
+        if experiment.measurement_noise > MAX_NOISE_FRACTION * cable.length:
+            raise ValueError(
+                f"identify.measurement_noise: {spec.identify.measurement_noise:g} {spec.units}, "
+                f"expected less than {MAX_NOISE_FRACTION:g} of the cable's "
+                f"{cable.length / scale:g} {spec.units} (the noise is in the file's units: "
+                "millimetres written into a file in metres?)")
     except ValueError as exc:
         raise ScenarioError(f"{source}: {exc}") from None
     lo, hi = spec.identify.bounds
