@@ -119,3 +119,17 @@ def test_figures_are_written(tmp_path):
     assert "x [m]" in svg and "y [m]" in svg
     with pytest.raises(ValueError, match="plane"):
         write_comparison_figures(result, tmp_path, plane="xx")
+
+
+def test_shapes_in_the_vision_files_frame_name_compare_with_a_plan_in_world():
+    """docs/vision.md names the planner's frame ``robot_base`` (the default of calibrations
+    and registered-shape files, the CSV example) while plans say ``world``: every registered
+    shape of the documented format was refused as "in another frame" (the unseen-case sweep).
+    The two names are one frame; any other name is still refused."""
+    plan = planned_path()
+    in_base = [RegisteredShape(x, frame_id="robot_base") for x in plan]
+    result = compare_trials(plan, [in_base], frame_id="world")
+    assert result.rows()[-1][-1] == pytest.approx(0.0, abs=1e-12)
+    with pytest.raises(ValueError, match="registered in frame 'camera', the plan is in 'world'"):
+        compare_trials(plan, [[RegisteredShape(x, frame_id="camera") for x in plan]],
+                       frame_id="world")

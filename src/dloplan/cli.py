@@ -311,6 +311,7 @@ def _serve_corrections(doc, options: dict) -> int:
     """``dloplan correct --serve``: one JSON request per line on stdin, one answer per line on
     stdout (docs/correction.md, "A correction service")."""
     from .app.correct import CorrectionService
+    from .io.poses import same_frame
 
     service = CorrectionService(doc, **options)
     for line in _request_lines(sys.stdin, MAX_INPUT_BYTES):
@@ -323,7 +324,7 @@ def _serve_corrections(doc, options: dict) -> int:
             if not isinstance(request, dict):
                 raise ValueError("expected a JSON object {\"at\": K, \"points\": [[x, y, z], ...]}")
             frame = request.get("frame_id", doc.frame_id)
-            if frame != doc.frame_id:
+            if not isinstance(frame, str) or not same_frame(frame, doc.frame_id):
                 raise ValueError(f"frame_id: got {frame!r}, the plan is in {doc.frame_id!r}")
             units = request.get("units", "m")
             if units not in ("m", "mm"):

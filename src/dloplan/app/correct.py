@@ -32,6 +32,7 @@ import numpy as np
 
 from ..correct import Correction, CorrectionRefused, correct_plan
 from ..correct.step import sliced_grippers
+from ..io.poses import same_frame
 from ..output_files import staged_folder
 from ..pipeline.document import PlanDocument, cycle_actions, cycle_to_dict, document_cell
 from ..pipeline.stages import (
@@ -74,7 +75,7 @@ def measured_points(path, at: int, frame_id: str) -> np.ndarray:
                              f"{wanted!r}: keep one shape, or label the measured one by the "
                              "shape reached")
         shape = found[0]
-    if shape.frame_id != frame_id:
+    if not same_frame(shape.frame_id, frame_id):
         raise ValueError(f"{path}: shape {shape.label!r} is registered in frame "
                          f"{shape.frame_id!r}, the plan is in {frame_id!r}: transform it first "
                          "(e.g. with the camera calibration, dloplan register)")

@@ -17,6 +17,16 @@ from scipy.spatial.transform import Rotation
 DEFAULT_FRAME_ID = "world"
 """The frame of every pose unless a plan says otherwise."""
 
+PLANNER_FRAME_NAMES = frozenset({DEFAULT_FRAME_ID, "robot_base"})
+"""The two names of the planner's frame: ``world`` in plans and their ROS exports,
+``robot_base`` in the vision files (calibrations, registered shapes; docs/vision.md, "Frames")."""
+
+
+def same_frame(a: str, b: str) -> bool:
+    """True when frame names ``a`` and ``b`` name one frame: equal, or both the planner's
+    (:data:`PLANNER_FRAME_NAMES`)."""
+    return a == b or {a, b} <= PLANNER_FRAME_NAMES
+
 
 def check_frame_id(frame_id) -> str:
     """``frame_id`` when it is a non-empty string; ValueError otherwise."""

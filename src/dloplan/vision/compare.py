@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry import arc_length, as_shape, shape_length
+from ..io.poses import same_frame
 from .shapes_io import RegisteredShape
 
 END_ORDERS = ("detect", "keep")
@@ -123,7 +124,7 @@ def _as_points(shape, where: str) -> np.ndarray:
 
 def _check_frames(trial, frame_id: str, where: str) -> None:
     for k, shape in enumerate(trial):
-        if isinstance(shape, RegisteredShape) and shape.frame_id != frame_id:
+        if isinstance(shape, RegisteredShape) and not same_frame(shape.frame_id, frame_id):
             raise ValueError(
                 f"{where}[{k}]: registered in frame {shape.frame_id!r}, the plan is in "
                 f"{frame_id!r}: transform it first (e.g. with the camera calibration)"
