@@ -595,6 +595,16 @@ def _write_shapes_csv(path: Path, shapes: list[np.ndarray], frame: str, scale=1.
     return path
 
 
+def _write_shapes_json_mm(path: Path, points: np.ndarray, frame: str) -> Path:
+    """One measured shape (labelled xi_3) as a dloplan-shapes JSON file in millimetres."""
+    path = path.with_suffix(".json")
+    path.write_text(json.dumps({"format": "dloplan-shapes", "version": 1, "units": "mm",
+                                "frame_id": frame,
+                                "shapes": [{"label": "xi_3",
+                                            "points": (points * 1000).tolist()}]}))
+    return path
+
+
 class Deferred(Case):
     """A case whose input files are made from another case's plan just before it runs."""
 
@@ -635,13 +645,7 @@ def measurement_cases(out: Path, quick: bool) -> list[Case]:
         return _write_shapes_csv(path, [points], frame)
 
     def soft_mm(path):
-        points, frame = measured(softer, 3)
-        path = path.with_suffix(".json")
-        path.write_text(json.dumps({"format": "dloplan-shapes", "version": 1, "units": "mm",
-                                    "frame_id": frame,
-                                    "shapes": [{"label": "xi_3",
-                                                "points": (points * 1000).tolist()}]}))
-        return path
+        return _write_shapes_json_mm(path, *measured(softer, 3))
 
     # the plan measured on a cable of half its E: a correction is made, the same in m and mm
     cases.append(correct_case("E_half", soft, needs=softer))
@@ -665,13 +669,7 @@ def measurement_cases(out: Path, quick: bool) -> list[Case]:
         return _write_shapes_csv(path, [points], frame, scale=1000.0)
 
     def json_mm(path):
-        points, frame = measured(own, 3)
-        path = path.with_suffix(".json")
-        path.write_text(json.dumps({"format": "dloplan-shapes", "version": 1, "units": "mm",
-                                    "frame_id": frame,
-                                    "shapes": [{"label": "xi_3",
-                                                "points": (points * 1000).tolist()}]}))
-        return path
+        return _write_shapes_json_mm(path, *measured(own, 3))
 
     def from_other(path):
         points, frame = measured(other, 3)
