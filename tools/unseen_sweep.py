@@ -88,6 +88,7 @@ class Case:
     kind: str = "plan"                       # plan | verify | export | identify | correct | ...
     compare_with: tuple[str, str] | None = None   # (base case, transform) for invariance
     needs: str | None = None                 # a case whose plan.json this one reads
+    reads: tuple[str, ...] = ()              # other cases whose plans it reads
     result: dict = field(default_factory=dict)
 
 
@@ -685,6 +686,8 @@ def measurement_cases(out: Path, quick: bool) -> list[Case]:
         if quick and tag in {"reversed", "frame_robot_base"}:
             continue
         cases.append(correct_case(tag, maker, ("--no-verify",) if tag != "own" else ()))
+        if tag == "other_plan":
+            cases[-1].reads = (other,)
 
     def compare_case(tag, transform, needs=(own,)):
         target = out / "runs" / "compare" / tag
@@ -729,10 +732,11 @@ def _children_cpu() -> float:
 
 
 def run_case(case: Case, timeout: float, done: dict[str, Case]) -> None:
-    if case.needs and done.get(case.needs, Case("", [])).result.get("code") not in (0, 1, 3):
-        case.result = {"code": None, "seconds": 0.0, "verdict": f"skipped: {case.needs} failed",
-                       "flags": []}
-        return
+    for name in filter(None, (case.needs, *case.reads)):
+        if done.get(name, Case("", [])).result.get("code") not in (0, 1, 3):
+            case.result = {"code": None, "seconds": 0.0, "verdict": f"skipped: {name} failed",
+                           "flags": []}
+            return
     if isinstance(case, Deferred):
         try:
             case.argv = case.make()
@@ -832,7 +836,8 @@ def main(argv=None) -> int:
         wanted = [c for c in cases if any(p in c.name for p in patterns)]
         # the plans a wanted case reads, and the bases it is compared with, run first
         needed = {c.needs for c in wanted} | {c.compare_with[0] for c in wanted
-                                               if c.compare_with}
+                                               if c.compare_with} | {
+            name for c in wanted for name in c.reads}
         cases = [c for c in cases if c in wanted or c.name in needed]
     if args.list:
         print("\n".join(" ".join(c.argv) if c.argv else c.name for c in cases))
