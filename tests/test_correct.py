@@ -616,7 +616,7 @@ def test_a_measurement_in_another_frame_or_unit_or_too_sparse_is_refused(plans, 
         measured_points(other, 3, doc.frame_id)
     base = tmp_path / "robot_base.csv"  # the vision files' name of the planner's frame
     write_shapes(base, [RegisteredShape(shape, frame_id="robot_base", label="xi_3")])
-    assert np.array_equal(measured_points(base, 3, doc.frame_id), shape)
+    assert np.allclose(measured_points(base, 3, doc.frame_id), shape, atol=1e-9)
     with pytest.raises(CorrectionRefused, match="millimetres"):
         correct_document(doc, 3, 1e3 * shape)
     with pytest.raises(CorrectionRefused, match="2 points"):
