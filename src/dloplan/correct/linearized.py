@@ -71,6 +71,7 @@ from ..sim import ClipPoses, equilibrium, interpolate_clips
 from ..sim.batch import held_equilibria
 from ..sim.sensitivity import equilibrium_sensitivity
 from ..study.evaluate import perturbed_cable
+from .clip_batch import fit_clips_batch
 from .measurement import CorrectionRefused, resample_measured
 from .measurement_batch import (
     measured_points,
@@ -375,7 +376,7 @@ def _arrays(clips: Sequence[ClipPoses]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise: float,
-                    n_measured: int) -> list[dict]:
+                    n_measured: int, batched: bool = True) -> list[dict]:
     """The closed-loop rows of a chunk of samples, linearized about the nominal plan.
 
     Parameters
@@ -388,6 +389,10 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
         Measurement noise per coordinate [m].
     n_measured : int
         Measured points.
+    batched : bool
+        True: the chunk's clip fits in lockstep, one batch of arrays per round
+        (:func:`.clip_batch.fit_clips_batch`; what it cannot fit, per sample); False: every
+        sample's per sample (:func:`_correction`; the same rows to solver tolerance).
 
     Returns
     -------
@@ -424,9 +429,13 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
     prior = alpha_prior(cable.n_links, nominal.plant_links)
     if fitted:
         first = _first_fits(nominal, np.array([measured[b] for b in fitted]), prior)
+        step = _prepared if batched else _correction
         for b, fits in zip(fitted, first, strict=True):
-            corrections[b] = _correction(nominal, measured[b], fits, prior)
-    _run(nominal, corrections, results)
+            corrections[b] = step(nominal, measured[b], fits, prior)
+    cables: dict = {}
+    _run(nominal, corrections, results, cables)
+    if batched:
+        _fit_and_check(nominal, results, cables)
     accepted = [b for b in range(count) if isinstance(results[b], _Corrected)]
     closed_error = open_error.copy()
     if accepted:
@@ -503,12 +512,12 @@ class _Request:
     guess: np.ndarray
 
 
-def _run(nominal: NominalCorrection, corrections: list, results: list) -> None:
-    """Drive every sample's correction generator (None: none), solving each round's
-    equilibria in one compiled call, into ``results`` (a :class:`_Corrected`, or the refusal's
-    reason, per sample)."""
+def _run(nominal: NominalCorrection, corrections: list, results: list, cables: dict) -> None:
+    """Drive every sample's generator (None: none: :func:`_correction`, :func:`_prepared`
+    or :func:`_fit_clips`), solving each round's equilibria in one compiled call, into
+    ``results`` (what it returns, or the refusal's reason, per sample); ``cables`` as
+    :func:`_solve` takes it."""
     pending: dict[int, _Request] = {}
-    cables: dict[tuple, Cable | PlantChains] = {}
     for b, gen in enumerate(corrections):
         if gen is not None:
             _advance(gen, None, b, pending, results)
@@ -518,6 +527,37 @@ def _run(nominal: NominalCorrection, corrections: list, results: list) -> None:
         shapes = _solve(nominal, requests, cables)
         for b, shape in zip(order, shapes, strict=True):
             _advance(corrections[b], shape, b, pending, results)
+
+
+def _fit_and_check(nominal: NominalCorrection, results: list, cables: dict) -> None:
+    """The clip fits of every sample :func:`_prepared` got ready (a :class:`_Case` in
+    ``results``) in one :func:`.clip_batch.fit_clips_batch`, those it cannot fit by
+    :func:`_fit_clips`, then their gain checks: each such result replaced by its
+    :class:`_Corrected` or the refusal's reason."""
+    index = [b for b, case in enumerate(results) if isinstance(case, _Case)]
+    if not index:
+        return
+    cases = [results[b] for b in index]
+
+    def solve(which, p, guesses):
+        return _solve(nominal, [_Request(cases[j].update.youngs_modulus, p[i], True,
+                                         guesses[i]) for i, j in enumerate(which)], cables)
+
+    p, x, fitted = fit_clips_batch(
+        np.array([c.jacobian for c in cases]), np.array([c.at["fine_clips"] for c in cases]),
+        np.array([c.moves for c in cases]), np.array([c.open_loop for c in cases]),
+        np.array([c.bias for c in cases]), nominal.reference, nominal.scale, nominal.limits,
+        nominal.clamp_links, CHORD_TRIALS, solve)
+    fits: list = [(p[j], x[j]) if fitted[j] else None for j in range(len(cases))]
+    alone = [j for j in range(len(cases)) if not fitted[j]]
+    if alone:
+        _run(nominal, [_fit_clips(nominal, cases[j]) if j in alone else None
+                       for j in range(len(cases))], fits, cables)
+    for j, b in enumerate(index):
+        try:
+            results[b] = _checked(nominal, cases[j], *fits[j])
+        except CorrectionRefused as exc:
+            results[b] = str(exc)
 
 
 def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> None:
@@ -766,9 +806,36 @@ def _first_fits(nominal: NominalCorrection, measured: np.ndarray, prior) -> list
 
 def _correction(nominal: NominalCorrection, y: np.ndarray, first: dict, prior) -> Generator:
     """One sample's linearized correction (module docstring) from its resampled measurement
-    ``y`` (n + 1, 3) [m] and its :func:`_first_fits`: yields :class:`_Request`, receives their
-    equilibria (None: none), returns a :class:`_Corrected` or raises
-    :class:`CorrectionRefused`."""
+    ``y`` (n + 1, 3) [m] and its :func:`_first_fits`, per sample: yields :class:`_Request`,
+    receives their equilibria (None: none), returns a :class:`_Corrected` or raises
+    :class:`CorrectionRefused`. (:func:`linearized_rows` runs its parts with the chunk's clip
+    fits in one batch: :func:`_prepared`, :func:`.clip_batch.fit_clips_batch`,
+    :func:`_checked`.)"""
+    case = yield from _prepared(nominal, y, first, prior)
+    p, corrected = yield from _fit_clips(nominal, case)
+    return _checked(nominal, case, p, corrected)
+
+
+@dataclass(frozen=True, eq=False)
+class _Case:
+    """A sample's model update and what its clip fit starts from (:func:`_prepared`)."""
+
+    update: ModelUpdate
+    at: Interpolated  # the derivatives at the target, at the updated E
+    bias: np.ndarray  # (n + 1, 3) what the clip fit's chain leaves of the bias [m]
+    moves: np.ndarray  # (3 (n + 1), 12) how it moves with the clips (scaled coordinates)
+    open_loop: np.ndarray  # (k n + 1, 3) the fit chain's equilibrium at the planned clips
+
+    @property
+    def jacobian(self) -> np.ndarray:
+        """(3 (n + 1), 12) the clip fit's frozen Jacobian (scaled coordinates) [m]."""
+        return self.at["clips"] + self.moves
+
+
+def _prepared(nominal: NominalCorrection, y: np.ndarray, first: dict, prior) -> Generator:
+    """The model update of a sample's correction (:func:`_update_modulus`) and the fit
+    chain's equilibrium at the planned clips at the updated E: yields :class:`_Request`,
+    returns its :class:`_Case` or raises :class:`CorrectionRefused`."""
     update = yield from _update_modulus(nominal, y, first, prior)
     modulus = update.youngs_modulus
     at = nominal.table.at(math.log(modulus))  # the derivatives at the target, at this E
@@ -785,14 +852,23 @@ def _correction(nominal: NominalCorrection, y: np.ndarray, first: dict, prior) -
             f"model: the clip fit's chain (n = {len(at['fine']) - 1}, clamping "
             f"{nominal.clamp_links} links, E = {modulus:.3g} Pa) finds no stable equilibrium "
             "at the target's clip poses")
-    p, corrected = yield from _fit_clips(nominal, modulus, at, open_loop, bias, moves)
+    return _Case(update, at, bias, moves, open_loop)
+
+
+def _checked(nominal: NominalCorrection, case: _Case, p: np.ndarray,
+             corrected: np.ndarray) -> _Corrected:
+    """The gain checks (:func:`~.step.check_gain`) of a sample's clip correction ``p`` (12,)
+    and the fit chain's equilibrium ``corrected`` there: its :class:`_Corrected`, or raises
+    :class:`CorrectionRefused`."""
+    at, bias, moves = case.at, case.bias, case.moves
     k, z = nominal.clamp_links, p * nominal.scale
     directions = {"modulus": at["modulus_t"],  # at the corrected clips, d and g to first order
                   "discretization": at["d_t"] + (at["d_clips"] @ z).reshape(bias.shape),
                   "grip": at["g_t"] + (at["g_clips"] @ z).reshape(bias.shape)}
-    check_gain(open_loop[::k] + bias, corrected[::k] + bias + (moves @ z).reshape(bias.shape),
-               nominal.reference, directions, update, nominal.limits.gain_significance)
-    return _Corrected(modulus, p)
+    check_gain(case.open_loop[::k] + bias,
+               corrected[::k] + bias + (moves @ z).reshape(bias.shape), nominal.reference,
+               directions, case.update, nominal.limits.gain_significance)
+    return _Corrected(case.update.youngs_modulus, p)
 
 
 def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, first: dict, prior
@@ -846,19 +922,20 @@ def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, first: dic
                        log_prior_sd=0.5 * math.log(limits.max_modulus_factor))
 
 
-def _fit_clips(nominal: NominalCorrection, modulus: float, at: Interpolated, start: np.ndarray,
-               bias: np.ndarray, moves: np.ndarray) -> Generator:
+def _fit_clips(nominal: NominalCorrection, case: _Case) -> Generator:
     """The target's Levenberg-Marquardt clip fit (:func:`~.step.fit_clips`' damping and stop,
     :data:`CHORD_TRIALS` trials per iteration) on the clip fit's chain (k n links,
-    :class:`~.step.FitModel`), its every k-th point plus ``bias`` (n + 1, 3) fitted to the
-    reference, from its equilibrium ``start`` (k n + 1, 3) [m] at the planned clips, with the
-    clip Jacobian of the planned target at this E (``at``, :meth:`DerivativeTable.at`),
-    frozen: every trial an exact equilibrium of the updated model's fit chain. The bias moves
-    with the clips, to first order by ``moves`` (3 (n + 1), 12, scaled): where
-    :func:`~.step.correct_plan` re-evaluates it at the clips of a first fit and fits again.
+    :class:`~.step.FitModel`), its every k-th point plus the sample's bias (n + 1, 3) fitted
+    to the reference, from its equilibrium (k n + 1, 3) [m] at the planned clips, with the
+    clip Jacobian of the planned target at the updated E (the table's, :meth:`DerivativeTable.
+    at`), frozen: every trial an exact equilibrium of the updated model's fit chain. The bias
+    moves with the clips, to first order by the case's ``moves`` (3 (n + 1), 12, scaled):
+    where :func:`~.step.correct_plan` re-evaluates it at the clips of a first fit and fits
+    again. Per sample (:func:`.clip_batch.fit_clips_batch` is the chunk's in one batch).
     Returns ``(p (12,), equilibrium (k n + 1, 3))``."""
     scale, limits, k = nominal.scale, nominal.limits, nominal.clamp_links
-    jz, fine = at["clips"] + moves, at["fine_clips"]
+    modulus, bias, moves = case.update.youngs_modulus, case.bias, case.moves
+    jz, fine = case.jacobian, case.at["fine_clips"]
 
     def residual(x, p):
         return (x[::k] + bias - nominal.reference).ravel() + moves @ (p * scale)
@@ -867,7 +944,7 @@ def _fit_clips(nominal: NominalCorrection, modulus: float, at: Interpolated, sta
     diagonal = np.diag(np.diag(normal))  # the damping's shape, mu diag(J^T J)
     normal = normal + 1e-12 * np.trace(normal) * np.eye(12)  # the fit's floor
     damping = CLIP_DAMPING
-    x, p = start, np.zeros(12)
+    x, p = case.open_loop, np.zeros(12)
     r = residual(x, p)
     cost, mu = float(r @ r), damping.initial
     for _ in range(limits.iterations):
