@@ -297,13 +297,14 @@ def test_the_normal_equations_fit_is_the_model_error_fit(example_plan, grip, hel
     bounds' clipping included."""
     import numpy as np
 
-    from dloplan.correct.linearized import fit_amplitudes, nominal_correction
+    from dloplan.correct.linearized import nominal_correction
     from dloplan.correct.model_error import (
         alpha_prior,
         fit_model_error,
         parameter_covariance,
         standard_deviations,
     )
+    from dloplan.correct.normal_fits import fit_amplitudes
     from dloplan.pipeline.stages import settled_shapes
 
     doc = example_plan

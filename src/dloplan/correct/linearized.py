@@ -80,7 +80,6 @@ from .measurement_batch import (
     resample_polylines,
 )
 from .model_error import (
-    BOUNDS,
     MAX_GRIP,
     alpha_prior,
     clamped_equilibrium,
@@ -88,6 +87,7 @@ from .model_error import (
     model_error_directions,
     offset_covariance,
 )
+from .normal_fits import columns_of, fit_amplitudes, fit_estimate, fit_estimates
 from .plant_batch import PlantChains, drive_chains
 from .step import (
     CLIP_DAMPING,
@@ -101,7 +101,6 @@ from .step import (
     ModelUpdate,
     check_gain,
     fit_links_for,
-    fit_with_covariance,
     offset_verdict,
     trust_region_step,
     within_limits,
@@ -433,7 +432,7 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
         for b, fits in zip(fitted, first, strict=True):
             corrections[b] = step(nominal, measured[b], fits, prior)
     cables: dict = {}
-    _run(nominal, corrections, results, cables)
+    _run(nominal, corrections, results, cables, batched=batched)
     if batched:
         _fit_and_check(nominal, results, cables)
     accepted = [b for b in range(count) if isinstance(results[b], _Corrected)]
@@ -500,6 +499,18 @@ class _Corrected:
     clips: np.ndarray  # (12,) the target's clip correction
 
 
+@dataclass(frozen=True, eq=False)
+class _Fit:
+    """A model-error fit a sample's correction needs (:func:`.normal_fits.fit_estimate`'s
+    arguments): J (n + 1, 3) or None, the directions d (and g), the residual (n + 1, 3) [m]
+    and alpha's prior (alpha_0, sd)."""
+
+    jacobian: np.ndarray | None
+    directions: tuple
+    residual: np.ndarray
+    prior: tuple
+
+
 @dataclass(frozen=True)
 class _Request:
     """An equilibrium a sample's correction needs: its E [Pa], the clip correction p (12,)
@@ -512,21 +523,54 @@ class _Request:
     guess: np.ndarray
 
 
-def _run(nominal: NominalCorrection, corrections: list, results: list, cables: dict) -> None:
+def _run(nominal: NominalCorrection, corrections: list, results: list, cables: dict, *,
+         batched: bool = True) -> None:
     """Drive every sample's generator (None: none: :func:`_correction`, :func:`_prepared`
-    or :func:`_fit_clips`), solving each round's equilibria in one compiled call, into
-    ``results`` (what it returns, or the refusal's reason, per sample); ``cables`` as
+    or :func:`_fit_clips`), each round's equilibria solved in one compiled call and its
+    model-error fits in one batch per kind (:func:`_fits`; ``batched`` False: each alone),
+    into ``results`` (what it returns, or the refusal's reason, per sample); ``cables`` as
     :func:`_solve` takes it."""
-    pending: dict[int, _Request] = {}
+    pending: dict[int, _Request | _Fit] = {}
     for b, gen in enumerate(corrections):
         if gen is not None:
             _advance(gen, None, b, pending, results)
     while pending:
         order = list(pending)
         requests = [pending.pop(b) for b in order]
-        shapes = _solve(nominal, requests, cables)
-        for b, shape in zip(order, shapes, strict=True):
-            _advance(corrections[b], shape, b, pending, results)
+        answers: list = [None] * len(requests)
+        solved = [j for j, r in enumerate(requests) if isinstance(r, _Request)]
+        for j, shape in zip(solved, _solve(nominal, [requests[j] for j in solved], cables)
+                            if solved else [], strict=True):
+            answers[j] = shape
+        fitted = [j for j, r in enumerate(requests) if isinstance(r, _Fit)]
+        for j, value in zip(fitted, _fits([requests[j] for j in fitted], batched),
+                            strict=True):
+            answers[j] = value
+        for b, answer in zip(order, answers, strict=True):
+            _advance(corrections[b], answer, b, pending, results)
+
+
+def _fits(requests: list, batched: bool) -> list:
+    """The estimates of the model-error fits ``requests`` (:class:`_Fit`), those of a kind
+    (with or without J, the directions, the prior) in one :func:`.normal_fits.fit_estimates`,
+    what it hands back, or all with ``batched`` False, by :func:`.normal_fits.fit_estimate`."""
+    out: list = [None] * len(requests)
+    kinds: dict[tuple, list] = {}
+    for j, r in enumerate(requests):
+        kinds.setdefault((r.jacobian is None, len(r.directions), r.prior), []).append(j)
+    for (held, _, prior), index in kinds.items():
+        final = np.zeros(len(index), dtype=bool)
+        if batched:
+            values, final = fit_estimates(
+                np.array([columns_of(requests[j].jacobian, requests[j].directions)
+                          for j in index]),
+                np.array([requests[j].residual.ravel() for j in index]), int(not held),
+                prior)
+        for k, j in enumerate(index):
+            r = requests[j]
+            out[j] = values[k] if final[k] else fit_estimate(r.jacobian, list(r.directions),
+                                                             r.residual, r.prior)
+    return out
 
 
 def _fit_and_check(nominal: NominalCorrection, results: list, cables: dict) -> None:
@@ -617,127 +661,6 @@ def _solve(nominal: NominalCorrection, requests: list, cables: dict) -> list:
             if drive.failed[j] < 0 and np.linalg.norm(x[-k - 1] - x[k]) <= reach:
                 out[b] = x
     return out
-
-
-def fit_amplitudes(jacobian, directions, residuals, prior) -> list[tuple]:
-    """The model-error fit as :func:`~.step.update_modulus` takes it, of many residuals at once,
-    by its normal equations: per residual ``(delta ln E, amplitudes, sds, correlation of ln E
-    and alpha)``.
-
-    The estimate of :func:`.model_error.fit_model_error` (alpha's prior weighted by the scatter
-    of the fit without it) and the sds and correlation of :func:`.model_error.
-    parameter_covariance` at what it leaves, from the p x p normal equations of [J, d, g]
-    shared by the residuals, instead of SVD least squares per residual (equal to round-off,
-    tested). An estimate outside the amplitudes' bounds, or a singular system, is left to those
-    functions (the bounds' hold-and-refit).
-
-    Parameters
-    ----------
-    jacobian : numpy.ndarray or None
-        (n + 1, 3) d x / d ln E [m]; None: E held (a zero column: its step and sd 0).
-    directions : sequence of numpy.ndarray
-        d, or d and g, (n + 1, 3) [m].
-    residuals : numpy.ndarray
-        (B, n + 1, 3) measured minus the model [m].
-    prior : tuple of float
-        (alpha_0, sd) of alpha.
-    """
-    try:
-        a, r, i, gram, values = _estimates(jacobian, directions, residuals, prior)
-        left = r - values @ a.T
-        s2 = np.einsum("bn,bn->b", left, left) / (max(a.shape[0] - len(directions) - 1, 1)
-                                                  + (jacobian is None))
-        system = np.repeat(gram[None], len(r), axis=0)
-        system[:, i, i] += s2 / prior[1] ** 2
-        covariance = s2[:, None, None] * np.linalg.inv(system)
-    except np.linalg.LinAlgError:
-        return [_library_fit(jacobian, directions, x, prior) for x in residuals]
-    variance = np.diagonal(covariance, axis1=1, axis2=2)
-    ok = np.isfinite(variance) & (variance >= 0)
-    sds = np.where(ok, np.sqrt(np.where(ok, variance, 0.0)), math.inf)
-    out = []
-    for b in range(len(r)):
-        amplitudes = values[b, i:]
-        if jacobian is None:
-            out.append((0.0, amplitudes, np.r_[0.0, sds[b]], 0.0))
-        else:
-            correlation = 0.0
-            if 0.0 < sds[b, 0] < math.inf and 0.0 < sds[b, 1] < math.inf:
-                correlation = float(np.clip(covariance[b, 0, 1] / (sds[b, 0] * sds[b, 1]),
-                                            -1.0, 1.0))
-            out.append((float(values[b, 0]), amplitudes, sds[b], correlation))
-    return out
-
-
-def fit_estimate(jacobian, directions, residual, prior) -> np.ndarray:
-    """The estimates of :func:`fit_amplitudes` for one ``residual`` (n + 1, 3) [m], without
-    the covariance: ``(delta ln E, amplitudes...)``, or the amplitudes alone without
-    ``jacobian`` (a Gauss-Newton step of the model update, or its last amplitudes)."""
-    try:
-        return _estimates(jacobian, directions, residual[None], prior)[4][0]
-    except np.linalg.LinAlgError:
-        step, amplitudes = _library_fit(jacobian, directions, residual, prior)[:2]
-        return np.asarray(amplitudes) if jacobian is None else np.r_[step, amplitudes]
-
-
-def _estimates(jacobian, directions, residuals, prior) -> tuple:
-    """:func:`fit_amplitudes`' estimates: ``(a, r, i, gram, values)``, the columns [J, d, g]
-    (3 (n + 1), p), the residuals (B, 3 (n + 1)), alpha's column, a^T a and the estimates
-    (B, p): alpha's prior weighted by the scatter of the fit without it (:func:`.model_error.
-    fit_model_error`), an estimate outside the amplitudes' bounds held there
-    (:func:`_held_at_bounds`). Raises LinAlgError on a singular system."""
-    columns = [] if jacobian is None else [jacobian.ravel()]
-    a = np.stack(columns + [d.ravel() for d in directions], axis=1)
-    r = residuals.reshape(len(residuals), -1)
-    i = len(columns)  # alpha's column
-    dof = max(a.shape[0] - len(directions) - 1, 1)
-    gram, rhs = a.T @ a, r @ a
-    left = r - np.linalg.solve(gram, rhs.T).T @ a.T
-    weight = np.einsum("bn,bn->b", left, left) / dof / prior[1] ** 2
-    system = np.repeat(gram[None], len(r), axis=0)
-    system[:, i, i] += weight
-    rhs_prior = rhs.copy()
-    rhs_prior[:, i] += weight * prior[0]
-    values = np.linalg.solve(system, rhs_prior[:, :, None])[:, :, 0]
-    bounds = [(-math.inf, math.inf)] * i + list(BOUNDS[: len(directions)])
-    for b in range(len(r)):
-        if not all(low <= v <= high for v, (low, high) in zip(values[b], bounds, strict=True)):
-            values[b] = _held_at_bounds(gram, rhs[b], weight[b], i, prior[0], values[b], bounds)
-    return a, r, i, gram, values
-
-
-def _held_at_bounds(gram, rhs, weight, i, centre, values, bounds) -> np.ndarray:
-    """:func:`.model_error.fit_model_error`'s bounds on the normal equations of one residual
-    (``gram`` p x p, ``rhs`` (p,), the prior's ``weight`` on column ``i`` at ``centre``): the
-    amplitude furthest out held at its bound, the others refitted, until all are within."""
-    system = gram.copy()
-    system[i, i] += weight
-    target = rhs.copy()
-    target[i] += weight * centre
-    values = values.copy()
-    held = np.zeros(len(values), dtype=bool)
-    for _ in values:
-        out = [k for k in np.flatnonzero(~held)
-               if not bounds[k][0] <= values[k] <= bounds[k][1]]
-        if not out:
-            break
-        k = max(out, key=lambda k: max(bounds[k][0] - values[k], values[k] - bounds[k][1]))
-        values[k] = min(max(values[k], bounds[k][0]), bounds[k][1])
-        held[k] = True
-        free = np.flatnonzero(~held)
-        if len(free):
-            values[free] = np.linalg.solve(
-                system[np.ix_(free, free)],
-                target[free] - system[np.ix_(free, held)] @ values[held])
-    return values
-
-
-def _library_fit(jacobian, directions, residual, prior) -> tuple:
-    """:func:`fit_amplitudes` by :func:`~.step.fit_with_covariance` (the model-error fit and its
-    covariance, as :func:`~.step.update_modulus` takes them); without ``jacobian`` a zero
-    column for ln E."""
-    column = np.zeros_like(residual) if jacobian is None else jacobian
-    return fit_with_covariance(column, directions, residual, prior)
 
 
 def _resampled(nominal: NominalCorrection, points: np.ndarray) -> list:
@@ -907,13 +830,13 @@ def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, first: dic
             break
         at = table.at(log_e)
         jacobian = at["modulus_k"]
-        step = float(fit_estimate(jacobian, [at[name] for name in names], measured - x,
-                                  prior)[0])
+        step = float((yield _Fit(jacobian, tuple(at[name] for name in names), measured - x,
+                                 prior))[0])
     if not informed:  # E kept: the amplitudes at the plan's E, fitted already
         amplitudes = first["held"]
     else:
         at = table.at(log_e)
-        amplitudes = fit_estimate(None, [at[name] for name in names], measured - x, prior)
+        amplitudes = yield _Fit(None, tuple(at[name] for name in names), measured - x, prior)
     beta = float(amplitudes[1]) if grip else 0.0
     modulus = cable.youngs_modulus if log_e == log_e0 else math.exp(log_e)
     return ModelUpdate(cable.youngs_modulus, modulus, math.nan, math.nan, taken, x,
