@@ -72,6 +72,8 @@ from ..sim.batch import held_equilibria
 from ..sim.sensitivity import equilibrium_sensitivity
 from ..study.evaluate import perturbed_cable
 from .clip_batch import fit_clips_batch
+from .gain_batch import NAMES as GAINS
+from .gain_batch import clear_gains
 from .measurement import CorrectionRefused, resample_measured
 from .measurement_batch import (
     measured_points,
@@ -102,6 +104,7 @@ from .step import (
     check_gain,
     fit_links_for,
     offset_verdict,
+    parameter_sds,
     trust_region_step,
     within_limits,
 )
@@ -597,7 +600,18 @@ def _fit_and_check(nominal: NominalCorrection, results: list, cables: dict) -> N
     if alone:
         _run(nominal, [_fit_clips(nominal, cases[j]) if j in alone else None
                        for j in range(len(cases))], fits, cables)
+    judged = [_predictions(nominal, case, *fit) for case, fit in zip(cases, fits, strict=True)]
+    sds = [parameter_sds(case.update) for case in cases]
+    clear = clear_gains(np.array([j[0] for j in judged]), np.array([j[1] for j in judged]),
+                        nominal.reference,
+                        {name: np.array([j[2][name] for j in judged]) for name in GAINS},
+                        np.array([[sd[name] for name in GAINS] for sd in sds]),
+                        np.array([case.update.correlation for case in cases]),
+                        nominal.limits.gain_significance)
     for j, b in enumerate(index):
+        if clear[j]:  # both checks passed by more than round-off: check_gain's verdict
+            results[b] = _Corrected(cases[j].update.youngs_modulus, fits[j][0])
+            continue
         try:
             results[b] = _checked(nominal, cases[j], *fits[j])
         except CorrectionRefused as exc:
@@ -783,15 +797,24 @@ def _checked(nominal: NominalCorrection, case: _Case, p: np.ndarray,
     """The gain checks (:func:`~.step.check_gain`) of a sample's clip correction ``p`` (12,)
     and the fit chain's equilibrium ``corrected`` there: its :class:`_Corrected`, or raises
     :class:`CorrectionRefused`."""
+    open_loop, prediction, directions = _predictions(nominal, case, p, corrected)
+    check_gain(open_loop, prediction, nominal.reference, directions, case.update,
+               nominal.limits.gain_significance)
+    return _Corrected(case.update.youngs_modulus, p)
+
+
+def _predictions(nominal: NominalCorrection, case: _Case, p: np.ndarray,
+                 corrected: np.ndarray) -> tuple:
+    """What the gain checks judge: the target's predictions at the planned and the corrected
+    clips, the bias included, (n + 1, 3) each, and the target's responses to ln E, alpha and
+    beta at the corrected clips (d and g to first order) [m]."""
     at, bias, moves = case.at, case.bias, case.moves
     k, z = nominal.clamp_links, p * nominal.scale
-    directions = {"modulus": at["modulus_t"],  # at the corrected clips, d and g to first order
+    directions = {"modulus": at["modulus_t"],
                   "discretization": at["d_t"] + (at["d_clips"] @ z).reshape(bias.shape),
                   "grip": at["g_t"] + (at["g_clips"] @ z).reshape(bias.shape)}
-    check_gain(case.open_loop[::k] + bias,
-               corrected[::k] + bias + (moves @ z).reshape(bias.shape), nominal.reference,
-               directions, case.update, nominal.limits.gain_significance)
-    return _Corrected(case.update.youngs_modulus, p)
+    return (case.open_loop[::k] + bias,
+            corrected[::k] + bias + (moves @ z).reshape(bias.shape), directions)
 
 
 def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, first: dict, prior
