@@ -56,7 +56,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Generator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
@@ -169,19 +169,23 @@ class DerivativeTable:
 @dataclass(frozen=True, eq=False)
 class Interpolated:
     """:meth:`DerivativeTable.at`: ``self[name]`` is ``(1 - w) values[name][k] + w
-    values[name][k + 1]`` (a node's own array at w = 0 or 1)."""
+    values[name][k + 1]`` (a node's own array at w = 0 or 1), computed once."""
 
     values: dict
     k: int
     w: float
+    made: dict = field(default_factory=dict, repr=False)
 
     def __getitem__(self, name: str) -> np.ndarray:
-        v = self.values[name]
-        if self.w == 0.0:
-            return v[self.k]
-        if self.w == 1.0:
-            return v[self.k + 1]
-        return (1.0 - self.w) * v[self.k] + self.w * v[self.k + 1]
+        if name not in self.made:
+            v = self.values[name]
+            if self.w == 0.0:
+                self.made[name] = v[self.k]
+            elif self.w == 1.0:
+                self.made[name] = v[self.k + 1]
+            else:
+                self.made[name] = (1.0 - self.w) * v[self.k] + self.w * v[self.k + 1]
+        return self.made[name]
 
 
 @dataclass(frozen=True, eq=False)
@@ -586,9 +590,12 @@ def _fit_and_check(nominal: NominalCorrection, results: list, cables: dict) -> N
         return
     cases = [results[b] for b in index]
 
+    chains = _fit_chains(nominal, [case.update.youngs_modulus for case in cases], cables)
+
     def solve(which, p, guesses):
         return _solve(nominal, [_Request(cases[j].update.youngs_modulus, p[i], True,
-                                         guesses[i]) for i, j in enumerate(which)], cables)
+                                         guesses[i]) for i, j in enumerate(which)], cables,
+                      chains.take(which))
 
     p, x, fitted = fit_clips_batch(
         np.array([c.jacobian for c in cases]), np.array([c.at["fine_clips"] for c in cases]),
@@ -613,9 +620,22 @@ def _fit_and_check(nominal: NominalCorrection, results: list, cables: dict) -> N
             results[b] = _Corrected(cases[j].update.youngs_modulus, fits[j][0])
             continue
         try:
-            results[b] = _checked(nominal, cases[j], *fits[j])
+            check_gain(judged[j][0], judged[j][1], nominal.reference, judged[j][2],
+                       cases[j].update, nominal.limits.gain_significance)
+            results[b] = _Corrected(cases[j].update.youngs_modulus, fits[j][0])
         except CorrectionRefused as exc:
             results[b] = str(exc)
+
+
+def _fit_chains(nominal: NominalCorrection, moduli, cables: dict) -> PlantChains:
+    """The clip fit's chains (:class:`~.step.FitModel`: k n links) at the ``moduli`` [Pa],
+    joined in order, each E's made once into ``cables``."""
+    k = nominal.clamp_links
+    for e in moduli:
+        if (float(e), k) not in cables:
+            cables[float(e), k] = PlantChains.of([nominal.cable.with_modulus(float(e)).with_links(
+                k * nominal.cable.n_links)], nominal.gravity)
+    return PlantChains.join([cables[float(e), k] for e in moduli])
 
 
 def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> None:
@@ -627,13 +647,16 @@ def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> Non
         results[b] = str(exc)
 
 
-def _solve(nominal: NominalCorrection, requests: list, cables: dict) -> list:
+def _solve(nominal: NominalCorrection, requests: list, cables: dict,
+           fit_chains: PlantChains | None = None) -> list:
     """The equilibria of ``requests``: those at shape K on the model's chain in one
     :func:`held_equilibria` call, those at the target on the clip fit's chain in one
     :func:`.plant_batch.drive_chains` call (one stop each: the clamped equilibrium of
     :class:`~.step.FitModel`, bit for bit, and its reach check); shapes, None where there is no
     stable equilibrium. ``cables`` holds what was made so far per E and links: the model's
-    cable (1 link clamped), the clip fit chain's :class:`.plant_batch.PlantChains` (k)."""
+    cable (1 link clamped), the clip fit chain's :class:`.plant_batch.PlantChains` (k);
+    ``fit_chains``, when given, are the fit chains of the requests at the target, in order
+    (made by :func:`_fit_chains`)."""
     positions, quaternions = nominal.poses
     p = np.array([r.clips for r in requests]).reshape(-1, 2, 2, 3)
     index = [nominal.n_shapes - 1 if r.at_target else nominal.at for r in requests]
@@ -658,14 +681,8 @@ def _solve(nominal: NominalCorrection, requests: list, cables: dict) -> list:
     target = [b for b, r in enumerate(requests) if r.at_target]
     if target:
         k = nominal.clamp_links
-        fine = []
-        for b in target:
-            e = float(requests[b].youngs_modulus)
-            if (e, k) not in cables:
-                cables[e, k] = PlantChains.of([nominal.cable.with_modulus(e).with_links(
-                    k * nominal.cable.n_links)], nominal.gravity)
-            fine.append(cables[e, k])
-        fine = PlantChains.join(fine)
+        fine = fit_chains if fit_chains is not None else _fit_chains(
+            nominal, [requests[b].youngs_modulus for b in target], cables)
         quats = rotations.as_quat().reshape(-1, 2, 4)[target]
         drive = drive_chains(fine, [k] * len(target), [requests[b].guess for b in target],
                              moved[target][:, None], quats[:, None], gravity=nominal.gravity)
