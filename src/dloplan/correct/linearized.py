@@ -80,6 +80,7 @@ from .measurement_batch import (
     noise_sds,
     resample_measured_batch,
     resample_polylines,
+    told_offsets,
 )
 from .model_error import (
     MAX_GRIP,
@@ -426,7 +427,7 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
         open_error[held] = _shape_errors(drive.shapes[held, -1], nominal.resampled_reference)
         points = measured_points(drive.shapes[held, SUBSTEPS * at], [items[b][0] for b in held],
                                  noise, n_measured)
-        for b, y in zip(held, _resampled(nominal, points), strict=True):
+        for b, y in zip(held, _resampled(nominal, points, batched), strict=True):
             if isinstance(y, str):
                 results[b] = y
             else:
@@ -694,13 +695,14 @@ def _solve(nominal: NominalCorrection, requests: list, cables: dict,
     return out
 
 
-def _resampled(nominal: NominalCorrection, points: np.ndarray) -> list:
+def _resampled(nominal: NominalCorrection, points: np.ndarray, batched: bool) -> list:
     """The measured ``points`` (B, k, 3) [m] resampled onto the model's points
     (:func:`.measurement.resample_measured`, its checks: :func:`.measurement_batch.
     resample_measured_batch` and the function itself on what the batch hands back), the
     measurement's offset taken out when it tells one (:func:`~.step.update_modulus`: the held
     points' scatter and the measurement's noise along the clips' axes, :func:`~.step.
-    offset_verdict`): per sample (n + 1, 3) [m], or the refusal's reason."""
+    offset_verdict`; decided for the chunk at once, :func:`.measurement_batch.told_offsets`,
+    unless ``batched`` is False): per sample (n + 1, 3) [m], or the refusal's reason."""
     x = nominal.table.at(math.log(nominal.cable.youngs_modulus))["state"]
     length, limit = nominal.cable.length, nominal.limits.max_disagreement
     shapes, done = resample_measured_batch(points, x, length, limit)
@@ -713,10 +715,15 @@ def _resampled(nominal: NominalCorrection, points: np.ndarray) -> list:
     kept = [b for b, y in enumerate(out) if not isinstance(y, str)]
     if kept:
         sds = noise_sds(points[kept], np.array([out[b] for b in kept]))
-        for b, sd in zip(kept, sds, strict=True):
-            offset, scatter = measured_offset(out[b] - x)
-            covariance = offset_covariance(scatter, nominal.u_axes, float(sd))
-            out[b] = out[b] - offset_verdict(offset, covariance)[0]  # the camera's
+        applied, clear = told_offsets(np.array([out[b] for b in kept]) - x, nominal.u_axes,
+                                      sds)
+        clear &= batched
+        for b, sd, offset, decided in zip(kept, sds, applied, clear, strict=True):
+            if not decided:  # too near the threshold for the batch: the verdict itself
+                offset, scatter = measured_offset(out[b] - x)
+                covariance = offset_covariance(scatter, nominal.u_axes, float(sd))
+                offset = offset_verdict(offset, covariance)[0]
+            out[b] = out[b] - offset  # the camera's
     return out
 
 
