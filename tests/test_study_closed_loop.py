@@ -518,11 +518,12 @@ def test_the_clip_batch_leaves_a_sample_it_cannot_fit_and_fits_the_others_alike(
         np.testing.assert_allclose(p[b], best, rtol=1e-3, atol=1e-9)
 
 
-def test_the_batched_fits_hand_back_what_the_bounds_hold(batch_case):
+def test_the_batched_fits_are_fit_estimate_and_hand_back_a_singular_system(batch_case):
     """fit_estimates (each residual against its own columns, stacked normal equations)
-    against fit_estimate one by one: the final estimates equal to 1e-9 relative (round-off of
-    a p x 33 system), and a residual whose alpha lies beyond its bound (a bias 20 times the
-    largest) handed back, for fit_estimate's hold at the bound."""
+    against fit_estimate one by one: equal to 1e-9 relative (round-off of a p x 33 system),
+    a residual whose alpha lies beyond its bound (a bias 20 times the largest) held there
+    alike; a batch with a singular system (a zero direction) is handed back whole, for
+    fit_estimate's library fit."""
     from dloplan.correct.model_error import BOUNDS, alpha_prior
     from dloplan.correct.normal_fits import columns_of, fit_estimate, fit_estimates
 
@@ -536,15 +537,22 @@ def test_the_batched_fits_hand_back_what_the_bounds_hold(batch_case):
         residual = (0.05 * at["modulus_k"] + alpha * at["d_k"] + 0.2 * at["g_k"]
                     + rng.normal(size=at["d_k"].shape) * 1e-4)
         cases.append((at["modulus_k"], directions, residual))
-    values, final = fit_estimates(np.array([columns_of(j, d) for j, d, _ in cases]),
-                                  np.array([r.ravel() for _, _, r in cases]), 1, prior)
-    assert final.tolist() == [True, True, False, True]
-    for (jacobian, directions, residual), v, ok in zip(cases, values, final, strict=True):
-        one = fit_estimate(jacobian, list(directions), residual, prior)
-        if ok:
-            np.testing.assert_allclose(v, one, rtol=1e-9, atol=1e-15)
-        else:
-            assert one[1] == BOUNDS[0][1]  # held at alpha's bound by the per-sample fit
+
+    def batch(cases):
+        return fit_estimates(np.array([columns_of(j, d) for j, d, _ in cases]),
+                             np.array([r.ravel() for _, _, r in cases]), 1, prior)
+
+    values, final = batch(cases)
+    assert final.all()
+    for (jacobian, directions, residual), v in zip(cases, values, strict=True):
+        np.testing.assert_allclose(v, fit_estimate(jacobian, list(directions), residual,
+                                                   prior), rtol=1e-9, atol=1e-15)
+    assert values[2][1] == BOUNDS[0][1]  # held at alpha's bound
+    jacobian, (d, g), residual = cases[1]
+    values, final = batch(cases[:1] + [(jacobian, (np.zeros_like(d), g), residual)])
+    assert not final.any()
+    assert np.all(np.isfinite(fit_estimate(jacobian, [np.zeros_like(d), g], residual,
+                                           prior)))
 
 
 def test_the_batched_gain_checks_pass_only_what_check_gain_passes():

@@ -10,9 +10,12 @@ against a handful of columns, so here the fit is solved from its p x p normal eq
   chunk's first fits);
 * :func:`fit_estimates`: many residuals each against its own columns, the estimates alone
   (a round of the model update's Gauss-Newton steps or last amplitudes across a chunk); what it
-  cannot fit on the normal equations (an estimate beyond the amplitudes' bounds, a singular
-  system) it hands back for :func:`fit_estimate`, the same fit of one residual, which holds
-  the bounds or falls back to the library's fit.
+  cannot fit on the normal equations (a singular system, an estimate not finite) it hands back
+  for :func:`fit_estimate`, the same fit of one residual, which falls back to the library's
+  fit.
+
+Estimates beyond the amplitudes' bounds are held there and the others refitted, all of a batch
+at once.
 
 Equal to the library's fit to round-off (tested).
 """
@@ -113,8 +116,9 @@ def fit_estimates(columns: np.ndarray, residuals: np.ndarray, alpha: int,
     Returns
     -------
     tuple
-        ``(values, final)``: an estimate that is not final (beyond the amplitudes' bounds, not
-        finite, or every estimate when a system is singular) is left to :func:`fit_estimate`.
+        ``(values, final)``: the estimates, those beyond the amplitudes' bounds held there as
+        :func:`fit_estimate` holds them; one that is not final (not finite, or every estimate
+        when a system is singular) is left to :func:`fit_estimate`.
     """
     count, size, p = columns.shape
     dof = max(size - (p - alpha) - 1, 1)
@@ -127,12 +131,11 @@ def fit_estimates(columns: np.ndarray, residuals: np.ndarray, alpha: int,
         weight = np.einsum("bn,bn->b", left, left) / dof / prior[1] ** 2
         gram[:, alpha, alpha] += weight
         rhs[:, alpha] += weight * prior[0]
-        values = np.linalg.solve(gram, rhs[:, :, None])[:, :, 0]
+        values = _within_bounds(gram, rhs, np.linalg.solve(gram, rhs[:, :, None])[:, :, 0],
+                                alpha)
     except np.linalg.LinAlgError:
         return np.zeros((count, p)), np.zeros(count, dtype=bool)
-    bounds = np.array([(-math.inf, math.inf)] * alpha + list(BOUNDS[: p - alpha]))
-    final = np.all((values >= bounds[:, 0]) & (values <= bounds[:, 1]), axis=1)
-    return values, final
+    return values, np.all(np.isfinite(values), axis=1)
 
 
 def _estimates(jacobian, directions, residuals, prior) -> tuple:
@@ -153,36 +156,47 @@ def _estimates(jacobian, directions, residuals, prior) -> tuple:
     rhs_prior = rhs.copy()
     rhs_prior[:, i] += weight * prior[0]
     values = np.linalg.solve(system, rhs_prior[:, :, None])[:, :, 0]
-    bounds = [(-math.inf, math.inf)] * i + list(BOUNDS[: len(directions)])
-    for b in range(len(r)):
-        if not all(low <= v <= high for v, (low, high) in zip(values[b], bounds, strict=True)):
-            values[b] = _held_at_bounds(gram, rhs[b], weight[b], i, prior[0], values[b], bounds)
+    values = _within_bounds(system, rhs_prior, values, i)
     return a, r, i, gram, values
 
 
-def _held_at_bounds(gram, rhs, weight, i, centre, values, bounds) -> np.ndarray:
-    """:func:`.model_error.fit_model_error`'s bounds on the normal equations of one residual
-    (``gram`` p x p, ``rhs`` (p,), the prior's ``weight`` on column ``i`` at ``centre``): the
-    amplitude furthest out held at its bound, the others refitted, until all are within."""
-    system = gram.copy()
-    system[i, i] += weight
-    target = rhs.copy()
-    target[i] += weight * centre
+def _within_bounds(system, target, values, alpha) -> np.ndarray:
+    """The estimates ``values`` (B, p), those beyond the amplitudes' bounds
+    (:data:`.model_error.BOUNDS`, from column ``alpha`` on) held there (:func:`_held_at_bounds`
+    on their normal equations ``system`` (B, p, p) and ``target`` (B, p))."""
+    p = values.shape[1]
+    bounds = np.array([(-math.inf, math.inf)] * alpha + list(BOUNDS[: p - alpha]))
+    out = ~np.all((values >= bounds[:, 0]) & (values <= bounds[:, 1]), axis=1)
+    if np.any(out):
+        values = values.copy()
+        values[out] = _held_at_bounds(system[out], target[out], values[out], bounds)
+    return values
+
+
+def _held_at_bounds(system, target, values, bounds) -> np.ndarray:
+    """:func:`.model_error.fit_model_error`'s bounds on the normal equations of B residuals
+    (``system`` (B, p, p) with the prior's weight, ``target`` (B, p)) from their estimates
+    ``values`` (B, p): in each, the amplitude furthest out held at its bound and the others
+    refitted (the held ones' rows of the system made unit rows at their values), until all
+    are within or held; ``bounds`` (p, 2)."""
+    low, high = bounds[:, 0], bounds[:, 1]
     values = values.copy()
-    held = np.zeros(len(values), dtype=bool)
-    for _ in values:
-        out = [k for k in np.flatnonzero(~held)
-               if not bounds[k][0] <= values[k] <= bounds[k][1]]
-        if not out:
+    rows = np.arange(len(values))
+    held = np.zeros(values.shape, dtype=bool)
+    for _ in range(values.shape[1]):
+        excess = np.where(held, -np.inf, np.maximum(low - values, values - high))
+        worst = np.argmax(excess, axis=1)
+        out = excess[rows, worst] > 0.0
+        if not np.any(out):
             break
-        k = max(out, key=lambda k: max(bounds[k][0] - values[k], values[k] - bounds[k][1]))
-        values[k] = min(max(values[k], bounds[k][0]), bounds[k][1])
-        held[k] = True
-        free = np.flatnonzero(~held)
-        if len(free):
-            values[free] = np.linalg.solve(
-                system[np.ix_(free, free)],
-                target[free] - system[np.ix_(free, held)] @ values[held])
+        take = rows[out]
+        values[take, worst[out]] = np.clip(values[take, worst[out]], low[worst[out]],
+                                           high[worst[out]])
+        held[take, worst[out]] = True
+        fixed = held[take]
+        a = np.where(fixed[:, :, None], np.eye(values.shape[1]), system[take])
+        b = np.where(fixed, values[take], target[take])
+        values[take] = np.linalg.solve(a, b[:, :, None])[:, :, 0]
     return values
 
 
