@@ -249,6 +249,12 @@ class NominalCorrection:
         return len(self.poses[0])
 
     @cached_property
+    def fit_cable(self) -> Cable:
+        """The model cable on the clip fit's k n links (:class:`~.step.FitModel`), at the
+        plan's E."""
+        return self.cable.with_links(self.clamp_links * self.cable.n_links)
+
+    @cached_property
     def resampled_reference(self) -> np.ndarray:
         """:attr:`reference` resampled by arc length onto its own n + 1 points, as
         :func:`~.plant.shape_error` compares it [m]."""
@@ -407,8 +413,9 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
         One row per item (:data:`~.probability.SAMPLE_COLUMNS` and ``sample``), in order.
     """
     cable, at = nominal.cable, nominal.at
-    plants = [perturbed_cable(cable, e, m, length).with_links(nominal.plant_links)
-              for _, e, m, length in items]
+    plants = [perturbed_cable(cable, e, m, length) for _, e, m, length in items]
+    if nominal.plant_links != cable.n_links:
+        plants = [plant.with_links(nominal.plant_links) for plant in plants]
     clamps = [max(1, round(cable.rest_link_length / p.rest_link_length)) for p in plants]
     count = len(items)
     positions, quaternions = (np.broadcast_to(a, (count,) + a.shape) for a in nominal.stops)
@@ -634,8 +641,8 @@ def _fit_chains(nominal: NominalCorrection, moduli, cables: dict) -> PlantChains
     k = nominal.clamp_links
     for e in moduli:
         if (float(e), k) not in cables:
-            cables[float(e), k] = PlantChains.of([nominal.cable.with_modulus(float(e)).with_links(
-                k * nominal.cable.n_links)], nominal.gravity)
+            cables[float(e), k] = PlantChains.of([nominal.fit_cable.with_modulus(float(e))],
+                                                 nominal.gravity)
     return PlantChains.join([cables[float(e), k] for e in moduli])
 
 
