@@ -574,7 +574,7 @@ def _fits(requests: list, batched: bool) -> list:
     for j, r in enumerate(requests):
         kinds.setdefault((r.jacobian is None, len(r.directions), r.prior), []).append(j)
     for (held, _, prior), index in kinds.items():
-        final = np.zeros(len(index), dtype=bool)
+        values, final = None, np.zeros(len(index), dtype=bool)
         if batched:
             values, final = fit_estimates(
                 np.array([columns_of(requests[j].jacobian, requests[j].directions)
