@@ -636,14 +636,21 @@ def _fit_and_check(nominal: NominalCorrection, results: list, cables: dict) -> N
 
 
 def _fit_chains(nominal: NominalCorrection, moduli, cables: dict) -> PlantChains:
-    """The clip fit's chains (:class:`~.step.FitModel`: k n links) at the ``moduli`` [Pa],
-    joined in order, each E's made once into ``cables``."""
+    """The clip fit's chains (:class:`~.step.FitModel`: k n links) at the ``moduli`` [Pa], in
+    order: rows of one pool of the chunk's fit chains (``cables["fit chains"]``), each E's
+    made once (those of a call in one :meth:`.plant_batch.PlantChains.of`), its row kept in
+    ``cables`` under (E, k)."""
     k = nominal.clamp_links
-    for e in moduli:
-        if (float(e), k) not in cables:
-            cables[float(e), k] = PlantChains.of([nominal.fit_cable.with_modulus(float(e))],
-                                                 nominal.gravity)
-    return PlantChains.join([cables[float(e), k] for e in moduli])
+    missing = list(dict.fromkeys(float(e) for e in moduli if (float(e), k) not in cables))
+    if missing:
+        made = PlantChains.of([nominal.fit_cable.with_modulus(e) for e in missing],
+                              nominal.gravity)
+        pool = cables.get("fit chains")
+        start = 0 if pool is None else len(pool.cables)
+        cables["fit chains"] = made if pool is None else PlantChains.join([pool, made])
+        for row, e in enumerate(missing, start=start):
+            cables[e, k] = row
+    return cables["fit chains"].take([cables[float(e), k] for e in moduli])
 
 
 def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> None:
@@ -662,7 +669,7 @@ def _solve(nominal: NominalCorrection, requests: list, cables: dict,
     :func:`.plant_batch.drive_chains` call (one stop each: the clamped equilibrium of
     :class:`~.step.FitModel`, bit for bit, and its reach check); shapes, None where there is no
     stable equilibrium. ``cables`` holds what was made so far per E and links: the model's
-    cable (1 link clamped), the clip fit chain's :class:`.plant_batch.PlantChains` (k);
+    cable (1 link clamped), the clip fit chain's row in their pool (k, :func:`_fit_chains`);
     ``fit_chains``, when given, are the fit chains of the requests at the target, in order
     (made by :func:`_fit_chains`)."""
     positions, quaternions = nominal.poses
