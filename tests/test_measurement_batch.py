@@ -128,3 +128,36 @@ def test_a_fit_with_empty_knot_spans_is_not_done():
     assert not done[0]
     smooth_measurements(points, along, 1, curves, done)  # one span: four coefficients told
     assert done[0] and np.allclose(curves[0, :, 0], np.linspace(0.0, 0.6, 50), atol=1e-12)
+
+
+def test_told_offsets_are_offset_verdicts_and_leave_the_threshold_to_it():
+    """told_offsets against measured_offset, offset_covariance and offset_verdict one by one
+    on residuals with offsets from none to 3 mm: the same offsets applied (to 1e-15 m) where
+    it decides, and a residual whose score is the threshold itself left undecided."""
+    from dloplan.correct.measurement_batch import told_offsets
+    from dloplan.correct.model_error import measured_offset, offset_covariance
+    from dloplan.correct.step import OFFSET_SIGNIFICANCE, offset_verdict
+    from dloplan.sim.clips import HELD_INDICES
+
+    rng = np.random.default_rng(11)
+    count, size = 30, 11
+    u_axes = np.array([[1.0, 0.0, 0.0], [0.0, 0.6, 0.8]])
+    residuals = rng.normal(size=(count, size, 3)) * 3e-4
+    residuals += rng.uniform(0.0, 3e-3, size=(count, 1, 1)) * rng.normal(size=(count, 1, 3))
+    noise = np.full(count, 1e-3)
+    # the last: its score scaled onto the threshold
+    offset, scatter = measured_offset(residuals[-1])
+    covariance = offset_covariance(scatter, u_axes, noise[-1])
+    score = np.sqrt(offset @ np.linalg.solve(covariance, offset))
+    held = list(HELD_INDICES)
+    residuals[-1, held] += offset * (OFFSET_SIGNIFICANCE / score - 1.0)
+    applied, decided = told_offsets(residuals, u_axes, noise)
+    assert not decided[-1]
+    told = 0
+    for b in range(count - 1):
+        offset, scatter = measured_offset(residuals[b])
+        want = offset_verdict(offset, offset_covariance(scatter, u_axes, noise[b]))[0]
+        assert decided[b]
+        np.testing.assert_allclose(applied[b], want, rtol=0, atol=1e-15)
+        told += bool(np.any(want != 0.0))
+    assert 0 < told < count - 1

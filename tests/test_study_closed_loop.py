@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -297,13 +298,14 @@ def test_the_normal_equations_fit_is_the_model_error_fit(example_plan, grip, hel
     bounds' clipping included."""
     import numpy as np
 
-    from dloplan.correct.linearized import fit_amplitudes, nominal_correction
+    from dloplan.correct.linearized import nominal_correction
     from dloplan.correct.model_error import (
         alpha_prior,
         fit_model_error,
         parameter_covariance,
         standard_deviations,
     )
+    from dloplan.correct.normal_fits import fit_amplitudes
     from dloplan.pipeline.stages import settled_shapes
 
     doc = example_plan
@@ -386,3 +388,204 @@ def test_the_tabulated_clip_derivatives_of_the_bias_are_its_central_differences(
             want = (plus - minus) / (2.0 * step[j])
             got = (at[name] @ column).reshape(want.shape)
             assert np.linalg.norm(got - want) <= 2e-3 * np.linalg.norm(want), (name, j)
+
+
+BATCH_SAMPLES = [(e, m, l) for e in (0.3, 0.5, 0.7, 1.0, 1.4, 2.0, 3.0, 6.0)
+                 for m, l in ((1.0, 1.0), (1.05, 0.99))]
+
+
+@pytest.fixture(scope="module")
+def batch_case(example_plan):
+    """The study example's nominal correction at K = 3 and 16 samples (E x0.3 .. x6, two
+    masses and lengths, noise seeds 30-45)."""
+    from dloplan.correct.linearized import nominal_correction
+    from dloplan.pipeline.stages import settled_shapes
+
+    doc = example_plan
+    cable = doc.cable
+    items = [(index, cable.youngs_modulus * e, cable.mass / cable.length * m, cable.length * l)
+             for index, (e, m, l) in enumerate(BATCH_SAMPLES, start=30)]
+    nominal = nominal_correction(cable, doc.shapes, doc.grippers, 3,
+                                 stabilized=settled_shapes(doc), gravity=(0.0, 0.0, -9.81))
+    return nominal, items
+
+
+def _assert_same_rows(rows, reference):
+    """Sample by sample: the open loop bit for bit, the same decisions and reasons, E to
+    1e-9 relative and the closed-loop error to 1e-8 m (:func:`test_the_batched_chunk_is_the_
+    per_sample_chunk` says why)."""
+    import math
+
+    for a, b in zip(rows, reference, strict=True):
+        assert a["sample"] == b["sample"]
+        assert a["open_loop_error"] == b["open_loop_error"] or (
+            math.isnan(a["open_loop_error"]) and math.isnan(b["open_loop_error"]))
+        assert (a["corrections"], a["refusal"]) == (b["corrections"], b["refusal"])
+        if a["corrections"]:
+            assert a["youngs_modulus_estimate"] == pytest.approx(b["youngs_modulus_estimate"],
+                                                                 rel=1e-9)
+            assert abs(a["closed_loop_error"] - b["closed_loop_error"]) <= 1e-8
+        else:
+            assert a["closed_loop_error"] == b["closed_loop_error"] or (
+                math.isnan(a["closed_loop_error"]) and math.isnan(b["closed_loop_error"]))
+
+
+def test_the_batched_chunk_is_the_per_sample_chunk(batch_case):
+    """linearized_rows with the chunk's model-update fits, clip fits and gain checks batched
+    (the default) against every sample's correction run alone (batched=False), sample by
+    sample.
+
+    Tolerances, and why: the batch runs the same algorithm on stacked arrays, whose products
+    are summed in another order (round-off, 1e-16 relative); each clip-fit trial is an
+    equilibrium solved to the Newton tolerance (1e-10 of the force scale) from a guess that
+    differs by that round-off, and the corrected plant's run starts from clips that differ as
+    much, so E may move by round-off and a closed-loop error by what the solves' tolerance
+    lets through: at most 1e-9 m measured on the bench's 1024 samples, 1e-8 m allowed. The
+    decisions and refusals (their numbers printed to 0.01 mm) are the same: a gain check the
+    batch cannot vouch for by more than round-off is made by check_gain itself."""
+    from dloplan.correct.linearized import linearized_rows
+
+    nominal, items = batch_case
+    batched = linearized_rows(nominal, items, noise=1e-3, n_measured=200)
+    alone = linearized_rows(nominal, items, noise=1e-3, n_measured=200, batched=False)
+    _assert_same_rows(batched, alone)
+    assert sum(r["corrections"] for r in alone) >= 3  # clip fits were batched and accepted
+    assert any("gain:" in r["refusal"] for r in alone)  # and gain checks refused
+
+
+def test_a_sample_the_clip_batch_cannot_fit_is_fitted_alone(batch_case, monkeypatch):
+    """A sample fit_clips_batch hands back (``fitted`` False, p = 0 at its start: here all
+    but the first, as if their normal equations were not finite) is fitted by the per-sample
+    loop: the rows are the per-sample path's (with p = 0 kept, the gain check would refuse the
+    corrections the per-sample path accepts, at least two of them handed back)."""
+    import dloplan.correct.linearized as linearized
+
+    nominal, items = batch_case
+    batch = linearized.fit_clips_batch
+    handed_back = []
+
+    def every_other(jacobians, fine, moves, starts, *args):
+        p, x, fitted = batch(jacobians, fine, moves, starts, *args)
+        back = np.arange(len(p)) >= 1
+        p[back], x[back], fitted[back] = 0.0, starts[back], False
+        handed_back.append(int(np.sum(back)))
+        return p, x, fitted
+
+    monkeypatch.setattr(linearized, "fit_clips_batch", every_other)
+    rows = linearized.linearized_rows(nominal, items, noise=1e-3, n_measured=200)
+    monkeypatch.undo()
+    alone = linearized.linearized_rows(nominal, items, noise=1e-3, n_measured=200,
+                                       batched=False)
+    assert handed_back and handed_back[0] >= 2
+    _assert_same_rows(rows, alone)
+
+
+def test_the_clip_batch_leaves_a_sample_it_cannot_fit_and_fits_the_others_alike():
+    """fit_clips_batch on a linear model (the equilibrium is the guess): a sample with a
+    non-finite Jacobian is not fitted (p = 0 at its start), and the others come out as when
+    batched without it, to round-off; each fit ends on the limits' projection or the
+    least-squares solution of the linear problem."""
+    from dloplan.correct.clip_batch import fit_clips_batch
+    from dloplan.correct.step import CorrectionLimits
+
+    rng = np.random.default_rng(3)
+    count, size, k = 3, 11, 2
+    jacobians = rng.normal(size=(count, 3 * size, 12)) * 1e-2
+    jacobians[1, 0, 0] = np.nan
+    moves = np.zeros_like(jacobians)
+    starts = np.zeros((count, k * (size - 1) + 1, 3))
+    # the fine chain's Jacobian at its every k-th point is the fitted one: linear trials
+    fine = np.zeros((count, 3 * len(starts[0]), 12))
+    for b in range(count):
+        fine[b].reshape(-1, 3, 12)[::k] = jacobians[b].reshape(-1, 3, 12)
+    bias = rng.normal(size=(count, size, 3)) * 1e-4
+    reference = np.zeros((size, 3))
+    limits, scale = CorrectionLimits(), np.ones(12)
+
+    def solve(index, p, guesses):
+        return list(guesses)
+
+    p, x, fitted = fit_clips_batch(jacobians, fine, moves, starts, bias, reference, scale,
+                                   limits, k, 2, solve)
+    assert fitted.tolist() == [True, False, True]
+    assert np.all(p[1] == 0.0) and np.all(x[1] == starts[1])
+    keep = [0, 2]
+    p2, x2, fitted2 = fit_clips_batch(jacobians[keep], fine[keep], moves[keep], starts[keep],
+                                      bias[keep], reference, scale, limits, k, 2, solve)
+    assert fitted2.all()
+    np.testing.assert_allclose(p[keep], p2, rtol=1e-12, atol=1e-18)
+    for b in keep:  # the linear least-squares fit (no limit reached at these sizes)
+        best = np.linalg.lstsq(jacobians[b], -bias[b].ravel(), rcond=None)[0]
+        np.testing.assert_allclose(p[b], best, rtol=1e-3, atol=1e-9)
+
+
+def test_the_batched_fits_are_fit_estimate_and_hand_back_a_singular_system(batch_case):
+    """fit_estimates (each residual against its own columns, stacked normal equations)
+    against fit_estimate one by one: equal to 1e-9 relative (round-off of a p x 33 system),
+    a residual whose alpha lies beyond its bound (a bias 20 times the largest) held there
+    alike; a batch with a singular system (a zero direction) is handed back whole, for
+    fit_estimate's library fit."""
+    from dloplan.correct.model_error import BOUNDS, alpha_prior
+    from dloplan.correct.normal_fits import columns_of, fit_estimate, fit_estimates
+
+    nominal, _ = batch_case
+    prior = alpha_prior(nominal.cable.n_links, nominal.plant_links)
+    rng = np.random.default_rng(5)
+    cases = []
+    for log_e, alpha in ((-0.4, 0.3), (0.0, 0.6), (0.5, 20 * BOUNDS[0][1]), (0.9, 0.1)):
+        at = nominal.table.at(float(np.log(nominal.cable.youngs_modulus)) + log_e)
+        directions = (at["d_k"], at["g_k"])
+        residual = (0.05 * at["modulus_k"] + alpha * at["d_k"] + 0.2 * at["g_k"]
+                    + rng.normal(size=at["d_k"].shape) * 1e-4)
+        cases.append((at["modulus_k"], directions, residual))
+
+    def batch(cases):
+        return fit_estimates(np.array([columns_of(j, d) for j, d, _ in cases]),
+                             np.array([r.ravel() for _, _, r in cases]), 1, prior)
+
+    values, final = batch(cases)
+    assert final.all()
+    for (jacobian, directions, residual), v in zip(cases, values, strict=True):
+        np.testing.assert_allclose(v, fit_estimate(jacobian, list(directions), residual,
+                                                   prior), rtol=1e-9, atol=1e-15)
+    assert values[2][1] == BOUNDS[0][1]  # held at alpha's bound
+    jacobian, (d, g), residual = cases[1]
+    values, final = batch(cases[:1] + [(jacobian, (np.zeros_like(d), g), residual)])
+    assert not final.any()
+    assert np.all(np.isfinite(fit_estimate(jacobian, [np.zeros_like(d), g], residual,
+                                           prior)))
+
+
+def test_the_batched_gain_checks_pass_only_what_check_gain_passes():
+    """clear_gains against check_gain on random predictions: every correction it passes
+    check_gain passes; a correction that gains nothing (corrected = open loop) is never
+    passed, and one that reaches the reference exactly is."""
+    from dloplan.correct.gain_batch import NAMES, clear_gains
+    from dloplan.correct.measurement import CorrectionRefused
+    from dloplan.correct.step import ModelUpdate, check_gain, parameter_sds
+
+    rng = np.random.default_rng(7)
+    count, size = 40, 11
+    reference = rng.normal(size=(size, 3)) * 0.1
+    open_loop = reference + rng.normal(size=(count, size, 3)) * 3e-3
+    corrected = reference + rng.normal(size=(count, size, 3)) * rng.uniform(
+        0.0, 4e-3, size=(count, 1, 1))
+    corrected[0], corrected[1] = open_loop[0], reference
+    directions = {name: rng.normal(size=(count, size, 3)) * 1e-3 for name in NAMES}
+    updates = [ModelUpdate(1e6, 1e6 * float(np.exp(rng.normal() * 0.2)), 0.0, 0.0, 1,
+                           reference, discretization=0.3, log_sd=0.1, grip=0.2, grip_sd=0.3,
+                           discretization_sd=0.1, correlation=-0.5, log_prior_sd=1.15)
+               for _ in range(count)]
+    sds = np.array([[parameter_sds(u)[name] for name in NAMES] for u in updates])
+    clear = clear_gains(open_loop, corrected, reference, directions, sds,
+                        np.array([u.correlation for u in updates]), 2.0)
+    assert not clear[0] and clear[1]
+    passed = 0
+    for b in range(count):
+        try:
+            check_gain(open_loop[b], corrected[b], reference,
+                       {name: directions[name][b] for name in NAMES}, updates[b], 2.0)
+            passed += 1
+        except CorrectionRefused:
+            assert not clear[b]
+    assert 2 <= int(np.sum(clear)) <= passed < count

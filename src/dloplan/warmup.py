@@ -147,23 +147,41 @@ def harness() -> None:
 
 
 def study() -> None:
-    """A study chunk (the batched equilibria and the obstacle checks) and its closed-loop column
-    (the plants driven as a batch, the linearized correction: ``dloplan correct``'s kernels)."""
-    from .app.study import study_problem_of
-    from .correct import closed_loop_study
-    from .pipeline.stages import run_job, settled_shapes
-    from .study import draw_samples, evaluate_chunk, parse_study
+    """A two-sample chunk of a study and of its closed loop (E x0.7 and x1.4, measured after
+    the start) on a 10-link Ethernet cable laid straight, then bent into a 120 degree arc
+    beside a box: the calls, and so the kernels' argument types, of a real study's tasks (the
+    batched equilibria and obstacle checks, the plants driven as a batch, the linearized
+    correction: ``dloplan correct``'s kernels). The study workers' server runs it too, as its
+    preload (:mod:`dloplan.warm_study`): it imports no more than a study's tasks do."""
+    import numpy as np
+    from scipy.spatial.transform import Rotation
+
+    from .cable import GRAVITY, catalogue_cable
+    from .correct.linearized import linearized_rows, nominal_correction
+    from .grippers import gripper_path
+    from .obstacles import Box
+    from .shapes import arc_shape, place, straight_shape
+    from .study import draw_samples, evaluate_chunk, parse_study, study_problem
     from .study.run import chunk_items
 
-    doc = run_job(_job(planner={"n_shapes": 2}), check_robot=False)
-    problem = study_problem_of(doc)
-    spec = parse_study({"samples": 4, "parameters": {"youngs_modulus": {"spread": 10},
-                                                     "obstacle_position": {"spread": 1}},
-                        "correction": {"at": 1}})
+    cable = catalogue_cable("ethernet", 10)
+    turn = Rotation.from_euler("z", 90, degrees=True)
+    path = np.stack([place(straight_shape(cable.length, 10), (0.35, -0.25, 0.15), turn),
+                     place(arc_shape(cable.length, 10, np.radians(120.0)), (0.3, -0.2, 0.15),
+                           turn)])
+    grippers = gripper_path(path, method="auxiliary")
+    clips = [grippers.clip_poses(j) for j in range(len(path))]
+    problem = study_problem(cable, path, clips, [Box((0.3, 0.1, 0.05), (0.1, 0.1, 0.1))])
+    spec = parse_study({"samples": 2, "parameters": {"youngs_modulus": {"spread": 10},
+                                                     "obstacle_position": {"spread": 1}}})
     samples = draw_samples(spec, problem.cable, problem.obstacles)
-    evaluate_chunk(problem, chunk_items(samples, 4, [0])[0])
-    closed_loop_study(doc.cable, doc.shapes, doc.grippers, samples, spec.correction,
-                      stabilized=settled_shapes(doc), trajectory=doc.trajectory)
+    evaluate_chunk(problem, chunk_items(samples, 2, [0])[0])
+    nominal = nominal_correction(cable, path, grippers, 0, stabilized=problem.nominal,
+                                 gravity=GRAVITY)
+    weight = cable.mass / cable.length
+    linearized_rows(nominal, [(0, 0.7 * cable.youngs_modulus, weight, cable.length),
+                              (1, 1.4 * cable.youngs_modulus, weight, cable.length)],
+                    noise=1e-3, n_measured=200)
 
 
 EXERCISES = {

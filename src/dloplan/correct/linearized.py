@@ -56,7 +56,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Generator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
@@ -71,15 +71,18 @@ from ..sim import ClipPoses, equilibrium, interpolate_clips
 from ..sim.batch import held_equilibria
 from ..sim.sensitivity import equilibrium_sensitivity
 from ..study.evaluate import perturbed_cable
+from .clip_batch import fit_clips_batch
+from .gain_batch import NAMES as GAINS
+from .gain_batch import clear_gains
 from .measurement import CorrectionRefused, resample_measured
 from .measurement_batch import (
     measured_points,
     noise_sds,
     resample_measured_batch,
     resample_polylines,
+    told_offsets,
 )
 from .model_error import (
-    BOUNDS,
     MAX_GRIP,
     alpha_prior,
     clamped_equilibrium,
@@ -87,6 +90,7 @@ from .model_error import (
     model_error_directions,
     offset_covariance,
 )
+from .normal_fits import columns_of, fit_amplitudes, fit_estimate, fit_estimates
 from .plant_batch import PlantChains, drive_chains
 from .step import (
     CLIP_DAMPING,
@@ -100,8 +104,8 @@ from .step import (
     ModelUpdate,
     check_gain,
     fit_links_for,
-    fit_with_covariance,
     offset_verdict,
+    parameter_sds,
     trust_region_step,
     within_limits,
 )
@@ -166,19 +170,23 @@ class DerivativeTable:
 @dataclass(frozen=True, eq=False)
 class Interpolated:
     """:meth:`DerivativeTable.at`: ``self[name]`` is ``(1 - w) values[name][k] + w
-    values[name][k + 1]`` (a node's own array at w = 0 or 1)."""
+    values[name][k + 1]`` (a node's own array at w = 0 or 1), computed once."""
 
     values: dict
     k: int
     w: float
+    made: dict = field(default_factory=dict, repr=False)
 
     def __getitem__(self, name: str) -> np.ndarray:
-        v = self.values[name]
-        if self.w == 0.0:
-            return v[self.k]
-        if self.w == 1.0:
-            return v[self.k + 1]
-        return (1.0 - self.w) * v[self.k] + self.w * v[self.k + 1]
+        if name not in self.made:
+            v = self.values[name]
+            if self.w == 0.0:
+                self.made[name] = v[self.k]
+            elif self.w == 1.0:
+                self.made[name] = v[self.k + 1]
+            else:
+                self.made[name] = (1.0 - self.w) * v[self.k] + self.w * v[self.k + 1]
+        return self.made[name]
 
 
 @dataclass(frozen=True, eq=False)
@@ -239,6 +247,12 @@ class NominalCorrection:
     def n_shapes(self) -> int:
         """T + 1."""
         return len(self.poses[0])
+
+    @cached_property
+    def fit_cable(self) -> Cable:
+        """The model cable on the clip fit's k n links (:class:`~.step.FitModel`), at the
+        plan's E."""
+        return self.cable.with_links(self.clamp_links * self.cable.n_links)
 
     @cached_property
     def resampled_reference(self) -> np.ndarray:
@@ -375,7 +389,7 @@ def _arrays(clips: Sequence[ClipPoses]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise: float,
-                    n_measured: int) -> list[dict]:
+                    n_measured: int, batched: bool = True) -> list[dict]:
     """The closed-loop rows of a chunk of samples, linearized about the nominal plan.
 
     Parameters
@@ -388,6 +402,10 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
         Measurement noise per coordinate [m].
     n_measured : int
         Measured points.
+    batched : bool
+        True: the chunk's clip fits in lockstep, one batch of arrays per round
+        (:func:`.clip_batch.fit_clips_batch`; what it cannot fit, per sample); False: every
+        sample's per sample (:func:`_correction`; the same rows to solver tolerance).
 
     Returns
     -------
@@ -395,8 +413,9 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
         One row per item (:data:`~.probability.SAMPLE_COLUMNS` and ``sample``), in order.
     """
     cable, at = nominal.cable, nominal.at
-    plants = [perturbed_cable(cable, e, m, length).with_links(nominal.plant_links)
-              for _, e, m, length in items]
+    plants = [perturbed_cable(cable, e, m, length) for _, e, m, length in items]
+    if nominal.plant_links != cable.n_links:
+        plants = [plant.with_links(nominal.plant_links) for plant in plants]
     clamps = [max(1, round(cable.rest_link_length / p.rest_link_length)) for p in plants]
     count = len(items)
     positions, quaternions = (np.broadcast_to(a, (count,) + a.shape) for a in nominal.stops)
@@ -415,7 +434,7 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
         open_error[held] = _shape_errors(drive.shapes[held, -1], nominal.resampled_reference)
         points = measured_points(drive.shapes[held, SUBSTEPS * at], [items[b][0] for b in held],
                                  noise, n_measured)
-        for b, y in zip(held, _resampled(nominal, points), strict=True):
+        for b, y in zip(held, _resampled(nominal, points, batched), strict=True):
             if isinstance(y, str):
                 results[b] = y
             else:
@@ -424,9 +443,13 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
     prior = alpha_prior(cable.n_links, nominal.plant_links)
     if fitted:
         first = _first_fits(nominal, np.array([measured[b] for b in fitted]), prior)
+        step = _prepared if batched else _correction
         for b, fits in zip(fitted, first, strict=True):
-            corrections[b] = _correction(nominal, measured[b], fits, prior)
-    _run(nominal, corrections, results)
+            corrections[b] = step(nominal, measured[b], fits, prior)
+    cables: dict = {}
+    _run(nominal, corrections, results, cables, batched=batched)
+    if batched:
+        _fit_and_check(nominal, results, cables)
     accepted = [b for b in range(count) if isinstance(results[b], _Corrected)]
     closed_error = open_error.copy()
     if accepted:
@@ -491,6 +514,18 @@ class _Corrected:
     clips: np.ndarray  # (12,) the target's clip correction
 
 
+@dataclass(frozen=True, eq=False)
+class _Fit:
+    """A model-error fit a sample's correction needs (:func:`.normal_fits.fit_estimate`'s
+    arguments): J (n + 1, 3) or None, the directions d (and g), the residual (n + 1, 3) [m]
+    and alpha's prior (alpha_0, sd)."""
+
+    jacobian: np.ndarray | None
+    directions: tuple
+    residual: np.ndarray
+    prior: tuple
+
+
 @dataclass(frozen=True)
 class _Request:
     """An equilibrium a sample's correction needs: its E [Pa], the clip correction p (12,)
@@ -503,21 +538,119 @@ class _Request:
     guess: np.ndarray
 
 
-def _run(nominal: NominalCorrection, corrections: list, results: list) -> None:
-    """Drive every sample's correction generator (None: none), solving each round's
-    equilibria in one compiled call, into ``results`` (a :class:`_Corrected`, or the refusal's
-    reason, per sample)."""
-    pending: dict[int, _Request] = {}
-    cables: dict[tuple, Cable | PlantChains] = {}
+def _run(nominal: NominalCorrection, corrections: list, results: list, cables: dict, *,
+         batched: bool = True) -> None:
+    """Drive every sample's generator (None: none: :func:`_correction`, :func:`_prepared`
+    or :func:`_fit_clips`), each round's equilibria solved in one compiled call and its
+    model-error fits in one batch per kind (:func:`_fits`; ``batched`` False: each alone),
+    into ``results`` (what it returns, or the refusal's reason, per sample); ``cables`` as
+    :func:`_solve` takes it."""
+    pending: dict[int, _Request | _Fit] = {}
     for b, gen in enumerate(corrections):
         if gen is not None:
             _advance(gen, None, b, pending, results)
     while pending:
         order = list(pending)
         requests = [pending.pop(b) for b in order]
-        shapes = _solve(nominal, requests, cables)
-        for b, shape in zip(order, shapes, strict=True):
-            _advance(corrections[b], shape, b, pending, results)
+        answers: list = [None] * len(requests)
+        solved = [j for j, r in enumerate(requests) if isinstance(r, _Request)]
+        for j, shape in zip(solved, _solve(nominal, [requests[j] for j in solved], cables)
+                            if solved else [], strict=True):
+            answers[j] = shape
+        fitted = [j for j, r in enumerate(requests) if isinstance(r, _Fit)]
+        for j, value in zip(fitted, _fits([requests[j] for j in fitted], batched),
+                            strict=True):
+            answers[j] = value
+        for b, answer in zip(order, answers, strict=True):
+            _advance(corrections[b], answer, b, pending, results)
+
+
+def _fits(requests: list, batched: bool) -> list:
+    """The estimates of the model-error fits ``requests`` (:class:`_Fit`), those of a kind
+    (with or without J, the directions, the prior) in one :func:`.normal_fits.fit_estimates`,
+    what it hands back, or all with ``batched`` False, by :func:`.normal_fits.fit_estimate`."""
+    out: list = [None] * len(requests)
+    kinds: dict[tuple, list] = {}
+    for j, r in enumerate(requests):
+        kinds.setdefault((r.jacobian is None, len(r.directions), r.prior), []).append(j)
+    for (held, _, prior), index in kinds.items():
+        values, final = None, np.zeros(len(index), dtype=bool)
+        if batched:
+            values, final = fit_estimates(
+                np.array([columns_of(requests[j].jacobian, requests[j].directions)
+                          for j in index]),
+                np.array([requests[j].residual.ravel() for j in index]), int(not held),
+                prior)
+        for k, j in enumerate(index):
+            r = requests[j]
+            out[j] = values[k] if final[k] else fit_estimate(r.jacobian, list(r.directions),
+                                                             r.residual, r.prior)
+    return out
+
+
+def _fit_and_check(nominal: NominalCorrection, results: list, cables: dict) -> None:
+    """The clip fits of every sample :func:`_prepared` got ready (a :class:`_Case` in
+    ``results``) in one :func:`.clip_batch.fit_clips_batch`, those it cannot fit by
+    :func:`_fit_clips`, then their gain checks: each such result replaced by its
+    :class:`_Corrected` or the refusal's reason."""
+    index = [b for b, case in enumerate(results) if isinstance(case, _Case)]
+    if not index:
+        return
+    cases = [results[b] for b in index]
+
+    chains = _fit_chains(nominal, [case.update.youngs_modulus for case in cases], cables)
+
+    def solve(which, p, guesses):
+        return _solve(nominal, [_Request(cases[j].update.youngs_modulus, p[i], True,
+                                         guesses[i]) for i, j in enumerate(which)], cables,
+                      chains.take(which))
+
+    p, x, fitted = fit_clips_batch(
+        np.array([c.jacobian for c in cases]), np.array([c.at["fine_clips"] for c in cases]),
+        np.array([c.moves for c in cases]), np.array([c.open_loop for c in cases]),
+        np.array([c.bias for c in cases]), nominal.reference, nominal.scale, nominal.limits,
+        nominal.clamp_links, CHORD_TRIALS, solve)
+    fits: list = [(p[j], x[j]) if fitted[j] else None for j in range(len(cases))]
+    alone = [j for j in range(len(cases)) if not fitted[j]]
+    if alone:
+        _run(nominal, [_fit_clips(nominal, cases[j]) if j in alone else None
+                       for j in range(len(cases))], fits, cables)
+    judged = [_predictions(nominal, case, *fit) for case, fit in zip(cases, fits, strict=True)]
+    sds = [parameter_sds(case.update) for case in cases]
+    clear = clear_gains(np.array([j[0] for j in judged]), np.array([j[1] for j in judged]),
+                        nominal.reference,
+                        {name: np.array([j[2][name] for j in judged]) for name in GAINS},
+                        np.array([[sd[name] for name in GAINS] for sd in sds]),
+                        np.array([case.update.correlation for case in cases]),
+                        nominal.limits.gain_significance)
+    for j, b in enumerate(index):
+        if clear[j]:  # both checks passed by more than round-off: check_gain's verdict
+            results[b] = _Corrected(cases[j].update.youngs_modulus, fits[j][0])
+            continue
+        try:
+            check_gain(judged[j][0], judged[j][1], nominal.reference, judged[j][2],
+                       cases[j].update, nominal.limits.gain_significance)
+            results[b] = _Corrected(cases[j].update.youngs_modulus, fits[j][0])
+        except CorrectionRefused as exc:
+            results[b] = str(exc)
+
+
+def _fit_chains(nominal: NominalCorrection, moduli, cables: dict) -> PlantChains:
+    """The clip fit's chains (:class:`~.step.FitModel`: k n links) at the ``moduli`` [Pa], in
+    order: rows of one pool of the chunk's fit chains (``cables["fit chains"]``), each E's
+    made once (those of a call in one :meth:`.plant_batch.PlantChains.of`), its row kept in
+    ``cables`` under (E, k)."""
+    k = nominal.clamp_links
+    missing = list(dict.fromkeys(float(e) for e in moduli if (float(e), k) not in cables))
+    if missing:
+        made = PlantChains.of([nominal.fit_cable.with_modulus(e) for e in missing],
+                              nominal.gravity)
+        pool = cables.get("fit chains")
+        start = 0 if pool is None else len(pool.cables)
+        cables["fit chains"] = made if pool is None else PlantChains.join([pool, made])
+        for row, e in enumerate(missing, start=start):
+            cables[e, k] = row
+    return cables["fit chains"].take([cables[float(e), k] for e in moduli])
 
 
 def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> None:
@@ -529,13 +662,16 @@ def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> Non
         results[b] = str(exc)
 
 
-def _solve(nominal: NominalCorrection, requests: list, cables: dict) -> list:
+def _solve(nominal: NominalCorrection, requests: list, cables: dict,
+           fit_chains: PlantChains | None = None) -> list:
     """The equilibria of ``requests``: those at shape K on the model's chain in one
     :func:`held_equilibria` call, those at the target on the clip fit's chain in one
     :func:`.plant_batch.drive_chains` call (one stop each: the clamped equilibrium of
     :class:`~.step.FitModel`, bit for bit, and its reach check); shapes, None where there is no
     stable equilibrium. ``cables`` holds what was made so far per E and links: the model's
-    cable (1 link clamped), the clip fit chain's :class:`.plant_batch.PlantChains` (k)."""
+    cable (1 link clamped), the clip fit chain's row in their pool (k, :func:`_fit_chains`);
+    ``fit_chains``, when given, are the fit chains of the requests at the target, in order
+    (made by :func:`_fit_chains`)."""
     positions, quaternions = nominal.poses
     p = np.array([r.clips for r in requests]).reshape(-1, 2, 2, 3)
     index = [nominal.n_shapes - 1 if r.at_target else nominal.at for r in requests]
@@ -560,14 +696,8 @@ def _solve(nominal: NominalCorrection, requests: list, cables: dict) -> list:
     target = [b for b, r in enumerate(requests) if r.at_target]
     if target:
         k = nominal.clamp_links
-        fine = []
-        for b in target:
-            e = float(requests[b].youngs_modulus)
-            if (e, k) not in cables:
-                cables[e, k] = PlantChains.of([nominal.cable.with_modulus(e).with_links(
-                    k * nominal.cable.n_links)], nominal.gravity)
-            fine.append(cables[e, k])
-        fine = PlantChains.join(fine)
+        fine = fit_chains if fit_chains is not None else _fit_chains(
+            nominal, [requests[b].youngs_modulus for b in target], cables)
         quats = rotations.as_quat().reshape(-1, 2, 4)[target]
         drive = drive_chains(fine, [k] * len(target), [requests[b].guess for b in target],
                              moved[target][:, None], quats[:, None], gravity=nominal.gravity)
@@ -579,134 +709,14 @@ def _solve(nominal: NominalCorrection, requests: list, cables: dict) -> list:
     return out
 
 
-def fit_amplitudes(jacobian, directions, residuals, prior) -> list[tuple]:
-    """The model-error fit as :func:`~.step.update_modulus` takes it, of many residuals at once,
-    by its normal equations: per residual ``(delta ln E, amplitudes, sds, correlation of ln E
-    and alpha)``.
-
-    The estimate of :func:`.model_error.fit_model_error` (alpha's prior weighted by the scatter
-    of the fit without it) and the sds and correlation of :func:`.model_error.
-    parameter_covariance` at what it leaves, from the p x p normal equations of [J, d, g]
-    shared by the residuals, instead of SVD least squares per residual (equal to round-off,
-    tested). An estimate outside the amplitudes' bounds, or a singular system, is left to those
-    functions (the bounds' hold-and-refit).
-
-    Parameters
-    ----------
-    jacobian : numpy.ndarray or None
-        (n + 1, 3) d x / d ln E [m]; None: E held (a zero column: its step and sd 0).
-    directions : sequence of numpy.ndarray
-        d, or d and g, (n + 1, 3) [m].
-    residuals : numpy.ndarray
-        (B, n + 1, 3) measured minus the model [m].
-    prior : tuple of float
-        (alpha_0, sd) of alpha.
-    """
-    try:
-        a, r, i, gram, values = _estimates(jacobian, directions, residuals, prior)
-        left = r - values @ a.T
-        s2 = np.einsum("bn,bn->b", left, left) / (max(a.shape[0] - len(directions) - 1, 1)
-                                                  + (jacobian is None))
-        system = np.repeat(gram[None], len(r), axis=0)
-        system[:, i, i] += s2 / prior[1] ** 2
-        covariance = s2[:, None, None] * np.linalg.inv(system)
-    except np.linalg.LinAlgError:
-        return [_library_fit(jacobian, directions, x, prior) for x in residuals]
-    variance = np.diagonal(covariance, axis1=1, axis2=2)
-    ok = np.isfinite(variance) & (variance >= 0)
-    sds = np.where(ok, np.sqrt(np.where(ok, variance, 0.0)), math.inf)
-    out = []
-    for b in range(len(r)):
-        amplitudes = values[b, i:]
-        if jacobian is None:
-            out.append((0.0, amplitudes, np.r_[0.0, sds[b]], 0.0))
-        else:
-            correlation = 0.0
-            if 0.0 < sds[b, 0] < math.inf and 0.0 < sds[b, 1] < math.inf:
-                correlation = float(np.clip(covariance[b, 0, 1] / (sds[b, 0] * sds[b, 1]),
-                                            -1.0, 1.0))
-            out.append((float(values[b, 0]), amplitudes, sds[b], correlation))
-    return out
-
-
-def fit_estimate(jacobian, directions, residual, prior) -> np.ndarray:
-    """The estimates of :func:`fit_amplitudes` for one ``residual`` (n + 1, 3) [m], without
-    the covariance: ``(delta ln E, amplitudes...)``, or the amplitudes alone without
-    ``jacobian`` (a Gauss-Newton step of the model update, or its last amplitudes)."""
-    try:
-        return _estimates(jacobian, directions, residual[None], prior)[4][0]
-    except np.linalg.LinAlgError:
-        step, amplitudes = _library_fit(jacobian, directions, residual, prior)[:2]
-        return np.asarray(amplitudes) if jacobian is None else np.r_[step, amplitudes]
-
-
-def _estimates(jacobian, directions, residuals, prior) -> tuple:
-    """:func:`fit_amplitudes`' estimates: ``(a, r, i, gram, values)``, the columns [J, d, g]
-    (3 (n + 1), p), the residuals (B, 3 (n + 1)), alpha's column, a^T a and the estimates
-    (B, p): alpha's prior weighted by the scatter of the fit without it (:func:`.model_error.
-    fit_model_error`), an estimate outside the amplitudes' bounds held there
-    (:func:`_held_at_bounds`). Raises LinAlgError on a singular system."""
-    columns = [] if jacobian is None else [jacobian.ravel()]
-    a = np.stack(columns + [d.ravel() for d in directions], axis=1)
-    r = residuals.reshape(len(residuals), -1)
-    i = len(columns)  # alpha's column
-    dof = max(a.shape[0] - len(directions) - 1, 1)
-    gram, rhs = a.T @ a, r @ a
-    left = r - np.linalg.solve(gram, rhs.T).T @ a.T
-    weight = np.einsum("bn,bn->b", left, left) / dof / prior[1] ** 2
-    system = np.repeat(gram[None], len(r), axis=0)
-    system[:, i, i] += weight
-    rhs_prior = rhs.copy()
-    rhs_prior[:, i] += weight * prior[0]
-    values = np.linalg.solve(system, rhs_prior[:, :, None])[:, :, 0]
-    bounds = [(-math.inf, math.inf)] * i + list(BOUNDS[: len(directions)])
-    for b in range(len(r)):
-        if not all(low <= v <= high for v, (low, high) in zip(values[b], bounds, strict=True)):
-            values[b] = _held_at_bounds(gram, rhs[b], weight[b], i, prior[0], values[b], bounds)
-    return a, r, i, gram, values
-
-
-def _held_at_bounds(gram, rhs, weight, i, centre, values, bounds) -> np.ndarray:
-    """:func:`.model_error.fit_model_error`'s bounds on the normal equations of one residual
-    (``gram`` p x p, ``rhs`` (p,), the prior's ``weight`` on column ``i`` at ``centre``): the
-    amplitude furthest out held at its bound, the others refitted, until all are within."""
-    system = gram.copy()
-    system[i, i] += weight
-    target = rhs.copy()
-    target[i] += weight * centre
-    values = values.copy()
-    held = np.zeros(len(values), dtype=bool)
-    for _ in values:
-        out = [k for k in np.flatnonzero(~held)
-               if not bounds[k][0] <= values[k] <= bounds[k][1]]
-        if not out:
-            break
-        k = max(out, key=lambda k: max(bounds[k][0] - values[k], values[k] - bounds[k][1]))
-        values[k] = min(max(values[k], bounds[k][0]), bounds[k][1])
-        held[k] = True
-        free = np.flatnonzero(~held)
-        if len(free):
-            values[free] = np.linalg.solve(
-                system[np.ix_(free, free)],
-                target[free] - system[np.ix_(free, held)] @ values[held])
-    return values
-
-
-def _library_fit(jacobian, directions, residual, prior) -> tuple:
-    """:func:`fit_amplitudes` by :func:`~.step.fit_with_covariance` (the model-error fit and its
-    covariance, as :func:`~.step.update_modulus` takes them); without ``jacobian`` a zero
-    column for ln E."""
-    column = np.zeros_like(residual) if jacobian is None else jacobian
-    return fit_with_covariance(column, directions, residual, prior)
-
-
-def _resampled(nominal: NominalCorrection, points: np.ndarray) -> list:
+def _resampled(nominal: NominalCorrection, points: np.ndarray, batched: bool) -> list:
     """The measured ``points`` (B, k, 3) [m] resampled onto the model's points
     (:func:`.measurement.resample_measured`, its checks: :func:`.measurement_batch.
     resample_measured_batch` and the function itself on what the batch hands back), the
     measurement's offset taken out when it tells one (:func:`~.step.update_modulus`: the held
     points' scatter and the measurement's noise along the clips' axes, :func:`~.step.
-    offset_verdict`): per sample (n + 1, 3) [m], or the refusal's reason."""
+    offset_verdict`; decided for the chunk at once, :func:`.measurement_batch.told_offsets`,
+    unless ``batched`` is False): per sample (n + 1, 3) [m], or the refusal's reason."""
     x = nominal.table.at(math.log(nominal.cable.youngs_modulus))["state"]
     length, limit = nominal.cable.length, nominal.limits.max_disagreement
     shapes, done = resample_measured_batch(points, x, length, limit)
@@ -719,10 +729,15 @@ def _resampled(nominal: NominalCorrection, points: np.ndarray) -> list:
     kept = [b for b, y in enumerate(out) if not isinstance(y, str)]
     if kept:
         sds = noise_sds(points[kept], np.array([out[b] for b in kept]))
-        for b, sd in zip(kept, sds, strict=True):
-            offset, scatter = measured_offset(out[b] - x)
-            covariance = offset_covariance(scatter, nominal.u_axes, float(sd))
-            out[b] = out[b] - offset_verdict(offset, covariance)[0]  # the camera's
+        applied, clear = told_offsets(np.array([out[b] for b in kept]) - x, nominal.u_axes,
+                                      sds)
+        clear &= batched
+        for b, sd, offset, decided in zip(kept, sds, applied, clear, strict=True):
+            if not decided:  # too near the threshold for the batch: the verdict itself
+                offset, scatter = measured_offset(out[b] - x)
+                covariance = offset_covariance(scatter, nominal.u_axes, float(sd))
+                offset = offset_verdict(offset, covariance)[0]
+            out[b] = out[b] - offset  # the camera's
     return out
 
 
@@ -766,9 +781,36 @@ def _first_fits(nominal: NominalCorrection, measured: np.ndarray, prior) -> list
 
 def _correction(nominal: NominalCorrection, y: np.ndarray, first: dict, prior) -> Generator:
     """One sample's linearized correction (module docstring) from its resampled measurement
-    ``y`` (n + 1, 3) [m] and its :func:`_first_fits`: yields :class:`_Request`, receives their
-    equilibria (None: none), returns a :class:`_Corrected` or raises
-    :class:`CorrectionRefused`."""
+    ``y`` (n + 1, 3) [m] and its :func:`_first_fits`, per sample: yields :class:`_Request`,
+    receives their equilibria (None: none), returns a :class:`_Corrected` or raises
+    :class:`CorrectionRefused`. (:func:`linearized_rows` runs its parts with the chunk's clip
+    fits in one batch: :func:`_prepared`, :func:`.clip_batch.fit_clips_batch`,
+    :func:`_checked`.)"""
+    case = yield from _prepared(nominal, y, first, prior)
+    p, corrected = yield from _fit_clips(nominal, case)
+    return _checked(nominal, case, p, corrected)
+
+
+@dataclass(frozen=True, eq=False)
+class _Case:
+    """A sample's model update and what its clip fit starts from (:func:`_prepared`)."""
+
+    update: ModelUpdate
+    at: Interpolated  # the derivatives at the target, at the updated E
+    bias: np.ndarray  # (n + 1, 3) what the clip fit's chain leaves of the bias [m]
+    moves: np.ndarray  # (3 (n + 1), 12) how it moves with the clips (scaled coordinates)
+    open_loop: np.ndarray  # (k n + 1, 3) the fit chain's equilibrium at the planned clips
+
+    @property
+    def jacobian(self) -> np.ndarray:
+        """(3 (n + 1), 12) the clip fit's frozen Jacobian (scaled coordinates) [m]."""
+        return self.at["clips"] + self.moves
+
+
+def _prepared(nominal: NominalCorrection, y: np.ndarray, first: dict, prior) -> Generator:
+    """The model update of a sample's correction (:func:`_update_modulus`) and the fit
+    chain's equilibrium at the planned clips at the updated E: yields :class:`_Request`,
+    returns its :class:`_Case` or raises :class:`CorrectionRefused`."""
     update = yield from _update_modulus(nominal, y, first, prior)
     modulus = update.youngs_modulus
     at = nominal.table.at(math.log(modulus))  # the derivatives at the target, at this E
@@ -785,14 +827,32 @@ def _correction(nominal: NominalCorrection, y: np.ndarray, first: dict, prior) -
             f"model: the clip fit's chain (n = {len(at['fine']) - 1}, clamping "
             f"{nominal.clamp_links} links, E = {modulus:.3g} Pa) finds no stable equilibrium "
             "at the target's clip poses")
-    p, corrected = yield from _fit_clips(nominal, modulus, at, open_loop, bias, moves)
+    return _Case(update, at, bias, moves, open_loop)
+
+
+def _checked(nominal: NominalCorrection, case: _Case, p: np.ndarray,
+             corrected: np.ndarray) -> _Corrected:
+    """The gain checks (:func:`~.step.check_gain`) of a sample's clip correction ``p`` (12,)
+    and the fit chain's equilibrium ``corrected`` there: its :class:`_Corrected`, or raises
+    :class:`CorrectionRefused`."""
+    open_loop, prediction, directions = _predictions(nominal, case, p, corrected)
+    check_gain(open_loop, prediction, nominal.reference, directions, case.update,
+               nominal.limits.gain_significance)
+    return _Corrected(case.update.youngs_modulus, p)
+
+
+def _predictions(nominal: NominalCorrection, case: _Case, p: np.ndarray,
+                 corrected: np.ndarray) -> tuple:
+    """What the gain checks judge: the target's predictions at the planned and the corrected
+    clips, the bias included, (n + 1, 3) each, and the target's responses to ln E, alpha and
+    beta at the corrected clips (d and g to first order) [m]."""
+    at, bias, moves = case.at, case.bias, case.moves
     k, z = nominal.clamp_links, p * nominal.scale
-    directions = {"modulus": at["modulus_t"],  # at the corrected clips, d and g to first order
+    directions = {"modulus": at["modulus_t"],
                   "discretization": at["d_t"] + (at["d_clips"] @ z).reshape(bias.shape),
                   "grip": at["g_t"] + (at["g_clips"] @ z).reshape(bias.shape)}
-    check_gain(open_loop[::k] + bias, corrected[::k] + bias + (moves @ z).reshape(bias.shape),
-               nominal.reference, directions, update, nominal.limits.gain_significance)
-    return _Corrected(modulus, p)
+    return (case.open_loop[::k] + bias,
+            corrected[::k] + bias + (moves @ z).reshape(bias.shape), directions)
 
 
 def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, first: dict, prior
@@ -831,13 +891,13 @@ def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, first: dic
             break
         at = table.at(log_e)
         jacobian = at["modulus_k"]
-        step = float(fit_estimate(jacobian, [at[name] for name in names], measured - x,
-                                  prior)[0])
+        step = float((yield _Fit(jacobian, tuple(at[name] for name in names), measured - x,
+                                 prior))[0])
     if not informed:  # E kept: the amplitudes at the plan's E, fitted already
         amplitudes = first["held"]
     else:
         at = table.at(log_e)
-        amplitudes = fit_estimate(None, [at[name] for name in names], measured - x, prior)
+        amplitudes = yield _Fit(None, tuple(at[name] for name in names), measured - x, prior)
     beta = float(amplitudes[1]) if grip else 0.0
     modulus = cable.youngs_modulus if log_e == log_e0 else math.exp(log_e)
     return ModelUpdate(cable.youngs_modulus, modulus, math.nan, math.nan, taken, x,
@@ -846,19 +906,20 @@ def _update_modulus(nominal: NominalCorrection, measured: np.ndarray, first: dic
                        log_prior_sd=0.5 * math.log(limits.max_modulus_factor))
 
 
-def _fit_clips(nominal: NominalCorrection, modulus: float, at: Interpolated, start: np.ndarray,
-               bias: np.ndarray, moves: np.ndarray) -> Generator:
+def _fit_clips(nominal: NominalCorrection, case: _Case) -> Generator:
     """The target's Levenberg-Marquardt clip fit (:func:`~.step.fit_clips`' damping and stop,
     :data:`CHORD_TRIALS` trials per iteration) on the clip fit's chain (k n links,
-    :class:`~.step.FitModel`), its every k-th point plus ``bias`` (n + 1, 3) fitted to the
-    reference, from its equilibrium ``start`` (k n + 1, 3) [m] at the planned clips, with the
-    clip Jacobian of the planned target at this E (``at``, :meth:`DerivativeTable.at`),
-    frozen: every trial an exact equilibrium of the updated model's fit chain. The bias moves
-    with the clips, to first order by ``moves`` (3 (n + 1), 12, scaled): where
-    :func:`~.step.correct_plan` re-evaluates it at the clips of a first fit and fits again.
+    :class:`~.step.FitModel`), its every k-th point plus the sample's bias (n + 1, 3) fitted
+    to the reference, from its equilibrium (k n + 1, 3) [m] at the planned clips, with the
+    clip Jacobian of the planned target at the updated E (the table's, :meth:`DerivativeTable.
+    at`), frozen: every trial an exact equilibrium of the updated model's fit chain. The bias
+    moves with the clips, to first order by the case's ``moves`` (3 (n + 1), 12, scaled):
+    where :func:`~.step.correct_plan` re-evaluates it at the clips of a first fit and fits
+    again. Per sample (:func:`.clip_batch.fit_clips_batch` is the chunk's in one batch).
     Returns ``(p (12,), equilibrium (k n + 1, 3))``."""
     scale, limits, k = nominal.scale, nominal.limits, nominal.clamp_links
-    jz, fine = at["clips"] + moves, at["fine_clips"]
+    modulus, bias, moves = case.update.youngs_modulus, case.bias, case.moves
+    jz, fine = case.jacobian, case.at["fine_clips"]
 
     def residual(x, p):
         return (x[::k] + bias - nominal.reference).ravel() + moves @ (p * scale)
@@ -867,7 +928,7 @@ def _fit_clips(nominal: NominalCorrection, modulus: float, at: Interpolated, sta
     diagonal = np.diag(np.diag(normal))  # the damping's shape, mu diag(J^T J)
     normal = normal + 1e-12 * np.trace(normal) * np.eye(12)  # the fit's floor
     damping = CLIP_DAMPING
-    x, p = start, np.zeros(12)
+    x, p = case.open_loop, np.zeros(12)
     r = residual(x, p)
     cost, mu = float(r @ r), damping.initial
     for _ in range(limits.iterations):

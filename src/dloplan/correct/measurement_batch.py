@@ -14,7 +14,9 @@ sampled plants against the same prediction, so here every step runs over the who
   to round-off, tested). A sample that any check would refuse, or that the batch cannot vouch
   for (a repeated point, too few points, a singular fit), is handed back: the caller runs
   :func:`.measurement.resample_measured` on it, which refuses it with its reason;
-* :func:`noise_sds`: :func:`.measurement.noise_sd` of every sample.
+* :func:`noise_sds`: :func:`.measurement.noise_sd` of every sample;
+* :func:`told_offsets`: the measured offsets :func:`~.step.offset_verdict` applies, each
+  decided here unless its score is within round-off of the threshold.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry import arc_length
+from ..sim.clips import HELD_INDICES
 from .measurement import (
     DENSE,
     MAX_EXTENT,
@@ -34,6 +37,11 @@ from .measurement import (
     nearest_points,
 )
 from .smoothing import smooth_measurements
+from .step import OFFSET_SIGNIFICANCE
+
+MARGIN = 1e-9
+"""A score decides here when it is further than this share of :data:`~.step.
+OFFSET_SIGNIFICANCE` from it (round-off of the score is about 1e-16 of it)."""
 
 
 def resample_polylines(points: np.ndarray, n_points: int) -> np.ndarray:
@@ -124,6 +132,38 @@ def noise_sds(points: np.ndarray, curves: np.ndarray) -> np.ndarray:
     distance = nearest_points(points, curves)[1]
     dof = max(points.shape[1] - (curves.shape[1] + 2), 1)
     return np.sqrt(np.einsum("bk,bk->b", distance, distance) / (2.0 * dof))
+
+
+def told_offsets(residuals: np.ndarray, u_axes: np.ndarray,
+                 noise: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The offsets :func:`~.step.offset_verdict` takes out of B measurements: each residual's
+    (B, n + 1, 3) [m] offset and its scatter at the held points (:func:`.model_error.
+    measured_offset`), their covariance with the noise ``noise`` (B,) [m] along the clips'
+    ``u_axes`` (2, 3) (:func:`.model_error.offset_covariance`), applied where its score
+    sqrt(o^T C^-1 o) is at least :data:`~.step.OFFSET_SIGNIFICANCE`.
+
+    Returns
+    -------
+    tuple
+        ``(offsets (B, 3) [m], decided (B,) bool)``: the offset applied (zeros where not told);
+        not decided where the score is within :data:`MARGIN` of the threshold, not finite, or
+        every one when a covariance is singular (the caller asks the functions themselves).
+    """
+    held = residuals[:, list(HELD_INDICES)]  # (B, 4, 3)
+    offsets = held.mean(axis=1)
+    scatter = np.sqrt(np.sum((held - offsets[:, None]) ** 2, axis=(1, 2))
+                      / (held[0].size - 3)) / np.sqrt(held.shape[1])
+    u = np.asarray(u_axes, dtype=float)
+    covariance = (scatter[:, None, None] ** 2 * np.eye(3)
+                  + 0.25 * np.asarray(noise)[:, None, None] ** 2 * (u.T @ u))
+    try:
+        solved = np.linalg.solve(covariance, offsets[:, :, None])[:, :, 0]
+    except np.linalg.LinAlgError:
+        return np.zeros_like(offsets), np.zeros(len(offsets), dtype=bool)
+    score = np.sqrt(np.einsum("bi,bi->b", offsets, solved))
+    decided = np.isfinite(score) & (np.abs(score - OFFSET_SIGNIFICANCE)
+                                    > MARGIN * OFFSET_SIGNIFICANCE)
+    return np.where((score >= OFFSET_SIGNIFICANCE)[:, None], offsets, 0.0), decided
 
 
 def _smoothed(points: np.ndarray, along: np.ndarray, spans: int,

@@ -198,7 +198,7 @@ class ModelUpdate:
         The sd of ln E the correction assumes before the measurement: E within the limit
         ``max_modulus_factor`` of the plan's at 2 sd (beyond it a correction is refused),
         ln(max_modulus_factor) / 2; combined with :attr:`log_sd` for the interval and the gain
-        check (:func:`_parameter_sds`), where a shape that does not tell E (the U demo,
+        check (:func:`parameter_sds`), where a shape that does not tell E (the U demo,
         sd(ln E) 7) would otherwise put factors of e^14 into a linearization.
     log_sd : float
         Standard deviation of ln E the measurement gives (inf when not computed).
@@ -1382,7 +1382,7 @@ def _target_directions(cable: Cable, shape: np.ndarray, clips: ClipPoses, gravit
     return {"modulus": jacobian, "discretization": d, "grip": grip}
 
 
-def _parameter_sds(update: ModelUpdate) -> dict:
+def parameter_sds(update: ModelUpdate) -> dict:
     """sd of ln E, alpha and beta [half links] (0 where not known: E with no sag). beta's is
     its sd plus half :data:`GRIP_LINEARITY` of its change when estimated (its 2 sd then bound
     the error of the estimate: the response g is a half-link difference), 0 when known, and
@@ -1408,10 +1408,10 @@ def _posterior_log_sd(update: ModelUpdate) -> float:
 
 def _uncertainty(directions: dict, update: ModelUpdate) -> dict:
     """The error budget of the final prediction [m] (:attr:`Correction.uncertainty`): 2 sd of
-    each estimated quantity (:func:`_parameter_sds`) times its mean response at the target
+    each estimated quantity (:func:`parameter_sds`) times its mean response at the target
     (``directions``, :func:`_target_directions`), the unexplained residual at K and the
     offset's share."""
-    sds = _parameter_sds(update)
+    sds = parameter_sds(update)
     budget = {k: 2.0 * sds[k] * float(np.mean(np.linalg.norm(v, axis=1)))
               for k, v in directions.items()}
     return {"unexplained": update.residual_after, **budget,
@@ -1427,7 +1427,7 @@ def _gain_sd(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarray
     response at the target, ``directions``: the clips differ little), so the mean errors
     e = mean_i |x_i - r_i| change by mean_i (u_i . D_i) dq with u_i the unit error vectors,
     and the gain by s dq, s = mean_i((u_open,i - u_corrected,i) . D_i). With the sds of the
-    quantities (:func:`_parameter_sds`) the gain's variance is t^T R t, t_k = s_k sd_k and R
+    quantities (:func:`parameter_sds`) the gain's variance is t^T R t, t_k = s_k sd_k and R
     their correlations: ln E and alpha as the fit found them (:attr:`ModelUpdate.correlation`;
     the measurement tells their sag-like directions jointly, -0.73 on the 3D job's shape 1, so
     the errors of the two largely cancel at the target), the clamp length's independent (its sd
@@ -1439,7 +1439,7 @@ def _gain_sd(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarray
         return e / np.maximum(np.linalg.norm(e, axis=1, keepdims=True), 1e-300)
 
     du = unit(open_loop) - unit(corrected)
-    sds = _parameter_sds(update)
+    sds = parameter_sds(update)
     t = {k: float(np.mean(np.sum(du * v, axis=1))) * sds[k] for k, v in directions.items()}
     variance = sum(v * v for v in t.values()) \
         + 2.0 * update.correlation * t["modulus"] * t["discretization"]
@@ -1454,7 +1454,7 @@ def _gain_at_clamp_bounds(open_loop: np.ndarray, corrected: np.ndarray, referenc
 
     The clamp length's change dq moves both final predictions by g dq (as in :func:`_gain_sd`),
     and the gain is evaluated there: e(open + g dq) - e(corrected + g dq), e the mean distance to
-    the reference. Its sd is a bound of a systematic error (:func:`_parameter_sds`: the fit's
+    the reference. Its sd is a bound of a systematic error (:func:`parameter_sds`: the fit's
     statistics plus :data:`GRIP_LINEARITY` of the change) and its response the largest at the
     target (28 mm per half link on the U demo at n = 12), so the corrected prediction, fitted
     to the reference and small, is far from linear in it: on the U demo at n = 12 against a
@@ -1468,7 +1468,7 @@ def _gain_at_clamp_bounds(open_loop: np.ndarray, corrected: np.ndarray, referenc
         return float(_mean_distance(open_loop + shift, reference)
                      - _mean_distance(corrected + shift, reference))
 
-    bound = significance * _parameter_sds(update)["grip"]
+    bound = significance * parameter_sds(update)["grip"]
     return min((gain_at(sign * bound * directions["grip"]), f"{sign * significance:+g} sd")
                for sign in (-1.0, 1.0))
 

@@ -1,0 +1,70 @@
+"""The gain checks of many corrections at once (the study's linearized closed loop).
+
+:func:`~.step.check_gain` judges one correction: the predicted gain must exceed
+``significance`` sd of it (:func:`~.step.parameter_sds`, linearized in ln E, alpha and beta)
+and stay a gain with the clamp length ``significance`` sd off, evaluated. A study's chunk
+judges hundreds, each with a dozen small numpy calls; :func:`clear_gains` evaluates the same
+two checks for B corrections on arrays and tells which pass both by more than round-off
+(:data:`MARGIN`). The others -- refused, or too close to a threshold for arrays summed in
+another order to vouch for the verdict -- go to :func:`~.step.check_gain` itself, which gives
+the verdict and the refusal's reason: so every decision is the per-sample check's.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+MARGIN = 1e-9
+"""A check passes here when it passes by more than this share of the open loop's predicted
+error (round-off of the mean distances is about 1e-16 of it)."""
+
+NAMES = ("modulus", "discretization", "grip")
+"""The estimated quantities, in the order of the sds' columns."""
+
+
+def clear_gains(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarray,
+                directions: dict, sds: np.ndarray, correlation: np.ndarray,
+                significance: float) -> np.ndarray:
+    """Which of B corrections pass both gain checks of :func:`~.step.check_gain` by more than
+    :data:`MARGIN` (module docstring).
+
+    Parameters
+    ----------
+    open_loop, corrected : numpy.ndarray
+        (B, n + 1, 3) the target's predictions at the planned and the corrected clips, the
+        bias included [m].
+    reference : numpy.ndarray
+        (n + 1, 3) the shape aimed at [m].
+    directions : dict
+        Per name of :data:`NAMES`, (B, n + 1, 3) the target's response to it [m].
+    sds : numpy.ndarray
+        (B, 3) the quantities' sds (:func:`~.step.parameter_sds`, in the order of
+        :data:`NAMES`).
+    correlation : numpy.ndarray
+        (B,) of ln E and alpha (:attr:`~.step.ModelUpdate.correlation`).
+    significance : float
+
+    Returns
+    -------
+    numpy.ndarray
+        (B,) bool.
+    """
+    def errors(x):
+        return np.linalg.norm(x - reference, axis=-1)  # (B, n + 1)
+
+    open_errors, corrected_errors = errors(open_loop), errors(corrected)
+    before, after = open_errors.mean(axis=-1), corrected_errors.mean(axis=-1)
+    du = ((open_loop - reference) / np.maximum(open_errors, 1e-300)[:, :, None]
+          - (corrected - reference) / np.maximum(corrected_errors, 1e-300)[:, :, None])
+    t = np.stack([np.mean(np.sum(du * directions[name], axis=-1), axis=-1) for name in NAMES],
+                 axis=1) * sds
+    variance = np.sum(t * t, axis=1) + 2.0 * correlation * t[:, 0] * t[:, 1]
+    spread = np.sqrt(np.maximum(variance, 0.0))
+    margin = MARGIN * before
+    clear = before - after > significance * spread + margin
+    bound = (significance * sds[:, 2])[:, None, None] * directions["grip"]
+    for sign in (-1.0, 1.0):
+        shift = sign * bound
+        gain = errors(open_loop + shift).mean(axis=-1) - errors(corrected + shift).mean(axis=-1)
+        clear &= gain > margin
+    return clear
