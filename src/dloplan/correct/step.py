@@ -52,7 +52,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
-from ..geometry import as_path, resample_by_arc_length
+from ..geometry import as_path
 from ..grippers import GripperPath, relative_twist
 from ..least_squares import Damping, damped_minimize
 from ..physics.chain import SpringChain
@@ -69,6 +69,7 @@ from .model_error import (
     model_error_directions,
     offset_covariance,
     parameter_covariance,
+    resampled,
     standard_deviations,
 )
 
@@ -534,7 +535,7 @@ def update_modulus(cable: Cable, measured: np.ndarray, clips: ClipPoses, *, step
         shift, offset_sd, offset_spread, offset_note = offset_verdict(
             offset, offset_covariance(sds, clips.u_axes, noise))
         measured = measured - shift  # what the fit explains: the cable, not the camera
-    fine = resample_by_arc_length(eq.shape, 2 * cable.n_links + 1)  # refined, warm from E to E
+    fine = _RefinedStart(eq.shape, resampled(eq.shape, 2 * cable.n_links + 1))
     prior = alpha_prior(cable.n_links, measured_links)
     alpha_sd, taken_correlation = math.inf, 0.0
     limit = math.log(max_factor)
@@ -671,12 +672,38 @@ def offset_verdict(offset, covariance) -> tuple[np.ndarray, float, float, str]:
         f"not applied, its size and 2 sd, {1e3 * (size + 2.0 * sd):.1f} mm, in the interval")
 
 
-def _directions(cable, shape, clips, discretization, grip, gravity, fine) -> list:
-    """The error directions fitted with E: none, [d] or [d, g] (:mod:`.model_error`)."""
+@dataclass(eq=False)
+class _RefinedStart:
+    """Where the modulus fit's refined solves start (:func:`update_modulus`): the refined
+    chain's last equilibrium (clamped over 2 links, ``fine`` (2 n + 1, 3) [m], kept up to date
+    by :func:`.model_error.model_error_directions`) and the model's equilibrium it was solved
+    at, ``shape`` (n + 1, 3) [m].
+
+    The next solve, at the next E, starts from it moved as the model's points moved (both
+    resampled onto the refined points): the departure R[x_2n] - R[x_n] carried over, not the
+    previous E's sag (from that, 18 Newton iterations after the first step of E x1.5 at
+    n = 100 instead of 4).
+    """
+
+    shape: np.ndarray
+    fine: np.ndarray
+
+    def at(self, shape: np.ndarray) -> np.ndarray:
+        """The start for the model's equilibrium ``shape`` (n + 1, 3) [m], (2 n + 1, 3)."""
+        if shape is not self.shape:
+            self.fine += resampled(shape, len(self.fine)) - resampled(self.shape, len(self.fine))
+            self.shape = shape
+        return self.fine
+
+
+def _directions(cable, shape, clips, discretization, grip, gravity, fine: _RefinedStart
+                ) -> list:
+    """The error directions fitted with E: none, [d] or [d, g] (:mod:`.model_error`), the
+    refined solves started from ``fine``."""
     if not discretization:
         return []
     d, g = model_error_directions(cable, shape, clips, grip=grip, gravity=gravity,
-                                  fine_guess=fine)
+                                  fine_guess=fine.at(shape))
     return [d] if g is None else [d, g]
 
 
