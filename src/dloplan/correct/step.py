@@ -1363,12 +1363,21 @@ def _continue(cable: Cable, state: np.ndarray, clips, gravity, chain: SpringChai
     (:func:`dloplan.sim.equilibrium`) starts from the previous equilibrium moved as the plan's
     stabilized shapes ``plan`` (len(clips) + 1, n + 1, 3; the first the state's) move between
     the two shapes, x_j-1 + (s_j - s_j-1), not from x_j-1 as it is (:func:`dloplan.sim.
-    continuation`): the same equilibrium, to the solver's tolerance (docs/correction.md), in
-    fewer Newton iterations (the sagging demo at n = 20: 65 instead of 94 over its 8 steps).
+    continuation`), and from the second step on by the change of the departure from the plan,
+    delta_j = x_j - s_j, extrapolated linearly: s_j + delta_j-1 + (delta_j-1 - delta_j-2) (a
+    secant predictor of the departure). The same equilibrium, to the solver's tolerance
+    (docs/correction.md), in fewer Newton iterations (the sagging demo at n = 20: 65 instead of
+    94 over its 8 steps with the plan's step; with the secant 59 -> 47 in mode "target", 49 ->
+    37 at n = 100).
     """
-    x, out = state, []
+    x, out, before = state, [], None
     for j, c in enumerate(clips):
-        eq = equilibrium(cable, x + (plan[j + 1] - plan[j]), c, gravity=gravity, chain=chain)
+        guess = x + (plan[j + 1] - plan[j])
+        departure = x - plan[j]
+        if before is not None:
+            guess += departure - before
+        before = departure
+        eq = equilibrium(cable, guess, c, gravity=gravity, chain=chain)
         if not eq.success:
             raise CorrectionRefused(f"prediction: the model finds no stable equilibrium at the "
                                     f"remaining shape {j} ({eq.message})")
