@@ -1113,7 +1113,8 @@ def correct_plan(
     if isinstance(modulus_steps, bool) or int(modulus_steps) != modulus_steps or modulus_steps < 0:
         raise ValueError(f"modulus_steps: got {modulus_steps!r}, expected an integer >= 0")
     fit_links = fit_links_for(cable.n_links, fit_links)
-    clips = [grippers.clip_poses(j) for j in range(len(path))]
+    clips = [grippers.clip_poses(j) if j >= at else None  # shapes 0 .. K - 1 have run
+             for j in range(len(path))]
     chain = SpringChain.from_cable(cable, gravity)
     if stabilized is None:
         settled = {j: _solve(cable, path[j], clips[j], gravity, chain).shape
@@ -1514,8 +1515,9 @@ def _corrected_grippers(grippers: GripperPath, at: int, corrected_clips) -> Grip
     rotations = [r.as_quat() for r in grippers.rotations]
     for j, moved in enumerate(corrected_clips, start=at + 1):
         positions[j] = moved.positions
+        quaternions = moved.rotations.as_quat()  # (2, 4): both clips at once
         for k in range(2):
-            rotations[k][j] = moved.rotations[k].as_quat()
+            rotations[k][j] = quaternions[k]
     first, last = (Rotation.from_quat(q) for q in rotations)
     twist = relative_twist(first, last)
     worst = float(np.max(np.abs(twist)))

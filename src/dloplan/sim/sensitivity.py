@@ -131,12 +131,11 @@ def held_point_jacobian(clips: ClipPoses, link_length: float, clamp_links: int =
     k = _clamp(clamp_links)
     u = clips.u_axes
     offsets = (np.arange(k + 1) - 0.5 * k) * link_length
-    placed = [(0, o) for o in offsets] + [(1, o) for o in offsets[::-1]]
-    jac = np.zeros((len(placed), 3, 12))
-    for point, (clip, o) in enumerate(placed):
-        jac[point, :, 6 * clip : 6 * clip + 3] = np.eye(3)
-        jac[point, :, 6 * clip + 3 : 6 * clip + 6] = -o * _cross_matrix(u[clip])
-    return jac
+    jac = np.zeros((2, k + 1, 3, 12))  # per clip, its points in the order of held_indices
+    for clip, o in ((0, offsets), (1, offsets[::-1])):
+        jac[clip, :, :, 6 * clip : 6 * clip + 3] = np.eye(3)
+        jac[clip, :, :, 6 * clip + 3 : 6 * clip + 6] = -o[:, None, None] * _cross_matrix(u[clip])
+    return jac.reshape(2 * (k + 1), 3, 12)
 
 
 def held_indices(n_points: int, clamp_links: int = 1) -> np.ndarray:
