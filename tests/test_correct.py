@@ -1309,3 +1309,52 @@ def test_a_gain_refusal_states_what_2_sd_is(monkeypatch):
     assert "predicted gain, 2.35 mm" in message
     assert "within 2 sd of zero (2 sd = 3.46 mm, sd 1.73 mm" in message
     assert "the plan is kept" in message
+
+
+def test_the_modulus_fits_refined_solves_start_where_the_model_moved(plans):
+    """update_modulus solves the refined chain (2 n links) once per Gauss-Newton step, each
+    started from the previous step's refined equilibrium moved as the model's equilibrium moved
+    (the departure R[x_2n] - R[x_n] carried to the new E). Started from the previous E's refined
+    shape as it was, the solve after the first step of E x1.5 at n = 100 crawled through 34 and
+    20 Newton iterations (the previous E's sag, on stiff axial links); now each takes at most
+    6, and the amplitude alpha it gives is the one the refined solves started cold at the
+    final E give, to 1e-8 m of the bias (4e-10 m seen)."""
+    import dloplan.sim.statics as statics
+    from dloplan.correct.model_error import (
+        alpha_prior,
+        clamped_equilibrium,
+        fit_model_error,
+        model_error_directions,
+    )
+    from dloplan.correct.step import update_modulus
+
+    doc, _ = plans["demo"]
+    at, cable = 3, doc.cable.with_links(100)
+    clips = doc.grippers.clip_poses(at)
+    model = equilibrium(cable, resample_by_arc_length(_stabilized(doc)[at], cable.n_points),
+                        clips).shape
+    plant = cable.with_links(200).with_modulus(1.5 * cable.youngs_modulus)  # clamps L / 100
+    truth = clamped_equilibrium(plant, resample_by_arc_length(model, plant.n_points), clips, 2)[0]
+    measured = resample_by_arc_length(truth, cable.n_points)
+    solves, newton = [], statics.newton_positions
+
+    def counted(x, first, *args):
+        out = newton(x, first, *args)
+        solves.append((len(x), first, out[1] - args[10]))  # points, first free, iterations
+        return out
+
+    statics.newton_positions = counted
+    try:
+        update = update_modulus(cable, measured, clips, guess=model, discretization=True,
+                                grip=True, measured_links=200)
+    finally:
+        statics.newton_positions = newton
+    refined = [it for points, first, it in solves if points == plant.n_points and first == 3]
+    assert update.steps >= 2 and len(refined) >= 3
+    assert update.youngs_modulus == pytest.approx(1.5 * cable.youngs_modulus, rel=1e-3)
+    assert max(refined) <= 6
+    d, g = model_error_directions(cable.with_modulus(update.youngs_modulus), update.state, clips,
+                                  grip=update.grip != 0.0)
+    cold = fit_model_error(np.zeros_like(d), [d] if g is None else [d, g],
+                           measured - update.offset - update.state, alpha_prior(100, 200))[1]
+    assert abs(cold[0] - update.discretization) * np.max(np.abs(d)) < 1e-8

@@ -214,3 +214,31 @@ def test_a_grip_of_several_links_has_the_jacobians_of_its_resolved_equilibria(cl
     x1 = equilibrium(coarse, shape, clips, **POLISH).shape
     one = equilibrium_sensitivity(coarse, x1, clips, clamp_links=1)
     assert np.array_equal(one.clips, equilibrium_sensitivity(coarse, x1, clips).clips)
+
+
+def test_the_compiled_held_response_is_the_dense_solve():
+    """sim.compiled.held_response (the sensitivity's one factorization and 13 right-hand sides,
+    compiled; LAPACK's dpbtrf / dpbtrs and a dense coupling block before) is H_ff^-1 [-H_fh dh,
+    -load_f] of the dense matrix its band stands for, to round-off, for any number of held
+    coordinates (a clamp of one or several links), and refuses a free Hessian that is not
+    positive definite."""
+    from dloplan.sim.compiled import held_response
+
+    rng = np.random.default_rng(3)
+    for n_dof, width, edge in ((60, 9, 6), (75, 9, 12), (40, 3, 3)):
+        lower = np.zeros((n_dof, n_dof))
+        for k in range(width):
+            lower += np.diag(rng.normal(size=n_dof - k), -k)
+        dense = lower @ lower.T + n_dof * np.eye(n_dof)  # SPD, half bandwidth 2 (width - 1)
+        w = 2 * (width - 1) + 1
+        band = np.array([np.r_[np.diag(dense, -k), np.zeros(k)] for k in range(w)])
+        dh, load = rng.normal(size=(2 * edge, 12)), rng.normal(size=n_dof)
+        free = np.arange(edge, n_dof - edge)
+        held = np.r_[0:edge, n_dof - edge : n_dof]
+        expected = np.linalg.solve(dense[np.ix_(free, free)], np.concatenate(
+            [-dense[np.ix_(free, held)] @ dh, -load[free, None]], axis=1))
+        solved = np.empty((len(free), 13))
+        assert held_response(band, edge, dh, load, solved)
+        assert np.allclose(solved, expected, rtol=0.0, atol=1e-12 * np.max(np.abs(expected)))
+        band[0, n_dof // 2] = -1.0  # a negative pivot: not positive definite
+        assert not held_response(band, edge, dh, load, solved)

@@ -28,8 +28,8 @@ import weakref
 import numpy as np
 
 from ..cable import GRAVITY, Cable
-from ..geometry import resample_by_arc_length
 from ..physics.chain import SpringChain
+from ..physics.compiled import resample_polyline
 from ..sim import ClipPoses
 from ..sim.clips import HELD_INDICES
 from ..sim.result import residual_tolerance
@@ -182,8 +182,8 @@ def model_error_directions(cable: Cable, shape: np.ndarray, clips: ClipPoses, *,
     fine = refined_cable(cable)
     if fine_chain is None:
         fine_chain = SpringChain.from_cable(fine, gravity)
-    guess = resample_by_arc_length(shape, fine.n_points) if fine_guess is None else fine_guess
-    resampled = []
+    guess = resampled(shape, fine.n_points) if fine_guess is None else fine_guess
+    on_model = []
     for links in (2, 3) if grip else (2,):
         guess, stable, message = clamped_equilibrium(fine, guess, clips, links, gravity=gravity,
                                                      chain=fine_chain)
@@ -192,8 +192,17 @@ def model_error_directions(cable: Cable, shape: np.ndarray, clips: ClipPoses, *,
                                     f"{links} links finds no stable equilibrium ({message})")
         if links == 2 and fine_guess is not None:
             fine_guess[:] = guess
-        resampled.append(resample_by_arc_length(guess, cable.n_points))
-    return resampled[0] - shape, (resampled[1] - resampled[0] if grip else None)
+        on_model.append(resampled(guess, cable.n_points))
+    return on_model[0] - shape, (on_model[1] - on_model[0] if grip else None)
+
+
+def resampled(points: np.ndarray, n_points: int) -> np.ndarray:
+    """:func:`dloplan.geometry.resample_by_arc_length` of a shape (k, 3) [m] to ``n_points``
+    by the compiled :func:`dloplan.physics.compiled.resample_polyline` (the same interpolation
+    to round-off, without the per-call cost of numpy's: twice per refined solve)."""
+    out = np.empty((n_points, 3))
+    resample_polyline(np.ascontiguousarray(points, dtype=float), out)
+    return out
 
 
 def discretization_error(cable: Cable, shape: np.ndarray, clips: ClipPoses, *,

@@ -462,3 +462,59 @@ def newton_twist(x, d1, chain, twist, link, length_scale, tolerance, max_iterati
             return STALLED, iterations, residual, radius, n_history
         history[n_history] = f
         n_history += 1
+
+
+@njit(cache=True)
+def held_response(band, edge, dh, load, solved):
+    """The free coordinates' response to the held ones and to a load, by one banded Cholesky
+    factorization of the free Hessian: ``solved`` (N_f, m + 1) <- H_ff^-1 [-H_fh dh, -load_f]
+    (the implicit differentiation of :func:`dloplan.sim.sensitivity.equilibrium_sensitivity`).
+
+    Parameters
+    ----------
+    band : numpy.ndarray
+        (w + 1, N) the lower band of the Hessian over all N coordinates [N/m].
+    edge : int
+        Held coordinates at either end: 0 .. edge - 1 and N - edge .. N - 1; the free ones
+        between, N_f = N - 2 edge.
+    dh : numpy.ndarray
+        (2 edge, m) the held coordinates' derivatives (first end, then last, in order).
+    load : numpy.ndarray
+        (N,) the load's derivative (its free part is used) [N].
+    solved : numpy.ndarray
+        (N_f, m + 1) filled with the responses.
+
+    Returns
+    -------
+    bool
+        False when H_ff is not positive definite (``solved`` then undefined).
+    """
+    w = band.shape[0]
+    n_dof = band.shape[1]
+    n_free = n_dof - 2 * edge
+    free_band = np.empty((w, n_free))
+    for i in range(w):
+        for j in range(n_free):
+            free_band[i, j] = band[i, edge + j]
+    factor = np.empty((w, n_free))
+    if not cholesky_band(free_band, 0.0, factor):
+        return False
+    m = dh.shape[1]
+    column = np.empty(n_free)
+    for c in range(m + 1):
+        if c == m:
+            for r in range(n_free):
+                column[r] = -load[edge + r]
+        else:
+            column[:] = 0.0
+            for h in range(edge):  # H[r, h] = band[r - h, h] for the first end's (r > h)
+                for r in range(edge, min(h + w, edge + n_free)):
+                    column[r - edge] -= band[r - h, h] * dh[h, c]
+            for q in range(edge):  # H[r, hc] = band[hc - r, r] for the last end's (hc > r)
+                hc = n_dof - edge + q
+                for r in range(max(hc - w + 1, edge), edge + n_free):
+                    column[r - edge] -= band[hc - r, r] * dh[edge + q, c]
+        cholesky_solve(factor, column)
+        for r in range(n_free):
+            solved[r, c] = column[r]
+    return True

@@ -8,6 +8,7 @@ stepping run to rest), so that their results can be swapped.
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -128,11 +129,31 @@ def residual_tolerance(cable: Cable, gravity=GRAVITY, rtol: float | None = None,
     contact_stiffness : float
         The contact penalty [N/m] when obstacles are present.
     """
+    scale, stiffness = _scales(cable, gravity, contact_stiffness)
     if rtol is not None:
-        return rtol * force_scale(cable, gravity)
+        return rtol * scale
     size = cable.length + (0.0 if x is None else float(np.max(np.abs(x))))
-    floor = ROUNDOFF * np.finfo(float).eps * size * stiffest(cable, contact_stiffness)
-    return max(DEFAULT_RTOL * force_scale(cable, gravity), floor)
+    floor = ROUNDOFF * EPS * size * stiffness
+    return max(DEFAULT_RTOL * scale, floor)
+
+
+EPS = float(np.finfo(float).eps)
+
+_SCALES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+"""Per cable object, while it lives: (:func:`force_scale`, :func:`stiffest`) per gravity and
+contact stiffness (every solve asks for its tolerance; a cable is frozen)."""
+
+
+def _scales(cable: Cable, gravity, contact_stiffness: float) -> tuple[float, float]:
+    """(:func:`force_scale`, :func:`stiffest`) of ``cable``, computed once per cable object,
+    gravity and contact stiffness."""
+    key = (*np.asarray(gravity, dtype=float).ravel().tolist(), float(contact_stiffness))
+    cached = _SCALES.get(cable)
+    if cached is None:
+        cached = _SCALES[cable] = {}
+    if key not in cached:
+        cached[key] = (force_scale(cable, gravity), stiffest(cable, contact_stiffness))
+    return cached[key]
 
 
 def clip_reactions(x: np.ndarray, grad: np.ndarray, clips: ClipPoses, held: str = "both"

@@ -42,7 +42,6 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from scipy.linalg import lapack
 from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
@@ -52,6 +51,7 @@ from ..physics.chain import HALF_BANDWIDTH, SpringChain, gradient_and_hessian_ba
 from ..physics.compiled import chain_derivatives
 from ..physics.twist import TwistChain, twist_derivatives
 from .clips import HELD_INDICES, ClipPoses
+from .compiled import held_response
 
 CLIP_COORDINATES = (
     "first.x", "first.y", "first.z", "first.rx", "first.ry", "first.rz",
@@ -131,12 +131,11 @@ def held_point_jacobian(clips: ClipPoses, link_length: float, clamp_links: int =
     k = _clamp(clamp_links)
     u = clips.u_axes
     offsets = (np.arange(k + 1) - 0.5 * k) * link_length
-    placed = [(0, o) for o in offsets] + [(1, o) for o in offsets[::-1]]
-    jac = np.zeros((len(placed), 3, 12))
-    for point, (clip, o) in enumerate(placed):
-        jac[point, :, 6 * clip : 6 * clip + 3] = np.eye(3)
-        jac[point, :, 6 * clip + 3 : 6 * clip + 6] = -o * _cross_matrix(u[clip])
-    return jac
+    jac = np.zeros((2, k + 1, 3, 12))  # per clip, its points in the order of held_indices
+    for clip, o in ((0, offsets), (1, offsets[::-1])):
+        jac[clip, :, :, 6 * clip : 6 * clip + 3] = np.eye(3)
+        jac[clip, :, :, 6 * clip + 3 : 6 * clip + 6] = -o[:, None, None] * _cross_matrix(u[clip])
+    return jac.reshape(2 * (k + 1), 3, 12)
 
 
 def held_indices(n_points: int, clamp_links: int = 1) -> np.ndarray:
@@ -154,23 +153,6 @@ def _clamp(clamp_links) -> int:
 
 def _cross_matrix(v: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
-def _band_block(band: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-    """Dense block H[rows][:, cols] of the symmetric matrix whose lower band is ``band``.
-
-    Only the rows within the bandwidth of a column can be non-zero; the others stay zero.
-    """
-    width = band.shape[0]
-    near = np.flatnonzero(np.min(np.abs(rows[:, None] - cols[None, :]), axis=1) < width)
-    block = np.zeros((len(rows), len(cols)))
-    r, c = np.meshgrid(rows[near], cols, indexing="ij")
-    offset = np.abs(r - c)
-    inside = offset < width
-    part = np.zeros(r.shape)
-    part[inside] = band[offset[inside], np.minimum(r, c)[inside]]
-    block[near] = part
-    return block
 
 
 def equilibrium_sensitivity(
@@ -215,17 +197,12 @@ def equilibrium_sensitivity(
     g_elastic, band = _elastic_derivatives(chain, x)
     points = held_indices(cable.n_points, clamp_links)
     edge = 3 * len(points) // 2  # the held coordinates at either end
-    free = np.arange(edge, n_dof - edge)
-    held = np.r_[0:edge, n_dof - edge : n_dof]
-    factor, info = lapack.dpbtrf(band[:, edge : n_dof - edge], lower=1)
-    if info != 0:
-        raise ValueError("shape: the free Hessian is not positive definite (not a stable "
-                         "equilibrium), its sensitivity is undefined")
     dh = held_point_jacobian(clips, cable.rest_link_length, clamp_links).reshape(-1, 12)
     g_scaled = _modulus_gradient(cable, chain, x, g_elastic)
-    rhs = np.concatenate([-_band_block(band, free, held) @ dh, -g_scaled.ravel()[free, None]],
-                         axis=1)
-    solved = lapack.dpbtrs(factor, rhs, lower=1)[0]
+    solved = np.empty((n_dof - 2 * edge, 13))
+    if not held_response(band, edge, dh, np.ascontiguousarray(g_scaled).ravel(), solved):
+        raise ValueError("shape: the free Hessian is not positive definite (not a stable "
+                         "equilibrium), its sensitivity is undefined")
     return _assemble(x, dh, solved[:, :12], solved[:, 12], torsion=False, held=points)
 
 
