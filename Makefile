@@ -42,8 +42,11 @@ browser:
 	  >/dev/null) ; } || echo "chromium not installed: the browser test will be skipped"
 
 # --durations=10: the ten slowest test phases (wall), to see where the suite's time goes;
-# benchmarks/bench_test_suite.py gives CPU per test and module
-test: lint browser
+# benchmarks/bench_test_suite.py gives CPU per test and module.
+# lint and browser are made side by side (-j2): on a new machine apt-get fetches and installs
+# Chromium (2 min at load 8) while uv installs and the warm-up compiles, instead of after them
+test:
+	$(MAKE) --no-print-directory -j2 lint browser
 	$(BIN)/python -m pytest -q -n 2 --dist loadgroup --durations=10
 
 # some benchmarks reuse the tests' scene builders (tests/ on the path)

@@ -20,6 +20,11 @@ from plants import DismechPlant, assert_demo_corrected, import_dismech
 from dloplan.cable import Cable, catalogue_cable
 from dloplan.correct import Plant
 
+# one worker imports dismech-newton and runs its Warp kernels (make test: --dist loadgroup): on a
+# machine whose ~/.cache/warp is empty (a new CI machine) both workers compiled every kernel at
+# the same moment, about 30 s of CPU each at load 6 (docs/performance.md, branch testtime5)
+pytestmark = pytest.mark.xdist_group("test_dismech_plant")
+
 
 @pytest.fixture(scope="module")
 def dismech_plant():
