@@ -35,7 +35,8 @@ def frame_from_axis(u, up=UP) -> Rotation:
     u = np.atleast_2d(np.asarray(u, dtype=float))
     aux = np.broadcast_to(np.asarray(up, dtype=float), u.shape).reshape(-1, 3)
     quaternions = np.empty((len(aux), 4))
-    _frame_quaternions(np.ascontiguousarray(u.reshape(-1, 3)), np.ascontiguousarray(aux),
+    # copied: one axis broadcast is a read-only view, a second overload of the kernel to load
+    _frame_quaternions(np.ascontiguousarray(u.reshape(-1, 3)), np.array(aux, order="C"),
                        quaternions)
     return Rotation.from_quat(quaternions.reshape(u.shape[:-1] + (4,)))
 
