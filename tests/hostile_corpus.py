@@ -173,6 +173,15 @@ def shape_file(rows: list[str], name: str = "measured.csv"):
     return make
 
 
+def shapes_json(top: dict | None = None, shape: dict | None = None) -> str:
+    """A shapes JSON text of one two-point shape, ``top`` and ``shape`` changing the file's and
+    the shape's fields."""
+    entry = {"label": "xi_1", "frame_id": "world", "points": [[0.3, 0, 0.2], [0.5, 0, 0.2]],
+             **(shape or {})}
+    return json.dumps({"format": "dloplan-shapes", "version": 1, "units": "m",
+                       "shapes": [entry], **(top or {})})
+
+
 def measured_scaled(factor: float, name: str = "measured.csv"):
     """A maker: the world's measured shape with every coordinate times ``factor`` (1000: a
     millimetre file read as metres)."""
@@ -286,6 +295,11 @@ def _cases() -> list[Case]:  # noqa: C901 - one long table
         "yaml-tab": (raw("cable:\n\t name: pa12\n"), "not valid YAML"),
         "json-suffix-yaml": (raw("cable: {name: pa12}\n", "job.json"), "not valid JSON"),
         "unknown-key": (job_with(setting("colour", "red")), "colour"),
+        "duplicate-key-yaml": (raw(yaml.safe_dump(SMALL, sort_keys=False).replace(
+            "cable:\n", "cable:\n  n_links: 9\n", 1)), ("'n_links' given twice", "lines 2 and 4")),
+        "duplicate-key-json": (raw(json.dumps(SMALL).replace('"n_links": 8', '"n_links": 8, '
+                                                             '"n_links": 9'), "job.json"),
+                               ("'n_links' given twice", "first 8, then 9")),
         "plan-document": (lambda folder, world: world.plan, "plan document"),
     }
     for name, (make, fragment) in files.items():
@@ -562,6 +576,19 @@ def _cases() -> list[Case]:  # noqa: C901 - one long table
         "two-points": (shape_file(["0.35,-0.22,0.25", "0.45,-0.22,0.25"]), "measured"),
         "millimetres": (measured_scaled(1000.0), "mm"),
         "wrong-suffix": (raw("x", "measured.txt"), ".csv or .json"),
+        "json-duplicate-key": (raw(json.dumps({"format": "dloplan-shapes", "units": "m",
+                                               "shapes": []}).replace(
+            '"units": "m"', '"units": "m", "units": "mm"'), "measured.json"),
+            ("'units' given twice", "first 'm', then 'mm'")),
+        "json-unknown-key": (raw(shapes_json({"colour": "red"}), "measured.json"),
+                             ("unknown key 'colour'", "expected only")),
+        "json-shape-unknown-key": (raw(shapes_json(shape={"colour": "red"}),
+                                       "measured.json"),
+                                   ("shapes[0]: unknown key 'colour'", "expected only")),
+        "json-points-text": (raw(shapes_json(shape={"points": "many"}), "measured.json"),
+                             ("shapes[0].points", "'many'", "expected a list")),
+        "json-units-list": (raw(shapes_json({"units": [1]}), "measured.json"),
+                            ("units [1]", "expected one of")),
         "huge": (lambda folder, world: raw("label,frame_id,x,y,z\n" + "xi_1,b,0,0,0\n" * 900_000,
                                            "measured.csv")(folder, world), "10 MB"),
     }

@@ -137,3 +137,25 @@ def test_an_output_that_is_or_holds_an_input_is_refused(tmp_path, monkeypatch, o
             refuse_overwriting_inputs(output, inputs)
     else:
         refuse_overwriting_inputs(output, inputs)
+
+
+def test_an_output_that_cannot_be_written_names_it_its_folder_and_what_is_expected(tmp_path):
+    """An output under a file, or in a folder nobody may write to, is one line naming the
+    output, the folder and what is expected, not the lock file beside it (an inner detail);
+    an output folder that is a file says that a folder is expected (the sweep's round 2)."""
+    blocker = tmp_path / "a-file"
+    blocker.write_text("x")
+    cases = [(output_lock, blocker / "out", "a-file is a file, not a folder"),
+             (atomic_file, blocker / "deeper" / "t.csv", "a-file is a file, not a folder"),
+             (output_lock, os.path.join("/proc", "dloplan-out"), "/proc: ")]
+    for writer, target, reason in cases:
+        with pytest.raises(OSError) as caught, writer(target):
+            pass
+        line = str(caught.value)
+        assert str(target) in line and reason in line and "expected a path in a folder" in line
+        assert ".lock" not in line, line
+    for stage in (staged_folder, staged_files):
+        with pytest.raises(ValueError, match="exists and is a file; expected a.* folder"), \
+                stage(blocker):
+            pass
+    assert blocker.read_text() == "x" and sorted(os.listdir(tmp_path)) == ["a-file"]

@@ -47,6 +47,7 @@ import shutil
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -89,6 +90,8 @@ class Case:
     compare_with: tuple[str, str] | None = None   # (base case, transform) for invariance
     needs: str | None = None                 # a case whose plan.json this one reads
     reads: tuple[str, ...] = ()              # other cases whose plans it reads
+    check: Callable[[Case, dict[str, Case]], list[str]] | None = None  # flags from its files
+    expect: tuple[str, ...] = ()             # a refusal (exit 2) whose line names all these
     result: dict = field(default_factory=dict)
 
 
@@ -427,15 +430,20 @@ def flags_of(case: Case, code: int | None, stdout: str, stderr: str,
                and not HARMLESS_WARNINGS.search(str(w))]
         if ok and bad:
             flags.append("warning: ok but " + str(bad[0])[:100])
+    if case.expect and code != 2:
+        flags.append(f"refusal: exit {code}, expected 2")
     if code == 2:
         line = verdict_line(stdout, stderr, None)
         if case.output is not None and case.output.exists() and any(case.output.iterdir()
                                                                      if case.output.is_dir()
                                                                      else [1]):
             flags.append("half: exit 2 left " + str(case.output))
-        if not re.search(r"expected|need|must|got|at least|at most|within|should|"
-                         r"transform it|reverse|look like|not where|only|no |cannot|outside|takes",
-                         line, re.I):
+        missing = [f for f in case.expect if f.lower() not in line.lower()]
+        if missing:
+            flags.append(f"message: no {missing} in: " + line[:100])
+        elif not re.search(r"expected|need|must|got|at least|at most|within|should|"
+                           r"transform it|reverse|look like|not where|only|no |cannot|outside|"
+                           r"takes", line, re.I):
             flags.append("message: " + line[:100])
     if code == 3 and case.output is not None and case.output.is_dir():
         programs = [p.name for p in case.output.iterdir()
@@ -722,6 +730,329 @@ def study_cases(out: Path, quick: bool) -> list[Case]:
 
 
 # ---------------------------------------------------------------------------------------------
+# round 2: the robot controller's reading, hostile files, harness variants, discretization
+
+RAPID_JOBS = ("m2_uniform_curvature_pa12", "qualitative2_ethernet_3d", "m1_sine_pu_hose")
+"""YuMi jobs whose RAPID modules are read back (mirrored, turned, in mm)."""
+REFINED_JOBS = ("m2_uniform_curvature_pa12", "qualitative2_ethernet_3d")
+"""Jobs planned at n, 2n and 4n links, and with another grip."""
+REFINED_LINKS = (10, 20, 40)
+AGREEMENT = 0.5
+"""The end shapes of plans at n and 2n links agree within ``AGREEMENT * L / n`` [m] (the
+model's discretization error falls at least as 1/n)."""
+
+
+def _foot(job: dict) -> list[float]:
+    """The robot's foot [m] a job's ``robot.base_position`` names (the YuMi's default: 0)."""
+    scale = 1e-3 if job.get("units") == "mm" else 1.0
+    return [v * scale for v in job.get("robot", {}).get("base_position", [0.0, 0.0, 0.0])]
+
+
+def _rapid_check(foot):
+    def check(case: Case, done: dict) -> list[str]:
+        from sweep_checks import rapid_problems
+
+        if not (case.output / "rapid").is_dir():
+            return [] if case.result.get("code") not in (0, 1) else ["rapid: none written"]
+        return [f"rapid: {p}" for p in rapid_problems(case.output, foot)[:4]]
+    return check
+
+
+def _same_as(folder: Path):
+    def check(case: Case, done: dict) -> list[str]:
+        from sweep_checks import same_files
+
+        return [f"round trip: {p}" for p in same_files(folder, case.output)[:4]]
+    return check
+
+
+def _same_exit(plan_case: str):
+    def check(case: Case, done: dict) -> list[str]:
+        code = done[plan_case].result.get("code")
+        return [] if case.result.get("code") == code else [
+            f"round trip: verify exits {case.result.get('code')}, plan --verify exited {code}"]
+    return check
+
+
+def rapid_cases(out: Path, quick: bool) -> list[Case]:
+    """YuMi jobs mirrored, turned and in mm planned with --verify, their RAPID modules read back
+    against the plan; the mirrored plans exported again (the same modules) and verified again
+    (the same verdict)."""
+    cases = []
+    for stem in RAPID_JOBS[:1] if quick else RAPID_JOBS:
+        job = yaml.safe_load((EXAMPLES / f"{stem}.yaml").read_text())
+        variants = {"base": job, "mirror": mirror(job),
+                    "turn25": rigid(job, 25.0, (0.02, -0.03, 0)),
+                    "mirror_turn-20": rigid(mirror(job), -20.0, (-0.02, 0.03, 0))}
+        if not quick:
+            variants["mirror_mm"] = to_millimetres(mirror(job))
+        for tag, data in variants.items():
+            name = f"r2/rapid/{stem}/{tag}"
+            path = _write(out / "jobs" / "r2" / stem / f"{tag}.yaml", data)
+            target = out / "runs" / "r2" / stem / tag
+            cases.append(Case(name, ["plan", str(path), "--verify", "-o", str(target)], target,
+                              check=_rapid_check(_foot(data))))
+        plan_case = f"r2/rapid/{stem}/mirror"
+        plan = out / "runs" / "r2" / stem / "mirror"
+        target = out / "exports" / "r2" / stem / "rapid"
+        cases.append(Case(f"r2/roundtrip/{stem}/export rapid", [
+            "export", str(plan / "plan.json"), "--format", "rapid", "-o", str(target)], target,
+            "export", needs=plan_case, check=_same_as(plan / "rapid")))
+        cases.append(Case(f"r2/roundtrip/{stem}/verify", ["verify", str(plan / "plan.json")],
+                          None, "verify", needs=plan_case, check=_same_exit(plan_case)))
+    return cases
+
+
+SMALL_JOB = {"cable": {"name": "pa12", "n_links": 8},
+             "start": {"kind": "straight", "placement": {"position": [0.4, -0.25, 0.2],
+                                                         "rotation": {"euler": [0, 0, 90]}}},
+             "target": {"kind": "arc", "angle": 60,
+                        "placement": {"position": [0.35, -0.22, 0.25],
+                                      "rotation": {"euler": [0, 0, 90]}}},
+             "planner": {"n_shapes": 2}, "outputs": ["json"]}
+"""A job that plans in seconds: the hostile cases' good file."""
+
+
+def _small_yaml(**changes) -> str:
+    data = copy.deepcopy(SMALL_JOB)
+    data.update(changes)
+    return yaml.safe_dump(data, sort_keys=False)
+
+
+def _harness_job(change) -> str:
+    data = yaml.safe_load((EXAMPLES / "harness_usb.yaml").read_text())
+    change(data["harness"])
+    return yaml.safe_dump(data, sort_keys=False)
+
+
+def _shapes_json(**fields) -> str:
+    doc = {"format": "dloplan-shapes", "version": 1, "units": "m",
+           "shapes": [{"label": "xi_1", "frame_id": "world",
+                       "points": [[0.35, -0.22 + 0.05 * k, 0.25] for k in range(9)]}]}
+    doc.update(fields)
+    return json.dumps(doc)
+
+
+def _untouched(path: Path, text: str):
+    def check(case: Case, done: dict) -> list[str]:
+        return [] if path.read_text() == text else [f"half: {path.name} was changed"]
+    return check
+
+
+def hostile_cases(out: Path, quick: bool) -> list[Case]:
+    """Files no example holds: duplicate keys, wrong types, NaN, negative or huge values, empty
+    lists, non-UTF-8 bytes, in job, harness, measured-shape and identification files, and outputs
+    that cannot be written. Each must exit 2 naming (``expect``) the field and value."""
+    folder = out / "jobs" / "r2" / "hostile"
+    folder.mkdir(parents=True, exist_ok=True)
+    good = folder / "good.yaml"
+    good.write_text(_small_yaml())
+    jobs = {
+        "dup-key-yaml": ("job.yaml", _small_yaml().replace(
+            "cable:\n", "cable:\n  n_links: 9\n", 1), ("n_links", "twice")),
+        "dup-key-yaml-top": ("job.yaml", _small_yaml() + "planner: {n_shapes: 3}\n",
+                             ("planner", "twice")),
+        "dup-key-json": ("job.json", json.dumps(SMALL_JOB).replace(
+            '"n_links": 8', '"n_links": 8, "n_links": 9'), ("n_links", "twice")),
+        "non-utf8": ("job.yaml", _small_yaml().replace("pa12", "pa12\udcff"), ("UTF-8",)),
+        "n-links-million": ("job.yaml", _small_yaml(cable={"name": "pa12", "n_links": 10**6}),
+                            ("cable.n_links", "1000000")),
+        "length-negative": ("job.yaml", _small_yaml(cable={"name": "pa12", "length": -0.5}),
+                            ("cable.length", "-0.5")),
+        "diameter-inf": ("job.yaml", _small_yaml(cable={"name": "pa12", "diameter": ".inf"})
+                         .replace("'.inf'", ".inf"), ("cable.diameter", "inf")),
+        "points-empty": ("job.yaml", _small_yaml(target={"kind": "points", "points": []}),
+                         ("target", "points")),
+        "outputs-empty": ("job.yaml", _small_yaml(outputs=[]), ("outputs",)),
+        "position-string": ("job.yaml", _small_yaml(
+            start={"kind": "straight", "placement": {"position": "0.4, -0.25, 0.2"}}),
+            ("start.placement.position", "0.4, -0.25, 0.2")),
+        "obstacle-unknown-key": ("job.yaml", _small_yaml(obstacles=[
+            {"type": "box", "center": [0.4, 0, 0.05], "size": [0.1, 0.1, 0.1], "colour": 1}]),
+            ("colour",)),
+        "harness-slot-negative": ("harness.yaml", _harness_job(
+            lambda h: h["fixtures"][0].__setitem__("slot_width", -0.008)),
+            ("slot_width", "-0.008")),
+        "harness-fixtures-empty": ("harness.yaml", _harness_job(
+            lambda h: h.__setitem__("fixtures", [])), ("fixtures",)),
+        "harness-axis-zero": ("harness.yaml", _harness_job(
+            lambda h: h["fixtures"][0].__setitem__("axis", [0, 0, 0])), ("axis",)),
+        "harness-position-nan": ("harness.yaml", _harness_job(
+            lambda h: h["fixtures"][1].__setitem__("position", [0.5, float("nan"), 0.03])),
+            ("position", "nan")),
+        "harness-n-shapes-zero": ("harness.yaml", _harness_job(
+            lambda h: h.__setitem__("n_shapes", [0, 4])), ("n_shapes",)),
+        "harness-unknown-key": ("harness.yaml", _harness_job(
+            lambda h: h["pegs"][0].__setitem__("colour", "red")), ("colour",)),
+        "harness-dup-fixture-name": ("harness.yaml", _harness_job(
+            lambda h: h["fixtures"][1].__setitem__("name", "fixture_right")),
+            ("fixture_right",)),
+    }
+    cases = []
+    for tag, (name, text, expect) in jobs.items():
+        path = folder / tag / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if "\udcff" in text:
+            path.write_bytes(text.encode("utf-8", "surrogateescape"))
+        else:
+            path.write_text(text)
+        target = out / "runs" / "r2" / "hostile" / tag
+        cases.append(Case(f"r2/hostile/{tag}", ["plan", str(path), "-o", str(target)], target,
+                          expect=expect))
+    # measured shapes (correct, compare) of the small job's plan
+    plan_case = "r2/hostile/good"
+    plan = out / "runs" / "r2" / "hostile" / "good" / "plan.json"
+    cases.append(Case(plan_case, ["plan", str(good), "-o", str(plan.parent)], plan.parent))
+    shapes = {
+        "shapes-points-text": (_shapes_json(shapes=[{"label": "xi_1", "frame_id": "world",
+                                                     "points": "many"}]), ("points", "many")),
+        "shapes-empty-list": (_shapes_json(shapes=[]), ("shapes",)),
+        "shapes-units-number": (_shapes_json(units=5), ("units", "5")),
+        "shapes-nan": (_shapes_json().replace("0.25]", "NaN]", 1), ("NaN",)),
+        "shapes-dup-key": (_shapes_json().replace('"units": "m"', '"units": "m", "units": "mm"'),
+                           ("units", "twice")),
+        "shapes-unknown-key": (_shapes_json(colour="red"), ("colour",)),
+        "shapes-non-utf8": (_shapes_json().replace("xi_1", "xi_\udcff1"), ("UTF-8",)),
+    }
+    for tag, (text, expect) in shapes.items():
+        path = folder / tag / "measured.json"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(text.encode("utf-8", "surrogateescape"))
+        target = out / "runs" / "r2" / "hostile" / tag
+        cases.append(Case(f"r2/hostile/correct {tag}", [
+            "correct", str(plan), "--at", "1", "--measured", str(path), "-o", str(target)],
+            target, "correct", needs=plan_case, expect=expect))
+    ident = yaml.safe_load((EXAMPLES / "identify_ethernet.yaml").read_text())
+    for tag, change, expect in [
+            ("identify-measured-empty", lambda d: d.__setitem__("measured_shape", []),
+             ("measured_shape",)),
+            ("identify-trajectory-text", lambda d: d.__setitem__("trajectory", "along"),
+             ("trajectory", "along")),
+            ("identify-noise-negative", lambda d: d.__setitem__("measurement_noise", -1.0),
+             ("measurement_noise", "-1"))]:
+        data = copy.deepcopy(ident)
+        change(data["identify"])
+        path = _write(folder / tag / "ident.yaml", data)
+        target = out / "runs" / "r2" / "hostile" / tag
+        cases.append(Case(f"r2/hostile/{tag}", ["identify", str(path), "-o", str(target)],
+                          target, "identify", expect=expect))
+    # outputs that cannot be written, or exist
+    blocker = folder / "a-file"
+    blocker.write_text("not a folder\n")
+    foreign = folder / "foreign"
+    foreign.mkdir(exist_ok=True)
+    (foreign / "notes.txt").write_text("mine\n")
+    outputs = {
+        "output-under-a-file": (["plan", str(good), "-o", str(blocker / "out")],
+                                ("-o", str(blocker))),
+        "output-in-proc": (["plan", str(good), "-o", "/proc/dloplan-out"], ("/proc/dloplan-out",)),
+        "export-under-a-file": (["export", str(plan), "--format", "csv", "-o",
+                                 str(blocker / "t.csv")], (str(blocker),)),
+        "output-is-a-file": (["plan", str(good), "-o", str(blocker)], (str(blocker),)),
+        "output-foreign-folder": (["plan", str(good), "-o", str(foreign)], (str(foreign),)),
+        "export-csv-onto-folder": (["export", str(plan), "--format", "csv", "-o", str(foreign)],
+                                   (str(foreign),)),
+    }
+    for tag, (argv, expect) in outputs.items():
+        checks = _untouched(blocker, "not a folder\n") if "file" in tag else _untouched(
+            foreign / "notes.txt", "mine\n")
+        cases.append(Case(f"r2/hostile/{tag}", argv, None, "plan",
+                          needs=plan_case if argv[0] == "export" else None,
+                          expect=expect, check=checks))
+    return cases
+
+
+def _harness_variants(stem: str, job: dict) -> dict[str, dict]:
+    """A harness job with other cables, a fixture moved, one removed, and mirrored."""
+    cable = job["cable"]["name"]
+    variants = {f"cable_{c}": with_cable(job, c) for c in CABLES if c != cable}
+    moved = copy.deepcopy(job)
+    moved["harness"]["fixtures"][1]["position"][0] += 0.03
+    moved["harness"]["fixtures"][1]["position"][1] -= 0.02
+    variants["fixture_moved"] = moved
+    closer = copy.deepcopy(job)
+    for fixture in closer["harness"]["fixtures"]:
+        fixture["position"][1] *= 0.8
+    variants["fixtures_closer"] = closer
+    single = copy.deepcopy(job)
+    single["harness"]["fixtures"] = single["harness"]["fixtures"][:1]
+    variants["one_fixture"] = single
+    variants["mirror"] = mirror(job)
+    return variants
+
+
+def harness_cases(out: Path, quick: bool) -> list[Case]:
+    """The harness jobs varied (other cables, a fixture moved, fixtures closer, one removed,
+    mirrored) through ``plan --verify`` (their RAPID read back)."""
+    cases = []
+    for stem in HARNESS_JOBS[:1] if quick else HARNESS_JOBS:
+        job = yaml.safe_load((EXAMPLES / f"{stem}.yaml").read_text())
+        for tag, data in _harness_variants(stem, job).items():
+            path = _write(out / "jobs" / "r2" / stem / f"{tag}.yaml", data)
+            target = out / "runs" / "r2" / stem / tag
+            cases.append(Case(f"r2/harness/{stem}/{tag}", ["plan", str(path), "--verify", "-o",
+                                                            str(target)], target,
+                              check=_rapid_check(_foot(data))))
+    return cases
+
+
+def _agreement(stem: str, coarse: int, fine: int, length: float):
+    def check(case: Case, done: dict) -> list[str]:
+        from sweep_checks import end_shape_gap
+
+        folders = [done[f"r2/refine/{stem}/n{n}"].output for n in (coarse, fine)]
+        gap = end_shape_gap(*(f / "plan.json" for f in folders))
+        bound = AGREEMENT * length / coarse
+        case.result["note"] = (f"end shape vs n={coarse}: {gap * 1e3:.2f} mm "
+                               f"(bound {bound * 1e3:.1f})")
+        return [] if gap <= bound else [f"discretization: end shapes at n={coarse} and {fine} "
+                                        f"differ by {gap * 1e3:.2f} mm > {bound * 1e3:.1f} mm"]
+    return check
+
+
+def _grip_agreement(stem: str, n: int):
+    def check(case: Case, done: dict) -> list[str]:
+        from sweep_checks import end_shape_gap
+
+        base = done[f"r2/refine/{stem}/n{n}"].output / "plan.json"
+        gap = max(end_shape_gap(base, case.output / "plan.json", key)
+                  for key in ("shapes", "stabilized"))
+        case.result["note"] = f"end shape vs the job's grip: {gap:.1e} m"
+        return [] if gap <= TOLERANCE else [f"grip: another grip moved the end shape by "
+                                            f"{gap * 1e3:.3f} mm"]
+    return check
+
+
+def refine_cases(out: Path, quick: bool) -> list[Case]:
+    """One job at n, 2n, 4n links and with another grip: the end shapes agree within a bound
+    that halves with n; the grip changes no shape."""
+    from dloplan.cable import catalogue_cable
+
+    cases = []
+    for stem in REFINED_JOBS[:1] if quick else REFINED_JOBS:
+        job = yaml.safe_load((EXAMPLES / f"{stem}.yaml").read_text())
+        length = job["cable"].get("length") or catalogue_cable(job["cable"]["name"]).length
+        for k, n in enumerate(REFINED_LINKS):
+            path = _write(out / "jobs" / "r2" / "refine" / stem / f"n{n}.yaml",
+                          with_links(job, n))
+            target = out / "runs" / "r2" / "refine" / stem / f"n{n}"
+            check = _agreement(stem, REFINED_LINKS[k - 1], n, length) if k else None
+            cases.append(Case(f"r2/refine/{stem}/n{n}", ["plan", str(path), "-o", str(target)],
+                              target, check=check,
+                              reads=(f"r2/refine/{stem}/n{REFINED_LINKS[k - 1]}",) if k else ()))
+        n = REFINED_LINKS[1]
+        for method in ("minimal", "rigid"):
+            path = _write(out / "jobs" / "r2" / "refine" / stem / f"n{n}_{method}.yaml",
+                          with_grip(with_links(job, n), method))
+            target = out / "runs" / "r2" / "refine" / stem / f"n{n}_{method}"
+            cases.append(Case(f"r2/refine/{stem}/n{n} grip {method}",
+                              ["plan", str(path), "-o", str(target)], target,
+                              reads=(f"r2/refine/{stem}/n{n}",),
+                              check=_grip_agreement(stem, n)))
+    return cases
+
+
+# ---------------------------------------------------------------------------------------------
 # running
 
 
@@ -789,6 +1120,12 @@ def run_case(case: Case, timeout: float, done: dict[str, Case]) -> None:
         if base and base.result.get("code") != code:
             case.result["note"] = (case.result.get("note", "") +
                                    f"; exit {code}, base exit {base.result.get('code')}")
+    if case.check is not None and code is not None:
+        case.result["code"] = code
+        try:
+            flags += case.check(case, done)
+        except Exception as exc:  # noqa: BLE001 - the sweep reports, never stops
+            flags.append(f"check: {type(exc).__name__}: {exc}"[:160])
     verdict = verdict_line(stdout, stderr, summary)
     if code == 2 or not verdict:
         verdict = verdict_line("", stderr, None) or verdict
@@ -830,7 +1167,9 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     cases = (job_cases(out, args.quick) + document_cases(out, args.quick)
              + identify_cases(out, args.quick) + measurement_cases(out, args.quick)
-             + study_cases(out, args.quick))
+             + study_cases(out, args.quick) + rapid_cases(out, args.quick)
+             + hostile_cases(out, args.quick) + harness_cases(out, args.quick)
+             + refine_cases(out, args.quick))
     if args.only:
         patterns = args.only.split(",")
         wanted = [c for c in cases if any(p in c.name for p in patterns)]

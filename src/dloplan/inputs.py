@@ -4,11 +4,15 @@ A job, identification, shape, calibration or URDF file, and a plan document, is 
 :func:`read_text`: a device, a pipe or a folder is refused before it is opened (``/dev/zero`` or a
 FIFO would never end), and no more than the limit (:mod:`dloplan.bounds`) plus one byte is read
 (a file that grows while read, a ``/proc`` file whose size says 0). The errors are one line
-naming the file. (Writing is :mod:`dloplan.output_files`'.)
+naming the file. (Writing is :mod:`dloplan.output_files`'.) :func:`parse_json` and
+:func:`parse_yaml` parse the text refusing a key given twice in one mapping (JSON and YAML
+parsers keep the last one silently: the first value would be lost without a word).
 """
 
 from __future__ import annotations
 
+import functools
+import json
 import os
 import stat
 from pathlib import Path
@@ -57,3 +61,72 @@ def read_text(path: str | os.PathLike, limit: int = MAX_INPUT_BYTES, kind: str =
         return data.decode("utf-8")
     except UnicodeDecodeError:
         raise ValueError(f"{path}: not a text file (not UTF-8): expected a {kind}") from None
+
+
+class DuplicateKeyError(ValueError):
+    """A key given twice in one mapping of a JSON or YAML file."""
+
+
+def _unique_pairs(pairs: list[tuple[str, object]]) -> dict:
+    """A JSON object's mapping from its ``pairs``; a key given twice is refused."""
+    out: dict = {}
+    for key, value in pairs:
+        if key in out:
+            raise DuplicateKeyError(f"key {key!r} given twice in one object (first "
+                                    f"{out[key]!r}, then {value!r}); a key may be given once")
+        out[key] = value
+    return out
+
+
+def parse_json(text: str):
+    """``json.loads(text)`` refusing a key given twice in one object.
+
+    Raises
+    ------
+    ValueError
+        Not valid JSON (:class:`json.JSONDecodeError`), or :class:`DuplicateKeyError` naming
+        the key and both values.
+    """
+    return json.loads(text, object_pairs_hook=_unique_pairs)
+
+
+def parse_yaml(text: str):
+    """``yaml.safe_load(text)`` refusing a key given twice in one mapping (merge keys ``<<``
+    may repeat what they merge, as YAML defines).
+
+    Raises
+    ------
+    yaml.YAMLError
+        Not valid YAML, or a key given twice: the message's first line names the key and both
+        lines.
+    """
+    import yaml
+
+    return yaml.load(text, Loader=_unique_key_loader())  # noqa: S506 - a SafeLoader subclass
+
+
+@functools.cache
+def _unique_key_loader():
+    """The SafeLoader subclass of :func:`parse_yaml` (made on first use: yaml loads lazily)."""
+    import yaml
+
+    class UniqueKeyLoader(yaml.SafeLoader):
+        def construct_mapping(self, node, deep=False):
+            lines: dict = {}
+            for key_node, _ in node.value if isinstance(node, yaml.MappingNode) else ():
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    continue
+                key = self.construct_object(key_node, deep=True)
+                line = key_node.start_mark.line + 1
+                try:
+                    first = lines.get(key)
+                except TypeError:  # an unhashable key: SafeLoader's own error follows
+                    continue
+                if first is not None:
+                    raise yaml.constructor.ConstructorError(
+                        None, None, f"key {key!r} given twice in one mapping (lines {first} "
+                        f"and {line}); a key may be given once", key_node.start_mark)
+                lines[key] = line
+            return super().construct_mapping(node, deep)
+
+    return UniqueKeyLoader

@@ -73,6 +73,19 @@ def _named(exc: OSError, path) -> OSError:
     return exc
 
 
+def _unwritable(exc: OSError, target: Path) -> OSError:
+    """``exc`` (creating ``target``'s folder or its lock beside it failed) as the one line of
+    an output that cannot be written there: it names ``target``, the folder and what is
+    expected (not the lock file, an inner detail)."""
+    blocker = next((p for p in reversed(target.parents) if p.exists() and not p.is_dir()),
+                   None)
+    reason = (f"{blocker} is a file, not a folder" if blocker is not None
+              else f"{target.parent}: {exc.strerror or exc}")
+    return OSError(exc.errno, f"cannot write this output ({reason}); expected a path in a "
+                              f"folder that exists or can be made, and may be written to",
+                   str(target))
+
+
 @contextlib.contextmanager
 def atomic_file(path: str | os.PathLike) -> Iterator[Path]:
     """Write one file atomically by any writer: yields a fresh temporary path beside ``path``
@@ -83,6 +96,9 @@ def atomic_file(path: str | os.PathLike) -> Iterator[Path]:
     path = Path(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise _unwritable(exc, path) from None
+    try:
         with shielded():  # a signal cannot end the run between the file's creation and its name
             fd, temp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
             os.close(fd)
@@ -193,7 +209,7 @@ def _parents(target: Path) -> Iterator[None]:
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise _named(exc, target.parent) from None
+        raise _unwritable(exc, target) from None
     try:
         yield
     except BaseException:
@@ -217,7 +233,7 @@ def _locked(target: Path, lock: Path) -> Iterator[None]:
                 continue
             stale = True
         except OSError as exc:
-            raise _named(exc, lock) from None
+            raise _unwritable(exc, target) from None
         try:
             if fcntl is None and stale:
                 raise BlockingIOError
@@ -277,7 +293,8 @@ def staged_folder(target: str | os.PathLike) -> Iterator[Path]:
     """
     target = Path(target)
     if target.exists() and not target.is_dir():
-        raise ValueError(f"{target}: exists and is not a folder (the output folder)")
+        raise ValueError(f"{target}: exists and is a file; expected an output folder (a new "
+                         f"path, or a folder dloplan wrote)")
     if target.is_dir() and any(target.iterdir()) and not (target / OUTPUT_MARK).exists():
         raise ValueError(f"{target}: the folder has other files than a dloplan output "
                          f"(no {OUTPUT_MARK}); choose an empty or new output folder")
@@ -308,7 +325,8 @@ def staged_files(folder: str | os.PathLike) -> Iterator[Path]:
     error or signal nothing is. The folder is locked meanwhile (:func:`output_lock`)."""
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
-        raise ValueError(f"{folder}: exists and is not a folder (the output folder)")
+        raise ValueError(f"{folder}: exists and is a file; expected a folder for the output "
+                         f"files")
     with output_lock(folder):
         try:
             staging = Path(tempfile.mkdtemp(dir=folder.parent, prefix=f".{folder.name}.tmp-"))

@@ -14,7 +14,6 @@ This module only describes: the root models of the job files (a scenario, a harn
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Annotated, Any, Literal, get_args
@@ -25,7 +24,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from ..bounds import MAX_INPUT_BYTES, MAX_LINKS, MAX_RATE, MAX_SHAPES, MIN_LINKS
 from ..cable import CATALOGUE_NAMES
-from ..inputs import read_text
+from ..inputs import parse_json, parse_yaml, read_text
 
 SCHEMA_VERSION = 1
 
@@ -496,8 +495,8 @@ def read_mapping(path: str | Path) -> dict:
     except ValueError as exc:
         raise ScenarioError(str(exc)) from None
     try:
-        data = json.loads(text) if path.suffix.lower() == ".json" else yaml.safe_load(text)
-    except (json.JSONDecodeError, yaml.YAMLError) as exc:
+        data = parse_json(text) if path.suffix.lower() == ".json" else parse_yaml(text)
+    except (ValueError, yaml.YAMLError) as exc:  # ValueError: JSONDecodeError, a key twice
         detail = str(exc).splitlines()[0]
         kind = "JSON" if path.suffix.lower() == ".json" else "YAML"
         raise ScenarioError(f"{path}: not valid {kind}: {detail}") from None

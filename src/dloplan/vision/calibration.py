@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..inputs import read_text
+from ..inputs import parse_json, read_text
 from ..io.poses import canonical_quaternions, pose_from_dict, transform_dict
 from ..output_files import atomic_write_text
 from . import _deps
@@ -193,8 +193,8 @@ def read_calibration(path) -> ExtrinsicCalibration:
     """Read a calibration JSON written by :func:`write_calibration` (or by hand)."""
     where = str(path)
     try:
-        data = json.loads(read_text(path, kind="camera calibration (JSON)"))
-    except (json.JSONDecodeError, RecursionError) as exc:
+        data = parse_json(read_text(path, kind="camera calibration (JSON)"))
+    except (ValueError, RecursionError) as exc:  # JSONDecodeError, a key twice
         raise ValueError(f"{where}: not a camera calibration (not valid JSON: {exc})") from None
     if not isinstance(data, dict) or data.get("format") != CALIBRATION_FORMAT:
         raise ValueError(f"{where}: expected a JSON object with format {CALIBRATION_FORMAT!r}")

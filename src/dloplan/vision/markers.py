@@ -12,7 +12,6 @@ removes the ~0.2-0.5 px bias of OpenCV's corner refinement on the marker's L-sha
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -20,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..inputs import read_text
+from ..inputs import parse_json, read_text
 from ..io.poses import pose_from_dict
 from . import _deps
 from .camera import CameraIntrinsics, normalize_pixels, project_normalized
@@ -98,8 +97,8 @@ def read_marker_layout(path) -> MarkerLayout:
     """
     where = str(path)
     try:
-        data = json.loads(read_text(path, kind="marker layout (JSON)"))
-    except (json.JSONDecodeError, RecursionError) as exc:
+        data = parse_json(read_text(path, kind="marker layout (JSON)"))
+    except (ValueError, RecursionError) as exc:  # JSONDecodeError, a key twice
         raise ValueError(f"{where}: not a marker layout (not valid JSON: {exc})") from None
     if not isinstance(data, dict) or not isinstance(data.get("markers"), list):
         raise ValueError(f"{where}: expected an object with a 'markers' list")

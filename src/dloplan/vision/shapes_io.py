@@ -32,12 +32,16 @@ from pathlib import Path
 import numpy as np
 
 from ..geometry import as_shape
-from ..inputs import read_text
+from ..inputs import parse_json, read_text
 from ..output_files import atomic_write_text
 
 SHAPES_FORMAT = "dloplan-shapes"
 CSV_COLUMNS = ("label", "frame_id", "x", "y", "z")
 UNITS = {"m": 1.0, "mm": 1e-3}
+JSON_KEYS = ("format", "version", "units", "frame_id", "shapes")
+"""The keys of a shapes JSON file."""
+SHAPE_KEYS = ("label", "frame_id", "points")
+"""The keys of one shape of a shapes JSON file."""
 
 
 @dataclass(frozen=True)
@@ -163,25 +167,40 @@ def _shapes_from_csv(text: str, where: str) -> list[RegisteredShape]:
         raise ValueError(f"{where}: {exc}") from exc
 
 
+def _known_keys(mapping: dict, known: tuple[str, ...], where: str) -> None:
+    """Refuse a key of ``mapping`` not in ``known`` (a misspelt ``units`` would be ignored)."""
+    unknown = sorted(set(mapping) - set(known))
+    if unknown:
+        raise ValueError(f"{where}: unknown key {unknown[0]!r}, expected only {list(known)}")
+
+
 def _shapes_from_json(text: str, where: str) -> list[RegisteredShape]:
     try:
-        data = json.loads(text)
-    except (json.JSONDecodeError, RecursionError) as exc:
+        data = parse_json(text)
+    except (ValueError, RecursionError) as exc:  # JSONDecodeError, a key twice
         raise ValueError(f"{where}: not valid JSON: {exc}") from exc
     if not isinstance(data, dict) or not isinstance(data.get("shapes"), list):
         raise ValueError(f"{where}: expected an object with a 'shapes' list")
+    _known_keys(data, JSON_KEYS, where)
+    if data.get("version", 1) != 1:
+        raise ValueError(f"{where}: version {data['version']!r}, expected 1")
     if data.get("format", SHAPES_FORMAT) != SHAPES_FORMAT:
         raise ValueError(f"{where}: format {data.get('format')!r}, expected {SHAPES_FORMAT!r}")
     units = data.get("units", "m")
-    if units not in UNITS:
+    if not isinstance(units, str) or units not in UNITS:
         raise ValueError(f"{where}: units {units!r}, expected one of {sorted(UNITS)}")
     default_frame = data.get("frame_id", "robot_base")
     shapes = []
     for k, entry in enumerate(data["shapes"]):
         if not isinstance(entry, dict) or "points" not in entry:
             raise ValueError(f"{where}: shapes[{k}] needs 'points'")
+        _known_keys(entry, SHAPE_KEYS, f"{where}: shapes[{k}]")
         try:
             points = np.asarray(entry["points"], dtype=float) * UNITS[units]
+        except (TypeError, ValueError):
+            raise ValueError(f"{where}: shapes[{k}].points: got {entry['points']!r:.60}, "
+                             f"expected a list of [x, y, z] numbers in {units}") from None
+        try:
             shapes.append(RegisteredShape(points, entry.get("frame_id", default_frame),
                                           entry.get("label", f"shape {k}")))
         except (TypeError, ValueError) as exc:
