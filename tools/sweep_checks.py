@@ -7,9 +7,10 @@ They read the files as their consumer reads them, not as dloplan wrote them:
   robot's base frame, where the plan puts the TCP; its ``eax_a`` the verified joints' arm
   angle, not joint 7 (the controller's IK with that arm angle and confdata gives the verified
   joints back); the start ``jointtarget`` the first target's joints in ABB axis order; the base
-  frame ``yumi_base_link``, 0.1 m above the robot's foot; both tasks' synchronization (the same
-  sync points with the same identifiers, the same move IDs, in the same order); and the joint
-  speeds of each ``MoveL`` timed ``\\T`` between two targets, tracked by IK along the TCP's
+  frame ``yumi_base_link`` where the job puts it (0.1 m above the table the robot stands on,
+  without a ``robot.base_position``), the work object the plan's origin in it; both tasks'
+  synchronization (the same sync points with the same identifiers, the same move IDs, in the
+  same order); and the joint speeds of each ``MoveL`` timed ``\\T`` between two targets, tracked by IK along the TCP's
   line with the arm angle moving linearly, against the joint-speed limits and the plan's
   reported peak (a peak is at least the move's average rate);
 * :func:`same_files`: two exports of one plan hold the same text;
@@ -35,8 +36,6 @@ from dloplan.pipeline.document import document_cell  # noqa: E402
 from dloplan.robot import IKOptions, inverse  # noqa: E402
 from dloplan.robot.robtarget import ROUND_TRIP_TOLERANCE, solve_robtarget  # noqa: E402
 
-YUMI_BASE_ABOVE_FOOT = 0.1
-"""Height [m] of ``yumi_base_link`` (the RAPID base frame) above the robot's foot."""
 POSITION_TOLERANCE = 1e-4
 """A robtarget read back within 0.1 mm of the plan's TCP position [m]."""
 ANGLE_TOLERANCE = 1e-4
@@ -93,15 +92,16 @@ def _joint_rates(arm, start: np.ndarray, poses, duration: float) -> tuple[np.nda
     return np.vstack([average, bound]), True
 
 
-def rapid_problems(folder: Path, foot=(0.0, 0.0, 0.0)) -> list[str]:
+def rapid_problems(folder: Path, base=(0.0, 0.0, 0.0)) -> list[str]:
     """What in ``folder/rapid/*.mod`` disagrees with ``folder/plan.json`` (see the module).
 
     Parameters
     ----------
     folder : Path
         A plan's output folder holding ``plan.json`` and ``rapid/``.
-    foot : array_like
-        (3,) the robot's foot in the plan's frame [m] (the job's ``robot.base_position``).
+    base : array_like
+        (3,) where the job puts the robot's base frame in the plan's frame [m] (its
+        ``robot.base_position``; without one, 0.1 m above the table, or the origin).
 
     Returns
     -------
@@ -117,10 +117,9 @@ def rapid_problems(folder: Path, foot=(0.0, 0.0, 0.0)) -> list[str]:
     program = data["robot"]["program"]
     targets = program["targets"]
     problems = []
-    base = np.asarray(data["robot"]["cell"]["base_position"], float)
-    if np.abs(base - np.asarray(foot, float) - [0, 0, YUMI_BASE_ABOVE_FOOT]).max() > 1e-9:
-        problems.append(f"base frame at {base.tolist()} m, expected the foot {list(foot)} "
-                        f"+ {YUMI_BASE_ABOVE_FOOT} m up")
+    written = np.asarray(data["robot"]["cell"]["base_position"], float)
+    if np.abs(written - np.asarray(base, float)).max() > 1e-9:
+        problems.append(f"base frame at {written.tolist()} m, the job puts it at {list(base)}")
     read = [read_module(path.read_text()) for path in modules]
     sync = [_sync_sequence(m["procs"]["dloplan_move"]) for m in read]
     if sync[0] != sync[1]:
@@ -136,6 +135,11 @@ def rapid_problems(folder: Path, foot=(0.0, 0.0, 0.0)) -> list[str]:
         uframe = decl[cell.wobj][2][3]
         wobj_pos = np.asarray(uframe[0], float) / 1e3
         wobj_rot = Rotation.from_quat(uframe[1], scalar_first=True)
+        origin = -cell.base_rotation.inv().apply(np.asarray(base, float))
+        if np.linalg.norm(wobj_pos - origin) > POSITION_TOLERANCE:
+            problems.append(f"{side}: work object at {(wobj_pos * 1e3).round(3).tolist()} mm in "
+                            f"the base frame, the plan's origin is at "
+                            f"{(origin * 1e3).round(3).tolist()} mm")
         names = sorted(n for n, d in decl.items() if d[1] == "robtarget")
         if len(names) != len(targets):
             problems.append(f"{side}: {len(names)} robtargets, the plan has {len(targets)}")
