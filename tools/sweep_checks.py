@@ -10,9 +10,10 @@ They read the files as their consumer reads them, not as dloplan wrote them:
   frame ``yumi_base_link`` where the job puts it (0.1 m above the table the robot stands on,
   without a ``robot.base_position``), the work object the plan's origin in it; both tasks'
   synchronization (the same sync points with the same identifiers, the same move IDs, in the
-  same order); and the joint speeds of each ``MoveL`` timed ``\\T`` between two targets, tracked by IK along the TCP's
-  line with the arm angle moving linearly, against the joint-speed limits and the plan's
-  reported peak (a peak is at least the move's average rate);
+  same order); and the joint speeds of each ``MoveL`` timed ``\\T`` between two targets,
+  tracked by IK along the TCP's line with the arm angle moving linearly, against the
+  joint-speed limits and the plan's reported peak (a peak is at least the move's average
+  rate);
 * :func:`same_files`: two exports of one plan hold the same text;
 * :func:`end_shape_gap`: the largest distance [m] between two plans' final (stabilized)
   shapes, both resampled by arc length (plans of one job at two n, or with two grips).
