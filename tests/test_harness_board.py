@@ -260,3 +260,22 @@ def test_a_harness_document_without_what_the_checks_need_is_refused_by_name():
         harness_model(failed)
     with pytest.raises(ValueError, match="not a wire-harness plan"):
         harness_model(PlanDocument(cable=cable, shapes=shapes))
+
+
+def test_plan_verify_of_a_harness_job_whose_tensioning_failed_is_the_failed_plan(monkeypatch):
+    """``plan --verify`` of a harness job whose tensioning failed when planned (the PA12 cable
+    on the board of examples/harness_usb.yaml: 6 N against its 5 N limit; the unseen-case
+    sweep, round 2) returns that plan, its check failed (exit 3, written for inspection), not
+    the verifier's refusal of a plan without an offset (exit 2, "nothing to verify")."""
+    import dloplan.pipeline.repair.harness as repair
+    from dloplan.cable import catalogue_cable
+    from dloplan.grippers import gripper_path
+    from dloplan.pipeline.document import PlanDocument
+    from dloplan.shapes import arc_shape
+
+    cable = catalogue_cable("pa12")
+    shapes = np.stack([arc_shape(cable.length, cable.n_links, a) for a in (1.0, 1.5)])
+    failed = PlanDocument(cable=cable, shapes=shapes, grippers=gripper_path(shapes, cable=cable),
+                          harness={"offset": None, "message": "the link tension reaches 6 N"})
+    monkeypatch.setattr(repair, "run_harness_job", lambda job, **options: failed)
+    assert repair.plan_harness(None, verify=True) is failed

@@ -35,11 +35,12 @@ def plan_harness(job, *, verify: bool = False, check_robot: bool = True, repair:
     :func:`dloplan.pipeline.harness.verify_harness_plan`); a plan that
     fails only in the tensioning's replay is planned again with the tensioning slowed down
     (:data:`TENSIONING_SPEEDS`, ``HarnessSettings.tensioning_speed``) until it passes, the
-    repair recorded in the document's ``repairs`` (or its refusal). ``planned`` (optional) is
-    called with each planned document before it is verified (the command line draws its
-    figures meanwhile)."""
+    repair recorded in the document's ``repairs`` (or its refusal). A plan whose tensioning
+    failed when planned (no offset: its harness check failed, exit 3) has nothing to verify
+    and is returned as it is. ``planned`` (optional) is called with each planned document
+    before it is verified (the command line draws its figures meanwhile)."""
     doc = run_harness_job(job, check_robot=check_robot, progress=progress, planned=planned)
-    if not verify:
+    if not verify or doc.harness.get("offset") is None:
         return doc
     t0 = time.perf_counter()
     verification = verify_plan(doc, robot=check_robot, progress=progress)
