@@ -73,7 +73,7 @@ def _unique_pairs(pairs: list[tuple[str, object]]) -> dict:
     for key, value in pairs:
         if key in out:
             raise DuplicateKeyError(f"key {key!r} given twice in one object (first "
-                                    f"{out[key]!r}, then {value!r}); a key may be given once")
+                                    f"{out[key]!r}, then {value!r}); expected each key once")
         out[key] = value
     return out
 
@@ -125,7 +125,7 @@ def _unique_key_loader():
                 if first is not None:
                     raise yaml.constructor.ConstructorError(
                         None, None, f"key {key!r} given twice in one mapping (lines {first} "
-                        f"and {line}); a key may be given once", key_node.start_mark)
+                        f"and {line}); expected each key once", key_node.start_mark)
                 lines[key] = line
             return super().construct_mapping(node, deep)
 
