@@ -45,7 +45,8 @@ def harness_model(doc: PlanDocument) -> HeldModel:
         raise ValueError("plan: no gripper poses, the harness job was not planned to the end")
     if section.get("offset") is None:
         raise ValueError("plan.harness.offset: none, the tensioning failed when planned "
-                         f"({section.get('message', '')}): nothing to verify")
+                         f"({section.get('message', '')}): nothing to verify; expected a "
+                         "plan whose tensioning succeeded (its plan exited 3)")
     missing = [key for key in ("board", "section_links", "sections") if key not in section]
     if missing:
         raise ValueError(f"plan.harness: no {', '.join(missing)} (a plan written before harness "
