@@ -42,7 +42,8 @@ def as_shape(points, n_points: int | None = None, name: str = "shape") -> np.nda
         raise ValueError(f"{name}: {arr.shape[0]} points given, need at least 2")
     if not np.all(np.isfinite(arr)):
         bad = int(np.argwhere(~np.isfinite(arr))[0, 0])
-        raise ValueError(f"{name}: point {bad} has a non-finite coordinate (NaN or inf)")
+        raise ValueError(f"{name}: point {bad} has a non-finite coordinate (NaN or inf); "
+                         f"expected finite numbers")
     return arr
 
 
@@ -80,7 +81,8 @@ def as_path(path, n_points: int | None = None, name: str = "path") -> np.ndarray
     if not np.all(np.isfinite(arr)):
         shape_index, point = np.argwhere(~np.isfinite(arr))[0, :2]
         raise ValueError(
-            f"{name}: shape {shape_index}, point {point} has a non-finite coordinate (NaN or inf)"
+            f"{name}: shape {shape_index}, point {point} has a non-finite coordinate (NaN or inf); "
+            "expected finite numbers"
         )
     return arr
 
