@@ -159,3 +159,17 @@ def test_an_output_that_cannot_be_written_names_it_its_folder_and_what_is_expect
                 stage(blocker):
             pass
     assert blocker.read_text() == "x" and sorted(os.listdir(tmp_path)) == ["a-file"]
+
+
+def test_a_file_written_onto_a_folder_names_the_folder(tmp_path):
+    """``export --format csv -o FOLDER``: the line names the folder and that a file was
+    expected, not the temporary file whose replace failed; the folder is left as it was."""
+    folder = tmp_path / "out"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("mine")
+    for write in (lambda: atomic_write_texts({folder: "x"}),
+                  lambda: atomic_file(folder).__enter__()):
+        with pytest.raises(ValueError, match=f"^{folder}: is a folder; expected the path of a "
+                                             "file"):
+            write()
+    assert os.listdir(tmp_path) == ["out"] and os.listdir(folder) == ["notes.txt"]

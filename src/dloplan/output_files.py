@@ -73,6 +73,15 @@ def _named(exc: OSError, path) -> OSError:
     return exc
 
 
+def _file_target(path: str | os.PathLike) -> Path:
+    """``path`` as the target of a file writer; a folder there is refused naming it (the
+    replace at the end would fail naming the temporary file, an inner detail)."""
+    path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{path}: is a folder; expected the path of a file to write")
+    return path
+
+
 def _unwritable(exc: OSError, target: Path) -> OSError:
     """``exc`` (creating ``target``'s folder or its lock beside it failed) as the one line of
     an output that cannot be written there: it names ``target``, the folder and what is
@@ -93,7 +102,7 @@ def atomic_file(path: str | os.PathLike) -> Iterator[Path]:
     to write; on success it replaces ``path`` with the umask's permissions; on any error it is
     removed and ``path`` is left as it was. An ``OSError`` that names no file (a full disk)
     is raised naming ``path``. Missing parent folders are created."""
-    path = Path(path)
+    path = _file_target(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -147,7 +156,7 @@ def atomic_write_texts(
     path = None
     try:
         for target, text in files.items():
-            path = Path(target)
+            path = _file_target(target)
             path.parent.mkdir(parents=True, exist_ok=True)
             with shielded():  # no signal between the file's creation and its name kept
                 fd, temp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.",
