@@ -14,6 +14,19 @@ format, ``identify`` (other noise, fewer markers, metres), ``correct`` (measured
 millimetres, in another frame, from another plan), ``compare`` and ``study`` (a few samples).
 Every run has a timeout (``--timeout``, 60 s by default: a longer run is a hang).
 
+Round 2 (``--only r2/``; ``r2/rapid``, ``r2/roundtrip``, ``r2/hostile``, ``r2/harness``,
+``r2/refine``) checks where dloplan's model meets what it does not control
+(``tools/sweep_checks.py``): the RAPID modules of YuMi jobs mirrored, turned 25 and -20 deg
+and in mm read back as the controller reads them (robtargets, ``eax_a`` the arm angle, the
+start jointtarget, the base frame and work object, both tasks' sync points, the joint speeds
+of every MoveL against the limits and the plan's reported peaks), exported again and verified
+again; files no example holds (duplicate keys, wrong types, NaN, negative and huge values,
+empty lists, non-UTF-8 bytes, unknown keys in job, harness, shape and identification files;
+outputs under a file, in /proc, onto a file or a foreign folder), each of which must exit 2
+naming what it expects (``expect``); the harness jobs with other cables, a fixture moved,
+fixtures closer, one fixture, mirrored, through ``plan --verify``; and one job at n = 10, 20,
+40 and with two other grips, whose end shapes must agree within ``AGREEMENT * L / n``.
+
 For each run the table records the exit code, the one-line verdict, the wall time and the flags:
 
 ``traceback``   a Python traceback on stdout or stderr
@@ -27,6 +40,11 @@ For each run the table records the exit code, the one-line verdict, the wall tim
                 the job in mm against the job in m (``--tolerance``, metres and relative)
 ``message``     an error (exit 2) whose line does not name the field or value and what was
                 expected (a heuristic: read the line)
+``refusal``     a hostile case that did not exit 2
+``rapid``       a RAPID module that reads back otherwise than the plan (round 2)
+``round trip``  an export or verify of a plan that disagrees with the plan (round 2)
+``discretization``, ``grip``  end shapes of one job that disagree across n or grips (round 2)
+``check``       a round-2 check that could not run (its exception)
 ``hang``        the run hit the timeout (wall time: on a shared machine read it with the CPU
                 time of the runs that finished)
 
