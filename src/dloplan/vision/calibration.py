@@ -192,8 +192,9 @@ def write_calibration(path, calibration: ExtrinsicCalibration) -> Path:
 def read_calibration(path) -> ExtrinsicCalibration:
     """Read a calibration JSON written by :func:`write_calibration` (or by hand)."""
     where = str(path)
+    text = read_text(path, kind="camera calibration (JSON)")
     try:
-        data = parse_json(read_text(path, kind="camera calibration (JSON)"))
+        data = parse_json(text)
     except (ValueError, RecursionError) as exc:  # JSONDecodeError, a key twice
         raise ValueError(f"{where}: not a camera calibration (not valid JSON: {exc})") from None
     if not isinstance(data, dict) or data.get("format") != CALIBRATION_FORMAT:

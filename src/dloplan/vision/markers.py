@@ -96,8 +96,9 @@ def read_marker_layout(path) -> MarkerLayout:
     with metres and a scalar-last quaternion.
     """
     where = str(path)
+    text = read_text(path, kind="marker layout (JSON)")
     try:
-        data = parse_json(read_text(path, kind="marker layout (JSON)"))
+        data = parse_json(text)
     except (ValueError, RecursionError) as exc:  # JSONDecodeError, a key twice
         raise ValueError(f"{where}: not a marker layout (not valid JSON: {exc})") from None
     if not isinstance(data, dict) or not isinstance(data.get("markers"), list):
