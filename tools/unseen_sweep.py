@@ -450,8 +450,8 @@ def flags_of(case: Case, code: int | None, stdout: str, stderr: str,
             flags.append("warning: ok but " + str(bad[0])[:100])
     if case.expect and code != 2:
         flags.append(f"refusal: exit {code}, expected 2")
-    if code == 2:
-        line = verdict_line(stdout, stderr, None)
+    if code == 2:  # the whole error line (the verdict is cut at 160 characters)
+        line = next((ln for ln in reversed(stderr.splitlines()) if ln.strip()), "")
         if case.output is not None and case.output.exists() and any(case.output.iterdir()
                                                                      if case.output.is_dir()
                                                                      else [1]):
