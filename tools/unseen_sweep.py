@@ -970,10 +970,12 @@ def hostile_cases(out: Path, quick: bool) -> list[Case]:
     (foreign / "notes.txt").write_text("mine\n")
     outputs = {
         "output-under-a-file": (["plan", str(good), "-o", str(blocker / "out")],
-                                ("-o", str(blocker))),
-        "output-in-proc": (["plan", str(good), "-o", "/proc/dloplan-out"], ("/proc/dloplan-out",)),
+                                (str(blocker / "out"), "is a file, not a folder")),
+        "output-in-proc": (["plan", str(good), "-o", "/proc/dloplan-out"],
+                           ("/proc/dloplan-out", "expected a path in a folder")),
         "export-under-a-file": (["export", str(plan), "--format", "csv", "-o",
-                                 str(blocker / "t.csv")], (str(blocker),)),
+                                 str(blocker / "t.csv")], (str(blocker / "t.csv"),
+                                                            "is a file, not a folder")),
         "output-is-a-file": (["plan", str(good), "-o", str(blocker)], (str(blocker),)),
         "output-foreign-folder": (["plan", str(good), "-o", str(foreign)], (str(foreign),)),
         "export-csv-onto-folder": (["export", str(plan), "--format", "csv", "-o", str(foreign)],
