@@ -320,7 +320,8 @@ def _stabilities(path: HeldPath, contacts, gravity) -> tuple[Stability, ...]:
 
 def _snap(path: HeldPath, contacts, gravity) -> SnapCheck:
     return check_snap_through(path.cable, path.shapes, list(path.clips), gravity=gravity,
-                              contacts=contacts, cables=path.cables)
+                              contacts=contacts, cables=path.cables,
+                              solved=path.substeps or None)
 
 
 def _robot(rows, knots: Sequence[int]) -> tuple[bool | None, list[str]]:

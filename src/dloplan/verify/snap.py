@@ -404,6 +404,7 @@ def check_snap_through(
     contacts=(),
     cables: Sequence[Cable] | None = None,
     compiled: bool = True,
+    solved: Sequence | None = None,
 ) -> SnapCheck:
     """Follow the equilibrium branch between consecutive planned clip poses; flag snaps.
 
@@ -442,6 +443,15 @@ def check_snap_through(
         (:func:`_contact_substeps`); False: the reference loop, sub-step by sub-step in Python
         (the same shapes bit for bit, the same eigenvalues to round-off; tests compare the
         two).
+    solved : sequence, optional
+        Per segment, its continuation's equilibria already solved (or None): a pair
+        ``(shapes, messages)``, shapes (m + 1, n + 1, 3) [m] at the fractions
+        :func:`substep_fractions` (m), the first the segment's start shape, each next one
+        reached from the one before with the contacts (:func:`~dloplan.sim.statics.equilibrium`
+        at the interpolated clip poses, as this function solves them), and the solver's message
+        of each (str). Taken with contacts where m is the segment's own number of sub-steps and
+        the first shape is its start shape bit for bit (the wire-harness held model follows the
+        same path, :func:`dloplan.harness.section.follow_path`); otherwise solved here.
 
     Returns
     -------
@@ -459,6 +469,9 @@ def check_snap_through(
         raise ValueError(f"substeps: got {substeps!r}, expected an integer >= 1 or None")
     if int(refinements) != refinements or refinements < 0:
         raise ValueError(f"refinements: got {refinements!r}, expected an integer >= 0")
+    if solved is not None and len(solved) != len(path) - 1:
+        raise ValueError(f"solved: {len(solved)} segments, expected {len(path) - 1} (one per "
+                         "segment, None where not solved)")
     segments = []
     for s in range(len(path) - 1):
         seg = _Segment((models[s], models[s + 1]), poses[s], poses[s + 1], gravity, rtol,
@@ -468,8 +481,9 @@ def check_snap_through(
             m = max(1, math.ceil(total / (max_clip_step * cable.length)))
         else:
             m = int(substeps)
+        known = None if solved is None or not compiled else solved[s]
         segments.append(_continue_segment(seg, s, path[s], path[s + 1], m, jump_ratio,
-                                          int(refinements), branch_tolerance, compiled))
+                                          int(refinements), branch_tolerance, compiled, known))
     events = tuple(e for seg in segments for e in seg.events)
     if events:
         message = f"{len(events)} event(s): " + "; ".join(e.message for e in events)
@@ -478,11 +492,16 @@ def check_snap_through(
     return SnapCheck(tuple(segments), events, not events, message)
 
 
+def substep_fractions(count: int) -> np.ndarray:
+    """(count + 1,) the fractions 0, ..., 1 of a segment's ``count`` sub-steps."""
+    return np.linspace(0.0, 1.0, count + 1)
+
+
 def _continue_segment(seg: _Segment, s, start, end, m, jump_ratio, refinements, tolerance,
-                      compiled):
-    fractions = np.linspace(0.0, 1.0, m + 1)
+                      compiled, known=None):
+    fractions = substep_fractions(m)
     if compiled and seg.contacts:
-        shapes, eigenvalues, states, problems = _contact_substeps(seg, start, fractions)
+        shapes, eigenvalues, states, problems = _contact_substeps(seg, start, fractions, known)
         return _segment(seg, s, start, end, fractions, np.stack(shapes), np.asarray(eigenvalues),
                         states, problems, jump_ratio, refinements, tolerance)
     first = seg.stability(start, 0.0)
@@ -512,18 +531,24 @@ def _continue_segment(seg: _Segment, s, start, end, m, jump_ratio, refinements, 
                     states, problems, jump_ratio, refinements, tolerance)
 
 
-def _contact_substeps(seg: _Segment, start, fractions) -> tuple[list, list, list, dict]:
-    """The sub-steps of a segment with contacts: the equilibria one after the other, then
-    their stability at once (:meth:`_Segment.stabilities`: the numbers of the reference loop's
-    sub-step by sub-step solves and tests, in another order). Returns the
-    shapes, the sticking eigenvalues, the contact states and the problems of
+def _contact_substeps(seg: _Segment, start, fractions,
+                      known=None) -> tuple[list, list, list, dict]:
+    """The sub-steps of a segment with contacts: the equilibria one after the other (or
+    ``known``, :func:`check_snap_through`'s ``solved`` of the segment, when they are its
+    sub-steps from ``start``), then their stability at once (:meth:`_Segment.stabilities`: the
+    numbers of the reference loop's sub-step by sub-step solves and tests, in another order).
+    Returns the shapes, the sticking eigenvalues, the contact states and the problems of
     :func:`_continue_segment`'s reference loop."""
-    seg.prepare(fractions)
-    shapes, messages = [start], [""]
-    for t in fractions[1:]:
-        eq = seg.equilibrium(shapes[-1], t)
-        shapes.append(eq.shape)
-        messages.append(eq.message)
+    if known is not None and len(known[0]) == len(fractions) and np.array_equal(known[0][0],
+                                                                               start):
+        shapes, messages = list(known[0]), list(known[1])
+    else:
+        seg.prepare(fractions)
+        shapes, messages = [start], [""]
+        for t in fractions[1:]:
+            eq = seg.equilibrium(shapes[-1], t)
+            shapes.append(eq.shape)
+            messages.append(eq.message)
     stabs = seg.stabilities(np.stack(shapes), fractions)
     # with contacts the penalty's kinks may stall Newton short of its tolerance: the stability
     # test's equilibrium tolerance decides (as in the reference loop)
