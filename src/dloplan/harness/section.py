@@ -96,8 +96,9 @@ class Followed:
         Per move from pose k to pose k + 1, ``(shapes, messages)``: the equilibria
         (s_k + 1, n_s + 1, 3) [m] at the sub-step fractions
         :func:`~dloplan.verify.snap.substep_fractions` (s_k), the first the equilibrium at pose
-        k, and the solver's message of each (the first ""): the continuation the snap-through
-        check follows between the same poses (``check_snap_through(solved=)``).
+        k solved again from the configuration there, and the solver's message of each (the
+        first ""): the continuation the snap-through check follows between the same poses
+        (``check_snap_through(solved=)``) when that first shape is the configuration itself.
     """
 
     shapes: np.ndarray
@@ -109,7 +110,9 @@ def follow_path(section: Cable, start, clips, contacts, gravity) -> Followed:
     ``start``, each next one reached from the one before by a quasi-static continuation in
     sub-steps of at most :data:`FOLLOW_STEP` times the section's length of clip motion (clips
     interpolated linearly and by slerp, :func:`~dloplan.sim.statics.interpolate_clips`; each
-    sub-step's equilibrium warm-started from the one before), the sub-steps kept."""
+    sub-step's equilibrium warm-started from the one before), the sub-steps kept: the
+    equilibria of :func:`dloplan.sim.statics.continuation` from each pose to the next, bit for
+    bit."""
     poses = list(clips)
     chain = SpringChain.from_cable(section, gravity, contacts)
     x = equilibrium(section, as_shape(start, section.n_points, "start"), poses[0],
@@ -118,6 +121,9 @@ def follow_path(section: Cable, start, clips, contacts, gravity) -> Followed:
     for before, pose in zip(poses[:-1], poses[1:], strict=True):
         motion = clip_motion(before, pose, section.length)
         fractions = substep_fractions(max(1, math.ceil(motion / (FOLLOW_STEP * section.length))))
+        # solved again at the move's first pose (where Newton stalled short of its tolerance
+        # at a contact's kink, this moves it), then the sub-steps from there
+        x = equilibrium(section, x, before, gravity=gravity, chain=chain).shape
         steps, messages = [x], [""]
         for stop in interpolate_clips(before, pose, fractions)[1:]:
             eq = equilibrium(section, x, stop, gravity=gravity, chain=chain)

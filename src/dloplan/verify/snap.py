@@ -103,6 +103,12 @@ DIP = 0.5
 """A sampled local minimum of the smallest eigenvalue below this fraction of its larger neighbour
 makes its sub-steps candidates (a critical point may fall between samples)."""
 
+SAME_START = 1e-9
+"""Largest distance [m] between a segment's start shape and the first shape of a continuation
+already solved (``check_snap_through(solved=)``) for the two to be the same equilibrium: an
+equilibrium solved again at its own clip poses moves by the Newton solver's accuracy (up to
+3.3e-10 m on the harness jobs' held sections)."""
+
 NEWTON_ITERATIONS = 500
 """Newton iterations of a sub-step's equilibrium (:func:`dloplan.sim.statics.equilibrium`'s
 default), in the compiled loop and the reference loop alike."""
@@ -450,8 +456,9 @@ def check_snap_through(
         reached from the one before with the contacts (:func:`~dloplan.sim.statics.equilibrium`
         at the interpolated clip poses, as this function solves them), and the solver's message
         of each (str). Taken with contacts where m is the segment's own number of sub-steps and
-        the first shape is its start shape bit for bit (the wire-harness held model follows the
-        same path, :func:`dloplan.harness.section.follow_path`); otherwise solved here.
+        the first shape is the segment's start shape to :data:`SAME_START` (the wire-harness
+        held model follows the same path, :func:`dloplan.harness.section.follow_path`); the
+        start shape itself is then sub-step 0. Otherwise solved here.
 
     Returns
     -------
@@ -493,8 +500,9 @@ def check_snap_through(
 
 
 def substep_fractions(count: int) -> np.ndarray:
-    """(count + 1,) the fractions 0, ..., 1 of a segment's ``count`` sub-steps."""
-    return np.linspace(0.0, 1.0, count + 1)
+    """(count + 1,) the fractions j / count, j = 0 .. count, of a segment's ``count``
+    sub-steps (the quasi-static continuation's, :func:`dloplan.sim.statics.continuation`)."""
+    return np.arange(count + 1) / count
 
 
 def _continue_segment(seg: _Segment, s, start, end, m, jump_ratio, refinements, tolerance,
@@ -535,13 +543,14 @@ def _contact_substeps(seg: _Segment, start, fractions,
                       known=None) -> tuple[list, list, list, dict]:
     """The sub-steps of a segment with contacts: the equilibria one after the other (or
     ``known``, :func:`check_snap_through`'s ``solved`` of the segment, when they are its
-    sub-steps from ``start``), then their stability at once (:meth:`_Segment.stabilities`: the
-    numbers of the reference loop's sub-step by sub-step solves and tests, in another order).
+    sub-steps from ``start`` to :data:`SAME_START`), then their stability at once
+    (:meth:`_Segment.stabilities`: the numbers of the reference loop's sub-step by sub-step
+    solves and tests, in another order).
     Returns the shapes, the sticking eigenvalues, the contact states and the problems of
     :func:`_continue_segment`'s reference loop."""
-    if known is not None and len(known[0]) == len(fractions) and np.array_equal(known[0][0],
-                                                                               start):
-        shapes, messages = list(known[0]), list(known[1])
+    if known is not None and len(known[0]) == len(fractions) and \
+            max_distance(known[0][0], start) <= SAME_START:
+        shapes, messages = [start, *known[0][1:]], ["", *known[1][1:]]
     else:
         seg.prepare(fractions)
         shapes, messages = [start], [""]
