@@ -564,15 +564,15 @@ def _tensions(run: Simulation, model: Cable, changing, gravity) -> np.ndarray:
     load: its own springs give the load, the real cable's would give it times E_a / cap."""
     if changing is None:
         return link_tensions(SpringChain.from_cable(model, gravity), run.shapes)
-    slots = np.floor(run.times / SCHEDULE_INTERVAL).astype(int)
+    slots = np.floor(run.times / SCHEDULE_INTERVAL).astype(int)  # non-decreasing
+    firsts = np.flatnonzero(np.r_[True, slots[1:] != slots[:-1]])  # each slot's first record
     out = np.empty((len(run.times), model.n_links))
-    last = None, None  # the last slot's cable and chain (the same cable: the same chain)
-    for slot in np.unique(slots):
-        mine = slots == slot
-        cable = changing((slot + 0.5) * SCHEDULE_INTERVAL)
-        if cable is not last[0]:
-            last = cable, SpringChain.from_cable(cable, gravity)
-        out[mine] = link_tensions(last[1], run.shapes[mine])
+    cables = [changing((slot + 0.5) * SCHEDULE_INTERVAL) for slot in slots[firsts]]
+    # the records of consecutive slots with the same cable (the same chain) at once
+    changes = [k for k in range(len(cables)) if k == 0 or cables[k] is not cables[k - 1]]
+    for k, following in zip(changes, [*changes[1:], len(cables)], strict=True):
+        rows = slice(firsts[k], firsts[following] if following < len(firsts) else len(slots))
+        out[rows] = link_tensions(SpringChain.from_cable(cables[k], gravity), run.shapes[rows])
     return out
 
 
