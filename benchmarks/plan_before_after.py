@@ -189,13 +189,15 @@ def main(argv=None) -> int:
     r.add_argument("label")
     r.add_argument("--src", type=Path, required=True)
     r.add_argument("--examples", type=Path, required=True)
-    r.add_argument("extra", nargs="*", help="options for dloplan plan (after --)")
     c = sub.add_parser("compare")
     c.add_argument("old")
     c.add_argument("new")
-    args = parser.parse_args(argv)
+    # the options for dloplan plan follow "--" (argparse would not hand them to a subcommand)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    extra = argv[argv.index("--") + 1:] if "--" in argv else []
+    args = parser.parse_args(argv[:argv.index("--")] if "--" in argv else argv)
     if args.command == "run":
-        run(args.label, args.src, args.examples, args.out, args.extra)
+        run(args.label, args.src, args.examples, args.out, extra)
         return 0
     return 1 if compare(args.out, args.old, args.new) else 0
 

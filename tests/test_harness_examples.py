@@ -18,6 +18,7 @@ from dloplan.app import load_job, load_scenario, run_job
 from dloplan.harness import run_harness, verification
 from dloplan.harness.verification import verify_harness_result
 from dloplan.verify.replay import replay
+from dloplan.verify.snap import check_snap_through
 
 # its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
 pytestmark = pytest.mark.xdist_group("test_harness_examples")
@@ -166,3 +167,61 @@ def test_the_section_steps_implicitly_until_it_is_pulled_with_the_explicit_verdi
     assert a.final_deviation == pytest.approx(b.final_deviation, abs=1e-6)
     assert peaks[2e-3] == pytest.approx(peaks[5e-4], rel=2e-3)
     assert peaks[1e-3] == pytest.approx(peaks[5e-4], rel=1e-3)
+
+
+def test_the_pulled_section_settles_by_the_statics(runs, monkeypatch):
+    """Run B's settling after the pull is stepped only until the hose moves quasi-statically
+    (every point slower than ``quasi_static_speed``: it cannot rise by the contact tolerance on
+    its own momentum) and its rest is the static equilibrium from there (docs/decisions.md, "the
+    harness replay's settling"). Against stepping it explicitly to rest on the PU job: the same
+    rows (verdicts, notes, contacts, deviations, peaks); the rest is the tensioned
+    configuration to the solver's accuracy (the stepped run creeps to 0.0146 mm of it under
+    the explicit step's impulse friction, then counts as at rest); about 40 % fewer explicit
+    steps."""
+    result = runs["pu"]
+    fast = verify_harness_result(result, snap=False)
+
+    def stepped(*args, **kwargs):
+        kwargs.pop("settle_speed", None)
+        return replay(*args, **kwargs)
+
+    monkeypatch.setattr(verification, "replay", stepped)
+    reference = verify_harness_result(result, snap=False)
+    for mine, theirs in zip(fast.rows, reference.rows, strict=True):  # the stability's
+        # eigenvalues are LAPACK's to round-off from one call to the next (threaded BLAS)
+        assert replace(mine, smallest_eigenvalue=0.0, relative_eigenvalue=0.0) == \
+            replace(theirs, smallest_eigenvalue=0.0, relative_eigenvalue=0.0)
+        assert mine.smallest_eigenvalue == pytest.approx(theirs.smallest_eigenvalue, rel=1e-12)
+    a, b = fast.replays["tensioning"].run, reference.replays["tensioning"].run
+    assert a.settled and b.settled
+    assert a.simulation.steps < 0.7 * b.simulation.steps
+    assert a.peak_tension == b.peak_tension
+    configuration = fast.model.paths["tensioning"].shapes[-1]
+    assert np.max(np.linalg.norm(a.rest_shape - configuration, axis=1)) < 1e-9
+    assert a.final_deviation < 1e-9 < 1e-6 < b.final_deviation
+
+
+def test_the_snap_check_follows_the_held_models_continuation(runs):
+    """The held model follows the section through phases 1-2 and the lowering in the snap
+    check's sub-steps (``follow_path``); the snap check takes those equilibria instead of
+    solving them again (``check_snap_through(solved=)``): the same events and contact changes,
+    shapes within 1e-9 m (a knot solved again by the follow moves by the solver's accuracy,
+    up to 3.3e-10 m), on the USB job. A continuation that starts elsewhere is not taken."""
+    model = verify_harness_result(runs["usb"], snap=False, replay_run=False).model
+    for phase in ("phase1", "phase2", "insertion"):
+        path = model.paths[phase]
+        assert len(path.substeps) == len(path.shapes) - 1
+
+        def snap(solved, path=path):
+            return check_snap_through(path.cable, path.shapes, list(path.clips),
+                                      gravity=model.gravity, contacts=model.contacts,
+                                      solved=solved)
+
+        taken, solved = snap(path.substeps), snap(None)
+        assert [e.message for e in taken.events] == [e.message for e in solved.events]
+        for mine, theirs in zip(taken.segments, solved.segments, strict=True):
+            assert mine.contact_changes == theirs.contact_changes
+            np.testing.assert_allclose(mine.shapes, theirs.shapes, rtol=0, atol=1e-9)
+        elsewhere = [(shapes + 1e-6, messages) for shapes, messages in path.substeps]
+        for mine, theirs in zip(snap(elsewhere).segments, solved.segments, strict=True):
+            np.testing.assert_array_equal(mine.shapes, theirs.shapes)

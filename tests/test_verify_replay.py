@@ -1,6 +1,8 @@
 """Dynamic replay: slow replays converge to the static error, fast ones deviate more."""
 
 import math
+import sys
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -9,9 +11,17 @@ from scipy.spatial.transform import Rotation
 from dloplan.cable import catalogue_cable
 from dloplan.sim.clips import ClipPoses
 from dloplan.sim.dynamics import ClipTrajectory
-from dloplan.sim.statics import continuation
+from dloplan.sim.statics import continuation, equilibrium
 from dloplan.trajectory import MotionLimits, dual_arm_trajectory
-from dloplan.verify.replay import as_clip_trajectory, clip_motion, replay
+from dloplan.verify.replay import (
+    CONTACT_GAP,
+    as_clip_trajectory,
+    clip_motion,
+    quasi_static_speed,
+    replay,
+)
+
+replay_module = sys.modules["dloplan.verify.replay"]
 
 # its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
 pytestmark = pytest.mark.xdist_group("test_verify_replay")
@@ -195,3 +205,42 @@ def test_a_capped_cable_reports_the_tension_its_springs_carry(shapes):
     capped = replay(CABLE, shapes, law, youngs_modulus_cap=1e8)
     assert real.peak_tension > 0
     assert abs(capped.peak_tension / real.peak_tension - 1.0) < 0.1
+
+
+def test_a_settling_solved_by_the_statics_ends_in_the_equilibrium(shapes, monkeypatch):
+    """``settle_speed``: the settling is stepped only until every point is slower than it, and
+    the settled cable is the static equilibrium reached from there (docs/decisions.md, "the
+    harness replay's settling"). The plan's last shape is the equilibrium at the last clip
+    poses, so the statics' rest lies on it (to the solver's accuracy), where the explicit run
+    stepped to 1e-4 m/s stops short by its creep; the knots, the peak and the verdict are the
+    stepped run's, in fewer steps. Where no stable equilibrium is found from there, the run is
+    stepped on to rest: then the stepped run's own end, bit for bit."""
+    timed = (np.array([0.0, 0.6, 1.2]), POSES)
+    stepped = replay(CABLE, shapes, timed, scheme="explicit")
+    solved = replay(CABLE, shapes, timed, scheme="explicit", settle_speed=1e-2)
+    assert stepped.settled and solved.settled and solved.ok == stepped.ok
+    assert solved.simulation.steps < stepped.simulation.steps
+    assert solved.final_deviation < 1e-8 < stepped.final_deviation
+    assert np.max(np.linalg.norm(solved.rest_shape - stepped.rest_shape, axis=1)) < 1e-3
+    np.testing.assert_array_equal(solved.deviations, stepped.deviations)  # the knots: stepped
+    assert solved.motion_peak_tension == stepped.motion_peak_tension
+    clips = POSES[-1]
+    rest = equilibrium(CABLE, solved.simulation.shapes[-1], clips)
+    np.testing.assert_array_equal(solved.rest_shape, rest.shape)
+    # no equilibrium found: stepped on to rest_speed from the state reached
+    failed = replace(rest, stable=False)
+    monkeypatch.setattr(replay_module, "equilibrium", lambda *args, **kwargs: failed)
+    fallback = replay(CABLE, shapes, timed, scheme="explicit", settle_speed=1e-2)
+    assert fallback.simulation.steps == stepped.simulation.steps
+    np.testing.assert_array_equal(fallback.rest_shape, stepped.rest_shape)
+    assert fallback.final_deviation == stepped.final_deviation
+    with pytest.raises(ValueError, match="settle_speed"):
+        replay(CABLE, shapes, timed, settle_speed=1e-5)  # not above rest_speed
+
+
+def test_the_quasi_static_speed_cannot_lift_a_point_by_the_contact_tolerance():
+    """sqrt(2 g h), h the contact tolerance: a point at that speed rises exactly h against
+    gravity (v^2 / 2g)."""
+    speed = quasi_static_speed(CABLE)
+    height = speed**2 / (2 * 9.81)
+    assert height == pytest.approx(CONTACT_GAP * CABLE.diameter / 2, rel=1e-3)

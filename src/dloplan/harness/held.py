@@ -70,7 +70,7 @@ from ..sim.statics import equilibrium
 from .board import Board
 from .insertion import tension_state
 from .phases import fixture_clips
-from .section import FOLLOW_STEP, follow, section_cable, section_shape
+from .section import FOLLOW_STEP, follow_path, section_cable, section_shape
 
 CHECKED_PHASES: tuple[str, ...] = ("phase1", "phase2", "insertion", "regrasp", "tensioning")
 """The phases the checks report on, in order: the job's motion phases with the regrasp (a
@@ -106,6 +106,11 @@ class HeldPath:
         Largest point distance between a configuration and the plan's [m]: the section on the
         planned shape (:func:`~dloplan.harness.section.section_shape`) in phases 1 and 2, the
         plan's section simulation in the slots and tensioned.
+    substeps : tuple
+        Per move between consecutive configurations, the quasi-static continuation's sub-step
+        equilibria and messages that reached them (:attr:`~dloplan.harness.section.Followed.
+        substeps`; the snap-through check takes them, ``check_snap_through(solved=)``), or
+        empty where they were not kept (the tensioning, followed over its offset).
     """
 
     phase: str
@@ -116,6 +121,7 @@ class HeldPath:
     labels: tuple[str, ...]
     knots: tuple[int, ...]
     settle_distance: float = 0.0
+    substeps: tuple = ()
 
     @property
     def cable(self) -> Cable:
@@ -308,19 +314,21 @@ def held_model(
     for phase in ("phase1", "phase2"):
         first, last = knots[phase]
         index = tuple(range(first, last + 1))
-        followed = follow(section, x, poses[first:last + 1], contacts, g)
-        paths[phase] = HeldPath(phase, HOLDERS[phase], (section,) * len(index), followed,
+        run = follow_path(section, x, poses[first:last + 1], contacts, g)
+        paths[phase] = HeldPath(phase, HOLDERS[phase], (section,) * len(index), run.shapes,
                                 tuple(poses[first:last + 1]),
                                 tuple(f"knot {k}" for k in index), index,
-                                _distance(followed, path[first:last + 1], cable, section))
-        x = followed[-1]
+                                _distance(run.shapes, path[first:last + 1], cable, section),
+                                run.substeps)
+        x = run.shapes[-1]
     planned = as_path(sections, section_links + 1, "sections")
     if len(planned) != 3:
         raise ValueError(f"sections: got {len(planned)} shapes, expected 3 (approach, in the "
                          "slots, tensioned)")
     k2, in_slots = knots["insertion"]
     approach, slots = fixture_clips(board), fixture_clips(board, inserted=True)
-    lowered = follow(section, x, [approach, slots], contacts, g)
+    lowering = follow_path(section, x, [approach, slots], contacts, g)
+    lowered = lowering.shapes
     inserted = lowered[-1]
 
     def distance(shapes, plan) -> float:
@@ -329,7 +337,7 @@ def held_model(
     paths["insertion"] = HeldPath(
         "insertion", HOLDERS["insertion"], (section, section), lowered, (approach, slots),
         ("at the approach poses", "in the slots"), (k2, in_slots),
-        distance(lowered, planned[:2]))
+        distance(lowered, planned[:2]), lowering.substeps)
     paths["regrasp"] = HeldPath("regrasp", HOLDERS["regrasp"], (section,), inserted[None],
                                 (slots,), ("in the slots, held by the fixtures",), (in_slots,),
                                 distance(inserted, planned[1]))

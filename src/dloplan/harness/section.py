@@ -14,15 +14,16 @@ one it is in depends on how it got there).
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..cable import Cable
 from ..geometry import arc_length, as_shape, resample_by_arc_length
+from ..physics.chain import SpringChain
 from ..sim.clips import ClipPoses, clip_poses_from_shape
-from ..sim.statics import continuation
-from ..verify.snap import clip_motion
+from ..sim.statics import equilibrium, interpolate_clips
+from ..verify.snap import clip_motion, substep_fractions
 
 FOLLOW_STEP = 0.005
 """Largest clip motion (and change of the held length) of one sub-step when the section's
@@ -83,24 +84,62 @@ def whole_shape(cable: Cable, section: np.ndarray, clips: ClipPoses) -> np.ndarr
     return np.vstack([clips.positions[0] - half[0], middle, clips.positions[1] - half[1]])
 
 
-def follow(section: Cable, start, clips, contacts, gravity) -> np.ndarray:
-    """The section's equilibria (m, n_s + 1, 3) [m] at every clip pose of ``clips``: the first
-    settled from ``start``, each next one reached from the one before by a quasi-static
-    continuation (:func:`dloplan.sim.statics.continuation`) in sub-steps of at most
-    :data:`FOLLOW_STEP` times the section's length of clip motion."""
-    x = np.asarray(start, dtype=float)
-    shapes = []
-    for k, pose in enumerate(clips):
-        if k == 0:
-            eqs = continuation(section, x, [pose], gravity=gravity, contacts=contacts)
-        else:
-            motion = clip_motion(clips[k - 1], pose, section.length)
-            steps = max(1, math.ceil(motion / (FOLLOW_STEP * section.length)))
-            eqs = continuation(section, x, [clips[k - 1], pose], substeps=steps,
-                               gravity=gravity, contacts=contacts)
-        x = eqs[-1].shape
+@dataclass(frozen=True, eq=False)
+class Followed:
+    """The section followed through clip poses (:func:`follow_path`).
+
+    Attributes
+    ----------
+    shapes : numpy.ndarray
+        (m, n_s + 1, 3) the equilibria at the m clip poses [m].
+    substeps : tuple
+        Per move from pose k to pose k + 1, ``(shapes, messages)``: the equilibria
+        (s_k + 1, n_s + 1, 3) [m] at the sub-step fractions
+        :func:`~dloplan.verify.snap.substep_fractions` (s_k), the first the equilibrium at pose
+        k solved again from the configuration there, and the solver's message of each (the
+        first ""): the continuation the snap-through check follows between the same poses
+        (``check_snap_through(solved=)``) when that first shape is the configuration itself.
+    """
+
+    shapes: np.ndarray
+    substeps: tuple[tuple[np.ndarray, tuple[str, ...]], ...]
+
+
+def follow_path(section: Cable, start, clips, contacts, gravity) -> Followed:
+    """The section's equilibria at every clip pose of ``clips``: the first settled from
+    ``start``, each next one reached from the one before by a quasi-static continuation in
+    sub-steps of at most :data:`FOLLOW_STEP` times the section's length of clip motion (clips
+    interpolated linearly and by slerp, :func:`~dloplan.sim.statics.interpolate_clips`; each
+    sub-step's equilibrium warm-started from the one before), the sub-steps kept: the
+    equilibria of :func:`dloplan.sim.statics.continuation` from each pose to the next, bit for
+    bit."""
+    poses = list(clips)
+    chain = SpringChain.from_cable(section, gravity, contacts)
+    x = equilibrium(section, as_shape(start, section.n_points, "start"), poses[0],
+                    gravity=gravity, chain=chain).shape
+    shapes, moves = [x], []
+    for before, pose in zip(poses[:-1], poses[1:], strict=True):
+        motion = clip_motion(before, pose, section.length)
+        fractions = substep_fractions(max(1, math.ceil(motion / (FOLLOW_STEP * section.length))))
+        # solved again at the move's first pose (where Newton stalled short of its tolerance
+        # at a contact's kink, this moves it), then the sub-steps from there
+        x = equilibrium(section, x, before, gravity=gravity, chain=chain).shape
+        steps, messages = [x], [""]
+        for stop in interpolate_clips(before, pose, fractions)[1:]:
+            eq = equilibrium(section, x, stop, gravity=gravity, chain=chain)
+            x = eq.shape
+            steps.append(x)
+            messages.append(eq.message)
         shapes.append(x)
-    return np.stack(shapes)
+        moves.append((np.stack(steps), tuple(messages)))
+    return Followed(np.stack(shapes), tuple(moves))
 
 
-__all__ = ["FOLLOW_STEP", "follow", "section_cable", "section_shape", "whole_shape"]
+def follow(section: Cable, start, clips, contacts, gravity) -> np.ndarray:
+    """The section's equilibria (m, n_s + 1, 3) [m] at every clip pose of ``clips``
+    (:func:`follow_path`'s ``shapes``)."""
+    return follow_path(section, start, clips, contacts, gravity).shapes
+
+
+__all__ = ["FOLLOW_STEP", "Followed", "follow", "follow_path", "section_cable", "section_shape",
+           "whole_shape"]

@@ -17,7 +17,9 @@ phase (:data:`~dloplan.harness.held.CHECKED_PHASES`):
   insertion, the regrasp (the clips held for the regrasp's duration while the fixtures hold the
   cable) and the tensioning (the section shortened as the grippers' offset grows along the time
   law; the second run steps implicitly until the pull starts and explicitly through the pull,
-  ``replay(changes_at=)``). Per phase: the largest deviation at its knots from the
+  ``replay(changes_at=)``, and settles by the statics once the tensioned cable moves
+  quasi-statically, ``replay(settle_speed=)``: no explicit steps for its creep to rest). Per
+  phase: the largest deviation at its knots from the
   configurations [m], the peak link tension [N] (against the cable's rated load when given)
   and each contact opening or closing (a lift-off from a peg shows here);
 * **the robot program**: its check rows of the phase's targets;
@@ -45,7 +47,7 @@ import numpy as np
 from ..physics.chain import SpringChain, link_tensions
 from ..sim.dynamics import ClipTrajectory
 from ..trajectory import TimeLaw
-from ..verify.replay import Replay, clip_motion, replay
+from ..verify.replay import Replay, clip_motion, quasi_static_speed, replay
 from ..verify.snap import SnapCheck, check_snap_through
 from ..verify.stability import Stability, elastic_stabilities
 from .held import CHECKED_PHASES, HeldModel, HeldPath, held_model
@@ -304,7 +306,8 @@ def _replays(model: HeldModel, times: np.ndarray, law: TimeLaw | None, clips: li
         times[k_end] + pause]
     run_b = replay(insertion.cable, np.stack(shapes), ClipTrajectory.sampled(t_b, p_b, q_b),
                    knot_times=np.array(knot_times), contacts=model.contacts, cable_at=cable_at,
-                   changes_at=start_pull, **options)
+                   changes_at=start_pull,
+                   settle_speed=quasi_static_speed(insertion.cable, model.gravity), **options)
     kb = run_b.knot_times
     out["insertion"] = PhaseReplay(run_b, float(kb[0]), float(kb[1]), (0, 1))
     out["regrasp"] = PhaseReplay(run_b, float(kb[1]), float(kb[-2]), (len(kb) - 2,))
@@ -320,7 +323,8 @@ def _stabilities(path: HeldPath, contacts, gravity) -> tuple[Stability, ...]:
 
 def _snap(path: HeldPath, contacts, gravity) -> SnapCheck:
     return check_snap_through(path.cable, path.shapes, list(path.clips), gravity=gravity,
-                              contacts=contacts, cables=path.cables)
+                              contacts=contacts, cables=path.cables,
+                              solved=path.substeps or None)
 
 
 def _robot(rows, knots: Sequence[int]) -> tuple[bool | None, list[str]]:

@@ -14,6 +14,7 @@ or a touch-down).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -124,17 +125,22 @@ class BoardContacts:
         """(n + 1,) bool: the points of shape b that press on an obstacle."""
         return np.any(self.depths[:, b] > 0, axis=0)
 
+    @cached_property
+    def _summary(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Per obstacle and shape (K, M): pressing, the penalty's force (K, M, 3) [N], the
+        pressing points and the smallest gap [m], for every shape at once."""
+        pressing = self.depths > 0
+        force = self.stiffness[None, :, None] * np.sum(
+            np.where(pressing, self.depths, 0.0)[..., None] * self.normals, axis=2)
+        return (pressing.any(axis=2), force, pressing.sum(axis=2),
+                np.min(-self.depths, axis=2))
+
     def states(self, b: int) -> tuple[ContactState, ...]:
         """Each obstacle's contact with shape b (module docstring), in the given order."""
-        states = []
-        for name, depth, normal in zip(self.names, self.depths[:, b], self.normals[:, b],
-                                       strict=True):
-            pressing = depth > 0
-            force = self.stiffness[b] * np.sum(np.where(pressing, depth, 0.0)[:, None] * normal,
-                                               axis=0)
-            states.append(ContactState(name, bool(pressing.any()), float(np.linalg.norm(force)),
-                                       int(pressing.sum()), float(np.min(-depth))))
-        return tuple(states)
+        active, force, count, gap = self._summary
+        return tuple(ContactState(name, bool(active[k, b]), float(np.linalg.norm(force[k, b])),
+                                  int(count[k, b]), float(gap[k, b]))
+                     for k, name in enumerate(self.names))
 
     def sliding(self, b: int, states, mode, share: float = 0.5) -> tuple[ContactState, ...]:
         """``states`` of shape b with ``slides`` set where ``mode`` (n + 1, 3), a stability

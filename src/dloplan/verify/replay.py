@@ -10,7 +10,12 @@ at rest in the first planned shape, and reports
 * the deviation after settling: the clips are held at the last pose and the simulation continues
   until every point is slower than ``rest_speed`` (or ``settle_duration`` has passed); as the
   speed goes to zero every knot deviation tends to the static error of the plan, which this
-  final deviation measures;
+  final deviation measures. With ``settle_speed`` the settling is stepped only until every
+  point is slower than that, while the cable may still move dynamically, and where it comes to
+  rest is then the static equilibrium reached from that state with the contacts
+  (:func:`dloplan.sim.statics.equilibrium`, frictionless as the statics): the creep left is
+  static and is solved, not stepped (:func:`quasi_static_speed`; docs/decisions.md, "the
+  harness replay's settling");
 * the deviation per segment: the largest point distance, over the records between two knots,
   between the simulated cable and the planned cable at that instant (the two planned shapes
   interpolated with the same segment parameter that moves the clips, :mod:`dloplan.trajectory`),
@@ -88,6 +93,7 @@ from ..sim.dynamics import (
     Simulation,
     simulate,
 )
+from ..sim.statics import equilibrium
 from ..trajectory import TimeLaw, interpolate_poses, sample_times
 from ._inputs import as_times
 
@@ -152,6 +158,10 @@ class Replay:
         [m] (module docstring).
     contact_tolerance : float
         The gap below which a contact counts as closed [m].
+    rest_shape : numpy.ndarray or None
+        (n + 1, 3) the settled cable [m] that ``final_deviation`` measures: the static
+        equilibrium reached from the run's last state with ``settle_speed``
+        (:func:`replay`), else the run's last shape.
     """
 
     knot_times: np.ndarray
@@ -173,6 +183,7 @@ class Replay:
     contact_names: tuple[str, ...] = ()
     contact_gaps: np.ndarray | None = None
     contact_tolerance: float = 0.0
+    rest_shape: np.ndarray | None = None
 
     @property
     def max_deviation(self) -> float:
@@ -298,6 +309,7 @@ def replay(
     record_interval: float | None = None,
     scheme: str = "auto",
     changes_at: float | None = None,
+    settle_speed: float | None = None,
 ) -> Replay:
     """Simulate the timed plan at its real speed and compare with the planned shapes.
 
@@ -350,6 +362,12 @@ def replay(
         gives the cable at the start (a harness section not yet pulled). ``"auto"`` then steps
         implicitly until then and explicitly from that state on, with or without a tensile
         limit (module docstring, *Scheme*).
+    settle_speed : float, optional
+        Speed [m/s] (above ``rest_speed``) down to which the settling is stepped; the settled
+        cable is then the static equilibrium reached from the run's last state, with the
+        contacts (module docstring; :func:`quasi_static_speed`). Where no converged, stable
+        equilibrium is found from there, the run is stepped on to ``rest_speed``, explicitly.
+        Default: stepped to ``rest_speed``.
 
     Returns
     -------
@@ -382,6 +400,11 @@ def replay(
                         ("settle_duration", settle_duration)):
         if not (math.isfinite(value) and value > 0):
             raise ValueError(f"{name}: got {value!r}, expected a number > 0")
+    if settle_speed is not None and not (math.isfinite(settle_speed)
+                                         and settle_speed > rest_speed):
+        raise ValueError(f"settle_speed: got {settle_speed!r}, expected a speed above "
+                         f"rest_speed = {rest_speed!r} [m/s] or None")
+    stop = rest_speed if settle_speed is None else float(settle_speed)
     if tensile_limit is not None and not (math.isfinite(tensile_limit) and tensile_limit > 0):
         raise ValueError(f"tensile_limit: got {tensile_limit!r}, expected a force > 0 [N] or None")
     shifted = ClipTrajectory(clips.times - start, clips.poses)
@@ -415,9 +438,11 @@ def replay(
     finest = float(np.min(spacing)) / 20.0 if len(spacing) else duration
 
     def run_with(step: float, scheme: str, begin: float = 0.0, end: float = duration,
-                 state: Simulation | None = None, fixed: bool = False) -> Simulation:
+                 state: Simulation | None = None, fixed: bool = False,
+                 until: float = stop) -> Simulation:
         """The simulation from ``begin`` to ``end`` [s] on the replay's clock, from the first
-        shape at rest or from the last state of ``state``; ``fixed``: with the cable
+        shape at rest or from the last state of ``state``, stopped when at rest (every point
+        slower than ``until`` [m/s] once the clips stop); ``fixed``: with the cable
         ``changing`` gives at ``begin`` throughout (it does not change before ``end``)."""
         longest = max(step, duration / MAX_RECORDS) if record_interval is None else max(
             step, float(record_interval))
@@ -429,15 +454,17 @@ def replay(
                         else changing(begin),
                         path[0] if state is None else state.shapes[-1], clock,
                         duration=end - begin, dt=step, gravity=gravity,
-                        record_interval=min(longest, finest), rest_speed=rest_speed,
+                        record_interval=min(longest, finest), rest_speed=until,
                         max_steps=max_steps, damping=damping, torsion=torsion,
                         contacts=contacts, friction=friction, cable_at=later, scheme=scheme,
                         initial_velocity=None if state is None else state.velocity)
 
-    def explicit_after(first: Simulation) -> Simulation:
-        """``first`` continued explicitly from its last state to the end."""
+    def explicit_after(first: Simulation, until: float = stop) -> Simulation:
+        """``first`` continued explicitly from its last state to the end (to rest at
+        ``until`` [m/s])."""
         begin = float(first.times[-1])
-        return _joined(first, run_with(explicit_step(), "explicit", begin, state=first), begin)
+        return _joined(first, run_with(explicit_step(), "explicit", begin, state=first,
+                                       until=until), begin)
 
     switch = None if changes_at is None else float(changes_at) - start
     if (scheme == "auto" and changing is not None and not torsion and switch is not None
@@ -455,8 +482,20 @@ def replay(
             if scheme == "implicit":
                 raise
             run = explicit_after(stop.partial)
+    rest = run.shapes[-1]
+    if settle_speed is not None and run.settled:
+        end = float(run.times[-1])
+        positions, quaternions = shifted.poses_at(np.array([end]))
+        settled = equilibrium(model if changing is None else changing(end), rest,
+                              ClipPoses(positions[0], Rotation.from_quat(quaternions[0])),
+                              gravity=gravity, contacts=contacts)
+        if settled.success:
+            rest = settled.shape
+        else:  # stepped on to rest, as without settle_speed
+            run = explicit_after(run, rest_speed)
+            rest = run.shapes[-1]
     deviations = np.array([_deviation_at(run, t, x) for t, x in zip(knots, path, strict=True)])
-    final = float(np.max(np.linalg.norm(run.shapes[-1] - path[-1], axis=1)))
+    final = float(np.max(np.linalg.norm(rest - path[-1], axis=1)))
     timing = law if law is not None else TimeLaw.constant_speed(knots)
     segments = _segment_deviations(run, path, timing, knots, deviations)
     tensions = _tensions(run, model, changing, gravity)
@@ -490,7 +529,17 @@ def replay(
     return Replay(knots, deviations, final, bool(run.settled), peak, float(run.times[when]),
                   int(link), tensile_limit, float(tolerance), not problems, message, run,
                   segments, motion_peak, timing, tensions, names, gaps,
-                  CONTACT_GAP * cable.diameter / 2)
+                  CONTACT_GAP * cable.diameter / 2, rest)
+
+
+def quasi_static_speed(cable: Cable, gravity=GRAVITY) -> float:
+    """Speed [m/s] below which no point of a settling cable can rise by the contact tolerance
+    (:data:`CONTACT_GAP` times the radius, h) on its own momentum against gravity:
+    sqrt(2 |g| h). Slower, a contact no longer opens or closes by the cable's inertia, and what
+    is left of the settling is its creep into the equilibrium the statics find
+    (``replay(settle_speed=)``)."""
+    g = float(np.linalg.norm(np.asarray(gravity, dtype=float)))
+    return math.sqrt(2.0 * g * CONTACT_GAP * cable.diameter / 2)
 
 
 def _joined(first: Simulation, then: Simulation, begin: float) -> Simulation:
@@ -515,15 +564,15 @@ def _tensions(run: Simulation, model: Cable, changing, gravity) -> np.ndarray:
     load: its own springs give the load, the real cable's would give it times E_a / cap."""
     if changing is None:
         return link_tensions(SpringChain.from_cable(model, gravity), run.shapes)
-    slots = np.floor(run.times / SCHEDULE_INTERVAL).astype(int)
+    slots = np.floor(run.times / SCHEDULE_INTERVAL).astype(int)  # non-decreasing
+    firsts = np.flatnonzero(np.r_[True, slots[1:] != slots[:-1]])  # each slot's first record
     out = np.empty((len(run.times), model.n_links))
-    last = None, None  # the last slot's cable and chain (the same cable: the same chain)
-    for slot in np.unique(slots):
-        mine = slots == slot
-        cable = changing((slot + 0.5) * SCHEDULE_INTERVAL)
-        if cable is not last[0]:
-            last = cable, SpringChain.from_cable(cable, gravity)
-        out[mine] = link_tensions(last[1], run.shapes[mine])
+    cables = [changing((slot + 0.5) * SCHEDULE_INTERVAL) for slot in slots[firsts]]
+    # the records of consecutive slots with the same cable (the same chain) at once
+    changes = [k for k in range(len(cables)) if k == 0 or cables[k] is not cables[k - 1]]
+    for k, following in zip(changes, [*changes[1:], len(cables)], strict=True):
+        rows = slice(firsts[k], firsts[following] if following < len(firsts) else len(slots))
+        out[rows] = link_tensions(SpringChain.from_cable(cables[k], gravity), run.shapes[rows])
     return out
 
 
@@ -549,4 +598,5 @@ def _deviation_at(run: Simulation, t: float, planned: np.ndarray) -> float:
     return float(np.max(np.linalg.norm(run.at(t)[0] - planned, axis=1)))
 
 
-__all__ = ["CLIP_RATE", "CONTACT_GAP", "Replay", "as_clip_trajectory", "clip_motion", "replay"]
+__all__ = ["CLIP_RATE", "CONTACT_GAP", "Replay", "as_clip_trajectory", "clip_motion",
+           "quasi_static_speed", "replay"]

@@ -103,6 +103,12 @@ DIP = 0.5
 """A sampled local minimum of the smallest eigenvalue below this fraction of its larger neighbour
 makes its sub-steps candidates (a critical point may fall between samples)."""
 
+SAME_START = 1e-9
+"""Largest distance [m] between a segment's start shape and the first shape of a continuation
+already solved (``check_snap_through(solved=)``) for the two to be the same equilibrium: an
+equilibrium solved again at its own clip poses moves by the Newton solver's accuracy (up to
+3.3e-10 m on the harness jobs' held sections)."""
+
 NEWTON_ITERATIONS = 500
 """Newton iterations of a sub-step's equilibrium (:func:`dloplan.sim.statics.equilibrium`'s
 default), in the compiled loop and the reference loop alike."""
@@ -404,6 +410,7 @@ def check_snap_through(
     contacts=(),
     cables: Sequence[Cable] | None = None,
     compiled: bool = True,
+    solved: Sequence | None = None,
 ) -> SnapCheck:
     """Follow the equilibrium branch between consecutive planned clip poses; flag snaps.
 
@@ -442,6 +449,16 @@ def check_snap_through(
         (:func:`_contact_substeps`); False: the reference loop, sub-step by sub-step in Python
         (the same shapes bit for bit, the same eigenvalues to round-off; tests compare the
         two).
+    solved : sequence, optional
+        Per segment, its continuation's equilibria already solved (or None): a pair
+        ``(shapes, messages)``, shapes (m + 1, n + 1, 3) [m] at the fractions
+        :func:`substep_fractions` (m), the first the segment's start shape, each next one
+        reached from the one before with the contacts (:func:`~dloplan.sim.statics.equilibrium`
+        at the interpolated clip poses, as this function solves them), and the solver's message
+        of each (str). Taken with contacts where m is the segment's own number of sub-steps and
+        the first shape is the segment's start shape to :data:`SAME_START` (the wire-harness
+        held model follows the same path, :func:`dloplan.harness.section.follow_path`); the
+        start shape itself is then sub-step 0. Otherwise solved here.
 
     Returns
     -------
@@ -459,6 +476,9 @@ def check_snap_through(
         raise ValueError(f"substeps: got {substeps!r}, expected an integer >= 1 or None")
     if int(refinements) != refinements or refinements < 0:
         raise ValueError(f"refinements: got {refinements!r}, expected an integer >= 0")
+    if solved is not None and len(solved) != len(path) - 1:
+        raise ValueError(f"solved: {len(solved)} segments, expected {len(path) - 1} (one per "
+                         "segment, None where not solved)")
     segments = []
     for s in range(len(path) - 1):
         seg = _Segment((models[s], models[s + 1]), poses[s], poses[s + 1], gravity, rtol,
@@ -468,8 +488,9 @@ def check_snap_through(
             m = max(1, math.ceil(total / (max_clip_step * cable.length)))
         else:
             m = int(substeps)
+        known = None if solved is None or not compiled else solved[s]
         segments.append(_continue_segment(seg, s, path[s], path[s + 1], m, jump_ratio,
-                                          int(refinements), branch_tolerance, compiled))
+                                          int(refinements), branch_tolerance, compiled, known))
     events = tuple(e for seg in segments for e in seg.events)
     if events:
         message = f"{len(events)} event(s): " + "; ".join(e.message for e in events)
@@ -478,11 +499,17 @@ def check_snap_through(
     return SnapCheck(tuple(segments), events, not events, message)
 
 
+def substep_fractions(count: int) -> np.ndarray:
+    """(count + 1,) the fractions j / count, j = 0 .. count, of a segment's ``count``
+    sub-steps (the quasi-static continuation's, :func:`dloplan.sim.statics.continuation`)."""
+    return np.arange(count + 1) / count
+
+
 def _continue_segment(seg: _Segment, s, start, end, m, jump_ratio, refinements, tolerance,
-                      compiled):
-    fractions = np.linspace(0.0, 1.0, m + 1)
+                      compiled, known=None):
+    fractions = substep_fractions(m)
     if compiled and seg.contacts:
-        shapes, eigenvalues, states, problems = _contact_substeps(seg, start, fractions)
+        shapes, eigenvalues, states, problems = _contact_substeps(seg, start, fractions, known)
         return _segment(seg, s, start, end, fractions, np.stack(shapes), np.asarray(eigenvalues),
                         states, problems, jump_ratio, refinements, tolerance)
     first = seg.stability(start, 0.0)
@@ -512,18 +539,25 @@ def _continue_segment(seg: _Segment, s, start, end, m, jump_ratio, refinements, 
                     states, problems, jump_ratio, refinements, tolerance)
 
 
-def _contact_substeps(seg: _Segment, start, fractions) -> tuple[list, list, list, dict]:
-    """The sub-steps of a segment with contacts: the equilibria one after the other, then
-    their stability at once (:meth:`_Segment.stabilities`: the numbers of the reference loop's
-    sub-step by sub-step solves and tests, in another order). Returns the
-    shapes, the sticking eigenvalues, the contact states and the problems of
+def _contact_substeps(seg: _Segment, start, fractions,
+                      known=None) -> tuple[list, list, list, dict]:
+    """The sub-steps of a segment with contacts: the equilibria one after the other (or
+    ``known``, :func:`check_snap_through`'s ``solved`` of the segment, when they are its
+    sub-steps from ``start`` to :data:`SAME_START`), then their stability at once
+    (:meth:`_Segment.stabilities`: the numbers of the reference loop's sub-step by sub-step
+    solves and tests, in another order).
+    Returns the shapes, the sticking eigenvalues, the contact states and the problems of
     :func:`_continue_segment`'s reference loop."""
-    seg.prepare(fractions)
-    shapes, messages = [start], [""]
-    for t in fractions[1:]:
-        eq = seg.equilibrium(shapes[-1], t)
-        shapes.append(eq.shape)
-        messages.append(eq.message)
+    if known is not None and len(known[0]) == len(fractions) and \
+            max_distance(known[0][0], start) <= SAME_START:
+        shapes, messages = [start, *known[0][1:]], ["", *known[1][1:]]
+    else:
+        seg.prepare(fractions)
+        shapes, messages = [start], [""]
+        for t in fractions[1:]:
+            eq = seg.equilibrium(shapes[-1], t)
+            shapes.append(eq.shape)
+            messages.append(eq.message)
     stabs = seg.stabilities(np.stack(shapes), fractions)
     # with contacts the penalty's kinks may stall Newton short of its tolerance: the stability
     # test's equilibrium tolerance decides (as in the reference loop)
