@@ -40,7 +40,7 @@ _OUTCOMES = {CONVERGED: "converged", MAX_ITERATIONS: "max_iterations", STALLED: 
 @njit(cache=True)
 def drive_clamped(starts, k_s, rest_lengths, k_b, rest_angles, masses, gravity, link, length,
                   tolerance, roundoff, stiff, stiff_axial, clamp, positions, u_axes,
-                  max_iterations, shapes, done, outcomes, iterations, residuals):
+                  max_iterations, restart, shapes, done, outcomes, iterations, residuals):
     """The plants' equilibria at every stop, each from the one before, in place.
 
     Parameters
@@ -63,6 +63,9 @@ def drive_clamped(starts, k_s, rest_lengths, k_b, rest_angles, masses, gravity, 
     positions, u_axes : numpy.ndarray
         (B, M, 2, 3) clip points [m] and u-axes of every stop.
     max_iterations : int
+    restart : bool
+        The Newton loop's ``restart`` (:func:`dloplan.sim.compiled.newton_positions`): False
+        for the plants (:meth:`~.plant.Plant.hold`'s loop, bit for bit).
     shapes : numpy.ndarray
         (B, M, n + 1, 3) out: the equilibria.
     done : numpy.ndarray
@@ -100,7 +103,7 @@ def drive_clamped(starts, k_s, rest_lengths, k_b, rest_angles, masses, gravity, 
                 x, k + 1, n_points - k - 1, k_s[b], rest_lengths[b], k_b[b],
                 rest_angles[b], masses[b], gravity, length[b], limit, max_iterations,
                 np.int64(0), 0.25 * length[b], history, np.int64(1), grad, band,
-                np.bool_(True), stiff_axial[b])
+                np.bool_(True), stiff_axial[b], restart)
             outcomes[b], iterations[b], residuals[b] = outcome, its, residual
             if outcome != CONVERGED:
                 break
@@ -216,8 +219,12 @@ def drive_plants(cables: Sequence[Cable], clamp_links, starts, positions, quater
 
 
 def drive_chains(plants: PlantChains, clamp_links, starts, positions, quaternions, *,
-                 gravity) -> PlantDrive:
-    """:func:`drive_plants` of the cables whose constants ``plants`` holds."""
+                 gravity, restart: bool = False) -> PlantDrive:
+    """:func:`drive_plants` of the cables whose constants ``plants`` holds; with ``restart``
+    the Newton loops take a plain step after every very successful one (:func:`dloplan.sim.
+    compiled.newton_positions`), which ``hold`` does not: the same equilibria to the solver's
+    tolerance, not bit for bit (the study's clip-fit trials, whose starts are linear
+    predictions)."""
     gravity = np.asarray(gravity, dtype=float)
     # copies: writable and C-ordered whatever the caller holds (a read-only array, as a test's
     # or a table's, compiled a second overload of the kernel)
@@ -234,7 +241,8 @@ def drive_chains(plants: PlantChains, clamp_links, starts, positions, quaternion
     residuals = np.zeros(n_samples)
     drive_clamped(starts, *plants.constants, gravity, plants.link, plants.length,
                   plants.tolerance, ROUNDOFF * np.finfo(float).eps, plants.stiff,
-                  plants.stiff_axial, clamps, positions, u_axes, NEWTON_ITERATIONS, shapes,
+                  plants.stiff_axial, clamps, positions, u_axes, NEWTON_ITERATIONS,
+                  np.bool_(restart), shapes,
                   done, outcomes, iterations, residuals)
     failed = np.full(n_samples, -1)
     messages = [""] * n_samples
