@@ -16,7 +16,7 @@ banded eigen-solver) hands the sample back: ``hold`` itself finishes its remaini
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -123,11 +123,15 @@ class PlantDrive:
         (B,) int: the first stop that is not a stable equilibrium, -1 when none.
     messages : tuple of str
         The failed stop's Newton message ("" when none failed).
+    iterations : numpy.ndarray
+        (B,) int: the Newton iterations of the last stop the compiled loop tried (all of them
+        with one stop; a saddle's finish by ``hold`` not counted).
     """
 
     shapes: np.ndarray
     failed: np.ndarray
     messages: tuple
+    iterations: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -177,19 +181,36 @@ class PlantChains:
     @classmethod
     def join(cls, parts: Sequence[PlantChains]) -> PlantChains:
         """The cables of ``parts`` one after the other."""
-        return cls(sum((p.cables for p in parts), ()), sum((p.chains for p in parts), ()),
-                   tuple(np.concatenate([p.constants[k] for p in parts]) for k in range(5)),
-                   *(np.concatenate([getattr(p, name) for p in parts]) for name in
-                     ("link", "length", "tolerance", "stiff", "stiff_axial")))
+        return cls(**{name: _joined([getattr(p, name) for p in parts])
+                      for name in _FIELDS})
 
     def take(self, index) -> PlantChains:
         """The cables at ``index`` (a sequence of positions)."""
         index = np.asarray(index, dtype=np.int64)
-        return PlantChains(tuple(self.cables[i] for i in index),
-                           tuple(self.chains[i] for i in index),
-                           tuple(c[index] for c in self.constants), self.link[index],
-                           self.length[index], self.tolerance[index], self.stiff[index],
-                           self.stiff_axial[index])
+        return PlantChains(**{name: _taken(getattr(self, name), index) for name in _FIELDS})
+
+
+_FIELDS = tuple(f.name for f in fields(PlantChains))
+
+
+def _joined(values: list):
+    """One field of several :class:`PlantChains` one after the other: an array (B,), a tuple
+    of arrays (B, ...) (the constants) or a tuple of per-cable objects (cables, chains)."""
+    first = values[0]
+    if isinstance(first, np.ndarray):
+        return np.concatenate(values)
+    if first and isinstance(first[0], np.ndarray):
+        return tuple(np.concatenate(parts) for parts in zip(*values, strict=True))
+    return sum(values, ())
+
+
+def _taken(value, index: np.ndarray):
+    """One field of a :class:`PlantChains` at ``index`` (its kinds as :func:`_joined`'s)."""
+    if isinstance(value, np.ndarray):
+        return value[index]
+    if value and isinstance(value[0], np.ndarray):
+        return tuple(part[index] for part in value)
+    return tuple(value[i] for i in index)
 
 
 def drive_plants(cables: Sequence[Cable], clamp_links, starts, positions, quaternions, *,
@@ -261,7 +282,7 @@ def drive_chains(plants: PlantChains, clamp_links, starts, positions, quaternion
             if not ok:
                 failed[b], messages[b] = s, message
                 break
-    return PlantDrive(shapes, failed, tuple(messages))
+    return PlantDrive(shapes, failed, tuple(messages), iterations)
 
 
 def u_axes_of(quaternions: np.ndarray) -> np.ndarray:
