@@ -121,10 +121,10 @@ CHORD_TRIALS = 1
 :data:`~.step.MAX_TRIALS` with the Jacobian updated: once a step from the frozen Jacobian raises
 the cost, more damping only shortens it towards the point already reached, and the fit ends
 there. The damping after a rejection is still small (about 5e-4 of diag(J^T J) after two
-accepted steps), so a second trial is the same step to a few parts in 1e4: on the bench's 1024
-samples of the study example it was accepted once (with 2 trials, 1 in 1024 fits ended 0.2 um
-elsewhere; the fit tried 7 more equilibria per sample with 10, 3.5 -> 3.0 trials per fit with 2
--> 1)."""
+accepted steps), so a second trial would be the same step to a few parts in 1e4: on the bench's
+1024 samples of the study example one was accepted once (that sample's closed-loop error 0.2 um
+apart), and the fits made 3.0 trials instead of 3.5 (with 10 trials, 7 more equilibria a
+sample: docs/performance.md, branches studycl and cl1k)."""
 
 
 TABLE_STEP = math.log(2.0) / 4.0
