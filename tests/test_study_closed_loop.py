@@ -480,43 +480,121 @@ def test_a_sample_the_clip_batch_cannot_fit_is_fitted_alone(batch_case, monkeypa
     _assert_same_rows(rows, alone)
 
 
+def _linear_clip_problem(count: int, size: int, k: int, seed: int) -> dict:
+    """fit_clips_batch's arguments for a linear model (the fine chain's Jacobian at its every
+    k-th point is the fitted one, so a trial's linear guess is its equilibrium) of ``count``
+    samples on ``size`` points, no bias motion, reference 0."""
+    from dloplan.correct.step import CorrectionLimits
+
+    rng = np.random.default_rng(seed)
+    jacobians = rng.normal(size=(count, 3 * size, 12)) * 1e-2
+    starts = np.zeros((count, k * (size - 1) + 1, 3))
+    fine = np.zeros((count, 3 * len(starts[0]), 12))
+    for b in range(count):
+        fine[b].reshape(-1, 3, 12)[::k] = jacobians[b].reshape(-1, 3, 12)
+    return {"jacobians": jacobians, "fine": fine, "moves": np.zeros_like(jacobians),
+            "starts": starts, "bias": rng.normal(size=(count, size, 3)) * 1e-4,
+            "reference": np.zeros((size, 3)), "scale": np.ones(12),
+            "limits": CorrectionLimits(), "clamp_links": k}
+
+
 def test_the_clip_batch_leaves_a_sample_it_cannot_fit_and_fits_the_others_alike():
     """fit_clips_batch on a linear model (the equilibrium is the guess): a sample with a
     non-finite Jacobian is not fitted (p = 0 at its start), and the others come out as when
     batched without it, to round-off; each fit ends on the limits' projection or the
     least-squares solution of the linear problem."""
     from dloplan.correct.clip_batch import fit_clips_batch
-    from dloplan.correct.step import CorrectionLimits
 
-    rng = np.random.default_rng(3)
-    count, size, k = 3, 11, 2
-    jacobians = rng.normal(size=(count, 3 * size, 12)) * 1e-2
-    jacobians[1, 0, 0] = np.nan
-    moves = np.zeros_like(jacobians)
-    starts = np.zeros((count, k * (size - 1) + 1, 3))
-    # the fine chain's Jacobian at its every k-th point is the fitted one: linear trials
-    fine = np.zeros((count, 3 * len(starts[0]), 12))
-    for b in range(count):
-        fine[b].reshape(-1, 3, 12)[::k] = jacobians[b].reshape(-1, 3, 12)
-    bias = rng.normal(size=(count, size, 3)) * 1e-4
-    reference = np.zeros((size, 3))
-    limits, scale = CorrectionLimits(), np.ones(12)
+    problem = _linear_clip_problem(3, 11, 2, 3)
+    problem["jacobians"][1, 0, 0] = np.nan
 
     def solve(index, p, guesses):
         return list(guesses)
 
-    p, x, fitted = fit_clips_batch(jacobians, fine, moves, starts, bias, reference, scale,
-                                   limits, k, 2, solve)
+    p, x, fitted = fit_clips_batch(**problem, trials=2, solve=solve)
     assert fitted.tolist() == [True, False, True]
-    assert np.all(p[1] == 0.0) and np.all(x[1] == starts[1])
+    assert np.all(p[1] == 0.0) and np.all(x[1] == problem["starts"][1])
     keep = [0, 2]
-    p2, x2, fitted2 = fit_clips_batch(jacobians[keep], fine[keep], moves[keep], starts[keep],
-                                      bias[keep], reference, scale, limits, k, 2, solve)
+    p2, x2, fitted2 = fit_clips_batch(
+        **{name: value[keep] if name in ("jacobians", "fine", "moves", "starts", "bias")
+           else value for name, value in problem.items()}, trials=2, solve=solve)
     assert fitted2.all()
     np.testing.assert_allclose(p[keep], p2, rtol=1e-12, atol=1e-18)
     for b in keep:  # the linear least-squares fit (no limit reached at these sizes)
-        best = np.linalg.lstsq(jacobians[b], -bias[b].ravel(), rcond=None)[0]
+        best = np.linalg.lstsq(problem["jacobians"][b], -problem["bias"][b].ravel(),
+                               rcond=None)[0]
         np.testing.assert_allclose(p[b], best, rtol=1e-3, atol=1e-9)
+
+
+def test_a_rejected_chord_step_ends_the_clip_fit():
+    """The linearized clip fit makes CHORD_TRIALS = 1 trial per iteration: the first step
+    that raises the cost ends the fit at the point already reached, with no second, more
+    damped trial (with the Jacobian frozen the damping after a rejection, about 1e-3 of
+    diag(J^T J), leaves the step the same to that share; on the bench's 1024 samples a
+    second trial was accepted once). Here the model is linear but the second trial's
+    equilibrium is pushed off (its cost rises): the fit solves two equilibria and keeps the
+    first step, where a second trial per iteration would have solved a third."""
+    from dloplan.correct.clip_batch import fit_clips_batch
+    from dloplan.correct.linearized import CHORD_TRIALS
+
+    problem = _linear_clip_problem(1, 11, 2, 5)
+    calls = []
+
+    def solve(index, p, guesses):
+        calls.append(p.copy())
+        return [g + (1e-2 if len(calls) > 1 else 0.0) for g in guesses]
+
+    p, x, fitted = fit_clips_batch(**problem, trials=CHORD_TRIALS, solve=solve)
+    assert fitted.all()
+    assert len(calls) == 2
+    np.testing.assert_array_equal(p[0], calls[0][0])  # the first, accepted step
+
+
+def test_the_fit_chain_restarted_newton_finds_the_same_equilibria_in_fewer_iterations(
+        batch_case):
+    """drive_chains(restart=True), the clip-fit trials' Newton loop (an unshifted step after
+    every very successful one), against Plant.hold's loop (restart False) on the fit chain of
+    the study example at the target, at twelve E between x0.25 and x4, each from the table's
+    equilibrium interpolated to its E (as the updated E's first solve starts) moved by the
+    table's clip Jacobian for a correction of 2 mm and 1 degree (sd; none for every other one).
+    The interpolated guess stretches the stiff axial springs enough that the Hessian is
+    indefinite there; the shift climbs to make it definite and, divided by 8 a step, still
+    damped the next steps.
+
+    Tolerances, and why: both loops stop at a residual force within the same tolerance (1e-10
+    of the force scale), on a chain whose softest mode at the target is about 1e-8 of the
+    Hessian's scale (the stiff axial springs), so the two stopping points may differ by that
+    residual over that stiffness: at most 2e-8 m measured on the bench's trials, 1e-6 m allowed
+    (1e-3 of the 1 mm measurement noise). Fewer iterations: 82 -> 68 here when written (5.0 ->
+    4.35 per solve on the bench's 1024 samples)."""
+    import math
+
+    from scipy.spatial.transform import Rotation
+
+    from dloplan.correct.plant_batch import PlantChains, drive_chains
+    from dloplan.sim.clips import ClipPoses
+    from dloplan.sim.sensitivity import perturbed_clips
+
+    nominal, _ = batch_case
+    positions, quaternions = nominal.poses
+    target = ClipPoses(positions[-1], Rotation.from_quat(quaternions[-1]))
+    rng = np.random.default_rng(9)
+    cables, starts, moved, quats = [], [], [], []
+    for j, factor in enumerate(np.exp(np.linspace(-1.4, 1.4, 12))):
+        modulus = nominal.cable.youngs_modulus * factor
+        at = nominal.table.at(math.log(modulus))
+        p = np.concatenate([rng.normal(size=3) * 2e-3, rng.normal(size=3) * 0.0175] * 2) * (j % 2)
+        clips = perturbed_clips(target, p)
+        cables.append(nominal.fit_cable.with_modulus(modulus))
+        starts.append(at["fine"] + (at["fine_clips"] @ (p * nominal.scale)).reshape(-1, 3))
+        moved.append(clips.positions[None])
+        quats.append(clips.rotations.as_quat()[None])
+    chains = PlantChains.of(cables, nominal.gravity)
+    runs = [drive_chains(chains, [nominal.clamp_links] * len(cables), starts, moved, quats,
+                         gravity=nominal.gravity, restart=restart) for restart in (False, True)]
+    assert list(runs[0].failed) == list(runs[1].failed) == [-1] * len(cables)
+    assert np.max(np.abs(runs[0].shapes - runs[1].shapes)) <= 1e-6
+    assert np.sum(runs[1].iterations) < 0.9 * np.sum(runs[0].iterations)
 
 
 def test_the_batched_fits_are_fit_estimate_and_hand_back_a_singular_system(batch_case):

@@ -116,11 +116,15 @@ MODULUS_STEPS = 3
 SUBSTEPS = 2
 """Plant equilibria between consecutive clip poses (:class:`~.plant.Plant`'s default)."""
 
-CHORD_TRIALS = 2
+CHORD_TRIALS = 1
 """Trials per iteration of the clip fit with its Jacobian frozen (a chord method), against
 :data:`~.step.MAX_TRIALS` with the Jacobian updated: once a step from the frozen Jacobian raises
-the cost twice, more damping only shortens it towards the point already reached (on the study
-example the fit then tried 7 more steps, each an equilibrium, to end where it was)."""
+the cost, more damping only shortens it towards the point already reached, and the fit ends
+there. The damping after a rejection is still small (about 5e-4 of diag(J^T J) after two
+accepted steps), so a second trial would be the same step to a few parts in 1e4: on the bench's
+1024 samples of the study example one was accepted once (that sample's closed-loop error 0.2 um
+apart), and the fits made 3.0 trials instead of 3.5 (with 10 trials, 7 more equilibria a
+sample: docs/performance.md, branches studycl and cl1k)."""
 
 
 TABLE_STEP = math.log(2.0) / 4.0
@@ -667,8 +671,9 @@ def _solve(nominal: NominalCorrection, requests: list, cables: dict,
     """The equilibria of ``requests``: those at shape K on the model's chain in one
     :func:`held_equilibria` call, those at the target on the clip fit's chain in one
     :func:`.plant_batch.drive_chains` call (one stop each: the clamped equilibrium of
-    :class:`~.step.FitModel`, bit for bit, and its reach check); shapes, None where there is no
-    stable equilibrium. ``cables`` holds what was made so far per E and links: the model's
+    :class:`~.step.FitModel` to the solver's tolerance, its Newton loop unshifted again after
+    every very successful step, ``restart``; and its reach check); shapes, None where there
+    is no stable equilibrium. ``cables`` holds what was made so far per E and links: the model's
     cable (1 link clamped), the clip fit chain's row in their pool (k, :func:`_fit_chains`);
     ``fit_chains``, when given, are the fit chains of the requests at the target, in order
     (made by :func:`_fit_chains`)."""
@@ -700,7 +705,8 @@ def _solve(nominal: NominalCorrection, requests: list, cables: dict,
             nominal, [requests[b].youngs_modulus for b in target], cables)
         quats = rotations.as_quat().reshape(-1, 2, 4)[target]
         drive = drive_chains(fine, [k] * len(target), [requests[b].guess for b in target],
-                             moved[target][:, None], quats[:, None], gravity=nominal.gravity)
+                             moved[target][:, None], quats[:, None], gravity=nominal.gravity,
+                             restart=True)
         reach = (fine.cables[0].n_links - 2 * k) * fine.cables[0].rest_link_length
         for j, b in enumerate(target):
             x = drive.shapes[j, 0]

@@ -16,7 +16,7 @@ banded eigen-solver) hands the sample back: ``hold`` itself finishes its remaini
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -40,7 +40,7 @@ _OUTCOMES = {CONVERGED: "converged", MAX_ITERATIONS: "max_iterations", STALLED: 
 @njit(cache=True)
 def drive_clamped(starts, k_s, rest_lengths, k_b, rest_angles, masses, gravity, link, length,
                   tolerance, roundoff, stiff, stiff_axial, clamp, positions, u_axes,
-                  max_iterations, shapes, done, outcomes, iterations, residuals):
+                  max_iterations, restart, shapes, done, outcomes, iterations, residuals):
     """The plants' equilibria at every stop, each from the one before, in place.
 
     Parameters
@@ -63,6 +63,9 @@ def drive_clamped(starts, k_s, rest_lengths, k_b, rest_angles, masses, gravity, 
     positions, u_axes : numpy.ndarray
         (B, M, 2, 3) clip points [m] and u-axes of every stop.
     max_iterations : int
+    restart : bool
+        The Newton loop's ``restart`` (:func:`dloplan.sim.compiled.newton_positions`): False
+        for the plants (:meth:`~.plant.Plant.hold`'s loop, bit for bit).
     shapes : numpy.ndarray
         (B, M, n + 1, 3) out: the equilibria.
     done : numpy.ndarray
@@ -100,7 +103,7 @@ def drive_clamped(starts, k_s, rest_lengths, k_b, rest_angles, masses, gravity, 
                 x, k + 1, n_points - k - 1, k_s[b], rest_lengths[b], k_b[b],
                 rest_angles[b], masses[b], gravity, length[b], limit, max_iterations,
                 np.int64(0), 0.25 * length[b], history, np.int64(1), grad, band,
-                np.bool_(True), stiff_axial[b])
+                np.bool_(True), stiff_axial[b], restart)
             outcomes[b], iterations[b], residuals[b] = outcome, its, residual
             if outcome != CONVERGED:
                 break
@@ -120,11 +123,15 @@ class PlantDrive:
         (B,) int: the first stop that is not a stable equilibrium, -1 when none.
     messages : tuple of str
         The failed stop's Newton message ("" when none failed).
+    iterations : numpy.ndarray
+        (B,) int: the Newton iterations of the last stop the compiled loop tried (all of them
+        with one stop; a saddle's finish by ``hold`` not counted).
     """
 
     shapes: np.ndarray
     failed: np.ndarray
     messages: tuple
+    iterations: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -174,19 +181,36 @@ class PlantChains:
     @classmethod
     def join(cls, parts: Sequence[PlantChains]) -> PlantChains:
         """The cables of ``parts`` one after the other."""
-        return cls(sum((p.cables for p in parts), ()), sum((p.chains for p in parts), ()),
-                   tuple(np.concatenate([p.constants[k] for p in parts]) for k in range(5)),
-                   *(np.concatenate([getattr(p, name) for p in parts]) for name in
-                     ("link", "length", "tolerance", "stiff", "stiff_axial")))
+        return cls(**{name: _joined([getattr(p, name) for p in parts])
+                      for name in _FIELDS})
 
     def take(self, index) -> PlantChains:
         """The cables at ``index`` (a sequence of positions)."""
         index = np.asarray(index, dtype=np.int64)
-        return PlantChains(tuple(self.cables[i] for i in index),
-                           tuple(self.chains[i] for i in index),
-                           tuple(c[index] for c in self.constants), self.link[index],
-                           self.length[index], self.tolerance[index], self.stiff[index],
-                           self.stiff_axial[index])
+        return PlantChains(**{name: _taken(getattr(self, name), index) for name in _FIELDS})
+
+
+_FIELDS = tuple(f.name for f in fields(PlantChains))
+
+
+def _joined(values: list):
+    """One field of several :class:`PlantChains` one after the other: an array (B,), a tuple
+    of arrays (B, ...) (the constants) or a tuple of per-cable objects (cables, chains)."""
+    first = values[0]
+    if isinstance(first, np.ndarray):
+        return np.concatenate(values)
+    if first and isinstance(first[0], np.ndarray):
+        return tuple(np.concatenate(parts) for parts in zip(*values, strict=True))
+    return sum(values, ())
+
+
+def _taken(value, index: np.ndarray):
+    """One field of a :class:`PlantChains` at ``index`` (its kinds as :func:`_joined`'s)."""
+    if isinstance(value, np.ndarray):
+        return value[index]
+    if value and isinstance(value[0], np.ndarray):
+        return tuple(part[index] for part in value)
+    return tuple(value[i] for i in index)
 
 
 def drive_plants(cables: Sequence[Cable], clamp_links, starts, positions, quaternions, *,
@@ -216,8 +240,12 @@ def drive_plants(cables: Sequence[Cable], clamp_links, starts, positions, quater
 
 
 def drive_chains(plants: PlantChains, clamp_links, starts, positions, quaternions, *,
-                 gravity) -> PlantDrive:
-    """:func:`drive_plants` of the cables whose constants ``plants`` holds."""
+                 gravity, restart: bool = False) -> PlantDrive:
+    """:func:`drive_plants` of the cables whose constants ``plants`` holds; with ``restart``
+    the Newton loops take a plain step after every very successful one (:func:`dloplan.sim.
+    compiled.newton_positions`), which ``hold`` does not: the same equilibria to the solver's
+    tolerance, not bit for bit (the study's clip-fit trials, whose starts are linear
+    predictions)."""
     gravity = np.asarray(gravity, dtype=float)
     # copies: writable and C-ordered whatever the caller holds (a read-only array, as a test's
     # or a table's, compiled a second overload of the kernel)
@@ -234,7 +262,8 @@ def drive_chains(plants: PlantChains, clamp_links, starts, positions, quaternion
     residuals = np.zeros(n_samples)
     drive_clamped(starts, *plants.constants, gravity, plants.link, plants.length,
                   plants.tolerance, ROUNDOFF * np.finfo(float).eps, plants.stiff,
-                  plants.stiff_axial, clamps, positions, u_axes, NEWTON_ITERATIONS, shapes,
+                  plants.stiff_axial, clamps, positions, u_axes, NEWTON_ITERATIONS,
+                  np.bool_(restart), shapes,
                   done, outcomes, iterations, residuals)
     failed = np.full(n_samples, -1)
     messages = [""] * n_samples
@@ -253,7 +282,7 @@ def drive_chains(plants: PlantChains, clamp_links, starts, positions, quaternion
             if not ok:
                 failed[b], messages[b] = s, message
                 break
-    return PlantDrive(shapes, failed, tuple(messages))
+    return PlantDrive(shapes, failed, tuple(messages), iterations)
 
 
 def u_axes_of(quaternions: np.ndarray) -> np.ndarray:

@@ -236,7 +236,7 @@ def moved_by(x, alpha, p, first, trial):
 @njit(cache=True)
 def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses, gravity,
                      length_scale, tolerance, max_iterations, iterations, radius, history,
-                     n_history, grad, band, stop_at_saddle, correct_lengths):
+                     n_history, grad, band, stop_at_saddle, correct_lengths, restart=False):
     """Run the trust-region Newton loop on the free points ``first .. stop - 1`` of x, in place.
 
     Parameters
@@ -266,6 +266,15 @@ def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses
         Try the second-order correction :func:`restore_link_lengths` on a step that is not very
         successful (:func:`dloplan.sim.newton.wants_correction`): for stiff axial springs
         (:attr:`dloplan.physics.chain.SpringChain.stiff_axial`); else the plain steps.
+    restart : bool
+        After a very successful step (the shift relaxed: the model's ratio above 3/4), take the
+        next one with no shift, where :func:`dloplan.sim.newton.step_verdict` divides it by 8.
+        For a start the shift had to be raised for: a linear prediction of a stiff-axial chain
+        (the study's clip-fit trials, :func:`dloplan.correct.plant_batch.drive_chains`) stretches
+        its links enough to make the Hessian indefinite there, the shift climbs to about 1e-4
+        of the Hessian's scale, and its decay then damped three more steps of the soft bending
+        modes. Off (the default), the loop is :func:`~dloplan.sim.newton.trust_region_newton`'s,
+        decision by decision.
 
     Returns
     -------
@@ -306,9 +315,12 @@ def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses
                     if f_corrected < f_trial:
                         trial[:] = corrected
                         f_trial = f_corrected
+            tried = shift
             accepted, shift, radius = step_verdict(f, f_trial, predicted, shift, scale, radius,
                                                    longest, length_scale)
             if accepted:
+                if restart and shift < tried:  # relaxed: very successful
+                    shift = 0.0
                 x[:] = trial
                 f = f_trial
                 break
