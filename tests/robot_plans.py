@@ -8,6 +8,7 @@ import re
 from pathlib import Path
 
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
 from dloplan.app import load_job, load_scenario, run_job
@@ -16,6 +17,11 @@ from dloplan.grippers import GripperPath
 EXAMPLES = Path(__file__).parents[1] / "examples"
 PLAN_EXAMPLES = sorted(p.name for p in EXAMPLES.glob("*.yaml")
                        if not p.name.startswith(("identify", "harness", "study")))
+
+ON_ONE_WORKER = pytest.mark.xdist_group("robot_plans")
+"""The ``pytestmark`` of the modules that read these plans: their tests run on one worker
+(``make test``: ``--dist loadgroup``), so each plan is made once for all of them (the cache is
+per process; spread over two workers, both made the USB plan and the harness job)."""
 
 
 @functools.cache

@@ -21,6 +21,9 @@ from hostile_corpus import CASES, ROOT, SMALL, Case, World, write_yaml
 
 from dloplan.cli import EXIT_FAILURE, main
 
+# one worker (make test: --dist loadgroup): the world (a plan with its figures) is made once
+pytestmark = pytest.mark.xdist_group("test_hostile_inputs")
+
 HANG = 10.0
 """[s] A case still running after this long is a hang (a bad outcome, not a timing claim)."""
 

@@ -27,6 +27,9 @@ from dloplan.physics.chain import SpringChain, link_tensions
 from dloplan.sim.clips import ClipPoses, clip_poses_from_shape
 from dloplan.sim.dynamics import ClipTrajectory, simulate
 
+# one worker (make test: --dist loadgroup): its module-scoped runs are made once
+pytestmark = pytest.mark.xdist_group("test_implicit_section")
+
 WHOLE = catalogue_cable("usb", 8)  # the USB cable with its copper's axial modulus
 RADIUS = WHOLE.diameter / 2
 N_LINKS = 16

@@ -8,13 +8,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from program_readers import rapid_commands
-from robot_plans import harness_plan
+from robot_plans import ON_ONE_WORKER, harness_plan
 
 from dloplan.io.rapid import rapid_modules
 from dloplan.pipeline.document import cycle_actions, cycle_to_dict
 from dloplan.robot import robot_program
 from dloplan.robot.actions import action_clock, gripper_commands, place_actions
 from dloplan.trajectory import GripperAction
+
+pytestmark = ON_ONE_WORKER
 
 
 def test_a_regrasp_opens_for_its_opening_part_and_closes_for_the_rest():

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from robot_plans import example_plan
+from robot_plans import ON_ONE_WORKER, example_plan
 
 from dloplan.robot import robot_program
 from dloplan.robot.actions import program_timeline
@@ -15,6 +15,8 @@ from dloplan.robot.program import RobotProgram
 from dloplan.robot.tracked_program import TrackedTargets, tracked_moves
 from dloplan.robot.urdf_cell import ur5e_pair, verify_on_cell
 from dloplan.trajectory import MotionLimits, trajectory_from_grippers
+
+pytestmark = ON_ONE_WORKER
 
 EXAMPLE = "m2_uniform_curvature_usb.yaml"
 

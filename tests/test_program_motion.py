@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from program_readers import read_trajectory
-from robot_plans import example_plan
+from robot_plans import ON_ONE_WORKER, example_plan
 
 from dloplan.robot.actions import action_clock, place_actions
 from dloplan.robot.motion import (
@@ -28,6 +28,8 @@ from dloplan.robot.motion import (
 )
 from dloplan.trajectory import GripperAction
 from dloplan.trajectory.timelaw import Profile
+
+pytestmark = ON_ONE_WORKER
 
 
 def _finite_differences(times, values):

@@ -17,7 +17,7 @@ import re
 import numpy as np
 import pytest
 from program_readers import rapid_commands
-from robot_plans import example_plan, harness_plan, read_module
+from robot_plans import ON_ONE_WORKER, example_plan, harness_plan, read_module
 from scipy.spatial.transform import Rotation
 
 from dloplan import output_files as files
@@ -25,8 +25,9 @@ from dloplan.io.rapid import RapidSettings, rapid_modules, write_rapid
 from dloplan.robot import Gripper, IKOptions, RobotCell, confdata, forward, inverse, yumi
 from dloplan.robot import robot_program as make_program
 
-# its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
-pytestmark = pytest.mark.xdist_group("test_rapid")
+# its module-scoped fixtures and the plans of robot_plans are computed once, on one worker (make
+# test: --dist loadgroup)
+pytestmark = ON_ONE_WORKER
 
 PREDEFINED = {"v100", "fine"}  # controller data the modules use without declaring
 CELL = RobotCell(base_position=(-0.03, 0.02, -0.01),

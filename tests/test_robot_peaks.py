@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from robot_plans import example_plan
+from robot_plans import ON_ONE_WORKER, example_plan
 
 from dloplan.robot import RobotCell, robot_program
 from dloplan.robot.motion import JointMotion
@@ -16,6 +16,8 @@ from dloplan.robot.peaks import motion_peaks
 from dloplan.robot.urdf_cell import ur5e_pair
 from dloplan.trajectory import MotionLimits, trajectory_from_grippers
 from dloplan.trajectory.timelaw import Profile
+
+pytestmark = ON_ONE_WORKER
 
 LAW = Profile.jerk_limited(2.0, 8.0, 60.0)  # u: rest to rest, cruising at 2 /s
 

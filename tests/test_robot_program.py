@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 import pytest
-from robot_plans import PLAN_EXAMPLES, example_plan, harness_plan, mirrored
+from robot_plans import ON_ONE_WORKER, PLAN_EXAMPLES, example_plan, harness_plan, mirrored
 from scipy.spatial.transform import Rotation
 
 from dloplan.frames import frame_from_axis
@@ -27,6 +27,8 @@ from dloplan.robot import (
     yumi,
 )
 from dloplan.trajectory import trajectory_from_grippers
+
+pytestmark = ON_ONE_WORKER
 
 RUNNABLE = ("m1_sine_pu_hose.yaml", "m2_uniform_curvature_pa12.yaml",
             "m2_uniform_curvature_usb.yaml")

@@ -25,6 +25,10 @@ from test_cli import STIFF, write
 
 from dloplan.cli import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, EXIT_WARNINGS, main
 
+# one worker (make test: --dist loadgroup): the module's small plan (with its figures) is made
+# once, and the commands signalled under load do not also run beside each other
+pytestmark = pytest.mark.xdist_group("test_signals")
+
 SMALL = {**STIFF, "cable": {"name": "pa12", "n_links": 8}, "planner": {"n_shapes": 2},
          "outputs": ["json", "csv", "report"]}
 STUDY = Path(__file__).parents[1] / "examples" / "study_m2_ethernet.yaml"

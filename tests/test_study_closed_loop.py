@@ -17,6 +17,9 @@ from dloplan.cli import main
 from dloplan.correct import closed_loop_success
 from dloplan.study.spec import StudyError, parse_study
 
+# one worker (make test: --dist loadgroup): its module-scoped plan and batch case are made once
+pytestmark = pytest.mark.xdist_group("test_study_closed_loop")
+
 DEMO = Path(__file__).resolve().parent / "data" / "sagging_demo.yaml"
 
 

@@ -213,6 +213,10 @@ def test_interleaved_band_is_the_joint_hessian():
     assert np.abs(band - expected).max() < 1e-14 * np.abs(expected).max()
 
 
+# one worker (make test: --dist loadgroup): the generic loop's Python calls compile an overload of
+# twist_trial that the warm-up does not (9 s of CPU); both cases need it, and on two workers at
+# the same moment both compiled it
+@pytest.mark.xdist_group("test_twist_compiled_generic_loop")
 @pytest.mark.parametrize("curved", [False, True])
 def test_compiled_twist_loop_follows_the_generic_loop(curved):
     """The compiled Newton loop against the generic one (a table far below forces the generic
