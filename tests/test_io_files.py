@@ -158,6 +158,10 @@ def test_an_output_that_cannot_be_written_names_it_its_folder_and_what_is_expect
         with pytest.raises(ValueError, match="exists and is a file; expected a.* folder"), \
                 stage(blocker):
             pass
+    with pytest.raises(OSError) as caught:  # the multi-file writer: the same line
+        atomic_write_texts({tmp_path / "ok.txt": "a", blocker / "deeper" / "t.txt": "b"})
+    line = str(caught.value)
+    assert "a-file is a file, not a folder" in line and "expected a path in a folder" in line
     assert blocker.read_text() == "x" and sorted(os.listdir(tmp_path)) == ["a-file"]
 
 

@@ -157,7 +157,10 @@ def atomic_write_texts(
     try:
         for target, text in files.items():
             path = _file_target(target)
-            path.parent.mkdir(parents=True, exist_ok=True)
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise _unwritable(exc, path) from None
             with shielded():  # no signal between the file's creation and its name kept
                 fd, temp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.",
                                             suffix=".tmp")
