@@ -112,10 +112,20 @@ def _verified():
     return cell, verdict, times, pos, rot
 
 
+def _base_poses(cell, pos, rot):
+    """(M, 2, 3) TCP positions [m] and rotation vectors [rad] in each arm's base frame."""
+    base_pos, base_rv = zip(*(in_base_frame(arm, pos[:, a],
+                                            Rotation.from_matrix(rot.as_matrix()
+                                                                 .reshape(-1, 2, 3, 3)[:, a]))
+                              for a, arm in enumerate(cell.arms)), strict=True)
+    return np.stack(base_pos, 1), np.stack(base_rv, 1)
+
+
 def test_urscript_movej_parses_and_reads_back_the_verified_joints(tmp_path):
-    cell, verdict, times, _, _ = _verified()
+    cell, verdict, times, pos, rot = _verified()
     tcp = [np.concatenate([arm.tcp_offset, arm.tcp_rotation.as_rotvec()]) for arm in cell.arms]
-    files = write_urscript(tmp_path, times, verdict.joints, tcp_offsets=tcp, blend=0.001)
+    files = write_urscript(tmp_path, times, verdict.joints, tcp_offsets=tcp, blend=0.001,
+                           tcp_positions=_base_poses(cell, pos, rot)[0])
     assert [f.name for f in files] == ["dloplan_left.script", "dloplan_right.script"]
     for a, path in enumerate(files):
         program = parse_urscript(path.read_text())
@@ -136,11 +146,7 @@ def test_urscript_movej_parses_and_reads_back_the_verified_joints(tmp_path):
 
 def test_urscript_movel_poses_read_back_to_the_verified_joints(tmp_path):
     cell, verdict, times, pos, rot = _verified()
-    base_pos, base_rv = zip(*(in_base_frame(arm, pos[:, a],
-                                            Rotation.from_matrix(rot.as_matrix()
-                                                                 .reshape(-1, 2, 3, 3)[:, a]))
-                              for a, arm in enumerate(cell.arms)), strict=True)
-    tcp_pos, tcp_rv = np.stack(base_pos, 1), np.stack(base_rv, 1)
+    tcp_pos, tcp_rv = _base_poses(cell, pos, rot)
     speeds = np.full((len(times) - 1, 2), 0.05)
     files = write_urscript(tmp_path, times, verdict.joints, tcp_positions=tcp_pos,
                            tcp_rotvecs=tcp_rv, speeds=speeds, mode="movel")
@@ -168,6 +174,8 @@ def test_urscript_bad_input_names_the_field(tmp_path):
         write_urscript(tmp_path, times[::-1], verdict.joints)
     with pytest.raises(ValueError, match="tcp_positions"):
         write_urscript(tmp_path, times, verdict.joints, mode="movel")
+    with pytest.raises(ValueError, match="tcp_positions: required for a blend"):
+        write_urscript(tmp_path, times, verdict.joints, blend=0.01)
     with pytest.raises(ValueError, match="start_input"):
         write_urscript(tmp_path, times, verdict.joints, start_input=9)
     with pytest.raises(ValueError, match=r"joints\[0\]"):
@@ -200,11 +208,12 @@ def _timeline(joints, arrivals, actions) -> ProgramTimeline:
 
 
 def test_urscript_writes_the_gripper_actions_at_their_waypoints(tmp_path):
-    _, verdict, times, _, _ = _verified()
+    cell, verdict, times, pos, rot = _verified()
     last = len(times) - 1
     placed = place_actions((GripperAction("grasp", 0, 0.5), GripperAction.regrasp_at(3, 0.4, 0.5),
                             GripperAction("release", last, 0.4)), np.arange(len(times)))
     files = write_urscript(tmp_path, times, verdict.joints, actions=placed, blend=0.001,
+                           tcp_positions=_base_poses(cell, pos, rot)[0],
                            gripper={"output": 1, "tool": True, "closed": False})
     for path in files:
         text = path.read_text()
@@ -220,6 +229,25 @@ def test_urscript_writes_the_gripper_actions_at_their_waypoints(tmp_path):
     with pytest.raises(ValueError, match="ready_output"):
         write_urscript(tmp_path, times, verdict.joints,
                        gripper={"output": 0, "tool": False, "closed": True})
+
+
+@pytest.mark.parametrize("mode", ["movej", "movel"])
+def test_urscript_blends_never_overlap(tmp_path, mode):
+    """A blend radius wider than half a TCP segment is written as half of the shorter segment
+    beside its waypoint (UR's controller does not blend across overlapping radii: the sweep's
+    UR5e job with a 20 mm blend had 18 mm segments), and the header says so."""
+    cell, verdict, times, pos, rot = _verified()
+    tcp_pos, tcp_rv = _base_poses(cell, pos, rot)
+    files = write_urscript(tmp_path, times, verdict.joints, tcp_positions=tcp_pos,
+                           tcp_rotvecs=tcp_rv, mode=mode, blend=0.05)
+    for a, path in enumerate(files):
+        text = path.read_text()
+        radii = np.array([m[2]["r"] for m in parse_urscript(text)["moves"][1:]])
+        segments = np.linalg.norm(np.diff(tcp_pos[:, a], axis=0), axis=1)
+        assert np.all(radii[:-1] + radii[1:] <= segments[1:] + 1e-9)
+        assert radii[0] <= segments[0] / 2 + 1e-9 and radii[-1] == 0.0
+        assert np.all(radii[:-1] > 0)
+        assert "Blend radius 0.050000000 m reduced at 4 of 4 waypoints" in text
 
 
 def test_ros_joint_trajectory_holds_the_verified_ik_while_the_gripper_acts(tmp_path):

@@ -55,6 +55,7 @@ The table is printed and written as ``OUT/sweep.md`` and ``OUT/sweep.json`` (def
 from __future__ import annotations
 
 import argparse
+import contextlib
 import copy
 import csv
 import json
@@ -62,6 +63,7 @@ import os
 import re
 import resource
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -110,6 +112,8 @@ class Case:
     reads: tuple[str, ...] = ()              # other cases whose plans it reads
     check: Callable[[Case, dict[str, Case]], list[str]] | None = None  # flags from its files
     expect: tuple[str, ...] = ()             # a refusal (exit 2) whose line names all these
+    interrupt: float | None = None           # SIGINT to its process group after this [s]
+    keep: bool = False                       # run on its output as it is (a resumed study)
     result: dict = field(default_factory=dict)
 
 
@@ -1092,6 +1096,26 @@ def _children_cpu() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
+def _run(argv: list[str], env: dict, timeout: float,
+         interrupt: float | None) -> tuple[int | None, str, str]:
+    """(exit code or None on a timeout, stdout, stderr) of one CLI run; with ``interrupt``,
+    SIGINT to its process group after that many seconds, as a terminal's Ctrl-C sends it."""
+    process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               env=env, cwd=ROOT, start_new_session=True)
+    try:
+        if interrupt is not None:
+            try:
+                process.wait(interrupt)
+            except subprocess.TimeoutExpired:
+                os.killpg(process.pid, signal.SIGINT)
+        stdout, stderr = process.communicate(timeout=timeout)
+        return process.returncode, stdout, stderr
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, signal.SIGKILL)
+        stdout, stderr = process.communicate()
+        return None, stdout or "", stderr or ""
+
+
 def run_case(case: Case, timeout: float, done: dict[str, Case]) -> None:
     for name in filter(None, (case.needs, *case.reads)):
         if done.get(name, Case("", [])).result.get("code") not in (0, 1, 3):
@@ -1105,20 +1129,13 @@ def run_case(case: Case, timeout: float, done: dict[str, Case]) -> None:
             case.result = {"code": None, "seconds": 0.0, "verdict": f"not made: {exc}",
                            "flags": []}
             return
-    if case.output is not None and case.output.exists():
+    if case.output is not None and case.output.exists() and not case.keep:
         shutil.rmtree(case.output) if case.output.is_dir() else case.output.unlink()
     argv = [sys.executable, "-m", "dloplan", *case.argv, "--json"]
     env = {**os.environ, "PYTHONWARNINGS": "ignore"}
     t0 = time.perf_counter()
     cpu0 = _children_cpu()
-    try:
-        run = subprocess.run(argv, capture_output=True, text=True, timeout=timeout, env=env,
-                             cwd=ROOT)
-        code, stdout, stderr = run.returncode, run.stdout, run.stderr
-    except subprocess.TimeoutExpired as exc:
-        code = None
-        stdout = exc.stdout.decode() if isinstance(exc.stdout, bytes) else (exc.stdout or "")
-        stderr = exc.stderr.decode() if isinstance(exc.stderr, bytes) else (exc.stderr or "")
+    code, stdout, stderr = _run(argv, env, timeout, case.interrupt)
     seconds = time.perf_counter() - t0
     cpu = _children_cpu() - cpu0
     summary = parse_summary(stdout)
@@ -1151,7 +1168,7 @@ def run_case(case: Case, timeout: float, done: dict[str, Case]) -> None:
             case.result["note"] = (case.result.get("note", "") +
                                    f"; exit {code}, base exit {base.result.get('code')}")
     if case.check is not None and code is not None:
-        case.result["code"] = code
+        case.result.update({"code": code, "summary": summary})
         try:
             flags += case.check(case, done)
         except Exception as exc:  # noqa: BLE001 - the sweep reports, never stops
@@ -1160,6 +1177,7 @@ def run_case(case: Case, timeout: float, done: dict[str, Case]) -> None:
     if code == 2 or not verdict:
         verdict = verdict_line("", stderr, None) or verdict
     case.result.update({"code": code, "seconds": round(seconds, 1), "cpu": round(cpu, 1),
+                        "summary": summary,
                         "verdict": verdict,
                         "flags": flags, "stderr_tail": stderr[-2000:]})
 
@@ -1195,11 +1213,13 @@ def main(argv=None) -> int:
     TOLERANCE = args.tolerance
     out = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
+    from sweep_round3 import round3_cases
+
     cases = (job_cases(out, args.quick) + document_cases(out, args.quick)
              + identify_cases(out, args.quick) + measurement_cases(out, args.quick)
              + study_cases(out, args.quick) + rapid_cases(out, args.quick)
              + hostile_cases(out, args.quick) + harness_cases(out, args.quick)
-             + refine_cases(out, args.quick))
+             + refine_cases(out, args.quick) + round3_cases(out, args.quick))
     if args.only:
         patterns = args.only.split(",")
         wanted = [c for c in cases if any(p in c.name for p in patterns)]
@@ -1213,7 +1233,8 @@ def main(argv=None) -> int:
         return 0
     done: dict[str, Case] = {}
     for case in cases:
-        run_case(case, args.timeout, done)
+        with case.setup() if hasattr(case, "setup") else contextlib.nullcontext():
+            run_case(case, args.timeout, done)
         done[case.name] = case
         r = case.result
         print(f"{case.name:55s} exit {r.get('code')!s:4s} {r.get('seconds', 0):5.1f} s "
@@ -1230,4 +1251,5 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
+    sys.modules.setdefault("unseen_sweep", sys.modules["__main__"])  # one module for round 3
     sys.exit(main())

@@ -24,7 +24,11 @@ Each arm gets ``<stem>_<arm>.script``, one ``def ... end`` program that
 
    and at every waypoint where the plan has a gripper action (grasp, release, regrasp;
    :mod:`dloplan.robot.actions`), its commands: ``dloplan_grip_close()`` or
-   ``dloplan_grip_open()`` each followed by ``sleep(wait)`` with the planned wait;
+   ``dloplan_grip_open()`` each followed by ``sleep(wait)`` with the planned wait. A blend
+   radius ``r`` is written at a waypoint only up to half of the TCP segments on either side of
+   it (:func:`blend_radii`): UR's controller does not blend across overlapping radii (its
+   manual: "blends cannot overlap"); where the blend is reduced the header says so. A blend
+   leaves the verified path by up to ``r`` at the corner;
 6. lowers the ready output.
 
 **Not synchronized past the start**: each controller runs its own clock, so the arms drift
@@ -90,6 +94,27 @@ def _action_summary(actions) -> str:
                      for p in actions)
 
 
+def blend_radii(positions, blend: float, stops) -> np.ndarray:
+    """(M,) the blend radius [m] written at each waypoint of one arm: ``blend`` at most half of
+    the TCP segment before and after it (so no two radii overlap), 0 at the first and last
+    waypoint and where ``stops`` (a gripper acts there).
+
+    Parameters
+    ----------
+    positions : array_like
+        (M, 3) the arm's TCP at each waypoint [m] (any frame fixed to the arm's base).
+    blend : float
+        The blend radius asked [m].
+    stops : sequence of bool
+        (M,) whether the arm stands at each waypoint.
+    """
+    segments = np.linalg.norm(np.diff(np.asarray(positions, float), axis=0), axis=1)
+    radii = np.zeros(len(segments) + 1)
+    radii[1:-1] = np.minimum(blend, 0.5 * np.minimum(segments[:-1], segments[1:]))
+    radii[np.asarray(stops, bool)] = 0.0
+    return radii
+
+
 def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=None,
                    speeds=None, tcp_offsets=None, mode: str = "movej", blend: float = 0.0,
                    acceleration: float = 1.2, start_speed: float = 0.5,
@@ -107,7 +132,8 @@ def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=Non
     joints : sequence of array_like
         Per arm (M, 6) the verified joint values [rad] (controller order, base to wrist 3).
     tcp_positions : array_like, optional
-        (M, A, 3) TCP positions [m] in each arm's base frame; required for ``movel``.
+        (M, A, 3) TCP positions [m] in each arm's base frame; required for ``movel`` and for
+        a ``blend`` (its radius is kept within half of each segment).
     tcp_rotvecs : array_like, optional
         (M, A, 3) TCP orientations as rotation vectors [rad] in each arm's base frame.
     speeds : array_like, optional
@@ -118,7 +144,8 @@ def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=Non
     mode : str
         ``"movej"`` or ``"movel"``.
     blend : float
-        Blend radius [m] of every intermediate waypoint (0: stop exactly at each).
+        Blend radius [m] of every intermediate waypoint, at most half of the TCP segments
+        beside it (0: stop exactly at each).
     acceleration : float
         ``movel`` tool acceleration [m/s^2].
     start_speed : float
@@ -162,10 +189,14 @@ def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=Non
     for name, value in (("start_input", start_input), ("ready_output", ready_output)):
         if value not in range(8):
             raise ValueError(f"{name}: expected a standard digital I/O index 0..7, got {value!r}")
+    if blend > 0 and tcp_positions is None:
+        raise ValueError("tcp_positions: required for a blend (its radius is kept within half "
+                         "of each segment)")
+    if tcp_positions is not None:
+        pos = _check("tcp_positions", tcp_positions, (n_points, n_arms, 3))
     if mode == "movel":
         if tcp_positions is None or tcp_rotvecs is None:
             raise ValueError("tcp_positions, tcp_rotvecs: required for mode 'movel'")
-        pos = _check("tcp_positions", tcp_positions, (n_points, n_arms, 3))
         rvec = _check("tcp_rotvecs", tcp_rotvecs, (n_points, n_arms, 3))
         if speeds is None:
             dist = np.linalg.norm(np.diff(pos, axis=0), axis=-1)
@@ -189,11 +220,19 @@ def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=Non
         f"  def dloplan_grip_{command}():",
         f"    {setter}({grip['output']}, {levels[command]})",
         "  end")]
+    stops = [bool(at[k]) for k in range(n_points)]
+    radii = [blend_radii(pos[:, a], blend, stops) if blend > 0 else np.zeros(n_points)
+             for a in range(n_arms)]
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     texts = {}
     for a, arm in enumerate(arms):
         name = f"{stem}_{arm}"
+        reduced = [k for k in range(1, n_points - 1) if not stops[k] and radii[a][k] < blend]
+        blend_note = ([f"# Blend radius {_number(blend)} m reduced at {len(reduced)} of "
+                       f"{n_points - 2} waypoints to half of the TCP segments beside them (UR: "
+                       f"blends cannot overlap), smallest {_number(radii[a][reduced].min())} m."]
+                      if reduced else [])
         lines = [f"# {name}.script: dloplan plan for the {arm} arm ({n_points} waypoints, "
                  f"{t[-1] - t[0]:.3f} s, {mode}).",
                  "# Poses in this arm's base frame [m, rad]; joints [rad]. Setup: docs/cells.md.",
@@ -201,6 +240,7 @@ def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=Non
                  "both, run the ur_rtde program.",
                  f"# Gripper actions: {_action_summary(actions)}; hooks dloplan_grip_close/"
                  f"open ({setter} {grip['output']}, closed = {levels['close']}).",
+                 *blend_note,
                  *(f"# {note}" for note in notes),
                  f"def {name}():"]
         if offsets is not None:
@@ -215,7 +255,7 @@ def write_urscript(folder, times, joints, *, tcp_positions=None, tcp_rotvecs=Non
                   "  end"]
         lines += _action_lines(at[0])
         for k in range(1, n_points):
-            r = blend if k < n_points - 1 and not at[k] else 0.0
+            r = radii[a][k]
             if mode == "movej":
                 lines.append(f"  movej({_list(q[a][k])}, t={_number(t[k] - t[k - 1])}, "
                              f"r={_number(r)})")
