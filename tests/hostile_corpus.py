@@ -532,6 +532,12 @@ def _cases() -> list[Case]:  # noqa: C901 - one long table
         ("study-workers-million", "study {study} --workers 1000000 -o {out}", "--workers"),
         ("study-scheduler-nonsense", "study {study} --scheduler nonsense -o {out}",
          "scheduler"),
+        # local workers and a Dask cluster at once: the workers were ignored silently
+        ("study-workers-and-scheduler",
+         "study {study} --workers 2 --scheduler tcp://127.0.0.1:9 -o {out}", "not allowed with"),
+        ("plan-workers-and-scheduler",
+         "plan {job} {job} --workers 2 --scheduler tcp://127.0.0.1:9 -o {out}",
+         "not allowed with"),
         ("study-over-its-scenario", "study {study} -o {study}", "input"),
         ("study-no-section", "study {job} -o {out}", "nothing to vary"),
         ("plan-workers-zero", "plan {job} {job} --workers 0 -o {out}", "--workers"),

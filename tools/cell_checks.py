@@ -56,18 +56,19 @@ convention), ``panda_link0`` to joint 7; the flange is 0.107 m along z and the h
 VENDOR = {
     "ur5e": {"joints": ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
                         "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"),
-             "velocity": (np.pi,) * 6, "acceleration": None,
+             "velocity": (np.pi,) * 6, "acceleration": None, "jerk": None,
              "lower": (-2 * np.pi, -2 * np.pi, -np.pi, -2 * np.pi, -2 * np.pi, -2 * np.pi),
              "upper": (2 * np.pi, 2 * np.pi, np.pi, 2 * np.pi, 2 * np.pi, 2 * np.pi)},
     "panda": {"joints": tuple(f"panda_joint{k}" for k in range(1, 8)),
               "velocity": (2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61),
               "acceleration": (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0),
+              "jerk": (7500.0, 3750.0, 5000.0, 6250.0, 7500.0, 10000.0, 10000.0),
               "lower": (-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973),
               "upper": (2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973)},
 }
 """Published limits [rad, rad/s, rad/s^2]: UR5e technical specifications (180 deg/s every joint,
 +-360 deg; ``ur_description``'s ``joint_limits.yaml`` keeps the elbow within +-180 deg, no
-acceleration limit published); Franka's FCI limits (q_min/q_max, dq_max, ddq_max)."""
+acceleration limit published); Franka's FCI limits (q_min/q_max, dq_max, ddq_max, dddq_max)."""
 
 
 def _dh(theta, d, a, alpha):
@@ -312,6 +313,13 @@ def _sampled_problems(cell: Cell, folder: Path, data: dict, label: str, times: n
             if ratio > 1.0:
                 problems.append(f"{label} {side}: joint acceleration {ratio:.0%} of the "
                                 f"vendor's limit")
+        if vendor["jerk"] is not None and accelerations is not None:
+            jerk = np.abs(np.diff(accelerations[side], axis=0)) / dt[:, None]
+            ratio = (jerk / np.asarray(vendor["jerk"])).max()
+            if ratio > 1.0:
+                k = int(np.argmax((jerk / np.asarray(vendor["jerk"])).max(axis=1)))
+                problems.append(f"{label} {side}: joint jerk {ratio:.0%} of the vendor's limit "
+                                f"at t = {times[k]:.3f} s")
     return problems
 
 

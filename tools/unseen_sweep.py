@@ -27,6 +27,12 @@ naming what it expects (``expect``); the harness jobs with other cables, a fixtu
 fixtures closer, one fixture, mirrored, through ``plan --verify``; and one job at n = 10, 20,
 40 and with two other grips, whose end shapes must agree within ``AGREEMENT * L / n``.
 
+Round 3 (``--only r3/``; ``r3/cells``, ``r3/obstacle``, ``r3/identify``, ``r3/study``,
+``r3/interrupt``, ``tools/sweep_round3.py``) reads the UR5e and Panda programs back with the
+vendors' kinematics and limits, turns and mirrors the obstacle job and the identification, runs
+studies on a Dask scheduler and with bad study sections, and interrupts studies,
+identifications and plans with Ctrl-C.
+
 For each run the table records the exit code, the one-line verdict, the wall time and the flags:
 
 ``traceback``   a Python traceback on stdout or stderr
@@ -45,6 +51,10 @@ For each run the table records the exit code, the one-line verdict, the wall tim
 ``round trip``  an export or verify of a plan that disagrees with the plan (round 2)
 ``discretization``, ``grip``  end shapes of one job that disagree across n or grips (round 2)
 ``check``       a round-2 check that could not run (its exception)
+``json``        ``--json`` printed NaN or Infinity: Python reads it, strict JSON readers do not
+``cell``        a described cell's program that reads back otherwise than the plan or the
+                vendor's kinematics and limits (round 3, ``tools/cell_checks.py``)
+``obstacle``, ``identify``, ``study``, ``interrupt``  round 3's checks (``tools/sweep_round3.py``)
 ``hang``        the run hit the timeout (wall time: on a shared machine read it with the CPU
                 time of the runs that finished)
 
@@ -452,6 +462,8 @@ def flags_of(case: Case, code: int | None, stdout: str, stderr: str,
                and not HARMLESS_WARNINGS.search(str(w))]
         if ok and bad:
             flags.append("warning: ok but " + str(bad[0])[:100])
+    if summary is not None and re.search(r"(?<![\w\"])(NaN|-?Infinity)(?![\w\"])", stdout):
+        flags.append("json: --json printed NaN or Infinity (not JSON, RFC 8259)")
     if case.expect and code != 2:
         flags.append(f"refusal: exit {code}, expected 2")
     if code == 2:  # the whole error line (the verdict is cut at 160 characters)
@@ -465,7 +477,7 @@ def flags_of(case: Case, code: int | None, stdout: str, stderr: str,
             flags.append(f"message: no {missing} in: " + line[:100])
         elif not re.search(r"expected|need|must|got|at least|at most|within|should|"
                            r"transform it|reverse|look like|not where|only|no |cannot|outside|"
-                           r"takes", line, re.I):
+                           r"takes|not allowed", line, re.I):
             flags.append("message: " + line[:100])
     if code == 3 and case.output is not None and case.output.is_dir():
         programs = [p.name for p in case.output.iterdir()
@@ -484,7 +496,8 @@ def flags_of(case: Case, code: int | None, stdout: str, stderr: str,
 # the cases
 
 
-def _write(path: Path, data: dict) -> Path:
+def write_yaml(path: Path, data: dict) -> Path:
+    """Write ``data`` as YAML to ``path`` (its folder made); returns ``path``."""
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(yaml.safe_dump(data, sort_keys=False))
     return path
@@ -516,7 +529,7 @@ def job_cases(out: Path, quick: bool) -> list[Case]:
             variants["E_half"] = with_modulus(job, 0.5)
         for tag, data in variants.items():
             name = f"{stem}/{tag}"
-            path = _write(out / "jobs" / stem / f"{tag}.yaml", data)
+            path = write_yaml(out / "jobs" / stem / f"{tag}.yaml", data)
             target = out / "runs" / stem / tag
             compare = {"mirror": ("mirror", "base"), "mm": ("mm", "base"),
                        "rigid": ("rigid", "base")}.get(tag)
@@ -535,7 +548,7 @@ def job_cases(out: Path, quick: bool) -> list[Case]:
         if quick:
             variants.pop("mm")
         for tag, data in variants.items():
-            path = _write(out / "jobs" / cell.stem / f"{tag}.yaml", data)
+            path = write_yaml(out / "jobs" / cell.stem / f"{tag}.yaml", data)
             target = out / "runs" / cell.stem / tag
             cases.append(Case(f"{cell.stem}/{tag}", ["plan", str(path), "--verify", "-o",
                                                      str(target)], target))
@@ -543,7 +556,7 @@ def job_cases(out: Path, quick: bool) -> list[Case]:
         for stem in HARNESS_JOBS:
             job = yaml.safe_load((EXAMPLES / f"{stem}.yaml").read_text())
             for tag, data in {"mirror": mirror(job), "mm": to_millimetres(job)}.items():
-                path = _write(out / "jobs" / stem / f"{tag}.yaml", data)
+                path = write_yaml(out / "jobs" / stem / f"{tag}.yaml", data)
                 target = out / "runs" / stem / tag
                 cases.append(Case(f"{stem}/{tag}", ["plan", str(path), "-o", str(target)],
                                   target))
@@ -608,7 +621,7 @@ def identify_cases(out: Path, quick: bool) -> list[Case]:
                                           "youngs_modulus": "identify"}}
     cases = []
     for tag, job in variants.items():
-        path = _write(out / "jobs" / "identify" / f"{tag}.yaml", job)
+        path = write_yaml(out / "jobs" / "identify" / f"{tag}.yaml", job)
         target = out / "runs" / "identify" / tag
         cases.append(Case(f"identify/{tag}", ["identify", str(path), "-o", str(target)],
                           target, "identify"))
@@ -744,7 +757,7 @@ def study_cases(out: Path, quick: bool) -> list[Case]:
         variants["cable_pa12"] = with_cable(job, "pa12")
     cases = []
     for tag, data in variants.items():
-        path = _write(out / "jobs" / "study" / f"{tag}.yaml", data)
+        path = write_yaml(out / "jobs" / "study" / f"{tag}.yaml", data)
         target = out / "runs" / "study" / tag
         cases.append(Case(f"study/{tag}", ["study", str(path), "--samples", "3", "--workers",
                                            "1", "--csv", "-o", str(target)], target, "study"))
@@ -818,7 +831,7 @@ def rapid_cases(out: Path, quick: bool) -> list[Case]:
             variants["mirror_mm"] = to_millimetres(mirror(job))
         for tag, data in variants.items():
             name = f"r2/rapid/{stem}/{tag}"
-            path = _write(out / "jobs" / "r2" / stem / f"{tag}.yaml", data)
+            path = write_yaml(out / "jobs" / "r2" / stem / f"{tag}.yaml", data)
             target = out / "runs" / "r2" / stem / tag
             cases.append(Case(name, ["plan", str(path), "--verify", "-o", str(target)], target,
                               check=_rapid_check(_base(data))))
@@ -962,7 +975,7 @@ def hostile_cases(out: Path, quick: bool) -> list[Case]:
              ("measurement_noise", "-1"))]:
         data = copy.deepcopy(ident)
         change(data["identify"])
-        path = _write(folder / tag / "ident.yaml", data)
+        path = write_yaml(folder / tag / "ident.yaml", data)
         target = out / "runs" / "r2" / "hostile" / tag
         cases.append(Case(f"r2/hostile/{tag}", ["identify", str(path), "-o", str(target)],
                           target, "identify", expect=expect))
@@ -1020,7 +1033,7 @@ def harness_cases(out: Path, quick: bool) -> list[Case]:
     for stem in HARNESS_JOBS[:1] if quick else HARNESS_JOBS:
         job = yaml.safe_load((EXAMPLES / f"{stem}.yaml").read_text())
         for tag, data in _harness_variants(stem, job).items():
-            path = _write(out / "jobs" / "r2" / stem / f"{tag}.yaml", data)
+            path = write_yaml(out / "jobs" / "r2" / stem / f"{tag}.yaml", data)
             target = out / "runs" / "r2" / stem / tag
             cases.append(Case(f"r2/harness/{stem}/{tag}", ["plan", str(path), "--verify", "-o",
                                                             str(target)], target,
@@ -1067,7 +1080,7 @@ def refine_cases(out: Path, quick: bool) -> list[Case]:
         job = yaml.safe_load((EXAMPLES / f"{stem}.yaml").read_text())
         length = job["cable"].get("length") or catalogue_cable(job["cable"]["name"]).length
         for k, n in enumerate(REFINED_LINKS):
-            path = _write(out / "jobs" / "r2" / "refine" / stem / f"n{n}.yaml",
+            path = write_yaml(out / "jobs" / "r2" / "refine" / stem / f"n{n}.yaml",
                           with_links(job, n))
             target = out / "runs" / "r2" / "refine" / stem / f"n{n}"
             check = _agreement(stem, REFINED_LINKS[k - 1], n, length) if k else None
@@ -1076,7 +1089,7 @@ def refine_cases(out: Path, quick: bool) -> list[Case]:
                               reads=(f"r2/refine/{stem}/n{REFINED_LINKS[k - 1]}",) if k else ()))
         n = REFINED_LINKS[1]
         for method in ("minimal", "rigid"):
-            path = _write(out / "jobs" / "r2" / "refine" / stem / f"n{n}_{method}.yaml",
+            path = write_yaml(out / "jobs" / "r2" / "refine" / stem / f"n{n}_{method}.yaml",
                           with_grip(with_links(job, n), method))
             target = out / "runs" / "r2" / "refine" / stem / f"n{n}_{method}"
             cases.append(Case(f"r2/refine/{stem}/n{n} grip {method}",
@@ -1096,12 +1109,20 @@ def _children_cpu() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
+def _default_sigint() -> None:
+    """SIGINT's default action in the child: a sweep started in the background of a
+    non-interactive shell ignores SIGINT, and a command keeps an ignored signal ignored (as
+    ``nohup`` asks), so the Ctrl-C cases would interrupt nothing."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _run(argv: list[str], env: dict, timeout: float,
          interrupt: float | None) -> tuple[int | None, str, str]:
     """(exit code or None on a timeout, stdout, stderr) of one CLI run; with ``interrupt``,
     SIGINT to its process group after that many seconds, as a terminal's Ctrl-C sends it."""
     process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               env=env, cwd=ROOT, start_new_session=True)
+                               env=env, cwd=ROOT, start_new_session=True,
+                               preexec_fn=_default_sigint if interrupt is not None else None)
     try:
         if interrupt is not None:
             try:

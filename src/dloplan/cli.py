@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import numbers
 import os
 import signal
 import sys
@@ -110,7 +111,7 @@ def _cmd_cables(args: argparse.Namespace) -> int:
     if args.json:
         from .cable import CATALOGUE_NAMES, catalogue_cable
 
-        print(json.dumps({"n_links": args.links, "bending": "rod", "cables": {
+        print(json_text({"n_links": args.links, "bending": "rod", "cables": {
             name: catalogue_cable(name, n_links=args.links).constants()
             for name in CATALOGUE_NAMES}}, indent=2))
         return EXIT_OK
@@ -196,6 +197,28 @@ def integer(low: int, high: int | None = None):
     return parse
 
 
+def _finite(value):
+    """``value`` with every number that is not finite (NaN, an infinity: a quantity not
+    defined, such as a failed identification's E) replaced by None, in dicts, lists and
+    tuples."""
+    if isinstance(value, dict):
+        return {key: _finite(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(item) for item in value]
+    if isinstance(value, numbers.Real) and not isinstance(value, numbers.Integral) \
+            and not math.isfinite(value):
+        return None
+    return value
+
+
+def json_text(data, **options) -> str:
+    """``data`` as strict JSON (RFC 8259 has no NaN or infinity: such a number is written as
+    ``null``), what ``--json`` prints: ``json.loads`` of Python reads ``NaN``, but most readers
+    (JavaScript's ``JSON.parse``, ``jq``, serde) refuse the whole answer. ``options`` are
+    :func:`json.dumps`'s."""
+    return json.dumps(_finite(data), allow_nan=False, **options)
+
+
 class Parser(argparse.ArgumentParser):
     """argparse with one-line errors: ``dloplan plan: error: argument --workers: got '0',
     expected an integer in 1..256 (dloplan plan --help)``, exit 2, as for every bad input."""
@@ -207,7 +230,7 @@ class Parser(argparse.ArgumentParser):
 def _cmd_schema(args: argparse.Namespace) -> int:
     from .app.schema import scenario_json_schema
 
-    print(json.dumps(scenario_json_schema(), indent=2))
+    print(json_text(scenario_json_schema(), indent=2))
     return EXIT_OK
 
 
@@ -224,7 +247,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     report = check_job(job)
     console.stage("checked start, target, target stability and obstacles")
     if args.json:
-        print(json.dumps({"findings": [f.__dict__ for f in report.findings],
+        print(json_text({"findings": [f.__dict__ for f in report.findings],
                           "errors": len(report.errors), "warnings": len(report.warnings)},
                          indent=2))
     else:
@@ -248,7 +271,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
     written = export_plan(doc, args.format, Path(args.output), WriteOptions(rate=args.rate))
     console.stage(f"wrote {', '.join(str(p) for p in written)}")
     if args.json:
-        print(json.dumps({"written": [str(p) for p in written]}))
+        print(json_text({"written": [str(p) for p in written]}))
     twisted = doc.grippers is not None and not doc.grippers.success
     return EXIT_WARNINGS if twisted else EXIT_OK
 
@@ -284,7 +307,7 @@ def _cmd_correct(args: argparse.Namespace) -> int:
               f"{'checks' if args.no_verify else 'verification'} and writing {len(written)} "
               "files included)")
     if args.json:
-        print(json.dumps({**result.report(), "command_seconds": wall,
+        print(json_text({**result.report(), "command_seconds": wall,
                           "command_cpu_seconds": cpu, "written": [str(p) for p in written]}))
     else:
         print(result.message)
@@ -340,7 +363,7 @@ def _serve_corrections(doc, options: dict) -> int:
             answer = {"ok": False, "error": f"request: {exc}"}
         except RecursionError:
             answer = {"ok": False, "error": "request: nested too deeply"}
-        print(json.dumps(answer), flush=True)
+        print(json_text(answer), flush=True)
     return EXIT_OK
 
 
@@ -370,7 +393,7 @@ def _cmd_verify(args: argparse.Namespace) -> int:
 
         program = program_of(doc)
     if args.json:
-        print(json.dumps({**result.to_dict(), "robot": None if program is None
+        print(json_text({**result.to_dict(), "robot": None if program is None
                           else program.to_dict()}, indent=2))
     else:
         print(result.table())
@@ -413,7 +436,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
                          images=[p for p in written if p.suffix == ".png"])
         report = Path(args.output) / "report.html"
         console.stage(f"figures: {', '.join(p.name for p in written)}; report: {report}")
-    print(json.dumps({"rows": result.rows(), "message": result.message}, indent=2, default=float)
+    print(json_text({"rows": result.rows(), "message": result.message}, indent=2, default=float)
           if args.json else result.table())
     return EXIT_WARNINGS if result.reversed_shapes else EXIT_OK
 
@@ -473,7 +496,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         console.stage(f"scoring experiments for the {cable.name or 'cable'} at E = "
                       f"{cable.youngs_modulus:.3g} Pa, {args.noise:g} mm noise")
         report = recommend_design(cable, noise=1e-3 * args.noise, n_measured=args.points)
-        print(json.dumps(report.to_dict(), indent=2) if args.json else "\n".join(report.lines()))
+        print(json_text(report.to_dict(), indent=2) if args.json else "\n".join(report.lines()))
         return EXIT_OK if report.recommended is not None else EXIT_FAILURE
     if args.experiment is None:
         raise ValueError("experiment: give an identification file (or --design --cable NAME)")
@@ -492,13 +515,13 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         with staged_files(args.output) as folder:
             written = save_figure(figure, folder, "identification_cost")
         console.stage("figure: " + ", ".join(str(Path(args.output) / p.name) for p in written))
-    print(json.dumps(to_dict(result), indent=2) if args.json else "\n".join(report_lines(result)))
+    print(json_text(to_dict(result), indent=2) if args.json else "\n".join(report_lines(result)))
     return exit_code(result)
 
 
 def _print_plan(doc, written, args) -> None:
     if args.json:
-        print(json.dumps({
+        print(json_text({
             "scenario": doc.source, "ok": doc.ok, "warnings": list(doc.warnings),
             "n_shapes": doc.n_shapes,
             "family": None if doc.stages is None else doc.stages.family,
@@ -642,7 +665,7 @@ def _study(args: argparse.Namespace) -> int:
                           images=[p for p in written if p.suffix == ".png"])
     console.stage(f"{len(written)} figures and the report {report} in {args.output}")
     if args.json:
-        print(json.dumps({"scenario": str(args.scenario), "plan_ok": bool(doc.ok),
+        print(json_text({"scenario": str(args.scenario), "plan_ok": bool(doc.ok),
                           "summary": result.summary.to_dict(), "report": str(report),
                           "figures": [str(p) for p in written]}, indent=2))
     else:
@@ -671,7 +694,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
             written = write_comparison_figures(comparison, folder, "xz")
         console.stage(f"figures: {', '.join(p.name for p in written)}")
     if args.json:
-        print(json.dumps({"ok": run.ok, "message": run.message, "rows": comparison.rows()},
+        print(json_text({"ok": run.ok, "message": run.message, "rows": comparison.rows()},
                          indent=2, default=float))
     else:
         print(run.message)
@@ -721,10 +744,11 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--no-repair", action="store_true", help="report failed "
                       "checks without repairing the plan (docs/repair.md)")
     plan.add_argument("--allow-placement", action="store_true", help=ALLOW_PLACEMENT)
-    plan.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1,
-                      help="batch: local worker processes")
-    plan.add_argument("--scheduler", type=scheduler_address,
-                      help="batch: Dask scheduler address tcp://HOST:PORT")
+    backend = plan.add_mutually_exclusive_group()  # local workers or a Dask cluster, not both
+    backend.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1,
+                         help="batch: local worker processes")
+    backend.add_argument("--scheduler", type=scheduler_address,
+                         help="batch: Dask scheduler address tcp://HOST:PORT")
 
     demo = command("demo", _cmd_demo, "run the embedded default job (needs no input)")
     demo.add_argument("-o", "--output", default="out/demo", help="output folder")
@@ -737,10 +761,11 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--samples", type=integer(1, MAX_STUDY_SAMPLES),
                        help="override the number of samples")
     study.add_argument("--seed", type=integer(0), help="override the seed")
-    study.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1,
-                       help="local worker processes")
-    study.add_argument("--scheduler", type=scheduler_address,
-                       help="Dask scheduler address tcp://HOST:PORT")
+    backend = study.add_mutually_exclusive_group()
+    backend.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1,
+                         help="local worker processes")
+    backend.add_argument("--scheduler", type=scheduler_address,
+                         help="Dask scheduler address tcp://HOST:PORT")
     study.add_argument("--csv", action="store_true", help="CSV instead of Parquet")
     study.add_argument("--overwrite", action="store_true", help="start over, do not resume")
     study.add_argument("-o", "--output", default="out/study", help="study folder")

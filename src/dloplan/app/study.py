@@ -45,7 +45,8 @@ def study_spec(job: Job, samples: int | None = None, seed: int | None = None) ->
     data.update({k: v for k, v in (("samples", samples), ("seed", seed)) if v is not None})
     spec = parse_study(data, f"{job.source}: study")
     if not spec.parameters:
-        raise StudyError(f"{job.source}: study.parameters: none given: nothing varies")
+        raise StudyError(f"{job.source}: study.parameters: none given: nothing varies; "
+                         "expected at least one parameter with its spread (docs/study.md)")
     last = job.planner.n_shapes  # shapes 0 .. S + 1; the target cannot be corrected
     if spec.correction is not None and spec.correction.at > last:
         raise StudyError(f"{job.source}: study.correction.at: got {spec.correction.at}, "
