@@ -79,8 +79,8 @@ def facing_ur5e(job: dict) -> dict:
     """The UR5e job on two UR5e given by path, across the table from each other (bases at
     y = +-0.55 m, each turned to face the other), the programs in their own base frames."""
     out = copy.deepcopy(job)
-    urdf = str((Path(__file__).resolve().parents[1] / "src" / "dloplan" / "robot" / "data"
-                / "ur5e.urdf"))
+    urdf = str(Path(__file__).resolve().parents[1] / "src" / "dloplan" / "robot" / "data"
+                / "ur5e.urdf")
     arm = {"urdf": urdf, "tip_link": "tool0", "tcp_offset": [0.0, 0.0, 0.15],
            "tool_radius": 0.045, "home_deg": [0, -90, 90, -90, -90, 0]}
     out["robot"]["cell"] = {"name": "facing_ur5e", "arms": {

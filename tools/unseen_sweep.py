@@ -446,6 +446,18 @@ def parse_summary(stdout: str) -> dict | None:
     return data if isinstance(data, dict) else None
 
 
+def strict_json(stdout: str) -> bool:
+    """Whether the JSON on ``stdout`` holds no NaN or infinity (RFC 8259 has neither)."""
+    def refuse(constant):
+        raise ValueError(f"constant {constant}")
+
+    try:
+        json.loads(stdout[stdout.find("{"):], parse_constant=refuse)
+    except ValueError as exc:
+        return not str(exc).startswith("constant ")
+    return True
+
+
 def flags_of(case: Case, code: int | None, stdout: str, stderr: str,
              summary: dict | None) -> list[str]:
     flags = []
@@ -462,7 +474,7 @@ def flags_of(case: Case, code: int | None, stdout: str, stderr: str,
                and not HARMLESS_WARNINGS.search(str(w))]
         if ok and bad:
             flags.append("warning: ok but " + str(bad[0])[:100])
-    if summary is not None and re.search(r"(?<![\w\"])(NaN|-?Infinity)(?![\w\"])", stdout):
+    if summary is not None and not strict_json(stdout):
         flags.append("json: --json printed NaN or Infinity (not JSON, RFC 8259)")
     if case.expect and code != 2:
         flags.append(f"refusal: exit {code}, expected 2")
