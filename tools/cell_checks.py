@@ -27,11 +27,16 @@ import ast
 import csv
 import json
 import re
+import sys
 from pathlib import Path
 
 import numpy as np
 import yaml
 from scipy.spatial.transform import Rotation
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+# the tests' readers of the written programs: one reader of each format
+from program_readers import read_samples, read_trajectory, stream_settings  # noqa: E402
 
 TCP_TOLERANCE = 1e-4
 """A waypoint's TCP within 0.1 mm of the plan's [m] (9 decimals written)."""
@@ -331,37 +336,25 @@ def _ros_problems(cell: Cell, folder: Path, data: dict) -> list[str]:
     prefixes = data["robot"]["cell"]["writers"]["ros_joints"].get("joint_prefix") or ["", ""]
     times, joints, vel, acc = None, {}, {}, {}
     for a, (side, arm) in enumerate(cell.arms.items()):
-        message = yaml.safe_load((folder / "ros_joints" / f"dloplan_{side}_joint_trajectory.yaml")
-                                 .read_text())
+        path = folder / "ros_joints" / f"dloplan_{side}_joint_trajectory.yaml"
+        written = yaml.safe_load(path.read_text())["joint_names"]
         names = [f"{prefixes[a]}{n}" for n in VENDOR[arm["kind"]]["joints"]]
-        if message["joint_names"] != names:
-            problems.append(f"ros {side}: joint_names {message['joint_names']}, the controller's "
-                            f"{names}")
-        points = message["points"]
-        times = np.array([p["time_from_start"]["sec"] + 1e-9 * p["time_from_start"]["nanosec"]
-                          for p in points])
-        joints[side] = np.array([p["positions"] for p in points])
-        if "velocities" in points[0]:
-            vel[side] = np.array([p["velocities"] for p in points])
-            acc[side] = np.array([p["accelerations"] for p in points])
+        if written != names:
+            problems.append(f"ros {side}: joint_names {written}, the controller's {names}")
+        times, fields = read_trajectory(path)
+        joints[side] = fields["positions"]
+        if "velocities" in fields:
+            vel[side], acc[side] = fields["velocities"], fields["accelerations"]
     return problems + _sampled_problems(cell, folder, data, "ros", times, joints, holds,
                                         vel or None, acc or None)
 
 
 def _rtde_problems(cell: Cell, folder: Path, data: dict) -> list[str]:
-    text = (folder / "ur_rtde" / "dloplan_ur_pair.py").read_text()
-    block = text.split("# --- settings (written by dloplan) ---\n")[1].split(
-        "# --- end of settings ---")[0]
-    settings = {}
-    for node in ast.parse(block).body:
-        target = node.targets[0] if isinstance(node, ast.Assign) else node.target
-        settings[target.id] = ast.literal_eval(node.value)
+    settings = stream_settings(folder / "ur_rtde" / "dloplan_ur_pair.py")
     holds = sorted({(t, wait) for t, *_, wait in settings["ACTIONS"]})
-    rows = [r for r in csv.reader(line for line in (folder / "ur_rtde" / settings["SAMPLES"])
-                                  .open() if not line.startswith("#"))]
-    samples = np.array(rows[1:], dtype=float)
-    joints = {"left": samples[:, 1:7], "right": samples[:, 7:13]}
-    return _sampled_problems(cell, folder, data, "ur_rtde", samples[:, 0], joints, holds)
+    times, left, right = read_samples(folder / "ur_rtde" / settings["SAMPLES"])
+    return _sampled_problems(cell, folder, data, "ur_rtde", times, {"left": left,
+                                                                    "right": right}, holds)
 
 
 def cell_problems(folder: Path) -> list[str]:
