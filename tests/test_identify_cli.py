@@ -56,7 +56,8 @@ def test_an_uninformative_experiment_exits_2_with_one_line_why(tmp_path, capsys)
     assert first.startswith("identification failed: ")
     # --json is strict JSON (RFC 8259): E and its interval, not defined, are null, not NaN (a
     # JavaScript or jq reader refused the whole answer; found by the sweep's round 3)
-    assert main(["identify", str(path), "-q", "--json"]) == EXIT_FAILURE
+    out = tmp_path / "out"
+    assert main(["identify", str(path), "-q", "--json", "-o", str(out)]) == EXIT_FAILURE
 
     def refuse(constant):
         raise ValueError(f"{constant} is not JSON")
@@ -64,6 +65,7 @@ def test_an_uninformative_experiment_exits_2_with_one_line_why(tmp_path, capsys)
     doc = json.loads(capsys.readouterr().out, parse_constant=refuse)
     assert not doc["success"] and doc["youngs_modulus"] is None
     assert doc["confidence_interval"] == [None, None]
+    assert not out.exists()  # exit 2 writes nothing (the cost figure was written)
 
 
 def test_design_recommends_a_cantilever_for_a_stiff_hose(capsys):

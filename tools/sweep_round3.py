@@ -452,7 +452,7 @@ def _nothing_half(case: Case, done: dict) -> list[str]:
 def interrupt_cases(out: Path, quick: bool) -> list[Case]:
     study = out / "jobs" / "r3" / "study" / "good.yaml"
     cases = []
-    for seconds in (3.0, 6.0):
+    for seconds in (3.0, 12.0):
         target = out / "runs" / "r3" / "interrupt" / f"study_{seconds:g}s"
         cases.append(Case(f"r3/interrupt/study at {seconds:g} s", [
             "study", str(study), "--samples", "24", "--workers", "2", "--csv", "--seed", "5",
@@ -464,13 +464,13 @@ def interrupt_cases(out: Path, quick: bool) -> list[Case]:
             reads=("r3/study/local",),
             check=_same_study("r3/study/local")))
     ident = EXAMPLES / "identify_ethernet.yaml"
-    for seconds in (1.5, 4.0):
+    for seconds in (1.5, 8.0):
         target = out / "runs" / "r3" / "interrupt" / f"identify_{seconds:g}s"
         cases.append(Case(f"r3/interrupt/identify at {seconds:g} s", [
             "identify", str(ident), "-o", str(target)], target, "identify", interrupt=seconds,
             check=_nothing_half))
     plan = EXAMPLES / "qualitative2_ethernet_3d.yaml"
-    for seconds in (2.0, 5.0):
+    for seconds in (2.0, 12.0):
         target = out / "runs" / "r3" / "interrupt" / f"plan_{seconds:g}s"
         cases.append(Case(f"r3/interrupt/plan --verify at {seconds:g} s", [
             "plan", str(plan), "--verify", "-o", str(target)], target, interrupt=seconds,
@@ -551,7 +551,8 @@ def _plant_modulus(case: Case, done: dict) -> list[str]:
     from dloplan.cable import catalogue_cable
 
     summary = case.result.get("summary") or {}
-    if "youngs_modulus" not in summary:
+    if summary.get("youngs_modulus") is None:  # not identified: its reason is the verdict
+        case.result["note"] = str(summary.get("reason", ""))[:100]
         return []
     true = catalogue_cable("ethernet").youngs_modulus * PLANT_FACTOR
     low, high = summary["confidence_interval"]

@@ -506,12 +506,12 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     result = identify_youngs_modulus(job.cable, job.experiment, bounds=job.bounds,
                                      simulator=job.simulator)
     console.stage(f"{result.simulations} simulations")
-    if args.output:
+    if args.output and result.success:  # a failure (exit 2) writes nothing, as every exit 2
         from .output_files import staged_files
         from .plots.figures import identification_figure, save_figure
 
         figure = identification_figure(result.curve[:, 0], result.curve[:, 1],
-                                       result.youngs_modulus if result.success else None)
+                                       result.youngs_modulus)
         with staged_files(args.output) as folder:
             written = save_figure(figure, folder, "identification_cost")
         console.stage("figure: " + ", ".join(str(Path(args.output) / p.name) for p in written))
@@ -798,7 +798,8 @@ def build_parser() -> argparse.ArgumentParser:
                        "measured manipulation (thesis 6.1)")
     identify.add_argument("experiment", nargs="?", help="identification file (.yaml/.json) "
                           "or a scenario with an identify section")
-    identify.add_argument("-o", "--output", help="folder for the cost-vs-E figure")
+    identify.add_argument("-o", "--output", help="folder for the cost-vs-E figure (written "
+                          "when E is identified)")
     identify.add_argument("--design", action="store_true", help="score candidate experiments "
                           "by the predicted sd of E and recommend one")
     identify.add_argument("--cable", help="--design: catalogue cable name")
