@@ -446,6 +446,15 @@ def parse_summary(stdout: str) -> dict | None:
     return data if isinstance(data, dict) else None
 
 
+def _refusal(stderr: str, summary: dict | None) -> str:
+    """The line that says why a run exited 2: the ``--json`` answer's ``reason`` (a failed
+    identification), else the last line on stderr."""
+    if summary and isinstance(summary.get("reason"), str) and summary["reason"]:
+        return summary["reason"]
+    line = next((ln for ln in reversed(stderr.splitlines()) if ln.strip()), "")
+    return re.sub(r"^\[\s*[\d.]+ s\] ", "", line)
+
+
 def strict_json(stdout: str) -> bool:
     """Whether the JSON on ``stdout`` holds no NaN or infinity (RFC 8259 has neither)."""
     def refuse(constant):
@@ -479,7 +488,7 @@ def flags_of(case: Case, code: int | None, stdout: str, stderr: str,
     if case.expect and code != 2:
         flags.append(f"refusal: exit {code}, expected 2")
     if code == 2:  # the whole error line (the verdict is cut at 160 characters)
-        line = next((ln for ln in reversed(stderr.splitlines()) if ln.strip()), "")
+        line = _refusal(stderr, summary)
         if case.output is not None and case.output.exists() and any(case.output.iterdir()
                                                                      if case.output.is_dir()
                                                                      else [1]):
@@ -489,7 +498,7 @@ def flags_of(case: Case, code: int | None, stdout: str, stderr: str,
             flags.append(f"message: no {missing} in: " + line[:100])
         elif not re.search(r"expected|need|must|got|at least|at most|within|should|"
                            r"transform it|reverse|look like|not where|only|no |cannot|outside|"
-                           r"takes|not allowed", line, re.I):
+                           r"takes|not allowed|see dloplan", line, re.I):
             flags.append("message: " + line[:100])
     if code == 3 and case.output is not None and case.output.is_dir():
         programs = [p.name for p in case.output.iterdir()
@@ -1208,7 +1217,7 @@ def run_case(case: Case, timeout: float, done: dict[str, Case]) -> None:
             flags.append(f"check: {type(exc).__name__}: {exc}"[:160])
     verdict = verdict_line(stdout, stderr, summary)
     if code == 2 or not verdict:
-        verdict = verdict_line("", stderr, None) or verdict
+        verdict = _refusal(stderr, summary)[:160] or verdict
     case.result.update({"code": code, "seconds": round(seconds, 1), "cpu": round(cpu, 1),
                         "summary": summary,
                         "verdict": verdict,
