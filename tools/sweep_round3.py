@@ -9,7 +9,9 @@
   against the box), the same in every variant, and the avoidance and verification verdicts the
   same;
 * ``r3/identify``: the identification turned about the vertical (E must not move), at a coarser
-  and a finer n, with noise and markers missing, another cable;
+  and a finer n, with noise and markers missing, another cable, and a cable simulated by MuJoCo
+  (``tests/plants.py``) with another E than the catalogue's: its interval must hold the plant's
+  E unless the run says why not;
 * ``r3/study``: studies on a Dask scheduler (the same results as local workers), scheduler
   addresses that cannot work and bad study sections (each exit 2 naming what it expects);
 * ``r3/interrupt``: Ctrl-C (SIGINT to the process group, as a terminal sends it) during a study,
