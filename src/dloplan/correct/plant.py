@@ -154,21 +154,39 @@ class ClosedLoopRun:
         return self.open_loop_error / max(self.closed_loop_error, 1e-300)
 
 
+def continuation_guess(previous: np.ndarray, before: np.ndarray) -> np.ndarray:
+    """Where the plant's continuation starts a stop's Newton loop from the equilibria of the
+    two stops before it, ``previous`` and ``before`` (n + 1, 3) [m]: the secant prediction
+    2 x_(s-1) - x_(s-2) [m] (the held points are laid at the stop's clips by
+    :meth:`Plant.hold`, whatever the guess holds there).
+
+    The stops are the substeps of a smooth clip path, so the shape moves on by about as much
+    as it did: on the study example the plants' stops took 33 % fewer Newton iterations (44 %
+    fewer factorizations) than from x_(s-1), to the same equilibria within 1e-9 m
+    (docs/performance.md, branch cl1k)."""
+    return 2.0 * previous - before
+
+
 def _drive(plant: Plant, start: np.ndarray, grippers: GripperPath, first: int, last: int,
-           gravity) -> list[np.ndarray]:
-    """The plant's shapes at clip poses first .. last, from ``start`` (at pose first - 1)."""
+           gravity, before: np.ndarray | None = None) -> tuple[list[np.ndarray], np.ndarray | None]:
+    """The plant's shapes at clip poses first .. last, from ``start`` (at pose first - 1), and
+    the stop's equilibrium before the last one: the continuation goes on from there. Each stop
+    starts from the :func:`continuation_guess` of the two before it (``before`` the one before
+    ``start``; None: the first stop from ``start`` itself)."""
     shapes = []
     x = start
     for j in range(first, last + 1):
         stops = interpolate_clips(grippers.clip_poses(j - 1), grippers.clip_poses(j),
                                   np.arange(1, plant.substeps + 1) / plant.substeps)
         for stop in stops:
-            x, ok, message = plant.hold(x, stop, gravity)
+            guess = x if before is None else continuation_guess(x, before)
+            before = x
+            x, ok, message = plant.hold(guess, stop, gravity)
             if not ok:
                 raise RuntimeError(f"plant: the quasi-static simulation failed at shape {j}: "
                                    f"{message}")
         shapes.append(x)
-    return shapes
+    return shapes, before
 
 
 def run_closed_loop(
@@ -222,15 +240,17 @@ def run_closed_loop(
     settled, ok, message = plant.hold(start, grippers.clip_poses(0), gravity)
     if not ok:
         raise RuntimeError(f"plant: the start does not settle: {message}")
-    open_loop = np.stack([settled, *_drive(plant, settled, grippers, 1, last, gravity)])
+    open_loop = np.stack([settled, *_drive(plant, settled, grippers, 1, last, gravity)[0]])
     closed = [settled]
+    before = None  # the continuation's stop before closed[-1]: it goes on across corrections
     corrections: list[Correction] = []
     refusals: list[str] = []
     current = grippers
     stable = stabilized
     done = 0
     for k in [*checks, last]:
-        closed += _drive(plant, closed[-1], current, done + 1, k, gravity)
+        part, before = _drive(plant, closed[-1], current, done + 1, k, gravity, before)
+        closed += part
         done = k
         if k == last:
             break
