@@ -20,7 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.optimize import least_squares, minimize
+from scipy.optimize import least_squares
 
 from ..cable import GRAVITY, Cable
 from ..geometry import as_path, resample_by_arc_length
@@ -334,17 +334,9 @@ def reachable_error(plant: Plant, clips: ClipPoses, reference: np.ndarray, guess
     def residual(z):
         return box.residual(plant, clips, wanted, guess, z, gravity).ravel()
 
-    def jacobian(z):
-        f0 = residual(z)
-        steps = np.where(z + h <= box.bound, h, -h)  # inside the bounds
-        columns = []
-        for k in range(len(z)):
-            moved = z.copy()
-            moved[k] += steps[k]
-            columns.append((residual(moved) - f0) / steps[k])
-        return np.stack(columns, axis=1)
-
-    fit = least_squares(residual, np.zeros(12), jac=jacobian, bounds=(-box.bound, box.bound),
+    fit = least_squares(residual, np.zeros(12),
+                        jac=lambda z: box.differences(residual, z, residual(z), h),
+                        bounds=(-box.bound, box.bound),
                         x_scale=box.bound, max_nfev=max_evaluations)
     x, _, _ = plant.hold(guess, perturbed_clips(clips, fit.x / box.scale), gravity)
     return shape_error(x, reference)
@@ -373,10 +365,22 @@ class _ClipBox:
         x, _, _ = plant.hold(guess, perturbed_clips(clips, z / self.scale), gravity)
         return resample_by_arc_length(x, len(wanted)) - wanted
 
+    def differences(self, residual, z: np.ndarray, f0: np.ndarray, step: float) -> np.ndarray:
+        """(N, 12) the Jacobian of ``residual`` (z (12,) -> (N,), ``f0`` its value at z) by
+        forward differences of ``step`` [m] in each coordinate, backwards where forwards would
+        leave the box."""
+        steps = np.where(z + step <= self.bound, step, -step)
+        columns = []
+        for k in range(len(z)):
+            moved = z.copy()
+            moved[k] += steps[k]
+            columns.append((residual(moved) - f0) / steps[k])
+        return np.stack(columns, axis=1)
+
 
 def shared_floor(plants, clips: ClipPoses, reference: np.ndarray, guesses, floors, *,
                  weights=None, limits: CorrectionLimits | None = None, gravity=GRAVITY,
-                 max_iterations: int = 300) -> tuple[float, np.ndarray]:
+                 max_evaluations: int = 300) -> tuple[float, np.ndarray]:
     """What one correction can do for cables the measurement cannot tell apart: a lower bound
     of the largest ratio to its floor that any single correction of ``clips`` leaves them.
 
@@ -391,6 +395,19 @@ def shared_floor(plants, clips: ClipPoses, reference: np.ndarray, guesses, floor
     so B(w) bounds from below the largest ratio of any one correction (weak duality; the
     minimum is a local one, near the planned clips, within the limits' box, as the floor's).
     The ratios at the minimizer bound the best such correction from above (it is one).
+
+    The minimum is found by Gauss-Newton (a trust-region fit, :func:`scipy.optimize.
+    least_squares`, in the floor's box) on the objective written as a sum of squares,
+    sum_k w_k r_k = sum_ki |rho_ki|^2 with rho_ki = d_ki sqrt(w_k / (m f_k |d_ki|)) and d_ki
+    the plant's point i minus the wanted one. The objective is a sum of distances: where the
+    minimizer brings a point onto the wanted shape (the U demo's middle point) it has a kink,
+    and it is known only to the plants' resolution (each solve stops at its tolerance). Both
+    defeat a quasi-Newton line search on differences of the objective (L-BFGS-B stalled at the
+    kink, above the minimum, or ended in a failed line search once the plants' start moved by
+    their resolution). Here the distances d(z), smooth in the clips, are differenced and the
+    norm's derivative taken exactly, |d| smoothed to sqrt(|d|^2 + resolution^2) (below what
+    the solves resolve), and a step lost in the solves' noise only shrinks the trust region.
+    B(w) is the objective itself, unsmoothed, at the minimizer.
 
     Parameters
     ----------
@@ -410,9 +427,10 @@ def shared_floor(plants, clips: ClipPoses, reference: np.ndarray, guesses, floor
         The bounds of the correction (default :class:`~.step.CorrectionLimits`).
     gravity : array_like
         Gravity [m/s^2].
-    max_iterations : int
-        L-BFGS-B iterations at most (central differences of step :data:`DIFFERENCE_STEPS`
-        times the plants' coarsest resolution, 24 solves of each plant per gradient).
+    max_evaluations : int
+        Evaluations of the objective at most (each Jacobian costs 13 solves of each plant:
+        forward differences of step :data:`DIFFERENCE_STEPS` times the plants' coarsest
+        resolution).
 
     Returns
     -------
@@ -437,26 +455,44 @@ def shared_floor(plants, clips: ClipPoses, reference: np.ndarray, guesses, floor
         raise ValueError(f"floors: got {floors!r}, expected {count} errors > 0 [m]")
     w = w / w.sum()
     box = _ClipBox.of(plants[0].cable.length, limits)
-    h = DIFFERENCE_STEPS * max(plant.resolution for plant in plants) / box.bound  # v = z / bound
+    resolution = max(plant.resolution for plant in plants)
+    step = DIFFERENCE_STEPS * resolution  # [m] also |d|'s smoothing: well above its noise
     wanted = resample_by_arc_length(reference, len(reference))
+    # the objective as a sum of squares for Gauss-Newton: sum_k w_k r_k(z) = sum_ki a_ki |d_ki|
+    # = sum_ki |rho_ki|^2, rho_ki = d_ki sqrt(a_ki / |d_ki|), with |d| smoothed to
+    # sqrt(|d|^2 + step^2) (a distance driven to zero is a kink)
+    a = np.repeat(w / (len(wanted) * floors), len(wanted))
 
-    def ratios(v):
-        return np.array([float(np.mean(np.linalg.norm(
-            box.residual(plant, clips, wanted, guess, v * box.bound, gravity), axis=1))) / f
-            for plant, guess, f in zip(plants, guesses, floors, strict=True)])
+    def distances(z):
+        return np.concatenate([box.residual(plant, clips, wanted, guess, z, gravity)
+                               for plant, guess in zip(plants, guesses, strict=True)])
 
-    def gradient(v):
-        columns = [(ratios(v + step) - ratios(v - step)) / (2.0 * step[k])
-                   for k, step in enumerate(np.diag(h))]
-        return np.stack(columns, axis=1).T @ w
+    def rho(z):
+        d = distances(z)
+        return (d * np.sqrt(a / np.hypot(np.linalg.norm(d, axis=1), step))[:, None]).ravel()
 
-    fit = minimize(lambda v: float(w @ ratios(v)), np.zeros(12), jac=gradient,
-                   method="L-BFGS-B", bounds=[(-1.0, 1.0)] * 12,
-                   options={"maxiter": max_iterations})
-    if not fit.success:
+    def jacobian(z):
+        # d rho = sqrt(a / s) (J - d (d . J) / (2 s^2)), s = |d| smoothed; J by differences of
+        # the distances, which are smooth in z (the norm's kink is taken exactly)
+        d = distances(z)
+        j = box.differences(lambda moved: distances(moved).ravel(), z, d.ravel(),
+                            step).reshape(len(d), 3, 12)
+        s = np.hypot(np.linalg.norm(d, axis=1), step)
+        along = np.einsum("ia,iaz->iz", d, j)
+        return (np.sqrt(a / s)[:, None, None] * (
+            j - (0.5 / s**2)[:, None, None] * d[:, :, None] * along[:, None, :])).reshape(-1, 12)
+
+    # tolerances far below what the solves resolve: the fit ends when its steps are lost in
+    # the solves' noise (the trust region shrunk below xtol), not on a failed line search
+    fit = least_squares(rho, np.zeros(12), jac=jacobian, bounds=(-box.bound, box.bound),
+                        x_scale=box.bound, ftol=1e-10, xtol=1e-10, gtol=None,
+                        max_nfev=max_evaluations)
+    if fit.status <= 0:
         raise RuntimeError(f"shared_floor: the minimization did not converge ({fit.message}, "
-                           f"{fit.nit} iterations): no bound")
-    return float(fit.fun), ratios(fit.x)
+                           f"{fit.nfev} evaluations): no bound")
+    d = distances(fit.x).reshape(count, len(wanted), 3)
+    ratios = np.mean(np.linalg.norm(d, axis=2), axis=1) / floors
+    return float(w @ ratios), ratios
 
 
 def stabilized_target(cable: Cable, path: np.ndarray, grippers: GripperPath, gravity) -> np.ndarray:
