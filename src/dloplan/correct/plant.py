@@ -456,11 +456,11 @@ def shared_floor(plants, clips: ClipPoses, reference: np.ndarray, guesses, floor
     w = w / w.sum()
     box = _ClipBox.of(plants[0].cable.length, limits)
     resolution = max(plant.resolution for plant in plants)
-    step = DIFFERENCE_STEPS * resolution  # [m] also |d|'s smoothing: well above its noise
+    step = DIFFERENCE_STEPS * resolution  # [m]
     wanted = resample_by_arc_length(reference, len(reference))
     # the objective as a sum of squares for Gauss-Newton: sum_k w_k r_k(z) = sum_ki a_ki |d_ki|
     # = sum_ki |rho_ki|^2, rho_ki = d_ki sqrt(a_ki / |d_ki|), with |d| smoothed to
-    # sqrt(|d|^2 + step^2) (a distance driven to zero is a kink)
+    # sqrt(|d|^2 + resolution^2) (a distance driven to zero is a kink)
     a = np.repeat(w / (len(wanted) * floors), len(wanted))
 
     def distances(z):
@@ -469,7 +469,7 @@ def shared_floor(plants, clips: ClipPoses, reference: np.ndarray, guesses, floor
 
     def rho(z):
         d = distances(z)
-        return (d * np.sqrt(a / np.hypot(np.linalg.norm(d, axis=1), step))[:, None]).ravel()
+        return (d * np.sqrt(a / np.hypot(np.linalg.norm(d, axis=1), resolution))[:, None]).ravel()
 
     def jacobian(z):
         # d rho = sqrt(a / s) (J - d (d . J) / (2 s^2)), s = |d| smoothed; J by differences of
@@ -477,7 +477,7 @@ def shared_floor(plants, clips: ClipPoses, reference: np.ndarray, guesses, floor
         d = distances(z)
         j = box.differences(lambda moved: distances(moved).ravel(), z, d.ravel(),
                             step).reshape(len(d), 3, 12)
-        s = np.hypot(np.linalg.norm(d, axis=1), step)
+        s = np.hypot(np.linalg.norm(d, axis=1), resolution)
         along = np.einsum("ia,iaz->iz", d, j)
         return (np.sqrt(a / s)[:, None, None] * (
             j - (0.5 / s**2)[:, None, None] * d[:, :, None] * along[:, None, :])).reshape(-1, 12)
