@@ -7,6 +7,7 @@ The seam: the closed-loop probability the command prints and stores in summary.j
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -187,6 +188,40 @@ def test_plant_chains_joined_and_taken_drive_as_made_directly(example_plan):
         want = drive_plants([plants[i] for i in index], *args, gravity=gravity)
         assert np.array_equal(got.shapes, want.shapes)
         assert list(got.failed) == list(want.failed) == [-1] * count
+
+
+@pytest.mark.parametrize("axial_modulus", [None, 2.0e9])
+def test_plant_chains_at_moduli_are_made_of_the_cables_at_those_moduli_bit_for_bit(
+        example_plan, axial_modulus):
+    """PlantChains.at_moduli (the clip fit's chain at each sample's E, built from the plan's
+    chain: SpringChain.from_cable's ``like``) holds every field of PlantChains.of of the cables
+    at those moduli, bit for bit: the chains' constants, contact penalty and stiff-axial flag,
+    the tolerance and the stiffest spring; with E_a = E (k_s moves with E) and with an axial
+    modulus of its own (k_s kept, stiff_axial from the ratio)."""
+    import numpy as np
+
+    from dloplan.correct.plant_batch import PlantChains
+    from dloplan.physics.chain import SpringChain
+
+    cable = example_plan.cable.with_links(3 * example_plan.cable.n_links)
+    if axial_modulus is not None:
+        cable = replace(cable, axial_modulus=axial_modulus)
+    gravity = (0.0, 0.0, -9.81)
+    moduli = cable.youngs_modulus * np.array([0.37, 1.0, 2.9, 1.0 / 3.0])
+    got = PlantChains.at_moduli(cable, moduli, gravity)
+    want = PlantChains.of([cable.with_modulus(e) for e in moduli], gravity)
+    for name in ("link", "length", "tolerance", "stiff", "stiff_axial"):
+        assert np.array_equal(getattr(got, name), getattr(want, name)), name
+    for a, b in zip(got.constants, want.constants, strict=True):
+        assert np.array_equal(a, b)
+    for a, b in zip(got.chains, want.chains, strict=True):
+        assert (a.contact_stiffness, a.stiff_axial, a.contact_radius) == \
+            (b.contact_stiffness, b.stiff_axial, b.contact_radius)
+        assert np.array_equal(a.gravity, b.gravity)
+    assert [c.youngs_modulus for c in got.cables] == list(moduli)
+    with pytest.raises(ValueError, match="like"):
+        SpringChain.from_cable(cable.with_links(cable.n_links + 1), gravity,
+                               like=got.chains[0])
 
 
 def _assert_held_stop_by_stop(drive, plants, stops, start, cable, clamp, predict_from=None):

@@ -649,8 +649,7 @@ def _fit_chains(nominal: NominalCorrection, moduli, cables: dict) -> PlantChains
     k = nominal.clamp_links
     missing = list(dict.fromkeys(float(e) for e in moduli if (float(e), k) not in cables))
     if missing:
-        made = PlantChains.of([nominal.fit_cable.with_modulus(e) for e in missing],
-                              nominal.gravity)
+        made = PlantChains.at_moduli(nominal.fit_cable, missing, nominal.gravity)
         pool = cables.get("fit chains")
         start = 0 if pool is None else len(pool.cables)
         cables["fit chains"] = made if pool is None else PlantChains.join([pool, made])
@@ -692,7 +691,11 @@ def _solve(nominal: NominalCorrection, requests: list, cables: dict,
                                      return_inverse=True)
         for e in moduli:  # a sample's requests share its E: one cable for all
             if (float(e), 1) not in cables:
-                cables[float(e), 1] = nominal.cable.with_modulus(float(e))
+                model = nominal.cable.with_modulus(float(e))
+                # its chain made from the plan's now (held_equilibria's from_cable finds it)
+                SpringChain.from_cable(model, nominal.gravity, like=SpringChain.from_cable(
+                    nominal.cable, nominal.gravity))
+                cables[float(e), 1] = model
         result = held_equilibria([cables[float(e), 1] for e in moduli],
                                  cable_of.astype(np.int64),
                                  [requests[b].guess for b in shape_k], moved[shape_k],

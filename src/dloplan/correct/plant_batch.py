@@ -28,7 +28,7 @@ from ..physics.compiled import chain_energy
 from ..sim import ClipPoses
 from ..sim.compiled import CONVERGED, MAX_ITERATIONS, SADDLE, STALLED, newton_positions
 from ..sim.newton import newton_message
-from ..sim.result import DEFAULT_RTOL, ROUNDOFF, force_scale, stiffest
+from ..sim.result import DEFAULT_RTOL, ROUNDOFF, force_scale, point_weight, stiffest
 from .model_error import clamped_equilibrium
 from .plant import continuation_guess
 
@@ -188,12 +188,32 @@ class PlantChains:
     def of(cls, cables: Sequence[Cable], gravity) -> PlantChains:
         """The constants of ``cables`` under ``gravity`` (3,) [m/s^2]."""
         gravity = np.asarray(gravity, dtype=float)
-        chains = tuple(SpringChain.from_cable(cable, gravity) for cable in cables)
-        return cls(tuple(cables), chains,
+        return cls._made(tuple(cables),
+                         tuple(SpringChain.from_cable(cable, gravity) for cable in cables),
+                         gravity, [force_scale(cable, gravity) for cable in cables])
+
+    @classmethod
+    def at_moduli(cls, cable: Cable, moduli, gravity) -> PlantChains:
+        """:meth:`of` the cables ``cable.with_modulus(e)``, e in ``moduli`` [Pa], bit for bit,
+        made from ``cable``'s chain: what does not depend on E (the rest lengths and angles,
+        the masses, a point's weight) made once (``SpringChain.from_cable``'s ``like``)."""
+        gravity = np.asarray(gravity, dtype=float)
+        base = SpringChain.from_cable(cable, gravity)
+        weight = point_weight(cable, gravity)
+        cables = tuple(cable.with_modulus(float(e)) for e in moduli)
+        return cls._made(cables,
+                         tuple(SpringChain.from_cable(c, gravity, like=base) for c in cables),
+                         gravity, [force_scale(c, gravity, weight) for c in cables])
+
+    @classmethod
+    def _made(cls, cables: tuple, chains: tuple, gravity: np.ndarray, scales: list
+              ) -> PlantChains:
+        """The fields of ``cables``, their ``chains`` and force scales [N] given."""
+        return cls(cables, chains,
                    tuple(np.array([chain.constants[k] for chain in chains]) for k in range(5)),
                    np.array([cable.rest_link_length for cable in cables]),
                    np.array([cable.length for cable in cables]),
-                   np.array([DEFAULT_RTOL * force_scale(cable, gravity) for cable in cables]),
+                   DEFAULT_RTOL * np.array(scales),
                    np.array([stiffest(cable) for cable in cables]),
                    np.array([chain.stiff_axial for chain in chains]))
 
