@@ -969,6 +969,32 @@ def test_one_correction_cannot_bring_the_u_demos_plants_of_unknown_e_to_their_fl
         shared_floor(plants, clips, reference, guesses, floors, weights=[1.0, -1.0])
 
 
+def test_shared_floor_is_the_same_from_starts_a_resolution_apart(u_demo):
+    """shared_floor's objective is the plants' solves, known only to their resolution (each
+    stops at its tolerance, so a start moved by 1e-9 m moves the equilibria by about as much),
+    and a sum of distances with a kink where its minimizer brings a point onto the wanted shape
+    (the U's middle point). The U demo's plant at E x0.5 (n = 100, clamping the model's link)
+    started from its shape at the target clips and from three shapes within 1e-9 m of it: the
+    same bound to 1e-6 each time, the ratio at the minimizer the bound (one plant). (L-BFGS-B
+    on central differences of the objective, before: four bounds 3.8e-3 apart, each stalled at
+    the kink above the minimum; from the study's continuation's start, a failed line search.)"""
+    doc = u_demo[MODEL_LINKS]
+    cable, last = doc.cable, len(doc.shapes) - 1
+    clips, reference = doc.grippers.clip_poses(last), doc.stabilized[-1]
+    plant = Plant(cable.with_links(100).with_modulus(0.5 * cable.youngs_modulus),
+                  clamp=cable.rest_link_length)
+    shape, ok, _ = plant.hold(resample_by_arc_length(reference, 101), clips)
+    assert ok
+    floor = 6.0e-5  # [m] about the plant's (reachable_error): a scale, any positive one bounds
+    rng = np.random.default_rng(3)
+    bounds = []
+    for moved in (0.0, *(plant.resolution * rng.uniform(-1.0, 1.0, (3, *shape.shape)))):
+        bound, (ratio,) = shared_floor([plant], clips, reference, [shape + moved], [floor])
+        assert bound == pytest.approx(ratio, rel=1e-12)
+        bounds.append(bound)
+    assert max(bounds) - min(bounds) <= 1e-6 * min(bounds)
+
+
 def test_the_parameter_covariance_is_the_scatter_of_the_fit_correlation_included():
     """A known answer: y = c_E J + c_a d + noise with J and d overlapping (both sag-like, as on
     the 3D job's shape 1), fitted with alpha's prior. Over 400 noise draws the fitted (c_E, c_a)

@@ -7,6 +7,7 @@ The seam: the closed-loop probability the command prints and stores in summary.j
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -126,11 +127,13 @@ def example_plan():
     return run_job(load_scenario(EXAMPLE), check_robot=False)
 
 
+@pytest.mark.parametrize("predict_from", [None, 1, 2])
 @pytest.mark.parametrize(("plant_links", "clamp"), [(10, 1), (25, 2)])
 def test_the_batched_plants_are_plant_hold_stop_by_stop_bit_for_bit(example_plan, plant_links,
-                                                                     clamp):
+                                                                     clamp, predict_from):
     """drive_plants runs Plant.hold's kernels in its order: the same shapes, bit for bit, for
-    plants stiffer, softer and heavier than the model, clamping one link or two."""
+    plants stiffer, softer and heavier than the model, clamping one link or two, each stop
+    from the one before or (``predict_from``) from the secant prediction of the two before."""
     import numpy as np
 
     from dloplan.correct.plant_batch import drive_plants
@@ -151,9 +154,10 @@ def test_the_batched_plants_are_plant_hold_stop_by_stop_bit_for_bit(example_plan
     drive = drive_plants(plants, [clamp] * count, np.repeat(start[None], count, axis=0),
                          np.repeat(np.array([c.positions for c in stops])[None], count, axis=0),
                          np.repeat(np.array([c.rotations.as_quat() for c in stops])[None], count,
-                                   axis=0), gravity=(0.0, 0.0, -9.81))
+                                   axis=0), gravity=(0.0, 0.0, -9.81),
+                         predict_from=predict_from)
     assert list(drive.failed) == [-1] * count
-    _assert_held_stop_by_stop(drive, plants, stops, start, cable, clamp)
+    _assert_held_stop_by_stop(drive, plants, stops, start, cable, clamp, predict_from)
 
 
 def test_plant_chains_joined_and_taken_drive_as_made_directly(example_plan):
@@ -186,24 +190,65 @@ def test_plant_chains_joined_and_taken_drive_as_made_directly(example_plan):
         assert list(got.failed) == list(want.failed) == [-1] * count
 
 
-def _assert_held_stop_by_stop(drive, plants, stops, start, cable, clamp):
+@pytest.mark.parametrize("axial_modulus", [None, 2.0e9])
+def test_plant_chains_at_moduli_are_made_of_the_cables_at_those_moduli_bit_for_bit(
+        example_plan, axial_modulus):
+    """PlantChains.at_moduli (the clip fit's chain at each sample's E, built from the plan's
+    chain: SpringChain.from_cable's ``like``) holds every field of PlantChains.of of the cables
+    at those moduli, bit for bit: the chains' constants, contact penalty and stiff-axial flag,
+    the tolerance and the stiffest spring; with E_a = E (k_s moves with E) and with an axial
+    modulus of its own (k_s kept, stiff_axial from the ratio)."""
     import numpy as np
 
-    from dloplan.correct.plant import Plant
+    from dloplan.correct.plant_batch import PlantChains
+    from dloplan.physics.chain import SpringChain
+
+    cable = example_plan.cable.with_links(3 * example_plan.cable.n_links)
+    if axial_modulus is not None:
+        cable = replace(cable, axial_modulus=axial_modulus)
+    gravity = (0.0, 0.0, -9.81)
+    moduli = cable.youngs_modulus * np.array([0.37, 1.0, 2.9, 1.0 / 3.0])
+    got = PlantChains.at_moduli(cable, moduli, gravity)
+    want = PlantChains.of([cable.with_modulus(e) for e in moduli], gravity)
+    for name in ("link", "length", "tolerance", "stiff", "stiff_axial"):
+        assert np.array_equal(getattr(got, name), getattr(want, name)), name
+    for a, b in zip(got.constants, want.constants, strict=True):
+        assert np.array_equal(a, b)
+    for a, b in zip(got.chains, want.chains, strict=True):
+        assert (a.contact_stiffness, a.stiff_axial, a.contact_radius) == \
+            (b.contact_stiffness, b.stiff_axial, b.contact_radius)
+        assert np.array_equal(a.gravity, b.gravity)
+    assert [c.youngs_modulus for c in got.cables] == list(moduli)
+    with pytest.raises(ValueError, match="like"):
+        SpringChain.from_cable(cable.with_links(cable.n_links + 1), gravity,
+                               like=got.chains[0])
+
+
+def _assert_held_stop_by_stop(drive, plants, stops, start, cable, clamp, predict_from=None):
+    """Plant.hold stop by stop, each from the shape before (from stop ``predict_from`` on, from
+    continuation_guess of the two before, ``start`` the one before stop 0), is the drive's."""
+    import numpy as np
+
+    from dloplan.correct.plant import Plant, continuation_guess
 
     for b, plant_cable in enumerate(plants):
         plant = Plant(plant_cable, clamp=cable.rest_link_length)
         assert plant.clamp_links == clamp
-        x = start
+        x, before = start, start
         for s, clips in enumerate(stops):
-            x, ok, _ = plant.hold(x, clips, (0.0, 0.0, -9.81))
+            predicted = predict_from is not None and s >= max(predict_from, 1)
+            guess = continuation_guess(x, before) if predicted else x
+            before = x
+            x, ok, _ = plant.hold(guess, clips, (0.0, 0.0, -9.81))
             assert ok
             assert np.array_equal(drive.shapes[b, s], x), (b, s)
 
 
-def test_a_plant_at_a_saddle_is_finished_by_plant_hold(example_plan, monkeypatch):
+@pytest.mark.parametrize("predict_from", [None, 2])
+def test_a_plant_at_a_saddle_is_finished_by_plant_hold(example_plan, monkeypatch, predict_from):
     """A sample the compiled loop hands back (its Newton loop stopped at a saddle: here, made
-    to at stop 3) is finished stop by stop by Plant.hold: the same shapes, bit for bit."""
+    to at stop 3) is finished stop by stop by Plant.hold, from the same guesses (the secant
+    prediction with ``predict_from``): the same shapes, bit for bit."""
     import numpy as np
 
     from dloplan.correct import plant_batch
@@ -215,9 +260,9 @@ def test_a_plant_at_a_saddle_is_finished_by_plant_hold(example_plan, monkeypatch
 
     def stopped_at_a_saddle(*args):
         kernel(*args)
-        done, outcomes = args[-4], args[-3]
+        shapes, done, outcomes = args[-6], args[-5], args[-4]
         done[0], outcomes[0] = 3, SADDLE
-        args[-5][0, 3:] = np.nan  # what the loop would not have computed
+        shapes[0, 3:] = np.nan  # what the loop would not have computed
 
     monkeypatch.setattr(plant_batch, "drive_clamped", stopped_at_a_saddle)
     doc = example_plan
@@ -228,9 +273,10 @@ def test_a_plant_at_a_saddle_is_finished_by_plant_hold(example_plan, monkeypatch
     start = resample_by_arc_length(doc.shapes[0], cable.n_points)
     drive = plant_batch.drive_plants(
         plants, [1], start[None], np.array([c.positions for c in stops])[None],
-        np.array([c.rotations.as_quat() for c in stops])[None], gravity=(0.0, 0.0, -9.81))
+        np.array([c.rotations.as_quat() for c in stops])[None], gravity=(0.0, 0.0, -9.81),
+        predict_from=predict_from)
     assert list(drive.failed) == [-1]
-    _assert_held_stop_by_stop(drive, plants, stops, start, cable, 1)
+    _assert_held_stop_by_stop(drive, plants, stops, start, cable, 1, predict_from)
 
 
 # (E, mass per length, length) factors, none of them used to tune the linearized correction:

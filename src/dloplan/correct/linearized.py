@@ -424,9 +424,11 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
     count = len(items)
     positions, quaternions = (np.broadcast_to(a, (count,) + a.shape) for a in nominal.stops)
     chains = PlantChains.of(plants, nominal.gravity)
+    # stop 0 settles the start; run_closed_loop's continuation from it predicts from its second
+    # stop on (:func:`.plant.continuation_guess`), the drive's stop 2
     drive = drive_chains(chains, clamps, np.broadcast_to(nominal.plant_start, (count,) +
                                                          nominal.plant_start.shape),
-                         positions, quaternions, gravity=nominal.gravity)
+                         positions, quaternions, gravity=nominal.gravity, predict_from=2)
     rows = [_plant_failure(nominal, drive.failed[b], drive.messages[b])
             for b in range(count)]
     open_error = np.full(count, math.nan)
@@ -458,8 +460,8 @@ def linearized_rows(nominal: NominalCorrection, items: Sequence[tuple], *, noise
     closed_error = open_error.copy()
     if accepted:
         closed = _closed_loop(nominal, chains.take(accepted),
-                              [clamps[b] for b in accepted], drive.shapes[accepted,
-                                                                          SUBSTEPS * at],
+                              [clamps[b] for b in accepted],
+                              drive.shapes[accepted, max(SUBSTEPS * at - 1, 0) : SUBSTEPS * at + 1],
                               np.array([results[b].clips for b in accepted]))
         errors = np.full(len(accepted), math.nan)
         ran = np.flatnonzero(closed.failed < 0)
@@ -647,8 +649,7 @@ def _fit_chains(nominal: NominalCorrection, moduli, cables: dict) -> PlantChains
     k = nominal.clamp_links
     missing = list(dict.fromkeys(float(e) for e in moduli if (float(e), k) not in cables))
     if missing:
-        made = PlantChains.of([nominal.fit_cable.with_modulus(e) for e in missing],
-                              nominal.gravity)
+        made = PlantChains.at_moduli(nominal.fit_cable, missing, nominal.gravity)
         pool = cables.get("fit chains")
         start = 0 if pool is None else len(pool.cables)
         cables["fit chains"] = made if pool is None else PlantChains.join([pool, made])
@@ -690,7 +691,11 @@ def _solve(nominal: NominalCorrection, requests: list, cables: dict,
                                      return_inverse=True)
         for e in moduli:  # a sample's requests share its E: one cable for all
             if (float(e), 1) not in cables:
-                cables[float(e), 1] = nominal.cable.with_modulus(float(e))
+                model = nominal.cable.with_modulus(float(e))
+                # its chain made from the plan's now (held_equilibria's from_cable finds it)
+                SpringChain.from_cable(model, nominal.gravity, like=SpringChain.from_cable(
+                    nominal.cable, nominal.gravity))
+                cables[float(e), 1] = model
         result = held_equilibria([cables[float(e), 1] for e in moduli],
                                  cable_of.astype(np.int64),
                                  [requests[b].guess for b in shape_k], moved[shape_k],
@@ -965,8 +970,11 @@ def _fit_clips(nominal: NominalCorrection, case: _Case) -> Generator:
 def _closed_loop(nominal: NominalCorrection, plants: PlantChains, clamps: list,
                  states: np.ndarray, corrections: np.ndarray):
     """The plants driven from their shapes at K through the corrected clip poses (each
-    sample's target correction ramped in, p_j = p_T (j - K) / (T - K)): a
-    :class:`.plant_batch.PlantDrive` of :data:`SUBSTEPS` stops per remaining shape."""
+    sample's target correction ramped in, p_j = p_T (j - K) / (T - K)), their continuation
+    going on as :func:`.plant.run_closed_loop`'s does after a correction (``states`` (B, 2,
+    n + 1, 3): the stop before K's last and that one [m]; at K = 0 (B, 1, n + 1, 3) the
+    settled start alone, the first stop then not predicted): a :class:`.plant_batch.PlantDrive`
+    of :data:`SUBSTEPS` stops per remaining shape."""
     at, last = nominal.at, nominal.n_shapes - 1
     positions, quaternions = nominal.poses
     ramp = np.arange(0, last - at + 1) / (last - at)  # shape K (0) .. T (1)
@@ -984,4 +992,6 @@ def _closed_loop(nominal: NominalCorrection, plants: PlantChains, clamps: list,
     w = fractions[None, None, :, None, None]
     stops_p = ((1.0 - w) * moved[:, :-1, None] + w * moved[:, 1:, None]).reshape(
         count, -1, 2, 3)
-    return drive_chains(plants, clamps, states, stops_p, stops_q, gravity=nominal.gravity)
+    return drive_chains(plants, clamps, states[:, -1], stops_p, stops_q,
+                        gravity=nominal.gravity, predict_from=0 if at > 0 else 1,
+                        previous=states[:, 0])

@@ -28,8 +28,9 @@ from ..physics.compiled import chain_energy
 from ..sim import ClipPoses
 from ..sim.compiled import CONVERGED, MAX_ITERATIONS, SADDLE, STALLED, newton_positions
 from ..sim.newton import newton_message
-from ..sim.result import DEFAULT_RTOL, ROUNDOFF, force_scale, stiffest
+from ..sim.result import DEFAULT_RTOL, ROUNDOFF, force_scale, point_weight, stiffest
 from .model_error import clamped_equilibrium
+from .plant import continuation_guess
 
 NEWTON_ITERATIONS = 500
 """Newton iterations per stop (:func:`dloplan.sim.statics.minimize_energy`'s default)."""
@@ -38,15 +39,20 @@ _OUTCOMES = {CONVERGED: "converged", MAX_ITERATIONS: "max_iterations", STALLED: 
 
 
 @njit(cache=True)
-def drive_clamped(starts, k_s, rest_lengths, k_b, rest_angles, masses, gravity, link, length,
-                  tolerance, roundoff, stiff, stiff_axial, clamp, positions, u_axes,
-                  max_iterations, restart, shapes, done, outcomes, iterations, residuals):
-    """The plants' equilibria at every stop, each from the one before, in place.
+def drive_clamped(starts, previous, k_s, rest_lengths, k_b, rest_angles, masses, gravity, link,
+                  length, tolerance, roundoff, stiff, stiff_axial, clamp, positions, u_axes,
+                  max_iterations, restart, predict_from, shapes, done, outcomes, iterations,
+                  spent, residuals):
+    """The plants' equilibria at every stop, each from the one before (or the two before's
+    secant prediction, :func:`.plant.continuation_guess`), in place.
 
     Parameters
     ----------
     starts : numpy.ndarray
-        (B, n + 1, 3) the guess of the first stop [m].
+        (B, n + 1, 3) the guess of the first stop [m] (the equilibrium before it, when it is
+        predicted).
+    previous : numpy.ndarray
+        (B, n + 1, 3) the equilibrium before ``starts`` [m] (read with ``predict_from`` 0).
     k_s, rest_lengths, k_b, rest_angles, masses : numpy.ndarray
         Per sample (B,), (B, n), (B,), (B, n - 1), (B, n + 1): the chains' constants.
     gravity : numpy.ndarray
@@ -66,6 +72,9 @@ def drive_clamped(starts, k_s, rest_lengths, k_b, rest_angles, masses, gravity, 
     restart : bool
         The Newton loop's ``restart`` (:func:`dloplan.sim.compiled.newton_positions`): False
         for the plants (:meth:`~.plant.Plant.hold`'s loop, bit for bit).
+    predict_from : int
+        Stops s >= ``predict_from`` start from 2 x_(s-1) - x_(s-2), ``starts`` standing for
+        x_(-1) and ``previous`` for x_(-2); the others from x_(s-1) (``starts`` for stop 0).
     shapes : numpy.ndarray
         (B, M, n + 1, 3) out: the equilibria.
     done : numpy.ndarray
@@ -74,6 +83,8 @@ def drive_clamped(starts, k_s, rest_lengths, k_b, rest_angles, masses, gravity, 
         for :meth:`~.plant.Plant.hold` to redo).
     outcomes, iterations : numpy.ndarray
         (B,) int out: the Newton outcome and iterations of the last stop tried.
+    spent : numpy.ndarray
+        (B,) int out: the Newton iterations of all the stops tried.
     residuals : numpy.ndarray
         (B,) out: its largest free force [N].
     """
@@ -83,12 +94,19 @@ def drive_clamped(starts, k_s, rest_lengths, k_b, rest_angles, masses, gravity, 
     grad = np.empty((n_points, 3))
     for b in range(starts.shape[0]):
         done[b] = 0
+        spent[b] = 0
         for s in range(positions.shape[1]):
             x = shapes[b, s]
             guess = starts[b] if s == 0 else shapes[b, s - 1]
-            for i in range(n_points):
-                for a in range(3):
-                    x[i, a] = guess[i, a]
+            if s >= predict_from:  # continuation_guess's secant, its arithmetic
+                before = previous[b] if s == 0 else starts[b] if s == 1 else shapes[b, s - 2]
+                for i in range(n_points):
+                    for a in range(3):
+                        x[i, a] = 2.0 * guess[i, a] - before[i, a]
+            else:
+                for i in range(n_points):
+                    for a in range(3):
+                        x[i, a] = guess[i, a]
             k = clamp[b]
             for i in range(k + 1):
                 offset = (i - 0.5 * k) * link[b]
@@ -105,6 +123,7 @@ def drive_clamped(starts, k_s, rest_lengths, k_b, rest_angles, masses, gravity, 
                 np.int64(0), 0.25 * length[b], history, np.int64(1), grad, band,
                 np.bool_(True), stiff_axial[b], restart)
             outcomes[b], iterations[b], residuals[b] = outcome, its, residual
+            spent[b] += its
             if outcome != CONVERGED:
                 break
             done[b] = s + 1
@@ -124,8 +143,8 @@ class PlantDrive:
     messages : tuple of str
         The failed stop's Newton message ("" when none failed).
     iterations : numpy.ndarray
-        (B,) int: the Newton iterations of the last stop the compiled loop tried (all of them
-        with one stop; a saddle's finish by ``hold`` not counted).
+        (B,) int: the Newton iterations of the stops the compiled loop tried (a saddle's
+        finish by ``hold`` not counted).
     """
 
     shapes: np.ndarray
@@ -169,12 +188,32 @@ class PlantChains:
     def of(cls, cables: Sequence[Cable], gravity) -> PlantChains:
         """The constants of ``cables`` under ``gravity`` (3,) [m/s^2]."""
         gravity = np.asarray(gravity, dtype=float)
-        chains = tuple(SpringChain.from_cable(cable, gravity) for cable in cables)
-        return cls(tuple(cables), chains,
+        return cls._made(tuple(cables),
+                         tuple(SpringChain.from_cable(cable, gravity) for cable in cables),
+                         gravity, [force_scale(cable, gravity) for cable in cables])
+
+    @classmethod
+    def at_moduli(cls, cable: Cable, moduli, gravity) -> PlantChains:
+        """:meth:`of` the cables ``cable.with_modulus(e)``, e in ``moduli`` [Pa], bit for bit,
+        made from ``cable``'s chain: what does not depend on E (the rest lengths and angles,
+        the masses, a point's weight) made once (``SpringChain.from_cable``'s ``like``)."""
+        gravity = np.asarray(gravity, dtype=float)
+        base = SpringChain.from_cable(cable, gravity)
+        weight = point_weight(cable, gravity)
+        cables = tuple(cable.with_modulus(float(e)) for e in moduli)
+        return cls._made(cables,
+                         tuple(SpringChain.from_cable(c, gravity, like=base) for c in cables),
+                         gravity, [force_scale(c, gravity, weight) for c in cables])
+
+    @classmethod
+    def _made(cls, cables: tuple, chains: tuple, gravity: np.ndarray, scales: list
+              ) -> PlantChains:
+        """The fields of ``cables``, their ``chains`` and force scales [N] given."""
+        return cls(cables, chains,
                    tuple(np.array([chain.constants[k] for chain in chains]) for k in range(5)),
                    np.array([cable.rest_link_length for cable in cables]),
                    np.array([cable.length for cable in cables]),
-                   np.array([DEFAULT_RTOL * force_scale(cable, gravity) for cable in cables]),
+                   DEFAULT_RTOL * np.array(scales),
                    np.array([stiffest(cable) for cable in cables]),
                    np.array([chain.stiff_axial for chain in chains]))
 
@@ -214,12 +253,15 @@ def _taken(value, index: np.ndarray):
 
 
 def drive_plants(cables: Sequence[Cable], clamp_links, starts, positions, quaternions, *,
-                 gravity) -> PlantDrive:
+                 gravity, predict_from: int | None = None, previous=None) -> PlantDrive:
     """Every plant's equilibria at its stops, each warm-started from the one before.
 
     Sample b, stop s is :meth:`~.plant.Plant.hold` of ``cables[b]`` clamping ``clamp_links``
-    links at the stop's clips, from the shape of stop s - 1 (``starts[b]`` for stop 0), bit for
-    bit (the module docstring); a stop that is not a stable equilibrium ends its sample.
+    links at the stop's clips, from the shape of stop s - 1 (``starts[b]`` for stop 0) -- from
+    stop ``predict_from`` on, from :func:`.plant.continuation_guess` of the two before it
+    (``starts[b]`` standing for the one before stop 0, ``previous[b]`` for the one before that),
+    as :func:`.plant.run_closed_loop` continues -- bit for bit (the module docstring); a stop
+    that is not a stable equilibrium ends its sample.
 
     Parameters
     ----------
@@ -234,13 +276,19 @@ def drive_plants(cables: Sequence[Cable], clamp_links, starts, positions, quater
         (x, y, z, w) of the stops.
     gravity : array_like
         (3,) [m/s^2].
+    predict_from : int, optional
+        The first stop started from the secant prediction (None: none).
+    previous : array_like, optional
+        (B, n + 1, 3) the equilibria before ``starts`` [m]: needed with ``predict_from`` 0.
     """
     return drive_chains(PlantChains.of(cables, gravity), clamp_links, starts, positions,
-                        quaternions, gravity=gravity)
+                        quaternions, gravity=gravity, predict_from=predict_from,
+                        previous=previous)
 
 
 def drive_chains(plants: PlantChains, clamp_links, starts, positions, quaternions, *,
-                 gravity, restart: bool = False) -> PlantDrive:
+                 gravity, restart: bool = False, predict_from: int | None = None,
+                 previous=None) -> PlantDrive:
     """:func:`drive_plants` of the cables whose constants ``plants`` holds; with ``restart``
     the Newton loops take a plain step after every very successful one (:func:`dloplan.sim.
     compiled.newton_positions`), which ``hold`` does not: the same equilibria to the solver's
@@ -259,12 +307,18 @@ def drive_chains(plants: PlantChains, clamp_links, starts, positions, quaternion
     done = np.zeros(n_samples, dtype=np.int64)
     outcomes = np.zeros(n_samples, dtype=np.int64)
     iterations = np.zeros(n_samples, dtype=np.int64)
+    spent = np.zeros(n_samples, dtype=np.int64)
     residuals = np.zeros(n_samples)
-    drive_clamped(starts, *plants.constants, gravity, plants.link, plants.length,
+    predict = n_stops if predict_from is None else int(predict_from)
+    if predict == 0 and previous is None:
+        raise ValueError("previous: the equilibria before the starts are needed to predict "
+                         "the first stop (predict_from 0)")
+    previous = starts if previous is None else np.array(previous, dtype=float, order="C")
+    drive_clamped(starts, previous, *plants.constants, gravity, plants.link, plants.length,
                   plants.tolerance, ROUNDOFF * np.finfo(float).eps, plants.stiff,
                   plants.stiff_axial, clamps, positions, u_axes, NEWTON_ITERATIONS,
-                  np.bool_(restart), shapes,
-                  done, outcomes, iterations, residuals)
+                  np.bool_(restart), np.int64(predict), shapes, done, outcomes, iterations,
+                  spent, residuals)
     failed = np.full(n_samples, -1)
     messages = [""] * n_samples
     for b in np.flatnonzero(done < n_stops):
@@ -276,13 +330,16 @@ def drive_chains(plants: PlantChains, clamp_links, starts, positions, quaternion
         for s in range(first, n_stops):  # the saddle's escape: the readable way, to the end
             clips = ClipPoses(positions[b, s], Rotation(quaternions[b, s], normalize=False))
             guess = starts[b] if s == 0 else shapes[b, s - 1]
+            if s >= predict:
+                guess = continuation_guess(guess, previous[b] if s == 0 else starts[b] if s == 1
+                                           else shapes[b, s - 2])
             shapes[b, s], ok, message = clamped_equilibrium(
                 plants.cables[b], guess, clips, int(clamps[b]), gravity=gravity,
                 chain=plants.chains[b])
             if not ok:
                 failed[b], messages[b] = s, message
                 break
-    return PlantDrive(shapes, failed, tuple(messages), iterations)
+    return PlantDrive(shapes, failed, tuple(messages), spent)
 
 
 def u_axes_of(quaternions: np.ndarray) -> np.ndarray:

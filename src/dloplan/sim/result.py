@@ -75,10 +75,19 @@ class Equilibrium:
         return self.converged and self.stable
 
 
-def force_scale(cable: Cable, gravity=GRAVITY) -> float:
-    """Characteristic force of a cable's statics [N]: a point's weight plus k_b / l."""
-    weight = float(np.max(cable.point_masses)) * math.hypot(*np.asarray(gravity, dtype=float))
+def force_scale(cable: Cable, gravity=GRAVITY, weight: float | None = None) -> float:
+    """Characteristic force of a cable's statics [N]: a point's weight plus k_b / l.
+
+    ``weight`` [N], when given, stands for :func:`point_weight` (the same for every E of a
+    cable: computed once for many)."""
+    if weight is None:
+        weight = point_weight(cable, gravity)
     return weight + cable.k_bending / cable.rest_link_length
+
+
+def point_weight(cable: Cable, gravity=GRAVITY) -> float:
+    """The largest weight of a point of the cable [N]."""
+    return float(np.max(cable.point_masses)) * math.hypot(*np.asarray(gravity, dtype=float))
 
 
 ROUNDOFF = 16.0
