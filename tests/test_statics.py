@@ -17,6 +17,7 @@ from dloplan.sim import (
     clip_poses_from_shape,
     continuation,
     equilibrium,
+    interpolate_clips,
     stabilize,
 )
 
@@ -168,6 +169,25 @@ def test_continuation_follows_the_clips():
         assert np.allclose(eq.clips.positions, clips.positions)
     sags = [eq.shape[:, 2].min() for eq in path]
     assert sags[0] > sags[1] > sags[2]  # closer clips, deeper sag
+
+
+def test_continuation_returns_every_substep_on_request():
+    """``every_substep``: per clip pose the equilibria solved on the way to it, each warm-started
+    from the one before at the interpolated clips; the last of each is the pose's equilibrium
+    of the plain call, bit for bit."""
+    cable = catalogue_cable("ethernet", n_links=16)
+    start = sagging_guess(cable, 0.45)
+    sequence = [level_clips(d) for d in (0.45, 0.4, 0.3)]
+    plain = continuation(cable, start, sequence, substeps=3)
+    grouped = continuation(cable, start, sequence, substeps=3, every_substep=True)
+    assert [len(g) for g in grouped] == [1, 3, 3]
+    for eqs, eq in zip(grouped, plain, strict=True):
+        assert np.array_equal(eqs[-1].shape, eq.shape)
+    x = grouped[1][-1].shape  # the sub-steps of the last move, solved one by one
+    stops = interpolate_clips(sequence[1], sequence[2], np.arange(1, 4) / 3)
+    for eq, stop in zip(grouped[2], stops, strict=True):
+        x = equilibrium(cable, x, stop).shape
+        assert np.array_equal(eq.shape, x)
 
 
 def test_check_target_flags_a_soft_cable_and_accepts_a_stiff_one():

@@ -42,7 +42,7 @@ from ..shapes import arc_shape
 from ..sim.clips import ClipPoses, clip_poses_from_shape
 from ..sim.statics import Equilibrium, check_target, equilibrium, interpolate_clips
 from .board import Board, check_board
-from .section import follow, section_cable, section_shape, whole_shape
+from .section import follow_path, section_cable, section_shape, whole_shape
 
 WEIGHTLESS = np.zeros(3)
 
@@ -300,7 +300,7 @@ def settled_phase2(cable: Cable, path1, planned, insertion, board: Board, sectio
     brings it to the insertion pose as it rests.
 
     The cable is followed as the section of ``section_links`` links
-    (:func:`dloplan.harness.section.follow`): settled at phase 1's first clip poses, through
+    (:func:`dloplan.harness.section.follow_path`): settled at phase 1's first clip poses, through
     phase 1's knots (phase 1's shapes become these equilibria: the avoidance's are stabilized
     on the planning's coarser links), then phase 2's. Two clip routes are tried, in this
     order: the planner's (the clip poses of ``planned``, its last the fixtures' approach poses)
@@ -328,17 +328,18 @@ def settled_phase2(cable: Cable, path1, planned, insertion, board: Board, sectio
     section = section_cable(cable, section_links)
     contacts = board.contacts()
     approach = fixture_clips(board)
-    rest = follow(section, section_shape(insertion, cable, section), [approach], contacts,
-                  gravity)[-1]
+    rest = follow_path(section, section_shape(insertion, cable, section), [approach], contacts,
+                       gravity).shapes[-1]
     clips1 = [clip_poses_from_shape(x) for x in path1]
-    first = follow(section, section_shape(path1[0], cable, section), clips1, contacts, gravity)
+    first = follow_path(section, section_shape(path1[0], cable, section), clips1, contacts,
+                        gravity).shapes
     x = first[-1]
     count = len(planned)
     routes = {"planned": [clip_poses_from_shape(y) for y in planned[:-1]] + [approach],
               "straight": interpolate_clips(clips1[-1], approach, np.linspace(0.0, 1.0, count))}
     best = None
     for route, poses in routes.items():
-        settled = follow(section, x, poses, contacts, gravity)
+        settled = follow_path(section, x, poses, contacts, gravity).shapes
         distance = float(np.max(np.linalg.norm(settled[-1] - rest, axis=1)))
         if best is None or distance < best[2]:
             best = (route, poses, distance, settled)

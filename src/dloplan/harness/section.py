@@ -6,7 +6,7 @@ the **section**: the part of the cable between the holders' clip points, ``L - l
 for a pull-apart offset ``d`` per arm (the grippers hold the middles of the end links), with
 its own, finer links (:func:`section_cable`). :func:`section_shape` puts it on a planned shape
 of the whole cable, :func:`whole_shape` brings a section back to the planning's links, and
-:func:`follow` finds the section's equilibria as its holders move, each reached from the one
+:func:`follow_path` finds the section's equilibria as its holders move, each reached from the one
 before (with contacts a held cable has several equilibria at the same clip poses, and which
 one it is in depends on how it got there).
 """
@@ -20,10 +20,9 @@ import numpy as np
 
 from ..cable import Cable
 from ..geometry import arc_length, as_shape, resample_by_arc_length
-from ..physics.chain import SpringChain
 from ..sim.clips import ClipPoses, clip_poses_from_shape
-from ..sim.statics import equilibrium, interpolate_clips
-from ..verify.snap import clip_motion, substep_fractions
+from ..sim.statics import continuation
+from ..verify.snap import clip_motion
 
 FOLLOW_STEP = 0.005
 """Largest clip motion (and change of the held length) of one sub-step when the section's
@@ -107,39 +106,26 @@ class Followed:
 
 def follow_path(section: Cable, start, clips, contacts, gravity) -> Followed:
     """The section's equilibria at every clip pose of ``clips``: the first settled from
-    ``start``, each next one reached from the one before by a quasi-static continuation in
-    sub-steps of at most :data:`FOLLOW_STEP` times the section's length of clip motion (clips
-    interpolated linearly and by slerp, :func:`~dloplan.sim.statics.interpolate_clips`; each
-    sub-step's equilibrium warm-started from the one before), the sub-steps kept: the
-    equilibria of :func:`dloplan.sim.statics.continuation` from each pose to the next, bit for
-    bit."""
+    ``start``, each next one reached from the one before by a quasi-static continuation
+    (:func:`dloplan.sim.statics.continuation`, its sub-steps kept) in sub-steps of at most
+    :data:`FOLLOW_STEP` times the section's length of clip motion, started from the
+    equilibrium at the move's first pose solved again (where Newton stalled short of its
+    tolerance at a contact's kink, this moves it)."""
     poses = list(clips)
-    chain = SpringChain.from_cable(section, gravity, contacts)
-    x = equilibrium(section, as_shape(start, section.n_points, "start"), poses[0],
-                    gravity=gravity, chain=chain).shape
+    x = continuation(section, as_shape(start, section.n_points, "start"), poses[:1],
+                     gravity=gravity, contacts=contacts)[0].shape
     shapes, moves = [x], []
     for before, pose in zip(poses[:-1], poses[1:], strict=True):
         motion = clip_motion(before, pose, section.length)
-        fractions = substep_fractions(max(1, math.ceil(motion / (FOLLOW_STEP * section.length))))
-        # solved again at the move's first pose (where Newton stalled short of its tolerance
-        # at a contact's kink, this moves it), then the sub-steps from there
-        x = equilibrium(section, x, before, gravity=gravity, chain=chain).shape
-        steps, messages = [x], [""]
-        for stop in interpolate_clips(before, pose, fractions)[1:]:
-            eq = equilibrium(section, x, stop, gravity=gravity, chain=chain)
-            x = eq.shape
-            steps.append(x)
-            messages.append(eq.message)
+        count = max(1, math.ceil(motion / (FOLLOW_STEP * section.length)))
+        (settled,), steps = continuation(section, x, [before, pose], substeps=count,
+                                         gravity=gravity, contacts=contacts, every_substep=True)
+        x = steps[-1].shape
         shapes.append(x)
-        moves.append((np.stack(steps), tuple(messages)))
+        moves.append((np.stack([settled.shape] + [eq.shape for eq in steps]),
+                      ("",) + tuple(eq.message for eq in steps)))
     return Followed(np.stack(shapes), tuple(moves))
 
 
-def follow(section: Cable, start, clips, contacts, gravity) -> np.ndarray:
-    """The section's equilibria (m, n_s + 1, 3) [m] at every clip pose of ``clips``
-    (:func:`follow_path`'s ``shapes``)."""
-    return follow_path(section, start, clips, contacts, gravity).shapes
-
-
-__all__ = ["FOLLOW_STEP", "Followed", "follow", "follow_path", "section_cable", "section_shape",
+__all__ = ["FOLLOW_STEP", "Followed", "follow_path", "section_cable", "section_shape",
            "whole_shape"]

@@ -412,8 +412,9 @@ def continuation(
     substeps: int = 1,
     gravity=GRAVITY,
     contacts=(),
+    every_substep: bool = False,
     **options,
-) -> list[Equilibrium]:
+) -> list[Equilibrium] | list[list[Equilibrium]]:
     """Quasi-static continuation: equilibria along a sequence of clip poses, warm-started.
 
     Each equilibrium starts from the previous one, so path-dependent outcomes (which way a
@@ -429,18 +430,23 @@ def continuation(
         The clip poses to visit, in order.
     substeps : int
         Equilibria solved between consecutive clip poses (clips interpolated linearly and by
-        slerp); only the equilibria at the given poses are returned.
+        slerp at the fractions j / substeps, j = 1 .. substeps); only the equilibria at the
+        given poses are returned unless ``every_substep``.
     gravity : array_like
         Gravity [m/s^2].
     contacts : sequence
         Obstacles the cable cannot enter (see :func:`equilibrium`).
+    every_substep : bool
+        Return every equilibrium solved, grouped by the clip pose it leads to.
     **options
         Passed to :func:`equilibrium`.
 
     Returns
     -------
-    list of Equilibrium
-        One per element of ``clip_sequence``.
+    list of Equilibrium, or list of list of Equilibrium
+        One per element of ``clip_sequence``. With ``every_substep``, per element the
+        equilibria solved on the way to it, the last at its clip poses: the first element's
+        settling alone, then each next element's ``substeps`` sub-steps.
     """
     if substeps < 1:
         raise ValueError(f"substeps: got {substeps}, expected an integer >= 1")
@@ -454,9 +460,10 @@ def continuation(
         stops = [clips] if previous is None else interpolate_clips(
             previous, clips, np.arange(1, substeps + 1) / substeps
         )
+        solved = []
         for stop in stops:
-            eq = equilibrium(cable, x, stop, gravity=gravity, chain=chain, **options)
-            x = eq.shape
-        results.append(eq)
+            solved.append(equilibrium(cable, x, stop, gravity=gravity, chain=chain, **options))
+            x = solved[-1].shape
+        results.append(solved if every_substep else solved[-1])
         previous = clips
     return results

@@ -1,6 +1,7 @@
 """Is this plan safe to run? Elastic stability, snap-through, dynamic replay, the table.
 
-Reading order: :mod:`.stability` (eigenvalues of the held cable's stiffness), :mod:`.snap`
+Reading order: :mod:`.stability` (eigenvalues of the held cable's stiffness; :mod:`.lowest`
+follows the smallest along a continuation), :mod:`.snap`
 (quasi-static continuation between planned clip poses), :mod:`.replay` (the timed plan simulated
 at real speed), :mod:`.report` (one row per shape, with robot reachability when given).
 """

@@ -353,10 +353,14 @@ class _Segment:
 
     def stabilities(self, shapes: np.ndarray, fractions: np.ndarray):
         """:meth:`stability` of the shapes (m + 1, n + 1, 3) at the fractions, the contacts'
-        penalty evaluated once for all (:func:`~.stability.elastic_stabilities`)."""
+        penalty evaluated once for all (:func:`~.stability.elastic_stabilities`), each
+        sub-step's smallest eigenpairs followed from the one before where the banded solver is
+        the quickest (``method="follow"``: the verdicts of the banded solve, its eigenvalues to
+        round-off)."""
         cables = [self.model(t)[0] for t in fractions]
+        method = quickest_method(cables[0].n_points)
         return elastic_stabilities(cables, shapes, gravity=self.gravity, k=1, rtol=self.rtol,
-                                   method=quickest_method(cables[0].n_points),
+                                   method="follow" if method == "band" else method,
                                    contacts=self.contacts)
 
     def forcing(self, t0: float, t1: float) -> float:

@@ -60,7 +60,11 @@ banded eigen-solver (``scipy.linalg.eig_banded``, tridiagonal reduction of the b
 k smallest eigenpairs by bisection) runs on the Hessian's band as assembled, about six times
 faster per shape at the sizes the snap-through continuation solves at every sub-step (the same
 eigenvalues to round-off); its eigenvectors cost O(N^2) though, so :func:`quickest_method` picks
-it only below :data:`BAND_BELOW` free coordinates.
+it only below :data:`BAND_BELOW` free coordinates. Along a continuation (``method="follow"`` of
+:func:`elastic_stabilities`) each sub-step's smallest eigenpair is the previous one's refined by
+inverse iteration on a banded Cholesky factor and certified by another
+(:mod:`dloplan.verify.lowest`), about 10 times cheaper than LAPACK's banded solve, which it
+falls back on near the stability threshold.
 """
 
 from __future__ import annotations
@@ -86,6 +90,7 @@ from ..physics.compiled import add_point_blocks
 from ..sim.newton import factor_band, free_band, solve_band
 from ..sim.statics import force_scale
 from .contacts import BoardContacts, ContactState, contact_stiffness
+from .lowest import eigenvalue_tolerance, follow_lowest
 
 STABILITY_RTOL = 1e-6
 """Default relative tolerance on the smallest eigenvalue, against :func:`stiffness_scale`."""
@@ -274,18 +279,25 @@ def band_eigenpairs(band: np.ndarray, k: int = 3) -> tuple[np.ndarray, np.ndarra
     vectors : numpy.ndarray
         (N, k) orthonormal columns.
     norm : float
-        ||H||_inf, the largest absolute row sum [N/m].
+        ||H||_inf, the largest absolute row sum [N/m] (:func:`band_norm`).
     """
     n_dof = band.shape[1]
     k = min(k, n_dof)
     values, vectors = sla.eig_banded(band, lower=True, select="i", select_range=(0, k - 1),
                                      check_finite=False)
+    return values, vectors, band_norm(band)
+
+
+def band_norm(band: np.ndarray) -> float:
+    """||H||_inf [N/m], the largest absolute row sum of a symmetric matrix given by its lower
+    band (w + 1, N) (:func:`band_eigenpairs`' layout)."""
+    n_dof = band.shape[1]
     used = np.abs(band)
     used[np.arange(band.shape[0])[:, None] + np.arange(n_dof) >= n_dof] = 0.0
     rows = used.sum(axis=0)  # row j: H[j, j] and H[j + i, j] = H[j, j + i] right of it
     for i in range(1, min(band.shape[0], n_dof)):  # a short chain has fewer dof than rows
         rows[i:] += used[i, : n_dof - i]  # and H[j, j - i] left of the diagonal
-    return values, vectors, float(rows.max())
+    return float(rows.max())
 
 
 def constrained_hessian(cable: Cable, shape, *, gravity=GRAVITY, contacts=(),
@@ -356,9 +368,10 @@ def elastic_stability(
         Relative tolerance: stable when lambda_1 > max(rtol lambda_ref, round-off floor).
     equilibrium_rtol : float
         The largest free-point force accepted, relative to ``force_scale(cable, gravity)``.
-    method : {"auto", "sparse", "dense", "band"}
+    method : {"auto", "sparse", "dense", "band", "follow"}
         Eigen-solver, see :func:`smallest_eigenpairs`; ``"band"``: :func:`band_eigenpairs` on
-        the Hessian's band, without a sparse matrix (the continuation's choice).
+        the Hessian's band, without a sparse matrix (the continuation's choice); ``"follow"``
+        (k = 1): as ``"band"`` for one shape (:func:`elastic_stabilities`).
     contacts : sequence
         Obstacles in one-sided contact with the cable (pegs, plates, the table): their penalty
         enters the equilibrium and the constrained Hessian (module docstring), and their
@@ -402,7 +415,14 @@ def elastic_stabilities(
     shapes : array_like
         (M, n + 1, 3) equilibrium shapes [m].
     gravity, k, rtol, equilibrium_rtol, method, contacts
-        As for :func:`elastic_stability`.
+        As for :func:`elastic_stability`; ``method="follow"`` (k = 1) for shapes that are
+        consecutive sub-steps of a continuation: each shape's smallest eigenpairs (without and
+        with the pressing points sticking) found from the shape before's by inverse iteration,
+        certified (:func:`dloplan.verify.lowest.follow_lowest`: the eigenvalue to
+        :func:`~dloplan.verify.lowest.eigenvalue_tolerance`, the round-off floor of an
+        eigenvalue of H), LAPACK's banded solve where that fails, at the first shape, and where
+        the eigenvalue is within twice that tolerance of the stability threshold or below it:
+        the verdicts are ``"band"``'s, the eigenvalues and modes the same to round-off.
 
     Returns
     -------
@@ -421,6 +441,8 @@ def elastic_stabilities(
     for name, value in (("rtol", rtol), ("equilibrium_rtol", equilibrium_rtol)):
         if not (math.isfinite(value) and value > 0):
             raise ValueError(f"{name}: got {value!r}, expected a number > 0")
+    if method == "follow" and k != 1:
+        raise ValueError(f"k: got {k!r}, method 'follow' finds the smallest eigenpair only (k=1)")
     contacts = tuple(contacts)
     chains: dict[int, SpringChain] = {}
     for cable in cables:
@@ -428,14 +450,47 @@ def elastic_stabilities(
             chains[id(cable)] = SpringChain.from_cable(cable, gravity)
     board = BoardContacts.at(x, contacts, cables[0].diameter / 2,
                              [chains[id(c)].contact_stiffness for c in cables])
+    followed = _Followed() if method == "follow" else None
     return tuple(_judged(cable, chains[id(cable)], shape, board, b, gravity, int(k), rtol,
-                         equilibrium_rtol, method)
+                         equilibrium_rtol, method, followed)
                  for b, (cable, shape) in enumerate(zip(cables, x, strict=True)))
 
 
+class _Followed:
+    """The previous shape's smallest eigenpairs along a continuation (``method="follow"``):
+    ``free`` and ``sticking``, each (value [N/m], unit vector (N,)) or None."""
+
+    def __init__(self):
+        self.free = self.sticking = None
+
+    def lowest(self, band: np.ndarray, which: str, scale: float, norm: float,
+               threshold: float) -> tuple[float, np.ndarray]:
+        """The smallest eigenpair of ``band``, followed from the previous shape's ``which``
+        pair (:func:`~.lowest.follow_lowest`) where that is certified and above ``threshold``
+        [N/m] by more than twice its tolerance (so the stability verdict is certain);
+        LAPACK's banded solve (:func:`band_eigenpairs`) otherwise: at the first shape, where the
+        eigenvalue jumped or crossed another, near or below the threshold. Kept as the next
+        shape's start."""
+        previous = getattr(self, which)
+        found = None
+        if previous is not None:
+            tolerance = eigenvalue_tolerance(previous[0], scale, norm, ROUNDOFF_FACTOR)
+            found = follow_lowest(band, previous[1], previous[0], scale, tolerance)
+            if found is not None and not found[0] - 2.0 * tolerance > threshold:
+                found = None
+        if found is None:
+            values, vectors = sla.eig_banded(band, lower=True, select="i", select_range=(0, 0),
+                                             check_finite=False)
+            found = float(values[0]), vectors[:, 0]
+        setattr(self, which, found)
+        return found
+
+
 def _judged(cable: Cable, chain: SpringChain, x: np.ndarray, board: BoardContacts, b: int,
-            gravity, k: int, rtol: float, equilibrium_rtol: float, method: str) -> Stability:
-    """The :class:`Stability` of shape ``x``, shape b of ``board`` (:func:`elastic_stability`)."""
+            gravity, k: int, rtol: float, equilibrium_rtol: float, method: str,
+            followed: _Followed | None = None) -> Stability:
+    """The :class:`Stability` of shape ``x``, shape b of ``board`` (:func:`elastic_stability`);
+    ``followed``: the previous shape's eigenpairs (``method="follow"``)."""
     grad, band = _free_derivatives(chain, x, board, b)
     residual = 0.0
     if cable.n_points > 4:
@@ -448,21 +503,33 @@ def _judged(cable: Cable, chain: SpringChain, x: np.ndarray, board: BoardContact
         return Stability(np.zeros(0), np.zeros((0, cable.n_points, 3)), scale, 0.0, residual,
                          True, True, "no free point: the clips fix the whole cable", states,
                          math.inf)
+    lowest = None
     if method == "band":
         values, vectors, norm = band_eigenpairs(band, k)
+    elif method == "follow":
+        norm = band_norm(band)
+        limit = _threshold(rtol, scale, norm)
+        value, vector = followed.lowest(band, "free", scale, norm, limit)
+        values, vectors = np.array([value]), vector[:, None]
+
+        def lowest(held):
+            return followed.lowest(held, "sticking", scale, norm, limit)[0]
     else:
         matrix = band_to_sparse(band)
         values, vectors = smallest_eigenpairs(matrix, k, scale=scale, method=method)
         norm = float(abs(matrix).sum(axis=1).max())
-    threshold = max(rtol * scale, ROUNDOFF_FACTOR * np.finfo(float).eps * norm)
+    threshold = _threshold(rtol, scale, norm)
     modes = np.zeros((len(values), cable.n_points, 3))
     for j in range(len(values)):
         v = vectors[:, j]
         modes[j, 2:-2] = (v if v[np.argmax(np.abs(v))] > 0 else -v).reshape(-1, 3)
     sticking = float(values[0])
+    pressing = board.pressing(b) if states else np.zeros(cable.n_points, dtype=bool)
     if states:
         states = board.sliding(b, states, modes[0])
-        sticking = _sticking_eigenvalue(band, board.pressing(b), float(values[0]), norm)
+        sticking = _sticking_eigenvalue(band, pressing, float(values[0]), norm, lowest)
+    if followed is not None and not pressing[2:-2].any():  # sticking is the free pair's
+        followed.sticking = followed.free
     positive = bool(values[0] > threshold)
     stable = positive and is_equilibrium
     summary = f"lambda_1 = {values[0]:.4g} N/m ({values[0] / scale:.4g} lambda_ref)"
@@ -482,11 +549,18 @@ def _judged(cable: Cable, chain: SpringChain, x: np.ndarray, board: BoardContact
                      stable, message, states, sticking)
 
 
+def _threshold(rtol: float, scale: float, norm: float) -> float:
+    """The eigenvalue a stable shape must exceed [N/m] (module docstring), for the stiffness
+    scale ``scale`` and ||H||_inf ``norm`` [N/m]."""
+    return max(rtol * scale, ROUNDOFF_FACTOR * np.finfo(float).eps * norm)
+
+
 def _sticking_eigenvalue(band: np.ndarray, pressing: np.ndarray, smallest: float,
-                         norm: float) -> float:
+                         norm: float, lowest=None) -> float:
     """Smallest eigenvalue of the free Hessian ``band`` (its norm ``norm`` [N/m]) with the
     coordinates of the points ``pressing`` (n + 1,) removed too (module docstring); ``smallest``
-    when no free point presses.
+    when no free point presses. ``lowest``: the smallest eigenvalue of a band (default:
+    LAPACK's banded solve).
 
     The removed coordinates' rows and columns are cleared and their diagonal set to 2 ||H||,
     above every eigenvalue of the rest (a principal submatrix of H: its eigenvalues lie within
@@ -505,6 +579,8 @@ def _sticking_eigenvalue(band: np.ndarray, pressing: np.ndarray, smallest: float
         rows = removed - d
         held[d, rows[rows >= 0]] = 0.0  # row j + d removed
     held[0, removed] = 2.0 * norm
+    if lowest is not None:
+        return lowest(held)
     return float(sla.eig_banded(held, lower=True, select="i", select_range=(0, 0),
                                 eigvals_only=True, check_finite=False)[0])
 
@@ -532,6 +608,7 @@ def path_stability(
 __all__ = [
     "Stability",
     "band_eigenpairs",
+    "band_norm",
     "constrained_hessian",
     "quickest_method",
     "elastic_stabilities",
