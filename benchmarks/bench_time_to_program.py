@@ -24,16 +24,17 @@ kernel caches; ``--warm-each`` runs every example once untimed first).
 
 ``--before REV`` times another revision (a git revision of this repository, exported with
 ``git archive``, or a ``src`` folder), run for run alternating with this checkout, and prints
-the ratios. ``--first-run`` measures the first run after an install: a copy of this ``src``
-without any kernel cache, ``dloplan demo`` in it (every kernel compiled on first use), then in
-a second copy ``python -m dloplan.warmup`` (what ``make`` runs after installing) and the first
-``dloplan demo`` after it.
+the ratios. ``--no-figures`` runs this checkout's command with ``--no-figures`` (the revision
+before as it is: what a user who needs no figures gains against it). ``--first-run`` measures
+the first run after an install: a copy of this ``src`` without any kernel cache, ``dloplan
+demo`` in it (every kernel compiled on first use), then in a second copy ``python -m
+dloplan.warmup`` (what ``make`` runs after installing) and the first ``dloplan demo`` after it.
 
 The host is shared: the load average is printed; compare CPU times and ratios measured side
 by side, not wall times taken at different moments.
 
 Run: python benchmarks/bench_time_to_program.py [--runs 1] [--only NAME ...] [--before REV]
-     [--first-run]
+     [--no-figures] [--first-run]
 """
 
 from __future__ import annotations
@@ -64,12 +65,12 @@ def examples(only: list[str]) -> list[Path]:
     return [p for p in found if not only or p.stem in only]
 
 
-def run_plan(example: Path, folder: Path, source: str | None) -> dict:
-    """``dloplan plan EXAMPLE --verify -o FOLDER`` once: wall, CPU, exit code, the document's
-    timings and repairs, and the command's last lines when it wrote no document."""
+def run_plan(example: Path, folder: Path, source: str | None, extra: tuple = ()) -> dict:
+    """``dloplan plan EXAMPLE --verify -o FOLDER [EXTRA]`` once: wall, CPU, exit code, the
+    document's timings and repairs, and the command's last lines when it wrote no document."""
     shutil.rmtree(folder, ignore_errors=True)
     command = [sys.executable, "-m", "dloplan.cli", "plan", str(example), "--verify",
-               "-o", str(folder)]
+               "-o", str(folder), *extra]
     wall, cpu, stderr, code = run(command, environment(source), check=False)
     document = folder / "plan.json"
     out = {"wall": wall, "cpu": cpu, "code": code}
@@ -163,6 +164,8 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=1, help="timed runs per example (best kept)")
     parser.add_argument("--only", nargs="*", default=[], help="example file stems")
     parser.add_argument("--before", help="a git revision or a src folder to compare with")
+    parser.add_argument("--no-figures", action="store_true",
+                        help="this checkout's runs with --no-figures")
     parser.add_argument("--first-run", action="store_true",
                         help="also time the first run on an empty kernel cache")
     parser.add_argument("--warm-each", action="store_true",
@@ -179,18 +182,20 @@ def main() -> None:
         if args.before:
             sources = {"before": source_of(args.before, folder / "before"), "this": None}
         results: dict[str, dict[str, list]] = {name: {} for name in sources}
+        extra = {"this": ("--no-figures",) if args.no_figures else ()}
         for k, example in enumerate([] if args.no_examples else examples(args.only)):
             if k == 0 or args.warm_each:
-                for source in sources.values():  # untimed: byte code, kernels
-                    run_plan(example, folder / "out", source)
+                for name, source in sources.items():  # untimed: byte code, kernels
+                    run_plan(example, folder / "out", source, extra.get(name, ()))
             for _ in range(args.runs):
                 for name, source in sources.items():
                     results[name].setdefault(example.stem, []).append(
-                        run_plan(example, folder / "out", source))
+                        run_plan(example, folder / "out", source, extra.get(name, ())))
         header = (f"{'example':<28} {'exit':>4} {'wall':>6} {'CPU':>6} "
                   + "".join(f" {k:>7}" for k in ("load+wr", *dict(STAGES))))
         for name in sources if not args.no_examples else ():
-            print(f"\n== {name}: dloplan plan EX --verify, best of {args.runs} by wall [s] "
+            print(f"\n== {name}: dloplan plan EX --verify {' '.join(extra.get(name, ()))}, best of "
+                  f"{args.runs} by wall [s] "
                   f"(target {TARGET_WARM_S:.0f} s wall warm)")
             print(header)
             for stem, runs in results[name].items():

@@ -297,7 +297,7 @@ def test_check_and_unchecked_plan_on_a_described_cell(tmp_path, capsys):
     assert "ERROR   target robot reach" in capsys.readouterr().out
     out = tmp_path / "out"
     assert main(["plan", str(EXAMPLES / "ur5e_pair_usb.yaml"), "--no-verify", "-o", str(out),
-                 "-q"]) == 0
+                 "-q", "--no-figures"]) == 0
     assert (out / "plan.json").is_file()
     assert not (out / "urscript").exists() and not (out / "ros_joints").exists()
 

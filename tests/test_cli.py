@@ -190,6 +190,37 @@ def test_export_formats_from_a_plan(tmp_path, capsys):
     assert "positions in m" in (tmp_path / "t.csv").read_text().splitlines()[0]
 
 
+def test_no_figures_draws_none_and_writes_the_report_without_them(tmp_path, capsys,
+                                                                  monkeypatch):
+    """``plan --no-figures`` on a job asking for figures and a report: no figure is drawn (no
+    figure process started, nothing drawn in the run), no ``figures/`` folder, the report
+    without figures; the plan and its program are written. The batch mode passes it on."""
+    import dloplan.app.figure_workers
+    import dloplan.app.report
+    import dloplan.plots.worker
+    from dloplan.app.files import plan_file
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("a figure was drawn or a figure process started")
+
+    monkeypatch.setattr(dloplan.plots.worker, "start_server", forbidden)
+    monkeypatch.setattr(dloplan.app.figure_workers, "FigureWorkers", forbidden)
+    monkeypatch.setattr(dloplan.app.report, "figure_drawings", forbidden)
+    job = write(tmp_path, {**STIFF, "planner": {"n_shapes": 2},
+                           "outputs": ["json", "rapid", "figures", "report"]})
+    out = tmp_path / "out"
+    assert main(["plan", str(job), "-o", str(out), "-q", "--no-figures"]) in (EXIT_OK,
+                                                                               EXIT_WARNINGS)
+    assert sorted(p.name for p in out.iterdir()) == ["plan.json", "rapid", "report.html"]
+    page = (out / "report.html").read_text()
+    assert "verdict: ok" in page and "<figure>" not in page
+    _, code, line = plan_file({"output": str(tmp_path / "batch"), "verify": False,
+                               "figures": False}, str(job))
+    assert code in (EXIT_OK, EXIT_WARNINGS), line
+    assert not (tmp_path / "batch" / "job" / "figures").exists()
+    assert (tmp_path / "batch" / "job" / "report.html").exists()
+
+
 def assert_the_whole_harness_job(out):
     """A harness job's outputs in ``out``: its four phases timed in plan.json, the RAPID
     modules, the report and the force figures; the regrasp in the slots and the planned waits

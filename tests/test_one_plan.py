@@ -71,7 +71,10 @@ def test_plan_study_simulate_and_correct_of_a_job_file_use_one_plan(tmp_path, mo
         header = module.read_text().split("PERS tasks")[0]
         assert "! Place the cable where dloplan moved the job: " \
             f"{planned.placement.message};" in header, module
-    assert main(["study", str(job), "-o", str(tmp_path / "study"), "-q", "--csv"]) == EXIT_OK
+    assert main(["study", str(job), "-o", str(tmp_path / "study"), "-q", "--csv",
+                 "--no-figures"]) == EXIT_OK
+    assert (tmp_path / "study" / "report.html").exists()  # the study drew no figure for it
+    assert not list((tmp_path / "study").glob("*.png"))
     assert main(["simulate", str(job), "-q"]) in (EXIT_OK, EXIT_WARNINGS)
     # correct plans the job file as plan does; the measured shape (the plan's own shape 2 and
     # 1 mm of noise) is nothing worth correcting, so it may keep the plan (exit 2, named)

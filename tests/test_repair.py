@@ -177,7 +177,8 @@ def test_a_target_out_of_every_placement_is_refused_without_a_program(tmp_path):
     full search costs minutes on a loaded machine: a 60 s budget refuses it sooner, with the
     same consequence (the reason, no program)."""
     job = resolve_mapping(soft_job(position=(0.95, -0.15, 0.20)), "far away")
-    doc, written = plan_into(job, tmp_path, verify=True, budget=Budget(seconds=60.0))
+    doc, written = plan_into(job, tmp_path, verify=True, budget=Budget(seconds=60.0),
+                             figures=False)
     assert not doc.ok
     refusal = [w for w in doc.warnings if w.startswith("repair refused")]
     assert refusal and ("no placement" in refusal[0] or "budget spent placing" in refusal[0])
@@ -188,7 +189,8 @@ def test_a_target_out_of_every_placement_is_refused_without_a_program(tmp_path):
 def test_no_repair_keeps_todays_behaviour(tmp_path, capsys):
     path = tmp_path / "far.yaml"
     path.write_text(yaml.safe_dump(soft_job(position=(0.95, -0.15, 0.20))))
-    code = main(["plan", str(path), "--verify", "--no-repair", "-o", str(tmp_path / "out")])
+    code = main(["plan", str(path), "--verify", "--no-repair", "-o", str(tmp_path / "out"),
+                 "--no-figures"])
     captured = capsys.readouterr()
     assert code == EXIT_CHECK_FAILED
     assert "repair (" not in captured.err and "repair refused" not in captured.err
@@ -514,7 +516,7 @@ def ur_placed(tmp_path_factory):
     """The far UR5e job planned with its robot program's checks, repaired and written."""
     folder = tmp_path_factory.mktemp("ur_far")
     job = far_ur_job()
-    doc, _ = plan_into(job, folder)
+    doc, _ = plan_into(job, folder, figures=False)
     return job, doc, folder
 
 
@@ -572,7 +574,7 @@ def test_a_placement_without_consent_is_proposed_not_made(ur_placed, tmp_path, c
     path = tmp_path / "far.yaml"
     path.write_text(yaml.safe_dump(far_ur_data(placement=False)))
     out = tmp_path / "out"
-    assert main(["plan", str(path), "-o", str(out), "-q"]) == EXIT_CHECK_FAILED
+    assert main(["plan", str(path), "-o", str(out), "-q", "--no-figures"]) == EXIT_CHECK_FAILED
     lines = [line for line in capsys.readouterr().out.splitlines()
              if "placement proposed" in line]
     assert len(lines) == 1 and "--allow-placement" in lines[0], lines
@@ -592,7 +594,8 @@ def test_a_placement_without_consent_is_proposed_not_made(ur_placed, tmp_path, c
     assert len(err) == 1 and "failed a check (robot program" in err[0], err
 
     consented = tmp_path / "consented"
-    assert main(["plan", str(path), "-o", str(consented), "-q", "--allow-placement"]) in (0, 1)
+    assert main(["plan", str(path), "-o", str(consented), "-q", "--allow-placement",
+                 "--no-figures"]) in (0, 1)
     plan = read_plan(consented / "plan.json")
     assert np.array_equal(plan.shapes, allowed.shapes)
     assert np.array_equal(plan.placement.offset, made.offset)

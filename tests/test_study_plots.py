@@ -21,3 +21,18 @@ def test_study_figures_are_written_with_units(tmp_path):
     svg = (tmp_path / "study_success_youngs_modulus.svg").read_text()
     assert "MPa" in svg
     assert "deviation [mm]" in (tmp_path / "study_deviation.svg").read_text()
+
+
+def test_study_figures_are_saved_whole_without_a_tight_crop(tmp_path):
+    """Each PNG is its figure's size at 110 dpi, as laid out (no tight bounding box: finding it
+    was one more draw of the figure): the success figure 6.0 x 3.8 in, the deviations 9.0 x 3.8
+    in, the tornado 6.5 in wide (its height follows its parameters)."""
+    from PIL import Image
+
+    result = run_study(hanging_problem(), {
+        "samples": 8, "chunk_size": 8, "parameters": {"youngs_modulus": {"spread": 40}}})
+    study_figures(result.table, result.summary, result.spec.criteria, tmp_path)
+    sizes = {p.stem: Image.open(p).size for p in tmp_path.glob("*.png")}
+    assert sizes["study_success_youngs_modulus"] == (660, 418)
+    assert sizes["study_deviation"] == (990, 418)
+    assert sizes["study_tornado"][0] == 715

@@ -63,6 +63,11 @@ ALLOW_PLACEMENT = ("let the repair move or turn the job on the table where the r
                    "is only proposed, exit 3; docs/repair.md)")
 """Help of ``--allow-placement`` (plan, demo, study, simulate, verify, correct)."""
 
+NO_FIGURES = ("draw no figures: no figures/ folder, and the report (when the job asks for one) "
+              "without them; the plan and its programs as with them, with less CPU beside the "
+              "verification")
+"""Help of ``plan --no-figures``."""
+
 FIGURE_WORKERS = 2
 """Processes drawing a plan's figures while it is verified (:mod:`dloplan.app.figure_workers`)."""
 
@@ -563,7 +568,7 @@ def _plan_one(job, output: Path, args, console: Console) -> int:
 
     doc, written = plan_into(job, output, verify=args.verify, check_robot=not args.no_verify,
                              repair=not args.no_repair, progress=console.stage,
-                             figure_workers=FIGURE_WORKERS)
+                             figure_workers=FIGURE_WORKERS, figures=not args.no_figures)
     _print_plan(doc, written, args)
     return exit_code(doc)
 
@@ -574,7 +579,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     console = Console(args.quiet)
     if len(args.scenarios) > 1 or args.workers > 1 or args.scheduler:
         return _plan_batch(args, console)
-    start_server()  # the figure workers' server warms up while the planner is imported
+    if not args.no_figures:
+        start_server()  # the figure workers' server warms up while the planner is imported
     from .app import load_job
 
     job = load_job(args.scenarios[0], console.stage, allow_placement=args.allow_placement)
@@ -589,7 +595,7 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
 
     options = {"output": str(Path(args.output)), "verify": args.verify,
                "check_robot": not args.no_verify, "repair": not args.no_repair,
-               "allow_placement": args.allow_placement}
+               "allow_placement": args.allow_placement, "figures": not args.no_figures}
     codes = {}
     with make_backend(None if args.scheduler else args.workers, args.scheduler,
                       preload=("dloplan.study.evaluate",)) as backend:  # not the study's kernels
@@ -658,7 +664,8 @@ def _study(args: argparse.Namespace) -> int:
             console.stage(f"closed loop: one correction after shape {spec.correction.at} "
                           f"({spec.correction.method})")
         result = with_closed_loop(doc, result, backend)
-    written = study_figures(result.table, result.summary, spec.criteria, args.output)
+    written = [] if args.no_figures else study_figures(result.table, result.summary,
+                                                       spec.criteria, args.output)
     report = write_report(Path(args.output) / "report.html", title=f"dloplan study: "
                           f"{args.scenario}", shapes=doc.shapes, stabilized=problem.nominal,
                           obstacles=doc.obstacles, summary=result.summary.lines(),
@@ -744,6 +751,7 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--no-repair", action="store_true", help="report failed "
                       "checks without repairing the plan (docs/repair.md)")
     plan.add_argument("--allow-placement", action="store_true", help=ALLOW_PLACEMENT)
+    plan.add_argument("--no-figures", action="store_true", help=NO_FIGURES)
     backend = plan.add_mutually_exclusive_group()  # local workers or a Dask cluster, not both
     backend.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1,
                          help="batch: local worker processes")
@@ -752,7 +760,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     demo = command("demo", _cmd_demo, "run the embedded default job (needs no input)")
     demo.add_argument("-o", "--output", default="out/demo", help="output folder")
-    demo.set_defaults(verify=True, no_verify=False, no_repair=False)
+    demo.set_defaults(verify=True, no_verify=False, no_repair=False, no_figures=False)
     demo.add_argument("--allow-placement", action="store_true", help=ALLOW_PLACEMENT)
 
     study = command("study", _cmd_study, "robustness study of a scenario's plan over cable and "
@@ -770,6 +778,8 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--overwrite", action="store_true", help="start over, do not resume")
     study.add_argument("-o", "--output", default="out/study", help="study folder")
     study.add_argument("--allow-placement", action="store_true", help=ALLOW_PLACEMENT)
+    study.add_argument("--no-figures", action="store_true", help="draw no figures: the table, "
+                       "summary.json and report.html without the study's figures")
 
     simulate = command("simulate", _cmd_simulate, "run a plan's timed trajectory through the "
                        "dynamic simulator and tabulate its deviations from the planned shapes")

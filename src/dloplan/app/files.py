@@ -10,6 +10,7 @@ status line), run on local processes or Dask by :func:`dloplan.study.map_jobs`;
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from ..exit_codes import (  # noqa: F401 - re-exported: the codes of the command
@@ -57,7 +58,8 @@ def export_plan(doc: PlanDocument, name: str, target: Path, options: WriteOption
 
 
 def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
-              repair: bool = True, progress=quiet, budget=None, figure_workers: int = 0):
+              repair: bool = True, progress=quiet, budget=None, figure_workers: int = 0,
+              figures: bool = True):
     """Plan a resolved job and write its outputs into ``folder``: ``(document, written paths)``.
 
     The folder is written whole or not at all (:func:`dloplan.output_files.staged_folder`): a run
@@ -68,18 +70,21 @@ def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
     else the robot program's; ``budget`` a :class:`dloplan.pipeline.repair.Budget`).
     With ``figure_workers`` > 0 the figures are drawn on that many worker processes
     (:mod:`dloplan.app.figure_workers`), from the moment the plan is made, while its robot
-    program is made and it is verified; the files written are the same.
+    program is made and it is verified; the files written are the same. ``figures`` False
+    (``--no-figures``): no figure is drawn, the job's ``figures`` output is left out and its
+    report has none.
     """
     folder = Path(folder)
     formats = job.outputs
-    drawn = "figures" in formats or "report" in formats
+    drawn = figures and ("figures" in formats or "report" in formats)
     with staged_folder(folder) as staging, \
             workers_for(staging, figure_workers if drawn else 0) as drawer:
         doc = make_plan(job, verify=verify, check_robot=check_robot, repair=repair,
                         budget=budget, progress=progress,
                         planned=None if drawer is None else drawer.draft)
-        options = WriteOptions(rate=job.motion.rate, figure_workers=drawer) \
-            if isinstance(job, Job) else WriteOptions(figure_workers=drawer)
+        options = WriteOptions(figure_workers=drawer, figures=figures)
+        if isinstance(job, Job):
+            options = replace(options, rate=job.motion.rate)
         if not doc.ok:
             formats = tuple(f for f in formats if f not in ROBOT_OUTPUTS)
             progress("a check failed: writing the plan and its report, no robot program")
@@ -109,7 +114,8 @@ def plan_file(options: dict, path: str) -> tuple[str, int, str]:
         job = load_job(path, allow_placement=options.get("allow_placement", False))
         doc, _ = plan_into(job, folder, verify=options["verify"],
                            check_robot=options.get("check_robot", True),
-                           repair=options.get("repair", True))
+                           repair=options.get("repair", True),
+                           figures=options.get("figures", True))
     except ValueError as exc:
         return path, EXIT_FAILURE, f"{path}: error: {exc}"
     code = exit_code(doc)

@@ -37,10 +37,12 @@ from .report import write_figures, write_plan_report
 class WriteOptions:
     """Settings of the writers: sampling rate [Hz] of csv and ros (None: ros writes the knots);
     ``figure_workers`` the :class:`dloplan.app.figure_workers.FigureWorkers` that draw the
-    figures (None: drawn by the writer itself)."""
+    figures (None: drawn by the writer itself); ``figures`` False: no figure is drawn (no
+    ``figures`` output, a report without its figures: ``dloplan plan --no-figures``)."""
 
     rate: float | None = DEFAULT_CSV_RATE
     figure_workers: object | None = None
+    figures: bool = True
 
 
 def _needs_trajectory(doc: PlanDocument, name: str) -> None:
@@ -240,17 +242,20 @@ def write_outputs(doc: PlanDocument, folder, formats=("json",), *,
                   options: WriteOptions | None = None, progress=lambda text: None) -> list[Path]:
     """Write the plan document into ``folder`` in the formats asked for (``json`` always).
 
-    ``report`` brings ``figures`` along (it embeds them). Every file is written atomically.
+    ``report`` brings ``figures`` along (it embeds them), unless ``options.figures`` is False
+    (then neither is drawn, and the report has no figures). Every file is written atomically.
     Returns the written paths.
     """
     unknown = set(formats) - set(WRITERS)
     if unknown:
         raise ValueError(f"formats: unknown {sorted(unknown)}, expected some of "
                          f"{', '.join(WRITERS)}")
+    options = options or WriteOptions()
     wanted = {"json", *formats} | ({"figures"} if "report" in formats else set())
+    if not options.figures:
+        wanted.discard("figures")
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    options = options or WriteOptions()
     written: list[Path] = []
     for name, writer in WRITERS.items():
         if name in wanted:

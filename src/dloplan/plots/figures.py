@@ -31,25 +31,21 @@ def pyplot():
     return plt
 
 
-def save_figure(figure, folder: str | Path, name: str, tight: bool = True) -> list[Path]:
+def save_figure(figure, folder: str | Path, name: str) -> list[Path]:
     """Write ``name.png`` and ``name.svg`` (110 dpi) into ``folder``; returns both paths.
 
-    With ``tight`` the files are cropped to the figure's tight bounding box (padded by 0.1 in),
-    found by one extra draw for both formats; without it the figure is written whole, as its
-    function laid it out (the figures of a plan: fixed margins per figure kind, about a quarter
-    less drawing time; docs/decisions.md).
+    The figure is written whole, as its function laid it out (fixed margins, or
+    ``tight_layout``), not cropped to its tight bounding box: finding that box is one more
+    draw of the figure (docs/decisions.md, "fixed figure margins").
     """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
     figure.set_dpi(110)
-    bbox = None
-    if tight:
-        bbox = figure.get_tightbbox(figure.canvas.get_renderer()).padded(0.1)
     for suffix in ("png", "svg"):
         path = folder / f"{name}.{suffix}"
         with atomic_file(path) as tmp:
-            figure.savefig(tmp, format=suffix, dpi=110, bbox_inches=bbox)
+            figure.savefig(tmp, format=suffix, dpi=110)
         paths.append(path)
     pyplot().close(figure)
     return paths
@@ -59,8 +55,6 @@ def save_figure(figure, folder: str | Path, name: str, tight: bool = True) -> li
 class Drawing:
     """One figure to draw and save: its file stem, a figure function of this module and its
     arguments (plain arrays: picklable, and drawn on another process without dloplan's solvers).
-    The figure is saved whole: the figure functions of a plan lay themselves out with fixed
-    margins (no tight bounding box to find).
     """
 
     name: str
@@ -70,8 +64,7 @@ class Drawing:
 
     def save(self, folder: str | Path) -> list[Path]:
         """Draw the figure and write ``name.png`` and ``name.svg`` into ``folder``."""
-        return save_figure(self.draw(*self.arguments, **self.options), folder, self.name,
-                           tight=False)
+        return save_figure(self.draw(*self.arguments, **self.options), folder, self.name)
 
 
 def _equal_3d(ax, points: np.ndarray) -> None:
@@ -202,15 +195,17 @@ def stabilized_figure(shapes, stabilized, obstacle_edges: Sequence[np.ndarray] =
     return fig
 
 
-def _bars(ax, positions, values, colour: str, width: float = 0.8) -> None:
-    """A bar chart as one collection of rectangles (``ax.bar`` makes one patch per bar)."""
+def _bars(ax, positions, values, colour: str, width: float = 0.8, label: str | None = None
+          ) -> None:
+    """A bar chart as one collection of rectangles (``ax.bar`` makes one patch per bar);
+    ``label`` its legend entry."""
     from matplotlib.collections import PolyCollection
 
     x, h = np.asarray(positions, dtype=float), np.asarray(values, dtype=float)
     left, right, base = x - width / 2, x + width / 2, np.zeros_like(h)
     corners = np.stack([np.stack([left, base], 1), np.stack([left, h], 1),
                         np.stack([right, h], 1), np.stack([right, base], 1)], axis=1)
-    bars = PolyCollection(corners, facecolors=colour, edgecolors="none")
+    bars = PolyCollection(corners, facecolors=colour, edgecolors="none", label=label)
     bars.sticky_edges.y.append(0.0)  # as ax.bar: no margin below the bars' base
     ax.add_collection(bars)
     ax.autoscale_view()
@@ -267,6 +262,7 @@ def identification_figure(moduli, costs, identified: float | None = None,
     ax.set_ylabel("cost [m$^2$]")
     ax.grid(alpha=0.3, which="both")
     ax.set_title(title)
+    fig.subplots_adjust(left=0.12, right=0.97, bottom=0.13, top=0.91)
     return fig
 
 
@@ -278,12 +274,13 @@ def errors_figure(errors: np.ndarray, title: str = "Mean error per shape (thesis
     index = np.arange(len(errors))
     for k, (label, colour) in enumerate(zip(("x", "y", "z", "total"), (*AXIS_COLOURS, "black"),
                                             strict=True)):
-        ax.bar(index + (k - 1.5) * 0.2, 1e3 * errors[:, k], width=0.2, label=label, color=colour)
+        _bars(ax, index + (k - 1.5) * 0.2, 1e3 * errors[:, k], colour, width=0.2, label=label)
     ax.set_xlabel("shape index")
     ax.set_ylabel("mean error [mm]")
     ax.grid(alpha=0.3)
     ax.legend()
     ax.set_title(title)
+    fig.subplots_adjust(left=0.1, right=0.97, bottom=0.13, top=0.91)
     return fig
 
 
@@ -309,8 +306,12 @@ def motion_profile_figure(times, speed, acceleration, knot_times=(), speed_limit
                     label=f"{arm} arm", lw=1.2)
         if limit is not None:
             ax.axhline(scale * limit, color="black", ls="--", lw=0.8, label="limit")
-        for t in knot_times:
-            ax.axvline(t, color="#9e9e9e", lw=0.5, alpha=0.6)
+        if len(knot_times):  # as axvline each: data x, the axes' height, not autoscaled
+            from matplotlib.collections import LineCollection
+
+            ax.add_collection(LineCollection(
+                [[(t, 0.0), (t, 1.0)] for t in knot_times], colors="#9e9e9e", linewidths=0.5,
+                alpha=0.6, transform=ax.get_xaxis_transform()), autolim=False)
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     axes[0].legend(loc="upper right", fontsize=8)

@@ -61,6 +61,7 @@ def success_by_parameter_figure(values, success, name: str = "youngs_modulus",
     ax.set_ylabel("success rate [-]")
     ax.set_title(f"Success against {name.replace('_', ' ')} ({100 * confidence:.0f} % intervals)")
     ax.grid(alpha=0.3)
+    fig.subplots_adjust(left=0.13, right=0.97, bottom=0.14, top=0.91)
     return fig
 
 
