@@ -332,6 +332,7 @@ def reachable_error(plant: Plant, clips: ClipPoses, reference: np.ndarray, guess
 
     wanted = resample_by_arc_length(reference, len(reference))
 
+    @_last_value
     def residual(z):
         return box.residual(plant, clips, wanted, guess, z, gravity).ravel()
 
@@ -341,6 +342,21 @@ def reachable_error(plant: Plant, clips: ClipPoses, reference: np.ndarray, guess
                         x_scale=box.bound, max_nfev=max_evaluations)
     x, _, _ = plant.hold(guess, perturbed_clips(clips, fit.x / box.scale), gravity)
     return shape_error(x, reference)
+
+
+def _last_value(function):
+    """``function`` of a point z (12,) remembering its last point and value (a copy is
+    returned): :func:`scipy.optimize.least_squares` asks for the residual at a point and then
+    for its Jacobian there, whose forward differences start from that value, and every value is
+    a solve of each plant."""
+    last = []
+
+    def remembered(z):
+        if not last or not np.array_equal(last[0], z):
+            last[:] = [np.array(z, dtype=float), function(z)]
+        return last[1].copy()
+
+    return remembered
 
 
 @dataclass(frozen=True, eq=False)
@@ -429,7 +445,7 @@ def shared_floor(plants, clips: ClipPoses, reference: np.ndarray, guesses, floor
     gravity : array_like
         Gravity [m/s^2].
     max_evaluations : int
-        Evaluations of the objective at most (each Jacobian costs 13 solves of each plant:
+        Evaluations of the objective at most (each Jacobian costs 12 solves of each plant:
         forward differences of step :data:`DIFFERENCE_STEPS` times the plants' coarsest
         resolution).
 
@@ -464,6 +480,7 @@ def shared_floor(plants, clips: ClipPoses, reference: np.ndarray, guesses, floor
     # sqrt(|d|^2 + resolution^2) (a distance driven to zero is a kink)
     a = np.repeat(w / (len(wanted) * floors), len(wanted))
 
+    @_last_value
     def distances(z):
         return np.concatenate([box.residual(plant, clips, wanted, guess, z, gravity)
                                for plant, guess in zip(plants, guesses, strict=True)])
