@@ -269,7 +269,7 @@ def centred_twist_derivatives(tc: TwistChain, x: np.ndarray, d1: np.ndarray) -> 
     angle_gradient = np.empty(n)
     blocks = np.empty((n - 1, 11, 11))
     u_twist, u_direction = twist_stencils(x, d1, *tc.constants, scratch(), twist_gradient,
-                                          direction_gradient, angle_gradient, blocks)
+                                          direction_gradient, angle_gradient, blocks, True)
     return TwistDerivatives(u_twist, u_direction, twist_gradient, direction_gradient,
                             angle_gradient, blocks)
 

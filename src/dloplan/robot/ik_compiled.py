@@ -296,7 +296,7 @@ def solve(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, ax
         dpsi = 0.0
         if hold_angle:
             psi = arm_angle_row(rots, points, axes, angle_points[0], angle_points[1],
-                                reference, 3, angle_row, angle_work)
+                                reference, np.int64(3), angle_row, angle_work)
             dpsi = angle - psi
             dpsi -= 2.0 * math.pi * math.floor((dpsi + math.pi) / (2.0 * math.pi))
             aerr = max(aerr, abs(dpsi))
@@ -366,5 +366,5 @@ def solve_batch(origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offs
             origin_rot, origin_xyz, axis_skew, axis_skew2, tcp_rot, tcp_offset, axes, lower,
             upper, positions[k], target_rots[k], seeds[k], hold_angle, angles[k], angle_points,
             reference, max_iterations, position_tolerance, angle_tolerance, damping, max_step,
-            0.0, 0.0, 0, length_scale, 1.0, stall_window, stall_ratio, cholesky)
+            0.0, 0.0, np.int64(0), length_scale, 1.0, stall_window, stall_ratio, cholesky)
     return q, success, perr, aerr

@@ -130,7 +130,7 @@ def _held_item(x, guess, k_s, rest_lengths, k_b, rest_angles, masses, gravity, p
     outcome, iterations, residual, _, _ = newton_positions(
         x, np.int64(2), n_points - 2, k_s, rest_lengths, k_b, rest_angles, masses, gravity,
         length, tolerance, max_iterations, np.int64(0), 0.25 * length, history, np.int64(1),
-        grad, band, np.bool_(True), stiff_axial)
+        grad, band, np.bool_(True), stiff_axial, np.bool_(False))
     return (HANDED_BACK if outcome == SADDLE else outcome), iterations, residual, tolerance
 
 

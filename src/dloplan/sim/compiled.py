@@ -302,7 +302,7 @@ def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses
         accepted = False
         for _ in range(60):  # adapt the shift until a step is accepted
             solved, shift, longest, alpha, predicted = model_step(h, g, shift, scale, radius,
-                                                                   factor, p, False)
+                                                                   factor, p, np.bool_(False))
             if not solved:
                 continue
             moved_by(x, alpha, p, first, trial)
@@ -340,7 +340,7 @@ def _twist_derivatives(x, d1, chain, twist, link, work, grad, tgrad, dgrad, agra
     k_t, rest_twist, k_bd, rest_curvatures, directional = twist
     chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, grad, band_pos)
     twist_stencils(x, d1, k_t, rest_twist, k_bd, rest_curvatures, directional, work, tgrad,
-                   dgrad, agrad, blocks)
+                   dgrad, agrad, blocks, np.bool_(True))
     interleaved_band(band_pos, blocks, link, band)
     n_points = x.shape[0]
     residual = 0.0
@@ -382,7 +382,7 @@ def twist_trial(x, d1, p, link, trial, trial_d1, angles, correct):
             angles[q // 4] = p[j] / link
         else:
             trial[q // 4, q % 4] += p[j]
-    if correct and not restore_link_lengths(x, trial, 2, n - 1):
+    if correct and not restore_link_lengths(x, trial, np.int64(2), n - 1):
         return False
     moved_directors(x, trial, d1, angles, trial_d1)
     for c in range(3):
@@ -448,15 +448,15 @@ def newton_twist(x, d1, chain, twist, link, length_scale, tolerance, max_iterati
         accepted = False
         for _ in range(60):  # adapt the shift until a step is accepted
             solved, shift, longest, alpha, predicted = model_step(h, g, shift, scale, radius,
-                                                                   factor, p, True)
+                                                                   factor, p, np.bool_(True))
             if not solved:
                 continue
             for j in range(n_free):
                 p[j] *= alpha
-            twist_trial(x, d1, p, link, trial, trial_d1, angles, False)
+            twist_trial(x, d1, p, link, trial, trial_d1, angles, np.bool_(False))
             f_trial = twist_energy_of(trial, trial_d1, chain, twist)
             if correct_lengths and wants_correction(f, f_trial, predicted) and twist_trial(
-                    x, d1, p, link, corrected, corrected_d1, angles, True):
+                    x, d1, p, link, corrected, corrected_d1, angles, np.bool_(True)):
                 f_corrected = twist_energy_of(corrected, corrected_d1, chain, twist)
                 if f_corrected < f_trial:
                     trial[:] = corrected

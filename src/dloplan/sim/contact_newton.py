@@ -179,7 +179,7 @@ def newton_contacts(x, first, stop, constants, rows, radius, stiffness, length_s
         accepted = False
         for _ in range(60):  # adapt the shift until a step is accepted
             solved, shift, longest, alpha, predicted = model_step(h, g, shift, scale, trust,
-                                                                  factor, p, False)
+                                                                  factor, p, np.bool_(False))
             if not solved:
                 continue
             moved_by(x, alpha, p, first, trial)

@@ -260,7 +260,7 @@ def _compiled_newton(chain, x, free, length_scale, tolerance, max_iterations, en
             status, iterations, residual, radius, n_history = newton_positions(
                 x, free.start, free.stop, *chain.constants, length_scale, tolerance,
                 max_iterations, iterations, radius, history, n_history, grad, band,
-                escapes < MAX_ESCAPES, chain.stiff_axial)
+                escapes < MAX_ESCAPES, chain.stiff_axial, False)
         if status != SADDLE:
             break
         escaped = escape_saddle(x, history[n_history - 1], free_band(band, free), energy_of,

@@ -85,7 +85,7 @@ def _keep_out(x, v, accel, ground, obstacles, radius, friction):
     downward speed."""
     n_points = x.shape[0]
     if obstacles.shape[0] > 0:
-        push_out(x, v, accel, obstacles, radius, friction, 2, n_points - 2)
+        push_out(x, v, accel, obstacles, radius, friction, np.int64(2), n_points - 2)
     if ground:
         for i in range(n_points):
             if x[i, 2] < 0.0:
@@ -483,7 +483,7 @@ def relax_twist(x, d1, twist, tangents, lengths, work, tgrad, dgrad, agrad, bloc
     solved = True
     if directional:
         twist_stencils(x, d1, k_t, rest_twist, k_b, rest_curvatures, directional, work, tgrad,
-                       dgrad, agrad, blocks, False)
+                       dgrad, agrad, blocks, np.bool_(False))
         largest = 0.0
         for i in range(n - 2):  # free angle i is theta_{i+1}: stencils i (as b), i + 1 (as a)
             band[0, i] = blocks[i, 7, 7] + blocks[i + 1, 3, 3]
@@ -545,7 +545,7 @@ def twist_steps(x, v, previous_held, targets, held_directors, d1, twist, work, f
             ground, obstacles, radius, friction, record_every, rest_speed, clips_stop, k_s,
             rest_lengths, k_b, rest_angles, masses, gravity, times, shapes, speeds, n_records,
             grad, drag, accel)
-        if not carry_directors(tangents, lengths, x, d1, angles, 1, n - 1):
+        if not carry_directors(tangents, lengths, x, d1, angles, np.int64(1), n - 1):
             return step, n_records, DIVERGED  # a link reversed or folded back in one step
         d1[0] = held_directors[k, 0]
         d1[n - 1] = held_directors[k, 1]

@@ -99,6 +99,7 @@ def follow_lowest(band: np.ndarray, previous: np.ndarray, value: float, scale: f
         round-off, and its unit eigenvector (N,); None where the method does not apply (module
         docstring).
     """
+    band = np.ascontiguousarray(band)  # one compiled overload (a band slice is 'A' layout)
     vector = np.array(previous, dtype=float)
     factor = np.empty_like(band)
     work = np.empty(band.shape[1])
