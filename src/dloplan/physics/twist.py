@@ -268,6 +268,7 @@ def centred_twist_derivatives(tc: TwistChain, x: np.ndarray, d1: np.ndarray) -> 
     direction_gradient = np.empty_like(x)
     angle_gradient = np.empty(n)
     blocks = np.empty((n - 1, 11, 11))
+    # full=True passed, as the compiled callers pass it: one compiled overload
     u_twist, u_direction = twist_stencils(x, d1, *tc.constants, scratch(), twist_gradient,
                                           direction_gradient, angle_gradient, blocks, True)
     return TwistDerivatives(u_twist, u_direction, twist_gradient, direction_gradient,

@@ -489,7 +489,7 @@ def _solve(arm, position, target_rot, seed, opts: IKOptions,
         0.0 if arm_angle is None else float(arm_angle), *_angle_geometry(arm),
         opts.max_iterations, opts.position_tolerance, opts.angle_tolerance, opts.damping,
         opts.max_step, opts.null_gain if redundant else 0.0, opts.min_margin, polish,
-        LENGTH_SCALE, NULL_FADE, STALL_WINDOW, STALL_RATIO, False)
+        LENGTH_SCALE, NULL_FADE, STALL_WINDOW, STALL_RATIO, False)  # cholesky: as the batch's
     return q, float(perr), float(aerr), int(it), bool(ok)
 
 

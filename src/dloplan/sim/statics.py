@@ -256,7 +256,7 @@ def _compiled_newton(chain, x, free, length_scale, tolerance, max_iterations, en
                 x, free.start, free.stop, chain.constants, rows, chain.contact_radius,
                 chain.contact_stiffness, length_scale, tolerance, max_iterations, iterations,
                 radius, history, n_history, grad, band, escapes < MAX_ESCAPES, chain.stiff_axial)
-        else:
+        else:  # restart passed, as the plants' call passes it: one compiled overload
             status, iterations, residual, radius, n_history = newton_positions(
                 x, free.start, free.stop, *chain.constants, length_scale, tolerance,
                 max_iterations, iterations, radius, history, n_history, grad, band,
