@@ -13,8 +13,9 @@ gradient held fixed over the call. With torsion, :func:`twist_steps` relaxes the
 twist angles before every step (:class:`dloplan.sim.torsion.QuasiStaticTwist`) and adds their
 twisting force, also without Python per step.
 
-:func:`explicit_steps` runs the steps of one chunk of clip targets, records shapes at the
-recording interval, and stops early at rest or when the state diverges: no Python per step.
+:func:`explicit_steps` runs the steps of one chunk of clip targets (the held points at each
+step, :func:`held_targets`), records shapes at the recording interval, and stops early at rest
+or when the state diverges: no Python per step.
 :func:`implicit_steps` does the same by linearly implicit Euler (a banded solve per step; the
 contacts held through the step by the statics' penalty). :func:`dloplan.sim.dynamics.simulate`
 drives them.
