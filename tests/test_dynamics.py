@@ -150,3 +150,34 @@ def test_compiled_stepping_matches_a_plain_numpy_euler_loop(damping, axial, atol
             assert np.max(np.abs(run.shapes[k] - x)) < atol
     assert run.steps == 300 and len(run.times) == 4
     assert np.max(np.abs(run.shapes[0] - start)) == 0.0  # the shape as given
+
+
+def test_the_compiled_held_targets_are_the_trajectorys_held_points():
+    # sim.stepping.held_targets (the stepping's clip targets, per chunk) against the numpy
+    # path of ClipTrajectory.held_points (lerp, slerp, x-axes): turning clips (slerp's sine
+    # weights: libm's sine against numpy's vectorized one, equal to a few 1e-17 m), moving
+    # clips that do not turn (linear weights: bit for bit), a quaternion sign flip (the
+    # shorter arc), times before the first key and after the last (held), a single pose
+    from scipy.spatial.transform import Rotation
+
+    from dloplan.sim.clips import ClipPoses
+    from dloplan.sim.stepping import held_targets
+
+    turns = Rotation.from_euler("zyx", [[0, 0, 0], [40, 10, 5], [40, 10, 5], [-120, 30, 0],
+                                        [-130, 31, 2]], degrees=True)
+    poses = [ClipPoses(np.array([[0.01 * k, 0.0, 0.02 * k], [0.3, 0.05 * k, 0.0]]),
+                       Rotation.concatenate([turns[k], turns[(k + 2) % 5]])) for k in range(5)]
+    quats = np.stack([p.rotations.as_quat() for p in poses])
+    quats[3, 1] *= -1.0  # the same rotations; q . q' < 0 across a key
+    positions = np.stack([p.positions for p in poses])
+    turning = ClipTrajectory.sampled([0.0, 0.2, 0.5, 0.7, 1.0], positions, quats)
+    level = np.broadcast_to([0.0, 0.0, 0.0, 1.0], quats.shape)  # the clips keep their frames
+    moving = ClipTrajectory.sampled([0.0, 0.2, 0.5, 0.7, 1.0], positions, level)
+    times = np.concatenate([[-0.1], np.arange(20001) * 5e-5, [1.0, 1.3]])
+    for clips, link, tolerance in ((turning, 0.012, 2e-16), (moving, 0.03, 0.0),
+                                   (ClipTrajectory.hold(poses[2]), 0.02, 0.0)):
+        out = np.empty((len(times), 4, 3))
+        held_targets(clips.times, np.stack([p.positions for p in clips.poses]),
+                     np.stack([p.rotations.as_quat() for p in clips.poses]), times, link, out)
+        assert np.max(np.abs(out - clips.held_points(times, link))) <= tolerance
+        assert np.allclose(np.linalg.norm(out[:, 1] - out[:, 0], axis=1), link, atol=1e-15)

@@ -48,27 +48,38 @@ def _cos_derivatives(k_b, beta0, c, s, beta):
     return d1, d2
 
 
-@njit(cache=True)
-def joint_directions(x, i, u, v):
-    """Link directions u, v (filled in), lengths, c = u.v, sin and angle beta of joint i."""
-    la = 0.0
-    lb = 0.0
-    for a in range(3):
-        u[a] = x[i + 1, a] - x[i, a]
-        v[a] = x[i + 2, a] - x[i + 1, a]
-        la += u[a] * u[a]
-        lb += v[a] * v[a]
-    la = math.sqrt(la)
-    lb = math.sqrt(lb)
-    for a in range(3):
-        u[a] /= la
-        v[a] /= lb
+@njit(cache=True, inline="always")
+def _unit_link(x, i):
+    """Length and unit direction (a 3-tuple) of link i of x: the length's squares summed in
+    axis order, the direction divided by it."""
+    e0 = x[i + 1, 0] - x[i, 0]
+    e1 = x[i + 1, 1] - x[i, 1]
+    e2 = x[i + 1, 2] - x[i, 2]
+    length = math.sqrt(0.0 + e0 * e0 + e1 * e1 + e2 * e2)
+    return length, (e0 / length, e1 / length, e2 / length)
+
+
+@njit(cache=True, inline="always")
+def _joint_angle(u, v):
+    """c = u.v, sin and angle beta between unit directions u, v (3-tuples or arrays)."""
     cx = u[1] * v[2] - u[2] * v[1]
     cy = u[2] * v[0] - u[0] * v[2]
     cz = u[0] * v[1] - u[1] * v[0]
     s = math.sqrt(cx * cx + cy * cy + cz * cz)
     c = u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-    return la, lb, c, s, math.atan2(s, c)
+    return c, s, math.atan2(s, c)
+
+
+@njit(cache=True)
+def joint_directions(x, i, u, v):
+    """Link directions u, v (filled in), lengths, c = u.v, sin and angle beta of joint i."""
+    la, du = _unit_link(x, i)
+    lb, dv = _unit_link(x, i + 1)
+    for a in range(3):
+        u[a] = du[a]
+        v[a] = dv[a]
+    c, s, beta = _joint_angle(du, dv)
+    return la, lb, c, s, beta
 
 
 @njit(cache=True)
@@ -105,35 +116,30 @@ def add_point_blocks(band, blocks):
 def _axial_terms(x, k_s, rest_lengths, grad, band, with_band):
     """Add U^s's gradient (and Hessian, ``with_band``) into grad, band; return U^s [J]."""
     total = 0.0
-    t = np.empty(3)
-    h = np.empty((3, 3))
     for i in range(x.shape[0] - 1):
-        length = 0.0
-        for a in range(3):
-            t[a] = x[i + 1, a] - x[i, a]
-            length += t[a] * t[a]
-        length = math.sqrt(length)
+        e0 = x[i + 1, 0] - x[i, 0]
+        e1 = x[i + 1, 1] - x[i, 1]
+        e2 = x[i + 1, 2] - x[i, 2]
+        length = math.sqrt(0.0 + e0 * e0 + e1 * e1 + e2 * e2)
         stretch = length - rest_lengths[i]
         total += 0.5 * k_s * stretch * stretch
         inverse = 1.0 / length
+        t = (e0 * inverse, e1 * inverse, e2 * inverse)
         for a in range(3):
-            t[a] *= inverse
             g = k_s * stretch * t[a]
             grad[i + 1, a] += g
             grad[i, a] -= g
         if not with_band:
             continue
         ratio = stretch * inverse
-        for a in range(3):
-            for b in range(3):
-                tt = t[a] * t[b]
-                h[a, b] = k_s * (tt + ratio * ((1.0 if a == b else 0.0) - tt))
         for a in range(3):  # blocks (i, i) and (i+1, i+1): h; (i+1, i): -h
             for b in range(3):
+                tt = t[a] * t[b]
+                h = k_s * (tt + ratio * ((1.0 if a == b else 0.0) - tt))
                 if a >= b:
-                    band[a - b, 3 * i + b] += h[a, b]
-                    band[a - b, 3 * i + 3 + b] += h[a, b]
-                band[3 + a - b, 3 * i + b] -= h[a, b]
+                    band[a - b, 3 * i + b] += h
+                    band[a - b, 3 * i + 3 + b] += h
+                band[3 + a - b, 3 * i + b] -= h
     return total
 
 
@@ -141,20 +147,23 @@ def _axial_terms(x, k_s, rest_lengths, grad, band, with_band):
 def _bending_terms(x, k_b, rest_angles, grad, band, with_band):
     """Add U^b's gradient (and Hessian, ``with_band``) into grad, band; return U^b [J]."""
     total = 0.0
-    hl = np.empty((2, 2, 3, 3))  # link blocks aa, ab, bb (ba = ab^T)
-    u = np.empty(3)
-    v = np.empty(3)
-    dca = np.empty(3)
-    dcb = np.empty(3)
+    hl = np.empty((2, 2, 3, 3) if with_band else (0, 0, 0, 0))  # link blocks aa, ab, bb
+    if x.shape[0] < 3:
+        return total
+    lb, v = _unit_link(x, 0)
     for i in range(x.shape[0] - 2):
-        la, lb, c, s, beta = joint_directions(x, i, u, v)
+        la, u = lb, v  # the joint's first link is the joint before's second
+        lb, v = _unit_link(x, i + 1)
+        c, s, beta = _joint_angle(u, v)
         total += 0.5 * k_b * (beta - rest_angles[i]) ** 2
         d1, d2 = _cos_derivatives(k_b, rest_angles[i], c, s, beta)
         ia = 1.0 / la
         ib = 1.0 / lb
+        dca = ((v[0] - c * u[0]) * ia, (v[1] - c * u[1]) * ia,
+               (v[2] - c * u[2]) * ia)  # dc/da = w / |a|
+        dcb = ((u[0] - c * v[0]) * ib, (u[1] - c * v[1]) * ib,
+               (u[2] - c * v[2]) * ib)  # dc/db = z / |b|
         for a in range(3):
-            dca[a] = (v[a] - c * u[a]) * ia  # dc/da = w / |a|
-            dcb[a] = (u[a] - c * v[a]) * ib  # dc/db = z / |b|
             grad[i, a] -= d1 * dca[a]
             grad[i + 1, a] += d1 * (dca[a] - dcb[a])
             grad[i + 2, a] += d1 * dcb[a]

@@ -48,13 +48,12 @@ from .stepping import (
     RUNNING,
     SETTLED,
     explicit_steps,
+    held_targets,
     implicit_steps,
     twist_steps,
 )
 
 _CHUNK = 4096  # steps whose clip poses are interpolated at once
-
-_BLOCK = 65536  # steps whose clip poses :class:`_HeldSchedule` interpolates at once
 
 SCHEDULE_INTERVAL = 1e-3
 """Time [s] between updates of the cable's constants when it changes (``cable_at``)."""
@@ -218,27 +217,6 @@ def held_points_at(positions: np.ndarray, u_axes: np.ndarray, link_length: float
          positions[:, 1] + half[:, 1], positions[:, 1] - half[:, 1]],
         axis=1,
     )
-
-
-class _HeldSchedule:
-    """The clips' points and u-axes at the steps of a run, interpolated for a block of
-    :data:`_BLOCK` steps at once (a changing cable's chunks are a millisecond: interpolating
-    the poses per chunk cost a fifth of a harness replay)."""
-
-    def __init__(self, trajectory: ClipTrajectory, dt: float, n_steps: int) -> None:
-        self.trajectory, self.dt, self.n_steps = trajectory, dt, n_steps
-        self.first, self.positions, self.axes = 1, np.zeros((0, 2, 3)), np.zeros((0, 2, 3))
-
-    def targets(self, steps: np.ndarray, link_length: float) -> np.ndarray:
-        """Held points (len(steps), 4, 3) [m] at the consecutive ``steps``."""
-        start = int(steps[0]) - self.first
-        if start < 0 or start + len(steps) > len(self.positions):
-            block = np.arange(int(steps[0]), min(int(steps[0]) + max(_BLOCK, len(steps)),
-                                                 self.n_steps) + 1)
-            self.first, start = int(block[0]), 0
-            self.positions, self.axes = self.trajectory.clip_axes(block * self.dt)
-        end = start + len(steps)
-        return held_points_at(self.positions[start:end], self.axes[start:end], link_length)
 
 
 @dataclass(frozen=True, eq=False)
@@ -436,7 +414,7 @@ def simulate(
     back = max(1, int(math.ceil(INDEFINITE_BACKOFF / dt)))  # steps an indefinite run gives back
     if implicit:
         chunk = min(chunk, back)
-    schedule = _HeldSchedule(trajectory, dt, n_steps)
+    key_positions, key_quaternions = (np.ascontiguousarray(k) for k in trajectory._keys)
     no_load = np.zeros_like(x)
     offsets = np.arange(cable.n_points) - 0.5 * cable.n_links  # (i - n/2): ds_i = offset dl
     drift = np.zeros(cable.n_points)  # the implicit step's (ds_i/dt) / l [1/s]
@@ -460,7 +438,9 @@ def simulate(
                     previous = model, settings(model,
                                                SpringChain.from_cable(model, gravity).constants)
                 current = previous[1]
-            targets = schedule.targets(chunk_steps, model.rest_link_length)
+            targets = np.empty((len(chunk_steps), 4, 3))  # the held points at each step
+            held_targets(trajectory.times, key_positions, key_quaternions, chunk_steps * dt,
+                         model.rest_link_length, targets)
             if implicit:
                 if step - kept[-1][0] >= back:
                     kept = [kept[-1], (step, x.copy(), v.copy(), recorded)]

@@ -13,8 +13,9 @@ gradient held fixed over the call. With torsion, :func:`twist_steps` relaxes the
 twist angles before every step (:class:`dloplan.sim.torsion.QuasiStaticTwist`) and adds their
 twisting force, also without Python per step.
 
-:func:`explicit_steps` runs the steps of one chunk of clip targets, records shapes at the
-recording interval, and stops early at rest or when the state diverges: no Python per step.
+:func:`explicit_steps` runs the steps of one chunk of clip targets (the held points at each
+step, :func:`held_targets`), records shapes at the recording interval, and stops early at rest
+or when the state diverges: no Python per step.
 :func:`implicit_steps` does the same by linearly implicit Euler (a banded solve per step; the
 contacts held through the step by the statics' penalty). :func:`dloplan.sim.dynamics.simulate`
 drives them.
@@ -91,6 +92,65 @@ def _keep_out(x, v, accel, ground, obstacles, radius, friction):
             if x[i, 2] < 0.0:
                 x[i, 2] = 0.0
                 v[i, 2] = max(v[i, 2], 0.0)
+
+
+@njit(cache=True)
+def held_targets(key_times, key_positions, key_quaternions, times, link_length, out):
+    """The four held points at the steps of a chunk: ``out`` (M, 4, 3) [m] at ``times`` (M,)
+    [s], non-decreasing.
+
+    The clip poses at the keys, ``key_times`` (K,) [s] strictly increasing, ``key_positions``
+    (K, 2, 3) [m] and ``key_quaternions`` (K, 2, 4) unit ``clip_to_world`` quaternions (x, y,
+    z, w), interpolated as :meth:`dloplan.sim.dynamics.ClipTrajectory.poses_at` does (linear
+    in position, :func:`dloplan.frames.slerp_quaternions` in rotation, held before the first
+    key and after the last), and the held points of
+    :func:`dloplan.sim.dynamics.held_points_at` (the middles of end links of length
+    ``link_length`` [m] at the clip points, along the clips' x-axes): the same arithmetic in
+    the same order, point by point, without the arrays numpy makes per chunk of steps.
+    """
+    last = key_times.shape[0] - 1
+    half = 0.5 * link_length
+    k = 0
+    f = 0.0
+    for m in range(times.shape[0]):
+        t = min(max(times[m], key_times[0]), key_times[last])
+        if last > 0:  # the key at or before t (the last but one at the end)
+            while k < last - 1 and key_times[k + 1] <= t:
+                k += 1
+            f = (t - key_times[k]) / (key_times[k + 1] - key_times[k])
+        for c in range(2):
+            if last == 0:
+                p = (key_positions[0, c, 0], key_positions[0, c, 1], key_positions[0, c, 2])
+                q = (key_quaternions[0, c, 0], key_quaternions[0, c, 1],
+                     key_quaternions[0, c, 2], key_quaternions[0, c, 3])
+            else:
+                p = ((1.0 - f) * key_positions[k, c, 0] + f * key_positions[k + 1, c, 0],
+                     (1.0 - f) * key_positions[k, c, 1] + f * key_positions[k + 1, c, 1],
+                     (1.0 - f) * key_positions[k, c, 2] + f * key_positions[k + 1, c, 2])
+                q = _slerp(key_quaternions[k, c], key_quaternions[k + 1, c], f)
+            x, y, z, w = q
+            u = (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + z * w), 2.0 * (x * z - y * w))
+            for a in range(3):  # clip 0 holds points 0 and 1, clip 1 points 3 and 2
+                out[m, 3 * c, a] = p[a] - half * u[a]
+                out[m, 1 + c, a] = p[a] + half * u[a]
+
+
+@njit(cache=True, inline="always")
+def _slerp(q0, q1, f):
+    """The unit quaternion (a 4-tuple) a fraction ``f`` of the shorter arc from q0 to q1 (4,),
+    as :func:`dloplan.frames.slerp_quaternions`."""
+    cos = q0[0] * q1[0] + q0[1] * q1[1] + q0[2] * q1[2] + q0[3] * q1[3]
+    sign = -1.0 if cos < 0.0 else 1.0  # q and -q are one rotation
+    angle = math.acos(min(abs(cos), 1.0))
+    sin = math.sin(angle)
+    if sin < 1e-12:  # (nearly) equal keys: linear weights
+        w0, w1 = 1.0 - f, f
+    else:
+        w0, w1 = math.sin((1.0 - f) * angle) / sin, math.sin(f * angle) / sin
+    q = (w0 * q0[0] + w1 * (sign * q1[0]), w0 * q0[1] + w1 * (sign * q1[1]),
+         w0 * q0[2] + w1 * (sign * q1[2]), w0 * q0[3] + w1 * (sign * q1[3]))
+    norm = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    return q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm
 
 
 @njit(cache=True)
@@ -258,6 +318,8 @@ def implicit_steps(x, v, previous_held, targets, drift, first_step, n_steps, dt,
     accel = np.empty_like(x)
     work = (np.empty((9, n_dof)), np.empty((9, n_dof - 12)), np.empty((9, n_dof - 12)),
             np.empty(n_dof))
+    chain_grad = np.empty_like(x)  # the chain's gradient and band at the step's start
+    chain_band = np.empty((9, n_dof))
     velocity = np.empty(n_dof)
     touching = np.zeros((obstacles.shape[0], n_points, 7))  # d [m], n, friction force [N]
     through = np.zeros_like(x)  # u: each point's velocity relative to its material [m/s]
@@ -286,10 +348,13 @@ def implicit_steps(x, v, previous_held, targets, drift, first_step, n_steps, dt,
                     STICK if friction > 0.0 else SLIDE)
         if obstacles.shape[0] > 0:
             _material_drift(x, drift, touching, holding, through)
+        # the chain's derivatives at x, once: each solve of the active set adds its contacts
+        chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, chain_grad,
+                          chain_band)
         for _ in range(2 * obstacles.shape[0] * n_points + 1):  # the active set
-            if not _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b,
-                                      rest_angles, masses, gravity, touching, holding,
-                                      stiffness, through, grad, work):
+            if not _implicit_velocity(v, velocity, dt, k_d, relative, masses, chain_grad,
+                                      chain_band, touching, holding, stiffness, through, grad,
+                                      work):
                 return step - 1, n_records, INDEFINITE
             if _contacts_settled(velocity, touching, holding, stiffness, dt, friction, through):
                 break
@@ -388,19 +453,23 @@ def _contacts_settled(velocity, touching, holding, stiffness, dt, friction, thro
 
 
 @njit(cache=True)
-def _implicit_velocity(x, v, velocity, dt, k_d, relative, k_s, rest_lengths, k_b, rest_angles,
-                       masses, gravity, touching, holding, stiffness, through, grad, work):
+def _implicit_velocity(v, velocity, dt, k_d, relative, masses, chain_grad, chain_band, touching,
+                       holding, stiffness, through, grad, work):
     """Solve one step's system of :func:`implicit_steps` for the free points' v+ into
-    ``velocity`` (3(n + 1),), whose held entries are the clips' already; the contacts in
-    ``holding`` (K, n + 1) held as :func:`_contacts_settled` says with ``touching`` and
-    ``through`` (a sticking point's spring at rest where its material is at the step's end).
-    ``work``: band (9, 3(n + 1)), free band and factor (9, 3(n + 1) - 12), rhs (3(n + 1),).
-    False when the system is not positive definite."""
+    ``velocity`` (3(n + 1),), whose held entries are the clips' already; the chain's gradient
+    (n + 1, 3) [N] and lower Hessian band (9, 3(n + 1)) [N/m] at the step's start in
+    ``chain_grad``, ``chain_band`` (:func:`dloplan.physics.compiled.chain_derivatives`, read
+    only: the active set solves again with other contacts), the contacts in ``holding``
+    (K, n + 1) held as :func:`_contacts_settled` says with ``touching`` and ``through`` (a
+    sticking point's spring at rest where its material is at the step's end). ``grad`` (n + 1,
+    3) and ``work`` (band (9, 3(n + 1)), free band and factor (9, 3(n + 1) - 12), rhs (3(n +
+    1),)) are scratch. False when the system is not positive definite."""
     band, free, factor, rhs = work
-    n_points = x.shape[0]
+    n_points = v.shape[0]
     n_dof = 3 * n_points
     dt2 = dt * dt
-    chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, grad, band)
+    grad[:] = chain_grad
+    band[:] = chain_band
     for r in range(holding.shape[0]):
         for i in range(n_points):
             c = touching[r, i]
