@@ -395,7 +395,7 @@ def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment,
             continue
         if first is None and not passing:
             first = motion
-        if moves or not reached:  # (a verdict here never tries the swapped assignment)
+        if moves or not reached:  # yumi_program does not try the swapped assignment then
             return _finish(trajectory, cell, assignment, targets, motion, verdict_only)
     return _finish(trajectory, cell, assignment, targets, first) if first is not None else None
 
@@ -461,8 +461,9 @@ def _finish(trajectory, cell, assignment, targets, motion,
 
 
 def _fails(rows) -> bool:
-    """A row of ``rows`` fails a check other than ``reach`` (a verdict's first failure: a
-    target no IK reaches is reported per shape, and fails its round trip too)."""
+    """A row of ``rows`` fails a check other than ``reach`` (where a verdict may stop: the
+    first such failure is the one the reach repair reports; a target no IK reaches is reported
+    per shape by the verification, after the program's other failures)."""
     return any(not row.ok and row.check != "reach" for row in rows)
 
 

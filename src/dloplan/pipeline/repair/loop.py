@@ -583,12 +583,13 @@ class _Session:
                       "tried: " + attempts(tried))
 
     def program_verdict(self, program, n_shapes: int) -> list[str]:
-        """What a placement's robot program leaves of the reach failures: those of its plan
-        verified with the checks of the plan without the physics (:func:`~.failures.diagnose`
-        of :meth:`Checks.verify` with ``snap`` and ``replay`` off: the failing program rows,
-        then the shapes an arm cannot reach), of which the repair reads the reach kind only,
-        and ``program`` may be a verdict (``verdict_only``: its rows up to its first failure
-        other than reach, :func:`~dloplan.robot.yumi_program.yumi_program`)."""
+        """The reach failures a placement's robot program leaves, as the repair prints them:
+        :func:`~.failures.reach_failures` of the placed plan verified for its program (the
+        failing program rows other than reach, then the shapes an arm cannot reach when the
+        plan's checks include the robot's), without the physics checks, which it does not
+        read. ``program`` may be a verdict (``verdict_only``,
+        :func:`~dloplan.robot.yumi_program.yumi_program`): its first failure other than reach
+        is the complete program's."""
         rows = program_reachability(program, n_shapes) if self.checks.robot else ()
         return [f.message for f in program_failures(program) + unreachable_shapes(
             (k, row["reachable_left"], row["reachable_right"]) for k, row in enumerate(rows))]
