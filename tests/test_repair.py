@@ -18,7 +18,7 @@ import pytest
 import yaml
 from scipy.spatial.transform import Rotation
 
-from dloplan.app import load_job
+from dloplan.app import load_job, make_plan
 from dloplan.app.document_file import read_plan
 from dloplan.app.files import EXIT_CHECK_FAILED, plan_into
 from dloplan.app.load import resolve_mapping
@@ -622,3 +622,28 @@ def test_frames_of_another_method_name_the_method_the_job_asked_for():
     assert "as asked" not in result.repairs[0].change
     assert f"method {grippers.method!r} chosen by the repair (the job asked for 'auxiliary')" \
         in grippers.message
+
+
+def test_a_placement_is_rejected_on_its_programs_first_failure(monkeypatch):
+    """fig4_8: the reach repair rejects two placements on the first failure of their robot
+    programs, at the approach (the lines the complete programs gave), without solving the
+    controller's round trip of their later targets (``verdict_only``): 18 robtargets for the
+    plan's program (9 targets, 2 arms), 2 for each rejected one, 18 for the one kept (72
+    when the rejected programs were completed)."""
+    import dloplan.robot.yumi_program as plugin
+
+    solved = []
+    solve = plugin.solve_robtarget
+    monkeypatch.setattr(plugin, "solve_robtarget",
+                        lambda *args, **kwargs: solved.append(args) or solve(*args, **kwargs))
+    lines = []
+    doc = make_plan(load_job(EXAMPLES / "fig4_8_straight_to_bent.yaml"), progress=lines.append)
+    through = "about the vertical through [0.431, 0.000, 0.000] m: robot program, approach"
+    assert [line for line in lines if line.startswith("placement rejected")] == [
+        f"placement rejected: auxiliary frames, grasps rolled, job turned 30 deg {through}, "
+        "right arm: joint limits 0.05341 deg ABB axis 2, less than the 5 deg required",
+        f"placement rejected: minimal frames, grasps rolled, job turned -30 deg {through}, "
+        "left arm: round trip 180 deg 0 solutions of the pose and arm angle, 0 with confdata "
+        "[-1, -1, 0, 4]"]
+    assert doc.program.ok and doc.program.trajectory is not None and doc.repairs
+    assert len(solved) == 18 + 2 + 2 + 18

@@ -254,3 +254,30 @@ def test_the_side_rule_follows_a_turned_base():
     arms = turned.robot.arms
     described = DescribedCell("yumi_turned", *arms, shared_base=True)
     assert assign_arms(grippers.positions, described).left_clip == 1 - first
+
+
+@pytest.mark.parametrize("name", ["qualitative1_curved_pa12.yaml", "fig4_8_straight_to_bent.yaml",
+                                  "m2_uniform_curvature_usb.yaml"])
+def test_a_verdict_only_program_stops_at_its_first_failing_target(name):
+    """``verdict_only`` (the reach repair's placements): a program that fails stops after the
+    first target failing a check other than reach, untimed, its rows those of the complete
+    program up to there (qualitative-1's plan: no IK at the approach, nor its round trip); a
+    program that passes (m2), or that tries the swapped assignment (fig4_8's plan: the arms
+    collide at the approach), is the complete one."""
+    from dloplan.pipeline.repair.failures import program_failures
+
+    _, grippers, trajectory, _ = example_plan(name)
+    complete = robot_program(grippers, trajectory)
+    verdict = robot_program(grippers, trajectory, verdict_only=True)
+    assert verdict.ok == complete.ok
+    if name != "qualitative1_curved_pa12.yaml":
+        assert verdict.trajectory is complete.trajectory is not None
+        assert verdict.checks == complete.checks and verdict.message == complete.message
+        assert np.array_equal(verdict.times, complete.times)
+        return
+    assert verdict.trajectory is None  # untimed: never to be written
+    assert verdict.checks == complete.checks[:len(verdict.checks)]
+    first = program_failures(verdict)[0]
+    assert first == program_failures(complete)[0]
+    assert verdict.checks[-1].target == 0 and "approach" in first.message
+    assert len(verdict.checks) < len(complete.checks) // 4

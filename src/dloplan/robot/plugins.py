@@ -40,7 +40,7 @@ def cell_name(cell) -> str:
     return "yumi" if isinstance(cell, RobotCell) else cell.name
 
 
-def robot_program(grippers, trajectory, cell=None) -> RobotProgram:
+def robot_program(grippers, trajectory, cell=None, *, verdict_only: bool = False) -> RobotProgram:
     """The verified robot program of a plan on ``cell`` (either kind), made by its plug-in.
 
     Parameters
@@ -52,6 +52,10 @@ def robot_program(grippers, trajectory, cell=None) -> RobotProgram:
     cell : RobotCell or DescribedCell, optional
         Default :class:`~dloplan.robot.cell.RobotCell` (the YuMi at the work frame's origin,
         SmartGripper tools).
+    verdict_only : bool
+        Only the verdict and the first failure are wanted: the YuMi's program may stop at its
+        first failing target (:func:`~dloplan.robot.yumi_program.yumi_program`); a described
+        cell's is complete.
 
     Raises
     ------
@@ -60,7 +64,7 @@ def robot_program(grippers, trajectory, cell=None) -> RobotProgram:
         :func:`~dloplan.robot.yumi_program.yumi_program`).
     """
     if cell is None or isinstance(cell, RobotCell):
-        return yumi_program(grippers, trajectory, cell)
+        return yumi_program(grippers, trajectory, cell, verdict_only=verdict_only)
     if not isinstance(cell, DescribedCell):
         raise ValueError(f"cell: expected a RobotCell or a DescribedCell, got "
                          f"{type(cell).__name__}")

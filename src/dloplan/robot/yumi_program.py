@@ -277,7 +277,8 @@ class YumiTargets:
                                self.times[self.grasp:self.release + 1])}
 
 
-def yumi_program(grippers, trajectory, cell: RobotCell | None = None) -> RobotProgram:
+def yumi_program(grippers, trajectory, cell: RobotCell | None = None, *,
+                 verdict_only: bool = False) -> RobotProgram:
     """The verified robot program of a plan on the YuMi (module docstring).
 
     Parameters
@@ -289,6 +290,15 @@ def yumi_program(grippers, trajectory, cell: RobotCell | None = None) -> RobotPr
         knots must be the clip points of ``grippers`` (in any arm order).
     cell : RobotCell, optional
         Default :class:`RobotCell` (YuMi at the work frame's origin, SmartGripper tools).
+    verdict_only : bool
+        Only the verdict and the first failure are wanted (the reach repair, which tries
+        placements until one passes): a program that fails a check other than ``reach`` may
+        come back untimed (``trajectory`` None: no ``joint speed`` rows, never to be written),
+        its rows ending with the first target at which such a check fails (the controller's
+        round trip of the later targets not computed) or with the motion's rows. Its failures
+        up to there are those of the complete program, so its first failure other than
+        ``reach`` is the complete program's. A program that passes, whose only failures are
+        ``reach`` rows, or that would try the swapped assignment, is complete.
 
     Returns
     -------
@@ -307,14 +317,14 @@ def yumi_program(grippers, trajectory, cell: RobotCell | None = None) -> RobotPr
         raise ValueError(f"cell: expected a RobotCell, got {type(cell).__name__}")
     _check_inputs(grippers, trajectory)
     assignment = assign_arms(grippers.positions, cell)
-    program = _build(grippers, trajectory, cell, assignment)
+    program = _build(grippers, trajectory, cell, assignment, verdict_only=verdict_only)
     if not program.ok and assignment.ok:
         failed = {r.check for r in program.failures}
         if failed & {"clearance", "continuity"} and "reach" not in failed:
             other = _build(grippers, trajectory, cell, assignment.swapped(), passing=True)
             if other is not None and other.ok:
                 program = other
-    return slowed(program)
+    return program if program.trajectory is None else slowed(program)
 
 
 def _check_inputs(grippers, trajectory) -> None:
@@ -337,14 +347,15 @@ def _check_inputs(grippers, trajectory) -> None:
 
 
 def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment,
-           passing: bool = False) -> RobotProgram | None:
+           passing: bool = False, verdict_only: bool = False) -> RobotProgram | None:
     """The program of an arm assignment: its targets, then the ranked joint solutions tried
     in order (up to :data:`MAX_TRIES`): the first whose motion neither collides nor loses
     continuity, or the first with a target no solution reaches, else the best ranked.
     A try is judged on its motion (reach, continuity, clearance) before the controller's
     round trip and the time law are computed: a try that is passed over costs its replay
     only. With ``passing`` only a program whose motion passes is wanted (None otherwise:
-    the swapped assignment, taken only when it passes every check)."""
+    the swapped assignment, taken only when it passes every check); ``verdict_only`` as for
+    :func:`yumi_program` (:func:`_finish`)."""
     robot, opts = cell.robot, cell.reach
     clips = list(assignment.clips)
     n_shapes = len(grippers.positions)
@@ -384,8 +395,8 @@ def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment,
             continue
         if first is None and not passing:
             first = motion
-        if moves or not reached:
-            return _finish(trajectory, cell, assignment, targets, motion)
+        if moves or not reached:  # yumi_program does not try the swapped assignment then
+            return _finish(trajectory, cell, assignment, targets, motion, verdict_only)
     return _finish(trajectory, cell, assignment, targets, first) if first is not None else None
 
 
@@ -411,19 +422,32 @@ def _motion(cell: RobotCell, targets, chosen) -> dict:
             "replay": replay, "rows": _motion_rows(robot, opts, labels, shapes, joints, replay)}
 
 
-def _finish(trajectory, cell, assignment, targets, motion) -> RobotProgram:
+def _finish(trajectory, cell, assignment, targets, motion,
+            verdict_only: bool = False) -> RobotProgram:
     """The program of a solved motion (:func:`_motion`): the controller's round trip of every
-    written robtarget, the verdict rows and the timing."""
+    written robtarget, the verdict rows and the timing. With ``verdict_only`` the rows stop
+    after the first target that fails a check other than ``reach`` (the round trip of the
+    later targets not computed), or after the motion's rows when one of them fails such a
+    check: the program is then returned untimed (:func:`yumi_program`)."""
     robot, opts = cell.robot, cell.reach
     labels, shapes, grasp, release, pos, quats, _ = targets
     chosen, rot, eax, joints = motion["chosen"], motion["rot"], motion["eax"], motion["joints"]
     turned = tuple(bool(c.grip) for c in chosen)
     quat = np.stack([quats[c.grip][:, a] for a, c in enumerate(chosen)], axis=1)
-    trip = [[solve_robtarget(arm, pos[m, a], rot[m, a], np.radians(eax[m, a]),
-                             confdata(joints[m, a]), seeds=[joints[m, a]], options=opts.ik)
-             for a, arm in enumerate(robot.arms)] for m in range(len(pos))]
-    rows = _target_rows(robot, cell, assignment, labels, shapes, pos, rot, joints,
-                        motion["solved"], trip) + motion["rows"]
+    rows = _assignment_rows(assignment)
+    stopped = verdict_only and _fails(rows)
+    for m in range(len(pos)):
+        if stopped:
+            break
+        trip = [solve_robtarget(arm, pos[m, a], rot[m, a], np.radians(eax[m, a]),
+                                confdata(joints[m, a]), seeds=[joints[m, a]], options=opts.ik)
+                for a, arm in enumerate(robot.arms)]
+        target = _target_rows(robot, cell, m, labels[m], int(shapes[m]), pos[m], rot[m],
+                              joints[m], motion["solved"][m], trip)
+        rows += target
+        stopped = verdict_only and _fails(target)
+    if not stopped:
+        rows += motion["rows"]
     replayed = motion["replay"]["joints"]
     record = YumiTargets(assignment, turned, labels, shapes, grasp, release, pos, quat,
                          confdata(joints), eax, np.concatenate([joints[:1]] + replayed),
@@ -431,7 +455,16 @@ def _finish(trajectory, cell, assignment, targets, motion) -> RobotProgram:
     moves = tuple(tuple(np.concatenate([joints[m, a][None], q[:-1, a], joints[m + 1, a][None]])
                         for m, q in enumerate(replayed)) for a in range(2))
     untimed = RobotProgram(cell, record, (joints[:, 0], joints[:, 1]), moves, tuple(rows))
+    if stopped or (verdict_only and _fails(motion["rows"])):
+        return untimed
     return untimed.retimed(trajectory)
+
+
+def _fails(rows) -> bool:
+    """A row of ``rows`` fails a check other than ``reach`` (where a verdict may stop: the
+    first such failure is the one the reach repair reports; a target no IK reaches is reported
+    per shape by the verification, after the program's other failures)."""
+    return any(not row.ok and row.check != "reach" for row in rows)
 
 
 def _timing(trajectory, cell: RobotCell, assignment: ArmAssignment, approach: bool):
@@ -454,49 +487,51 @@ def _link(i: int) -> str:
     return "gripper" if i == 7 else f"link {i + 1}"
 
 
-def _target_rows(robot, cell, assignment, labels, shapes, pos, rot, joints, solved,
-                 trip) -> list:
-    """The verdict rows of the arm assignment and of the targets (module docstring:
-    ``assignment``, ``reach``, ``round trip``, ``joint limits``); ``trip[m][a]`` the
-    controller's solutions of target m's robtarget
+def _assignment_rows(assignment: ArmAssignment) -> list:
+    """The verdict rows of the arm assignment (module docstring: ``assignment``), per shape."""
+    return [CheckRow("assignment", None, f"shape {k}", k, "both", 1e3 * sep, "mm",
+                     k not in assignment.crossings,
+                     "" if k not in assignment.crossings else
+                     "the left arm's clip is right of the right arm's clip")
+            for k, sep in enumerate(assignment.separation)]
+
+
+def _target_rows(robot, cell, m, label, shape, pos, rot, joints, solved, trip) -> list:
+    """The verdict rows of target ``m`` (module docstring: ``reach``, ``round trip``, ``joint
+    limits``): ``pos`` (2, 3), ``rot`` (2, 3, 3), ``joints`` (2, 7) and ``solved`` (2,) its
+    values per arm, ``trip[a]`` the controller's solutions of its robtarget for arm a
     (:func:`~dloplan.robot.robtarget.solve_robtarget`)."""
     opts = cell.reach
     rows = []
-    for k, sep in enumerate(assignment.separation):
-        rows.append(CheckRow("assignment", None, f"shape {k}", k, "both", 1e3 * sep, "mm",
-                             k not in assignment.crossings,
-                             "" if k not in assignment.crossings else
-                             "the left arm's clip is right of the right arm's clip"))
-    for m, label in enumerate(labels):
-        for a, arm in enumerate(robot.arms):
-            p, r = forward(arm, joints[m, a])
-            perr = float(np.linalg.norm(p - pos[m, a]))
-            aerr = float(Rotation.from_matrix(rot[m, a] @ r.as_matrix().T).magnitude())
-            rows.append(CheckRow("reach", m, label, int(shapes[m]), ARMS[a], 1e3 * perr, "mm",
-                                 bool(solved[m, a]),
-                                 f"orientation error {np.degrees(aerr):.2g} deg" if
-                                 not solved[m, a] else ""))
-        for a in range(2):
-            found = trip[m][a]
-            deviation = found.deviation(joints[m, a])
-            conf = confdata(joints[m, a]).tolist()
-            note = (f"{len(found.solutions)} solutions of the pose and arm angle, "
-                    f"{len(found.matching)} with confdata {conf}")
-            if len(found.matching) > 1:
-                note += ("; the MoveL into it follows its branch (the continuity check) and "
-                         "ConfL confirms the confdata")
-            rows.append(CheckRow("round trip", m, label, int(shapes[m]), ARMS[a],
-                                 float(np.degrees(min(deviation, np.pi))), "deg",
-                                 bool(deviation <= ROUND_TRIP_TOLERANCE), note))
-        for a, arm in enumerate(robot.arms):
-            gaps = np.minimum(joints[m, a] - arm.lower, arm.upper - joints[m, a])
-            j = int(np.argmin(gaps))
-            margin = float(np.degrees(gaps[j]))
-            note = f"ABB axis {ABB_AXIS_NUMBERS[j]}"
-            if margin < np.degrees(opts.min_margin):
-                note += f", less than the {np.degrees(opts.min_margin):.0f} deg required"
-            rows.append(CheckRow("joint limits", m, label, int(shapes[m]), ARMS[a], margin,
-                                 "deg", bool(gaps[j] >= opts.min_margin), note))
+    for a, arm in enumerate(robot.arms):
+        p, r = forward(arm, joints[a])
+        perr = float(np.linalg.norm(p - pos[a]))
+        aerr = float(Rotation.from_matrix(rot[a] @ r.as_matrix().T).magnitude())
+        rows.append(CheckRow("reach", m, label, shape, ARMS[a], 1e3 * perr, "mm",
+                             bool(solved[a]),
+                             f"orientation error {np.degrees(aerr):.2g} deg" if
+                             not solved[a] else ""))
+    for a in range(2):
+        found = trip[a]
+        deviation = found.deviation(joints[a])
+        conf = confdata(joints[a]).tolist()
+        note = (f"{len(found.solutions)} solutions of the pose and arm angle, "
+                f"{len(found.matching)} with confdata {conf}")
+        if len(found.matching) > 1:
+            note += ("; the MoveL into it follows its branch (the continuity check) and "
+                     "ConfL confirms the confdata")
+        rows.append(CheckRow("round trip", m, label, shape, ARMS[a],
+                             float(np.degrees(min(deviation, np.pi))), "deg",
+                             bool(deviation <= ROUND_TRIP_TOLERANCE), note))
+    for a, arm in enumerate(robot.arms):
+        gaps = np.minimum(joints[a] - arm.lower, arm.upper - joints[a])
+        j = int(np.argmin(gaps))
+        margin = float(np.degrees(gaps[j]))
+        note = f"ABB axis {ABB_AXIS_NUMBERS[j]}"
+        if margin < np.degrees(opts.min_margin):
+            note += f", less than the {np.degrees(opts.min_margin):.0f} deg required"
+        rows.append(CheckRow("joint limits", m, label, shape, ARMS[a], margin,
+                             "deg", bool(gaps[j] >= opts.min_margin), note))
     return rows
 
 

@@ -133,19 +133,29 @@ def replay_failures(verification) -> list[Failure]:
 def reach_failures(verification, doc=None) -> list[Failure]:
     """Planned poses an arm cannot reach, and every other failing check of the plan's robot
     program (joint limits, arm-arm clearance, continuity, ...)."""
+    return program_failures(getattr(doc, "program", None)) + unreachable_shapes(
+        (row.index, row.reachable_left, row.reachable_right) for row in verification.rows)
+
+
+def program_failures(program) -> list[Failure]:
+    """The failing checks of a robot program other than ``reach`` (None: no program), in the
+    order of its rows: the first of :func:`reach_failures`."""
+    if program is None:
+        return []
+    return [Failure("reach", None, (row.shape,), f"robot program, {row.label}, {row.arm} arm: "
+                    f"{row.check} {row.value:.4g} {row.unit} {row.note}".rstrip())
+            for row in program.failures if row.check != "reach"]
+
+
+def unreachable_shapes(rows) -> list[Failure]:
+    """The planned poses an arm cannot reach: ``rows`` (index, reachable by the left arm, by
+    the right arm) per shape, as a verification's rows give them
+    (:func:`dloplan.pipeline.stages.program_reachability`; None: not checked)."""
     failures = []
-    program = getattr(doc, "program", None)
-    if program is not None:
-        for row in program.failures:
-            if row.check != "reach":
-                failures.append(Failure("reach", None, (row.shape,), f"robot program, "
-                                        f"{row.label}, {row.arm} arm: {row.check} "
-                                        f"{row.value:.4g} {row.unit} {row.note}".rstrip()))
-    for row in verification.rows:
-        arms = [a for a, ok in (("left", row.reachable_left), ("right", row.reachable_right))
-                if ok is False]
+    for index, left, right in rows:
+        arms = [a for a, ok in (("left", left), ("right", right)) if ok is False]
         if arms:
-            failures.append(Failure("reach", None, (row.index,), f"shape {row.index}: not "
+            failures.append(Failure("reach", None, (index,), f"shape {index}: not "
                                     f"reachable by the {' and '.join(arms)} arm"))
     return failures
 

@@ -65,12 +65,29 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from ...robot.cell import RobotCell
+from ...robot.plugins import robot_program
 from ...robot.urdf_cell import verify_on_cell
 from ...sim.statics import interpolate_clips
 from ...verify import check_snap_through
-from ..stages import quiet, run_job, verify_plan, with_verification
+from ..stages import (
+    program_reachability,
+    quiet,
+    run_job,
+    verify_plan,
+    with_program,
+    with_verification,
+)
 from .candidates import FrameSet, Place
-from .failures import KINDS, diagnose, frame_steps, score, summary, twist_failures
+from .failures import (
+    KINDS,
+    diagnose,
+    frame_steps,
+    program_failures,
+    score,
+    summary,
+    twist_failures,
+    unreachable_shapes,
+)
 from .frames import SHARES, RolledTwists, grasp_rolled, grasp_scores, untwisted
 from .placement import (
     SEARCHES,
@@ -544,9 +561,11 @@ class _Session:
                     placed = moved_document(placed_job, new, found.move, program=False)
                     collides = obstacle_collisions(placed)
                     if collides is None:
-                        placed = with_robot(placed_job, placed, always=True)
-                        rows = self.checks.verify(placed, snap=False, replay=False)
-                        left = [f.message for f in diagnose(placed, rows) if f.kind == "reach"]
+                        program = robot_program(placed.grippers, placed.trajectory,
+                                                placed_job.robot, verdict_only=True)
+                        left = self.program_verdict(program, len(placed.shapes))
+                        if not left:
+                            placed = with_program(placed, program)
                     else:
                         left = [collides]
                     tried.append(f"{_frames_name(candidate.frames)}, job {move.describe()}: "
@@ -562,6 +581,18 @@ class _Session:
                     return
         raise Refused("no placement of the job on the table makes every pose reachable; "
                       "tried: " + attempts(tried))
+
+    def program_verdict(self, program, n_shapes: int) -> list[str]:
+        """The reach failures a placement's robot program leaves, as the repair prints them:
+        :func:`~.failures.reach_failures` of the placed plan verified for its program (the
+        failing program rows other than reach, then the shapes an arm cannot reach when the
+        plan's checks include the robot's), without the physics checks, which it does not
+        read. ``program`` may be a verdict (``verdict_only``,
+        :func:`~dloplan.robot.yumi_program.yumi_program`): its first failure other than reach
+        is the complete program's."""
+        rows = program_reachability(program, n_shapes) if self.checks.robot else ()
+        return [f.message for f in program_failures(program) + unreachable_shapes(
+            (k, row["reachable_left"], row["reachable_right"]) for k, row in enumerate(rows))]
 
     def fix_cell_reach(self, failures) -> None:
         """A described cell: the job shifted to where the cell's own placement search
