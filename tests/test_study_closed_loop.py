@@ -193,11 +193,12 @@ def test_plant_chains_joined_and_taken_drive_as_made_directly(example_plan):
 @pytest.mark.parametrize("axial_modulus", [None, 2.0e9])
 def test_plant_chains_at_moduli_are_made_of_the_cables_at_those_moduli_bit_for_bit(
         example_plan, axial_modulus):
-    """PlantChains.at_moduli (the clip fit's chain at each sample's E, built from the plan's
-    chain: SpringChain.from_cable's ``like``) holds every field of PlantChains.of of the cables
-    at those moduli, bit for bit: the chains' constants, contact penalty and stiff-axial flag,
-    the tolerance and the stiffest spring; with E_a = E (k_s moves with E) and with an axial
-    modulus of its own (k_s kept, stiff_axial from the ratio)."""
+    """PlantChains.at_moduli (the clip fit's chain at each sample's E: Cable's properties
+    evaluated for all the moduli at once, no cable made) holds every field of PlantChains.of
+    of the cables at those moduli, bit for bit: the chains' constants, the tolerance, the
+    stiffest spring and the stiff-axial flag; with E_a = E (k_s moves with E) and with an axial
+    modulus of its own (k_s kept, stiff_axial from the ratio). A row's cable and chain, made
+    when asked for (a saddle's escape), are those of the cable at its E."""
     import numpy as np
 
     from dloplan.correct.plant_batch import PlantChains
@@ -207,21 +208,61 @@ def test_plant_chains_at_moduli_are_made_of_the_cables_at_those_moduli_bit_for_b
     if axial_modulus is not None:
         cable = replace(cable, axial_modulus=axial_modulus)
     gravity = (0.0, 0.0, -9.81)
-    moduli = cable.youngs_modulus * np.array([0.37, 1.0, 2.9, 1.0 / 3.0])
+    moduli = cable.youngs_modulus * np.array([0.37, 1.0, 2.9, 1.0 / 3.0, 1e-3])
     got = PlantChains.at_moduli(cable, moduli, gravity)
     want = PlantChains.of([cable.with_modulus(e) for e in moduli], gravity)
+    assert len(got) == len(want) == len(moduli)
     for name in ("link", "length", "tolerance", "stiff", "stiff_axial"):
         assert np.array_equal(getattr(got, name), getattr(want, name)), name
+        assert getattr(got, name).dtype == getattr(want, name).dtype, name
+    if axial_modulus is not None:
+        assert list(got.stiff_axial) == [True, True, True, True, True]
     for a, b in zip(got.constants, want.constants, strict=True):
         assert np.array_equal(a, b)
-    for a, b in zip(got.chains, want.chains, strict=True):
-        assert (a.contact_stiffness, a.stiff_axial, a.contact_radius) == \
-            (b.contact_stiffness, b.stiff_axial, b.contact_radius)
-        assert np.array_equal(a.gravity, b.gravity)
-    assert [c.youngs_modulus for c in got.cables] == list(moduli)
-    with pytest.raises(ValueError, match="like"):
-        SpringChain.from_cable(cable.with_links(cable.n_links + 1), gravity,
-                               like=got.chains[0])
+        assert a.dtype == b.dtype and a.shape == b.shape
+    for b, e in enumerate(moduli):
+        assert repr(got.cable(b)) == repr(cable.with_modulus(e)) == repr(want.cable(b))
+        made, wanted = got.chain(b, gravity), SpringChain.from_cable(want.cable(b), gravity)
+        assert (made.k_axial, made.k_bending, made.contact_stiffness, made.stiff_axial) == \
+            (wanted.k_axial, wanted.k_bending, wanted.contact_stiffness, wanted.stiff_axial)
+    joined = PlantChains.join([want, got]).take([7, 1])
+    assert joined.cable(0).youngs_modulus == moduli[2] and np.isnan(joined.moduli[1])
+    assert joined.cable(1) is want.cables[1]
+
+
+def test_held_chains_are_held_equilibria_bit_for_bit(example_plan):
+    """hold_chains (the linearized correction's model at shape K, on chains made once per E)
+    is held_equilibria item by item, bit for bit, also for an item the compiled loop hands
+    back (clips at the edge of the cable's reach: held_equilibria's equilibrium() refuses it,
+    None) and one with no stable equilibrium there."""
+    import numpy as np
+    from scipy.spatial.transform import Rotation
+
+    from dloplan.correct.plant_batch import PlantChains, hold_chains
+    from dloplan.sim.batch import HANDED_BACK, held_equilibria
+
+    doc, gravity = example_plan, (0.0, 0.0, -9.81)
+    cable = doc.cable
+    moduli = cable.youngs_modulus * np.array([0.5, 1.0, 3.0, 0.8])
+    clips = [doc.grippers.clip_poses(j) for j in (1, len(doc.shapes) - 1, 2, 3)]
+    positions = np.array([c.positions for c in clips])
+    quaternions = np.array([c.rotations.as_quat() for c in clips])
+    far = positions[3, 1] - positions[3, 0]  # item 3: clips pulled apart beyond the reach
+    positions[3, 1] = positions[3, 0] + far * (1.2 * cable.length / np.linalg.norm(far))
+    guesses = np.array([doc.shapes[j] for j in (1, len(doc.shapes) - 1, 2, 3)])
+    got = hold_chains(PlantChains.at_moduli(cable, moduli, gravity), guesses, positions,
+                      quaternions, gravity=gravity)
+    want = held_equilibria([cable.with_modulus(e) for e in moduli], np.arange(4), guesses,
+                           positions, Rotation.from_quat(quaternions.reshape(-1, 4)),
+                           gravity=gravity)
+    assert want.refused[3] and not want.success[3]
+    for b in range(4):
+        if want.success[b]:
+            assert np.array_equal(got[b], want.shapes[b]), b
+        else:
+            assert got[b] is None, b
+    assert sum(x is not None for x in got) == 3
+    assert HANDED_BACK < 0
 
 
 def _assert_held_stop_by_stop(drive, plants, stops, start, cable, clamp, predict_from=None):

@@ -46,8 +46,9 @@ the agreement is tested on samples it was not tuned on (E x0.05 .. x20, other se
 ``tests/test_study_closed_loop.py``) and quoted in docs/study.md.
 
 Every sample's equilibria of one round -- the model at the updated E, a trial of the clip fit
--- are solved in two compiled calls (:func:`dloplan.sim.batch.held_equilibria` at shape K,
-:func:`.plant_batch.drive_plants` on the fit chain at the target): each sample's
+-- are solved in two compiled calls (:func:`.plant_batch.hold_chains` at shape K,
+:func:`.plant_batch.drive_chains` on the fit chain at the target), on chains made once per E
+and chunk (:func:`_chains`): each sample's
 correction is a generator that yields the equilibria it needs and receives them
 (:func:`_correction`).
 """
@@ -68,7 +69,6 @@ from ..geometry import as_path, resample_by_arc_length
 from ..grippers import GripperPath
 from ..physics.chain import SpringChain
 from ..sim import ClipPoses, equilibrium, interpolate_clips
-from ..sim.batch import held_equilibria
 from ..sim.sensitivity import equilibrium_sensitivity
 from ..study.evaluate import perturbed_cable
 from .clip_batch import fit_clips_batch
@@ -91,7 +91,7 @@ from .model_error import (
     offset_covariance,
 )
 from .normal_fits import columns_of, fit_amplitudes, fit_estimate, fit_estimates
-from .plant_batch import PlantChains, drive_chains
+from .plant_batch import PlantChains, drive_chains, hold_chains
 from .step import (
     CLIP_DAMPING,
     COST_TOLERANCE,
@@ -604,7 +604,8 @@ def _fit_and_check(nominal: NominalCorrection, results: list, cables: dict) -> N
         return
     cases = [results[b] for b in index]
 
-    chains = _fit_chains(nominal, [case.update.youngs_modulus for case in cases], cables)
+    chains = _chains(nominal, [case.update.youngs_modulus for case in cases], cables,
+                     nominal.clamp_links)
 
     def solve(which, p, guesses):
         return _solve(nominal, [_Request(cases[j].update.youngs_modulus, p[i], True,
@@ -641,21 +642,22 @@ def _fit_and_check(nominal: NominalCorrection, results: list, cables: dict) -> N
             results[b] = str(exc)
 
 
-def _fit_chains(nominal: NominalCorrection, moduli, cables: dict) -> PlantChains:
-    """The clip fit's chains (:class:`~.step.FitModel`: k n links) at the ``moduli`` [Pa], in
-    order: rows of one pool of the chunk's fit chains (``cables["fit chains"]``), each E's
-    made once (those of a call in one :meth:`.plant_batch.PlantChains.of`), its row kept in
-    ``cables`` under (E, k)."""
-    k = nominal.clamp_links
-    missing = list(dict.fromkeys(float(e) for e in moduli if (float(e), k) not in cables))
+def _chains(nominal: NominalCorrection, moduli, cables: dict, links: int) -> PlantChains:
+    """The model's chains at the ``moduli`` [Pa], in order: with ``links`` 1 the plan's model
+    (n links, held by one link at each clip), else the clip fit's (:class:`~.step.FitModel`:
+    k n links, ``links`` = k). Rows of one pool per kind for the chunk (``cables["chains",
+    links]``), each E's made once (those of a call in one :meth:`.plant_batch.PlantChains.
+    at_moduli`), its row kept in ``cables`` under (E, links)."""
+    missing = list(dict.fromkeys(float(e) for e in moduli if (float(e), links) not in cables))
     if missing:
-        made = PlantChains.at_moduli(nominal.fit_cable, missing, nominal.gravity)
-        pool = cables.get("fit chains")
-        start = 0 if pool is None else len(pool.cables)
-        cables["fit chains"] = made if pool is None else PlantChains.join([pool, made])
+        base = nominal.cable if links == 1 else nominal.fit_cable
+        made = PlantChains.at_moduli(base, missing, nominal.gravity)
+        pool = cables.get(("chains", links))
+        start = 0 if pool is None else len(pool)
+        cables["chains", links] = made if pool is None else PlantChains.join([pool, made])
         for row, e in enumerate(missing, start=start):
-            cables[e, k] = row
-    return cables["fit chains"].take([cables[float(e), k] for e in moduli])
+            cables[e, links] = row
+    return cables["chains", links].take([cables[float(e), links] for e in moduli])
 
 
 def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> None:
@@ -670,49 +672,40 @@ def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> Non
 def _solve(nominal: NominalCorrection, requests: list, cables: dict,
            fit_chains: PlantChains | None = None) -> list:
     """The equilibria of ``requests``: those at shape K on the model's chain in one
-    :func:`held_equilibria` call, those at the target on the clip fit's chain in one
+    :func:`.plant_batch.hold_chains` call (:func:`dloplan.sim.batch.held_equilibria`, bit for
+    bit), those at the target on the clip fit's chain in one
     :func:`.plant_batch.drive_chains` call (one stop each: the clamped equilibrium of
     :class:`~.step.FitModel` to the solver's tolerance, its Newton loop unshifted again after
     every very successful step, ``restart``; and its reach check); shapes, None where there
-    is no stable equilibrium. ``cables`` holds what was made so far per E and links: the model's
-    cable (1 link clamped), the clip fit chain's row in their pool (k, :func:`_fit_chains`);
-    ``fit_chains``, when given, are the fit chains of the requests at the target, in order
-    (made by :func:`_fit_chains`)."""
+    is no stable equilibrium. ``cables`` holds the chains made so far per E and links
+    (:func:`_chains`: the model's, 1, and the clip fit's, k); ``fit_chains``, when given, are
+    the fit chains of the requests at the target, in order (made by :func:`_chains`)."""
     positions, quaternions = nominal.poses
     p = np.array([r.clips for r in requests]).reshape(-1, 2, 2, 3)
     index = [nominal.n_shapes - 1 if r.at_target else nominal.at for r in requests]
     moved = positions[index] + p[:, :, 0]
     turns = Rotation.from_rotvec(p[:, :, 1].reshape(-1, 3))
     rotations = turns * Rotation.from_quat(quaternions[index].reshape(-1, 4))
+    quats = rotations.as_quat().reshape(-1, 2, 4)
     out: list = [None] * len(requests)
     shape_k = [b for b, r in enumerate(requests) if not r.at_target]
     if shape_k:
-        moduli, cable_of = np.unique([requests[b].youngs_modulus for b in shape_k],
-                                     return_inverse=True)
-        for e in moduli:  # a sample's requests share its E: one cable for all
-            if (float(e), 1) not in cables:
-                model = nominal.cable.with_modulus(float(e))
-                # its chain made from the plan's now (held_equilibria's from_cable finds it)
-                SpringChain.from_cable(model, nominal.gravity, like=SpringChain.from_cable(
-                    nominal.cable, nominal.gravity))
-                cables[float(e), 1] = model
-        result = held_equilibria([cables[float(e), 1] for e in moduli],
-                                 cable_of.astype(np.int64),
-                                 [requests[b].guess for b in shape_k], moved[shape_k],
-                                 rotations[np.ravel([[2 * b, 2 * b + 1] for b in shape_k])],
-                                 gravity=nominal.gravity)
-        for j, b in enumerate(shape_k):
-            out[b] = result.shapes[j] if result.success[j] else None
+        shapes = hold_chains(_chains(nominal, [requests[b].youngs_modulus for b in shape_k],
+                                     cables, 1),
+                             [requests[b].guess for b in shape_k], moved[shape_k],
+                             quats[shape_k], gravity=nominal.gravity)
+        for b, shape in zip(shape_k, shapes, strict=True):
+            out[b] = shape
     target = [b for b, r in enumerate(requests) if r.at_target]
     if target:
         k = nominal.clamp_links
-        fine = fit_chains if fit_chains is not None else _fit_chains(
-            nominal, [requests[b].youngs_modulus for b in target], cables)
-        quats = rotations.as_quat().reshape(-1, 2, 4)[target]
+        fine = fit_chains if fit_chains is not None else _chains(
+            nominal, [requests[b].youngs_modulus for b in target], cables, k)
         drive = drive_chains(fine, [k] * len(target), [requests[b].guess for b in target],
-                             moved[target][:, None], quats[:, None], gravity=nominal.gravity,
+                             moved[target][:, None], quats[target][:, None],
+                             gravity=nominal.gravity,
                              restart=True)
-        reach = (fine.cables[0].n_links - 2 * k) * fine.cables[0].rest_link_length
+        reach = (fine.cables[0].n_links - 2 * k) * fine.link[0]
         for j, b in enumerate(target):
             x = drive.shapes[j, 0]
             if drive.failed[j] < 0 and np.linalg.norm(x[-k - 1] - x[k]) <= reach:
@@ -978,7 +971,7 @@ def _closed_loop(nominal: NominalCorrection, plants: PlantChains, clamps: list,
     at, last = nominal.at, nominal.n_shapes - 1
     positions, quaternions = nominal.poses
     ramp = np.arange(0, last - at + 1) / (last - at)  # shape K (0) .. T (1)
-    count = len(plants.cables)
+    count = len(plants)
     p = (ramp[None, :, None] * corrections[:, None, :]).reshape(count, -1, 2, 2, 3)
     moved = positions[None, at:] + p[:, :, :, 0]  # (B, T - K + 1, 2, 3)
     turns = Rotation.from_rotvec(p[:, :, :, 1].reshape(-1, 3))
