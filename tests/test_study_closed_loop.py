@@ -442,6 +442,42 @@ def test_a_measurement_refused_is_refused_alike(example_plan):
     assert all(row["refusal"].startswith("shape 3: measured: the shape is") for row in rows)
 
 
+def test_the_table_made_node_by_node_when_needed_is_the_whole_table(example_plan):
+    """The derivative table makes a node when an estimate first asks for its side beyond the
+    nodes made (each from its neighbour): asked near the plan's E it holds a few nodes; asked
+    in any order, in another table, after the whole range was made, every value interpolated
+    is the same bit for bit."""
+    import math
+
+    import numpy as np
+
+    from dloplan.correct.linearized import TABLE_STEP, nominal_correction
+    from dloplan.pipeline.stages import settled_shapes
+
+    doc = example_plan
+    stable = settled_shapes(doc)
+
+    def table():
+        return nominal_correction(doc.cable, doc.shapes, doc.grippers, 3, stabilized=stable,
+                                  gravity=(0.0, 0.0, -9.81)).table
+
+    log_e0 = math.log(doc.cable.youngs_modulus)
+    asked = log_e0 + np.array([0.3, -0.05, 0.0, 1.1, -0.6, 0.9, 2 * TABLE_STEP, -3.0, 5.0])
+    lazy, whole = table(), table()
+    assert len(lazy.log_moduli) == 1
+    lazy.at(log_e0 + 0.3)
+    assert len(lazy.log_moduli) == 3  # node 0, then the two up to 0.3 (2 steps of 0.17)
+    whole.at(log_e0 + 10.0)
+    whole.at(log_e0 - 10.0)
+    assert len(whole.log_moduli) > 20
+    names = ("state", "target", "modulus_k", "d_k", "g_t", "d_clips", "fine", "fine_clips")
+    for x in asked:
+        a, b = lazy.at(x), whole.at(x)
+        for name in names:
+            assert np.array_equal(a[name], b[name]), (x - log_e0, name)
+    assert np.array_equal(lazy.log_moduli, whole.log_moduli)  # asked out to both ends
+
+
 def test_the_tabulated_clip_derivatives_of_the_bias_are_its_central_differences(example_plan):
     """d d / d p and d g / d p at the target, tabulated from the clip sensitivities of the
     2 n-link equilibria d and g are differences of (their every other point for the arc-length

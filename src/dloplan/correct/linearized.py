@@ -136,60 +136,138 @@ class DerivativeTable:
     """The model's equilibria and their derivatives at shape K and at the target, at the
     planned clips, tabulated along ln E and interpolated linearly between its nodes.
 
+    The nodes lie every :data:`TABLE_STEP` in ln E within ``half_width`` of the plan's E, each
+    continued from its neighbour towards the ends; a side ends where the model loses its stable
+    equilibrium, on its own chain or on the clip fit's of ``fit_links`` links
+    (:class:`~.step.FitModel`). They are made when first needed: :meth:`at` extends the side
+    of the ln E it is asked for up to it, each node from the one before as the whole table
+    would make it, so every value is the same whichever estimates ask first and in which
+    process (a study's estimates seldom go beyond a fraction of the factor-10 range: on the
+    study example 12 of 29 nodes, docs/performance.md, branch cl3).
+
     Attributes
     ----------
-    log_moduli : numpy.ndarray
-        (k,) the nodes ln E [ln Pa], increasing, spaced :data:`TABLE_STEP`, covering
-        ``max_modulus_factor`` either way of the plan's E (or up to where the model loses its
-        equilibrium).
-    values : dict
-        Per name, (k, ...) arrays: ``state`` and ``target`` (n + 1, 3) the equilibria at K and
-        at the target [m]; ``modulus_k``, ``modulus_t`` d x / d ln E there [m]; ``d_k``,
-        ``g_k``, ``d_t``, ``g_t`` the discretization and clamp directions
-        (:func:`.model_error.model_error_directions`) [m]; ``d_clips``, ``g_clips``
-        (3 (n + 1), 12) d d / d p and d g / d p at the target (the clip sensitivities of the
-        2 n-link equilibria they are differences of, at their every other point: R_n to first
-        order; scaled as ``clips``) [m]; ``fine`` (k n + 1, 3) the
+    cable : Cable
+        The plan's model cable (its E the node 0).
+    clips : tuple of ClipPoses
+        The planned clips of shape K and of the target.
+    scale : numpy.ndarray
+        (12,) the clip coordinates' scale (1 for metres, L / 2 for radians).
+    half_width : float
+        The range either way of the plan's ln E.
+    gravity : numpy.ndarray
+        (3,) [m/s^2].
+    fit_links : int
+        Links of the clip fit's chain.
+    made : dict
+        The nodes made so far: ``rows`` (index -> values; per name ``state`` and ``target``
+        (n + 1, 3) the equilibria at K and at the target [m]; ``modulus_k``, ``modulus_t``
+        d x / d ln E there [m]; ``d_k``, ``g_k``, ``d_t``, ``g_t`` the discretization and
+        clamp directions (:func:`.model_error.model_error_directions`) [m]; ``d_clips``,
+        ``g_clips`` (3 (n + 1), 12) d d / d p and d g / d p at the target (the clip
+        sensitivities of the 2 n-link equilibria they are differences of, at their every other
+        point: R_n to first order; scaled as ``clips``) [m]; ``fine`` (k n + 1, 3) the
         equilibrium at the target of the chain the clips are fitted on (:class:`~.step.
         FitModel`: k n links, each gripper clamping k) [m], ``fine_clips`` (3 (k n + 1), 12)
-        its d x / d p and ``clips`` (3 (n + 1), 12) the same at its every k-th point (the plan's
-        model's material points), rotation columns divided by L / 2 (the clip fit's scaled
-        coordinates).
+        its d x / d p and ``clips`` (3 (n + 1), 12) the same at its every k-th point (the
+        plan's model's material points), rotation columns divided by L / 2 (the clip fit's
+        scaled coordinates)), the sorted ``keys`` and their ``log_moduli`` ln E [ln Pa], and
+        per side (1, -1) whether it is ``ended``.
     """
 
-    log_moduli: np.ndarray
-    values: dict
+    cable: Cable
+    clips: tuple
+    scale: np.ndarray
+    half_width: float
+    gravity: np.ndarray
+    fit_links: int
+    made: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def log_moduli(self) -> np.ndarray:
+        """(k,) the ln E [ln Pa] of the nodes made so far, increasing."""
+        return self.made["log_moduli"]
 
     def at(self, log_modulus: float) -> Interpolated:
         """The values at ln E (linear between the nodes, the end node's beyond them), each
         interpolated when it is asked for."""
-        nodes = self.log_moduli
+        self._extend(1 if log_modulus > self._log(self.made["rows"][0]) else -1, log_modulus)
+        nodes, rows = self.made["log_moduli"], self.made["sorted"]
         if len(nodes) == 1:
-            return Interpolated(self.values, 0, 0.0)
+            return Interpolated(rows[0], rows[0], 0.0)
         k = min(max(int(np.searchsorted(nodes, log_modulus)) - 1, 0), len(nodes) - 2)
         w = min(max((log_modulus - float(nodes[k])) / float(nodes[k + 1] - nodes[k]), 0.0), 1.0)
-        return Interpolated(self.values, k, w)
+        return Interpolated(rows[k], rows[k + 1], w)
+
+    def start(self, guesses: tuple) -> None:
+        """Make node 0, at the plan's E, from the ``guesses`` (n + 1, 3) at the two clips [m].
+
+        Raises
+        ------
+        CorrectionRefused
+            When the plan's own E has no stable equilibrium there.
+        """
+        node = _node(self.cable, self.clips, guesses, self.gravity, self.scale, self.fit_links)
+        if node is None:
+            raise CorrectionRefused("model: no stable equilibrium of the plan's cable at the "
+                                    "measured shape's or the target's clips")
+        self.made.update(rows={0: node}, ended={1: False, -1: False}, last={1: 0, -1: 0})
+        self._sort()
+
+    def _extend(self, side: int, log_modulus: float) -> None:
+        """Make the nodes of ``side`` up to the first at or beyond ``log_modulus``, or to the
+        side's end."""
+        rows, last, ended = self.made["rows"], self.made["last"], self.made["ended"]
+        log_e0 = math.log(self.cable.youngs_modulus)
+        count = int(math.ceil(self.half_width / TABLE_STEP - 1e-9))
+        grew = False
+        while not ended[side] and side * (self._log(rows[side * last[side]]) - log_modulus) < 0:
+            k = last[side] + 1
+            if k > count:
+                ended[side] = True
+                break
+            previous = rows[side * last[side]]
+            log_e = log_e0 + side * min(k * TABLE_STEP, self.half_width)
+            step = log_e - math.log(previous["youngs_modulus"])
+            guesses = (previous["state"] + step * previous["modulus_k"],
+                       previous["target"] + step * previous["modulus_t"])
+            node = _node(self.cable.with_modulus(math.exp(log_e)), self.clips, guesses,
+                         self.gravity, self.scale, self.fit_links)
+            if node is None:
+                ended[side] = True
+                break
+            rows[side * k], last[side], grew = node, k, True
+        if grew:
+            self._sort()
+
+    def _sort(self) -> None:
+        keys = sorted(self.made["rows"])
+        self.made["sorted"] = [self.made["rows"][k] for k in keys]
+        self.made["log_moduli"] = np.array([self._log(row) for row in self.made["sorted"]])
+
+    @staticmethod
+    def _log(row: dict) -> float:
+        return float(np.log(row["youngs_modulus"]))
 
 
 @dataclass(frozen=True, eq=False)
 class Interpolated:
-    """:meth:`DerivativeTable.at`: ``self[name]`` is ``(1 - w) values[name][k] + w
-    values[name][k + 1]`` (a node's own array at w = 0 or 1), computed once."""
+    """:meth:`DerivativeTable.at`: ``self[name]`` is ``(1 - w) low[name] + w high[name]``
+    of two neighbouring nodes (a node's own array at w = 0 or 1), computed once."""
 
-    values: dict
-    k: int
+    low: dict
+    high: dict
     w: float
     made: dict = field(default_factory=dict, repr=False)
 
     def __getitem__(self, name: str) -> np.ndarray:
         if name not in self.made:
-            v = self.values[name]
             if self.w == 0.0:
-                self.made[name] = v[self.k]
+                self.made[name] = self.low[name]
             elif self.w == 1.0:
-                self.made[name] = v[self.k + 1]
+                self.made[name] = self.high[name]
             else:
-                self.made[name] = (1.0 - self.w) * v[self.k] + self.w * v[self.k + 1]
+                self.made[name] = (1.0 - self.w) * self.low[name] + self.w * self.high[name]
         return self.made[name]
 
 
@@ -312,39 +390,18 @@ def nominal_correction(cable: Cable, shapes, grippers: GripperPath, at: int, *, 
 def derivative_table(cable: Cable, clips: tuple, guesses: tuple, scale: np.ndarray,
                      half_width: float, gravity, fit_links: int) -> DerivativeTable:
     """:class:`DerivativeTable` at the clips of shape K and of the target (``clips``, from the
-    ``guesses``), nodes every :data:`TABLE_STEP` in ln E within ``half_width`` of the plan's,
-    each continued from its neighbour towards the ends; a side ends where the model loses its
-    stable equilibrium, on its own chain or on the clip fit's of ``fit_links`` links
-    (:class:`~.step.FitModel`).
+    ``guesses``) within ``half_width`` of the plan's ln E, the clip fit's chain of
+    ``fit_links`` links: its node 0 made (the others when needed).
 
     Raises
     ------
     CorrectionRefused
         When the plan's own E has no stable equilibrium there.
     """
-    log_e0 = math.log(cable.youngs_modulus)
-    count = int(math.ceil(half_width / TABLE_STEP - 1e-9))
-    rows = {0: _node(cable, clips, guesses, gravity, scale, fit_links)}
-    if rows[0] is None:
-        raise CorrectionRefused("model: no stable equilibrium of the plan's cable at the "
-                                "measured shape's or the target's clips")
-    for side in (1, -1):
-        previous = rows[0]
-        for k in range(1, count + 1):
-            log_e = log_e0 + side * min(k * TABLE_STEP, half_width)
-            step = log_e - math.log(previous["youngs_modulus"])
-            guesses = (previous["state"] + step * previous["modulus_k"],
-                       previous["target"] + step * previous["modulus_t"])
-            node = _node(cable.with_modulus(math.exp(log_e)), clips, guesses, gravity, scale,
-                         fit_links)
-            if node is None:
-                break
-            rows[side * k] = previous = node
-    keys = sorted(rows)
-    values = {name: np.array([rows[k][name] for k in keys]) for name in rows[0]
-              if name != "youngs_modulus"}
-    moduli = np.log([rows[k]["youngs_modulus"] for k in keys])
-    return DerivativeTable(moduli, values)
+    table = DerivativeTable(cable, clips, scale, half_width, np.asarray(gravity, dtype=float),
+                            fit_links)
+    table.start(guesses)
+    return table
 
 
 def _node(cable: Cable, clips: tuple, guesses: tuple, gravity, scale,
