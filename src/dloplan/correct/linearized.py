@@ -55,6 +55,7 @@ correction is a generator that yields the equilibria it needs and receives them
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Generator, Sequence
 from dataclasses import dataclass, field
@@ -171,8 +172,9 @@ class DerivativeTable:
         FitModel`: k n links, each gripper clamping k) [m], ``fine_clips`` (3 (k n + 1), 12)
         its d x / d p and ``clips`` (3 (n + 1), 12) the same at its every k-th point (the
         plan's model's material points), rotation columns divided by L / 2 (the clip fit's
-        scaled coordinates)), the sorted ``keys`` and their ``log_moduli`` ln E [ln Pa], and
-        per side (1, -1) whether it is ``ended``.
+        scaled coordinates)) and ``logs`` (index -> ln E [ln Pa]), the rows ``sorted`` by ln E
+        with their ``sorted_logs`` (a list) and ``log_moduli`` (an array), and per side (1, -1)
+        the ``last`` index made and whether it is ``ended``.
     """
 
     cable: Cable
@@ -191,12 +193,15 @@ class DerivativeTable:
     def at(self, log_modulus: float) -> Interpolated:
         """The values at ln E (linear between the nodes, the end node's beyond them), each
         interpolated when it is asked for."""
-        self._extend(1 if log_modulus > self._log(self.made["rows"][0]) else -1, log_modulus)
-        nodes, rows = self.made["log_moduli"], self.made["sorted"]
+        logs = self.made["logs"]
+        side = 1 if log_modulus > logs[0] else -1
+        if side * (logs[side * self.made["last"][side]] - log_modulus) < 0:
+            self._extend(side, log_modulus)
+        nodes, rows = self.made["sorted_logs"], self.made["sorted"]
         if len(nodes) == 1:
             return Interpolated(rows[0], rows[0], 0.0)
-        k = min(max(int(np.searchsorted(nodes, log_modulus)) - 1, 0), len(nodes) - 2)
-        w = min(max((log_modulus - float(nodes[k])) / float(nodes[k + 1] - nodes[k]), 0.0), 1.0)
+        k = min(max(bisect.bisect_left(nodes, log_modulus) - 1, 0), len(nodes) - 2)
+        w = min(max((log_modulus - nodes[k]) / (nodes[k + 1] - nodes[k]), 0.0), 1.0)
         return Interpolated(rows[k], rows[k + 1], w)
 
     def start(self, guesses: tuple) -> None:
@@ -211,17 +216,19 @@ class DerivativeTable:
         if node is None:
             raise CorrectionRefused("model: no stable equilibrium of the plan's cable at the "
                                     "measured shape's or the target's clips")
-        self.made.update(rows={0: node}, ended={1: False, -1: False}, last={1: 0, -1: 0})
+        self.made.update(rows={0: node}, logs={0: _log_modulus(node)},
+                         ended={1: False, -1: False}, last={1: 0, -1: 0})
         self._sort()
 
     def _extend(self, side: int, log_modulus: float) -> None:
         """Make the nodes of ``side`` up to the first at or beyond ``log_modulus``, or to the
         side's end."""
-        rows, last, ended = self.made["rows"], self.made["last"], self.made["ended"]
+        rows, logs = self.made["rows"], self.made["logs"]
+        last, ended = self.made["last"], self.made["ended"]
         log_e0 = math.log(self.cable.youngs_modulus)
         count = int(math.ceil(self.half_width / TABLE_STEP - 1e-9))
         grew = False
-        while not ended[side] and side * (self._log(rows[side * last[side]]) - log_modulus) < 0:
+        while not ended[side] and side * (logs[side * last[side]] - log_modulus) < 0:
             k = last[side] + 1
             if k > count:
                 ended[side] = True
@@ -236,18 +243,21 @@ class DerivativeTable:
             if node is None:
                 ended[side] = True
                 break
-            rows[side * k], last[side], grew = node, k, True
+            rows[side * k], logs[side * k] = node, _log_modulus(node)
+            last[side], grew = k, True
         if grew:
             self._sort()
 
     def _sort(self) -> None:
         keys = sorted(self.made["rows"])
         self.made["sorted"] = [self.made["rows"][k] for k in keys]
-        self.made["log_moduli"] = np.array([self._log(row) for row in self.made["sorted"]])
+        self.made["sorted_logs"] = [self.made["logs"][k] for k in keys]
+        self.made["log_moduli"] = np.array(self.made["sorted_logs"])
 
-    @staticmethod
-    def _log(row: dict) -> float:
-        return float(np.log(row["youngs_modulus"]))
+
+def _log_modulus(node: dict) -> float:
+    """ln E of a table's node [ln Pa] (numpy's log, as of the table's array of them)."""
+    return float(np.log(node["youngs_modulus"]))
 
 
 @dataclass(frozen=True, eq=False)
