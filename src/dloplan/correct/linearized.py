@@ -144,7 +144,7 @@ class DerivativeTable:
     of the ln E it is asked for up to it, each node from the one before as the whole table
     would make it, so every value is the same whichever estimates ask first and in which
     process (a study's estimates seldom go beyond a fraction of the factor-10 range: on the
-    study example 12 of 29 nodes, docs/performance.md, branch cl3).
+    study example 13 of 29 nodes, docs/performance.md, branch cl3).
 
     Attributes
     ----------

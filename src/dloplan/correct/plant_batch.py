@@ -26,7 +26,7 @@ from ..jit import njit
 from ..physics.chain import HALF_BANDWIDTH, SpringChain
 from ..physics.compiled import chain_energy
 from ..sim import ClipPoses
-from ..sim.batch import HANDED_BACK, held_equilibria, solve_held
+from ..sim.batch import HANDED_BACK, held_equilibria, held_loop
 from ..sim.compiled import CONVERGED, MAX_ITERATIONS, SADDLE, STALLED, newton_positions
 from ..sim.newton import newton_message
 from ..sim.result import DEFAULT_RTOL, ROUNDOFF, force_scale, point_weight, stiffest
@@ -385,7 +385,7 @@ def hold_chains(plants: PlantChains, guesses, positions, quaternions, *, gravity
     """Each cable of ``plants`` held by both clips: item b is :func:`dloplan.sim.batch.
     held_equilibria` of ``plants.cable(b)`` from ``guesses[b]`` at the clips
     ``positions[b]``, ``quaternions[b]``, bit for bit, its loop (:func:`dloplan.sim.batch.
-    solve_held`) run on the constants ``plants`` made once (the study's model at each updated
+    held_loop`) run on the constants ``plants`` made once (the study's model at each updated
     E): none of the per-call chains, force scales, clip wrenches and messages of
     ``held_equilibria``, which finishes only the items the loop hands back (a saddle, clips at
     the edge of the reach).
@@ -410,17 +410,10 @@ def hold_chains(plants: PlantChains, guesses, positions, quaternions, *, gravity
     positions = np.array(positions, dtype=float, order="C")
     quaternions = np.array(quaternions, dtype=float, order="C")
     count = len(x0)
-    shapes = np.full_like(x0, np.nan)
-    gradients = np.zeros_like(x0)
-    iterations = np.zeros(count, dtype=np.int64)
-    residuals = np.full(count, np.nan)
-    status = np.empty(count, dtype=np.int64)
-    tolerances = np.empty(count)
-    solve_held(x0, np.arange(count, dtype=np.int64), *plants.constants,
-               np.asarray(gravity, dtype=float), positions, quaternions, plants.link,
-               plants.length, plants.tolerance, ROUNDOFF * np.finfo(float).eps, plants.stiff,
-               plants.stiff_axial, NEWTON_ITERATIONS, shapes, gradients, iterations, residuals,
-               status, tolerances)
+    shapes, _, _, _, status, _ = held_loop(
+        x0, np.arange(count, dtype=np.int64), plants.constants, np.asarray(gravity, dtype=float),
+        positions, quaternions, plants.link, plants.length, plants.tolerance,
+        ROUNDOFF * np.finfo(float).eps, plants.stiff, plants.stiff_axial, NEWTON_ITERATIONS)
     out: list = [shapes[b] if status[b] == CONVERGED else None for b in range(count)]
     for b in np.flatnonzero(status == HANDED_BACK):  # the readable way
         held = held_equilibria([plants.cable(b)], np.zeros(1, dtype=np.int64), x0[b : b + 1],
