@@ -652,6 +652,46 @@ def test_the_clip_batch_leaves_a_sample_it_cannot_fit_and_fits_the_others_alike(
         np.testing.assert_allclose(p[b], best, rtol=1e-3, atol=1e-9)
 
 
+def test_a_model_fitted_on_its_own_links_is_corrected_by_the_linearized_loop():
+    """A model of 60 links fits its clips on its own chain (k = 1, :func:`~dloplan.correct.step.
+    fit_links_for`): the model's chains at shape K and the clip fit's at the same E are kept
+    apart (main before branch cl3 stored both under (E, 1) and failed with a KeyError as soon
+    as E was updated); both samples, E x0.5 and x2, are corrected, E estimated within x1.5 of
+    the truth, and the batched chunk is the per-sample one."""
+    import numpy as np
+    from scipy.spatial.transform import Rotation
+
+    from dloplan.cable import GRAVITY, catalogue_cable
+    from dloplan.correct.linearized import linearized_rows, nominal_correction
+    from dloplan.grippers import gripper_path
+    from dloplan.shapes import arc_shape, place, straight_shape
+    from dloplan.sim import equilibrium
+
+    n = 60
+    cable = catalogue_cable("ethernet", n)
+    turn = Rotation.from_euler("z", 90, degrees=True)
+    path = np.stack([place(straight_shape(cable.length, n), (0.35, -0.25, 0.15), turn)]
+                    + [place(arc_shape(cable.length, n, np.radians(a)), (0.3, -0.2, 0.15), turn)
+                       for a in (60.0, 120.0)])
+    grippers = gripper_path(path, method="auxiliary")
+    stable = [equilibrium(cable, s, grippers.clip_poses(j), gravity=GRAVITY).shape
+              for j, s in enumerate(path)]
+    nominal = nominal_correction(cable, path, grippers, 1, stabilized=stable, gravity=GRAVITY)
+    assert nominal.clamp_links == 1
+    weight = cable.mass / cable.length
+    items = [(0, 0.5 * cable.youngs_modulus, weight, cable.length),
+             (1, 2.0 * cable.youngs_modulus, weight, cable.length)]
+    rows = linearized_rows(nominal, items, noise=1e-4, n_measured=200)
+    alone = linearized_rows(nominal, items, noise=1e-4, n_measured=200, batched=False)
+    for row, one, (_, e, _, _) in zip(rows, alone, items, strict=True):
+        assert row["corrections"] == one["corrections"] == 1, row["refusal"]
+        assert row["closed_loop_error"] < row["open_loop_error"]
+        assert 1 / 1.5 < row["youngs_modulus_estimate"] / e < 1.5
+        assert row["youngs_modulus_estimate"] == pytest.approx(one["youngs_modulus_estimate"],
+                                                               rel=1e-9)
+        assert row["closed_loop_error"] == pytest.approx(one["closed_loop_error"], abs=1e-8)
+
+
 def test_a_rejected_chord_step_ends_the_clip_fit():
     """The linearized clip fit makes CHORD_TRIALS = 1 trial per iteration: the first step
     that raises the cost ends the fit at the point already reached, with no second, more

@@ -671,8 +671,7 @@ def _fit_and_check(nominal: NominalCorrection, results: list, cables: dict) -> N
         return
     cases = [results[b] for b in index]
 
-    chains = _chains(nominal, [case.update.youngs_modulus for case in cases], cables,
-                     nominal.clamp_links)
+    chains = _chains(nominal, [case.update.youngs_modulus for case in cases], cables, True)
 
     def solve(which, p, guesses):
         return _solve(nominal, [_Request(cases[j].update.youngs_modulus, p[i], True,
@@ -709,22 +708,22 @@ def _fit_and_check(nominal: NominalCorrection, results: list, cables: dict) -> N
             results[b] = str(exc)
 
 
-def _chains(nominal: NominalCorrection, moduli, cables: dict, links: int) -> PlantChains:
-    """The model's chains at the ``moduli`` [Pa], in order: with ``links`` 1 the plan's model
-    (n links, held by one link at each clip), else the clip fit's (:class:`~.step.FitModel`:
-    k n links, ``links`` = k). Rows of one pool per kind for the chunk (``cables["chains",
-    links]``), each E's made once (those of a call in one :meth:`.plant_batch.PlantChains.
-    at_moduli`), its row kept in ``cables`` under (E, links)."""
-    missing = list(dict.fromkeys(float(e) for e in moduli if (float(e), links) not in cables))
+def _chains(nominal: NominalCorrection, moduli, cables: dict, fit: bool) -> PlantChains:
+    """The model's chains at the ``moduli`` [Pa], in order: the plan's model (n links, held by
+    one link at each clip), or with ``fit`` the clip fit's (:class:`~.step.FitModel`: k n
+    links, also when k is 1). Rows of one pool per kind for the chunk (``cables["chains",
+    fit]``), each E's made once (those of a call in one :meth:`.plant_batch.PlantChains.
+    at_moduli`), its row kept in ``cables`` under (E, fit)."""
+    missing = list(dict.fromkeys(float(e) for e in moduli if (float(e), fit) not in cables))
     if missing:
-        base = nominal.cable if links == 1 else nominal.fit_cable
-        made = PlantChains.at_moduli(base, missing, nominal.gravity)
-        pool = cables.get(("chains", links))
+        made = PlantChains.at_moduli(nominal.fit_cable if fit else nominal.cable, missing,
+                                     nominal.gravity)
+        pool = cables.get(("chains", fit))
         start = 0 if pool is None else len(pool)
-        cables["chains", links] = made if pool is None else PlantChains.join([pool, made])
+        cables["chains", fit] = made if pool is None else PlantChains.join([pool, made])
         for row, e in enumerate(missing, start=start):
-            cables[e, links] = row
-    return cables["chains", links].take([cables[float(e), links] for e in moduli])
+            cables[e, fit] = row
+    return cables["chains", fit].take([cables[float(e), fit] for e in moduli])
 
 
 def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> None:
@@ -744,8 +743,8 @@ def _solve(nominal: NominalCorrection, requests: list, cables: dict,
     :func:`.plant_batch.drive_chains` call (one stop each: the clamped equilibrium of
     :class:`~.step.FitModel` to the solver's tolerance, its Newton loop unshifted again after
     every very successful step, ``restart``; and its reach check); shapes, None where there
-    is no stable equilibrium. ``cables`` holds the chains made so far per E and links
-    (:func:`_chains`: the model's, 1, and the clip fit's, k); ``fit_chains``, when given, are
+    is no stable equilibrium. ``cables`` holds the chains made so far per E and kind
+    (:func:`_chains`: the model's and the clip fit's); ``fit_chains``, when given, are
     the fit chains of the requests at the target, in order (made by :func:`_chains`)."""
     positions, quaternions = nominal.poses
     p = np.array([r.clips for r in requests]).reshape(-1, 2, 2, 3)
@@ -758,7 +757,7 @@ def _solve(nominal: NominalCorrection, requests: list, cables: dict,
     shape_k = [b for b, r in enumerate(requests) if not r.at_target]
     if shape_k:
         shapes = hold_chains(_chains(nominal, [requests[b].youngs_modulus for b in shape_k],
-                                     cables, 1),
+                                     cables, False),
                              [requests[b].guess for b in shape_k], moved[shape_k],
                              quats[shape_k], gravity=nominal.gravity)
         for b, shape in zip(shape_k, shapes, strict=True):
@@ -767,7 +766,7 @@ def _solve(nominal: NominalCorrection, requests: list, cables: dict,
     if target:
         k = nominal.clamp_links
         fine = fit_chains if fit_chains is not None else _chains(
-            nominal, [requests[b].youngs_modulus for b in target], cables, k)
+            nominal, [requests[b].youngs_modulus for b in target], cables, True)
         drive = drive_chains(fine, [k] * len(target), [requests[b].guess for b in target],
                              moved[target][:, None], quats[target][:, None],
                              gravity=nominal.gravity,
