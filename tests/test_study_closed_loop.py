@@ -193,11 +193,12 @@ def test_plant_chains_joined_and_taken_drive_as_made_directly(example_plan):
 @pytest.mark.parametrize("axial_modulus", [None, 2.0e9])
 def test_plant_chains_at_moduli_are_made_of_the_cables_at_those_moduli_bit_for_bit(
         example_plan, axial_modulus):
-    """PlantChains.at_moduli (the clip fit's chain at each sample's E, built from the plan's
-    chain: SpringChain.from_cable's ``like``) holds every field of PlantChains.of of the cables
-    at those moduli, bit for bit: the chains' constants, contact penalty and stiff-axial flag,
-    the tolerance and the stiffest spring; with E_a = E (k_s moves with E) and with an axial
-    modulus of its own (k_s kept, stiff_axial from the ratio)."""
+    """PlantChains.at_moduli (the clip fit's chain at each sample's E: Cable's properties
+    evaluated for all the moduli at once, no cable made) holds every field of PlantChains.of
+    of the cables at those moduli, bit for bit: the chains' constants, the tolerance, the
+    stiffest spring and the stiff-axial flag; with E_a = E (k_s moves with E) and with an axial
+    modulus of its own (k_s kept, stiff_axial from the ratio). A row's cable and chain, made
+    when asked for (a saddle's escape), are those of the cable at its E."""
     import numpy as np
 
     from dloplan.correct.plant_batch import PlantChains
@@ -207,21 +208,61 @@ def test_plant_chains_at_moduli_are_made_of_the_cables_at_those_moduli_bit_for_b
     if axial_modulus is not None:
         cable = replace(cable, axial_modulus=axial_modulus)
     gravity = (0.0, 0.0, -9.81)
-    moduli = cable.youngs_modulus * np.array([0.37, 1.0, 2.9, 1.0 / 3.0])
+    moduli = cable.youngs_modulus * np.array([0.37, 1.0, 2.9, 1.0 / 3.0, 1e-3])
     got = PlantChains.at_moduli(cable, moduli, gravity)
     want = PlantChains.of([cable.with_modulus(e) for e in moduli], gravity)
+    assert len(got) == len(want) == len(moduli)
     for name in ("link", "length", "tolerance", "stiff", "stiff_axial"):
         assert np.array_equal(getattr(got, name), getattr(want, name)), name
+        assert getattr(got, name).dtype == getattr(want, name).dtype, name
+    if axial_modulus is not None:
+        assert list(got.stiff_axial) == [True, True, True, True, True]
     for a, b in zip(got.constants, want.constants, strict=True):
         assert np.array_equal(a, b)
-    for a, b in zip(got.chains, want.chains, strict=True):
-        assert (a.contact_stiffness, a.stiff_axial, a.contact_radius) == \
-            (b.contact_stiffness, b.stiff_axial, b.contact_radius)
-        assert np.array_equal(a.gravity, b.gravity)
-    assert [c.youngs_modulus for c in got.cables] == list(moduli)
-    with pytest.raises(ValueError, match="like"):
-        SpringChain.from_cable(cable.with_links(cable.n_links + 1), gravity,
-                               like=got.chains[0])
+        assert a.dtype == b.dtype and a.shape == b.shape
+    for b, e in enumerate(moduli):
+        assert repr(got.cable(b)) == repr(cable.with_modulus(e)) == repr(want.cable(b))
+        made, wanted = got.chain(b, gravity), SpringChain.from_cable(want.cable(b), gravity)
+        assert (made.k_axial, made.k_bending, made.contact_stiffness, made.stiff_axial) == \
+            (wanted.k_axial, wanted.k_bending, wanted.contact_stiffness, wanted.stiff_axial)
+    joined = PlantChains.join([want, got]).take([7, 1])
+    assert joined.cable(0).youngs_modulus == moduli[2] and np.isnan(joined.moduli[1])
+    assert joined.cable(1) is want.cables[1]
+
+
+def test_held_chains_are_held_equilibria_bit_for_bit(example_plan):
+    """hold_chains (the linearized correction's model at shape K, on chains made once per E)
+    is held_equilibria item by item, bit for bit, also for an item the compiled loop hands
+    back (clips at the edge of the cable's reach: held_equilibria's equilibrium() refuses it,
+    None) and one with no stable equilibrium there."""
+    import numpy as np
+    from scipy.spatial.transform import Rotation
+
+    from dloplan.correct.plant_batch import PlantChains, hold_chains
+    from dloplan.sim.batch import HANDED_BACK, held_equilibria
+
+    doc, gravity = example_plan, (0.0, 0.0, -9.81)
+    cable = doc.cable
+    moduli = cable.youngs_modulus * np.array([0.5, 1.0, 3.0, 0.8])
+    clips = [doc.grippers.clip_poses(j) for j in (1, len(doc.shapes) - 1, 2, 3)]
+    positions = np.array([c.positions for c in clips])
+    quaternions = np.array([c.rotations.as_quat() for c in clips])
+    far = positions[3, 1] - positions[3, 0]  # item 3: clips pulled apart beyond the reach
+    positions[3, 1] = positions[3, 0] + far * (1.2 * cable.length / np.linalg.norm(far))
+    guesses = np.array([doc.shapes[j] for j in (1, len(doc.shapes) - 1, 2, 3)])
+    got = hold_chains(PlantChains.at_moduli(cable, moduli, gravity), guesses, positions,
+                      quaternions, gravity=gravity)
+    want = held_equilibria([cable.with_modulus(e) for e in moduli], np.arange(4), guesses,
+                           positions, Rotation.from_quat(quaternions.reshape(-1, 4)),
+                           gravity=gravity)
+    assert want.refused[3] and not want.success[3]
+    for b in range(4):
+        if want.success[b]:
+            assert np.array_equal(got[b], want.shapes[b]), b
+        else:
+            assert got[b] is None, b
+    assert sum(x is not None for x in got) == 3
+    assert HANDED_BACK < 0
 
 
 def _assert_held_stop_by_stop(drive, plants, stops, start, cable, clamp, predict_from=None):
@@ -401,6 +442,42 @@ def test_a_measurement_refused_is_refused_alike(example_plan):
     assert all(row["refusal"].startswith("shape 3: measured: the shape is") for row in rows)
 
 
+def test_the_table_made_node_by_node_when_needed_is_the_whole_table(example_plan):
+    """The derivative table makes a node when an estimate first asks for its side beyond the
+    nodes made (each from its neighbour): asked near the plan's E it holds a few nodes; asked
+    in any order, in another table, after the whole range was made, every value interpolated
+    is the same bit for bit."""
+    import math
+
+    import numpy as np
+
+    from dloplan.correct.linearized import TABLE_STEP, nominal_correction
+    from dloplan.pipeline.stages import settled_shapes
+
+    doc = example_plan
+    stable = settled_shapes(doc)
+
+    def table():
+        return nominal_correction(doc.cable, doc.shapes, doc.grippers, 3, stabilized=stable,
+                                  gravity=(0.0, 0.0, -9.81)).table
+
+    log_e0 = math.log(doc.cable.youngs_modulus)
+    asked = log_e0 + np.array([0.3, -0.05, 0.0, 1.1, -0.6, 0.9, 2 * TABLE_STEP, -3.0, 5.0])
+    lazy, whole = table(), table()
+    assert len(lazy.log_moduli) == 1
+    lazy.at(log_e0 + 0.3)
+    assert len(lazy.log_moduli) == 3  # node 0, then the two up to 0.3 (2 steps of 0.17)
+    whole.at(log_e0 + 10.0)
+    whole.at(log_e0 - 10.0)
+    assert len(whole.log_moduli) > 20
+    names = ("state", "target", "modulus_k", "d_k", "g_t", "d_clips", "fine", "fine_clips")
+    for x in asked:
+        a, b = lazy.at(x), whole.at(x)
+        for name in names:
+            assert np.array_equal(a[name], b[name]), (x - log_e0, name)
+    assert np.array_equal(lazy.log_moduli, whole.log_moduli)  # asked out to both ends
+
+
 def test_the_tabulated_clip_derivatives_of_the_bias_are_its_central_differences(example_plan):
     """d d / d p and d g / d p at the target, tabulated from the clip sensitivities of the
     2 n-link equilibria d and g are differences of (their every other point for the arc-length
@@ -573,6 +650,46 @@ def test_the_clip_batch_leaves_a_sample_it_cannot_fit_and_fits_the_others_alike(
         best = np.linalg.lstsq(problem["jacobians"][b], -problem["bias"][b].ravel(),
                                rcond=None)[0]
         np.testing.assert_allclose(p[b], best, rtol=1e-3, atol=1e-9)
+
+
+def test_a_model_fitted_on_its_own_links_is_corrected_by_the_linearized_loop():
+    """A model of 60 links fits its clips on its own chain (k = 1, :func:`~dloplan.correct.step.
+    fit_links_for`): the model's chains at shape K and the clip fit's at the same E are kept
+    apart (main before branch cl3 stored both under (E, 1) and failed with a KeyError as soon
+    as E was updated); both samples, E x0.5 and x2, are corrected, E estimated within x1.5 of
+    the truth, and the batched chunk is the per-sample one."""
+    import numpy as np
+    from scipy.spatial.transform import Rotation
+
+    from dloplan.cable import GRAVITY, catalogue_cable
+    from dloplan.correct.linearized import linearized_rows, nominal_correction
+    from dloplan.grippers import gripper_path
+    from dloplan.shapes import arc_shape, place, straight_shape
+    from dloplan.sim import equilibrium
+
+    n = 60
+    cable = catalogue_cable("ethernet", n)
+    turn = Rotation.from_euler("z", 90, degrees=True)
+    path = np.stack([place(straight_shape(cable.length, n), (0.35, -0.25, 0.15), turn)]
+                    + [place(arc_shape(cable.length, n, np.radians(a)), (0.3, -0.2, 0.15), turn)
+                       for a in (60.0, 120.0)])
+    grippers = gripper_path(path, method="auxiliary")
+    stable = [equilibrium(cable, s, grippers.clip_poses(j), gravity=GRAVITY).shape
+              for j, s in enumerate(path)]
+    nominal = nominal_correction(cable, path, grippers, 1, stabilized=stable, gravity=GRAVITY)
+    assert nominal.clamp_links == 1
+    weight = cable.mass / cable.length
+    items = [(0, 0.5 * cable.youngs_modulus, weight, cable.length),
+             (1, 2.0 * cable.youngs_modulus, weight, cable.length)]
+    rows = linearized_rows(nominal, items, noise=1e-4, n_measured=200)
+    alone = linearized_rows(nominal, items, noise=1e-4, n_measured=200, batched=False)
+    for row, one, (_, e, _, _) in zip(rows, alone, items, strict=True):
+        assert row["corrections"] == one["corrections"] == 1, row["refusal"]
+        assert row["closed_loop_error"] < row["open_loop_error"]
+        assert 1 / 1.5 < row["youngs_modulus_estimate"] / e < 1.5
+        assert row["youngs_modulus_estimate"] == pytest.approx(one["youngs_modulus_estimate"],
+                                                               rel=1e-9)
+        assert row["closed_loop_error"] == pytest.approx(one["closed_loop_error"], abs=1e-8)
 
 
 def test_a_rejected_chord_step_ends_the_clip_fit():

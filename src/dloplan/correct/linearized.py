@@ -46,14 +46,16 @@ the agreement is tested on samples it was not tuned on (E x0.05 .. x20, other se
 ``tests/test_study_closed_loop.py``) and quoted in docs/study.md.
 
 Every sample's equilibria of one round -- the model at the updated E, a trial of the clip fit
--- are solved in two compiled calls (:func:`dloplan.sim.batch.held_equilibria` at shape K,
-:func:`.plant_batch.drive_plants` on the fit chain at the target): each sample's
+-- are solved in two compiled calls (:func:`.plant_batch.hold_chains` at shape K,
+:func:`.plant_batch.drive_chains` on the fit chain at the target), on chains made once per E
+and chunk (:func:`_chains`): each sample's
 correction is a generator that yields the equilibria it needs and receives them
 (:func:`_correction`).
 """
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Generator, Sequence
 from dataclasses import dataclass, field
@@ -68,7 +70,6 @@ from ..geometry import as_path, resample_by_arc_length
 from ..grippers import GripperPath
 from ..physics.chain import SpringChain
 from ..sim import ClipPoses, equilibrium, interpolate_clips
-from ..sim.batch import held_equilibria
 from ..sim.sensitivity import equilibrium_sensitivity
 from ..study.evaluate import perturbed_cable
 from .clip_batch import fit_clips_batch
@@ -91,7 +92,7 @@ from .model_error import (
     offset_covariance,
 )
 from .normal_fits import columns_of, fit_amplitudes, fit_estimate, fit_estimates
-from .plant_batch import PlantChains, drive_chains
+from .plant_batch import PlantChains, drive_chains, hold_chains
 from .step import (
     CLIP_DAMPING,
     COST_TOLERANCE,
@@ -136,60 +137,147 @@ class DerivativeTable:
     """The model's equilibria and their derivatives at shape K and at the target, at the
     planned clips, tabulated along ln E and interpolated linearly between its nodes.
 
+    The nodes lie every :data:`TABLE_STEP` in ln E within ``half_width`` of the plan's E, each
+    continued from its neighbour towards the ends; a side ends where the model loses its stable
+    equilibrium, on its own chain or on the clip fit's of ``fit_links`` links
+    (:class:`~.step.FitModel`). They are made when first needed: :meth:`at` extends the side
+    of the ln E it is asked for up to it, each node from the one before as the whole table
+    would make it, so every value is the same whichever estimates ask first and in which
+    process (a study's estimates seldom go beyond a fraction of the factor-10 range: on the
+    study example 13 of 29 nodes, docs/performance.md, branch cl3).
+
     Attributes
     ----------
-    log_moduli : numpy.ndarray
-        (k,) the nodes ln E [ln Pa], increasing, spaced :data:`TABLE_STEP`, covering
-        ``max_modulus_factor`` either way of the plan's E (or up to where the model loses its
-        equilibrium).
-    values : dict
-        Per name, (k, ...) arrays: ``state`` and ``target`` (n + 1, 3) the equilibria at K and
-        at the target [m]; ``modulus_k``, ``modulus_t`` d x / d ln E there [m]; ``d_k``,
-        ``g_k``, ``d_t``, ``g_t`` the discretization and clamp directions
-        (:func:`.model_error.model_error_directions`) [m]; ``d_clips``, ``g_clips``
-        (3 (n + 1), 12) d d / d p and d g / d p at the target (the clip sensitivities of the
-        2 n-link equilibria they are differences of, at their every other point: R_n to first
-        order; scaled as ``clips``) [m]; ``fine`` (k n + 1, 3) the
+    cable : Cable
+        The plan's model cable (its E the node 0).
+    clips : tuple of ClipPoses
+        The planned clips of shape K and of the target.
+    scale : numpy.ndarray
+        (12,) the clip coordinates' scale (1 for metres, L / 2 for radians).
+    half_width : float
+        The range either way of the plan's ln E.
+    gravity : numpy.ndarray
+        (3,) [m/s^2].
+    fit_links : int
+        Links of the clip fit's chain.
+    made : dict
+        The nodes made so far: ``rows`` (index -> values; per name ``state`` and ``target``
+        (n + 1, 3) the equilibria at K and at the target [m]; ``modulus_k``, ``modulus_t``
+        d x / d ln E there [m]; ``d_k``, ``g_k``, ``d_t``, ``g_t`` the discretization and
+        clamp directions (:func:`.model_error.model_error_directions`) [m]; ``d_clips``,
+        ``g_clips`` (3 (n + 1), 12) d d / d p and d g / d p at the target (the clip
+        sensitivities of the 2 n-link equilibria they are differences of, at their every other
+        point: R_n to first order; scaled as ``clips``) [m]; ``fine`` (k n + 1, 3) the
         equilibrium at the target of the chain the clips are fitted on (:class:`~.step.
         FitModel`: k n links, each gripper clamping k) [m], ``fine_clips`` (3 (k n + 1), 12)
-        its d x / d p and ``clips`` (3 (n + 1), 12) the same at its every k-th point (the plan's
-        model's material points), rotation columns divided by L / 2 (the clip fit's scaled
-        coordinates).
+        its d x / d p and ``clips`` (3 (n + 1), 12) the same at its every k-th point (the
+        plan's model's material points), rotation columns divided by L / 2 (the clip fit's
+        scaled coordinates)) and ``logs`` (index -> ln E [ln Pa]), the rows ``sorted`` by ln E
+        with their ``sorted_logs`` (a list) and ``log_moduli`` (an array), and per side (1, -1)
+        the ``last`` index made and whether it is ``ended``.
     """
 
-    log_moduli: np.ndarray
-    values: dict
+    cable: Cable
+    clips: tuple
+    scale: np.ndarray
+    half_width: float
+    gravity: np.ndarray
+    fit_links: int
+    made: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def log_moduli(self) -> np.ndarray:
+        """(k,) the ln E [ln Pa] of the nodes made so far, increasing."""
+        return self.made["log_moduli"]
 
     def at(self, log_modulus: float) -> Interpolated:
         """The values at ln E (linear between the nodes, the end node's beyond them), each
         interpolated when it is asked for."""
-        nodes = self.log_moduli
+        logs = self.made["logs"]
+        side = 1 if log_modulus > logs[0] else -1
+        if side * (logs[side * self.made["last"][side]] - log_modulus) < 0:
+            self._extend(side, log_modulus)
+        nodes, rows = self.made["sorted_logs"], self.made["sorted"]
         if len(nodes) == 1:
-            return Interpolated(self.values, 0, 0.0)
-        k = min(max(int(np.searchsorted(nodes, log_modulus)) - 1, 0), len(nodes) - 2)
-        w = min(max((log_modulus - float(nodes[k])) / float(nodes[k + 1] - nodes[k]), 0.0), 1.0)
-        return Interpolated(self.values, k, w)
+            return Interpolated(rows[0], rows[0], 0.0)
+        k = min(max(bisect.bisect_left(nodes, log_modulus) - 1, 0), len(nodes) - 2)
+        w = min(max((log_modulus - nodes[k]) / (nodes[k + 1] - nodes[k]), 0.0), 1.0)
+        return Interpolated(rows[k], rows[k + 1], w)
+
+    def start(self, guesses: tuple) -> None:
+        """Make node 0, at the plan's E, from the ``guesses`` (n + 1, 3) at the two clips [m].
+
+        Raises
+        ------
+        CorrectionRefused
+            When the plan's own E has no stable equilibrium there.
+        """
+        node = _node(self.cable, self.clips, guesses, self.gravity, self.scale, self.fit_links)
+        if node is None:
+            raise CorrectionRefused("model: no stable equilibrium of the plan's cable at the "
+                                    "measured shape's or the target's clips")
+        self.made.update(rows={0: node}, logs={0: _log_modulus(node)},
+                         ended={1: False, -1: False}, last={1: 0, -1: 0})
+        self._sort()
+
+    def _extend(self, side: int, log_modulus: float) -> None:
+        """Make the nodes of ``side`` up to the first at or beyond ``log_modulus``, or to the
+        side's end."""
+        rows, logs = self.made["rows"], self.made["logs"]
+        last, ended = self.made["last"], self.made["ended"]
+        log_e0 = math.log(self.cable.youngs_modulus)
+        count = int(math.ceil(self.half_width / TABLE_STEP - 1e-9))
+        grew = False
+        while not ended[side] and side * (logs[side * last[side]] - log_modulus) < 0:
+            k = last[side] + 1
+            if k > count:
+                ended[side] = True
+                break
+            previous = rows[side * last[side]]
+            log_e = log_e0 + side * min(k * TABLE_STEP, self.half_width)
+            step = log_e - math.log(previous["youngs_modulus"])
+            guesses = (previous["state"] + step * previous["modulus_k"],
+                       previous["target"] + step * previous["modulus_t"])
+            node = _node(self.cable.with_modulus(math.exp(log_e)), self.clips, guesses,
+                         self.gravity, self.scale, self.fit_links)
+            if node is None:
+                ended[side] = True
+                break
+            rows[side * k], logs[side * k] = node, _log_modulus(node)
+            last[side], grew = k, True
+        if grew:
+            self._sort()
+
+    def _sort(self) -> None:
+        keys = sorted(self.made["rows"])
+        self.made["sorted"] = [self.made["rows"][k] for k in keys]
+        self.made["sorted_logs"] = [self.made["logs"][k] for k in keys]
+        self.made["log_moduli"] = np.array(self.made["sorted_logs"])
+
+
+def _log_modulus(node: dict) -> float:
+    """ln E of a table's node [ln Pa] (numpy's log, as of the table's array of them)."""
+    return float(np.log(node["youngs_modulus"]))
 
 
 @dataclass(frozen=True, eq=False)
 class Interpolated:
-    """:meth:`DerivativeTable.at`: ``self[name]`` is ``(1 - w) values[name][k] + w
-    values[name][k + 1]`` (a node's own array at w = 0 or 1), computed once."""
+    """:meth:`DerivativeTable.at`: ``self[name]`` is ``(1 - w) low[name] + w high[name]``
+    of two neighbouring nodes (a node's own array at w = 0 or 1), computed once."""
 
-    values: dict
-    k: int
+    low: dict
+    high: dict
     w: float
     made: dict = field(default_factory=dict, repr=False)
 
     def __getitem__(self, name: str) -> np.ndarray:
         if name not in self.made:
-            v = self.values[name]
             if self.w == 0.0:
-                self.made[name] = v[self.k]
+                self.made[name] = self.low[name]
             elif self.w == 1.0:
-                self.made[name] = v[self.k + 1]
+                self.made[name] = self.high[name]
             else:
-                self.made[name] = (1.0 - self.w) * v[self.k] + self.w * v[self.k + 1]
+                self.made[name] = (1.0 - self.w) * self.low[name] + self.w * self.high[name]
         return self.made[name]
 
 
@@ -312,39 +400,18 @@ def nominal_correction(cable: Cable, shapes, grippers: GripperPath, at: int, *, 
 def derivative_table(cable: Cable, clips: tuple, guesses: tuple, scale: np.ndarray,
                      half_width: float, gravity, fit_links: int) -> DerivativeTable:
     """:class:`DerivativeTable` at the clips of shape K and of the target (``clips``, from the
-    ``guesses``), nodes every :data:`TABLE_STEP` in ln E within ``half_width`` of the plan's,
-    each continued from its neighbour towards the ends; a side ends where the model loses its
-    stable equilibrium, on its own chain or on the clip fit's of ``fit_links`` links
-    (:class:`~.step.FitModel`).
+    ``guesses``) within ``half_width`` of the plan's ln E, the clip fit's chain of
+    ``fit_links`` links: its node 0 made (the others when needed).
 
     Raises
     ------
     CorrectionRefused
         When the plan's own E has no stable equilibrium there.
     """
-    log_e0 = math.log(cable.youngs_modulus)
-    count = int(math.ceil(half_width / TABLE_STEP - 1e-9))
-    rows = {0: _node(cable, clips, guesses, gravity, scale, fit_links)}
-    if rows[0] is None:
-        raise CorrectionRefused("model: no stable equilibrium of the plan's cable at the "
-                                "measured shape's or the target's clips")
-    for side in (1, -1):
-        previous = rows[0]
-        for k in range(1, count + 1):
-            log_e = log_e0 + side * min(k * TABLE_STEP, half_width)
-            step = log_e - math.log(previous["youngs_modulus"])
-            guesses = (previous["state"] + step * previous["modulus_k"],
-                       previous["target"] + step * previous["modulus_t"])
-            node = _node(cable.with_modulus(math.exp(log_e)), clips, guesses, gravity, scale,
-                         fit_links)
-            if node is None:
-                break
-            rows[side * k] = previous = node
-    keys = sorted(rows)
-    values = {name: np.array([rows[k][name] for k in keys]) for name in rows[0]
-              if name != "youngs_modulus"}
-    moduli = np.log([rows[k]["youngs_modulus"] for k in keys])
-    return DerivativeTable(moduli, values)
+    table = DerivativeTable(cable, clips, scale, half_width, np.asarray(gravity, dtype=float),
+                            fit_links)
+    table.start(guesses)
+    return table
 
 
 def _node(cable: Cable, clips: tuple, guesses: tuple, gravity, scale,
@@ -604,7 +671,7 @@ def _fit_and_check(nominal: NominalCorrection, results: list, cables: dict) -> N
         return
     cases = [results[b] for b in index]
 
-    chains = _fit_chains(nominal, [case.update.youngs_modulus for case in cases], cables)
+    chains = _chains(nominal, [case.update.youngs_modulus for case in cases], cables, True)
 
     def solve(which, p, guesses):
         return _solve(nominal, [_Request(cases[j].update.youngs_modulus, p[i], True,
@@ -641,21 +708,22 @@ def _fit_and_check(nominal: NominalCorrection, results: list, cables: dict) -> N
             results[b] = str(exc)
 
 
-def _fit_chains(nominal: NominalCorrection, moduli, cables: dict) -> PlantChains:
-    """The clip fit's chains (:class:`~.step.FitModel`: k n links) at the ``moduli`` [Pa], in
-    order: rows of one pool of the chunk's fit chains (``cables["fit chains"]``), each E's
-    made once (those of a call in one :meth:`.plant_batch.PlantChains.of`), its row kept in
-    ``cables`` under (E, k)."""
-    k = nominal.clamp_links
-    missing = list(dict.fromkeys(float(e) for e in moduli if (float(e), k) not in cables))
+def _chains(nominal: NominalCorrection, moduli, cables: dict, fit: bool) -> PlantChains:
+    """The model's chains at the ``moduli`` [Pa], in order: the plan's model (n links, held by
+    one link at each clip), or with ``fit`` the clip fit's (:class:`~.step.FitModel`: k n
+    links, also when k is 1). Rows of one pool per kind for the chunk (``cables["chains",
+    fit]``), each E's made once (those of a call in one :meth:`.plant_batch.PlantChains.
+    at_moduli`), its row kept in ``cables`` under (E, fit)."""
+    missing = list(dict.fromkeys(float(e) for e in moduli if (float(e), fit) not in cables))
     if missing:
-        made = PlantChains.at_moduli(nominal.fit_cable, missing, nominal.gravity)
-        pool = cables.get("fit chains")
-        start = 0 if pool is None else len(pool.cables)
-        cables["fit chains"] = made if pool is None else PlantChains.join([pool, made])
+        made = PlantChains.at_moduli(nominal.fit_cable if fit else nominal.cable, missing,
+                                     nominal.gravity)
+        pool = cables.get(("chains", fit))
+        start = 0 if pool is None else len(pool)
+        cables["chains", fit] = made if pool is None else PlantChains.join([pool, made])
         for row, e in enumerate(missing, start=start):
-            cables[e, k] = row
-    return cables["fit chains"].take([cables[float(e), k] for e in moduli])
+            cables[e, fit] = row
+    return cables["chains", fit].take([cables[float(e), fit] for e in moduli])
 
 
 def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> None:
@@ -670,49 +738,40 @@ def _advance(gen: Generator, value, b: int, pending: dict, results: list) -> Non
 def _solve(nominal: NominalCorrection, requests: list, cables: dict,
            fit_chains: PlantChains | None = None) -> list:
     """The equilibria of ``requests``: those at shape K on the model's chain in one
-    :func:`held_equilibria` call, those at the target on the clip fit's chain in one
+    :func:`.plant_batch.hold_chains` call (:func:`dloplan.sim.batch.held_equilibria`, bit for
+    bit), those at the target on the clip fit's chain in one
     :func:`.plant_batch.drive_chains` call (one stop each: the clamped equilibrium of
     :class:`~.step.FitModel` to the solver's tolerance, its Newton loop unshifted again after
     every very successful step, ``restart``; and its reach check); shapes, None where there
-    is no stable equilibrium. ``cables`` holds what was made so far per E and links: the model's
-    cable (1 link clamped), the clip fit chain's row in their pool (k, :func:`_fit_chains`);
-    ``fit_chains``, when given, are the fit chains of the requests at the target, in order
-    (made by :func:`_fit_chains`)."""
+    is no stable equilibrium. ``cables`` holds the chains made so far per E and kind
+    (:func:`_chains`: the model's and the clip fit's); ``fit_chains``, when given, are
+    the fit chains of the requests at the target, in order (made by :func:`_chains`)."""
     positions, quaternions = nominal.poses
     p = np.array([r.clips for r in requests]).reshape(-1, 2, 2, 3)
     index = [nominal.n_shapes - 1 if r.at_target else nominal.at for r in requests]
     moved = positions[index] + p[:, :, 0]
     turns = Rotation.from_rotvec(p[:, :, 1].reshape(-1, 3))
     rotations = turns * Rotation.from_quat(quaternions[index].reshape(-1, 4))
+    quats = rotations.as_quat().reshape(-1, 2, 4)
     out: list = [None] * len(requests)
     shape_k = [b for b, r in enumerate(requests) if not r.at_target]
     if shape_k:
-        moduli, cable_of = np.unique([requests[b].youngs_modulus for b in shape_k],
-                                     return_inverse=True)
-        for e in moduli:  # a sample's requests share its E: one cable for all
-            if (float(e), 1) not in cables:
-                model = nominal.cable.with_modulus(float(e))
-                # its chain made from the plan's now (held_equilibria's from_cable finds it)
-                SpringChain.from_cable(model, nominal.gravity, like=SpringChain.from_cable(
-                    nominal.cable, nominal.gravity))
-                cables[float(e), 1] = model
-        result = held_equilibria([cables[float(e), 1] for e in moduli],
-                                 cable_of.astype(np.int64),
-                                 [requests[b].guess for b in shape_k], moved[shape_k],
-                                 rotations[np.ravel([[2 * b, 2 * b + 1] for b in shape_k])],
-                                 gravity=nominal.gravity)
-        for j, b in enumerate(shape_k):
-            out[b] = result.shapes[j] if result.success[j] else None
+        shapes = hold_chains(_chains(nominal, [requests[b].youngs_modulus for b in shape_k],
+                                     cables, False),
+                             [requests[b].guess for b in shape_k], moved[shape_k],
+                             quats[shape_k], gravity=nominal.gravity)
+        for b, shape in zip(shape_k, shapes, strict=True):
+            out[b] = shape
     target = [b for b, r in enumerate(requests) if r.at_target]
     if target:
         k = nominal.clamp_links
-        fine = fit_chains if fit_chains is not None else _fit_chains(
-            nominal, [requests[b].youngs_modulus for b in target], cables)
-        quats = rotations.as_quat().reshape(-1, 2, 4)[target]
+        fine = fit_chains if fit_chains is not None else _chains(
+            nominal, [requests[b].youngs_modulus for b in target], cables, True)
         drive = drive_chains(fine, [k] * len(target), [requests[b].guess for b in target],
-                             moved[target][:, None], quats[:, None], gravity=nominal.gravity,
+                             moved[target][:, None], quats[target][:, None],
+                             gravity=nominal.gravity,
                              restart=True)
-        reach = (fine.cables[0].n_links - 2 * k) * fine.cables[0].rest_link_length
+        reach = (fine.cables[0].n_links - 2 * k) * fine.link[0]
         for j, b in enumerate(target):
             x = drive.shapes[j, 0]
             if drive.failed[j] < 0 and np.linalg.norm(x[-k - 1] - x[k]) <= reach:
@@ -978,7 +1037,7 @@ def _closed_loop(nominal: NominalCorrection, plants: PlantChains, clamps: list,
     at, last = nominal.at, nominal.n_shapes - 1
     positions, quaternions = nominal.poses
     ramp = np.arange(0, last - at + 1) / (last - at)  # shape K (0) .. T (1)
-    count = len(plants.cables)
+    count = len(plants)
     p = (ramp[None, :, None] * corrections[:, None, :]).reshape(count, -1, 2, 2, 3)
     moved = positions[None, at:] + p[:, :, :, 0]  # (B, T - K + 1, 2, 3)
     turns = Rotation.from_rotvec(p[:, :, :, 1].reshape(-1, 3))

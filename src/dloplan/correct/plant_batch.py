@@ -26,6 +26,7 @@ from ..jit import njit
 from ..physics.chain import HALF_BANDWIDTH, SpringChain
 from ..physics.compiled import chain_energy
 from ..sim import ClipPoses
+from ..sim.batch import HANDED_BACK, held_equilibria, held_loop
 from ..sim.compiled import CONVERGED, MAX_ITERATIONS, SADDLE, STALLED, newton_positions
 from ..sim.newton import newton_message
 from ..sim.result import DEFAULT_RTOL, ROUNDOFF, force_scale, point_weight, stiffest
@@ -161,9 +162,11 @@ class PlantChains:
     Attributes
     ----------
     cables : tuple of Cable
-        The B cables, all with the same number of links.
-    chains : tuple of SpringChain
-        Their chains (a saddle's escape, :func:`.model_error.clamped_equilibrium`).
+        The B cables, all with the same number of links -- or, in a row whose ``moduli`` is
+        not NaN, the cable to take at that E (:meth:`cable`: made only when asked for).
+    moduli : numpy.ndarray
+        (B,) the Young's modulus [Pa] of a row made by :meth:`at_moduli`, NaN in a row made by
+        :meth:`of`.
     constants : tuple of numpy.ndarray
         k_s (B,), rest lengths (B, n), k_b (B,), rest angles (B, n - 1), masses (B, n + 1):
         :attr:`~dloplan.physics.chain.SpringChain.constants` stacked.
@@ -176,7 +179,7 @@ class PlantChains:
     """
 
     cables: tuple
-    chains: tuple
+    moduli: np.ndarray
     constants: tuple
     link: np.ndarray
     length: np.ndarray
@@ -188,34 +191,39 @@ class PlantChains:
     def of(cls, cables: Sequence[Cable], gravity) -> PlantChains:
         """The constants of ``cables`` under ``gravity`` (3,) [m/s^2]."""
         gravity = np.asarray(gravity, dtype=float)
-        return cls._made(tuple(cables),
-                         tuple(SpringChain.from_cable(cable, gravity) for cable in cables),
-                         gravity, [force_scale(cable, gravity) for cable in cables])
+        cables = tuple(cables)
+        chains = [SpringChain.from_cable(cable, gravity) for cable in cables]
+        return cls(cables, np.full(len(cables), np.nan),
+                   tuple(np.array([chain.constants[k] for chain in chains]) for k in range(5)),
+                   np.array([cable.rest_link_length for cable in cables]),
+                   np.array([cable.length for cable in cables]),
+                   DEFAULT_RTOL * np.array([force_scale(cable, gravity) for cable in cables]),
+                   np.array([stiffest(cable) for cable in cables]),
+                   np.array([chain.stiff_axial for chain in chains]))
 
     @classmethod
     def at_moduli(cls, cable: Cable, moduli, gravity) -> PlantChains:
         """:meth:`of` the cables ``cable.with_modulus(e)``, e in ``moduli`` [Pa], bit for bit,
-        made from ``cable``'s chain: what does not depend on E (the rest lengths and angles,
-        the masses, a point's weight) made once (``SpringChain.from_cable``'s ``like``)."""
+        without making them: the moduli's constants by :class:`Cable`'s own properties
+        evaluated for all of them at once (:class:`_AtModuli`), the rest (rest lengths and
+        angles, masses, a point's weight) taken from ``cable``'s chain."""
         gravity = np.asarray(gravity, dtype=float)
-        base = SpringChain.from_cable(cable, gravity)
-        weight = point_weight(cable, gravity)
-        cables = tuple(cable.with_modulus(float(e)) for e in moduli)
-        return cls._made(cables,
-                         tuple(SpringChain.from_cable(c, gravity, like=base) for c in cables),
-                         gravity, [force_scale(c, gravity, weight) for c in cables])
+        at = _AtModuli(cable, moduli)
+        count = len(at.youngs_modulus)
+        base = SpringChain.from_cable(cable, gravity).constants
 
-    @classmethod
-    def _made(cls, cables: tuple, chains: tuple, gravity: np.ndarray, scales: list
-              ) -> PlantChains:
-        """The fields of ``cables``, their ``chains`` and force scales [N] given."""
-        return cls(cables, chains,
-                   tuple(np.array([chain.constants[k] for chain in chains]) for k in range(5)),
-                   np.array([cable.rest_link_length for cable in cables]),
-                   np.array([cable.length for cable in cables]),
-                   DEFAULT_RTOL * np.array(scales),
-                   np.array([stiffest(cable) for cable in cables]),
-                   np.array([chain.stiff_axial for chain in chains]))
+        def rows(value):
+            return np.repeat(np.asarray(value, dtype=float)[None], count, axis=0)
+
+        l2 = cable.rest_link_length**2
+        stiff = np.maximum.reduce(np.broadcast_arrays(at.k_axial, at.k_bending / l2,
+                                                      at.k_twist / l2, 0.0))  # stiffest's
+        return cls((cable,) * count, at.youngs_modulus,
+                   (np.broadcast_to(at.k_axial, (count,)).astype(float), rows(base[1]),
+                    at.k_bending, rows(base[3]), rows(base[4])),
+                   np.full(count, cable.rest_link_length), np.full(count, cable.length),
+                   DEFAULT_RTOL * force_scale(at, gravity, point_weight(cable, gravity)),
+                   stiff, np.broadcast_to(at.stiff_axial, (count,)).copy())
 
     @classmethod
     def join(cls, parts: Sequence[PlantChains]) -> PlantChains:
@@ -227,6 +235,37 @@ class PlantChains:
         """The cables at ``index`` (a sequence of positions)."""
         index = np.asarray(index, dtype=np.int64)
         return PlantChains(**{name: _taken(getattr(self, name), index) for name in _FIELDS})
+
+    def cable(self, b: int) -> Cable:
+        """The cable of row ``b``."""
+        e = float(self.moduli[b])
+        return self.cables[b] if np.isnan(e) else self.cables[b].with_modulus(e)
+
+    def chain(self, b: int, gravity) -> SpringChain:
+        """The chain of row ``b`` under ``gravity`` (3,) [m/s^2] (a saddle's escape,
+        :func:`.model_error.clamped_equilibrium`)."""
+        return SpringChain.from_cable(self.cable(b), gravity)
+
+    def __len__(self) -> int:
+        return len(self.link)
+
+
+class _AtModuli:
+    """A cable's properties at many Young's moduli at once: :class:`Cable`'s own property code
+    run with ``youngs_modulus`` an array (B,) [Pa] (every other field the cable's), so each
+    value is, bit for bit, that property of ``cable.with_modulus(e)`` (float64 arithmetic in
+    numpy rounds as Python's). ``k_bending``, ``k_axial``, ``k_twist``, ``stiff_axial`` ...:
+    arrays (B,) where they depend on E, the cable's value where they do not."""
+
+    def __init__(self, cable: Cable, moduli) -> None:
+        self._cable = cable
+        self.youngs_modulus = np.array(moduli, dtype=float).reshape(-1)
+
+    def __getattr__(self, name: str):
+        member = getattr(type(self._cable), name, None)
+        if isinstance(member, property):
+            return member.fget(self)
+        return getattr(self._cable, name)
 
 
 _FIELDS = tuple(f.name for f in fields(PlantChains))
@@ -334,12 +373,54 @@ def drive_chains(plants: PlantChains, clamp_links, starts, positions, quaternion
                 guess = continuation_guess(guess, previous[b] if s == 0 else starts[b] if s == 1
                                            else shapes[b, s - 2])
             shapes[b, s], ok, message = clamped_equilibrium(
-                plants.cables[b], guess, clips, int(clamps[b]), gravity=gravity,
-                chain=plants.chains[b])
+                plants.cable(b), guess, clips, int(clamps[b]), gravity=gravity,
+                chain=plants.chain(b, gravity))
             if not ok:
                 failed[b], messages[b] = s, message
                 break
     return PlantDrive(shapes, failed, tuple(messages), spent)
+
+
+def hold_chains(plants: PlantChains, guesses, positions, quaternions, *, gravity) -> list:
+    """Each cable of ``plants`` held by both clips: item b is :func:`dloplan.sim.batch.
+    held_equilibria` of ``plants.cable(b)`` from ``guesses[b]`` at the clips
+    ``positions[b]``, ``quaternions[b]``, bit for bit, its loop (:func:`dloplan.sim.batch.
+    held_loop`) run on the constants ``plants`` made once (the study's model at each updated
+    E): none of the per-call chains, force scales, clip wrenches and messages of
+    ``held_equilibria``, which finishes only the items the loop hands back (a saddle, clips at
+    the edge of the reach).
+
+    Parameters
+    ----------
+    plants : PlantChains
+        The B cables (one per item).
+    guesses : array_like
+        (B, n + 1, 3) starting shapes [m].
+    positions, quaternions : array_like
+        (B, 2, 3) clip points [m] and (B, 2, 4) unit ``clip_to_world`` quaternions (x, y, z, w).
+    gravity : array_like
+        (3,) [m/s^2].
+
+    Returns
+    -------
+    list
+        Per item the stable equilibrium (n + 1, 3) [m], or None where there is none.
+    """
+    x0 = np.array(guesses, dtype=float, order="C")
+    positions = np.array(positions, dtype=float, order="C")
+    quaternions = np.array(quaternions, dtype=float, order="C")
+    count = len(x0)
+    shapes, _, _, _, status, _ = held_loop(
+        x0, np.arange(count, dtype=np.int64), plants.constants, np.asarray(gravity, dtype=float),
+        positions, quaternions, plants.link, plants.length, plants.tolerance,
+        ROUNDOFF * np.finfo(float).eps, plants.stiff, plants.stiff_axial, NEWTON_ITERATIONS)
+    out: list = [shapes[b] if status[b] == CONVERGED else None for b in range(count)]
+    for b in np.flatnonzero(status == HANDED_BACK):  # the readable way
+        held = held_equilibria([plants.cable(b)], np.zeros(1, dtype=np.int64), x0[b : b + 1],
+                               positions[b : b + 1],
+                               Rotation(quaternions[b], normalize=False), gravity=gravity)
+        out[b] = held.shapes[0] if held.success[0] else None
+    return out
 
 
 def u_axes_of(quaternions: np.ndarray) -> np.ndarray:

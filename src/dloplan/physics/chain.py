@@ -14,7 +14,7 @@ is returned either banded (for the Cholesky solves of the static solver) or as a
 from __future__ import annotations
 
 import weakref
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import cached_property, lru_cache
 
 import numpy as np
@@ -99,8 +99,7 @@ class SpringChain:
 
     @classmethod
     def from_cable(cls, cable: Cable, gravity=GRAVITY, contacts=(),
-                   contact_stiffness: float | None = None, like: SpringChain | None = None
-                   ) -> SpringChain:
+                   contact_stiffness: float | None = None) -> SpringChain:
         """The chain of ``cable`` under ``gravity`` [m/s^2] (pass zeros for a weightless cable).
 
         Without contacts, the chain of a cable and gravity is built once and then reused.
@@ -109,11 +108,6 @@ class SpringChain:
         with the penalty stiffness ``contact_stiffness`` [N/m] (default 100 E A / l: a hundred
         times the axial springs of the bending modulus E, so a composite cable's copper axial
         modulus does not make the penalty a thousand times stiffer).
-
-        ``like``: the chain (without contacts) of the same cable at another Young's modulus,
-        under the same gravity: its E-independent arrays (rest lengths and angles, masses) are
-        taken, not made again -- the same chain bit for bit, a fraction of the work (a model
-        updated to a new E several times a sample).
         """
         g = np.asarray(gravity, dtype=float)
         if g.shape != (3,) or not np.all(np.isfinite(g)):
@@ -122,14 +116,6 @@ class SpringChain:
         key = tuple(g.tolist())
         if plain and key in _CHAINS.get(cable, {}):  # a cable is frozen: so is its chain
             return _CHAINS[cable][key]
-        if plain and like is not None:
-            if like.contacts or len(like.rest_lengths) != cable.n_links or \
-                    like.rest_lengths[0] != cable.rest_link_length:
-                raise ValueError("like: expected the chain, without contacts, of the same cable "
-                                 "at another modulus")
-            chain = replace(like, gravity=g, **_moduli(cable, None))
-            _CHAINS.setdefault(cable, {})[key] = chain
-            return chain
         chain = cls(
             contacts=tuple(contacts),
             contact_radius=cable.diameter / 2,

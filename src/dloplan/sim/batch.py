@@ -320,15 +320,9 @@ def held_equilibria(
     quaternions = clip_rotations.as_quat().reshape(n_items, 2, 4)
 
     cable_of = index.astype(np.int64)
-    shapes = np.full_like(x0, np.nan)
-    gradients = np.zeros_like(x0)
-    iterations = np.zeros(n_items, dtype=np.int64)
-    residuals = np.full(n_items, np.nan)
-    status = np.empty(n_items, dtype=np.int64)
-    tolerances = np.empty(n_items)
-    solve_held(x0, cable_of, *constants, chains[0].constants[5], positions, quaternions,
-               link, length, tolerance, roundoff, stiff, stiff_axial, max_iterations, shapes,
-               gradients, iterations, residuals, status, tolerances)
+    shapes, gradients, iterations, residuals, status, tolerances = held_loop(
+        x0, cable_of, constants, chains[0].constants[5], positions, quaternions, link, length,
+        tolerance, roundoff, stiff, stiff_axial, max_iterations)
 
     wrenches = _clip_wrenches(shapes, gradients, positions)
     converged = residuals <= tolerances
@@ -358,6 +352,32 @@ def held_equilibria(
         messages.append(eq.message)
     return HeldEquilibria(shapes, wrenches, iterations, residuals, tolerances, converged, stable,
                           tuple(messages), refused)
+
+
+def held_loop(guesses, cable_of, constants, gravity, positions, quaternions, link, length,
+              tolerance, roundoff, stiff, stiff_axial, max_iterations) -> tuple:
+    """:func:`solve_held` with its outputs made: the arguments as its (``constants`` the five
+    per-cable arrays of :attr:`dloplan.physics.chain.SpringChain.constants`, stacked), the
+    arrays C-ordered float64 (``cable_of`` int64) as it takes them.
+
+    Returns
+    -------
+    tuple
+        ``(shapes, gradients, iterations, residuals, status, tolerances)``, as
+        :func:`solve_held` fills them (an item's ``status`` :data:`HANDED_BACK` for
+        :func:`~dloplan.sim.statics.equilibrium` to finish).
+    """
+    n_items = len(guesses)
+    shapes = np.full_like(guesses, np.nan)
+    gradients = np.zeros_like(guesses)
+    iterations = np.zeros(n_items, dtype=np.int64)
+    residuals = np.full(n_items, np.nan)
+    status = np.empty(n_items, dtype=np.int64)
+    tolerances = np.empty(n_items)
+    solve_held(guesses, cable_of, *constants, gravity, positions, quaternions, link, length,
+               tolerance, roundoff, stiff, stiff_axial, max_iterations, shapes, gradients,
+               iterations, residuals, status, tolerances)
+    return shapes, gradients, iterations, residuals, status, tolerances
 
 
 def _clip_wrenches(x: np.ndarray, grad: np.ndarray, positions: np.ndarray) -> np.ndarray:
