@@ -63,6 +63,7 @@ from numba.core.runtime import rtsys
 
 from .elf_symbols import defined_symbols
 from .interrupts import raise_if_interrupted, shielded
+from .jit_runtime import install_runtime_cache
 
 try:
     import fcntl
@@ -219,9 +220,10 @@ def install_lazy_linking() -> bool:
 def install_cache_lock() -> bool:
     """Make numba's on-disk cache save through :func:`locked_save` (idempotent, per process).
 
-    Loading is lean and shielded from signals (:func:`shielded_load`) in any case, and a
-    cached library's shared bitcode is parsed lazily (:func:`install_lazy_linking`) where
-    this numba allows it.
+    Loading is lean and shielded from signals (:func:`shielded_load`) in any case; a cached
+    library's shared bitcode is parsed lazily (:func:`install_lazy_linking`) and numba's
+    runtime is loaded compiled (:func:`dloplan.jit_runtime.install_runtime_cache`) where this
+    numba allows it.
 
     Returns False, leaving numba's own save, when this numba's ``IndexDataCacheFile`` lacks what
     :func:`locked_save` uses (a numba that reorganized its cache): the lock is then off, never a
@@ -229,6 +231,7 @@ def install_cache_lock() -> bool:
     """
     caching.Cache.load_overload = shielded_load
     install_lazy_linking()
+    install_runtime_cache()
     cache_file = caching.IndexDataCacheFile
     if not all(callable(getattr(cache_file, name, None)) for name in NUMBA_METHODS) \
             or "_cache_path" not in cache_file.__init__.__code__.co_names:
