@@ -37,8 +37,8 @@ uses, and numba's compiler refreshes them itself before it compiles (``CompilerB
 A cached overload's shared bitcode is parsed only when a compilation links against it
 (:func:`lazy_unserialize`, :func:`linking_module`): numba keeps beside each cached library's
 machine code its LLVM module, for inlining into kernels compiled later, and parsed it (then
-listed its symbols for the JIT engine) on every load: 0.85 of the 0.9 s of CPU that loading
-``harness_pu``'s 33 overloads took, for modules a run that compiles nothing never uses. The
+listed its symbols for the JIT engine) on every load: about 0.6 of the 0.85 s of CPU that
+loading ``harness_pu``'s 33 overloads took, for modules a run that compiles nothing never uses. The
 defined symbols are read from the machine code's ELF symbol table instead
 (:mod:`dloplan.elf_symbols`: the same names, checked on all 128 of dloplan's overloads), and
 the module is parsed at the first link against it. numba's runtime module is likewise loaded
