@@ -12,7 +12,7 @@ import signal
 import threading
 
 import pytest
-from numba.core import caching
+from numba.core import caching, codegen
 
 from dloplan import jit
 from dloplan.interrupts import Interrupted, catching_interrupts
@@ -141,3 +141,72 @@ def test_a_cached_kernel_loads_without_numbas_registries_and_compiling_still_wor
         done = subprocess.run([sys.executable, "-c", f"import kernels; kernels.check({cached})"],
                               cwd=tmp_path, capture_output=True, text=True, check=False)
         assert done.returncode == 0, done.stderr[-2000:]
+
+
+LINKED = '''
+import pickle
+from pathlib import Path
+
+import llvmlite.binding as ll
+import numpy as np
+
+from dloplan import jit
+from dloplan.elf_symbols import defined_symbols
+
+
+@jit.njit(cache=True)
+def inner(x, k):
+    return np.sum(x * x) + k
+
+
+def check(cached):
+    x = np.arange(4.0)
+    assert inner(x, 0.5) == 14.5
+    library = inner.overloads[inner.signatures[0]].library
+    assert inner.stats.cache_hits if cached else inner.stats.cache_misses
+    # loaded from the cache: its bitcode not parsed; compiled: numba's own library
+    assert (library in jit.SHARED_BITCODE) is cached
+    assert (library._shared_module is None) is cached
+    # a kernel compiled afterwards that calls it links against its module (parsed now)
+    fresh = jit.njit(lambda y: inner(y, 2.0) + 1.0)
+    assert fresh(x) == 17.0
+    assert library not in jit.SHARED_BITCODE and library._shared_module is not None
+    # the object's symbol table names what the parsed module defines
+    data = next(Path("__pycache__").glob("*.nbc")).read_bytes()
+    _, kind, (object_code, bitcode) = pickle.loads(data)[0]
+    module = ll.parse_bitcode(bitcode)
+    assert kind == "object" and defined_symbols(object_code) == {
+        g.name for group in (module.functions, module.global_variables) for g in group
+        if not g.is_declaration}
+'''
+
+
+def test_a_cached_kernels_bitcode_is_parsed_only_when_a_compilation_links_it(tmp_path):
+    """jit.lazy_unserialize: a kernel loaded from the cache runs without its shared bitcode
+    parsed; a kernel compiled after it that calls it still links and computes the right value
+    (a fresh process each, with its own cache folder: the first compiles and saves, the second
+    loads)."""
+    import subprocess
+    import sys
+
+    (tmp_path / "linked.py").write_text(LINKED)
+    for cached in (False, True):
+        done = subprocess.run([sys.executable, "-c", f"import linked; linked.check({cached})"],
+                              cwd=tmp_path, capture_output=True, text=True, check=False)
+        assert done.returncode == 0, done.stderr[-2000:]
+
+
+def test_a_library_that_is_not_an_elf_object_is_loaded_by_numba(monkeypatch):
+    calls = []
+    monkeypatch.setattr(jit, "NUMBA_UNSERIALIZE", lambda *args: calls.append(args) or "numba's")
+    state = ("kernel", "object", (b"\xcf\xfa\xed\xfe Mach-O", b"bitcode"))
+    assert jit.lazy_unserialize(codegen.JITCodeLibrary, None, state) == "numba's"
+    assert calls == [(codegen.JITCodeLibrary, None, state)]
+
+
+def test_a_numba_without_the_library_internals_keeps_its_own_loading(monkeypatch):
+    monkeypatch.setattr(codegen.CPUCodeLibrary, "_unserialize",
+                        classmethod(jit.NUMBA_UNSERIALIZE))
+    monkeypatch.setattr(codegen.CPUCodeLibrary, "_set_compiled_object", None)
+    assert jit.install_lazy_linking() is False
+    assert codegen.CPUCodeLibrary._unserialize.__func__ is jit.NUMBA_UNSERIALIZE

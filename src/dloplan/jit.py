@@ -34,6 +34,16 @@ kernel's call in a ``dloplan`` run). A cached overload is machine code: it needs
 (NRT) initialized, which :func:`lean_load` does, not the registries, which only a compilation
 uses, and numba's compiler refreshes them itself before it compiles (``CompilerBase``).
 
+A cached overload's shared bitcode is parsed only when a compilation links against it
+(:func:`lazy_unserialize`, :func:`linking_module`): numba keeps beside each cached library's
+machine code its LLVM module, for inlining into kernels compiled later, and parsed it (then
+listed its symbols for the JIT engine) on every load: about 0.6 of the 0.85 s of CPU that
+loading ``harness_pu``'s 33 overloads took, for modules a run that compiles nothing never uses. The
+defined symbols are read from the machine code's ELF symbol table instead
+(:mod:`dloplan.elf_symbols`: the same names, checked on all 128 of dloplan's overloads), and
+the module is parsed at the first link against it. numba's runtime module is likewise loaded
+compiled (:mod:`dloplan.jit_runtime`).
+
 Loading a cached overload is also shielded from signals (:func:`shielded_load`): numba rebuilds
 the machine code through ctypes, and a Ctrl-C raised in the middle of it (or swallowed in one of
 its callbacks) left a half-linked library whose environment pointer numba then wrote through, a
@@ -54,12 +64,16 @@ from __future__ import annotations
 import contextlib
 import itertools
 import os
+import weakref
 
+import llvmlite.binding as ll
 import numba
-from numba.core import caching
+from numba.core import caching, codegen
 from numba.core.runtime import rtsys
 
+from .elf_symbols import defined_symbols
 from .interrupts import raise_if_interrupted, shielded
+from .jit_runtime import install_runtime_cache
 
 try:
     import fcntl
@@ -142,16 +156,92 @@ def shielded_load(cache: caching.Cache, sig, target_context):
     return data
 
 
+NUMBA_UNSERIALIZE = codegen.CPUCodeLibrary._unserialize.__func__
+"""numba's own ``CPUCodeLibrary._unserialize`` (rebuilds a cached library, its shared bitcode
+parsed)."""
+
+NUMBA_LINKING_MODULE = codegen.CPUCodeLibrary._get_module_for_linking
+"""numba's own ``CPUCodeLibrary._get_module_for_linking`` (the library's module for linking
+into a later compilation)."""
+
+LAZY_METHODS = ("_unserialize", "_get_module_for_linking", "enable_object_caching",
+                "_set_compiled_object", "_finalize_final_module")
+"""The methods :func:`lazy_unserialize` and :func:`linking_module` use on numba's
+``CPUCodeLibrary`` (numba 0.68), besides its ``_shared_module`` attribute and the JIT engine's
+``_defined_symbols`` set."""
+
+SHARED_BITCODE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+"""The shared bitcode of each library loaded by :func:`lazy_unserialize`, not yet parsed."""
+
+
+def lazy_unserialize(cls, library_codegen, state):
+    """numba's ``CPUCodeLibrary._unserialize`` of a cached library with its shared bitcode
+    parsed only when a later compilation links against it (:func:`linking_module`).
+
+    numba parses the bitcode kept beside a cached library's object code on every load (the
+    library's LLVM module, made for inlining into later compilations), then lists the module's
+    defined functions and variables for the JIT engine's symbol look-ups: the larger part of
+    loading a kernel, for a module a run that compiles nothing never links. Here the object
+    code is loaded as numba loads it, the defined symbols are read from the object's ELF
+    symbol table (:func:`dloplan.elf_symbols.defined_symbols`: the same names) and the bitcode
+    is kept unparsed. Anything but an ELF object (another platform, numba's ``bitcode`` kind)
+    is numba's own path.
+    """
+    name, kind, data = state
+    symbols = defined_symbols(data[0]) if kind == "object" else None
+    engine_symbols = getattr(getattr(library_codegen, "_engine", None), "_defined_symbols", None)
+    if symbols is None or not isinstance(engine_symbols, set):
+        return NUMBA_UNSERIALIZE(cls, library_codegen, state)
+    object_code, shared_bitcode = data
+    library = library_codegen.create_library(name)
+    library.enable_object_caching()
+    library._set_compiled_object(object_code)
+    SHARED_BITCODE[library] = shared_bitcode
+    library._finalize_final_module()
+    engine_symbols |= symbols
+    return library
+
+
+def linking_module(library):
+    """numba's ``CPUCodeLibrary._get_module_for_linking``, the shared bitcode of a library
+    loaded by :func:`lazy_unserialize` parsed first (once)."""
+    bitcode = SHARED_BITCODE.pop(library, None)
+    if bitcode is not None:
+        library._shared_module = ll.parse_bitcode(bitcode)
+    return NUMBA_LINKING_MODULE(library)
+
+
+def install_lazy_linking() -> bool:
+    """Make numba load cached libraries through :func:`lazy_unserialize` (idempotent).
+
+    Returns False, leaving numba's own loading, when this numba's ``CPUCodeLibrary`` or JIT
+    engine lacks what :func:`lazy_unserialize` uses.
+    """
+    library = codegen.CPUCodeLibrary
+    if not all(callable(getattr(library, name, None)) for name in LAZY_METHODS) \
+            or "_shared_module" not in library.__init__.__code__.co_names \
+            or "_defined_symbols" not in codegen.JitEngine.__init__.__code__.co_names:
+        return False
+    library._unserialize = classmethod(lazy_unserialize)
+    library._get_module_for_linking = linking_module
+    return True
+
+
 def install_cache_lock() -> bool:
     """Make numba's on-disk cache save through :func:`locked_save` (idempotent, per process).
 
-    Loading is lean and shielded from signals (:func:`shielded_load`) in any case.
+    Loading is lean and shielded from signals (:func:`shielded_load`) in any case; a cached
+    library's shared bitcode is parsed lazily (:func:`install_lazy_linking`) and numba's
+    runtime is loaded compiled (:func:`dloplan.jit_runtime.install_runtime_cache`) where this
+    numba allows it.
 
     Returns False, leaving numba's own save, when this numba's ``IndexDataCacheFile`` lacks what
     :func:`locked_save` uses (a numba that reorganized its cache): the lock is then off, never a
     crash at the first compilation.
     """
     caching.Cache.load_overload = shielded_load
+    install_lazy_linking()
+    install_runtime_cache()
     cache_file = caching.IndexDataCacheFile
     if not all(callable(getattr(cache_file, name, None)) for name in NUMBA_METHODS) \
             or "_cache_path" not in cache_file.__init__.__code__.co_names:
