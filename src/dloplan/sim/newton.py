@@ -201,11 +201,12 @@ def cholesky_solve(factor, rhs):
     _bulk(np.int64(BACKWARD), factor, rhs, bulk)
 
 
-def lowest_mode(band: np.ndarray) -> np.ndarray:
-    """The eigenvector of the smallest eigenvalue of a banded symmetric matrix, (N,)."""
-    _, vectors = sla.eig_banded(band, lower=True, select="i", select_range=(0, 0),
-                                check_finite=False)
-    return vectors[:, 0]
+def lowest_eigenpair(band: np.ndarray) -> tuple[float, np.ndarray]:
+    """The smallest eigenvalue [N/m] and its unit eigenvector (N,) of a symmetric matrix given
+    by its lower band (w + 1, N) [N/m] (LAPACK's banded solver)."""
+    values, vectors = sla.eig_banded(band, lower=True, select="i", select_range=(0, 0),
+                                     check_finite=False)
+    return float(values[0]), vectors[:, 0]
 
 
 @dataclass(frozen=True, eq=False)
@@ -250,7 +251,7 @@ def trust_region_newton(
     factorization succeeds and shrinks again as steps succeed. A step is accepted only if the
     energy decreases and no coordinate moves farther than the trust radius; the ratio of actual to
     predicted decrease adapts lambda and the radius. At a saddle (residual converged, Hessian
-    indefinite) the loop steps downhill along :func:`lowest_mode` and carries on.
+    indefinite) the loop steps downhill along :func:`lowest_eigenpair`'s vector and carries on.
 
     Parameters
     ----------
@@ -417,7 +418,7 @@ def escape_saddle(state, f, band, energy_of, moved, displacement, radius):
     Tries both signs with a backtracking length, starting at the trust radius; returns
     ``(state, energy)`` of the first step that lowers the energy, or None.
     """
-    mode = lowest_mode(band)
+    _, mode = lowest_eigenpair(band)
     direction = mode / displacement(mode)
     length = radius
     for _ in range(40):

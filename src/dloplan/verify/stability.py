@@ -87,7 +87,7 @@ from ..physics.chain import (
     sparse_to_band,
 )
 from ..physics.compiled import add_point_blocks
-from ..sim.newton import factor_band, free_band, solve_band
+from ..sim.newton import factor_band, free_band, lowest_eigenpair, solve_band
 from ..sim.statics import force_scale
 from .contacts import BoardContacts, ContactState, contact_stiffness
 from .lowest import eigenvalue_tolerance, follow_lowest
@@ -479,9 +479,7 @@ class _Followed:
             if found is not None and not found[0] - 2.0 * tolerance > threshold:
                 found = None
         if found is None:
-            values, vectors = sla.eig_banded(band, lower=True, select="i", select_range=(0, 0),
-                                             check_finite=False)
-            found = float(values[0]), vectors[:, 0]
+            found = lowest_eigenpair(band)
         setattr(self, which, found)
         return found
 
