@@ -21,7 +21,7 @@ Before issue 34 (quiet machine): 195 samples/s serial; target 1000 samples/s on 
 The host is shared: compare CPU times and ratios measured side by side.
 
 Run: python benchmarks/bench_study.py [--samples 4096] [--closed-loop 16]
-[--closed-loop-linearized 1024] [--scheduler ADDR]
+[--closed-loop-linearized 1024] [--closed-loop-chunk 256] [--scheduler ADDR]
 """
 
 from __future__ import annotations
@@ -98,9 +98,12 @@ def equal_rows(table: dict, rows: dict) -> bool:
     return True
 
 
-def closed_loop_rates(doc, samples, at: int, n_exact: int, n_linearized: int, chunk: int):
+def closed_loop_rates(doc, samples, at: int, n_exact: int, n_linearized: int,
+                      chunk: int | None):
     """The closed-loop column's samples per second, exact (before) and linearized (after),
-    serial and on 2 local processes, and how their rows compare on the exact run's samples."""
+    serial and on 2 local processes, and how their rows compare on the exact run's samples;
+    the linearized method in chunks of ``chunk`` samples (None: its default, as ``dloplan
+    study`` runs it, :func:`dloplan.correct.probability.linearized_chunk_size`)."""
     from dloplan.pipeline.stages import settled_shapes
 
     common = {"stabilized": settled_shapes(doc), "trajectory": doc.trajectory, "chunk_size": chunk}
@@ -142,6 +145,9 @@ def main() -> None:
                         help="closed-loop samples of the exact method (correct_plan per sample)")
     parser.add_argument("--closed-loop-linearized", type=int, default=1024,
                         help="closed-loop samples of the linearized method (a chunk at a time)")
+    parser.add_argument("--closed-loop-chunk", type=int,
+                        help="samples per task of the linearized closed loop (default: its own, "
+                             "as `dloplan study` runs it)")
     parser.add_argument("--scheduler", help="a Dask scheduler address tcp://HOST:PORT")
     args = parser.parse_args()
     from dloplan.app import load_scenario, run_job
@@ -209,7 +215,7 @@ def main() -> None:
 
     if args.closed_loop:
         closed_loop_rates(doc, samples, problem.n_shapes // 2, args.closed_loop,
-                          args.closed_loop_linearized, spec.chunk)
+                          args.closed_loop_linearized, args.closed_loop_chunk)
 
     workers = 100
     per_sample = 1.0 / rates["serial"]

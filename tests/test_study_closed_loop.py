@@ -127,6 +127,43 @@ def example_plan():
     return run_job(load_scenario(EXAMPLE), check_robot=False)
 
 
+def test_the_linearized_closed_loop_runs_in_chunks_of_a_quarter_of_its_samples(
+        example_plan, monkeypatch):
+    """Without a chunk size the linearized column cuts its samples into chunks of a quarter of
+    them (two tasks for each of two workers) within 16 .. 256, whatever the backend (a chunk's
+    rounds cost a fixed share: few large chunks); a chunk size given is kept. The rows are the
+    same to the round-off of the chunk's batched sums."""
+    from dloplan.correct import closed_loop_study, probability
+    from dloplan.correct.probability import linearized_chunk_size
+    from dloplan.pipeline.stages import settled_shapes
+    from dloplan.study import draw_samples
+    from dloplan.study.spec import CorrectionSpec
+
+    assert [linearized_chunk_size(n) for n in (1, 40, 64, 100, 1024, 4096)] == \
+        [16, 16, 16, 25, 256, 256]
+    doc = example_plan
+    spec = parse_study({"samples": 40, "seed": 1,
+                        "parameters": {"youngs_modulus": {"spread": 40}}})
+    samples = draw_samples(spec, doc.cable, doc.obstacles)
+    sizes, chunk = [], probability.linearized_chunk
+
+    def counted(plan, items):
+        sizes.append(len(items))
+        return chunk(plan, items)
+
+    monkeypatch.setattr(probability, "linearized_chunk", counted)
+    runs = [closed_loop_study(doc.cable, doc.shapes, doc.grippers, samples,
+                              CorrectionSpec(at=3, noise=1.0, tolerance=4.0),
+                              stabilized=settled_shapes(doc), trajectory=doc.trajectory,
+                              chunk_size=size)[0] for size in (None, 40)]
+    assert sizes == [16, 16, 8, 40]
+    for a, b in zip(*runs, strict=True):
+        assert a["refusal"] == b["refusal"] and a["corrections"] == b["corrections"]
+        assert a["open_loop_error"] == b["open_loop_error"] or np.isnan(b["open_loop_error"])
+        assert a["closed_loop_error"] == pytest.approx(b["closed_loop_error"], abs=1e-12,
+                                                       nan_ok=True)
+
+
 @pytest.mark.parametrize("predict_from", [None, 1, 2])
 @pytest.mark.parametrize(("plant_links", "clamp"), [(10, 1), (25, 2)])
 def test_the_batched_plants_are_plant_hold_stop_by_stop_bit_for_bit(example_plan, plant_links,

@@ -73,7 +73,7 @@ def with_closed_loop(doc: PlanDocument, result: StudyResult, backend=None) -> St
     rows, success = closed_loop_study(doc.cable, doc.shapes, doc.grippers, result.samples, spec,
                                       stabilized=settled_shapes(doc), trajectory=doc.trajectory,
                                       confidence=result.spec.confidence, gravity=GRAVITY,
-                                      backend=backend, chunk_size=result.spec.chunk)
+                                      backend=backend, chunk_size=result.spec.chunk_size)
     summary = replace(result.summary, closed_loop=success)
     if result.folder is not None:
         folder = Path(result.folder)

@@ -132,6 +132,46 @@ TABLE_STEP = math.log(2.0) / 4.0
 """Spacing of the derivatives' table in ln E (:class:`DerivativeTable`): a factor 2^(1/4)."""
 
 
+@dataclass(eq=False)
+class TableNodes:
+    """The nodes a :class:`DerivativeTable` made so far, by index (0 at the plan's E, +-k
+    k steps of :data:`TABLE_STEP` up or down), kept sorted by ln E as they are added.
+
+    Attributes
+    ----------
+    rows : dict
+        Index -> the node's values (:class:`DerivativeTable`).
+    logs : dict
+        Index -> the node's ln E [ln Pa].
+    last : dict
+        Per side (1 up, -1 down) the index (k >= 0) of the last node made.
+    ended : dict
+        Per side: no node is made beyond its last (the range's end, or no stable equilibrium).
+    ordered : list of dict
+        The rows in increasing ln E.
+    ordered_logs : list of float
+        Their ln E [ln Pa].
+    log_moduli : numpy.ndarray
+        (k,) the same as an array.
+    """
+
+    rows: dict = field(default_factory=dict)
+    logs: dict = field(default_factory=dict)
+    last: dict = field(default_factory=lambda: {1: 0, -1: 0})
+    ended: dict = field(default_factory=lambda: {1: False, -1: False})
+    ordered: list = field(default_factory=list)
+    ordered_logs: list = field(default_factory=list)
+    log_moduli: np.ndarray = field(default_factory=lambda: np.empty(0))
+
+    def add(self, index: int, node: dict) -> None:
+        """Keep ``node`` under ``index`` and sort the rows again."""
+        self.rows[index], self.logs[index] = node, _log_modulus(node)
+        keys = sorted(self.rows)
+        self.ordered = [self.rows[k] for k in keys]
+        self.ordered_logs = [self.logs[k] for k in keys]
+        self.log_moduli = np.array(self.ordered_logs)
+
+
 @dataclass(frozen=True, eq=False)
 class DerivativeTable:
     """The model's equilibria and their derivatives at shape K and at the target, at the
@@ -145,6 +185,18 @@ class DerivativeTable:
     would make it, so every value is the same whichever estimates ask first and in which
     process (a study's estimates seldom go beyond a fraction of the factor-10 range: on the
     study example 13 of 29 nodes, docs/performance.md, branch cl3).
+
+    A node's values, by name: ``youngs_modulus`` [Pa]; ``state`` and ``target`` (n + 1, 3)
+    the equilibria at K and at the target [m]; ``modulus_k``, ``modulus_t`` d x / d ln E there
+    [m]; ``d_k``, ``g_k``, ``d_t``, ``g_t`` the discretization and clamp directions
+    (:func:`.model_error.model_error_directions`) [m]; ``d_clips``, ``g_clips`` (3 (n + 1), 12)
+    d d / d p and d g / d p at the target (the clip sensitivities of the 2 n-link equilibria
+    they are differences of, at their every other point: R_n to first order; scaled as
+    ``clips``) [m]; ``fine`` (k n + 1, 3) the equilibrium at the target of the chain the clips
+    are fitted on (:class:`~.step.FitModel`: k n links, each gripper clamping k) [m],
+    ``fine_clips`` (3 (k n + 1), 12) its d x / d p and ``clips`` (3 (n + 1), 12) the same at
+    its every k-th point (the plan's model's material points), rotation columns divided by
+    L / 2 (the clip fit's scaled coordinates).
 
     Attributes
     ----------
@@ -160,21 +212,8 @@ class DerivativeTable:
         (3,) [m/s^2].
     fit_links : int
         Links of the clip fit's chain.
-    made : dict
-        The nodes made so far: ``rows`` (index -> values; per name ``state`` and ``target``
-        (n + 1, 3) the equilibria at K and at the target [m]; ``modulus_k``, ``modulus_t``
-        d x / d ln E there [m]; ``d_k``, ``g_k``, ``d_t``, ``g_t`` the discretization and
-        clamp directions (:func:`.model_error.model_error_directions`) [m]; ``d_clips``,
-        ``g_clips`` (3 (n + 1), 12) d d / d p and d g / d p at the target (the clip
-        sensitivities of the 2 n-link equilibria they are differences of, at their every other
-        point: R_n to first order; scaled as ``clips``) [m]; ``fine`` (k n + 1, 3) the
-        equilibrium at the target of the chain the clips are fitted on (:class:`~.step.
-        FitModel`: k n links, each gripper clamping k) [m], ``fine_clips`` (3 (k n + 1), 12)
-        its d x / d p and ``clips`` (3 (n + 1), 12) the same at its every k-th point (the
-        plan's model's material points), rotation columns divided by L / 2 (the clip fit's
-        scaled coordinates)) and ``logs`` (index -> ln E [ln Pa]), the rows ``sorted`` by ln E
-        with their ``sorted_logs`` (a list) and ``log_moduli`` (an array), and per side (1, -1)
-        the ``last`` index made and whether it is ``ended``.
+    nodes : TableNodes
+        The nodes made so far (filled by :meth:`start` and :meth:`at`).
     """
 
     cable: Cable
@@ -183,25 +222,25 @@ class DerivativeTable:
     half_width: float
     gravity: np.ndarray
     fit_links: int
-    made: dict = field(default_factory=dict, repr=False)
+    nodes: TableNodes = field(default_factory=TableNodes, repr=False)
 
     @property
     def log_moduli(self) -> np.ndarray:
         """(k,) the ln E [ln Pa] of the nodes made so far, increasing."""
-        return self.made["log_moduli"]
+        return self.nodes.log_moduli
 
     def at(self, log_modulus: float) -> Interpolated:
         """The values at ln E (linear between the nodes, the end node's beyond them), each
         interpolated when it is asked for."""
-        logs = self.made["logs"]
-        side = 1 if log_modulus > logs[0] else -1
-        if side * (logs[side * self.made["last"][side]] - log_modulus) < 0:
+        nodes = self.nodes
+        side = 1 if log_modulus > nodes.logs[0] else -1
+        if side * (nodes.logs[side * nodes.last[side]] - log_modulus) < 0:
             self._extend(side, log_modulus)
-        nodes, rows = self.made["sorted_logs"], self.made["sorted"]
-        if len(nodes) == 1:
+        logs, rows = nodes.ordered_logs, nodes.ordered
+        if len(logs) == 1:
             return Interpolated(rows[0], rows[0], 0.0)
-        k = min(max(bisect.bisect_left(nodes, log_modulus) - 1, 0), len(nodes) - 2)
-        w = min(max((log_modulus - nodes[k]) / (nodes[k + 1] - nodes[k]), 0.0), 1.0)
+        k = min(max(bisect.bisect_left(logs, log_modulus) - 1, 0), len(logs) - 2)
+        w = min(max((log_modulus - logs[k]) / (logs[k + 1] - logs[k]), 0.0), 1.0)
         return Interpolated(rows[k], rows[k + 1], w)
 
     def start(self, guesses: tuple) -> None:
@@ -216,24 +255,21 @@ class DerivativeTable:
         if node is None:
             raise CorrectionRefused("model: no stable equilibrium of the plan's cable at the "
                                     "measured shape's or the target's clips")
-        self.made.update(rows={0: node}, logs={0: _log_modulus(node)},
-                         ended={1: False, -1: False}, last={1: 0, -1: 0})
-        self._sort()
+        self.nodes.add(0, node)
 
     def _extend(self, side: int, log_modulus: float) -> None:
         """Make the nodes of ``side`` up to the first at or beyond ``log_modulus``, or to the
         side's end."""
-        rows, logs = self.made["rows"], self.made["logs"]
-        last, ended = self.made["last"], self.made["ended"]
+        nodes = self.nodes
         log_e0 = math.log(self.cable.youngs_modulus)
         count = int(math.ceil(self.half_width / TABLE_STEP - 1e-9))
-        grew = False
-        while not ended[side] and side * (logs[side * last[side]] - log_modulus) < 0:
-            k = last[side] + 1
+        while (not nodes.ended[side]
+               and side * (nodes.logs[side * nodes.last[side]] - log_modulus) < 0):
+            k = nodes.last[side] + 1
             if k > count:
-                ended[side] = True
+                nodes.ended[side] = True
                 break
-            previous = rows[side * last[side]]
+            previous = nodes.rows[side * nodes.last[side]]
             log_e = log_e0 + side * min(k * TABLE_STEP, self.half_width)
             step = log_e - math.log(previous["youngs_modulus"])
             guesses = (previous["state"] + step * previous["modulus_k"],
@@ -241,18 +277,10 @@ class DerivativeTable:
             node = _node(self.cable.with_modulus(math.exp(log_e)), self.clips, guesses,
                          self.gravity, self.scale, self.fit_links)
             if node is None:
-                ended[side] = True
+                nodes.ended[side] = True
                 break
-            rows[side * k], logs[side * k] = node, _log_modulus(node)
-            last[side], grew = k, True
-        if grew:
-            self._sort()
-
-    def _sort(self) -> None:
-        keys = sorted(self.made["rows"])
-        self.made["sorted"] = [self.made["rows"][k] for k in keys]
-        self.made["sorted_logs"] = [self.made["logs"][k] for k in keys]
-        self.made["log_moduli"] = np.array(self.made["sorted_logs"])
+            nodes.add(side * k, node)
+            nodes.last[side] = k
 
 
 def _log_modulus(node: dict) -> float:

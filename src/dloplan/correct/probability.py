@@ -40,6 +40,10 @@ SAMPLE_COLUMNS = {
 METHODS = ("linearized", "exact")
 """How a study's corrections are computed (:class:`dloplan.study.spec.CorrectionSpec`)."""
 
+LINEARIZED_CHUNKS = (16, 256)
+"""The default chunk of the linearized closed loop lies within these sample counts
+(:func:`linearized_chunk_size`)."""
+
 
 def closed_loop_sample(
     cable: Cable,
@@ -157,7 +161,7 @@ def closed_loop_success(rows: Sequence[dict], tolerance: float, *,
 def closed_loop_study(cable: Cable, shapes, grippers: GripperPath, samples: Samples,
                       spec: CorrectionSpec, *, stabilized=None, trajectory=None,
                       confidence: float = 0.95, gravity=GRAVITY, backend=None,
-                      chunk_size: int = 64) -> tuple[list[dict], ClosedLoopSuccess]:
+                      chunk_size: int | None = None) -> tuple[list[dict], ClosedLoopSuccess]:
     """Closed-loop success of a study's sampled cables (the ``correction:`` section).
 
     Parameters
@@ -175,9 +179,9 @@ def closed_loop_study(cable: Cable, shapes, grippers: GripperPath, samples: Samp
         Where the samples run (the plan is sent once per worker); default this process. A row
         depends only on its sample (its noise is seeded by its index), so every backend gives
         the same rows.
-    chunk_size : int
+    chunk_size : int, optional
         Samples per task of the linearized method (``spec.method``; the exact one runs a
-        sample per task).
+        sample per task); default :func:`linearized_chunk_size` of the sample count.
 
     Returns
     -------
@@ -206,6 +210,8 @@ def closed_loop_study(cable: Cable, shapes, grippers: GripperPath, samples: Samp
         plan = LinearizedPlan(nominal_correction(
             cable, shapes, grippers, spec.at, stabilized=stabilized, gravity=gravity,
             plant_links=spec.plant_links), 1e-3 * spec.noise, spec.n_measured)
+        if chunk_size is None:
+            chunk_size = linearized_chunk_size(count)
         chunks = [items[k : k + chunk_size] for k in range(0, count, chunk_size)]
         done = sorted(map_jobs(linearized_chunk, chunks, backend, shared=plan),
                       key=lambda pair: pair[0])
@@ -216,6 +222,22 @@ def closed_loop_study(cable: Cable, shapes, grippers: GripperPath, samples: Samp
                                          key=lambda pair: pair[0])]
     return rows, closed_loop_success(rows, 1e-3 * spec.tolerance, confidence=confidence,
                                      method=spec.method)
+
+
+def linearized_chunk_size(count: int) -> int:
+    """The linearized closed loop's samples per task by default: ``count`` / 4 rounded up,
+    within :data:`LINEARIZED_CHUNKS` (two tasks for each of two workers, as large as the cap).
+
+    A chunk's rounds (the model updates', the clip fits') cost a fixed share of Python and
+    compiled calls whatever its size, about 30 ms of CPU a chunk on the study example at load
+    8 (docs/performance.md, branch cl4): 0.5 ms a sample in chunks of 64, 0.12 in chunks of
+    256. The open-loop study's chunk (:attr:`dloplan.study.spec.StudySpec.chunk`, N / 16) is
+    sized for its files and its whole sample count, not for this column's. The default does
+    not depend on the backend: a row depends on its sample and, by the round-off of the
+    chunk's batched sums (1e-16 m), on the chunk size, so every backend gives the same rows.
+    """
+    low, high = LINEARIZED_CHUNKS
+    return min(high, max(low, -(-int(count) // 4)))
 
 
 @dataclass(frozen=True, eq=False)

@@ -133,7 +133,8 @@ class StudySpec(_Model):
         "lhs", description="lhs: Latin hypercube (scipy.stats.qmc); random: independent draws")
     chunk_size: int | None = Field(
         None, ge=1, le=100_000,
-        description="samples per task and per file (default: N / 16 within 16 .. 256)")
+        description="samples per task and per file (default: N / 16 within 16 .. 256; the "
+                    "linearized closed loop's: its samples / 4 within 16 .. 256)")
     confidence: float = Field(0.95, gt=0, lt=1, description="level of the success interval")
     parameters: dict[str, Variation] = Field(
         default_factory=dict, description=f"any of {', '.join(PARAMETERS)}")
