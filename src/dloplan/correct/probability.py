@@ -229,10 +229,11 @@ def linearized_chunk_size(count: int) -> int:
     within :data:`LINEARIZED_CHUNKS` (two tasks for each of two workers, as large as the cap).
 
     A chunk's rounds (the model updates', the clip fits') cost a fixed share of Python and
-    compiled calls whatever its size, about 30 ms of CPU a chunk on the study example at load
-    8 (docs/performance.md, branch cl4): 0.5 ms a sample in chunks of 64, 0.12 in chunks of
-    256. The open-loop study's chunk (:attr:`dloplan.study.spec.StudySpec.chunk`, N / 16) is
-    sized for its files and its whole sample count, not for this column's. The default does
+    compiled calls whatever its size, about 15-30 ms of CPU a chunk on the study example at
+    load 8-12 (docs/performance.md, branch cl4): 0.25-0.45 ms a sample in chunks of 64,
+    0.06-0.12 in chunks of 256. The open-loop study's chunk
+    (:attr:`dloplan.study.spec.StudySpec.chunk`, N / 16) is sized for its files and its whole
+    sample count, not for this column's. The default does
     not depend on the backend: a row depends on its sample and, by the round-off of the
     chunk's batched sums (1e-16 m), on the chunk size, so every backend gives the same rows.
     """
