@@ -233,9 +233,9 @@ def linearized_chunk_size(count: int) -> int:
     load 8-12 (docs/performance.md, branch cl4): 0.25-0.45 ms a sample in chunks of 64,
     0.06-0.12 in chunks of 256. The open-loop study's chunk
     (:attr:`dloplan.study.spec.StudySpec.chunk`, N / 16) is sized for its files and its whole
-    sample count, not for this column's. The default does
-    not depend on the backend: a row depends on its sample and, by the round-off of the
-    chunk's batched sums (1e-16 m), on the chunk size, so every backend gives the same rows.
+    sample count, not for this column's. The default does not depend on the backend: a row
+    depends on its sample and, by the round-off of the chunk's batched sums (1e-16 m), on the
+    chunk size, so every backend gives the same rows.
     """
     low, high = LINEARIZED_CHUNKS
     return min(high, max(low, -(-int(count) // 4)))
