@@ -8,7 +8,9 @@ finds them by the 7x7 damped least squares of :func:`dloplan.robot.kinematics.so
 from many seeds (the given ones, the home pose and its wrist flip, and seeded-random joint
 vectors) and keeps the distinct ones within the joint limits; :func:`solve_robtarget` keeps
 those whose confdata is the written one. A program's round trip (:mod:`dloplan.robot.program`)
-asks that exactly one solution matches and that it is the verified one.
+asks that exactly one solution matches and that it is the verified one. A program made as a
+verdict (the reach repair's placements) first asks :func:`own_solution`, the part of the
+enumeration the verified joints reach by themselves: where that passes, so does the whole.
 
 Cost (issue 34): the enumeration's own seeds (home, its flip, the random ones: most of them
 lead nowhere) are stepped by a hand-written Cholesky solve of the damped normal equations
