@@ -218,7 +218,6 @@ def solve_robtarget(arm: CellArm, position, rotation_matrix, psi: float, conf, s
     return RobtargetSolution(found, found[keep])
 
 
-
 def own_solution(arm: CellArm, position, rotation_matrix, psi: float, conf, seed,
                  options: IKOptions | None = None) -> RobtargetSolution:
     """The solution the controller's IK reaches from ``seed`` (7,) [rad] alone, and its turns
