@@ -627,9 +627,12 @@ def test_frames_of_another_method_name_the_method_the_job_asked_for():
 def test_a_placement_is_rejected_on_its_programs_first_failure(monkeypatch):
     """fig4_8: the reach repair rejects two placements on the first failure of their robot
     programs, at the approach (the lines the complete programs gave), without solving the
-    controller's round trip of their later targets (``verdict_only``): 18 robtargets for the
-    plan's program (9 targets, 2 arms), 2 for each rejected one, 18 for the one kept (72
-    when the rejected programs were completed)."""
+    controller's round trip of their later targets (``verdict_only``), nor of a target whose
+    verified joints' own solution round-trips: 18 robtargets enumerated for the plan's
+    program (9 targets, 2 arms), none for the first rejected one (it fails its joint limits),
+    one for the second (the left arm's round trip fails, the right arm's own solution
+    passes), 18 for the one kept (72 when the rejected programs were completed, 40 when each
+    round trip of a verdict was enumerated)."""
     import dloplan.robot.yumi_program as plugin
 
     solved = []
@@ -646,4 +649,4 @@ def test_a_placement_is_rejected_on_its_programs_first_failure(monkeypatch):
         "left arm: round trip 180 deg 0 solutions of the pose and arm angle, 0 with confdata "
         "[-1, -1, 0, 4]"]
     assert doc.program.ok and doc.program.trajectory is not None and doc.repairs
-    assert len(solved) == 18 + 2 + 2 + 18
+    assert len(solved) == 18 + 0 + 1 + 18

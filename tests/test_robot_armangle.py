@@ -227,6 +227,37 @@ def test_enumeration_by_cholesky_steps_finds_the_lapack_solutions(side, monkeypa
     assert len(branches) >= 4  # several confdata branches were compared
 
 
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_the_own_solution_is_part_of_the_enumeration(side):
+    """:func:`~dloplan.robot.robtarget.own_solution` (a verdict's round trip) is a part of
+    :func:`~dloplan.robot.robtarget.solve_robtarget` with the same seed, row for row bit for
+    bit, so its deviation is never below the enumeration's: a round trip it passes, the
+    enumeration passes. Seeds: the joints of the pose (the verified joints), and joints far
+    from them, which reach another solution or none."""
+    arm = yumi_arm(side)
+    rng = np.random.default_rng(5)
+    joints = list(np.clip(np.radians(CASES["q_deg"]), arm.lower, arm.upper)) + list(
+        rng.uniform(arm.lower + 0.2, arm.upper - 0.2, (4, 7)))
+    passed = elsewhere = 0
+    for q in joints:
+        position, rotation = forward(arm, q)
+        args = (arm, position, rotation.as_matrix(), float(arm_angle(arm, q)), confdata(q))
+        for seed in (q, rng.uniform(arm.lower, arm.upper)):
+            own = robtarget.own_solution(*args, seed)
+            found = solve_robtarget(*args, seeds=[seed])
+            assert not own.enumerated and found.enumerated
+            rows = {row.tobytes() for row in found.solutions}
+            assert all(row.tobytes() in rows for row in own.solutions)
+            assert {row.tobytes() for row in own.matching} <= {r.tobytes() for r in found.matching}
+            assert own.deviation(q) >= found.deviation(q)
+            if own.deviation(q) <= ROUND_TRIP_TOLERANCE:
+                passed += 1
+                assert found.deviation(q) <= ROUND_TRIP_TOLERANCE
+            elif found.deviation(q) <= ROUND_TRIP_TOLERANCE:
+                elsewhere += 1  # the seed went to another solution: the enumeration decides
+    assert passed >= len(joints) and elsewhere >= 1
+
+
 def test_a_robtarget_asked_again_gets_the_kept_solutions(monkeypatch):
     """The same question (arm, pose, arm angle, seeds, options) is solved once a process; its
     answer is what solving it again gives, and any other question is solved."""

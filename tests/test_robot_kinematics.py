@@ -190,6 +190,28 @@ def test_ik_of_a_rotation_matrix_is_that_of_its_rotation():
             (by_rotation.success, by_rotation.position_error, by_rotation.message)
 
 
+def test_substep_rotations_are_each_moves_slerp():
+    """The path check's sub-step rotations of every move in one batch
+    (:func:`dloplan.robot.path.substep_rotations`) are bit for bit those of a scipy Slerp per
+    move (what the check made before): random poses, slightly non-orthogonal as computed
+    ones are, a half turn, a move without rotation, 1 to 9 sub-steps."""
+    from scipy.spatial.transform import Slerp
+
+    from dloplan.robot.path import substep_rotations
+
+    rng = np.random.default_rng(11)
+    mats = Rotation.random(9, random_state=4).as_matrix() + rng.normal(0.0, 1e-9, (9, 3, 3))
+    mats[3] = mats[2]  # no rotation
+    mats[6] = mats[5] @ Rotation.from_euler("z", 180, degrees=True).as_matrix()
+    counts = rng.integers(1, 10, 8)
+    batch = substep_rotations(mats, counts)
+    assert len(batch) == 8
+    for k, n in enumerate(counts, start=1):
+        slerp = Slerp([0.0, 1.0], Rotation.from_matrix(mats[k - 1:k + 1]))
+        assert np.array_equal(batch[k - 1], slerp(np.arange(1, n + 1) / n).as_matrix())
+    assert substep_rotations(mats[:1], counts[:0]) == []
+
+
 def test_joint_margin_and_manipulability():
     arm = ROBOT.left
     q = arm.mid.copy()

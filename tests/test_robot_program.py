@@ -261,7 +261,9 @@ def test_the_side_rule_follows_a_turned_base():
 def test_a_verdict_only_program_stops_at_its_first_failing_target(name):
     """``verdict_only`` (the reach repair's placements): a program that fails stops after the
     first target failing a check other than reach, untimed, its rows those of the complete
-    program up to there (qualitative-1's plan: no IK at the approach, nor its round trip); a
+    program up to there but for its passing round trips, judged from the verified joints' own
+    solutions (the same verdicts; the deviation no smaller) (qualitative-1's plan: no IK at
+    the approach, nor its round trip); a
     program that passes (m2), or that tries the swapped assignment (fig4_8's plan: the arms
     collide at the approach), is the complete one."""
     from dloplan.pipeline.repair.failures import program_failures
@@ -276,7 +278,16 @@ def test_a_verdict_only_program_stops_at_its_first_failing_target(name):
         assert np.array_equal(verdict.times, complete.times)
         return
     assert verdict.trajectory is None  # untimed: never to be written
-    assert verdict.checks == complete.checks[:len(verdict.checks)]
+    head = complete.checks[:len(verdict.checks)]
+    assert [(r.check, r.target, r.arm, r.ok) for r in verdict.checks] == [
+        (r.check, r.target, r.arm, r.ok) for r in head]
+    own = [r.check == "round trip" and r.ok for r in verdict.checks]
+    assert any(own)  # judged from the verified joints' own solution, no enumeration
+    for row, full, judged in zip(verdict.checks, head, own, strict=True):
+        if judged:
+            assert "own solution" in row.note and row.value >= full.value
+        else:
+            assert row == full
     first = program_failures(verdict)[0]
     assert first == program_failures(complete)[0]
     assert verdict.checks[-1].target == 0 and "approach" in first.message

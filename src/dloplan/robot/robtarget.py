@@ -8,7 +8,9 @@ finds them by the 7x7 damped least squares of :func:`dloplan.robot.kinematics.so
 from many seeds (the given ones, the home pose and its wrist flip, and seeded-random joint
 vectors) and keeps the distinct ones within the joint limits; :func:`solve_robtarget` keeps
 those whose confdata is the written one. A program's round trip (:mod:`dloplan.robot.program`)
-asks that exactly one solution matches and that it is the verified one.
+asks that exactly one solution matches and that it is the verified one. A program made as a
+verdict (the reach repair's placements) first asks :func:`own_solution`, the part of the
+enumeration the verified joints reach by themselves: where that passes, so does the whole.
 
 Cost (issue 34): the enumeration's own seeds (home, its flip, the random ones: most of them
 lead nowhere) are stepped by a hand-written Cholesky solve of the damped normal equations
@@ -51,10 +53,14 @@ class RobtargetSolution:
         (K, 7) every distinct joint vector found [rad] with the robtarget's pose and arm angle.
     matching : numpy.ndarray
         (J, 7) those with the robtarget's confdata.
+    enumerated : bool
+        False: only the solution reached from the verified joints and its turns
+        (:func:`own_solution`), not every solution of the robtarget.
     """
 
     solutions: np.ndarray
     matching: np.ndarray
+    enumerated: bool = True
 
     @property
     def unique(self) -> bool:
@@ -108,8 +114,7 @@ def robtarget_solutions(arm: CellArm, position, rotation_matrix, psi: float, see
     numpy.ndarray
         (K, 7) [rad] (read-only), ordered by their distance from the first seed (or home).
     """
-    opts = replace(options if options is not None else IKOptions(), max_iterations=100,
-                   position_tolerance=1e-9, angle_tolerance=1e-9)
+    opts = _round_trip_options(options)
     position = np.asarray(position, dtype=float)
     rotation_matrix = np.asarray(rotation_matrix, dtype=float)
     seeds = [np.asarray(s, dtype=float) for s in seeds]
@@ -125,6 +130,13 @@ def robtarget_solutions(arm: CellArm, position, rotation_matrix, psi: float, see
             del _memo[next(iter(_memo))]
         _memo[key] = found
     return found
+
+
+def _round_trip_options(options: IKOptions | None) -> IKOptions:
+    """``options`` (default :class:`IKOptions`) with the round trip's convergence: 1e-9 m and
+    1e-9 rad, 100 iterations (:func:`robtarget_solutions`)."""
+    return replace(options if options is not None else IKOptions(), max_iterations=100,
+                   position_tolerance=1e-9, angle_tolerance=1e-9)
 
 
 def _solutions(arm: CellArm, position, rotation_matrix, psi: float, seeds, opts: IKOptions,
@@ -204,3 +216,40 @@ def solve_robtarget(arm: CellArm, position, rotation_matrix, psi: float, conf, s
     conf = np.asarray(conf, dtype=int)
     keep = np.all(confdata(found) == conf, axis=-1) if len(found) else np.zeros(0, bool)
     return RobtargetSolution(found, found[keep])
+
+
+def own_solution(arm: CellArm, position, rotation_matrix, psi: float, conf, seed,
+                 options: IKOptions | None = None) -> RobtargetSolution:
+    """The solution the controller's IK reaches from ``seed`` (7,) [rad] alone, and its turns
+    within the limits: part of :func:`solve_robtarget` with ``seeds=[seed]``, for a verdict.
+
+    :func:`robtarget_solutions` solves its first seed by LAPACK as this does (the same call,
+    so bit for bit the same joints) and keeps that solution and its turns among the distinct
+    ones (only its own turns come before it, and they are whole turns apart), so every
+    solution here is one of its, and a matching one here is a matching one there:
+    ``deviation(seed)`` is never below the enumeration's. A round trip this passes
+    (:data:`ROUND_TRIP_TOLERANCE`) the enumeration passes; one it fails needs the enumeration
+    (another solution may match). ``enumerated`` is False: the other solutions of the pose
+    and arm angle are not known.
+
+    Parameters
+    ----------
+    arm, position, rotation_matrix, psi, options
+        As for :func:`robtarget_solutions`.
+    conf : array_like
+        (4,) int, the written confdata.
+    seed : array_like
+        (7,) the verified joints [rad].
+
+    Returns
+    -------
+    RobtargetSolution
+    """
+    starts = np.clip(np.asarray(seed, dtype=float), arm.lower, arm.upper)[None]
+    q, ok = _solved(arm, np.asarray(position, dtype=float),
+                    np.asarray(rotation_matrix, dtype=float), psi, starts,
+                    _round_trip_options(options), 1)
+    found, _ = _with_turns(arm, q[ok])
+    keep = np.all(confdata(found) == np.asarray(conf, dtype=int), axis=-1) if len(found) \
+        else np.zeros(0, bool)
+    return RobtargetSolution(found, found[keep], enumerated=False)

@@ -76,7 +76,7 @@ from .kinematics import forward, solve_from
 from .path import TURN_Z
 from .program import RobotProgram, slowed
 from .replay import replay_moves
-from .robtarget import ROUND_TRIP_TOLERANCE, solve_robtarget
+from .robtarget import ROUND_TRIP_TOLERANCE, RobtargetSolution, own_solution, solve_robtarget
 from .solutions import ranked_solutions
 from .yumi import ABB_AXIS_NUMBERS, ARMS
 
@@ -295,9 +295,12 @@ def yumi_program(grippers, trajectory, cell: RobotCell | None = None, *,
         placements until one passes): a program that fails a check other than ``reach`` may
         come back untimed (``trajectory`` None: no ``joint speed`` rows, never to be written),
         its rows ending with the first target at which such a check fails (the controller's
-        round trip of the later targets not computed) or with the motion's rows. Its failures
-        up to there are those of the complete program, so its first failure other than
-        ``reach`` is the complete program's. A program that passes, whose only failures are
+        round trip of the later targets not computed) or with the motion's rows. Its rows
+        up to there have the complete program's verdicts and its failing rows are the
+        complete program's, so its first failure other than ``reach`` is the complete
+        program's; a passing round trip is judged from the verified joints' own solution
+        (its value that solution's deviation, its note saying so: the controller's other
+        solutions are not enumerated). A program that passes, whose only failures are
         ``reach`` rows, or that would try the swapped assignment, is complete.
 
     Returns
@@ -426,28 +429,18 @@ def _finish(trajectory, cell, assignment, targets, motion,
             verdict_only: bool = False) -> RobotProgram:
     """The program of a solved motion (:func:`_motion`): the controller's round trip of every
     written robtarget, the verdict rows and the timing. With ``verdict_only`` the rows stop
-    after the first target that fails a check other than ``reach`` (the round trip of the
-    later targets not computed), or after the motion's rows when one of them fails such a
-    check: the program is then returned untimed (:func:`yumi_program`)."""
-    robot, opts = cell.robot, cell.reach
+    after the first target that fails a check other than ``reach``, or after the motion's rows
+    when one of them fails such a check: the program is then returned untimed
+    (:func:`yumi_program`), its passing round trips judged from the verified joints' own
+    solutions (:func:`_round_trip`); else its rows are made again complete."""
     labels, shapes, grasp, release, pos, quats, _ = targets
-    chosen, rot, eax, joints = motion["chosen"], motion["rot"], motion["eax"], motion["joints"]
+    chosen, eax, joints = motion["chosen"], motion["eax"], motion["joints"]
     turned = tuple(bool(c.grip) for c in chosen)
     quat = np.stack([quats[c.grip][:, a] for a, c in enumerate(chosen)], axis=1)
-    rows = _assignment_rows(assignment)
-    stopped = verdict_only and _fails(rows)
-    for m in range(len(pos)):
-        if stopped:
-            break
-        trip = [solve_robtarget(arm, pos[m, a], rot[m, a], np.radians(eax[m, a]),
-                                confdata(joints[m, a]), seeds=[joints[m, a]], options=opts.ik)
-                for a, arm in enumerate(robot.arms)]
-        target = _target_rows(robot, cell, m, labels[m], int(shapes[m]), pos[m], rot[m],
-                              joints[m], motion["solved"][m], trip)
-        rows += target
-        stopped = verdict_only and _fails(target)
-    if not stopped:
-        rows += motion["rows"]
+    rows, stopped = _rows(cell, assignment, targets, motion, verdict_only)
+    complete = not (stopped or (verdict_only and _fails(motion["rows"])))
+    if complete and verdict_only:  # it is kept: every round trip enumerated
+        rows, _ = _rows(cell, assignment, targets, motion, False)
     replayed = motion["replay"]["joints"]
     record = YumiTargets(assignment, turned, labels, shapes, grasp, release, pos, quat,
                          confdata(joints), eax, np.concatenate([joints[:1]] + replayed),
@@ -455,9 +448,44 @@ def _finish(trajectory, cell, assignment, targets, motion,
     moves = tuple(tuple(np.concatenate([joints[m, a][None], q[:-1, a], joints[m + 1, a][None]])
                         for m, q in enumerate(replayed)) for a in range(2))
     untimed = RobotProgram(cell, record, (joints[:, 0], joints[:, 1]), moves, tuple(rows))
-    if stopped or (verdict_only and _fails(motion["rows"])):
-        return untimed
-    return untimed.retimed(trajectory)
+    return untimed.retimed(trajectory) if complete else untimed
+
+
+def _rows(cell, assignment, targets, motion, verdict_only: bool) -> tuple[list, bool]:
+    """The verdict rows of a solved motion (:func:`_finish`) and whether they stopped early
+    (``verdict_only``: after the first target failing a check other than ``reach``)."""
+    robot = cell.robot
+    labels, shapes, _, _, pos, _, _ = targets
+    rot, eax, joints = motion["rot"], motion["eax"], motion["joints"]
+    rows = _assignment_rows(assignment)
+    stopped = verdict_only and _fails(rows)
+    for m in range(len(pos)):
+        if stopped:
+            break
+        trip = [_round_trip(arm, pos[m, a], rot[m, a], eax[m, a], joints[m, a], cell.reach.ik,
+                            verdict_only) for a, arm in enumerate(robot.arms)]
+        target = _target_rows(robot, cell, m, labels[m], int(shapes[m]), pos[m], rot[m],
+                              joints[m], motion["solved"][m], trip)
+        rows += target
+        stopped = verdict_only and _fails(target)
+    if not stopped:
+        rows += motion["rows"]
+    return rows, stopped
+
+
+def _round_trip(arm, position, rotation, eax: float, joints, options,
+                verdict_only: bool) -> RobtargetSolution:
+    """The controller's solutions of a written robtarget (``eax`` [deg] its arm angle,
+    ``joints`` (7,) its verified joints): every one found
+    (:func:`~dloplan.robot.robtarget.solve_robtarget`), or with ``verdict_only`` the verified
+    joints' own solution when that round-trips (:func:`~dloplan.robot.robtarget.own_solution`:
+    then so does the enumeration, the same verdict for one solve instead of 99)."""
+    args = (arm, position, rotation, np.radians(eax), confdata(joints))
+    if verdict_only:
+        own = own_solution(*args, joints, options)
+        if own.deviation(joints) <= ROUND_TRIP_TOLERANCE:
+            return own
+    return solve_robtarget(*args, seeds=[joints], options=options)
 
 
 def _fails(rows) -> bool:
@@ -517,7 +545,10 @@ def _target_rows(robot, cell, m, label, shape, pos, rot, joints, solved, trip) -
         conf = confdata(joints[a]).tolist()
         note = (f"{len(found.solutions)} solutions of the pose and arm angle, "
                 f"{len(found.matching)} with confdata {conf}")
-        if len(found.matching) > 1:
+        if not found.enumerated:
+            note = (f"the verified joints' own solution, confdata {conf} (a verdict: the "
+                    "other solutions not enumerated)")
+        elif len(found.matching) > 1:
             note += ("; the MoveL into it follows its branch (the continuity check) and "
                      "ConfL confirms the confdata")
         rows.append(CheckRow("round trip", m, label, shape, ARMS[a],
