@@ -234,6 +234,62 @@ def test_no_figures_draws_none_and_writes_the_report_without_them(tmp_path, caps
     assert (tmp_path / "batch" / "job" / "report.html").exists()
 
 
+def test_a_job_without_figures_starts_no_figure_process(tmp_path, capsys, monkeypatch):
+    """A job whose ``outputs`` draw nothing (no ``figures``, no ``report``) starts no figure
+    workers' server: the command reads the job file before it imports the planner and starts
+    the server only for a job that may draw (it used to start it for every ``plan`` without
+    ``--no-figures``: matplotlib imported for nothing). Its files are written as before."""
+    import dloplan.plots.worker
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("the figure server was started for a job that draws nothing")
+
+    monkeypatch.setattr(dloplan.plots.worker, "start_server", forbidden)
+    job = write(tmp_path, {**STIFF, "planner": {"n_shapes": 2}, "outputs": ["json", "rapid"]})
+    out = tmp_path / "out"
+    assert main(["plan", str(job), "-o", str(out), "-q"]) in (EXIT_OK, EXIT_WARNINGS)
+    assert sorted(p.name for p in out.iterdir()) == ["plan.json", "rapid"]
+
+
+@pytest.mark.parametrize(("outputs", "draws"), [
+    (None, True), (["json", "report"], True), (["figures"], True), (["json", "csv"], False),
+    ([], False), ("json", True), ([["json"]], True)])
+def test_which_job_files_may_draw_figures(outputs, draws):
+    """Read before validation: only a list of output names without ``figures`` and ``report``
+    draws nothing; no ``outputs:`` means the default outputs (figures among them), and what
+    is not a list of names is left to the validation (which refuses it) as one that may."""
+    from dloplan.app.schema import DEFAULT_OUTPUTS
+    from dloplan.io.job_file import draws_figures, may_draw_figures
+
+    data = dict(STIFF) if outputs is None else {**STIFF, "outputs": outputs}
+    assert may_draw_figures(data) is draws
+    assert draws_figures(DEFAULT_OUTPUTS)
+
+
+def test_the_plan_command_leaves_numpy_testing_and_f2py_unrun(tmp_path):
+    """``dloplan plan`` makes ``numpy.testing`` and ``numpy.f2py`` lazy before scipy's import
+    (``dloplan.lazy_modules``): scipy's namespace clone finds them without running them (they
+    used to be imported by every command, with unittest and f2py's Fortran parser), and they
+    still work when used."""
+    import subprocess
+    import sys
+
+    job = write(tmp_path, {**STIFF, "planner": {"n_shapes": 2}, "outputs": ["json"]})
+    code = ("import sys\n"
+            "from dloplan.cli import main\n"
+            f"code = main(['plan', {str(job)!r}, '-o', {str(tmp_path / 'out')!r}, '-q'])\n"
+            "ran = [m for m in ('numpy.testing._private.utils', 'numpy.f2py.crackfortran',"
+            " 'unittest', 'scipy.spatial.transform') if m in sys.modules]\n"
+            "import numpy\n"
+            "numpy.testing.assert_allclose(1.0, 1.0)\n"
+            "print(code, ran, callable(numpy.f2py.run_main))\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True)
+    exit_code, rest = done.stdout.strip().splitlines()[-1].split(" ", 1)
+    assert int(exit_code) in (EXIT_OK, EXIT_WARNINGS)
+    assert rest == "['scipy.spatial.transform'] True"
+
+
 def assert_the_whole_harness_job(out):
     """A harness job's outputs in ``out``: its four phases timed in plan.json, the RAPID
     modules, the report and the force figures; the regrasp in the slots and the planned waits

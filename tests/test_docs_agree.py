@@ -136,7 +136,7 @@ def _number(text: str) -> float:
 
 
 def test_the_limits_table_of_docs_scenario_md_is_the_code():
-    from dloplan.io.scenario import MAX_VALUES
+    from dloplan.io.job_file import MAX_VALUES
 
     known = {name: getattr(bounds, name) for name in dir(bounds) if name.isupper()}
     known["MAX_VALUES"] = MAX_VALUES

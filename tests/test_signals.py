@@ -110,12 +110,12 @@ def test_a_keyboard_interrupt_that_compiled_code_turned_into_another_error(
     """Ctrl-C inside compiled or extension code can surface as a SystemError ("returned a
     result with an exception set") or an ImportError; the command still ends with 130, one
     line, nothing written."""
-    import dloplan.app as app
+    import dloplan.app.load as load
 
-    loaded = app.load_job
+    resolved = load.resolve_mapping  # what `plan` calls on the job file's mapping
 
     def cut_short(*args, **kwargs):
-        job = loaded(*args, **kwargs)
+        job = resolved(*args, **kwargs)
         try:
             raise KeyboardInterrupt
         except KeyboardInterrupt as exc:
@@ -123,7 +123,7 @@ def test_a_keyboard_interrupt_that_compiled_code_turned_into_another_error(
                               "set") from exc
         return job
 
-    monkeypatch.setattr(app, "load_job", cut_short)
+    monkeypatch.setattr(load, "resolve_mapping", cut_short)
     out = tmp_path / "out"
     assert main(["plan", str(write(tmp_path, SMALL)), "-o", str(out)]) == EXIT_INTERRUPTED
     err = capsys.readouterr().err.strip().splitlines()

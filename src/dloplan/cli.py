@@ -45,6 +45,7 @@ from .interrupts import (
     raise_if_interrupted,
     shielded,
 )
+from .lazy_modules import defer_numpy_submodules
 
 EXPORT_FORMATS = {
     "json": "the plan document",
@@ -574,16 +575,20 @@ def _plan_one(job, output: Path, args, console: Console) -> int:
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
+    from .io.job_file import may_draw_figures, read_mapping
     from .plots.worker import start_server
 
     console = Console(args.quiet)
     if len(args.scenarios) > 1 or args.workers > 1 or args.scheduler:
         return _plan_batch(args, console)
-    if not args.no_figures:
+    path = args.scenarios[0]
+    data = read_mapping(path)  # before the planner's import: which outputs the job asks for
+    if not args.no_figures and may_draw_figures(data):
         start_server()  # the figure workers' server warms up while the planner is imported
-    from .app import load_job
+    defer_numpy_submodules()  # before scipy: numpy.testing and numpy.f2py run only if used
+    from .app.load import resolve_mapping
 
-    job = load_job(args.scenarios[0], console.stage, allow_placement=args.allow_placement)
+    job = resolve_mapping(data, str(path), console.stage, allow_placement=args.allow_placement)
     console.stage(f"loaded {job.source}: {job.cable.name or 'cable'}, E "
                   f"{job.cable.youngs_modulus:.3g} Pa, n = {job.cable.n_links}")
     return _plan_one(job, Path(args.output), args, console)
@@ -617,6 +622,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     from .plots.worker import start_server
 
     start_server()  # the figure workers' server warms up while the planner is imported
+    defer_numpy_submodules()  # before scipy: numpy.testing and numpy.f2py run only if used
     from .app.load import resolve_mapping
     from .io.scenario import read_mapping
 

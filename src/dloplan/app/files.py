@@ -20,6 +20,7 @@ from ..exit_codes import (  # noqa: F401 - re-exported: the codes of the command
     EXIT_OK,
     EXIT_WARNINGS,
 )
+from ..io.job_file import draws_figures
 from ..io.scenario import PROGRAM_NAMES
 from ..output_files import output_lock, staged_folder
 from ..pipeline.document import PlanDocument
@@ -76,7 +77,7 @@ def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
     """
     folder = Path(folder)
     formats = job.outputs
-    drawn = figures and ("figures" in formats or "report" in formats)
+    drawn = figures and draws_figures(formats)
     with staged_folder(folder) as staging, \
             workers_for(staging, figure_workers if drawn else 0) as drawer:
         doc = make_plan(job, verify=verify, check_robot=check_robot, repair=repair,

@@ -4,8 +4,8 @@ A job file names the cable (a catalogue name or explicit properties), the discre
 start (and target) shapes (point lists or parametric: straight, arc, sine, each with a
 placement), obstacles, gripper, trajectory, planner, check and robot settings. Lengths in the
 file are in ``units`` (``m`` by default, or ``mm``). Every error names the field, the value and
-what was expected, on one line (:class:`ScenarioError`). :func:`read_mapping` reads a file,
-:func:`parse_model` validates it.
+what was expected, on one line (:class:`ScenarioError`). :func:`read_mapping` reads a file
+(:mod:`dloplan.io.job_file`, re-exported here), :func:`parse_model` validates it.
 
 This module only describes: the root models of the job files (a scenario, a harness job) are
 :mod:`dloplan.app.schema`'s, and every conversion to SI units and library objects
@@ -15,22 +15,16 @@ This module only describes: the root models of the job files (a scenario, a harn
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import Annotated, Any, Literal, get_args
 
 import numpy as np
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from ..bounds import MAX_INPUT_BYTES, MAX_LINKS, MAX_RATE, MAX_SHAPES, MIN_LINKS
+from ..bounds import MAX_LINKS, MAX_RATE, MAX_SHAPES, MIN_LINKS
 from ..cable import CATALOGUE_NAMES
-from ..inputs import parse_json, parse_yaml, read_text
+from .job_file import ScenarioError, read_mapping  # noqa: F401 - read_mapping re-exported
 
 SCHEMA_VERSION = 1
-
-
-class ScenarioError(ValueError):
-    """A scenario that cannot be used; the message is one line naming the field."""
 
 
 def _finite(values, name="value"):
@@ -453,60 +447,3 @@ def parse_model(model: type[BaseModel], data: Any, source: str):
         return model.model_validate(data)
     except ValidationError as exc:
         raise ScenarioError(f"{source}: {format_validation_error(exc)}") from None
-
-
-MAX_FILE_BYTES = MAX_INPUT_BYTES
-"""Largest job file read [bytes] (:data:`dloplan.bounds.MAX_INPUT_BYTES`)."""
-
-MAX_VALUES = 5_000_000
-"""Most values (numbers, strings, lists, mappings) a job file may hold once its YAML aliases are
-expanded: a 10 MB file of plain numbers holds at most about this many; a few lines of nested
-aliases would otherwise expand to billions (the "billion laughs")."""
-
-
-def expanded_size(data) -> int:
-    """The number of values in ``data`` with every shared list or mapping counted as often as
-    it is referenced (what validating it would visit), in time linear in the distinct ones."""
-    sizes: dict[int, int] = {}
-
-    def size(node) -> int:
-        if not isinstance(node, dict | list):
-            return 1
-        key = id(node)
-        if key not in sizes:
-            sizes[key] = 0  # a cycle (YAML allows them) counts once
-            items = node.values() if isinstance(node, dict) else node
-            sizes[key] = 1 + sum(size(item) for item in items)
-        return sizes[key]
-
-    try:
-        return size(data)
-    except RecursionError:
-        return MAX_VALUES + 1
-
-
-def read_mapping(path: str | Path) -> dict:
-    """Read a YAML or JSON file into a mapping; one-line errors for unreadable files (a regular
-    text file of at most :data:`MAX_FILE_BYTES`, :func:`dloplan.inputs.read_text`)."""
-    path = Path(path)
-    try:
-        text = read_text(path, MAX_FILE_BYTES, "job file", " (thin out its points: shapes "
-                         "are resampled to n + 1 points anyway)")
-    except ValueError as exc:
-        raise ScenarioError(str(exc)) from None
-    try:
-        data = parse_json(text) if path.suffix.lower() == ".json" else parse_yaml(text)
-    except (ValueError, yaml.YAMLError) as exc:  # ValueError: JSONDecodeError, a key twice
-        detail = str(exc).splitlines()[0]
-        kind = "JSON" if path.suffix.lower() == ".json" else "YAML"
-        raise ScenarioError(f"{path}: not valid {kind}: {detail}") from None
-    except RecursionError:
-        raise ScenarioError(f"{path}: nested too deeply to be a job file") from None
-    values = expanded_size(data)
-    if values > MAX_VALUES:
-        raise ScenarioError(f"{path}: expands to {values:.3g} values (YAML aliases repeat what "
-                            f"they name), more than the {MAX_VALUES:.0e} a job file may hold")
-    if not isinstance(data, dict):
-        raise ScenarioError(f"{path}: expected a mapping at the top level, got "
-                            f"{type(data).__name__}")
-    return data
