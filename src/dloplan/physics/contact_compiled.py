@@ -10,9 +10,9 @@ simulator's ground plane (:mod:`dloplan.sim.stepping`), with Coulomb friction on
 It runs at every explicit step, so it measures a point's distance only to the obstacles whose
 bounding box comes within the radius of the points' (on a harness board the taut section is
 clear of the wall and the table), and of those only for the points within the radius of the
-obstacle's box (a cable's few points at a peg), each box's turn computed once per call. The statics use a
-penalty instead (:mod:`dloplan.physics.contact`): its stiffness, a hundred times the axial
-springs', would need a ten times smaller explicit time step.
+obstacle's box (a cable's few points at a peg), each box's turn computed once per call. The
+statics use a penalty instead (:mod:`dloplan.physics.contact`): its stiffness, a hundred times
+the axial springs', would need a ten times smaller explicit time step.
 """
 
 from __future__ import annotations
