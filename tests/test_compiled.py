@@ -32,7 +32,12 @@ from dloplan.physics.chain import (
     shape_energy,
     shape_forces,
 )
-from dloplan.physics.compiled import resample_polyline, stretch_to_length
+from dloplan.physics.compiled import (
+    chain_derivatives,
+    chain_gradient,
+    resample_polyline,
+    stretch_to_length,
+)
 from dloplan.sim.clips import ClipPoses, conform_guess, place_held_points
 from dloplan.sim.compiled import restore_link_lengths
 from dloplan.sim.newton import factor_band, solve_band, trust_region_newton
@@ -82,6 +87,22 @@ def test_compiled_kernels_match_the_numpy_reference(kind, rng):
             if getattr(slow, part) is not None:
                 assert relative(getattr(fast, part), getattr(slow, part)) < 1e-12
 
+
+
+@pytest.mark.parametrize("kind", ["straight", "curved", "thesis"])
+def test_the_gradient_kernel_is_the_derivatives_kernels_gradient_bit_for_bit(kind, rng):
+    """``chain_gradient`` (the explicit step's: dG/dc without the second derivative) gives the
+    energy and gradient of ``chain_derivatives`` (with the Hessian band) exactly, near rest
+    (the small-angle series), bent and tangled."""
+    cable, chain = chain_cases()[kind]
+    base = cable.rest_shape if cable.rest_shape is not None else arc(cable, 0.0)
+    constants = chain.constants
+    for scale in (1e-6, 1e-4, 0.01, 0.05):
+        x = np.ascontiguousarray(base + scale * rng.standard_normal(base.shape))
+        grad, full = np.empty_like(x), np.empty_like(x)
+        band = np.empty((9, 3 * len(x)))
+        assert chain_gradient(x, *constants, grad) == chain_derivatives(x, *constants, full, band)
+        np.testing.assert_array_equal(grad, full)
 
 def test_contact_terms_are_active_in_the_contact_case(rng):
     cable, chain = chain_cases()["contacts"]

@@ -22,7 +22,7 @@ from dloplan.harness.section import section_cable
 from dloplan.obstacles import Box, Cylinder, Table
 from dloplan.physics.chain import SpringChain, link_tensions
 from dloplan.physics.contact import contact_gradient, contact_hessian_blocks
-from dloplan.physics.contact_compiled import push_out, signed_distances
+from dloplan.physics.contact_compiled import point_distance, push_out, signed_distances
 from dloplan.sim.clips import ClipPoses
 from dloplan.sim.dynamics import ClipTrajectory, simulate
 from dloplan.sim.statics import equilibrium
@@ -117,6 +117,54 @@ def test_the_hard_contact_skips_only_obstacles_it_cannot_reach(rng, spread):
             plain[inside] += (radius - phi[0, inside])[:, None] * normals[0, inside]
         np.testing.assert_array_equal(x, plain)
 
+
+
+def _pushed_out_plainly(x, v, accel, rows, radius, friction):
+    """The hard contact of every point with every obstacle row, in order, as ``push_out``'s
+    docstring states it: no point or obstacle passed over (the reference)."""
+    x, v, accel = x.copy(), v.copy(), accel.copy()
+    for row in rows:
+        for i in range(len(x)):
+            phi, *normal = point_distance(x[i, 0], x[i, 1], x[i, 2], row)
+            if phi >= radius:
+                continue
+            n = np.array(normal)
+            x[i] += (radius - phi) * n
+            inward = v[i, 0] * n[0] + v[i, 1] * n[1] + v[i, 2] * n[2]
+            if inward < 0.0:
+                v[i] -= inward * n
+                slip = math.sqrt(v[i, 0] ** 2 + v[i, 1] ** 2 + v[i, 2] ** 2)
+                if friction > 0.0 and slip > 0.0:
+                    v[i] *= max(0.0, 1.0 - friction * (-inward) / slip)
+            pressed = accel[i, 0] * n[0] + accel[i, 1] * n[1] + accel[i, 2] * n[2]
+            if pressed < 0.0:
+                accel[i] -= pressed * n
+                along = math.sqrt(accel[i, 0] ** 2 + accel[i, 1] ** 2 + accel[i, 2] ** 2)
+                if along <= friction * (-pressed):
+                    accel[i] = 0.0
+    return x, v, accel
+
+
+@pytest.mark.parametrize("friction", [0.0, 0.3])
+def test_the_hard_contact_passes_over_only_points_no_obstacle_reaches(rng, friction):
+    """``push_out`` measures a point's distance to an obstacle only when the point lies within
+    the radius of the obstacle's bounding box: its positions, velocities and accelerations
+    equal a plain loop over every point and obstacle bit for bit, on a cable-like row of
+    points running past the peg, over the box and down to the table (some points near each
+    obstacle, most far from it), moving and pulled every way."""
+    radius = 0.004
+    rows = np.stack([o.contact_row() for o in OBSTACLES])
+    s = np.linspace(0.0, 1.0, 80)[:, None]
+    line = (1.0 - s) * [-0.05, 0.0, 0.03] + s * [0.2, 0.05, 0.003]
+    for _ in range(20):
+        x = np.ascontiguousarray(line + 0.01 * rng.normal(size=line.shape))
+        v, accel = rng.normal(size=x.shape), rng.normal(size=x.shape)
+        expected = _pushed_out_plainly(x, v, accel, rows, radius, friction)
+        got = x.copy(), v.copy(), accel.copy()
+        push_out(*got, rows, radius, friction, 0, len(x))
+        assert np.any(got[0] != x)  # some points were put back
+        for mine, plain in zip(got, expected, strict=True):
+            np.testing.assert_array_equal(mine, plain)
 
 def _string(n_links: int = 40) -> Cable:
     """A string: bending a million times softer than usual, so that tension dominates."""

@@ -32,20 +32,25 @@ _SERIES_BELOW = 1e-3  # as in dloplan.physics.bending
 _SIN_FLOOR = 1e-12
 
 
+@njit(cache=True, inline="always")
+def _cos_first(k_b, beta0, s, beta):
+    """dG/dc of G = 1/2 k_b (arccos c - beta0)^2 (as ``bending._cos_derivatives``): all a
+    gradient needs, without the second derivative's powers of sin."""
+    s_safe = max(s, _SIN_FLOOR)
+    beta_over_s = 1.0 + beta * beta / 6.0 if beta < _SERIES_BELOW else beta / s_safe
+    return -k_b * (beta_over_s - beta0 / s_safe)
+
+
 @njit(cache=True)
 def _cos_derivatives(k_b, beta0, c, s, beta):
     """dG/dc and d^2G/dc^2 of G = 1/2 k_b (arccos c - beta0)^2 (as ``bending._cos_derivatives``)."""
     s_safe = max(s, _SIN_FLOOR)
-    b2 = beta * beta
     if beta < _SERIES_BELOW:
-        beta_over_s = 1.0 + b2 / 6.0
-        curvature = 1.0 / 3.0 + 2.0 * b2 / 15.0
+        curvature = 1.0 / 3.0 + 2.0 * (beta * beta) / 15.0
     else:
-        beta_over_s = beta / s_safe
         curvature = (s - beta * c) / s_safe**3
-    d1 = -k_b * (beta_over_s - beta0 / s_safe)
     d2 = k_b * (curvature + beta0 * c / s_safe**3)
-    return d1, d2
+    return _cos_first(k_b, beta0, s, beta), d2
 
 
 @njit(cache=True, inline="always")
@@ -156,7 +161,10 @@ def _bending_terms(x, k_b, rest_angles, grad, band, with_band):
         lb, v = _unit_link(x, i + 1)
         c, s, beta = _joint_angle(u, v)
         total += 0.5 * k_b * (beta - rest_angles[i]) ** 2
-        d1, d2 = _cos_derivatives(k_b, rest_angles[i], c, s, beta)
+        if with_band:
+            d1, d2 = _cos_derivatives(k_b, rest_angles[i], c, s, beta)
+        else:  # the gradient alone (the explicit step's): no second derivative
+            d1, d2 = _cos_first(k_b, rest_angles[i], s, beta), 0.0
         ia = 1.0 / la
         ib = 1.0 / lb
         dca = ((v[0] - c * u[0]) * ia, (v[1] - c * u[1]) * ia,

@@ -9,9 +9,10 @@ out along the normal and removes their velocity into the obstacle: an inelastic 
 simulator's ground plane (:mod:`dloplan.sim.stepping`), with Coulomb friction on the impulse.
 It runs at every explicit step, so it measures a point's distance only to the obstacles whose
 bounding box comes within the radius of the points' (on a harness board the taut section is
-clear of the wall and the table), each box's turn computed once per call. The statics use a
-penalty instead (:mod:`dloplan.physics.contact`): its stiffness, a hundred times the axial
-springs', would need a ten times smaller explicit time step.
+clear of the wall and the table), and of those only for the points within the radius of the
+obstacle's box (a cable's few points at a peg), each box's turn computed once per call. The
+statics use a penalty instead (:mod:`dloplan.physics.contact`): its stiffness, a hundred times
+the axial springs', would need a ten times smaller explicit time step.
 """
 
 from __future__ import annotations
@@ -108,25 +109,44 @@ def signed_distances(points, rows, phi, normals):
 
 
 REACH_MARGIN = 1e-9
-"""Slack [m] of :func:`push_out`'s bounding-box test, far above the round-off of a distance,
-so that a point the test passes over is one :func:`point_distance` finds clear."""
+"""Slack [m] of :func:`push_out`'s bounding-box tests, far above the round-off of a distance,
+so that a point the tests pass over is one :func:`point_distance` finds clear."""
 
 
 @njit(cache=True, inline="always")
-def _within(row, c, s, lo, hi, reach):
-    """Whether the bounding box [lo, hi] (3,) [m] comes within ``reach`` [m] of the obstacle
-    row's own bounding box (a plane: of the half-space below it); ``c, s = row_turn(row)``."""
+def _reach_box(row, c, s, reach):
+    """The obstacle row's own bounding box grown by ``reach`` [m]: ``(x0, x1, y0, y1, z0, z1)``
+    (a plane: the half-space below it, z1 its only bound); ``c, s = row_turn(row)``."""
     if row[0] == PLANE:
-        return lo[2] < row[1] + reach
+        return -math.inf, math.inf, -math.inf, math.inf, -math.inf, row[1] + reach
     if row[0] == CYLINDER:
         ex, ey, bottom, top = row[4], row[4], row[3], row[3] + row[5]
     else:
         ex = abs(c) * row[4] + abs(s) * row[5]
         ey = abs(s) * row[4] + abs(c) * row[5]
         bottom, top = row[3] - row[6], row[3] + row[6]
-    return (lo[0] < row[1] + ex + reach and hi[0] > row[1] - ex - reach
-            and lo[1] < row[2] + ey + reach and hi[1] > row[2] - ey - reach
-            and lo[2] < top + reach and hi[2] > bottom - reach)
+    return (row[1] - ex - reach, row[1] + ex + reach, row[2] - ey - reach,
+            row[2] + ey + reach, bottom - reach, top + reach)
+
+
+@njit(cache=True, inline="always")
+def _within(box, plane, lo0, lo1, lo2, hi0, hi1, hi2):
+    """Whether the bounding box [lo, hi] [m] meets ``box`` (:func:`_reach_box`; ``plane``:
+    of a plane row, whose box bounds z only)."""
+    if plane:
+        return lo2 < box[5]
+    return (lo0 < box[1] and hi0 > box[0] and lo1 < box[3] and hi1 > box[2]
+            and lo2 < box[5] and hi2 > box[4])
+
+
+@njit(cache=True, inline="always")
+def _outside(box, plane, x, y, z):
+    """Whether the point (x, y, z) [m] lies out of ``box`` (:func:`_within`'s box and
+    ``plane``), decided only where its coordinates say so (a NaN is not outside)."""
+    if plane:
+        return z >= box[5]
+    return (x >= box[1] or x <= box[0] or y >= box[3] or y <= box[2] or z >= box[5]
+            or z <= box[4])
 
 
 @njit(cache=True)
@@ -142,19 +162,19 @@ def push_out(x, v, accel, rows, radius, friction, first, stop):
     force). The acceleration's part the obstacle carries (into it, and along it within the
     friction cone) is removed too, so that a cable resting on an obstacle counts as at rest.
     """
-    lo = np.empty(3)
-    hi = np.empty(3)
-    for a in range(3):  # the points' bounding box: an obstacle whose own box is farther than
-        lo[a] = x[first, a]  # the radius from it touches none of them
-        hi[a] = x[first, a]
-        for i in range(first + 1, stop):
-            lo[a] = min(lo[a], x[i, a])
-            hi[a] = max(hi[a], x[i, a])
+    lo0, lo1, lo2 = x[first, 0], x[first, 1], x[first, 2]  # the points' bounding box: an
+    hi0, hi1, hi2 = lo0, lo1, lo2  # obstacle whose own box is farther than the radius from it
+    for i in range(first + 1, stop):  # touches none of them
+        lo0, lo1, lo2 = min(lo0, x[i, 0]), min(lo1, x[i, 1]), min(lo2, x[i, 2])
+        hi0, hi1, hi2 = max(hi0, x[i, 0]), max(hi1, x[i, 1]), max(hi2, x[i, 2])
     for k in range(rows.shape[0]):
         c, s = row_turn(rows[k])
-        if not _within(rows[k], c, s, lo, hi, radius + REACH_MARGIN):
+        box, plane = _reach_box(rows[k], c, s, radius + REACH_MARGIN), rows[k][0] == PLANE
+        if not _within(box, plane, lo0, lo1, lo2, hi0, hi1, hi2):
             continue
         for i in range(first, stop):
+            if _outside(box, plane, x[i, 0], x[i, 1], x[i, 2]):  # nor a point out of its box
+                continue
             phi, nx, ny, nz = turned_distance(x[i, 0], x[i, 1], x[i, 2], rows[k], c, s)
             if phi >= radius:
                 continue

@@ -424,21 +424,24 @@ def simulate(
     # a diverging run is detected in the loop and reported with its time: no float warnings
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         while step < n_steps and status == RUNNING:
-            chunk_steps = np.arange(step + 1, min(step + chunk, n_steps) + 1)
+            count = min(step + chunk, n_steps) - step  # the chunk's steps: step + 1 ..
+            chunk_steps = np.arange(step + 1, step + count + 1)
             model, current = cable, fixed
             if cable_at is not None:
-                model = cable_at(float(np.mean(chunk_steps)) * dt)
+                # at the chunk's middle step, (2 step + count + 1) / 2: their mean, exactly
+                model = cable_at((2 * step + count + 1) / 2 * dt)
                 if model.n_links != cable.n_links:
                     raise ValueError(f"cable_at: a cable of {model.n_links} links, expected "
                                      f"{cable.n_links}")
-                last = previous[0].rest_link_length  # the material between the points
-                drift = offsets * ((model.rest_link_length - last)
-                                   / (last * len(chunk_steps) * dt))  # spread over the chunk
+                if implicit:
+                    last = previous[0].rest_link_length  # the material between the points
+                    drift = offsets * ((model.rest_link_length - last)
+                                       / (last * count * dt))  # spread over the chunk
                 if model is not previous[0]:  # the same cable object: the same constants
                     previous = model, settings(model,
                                                SpringChain.from_cable(model, gravity).constants)
                 current = previous[1]
-            targets = np.empty((len(chunk_steps), 4, 3))  # the held points at each step
+            targets = np.empty((count, 4, 3))  # the held points at each step
             held_targets(trajectory.times, key_positions, key_quaternions, chunk_steps * dt,
                          model.rest_link_length, targets)
             if implicit:

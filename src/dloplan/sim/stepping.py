@@ -82,8 +82,8 @@ def _record(x, v, accel, step, dt, record_every, rest_speed, clips_stop, times, 
 def _keep_out(x, v, accel, ground, obstacles, radius, friction):
     """The one-sided contacts after a step: the free points of x, v, accel (n + 1, 3) put out
     of the obstacle rows (:func:`dloplan.physics.contact_compiled.push_out`, which passes over
-    the obstacles out of the points' reach) and, with ``ground``, above the plane z = 0 with no
-    downward speed."""
+    the obstacles out of the points' reach, and the points out of an obstacle's) and, with
+    ``ground``, above the plane z = 0 with no downward speed."""
     n_points = x.shape[0]
     if obstacles.shape[0] > 0:
         push_out(x, v, accel, obstacles, radius, friction, np.int64(2), n_points - 2)
