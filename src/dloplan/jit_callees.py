@@ -17,8 +17,10 @@ constants all of them read. When any of these changes, the index is stale as it 
 kernel's own file changes: numba compiles the kernel again and replaces the index. The kernels
 called are found in the names their bytecode reads (:func:`references`): a global, an attribute
 of a module read through a global (``compiled.model_step``), a closure cell, or a tuple of them.
-A kernel passed to a kernel as an argument is in the overload's signature, which numba's key
-holds already.
+Closure variants of one kernel share one index and so must share one stamp: the cells' values
+are in numba's key, not in the stamp, and variants that hold kernels of different files would
+recompile each other (dloplan has no kernel with a closure). A kernel handed to a kernel as an
+argument is not followed (no kernel of dloplan takes one: no cached signature names a kernel).
 
 The digest is the files' contents, not their times: checking out another branch and back, or
 touching a file, leaves the cache as it was. It is computed once per kernel and process, at its
@@ -63,43 +65,51 @@ def constant_text(value) -> str | None:
     return None
 
 
+def kernels_in(value) -> list[Dispatcher]:
+    """The kernels ``value`` is or holds in (nested) tuples."""
+    if isinstance(value, Dispatcher):
+        return [value]
+    if isinstance(value, tuple):
+        return [kernel for part in value for kernel in kernels_in(part)]
+    return []
+
+
 def references(function: types.FunctionType) -> tuple[list[Dispatcher], list[str]]:
     """The kernels ``function`` reads and the constants it reads, as ``name=text``.
 
     Looked up are the names its bytecode reads, in its module's globals and, for a global that
     is a module, among that module's own attributes (not its ``__getattr__``: no lazy import
-    is triggered), and the contents of its closure cells; tuples are searched for kernels.
+    is triggered); tuples are searched for kernels. Its closure cells are searched for kernels
+    only: numba's own key holds the cells' values (so closure variants of one kernel, which
+    share one index, get one stamp).
     """
     names = code_names(function.__code__)
     found = [(name, function.__globals__[name]) for name in sorted(names)
              if name in function.__globals__]
-    cells = function.__closure__ or ()
-    for index, cell in enumerate(cells):
+    kernels, constants, modules = [], [], set()
+    for cell in function.__closure__ or ():
         try:
-            found.append((f"<cell {index}>", cell.cell_contents))
+            kernels += kernels_in(cell.cell_contents)
         except ValueError:  # an empty cell
             continue
-    kernels, constants, modules = [], [], set()
     while found:
         name, value = found.pop()
-        if isinstance(value, Dispatcher):
-            kernels.append(value)
-        elif isinstance(value, types.ModuleType):
+        if isinstance(value, types.ModuleType):
             if value.__name__ not in modules:
                 modules.add(value.__name__)
                 scope = vars(value)
                 found += [(f"{value.__name__}.{attribute}", scope[attribute])
                           for attribute in sorted(names) if attribute in scope]
-        elif isinstance(value, tuple) and any(isinstance(v, (Dispatcher, tuple)) for v in value):
-            found += [(f"{name}[{i}]", part) for i, part in enumerate(value)]
-        else:
-            text = constant_text(value)
-            if text is not None:
-                constants.append(f"{name}={text}")
+            continue
+        held = kernels_in(value)
+        text = None if held else constant_text(value)
+        kernels += held
+        if text is not None:
+            constants.append(f"{name}={text}")
     return kernels, constants
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def file_digest(path: str) -> str:
     """sha256 of the file at ``path`` (read once per process), or of its name where it cannot
     be read (code not from a file)."""
