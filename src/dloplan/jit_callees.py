@@ -74,8 +74,10 @@ def kernels_in(value) -> list[Dispatcher]:
     return []
 
 
-def references(function: types.FunctionType) -> tuple[list[Dispatcher], list[str]]:
-    """The kernels ``function`` reads and the constants it reads, as ``name=text``.
+@functools.cache
+def references(function: types.FunctionType) -> tuple[tuple[Dispatcher, ...], tuple[str, ...]]:
+    """The kernels ``function`` reads and the constants it reads, as ``name=text`` (once per
+    function and process: a kernel called by many is looked at once).
 
     Looked up are the names its bytecode reads, in its module's globals and, for a global that
     is a module, among that module's own attributes (not its ``__getattr__``: no lazy import
@@ -106,7 +108,7 @@ def references(function: types.FunctionType) -> tuple[list[Dispatcher], list[str
         kernels += held
         if text is not None:
             constants.append(f"{name}={text}")
-    return kernels, constants
+    return tuple(kernels), tuple(constants)
 
 
 @functools.cache
