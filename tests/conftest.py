@@ -3,19 +3,12 @@
 from __future__ import annotations
 
 # ruff: noqa: E402 - the imports below follow the BLAS variables, set before numpy loads
-import gc
-
 from dloplan.cli import use_command_blas_threads
-from dloplan.console import GC_THRESHOLDS
 
 # The tests run dloplan's commands in-process (dloplan.cli.main): their BLAS runs as the
 # command's does, on one thread (set before numpy loads; the xdist workers inherit it). With
 # OpenBLAS's default threads, two workers on 2 cores spin on each other's core.
 use_command_blas_threads()
-# ... and their garbage collector at the command's thresholds (the console script sets them):
-# a test worker's heap is a command's and more, which Python's (700, 10, 10) re-scans again
-# and again.
-gc.set_threshold(*GC_THRESHOLDS)
 
 import json
 import signal
