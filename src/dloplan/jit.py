@@ -50,6 +50,10 @@ its callbacks) left a half-linked library whose environment pointer numba then w
 segmentation fault instead of exit 130 (1 in 20 Ctrl-Cs during ``dloplan identify``'s first
 equilibria). A load takes milliseconds; the signal is raised as soon as it is done.
 
+A kernel's cache is stale when a kernel it calls changes, in whatever file
+(:mod:`dloplan.jit_callees`): numba's stamp covers the kernel's own file only, and a caller kept
+the old callee's machine code after a ``git pull`` that changed the callee's file alone.
+
 A kernel called from another kernel with a constant argument (``f(x, 3)``, ``g(x, True)``) is
 compiled for the constant's literal type (``Literal[int](3)``), so two calls with two constants
 compile two overloads of the callee where one would do (and the warm-up compiles both). Where
@@ -73,6 +77,7 @@ from numba.core.runtime import rtsys
 
 from .elf_symbols import defined_symbols
 from .interrupts import raise_if_interrupted, shielded
+from .jit_callees import stamp_callees
 from .jit_runtime import install_runtime_cache
 
 try:
@@ -147,9 +152,33 @@ KERNEL_LOAD = lean_load if all(callable(getattr(caching.Cache, name, None))
 numba whose ``Cache`` lacks what :func:`lean_load` uses."""
 
 
+STAMP_NAMES = ("_py_func", "_cache_file")
+"""What :func:`dloplan.jit_callees.stamp_callees` uses of numba's ``Cache`` (set in its
+``__init__``), besides the index file's ``_source_stamp``."""
+
+CAN_STAMP = all(name in caching.Cache.__init__.__code__.co_names for name in STAMP_NAMES) \
+    and "_source_stamp" in caching.IndexDataCacheFile.__init__.__code__.co_names
+"""Whether this numba's cache lets :func:`stamp_callees` extend an index's stamp (numba 0.68
+does); without it, the cache is stale only when the kernel's own file changes, as numba's."""
+
+NUMBA_SAVE_OVERLOAD = caching.Cache.save_overload
+"""numba's own ``Cache.save_overload`` (saves a compiled overload and the index naming it)."""
+
+
+def stamped_save(cache: caching.Cache, sig, data) -> None:
+    """numba's ``Cache.save_overload``, the index stamped with the kernel's callees first
+    (:func:`stamp_callees`; numba's dispatcher loads before it compiles and saves, so the stamp
+    is usually there already)."""
+    stamp_callees(cache)
+    NUMBA_SAVE_OVERLOAD(cache, sig, data)
+
+
 def shielded_load(cache: caching.Cache, sig, target_context):
     """A cached overload loaded (:data:`KERNEL_LOAD`) to the end: a signal meanwhile is raised
-    after it."""
+    after it. The index is first stamped with the kernel's callees (:func:`stamp_callees`,
+    where :data:`CAN_STAMP`): an index saved before a kernel it calls changed is stale."""
+    if CAN_STAMP:
+        stamp_callees(cache)
     with shielded():
         data = KERNEL_LOAD(cache, sig, target_context)
     raise_if_interrupted()
@@ -230,7 +259,8 @@ def install_lazy_linking() -> bool:
 def install_cache_lock() -> bool:
     """Make numba's on-disk cache save through :func:`locked_save` (idempotent, per process).
 
-    Loading is lean and shielded from signals (:func:`shielded_load`) in any case; a cached
+    Loading is lean and shielded from signals (:func:`shielded_load`) in any case, and an
+    index is stale when a kernel the kernel calls changes (:func:`stamp_callees`); a cached
     library's shared bitcode is parsed lazily (:func:`install_lazy_linking`) and numba's
     runtime is loaded compiled (:func:`dloplan.jit_runtime.install_runtime_cache`) where this
     numba allows it.
@@ -240,6 +270,8 @@ def install_cache_lock() -> bool:
     crash at the first compilation.
     """
     caching.Cache.load_overload = shielded_load
+    if CAN_STAMP:
+        caching.Cache.save_overload = stamped_save
     install_lazy_linking()
     install_runtime_cache()
     cache_file = caching.IndexDataCacheFile
