@@ -22,8 +22,9 @@ are in numba's key, not in the stamp, and variants that hold kernels of differen
 recompile each other (dloplan has no kernel with a closure). A kernel handed to a kernel as an
 argument is not followed (no kernel of dloplan takes one: no cached signature names a kernel).
 
-The digest is the files' contents, not their times: checking out another branch and back, or
-touching a file, leaves the cache as it was. It is computed once per kernel and process, at its
+The digest is the callees' contents, not their times: checking out another branch and back, or
+touching a callee's file, leaves the cache as it was (the kernel's own file still counts by
+numba's time-and-size stamp). It is computed once per kernel and process, at its
 first load from the cache (each file read and hashed once per process: a few milliseconds for
 all of dloplan's kernel files).
 """
