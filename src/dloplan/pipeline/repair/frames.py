@@ -270,7 +270,7 @@ def same_frames(a: GripperPath, b: GripperPath, tolerance: float = 1e-6) -> bool
     bool
         Every clip frame of ``a`` within ``tolerance`` of ``b``'s.
     """
-    if np.max(np.abs(a.matrices - b.matrices)) > 2.0 * tolerance:
+    pairs = tuple(zip(a.rotations, b.rotations, strict=True))
+    if any(np.abs(p.as_matrix() - q.as_matrix()).max() > 2.0 * tolerance for p, q in pairs):
         return False
-    return all(np.max((p * q.inv()).magnitude()) < tolerance
-               for p, q in zip(a.rotations, b.rotations, strict=True))
+    return all(np.max((p * q.inv()).magnitude()) < tolerance for p, q in pairs)
