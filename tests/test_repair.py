@@ -23,8 +23,9 @@ from dloplan.app.document_file import read_plan
 from dloplan.app.files import EXIT_CHECK_FAILED, plan_into
 from dloplan.app.load import resolve_mapping
 from dloplan.cli import main
+from dloplan.grippers.path import GripperPath
 from dloplan.pipeline.repair import Budget, diagnose, repair_plan, translated_job
-from dloplan.pipeline.repair.frames import grasp_rolled, untwisted
+from dloplan.pipeline.repair.frames import grasp_rolled, same_frames, untwisted
 from dloplan.pipeline.repair.loop import attempts
 from dloplan.pipeline.repair.placement import (
     TableMove,
@@ -650,3 +651,27 @@ def test_a_placement_is_rejected_on_its_programs_first_failure(monkeypatch):
         "[-1, -1, 0, 4]"]
     assert doc.program.ok and doc.program.trajectory is not None and doc.repairs
     assert len(solved) == 18 + 0 + 1 + 18
+
+
+def test_same_frames_is_the_rotation_magnitude_rule_near_and_far_from_its_tolerance():
+    """The reach repair's duplicate test (``same_frames``) answers as the angle of the rotation
+    between the frames (scipy's ``magnitude``) does, whether the matrices' pre-check decides
+    (frames degrees apart) or the angle (frames within a few tolerances)."""
+    rng = np.random.default_rng(7)
+    base = Rotation.random(6, random_state=3), Rotation.random(6, random_state=4)
+    path = GripperPath(np.zeros((6, 2, 3)), base, "rigid", np.zeros(6))
+    tolerance = 1e-6
+    answers = set()
+    for angle in (0.0, 0.3 * tolerance, 0.9 * tolerance, 1.1 * tolerance, 1.5 * tolerance,
+                  3.0 * tolerance, 1e-3, 0.5, 3.0):
+        for _ in range(5):
+            axes = rng.normal(size=(6, 3))
+            turn = Rotation.from_rotvec(angle * axes / np.linalg.norm(axes, axis=1)[:, None])
+            clip = int(rng.integers(2))
+            rotations = tuple(r * turn if c == clip else r for c, r in enumerate(base))
+            other = replace(path, rotations=rotations)
+            rule = all(np.max((p * q.inv()).magnitude()) < tolerance
+                       for p, q in zip(other.rotations, path.rotations, strict=True))
+            assert same_frames(other, path, tolerance) is rule
+            answers.add(rule)
+    assert answers == {True, False}

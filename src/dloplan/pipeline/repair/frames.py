@@ -244,3 +244,33 @@ def with_rotations(grippers: GripperPath, first: Rotation, last: Rotation,
         success=bool(np.max(np.abs(frames)) <= grippers.max_twist),
         warnings=tuple(w for w in grippers.warnings if not w.startswith("relative twist")),
         message=f"{grippers.message.split(';')[0]}; {note}")
+
+
+def same_frames(a: GripperPath, b: GripperPath, tolerance: float = 1e-6) -> bool:
+    """Two gripper paths whose clip frames agree to ``tolerance`` [rad] at every shape: the
+    largest angle of the rotation from one clip frame to the other (scipy's ``magnitude``)
+    below ``tolerance``.
+
+    Frames that differ by more than ``2 * tolerance`` in an entry of their matrices are told
+    apart from the matrices alone: for rotations P, Q at an angle theta apart,
+    ``|P_ij - Q_ij| <= ||P - Q||_F = 2 sqrt(2) sin(theta / 2) <= sqrt(2) theta``, so such a
+    pair is more than ``sqrt(2) * tolerance`` apart and the answer is False either way (the
+    reach repair compares every new frame set with the earlier ones: most pairs differ by
+    degrees, and the matrices cost a fraction of the rotations' composition).
+
+    Parameters
+    ----------
+    a, b : GripperPath
+        Frames of the same shapes (S + 2 each).
+    tolerance : float
+        Largest angle [rad] between two frames called the same.
+
+    Returns
+    -------
+    bool
+        Every clip frame of ``a`` within ``tolerance`` of ``b``'s.
+    """
+    pairs = tuple(zip(a.rotations, b.rotations, strict=True))
+    if any(np.abs(p.as_matrix() - q.as_matrix()).max() > 2.0 * tolerance for p, q in pairs):
+        return False
+    return all(np.max((p * q.inv()).magnitude()) < tolerance for p, q in pairs)

@@ -88,7 +88,14 @@ from .failures import (
     twist_failures,
     unreachable_shapes,
 )
-from .frames import SHARES, RolledTwists, grasp_rolled, grasp_scores, untwisted
+from .frames import (
+    SHARES,
+    RolledTwists,
+    grasp_rolled,
+    grasp_scores,
+    same_frames,
+    untwisted,
+)
 from .placement import (
     SEARCHES,
     YAWS,
@@ -648,7 +655,7 @@ class _Session:
             for base, (other, new) in enumerate(bases):
                 place = Place(turn, other, new)
                 for frames, rolls in _grasps(place.grippers, place.job.robot):
-                    if any(_same_frames(frames, made) for made in kept):
+                    if any(same_frames(frames, made) for made in kept):
                         continue  # e.g. rigid = minimal rotation for a planar bend
                     kept.append(frames)
                     candidate = FrameSet(place, frames, rolls, base, twists,
@@ -713,12 +720,6 @@ def _grasps(grippers, cell):
                                          paired=paired, scores=scores[towards_robot])
             if rolls.any():
                 yield frames, rolls
-
-
-def _same_frames(a, b, tolerance: float = 1e-6) -> bool:
-    """Two gripper paths whose clip frames agree to ``tolerance`` [rad]."""
-    return all(np.max((p * q.inv()).magnitude()) < tolerance
-               for p, q in zip(a.rotations, b.rotations, strict=True))
 
 
 class _Made:
