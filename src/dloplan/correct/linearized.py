@@ -194,6 +194,7 @@ class DerivativeTable:
     they are differences of, at their every other point: R_n to first order; scaled as
     ``clips``) [m]; ``fine`` (k n + 1, 3) the equilibrium at the target of the chain the clips
     are fitted on (:class:`~.step.FitModel`: k n links, each gripper clamping k) [m],
+    ``fine_modulus`` its d x / d ln E (for :meth:`Interpolated.hermite`) [m],
     ``fine_clips`` (3 (k n + 1), 12) its d x / d p and ``clips`` (3 (n + 1), 12) the same at
     its every k-th point (the plan's model's material points), rotation columns divided by
     L / 2 (the clip fit's scaled coordinates).
