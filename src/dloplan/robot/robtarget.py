@@ -213,9 +213,14 @@ def solve_robtarget(arm: CellArm, position, rotation_matrix, psi: float, conf, s
     """The controller's solutions of a robtarget: those of :func:`robtarget_solutions` whose
     :func:`~dloplan.robot.confdata.confdata` is ``conf`` (4,) int."""
     found = robtarget_solutions(arm, position, rotation_matrix, psi, seeds, options)
-    conf = np.asarray(conf, dtype=int)
-    keep = np.all(confdata(found) == conf, axis=-1) if len(found) else np.zeros(0, bool)
-    return RobtargetSolution(found, found[keep])
+    return _with_confdata(found, conf)
+
+
+def _with_confdata(found: np.ndarray, conf, enumerated: bool = True) -> RobtargetSolution:
+    """The solutions ``found`` (K, 7) [rad] and those whose confdata is ``conf`` (4,) int."""
+    keep = np.all(confdata(found) == np.asarray(conf, dtype=int), axis=-1) if len(found) \
+        else np.zeros(0, bool)
+    return RobtargetSolution(found, found[keep], enumerated)
 
 
 def own_solution(arm: CellArm, position, rotation_matrix, psi: float, conf, seed,
@@ -250,6 +255,4 @@ def own_solution(arm: CellArm, position, rotation_matrix, psi: float, conf, seed
                     np.asarray(rotation_matrix, dtype=float), psi, starts,
                     _round_trip_options(options), 1)
     found, _ = _with_turns(arm, q[ok])
-    keep = np.all(confdata(found) == np.asarray(conf, dtype=int), axis=-1) if len(found) \
-        else np.zeros(0, bool)
-    return RobtargetSolution(found, found[keep], enumerated=False)
+    return _with_confdata(found, conf, enumerated=False)
