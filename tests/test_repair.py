@@ -440,6 +440,26 @@ def test_a_snap_repair_followed_by_a_proposed_placement_keeps_its_program():
     assert doc.warnings.count(doc.program.message) == (0 if doc.program.ok else 1)
 
 
+def test_a_proposed_placement_writes_the_plans_own_program_complete():
+    """Qualitative test 1 without consent and without ``--verify``: the reach repair proposes
+    a placement, so the plan keeps its own failing program, made with its passing round trips
+    left to complete (``make_plan``: the repair replaces it when it places the job). What
+    ``make_plan`` returns is complete: the program and the plan document's robot section are
+    those of a program made complete at once."""
+    from dloplan.pipeline import make_plan
+
+    job = load_job(EXAMPLES / "qualitative1_curved_pa12.yaml")
+    job = replace(job, repair=replace(job.repair, placement=False))
+    doc = make_plan(job)
+    assert doc.placement is not None and not doc.placement.applied
+    eager = run_job(job)  # every round trip enumerated
+    assert not eager.program.ok and doc.program.completion is None
+    assert doc.program.checks == eager.program.checks
+    assert doc.robot == eager.robot
+    assert any(r.check == "round trip" and r.ok and "solutions of the pose" in r.note
+               for r in doc.program.checks)
+
+
 def test_a_replay_that_strays_at_speed_is_repaired_by_slowing_down():
     """A soft cable moved fast (0.5 m/s, 5 rad/s) rings after each stop: the replay's deviation
     at the knots falls as the motion is slowed (measured: 3.8 -> 1.4 mm at half speed). With a

@@ -292,3 +292,30 @@ def test_a_verdict_only_program_stops_at_its_first_failing_target(name):
     assert first == program_failures(complete)[0]
     assert verdict.checks[-1].target == 0 and "approach" in first.message
     assert len(verdict.checks) < len(complete.checks) // 4
+
+
+@pytest.mark.parametrize("name", ["qualitative1_curved_pa12.yaml",
+                                  "m2_uniform_curvature_usb.yaml"])
+def test_round_trips_on_demand_complete_to_the_complete_program(name):
+    """``round_trips_on_demand`` (the plan's own program in ``make_plan``, which the reach
+    repair replaces): a program that fails has every row and verdict of the complete program,
+    the same failing rows and message, but its passing round trips judged from the verified
+    joints' own solutions; ``completed()`` makes it the complete program row for row (the same
+    record in the plan document). A program that passes (m2) is complete at once."""
+    _, grippers, trajectory, _ = example_plan(name)
+    complete = robot_program(grippers, trajectory)
+    lazy = robot_program(grippers, trajectory, round_trips_on_demand=True)
+    assert lazy.ok == complete.ok and lazy.message == complete.message
+    assert lazy.failures == complete.failures
+    assert [(r.check, r.target, r.arm, r.ok) for r in lazy.checks] == [
+        (r.check, r.target, r.arm, r.ok) for r in complete.checks]
+    assert np.array_equal(lazy.times, complete.times)
+    if complete.ok:
+        assert lazy.completion is None and lazy.checks == complete.checks
+        return
+    own = [r for r in lazy.checks if "own solution" in r.note]
+    assert own and all(r.check == "round trip" and r.ok for r in own)
+    done = lazy.completed()
+    assert done.completion is None and done.checks == complete.checks
+    assert json.dumps(done.to_dict()) == json.dumps(complete.to_dict())
+    assert done.completed() is done

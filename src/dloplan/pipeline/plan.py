@@ -20,7 +20,7 @@ from .job import HarnessJob, Job
 from .repair import Budget, diagnose, repair_plan
 from .repair.harness import plan_harness
 from .repair.placement import placement_section
-from .stages import quiet, run_job, verify_plan, with_verification
+from .stages import completed_program, quiet, run_job, verify_plan, with_verification
 
 
 def make_plan(job: Job | HarnessJob, *, verify: bool = False, check_robot: bool = True,
@@ -70,17 +70,18 @@ def make_plan(job: Job | HarnessJob, *, verify: bool = False, check_robot: bool 
     if not (check_robot and repair):
         return run_job(job, verify=verify, check_robot=check_robot, progress=progress,
                        planned=planned)
-    doc = run_job(job, progress=progress, planned=planned)
+    # a program that fails is completed only if it is kept (the reach repair replaces it)
+    doc = run_job(job, progress=progress, planned=planned, complete_program=False)
     t0 = time.perf_counter()
     if not verify and (doc.program is None or doc.program.ok):
-        return doc
+        return completed_program(doc)
     verification = verify_plan(doc, snap=verify, replay=verify)
     progress(f"verification: {'passed' if verification.ok else 'FAILED'}")
     if not diagnose(doc, verification):
-        doc = with_verification(doc, verification)
+        doc = with_verification(completed_program(doc), verification)
         return replace(doc, timings={**doc.timings, "verify": time.perf_counter() - t0})
     result = repair_plan(job, doc, verification, budget, progress, repaired=planned)
-    out, placement = result.document, None
+    out, placement = completed_program(result.document), None
     if result.proposal is not None:
         out = replace(out, warnings=out.warnings + (result.proposal.line(),))
         placement = placement_section(result.proposal.move, applied=False)

@@ -305,16 +305,30 @@ def robot_rows(grippers, cell=None) -> list[dict]:
     return reach_rows(RobotCell() if cell is None else cell, grippers)
 
 
-def plan_program(cell, grippers, trajectory, progress=quiet):
+def plan_program(cell, grippers, trajectory, progress=quiet, *, complete: bool = True):
     """The robot program of a plan on its cell, verified
     (:func:`dloplan.robot.plugins.robot_program`): on the YuMi arm assignment, IK of every
     exported target, joint limits, arm-arm clearance, continuity and joint speeds; on a
-    described cell the same checks along the tracked motion, table clearance and placement."""
+    described cell the same checks along the tracked motion, table clearance and placement.
+    ``complete`` False: a program that fails may leave rows to complete when it is written
+    (``round_trips_on_demand``; :func:`completed_program`)."""
     from ..robot.plugins import robot_program
 
-    program = robot_program(grippers, trajectory, cell)
+    program = robot_program(grippers, trajectory, cell, round_trips_on_demand=not complete)
     progress(program.message)
     return program
+
+
+def completed_program(doc: PlanDocument) -> PlanDocument:
+    """The document with its robot program complete
+    (:meth:`dloplan.robot.program.RobotProgram.completed`) and its robot section recording
+    that program; ``doc`` itself when its program is complete (or it has none). The verdict,
+    the message and the failures, hence the warnings and the verification, are the same."""
+    program = doc.program
+    if program is None or program.completion is None:
+        return doc
+    program = program.completed()
+    return replace(doc, program=program, robot=replace(doc.robot, program=program.to_dict()))
 
 
 def with_program(doc: PlanDocument, program) -> PlanDocument:
@@ -511,7 +525,7 @@ def _identification_section(ident) -> IdentificationSection | None:
 
 
 def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
-            progress=quiet, planned=None) -> PlanDocument:
+            progress=quiet, planned=None, complete_program: bool = True) -> PlanDocument:
     """Plan a job end to end and return its plan document.
 
     Parameters
@@ -530,6 +544,11 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
         made (the command line starts drawing the figures no program or repair changes), and
         again with the document and its program when the program passes (``provisional``
         False: the other figures; a plan whose program fails is repaired).
+    complete_program : bool
+        False: a robot program that fails may come with rows still to complete (its passing
+        round trips, :func:`plan_program`): the caller completes it (:func:`completed_program`)
+        unless it replaces it (:func:`dloplan.pipeline.make_plan`, whose reach repair makes
+        the programs of its placements).
     """
     staged = plan_path(job, progress)
     result, target_check = staged.plan, staged.target_check
@@ -585,7 +604,8 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
         planned(doc, provisional=check_robot)
     if check_robot:
         t0 = time.perf_counter()
-        doc = with_program(doc, plan_program(job.robot, grippers, trajectory, progress))
+        doc = with_program(doc, plan_program(job.robot, grippers, trajectory, progress,
+                                             complete=complete_program))
         doc = replace(doc, timings={**doc.timings, "robot": time.perf_counter() - t0})
         if planned is not None and doc.program.ok:
             planned(doc, provisional=False)

@@ -40,7 +40,8 @@ def cell_name(cell) -> str:
     return "yumi" if isinstance(cell, RobotCell) else cell.name
 
 
-def robot_program(grippers, trajectory, cell=None, *, verdict_only: bool = False) -> RobotProgram:
+def robot_program(grippers, trajectory, cell=None, *, verdict_only: bool = False,
+                  round_trips_on_demand: bool = False) -> RobotProgram:
     """The verified robot program of a plan on ``cell`` (either kind), made by its plug-in.
 
     Parameters
@@ -56,6 +57,11 @@ def robot_program(grippers, trajectory, cell=None, *, verdict_only: bool = False
         Only the verdict and the first failure are wanted: the YuMi's program may stop at its
         first failing target (:func:`~dloplan.robot.yumi_program.yumi_program`); a described
         cell's is complete.
+    round_trips_on_demand : bool
+        A program that fails is wanted complete only when it is written or printed: the
+        YuMi's may judge its passing round trips at less cost and leave them to
+        :meth:`~dloplan.robot.program.RobotProgram.completed`
+        (:func:`~dloplan.robot.yumi_program.yumi_program`); a described cell's is complete.
 
     Raises
     ------
@@ -64,7 +70,8 @@ def robot_program(grippers, trajectory, cell=None, *, verdict_only: bool = False
         :func:`~dloplan.robot.yumi_program.yumi_program`).
     """
     if cell is None or isinstance(cell, RobotCell):
-        return yumi_program(grippers, trajectory, cell, verdict_only=verdict_only)
+        return yumi_program(grippers, trajectory, cell, verdict_only=verdict_only,
+                            round_trips_on_demand=round_trips_on_demand)
     if not isinstance(cell, DescribedCell):
         raise ValueError(f"cell: expected a RobotCell or a DescribedCell, got "
                          f"{type(cell).__name__}")

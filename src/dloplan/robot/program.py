@@ -26,6 +26,7 @@ it). :func:`dloplan.robot.plugins.robot_program` makes the program of any cell.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Protocol
 
@@ -106,6 +107,13 @@ class RobotProgram:
     joint_speed : numpy.ndarray or None
         (M - 1, 2) per move and arm the peak joint speed along the time law as a fraction of
         the limit.
+    completion : callable or None
+        None: every row is the complete program's. Else some passing rows were judged at less
+        cost, with the complete program's verdicts but not its values and notes (the YuMi's
+        passing round trips from the verified joints' own solutions,
+        :func:`~dloplan.robot.yumi_program.yumi_program`), and ``completion(program)`` gives
+        the program with those rows made as the complete program makes them:
+        :meth:`completed`.
     """
 
     cell: object
@@ -115,6 +123,7 @@ class RobotProgram:
     checks: tuple[CheckRow, ...]
     trajectory: object = None
     joint_speed: np.ndarray | None = None
+    completion: Callable[[RobotProgram], RobotProgram] | None = None
 
     @property
     def ok(self) -> bool:
@@ -151,6 +160,14 @@ class RobotProgram:
         """One line: passed with the key numbers, or the first failure of every failing
         check."""
         return self.targets.message(self)
+
+    def completed(self) -> RobotProgram:
+        """The program with every row as the complete program makes it (its
+        :attr:`completion` run once; itself when there is none): what is written, printed
+        and recorded. The verdicts, the failing rows, the targets, joints and timing are the
+        same either way."""
+        return self if self.completion is None else replace(self.completion(self),
+                                                            completion=None)
 
     def knot_targets(self) -> np.ndarray:
         """(K,) int: the target at which the program reaches each plan knot (shape)."""

@@ -62,6 +62,7 @@ when every row is. Everything computed is kept (``RobotProgram.checks``, ``summa
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -278,7 +279,8 @@ class YumiTargets:
 
 
 def yumi_program(grippers, trajectory, cell: RobotCell | None = None, *,
-                 verdict_only: bool = False) -> RobotProgram:
+                 verdict_only: bool = False,
+                 round_trips_on_demand: bool = False) -> RobotProgram:
     """The verified robot program of a plan on the YuMi (module docstring).
 
     Parameters
@@ -302,6 +304,13 @@ def yumi_program(grippers, trajectory, cell: RobotCell | None = None, *,
         (its value that solution's deviation, its note saying so: the controller's other
         solutions are not enumerated). A program that passes, whose only failures are
         ``reach`` rows, or that would try the swapped assignment, is complete.
+    round_trips_on_demand : bool
+        A program that fails is wanted complete only when it is written or printed (the plan's
+        own program, which the reach repair replaces when it finds a placement): its rows are
+        all made, with every verdict and failing row of the complete program, but its passing
+        round trips are judged from the verified joints' own solutions (as a verdict's) and
+        enumerated by :meth:`~dloplan.robot.program.RobotProgram.completed`. A program that
+        passes is complete.
 
     Returns
     -------
@@ -320,14 +329,18 @@ def yumi_program(grippers, trajectory, cell: RobotCell | None = None, *,
         raise ValueError(f"cell: expected a RobotCell, got {type(cell).__name__}")
     _check_inputs(grippers, trajectory)
     assignment = assign_arms(grippers.positions, cell)
-    program = _build(grippers, trajectory, cell, assignment, verdict_only=verdict_only)
+    program = _build(grippers, trajectory, cell, assignment, verdict_only=verdict_only,
+                     on_demand=round_trips_on_demand)
     if not program.ok and assignment.ok:
         failed = {r.check for r in program.failures}
         if failed & {"clearance", "continuity"} and "reach" not in failed:
             other = _build(grippers, trajectory, cell, assignment.swapped(), passing=True)
             if other is not None and other.ok:
                 program = other
-    return program if program.trajectory is None else slowed(program)
+    if program.trajectory is not None:
+        program = slowed(program)
+    # a passing program, and a verdict made complete (a kept placement's), enumerated now
+    return program.completed() if program.ok or verdict_only else program
 
 
 def _check_inputs(grippers, trajectory) -> None:
@@ -350,15 +363,16 @@ def _check_inputs(grippers, trajectory) -> None:
 
 
 def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment,
-           passing: bool = False, verdict_only: bool = False) -> RobotProgram | None:
+           passing: bool = False, verdict_only: bool = False,
+           on_demand: bool = False) -> RobotProgram | None:
     """The program of an arm assignment: its targets, then the ranked joint solutions tried
     in order (up to :data:`MAX_TRIES`): the first whose motion neither collides nor loses
     continuity, or the first with a target no solution reaches, else the best ranked.
     A try is judged on its motion (reach, continuity, clearance) before the controller's
     round trip and the time law are computed: a try that is passed over costs its replay
     only. With ``passing`` only a program whose motion passes is wanted (None otherwise:
-    the swapped assignment, taken only when it passes every check); ``verdict_only`` as for
-    :func:`yumi_program` (:func:`_finish`)."""
+    the swapped assignment, taken only when it passes every check); ``verdict_only`` and
+    ``on_demand`` (``round_trips_on_demand``) as for :func:`yumi_program` (:func:`_finish`)."""
     robot, opts = cell.robot, cell.reach
     clips = list(assignment.clips)
     n_shapes = len(grippers.positions)
@@ -399,8 +413,10 @@ def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment,
         if first is None and not passing:
             first = motion
         if moves or not reached:  # yumi_program does not try the swapped assignment then
-            return _finish(trajectory, cell, assignment, targets, motion, verdict_only)
-    return _finish(trajectory, cell, assignment, targets, first) if first is not None else None
+            return _finish(trajectory, cell, assignment, targets, motion, verdict_only,
+                           on_demand)
+    return _finish(trajectory, cell, assignment, targets, first, on_demand=on_demand) \
+        if first is not None else None
 
 
 def _motion(cell: RobotCell, targets, chosen) -> dict:
@@ -425,63 +441,90 @@ def _motion(cell: RobotCell, targets, chosen) -> dict:
             "replay": replay, "rows": _motion_rows(robot, opts, labels, shapes, joints, replay)}
 
 
-def _finish(trajectory, cell, assignment, targets, motion,
-            verdict_only: bool = False) -> RobotProgram:
+def _finish(trajectory, cell, assignment, targets, motion, verdict_only: bool = False,
+            on_demand: bool = False) -> RobotProgram:
     """The program of a solved motion (:func:`_motion`): the controller's round trip of every
     written robtarget, the verdict rows and the timing. With ``verdict_only`` the rows stop
     after the first target that fails a check other than ``reach``, or after the motion's rows
     when one of them fails such a check: the program is then returned untimed
-    (:func:`yumi_program`), its passing round trips judged from the verified joints' own
-    solutions (:func:`_round_trip`); else its rows are made again complete."""
+    (:func:`yumi_program`). With ``verdict_only`` or ``on_demand`` the passing round trips are
+    judged from the verified joints' own solutions (:func:`_round_trip`) and a program whose
+    rows are all made can enumerate them (``completion``: :func:`_enumerated`)."""
     labels, shapes, grasp, release, pos, quats, _ = targets
     chosen, eax, joints = motion["chosen"], motion["eax"], motion["joints"]
     turned = tuple(bool(c.grip) for c in chosen)
     quat = np.stack([quats[c.grip][:, a] for a, c in enumerate(chosen)], axis=1)
-    rows, stopped = _rows(cell, assignment, targets, motion, verdict_only)
+    rows, stopped, judged = _rows(cell, assignment, targets, motion, verdict_only,
+                                  verdict_only or on_demand)
     complete = not (stopped or (verdict_only and _fails(motion["rows"])))
-    if complete and verdict_only:  # it is kept: every round trip enumerated
-        rows, _ = _rows(cell, assignment, targets, motion, False)
+    completion = partial(_enumerated, cell, targets, motion, tuple(judged)) \
+        if complete and judged else None
     replayed = motion["replay"]["joints"]
     record = YumiTargets(assignment, turned, labels, shapes, grasp, release, pos, quat,
                          confdata(joints), eax, np.concatenate([joints[:1]] + replayed),
                          np.array([len(q) for q in replayed]))
     moves = tuple(tuple(np.concatenate([joints[m, a][None], q[:-1, a], joints[m + 1, a][None]])
                         for m, q in enumerate(replayed)) for a in range(2))
-    untimed = RobotProgram(cell, record, (joints[:, 0], joints[:, 1]), moves, tuple(rows))
+    untimed = RobotProgram(cell, record, (joints[:, 0], joints[:, 1]), moves, tuple(rows),
+                           completion=completion)
     return untimed.retimed(trajectory) if complete else untimed
 
 
-def _rows(cell, assignment, targets, motion, verdict_only: bool) -> tuple[list, bool]:
-    """The verdict rows of a solved motion (:func:`_finish`) and whether they stopped early
-    (``verdict_only``: after the first target failing a check other than ``reach``)."""
+def _rows(cell, assignment, targets, motion, verdict_only: bool,
+          own: bool) -> tuple[list, bool, list]:
+    """The verdict rows of a solved motion (:func:`_finish`), whether they stopped early
+    (``verdict_only``: after the first target failing a check other than ``reach``), and the
+    (target, arm) of every round trip judged from its own solution (``own``,
+    :func:`_round_trip`)."""
     robot = cell.robot
     labels, shapes, _, _, pos, _, _ = targets
     rot, eax, joints = motion["rot"], motion["eax"], motion["joints"]
     rows = _assignment_rows(assignment)
     stopped = verdict_only and _fails(rows)
+    judged = []
     for m in range(len(pos)):
         if stopped:
             break
         trip = [_round_trip(arm, pos[m, a], rot[m, a], eax[m, a], joints[m, a], cell.reach.ik,
-                            verdict_only) for a, arm in enumerate(robot.arms)]
+                            own) for a, arm in enumerate(robot.arms)]
+        judged += [(m, a) for a in range(2) if not trip[a].enumerated]
         target = _target_rows(robot, cell, m, labels[m], int(shapes[m]), pos[m], rot[m],
                               joints[m], motion["solved"][m], trip)
         rows += target
         stopped = verdict_only and _fails(target)
     if not stopped:
         rows += motion["rows"]
-    return rows, stopped
+    return rows, stopped, judged
+
+
+def _enumerated(cell, targets, motion, judged, program: RobotProgram) -> RobotProgram:
+    """``program`` (made by :func:`_finish` from ``targets`` and ``motion``) with the round
+    trips ``judged`` from their own solutions ((target, arm) pairs) enumerated
+    (:func:`~dloplan.robot.robtarget.solve_robtarget`): their rows as the complete program's,
+    every other row as it was (a ``completion`` of
+    :class:`~dloplan.robot.program.RobotProgram`)."""
+    labels, shapes, _, _, pos, _, _ = targets
+    rot, eax, joints = motion["rot"], motion["eax"], motion["joints"]
+    made = {}
+    for m, a in judged:
+        found = _round_trip(cell.robot.arms[a], pos[m, a], rot[m, a], eax[m, a], joints[m, a],
+                            cell.reach.ik, False)
+        made[m, ARMS[a]] = _round_trip_row(m, labels[m], int(shapes[m]), a, found,
+                                           joints[m, a])
+    return replace(program, checks=tuple(
+        made.get((row.target, row.arm), row) if row.check == "round trip" else row
+        for row in program.checks))
 
 
 def _round_trip(arm, position, rotation, eax: float, joints, options,
-                verdict_only: bool) -> RobtargetSolution:
+                own: bool) -> RobtargetSolution:
     """The controller's solutions of a written robtarget (``eax`` [deg] its arm angle,
     ``joints`` (7,) its verified joints): every one found
-    (:func:`~dloplan.robot.robtarget.solve_robtarget`), or with ``verdict_only`` the verified
+    (:func:`~dloplan.robot.robtarget.solve_robtarget`), or with ``own`` the verified
     joints' own solution when that round-trips (:func:`~dloplan.robot.robtarget.own_solution`:
     then so does the enumeration, the same verdict for one solve instead of 99)."""
     args = (arm, position, rotation, np.radians(eax), confdata(joints))
-    if verdict_only:
+    if own:
         own = own_solution(*args, joints, options)
         if own.deviation(joints) <= ROUND_TRIP_TOLERANCE:
             return own
@@ -539,21 +582,7 @@ def _target_rows(robot, cell, m, label, shape, pos, rot, joints, solved, trip) -
                              bool(solved[a]),
                              f"orientation error {np.degrees(aerr):.2g} deg" if
                              not solved[a] else ""))
-    for a in range(2):
-        found = trip[a]
-        deviation = found.deviation(joints[a])
-        conf = confdata(joints[a]).tolist()
-        note = (f"{len(found.solutions)} solutions of the pose and arm angle, "
-                f"{len(found.matching)} with confdata {conf}")
-        if not found.enumerated:
-            note = (f"the verified joints' own solution, confdata {conf} (a verdict: the "
-                    "other solutions not enumerated)")
-        elif len(found.matching) > 1:
-            note += ("; the MoveL into it follows its branch (the continuity check) and "
-                     "ConfL confirms the confdata")
-        rows.append(CheckRow("round trip", m, label, shape, ARMS[a],
-                             float(np.degrees(min(deviation, np.pi))), "deg",
-                             bool(deviation <= ROUND_TRIP_TOLERANCE), note))
+    rows += [_round_trip_row(m, label, shape, a, trip[a], joints[a]) for a in range(2)]
     for a, arm in enumerate(robot.arms):
         gaps = np.minimum(joints[a] - arm.lower, arm.upper - joints[a])
         j = int(np.argmin(gaps))
@@ -564,6 +593,24 @@ def _target_rows(robot, cell, m, label, shape, pos, rot, joints, solved, trip) -
         rows.append(CheckRow("joint limits", m, label, shape, ARMS[a], margin,
                              "deg", bool(gaps[j] >= opts.min_margin), note))
     return rows
+
+
+def _round_trip_row(m, label, shape, a, found, joints) -> CheckRow:
+    """The ``round trip`` row of target ``m`` for arm ``a``: ``found`` the controller's
+    solutions of its robtarget (:func:`_round_trip`), ``joints`` (7,) its verified joints."""
+    deviation = found.deviation(joints)
+    conf = confdata(joints).tolist()
+    note = (f"{len(found.solutions)} solutions of the pose and arm angle, "
+            f"{len(found.matching)} with confdata {conf}")
+    if not found.enumerated:
+        note = (f"the verified joints' own solution, confdata {conf} (a verdict: the "
+                "other solutions not enumerated)")
+    elif len(found.matching) > 1:
+        note += ("; the MoveL into it follows its branch (the continuity check) and "
+                 "ConfL confirms the confdata")
+    return CheckRow("round trip", m, label, shape, ARMS[a],
+                    float(np.degrees(min(deviation, np.pi))), "deg",
+                    bool(deviation <= ROUND_TRIP_TOLERANCE), note)
 
 
 def _motion_rows(robot, opts, labels, shapes, joints, replay) -> list:
