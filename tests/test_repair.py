@@ -585,6 +585,68 @@ def test_a_refusal_names_each_attempt_once_with_its_count():
     assert attempts([]) == ""
 
 
+@pytest.mark.parametrize("shift", [0.0, 0.5])
+def test_frame_sets_whose_twist_is_put_off_are_judged_as_before(shift, monkeypatch):
+    """Qualitative test 1 (its robot checks): a frame set out of the arms' reach spheres where
+    the job lies is not solved for its twist unless the searches that shift the job try it or
+    a refusal lists it. As shipped, the reach repair keeps the same placement, frames and
+    program as with every twist solved when its frame set is made (``put_off`` False, the old
+    way), with fewer solves; moved 0.5 m away from the robot no placement works, and the
+    refusal names each put-off set as judged, in its place (its twist failure, or the search's
+    miss where it lies): the same line."""
+    from dloplan.pipeline.repair import frames
+    from dloplan.pipeline.repair.candidates import FrameSet
+
+    data = yaml.safe_load((EXAMPLES / "qualitative1_curved_pa12.yaml").read_text())
+    for end in ("start", "target"):
+        data[end]["placement"]["position"][0] += shift
+    job = resolve_mapping(data, "qualitative 1")
+    doc = run_job(job)
+    verification = verify_plan(doc, snap=False, replay=False)
+    solved = []
+    solve = frames.plan_twist
+    monkeypatch.setattr(frames, "plan_twist", lambda *a: solved.append(1) or solve(*a))
+    put_off = repair_plan(job, doc, verification)
+    lazy = len(solved)
+    monkeypatch.setattr(FrameSet, "put_off", property(lambda self: False))
+    at_once = repair_plan(job, doc, verification)
+    assert put_off.refusal == at_once.refusal
+    assert [r.line() for r in put_off.repairs] == [r.line() for r in at_once.repairs]
+    if shift:
+        assert put_off.refusal.startswith("no placement of the job") and ": 1 twist" in \
+            put_off.refusal and "passed the pre-check" in put_off.refusal
+        assert lazy == len(solved) - lazy  # the refusal names them all
+        return
+    assert put_off.ok and [r.kind for r in put_off.repairs] == ["reach"]
+    assert put_off.document.robot == at_once.document.robot
+    for name in ("twist", "relative_twist", "twist_energy"):
+        assert np.array_equal(getattr(put_off.document.twist, name),
+                              getattr(at_once.document.twist, name)), name
+    assert lazy < len(solved) - lazy
+
+
+def test_a_claimed_twist_is_solved_on_the_claimers_frames():
+    """``RolledTwists``: a pair (base, rolls) claimed with some frames and asked for with
+    others (another turn's) is solved on the claimer's shapes and frames, as if it had been
+    solved when claimed."""
+    from dloplan.pipeline.repair.frames import RolledTwists
+    from dloplan.pipeline.stages import plan_twist
+
+    job = load_job(EXAMPLES / "fig4_8_straight_to_bent.yaml")
+    doc = run_job(job, check_robot=False)
+    other = (doc.shapes, untwisted(job.cable, doc.shapes, doc.grippers, share=0.5)[0])
+    twists = RolledTwists(job.cable)
+    rolls = np.array([0.1, -0.2])
+    assert twists.claim(0, rolls, doc.shapes, doc.grippers) == (0, 0.1, -0.2)
+    assert not twists.reports
+    report = twists(0, rolls, *other)
+    expected = plan_twist(job.cable, doc.shapes, doc.grippers)
+    assert not np.array_equal(plan_twist(job.cable, *other).twist, expected.twist)
+    for name in ("twist", "relative_twist", "twist_energy"):
+        assert np.array_equal(getattr(report, name), getattr(expected, name)), name
+    assert twists(0, rolls, *other) is report
+
+
 def test_a_placement_without_consent_is_proposed_not_made(ur_placed, tmp_path, capsys):
     """The far UR5e job whose file does not allow the job to be moved: the reach repair finds
     the same placement as with consent, but only proposes it -- exit 3 with the proposal in one

@@ -17,8 +17,10 @@ inputs.
 
 from __future__ import annotations
 
+from functools import cached_property
+
 from .failures import frame_twist_failures
-from .placement import TableMove, moved_document, moved_grippers, moved_job
+from .placement import TableMove, moved_document, moved_grippers, moved_job, within_spheres
 from .rebuild import stabilized_wrenches, with_grippers
 
 
@@ -97,6 +99,25 @@ class FrameSet:
     def job(self):
         """The job of these frames (the base's method, turned)."""
         return self.place.job
+
+    @cached_property
+    def within_spheres(self) -> bool:
+        """The search where the job lies may place these frames: their targets are within
+        the arms' reach spheres (:func:`~.placement.within_spheres`)."""
+        return within_spheres(self.frames, self.job.robot)
+
+    @property
+    def put_off(self) -> bool:
+        """Its twist is judged only when it matters (the reach repair's ``turned_frames``):
+        not the plan's own frames, and out of the arms' reach spheres where the job lies."""
+        return not (self.plan or self.within_spheres)
+
+    def put_off_twist(self) -> None:
+        """Claim the torsion model's solve of these frames without making it
+        (:meth:`~.frames.RolledTwists.claim`): :meth:`twist_failures` makes it when it is
+        needed, on the frames of the first turn that claimed it."""
+        if self.rolls is not None:
+            self.twists.claim(self.base, self.rolls, self.place.shapes, self.frames)
 
     def twist_failures(self) -> list:
         """The twist check of these frames (:func:`~.failures.twist_failures` of their

@@ -117,17 +117,29 @@ class RolledTwists:
     def __init__(self, cable) -> None:
         self.cable = cable
         self.reports: dict[tuple, TwistReport] = {}
+        self.inputs: dict[tuple, tuple] = {}
 
     def __call__(self, base, rolls: np.ndarray, shapes: np.ndarray,
                  grippers: GripperPath) -> TwistReport:
         """The report of ``grippers`` on ``shapes``: the frame set ``base`` (any hashable
         name of the unrolled frames, e.g. their index) rolled by ``rolls`` (2,) [rad], turned
         or not; solved (:func:`~dloplan.pipeline.stages.plan_twist`) the first time the pair
-        is asked for."""
-        key = (base, *(float(r) for r in rolls))
+        is asked for, on the shapes and frames of the first turn that asked or claimed it
+        (:meth:`claim`)."""
+        key = self.claim(base, rolls, shapes, grippers)
         if key not in self.reports:
-            self.reports[key] = plan_twist(self.cable, shapes, grippers)
+            self.reports[key] = plan_twist(self.cable, *self.inputs[key])
         return self.reports[key]
+
+    def claim(self, base, rolls: np.ndarray, shapes: np.ndarray,
+              grippers: GripperPath) -> tuple:
+        """Ask for the pair's report without solving it yet (a frame set whose twist may
+        never be needed): a later call solves it on these shapes and frames unless an earlier
+        turn asked first, so the report is the same whether or not the solve was put off.
+        Returns the pair's key."""
+        key = (base, *(float(r) for r in rolls))
+        self.inputs.setdefault(key, (shapes, grippers))
+        return key
 
 
 def grasp_scores(grippers: GripperPath, cell, *, towards_robot: bool = True) -> np.ndarray:

@@ -297,9 +297,12 @@ class Refused(Exception):
     """A failure no repair of its kind can fix (its message says why)."""
 
 
-def attempts(tried: list[str]) -> str:
+def attempts(tried: list) -> str:
     """The attempts a refusal names, in order, each once with how often it was made: the
-    placement search repeats the same miss for every frame set and turn."""
+    placement search repeats the same miss for every frame set and turn. An entry that is not
+    a string stands for the entries its ``entries()`` gives (:class:`_Unplaced`)."""
+    tried = [entry for item in tried
+             for entry in ([item] if isinstance(item, str) else item.entries())]
     counts = Counter(tried)
     return " | ".join(t if counts[t] == 1 else f"{t} (x{counts[t]})" for t in counts)
 
@@ -544,19 +547,23 @@ class _Session:
         seen = set()
         for searches in (HERE, SEARCHES):  # first every turn as it is, then shifted too
             for candidate in turned:
-                if self.spent():
+                # a set that twists is not tried (one out of the arms' reach spheres where the
+                # job lies is judged here only when it matters: turned_frames)
+                if self.spent() and not candidate.twist_failures():
                     raise Refused("repair budget spent placing the job; tried: "
                                   + attempts(tried))
                 if searches is SEARCHES and candidate.job.grippers.method != \
                         job.grippers.method:
                     continue  # the searches shift the plan's own frames (rolled or not) only
+                if candidate.put_off and (searches is HERE or candidate.twist_failures()):
+                    continue  # not placeable where it lies: its entry of `tried` is _Unplaced
                 for found in placements(candidate.frames, yaws=(0.0,), cell=candidate.job.robot,
                                         searches=searches):
                     key = (id(candidate), *np.round(found.move.offset, 6))
                     if not found.success or key in seen or (candidate.plan and
                                                             found.move.is_identity):
                         if not found.success:
-                            tried.append(f"{_frames_name(candidate.frames)}: {found.message}")
+                            tried.append(_missed(candidate.frames, found))
                         continue  # (the plan as it is failed already)
                     seen.add(key)
                     if not self.attempt():
@@ -641,7 +648,12 @@ class _Session:
         the clip wrenches) is made only when it is placed (:mod:`.candidates`); the rolled sets
         of one place share their clip wrenches (the same shapes), and the torsion model's solve
         of a set rolled by the same rolls is shared by every turn
-        (:class:`~.frames.RolledTwists`)."""
+        (:class:`~.frames.RolledTwists`). A set whose targets are out of the arms' reach
+        spheres where the job lies (:func:`~.placement.within_spheres`: the search there finds
+        nothing without IK) is yielded with its twist not judged (claimed, not solved): it is
+        judged when the searches that shift the job try it, or when a refusal lists what was
+        tried (its entry of ``tried`` is an :class:`_Unplaced`, in the place its twist failure
+        or its search's miss had)."""
         untwisted = [(j, d) for j, d in self.untwisted if np.array_equal(d.shapes, doc.shapes)]
         if untwisted:  # the twist repair's other frame sets (the other methods twist)
             bases = _Made([(job, doc), *untwisted])
@@ -660,9 +672,14 @@ class _Session:
                     kept.append(frames)
                     candidate = FrameSet(place, frames, rolls, base, twists,
                                          plan=new is doc and not yaw and rolls is None)
+                    if candidate.put_off:
+                        candidate.put_off_twist()
+                        tried.append(_Unplaced(candidate))
+                        yield candidate
+                        continue
                     left = candidate.twist_failures()
                     if left and not candidate.plan:
-                        tried.append(f"{frames.message}: {summary(left)}")
+                        tried.append(_twisted(frames, left))
                     else:
                         yield candidate
 
@@ -698,6 +715,39 @@ def by_method(job, doc, method: str, asked: str):
             f"method {method!r} chosen by the repair (the job asked for {asked!r})", 1)
         new = replace(new, grippers=replace(grippers, message=message))
     return other, new
+
+
+def _twisted(frames, left) -> str:
+    """The entry of the reach repair's ``tried`` for a frame set that twists the cable (its
+    twist failures ``left``): it is not tried."""
+    return f"{frames.message}: {summary(left)}"
+
+
+def _missed(frames, found) -> str:
+    """The entry of the reach repair's ``tried`` for a placement search that found nothing
+    (``found``, a :class:`~.placement.PlacementRepair`) for ``frames``."""
+    return f"{_frames_name(frames)}: {found.message}"
+
+
+class _Unplaced:
+    """The entries of the reach repair's ``tried`` for a frame set that the search where the
+    job lies cannot place (out of the arms' reach spheres, :func:`~.placement.within_spheres`),
+    made when a refusal lists them: its twist failures when it twists (it is not tried), else
+    that search's miss -- what judging its twist, then trying it there, would have added in
+    this place."""
+
+    def __init__(self, candidate: FrameSet) -> None:
+        self.candidate = candidate
+
+    def entries(self) -> list[str]:
+        """The entries (strings) this stands for."""
+        candidate = self.candidate
+        left = candidate.twist_failures()
+        if left:
+            return [_twisted(candidate.frames, left)]
+        return [_missed(candidate.frames, found)
+                for found in placements(candidate.frames, yaws=(0.0,), cell=candidate.job.robot,
+                                        searches=HERE) if not found.success]
 
 
 def _frames_name(grippers) -> str:

@@ -257,6 +257,35 @@ def targets_reached(grippers: GripperPath, cell) -> int:
                                 Rotation.from_matrix(matrices[:, order]), cell.reach).sum())
 
 
+def _pivot(grippers: GripperPath) -> np.ndarray:
+    """(3,) [m] the vertical the job is turned about: through the clips' centre."""
+    return grippers.positions.reshape(-1, 3).mean(axis=0) * [1.0, 1.0, 0.0]
+
+
+def _turned_targets(grippers: GripperPath, yaw: float, pivot, cell) -> tuple:
+    """The frames turned by ``yaw`` [rad] about the vertical through ``pivot`` and the targets
+    a search checks on them (:func:`with_approach`): (frames, (K', 2, 3) positions [m],
+    (K', 2, 3, 3) matrices)."""
+    turned = moved_grippers(grippers, TableMove(yaw=yaw, pivot=pivot))
+    return (turned, *with_approach(turned.positions, turned.matrices, cell))
+
+
+def within_spheres(grippers: GripperPath, cell) -> bool:
+    """Whether the job where it lies (turned by 0) may pass a placement search of zero extent
+    (the reach repair's search where the job lies): every target of one of the two arm
+    assignments, the approach and the retreat included, within its arm's reach sphere
+    (:func:`dloplan.robot.placement.within_reach`, the first test of
+    :func:`dloplan.robot.placement.search_placement`, on the same targets as
+    :func:`placements`). When not, such a search finds nothing, and solves no IK to say so."""
+    from ...robot.placement import within_reach
+    from ...robot.yumi import yumi
+
+    _, positions, _ = _turned_targets(grippers, 0.0, _pivot(grippers), cell)
+    robot = yumi() if cell is None else cell.robot
+    return any(bool(within_reach(robot, positions[:, order], np.zeros((1, 3))).all())
+               for order in ([0, 1], [1, 0]))
+
+
 def placements(grippers: GripperPath, *, searches=SEARCHES, yaws=YAWS, cell=None):
     """Placements of the job where the robot reaches every planned pose, smallest turn first.
 
@@ -271,13 +300,12 @@ def placements(grippers: GripperPath, *, searches=SEARCHES, yaws=YAWS, cell=None
     """
     from ...robot.placement import search_placement
 
-    pivot = grippers.positions.reshape(-1, 3).mean(axis=0) * [1.0, 1.0, 0.0]
+    pivot = _pivot(grippers)
     options = replace(ReachOptions() if cell is None else cell.reach, verdict_only=True)
     seen = set()
     for yaw in yaws:
-        turned = moved_grippers(grippers, TableMove(yaw=yaw, pivot=pivot))
+        turned, positions, matrices = _turned_targets(grippers, yaw, pivot, cell)
         side = left_clip(turned, cell)
-        positions, matrices = with_approach(turned.positions, turned.matrices, cell)
         messages = []
         for half, step, objective in searches:
             for clip in (side, 1 - side):
