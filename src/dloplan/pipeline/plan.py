@@ -70,7 +70,8 @@ def make_plan(job: Job | HarnessJob, *, verify: bool = False, check_robot: bool 
     if not (check_robot and repair):
         return run_job(job, verify=verify, check_robot=check_robot, progress=progress,
                        planned=planned)
-    # a program that fails is completed only if it is kept (the reach repair replaces it)
+    # the plan's program is completed only if it is kept (the reach repair replaces one that
+    # fails), after its figures were started (run_job's ``planned``)
     doc = run_job(job, progress=progress, planned=planned, complete_program=False)
     t0 = time.perf_counter()
     if not verify and (doc.program is None or doc.program.ok):
@@ -81,7 +82,7 @@ def make_plan(job: Job | HarnessJob, *, verify: bool = False, check_robot: bool 
         doc = with_verification(completed_program(doc), verification)
         return replace(doc, timings={**doc.timings, "verify": time.perf_counter() - t0})
     result = repair_plan(job, doc, verification, budget, progress, repaired=planned)
-    out, placement = completed_program(result.document), None
+    out, placement = result.document, None  # (complete: repair_plan)
     if result.proposal is not None:
         out = replace(out, warnings=out.warnings + (result.proposal.line(),))
         placement = placement_section(result.proposal.move, applied=False)

@@ -310,7 +310,7 @@ def plan_program(cell, grippers, trajectory, progress=quiet, *, complete: bool =
     (:func:`dloplan.robot.plugins.robot_program`): on the YuMi arm assignment, IK of every
     exported target, joint limits, arm-arm clearance, continuity and joint speeds; on a
     described cell the same checks along the tracked motion, table clearance and placement.
-    ``complete`` False: a program that fails may leave rows to complete when it is written
+    ``complete`` False: the program may leave rows to complete before it is written
     (``round_trips_on_demand``; :func:`completed_program`)."""
     from ..robot.plugins import robot_program
 
@@ -545,10 +545,11 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
         again with the document and its program when the program passes (``provisional``
         False: the other figures; a plan whose program fails is repaired).
     complete_program : bool
-        False: a robot program that fails may come with rows still to complete (its passing
-        round trips, :func:`plan_program`): the caller completes it (:func:`completed_program`)
-        unless it replaces it (:func:`dloplan.pipeline.make_plan`, whose reach repair makes
-        the programs of its placements).
+        False: the robot program may come with rows still to complete (its passing round
+        trips, :func:`plan_program`): the caller completes it (:func:`completed_program`)
+        unless it replaces it (:func:`dloplan.pipeline.make_plan`: after the figures of a
+        program that passes were started by ``planned``; the reach repair replaces one that
+        fails).
     """
     staged = plan_path(job, progress)
     result, target_check = staged.plan, staged.target_check

@@ -303,14 +303,18 @@ def yumi_program(grippers, trajectory, cell: RobotCell | None = None, *,
         program's; a passing round trip is judged from the verified joints' own solution
         (its value that solution's deviation, its note saying so: the controller's other
         solutions are not enumerated). A program that passes, whose only failures are
-        ``reach`` rows, or that would try the swapped assignment, is complete.
+        ``reach`` rows, or that would try the swapped assignment, has all its rows and is
+        timed; its passing round trips are enumerated by
+        :meth:`~dloplan.robot.program.RobotProgram.completed` (the reach repair's kept
+        placement: when the repair returns, after the plan's figures were started).
     round_trips_on_demand : bool
-        A program that fails is wanted complete only when it is written or printed (the plan's
-        own program, which the reach repair replaces when it finds a placement): its rows are
-        all made, with every verdict and failing row of the complete program, but its passing
-        round trips are judged from the verified joints' own solutions (as a verdict's) and
-        enumerated by :meth:`~dloplan.robot.program.RobotProgram.completed`. A program that
-        passes is complete.
+        The program is wanted complete only when it is written or printed (the plan's own
+        program in :func:`dloplan.pipeline.make_plan`: the reach repair replaces it when it
+        fails, and the figures of a plan whose program passes are started before it is
+        complete): its rows are all made, with every verdict and failing row of the complete
+        program, but its passing round trips are judged from the verified joints' own
+        solutions (as a verdict's) and enumerated by
+        :meth:`~dloplan.robot.program.RobotProgram.completed`.
 
     Returns
     -------
@@ -337,10 +341,7 @@ def yumi_program(grippers, trajectory, cell: RobotCell | None = None, *,
             other = _build(grippers, trajectory, cell, assignment.swapped(), passing=True)
             if other is not None and other.ok:
                 program = other
-    if program.trajectory is not None:
-        program = slowed(program)
-    # a passing program, and a verdict made complete (a kept placement's), enumerated now
-    return program.completed() if program.ok or verdict_only else program
+    return program if program.trajectory is None else slowed(program)
 
 
 def _check_inputs(grippers, trajectory) -> None:

@@ -70,6 +70,7 @@ from ...robot.urdf_cell import verify_on_cell
 from ...sim.statics import interpolate_clips
 from ...verify import check_snap_through
 from ..stages import (
+    completed_program,
     program_reachability,
     quiet,
     run_job,
@@ -874,7 +875,9 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
         refusal = (f"repair budget spent ({session.attempts} attempts, "
                    f"{time.perf_counter() - session.start:.0f} s): {summary(failures)}")
     final_job, final_doc, final_ver, move = verified
-    return RepairResult(final_job, with_verification(final_doc, final_ver),
+    # a kept placement's program has its passing round trips enumerated now: after the
+    # repaired plan's figures were started (``repaired``) and it was verified
+    return RepairResult(final_job, with_verification(completed_program(final_doc), final_ver),
                         final_ver, tuple(session.repairs), not failures, refusal, move,
                         before, session.attempts, time.perf_counter() - session.start,
                         session.proposal)
