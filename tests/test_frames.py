@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
-from dloplan.frames import UP, frame_from_axis, quaternion_x_axes, slerp_quaternions
+from dloplan.frames import UP, compose, frame_from_axis, quaternion_x_axes, slerp_quaternions
 
 
 def numpy_frames(u, up=UP) -> Rotation:
@@ -76,3 +76,19 @@ def test_quaternion_x_axes_are_the_rotations_first_columns():
     quaternions = Rotation.random(300, random_state=4).as_quat().reshape(100, 3, 4)
     expected = Rotation.from_quat(quaternions.reshape(-1, 4)).as_matrix()[:, :, 0]
     assert np.abs(quaternion_x_axes(quaternions).reshape(-1, 3) - expected).max() < 1e-15
+
+
+@pytest.mark.parametrize("sizes", [(2000, 2000), (1, 500), (500, 1)])
+def test_compose_is_scipys_product_bit_for_bit(sizes):
+    """``frames.compose`` (the replay's clip motion, the grasp roll's scores) is ``p * q``
+    element by element, bit for bit: unit quaternions of any rotation, small rotation vectors
+    (a replay's sub-steps), both orders, broadcast from one rotation either way; a single
+    rotation goes to scipy."""
+    rng = np.random.default_rng(7)
+    n, m = sizes
+    p = Rotation.from_quat(rng.normal(size=(n, 4)))
+    q = Rotation.from_rotvec(rng.normal(size=(m, 3)) * rng.uniform(0, 1e-3, size=(m, 1)))
+    for a, b in ((p, q), (q, p), (p, p[::-1])):
+        assert np.array_equal(compose(a, b).as_quat(), (a * b).as_quat())
+    single = Rotation.from_rotvec([0.1, 0.2, 0.3])
+    assert np.array_equal(compose(single, p).as_quat(), (single * p).as_quat())

@@ -32,6 +32,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..bounds import MAX_TRAJECTORY_SAMPLES
+from ..frames import compose
 from .limits import DEFAULT_MAX_ANGULAR_SPEED, DEFAULT_MAX_SPEED, MotionLimits, positive
 from .timelaw import TimeLaw, jerk_limited_law
 
@@ -102,10 +103,9 @@ def interpolate_poses(law: TimeLaw, positions, rotations, times):
     rotvecs = np.concatenate([segment_motion(pos, rotations)[1], np.zeros((2, 2, 3))])
     b, u = law.parameters(times, 0)
     out = law.blend(pos, times)[0]
-    rots = tuple(
-        rotations[a][b]
-        * Rotation.from_rotvec(u[0, :, 0, None] * rotvecs[b, a])
-        * Rotation.from_rotvec(u[0, :, 1, None] * rotvecs[b + 1, a])
+    rots = tuple(  # rotations[a][b] * (each segment's part) * (the next's), batched
+        compose(compose(rotations[a][b], Rotation.from_rotvec(u[0, :, 0, None] * rotvecs[b, a])),
+                Rotation.from_rotvec(u[0, :, 1, None] * rotvecs[b + 1, a]))
         for a in (0, 1)
     )
     return out, rots

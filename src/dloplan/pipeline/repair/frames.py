@@ -27,6 +27,7 @@ from dataclasses import replace
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ...frames import compose
 from ...grippers.path import GripperPath, relative_twist
 from ...sim.torsion import TwistReport
 from ..stages import plan_twist
@@ -176,7 +177,7 @@ def grasp_scores(grippers: GripperPath, cell, *, towards_robot: bool = True) -> 
     scores = np.empty((2, a))
     for c in range(2):
         frames = grippers.rotations[c][np.tile(range(k), a)]
-        wrist = (frames * rolls).apply(wrist_in_clip).reshape(a, k, 3)  # (rolls, shapes, 3)
+        wrist = compose(frames, rolls).apply(wrist_in_clip).reshape(a, k, 3)  # (rolls, shapes, 3)
         score = wrist[..., 2]
         for towards in (pos[:, c] - pos[:, 1 - c], *(() if base is None else (base - pos[:, c],))):
             towards = towards * [1.0, 1.0, 0.0]
