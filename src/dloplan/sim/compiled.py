@@ -27,7 +27,7 @@ import math
 
 import numpy as np
 
-from ..jit import njit
+from ..jit import njit, njit_leaf
 from ..physics.compiled import chain_derivatives, chain_energy
 from ..physics.twist_compiled import (
     interleaved_band,
@@ -41,7 +41,7 @@ CONVERGED, MAX_ITERATIONS, STALLED, SADDLE = 0, 1, 2, 3
 RUNNING = -1  # internal: none of them yet
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def _longest(p):
     """Largest point displacement of a step p over free points (3 coordinates each) [m]."""
     longest = 0.0
@@ -158,7 +158,7 @@ def restore_link_lengths(x, trial, first, stop):
     return True
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def newton_direction(h, g, shift, factor, p):
     """The full Newton step p = -(H + shift I)^-1 g by banded Cholesky (``factor`` scratch).
 
@@ -180,7 +180,7 @@ def newton_direction(h, g, shift, factor, p):
     return True, g_p, p_p
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def stop_status(residual, tolerance, h, scale, factor, iterations, max_iterations,
                  stop_at_saddle):
     """Why the loop stops here (converged and stable, out of iterations, at a saddle), or
@@ -201,7 +201,7 @@ def model_change(alpha, g_p, p_p, shift):
     return alpha * g_p + 0.5 * alpha**2 * (-g_p - shift * p_p)
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def model_step(h, g, shift, scale, radius, factor, p, twist):
     """The Newton step p for the shift, its size (:func:`twist_step_length` with ``twist``,
     else the largest point displacement), the factor alpha truncating it to the trust radius
@@ -391,7 +391,7 @@ def twist_trial(x, d1, p, link, trial, trial_d1, angles, correct):
     return True
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def twist_step_length(p):
     """Largest point displacement [m] or l theta [m] of a step over the free coordinates."""
     longest = 0.0
