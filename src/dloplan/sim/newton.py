@@ -175,9 +175,10 @@ def cholesky_band(band, shift, factor):
     """
     w = band.shape[0] - 1
     n = band.shape[1]
-    for j in range(n):
-        for i in range(w + 1):
+    for i in range(w + 1):  # row by row: the band's rows are contiguous, its columns strided
+        for j in range(n):
             factor[i, j] = band[i, j]
+    for j in range(n):
         factor[0, j] += shift
     bulk = max(n - w, 0)
     if not _bulk(np.int64(FACTOR), factor, factor[0], bulk):  # int64: one overload per width
