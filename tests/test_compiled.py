@@ -39,7 +39,7 @@ from dloplan.physics.compiled import (
     stretch_to_length,
 )
 from dloplan.sim.clips import ClipPoses, conform_guess, place_held_points
-from dloplan.sim.compiled import restore_link_lengths
+from dloplan.sim.compiled import CONVERGED, MAX_ITERATIONS, restore_link_lengths
 from dloplan.sim.newton import factor_band, solve_band, trust_region_newton
 from dloplan.sim.result import clip_reactions, residual_tolerance
 from dloplan.sim.statics import equilibrium, minimize_energy
@@ -333,3 +333,84 @@ def test_every_cached_kernel_has_a_name_of_its_own():
     assert names, "no compiled kernels found"
     assert [name for name in names if "<locals>" in name] == []
     assert [name for name, kernels in names.items() if len(kernels) > 1] == []
+
+
+_ALLOCATIONS = """
+import numpy as np
+from numba.core.runtime import rtsys
+from dloplan import catalogue_cable
+from dloplan.physics.chain import SpringChain
+from dloplan.physics.compiled import chain_energy
+from dloplan.sim.clips import ClipPoses, conform_guess
+from dloplan.sim.compiled import newton_positions
+from dloplan.sim.result import residual_tolerance
+from scipy.spatial.transform import Rotation
+
+cable = catalogue_cable("ethernet", n_links=10)
+chain = SpringChain.from_cable(cable)
+n = cable.n_links
+l = cable.rest_link_length
+clips = ClipPoses(np.array([[0.0, 0.0, 0.0], [0.4, 0.0, 0.0]]),
+                  Rotation.from_euler("z", [[0.0], [180.0]], degrees=True))
+x0 = conform_guess(cable, np.stack([np.linspace(-l / 2, 0.4 + l / 2, n + 1), np.zeros(n + 1),
+                                    -0.1 * np.sin(np.linspace(0.0, np.pi, n + 1))], 1), clips)
+
+
+def solve(max_iterations):
+    x = x0.copy()
+    history = np.empty(max_iterations + 1)
+    history[0] = chain_energy(x, *chain.constants)
+    grad, band = np.empty_like(x), np.empty((9, 3 * (n + 1)))
+    before = rtsys.get_allocation_stats().alloc
+    status, iterations, *_ = newton_positions(
+        x, 2, n - 1, *chain.constants, cable.length, residual_tolerance(cable, x=x0),
+        max_iterations, np.int64(0), 0.25 * cable.length, history, np.int64(1), grad, band,
+        np.bool_(True), np.bool_(chain.stiff_axial))
+    return int(status), int(iterations), rtsys.get_allocation_stats().alloc - before
+
+
+solve(500)  # compiled or loaded (the runtime starts with the first kernel)
+print(*solve(2), *solve(500))
+"""
+
+
+def test_the_newton_loop_allocates_its_work_arrays_once_per_solve():
+    """The plants' Newton loop allocates its work arrays once per solve, none per iteration:
+    the kernels it calls every iteration (energy, derivatives, banded Cholesky, the step, the
+    link-length correction) allocate nothing and count no references (``dloplan.jit.
+    njit_leaf``); before, an iteration allocated about six arrays (the bending blocks, two
+    link directions per energy, the correction's five) and counted every array argument of
+    every call (ten iterations allocated 59 arrays more than two). numba counts allocations
+    only when told at its start: a fresh interpreter."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "NUMBA_NRT_STATS": "1"}
+    out = subprocess.run([sys.executable, "-c", _ALLOCATIONS], env=env, capture_output=True,
+                         text=True, check=True).stdout.split()
+    stopped, two, few, converged, iterations, many = (int(v) for v in out)
+    assert (stopped, two) == (MAX_ITERATIONS, 2) and converged == CONVERGED and iterations >= 8
+    assert many == few  # the work arrays and the arguments' runtime records, once per call
+
+
+def test_the_leaf_kernels_are_compiled_without_the_runtime():
+    """What the Newton loops call every iteration is a leaf kernel (no reference counts), and
+    a leaf kernel cannot allocate: numba refuses to compile one that does."""
+    from numba.core.errors import NumbaError
+
+    from dloplan.jit import njit_leaf
+    from dloplan.physics.compiled import chain_derivatives, chain_energy
+    from dloplan.sim.compiled import model_step, restored_lengths
+    from dloplan.sim.newton import cholesky_band, cholesky_solve
+
+    for kernel in (chain_energy, chain_derivatives, cholesky_band, cholesky_solve, model_step,
+                   restored_lengths):
+        assert kernel.targetoptions.get("_nrt") is False, kernel.__name__
+
+    @njit_leaf
+    def allocating(n):
+        return np.zeros(n).sum()
+
+    with pytest.raises(NumbaError):
+        allocating(3)

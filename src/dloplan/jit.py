@@ -286,3 +286,23 @@ def njit(*args, **options):
     """``numba.njit(*args, **options)`` with the cache lock installed (see the module docstring)."""
     install_cache_lock()
     return numba.njit(*args, **options)
+
+
+def njit_leaf(*args, **options):
+    """:func:`njit` for a kernel that allocates nothing: numba's runtime (NRT) off for it.
+
+    numba counts the references of every array a compiled function receives or slices: an
+    atomic increment and decrement of the array's counter per argument and view, on every call.
+    The solvers' small kernels (a chain's energy and derivatives, the banded Cholesky, a Newton
+    step: each a few hundred to a few thousand floating-point operations on arrays of a few
+    dozen points) are called several times per Newton iteration, and those atomics were about
+    a third of the plants' Newton loop (``perf`` on a closed-loop study, docs/performance.md,
+    branch cl6). A kernel compiled without the runtime neither counts references nor can
+    allocate (numba refuses to compile ``np.empty`` there): its arrays are borrowed from the
+    caller, which holds them for the call, as every compiled caller does. The arithmetic is the
+    same instructions, bit for bit.
+
+    numba's option for this is ``_nrt`` (numba 0.68: one of :class:`numba.core.cpu.CPUTargetOptions`
+    mapped to the compiler flag ``nrt``); the kernel's other options are ``njit``'s.
+    """
+    return njit(*args, _nrt=False, **options)

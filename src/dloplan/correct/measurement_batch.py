@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry import arc_length
+from ..jit import njit
 from ..sim.clips import HELD_INDICES
 from .measurement import (
     DENSE,
@@ -50,25 +51,48 @@ def resample_polylines(points: np.ndarray, n_points: int) -> np.ndarray:
 
     Each coordinate is :func:`numpy.interp`'s ``slope (t - s_j) + x_j`` with ``slope = (x_{j+1}
     - x_j) / (s_{j+1} - s_j)``, the target's own point where it is one, at the targets
-    ``linspace(0, s_end, n_points)``.
+    ``linspace(0, s_end, n_points)``. The arc lengths and the targets are numpy's
+    (:func:`dloplan.geometry.arc_length`, :func:`numpy.linspace`); the search and the
+    interpolation are compiled (:func:`_interpolated`): numpy's expressions of the same numbers
+    made a dozen passes over (B, n_points, k) arrays, 0.06 ms a sample of the closed-loop
+    study's measurements.
 
     Returns
     -------
     numpy.ndarray
         (B, n_points, 3) [m].
     """
+    points = np.ascontiguousarray(points, dtype=float)
     s = arc_length(points)  # (B, k)
-    target = np.linspace(0.0, s[:, -1], n_points, axis=-1)  # (B, n_points)
-    j = np.sum(s[:, None, :-1] <= target[:, :, None], axis=-1) - 1  # s_j <= t < s_{j+1}
-    j = np.clip(j, 0, s.shape[1] - 2)
-    s_j = np.take_along_axis(s, j, axis=1)
-    s_next = np.take_along_axis(s, j + 1, axis=1)
-    x_j = np.take_along_axis(points, j[:, :, None], axis=1)
-    x_next = np.take_along_axis(points, j[:, :, None] + 1, axis=1)
-    slope = (x_next - x_j) / (s_next - s_j)[:, :, None]
-    out = slope * (target - s_j)[:, :, None] + x_j
-    out = np.where((target == s_j)[:, :, None], x_j, out)
-    return np.where((target == s_next)[:, :, None], x_next, out)
+    out = np.empty((points.shape[0], n_points, 3))
+    _interpolated(points, s, np.linspace(0.0, s[:, -1], n_points, axis=-1), out)
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def _interpolated(points, s, target, out):
+    """``out`` (B, n_points, 3) <- :func:`resample_polylines`' values of ``points`` (B, k, 3)
+    with arc lengths ``s`` (B, k) at ``target`` (B, n_points): j the number of s_0 .. s_(k-2)
+    at or below the target less one, within 0 .. k - 2; a division by zero (a link of no
+    length) gives numpy's inf or NaN, not an exception."""
+    k = points.shape[1]
+    for b in range(points.shape[0]):
+        for q in range(target.shape[1]):
+            t = target[b, q]
+            j = -1
+            for i in range(k - 1):
+                if s[b, i] <= t:
+                    j += 1
+            j = min(max(j, 0), k - 2)
+            s_j, s_next = s[b, j], s[b, j + 1]
+            for a in range(3):
+                x_j, x_next = points[b, j, a], points[b, j + 1, a]
+                value = (x_next - x_j) / (s_next - s_j) * (t - s_j) + x_j
+                if t == s_j:
+                    value = x_j
+                if t == s_next:
+                    value = x_next
+                out[b, q, a] = value
 
 
 def measured_points(shapes: np.ndarray, seeds, noise: float, n_measured: int) -> np.ndarray:

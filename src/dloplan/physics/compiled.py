@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from ..jit import njit
+from ..jit import njit, njit_leaf
 
 _SERIES_BELOW = 1e-3  # as in dloplan.physics.bending
 _SIN_FLOOR = 1e-12
@@ -75,7 +75,7 @@ def _joint_angle(u, v):
     return c, s, math.atan2(s, c)
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def joint_directions(x, i, u, v):
     """Link directions u, v (filled in), lengths, c = u.v, sin and angle beta of joint i."""
     la, du = _unit_link(x, i)
@@ -87,9 +87,13 @@ def joint_directions(x, i, u, v):
     return la, lb, c, s, beta
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def chain_energy(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity):
-    """Energy U^s + U^b + U^g [J] of one shape x (n + 1, 3) (contacts excluded)."""
+    """Energy U^s + U^b + U^g [J] of one shape x (n + 1, 3) (contacts excluded).
+
+    Each link's direction is computed once and serves both joints it belongs to (the same
+    values as computing it per joint), and nothing is allocated.
+    """
     n_points = x.shape[0]
     total = 0.0
     for i in range(n_points - 1):
@@ -98,17 +102,19 @@ def chain_energy(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity):
         dz = x[i + 1, 2] - x[i, 2]
         stretch = math.sqrt(dx * dx + dy * dy + dz * dz) - rest_lengths[i]
         total += 0.5 * k_s * stretch * stretch
-    u = np.empty(3)
-    v = np.empty(3)
-    for i in range(n_points - 2):
-        beta = joint_directions(x, i, u, v)[4]
-        total += 0.5 * k_b * (beta - rest_angles[i]) ** 2
+    if n_points > 2:
+        v = _unit_link(x, 0)[1]
+        for i in range(n_points - 2):
+            u = v  # the joint's first link is the joint before's second
+            v = _unit_link(x, i + 1)[1]
+            beta = _joint_angle(u, v)[2]
+            total += 0.5 * k_b * (beta - rest_angles[i]) ** 2
     for i in range(n_points):
         total -= masses[i] * (gravity[0] * x[i, 0] + gravity[1] * x[i, 1] + gravity[2] * x[i, 2])
     return total
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def add_point_blocks(band, blocks):
     """Add one symmetric 3x3 block per point (n + 1, 3, 3) to the band's diagonal blocks."""
     for i in range(blocks.shape[0]):
@@ -117,7 +123,7 @@ def add_point_blocks(band, blocks):
                 band[a - b, 3 * i + b] += blocks[i, a, b]
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def _axial_terms(x, k_s, rest_lengths, grad, band, with_band):
     """Add U^s's gradient (and Hessian, ``with_band``) into grad, band; return U^s [J]."""
     total = 0.0
@@ -148,11 +154,32 @@ def _axial_terms(x, k_s, rest_lengths, grad, band, with_band):
     return total
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def _link_blocks(a, b, terms):
+    """Entry (a, b) of a joint's link blocks d^2U/da^2, d^2U/da db, d^2U/db^2 [N/m] (a = x1 -
+    x0, b = x2 - x1): d1 d^2c + d2 dc dc^T with d^2c -(u w^T + w u^T + c P_u)/|a|^2,
+    (P_v - u z^T)/(|a||b|) and its b counterpart (u, v the unit links, dca = w / |a|,
+    dcb = z / |b| the gradients of c, ia = 1/|a|, ib = 1/|b|, d1 and d2 dU/dc and d^2U/dc^2:
+    ``terms`` = (u, v, dca, dcb, c, ia, ib, d1, d2))."""
+    u, v, dca, dcb, c, ia, ib, d1, d2 = terms
+    caa_eye = -c * ia * ia  # the identity's coefficients in d^2c/da^2, d^2c/dadb, d^2c/db^2
+    cab_eye = ia * ib
+    cbb_eye = -c * ib * ib
+    caa = -(u[a] * dca[b] + dca[a] * u[b]) * ia + caa_eye * (-u[a] * u[b])
+    cab = cab_eye * (-v[a] * v[b]) - u[a] * dcb[b] * ia
+    cbb = -(v[a] * dcb[b] + dcb[a] * v[b]) * ib + cbb_eye * (-v[a] * v[b])
+    if a == b:
+        caa += caa_eye
+        cab += cab_eye
+        cbb += cbb_eye
+    return (d1 * caa + d2 * dca[a] * dca[b], d1 * cab + d2 * dca[a] * dcb[b],
+            d1 * cbb + d2 * dcb[a] * dcb[b])
+
+
+@njit_leaf(cache=True)
 def _bending_terms(x, k_b, rest_angles, grad, band, with_band):
     """Add U^b's gradient (and Hessian, ``with_band``) into grad, band; return U^b [J]."""
     total = 0.0
-    hl = np.empty((2, 2, 3, 3) if with_band else (0, 0, 0, 0))  # link blocks aa, ab, bb
     if x.shape[0] < 3:
         return total
     lb, v = _unit_link(x, 0)
@@ -177,32 +204,19 @@ def _bending_terms(x, k_b, rest_angles, grad, band, with_band):
             grad[i + 2, a] += d1 * dcb[a]
         if not with_band:
             continue
-        caa_eye = -c * ia * ia  # the identity's coefficients in d^2c/da^2, d^2c/dadb, d^2c/db^2
-        cab_eye = ia * ib
-        cbb_eye = -c * ib * ib
-        for a in range(3):
-            for b in range(3):
-                # d^2c: -(u w^T + w u^T + c P_u)/|a|^2, (P_v - u z^T)/(|a||b|), and for b
-                caa = -(u[a] * dca[b] + dca[a] * u[b]) * ia + caa_eye * (-u[a] * u[b])
-                cab = cab_eye * (-v[a] * v[b]) - u[a] * dcb[b] * ia
-                cbb = -(v[a] * dcb[b] + dcb[a] * v[b]) * ib + cbb_eye * (-v[a] * v[b])
-                if a == b:
-                    caa += caa_eye
-                    cab += cab_eye
-                    cbb += cbb_eye
-                hl[0, 0, a, b] = d1 * caa + d2 * dca[a] * dca[b]
-                hl[0, 1, a, b] = d1 * cab + d2 * dca[a] * dcb[b]
-                hl[1, 1, a, b] = d1 * cbb + d2 * dcb[a] * dcb[b]
-        # point blocks of the joint's points (i, i+1, i+2) from the link blocks: a = x1 - x0,
-        # b = x2 - x1; on and below the diagonal: haa; hba - haa; haa - hab - hba + hbb;
-        # -hba; hba - hbb; hbb
+        # point blocks of the joint's points (i, i+1, i+2) from the link blocks: on and below
+        # the diagonal: haa; hba - haa; haa - hab - hba + hbb; -hba; hba - hbb; hbb
         r0 = 3 * i
+        terms = (u, v, dca, dcb, c, ia, ib, d1, d2)
+        blocks = (_link_blocks(0, 0, terms), _link_blocks(0, 1, terms),
+                  _link_blocks(0, 2, terms), _link_blocks(1, 0, terms),
+                  _link_blocks(1, 1, terms), _link_blocks(1, 2, terms),
+                  _link_blocks(2, 0, terms), _link_blocks(2, 1, terms),
+                  _link_blocks(2, 2, terms))  # entry (a, b) at 3 a + b: no array to allocate
         for a in range(3):
             for b in range(3):
-                haa = hl[0, 0, a, b]
-                hab = hl[0, 1, a, b]
-                hba = hl[0, 1, b, a]
-                hbb = hl[1, 1, a, b]
+                haa, hab, hbb = blocks[3 * a + b]
+                hba = blocks[3 * b + a][1]
                 band[3 + a - b, r0 + b] += hba - haa  # (i+1, i)
                 band[6 + a - b, r0 + b] -= hba  # (i+2, i)
                 band[3 + a - b, r0 + 3 + b] += hba - hbb  # (i+2, i+1)
@@ -213,7 +227,7 @@ def _bending_terms(x, k_b, rest_angles, grad, band, with_band):
     return total
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def _gravity_terms(x, masses, gravity, grad):
     """Add U^g's gradient -m_i g into grad; return U^g [J]."""
     total = 0.0
@@ -225,7 +239,7 @@ def _gravity_terms(x, masses, gravity, grad):
     return total
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, grad, band):
     """Energy [J], and in place its gradient (n + 1, 3) [N] and lower Hessian band [N/m].
 

@@ -27,7 +27,7 @@ import math
 
 import numpy as np
 
-from ..jit import njit
+from ..jit import njit, njit_leaf
 from ..physics.compiled import chain_derivatives, chain_energy
 from ..physics.twist_compiled import (
     interleaved_band,
@@ -41,7 +41,7 @@ CONVERGED, MAX_ITERATIONS, STALLED, SADDLE = 0, 1, 2, 3
 RUNNING = -1  # internal: none of them yet
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def _longest(p):
     """Largest point displacement of a step p over free points (3 coordinates each) [m]."""
     longest = 0.0
@@ -93,12 +93,20 @@ def restore_link_lengths(x, trial, first, stop):
     bool
         True if the correction was applied.
     """
+    return restored_lengths(x, trial, first, stop, np.empty((x.shape[0], 3)),
+                            np.empty((4, x.shape[0])))
+
+
+@njit_leaf(cache=True)
+def restored_lengths(x, trial, first, stop, tangents, rows):
+    """:func:`restore_link_lengths` on work arrays of the caller's: ``tangents`` (n + 1, 3) and
+    ``rows`` (4, n + 1) (the residual, the diagonal, the upper diagonal and the multipliers of
+    the tridiagonal system); the same arithmetic, nothing allocated."""
     n_points = x.shape[0]
     j0 = first - 1  # the links touching a free point: j0 .. j1 - 1 (link j joins j, j + 1)
     j1 = min(stop, n_points - 1)
     m = j1 - j0
-    tangents = np.empty((m, 3))
-    residual, diagonal, upper, multipliers = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
+    residual, diagonal, upper, multipliers = rows[0], rows[1], rows[2], rows[3]
     step = 0.0
     for j in range(j0, j1):
         k = j - j0
@@ -158,7 +166,7 @@ def restore_link_lengths(x, trial, first, stop):
     return True
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def newton_direction(h, g, shift, factor, p):
     """The full Newton step p = -(H + shift I)^-1 g by banded Cholesky (``factor`` scratch).
 
@@ -180,7 +188,7 @@ def newton_direction(h, g, shift, factor, p):
     return True, g_p, p_p
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def stop_status(residual, tolerance, h, scale, factor, iterations, max_iterations,
                  stop_at_saddle):
     """Why the loop stops here (converged and stable, out of iterations, at a saddle), or
@@ -201,7 +209,7 @@ def model_change(alpha, g_p, p_p, shift):
     return alpha * g_p + 0.5 * alpha**2 * (-g_p - shift * p_p)
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def model_step(h, g, shift, scale, radius, factor, p, twist):
     """The Newton step p for the shift, its size (:func:`twist_step_length` with ``twist``,
     else the largest point displacement), the factor alpha truncating it to the trust radius
@@ -226,9 +234,18 @@ def largest_force(grad, first, stop):
 
 
 @njit(cache=True, inline="always")
+def copy_points(source, target):
+    """``target`` <- ``source`` (n + 1, 3), element by element (a kernel without numba's
+    runtime, :func:`dloplan.jit.njit_leaf`, has no array assignment)."""
+    for i in range(source.shape[0]):
+        for a in range(3):
+            target[i, a] = source[i, a]
+
+
+@njit(cache=True, inline="always")
 def moved_by(x, alpha, p, first, trial):
     """``trial`` <- ``x`` with the free points from ``first`` on moved by alpha p [m]."""
-    trial[:] = x
+    copy_points(x, trial)
     for j in range(p.shape[0]):
         trial[first + j // 3, j % 3] += alpha * p[j]
 
@@ -283,17 +300,28 @@ def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses
     """
     free = slice(3 * first, 3 * stop)
     n_free = 3 * (stop - first)
-    factor = np.empty((band.shape[0], n_free))
-    p = np.empty(n_free)
-    trial = np.empty_like(x)
-    corrected = np.empty_like(x)
+    return _newton_loop(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses, gravity,
+                        length_scale, tolerance, max_iterations, iterations, radius, history,
+                        n_history, grad, band, grad.ravel()[free], band[:, free],
+                        stop_at_saddle, correct_lengths, restart,
+                        np.empty((band.shape[0], n_free)), np.empty(n_free), np.empty_like(x),
+                        np.empty_like(x), np.empty((x.shape[0], 3)), np.empty((4, x.shape[0])))
+
+
+@njit_leaf(cache=True)
+def _newton_loop(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses, gravity,
+                 length_scale, tolerance, max_iterations, iterations, radius, history, n_history,
+                 grad, band, g, h, stop_at_saddle, correct_lengths, restart, factor, p, trial,
+                 corrected, tangents, rows):
+    """:func:`newton_positions`' loop on its work arrays (the factor, the step, two trial
+    states and :func:`restored_lengths`' arrays): nothing allocated, no reference counted per
+    iteration (:func:`dloplan.jit.njit_leaf`). ``g`` and ``h`` are the free coordinates' views
+    of ``grad`` (flattened) and ``band``, which every iteration rewrites in place."""
     shift = 0.0
     f = history[n_history - 1]
     while True:
         chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, grad, band)
         residual = largest_force(grad, first, stop)
-        g = grad.ravel()[free]
-        h = band[:, free]
         scale = np.mean(h[0])
         status = stop_status(residual, tolerance, h, scale, factor, iterations, max_iterations,
                              stop_at_saddle)
@@ -308,12 +336,12 @@ def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses
             moved_by(x, alpha, p, first, trial)
             f_trial = chain_energy(trial, k_s, rest_lengths, k_b, rest_angles, masses, gravity)
             if correct_lengths and wants_correction(f, f_trial, predicted):
-                corrected[:] = trial
-                if restore_link_lengths(x, corrected, first, stop):
+                copy_points(trial, corrected)
+                if restored_lengths(x, corrected, first, stop, tangents, rows):
                     f_corrected = chain_energy(corrected, k_s, rest_lengths, k_b, rest_angles,
                                                masses, gravity)
                     if f_corrected < f_trial:
-                        trial[:] = corrected
+                        copy_points(corrected, trial)
                         f_trial = f_corrected
             tried = shift
             accepted, shift, radius = step_verdict(f, f_trial, predicted, shift, scale, radius,
@@ -321,7 +349,7 @@ def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses
             if accepted:
                 if restart and shift < tried:  # relaxed: very successful
                     shift = 0.0
-                x[:] = trial
+                copy_points(trial, x)
                 f = f_trial
                 break
         iterations += 1
@@ -391,7 +419,7 @@ def twist_trial(x, d1, p, link, trial, trial_d1, angles, correct):
     return True
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def twist_step_length(p):
     """Largest point displacement [m] or l theta [m] of a step over the free coordinates."""
     longest = 0.0

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from ..jit import njit
+from ..jit import njit, njit_leaf
 
 NEUTRAL = 1e-9
 """Relative shift under which a Hessian still counts as positive (semi-)definite: a mode of zero
@@ -135,22 +135,22 @@ def _bulk_pass(step, factor, rhs, stop, w):
 # qualified name, numba tells compilations apart by a per-process counter in the symbol name, and
 # cached code written by two processes (two test workers compiling at once) then holds two
 # different kernels under one symbol: the loader linked the width-8 pass into width-10 solves.
-@njit(cache=True)
+@njit_leaf(cache=True)
 def _bulk_8(step, factor, rhs, stop):
     return _bulk_pass(step, factor, rhs, stop, 8)
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def _bulk_10(step, factor, rhs, stop):
     return _bulk_pass(step, factor, rhs, stop, 10)
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def _bulk_1(step, factor, rhs, stop):
     return _bulk_pass(step, factor, rhs, stop, 1)
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def _bulk(step, factor, rhs, stop):
     """:func:`_bulk_pass` at the factor's half width, with a constant width where one is
     compiled."""
@@ -164,7 +164,7 @@ def _bulk(step, factor, rhs, stop):
     return _bulk_pass(step, factor, rhs, stop, w)
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def cholesky_band(band, shift, factor):
     """Compiled banded Cholesky: ``factor`` <- L of ``band + shift I``; returns False (``factor``
     then undefined) if a pivot is not positive. O(N w^2) for N unknowns and half bandwidth w.
@@ -175,9 +175,10 @@ def cholesky_band(band, shift, factor):
     """
     w = band.shape[0] - 1
     n = band.shape[1]
-    for j in range(n):
-        for i in range(w + 1):
+    for i in range(w + 1):  # row by row: the band's rows are contiguous, its columns strided
+        for j in range(n):
             factor[i, j] = band[i, j]
+    for j in range(n):
         factor[0, j] += shift
     bulk = max(n - w, 0)
     if not _bulk(np.int64(FACTOR), factor, factor[0], bulk):  # int64: one overload per width
@@ -188,7 +189,7 @@ def cholesky_band(band, shift, factor):
     return True
 
 
-@njit(cache=True)
+@njit_leaf(cache=True)
 def cholesky_solve(factor, rhs):
     """Solve L L^T y = rhs in place with a factor of :func:`cholesky_band`."""
     n = factor.shape[1]
