@@ -356,7 +356,8 @@ def _newton_loop(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses, gr
                 copy_points(trial, corrected)
                 if restored_lengths(x, corrected, first, stop, tangents, rows):
                     f_corrected = kept_chain_energy(corrected, k_s, rest_lengths, k_b,
-                                                    rest_angles, masses, gravity, corrected_geometry)
+                                                    rest_angles, masses, gravity,
+                                                    corrected_geometry)
                     if f_corrected < f_trial:
                         copy_points(corrected, trial)
                         copy_points(corrected_geometry, trial_geometry)
