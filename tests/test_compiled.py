@@ -33,8 +33,12 @@ from dloplan.physics.chain import (
     shape_forces,
 )
 from dloplan.physics.compiled import (
+    GEOMETRY_COLUMNS,
     chain_derivatives,
+    chain_energy,
     chain_gradient,
+    kept_chain_derivatives,
+    kept_chain_energy,
     resample_polyline,
     stretch_to_length,
 )
@@ -103,6 +107,30 @@ def test_the_gradient_kernel_is_the_derivatives_kernels_gradient_bit_for_bit(kin
         band = np.empty((9, 3 * len(x)))
         assert chain_gradient(x, *constants, grad) == chain_derivatives(x, *constants, full, band)
         np.testing.assert_array_equal(grad, full)
+
+@pytest.mark.parametrize("kind", ["straight", "curved", "thesis"])
+def test_the_derivatives_from_the_energys_kept_geometry_are_equal_bit_for_bit(kind, rng):
+    """The Newton loop's derivatives at an accepted trial reuse the link lengths, directions
+    and joint angles its energy computed (``kept_chain_energy``, ``kept_chain_derivatives``):
+    the energy, gradient and band are ``chain_energy``'s and ``chain_derivatives``' exactly,
+    near rest (the small-angle series, a straight chain), bent and tangled; and the kept rows
+    are x's, not a shape evaluated before."""
+    cable, chain = chain_cases()[kind]
+    base = cable.rest_shape if cable.rest_shape is not None else arc(cable, 0.0)
+    constants = chain.constants
+    geometry = np.full((len(base) - 1, GEOMETRY_COLUMNS), np.nan)
+    for scale in (0.0, 1e-6, 1e-4, 0.01, 0.05):
+        x = np.ascontiguousarray(base + scale * rng.standard_normal(base.shape))
+        grad, kept_grad = np.empty_like(x), np.empty_like(x)
+        band, kept_band = np.empty((9, 3 * len(x))), np.full((9, 3 * len(x)), np.nan)
+        f = chain_energy(x, *constants)
+        assert kept_chain_energy(x, *constants, geometry) == f
+        assert not np.isnan(geometry[:-1]).any()
+        assert kept_chain_derivatives(x, *constants, geometry, kept_grad, kept_band) \
+            == chain_derivatives(x, *constants, grad, band)
+        np.testing.assert_array_equal(kept_grad, grad)
+        np.testing.assert_array_equal(kept_band, band)
+
 
 def test_contact_terms_are_active_in_the_contact_case(rng):
     cable, chain = chain_cases()["contacts"]
@@ -400,11 +428,18 @@ def test_the_leaf_kernels_are_compiled_without_the_runtime():
     from numba.core.errors import NumbaError
 
     from dloplan.jit import njit_leaf
-    from dloplan.physics.compiled import chain_derivatives, chain_energy
+    from dloplan.physics.compiled import (
+        chain_derivatives,
+        chain_energy,
+        chain_geometry,
+        kept_chain_derivatives,
+        kept_chain_energy,
+    )
     from dloplan.sim.compiled import model_step, restored_lengths
     from dloplan.sim.newton import cholesky_band, cholesky_solve
 
-    for kernel in (chain_energy, chain_derivatives, cholesky_band, cholesky_solve, model_step,
+    for kernel in (chain_energy, chain_derivatives, chain_geometry, kept_chain_energy,
+                   kept_chain_derivatives, cholesky_band, cholesky_solve, model_step,
                    restored_lengths):
         assert kernel.targetoptions.get("_nrt") is False, kernel.__name__
 

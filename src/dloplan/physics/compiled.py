@@ -123,25 +123,18 @@ def add_point_blocks(band, blocks):
                 band[a - b, 3 * i + b] += blocks[i, a, b]
 
 
-@njit_leaf(cache=True)
-def _axial_terms(x, k_s, rest_lengths, grad, band, with_band):
-    """Add U^s's gradient (and Hessian, ``with_band``) into grad, band; return U^s [J]."""
-    total = 0.0
-    for i in range(x.shape[0] - 1):
-        e0 = x[i + 1, 0] - x[i, 0]
-        e1 = x[i + 1, 1] - x[i, 1]
-        e2 = x[i + 1, 2] - x[i, 2]
-        length = math.sqrt(0.0 + e0 * e0 + e1 * e1 + e2 * e2)
-        stretch = length - rest_lengths[i]
-        total += 0.5 * k_s * stretch * stretch
-        inverse = 1.0 / length
-        t = (e0 * inverse, e1 * inverse, e2 * inverse)
-        for a in range(3):
-            g = k_s * stretch * t[a]
-            grad[i + 1, a] += g
-            grad[i, a] -= g
-        if not with_band:
-            continue
+@njit(cache=True, inline="always")
+def _axial_link(i, e, length, k_s, rest_length, grad, band, with_band):
+    """Add link i's axial gradient (and Hessian, ``with_band``) into grad, band, from its
+    vector e (a 3-tuple) and length [m]; return its energy [J]."""
+    stretch = length - rest_length
+    inverse = 1.0 / length
+    t = (e[0] * inverse, e[1] * inverse, e[2] * inverse)
+    for a in range(3):
+        g = k_s * stretch * t[a]
+        grad[i + 1, a] += g
+        grad[i, a] -= g
+    if with_band:
         ratio = stretch * inverse
         for a in range(3):  # blocks (i, i) and (i+1, i+1): h; (i+1, i): -h
             for b in range(3):
@@ -151,6 +144,20 @@ def _axial_terms(x, k_s, rest_lengths, grad, band, with_band):
                     band[a - b, 3 * i + b] += h
                     band[a - b, 3 * i + 3 + b] += h
                 band[3 + a - b, 3 * i + b] -= h
+    return 0.5 * k_s * stretch * stretch
+
+
+@njit_leaf(cache=True)
+def _axial_terms(x, k_s, rest_lengths, grad, band, with_band):
+    """Add U^s's gradient (and Hessian, ``with_band``) into grad, band; return U^s [J]."""
+    total = 0.0
+    for i in range(x.shape[0] - 1):
+        e0 = x[i + 1, 0] - x[i, 0]
+        e1 = x[i + 1, 1] - x[i, 1]
+        e2 = x[i + 1, 2] - x[i, 2]
+        length = math.sqrt(0.0 + e0 * e0 + e1 * e1 + e2 * e2)
+        total += _axial_link(i, (e0, e1, e2), length, k_s, rest_lengths[i], grad, band,
+                             with_band)
     return total
 
 
@@ -176,34 +183,27 @@ def _link_blocks(a, b, terms):
             d1 * cbb + d2 * dcb[a] * dcb[b])
 
 
-@njit_leaf(cache=True)
-def _bending_terms(x, k_b, rest_angles, grad, band, with_band):
-    """Add U^b's gradient (and Hessian, ``with_band``) into grad, band; return U^b [J]."""
-    total = 0.0
-    if x.shape[0] < 3:
-        return total
-    lb, v = _unit_link(x, 0)
-    for i in range(x.shape[0] - 2):
-        la, u = lb, v  # the joint's first link is the joint before's second
-        lb, v = _unit_link(x, i + 1)
-        c, s, beta = _joint_angle(u, v)
-        total += 0.5 * k_b * (beta - rest_angles[i]) ** 2
-        if with_band:
-            d1, d2 = _cos_derivatives(k_b, rest_angles[i], c, s, beta)
-        else:  # the gradient alone (the explicit step's): no second derivative
-            d1, d2 = _cos_first(k_b, rest_angles[i], s, beta), 0.0
-        ia = 1.0 / la
-        ib = 1.0 / lb
-        dca = ((v[0] - c * u[0]) * ia, (v[1] - c * u[1]) * ia,
-               (v[2] - c * u[2]) * ia)  # dc/da = w / |a|
-        dcb = ((u[0] - c * v[0]) * ib, (u[1] - c * v[1]) * ib,
-               (u[2] - c * v[2]) * ib)  # dc/db = z / |b|
-        for a in range(3):
-            grad[i, a] -= d1 * dca[a]
-            grad[i + 1, a] += d1 * (dca[a] - dcb[a])
-            grad[i + 2, a] += d1 * dcb[a]
-        if not with_band:
-            continue
+@njit(cache=True, inline="always")
+def _bending_joint(i, la, lb, u, v, angle, k_b, rest_angle, grad, band, with_band):
+    """Add joint i's bending gradient (and Hessian, ``with_band``) into grad, band, from its
+    links' lengths la, lb [m], unit directions u, v (3-tuples) and ``angle`` = (c, s, beta)
+    (:func:`_joint_angle`); return its energy [J]."""
+    c, s, beta = angle
+    if with_band:
+        d1, d2 = _cos_derivatives(k_b, rest_angle, c, s, beta)
+    else:  # the gradient alone (the explicit step's): no second derivative
+        d1, d2 = _cos_first(k_b, rest_angle, s, beta), 0.0
+    ia = 1.0 / la
+    ib = 1.0 / lb
+    dca = ((v[0] - c * u[0]) * ia, (v[1] - c * u[1]) * ia,
+           (v[2] - c * u[2]) * ia)  # dc/da = w / |a|
+    dcb = ((u[0] - c * v[0]) * ib, (u[1] - c * v[1]) * ib,
+           (u[2] - c * v[2]) * ib)  # dc/db = z / |b|
+    for a in range(3):
+        grad[i, a] -= d1 * dca[a]
+        grad[i + 1, a] += d1 * (dca[a] - dcb[a])
+        grad[i + 2, a] += d1 * dcb[a]
+    if with_band:
         # point blocks of the joint's points (i, i+1, i+2) from the link blocks: on and below
         # the diagonal: haa; hba - haa; haa - hab - hba + hbb; -hba; hba - hbb; hbb
         r0 = 3 * i
@@ -224,6 +224,21 @@ def _bending_terms(x, k_b, rest_angles, grad, band, with_band):
                     band[a - b, r0 + b] += haa
                     band[a - b, r0 + 3 + b] += haa - hab - hba + hbb
                     band[a - b, r0 + 6 + b] += hbb
+    return 0.5 * k_b * (beta - rest_angle) ** 2
+
+
+@njit_leaf(cache=True)
+def _bending_terms(x, k_b, rest_angles, grad, band, with_band):
+    """Add U^b's gradient (and Hessian, ``with_band``) into grad, band; return U^b [J]."""
+    total = 0.0
+    if x.shape[0] < 3:
+        return total
+    lb, v = _unit_link(x, 0)
+    for i in range(x.shape[0] - 2):
+        la, u = lb, v  # the joint's first link is the joint before's second
+        lb, v = _unit_link(x, i + 1)
+        total += _bending_joint(i, la, lb, u, v, _joint_angle(u, v), k_b, rest_angles[i], grad,
+                                band, with_band)
     return total
 
 
@@ -252,6 +267,73 @@ def chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, g
     return (_axial_terms(x, k_s, rest_lengths, grad, band, with_band)
             + _bending_terms(x, k_b, rest_angles, grad, band, with_band)
             + _gravity_terms(x, masses, gravity, grad))
+
+
+GEOMETRY_COLUMNS = 10
+"""Columns of a chain's geometry rows (:func:`chain_geometry`): link i's vector e (0-2) and
+length (3) [m], its unit direction (4-6), and joint i's (links i, i + 1) c, sin and angle beta
+(7-9; the last row's unused)."""
+
+
+@njit_leaf(cache=True)
+def chain_geometry(x, geometry):
+    """The link vectors, lengths and directions and the joint angles of a shape x (n + 1, 3)
+    [m], written into ``geometry`` (n, :data:`GEOMETRY_COLUMNS`): the values the energy and the
+    derivatives compute (:func:`_unit_link`, :func:`_joint_angle`), kept so that the
+    derivatives at an accepted trial need not compute them again
+    (:func:`kept_chain_derivatives`)."""
+    u = (0.0, 0.0, 0.0)
+    for i in range(x.shape[0] - 1):
+        before = u  # the joint's (i - 1) first link
+        length, u = _unit_link(x, i)
+        for a in range(3):
+            geometry[i, a] = x[i + 1, a] - x[i, a]
+            geometry[i, 4 + a] = u[a]
+        geometry[i, 3] = length
+        if i > 0:
+            c, s, beta = _joint_angle(before, u)
+            geometry[i - 1, 7] = c
+            geometry[i - 1, 8] = s
+            geometry[i - 1, 9] = beta
+
+
+@njit_leaf(cache=True)
+def kept_chain_energy(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, geometry):
+    """:func:`chain_energy` [J], bit for bit, its geometry kept in ``geometry``
+    (:func:`chain_geometry`)."""
+    chain_geometry(x, geometry)
+    total = 0.0
+    for i in range(x.shape[0] - 1):
+        stretch = geometry[i, 3] - rest_lengths[i]
+        total += 0.5 * k_s * stretch * stretch
+    for i in range(x.shape[0] - 2):
+        total += 0.5 * k_b * (geometry[i, 9] - rest_angles[i]) ** 2
+    for i in range(x.shape[0]):
+        total -= masses[i] * (gravity[0] * x[i, 0] + gravity[1] * x[i, 1] + gravity[2] * x[i, 2])
+    return total
+
+
+@njit_leaf(cache=True)
+def kept_chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, geometry,
+                           grad, band):
+    """:func:`chain_derivatives`, bit for bit, from x's geometry computed before
+    (:func:`chain_geometry`, :func:`kept_chain_energy`): no square root or atan2."""
+    grad[:] = 0.0
+    band[:] = 0.0
+    with_band = np.bool_(True)
+    axial = 0.0
+    for i in range(x.shape[0] - 1):
+        axial += _axial_link(i, (geometry[i, 0], geometry[i, 1], geometry[i, 2]),
+                             geometry[i, 3], k_s, rest_lengths[i], grad, band, with_band)
+    bending = 0.0
+    for i in range(x.shape[0] - 2):
+        bending += _bending_joint(
+            i, geometry[i, 3], geometry[i + 1, 3],
+            (geometry[i, 4], geometry[i, 5], geometry[i, 6]),
+            (geometry[i + 1, 4], geometry[i + 1, 5], geometry[i + 1, 6]),
+            (geometry[i, 7], geometry[i, 8], geometry[i, 9]), k_b, rest_angles[i], grad, band,
+            with_band)
+    return axial + bending + _gravity_terms(x, masses, gravity, grad)
 
 
 @njit(cache=True)

@@ -28,7 +28,14 @@ import math
 import numpy as np
 
 from ..jit import njit, njit_leaf
-from ..physics.compiled import chain_derivatives, chain_energy
+from ..physics.compiled import (
+    GEOMETRY_COLUMNS,
+    chain_derivatives,
+    chain_energy,
+    chain_geometry,
+    kept_chain_derivatives,
+    kept_chain_energy,
+)
 from ..physics.twist_compiled import (
     interleaved_band,
     moved_directors,
@@ -235,10 +242,11 @@ def largest_force(grad, first, stop):
 
 @njit(cache=True, inline="always")
 def copy_points(source, target):
-    """``target`` <- ``source`` (n + 1, 3), element by element (a kernel without numba's
-    runtime, :func:`dloplan.jit.njit_leaf`, has no array assignment)."""
+    """``target`` <- ``source`` (n + 1, 3) (or any two 2-d arrays of one shape), element by
+    element (a kernel without numba's runtime, :func:`dloplan.jit.njit_leaf`, has no array
+    assignment)."""
     for i in range(source.shape[0]):
-        for a in range(3):
+        for a in range(source.shape[1]):
             target[i, a] = source[i, a]
 
 
@@ -305,22 +313,30 @@ def newton_positions(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses
                         n_history, grad, band, grad.ravel()[free], band[:, free],
                         stop_at_saddle, correct_lengths, restart,
                         np.empty((band.shape[0], n_free)), np.empty(n_free), np.empty_like(x),
-                        np.empty_like(x), np.empty((x.shape[0], 3)), np.empty((4, x.shape[0])))
+                        np.empty_like(x), np.empty((x.shape[0], 3)), np.empty((4, x.shape[0])),
+                        np.empty((x.shape[0] - 1, GEOMETRY_COLUMNS)),
+                        np.empty((x.shape[0] - 1, GEOMETRY_COLUMNS)),
+                        np.empty((x.shape[0] - 1, GEOMETRY_COLUMNS)))
 
 
 @njit_leaf(cache=True)
 def _newton_loop(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses, gravity,
                  length_scale, tolerance, max_iterations, iterations, radius, history, n_history,
                  grad, band, g, h, stop_at_saddle, correct_lengths, restart, factor, p, trial,
-                 corrected, tangents, rows):
+                 corrected, tangents, rows, geometry, trial_geometry, corrected_geometry):
     """:func:`newton_positions`' loop on its work arrays (the factor, the step, two trial
-    states and :func:`restored_lengths`' arrays): nothing allocated, no reference counted per
-    iteration (:func:`dloplan.jit.njit_leaf`). ``g`` and ``h`` are the free coordinates' views
-    of ``grad`` (flattened) and ``band``, which every iteration rewrites in place."""
+    states, :func:`restored_lengths`' arrays and the geometry rows of x, the trial and the
+    corrected trial, each (n, :data:`~dloplan.physics.compiled.GEOMETRY_COLUMNS`)):
+    nothing allocated, no reference counted per iteration (:func:`dloplan.jit.njit_leaf`).
+    ``g`` and ``h`` are the free coordinates' views of ``grad`` (flattened) and ``band``, which
+    every iteration rewrites in place. The derivatives at an accepted trial reuse the link
+    lengths, directions and joint angles its energy computed (the same values)."""
     shift = 0.0
     f = history[n_history - 1]
+    chain_geometry(x, geometry)
     while True:
-        chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity, grad, band)
+        kept_chain_derivatives(x, k_s, rest_lengths, k_b, rest_angles, masses, gravity,
+                               geometry, grad, band)
         residual = largest_force(grad, first, stop)
         scale = np.mean(h[0])
         status = stop_status(residual, tolerance, h, scale, factor, iterations, max_iterations,
@@ -334,14 +350,17 @@ def _newton_loop(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses, gr
             if not solved:
                 continue
             moved_by(x, alpha, p, first, trial)
-            f_trial = chain_energy(trial, k_s, rest_lengths, k_b, rest_angles, masses, gravity)
+            f_trial = kept_chain_energy(trial, k_s, rest_lengths, k_b, rest_angles, masses,
+                                        gravity, trial_geometry)
             if correct_lengths and wants_correction(f, f_trial, predicted):
                 copy_points(trial, corrected)
                 if restored_lengths(x, corrected, first, stop, tangents, rows):
-                    f_corrected = chain_energy(corrected, k_s, rest_lengths, k_b, rest_angles,
-                                               masses, gravity)
+                    f_corrected = kept_chain_energy(corrected, k_s, rest_lengths, k_b,
+                                                    rest_angles, masses, gravity,
+                                                    corrected_geometry)
                     if f_corrected < f_trial:
                         copy_points(corrected, trial)
+                        copy_points(corrected_geometry, trial_geometry)
                         f_trial = f_corrected
             tried = shift
             accepted, shift, radius = step_verdict(f, f_trial, predicted, shift, scale, radius,
@@ -350,6 +369,7 @@ def _newton_loop(x, first, stop, k_s, rest_lengths, k_b, rest_angles, masses, gr
                 if restart and shift < tried:  # relaxed: very successful
                     shift = 0.0
                 copy_points(trial, x)
+                copy_points(trial_geometry, geometry)
                 f = f_trial
                 break
         iterations += 1
