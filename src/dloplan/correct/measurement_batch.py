@@ -37,7 +37,6 @@ from .measurement import (
     UNIT_FACTOR,
     nearest_points,
 )
-from .noise_seeds import seeded_generators
 from .smoothing import smooth_measurements
 from .step import OFFSET_SIGNIFICANCE
 
@@ -99,11 +98,10 @@ def _interpolated(points, s, target, out):
 def measured_points(shapes: np.ndarray, seeds, noise: float, n_measured: int) -> np.ndarray:
     """What :meth:`~.plant.Plant.measure` returns for each plant's ``shapes`` (B, n + 1, 3)
     [m]: the shape resampled onto ``n_measured`` points plus normal noise of sd ``noise`` [m]
-    drawn from ``numpy.random.default_rng(seed)`` (:func:`.noise_seeds.seeded_generators`: the
-    same generators' states, set on one), (B, n_measured, 3), bit for bit."""
+    drawn from ``numpy.random.default_rng(seed)``, (B, n_measured, 3), bit for bit."""
     points = resample_polylines(shapes, n_measured)
-    for b, generator in enumerate(seeded_generators(seeds)):
-        points[b] += generator.normal(scale=noise, size=points.shape[1:])
+    for b, seed in enumerate(seeds):
+        points[b] += np.random.default_rng(seed).normal(scale=noise, size=points.shape[1:])
     return points
 
 
