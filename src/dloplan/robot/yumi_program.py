@@ -526,9 +526,9 @@ def _round_trip(arm, position, rotation, eax: float, joints, options,
     then so does the enumeration, the same verdict for one solve instead of 99)."""
     args = (arm, position, rotation, np.radians(eax), confdata(joints))
     if own:
-        own = own_solution(*args, joints, options)
-        if own.deviation(joints) <= ROUND_TRIP_TOLERANCE:
-            return own
+        solution = own_solution(*args, joints, options)
+        if solution.deviation(joints) <= ROUND_TRIP_TOLERANCE:
+            return solution
     return solve_robtarget(*args, seeds=[joints], options=options)
 
 
