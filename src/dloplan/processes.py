@@ -8,7 +8,8 @@ nobody wants their results, so :func:`end_pool` ends the workers instead, and
 :func:`end_forkserver` ends the server (which, while it imports its preload, would otherwise
 outlive the command by a second or more, holding the caller's pipes). A worker ended with SIGTERM
 runs the clean-up of its task (:func:`dloplan.interrupts.worker_signals`). Every pool's server is
-started by :func:`start_forkserver`, out of the reach of a terminal's Ctrl-C.
+started by :func:`start_forkserver`, out of the reach of a terminal's Ctrl-C, and every task is
+sent by :func:`submit_whole`, so that a worker it starts is one :func:`end_pool` knows.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import multiprocessing.resource_tracker
 import os
 import signal
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 
 from .interrupts import raise_if_interrupted, shielded
 
@@ -54,6 +55,22 @@ def start_forkserver(context) -> None:
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, mask)
     raise_if_interrupted()
+
+
+def submit_whole(pool: ProcessPoolExecutor, function, *args) -> Future:
+    """``pool.submit(function, *args)`` with signals held until it returns, then raised.
+
+    A submission may start a worker (a pool forked from a ``forkserver`` starts them as tasks
+    come). A signal raised in the middle of that start, after the server forked the worker and
+    before the pool recorded its id, left a worker nobody knew: :func:`end_pool` could not end
+    it, and it outlived the command, waiting for tasks for ever, holding the caller's pipes (seen
+    once as a plan interrupted with Ctrl-C whose test never saw its pipes close, under load).
+    Held, the signal is raised once the worker is in the pool's table.
+    """
+    with shielded():
+        future = pool.submit(function, *args)
+    raise_if_interrupted()
+    return future
 
 
 GRACE = 2.0

@@ -38,7 +38,7 @@ from pathlib import Path
 from ..interrupts import shielded
 from ..pipeline.document import PlanDocument
 from ..plots import worker
-from ..processes import end_pool
+from ..processes import end_pool, submit_whole
 from .report import figure_drawings, lasting_drawings
 
 DRAFTS = ".figures"
@@ -75,7 +75,8 @@ class FigureWorkers:
     def _submit(self, drawing) -> Future:
         key = _key(drawing)
         if key not in self._drafts:
-            self._drafts[key] = self._pool.submit(worker.draw, drawing, self._scratch / key)
+            self._drafts[key] = submit_whole(self._pool, worker.draw, drawing,
+                                             self._scratch / key)
         return self._drafts[key]
 
     def draft(self, doc: PlanDocument, provisional: bool = False) -> None:

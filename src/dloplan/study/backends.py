@@ -34,7 +34,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any
 
 from ..interrupts import task, worker_signals
-from ..processes import end_pool, start_forkserver
+from ..processes import end_pool, start_forkserver, submit_whole
 
 _SHARED: Any = None  # the shared object inside a worker process (set by the initializer)
 
@@ -153,7 +153,7 @@ class ProcessBackend(Backend):
                                    initializer=_install_shared, initargs=(shared,))
 
         def submit(item):
-            return pool.submit(_call_with_installed, function, item)
+            return submit_whole(pool, _call_with_installed, function, item)
 
         def wait_any(futures):
             return wait(futures, return_when=FIRST_COMPLETED).done
