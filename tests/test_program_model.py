@@ -5,6 +5,8 @@ fails only along the time law says so."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from robot_plans import ON_ONE_WORKER, example_plan
@@ -182,3 +184,16 @@ def test_every_cells_program_is_read_back_and_checked_by_the_one_model(tmp_path,
         tcp, _ = forward(arm, read[a])
         targets = np.array([t["arms"][arm.name]["position"] for t in record["targets"]])
         assert np.abs(tcp - targets).max() < 1e-4
+
+
+def test_a_program_out_of_reach_is_not_slowed_for_its_guessed_joints():
+    """A program refused on reach keeps the plan's timing: its joints at the unreached poses are
+    IK's closest guesses, not a motion to slow down for (slowed, an unreachable Ethernet job's
+    refused plan reported a 100.6 s trajectory for the planned 2.3 s)."""
+    _, grippers, trajectory, job = example_plan(EXAMPLE)
+    far = replace(grippers, positions=grippers.positions + [0.0, 0.6, 0.0])
+    fast = _fast(far, trajectory.arm_clips[0], 50.0)
+    program = robot_program(far, fast, job.robot)
+    failed = {row.check for row in program.failures}
+    assert "reach" in failed and "joint speed" in failed, failed
+    assert program.trajectory is fast

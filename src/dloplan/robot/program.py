@@ -284,7 +284,15 @@ def slowed(program: RobotProgram) -> RobotProgram:
     """``program`` re-timed while a move is over a joint speed limit: each such segment's speed
     scale of the time law (:func:`~dloplan.robot.peaks.slowed_scale`) brings it to
     :data:`~dloplan.robot.peaks.SLOW_MARGIN` of the limit, up to :data:`SLOW_ROUNDS` times
-    (the last timing is kept whatever its verdict: its speed rows say what is left)."""
+    (the last timing is kept whatever its verdict: its speed rows say what is left).
+
+    A program that fails a check the timing does not change (any but :data:`TIMED_CHECKS`: a
+    target out of reach, a joint limit, a collision) is returned as it is: no timing saves it,
+    and the joints it would slow for are not a motion the arm can make (at a pose out of reach
+    they are IK's closest guess). Slowed, such a program made the refused plan's trajectory and
+    cycle time its own (an unreachable Ethernet job: 100.6 s against the plan's 2.3 s)."""
+    if any(row.check not in TIMED_CHECKS for row in program.failures):
+        return program
     for _ in range(SLOW_ROUNDS):
         ratios = program.segment_speed_ratios()
         if not np.any(ratios > 1.0):
