@@ -218,8 +218,8 @@ def forces_figure(axial_mean, axial_variance, bending_mean, bending_variance,
     fig, axes = plt.subplots(2, 2, figsize=(10, 6), sharex=True)
     points = np.arange(len(axial_mean))
     panels = ((axial_mean, "axial mean [N]"), (bending_mean, "bending mean [N]"),
-              (axial_variance, "axial variance [N$^2$]"),
-              (bending_variance, "bending variance [N$^2$]"))
+              (axial_variance, "axial variance [N²]"),
+              (bending_variance, "bending variance [N²]"))
     for ax, (values, label) in zip(axes.ravel(), panels, strict=True):
         _bars(ax, points, values, "#1565c0")
         ax.set_ylabel(label)
@@ -259,7 +259,7 @@ def identification_figure(moduli, costs, identified: float | None = None,
         ax.axvline(identified, color="#b71c1c", ls="--", label=f"identified {identified:.3g} Pa")
         ax.legend()
     ax.set_xlabel("Young's modulus E [Pa]")
-    ax.set_ylabel("cost [m$^2$]")
+    ax.set_ylabel("cost [m²]")
     ax.grid(alpha=0.3, which="both")
     ax.set_title(title)
     fig.subplots_adjust(left=0.12, right=0.97, bottom=0.13, top=0.91)
@@ -298,7 +298,7 @@ def motion_profile_figure(times, speed, acceleration, knot_times=(), speed_limit
     fig, axes = plt.subplots(2, 1, figsize=(8, 5), sharex=True)
     for ax, values, limit, label in ((axes[0], speed, speed_limit, "speed [mm/s]"),
                                      (axes[1], acceleration, acceleration_limit,
-                                      "acceleration [m/s$^2$]")):
+                                      "acceleration [m/s²]")):
         scale = 1e3 if ax is axes[0] else 1.0
         values = np.asarray(values)
         for arm, colour in zip(("left", "right"), ("#1976d2", "#d32f2f"), strict=True):

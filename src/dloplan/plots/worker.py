@@ -20,9 +20,9 @@ _warm = False
 
 
 def warm_up() -> None:
-    """Import matplotlib (with its 3D axes) and draw a tiny figure with a 3D axes and mathtext
-    as PNG and SVG (thrown away): fonts, the mathtext parser and both backends are loaded
-    before a plan's first figure. Does nothing the second time in a process."""
+    """Import matplotlib (with its 3D axes) and draw a tiny figure with a 3D axes and a title
+    as PNG and SVG (thrown away): fonts and both backends are loaded before a plan's first
+    figure. Does nothing the second time in a process."""
     global _warm
     if _warm:
         return
@@ -31,7 +31,7 @@ def warm_up() -> None:
     plt = pyplot()
     figure = plt.figure(figsize=(1, 1))
     axes = figure.add_subplot(projection="3d")
-    axes.set_title("[N$^2$]")
+    axes.set_title("[N²]")
     for suffix in ("png", "svg"):
         figure.savefig(io.BytesIO(), format=suffix)
     plt.close(figure)
