@@ -16,7 +16,8 @@ pytestmark = pytest.mark.skipif("forkserver" not in multiprocessing.get_all_star
                                 reason="workers forked from a forkserver (POSIX)")
 
 
-def test_a_signal_while_a_task_starts_its_worker_leaves_no_worker_behind(monkeypatch):
+def test_a_signal_while_a_task_starts_its_worker_leaves_no_worker_behind(monkeypatch,
+                                                                      terminal_sigint):
     """Ctrl-C arrives after the server forked the task's worker and before the pool recorded
     its id (the moment is forced: the signal is sent as the parent reads the new worker's id).
     The worker must be one the pool ends, not an orphan left waiting for tasks for ever (it held
