@@ -173,6 +173,29 @@ def test_the_clips_follow_the_real_time_law(shapes):
     assert a_old.max() > 10.0  # a velocity step at the start: ~0.1 m/s within one record
 
 
+def test_a_repeated_knot_is_replayed_as_the_motion_without_it(shapes):
+    """A path that holds one shape twice (a job whose start is its target plans out and back
+    through a repeated shape) has a segment of zero duration: its knot times repeat. The
+    replay follows the law as the same motion without the repeated knot, its deviations the
+    same at the same times (``plan --verify``, ``verify`` and ``simulate`` of such a plan were
+    refused: "trajectory times: expected finite, strictly increasing times")."""
+    once = _timed()
+    twice = [POSES[0], POSES[1], POSES[1], POSES[2]]
+    positions = np.stack([p.positions for p in twice])
+    rotations = tuple(Rotation.concatenate([p.rotations[c] for p in twice]) for c in (0, 1))
+    traj = dual_arm_trajectory(positions, rotations)
+    assert traj.times[2] == traj.times[1]
+    np.testing.assert_allclose(traj.times[[0, 1, 3]], once.times, rtol=1e-12)
+    path = shapes[[0, 1, 1, 2]]
+    run = replay(CABLE, path, (traj.times, twice), law=traj.law)
+    reference = replay(CABLE, shapes, (once.times, POSES), law=once.law)
+    np.testing.assert_allclose(run.knot_times, traj.times)
+    np.testing.assert_allclose(run.deviations, reference.deviations[[0, 1, 1, 2]], atol=1e-9)
+    assert run.ok == reference.ok
+    with pytest.raises(ValueError, match="non-decreasing"):   # times that go back: refused
+        replay(CABLE, path, (traj.times, twice), knot_times=traj.times[::-1], law=traj.law)
+
+
 def test_segment_deviations_and_motion_peak(shapes):
     fast = replay(CABLE, shapes, POSES, law=_timed(MotionLimits(
         speed=0.5, acceleration=20.0, jerk=1000.0)).law, tolerance=0.005)

@@ -247,6 +247,20 @@ def as_clip_trajectory(trajectory) -> ClipTrajectory:
     return ClipTrajectory(as_times(times, len(poses), "trajectory times"), poses)
 
 
+def _knot_poses(trajectory) -> list:
+    """The knot poses a time law moves the clips through: ``trajectory`` itself (a list), the
+    poses of a pair ``(times, poses)`` or of an object with ``poses``. Their times are the
+    law's, which repeat across a segment where nothing moves (a trajectory through two equal
+    shapes): unlike :func:`as_clip_trajectory`'s they need not increase strictly."""
+    if isinstance(trajectory, list):
+        return trajectory
+    if isinstance(trajectory, tuple) and len(trajectory) == 2:
+        return list(trajectory[1])
+    if hasattr(trajectory, "poses"):
+        return list(trajectory.poses)
+    return as_clip_trajectory(trajectory).poses   # its error names what was expected
+
+
 def clip_motion(law: TimeLaw, poses, rate: float = CLIP_RATE) -> ClipTrajectory:
     """The clips moving through their knot poses under a time law, sampled for the simulator.
 
@@ -376,8 +390,7 @@ def replay(
     """
     path = as_path(stabilized_shapes, cable.n_points, "stabilized_shapes")
     if law is not None:
-        poses = trajectory if isinstance(trajectory, list) else as_clip_trajectory(
-            trajectory).poses
+        poses = _knot_poses(trajectory)
         clips = clip_motion(law, poses)
         knot_times = law.knot_times if knot_times is None else knot_times
     else:
@@ -389,7 +402,7 @@ def replay(
                 f"{len(path)} shapes"
             )
         knot_times = clips.times
-    knots = as_times(knot_times, len(path), "knot_times")
+    knots = as_times(knot_times, len(path), "knot_times", repeats=law is not None)
     start = clips.times[0]
     if knots[0] < start or knots[-1] > clips.times[-1]:
         raise ValueError(
@@ -435,6 +448,7 @@ def replay(
     step = explicit_step() if not implicit else IMPLICIT_STEP if dt is None else dt
     duration = motion + settle_duration
     spacing = np.diff(knots)
+    spacing = spacing[spacing > 0]  # a repeated knot: a segment where nothing moves
     finest = float(np.min(spacing)) / 20.0 if len(spacing) else duration
 
     def run_with(step: float, scheme: str, begin: float = 0.0, end: float = duration,
