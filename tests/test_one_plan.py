@@ -167,3 +167,30 @@ def test_an_end_that_sags_into_the_table_is_refused_with_the_lift_that_clears_it
     assert lift > 0
     start = stabilize(job.start + [0.0, 0.0, lift + 1e-4], job.cable).shape
     assert not check_shape(start, job.obstacles, job.cable.diameter / 2).colliding
+
+
+def test_ends_held_closer_than_the_grippers_allow_are_refused_at_once(tmp_path, capsys):
+    """The demo's job with a 3 cm cable (the unseen-case sweep's short cable): its clips are
+    27.5 mm apart, and the YuMi's grippers overlap whenever their TCPs are closer than 45 mm,
+    whatever the joints. It was searched for 30-80 s (frame sets, grasps, placements) and
+    refused as "no placement of the job on the table makes every pose reachable" (exit 3);
+    it is now refused before planning, naming the distance and the least one (exit 2, nothing
+    written). A 6 cm cable passes the check."""
+    from dloplan.app.load import resolve_mapping
+    from dloplan.pipeline.stages import check_grip_distance, run_job
+
+    data = yaml.safe_load((ROOT / "src/dloplan/data/demo.yaml").read_text())
+    data["cable"] = {**data["cable"], "length": 0.03}
+    job = resolve_mapping(data, "demo, 3 cm cable")
+    with pytest.raises(ValueError, match=r"start: its clips are 27\.5 mm apart \(cable 30\.0 mm "
+                                         r"long\); expected at least 45\.1 mm"):
+        run_job(job)
+    run_job(job, check_robot=False)   # no robot program: nothing holds the clips
+    data["cable"]["length"] = 0.06
+    check_grip_distance(resolve_mapping(data, "demo, 6 cm cable"))
+    data["cable"]["length"] = 0.03
+    path = tmp_path / "short.yaml"
+    path.write_text(yaml.safe_dump(data))
+    assert main(["plan", str(path), "--verify", "-q", "-o", str(tmp_path / "out")]) == 2
+    assert "expected at least 45.1 mm" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()

@@ -153,6 +153,31 @@ class PathStage:
     timings: dict
 
 
+def check_grip_distance(job: Job) -> None:
+    """Refuse a job whose start or target holds its clips closer than the cell's two grippers
+    can be: their TCPs closer than the sum of the arms' :attr:`~dloplan.robot.chain.CellArm.
+    tcp_depth` put the grippers' capsules into each other at any joints, orientation or
+    placement on the table, so no repair makes the robot program's clearance pass (a 3 cm
+    cable searched frames and placements for 30-80 s before it was refused as unreachable).
+
+    Raises
+    ------
+    ValueError
+        Naming the end, its clips' distance and the least distance the grippers allow.
+    """
+    left, right = job.robot.arms
+    least = left.tcp_depth + right.tcp_depth
+    for name in ("start", "target"):
+        clips = clip_poses_from_shape(getattr(job, name)).positions
+        distance = float(np.linalg.norm(clips[1] - clips[0]))
+        if distance < least:
+            raise ValueError(
+                f"{name}: its clips are {1e3 * distance:.1f} mm apart (cable "
+                f"{1e3 * job.cable.length:.1f} mm long); expected at least {1e3 * least:.1f} "
+                "mm: the two grippers' collision capsules overlap when their TCPs are closer, "
+                "whatever the arms' joints (a longer cable, or ends held farther apart)")
+
+
 def plan_path(job: Job, progress=quiet) -> PathStage:
     """The three-stage planner with stabilization and obstacle re-planning (ch. 4, 5).
 
@@ -551,6 +576,8 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
         program that passes were started by ``planned``; the reach repair replaces one that
         fails).
     """
+    if check_robot:
+        check_grip_distance(job)
     staged = plan_path(job, progress)
     result, target_check = staged.plan, staged.target_check
     timings = dict(staged.timings)

@@ -200,6 +200,26 @@ class CellArm:
         return self.description.n_joints
 
     @property
+    def tcp_depth(self) -> float:
+        """Radius [m] of the largest ball about the TCP inside the capsules of the last link
+        (its gripper's): the largest r - e over them, e the TCP's distance from a capsule's
+        axis segment; 0 when the TCP lies in none. The ball is inside the capsule whatever the
+        joints (``|x - q| <= |x - TCP| + e < r``, q the axis point nearest the TCP), so two
+        arms whose TCPs are closer than the sum of their depths overlap: no program holds two
+        clips that close (:func:`dloplan.pipeline.stages.check_grip_distance`)."""
+        last = self._cap_link == self.n_joints - 1
+        if not np.any(last):
+            return 0.0
+        p0, p1 = self._caps[last, 0], self._caps[last, 1]
+        axis = p1 - p0
+        length2 = np.einsum("ij,ij->i", axis, axis)
+        along = np.einsum("ij,ij->i", self._tcp_xyz - p0, axis) / np.where(length2 > 0,
+                                                                          length2, 1.0)
+        nearest = p0 + np.clip(along, 0.0, 1.0)[:, None] * axis
+        depth = self._radii[last] - np.linalg.norm(self._tcp_xyz - nearest, axis=1)
+        return max(float(np.max(depth)), 0.0)
+
+    @property
     def lower(self) -> np.ndarray:
         """(n,) lower joint limits [rad]."""
         return self.description.lower
