@@ -194,3 +194,24 @@ def test_ends_held_closer_than_the_grippers_allow_are_refused_at_once(tmp_path, 
     assert main(["plan", str(path), "--verify", "-q", "-o", str(tmp_path / "out")]) == 2
     assert "expected at least 45.1 mm" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+def test_gripper_errors_and_warnings_name_the_job_files_fields():
+    """The demo's job with an auxiliary vector along its start (the sweep's grip variants):
+    the refusal named the library's parameter ("aux: the auxiliary vector ..."), a frame given
+    off the cable warned as "initial: ..."; both now name the file's field."""
+    from dloplan.app.load import resolve_mapping
+    from dloplan.pipeline.stages import gripper_frames
+
+    data = yaml.safe_load((ROOT / "src/dloplan/data/demo.yaml").read_text())
+    data["grippers"] = {"method": "auxiliary", "auxiliary_vector": [0, 1, 0]}
+    job = resolve_mapping(data, "demo, auxiliary vector along the cable")
+    path = np.stack([job.start, job.target])
+    with pytest.raises(ValueError, match=r"^grippers\.auxiliary_vector: the auxiliary vector "
+                                         r"\[0\.0, 1\.0, 0\.0\] is 0\.00 degrees from the first"):
+        gripper_frames(job, path)
+    data["grippers"] = {"method": "minimal", "initial_frames": {"first": {"euler": [0, 90, 0]},
+                                                                "last": {"euler": [0, 0, -90]}}}
+    frames = gripper_frames(resolve_mapping(data, "demo, a frame off the cable"), path)
+    assert [w.split(": ")[0] for w in frames.warnings] == ["grippers.initial_frames"]
+    assert "90.0 degrees off the first shape's u-axis" in frames.warnings[0]

@@ -234,13 +234,30 @@ def timed_trajectory(grippers, motion, cell):
                                     zone=motion.zone)
 
 
+GRIPPER_FIELDS = {"aux": "grippers.auxiliary_vector", "initial": "grippers.initial_frames"}
+"""The job file's fields of :func:`dloplan.grippers.gripper_path`'s parameters, which its
+errors and warnings name."""
+
+
+def _gripper_field(text: str) -> str:
+    """``text`` ("aux: ...") naming the job file's field instead of the parameter."""
+    name, colon, rest = text.partition(": ")
+    return f"{GRIPPER_FIELDS[name]}: {rest}" if colon and name in GRIPPER_FIELDS else text
+
+
 def gripper_frames(job: Job, path: np.ndarray):
-    """Both clip frames for every shape of ``path`` by the job's method (thesis 4.6)."""
+    """Both clip frames for every shape of ``path`` by the job's method (thesis 4.6); its
+    errors and warnings name the job file's fields (``grippers.auxiliary_vector``, not the
+    parameter ``aux``)."""
     from ..grippers import gripper_path
 
     settings = job.grippers
-    return gripper_path(path, method=settings.method, cable=job.cable,
-                        initial=settings.initial, aux=settings.auxiliary_vector)
+    try:
+        frames = gripper_path(path, method=settings.method, cable=job.cable,
+                              initial=settings.initial, aux=settings.auxiliary_vector)
+    except ValueError as exc:
+        raise ValueError(_gripper_field(str(exc))) from exc
+    return replace(frames, warnings=tuple(_gripper_field(w) for w in frames.warnings))
 
 
 def plan_motion(job: Job, path: np.ndarray, progress=quiet):
