@@ -215,3 +215,24 @@ def test_gripper_errors_and_warnings_name_the_job_files_fields():
     frames = gripper_frames(resolve_mapping(data, "demo, a frame off the cable"), path)
     assert [w.split(": ")[0] for w in frames.warnings] == ["grippers.initial_frames"]
     assert "90.0 degrees off the first shape's u-axis" in frames.warnings[0]
+
+
+def test_a_motion_that_sweeps_through_the_wall_between_the_shapes_fails_its_verification():
+    """The demo's job with its wall 0.4 m tall (the sweep's obstacle variants): the avoidance
+    lifts the planned shapes over it (each stabilized shape clear), but the cable moving from
+    shape 2 to shape 3 sweeps through the wall's top. `plan --verify` said "ok"; the replay
+    now checks its records against the obstacles and fails, naming the wall and the segment."""
+    from dloplan.app.load import resolve_mapping
+    from dloplan.obstacles.collisions import check_path
+    from dloplan.pipeline.stages import run_job, verify_plan
+
+    data = yaml.safe_load((ROOT / "src/dloplan/data/demo.yaml").read_text())
+    data["obstacles"] = [{"type": "box", "name": "wall", "center": [0.40, 0.0, 0.20],
+                          "size": [0.03, 0.34, 0.40]}]
+    doc = run_job(resolve_mapping(data, "demo, a 0.4 m wall"))
+    assert not any(r.colliding for r in check_path(doc.stabilized, doc.obstacles,
+                                                   doc.cable.diameter / 2))
+    verification = verify_plan(doc)
+    assert not verification.ok
+    assert "the moving cable enters wall by" in verification.replay.message
+    assert "between shapes 2 and 3" in verification.replay.message

@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 
 from dloplan.cable import catalogue_cable
 from dloplan.sim.clips import ClipPoses
-from dloplan.sim.dynamics import ClipTrajectory
+from dloplan.sim.dynamics import ClipTrajectory, Simulation
 from dloplan.sim.statics import continuation, equilibrium
 from dloplan.trajectory import MotionLimits, dual_arm_trajectory
 from dloplan.verify.replay import (
@@ -194,6 +194,48 @@ def test_a_repeated_knot_is_replayed_as_the_motion_without_it(shapes):
     assert run.ok == reference.ok
     with pytest.raises(ValueError, match="non-decreasing"):   # times that go back: refused
         replay(CABLE, path, (traj.times, twice), knot_times=traj.times[::-1], law=traj.law)
+
+
+def test_a_cable_that_sweeps_through_an_obstacle_between_the_shapes_fails():
+    """obstacle_entry: a straight cable carried along x through a thin wall at x = 0.3 m. The
+    planned shapes at x = 0, 0.5 and 1 m are clear of it (what the avoidance checks); the
+    records in between enter it, and the first segment is named. Beside the wall's path, or
+    within the contact tolerance, nothing is reported."""
+    from dloplan.obstacles import Box
+    from dloplan.verify.replay import obstacle_entry
+
+    times = np.linspace(0.0, 1.0, 101)
+    straight = np.stack([np.zeros(9), np.linspace(-0.2, 0.2, 9), np.full(9, 0.1)], axis=1)
+    shapes = straight[None] + times[:, None, None] * np.array([1.0, 0.0, 0.0])
+    run = Simulation(times, shapes, np.zeros(len(times)), 0.01, 100, True, "")
+    knots = np.array([0.0, 0.5, 1.0])
+    wall = Box(center=[0.3, 0.0, 0.1], size=[0.02, 0.2, 0.2], name="wall")
+    radius = 0.0025
+    message = obstacle_entry(run, [wall], radius, knots)
+    assert message.startswith("the moving cable enters wall by 2.5 mm at t = 0.3 s "
+                              "(between shapes 0 and 1;")
+    beside = Box(center=[0.3, 0.5, 0.1], size=[0.02, 0.2, 0.2], name="beside")
+    assert obstacle_entry(run, [beside], radius, knots) == ""
+    grazed = Box(center=[0.3, 0.0, 0.1 - radius - 0.01 + 1e-4], size=[0.02, 0.2, 0.02])
+    assert obstacle_entry(run, [grazed], radius, knots) == ""   # 0.1 mm: within the tolerance
+    assert obstacle_entry(run, [wall], radius, np.array([0.0, 0.2])).find("settling") > 0
+
+
+def test_obstacles_fail_the_replay_without_acting_on_it(shapes):
+    """The replay's ``obstacles`` are checked, not simulated: the same run and deviations,
+    and a table above the sagging cable's lowest point fails it naming the table."""
+    from dloplan.obstacles import Table
+
+    traj = _timed()
+    free = replay(CABLE, shapes, (traj.times, POSES), law=traj.law)
+    lowest = float(free.simulation.shapes[..., 2].min())
+    blocked = replay(CABLE, shapes, (traj.times, POSES), law=traj.law,
+                     obstacles=[Table(lowest + 0.01)])
+    assert free.ok and not blocked.ok
+    assert "the moving cable enters table by" in blocked.message
+    np.testing.assert_array_equal(blocked.deviations, free.deviations)
+    assert replay(CABLE, shapes, (traj.times, POSES), law=traj.law,
+                  obstacles=[Table(lowest - 0.01)]).ok
 
 
 def test_segment_deviations_and_motion_peak(shapes):

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..obstacles.collisions import check_shape
+from ..obstacles.shapes import Table
 from ..sim.clips import clip_poses_from_shape
 from ..sim.statics import check_clip_reach, check_target, clip_wrenches, stabilize
 from ..trajectory import GripperAction, plan_cycle
@@ -520,10 +521,12 @@ def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
         reach = program_reachability(program_of(doc), len(doc.shapes))
     physics = None
     if reuse is not None and _same_checks(reuse[1], snap, times is not None, tolerance,
-                                          tensile_limit) and moved_rigidly(reuse[0], doc):
+                                          tensile_limit) and moved_rigidly(reuse[0], doc) \
+            and all(isinstance(o, Table) for o in doc.obstacles):  # obstacles stay: replay
         physics = reuse[1]
     return verify_path(doc.cable, settled_shapes(doc), doc.clip_poses(), times=times, snap=snap,
                        replay_options={"tolerance": tolerance, "tensile_limit": tensile_limit,
+                                       "obstacles": doc.obstacles,
                                        "law": None if doc.trajectory is None
                                        else doc.trajectory.law,
                                        "youngs_modulus_cap": replay_modulus_cap(doc.cable,
@@ -710,7 +713,7 @@ def simulate_plan(doc: PlanDocument, *, damping: str = "relative", torsion: bool
     settled = settled_shapes(doc)
     run = replay(doc.cable, settled, (doc.trajectory.times, doc.clip_poses()),
                  law=doc.trajectory.law, damping=damping, torsion=torsion,
-                 youngs_modulus_cap=youngs_modulus_cap)
+                 youngs_modulus_cap=youngs_modulus_cap, obstacles=doc.obstacles)
     simulated = run.simulation.at(run.knot_times)
     comparison = compare_shapes(settled, list(simulated), end_order="keep")
     return run, comparison

@@ -324,6 +324,7 @@ def replay(
     scheme: str = "auto",
     changes_at: float | None = None,
     settle_speed: float | None = None,
+    obstacles=(),
 ) -> Replay:
     """Simulate the timed plan at its real speed and compare with the planned shapes.
 
@@ -382,6 +383,12 @@ def replay(
         contacts (module docstring; :func:`quasi_static_speed`). Where no converged, stable
         equilibrium is found from there, the run is stepped on to ``rest_speed``, explicitly.
         Default: stepped to ``rest_speed``.
+    obstacles : sequence, optional
+        Volumes (``Box``, ``Cylinder``, ``Table``) the recorded cable must stay out of, though
+        the run does not feel them (unlike ``contacts``): the avoidance (thesis 5.4) checks
+        the planned shapes only, and the cable moving between two of them can sweep through
+        an obstacle. A record whose links enter one by more than the contact tolerance
+        (:data:`CONTACT_GAP` times the radius) fails the replay (:func:`obstacle_entry`).
 
     Returns
     -------
@@ -530,6 +537,9 @@ def replay(
     if not within:
         problems.append(f"peak tension {peak:.3g} N exceeds the limit {tensile_limit:.3g} N "
                         f"(link {link}, t = {run.times[when]:.3g} s)")
+    entry = obstacle_entry(run, obstacles, cable.diameter / 2, knots)
+    if entry:
+        problems.append(entry)
     summary = (f"max deviation {1e3 * float(np.max(deviations)):.2f} mm at the shapes, "
                f"{1e3 * float(np.max(segments, initial=0.0)):.2f} mm along the segments, "
                f"settled {1e3 * final:.2f} mm, peak tension {motion_peak:.3g} N in motion, "
@@ -544,6 +554,40 @@ def replay(
                   int(link), tensile_limit, float(tolerance), not problems, message, run,
                   segments, motion_peak, timing, tensions, names, gaps,
                   CONTACT_GAP * cable.diameter / 2, rest)
+
+
+def obstacle_entry(run: Simulation, obstacles, radius: float, knots: np.ndarray) -> str:
+    """Where the recorded cable enters an obstacle deepest, or ``""`` when no record's links
+    (capsules of ``radius`` [m]) enter one by more than :data:`CONTACT_GAP` times the radius.
+
+    Parameters
+    ----------
+    run : Simulation
+        The recorded run: (R, n + 1, 3) shapes [m] at (R,) times [s].
+    obstacles : sequence
+        Volumes with ``penetration(a, b, radius)`` (:mod:`dloplan.obstacles`).
+    radius : float
+        The cable's radius [m].
+    knots : numpy.ndarray
+        (S + 2,) the planned shapes' times on the run's clock [s], to name the segment.
+    """
+    shapes = run.shapes
+    a, b = shapes[:, :-1].reshape(-1, 3), shapes[:, 1:].reshape(-1, 3)
+    worst = (0.0, "", 0)
+    for obstacle in obstacles:
+        depth = obstacle.penetration(a, b, radius).reshape(len(shapes), -1).max(axis=1)
+        record = int(np.argmax(depth))
+        if depth[record] > worst[0]:
+            worst = (float(depth[record]), str(obstacle.name), record)
+    depth, name, record = worst
+    if depth <= CONTACT_GAP * radius:
+        return ""
+    t = float(run.times[record])
+    k = int(np.searchsorted(knots, t, side="right")) - 1
+    where = (f"between shapes {k} and {k + 1}" if k < len(knots) - 1 else
+             f"settling after shape {len(knots) - 1}")
+    return (f"the moving cable enters {name} by {1e3 * depth:.1f} mm at t = {t:.3g} s ({where};"
+            " the obstacle check sees the planned shapes, not the motion between them)")
 
 
 def quasi_static_speed(cable: Cable, gravity=GRAVITY) -> float:
