@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..geometry import point_segment_distance
 from .description import ArmDescription
 from .kinematics import link_frames
 
@@ -210,13 +211,8 @@ class CellArm:
         last = self._cap_link == self.n_joints - 1
         if not np.any(last):
             return 0.0
-        p0, p1 = self._caps[last, 0], self._caps[last, 1]
-        axis = p1 - p0
-        length2 = np.einsum("ij,ij->i", axis, axis)
-        along = np.einsum("ij,ij->i", self._tcp_xyz - p0, axis) / np.where(length2 > 0,
-                                                                          length2, 1.0)
-        nearest = p0 + np.clip(along, 0.0, 1.0)[:, None] * axis
-        depth = self._radii[last] - np.linalg.norm(self._tcp_xyz - nearest, axis=1)
+        depth = self._radii[last] - point_segment_distance(self._tcp_xyz, self._caps[last, 0],
+                                                           self._caps[last, 1])
         return max(float(np.max(depth)), 0.0)
 
     @property

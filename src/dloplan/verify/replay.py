@@ -573,9 +573,16 @@ def obstacle_entry(run: Simulation, obstacles, radius: float, knots: np.ndarray)
     """
     shapes = run.shapes
     a, b = shapes[:, :-1].reshape(-1, 3), shapes[:, 1:].reshape(-1, 3)
+    middles = 0.5 * (a + b)
+    half = 0.5 * np.linalg.norm(b - a, axis=1)
     worst = (0.0, "", 0)
     for obstacle in obstacles:
-        depth = obstacle.penetration(a, b, radius).reshape(len(shapes), -1).max(axis=1)
+        # a link can enter only where its middle is within the radius plus half its length
+        # (the distance to a volume changes by at most the distance moved)
+        near = np.flatnonzero(obstacle.distance(middles) - half < radius)
+        depth = np.zeros(len(a))
+        depth[near] = obstacle.penetration(a[near], b[near], radius)
+        depth = depth.reshape(len(shapes), -1).max(axis=1)
         record = int(np.argmax(depth))
         if depth[record] > worst[0]:
             worst = (float(depth[record]), str(obstacle.name), record)
