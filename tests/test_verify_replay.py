@@ -196,7 +196,7 @@ def test_a_repeated_knot_is_replayed_as_the_motion_without_it(shapes):
         replay(CABLE, path, (traj.times, twice), knot_times=traj.times[::-1], law=traj.law)
 
 
-def test_a_cable_that_sweeps_through_an_obstacle_between_the_shapes_fails():
+def test_a_cable_that_sweeps_through_an_obstacle_between_the_shapes_fails(monkeypatch):
     """obstacle_entry: a straight cable carried along x through a thin wall at x = 0.3 m. The
     planned shapes at x = 0, 0.5 and 1 m are clear of it (what the avoidance checks); the
     records in between enter it, and the first segment is named. Beside the wall's path, or
@@ -219,6 +219,8 @@ def test_a_cable_that_sweeps_through_an_obstacle_between_the_shapes_fails():
     grazed = Box(center=[0.3, 0.0, 0.1 - radius - 0.01 + 1e-4], size=[0.02, 0.2, 0.02])
     assert obstacle_entry(run, [grazed], radius, knots) == ""   # 0.1 mm: within the tolerance
     assert obstacle_entry(run, [wall], radius, np.array([0.0, 0.2])).find("settling") > 0
+    monkeypatch.setattr(replay_module, "ENTRY_CHUNK", 8 * 7)   # 7 records at a time: the same
+    assert obstacle_entry(run, [wall], radius, knots) == message
 
 
 def test_obstacles_fail_the_replay_without_acting_on_it(shapes):

@@ -106,6 +106,9 @@ CLIP_RATE = 1000.0
 IMPLICIT_STEP = 1.0 / CLIP_RATE
 """Time step [s] of the implicit replay: the clip samples' spacing (docs/decisions.md)."""
 
+ENTRY_CHUNK = 1_000_000
+"""Links checked at a time by :func:`obstacle_entry` (its arrays' size: a few tens of MB)."""
+
 CONTACT_GAP = 0.05
 """A recorded point touches an obstacle when its surface is closer than this fraction of the
 cable's radius (the hard contact puts a pressing point at a gap of zero)."""
@@ -572,20 +575,23 @@ def obstacle_entry(run: Simulation, obstacles, radius: float, knots: np.ndarray)
         (S + 2,) the planned shapes' times on the run's clock [s], to name the segment.
     """
     shapes = run.shapes
-    a, b = shapes[:, :-1].reshape(-1, 3), shapes[:, 1:].reshape(-1, 3)
-    middles = 0.5 * (a + b)
-    half = 0.5 * np.linalg.norm(b - a, axis=1)
+    step = max(1, ENTRY_CHUNK // max(shapes.shape[1] - 1, 1))   # records at a time
     worst = (0.0, "", 0)
-    for obstacle in obstacles:
-        # a link can enter only where its middle is within the radius plus half its length
-        # (the distance to a volume changes by at most the distance moved)
-        near = np.flatnonzero(obstacle.distance(middles) - half < radius)
-        depth = np.zeros(len(a))
-        depth[near] = obstacle.penetration(a[near], b[near], radius)
-        depth = depth.reshape(len(shapes), -1).max(axis=1)
-        record = int(np.argmax(depth))
-        if depth[record] > worst[0]:
-            worst = (float(depth[record]), str(obstacle.name), record)
+    for begin in range(0, len(shapes), step):
+        chunk = shapes[begin:begin + step]
+        a, b = chunk[:, :-1].reshape(-1, 3), chunk[:, 1:].reshape(-1, 3)
+        middles = 0.5 * (a + b)
+        half = 0.5 * np.linalg.norm(b - a, axis=1)
+        for obstacle in obstacles:
+            # a link can enter only where its middle is within the radius plus half its
+            # length (the distance to a volume changes by at most the distance moved)
+            near = np.flatnonzero(obstacle.distance(middles) - half < radius)
+            depth = np.zeros(len(a))
+            depth[near] = obstacle.penetration(a[near], b[near], radius)
+            depth = depth.reshape(len(chunk), -1).max(axis=1)
+            record = int(np.argmax(depth))
+            if depth[record] > worst[0]:
+                worst = (float(depth[record]), str(obstacle.name), begin + record)
     depth, name, record = worst
     if depth <= CONTACT_GAP * radius:
         return ""
