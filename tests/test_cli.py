@@ -572,3 +572,33 @@ def test_json_is_json_for_study_cables_and_design(tmp_path, capsys):
     design = json.loads(capsys.readouterr().out)
     assert design["recommended"] == design["scores"][0]["design"]
     assert all(s["usable"] == (s["informative"] and s["robust"]) for s in design["scores"])
+
+
+def test_an_export_that_exits_1_says_why(tmp_path, capsys):
+    """`export` exits 1 when the plan's gripper frames turn the clips against each other more
+    than the gripper path allows (the sweep's M1 at n = 20 and qualitative 2 reversed: 17 and
+    32 deg, the twist repair having rolled the clips against the torsion model's twist). It
+    printed nothing but the file written, and `--json` only ``written``; the warning now says
+    what the 1 is for. A plan within the limit exits 0 with no warning."""
+    from dataclasses import replace
+
+    from dloplan.app import read_plan
+    from dloplan.app.document_file import write_plan
+
+    out = tmp_path / "out"
+    assert main(["plan", str(write(tmp_path, {**STIFF, "outputs": ["json"]})), "-o", str(out),
+                 "-q"]) in (EXIT_OK, EXIT_WARNINGS)
+    capsys.readouterr()
+    assert main(["export", str(out / "plan.json"), "--format", "csv", "-o",
+                 str(tmp_path / "a.csv"), "-q", "--json"]) == EXIT_OK
+    assert json.loads(capsys.readouterr().out)["warnings"] == []
+    doc = read_plan(out / "plan.json")
+    twisted = replace(doc, grippers=replace(doc.grippers, success=False,
+                                            twist=doc.grippers.twist + np.radians(20.0)))
+    write_plan(tmp_path / "twisted.json", twisted)
+    assert main(["export", str(tmp_path / "twisted.json"), "--format", "csv", "-o",
+                 str(tmp_path / "b.csv"), "-q", "--json"]) == EXIT_WARNINGS
+    captured = capsys.readouterr()
+    line = "grippers: the clip frames turn 20.0 deg against each other, more than 15 deg ("
+    assert json.loads(captured.out)["warnings"][0].startswith(line)
+    assert f"warning: {line}" in captured.err

@@ -69,6 +69,27 @@ def test_ros_trajectory_sampled_json(plan, tmp_path):
         write_ros_trajectory(tmp_path / "x.txt", trajectory, fmt="xml")
 
 
+def test_a_knot_where_nothing_moves_is_one_point_of_strictly_increasing_time():
+    """Two equal consecutive poses (a job whose start is its target plans a path out and back
+    through one repeated shape) make a segment of zero duration; a trajectory controller
+    refuses points whose times do not increase strictly (the knots were written at 57.4 ms
+    twice)."""
+    from dloplan.trajectory import dual_arm_trajectory
+
+    positions = np.array([[[0.40, 0.10, 0.20], [0.40, -0.10, 0.20]],
+                          [[0.40, 0.10, 0.25], [0.40, -0.10, 0.25]],
+                          [[0.40, 0.10, 0.25], [0.40, -0.10, 0.25]],
+                          [[0.40, 0.10, 0.20], [0.40, -0.10, 0.20]]])
+    turn = Rotation.from_euler("x", [[0.0], [10.0], [10.0], [0.0]], degrees=True)
+    trajectory = dual_arm_trajectory(positions, (turn, turn))
+    assert trajectory.times[2] == trajectory.times[1]   # the law's repeated knot
+    msg = multi_dof_trajectory_msg(trajectory)
+    stamps = [p["time_from_start"]["sec"] * 10**9 + p["time_from_start"]["nanosec"]
+              for p in msg["points"]]
+    assert len(stamps) == 3 and np.all(np.diff(stamps) > 0)
+    assert [p["transforms"][0]["translation"]["z"] for p in msg["points"]] == [0.20, 0.25, 0.20]
+
+
 # -- CSV -------------------------------------------------------------------------------------------
 def test_csv_header_units_and_rows(plan, tmp_path):
     trajectory = plan[3]

@@ -167,3 +167,72 @@ def test_an_end_that_sags_into_the_table_is_refused_with_the_lift_that_clears_it
     assert lift > 0
     start = stabilize(job.start + [0.0, 0.0, lift + 1e-4], job.cable).shape
     assert not check_shape(start, job.obstacles, job.cable.diameter / 2).colliding
+
+
+def test_ends_held_closer_than_the_grippers_allow_are_refused_at_once(tmp_path, capsys):
+    """The demo's job with a 3 cm cable (the unseen-case sweep's short cable): its clips are
+    27.5 mm apart, and the YuMi's grippers overlap whenever their TCPs are closer than 45 mm,
+    whatever the joints. It was searched for 30-80 s (frame sets, grasps, placements) and
+    refused as "no placement of the job on the table makes every pose reachable" (exit 3);
+    it is now refused before planning, naming the distance and the least one (exit 2, nothing
+    written). A 6 cm cable passes the check."""
+    from dloplan.app.load import resolve_mapping
+    from dloplan.pipeline.stages import check_grip_distance, run_job
+
+    data = yaml.safe_load((ROOT / "src/dloplan/data/demo.yaml").read_text())
+    data["cable"] = {**data["cable"], "length": 0.03}
+    job = resolve_mapping(data, "demo, 3 cm cable")
+    with pytest.raises(ValueError, match=r"start: its clips are 27\.5 mm apart \(cable 30\.0 mm "
+                                         r"long\); expected at least 45\.1 mm"):
+        run_job(job)
+    run_job(job, check_robot=False)   # no robot program: nothing holds the clips
+    data["cable"]["length"] = 0.06
+    check_grip_distance(resolve_mapping(data, "demo, 6 cm cable"))
+    data["cable"]["length"] = 0.03
+    path = tmp_path / "short.yaml"
+    path.write_text(yaml.safe_dump(data))
+    assert main(["plan", str(path), "--verify", "-q", "-o", str(tmp_path / "out")]) == 2
+    assert "expected at least 45.1 mm" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
+def test_gripper_errors_and_warnings_name_the_job_files_fields():
+    """The demo's job with an auxiliary vector along its start (the sweep's grip variants):
+    the refusal named the library's parameter ("aux: the auxiliary vector ..."), a frame given
+    off the cable warned as "initial: ..."; both now name the file's field."""
+    from dloplan.app.load import resolve_mapping
+    from dloplan.pipeline.stages import gripper_frames
+
+    data = yaml.safe_load((ROOT / "src/dloplan/data/demo.yaml").read_text())
+    data["grippers"] = {"method": "auxiliary", "auxiliary_vector": [0, 1, 0]}
+    job = resolve_mapping(data, "demo, auxiliary vector along the cable")
+    path = np.stack([job.start, job.target])
+    with pytest.raises(ValueError, match=r"^grippers\.auxiliary_vector: the auxiliary vector "
+                                         r"\[0\.0, 1\.0, 0\.0\] is 0\.00 degrees from the first"):
+        gripper_frames(job, path)
+    data["grippers"] = {"method": "minimal", "initial_frames": {"first": {"euler": [0, 90, 0]},
+                                                                "last": {"euler": [0, 0, -90]}}}
+    frames = gripper_frames(resolve_mapping(data, "demo, a frame off the cable"), path)
+    assert [w.split(": ")[0] for w in frames.warnings] == ["grippers.initial_frames"]
+    assert "90.0 degrees off the first shape's u-axis" in frames.warnings[0]
+
+
+def test_a_motion_that_sweeps_through_the_wall_between_the_shapes_fails_its_verification():
+    """The demo's job with its wall 0.4 m tall (the sweep's obstacle variants): the avoidance
+    lifts the planned shapes over it (each stabilized shape clear), but the cable moving from
+    shape 2 to shape 3 sweeps through the wall's top. `plan --verify` said "ok"; the replay
+    now checks its records against the obstacles and fails, naming the wall and the segment."""
+    from dloplan.app.load import resolve_mapping
+    from dloplan.obstacles.collisions import check_path
+    from dloplan.pipeline.stages import run_job, verify_plan
+
+    data = yaml.safe_load((ROOT / "src/dloplan/data/demo.yaml").read_text())
+    data["obstacles"] = [{"type": "box", "name": "wall", "center": [0.40, 0.0, 0.20],
+                          "size": [0.03, 0.34, 0.40]}]
+    doc = run_job(resolve_mapping(data, "demo, a 0.4 m wall"))
+    assert not any(r.colliding for r in check_path(doc.stabilized, doc.obstacles,
+                                                   doc.cable.diameter / 2))
+    verification = verify_plan(doc)
+    assert not verification.ok
+    assert "the moving cable enters wall by" in verification.replay.message
+    assert "between shapes 2 and 3" in verification.replay.message

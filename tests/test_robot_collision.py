@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from dloplan.robot import arm_clearance, capsules, forward, inverse, segment_distance, yumi
@@ -87,3 +89,26 @@ def test_arm_clearance_home_is_free_and_touching_tcps_collide():
     assert gap < -0.05
     # same TCP pose: the same wrist/gripper capsules of both arms coincide and overlap most
     assert pair[0] == pair[1] and pair[0] >= 5
+
+
+def test_tcps_closer_than_the_grippers_depths_collide_whatever_the_joints():
+    """``CellArm.tcp_depth``: a ball of that radius about the TCP lies inside the gripper's
+    capsule, so two arms whose TCPs are closer than the sum of their depths overlap at any
+    joints (random postures of both arms, the right arm's base moved to put its TCP there);
+    at the YuMi that is 45 mm, so a 3 cm cable cannot be held by both grippers."""
+    robot = yumi()
+    left, right = robot.left, robot.right
+    least = left.tcp_depth + right.tcp_depth
+    assert 0.044 < least < 0.046 and left.tcp_depth == right.tcp_depth
+    rng = np.random.default_rng(7)
+    for _ in range(40):
+        q_l = rng.uniform(left.description.lower, left.description.upper)
+        q_r = rng.uniform(right.description.lower, right.description.upper)
+        direction = rng.normal(size=3)
+        wanted = forward(left, q_l)[0] + 0.99 * least * direction / np.linalg.norm(direction)
+        moved = replace(right, base_position=right.base_position + wanted
+                        - forward(right, q_r)[0])
+        assert np.linalg.norm(forward(moved, q_r)[0] - forward(left, q_l)[0]) < least
+        assert arm_clearance(left, q_l, moved, q_r)[0] < 0.0
+    # a tool capsule from the flange to the TCP (a described cell's tool_radius): its radius
+    assert replace(right, tool_radius=0.2).tcp_depth == 0.2

@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 
 from dloplan.cable import catalogue_cable
 from dloplan.sim.clips import ClipPoses
-from dloplan.sim.dynamics import ClipTrajectory
+from dloplan.sim.dynamics import ClipTrajectory, Simulation
 from dloplan.sim.statics import continuation, equilibrium
 from dloplan.trajectory import MotionLimits, dual_arm_trajectory
 from dloplan.verify.replay import (
@@ -171,6 +171,73 @@ def test_the_clips_follow_the_real_time_law(shapes):
     v_old = np.diff(held_old, axis=0) / dt_old[:, None]
     a_old = np.linalg.norm(np.diff(v_old, axis=0), axis=-1) / dt_old[1:]
     assert a_old.max() > 10.0  # a velocity step at the start: ~0.1 m/s within one record
+
+
+def test_a_repeated_knot_is_replayed_as_the_motion_without_it(shapes):
+    """A path that holds one shape twice (a job whose start is its target plans out and back
+    through a repeated shape) has a segment of zero duration: its knot times repeat. The
+    replay follows the law as the same motion without the repeated knot, its deviations the
+    same at the same times (``plan --verify``, ``verify`` and ``simulate`` of such a plan were
+    refused: "trajectory times: expected finite, strictly increasing times")."""
+    once = _timed()
+    twice = [POSES[0], POSES[1], POSES[1], POSES[2]]
+    positions = np.stack([p.positions for p in twice])
+    rotations = tuple(Rotation.concatenate([p.rotations[c] for p in twice]) for c in (0, 1))
+    traj = dual_arm_trajectory(positions, rotations)
+    assert traj.times[2] == traj.times[1]
+    np.testing.assert_allclose(traj.times[[0, 1, 3]], once.times, rtol=1e-12)
+    path = shapes[[0, 1, 1, 2]]
+    run = replay(CABLE, path, (traj.times, twice), law=traj.law)
+    reference = replay(CABLE, shapes, (once.times, POSES), law=once.law)
+    np.testing.assert_allclose(run.knot_times, traj.times)
+    np.testing.assert_allclose(run.deviations, reference.deviations[[0, 1, 1, 2]], atol=1e-9)
+    assert run.ok == reference.ok
+    with pytest.raises(ValueError, match="non-decreasing"):   # times that go back: refused
+        replay(CABLE, path, (traj.times, twice), knot_times=traj.times[::-1], law=traj.law)
+
+
+def test_a_cable_that_sweeps_through_an_obstacle_between_the_shapes_fails(monkeypatch):
+    """obstacle_entry: a straight cable carried along x through a thin wall at x = 0.3 m. The
+    planned shapes at x = 0, 0.5 and 1 m are clear of it (what the avoidance checks); the
+    records in between enter it, and the first segment is named. Beside the wall's path, or
+    within the contact tolerance, nothing is reported."""
+    from dloplan.obstacles import Box
+    from dloplan.verify.replay import obstacle_entry
+
+    times = np.linspace(0.0, 1.0, 101)
+    straight = np.stack([np.zeros(9), np.linspace(-0.2, 0.2, 9), np.full(9, 0.1)], axis=1)
+    shapes = straight[None] + times[:, None, None] * np.array([1.0, 0.0, 0.0])
+    run = Simulation(times, shapes, np.zeros(len(times)), 0.01, 100, True, "")
+    knots = np.array([0.0, 0.5, 1.0])
+    wall = Box(center=[0.3, 0.0, 0.1], size=[0.02, 0.2, 0.2], name="wall")
+    radius = 0.0025
+    message = obstacle_entry(run, [wall], radius, knots)
+    assert message.startswith("the moving cable enters wall by 2.5 mm at t = 0.3 s "
+                              "(between shapes 0 and 1;")
+    beside = Box(center=[0.3, 0.5, 0.1], size=[0.02, 0.2, 0.2], name="beside")
+    assert obstacle_entry(run, [beside], radius, knots) == ""
+    grazed = Box(center=[0.3, 0.0, 0.1 - radius - 0.01 + 1e-4], size=[0.02, 0.2, 0.02])
+    assert obstacle_entry(run, [grazed], radius, knots) == ""   # 0.1 mm: within the tolerance
+    assert obstacle_entry(run, [wall], radius, np.array([0.0, 0.2])).find("settling") > 0
+    monkeypatch.setattr(replay_module, "ENTRY_CHUNK", 8 * 7)   # 7 records at a time: the same
+    assert obstacle_entry(run, [wall], radius, knots) == message
+
+
+def test_obstacles_fail_the_replay_without_acting_on_it(shapes):
+    """The replay's ``obstacles`` are checked, not simulated: the same run and deviations,
+    and a table above the sagging cable's lowest point fails it naming the table."""
+    from dloplan.obstacles import Table
+
+    traj = _timed()
+    free = replay(CABLE, shapes, (traj.times, POSES), law=traj.law)
+    lowest = float(free.simulation.shapes[..., 2].min())
+    blocked = replay(CABLE, shapes, (traj.times, POSES), law=traj.law,
+                     obstacles=[Table(lowest + 0.01)])
+    assert free.ok and not blocked.ok
+    assert "the moving cable enters table by" in blocked.message
+    np.testing.assert_array_equal(blocked.deviations, free.deviations)
+    assert replay(CABLE, shapes, (traj.times, POSES), law=traj.law,
+                  obstacles=[Table(lowest - 0.01)]).ok
 
 
 def test_segment_deviations_and_motion_peak(shapes):

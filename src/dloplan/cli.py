@@ -276,10 +276,18 @@ def _cmd_export(args: argparse.Namespace) -> int:
         doc = retimed(doc, args.speed, args.angular_speed)
     written = export_plan(doc, args.format, Path(args.output), WriteOptions(rate=args.rate))
     console.stage(f"wrote {', '.join(str(p) for p in written)}")
+    warnings = []
+    if doc.grippers is not None and not doc.grippers.success:   # the exit 1 says why
+        grippers = doc.grippers
+        turn = math.degrees(float(abs(grippers.twist).max()))
+        warnings.append(f"grippers: the clip frames turn {turn:.1f} deg against each other, "
+                        f"more than {math.degrees(grippers.max_twist):.0f} deg "
+                        f"({grippers.message})")
+    for warning in warnings:
+        print(f"warning: {warning}", file=sys.stderr)
     if args.json:
-        print(json_text({"written": [str(p) for p in written]}))
-    twisted = doc.grippers is not None and not doc.grippers.success
-    return EXIT_WARNINGS if twisted else EXIT_OK
+        print(json_text({"written": [str(p) for p in written], "warnings": warnings}))
+    return EXIT_WARNINGS if warnings else EXIT_OK
 
 
 def _cmd_correct(args: argparse.Namespace) -> int:

@@ -131,6 +131,19 @@ def arc_length(x: np.ndarray) -> np.ndarray:
     return np.concatenate([zero, np.cumsum(lengths, axis=-1)], axis=-1)
 
 
+def point_segment_distance(point, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance [m] from ``point`` (3,) to each segment from ``a`` to ``b`` ((m, 3) each): (m,).
+
+    A segment of zero length is its point.
+    """
+    point = np.asarray(point, dtype=float)
+    axis = b - a
+    length2 = np.einsum("ij,ij->i", axis, axis)
+    along = np.einsum("ij,ij->i", point - a, axis) / np.where(length2 > 0, length2, 1.0)
+    nearest = a + np.clip(along, 0.0, 1.0)[:, None] * axis
+    return np.linalg.norm(point - nearest, axis=1)
+
+
 def resample_by_arc_length(points, n_points: int) -> np.ndarray:
     """Resample a polyline to ``n_points`` points equally spaced in arc length (thesis Fig. 6.4).
 

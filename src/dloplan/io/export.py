@@ -60,19 +60,23 @@ def multi_dof_trajectory_msg(
     Joint names are ``left_tcp`` and ``right_tcp``; each point has one
     ``geometry_msgs/Transform`` per joint (translation [m], rotation x-y-z-w, w >= 0), empty
     velocities and accelerations (the segment velocities are piecewise constant and jump at
-    the knots), and ``time_from_start`` as ``builtin_interfaces/Duration``.
+    the knots), and ``time_from_start`` as ``builtin_interfaces/Duration``. The points'
+    times increase strictly, as a trajectory controller requires: a knot at the time of the one
+    before it (a segment where nothing moves, two equal planned shapes) is written once.
     """
     frame_id = check_frame_id(frame_id)
     times, positions, rotations = _trajectory_points(trajectory, rate)
     quats = [canonical_quaternions(r) for r in rotations]
+    stamps = np.round(np.asarray(times, dtype=float) * 1e9)   # [ns], as the Duration holds them
+    kept = np.flatnonzero(np.r_[True, np.diff(stamps) > 0])
     points = [
         {
             "transforms": [transform_dict(positions[i, a], quats[a][i]) for a in (0, 1)],
             "velocities": [],
             "accelerations": [],
-            "time_from_start": duration_dict(t),
+            "time_from_start": duration_dict(times[i]),
         }
-        for i, t in enumerate(times)
+        for i in kept
     ]
     return {
         "header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": frame_id},

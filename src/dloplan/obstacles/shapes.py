@@ -368,6 +368,10 @@ class Table:
         normal[..., 2] = 1.0
         return points[..., 2] - self.height, normal
 
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """Distance from points to the solid below the plane [m], 0 in it, (...,)."""
+        return np.maximum(np.asarray(points)[..., 2] - self.height, 0.0)
+
     def contact_row(self) -> np.ndarray:
         """The plane for the simulator's contacts (:mod:`dloplan.physics.contact_compiled`),
         (8,)."""

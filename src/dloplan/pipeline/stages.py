@@ -24,6 +24,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..obstacles.collisions import check_shape
+from ..obstacles.shapes import Table
 from ..sim.clips import clip_poses_from_shape
 from ..sim.statics import check_clip_reach, check_target, clip_wrenches, stabilize
 from ..trajectory import GripperAction, plan_cycle
@@ -153,6 +154,31 @@ class PathStage:
     timings: dict
 
 
+def check_grip_distance(job: Job) -> None:
+    """Refuse a job whose start or target holds its clips closer than the cell's two grippers
+    can be: their TCPs closer than the sum of the arms' :attr:`~dloplan.robot.chain.CellArm.
+    tcp_depth` put the grippers' capsules into each other at any joints, orientation or
+    placement on the table, so no repair makes the robot program's clearance pass (a 3 cm
+    cable searched frames and placements for 30-80 s before it was refused as unreachable).
+
+    Raises
+    ------
+    ValueError
+        Naming the end, its clips' distance and the least distance the grippers allow.
+    """
+    left, right = job.robot.arms
+    least = left.tcp_depth + right.tcp_depth
+    for name in ("start", "target"):
+        clips = clip_poses_from_shape(getattr(job, name)).positions
+        distance = float(np.linalg.norm(clips[1] - clips[0]))
+        if distance < least:
+            raise ValueError(
+                f"{name}: its clips are {1e3 * distance:.1f} mm apart (cable "
+                f"{1e3 * job.cable.length:.1f} mm long); expected at least {1e3 * least:.1f} "
+                "mm: the two grippers' collision capsules overlap when their TCPs are closer, "
+                "whatever the arms' joints (a longer cable, or ends held farther apart)")
+
+
 def plan_path(job: Job, progress=quiet) -> PathStage:
     """The three-stage planner with stabilization and obstacle re-planning (ch. 4, 5).
 
@@ -209,13 +235,30 @@ def timed_trajectory(grippers, motion, cell):
                                     zone=motion.zone)
 
 
+GRIPPER_FIELDS = {"aux": "grippers.auxiliary_vector", "initial": "grippers.initial_frames"}
+"""The job file's fields of :func:`dloplan.grippers.gripper_path`'s parameters, which its
+errors and warnings name."""
+
+
+def _gripper_field(text: str) -> str:
+    """``text`` ("aux: ...") naming the job file's field instead of the parameter."""
+    name, colon, rest = text.partition(": ")
+    return f"{GRIPPER_FIELDS[name]}: {rest}" if colon and name in GRIPPER_FIELDS else text
+
+
 def gripper_frames(job: Job, path: np.ndarray):
-    """Both clip frames for every shape of ``path`` by the job's method (thesis 4.6)."""
+    """Both clip frames for every shape of ``path`` by the job's method (thesis 4.6); its
+    errors and warnings name the job file's fields (``grippers.auxiliary_vector``, not the
+    parameter ``aux``)."""
     from ..grippers import gripper_path
 
     settings = job.grippers
-    return gripper_path(path, method=settings.method, cable=job.cable,
-                        initial=settings.initial, aux=settings.auxiliary_vector)
+    try:
+        frames = gripper_path(path, method=settings.method, cable=job.cable,
+                              initial=settings.initial, aux=settings.auxiliary_vector)
+    except ValueError as exc:
+        raise ValueError(_gripper_field(str(exc))) from exc
+    return replace(frames, warnings=tuple(_gripper_field(w) for w in frames.warnings))
 
 
 def plan_motion(job: Job, path: np.ndarray, progress=quiet):
@@ -478,10 +521,12 @@ def verify_plan(doc: PlanDocument, *, snap: bool = True, replay: bool = True,
         reach = program_reachability(program_of(doc), len(doc.shapes))
     physics = None
     if reuse is not None and _same_checks(reuse[1], snap, times is not None, tolerance,
-                                          tensile_limit) and moved_rigidly(reuse[0], doc):
+                                          tensile_limit) and moved_rigidly(reuse[0], doc) \
+            and all(isinstance(o, Table) for o in doc.obstacles):  # obstacles stay: replay
         physics = reuse[1]
     return verify_path(doc.cable, settled_shapes(doc), doc.clip_poses(), times=times, snap=snap,
                        replay_options={"tolerance": tolerance, "tensile_limit": tensile_limit,
+                                       "obstacles": doc.obstacles,
                                        "law": None if doc.trajectory is None
                                        else doc.trajectory.law,
                                        "youngs_modulus_cap": replay_modulus_cap(doc.cable,
@@ -551,6 +596,8 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
         program that passes were started by ``planned``; the reach repair replaces one that
         fails).
     """
+    if check_robot:
+        check_grip_distance(job)
     staged = plan_path(job, progress)
     result, target_check = staged.plan, staged.target_check
     timings = dict(staged.timings)
@@ -666,7 +713,7 @@ def simulate_plan(doc: PlanDocument, *, damping: str = "relative", torsion: bool
     settled = settled_shapes(doc)
     run = replay(doc.cable, settled, (doc.trajectory.times, doc.clip_poses()),
                  law=doc.trajectory.law, damping=damping, torsion=torsion,
-                 youngs_modulus_cap=youngs_modulus_cap)
+                 youngs_modulus_cap=youngs_modulus_cap, obstacles=doc.obstacles)
     simulated = run.simulation.at(run.knot_times)
     comparison = compare_shapes(settled, list(simulated), end_order="keep")
     return run, comparison

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..geometry import point_segment_distance
 from .description import ArmDescription
 from .kinematics import link_frames
 
@@ -198,6 +199,21 @@ class CellArm:
     def n_joints(self) -> int:
         """Number of joints n."""
         return self.description.n_joints
+
+    @property
+    def tcp_depth(self) -> float:
+        """Radius [m] of the largest ball about the TCP inside the capsules of the last link
+        (its gripper's): the largest r - e over them, e the TCP's distance from a capsule's
+        axis segment; 0 when the TCP lies in none. The ball is inside the capsule whatever the
+        joints (``|x - q| <= |x - TCP| + e < r``, q the axis point nearest the TCP), so two
+        arms whose TCPs are closer than the sum of their depths overlap: no program holds two
+        clips that close (:func:`dloplan.pipeline.stages.check_grip_distance`)."""
+        last = self._cap_link == self.n_joints - 1
+        if not np.any(last):
+            return 0.0
+        depth = self._radii[last] - point_segment_distance(self._tcp_xyz, self._caps[last, 0],
+                                                           self._caps[last, 1])
+        return max(float(np.max(depth)), 0.0)
 
     @property
     def lower(self) -> np.ndarray:

@@ -26,16 +26,36 @@ def as_clip_sequence(
     return poses
 
 
-def as_times(times, count: int, name: str = "times") -> np.ndarray:
-    """``count`` finite, strictly increasing times [s]."""
+def as_times(times, count: int, name: str = "times", repeats: bool = False) -> np.ndarray:
+    """``count`` finite, strictly increasing times [s].
+
+    Parameters
+    ----------
+    times : array_like
+        (count,) times [s].
+    count : int
+        How many times are expected.
+    name : str
+        The field named in an error.
+    repeats : bool
+        Whether a time may equal the one before it (non-decreasing times): a time law's knot
+        times repeat across a segment where nothing moves (``dloplan.trajectory.TimeLaw``).
+
+    Returns
+    -------
+    numpy.ndarray
+        (count,) the times [s].
+    """
     try:
         t = np.asarray(times, dtype=float)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name}: expected {count} times [s], got {type(times).__name__}") from exc
     if t.shape != (count,):
         raise ValueError(f"{name}: got shape {t.shape}, expected ({count},) (one time per shape)")
-    if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
-        raise ValueError(f"{name}: expected finite, strictly increasing times [s], got {t}")
+    steps = np.diff(t)
+    if not np.all(np.isfinite(t)) or np.any(steps < 0 if repeats else steps <= 0):
+        order = "non-decreasing" if repeats else "strictly increasing"
+        raise ValueError(f"{name}: expected finite, {order} times [s], got {t}")
     return t
 
 

@@ -106,6 +106,9 @@ CLIP_RATE = 1000.0
 IMPLICIT_STEP = 1.0 / CLIP_RATE
 """Time step [s] of the implicit replay: the clip samples' spacing (docs/decisions.md)."""
 
+ENTRY_CHUNK = 1_000_000
+"""Links checked at a time by :func:`obstacle_entry` (its arrays' size: a few tens of MB)."""
+
 CONTACT_GAP = 0.05
 """A recorded point touches an obstacle when its surface is closer than this fraction of the
 cable's radius (the hard contact puts a pressing point at a gap of zero)."""
@@ -247,6 +250,20 @@ def as_clip_trajectory(trajectory) -> ClipTrajectory:
     return ClipTrajectory(as_times(times, len(poses), "trajectory times"), poses)
 
 
+def _knot_poses(trajectory) -> list:
+    """The knot poses a time law moves the clips through: ``trajectory`` itself (a list), the
+    poses of a pair ``(times, poses)`` or of an object with ``poses``. Their times are the
+    law's, which repeat across a segment where nothing moves (a trajectory through two equal
+    shapes): unlike :func:`as_clip_trajectory`'s they need not increase strictly."""
+    if isinstance(trajectory, list):
+        return trajectory
+    if isinstance(trajectory, tuple) and len(trajectory) == 2:
+        return list(trajectory[1])
+    if hasattr(trajectory, "poses"):
+        return list(trajectory.poses)
+    return as_clip_trajectory(trajectory).poses   # its error names what was expected
+
+
 def clip_motion(law: TimeLaw, poses, rate: float = CLIP_RATE) -> ClipTrajectory:
     """The clips moving through their knot poses under a time law, sampled for the simulator.
 
@@ -310,6 +327,7 @@ def replay(
     scheme: str = "auto",
     changes_at: float | None = None,
     settle_speed: float | None = None,
+    obstacles=(),
 ) -> Replay:
     """Simulate the timed plan at its real speed and compare with the planned shapes.
 
@@ -368,6 +386,12 @@ def replay(
         contacts (module docstring; :func:`quasi_static_speed`). Where no converged, stable
         equilibrium is found from there, the run is stepped on to ``rest_speed``, explicitly.
         Default: stepped to ``rest_speed``.
+    obstacles : sequence, optional
+        Volumes (``Box``, ``Cylinder``, ``Table``) the recorded cable must stay out of, though
+        the run does not feel them (unlike ``contacts``): the avoidance (thesis 5.4) checks
+        the planned shapes only, and the cable moving between two of them can sweep through
+        an obstacle. A record whose links enter one by more than the contact tolerance
+        (:data:`CONTACT_GAP` times the radius) fails the replay (:func:`obstacle_entry`).
 
     Returns
     -------
@@ -376,8 +400,7 @@ def replay(
     """
     path = as_path(stabilized_shapes, cable.n_points, "stabilized_shapes")
     if law is not None:
-        poses = trajectory if isinstance(trajectory, list) else as_clip_trajectory(
-            trajectory).poses
+        poses = _knot_poses(trajectory)
         clips = clip_motion(law, poses)
         knot_times = law.knot_times if knot_times is None else knot_times
     else:
@@ -389,7 +412,7 @@ def replay(
                 f"{len(path)} shapes"
             )
         knot_times = clips.times
-    knots = as_times(knot_times, len(path), "knot_times")
+    knots = as_times(knot_times, len(path), "knot_times", repeats=law is not None)
     start = clips.times[0]
     if knots[0] < start or knots[-1] > clips.times[-1]:
         raise ValueError(
@@ -435,6 +458,7 @@ def replay(
     step = explicit_step() if not implicit else IMPLICIT_STEP if dt is None else dt
     duration = motion + settle_duration
     spacing = np.diff(knots)
+    spacing = spacing[spacing > 0]  # a repeated knot: a segment where nothing moves
     finest = float(np.min(spacing)) / 20.0 if len(spacing) else duration
 
     def run_with(step: float, scheme: str, begin: float = 0.0, end: float = duration,
@@ -516,6 +540,9 @@ def replay(
     if not within:
         problems.append(f"peak tension {peak:.3g} N exceeds the limit {tensile_limit:.3g} N "
                         f"(link {link}, t = {run.times[when]:.3g} s)")
+    entry = obstacle_entry(run, obstacles, cable.diameter / 2, knots)
+    if entry:
+        problems.append(entry)
     summary = (f"max deviation {1e3 * float(np.max(deviations)):.2f} mm at the shapes, "
                f"{1e3 * float(np.max(segments, initial=0.0)):.2f} mm along the segments, "
                f"settled {1e3 * final:.2f} mm, peak tension {motion_peak:.3g} N in motion, "
@@ -530,6 +557,50 @@ def replay(
                   int(link), tensile_limit, float(tolerance), not problems, message, run,
                   segments, motion_peak, timing, tensions, names, gaps,
                   CONTACT_GAP * cable.diameter / 2, rest)
+
+
+def obstacle_entry(run: Simulation, obstacles, radius: float, knots: np.ndarray) -> str:
+    """Where the recorded cable enters an obstacle deepest, or ``""`` when no record's links
+    (capsules of ``radius`` [m]) enter one by more than :data:`CONTACT_GAP` times the radius.
+
+    Parameters
+    ----------
+    run : Simulation
+        The recorded run: (R, n + 1, 3) shapes [m] at (R,) times [s].
+    obstacles : sequence
+        Volumes with ``penetration(a, b, radius)`` (:mod:`dloplan.obstacles`).
+    radius : float
+        The cable's radius [m].
+    knots : numpy.ndarray
+        (S + 2,) the planned shapes' times on the run's clock [s], to name the segment.
+    """
+    shapes = run.shapes
+    step = max(1, ENTRY_CHUNK // max(shapes.shape[1] - 1, 1))   # records at a time
+    worst = (0.0, "", 0)
+    for begin in range(0, len(shapes), step):
+        chunk = shapes[begin:begin + step]
+        a, b = chunk[:, :-1].reshape(-1, 3), chunk[:, 1:].reshape(-1, 3)
+        middles = 0.5 * (a + b)
+        half = 0.5 * np.linalg.norm(b - a, axis=1)
+        for obstacle in obstacles:
+            # a link can enter only where its middle is within the radius plus half its
+            # length (the distance to a volume changes by at most the distance moved)
+            near = np.flatnonzero(obstacle.distance(middles) - half < radius)
+            depth = np.zeros(len(a))
+            depth[near] = obstacle.penetration(a[near], b[near], radius)
+            depth = depth.reshape(len(chunk), -1).max(axis=1)
+            record = int(np.argmax(depth))
+            if depth[record] > worst[0]:
+                worst = (float(depth[record]), str(obstacle.name), begin + record)
+    depth, name, record = worst
+    if depth <= CONTACT_GAP * radius:
+        return ""
+    t = float(run.times[record])
+    k = int(np.searchsorted(knots, t, side="right")) - 1
+    where = (f"between shapes {k} and {k + 1}" if k < len(knots) - 1 else
+             f"settling after shape {len(knots) - 1}")
+    return (f"the moving cable enters {name} by {1e3 * depth:.1f} mm at t = {t:.3g} s ({where};"
+            " the obstacle check sees the planned shapes, not the motion between them)")
 
 
 def quasi_static_speed(cable: Cable, gravity=GRAVITY) -> float:
