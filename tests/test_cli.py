@@ -499,6 +499,18 @@ def test_options_that_must_be_positive_refuse_zero_negative_and_nan(tmp_path, ca
     assert len(err.strip().splitlines()) == 1
 
 
+@pytest.mark.parametrize("value", ["-1", "nan", "inf", "two"])
+def test_gain_sd_is_refused_by_its_option_name(tmp_path, capsys, value):
+    """``correct --gain-sd`` was a bare float: -1, nan and inf reached the library and were
+    refused as ``limits.gain_significance`` (a name the command line does not have; inf
+    "expected a number >= 0"), after the plan had been read."""
+    assert main(["correct", str(tmp_path / "plan.json"), "--at", "1", "--measured",
+                 str(tmp_path / "m.csv"), f"--gain-sd={value}"]) == EXIT_FAILURE
+    err = capsys.readouterr().err
+    assert f"argument --gain-sd: got '{value}', expected a finite number >= 0" in err
+    assert len(err.strip().splitlines()) == 1
+
+
 def test_the_robot_table_prints_no_negative_zero():
     """A worst value of -0.0 (a clearance rounded from below) prints as 0, not "-0"."""
     from dloplan.cli import program_table
