@@ -614,3 +614,21 @@ def test_an_export_that_exits_1_says_why(tmp_path, capsys):
     line = "grippers: the clip frames turn 20.0 deg against each other, more than 15 deg ("
     assert json.loads(captured.out)["warnings"][0].startswith(line)
     assert f"warning: {line}" in captured.err
+
+
+def test_simulate_of_a_cable_that_stretches_reports_the_replay_not_a_registration(tmp_path,
+                                                                                  capsys):
+    """``simulate --modulus-cap 1000``: the capped cable stretches to about 2.8 times its length
+    under gravity; simulate exited 2 with "registered[1]: registered shape is 1.4 m long ...
+    are its points shuffled, not in metres?", about shapes the user never gave. The stretch
+    is the simulation's result: the replay fails (exit 1) and the table compares the shapes."""
+    out = tmp_path / "out"
+    main(["plan", str(write(tmp_path, {**STIFF, "outputs": ["json"]})), "-o", str(out), "-q"])
+    capsys.readouterr()
+    assert main(["simulate", str(out / "plan.json"), "-q", "--json",
+                 "--modulus-cap", "1000"]) == EXIT_WARNINGS
+    captured = capsys.readouterr()
+    result = json.loads(captured.out)
+    assert not result["ok"] and "deviates" in result["message"]
+    assert result["rows"][-1][0] == "all" and result["rows"][-1][5] > 0.01  # [m]
+    assert "registered" not in captured.err
