@@ -110,3 +110,20 @@ def test_rank_p_values_of_a_few_samples_count_their_pairings():
     y = np.array([2.0, 1.0, 4.0, 3.0, 6.0, 5.0, 8.0, 7.0, 10.0, 9.0])[:n]
     sens = summarize(table(x, 1e-3 * y, np.zeros(n))).sensitivities[0]
     assert sens.p_deviation == pytest.approx(spearmanr(x, y).pvalue, rel=1e-12)
+
+
+def test_the_deviation_line_says_over_how_many_samples():
+    """A study whose samples' shapes did not all converge (a 200 mm clip spread: 2 of 3) printed
+    "largest deviation per sample: median 375.13 mm, ... max 375.13 mm", the one converged
+    sample's, as if it were every sample's: the line now says over how many."""
+    t = _table()
+    t["converged"][2:4] = False  # sample 1
+    t["deviation"][2:4] = np.nan
+    summary = summarize(t)
+    assert summary.deviation["samples"] == 3
+    assert summary.deviation["max"] == pytest.approx(2e-3)
+    line = next(x for x in summary.lines() if x.startswith("largest deviation per sample"))
+    assert line.endswith("(over 3 of 4 samples: 1 with a shape not converged, no deviation)")
+    assert summary.to_dict()["deviation_m"]["samples"] == 3
+    whole = next(x for x in summarize(_table()).lines() if x.startswith("largest deviation"))
+    assert "over" not in whole

@@ -98,7 +98,8 @@ class StudySummary:
     ranked_by : str
         ``"failure"`` or ``"deviation"``: which correlation ranks the sensitivities.
     deviation : dict
-        Median, 95th percentile and largest of the samples' largest deviations [m].
+        Median, 95th percentile and largest of the samples' largest deviations [m], and
+        ``samples``, how many samples have one (a sample with a shape not converged has none).
     closed_loop : ClosedLoopSuccess or None
         With a ``correction:`` section: the open- and closed-loop success probabilities of
         :func:`dloplan.correct.closed_loop_study` (its ``message`` and ``to_dict()``).
@@ -126,8 +127,12 @@ class StudySummary:
         out.append(f"failures by criterion: {failed or 'none'}")
         d = self.deviation
         if math.isfinite(d["max"]):
+            unevaluated = self.n_samples - d["samples"]
+            over = "" if not unevaluated else \
+                f" (over {d['samples']} of {self.n_samples} samples: {unevaluated} with a shape " \
+                "not converged, no deviation)"
             out.append(f"largest deviation per sample: median {1e3 * d['median']:.2f} mm, 95 % "
-                       f"{1e3 * d['p95']:.2f} mm, max {1e3 * d['max']:.2f} mm")
+                       f"{1e3 * d['p95']:.2f} mm, max {1e3 * d['max']:.2f} mm{over}")
         else:
             out.append("largest deviation per sample: none (no sample converged)")
         for s in self.sensitivities:
@@ -300,7 +305,8 @@ def summarize(table: dict, criteria: CriteriaSpec | None = None, *, confidence: 
     finite = per["deviation"][np.isfinite(per["deviation"])]
     stats = {"median": float(np.median(finite)) if len(finite) else math.nan,
              "p95": float(np.percentile(finite, 95)) if len(finite) else math.nan,
-             "max": float(finite.max()) if len(finite) else math.nan}
+             "max": float(finite.max()) if len(finite) else math.nan,
+             "samples": len(finite)}
     failures = {name: int((~passed).sum()) for name, passed in per["passed"].items()}
     return StudySummary(n, k, k / n, success_interval(k, n, confidence, method), confidence,
                         method, failures, tuple(sens), ranked_by, stats)
