@@ -499,6 +499,18 @@ def test_options_that_must_be_positive_refuse_zero_negative_and_nan(tmp_path, ca
     assert len(err.strip().splitlines()) == 1
 
 
+@pytest.mark.parametrize("value", ["-1", "nan", "inf", "two"])
+def test_gain_sd_is_refused_by_its_option_name(tmp_path, capsys, value):
+    """``correct --gain-sd`` was a bare float: -1, nan and inf reached the library and were
+    refused as ``limits.gain_significance`` (a name the command line does not have; inf
+    "expected a number >= 0"), after the plan had been read."""
+    assert main(["correct", str(tmp_path / "plan.json"), "--at", "1", "--measured",
+                 str(tmp_path / "m.csv"), f"--gain-sd={value}"]) == EXIT_FAILURE
+    err = capsys.readouterr().err
+    assert f"argument --gain-sd: got '{value}', expected a finite number >= 0" in err
+    assert len(err.strip().splitlines()) == 1
+
+
 def test_the_robot_table_prints_no_negative_zero():
     """A worst value of -0.0 (a clearance rounded from below) prints as 0, not "-0"."""
     from dloplan.cli import program_table
@@ -602,3 +614,21 @@ def test_an_export_that_exits_1_says_why(tmp_path, capsys):
     line = "grippers: the clip frames turn 20.0 deg against each other, more than 15 deg ("
     assert json.loads(captured.out)["warnings"][0].startswith(line)
     assert f"warning: {line}" in captured.err
+
+
+def test_simulate_of_a_cable_that_stretches_reports_the_replay_not_a_registration(tmp_path,
+                                                                                  capsys):
+    """``simulate --modulus-cap 1000``: the capped cable stretches to about 2.8 times its length
+    under gravity; simulate exited 2 with "registered[1]: registered shape is 1.4 m long ...
+    are its points shuffled, not in metres?", about shapes the user never gave. The stretch
+    is the simulation's result: the replay fails (exit 1) and the table compares the shapes."""
+    out = tmp_path / "out"
+    main(["plan", str(write(tmp_path, {**STIFF, "outputs": ["json"]})), "-o", str(out), "-q"])
+    capsys.readouterr()
+    assert main(["simulate", str(out / "plan.json"), "-q", "--json",
+                 "--modulus-cap", "1000"]) == EXIT_WARNINGS
+    captured = capsys.readouterr()
+    result = json.loads(captured.out)
+    assert not result["ok"] and "deviates" in result["message"]
+    assert result["rows"][-1][0] == "all" and result["rows"][-1][5] > 0.01  # [m]
+    assert "registered" not in captured.err

@@ -72,6 +72,12 @@ def _stabilized(doc):
     return doc.stabilized
 
 
+def _chord(shape):
+    """The unit vector from a shape's first point to its last."""
+    chord = shape[-1] - shape[0]
+    return chord / np.linalg.norm(chord)
+
+
 def _measure(shape, n_points=200, noise=NOISE, seed=0):
     rng = np.random.default_rng(seed)
     points = resample_by_arc_length(shape, n_points)
@@ -330,8 +336,14 @@ def test_noisy_dense_measurements_are_resampled_by_smoothed_arc_length(plans):
         (lambda s: np.random.default_rng(3).permutation(s), "not ordered along the cable"),
         (lambda s: s[0] + 0.6 * (s - s[0]), "another cable"),
         (lambda s: s + [0.3, 0.0, 0.0], "not where the plan has it"),
+        # reflected across the plane through its first point normal to its chord: the points
+        # project onto the prediction's first end (correlation ~0) and were refused as "not
+        # ordered along the cable" though their order was right and they were 0.3 m away
+        (lambda s: s - 2.0 * np.outer((s - s[0]) @ _chord(s), _chord(s)),
+         "the points are on average .* from the model's prediction, each from its nearest "
+         "point .*: the cable is not where the plan has it"),
     ],
-    ids=["reversed", "shuffled", "shorter-cable", "elsewhere"],
+    ids=["reversed", "shuffled", "shorter-cable", "elsewhere", "mirrored"],
 )
 def test_an_absurd_measurement_is_refused_with_the_reason(plans, make, reason):
     doc, _ = plans["demo"]

@@ -40,7 +40,7 @@ from dloplan.identify import (
 from dloplan.identify.distance import curve_residuals
 from dloplan.identify.experiment import initial_on
 from dloplan.identify.fit import links_for_curvature
-from dloplan.identify.measured import measured_curve
+from dloplan.identify.measured import measured_curve, point_scatter
 from dloplan.identify.report import FAILURE, OK, WARNINGS, exit_code, plan_warnings
 from dloplan.identify.search import Sample, Search
 from dloplan.identify.tuning_loop import thesis_equivalent_modulus, tune_for_identified
@@ -537,3 +537,26 @@ def test_a_shape_of_a_few_markers_is_refused_naming_the_points_it_needs():
                        r"is 0.5 m \(only 4 points measured: .*at least n \+ 1 = 17 points"):
         prepare_shapes(cable, sparse)
     prepare_shapes(cable, Experiment(manipulation, experiment.measured_shape))  # dense: fine
+
+
+def test_a_shape_longer_than_its_cable_names_an_outlier_or_the_noise_it_has():
+    """One marker 60 mm off, or 5 mm of noise stated as 1 mm (the unseen-case sweep, round 5,
+    on the Ethernet example): the smoothing spline follows them and the shape reads 18-26 %
+    longer than the cable. The refusal named the lengths only, as if another cable were
+    measured; it now names the outlier, or the scatter the points have."""
+    cable = catalogue_cable("usb", n_links=16)
+    manipulation = cantilever_manipulation(cable)
+    experiment = synthetic_experiment(cable, manipulation, seed=3)
+    moved = experiment.measured_shape.copy()
+    moved[30] += [0.0, 0.0, 0.06]
+    with pytest.raises(ValueError, match=r"long but the cable is 0.5 m \(point 30 lies "
+                       r"6[0-3]\.\d mm off the line of its neighbours, .*an outlier\? "
+                       r"remove it\)"):
+        prepare_shapes(cable, Experiment(manipulation, moved, measurement_noise=1e-3))
+    noisy = synthetic_experiment(cable, manipulation, noise=5e-3, seed=3).measured_shape
+    with pytest.raises(ValueError, match=r"long but the cable is 0.5 m \(the points scatter "
+                       r"about [3-6](\.\d)? mm, .* more than the stated measurement_noise of 1 mm"):
+        prepare_shapes(cable, Experiment(manipulation, noisy, measurement_noise=1e-3))
+    scatter = point_scatter(experiment.measured_shape)  # 1 mm of noise, as stated
+    assert 0.5e-3 < scatter.noise < 2e-3
+    prepare_shapes(cable, experiment)  # accepted as before

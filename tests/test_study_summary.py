@@ -69,3 +69,61 @@ def test_criteria_are_applied_per_sample_and_can_change_afterwards():
     assert [s.parameter for s in relaxed.sensitivities] == ["youngs_modulus"]
     assert relaxed.ranked_by == "failure"
     assert "success 3/4 = 75.0 %" in relaxed.lines()[0]
+
+
+def test_rank_p_values_of_a_few_samples_count_their_pairings():
+    """3 samples in order: rho = 1 in 2 of the 6 pairings, p = 1/3 (``spearmanr``'s t
+    approximation said p = 0, and a 3-sample study's --json read as a certain driver); 4 in
+    order 2/24. With ties (failure as 0/1) the count agrees with scipy's own exact
+    permutation test; above EXACT_PAIRINGS samples the approximation is kept."""
+    from scipy.stats import permutation_test, spearmanr
+
+    from dloplan.study.summary import EXACT_PAIRINGS, exact_rank_p_value
+
+    def table(e, deviation, failed):
+        t = _table()
+        n, s = len(e), 2
+        for name in list(t):
+            t[name] = np.resize(t[name], n * s)
+        t["sample"], t["shape"] = np.repeat(np.arange(n), s), np.tile(np.arange(s), n)
+        t["youngs_modulus"] = np.repeat(np.asarray(e, float), s)
+        t["deviation"] = np.repeat(np.asarray(deviation, float), s)
+        t["collision"] = np.repeat(np.asarray(failed, bool), s)
+        t["displacement"] = np.zeros(n * s)
+        return t
+
+    e = [1.0, 2.0, 3.0]
+    sens = summarize(table(e, [1e-3, 2e-3, 3e-3], [0, 0, 0])).sensitivities[0]
+    assert sens.rho_deviation == pytest.approx(1.0) and sens.p_deviation == pytest.approx(1 / 3)
+    sens = summarize(table(e + [4.0], [4e-3, 3e-3, 2e-3, 1e-3], [0, 0, 1, 1])).sensitivities[0]
+    assert sens.rho_deviation == pytest.approx(-1.0)
+    assert sens.p_deviation == pytest.approx(2 / 24)
+
+    x = np.array([0.3, 1.2, 0.7, 2.5, 1.9, 0.1, 3.0])
+    failed = np.array([0, 1, 0, 1, 1, 0, 0], float)
+    exact = permutation_test((x,), lambda v: spearmanr(v, failed).statistic,
+                             permutation_type="pairings", n_resamples=math.inf)
+    assert exact_rank_p_value(x, failed) == pytest.approx(exact.pvalue, abs=1e-12)
+
+    n = EXACT_PAIRINGS + 2
+    x = np.arange(n, dtype=float)
+    y = np.array([2.0, 1.0, 4.0, 3.0, 6.0, 5.0, 8.0, 7.0, 10.0, 9.0])[:n]
+    sens = summarize(table(x, 1e-3 * y, np.zeros(n))).sensitivities[0]
+    assert sens.p_deviation == pytest.approx(spearmanr(x, y).pvalue, rel=1e-12)
+
+
+def test_the_deviation_line_says_over_how_many_samples():
+    """A study whose samples' shapes did not all converge (a 200 mm clip spread: 2 of 3) printed
+    "largest deviation per sample: median 375.13 mm, ... max 375.13 mm", the one converged
+    sample's, as if it were every sample's: the line now says over how many."""
+    t = _table()
+    t["converged"][2:4] = False  # sample 1
+    t["deviation"][2:4] = np.nan
+    summary = summarize(t)
+    assert summary.deviation["samples"] == 3
+    assert summary.deviation["max"] == pytest.approx(2e-3)
+    line = next(x for x in summary.lines() if x.startswith("largest deviation per sample"))
+    assert line.endswith("(over 3 of 4 samples: 1 with a shape not converged, no deviation)")
+    assert summary.to_dict()["deviation_m"]["samples"] == 3
+    whole = next(x for x in summarize(_table()).lines() if x.startswith("largest deviation"))
+    assert "over" not in whole

@@ -126,14 +126,27 @@ def _cmd_cables(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _number(text: str) -> float:
+    """``text`` as a float; NaN when it is not a number (the callers refuse NaN)."""
+    try:
+        return float(text)
+    except ValueError:
+        return math.nan
+
+
 def positive_number(text: str) -> float:
     """An option's value as a finite number > 0 (argparse names the option when it fails)."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
+    value = _number(text)
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"got {text!r}, expected a finite number > 0")
+    return value
+
+
+def non_negative_number(text: str) -> float:
+    """An option's value as a finite number >= 0 (argparse names the option when it fails)."""
+    value = _number(text)
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected a finite number >= 0")
     return value
 
 
@@ -177,10 +190,7 @@ def rate(text: str) -> float:
 
 def finite_number(text: str) -> float:
     """An option's value as a finite number (not nan, not inf)."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
+    value = _number(text)
     if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"got {text!r}, expected a finite number")
     return value
@@ -910,7 +920,7 @@ def build_parser() -> argparse.ArgumentParser:
     correct.add_argument("--no-verify", action="store_true",
                          help="skip the physics verification of the corrected plan (stability, "
                          "snap-through, replay); its robot programs are still checked")
-    correct.add_argument("--gain-sd", type=float, default=2.0,
+    correct.add_argument("--gain-sd", type=non_negative_number, default=2.0,
                          help="keep the plan unless the correction's predicted gain is more "
                          "than this many of its sd from zero and still a gain with the clamp "
                          "length this many sd off (default 2; 0: any gain)")

@@ -198,6 +198,11 @@ def resample_measured(points, predicted: np.ndarray, cable_length: float, *,
     if len(x) >= 3:
         order = float(np.corrcoef(np.arange(len(x)), s)[0, 1]) if np.ptp(s) > 0 else 0.0
         if not order >= MIN_ORDER:
+            # points far from the whole prediction have no order along it to judge: a mirrored
+            # or misplaced shape projects onto a piece of the prediction (correlation ~0)
+            refuse_far(float(np.mean(nearest_points(x, predicted)[1])), cable_length,
+                       max_disagreement,
+                       "the points are", ", each from its nearest point")
             how = ("run from the last clip to the first (reverse them)" if order <= -MIN_ORDER
                    else "are not ordered along the cable")
             raise CorrectionRefused(
@@ -213,11 +218,29 @@ def resample_measured(points, predicted: np.ndarray, cable_length: float, *,
             f"{100 * MAX_LENGTH_ERROR:.0f} %)"
         )
     shape = resample_by_arc_length(smooth, n_points)
-    mean = float(np.mean(np.linalg.norm(shape - predicted, axis=1)))
+    refuse_far(float(np.mean(np.linalg.norm(shape - predicted, axis=1))), cable_length,
+               max_disagreement)
+    return shape
+
+
+def refuse_far(mean: float, cable_length: float, max_disagreement: float,
+               subject: str = "the shape is", how: str = "") -> None:
+    """Refuse a measurement on average ``mean`` [m] from the prediction beyond
+    ``max_disagreement`` cable lengths (:class:`CorrectionRefused`; NaN is refused).
+
+    Parameters
+    ----------
+    mean, cable_length : float
+        The mean distance and L [m].
+    max_disagreement : float
+        The limit in cable lengths.
+    subject, how : str
+        What is that far ("the shape is": the resampled shape point by point) and how it
+        was measured (appended to the distance).
+    """
     if not (math.isfinite(mean) and mean <= max_disagreement * cable_length):
         raise CorrectionRefused(
-            f"measured: the shape is on average {1e3 * mean:.0f} mm from the model's prediction "
-            f"(limit {1e3 * max_disagreement * cable_length:.0f} mm = {max_disagreement:g} cable "
-            "lengths): the cable is not where the plan has it"
+            f"measured: {subject} on average {1e3 * mean:.0f} mm from the model's prediction"
+            f"{how} (limit {1e3 * max_disagreement * cable_length:.0f} mm = "
+            f"{max_disagreement:g} cable lengths): the cable is not where the plan has it"
         )
-    return shape

@@ -36,7 +36,7 @@ from ..cable import GRAVITY, Cable
 from ..geometry import as_shape
 from ..shapes import LENGTH_TOLERANCE, discretize
 from ..sim.clips import ClipPoses
-from .measured import MeasuredCurve, measured_curve
+from .measured import MeasuredCurve, measured_curve, point_scatter
 
 HELD_MODES = ("both", "first")
 
@@ -172,6 +172,32 @@ def initial_on(cable: Cable, manipulation: Manipulation) -> np.ndarray:
     return initial
 
 
+NOISIER = 2.0
+"""A measurement whose points scatter more than this many times its stated noise is said so."""
+
+OUTLIER = 10.0
+"""A point off its neighbours' line by more than this many sd (sqrt(6) / 2 sigma) is named."""
+
+
+def scatter_hint(points, noise: float) -> str:
+    """Why a measured shape reads longer than its cable, when its points say so ("" if not).
+
+    Noise beyond the stated ``noise`` [m] (the smoothing spline, fitted to that noise, follows
+    the rest) or one outlier (the spline follows it out and back) lengthen the smoothed curve;
+    :func:`dloplan.identify.measured.point_scatter` tells them apart without a fit.
+    """
+    scatter = point_scatter(points)
+    if scatter.noise > NOISIER * noise:
+        return (f" (the points scatter about {1e3 * scatter.noise:.2g} mm, from their second "
+                f"differences, more than the stated measurement_noise of {1e3 * noise:.2g} mm: "
+                "state the noise they have)")
+    if scatter.offset > OUTLIER * 0.5 * math.sqrt(6.0) * max(noise, scatter.noise):
+        return (f" (point {scatter.worst} lies {1e3 * scatter.offset:.1f} mm off the line of "
+                f"its neighbours, {scatter.offset / noise:.0f} times the stated noise: an "
+                "outlier? remove it)")
+    return ""
+
+
 def prepare_shapes(cable: Cable, experiment: Experiment,
                    curve: MeasuredCurve | None = None) -> PreparedShapes:
     """Check the experiment's shapes against a cable and put them on its n + 1 points.
@@ -201,7 +227,9 @@ def prepare_shapes(cable: Cable, experiment: Experiment,
         hint = " (given in millimetres?)" if 500 < ratio < 2000 else (
             f" (only {k} points measured: the polyline through them cuts the bends short; "
             f"measure at least n + 1 = {cable.n_links + 1} points along the cable)"
-            if ratio < 1.0 and k < cable.n_links + 1 else "")
+            if ratio < 1.0 and k < cable.n_links + 1 else
+            scatter_hint(experiment.measured_shape, experiment.measurement_noise)
+            if ratio > 1.0 else "")
         raise ValueError(
             f"measured_shape: the shape is {curve.length:.4g} m long but the cable is "
             f"{cable.length:.4g} m{hint}; expected within {100 * LENGTH_TOLERANCE:g} %")

@@ -147,3 +147,50 @@ def measured_curve(points, noise: float, name: str = "measured_shape") -> Measur
     d1 = np.array(splev(t, tck, der=1)).T
     tangents = d1 / np.linalg.norm(d1, axis=1)[:, None]
     return MeasuredCurve(x, smooth, float(arc_length(smooth)[-1]), tangents, float(noise))
+
+
+CHI3_MEDIAN = math.sqrt(2.365973884375338)
+"""Median length of a 3-vector of independent unit normals (sqrt of chi-squared(3)'s median)."""
+
+
+@dataclass(frozen=True)
+class Scatter:
+    """How measured points scatter, read off their second differences (no curve fitted).
+
+    The second difference x[i-1] - 2 x[i] + x[i+1] of points with independent noise sigma per
+    coordinate is a 3-vector of normals of sd sqrt(6) sigma, plus h^2 times the curvature,
+    which is small where the points are dense. Its median length over the polyline therefore
+    estimates sigma robustly (one outlier does not move it), and the largest one finds an
+    outlier: a point moved by e off the line of its neighbours has a second difference of 2 e.
+
+    Attributes
+    ----------
+    noise : float
+        sigma estimated from the median second difference [m] (0 for fewer than 3 points).
+    worst : int
+        Index of the point whose second difference is largest (-1 for fewer than 3 points).
+    offset : float
+        That point's distance from the middle of its two neighbours [m].
+    """
+
+    noise: float
+    worst: int
+    offset: float
+
+
+def point_scatter(points) -> Scatter:
+    """The scatter of an ordered polyline's points (:class:`Scatter`).
+
+    Parameters
+    ----------
+    points : array_like
+        (k, 3) ordered points along the cable [m].
+    """
+    x = np.asarray(points, dtype=float)
+    if len(x) < 3:
+        return Scatter(0.0, -1, 0.0)
+    second = np.linalg.norm(x[:-2] - 2.0 * x[1:-1] + x[2:], axis=1)
+    worst = int(np.argmax(second))
+    return Scatter(float(np.median(second)) / (math.sqrt(6.0) * CHI3_MEDIAN), worst + 1,
+                   0.5 * float(second[worst]))
+

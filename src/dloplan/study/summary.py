@@ -11,7 +11,11 @@
   ``scipy.stats.binomtest(k, N).proportion_ci``. With LHS the samples are not independent draws,
   which makes the binomial interval slightly conservative for smooth failure regions.
 * **Sensitivities**: Spearman's rank correlation (``scipy.stats.spearmanr``) of each varied
-  parameter with the sample's largest deviation and with its failure (0/1). Rank correlation
+  parameter with the sample's largest deviation and with its failure (0/1), and its two-sided
+  p-value: exact, over every pairing of the ranks, for at most :data:`EXACT_PAIRINGS` samples
+  (``spearmanr``'s t approximation gives p = 0 for |rho| = 1 at any N: 3 samples in order
+  would read as certain, where 2 of their 6 pairings are as extreme), else
+  ``spearmanr``'s. Rank correlation
   measures a monotone association without assuming linearity or a distribution; its sign says
   in which direction the parameter pushes. The parameters are ranked by |rho| with failure
   when the study has both successes and failures, otherwise with deviation. Clip and obstacle
@@ -28,6 +32,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cache
+from itertools import permutations
 
 import numpy as np
 
@@ -39,6 +45,9 @@ SENSITIVITY_PARAMETERS = (*RELATIVE, "clip_position_error", "clip_orientation_er
 """Per-sample parameters whose rank correlations are reported."""
 
 INTERVAL_METHODS = {"wilson": "wilson", "clopper-pearson": "exact"}
+
+EXACT_PAIRINGS = 8
+"""Up to this many samples a rank correlation's p-value counts every pairing (8! = 40320)."""
 
 
 @dataclass(frozen=True)
@@ -89,7 +98,8 @@ class StudySummary:
     ranked_by : str
         ``"failure"`` or ``"deviation"``: which correlation ranks the sensitivities.
     deviation : dict
-        Median, 95th percentile and largest of the samples' largest deviations [m].
+        Median, 95th percentile and largest of the samples' largest deviations [m], and
+        ``samples``, how many samples have one (a sample with a shape not converged has none).
     closed_loop : ClosedLoopSuccess or None
         With a ``correction:`` section: the open- and closed-loop success probabilities of
         :func:`dloplan.correct.closed_loop_study` (its ``message`` and ``to_dict()``).
@@ -117,8 +127,12 @@ class StudySummary:
         out.append(f"failures by criterion: {failed or 'none'}")
         d = self.deviation
         if math.isfinite(d["max"]):
+            unevaluated = self.n_samples - d["samples"]
+            over = "" if not unevaluated else \
+                f" (over {d['samples']} of {self.n_samples} samples: {unevaluated} with a shape " \
+                "not converged, no deviation)"
             out.append(f"largest deviation per sample: median {1e3 * d['median']:.2f} mm, 95 % "
-                       f"{1e3 * d['p95']:.2f} mm, max {1e3 * d['max']:.2f} mm")
+                       f"{1e3 * d['p95']:.2f} mm, max {1e3 * d['max']:.2f} mm{over}")
         else:
             out.append("largest deviation per sample: none (no sample converged)")
         for s in self.sensitivities:
@@ -215,7 +229,41 @@ def _spearman(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     from scipy.stats import spearmanr
 
     result = spearmanr(x, y)
-    return float(result.statistic), float(result.pvalue)
+    rho = float(result.statistic)
+    if len(x) > EXACT_PAIRINGS:
+        return rho, float(result.pvalue)
+    return rho, exact_rank_p_value(x, y)
+
+
+@cache
+def _pairings(n: int) -> np.ndarray:
+    """(n!, n) every permutation of range(n), made once per n."""
+    return np.array(list(permutations(range(n))))
+
+
+def exact_rank_p_value(x: np.ndarray, y: np.ndarray) -> float:
+    """Two-sided p-value of Spearman's rho of ``x`` and ``y`` by every pairing of their ranks.
+
+    Parameters
+    ----------
+    x, y : numpy.ndarray
+        (N,) paired values, N small (N! pairings are enumerated), neither constant.
+
+    Returns
+    -------
+    float
+        The fraction of the N! pairings whose |rho| is at least the observed one (ties get
+        average ranks, as in ``scipy.stats.spearmanr``).
+    """
+    from scipy.stats import rankdata
+
+    rx = rankdata(x) - (len(x) + 1) / 2.0
+    ry = rankdata(y) - (len(y) + 1) / 2.0
+    scale = math.sqrt(float(rx @ rx) * float(ry @ ry))
+    pairings = ry[_pairings(len(y))]
+    rhos = np.abs(pairings @ rx) / scale
+    observed = abs(float(ry @ rx)) / scale
+    return float(np.mean(rhos >= observed - 1e-12))
 
 
 def summarize(table: dict, criteria: CriteriaSpec | None = None, *, confidence: float = 0.95,
@@ -257,7 +305,8 @@ def summarize(table: dict, criteria: CriteriaSpec | None = None, *, confidence: 
     finite = per["deviation"][np.isfinite(per["deviation"])]
     stats = {"median": float(np.median(finite)) if len(finite) else math.nan,
              "p95": float(np.percentile(finite, 95)) if len(finite) else math.nan,
-             "max": float(finite.max()) if len(finite) else math.nan}
+             "max": float(finite.max()) if len(finite) else math.nan,
+             "samples": len(finite)}
     failures = {name: int((~passed).sum()) for name, passed in per["passed"].items()}
     return StudySummary(n, k, k / n, success_interval(k, n, confidence, method), confidence,
                         method, failures, tuple(sens), ranked_by, stats)
