@@ -8,12 +8,13 @@ cell that the writers write (:class:`RobotProgram`, :func:`robot_program`).
 See ``docs/robot.md`` for the frames, the TCP mapping, the checks and how to run a program.
 """
 
+from ..geometry import segment_distance
 from .armangle import arm_angle
 from .assignment import ArmAssignment, assign_arms
 from .cell import SMARTGRIPPER_SOURCE, RobotCell, Tool
 from .chain import CellArm, capsules
 from .checks import CheckRow
-from .collision import arm_clearance, segment_distance
+from .collision import arm_clearance
 from .confdata import confdata
 from .described import DescribedCell
 from .kinematics import (

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..geometry import point_segment_distance
+from ..geometry import segment_distance
 from .description import ArmDescription
 from .kinematics import link_frames
 
@@ -211,8 +211,8 @@ class CellArm:
         last = self._cap_link == self.n_joints - 1
         if not np.any(last):
             return 0.0
-        depth = self._radii[last] - point_segment_distance(self._tcp_xyz, self._caps[last, 0],
-                                                           self._caps[last, 1])
+        depth = self._radii[last] - segment_distance(self._caps[last, 0], self._caps[last, 1],
+                                                     self._tcp_xyz, self._tcp_xyz)
         return max(float(np.max(depth)), 0.0)
 
     @property

@@ -8,57 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry import segment_distance
 from .chain import capsules
-
-_EPS = 1e-12
-
-
-def segment_distance(p0, p1, q0, q1) -> np.ndarray:
-    """Closest distance between segments [p0, p1] and [q0, q1], vectorized.
-
-    Closed form of Ericson, *Real-Time Collision Detection* (2005), sec. 5.1.9: minimize
-    |p0 + s d1 - q0 - t d2| over s, t in [0, 1], clamping s and then t, with the degenerate
-    cases (a segment of zero length, parallel segments) handled explicitly.
-
-    Parameters
-    ----------
-    p0, p1, q0, q1 : array_like
-        (..., 3) end points [m], broadcast together.
-
-    Returns
-    -------
-    numpy.ndarray
-        (...,) distances [m].
-    """
-    p0, p1, q0, q1 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (p0, p1, q0, q1)))
-    d1 = p1 - p0
-    d2 = q1 - q0
-    r = p0 - q0
-    a = np.einsum("...k,...k", d1, d1)
-    e = np.einsum("...k,...k", d2, d2)
-    f = np.einsum("...k,...k", d2, r)
-    c = np.einsum("...k,...k", d1, r)
-    b = np.einsum("...k,...k", d1, d2)
-    denom = a * e - b * b
-    # s on the infinite lines (0 when parallel: any s is closest, pick the start), clamped.
-    s = np.where(denom > _EPS * np.maximum(a * e, _EPS),
-                 (b * f - c * e) / np.where(denom > 0, denom, 1.0), 0.0)
-    s = np.clip(s, 0.0, 1.0)
-    t = (b * s + f) / np.where(e > _EPS, e, 1.0)
-    # t outside [0, 1]: clamp it and recompute s for the clamped t.
-    t_clamped = np.clip(t, 0.0, 1.0)
-    s = np.where(t != t_clamped,
-                 np.clip((b * t_clamped - c) / np.where(a > _EPS, a, 1.0), 0.0, 1.0), s)
-    t = t_clamped
-    # Degenerate segments (points).
-    point_p = a <= _EPS
-    point_q = e <= _EPS
-    s = np.where(point_p, 0.0, s)
-    t = np.where(point_p & ~point_q, np.clip(f / np.where(e > _EPS, e, 1.0), 0.0, 1.0), t)
-    t = np.where(point_q, 0.0, t)
-    s = np.where(point_q & ~point_p, np.clip(-c / np.where(a > _EPS, a, 1.0), 0.0, 1.0), s)
-    closest = (p0 + s[..., None] * d1) - (q0 + t[..., None] * d2)
-    return np.linalg.norm(closest, axis=-1)
 
 
 def arm_clearance(left, q_left, right, q_right, *,

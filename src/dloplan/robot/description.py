@@ -22,7 +22,7 @@ belong to:
   the mesh read with ``trimesh`` when its file resolves (else the link has no capsule).
 
 Capsules over-approximate a link; capsule-capsule distances are closed form and fast
-(:func:`dloplan.robot.collision.segment_distance`), which is why they are used rather than
+(:func:`dloplan.geometry.segment_distance`), which is why they are used rather than
 convex meshes (see ``docs/cells.md``).
 """
 
