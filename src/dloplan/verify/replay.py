@@ -229,11 +229,12 @@ class Replay:
         return self.ok
 
 
-def as_clip_trajectory(trajectory) -> ClipTrajectory:
-    """A :class:`ClipTrajectory` from one, from ``(times, poses)``, or from any object with
-    ``times`` (K,) [s] and ``poses`` (K ClipPoses) attributes (the timed dual-arm trajectory)."""
+def _times_and_poses(trajectory) -> tuple:
+    """``(times, poses)`` of a trajectory in a form :func:`as_clip_trajectory` takes, the poses
+    checked, the times as given (a time law's knot times repeat across a segment where nothing
+    moves: a trajectory through two equal shapes)."""
     if isinstance(trajectory, ClipTrajectory):
-        return trajectory
+        return trajectory.times, trajectory.poses
     if isinstance(trajectory, tuple) and len(trajectory) == 2:
         times, poses = trajectory
     elif hasattr(trajectory, "times") and hasattr(trajectory, "poses"):
@@ -247,21 +248,16 @@ def as_clip_trajectory(trajectory) -> ClipTrajectory:
     for k, pose in enumerate(poses):
         if not isinstance(pose, ClipPoses):
             raise ValueError(f"trajectory: pose {k} is {type(pose).__name__}, expected ClipPoses")
-    return ClipTrajectory(as_times(times, len(poses), "trajectory times"), poses)
+    return times, poses
 
 
-def _knot_poses(trajectory) -> list:
-    """The knot poses a time law moves the clips through: ``trajectory`` itself (a list), the
-    poses of a pair ``(times, poses)`` or of an object with ``poses``. Their times are the
-    law's, which repeat across a segment where nothing moves (a trajectory through two equal
-    shapes): unlike :func:`as_clip_trajectory`'s they need not increase strictly."""
-    if isinstance(trajectory, list):
+def as_clip_trajectory(trajectory) -> ClipTrajectory:
+    """A :class:`ClipTrajectory` from one, from ``(times, poses)``, or from any object with
+    ``times`` (K,) [s] and ``poses`` (K ClipPoses) attributes (the timed dual-arm trajectory)."""
+    if isinstance(trajectory, ClipTrajectory):
         return trajectory
-    if isinstance(trajectory, tuple) and len(trajectory) == 2:
-        return list(trajectory[1])
-    if hasattr(trajectory, "poses"):
-        return list(trajectory.poses)
-    return as_clip_trajectory(trajectory).poses   # its error names what was expected
+    times, poses = _times_and_poses(trajectory)
+    return ClipTrajectory(as_times(times, len(poses), "trajectory times"), poses)
 
 
 def clip_motion(law: TimeLaw, poses, rate: float = CLIP_RATE) -> ClipTrajectory:
@@ -400,7 +396,8 @@ def replay(
     """
     path = as_path(stabilized_shapes, cable.n_points, "stabilized_shapes")
     if law is not None:
-        poses = _knot_poses(trajectory)
+        poses = trajectory if isinstance(trajectory, list) else _times_and_poses(
+            trajectory)[1]
         clips = clip_motion(law, poses)
         knot_times = law.knot_times if knot_times is None else knot_times
     else:
