@@ -6,8 +6,10 @@ command, its figure server and workers: ``bench_demo.run``) and where the time w
 the plan document it wrote (``plan.json``: ``timings`` per stage, the verification's own
 ``timings``, each kept repair's ``seconds``):
 
-    load+write  interpreter start, imports, reading the job, writing the files, exit: the
-                wall time not in a stage (a harness job's phases are listed below the table)
+    start       interpreter start, imports, reading the job (and writing ``plan.json``, the
+                first file written): the wall time until ``plan.json``'s modification time
+                not in a stage (a harness job's phases are listed below the table)
+    write       after ``plan.json``: the other files, the figures still being drawn, exit
     target      the target check (stabilized start and target, their collision check)
     plan        the three-stage planner with stabilization and obstacle re-planning
     motion      gripper frames and the timed trajectory; twist: the torsion solve
@@ -46,6 +48,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 from bench_demo import adopt_orphans, environment, run
@@ -71,6 +74,7 @@ def run_plan(example: Path, folder: Path, source: str | None, extra: tuple = ())
     shutil.rmtree(folder, ignore_errors=True)
     command = [sys.executable, "-m", "dloplan.cli", "plan", str(example), "--verify",
                "-o", str(folder), *extra]
+    launched = time.time()
     wall, cpu, stderr, code = run(command, environment(source), check=False)
     document = folder / "plan.json"
     out = {"wall": wall, "cpu": cpu, "code": code}
@@ -81,8 +85,11 @@ def run_plan(example: Path, folder: Path, source: str | None, extra: tuple = ())
     timings = doc.get("timings") or {}
     stages = {name: sum(float(timings.get(k, 0.0)) for k in keys) for name, keys in STAGES}
     known = {k for _, keys in STAGES for k in keys}
-    others = {k: float(v) for k, v in timings.items() if k not in known}  # a harness's phases
-    stages["load+write"] = wall - sum(stages.values()) - sum(others.values())
+    others = {k: float(v) for k, v in timings.items()  # a harness's phases (not their total)
+              if k not in known and k != "total"}
+    until_document = document.stat().st_mtime - launched
+    stages["start"] = until_document - sum(stages.values()) - sum(others.values())
+    stages["write"] = wall - until_document
     verification = (doc.get("verification") or {}).get("timings") or {}
     repairs: dict[str, float] = {}
     for repair in doc.get("repairs") or ():
@@ -103,7 +110,7 @@ def row(name: str, result: dict) -> str:
     if "error" in result:
         return f"{head}   no plan: {result['error']}"
     stages = result["stages"]
-    return head + "".join(f" {stages[k]:7.2f}" for k in ("load+write", *dict(STAGES)))
+    return head + "".join(f" {stages[k]:7.2f}" for k in ("start", *dict(STAGES), "write"))
 
 
 def details(result: dict) -> str:
@@ -192,7 +199,7 @@ def main() -> None:
                     results[name].setdefault(example.stem, []).append(
                         run_plan(example, folder / "out", source, extra.get(name, ())))
         header = (f"{'example':<28} {'exit':>4} {'wall':>6} {'CPU':>6} "
-                  + "".join(f" {k:>7}" for k in ("load+wr", *dict(STAGES))))
+                  + "".join(f" {k:>7}" for k in ("start", *dict(STAGES), "write")))
         for name in sources if not args.no_examples else ():
             print(f"\n== {name}: dloplan plan EX --verify {' '.join(extra.get(name, ()))}, best of "
                   f"{args.runs} by wall [s] "
