@@ -287,19 +287,42 @@ def _cmd_export(args: argparse.Namespace) -> int:
         doc = retimed(doc, args.speed, args.angular_speed)
     written = export_plan(doc, args.format, Path(args.output), WriteOptions(rate=args.rate))
     console.stage(f"wrote {', '.join(str(p) for p in written)}")
-    warnings = []
-    if doc.grippers is not None and not doc.grippers.success:   # the exit 1 says why
-        grippers = doc.grippers
-        turn = math.degrees(float(abs(grippers.twist).max()))
-        warnings.append(f"grippers: the clip frames turn {turn:.1f} deg against each other, "
-                        f"more than {math.degrees(grippers.max_twist):.0f} deg "
-                        f"({grippers.message})")
+    warnings, notes = _twist_lines(doc)
     for warning in warnings:
         print(f"warning: {warning}", file=sys.stderr)
+    for note in notes:
+        print(f"note: {note}", file=sys.stderr)
     if args.json:
         print(json_text({"written": [str(p) for p in written],
-                         "warnings": ([unchecked] if unchecked else []) + warnings}))
+                         "warnings": ([unchecked] if unchecked else []) + warnings,
+                         "notes": notes}))
     return EXIT_WARNINGS if warnings or unchecked else EXIT_OK
+
+
+def _twist_lines(doc) -> tuple[list[str], list[str]]:
+    """``export``'s lines on the plan's twist: a warning (exit 1) when the plan fails its own
+    twist check (:func:`dloplan.pipeline.repair.failures.twist_failures`: the torsion model's
+    twist under the clip frames, the frames' relative turn only for a plan without it, and
+    the frames' flips); a note when only the frames' relative turn is over the gripper path's
+    limit (the cable's twist is the torsion model's: the turn alone twists nothing it does
+    not say)."""
+    from .pipeline.repair.failures import twist_failures
+
+    grippers = doc.grippers
+    if grippers is None:
+        return [], []
+    limit = math.degrees(grippers.max_twist)
+    failed = twist_failures(doc)
+    if failed:
+        return [f"twist: the plan fails its twist check: {'; '.join(f.message for f in failed)}"
+                f" ({grippers.message})"], []
+    turn = math.degrees(float(abs(grippers.twist).max()))
+    if turn <= limit or doc.twist is None:
+        return [], []
+    twist = math.degrees(float(abs(doc.twist.twist).max()))
+    return [], [f"grippers: the clip frames turn {turn:.1f} deg against each other, more than "
+                f"{limit:.0f} deg, but the torsion model's twist under them is {twist:.1f} deg "
+                f"(the plan's twist check passes; {grippers.message})"]
 
 
 def _cmd_correct(args: argparse.Namespace) -> int:
