@@ -156,9 +156,10 @@ def test_a_version_1_file_still_loads():
 def test_a_version_1_file_is_read_with_a_warning_that_its_edits_cannot_be_detected(tmp_path,
                                                                                     capsys):
     """A version-1 document has no checksum: edited by hand (here its source; the sweep changed
-    its cable's length) it verified and exported with exit 0 as if dloplan had planned it. ``verify``, ``export``, ``compare``
-    and ``simulate`` still read it (old plans stay readable) with one warning line and exit 1;
-    ``--json`` of export lists the warning. A checked (version-2) document exits 0."""
+    its cable's length) it verified and exported with exit 0 as if dloplan had planned it.
+    ``verify``, ``export`` and ``compare`` (as ``simulate`` and ``correct``) still read it (old
+    plans stay readable), with one warning line and exit 1; ``--json`` of export lists the
+    warning. A checked (version-2) document exits 0."""
     from dloplan.cli import main
 
     data = json.loads((DATA / "plan_v1_fig4_8.json").read_text())
