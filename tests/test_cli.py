@@ -587,11 +587,13 @@ def test_json_is_json_for_study_cables_and_design(tmp_path, capsys):
 
 
 def test_an_export_that_exits_1_says_why(tmp_path, capsys):
-    """`export` exits 1 when the plan's gripper frames turn the clips against each other more
-    than the gripper path allows (the sweep's M1 at n = 20 and qualitative 2 reversed: 17 and
-    32 deg, the twist repair having rolled the clips against the torsion model's twist). It
-    printed nothing but the file written, and `--json` only ``written``; the warning now says
-    what the 1 is for. A plan within the limit exits 0 with no warning."""
+    """`export` judges the plan's twist by the plan's own twist check (the torsion model's
+    twist under the clip frames, pipeline.repair.failures.twist_failures). It exited 1 when the
+    clip frames turned against each other more than the gripper path's limit though the plan
+    passed that check (the sweep's M1 at n = 20 and qualitative 2 reversed: 17 and 32 deg, the
+    twist repair having rolled the clips against the torsion model's twist, which is 0 under
+    them): now exit 0 with the turn as a note. A plan whose torsion-model twist is over the
+    limit exits 1 with a warning that says so (it exited 0). A plan within both exits 0."""
     from dataclasses import replace
 
     from dloplan.app import read_plan
@@ -605,13 +607,24 @@ def test_an_export_that_exits_1_says_why(tmp_path, capsys):
                  str(tmp_path / "a.csv"), "-q", "--json"]) == EXIT_OK
     assert json.loads(capsys.readouterr().out)["warnings"] == []
     doc = read_plan(out / "plan.json")
-    twisted = replace(doc, grippers=replace(doc.grippers, success=False,
-                                            twist=doc.grippers.twist + np.radians(20.0)))
+    turned = replace(doc, grippers=replace(doc.grippers, success=False,
+                                           twist=doc.grippers.twist + np.radians(20.0)))
+    write_plan(tmp_path / "turned.json", turned)
+    assert main(["export", str(tmp_path / "turned.json"), "--format", "csv", "-o",
+                 str(tmp_path / "b.csv"), "-q", "--json"]) == EXIT_OK
+    captured = capsys.readouterr()
+    report = json.loads(captured.out)
+    line = ("grippers: the clip frames turn 20.0 deg against each other, more than 15 deg, but "
+            "the torsion model's twist under them is ")
+    assert report["warnings"] == [] and report["notes"][0].startswith(line)
+    assert "(the plan's twist check passes; " in report["notes"][0]
+    assert f"note: {line}" in captured.err and "warning" not in captured.err
+    twisted = replace(doc, twist=replace(doc.twist, twist=doc.twist.twist + np.radians(20.0)))
     write_plan(tmp_path / "twisted.json", twisted)
     assert main(["export", str(tmp_path / "twisted.json"), "--format", "csv", "-o",
-                 str(tmp_path / "b.csv"), "-q", "--json"]) == EXIT_WARNINGS
+                 str(tmp_path / "c.csv"), "-q", "--json"]) == EXIT_WARNINGS
     captured = capsys.readouterr()
-    line = "grippers: the clip frames turn 20.0 deg against each other, more than 15 deg ("
+    line = "twist: the plan fails its twist check: twist "
     assert json.loads(captured.out)["warnings"][0].startswith(line)
     assert f"warning: {line}" in captured.err
 

@@ -225,3 +225,27 @@ def test_the_snap_check_follows_the_held_models_continuation(runs):
         elsewhere = [(shapes + 1e-6, messages) for shapes, messages in path.substeps]
         for mine, theirs in zip(snap(elsewhere).segments, solved.segments, strict=True):
             np.testing.assert_array_equal(mine.shapes, theirs.shapes)
+
+
+def test_fixtures_closer_than_the_grippers_allow_are_refused_before_planning(tmp_path, capsys):
+    """The USB job with its fixtures 40 mm apart (both slots facing the robot, the cable looped
+    round the peg): the YuMi's grippers overlap whenever their TCPs are closer than 45 mm,
+    whatever the joints. The job was planned for 1-2.5 min and failed its robot program's
+    clearance (exit 3, "-103 mm"); it is now refused before planning, naming the phase and the
+    fields (exit 2, nothing written)."""
+    import yaml
+
+    from dloplan.cli import main
+
+    data = yaml.safe_load((EXAMPLES / "harness_usb.yaml").read_text())
+    data["obstacles"] = []
+    for fixture, y in zip(data["harness"]["fixtures"], (-0.02, 0.02), strict=True):
+        fixture.update(position=[0.50, y, 0.0315], axis=[-1, 0, 0])
+    path = tmp_path / "close.yaml"
+    path.write_text(yaml.safe_dump(data))
+    assert main(["plan", str(path), "-q", "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert ("harness.fixtures (where phase 2 ends: their approach points, position + depth * "
+            "opening): its clips are 40.0 mm apart") in err
+    assert "expected at least 45.1 mm" in err and "(fixtures farther apart)" in err
+    assert not (tmp_path / "out").exists()

@@ -35,10 +35,17 @@ N_LINKS = 10
 SETTINGS = HarnessSettings(n_shapes=(3, 3), section_links=30)
 
 
+HELD: dict[str, list] = {}
+"""Per job of the module's fixtures: (where, clip distance [m]) of every ``check_held`` call."""
+
+
 def _job(name: str):
     cable = catalogue_cable(name, n_links=N_LINKS)
     board = demo_board(cable)
-    return run_harness(cable, demo_start(cable), board, SETTINGS)
+    held = HELD.setdefault(name, [])
+    return run_harness(cable, demo_start(cable), board, SETTINGS,
+                       check_held=lambda where, clips, remedy: held.append(
+                           (where, float(np.linalg.norm(clips[1] - clips[0])))))
 
 
 @pytest.fixture(scope="module")
@@ -346,3 +353,45 @@ def test_a_hose_that_cannot_be_pulled_taut_says_why_with_the_forces(pu):
     assert state.mechanism == "bending" and state.max_tension < 0
     assert "by bending, the section is in compression" in ins.message
     assert f"{state.max_tension:.3g} N" in ins.message and "fixture pulls" in ins.message
+
+
+def test_every_phases_held_clips_are_checked_as_they_become_known(usb):
+    """``check_held`` (the robot's grippers' distance, dloplan.pipeline.stages.check_held_clips)
+    sees the start, the fixtures' approach points and slots, phase 1's end and the tensioned
+    poses, in that order, each named by its phase and the job's fields."""
+    held = HELD["usb"]
+    assert [where.split(" (")[0] for where, _ in held] == [
+        "start", "harness.fixtures", "harness.fixtures", "harness.approach_height",
+        "harness.tension"]
+    assert ["phase 1 starts" in held[0][0], "phase 2 ends" in held[1][0],
+            "the insertion ends" in held[2][0], "phase 1 ends" in held[3][0],
+            "the tensioning ends" in held[4][0]] == [True] * 5
+    distances = dict(zip(("start", "phase 2's end", "slots", "phase 1's end", "tensioned"),
+                         (d for _, d in held), strict=True))
+    clips = usb.grippers.positions  # the knots where the grippers hold those poses
+    k1, k2 = usb.knots["phase1"][1], usb.knots["phase2"][1]
+    for name, k in (("start", 0), ("phase 1's end", k1), ("phase 2's end", k2),
+                    ("slots", k2 + 1), ("tensioned", k2 + 2)):
+        assert distances[name] == pytest.approx(np.linalg.norm(clips[k, 1] - clips[k, 0]),
+                                                abs=1e-9), name
+    assert f"pulled {1e3 * usb.offset:.1f} mm per arm" in held[4][0]
+
+
+def test_phase_1s_end_is_checked_before_phase_1_is_planned():
+    """A ``check_held`` that refuses phase 1's end stops the job before anything is planned:
+    the start and the fixtures were checked before it."""
+    cable = catalogue_cable("pu", n_links=N_LINKS)
+    seen = []
+
+    class Refused(Exception):
+        pass
+
+    def refuse_the_approach(where, clips, remedy):
+        seen.append(where.split(" (")[0])
+        if where.startswith("harness.approach_height"):
+            raise Refused(where)
+
+    with pytest.raises(Refused, match=r"where phase 1 ends: the arc approach above the board"):
+        run_harness(cable, demo_start(cable), demo_board(cable), SETTINGS,
+                    check_held=refuse_the_approach)
+    assert seen == ["start", "harness.fixtures", "harness.fixtures", "harness.approach_height"]

@@ -153,6 +153,38 @@ def test_a_version_1_file_still_loads():
     assert np.allclose(again.stabilized, doc.stabilized, rtol=0, atol=1e-9)
 
 
+def test_a_version_1_file_is_read_with_a_warning_that_its_edits_cannot_be_detected(tmp_path,
+                                                                                    capsys):
+    """A version-1 document has no checksum: edited by hand (here its source; the sweep changed
+    its cable's length) it verified and exported with exit 0 as if dloplan had planned it.
+    ``verify``, ``export`` and ``compare`` (as ``simulate`` and ``correct``) still read it (old
+    plans stay readable), with one warning line and exit 1; ``--json`` of export lists the
+    warning. A checked (version-2) document exits 0."""
+    from dloplan.cli import main
+
+    data = json.loads((DATA / "plan_v1_fig4_8.json").read_text())
+    data["source"] = "edited by hand"
+    edited = tmp_path / "v1.json"
+    edited.write_text(json.dumps(data))
+    line = (f"warning: {edited}: a version-1 plan document has no checksum, so an edit to it "
+            "cannot be detected: re-plan to get a checked document (dloplan plan)")
+    assert main(["verify", str(edited), "--no-snap", "--no-replay", "--no-robot", "-q"]) == 1
+    assert line in capsys.readouterr().err
+    assert main(["export", str(edited), "--format", "csv", "-o", str(tmp_path / "a.csv"),
+                 "-q", "--json"]) == 1
+    captured = capsys.readouterr()
+    assert line in captured.err and json.loads(captured.out)["warnings"] == [line[9:]]
+    shapes = tmp_path / "shapes.json"
+    shapes.write_text(json.dumps({"format": "dloplan-shapes", "version": 1, "units": "m",
+                                  "shapes": [{"points": s} for s in data["shapes"]]}))
+    assert main(["compare", str(edited), str(shapes), "-q"]) == 1
+    assert line in capsys.readouterr().err
+    checked = tmp_path / "v2.json"
+    write_plan(checked, read_plan(DATA / "plan_v1_fig4_8.json"))
+    assert main(["verify", str(checked), "--no-snap", "--no-replay", "--no-robot", "-q"]) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
 @pytest.mark.parametrize(
     "edit, match",
     [

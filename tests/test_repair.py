@@ -758,3 +758,50 @@ def test_same_frames_is_the_rotation_magnitude_rule_near_and_far_from_its_tolera
             assert same_frames(other, path, tolerance) is rule
             answers.add(rule)
     assert answers == {True, False}
+
+
+def _turned_demo(yaw_deg: float) -> dict:
+    """The demo job turned by ``yaw_deg`` about the vertical through its start's centre (the
+    unseen-case sweep's turned variant)."""
+    data = yaml.safe_load((Path(__file__).resolve().parents[1] / "src/dloplan/data/demo.yaml")
+                          .read_text())
+    centre = np.asarray(data["start"]["placement"]["position"], float)
+    turn = Rotation.from_euler("z", yaw_deg, degrees=True)
+    for key in ("start", "target"):
+        place = data[key]["placement"]
+        place["position"] = (turn.apply(np.asarray(place["position"], float) - centre)
+                             + centre).tolist()
+        rotation = Rotation.from_euler("xyz", place.get("rotation", {}).get("euler", [0, 0, 0]),
+                                       degrees=True)
+        place["rotation"] = {"euler": (turn * rotation).as_euler("xyz", degrees=True).tolist()}
+    for obstacle in data.get("obstacles", []):
+        obstacle["center"] = (turn.apply(np.asarray(obstacle["center"], float) - centre)
+                              + centre).tolist()
+        obstacle["yaw"] = obstacle.get("yaw", 0.0) + yaw_deg
+    return data
+
+
+def test_a_placement_refusal_says_what_the_best_placement_failed():
+    """Placements that fail for the arms' clearance, not reach, were refused as "no placement
+    of the job on the table makes every pose reachable" (the sweep's turned jobs, the
+    examples on the other cells). The refusal now names the first robot check the best
+    placement fails: Fig. 4.8 on the Panda pair (the cell's own search: every pose reached,
+    the arms 0.5 mm apart at shape 4) and the demo turned 90 deg on the YuMi (its frames with
+    the grasps rolled, where it lies: every pose reached, the arms colliding)."""
+    data = yaml.safe_load((EXAMPLES / "fig4_8_straight_to_bent.yaml").read_text())
+    panda = yaml.safe_load((EXAMPLES / "cells" / "panda_pair_ethernet.yaml").read_text())
+    for arm in panda["robot"]["cell"]["arms"].values():
+        arm["urdf"] = str((EXAMPLES / "cells" / arm["urdf"]).resolve())
+    data.update(robot=panda["robot"], repair={"placement": True})
+    doc = make_plan(resolve_mapping(data, "Fig. 4.8 on the Panda pair"))
+    refusal = doc.warnings[-1]
+    lead = "repair refused: no placement of the job on the table makes every robot check pass"
+    assert refusal.startswith(f"{lead}: the best fails clearance; two_pandas's placement "
+                              "search, job offset"), refusal
+    assert "cell FAILS: clearance at shape 4" in refusal and "reachable" not in refusal
+
+    doc = make_plan(resolve_mapping(_turned_demo(90.0), "demo turned 90 deg"))
+    refusal = doc.warnings[-1]
+    assert refusal.startswith(f"{lead}: the best fails clearance (minimal frames"), refusal
+    assert "works; best [0.000, 0.000, 0.000] m: 0 unreachable pose(s), 0 discontinuous " \
+        "motion(s), 10 arm collision(s) over 10 poses)" in refusal.split("; tried: ")[0]

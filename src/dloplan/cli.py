@@ -282,22 +282,47 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
     console = Console(args.quiet)
     doc = read_plan(args.plan)
+    unchecked = _unchecked(args.plan, doc)
     if args.speed is not None or args.angular_speed is not None:
         doc = retimed(doc, args.speed, args.angular_speed)
     written = export_plan(doc, args.format, Path(args.output), WriteOptions(rate=args.rate))
     console.stage(f"wrote {', '.join(str(p) for p in written)}")
-    warnings = []
-    if doc.grippers is not None and not doc.grippers.success:   # the exit 1 says why
-        grippers = doc.grippers
-        turn = math.degrees(float(abs(grippers.twist).max()))
-        warnings.append(f"grippers: the clip frames turn {turn:.1f} deg against each other, "
-                        f"more than {math.degrees(grippers.max_twist):.0f} deg "
-                        f"({grippers.message})")
+    warnings, notes = _twist_lines(doc)
     for warning in warnings:
         print(f"warning: {warning}", file=sys.stderr)
+    for note in notes:
+        print(f"note: {note}", file=sys.stderr)
     if args.json:
-        print(json_text({"written": [str(p) for p in written], "warnings": warnings}))
-    return EXIT_WARNINGS if warnings else EXIT_OK
+        print(json_text({"written": [str(p) for p in written],
+                         "warnings": ([unchecked] if unchecked else []) + warnings,
+                         "notes": notes}))
+    return EXIT_WARNINGS if warnings or unchecked else EXIT_OK
+
+
+def _twist_lines(doc) -> tuple[list[str], list[str]]:
+    """``export``'s lines on the plan's twist: a warning (exit 1) when the plan fails its own
+    twist check (:func:`dloplan.pipeline.repair.failures.twist_failures`: the torsion model's
+    twist under the clip frames, the frames' relative turn only for a plan without it, and
+    the frames' flips); a note when only the frames' relative turn is over the gripper path's
+    limit (the cable's twist is the torsion model's: the turn alone twists nothing it does
+    not say)."""
+    from .pipeline.repair.failures import twist_failures
+
+    grippers = doc.grippers
+    if grippers is None:
+        return [], []
+    limit = math.degrees(grippers.max_twist)
+    failed = twist_failures(doc)
+    if failed:
+        return [f"twist: the plan fails its twist check: {'; '.join(f.message for f in failed)}"
+                f" ({grippers.message})"], []
+    turn = math.degrees(float(abs(grippers.twist).max()))
+    if turn <= limit or doc.twist is None:
+        return [], []
+    twist = math.degrees(float(abs(doc.twist.twist).max()))
+    return [], [f"grippers: the clip frames turn {turn:.1f} deg against each other, more than "
+                f"{limit:.0f} deg, but the torsion model's twist under them is {twist:.1f} deg "
+                f"(the plan's twist check passes; {grippers.message})"]
 
 
 def _cmd_correct(args: argparse.Namespace) -> int:
@@ -307,6 +332,7 @@ def _cmd_correct(args: argparse.Namespace) -> int:
     wall0, cpu0 = time.perf_counter(), time.process_time()
     console = Console(args.quiet)
     doc = document_of(args.plan, progress=console.stage, allow_placement=args.allow_placement)
+    unchecked = _unchecked(args.plan, doc)
     from .correct import CorrectionLimits
 
     options = dict(mode=args.mode, reference=args.reference, modulus_steps=args.modulus_steps,
@@ -336,7 +362,7 @@ def _cmd_correct(args: argparse.Namespace) -> int:
     else:
         print(result.message)
         print(timing)
-    return EXIT_WARNINGS if result.warnings else EXIT_OK
+    return EXIT_WARNINGS if result.warnings or unchecked else EXIT_OK
 
 
 def _request_lines(stream, limit: int):
@@ -406,6 +432,7 @@ def _cmd_verify(args: argparse.Namespace) -> int:
 
     console = Console(args.quiet)
     doc = document_of(args.plan, progress=console.stage, allow_placement=args.allow_placement)
+    unchecked = _unchecked(args.plan, doc)
     console.stage(f"verifying {len(doc.shapes)} shapes of {args.plan}")
     result = verify_plan(doc, snap=not args.no_snap, replay=not args.no_replay,
                          tensile_limit=args.tensile_limit, tolerance=args.tolerance,
@@ -430,7 +457,9 @@ def _cmd_verify(args: argparse.Namespace) -> int:
 
         cell = program.cell if program is not None else document_cell(doc)  # built once
         print(f"placement: {placement_message(cell, doc.grippers, doc.trajectory)}")
-    return EXIT_OK if result.ok and (program is None or program.ok) else EXIT_CHECK_FAILED
+    if not result.ok or (program is not None and not program.ok):
+        return EXIT_CHECK_FAILED
+    return EXIT_WARNINGS if unchecked else EXIT_OK
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
@@ -440,6 +469,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
     console = Console(args.quiet)
     doc = read_plan(args.plan)
+    unchecked = _unchecked(args.plan, doc)
     planned = settled_shapes(doc) if args.stabilized else doc.shapes
     trials = [read_shapes(path) for path in args.shapes]
     result = compare_trials(planned, trials, frame_id=doc.frame_id, end_order=args.end_order)
@@ -462,7 +492,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         console.stage(f"figures: {', '.join(p.name for p in written)}; report: {report}")
     print(json_text({"rows": result.rows(), "message": result.message}, indent=2, default=float)
           if args.json else result.table())
-    return EXIT_WARNINGS if result.reversed_shapes else EXIT_OK
+    return EXIT_WARNINGS if result.reversed_shapes or unchecked else EXIT_OK
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
@@ -711,6 +741,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
     console = Console(args.quiet)
     doc = document_of(args.file, progress=console.stage, allow_placement=args.allow_placement)
+    unchecked = _unchecked(args.file, doc)
     if doc.trajectory is None:
         raise ValueError(f"{args.file}: the plan has no timed trajectory to simulate")
     console.stage(f"simulating {doc.trajectory.duration:.2f} s of motion at real speed")
@@ -732,7 +763,19 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         print("replay deviations from the planned stabilized shapes (model against model; "
               "measured shapes: dloplan compare)")
         print(comparison.table())
-    return _plan_verdict(doc, EXIT_OK if run.ok else EXIT_WARNINGS)
+    return _plan_verdict(doc, EXIT_OK if run.ok and not unchecked else EXIT_WARNINGS)
+
+
+def _unchecked(path, doc) -> str | None:
+    """The warning (printed on stderr, and returned) for a plan read from ``path`` whose edits
+    cannot be detected (:func:`dloplan.app.document_file.unchecked_warning`: a version-1
+    document); None for a checked one, or a job file planned now."""
+    from .app.document_file import unchecked_warning
+
+    line = unchecked_warning(path, doc)
+    if line is not None:
+        print(f"warning: {line}", file=sys.stderr)
+    return line
 
 
 def _plan_verdict(doc, code: int) -> int:

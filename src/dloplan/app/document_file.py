@@ -6,9 +6,11 @@ document written. The file records a checksum of its content (``"checksum": "sha
 SHA-256 of its data as canonical JSON: sorted keys, no spaces, the checksum left out), so that a
 document changed after dloplan wrote it is recognised: :func:`read_plan` refuses it (and one
 without a checksum), with one line. Version 1 documents, from before checksums, are read as they
-are: an edit to one is not detected. A plan is what was planned and verified; a hand edit (a shape,
-a time, a pose) would be verified, exported or corrected as if it had been: plan the job again
-instead (``export --speed`` re-times a plan). Whitespace and key order are not content.
+are, but an edit to one cannot be detected: the commands that read a plan say so in one warning
+line and exit 1 at least (:func:`unchecked_warning`). A plan is what was planned and verified; a
+hand edit (a shape, a time, a pose) would be verified, exported or corrected as if it had been:
+plan the job again instead (``export --speed`` re-times a plan). Whitespace and key order are not
+content.
 """
 
 from __future__ import annotations
@@ -55,6 +57,19 @@ def plan_json(doc: PlanDocument) -> str:
         raise ValueError(f"plan: not writable as JSON ({exc})") from None
     data = json.loads(text)  # what a reader will parse: the checksum is of that
     return json.dumps({**data, CHECKSUM: content_checksum(data)}, indent=1) + "\n"
+
+
+CHECKED_VERSION = 2
+"""The first plan document version with a checksum."""
+
+
+def unchecked_warning(path, doc: PlanDocument) -> str | None:
+    """The warning for a plan document read from ``path`` whose edits cannot be detected (a
+    version before :data:`CHECKED_VERSION`: no checksum), else None."""
+    if doc.version >= CHECKED_VERSION:
+        return None
+    return (f"{path}: a version-{doc.version} plan document has no checksum, so an edit to it "
+            "cannot be detected: re-plan to get a checked document (dloplan plan)")
 
 
 def write_plan(path: str | os.PathLike, doc: PlanDocument) -> Path:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -31,6 +32,7 @@ from ..cable import GRAVITY, Cable
 from ..geometry import resample_by_arc_length
 from ..grippers import GripperPath, gripper_path, relative_twist
 from ..planning.result import ForceStatistics, stage_forces
+from ..sim.clips import clip_poses_from_shape
 from ..trajectory import (
     DEFAULT_GRASP_TIME,
     DEFAULT_MAX_ANGULAR_SPEED,
@@ -262,6 +264,7 @@ def run_harness(
     settings: HarnessSettings | None = None,
     *,
     gravity=GRAVITY,
+    check_held: Callable[[str, np.ndarray, str], None] | None = None,
 ) -> HarnessResult:
     """Run a whole harness job (module docstring; thesis 7.3).
 
@@ -276,12 +279,21 @@ def run_harness(
     settings : HarnessSettings, optional
     gravity : array_like
         Gravity [m/s^2].
+    check_held : callable, optional
+        ``check_held(where, clips, remedy)``, called with every phase's held clip points (2, 3)
+        [m] as soon as they are known, ``where`` naming the phase and the job's fields that
+        put them there, ``remedy`` what would hold them farther apart; it raises ValueError for
+        clips the robot cannot hold (the grippers' distance,
+        :func:`dloplan.pipeline.stages.check_held_clips`). Called for the start and the
+        fixtures' approach points and slots before any planning, for phase 1's end before it is
+        planned (:func:`~.phases.plan_phases`), and for the tensioned poses once the tensioning
+        found its offset.
 
     Raises
     ------
     ValueError
         Before any planning, for a board the cable cannot be used on (:func:`check_board`) or
-        bad settings.
+        bad settings; from ``check_held``.
     """
     t0 = time.perf_counter()
     s = settings or HarnessSettings()
@@ -290,11 +302,18 @@ def run_harness(
     check_board(board, cable)
     if not board.pegs:
         raise ValueError("board: no pegs; a harness job tensions the cable against pegs")
+    if check_held is not None:
+        check_held("start (where phase 1 starts)", clip_poses_from_shape(start).positions,
+                   "a longer cable, or a start whose ends lie farther apart")
+        check_held("harness.fixtures (where phase 2 ends: their approach points, position + "
+                   "depth * opening)", fixture_clips(board).positions, "fixtures farther apart")
+        check_held("harness.fixtures (where the insertion ends: their slots, position)",
+                   fixture_clips(board, inserted=True).positions, "fixtures farther apart")
     links = s.section_links if s.section_links is not None else section_links(cable, board)
     phases = plan_phases(cable, start, board, s.n_shapes, approach_height=s.approach_height,
                          clearance=s.clearance, weights=s.weights, physical_mode=s.physical_mode,
                          z_safety=s.z_safety, max_rounds=s.max_rounds, gravity=gravity,
-                         section_links=links)
+                         section_links=links, check_held=check_held)
     t1 = time.perf_counter()
     insertion = insert_and_tension(
         cable, phases.path2[-1], board, contact_force=s.contact_force,
@@ -302,6 +321,11 @@ def run_harness(
         n_links=links, substeps=s.substeps, gravity=gravity, section=phases.section)
     t2 = time.perf_counter()
     grippers, gripper_warnings = _joined_grippers(cable, phases, insertion, s.gripper_method)
+    if check_held is not None and insertion.success:
+        check_held(f"harness.tension (where the tensioning ends: the clips pulled "
+                   f"{1e3 * insertion.offset:.1f} mm per arm out of the slots, along minus "
+                   "harness.fixtures' axis)", grippers.positions[-1],
+                   "fixtures whose axes do not point away from each other")
     axes = fixture_clips(board, inserted=True).u_axes
     inserted_shape = _whole_cable(cable, insertion.inserted.shape, grippers.positions[-2], axes)
     tensioned_shape = _whole_cable(cable, insertion.tensioned.equilibrium.shape,

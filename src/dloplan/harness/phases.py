@@ -368,6 +368,7 @@ def plan_phases(
     gravity=GRAVITY,
     section_links: int = 40,
     map: Callable = map,
+    check_held: Callable[[str, np.ndarray, str], None] | None = None,
 ) -> Phases:
     """Plan phase 1 (to above the board, avoiding obstacles) and phase 2 (to the fixtures).
 
@@ -395,6 +396,9 @@ def plan_phases(
         Links of the section a settled phase 2 is followed with (:func:`settled_phase2`).
     map : callable
         Passed to the planner.
+    check_held : callable, optional
+        ``check_held(where, clips, remedy)``, called with phase 1's end's clip points (2, 3)
+        [m] before phase 1 is planned (:func:`dloplan.harness.run_harness`).
     """
     check_board(board, cable)
     counts = tuple(n_shapes)
@@ -406,6 +410,11 @@ def plan_phases(
     if not insertion.success:
         warnings.append(f"insertion pose: {insertion.message}")
     approach, approach_kind = approach_target(cable, insertion.shape, approach_height, gravity)
+    if check_held is not None:
+        check_held(f"harness.approach_height (where phase 1 ends: the {approach_kind} approach "
+                   "above the board, turning as the insertion pose between harness.fixtures "
+                   "around harness.pegs)", clip_poses_from_shape(approach).positions,
+                   "fixtures farther apart, or pegs that turn the cable less")
     options = dict(weights=weights, physical_mode=physical_mode, map=map)
     plan1 = plan(cable, start, approach, int(counts[0]), **options)
     warnings += [f"phase 1: {w}" for w in plan1.warnings]

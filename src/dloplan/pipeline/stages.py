@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field, replace
+from functools import partial
 
 import numpy as np
 
@@ -156,27 +157,56 @@ class PathStage:
 
 def check_grip_distance(job: Job) -> None:
     """Refuse a job whose start or target holds its clips closer than the cell's two grippers
-    can be: their TCPs closer than the sum of the arms' :attr:`~dloplan.robot.chain.CellArm.
-    tcp_depth` put the grippers' capsules into each other at any joints, orientation or
-    placement on the table, so no repair makes the robot program's clearance pass (a 3 cm
-    cable searched frames and placements for 30-80 s before it was refused as unreachable).
+    can be (:func:`check_held_clips`; a 3 cm cable searched frames and placements for 30-80 s
+    before it was refused as unreachable).
 
     Raises
     ------
     ValueError
         Naming the end, its clips' distance and the least distance the grippers allow.
     """
-    left, right = job.robot.arms
-    least = left.tcp_depth + right.tcp_depth
     for name in ("start", "target"):
-        clips = clip_poses_from_shape(getattr(job, name)).positions
-        distance = float(np.linalg.norm(clips[1] - clips[0]))
-        if distance < least:
-            raise ValueError(
-                f"{name}: its clips are {1e3 * distance:.1f} mm apart (cable "
-                f"{1e3 * job.cable.length:.1f} mm long); expected at least {1e3 * least:.1f} "
-                "mm: the two grippers' collision capsules overlap when their TCPs are closer, "
-                "whatever the arms' joints (a longer cable, or ends held farther apart)")
+        check_held_clips(job.robot, job.cable, name,
+                         clip_poses_from_shape(getattr(job, name)).positions,
+                         "a longer cable, or ends held farther apart")
+
+
+def check_held_clips(cell, cable, where: str, clips, remedy: str) -> None:
+    """Refuse clips held closer than the cell's two grippers can be: their TCPs closer than the
+    sum of the arms' :attr:`~dloplan.robot.chain.CellArm.tcp_depth` put the grippers' capsules
+    into each other at any joints, orientation or placement on the table, so no repair makes
+    the robot program's clearance pass. The check of a single job's ends
+    (:func:`check_grip_distance`) and of every held pose of a harness job's phases
+    (:func:`run_harness_job`, ``check_held`` of :func:`dloplan.harness.run_harness`).
+
+    Parameters
+    ----------
+    cell : RobotCell or DescribedCell
+        The robot cell (its two ``arms``).
+    cable : Cable
+        The cable (its length is named).
+    where : str
+        What holds the clips there: the job's field and, for a harness job, the phase.
+    clips : array_like
+        (2, 3) the two clip points [m].
+    remedy : str
+        What would hold them farther apart, in the job's terms.
+
+    Raises
+    ------
+    ValueError
+        Naming ``where``, the clips' distance and the least distance the grippers allow.
+    """
+    left, right = cell.arms
+    least = left.tcp_depth + right.tcp_depth
+    clips = np.asarray(clips, dtype=float)
+    distance = float(np.linalg.norm(clips[1] - clips[0]))
+    if distance < least:
+        raise ValueError(
+            f"{where}: its clips are {1e3 * distance:.1f} mm apart (cable "
+            f"{1e3 * cable.length:.1f} mm long); expected at least {1e3 * least:.1f} "
+            "mm: the two grippers' collision capsules overlap when their TCPs are closer, "
+            f"whatever the arms' joints ({remedy})")
 
 
 def plan_path(job: Job, progress=quiet) -> PathStage:
@@ -675,12 +705,21 @@ def run_harness_job(job: HarnessJob, *, check_robot: bool = True,
     forces of each phase in ``forces``, the board's pegs and fixtures as obstacles.
     ``planned`` (optional) is called with the document before its robot program is made, not
     provisionally (the command line starts drawing all its figures then: no placement repair
-    moves a harness job on its board).
+    moves a harness job on its board). With ``check_robot`` every phase's held clips are
+    checked against the cell's grippers as they become known (:func:`check_held_clips`: the
+    start, the fixtures' approach points and slots before planning, phase 1's end before it is
+    planned, the tensioned poses once the tensioning found its offset).
+
+    Raises
+    ------
+    ValueError
+        For clips held closer than the grippers can be, naming the phase and the job's fields.
     """
     from ..harness import harness_summary, run_harness
 
     progress(f"harness job: {job.cable.name or 'cable'}, board checked")
-    result = run_harness(job.cable, job.start, job.board, job.settings)
+    held = partial(check_held_clips, job.robot, job.cable) if check_robot else None
+    result = run_harness(job.cable, job.start, job.board, job.settings, check_held=held)
     progress(result.message)
     doc = PlanDocument(
         cable=job.cable, shapes=result.shapes, grippers=result.grippers,

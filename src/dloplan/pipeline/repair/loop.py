@@ -65,6 +65,7 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from ...robot.cell import RobotCell
+from ...robot.path import CHECKS
 from ...robot.plugins import robot_program
 from ...robot.urdf_cell import verify_on_cell
 from ...sim.statics import interpolate_clips
@@ -543,6 +544,7 @@ class _Session:
             self.fix_cell_reach(failures)
             return
         tried = []
+        best = []  # (the attempt, what it failed): attempts that reach every pose
         pivot = doc.grippers.positions.reshape(-1, 3).mean(axis=0) * [1.0, 1.0, 0.0]
         turned = _Made(self.turned_frames(job, doc, pivot, tried))
         seen = set()
@@ -565,6 +567,8 @@ class _Session:
                                                             found.move.is_identity):
                         if not found.success:
                             tried.append(_missed(candidate.frames, found))
+                            if found.failed != "reach":
+                                best.append((tried[-1], found.failed))
                         continue  # (the plan as it is failed already)
                     seen.add(key)
                     if not self.attempt():
@@ -581,10 +585,13 @@ class _Session:
                         left = self.program_verdict(program, len(placed.shapes))
                         if not left:
                             placed = with_program(placed, program)
+                        failed = failed_check(program.failures, left)
                     else:
-                        left = [collides]
+                        left, failed = [collides], "the obstacles"
                     tried.append(f"{_frames_name(candidate.frames)}, job {move.describe()}: "
                                  + (left[0] if left else "passes"))
+                    if left and failed != "reach":
+                        best.append((tried[-1], failed))
                     if left:
                         self.progress(f"placement rejected: {tried[-1]}")
                         continue
@@ -594,8 +601,8 @@ class _Session:
                                      _State(placed_job, placed, self.state.move.then(move)),
                                      move, since)
                     return
-        raise Refused("no placement of the job on the table makes every pose reachable; "
-                      "tried: " + attempts(tried))
+        raise Refused(f"{no_placement(*best[0] if best else (None, 'reach'))}; tried: "
+                      + attempts(tried))
 
     def program_verdict(self, program, n_shapes: int) -> list[str]:
         """The reach failures a placement's robot program leaves, as the repair prints them:
@@ -621,8 +628,8 @@ class _Session:
         move = TableMove(found.offset)
         where = f"{job.robot.name}'s placement search, job {move.describe()}"
         if not found.verdict.ok or move.is_identity:
-            raise Refused(f"no placement of the job on the table makes every pose reachable; "
-                          f"{where}: {found.verdict.message}")
+            failed = failed_check(found.verdict.rows) if not found.verdict.ok else "reach"
+            raise Refused(f"{no_placement(None, failed)}; {where}: {found.verdict.message}")
         placed_job = moved_job(job, move)
         placed = moved_document(placed_job, doc, move, program=False)
         collides = obstacle_collisions(placed)
@@ -722,6 +729,37 @@ def _twisted(frames, left) -> str:
     """The entry of the reach repair's ``tried`` for a frame set that twists the cable (its
     twist failures ``left``): it is not tried."""
     return f"{frames.message}: {summary(left)}"
+
+
+def failed_check(rows, left=()) -> str:
+    """The first robot check a placement fails, in the programs' order of checks
+    (:data:`dloplan.robot.path.CHECKS`): ``"reach"`` when a pose is not reached (a ``reach``
+    row among the failing ``rows``, or a shape ``left`` as unreachable by
+    :meth:`_Session.program_verdict`), else the first failing row's check; ``"reach"`` when no
+    row fails."""
+    checks = {row.check for row in rows if not row.ok}
+    if "reach" in checks or any("not reachable by the" in line for line in left):
+        return "reach"
+    return next((name for name in CHECKS if name in checks), next(iter(sorted(checks)), "reach"))
+
+
+def no_placement(best: str | None, failed: str) -> str:
+    """The lead of the reach repair's refusal: what the best placements failed on.
+
+    Parameters
+    ----------
+    best : str or None
+        The best attempt as the refusal lists it (the first, in the repair's order, whose
+        poses are all reached), or None (a cell's placement search: its own line follows).
+    failed : str
+        What it failed: a robot check's name, "the obstacles", or "reach" (kept as it was:
+        no placement makes every pose reachable).
+    """
+    if failed == "reach":
+        return "no placement of the job on the table makes every pose reachable"
+    lead = ("no placement of the job on the table makes every robot check pass: the best fails "
+            + failed)
+    return lead if best is None else f"{lead} ({best})"
 
 
 def _missed(frames, found) -> str:

@@ -220,12 +220,26 @@ class PlacementRepair:
         Every pose reachable, continuous and collision-free after ``move``.
     message : str
         The search's one line (the best offset's problems when none works).
+    failed : str or None
+        The first check the best offset failed, in the robot program's order (``"reach"``,
+        ``"continuity"``, ``"clearance"``: :func:`searched_failure`); None on success.
     """
 
     move: TableMove
     left_clip: int
     success: bool
     message: str
+    failed: str | None = None
+
+
+def searched_failure(reachability) -> str:
+    """The first check a placement search's best offset failed (its
+    :class:`~dloplan.robot.reachability.Reachability`; None: no offset passed the search's
+    pre-check, IK at the targets): ``"reach"`` where a pose is not reached, else
+    ``"continuity"`` where a motion is lost, else ``"clearance"`` (the arms come too close)."""
+    if reachability is None or not np.all(reachability.reachable):
+        return "reach"
+    return "continuity" if not np.all(reachability.continuous) else "clearance"
 
 
 def with_approach(positions: np.ndarray, matrices: np.ndarray, cell) -> tuple:
@@ -306,7 +320,7 @@ def placements(grippers: GripperPath, *, searches=SEARCHES, yaws=YAWS, cell=None
     for yaw in yaws:
         turned, positions, matrices = _turned_targets(grippers, yaw, pivot, cell)
         side = left_clip(turned, cell)
-        messages = []
+        messages, failed = [], None
         for half, step, objective in searches:
             for clip in (side, 1 - side):
                 found = search_placement(positions, Rotation.from_matrix(matrices),
@@ -321,6 +335,9 @@ def placements(grippers: GripperPath, *, searches=SEARCHES, yaws=YAWS, cell=None
                     yield PlacementRepair(move, clip, True, found.message)
                 else:
                     messages.append(found.message)
+                    failed = searched_failure(found.reachability) if not found.success \
+                        else failed
         if messages:
             yield PlacementRepair(TableMove(yaw=yaw, pivot=pivot), side, False,
-                                  f"turned {math.degrees(yaw):.0f} deg: {messages[-1]}")
+                                  f"turned {math.degrees(yaw):.0f} deg: {messages[-1]}",
+                                  failed or "reach")
