@@ -8,6 +8,8 @@ rotation uses 1e-5, the optimizer's own tolerance.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from gripper_paths import bending_path, curved_hose, turnover_path
@@ -352,3 +354,29 @@ def test_auto_takes_rigid_rotation_when_minimal_rotation_would_twist():
     auto = gripper_path(shapes, method="auto", cable=cable)
     assert auto.method == "rigid" and auto.success
     assert "minimal rotation would twist the cable" in auto.message
+
+
+def test_the_plan_warns_of_the_twist_the_torsion_model_finds_not_of_the_frames_estimate():
+    """The frames' relative twist is an estimate of the cable's twist; where the torsion model
+    has run (every plan: ``plan_twist``) its twist is the plan's check (the repair's
+    ``twist_failures``, ``export``). A plan whose frames turn 17-32 deg against each other but
+    whose cable the torsion model finds untwisted (M1 at n = 20 after its twist repair) warned
+    "the cable would be twisted" and exited 1; its frames' other warnings stay."""
+    from types import SimpleNamespace
+
+    from dloplan.pipeline.stages import frame_warnings
+
+    cable = curved_hose()
+    path, _ = turnover_path(cable.rest_shape)
+    minimal = gripper_path(path, method="minimal", cable=cable)
+    assert not minimal.success and minimal.twist_warning in minimal.warnings
+    other = "a frame step of the path"
+    frames = replace(minimal, warnings=(*minimal.warnings, other))
+    untwisted = SimpleNamespace(success=True, message="largest twist 0.0 degrees")
+    assert frame_warnings(frames, untwisted) == [w for w in frames.warnings
+                                                 if w != minimal.twist_warning]
+    assert other in frame_warnings(frames, untwisted)
+    twisted = SimpleNamespace(success=False, message="largest twist 175.0 degrees")
+    assert frame_warnings(frames, twisted)[-1] == "twist: largest twist 175.0 degrees"
+    rigid = gripper_path(path, method="rigid", cable=cable)
+    assert rigid.twist_warning is None

@@ -133,6 +133,11 @@ class GripperPath:
         """
         return np.stack([clip_roll(r) for r in self.rotations], axis=1)
 
+    @property
+    def twist_warning(self) -> str | None:
+        """This path's warning of a relative twist over ``max_twist`` (None if within it)."""
+        return relative_twist_warning(self.method, self.twist, self.max_twist)
+
     def clip_poses(self, index: int) -> ClipPoses:
         """The two clip poses at shape ``index``."""
         rot = Rotation.concatenate([r[index : index + 1] for r in self.rotations])
@@ -189,6 +194,20 @@ def clip_roll(rotations: Rotation) -> np.ndarray:
     swing = minimal_rotation(np.broadcast_to([1.0, 0.0, 0.0], x.shape), x)
     roll = step * swing.inv()
     return np.r_[0.0, np.cumsum(np.einsum("ij,ij->i", roll.as_rotvec(), x))]
+
+
+def relative_twist_warning(method: str, twist: np.ndarray, max_twist: float) -> str | None:
+    """The warning of frames whose relative twist (S + 2,) [rad] exceeds ``max_twist`` [rad]
+    somewhere (None where it does not): the frames' own estimate of the cable's twist, which
+    the torsion model replaces where it has run (:func:`dloplan.pipeline.stages.frame_warnings`).
+    """
+    worst = int(np.argmax(np.abs(twist)))
+    if abs(twist[worst]) <= max_twist:
+        return None
+    hint = " (try method 'rigid')" if method != "rigid" else ""
+    return (f"relative twist between the clips reaches {np.degrees(twist[worst]):.1f} degrees at "
+            f"shape {worst} (more than {np.degrees(max_twist):.0f}): the cable would be "
+            f"twisted{hint}")
 
 
 def _step_warnings(rotations: ClipRotations, max_step: float) -> list[str]:
@@ -314,12 +333,7 @@ def _frames_for(x, resolved, why, initial, aux, min_angle, max_twist, max_step) 
         f"each clip rolls up to {roll:.1f} degrees about the cable"
     )
     if not success:
-        hint = " (try method 'rigid')" if resolved != "rigid" else ""
-        warnings.append(
-            f"relative twist between the clips reaches {np.degrees(twist[worst]):.1f} degrees at "
-            f"shape {worst} (more than {np.degrees(max_twist):.0f}): the cable would be "
-            f"twisted{hint}"
-        )
+        warnings.append(relative_twist_warning(resolved, twist, max_twist))
     return GripperPath(
         positions=positions,
         rotations=rotations,

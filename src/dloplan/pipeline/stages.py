@@ -369,6 +369,23 @@ def plan_twist(cable, path: np.ndarray, grippers, progress=quiet):
     return twist
 
 
+def frame_warnings(grippers, twist) -> list[str]:
+    """The warnings a plan owes its gripper frames ``grippers`` and the torsion model's
+    ``twist`` under them (:func:`plan_twist`).
+
+    The torsion model judges the cable's twist, as the plan's twist check does
+    (:func:`dloplan.pipeline.repair.failures.twist_failures`) and ``export`` with it: the
+    frames' own relative twist (singular where the last clip's u-axis turns by 180 deg against
+    the first's, a planar U) is no warning of its own, it stays in the summary line
+    (``grippers.message``). The frames' other warnings (fallbacks, steps) are kept.
+    """
+    own = grippers.twist_warning
+    warnings = [w for w in grippers.warnings if w != own]
+    if not twist.success:
+        warnings.append(f"twist: {twist.message}")
+    return warnings
+
+
 def robot_rows(grippers, cell=None) -> list[dict]:
     """Reachability of a gripper path's poses by the cell's arms (default the YuMi, either arm
     before an arm is assigned; :func:`dloplan.robot.plugins.reach_rows`)."""
@@ -650,11 +667,7 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
         warnings += [f"identification: {w}" for w in plan_warnings(job.identification, job.cable)]
     if not target_check.stable:
         warnings.append(target_check.message)
-    warnings += list(grippers.warnings)
-    if not grippers.success:
-        warnings.append(f"grippers: {grippers.message}")
-    if not twist.success:
-        warnings.append(f"twist: {twist.message}")
+    warnings += frame_warnings(grippers, twist)
     avoidance = result.avoidance
     cycle = default_cycle(trajectory, {"grasp": job.motion.grasp_time,
                                        "release": job.motion.release_time})

@@ -18,6 +18,7 @@ import numpy as np
 from ...sim.statics import clip_wrenches
 from ..document import TwistSection
 from ..stages import (
+    frame_warnings,
     plan_motion,
     plan_program,
     plan_twist,
@@ -116,11 +117,7 @@ def with_grippers(job, doc, grippers, shapes=None, stabilized=None, progress=qui
     if wrenches is None:
         wrenches = stabilized_wrenches(job.cable, stabilized)
     warnings = [w for w in doc.warnings if w not in motion_warnings(doc)]
-    warnings += list(grippers.warnings)
-    if not grippers.success:
-        warnings.append(f"grippers: {grippers.message}")
-    if not twist.success:
-        warnings.append(f"twist: {twist.message}")
+    warnings += frame_warnings(grippers, twist)
     trajectory = timed_trajectory(grippers, job.motion, job.robot)
     new = replace(with_trajectory(doc, trajectory), shapes=shapes, stabilized=stabilized,
                   grippers=grippers, warnings=tuple(warnings), robot=None, program=None,
