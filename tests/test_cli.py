@@ -341,6 +341,27 @@ def test_batch_mode_plans_several_files_on_two_workers(tmp_path, capsys):
     assert not (tmp_path / "out" / "bad").exists()
 
 
+def test_a_batch_whose_files_share_a_name_is_refused_before_any_plan(tmp_path, capsys):
+    """Two files of one name in two folders (or one file twice) would be planned into one
+    ``OUT/<stem>/``: the second plan replaced the first one's files after the first status line
+    had named them (on two workers the second was refused by the first one's lock). Refused at
+    once, exit 2, nothing written, the line naming both files, the folder and what is
+    expected."""
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    first = write(tmp_path / "a", STIFF)
+    second = write(tmp_path / "b", {**STIFF, "cable": {"name": "usb", "n_links": 10}})
+    out = tmp_path / "out"
+    for files in ([first, second], [first, tmp_path / "b" / ".." / "a" / "job.yaml"],
+                  [first, write(tmp_path, STIFF, "job.json")]):
+        code = main(["plan", *map(str, files), "-o", str(out), "-q", "--no-figures"])
+        err = capsys.readouterr().err
+        assert code == EXIT_FAILURE, err
+        assert str(out / "job") in err and "expected" in err, err
+        assert not out.exists()
+    assert str(first) in err and "job.json" in err
+
+
 def test_study_command_writes_the_table_figures_and_report(tmp_path, capsys):
     example = Path(__file__).parents[1] / "examples" / "study_m2_ethernet.yaml"
     out = tmp_path / "study"

@@ -613,9 +613,10 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 
 
 def _plan_batch(args: argparse.Namespace, console: Console) -> int:
-    from .app.files import plan_file
+    from .app.files import plan_file, refuse_shared_folders
     from .study.backends import make_backend, map_jobs
 
+    refuse_shared_folders(args.output, args.scenarios)
     options = {"output": str(Path(args.output)), "verify": args.verify,
                "check_robot": not args.no_verify, "repair": not args.no_repair,
                "allow_placement": args.allow_placement, "figures": not args.no_figures}
