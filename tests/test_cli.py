@@ -54,6 +54,24 @@ def test_check_fails_when_the_target_sits_in_an_obstacle(tmp_path, capsys):
     assert "ERROR" in out and "collides" in out
 
 
+def test_check_refuses_what_plan_refuses_before_planning_ends_closer_than_the_grippers(
+        tmp_path, capsys):
+    """A target arc of 340 deg holds its clips 27 mm apart, closer than the YuMi's two
+    grippers can be (45.1 mm): ``dloplan plan`` refuses it before planning (exit 2), and
+    ``dloplan check`` passed it (exit 0, every line ok). It is now an error of the check, the
+    same line as the plan's refusal."""
+    data = {**STIFF, "target": {**STIFF["target"], "angle": 340}}
+    job = str(write(tmp_path, data))
+    code = main(["check", job, "-q"])
+    lines = capsys.readouterr().out.splitlines()
+    assert code == EXIT_FAILURE
+    errors = [line for line in lines if line.startswith("ERROR")]
+    assert len(errors) == 1 and errors[0].startswith("ERROR   target grip distance: its clips")
+    assert main(["plan", job, "-o", str(tmp_path / "out"), "-q"]) == EXIT_FAILURE
+    refusal = capsys.readouterr().err
+    assert errors[0].split(": ", 1)[1] in refusal
+
+
 def test_check_says_that_plan_searches_a_placement_when_an_arm_cannot_reach(capsys):
     """Qualitative test 1 as shipped: its start is out of the left arm's reach where it lies,
     and dloplan plan places the job elsewhere on the table (its file allows it: exit 0); the

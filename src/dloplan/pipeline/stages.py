@@ -84,9 +84,12 @@ class CheckReport:
 
 
 def check_job(job: Job) -> CheckReport:
-    """Check a job without planning: clip span, robot reach, target stability, obstacles.
+    """Check a job without planning: clip span, the grippers' distance, robot reach, target
+    stability, obstacles.
 
-    Thesis 5.3 (target stability) and 5.4 (collisions of the stabilized start and target).
+    Thesis 5.3 (target stability) and 5.4 (collisions of the stabilized start and target). An
+    end whose clips are closer than the grippers allow (:func:`grip_distance_errors`) is an
+    error, as ``dloplan plan`` refuses it before planning; no line when they are not.
     """
     cable = job.cable
     findings: list[Finding] = []
@@ -101,6 +104,8 @@ def check_job(job: Job) -> CheckReport:
                                     f"{cable.length:.3g} m cable"))
         except ValueError as exc:
             findings.append(Finding("error", f"{name} cable span", str(exc)))
+    findings += [Finding("error", f"{name} grip distance", message.removeprefix(f"{name}: "))
+                 for name, message in grip_distance_errors(job).items() if name in shapes]
     if len(shapes) == 2:
         findings += _reach_findings(job)
     settled = {}
@@ -166,17 +171,28 @@ def check_grip_distance(job: Job) -> None:
     ValueError
         Naming the end, its clips' distance and the least distance the grippers allow.
     """
+    errors = grip_distance_errors(job)
+    if errors:
+        raise ValueError(next(iter(errors.values())))
+
+
+def grip_distance_errors(job: Job) -> dict[str, str]:
+    """The ends of ``job`` ("start", "target") whose clips are closer than the cell's two
+    grippers can be, each with its one-line reason (:func:`check_grip_distance`, which
+    ``dloplan plan`` runs before planning and ``dloplan check`` reports)."""
     left, right = job.robot.arms
     least = left.tcp_depth + right.tcp_depth
+    errors = {}
     for name in ("start", "target"):
         clips = clip_poses_from_shape(getattr(job, name)).positions
         distance = float(np.linalg.norm(clips[1] - clips[0]))
         if distance < least:
-            raise ValueError(
+            errors[name] = (
                 f"{name}: its clips are {1e3 * distance:.1f} mm apart (cable "
                 f"{1e3 * job.cable.length:.1f} mm long); expected at least {1e3 * least:.1f} "
                 "mm: the two grippers' collision capsules overlap when their TCPs are closer, "
                 "whatever the arms' joints (a longer cable, or ends held farther apart)")
+    return errors
 
 
 def plan_path(job: Job, progress=quiet) -> PathStage:
