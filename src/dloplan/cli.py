@@ -824,7 +824,8 @@ def build_parser() -> argparse.ArgumentParser:
     cables = command("cables", _cmd_cables, "print the model constants of the thesis' cables")
     cables.add_argument("--links", type=integer(MIN_LINKS, MAX_LINKS), default=10,
                         help="number of links n")
-    command("schema", _cmd_schema, "print the JSON Schema of scenario files")
+    command("schema", _cmd_schema, "print the JSON Schema of job files (scenario, harness, "
+            "identification)")
     check = command("check", _cmd_check, "check a scenario without planning (target stability, "
                     "clip reach, obstacles at start and target)")
     check.add_argument("scenario", help="scenario file (.yaml or .json)")
