@@ -190,6 +190,31 @@ def test_harness_file_errors_are_one_line_and_name_the_field(tmp_path):
         load_job(_example(tmp_path, typo))
 
 
+def test_a_harness_file_without_pegs_is_refused_when_loaded_so_check_refuses_it(tmp_path,
+                                                                               capsys):
+    """A board without pegs loaded, ``dloplan check`` said "ok board ..." (exit 0) and
+    ``dloplan plan`` refused it after loading ("board: no pegs; a harness job tensions the
+    cable against pegs"). The file's model requires a peg: the loader, the check, the plan and
+    the JSON Schema (``minItems``) refuse it alike, naming the field."""
+    from dloplan.app.schema import scenario_json_schema
+    from dloplan.cli import main
+
+    def no_pegs(data):
+        data["harness"]["pegs"] = []
+
+    def pegs_left_out(data):
+        del data["harness"]["pegs"]
+
+    for edit, fragment in ((no_pegs, "harness.pegs: List should have at least 1 item"),
+                           (pegs_left_out, "harness.pegs: Field required")):
+        path = _example(tmp_path, edit)
+        with pytest.raises(ScenarioError, match=fragment):
+            load_job(path)
+        assert main(["check", str(path), "-q"]) == 2
+        assert fragment in capsys.readouterr().err
+    assert scenario_json_schema()["$defs"]["HarnessSpec"]["properties"]["pegs"]["minItems"] == 1
+
+
 def test_the_rated_load_is_read_in_newtons_and_a_bad_one_is_named(tmp_path):
     def rated(value):
         def edit(data):

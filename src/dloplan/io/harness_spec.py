@@ -92,7 +92,8 @@ class HarnessSpec(_Model):
     """The ``harness:`` section of a scenario: the board and the job's settings."""
 
     fixtures: list[FixtureSpec] = Field(..., min_length=2, max_length=2)
-    pegs: list[PegSpec] = Field(default_factory=list)
+    pegs: list[PegSpec] = Field(..., min_length=1, description="at least one: the cable is "
+                                "tensioned against the pegs")
     approach_height: float = Field(0.08, gt=0, allow_inf_nan=False,
                                    description="phase 1 ends this high above the insertion pose")
     clearance: float = Field(0.005, ge=0, allow_inf_nan=False,
