@@ -263,6 +263,45 @@ def test_millimetre_files_are_converted(tmp_path):
     assert np.allclose(mm.start, m.start)
 
 
+def test_a_length_left_out_of_a_millimetre_file_is_its_default_in_metres(tmp_path):
+    """A harness file in mm that leaves out the lengths with defaults (a fixture's slot width,
+    depth, length and wall, a peg's plate size and thickness, the approach height, the
+    clearance, the largest offset) got each default read in mm: a 3 um plate, a 0.05 mm
+    largest offset, phase 1 ending 0.08 mm above the board; the USB job in mm tensioned at
+    22.87 mm where the same job in metres tensions at 23.49 mm. A default is in metres
+    whatever the units (as the check's and the TCP speed's): both files give one board and
+    one set of settings."""
+    def bare(data):
+        h = data["harness"]
+        for f in h["fixtures"]:
+            del f["slot_width"], f["depth"]
+        del h["pegs"][0]["plate_size"], h["approach_height"], h["clearance"]
+        del h["tension"]["max_offset"]
+
+    def bare_mm(data):
+        bare(data)
+        data["units"] = "mm"
+        h = data["harness"]
+        for f in h["fixtures"]:
+            f["position"] = [1e3 * v for v in f["position"]]
+        peg = h["pegs"][0]
+        peg.update(base=[1e3 * v for v in peg["base"]], radius=12.0, height=60.0,
+                   plate_height=30.0)
+        data["start"]["placement"]["position"] = [220.0, -250.0, 50.0]
+        data["obstacles"][0].update(center=[300.0, 0.0, 30.0], size=[30.0, 160.0, 60.0])
+
+    (tmp_path / "m").mkdir()
+    m = load_job(_example(tmp_path / "m", bare))
+    mm = load_job(_example(tmp_path, bare_mm))
+    for a, b in zip(mm.board.fixtures + mm.board.pegs, m.board.fixtures + m.board.pegs,
+                    strict=True):
+        for name, value in vars(a).items():
+            assert value == pytest.approx(getattr(b, name), rel=1e-12, abs=1e-15), name
+    assert mm.board.pegs[0].plate_thickness == 0.003
+    for name in ("approach_height", "clearance", "max_offset"):
+        assert getattr(mm.settings, name) == pytest.approx(getattr(m.settings, name)), name
+
+
 def test_a_harness_document_without_what_the_checks_need_is_refused_by_name():
     """A harness plan written before harness plans were verified (no board, section or planned
     states in its harness section), or whose tensioning failed (no offset), is refused with the
