@@ -18,6 +18,7 @@ kind of document (:func:`run_harness_job`). Commands do not call these directly 
 
 from __future__ import annotations
 
+import re
 import time
 from dataclasses import dataclass, field, replace
 
@@ -318,22 +319,53 @@ def retimed(doc: PlanDocument, speed: float | None = None,
 
 def with_trajectory(doc: PlanDocument, trajectory) -> PlanDocument:
     """The document with another ``trajectory`` of its knots: its cycle section timed again
-    to it (the same gripper actions, :func:`retimed_cycle`), its verification cleared. Every
-    change of a document's trajectory goes through here, so that the cycle it reports is the
-    motion it carries."""
-    cycle = None if doc.cycle is None else retimed_cycle(doc.cycle, trajectory)
-    return replace(doc, trajectory=trajectory, cycle=cycle, verification=None)
+    to it (the same gripper actions, :func:`retimed_cycle`), a harness job's timing with it
+    (:func:`retimed_harness`), its verification cleared. Every change of a document's
+    trajectory goes through here, so that the cycle it reports is the motion it carries."""
+    if doc.cycle is None:
+        return replace(doc, trajectory=trajectory, verification=None)
+    cycle = retimed_cycle(doc.cycle, trajectory)
+    harness = None if doc.harness is None else retimed_harness(doc.harness, cycle, trajectory)
+    return replace(doc, trajectory=trajectory, cycle=cycle_to_dict(cycle), harness=harness,
+                   verification=None)
 
 
-def retimed_cycle(cycle: dict, trajectory) -> dict:
-    """A document's cycle section with the same gripper actions (:func:`cycle_actions`) and
-    motion phases on another timing of the same knots."""
+def retimed_cycle(cycle: dict, trajectory):
+    """The :class:`~dloplan.trajectory.Cycle` of a document's cycle section with the same
+    gripper actions (:func:`cycle_actions`) and motion phases on another timing of the same
+    knots."""
     phases: dict = {}
     for p in cycle["phases"]:
         if p["kind"] == "motion":
             first, _ = phases.get(p["name"], p["knots"])
             phases[p["name"]] = (first, p["knots"][1])
-    return cycle_to_dict(plan_cycle(trajectory, cycle_actions(cycle), phases or None))
+    return plan_cycle(trajectory, cycle_actions(cycle), phases or None)
+
+
+HARNESS_CYCLE_LINE = re.compile(r"cycle \S+ s = motion .*? at \S+ mm/s")
+"""The cycle's part of a harness section's message (``dloplan.harness.run_harness``): its
+:meth:`~dloplan.trajectory.Cycle.describe` and the TCP speed."""
+
+
+def retimed_harness(section: dict, cycle, trajectory) -> dict:
+    """A harness job's section on another timing of its knots: its cycle, motion and action
+    times, cycle breakdown, phase times and the message's cycle line those of ``cycle`` (a
+    :class:`~dloplan.trajectory.Cycle`) and ``trajectory`` (its TCP speed limit); the
+    insertion's and tensioning's numbers kept (the same knots: ``export --speed`` re-times the
+    motion, not the tensioning's offset)."""
+    times, law = trajectory.times, trajectory.law
+    message = section.get("message", "")
+    line = HARNESS_CYCLE_LINE.search(message)
+    if line is not None:
+        old = line.group(0)
+        speed = old[old.rfind(" at "):] if law is None or law.limits is None else \
+            f" at {1e3 * law.limits.speed:g} mm/s"
+        message = message.replace(old, cycle.describe() + speed)
+    return {**section, "message": message, "cycle_time": cycle.cycle_time,
+            "motion_time": trajectory.duration, "action_time": cycle.action_time,
+            "cycle": cycle.breakdown(),
+            "phase_times": {name: (float(times[a]), float(times[b]))
+                            for name, (a, b) in section["knots"].items()}}
 
 
 def default_cycle(trajectory, durations: dict):
