@@ -380,6 +380,25 @@ def test_a_batch_whose_files_share_a_name_is_refused_before_any_plan(tmp_path, c
     assert str(first) in err and "job.json" in err
 
 
+def test_simulate_refuses_a_harness_plan_whose_replay_is_verify_s(tmp_path, capsys):
+    """``dloplan simulate`` of a harness plan replayed the whole cable without the board's
+    fixtures and contacts and exited 1 ("the moving cable enters table by 81.6 mm") for a plan
+    whose phase-by-phase replay (``dloplan verify``) passes. Refused, exit 2, naming what
+    replays it; a harness job file before it is planned."""
+    from dloplan.app import load_job, make_plan, write_plan
+
+    data = yaml.safe_load((Path(__file__).parents[1] / "examples" / "harness_pu.yaml")
+                          .read_text())
+    data["harness"]["pegs"][0]["base"] = [0.38, 0.0, 0.0]
+    data["outputs"] = ["json"]
+    job = write(tmp_path, data, "hose.yaml")
+    plan = write_plan(tmp_path / "plan.json", make_plan(load_job(job), check_robot=False))
+    for path in (plan, job):
+        assert main(["simulate", str(path), "-q"]) == EXIT_FAILURE
+        err = capsys.readouterr().err
+        assert "harness" in err and "dloplan verify" in err and "expected a" in err, err
+
+
 def test_study_command_writes_the_table_figures_and_report(tmp_path, capsys):
     example = Path(__file__).parents[1] / "examples" / "study_m2_ethernet.yaml"
     out = tmp_path / "study"

@@ -754,12 +754,25 @@ def simulate_plan(doc: PlanDocument, *, damping: str = "relative", torsion: bool
     (:func:`dloplan.vision.compare_shapes`, model against model: the simulated cable's length
     is a result the replay judges, not a registration to refuse, so it is compared whatever
     its stretch).
+
+    Raises
+    ------
+    ValueError
+        For a plan without a timed trajectory, and for a wire-harness plan: its cable is
+        replayed phase by phase on the held section with the board's contacts and fixtures
+        (``dloplan verify``, :func:`dloplan.pipeline.harness.verify_harness_plan`); this
+        replay of the whole cable without them reported the stubs beyond the fixtures 8 cm
+        inside the table of a plan that ``verify`` passes.
     """
     from ..verify.replay import replay
     from ..vision.compare import compare_shapes
 
     if doc.trajectory is None:
         raise ValueError("plan: no timed trajectory to simulate (plan it with gripper poses)")
+    if doc.harness is not None:
+        raise ValueError("plan.harness: a wire-harness plan, expected a plan of a scenario: "
+                         "its replay is phase by phase on the held cable with the board's "
+                         "contacts and fixtures, dloplan verify (docs/harness.md)")
     settled = settled_shapes(doc)
     run = replay(doc.cable, settled, (doc.trajectory.times, doc.clip_poses()),
                  law=doc.trajectory.law, damping=damping, torsion=torsion,
