@@ -112,6 +112,21 @@ def _scenario(tmp_path, robot, name="cell.yaml", folder=EXAMPLES, units="m"):
     return path
 
 
+def test_a_movel_acceleration_left_out_of_a_millimetre_file_is_1_2_m_per_s2(tmp_path):
+    """``urscript.acceleration`` left out of a UR5e job in mm was its default 1.2 read in mm:
+    ``movel(..., a=0.0012)``, a thousandth of the job in metres. A default is in metres
+    whatever the units; a value the file gives is in its units."""
+    from dloplan.app import load_scenario
+
+    cell = {"preset": "ur5e_pair", "separation": 800, "tcp_offset": 150, "tool_radius": 45}
+    left_out = load_scenario(_scenario(tmp_path, {"cell": cell, "urscript": {"mode": "movel"}},
+                                       "mm.yaml", units="mm"))
+    given = load_scenario(_scenario(tmp_path, {"cell": cell, "urscript": {
+        "mode": "movel", "acceleration": 600}}, "given.yaml", units="mm"))
+    assert left_out.robot.writers["urscript"]["acceleration"] == 1.2
+    assert given.robot.writers["urscript"]["acceleration"] == pytest.approx(0.6)
+
+
 def test_scenario_cell_resolves_in_any_units_and_by_paths(tmp_path):
     """A preset in m and in mm (lengths scaled, like every length of the file), and the same
     cell given by its URDF paths relative to the scenario file."""

@@ -54,6 +54,24 @@ def test_check_fails_when_the_target_sits_in_an_obstacle(tmp_path, capsys):
     assert "ERROR" in out and "collides" in out
 
 
+def test_check_refuses_what_plan_refuses_before_planning_ends_closer_than_the_grippers(
+        tmp_path, capsys):
+    """A target arc of 340 deg holds its clips 27 mm apart, closer than the YuMi's two
+    grippers can be (45.1 mm): ``dloplan plan`` refuses it before planning (exit 2), and
+    ``dloplan check`` passed it (exit 0, every line ok). It is now an error of the check, the
+    same line as the plan's refusal."""
+    data = {**STIFF, "target": {**STIFF["target"], "angle": 340}}
+    job = str(write(tmp_path, data))
+    code = main(["check", job, "-q"])
+    lines = capsys.readouterr().out.splitlines()
+    assert code == EXIT_FAILURE
+    errors = [line for line in lines if line.startswith("ERROR")]
+    assert len(errors) == 1 and errors[0].startswith("ERROR   target grip distance: its clips")
+    assert main(["plan", job, "-o", str(tmp_path / "out"), "-q"]) == EXIT_FAILURE
+    refusal = capsys.readouterr().err
+    assert errors[0].split(": ", 1)[1] in refusal
+
+
 def test_check_says_that_plan_searches_a_placement_when_an_arm_cannot_reach(capsys):
     """Qualitative test 1 as shipped: its start is out of the left arm's reach where it lies,
     and dloplan plan places the job elsewhere on the table (its file allows it: exit 0); the
@@ -339,6 +357,46 @@ def test_batch_mode_plans_several_files_on_two_workers(tmp_path, capsys):
     assert "planned 2 scenarios: 1 ok" in out or "1 with warnings" in out
     assert (tmp_path / "out" / "m2_uniform_curvature_pa12" / "plan.json").exists()
     assert not (tmp_path / "out" / "bad").exists()
+
+
+def test_a_batch_whose_files_share_a_name_is_refused_before_any_plan(tmp_path, capsys):
+    """Two files of one name in two folders (or one file twice) would be planned into one
+    ``OUT/<stem>/``: the second plan replaced the first one's files after the first status line
+    had named them (on two workers the second was refused by the first one's lock). Refused at
+    once, exit 2, nothing written, the line naming both files, the folder and what is
+    expected."""
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    first = write(tmp_path / "a", STIFF)
+    second = write(tmp_path / "b", {**STIFF, "cable": {"name": "usb", "n_links": 10}})
+    out = tmp_path / "out"
+    for files in ([first, second], [first, tmp_path / "b" / ".." / "a" / "job.yaml"],
+                  [first, write(tmp_path, STIFF, "job.json")]):
+        code = main(["plan", *map(str, files), "-o", str(out), "-q", "--no-figures"])
+        err = capsys.readouterr().err
+        assert code == EXIT_FAILURE, err
+        assert str(out / "job") in err and "expected" in err, err
+        assert not out.exists()
+    assert str(first) in err and "job.json" in err
+
+
+def test_simulate_refuses_a_harness_plan_whose_replay_is_verify_s(tmp_path, capsys):
+    """``dloplan simulate`` of a harness plan replayed the whole cable without the board's
+    fixtures and contacts and exited 1 ("the moving cable enters table by 81.6 mm") for a plan
+    whose phase-by-phase replay (``dloplan verify``) passes. Refused, exit 2, naming what
+    replays it; a harness job file before it is planned."""
+    from dloplan.app import load_job, make_plan, write_plan
+
+    data = yaml.safe_load((Path(__file__).parents[1] / "examples" / "harness_pu.yaml")
+                          .read_text())
+    data["harness"]["pegs"][0]["base"] = [0.38, 0.0, 0.0]
+    data["outputs"] = ["json"]
+    job = write(tmp_path, data, "hose.yaml")
+    plan = write_plan(tmp_path / "plan.json", make_plan(load_job(job), check_robot=False))
+    for path in (plan, job):
+        assert main(["simulate", str(path), "-q"]) == EXIT_FAILURE
+        err = capsys.readouterr().err
+        assert "harness" in err and "dloplan verify" in err and "expected a" in err, err
 
 
 def test_study_command_writes_the_table_figures_and_report(tmp_path, capsys):

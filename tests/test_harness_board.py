@@ -190,6 +190,31 @@ def test_harness_file_errors_are_one_line_and_name_the_field(tmp_path):
         load_job(_example(tmp_path, typo))
 
 
+def test_a_harness_file_without_pegs_is_refused_when_loaded_so_check_refuses_it(tmp_path,
+                                                                               capsys):
+    """A board without pegs loaded, ``dloplan check`` said "ok board ..." (exit 0) and
+    ``dloplan plan`` refused it after loading ("board: no pegs; a harness job tensions the
+    cable against pegs"). The file's model requires a peg: the loader, the check, the plan and
+    the JSON Schema (``minItems``) refuse it alike, naming the field."""
+    from dloplan.app.schema import scenario_json_schema
+    from dloplan.cli import main
+
+    def no_pegs(data):
+        data["harness"]["pegs"] = []
+
+    def pegs_left_out(data):
+        del data["harness"]["pegs"]
+
+    for edit, fragment in ((no_pegs, "harness.pegs: List should have at least 1 item"),
+                           (pegs_left_out, "harness.pegs: Field required")):
+        path = _example(tmp_path, edit)
+        with pytest.raises(ScenarioError, match=fragment):
+            load_job(path)
+        assert main(["check", str(path), "-q"]) == 2
+        assert fragment in capsys.readouterr().err
+    assert scenario_json_schema()["$defs"]["HarnessSpec"]["properties"]["pegs"]["minItems"] == 1
+
+
 def test_the_rated_load_is_read_in_newtons_and_a_bad_one_is_named(tmp_path):
     def rated(value):
         def edit(data):
@@ -236,6 +261,45 @@ def test_millimetre_files_are_converted(tmp_path):
     assert mm.board.pegs[0].plate().top == pytest.approx(m.board.pegs[0].plate().top)
     assert mm.settings.max_offset == pytest.approx(m.settings.max_offset)
     assert np.allclose(mm.start, m.start)
+
+
+def test_a_length_left_out_of_a_millimetre_file_is_its_default_in_metres(tmp_path):
+    """A harness file in mm that leaves out the lengths with defaults (a fixture's slot width,
+    depth, length and wall, a peg's plate size and thickness, the approach height, the
+    clearance, the largest offset) got each default read in mm: a 3 um plate, a 0.05 mm
+    largest offset, phase 1 ending 0.08 mm above the board; the USB job in mm tensioned at
+    22.87 mm where the same job in metres tensions at 23.49 mm. A default is in metres
+    whatever the units (as the check's and the TCP speed's): both files give one board and
+    one set of settings."""
+    def bare(data):
+        h = data["harness"]
+        for f in h["fixtures"]:
+            del f["slot_width"], f["depth"]
+        del h["pegs"][0]["plate_size"], h["approach_height"], h["clearance"]
+        del h["tension"]["max_offset"]
+
+    def bare_mm(data):
+        bare(data)
+        data["units"] = "mm"
+        h = data["harness"]
+        for f in h["fixtures"]:
+            f["position"] = [1e3 * v for v in f["position"]]
+        peg = h["pegs"][0]
+        peg.update(base=[1e3 * v for v in peg["base"]], radius=12.0, height=60.0,
+                   plate_height=30.0)
+        data["start"]["placement"]["position"] = [220.0, -250.0, 50.0]
+        data["obstacles"][0].update(center=[300.0, 0.0, 30.0], size=[30.0, 160.0, 60.0])
+
+    (tmp_path / "m").mkdir()
+    m = load_job(_example(tmp_path / "m", bare))
+    mm = load_job(_example(tmp_path, bare_mm))
+    for a, b in zip(mm.board.fixtures + mm.board.pegs, m.board.fixtures + m.board.pegs,
+                    strict=True):
+        for name, value in vars(a).items():
+            assert value == pytest.approx(getattr(b, name), rel=1e-12, abs=1e-15), name
+    assert mm.board.pegs[0].plate_thickness == 0.003
+    for name in ("approach_height", "clearance", "max_offset"):
+        assert getattr(mm.settings, name) == pytest.approx(getattr(m.settings, name)), name
 
 
 def test_a_harness_document_without_what_the_checks_need_is_refused_by_name():

@@ -202,3 +202,24 @@ def test_a_tensioning_whose_replay_overshoots_the_rated_load_is_repaired_by_a_sl
     assert "slowed to" in doc.repairs[0]["change"] and "rated load" in doc.repairs[0]["before"]
     repaired = next(r for r in doc.verification.phases if r["phase"] == "tensioning")
     assert repaired["peak_tension"] <= load
+
+
+def test_fixtures_of_depth_0_are_verified_with_an_insertion_that_takes_no_time():
+    """Fixtures of depth 0 (``Fixture.depth`` allows it: the cable is laid into the slots, not
+    pushed) give an insertion of no time, two knots at one instant: the plan passed its robot
+    checks (exit 0) and ``plan --verify`` exited 2 with "times: expected finite, strictly
+    increasing times [s]", the replay of the insertion given one instant twice. Run B now
+    starts at the slots' knot and every phase is checked."""
+    from dataclasses import replace
+
+    cable = catalogue_cable("pu")
+    board = demo_board(cable)
+    laid = Board(tuple(replace(f, depth=0.0) for f in board.fixtures), board.pegs,
+                 board.obstacles, board.table)
+    result = run_harness(cable, demo_start(cable), laid, SETTINGS)
+    assert result.success, result.message
+    times = result.trajectory.times
+    assert times[result.knots["insertion"][1]] == times[result.knots["phase2"][1]]
+    check = verify_harness_result(result)
+    assert [row.phase for row in check.rows] == list(CHECKED_PHASES)
+    assert check.ok, check.table()

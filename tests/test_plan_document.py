@@ -327,6 +327,38 @@ def test_a_re_timed_plan_keeps_its_arms_and_limits_and_checks_its_program_again(
     assert slower.robot.ok and durations[0] > durations[1]
 
 
+def test_a_re_timed_harness_plan_reports_the_new_timing_in_its_harness_section(tmp_path):
+    """``export --speed 0.05`` of a harness plan wrote a trajectory of 9.05 s and a cycle
+    section of 10.85 s, and its harness section, which the report prints, kept the planned
+    "cycle 7.90 s = motion 6.10 s ... at 100 mm/s" and phase times. The harness section is
+    timed again with the cycle; its tensioning numbers stay (the same knots)."""
+    from dloplan.app import load_job, make_plan
+    from dloplan.app.report import summary_lines
+    from dloplan.pipeline.stages import retimed
+
+    data = yaml.safe_load((Path(__file__).parents[1] / "examples" / "harness_pu.yaml")
+                          .read_text())
+    data["harness"]["pegs"][0]["base"] = [0.38, 0.0, 0.0]
+    (tmp_path / "hose.yaml").write_text(yaml.safe_dump(data))
+    planned = make_plan(load_job(tmp_path / "hose.yaml"), check_robot=False)
+    slower = retimed(planned, speed=0.05)
+    harness, times = slower.harness, slower.trajectory.times
+    assert slower.trajectory.duration > planned.trajectory.duration
+    assert harness["motion_time"] == slower.trajectory.duration
+    assert harness["cycle_time"] == pytest.approx(slower.cycle["cycle_time"])
+    assert harness["cycle"] == slower.cycle["breakdown"]
+    for name, (a, b) in harness["knots"].items():
+        assert harness["phase_times"][name] == (times[a], times[b])
+    assert harness["message"].startswith(f"cycle {slower.cycle['cycle_time']:.2f} s = motion "
+                                         f"{slower.trajectory.duration:.2f} s")
+    assert " at 50 mm/s; " in harness["message"]
+    assert harness["offset"] == planned.harness["offset"]
+    assert harness["message"].split(" mm/s; ", 1)[1] == \
+        planned.harness["message"].split(" mm/s; ", 1)[1]
+    assert f"phase1: 0.00 s to {times[harness['knots']['phase1'][1]]:.2f} s" in \
+        summary_lines(slower)
+
+
 def test_export_writes_no_trajectory_of_a_plan_that_failed_a_check(planned, tmp_path):
     """dloplan plan withholds robot programs and trajectories of a failed plan; dloplan export
     wrote trajectory.csv of it with exit 0 (a target 3 m out of reach)."""

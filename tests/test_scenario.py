@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -78,7 +79,37 @@ def test_yaml_and_json_files(tmp_path):
 def test_json_schema_describes_the_format():
     schema = scenario_json_schema()
     assert schema["title"] == "dloplan scenario"
-    assert {"cable", "start", "target"} <= set(schema["required"])
+    assert {"cable", "start", "target"} <= set(schema["$defs"]["Scenario"]["required"])
+
+
+def test_json_schema_takes_every_kind_of_job_file_the_loader_takes():
+    """A harness job (a ``harness:`` section, no ``target:``) and an identification file
+    (``identify:``, no ``start:``) load, and the printed schema refused both ("'harness' was
+    unexpected", "'start' is a required property"): an editor pointed at it marked every
+    harness file. The schema is now the three root models' ``anyOf``; a file that mixes them
+    is refused by both."""
+    jsonschema = pytest.importorskip("jsonschema")
+    import yaml
+
+    from dloplan.app.identification import parse_identification
+    from dloplan.app.load import resolve_mapping
+
+    examples = Path(__file__).parents[1] / "examples"
+    harness = yaml.safe_load((examples / "harness_usb.yaml").read_text())
+    harness["cable"] = {"name": "ethernet", "n_links": 12}
+    harness["harness"]["pegs"][0]["base"] = [0.37, 0.01, 0.0]
+    identification = yaml.safe_load((examples / "identify_ethernet.yaml").read_text())
+    identification["identify"]["measurement_noise"] = 0.002
+    validator = jsonschema.Draft202012Validator(scenario_json_schema())
+    resolve_mapping(harness, "harness")
+    parse_identification(identification, "identification")
+    for data in (harness, identification, BASE):
+        assert validator.is_valid(data), jsonschema.exceptions.best_match(
+            validator.iter_errors(data)).message
+    mixed = {**harness, "target": BASE["target"]}
+    assert not validator.is_valid(mixed)
+    with pytest.raises(ScenarioError, match="target: Extra inputs are not permitted"):
+        resolve_mapping(mixed, "mixed")
 
 
 BAD = [

@@ -643,9 +643,10 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 
 
 def _plan_batch(args: argparse.Namespace, console: Console) -> int:
-    from .app.files import plan_file
+    from .app.files import plan_file, refuse_shared_folders
     from .study.backends import make_backend, map_jobs
 
+    refuse_shared_folders(args.output, args.scenarios)
     options = {"output": str(Path(args.output)), "verify": args.verify,
                "check_robot": not args.no_verify, "repair": not args.no_repair,
                "allow_placement": args.allow_placement, "figures": not args.no_figures}
@@ -740,6 +741,14 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     from .pipeline.stages import simulate_plan
 
     console = Console(args.quiet)
+    if Path(args.file).suffix.lower() != ".json":  # a job file: a harness job before planning
+        from .app.load import file_kind
+        from .io.scenario import read_mapping
+
+        if file_kind(read_mapping(args.file)) == "harness":
+            raise ValueError(f"{args.file}: a harness job, expected a scenario: a harness "
+                             "plan is replayed phase by phase by dloplan verify "
+                             "(docs/harness.md)")
     doc = document_of(args.file, progress=console.stage, allow_placement=args.allow_placement)
     unchecked = _unchecked(args.file, doc)
     if doc.trajectory is None:
@@ -866,7 +875,8 @@ def build_parser() -> argparse.ArgumentParser:
     cables = command("cables", _cmd_cables, "print the model constants of the thesis' cables")
     cables.add_argument("--links", type=integer(MIN_LINKS, MAX_LINKS), default=10,
                         help="number of links n")
-    command("schema", _cmd_schema, "print the JSON Schema of scenario files")
+    command("schema", _cmd_schema, "print the JSON Schema of job files (scenario, harness, "
+            "identification)")
     check = command("check", _cmd_check, "check a scenario without planning (target stability, "
                     "clip reach, obstacles at start and target)")
     check.add_argument("scenario", help="scenario file (.yaml or .json)")

@@ -99,15 +99,50 @@ def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
     return doc, paths
 
 
+def batch_folder(output, path) -> Path:
+    """The sub-folder of ``output`` that the batch mode plans job file ``path`` into:
+    ``<output>/<stem>/``, the file's name without its suffix."""
+    return Path(output) / Path(path).stem
+
+
+def refuse_shared_folders(output, paths) -> None:
+    """Refuse a batch in which two job files would be planned into one sub-folder
+    (:func:`batch_folder`): ``a/job.yaml`` and ``b/job.yaml``, ``job.yaml`` and ``job.json``,
+    or one file given twice. Each run replaces a finished output folder, so the second plan
+    would replace the first one's files after its status line named them (or, on two workers,
+    be refused by the first one's lock).
+
+    Raises
+    ------
+    ValueError
+        Naming both files, the folder and what is expected; before any file is read.
+    """
+    seen: dict[Path, str] = {}
+    for path in paths:
+        folder = batch_folder(output, path)
+        if folder in seen:
+            same = Path(seen[folder]).resolve() == Path(path).resolve()
+            if same:
+                raise ValueError(f"{path}: given twice (both runs would plan into {folder}); "
+                                 "expected each file once")
+            raise ValueError(
+                f"{seen[folder]} and {path} would both be planned into {folder} (the batch "
+                f"mode writes each file into {Path(output)}/<its name without suffix>/); "
+                "expected files of different names: rename one, or plan them into "
+                "different output folders (-o)")
+        seen[folder] = path
+
+
 def plan_file(options: dict, path: str) -> tuple[str, int, str]:
-    """Plan one job file into ``<output>/<stem>/`` (the batch mode's task).
+    """Plan one job file into ``<output>/<stem>/`` (the batch mode's task,
+    :func:`batch_folder`; :func:`refuse_shared_folders` is called before the batch starts).
 
     Returns ``(path, exit code, status line)``; an identification file is skipped with a
     pointer to ``dloplan identify``, a bad file gives its one-line error.
     """
     from ..io.scenario import read_mapping
 
-    folder = Path(options["output"]) / Path(path).stem
+    folder = batch_folder(options["output"], path)
     try:
         if file_kind(read_mapping(path)) == "identification":
             return path, EXIT_WARNINGS, f"{path}: skipped (an identification file: use " \

@@ -102,11 +102,30 @@ def check_lengths(spec: CheckSpec, scale: float) -> tuple[float, float]:
     return threshold, z_safety
 
 
+def file_length(spec, name: str, scale: float):
+    """Length field ``name`` of a file's section ``spec`` (a pydantic model) in metres: the
+    value the file gives times ``scale`` [m per unit], or, left out, the field's default,
+    which is in metres whatever the file's ``units`` (as the check's and the TCP speed's
+    defaults, docs/scenario.md). A file in mm that leaves a peg's ``plate_thickness`` out gets
+    3 mm, not 3 um.
+
+    Returns
+    -------
+    float or tuple of float
+        A tuple for a list field (``plate_size``).
+    """
+    value = getattr(spec, name)
+    factor = scale if name in spec.model_fields_set else 1.0
+    if isinstance(value, list | tuple):
+        return tuple(float(v) * factor for v in value)
+    return value * factor
+
+
 def urscript_settings(spec: UrscriptSpec, scale: float) -> dict:
     """The URScript writer's keyword settings (:func:`dloplan.io.urscript.write_urscript`) in
-    SI (lengths times ``scale``)."""
-    return {**spec.model_dump(), "blend": spec.blend * scale,
-            "acceleration": spec.acceleration * scale}
+    SI (:func:`file_length`: the file's lengths times ``scale``, a default in SI)."""
+    return {**spec.model_dump(), "blend": file_length(spec, "blend", scale),
+            "acceleration": file_length(spec, "acceleration", scale)}
 
 
 def build_cable(spec: CableSpec, scale: float, youngs_modulus: float | None) -> Cable:
@@ -188,14 +207,15 @@ def build_obstacles(specs, table: TableSpec | None, scale: float) -> list:
 
 def build_board(spec, scale: float, obstacles=(), table: Table | None = None) -> Board:
     """The :class:`~dloplan.harness.board.Board` of a ``harness:`` section in metres (its
-    fixtures and pegs; obstacles and table from the file's own sections; ``table`` None: no
-    table)."""
+    fixtures and pegs, a length left out its default in metres, :func:`file_length`;
+    obstacles and table from the file's own sections; ``table`` None: no table)."""
     fixtures = tuple(Fixture(tuple(np.multiply(f.position, scale)), tuple(f.axis),
-                             tuple(f.opening), f.slot_width * scale, f.depth * scale,
-                             f.length * scale, f.wall * scale, f.name) for f in spec.fixtures)
+                             tuple(f.opening), *(file_length(f, name, scale) for name in
+                                                 ("slot_width", "depth", "length", "wall")),
+                             f.name) for f in spec.fixtures)
     pegs = tuple(Peg(tuple(np.multiply(p.base, scale)), p.radius * scale, p.height * scale,
                      None if p.plate_height is None else p.plate_height * scale,
-                     tuple(np.multiply(p.plate_size, scale)), p.plate_thickness * scale,
+                     file_length(p, "plate_size", scale), file_length(p, "plate_thickness", scale),
                      tuple(p.side), p.name) for p in spec.pegs)
     return Board(fixtures, pegs, tuple(obstacles), table)
 
@@ -438,13 +458,14 @@ def _resolved(scenario, source: str, youngs_modulus: float | None, identificatio
 # -- a wire-harness job ---------------------------------------------------------------------------
 def harness_settings(scenario, scale: float) -> HarnessSettings:
     """The harness job's settings in SI: the ``harness:`` section's phases, insertion and
-    tensioning, the trajectory's limits, the planner's mode and the check's lift safety."""
+    tensioning (a length left out its default in metres, :func:`file_length`), the
+    trajectory's limits, the planner's mode and the check's lift safety."""
     h, t = scenario.harness, scenario.harness.tension
     limits = motion_limits(scenario.trajectory, scale)
     return HarnessSettings(
-        n_shapes=tuple(h.n_shapes), approach_height=h.approach_height * scale,
-        clearance=h.clearance * scale, contact_force=t.contact_force,
-        max_axial_force=t.max_axial_force, max_offset=t.max_offset * scale,
+        n_shapes=tuple(h.n_shapes), approach_height=file_length(h, "approach_height", scale),
+        clearance=file_length(h, "clearance", scale), contact_force=t.contact_force,
+        max_axial_force=t.max_axial_force, max_offset=file_length(t, "max_offset", scale),
         section_links=t.n_links, substeps=t.substeps, max_speed=limits.speed,
         max_angular_speed=scenario.trajectory.angular_speed, limits=limits,
         zone=scenario.trajectory.zone * scale, grasp_time=scenario.trajectory.grasp_time,

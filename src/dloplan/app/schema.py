@@ -7,8 +7,8 @@ change; a harness job its board (:class:`~dloplan.io.harness_spec.HarnessSpec`).
 the application, not in :mod:`dloplan.io`, because their sections come from packages above it
 (a scenario's ``study:`` is :class:`dloplan.study.spec.StudySpec`).
 
-The JSON Schema of the scenario format (for editor completion) is
-:func:`scenario_json_schema`, printed by ``dloplan schema``.
+The JSON Schema of the job files (for editor completion: a scenario, a harness job or an
+identification file) is :func:`scenario_json_schema`, printed by ``dloplan schema``.
 """
 
 from __future__ import annotations
@@ -74,8 +74,26 @@ def parse_harness(data: Any, source: str = "harness scenario") -> HarnessScenari
 
 
 def scenario_json_schema() -> dict:
-    """The JSON Schema of the scenario format."""
-    schema = Scenario.model_json_schema()
+    """The JSON Schema of the job files :func:`dloplan.app.load_job` reads: a scenario
+    (:class:`Scenario`), a wire-harness job (:class:`HarnessScenario`: a ``harness:`` section,
+    no ``target:``) or an identification file
+    (:class:`~dloplan.app.identification.IdentificationFile`: ``identify:`` without
+    ``start:``), the root's ``anyOf`` of the three (each closed to other keys, so a file is one
+    of them).
+
+    Returns
+    -------
+    dict
+        A draft 2020-12 schema titled "dloplan scenario"; the root models under ``$defs``.
+    """
+    from pydantic import TypeAdapter
+
+    from .identification import IdentificationFile  # numpy and the identification's modules
+
+    schema = TypeAdapter(Scenario | HarnessScenario | IdentificationFile).json_schema()
     schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
     schema["title"] = "dloplan scenario"
+    schema["description"] = ("a dloplan job file: a scenario (start to target), a wire-harness "
+                             "job (a harness section, no target) or an identification "
+                             "experiment (an identify section, no start)")
     return schema

@@ -280,6 +280,9 @@ def _replays(model: HeldModel, times: np.ndarray, law: TimeLaw | None, clips: li
     k_slots, k_end = knots["insertion"][1], knots["tensioning"][1]
     slots = fixture_clips(model.board, inserted=True)
     t_in, p_in, q_in = _window(motion, times[k2], times[k_slots])
+    inserted = times[k_slots] > times[k2]  # no time: fixtures of depth 0, laid in, not pushed
+    if not inserted:  # one instant: the slots' knot, where run B starts
+        t_in, p_in, q_in = t_in[:1], p_in[:1], q_in[:1]
     t_pull = _window(motion, times[k_slots], times[k_end])[0]
     pause = float(regrasp_time)
     start_pull = times[k_slots] + pause
@@ -300,17 +303,17 @@ def _replays(model: HeldModel, times: np.ndarray, law: TimeLaw | None, clips: li
         return sections[d]
 
     insertion, tensioning = paths["insertion"], paths["tensioning"]
-    shapes = [insertion.shapes[0], insertion.shapes[1]] + (
+    shapes = list(insertion.shapes[0 if inserted else 1:2]) + (
         [insertion.shapes[1]] if pause > 0 else []) + [tensioning.shapes[-1]]
-    knot_times = [times[k2], times[k_slots]] + ([start_pull] if pause > 0 else []) + [
-        times[k_end] + pause]
+    knot_times = ([times[k2]] if inserted else []) + [times[k_slots]] + (
+        [start_pull] if pause > 0 else []) + [times[k_end] + pause]
     run_b = replay(insertion.cable, np.stack(shapes), ClipTrajectory.sampled(t_b, p_b, q_b),
                    knot_times=np.array(knot_times), contacts=model.contacts, cable_at=cable_at,
                    changes_at=start_pull,
                    settle_speed=quasi_static_speed(insertion.cable, model.gravity), **options)
-    kb = run_b.knot_times
-    out["insertion"] = PhaseReplay(run_b, float(kb[0]), float(kb[1]), (0, 1))
-    out["regrasp"] = PhaseReplay(run_b, float(kb[1]), float(kb[-2]), (len(kb) - 2,))
+    kb, k = run_b.knot_times, int(inserted)  # run B's knot of the cable in the slots
+    out["insertion"] = PhaseReplay(run_b, float(kb[0]), float(kb[k]), tuple(range(k + 1)))
+    out["regrasp"] = PhaseReplay(run_b, float(kb[k]), float(kb[-2]), (len(kb) - 2,))
     out["tensioning"] = PhaseReplay(run_b, float(kb[-2]), float(run_b.simulation.times[-1]),
                                     (len(kb) - 1,))
     return out

@@ -1,4 +1,5 @@
-"""The ``harness:`` section of a job file (schema version 1; lengths in the file's units).
+"""The ``harness:`` section of a job file (schema version 1; lengths in the file's units, a
+length left out its default in metres, :func:`dloplan.app.resolve.file_length`).
 
 A harness file is a job file with a ``harness:`` section instead of a target
 (:class:`dloplan.app.schema.HarnessScenario`): the board's two fixtures and its pegs, and the
@@ -30,7 +31,8 @@ def _finite_list(values, size: int, name: str):
 
 
 class FixtureSpec(_Model):
-    """A fixture in a scenario's ``harness:`` section (lengths in file units)."""
+    """A fixture in a scenario's ``harness:`` section (lengths in file units; a length left
+    out is its default in metres whatever the units)."""
 
     name: str = "fixture"
     position: _Vec3 = Field(..., description="cable axis at the slot bottom")
@@ -49,7 +51,8 @@ class FixtureSpec(_Model):
 
 
 class PegSpec(_Model):
-    """A peg (with an optional plate) in a ``harness:`` section (lengths in file units)."""
+    """A peg (with an optional plate) in a ``harness:`` section (lengths in file units; a
+    length left out is its default in metres whatever the units)."""
 
     name: str = "peg"
     base: _Vec3
@@ -70,7 +73,8 @@ class PegSpec(_Model):
 
 
 class TensionSpec(_Model):
-    """Insertion and tensioning settings (forces in N, lengths in file units)."""
+    """Insertion and tensioning settings (forces in N, lengths in file units; a length left
+    out is its default in metres whatever the units)."""
 
     contact_force: float = Field(0.2, gt=0, allow_inf_nan=False,
                                  description="wanted force of the cable on the peg(s) [N]")
@@ -89,10 +93,12 @@ class TensionSpec(_Model):
 
 
 class HarnessSpec(_Model):
-    """The ``harness:`` section of a scenario: the board and the job's settings."""
+    """The ``harness:`` section of a scenario: the board and the job's settings (a length
+    left out is its default in metres whatever the units)."""
 
     fixtures: list[FixtureSpec] = Field(..., min_length=2, max_length=2)
-    pegs: list[PegSpec] = Field(default_factory=list)
+    pegs: list[PegSpec] = Field(..., min_length=1, description="at least one: the cable is "
+                                "tensioned against the pegs")
     approach_height: float = Field(0.08, gt=0, allow_inf_nan=False,
                                    description="phase 1 ends this high above the insertion pose")
     clearance: float = Field(0.005, ge=0, allow_inf_nan=False,

@@ -305,7 +305,8 @@ class UrscriptSpec(_Model):
 
     mode: Literal["movej", "movel"] = "movej"
     blend: float = Field(0.0, ge=0, allow_inf_nan=False, description="blend radius [units]")
-    acceleration: PositiveLength = Field(1.2, description="movel acceleration [units/s^2]")
+    acceleration: PositiveLength = Field(1.2, description="movel acceleration [units/s^2]; "
+                                         "left out: 1.2 m/s^2 whatever the units")
     start_speed: PositiveLength = Field(0.5, description="joint speed to the start [rad/s]")
     start_input: int = Field(0, ge=0, le=7, description="standard digital input to wait for")
     ready_output: int = Field(0, ge=0, le=7, description="standard digital output raised")

@@ -18,6 +18,7 @@ kind of document (:func:`run_harness_job`). Commands do not call these directly 
 
 from __future__ import annotations
 
+import re
 import time
 from dataclasses import dataclass, field, replace
 from functools import partial
@@ -85,9 +86,12 @@ class CheckReport:
 
 
 def check_job(job: Job) -> CheckReport:
-    """Check a job without planning: clip span, robot reach, target stability, obstacles.
+    """Check a job without planning: clip span, the grippers' distance, robot reach, target
+    stability, obstacles.
 
-    Thesis 5.3 (target stability) and 5.4 (collisions of the stabilized start and target).
+    Thesis 5.3 (target stability) and 5.4 (collisions of the stabilized start and target). An
+    end whose clips are closer than the grippers allow (:func:`grip_distance_errors`) is an
+    error, as ``dloplan plan`` refuses it before planning; no line when they are not.
     """
     cable = job.cable
     findings: list[Finding] = []
@@ -102,6 +106,8 @@ def check_job(job: Job) -> CheckReport:
                                     f"{cable.length:.3g} m cable"))
         except ValueError as exc:
             findings.append(Finding("error", f"{name} cable span", str(exc)))
+    findings += [Finding("error", f"{name} grip distance", message.removeprefix(f"{name}: "))
+                 for name, message in grip_distance_errors(job).items() if name in shapes]
     if len(shapes) == 2:
         findings += _reach_findings(job)
     settled = {}
@@ -157,27 +163,54 @@ class PathStage:
 
 def check_grip_distance(job: Job) -> None:
     """Refuse a job whose start or target holds its clips closer than the cell's two grippers
-    can be (:func:`check_held_clips`; a 3 cm cable searched frames and placements for 30-80 s
-    before it was refused as unreachable).
+    can be (:func:`grip_distance_errors`).
 
     Raises
     ------
     ValueError
         Naming the end, its clips' distance and the least distance the grippers allow.
     """
+    errors = grip_distance_errors(job)
+    if errors:
+        raise ValueError(next(iter(errors.values())))
+
+
+def grip_distance_errors(job: Job) -> dict[str, str]:
+    """The ends of ``job`` ("start", "target") whose clips are closer than the cell's two
+    grippers can be, each with its one-line reason (:func:`held_clips_error`;
+    :func:`check_grip_distance`, which ``dloplan plan`` runs before planning, and ``dloplan
+    check``, which reports them)."""
+    errors = {}
     for name in ("start", "target"):
-        check_held_clips(job.robot, job.cable, name,
-                         clip_poses_from_shape(getattr(job, name)).positions,
-                         "a longer cable, or ends held farther apart")
+        error = held_clips_error(job.robot, job.cable, name,
+                                 clip_poses_from_shape(getattr(job, name)).positions,
+                                 "a longer cable, or ends held farther apart")
+        if error is not None:
+            errors[name] = error
+    return errors
 
 
 def check_held_clips(cell, cable, where: str, clips, remedy: str) -> None:
-    """Refuse clips held closer than the cell's two grippers can be: their TCPs closer than the
-    sum of the arms' :attr:`~dloplan.robot.chain.CellArm.tcp_depth` put the grippers' capsules
-    into each other at any joints, orientation or placement on the table, so no repair makes
-    the robot program's clearance pass. The check of a single job's ends
-    (:func:`check_grip_distance`) and of every held pose of a harness job's phases
+    """Refuse clips held closer than the cell's two grippers can be
+    (:func:`held_clips_error`): every held pose of a harness job's phases
     (:func:`run_harness_job`, ``check_held`` of :func:`dloplan.harness.run_harness`).
+
+    Raises
+    ------
+    ValueError
+        Naming ``where``, the clips' distance and the least distance the grippers allow.
+    """
+    error = held_clips_error(cell, cable, where, clips, remedy)
+    if error is not None:
+        raise ValueError(error)
+
+
+def held_clips_error(cell, cable, where: str, clips, remedy: str) -> str | None:
+    """Why clips held at ``clips`` cannot be held by the cell's two grippers (None if they
+    can): their TCPs closer than the sum of the arms' :attr:`~dloplan.robot.chain.CellArm.
+    tcp_depth` put the grippers' capsules into each other at any joints, orientation or
+    placement on the table, so no repair makes the robot program's clearance pass (a 3 cm
+    cable searched frames and placements for 30-80 s before it was refused as unreachable).
 
     Parameters
     ----------
@@ -192,18 +225,19 @@ def check_held_clips(cell, cable, where: str, clips, remedy: str) -> None:
     remedy : str
         What would hold them farther apart, in the job's terms.
 
-    Raises
-    ------
-    ValueError
-        Naming ``where``, the clips' distance and the least distance the grippers allow.
+    Returns
+    -------
+    str or None
+        One line naming ``where``, the clips' distance and the least distance the grippers
+        allow.
     """
     left, right = cell.arms
     least = left.tcp_depth + right.tcp_depth
     clips = np.asarray(clips, dtype=float)
     distance = float(np.linalg.norm(clips[1] - clips[0]))
-    if distance < least:
-        raise ValueError(
-            f"{where}: its clips are {1e3 * distance:.1f} mm apart (cable "
+    if distance >= least:
+        return None
+    return (f"{where}: its clips are {1e3 * distance:.1f} mm apart (cable "
             f"{1e3 * cable.length:.1f} mm long); expected at least {1e3 * least:.1f} "
             "mm: the two grippers' collision capsules overlap when their TCPs are closer, "
             f"whatever the arms' joints ({remedy})")
@@ -332,22 +366,53 @@ def retimed(doc: PlanDocument, speed: float | None = None,
 
 def with_trajectory(doc: PlanDocument, trajectory) -> PlanDocument:
     """The document with another ``trajectory`` of its knots: its cycle section timed again
-    to it (the same gripper actions, :func:`retimed_cycle`), its verification cleared. Every
-    change of a document's trajectory goes through here, so that the cycle it reports is the
-    motion it carries."""
-    cycle = None if doc.cycle is None else retimed_cycle(doc.cycle, trajectory)
-    return replace(doc, trajectory=trajectory, cycle=cycle, verification=None)
+    to it (the same gripper actions, :func:`retimed_cycle`), a harness job's timing with it
+    (:func:`retimed_harness`), its verification cleared. Every change of a document's
+    trajectory goes through here, so that the cycle it reports is the motion it carries."""
+    if doc.cycle is None:
+        return replace(doc, trajectory=trajectory, verification=None)
+    cycle = retimed_cycle(doc.cycle, trajectory)
+    harness = None if doc.harness is None else retimed_harness(doc.harness, cycle, trajectory)
+    return replace(doc, trajectory=trajectory, cycle=cycle_to_dict(cycle), harness=harness,
+                   verification=None)
 
 
-def retimed_cycle(cycle: dict, trajectory) -> dict:
-    """A document's cycle section with the same gripper actions (:func:`cycle_actions`) and
-    motion phases on another timing of the same knots."""
+def retimed_cycle(cycle: dict, trajectory):
+    """The :class:`~dloplan.trajectory.Cycle` of a document's cycle section with the same
+    gripper actions (:func:`cycle_actions`) and motion phases on another timing of the same
+    knots."""
     phases: dict = {}
     for p in cycle["phases"]:
         if p["kind"] == "motion":
             first, _ = phases.get(p["name"], p["knots"])
             phases[p["name"]] = (first, p["knots"][1])
-    return cycle_to_dict(plan_cycle(trajectory, cycle_actions(cycle), phases or None))
+    return plan_cycle(trajectory, cycle_actions(cycle), phases or None)
+
+
+HARNESS_CYCLE_LINE = re.compile(r"cycle \S+ s = motion .*? at \S+ mm/s")
+"""The cycle's part of a harness section's message (``dloplan.harness.run_harness``): its
+:meth:`~dloplan.trajectory.Cycle.describe` and the TCP speed."""
+
+
+def retimed_harness(section: dict, cycle, trajectory) -> dict:
+    """A harness job's section on another timing of its knots: its cycle, motion and action
+    times, cycle breakdown, phase times and the message's cycle line those of ``cycle`` (a
+    :class:`~dloplan.trajectory.Cycle`) and ``trajectory`` (its TCP speed limit); the
+    insertion's and tensioning's numbers kept (the same knots: ``export --speed`` re-times the
+    motion, not the tensioning's offset)."""
+    times, law = trajectory.times, trajectory.law
+    message = section.get("message", "")
+    line = HARNESS_CYCLE_LINE.search(message)
+    if line is not None:
+        old = line.group(0)
+        speed = old[old.rfind(" at "):] if law is None or law.limits is None else \
+            f" at {1e3 * law.limits.speed:g} mm/s"
+        message = message.replace(old, cycle.describe() + speed)
+    return {**section, "message": message, "cycle_time": cycle.cycle_time,
+            "motion_time": trajectory.duration, "action_time": cycle.action_time,
+            "cycle": cycle.breakdown(),
+            "phase_times": {name: (float(times[a]), float(times[b]))
+                            for name, (a, b) in section["knots"].items()}}
 
 
 def default_cycle(trajectory, durations: dict):
@@ -758,12 +823,25 @@ def simulate_plan(doc: PlanDocument, *, damping: str = "relative", torsion: bool
     (:func:`dloplan.vision.compare_shapes`, model against model: the simulated cable's length
     is a result the replay judges, not a registration to refuse, so it is compared whatever
     its stretch).
+
+    Raises
+    ------
+    ValueError
+        For a plan without a timed trajectory, and for a wire-harness plan: its cable is
+        replayed phase by phase on the held section with the board's contacts and fixtures
+        (``dloplan verify``, :func:`dloplan.pipeline.harness.verify_harness_plan`); this
+        replay of the whole cable without them reported the stubs beyond the fixtures 8 cm
+        inside the table of a plan that ``verify`` passes.
     """
     from ..verify.replay import replay
     from ..vision.compare import compare_shapes
 
     if doc.trajectory is None:
         raise ValueError("plan: no timed trajectory to simulate (plan it with gripper poses)")
+    if doc.harness is not None:
+        raise ValueError("plan.harness: a wire-harness plan, expected a plan of a scenario: "
+                         "its replay is phase by phase on the held cable with the board's "
+                         "contacts and fixtures, dloplan verify (docs/harness.md)")
     settled = settled_shapes(doc)
     run = replay(doc.cable, settled, (doc.trajectory.times, doc.clip_poses()),
                  law=doc.trajectory.law, damping=damping, torsion=torsion,
