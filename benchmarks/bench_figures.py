@@ -85,7 +85,10 @@ def main() -> None:
     from dloplan.plots.worker import warm_up
 
     warm_up()
-    formats = "PNG and SVG" if args.svg else "PNG"
+    from dloplan.plots.figures import Drawing
+
+    before = "formats" not in Drawing.__dataclass_fields__  # a checkout before branch svg
+    formats = "PNG and SVG" if args.svg or before else "PNG"
     print(f"dloplan from {Path(dloplan.__file__).parent} ({formats}); "
           f"load {os.getloadavg()[0]:.1f}")
     jobs = []
