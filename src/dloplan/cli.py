@@ -69,10 +69,10 @@ NO_FIGURES = ("draw no figures: no figures/ folder, and the report (when the job
               "verification")
 """Help of ``plan --no-figures``."""
 
-SVG = ("write each figure as SVG too (a vector copy for print, beside its PNG; about 40 %% more "
-       "figure CPU); the figures are PNG only without it")
+SVG = ("write each figure as SVG too (a vector copy for print, beside its PNG: a second drawing "
+       "of each, about 1.5-1.8 times the figures' CPU); the figures are PNG only without it")
 """Help of ``--svg`` (plan, demo, study, simulate, compare, identify: every command that draws
-figures); ``%%`` because argparse formats help texts."""
+figures)."""
 
 FIGURE_WORKERS = 2
 """Processes drawing a plan's figures while it is verified (:mod:`dloplan.app.figure_workers`)."""

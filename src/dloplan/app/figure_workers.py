@@ -1,8 +1,8 @@
 """A plan's figures drawn on worker processes while the run goes on.
 
-matplotlib is the slowest part of writing a plan (five figures, PNG, about 2 s of CPU on the
-slow host, and 30-45 % more each with the SVG copies of ``--svg``; its import alone about
-0.7 s). :class:`FigureWorkers` takes that off the run's critical path:
+matplotlib is the slowest part of writing a plan (five figures as PNG, about 2 s of CPU on the
+slow host; the SVG copies of ``--svg`` are a second drawing of each, 1.5-1.8 times that; its
+import alone about 0.7 s). :class:`FigureWorkers` takes that off the run's critical path:
 
 - on POSIX the workers are forked from a server process (multiprocessing's ``forkserver``),
   started with the command (:func:`dloplan.plots.worker.start_server`), that imported
