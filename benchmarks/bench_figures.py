@@ -1,10 +1,13 @@
-"""CPU time of drawing a plan's figures, figure by figure (matplotlib, PNG and SVG).
+"""CPU time of drawing a plan's figures, figure by figure (matplotlib, PNG; ``--svg`` PNG and SVG).
 
 For each plan document given (``plan.json`` files written by ``dloplan plan``; read, not
 planned, so two checkouts draw the same inputs) every figure of
 :func:`dloplan.app.report.figure_drawings` is drawn and saved as a figure worker does
 (:meth:`dloplan.plots.figures.Drawing.save`), after :func:`dloplan.plots.worker.warm_up`, in
 this process: ``--runs`` times, the smallest CPU time (``time.process_time``) kept per figure.
+The figures are PNG only, as ``dloplan plan`` draws them; ``--svg`` draws the SVG copies too, as
+``dloplan plan --svg`` does (a checkout before branch svg draws both always, and has no
+``--svg``).
 ``--study`` adds the figures of a small robustness study (``dloplan.plots.study.study_figures``
 on a 16-sample study of the tests' hanging cable), ``--profile N`` prints the ``N`` functions
 with the most cumulative time of one more drawing of every figure (cProfile).
@@ -13,7 +16,7 @@ To compare two checkouts on the same inputs run it with each one's ``src`` first
 ``PYTHONPATH`` (``PYTHONPATH=../main/src:tests``), alternating; the load average is printed.
 
 Run: PYTHONPATH=tests python benchmarks/bench_figures.py out/plan/plan.json ... [--runs 3]
-     [--study] [--profile 30]
+     [--study] [--svg] [--profile 30]
 """
 
 from __future__ import annotations
@@ -37,8 +40,9 @@ def timed(function, runs: int) -> float:
     return best
 
 
-def study_drawing(folder: Path):
-    """A function writing the figures of a 16-sample study of the tests' hanging cable."""
+def study_drawing(folder: Path, svg: bool):
+    """A function writing the figures of a 16-sample study of the tests' hanging cable (with
+    their SVG copies when ``svg``)."""
     from study_cases import hanging_problem
 
     from dloplan.plots.study import study_figures
@@ -47,7 +51,24 @@ def study_drawing(folder: Path):
     result = run_study(hanging_problem(), {
         "samples": 16, "chunk_size": 8,
         "parameters": {"youngs_modulus": {"spread": 40}, "clip_position": {"spread": 1}}})
-    return lambda: study_figures(result.table, result.summary, result.spec.criteria, folder)
+    if not svg:
+        return lambda: study_figures(result.table, result.summary, result.spec.criteria, folder)
+    from dloplan.plots.figures import WITH_SVG
+
+    return lambda: study_figures(result.table, result.summary, result.spec.criteria, folder,
+                                 formats=WITH_SVG)
+
+
+def drawings(doc, svg: bool) -> list:
+    """The plan's figures to draw (:func:`dloplan.app.report.figure_drawings`), with their SVG
+    copies when ``svg``."""
+    from dloplan.app.report import figure_drawings
+
+    if not svg:
+        return figure_drawings(doc)
+    from dloplan.plots.figures import WITH_SVG
+
+    return figure_drawings(doc, WITH_SVG)
 
 
 def main() -> None:
@@ -56,24 +77,29 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=3, help="drawings per figure (best kept)")
     parser.add_argument("--study", action="store_true", help="also a study's figures")
     parser.add_argument("--profile", type=int, default=0, help="cProfile's top N functions")
+    parser.add_argument("--svg", action="store_true", help="the SVG copies too (as plan --svg)")
     args = parser.parse_args()
 
     import dloplan
     from dloplan.app import read_plan
-    from dloplan.app.report import figure_drawings
     from dloplan.plots.worker import warm_up
 
     warm_up()
-    print(f"dloplan from {Path(dloplan.__file__).parent}; load {os.getloadavg()[0]:.1f}")
+    from dloplan.plots.figures import Drawing
+
+    before = "formats" not in Drawing.__dataclass_fields__  # a checkout before branch svg
+    formats = "PNG and SVG" if args.svg or before else "PNG"
+    print(f"dloplan from {Path(dloplan.__file__).parent} ({formats}); "
+          f"load {os.getloadavg()[0]:.1f}")
     jobs = []
     with tempfile.TemporaryDirectory() as scratch:
         folder = Path(scratch)
         for path in args.plans:
             doc = read_plan(path)
             jobs += [(f"{Path(path).parent.name}/{d.name}", lambda d=d: d.save(folder))
-                     for d in figure_drawings(doc)]
+                     for d in drawings(doc, args.svg)]
         if args.study:
-            jobs.append(("study (3 figures)", study_drawing(folder)))
+            jobs.append(("study (3 figures)", study_drawing(folder, args.svg)))
         total = 0.0
         for name, draw in jobs:
             cpu = timed(draw, args.runs)

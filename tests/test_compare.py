@@ -107,15 +107,22 @@ def test_trials_are_averaged():
     assert result.registered.shape == (2, *plan.shape)
 
 
-def test_figures_are_written(tmp_path):
+def test_figures_are_written_as_png_and_as_svg_when_asked(tmp_path):
+    """PNG only by default (what the report embeds); the SVG copies with WITH_SVG (compare
+    --svg), labelled as the PNGs."""
+    from dloplan.plots.figures import WITH_SVG
+
     plan = planned_path()
     result = compare_shapes(plan, list(plan + [0.0, 0.004, 0.0]))
-    paths = write_comparison_figures(result, tmp_path)
+    paths = write_comparison_figures(result, tmp_path / "png")
+    assert sorted(p.name for p in paths) == ["registered_shapes.png", "shape_errors.png"]
+    assert sorted(p.name for p in (tmp_path / "png").iterdir()) == sorted(p.name for p in paths)
+    paths = write_comparison_figures(result, tmp_path / "svg", formats=WITH_SVG)
     names = sorted(p.name for p in paths)
     assert names == ["registered_shapes.png", "registered_shapes.svg", "shape_errors.png",
                      "shape_errors.svg"]
     assert all(p.stat().st_size > 1000 for p in paths)
-    svg = (tmp_path / "registered_shapes.svg").read_text()
+    svg = (tmp_path / "svg" / "registered_shapes.svg").read_text()
     assert "x [m]" in svg and "y [m]" in svg
     with pytest.raises(ValueError, match="plane"):
         write_comparison_figures(result, tmp_path, plane="xx")

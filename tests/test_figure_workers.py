@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import pickle
+import shutil
 from dataclasses import replace
 from pathlib import Path
 
@@ -108,6 +109,41 @@ def test_a_provisional_draft_draws_the_lasting_figures_and_render_the_rest(doc, 
     assert drafted == ["forces", "lengths"]
     assert sent == drafted + [p.stem for p in here if p.suffix == ".png"]
     assert _pngs(drawn) == _pngs(here)
+
+
+def test_a_draft_drawn_without_svg_is_not_reused_for_a_request_with_svg(doc, tmp_path):
+    """The formats are part of a drawing's key: drafts drawn as PNG only (the default) are not
+    the figures of a render asked for PNG and SVG, which draws every figure again, with its SVG
+    copy; drafts in the formats asked for are reused (nothing drawn again)."""
+    from dloplan.plots.figures import WITH_SVG
+
+    staging = tmp_path / "staging"
+    staging.mkdir()
+    for drafted, asked in ((None, WITH_SVG), (WITH_SVG, WITH_SVG)):
+        workers = FigureWorkers(staging, 2, *([drafted] if drafted else []))
+        sent, new = [], []
+        submit = workers._submit
+
+        def recorded(drawing, workers=workers, submit=submit, sent=sent, new=new):
+            before = len(workers._drafts)
+            future = submit(drawing)
+            sent.append(drawing)
+            new.append(len(workers._drafts) > before)
+            return future
+
+        try:
+            workers.draft(doc)
+            workers._submit = recorded
+            drawn = workers.render(doc, staging / "figures", asked)
+        finally:
+            workers.close()
+        svgs = sorted(p.stem for p in drawn if p.suffix == ".svg")
+        pngs = sorted(p.stem for p in drawn if p.suffix == ".png")
+        assert len(sent) == len(pngs) >= 4
+        assert sum(new) == (len(pngs) if drafted != asked else 0)
+        assert svgs == pngs
+        assert all(d.formats == asked for d in sent)
+        shutil.rmtree(staging / "figures")
 
 
 def test_plan_into_writes_the_same_files_with_and_without_workers(job, tmp_path):

@@ -293,6 +293,19 @@ def test_an_unknown_format_is_named(planned, tmp_path):
         write_outputs(replace(planned), tmp_path, ("pdf",))
 
 
+def test_write_outputs_takes_svg_as_the_figures_copies(planned, tmp_path):
+    """``svg`` among the formats (a job's output name, not a writer) writes each figure as SVG
+    too; without ``figures`` or ``report`` beside it, it is refused before anything is written."""
+    written = write_outputs(planned, tmp_path / "a", ("figures", "svg"))
+    figures = [p for p in written if p.parent.name == "figures"]
+    assert sorted(p.stem for p in figures if p.suffix == ".svg") == \
+        sorted(p.stem for p in figures if p.suffix == ".png") != []
+    assert sorted(written) == sorted(p for p in (tmp_path / "a").rglob("*") if p.is_file())
+    with pytest.raises(ValueError, match="outputs: 'svg' writes the figures as SVG too"):
+        write_outputs(planned, tmp_path / "b", ("json", "svg"))
+    assert not (tmp_path / "b").exists()
+
+
 def test_the_exported_program_is_the_verified_one(planned, tmp_path):
     """A plan read back rebuilds exactly the robot program it records (verified = exported);
     a document whose recorded program was altered is refused."""

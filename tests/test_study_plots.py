@@ -1,9 +1,10 @@
-"""Study figures: written as PNG and SVG, axes labelled with units."""
+"""Study figures: written as PNG (and SVG when asked), axes labelled with units."""
 
 from __future__ import annotations
 
 from study_cases import hanging_problem
 
+from dloplan.plots.figures import WITH_SVG
 from dloplan.plots.study import study_figures
 from dloplan.study import run_study
 
@@ -12,11 +13,14 @@ def test_study_figures_are_written_with_units(tmp_path):
     result = run_study(hanging_problem(), {
         "samples": 16, "chunk_size": 8,
         "parameters": {"youngs_modulus": {"spread": 40}, "clip_position": {"spread": 1}}})
-    paths = study_figures(result.table, result.summary, result.spec.criteria, tmp_path)
+    stems = ("study_success_youngs_modulus", "study_deviation", "study_tornado")
+    pngs = study_figures(result.table, result.summary, result.spec.criteria, tmp_path / "png")
+    assert sorted(p.name for p in pngs) == sorted(f"{stem}.png" for stem in stems)
+    assert sorted(p.name for p in (tmp_path / "png").iterdir()) == sorted(p.name for p in pngs)
+    paths = study_figures(result.table, result.summary, result.spec.criteria, tmp_path,
+                          formats=WITH_SVG)
     names = sorted(p.name for p in paths)
-    assert names == sorted(f"{stem}.{ext}" for stem in (
-        "study_success_youngs_modulus", "study_deviation", "study_tornado")
-        for ext in ("png", "svg"))
+    assert names == sorted(f"{stem}.{ext}" for stem in stems for ext in ("png", "svg"))
     assert all(p.stat().st_size > 1000 for p in paths)
     svg = (tmp_path / "study_success_youngs_modulus.svg").read_text()
     assert "MPa" in svg

@@ -69,6 +69,11 @@ NO_FIGURES = ("draw no figures: no figures/ folder, and the report (when the job
               "verification")
 """Help of ``plan --no-figures``."""
 
+SVG = ("write each figure as SVG too (a vector copy for print, beside its PNG: a second drawing "
+       "of each, about 1.5-1.8 times the figures' CPU); the figures are PNG only without it")
+"""Help of ``--svg`` (plan, demo, study, simulate, compare, identify: every command that draws
+figures)."""
+
 FIGURE_WORKERS = 2
 """Processes drawing a plan's figures while it is verified (:mod:`dloplan.app.figure_workers`)."""
 
@@ -468,6 +473,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     from .vision import compare_trials, read_shapes
 
     console = Console(args.quiet)
+    _svg_needs_output(args)
     doc = read_plan(args.plan)
     unchecked = _unchecked(args.plan, doc)
     planned = settled_shapes(doc) if args.stabilized else doc.shapes
@@ -476,13 +482,15 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     if args.output:
         from .output_files import staged_files
         from .plots.compare import write_comparison_figures
+        from .plots.figures import figure_formats
         from .plots.report import write_report
 
         header = ["shape", "error_x [m]", "error_y [m]", "error_z [m]", "error_tot [m]",
                   "error_euclid [m]"]
         rows = [[r[0], *(f"{v:.4f}" for v in r[1:])] for r in result.rows()]
         with staged_files(args.output) as folder:  # the figures and the report, or nothing
-            written = write_comparison_figures(result, folder, args.plane)
+            written = write_comparison_figures(result, folder, args.plane,
+                                               figure_formats(args.svg))
             write_report(folder / "report.html", title=f"dloplan compare: {args.plan}",
                          shapes=planned, stabilized=result.registered[0],
                          overlay_label="registered (trial 1)", summary=[result.message],
@@ -554,6 +562,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         return EXIT_OK if report.recommended is not None else EXIT_FAILURE
     if args.experiment is None:
         raise ValueError("experiment: give an identification file (or --design --cable NAME)")
+    _svg_needs_output(args)
     job = load_identification(args.experiment)
     console.stage(f"identifying E of the {job.cable.name or 'cable'} in "
                   f"[{job.bounds[0]:.3g}, {job.bounds[1]:.3g}] Pa ({job.simulator} simulation)")
@@ -562,15 +571,24 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     console.stage(f"{result.simulations} simulations")
     if args.output and result.success:  # a failure (exit 2) writes nothing, as every exit 2
         from .output_files import staged_files
-        from .plots.figures import identification_figure, save_figure
+        from .plots.figures import figure_formats, identification_figure, save_figure
 
         figure = identification_figure(result.curve[:, 0], result.curve[:, 1],
                                        result.youngs_modulus)
         with staged_files(args.output) as folder:
-            written = save_figure(figure, folder, "identification_cost")
+            written = save_figure(figure, folder, "identification_cost",
+                                  figure_formats(args.svg))
         console.stage("figure: " + ", ".join(str(Path(args.output) / p.name) for p in written))
     print(json_text(to_dict(result), indent=2) if args.json else "\n".join(report_lines(result)))
     return exit_code(result)
+
+
+def _svg_needs_output(args: argparse.Namespace) -> None:
+    """Refuse ``--svg`` without ``-o`` (ValueError, exit 2): the command's figures are drawn
+    only into its output folder, so the SVG copies asked for would never be written."""
+    if args.svg and not args.output:
+        raise ValueError("--svg: the figures are written only into an output folder: give "
+                         "-o FOLDER")
 
 
 def _print_plan(doc, written, args) -> None:
@@ -617,7 +635,8 @@ def _plan_one(job, output: Path, args, console: Console) -> int:
 
     doc, written = plan_into(job, output, verify=args.verify, check_robot=not args.no_verify,
                              repair=not args.no_repair, progress=console.stage,
-                             figure_workers=FIGURE_WORKERS, figures=not args.no_figures)
+                             figure_workers=FIGURE_WORKERS, figures=not args.no_figures,
+                             svg=args.svg)
     _print_plan(doc, written, args)
     return exit_code(doc)
 
@@ -649,7 +668,8 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
     refuse_shared_folders(args.output, args.scenarios)
     options = {"output": str(Path(args.output)), "verify": args.verify,
                "check_robot": not args.no_verify, "repair": not args.no_repair,
-               "allow_placement": args.allow_placement, "figures": not args.no_figures}
+               "allow_placement": args.allow_placement, "figures": not args.no_figures,
+               "svg": args.svg}
     codes = {}
     with make_backend(None if args.scheduler else args.workers, args.scheduler,
                       preload=("dloplan.study.evaluate",)) as backend:  # not the study's kernels
@@ -698,6 +718,7 @@ def _study(args: argparse.Namespace) -> int:
     from .app import load_scenario
     from .app.study import study_problem_of, study_spec, with_closed_loop
     from .pipeline import make_plan
+    from .plots.figures import figure_formats
     from .plots.report import write_report
     from .plots.study import study_figures
     from .study.backends import make_backend
@@ -720,7 +741,8 @@ def _study(args: argparse.Namespace) -> int:
                           f"({spec.correction.method})")
         result = with_closed_loop(doc, result, backend)
     written = [] if args.no_figures else study_figures(result.table, result.summary,
-                                                       spec.criteria, args.output)
+                                                       spec.criteria, args.output,
+                                                       formats=figure_formats(args.svg))
     report = write_report(Path(args.output) / "report.html", title=f"dloplan study: "
                           f"{args.scenario}", shapes=doc.shapes, stabilized=problem.nominal,
                           obstacles=doc.obstacles, summary=result.summary.lines(),
@@ -741,6 +763,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     from .pipeline.stages import simulate_plan
 
     console = Console(args.quiet)
+    _svg_needs_output(args)
     if Path(args.file).suffix.lower() != ".json":  # a job file: a harness job before planning
         from .app.load import file_kind
         from .io.scenario import read_mapping
@@ -760,9 +783,11 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     if args.output:
         from .output_files import staged_files
         from .plots.compare import write_comparison_figures
+        from .plots.figures import figure_formats
 
         with staged_files(args.output) as folder:
-            written = write_comparison_figures(comparison, folder, "xz")
+            written = write_comparison_figures(comparison, folder, "xz",
+                                               figure_formats(args.svg))
         console.stage(f"figures: {', '.join(p.name for p in written)}")
     if args.json:
         print(json_text({"ok": run.ok, "message": run.message, "rows": comparison.rows()},
@@ -827,7 +852,9 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--no-repair", action="store_true", help="report failed "
                       "checks without repairing the plan (docs/repair.md)")
     plan.add_argument("--allow-placement", action="store_true", help=ALLOW_PLACEMENT)
-    plan.add_argument("--no-figures", action="store_true", help=NO_FIGURES)
+    drawn = plan.add_mutually_exclusive_group()  # figures as PNG (and SVG), or none
+    drawn.add_argument("--no-figures", action="store_true", help=NO_FIGURES)
+    drawn.add_argument("--svg", action="store_true", help=SVG)
     backend = plan.add_mutually_exclusive_group()  # local workers or a Dask cluster, not both
     backend.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1,
                          help="batch: local worker processes")
@@ -838,6 +865,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("-o", "--output", default="out/demo", help="output folder")
     demo.set_defaults(verify=True, no_verify=False, no_repair=False, no_figures=False)
     demo.add_argument("--allow-placement", action="store_true", help=ALLOW_PLACEMENT)
+    demo.add_argument("--svg", action="store_true", help=SVG)
 
     study = command("study", _cmd_study, "robustness study of a scenario's plan over cable and "
                     "pose tolerances (its study section)")
@@ -854,8 +882,10 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--overwrite", action="store_true", help="start over, do not resume")
     study.add_argument("-o", "--output", default="out/study", help="study folder")
     study.add_argument("--allow-placement", action="store_true", help=ALLOW_PLACEMENT)
-    study.add_argument("--no-figures", action="store_true", help="draw no figures: the table, "
+    drawn = study.add_mutually_exclusive_group()
+    drawn.add_argument("--no-figures", action="store_true", help="draw no figures: the table, "
                        "summary.json and report.html without the study's figures")
+    drawn.add_argument("--svg", action="store_true", help=SVG)
 
     simulate = command("simulate", _cmd_simulate, "run a plan's timed trajectory through the "
                        "dynamic simulator and tabulate its deviations from the planned shapes")
@@ -870,6 +900,7 @@ def build_parser() -> argparse.ArgumentParser:
                           help="fictitious modulus [Pa] for the time step (thesis Fig. 6.5): "
                           "larger steps for stiff cables")
     simulate.add_argument("-o", "--output", help="folder for the figures")
+    simulate.add_argument("--svg", action="store_true", help=SVG + " (with -o)")
     simulate.add_argument("--allow-placement", action="store_true", help=ALLOW_PLACEMENT)
 
     cables = command("cables", _cmd_cables, "print the model constants of the thesis' cables")
@@ -887,6 +918,7 @@ def build_parser() -> argparse.ArgumentParser:
                           "or a scenario with an identify section")
     identify.add_argument("-o", "--output", help="folder for the cost-vs-E figure (written "
                           "when E is identified)")
+    identify.add_argument("--svg", action="store_true", help=SVG + " (with -o)")
     identify.add_argument("--design", action="store_true", help="score candidate experiments "
                           "by the predicted sd of E and recommend one")
     identify.add_argument("--cable", help="--design: catalogue cable name")
@@ -935,6 +967,7 @@ def build_parser() -> argparse.ArgumentParser:
     compare.add_argument("--end-order", choices=["detect", "keep"], default="detect")
     compare.add_argument("--plane", choices=["xy", "xz", "yz"], default="xy")
     compare.add_argument("-o", "--output", help="folder for the figures")
+    compare.add_argument("--svg", action="store_true", help=SVG + " (with -o)")
 
     correct = command("correct", _cmd_correct, "correct the rest of a plan from the shape "
                       "measured at shape K (closed loop, docs/correction.md)")

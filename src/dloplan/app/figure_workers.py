@@ -1,7 +1,8 @@
 """A plan's figures drawn on worker processes while the run goes on.
 
-matplotlib is the slowest part of writing a plan (five figures, PNG and SVG, about 3 s of CPU;
-its import alone about 0.7 s). :class:`FigureWorkers` takes that off the run's critical path:
+matplotlib is the slowest part of writing a plan (five figures as PNG, about 2 s of CPU on the
+slow host; the SVG copies of ``--svg`` are a second drawing of each, 1.5-1.8 times that; its
+import alone about 0.7 s). :class:`FigureWorkers` takes that off the run's critical path:
 
 - on POSIX the workers are forked from a server process (multiprocessing's ``forkserver``),
   started with the command (:func:`dloplan.plots.worker.start_server`), that imported
@@ -16,6 +17,8 @@ its import alone about 0.7 s). :class:`FigureWorkers` takes that off the run's c
 - :meth:`FigureWorkers.render` is the ``figures`` writer: the final document's figures are the
   drafts whose inputs (every array, compared exactly) it still has; the others (a repaired plan)
   are drawn then. The files are the same as :func:`dloplan.app.report.write_figures` writes.
+  A drawing carries its formats (:class:`dloplan.plots.figures.Drawing`), so a draft drawn as
+  PNG only is not reused for a request with SVG: that figure is drawn again.
 
 Everything is drawn into the run's staging folder (:func:`dloplan.output_files.staged_folder`), so
 an error or a signal leaves nothing half-written: the workers leave Ctrl-C to the command
@@ -38,6 +41,7 @@ from pathlib import Path
 from ..interrupts import shielded
 from ..pipeline.document import PlanDocument
 from ..plots import worker
+from ..plots.figures import PNG
 from ..processes import end_pool, submit_whole
 from .report import figure_drawings, lasting_drawings
 
@@ -46,7 +50,8 @@ DRAFTS = ".figures"
 
 
 def _key(drawing) -> str:
-    """The identity of a figure: its name, function and every input, byte for byte."""
+    """The identity of a figure: its name, function, every input, byte for byte, and its
+    formats."""
     return hashlib.blake2b(pickle.dumps(drawing), digest_size=16).hexdigest()
 
 
@@ -61,9 +66,12 @@ class FigureWorkers:
     workers : int
         Number of processes (the command line's 2: on 2 cores the five figures of a plan, about
         2 s of CPU, are drawn beside its robot program and verification, about 1.2 s).
+    formats : tuple of str
+        The formats the drafts are drawn in (:data:`dloplan.plots.figures.PNG`, or
+        :data:`~dloplan.plots.figures.WITH_SVG`): those :meth:`render` will be asked for.
     """
 
-    def __init__(self, staging: Path, workers: int = 2) -> None:
+    def __init__(self, staging: Path, workers: int = 2, formats: tuple[str, ...] = PNG) -> None:
         if workers < 1:
             raise ValueError(f"workers: expected at least 1 process, got {workers}")
         worker.start_server()  # at once if the command has not started it yet
@@ -71,6 +79,7 @@ class FigureWorkers:
                                          initializer=worker.start)
         self._scratch = Path(staging) / DRAFTS
         self._drafts: dict[str, Future] = {}
+        self._formats = tuple(formats)
 
     def _submit(self, drawing) -> Future:
         key = _key(drawing)
@@ -84,18 +93,20 @@ class FigureWorkers:
         ``provisional`` (before its robot program): only those that neither the program nor a
         repair changes (:func:`~dloplan.app.report.lasting_drawings`)."""
         try:
-            for drawing in lasting_drawings(doc) if provisional else figure_drawings(doc):
+            for drawing in (lasting_drawings(doc, self._formats) if provisional
+                            else figure_drawings(doc, self._formats)):
                 self._submit(drawing)
         except BrokenProcessPool:  # a worker died: render() draws the figures here
             pass
 
-    def render(self, doc: PlanDocument, folder: Path) -> list[Path]:
-        """The ``figures`` writer: PNG and SVG of every figure of ``doc`` in ``folder``, drafts
-        reused where their inputs are unchanged; the paths in the order of
+    def render(self, doc: PlanDocument, folder: Path,
+               formats: tuple[str, ...] = PNG) -> list[Path]:
+        """The ``figures`` writer: every figure of ``doc`` in ``formats`` in ``folder``, drafts
+        reused where their inputs and formats are unchanged; the paths in the order of
         :func:`dloplan.app.report.write_figures`."""
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
-        drawings = figure_drawings(doc)
+        drawings = figure_drawings(doc, formats)
         try:  # every figure sent before any is waited for: the new ones are drawn side by side
             futures = [self._submit(drawing) for drawing in drawings]
             drawn = [(drawing, future.result()) for drawing, future in zip(drawings, futures,
@@ -136,14 +147,14 @@ class FigureWorkers:
 
 
 @contextmanager
-def figure_workers(staging: Path, workers: int):
-    """:class:`FigureWorkers` for one run, closed at its end; ``None`` (figures drawn by the
-    writer itself) for ``workers == 0`` or inside a daemonic process (a batch run's worker,
-    which may not start processes of its own)."""
+def figure_workers(staging: Path, workers: int, formats: tuple[str, ...] = PNG):
+    """:class:`FigureWorkers` for one run (drafts in ``formats``), closed at its end; ``None``
+    (figures drawn by the writer itself) for ``workers == 0`` or inside a daemonic process (a
+    batch run's worker, which may not start processes of its own)."""
     if workers == 0 or multiprocessing.current_process().daemon:
         yield None
         return
-    pool = FigureWorkers(staging, workers)
+    pool = FigureWorkers(staging, workers, formats)
     try:
         yield pool
     except BaseException:

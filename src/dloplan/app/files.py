@@ -20,13 +20,14 @@ from ..exit_codes import (  # noqa: F401 - re-exported: the codes of the command
     EXIT_OK,
     EXIT_WARNINGS,
 )
-from ..io.job_file import draws_figures
+from ..io.job_file import draws_figures, svg_copies
 from ..io.scenario import PROGRAM_NAMES
 from ..output_files import output_lock, staged_folder
 from ..pipeline.document import PlanDocument
 from ..pipeline.job import Job
 from ..pipeline.plan import make_plan
 from ..pipeline.stages import quiet
+from ..plots.figures import figure_formats
 from ..robot.plugins import program_formats
 from .document_file import plan_from_data, read_plan_data
 from .figure_workers import figure_workers as workers_for
@@ -60,7 +61,7 @@ def export_plan(doc: PlanDocument, name: str, target: Path, options: WriteOption
 
 def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
               repair: bool = True, progress=quiet, budget=None, figure_workers: int = 0,
-              figures: bool = True):
+              figures: bool = True, svg: bool = False):
     """Plan a resolved job and write its outputs into ``folder``: ``(document, written paths)``.
 
     The folder is written whole or not at all (:func:`dloplan.output_files.staged_folder`): a run
@@ -73,17 +74,19 @@ def plan_into(job, folder, *, verify: bool = False, check_robot: bool = True,
     (:mod:`dloplan.app.figure_workers`), from the moment the plan is made, while its robot
     program is made and it is verified; the files written are the same. ``figures`` False
     (``--no-figures``): no figure is drawn, the job's ``figures`` output is left out and its
-    report has none.
+    report has none. The figures are PNG; ``svg`` (``--svg``), or ``svg`` among the job's
+    outputs, writes each as SVG too (a job that draws no figure gets none).
     """
     folder = Path(folder)
     formats = job.outputs
     drawn = figures and draws_figures(formats)
+    kinds = figure_formats(svg or svg_copies(formats))
     with staged_folder(folder) as staging, \
-            workers_for(staging, figure_workers if drawn else 0) as drawer:
+            workers_for(staging, figure_workers if drawn else 0, kinds) as drawer:
         doc = make_plan(job, verify=verify, check_robot=check_robot, repair=repair,
                         budget=budget, progress=progress,
                         planned=None if drawer is None else drawer.draft)
-        options = WriteOptions(figure_workers=drawer, figures=figures)
+        options = WriteOptions(figure_workers=drawer, figures=figures, figure_formats=kinds)
         if isinstance(job, Job):
             options = replace(options, rate=job.motion.rate)
         if not doc.ok:
@@ -151,7 +154,8 @@ def plan_file(options: dict, path: str) -> tuple[str, int, str]:
         doc, _ = plan_into(job, folder, verify=options["verify"],
                            check_robot=options.get("check_robot", True),
                            repair=options.get("repair", True),
-                           figures=options.get("figures", True))
+                           figures=options.get("figures", True),
+                           svg=options.get("svg", False))
     except ValueError as exc:
         return path, EXIT_FAILURE, f"{path}: error: {exc}"
     code = exit_code(doc)

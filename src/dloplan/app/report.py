@@ -14,6 +14,7 @@ from scipy.spatial.transform import Rotation
 
 from ..obstacles.shapes import Table
 from ..pipeline.document import PlanDocument
+from ..plots.figures import PNG
 
 VERIFY_TITLES = {
     "index": "shape", "smallest_eigenvalue": "lambda_1 [N/m]",
@@ -40,9 +41,11 @@ def figure_names(doc: PlanDocument) -> list[str]:
     return names
 
 
-def figure_drawings(doc: PlanDocument) -> list:
+def figure_drawings(doc: PlanDocument, formats: tuple[str, ...] = PNG) -> list:
     """The plan's figures still to draw (:class:`dloplan.plots.figures.Drawing`, named by
-    :func:`figure_names`): path with frames, stabilized, forces, lengths, motion profile."""
+    :func:`figure_names`): path with frames, stabilized, forces, lengths, motion profile; each
+    to be written in ``formats`` (:data:`~dloplan.plots.figures.PNG` by default,
+    :data:`~dloplan.plots.figures.WITH_SVG` for the SVG copies too)."""
     from ..plots.figures import (
         Drawing,
         forces_figure,
@@ -70,22 +73,24 @@ def figure_drawings(doc: PlanDocument) -> list:
         figures.append((lengths_figure, (lengths, doc.cable.length), {}))
     if doc.trajectory is not None:
         figures.append((motion_profile_figure, motion_arguments(doc.trajectory), {}))
-    return [Drawing(name, draw, arguments, options) for name, (draw, arguments, options)
-            in zip(figure_names(doc), figures, strict=True)]
+    return [Drawing(name, draw, arguments, options, tuple(formats))
+            for name, (draw, arguments, options) in zip(figure_names(doc), figures, strict=True)]
 
 
-def lasting_drawings(doc: PlanDocument) -> list:
+def lasting_drawings(doc: PlanDocument, formats: tuple[str, ...] = PNG) -> list:
     """The figures of :func:`figure_drawings` that neither the robot program nor a repair
     changes: the planner's forces and lengths (a repair keeps the planner's sections; the
     path, the stabilized shapes and the motion profile move with a placement, new frames, a
-    slower motion or new shapes, and the program may slow the motion down)."""
-    return [d for d in figure_drawings(doc) if d.name == "lengths" or d.name.startswith("forces")]
+    slower motion or new shapes, and the program may slow the motion down); in ``formats``."""
+    return [d for d in figure_drawings(doc, formats)
+            if d.name == "lengths" or d.name.startswith("forces")]
 
 
-def write_figures(doc: PlanDocument, folder) -> list[Path]:
-    """The plan's figures as PNG and SVG, drawn here: path with frames, stabilized, forces,
-    lengths, motion profile."""
-    return [path for drawing in figure_drawings(doc) for path in drawing.save(folder)]
+def write_figures(doc: PlanDocument, folder, formats: tuple[str, ...] = PNG) -> list[Path]:
+    """The plan's figures in ``formats`` (PNG by default; :data:`~dloplan.plots.figures.WITH_SVG`
+    the SVG copies too), drawn here: path with frames, stabilized, forces, lengths, motion
+    profile."""
+    return [path for drawing in figure_drawings(doc, formats) for path in drawing.save(folder)]
 
 
 def motion_arguments(trajectory) -> tuple:

@@ -25,6 +25,7 @@ from ..cable import Cable, catalogue_cable
 from ..geometry import resample_by_arc_length
 from ..harness.board import Board, Fixture, Peg, check_board
 from ..harness.job import HarnessSettings
+from ..io.job_file import svg_copies
 from ..io.scenario import (
     PROGRAM_NAMES,
     ArcShape,
@@ -368,13 +369,16 @@ def robot_cell(scenario, scale: float, folder=".", *,
 
 def job_outputs(scenario, cell) -> tuple[str, ...]:
     """What ``dloplan plan`` writes: the scenario's ``outputs`` with the robot programs the
-    cell takes (``robot.programs``; by default all of them, replacing ``rapid``).
+    cell takes (``robot.programs``; by default all of them, replacing ``rapid``); ``svg`` kept
+    (the figures' SVG copies, :func:`dloplan.io.job_file.svg_copies`).
 
     Raises
     ------
     ScenarioError
-        A program (in ``robot.programs`` or a given ``outputs``) the cell cannot run.
+        A program (in ``robot.programs`` or a given ``outputs``) the cell cannot run; ``svg``
+        without ``figures`` or ``report``.
     """
+    svg_copies(scenario.outputs)
     formats = program_formats(cell)
     wanted = scenario.robot.programs
     if wanted is None:

@@ -15,7 +15,7 @@ ros_joints ``ros_joints/``, a ROS 2 ``trajectory_msgs/JointTrajectory`` per arm 
            along the time law) and the gripper action list
 urscript   ``urscript/``, one URScript program per arm (cells of two 6-joint arms)
 ur_rtde    ``ur_rtde/``, one Python program streaming both UR arms over RTDE, in lockstep
-figures    ``figures/``, PNG and SVG figures
+figures    ``figures/``, PNG figures (and their SVG copies with ``WriteOptions.figure_formats``)
 report     ``report.html``, the self-contained interactive report (with the figures)
 correction ``correction.json`` and ``correction.txt``: a corrected plan's correction report
 =========  ==================================================================================
@@ -24,11 +24,13 @@ correction ``correction.json`` and ``correction.txt``: a corrected plan's correc
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..io.export import DEFAULT_CSV_RATE, write_ros_trajectory, write_trajectory_csv
+from ..io.job_file import SVG_OUTPUT, svg_copies
 from ..pipeline.document import PlanDocument, cycle_actions
+from ..plots.figures import PNG, WITH_SVG
 from .document_file import write_plan
 from .report import write_figures, write_plan_report
 
@@ -38,11 +40,14 @@ class WriteOptions:
     """Settings of the writers: sampling rate [Hz] of csv and ros (None: ros writes the knots);
     ``figure_workers`` the :class:`dloplan.app.figure_workers.FigureWorkers` that draw the
     figures (None: drawn by the writer itself); ``figures`` False: no figure is drawn (no
-    ``figures`` output, a report without its figures: ``dloplan plan --no-figures``)."""
+    ``figures`` output, a report without its figures: ``dloplan plan --no-figures``);
+    ``figure_formats`` the formats of each figure (:data:`dloplan.plots.figures.PNG`, or
+    :data:`~dloplan.plots.figures.WITH_SVG`: ``--svg``, a job's ``outputs: [..., svg]``)."""
 
     rate: float | None = DEFAULT_CSV_RATE
     figure_workers: object | None = None
     figures: bool = True
+    figure_formats: tuple[str, ...] = PNG
 
 
 def _needs_trajectory(doc: PlanDocument, name: str) -> None:
@@ -180,11 +185,11 @@ def write_ur_rtde_files(doc: PlanDocument, target: Path, options: WriteOptions) 
 
 
 def write_figure_files(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
-    """PNG and SVG of every figure, in the folder ``target`` (drawn on the options' figure
-    workers when given)."""
+    """Every figure in the options' formats (PNG, and SVG when asked), in the folder ``target``
+    (drawn on the options' figure workers when given)."""
     if options.figure_workers is not None:
-        return options.figure_workers.render(doc, target)
-    return write_figures(doc, target)
+        return options.figure_workers.render(doc, target, options.figure_formats)
+    return write_figures(doc, target, options.figure_formats)
 
 
 def write_report_file(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
@@ -243,14 +248,19 @@ def write_outputs(doc: PlanDocument, folder, formats=("json",), *,
     """Write the plan document into ``folder`` in the formats asked for (``json`` always).
 
     ``report`` brings ``figures`` along (it embeds them), unless ``options.figures`` is False
-    (then neither is drawn, and the report has no figures). Every file is written atomically.
+    (then neither is drawn, and the report has no figures). ``svg`` (a job's output name, not a
+    writer: :data:`dloplan.io.job_file.SVG_OUTPUT`) writes the figures as SVG too, as
+    ``options.figure_formats`` :data:`~dloplan.plots.figures.WITH_SVG` does; it needs
+    ``figures`` or ``report`` beside it (ValueError). Every file is written atomically.
     Returns the written paths.
     """
-    unknown = set(formats) - set(WRITERS)
+    unknown = set(formats) - set(WRITERS) - {SVG_OUTPUT}
     if unknown:
         raise ValueError(f"formats: unknown {sorted(unknown)}, expected some of "
-                         f"{', '.join(WRITERS)}")
+                         f"{', '.join([*WRITERS, SVG_OUTPUT])}")
     options = options or WriteOptions()
+    if svg_copies(formats):
+        options = replace(options, figure_formats=WITH_SVG)
     wanted = {"json", *formats} | ({"figures"} if "report" in formats else set())
     if not options.figures:
         wanted.discard("figures")

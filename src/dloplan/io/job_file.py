@@ -20,6 +20,10 @@ from ..inputs import parse_json, parse_yaml, read_text
 FIGURE_OUTPUTS = frozenset({"figures", "report"})
 """The outputs that draw a plan's figures (the report shows them)."""
 
+SVG_OUTPUT = "svg"
+"""The output that asks for the figures' SVG copies beside their PNGs (``--svg``); it draws
+nothing by itself: a job lists it with ``figures`` or ``report``."""
+
 
 class ScenarioError(ValueError):
     """A scenario that cannot be used; the message is one line naming the field."""
@@ -28,6 +32,23 @@ class ScenarioError(ValueError):
 def draws_figures(outputs: Iterable[str]) -> bool:
     """Whether a job with these ``outputs`` draws its plan's figures (:data:`FIGURE_OUTPUTS`)."""
     return not FIGURE_OUTPUTS.isdisjoint(outputs)
+
+
+def svg_copies(outputs: Iterable[str]) -> bool:
+    """Whether a job with these ``outputs`` writes its figures as SVG too (:data:`SVG_OUTPUT`).
+
+    Raises
+    ------
+    ScenarioError
+        ``svg`` listed without an output that draws the figures (:data:`FIGURE_OUTPUTS`).
+    """
+    outputs = list(outputs)
+    if SVG_OUTPUT not in outputs:
+        return False
+    if not draws_figures(outputs):
+        raise ScenarioError("outputs: 'svg' writes the figures as SVG too, and no figure is "
+                            "drawn: list 'figures' (or 'report') with it")
+    return True
 
 
 def may_draw_figures(data) -> bool:

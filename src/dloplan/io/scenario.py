@@ -286,7 +286,7 @@ class TableSpec(_Model):
 
 
 OutputName = Literal["json", "csv", "rapid", "ros", "ros_joints", "urscript", "ur_rtde",
-                     "figures", "report"]
+                     "figures", "report", "svg"]
 ProgramName = Literal["rapid", "urscript", "ur_rtde", "ros_joints"]
 PROGRAM_NAMES = get_args(ProgramName)
 """The robot program formats a cell may take (``robot.programs``)."""

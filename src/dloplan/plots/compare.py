@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .figures import errors_figure, pyplot, save_figure
+from .figures import PNG, errors_figure, pyplot, save_figure
 
 PLANES = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
 
@@ -72,8 +72,10 @@ def comparison_errors_figure(comparison,
     return fig
 
 
-def write_comparison_figures(comparison, folder: str | Path, plane: str = "xy") -> list[Path]:
-    """Write ``registered_shapes`` (Fig. 7.9) and ``shape_errors`` (Fig. 7.10) as PNG and SVG."""
+def write_comparison_figures(comparison, folder: str | Path, plane: str = "xy",
+                             formats: tuple[str, ...] = PNG) -> list[Path]:
+    """Write ``registered_shapes`` (Fig. 7.9) and ``shape_errors`` (Fig. 7.10) in ``formats``
+    (PNG by default; :data:`~dloplan.plots.figures.WITH_SVG` the SVG copies too)."""
     return (save_figure(registered_shapes_figure(comparison, plane), folder,
-                        "registered_shapes")
-            + save_figure(comparison_errors_figure(comparison), folder, "shape_errors"))
+                        "registered_shapes", formats)
+            + save_figure(comparison_errors_figure(comparison), folder, "shape_errors", formats))

@@ -1,7 +1,8 @@
 """Matplotlib figures of a plan (thesis Figs. 4.21/4.25, 5.13/5.17, 6.8, 7.10, Table 4.2).
 
 Each function takes plain arrays and returns a ``matplotlib.figure.Figure``; :func:`save_figure`
-writes it as PNG and SVG, a :class:`Drawing` is one such figure still to draw (what
+writes it as PNG (and SVG when asked: :data:`WITH_SVG`), a :class:`Drawing` is one such figure
+still to draw (what
 :mod:`dloplan.app.figure_workers` sends to its worker processes). Many lines of one style are
 one collection, not one artist each (drawing time grows with the number of artists).
 matplotlib is imported here only (with the non-interactive Agg backend), so ``import dloplan``
@@ -20,6 +21,25 @@ from ..output_files import atomic_file
 
 AXIS_COLOURS = ("#d32f2f", "#388e3c", "#1976d2")  # u, v, w
 
+PNG = ("png",)
+"""The figures' formats by default: PNG only (what the reports embed)."""
+
+WITH_SVG = ("png", "svg")
+"""The formats with a vector copy for print (``--svg``, a job's ``outputs: [..., svg]``)."""
+
+
+def figure_formats(svg: bool) -> tuple[str, ...]:
+    """The formats a figure is written in: :data:`WITH_SVG` when ``svg``, else :data:`PNG`."""
+    return WITH_SVG if svg else PNG
+
+
+def _checked_formats(formats: Sequence[str]) -> tuple[str, ...]:
+    formats = tuple(formats)
+    if not formats or any(f not in WITH_SVG for f in formats) or len(set(formats)) < len(formats):
+        raise ValueError(f"formats: got {formats!r}, expected some of {', '.join(WITH_SVG)}, "
+                         "each once")
+    return formats
+
 
 def pyplot():
     """matplotlib.pyplot on the non-interactive Agg backend (imported on first use)."""
@@ -31,18 +51,32 @@ def pyplot():
     return plt
 
 
-def save_figure(figure, folder: str | Path, name: str) -> list[Path]:
-    """Write ``name.png`` and ``name.svg`` (110 dpi) into ``folder``; returns both paths.
+def save_figure(figure, folder: str | Path, name: str,
+                formats: Sequence[str] = PNG) -> list[Path]:
+    """Write the figure as ``name.<format>`` (110 dpi) into ``folder`` for each of ``formats``
+    (``"png"``, ``"svg"``; :data:`PNG` by default); returns the paths in that order.
 
     The figure is written whole, as its function laid it out (fixed margins, or
     ``tight_layout``), not cropped to its tight bounding box: finding that box is one more
-    draw of the figure (docs/decisions.md, "fixed figure margins").
+    draw of the figure (docs/decisions.md, "fixed figure margins"). Each format is one whole
+    draw of the figure (the SVG copy was 30-45 % of a figure's CPU: docs/performance.md).
+
+    Raises
+    ------
+    ValueError
+        ``formats`` empty, repeated, or not among :data:`WITH_SVG` (nothing is written, the
+        figure is closed).
     """
+    try:
+        formats = _checked_formats(formats)
+    except ValueError:
+        pyplot().close(figure)
+        raise
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
     figure.set_dpi(110)
-    for suffix in ("png", "svg"):
+    for suffix in formats:
         path = folder / f"{name}.{suffix}"
         with atomic_file(path) as tmp:
             figure.savefig(tmp, format=suffix, dpi=110)
@@ -54,17 +88,22 @@ def save_figure(figure, folder: str | Path, name: str) -> list[Path]:
 @dataclass(frozen=True)
 class Drawing:
     """One figure to draw and save: its file stem, a figure function of this module and its
-    arguments (plain arrays: picklable, and drawn on another process without dloplan's solvers).
+    arguments (plain arrays: picklable, and drawn on another process without dloplan's solvers),
+    and the formats to write (:data:`PNG` or :data:`WITH_SVG`: part of the drawing, so a draft
+    drawn without SVG is not the drawing of a request with SVG).
     """
 
     name: str
     draw: Callable
     arguments: tuple = ()
     options: dict = field(default_factory=dict)
+    formats: tuple[str, ...] = PNG
 
     def save(self, folder: str | Path) -> list[Path]:
-        """Draw the figure and write ``name.png`` and ``name.svg`` into ``folder``."""
-        return save_figure(self.draw(*self.arguments, **self.options), folder, self.name)
+        """Draw the figure and write ``name.<format>`` for each of its formats into
+        ``folder`` (:func:`save_figure`)."""
+        return save_figure(self.draw(*self.arguments, **self.options), folder, self.name,
+                           self.formats)
 
 
 def _equal_3d(ax, points: np.ndarray) -> None:

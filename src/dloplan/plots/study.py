@@ -1,8 +1,8 @@
 """Figures of a robustness study: success against a parameter, deviations, sensitivities.
 
 Each function takes plain arrays (or the study's summary) and returns a matplotlib figure;
-:func:`study_figures` writes the three of a finished study as PNG and SVG (four with a
-closed-loop study).
+:func:`study_figures` writes the three of a finished study as PNG, and SVG when asked (four
+with a closed-loop study).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..study.summary import sample_outcomes, success_interval
-from .figures import pyplot, save_figure
+from .figures import PNG, pyplot, save_figure
 
 SCALES = {"Pa": (1e-6, "MPa"), "m": (1e3, "mm"), "rad": (57.29577951308232, "deg"),
           "kg/m": (1e3, "g/m")}
@@ -149,8 +149,9 @@ def closed_loop_figure(closed_loop):
 
 
 def study_figures(table: dict, summary, criteria, folder: str | Path,
-                  parameter: str = "youngs_modulus") -> list[Path]:
-    """Write the three figures of a study into ``folder`` (PNG and SVG each).
+                  parameter: str = "youngs_modulus", formats: tuple[str, ...] = PNG
+                  ) -> list[Path]:
+    """Write the three figures of a study into ``folder``, each in ``formats``.
 
     Parameters
     ----------
@@ -164,6 +165,9 @@ def study_figures(table: dict, summary, criteria, folder: str | Path,
         Output folder.
     parameter : str
         The parameter of the success figure (default E).
+    formats : tuple of str
+        The files of each figure: :data:`~dloplan.plots.figures.PNG` (default), or
+        :data:`~dloplan.plots.figures.WITH_SVG` (``dloplan study --svg``).
     """
     from ..study.sampling import parameter_columns
 
@@ -174,11 +178,13 @@ def study_figures(table: dict, summary, criteria, folder: str | Path,
     paths = []
     paths += save_figure(success_by_parameter_figure(
         table[parameter][table["shape"] == 0], per["success"], parameter,
-        units.get(parameter, "")), folder, f"study_success_{parameter}")
+        units.get(parameter, "")), folder, f"study_success_{parameter}", formats)
     threshold = None if criteria.max_deviation is None else criteria.max_deviation * 1e-3
-    paths += save_figure(deviation_figure(deviations, threshold), folder, "study_deviation")
-    paths += save_figure(tornado_figure(summary.sensitivities), folder, "study_tornado")
+    paths += save_figure(deviation_figure(deviations, threshold), folder, "study_deviation",
+                         formats)
+    paths += save_figure(tornado_figure(summary.sensitivities), folder, "study_tornado",
+                         formats)
     if summary.closed_loop is not None:
         paths += save_figure(closed_loop_figure(summary.closed_loop), folder,
-                             "study_closed_loop")
+                             "study_closed_loop", formats)
     return paths

@@ -21,8 +21,9 @@ _warm = False
 
 def warm_up() -> None:
     """Import matplotlib (with its 3D axes) and draw a tiny figure with a 3D axes and a title
-    as PNG and SVG (thrown away): fonts and both backends are loaded before a plan's first
-    figure. Does nothing the second time in a process."""
+    as PNG (thrown away): fonts and the PNG backend are loaded before a plan's first figure
+    (the SVG backend, for the occasional ``--svg``, loads with the first SVG). Does nothing the
+    second time in a process."""
     global _warm
     if _warm:
         return
@@ -32,8 +33,7 @@ def warm_up() -> None:
     figure = plt.figure(figsize=(1, 1))
     axes = figure.add_subplot(projection="3d")
     axes.set_title("[N²]")
-    for suffix in ("png", "svg"):
-        figure.savefig(io.BytesIO(), format=suffix)
+    figure.savefig(io.BytesIO(), format="png")
     plt.close(figure)
     _warm = True
 
@@ -47,7 +47,7 @@ def start() -> None:
 
 
 def draw(drawing, folder: Path) -> list[Path]:
-    """Draw one :class:`~dloplan.plots.figures.Drawing` into ``folder``: its PNG and SVG."""
+    """Draw one :class:`~dloplan.plots.figures.Drawing` into ``folder``, in its formats."""
     with task():
         return drawing.save(folder)
 
