@@ -7,6 +7,7 @@ arc) and the section pulled taut around the peg (every inner link in tension).
 
 from __future__ import annotations
 
+import json
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -15,6 +16,7 @@ import numpy as np
 import pytest
 
 from dloplan.app import load_job, load_scenario, run_job
+from dloplan.exit_codes import EXIT_FAILURE
 from dloplan.harness import run_harness, verification
 from dloplan.harness.verification import verify_harness_result
 from dloplan.verify.replay import replay
@@ -245,7 +247,17 @@ def test_fixtures_closer_than_the_grippers_allow_are_refused_before_planning(tmp
     path.write_text(yaml.safe_dump(data))
     assert main(["plan", str(path), "-q", "-o", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
-    assert ("harness.fixtures (where phase 2 ends: their approach points, position + depth * "
-            "opening): its clips are 40.0 mm apart") in err
+    line = ("harness.fixtures (where phase 2 ends: their approach points, position + depth * "
+            "opening): its clips are 40.0 mm apart")
+    assert line in err
     assert "expected at least 45.1 mm" in err and "(fixtures farther apart)" in err
     assert not (tmp_path / "out").exists()
+    # `dloplan check` says what `plan` refuses (it printed "ok board" and exited 0), the slots
+    # too, and the shipped job passes
+    assert main(["check", str(path), "-q", "--json"]) == EXIT_FAILURE
+    errors = [f["message"] for f in json.loads(capsys.readouterr().out)["findings"]
+              if f["level"] == "error"]
+    assert len(errors) == 2 and errors[0].startswith(line)
+    assert errors[1].startswith("harness.fixtures (where the insertion ends: their slots")
+    assert main(["check", str(EXAMPLES / "harness_usb.yaml"), "-q"]) == 0
+    assert capsys.readouterr().out.startswith("ok      board: fixtures within reach")

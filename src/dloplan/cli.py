@@ -256,17 +256,17 @@ def _cmd_schema(args: argparse.Namespace) -> int:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    from .app import Job, check_job, load_job
+    from .app import Job, check_harness_job, check_job, load_job
 
     console = Console(args.quiet)
     job = load_job(args.scenario, console.stage)
-    if not isinstance(job, Job):  # a harness board is checked when it is resolved
-        print(f"ok      board: fixtures within reach of the {job.cable.length:.3g} m cable, "
-              "pegs clear of the fixtures, slots wide enough")
-        return EXIT_OK
     console.stage(f"loaded {args.scenario}: {job.cable.name or 'cable'}, n = {job.cable.n_links}")
-    report = check_job(job)
-    console.stage("checked start, target, target stability and obstacles")
+    if isinstance(job, Job):
+        report = check_job(job)
+        console.stage("checked start, target, target stability and obstacles")
+    else:  # a harness board is checked when it is resolved
+        report = check_harness_job(job)
+        console.stage("checked the board and the clips held before planning")
     if args.json:
         print(json_text({"findings": [f.__dict__ for f in report.findings],
                           "errors": len(report.errors), "warnings": len(report.warnings)},

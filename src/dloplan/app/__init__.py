@@ -20,7 +20,14 @@ whole way from a file to its outputs.
 from ..pipeline.document import PlanDocument
 from ..pipeline.job import Job
 from ..pipeline.plan import make_plan
-from ..pipeline.stages import check_job, run_harness_job, run_job, simulate_plan, verify_plan
+from ..pipeline.stages import (
+    check_harness_job,
+    check_job,
+    run_harness_job,
+    run_job,
+    simulate_plan,
+    verify_plan,
+)
 from .document_file import read_plan, write_plan
 from .load import load_job, load_scenario
 from .writers import WRITERS, write_outputs
@@ -29,6 +36,7 @@ __all__ = [
     "WRITERS",
     "Job",
     "PlanDocument",
+    "check_harness_job",
     "check_job",
     "load_job",
     "load_scenario",

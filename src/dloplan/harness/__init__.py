@@ -18,6 +18,7 @@ from .job import (
     HarnessSettings,
     force_statistics,
     harness_summary,
+    held_before_planning,
     run_harness,
 )
 from .phases import Phases, approach_shape, fixture_clips, insertion_pose, plan_phases
@@ -38,6 +39,7 @@ __all__ = [
     "fixture_clips",
     "force_statistics",
     "harness_summary",
+    "held_before_planning",
     "insert_and_tension",
     "insertion_pose",
     "plan_phases",

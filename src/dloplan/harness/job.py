@@ -257,6 +257,25 @@ def _joined_grippers(cable: Cable, phases: Phases, insertion: Insertion,
     return joined, warnings
 
 
+def held_before_planning(start: np.ndarray, board: Board) -> list[tuple[str, np.ndarray, str]]:
+    """The clip points a harness job holds that are known before it is planned: the start,
+    the fixtures' approach points (where phase 2 ends) and their slots (where the insertion
+    ends); phase 1's end and the tensioned poses follow from planning.
+
+    Returns
+    -------
+    list of (str, numpy.ndarray, str)
+        Where (the job's field and the phase), the (2, 3) clip points [m], and what would hold
+        them farther apart: the arguments of ``check_held`` (:func:`run_harness`).
+    """
+    return [("start (where phase 1 starts)", clip_poses_from_shape(start).positions,
+             "a longer cable, or a start whose ends lie farther apart"),
+            ("harness.fixtures (where phase 2 ends: their approach points, position + "
+             "depth * opening)", fixture_clips(board).positions, "fixtures farther apart"),
+            ("harness.fixtures (where the insertion ends: their slots, position)",
+             fixture_clips(board, inserted=True).positions, "fixtures farther apart")]
+
+
 def run_harness(
     cable: Cable,
     start,
@@ -303,12 +322,8 @@ def run_harness(
     if not board.pegs:
         raise ValueError("board: no pegs; a harness job tensions the cable against pegs")
     if check_held is not None:
-        check_held("start (where phase 1 starts)", clip_poses_from_shape(start).positions,
-                   "a longer cable, or a start whose ends lie farther apart")
-        check_held("harness.fixtures (where phase 2 ends: their approach points, position + "
-                   "depth * opening)", fixture_clips(board).positions, "fixtures farther apart")
-        check_held("harness.fixtures (where the insertion ends: their slots, position)",
-                   fixture_clips(board, inserted=True).positions, "fixtures farther apart")
+        for where, clips, remedy in held_before_planning(start, board):
+            check_held(where, clips, remedy)
     links = s.section_links if s.section_links is not None else section_links(cable, board)
     phases = plan_phases(cable, start, board, s.n_shapes, approach_height=s.approach_height,
                          clearance=s.clearance, weights=s.weights, physical_mode=s.physical_mode,

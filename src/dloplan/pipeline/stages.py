@@ -161,6 +161,22 @@ class PathStage:
     timings: dict
 
 
+def check_harness_job(job: HarnessJob) -> CheckReport:
+    """Check a wire-harness job without planning: its board against the cable (checked when
+    the job was resolved) and the clips it holds before planning against the cell's grippers
+    (:func:`dloplan.harness.held_before_planning`, :func:`held_clips_error`: an error, as
+    ``dloplan plan`` refuses it before planning)."""
+    from ..harness import held_before_planning
+
+    errors = [held_clips_error(job.robot, job.cable, where, clips, remedy)
+              for where, clips, remedy in held_before_planning(job.start, job.board)]
+    findings = [Finding("error", "grip distance", error) for error in errors if error]
+    findings.append(Finding("ok", "board", f"fixtures within reach of the "
+                            f"{job.cable.length:.3g} m cable, pegs clear of the fixtures, slots "
+                            "wide enough"))
+    return CheckReport(findings)
+
+
 def check_grip_distance(job: Job) -> None:
     """Refuse a job whose start or target holds its clips closer than the cell's two grippers
     can be (:func:`grip_distance_errors`).
