@@ -359,6 +359,19 @@ def test_batch_mode_plans_several_files_on_two_workers(tmp_path, capsys):
     assert not (tmp_path / "out" / "bad").exists()
 
 
+def test_a_batch_counts_a_skipped_identification_file_as_skipped(tmp_path, capsys):
+    """An identification file in a batch is skipped (exit 1, pointing to ``dloplan
+    identify``); the summary counted it "with warnings", as if it had been planned."""
+    examples = Path(__file__).parents[1] / "examples"
+    (tmp_path / "bad.yaml").write_text("cable: {name: copper}\n")
+    code = main(["plan", str(examples / "identify_ethernet.yaml"), str(tmp_path / "bad.yaml"),
+                 "-o", str(tmp_path / "out"), "-q"])
+    out = capsys.readouterr().out
+    assert code == EXIT_FAILURE
+    assert ("planned 2 scenarios: 0 ok, 0 with warnings, 0 failed a check, 1 could not be "
+            "planned, 1 skipped (identification files: dloplan identify)") in out
+
+
 def test_a_batch_whose_files_share_a_name_is_refused_before_any_plan(tmp_path, capsys):
     """Two files of one name in two folders (or one file twice) would be planned into one
     ``OUT/<stem>/``: the second plan replaced the first one's files after the first status line

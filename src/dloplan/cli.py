@@ -662,7 +662,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 
 
 def _plan_batch(args: argparse.Namespace, console: Console) -> int:
-    from .app.files import plan_file, refuse_shared_folders
+    from .app.files import SKIPPED, plan_file, refuse_shared_folders
     from .study.backends import make_backend, map_jobs
 
     refuse_shared_folders(args.output, args.scenarios)
@@ -670,18 +670,20 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
                "check_robot": not args.no_verify, "repair": not args.no_repair,
                "allow_placement": args.allow_placement, "figures": not args.no_figures,
                "svg": args.svg}
-    codes = {}
+    codes, skipped = {}, 0
     with make_backend(None if args.scheduler else args.workers, args.scheduler,
                       preload=("dloplan.study.evaluate",)) as backend:  # not the study's kernels
         for _, (path, code, line) in map_jobs(plan_file, args.scenarios, backend,
                                               shared=options):
             codes[path] = code
+            skipped += line.endswith(SKIPPED)
             console.stage(line)
     print(f"planned {len(codes)} scenarios: "
           f"{sum(c == EXIT_OK for c in codes.values())} ok, "
-          f"{sum(c == EXIT_WARNINGS for c in codes.values())} with warnings, "
+          f"{sum(c == EXIT_WARNINGS for c in codes.values()) - skipped} with warnings, "
           f"{sum(c == EXIT_CHECK_FAILED for c in codes.values())} failed a check, "
-          f"{sum(c == EXIT_FAILURE for c in codes.values())} could not be planned")
+          f"{sum(c == EXIT_FAILURE for c in codes.values())} could not be planned"
+          + (f", {skipped} skipped (identification files: dloplan identify)" if skipped else ""))
     return max(codes.values())
 
 

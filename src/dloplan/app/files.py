@@ -136,6 +136,10 @@ def refuse_shared_folders(output, paths) -> None:
         seen[folder] = path
 
 
+SKIPPED = "skipped (an identification file: use dloplan identify)"
+"""The status line's end for a batch file that is not planned (:func:`plan_file`)."""
+
+
 def plan_file(options: dict, path: str) -> tuple[str, int, str]:
     """Plan one job file into ``<output>/<stem>/`` (the batch mode's task,
     :func:`batch_folder`; :func:`refuse_shared_folders` is called before the batch starts).
@@ -148,8 +152,7 @@ def plan_file(options: dict, path: str) -> tuple[str, int, str]:
     folder = batch_folder(options["output"], path)
     try:
         if file_kind(read_mapping(path)) == "identification":
-            return path, EXIT_WARNINGS, f"{path}: skipped (an identification file: use " \
-                "dloplan identify)"
+            return path, EXIT_WARNINGS, f"{path}: {SKIPPED}"
         job = load_job(path, allow_placement=options.get("allow_placement", False))
         doc, _ = plan_into(job, folder, verify=options["verify"],
                            check_robot=options.get("check_robot", True),
