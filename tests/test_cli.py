@@ -397,7 +397,7 @@ def test_simulate_refuses_a_harness_plan_whose_replay_is_verify_s(tmp_path, caps
     """``dloplan simulate`` of a harness plan replayed the whole cable without the board's
     fixtures and contacts and exited 1 ("the moving cable enters table by 81.6 mm") for a plan
     whose phase-by-phase replay (``dloplan verify``) passes. Refused, exit 2, naming what
-    replays it; a harness job file before it is planned."""
+    replays it; a harness job file (YAML or JSON) before it is planned."""
     from dloplan.app import load_job, make_plan, write_plan
 
     data = yaml.safe_load((Path(__file__).parents[1] / "examples" / "harness_pu.yaml")
@@ -406,7 +406,9 @@ def test_simulate_refuses_a_harness_plan_whose_replay_is_verify_s(tmp_path, caps
     data["outputs"] = ["json"]
     job = write(tmp_path, data, "hose.yaml")
     plan = write_plan(tmp_path / "plan.json", make_plan(load_job(job), check_robot=False))
-    for path in (plan, job):
+    as_json = tmp_path / "hose.json"  # a job file in JSON, not a plan document: not planned
+    as_json.write_text(json.dumps(data))
+    for path in (plan, job, as_json):
         assert main(["simulate", str(path), "-q"]) == EXIT_FAILURE
         err = capsys.readouterr().err
         assert "harness" in err and "dloplan verify" in err and "expected a" in err, err

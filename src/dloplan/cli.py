@@ -766,15 +766,9 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
     console = Console(args.quiet)
     _svg_needs_output(args)
-    if Path(args.file).suffix.lower() != ".json":  # a job file: a harness job before planning
-        from .app.load import file_kind
-        from .io.scenario import read_mapping
-
-        if file_kind(read_mapping(args.file)) == "harness":
-            raise ValueError(f"{args.file}: a harness job, expected a scenario: a harness "
-                             "plan is replayed phase by phase by dloplan verify "
-                             "(docs/harness.md)")
-    doc = document_of(args.file, progress=console.stage, allow_placement=args.allow_placement)
+    doc = document_of(args.file, progress=console.stage, allow_placement=args.allow_placement,
+                      harness="a harness plan is replayed phase by phase by dloplan verify "
+                      "(docs/harness.md)")
     unchecked = _unchecked(args.file, doc)
     if doc.trajectory is None:
         raise ValueError(f"{args.file}: the plan has no timed trajectory to simulate")

@@ -166,12 +166,20 @@ def plan_file(options: dict, path: str) -> tuple[str, int, str]:
     return path, code, f"{path}: {status} -> {folder}"
 
 
-def document_of(path, progress=quiet, *, allow_placement: bool = False) -> PlanDocument:
+def document_of(path, progress=quiet, *, allow_placement: bool = False,
+                harness: str | None = None) -> PlanDocument:
     """A plan document: read from a plan file, or planned now from a job file the way
-    ``dloplan plan`` plans it (:func:`dloplan.pipeline.make_plan`: checked and repaired)."""
+    ``dloplan plan`` plans it (:func:`dloplan.pipeline.make_plan`: checked and repaired).
+
+    ``harness`` (a command that takes no wire-harness job, what takes it instead): a harness
+    job file is refused before it is planned (ValueError naming the file and ``harness``); a
+    harness plan file is read (the command refuses its document).
+    """
     if Path(path).suffix.lower() == ".json":  # read once, bounded as a plan document
         data = read_plan_data(path)
         if isinstance(data, dict) and file_kind(data) == "plan":
             return plan_from_data(path, data)
-    return make_plan(load_job(path, progress, allow_placement=allow_placement),
-                     progress=progress)
+    job = load_job(path, progress, allow_placement=allow_placement)
+    if harness is not None and not isinstance(job, Job):
+        raise ValueError(f"{path}: a harness job, expected a scenario: {harness}")
+    return make_plan(job, progress=progress)

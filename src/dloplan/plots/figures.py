@@ -2,9 +2,9 @@
 
 Each function takes plain arrays and returns a ``matplotlib.figure.Figure``; :func:`save_figure`
 writes it as PNG (and SVG when asked: :data:`WITH_SVG`), a :class:`Drawing` is one such figure
-still to draw (what
-:mod:`dloplan.app.figure_workers` sends to its worker processes). Many lines of one style are
-one collection, not one artist each (drawing time grows with the number of artists).
+still to draw (what :mod:`dloplan.app.figure_workers` sends to its worker processes). Many lines
+of one style are one collection, not one artist each (drawing time grows with the number of
+artists).
 matplotlib is imported here only (with the non-interactive Agg backend), so ``import dloplan``
 stays light.
 """

@@ -335,8 +335,8 @@ def placements(grippers: GripperPath, *, searches=SEARCHES, yaws=YAWS, cell=None
                     yield PlacementRepair(move, clip, True, found.message)
                 else:
                     messages.append(found.message)
-                    failed = searched_failure(found.reachability) if not found.success \
-                        else failed
+                    if not found.success:
+                        failed = searched_failure(found.reachability)
         if messages:
             yield PlacementRepair(TableMove(yaw=yaw, pivot=pivot), side, False,
                                   f"turned {math.degrees(yaw):.0f} deg: {messages[-1]}",
