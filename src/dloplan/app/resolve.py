@@ -16,15 +16,13 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..cable import Cable, catalogue_cable
 from ..geometry import resample_by_arc_length
-from ..harness.board import Board, Fixture, Peg, check_board
-from ..harness.job import HarnessSettings
 from ..io.job_file import svg_copies
 from ..io.scenario import (
     PROGRAM_NAMES,
@@ -60,6 +58,10 @@ from ..trajectory import MotionLimits
 WORKSPACE = 10.0
 """Largest distance [m] of any point of a job from the world origin: a dual-arm cell spans about
 a metre, so a coordinate beyond 10 m is a typo (often metres written into a mm file)."""
+
+if TYPE_CHECKING:  # the harness package is imported by a harness job's resolution only
+    from ..harness.board import Board
+    from ..harness.job import HarnessSettings
 
 
 DEFAULT_THRESHOLD = 0.01
@@ -210,6 +212,8 @@ def build_board(spec, scale: float, obstacles=(), table: Table | None = None) ->
     """The :class:`~dloplan.harness.board.Board` of a ``harness:`` section in metres (its
     fixtures and pegs, a length left out its default in metres, :func:`file_length`;
     obstacles and table from the file's own sections; ``table`` None: no table)."""
+    from ..harness.board import Board, Fixture, Peg
+
     fixtures = tuple(Fixture(tuple(np.multiply(f.position, scale)), tuple(f.axis),
                              tuple(f.opening), *(file_length(f, name, scale) for name in
                                                  ("slot_width", "depth", "length", "wall")),
@@ -464,6 +468,8 @@ def harness_settings(scenario, scale: float) -> HarnessSettings:
     """The harness job's settings in SI: the ``harness:`` section's phases, insertion and
     tensioning (a length left out its default in metres, :func:`file_length`), the
     trajectory's limits, the planner's mode and the check's lift safety."""
+    from ..harness.job import HarnessSettings
+
     h, t = scenario.harness, scenario.harness.tension
     limits = motion_limits(scenario.trajectory, scale)
     return HarnessSettings(
@@ -492,6 +498,8 @@ def resolve_harness(scenario, source: str = "harness scenario") -> HarnessJob:
         here: give a modulus), planner weights (not supported by harness jobs), an invalid
         fixture or peg, a board the cable cannot be used on, a program the cell cannot run.
     """
+    from ..harness.board import check_board
+
     scale = scenario.scale
     if scenario.cable.youngs_modulus == "identify":
         raise ScenarioError(f"{source}: cable.youngs_modulus: 'identify' is not supported in a "

@@ -18,7 +18,6 @@ from dataclasses import replace
 from .document import PlanDocument
 from .job import HarnessJob, Job
 from .repair import Budget, diagnose, repair_plan
-from .repair.harness import plan_harness
 from .repair.placement import placement_section
 from .stages import completed_program, quiet, run_job, verify_plan, with_verification
 
@@ -65,6 +64,8 @@ def make_plan(job: Job | HarnessJob, *, verify: bool = False, check_robot: bool 
         ``applied`` True.
     """
     if isinstance(job, HarnessJob):
+        from .repair.harness import plan_harness  # the harness package: harness jobs only
+
         return plan_harness(job, verify=verify, check_robot=check_robot, repair=repair,
                             progress=progress, planned=planned)
     if not (check_robot and repair):

@@ -724,11 +724,13 @@ def run_job(job: Job, *, verify: bool = False, check_robot: bool = True,
         program that passes were started by ``planned``; the reach repair replaces one that
         fails).
     """
+    t0 = time.perf_counter()
     if check_robot:
         check_grip_distance(job)
+    grip_check = time.perf_counter() - t0
     staged = plan_path(job, progress)
     result, target_check = staged.plan, staged.target_check
-    timings = dict(staged.timings)
+    timings = {"grip check": grip_check, **staged.timings}
     t0 = time.perf_counter()
     grippers, trajectory = plan_motion(job, result.path, progress)
     timings["grippers"] = time.perf_counter() - t0
@@ -825,8 +827,10 @@ def run_harness_job(job: HarnessJob, *, check_robot: bool = True,
         planned(doc)
     if not check_robot:
         return doc
-    return with_program(doc, plan_program(job.robot, result.grippers, result.trajectory,
-                                          progress))
+    t0 = time.perf_counter()
+    doc = with_program(doc, plan_program(job.robot, result.grippers, result.trajectory,
+                                         progress))
+    return replace(doc, timings={**doc.timings, "robot": time.perf_counter() - t0})
 
 
 def simulate_plan(doc: PlanDocument, *, damping: str = "relative", torsion: bool = False,
