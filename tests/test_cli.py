@@ -288,7 +288,9 @@ def test_the_plan_command_leaves_numpy_testing_and_f2py_unrun(tmp_path):
     """``dloplan plan`` makes ``numpy.testing`` and ``numpy.f2py`` lazy before scipy's import
     (``dloplan.lazy_modules``): scipy's namespace clone finds them without running them (they
     used to be imported by every command, with unittest and f2py's Fortran parser), and they
-    still work when used."""
+    still work when used. A scenario's plan imports neither the harness package nor the
+    study's sampling, backends, run and summary (imported where a harness job or a study needs
+    them)."""
     import subprocess
     import sys
 
@@ -297,7 +299,9 @@ def test_the_plan_command_leaves_numpy_testing_and_f2py_unrun(tmp_path):
             "from dloplan.cli import main\n"
             f"code = main(['plan', {str(job)!r}, '-o', {str(tmp_path / 'out')!r}, '-q'])\n"
             "ran = [m for m in ('numpy.testing._private.utils', 'numpy.f2py.crackfortran',"
-            " 'unittest', 'scipy.spatial.transform') if m in sys.modules]\n"
+            " 'unittest', 'dloplan.harness', 'dloplan.study.sampling', 'dloplan.study.backends',"
+            " 'dloplan.study.run', 'dloplan.study.summary', 'scipy.spatial.transform')"
+            " if m in sys.modules]\n"
             "import numpy\n"
             "numpy.testing.assert_allclose(1.0, 1.0)\n"
             "print(code, ran, callable(numpy.f2py.run_main))\n")

@@ -209,6 +209,7 @@ def test_the_repair_hands_its_repaired_plan_to_the_hook_before_verifying_it():
     calls = []
     final = make_plan(job, planned=lambda d, provisional=False: calls.append((d, provisional)))
     assert final.repairs and [provisional for _, provisional in calls] == [True, False]
+    assert list(final.timings)[:2] == ["grip check", "target check"]  # the checks timed
     seen = [d for d, _ in calls]  # the planned plan (its program fails), the repaired one
     assert seen[0].program is None and seen[1].verification is None
     assert [pickle.dumps(d) for d in figure_drawings(seen[1])] == \
@@ -226,6 +227,7 @@ def test_a_harness_job_hands_its_plan_to_the_hook_before_its_robot_program():
     seen = []
     final = make_plan(load_job(EXAMPLES / "harness_ethernet.yaml"), planned=seen.append)
     assert len(seen) == 1 and seen[0].program is None and final.program is not None
+    assert "robot" not in seen[0].timings and final.timings["robot"] > 0  # the program timed
     assert [pickle.dumps(d) for d in figure_drawings(seen[0])] == \
         [pickle.dumps(d) for d in figure_drawings(final)]
 

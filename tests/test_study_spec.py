@@ -104,3 +104,19 @@ def test_a_zero_spread_study_reproduces_the_plan_of_dloplan_plan(tmp_path):
     assert result.table["shape"].max() == doc.n_shapes + 1
     assert result.summary.n_success == 8  # zero spread: the nominal plan, which passes
     assert np.max(result.table["deviation"]) < 1e-9  # every sample settles on the plan's shapes
+
+
+def test_the_package_gives_each_name_from_its_submodule():
+    """``dloplan.study`` imports a submodule when one of its names is first read (a scenario's
+    schema needs ``.spec`` alone): every exported name is the submodule's own object, and a name
+    it does not export is an AttributeError."""
+    import importlib
+
+    import dloplan.study as study
+
+    for name in study.__all__:
+        value = getattr(study, name)
+        assert value.__module__.startswith("dloplan.study.")
+        assert value is getattr(importlib.import_module(value.__module__), name)
+    with pytest.raises(AttributeError, match="has no attribute 'nothing'"):
+        study.nothing  # noqa: B018
