@@ -21,7 +21,9 @@ the plan document it wrote (``plan.json``: ``timings`` per stage, the verificati
     verify      the verification after planning: stability, snap-through continuation,
                 replay, robot check (``stab/snap/replay`` split below the table)
     repair      the repair loop: each kept repair's time by kind (candidates it rejected
-                included), the rest (re-verifications, refused kinds) as ``other``
+                included), the repaired plan verified again (``verified again``: every check,
+                each round), the kept program's round trips enumerated at the end (``program
+                completed``), the rest (the loop's own work, refused kinds) as ``other``
 
 An example ``dloplan plan`` does not verify (a harness job) or does not take (an
 identification file) is listed with the reason. Each example runs ``--runs`` times (the fastest
@@ -63,6 +65,9 @@ TARGET_FIRST_RUN_S = 20.0
 STAGES = (("target", ("grip check", "target check")), ("plan", ("plan",)),
           ("motion", ("grippers",)), ("twist", ("twist",)), ("robot", ("robot",)),
           ("verify", ("verify",)), ("repair", ("repair",)))
+REPAIR_PART = "repair: "
+"""The prefix of the plan document's timings that split the repair's (``repair: verified
+again``, ``repair: program completed``: :class:`dloplan.pipeline.repair.RepairResult`)."""
 
 
 def examples(only: list[str]) -> list[Path]:
@@ -89,8 +94,10 @@ def run_plan(example: Path, folder: Path, source: str | None, extra: tuple = ())
     timings = doc.get("timings") or {}
     stages = {name: sum(float(timings.get(k, 0.0)) for k in keys) for name, keys in STAGES}
     known = {k for _, keys in STAGES for k in keys}
+    parts = {k.removeprefix(REPAIR_PART): float(v) for k, v in timings.items()
+             if k.startswith(REPAIR_PART)}  # of the repair's time, spent by no kind of repair
     others = {k: float(v) for k, v in timings.items()  # a harness's phases (not their total)
-              if k not in known and k != "total"}
+              if k not in known and k != "total" and not k.startswith(REPAIR_PART)}
     stages["plan"] += sum(others.values())
     if "total" in timings:  # a harness job: its frames, trajectory and forces after the phases
         stages["motion"] += float(timings["total"]) - sum(others.values())
@@ -102,6 +109,7 @@ def run_plan(example: Path, folder: Path, source: str | None, extra: tuple = ())
     for repair in doc.get("repairs") or ():
         repairs[repair["kind"]] = repairs.get(repair["kind"], 0.0) + float(repair["seconds"])
     if stages["repair"] > 0:
+        repairs.update(parts)
         repairs["other"] = stages["repair"] - sum(repairs.values())
     out.update(stages=stages, others=others, verification=verification, repairs=repairs,
                verified=doc.get("verification") is not None)

@@ -716,7 +716,9 @@ def test_a_placement_is_rejected_on_its_programs_first_failure(monkeypatch):
     first rejected one (it fails its joint limits), one for the second (the left arm's round
     trip fails, the right arm's own solution passes), 18 for the one kept, when the repair
     returns (72 when the rejected programs were completed, 40 when each round trip of a
-    verdict was enumerated, 37 when the plan's own program was complete)."""
+    verdict was enumerated, 37 when the plan's own program was complete). The plan's timings
+    name the repair's parts no kind of repair spent: the repaired plan verified again, the
+    kept program completed."""
     import dloplan.robot.yumi_program as plugin
 
     solved = []
@@ -734,6 +736,9 @@ def test_a_placement_is_rejected_on_its_programs_first_failure(monkeypatch):
         "[-1, -1, 0, 4]"]
     assert doc.program.ok and doc.program.trajectory is not None and doc.repairs
     assert len(solved) == 0 + 0 + 1 + 18
+    # the repair's time that no kind of repair spent, named (benchmarks' "repairs:" split)
+    parts = [doc.timings["repair: verified again"], doc.timings["repair: program completed"]]
+    assert min(parts) > 0.0 and sum(parts) + doc.repairs[0]["seconds"] <= doc.timings["repair"]
 
 
 def test_same_frames_is_the_rotation_magnitude_rule_near_and_far_from_its_tolerance():

@@ -212,3 +212,38 @@ def test_ik_at_targets_reaches_what_forward_kinematics_put_there():
             _, hits = ik_at_targets(arm, far, mats, IKOptions(), stop=stop,
                                     seed_from_miss=seed_from_miss)
             assert hits.tolist() == [bool(e) for e in expected], (stop, seed_from_miss)
+
+
+def test_the_search_pre_checks_grips_made_once_answer_as_each_translation_solved_afresh():
+    """A placement search asks IK at the targets about many translations of one path; its
+    grips (the TCP orientations, each arm's grip and the grip turned by pi, as ``ik_at_targets``
+    solves them) are made once (``TargetGrips``): every translation's answer, with and without
+    ``stop``, is that of its own TCP poses (``tcp_poses_from_clips``) solved afresh, the better
+    grip per arm."""
+    from dataclasses import replace
+
+    from dloplan.robot.path import TURN_Z
+    from dloplan.robot.reachability import TargetGrips, ik_at_targets
+
+    pos, rot = _cable_job(5)
+    pos, rot = pos[:, [1, 0]], Rotation.from_matrix(rot.as_matrix()[:, [1, 0]])
+    options = ReachOptions()
+    grips = TargetGrips(ROBOT, rot, options)
+    quick = replace(options.ik, restarts=0)
+    answers = set()
+    for offset in ([0.0, 0.0, 0.0], [0.2, 0.0, 0.0], [0.3, 0.0, 0.2], [0.0, 0.0, 0.45]):
+        moved = pos + offset
+        tcp_pos, tcp_rot = tcp_poses_from_clips(ROBOT, moved, rot)
+        for stop in (False, True):
+            afresh = np.zeros((len(pos), 2), dtype=bool)
+            for a, arm in enumerate(ROBOT.arms):
+                tries = [ik_at_targets(arm, tcp_pos[:, a], m[:, a], quick, stop=stop)[1]
+                         for m in (tcp_rot.as_matrix(), tcp_rot.as_matrix() @ TURN_Z)]
+                afresh[:, a] = tries[0] if tries[0].all() or tries[0].sum() >= tries[1].sum() \
+                    else tries[1]
+                if stop and not afresh[:, a].all():
+                    break
+            got = grips.reached(moved, stop=stop)
+            assert got.tolist() == afresh.tolist(), (offset, stop)
+            answers.add(bool(got.all()))
+    assert answers == {True, False}  # reached at some translations, not at others

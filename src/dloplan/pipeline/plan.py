@@ -94,6 +94,7 @@ def make_plan(job: Job | HarnessJob, *, verify: bool = False, check_robot: bool 
         placement = placement_section(result.move, applied=True)
         progress(f"placement: {placement.message}: place the cable there")
     timings = {**out.timings, "verify": time.perf_counter() - t0 - result.seconds,
-               "repair": result.seconds}
+               "repair": result.seconds,  # and the parts of it no kind of repair spent:
+               **{f"repair: {name}": seconds for name, seconds in result.parts.items()}}
     return replace(out, timings=timings, repairs=tuple(r.to_dict() for r in result.repairs),
                    placement=placement)

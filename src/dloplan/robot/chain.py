@@ -158,6 +158,8 @@ class CellArm:
         object.__setattr__(self, "_skew", skew)
         object.__setattr__(self, "_skew2", skew @ skew)
         object.__setattr__(self, "_tcp_xyz", d.tip_xyz + d.tip_rot @ self.tcp_offset)
+        object.__setattr__(self, "_reach", float(np.linalg.norm(xyz[1:], axis=1).sum()
+                                                 + np.linalg.norm(self._tcp_xyz)))
         # Capsules: the description's, then the tool's (tip to TCP, in the last link frame).
         caps, links, radii = d.capsules, d.capsule_link, d.radii
         if self.tool_radius > 0:
@@ -252,9 +254,9 @@ class CellArm:
 
     @property
     def reach(self) -> float:
-        """Upper bound of the shoulder-to-TCP distance [m]: the sum of the chain's offsets."""
-        return float(np.linalg.norm(self._xyz[1:], axis=1).sum()
-                     + np.linalg.norm(self._tcp_xyz))
+        """Upper bound of the shoulder-to-TCP distance [m]: the sum of the chain's offsets
+        (computed once: every IK call reads it)."""
+        return self._reach
 
 
 def in_base_frame(arm: CellArm, positions, rotations: Rotation) -> tuple[np.ndarray, np.ndarray]:

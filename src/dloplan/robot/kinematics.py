@@ -412,6 +412,11 @@ def _angle_geometry(arm) -> tuple[np.ndarray, np.ndarray]:
     return arm._angle_points, arm.world_arm_angle_reference
 
 
+FIXED_SEEDS = 4
+"""The seeds :func:`inverse` tries before its random restarts: the given one, its wrist flip
+(:func:`wrist_flip`), the home pose and its wrist flip."""
+
+
 def _inverse(arm, position: np.ndarray, target_rot: np.ndarray, seed: np.ndarray,
              opts: IKOptions, rng: np.random.Generator | None,
              arm_angle: float | None = None) -> IKResult:
@@ -425,12 +430,12 @@ def _inverse(arm, position: np.ndarray, target_rot: np.ndarray, seed: np.ndarray
         return IKResult(q, False, perr, aerr, 0, 0,
                         f"out of reach: TCP target {distance:.3f} m from the shoulder, the arm "
                         f"reaches at most {arm.reach:.3f} m")
-    seeds = [seed, wrist_flip(arm, seed), arm.home, wrist_flip(arm, arm.home)]
     best = converged = None
     total = tried = 0
-    while tried < len(seeds) + opts.restarts:
-        if tried < len(seeds):
-            start = seeds[tried]
+    start = seed
+    while tried < FIXED_SEEDS + opts.restarts:
+        if tried < FIXED_SEEDS:  # a wrist flip made only when the seed before it is not enough
+            start = (seed, arm.home)[tried // 2] if tried % 2 == 0 else wrist_flip(arm, start)
         else:
             rng = rng if rng is not None else np.random.default_rng(0)
             start = rng.uniform(arm.lower, arm.upper)

@@ -33,10 +33,10 @@ from .kinematics import joint_margin
 from .path import COMFORT_CLEARANCE, COMFORT_MARGIN, ReachOptions, check_path, validate_path
 from .reachability import (
     Reachability,
+    TargetGrips,
     arm_order,
     check_reachability,
     ik_at_targets,
-    reach_at_targets,
 )
 from .yumi import yumi
 
@@ -216,11 +216,11 @@ def search_placement(gripper_positions, gripper_rotations: Rotation,
     order = np.argsort(distance, kind="stable")
     grid, distance = grid[order], distance[order]
     order = arm_order(pos, assignment, robot)
-    by_arm = Rotation.from_matrix(mats[:, order])
+    grips = TargetGrips(robot, Rotation.from_matrix(mats[:, order]), opts)  # every offset's
 
     def reached(c):
         """The nearest first, if IK at the targets reaches every one."""
-        hits = reach_at_targets(robot, pos[:, order] + grid[c], by_arm, opts, stop=True)
+        hits = grips.reached(pos[:, order] + grid[c], stop=True)
         return (-distance[c],) if hits.all() else None
 
     def verify(c):

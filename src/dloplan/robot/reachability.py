@@ -115,10 +115,15 @@ def tcp_poses_from_clips(robot: DescribedCell, clip_positions, clip_rotations: R
     rotations : scipy.spatial.transform.Rotation
         (K, 2) ``tcp_to_world``.
     """
+    return np.array(clip_positions, dtype=float), tcp_rotations(robot, clip_rotations)
+
+
+def tcp_rotations(robot: DescribedCell, clip_rotations: Rotation) -> Rotation:
+    """(K, 2) ``tcp_to_world`` of the TCPs holding clips turned by ``clip_rotations`` (K, 2),
+    ordered by arm: the orientations of :func:`tcp_poses_from_clips`."""
     mats = clip_rotations.as_matrix()
-    tcp = np.stack([mats[:, a] @ arm.tcp_in_clip.as_matrix()
-                    for a, arm in enumerate(robot.arms)], axis=1)
-    return np.array(clip_positions, dtype=float), Rotation.from_matrix(tcp)
+    return Rotation.from_matrix(np.stack([mats[:, a] @ arm.tcp_in_clip.as_matrix()
+                                          for a, arm in enumerate(robot.arms)], axis=1))
 
 
 def check_reachability(gripper_positions, gripper_rotations: Rotation,
@@ -237,30 +242,54 @@ def reach_at_targets(robot: DescribedCell, clip_positions, clip_rotations: Rotat
     """
     pos, _ = validate_path(clip_positions, clip_rotations, "clip_positions", "clip_rotations")
     opts = options if options is not None else ReachOptions()
-    return _at_targets(robot, pos, clip_rotations, opts, stop=stop)
+    return TargetGrips(robot, clip_rotations, opts).reached(pos, stop=stop)
 
 
-def _at_targets(robot: DescribedCell, clip_pos, clip_rot: Rotation, opts: ReachOptions,
-                stop: bool) -> np.ndarray:
-    """(K, 2) IK success at each target, seeded along the path, per arm with the better of its
-    grips (the TCP turned by pi about z too when ``opts.symmetric_grip``, as the full check
-    and the robot program do); ``stop`` at an arm's first miss with every grip."""
-    tcp_pos, tcp_rot = tcp_poses_from_clips(robot, clip_pos, clip_rot)
-    grips = [tcp_rot.as_matrix()]
-    if opts.symmetric_grip:
-        grips.append(grips[0] @ TURN_Z)
-    quick = replace(opts.ik, restarts=0)
-    reached = np.zeros(tcp_pos.shape[:2], dtype=bool)
-    for a, arm in enumerate(robot.arms):
-        for mats in grips:
-            _, hits = ik_at_targets(arm, tcp_pos[:, a], mats[:, a], quick, stop=stop)
-            if hits.sum() > reached[:, a].sum():
-                reached[:, a] = hits
-            if hits.all():
-                break
-        if stop and not reached[:, a].all():
-            return reached
-    return reached
+class TargetGrips:
+    """The TCP orientations of a path's targets, each arm's grips (the TCP turned by pi about z
+    too when ``options.symmetric_grip``, as the full check and the robot program do), made once
+    for every translation of the path that :meth:`reached` is asked about: a placement search
+    moves the targets, never turns them (:func:`~dloplan.robot.placement.search_placement`).
+
+    Parameters
+    ----------
+    robot : DescribedCell
+    clip_rotations : scipy.spatial.transform.Rotation
+        (K, 2) ``clip_to_world``, ordered by arm.
+    options : ReachOptions
+    """
+
+    def __init__(self, robot: DescribedCell, clip_rotations: Rotation,
+                 options: ReachOptions) -> None:
+        tcp = tcp_rotations(robot, clip_rotations).as_matrix()
+        self.robot, self.quick = robot, replace(options.ik, restarts=0)
+        self._grips = [tcp, tcp @ TURN_Z] if options.symmetric_grip else [tcp]
+        self._targets: dict[tuple[int, int], np.ndarray] = {}
+
+    def targets(self, arm: int, grip: int) -> np.ndarray:
+        """(K, 3, 3) the targets of ``arm`` with ``grip`` as :func:`ik_at_targets` solves them
+        (:func:`normalized`), made when first asked for."""
+        if (arm, grip) not in self._targets:
+            self._targets[arm, grip] = normalized(self._grips[grip][:, arm])
+        return self._targets[arm, grip]
+
+    def reached(self, clip_positions: np.ndarray, *, stop: bool = False) -> np.ndarray:
+        """(K, 2) IK success at each target of the clip points ``clip_positions`` (K, 2, 3) [m]
+        (the TCP sits on the clip point, :func:`tcp_poses_from_clips`), seeded along the path,
+        per arm with the better of its grips; ``stop`` at an arm's first miss with every grip:
+        :func:`reach_at_targets`."""
+        reached = np.zeros(clip_positions.shape[:2], dtype=bool)
+        for a, arm in enumerate(self.robot.arms):
+            for grip in range(len(self._grips)):
+                _, hits = solved_at_targets(arm, clip_positions[:, a], self.targets(a, grip),
+                                            self.quick, stop=stop)
+                if hits.sum() > reached[:, a].sum():
+                    reached[:, a] = hits
+                if hits.all():
+                    break
+            if stop and not reached[:, a].all():
+                return reached
+        return reached
 
 
 def ik_at_targets(arm, positions, matrices, options: IKOptions, *, stop: bool = False,
@@ -292,9 +321,22 @@ def ik_at_targets(arm, positions, matrices, options: IKOptions, *, stop: bool = 
     hits : numpy.ndarray
         (K,) bool: target k reached.
     """
+    return solved_at_targets(arm, positions, normalized(matrices), options, stop=stop,
+                             seed_from_miss=seed_from_miss)
+
+
+def normalized(matrices: np.ndarray) -> np.ndarray:
+    """(K, 3, 3) rotation matrices as scipy makes them (``Rotation.from_matrix(...)
+    .as_matrix()``, in one batch: row for row each single one's): the targets
+    :func:`ik_at_targets` solves."""
+    return Rotation.from_matrix(matrices).as_matrix()
+
+
+def solved_at_targets(arm, positions, targets, options: IKOptions, *, stop: bool = False,
+                      seed_from_miss: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`ik_at_targets` of targets already :func:`normalized` (``targets`` (K, 3, 3))."""
     q, qs = arm.home, np.empty((len(positions), len(arm.home)))
     hits = np.zeros(len(positions), dtype=bool)
-    targets = Rotation.from_matrix(matrices).as_matrix()  # each target's, in one batch
     for k in range(len(positions)):
         res = inverse(arm, positions[k], targets[k], q, options)
         hits[k], qs[k] = res.success, res.q

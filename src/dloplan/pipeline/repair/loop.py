@@ -253,6 +253,11 @@ class RepairResult:
     proposal : Proposal or None
         The placement the robot needs where the job does not allow it to be moved (then
         ``ok`` is False, ``refusal`` None and ``move`` no move).
+    parts : dict
+        Wall time [s] of ``seconds`` spent on no repair kind: ``"verified again"`` (each
+        round's repaired plan verified with every check) and ``"program completed"`` (the
+        kept program's passing round trips enumerated at the end,
+        :func:`~dloplan.pipeline.stages.completed_program`).
     """
 
     job: object
@@ -266,6 +271,7 @@ class RepairResult:
     attempts: int
     seconds: float
     proposal: Proposal | None = None
+    parts: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -871,6 +877,7 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
     before = tuple(failures)
     verified = (job, doc, verification, TableMove())
     refusal = None
+    again = 0.0  # [s] the repaired plans verified again
     for _ in range(budget.rounds):
         if not failures:
             break
@@ -892,7 +899,9 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
         if changed and repaired is not None:
             repaired(state.doc)
         # a placement moves the plan rigidly: its physics checks are kept (pipeline.reuse)
+        since = time.perf_counter()
         verification = checks.verify(state.doc, reuse=verified[1:3]) if changed else verified[2]
+        again += time.perf_counter() - since
         new_failures = diagnose(state.doc, verification)
         if changed:
             progress(f"repaired plan verified: {summary(new_failures)}")
@@ -915,8 +924,11 @@ def repair_plan(job, doc, verification, budget: Budget | None = None,
     final_job, final_doc, final_ver, move = verified
     # a kept placement's program has its passing round trips enumerated now: after the
     # repaired plan's figures were started (``repaired``) and it was verified
-    return RepairResult(final_job, with_verification(completed_program(final_doc), final_ver),
-                        final_ver, tuple(session.repairs), not failures, refusal, move,
-                        before, session.attempts, time.perf_counter() - session.start,
-                        session.proposal)
+    since = time.perf_counter()
+    final_doc = completed_program(final_doc)
+    end = time.perf_counter()
+    return RepairResult(final_job, with_verification(final_doc, final_ver), final_ver,
+                        tuple(session.repairs), not failures, refusal, move, before,
+                        session.attempts, end - session.start, session.proposal,
+                        {"verified again": again, "program completed": end - since})
 
