@@ -913,3 +913,32 @@ def test_the_fit_chains_first_solve_at_an_updated_e_starts_from_the_tables_cubic
            for name, guesses in starts.items()}
     assert np.all(off["cubic"] < 0.1 * off["linear"]), (off["cubic"], off["linear"])
     assert np.sum(runs["cubic"].iterations) < 0.5 * np.sum(runs["linear"].iterations)
+
+
+def test_the_studys_plants_take_one_equilibrium_per_shape_the_two_substeps_equilibria(
+        example_plan):
+    """A study's plants follow the clip poses with one equilibrium per planned shape in both
+    methods (the exact one's plant is the linearized one's, bit for bit: the agreement test),
+    where :class:`Plant` takes two by default: the continuation reaches the same equilibria to
+    the solver's tolerance (residual 1e-10 of the force scale: about 2e-8 m on these chains)
+    for plants stiffer, softer, heavier and longer than the model."""
+    from dloplan.correct import closed_loop_sample
+    from dloplan.correct.linearized import SUBSTEPS
+    from dloplan.correct.plant import Plant, run_closed_loop
+    from dloplan.study.evaluate import perturbed_cable
+
+    assert SUBSTEPS == 1
+    doc = example_plan
+    cable, gravity = doc.cable, (0.0, 0.0, -9.81)
+    for seed, (e, m, length) in enumerate(((3.0, 1.0, 1.0), (0.3, 1.1, 1.0), (1.0, 1.0, 1.02))):
+        plant = perturbed_cable(cable, cable.youngs_modulus * e, cable.mass / cable.length * m,
+                                cable.length * length)
+        runs = {substeps: run_closed_loop(Plant(plant, noise=1e-3, n_measured=200, seed=seed,
+                                                substeps=substeps),
+                                          cable, doc.shapes, doc.grippers, [], gravity=gravity)
+                for substeps in (1, 2)}
+        assert np.max(np.abs(runs[1].open_loop - runs[2].open_loop)) < 1e-8
+        assert abs(runs[1].open_loop_error - runs[2].open_loop_error) < 1e-9
+        row = closed_loop_sample(cable, doc.shapes, doc.grippers, plant, [], noise=1e-3,
+                                 seed=seed, gravity=gravity)
+        assert row["open_loop_error"] == runs[1].open_loop_error  # the study's plant
