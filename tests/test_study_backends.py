@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import gc
+
 import numpy as np
 import pytest
 from study_cases import hanging_problem, tables_equal
@@ -39,6 +41,18 @@ def test_map_jobs_yields_every_position_once():
         got = dict(map_jobs(_scaled, range(10), backend, shared=3))
     assert got == {k: 3 * k for k in range(10)}
     assert dict(map_jobs(_scaled, [], SerialBackend(), shared=3)) == {}
+
+
+def _frozen(shared, item):
+    return gc.get_freeze_count()
+
+
+def test_a_local_worker_keeps_what_it_starts_with_out_of_the_collectors_scans():
+    # the server's preloaded modules and the map's shared object: frozen (gc.freeze) when the
+    # worker starts, so that a full collection during the tasks does not scan them
+    with ProcessBackend(2, max_in_flight=1) as backend:
+        counts = dict(map_jobs(_frozen, range(4), backend, shared=[object()]))
+    assert min(counts.values()) > 10_000
 
 
 def test_local_processes_give_the_serial_table(serial_table, tmp_path):

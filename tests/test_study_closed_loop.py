@@ -840,8 +840,9 @@ def test_the_batched_fits_are_fit_estimate_and_hand_back_a_singular_system(batch
 def test_the_batched_gain_checks_pass_only_what_check_gain_passes():
     """clear_gains against check_gain on random predictions: every correction it passes
     check_gain passes; a correction that gains nothing (corrected = open loop) is never
-    passed, and one that reaches the reference exactly is."""
-    from dloplan.correct.gain_batch import NAMES, clear_gains
+    passed, and one that reaches the reference exactly is. judged_gains words a refusal only
+    as check_gain words it."""
+    from dloplan.correct.gain_batch import NAMES, clear_gains, judged_gains
     from dloplan.correct.measurement import CorrectionRefused
     from dloplan.correct.step import ModelUpdate, check_gain, parameter_sds
 
@@ -858,18 +859,27 @@ def test_the_batched_gain_checks_pass_only_what_check_gain_passes():
                            discretization_sd=0.1, correlation=-0.5, log_prior_sd=1.15)
                for _ in range(count)]
     sds = np.array([[parameter_sds(u)[name] for name in NAMES] for u in updates])
-    clear = clear_gains(open_loop, corrected, reference, directions, sds,
-                        np.array([u.correlation for u in updates]), 2.0)
+    correlation = np.array([u.correlation for u in updates])
+    clear = clear_gains(open_loop, corrected, reference, directions, sds, correlation, 2.0)
     assert not clear[0] and clear[1]
-    passed = 0
+    # judged_gains: the same verdicts, and the refusals it words are check_gain's own reasons
+    judged, refusals = judged_gains(open_loop, corrected, reference, directions, sds,
+                                    correlation, 2.0)
+    assert np.array_equal(judged, clear)
+    passed = worded = 0
     for b in range(count):
         try:
             check_gain(open_loop[b], corrected[b], reference,
                        {name: directions[name][b] for name in NAMES}, updates[b], 2.0)
             passed += 1
-        except CorrectionRefused:
+            assert refusals[b] is None
+        except CorrectionRefused as exc:
             assert not clear[b]
+            if refusals[b] is not None:
+                assert refusals[b] == str(exc)
+                worded += 1
     assert 2 <= int(np.sum(clear)) <= passed < count
+    assert worded >= (count - passed) // 2  # the rest: the clamp check's, or near a threshold
 
 
 def test_the_fit_chains_first_solve_at_an_updated_e_starts_from_the_tables_cubic(batch_case):
@@ -913,3 +923,32 @@ def test_the_fit_chains_first_solve_at_an_updated_e_starts_from_the_tables_cubic
            for name, guesses in starts.items()}
     assert np.all(off["cubic"] < 0.1 * off["linear"]), (off["cubic"], off["linear"])
     assert np.sum(runs["cubic"].iterations) < 0.5 * np.sum(runs["linear"].iterations)
+
+
+def test_the_studys_plants_take_one_equilibrium_per_shape_the_two_substeps_equilibria(
+        example_plan):
+    """A study's plants follow the clip poses with one equilibrium per planned shape in both
+    methods (the exact one's plant is the linearized one's, bit for bit: the agreement test),
+    where :class:`Plant` takes two by default: the continuation reaches the same equilibria to
+    the solver's tolerance (residual 1e-10 of the force scale: about 2e-8 m on these chains)
+    for plants stiffer, softer, heavier and longer than the model."""
+    from dloplan.correct import closed_loop_sample
+    from dloplan.correct.linearized import SUBSTEPS
+    from dloplan.correct.plant import Plant, run_closed_loop
+    from dloplan.study.evaluate import perturbed_cable
+
+    assert SUBSTEPS == 1
+    doc = example_plan
+    cable, gravity = doc.cable, (0.0, 0.0, -9.81)
+    for seed, (e, m, length) in enumerate(((3.0, 1.0, 1.0), (0.3, 1.1, 1.0), (1.0, 1.0, 1.02))):
+        plant = perturbed_cable(cable, cable.youngs_modulus * e, cable.mass / cable.length * m,
+                                cable.length * length)
+        runs = {substeps: run_closed_loop(Plant(plant, noise=1e-3, n_measured=200, seed=seed,
+                                                substeps=substeps),
+                                          cable, doc.shapes, doc.grippers, [], gravity=gravity)
+                for substeps in (1, 2)}
+        assert np.max(np.abs(runs[1].open_loop - runs[2].open_loop)) < 1e-8
+        assert abs(runs[1].open_loop_error - runs[2].open_loop_error) < 1e-9
+        row = closed_loop_sample(cable, doc.shapes, doc.grippers, plant, [], noise=1e-3,
+                                 seed=seed, gravity=gravity)
+        assert row["open_loop_error"] == runs[1].open_loop_error  # the study's plant

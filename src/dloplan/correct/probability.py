@@ -25,7 +25,7 @@ from ..study.evaluate import perturbed_cable
 from ..study.sampling import Samples
 from ..study.spec import CorrectionSpec, StudyError
 from ..study.summary import success_interval
-from .linearized import NominalCorrection, linearized_rows, nominal_correction
+from .linearized import SUBSTEPS, NominalCorrection, linearized_rows, nominal_correction
 from .plant import Plant, run_closed_loop
 
 SAMPLE_COLUMNS = {
@@ -60,7 +60,9 @@ def closed_loop_sample(
     gravity=GRAVITY,
     **options,
 ) -> dict:
-    """One sampled cable run open loop and corrected at ``checkpoints``: one row.
+    """One sampled cable run open loop and corrected at ``checkpoints``: one row. The plant
+    follows the clip poses with :data:`~.linearized.SUBSTEPS` equilibria per shape, as the
+    linearized method's (its open loop is this one's, bit for bit).
 
     Parameters
     ----------
@@ -83,7 +85,8 @@ def closed_loop_sample(
         :data:`SAMPLE_COLUMNS`: the final mean errors [m], the number of corrections applied,
         the last updated E [Pa] (NaN without correction) and the refusals' reasons.
     """
-    run = run_closed_loop(Plant(plant_cable, noise=noise, n_measured=n_measured, seed=seed),
+    run = run_closed_loop(Plant(plant_cable, noise=noise, n_measured=n_measured, seed=seed,
+                                substeps=SUBSTEPS),
                           cable, shapes, grippers, checkpoints, stabilized=stabilized,
                           trajectory=trajectory, gravity=gravity, **options)
     return {

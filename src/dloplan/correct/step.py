@@ -1263,12 +1263,7 @@ def check_gain(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarr
     before, after = (float(_mean_distance(x, reference)) for x in (open_loop, corrected))
     spread = _gain_sd(open_loop, corrected, reference, directions, update)
     if before - after <= significance * spread:
-        raise CorrectionRefused(
-            f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm (final "
-            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is within {significance:g} sd "
-            f"of zero ({significance:g} sd = {1e3 * significance * spread:.2f} mm, sd "
-            f"{1e3 * spread:.2f} mm from E, discretization bias, clamp length as estimated): "
-            "the plan is kept")
+        raise CorrectionRefused(gain_refusal(before, after, spread, significance))
     worst, which = _gain_at_clamp_bounds(open_loop, corrected, reference, directions, update,
                                          significance)
     if worst <= 0.0:
@@ -1277,6 +1272,17 @@ def check_gain(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarr
             f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is lost with the clamp length "
             f"{which} off ({1e3 * worst:+.2f} mm: the corrected final error above the open "
             "loop's): the plan is kept")
+
+
+def gain_refusal(before: float, after: float, spread: float, significance: float) -> str:
+    """The reason :func:`check_gain` gives for a predicted gain within ``significance`` sd of
+    zero: the open loop's and the corrected predicted final errors ``before``, ``after`` and
+    the gain's sd ``spread`` [m], printed in mm to two decimals."""
+    return (f"gain: the correction's predicted gain, {1e3 * (before - after):.2f} mm (final "
+            f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is within {significance:g} sd "
+            f"of zero ({significance:g} sd = {1e3 * significance * spread:.2f} mm, sd "
+            f"{1e3 * spread:.2f} mm from E, discretization bias, clamp length as estimated): "
+            "the plan is kept")
 
 
 def _fit_with_bias(cable: Cable, clips: ClipPoses, reference: np.ndarray, guess: np.ndarray,
