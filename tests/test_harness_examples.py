@@ -19,8 +19,8 @@ from dloplan.app import load_job, load_scenario, run_job
 from dloplan.exit_codes import EXIT_FAILURE
 from dloplan.harness import run_harness, verification
 from dloplan.harness.verification import verify_harness_result
-from dloplan.verify.replay import replay
 from dloplan.verify.lowest import eigenvalue_tolerance
+from dloplan.verify.replay import replay
 from dloplan.verify.snap import check_snap_through
 from dloplan.verify.stability import (
     ROUNDOFF_FACTOR,
