@@ -180,11 +180,15 @@ def contact_substeps(cable: Cable, chain: SpringChain, start: np.ndarray, before
     messages : tuple of str
     """
     fractions = np.arange(1, count + 1) / count
-    w = np.concatenate([[0.0], fractions])
-    positions = np.ascontiguousarray((1.0 - w)[:, None, None] * before.positions
-                                     + w[:, None, None] * after.positions)
+    # continuation()'s clip poses (interpolate_clips), row 0 unused: the same arrays, since
+    # numpy's vectorized sines may differ in the last bit with an element's place in the array
+    positions = (1.0 - fractions)[:, None, None] * before.positions \
+        + fractions[:, None, None] * after.positions
     keys = np.stack([before.rotations.as_quat(), after.rotations.as_quat()])
-    quaternions = np.ascontiguousarray(slerp_quaternions(np.array([0.0, 1.0]), keys, w))
+    quaternions = slerp_quaternions(np.array([0.0, 1.0]), keys, fractions)
+    positions = np.concatenate([before.positions[None], positions])
+    quaternions = np.concatenate([keys[:1], quaternions])
+    stops = None  # the ClipPoses, made when a sub-step is handed back
     shapes = np.empty((count + 1, cable.n_points, 3))
     shapes[0] = start
     messages = [""] * (count + 1)
@@ -207,8 +211,9 @@ def contact_substeps(cable: Cable, chain: SpringChain, start: np.ndarray, before
                                    float(limits[k]))
         j = done + 1
         if j <= count:  # handed back: equilibrium() solves it (or raises as it does)
-            stop = interpolate_clips(before, after, fractions[j - 1:j])[0]
-            eq = equilibrium(cable, shapes[j - 1], stop, gravity=chain.gravity, chain=chain)
+            stops = stops or interpolate_clips(before, after, fractions)
+            eq = equilibrium(cable, shapes[j - 1], stops[j - 1], gravity=chain.gravity,
+                             chain=chain)
             shapes[j], messages[j] = eq.shape, eq.message
             j += 1
     return shapes[1:], tuple(messages[1:])
