@@ -10,7 +10,7 @@ from dloplan.cable import catalogue_cable
 from dloplan.obstacles import Cylinder, Table
 from dloplan.physics.chain import SpringChain
 from dloplan.sim.clips import ClipPoses
-from dloplan.sim.contact_path import PAIRWISE_BLOCK, _numpy_sum, contact_substeps
+from dloplan.sim.contact_path import PAIRWISE_BLOCK, pairwise_sum, contact_substeps
 from dloplan.sim.statics import continuation, equilibrium
 
 TURN = Rotation.from_euler("z", [[0.0], [180.0]], degrees=True)
@@ -67,9 +67,9 @@ def test_clips_beyond_the_reach_are_refused_as_equilibrium_refuses_them():
 
 
 def test_the_energys_sum_is_numpys(rng):
-    """:func:`_numpy_sum` adds as numpy's pairwise summation does, bit for bit, for every
+    """:func:`pairwise_sum` adds as numpy's pairwise summation does, bit for bit, for every
     length up to :data:`PAIRWISE_BLOCK` (values spanning 16 decades, so the order shows)."""
     for n in range(1, PAIRWISE_BLOCK + 1):
         for _ in range(20):
             a = rng.normal(size=n) ** 2 * 10.0 ** rng.integers(-8, 8, size=n)
-            assert _numpy_sum(a, n) == np.sum(a)
+            assert pairwise_sum(a, n) == np.sum(a)

@@ -10,7 +10,7 @@ one compiled loop that does, sub-step by sub-step, what ``equilibrium`` does wit
 the default tolerance: the held points from the clip poses, the reach test, the guess conformed
 (:func:`~dloplan.physics.compiled.conform_free_part`), the residual tolerance with its round-off
 floor, the start's energy (the chain's, plus the penalty's summed per obstacle as numpy sums
-it: :func:`_numpy_sum`), the trust-region Newton loop from the same trust radius. The same
+it: :func:`pairwise_sum`), the trust-region Newton loop from the same trust radius. The same
 kernels in the same order: every shape bit for bit ``equilibrium``'s (tested), and its message.
 
 A sub-step whose Newton loop stops at a saddle (the escape along the lowest mode uses LAPACK's
@@ -39,7 +39,7 @@ from .result import DEFAULT_RTOL, EPS, ROUNDOFF, force_scale, stiffest
 from .statics import equilibrium, interpolate_clips
 
 PAIRWISE_BLOCK = 128
-"""Longest array :func:`_numpy_sum` sums as numpy does (numpy's pairwise summation splits
+"""Longest array :func:`pairwise_sum` sums as numpy does (numpy's pairwise summation splits
 longer ones): a chain with more points is solved by ``equilibrium`` itself."""
 
 _EDGE = 1e-9  # relative margin of the compiled reach test: closer calls go to equilibrium()
@@ -51,7 +51,7 @@ _OUTCOMES = {CONVERGED: "converged", MAX_ITERATIONS: "max_iterations", STALLED: 
 
 
 @njit(cache=True)
-def _numpy_sum(a, n):
+def pairwise_sum(a, n):
     """The sum of a[:n] (n <= :data:`PAIRWISE_BLOCK`) in numpy's order (``np.add.reduce`` of a
     contiguous array: eight partial sums for n >= 8, then the rest one by one)."""
     if n < 8:
@@ -143,7 +143,7 @@ def continue_contacts(shapes, positions, quaternions, constants, rows, radius, s
             for i in range(n_points):
                 depth = max(radius - phi[k, i], 0.0)
                 squares[i] = depth * depth
-            contact = contact + 0.5 * stiffness * _numpy_sum(squares, n_points)
+            contact = contact + 0.5 * stiffness * pairwise_sum(squares, n_points)
         history[0] = chain_energy(x, *constants) + contact
         outcome, done, residual, _, _ = newton_contacts(
             x, np.int64(2), n_points - 2, constants, rows, radius, stiffness, max_step, limit,
@@ -227,4 +227,5 @@ def _message(status: int, iterations: int, residual: float, limit: float) -> str
     return message
 
 
-__all__ = ["PAIRWISE_BLOCK", "contact_substeps", "continue_contacts"]
+__all__ = ["MAX_NEWTON", "PAIRWISE_BLOCK", "contact_substeps", "continue_contacts",
+           "pairwise_sum"]
