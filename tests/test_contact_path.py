@@ -10,7 +10,7 @@ from dloplan.cable import catalogue_cable
 from dloplan.obstacles import Cylinder, Table
 from dloplan.physics.chain import SpringChain
 from dloplan.sim.clips import ClipPoses
-from dloplan.sim.contact_path import PAIRWISE_BLOCK, pairwise_sum, contact_substeps
+from dloplan.sim.contact_path import PAIRWISE_BLOCK, contact_substeps, pairwise_sum
 from dloplan.sim.statics import continuation, equilibrium
 
 TURN = Rotation.from_euler("z", [[0.0], [180.0]], degrees=True)
