@@ -86,12 +86,10 @@ def continue_contacts(shapes, positions, quaternions, constants, rows, radius, s
         equilibria.
     positions, quaternions : numpy.ndarray
         (m + 1, 2, 3) clip points [m] and (m + 1, 2, 4) unit quaternions (x, y, z, w).
-    constants : tuple
-        The chain's constants (:attr:`dloplan.physics.chain.SpringChain.constants`).
-    rows : numpy.ndarray
-        (K, 8) the obstacles' contact rows.
-    radius, stiffness : float
-        The cable's radius [m] and the penalty stiffness k_c [N/m].
+    constants, rows, radius, stiffness
+        The chain's constants, the obstacles' contact rows (K, 8), the cable's radius [m] and
+        the penalty stiffness [N/m], as :func:`~dloplan.sim.contact_newton.newton_contacts`
+        takes them.
     link, length : float
         l and L [m].
     tolerance, roundoff, stiff : float
