@@ -26,7 +26,7 @@ from dloplan.physics.contact_compiled import point_distance, push_out, signed_di
 from dloplan.sim.clips import ClipPoses
 from dloplan.sim.dynamics import ClipTrajectory, simulate
 from dloplan.sim.statics import equilibrium
-from dloplan.verify.contacts import contact_states
+from dloplan.verify.contacts import BoardContacts, contact_states
 from dloplan.verify.stability import constrained_hessian, elastic_stability
 
 OBSTACLES = (Box((0.1, 0.0, 0.05), (0.08, 0.12, 0.1), 0.4, "box"),
@@ -83,6 +83,38 @@ def test_the_contact_blocks_are_the_derivative_of_the_contact_gradient(rng):
     exact = contact_hessian_blocks(points, OBSTACLES, radius, k_c)
     numeric = _central(lambda p: contact_gradient(p, OBSTACLES, radius, k_c), points, 1e-7)
     assert np.abs(exact - numeric).max() < 1e-6 * k_c * 100
+
+
+class _Counted:
+    """An obstacle that records how many points its distance Hessian was asked at."""
+
+    def __init__(self, obstacle):
+        self.obstacle, self.name, self.asked = obstacle, obstacle.name, 0
+
+    def signed_distance(self, points):
+        return self.obstacle.signed_distance(points)
+
+    def distance_hessian(self, points):
+        self.asked += int(np.prod(points.shape[:-1]))
+        return self.obstacle.distance_hessian(points)
+
+
+def test_the_boards_penalty_of_many_shapes_is_each_shapes_own_curvature_at_pressing_points(rng):
+    """BoardContacts.at of M shapes, a stiffness per shape: its blocks are
+    contact_hessian_blocks of each shape bit for bit, and the obstacles' curvatures are taken at
+    the pressing points only (the others' blocks are zero)."""
+    radius, stiffness = 0.0015, np.array([1e4, 3e4, 2e4])
+    near = [np.asarray(c) + 0.004 * rng.normal(size=(3, 12, 3))
+            for c in ((0.1, 0.065, 0.05), (0.0, 0.013, 0.03), (0.05, 0.05, 0.001))]
+    shapes = np.concatenate(near + [np.full((3, 4, 3), 0.5)], axis=1)  # 4 points clear
+    counted = tuple(_Counted(o) for o in OBSTACLES)
+    board = BoardContacts.at(shapes, counted, radius, stiffness)
+    for b, x in enumerate(shapes):
+        assert np.array_equal(board.blocks[b],
+                              contact_hessian_blocks(x, OBSTACLES, radius, stiffness[b]))
+    pressing = [(radius - o.signed_distance(shapes)[0] > 0).sum() for o in OBSTACLES]
+    assert [c.asked for c in counted] == pressing
+    assert 0 < sum(pressing) < len(OBSTACLES) * shapes.shape[0] * shapes.shape[1]
 
 
 def test_the_compiled_distances_are_the_volumes_own(rng):

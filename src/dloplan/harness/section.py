@@ -20,8 +20,10 @@ import numpy as np
 
 from ..cable import Cable
 from ..geometry import arc_length, as_shape, resample_by_arc_length
+from ..physics.chain import SpringChain
 from ..sim.clips import ClipPoses, clip_poses_from_shape
-from ..sim.statics import continuation
+from ..sim.contact_path import contact_substeps
+from ..sim.statics import equilibrium
 from ..verify.snap import clip_motion
 
 FOLLOW_STEP = 0.005
@@ -107,23 +109,24 @@ class Followed:
 def follow_path(section: Cable, start, clips, contacts, gravity) -> Followed:
     """The section's equilibria at every clip pose of ``clips``: the first settled from
     ``start``, each next one reached from the one before by a quasi-static continuation
-    (:func:`dloplan.sim.statics.continuation`, its sub-steps kept) in sub-steps of at most
+    (:func:`dloplan.sim.statics.continuation`'s, its sub-steps kept, solved in one compiled
+    loop per move: :func:`dloplan.sim.contact_path.contact_substeps`) in sub-steps of at most
     :data:`FOLLOW_STEP` times the section's length of clip motion, started from the
     equilibrium at the move's first pose solved again (where Newton stalled short of its
     tolerance at a contact's kink, this moves it)."""
     poses = list(clips)
-    x = continuation(section, as_shape(start, section.n_points, "start"), poses[:1],
-                     gravity=gravity, contacts=contacts)[0].shape
+    chain = SpringChain.from_cable(section, gravity, contacts)
+    x = equilibrium(section, as_shape(start, section.n_points, "start"), poses[0],
+                    gravity=gravity, chain=chain).shape
     shapes, moves = [x], []
     for before, pose in zip(poses[:-1], poses[1:], strict=True):
         motion = clip_motion(before, pose, section.length)
         count = max(1, math.ceil(motion / (FOLLOW_STEP * section.length)))
-        (settled,), steps = continuation(section, x, [before, pose], substeps=count,
-                                         gravity=gravity, contacts=contacts, every_substep=True)
-        x = steps[-1].shape
+        settled = equilibrium(section, x, before, gravity=gravity, chain=chain).shape
+        steps, messages = contact_substeps(section, chain, settled, before, pose, count)
+        x = steps[-1]
         shapes.append(x)
-        moves.append((np.stack([settled.shape] + [eq.shape for eq in steps]),
-                      ("",) + tuple(eq.message for eq in steps)))
+        moves.append((np.concatenate([settled[None], steps]), ("", *messages)))
     return Followed(np.stack(shapes), tuple(moves))
 
 

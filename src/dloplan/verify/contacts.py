@@ -109,10 +109,12 @@ class BoardContacts:
             phi, normal = obstacle.signed_distance(x)
             depth = radius - phi
             gradient -= k_c[:, None, None] * np.maximum(depth, 0.0)[..., None] * normal
-            block = k_c[:, None, None, None] * (normal[..., :, None] * normal[..., None, :]
-                                                - depth[..., None, None]
-                                                * obstacle.distance_hessian(x))
-            blocks += np.where((depth > 0)[..., None, None], block, 0.0)
+            pressing = depth > 0  # the blocks of the pressing points alone: the others are 0
+            if pressing.any():
+                n, d = normal[pressing], depth[pressing][:, None, None]
+                blocks[pressing] += np.broadcast_to(k_c[:, None], pressing.shape)[pressing][
+                    :, None, None] * (n[:, :, None] * n[:, None, :]
+                                      - d * obstacle.distance_hessian(x[pressing]))
             depths.append(depth)
             normals.append(normal)
         names = tuple(str(getattr(c, "name", type(c).__name__)) for c in contacts)

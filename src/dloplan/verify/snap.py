@@ -315,7 +315,8 @@ class _Segment:
         self.contacts = tuple(contacts)
         self.start, self.end = start, end
         self._clips: dict[float, ClipPoses] = {}
-        self._chains: dict[float, tuple[Cable, SpringChain]] = {}
+        self._cables: dict[float, Cable] = {}
+        self._chains: dict[int, SpringChain] = {}  # per cable object (kept in _cables)
 
     def prepare(self, fractions: np.ndarray) -> None:
         """Interpolate the clips at all sub-step fractions at once (Rotation calls are slow)."""
@@ -328,16 +329,23 @@ class _Segment:
             self._clips[t] = interpolate_clips(self.start, self.end, [t])[0]
         return self._clips[t]
 
-    def model(self, t: float) -> tuple[Cable, SpringChain]:
-        """The cable at fraction t and its chain (with the contacts)."""
+    def cable(self, t: float) -> Cable:
+        """The cable at fraction t (one object for every t along a segment of one cable)."""
         t = float(t)
-        if t not in self._chains:
-            cable = interpolate_cable(*self.cables, t)
-            self._chains[t] = cable, SpringChain.from_cable(cable, self.gravity, self.contacts)
-        return self._chains[t]
+        if t not in self._cables:
+            self._cables[t] = interpolate_cable(*self.cables, t)
+        return self._cables[t]
+
+    def model(self, t: float) -> tuple[Cable, SpringChain]:
+        """The cable at fraction t and its chain (with the contacts), built when a sub-step is
+        solved here (not for the sub-steps given solved, whose stability needs the cable only)."""
+        cable = self.cable(t)
+        if id(cable) not in self._chains:
+            self._chains[id(cable)] = SpringChain.from_cable(cable, self.gravity, self.contacts)
+        return cable, self._chains[id(cable)]
 
     def stability(self, x: np.ndarray, t: float):
-        cable = self.model(t)[0]
+        cable = self.cable(t)
         return elastic_stability(cable, x, gravity=self.gravity, k=1, rtol=self.rtol,
                                  method=quickest_method(cable.n_points), contacts=self.contacts)
 
@@ -357,7 +365,7 @@ class _Segment:
         sub-step's smallest eigenpairs followed from the one before where the banded solver is
         the quickest (``method="follow"``: the verdicts of the banded solve, its eigenvalues to
         round-off)."""
-        cables = [self.model(t)[0] for t in fractions]
+        cables = [self.cable(t) for t in fractions]
         method = quickest_method(cables[0].n_points)
         return elastic_stabilities(cables, shapes, gravity=self.gravity, k=1, rtol=self.rtol,
                                    method="follow" if method == "band" else method,
@@ -365,7 +373,7 @@ class _Segment:
 
     def forcing(self, t0: float, t1: float) -> float:
         """Clip motion plus the change of the held length between fractions t0 and t1 [m]."""
-        a, b = self.model(t0)[0], self.model(t1)[0]
+        a, b = self.cable(t0), self.cable(t1)
         held = abs((b.length - b.rest_link_length) - (a.length - a.rest_link_length))
         return clip_motion(self.clips(t0), self.clips(t1), self.cables[0].length) + held
 
@@ -389,7 +397,7 @@ class _Segment:
         out = np.max(shift + self.cables[0].length * np.arccos(cos), axis=1)
         if self.cables[0] is not self.cables[1]:
             held = np.array([c.length - c.rest_link_length
-                             for c in (self.model(t)[0] for t in fractions)])
+                             for c in (self.cable(t) for t in fractions)])
             out += np.abs(np.diff(held))
         return out
 

@@ -453,14 +453,16 @@ def elastic_stabilities(
         raise ValueError(f"k: got {k!r}, method 'follow' finds the smallest eigenpair only (k=1)")
     contacts = tuple(contacts)
     chains: dict[int, SpringChain] = {}
+    forces: dict[int, float] = {}  # force_scale per cable
     for cable in cables:
         if id(cable) not in chains:
             chains[id(cable)] = SpringChain.from_cable(cable, gravity)
+            forces[id(cable)] = force_scale(cable, gravity)
     board = BoardContacts.at(x, contacts, cables[0].diameter / 2,
                              [chains[id(c)].contact_stiffness for c in cables])
     followed = _Followed() if method == "follow" else None
-    return tuple(_judged(cable, chains[id(cable)], shape, board, b, gravity, int(k), rtol,
-                         equilibrium_rtol, method, followed)
+    return tuple(_judged(cable, chains[id(cable)], shape, board, b, forces[id(cable)], int(k),
+                         rtol, equilibrium_rtol, method, followed)
                  for b, (cable, shape) in enumerate(zip(cables, x, strict=True)))
 
 
@@ -493,15 +495,16 @@ class _Followed:
 
 
 def _judged(cable: Cable, chain: SpringChain, x: np.ndarray, board: BoardContacts, b: int,
-            gravity, k: int, rtol: float, equilibrium_rtol: float, method: str,
+            force: float, k: int, rtol: float, equilibrium_rtol: float, method: str,
             followed: _Followed | None = None) -> Stability:
-    """The :class:`Stability` of shape ``x``, shape b of ``board`` (:func:`elastic_stability`);
+    """The :class:`Stability` of shape ``x``, shape b of ``board`` (:func:`elastic_stability`;
+    ``force`` [N] the cable's :func:`~dloplan.sim.statics.force_scale` under the gravity);
     ``followed``: the previous shape's eigenpairs (``method="follow"``)."""
     grad, band = _free_derivatives(chain, x, board, b)
     residual = 0.0
     if cable.n_points > 4:
         residual = float(np.max(np.linalg.norm(grad[2:-2], axis=1)))
-    is_equilibrium = residual <= equilibrium_rtol * force_scale(cable, gravity)
+    is_equilibrium = residual <= equilibrium_rtol * force
     scale = stiffness_scale(cable)
     states = board.states(b) if board.names else ()
     n_dof = 3 * max(cable.n_points - 4, 0)
@@ -541,7 +544,7 @@ def _judged(cable: Cable, chain: SpringChain, x: np.ndarray, board: BoardContact
     summary = f"lambda_1 = {values[0]:.4g} N/m ({values[0] / scale:.4g} lambda_ref)"
     if not is_equilibrium:
         message = (f"not an equilibrium: a free point carries a net force of {residual:.3g} N "
-                   f"(tolerance {equilibrium_rtol * force_scale(cable, gravity):.3g} N); {summary}")
+                   f"(tolerance {equilibrium_rtol * force:.3g} N); {summary}")
     elif positive:
         message = f"stable: {summary}"
     elif sticking > threshold:
