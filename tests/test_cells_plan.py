@@ -179,6 +179,12 @@ BAD_CELLS = [
      "pose within the description's joint limits"),
     ({"cell": {"arms": {side: {**PANDA_ARM, "colour": "red"} for side in ("left", "right")}}},
      "robot.cell.arms.left: unknown key 'colour'"),
+    # a preset's tcp_offset as a vector was numpy's "setting an array element with a
+    # sequence" naming no field; separation: true planned with the bases 1 m apart
+    ({"cell": {"preset": "ur5e_pair", "tcp_offset": [0, 0, 0.15]}},
+     "robot.cell.tcp_offset: got [0, 0, 0.15], expected one finite number"),
+    ({"cell": {"preset": "ur5e_pair", "separation": True}},
+     "robot.cell.separation: got True, expected one finite number"),
 ]
 
 

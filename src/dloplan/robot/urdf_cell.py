@@ -398,6 +398,12 @@ def cell_from_mapping(data: dict, folder=".", scale: float = 1.0) -> DescribedCe
         if set(settings) - allowed:
             raise ValueError(f"robot.cell: got {sorted(set(settings) - allowed)} for preset "
                              f"{data['preset']!r}, expected some of {sorted(allowed)}")
+        for key, value in data.items():  # a preset's settings are lengths, one number each
+            if key != "preset" and (isinstance(value, bool) or not isinstance(value, int | float)
+                                    or not np.isfinite(value)):
+                raise ValueError(f"robot.cell.{key}: got {value!r}, expected one finite number "
+                                 f"[file units] (a setting of preset {data['preset']!r}; a "
+                                 "vector or another pose needs `arms:`, docs/cells.md)")
         try:
             return make(**settings)
         except TypeError as exc:
