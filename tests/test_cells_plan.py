@@ -185,6 +185,8 @@ BAD_CELLS = [
      "robot.cell.tcp_offset: got [0, 0, 0.15], expected one finite number"),
     ({"cell": {"preset": "ur5e_pair", "separation": True}},
      "robot.cell.separation: got True, expected one finite number"),
+    ({"cell": {"arms": {"left": PANDA_ARM}}},
+     "robot.cell.arms: got ['left'], expected the two arms ['left', 'right']"),
 ]
 
 

@@ -409,7 +409,10 @@ def cell_from_mapping(data: dict, folder=".", scale: float = 1.0) -> DescribedCe
         except TypeError as exc:
             raise ValueError(f"robot.cell: preset {data['preset']!r}: {exc}") from None
     arms = data.get("arms")
-    if not isinstance(arms, dict) or set(arms) != set(ARMS):
+    if isinstance(arms, dict) and set(arms) != set(ARMS):
+        raise ValueError(f"robot.cell.arms: got {sorted(arms)}, expected the two arms "
+                         f"{list(ARMS)}")
+    if not isinstance(arms, dict):
         raise ValueError(f"robot.cell: expected `preset` or `arms` with keys {ARMS}, got "
                          f"{sorted(data)}")
     unknown = set(data) - {"arms", "table_height", "name"}
