@@ -234,6 +234,14 @@ def test_calibrate_and_register_from_the_command_line(tmp_path, capsys):
     (shape,) = read_shapes(tmp_path / "shapes.csv")
     assert shape.frame_id == "robot_base"
     assert distance_to_curve(shape.points, cable).max() < 1e-3
+    # --start-near: the shape starts at the end nearer the point (the plan's first clip, so
+    # that `correct` takes it as it comes; the default starts at the image's left)
+    ends = [np.linalg.norm(shape.points[0, :2] - cable[k, :2]) for k in (0, -1)]
+    far = cable[int(np.argmin(ends)) - 1]  # the drawn end the default shape does not start at
+    assert run("register", "scene.png", "--calibration", "cal.json", *hsv, "--start-near",
+               ",".join(f"{v:g}" for v in far), "-o", "turned.csv")[0] == 0
+    (turned,) = read_shapes(tmp_path / "turned.csv")
+    np.testing.assert_allclose(turned.points, shape.points[::-1], atol=2e-3)
     for args, fragment in (
             (("big.png", "--calibration", "cal.json"), "big.png: got 1280 x 960 px, expected "
              "640 x 480 px"),

@@ -206,6 +206,18 @@ def finite_number(text: str) -> float:
     return value
 
 
+def point(text: str) -> tuple[float, float, float]:
+    """``X,Y,Z`` as a point: three finite numbers."""
+    try:
+        values = tuple(finite_number(v) for v in text.split(","))
+    except argparse.ArgumentTypeError:
+        values = ()
+    if len(values) != 3:
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected X,Y,Z (three finite numbers "
+                                         "[m])")
+    return values
+
+
 def integer(low: int, high: int | None = None):
     """The type of an integer option in ``low..high`` (bounds of :mod:`dloplan.bounds`)."""
     expected = f"an integer >= {low}" if high is None else f"an integer in {low}..{high}"
@@ -541,7 +553,7 @@ def _cmd_register(args: argparse.Namespace) -> int:
     colour = HsvRange(*args.hsv)
     shapes = [register_on_plane(calibration.intrinsics.check_image(read_image(path), str(path)),
                                 calibration, colour, args.links + 1, args.height,
-                                label=f"xi_{k}")
+                                start_near=args.start_near, label=f"xi_{k}")
               for k, path in enumerate(args.images)]
     write_shapes(args.output, shapes)
     print(json_text({"output": str(args.output), "shapes": [
@@ -1054,6 +1066,9 @@ def build_parser() -> argparse.ArgumentParser:
                           help="n: shapes get n + 1 points")
     register.add_argument("--height", type=finite_number, default=0.0,
                           help="plane height z [m]")
+    register.add_argument("--start-near", type=point, metavar="X,Y,Z",
+                          help="each shape starts at the cable end nearer this point [m] (e.g. "
+                          "the plan's first clip; default: the end at the image's left)")
     register.add_argument("-o", "--output", required=True, help="shapes .csv or .json")
     return parser
 
