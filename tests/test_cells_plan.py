@@ -187,6 +187,11 @@ BAD_CELLS = [
      "robot.cell.separation: got True, expected one finite number"),
     ({"cell": {"arms": {"left": PANDA_ARM}}},
      "robot.cell.arms: got ['left'], expected the two arms ['left', 'right']"),
+    # both arms on one spot were planned and failed reach, limits and accelerations (exit 3)
+    ({"cell": {"arms": {side: {**PANDA_ARM, "base_position": [0, -0.5, 0]}
+                        for side in ("left", "right")}}},
+     "robot.cell.arms: both arms are the chain to 'panda_hand' at base_position [0.0, -0.5, "
+     "0.0]: one arm in the other's place"),
 ]
 
 

@@ -279,6 +279,13 @@ def cell_from_specs(name: str, left: ArmSpec, right: ArmSpec, *,
                             tcp_offset=spec.tcp_offset, tool_radius=spec.tool_radius,
                             home=spec.home, tcp_in_clip=_cable_along(spec.cable_along, side),
                             max_acceleration=spec.max_acceleration))
+    if (left.urdf, left.tip_link, left.base_link, tuple(left.base_position),
+            tuple(left.base_rpy)) == (right.urdf, right.tip_link, right.base_link,
+                                      tuple(right.base_position), tuple(right.base_rpy)):
+        raise ValueError(f"robot.cell.arms: both arms are the chain to {left.tip_link!r} at "
+                         f"base_position {list(left.base_position)}: one arm in the other's "
+                         "place; expected two arms apart (base_position) or two chains of one "
+                         "description (tip_link)")
     shared = (left.urdf == right.urdf and left.base_link == right.base_link
               and tuple(left.base_position) == tuple(right.base_position)
               and tuple(left.base_rpy) == tuple(right.base_rpy))
