@@ -160,6 +160,8 @@ def test_scenario_cell_resolves_in_any_units_and_by_paths(tmp_path):
         np.testing.assert_allclose(r_got.as_matrix(), r_want.as_matrix(), atol=1e-12)
 
 
+PANDA_ARM = {"urdf": str(Path(__file__).parents[1] / "src" / "dloplan" / "robot" / "data" /
+                        "panda.urdf"), "base_link": "panda_link0", "tip_link": "panda_hand"}
 BAD_CELLS = [
     ({"cell": {"preset": "ur10_pair"}}, "robot.cell.preset: got 'ur10_pair'"),
     ({"cell": {"preset": "ur5e_pair", "separation": -0.8}}, "robot.cell.separation: got -0.8"),
@@ -169,6 +171,27 @@ BAD_CELLS = [
     ({"cell": {"preset": "panda_pair"}, "programs": ["urscript"]},
      "robot.programs: got 'urscript'"),
     ({"cell": {"preset": "ur5e_pair"}, "wobj": "w"}, "robot.wobj"),
+    # round 7: a home pose outside the description's limits was two lines of radians (numpy's
+    # array print) naming no field; an unknown arm key was listed among every key given
+    ({"cell": {"arms": {side: {**PANDA_ARM, "home_deg": [0, -45, 0, 0, 0, 90, 45]}
+                        for side in ("left", "right")}}},
+     "robot.cell.arms.left.home_deg: joint 4 0 deg not in [-176, -3.999]; expected a home "
+     "pose within the description's joint limits"),
+    ({"cell": {"arms": {side: {**PANDA_ARM, "colour": "red"} for side in ("left", "right")}}},
+     "robot.cell.arms.left: unknown key 'colour'"),
+    # a preset's tcp_offset as a vector was numpy's "setting an array element with a
+    # sequence" naming no field; separation: true planned with the bases 1 m apart
+    ({"cell": {"preset": "ur5e_pair", "tcp_offset": [0, 0, 0.15]}},
+     "robot.cell.tcp_offset: got [0, 0, 0.15], expected one finite number"),
+    ({"cell": {"preset": "ur5e_pair", "separation": True}},
+     "robot.cell.separation: got True, expected one finite number"),
+    ({"cell": {"arms": {"left": PANDA_ARM}}},
+     "robot.cell.arms: got ['left'], expected the two arms ['left', 'right']"),
+    # both arms on one spot were planned and failed reach, limits and accelerations (exit 3)
+    ({"cell": {"arms": {side: {**PANDA_ARM, "base_position": [0, -0.5, 0]}
+                        for side in ("left", "right")}}},
+     "robot.cell.arms: both arms are the chain to 'panda_hand' at base_position [0.0, -0.5, "
+     "0.0]: one arm in the other's place"),
 ]
 
 

@@ -439,11 +439,17 @@ def test_compare_a_plan_with_shifted_registered_shapes(tmp_path, capsys):
                for k, s in enumerate(doc.shapes)]
     write_shapes(tmp_path / "trial.csv", shifted)
     code = main(["compare", str(out / "plan.json"), str(tmp_path / "trial.csv"),
-                 "-o", str(tmp_path / "cmp"), "--json", "-q"])
+                 "-o", str(tmp_path / "cmp"), "--json", "-q", "--svg"])
     rows = json.loads(capsys.readouterr().out)["rows"]
     assert code == EXIT_OK
     assert rows[-1][0] == "all" and rows[-1][5] == pytest.approx(0.005, abs=1e-6)
     assert (tmp_path / "cmp" / "report.html").exists()
+    # --svg end to end (its writer is tested alone in test_compare.py): each figure as PNG
+    # and SVG, nothing else
+    figures = sorted(p.name for p in (tmp_path / "cmp").iterdir() if p.suffix != ".html")
+    assert figures == ["registered_shapes.png", "registered_shapes.svg", "shape_errors.png",
+                       "shape_errors.svg"]
+    assert "<svg" in (tmp_path / "cmp" / "shape_errors.svg").read_text()
 
 
 def test_simulate_and_verify_a_plan(tmp_path, capsys):

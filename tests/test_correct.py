@@ -434,6 +434,12 @@ def test_dloplan_correct_writes_the_corrected_plan_program_and_report(plans, tmp
     rows = (out / "trajectory.csv").read_text().splitlines()
     assert len(rows) > 3
     assert "open-loop" in (out / "correction.txt").read_text()
+    # its report says that it is a corrected plan, where and how (it read as the plan it
+    # corrects: the title, E and every line the plan's own)
+    assert main(["export", str(out / "plan.json"), "--format", "report", "-o",
+                 str(tmp_path / "report.html"), "-q"]) == 0
+    html = (tmp_path / "report.html").read_text()
+    assert "dloplan corrected plan:" in html and f"corrected at shape {at}: E" in html
     # the clips fitted on the refined chain (the default: 60 links at n = 20), said so; the
     # plan's own chain when asked (--fit-links 20); a count not a multiple of n is refused
     assert report["fit_links"] == 60

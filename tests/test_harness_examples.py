@@ -292,3 +292,36 @@ def test_fixtures_closer_than_the_grippers_allow_are_refused_before_planning(tmp
     assert errors[1].startswith("harness.fixtures (where the insertion ends: their slots")
     assert main(["check", str(EXAMPLES / "harness_usb.yaml"), "-q"]) == 0
     assert capsys.readouterr().out.startswith("ok      board: fixtures within reach")
+
+
+@pytest.mark.parametrize("name", ["harness_usb", "harness_pu"])
+def test_fixtures_in_the_other_order_than_the_start_s_ends_are_refused_before_planning(
+        name, tmp_path, capsys):
+    """Each job with its two fixtures swapped (the first fixture on the cell's left, the
+    cable's first end held on its right at the start): every clip route swaps the ends, so the
+    arms would cross. The USB job exited 2 with the library's "clips: the two clip points
+    coincide (distance 1.39e-17 m)" (phase 1's taut approach moved the clips through each
+    other), PU and Ethernet were planned and failed the robot's assignment check (exit 3); now
+    `plan` and `check` refuse them before planning, naming the fields (exit 2, nothing
+    written)."""
+    import yaml
+
+    from dloplan.cli import main
+
+    data = yaml.safe_load((EXAMPLES / f"{name}.yaml").read_text())
+    first, second = data["harness"]["fixtures"]
+    for key in ("position", "axis"):
+        first[key], second[key] = second[key], first[key]
+    path = tmp_path / "swapped.yaml"
+    path.write_text(yaml.safe_dump(data))
+    assert main(["plan", str(path), "-q", "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert ("harness.fixtures: the start holds the cable's first end on the cell's right "
+            "(y -0.225 m, its last end +0.225 m), but it goes to fixture 'fixture_right' "
+            "(harness.fixtures[0]) on the left (y +0.150 m") in err
+    assert "expected the first fixture on the side of the start's first end" in err
+    assert "coincide" not in err and "Traceback" not in err
+    assert not (tmp_path / "out").exists()
+    assert main(["check", str(path), "-q", "--json"]) == EXIT_FAILURE
+    findings = json.loads(capsys.readouterr().out)["findings"]
+    assert [f["subject"] for f in findings if f["level"] == "error"] == ["ends' sides"]

@@ -75,6 +75,26 @@ def test_design_recommends_a_cantilever_for_a_stiff_hose(capsys):
     assert "recommended: cantilever" in out
 
 
+def test_design_refuses_a_figure_and_the_identification_refuses_the_design_s_options(
+        tmp_path, capsys):
+    """``identify --design -o D --svg`` printed the table and wrote nothing (the design draws
+    no figure), and ``identify FILE --cable usb --noise 5`` identified with the file's cable
+    and noise: both silently ignored what was asked. Both are refused (exit 2, naming the
+    options), before anything is scored or simulated."""
+    out = tmp_path / "design"
+    for options in (["-o", str(out), "--svg"], ["--svg"], ["-o", str(out)]):
+        assert main(["identify", "--design", "--cable", "usb", "-q", *options]) == EXIT_FAILURE
+        err = capsys.readouterr().err
+        given = " and ".join(o for o in options if o.startswith("-"))
+        assert f"{given}: identify --design draws no figure" in err
+        assert f"expected {given} without --design" in err
+    assert not out.exists()
+    example = Path(__file__).parents[1] / "examples" / "identify_ethernet.yaml"
+    code = main(["identify", str(example), "--cable", "usb", "--noise", "5", "-q"])
+    assert code == EXIT_FAILURE
+    assert "--cable, --noise: options of identify --design" in capsys.readouterr().err
+
+
 def test_design_scores_agree_with_the_physics_of_soft_and_stiff_cables():
     # a hose clamped at both ends barely sags: every two-clip design is flat; a soft cable is
     # identified best by a two-clip design that makes it bend near the clips (thesis Fig. 6.3)

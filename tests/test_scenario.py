@@ -112,6 +112,58 @@ def test_json_schema_takes_every_kind_of_job_file_the_loader_takes():
         resolve_mapping(mixed, "mixed")
 
 
+def _harness_with(path: str, value):
+    """harness_usb.yaml with the dotted ``path`` set to ``value`` (digits index lists)."""
+    import yaml
+
+    data = yaml.safe_load((Path(__file__).parents[1] / "examples" / "harness_usb.yaml")
+                          .read_text())
+    *keys, last = [int(k) if k.isdigit() else k for k in path.split(".")]
+    node = data
+    for key in keys:
+        node = node[key]
+    node[last] = value
+    return data
+
+
+EDGES = [
+    (_harness_with("harness.n_shapes", [0, 4]), False),
+    (_harness_with("harness.n_shapes", [4, 501]), False),
+    (_harness_with("harness.n_shapes", [1, 500]), True),
+    (_harness_with("cable.n_links", "10"), True),
+    (_harness_with("cable.n_links", 10.0), True),
+    (_harness_with("cable.n_links", True), False),
+    (_harness_with("cable.youngs_modulus", "2.5e6"), True),
+    (_harness_with("harness.approach_height", "0.08"), True),
+    (_harness_with("harness.approach_height", "ten"), False),
+    (_harness_with("harness.fixtures.0.depth", True), False),
+    (with_("cable.n_links", "12"), True),
+    (with_("cable.n_links", "12.5"), False),
+    (with_("cable.length", "1.0e-1"), True),
+    (with_("trajectory.tcp_speed", True), False),
+    (with_("start.placement.position", [True, 0, 0]), False),
+    (with_("planner.n_shapes", "4"), True),
+]
+
+
+@pytest.mark.parametrize("data, valid", EDGES)
+def test_the_schema_and_the_loader_agree_on_edge_values(data, valid):
+    """The schema and the loader took different files: harness ``n_shapes: [0, 4]`` passed
+    the schema (its items had no bounds) and the loader refused it; ``n_links: '10'`` loaded
+    (pydantic converts numbers written as text, as PyYAML reads ``2.5e6``) and the schema
+    refused it; ``tcp_speed: yes`` (YAML's boolean) loaded as 1 m/s. Each edge value now gets
+    one answer from both (the bounds of a number written as text are the loader's alone)."""
+    jsonschema = pytest.importorskip("jsonschema")
+    from dloplan.app.load import resolve_mapping
+
+    assert jsonschema.Draft202012Validator(scenario_json_schema()).is_valid(data) is valid
+    if valid:
+        resolve_mapping(data, "edge")
+    else:
+        with pytest.raises(ScenarioError):
+            resolve_mapping(data, "edge")
+
+
 BAD = [
     (with_("cable.name", "copper"), "unknown cable name 'copper'"),
     (with_("cable", {"length": 0.5}), "give diameter, mass, youngs_modulus"),

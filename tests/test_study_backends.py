@@ -88,3 +88,35 @@ def test_backend_arguments_are_checked():
         DaskBackend(scheduler="localhost")
     with pytest.raises(ValueError, match="exactly one of client or scheduler"):
         DaskBackend()
+
+
+def test_an_address_that_answers_but_is_no_dask_scheduler_is_refused_in_one_line():
+    """`study --scheduler` to a port where another service answers: Dask's handshake read
+    the reply's first bytes as a frame length and raised MemoryError ("Unable to allocate 3.07
+    EiB", a web server), struct.error or AssertionError (a port closed at once): a traceback,
+    exit 1. It is now one line naming the address and what was expected (exit 2)."""
+    import socket
+    import threading
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(1)
+
+    def answer():
+        connection, _ = server.accept()
+        with connection:  # frames of lengths that do not add up, then wait for the client
+            connection.sendall(b"\x01\x00\x00\x00\x00\x00\x00\x00" * 4)
+            connection.settimeout(30)
+            while connection.recv(1024):
+                pass
+
+    thread = threading.Thread(target=answer, daemon=True)
+    thread.start()
+    address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    try:
+        with pytest.raises(ValueError, match=f"scheduler: {address} answered, but not as a "
+                           "Dask scheduler .*expected the address of a running Dask"):
+            make_backend(scheduler=address)
+    finally:
+        thread.join(5)
+        server.close()

@@ -132,7 +132,7 @@ def test_wrong_marker_pose_is_reported(markers_image):
 
 def test_bad_inputs(markers_image):
     layout = MarkerLayout(MARKER_LENGTH, MARKER_POSES)
-    with pytest.raises(ValueError, match="image: got an array of shape"):
+    with pytest.raises(ValueError, match="image: got 640 x 100 px, expected 640 x 480 px"):
         calibrate_extrinsics(markers_image[:100], INTRINSICS, layout)
     with pytest.raises(ValueError, match="expected an 8-bit image"):
         calibrate_extrinsics(markers_image.astype(float), INTRINSICS, layout)

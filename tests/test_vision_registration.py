@@ -184,3 +184,72 @@ def test_bad_inputs():
     with pytest.raises(ValueError, match="start_near"):
         extract_centreline(render([(sine_cable(), 0.006, CABLE_BGR)]), BLUE,
                            start_near=(1.0, 2.0, 3.0))
+
+
+def test_calibrate_and_register_from_the_command_line(tmp_path, capsys):
+    """`dloplan calibrate` then `dloplan register` as docs/vision.md runs them. `register`
+    refused every `--hsv` ("low: got (100.0, ...), expected integers": the option was parsed
+    as floats) and, past that, every image ("expected an array of points, got
+    RegisteredShape"): it had never registered a shape. Now the shape is the drawn cable's
+    within 1 mm; `--json` prints JSON; an image of another size than the intrinsics', a
+    calibration that failed its check and a folder are refused (exit 2, naming them)."""
+    import json
+
+    from scipy.spatial.transform import Rotation
+
+    from dloplan.cli import main
+    from dloplan.vision import read_shapes
+
+    cable = sine_cable()
+    image = render([(cable, 0.006, CABLE_BGR)])
+    cv2.imwrite(str(tmp_path / "scene.png"), image)
+    cv2.imwrite(str(tmp_path / "big.png"), cv2.resize(image, (1280, 960)))
+    i = INTRINSICS
+    (tmp_path / "intrinsics.json").write_text(json.dumps({
+        "fx": i.fx, "fy": i.fy, "cx": i.cx, "cy": i.cy, "width": i.width, "height": i.height,
+        "distortion": list(i.distortion)}))
+    for name, length in (("layout.json", MARKER_LENGTH), ("wrong.json", 0.05)):
+        markers = [{"id": k, "pose": {
+            "position": dict(zip("xyz", p[:3, 3].tolist(), strict=True)),
+            "orientation": dict(zip("xyzw", Rotation.from_matrix(p[:3, :3]).as_quat().tolist(),
+                                    strict=True))}} for k, p in MARKER_POSES.items()]
+        (tmp_path / name).write_text(json.dumps({"dictionary": "DICT_4X4_50",
+                                                 "marker_length": length, "markers": markers}))
+
+    def run(*args):
+        code = main([args[0], *(str(tmp_path / a) if a.endswith((".png", ".json", ".csv"))
+                                else a for a in args[1:]), "-q"])
+        out, err = capsys.readouterr()
+        return code, out, err
+
+    code, out, _ = run("calibrate", "scene.png", "--intrinsics", "intrinsics.json",
+                       "--markers", "layout.json", "-o", "cal.json", "--json")
+    assert code == 0 and json.loads(out)["success"]
+    assert run("calibrate", "scene.png", "--intrinsics", "intrinsics.json", "--markers",
+               "wrong.json", "-o", "bad.json")[0] == 1  # written, with its RMS: 6.8 px
+    hsv = ["--hsv", "95,120,60:120,255,255", "--links", "20", "--height", "0.003"]
+    code, out, _ = run("register", "scene.png", "--calibration", "cal.json", *hsv,
+                       "-o", "shapes.csv", "--json")
+    assert code == 0 and json.loads(out)["shapes"][0]["points"] == 21
+    (shape,) = read_shapes(tmp_path / "shapes.csv")
+    assert shape.frame_id == "robot_base"
+    assert distance_to_curve(shape.points, cable).max() < 1e-3
+    # --start-near: the shape starts at the end nearer the point (the plan's first clip, so
+    # that `correct` takes it as it comes; the default starts at the image's left)
+    ends = [np.linalg.norm(shape.points[0, :2] - cable[k, :2]) for k in (0, -1)]
+    far = cable[int(np.argmin(ends)) - 1]  # the drawn end the default shape does not start at
+    assert run("register", "scene.png", "--calibration", "cal.json", *hsv, "--start-near",
+               ",".join(f"{v:g}" for v in far), "-o", "turned.csv")[0] == 0
+    (turned,) = read_shapes(tmp_path / "turned.csv")
+    np.testing.assert_allclose(turned.points, shape.points[::-1], atol=2e-3)
+    for args, fragment in (
+            (("big.png", "--calibration", "cal.json"), "big.png: got 1280 x 960 px, expected "
+             "640 x 480 px"),
+            (("scene.png", "--calibration", "bad.json"), "the calibration failed its check"),
+            ((str(tmp_path), "--calibration", "cal.json"), "is a folder; expected an image")):
+        code, _, err = run("register", *args, *hsv, "-o", "other.csv")
+        assert code == 2 and fragment in err and "Traceback" not in err
+    assert not (tmp_path / "other.csv").exists()
+    code, _, err = run("register", "scene.png", "--calibration", "cal.json", "--hsv",
+                       "95,120,60:200,255,255", "-o", "other.csv")
+    assert code == 2 and "argument --hsv: got '95,120,60:200,255,255', expected" in err

@@ -155,14 +155,19 @@ def non_negative_number(text: str) -> float:
     return value
 
 
-def hsv_range(text: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
-    """``H,S,V:H,S,V`` as its low and high corners (OpenCV's HSV: H 0..180, S and V 0..255)."""
+def hsv_range(text: str) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """``H,S,V:H,S,V`` as its low and high corners, integers in OpenCV's HSV (H 0..179, S and V
+    0..255: :class:`dloplan.vision.HsvRange`; the parse took them as floats, which the range
+    refuses, so every ``--hsv`` was refused)."""
     try:
-        low, high = (tuple(finite_number(v) for v in part.split(",")) for part in text.split(":"))
-    except (ValueError, argparse.ArgumentTypeError):
+        low, high = (tuple(int(v) for v in part.split(",")) for part in text.split(":"))
+    except ValueError:
         low = high = ()
-    if len(low) != 3 or len(high) != 3:
-        raise argparse.ArgumentTypeError(f"got {text!r}, expected H,S,V:H,S,V (six numbers)")
+    limits = (179, 255, 255)
+    if not (len(low) == 3 and len(high) == 3 and all(
+            0 <= v <= m for corner in (low, high) for v, m in zip(corner, limits, strict=True))):
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected H,S,V:H,S,V (six integers, H "
+                                         "in 0..179, S and V in 0..255: OpenCV's HSV)")
     return low, high
 
 
@@ -199,6 +204,18 @@ def finite_number(text: str) -> float:
     if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"got {text!r}, expected a finite number")
     return value
+
+
+def point(text: str) -> tuple[float, float, float]:
+    """``X,Y,Z`` as a point: three finite numbers."""
+    try:
+        values = tuple(finite_number(v) for v in text.split(","))
+    except argparse.ArgumentTypeError:
+        values = ()
+    if len(values) != 3:
+        raise argparse.ArgumentTypeError(f"got {text!r}, expected X,Y,Z (three finite numbers "
+                                         "[m])")
+    return values
 
 
 def integer(low: int, high: int | None = None):
@@ -517,29 +534,31 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     intrinsics = CameraIntrinsics.from_dict(read_mapping(args.intrinsics))
     result = calibrate_extrinsics(image, intrinsics, read_marker_layout(args.markers))
     write_calibration(args.output, result)
-    print(result.message)
+    print(json_text({"output": str(args.output), "success": result.success,
+                     "message": result.message, "marker_ids": list(result.marker_ids),
+                     "missing_ids": list(result.missing_ids),
+                     "reprojection_rms_px": result.reprojection_rms}, indent=2)
+          if args.json else result.message)
     return EXIT_OK if result.success else EXIT_WARNINGS
 
 
 def _cmd_register(args: argparse.Namespace) -> int:
-    from .vision import (
-        HsvRange,
-        RegisteredShape,
-        read_calibration,
-        read_image,
-        register_on_plane,
-        write_shapes,
-    )
+    from .vision import HsvRange, read_calibration, read_image, register_on_plane, write_shapes
 
     calibration = read_calibration(args.calibration)
+    if not calibration.success:
+        raise ValueError(f"{args.calibration}: the calibration failed its check "
+                         f"({calibration.message}); expected one that passed (dloplan "
+                         "calibrate exit 0): calibrate again")
     colour = HsvRange(*args.hsv)
-    shapes = []
-    for k, path in enumerate(args.images):
-        image = read_image(path)
-        points = register_on_plane(image, calibration, colour, args.links + 1, args.height)
-        shapes.append(RegisteredShape(points, frame_id="world", label=f"xi_{k}"))
+    shapes = [register_on_plane(calibration.intrinsics.check_image(read_image(path), str(path)),
+                                calibration, colour, args.links + 1, args.height,
+                                start_near=args.start_near, label=f"xi_{k}")
+              for k, path in enumerate(args.images)]
     write_shapes(args.output, shapes)
-    print(f"registered {len(shapes)} shape(s) into {args.output}")
+    print(json_text({"output": str(args.output), "shapes": [
+        {"label": s.label, "frame_id": s.frame_id, "points": len(s.points)} for s in shapes]},
+        indent=2) if args.json else f"registered {len(shapes)} shape(s) into {args.output}")
     return EXIT_OK
 
 
@@ -550,18 +569,27 @@ def _cmd_identify(args: argparse.Namespace) -> int:
 
     console = Console(args.quiet)
     if args.design:
+        _design_writes_no_file(args)
         from .app.identification import design_cable
         from .identify.recommend import recommend_design
 
         cable = design_cable(args.cable, args.experiment, modulus=args.modulus,
                              n_links=args.links)
+        noise = 1.0 if args.noise is None else args.noise
         console.stage(f"scoring experiments for the {cable.name or 'cable'} at E = "
-                      f"{cable.youngs_modulus:.3g} Pa, {args.noise:g} mm noise")
-        report = recommend_design(cable, noise=1e-3 * args.noise, n_measured=args.points)
+                      f"{cable.youngs_modulus:.3g} Pa, {noise:g} mm noise")
+        report = recommend_design(cable, noise=1e-3 * noise, n_measured=args.points or 100)
         print(json_text(report.to_dict(), indent=2) if args.json else "\n".join(report.lines()))
         return EXIT_OK if report.recommended is not None else EXIT_FAILURE
     if args.experiment is None:
         raise ValueError("experiment: give an identification file (or --design --cable NAME)")
+    design_only = [f"--{name}" for name in ("cable", "modulus", "noise", "points", "links")
+                   if getattr(args, name) is not None]
+    if design_only:
+        raise ValueError(f"{', '.join(design_only)}: options of identify --design; the "
+                         "identification takes its cable, noise and n from the experiment "
+                         f"file: expected {', '.join(design_only)} with --design, or the "
+                         "file's fields")
     _svg_needs_output(args)
     job = load_identification(args.experiment)
     console.stage(f"identifying E of the {job.cable.name or 'cable'} in "
@@ -581,6 +609,17 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         console.stage("figure: " + ", ".join(str(Path(args.output) / p.name) for p in written))
     print(json_text(to_dict(result), indent=2) if args.json else "\n".join(report_lines(result)))
     return exit_code(result)
+
+
+def _design_writes_no_file(args: argparse.Namespace) -> None:
+    """Refuse ``-o`` and ``--svg`` with ``identify --design`` (ValueError, exit 2): the design
+    prints its table and draws no figure, so the options would be ignored without a word
+    (docs/decisions.md)."""
+    given = [name for name, value in (("-o", args.output), ("--svg", args.svg)) if value]
+    if given:
+        raise ValueError(f"{' and '.join(given)}: identify --design draws no figure and writes "
+                         "no file (it prints its table; --json prints it as JSON); expected "
+                         f"{' and '.join(given)} without --design")
 
 
 def _svg_needs_output(args: argparse.Namespace) -> None:
@@ -919,9 +958,9 @@ def build_parser() -> argparse.ArgumentParser:
                           "by the predicted sd of E and recommend one")
     identify.add_argument("--cable", help="--design: catalogue cable name")
     identify.add_argument("--modulus", type=positive_number, help="--design: expected E [Pa]")
-    identify.add_argument("--noise", type=positive_number, default=1.0,
+    identify.add_argument("--noise", type=positive_number,
                           help="--design: measurement noise [mm] (default 1)")
-    identify.add_argument("--points", type=integer(2, MAX_MEASURED_POINTS), default=100,
+    identify.add_argument("--points", type=integer(2, MAX_MEASURED_POINTS),
                           help="--design: measured points along the cable (default 100)")
     identify.add_argument("--links", type=integer(MIN_LINKS, MAX_LINKS),
                           help="--design: starting n")
@@ -1027,6 +1066,9 @@ def build_parser() -> argparse.ArgumentParser:
                           help="n: shapes get n + 1 points")
     register.add_argument("--height", type=finite_number, default=0.0,
                           help="plane height z [m]")
+    register.add_argument("--start-near", type=point, metavar="X,Y,Z",
+                          help="each shape starts at the cable end nearer this point [m] (e.g. "
+                          "the plan's first clip; default: the end at the image's left)")
     register.add_argument("-o", "--output", required=True, help="shapes .csv or .json")
     return parser
 

@@ -35,7 +35,7 @@ from typing import Annotated, Any, Literal
 
 import numpy as np
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
 from scipy.spatial.transform import Rotation
 
 from ..cable import Cable, catalogue_cable
@@ -49,6 +49,7 @@ from ..io.scenario import (
     parse_model,
     read_mapping,
 )
+from ..job_model import JobModel
 from ..sim.clips import ClipPoses
 from ..sim.statics import interpolate_clips
 from .resolve import build_cable, rotation
@@ -58,8 +59,7 @@ Points = Annotated[list[Annotated[list[float], Field(min_length=2, max_length=3)
                    Field(min_length=2)]
 
 
-class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+_Model = JobModel
 
 
 class ClipSpec(_Model):

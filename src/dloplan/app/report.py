@@ -133,6 +133,8 @@ def summary_lines(doc: PlanDocument) -> list[str]:
         lines.append(doc.harness.get("message", ""))
         lines += [f"{name}: {t0:.2f} s to {t1:.2f} s"
                   for name, (t0, t1) in doc.harness.get("phase_times", {}).items()]
+    if doc.correction is not None:  # a corrected plan read as the plan it corrects
+        lines.append(doc.correction.get("message", "corrected"))
     lines += [f"repair: {r.get('kind', '')}: {r.get('change', '')}" for r in doc.repairs]
     if doc.placement is not None:
         made = "moved" if doc.placement.applied else "proposed, not made"
@@ -354,7 +356,8 @@ def write_plan_report(doc: PlanDocument, path, images=(), program=None) -> Path:
     for table in (verification_table(doc), robot_table(doc)):
         if table is not None:
             tables.append(table)
-    kind = "harness job" if doc.harness is not None else "plan"
+    kind = ("harness job" if doc.harness is not None else "corrected plan"
+            if doc.correction is not None else "plan")
     return write_report(
         path, title=f"dloplan {kind}: {doc.source}", shapes=doc.shapes,
         stabilized=doc.stabilized,

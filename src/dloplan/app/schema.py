@@ -73,13 +73,35 @@ def parse_harness(data: Any, source: str = "harness scenario") -> HarnessScenari
     return parse_model(HarnessScenario, data, source)
 
 
+NUMBER_TEXT = {"integer": r"^\s*[+-]?[0-9][0-9_]*(\.0*)?\s*$",
+               "number": r"^\s*[+-]?([0-9][0-9_]*\.?[0-9_]*|\.[0-9][0-9_]*)([eE][+-]?[0-9]+)?\s*$"}
+"""Patterns of the text the loader reads as an integer or a finite number (pydantic's lax
+conversion; PyYAML reads YAML 1.1, where ``1.0e7`` is text)."""
+
+
+def _numbers_as_text(node):
+    """``node`` with every integer or number schema also taking the text the loader reads as
+    one (:data:`NUMBER_TEXT`; the bounds are the number's, which a validator cannot apply to
+    text)."""
+    if isinstance(node, list):
+        return [_numbers_as_text(item) for item in node]
+    if not isinstance(node, dict):
+        return node
+    node = {key: _numbers_as_text(value) for key, value in node.items()}
+    kind = node.get("type")
+    if not isinstance(kind, str) or kind not in NUMBER_TEXT:
+        return node
+    outer = {key: node.pop(key) for key in ("title", "description", "default") if key in node}
+    return {**outer, "anyOf": [node, {"type": "string", "pattern": NUMBER_TEXT[kind]}]}
+
+
 def scenario_json_schema() -> dict:
     """The JSON Schema of the job files :func:`dloplan.app.load_job` reads: a scenario
     (:class:`Scenario`), a wire-harness job (:class:`HarnessScenario`: a ``harness:`` section,
     no ``target:``) or an identification file
     (:class:`~dloplan.app.identification.IdentificationFile`: ``identify:`` without
     ``start:``), the root's ``anyOf`` of the three (each closed to other keys, so a file is one
-    of them).
+    of them). A number may be written as text, as the loader reads it (:func:`_numbers_as_text`).
 
     Returns
     -------
@@ -90,7 +112,8 @@ def scenario_json_schema() -> dict:
 
     from .identification import IdentificationFile  # numpy and the identification's modules
 
-    schema = TypeAdapter(Scenario | HarnessScenario | IdentificationFile).json_schema()
+    schema = _numbers_as_text(
+        TypeAdapter(Scenario | HarnessScenario | IdentificationFile).json_schema())
     schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
     schema["title"] = "dloplan scenario"
     schema["description"] = ("a dloplan job file: a scenario (start to target), a wire-harness "

@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import math
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
 
+from ..job_model import JobModel
 
-class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+_Model = JobModel
 
 
 _Vec3 = list[float]
@@ -104,7 +104,9 @@ class HarnessSpec(_Model):
     clearance: float = Field(0.005, ge=0, allow_inf_nan=False,
                              description="gap kept to the pegs by the planned shapes")
     n_shapes: list[int] = Field(default_factory=lambda: [4, 4], min_length=2, max_length=2,
-                                description="intermediate shapes of phase 1 and phase 2")
+                                description="intermediate shapes of phase 1 and phase 2",
+                                json_schema_extra={"items": {"type": "integer", "minimum": 1,
+                                                             "maximum": 500}})
     tension: TensionSpec = Field(default_factory=TensionSpec)
 
     @model_validator(mode="after")

@@ -18,10 +18,11 @@ import math
 from typing import Annotated, Any, Literal, get_args
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, Field, ValidationError, field_validator, model_validator
 
 from ..bounds import MAX_LINKS, MAX_RATE, MAX_SHAPES, MIN_LINKS
 from ..cable import CATALOGUE_NAMES
+from ..job_model import JobModel
 from .job_file import ScenarioError, read_mapping  # noqa: F401 - read_mapping re-exported
 
 SCHEMA_VERSION = 1
@@ -34,8 +35,7 @@ def _finite(values, name="value"):
     return values
 
 
-class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+_Model = JobModel
 
 
 Vector3 = Annotated[list[float], Field(min_length=3, max_length=3)]

@@ -164,13 +164,17 @@ class PathStage:
 def check_harness_job(job: HarnessJob) -> CheckReport:
     """Check a wire-harness job without planning: its board against the cable (checked when
     the job was resolved) and the clips it holds before planning against the cell's grippers
-    (:func:`dloplan.harness.held_before_planning`, :func:`held_clips_error`: an error, as
-    ``dloplan plan`` refuses it before planning)."""
+    (:func:`dloplan.harness.held_before_planning`, :func:`held_clips_error`) and the sides
+    of its ends (:func:`held_sides_error`): an error, as ``dloplan plan`` refuses it before
+    planning."""
     from ..harness import held_before_planning
 
     errors = [held_clips_error(job.robot, job.cable, where, clips, remedy)
               for where, clips, remedy in held_before_planning(job.start, job.board)]
     findings = [Finding("error", "grip distance", error) for error in errors if error]
+    sides = held_sides_error(job)
+    if sides is not None:
+        findings.append(Finding("error", "ends' sides", sides))
     findings.append(Finding("ok", "board", f"fixtures within reach of the "
                             f"{job.cable.length:.3g} m cable, pegs clear of the fixtures, slots "
                             "wide enough"))
@@ -219,6 +223,38 @@ def check_held_clips(cell, cable, where: str, clips, remedy: str) -> None:
     error = held_clips_error(cell, cable, where, clips, remedy)
     if error is not None:
         raise ValueError(error)
+
+
+def held_sides_error(job: HarnessJob) -> str | None:
+    """Why a harness job's ends cannot be carried from its start to its fixtures without the
+    arms crossing (None if they can): the cable's first end goes to ``harness.fixtures[0]``,
+    so where the start holds it on the cell's one side (:func:`dloplan.robot.assign_arms`)
+    and the first fixture lies on the other, every clip route swaps the ends (the taut
+    approach of phase 1 moved the clips through each other: "the two clip points coincide").
+
+    Returns
+    -------
+    str or None
+        One line naming the start's ends and the fixtures, their sides in the cell's frame
+        and what was expected.
+    """
+    from ..harness import fixture_clips
+    from ..robot import assign_arms
+
+    start = clip_poses_from_shape(job.start).positions
+    fixtures = fixture_clips(job.board).positions
+    sides = assign_arms(np.stack([start, fixtures]), job.robot)
+    if sides.ok:
+        return None
+    y = job.robot.to_base(np.stack([start, fixtures]))[..., 1]
+    names = [f"'{f.name}' (harness.fixtures[{k}])" for k, f in enumerate(job.board.fixtures)]
+    where = ("left", "right")
+    first, fixture = where[int(y[0, 0] < y[0, 1])], where[int(y[1, 0] < y[1, 1])]
+    return (f"harness.fixtures: the start holds the cable's first end on the cell's {first} "
+            f"(y {y[0, 0]:+.3f} m, its last end {y[0, 1]:+.3f} m), but it goes to fixture "
+            f"{names[0]} on the {fixture} (y {y[1, 0]:+.3f} m, {names[1]} {y[1, 1]:+.3f} m): "
+            "the two arms would cross carrying it there; expected the first fixture on the "
+            "side of the start's first end (swap harness.fixtures, or turn the start 180 deg)")
 
 
 def held_clips_error(cell, cable, where: str, clips, remedy: str) -> str | None:
@@ -814,6 +850,9 @@ def run_harness_job(job: HarnessJob, *, check_robot: bool = True,
     from ..harness import harness_summary, run_harness
 
     progress(f"harness job: {job.cable.name or 'cable'}, board checked")
+    sides = held_sides_error(job) if check_robot else None
+    if sides is not None:
+        raise ValueError(sides)
     held = partial(check_held_clips, job.robot, job.cable) if check_robot else None
     result = run_harness(job.cable, job.start, job.board, job.settings, check_held=held)
     progress(result.message)

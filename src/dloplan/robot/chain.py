@@ -142,7 +142,9 @@ class CellArm:
         home = 0.5 * (d.lower + d.upper) if self.home is None else as_vector(
             self.home, f"{self.name}.home", n)
         if np.any((home < d.lower) | (home > d.upper)):
-            raise ValueError(f"{self.name}.home: {home} is outside the joint limits")
+            raise ValueError(f"{self.name}.home: {np.round(home, 4).tolist()} rad, expected "
+                             "joints within the joint limits "
+                             f"{np.round(d.lower, 4).tolist()}..{np.round(d.upper, 4).tolist()}")
         object.__setattr__(self, "home", home)
         base = self.base_rotation.as_matrix()
         rot = d.origin_rot.copy()

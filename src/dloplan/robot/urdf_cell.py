@@ -238,6 +238,18 @@ def _cable_along(value, side: str) -> Rotation:
     return CABLE_ALONG[value]
 
 
+def _check_home(where: str, home, description) -> None:
+    """Refuse a home pose (rad) outside the description's joint limits, naming the joints in
+    degrees (one line; the arm's own check printed the radians as a numpy array over two)."""
+    lower, upper = np.degrees(description.lower), np.degrees(description.upper)
+    outside = [f"joint {k + 1} {q:g} deg not in [{lo:.4g}, {hi:.4g}]"
+               for k, (q, lo, hi) in enumerate(zip(np.degrees(home), lower, upper, strict=True))
+               if not lo <= q <= hi]
+    if outside:
+        raise ValueError(f"{where}: {'; '.join(outside)}; expected a home pose within the "
+                         "description's joint limits")
+
+
 def cell_from_specs(name: str, left: ArmSpec, right: ArmSpec, *,
                     table_height: float = 0.0) -> DescribedCell:
     """A cell from one URDF per arm (or the same URDF with two tip links)."""
@@ -255,6 +267,8 @@ def cell_from_specs(name: str, left: ArmSpec, right: ArmSpec, *,
             raise ValueError(f"robot.cell.arms.{side}.home_deg: got {len(spec.home)} values, "
                              f"expected {description.n_joints} (one per joint of "
                              f"{spec.tip_link!r})")
+        if spec.home is not None:
+            _check_home(f"robot.cell.arms.{side}.home_deg", spec.home, description)
         if spec.max_acceleration is not None and \
                 len(spec.max_acceleration) != description.n_joints:
             raise ValueError(f"robot.cell.arms.{side}.max_acceleration: got "
@@ -265,6 +279,13 @@ def cell_from_specs(name: str, left: ArmSpec, right: ArmSpec, *,
                             tcp_offset=spec.tcp_offset, tool_radius=spec.tool_radius,
                             home=spec.home, tcp_in_clip=_cable_along(spec.cable_along, side),
                             max_acceleration=spec.max_acceleration))
+    if (left.urdf, left.tip_link, left.base_link, tuple(left.base_position),
+            tuple(left.base_rpy)) == (right.urdf, right.tip_link, right.base_link,
+                                      tuple(right.base_position), tuple(right.base_rpy)):
+        raise ValueError(f"robot.cell.arms: both arms are the chain to {left.tip_link!r} at "
+                         f"base_position {list(left.base_position)}: one arm in the other's "
+                         "place; expected two arms apart (base_position) or two chains of one "
+                         "description (tip_link)")
     shared = (left.urdf == right.urdf and left.base_link == right.base_link
               and tuple(left.base_position) == tuple(right.base_position)
               and tuple(left.base_rpy) == tuple(right.base_rpy))
@@ -318,10 +339,13 @@ def _arm_spec(side: str, arm, folder, scale: float) -> tuple[ArmSpec, dict]:
     where = f"robot.cell.arms.{side}"
     if not isinstance(arm, dict):
         raise ValueError(f"{where}: expected a mapping, got {arm!r}")
-    extra = set(arm) - ARM_KEYS
-    if extra or not {"urdf", "tip_link"} <= set(arm):
-        raise ValueError(f"{where}: got keys {sorted(arm)}, expected "
-                         f"urdf, tip_link and some of {sorted(ARM_KEYS)}")
+    extra = sorted(set(arm) - ARM_KEYS)
+    missing = sorted({"urdf", "tip_link"} - set(arm))
+    if extra or missing:
+        what = (f"unknown key{'s' if len(extra) > 1 else ''} {', '.join(map(repr, extra))}"
+                if extra else f"{' and '.join(missing)} missing")
+        raise ValueError(f"{where}: {what} (got keys {sorted(arm)}); expected urdf, tip_link "
+                         f"and some of {sorted(ARM_KEYS)}")
     for key in ("urdf", "tip_link", "base_link", "cable_along"):
         if key in arm and not (isinstance(arm[key], str) and arm[key]):
             raise ValueError(f"{where}.{key}: got {arm[key]!r}, expected a name (text)")
@@ -381,12 +405,21 @@ def cell_from_mapping(data: dict, folder=".", scale: float = 1.0) -> DescribedCe
         if set(settings) - allowed:
             raise ValueError(f"robot.cell: got {sorted(set(settings) - allowed)} for preset "
                              f"{data['preset']!r}, expected some of {sorted(allowed)}")
+        for key, value in data.items():  # a preset's settings are lengths, one number each
+            if key != "preset" and (isinstance(value, bool) or not isinstance(value, int | float)
+                                    or not np.isfinite(value)):
+                raise ValueError(f"robot.cell.{key}: got {value!r}, expected one finite number "
+                                 f"[file units] (a setting of preset {data['preset']!r}; a "
+                                 "vector or another pose needs `arms:`, docs/cells.md)")
         try:
             return make(**settings)
         except TypeError as exc:
             raise ValueError(f"robot.cell: preset {data['preset']!r}: {exc}") from None
     arms = data.get("arms")
-    if not isinstance(arms, dict) or set(arms) != set(ARMS):
+    if isinstance(arms, dict) and set(arms) != set(ARMS):
+        raise ValueError(f"robot.cell.arms: got {sorted(arms)}, expected the two arms "
+                         f"{list(ARMS)}")
+    if not isinstance(arms, dict):
         raise ValueError(f"robot.cell: expected `preset` or `arms` with keys {ARMS}, got "
                          f"{sorted(data)}")
     unknown = set(data) - {"arms", "table_height", "name"}

@@ -207,6 +207,12 @@ class DaskBackend(Backend):
                 client = distributed.Client(scheduler, timeout="20s")
             except OSError as exc:
                 raise ValueError(f"scheduler: cannot connect to {scheduler} ({exc})") from None
+            except Exception as exc:  # noqa: BLE001 - a service that is not a Dask scheduler
+                # fails the client's handshake in its own ways (MemoryError, struct.error,
+                # AssertionError: a traceback, exit 1, for a web server's port)
+                raise ValueError(f"scheduler: {scheduler} answered, but not as a Dask scheduler "
+                                 f"({type(exc).__name__}: {str(exc)[:80]}); expected the "
+                                 "address of a running Dask scheduler") from None
         self.client = client
         threads = sum(client.nthreads().values()) or 1
         self.workers = threads

@@ -27,9 +27,10 @@ from __future__ import annotations
 import math
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import Field, ValidationError, field_validator
 
 from ..bounds import MAX_MEASURED_POINTS, MAX_STUDY_SAMPLES
+from ..job_model import JobModel
 
 PARAMETERS: dict[str, str] = {
     "youngs_modulus": "%",
@@ -54,8 +55,7 @@ class StudyError(ValueError):
     """A study description that cannot be used; one line naming the field."""
 
 
-class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+_Model = JobModel
 
 
 class Variation(_Model):

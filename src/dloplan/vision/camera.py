@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -105,9 +106,12 @@ class CameraIntrinsics:
         """Validate an image (height, width[, channels]) of these intrinsics' size."""
         arr = np.asarray(image)
         if arr.ndim not in (2, 3) or arr.shape[:2] != (self.height, self.width):
+            size = (f"{arr.shape[1]} x {arr.shape[0]} px" if arr.ndim in (2, 3)
+                    else f"an array of shape {arr.shape}")
             raise ValueError(
-                f"{name}: got an array of shape {arr.shape}, expected "
-                f"({self.height}, {self.width}[, channels]) to match the intrinsics"
+                f"{name}: got {size}, expected {self.width} x {self.height} px (array shape "
+                f"({self.height}, {self.width}[, channels])), the intrinsics' width and height: "
+                "an image of another camera or resolution"
             )
         return arr
 
@@ -145,7 +149,10 @@ def read_image(path) -> np.ndarray:
     ValueError
         The file cannot be read as an image (naming it).
     """
+    if Path(path).is_dir():
+        raise ValueError(f"{path}: is a folder; expected an image file")
     image = _deps.cv2().imread(str(path))
     if image is None:
-        raise ValueError(f"{path}: cannot read the image")
+        raise ValueError(f"{path}: cannot read the image; expected an image file OpenCV reads "
+                         "(PNG, JPEG, BMP, TIFF)")
     return image

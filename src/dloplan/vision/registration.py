@@ -77,6 +77,7 @@ def register_on_plane(image, calibration: ExtrinsicCalibration, colour: HsvRange
     _check(calibration, n_points)
     if not (isinstance(height, int | float) and math.isfinite(height)):
         raise ValueError(f"height: got {height!r}, expected a plane height [m]")
+    image = calibration.intrinsics.check_image(image)
     line = extract_centreline(image, colour, min_area=min_area, smoothing=smoothing,
                               start_near=_start_pixel(start_near, calibration))
     points = deproject_to_plane(line.pixels, calibration.intrinsics,
