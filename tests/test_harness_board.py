@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -213,6 +214,41 @@ def test_a_harness_file_without_pegs_is_refused_when_loaded_so_check_refuses_it(
         assert main(["check", str(path), "-q"]) == 2
         assert fragment in capsys.readouterr().err
     assert scenario_json_schema()["$defs"]["HarnessSpec"]["properties"]["pegs"]["minItems"] == 1
+
+
+def test_a_name_two_parts_of_the_board_share_is_refused_and_left_out_names_are_numbered(
+        tmp_path, capsys):
+    """Two fixtures named alike were planned (exit 0, unseen-case sweep round 2, left there)
+    while every message and the report name the board's parts by their names; the loader
+    refuses a name two parts share, naming both fields. Names left out are numbered by
+    position, so a board whose parts are all unnamed still loads, with distinct names."""
+    from dloplan.cli import main
+
+    def twins(data):
+        data["harness"]["fixtures"][1]["name"] = data["harness"]["fixtures"][0]["name"]
+
+    def peg_as_a_default_fixture(data):
+        for fixture in data["harness"]["fixtures"]:
+            del fixture["name"]
+        data["harness"]["pegs"][0]["name"] = "fixture_2"
+
+    for edit, fragment in ((twins, "harness: fixtures[1].name: 'fixture_right' is also "
+                                   "fixtures[0]'s name"),
+                           (peg_as_a_default_fixture, "harness: pegs[0].name: 'fixture_2' is "
+                                                      "also fixtures[1]'s name")):
+        path = _example(tmp_path, edit)
+        with pytest.raises(ScenarioError, match=re.escape(fragment)):
+            load_job(path)
+        assert main(["check", str(path), "-q"]) == 2
+        assert fragment in capsys.readouterr().err
+
+    def unnamed(data):
+        for part in data["harness"]["fixtures"] + data["harness"]["pegs"]:
+            del part["name"]
+
+    board = load_job(_example(tmp_path, unnamed)).board
+    assert [f.name for f in board.fixtures] == ["fixture_1", "fixture_2"]
+    assert [p.name for p in board.pegs] == ["peg"]
 
 
 def test_the_rated_load_is_read_in_newtons_and_a_bad_one_is_named(tmp_path):

@@ -215,13 +215,15 @@ def build_board(spec, scale: float, obstacles=(), table: Table | None = None) ->
     from ..harness.board import Board, Fixture, Peg
 
     fixtures = tuple(Fixture(tuple(np.multiply(f.position, scale)), tuple(f.axis),
-                             tuple(f.opening), *(file_length(f, name, scale) for name in
+                             tuple(f.opening), *(file_length(f, key, scale) for key in
                                                  ("slot_width", "depth", "length", "wall")),
-                             f.name) for f in spec.fixtures)
+                             name)
+                     for f, name in zip(spec.fixtures, spec.fixture_names(), strict=True))
     pegs = tuple(Peg(tuple(np.multiply(p.base, scale)), p.radius * scale, p.height * scale,
                      None if p.plate_height is None else p.plate_height * scale,
                      file_length(p, "plate_size", scale), file_length(p, "plate_thickness", scale),
-                     tuple(p.side), p.name) for p in spec.pegs)
+                     tuple(p.side), name)
+                 for p, name in zip(spec.pegs, spec.peg_names(), strict=True))
     return Board(fixtures, pegs, tuple(obstacles), table)
 
 

@@ -34,7 +34,8 @@ class FixtureSpec(_Model):
     """A fixture in a scenario's ``harness:`` section (lengths in file units; a length left
     out is its default in metres whatever the units)."""
 
-    name: str = "fixture"
+    name: str | None = Field(None, min_length=1, description="named in messages and the report "
+                             "(default fixture_1, fixture_2 by position)")
     position: _Vec3 = Field(..., description="cable axis at the slot bottom")
     axis: _Vec3 = Field(..., description="slot direction, pointing inward (toward the route)")
     opening: _Vec3 = Field(default_factory=lambda: [0.0, 0.0, 1.0])
@@ -54,7 +55,8 @@ class PegSpec(_Model):
     """A peg (with an optional plate) in a ``harness:`` section (lengths in file units; a
     length left out is its default in metres whatever the units)."""
 
-    name: str = "peg"
+    name: str | None = Field(None, min_length=1, description="named in messages and the report "
+                             "(default peg, or peg_1, peg_2... where there are several)")
     base: _Vec3
     radius: float = Field(..., gt=0, allow_inf_nan=False)
     height: float = Field(..., gt=0, allow_inf_nan=False)
@@ -114,3 +116,27 @@ class HarnessSpec(_Model):
         if any(s < 1 or s > 500 for s in self.n_shapes):
             raise ValueError(f"n_shapes: got {self.n_shapes}, expected two integers in 1..500")
         return self
+
+    @model_validator(mode="after")
+    def _distinct_names(self):
+        named: dict[str, str] = {}
+        places = [f"fixtures[{i}]" for i in range(len(self.fixtures))] + [
+            f"pegs[{i}]" for i in range(len(self.pegs))]
+        for place, name in zip(places, self.fixture_names() + self.peg_names(), strict=True):
+            if name in named:
+                raise ValueError(f"{place}.name: {name!r} is also {named[name]}'s name; expected "
+                                 "a name of its own (messages and the report name the board's "
+                                 "fixtures and pegs by it)")
+            named[name] = place
+        return self
+
+    def fixture_names(self) -> list[str]:
+        """The fixtures' names: each one's own, else ``fixture_1``, ``fixture_2``."""
+        return [f.name or f"fixture_{i + 1}" for i, f in enumerate(self.fixtures)]
+
+    def peg_names(self) -> list[str]:
+        """The pegs' names: each one's own, else ``peg`` (``peg_1``, ``peg_2``... where there
+        are several)."""
+        if len(self.pegs) == 1:
+            return [self.pegs[0].name or "peg"]
+        return [p.name or f"peg_{i + 1}" for i, p in enumerate(self.pegs)]
