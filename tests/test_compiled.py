@@ -393,7 +393,8 @@ def solve(max_iterations):
     status, iterations, *_ = newton_positions(
         x, 2, n - 1, *chain.constants, cable.length, residual_tolerance(cable, x=x0),
         max_iterations, np.int64(0), 0.25 * cable.length, history, np.int64(1), grad, band,
-        np.bool_(True), np.bool_(chain.stiff_axial))
+        np.bool_(True), np.bool_(chain.stiff_axial), False)  # restart passed, as the library's
+    # callers pass it: the overload the warm-up cached (omitted, it compiled a second one)
     return int(status), int(iterations), rtsys.get_allocation_stats().alloc - before
 
 

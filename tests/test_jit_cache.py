@@ -125,9 +125,10 @@ def check(cached):
     # its compilation refreshed
     assert ("numba.np.polynomial.polynomial_core" in sys.modules) is not cached
     assert solve.stats.cache_hits if cached else solve.stats.cache_misses
-    # a kernel compiled afterwards in the same process gets them (numba's compiler refreshes)
-    fresh = njit(lambda a: np.linalg.det(a) + np.sum(np.empty(2) * 0.0))
-    assert abs(fresh(np.eye(3) * 2.0) - 8.0) < 1e-12
+    if cached:  # a kernel compiled afterwards in the same process gets them (numba's compiler
+        # refreshes); after a compilation they are there: nothing of dloplan's to check
+        fresh = njit(lambda a: np.linalg.det(a) + np.sum(np.empty(2) * 0.0))
+        assert abs(fresh(np.eye(3) * 2.0) - 8.0) < 1e-12
 '''
 
 

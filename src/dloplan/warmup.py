@@ -189,9 +189,9 @@ EXERCISES = {
     "robot program": robot_program,
     "twist": twist,
     "harness": harness,
+    "study": study,
     "demo": demo,
     "simulate --torsion": dynamics_with_torsion,
-    "study": study,
     "described cell": described_cell,
 }
 """The warm-up's jobs in the order they are started. The first three compile disjoint kernel
@@ -200,11 +200,17 @@ torsion solver, 20 %): on two processes the first takes one while the other two 
 other on the second. The harness job comes next, on the first process when the planner is
 done: it is the one exercise that needs none of the torsion solver's kernels, which the second
 process is still compiling then. Started before them, the demo compiled 8 of them a second time
-(125 compilations for 116 kernels; 117 in this order, the one left the frames' quaternions the
-planner and the IK both start with); so the demo's ``plan --verify`` finds them cached and
-compiles only the replay's (implicit) stepping and the snap check's continuation (and writes
-the demo's files); the last three add what the demo does not use (measured with numba's compile
-events: docs/performance.md)."""
+(125 compilations for 116 kernels then). The study comes next, on the other process, and the
+demo after it: started beside the harness job, the demo reached the replay's implicit stepping
+(``implicit_steps``, its contacts' ``push_out``) while the harness job compiled it and compiled
+it too (131 compilations for 126 overloads); after the study it finds them cached, and the
+study's ``solve_held`` and the snap continuation's ``continue_held`` share ``_held_item``, which
+the study compiles first. In this order the one kernel compiled twice is the frames'
+quaternions that the planner and the IK both start with. The demo's ``plan --verify`` then
+compiles only the snap check's continuation (and writes the demo's files); the torsion replay
+adds what the demo does not use, and the described cell compiles nothing new (it writes the
+Panda's parsed description and the cell modules' bytecode). Measured with numba's compile
+events: docs/performance.md."""
 
 
 def kernel_files(root: Path | None = None) -> int:
