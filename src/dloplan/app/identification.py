@@ -59,10 +59,7 @@ Points = Annotated[list[Annotated[list[float], Field(min_length=2, max_length=3)
                    Field(min_length=2)]
 
 
-_Model = JobModel
-
-
-class ClipSpec(_Model):
+class ClipSpec(JobModel):
     """One clip: ``position`` and either ``u`` (inward link direction) or ``rotation``."""
 
     position: Vector3
@@ -86,21 +83,21 @@ class ClipSpec(_Model):
         return rotation(self.rotation)
 
 
-class ClipPairSpec(_Model):
+class ClipPairSpec(JobModel):
     """The two clips at one instant."""
 
     first: ClipSpec
     last: ClipSpec
 
 
-class MeasuredFileSpec(_Model):
+class MeasuredFileSpec(JobModel):
     """A registered-shape file of the vision tools (:mod:`dloplan.vision.shapes_io`)."""
 
     path: str = Field(description=".csv or .json, relative to the identification file")
     label: str | None = Field(None, description="the shape to use (default: the only one)")
 
 
-class IdentifySpec(_Model):
+class IdentifySpec(JobModel):
     """The ``identify`` section: the experiment and the search settings."""
 
     held: Literal["both", "first"] = "both"
@@ -131,7 +128,7 @@ class IdentifySpec(_Model):
         return self
 
 
-class IdentificationFile(_Model):
+class IdentificationFile(JobModel):
     """A standalone identification file: version, units, cable, identify."""
 
     version: Literal[1] = 1

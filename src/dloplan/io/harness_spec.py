@@ -16,9 +16,6 @@ from pydantic import Field, model_validator
 
 from ..job_model import JobModel
 
-_Model = JobModel
-
-
 _Vec3 = list[float]
 
 
@@ -30,7 +27,7 @@ def _finite_list(values, size: int, name: str):
     return values
 
 
-class FixtureSpec(_Model):
+class FixtureSpec(JobModel):
     """A fixture in a scenario's ``harness:`` section (lengths in file units; a length left
     out is its default in metres whatever the units)."""
 
@@ -51,7 +48,7 @@ class FixtureSpec(_Model):
         return self
 
 
-class PegSpec(_Model):
+class PegSpec(JobModel):
     """A peg (with an optional plate) in a ``harness:`` section (lengths in file units; a
     length left out is its default in metres whatever the units)."""
 
@@ -74,7 +71,7 @@ class PegSpec(_Model):
         return self
 
 
-class TensionSpec(_Model):
+class TensionSpec(JobModel):
     """Insertion and tensioning settings (forces in N, lengths in file units; a length left
     out is its default in metres whatever the units)."""
 
@@ -94,7 +91,7 @@ class TensionSpec(_Model):
                                                  "(the checks fail above it)")
 
 
-class HarnessSpec(_Model):
+class HarnessSpec(JobModel):
     """The ``harness:`` section of a scenario: the board and the job's settings (a length
     left out is its default in metres whatever the units)."""
 

@@ -35,14 +35,11 @@ def _finite(values, name="value"):
     return values
 
 
-_Model = JobModel
-
-
 Vector3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 PositiveLength = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 
 
-class RotationSpec(_Model):
+class RotationSpec(JobModel):
     """A rotation: Euler angles (``seq``, ``angles``, ``degrees``) or a quaternion x-y-z-w."""
 
     euler: list[float] | None = Field(None, description="Euler angles, see seq and degrees")
@@ -67,7 +64,7 @@ class RotationSpec(_Model):
         return self
 
 
-class Placement(_Model):
+class Placement(JobModel):
     """Where a parametric shape goes: its first point at ``position``, then ``rotation``."""
 
     position: Vector3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
@@ -79,7 +76,7 @@ class Placement(_Model):
         return _finite(v, "position")
 
 
-class PointsShape(_Model):
+class PointsShape(JobModel):
     """An explicit polyline, (k, 3) or (k, 2) = (x, z) points; resampled to n + 1 points."""
 
     kind: Literal["points"] = "points"
@@ -96,14 +93,14 @@ class PointsShape(_Model):
         return _finite(v, "points")
 
 
-class StraightShape(_Model):
+class StraightShape(JobModel):
     """A straight cable along the placement's x-axis."""
 
     kind: Literal["straight"] = "straight"
     placement: Placement = Field(default_factory=Placement)
 
 
-class ArcShape(_Model):
+class ArcShape(JobModel):
     """A circular arc turning by ``angle`` [deg] in the placement's x-y plane."""
 
     kind: Literal["arc"] = "arc"
@@ -112,7 +109,7 @@ class ArcShape(_Model):
     placement: Placement = Field(default_factory=Placement)
 
 
-class SineShape(_Model):
+class SineShape(JobModel):
     """A sine wave of ``amplitude`` (file units) and ``periods`` in the placement's x-y plane."""
 
     kind: Literal["sine"] = "sine"
@@ -126,7 +123,7 @@ ShapeSpec = Annotated[
 ]
 
 
-class CableSpec(_Model):
+class CableSpec(JobModel):
     """The cable: a catalogue ``name`` and/or explicit properties (explicit ones win)."""
 
     name: str | None = Field(None, description=f"one of {', '.join(CATALOGUE_NAMES)}")
@@ -162,7 +159,7 @@ class CableSpec(_Model):
         return self
 
 
-class BoxSpec(_Model):
+class BoxSpec(JobModel):
     """A box on the table: ``center`` + ``size`` or ``min`` + ``max``, optional ``yaw`` [deg]."""
 
     type: Literal["box"] = "box"
@@ -185,7 +182,7 @@ class BoxSpec(_Model):
         return self
 
 
-class CylinderSpec(_Model):
+class CylinderSpec(JobModel):
     """A vertical cylinder (peg) standing at ``base``."""
 
     type: Literal["cylinder"] = "cylinder"
@@ -198,7 +195,7 @@ class CylinderSpec(_Model):
 ObstacleSpec = Annotated[BoxSpec | CylinderSpec, Field(discriminator="type")]
 
 
-class PlannerSpec(_Model):
+class PlannerSpec(JobModel):
     """Planner settings (thesis chapter 4, Tables 6.1/6.2)."""
 
     n_shapes: int = Field(5, ge=1, le=MAX_SHAPES, description="S, intermediate shapes")
@@ -228,14 +225,14 @@ class PlannerSpec(_Model):
         return v
 
 
-class FrameSpec(_Model):
+class FrameSpec(JobModel):
     """Initial clip frames for the minimal-rotation and rigid-rotation methods."""
 
     first: RotationSpec | None = None
     last: RotationSpec | None = None
 
 
-class GripperSpec(_Model):
+class GripperSpec(JobModel):
     """Gripper orientation method (thesis 4.6, Table 4.3)."""
 
     method: Literal["auto", "auxiliary", "minimal", "rigid"] = "auto"
@@ -251,7 +248,7 @@ class GripperSpec(_Model):
         return v
 
 
-class TrajectorySpec(_Model):
+class TrajectorySpec(JobModel):
     """Timed dual-arm motion (thesis 7.3: 100 mm/s; limits: dloplan.trajectory.limits)."""
 
     tcp_speed: PositiveLength | None = Field(
@@ -270,7 +267,7 @@ class TrajectorySpec(_Model):
     release_time: PositiveLength = Field(0.4, description="gripper release duration [s]")
 
 
-class CheckSpec(_Model):
+class CheckSpec(JobModel):
     """Target stability check (thesis 5.3) and obstacle avoidance (5.4) settings."""
 
     threshold: PositiveLength | None = Field(None, description="T_cf [file units]; 1 cm")
@@ -279,7 +276,7 @@ class CheckSpec(_Model):
     max_rounds: int = Field(5, ge=0, le=50)
 
 
-class TableSpec(_Model):
+class TableSpec(JobModel):
     """The table plane the obstacles rest on."""
 
     height: float = Field(0.0, allow_inf_nan=False)
@@ -292,7 +289,7 @@ PROGRAM_NAMES = get_args(ProgramName)
 """The robot program formats a cell may take (``robot.programs``)."""
 
 
-class ToolSpec(_Model):
+class ToolSpec(JobModel):
     """One arm's tool as RAPID ``tooldata`` (default: ABB's SmartGripper data, docs/robot.md)."""
 
     name: str | None = Field(None, description="tooldata name (default dlo_tool_l / _r)")
@@ -300,7 +297,7 @@ class ToolSpec(_Model):
     mass: PositiveLength | None = Field(None, description="[kg]")
 
 
-class UrscriptSpec(_Model):
+class UrscriptSpec(JobModel):
     """How the URScript programs are written (:func:`dloplan.io.urscript.write_urscript`)."""
 
     mode: Literal["movej", "movel"] = "movej"
@@ -312,7 +309,7 @@ class UrscriptSpec(_Model):
     ready_output: int = Field(0, ge=0, le=7, description="standard digital output raised")
 
 
-class UrRtdeSpec(_Model):
+class UrRtdeSpec(JobModel):
     """How the UR pair's RTDE streamer is written (:mod:`dloplan.io.ur_rtde`)."""
 
     hosts: list[str] = Field(default_factory=lambda: ["", ""], min_length=2, max_length=2,
@@ -327,7 +324,7 @@ class UrRtdeSpec(_Model):
                                                "joints one lookahead earlier")
 
 
-class GripperIoSpec(_Model):
+class GripperIoSpec(JobModel):
     """The gripper of each UR arm, driven by one digital output (URScript and ur_rtde)."""
 
     output: int = Field(1, ge=0, le=7, description="digital output (tool: 0..1)")
@@ -341,7 +338,7 @@ class GripperIoSpec(_Model):
         return self
 
 
-class RosJointsSpec(_Model):
+class RosJointsSpec(JobModel):
     """How the ROS 2 joint trajectories are written (:mod:`dloplan.io.ros_joints`)."""
 
     joint_prefix: list[str] | None = Field(None, min_length=2, max_length=2,
@@ -350,7 +347,7 @@ class RosJointsSpec(_Model):
     rate: PositiveLength = Field(100.0, description="points per second [Hz]")
 
 
-class RobotSpec(_Model):
+class RobotSpec(JobModel):
     """The robot cell: where the YuMi stands in the plan's frame, its tools and work object;
     or, with ``cell``, any two arms from robot descriptions (docs/cells.md), where the YuMi's
     settings do not apply."""
@@ -392,7 +389,7 @@ class RobotSpec(_Model):
         return _finite(v, "base_position")
 
 
-class RepairSpec(_Model):
+class RepairSpec(JobModel):
     """What a repair may change without asking (docs/repair.md, "Consent")."""
 
     placement: bool = Field(
@@ -400,7 +397,7 @@ class RepairSpec(_Model):
         "robot program then says where to place it); false: such a move is only proposed")
 
 
-class JobSpec(_Model):
+class JobSpec(JobModel):
     """What every job file has: units, the cable, its start, planner, obstacles, robot motion."""
 
     version: Literal[1] = 1

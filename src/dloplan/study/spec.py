@@ -55,10 +55,7 @@ class StudyError(ValueError):
     """A study description that cannot be used; one line naming the field."""
 
 
-_Model = JobModel
-
-
-class Variation(_Model):
+class Variation(JobModel):
     """How one parameter varies.
 
     ``spread`` is, for ``normal``, the standard deviation; for ``lognormal``, the coefficient of
@@ -75,7 +72,7 @@ class Variation(_Model):
                           description="% for E, mass per length, length; mm; deg")
 
 
-class CriteriaSpec(_Model):
+class CriteriaSpec(JobModel):
     """When a sample succeeds: every shape of the path passes every criterion given here."""
 
     max_deviation: float | None = Field(
@@ -95,7 +92,7 @@ class CriteriaSpec(_Model):
         None, gt=0, allow_inf_nan=False, description="largest force on a clip [N]")
 
 
-class CorrectionSpec(_Model):
+class CorrectionSpec(JobModel):
     """Closed-loop success beside open loop: each sampled cable corrected once (``correction:``).
 
     Each sample's cable (its E, mass per length and length; the clip and obstacle errors are not
@@ -124,7 +121,7 @@ DEFAULT_CHUNKS = (16, 256)
 """Smallest and largest default chunk (:attr:`StudySpec.chunk`) [samples]."""
 
 
-class StudySpec(_Model):
+class StudySpec(JobModel):
     """A robustness study (the ``study:`` section of a scenario file)."""
 
     samples: int = Field(100, ge=1, le=MAX_STUDY_SAMPLES, description="number of samples N")
