@@ -863,7 +863,7 @@ def test_the_batched_gain_checks_pass_only_what_check_gain_passes():
     clear = clear_gains(open_loop, corrected, reference, directions, sds, correlation, 2.0)
     assert not clear[0] and clear[1]
     # judged_gains: the same verdicts, and the refusals it words are check_gain's own reasons
-    judged, refusals = judged_gains(open_loop, corrected, reference, directions, sds,
+    judged, refusals, _ = judged_gains(open_loop, corrected, reference, directions, sds,
                                     correlation, 2.0)
     assert np.array_equal(judged, clear)
     passed = worded = 0

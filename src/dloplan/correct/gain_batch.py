@@ -74,7 +74,8 @@ def judged_gains(open_loop: np.ndarray, corrected: np.ndarray, reference: np.nda
     Returns
     -------
     tuple
-        ``(clear (B,) bool, refusals)``: a list of B str or None.
+        ``(clear (B,) bool, refusals, spread)``: a list of B str or None, and (B,) the gains'
+        sds [m] (:func:`~.step.check_gain`'s, for :func:`.length.check_length`).
     """
     def errors(x):
         return np.linalg.norm(x - reference, axis=-1)  # (B, n + 1)
@@ -99,7 +100,7 @@ def judged_gains(open_loop: np.ndarray, corrected: np.ndarray, reference: np.nda
     refusals = [gain_refusal(float(before[b]), float(after[b]), float(spread[b]), significance)
                 if refused[b] and _clear_of_rounding(printed[:, b]) else None
                 for b in range(len(before))]
-    return clear, refusals
+    return clear, refusals, spread
 
 
 def _clear_of_rounding(values: np.ndarray) -> bool:

@@ -75,6 +75,7 @@ from ..study.evaluate import perturbed_cable
 from .clip_batch import fit_clips_batch
 from .gain_batch import NAMES as GAINS
 from .gain_batch import judged_gains
+from .length import LengthAlternative, check_length, length_alternative, length_direction
 from .measurement import CorrectionRefused, resample_measured
 from .measurement_batch import (
     measured_points,
@@ -493,10 +494,12 @@ def _node(cable: Cable, clips: tuple, guesses: tuple, gravity, scale,
         try:
             d, g = model_error_directions(cable, eq.shape, c, grip=True, gravity=gravity,
                                           fine_chain=chain, fine_guess=refined)
+            length = length_direction(cable, eq.shape, c, gravity)
         except CorrectionRefused:
             return None
         node.update({"state" if suffix == "k" else "target": eq.shape,
-                     f"modulus_{suffix}": sens.log_modulus, f"d_{suffix}": d, f"g_{suffix}": g})
+                     f"modulus_{suffix}": sens.log_modulus, f"d_{suffix}": d, f"g_{suffix}": g,
+                     f"l_{suffix}": length})
         if suffix == "t":  # how d and g move with the clips: the clip fit's bias
             clamped3, stable, _ = clamped_equilibrium(fine, refined, c, 3, gravity=gravity,
                                                       chain=chain)
@@ -755,21 +758,22 @@ def _fit_and_check(nominal: NominalCorrection, results: list, cables: dict) -> N
                        for j in range(len(cases))], fits, cables)
     judged = [_predictions(nominal, case, *fit) for case, fit in zip(cases, fits, strict=True)]
     sds = [parameter_sds(case.update) for case in cases]
-    clear, refusals = judged_gains(
+    clear, refusals, spreads = judged_gains(
         np.array([j[0] for j in judged]), np.array([j[1] for j in judged]), nominal.reference,
         {name: np.array([j[2][name] for j in judged]) for name in GAINS},
         np.array([[sd[name] for name in GAINS] for sd in sds]),
         np.array([case.update.correlation for case in cases]), nominal.limits.gain_significance)
     for j, b in enumerate(index):
-        if clear[j]:  # both checks passed by more than round-off: check_gain's verdict
-            results[b] = _Corrected(cases[j].update.youngs_modulus, fits[j][0])
-            continue
         if refusals[j] is not None:  # refused by more than round-off: check_gain's reason
             results[b] = refusals[j]
             continue
         try:
-            check_gain(judged[j][0], judged[j][1], nominal.reference, judged[j][2],
-                       cases[j].update, nominal.limits.gain_significance)
+            spread = spreads[j]
+            if not clear[j]:  # near a threshold: check_gain's verdict itself
+                spread = check_gain(judged[j][0], judged[j][1], nominal.reference,
+                                    judged[j][2], cases[j].update,
+                                    nominal.limits.gain_significance)
+            _check_length(nominal, cases[j], *judged[j], spread)
             results[b] = _Corrected(cases[j].update.youngs_modulus, fits[j][0])
         except CorrectionRefused as exc:
             results[b] = str(exc)
@@ -937,6 +941,7 @@ class _Case:
     bias: np.ndarray  # (n + 1, 3) what the clip fit's chain leaves of the bias [m]
     moves: np.ndarray  # (3 (n + 1), 12) how it moves with the clips (scaled coordinates)
     open_loop: np.ndarray  # (k n + 1, 3) the fit chain's equilibrium at the planned clips
+    length: LengthAlternative  # the measurement at K explained with the cable's length
 
     @property
     def jacobian(self) -> np.ndarray:
@@ -965,7 +970,9 @@ def _prepared(nominal: NominalCorrection, y: np.ndarray, first: dict, prior) -> 
             f"model: the clip fit's chain (n = {len(at['fine']) - 1}, clamping "
             f"{nominal.clamp_links} links, E = {modulus:.3g} Pa) finds no stable equilibrium "
             "at the target's clip poses")
-    return _Case(update, at, bias, moves, open_loop)
+    length = length_alternative(y - update.state, at["d_k"], at["g_k"], at["l_k"],
+                                update.discretization, update.grip, prior)
+    return _Case(update, at, bias, moves, open_loop, length)
 
 
 def _checked(nominal: NominalCorrection, case: _Case, p: np.ndarray,
@@ -974,9 +981,21 @@ def _checked(nominal: NominalCorrection, case: _Case, p: np.ndarray,
     and the fit chain's equilibrium ``corrected`` there: its :class:`_Corrected`, or raises
     :class:`CorrectionRefused`."""
     open_loop, prediction, directions = _predictions(nominal, case, p, corrected)
-    check_gain(open_loop, prediction, nominal.reference, directions, case.update,
-               nominal.limits.gain_significance)
+    spread = check_gain(open_loop, prediction, nominal.reference, directions, case.update,
+                        nominal.limits.gain_significance)
+    _check_length(nominal, case, open_loop, prediction, directions, spread)
     return _Corrected(case.update.youngs_modulus, p)
+
+
+def _check_length(nominal: NominalCorrection, case: _Case, open_loop: np.ndarray,
+                  corrected: np.ndarray, directions: dict, spread: float) -> None:
+    """:func:`.length.check_length` of a sample's correction whose gain checks passed, from
+    its predictions and directions (:func:`_predictions`), its gain's sd ``spread`` [m] and
+    the table's d, g and l at the target's planned clips, at its E."""
+    at, update = case.at, case.update
+    check_length(open_loop, corrected, nominal.reference, (at["d_t"], at["g_t"]), directions,
+                 update.discretization, update.grip, case.length, at["l_t"],
+                 nominal.cable.length, nominal.limits.gain_significance * spread)
 
 
 def _predictions(nominal: NominalCorrection, case: _Case, p: np.ndarray,

@@ -59,6 +59,7 @@ from ..physics.chain import SpringChain
 from ..sim import ClipPoses, equilibrium
 from ..sim.sensitivity import equilibrium_sensitivity, perturbed_clips
 from ..trajectory import Trajectory, trajectory_from_grippers
+from .length import check_length, length_alternative, length_direction
 from .measurement import MAX_DISAGREEMENT, CorrectionRefused, noise_sd, resample_measured
 from .model_error import (
     MAX_GRIP,
@@ -1226,15 +1227,20 @@ def correct_plan(
     corrected = np.stack([*_biased(model, equilibria[:-1], corrected_clips[:-1], gravity,
                                    update), corrected])
     uncertainty = _uncertainty(directions, update)
-    check_gain(open_loop[-1], corrected[-1], wanted[-1], directions, update,
-               limits.gain_significance)
+    spread = check_gain(open_loop[-1], corrected[-1], wanted[-1], directions, update,
+                        limits.gain_significance)
+    if model_error == "discretization":
+        _check_length(model, update, y, (clips[at], clips[-1]), target_guess,
+                      (open_loop[-1], corrected[-1], wanted[-1]), directions,
+                      alpha_prior(cable.n_links, measured_links), gravity,
+                      limits.gain_significance * spread)
     return Correction(open_loop=open_loop, corrected=corrected, equilibria=equilibria,
                       uncertainty=uncertainty, trajectory=new_trajectory,
                       prediction_seconds=time.perf_counter() - t0 - seconds, **common)
 
 
 def check_gain(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarray,
-               directions: dict, update: ModelUpdate, significance: float) -> None:
+               directions: dict, update: ModelUpdate, significance: float) -> float:
     """The gain checks of :func:`correct_plan`: the predicted gain (the open loop's final
     error minus the corrected one's) must exceed ``significance`` sd of it (:func:`_gain_sd`)
     and stay positive with the clamp length ``significance`` sd off, evaluated
@@ -1255,6 +1261,11 @@ def check_gain(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarr
     significance : float
         :attr:`CorrectionLimits.gain_significance`.
 
+    Returns
+    -------
+    float
+        The gain's sd [m] (:func:`.length.check_length` holds the length's gain to it).
+
     Raises
     ------
     CorrectionRefused
@@ -1272,6 +1283,30 @@ def check_gain(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarr
             f"error {1e3 * before:.2f} -> {1e3 * after:.2f} mm), is lost with the clamp length "
             f"{which} off ({1e3 * worst:+.2f} mm: the corrected final error above the open "
             "loop's): the plan is kept")
+    return spread
+
+
+def _check_length(model: Cable, update: ModelUpdate, measured: np.ndarray, clips: tuple,
+                  target_guess: np.ndarray, predictions: tuple, directions: dict, prior,
+                  gravity, needed: float) -> None:
+    """:func:`.length.check_length` of a correction (:func:`correct_plan`): the updated
+    ``model``'s d, g and l at shape K (``clips`` of K and of the target), the resampled
+    ``measured`` shape less the offset applied, l at the target's planned clips from
+    ``target_guess``; ``predictions`` the open loop's, the corrected and the reference target
+    (n + 1, 3) [m]; ``needed`` the gain the first gain check asked for [m]."""
+    d, g = model_error_directions(model, update.state, clips[0], grip=True, gravity=gravity)
+    target = equilibrium(model, target_guess, clips[1], gravity=gravity)
+    if not target.success:
+        raise CorrectionRefused(f"length: the updated model finds no stable equilibrium at "
+                                f"the target's clips ({target.message})")
+    alternative = length_alternative(
+        measured - update.offset - update.state, d, g,
+        length_direction(model, update.state, clips[0], gravity), update.discretization,
+        update.grip, prior)
+    planned = model_error_directions(model, target.shape, clips[1], grip=True, gravity=gravity)
+    check_length(*predictions, planned, directions, update.discretization, update.grip,
+                 alternative, length_direction(model, target.shape, clips[1], gravity),
+                 model.length, needed)
 
 
 def gain_refusal(before: float, after: float, spread: float, significance: float) -> str:
