@@ -75,7 +75,7 @@ from ..study.evaluate import perturbed_cable
 from .clip_batch import fit_clips_batch
 from .gain_batch import NAMES as GAINS
 from .gain_batch import judged_gains
-from .length import LengthAlternative, check_length, length_alternative, length_direction
+from .length import check_length, length_alternative, length_direction
 from .measurement import CorrectionRefused, resample_measured
 from .measurement_batch import (
     measured_points,
@@ -941,7 +941,8 @@ class _Case:
     bias: np.ndarray  # (n + 1, 3) what the clip fit's chain leaves of the bias [m]
     moves: np.ndarray  # (3 (n + 1), 12) how it moves with the clips (scaled coordinates)
     open_loop: np.ndarray  # (k n + 1, 3) the fit chain's equilibrium at the planned clips
-    length: LengthAlternative  # the measurement at K explained with the cable's length
+    residual: np.ndarray  # (n + 1, 3) the measurement at K less the updated model's [m]
+    prior: tuple  # alpha's (:func:`.model_error.alpha_prior`)
 
     @property
     def jacobian(self) -> np.ndarray:
@@ -970,9 +971,7 @@ def _prepared(nominal: NominalCorrection, y: np.ndarray, first: dict, prior) -> 
             f"model: the clip fit's chain (n = {len(at['fine']) - 1}, clamping "
             f"{nominal.clamp_links} links, E = {modulus:.3g} Pa) finds no stable equilibrium "
             "at the target's clip poses")
-    length = length_alternative(y - update.state, at["d_k"], at["g_k"], at["l_k"],
-                                update.discretization, update.grip, prior)
-    return _Case(update, at, bias, moves, open_loop, length)
+    return _Case(update, at, bias, moves, open_loop, y - update.state, prior)
 
 
 def _checked(nominal: NominalCorrection, case: _Case, p: np.ndarray,
@@ -993,8 +992,10 @@ def _check_length(nominal: NominalCorrection, case: _Case, open_loop: np.ndarray
     its predictions and directions (:func:`_predictions`), its gain's sd ``spread`` [m] and
     the table's d, g and l at the target's planned clips, at its E."""
     at, update = case.at, case.update
+    alternative = length_alternative(case.residual, at["d_k"], at["g_k"], at["l_k"],
+                                     update.discretization, update.grip, case.prior)
     check_length(open_loop, corrected, nominal.reference, (at["d_t"], at["g_t"]), directions,
-                 update.discretization, update.grip, case.length, at["l_t"],
+                 update.discretization, update.grip, alternative, at["l_t"],
                  nominal.cable.length, nominal.limits.gain_significance * spread)
 
 
