@@ -25,7 +25,6 @@ import numpy as np
 from ..cable import GRAVITY, Cable
 from ..sim import ClipPoses, equilibrium
 from .measurement import CorrectionRefused
-from .model_error import fit_model_error
 
 LENGTH_STEP = -0.01
 """The relative change of the rest length over which :func:`length_direction` takes its secant
@@ -81,12 +80,14 @@ class LengthAlternative:
 
 
 def length_alternative(residual: np.ndarray, d: np.ndarray, g: np.ndarray, l_k: np.ndarray,
-                       discretization: float, grip: float, prior) -> LengthAlternative:
-    """Fit the measured ``residual`` at K (measured minus the updated model's equilibrium,
-    (n + 1, 3) [m]) with alpha d + lambda l in the place of the estimate's alpha d + beta g
-    (d, g and l at K (n + 1, 3); ``discretization``, ``grip``: the estimate's alpha and beta;
-    ``prior``: alpha's, :func:`.model_error.alpha_prior`)."""
-    _, (alpha, lam) = fit_model_error(np.zeros_like(residual), [d, l_k], residual, prior)
+                       discretization: float, grip: float, fitted) -> LengthAlternative:
+    """The measured ``residual`` at K (measured minus the updated model's equilibrium,
+    (n + 1, 3) [m]) explained by alpha' d + lambda l in the place of the estimate's alpha d +
+    beta g (d, g and l at K (n + 1, 3); ``discretization``, ``grip``: the estimate's alpha and
+    beta; ``fitted``: (alpha', lambda), the model-error fit of the residual on [d, l] with
+    alpha's prior, :func:`.model_error.fit_model_error` or its normal equations,
+    :func:`.normal_fits.fit_estimate`)."""
+    alpha, lam = fitted
 
     def rms(left: np.ndarray) -> float:
         return float(np.sqrt(np.mean(left**2)))

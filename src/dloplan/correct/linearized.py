@@ -763,6 +763,8 @@ def _fit_and_check(nominal: NominalCorrection, results: list, cables: dict) -> N
         {name: np.array([j[2][name] for j in judged]) for name in GAINS},
         np.array([[sd[name] for name in GAINS] for sd in sds]),
         np.array([case.update.correlation for case in cases]), nominal.limits.gain_significance)
+    candidates = [j for j in range(len(cases)) if refusals[j] is None]
+    fitted = dict(zip(candidates, _length_fits([cases[j] for j in candidates]), strict=True))
     for j, b in enumerate(index):
         if refusals[j] is not None:  # refused by more than round-off: check_gain's reason
             results[b] = refusals[j]
@@ -773,10 +775,25 @@ def _fit_and_check(nominal: NominalCorrection, results: list, cables: dict) -> N
                 spread = check_gain(judged[j][0], judged[j][1], nominal.reference,
                                     judged[j][2], cases[j].update,
                                     nominal.limits.gain_significance)
-            _check_length(nominal, cases[j], *judged[j], spread)
+            _check_length(nominal, cases[j], judged[j], spread, fitted[j])
             results[b] = _Corrected(cases[j].update.youngs_modulus, fits[j][0])
         except CorrectionRefused as exc:
             results[b] = str(exc)
+
+
+def _length_fits(cases: list) -> list:
+    """The length alternative's (alpha', lambda) of each case (:func:`.length.
+    length_alternative`), the model-error fit of its residual at K on [d, l] with alpha's
+    prior, all on their stacked normal equations (:func:`.normal_fits.fit_estimates`; what
+    they cannot fit, by :func:`.normal_fits.fit_estimate`)."""
+    if not cases:
+        return []
+    values, final = fit_estimates(
+        np.array([columns_of(None, (c.at["d_k"], c.at["l_k"])) for c in cases]),
+        np.array([c.residual.ravel() for c in cases]), 0, cases[0].prior)
+    return [values[j] if final[j] else
+            fit_estimate(None, (c.at["d_k"], c.at["l_k"]), c.residual, c.prior)
+            for j, c in enumerate(cases)]
 
 
 def _chains(nominal: NominalCorrection, moduli, cables: dict, fit: bool) -> PlantChains:
@@ -982,18 +999,22 @@ def _checked(nominal: NominalCorrection, case: _Case, p: np.ndarray,
     open_loop, prediction, directions = _predictions(nominal, case, p, corrected)
     spread = check_gain(open_loop, prediction, nominal.reference, directions, case.update,
                         nominal.limits.gain_significance)
-    _check_length(nominal, case, open_loop, prediction, directions, spread)
+    at = case.at
+    _check_length(nominal, case, (open_loop, prediction, directions), spread,
+                  fit_estimate(None, (at["d_k"], at["l_k"]), case.residual, case.prior))
     return _Corrected(case.update.youngs_modulus, p)
 
 
-def _check_length(nominal: NominalCorrection, case: _Case, open_loop: np.ndarray,
-                  corrected: np.ndarray, directions: dict, spread: float) -> None:
+def _check_length(nominal: NominalCorrection, case: _Case, judged: tuple, spread: float,
+                  fitted) -> None:
     """:func:`.length.check_length` of a sample's correction whose gain checks passed, from
-    its predictions and directions (:func:`_predictions`), its gain's sd ``spread`` [m] and
-    the table's d, g and l at the target's planned clips, at its E."""
+    its predictions and directions (``judged``, :func:`_predictions`), its gain's sd
+    ``spread`` [m], the alternative's (alpha', lambda) ``fitted`` (:func:`_length_fits`) and
+    the table's d, g and l at K and at the target's planned clips, at its E."""
     at, update = case.at, case.update
+    open_loop, corrected, directions = judged
     alternative = length_alternative(case.residual, at["d_k"], at["g_k"], at["l_k"],
-                                     update.discretization, update.grip, case.prior)
+                                     update.discretization, update.grip, fitted)
     check_length(open_loop, corrected, nominal.reference, (at["d_t"], at["g_t"]), directions,
                  update.discretization, update.grip, alternative, at["l_t"],
                  nominal.cable.length, nominal.limits.gain_significance * spread)

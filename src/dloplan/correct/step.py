@@ -1299,10 +1299,11 @@ def _check_length(model: Cable, update: ModelUpdate, measured: np.ndarray, clips
     if not target.success:
         raise CorrectionRefused(f"length: the updated model finds no stable equilibrium at "
                                 f"the target's clips ({target.message})")
+    residual = measured - update.offset - update.state
+    l_k = length_direction(model, update.state, clips[0], gravity)
     alternative = length_alternative(
-        measured - update.offset - update.state, d, g,
-        length_direction(model, update.state, clips[0], gravity), update.discretization,
-        update.grip, prior)
+        residual, d, g, l_k, update.discretization, update.grip,
+        fit_model_error(np.zeros_like(residual), [d, l_k], residual, prior)[1])
     planned = model_error_directions(model, target.shape, clips[1], grip=True, gravity=gravity)
     check_length(*predictions, planned, directions, update.discretization, update.grip,
                  alternative, length_direction(model, target.shape, clips[1], gravity),
