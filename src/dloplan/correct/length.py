@@ -26,6 +26,16 @@ from ..cable import GRAVITY, Cable
 from ..sim import ClipPoses, equilibrium
 from .measurement import CorrectionRefused
 
+MARGIN = 1e-9
+"""A batch's verdict (:func:`clear_lengths`) stands when it is clear by more than this share of
+the compared numbers (their round-off, arrays summed in another order, is about 1e-16)."""
+
+TOLD = 2.0
+"""The length counts as an explanation when its estimate is at least this many sd from 0 (the
+rule by which the model update takes E and the clamp length, :data:`.step.SIGNIFICANCE`): a
+length the measurement does not tell is no alternative (on the study example a cable "0.2 mm
+short" fitting as well as the estimate re-judged a correction's gain at its threshold)."""
+
 LENGTH_STEP = -0.01
 """The relative change of the rest length over which :func:`length_direction` takes its secant
 (a cable 1 % shorter: the study's spreads, and the few millimetres of a cut cable)."""
@@ -64,19 +74,35 @@ class LengthAlternative:
         alpha fitted with the length.
     length : float
         lambda, the rest length's relative change (-0.02: 2 % shorter).
+    length_sd : float
+        lambda's sd (:func:`length_sd`).
     rms_model, rms_length : float
         [m] the residual per coordinate the model update's estimate and the length's leave.
     """
 
     discretization: float
     length: float
+    length_sd: float
     rms_model: float
     rms_length: float
 
     @property
     def told(self) -> bool:
-        """Whether the length explains the measurement at least as well as the estimate."""
-        return self.rms_length <= self.rms_model
+        """Whether the measurement tells the length (:data:`TOLD` sd) and the length explains
+        it at least as well as the estimate."""
+        return (abs(self.length) >= TOLD * self.length_sd
+                and self.rms_length <= self.rms_model)
+
+
+def length_sd(d: np.ndarray, l_k: np.ndarray, rms: float) -> np.ndarray:
+    """lambda's sd from the fit on [d, l] ((..., n + 1, 3) each [m]) leaving ``rms`` per
+    coordinate (...,) [m]: s^2 (A^T A)^-1 at lambda's place, s^2 = rms^2 m / (m - 2), m the
+    coordinates (the prior on alpha left out: it only narrows alpha)."""
+    dd, ll = np.sum(d * d, axis=(-2, -1)), np.sum(l_k * l_k, axis=(-2, -1))
+    dl = np.sum(d * l_k, axis=(-2, -1))
+    m = d.shape[-2] * d.shape[-1]
+    determinant = np.maximum(dd * ll - dl * dl, 1e-300)
+    return np.sqrt(np.asarray(rms) ** 2 * m / (m - 2) * dd / determinant)
 
 
 def length_alternative(residual: np.ndarray, d: np.ndarray, g: np.ndarray, l_k: np.ndarray,
@@ -92,9 +118,57 @@ def length_alternative(residual: np.ndarray, d: np.ndarray, g: np.ndarray, l_k: 
     def rms(left: np.ndarray) -> float:
         return float(np.sqrt(np.mean(left**2)))
 
-    return LengthAlternative(float(alpha), float(lam),
-                             rms(residual - discretization * d - grip * g),
-                             rms(residual - alpha * d - lam * l_k))
+    left = rms(residual - alpha * d - lam * l_k)
+    return LengthAlternative(float(alpha), float(lam), float(length_sd(d, l_k, left)),
+                             rms(residual - discretization * d - grip * g), left)
+
+
+def clear_lengths(residual: np.ndarray, at_k: tuple, estimate: np.ndarray,
+                  fitted: np.ndarray, predictions: tuple, at_t: tuple, reference: np.ndarray,
+                  needed: np.ndarray) -> np.ndarray:
+    """Which of B corrections :func:`check_length` passes by more than :data:`MARGIN` (a
+    study chunk's at once; the others go to :func:`check_length` itself, which words a
+    refusal).
+
+    Parameters
+    ----------
+    residual : numpy.ndarray
+        (B, n + 1, 3) the measurements at K less the updated models [m].
+    at_k : tuple of numpy.ndarray
+        d, g and l at K, each (B, n + 1, 3) [m].
+    estimate, fitted : numpy.ndarray
+        (B, 2) the estimate's (alpha, beta) and the alternative's (alpha', lambda).
+    predictions : tuple of numpy.ndarray
+        The open loop's and the corrected target (B, n + 1, 3) [m], the estimate's bias
+        included.
+    at_t : tuple of numpy.ndarray
+        d and g at the planned target clips, d and g at the corrected ones and l at the planned
+        ones, each (B, n + 1, 3) [m].
+    reference : numpy.ndarray
+        (n + 1, 3) [m].
+    needed : numpy.ndarray
+        (B,) the gain the first gain check asked for [m].
+    """
+    def weighted(a: np.ndarray, x: np.ndarray) -> np.ndarray:
+        return a[:, None, None] * x
+
+    d_k, g_k, l_k = at_k
+    rms_model = np.sqrt(np.mean((residual - weighted(estimate[:, 0], d_k)
+                                 - weighted(estimate[:, 1], g_k)) ** 2, axis=(1, 2)))
+    rms_length = np.sqrt(np.mean((residual - weighted(fitted[:, 0], d_k)
+                                  - weighted(fitted[:, 1], l_k)) ** 2, axis=(1, 2)))
+    d_planned, g_planned, d_corrected, g_corrected, l_t = at_t
+    change, lam = fitted[:, 0] - estimate[:, 0], fitted[:, 1]
+
+    def error(x: np.ndarray, d: np.ndarray, g: np.ndarray) -> np.ndarray:
+        moved = x + weighted(change, d) - weighted(estimate[:, 1], g) + weighted(lam, l_t)
+        return np.mean(np.linalg.norm(moved - reference, axis=-1), axis=-1)
+
+    before = error(predictions[0], d_planned, g_planned)
+    gain = before - error(predictions[1], d_corrected, g_corrected)
+    untold = np.abs(lam) < TOLD * length_sd(d_k, l_k, rms_length) * (1.0 - MARGIN)
+    return (untold | (rms_length > rms_model * (1.0 + MARGIN))
+            | (gain > needed + MARGIN * before))
 
 
 def check_length(open_loop: np.ndarray, corrected: np.ndarray, reference: np.ndarray,

@@ -75,7 +75,7 @@ from ..study.evaluate import perturbed_cable
 from .clip_batch import fit_clips_batch
 from .gain_batch import NAMES as GAINS
 from .gain_batch import judged_gains
-from .length import check_length, length_alternative, length_direction
+from .length import check_length, clear_lengths, length_alternative, length_direction
 from .measurement import CorrectionRefused, resample_measured
 from .measurement_batch import (
     measured_points,
@@ -763,22 +763,54 @@ def _fit_and_check(nominal: NominalCorrection, results: list, cables: dict) -> N
         {name: np.array([j[2][name] for j in judged]) for name in GAINS},
         np.array([[sd[name] for name in GAINS] for sd in sds]),
         np.array([case.update.correlation for case in cases]), nominal.limits.gain_significance)
-    candidates = [j for j in range(len(cases)) if refusals[j] is None]
-    fitted = dict(zip(candidates, _length_fits([cases[j] for j in candidates]), strict=True))
+    passed = []
     for j, b in enumerate(index):
         if refusals[j] is not None:  # refused by more than round-off: check_gain's reason
             results[b] = refusals[j]
             continue
         try:
-            spread = spreads[j]
             if not clear[j]:  # near a threshold: check_gain's verdict itself
-                spread = check_gain(judged[j][0], judged[j][1], nominal.reference,
-                                    judged[j][2], cases[j].update,
-                                    nominal.limits.gain_significance)
-            _check_length(nominal, cases[j], judged[j], spread, fitted[j])
-            results[b] = _Corrected(cases[j].update.youngs_modulus, fits[j][0])
+                spreads[j] = check_gain(judged[j][0], judged[j][1], nominal.reference,
+                                        judged[j][2], cases[j].update,
+                                        nominal.limits.gain_significance)
+            passed.append(j)
         except CorrectionRefused as exc:
             results[b] = str(exc)
+    for j, reason in zip(passed, _lengths_checked(nominal, [cases[j] for j in passed],
+                                                  [judged[j] for j in passed],
+                                                  spreads[passed]), strict=True):
+        results[index[j]] = (_Corrected(cases[j].update.youngs_modulus, fits[j][0])
+                             if reason is None else reason)
+
+
+def _lengths_checked(nominal: NominalCorrection, cases: list, judged: list,
+                     spreads: np.ndarray) -> list:
+    """The length checks (:func:`.length.check_length`) of the corrections whose gain checks
+    passed, with their predictions and directions ``judged`` (:func:`_predictions`) and their
+    gains' sds ``spreads`` [m]: the chunk's at once (:func:`.length.clear_lengths`), those it
+    does not clear each by :func:`_check_length`. Per case None (kept) or the refusal's
+    reason."""
+    if not cases:
+        return []
+    fitted = np.array(_length_fits(cases))
+
+    def stacked(name: str) -> np.ndarray:
+        return np.array([c.at[name] for c in cases])
+
+    needed = nominal.limits.gain_significance * spreads
+    clear = clear_lengths(
+        np.array([c.residual for c in cases]), (stacked("d_k"), stacked("g_k"), stacked("l_k")),
+        np.array([(c.update.discretization, c.update.grip) for c in cases]), fitted,
+        (np.array([j[0] for j in judged]), np.array([j[1] for j in judged])),
+        (stacked("d_t"), stacked("g_t"), np.array([j[2]["discretization"] for j in judged]),
+         np.array([j[2]["grip"] for j in judged]), stacked("l_t")), nominal.reference, needed)
+    out: list = [None] * len(cases)
+    for j in np.flatnonzero(~clear):
+        try:
+            _check_length(nominal, cases[j], judged[j], spreads[j], fitted[j])
+        except CorrectionRefused as exc:
+            out[j] = str(exc)
+    return out
 
 
 def _length_fits(cases: list) -> list:
