@@ -111,3 +111,41 @@ def test_short_cables_on_the_arch_never_end_worse_closed_loop_or_are_refused_for
         for r in (row, exact):
             assert r["closed_loop_error"] <= r["open_loop_error"] + 1e-9 or (
                 r["corrections"] == 0 and "shape 3: " in r["refusal"]), (i, r)
+
+
+def test_a_length_the_measurement_does_not_tell_is_no_alternative(arch):
+    """Noise alone (0.3 mm per coordinate, about what the smoothed measurement keeps of 1 mm):
+    whatever length it fits is within 2 sd of none, so no gain is judged under it."""
+    cable, _, x, d, g, l_k = arch
+    noise = np.random.default_rng(5).normal(scale=3e-4, size=x.shape)
+    alternative = length_alternative(noise, d, g, l_k, 0.0, 0.0,
+                                     _fitted(noise, d, l_k, cable))
+    assert abs(alternative.length) < 2 * alternative.length_sd and not alternative.told
+
+
+def test_the_chunks_length_verdicts_are_the_per_sample_checks(arch):
+    """clear_lengths passes only corrections check_length passes (random predictions around
+    the arch, residuals of cables up to 3 % short or long plus noise)."""
+    from dloplan.correct.length import clear_lengths
+
+    cable, _, x, d, g, l_k = arch
+    rng = np.random.default_rng(7)
+    count = 64
+    residual = (rng.uniform(-0.03, 0.03, count)[:, None, None] * l_k
+                + rng.normal(scale=3e-4, size=(count, *x.shape)))
+    estimate = np.c_[rng.uniform(0, 1, count), rng.uniform(-0.8, 0.8, count)]
+    fitted = np.array([_fitted(r, d, l_k, cable) for r in residual])
+    open_loop = x + rng.normal(scale=4e-3, size=(count, *x.shape))
+    corrected = x + rng.normal(scale=1e-3, size=(count, *x.shape))
+    needed = rng.uniform(0, 3e-3, count)
+    many = np.broadcast_to
+    clear = clear_lengths(residual, (many(d, residual.shape), many(g, residual.shape),
+                                     many(l_k, residual.shape)), estimate, fitted,
+                          (open_loop, corrected),
+                          (*(many(d, residual.shape), many(g, residual.shape)) * 2,
+                           many(l_k, residual.shape)), x, needed)
+    assert 0 < clear.sum() < count
+    for b in np.flatnonzero(clear):
+        alternative = length_alternative(residual[b], d, g, l_k, *estimate[b], fitted[b])
+        check_length(open_loop[b], corrected[b], x, (d, g), {"discretization": d, "grip": g},
+                     *estimate[b], alternative, l_k, cable.length, needed[b])
