@@ -6,14 +6,14 @@ than the plan's is none of them, and at K the clamp length stands in for it: bot
 free length. They differ elsewhere: a longer clamp also moves the free part's ends along the
 clips' axes. On a compressed arch (fig4_8's shape 3, the clips 0.48 m apart for a 0.5 m cable)
 the clamp length fitted for a cable 10.7 mm short predicted the target 13.9 mm off and the
-corrected one 1.1 mm off; the plant, and the model with the cable's length, went 4.9 -> 6.9 mm
-(docs/correction.md, "The cable's length").
+corrected one 1.1 mm off; the plant went 4.9 -> 6.9 mm, and the model with the cable's length
+predicted 5.1 -> 6.7 mm (docs/correction.md, "The cable's length").
 
 :func:`length_alternative` fits the measurement at K with the length in the clamp length's
 place (ln E as updated, alpha and lambda, lambda the relative change of the rest length, with
-alpha's prior) and :func:`check_length` refuses a correction whose predicted gain is lost when
-the length explains the measurement at least as well as the model's own estimate: a correction
-that cannot be shown to help is not applied.
+alpha's prior) and :func:`check_length` refuses a correction whose predicted gain does not hold
+under it, where the measurement tells the length and it explains the measurement at least as
+well as the model's own estimate: a correction that cannot be shown to help is not applied.
 """
 
 from __future__ import annotations
