@@ -342,8 +342,9 @@ def check_path(cell: DescribedCell, positions, rotations: Rotation, *, seeds=Non
     tracks = _track_arms(cell, pos, grips, seeds, counts, opts)
     deviation = None
     for refinement in range(REFINEMENTS + 1):
-        if opts.line_tolerance is None or any(t.stopped for t, _ in tracks):
-            break
+        if opts.line_tolerance is None or not all(
+                t.reachable.all() and t.continuous.all() for t, _ in tracks):
+            break  # (a lost or unreached motion fails already: its spline is no program)
         deviation = np.stack([line_deviation(arm, t.motion, pos[:, a], counts)
                               for a, ((t, _), arm) in enumerate(zip(tracks, cell.arms,
                                                                     strict=True))], 1)
@@ -351,10 +352,10 @@ def check_path(cell: DescribedCell, positions, rotations: Rotation, *, seeds=Non
         if refinement == REFINEMENTS or not np.any(worst > 1.0):
             break
         # the spline's error falls at least as the square of the spacing: one more round is
-        # rarely needed
-        counts = np.where(worst > 1.0, np.ceil(counts * np.maximum(2.0, 1.2 * np.sqrt(worst))),
-                          counts).astype(int)
-        tracks = _track_arms(cell, pos, grips, seeds, counts, opts)
+        # rarely needed; at most 4 times the sub-steps a round
+        factor = np.clip(1.2 * np.sqrt(worst), 2.0, 4.0)
+        counts = np.where(worst > 1.0, np.ceil(counts * factor), counts).astype(int)
+        tracks, deviation = _track_arms(cell, pos, grips, seeds, counts, opts), None
     times = np.concatenate([[0.0]] + [k - 1 + np.arange(1, n + 1) / n
                                       for k, n in enumerate(counts, start=1)])
     poses = np.concatenate([[0], np.cumsum(counts)]).astype(int)
