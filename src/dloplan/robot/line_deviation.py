@@ -28,6 +28,20 @@ LINE_TOLERANCE = 5e-4
 (:attr:`~dloplan.robot.path.ReachOptions.line_tolerance`)."""
 
 
+def _joints_at(path, s) -> np.ndarray:
+    """q_m(s) of one move's sub-steps (n + 1, J) [rad] at ``s`` (k,): the spline of
+    :func:`~dloplan.robot.motion.move_spline`, in closed form for one and two sub-steps (the
+    not-a-knot spline through two and three points is the line and the parabola through them;
+    scipy's construction of the parabola costs a hundred times its evaluation)."""
+    if len(path) == 2:
+        return path[0] + s[:, None] * (path[1] - path[0])
+    if len(path) == 3:
+        return ((2.0 * (s - 0.5) * (s - 1.0))[:, None] * path[0]
+                - (4.0 * s * (s - 1.0))[:, None] * path[1]
+                + (2.0 * s * (s - 0.5))[:, None] * path[2])
+    return move_spline(path)(s)
+
+
 def line_deviation(arm, motion, positions, counts) -> np.ndarray:
     """The largest distance of an arm's joint motion from its straight TCP line, per move.
 
@@ -46,13 +60,21 @@ def line_deviation(arm, motion, positions, counts) -> np.ndarray:
     numpy.ndarray
         (K,) [m] at pose k the largest distance over the move into it (0 at pose 0).
     """
-    ends = np.concatenate([[0], np.cumsum(counts)]).astype(int)
+    counts = np.asarray(counts, dtype=int)
     out = np.zeros(len(positions))
-    for k, n in enumerate(np.asarray(counts, dtype=int), start=1):
-        s = ((np.arange(n)[:, None] + np.asarray(SAMPLES)) / n).ravel()
-        tcp, _ = forward(arm, move_spline(motion[ends[k - 1]:ends[k] + 1])(s))
-        line = (1.0 - s)[:, None] * positions[k - 1] + s[:, None] * positions[k]
-        out[k] = float(np.linalg.norm(tcp - line, axis=1).max())
+    if len(counts) == 0:
+        return out
+    ends = np.concatenate([[0], np.cumsum(counts)])
+    params = [((np.arange(n)[:, None] + np.asarray(SAMPLES)) / n).ravel() for n in counts]
+    joints = np.concatenate([_joints_at(motion[ends[m]:ends[m + 1] + 1], s)
+                             for m, s in enumerate(params)])
+    s = np.concatenate(params)
+    move = np.repeat(np.arange(len(counts)), [len(p) for p in params])
+    line = (1.0 - s)[:, None] * positions[move] + s[:, None] * positions[move + 1]
+    tcp, _ = forward(arm, joints)  # every move's samples at once
+    distance = np.linalg.norm(tcp - line, axis=1)
+    out[1:] = np.maximum.reduceat(distance, np.concatenate([[0], np.cumsum(
+        [len(p) for p in params])[:-1]]))
     return out
 
 
