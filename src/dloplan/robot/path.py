@@ -239,8 +239,9 @@ class PathCheck:
         per pose ``clearance``.
     line_deviation : numpy.ndarray or None
         (K, 2) [m] the largest distance of the joint motion into pose k from the straight TCP
-        line between the sub-steps (:mod:`dloplan.robot.line_deviation`); None unless
-        ``ReachOptions.line_tolerance``.
+        line between the sub-steps (:mod:`dloplan.robot.line_deviation`); None without
+        ``ReachOptions.line_tolerance`` or where an arm lost a move or missed a pose (the
+        check fails already).
     """
 
     joints: tuple[np.ndarray, np.ndarray]
