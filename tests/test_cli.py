@@ -245,8 +245,8 @@ def test_no_figures_draws_none_and_writes_the_report_without_them(tmp_path, caps
     assert sorted(p.name for p in out.iterdir()) == ["plan.json", "rapid", "report.html"]
     page = (out / "report.html").read_text()
     assert "verdict: ok" in page and "<figure>" not in page
-    _, code, line = plan_file({"output": str(tmp_path / "batch"), "verify": False,
-                               "figures": False}, str(job))
+    _, code, line, _ = plan_file({"output": str(tmp_path / "batch"), "verify": False,
+                                  "figures": False}, str(job))
     assert code in (EXIT_OK, EXIT_WARNINGS), line
     assert not (tmp_path / "batch" / "job" / "figures").exists()
     assert (tmp_path / "batch" / "job" / "report.html").exists()
@@ -365,14 +365,18 @@ def test_batch_mode_plans_several_files_on_two_workers(tmp_path, capsys):
 
 def test_a_batch_counts_a_skipped_identification_file_as_skipped(tmp_path, capsys):
     """An identification file in a batch is skipped (exit 1, pointing to ``dloplan
-    identify``); the summary counted it "with warnings", as if it had been planned."""
+    identify``); the summary counted it "with warnings", as if it had been planned. It is
+    counted from what the batch did with the file, not from its status line's text: a job
+    file whose name ends as that line does was counted skipped, and "-1 with warnings"."""
     examples = Path(__file__).parents[1] / "examples"
     (tmp_path / "bad.yaml").write_text("cable: {name: copper}\n")
+    odd = write(tmp_path, {**STIFF, "planner": {"n_shapes": 1}, "outputs": ["json"]},
+                "skipped (an identification file: use dloplan identify).yaml")
     code = main(["plan", str(examples / "identify_ethernet.yaml"), str(tmp_path / "bad.yaml"),
-                 "-o", str(tmp_path / "out"), "-q"])
+                 str(odd), "-o", str(tmp_path / "out"), "-q", "--no-verify"])
     out = capsys.readouterr().out
     assert code == EXIT_FAILURE
-    assert ("planned 2 scenarios: 0 ok, 0 with warnings, 0 failed a check, 1 could not be "
+    assert ("planned 3 scenarios: 1 ok, 0 with warnings, 0 failed a check, 1 could not be "
             "planned, 1 skipped (identification files: dloplan identify)") in out
 
 

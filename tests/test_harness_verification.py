@@ -204,6 +204,31 @@ def test_a_tensioning_whose_replay_overshoots_the_rated_load_is_repaired_by_a_sl
     assert repaired["peak_tension"] <= load
 
 
+def test_a_cable_taut_in_the_slots_is_verified_with_a_tensioning_that_takes_no_time():
+    """The Ethernet harness job with a 0.45 m cable (sweep round 8): laid into the slots it is
+    taut already, so the tensioning pulls nothing and takes no time (its window two samples at
+    one instant); ``plan --verify`` exited 2 with "times: expected finite, strictly increasing
+    times [s]" after a plan whose robot checks passed. The regrasp's end is now the
+    tensioning's knot and every phase is checked (``plan --verify`` of the job: exit 0, every
+    phase passes on the plan's time law; this replay on the result's own law, not at rest
+    after phase 2's motion, fails that phase)."""
+    import yaml
+
+    from dloplan.app.load import resolve_mapping
+
+    data = yaml.safe_load((EXAMPLES / "harness_ethernet.yaml").read_text())
+    data["cable"]["length"] = 0.45
+    job = resolve_mapping(data, "short.yaml")
+    result = run_harness(job.cable, job.start, job.board, job.settings)
+    assert result.success, result.message
+    times = result.trajectory.times
+    assert times[result.knots["tensioning"][1]] == times[result.knots["insertion"][1]]
+    check = verify_harness_result(result)  # raised the ValueError
+    assert [row.phase for row in check.rows] == list(CHECKED_PHASES)
+    held = [row for row in check.rows if row.phase in ("regrasp", "tensioning")]
+    assert not any(row.failed for row in held), check.table()
+
+
 def test_fixtures_of_depth_0_are_verified_with_an_insertion_that_takes_no_time():
     """Fixtures of depth 0 (``Fixture.depth`` allows it: the cable is laid into the slots, not
     pushed) give an insertion of no time, two knots at one instant: the plan passed its robot

@@ -124,17 +124,11 @@ def test_sample_instants_increase_strictly_and_hold_every_target_instant():
     assert times[0] == 0.0 and times[-1] == clock.end
 
 
-def test_the_ur5e_samples_follow_the_planned_tcp_path():
-    """FK of the sampled joints against the trajectory's TCP at the same motion time, on the
-    UR5e example: the spline through the verified sub-steps stays within 0.5 mm and 0.05 deg
-    of the straight TCP path between them."""
-    pytest.importorskip("yourdfpy")
-    from dloplan.pipeline.stages import plan_program
+def _worst_tcp_gap(program, trajectory) -> float:
+    """[m] the largest distance of the sampled joints' TCP (FK, 1500 instants) from the
+    trajectory's TCP at the same motion time."""
     from dloplan.robot.kinematics import forward
 
-    _, grippers, trajectory, job = example_plan("cells/ur5e_pair_usb.yaml")
-    program = plan_program(job.robot, grippers, trajectory)
-    assert program.ok, program.message
     motion = program.joint_motion(trajectory)
     t = np.linspace(0.0, motion.duration, 1500)
     joints = motion.sample(t, 0)
@@ -145,7 +139,53 @@ def test_the_ur5e_samples_follow_the_planned_tcp_path():
         position, _ = forward(arm, joints[a][0])
         target = planned[:, columns[a]] + program.targets.plan.offset
         worst = max(worst, float(np.linalg.norm(position - target, axis=1).max()))
-    assert worst < 5e-4, worst
+    return worst
+
+
+def test_the_ur5e_samples_follow_the_planned_tcp_path():
+    """FK of the sampled joints against the trajectory's TCP at the same motion time, on the
+    UR5e example: the spline through the verified sub-steps stays within 0.5 mm and 0.05 deg
+    of the straight TCP path between them."""
+    pytest.importorskip("yourdfpy")
+    from dloplan.pipeline.stages import plan_program
+
+    _, grippers, trajectory, job = example_plan("cells/ur5e_pair_usb.yaml")
+    program = plan_program(job.robot, grippers, trajectory)
+    assert program.ok, program.message
+    assert _worst_tcp_gap(program, trajectory) < 5e-4
+
+
+def test_a_move_whose_joint_motion_leaves_the_tcp_line_gets_more_sub_steps(monkeypatch):
+    """The UR5e example's job on a pair 1.2 m apart (sweep round 7): its moves of 17-19 mm got
+    one sub-step each (2 cm steps), the joints ran linearly between the knots and the TCP left
+    the straight line by 1.11 mm while every check passed. The path check now measures the
+    motion between the sub-steps and tracks such a move again with more of them: the samples
+    stay within the bound; where the refinements cannot bring a move within it, the
+    continuity check fails naming the distance."""
+    pytest.importorskip("yourdfpy")
+    import dataclasses
+
+    import dloplan.robot.path
+    from dloplan.robot.line_deviation import LINE_TOLERANCE
+    from dloplan.robot.tracked_program import tracked_program
+    from dloplan.robot.urdf_cell import ur5e_pair
+
+    _, _, trajectory, job = example_plan("cells/ur5e_pair_usb.yaml")
+    wide = ur5e_pair(separation=1.2, tcp_offset=0.15, tool_radius=0.045)
+    cell = dataclasses.replace(job.robot, left=wide.left, right=wide.right,
+                               source=wide.source, place=False)
+    # where the placement search put it (job shifted by -0.1 m in y)
+    trajectory = dataclasses.replace(trajectory, positions=trajectory.positions + [0, -0.1, 0])
+    program = tracked_program(cell, trajectory)
+    assert program.ok, program.message
+    assert _worst_tcp_gap(program, trajectory) < LINE_TOLERANCE
+    assert max(len(move) for move in program.moves[1]) > 2  # a refined move: > 1 sub-step
+    monkeypatch.setattr(dloplan.robot.path, "REFINEMENTS", 0)
+    program = tracked_program(cell, trajectory)
+    failed = [row for row in program.checks if not row.ok]
+    assert failed and {row.check for row in failed} == {"continuity"}
+    assert max(float(row.note.split(" by ")[1].split()[0]) for row in failed) > 1.0
+    assert "the joint motion leaves the straight TCP line by" in program.message
 
 
 @pytest.mark.parametrize("name", ["m2_uniform_curvature_usb.yaml", "cells/ur5e_pair_usb.yaml"])

@@ -440,6 +440,29 @@ def test_a_snap_repair_followed_by_a_proposed_placement_keeps_its_program():
     assert doc.warnings.count(doc.program.message) == (0 if doc.program.ok else 1)
 
 
+def test_a_twist_repair_that_makes_the_program_pass_leaves_nothing_to_place():
+    """M2 (PA12) with its grippers' initial frames rolled 90 deg about the cable (sweep round
+    8): the plan twists 180 deg and its program fails at the approach. The twist repair's
+    frames make a program that passes, but the reach repair of the same round still searched
+    a placement for the round's old failures and proposed one: "placement proposed, not made:
+    job turned 30 deg ..." among the warnings (exit 1) of a plan whose program passes where it
+    lies. Now the reach repair finds nothing left to place."""
+    from dloplan.pipeline import make_plan
+
+    data = yaml.safe_load((EXAMPLES / "m2_uniform_curvature_pa12.yaml").read_text())
+    along_y = Rotation.from_euler("z", 90, degrees=True)
+    roll = Rotation.from_euler("x", 90, degrees=True)
+    data["grippers"] = {"method": "minimal", "initial_frames": {
+        "first": {"quaternion": (along_y * roll).as_quat().tolist()},
+        "last": {"quaternion": (along_y * Rotation.from_euler("z", 180, degrees=True) * roll)
+                 .as_quat().tolist()}}}
+    doc = make_plan(resolve_mapping(data, "rolled.yaml"))
+    assert [r["kind"] for r in doc.repairs] == ["twist"]
+    assert doc.program.ok, doc.program.message
+    assert doc.placement is None or doc.placement.applied
+    assert not any("placement proposed" in w for w in doc.warnings), doc.warnings
+
+
 def test_a_proposed_placement_writes_the_plans_own_program_complete():
     """Qualitative test 1 without consent and without ``--verify``: the reach repair proposes
     a placement, so the plan keeps its own failing program, made with its passing round trips

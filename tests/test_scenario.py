@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -162,6 +163,38 @@ def test_the_schema_and_the_loader_agree_on_edge_values(data, valid):
     else:
         with pytest.raises(ScenarioError):
             resolve_mapping(data, "edge")
+
+
+BOOLEANS = [
+    ("start.placement.rotation", {"euler": [0, 0, 1.5], "degrees": 1},
+     "start.placement.rotation.degrees: Input should be a valid boolean (got 1, a number: "
+     "expected true or false"),
+    ("repair.placement", "yes", "repair.placement: Input should be a valid boolean (got 'yes', "
+     "text: expected true or false"),
+    ("robot", {"preset": "yumi", "place": "off"}, "robot.place: Input should be a valid "
+     "boolean (got 'off', text"),
+    ("robot", {"preset": "yumi", "place": 0.0}, "robot.place: Input should be a valid boolean"),
+]
+
+
+@pytest.mark.parametrize("path, value, message", BOOLEANS)
+def test_a_boolean_field_takes_yaml_booleans_only(path, value, message):
+    """Pydantic read the text 'yes', 'off' and the numbers 1 and 0 as booleans, so
+    ``degrees: 1`` read Euler angles in degrees and ``place: 'off'`` was false by a rule no
+    YAML reader shares; the schema refused them. A boolean field takes true and false (and
+    YAML 1.1's unquoted yes, no, on, off, which PyYAML reads as booleans) and refuses anything
+    else at its place, naming the value; schema and loader agree."""
+    import yaml
+
+    jsonschema = pytest.importorskip("jsonschema")
+    data = with_(path, value)
+    with pytest.raises(ScenarioError, match=re.escape(message)):
+        parse_scenario(data, "job.yaml")
+    assert not jsonschema.Draft202012Validator(scenario_json_schema()).is_valid(data)
+    unquoted = yaml.safe_load("repair: {placement: yes}\nstart: {placement: {rotation: "
+                              "{euler: [0, 0, 90], degrees: on}}}")
+    assert parse_scenario({**BASE, "repair": unquoted["repair"]}).repair.placement is True
+    assert unquoted["start"]["placement"]["rotation"]["degrees"] is True
 
 
 BAD = [

@@ -103,6 +103,15 @@ def test_registration_with_a_depth_image(scene):
     assert np.linalg.norm(shape.points - truth, axis=1).mean() < 1e-3
     with pytest.raises(ValueError, match="has no depth"):
         register_with_depth(image, np.zeros_like(depth), calibration, BLUE, N_POINTS)
+    # the images of another camera or resolution are refused, as register_on_plane refuses
+    # its image: a depth image half the size would read the depth of other pixels
+    half = cv2.resize(depth, (depth.shape[1] // 2, depth.shape[0] // 2),
+                      interpolation=cv2.INTER_NEAREST)
+    with pytest.raises(ValueError, match=r"depth_image: got 320 x 240 px, expected 640 x 480"):
+        register_with_depth(image, half, calibration, BLUE, N_POINTS, depth_scale=1e-4)
+    with pytest.raises(ValueError, match=r"^image: got 320 x 240 px, expected 640 x 480"):
+        register_with_depth(cv2.resize(image, (320, 240)), depth, calibration, BLUE, N_POINTS,
+                            depth_scale=1e-4)
 
 
 def test_red_cable_with_hue_wrap_around():

@@ -701,7 +701,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 
 
 def _plan_batch(args: argparse.Namespace, console: Console) -> int:
-    from .app.files import SKIPPED, plan_file, refuse_shared_folders
+    from .app.files import plan_file, refuse_shared_folders
     from .study.backends import make_backend, map_jobs
 
     refuse_shared_folders(args.output, args.scenarios)
@@ -712,11 +712,10 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
     codes, skipped = {}, 0
     with make_backend(None if args.scheduler else args.workers, args.scheduler,
                       preload=("dloplan.study.evaluate",)) as backend:  # not the study's kernels
-        for _, (path, code, line) in map_jobs(plan_file, args.scenarios, backend,
-                                              shared=options):
-            codes[path] = code
-            skipped += line.endswith(SKIPPED)
-            console.stage(line)
+        for _, result in map_jobs(plan_file, args.scenarios, backend, shared=options):
+            codes[result.path] = result.code
+            skipped += result.skipped
+            console.stage(result.line)
     print(f"planned {len(codes)} scenarios: "
           f"{sum(c == EXIT_OK for c in codes.values())} ok, "
           f"{sum(c == EXIT_WARNINGS for c in codes.values()) - skipped} with warnings, "

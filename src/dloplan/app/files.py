@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
+from typing import NamedTuple
 
 from ..exit_codes import (  # noqa: F401 - re-exported: the codes of the command
     EXIT_CHECK_FAILED,
@@ -136,23 +137,41 @@ def refuse_shared_folders(output, paths) -> None:
         seen[folder] = path
 
 
-SKIPPED = "skipped (an identification file: use dloplan identify)"
-"""The status line's end for a batch file that is not planned (:func:`plan_file`)."""
+class FileResult(NamedTuple):
+    """What :func:`plan_file` did with one file of a batch.
+
+    Attributes
+    ----------
+    path : str
+        The job file.
+    code : int
+        Its exit code (``EXIT_WARNINGS`` for a skipped file).
+    line : str
+        Its status line.
+    skipped : bool
+        An identification file, not planned (the batch's summary counts it apart).
+    """
+
+    path: str
+    code: int
+    line: str
+    skipped: bool = False
 
 
-def plan_file(options: dict, path: str) -> tuple[str, int, str]:
+def plan_file(options: dict, path: str) -> FileResult:
     """Plan one job file into ``<output>/<stem>/`` (the batch mode's task,
     :func:`batch_folder`; :func:`refuse_shared_folders` is called before the batch starts).
 
-    Returns ``(path, exit code, status line)``; an identification file is skipped with a
-    pointer to ``dloplan identify``, a bad file gives its one-line error.
+    An identification file is skipped with a pointer to ``dloplan identify``, a bad file
+    gives its one-line error.
     """
     from ..io.scenario import read_mapping
 
     folder = batch_folder(options["output"], path)
     try:
         if file_kind(read_mapping(path)) == "identification":
-            return path, EXIT_WARNINGS, f"{path}: {SKIPPED}"
+            return FileResult(path, EXIT_WARNINGS, f"{path}: skipped (an identification file: "
+                              "use dloplan identify)", skipped=True)
         job = load_job(path, allow_placement=options.get("allow_placement", False))
         doc, _ = plan_into(job, folder, verify=options["verify"],
                            check_robot=options.get("check_robot", True),
@@ -160,10 +179,10 @@ def plan_file(options: dict, path: str) -> tuple[str, int, str]:
                            figures=options.get("figures", True),
                            svg=options.get("svg", False))
     except ValueError as exc:
-        return path, EXIT_FAILURE, f"{path}: error: {exc}"
+        return FileResult(path, EXIT_FAILURE, f"{path}: error: {exc}")
     code = exit_code(doc)
     status = {EXIT_OK: "ok", EXIT_WARNINGS: "warnings", EXIT_CHECK_FAILED: "check FAILED"}[code]
-    return path, code, f"{path}: {status} -> {folder}"
+    return FileResult(path, code, f"{path}: {status} -> {folder}")
 
 
 def document_of(path, progress=quiet, *, allow_placement: bool = False,

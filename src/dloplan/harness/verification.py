@@ -284,6 +284,9 @@ def _replays(model: HeldModel, times: np.ndarray, law: TimeLaw | None, clips: li
     if not inserted:  # one instant: the slots' knot, where run B starts
         t_in, p_in, q_in = t_in[:1], p_in[:1], q_in[:1]
     t_pull = _window(motion, times[k_slots], times[k_end])[0]
+    pulled_apart = times[k_end] > times[k_slots]  # no time: a cable taut in the slots already
+    if not pulled_apart:  # one instant: the regrasp's end is the tensioning's
+        t_pull = t_pull[:1]
     pause = float(regrasp_time)
     start_pull = times[k_slots] + pause
     held = np.concatenate([[start_pull], t_pull[1:] + pause] if pause > 0 else [t_pull[1:]])
@@ -303,10 +306,11 @@ def _replays(model: HeldModel, times: np.ndarray, law: TimeLaw | None, clips: li
         return sections[d]
 
     insertion, tensioning = paths["insertion"], paths["tensioning"]
+    paused = pause > 0 and pulled_apart  # a knot of its own between the regrasp and the pull
     shapes = list(insertion.shapes[0 if inserted else 1:2]) + (
-        [insertion.shapes[1]] if pause > 0 else []) + [tensioning.shapes[-1]]
+        [insertion.shapes[1]] if paused else []) + [tensioning.shapes[-1]]
     knot_times = ([times[k2]] if inserted else []) + [times[k_slots]] + (
-        [start_pull] if pause > 0 else []) + [times[k_end] + pause]
+        [start_pull] if paused else []) + [times[k_end] + pause]
     run_b = replay(insertion.cable, np.stack(shapes), ClipTrajectory.sampled(t_b, p_b, q_b),
                    knot_times=np.array(knot_times), contacts=model.contacts, cable_at=cable_at,
                    changes_at=start_pull,

@@ -35,6 +35,12 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 
+def move_spline(path) -> CubicSpline:
+    """q_m(s): the not-a-knot cubic spline through one move's joints (n + 1, J) [rad] at the
+    sub-steps s = 0, 1/n, ..., 1 (module docstring; linear for n = 1)."""
+    return CubicSpline(np.linspace(0.0, 1.0, len(path)), path, axis=0)
+
+
 @dataclass(frozen=True, eq=False)
 class JointMotion:
     """The joints of every arm of a program along the time law (module docstring).
@@ -65,8 +71,7 @@ class JointMotion:
         for a, arm in enumerate(self.paths):
             if len(arm) != moves or any(np.ndim(p) != 2 or len(p) < 2 for p in arm):
                 raise ValueError(f"paths[{a}]: expected {moves} arrays (n + 1 >= 2, J) [rad]")
-        splines = tuple(tuple(CubicSpline(np.linspace(0.0, 1.0, len(p)), p, axis=0)
-                              for p in arm) for arm in self.paths)
+        splines = tuple(tuple(move_spline(p) for p in arm) for arm in self.paths)
         object.__setattr__(self, "_splines", splines)
 
     @property

@@ -30,6 +30,7 @@ from .checks import CheckRow
 from .collision import arm_clearance
 from .described import ARMS, DescribedCell, table_clearance
 from .kinematics import IKOptions, inverse, joint_margin, solve_from
+from .line_deviation import LINE_TOLERANCE, line_deviation
 from .yumi import ABB_AXIS_NUMBERS
 
 COMFORT_CLEARANCE = 0.05
@@ -44,6 +45,10 @@ START_RESTARTS = 16
 """Random restarts of the IK at the first pose of a cell program's check (at least; more if
 ``options.ik`` asks; :meth:`ReachOptions.cell_program`): the one solve without a previous
 solution to follow, where a margin from the limits is wanted."""
+
+REFINEMENTS = 3
+"""Times at most the path check tracks a path again with more sub-steps in the moves whose
+joint motion leaves the straight TCP line by more than ``ReachOptions.line_tolerance``."""
 
 TURN_Z = Rotation.from_rotvec([0.0, 0.0, np.pi]).as_matrix()
 """The TCP turned by pi about its own z-axis: the other grip of a symmetric gripper."""
@@ -109,6 +114,12 @@ class ReachOptions:
     table_clearance : bool
         Check the arms' capsules against the table at every sub-step (a ``table clearance``
         verdict row per pose and arm); False: not computed (NaN, no rows).
+    line_tolerance : float or None
+        [m] How far the joint motion between sub-steps (the spline a time-based program runs,
+        :mod:`dloplan.robot.line_deviation`) may leave the straight TCP line: a move that leaves
+        it by more is tracked again with more sub-steps (up to :data:`REFINEMENTS` times), and
+        one that still does is not continuous. None: not measured (a reach check's, whose
+        joints between the poses are no program).
     """
 
     ik: IKOptions = field(default_factory=IKOptions)
@@ -123,16 +134,18 @@ class ReachOptions:
     track_margin: bool = True
     follow_lost: bool = False
     table_clearance: bool = False
+    line_tolerance: float | None = None
 
     @classmethod
     def cell_program(cls, **settings) -> ReachOptions:
         """The settings of a described cell's program check (:func:`~dloplan.robot.urdf_cell.
         verify_on_cell`): :data:`START_RESTARTS` at the first pose, sub-steps tracked without a
-        margin, every sub-step tracked after a loss, the table clearance, the mapped grip only;
-        ``settings`` as for the class."""
+        margin, every sub-step tracked after a loss, the table clearance, the mapped grip only,
+        the motion between sub-steps within :data:`~dloplan.robot.line_deviation.
+        LINE_TOLERANCE` of the straight TCP line; ``settings`` as for the class."""
         return cls(**{"start_restarts": START_RESTARTS, "track_margin": False,
                       "follow_lost": True, "table_clearance": True, "symmetric_grip": False,
-                      **settings})
+                      "line_tolerance": LINE_TOLERANCE, **settings})
 
     def __post_init__(self) -> None:
         for key in ("step_length", "step_angle", "max_joint_step"):
@@ -144,6 +157,10 @@ class ReachOptions:
             if not np.isfinite(value) or (key == "min_margin" and value < 0):
                 raise ValueError(f"ReachOptions.{key}: expected a finite number >= 0, got "
                                  f"{value!r}")
+        if self.line_tolerance is not None and not (np.isfinite(self.line_tolerance)
+                                                    and self.line_tolerance > 0):
+            raise ValueError(f"ReachOptions.line_tolerance: expected a positive number or "
+                             f"None, got {self.line_tolerance!r}")
         if int(self.start_restarts) < 0:
             raise ValueError(f"ReachOptions.start_restarts: expected an integer >= 0, got "
                              f"{self.start_restarts!r}")
@@ -220,6 +237,11 @@ class PathCheck:
     rows : tuple of CheckRow
         Per pose and arm ``reach``, ``joint limits``, ``continuity`` (and ``table clearance``),
         per pose ``clearance``.
+    line_deviation : numpy.ndarray or None
+        (K, 2) [m] the largest distance of the joint motion into pose k from the straight TCP
+        line between the sub-steps (:mod:`dloplan.robot.line_deviation`); None without
+        ``ReachOptions.line_tolerance`` or where an arm lost a move or missed a pose (the
+        check fails already).
     """
 
     joints: tuple[np.ndarray, np.ndarray]
@@ -240,6 +262,7 @@ class PathCheck:
     stopped: bool
     messages: tuple[str, ...]
     rows: tuple[CheckRow, ...]
+    line_deviation: np.ndarray | None = None
 
     @property
     def q(self) -> np.ndarray:
@@ -317,28 +340,42 @@ def check_path(cell: DescribedCell, positions, rotations: Rotation, *, seeds=Non
             raise ValueError(f"seeds: expected per arm ({arm.n_joints},) finite joint values "
                              f"[rad], got {seeds!r}")
     counts = substeps(pos, mats, opts)
+    tracks = _track_arms(cell, pos, grips, seeds, counts, opts)
+    deviation = None
+    for refinement in range(REFINEMENTS + 1):
+        if opts.line_tolerance is None or not all(
+                t.reachable.all() and t.continuous.all() for t, _ in tracks):
+            break  # (a lost or unreached motion fails already: its spline is no program)
+        deviation = np.stack([line_deviation(arm, t.motion, pos[:, a], counts)
+                              for a, ((t, _), arm) in enumerate(zip(tracks, cell.arms,
+                                                                    strict=True))], 1)
+        worst = deviation[1:].max(axis=1) / opts.line_tolerance  # per move
+        if refinement == REFINEMENTS or not np.any(worst > 1.0):
+            break
+        # the spline's error falls at least as the square of the spacing: one more round is
+        # rarely needed; at most 4 times the sub-steps a round
+        factor = np.clip(1.2 * np.sqrt(worst), 2.0, 4.0)
+        counts = np.where(worst > 1.0, np.ceil(counts * factor), counts).astype(int)
+        tracks, deviation = _track_arms(cell, pos, grips, seeds, counts, opts), None
     times = np.concatenate([[0.0]] + [k - 1 + np.arange(1, n + 1) / n
                                       for k, n in enumerate(counts, start=1)])
     poses = np.concatenate([[0], np.cumsum(counts)]).astype(int)
-    tracks = []
-    for a, arm in enumerate(cell.arms):
-        tried = [_follow(arm, ARMS[a], pos[:, a], g[:, a], counts, np.asarray(seeds[a], float),
-                         opts) for g in grips]
-        scores = [(t.reachable.sum(), t.continuous.sum(),
-                   joint_margin(arm, t.motion[poses]).min()) for t in tried]
-        best = max(range(len(tried)), key=lambda i: scores[i])
-        tracks.append((tried[best], best == 1))
-        if tried[best].stopped:  # verdict_only: the verdict is known, the rest not computed
-            tracks = [(tried[best], False) if i == a else (_unknown(other, len(times),
-                                                                    len(pos)), False)
-                      for i, other in enumerate(cell.arms)]
-            break
     stopped = any(t.stopped for t, _ in tracks)
     motion = tuple(t.motion for t, _ in tracks)
     joints = tuple(m[poses] for m in motion)
     reachable, continuous, perr, aerr, step = (
         np.stack([getattr(t, key) for t, _ in tracks], axis=1)
         for key in ("reachable", "continuous", "position_error", "angle_error", "joint_step"))
+    messages = tuple(m for t, _ in tracks for m in t.messages)
+    off = np.zeros_like(continuous)
+    if deviation is not None:
+        off = (deviation > opts.line_tolerance) & continuous & reachable
+        continuous = continuous & ~off
+        messages += tuple(
+            f"{ARMS[a]} arm, between pose {k - 1} and {k}: the joint motion leaves the straight "
+            f"TCP line by {1e3 * deviation[k, a]:.2f} mm with {counts[k - 1]} sub-steps "
+            f"(bound {1e3 * opts.line_tolerance:.2f} mm)" for k, a in zip(*np.nonzero(off),
+                                                                          strict=True))
     margin = np.stack([joint_margin(arm, joints[a]) for a, arm in enumerate(cell.arms)], 1)
     starts = np.concatenate([[0], poses[:-1] + 1])
     if stopped:
@@ -352,11 +389,32 @@ def check_path(cell: DescribedCell, positions, rotations: Rotation, *, seeds=Non
     if opts.table_clearance and not stopped:
         table = np.stack([np.minimum.reduceat(table_clearance(cell, arm, motion[a]), starts)
                           for a, arm in enumerate(cell.arms)], 1)
-    rows = _rows(cell, reachable, continuous, perr, margin, step, table, clearance, opts)
+    rows = _rows(cell, reachable, continuous, perr, margin, step, table, clearance, opts,
+                 np.where(off, deviation, np.nan) if off.any() else None)
     return PathCheck(joints, reachable, continuous, perr, aerr, margin, step, table, clearance,
                      times, motion, gaps, closest, poses,
                      (False, False) if stopped else tuple(turned for _, turned in tracks),
-                     stopped, tuple(m for t, _ in tracks for m in t.messages), tuple(rows))
+                     stopped, messages, tuple(rows), deviation)
+
+
+def _track_arms(cell, pos, grips, seeds, counts, opts: ReachOptions) -> list:
+    """Per arm ``(track, turned)``: each arm's better grip followed through ``counts``
+    sub-steps (:func:`check_path`); a stopped ``verdict_only`` track leaves the other arm
+    untracked."""
+    poses = np.concatenate([[0], np.cumsum(counts)]).astype(int)
+    tracks = []
+    for a, arm in enumerate(cell.arms):
+        tried = [_follow(arm, ARMS[a], pos[:, a], g[:, a], counts, np.asarray(seeds[a], float),
+                         opts) for g in grips]
+        scores = [(t.reachable.sum(), t.continuous.sum(),
+                   joint_margin(arm, t.motion[poses]).min()) for t in tried]
+        best = max(range(len(tried)), key=lambda i: scores[i])
+        tracks.append((tried[best], best == 1))
+        if tried[best].stopped:  # verdict_only: the verdict is known, the rest not computed
+            return [(tried[best], False) if i == a else (_unknown(other, poses[-1] + 1,
+                                                                  len(pos)), False)
+                    for i, other in enumerate(cell.arms)]
+    return tracks
 
 
 @dataclass(frozen=True, eq=False)
@@ -488,7 +546,10 @@ def _follow(arm, name: str, pos, mats, counts, seed, opts: ReachOptions) -> _Tra
     return finish(motion)
 
 
-def _rows(cell, reach_ok, cont, perr, margin, step, table, clearance, opts) -> list[CheckRow]:
+def _rows(cell, reach_ok, cont, perr, margin, step, table, clearance, opts,
+          off_line=None) -> list[CheckRow]:
+    """The verdict rows of :func:`check_path`; ``off_line`` (K, 2) [m]: where the motion into a
+    pose left the straight TCP line by more than its bound, the distance (else NaN)."""
     rows = []
     for k in range(len(clearance)):
         label = f"pose {k}"
@@ -502,9 +563,13 @@ def _rows(cell, reach_ok, cont, perr, margin, step, table, clearance, opts) -> l
                                  bool(reach_ok[k, a] and not low),
                                  f"below the {np.degrees(opts.min_margin):.0f} deg required"
                                  if low else ""))
+            off = off_line is not None and np.isfinite(off_line[k, a])
             rows.append(CheckRow("continuity", k, label, k, arm.name,
                                  float(np.degrees(step[k, a])), "deg", bool(cont[k, a]),
-                                 "" if cont[k, a] else "configuration change or IK lost"))
+                                 "" if cont[k, a] else
+                                 f"the joint motion leaves the straight TCP line by "
+                                 f"{1e3 * off_line[k, a]:.2f} mm" if off else
+                                 "configuration change or IK lost"))
             if opts.table_clearance:
                 rows.append(CheckRow("table clearance", k, label, k, arm.name,
                                      1e3 * table[k, a], "mm",

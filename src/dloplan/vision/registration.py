@@ -22,12 +22,15 @@ from .shapes_io import RegisteredShape
 from .transforms import invert_pose, transform_points
 
 
-def _check(calibration, n_points) -> None:
+def _check(calibration, n_points, image) -> np.ndarray:
+    """The arguments both registrations share, checked; the colour image of the calibration's
+    size (:meth:`~dloplan.vision.camera.CameraIntrinsics.check_image`) returned."""
     if not isinstance(calibration, ExtrinsicCalibration):
         raise ValueError(
             f"calibration: expected ExtrinsicCalibration, got {type(calibration).__name__}")
     if isinstance(n_points, bool) or int(n_points) != n_points or n_points < 2:
         raise ValueError(f"n_points: got {n_points!r}, expected an integer >= 2 (n_links + 1)")
+    return calibration.intrinsics.check_image(image)
 
 
 def _start_pixel(start_near, calibration: ExtrinsicCalibration):
@@ -74,10 +77,9 @@ def register_on_plane(image, calibration: ExtrinsicCalibration, colour: HsvRange
     RegisteredShape
         (n_points, 3) points in the calibration's frame, equally spaced in arc length.
     """
-    _check(calibration, n_points)
+    image = _check(calibration, n_points, image)
     if not (isinstance(height, int | float) and math.isfinite(height)):
         raise ValueError(f"height: got {height!r}, expected a plane height [m]")
-    image = calibration.intrinsics.check_image(image)
     line = extract_centreline(image, colour, min_area=min_area, smoothing=smoothing,
                               start_near=_start_pixel(start_near, calibration))
     points = deproject_to_plane(line.pixels, calibration.intrinsics,
@@ -102,12 +104,15 @@ def register_with_depth(image, depth_image, calibration: ExtrinsicCalibration,
     ----------
     depth_image : numpy.ndarray
         (height, width) depth aligned to ``image`` in units of ``depth_scale`` [m]; 0 = none.
+        Both images of the intrinsics' size (ValueError naming the image, its size and the
+        intrinsics').
     max_missing : float
         Largest fraction of centreline pixels allowed without depth.
 
     Other parameters are those of :func:`register_on_plane`.
     """
-    _check(calibration, n_points)
+    image = _check(calibration, n_points, image)
+    depth_image = calibration.intrinsics.check_image(depth_image, "depth_image")
     if not (isinstance(depth_offset, int | float) and math.isfinite(depth_offset)):
         raise ValueError(f"depth_offset: got {depth_offset!r}, expected a length [m]")
     line = extract_centreline(image, colour, min_area=min_area, smoothing=smoothing,

@@ -546,6 +546,10 @@ class _Session:
     def fix_reach(self, failures) -> None:
         job, doc = self.state.job, self.state.doc
         since = time.perf_counter()
+        if doc.program is not None and not self.program_verdict(doc.program, len(doc.shapes)):
+            # ``failures`` are the round's: a repair before this one in the round (the twist
+            # repair's frames) made a program that passes, so there is nothing to place
+            return
         if not isinstance(job.robot, RobotCell):
             self.fix_cell_reach(failures)
             return
