@@ -16,8 +16,9 @@ import alone about 0.7 s). :class:`FigureWorkers` takes that off the run's criti
   figures would be drawn for nothing, beside the repair on a 2-core machine);
 - the drafts are drawn by one process fewer than the cores (at least one) while the run goes
   on: on 2 cores a second drawing process would take turns with the run itself on the run's
-  core, and the run is the critical path; when the run waits for its figures (``render``) the
-  other processes start and take the drafts not started yet;
+  core, and the run is the critical path; when the run waits for its figures (``render``), or
+  has only its verification left (a whole draft after a provisional one), the other processes
+  start and take the drafts not started yet;
 - :meth:`FigureWorkers.render` is the ``figures`` writer: the final document's figures are the
   drafts whose inputs (every array, compared exactly) it still has; the others (a repaired plan)
   are drawn then. The files are the same as :func:`dloplan.app.report.write_figures` writes.
@@ -65,8 +66,10 @@ class FigureWorkers:
 
     While the run goes on, its drafts are drawn by ``drafting`` processes: on a machine with a
     core or two, one, so that the run itself (the critical path) keeps a core of its own; when
-    the run waits for its figures (:meth:`render`), the other ``workers - drafting`` processes
-    start and take the drafts not started yet and the figures drawn anew.
+    the run waits for its figures (:meth:`render`) or has only its verification left (a whole
+    :meth:`draft` after a provisional one), the other ``workers - drafting`` processes (started
+    idle with the first draft: a process forked then waits for nothing) join and take the drafts
+    not started yet and the figures drawn anew.
 
     Parameters
     ----------
@@ -101,10 +104,12 @@ class FigureWorkers:
         self.drafting = drafting
         self._pools = [_pool(drafting)]
         self._sent: list[list[Future]] = [[]]  # per pool, the drawings sent to it
-        self._waiting = workers - drafting  # processes started when the run waits
+        self._waiting = workers - drafting  # processes that join when the run waits
+        self._spare: ProcessPoolExecutor | None = None  # those, started with the first draft
         self._scratch = Path(staging) / DRAFTS
         self._drafts: dict[str, Future] = {}
         self._formats = tuple(formats)
+        self._provisional = False  # a provisional draft was made
 
     def _submit(self, drawing) -> Future:
         key = _key(drawing)
@@ -117,21 +122,35 @@ class FigureWorkers:
         return self._drafts[key]
 
     def _all_hands(self) -> None:
-        """The run waits for its figures: start the processes kept back while it went on, and
-        take back the drafts not started yet (:meth:`render` sends those it needs again, to
-        whichever processes have the least to draw)."""
+        """The run waits for its figures, or soon will: start the processes kept back while it
+        went on, and take back the drafts not started yet (:meth:`render` and :meth:`draft`
+        send those they need again, to whichever processes have the least to draw)."""
         if not self._waiting:
             return
-        self._pools.append(_pool(self._waiting))
+        self._pools.append(self._spare or _pool(self._waiting))
         self._sent.append([])
-        self._waiting = 0
+        self._waiting, self._spare = 0, None
         for key in [key for key, future in self._drafts.items() if future.cancel()]:
             del self._drafts[key]
 
     def draft(self, doc: PlanDocument, provisional: bool = False) -> None:
         """Start drawing the figures of ``doc`` (a planned document, before its verification);
         ``provisional`` (before its robot program): only those that neither the program nor a
-        repair changes (:func:`~dloplan.app.report.lasting_drawings`)."""
+        repair changes (:func:`~dloplan.app.report.lasting_drawings`).
+
+        A whole draft after a provisional one is the plan's last before it waits for its
+        figures (its program passed: the verification is left; or it was repaired: its
+        verification again and its program's completion), so every process draws it
+        (:meth:`_all_hands`); a plan's first draft, whole (a harness job's, before its long
+        verification) or provisional, is drawn by the ``drafting`` processes only."""
+        if provisional:
+            self._provisional = True
+        elif self._provisional:
+            self._all_hands()
+        if self._waiting and self._spare is None:  # started now, so that they join at once
+            self._spare = _pool(self._waiting)
+            for _ in range(self._waiting):
+                submit_whole(self._spare, os.getpid)
         try:
             for drawing in (lasting_drawings(doc, self._formats) if provisional
                             else figure_drawings(doc, self._formats)):
@@ -177,14 +196,14 @@ class FigureWorkers:
         try:
             self._finish()
         finally:
-            for pool in self._pools:
+            for pool in self._pools + [self._spare] * (self._spare is not None):
                 pool.shutdown(wait=True, cancel_futures=True)
 
     def abort(self) -> None:
         """End the workers at once (the run failed or was interrupted: no drawing is wanted);
         their drafts are removed."""
         with shielded():
-            for pool in self._pools:
+            for pool in self._pools + [self._spare] * (self._spare is not None):
                 end_pool(pool)
             shutil.rmtree(self._scratch, ignore_errors=True)
 
