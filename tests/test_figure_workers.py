@@ -103,30 +103,13 @@ def test_a_provisional_draft_draws_the_lasting_figures_and_render_the_rest(doc, 
         workers._submit = lambda drawing: sent.append(drawing.name) or submit(drawing)
         workers.draft(doc, provisional=True)
         drafted = list(sent)
-        assert len(workers._sent) == 1  # the lasting figures on one process
+        assert len(workers._sent) == 2  # a scenario's drafts: every process
         drawn = workers.render(doc, staging / "figures")
-        assert len(workers._sent) == 2  # the rest on both
     finally:
         workers.close()
     assert drafted == ["forces", "lengths"]
     assert sent == drafted + [p.stem for p in here if p.suffix == ".png"]
     assert _pngs(drawn) == _pngs(here)
-
-
-def test_a_whole_draft_after_a_provisional_one_is_drawn_by_every_process(doc, tmp_path):
-    """The plan's figures after its provisional draft come when only its verification is left
-    (its program passed, or it was repaired): both processes draw them."""
-    staging = tmp_path / "staging"
-    staging.mkdir()
-    workers = FigureWorkers(staging, 2, drafting=1)
-    try:
-        workers.draft(doc, provisional=True)
-        assert len(workers._sent) == 1
-        workers.draft(doc)
-        assert len(workers._sent) == 2 and workers._sent[1]
-    finally:
-        workers.close()
-    assert not (staging / DRAFTS).exists()
 
 
 def test_a_draft_drawn_without_svg_is_not_reused_for_a_request_with_svg(doc, tmp_path):

@@ -14,11 +14,11 @@ import alone about 0.7 s). :class:`FigureWorkers` takes that off the run's criti
   those no program or repair changes (:func:`~dloplan.app.report.lasting_drawings`), the others
   when the program passes (a plan whose program fails is repaired: its path, shapes and motion
   figures would be drawn for nothing, beside the repair on a 2-core machine);
-- the drafts are drawn by one process fewer than the cores (at least one) while the run goes
-  on: on 2 cores a second drawing process would take turns with the run itself on the run's
-  core, and the run is the critical path; when the run waits for its figures (``render``), or
-  has only its verification left (a whole draft after a provisional one), the other processes
-  start and take the drafts not started yet;
+- a harness job's drafts (made before its verification, a second or more) are drawn by one
+  process fewer than the cores (at least one): on 2 cores a second drawing process would take
+  turns with the run itself on the run's core, and the run is the critical path; when the run
+  waits for its figures (``render``) the other processes join and take the drafts not started
+  yet. A scenario's drafts use every process (kept to one, its figures went into the tail);
 - :meth:`FigureWorkers.render` is the ``figures`` writer: the final document's figures are the
   drafts whose inputs (every array, compared exactly) it still has; the others (a repaired plan)
   are drawn then. The files are the same as :func:`dloplan.app.report.write_figures` writes.
@@ -64,12 +64,12 @@ def _key(drawing) -> str:
 class FigureWorkers:
     """Worker processes drawing the figures of the plans of one run into ``staging``.
 
-    While the run goes on, its drafts are drawn by ``drafting`` processes: on a machine with a
-    core or two, one, so that the run itself (the critical path) keeps a core of its own; when
-    the run waits for its figures (:meth:`render`) or has only its verification left (a whole
-    :meth:`draft` after a provisional one), the other ``workers - drafting`` processes (started
-    idle with the first draft: a process forked then waits for nothing) join and take the drafts
-    not started yet and the figures drawn anew.
+    A first whole draft (a harness job's, made before its long verification) is drawn by
+    ``drafting`` processes: on a machine with a core or two, one, so that the run itself (the
+    critical path) keeps a core of its own; when the run waits for its figures (:meth:`render`)
+    the other ``workers - drafting`` processes (started idle with that draft, so that they join
+    at once) take the drafts not started yet and the figures drawn anew. A scenario's drafts
+    (provisional first) are drawn by every process (:meth:`draft`).
 
     Parameters
     ----------
@@ -109,7 +109,6 @@ class FigureWorkers:
         self._scratch = Path(staging) / DRAFTS
         self._drafts: dict[str, Future] = {}
         self._formats = tuple(formats)
-        self._provisional = False  # a provisional draft was made
 
     def _submit(self, drawing) -> Future:
         key = _key(drawing)
@@ -138,14 +137,12 @@ class FigureWorkers:
         ``provisional`` (before its robot program): only those that neither the program nor a
         repair changes (:func:`~dloplan.app.report.lasting_drawings`).
 
-        A whole draft after a provisional one is the plan's last before it waits for its
-        figures (its program passed: the verification is left; or it was repaired: its
-        verification again and its program's completion), so every process draws it
-        (:meth:`_all_hands`); a plan's first draft, whole (a harness job's, before its long
-        verification) or provisional, is drawn by the ``drafting`` processes only."""
+        A provisional draft (a scenario's, whose program, verification and repairs follow) is
+        drawn by every process (:meth:`_all_hands`): measured, its figures kept to one process
+        went into the figures' tail; a first whole draft (a harness job's, before its
+        verification of a second or more) by the ``drafting`` processes only, until
+        :meth:`render`."""
         if provisional:
-            self._provisional = True
-        elif self._provisional:
             self._all_hands()
         if self._waiting and self._spare is None:  # started now, so that they join at once
             self._spare = _pool(self._waiting)
