@@ -103,7 +103,7 @@ def test_a_provisional_draft_draws_the_lasting_figures_and_render_the_rest(doc, 
         workers._submit = lambda drawing: sent.append(drawing.name) or submit(drawing)
         workers.draft(doc, provisional=True)
         drafted = list(sent)
-        assert len(workers._sent) == 2  # a scenario's drafts: every process
+        assert [pool._max_workers for pool in workers._pools] == [2]  # a scenario's: both
         drawn = workers.render(doc, staging / "figures")
     finally:
         workers.close()

@@ -69,7 +69,7 @@ class FigureWorkers:
     critical path) keeps a core of its own; when the run waits for its figures (:meth:`render`)
     the other ``workers - drafting`` processes (started idle with that draft, so that they join
     at once) take the drafts not started yet and the figures drawn anew. A scenario's drafts
-    (provisional first) are drawn by every process (:meth:`draft`).
+    (provisional first) are drawn by one pool of ``workers`` processes (:meth:`draft`).
 
     Parameters
     ----------
@@ -102,9 +102,10 @@ class FigureWorkers:
             raise ValueError(f"drafting: expected 1 to {workers} processes, got {drafting}")
         worker.start_server()  # at once if the command has not started it yet
         self.drafting = drafting
-        self._pools = [_pool(drafting)]
-        self._sent: list[list[Future]] = [[]]  # per pool, the drawings sent to it
-        self._waiting = workers - drafting  # processes that join when the run waits
+        self._workers = workers
+        self._pools: list[ProcessPoolExecutor] = []  # made by the first draft or render
+        self._sent: list[list[Future]] = []  # per pool, the drawings sent to it
+        self._waiting = 0  # processes that join when the run waits (a harness job's)
         self._spare: ProcessPoolExecutor | None = None  # those, started with the first draft
         self._scratch = Path(staging) / DRAFTS
         self._drafts: dict[str, Future] = {}
@@ -120,13 +121,24 @@ class FigureWorkers:
             self._sent[lane].append(self._drafts[key])
         return self._drafts[key]
 
+    def _start(self, processes: int) -> None:
+        """The first pool, of ``processes``; the other processes (``workers`` in all) kept
+        back, forked idle now, so that they join at once (:meth:`_all_hands`)."""
+        self._pools.append(_pool(processes))
+        self._sent.append([])
+        self._waiting = self._workers - processes
+        if self._waiting:
+            self._spare = _pool(self._waiting)
+            for _ in range(self._waiting):
+                submit_whole(self._spare, os.getpid)
+
     def _all_hands(self) -> None:
         """The run waits for its figures, or soon will: start the processes kept back while it
         went on, and take back the drafts not started yet (:meth:`render` and :meth:`draft`
         send those they need again, to whichever processes have the least to draw)."""
         if not self._waiting:
             return
-        self._pools.append(self._spare or _pool(self._waiting))
+        self._pools.append(self._spare)
         self._sent.append([])
         self._waiting, self._spare = 0, None
         for key in [key for key, future in self._drafts.items() if future.cancel()]:
@@ -137,17 +149,13 @@ class FigureWorkers:
         ``provisional`` (before its robot program): only those that neither the program nor a
         repair changes (:func:`~dloplan.app.report.lasting_drawings`).
 
-        A provisional draft (a scenario's, whose program, verification and repairs follow) is
-        drawn by every process (:meth:`_all_hands`): measured, its figures kept to one process
-        went into the figures' tail; a first whole draft (a harness job's, before its
-        verification of a second or more) by the ``drafting`` processes only, until
-        :meth:`render`."""
-        if provisional:
-            self._all_hands()
-        if self._waiting and self._spare is None:  # started now, so that they join at once
-            self._spare = _pool(self._waiting)
-            for _ in range(self._waiting):
-                submit_whole(self._spare, os.getpid)
+        A run whose first draft is provisional (a scenario's, whose program, verification and
+        repairs follow) draws on one pool of ``workers`` processes, as it always did: measured,
+        its figures kept to fewer processes went into the figures' tail; one whose first draft
+        is whole (a harness job's, before its verification of a second or more) on the
+        ``drafting`` processes, the others joining at :meth:`render`."""
+        if not self._pools:
+            self._start(self._workers if provisional else self.drafting)
         try:
             for drawing in (lasting_drawings(doc, self._formats) if provisional
                             else figure_drawings(doc, self._formats)):
@@ -164,6 +172,8 @@ class FigureWorkers:
         folder.mkdir(parents=True, exist_ok=True)
         drawings = figure_drawings(doc, formats)
         try:  # every figure sent before any is waited for: the new ones are drawn side by side
+            if not self._pools:  # nothing drafted: every process draws
+                self._start(self._workers)
             self._all_hands()
             futures = [self._submit(drawing) for drawing in drawings]
             drawn = [(drawing, future.result()) for drawing, future in zip(drawings, futures,
