@@ -82,14 +82,14 @@ class FigureWorkers:
         The formats the drafts are drawn in (:data:`dloplan.plots.figures.PNG`, or
         :data:`~dloplan.plots.figures.WITH_SVG`): those :meth:`render` will be asked for.
     drafting : int, optional
-        Number of processes drawing while the run goes on, 1 to ``workers``; default
-        ``workers``, but no more than the cores this process may use less one
-        (:func:`usable_cores`), and at least 1.
+        Number of processes drawing a first whole draft (a harness job's) while the run goes
+        on, 1 to ``workers``; default ``workers``, but no more than the cores this process may
+        use less one (:func:`usable_cores`), and at least 1.
 
     Attributes
     ----------
     drafting : int
-        Processes drawing while the run goes on.
+        Processes drawing a first whole draft while the run goes on.
     """
 
     def __init__(self, staging: Path, workers: int = 2, formats: tuple[str, ...] = PNG,
