@@ -96,13 +96,14 @@ def test_a_provisional_draft_draws_the_lasting_figures_and_render_the_rest(doc, 
     here = write_figures(doc, tmp_path / "here")
     staging = tmp_path / "staging"
     staging.mkdir()
-    workers = FigureWorkers(staging, 2)
+    workers = FigureWorkers(staging, 2, drafting=1)
     sent = []
     submit = workers._submit
     try:
         workers._submit = lambda drawing: sent.append(drawing.name) or submit(drawing)
         workers.draft(doc, provisional=True)
         drafted = list(sent)
+        assert [pool._max_workers for pool in workers._pools] == [2]  # a scenario's: both
         drawn = workers.render(doc, staging / "figures")
     finally:
         workers.close()
@@ -120,7 +121,7 @@ def test_a_draft_drawn_without_svg_is_not_reused_for_a_request_with_svg(doc, tmp
     staging = tmp_path / "staging"
     staging.mkdir()
     for drafted, asked in ((None, WITH_SVG), (WITH_SVG, WITH_SVG)):
-        workers = FigureWorkers(staging, 2, *([drafted] if drafted else []))
+        workers = FigureWorkers(staging, 2, *([drafted] if drafted else []), drafting=2)
         sent, new = [], []
         submit = workers._submit
 
@@ -235,6 +236,45 @@ def test_a_harness_job_hands_its_plan_to_the_hook_before_its_robot_program():
 def test_workers_are_counted(tmp_path):
     with pytest.raises(ValueError, match="workers: expected at least 1 process, got 0"):
         FigureWorkers(tmp_path, 0)
+    with pytest.raises(ValueError, match="drafting: expected 1 to 2 processes, got 3"):
+        FigureWorkers(tmp_path, 2, drafting=3)
+
+
+@pytest.mark.parametrize(("cores", "drafting"), [(1, 1), (2, 1), (3, 2), (8, 2)])
+def test_the_drafts_leave_the_run_a_core(tmp_path, monkeypatch, cores, drafting):
+    """While the run goes on its drafts are drawn by one process fewer than the cores it may
+    use (at least one, at most the workers): the run, the critical path, keeps a core."""
+    from dloplan.app import figure_workers
+
+    monkeypatch.setattr(figure_workers, "usable_cores", lambda: cores)
+    workers = FigureWorkers(tmp_path, 2)
+    try:
+        assert workers.drafting == drafting
+    finally:
+        workers.close()
+
+
+def test_the_waiting_run_hands_the_drafts_not_started_to_the_other_workers(doc, tmp_path):
+    """Drafted on one process of two, the five figures queue behind the first; render() (the
+    run now waits) starts the second process and sends those not started yet again, to the
+    process with the least to draw: every figure drawn once, the files those drawn here,
+    nothing left behind."""
+    here = write_figures(doc, tmp_path / "here")
+    staging = tmp_path / "staging"
+    staging.mkdir()
+    workers = FigureWorkers(staging, 2, drafting=1)
+    try:
+        workers.draft(doc)  # a first whole draft (a harness job's): its verification is long
+        assert len(workers._sent) == 1  # one process while the run goes on
+        drawn = workers.render(doc, staging / "figures")
+        taken = len(workers._sent[1])  # sent to the second process once the run waited
+        cancelled = sum(f.cancelled() for f in workers._sent[0])
+    finally:
+        workers.close()
+    assert taken >= 1 and cancelled >= taken
+    assert len(workers._sent[0]) - cancelled + taken == len(here)  # each figure drawn once
+    assert _pngs(drawn) == _pngs(here)
+    assert sorted(p.name for p in staging.iterdir()) == ["figures"]
 
 
 DRAW_ELSEWHERE = """

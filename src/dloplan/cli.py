@@ -75,7 +75,8 @@ SVG = ("write each figure as SVG too (a vector copy for print, beside its PNG: a
 figures)."""
 
 FIGURE_WORKERS = 2
-"""Processes drawing a plan's figures while it is verified (:mod:`dloplan.app.figure_workers`)."""
+"""Processes drawing a plan's figures (:mod:`dloplan.app.figure_workers`; a harness job's while
+it is verified: one fewer than the cores, on 2 cores one)."""
 
 BLAS_THREADS = {"OPENBLAS_NUM_THREADS": "1"}
 """The command's BLAS threads (:func:`run`; a variable the caller set is kept). dloplan's linear
