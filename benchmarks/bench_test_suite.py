@@ -60,16 +60,50 @@ def _timed(phase: str):
     return hook
 
 
+def _process_mark(name: str) -> None:
+    """Append (name, CPU s of this process and its waited-for children since it started) to the
+    worker's ``<worker>.process.jsonl``: its start and collection, and its whole run."""
+    folder = Path(os.environ[OUT])
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
+    with open(folder / f"{worker}.process.jsonl", "a") as handle:
+        handle.write(json.dumps((name, _cpu())) + "\n")
+
+
 if OUT in os.environ:  # loaded by pytest as a plugin (``-p bench_test_suite``)
     pytest_runtest_setup = _timed("setup")
     pytest_runtest_call = _timed("call")
     pytest_runtest_teardown = _timed("teardown")
 
+    def pytest_collection_finish(session):
+        """The worker's CPU up to its collected tests: the interpreter, pytest, its plugins,
+        every test module's imports and the assertion rewriting of each test module."""
+        _process_mark("collected")
+
+    def pytest_sessionfinish(session):
+        """The worker's CPU at the end of its run (what it reaped included)."""
+        _process_mark("finished")
+
 
 def read_rows(folder: Path) -> dict[str, list[tuple[str, str, float, float, float]]]:
-    """Every row the plugin wrote into ``folder``, by worker."""
+    """Every test row the plugin wrote into ``folder``, by worker."""
     return {path.stem: [tuple(json.loads(line)) for line in path.read_text().splitlines()]
-            for path in sorted(folder.glob("*.jsonl"))}
+            for path in sorted(folder.glob("*.jsonl")) if not path.stem.endswith(".process")}
+
+
+def processes(folder: Path, rows_by_worker) -> str:
+    """Each worker's CPU [s] outside its tests: up to its collected tests (start, imports,
+    collection), between and around its tests (pytest's and xdist's own work), and its whole
+    run, as text."""
+    lines = ["worker   collected   between tests   inside tests   whole worker"]
+    for path in sorted(folder.glob("*.process.jsonl")):
+        worker = path.name.split(".")[0]
+        marks = dict(json.loads(line) for line in path.read_text().splitlines())
+        inside = sum(row[2] for row in rows_by_worker.get(worker, []))
+        whole = marks.get("finished", float("nan"))
+        collected = marks.get("collected", float("nan"))
+        lines.append(f"{worker:6s} {collected:11.1f} {whole - collected - inside:15.1f} "
+                     f"{inside:14.1f} {whole:14.1f}")
+    return "\n".join(lines)
 
 
 def timeline(rows_by_worker) -> str:
@@ -133,7 +167,7 @@ def main() -> int:
         print(stdout[-3000:], stderr[-2000:], sep="\n")
         by_worker = read_rows(folder)
         print(summary([row for rows in by_worker.values() for row in rows], args.top))
-        print("", timeline(by_worker), sep="\n")
+        print("", timeline(by_worker), "", processes(folder, by_worker), sep="\n")
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
     print(f"\npytest exit {code}: {wall:.1f} s wall, {cpu:.1f} s CPU in all its processes "
           f"(load average now {load}; the host is shared)")
