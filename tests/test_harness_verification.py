@@ -218,6 +218,9 @@ def test_a_cable_taut_in_the_slots_is_verified_with_a_tensioning_that_takes_no_t
 
     data = yaml.safe_load((EXAMPLES / "harness_ethernet.yaml").read_text())
     data["cable"]["length"] = 0.45
+    # two shapes per phase (the example plans 4): the taut cable's zero-time tensioning does not
+    # depend on how finely the phases are planned, and the job is 6x cheaper (16.6 -> 2.8 s CPU)
+    data["harness"]["n_shapes"] = [2, 2]
     job = resolve_mapping(data, "short.yaml")
     result = run_harness(job.cable, job.start, job.board, job.settings)
     assert result.success, result.message
