@@ -9,7 +9,7 @@ import re
 
 import numpy as np
 import pytest
-from browser import CHROMIUM, body_data, dom, screenshot
+from browser import CHROMIUM, Browser, body_data
 from scipy.spatial.transform import Rotation
 
 from dloplan.app.report import arm_scene, report_robot
@@ -21,6 +21,13 @@ from dloplan.trajectory import dual_arm_trajectory
 needs_chromium = pytest.mark.skipif(
     CHROMIUM is None, reason="Chromium is not installed (make browser; apt-get install chromium)")
 pytest.importorskip("yourdfpy")
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory):
+    """One headless Chromium for every page of this module (each page loaded afresh)."""
+    with Browser(tmp_path_factory.mktemp("profile")) as chromium:
+        yield chromium
 
 
 def small_plan():
@@ -275,7 +282,8 @@ def _tan(pixels: np.ndarray) -> np.ndarray:
 
 
 @needs_chromium
-def test_the_yumi_report_shows_arms_cable_and_table_and_the_timeline_moves_the_arms(tmp_path):
+def test_the_yumi_report_shows_arms_cable_and_table_and_the_timeline_moves_the_arms(tmp_path,
+                                                                                  browser):
     from robot_plans import example_plan
 
     from dloplan.robot import robot_program
@@ -287,8 +295,7 @@ def test_the_yumi_report_shows_arms_cable_and_table_and_the_timeline_moves_the_a
                         stabilized=shapes - [0, 0, 0.002], clip_positions=grippers.positions,
                         clip_rotations=grippers.matrices, cable_radius=0.004,
                         obstacles=list(job.obstacles) + [Table(0.0)], robot=robot)
-    profile = tmp_path / "profile"
-    html, messages = dom(page, profile)
+    html, messages = browser.dom(page)
     data = body_data(html)
     assert data["rendered"] == "true" and data["webgl"] == "true" and "errors" not in data
     assert messages == []  # no error, no warning, nothing logged
@@ -296,7 +303,7 @@ def test_the_yumi_report_shows_arms_cable_and_table_and_the_timeline_moves_the_a
     shots = {}
     for name, fragment in (("start", ""), ("no robot", "hide=robot"),
                            ("no cable", "hide=planned,stabilized"), ("middle", f"t={middle}")):
-        pixels, messages = screenshot(page, tmp_path / f"{name}.png", profile, fragment)
+        pixels, messages = browser.screenshot(page, tmp_path / f"{name}.png", fragment)
         assert messages == [], (name, messages)
         shots[name] = _canvas(html, pixels)
     area = shots["start"].shape[0] * shots["start"].shape[1]
@@ -315,7 +322,7 @@ def test_the_yumi_report_shows_arms_cable_and_table_and_the_timeline_moves_the_a
 
 @needs_chromium
 @pytest.mark.parametrize("preset", ["ur5e_pair", "panda_pair"])
-def test_the_pages_forward_kinematics_is_dloplans(tmp_path, preset):
+def test_the_pages_forward_kinematics_is_dloplans(tmp_path, preset, browser):
     """At every target's time the page's TCP (its scene graph at the interpolated joints) is
     where dloplan's FK puts it; a described cell's page draws its meshes, no capsule."""
     from dloplan.robot.urdf_cell import PRESETS
@@ -326,18 +333,18 @@ def test_the_pages_forward_kinematics_is_dloplans(tmp_path, preset):
     assert f'"model":"{preset.split("_")[0]}"' in text and '"capsules":[]' in text
     robot = arguments["robot"]
     for k in (len(robot["times"]) // 2, len(robot["times"]) - 1):
-        html, messages = dom(page, tmp_path / "profile", f"t={robot['times'][k]}")
+        html, messages = browser.dom(page, f"t={robot['times'][k]}")
         assert messages == [] and "errors" not in body_data(html)
         drawn = np.array(json.loads(body_data(html)["tcp"]))
         expected = [_tcp(program, a, robot["joints"][a][k]) for a in range(2)]
         np.testing.assert_allclose(drawn, expected, atol=2e-5)  # page rounds to 1 micrometre
-    pixels, messages = screenshot(page, tmp_path / "shot.png", tmp_path / "profile")
-    bare, _ = screenshot(page, tmp_path / "bare.png", tmp_path / "profile", "hide=robot")
+    pixels, messages = browser.screenshot(page, tmp_path / "shot.png")
+    bare, _ = browser.screenshot(page, tmp_path / "bare.png", "hide=robot")
     assert messages == [] and _changed(pixels, bare).sum() > 20000  # the arms are drawn
 
 
 @needs_chromium
-def test_an_arm_of_another_description_is_drawn_as_its_capsules(tmp_path):
+def test_an_arm_of_another_description_is_drawn_as_its_capsules(tmp_path, browser):
     """An arm whose chain matches no model (here the UR5e's with the elbow 1 mm further out)
     gets its collision capsules and a parallel gripper, moved by the same scene graph."""
     from dloplan.robot.urdf_cell import ur5e_pair
@@ -350,7 +357,7 @@ def test_an_arm_of_another_description_is_drawn_as_its_capsules(tmp_path):
     text = page.read_text()
     assert '"model":null' in text and '"meshes":{}' in text and '"generic_gripper":true' in text
     k = len(robot["times"]) - 1
-    html, messages = dom(page, tmp_path / "profile", f"t={robot['times'][k]}")
+    html, messages = browser.dom(page, f"t={robot['times'][k]}")
     assert messages == [] and "errors" not in body_data(html)
     expected = [scene_frames(robot["arms"][a], robot["joints"][a][k])[-1][:3, 3]
                 for a in range(2)]
@@ -358,7 +365,7 @@ def test_an_arm_of_another_description_is_drawn_as_its_capsules(tmp_path):
 
 
 @needs_chromium
-def test_a_page_without_robot_plays_the_shapes(tmp_path):
+def test_a_page_without_robot_plays_the_shapes(tmp_path, browser):
     """The study and compare reports: no arms, the timeline steps through the shapes (no dead
     motion button); the view still renders."""
     shapes, positions, rotations = small_plan()
@@ -366,11 +373,31 @@ def test_a_page_without_robot_plays_the_shapes(tmp_path):
                         stabilized=shapes - [0, 0, 0.01], clip_positions=positions,
                         clip_rotations=rotations,
                         obstacles=[Box((0.3, 0.05, 0.02), (0.05, 0.05, 0.04)), Table(0.0)])
-    html, messages = dom(page, tmp_path / "profile", "t=2.5")
+    html, messages = browser.dom(page, "t=2.5")
     data = body_data(html)
     assert messages == [] and data["rendered"] == "true" and float(data["time"]) == 2.5
     assert "shape 2 \u2192 3" in html  # the cable half way between shapes 2 and 3
     assert re.search(r'<label hidden="">\s*<input type="checkbox" data-layer="robot"', html)
     assert "Play motion" not in html
-    html, messages = dom(page, tmp_path / "profile", "play", seconds=1.5)  # Play plays
+    html, messages = browser.dom(page, "play", seconds=1.5)  # Play plays
     assert messages == [] and float(body_data(html)["time"]) > 0 and "Pause" in html
+
+
+@needs_chromium
+def test_one_browser_reports_each_pages_console_and_leaves_no_process(tmp_path):
+    """The browser the tests share: each page's console messages (a warning, an uncaught
+    error) are its own, the next page starts with none, and closing ends every process."""
+    import subprocess
+
+    noisy, quiet = tmp_path / "noisy.html", tmp_path / "quiet.html"
+    noisy.write_text("<html><body><script>console.warn('careful');"
+                     "throw new Error('boom');</script></body></html>")
+    quiet.write_text("<html><body data-ok='1'><p>fine</p></body></html>")
+    with Browser(tmp_path / "profile") as chromium:
+        _, messages = chromium.dom(noisy)
+        assert messages[0] == "console.warning: careful" and "Error: boom" in messages[1]
+        html, messages = chromium.dom(quiet)
+        assert messages == [] and body_data(html) == {"ok": "1"}
+        group = chromium._process.pid
+    left = subprocess.run(["pgrep", "-g", str(group)], capture_output=True, text=True).stdout
+    assert left == ""

@@ -4,7 +4,7 @@
         --at 0.5 --view iso
 
 ``--at`` is the moment along the report's timeline (0 start, 1 end), ``--view`` one of the
-viewer's views (iso, front, side, top, job). Uses the tests' Chromium runner (tests/browser.py:
+viewer's views (iso, front, side, top, job). Uses the tests' Chromium (tests/browser.py:
 software WebGL, a fresh profile); prints the file written and the page's console messages.
 """
 
@@ -18,7 +18,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from browser import CHROMIUM, screenshot  # noqa: E402
+from browser import CHROMIUM, Browser  # noqa: E402
 
 
 def main() -> None:
@@ -37,9 +37,8 @@ def main() -> None:
     times = data["timeline"]["times"]
     moment = times[0] + args.at * (times[-1] - times[0])
     width, height = (int(v) for v in args.size.split("x"))
-    with tempfile.TemporaryDirectory() as profile:
-        _, messages = screenshot(args.report, args.output, Path(profile),
-                                 f"t={moment:.3f}&view={args.view}", (width, height))
+    with tempfile.TemporaryDirectory() as profile, Browser(Path(profile), (width, height)) as b:
+        _, messages = b.screenshot(args.report, args.output, f"t={moment:.3f}&view={args.view}")
     print(f"{args.output}: {args.report} at t = {moment:.2f} ({args.view})")
     for line in messages:
         print(f"  console: {line}")
