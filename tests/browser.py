@@ -45,7 +45,7 @@ FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-
          "--remote-debugging-pipe"]
 TIMEOUT = 180
 """[s] for one command or page load (software WebGL on a shared machine)."""
-PR_SET_CHILD_SUBREAPER = 36
+PR_SET_CHILD_SUBREAPER, PR_GET_CHILD_SUBREAPER = 36, 37
 PIPES_AT_3_AND_4 = ("import os, sys; os.dup2(int(sys.argv[1]), 3); os.dup2(int(sys.argv[2]), 4); "
                     "os.execv(sys.argv[3], sys.argv[3:])")
 """Run by the launcher: the two pipe ends as fds 3 and 4, then Chromium in its place."""
@@ -57,6 +57,17 @@ def _set_subreaper(on: bool) -> None:
         ctypes.CDLL(None, use_errno=True).prctl(PR_SET_CHILD_SUBREAPER, int(on), 0, 0, 0)
     except (OSError, AttributeError):
         pass
+
+
+def is_subreaper() -> bool:
+    """Whether this process reaps its orphaned descendants (Linux; False elsewhere)."""
+    flag = ctypes.c_int(0)
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(PR_GET_CHILD_SUBREAPER, ctypes.byref(flag), 0,
+                                                0, 0)
+    except (OSError, AttributeError):
+        return False
+    return bool(flag.value)
 
 
 class Browser:
@@ -74,6 +85,9 @@ class Browser:
         if CHROMIUM is None:
             raise RuntimeError("Chromium is not installed (make browser; apt-get install chromium)")
         self.size = size
+        # a browser opened while another runs (a test's own beside the module's) leaves the
+        # process a subreaper when it closes, and kills only its own crash handlers
+        self._was_subreaper, others = is_subreaper(), set(_orphaned_crash_handlers())
         _set_subreaper(True)
         to_browser, self._commands = os.pipe()
         self._replies, from_browser = os.pipe()
@@ -86,6 +100,8 @@ class Browser:
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         os.close(to_browser)
         os.close(from_browser)
+        self.group = self._process.pid
+        """The browser's process group (the browser's process id)."""
         self._buffer, self._events, self._next_id = b"", [], 0
         try:
             target = self.send("Target.createTarget", url="about:blank")["targetId"]
@@ -95,7 +111,9 @@ class Browser:
                 self.send(f"{domain}.enable", session=True)
             self.send("Emulation.setDeviceMetricsOverride", session=True, width=size[0],
                       height=size[1], deviceScaleFactor=1, mobile=False)
+            self._crash_handlers = set(_orphaned_crash_handlers()) - others  # started by now
         except BaseException:
+            self._crash_handlers = set(_orphaned_crash_handlers()) - others
             self.close()
             raise
 
@@ -201,7 +219,7 @@ class Browser:
                 self._process.wait(timeout=10)
             except (OSError, subprocess.TimeoutExpired):
                 pass
-        group = self._process.pid
+        group = self.group
         try:
             os.killpg(group, signal.SIGKILL)
         except ProcessLookupError:
@@ -212,13 +230,14 @@ class Browser:
                 os.waitpid(-group, 0)
             except ChildProcessError:
                 break
-        for pid in _orphaned_crash_handlers():  # they leave the group (a session of their own)
+        for pid in self._crash_handlers:  # they leave the group (a session of their own)
             with contextlib.suppress(ProcessLookupError, ChildProcessError):
                 os.kill(pid, signal.SIGKILL)
                 os.waitpid(pid, 0)
         for fd in (self._commands, self._replies):
             os.close(fd)
-        _set_subreaper(False)
+        if not self._was_subreaper:
+            _set_subreaper(False)
 
     def __enter__(self) -> Browser:
         return self

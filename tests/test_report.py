@@ -5,11 +5,12 @@ page's forward kinematics equal dloplan's)."""
 from __future__ import annotations
 
 import json
+import os
 import re
 
 import numpy as np
 import pytest
-from browser import CHROMIUM, Browser, body_data
+from browser import CHROMIUM, Browser, body_data, is_subreaper
 from scipy.spatial.transform import Rotation
 
 from dloplan.app.report import arm_scene, report_robot
@@ -386,18 +387,29 @@ def test_a_page_without_robot_plays_the_shapes(tmp_path, browser):
 @needs_chromium
 def test_one_browser_reports_each_pages_console_and_leaves_no_process(tmp_path):
     """The browser the tests share: each page's console messages (a warning, an uncaught
-    error) are its own, the next page starts with none, and closing ends every process."""
+    error) are its own, the next page starts with none, and closing ends every process; a
+    browser opened and closed while another runs (a test's own beside the module's) leaves the
+    test process the reaper of the other's processes."""
     import subprocess
+
+    def adopted() -> set[str]:  # Chromium's processes re-parented here (even as zombies)
+        return set(subprocess.run(["pgrep", "-P", str(os.getpid()), "chrom"],
+                                  capture_output=True, text=True).stdout.split())
 
     noisy, quiet = tmp_path / "noisy.html", tmp_path / "quiet.html"
     noisy.write_text("<html><body><script>console.warn('careful');"
                      "throw new Error('boom');</script></body></html>")
     quiet.write_text("<html><body data-ok='1'><p>fine</p></body></html>")
+    reaper, others = is_subreaper(), adopted()  # others: the module's browser's, if it runs
     with Browser(tmp_path / "profile") as chromium:
         _, messages = chromium.dom(noisy)
         assert messages[0] == "console.warning: careful" and "Error: boom" in messages[1]
         html, messages = chromium.dom(quiet)
         assert messages == [] and body_data(html) == {"ok": "1"}
-        group = chromium._process.pid
+        with Browser(tmp_path / "inner") as inner:
+            assert inner.dom(quiet)[1] == []
+        assert is_subreaper()  # the outer browser's processes are still reaped here
+        assert chromium.dom(quiet)[1] == []  # and it still serves pages
+        group = chromium.group
     left = subprocess.run(["pgrep", "-g", str(group)], capture_output=True, text=True).stdout
-    assert left == ""
+    assert left == "" and adopted() <= others and is_subreaper() == reaper
