@@ -21,6 +21,8 @@ from dloplan.trajectory import dual_arm_trajectory
 
 needs_chromium = pytest.mark.skipif(
     CHROMIUM is None, reason="Chromium is not installed (make browser; apt-get install chromium)")
+in_the_browser = pytest.mark.xdist_group("test_report_browser")
+"""The tests of the module's one Chromium (the ``browser`` fixture), on one worker."""
 pytest.importorskip("yourdfpy")
 
 
@@ -283,6 +285,7 @@ def _tan(pixels: np.ndarray) -> np.ndarray:
 
 
 @needs_chromium
+@in_the_browser
 def test_the_yumi_report_shows_arms_cable_and_table_and_the_timeline_moves_the_arms(tmp_path,
                                                                                   browser):
     from robot_plans import example_plan
@@ -322,6 +325,7 @@ def test_the_yumi_report_shows_arms_cable_and_table_and_the_timeline_moves_the_a
 
 
 @needs_chromium
+@in_the_browser
 @pytest.mark.parametrize("preset", ["ur5e_pair", "panda_pair"])
 def test_the_pages_forward_kinematics_is_dloplans(tmp_path, preset, browser):
     """At every target's time the page's TCP (its scene graph at the interpolated joints) is
@@ -345,6 +349,7 @@ def test_the_pages_forward_kinematics_is_dloplans(tmp_path, preset, browser):
 
 
 @needs_chromium
+@in_the_browser
 def test_an_arm_of_another_description_is_drawn_as_its_capsules(tmp_path, browser):
     """An arm whose chain matches no model (here the UR5e's with the elbow 1 mm further out)
     gets its collision capsules and a parallel gripper, moved by the same scene graph."""
@@ -366,6 +371,7 @@ def test_an_arm_of_another_description_is_drawn_as_its_capsules(tmp_path, browse
 
 
 @needs_chromium
+@in_the_browser
 def test_a_page_without_robot_plays_the_shapes(tmp_path, browser):
     """The study and compare reports: no arms, the timeline steps through the shapes (no dead
     motion button); the view still renders."""
