@@ -107,7 +107,7 @@ class Browser:
             target = self.send("Target.createTarget", url="about:blank")["targetId"]
             self._session = self.send("Target.attachToTarget", targetId=target,
                                       flatten=True)["sessionId"]
-            for domain in ("Page", "Runtime", "Log"):
+            for domain in ("Page", "Runtime", "Log", "Inspector"):
                 self.send(f"{domain}.enable", session=True)
             self.send("Emulation.setDeviceMetricsOverride", session=True, width=size[0],
                       height=size[1], deviceScaleFactor=1, mobile=False)
@@ -119,17 +119,22 @@ class Browser:
 
     # -- the protocol ---------------------------------------------------------------------------
 
-    def _receive(self, deadline: float) -> dict:
+    def _receive(self, deadline: float, what: str) -> dict:
+        """The next message from Chromium, waiting until ``deadline`` (``time.monotonic``) for
+        ``what`` (named in the error); a crash of the page's renderer is an error at once."""
         while b"\0" not in self._buffer:
             left = deadline - time.monotonic()
             if left <= 0 or not select.select([self._replies], [], [], left)[0]:
-                raise TimeoutError(f"Chromium sent nothing for {TIMEOUT} s")
+                raise TimeoutError(f"Chromium did not finish {what} within {TIMEOUT} s")
             chunk = os.read(self._replies, 1 << 20)
             if not chunk:
-                raise RuntimeError(f"Chromium exited (code {self._process.poll()})")
+                raise RuntimeError(f"Chromium exited (code {self._process.poll()}) during {what}")
             self._buffer += chunk
         message, self._buffer = self._buffer.split(b"\0", 1)
-        return json.loads(message)
+        message = json.loads(message)
+        if message.get("method") == "Inspector.targetCrashed":
+            raise RuntimeError(f"the page's renderer crashed during {what}")
+        return message
 
     def send(self, method: str, session: bool = False, **params) -> dict:
         """Send one DevTools command (to the page's session if ``session``) and return its
@@ -141,21 +146,21 @@ class Browser:
         os.write(self._commands, json.dumps(command).encode() + b"\0")
         deadline = time.monotonic() + TIMEOUT
         while True:
-            message = self._receive(deadline)
+            message = self._receive(deadline, method)
             if message.get("id") == self._next_id:
                 if "error" in message:
                     raise RuntimeError(f"{method}: {message['error']}")
                 return message.get("result", {})
             self._events.append(message)
 
-    def wait_for(self, method: str) -> dict:
-        """The next event ``method`` (those before it stay kept)."""
+    def wait_for(self, method: str, what: str) -> dict:
+        """The next event ``method`` (those before it stay kept), waited for as ``what``."""
         deadline = time.monotonic() + TIMEOUT
         for k, event in enumerate(self._events):
             if event.get("method") == method:
                 return self._events.pop(k)
         while True:
-            event = self._receive(deadline)
+            event = self._receive(deadline, what)
             if event.get("method") == method:
                 return event
             self._events.append(event)
@@ -170,30 +175,35 @@ class Browser:
 
     # -- pages ------------------------------------------------------------------------------
 
-    def open(self, page: Path, fragment: str = "", seconds: float | None = None) -> list[str]:
+    def open(self, page: Path, fragment: str = "", seconds: float | None = None) -> None:
         """Load ``page`` (``#fragment`` appended) afresh and wait until its scripts ran, its
-        load event fired and two frames were drawn (then ``seconds`` more [s] of animation);
-        return the console messages it logged: console calls, uncaught exceptions and the
-        browser's log entries, not the GL driver's performance notes Chromium files under the
-        page (SwiftShader's read-backs)."""
+        load event fired and two frames were drawn (then ``seconds`` more [s] of animation).
+        Its console messages from then on are :meth:`messages`'."""
         url = Path(page).resolve().as_uri() + (f"#{fragment}" if fragment else "")
+        self._events.clear()
         self.send("Page.navigate", session=True, url="about:blank")  # a new hash reloads too
-        self.wait_for("Page.loadEventFired")
+        self.wait_for("Page.loadEventFired", "the load of about:blank")
         self._events.clear()
         self.send("Page.navigate", session=True, url=url)
-        self.wait_for("Page.loadEventFired")
+        self.wait_for("Page.loadEventFired", f"the load of {url}")
         self.evaluate("new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
         if seconds:
             time.sleep(seconds)
+
+    def messages(self) -> list[str]:
+        """The console messages the page opened last logged up to the last command's answer
+        (call it after reading the page, so that what it logged meanwhile is in): console
+        calls, uncaught exceptions and the browser's log entries, not the GL driver's
+        performance notes Chromium files under the page (SwiftShader's read-backs)."""
         messages, self._events = _console(self._events), []
         return messages
 
     def dom(self, page: Path, fragment: str = "", seconds: float | None = None
             ) -> tuple[str, list[str]]:
         """The page's DOM after its scripts ran (and ``seconds`` [s] of animation), and its
-        console messages."""
-        messages = self.open(page, fragment, seconds)
-        return self.evaluate("document.documentElement.outerHTML"), messages
+        console messages up to then."""
+        self.open(page, fragment, seconds)
+        return self.evaluate("document.documentElement.outerHTML"), self.messages()
 
     def screenshot(self, page: Path, out: Path, fragment: str = ""
                    ) -> tuple[np.ndarray, list[str]]:
@@ -201,9 +211,10 @@ class Browser:
         uint8 RGB pixels, and the page's console messages."""
         from matplotlib import image
 
-        messages = self.open(page, fragment)
+        self.open(page, fragment)
         png = base64.b64decode(self.send("Page.captureScreenshot", session=True,
                                          format="png")["data"])
+        messages = self.messages()
         Path(out).write_bytes(png)
         pixels = (image.imread(io.BytesIO(png))[..., :3] * 255).round().astype(np.uint8)
         return pixels, messages

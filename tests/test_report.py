@@ -395,7 +395,8 @@ def test_one_browser_reports_each_pages_console_and_leaves_no_process(tmp_path):
     """The browser the tests share: each page's console messages (a warning, an uncaught
     error) are its own, the next page starts with none, and closing ends every process; a
     browser opened and closed while another runs (a test's own beside the module's) leaves the
-    test process the reaper of the other's processes."""
+    test process the reaper of the other's processes; a page whose renderer crashes is an
+    error at once and the browser goes on."""
     import subprocess
 
     def adopted() -> set[str]:  # Chromium's processes re-parented here (even as zombies)
@@ -416,6 +417,9 @@ def test_one_browser_reports_each_pages_console_and_leaves_no_process(tmp_path):
             assert inner.dom(quiet)[1] == []
         assert is_subreaper()  # the outer browser's processes are still reaped here
         assert chromium.dom(quiet)[1] == []  # and it still serves pages
+        with pytest.raises(RuntimeError, match="renderer crashed during Page.crash"):
+            chromium.send("Page.crash", session=True)  # at once, not after the timeout
+        assert chromium.dom(quiet)[1] == []  # the next page in a new renderer
         group = chromium.group
     left = subprocess.run(["pgrep", "-g", str(group)], capture_output=True, text=True).stdout
     assert left == "" and adopted() <= others and is_subreaper() == reaper
