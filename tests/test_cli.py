@@ -290,7 +290,8 @@ def test_the_plan_command_leaves_numpy_testing_and_f2py_unrun(tmp_path):
     used to be imported by every command, with unittest and f2py's Fortran parser), and they
     still work when used. A scenario's plan imports neither the harness package nor the
     study's sampling, backends, run and summary (imported where a harness job or a study needs
-    them)."""
+    them), nor scipy.interpolate and scipy.optimize (the program's joint spline is dloplan's
+    own: dloplan.robot.joint_spline)."""
     import subprocess
     import sys
 
@@ -300,7 +301,8 @@ def test_the_plan_command_leaves_numpy_testing_and_f2py_unrun(tmp_path):
             f"code = main(['plan', {str(job)!r}, '-o', {str(tmp_path / 'out')!r}, '-q'])\n"
             "ran = [m for m in ('numpy.testing._private.utils', 'numpy.f2py.crackfortran',"
             " 'unittest', 'dloplan.harness', 'dloplan.study.sampling', 'dloplan.study.backends',"
-            " 'dloplan.study.run', 'dloplan.study.summary', 'scipy.spatial.transform')"
+            " 'dloplan.study.run', 'dloplan.study.summary', 'scipy.interpolate', 'scipy.optimize',"
+            " 'scipy.spatial.transform')"
             " if m in sys.modules]\n"
             "import numpy\n"
             "numpy.testing.assert_allclose(1.0, 1.0)\n"

@@ -45,7 +45,7 @@ from .interrupts import (
     raise_if_interrupted,
     shielded,
 )
-from .lazy_modules import defer_numpy_submodules
+from .lazy_modules import defer_numpy_submodules, skip_scipy_docstring_edits
 
 EXPORT_FORMATS = {
     "json": "the plan document",
@@ -693,6 +693,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     if not args.no_figures and may_draw_figures(data):
         start_server()  # the figure workers' server warms up while the planner is imported
     defer_numpy_submodules()  # before scipy: numpy.testing and numpy.f2py run only if used
+    skip_scipy_docstring_edits()  # scipy's docstrings, which a command never reads
     from .app.load import resolve_mapping
 
     job = resolve_mapping(data, str(path), console.stage, allow_placement=args.allow_placement)
@@ -733,6 +734,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
     start_server()  # the figure workers' server warms up while the planner is imported
     defer_numpy_submodules()  # before scipy: numpy.testing and numpy.f2py run only if used
+    skip_scipy_docstring_edits()  # scipy's docstrings, which a command never reads
     from .app.load import resolve_mapping
     from .io.scenario import read_mapping
 

@@ -32,7 +32,7 @@ def _joints_at(path, s) -> np.ndarray:
     """q_m(s) of one move's sub-steps (n + 1, J) [rad] at ``s`` (k,): the spline of
     :func:`~dloplan.robot.motion.move_spline`, in closed form for one and two sub-steps (the
     not-a-knot spline through two and three points is the line and the parabola through them;
-    scipy's construction of the parabola costs a hundred times its evaluation)."""
+    building the spline costs ten to forty times evaluating these)."""
     if len(path) == 2:
         return path[0] + s[:, None] * (path[1] - path[0])
     if len(path) == 3:

@@ -32,13 +32,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicSpline
+
+from .joint_spline import NotAKnotSpline
 
 
-def move_spline(path) -> CubicSpline:
+def move_spline(path) -> NotAKnotSpline:
     """q_m(s): the not-a-knot cubic spline through one move's joints (n + 1, J) [rad] at the
     sub-steps s = 0, 1/n, ..., 1 (module docstring; linear for n = 1)."""
-    return CubicSpline(np.linspace(0.0, 1.0, len(path)), path, axis=0)
+    return NotAKnotSpline(np.linspace(0.0, 1.0, len(path)), path)
 
 
 @dataclass(frozen=True, eq=False)
