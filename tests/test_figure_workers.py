@@ -33,12 +33,30 @@ def doc(job):
     return run_job(job)
 
 
+@pytest.fixture(scope="module")
+def here(doc, tmp_path_factory):
+    """The plan's figures drawn in this process (write_figures), the reference the workers'
+    files are compared with: drawn once for the module's tests (read only), not once a test."""
+    return write_figures(doc, tmp_path_factory.mktemp("here"))
+
+
+@pytest.fixture(scope="module")
+def moved(doc):
+    """The plan moved 10 mm up after its draft (as a repair would change it)."""
+    return replace(doc, shapes=doc.shapes + np.array([0.0, 0.0, 0.01]))
+
+
+@pytest.fixture(scope="module")
+def moved_here(moved, tmp_path_factory):
+    """The moved plan's figures drawn in this process, once for the module."""
+    return write_figures(moved, tmp_path_factory.mktemp("moved"))
+
+
 def _pngs(paths) -> dict[str, bytes]:
     return {Path(p).name: Path(p).read_bytes() for p in paths if Path(p).suffix == ".png"}
 
 
-def test_a_draft_is_the_figure_drawn_here(doc, tmp_path):
-    here = write_figures(doc, tmp_path / "here")
+def test_a_draft_is_the_figure_drawn_here(doc, here, tmp_path):
     staging = tmp_path / "staging"
     staging.mkdir()
     workers = FigureWorkers(staging, 1)
@@ -54,9 +72,7 @@ def test_a_draft_is_the_figure_drawn_here(doc, tmp_path):
     assert sorted(p.name for p in staging.iterdir()) == ["figures"]
 
 
-def test_a_plan_changed_after_its_draft_is_drawn_again(doc, tmp_path):
-    moved = replace(doc, shapes=doc.shapes + np.array([0.0, 0.0, 0.01]))
-    here = write_figures(moved, tmp_path / "here")
+def test_a_plan_changed_after_its_draft_is_drawn_again(doc, here, moved, moved_here, tmp_path):
     staging = tmp_path / "staging"
     staging.mkdir()
     workers = FigureWorkers(staging, 2)
@@ -65,9 +81,8 @@ def test_a_plan_changed_after_its_draft_is_drawn_again(doc, tmp_path):
         drawn = workers.render(moved, staging / "figures")
     finally:
         workers.close()
-    assert _pngs(drawn) == _pngs(here)
-    first = write_figures(doc, tmp_path / "first")
-    assert _pngs(first)["planned_path.png"] != _pngs(drawn)["planned_path.png"]
+    assert _pngs(drawn) == _pngs(moved_here)
+    assert _pngs(here)["planned_path.png"] != _pngs(drawn)["planned_path.png"]
     assert sorted(p.name for p in staging.iterdir()) == ["figures"]
 
 
@@ -90,10 +105,9 @@ def test_the_planned_hook_sees_the_final_figures_before_and_after_the_robot_prog
     assert len(figure_drawings(final)) == len(figure_drawings(doc)) >= 4
 
 
-def test_a_provisional_draft_draws_the_lasting_figures_and_render_the_rest(doc, tmp_path):
+def test_a_provisional_draft_draws_the_lasting_figures_and_render_the_rest(doc, here, tmp_path):
     """Drafted provisionally (before the robot program), only the forces and lengths are sent;
     render() draws the others: the same files as drawn here."""
-    here = write_figures(doc, tmp_path / "here")
     staging = tmp_path / "staging"
     staging.mkdir()
     workers = FigureWorkers(staging, 2, drafting=1)
@@ -167,13 +181,13 @@ def test_plan_into_writes_the_same_files_with_and_without_workers(job, tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["inline", "parallel"]
 
 
-def test_a_changed_plan_sends_every_figure_before_waiting_for_one(doc, tmp_path, monkeypatch):
+def test_a_changed_plan_sends_every_figure_before_waiting_for_one(doc, moved, moved_here, tmp_path,
+                                                                  monkeypatch):
     """render() of a plan whose drafts are stale sends all its figures to the workers first,
     then waits: they are drawn side by side, not one after the other."""
     from concurrent.futures import Future
 
     events = []
-    moved = replace(doc, shapes=doc.shapes + np.array([0.0, 0.0, 0.01]))
     staging = tmp_path / "staging"
     staging.mkdir()
     workers = FigureWorkers(staging, 2)
@@ -196,7 +210,7 @@ def test_a_changed_plan_sends_every_figure_before_waiting_for_one(doc, tmp_path,
         workers.close()
     n = len(events) // 2
     assert n >= 4 and events == ["send"] * n + ["wait"] * n
-    assert _pngs(drawn) == _pngs(write_figures(moved, tmp_path / "here"))
+    assert _pngs(drawn) == _pngs(moved_here)
 
 
 def test_the_repair_hands_its_repaired_plan_to_the_hook_before_verifying_it():
@@ -254,12 +268,12 @@ def test_the_drafts_leave_the_run_a_core(tmp_path, monkeypatch, cores, drafting)
         workers.close()
 
 
-def test_the_waiting_run_hands_the_drafts_not_started_to_the_other_workers(doc, tmp_path):
+def test_the_waiting_run_hands_the_drafts_not_started_to_the_other_workers(doc, here,
+                                                                            tmp_path):
     """Drafted on one process of two, the five figures queue behind the first; render() (the
     run now waits) starts the second process and sends those not started yet again, to the
     process with the least to draw: every figure drawn once, the files those drawn here,
     nothing left behind."""
-    here = write_figures(doc, tmp_path / "here")
     staging = tmp_path / "staging"
     staging.mkdir()
     workers = FigureWorkers(staging, 2, drafting=1)

@@ -50,6 +50,20 @@ def test_resampled_polylines_are_resample_by_arc_length_bit_for_bit():
             assert np.array_equal(batch[b], resample_by_arc_length(polyline, n)), (n, b)
 
 
+def test_a_batch_of_one_polyline_uses_the_many_polylines_overload():
+    """A chunk where one sample is left (a study's closed loop) resamples a batch of one: the
+    kernel is called with the arrays' layouts of a larger batch, so the warm-up's one compiled
+    overload serves both (a batch of one compiled a second one after the warm-up)."""
+    from dloplan.correct.measurement_batch import _interpolated
+
+    rng = np.random.default_rng(5)
+    for count in (1, 3):
+        polylines = np.cumsum(rng.normal(size=(count, 11, 3)), axis=1)
+        assert np.array_equal(resample_polylines(polylines, 7)[0],
+                              resample_by_arc_length(polylines[0], 7))
+    assert len(_interpolated.signatures) == 1, _interpolated.signatures
+
+
 def test_measured_points_are_the_plants_measurement_bit_for_bit():
     """Plant.measure: the shape resampled onto the measured points plus the seed's noise."""
     from dloplan.cable import Cable

@@ -65,7 +65,10 @@ def resample_polylines(points: np.ndarray, n_points: int) -> np.ndarray:
     points = np.ascontiguousarray(points, dtype=float)
     s = arc_length(points)  # (B, k)
     out = np.empty((points.shape[0], n_points, 3))
-    _interpolated(points, s, np.linspace(0.0, s[:, -1], n_points, axis=-1), out)
+    # C-ordered for any B: numpy's linspace along the last axis is F-ordered for B > 1 and both
+    # for B = 1 (numba types that 'C'), which compiled a second overload for a batch of one
+    target = np.ascontiguousarray(np.linspace(0.0, s[:, -1], n_points, axis=-1))
+    _interpolated(points, s, target, out)
     return out
 
 

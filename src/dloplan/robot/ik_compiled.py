@@ -93,14 +93,9 @@ def weighted_jacobian(rots, points, axes, weight, free, jac):
 
 
 @njit(cache=True)
-def rotation_log(m):
-    """Rotation vector [rad] (3,) of a rotation matrix (3, 3): :func:`kinematics.rotation_log`."""
-    return rotation_log_into(m, np.empty(3))
-
-
-@njit(cache=True)
 def rotation_log_into(m, out):
-    """:func:`rotation_log` into ``out`` (3,); returns ``out``."""
+    """Rotation vector [rad] of a rotation matrix ``m`` (3, 3) into ``out`` (3,):
+    :func:`kinematics.rotation_log`; returns ``out``."""
     s0, s1, s2 = m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]
     cos = min(1.0, max(-1.0, 0.5 * (m[0, 0] + m[1, 1] + m[2, 2] - 1.0)))
     angle = math.acos(cos)
