@@ -173,8 +173,9 @@ class YumiTargets:
     def move_segments(self) -> np.ndarray:
         """(M - 1,) int: the trajectory segment each move is (-1: the approach and the
         retreat, at the cell's approach speed, are not the trajectory's)."""
-        inner = np.arange(self.release - self.grasp)
-        return np.r_[[-1] * self.grasp, inner, [-1] * (len(self.labels) - 1 - self.release)]
+        outside = len(self.labels) - 1 - self.release
+        return np.concatenate([np.full(self.grasp, -1), np.arange(self.release - self.grasp),
+                               np.full(outside, -1)]).astype(np.intp)
 
     @staticmethod
     def axis_name(joint: int) -> str:
