@@ -596,6 +596,8 @@ def _cases() -> list[Case]:  # noqa: C901 - one long table
         ("register-height-nan", "register {f} --calibration {f} --hsv 0,0,0:1,1,1 --height nan "
          "-o {out}", "--height"),
         ("register-hsv-bad", "register {f} --calibration {f} --hsv red -o {out}", "--hsv"),
+        ("register-hsv-reversed", "register {f} --calibration {f} --hsv 120,255,255:95,120,60 "
+         "-o {out}", ("argument --hsv", "S range 255..120 is empty")),
         ("unknown-command", "launch", "launch"),
         ("unknown-option", "plan {job} --turbo", "--turbo"),
     ]
