@@ -399,6 +399,18 @@ def test_bad_arguments_are_named(plans):
 
 
 # -- documents and the command ------------------------------------------------------------------
+def _x_half_measurement(doc, tmp_path, at=3):
+    """The demo's cable at E x0.5 measured at shape ``at`` (a registered-shape CSV), and the
+    closed-loop run it was measured on."""
+    truth = Plant(doc.cable.with_links(100).with_modulus(0.5 * doc.cable.youngs_modulus))
+    run = run_closed_loop(truth, doc.cable, doc.shapes, doc.grippers, [],
+                          stabilized=_stabilized(doc))
+    shapes_file = tmp_path / "measured.csv"
+    write_shapes(shapes_file, [RegisteredShape(_measure(run.open_loop[at]), label=f"xi_{at}",
+                                               frame_id=doc.frame_id)])
+    return shapes_file, run
+
+
 def test_dloplan_correct_writes_the_corrected_plan_program_and_report(plans, tmp_path):
     """E x0.5 at shape 3 of the demo: written, and dloplan verify passes what was written. (At
     E x2 the whole path's robot program fails continuity from the approach: the YuMi's arm
@@ -406,12 +418,7 @@ def test_dloplan_correct_writes_the_corrected_plan_program_and_report(plans, tmp
     command refuses, naming that check.)"""
     doc, plan_path = plans["demo"]
     at = 3
-    truth = Plant(doc.cable.with_links(100).with_modulus(0.5 * doc.cable.youngs_modulus))
-    run = run_closed_loop(truth, doc.cable, doc.shapes, doc.grippers, [],
-                          stabilized=_stabilized(doc))
-    shapes_file = tmp_path / "measured.csv"
-    write_shapes(shapes_file, [RegisteredShape(_measure(run.open_loop[at]), label=f"xi_{at}",
-                                               frame_id=doc.frame_id)])
+    shapes_file, run = _x_half_measurement(doc, tmp_path, at)
     out = tmp_path / "out"
     code = main(["correct", str(plan_path), "--at", str(at), "--measured", str(shapes_file),
                  "-o", str(out), "-q", "--json"])
@@ -523,16 +530,6 @@ def _rapid_start(folder):
     return out
 
 
-def _x_half_measurement(doc, tmp_path, at=3):
-    truth = Plant(doc.cable.with_links(100).with_modulus(0.5 * doc.cable.youngs_modulus))
-    run = run_closed_loop(truth, doc.cable, doc.shapes, doc.grippers, [],
-                          stabilized=_stabilized(doc))
-    shapes_file = tmp_path / "measured.csv"
-    write_shapes(shapes_file, [RegisteredShape(_measure(run.open_loop[at]), label=f"xi_{at}",
-                                               frame_id=doc.frame_id)])
-    return shapes_file
-
-
 def test_the_remaining_program_starts_from_the_joints_that_hold_the_cable(plans, tmp_path):
     """Round 9: the YuMi's remaining motion (from the measured shape K on) had an approach and a
     retreat (the cable is held) and a fresh joint solution (another arm angle: 147.3 deg at its
@@ -540,7 +537,7 @@ def test_the_remaining_program_starts_from_the_joints_that_hold_the_cable(plans,
     joints the plan's program holds the cable with, each arm angle kept."""
     doc, plan_path = plans["demo"]
     at, out = 3, tmp_path / "out"
-    shapes_file = _x_half_measurement(doc, tmp_path, at)
+    shapes_file, _ = _x_half_measurement(doc, tmp_path, at)
     assert main(["correct", str(plan_path), "--at", str(at), "--measured", str(shapes_file),
                  "-o", str(out), "-q"]) == 0
     held = next(t for t in doc.robot.program["targets"] if t["label"] == f"shape {at}")
@@ -576,7 +573,7 @@ def test_a_remaining_program_that_cannot_start_from_the_held_joints_is_written_w
     other = app_correct.HeldArms(held.left_clip, np.stack([q[0], held.joints[1]]))
     monkeypatch.setattr(app_correct, "held_arms", lambda doc, at: other)
     out = tmp_path / "out"
-    shapes_file = _x_half_measurement(doc, tmp_path, at)
+    shapes_file, _ = _x_half_measurement(doc, tmp_path, at)
     assert main(["correct", str(plan_path), "--at", str(at), "--measured", str(shapes_file),
                  "-o", str(out), "-q"]) == 1
     err = capsys.readouterr().err
