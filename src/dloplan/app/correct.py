@@ -168,10 +168,10 @@ def remaining_program(doc: PlanDocument, grippers, trajectory, at: int):
     """The robot program of the remaining motion from shape ``at`` on the plan's cell, and a
     warning (None when there is none).
 
-    On the YuMi the arms hold the cable at shape ``at``: no approach, and the program starts
-    from the joints the plan's program holds it with, each arm's arm angle kept
-    (:class:`~dloplan.robot.yumi_program.HeldArms`); the retreat after the release is the
-    plan's, not this program's. When that program fails a check and a program from a fresh
+    On the YuMi the arms hold the cable at shape ``at``: no approach (and so no retreat: the
+    cell's ``approach`` is both; after the release the arms stay where they let go), and the
+    program starts from the joints the plan's program holds it with, each arm's arm angle kept
+    (:class:`~dloplan.robot.yumi_program.HeldArms`). When that program fails a check and a program from a fresh
     joint solution passes, the fresh one is returned with a warning naming the held one's
     failure and the arm angles to take, the cable held, before it runs. A described cell's
     program is made on its cell as the plan's was."""
@@ -365,7 +365,8 @@ class CorrectionService:
             ``ok`` True with ``correction`` (:meth:`dloplan.correct.Correction.report`: its
             ``seconds`` / ``cpu_seconds`` until the remaining motion was ready), ``remaining``
             (times [s], TCP positions [m] and quaternions x-y-z-w per arm), ``program`` (the
-            check's verdict, or None) and ``seconds`` / ``cpu_seconds`` of the whole call; or
+            check's verdict, its message and the warning of :func:`remaining_program`, or
+            None) and ``seconds`` / ``cpu_seconds`` of the whole call; or
             ``ok`` False with ``error`` (the reason of a refusal or a bad input).
         """
         predict = self.predict if predict is None else bool(predict)
