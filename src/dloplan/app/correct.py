@@ -173,8 +173,8 @@ def remaining_program(doc: PlanDocument, grippers, trajectory, at: int):
     program starts from the joints the plan's program holds it with, each arm's arm angle kept
     (:class:`~dloplan.robot.yumi_program.HeldArms`). When that program fails a check and a
     program from a fresh joint solution passes, the fresh one is returned with a warning naming
-    the held one's failure and the arm angles to take, the cable held, before it runs. A described cell's
-    program is made on its cell as the plan's was."""
+    the held one's failure and the arm angles to take, the cable held, before it runs. A
+    described cell's program is made on its cell as the plan's was."""
     from ..robot.plugins import robot_program
 
     held = held_arms(doc, at)
