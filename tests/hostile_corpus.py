@@ -259,6 +259,39 @@ def png(folder: Path, world: World) -> Path:
     return path
 
 
+VISION_INTRINSICS = {"fx": 10.0, "fy": 10.0, "cx": 4.0, "cy": 4.0, "width": 8, "height": 8,
+                     "distortion": []}
+VISION_LAYOUT = {"dictionary": "DICT_4X4_50", "marker_length": 0.06, "markers": [
+    {"id": k, "pose": {"position": {"x": 0.3, "y": y, "z": 0.0},
+                       "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}
+    for k, y in ((0, 0.15), (1, -0.15))]}
+VISION_CALIBRATION = {
+    "format": "dloplan-camera-calibration", "version": 1, "frame_id": "robot_base",
+    "camera_to_robot": {"translation": {"x": 0.38, "y": 0.04, "z": 0.62},
+                        "rotation": {"x": 1.0, "y": 0.0, "z": 0.0, "w": 0.0}},
+    "intrinsics": VISION_INTRINSICS, "marker_ids": [0, 1], "reprojection_rms_px": 0.1,
+    "success": True, "message": "camera pose from 2 marker(s)"}
+
+
+def vision_files(change: Callable[[dict], None], file: str):
+    """A maker of a folder ``vision`` with a camera's files: ``image.png`` (black, 8 x 8),
+    ``intrinsics.json``, ``layout.json`` and ``calibration.json``, the one named ``file``
+    changed by ``change`` (which edits its mapping in place, or returns a text to write
+    instead); returns the folder (``{f}/calibration.json`` in a case's argv)."""
+    def make(folder: Path, world: World) -> Path:
+        out = folder / "vision"
+        out.mkdir()
+        png(out, world)
+        for name, data in (("intrinsics", VISION_INTRINSICS), ("layout", VISION_LAYOUT),
+                           ("calibration", VISION_CALIBRATION)):
+            data = copy.deepcopy(data)
+            text = change(data) if name == file else None
+            (out / f"{name}.json").write_text(text if isinstance(text, str)
+                                              else json.dumps(data))
+        return out
+    return make
+
+
 BOMB_XML = ('<?xml version="1.0"?>\n<!DOCTYPE r [<!ENTITY a "aaaaaaaaaa">'
             '<!ENTITY b "&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;"><!ENTITY c "&b;&b;&b;&b;&b;&b;&b;&b;&b;'
             '&b;">]>\n<robot name="&c;"><link name="base"/></robot>\n')
@@ -563,6 +596,8 @@ def _cases() -> list[Case]:  # noqa: C901 - one long table
         ("register-height-nan", "register {f} --calibration {f} --hsv 0,0,0:1,1,1 --height nan "
          "-o {out}", "--height"),
         ("register-hsv-bad", "register {f} --calibration {f} --hsv red -o {out}", "--hsv"),
+        ("register-hsv-reversed", "register {f} --calibration {f} --hsv 120,255,255:95,120,60 "
+         "-o {out}", ("argument --hsv", "S range 255..120 is empty")),
         ("unknown-command", "launch", "launch"),
         ("unknown-option", "plan {job} --turbo", "--turbo"),
     ]
@@ -600,6 +635,19 @@ def _cases() -> list[Case]:  # noqa: C901 - one long table
                             ("units [1]", "expected one of")),
         "huge": (lambda folder, world: raw("label,frame_id,x,y,z\n" + "xi_1,b,0,0,0\n" * 900_000,
                                            "measured.csv")(folder, world), "10 MB"),
+        # round 9: pairs were read as planar points, booleans and texts as numbers
+        "json-points-pairs": (raw(shapes_json(shape={"points": [[0.3, 0.2], [0.5, 0.2]]}),
+                                  "measured.json"),
+                              ("shapes[0].points[0]: got [0.3, 0.2]", "expected [x, y, z]")),
+        "json-points-booleans": (raw(shapes_json(shape={"points": [[True, False, True],
+                                                                   [0.5, 0, 0.2]]}),
+                                     "measured.json"),
+                                 ("shapes[0].points[0]: got [True, False, True]",)),
+        "json-points-texts": (raw(shapes_json(shape={"points": [["0.3", "0", "0.2"],
+                                                               [0.5, 0, 0.2]]}),
+                                 "measured.json"), ("shapes[0].points[0]: got ['0.3'",)),
+        "coordinate-huge": (shape_file(["0.3,0,0.2", "0.4,0,1e300", "0.5,0,0.2"]),
+                            ("point 1 [0.4, 0.0, 1e+300]", "expected within 10 m")),
     }
     for name, (make, fragment) in shapes.items():
         add(f"correct-measured-{name}", "correct {plan} --at 1 --measured {f} -o {out}",
@@ -667,6 +715,54 @@ def _cases() -> list[Case]:  # noqa: C901 - one long table
         "-o {out}", "/dev/zero", png)
     add("register-calibration-dev-zero", "register {f} --calibration /dev/zero --hsv "
         "0,0,0:1,1,1 -o {out}", "/dev/zero", raw("x", "i.png"))
+    # round 9: a wrong type read as another value (success 'no' as true, fx true as 1 px,
+    # marker_ids 'abc' as three ids), a number out of any camera's range (SVD did not
+    # converge), a marker that can never be seen or given twice (the first pose lost)
+    register = ("register {f}/image.png --calibration {f}/calibration.json --hsv 0,0,0:1,1,1 "
+                "-o {out}")
+    calibrate = ("calibrate {f}/image.png --intrinsics {f}/intrinsics.json --markers "
+                 "{f}/layout.json -o {out}")
+    camera = [
+        ("calibration-success-text", "calibration", lambda d: d.__setitem__("success", "no"),
+         ("calibration.json: success: got 'no'", "expected true or false")),
+        ("calibration-rms-text", "calibration",
+         lambda d: d.__setitem__("reprojection_rms_px", "small"),
+         ("reprojection_rms_px: got 'small'", "expected a finite number")),
+        ("calibration-marker-ids-text", "calibration",
+         lambda d: d.__setitem__("marker_ids", "abc"), ("marker_ids: got 'abc'",)),
+        ("calibration-translation-huge", "calibration",
+         lambda d: d["camera_to_robot"]["translation"].__setitem__("z", 1e300),
+         ("camera_to_robot.translation", "expected within 10 m")),
+        ("calibration-truncated", "calibration", lambda d: json.dumps(d)[:200],
+         ("calibration.json", "not valid JSON")),
+        ("calibration-fx-true", "calibration",
+         lambda d: d["intrinsics"].__setitem__("fx", True), ("intrinsics: fx: got True",)),
+        ("calibration-distortion-nested", "calibration",
+         lambda d: d["intrinsics"].__setitem__("distortion", [[0.1, 0.2], [0.0, 0.0]]),
+         ("intrinsics: distortion: got [[0.1, 0.2]", "expected a list of 0, 4, 5 or 8")),
+        ("calibration-distortion-text", "calibration",
+         lambda d: d["intrinsics"].__setitem__("distortion", "none"),
+         ("intrinsics: distortion: got 'none'",)),
+    ]
+    for id_, file, change, fragments in camera:
+        add(f"register-{id_}", register, fragments, vision_files(change, file))
+    intrinsics = [
+        ("intrinsics-cx-huge", "intrinsics", lambda d: d.__setitem__("cx", 1e300),
+         ("cx: got 1e+300", "expected a principal point within -8 .. 16 px")),
+        ("intrinsics-fx-nan", "intrinsics", lambda d: d.__setitem__("fx", NAN),
+         ("fx: got nan", "expected a focal length")),
+        ("intrinsics-width-huge", "intrinsics", lambda d: d.__setitem__("width", 10 ** 9),
+         ("width: got 1000000000", "expected an image size of 1 .. 100000")),
+        ("layout-id-beyond-the-dictionary", "layout",
+         lambda d: d["markers"][1].__setitem__("id", 10 ** 30),
+         ("layout.json: marker id 1000000000000000000000000000000 is not in DICT_4X4_50",)),
+        ("layout-id-twice", "layout", lambda d: d["markers"][1].__setitem__("id", 0),
+         ("layout.json: markers[1].id: 0 given twice",)),
+        ("layout-frame-list", "layout", lambda d: d.__setitem__("frame_id", ["robot_base"]),
+         ("layout.json: frame_id: got ['robot_base']",)),
+    ]
+    for id_, file, change, fragments in intrinsics:
+        add(f"calibrate-{id_}", calibrate, fragments, vision_files(change, file))
     return cases
 
 

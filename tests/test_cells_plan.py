@@ -387,3 +387,28 @@ def test_verify_place_and_correct_on_a_described_cell(tmp_path, capsys):
     rows = yaml.safe_load((out / "ros_joints" / "dloplan_gripper_actions.yaml").read_text())
     assert [(r["action"], r["knot"]) for r in rows["actions"]] == [
         ("release", len(moves) - 1)] * 2
+
+
+@pytest.mark.slow
+def test_a_mirrored_panda_job_gets_the_mirrored_placement():
+    """Round 9: the Panda job is placed 10 cm to the right ([0, -0.1] m: 26.5 mm clearance,
+    41 deg margin); mirrored, it was placed 20 cm back ([-0.2, 0] m) with 32.6 mm but a 5.3 deg
+    margin, the clearance ranked first. Ranked by comfort (the two shares' product), the mirror
+    image gets the mirrored place (30.7 mm, 41 deg)."""
+    from dataclasses import replace
+
+    from dloplan.app import load_scenario, run_job
+    from dloplan.robot.placement import comfort
+
+    job = replace(load_scenario(EXAMPLES / "panda_pair_ethernet.yaml"), outputs=("json",))
+    mirror = np.array([1.0, -1.0, 1.0])
+    mirrored = replace(job, start=job.start * mirror, target=job.target * mirror)
+    docs = [run_job(j) for j in (job, mirrored)]
+    assert all(doc.robot.ok for doc in docs), [doc.robot.message for doc in docs]
+    offsets = [np.array(doc.robot.program["offset"]) for doc in docs]
+    np.testing.assert_allclose(offsets[0], [0.0, -0.1, 0.0], atol=1e-12)
+    np.testing.assert_allclose(offsets[1], offsets[0] * mirror, atol=1e-12)
+    # the comfort: neither share makes up for the other's lack; round-off is no rank
+    assert comfort(0.0326, np.radians(5.3)) < comfort(0.0307, np.radians(41.0))
+    assert comfort(0.0086, 1.0) == comfort(0.0086 + 1e-9, 1.2) == comfort(0.0086, np.pi)
+    assert comfort(-0.001, 1.0) == 0.0 and comfort(0.2, 2.0) == 1.0

@@ -399,6 +399,18 @@ def test_bad_arguments_are_named(plans):
 
 
 # -- documents and the command ------------------------------------------------------------------
+def _x_half_measurement(doc, tmp_path, at=3):
+    """The demo's cable at E x0.5 measured at shape ``at`` (a registered-shape CSV), and the
+    closed-loop run it was measured on."""
+    truth = Plant(doc.cable.with_links(100).with_modulus(0.5 * doc.cable.youngs_modulus))
+    run = run_closed_loop(truth, doc.cable, doc.shapes, doc.grippers, [],
+                          stabilized=_stabilized(doc))
+    shapes_file = tmp_path / "measured.csv"
+    write_shapes(shapes_file, [RegisteredShape(_measure(run.open_loop[at]), label=f"xi_{at}",
+                                               frame_id=doc.frame_id)])
+    return shapes_file, run
+
+
 def test_dloplan_correct_writes_the_corrected_plan_program_and_report(plans, tmp_path):
     """E x0.5 at shape 3 of the demo: written, and dloplan verify passes what was written. (At
     E x2 the whole path's robot program fails continuity from the approach: the YuMi's arm
@@ -406,12 +418,7 @@ def test_dloplan_correct_writes_the_corrected_plan_program_and_report(plans, tmp
     command refuses, naming that check.)"""
     doc, plan_path = plans["demo"]
     at = 3
-    truth = Plant(doc.cable.with_links(100).with_modulus(0.5 * doc.cable.youngs_modulus))
-    run = run_closed_loop(truth, doc.cable, doc.shapes, doc.grippers, [],
-                          stabilized=_stabilized(doc))
-    shapes_file = tmp_path / "measured.csv"
-    write_shapes(shapes_file, [RegisteredShape(_measure(run.open_loop[at]), label=f"xi_{at}",
-                                               frame_id=doc.frame_id)])
+    shapes_file, run = _x_half_measurement(doc, tmp_path, at)
     out = tmp_path / "out"
     code = main(["correct", str(plan_path), "--at", str(at), "--measured", str(shapes_file),
                  "-o", str(out), "-q", "--json"])
@@ -504,6 +511,79 @@ def test_dloplan_correct_refuses_what_verify_would_fail_and_prints_its_warnings(
     assert main([*args, str(tmp_path / "plan.csv"), "-o", str(tmp_path / "kept")]) == 2
     assert "the plan is kept" in capsys.readouterr().err
     assert not (tmp_path / "kept").exists()
+
+
+def _rapid_start(folder):
+    """Per arm (left, right) of a written RAPID program: the start joints [deg] in physical
+    order (axis 7 third), the first robtarget's eax_a [deg] and every robtarget's label."""
+    import re
+
+    out = []
+    for side in "LR":
+        text = (folder / "rapid" / f"DloPlan{side}.mod").read_text(encoding="utf-8")
+        start = re.search(r"dlo_start := \[\[([^\]]*)\],\[([^,]*),", text)
+        axes = [float(v) for v in start.group(1).split(",")]
+        eax = re.search(r"CONST robtarget dlo_p00 := \[.*\],\[([^,]*),", text)
+        labels = re.findall(r"CONST robtarget dlo_p\d+ := .*;  ! (.*)", text)
+        out.append((np.array([*axes[:2], float(start.group(2)), *axes[2:]]),
+                    float(eax.group(1)), labels))
+    return out
+
+
+def test_the_remaining_program_starts_from_the_joints_that_hold_the_cable(plans, tmp_path):
+    """Round 9: the YuMi's remaining motion (from the measured shape K on) had an approach and a
+    retreat (the cable is held) and a fresh joint solution (another arm angle: 147.3 deg at its
+    approach against the 137.2 deg the arm holds the cable with). It starts at shape K from the
+    joints the plan's program holds the cable with, each arm angle kept."""
+    doc, plan_path = plans["demo"]
+    at, out = 3, tmp_path / "out"
+    shapes_file, _ = _x_half_measurement(doc, tmp_path, at)
+    assert main(["correct", str(plan_path), "--at", str(at), "--measured", str(shapes_file),
+                 "-o", str(out), "-q"]) == 0
+    held = next(t for t in doc.robot.program["targets"] if t["label"] == f"shape {at}")
+    remaining = len(doc.shapes) - at
+    for arm, (joints, eax, labels) in zip(("left", "right"), _rapid_start(out), strict=True):
+        assert labels == [f"shape {k}" for k in range(remaining)]  # no approach, no retreat
+        np.testing.assert_allclose(joints, held["arms"][arm]["joints_deg"], atol=1e-5)
+        assert eax == pytest.approx(held["arms"][arm]["arm_angle_deg"], abs=1e-5)
+    text = (out / "rapid" / "DloPlanL.mod").read_text(encoding="utf-8")
+    assert "no approach or retreat" in text and "g_GripIn" not in text
+
+
+def test_a_remaining_program_that_cannot_start_from_the_held_joints_is_written_with_a_warning(
+        plans, tmp_path, monkeypatch, capsys):
+    """The arm holding the cable with another arm angle (2.7 deg from a joint limit): the
+    program from it fails its joint limits; one from a fresh solution passes. It is written,
+    exit 1, and the warning names the held program's failure and the arm angles to take."""
+    from dloplan.app import correct as app_correct
+    from dloplan.robot import RobotCell, forward
+    from dloplan.robot.armangle import arm_angle, wrap
+    from dloplan.robot.kinematics import joint_margin, solve_many
+
+    doc, plan_path = plans["demo"]
+    at = 3
+    held = app_correct.held_arms(doc, at)
+    cell = RobotCell()
+    arm = cell.robot.arms[0]
+    p, r = forward(arm, held.joints[0])
+    theta = wrap(arm_angle(arm, held.joints[0]) - np.radians(120.0))
+    q, ok, _, _ = solve_many(arm, p[None], r.as_matrix()[None], held.joints[0][None],
+                             cell.reach.ik, np.array([theta]))
+    assert ok[0] and np.degrees(joint_margin(arm, q[0])) < 5.0  # same pose, near a limit
+    other = app_correct.HeldArms(held.left_clip, np.stack([q[0], held.joints[1]]))
+    monkeypatch.setattr(app_correct, "held_arms", lambda doc, at: other)
+    out = tmp_path / "out"
+    shapes_file, _ = _x_half_measurement(doc, tmp_path, at)
+    assert main(["correct", str(plan_path), "--at", str(at), "--measured", str(shapes_file),
+                 "-o", str(out), "-q"]) == 1
+    err = capsys.readouterr().err
+    assert f"the remaining motion from shape {at}): from the joints that hold the cable it " \
+           "fails (" in err
+    assert "joint limits at shape 0 (left arm: 2." in err
+    assert "arm angles left " in err and f"(held {np.degrees(theta):.1f})" in err
+    assert f"bring the arms there at shape {at}, the cable held" in err
+    (left, _, labels), _ = _rapid_start(out)
+    assert labels[0] == "shape 0" and np.abs(left - np.degrees(q[0])).max() > 10.0
 
 
 def test_dloplan_correct_refuses_an_absurd_measurement_and_writes_nothing(plans, tmp_path,

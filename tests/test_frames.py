@@ -7,7 +7,14 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
-from dloplan.frames import UP, compose, frame_from_axis, quaternion_x_axes, slerp_quaternions
+from dloplan.frames import (
+    UP,
+    compose,
+    frame_from_axis,
+    quaternion_x_axes,
+    slerp_quaternions,
+    table_frame,
+)
 
 
 def numpy_frames(u, up=UP) -> Rotation:
@@ -92,3 +99,19 @@ def test_compose_is_scipys_product_bit_for_bit(sizes):
         assert np.array_equal(compose(a, b).as_quat(), (a * b).as_quat())
     single = Rotation.from_rotvec([0.1, 0.2, 0.3])
     assert np.array_equal(compose(single, p).as_quat(), (single * p).as_quat())
+
+
+def test_the_table_frame_turns_with_the_job_and_is_the_world_s_along_y():
+    # a chord along +y given in degrees (cos 90 deg = 6e-17): exactly the world frame
+    along_y = Rotation.from_euler("z", 90, degrees=True).apply([0.45, 0.0, 0.0])
+    assert table_frame([along_y]).magnitude() == 0.0
+    turn = Rotation.from_euler("z", 37, degrees=True)
+    for d in ([0.0, 1.0, 0.2], [1.0, -0.3, -0.5]):
+        np.testing.assert_allclose((table_frame([turn.apply(d)]) * table_frame([d]).inv())
+                                   .as_rotvec(), turn.as_rotvec(), atol=1e-12)
+        y = table_frame([d]).apply([0.0, 1.0, 0.0])  # y: the direction on the table
+        np.testing.assert_allclose(y, np.array([d[0], d[1], 0.0]) / np.hypot(d[0], d[1]))
+    # a vertical chord: the next direction; every direction vertical: the world frame
+    np.testing.assert_allclose(table_frame([[0, 0, 1.0], [1.0, 0, 0]]).apply([0, 1.0, 0]),
+                               [1.0, 0, 0], atol=1e-15)
+    assert table_frame([[0, 0, 2.0]]).magnitude() == 0.0

@@ -154,6 +154,28 @@ def test_the_program_holds_exactly_its_verified_targets():
     assert np.all(np.diff(written.motion_times) >= 0)
 
 
+def test_a_cell_without_approach_grasps_at_the_first_shape():
+    """``robot: {approach: 0}`` (round 9: an IndexError, the moves' segments a float array):
+    no approach or retreat target, the grasp at shape 0, the release at the last shape, every
+    move a trajectory segment, and the program slowed and timed as with an approach."""
+    _, grippers, trajectory, _ = example_plan("m2_uniform_curvature_usb.yaml")
+    program = robot_program(grippers, trajectory, RobotCell(approach=0.0))
+    with_approach = _program("m2_uniform_curvature_usb.yaml")
+    written = program.targets
+    assert program.ok, program.message
+    assert written.labels == with_approach.labels[1:-1]
+    assert (written.grasp, written.release) == (0, program.n_targets - 1)
+    segments = written.move_segments
+    assert segments.dtype.kind == "i"
+    np.testing.assert_array_equal(segments, np.arange(program.n_targets - 1))
+    assert written.path_duration == pytest.approx(trajectory.duration, rel=1e-12)
+    assert written.times[-1] == pytest.approx(written.path_duration, rel=1e-12)
+    # the shapes' targets are those of the program with an approach (its IK may choose
+    # other joints: its first target is the approach pose)
+    np.testing.assert_allclose(written.positions, with_approach.targets.positions[1:-1],
+                               atol=1e-12)
+
+
 def test_a_placed_robot_gives_the_same_joints():
     """Moving the work frame and the robot together changes nothing the robot does."""
     program = _program("m2_uniform_curvature_usb.yaml")

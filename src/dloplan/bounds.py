@@ -39,6 +39,11 @@ SLOWEST = 1e-5
 (m/s, m/s^2, m/s^3, rad/s, ...): 0.01 mm/s moves a metre in 28 hours; 1e-300 m/s would leave
 the time-optimal law's solver without a solution."""
 
+WORKSPACE = 10.0
+"""Largest distance [m] of any point of a job, a measured shape or a calibrated camera from the
+origin of its frame: a dual-arm cell spans about a metre, so a coordinate beyond 10 m is a typo
+(often metres written into a mm file)."""
+
 MAX_STUDY_SAMPLES = 10_000_000
 """Most samples of a study."""
 

@@ -169,6 +169,11 @@ def hsv_range(text: str) -> tuple[tuple[int, ...], tuple[int, ...]]:
             0 <= v <= m for corner in (low, high) for v, m in zip(corner, limits, strict=True))):
         raise argparse.ArgumentTypeError(f"got {text!r}, expected H,S,V:H,S,V (six integers, H "
                                          "in 0..179, S and V in 0..255: OpenCV's HSV)")
+    for k, channel in ((1, "S"), (2, "V")):
+        if low[k] > high[k]:
+            raise argparse.ArgumentTypeError(
+                f"got {text!r}: its {channel} range {low[k]}..{high[k]} is empty; expected "
+                "low:high with S and V low <= high (H may wrap: 170,...:10,... takes the reds)")
     return low, high
 
 

@@ -48,6 +48,37 @@ def compose(p: Rotation, q: Rotation) -> Rotation:
                                         a3 * b3 - a0 * b0 - a1 * b1 - a2 * b2], axis=-1))
 
 
+def table_frame(directions) -> Rotation:
+    """The job's frame on the table (``job_to_world``): z up, y along the first of
+    ``directions`` that is not (nearly) vertical, projected onto the table, x = y x z.
+
+    A job turned on the table (about the vertical) turns this frame with it, so what is drawn
+    in it (a study's clip and obstacle offsets) turns with the job. A job whose first direction
+    is world +y (the thesis' jobs: the cable across the front of the robot, clip 0 to clip 1
+    along +y) has the world frame.
+
+    Parameters
+    ----------
+    directions : array_like
+        (D, 3) candidate directions, first choice first (a study: the start's chord from
+        clip 0 to clip 1, then the first clip's axes).
+
+    Returns
+    -------
+    Rotation
+        The rotation about z taking the frame's axes to the world; the identity when every
+        direction is vertical.
+    """
+    for d in np.asarray(directions, dtype=float).reshape(-1, 3):
+        length = float(np.linalg.norm(d))
+        if length > 0.0 and math.hypot(d[0], d[1]) > 1e-6 * length:
+            yaw = math.remainder(math.atan2(d[1], d[0]) - math.pi / 2.0, 2.0 * math.pi)
+            # a turn below 1e-12 rad is the round-off of a direction given in degrees (cos 90
+            # deg = 6e-17): none, so a job along +y draws exactly what the world frame draws
+            return Rotation.from_rotvec([0.0, 0.0, 0.0 if abs(yaw) < 1e-12 else yaw])
+    return Rotation.identity()
+
+
 def frame_from_axis(u, up=UP) -> Rotation:
     """Rotations whose x-axis is ``u`` and whose z-axis leans toward ``up``.
 

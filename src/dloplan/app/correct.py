@@ -43,6 +43,10 @@ from ..pipeline.stages import (
     with_trajectory,
     with_verification,
 )
+from ..robot.armangle import arm_angle
+from ..robot.cell import RobotCell
+from ..robot.yumi import ARMS
+from ..robot.yumi_program import HeldArms
 from ..sim import equilibrium
 from ..trajectory import plan_cycle
 from .writers import WRITERS, WriteOptions, write_outputs
@@ -130,18 +134,67 @@ def corrected_document(doc: PlanDocument, correction: Correction) -> PlanDocumen
     return with_program(corrected, _program(doc, correction.grippers, correction.trajectory))
 
 
-def remaining_document(corrected: PlanDocument, correction: Correction) -> PlanDocument:
+def remaining_document(doc: PlanDocument, corrected: PlanDocument,
+                       correction: Correction) -> PlanDocument:
     """The remaining motion as a plan document: shapes K .. T, the gripper path from K and its
-    trajectory starting at time 0, the program made on the plan's cell: what the robot runs
-    now, written by the same writers (csv, the cell's program formats)."""
+    trajectory starting at time 0, the program made on the plan's cell from the arms holding
+    the cable (:func:`remaining_program`; its warning, if any, among the document's): what the
+    robot runs now, written by the same writers (csv, the cell's program formats)."""
     at = correction.at
     grippers = sliced_grippers(correction.grippers, at)
     cycle = plan_cycle(correction.remaining, remaining_actions(corrected, at))
+    program, warning = remaining_program(doc, grippers, correction.remaining, at)
     remaining = replace(corrected, shapes=corrected.shapes[at:], grippers=grippers,
                         trajectory=correction.remaining, stabilized=corrected.stabilized[at:],
                         robot=None, program=None, verification=None, cycle=cycle_to_dict(cycle),
-                        stages=None, twist=None, avoidance=None, target_check=None)
-    return with_program(remaining, _program(corrected, grippers, correction.remaining))
+                        stages=None, twist=None, avoidance=None, target_check=None,
+                        warnings=(*corrected.warnings, *([warning] if warning else [])))
+    return with_program(remaining, program)
+
+
+def held_arms(doc: PlanDocument, at: int) -> HeldArms | None:
+    """The YuMi's arms holding the cable at shape ``at`` of the plan ``doc`` as its recorded
+    program runs it (the assignment and both arms' joints at that shape's target); None for a
+    plan without a YuMi program (a described cell's, or none)."""
+    record = None if doc.robot is None else doc.robot.program
+    if not isinstance(document_cell(doc), RobotCell) or not record:
+        return None
+    target = next(t for t in record["targets"] if t["label"] == f"shape {at}")
+    joints = np.radians([target["arms"][arm]["joints_deg"] for arm in ARMS])
+    return HeldArms(int(record["assignment"]["left_clip"]), joints)
+
+
+def remaining_program(doc: PlanDocument, grippers, trajectory, at: int):
+    """The robot program of the remaining motion from shape ``at`` on the plan's cell, and a
+    warning (None when there is none).
+
+    On the YuMi the arms hold the cable at shape ``at``: no approach (and so no retreat: the
+    cell's ``approach`` is both; after the release the arms stay where they let go), and the
+    program starts from the joints the plan's program holds it with, each arm's arm angle kept
+    (:class:`~dloplan.robot.yumi_program.HeldArms`). When that program fails a check and a
+    program from a fresh joint solution passes, the fresh one is returned with a warning naming
+    the held one's failure and the arm angles to take, the cable held, before it runs. A
+    described cell's program is made on its cell as the plan's was."""
+    from ..robot.plugins import robot_program
+
+    held = held_arms(doc, at)
+    cell = document_cell(doc)
+    if held is None:
+        return robot_program(grippers, trajectory, cell), None
+    cell = replace(cell, approach=0.0)
+    program = robot_program(grippers, trajectory, cell, held=held)
+    if program.ok:
+        return program, None
+    fresh = robot_program(grippers, trajectory, cell)
+    if not fresh.ok:
+        return program, None
+    angles = ", ".join(f"{arm} {fresh.targets.arm_angles[0, a]:.1f} deg (held "
+                       f"{np.degrees(arm_angle(fresh.cell.arms[a], held.joints[a])):.1f})"
+                       for a, arm in enumerate(ARMS))
+    return fresh, (f"robot program (the remaining motion from shape {at}): from the joints that "
+                   f"hold the cable it fails ({program.failure_text()}); the program written "
+                   f"starts from another joint solution: arm angles {angles}; bring the arms "
+                   f"there at shape {at}, the cable held, before running it")
 
 
 def remaining_actions(doc: PlanDocument, at: int) -> tuple:
@@ -176,7 +229,8 @@ def check_correction(doc: PlanDocument, correction: Correction, *, verify: bool 
     Returns
     -------
     tuple of PlanDocument
-        ``(corrected, remaining)``.
+        ``(corrected, remaining)``; a warning of the remaining motion's program
+        (:func:`remaining_program`) is among the remaining document's warnings.
 
     Raises
     ------
@@ -188,7 +242,7 @@ def check_correction(doc: PlanDocument, correction: Correction, *, verify: bool 
     if not corrected.robot.ok:
         raise CorrectionRefused(f"robot program (the whole path: shapes 0 .. {correction.at} "
                                 f"as run, the corrected rest): {corrected.robot.message}")
-    remaining = remaining_document(corrected, correction)
+    remaining = remaining_document(doc, corrected, correction)
     if not remaining.robot.ok:
         raise CorrectionRefused(f"robot program (the remaining motion from shape "
                                 f"{correction.at}): {remaining.robot.message}")
@@ -219,7 +273,8 @@ def correct_and_check(doc: PlanDocument, at: int, measured, *, verify: bool = Tr
     Returns
     -------
     tuple
-        ``(correction, corrected document, remaining document)``.
+        ``(correction, corrected document, remaining document)``; the correction's warnings
+        with the remaining motion program's (:func:`remaining_program`).
 
     Raises
     ------
@@ -230,8 +285,10 @@ def correct_and_check(doc: PlanDocument, at: int, measured, *, verify: bool = Tr
     mode = options.pop("mode", "target")
     try:
         correction = correct_document(doc, at, measured, mode=mode, **options)
-        return (correction, *check_correction(doc, correction, verify=verify,
-                                              progress=progress))
+        corrected, remaining = check_correction(doc, correction, verify=verify,
+                                                progress=progress)
+        added = remaining.warnings[len(corrected.warnings):]
+        return replace(correction, warnings=(*correction.warnings, *added)), corrected, remaining
     except CorrectionRefused as exc:
         other = MODES[1 - MODES.index(mode)] if mode in MODES else None
         if other is None:
@@ -308,20 +365,20 @@ class CorrectionService:
             ``ok`` True with ``correction`` (:meth:`dloplan.correct.Correction.report`: its
             ``seconds`` / ``cpu_seconds`` until the remaining motion was ready), ``remaining``
             (times [s], TCP positions [m] and quaternions x-y-z-w per arm), ``program`` (the
-            check's verdict, or None) and ``seconds`` / ``cpu_seconds`` of the whole call; or
+            check's verdict, its message and the warning of :func:`remaining_program`, or
+            None) and ``seconds`` / ``cpu_seconds`` of the whole call; or
             ``ok`` False with ``error`` (the reason of a refusal or a bad input).
         """
-        from ..robot.plugins import robot_program
-
         predict = self.predict if predict is None else bool(predict)
         check = self.check_program if check_program is None else bool(check_program)
         t0, cpu0 = time.perf_counter(), time.process_time()
         try:
             result = correct_document(self.doc, at, points, predict=predict, **self.options)
-            program = None
+            program = warning = None
             if check:
-                program = robot_program(sliced_grippers(result.grippers, result.at),
-                                        result.remaining, self.cell)
+                program, warning = remaining_program(
+                    self.doc, sliced_grippers(result.grippers, result.at), result.remaining,
+                    result.at)
                 if not program.ok:
                     raise CorrectionRefused(f"robot program (the remaining motion from shape "
                                             f"{result.at}): {program.message}")
@@ -340,7 +397,8 @@ class CorrectionService:
                          for a in (0, 1)],
             },
             "program": None if program is None else {"ok": program.ok,
-                                                     "message": program.message},
+                                                     "message": program.message,
+                                                     "warning": warning},
             "seconds": time.perf_counter() - t0,
             "cpu_seconds": time.process_time() - cpu0,
         }

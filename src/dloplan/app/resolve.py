@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..bounds import WORKSPACE
 from ..cable import Cable, catalogue_cable
 from ..geometry import resample_by_arc_length
 from ..io.job_file import svg_copies
@@ -54,10 +55,6 @@ from ..robot.urdf_cell import DescribedCell, cell_from_mapping
 from ..robot.yumi import BASE_ABOVE_FOOT
 from ..shapes import arc_shape, discretize, place, sine_shape, straight_shape
 from ..trajectory import MotionLimits
-
-WORKSPACE = 10.0
-"""Largest distance [m] of any point of a job from the world origin: a dual-arm cell spans about
-a metre, so a coordinate beyond 10 m is a typo (often metres written into a mm file)."""
 
 if TYPE_CHECKING:  # the harness package is imported by a harness job's resolution only
     from ..harness.board import Board

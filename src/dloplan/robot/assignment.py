@@ -36,8 +36,9 @@ class ArmAssignment:
     separation : tuple of float
         Per shape: y of the left arm's clip minus y of the right arm's clip, robot base frame [m].
     rule : str
-        ``"geometry"`` (the side rule) or ``"swapped"`` (the other assignment, taken because
-        the side rule's program failed a check the swapped one passes).
+        ``"geometry"`` (the side rule), ``"swapped"`` (the other assignment, taken because
+        the side rule's program failed a check the swapped one passes) or ``"held"`` (the arms
+        already hold the cable: a corrected plan's remaining motion keeps the plan's).
     """
 
     left_clip: int

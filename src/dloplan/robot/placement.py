@@ -260,13 +260,16 @@ def search_cell_placement(cell: DescribedCell, positions, rotations: Rotation, *
 
     Each candidate offset (a translation of every TCP pose) is scored by IK at the planned
     poses only (each seeded from the previous pose, no sub-steps): first the number of poses
-    both arms reach, then the smallest arm-arm clearance (up to :data:`COMFORT_CLEARANCE`),
-    then the smallest joint margin (up to :data:`COMFORT_MARGIN`), then the smallest shift.
+    both arms reach, then the comfort (:func:`comfort`: the product of the smallest arm-arm
+    clearance's share of :data:`COMFORT_CLEARANCE` and the smallest joint margin's share of
+    :data:`COMFORT_MARGIN`, to :data:`COMFORT_RESOLUTION`), then the smallest shift, then the
+    earlier candidate (docs/decisions.md, "Placement of a described cell: comfort as a
+    product").
     The :data:`PLACEMENT_TRIES` best candidates are then verified in full with
     :func:`~dloplan.robot.path.check_path` (whose IK may choose other solutions, e.g. another
     elbow of a 7-joint arm) in that order: the first that passes is returned, else the best
     ranked (:func:`search_offsets`, the bound of a score: a pose with a target beyond an arm's
-    reach sphere is not reached, clearance and margin at most their comfort values).
+    reach sphere is not reached, a comfort of at most 1).
 
     Parameters
     ----------
@@ -295,9 +298,9 @@ def search_cell_placement(cell: DescribedCell, positions, rotations: Rotation, *
     shifts = [-float(np.linalg.norm(offset)) for offset in offsets]
 
     def bound(c, inside):
-        """The best score a candidate can have: its poses within both arms' reach, comfort,
-        its shift."""
-        return (int(inside.all(axis=1).sum()), COMFORT_CLEARANCE, COMFORT_MARGIN, shifts[c])
+        """The best score a candidate can have: its poses within both arms' reach, full
+        comfort, its shift."""
+        return (int(inside.all(axis=1).sum()), 1.0, shifts[c])
 
     def verify(c):
         verdict = check_path(cell, pos + offsets[c], rotations, options=opts)
@@ -309,10 +312,27 @@ def search_cell_placement(cell: DescribedCell, positions, rotations: Rotation, *
     return offsets[c], verdict
 
 
+COMFORT_RESOLUTION = 1e-3
+"""Resolution of a placement's comfort (a share of 1): placements closer than this (0.05 mm of
+clearance, 0.03 deg of margin) are equally comfortable, and the smaller shift ranks first, not
+the IK's round-off."""
+
+
+def comfort(clearance: float, margin: float) -> float:
+    """How comfortably a pair of arms holds a placement, 0 .. 1: the share of
+    :data:`COMFORT_CLEARANCE` its smallest arm-arm clearance ``clearance`` [m] has, times the
+    share of :data:`COMFORT_MARGIN` its smallest joint margin ``margin`` [rad] has (each in
+    0 .. 1), rounded to :data:`COMFORT_RESOLUTION`. Neither can make up for the other's lack:
+    a 5 deg margin with 33 mm of clearance (0.11) ranks below 41 deg with 31 mm (0.61)."""
+    share = (min(max(clearance / COMFORT_CLEARANCE, 0.0), 1.0)
+             * min(max(margin / COMFORT_MARGIN, 0.0), 1.0))
+    return round(share / COMFORT_RESOLUTION) * COMFORT_RESOLUTION
+
+
 def target_score(cell: DescribedCell, pos, mats, options, shift: float) -> tuple:
     """A placement's rank by IK at the targets (each seeded from the arm's previous one): poses
-    both arms reach, smallest arm-arm clearance (up to :data:`COMFORT_CLEARANCE`, -1 when no
-    pose is reached), smallest joint margin (up to :data:`COMFORT_MARGIN`), ``shift``.
+    both arms reach, the :func:`comfort` of their smallest arm-arm clearance (0 when no pose is
+    reached) and smallest joint margin, ``shift``.
 
     Parameters
     ----------
@@ -329,8 +349,7 @@ def target_score(cell: DescribedCell, pos, mats, options, shift: float) -> tuple
                                                 seed_from_miss=True)
                                   for a, arm in enumerate(cell.arms))
     reached = hit_l & hit_r
-    clear = float(pair_clearance(cell, q_l, q_r)[reached].min()) if reached.any() else -1.0
+    clear = float(pair_clearance(cell, q_l, q_r)[reached].min()) if reached.any() else 0.0
     margin = min(float(joint_margin(cell.left, q_l).min()),
                  float(joint_margin(cell.right, q_r).min()))
-    return (int(reached.sum()), min(clear, COMFORT_CLEARANCE), min(margin, COMFORT_MARGIN),
-            shift)
+    return (int(reached.sum()), comfort(clear, margin), shift)

@@ -41,7 +41,7 @@ def cell_name(cell) -> str:
 
 
 def robot_program(grippers, trajectory, cell=None, *, verdict_only: bool = False,
-                  round_trips_on_demand: bool = False) -> RobotProgram:
+                  round_trips_on_demand: bool = False, held=None) -> RobotProgram:
     """The verified robot program of a plan on ``cell`` (either kind), made by its plug-in.
 
     Parameters
@@ -62,19 +62,26 @@ def robot_program(grippers, trajectory, cell=None, *, verdict_only: bool = False
         YuMi's may judge its passing round trips at less cost and leave them to
         :meth:`~dloplan.robot.program.RobotProgram.completed`
         (:func:`~dloplan.robot.yumi_program.yumi_program`); a described cell's is complete.
+    held : HeldArms, optional
+        The YuMi's arms already hold the cable at the first target
+        (:class:`~dloplan.robot.yumi_program.HeldArms`: the remaining motion of a corrected
+        plan); a described cell is not given it.
 
     Raises
     ------
     ValueError
-        A cell of neither kind; inputs that do not belong together (the YuMi's plug-in:
-        :func:`~dloplan.robot.yumi_program.yumi_program`).
+        A cell of neither kind; held arms on a described cell; inputs that do not belong
+        together (the YuMi's plug-in: :func:`~dloplan.robot.yumi_program.yumi_program`).
     """
     if cell is None or isinstance(cell, RobotCell):
         return yumi_program(grippers, trajectory, cell, verdict_only=verdict_only,
-                            round_trips_on_demand=round_trips_on_demand)
+                            round_trips_on_demand=round_trips_on_demand, held=held)
     if not isinstance(cell, DescribedCell):
         raise ValueError(f"cell: expected a RobotCell or a DescribedCell, got "
                          f"{type(cell).__name__}")
+    if held is not None:
+        raise ValueError(f"held: the arms holding the cable are the YuMi's plug-in's; "
+                         f"expected none on the described cell {cell.name!r}")
     return tracked_program(cell, trajectory)
 
 

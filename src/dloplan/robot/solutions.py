@@ -20,7 +20,7 @@ from scipy.spatial.transform import Rotation
 
 from .armangle import arm_angle, wrap
 from .collision import arm_clearance
-from .kinematics import inverse, joint_margin, solve_many
+from .kinematics import forward, inverse, joint_margin, solve_many
 from .path import COMFORT_CLEARANCE, COMFORT_MARGIN, check_path
 
 ARM_ANGLE_STEP = float(np.radians(30.0))
@@ -34,6 +34,12 @@ TRACK_ITERATIONS = 12
 """IK iterations allowed per tracking sub-step, here and in the replay (a converging solve
 from the previous sub-step's solution needs a handful)."""
 
+HELD_TOLERANCE = 1e-4
+"""[m + rad] How far the TCP at held joints may be from target 0 and still hold it there (the
+held joints solved the same target, written to 1e-6 mm and 1e-9 in a quaternion, to the IK's
+1e-5 tolerance)."""
+
+
 @dataclass(frozen=True, eq=False)
 class Candidate:
     """One arm's joint solution at every target: grip (0 as mapped, 1 turned by pi about TCP z),
@@ -46,17 +52,33 @@ class Candidate:
     smooth: bool = True
 
 
-def _arm_candidates(arm, pos, rots, n_sub, opts) -> list[Candidate]:
+def _held_start(arm, pos, rots, held) -> list[tuple]:
+    """The one start of an arm that holds the cable at target 0 with joints ``held`` (7,)
+    [rad]: its grip (the one whose target-0 rotation its forward kinematics has), its arm angle
+    and its joints; none when neither grip's target is where the held joints put the TCP (the
+    arm does not hold it there)."""
+    p, r = forward(arm, held)
+    errors = [np.linalg.norm(p - pos[0]) + float((Rotation.from_matrix(rot[0]).inv()
+                                                  * r).magnitude()) for rot in rots]
+    grip = int(np.argmin(errors))
+    if errors[grip] > HELD_TOLERANCE:
+        return []
+    return [(grip, float(arm_angle(arm, held)), np.asarray(held, dtype=float))]
+
+
+def _arm_candidates(arm, pos, rots, n_sub, opts, held=None) -> list[Candidate]:
     """Per grip: target 0 solved freely from the home pose (its arm angle psi*), then the arm
     angles psi* + k * :data:`ARM_ANGLE_STEP` around the circle, seeded with that solution and,
     where that fails, with a solved neighbour's (a continuation in the arm angle); each
     candidate then tracks the path with its arm angle held, in ``n_sub[m]`` sub-steps per
-    move, each seeded from the previous one (all candidates at once)."""
+    move, each seeded from the previous one (all candidates at once). With ``held`` (7,)
+    joints [rad] at target 0 (the arm holds the cable there) the one candidate starts from them
+    with their arm angle (:func:`_held_start`)."""
     first = replace(opts.ik, min_margin=opts.min_margin, restarts=0)
     track = replace(opts.ik, max_iterations=TRACK_ITERATIONS)
     steps = np.arange(ARM_ANGLES) - (ARM_ANGLES - 1) // 2
     starts = []  # (grip, theta, joints at target 0)
-    for grip, rot in enumerate(rots):
+    for grip, rot in enumerate(rots if held is None else ()):
         start = inverse(arm, pos[0], Rotation.from_matrix(rot[0]), None, first)
         if not start.success:
             continue
@@ -74,6 +96,8 @@ def _arm_candidates(arm, pos, rots, n_sub, opts) -> list[Candidate]:
             nearest = solved[np.abs(todo[:, None] - solved[None]).argmin(axis=1)]
             q[todo] = q[nearest]
         starts += [(grip, t, qs) for t, qs, ok in zip(theta, q, done, strict=True) if ok]
+    if held is not None:
+        starts = _held_start(arm, pos, rots, held)
     if not starts:
         return []
     grips = np.array([g for g, _, _ in starts])
@@ -111,11 +135,14 @@ def _tracked_candidates(robot, pos, rots, opts) -> list[Candidate]:
                        bool(tracked.continuous[:, a].all())) for a in range(2)]
 
 
-def ranked_solutions(robot, pos, rots, opts) -> list[tuple[Candidate, Candidate]]:
+def ranked_solutions(robot, pos, rots, opts, held=None) -> list[tuple[Candidate, Candidate]]:
     """(left, right) joint solutions, best first: every target solved, tracked smoothly,
     clearance at the targets at least the minimum, margin at least the wanted one, then
     clearance (up to :data:`COMFORT_CLEARANCE`) and margin (up to :data:`COMFORT_MARGIN`).
     The free-elbow tracking is added when no constant arm angle tracks an arm's whole path.
+    With ``held`` the arms hold the cable at target 0: one candidate per arm, from the held
+    joints with their arm angle (no other start, no free-elbow tracking from home); none when
+    an arm's held joints are not at its target 0.
 
     Parameters
     ----------
@@ -125,6 +152,8 @@ def ranked_solutions(robot, pos, rots, opts) -> list[tuple[Candidate, Candidate]
     rots : list of numpy.ndarray
         One or two (the grip turned by pi about TCP z) sets of (M, 2, 3, 3) target rotations.
     opts : ReachOptions
+    held : sequence of numpy.ndarray, optional
+        (left, right) (7,) joints [rad] holding the cable at target 0.
 
     Returns
     -------
@@ -137,9 +166,13 @@ def ranked_solutions(robot, pos, rots, opts) -> list[tuple[Candidate, Candidate]
                     for a in range(2)], axis=0)
     n_sub = np.maximum(1, np.maximum(np.ceil(dist / opts.step_length),
                                      np.ceil(angle / opts.step_angle))).astype(int)
-    cands = [_arm_candidates(arm, pos[:, a], [r[:, a] for r in rots], n_sub, opts)
+    cands = [_arm_candidates(arm, pos[:, a], [r[:, a] for r in rots], n_sub, opts,
+                             None if held is None else held[a])
              for a, arm in enumerate(robot.arms)]
-    if not all(any(c.solved.all() and c.smooth for c in arm_cands) for arm_cands in cands):
+    if held is not None and not all(cands):
+        return []
+    tracks = all(any(c.solved.all() and c.smooth for c in arm_cands) for arm_cands in cands)
+    if held is None and not tracks:
         for a, c in enumerate(_tracked_candidates(robot, pos, rots, opts)):
             cands[a].append(c)
     q_left = np.stack([c.joints for c in cands[0]])  # (L, M, 7)

@@ -78,7 +78,7 @@ from .path import TURN_Z
 from .program import RobotProgram, slowed
 from .replay import replay_moves
 from .robtarget import ROUND_TRIP_TOLERANCE, RobtargetSolution, own_solution, solve_robtarget
-from .solutions import ranked_solutions
+from .solutions import HELD_TOLERANCE, ranked_solutions
 from .yumi import ABB_AXIS_NUMBERS, ARMS
 
 MIN_SPEED = 1e-4
@@ -173,8 +173,9 @@ class YumiTargets:
     def move_segments(self) -> np.ndarray:
         """(M - 1,) int: the trajectory segment each move is (-1: the approach and the
         retreat, at the cell's approach speed, are not the trajectory's)."""
-        inner = np.arange(self.release - self.grasp)
-        return np.r_[[-1] * self.grasp, inner, [-1] * (len(self.labels) - 1 - self.release)]
+        outside = len(self.labels) - 1 - self.release
+        return np.concatenate([np.full(self.grasp, -1), np.arange(self.release - self.grasp),
+                               np.full(outside, -1)]).astype(np.intp)
 
     @staticmethod
     def axis_name(joint: int) -> str:
@@ -278,9 +279,28 @@ class YumiTargets:
                                self.times[self.grasp:self.release + 1])}
 
 
+@dataclass(frozen=True, eq=False)
+class HeldArms:
+    """Both arms holding the cable at a program's first target (the remaining motion of a
+    corrected plan: the cable is held at the shape measured).
+
+    Attributes
+    ----------
+    left_clip : int
+        The clip the left arm holds (0 or 1): the assignment is kept.
+    joints : numpy.ndarray
+        (2, 7) the (left, right) arms' joints [rad], physical order: the program starts from
+        them, each arm's arm angle kept.
+    """
+
+    left_clip: int
+    joints: np.ndarray
+
+
 def yumi_program(grippers, trajectory, cell: RobotCell | None = None, *,
                  verdict_only: bool = False,
-                 round_trips_on_demand: bool = False) -> RobotProgram:
+                 round_trips_on_demand: bool = False,
+                 held: HeldArms | None = None) -> RobotProgram:
     """The verified robot program of a plan on the YuMi (module docstring).
 
     Parameters
@@ -315,6 +335,11 @@ def yumi_program(grippers, trajectory, cell: RobotCell | None = None, *,
         program, but its passing round trips are judged from the verified joints' own
         solutions (as a verdict's) and enumerated by
         :meth:`~dloplan.robot.program.RobotProgram.completed`.
+    held : HeldArms, optional
+        The arms already hold the cable at the first target: their assignment is kept (rule
+        ``"held"``, never swapped) and the joint solution is the one tracked from their joints
+        with each arm's arm angle (:func:`~dloplan.robot.solutions.ranked_solutions`); give it
+        a cell without approach (``cell.approach`` 0: the cable is held, nothing to approach).
 
     Returns
     -------
@@ -326,16 +351,28 @@ def yumi_program(grippers, trajectory, cell: RobotCell | None = None, *,
     Raises
     ------
     ValueError
-        Inputs that do not belong together (shape counts, knots that are not the clip points).
+        Inputs that do not belong together (shape counts, knots that are not the clip points;
+        held joints that do not hold the first target, or with an approach).
     """
     cell = cell if cell is not None else RobotCell()
     if not isinstance(cell, RobotCell):
         raise ValueError(f"cell: expected a RobotCell, got {type(cell).__name__}")
     _check_inputs(grippers, trajectory)
     assignment = assign_arms(grippers.positions, cell)
+    if held is not None:
+        if cell.approach > 0:
+            raise ValueError(f"cell.approach: got {cell.approach} m with held arms, expected 0 "
+                             "(the cable is held: nothing to approach)")
+        if assignment.left_clip != held.left_clip:
+            assignment = assignment.swapped()
+        assignment = replace(assignment, rule="held")
     program = _build(grippers, trajectory, cell, assignment, verdict_only=verdict_only,
-                     on_demand=round_trips_on_demand)
-    if not program.ok and assignment.ok:
+                     on_demand=round_trips_on_demand, held=held)
+    if program is None:
+        raise ValueError("held: the arms' joints are not at the first target's TCP poses "
+                         f"(within {HELD_TOLERANCE} m + rad); expected the joints holding the "
+                         "cable there")
+    if held is None and not program.ok and assignment.ok:
         failed = {r.check for r in program.failures}
         if failed & {"clearance", "continuity"} and "reach" not in failed:
             other = _build(grippers, trajectory, cell, assignment.swapped(), passing=True)
@@ -365,7 +402,7 @@ def _check_inputs(grippers, trajectory) -> None:
 
 def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment,
            passing: bool = False, verdict_only: bool = False,
-           on_demand: bool = False) -> RobotProgram | None:
+           on_demand: bool = False, held: HeldArms | None = None) -> RobotProgram | None:
     """The program of an arm assignment: its targets, then the ranked joint solutions tried
     in order (up to :data:`MAX_TRIES`): the first whose motion neither collides nor loses
     continuity, or the first with a target no solution reaches, else the best ranked.
@@ -373,7 +410,8 @@ def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment,
     round trip and the time law are computed: a try that is passed over costs its replay
     only. With ``passing`` only a program whose motion passes is wanted (None otherwise:
     the swapped assignment, taken only when it passes every check); ``verdict_only`` and
-    ``on_demand`` (``round_trips_on_demand``) as for :func:`yumi_program` (:func:`_finish`)."""
+    ``on_demand`` (``round_trips_on_demand``) and ``held`` as for :func:`yumi_program`
+    (:func:`_finish`; None when the held joints are not at the first target)."""
     robot, opts = cell.robot, cell.reach
     clips = list(assignment.clips)
     n_shapes = len(grippers.positions)
@@ -403,7 +441,8 @@ def _build(grippers, trajectory, cell: RobotCell, assignment: ArmAssignment,
         q.shape[:2] + (3, 3)) for q in quats]
     targets = (labels, shapes, grasp, release, pos, quats, rots)
     first = None
-    for left, right in ranked_solutions(robot, pos, rots, opts)[:MAX_TRIES]:
+    for left, right in ranked_solutions(robot, pos, rots, opts, None if held is None
+                                        else held.joints)[:MAX_TRIES]:
         motion = _motion(cell, targets, (left, right))
         reached = bool(motion["solved"].all())
         moves = all(r.ok for r in motion["rows"])

@@ -18,7 +18,7 @@ _EXPORTS = {
     "evaluate": ("StudyProblem", "evaluate_chunk", "evaluate_sample", "study_problem"),
     "results": ("read_chunks", "read_manifest", "read_table", "write_table"),
     "run": ("Progress", "StudyResult", "run_study"),
-    "sampling": ("Samples", "draw_samples"),
+    "sampling": ("Samples", "draw_samples", "study_frame"),
     "spec": ("CriteriaSpec", "StudyError", "StudySpec", "Variation", "parse_study"),
     "summary": ("Sensitivity", "StudySummary", "success_interval", "summarize"),
 }
@@ -63,6 +63,7 @@ __all__ = [
     "read_manifest",
     "read_table",
     "run_study",
+    "study_frame",
     "study_problem",
     "success_interval",
     "summarize",

@@ -31,7 +31,7 @@ from .results import (
     result_path,
     write_table,
 )
-from .sampling import Samples, draw_samples, parameter_columns
+from .sampling import Samples, draw_samples, parameter_columns, study_frame
 from .spec import StudySpec, parse_study
 from .summary import StudySummary, summarize
 
@@ -128,15 +128,21 @@ def problem_fingerprint(problem: StudyProblem, spec: StudySpec) -> str:
 
     The ``correction:`` section is left out: the closed loop runs after the table, every time,
     so changing it keeps the completed chunks (and folders from before it existed stay valid).
+    The job's frame on the table (:func:`~dloplan.study.sampling.study_frame`) is in it when it
+    is not the world's.
     """
     cable = problem.cable
     constants = {k: v for k, v in asdict(cable).items() if k != "rest_shape"}
     rest = cable.rest_shape if cable.rest_shape is not None else np.zeros(0)
     clips = np.concatenate([np.concatenate([c.positions.ravel(), c.rotations.as_quat().ravel()])
                             for c in problem.clips])
+    # a job not along +y draws its offsets turned (round 9): a folder its samples were drawn
+    # for in the world frame is another study; a job along +y draws what it drew, and keeps it
+    turn = study_frame(problem.clips[0]).as_rotvec()
+    frame = [turn] if turn.any() else []
     return fingerprint(spec.model_dump(mode="json", exclude={"correction"}), constants, rest,
                        problem.planned, clips, [repr(o) for o in problem.obstacles],
-                       problem.gravity)
+                       problem.gravity, *frame)
 
 
 def chunk_items(samples: Samples, chunk_size: int, chunks) -> list[dict]:
@@ -192,7 +198,8 @@ def run_study(
         raise ValueError(f"problem: got {type(problem).__name__}, expected a StudyProblem "
                          "(dloplan.study.study_problem)")
     backend = backend or SerialBackend()
-    samples = draw_samples(spec, problem.cable, problem.obstacles)
+    samples = draw_samples(spec, problem.cable, problem.obstacles,
+                           study_frame(problem.clips[0]))
     n_chunks = -(-spec.samples // spec.chunk)
     schema = column_schema(len(problem.obstacles))
     units = {name: c["unit"] for name, c in schema.items()}

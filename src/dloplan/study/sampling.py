@@ -27,9 +27,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 from scipy.special import ndtri
 
 from ..cable import Cable
+from ..frames import table_frame
 from ..obstacles.shapes import Table
 from .spec import PARAMETERS, RELATIVE, StudySpec
 
@@ -127,8 +129,14 @@ class Samples:
         return {name: values[idx] for name, values in self.columns.items()}
 
 
-def draw_samples(spec: StudySpec, cable: Cable, obstacles: Sequence = ()) -> Samples:
+def draw_samples(spec: StudySpec, cable: Cable, obstacles: Sequence = (),
+                 job_to_world: Rotation | None = None) -> Samples:
     """Parameter values of the N samples of a study on ``cable`` among ``obstacles``.
+
+    The clip and obstacle offsets are drawn in the job's frame on the table
+    (:func:`dloplan.frames.table_frame`, ``job_to_world``) and recorded in the world frame,
+    where they are applied: the same job turned on the table gets the same samples, turned
+    with it (each sample's verdicts and metrics the same).
 
     Parameters
     ----------
@@ -138,6 +146,9 @@ def draw_samples(spec: StudySpec, cable: Cable, obstacles: Sequence = ()) -> Sam
         The nominal cable (E [Pa], m/L [kg/m], L [m]).
     obstacles : sequence
         The nominal obstacles; a :class:`~dloplan.obstacles.Table` only moves along z.
+    job_to_world : Rotation, optional
+        The job's frame on the table (a turn about z; :func:`study_frame`); default the
+        world frame.
 
     Returns
     -------
@@ -159,6 +170,13 @@ def draw_samples(spec: StudySpec, cable: Cable, obstacles: Sequence = ()) -> Sam
         start += len(cols)
         for j, col in enumerate(cols):
             columns[col] = nominal[name] * values[:, j] if name in RELATIVE else values[:, j]
+    if job_to_world is not None:
+        for prefix, count in (("clip", 2), ("obstacle", len(obstacles))):
+            for k in range(count):
+                names = [f"{prefix}{k}_d{a}" for a in AXES]
+                turned = job_to_world.apply(np.stack([columns[c] for c in names], axis=-1))
+                for j, name in enumerate(names):
+                    columns[name] = np.ascontiguousarray(turned[:, j])
     for k, obstacle in enumerate(obstacles):
         if isinstance(obstacle, Table):  # a plane moves along its normal only
             columns[f"obstacle{k}_dx"][:] = 0.0
@@ -168,6 +186,19 @@ def draw_samples(spec: StudySpec, cable: Cable, obstacles: Sequence = ()) -> Sam
     columns["clip_orientation_error"] = _largest_norm(columns, "clip", "r", 2)
     columns["obstacle_position_error"] = _largest_norm(columns, "obstacle", "d", len(obstacles))
     return Samples(columns)
+
+
+def study_frame(start_clips) -> Rotation:
+    """The job's frame on the table of a study (:func:`dloplan.frames.table_frame`): y along
+    the start's chord from clip 0 to clip 1, else along the first clip's axes.
+
+    Parameters
+    ----------
+    start_clips : ClipPoses
+        The clip poses of the start shape.
+    """
+    chord = start_clips.positions[1] - start_clips.positions[0]
+    return table_frame(np.vstack([chord, start_clips.rotations[0].as_matrix().T]))
 
 
 def _largest_norm(columns: dict, prefix: str, kind: str, count: int) -> np.ndarray:

@@ -16,12 +16,14 @@ which moves the camera by millimetres.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..bounds import WORKSPACE
 from ..inputs import parse_json, read_text
 from ..io.poses import canonical_quaternions, pose_from_dict, transform_dict
 from ..output_files import atomic_write_text
@@ -205,9 +207,28 @@ def read_calibration(path) -> ExtrinsicCalibration:
     position, quat = pose_from_dict(
         {"position": transform.get("translation"), "orientation": transform.get("rotation")},
         f"{where}: camera_to_robot")
+    distance = math.hypot(*position)
+    if distance > WORKSPACE:
+        raise ValueError(f"{where}: camera_to_robot.translation: the camera {distance:.4g} m "
+                         f"from the robot, expected within {WORKSPACE:g} m (a length in wrong "
+                         "units?)")
     intrinsics = CameraIntrinsics.from_dict(data.get("intrinsics"), f"{where}: intrinsics")
+    fields = {"frame_id": "robot_base", "marker_ids": [], "reprojection_rms_px": 0.0,
+              "success": True, "message": ""}
+    fields.update({k: data[k] for k in fields if k in data})
+    expected = {"frame_id": (str, "a frame name"), "message": (str, "a text"),
+                "success": (bool, "true or false"),
+                "reprojection_rms_px": (float, "a finite number >= 0 [px]"),
+                "marker_ids": (list, "a list of marker ids (integers >= 0)")}
+    for key, (kind, words) in expected.items():
+        value = fields[key]
+        ok = (isinstance(value, int | float) and not isinstance(value, bool)
+              and math.isfinite(value) and value >= 0) if kind is float else isinstance(value, kind)
+        if kind is list and ok:
+            ok = all(isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in value)
+        if not ok or (key == "frame_id" and not value):
+            raise ValueError(f"{where}: {key}: got {value!r:.60}, expected {words}")
     return ExtrinsicCalibration(
-        pose_matrix(Rotation.from_quat(quat), position), intrinsics,
-        str(data.get("frame_id", "robot_base")), tuple(data.get("marker_ids", ())), (),
-        float(data.get("reprojection_rms_px", 0.0)), bool(data.get("success", True)),
-        str(data.get("message", "")))
+        pose_matrix(Rotation.from_quat(quat), position), intrinsics, fields["frame_id"],
+        tuple(fields["marker_ids"]), (), float(fields["reprojection_rms_px"]),
+        fields["success"], fields["message"])

@@ -17,6 +17,18 @@ import numpy as np
 
 from . import _deps
 
+MAX_FOCAL = 1e6
+"""Largest focal length [px] taken: a real camera's is some hundreds to thousands of pixels."""
+
+MAX_SIDE = 100_000
+"""Largest image side [px] taken."""
+
+
+def _number(value) -> bool:
+    """A real number (a bool, a string or a list is not)."""
+    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(
+        value, bool | np.bool_)
+
 
 @dataclass(frozen=True)
 class CameraIntrinsics:
@@ -46,16 +58,25 @@ class CameraIntrinsics:
     def __post_init__(self) -> None:
         for name in ("fx", "fy"):
             value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                raise ValueError(f"{name}: got {value!r}, expected a focal length > 0 [px]")
-        for name in ("cx", "cy"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value)):
-                raise ValueError(f"{name}: got {value!r}, expected a finite pixel coordinate")
+            if not (_number(value) and math.isfinite(value) and 0 < value <= MAX_FOCAL):
+                raise ValueError(f"{name}: got {value!r}, expected a focal length > 0 and <= "
+                                 f"{MAX_FOCAL:g} [px]")
         for name in ("width", "height"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ValueError(f"{name}: got {value!r}, expected an image size >= 1 [px]")
+            if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= MAX_SIDE:
+                raise ValueError(f"{name}: got {value!r}, expected an image size of 1 .. "
+                                 f"{MAX_SIDE} [px]")
+        for name, side in (("cx", self.width), ("cy", self.height)):
+            value = getattr(self, name)
+            if not (_number(value) and math.isfinite(value) and -side <= value <= 2 * side):
+                raise ValueError(f"{name}: got {value!r}, expected a principal point within "
+                                 f"-{side} .. {2 * side} px (the image is {side} px; near its "
+                                 "middle for a real camera)")
+        if not isinstance(self.distortion, list | tuple | np.ndarray) or not all(
+                _number(d) for d in self.distortion):
+            raise ValueError(
+                f"distortion: got {self.distortion!r:.80}, expected a list of 0, 4, 5 or 8 "
+                "finite OpenCV coefficients (k1, k2, p1, p2[, k3[, k4, k5, k6]])")
         dist = tuple(float(d) for d in self.distortion)
         if len(dist) not in (0, 4, 5, 8) or not all(math.isfinite(d) for d in dist):
             raise ValueError(
@@ -98,7 +119,7 @@ class CameraIntrinsics:
             raise ValueError(f"{where}: missing {', '.join(missing)}")
         try:
             return cls(data["fx"], data["fy"], data["cx"], data["cy"], data["width"],
-                       data["height"], tuple(data.get("distortion", ())))
+                       data["height"], data.get("distortion", ()))
         except (TypeError, ValueError) as exc:
             raise ValueError(f"{where}: {exc}") from exc
 

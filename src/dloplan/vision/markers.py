@@ -107,14 +107,26 @@ def read_marker_layout(path) -> MarkerLayout:
     for k, entry in enumerate(data["markers"]):
         if not isinstance(entry, dict) or "id" not in entry or "pose" not in entry:
             raise ValueError(f"{where}: markers[{k}] needs 'id' and 'pose'")
+        if isinstance(entry["id"], int | float) and entry["id"] in poses:
+            raise ValueError(f"{where}: markers[{k}].id: {entry['id']!r} given twice (markers"
+                             f"[{list(poses).index(entry['id'])}] has it), expected one pose "
+                             "per marker")
         position, quat = pose_from_dict(entry["pose"], f"{where}: markers[{k}].pose")
         poses[entry["id"]] = pose_matrix(Rotation.from_quat(quat), position)
+    frame = data.get("frame_id", "robot_base")
+    if not isinstance(frame, str) or not frame:
+        raise ValueError(f"{where}: frame_id: got {frame!r:.60}, expected a frame name")
     try:
-        return MarkerLayout(data.get("marker_length"), poses,
-                            data.get("dictionary", "DICT_4X4_50"),
-                            data.get("frame_id", "robot_base"))
+        layout = MarkerLayout(data.get("marker_length"), poses,
+                              data.get("dictionary", "DICT_4X4_50"), frame)
+        size = _dictionary(layout.dictionary).bytesList.shape[0]
     except ValueError as exc:
         raise ValueError(f"{where}: {exc}") from exc
+    beyond = [i for i in layout.poses if i >= size]
+    if beyond:
+        raise ValueError(f"{where}: marker id {beyond[0]} is not in {layout.dictionary} (ids "
+                         f"0 .. {size - 1}): it can never be seen")
+    return layout
 
 
 @dataclass(frozen=True)

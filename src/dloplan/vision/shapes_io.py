@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bounds import WORKSPACE
 from ..geometry import as_shape
 from ..inputs import parse_json, read_text
 from ..output_files import atomic_write_text
@@ -162,9 +163,39 @@ def _shapes_from_csv(text: str, where: str) -> list[RegisteredShape]:
     if not order:
         raise ValueError(f"{where}: no shapes (only a header)")
     try:
-        return [RegisteredShape(np.array(groups[k][1]), groups[k][0], k) for k in order]
+        shapes = [RegisteredShape(np.array(groups[k][1]), groups[k][0], k) for k in order]
     except ValueError as exc:
         raise ValueError(f"{where}: {exc}") from exc
+    for shape in shapes:
+        _check_workspace(shape, where)
+    return shapes
+
+
+def _json_points(value, where: str, units: str) -> np.ndarray:
+    """(k, 3) the points of a JSON shape as given (in ``units``): a list of [x, y, z], each
+    three numbers (not a pair, a text or a boolean: none of them is read as a coordinate)."""
+    if not isinstance(value, list):
+        raise ValueError(f"{where}: got {value!r:.60}, expected a list of [x, y, z] numbers in "
+                         f"{units}")
+    for i, point in enumerate(value):
+        if not (isinstance(point, list) and len(point) == 3 and all(
+                isinstance(v, int | float) and not isinstance(v, bool) for v in point)):
+            raise ValueError(f"{where}[{i}]: got {point!r:.60}, expected [x, y, z]: three "
+                             f"numbers in {units}")
+    return np.array(value, dtype=float).reshape(-1, 3)
+
+
+def _check_workspace(shape: RegisteredShape, where: str) -> None:
+    """Refuse a shape with a point beyond :data:`~dloplan.bounds.WORKSPACE` of its frame's
+    origin (a length in wrong units, or a number gone astray)."""
+    distance = np.hypot(shape.points[:, 0], np.hypot(shape.points[:, 1], shape.points[:, 2]))
+    far = int(np.argmax(distance))
+    if distance[far] > WORKSPACE:
+        raise ValueError(f"{where}: shape {shape.label!r}: point {far} "
+                         f"{np.round(shape.points[far], 6).tolist()} is {distance[far]:.4g} m "
+                         f"from the origin of {shape.frame_id!r}, expected within {WORKSPACE:g} "
+                         "m (millimetres read as metres? a registered-shape CSV is in metres; a "
+                         "JSON one may say \"units\": \"mm\")")
 
 
 def _known_keys(mapping: dict, known: tuple[str, ...], where: str) -> None:
@@ -195,16 +226,14 @@ def _shapes_from_json(text: str, where: str) -> list[RegisteredShape]:
         if not isinstance(entry, dict) or "points" not in entry:
             raise ValueError(f"{where}: shapes[{k}] needs 'points'")
         _known_keys(entry, SHAPE_KEYS, f"{where}: shapes[{k}]")
+        points = _json_points(entry["points"], f"{where}: shapes[{k}].points", units)
         try:
-            points = np.asarray(entry["points"], dtype=float) * UNITS[units]
-        except (TypeError, ValueError):
-            raise ValueError(f"{where}: shapes[{k}].points: got {entry['points']!r:.60}, "
-                             f"expected a list of [x, y, z] numbers in {units}") from None
-        try:
-            shapes.append(RegisteredShape(points, entry.get("frame_id", default_frame),
+            shapes.append(RegisteredShape(points * UNITS[units],
+                                          entry.get("frame_id", default_frame),
                                           entry.get("label", f"shape {k}")))
         except (TypeError, ValueError) as exc:
             raise ValueError(f"{where}: shapes[{k}]: {exc}") from exc
+        _check_workspace(shapes[-1], f"{where}: shapes[{k}]")
     if not shapes:
         raise ValueError(f"{where}: no shapes")
     return shapes
