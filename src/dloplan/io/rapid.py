@@ -221,12 +221,10 @@ def rapid_modules(program: RobotProgram, settings: RapidSettings | None = None,
             f"{_array(cell.arm_angle_reference[a], 6)} in the robot's base frame: the "
             "controller's Motion > Robot setting must be the same (docs/robot.md).",
             f"    ! {n} targets ({program.labels[0]} to {program.labels[-1]}); planned duration "
-            f"{targets.path_duration:.3f} s from grasp to release ({program.times[-1]:.3f} s "
-            "with approach and retreat; the gripper actions' waits come on top)."
-            if cell.approach > 0 else
-            f"    ! {n} targets ({program.labels[0]} to {program.labels[-1]}); planned duration "
-            f"{targets.path_duration:.3f} s, no approach or retreat (the gripper actions' "
-            "waits come on top).",
+            f"{targets.path_duration:.3f} s" + (
+                f" from grasp to release ({program.times[-1]:.3f} s with approach and retreat; "
+                "the gripper actions' waits come on top)." if cell.approach > 0 else
+                ", no approach or retreat (the gripper actions' waits come on top)."),
             f"    ! Gripper actions (plan.json cycle): {_action_summary(placed, program.labels)}.",
             f"    PERS tasks dlo_tasks{{2}} := {tasks_list};",
             *(f"    VAR syncident {name};" for name in syncs),

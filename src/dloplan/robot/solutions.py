@@ -66,19 +66,16 @@ def _held_start(arm, pos, rots, held) -> list[tuple]:
     return [(grip, float(arm_angle(arm, held)), np.asarray(held, dtype=float))]
 
 
-def _arm_candidates(arm, pos, rots, n_sub, opts, held=None) -> list[Candidate]:
-    """Per grip: target 0 solved freely from the home pose (its arm angle psi*), then the arm
-    angles psi* + k * :data:`ARM_ANGLE_STEP` around the circle, seeded with that solution and,
-    where that fails, with a solved neighbour's (a continuation in the arm angle); each
-    candidate then tracks the path with its arm angle held, in ``n_sub[m]`` sub-steps per
-    move, each seeded from the previous one (all candidates at once). With ``held`` (7,)
-    joints [rad] at target 0 (the arm holds the cable there) the one candidate starts from them
-    with their arm angle (:func:`_held_start`)."""
+def _free_starts(arm, pos, rots, opts) -> list[tuple]:
+    """The starts of an arm free to choose its joints at target 0: per grip, target 0 solved
+    from the home pose (its arm angle psi*), then the arm angles psi* + k *
+    :data:`ARM_ANGLE_STEP` around the circle, seeded with that solution and, where that fails,
+    with a solved neighbour's (a continuation in the arm angle); (grip, arm angle, joints) each."""
     first = replace(opts.ik, min_margin=opts.min_margin, restarts=0)
     track = replace(opts.ik, max_iterations=TRACK_ITERATIONS)
     steps = np.arange(ARM_ANGLES) - (ARM_ANGLES - 1) // 2
     starts = []  # (grip, theta, joints at target 0)
-    for grip, rot in enumerate(rots if held is None else ()):
+    for grip, rot in enumerate(rots):
         start = inverse(arm, pos[0], Rotation.from_matrix(rot[0]), None, first)
         if not start.success:
             continue
@@ -96,8 +93,18 @@ def _arm_candidates(arm, pos, rots, n_sub, opts, held=None) -> list[Candidate]:
             nearest = solved[np.abs(todo[:, None] - solved[None]).argmin(axis=1)]
             q[todo] = q[nearest]
         starts += [(grip, t, qs) for t, qs, ok in zip(theta, q, done, strict=True) if ok]
-    if held is not None:
-        starts = _held_start(arm, pos, rots, held)
+    return starts
+
+
+def _arm_candidates(arm, pos, rots, n_sub, opts, held=None) -> list[Candidate]:
+    """The starts at target 0 (:func:`_free_starts`; with ``held`` (7,) joints [rad] at target
+    0, the arm holding the cable there, the one start from them with their arm angle:
+    :func:`_held_start`); each candidate then tracks the path with its arm angle held, in
+    ``n_sub[m]`` sub-steps per move, each seeded from the previous one (all candidates at
+    once)."""
+    track = replace(opts.ik, max_iterations=TRACK_ITERATIONS)
+    starts = (_free_starts(arm, pos, rots, opts) if held is None
+              else _held_start(arm, pos, rots, held))
     if not starts:
         return []
     grips = np.array([g for g, _, _ in starts])
