@@ -24,6 +24,7 @@ from signal_runs import busy_loop, interruptible, leftovers, signal_run, snapsho
 from test_cli import STIFF, write
 
 from dloplan.cli import EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK, EXIT_WARNINGS, main
+from dloplan.interrupts import Interrupted
 
 # one worker (make test: --dist loadgroup): the module's small plan (with its figures) is made
 # once, and the commands signalled under load do not also run beside each other
@@ -92,8 +93,46 @@ def test_sigterm_to_a_batch_ends_its_pool_and_each_worker_cleans_up(tmp_path, lo
                          signal.SIGTERM, processes=4, delay=2.0)  # command, server, 2 workers
     if not outcome.reached:
         pytest.skip("the batch ended before the signal (a fast host)")
-    assert outcome.problems() == [], outcome.stderr
+    problems = [p for p in outcome.problems() if p != "the output folder changed"]
+    assert problems == [], outcome.stderr
     assert not out.exists() or all(not leftovers(sub) for sub in out.iterdir())
+    assert_kept_plans(out, outcome.stderr.strip().splitlines()[-1], of=3)
+
+
+def assert_kept_plans(out: Path, last_line: str, of: int) -> None:
+    """The batch's folder holds only complete plans, and the last line names each of them (or
+    says that nothing was written)."""
+    planned = sorted(out.iterdir()) if out.exists() else []
+    if not planned:
+        assert last_line.endswith("(nothing written)"), last_line
+        return
+    assert f"(kept {len(planned)} of {of} plans, each complete: " in last_line, last_line
+    assert last_line.endswith("; nothing else written)"), last_line
+    for folder in planned:
+        assert str(folder) in last_line and (folder / "plan.json").exists(), folder
+
+
+def test_a_batch_interrupted_after_its_first_plan_names_the_plan_it_kept(
+        tmp_path, monkeypatch, capsys):
+    """A batch keeps each plan it completed (each folder written whole); the interrupt's line
+    says which, instead of "nothing written"."""
+    import dloplan.app.files as files
+
+    planned = files.plan_file
+
+    def second_interrupted(options, path):
+        if path.endswith("job1.yaml"):
+            raise Interrupted(signal.SIGTERM)
+        return planned(options, path)
+
+    monkeypatch.setattr(files, "plan_file", second_interrupted)
+    jobs = [str(write(tmp_path, SMALL, f"job{k}.yaml")) for k in range(3)]
+    out = tmp_path / "batch"
+    assert main(["plan", *jobs, "--no-figures", "-o", str(out)]) == 128 + signal.SIGTERM
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert last.startswith("dloplan: interrupted by SIGTERM (kept 1 of 3 plans"), last
+    assert sorted(p.name for p in out.iterdir()) == ["job0"]
+    assert_kept_plans(out, last, of=3)
 
 
 def test_sigterm_to_a_study_ends_its_pool_and_keeps_only_complete_chunks(tmp_path, load):
@@ -106,7 +145,10 @@ def test_sigterm_to_a_study_ends_its_pool_and_keeps_only_complete_chunks(tmp_pat
         pytest.skip("the study ended before the signal (a fast host)")
     problems = [p for p in outcome.problems() if p != "the output folder changed"]
     assert problems == [], outcome.stderr
-    for chunk in (out / "chunks").glob("*.csv"):
+    chunks = sorted((out / "chunks").glob("*.csv"))
+    last = outcome.stderr.strip().splitlines()[-1]
+    assert (f"kept {len(chunks)} of " in last) if chunks else last.endswith("(nothing written)")
+    for chunk in chunks:
         lines = chunk.read_text().splitlines()
         assert len(lines) > 1 and all(line.count(",") == lines[0].count(",") for line in lines)
 

@@ -10,6 +10,7 @@ import pytest
 from scipy.stats import spearmanr
 from study_cases import ALL_PARAMETERS, hanging_problem, tables_equal
 
+from dloplan.interrupts import kept_of
 from dloplan.study import (
     draw_samples,
     evaluate_chunk,
@@ -97,9 +98,11 @@ def test_interrupted_study_resumes_to_the_same_table(tmp_path, file_format):
             raise Stop
 
     folder = tmp_path / "study"
-    with pytest.raises(Stop):
+    with pytest.raises(Stop) as stopped:
         run_study(PROBLEM, study, out=folder, progress=stop_after_two,
                   file_format=file_format)
+    assert kept_of(stopped.value) == (f"2 of 5 chunks, each complete, in {folder / 'chunks'} "
+                                      "(the same command resumes from them)")
     assert sorted(p.name for p in (folder / "chunks").iterdir()) == [
         f"chunk-0000{k}.{file_format}" for k in (0, 1)]
     assert not (folder / f"results.{file_format}").exists()

@@ -42,6 +42,8 @@ from .interrupts import (
     SIGNALS,
     catching_interrupts,
     interrupt_of,
+    keeping,
+    kept_of,
     raise_if_interrupted,
     shielded,
 )
@@ -716,12 +718,18 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
                "check_robot": not args.no_verify, "repair": not args.no_repair,
                "allow_placement": args.allow_placement, "figures": not args.no_figures,
                "svg": args.svg}
-    codes, skipped = {}, 0
-    with make_backend(None if args.scheduler else args.workers, args.scheduler,
-                      preload=("dloplan.study.evaluate",)) as backend:  # not the study's kernels
+    codes, skipped, written = {}, 0, []  # each plan's folder is written complete (staged)
+
+    def kept() -> str | None:
+        return None if not written else (f"{len(written)} of {len(args.scenarios)} plans, "
+                                         f"each complete: {', '.join(written)}")
+
+    with keeping(kept), make_backend(None if args.scheduler else args.workers, args.scheduler,
+                                     preload=("dloplan.study.evaluate",)) as backend:
         for _, result in map_jobs(plan_file, args.scenarios, backend, shared=options):
             codes[result.path] = result.code
             skipped += result.skipped
+            written += [result.folder] if result.folder else []
             console.stage(result.line)
     print(f"planned {len(codes)} scenarios: "
           f"{sum(c == EXIT_OK for c in codes.values())} ok, "
@@ -766,15 +774,17 @@ def _study(args: argparse.Namespace) -> int:
     from .app import load_scenario
     from .app.study import study_problem_of, study_spec, with_closed_loop
     from .pipeline import make_plan
-    from .plots.figures import figure_formats
-    from .plots.report import write_report
-    from .plots.study import study_figures
     from .study.backends import make_backend
     from .study.run import run_study
 
     console = Console(args.quiet)
     job = load_scenario(args.scenario, console.stage, allow_placement=args.allow_placement)
     spec = study_spec(job, args.samples, args.seed)
+
+    def table_kept() -> str:  # once run_study has written them
+        return (f"the study's table and summary in {args.output} (the same command resumes "
+                "from them)")
+
     with make_backend(None if args.scheduler else args.workers, args.scheduler) as backend:
         backend.start()  # local workers' server: it loads the kernels while the plan is made
         doc = make_plan(job, progress=console.stage)
@@ -784,12 +794,23 @@ def _study(args: argparse.Namespace) -> int:
         result = run_study(problem, spec, out=args.output, backend=backend,
                            progress=lambda p: console.stage(p.line()),
                            resume=not args.overwrite, file_format="csv" if args.csv else "parquet")
-        if spec.correction is not None:
-            console.stage(f"closed loop: one correction after shape {spec.correction.at} "
-                          f"({spec.correction.method})")
-        result = with_closed_loop(doc, result, backend)
+        with keeping(table_kept):
+            if spec.correction is not None:
+                console.stage(f"closed loop: one correction after shape {spec.correction.at} "
+                              f"({spec.correction.method})")
+            result = with_closed_loop(doc, result, backend)
+    with keeping(table_kept):
+        return _study_outputs(args, console, doc, problem, result)
+
+
+def _study_outputs(args: argparse.Namespace, console: Console, doc, problem, result) -> int:
+    """The study's figures and report (into its folder) and its summary (printed)."""
+    from .plots.figures import figure_formats
+    from .plots.report import write_report
+    from .plots.study import study_figures
+
     written = [] if args.no_figures else study_figures(result.table, result.summary,
-                                                       spec.criteria, args.output,
+                                                       result.spec.criteria, args.output,
                                                        formats=figure_formats(args.svg))
     report = write_report(Path(args.output) / "report.html", title=f"dloplan study: "
                           f"{args.scenario}", shapes=doc.shapes, stabilized=problem.nominal,
@@ -1131,7 +1152,9 @@ def _failed(exc: BaseException) -> int | None:
     end_forkserver()  # were it still importing its preload, it would hold our pipes
     if interrupt is not None:
         cause = "" if interrupt.signum == signal.SIGINT else f" by {interrupt.name}"
-        print(f"dloplan: interrupted{cause} (nothing written)", file=sys.stderr)
+        kept = kept_of(exc)
+        written = "nothing written" if kept is None else f"kept {kept}; nothing else written"
+        print(f"dloplan: interrupted{cause} ({written})", file=sys.stderr)
         return interrupt.exit_code
     if isinstance(exc, OSError):
         where = f"{exc.filename}: " if exc.filename else ""

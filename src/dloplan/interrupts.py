@@ -30,7 +30,7 @@ import os
 import signal
 import sys
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP")
@@ -96,6 +96,38 @@ def interrupt_of(exc: BaseException) -> Interrupted | None:
         link = link.__cause__ or link.__context__
     signum = pending_signal()
     return None if signum is None else Interrupted(signum)
+
+
+KEPT = "kept: "
+"""The prefix of an exception's note naming what the ended run kept (:func:`keeping`)."""
+
+
+@contextmanager
+def keeping(kept: Callable[[], str | None]) -> Iterator[None]:
+    """Run the block; when an exception ends it, note on the exception what the run keeps of its
+    work, ``kept()`` (complete outputs written before it ended: a batch's plans, a study's
+    chunks; ``None`` for nothing), for the command's last line (:func:`kept_of`), which would
+    otherwise say that nothing was written."""
+    try:
+        yield
+    except BaseException as exc:
+        what = kept()
+        if what:
+            exc.add_note(KEPT + what)
+        raise
+
+
+def kept_of(exc: BaseException) -> str | None:
+    """What the run ended by ``exc`` kept (the notes of :func:`keeping` on ``exc`` and the
+    exceptions it came from, ``"; "``-joined), or ``None``."""
+    kept, seen = [], set()
+    link: BaseException | None = exc
+    while link is not None and id(link) not in seen:
+        seen.add(id(link))
+        kept += [note[len(KEPT):] for note in getattr(link, "__notes__", ())
+                 if note.startswith(KEPT)]
+        link = link.__cause__ or link.__context__
+    return "; ".join(kept) or None
 
 
 def _interrupted(signum, frame) -> None:

@@ -150,12 +150,15 @@ class FileResult(NamedTuple):
         Its status line.
     skipped : bool
         An identification file, not planned (the batch's summary counts it apart).
+    folder : str
+        The plan's folder, written complete; ``""`` when nothing was written.
     """
 
     path: str
     code: int
     line: str
     skipped: bool = False
+    folder: str = ""
 
 
 def plan_file(options: dict, path: str) -> FileResult:
@@ -182,7 +185,7 @@ def plan_file(options: dict, path: str) -> FileResult:
         return FileResult(path, EXIT_FAILURE, f"{path}: error: {exc}")
     code = exit_code(doc)
     status = {EXIT_OK: "ok", EXIT_WARNINGS: "warnings", EXIT_CHECK_FAILED: "check FAILED"}[code]
-    return FileResult(path, code, f"{path}: {status} -> {folder}")
+    return FileResult(path, code, f"{path}: {status} -> {folder}", folder=str(folder))
 
 
 def document_of(path, progress=quiet, *, allow_placement: bool = False,

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..interrupts import keeping
 from ..output_files import atomic_write_text
 from .backends import Backend, SerialBackend, map_jobs
 from .evaluate import COLUMN_TYPES, OUTCOME_COLUMNS, StudyProblem, evaluate_chunk
@@ -218,18 +219,27 @@ def run_study(
     samples_run = 0
     items = chunk_items(samples, spec.chunk, todo)
     metadata = {"fingerprint": manifest["fingerprint"]} if folder else None
-    for count, (position, table) in enumerate(
-            map_jobs(evaluate_chunk, items, backend, shared=problem), start=1):
-        chunk = todo[position]
-        if folder is not None:
-            write_table(chunk_path(folder, chunk, file_format), table, units, metadata)
-        else:
-            tables[chunk] = table
-        samples_done += _chunk_length(chunk, spec)
-        samples_run += _chunk_length(chunk, spec)
-        if progress is not None:
-            progress(Progress(len(done) + count, n_chunks, samples_done, spec.samples,
-                              time.perf_counter() - started, chunk, samples_run))
+    on_disk = [len(done)]  # chunk files complete in the folder
+
+    def kept() -> str | None:
+        return None if not on_disk[0] else (
+            f"{on_disk[0]} of {n_chunks} chunks, each complete, in {folder / 'chunks'} (the "
+            "same command resumes from them)")
+
+    with keeping(kept):
+        for count, (position, table) in enumerate(
+                map_jobs(evaluate_chunk, items, backend, shared=problem), start=1):
+            chunk = todo[position]
+            if folder is not None:
+                write_table(chunk_path(folder, chunk, file_format), table, units, metadata)
+                on_disk[0] += 1
+            else:
+                tables[chunk] = table
+            samples_done += _chunk_length(chunk, spec)
+            samples_run += _chunk_length(chunk, spec)
+            if progress is not None:
+                progress(Progress(len(done) + count, n_chunks, samples_done, spec.samples,
+                                  time.perf_counter() - started, chunk, samples_run))
     if folder is not None:
         table = read_chunks(folder)
         write_table(result_path(folder, file_format), table, units, metadata)
