@@ -100,9 +100,7 @@ def main_sweep(quick: bool) -> int:
                     to_group = (k + s) % 2 == 1
                     outcome = signal_run(argv, folder, signum, to_group=to_group, cwd=work,
                                          label=label, **moment)
-                    problems = outcome.problems()
-                    if label == "study":  # keeps its complete chunks to resume (docs/study.md)
-                        problems = [p for p in problems if p != "the output folder changed"]
+                    problems = outcome.problems()  # a changed folder: named kept, or a problem
                     outcomes.append((outcome, problems))
                     verdict = "not reached" if not outcome.reached else (
                         "BAD: " + "; ".join(problems) if problems else

@@ -108,6 +108,12 @@ class Outcome:
         shell reports as the same 128 + signal, with nothing started or written."""
         return self.code == -self.signum and not self.stderr.strip()
 
+    @property
+    def last_line(self) -> str:
+        """The last line the command printed on stderr (``""`` for none)."""
+        lines = self.stderr.strip().splitlines()
+        return lines[-1] if lines else ""
+
     def problems(self) -> list[str]:
         """What went wrong (empty when nothing did); a moment that was not reached (the
         command had ended by itself) is no problem of the signal's."""
@@ -119,13 +125,12 @@ class Outcome:
             found.append(f"exit {self.code}, expected {expected}")
         if "Traceback" in self.stderr or "Exception ignored" in self.stderr:
             found.append("traceback on stderr")
-        if self.stderr.strip() and "dloplan: interrupted" not in \
-                self.stderr.strip().splitlines()[-1]:
-            found.append(f"last line {self.stderr.strip().splitlines()[-1]!r}")
+        if self.stderr.strip() and "dloplan: interrupted" not in self.last_line:
+            found.append(f"last line {self.last_line!r}")
         if self.survivors:
             found.append(f"processes outlived the command: {self.survivors}")
-        if self.changed:
-            found.append("the output folder changed")
+        if self.changed and "(kept " not in self.last_line:
+            found.append("the output folder changed, and the last line names nothing kept")
         if self.left:
             found.append(f"left behind: {self.left}")
         return found

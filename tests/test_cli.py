@@ -245,9 +245,10 @@ def test_no_figures_draws_none_and_writes_the_report_without_them(tmp_path, caps
     assert sorted(p.name for p in out.iterdir()) == ["plan.json", "rapid", "report.html"]
     page = (out / "report.html").read_text()
     assert "verdict: ok" in page and "<figure>" not in page
-    _, code, line, _ = plan_file({"output": str(tmp_path / "batch"), "verify": False,
-                                  "figures": False}, str(job))
-    assert code in (EXIT_OK, EXIT_WARNINGS), line
+    result = plan_file({"output": str(tmp_path / "batch"), "verify": False,
+                        "figures": False}, str(job))
+    assert result.code in (EXIT_OK, EXIT_WARNINGS), result.line
+    assert result.folder == str(tmp_path / "batch" / "job")  # what an interrupted batch names
     assert not (tmp_path / "batch" / "job" / "figures").exists()
     assert (tmp_path / "batch" / "job" / "report.html").exists()
 

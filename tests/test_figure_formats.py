@@ -145,9 +145,9 @@ def test_the_batch_mode_passes_svg_on(tmp_path):
 
     job = _job(tmp_path, ["json", "figures"])
     for svg in (False, True):
-        _, code, line, _ = plan_file({"output": str(tmp_path / f"batch_{svg}"),
-                                      "verify": False, "svg": svg}, str(job))
-        assert code in (EXIT_OK, EXIT_WARNINGS), line
+        result = plan_file({"output": str(tmp_path / f"batch_{svg}"), "verify": False,
+                            "svg": svg}, str(job))
+        assert result.code in (EXIT_OK, EXIT_WARNINGS), result.line
         suffixes = {p.suffix for p in (tmp_path / f"batch_{svg}" / "job" / "figures").iterdir()}
         assert suffixes == ({".png", ".svg"} if svg else {".png"})
 

@@ -93,10 +93,9 @@ def test_sigterm_to_a_batch_ends_its_pool_and_each_worker_cleans_up(tmp_path, lo
                          signal.SIGTERM, processes=4, delay=2.0)  # command, server, 2 workers
     if not outcome.reached:
         pytest.skip("the batch ended before the signal (a fast host)")
-    problems = [p for p in outcome.problems() if p != "the output folder changed"]
-    assert problems == [], outcome.stderr
+    assert outcome.problems() == [], outcome.stderr
     assert not out.exists() or all(not leftovers(sub) for sub in out.iterdir())
-    assert_kept_plans(out, outcome.stderr.strip().splitlines()[-1], of=3)
+    assert_kept_plans(out, outcome.last_line, of=3)
 
 
 def assert_kept_plans(out: Path, last_line: str, of: int) -> None:
@@ -143,11 +142,13 @@ def test_sigterm_to_a_study_ends_its_pool_and_keeps_only_complete_chunks(tmp_pat
                           "-o", str(out)], out, signal.SIGTERM, marker="chunk 1/")
     if not outcome.reached:
         pytest.skip("the study ended before the signal (a fast host)")
-    problems = [p for p in outcome.problems() if p != "the output folder changed"]
-    assert problems == [], outcome.stderr
+    assert outcome.problems() == [], outcome.stderr
     chunks = sorted((out / "chunks").glob("*.csv"))
-    last = outcome.stderr.strip().splitlines()[-1]
-    assert (f"kept {len(chunks)} of " in last) if chunks else last.endswith("(nothing written)")
+    if (out / "manifest.json").exists():  # the line names the folder, and its chunks
+        assert f"(kept the study folder {out} with {len(chunks)} of " in outcome.last_line or \
+            f"(kept the study's table and summary in {out}" in outcome.last_line, outcome.stderr
+    else:
+        assert outcome.last_line.endswith("(nothing written)"), outcome.stderr
     for chunk in chunks:
         lines = chunk.read_text().splitlines()
         assert len(lines) > 1 and all(line.count(",") == lines[0].count(",") for line in lines)

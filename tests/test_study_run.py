@@ -101,8 +101,8 @@ def test_interrupted_study_resumes_to_the_same_table(tmp_path, file_format):
     with pytest.raises(Stop) as stopped:
         run_study(PROBLEM, study, out=folder, progress=stop_after_two,
                   file_format=file_format)
-    assert kept_of(stopped.value) == (f"2 of 5 chunks, each complete, in {folder / 'chunks'} "
-                                      "(the same command resumes from them)")
+    assert kept_of(stopped.value) == (f"the study folder {folder} with 2 of 5 chunks complete "
+                                      "(the same command resumes from it)")
     assert sorted(p.name for p in (folder / "chunks").iterdir()) == [
         f"chunk-0000{k}.{file_format}" for k in (0, 1)]
     assert not (folder / f"results.{file_format}").exists()

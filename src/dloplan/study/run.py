@@ -24,6 +24,7 @@ from ..output_files import atomic_write_text
 from .backends import Backend, SerialBackend, map_jobs
 from .evaluate import COLUMN_TYPES, OUTCOME_COLUMNS, StudyProblem, evaluate_chunk
 from .results import (
+    MANIFEST,
     chunk_path,
     concat_tables,
     fingerprint,
@@ -204,29 +205,31 @@ def run_study(
     n_chunks = -(-spec.samples // spec.chunk)
     schema = column_schema(len(problem.obstacles))
     units = {name: c["unit"] for name, c in schema.items()}
-    done: list[int] = []
-    folder = None
-    if out is not None:
-        folder = Path(out)
-        manifest = {"fingerprint": problem_fingerprint(problem, spec), "file_format": file_format,
-                    "n_samples": spec.samples, "chunk_size": spec.chunk,
-                    "n_chunks": n_chunks, "n_shapes": problem.n_shapes,
-                    "study": spec.model_dump(mode="json"), "columns": schema}
-        done = open_folder(folder, manifest, resume=resume)
-    todo = [k for k in range(n_chunks) if k not in set(done)]
-    tables: dict[int, dict] = {}
-    samples_done = sum(_chunk_length(k, spec) for k in done)
-    samples_run = 0
-    items = chunk_items(samples, spec.chunk, todo)
-    metadata = {"fingerprint": manifest["fingerprint"]} if folder else None
-    on_disk = [len(done)]  # chunk files complete in the folder
+    folder = None if out is None else Path(out)
+    on_disk = [0]  # chunk files complete in the folder
 
     def kept() -> str | None:
-        return None if not on_disk[0] else (
-            f"{on_disk[0]} of {n_chunks} chunks, each complete, in {folder / 'chunks'} (the "
-            "same command resumes from them)")
+        if folder is None or not (folder / MANIFEST).exists():
+            return None
+        return (f"the study folder {folder} with {on_disk[0]} of {n_chunks} chunks complete "
+                "(the same command resumes from it)")
 
     with keeping(kept):
+        done: list[int] = []
+        if folder is not None:
+            manifest = {"fingerprint": problem_fingerprint(problem, spec),
+                        "file_format": file_format, "n_samples": spec.samples,
+                        "chunk_size": spec.chunk, "n_chunks": n_chunks,
+                        "n_shapes": problem.n_shapes, "study": spec.model_dump(mode="json"),
+                        "columns": schema}
+            done = open_folder(folder, manifest, resume=resume)
+            on_disk[0] = len(done)
+        todo = [k for k in range(n_chunks) if k not in set(done)]
+        tables: dict[int, dict] = {}
+        samples_done = sum(_chunk_length(k, spec) for k in done)
+        samples_run = 0
+        items = chunk_items(samples, spec.chunk, todo)
+        metadata = {"fingerprint": manifest["fingerprint"]} if folder else None
         for count, (position, table) in enumerate(
                 map_jobs(evaluate_chunk, items, backend, shared=problem), start=1):
             chunk = todo[position]
