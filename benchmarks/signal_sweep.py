@@ -66,7 +66,7 @@ def cases(work: Path, plan_json: Path, quick: bool):
                           {"processes": 4, "delay": 3.0}]),
         ("study", ["study", str(STUDY), "--workers", "2", "--samples", "64", "--csv", "-o",
                    str(work / "study")], work / "study",
-         [{"marker": "loaded"}, {"marker": "running"}, {"marker": "chunk 1/"},
+         [{"marker": "planned"}, {"marker": "running"}, {"marker": "chunk 1/"},
           {"marker": "chunk 2/"}]),
         ("verify", ["verify", str(plan_json)], work / "verify-none",
          [{"delay": 0.3}, {"marker": "verifying"}, {"marker": "verifying", "delay": 1.0}]),
