@@ -42,6 +42,20 @@ def test_read_text_refuses_what_is_not_a_bounded_regular_text_file(tmp_path):
     assert read_text(big, 1001) == "x" * 1001
 
 
+def test_a_job_file_with_a_byte_order_mark_reads_as_without(tmp_path):
+    """Notepad and spreadsheets write UTF-8 with a byte-order mark; YAML and JSON job files read
+    the same with it (json.loads refused it, YAML read the first key as '\\ufeffcable')."""
+    from dloplan.io.scenario import read_mapping
+
+    job = {"cable": {"name": "usb"}, "start": {"kind": "straight"}}
+    for suffix, text in ((".yaml", "cable: {name: usb}\nstart: {kind: straight}\n"),
+                         (".json", '{"cable": {"name": "usb"}, "start": {"kind": "straight"}}')):
+        path = tmp_path / f"job{suffix}"
+        path.write_bytes(b"\xef\xbb\xbf" + text.encode())
+        assert read_text(path).startswith(text[:5])
+        assert read_mapping(path) == job
+
+
 def test_a_full_disk_names_the_file_and_leaves_the_old_one(tmp_path, monkeypatch):
     target = tmp_path / "out.csv"
     target.write_text("old")

@@ -34,8 +34,21 @@ def test_csv_by_hand(tmp_path):
     assert shape.frame_id == "table" and shape.points.shape == (3, 3)
 
 
+@pytest.mark.parametrize("suffix", [".csv", ".json"])
+def test_a_file_with_a_byte_order_mark_reads_as_without(tmp_path, suffix):
+    """A spreadsheet's or Notepad's UTF-8 export starts with a byte-order mark."""
+    path = write_shapes(tmp_path / f"shapes{suffix}", shapes())
+    marked = tmp_path / f"marked{suffix}"
+    marked.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+    for a, b in zip(read_shapes(marked), read_shapes(path), strict=True):
+        assert (a.label, a.frame_id) == (b.label, b.frame_id)
+        np.testing.assert_array_equal(a.points, b.points)
+
+
 @pytest.mark.parametrize("text, message", [
     ("label,frame,x,y,z\n", "header"),
+    ("label;frame_id;x;y;z\na;r;0,1;0;0\n", r"separated by ';' \(a spreadsheet's export for a "
+     r"decimal comma\), expected the columns label,frame_id,x,y,z, separated by commas"),
     ("label,frame_id,x,y,z\na,r,0,0,0\nb,r,1,0,0\na,r,2,0,0\n", "continues after shape 'b'"),
     ("label,frame_id,x,y,z\na,r,0,0,zero\n", "line 2: coordinates must be numbers"),
     ("label,frame_id,x,y,z\na,r,0,0,0\na,s,1,0,0\n", "changes frame"),

@@ -23,7 +23,7 @@ from .bounds import MAX_INPUT_BYTES
 def read_text(path: str | os.PathLike, limit: int = MAX_INPUT_BYTES, kind: str = "file",
               advice: str = "") -> str:
     """The UTF-8 text of a regular file of at most ``limit`` bytes, read once (module
-    docstring).
+    docstring), without the byte-order mark some editors write at its start.
 
     Parameters
     ----------
@@ -58,7 +58,7 @@ def read_text(path: str | os.PathLike, limit: int = MAX_INPUT_BYTES, kind: str =
         raise ValueError(f"{path}: the file is {more}, more than the {limit / 1e6:g} MB a "
                          f"{kind} may have{advice}")
     try:
-        return data.decode("utf-8")
+        return data.decode("utf-8-sig")  # a leading byte-order mark (Notepad, Excel) dropped
     except UnicodeDecodeError:
         raise ValueError(f"{path}: not a text file (not UTF-8): expected a {kind}") from None
 

@@ -130,9 +130,12 @@ def _shapes_from_csv(text: str, where: str) -> list[RegisteredShape]:
         raise ValueError(f"{where}: no header line {','.join(CSV_COLUMNS)}")
     header = [c.strip() for c in next(csv.reader([lines[0][1]]))]
     if sorted(header) != sorted(CSV_COLUMNS):
+        separated = " separated by ';' (a spreadsheet's export for a decimal comma)" if \
+            len(header) == 1 and ";" in header[0] else ""
         raise ValueError(
-            f"{where}: line {lines[0][0]}: header {header}, expected the columns "
-            f"{','.join(CSV_COLUMNS)} (coordinates in metres)"
+            f"{where}: line {lines[0][0]}: header {header}{separated}, expected the columns "
+            f"{','.join(CSV_COLUMNS)}, separated by commas (coordinates in metres, decimal "
+            "points)"
         )
     col = {name: header.index(name) for name in CSV_COLUMNS}
     groups: dict[str, tuple[str, list]] = {}
