@@ -586,6 +586,60 @@ def test_a_remaining_program_that_cannot_start_from_the_held_joints_is_written_w
     assert labels[0] == "shape 0" and np.abs(left - np.degrees(q[0])).max() > 10.0
 
 
+def test_a_corrected_panda_plan_goes_on_from_the_joints_and_placement_that_hold_the_cable(
+        tmp_path):
+    """The sagging demo on the Panda pair (placed 0.2 m further by the placement search): the
+    remaining motion from shape 3 on was verified afresh, its joints tracked from the arms'
+    home poses through the corrected path and a placement searched again: the seven-joint arm
+    started 3.5 deg (joints 1 and 3) from the joints holding the cable. Now its ROS trajectory
+    starts at the held joints (to the file's 1e-9 rad) and the job keeps the plan's placement."""
+    import yaml
+
+    data = yaml.safe_load(SCENARIOS["demo"].read_text(encoding="utf-8"))
+    data.update(cable={**data["cable"], "n_links": MODEL_LINKS}, outputs=["json"],
+                robot={"cell": {"preset": "panda_pair"}, "place": True},
+                repair={"placement": True})
+    scenario = tmp_path / "panda.yaml"
+    scenario.write_text(yaml.safe_dump(data), encoding="utf-8")
+    assert main(["plan", str(scenario), "-o", str(tmp_path / "plan"), "-q"]) in (0, 1)
+    doc = read_plan(tmp_path / "plan" / "plan.json")
+    at, out = 3, tmp_path / "out"
+    shapes_file, _ = _x_half_measurement(doc, tmp_path, at)
+    assert main(["correct", str(tmp_path / "plan" / "plan.json"), "--at", str(at),
+                 "--measured", str(shapes_file), "-o", str(out), "-q"]) == 0
+    held = next(t for t in doc.robot.program["targets"] if t["label"] == f"shape {at}")
+    for arm in ("left", "right"):
+        first = yaml.safe_load((out / "ros_joints" / f"dloplan_{arm}_joint_trajectory.yaml")
+                               .read_text(encoding="utf-8"))["points"][0]["positions"]
+        np.testing.assert_allclose(np.degrees(first), held["arms"][arm]["joints_deg"], atol=1e-6)
+    remaining = read_plan(out / "plan.json").robot.program
+    assert remaining["offset"] == pytest.approx(doc.robot.program["offset"], abs=1e-12)
+    assert remaining["assignment"]["left_clip"] == doc.robot.program["assignment"]["left_clip"]
+
+
+def test_held_joints_that_do_not_hold_the_first_pose_leave_it_unreached():
+    """``check_path(held=True)``: pose 0 is the held joints; where their TCP is not at it (here
+    1 mm off), the pose is reported not reached, naming how far, instead of solved afresh."""
+    from dloplan.robot.kinematics import forward
+    from dloplan.robot.path import check_path
+    from dloplan.robot.urdf_cell import panda_pair
+
+    cell = panda_pair()
+    joints = [arm.home for arm in cell.arms]
+    poses = [forward(arm, q) for arm, q in zip(cell.arms, joints, strict=True)]
+    pos = np.array([[p for p, _ in poses]] * 2)
+    rot = Rotation.concatenate([r for _, r in poses] * 2)
+    check = check_path(cell, pos, rot, seeds=joints, held=True)
+    assert check.reachable.all()
+    for q, held in zip(check.joints, joints, strict=True):
+        np.testing.assert_array_equal(q[0], held)  # the held joints themselves, not a solution
+    moved = pos + [0.0, 0.0, 1e-3]
+    check = check_path(cell, moved, rot, seeds=joints, held=True)
+    assert not check.reachable[0].any() and not check.ok
+    assert any("the joints holding the cable put the TCP 1 mm" in m for m in check.messages), \
+        check.messages
+
+
 def test_dloplan_correct_refuses_an_absurd_measurement_and_writes_nothing(plans, tmp_path,
                                                                          capsys):
     doc, plan_path = plans["demo"]

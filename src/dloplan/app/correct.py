@@ -45,8 +45,8 @@ from ..pipeline.stages import (
 )
 from ..robot.armangle import arm_angle
 from ..robot.cell import RobotCell
+from ..robot.program import HeldArms
 from ..robot.yumi import ARMS
-from ..robot.yumi_program import HeldArms
 from ..sim import equilibrium
 from ..trajectory import plan_cycle
 from .writers import WRITERS, WriteOptions, write_outputs
@@ -153,34 +153,44 @@ def remaining_document(doc: PlanDocument, corrected: PlanDocument,
 
 
 def held_arms(doc: PlanDocument, at: int) -> HeldArms | None:
-    """The YuMi's arms holding the cable at shape ``at`` of the plan ``doc`` as its recorded
-    program runs it (the assignment and both arms' joints at that shape's target); None for a
-    plan without a YuMi program (a described cell's, or none)."""
+    """The arms holding the cable at shape ``at`` of the plan ``doc`` as its recorded program
+    runs it: the assignment, both arms' joints at that shape's target and, on a described cell,
+    the job's placement; None for a plan without a program or whose program has no target at
+    that shape."""
     record = None if doc.robot is None else doc.robot.program
-    if not isinstance(document_cell(doc), RobotCell) or not record:
+    if not record:
         return None
-    target = next(t for t in record["targets"] if t["label"] == f"shape {at}")
-    joints = np.radians([target["arms"][arm]["joints_deg"] for arm in ARMS])
-    return HeldArms(int(record["assignment"]["left_clip"]), joints)
+    target = next((t for t in record["targets"] if t["label"] == f"shape {at}"), None)
+    if target is None:
+        return None
+    joints = tuple(np.radians(target["arms"][arm]["joints_deg"]) for arm in ARMS)
+    return HeldArms(int(record["assignment"]["left_clip"]), np.stack(joints) if isinstance(
+        document_cell(doc), RobotCell) else joints, np.asarray(record.get("offset", np.zeros(3)),
+                                                                 dtype=float))
 
 
 def remaining_program(doc: PlanDocument, grippers, trajectory, at: int):
     """The robot program of the remaining motion from shape ``at`` on the plan's cell, and a
     warning (None when there is none).
 
-    On the YuMi the arms hold the cable at shape ``at``: no approach (and so no retreat: the
-    cell's ``approach`` is both; after the release the arms stay where they let go), and the
-    program starts from the joints the plan's program holds it with, each arm's arm angle kept
-    (:class:`~dloplan.robot.yumi_program.HeldArms`). When that program fails a check and a
-    program from a fresh joint solution passes, the fresh one is returned with a warning naming
-    the held one's failure and the arm angles to take, the cable held, before it runs. A
-    described cell's program is made on its cell as the plan's was."""
+    The arms hold the cable at shape ``at``: the program starts from the joints the plan's
+    program holds it with (:class:`~dloplan.robot.program.HeldArms`), the assignment kept. On
+    the YuMi: no approach (and so no retreat: the cell's ``approach`` is both; after the
+    release the arms stay where they let go), each arm's arm angle kept; when that program
+    fails a check and a program from a fresh joint solution passes, the fresh one is returned
+    with a warning naming the held one's failure and the arm angles to take, the cable held,
+    before it runs. On a described cell the job keeps the plan's placement (no search), and a
+    program that fails from the held joints is returned as it is: a fresh solution of a
+    redundant arm at the same pose is another configuration, reached only by moving the arm
+    with the cable held."""
     from ..robot.plugins import robot_program
 
     held = held_arms(doc, at)
     cell = document_cell(doc)
     if held is None:
         return robot_program(grippers, trajectory, cell), None
+    if not isinstance(cell, RobotCell):
+        return robot_program(grippers, trajectory, cell, held=held), None
     cell = replace(cell, approach=0.0)
     program = robot_program(grippers, trajectory, cell, held=held)
     if program.ok:

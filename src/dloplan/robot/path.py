@@ -29,7 +29,7 @@ from scipy.spatial.transform import Rotation
 from .checks import CheckRow
 from .collision import arm_clearance
 from .described import ARMS, DescribedCell, table_clearance
-from .kinematics import IKOptions, inverse, joint_margin, solve_from
+from .kinematics import IKOptions, IKResult, forward, inverse, joint_margin, solve_from
 from .line_deviation import LINE_TOLERANCE, line_deviation
 from .yumi import ABB_AXIS_NUMBERS
 
@@ -57,6 +57,12 @@ CHECKS = ("reach", "joint limits", "continuity", "clearance", "table clearance",
           "joint acceleration")
 """The checks of a cell program, in the order of its rows (the last two along the time law,
 :func:`dloplan.robot.tracked_program.tracked_program`)."""
+
+
+HELD_TOLERANCE = 1e-4
+"""[m + rad] How far the TCP at held joints may be from target 0 and still hold it there (the
+held joints solved the same target, written to 1e-6 mm and 1e-9 in a quaternion, to the IK's
+1e-5 tolerance)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -294,7 +300,7 @@ class PathCheck:
 
 def check_path(cell: DescribedCell, positions, rotations: Rotation, *, seeds=None,
                options: ReachOptions | None = None,
-               alternatives: Rotation | None = None) -> PathCheck:
+               alternatives: Rotation | None = None, held: bool = False) -> PathCheck:
     """Follow a dual-arm TCP path on a cell (module docstring): the one path check.
 
     Pose 0 is solved from ``seeds`` (default the arms' home poses) for the wanted
@@ -313,6 +319,11 @@ def check_path(cell: DescribedCell, positions, rotations: Rotation, *, seeds=Non
         (K, 2) or (K * 2,) pose-major ``tcp_to_world``.
     seeds : sequence of array_like, optional
         Per arm the (n_arm,) joints [rad] to start pose 0 from.
+    held : bool
+        The arms hold the cable at pose 0 with ``seeds`` (the remaining motion of a corrected
+        plan): pose 0 is those joints, not solved, and reached where their TCP is within
+        :data:`HELD_TOLERANCE` of it; of an arm's two grips the one it holds is kept (the
+        other's pose 0 is not where the held joints are).
     options : ReachOptions, optional
         Default ``ReachOptions()``, the reach check's settings.
     alternatives : scipy.spatial.transform.Rotation, optional
@@ -340,7 +351,7 @@ def check_path(cell: DescribedCell, positions, rotations: Rotation, *, seeds=Non
             raise ValueError(f"seeds: expected per arm ({arm.n_joints},) finite joint values "
                              f"[rad], got {seeds!r}")
     counts = substeps(pos, mats, opts)
-    tracks = _track_arms(cell, pos, grips, seeds, counts, opts)
+    tracks = _track_arms(cell, pos, grips, seeds, counts, opts, held)
     deviation = None
     for refinement in range(REFINEMENTS + 1):
         if opts.line_tolerance is None or not all(
@@ -356,7 +367,7 @@ def check_path(cell: DescribedCell, positions, rotations: Rotation, *, seeds=Non
         # rarely needed; at most 4 times the sub-steps a round
         factor = np.clip(1.2 * np.sqrt(worst), 2.0, 4.0)
         counts = np.where(worst > 1.0, np.ceil(counts * factor), counts).astype(int)
-        tracks, deviation = _track_arms(cell, pos, grips, seeds, counts, opts), None
+        tracks, deviation = _track_arms(cell, pos, grips, seeds, counts, opts, held), None
     times = np.concatenate([[0.0]] + [k - 1 + np.arange(1, n + 1) / n
                                       for k, n in enumerate(counts, start=1)])
     poses = np.concatenate([[0], np.cumsum(counts)]).astype(int)
@@ -397,15 +408,28 @@ def check_path(cell: DescribedCell, positions, rotations: Rotation, *, seeds=Non
                      stopped, messages, tuple(rows), deviation)
 
 
-def _track_arms(cell, pos, grips, seeds, counts, opts: ReachOptions) -> list:
+def held_pose(arm, position, rotation_matrix, joints) -> IKResult:
+    """Joints that hold the cable at a pose, as an IK result: ``joints`` (n,) [rad] themselves,
+    a success where their TCP is within :data:`HELD_TOLERANCE` (position [m] + angle [rad]) of
+    ``position`` (3,) and ``rotation_matrix`` (3, 3)."""
+    p, r = forward(arm, joints)
+    position_error = float(np.linalg.norm(p - position))
+    angle_error = float((Rotation.from_matrix(rotation_matrix).inv() * r).magnitude())
+    success = position_error + angle_error <= HELD_TOLERANCE
+    return IKResult(np.asarray(joints, dtype=float), success, position_error, angle_error, 0, 1,
+                    "held" if success else f"the joints holding the cable put the TCP "
+                    f"{position_error * 1e3:.3g} mm, {np.degrees(angle_error):.3g} deg from it")
+
+
+def _track_arms(cell, pos, grips, seeds, counts, opts: ReachOptions, held: bool) -> list:
     """Per arm ``(track, turned)``: each arm's better grip followed through ``counts``
-    sub-steps (:func:`check_path`); a stopped ``verdict_only`` track leaves the other arm
-    untracked."""
+    sub-steps (:func:`check_path`; ``held``: pose 0 is the seeds); a stopped ``verdict_only``
+    track leaves the other arm untracked."""
     poses = np.concatenate([[0], np.cumsum(counts)]).astype(int)
     tracks = []
     for a, arm in enumerate(cell.arms):
         tried = [_follow(arm, ARMS[a], pos[:, a], g[:, a], counts, np.asarray(seeds[a], float),
-                         opts) for g in grips]
+                         opts, held) for g in grips]
         scores = [(t.reachable.sum(), t.continuous.sum(),
                    joint_margin(arm, t.motion[poses]).min()) for t in tried]
         best = max(range(len(tried)), key=lambda i: scores[i])
@@ -472,9 +496,10 @@ def substep_rotations(matrices, counts) -> list[np.ndarray]:
     return np.split(sub, np.cumsum(counts)[:-1])
 
 
-def _follow(arm, name: str, pos, mats, counts, seed, opts: ReachOptions) -> _Track:
+def _follow(arm, name: str, pos, mats, counts, seed, opts: ReachOptions,
+            held: bool = False) -> _Track:
     """Track one arm through the sub-steps of its (K, 3) positions and (K, 3, 3) rotations
-    (:func:`check_path`)."""
+    (:func:`check_path`; ``held``: pose 0 is ``seed``)."""
     n_poses = len(pos)
     start = replace(opts.ik, min_margin=opts.min_margin,
                     restarts=max(opts.ik.restarts, opts.start_restarts))
@@ -488,7 +513,8 @@ def _follow(arm, name: str, pos, mats, counts, seed, opts: ReachOptions) -> _Tra
         motion = motion + [motion[-1]] * (total - len(motion))
         return _Track(np.array(motion), reach, cont, perr, aerr, step, tuple(messages), stopped)
 
-    res = inverse(arm, pos[0], Rotation.from_matrix(mats[0]), seed=seed, options=start)
+    res = (held_pose(arm, pos[0], mats[0], seed) if held else
+           inverse(arm, pos[0], Rotation.from_matrix(mats[0]), seed=seed, options=start))
     motion = [res.q]
     reach[0], perr[0], aerr[0] = res.success, res.position_error, res.angle_error
     if not res.success:

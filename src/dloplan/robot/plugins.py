@@ -63,15 +63,16 @@ def robot_program(grippers, trajectory, cell=None, *, verdict_only: bool = False
         :meth:`~dloplan.robot.program.RobotProgram.completed`
         (:func:`~dloplan.robot.yumi_program.yumi_program`); a described cell's is complete.
     held : HeldArms, optional
-        The YuMi's arms already hold the cable at the first target
-        (:class:`~dloplan.robot.yumi_program.HeldArms`: the remaining motion of a corrected
-        plan); a described cell is not given it.
+        The arms already hold the cable at the first target
+        (:class:`~dloplan.robot.program.HeldArms`: the remaining motion of a corrected plan):
+        the program starts from their joints, with the plan's assignment (and on a described
+        cell its placement).
 
     Raises
     ------
     ValueError
-        A cell of neither kind; held arms on a described cell; inputs that do not belong
-        together (the YuMi's plug-in: :func:`~dloplan.robot.yumi_program.yumi_program`).
+        A cell of neither kind; inputs that do not belong together (the YuMi's plug-in:
+        :func:`~dloplan.robot.yumi_program.yumi_program`).
     """
     if cell is None or isinstance(cell, RobotCell):
         return yumi_program(grippers, trajectory, cell, verdict_only=verdict_only,
@@ -79,10 +80,7 @@ def robot_program(grippers, trajectory, cell=None, *, verdict_only: bool = False
     if not isinstance(cell, DescribedCell):
         raise ValueError(f"cell: expected a RobotCell or a DescribedCell, got "
                          f"{type(cell).__name__}")
-    if held is not None:
-        raise ValueError(f"held: the arms holding the cable are the YuMi's plug-in's; "
-                         f"expected none on the described cell {cell.name!r}")
-    return tracked_program(cell, trajectory)
+    return tracked_program(cell, trajectory, held)
 
 
 def placement_message(cell, grippers, trajectory) -> str:

@@ -26,8 +26,8 @@ it). :func:`dloplan.robot.plugins.robot_program` makes the program of any cell.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
@@ -75,6 +75,29 @@ class Targets(Protocol):
     def writer_arguments(self, program: RobotProgram, name: str) -> dict: ...
 
     def report_arms(self, program: RobotProgram) -> dict: ...
+
+
+@dataclass(frozen=True, eq=False)
+class HeldArms:
+    """Both arms holding the cable at a program's first target (the remaining motion of a
+    corrected plan: the cable is held at the shape measured), as the plan's program holds it.
+
+    Attributes
+    ----------
+    left_clip : int
+        The clip the left arm holds (0 or 1): the assignment is kept.
+    joints : sequence of numpy.ndarray
+        The (left, right) arms' joints [rad], each (n_arm,), physical order (the YuMi's a
+        (2, 7) array): the program starts from them (the YuMi's each arm angle kept).
+    offset : numpy.ndarray
+        (3,) [m] the job's placement on a described cell that the plan's program ran it with
+        (:attr:`~dloplan.robot.urdf_cell.CellPlan.offset`), kept: no placement is searched for
+        a held cable; zeros on the YuMi.
+    """
+
+    left_clip: int
+    joints: Sequence[np.ndarray]
+    offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
 
 @dataclass(frozen=True, eq=False)

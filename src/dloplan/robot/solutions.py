@@ -21,7 +21,7 @@ from scipy.spatial.transform import Rotation
 from .armangle import arm_angle, wrap
 from .collision import arm_clearance
 from .kinematics import forward, inverse, joint_margin, solve_many
-from .path import COMFORT_CLEARANCE, COMFORT_MARGIN, check_path
+from .path import COMFORT_CLEARANCE, COMFORT_MARGIN, HELD_TOLERANCE, check_path
 
 ARM_ANGLE_STEP = float(np.radians(30.0))
 """[rad] Spacing of the constant arm angles tried for each arm."""
@@ -33,12 +33,6 @@ ARM_ANGLES = 12
 TRACK_ITERATIONS = 12
 """IK iterations allowed per tracking sub-step, here and in the replay (a converging solve
 from the previous sub-step's solution needs a handful)."""
-
-HELD_TOLERANCE = 1e-4
-"""[m + rad] How far the TCP at held joints may be from target 0 and still hold it there (the
-held joints solved the same target, written to 1e-6 mm and 1e-9 in a quaternion, to the IK's
-1e-5 tolerance)."""
-
 
 @dataclass(frozen=True, eq=False)
 class Candidate:

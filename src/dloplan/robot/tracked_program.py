@@ -21,7 +21,7 @@ import numpy as np
 from .chain import capsules
 from .described import DescribedCell
 from .path import CHECKS
-from .program import RobotProgram, slowed
+from .program import HeldArms, RobotProgram, slowed
 from .urdf_cell import CellPlan, verify_on_cell
 
 URSCRIPT_JOINTS = 6
@@ -195,14 +195,14 @@ def tracked_moves(plan: CellPlan) -> tuple:
     return tuple(moves)
 
 
-def tracked_program(cell: DescribedCell, trajectory) -> RobotProgram:
+def tracked_program(cell: DescribedCell, trajectory, held: HeldArms | None = None) -> RobotProgram:
     """Verify a plan's timed trajectory on a described cell (:func:`verify_on_cell` with the
     cell's placement setting) as a :class:`~dloplan.robot.program.RobotProgram`: the
     verdict's rows, then per moving segment and arm the peak joint speed and (where the arm
     has published limits) joint acceleration along the time law. Segments over a joint speed
     limit are slowed (:func:`~dloplan.robot.program.slowed`); the joints' path does not
-    change."""
-    plan = verify_on_cell(cell, trajectory)
+    change. ``held``: the arms hold the cable at the first knot (``verify_on_cell``'s)."""
+    plan = verify_on_cell(cell, trajectory, held=held)
     arm_clips = tuple(trajectory.arm_clips)
     left_clip = arm_clips[1] if plan.swapped else arm_clips[0]
     program = RobotProgram(cell, TrackedTargets(plan, int(left_clip)), plan.verdict.joints,

@@ -26,6 +26,7 @@ from .described import ARMS, MIN_MARGIN, DescribedCell
 from .description import load_arm, vendored
 from .path import PathCheck, ReachOptions, check_path
 from .placement import search_cell_placement
+from .program import HeldArms
 from .yumi import yumi
 
 
@@ -143,7 +144,8 @@ class CellPlan:
 
 
 def verify_on_cell(cell: DescribedCell, trajectory, *, tcp_in_clip: Rotation | None = None,
-                   place: bool | None = None, options: ReachOptions | None = None) -> CellPlan:
+                   place: bool | None = None, options: ReachOptions | None = None,
+                   held: HeldArms | None = None) -> CellPlan:
     """Verify a plan's timed clip trajectory on a cell.
 
     The TCP holds each clip at the clip point with ``clip_to_world * tcp_in_clip`` (default
@@ -162,6 +164,10 @@ def verify_on_cell(cell: DescribedCell, trajectory, *, tcp_in_clip: Rotation | N
         The same mapping for both arms instead of the arms' own.
     place : bool, optional
     options : ReachOptions, optional
+    held : HeldArms, optional
+        The arms hold the cable at the first knot (the remaining motion of a corrected plan):
+        the left arm keeps the clip it holds, the job keeps the plan's offset (no placement
+        search) and the motion starts from the held joints (:func:`check_path`'s ``held``).
     """
     options = options if options is not None else ReachOptions.cell_program(
         min_margin=cell.min_margin)
@@ -169,13 +175,18 @@ def verify_on_cell(cell: DescribedCell, trajectory, *, tcp_in_clip: Rotation | N
     keep = np.concatenate([[True], np.diff(times) > 0])
     pos = np.asarray(trajectory.positions, dtype=float)[keep]
     mats = np.stack([r.as_matrix() for r in trajectory.rotations], 1)[keep]
-    swapped = assign_arms(pos, cell).left_clip == 1
+    swapped = (assign_arms(pos, cell).left_clip == 1 if held is None else
+               int(tuple(trajectory.arm_clips)[0]) != held.left_clip)
     if swapped:
         pos, mats = pos[:, ::-1], mats[:, ::-1]
     mats = np.stack([mats[:, a] @ (tcp_in_clip or arm.tcp_in_clip).as_matrix()
                      for a, arm in enumerate(cell.arms)], 1)
     rot = Rotation.from_matrix(mats.reshape(-1, 3, 3))
-    if cell.place if place is None else place:
+    if held is not None:
+        offset = np.asarray(held.offset, dtype=float)
+        verdict = check_path(cell, pos + offset, rot, seeds=held.joints, options=options,
+                             held=True)
+    elif cell.place if place is None else place:
         offset, verdict = search_cell_placement(cell, pos, rot, options=options)
     else:
         offset, verdict = np.zeros(3), check_path(cell, pos, rot, options=options)

@@ -74,11 +74,11 @@ from .checks import CheckRow
 from .collision import arm_clearance
 from .confdata import confdata
 from .kinematics import forward, solve_from
-from .path import TURN_Z
-from .program import RobotProgram, slowed
+from .path import HELD_TOLERANCE, TURN_Z
+from .program import HeldArms, RobotProgram, slowed
 from .replay import replay_moves
 from .robtarget import ROUND_TRIP_TOLERANCE, RobtargetSolution, own_solution, solve_robtarget
-from .solutions import HELD_TOLERANCE, ranked_solutions
+from .solutions import ranked_solutions
 from .yumi import ABB_AXIS_NUMBERS, ARMS
 
 MIN_SPEED = 1e-4
@@ -277,24 +277,6 @@ class YumiTargets:
         return {"arm_joints": shape_joints, "robot": program.cell.robot,
                 "arm_motion": (self.motion_times, self.motion_joints,
                                self.times[self.grasp:self.release + 1])}
-
-
-@dataclass(frozen=True, eq=False)
-class HeldArms:
-    """Both arms holding the cable at a program's first target (the remaining motion of a
-    corrected plan: the cable is held at the shape measured).
-
-    Attributes
-    ----------
-    left_clip : int
-        The clip the left arm holds (0 or 1): the assignment is kept.
-    joints : numpy.ndarray
-        (2, 7) the (left, right) arms' joints [rad], physical order: the program starts from
-        them, each arm's arm angle kept.
-    """
-
-    left_clip: int
-    joints: np.ndarray
 
 
 def yumi_program(grippers, trajectory, cell: RobotCell | None = None, *,
