@@ -387,6 +387,31 @@ def test_a_batch_counts_a_skipped_identification_file_as_skipped(tmp_path, capsy
             "planned, 1 skipped (identification files: dloplan identify)") in out
 
 
+def test_a_batch_with_json_prints_json(tmp_path, capsys):
+    """``plan A B --json`` printed the text summary (sweep round 10): every command's
+    ``--json`` is a machine-readable summary on stdout. The batch's is each file's exit code,
+    folder and status line, the counts and the batch's exit code (the worst of its files); a
+    bad file's line names the file once (it read "bad.yaml: error: bad.yaml: ...")."""
+    examples = Path(__file__).parents[1] / "examples"
+    bad = write(tmp_path, {**STIFF, "cable": {"name": "pa12", "n_links": 3}}, "bad.yaml")
+    good = write(tmp_path, {**STIFF, "planner": {"n_shapes": 1}, "outputs": ["json"]})
+    ident = str(examples / "identify_ethernet.yaml")
+    code = main(["plan", ident, str(bad), str(good), "-o", str(tmp_path / "out"), "-q",
+                 "--no-verify", "--json"])
+    summary = json.loads(capsys.readouterr().out)
+    assert code == EXIT_FAILURE == summary["exit_code"]
+    assert [f["path"] for f in summary["files"]] == [ident, str(bad), str(good)]
+    assert [f["exit_code"] for f in summary["files"]] == [EXIT_WARNINGS, EXIT_FAILURE, EXIT_OK]
+    assert [f["skipped"] for f in summary["files"]] == [True, False, False]
+    assert summary["files"][2]["folder"] == str(tmp_path / "out" / "job")
+    assert summary["files"][1]["folder"] is None
+    assert summary["files"][1]["line"] == (f"{bad}: error: cable.n_links: Input should be "
+                                           "greater than or equal to 4 (got 3)")
+    assert {k: summary[k] for k in ("ok", "warnings", "failed_check", "not_planned",
+                                     "skipped")} == {"ok": 1, "warnings": 0, "failed_check": 0,
+                                                     "not_planned": 1, "skipped": 1}
+
+
 def test_a_batch_whose_files_share_a_name_is_refused_before_any_plan(tmp_path, capsys):
     """Two files of one name in two folders (or one file twice) would be planned into one
     ``OUT/<stem>/``: the second plan replaced the first one's files after the first status line

@@ -325,6 +325,22 @@ def test_an_unreachable_force_is_reported_not_hidden():
     assert "link tension reaches" in ins.message and "limit 0.05 N" in ins.message
 
 
+def test_a_section_over_its_force_limit_in_the_slots_is_a_failed_tensioning():
+    """Fixtures 3 cm farther apart each (sweep round 10: the Ethernet example's board): laid in
+    the slots the section is stretched over the peg, taut before any pull, and the search
+    stopped at d = 0 without comparing its tension with ``max_axial_force`` (the example:
+    23.7 N against 5 N, planned and verified, exit 0)."""
+    cable = catalogue_cable("ethernet", n_links=10)
+    board = demo_board(cable, fixture_y=0.18, obstacles=False)
+    x = insertion_pose(cable, board).shape
+    ins = insert_and_tension(cable, x, board, max_axial_force=1.0, n_links=24)
+    assert ins.tensioned.offset == 0.0 and ins.tensioned.max_tension > 3.0
+    assert not ins.success and math.isnan(ins.offset)
+    assert "limit 1 N) with the cable laid in the slots, before any pull" in ins.message
+    assert "expected a section that reaches the slots within the limit" in ins.message
+    assert insert_and_tension(cable, x, board, max_axial_force=5.0, n_links=24).success
+
+
 def test_the_pu_hose_is_pulled_taut_not_only_bent_onto_the_peg(pu):
     ins = pu.insertion
     assert ins.success, ins.message

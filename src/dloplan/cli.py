@@ -718,7 +718,7 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
                "check_robot": not args.no_verify, "repair": not args.no_repair,
                "allow_placement": args.allow_placement, "figures": not args.no_figures,
                "svg": args.svg}
-    codes, skipped, written = {}, 0, []  # each plan's folder is written complete (staged)
+    codes, skipped, written, results = {}, 0, [], []  # each plan's folder written complete
 
     def kept() -> str | None:
         return None if not written else (f"{len(written)} of {len(args.scenarios)} plans, "
@@ -730,14 +730,24 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
             codes[result.path] = result.code
             skipped += result.skipped
             written += [result.folder] if result.folder else []
+            results.append(result)
             console.stage(result.line)
-    print(f"planned {len(codes)} scenarios: "
-          f"{sum(c == EXIT_OK for c in codes.values())} ok, "
-          f"{sum(c == EXIT_WARNINGS for c in codes.values()) - skipped} with warnings, "
-          f"{sum(c == EXIT_CHECK_FAILED for c in codes.values())} failed a check, "
-          f"{sum(c == EXIT_FAILURE for c in codes.values())} could not be planned"
+    counts = {"ok": sum(c == EXIT_OK for c in codes.values()),
+              "warnings": sum(c == EXIT_WARNINGS for c in codes.values()) - skipped,
+              "failed_check": sum(c == EXIT_CHECK_FAILED for c in codes.values()),
+              "not_planned": sum(c == EXIT_FAILURE for c in codes.values()),
+              "skipped": skipped}
+    code = max(codes.values())  # the worst of the batch
+    if args.json:
+        print(json_text({"files": [{"path": r.path, "exit_code": r.code, "skipped": r.skipped,
+                                    "folder": r.folder or None, "line": r.line}
+                                   for r in results], **counts, "exit_code": code}, indent=2))
+        return code
+    print(f"planned {len(codes)} scenarios: {counts['ok']} ok, {counts['warnings']} with "
+          f"warnings, {counts['failed_check']} failed a check, {counts['not_planned']} could "
+          "not be planned"
           + (f", {skipped} skipped (identification files: dloplan identify)" if skipped else ""))
-    return max(codes.values())
+    return code
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:

@@ -182,7 +182,9 @@ def plan_file(options: dict, path: str) -> FileResult:
                            figures=options.get("figures", True),
                            svg=options.get("svg", False))
     except ValueError as exc:
-        return FileResult(path, EXIT_FAILURE, f"{path}: error: {exc}")
+        text = str(exc)  # most errors name the file already
+        return FileResult(path, EXIT_FAILURE, f"{path}: error: "
+                          f"{text.removeprefix(f'{path}: ')}")
     code = exit_code(doc)
     status = {EXIT_OK: "ok", EXIT_WARNINGS: "warnings", EXIT_CHECK_FAILED: "check FAILED"}[code]
     return FileResult(path, code, f"{path}: {status} -> {folder}", folder=str(folder))

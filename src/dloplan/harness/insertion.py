@@ -23,7 +23,8 @@ least ``min_tension`` > 0, found by simulation: ``d`` grows in steps from 0, eac
 warm-started from the previous one, until both hold (a bracket), then Brent's method on the
 smaller of the two relative excesses within the bracket, each evaluation started from the
 bracket's lower shape. It fails, with a message giving the forces, when the largest link
-tension exceeds ``max_axial_force`` first, or the offset would exceed ``max_offset``.
+tension exceeds ``max_axial_force`` first (already in the slots, at ``d = 0``, where the
+fixtures stretch the section over the pegs), or the offset would exceed ``max_offset``.
 
 **Mechanism.** A peg can push on the cable for two reasons: the cable is pulled taut around it
 (tension), or a stiff cable, bent between the fixtures, presses on it while its section is
@@ -343,10 +344,14 @@ def insert_and_tension(
         if excess(found) < 0:  # brentq's root sits within xtol below
             found = state(min(root + xtol, high.offset), low.equilibrium.shape)
             evaluations += 1
-        if found.max_tension > max_axial_force:
-            problem = (f"the link tension reaches {found.max_tension:.3g} N (limit "
-                       f"{max_axial_force:g} N) where the pegs push with {contact_force:g} N "
-                       "on a taut section")
+    if not problem and found.max_tension > max_axial_force:
+        problem = (f"the link tension reaches {found.max_tension:.3g} N (limit "
+                   f"{max_axial_force:g} N) where the pegs push with {contact_force:g} N "
+                   "on a taut section" if found.offset > 0 else
+                   f"the link tension reaches {found.max_tension:.3g} N (limit "
+                   f"{max_axial_force:g} N) with the cable laid in the slots, before any pull: "
+                   f"{found.describe()}; expected a section that reaches the slots within the "
+                   "limit (fixtures closer together, or a longer cable)")
     solves = [*lowering, found.equilibrium]
     unconverged = [eq.message for eq in solves if not eq.converged]
     if unconverged and not problem:
