@@ -501,6 +501,39 @@ def test_simulate_and_verify_a_plan(tmp_path, capsys):
     assert "placement: offset" in capsys.readouterr().out
 
 
+def test_verify_exits_1_when_its_verification_warns(tmp_path, capsys, monkeypatch):
+    """A harness plan's phase may pass with a warning (the PU harness job at n = 40: "phase2:
+    the cable rests up to 11.4 mm from the plan's shapes"): ``plan --verify`` exited 1 with it
+    and ``dloplan verify`` of the plan printed it, listed it in ``--json``'s warnings and
+    exited 0 (sweep round 10). A verification's warnings are verify's own: exit 1."""
+    from dataclasses import fields
+
+    import dloplan.app
+    from dloplan.verify import Verification
+
+    warning = "phase2: the cable rests up to 11.4 mm from the plan's shapes (tolerance 10.0 mm)"
+
+    class Warned(Verification):
+        warnings = property(lambda self: (warning,))
+
+    verify = dloplan.app.verify_plan
+
+    def warned(*args, **options):
+        result = verify(*args, **options)
+        return Warned(**{f.name: getattr(result, f.name) for f in fields(result)})
+
+    monkeypatch.setattr(dloplan.app, "verify_plan", warned)
+    out = tmp_path / "out"
+    main(["plan", str(write(tmp_path, {**STIFF, "planner": {"n_shapes": 1},
+                                       "outputs": ["json"]})), "-o", str(out), "-q"])
+    capsys.readouterr()
+    assert main(["verify", str(out / "plan.json"), "-q", "--no-replay", "--no-snap",
+                 "--no-robot"]) == EXIT_WARNINGS
+    plain = verify(dloplan.app.read_plan(out / "plan.json"), snap=False, replay=False,
+                   robot=False)
+    assert plain.ok and plain.warnings == ()  # a plain plan's checks pass or fail
+
+
 @pytest.mark.parametrize("data, fragment", BAD, ids=[f"bad{k}" for k in range(len(BAD))])
 def test_every_malformed_scenario_exits_2_with_one_line_and_writes_nothing(
     tmp_path, capsys, data, fragment

@@ -489,7 +489,7 @@ def _cmd_verify(args: argparse.Namespace) -> int:
         print(f"placement: {placement_message(cell, doc.grippers, doc.trajectory)}")
     if not result.ok or (program is not None and not program.ok):
         return EXIT_CHECK_FAILED
-    return EXIT_WARNINGS if unchecked else EXIT_OK
+    return EXIT_WARNINGS if unchecked or result.warnings else EXIT_OK
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:

@@ -143,6 +143,12 @@ class Verification:
         """Same as ``ok``."""
         return self.ok
 
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """None: each check of a shape passes or fails (a harness plan's phases may warn,
+        :class:`dloplan.harness.verification.HarnessVerification`)."""
+        return ()
+
     def table(self) -> str:
         """The table as fixed-width text, one line per shape (lengths in mm)."""
         header = (f"{'shape':>5} {'stable':>6} {'lambda_1 [N/m]':>14} {'lambda_1/ref':>12} "
