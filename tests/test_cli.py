@@ -781,6 +781,37 @@ def test_an_export_that_exits_1_says_why(tmp_path, capsys):
     assert f"warning: {line}" in captured.err
 
 
+def test_an_export_of_a_plan_that_failed_a_check_exits_3(tmp_path, capsys):
+    """``export --format json`` (or ``report``) of a plan that failed a check wrote it for
+    inspection with exit 0 (sweep round 10: a harness plan whose phase 2 failed its replay),
+    where ``plan`` exits 3 on the same document and ``simulate`` and ``study`` exit 3 on it
+    after their work. It is written, with their line and exit 3; a robot program of it stays
+    refused (exit 2, nothing written)."""
+    from dataclasses import replace
+
+    from dloplan.app import read_plan
+    from dloplan.app.document_file import write_plan
+
+    out = tmp_path / "out"
+    main(["plan", str(write(tmp_path, {**STIFF, "planner": {"n_shapes": 1},
+                                       "outputs": ["json"]})), "-o", str(out), "-q"])
+    capsys.readouterr()
+    doc = read_plan(out / "plan.json")
+    write_plan(tmp_path / "failed.json", replace(doc, harness={"success": False}))
+    for name in ("json", "report"):
+        target = tmp_path / f"export.{name}"
+        assert main(["export", str(tmp_path / "failed.json"), "--format", name, "-o",
+                     str(target), "-q", "--json"]) == EXIT_CHECK_FAILED
+        captured = capsys.readouterr()
+        assert json.loads(captured.out)["plan_ok"] is False and target.exists()
+        assert "the plan failed a check (harness)" in captured.err
+    assert main(["export", str(tmp_path / "failed.json"), "--format", "csv", "-o",
+                 str(tmp_path / "failed.csv"), "-q"]) == EXIT_FAILURE
+    assert not (tmp_path / "failed.csv").exists()
+    assert main(["export", str(out / "plan.json"), "--format", "json", "-o",
+                 str(tmp_path / "ok.json"), "-q"]) in (EXIT_OK, EXIT_WARNINGS)
+
+
 def test_simulate_of_a_cable_that_stretches_reports_the_replay_not_a_registration(tmp_path,
                                                                                   capsys):
     """``simulate --modulus-cap 1000``: the capped cable stretches to about 2.8 times its length

@@ -325,8 +325,8 @@ def _cmd_export(args: argparse.Namespace) -> int:
     if args.json:
         print(json_text({"written": [str(p) for p in written],
                          "warnings": ([unchecked] if unchecked else []) + warnings,
-                         "notes": notes}))
-    return EXIT_WARNINGS if warnings or unchecked else EXIT_OK
+                         "notes": notes, "plan_ok": doc.ok}))
+    return _plan_verdict(doc, EXIT_WARNINGS if warnings or unchecked else EXIT_OK)
 
 
 def _twist_lines(doc) -> tuple[list[str], list[str]]:
