@@ -412,6 +412,28 @@ def test_a_batch_with_json_prints_json(tmp_path, capsys):
                                                      "not_planned": 1, "skipped": 1}
 
 
+def test_a_batch_plans_into_the_folder_that_holds_its_files(tmp_path, capsys):
+    """``plan jobs/a.yaml jobs/b.yaml -o jobs`` was refused, "-o jobs: it would replace
+    jobs/a.yaml, an input of this command" (sweep round 10), though a batch replaces only
+    ``jobs/a/`` and ``jobs/b/`` and leaves the job files beside them. A batch folder that holds
+    an input is still refused, naming it; a single plan replaces ``-o`` whole, as before."""
+    quick = {**STIFF, "planner": {"n_shapes": 1}, "outputs": ["json"]}
+    jobs = tmp_path / "jobs"
+    jobs.mkdir()
+    files = [str(write(jobs, quick, "a.yaml")), str(write(jobs, quick, "b.yaml"))]
+    assert main(["plan", *files, "-o", str(jobs), "-q", "--no-verify"]) == EXIT_OK
+    assert sorted(p.name for p in jobs.iterdir()) == ["a", "a.yaml", "b", "b.yaml"]
+    assert (jobs / "a" / "plan.json").exists() and (jobs / "b" / "plan.json").exists()
+    capsys.readouterr()
+    inside = write(jobs / "a", quick, "a.yaml")  # the batch would replace jobs/a/
+    assert main(["plan", str(inside), files[1], "-o", str(jobs), "-q"]) == EXIT_FAILURE
+    assert (f"-o {jobs}: the batch's folder {jobs / 'a'}: it would replace {inside}, an input "
+            "of this command") in capsys.readouterr().err
+    assert main(["plan", files[0], "-o", str(jobs), "-q"]) == EXIT_FAILURE
+    assert f"-o {jobs}: it would replace {files[0]}" in capsys.readouterr().err
+    assert inside.exists() and (jobs / "b" / "plan.json").exists()
+
+
 def test_a_batch_whose_files_share_a_name_is_refused_before_any_plan(tmp_path, capsys):
     """Two files of one name in two folders (or one file twice) would be planned into one
     ``OUT/<stem>/``: the second plan replaced the first one's files after the first status line

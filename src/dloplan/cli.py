@@ -693,7 +693,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     from .plots.worker import start_server
 
     console = Console(args.quiet)
-    if len(args.scenarios) > 1 or args.workers > 1 or args.scheduler:
+    if _batch(args):
         return _plan_batch(args, console)
     path = args.scenarios[0]
     data = read_mapping(path)  # before the planner's import: which outputs the job asks for
@@ -707,6 +707,11 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     console.stage(f"loaded {job.source}: {job.cable.name or 'cable'}, E "
                   f"{job.cable.youngs_modulus:.3g} Pa, n = {job.cable.n_links}")
     return _plan_one(job, Path(args.output), args, console)
+
+
+def _batch(args: argparse.Namespace) -> bool:
+    """``dloplan plan`` in batch mode: several files, or one on workers or a scheduler."""
+    return len(args.scenarios) > 1 or args.workers > 1 or bool(args.scheduler)
 
 
 def _plan_batch(args: argparse.Namespace, console: Console) -> int:
@@ -1127,6 +1132,18 @@ def _inputs(args: argparse.Namespace) -> list:
     return found
 
 
+def _outputs(args: argparse.Namespace) -> list[tuple[str, object]]:
+    """What the command replaces, each with the option that names it: ``-o``, or a batch's
+    ``<output>/<stem>/`` folders (the batch leaves the other files in ``-o`` as they are)."""
+    output = getattr(args, "output", None)
+    if args.command != "plan" or output is None or not _batch(args):
+        return [("-o", output)]
+    from .app.files import batch_folder
+
+    return [(f"-o {output}: the batch's folder", batch_folder(output, path))
+            for path in args.scenarios]
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command of ``argv`` (default ``sys.argv[1:]``); returns its exit code, also for
     a bad option (2, one line) and ``--help`` or ``--version`` (0)."""
@@ -1140,7 +1157,8 @@ def main(argv: list[str] | None = None) -> int:
             if args.command in INPUTS:
                 from .output_files import refuse_overwriting_inputs
 
-                refuse_overwriting_inputs(getattr(args, "output", None), _inputs(args))
+                for option, output in _outputs(args):
+                    refuse_overwriting_inputs(output, _inputs(args), option)
             return args.func(args)
         except BaseException as exc:
             with shielded():  # a second signal waits: the first one's line is printed
