@@ -834,6 +834,32 @@ def test_an_export_of_a_plan_that_failed_a_check_exits_3(tmp_path, capsys):
                  str(tmp_path / "ok.json"), "-q"]) in (EXIT_OK, EXIT_WARNINGS)
 
 
+def test_verify_of_a_harness_plan_whose_tensioning_failed_exits_3(tmp_path, capsys):
+    """``verify`` of a harness plan (or job) whose tensioning failed when planned exited 2,
+    "plan.harness.offset: none ... nothing to verify", as for bad input, where ``plan`` exits
+    3 on the same job and ``simulate`` and ``study`` exit 3 on a plan that failed a check
+    (sweep round 10: the USB job at n = 8, the Ethernet job with its fixtures 3 cm farther
+    out). Exit 3 with the reason and the line they print."""
+    from dataclasses import replace
+
+    from dloplan.app import read_plan
+    from dloplan.app.document_file import write_plan
+
+    out = tmp_path / "out"
+    main(["plan", str(write(tmp_path, {**STIFF, "planner": {"n_shapes": 1},
+                                       "outputs": ["json"]})), "-o", str(out), "-q"])
+    capsys.readouterr()
+    failed = replace(read_plan(out / "plan.json"), harness={
+        "success": False, "offset": None, "message": "the link tension reaches 26.2 N"})
+    write_plan(tmp_path / "failed.json", failed)
+    assert main(["verify", str(tmp_path / "failed.json"), "-q", "--json"]) == EXIT_CHECK_FAILED
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["ok"] is False
+    assert ("nothing to verify: the harness job's tensioning failed when planned (the link "
+            "tension reaches 26.2 N)") in captured.err
+    assert "the plan failed a check (harness)" in captured.err
+
+
 def test_simulate_of_a_cable_that_stretches_reports_the_replay_not_a_registration(tmp_path,
                                                                                   capsys):
     """``simulate --modulus-cap 1000``: the capped cable stretches to about 2.8 times its length

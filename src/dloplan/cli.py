@@ -463,6 +463,13 @@ def _cmd_verify(args: argparse.Namespace) -> int:
     console = Console(args.quiet)
     doc = document_of(args.plan, progress=console.stage, allow_placement=args.allow_placement)
     unchecked = _unchecked(args.plan, doc)
+    if doc.harness is not None and doc.harness.get("offset") is None and not doc.ok:
+        line = ("nothing to verify: the harness job's tensioning failed when planned "
+                f"({doc.harness.get('message', '')})")
+        if args.json:
+            print(json_text({"ok": False, "messages": [line], "robot": None}, indent=2))
+        print(f"dloplan: {line}", file=sys.stderr)
+        return _plan_verdict(doc, EXIT_CHECK_FAILED)
     console.stage(f"verifying {len(doc.shapes)} shapes of {args.plan}")
     result = verify_plan(doc, snap=not args.no_snap, replay=not args.no_replay,
                          tensile_limit=args.tensile_limit, tolerance=args.tolerance,
