@@ -390,14 +390,15 @@ def test_a_batch_counts_a_skipped_identification_file_as_skipped(tmp_path, capsy
 def test_a_batch_with_json_prints_json(tmp_path, capsys):
     """``plan A B --json`` printed the text summary (sweep round 10): every command's
     ``--json`` is a machine-readable summary on stdout. The batch's is each file's exit code,
-    folder and status line, the counts and the batch's exit code (the worst of its files); a
+    folder and status line in the files' order (the workers finish in any order), the counts
+    and the batch's exit code (the worst of its files); a
     bad file's line names the file once (it read "bad.yaml: error: bad.yaml: ...")."""
     examples = Path(__file__).parents[1] / "examples"
     bad = write(tmp_path, {**STIFF, "cable": {"name": "pa12", "n_links": 3}}, "bad.yaml")
     good = write(tmp_path, {**STIFF, "planner": {"n_shapes": 1}, "outputs": ["json"]})
     ident = str(examples / "identify_ethernet.yaml")
     code = main(["plan", ident, str(bad), str(good), "-o", str(tmp_path / "out"), "-q",
-                 "--no-verify", "--json"])
+                 "--no-verify", "--json", "--workers", "2"])
     summary = json.loads(capsys.readouterr().out)
     assert code == EXIT_FAILURE == summary["exit_code"]
     assert [f["path"] for f in summary["files"]] == [ident, str(bad), str(good)]

@@ -738,11 +738,11 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
 
     with keeping(kept), make_backend(None if args.scheduler else args.workers, args.scheduler,
                                      preload=("dloplan.study.evaluate",)) as backend:
-        for _, result in map_jobs(plan_file, args.scenarios, backend, shared=options):
+        for index, result in map_jobs(plan_file, args.scenarios, backend, shared=options):
             codes[result.path] = result.code
             skipped += result.skipped
             written += [result.folder] if result.folder else []
-            results.append(result)
+            results.append((index, result))
             console.stage(result.line)
     counts = {"ok": sum(c == EXIT_OK for c in codes.values()),
               "warnings": sum(c == EXIT_WARNINGS for c in codes.values()) - skipped,
@@ -753,7 +753,8 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
     if args.json:
         print(json_text({"files": [{"path": r.path, "exit_code": r.code, "skipped": r.skipped,
                                     "folder": r.folder or None, "line": r.line}
-                                   for r in results], **counts, "exit_code": code}, indent=2))
+                                   for _, r in sorted(results, key=lambda pair: pair[0])],
+                         **counts, "exit_code": code}, indent=2))  # in the files' order
         return code
     print(f"planned {len(codes)} scenarios: {counts['ok']} ok, {counts['warnings']} with "
           f"warnings, {counts['failed_check']} failed a check, {counts['not_planned']} could "
