@@ -345,13 +345,13 @@ def insert_and_tension(
             found = state(min(root + xtol, high.offset), low.equilibrium.shape)
             evaluations += 1
     if not problem and found.max_tension > max_axial_force:
+        where = (f"where the pegs push with {contact_force:g} N on a taut section"
+                 if found.offset > 0 else
+                 f"with the cable laid in the slots, before any pull: {found.describe()}; "
+                 "expected a section that reaches the slots within the limit (fixtures closer "
+                 "together, or a longer cable)")
         problem = (f"the link tension reaches {found.max_tension:.3g} N (limit "
-                   f"{max_axial_force:g} N) where the pegs push with {contact_force:g} N "
-                   "on a taut section" if found.offset > 0 else
-                   f"the link tension reaches {found.max_tension:.3g} N (limit "
-                   f"{max_axial_force:g} N) with the cable laid in the slots, before any pull: "
-                   f"{found.describe()}; expected a section that reaches the slots within the "
-                   "limit (fixtures closer together, or a longer cable)")
+                   f"{max_axial_force:g} N) {where}")
     solves = [*lowering, found.equilibrium]
     unconverged = [eq.message for eq in solves if not eq.converged]
     if unconverged and not problem:
