@@ -153,15 +153,16 @@ def _read_trajectory(section: dict, frame_id: str) -> Trajectory:
         raise ValueError(
             f"{where}.arm_clips: got {clip_names!r}, expected a permutation of {CLIP_NAMES}"
         )
-    return Trajectory(
-        times=np.array(times),
-        positions=np.stack([arms[0][0], arms[1][0]], axis=1),
-        rotations=(arms[0][1], arms[1][1]),
-        max_speed=_get(section, "max_speed", where, int | float),
-        max_angular_speed=_get(section, "max_angular_speed", where, int | float),
-        arm_clips=tuple(CLIP_NAMES.index(c) for c in clip_names),
-        law=None if section.get("law") is None else law_from_dict(section["law"], where),
-    )
+    speeds = {name: _get(section, name, where, int | float)
+              for name in ("max_speed", "max_angular_speed")}
+    law = None if section.get("law") is None else law_from_dict(section["law"], where)
+    try:
+        return Trajectory(times=np.array(times),
+                          positions=np.stack([arms[0][0], arms[1][0]], axis=1),
+                          rotations=(arms[0][1], arms[1][1]), **speeds,
+                          arm_clips=tuple(CLIP_NAMES.index(c) for c in clip_names), law=law)
+    except ValueError as exc:  # the trajectory's own checks name its fields: say where it is
+        raise ValueError(f"{where}.{exc}") from None
 
 
 def law_to_dict(law: TimeLaw) -> dict:

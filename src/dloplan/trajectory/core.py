@@ -192,9 +192,17 @@ class Trajectory:
         if tuple(sorted(self.arm_clips)) != (0, 1):
             raise ValueError(f"arm_clips: got {self.arm_clips!r}, expected (0, 1) or (1, 0)")
         law = self.law if self.law is not None else TimeLaw.constant_speed(times)
-        if not isinstance(law, TimeLaw) or len(law.knot_times) != len(times) or not np.allclose(
-                law.knot_times, times, rtol=0.0, atol=1e-9):
-            raise ValueError("law: expected a TimeLaw whose knot times are the trajectory's times")
+        if not isinstance(law, TimeLaw):
+            raise ValueError(f"law: got {type(law).__name__}, expected a TimeLaw")
+        if len(law.knot_times) != len(times):
+            raise ValueError(f"law: {len(law.knot_times)} knot times, expected the trajectory's "
+                             f"{len(times)} times")
+        off = np.flatnonzero(np.abs(np.asarray(law.knot_times) - times) > 1e-9)
+        if off.size:
+            k = int(off[0])
+            raise ValueError(f"law: knot {k} at {law.knot_times[k]:.9g} s, the trajectory's time "
+                             f"{times[k]:.9g} s ({off.size} knots differ); expected the law's "
+                             "knot times to be the trajectory's times")
         set_ = object.__setattr__
         set_(self, "times", times)
         set_(self, "positions", pos)
