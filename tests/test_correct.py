@@ -617,6 +617,25 @@ def test_a_corrected_panda_plan_goes_on_from_the_joints_and_placement_that_hold_
     assert remaining["assignment"]["left_clip"] == doc.robot.program["assignment"]["left_clip"]
 
 
+def test_the_held_joints_of_a_knot_the_program_dropped_are_those_of_the_shape_before(plans):
+    """A described cell's program drops a knot the arms reach in no time (the same pose as the
+    shape before): the arms hold the cable there with the joints of the shape before, not with
+    a fresh solution (``held_arms`` gave None, and the remaining motion was solved afresh)."""
+    from dataclasses import replace
+
+    from dloplan.app import correct as app_correct
+
+    doc, _ = plans["demo"]
+    record = doc.robot.program
+    dropped = replace(doc, robot=replace(doc.robot, program={
+        **record, "targets": [t for t in record["targets"] if t["label"] != "shape 3"]}))
+    before = next(t for t in record["targets"] if t["label"] == "shape 2")
+    held = app_correct.held_arms(dropped, 3)
+    np.testing.assert_array_equal(np.degrees(held.joints[0]),
+                                  np.array(before["arms"]["left"]["joints_deg"]))
+    assert held.left_clip == record["assignment"]["left_clip"]
+
+
 def test_held_joints_that_do_not_hold_the_first_pose_leave_it_unreached():
     """``check_path(held=True)``: pose 0 is the held joints; where their TCP is not at it (here
     1 mm off), the pose is reported not reached, naming how far, instead of solved afresh."""

@@ -154,15 +154,16 @@ def remaining_document(doc: PlanDocument, corrected: PlanDocument,
 
 def held_arms(doc: PlanDocument, at: int) -> HeldArms | None:
     """The arms holding the cable at shape ``at`` of the plan ``doc`` as its recorded program
-    runs it: the assignment, both arms' joints at that shape's target and, on a described cell,
-    the job's placement; None for a plan without a program or whose program has no target at
-    that shape."""
+    runs it: the assignment, both arms' joints at that shape's target (a described cell's
+    program drops a knot the arms reach in no time: then the target of the shape before it,
+    the same pose) and, on a described cell, the job's placement; None for a plan without a
+    program."""
     record = None if doc.robot is None else doc.robot.program
     if not record:
         return None
-    target = next((t for t in record["targets"] if t["label"] == f"shape {at}"), None)
-    if target is None:
-        return None
+    target = max((t for t in record["targets"]
+                  if t["label"].startswith("shape ") and t["shape"] <= at),
+                 key=lambda t: t["shape"])
     joints = tuple(np.radians(target["arms"][arm]["joints_deg"]) for arm in ARMS)
     return HeldArms(int(record["assignment"]["left_clip"]), np.stack(joints) if isinstance(
         document_cell(doc), RobotCell) else joints, np.asarray(record.get("offset", np.zeros(3)),
