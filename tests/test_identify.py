@@ -46,6 +46,7 @@ from dloplan.identify.search import Sample, Search
 from dloplan.identify.tuning_loop import thesis_equivalent_modulus, tune_for_identified
 from dloplan.io.scenario import ScenarioError
 from dloplan.planning.tuning import stiffness_family
+from dloplan.shapes import discretize
 
 # its module-scoped fixtures are computed once, on one worker (make test: --dist loadgroup)
 pytestmark = pytest.mark.xdist_group("test_identify")
@@ -560,3 +561,21 @@ def test_a_shape_longer_than_its_cable_names_an_outlier_or_the_noise_it_has():
     scatter = point_scatter(experiment.measured_shape)  # 1 mm of noise, as stated
     assert 0.5e-3 < scatter.noise < 2e-3
     prepare_shapes(cable, experiment)  # accepted as before
+
+
+def test_a_shape_a_thousand_times_short_is_named_as_metres_in_a_millimetre_file():
+    """The example's measured points written in metres into its file in millimetres (round 11
+    of the unseen-case sweep): the shape reads 0.47 mm long, its curvature raises n to 200, and
+    the refusal said that 49 points were too few to follow the bends (measure 201). It now says
+    what a thousandfold is, as the shapes of a plan's job say the opposite slip; the initial
+    shape likewise."""
+    cable = catalogue_cable("usb", n_links=16)
+    manipulation = cantilever_manipulation(cable)
+    experiment = synthetic_experiment(cable, manipulation, seed=3)
+    short = Experiment(manipulation, experiment.measured_shape * 1e-3)
+    with pytest.raises(ValueError, match=r"measured_shape: the shape is 0.000\d+ m long but the "
+                       r"cable is 0.5 m \(given in metres in a file in millimetres\?\); expected"):
+        prepare_shapes(cable, short)
+    with pytest.raises(ValueError, match=r"initial: the shape is 0.0005 m long .*\(given in "
+                       r"metres in a file in millimetres\?\)"):
+        discretize(manipulation.initial_shape * 1e-3, cable, name="initial")

@@ -134,3 +134,26 @@ def test_bad_design_arguments_give_one_line_errors(argv, match, capsys):
     assert main(argv + ["-q"]) == EXIT_FAILURE
     err = capsys.readouterr().err.strip()
     assert match in err and "\n" not in err
+
+
+def test_a_design_that_cannot_be_simulated_is_named_so_not_flat(capsys):
+    """``identify --design --cable ethernet --modulus 1e20`` (round 11 of the unseen-case
+    sweep): the bends' simulations fail to converge, and the table said "flat" for each and
+    advised "lower the noise or measure more points". A design that cannot be simulated now
+    says so in the table ("fails") and in --json (``simulated``), and the last line names the
+    failure instead of advising on noise."""
+    cable = catalogue_cable("ethernet", n_links=16).with_modulus(1e20)
+    bend = {"dual-arm bend 90 deg": candidate_designs(cable)["dual-arm bend 90 deg"]}
+    report = recommend_design(cable, candidates=bend)
+    (score,) = report.scores
+    assert not score.simulated and "cannot be simulated" in score.message
+    assert report.to_dict()["scores"][0]["simulated"] is False
+    lines = report.lines()
+    assert lines[1].split()[-1] == "fails"
+    assert lines[-1].startswith("no candidate identifies E to 10 %: 1 of 1 designs cannot be "
+                                "simulated at E = 1e+20 Pa (first: dual-arm bend 90 deg: ")
+    assert "lower the noise" not in lines[-1]
+    flat = recommend_design(catalogue_cable("pa12", n_links=16),
+                            candidates={"dual-arm sag": candidate_designs(cable)["dual-arm sag"]})
+    assert flat.scores[0].simulated and flat.lines()[1].split()[-1] == "flat"
+    assert flat.lines()[-1].endswith("lower the noise or measure more points")

@@ -161,14 +161,16 @@ def test_a_sample_out_of_reach_is_recorded_not_raised():
 def test_a_chunk_is_its_samples_evaluated_one_by_one(problem):
     # the batched chunk (one compiled loop for every sample and shape) against the readable
     # per-sample evaluation through equilibrium(): the same rows bit for bit, refusals
-    # (clips out of reach, a cable with a negative mass) and their messages included
+    # (clips out of reach, a cable with a negative mass) and their messages included; a study
+    # refuses a spread that draws a negative mass, so two samples' masses are negated here
     study = parse_study({"samples": 24, "seed": 3, "parameters": {
         "youngs_modulus": {"spread": 40},
-        "mass_per_length": {"spread": 150, "distribution": "uniform"}, "length": {"spread": 10},
+        "mass_per_length": {"spread": 20, "distribution": "uniform"}, "length": {"spread": 10},
         "clip_position": {"spread": 3}, "clip_orientation": {"spread": 3},
         "obstacle_position": {"spread": 10}}})
     samples = draw_samples(study, problem.cable, problem.obstacles)
     chunk = chunk_items(samples, 24, [0])[0]
+    chunk["mass_per_length"][[3, 12]] *= -1.0
     table = evaluate_chunk(problem, chunk)
     params = [name for name in chunk if name != "sample"]
     rows = {name: [] for name in OUTCOME_COLUMNS}

@@ -123,6 +123,24 @@ LENGTH_TOLERANCE = 0.05
 """Relative difference between a given shape's length and the cable's accepted at the input."""
 
 
+def units_hint(ratio: float) -> str:
+    """The unit slip a shape's length ``ratio`` to its cable's points at, or "".
+
+    About 1000 times long: millimetres read as metres; about 1000 times short: metres written
+    into a file in millimetres (which the loader scaled by 1e-3).
+
+    Parameters
+    ----------
+    ratio : float
+        The shape's length over the cable's [-].
+    """
+    if 500 < ratio < 2000:
+        return " (given in millimetres?)"
+    if 1 / 2000 < ratio < 1 / 500:
+        return " (given in metres in a file in millimetres?)"
+    return ""
+
+
 def discretize(points, cable, name: str = "shape",
                length_tolerance: float = LENGTH_TOLERANCE) -> np.ndarray:
     """A user's shape as the cable's n + 1 points [m].
@@ -145,8 +163,8 @@ def discretize(points, cable, name: str = "shape",
     ------
     ValueError
         Naming ``name`` for a malformed array, coincident consecutive points, or a length off
-        by more than ``length_tolerance`` (with a hint when it is about 1000 times off: a shape
-        given in millimetres).
+        by more than ``length_tolerance`` (with a hint when it is about 1000 times off:
+        :func:`units_hint`).
     """
     x = as_shape(points, name=name)
     if x.shape[0] != cable.n_points:
@@ -158,7 +176,7 @@ def discretize(points, cable, name: str = "shape",
     length = float(shape_length(x))
     ratio = length / cable.length
     if abs(ratio - 1.0) > length_tolerance:
-        hint = " (given in millimetres?)" if 500 < ratio < 2000 else ""
+        hint = units_hint(ratio)
         raise ValueError(
             f"{name}: the shape is {length:.4g} m long but the cable is {cable.length:.4g} m"
             f"{hint}; expected within {100 * length_tolerance:g} % (length_tolerance)"

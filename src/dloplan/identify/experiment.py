@@ -34,7 +34,7 @@ from scipy.spatial.transform import Rotation
 
 from ..cable import GRAVITY, Cable
 from ..geometry import as_shape
-from ..shapes import LENGTH_TOLERANCE, discretize
+from ..shapes import LENGTH_TOLERANCE, discretize, units_hint
 from ..sim.clips import ClipPoses
 from .measured import MeasuredCurve, measured_curve, point_scatter
 
@@ -204,7 +204,7 @@ def prepare_shapes(cable: Cable, experiment: Experiment,
 
     Checks, each a ``ValueError`` naming the shape: its length (of the smoothed measurement,
     :mod:`dloplan.identify.measured`, which noise does not inflate) against the cable's (within
-    5 %; a length about 1000 times the cable's is reported as millimetres given for metres),
+    5 %; a length about 1000 times the cable's or a thousandth of it is named as a unit slip),
     and the measured ends against the final clips (within 5 % of the cable length; a measured
     polyline running from the last clip to the first is reversed, and said so).
 
@@ -224,7 +224,7 @@ def prepare_shapes(cable: Cable, experiment: Experiment,
     ratio = curve.length / cable.length
     if abs(ratio - 1.0) > LENGTH_TOLERANCE:
         k = len(experiment.measured_shape)
-        hint = " (given in millimetres?)" if 500 < ratio < 2000 else (
+        hint = units_hint(ratio) or (
             f" (only {k} points measured: the polyline through them cuts the bends short; "
             f"measure at least n + 1 = {cable.n_links + 1} points along the cable)"
             if ratio < 1.0 and k < cable.n_links + 1 else

@@ -84,6 +84,9 @@ class DesignScore:
         The outcome stays on its branch between E / 2 and 2 E.
     message : str
         The verdict in words.
+    simulated : bool
+        The design's simulation converged (False: ``log_sd`` is inf for that reason, not for
+        a flat outcome).
     """
 
     name: str
@@ -92,6 +95,7 @@ class DesignScore:
     n_links: int
     robust: bool
     message: str
+    simulated: bool = True
 
     @property
     def informative(self) -> bool:
@@ -130,7 +134,7 @@ def score_design(cable: Cable, name: str, manipulation: Manipulation, *, noise: 
             run = simulate_design(cable, manipulation)
     except ValueError as exc:
         return DesignScore(name, manipulation, math.inf, cable.n_links, False,
-                           f"{name}: cannot be simulated ({exc})")
+                           f"{name}: cannot be simulated ({exc})", simulated=False)
     points = resample_by_arc_length(run.final, n_measured)
     fit = curve_residuals(points, run.final, run.sensitivity)
     size = math.sqrt(0.5 * fit.curvature)
@@ -160,28 +164,39 @@ class DesignReport:
         Sorted: usable designs first, then by sd(ln E).
     recommended : DesignScore or None
         The first usable design (None when none is).
+    youngs_modulus : float
+        The expected E the designs were scored at [Pa].
     """
 
     scores: tuple[DesignScore, ...]
     recommended: DesignScore | None
+    youngs_modulus: float
 
     def to_dict(self) -> dict:
         """JSON-able form: every score (best first) and the recommended design's name."""
         return {"scores": [{"design": s.name, "log_sd": s.log_sd, "n_links": s.n_links,
                             "robust": s.robust, "informative": s.informative,
-                            "usable": s.usable, "message": s.message} for s in self.scores],
+                            "usable": s.usable, "simulated": s.simulated, "message": s.message}
+                           for s in self.scores],
                 "recommended": None if self.recommended is None else self.recommended.name}
 
     def lines(self) -> list[str]:
         """A table and the recommendation, for printing."""
         out = [f"{'design':28}{'sd(ln E)':>10}{'n':>6}  robust  verdict"]
         for s in self.scores:
-            verdict = "ok" if s.usable else ("flat" if not s.informative else "snaps")
+            verdict = ("ok" if s.usable else "fails" if not s.simulated
+                       else "flat" if not s.informative else "snaps")
             out.append(f"{s.name:28}{s.log_sd:10.3g}{s.n_links:6d}  {'yes' if s.robust else 'no':6}"
                        f"  {verdict}")
+        failed = [s for s in self.scores if not s.simulated]
+        unsimulated = (f"{len(failed)} of {len(self.scores)} designs cannot be simulated at "
+                       f"E = {self.youngs_modulus:.3g} Pa (first: {failed[0].message})"
+                       if failed else "")
         if self.recommended is None:
-            out.append("no candidate identifies E to 10 %: lower the noise or measure more "
-                       "points")
+            out.append("no candidate identifies E to 10 %: " + (
+                unsimulated if len(failed) == len(self.scores) else
+                "; ".join(filter(None, ["lower the noise or measure more points",
+                                        unsimulated]))))
         else:
             out.append(f"recommended: {self.recommended.name} (sd(ln E) ~ "
                        f"{self.recommended.log_sd:.2g}, identify with n = "
@@ -213,4 +228,4 @@ def recommend_design(cable: Cable, *, noise: float = 1e-3, n_measured: int = 100
               for name, m in designs.items()]
     scores.sort(key=lambda s: (not s.usable, s.log_sd))
     best = scores[0] if scores and scores[0].usable else None
-    return DesignReport(tuple(scores), best)
+    return DesignReport(tuple(scores), best, cable.youngs_modulus)

@@ -129,6 +129,18 @@ class Samples:
         return {name: values[idx] for name, values in self.columns.items()}
 
 
+def _check_positive(spec: StudySpec, name: str, values: np.ndarray) -> None:
+    """Refuse a relative parameter's draws that are not a cable: a mass, length or E <= 0."""
+    bad = np.flatnonzero(values <= 0.0)
+    if bad.size:
+        raise ValueError(
+            f"study.parameters.{name}: a {spec.distribution(name)} spread of "
+            f"{spec.parameters[name].spread:g} % draws {bad.size} of {len(values)} samples at or "
+            f"below zero (sample {bad[0]}: {values[bad[0]]:.3g} {UNITS[name]}); expected a "
+            "spread that keeps every sample positive (lognormal keeps it positive at any "
+            "spread)")
+
+
 def draw_samples(spec: StudySpec, cable: Cable, obstacles: Sequence = (),
                  job_to_world: Rotation | None = None) -> Samples:
     """Parameter values of the N samples of a study on ``cable`` among ``obstacles``.
@@ -154,6 +166,11 @@ def draw_samples(spec: StudySpec, cable: Cable, obstacles: Sequence = (),
     -------
     Samples
         N values of every column, the same for the same spec whatever evaluates them.
+
+    Raises
+    ------
+    ValueError
+        Naming the parameter when a normal or uniform spread draws an E, m/L or L <= 0.
     """
     n = spec.samples
     nominal = {"youngs_modulus": cable.youngs_modulus,
@@ -170,6 +187,8 @@ def draw_samples(spec: StudySpec, cable: Cable, obstacles: Sequence = (),
         start += len(cols)
         for j, col in enumerate(cols):
             columns[col] = nominal[name] * values[:, j] if name in RELATIVE else values[:, j]
+        if name in RELATIVE:
+            _check_positive(spec, name, columns[name])
     if job_to_world is not None:
         for prefix, count in (("clip", 2), ("obstacle", len(obstacles))):
             for k in range(count):

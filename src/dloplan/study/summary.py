@@ -99,7 +99,9 @@ class StudySummary:
         ``"failure"`` or ``"deviation"``: which correlation ranks the sensitivities.
     deviation : dict
         Median, 95th percentile and largest of the samples' largest deviations [m], and
-        ``samples``, how many samples have one (a sample with a shape not converged has none).
+        ``samples``, how many samples have one (a sample with a shape not converged has none),
+        and ``refused``, how many of those without were refused before any solve (a cable its
+        clips cannot hold: 0 iterations, the rows' message says why).
     closed_loop : ClosedLoopSuccess or None
         With a ``correction:`` section: the open- and closed-loop success probabilities of
         :func:`dloplan.correct.closed_loop_study` (its ``message`` and ``to_dict()``).
@@ -128,9 +130,13 @@ class StudySummary:
         d = self.deviation
         if math.isfinite(d["max"]):
             unevaluated = self.n_samples - d["samples"]
+            refused = d.get("refused", 0)
+            why = ", ".join(filter(None, [
+                f"{unevaluated - refused} with a shape not converged" if unevaluated > refused
+                else "", f"{refused} refused before solving (its rows' message says why)"
+                if refused else ""]))
             over = "" if not unevaluated else \
-                f" (over {d['samples']} of {self.n_samples} samples: {unevaluated} with a shape " \
-                "not converged, no deviation)"
+                f" (over {d['samples']} of {self.n_samples} samples: {why}, no deviation)"
             out.append(f"largest deviation per sample: median {1e3 * d['median']:.2f} mm, 95 % "
                        f"{1e3 * d['p95']:.2f} mm, max {1e3 * d['max']:.2f} mm{over}")
         else:
@@ -306,10 +312,19 @@ def summarize(table: dict, criteria: CriteriaSpec | None = None, *, confidence: 
     stats = {"median": float(np.median(finite)) if len(finite) else math.nan,
              "p95": float(np.percentile(finite, 95)) if len(finite) else math.nan,
              "max": float(finite.max()) if len(finite) else math.nan,
-             "samples": len(finite)}
+             "samples": len(finite), "refused": _refused(table)}
     failures = {name: int((~passed).sum()) for name, passed in per["passed"].items()}
     return StudySummary(n, k, k / n, success_interval(k, n, confidence, method), confidence,
                         method, failures, tuple(sens), ranked_by, stats)
+
+
+def _refused(table: dict) -> int:
+    """Samples with a shape refused before any solve (0 iterations, not converged: a cable
+    the clips cannot hold, ``evaluate._failed``); 0 for a table without ``iterations``."""
+    if "iterations" not in table:
+        return 0
+    refused = (np.asarray(table["iterations"]) == 0) & ~np.asarray(table["converged"], bool)
+    return len(np.unique(np.asarray(table["sample"])[refused]))
 
 
 def _rho(value: float) -> str:
