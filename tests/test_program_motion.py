@@ -13,6 +13,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from program_readers import read_trajectory
@@ -220,3 +222,37 @@ def test_ros_trajectories_carry_consistent_velocities_and_accelerations(tmp_path
         # and not trivially: the motion moves, the bound is well below its velocities
         assert jerk * h**2 < 0.05 * np.abs(v).max()
         assert np.abs(v[[0, -1]]).max() == 0 and np.abs(acc[[0, -1]]).max() < 1e-9
+
+
+def test_the_yumi_approach_and_retreat_take_the_same_time_in_rapid_and_ros(tmp_path):
+    """Round 12: the RAPID program's approach and retreat moves were timed as their length over
+    the approach speed (``\\T:=1`` for 5 cm at 0.05 m/s, the plan's target times likewise),
+    the ROS trajectories of the same program by the jerk-limited law at that speed (1.14 s):
+    the two programs of one plan reached the grasp 0.14 s apart. Both take the jerk-limited
+    law's duration, and the targets' times are the ROS trajectories' arrivals."""
+    import yaml
+
+    from dloplan.app.writers import program_files
+    from dloplan.pipeline.stages import default_cycle, plan_program
+
+    _, grippers, trajectory, job = example_plan("m2_uniform_curvature_usb.yaml")
+    program = plan_program(job.robot, grippers, trajectory)
+    actions = default_cycle(trajectory, {"grasp": job.motion.grasp_time,
+                                         "release": job.motion.release_time}).actions
+    files = program_files(program, tmp_path / "ros", "ros_joints", trajectory, actions)
+    rapid = program_files(program, tmp_path / "rapid", "rapid", trajectory, actions)
+    moves = re.findall(r"MoveL (\w+) \\ID:=\d+, \w+ \\T:=([0-9.]+)",
+                       rapid[0].read_text(encoding="utf-8"))
+    labels = dict(re.findall(r"CONST robtarget (\w+) := .*?!\s*(.+)$",
+                             rapid[0].read_text(encoding="utf-8"), re.M))
+    seconds = {labels[name]: float(t) for name, t in moves}
+    rows = yaml.safe_load(files[-1].read_text(encoding="utf-8"))["actions"]
+    grasp = next(r for r in rows if r["action"] == "grasp")
+    release = next(r for r in rows if r["action"] == "release")
+    times, _ = read_trajectory(files[0])
+    # the move to shape 0 is the approach; the ROS clock reaches shape 0 at the grasp command
+    assert seconds["shape 0"] == pytest.approx(grasp["time"], abs=1e-4)
+    assert seconds["retreat"] == pytest.approx(
+        times[-1] - release["time"] - release["duration"], abs=1e-4)
+    target_times = [t["time"] for t in program.to_dict()["targets"]]
+    assert target_times[1] == pytest.approx(grasp["time"], abs=1e-9)

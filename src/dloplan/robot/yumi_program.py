@@ -198,16 +198,10 @@ class YumiTargets:
         (:class:`~dloplan.robot.motion.JointMotion`): between the shapes the moves of
         ``trajectory``'s law, the approach and the retreat by the jerk-limited rest-to-rest
         law at ``cell.approach_speed`` under the trajectory's limits."""
-        from ..trajectory import MotionLimits
-        from ..trajectory.timelaw import Profile
-
         law = trajectory.law
         profiles, starts, arrivals = list(law.profiles), law.starts, law.knot_times
         if cell.approach > 0:
-            limits = law.limits if law.limits is not None else MotionLimits()
-            length = cell.approach
-            approach = Profile.jerk_limited(cell.approach_speed / length,
-                                            limits.acceleration / length, limits.jerk / length)
+            approach = approach_profile(cell, law)
             d = approach.duration
             profiles = [approach, *profiles, approach]
             starts = np.r_[0.0, starts + d, law.duration + d]
@@ -560,16 +554,31 @@ def _fails(rows) -> bool:
     return any(not row.ok and row.check != "reach" for row in rows)
 
 
+def approach_profile(cell: RobotCell, law):
+    """The time law of the approach (and of the retreat): rest to rest over ``cell.approach``
+    [m] at ``cell.approach_speed`` [m/s], jerk-limited under ``law``'s limits (the
+    trajectory's, default :class:`~dloplan.trajectory.MotionLimits`), normalized to s in
+    [0, 1]. Its duration [s] is both the RAPID move's ``\\T`` and the joint motion's (ROS 2,
+    RTDE) time for the move: longer than approach / approach_speed by the ramps."""
+    from ..trajectory import MotionLimits
+    from ..trajectory.timelaw import Profile
+
+    limits = law.limits if law is not None and law.limits is not None else MotionLimits()
+    length = cell.approach
+    return Profile.jerk_limited(cell.approach_speed / length, limits.acceleration / length,
+                                limits.jerk / length)
+
+
 def _timing(trajectory, cell: RobotCell, assignment: ArmAssignment, approach: bool):
     """Move durations [s], (M - 1,), and written speeds, (M - 1, 2, 2) [m/s, rad/s]: the
-    trajectory's segments between the shapes, ``cell.approach_speed`` for approach and
-    retreat."""
+    trajectory's segments between the shapes; approach and retreat at ``cell.approach_speed``,
+    each taking its jerk-limited law's duration (:func:`approach_profile`)."""
     columns = [list(trajectory.arm_clips).index(c) for c in assignment.clips]
     lin, ang = trajectory.segment_speeds()
     durations = trajectory.segment_durations
     speeds = np.stack([lin[:, columns], ang[:, columns]], axis=-1)
     if approach:
-        t_move = cell.approach / cell.approach_speed
+        t_move = approach_profile(cell, trajectory.law).duration
         move = np.array([[[cell.approach_speed, 0.0]] * 2])
         durations = np.concatenate([[t_move], durations, [t_move]])
         speeds = np.concatenate([move, speeds, move])
