@@ -412,3 +412,38 @@ def test_a_mirrored_panda_job_gets_the_mirrored_placement():
     assert comfort(0.0326, np.radians(5.3)) < comfort(0.0307, np.radians(41.0))
     assert comfort(0.0086, 1.0) == comfort(0.0086 + 1e-9, 1.2) == comfort(0.0086, np.pi)
     assert comfort(-0.001, 1.0) == 0.0 and comfort(0.2, 2.0) == 1.0
+
+
+def test_the_tcp_trajectory_files_say_where_a_placed_cell_runs_them(tmp_path):
+    """Round 12: the Panda pair's placement moves its programs' poses 10 cm ([0, -0.1, 0] m) and
+    leaves the plan's trajectory in the scenario's frame (docs/cells.md); the ROS 2 joint
+    trajectories said so, trajectory.csv and the ros MultiDOF trajectory did not, and a
+    Cartesian controller fed them ran the cable 100 mm from where the joint programs do. Their
+    headers name the offset; with it added, the csv's poses at the knots are the programs'."""
+    from dataclasses import replace
+
+    from dloplan.app import WRITERS, load_scenario, run_job
+    from dloplan.app.writers import WriteOptions
+
+    job = replace(load_scenario(EXAMPLES / "panda_pair_ethernet.yaml"), outputs=("json",))
+    doc = run_job(job)
+    assert doc.robot.ok, doc.robot.message
+    offset = np.array(doc.robot.program["offset"])
+    assert np.linalg.norm(offset) > 0.05
+    knots = doc.trajectory.law.knot_times
+    (csv_path,) = WRITERS["csv"].write(doc, tmp_path / "trajectory.csv", WriteOptions(rate=1000))
+    (ros_path,) = WRITERS["ros"].write(doc, tmp_path / "trajectory.yaml", WriteOptions())
+    for path in (csv_path, ros_path):
+        first = path.read_text(encoding="utf-8").splitlines()[0]
+        assert first.startswith("#") and "[0.000, -0.100, 0.000] m" in first, first
+    table = np.loadtxt(csv_path, delimiter=",", skiprows=2)
+    rows = [int(np.argmin(np.abs(table[:, 0] - t))) for t in knots]
+    assert np.abs(table[rows, 0] - knots).max() < 5e-4
+    for a, arm in enumerate(("left", "right")):
+        column = 1 + 7 * a  # the csv's left and right columns are the program's arms
+        placed = table[rows, column:column + 3] + offset
+        recorded = np.array([t["arms"][arm]["position"] for t in doc.robot.program["targets"]])
+        # one target per knot (the Panda program keeps every knot); 1 ms of sampling at most
+        assert len(recorded) == len(knots)
+        np.testing.assert_allclose(placed, recorded, atol=2e-4)
+    assert yaml.safe_load(ros_path.read_text(encoding="utf-8"))["points"]

@@ -60,18 +60,35 @@ def write_json(doc: PlanDocument, target: Path, options: WriteOptions) -> list[P
     return [write_plan(target, doc)]
 
 
+def trajectory_note(doc: PlanDocument) -> str | None:
+    """The sentence the TCP trajectory files (csv, ros) carry when the robot programs do not
+    run the job where the trajectory has it: a described cell's placement moves the programs'
+    poses by its ``offset`` and leaves the plan's shapes and trajectory in the scenario's frame
+    (docs/cells.md, "The placement offset"); None otherwise (the YuMi's placement moves the
+    plan itself)."""
+    from ..robot.placement import format_offset
+
+    offset = None if doc.robot is None else doc.robot.program.get("offset")
+    if offset is None or not any(offset):
+        return None
+    return (f"the robot programs run this job moved by {format_offset(offset)} m on the table "
+            "(the cell's placement, plan.json: placement): add it to these positions to follow "
+            "them")
+
+
 def write_csv(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
-    """The trajectory sampled at ``options.rate``."""
+    """The trajectory sampled at ``options.rate`` (:func:`trajectory_note` in its header)."""
     _needs_trajectory(doc, "csv")
     return [write_trajectory_csv(target, doc.trajectory, rate=options.rate or DEFAULT_CSV_RATE,
-                                 frame_id=doc.frame_id)]
+                                 frame_id=doc.frame_id, note=trajectory_note(doc))]
 
 
 def write_ros(doc: PlanDocument, target: Path, options: WriteOptions) -> list[Path]:
-    """The ROS 2 MultiDOFJointTrajectory (YAML, or JSON for a ``.json`` target)."""
+    """The ROS 2 MultiDOFJointTrajectory (YAML, or JSON for a ``.json`` target;
+    :func:`trajectory_note` as a YAML comment)."""
     _needs_trajectory(doc, "ros")
     return [write_ros_trajectory(target, doc.trajectory, rate=options.rate,
-                                 frame_id=doc.frame_id)]
+                                 frame_id=doc.frame_id, note=trajectory_note(doc))]
 
 
 def verified_program(doc: PlanDocument, name: str):

@@ -92,6 +92,7 @@ def write_ros_trajectory(
     rate: float | None = None,
     frame_id: str = DEFAULT_FRAME_ID,
     fmt: str | None = None,
+    note: str | None = None,
 ) -> Path:
     """Write :func:`multi_dof_trajectory_msg` as YAML or JSON, atomically.
 
@@ -99,6 +100,8 @@ def write_ros_trajectory(
     ----------
     fmt : {"yaml", "json"}, optional
         Default: from the suffix (``.json`` -> JSON, otherwise YAML).
+    note : str, optional
+        A comment line put before the YAML message (JSON has no comments: not written).
     """
     fmt = fmt or ("json" if Path(path).suffix.lower() == ".json" else "yaml")
     if fmt not in ("yaml", "json"):
@@ -108,6 +111,7 @@ def write_ros_trajectory(
         text = json.dumps(msg, indent=1) + "\n"
     else:
         text = yaml.safe_dump(msg, sort_keys=False, default_flow_style=None, width=100)
+        text = (f"# {note}\n" if note else "") + text
     return atomic_write_text(path, text)
 
 
@@ -118,12 +122,15 @@ CSV_COLUMNS = ["time [s]"] + [
 
 
 def trajectory_csv(
-    trajectory: Trajectory, *, rate: float = DEFAULT_CSV_RATE, frame_id: str = DEFAULT_FRAME_ID
+    trajectory: Trajectory, *, rate: float = DEFAULT_CSV_RATE, frame_id: str = DEFAULT_FRAME_ID,
+    note: str | None = None,
 ) -> str:
     """The sampled trajectory as CSV text (one comment line, one header line, one row per sample).
 
     Columns: time [s]; per arm (left, right) x, y, z [m] and the unit quaternion qx, qy, qz,
-    qw (x-y-z-w order, scalar last, sign canonical w >= 0) of ``tcp_to_world``.
+    qw (x-y-z-w order, scalar last, sign canonical w >= 0) of ``tcp_to_world``. ``note``: a
+    sentence appended to the comment line (where the robot programs run the job, when not
+    here: :func:`dloplan.app.writers.trajectory_note`).
     """
     frame_id = check_frame_id(frame_id)
     samples = trajectory.sample(rate)
@@ -135,7 +142,7 @@ def trajectory_csv(
     out.write(
         f"# dloplan dual-arm TCP trajectory; frame {frame_id}; positions in m; quaternions "
         f"x-y-z-w (scalar last, w >= 0); sampled at {rate:g} Hz; "
-        f"duration {trajectory.duration:.6g} s\n"
+        f"duration {trajectory.duration:.6g} s{'; ' + note if note else ''}\n"
     )
     out.write(",".join(CSV_COLUMNS) + "\n")
     np.savetxt(out, table, delimiter=",", fmt="%.12g")
@@ -148,6 +155,8 @@ def write_trajectory_csv(
     *,
     rate: float = DEFAULT_CSV_RATE,
     frame_id: str = DEFAULT_FRAME_ID,
+    note: str | None = None,
 ) -> Path:
     """Write :func:`trajectory_csv` atomically to ``path``."""
-    return atomic_write_text(path, trajectory_csv(trajectory, rate=rate, frame_id=frame_id))
+    return atomic_write_text(path, trajectory_csv(trajectory, rate=rate, frame_id=frame_id,
+                                                  note=note))
