@@ -1555,3 +1555,34 @@ def test_the_modulus_fits_refined_solves_start_where_the_model_moved(plans):
     cold = fit_model_error(np.zeros_like(d), [d] if g is None else [d, g],
                            measured - update.offset - update.state, alpha_prior(100, 200))[1]
     assert abs(cold[0] - update.discretization) * np.max(np.abs(d)) < 1e-8
+
+
+def test_the_message_names_the_floor_of_the_predicted_final_error(plans, tmp_path):
+    """Round 12: on the UR5e pair's plan (E x0.2 measured, `--gain-sd 0`) the line read
+    "predicted final error 0.4 mm open loop, 0.9 mm corrected" where the gain line and
+    correction.txt's table said 0.35 -> 0.14 mm: the corrected figure was floored at what the
+    model could not explain at shape K (docs/correction.md), the open loop's not, so the line
+    read as if the correction made the target worse. It gives the corrected prediction's error
+    (what the interval is around) and names the floor apart."""
+    from dataclasses import replace
+
+    from dloplan.app.correct import measured_points
+
+    doc, _ = plans["demo"]
+    at = 3
+    shapes_file, _ = _x_half_measurement(doc, tmp_path, at)
+    correction = correct_document(doc, at, measured_points(shapes_file, at, doc.frame_id))
+    corrected = correction.corrected_error[-1]
+    floored = replace(correction, uncertainty={**correction.uncertainty,
+                                               "unexplained": corrected + 5e-3})
+    line = floored.message
+    assert floored.predicted_error == pytest.approx(corrected + 5e-3)
+    assert f"{1e3 * corrected:.1f} mm corrected" in line
+    assert (f"not below the {1e3 * floored.predicted_error:.1f} mm the model could not explain "
+            f"at shape {at}") in line
+    low, high = floored.prediction_interval
+    assert f"(interval {1e3 * low:.1f} - {1e3 * high:.1f} mm)" in line
+    # not floored: no floor named
+    plain = replace(correction, uncertainty={**correction.uncertainty, "unexplained": 0.0})
+    assert "could not explain" not in plain.message
+    assert f"{1e3 * corrected:.1f} mm corrected (interval" in plain.message

@@ -384,7 +384,9 @@ class Correction:
 
     @property
     def message(self) -> str:
-        """One line: the modulus update and the predicted final errors."""
+        """One line: the modulus update and the predicted final errors, open loop and
+        corrected (the predictions' errors against the reference, like each other; where
+        :attr:`predicted_error` is floored above the corrected one, the floor named)."""
         m = self.model
         bias = (f", discretization bias x{m.discretization:.2f}" if self.model_error ==
                 "discretization" else "")
@@ -397,8 +399,11 @@ class Correction:
                 f"{1e3 * m.residual_before:.1f} -> {1e3 * m.residual_after:.1f} mm)")
         if self.corrected is None:
             return head + "; no predictions (predict=False)"
+        corrected = float(self.corrected_error[-1])
+        floor = (f", not below the {1e3 * self.predicted_error:.1f} mm the model could not "
+                 f"explain at shape {self.at}" if self.predicted_error > corrected else "")
         return (f"{head}; predicted final error {1e3 * self.open_loop_error[-1]:.1f} mm open loop, "
-                f"{1e3 * self.predicted_error:.1f} mm corrected (interval "
+                f"{1e3 * corrected:.1f} mm corrected{floor} (interval "
                 f"{1e3 * self.prediction_interval[0]:.1f} - "
                 f"{1e3 * self.prediction_interval[1]:.1f} mm)")
 
