@@ -447,3 +447,35 @@ def test_the_tcp_trajectory_files_say_where_a_placed_cell_runs_them(tmp_path):
         assert len(recorded) == len(knots)
         np.testing.assert_allclose(placed, recorded, atol=2e-4)
     assert yaml.safe_load(ros_path.read_text(encoding="utf-8"))["points"]
+
+
+def test_a_measurement_where_the_placed_cell_holds_the_cable_is_refused_naming_the_offset(
+        tmp_path, capsys):
+    """Round 12: the Panda pair's placement runs the job 10 cm from the plan's shapes (the
+    scenario's frame). A shape measured where the robots hold the cable was refused as "the
+    shape is 450 mm long ... another cable, or a partial measurement"; the line now names the
+    offset and how far the points lie with it taken out."""
+    from dloplan.app import read_plan
+    from dloplan.cli import main
+    from dloplan.vision.shapes_io import RegisteredShape, write_shapes
+
+    scenario = tmp_path / "panda.yaml"
+    data = yaml.safe_load((EXAMPLES / "panda_pair_ethernet.yaml").read_text(encoding="utf-8"))
+    for arm in data["robot"]["cell"]["arms"].values():
+        arm["urdf"] = str((EXAMPLES / arm["urdf"]).resolve())
+    data["outputs"] = ["json"]
+    scenario.write_text(yaml.safe_dump(data), encoding="utf-8")
+    assert main(["plan", str(scenario), "-o", str(tmp_path / "plan"), "-q"]) == 0
+    doc = read_plan(tmp_path / "plan" / "plan.json")
+    offset = np.array(doc.robot.program["offset"])
+    at = 3
+    measured = tmp_path / "measured.csv"
+    write_shapes(measured, [RegisteredShape(doc.stabilized[at] + offset, label=f"xi_{at}",
+                                            frame_id=doc.frame_id)])
+    capsys.readouterr()
+    assert main(["correct", str(tmp_path / "plan" / "plan.json"), "--at", str(at),
+                 "--measured", str(measured), "-o", str(tmp_path / "c"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "placement offset [0.000, -0.100, 0.000] m taken out" in err, err
+    assert "on average 100.0 mm" in err or "mm from the plan's shape 3" in err
+    assert not (tmp_path / "c").exists()

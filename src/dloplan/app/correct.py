@@ -301,6 +301,9 @@ def correct_and_check(doc: PlanDocument, at: int, measured, *, verify: bool = Tr
         added = remaining.warnings[len(corrected.warnings):]
         return replace(correction, warnings=(*correction.warnings, *added)), corrected, remaining
     except CorrectionRefused as exc:
+        hint = placement_hint(doc, at, measured)
+        if hint:
+            raise CorrectionRefused(f"{exc}; {hint}") from None
         other = MODES[1 - MODES.index(mode)] if mode in MODES else None
         if other is None:
             raise
@@ -311,6 +314,32 @@ def correct_and_check(doc: PlanDocument, at: int, measured, *, verify: bool = Tr
             raise CorrectionRefused(f"{exc} (mode {other!r} is refused too)") from None
         raise CorrectionRefused(f"{exc}; mode {other!r} passes every check: run again with "
                                 f"--mode {other}") from None
+
+
+def placement_hint(doc: PlanDocument, at: int, measured) -> str | None:
+    """Why a refused measurement may lie off the plan: a described cell's placement runs the
+    job ``offset`` from the plan's shapes, which stay in the scenario's frame (docs/cells.md),
+    so a shape measured where the robots hold the cable is ``offset`` away. Said when the
+    measured points [m] lie less than half as far (mean distance to the nearest point of the
+    plan's shape ``at``) from the shape with the offset taken out; else None."""
+    offset = None if doc.robot is None else doc.robot.program.get("offset")
+    if offset is None or not np.any(offset) or doc.stabilized is None:
+        return None
+    from ..robot.placement import format_offset
+
+    shape = np.asarray(doc.stabilized[at], float)
+    points = np.asarray(measured, float)
+
+    def mean_distance(p):
+        return float(np.mean(np.min(np.linalg.norm(p[:, None] - shape[None], axis=2), axis=1)))
+
+    off, back = mean_distance(points), mean_distance(points - np.asarray(offset, float))
+    if not back < 0.5 * off:
+        return None
+    return (f"the points lie on average {1e3 * off:.1f} mm from the plan's shape {at} and "
+            f"{1e3 * back:.1f} mm with the cell's placement offset {format_offset(offset)} m "
+            "taken out: the plan's shapes are where the job file put the cable, the robots run "
+            "it moved by the offset (docs/cells.md); subtract it from the measurement")
 
 
 def correct_into(corrected: PlanDocument, remaining: PlanDocument, folder, *,
