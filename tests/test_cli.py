@@ -248,7 +248,7 @@ def test_no_figures_draws_none_and_writes_the_report_without_them(tmp_path, caps
     result = plan_file({"output": str(tmp_path / "batch"), "verify": False,
                         "figures": False}, str(job))
     assert result.code in (EXIT_OK, EXIT_WARNINGS), result.line
-    assert result.folder == str(tmp_path / "batch" / "job")  # what an interrupted batch names
+    assert result.folder == str(tmp_path / "batch" / "job")  # what a batch's --json names
     assert not (tmp_path / "batch" / "job" / "figures").exists()
     assert (tmp_path / "batch" / "job" / "report.html").exists()
 

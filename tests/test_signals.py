@@ -111,26 +111,30 @@ def assert_kept_plans(out: Path, last_line: str, of: int) -> None:
         assert str(folder) in last_line and (folder / "plan.json").exists(), folder
 
 
-def test_a_batch_interrupted_after_its_first_plan_names_the_plan_it_kept(
+def test_a_batch_interrupted_names_the_plans_it_kept_also_one_published_unheard_of(
         tmp_path, monkeypatch, capsys):
     """A batch keeps each plan it completed (each folder written whole); the interrupt's line
-    says which, instead of "nothing written"."""
+    says which, instead of "nothing written" -- also the plan a worker published just before
+    the signal, whose result never came back (here job1's: planned, then interrupted)."""
     import dloplan.app.files as files
 
     planned = files.plan_file
 
-    def second_interrupted(options, path):
+    def interrupted_after_the_second(options, path):
+        if path.endswith("job2.yaml"):
+            raise AssertionError("the batch goes on after the signal")
+        result = planned(options, path)
         if path.endswith("job1.yaml"):
             raise Interrupted(signal.SIGTERM)
-        return planned(options, path)
+        return result
 
-    monkeypatch.setattr(files, "plan_file", second_interrupted)
+    monkeypatch.setattr(files, "plan_file", interrupted_after_the_second)
     jobs = [str(write(tmp_path, SMALL, f"job{k}.yaml")) for k in range(3)]
     out = tmp_path / "batch"
     assert main(["plan", *jobs, "--no-figures", "-o", str(out)]) == 128 + signal.SIGTERM
     last = capsys.readouterr().err.strip().splitlines()[-1]
-    assert last.startswith("dloplan: interrupted by SIGTERM (kept 1 of 3 plans"), last
-    assert sorted(p.name for p in out.iterdir()) == ["job0"]
+    assert last.startswith("dloplan: interrupted by SIGTERM (kept 2 of 3 plans"), last
+    assert sorted(p.name for p in out.iterdir()) == ["job0", "job1"]
     assert_kept_plans(out, last, of=3)
 
 

@@ -722,7 +722,7 @@ def _batch(args: argparse.Namespace) -> bool:
 
 
 def _plan_batch(args: argparse.Namespace, console: Console) -> int:
-    from .app.files import plan_file, refuse_shared_folders
+    from .app.files import folders_written_since, plan_file, refuse_shared_folders
     from .study.backends import make_backend, map_jobs
 
     refuse_shared_folders(args.output, args.scenarios)
@@ -730,9 +730,10 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
                "check_robot": not args.no_verify, "repair": not args.no_repair,
                "allow_placement": args.allow_placement, "figures": not args.no_figures,
                "svg": args.svg}
-    codes, skipped, written, results = {}, 0, [], []  # each plan's folder written complete
+    codes, skipped, results, started = {}, 0, [], time.time()
 
-    def kept() -> str | None:
+    def kept() -> str | None:  # read on disk: a worker may have published one unheard of
+        written = folders_written_since(args.output, args.scenarios, started)
         return None if not written else (f"{len(written)} of {len(args.scenarios)} plans, "
                                          f"each complete: {', '.join(written)}")
 
@@ -741,7 +742,6 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
         for index, result in map_jobs(plan_file, args.scenarios, backend, shared=options):
             codes[result.path] = result.code
             skipped += result.skipped
-            written += [result.folder] if result.folder else []
             results.append((index, result))
             console.stage(result.line)
     counts = {"ok": sum(c == EXIT_OK for c in codes.values()),

@@ -109,6 +109,21 @@ def batch_folder(output, path) -> Path:
     return Path(output) / Path(path).stem
 
 
+def folders_written_since(output, paths, since: float) -> list[str]:
+    """The batch folders (:func:`batch_folder`) of ``paths`` whose plan was written at or after
+    ``since`` (``time.time()`` [s]): each complete (staged, then moved into place), also one a
+    worker published just before the batch was interrupted, before its result came back."""
+    found = []
+    for path in paths:
+        plan = batch_folder(output, path) / "plan.json"
+        try:
+            if plan.stat().st_mtime >= since:
+                found.append(str(plan.parent))
+        except OSError:
+            continue
+    return found
+
+
 def refuse_shared_folders(output, paths) -> None:
     """Refuse a batch in which two job files would be planned into one sub-folder
     (:func:`batch_folder`): ``a/job.yaml`` and ``b/job.yaml``, ``job.yaml`` and ``job.json``,
