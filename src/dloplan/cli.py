@@ -730,7 +730,7 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
                "check_robot": not args.no_verify, "repair": not args.no_repair,
                "allow_placement": args.allow_placement, "figures": not args.no_figures,
                "svg": args.svg}
-    codes, skipped, results, started = {}, 0, [], time.time()
+    results, started = [], time.time()  # (position in args.scenarios, FileResult)
 
     def kept() -> str | None:  # read on disk: a worker may have published one unheard of
         written = folders_written_since(args.output, args.scenarios, started)
@@ -740,20 +740,19 @@ def _plan_batch(args: argparse.Namespace, console: Console) -> int:
     with keeping(kept), make_backend(None if args.scheduler else args.workers, args.scheduler,
                                      preload=("dloplan.study.evaluate",)) as backend:
         for index, result in map_jobs(plan_file, args.scenarios, backend, shared=options):
-            codes[result.path] = result.code
-            skipped += result.skipped
             results.append((index, result))
             console.stage(result.line)
-    counts = {"ok": sum(c == EXIT_OK for c in codes.values()),
-              "warnings": sum(c == EXIT_WARNINGS for c in codes.values()) - skipped,
-              "failed_check": sum(c == EXIT_CHECK_FAILED for c in codes.values()),
-              "not_planned": sum(c == EXIT_FAILURE for c in codes.values()),
-              "skipped": skipped}
-    code = max(codes.values())  # the worst of the batch
+    files = [result for _, result in sorted(results, key=lambda pair: pair[0])]
+    codes = [result.code for result in files]
+    skipped = sum(result.skipped for result in files)
+    counts = {"ok": codes.count(EXIT_OK), "warnings": codes.count(EXIT_WARNINGS) - skipped,
+              "failed_check": codes.count(EXIT_CHECK_FAILED),
+              "not_planned": codes.count(EXIT_FAILURE), "skipped": skipped}
+    code = max(codes)  # the worst of the batch
     if args.json:
         print(json_text({"files": [{"path": r.path, "exit_code": r.code, "skipped": r.skipped,
                                     "folder": r.folder or None, "line": r.line}
-                                   for _, r in sorted(results, key=lambda pair: pair[0])],
+                                   for r in files],
                          **counts, "exit_code": code}, indent=2))  # in the files' order
         return code
     print(f"planned {len(codes)} scenarios: {counts['ok']} ok, {counts['warnings']} with "

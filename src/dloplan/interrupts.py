@@ -81,19 +81,25 @@ def raise_if_interrupted() -> None:
         raise Interrupted(_pending[0])
 
 
-def interrupt_of(exc: BaseException) -> Interrupted | None:
-    """The interrupt that ended a run with ``exc``: ``exc`` itself, a :class:`KeyboardInterrupt`
-    in its chain (a ``SystemError`` or ``ImportError`` that compiled code made of it), or any
-    exception after a recorded signal; ``None`` for an ordinary error."""
+def _chain(exc: BaseException) -> Iterator[BaseException]:
+    """``exc`` and the exceptions it came from (each one's cause, else its context), once."""
     seen = set()
     link: BaseException | None = exc
     while link is not None and id(link) not in seen:
         seen.add(id(link))
+        yield link
+        link = link.__cause__ or link.__context__
+
+
+def interrupt_of(exc: BaseException) -> Interrupted | None:
+    """The interrupt that ended a run with ``exc``: ``exc`` itself, a :class:`KeyboardInterrupt`
+    in its chain (a ``SystemError`` or ``ImportError`` that compiled code made of it), or any
+    exception after a recorded signal; ``None`` for an ordinary error."""
+    for link in _chain(exc):
         if isinstance(link, Interrupted):
             return link
         if isinstance(link, KeyboardInterrupt):
             return Interrupted(pending_signal() or signal.SIGINT)
-        link = link.__cause__ or link.__context__
     signum = pending_signal()
     return None if signum is None else Interrupted(signum)
 
@@ -120,13 +126,8 @@ def keeping(kept: Callable[[], str | None]) -> Iterator[None]:
 def kept_of(exc: BaseException) -> str | None:
     """What the run ended by ``exc`` kept (the notes of :func:`keeping` on ``exc`` and the
     exceptions it came from, ``"; "``-joined), or ``None``."""
-    kept, seen = [], set()
-    link: BaseException | None = exc
-    while link is not None and id(link) not in seen:
-        seen.add(id(link))
-        kept += [note[len(KEPT):] for note in getattr(link, "__notes__", ())
-                 if note.startswith(KEPT)]
-        link = link.__cause__ or link.__context__
+    kept = [note[len(KEPT):] for link in _chain(exc) for note in getattr(link, "__notes__", ())
+            if note.startswith(KEPT)]
     return "; ".join(kept) or None
 
 

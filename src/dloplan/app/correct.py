@@ -34,7 +34,13 @@ from ..correct import Correction, CorrectionRefused, correct_plan
 from ..correct.step import sliced_grippers
 from ..io.poses import same_frame
 from ..output_files import staged_folder
-from ..pipeline.document import PlanDocument, cycle_actions, cycle_to_dict, document_cell
+from ..pipeline.document import (
+    PlanDocument,
+    cycle_actions,
+    cycle_to_dict,
+    document_cell,
+    program_offset,
+)
 from ..pipeline.stages import (
     program_of,
     quiet,
@@ -165,9 +171,7 @@ def held_arms(doc: PlanDocument, at: int) -> HeldArms | None:
                   if t["label"].startswith("shape ") and t["shape"] <= at),
                  key=lambda t: t["shape"])
     joints = tuple(np.radians(target["arms"][arm]["joints_deg"]) for arm in ARMS)
-    return HeldArms(int(record["assignment"]["left_clip"]), np.stack(joints) if isinstance(
-        document_cell(doc), RobotCell) else joints, np.asarray(record.get("offset", np.zeros(3)),
-                                                                 dtype=float))
+    return HeldArms(int(record["assignment"]["left_clip"]), joints, program_offset(doc))
 
 
 def remaining_program(doc: PlanDocument, grippers, trajectory, at: int):
@@ -322,8 +326,8 @@ def placement_hint(doc: PlanDocument, at: int, measured) -> str | None:
     so a shape measured where the robots hold the cable is ``offset`` away. Said when the
     measured points [m] lie less than half as far (mean distance to the nearest point of the
     plan's shape ``at``) from the shape with the offset taken out; else None."""
-    offset = None if doc.robot is None else doc.robot.program.get("offset")
-    if offset is None or not np.any(offset) or doc.stabilized is None:
+    offset = program_offset(doc)
+    if not np.any(offset) or doc.stabilized is None:
         return None
     from ..robot.placement import format_offset
 
@@ -333,7 +337,7 @@ def placement_hint(doc: PlanDocument, at: int, measured) -> str | None:
     def mean_distance(p):
         return float(np.mean(np.min(np.linalg.norm(p[:, None] - shape[None], axis=2), axis=1)))
 
-    off, back = mean_distance(points), mean_distance(points - np.asarray(offset, float))
+    off, back = mean_distance(points), mean_distance(points - offset)
     if not back < 0.5 * off:
         return None
     return (f"the points lie on average {1e3 * off:.1f} mm from the plan's shape {at} and "

@@ -27,9 +27,11 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
+
 from ..io.export import DEFAULT_CSV_RATE, write_ros_trajectory, write_trajectory_csv
 from ..io.job_file import SVG_OUTPUT, svg_copies
-from ..pipeline.document import PlanDocument, cycle_actions
+from ..pipeline.document import PlanDocument, cycle_actions, program_offset
 from ..plots.figures import PNG, WITH_SVG
 from .document_file import write_plan
 from .report import write_figures, write_plan_report
@@ -68,8 +70,8 @@ def trajectory_note(doc: PlanDocument) -> str | None:
     plan itself)."""
     from ..robot.placement import format_offset
 
-    offset = None if doc.robot is None else doc.robot.program.get("offset")
-    if offset is None or not any(offset):
+    offset = program_offset(doc)
+    if not np.any(offset):
         return None
     return (f"the robot programs run this job moved by {format_offset(offset)} m on the table "
             "(the cell's placement, plan.json: placement): add it to these positions to follow "

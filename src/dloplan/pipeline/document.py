@@ -379,6 +379,14 @@ def document_cell(doc: PlanDocument):
     return RobotCell() if doc.robot is None else cell_from_dict(doc.robot.cell)
 
 
+def program_offset(doc: PlanDocument) -> np.ndarray:
+    """(3,) [m] how far a described cell's placement runs the job from the plan's shapes (the
+    recorded program's ``offset``); zeros on the YuMi (its placement moves the plan itself) and
+    without a program."""
+    record = None if doc.robot is None else doc.robot.program
+    return np.asarray((record or {}).get("offset", np.zeros(3)), dtype=float)
+
+
 def cell_from_dict(data: dict, where: str = "plan.robot.cell"):
     """The cell of :func:`cell_to_dict`'s data: a described cell for ``kind: described`` (its
     URDF files must still be where the plan was made), else the YuMi's RobotCell."""

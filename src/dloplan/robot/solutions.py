@@ -20,8 +20,8 @@ from scipy.spatial.transform import Rotation
 
 from .armangle import arm_angle, wrap
 from .collision import arm_clearance
-from .kinematics import forward, inverse, joint_margin, solve_many
-from .path import COMFORT_CLEARANCE, COMFORT_MARGIN, HELD_TOLERANCE, check_path
+from .kinematics import inverse, joint_margin, solve_many
+from .path import COMFORT_CLEARANCE, COMFORT_MARGIN, check_path, held_pose
 
 ARM_ANGLE_STEP = float(np.radians(30.0))
 """[rad] Spacing of the constant arm angles tried for each arm."""
@@ -51,11 +51,9 @@ def _held_start(arm, pos, rots, held) -> list[tuple]:
     [rad]: its grip (the one whose target-0 rotation its forward kinematics has), its arm angle
     and its joints; none when neither grip's target is where the held joints put the TCP (the
     arm does not hold it there)."""
-    p, r = forward(arm, held)
-    errors = [np.linalg.norm(p - pos[0]) + float((Rotation.from_matrix(rot[0]).inv()
-                                                  * r).magnitude()) for rot in rots]
-    grip = int(np.argmin(errors))
-    if errors[grip] > HELD_TOLERANCE:
+    fits = [held_pose(arm, pos[0], rot[0], held) for rot in rots]
+    grip = int(np.argmin([fit.position_error + fit.angle_error for fit in fits]))
+    if not fits[grip].success:
         return []
     return [(grip, float(arm_angle(arm, held)), np.asarray(held, dtype=float))]
 

@@ -206,12 +206,12 @@ def run_study(
     schema = column_schema(len(problem.obstacles))
     units = {name: c["unit"] for name, c in schema.items()}
     folder = None if out is None else Path(out)
-    on_disk = [0]  # chunk files complete in the folder
+    on_disk = 0  # chunk files complete in the folder (kept() reads its current value)
 
     def kept() -> str | None:
         if folder is None or not (folder / MANIFEST).exists():
             return None
-        return (f"the study folder {folder} with {on_disk[0]} of {n_chunks} chunks complete "
+        return (f"the study folder {folder} with {on_disk} of {n_chunks} chunks complete "
                 "(the same command resumes from it)")
 
     with keeping(kept):
@@ -223,7 +223,7 @@ def run_study(
                         "n_shapes": problem.n_shapes, "study": spec.model_dump(mode="json"),
                         "columns": schema}
             done = open_folder(folder, manifest, resume=resume)
-            on_disk[0] = len(done)
+            on_disk = len(done)
         todo = [k for k in range(n_chunks) if k not in set(done)]
         tables: dict[int, dict] = {}
         samples_done = sum(_chunk_length(k, spec) for k in done)
@@ -235,7 +235,7 @@ def run_study(
             chunk = todo[position]
             if folder is not None:
                 write_table(chunk_path(folder, chunk, file_format), table, units, metadata)
-                on_disk[0] += 1
+                on_disk += 1
             else:
                 tables[chunk] = table
             samples_done += _chunk_length(chunk, spec)
